@@ -1,0 +1,34 @@
+#pragma once
+// Mesh containers shared by readers, the scene, the solvers and the renderer.
+// Positions are in metres once a scene has loaded them (files may use cm or mm; the
+// conversion happens once, at load: DESIGN.md §3).
+#include <array>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "math/vec.hpp"
+
+namespace ebh {
+
+using Tet = std::array<int, 4>;
+using Tri = std::array<int, 3>;
+
+/// A tetrahedral mesh as read from a file: the physical mesh's source.
+struct TetMesh {
+  std::vector<Vec3d> vertices;           ///< #V positions (file units until scaled)
+  std::vector<Tet> tets;                 ///< #T vertex indices, 0-based
+  std::vector<int> tet_group;            ///< #T physical group tag (0 when none)
+  std::vector<Tri> triangles;            ///< #F boundary triangles listed in the file (may be empty)
+  std::vector<int> triangle_group;       ///< #F physical group tag of each triangle
+  std::map<int, std::string> group_names;  ///< physical group tag -> name (from $PhysicalNames)
+  std::vector<long long> file_node_ids;  ///< #V the node id each vertex had in the file
+};
+
+/// A triangle surface: the virtual mesh's source (OBJ) or a boundary extracted from tets.
+struct SurfaceMesh {
+  std::vector<Vec3d> vertices;  ///< #V positions
+  std::vector<Tri> triangles;   ///< #F vertex indices, 0-based, counter-clockwise seen from outside
+};
+
+}  // namespace ebh

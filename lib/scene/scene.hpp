@@ -1,0 +1,165 @@
+#pragma once
+// A scene: what a scenarios/NAME.yaml file says, with every length converted to metres.
+//
+// YAML schema (every key is validated; unknown keys are errors; an error names the file and
+// the dotted key). Lengths in the file are in `unit` (m, cm or mm) — meshes and every length
+// key alike; stiffnesses, densities and forces are always SI.
+//
+//   name: tube                      # defaults to the file's stem
+//   description: "..."
+//   unit: mm                        # m | cm | mm
+//   mesh:
+//     physical: tube.msh            # Gmsh .msh 2.2/4.1 ASCII, relative to the scene file
+//     virtual: boundary             # 'boundary' (the physical mesh's surface) or an .obj path
+//     virtual_refine: 1             # 0 or 1: split each virtual triangle into 4 (paper: denser virtual mesh)
+//   material:
+//     density: 1000                 # kg/m^3
+//   stiffness:                      # SI; see docs/MODEL.md for how to choose them
+//     k_vol: 3000                   # Pa    E_vol [7]  (ARAP ~ shear modulus mu = E / (2 (1 + nu)))
+//     k_s: 20                       # N/m   E_s [4]    per virtual-mesh edge
+//     k_svc: 50                     # N/m   E_svc [5]  per virtual vertex
+//     k_con: 400                    # N/m   E_con [3]  per virtual vertex in contact
+//     k_vcs: 300                    # N/m   E_tvc [2]  translation
+//     k_vct: 0.3                    # N m/rad E_tvc [2] rotation
+//   gravity: [0, 0, -9.81]          # m/s^2
+//   damping: 0.0                    # fraction of velocity removed per physical step, [0, 1)
+//   pinned:                         # union of regions; each item one of:
+//     - group: back                 #   a physical group name (its tets' or triangles' vertices)
+//     - box: {min: [x, y, z], max: [x, y, z]}
+//     - sphere: {center: [x, y, z], radius: r}
+//     - halfspace: {point: [x, y, z], normal: [x, y, z]}   # vertices with (p - point).normal >= 0
+//   tool:
+//     kind: hook                    # hook | forceps
+//     shaft_radius: 2.5
+//     shaft_length: 300
+//     hook: {tip_length: 6, tip_radius: 1.0}                # the bent tip, along the tool's local +x
+//     forceps: {jaw_length: 20, jaw_width: 5, jaw_thickness: 2, jaw_max_angle_deg: 30,
+//               grasp_threshold: 0.2, soft_margin: 2, eta: 1.0}
+//     force_limit: 3.3              # N (Geomagic Touch)
+//     newton_iterations: 2          # Newton steps on E_tool per virtual-mesh iteration
+//     max_step: 0.5                 # translation limit of one Newton step (length unit)
+//     max_step_rotation_deg: 2      # rotation limit of one Newton step
+//   time: {haptic_hz: 1000, physical_hz: 100}
+//   solver:
+//     method: chebyshev             # jacobi | chebyshev | direct
+//     physical_iterations: 16
+//     virtual_iterations: 4         # virtual-mesh local-global iterations per haptic tick
+//     chebyshev_rho: 0.95
+//   camera: {eye: [x, y, z], target: [x, y, z], up: [0, 0, 1], fov_deg: 40}
+//   stages: {grasp: false, frames: false}                  # skip what a scene doesn't need
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "math/vec.hpp"
+#include "mesh/tet_mesh.hpp"
+
+namespace ebh {
+
+struct Stiffness {
+  double k_vol = 3000.0;  ///< Pa, E_vol [7]
+  double k_s = 20.0;      ///< N/m, E_s [4]
+  double k_svc = 50.0;    ///< N/m, E_svc [5]
+  double k_con = 400.0;   ///< N/m, E_con [3]
+  double k_vcs = 300.0;   ///< N/m, E_tvc [2] translation
+  double k_vct = 0.3;     ///< N m / rad, E_tvc [2] rotation
+};
+
+struct PinRegion {
+  enum class Kind { Group, Box, Sphere, Halfspace };
+  Kind kind = Kind::Box;
+  std::string group;    ///< Group: physical group name
+  Vec3d a, b;           ///< Box: min, max; Sphere: centre, (radius, 0, 0); Halfspace: point, normal
+};
+
+struct HookSpec {
+  double tip_length = 0.006;  ///< m, the bent tip along the tool's local +x
+  double tip_radius = 0.001;  ///< m
+};
+
+struct ForcepsSpec {
+  double jaw_length = 0.020;         ///< m
+  double jaw_width = 0.005;          ///< m
+  double jaw_thickness = 0.002;      ///< m
+  double jaw_max_angle_deg = 30.0;   ///< opening of each jaw at jaw = 1
+  double grasp_threshold = 0.2;      ///< jaw value below which the jaws grasp
+  double soft_margin = 0.002;        ///< m, soft collider around the hard jaw box [10]
+  double eta = 1.0;                  ///< smoothing factor of w(d) = 1 / (1 + eta e^d) [10]
+};
+
+struct ToolSpec {
+  enum class Kind { Hook, Forceps };
+  Kind kind = Kind::Hook;
+  double shaft_radius = 0.0025;  ///< m
+  double shaft_length = 0.3;     ///< m, from the rotation centre (tool origin) back along -z
+  HookSpec hook;
+  ForcepsSpec forceps;
+  double force_limit = 3.3;             ///< N
+  int newton_iterations = 2;
+  double max_step = 0.0005;             ///< m per Newton step
+  double max_step_rotation_deg = 2.0;   ///< per Newton step
+};
+
+struct Camera {
+  Vec3d eye{0, -0.3, 0.15};
+  Vec3d target{0, 0, 0};
+  Vec3d up{0, 0, 1};
+  double fov_deg = 40.0;
+};
+
+struct SolverSpec {
+  enum class Method { Jacobi, Chebyshev, Direct };
+  Method method = Method::Chebyshev;
+  int physical_iterations = 16;
+  int virtual_iterations = 4;
+  double chebyshev_rho = 0.95;
+};
+
+struct Stages {
+  bool grasp = false;   ///< grasp machinery (forceps scenes)
+  bool frames = false;  ///< mesh snapshots in the replay output by default
+};
+
+/// The parsed scene file. All lengths in metres.
+struct SceneSpec {
+  std::filesystem::path file;             ///< the scene file itself
+  std::string name;
+  std::string description;
+  double unit = 1.0;                      ///< metres per file length unit
+  std::string unit_name = "m";
+  std::filesystem::path physical_mesh;    ///< absolute or relative to the working directory
+  std::optional<std::filesystem::path> virtual_mesh;  ///< empty: the physical mesh's boundary
+  int virtual_refine = 0;
+  double density = 1000.0;                ///< kg/m^3
+  Stiffness stiffness;
+  Vec3d gravity{0, 0, -9.81};
+  double damping = 0.0;
+  std::vector<PinRegion> pinned;
+  ToolSpec tool;
+  double haptic_hz = 1000.0;
+  double physical_hz = 100.0;
+  SolverSpec solver;
+  Camera camera;
+  Stages stages;
+};
+
+/// A scene with its meshes loaded and scaled to metres.
+struct Scene {
+  SceneSpec spec;
+  TetMesh physical;              ///< the physical mesh (tets), metres
+  SurfaceMesh virtual_surface;   ///< the virtual mesh source surface before refinement, metres
+  std::vector<int> pinned;       ///< sorted physical-vertex indices that never move
+};
+
+/// Parses and validates a scene file. Throws InputError ("FILE: key 'a.b': ...").
+SceneSpec load_scene_spec(const std::filesystem::path& file);
+
+/// Loads the scene file and its meshes, validates them, resolves pinned regions.
+Scene load_scene(const std::filesystem::path& file);
+
+/// Resolves NAME to <source>/scenarios/NAME.yaml (also looked up relative to the working
+/// directory and $EBH_DATA_DIR); any other string is a path. Throws InputError if missing.
+std::filesystem::path resolve_scene_path(const std::string& name_or_path);
+
+}  // namespace ebh

@@ -1,0 +1,35 @@
+// ebh: energy-based haptic rendering toolkit — the command line.
+#include <cstdio>
+#include <exception>
+
+#include "command.hpp"
+#include "ebh/version.hpp"
+#include "io/error.hpp"
+
+namespace ebh::cli {
+std::vector<CommandSetup>& command_registry() {
+  static std::vector<CommandSetup> registry;
+  return registry;
+}
+}  // namespace ebh::cli
+
+int main(int argc, char** argv) {
+  CLI::App app{"ebh: energy-based haptic rendering for surgical simulation (batch replay, validation, benchmarks)"};
+  app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
+  app.require_subcommand(1);
+  for (auto setup : ebh::cli::command_registry()) setup(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const ebh::cli::ExitRequest& e) {
+    return e.code;
+  } catch (const ebh::InputError& e) {
+    std::fprintf(stderr, "ebh: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ebh: internal error: %s\n", e.what());
+    return 3;
+  }
+  return 0;
+}

@@ -5,6 +5,9 @@ find_package(yaml-cpp REQUIRED)
 find_package(PNG REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(Threads REQUIRED)
+# OpenMP parallelises per-element loops; every parallel loop gathers in a fixed order so results
+# are bitwise identical for any thread count.
+find_package(OpenMP REQUIRED COMPONENTS CXX)
 
 # yaml-cpp 0.7 exports `yaml-cpp`, 0.8 `yaml-cpp::yaml-cpp`.
 if(TARGET yaml-cpp::yaml-cpp)

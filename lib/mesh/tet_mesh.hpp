@@ -23,6 +23,7 @@ struct TetMesh {
   std::vector<int> triangle_group;       ///< #F physical group tag of each triangle
   std::map<int, std::string> group_names;  ///< physical group tag -> name (from $PhysicalNames)
   std::vector<long long> file_node_ids;  ///< #V the node id each vertex had in the file
+  std::vector<long long> file_tet_ids;   ///< #T the element id each tet had in the file (may be empty)
 };
 
 /// A triangle surface: the virtual mesh's source (OBJ) or a boundary extracted from tets.

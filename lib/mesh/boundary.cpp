@@ -1,0 +1,84 @@
+#include "mesh/boundary.hpp"
+
+#include <algorithm>
+#include <cstdint>
+
+namespace ebh {
+namespace {
+
+/// A face as a sorted vertex triple plus the index (4 t + f) of the tet face it came from.
+struct FaceKey {
+  std::array<int, 3> v;
+  int tet_face;
+  bool operator<(const FaceKey& o) const { return v < o.v || (v == o.v && tet_face < o.tet_face); }
+};
+
+/// multiplicity[4 t + f]: how many tets use face f of tet t.
+std::vector<std::uint8_t> face_multiplicity(const std::vector<Tet>& tets) {
+  std::vector<FaceKey> keys;
+  keys.reserve(tets.size() * 4);
+  for (std::size_t t = 0; t < tets.size(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      std::array<int, 3> v = {tets[t][kTetFaces[f][0]], tets[t][kTetFaces[f][1]], tets[t][kTetFaces[f][2]]};
+      std::sort(v.begin(), v.end());
+      keys.push_back({v, static_cast<int>(4 * t + f)});
+    }
+  std::sort(keys.begin(), keys.end());
+  std::vector<std::uint8_t> mult(keys.size(), 0);
+  for (std::size_t i = 0; i < keys.size();) {
+    std::size_t j = i;
+    while (j < keys.size() && keys[j].v == keys[i].v) ++j;
+    const auto m = static_cast<std::uint8_t>(std::min<std::size_t>(j - i, 255));
+    for (std::size_t k = i; k < j; ++k) mult[static_cast<std::size_t>(keys[k].tet_face)] = m;
+    i = j;
+  }
+  return mult;
+}
+
+}  // namespace
+
+FaceCounts count_faces(const std::vector<Tet>& tets) {
+  const auto mult = face_multiplicity(tets);
+  FaceCounts c;
+  long long shared2 = 0, shared3 = 0;
+  for (auto m : mult) {
+    if (m == 1) ++c.boundary;
+    else if (m == 2) ++shared2;
+    else ++shared3;
+  }
+  c.interior = shared2 / 2;
+  c.nonmanifold = shared3;  // counts tet faces, not distinct faces: any non-zero value is the defect
+  return c;
+}
+
+SurfaceMesh extract_boundary(const TetMesh& mesh, std::vector<int>* surface_to_volume) {
+  const auto mult = face_multiplicity(mesh.tets);
+  SurfaceMesh surface;
+  std::vector<int> remap(mesh.vertices.size(), -1);
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const Tet& tet = mesh.tets[t];
+    const bool negative = signed_volume(mesh.vertices[tet[0]], mesh.vertices[tet[1]], mesh.vertices[tet[2]],
+                                        mesh.vertices[tet[3]]) < 0.0;
+    for (int f = 0; f < 4; ++f) {
+      if (mult[4 * t + f] != 1) continue;
+      Tri tri = {tet[kTetFaces[f][0]], tet[kTetFaces[f][1]], tet[kTetFaces[f][2]]};
+      if (negative) std::swap(tri[1], tri[2]);
+      for (int v : tri) remap[v] = 0;
+      surface.triangles.push_back(tri);
+    }
+  }
+  std::vector<int> to_volume;
+  for (std::size_t v = 0; v < remap.size(); ++v)
+    if (remap[v] == 0) {
+      remap[v] = static_cast<int>(to_volume.size());
+      to_volume.push_back(static_cast<int>(v));
+    }
+  surface.vertices.reserve(to_volume.size());
+  for (int v : to_volume) surface.vertices.push_back(mesh.vertices[v]);
+  for (Tri& tri : surface.triangles)
+    for (int& v : tri) v = remap[v];
+  if (surface_to_volume) *surface_to_volume = std::move(to_volume);
+  return surface;
+}
+
+}  // namespace ebh

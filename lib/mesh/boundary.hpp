@@ -1,0 +1,45 @@
+#pragma once
+// The surface of a tetrahedral mesh: the faces that belong to exactly one tet.
+#include <vector>
+
+#include "mesh/tet_mesh.hpp"
+
+namespace ebh {
+
+/// Signed volume of the tet (a, b, c, d): det(b - a, c - a, d - a) / 6, positive when d lies on
+/// the side of triangle (a, b, c) that its counter-clockwise normal points to.
+inline double signed_volume(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
+  return dot(cross(b - a, c - a), d - a) / 6.0;
+}
+
+/// The four faces of tet (a, b, c, d), each oriented counter-clockwise seen from outside when the
+/// tet has positive signed volume: face f is opposite vertex f.
+inline constexpr int kTetFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+
+/// Extracts the boundary surface of a tet mesh.
+///
+/// Inputs:
+///   mesh  #V vertices and #T tets (indices in range; any orientation: faces of a tet with
+///         negative signed volume are flipped so the result still faces outward)
+/// Outputs:
+///   returns  #B vertices, #F triangles: the faces used by exactly one tet, counter-clockwise
+///            seen from outside, in tet order, over a compacted vertex numbering (ascending in
+///            the tet mesh's numbering)
+///   surface_to_volume  if not null, #B: the tet-mesh vertex of each surface vertex
+/// Faces shared by three or more tets (a non-manifold volume) are not boundary faces.
+SurfaceMesh extract_boundary(const TetMesh& mesh, std::vector<int>* surface_to_volume = nullptr);
+
+/// Counts face multiplicities: faces used by exactly one tet (boundary), exactly two
+/// (interior) and more than two (non-manifold, an error in a valid mesh). For a manifold mesh
+/// interior = (4 #T - boundary) / 2: the paper's Table 1 "triangle" count.
+struct FaceCounts {
+  long long boundary = 0;
+  long long interior = 0;
+  long long nonmanifold = 0;
+};
+FaceCounts count_faces(const std::vector<Tet>& tets);
+
+/// Number of faces shared by two tets (see FaceCounts).
+inline long long count_interior_faces(const std::vector<Tet>& tets) { return count_faces(tets).interior; }
+
+}  // namespace ebh

@@ -1,0 +1,36 @@
+#pragma once
+// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1) for the physical mesh, Wavefront OBJ for a
+// virtual-mesh surface. Positions stay in file units; the scene scales them (DESIGN.md §3).
+//
+// Both readers hold the file in memory and parse it in one pass without regular expressions.
+// Untrusted counts never drive an allocation beyond what the file's size can hold. Every error is
+// an InputError whose what() is one line: "FILE:LINE: what (element id N)" (the element or node id
+// is named when one is known).
+#include <filesystem>
+
+#include "mesh/tet_mesh.hpp"
+
+namespace ebh {
+
+/// Reads a Gmsh ASCII mesh, version 2.x (2.2) or 4.1, dispatching on $MeshFormat.
+///
+/// Kept: 4-node tetrahedra (type 4) and 3-node triangles (type 2), each with its physical group
+/// tag (2.x: the element's first tag; 4.1: the first physical tag of its entity in $Entities; 0
+/// when there is none), and $PhysicalNames of dimension 2 and 3. Elements of every other type
+/// (points, lines, quads, 10-node tets, ...) are skipped. Node ids may be sparse and unordered;
+/// vertices keep the file's node order and `file_node_ids` maps back. Other sections are skipped.
+/// If a surface and a volume group share a tag but not a name, the surface group gets a fresh
+/// tag (> every tag in the file) so that `group_names` stays one name per tag.
+///
+/// Throws InputError for binary files, unsupported versions, malformed or truncated sections,
+/// references to unknown nodes, duplicate node ids, and a file with no tetrahedra.
+TetMesh read_msh(const std::filesystem::path& file);
+
+/// Reads the `v` and `f` lines of a Wavefront OBJ file; every other line is ignored.
+/// Faces may be written `f a b c`, `a/t`, `a/t/n` or `a//n`, with 1-based or negative
+/// (relative to the vertices read so far) indices; polygons are fan-triangulated
+/// (a b c d -> a b c, a c d). Throws InputError for bad numbers, non-finite coordinates, indices
+/// that are 0 or out of range, faces with fewer than 3 vertices, and a file with no faces.
+SurfaceMesh read_obj(const std::filesystem::path& file);
+
+}  // namespace ebh

@@ -1,0 +1,419 @@
+// Gmsh MSH ASCII reader, versions 2.x and 4.1.
+// Format references: Gmsh reference manual, "MSH file format" (4.1) and "Legacy formats" (2.2).
+#include <algorithm>
+#include <climits>
+#include <map>
+#include <set>
+#include <tuple>
+#include <utility>
+
+#include "mesh/mesh_io.hpp"
+#include "mesh/text_cursor.hpp"
+
+namespace ebh {
+namespace {
+
+using detail::printable;
+using detail::TextCursor;
+
+constexpr long long kMaxTag = (1LL << 62);  // node / element / entity tags: any 64-bit value Gmsh writes
+constexpr int kTypeTriangle = 2;
+constexpr int kTypeTet = 4;
+constexpr int kTypeTet10 = 11;
+
+std::string element_ctx(long long id) { return " (element id " + std::to_string(id) + ")"; }
+std::string node_ctx(long long id) { return " (node id " + std::to_string(id) + ")"; }
+
+class MshParser {
+ public:
+  MshParser(const std::filesystem::path& file, std::string_view text) : c_(file, text), file_(file) {}
+
+  TetMesh parse() {
+    read_format();
+    while (c_.skip_empty_lines()) {
+      const long long header_line = c_.line();
+      std::string_view head = c_.rest_of_line();
+      if (head.empty() || head[0] != '$' || head.substr(0, 4) == "$End")
+        c_.fail("expected a section header such as $Nodes, got '" + printable(head) + "'");
+      const std::string name(head.substr(1));
+      c_.next_line();
+      if (name == "MeshFormat") {
+        c_.fail_at(header_line, "second $MeshFormat section");
+      } else if (name == "PhysicalNames") {
+        read_physical_names();
+      } else if (name == "Entities" && major_ == 4) {
+        read_entities();
+      } else if (name == "Nodes") {
+        if (have_nodes_) c_.fail_at(header_line, "second $Nodes section");
+        major_ == 4 ? read_nodes_v4() : read_nodes_v2();
+        finish_nodes();
+      } else if (name == "Elements") {
+        if (have_elements_) c_.fail_at(header_line, "second $Elements section");
+        if (!have_nodes_) c_.fail_at(header_line, "$Elements before $Nodes");
+        major_ == 4 ? read_elements_v4() : read_elements_v2();
+        have_elements_ = true;
+      } else {
+        skip_section(name, header_line);
+        continue;
+      }
+      expect_end(name);
+    }
+    if (!have_nodes_) c_.fail("missing $Nodes section");
+    if (!have_elements_) c_.fail("missing $Elements section");
+    if (mesh_.tets.empty()) {
+      std::string what = "no 4-node tetrahedra (element type 4) in the file";
+      if (skipped_tet10_ > 0) what += "; it has " + std::to_string(skipped_tet10_) + " 10-node tetrahedra (type 11): re-mesh with Mesh.ElementOrder = 1";
+      c_.fail(what);
+    }
+    assign_groups();
+    return std::move(mesh_);
+  }
+
+ private:
+  // ---- framing -------------------------------------------------------------------------------
+  void read_format() {
+    if (!c_.skip_empty_lines() || c_.rest_of_line() != "$MeshFormat")
+      c_.fail("not a Gmsh MSH file: expected $MeshFormat");
+    c_.next_line();
+    c_.skip_empty_lines();
+    std::string_view version = c_.token();
+    if (version == "2" || version == "2.0" || version == "2.1" || version == "2.2") {
+      major_ = 2;
+    } else if (version == "4.1") {
+      major_ = 4;
+    } else {
+      c_.fail("unsupported MSH version '" + printable(version) + "' (supported: 2.2 and 4.1 ASCII; re-export with Gmsh)");
+    }
+    const long long file_type = c_.integer("file type", 0, 1);
+    if (file_type == 1)
+      c_.fail("binary MSH files are not supported: re-export as ASCII (Gmsh option Mesh.Binary = 0)");
+    c_.integer("data size", 1, 16);
+    c_.end_line("");
+    expect_end("MeshFormat");
+  }
+
+  void expect_end(const std::string& name) {
+    const std::string end = "$End" + name;
+    if (!c_.skip_empty_lines()) c_.fail("unexpected end of file: missing " + end);
+    std::string_view got = c_.rest_of_line();
+    if (got != end) c_.fail("expected " + end + ", got '" + printable(got) + "'");
+    c_.next_line();
+  }
+
+  void skip_section(const std::string& name, long long header_line) {
+    const std::string end = "$End" + name;
+    while (c_.skip_empty_lines()) {
+      if (c_.rest_of_line() == end) {
+        c_.next_line();
+        return;
+      }
+      c_.next_line();
+    }
+    c_.fail_at(header_line, "section $" + printable(name) + " has no " + printable(end));
+  }
+
+  /// Moves to the next non-empty line or fails naming what was being read.
+  void need_line(const char* what, long long done, long long total) {
+    if (!c_.skip_empty_lines())
+      c_.fail("unexpected end of file: read " + std::to_string(done) + " of " + std::to_string(total) + " " + what);
+  }
+
+  /// Reads a record count and checks that the rest of the file could hold that many records of
+  /// at least `min_bytes` bytes each, so no allocation is ever sized by an absurd count.
+  long long count(const char* what, long long min_bytes) {
+    const long long n = c_.integer(what, 0, INT_MAX);
+    if (n > static_cast<long long>(c_.remaining() / static_cast<std::size_t>(min_bytes)))
+      c_.fail(std::string(what) + " " + std::to_string(n) + " is larger than the rest of the file can hold");
+    return n;
+  }
+
+  // ---- $PhysicalNames ---------------------------------------------------------------------------
+  void read_physical_names() {
+    c_.skip_empty_lines();
+    const long long n = count("physical name count", 6);
+    c_.end_line("");
+    for (long long i = 0; i < n; ++i) {
+      need_line("physical names", i, n);
+      const int dim = static_cast<int>(c_.integer("physical group dimension", 0, 3));
+      const int tag = static_cast<int>(c_.integer("physical tag", 0, INT_MAX - 1));
+      std::string_view name = c_.rest_of_line();
+      if (!name.empty() && name.front() == '"') {
+        if (name.size() < 2 || name.back() != '"') c_.fail("unterminated quoted physical name");
+        name = name.substr(1, name.size() - 2);
+      }
+      if (name.empty()) c_.fail("empty physical name for tag " + std::to_string(tag));
+      if (dim >= 2) names_[dim - 2][tag] = std::string(name);
+      c_.next_line();
+    }
+  }
+
+  // ---- $Entities (4.1) ------------------------------------------------------------------------
+  void read_entities() {
+    c_.skip_empty_lines();
+    long long n[4];
+    for (int d = 0; d < 4; ++d) n[d] = count("entity count", 8);
+    c_.end_line("");
+    for (int d = 0; d < 4; ++d) {
+      for (long long i = 0; i < n[d]; ++i) {
+        need_line("entities", i, n[d]);
+        const long long tag = c_.integer("entity tag", -kMaxTag, kMaxTag);
+        const int coords = d == 0 ? 3 : 6;  // a point's position, or a bounding box
+        for (int k = 0; k < coords; ++k) c_.real("entity coordinate");
+        const long long nphys = c_.integer("physical tag count", 0, static_cast<long long>(c_.remaining()));
+        int first = 0;
+        for (long long k = 0; k < nphys; ++k) {
+          const long long p = c_.integer("physical tag", -(long long)INT_MAX, INT_MAX - 1);
+          if (k == 0) first = static_cast<int>(p < 0 ? -p : p);
+        }
+        if (nphys > 0 && d >= 2) entity_physical_[{d, tag}] = first;
+        c_.next_line();  // bounding entities follow: not needed
+      }
+    }
+  }
+
+  // ---- $Nodes ---------------------------------------------------------------------------------
+  void add_node(long long id, const Vec3d& p, long long line) {
+    mesh_.vertices.push_back(p);
+    mesh_.file_node_ids.push_back(id);
+    node_lines_.push_back(line);
+  }
+
+  Vec3d read_xyz(long long id) {
+    const std::string ctx = node_ctx(id);
+    const double x = c_.real("x coordinate", ctx);
+    const double y = c_.real("y coordinate", ctx);
+    const double z = c_.real("z coordinate", ctx);
+    return {x, y, z};
+  }
+
+  void read_nodes_v2() {
+    c_.skip_empty_lines();
+    const long long n = count("node count", 8);  // "1 0 0 0\n"
+    c_.end_line("");
+    reserve_nodes(n);
+    for (long long i = 0; i < n; ++i) {
+      need_line("nodes", i, n);
+      const long long line = c_.line();
+      const long long id = c_.integer("node id", 1, kMaxTag);
+      const Vec3d p = read_xyz(id);
+      c_.end_line(node_ctx(id));
+      add_node(id, p, line);
+    }
+  }
+
+  void read_nodes_v4() {
+    c_.skip_empty_lines();
+    const long long blocks = count("node block count", 8);
+    const long long n = count("node count", 8);  // a tag line and a coordinate line per node
+    c_.integer("minimum node tag", 0, kMaxTag);
+    c_.integer("maximum node tag", 0, kMaxTag);
+    c_.end_line("");
+    reserve_nodes(n);
+    long long done = 0;
+    std::vector<long long> ids;
+    std::vector<long long> lines;
+    for (long long b = 0; b < blocks; ++b) {
+      need_line("node blocks", b, blocks);
+      c_.integer("entity dimension", 0, 3);
+      c_.integer("entity tag", -kMaxTag, kMaxTag);
+      const bool parametric = c_.integer("parametric flag", 0, 1) == 1;
+      const long long m = c_.integer("nodes in block", 0, n - done);
+      c_.end_line("");
+      ids.clear();
+      lines.clear();
+      for (long long i = 0; i < m; ++i) {
+        need_line("node tags of a block", i, m);
+        lines.push_back(c_.line());
+        ids.push_back(c_.integer("node id", 1, kMaxTag));
+        c_.end_line(node_ctx(ids.back()));
+      }
+      for (long long i = 0; i < m; ++i) {
+        need_line("node coordinates of a block", i, m);
+        const Vec3d p = read_xyz(ids[i]);
+        if (parametric) {
+          c_.next_line();  // parametric coordinates follow: not needed
+        } else {
+          c_.end_line(node_ctx(ids[i]));
+        }
+        add_node(ids[i], p, lines[i]);
+      }
+      done += m;
+    }
+    if (done != n) c_.fail("node blocks hold " + std::to_string(done) + " nodes, the header says " + std::to_string(n));
+  }
+
+  void reserve_nodes(long long n) {
+    mesh_.vertices.reserve(static_cast<std::size_t>(n));
+    mesh_.file_node_ids.reserve(static_cast<std::size_t>(n));
+    node_lines_.reserve(static_cast<std::size_t>(n));
+  }
+
+  /// Builds the node id -> vertex index map; rejects duplicate ids.
+  void finish_nodes() {
+    have_nodes_ = true;
+    const auto& ids = mesh_.file_node_ids;
+    const std::size_t n = ids.size();
+    long long max_id = 0;
+    for (long long id : ids) max_id = std::max(max_id, id);
+    if (max_id <= 4 * static_cast<long long>(n) + 1024) {
+      dense_.assign(static_cast<std::size_t>(max_id) + 1, -1);
+      for (std::size_t i = 0; i < n; ++i) {
+        int& slot = dense_[static_cast<std::size_t>(ids[i])];
+        if (slot >= 0) c_.fail_at(node_lines_[i], "duplicate node id " + std::to_string(ids[i]) + node_ctx(ids[i]));
+        slot = static_cast<int>(i);
+      }
+    } else {
+      sparse_.resize(n);
+      for (std::size_t i = 0; i < n; ++i) sparse_[i] = {ids[i], static_cast<int>(i)};
+      std::sort(sparse_.begin(), sparse_.end());
+      for (std::size_t i = 1; i < n; ++i) {
+        if (sparse_[i].first == sparse_[i - 1].first) {
+          const auto later = std::max(sparse_[i].second, sparse_[i - 1].second);
+          c_.fail_at(node_lines_[static_cast<std::size_t>(later)],
+                     "duplicate node id " + std::to_string(sparse_[i].first) + node_ctx(sparse_[i].first));
+        }
+      }
+    }
+    node_lines_.clear();
+    node_lines_.shrink_to_fit();
+  }
+
+  int vertex_of(long long node_id, long long element_id) {
+    if (!dense_.empty()) {
+      if (node_id >= 0 && node_id < static_cast<long long>(dense_.size()) && dense_[static_cast<std::size_t>(node_id)] >= 0)
+        return dense_[static_cast<std::size_t>(node_id)];
+    } else {
+      auto it = std::lower_bound(sparse_.begin(), sparse_.end(), std::pair<long long, int>{node_id, INT_MIN});
+      if (it != sparse_.end() && it->first == node_id) return it->second;
+    }
+    c_.fail("unknown node id " + std::to_string(node_id) + element_ctx(element_id));
+  }
+
+  // ---- $Elements ------------------------------------------------------------------------------
+  /// Reads the node list of a kept element (the cursor is just before it) and stores it.
+  void read_element_nodes(int type, long long id, long long physical) {
+    const std::string ctx = element_ctx(id);
+    if (physical < 0 || physical > INT_MAX - 1) c_.fail("physical tag " + std::to_string(physical) + " is out of range" + ctx);
+    const int nodes = type == kTypeTet ? 4 : 3;
+    int v[4] = {0, 0, 0, 0};
+    for (int k = 0; k < nodes; ++k) v[k] = vertex_of(c_.integer("node id", 1, kMaxTag, ctx), id);
+    c_.end_line(ctx);
+    if (type == kTypeTet) {
+      mesh_.tets.push_back({v[0], v[1], v[2], v[3]});
+      mesh_.tet_group.push_back(static_cast<int>(physical));
+      mesh_.file_tet_ids.push_back(id);
+    } else {
+      mesh_.triangles.push_back({v[0], v[1], v[2]});
+      mesh_.triangle_group.push_back(static_cast<int>(physical));
+    }
+  }
+
+  void skip_element(int type) {
+    if (type == kTypeTet10) ++skipped_tet10_;
+    c_.next_line();
+  }
+
+  void read_elements_v2() {
+    c_.skip_empty_lines();
+    const long long n = count("element count", 8);  // "1 15 0 1\n"
+    c_.end_line("");
+    for (long long i = 0; i < n; ++i) {
+      need_line("elements", i, n);
+      const long long id = c_.integer("element id", 1, kMaxTag);
+      const std::string ctx = element_ctx(id);
+      const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20, ctx));
+      if (type != kTypeTet && type != kTypeTriangle) {
+        skip_element(type);
+        continue;
+      }
+      const long long ntags = c_.integer("tag count", 0, 64, ctx);
+      long long physical = 0;
+      for (long long k = 0; k < ntags; ++k) {
+        const long long t = c_.integer("element tag", -kMaxTag, kMaxTag, ctx);
+        if (k == 0) physical = t;
+      }
+      read_element_nodes(type, id, physical);
+    }
+  }
+
+  void read_elements_v4() {
+    c_.skip_empty_lines();
+    const long long blocks = count("element block count", 8);
+    const long long n = count("element count", 4);  // "1 1\n"
+    c_.integer("minimum element tag", 0, kMaxTag);
+    c_.integer("maximum element tag", 0, kMaxTag);
+    c_.end_line("");
+    long long done = 0;
+    for (long long b = 0; b < blocks; ++b) {
+      need_line("element blocks", b, blocks);
+      const int dim = static_cast<int>(c_.integer("entity dimension", 0, 3));
+      const long long entity = c_.integer("entity tag", -kMaxTag, kMaxTag);
+      const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20));
+      const long long m = c_.integer("elements in block", 0, n - done);
+      c_.end_line("");
+      long long physical = 0;
+      if (auto it = entity_physical_.find({dim, entity}); it != entity_physical_.end()) physical = it->second;
+      const bool keep = type == kTypeTet || type == kTypeTriangle;
+      for (long long i = 0; i < m; ++i) {
+        need_line("elements of a block", i, m);
+        const long long id = c_.integer("element id", 1, kMaxTag);
+        if (keep) {
+          read_element_nodes(type, id, physical);
+        } else {
+          skip_element(type);
+        }
+      }
+      done += m;
+    }
+    if (done != n) c_.fail("element blocks hold " + std::to_string(done) + " elements, the header says " + std::to_string(n));
+  }
+
+  // ---- groups ---------------------------------------------------------------------------------
+  /// Fills group_names; gives a surface group a fresh tag where its tag clashes with a
+  /// differently named volume group.
+  void assign_groups() {
+    std::set<int> tags3(mesh_.tet_group.begin(), mesh_.tet_group.end());
+    std::set<int> tags2(mesh_.triangle_group.begin(), mesh_.triangle_group.end());
+    for (const auto& [tag, name] : names_[1]) tags3.insert(tag);
+    for (const auto& [tag, name] : names_[0]) tags2.insert(tag);
+    int next = 0;
+    for (int t : tags3) next = std::max(next, t);
+    for (int t : tags2) next = std::max(next, t);
+    auto name_of = [](const std::map<int, std::string>& m, int tag) {
+      auto it = m.find(tag);
+      return it == m.end() ? std::string() : it->second;
+    };
+    std::map<int, int> remap;
+    for (int t : tags2)
+      if (t != 0 && tags3.count(t) && name_of(names_[0], t) != name_of(names_[1], t)) remap[t] = ++next;
+    for (int& g : mesh_.triangle_group)
+      if (auto it = remap.find(g); it != remap.end()) g = it->second;
+    for (const auto& [tag, name] : names_[1]) mesh_.group_names[tag] = name;
+    for (const auto& [tag, name] : names_[0]) {
+      auto it = remap.find(tag);
+      mesh_.group_names[it == remap.end() ? tag : it->second] = name;
+    }
+  }
+
+  TextCursor c_;
+  std::filesystem::path file_;
+  int major_ = 0;
+  bool have_nodes_ = false;
+  bool have_elements_ = false;
+  TetMesh mesh_;
+  std::vector<long long> node_lines_;              ///< #V line of each node (until the map is built)
+  std::vector<int> dense_;                         ///< node id -> vertex, when ids are compact
+  std::vector<std::pair<long long, int>> sparse_;  ///< sorted (node id, vertex), otherwise
+  std::map<std::pair<int, long long>, int> entity_physical_;  ///< (dim, entity tag) -> physical tag
+  std::map<int, std::string> names_[2];            ///< physical names of dimension 2 and 3
+  long long skipped_tet10_ = 0;
+};
+
+}  // namespace
+
+TetMesh read_msh(const std::filesystem::path& file) {
+  const std::string text = detail::read_file_bytes(file);
+  return MshParser(file, text).parse();
+}
+
+}  // namespace ebh

@@ -1,0 +1,40 @@
+#include "mesh/text_cursor.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <system_error>
+
+namespace ebh::detail {
+
+std::string read_file_bytes(const std::filesystem::path& file) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec)) throw InputError(file.string() + ": is a directory, expected a file");
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(file.string() + ": cannot open file");
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size < 0) throw InputError(file.string() + ": cannot read file");
+  std::string bytes(static_cast<std::size_t>(size), '\0');
+  in.seekg(0, std::ios::beg);
+  if (size > 0 && !in.read(bytes.data(), size)) throw InputError(file.string() + ": cannot read file");
+  return bytes;
+}
+
+std::string printable(std::string_view token) {
+  constexpr std::size_t kMax = 40;
+  std::string out;
+  for (std::size_t i = 0; i < token.size() && i < kMax; ++i) {
+    const auto c = static_cast<unsigned char>(token[i]);
+    if (c >= 0x20 && c < 0x7f && c != '\'') {
+      out += static_cast<char>(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    }
+  }
+  if (token.size() > kMax) out += "...";
+  return out;
+}
+
+}  // namespace ebh::detail

@@ -1,0 +1,295 @@
+#include "mesh/validate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <unordered_map>
+
+#include "mesh/boundary.hpp"
+
+namespace ebh {
+namespace {
+
+bool finite(const Vec3d& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+bool indices_ok(const Tet& t, int nv) {
+  for (int k = 0; k < 4; ++k) {
+    if (t[k] < 0 || t[k] >= nv) return false;
+    for (int j = 0; j < k; ++j)
+      if (t[j] == t[k]) return false;
+  }
+  return true;
+}
+
+double longest_edge(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
+  const double l2 = std::max({squared_norm(b - a), squared_norm(c - a), squared_norm(d - a), squared_norm(c - b),
+                              squared_norm(d - b), squared_norm(d - c)});
+  return std::sqrt(l2);
+}
+
+/// -1 inverted, 0 degenerate, +1 fine (see kDegenerateVolume).
+int volume_sign(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d, double* volume = nullptr) {
+  const double v = signed_volume(a, b, c, d);
+  if (volume) *volume = v;
+  const double l = longest_edge(a, b, c, d);
+  const double eps = kDegenerateVolume * l * l * l;
+  if (!(std::fabs(v) > eps)) return 0;  // also NaN
+  return v > 0 ? 1 : -1;
+}
+
+std::string tet_name(const TetMesh& mesh, int t) {
+  std::string s = "tet " + std::to_string(t);
+  if (static_cast<std::size_t>(t) < mesh.file_tet_ids.size()) s += " (element id " + std::to_string(mesh.file_tet_ids[t]) + ")";
+  return s;
+}
+
+std::string plural(std::size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
+
+std::string fmt(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
+/// Pairs (later, earlier) of vertices within `tol` of each other; a uniform grid hash with cells of
+/// size tol (or 1 when tol is 0, then only exact duplicates match), searched over 27 cells.
+std::vector<std::pair<int, int>> find_duplicates(const std::vector<Vec3d>& p, double tol) {
+  Vec3d lo{INFINITY, INFINITY, INFINITY};
+  for (const auto& x : p)
+    if (finite(x)) lo = cwise_min(lo, x);
+  const double cell = tol > 0 ? tol : 1.0;
+  struct Key {
+    long long i, j, k;
+    bool operator==(const Key& o) const { return i == o.i && j == o.j && k == o.k; }
+  };
+  struct Hash {
+    std::size_t operator()(const Key& k) const {
+      return static_cast<std::size_t>(k.i * 73856093LL ^ k.j * 19349663LL ^ k.k * 83492791LL);
+    }
+  };
+  std::unordered_map<Key, std::vector<int>, Hash> grid;
+  std::vector<std::pair<int, int>> dups;
+  for (std::size_t v = 0; v < p.size(); ++v) {
+    if (!finite(p[v])) continue;
+    const Vec3d r = (p[v] - lo) / cell;
+    const Key key{static_cast<long long>(std::floor(r.x)), static_cast<long long>(std::floor(r.y)),
+                  static_cast<long long>(std::floor(r.z))};
+    int earliest = -1;
+    for (int di = -1; di <= 1; ++di)
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int dk = -1; dk <= 1; ++dk) {
+          auto it = grid.find({key.i + di, key.j + dj, key.k + dk});
+          if (it == grid.end()) continue;
+          for (int u : it->second)
+            if (norm(p[u] - p[v]) <= tol && (earliest < 0 || u < earliest)) earliest = u;
+        }
+    if (earliest >= 0) dups.emplace_back(static_cast<int>(v), earliest);
+    grid[key].push_back(static_cast<int>(v));
+  }
+  return dups;
+}
+
+}  // namespace
+
+double tet_mean_ratio(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
+  const double v = signed_volume(a, b, c, d);
+  const double l2 = squared_norm(b - a) + squared_norm(c - a) + squared_norm(d - a) + squared_norm(c - b) +
+                    squared_norm(d - b) + squared_norm(d - c);
+  if (!(v > 0) || !(l2 > 0)) return 0.0;
+  return std::min(1.0, 12.0 * std::cbrt(3.0 * v * 3.0 * v) / l2);
+}
+
+MeshReport validate_mesh(const TetMesh& mesh) {
+  MeshReport r;
+  const int nv = static_cast<int>(mesh.vertices.size());
+  r.num_vertices = nv;
+  r.num_tets = static_cast<int>(mesh.tets.size());
+
+  for (int v = 0; v < nv; ++v)
+    if (!finite(mesh.vertices[v])) r.nonfinite_vertices.push_back(v);
+
+  std::vector<char> used(static_cast<std::size_t>(nv), 0);
+  std::vector<Tet> valid;  // tets with valid indices, for the topology checks
+  valid.reserve(mesh.tets.size());
+  double quality_sum = 0.0;
+  int quality_count = 0;
+  r.quality_worst = 1.0;
+  for (int t = 0; t < r.num_tets; ++t) {
+    const Tet& tet = mesh.tets[t];
+    if (!indices_ok(tet, nv)) {
+      r.bad_index_tets.push_back(t);
+      for (int v : tet)
+        if (v >= 0 && v < nv) used[v] = 1;
+      continue;
+    }
+    valid.push_back(tet);
+    for (int v : tet) used[v] = 1;
+    const Vec3d &a = mesh.vertices[tet[0]], &b = mesh.vertices[tet[1]], &c = mesh.vertices[tet[2]],
+                &d = mesh.vertices[tet[3]];
+    if (!finite(a) || !finite(b) || !finite(c) || !finite(d)) continue;
+    const int sign = volume_sign(a, b, c, d);
+    if (sign == 0) r.degenerate_tets.push_back(t);
+    if (sign < 0) r.inverted_tets.push_back(t);
+    const double q = tet_mean_ratio(a, b, c, d);
+    quality_sum += q;
+    ++quality_count;
+    if (q < r.quality_worst || r.worst_tet < 0) {
+      r.quality_worst = q;
+      r.worst_tet = t;
+    }
+  }
+  if (quality_count > 0) {
+    r.quality_mean = quality_sum / quality_count;
+  } else {
+    r.quality_worst = 0.0;
+  }
+  for (int v = 0; v < nv; ++v)
+    if (!used[v]) r.unreferenced_vertices.push_back(v);
+
+  // Duplicate positions, relative to the size of the mesh.
+  Vec3d lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+  for (const auto& p : mesh.vertices)
+    if (finite(p)) {
+      lo = cwise_min(lo, p);
+      hi = cwise_max(hi, p);
+    }
+  const double diag = nv > 0 && lo.x <= hi.x ? norm(hi - lo) : 0.0;
+  r.duplicate_vertices = find_duplicates(mesh.vertices, 1e-12 * diag);
+
+  // Faces and boundary edges.
+  const FaceCounts faces = count_faces(valid);
+  r.boundary_faces = faces.boundary;
+  r.interior_faces = faces.interior;
+  r.nonmanifold_faces = faces.nonmanifold;
+  TetMesh valid_mesh;
+  valid_mesh.vertices = mesh.vertices;
+  valid_mesh.tets = std::move(valid);
+  std::vector<int> to_volume;
+  const SurfaceMesh surface = extract_boundary(valid_mesh, &to_volume);
+  std::vector<std::array<int, 2>> edges;
+  edges.reserve(surface.triangles.size() * 3);
+  for (const Tri& tri : surface.triangles)
+    for (int k = 0; k < 3; ++k) {
+      int a = to_volume[tri[k]], b = to_volume[tri[(k + 1) % 3]];
+      edges.push_back({std::min(a, b), std::max(a, b)});
+    }
+  std::sort(edges.begin(), edges.end());
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i != 2) r.nonmanifold_edges.push_back(edges[i]);
+    i = j;
+  }
+  return r;
+}
+
+std::string MeshReport::fatal_message(const TetMesh& mesh) const {
+  if (!bad_index_tets.empty()) {
+    const int t = bad_index_tets[0];
+    const Tet& tet = mesh.tets[t];
+    return plural(bad_index_tets.size(), "tet") + " with an out-of-range or repeated vertex index, the first: " +
+           tet_name(mesh, t) + " uses vertices " + std::to_string(tet[0]) + " " + std::to_string(tet[1]) + " " +
+           std::to_string(tet[2]) + " " + std::to_string(tet[3]) + " of " + std::to_string(num_vertices);
+  }
+  if (!nonfinite_vertices.empty()) {
+    const int v = nonfinite_vertices[0];
+    std::string s = plural(nonfinite_vertices.size(), "vertex") + " with a non-finite coordinate, the first: vertex " +
+                    std::to_string(v);
+    if (static_cast<std::size_t>(v) < mesh.file_node_ids.size()) s += " (node id " + std::to_string(mesh.file_node_ids[v]) + ")";
+    return s;
+  }
+  auto describe = [&](const std::vector<int>& tets, const char* what) {
+    const int t = tets[0];
+    const Tet& tet = mesh.tets[t];
+    double v = 0.0;
+    volume_sign(mesh.vertices[tet[0]], mesh.vertices[tet[1]], mesh.vertices[tet[2]], mesh.vertices[tet[3]], &v);
+    const double l = longest_edge(mesh.vertices[tet[0]], mesh.vertices[tet[1]], mesh.vertices[tet[2]], mesh.vertices[tet[3]]);
+    return std::to_string(tets.size()) + " " + what + (tets.size() == 1 ? " tet" : " tets") + ", the first: " +
+           tet_name(mesh, t) + ", signed volume " + fmt(v) + " (longest edge " + fmt(l) + ")";
+  };
+  if (!inverted_tets.empty()) return describe(inverted_tets, "inverted");
+  if (!degenerate_tets.empty()) return describe(degenerate_tets, "degenerate (flat)");
+  if (nonmanifold_faces > 0) return std::to_string(nonmanifold_faces) + " tet faces shared by three or more tets";
+  if (num_tets == 0) return "no tets";
+  return {};
+}
+
+std::vector<std::string> MeshReport::warnings() const {
+  std::vector<std::string> w;
+  if (!unreferenced_vertices.empty())
+    w.push_back(plural(unreferenced_vertices.size(), "vertex") + " used by no tet, the first: vertex " +
+                std::to_string(unreferenced_vertices[0]));
+  if (!duplicate_vertices.empty())
+    w.push_back(plural(duplicate_vertices.size(), "vertex") + " at the position of another, the first: vertex " +
+                std::to_string(duplicate_vertices[0].first) + " duplicates vertex " +
+                std::to_string(duplicate_vertices[0].second));
+  if (!nonmanifold_edges.empty())
+    w.push_back(plural(nonmanifold_edges.size(), "non-manifold boundary edge") +
+                " (not in exactly 2 boundary faces), the first: vertices " + std::to_string(nonmanifold_edges[0][0]) +
+                "-" + std::to_string(nonmanifold_edges[0][1]));
+  return w;
+}
+
+Orientation orient_tets(TetMesh& mesh) {
+  Orientation o;
+  const int nv = static_cast<int>(mesh.vertices.size());
+  int first_positive = -1, first_negative = -1;
+  for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) {
+    const Tet& tet = mesh.tets[t];
+    if (!indices_ok(tet, nv)) continue;
+    const int sign = volume_sign(mesh.vertices[tet[0]], mesh.vertices[tet[1]], mesh.vertices[tet[2]], mesh.vertices[tet[3]]);
+    if (sign > 0) {
+      if (o.positive++ == 0) first_positive = t;
+    } else if (sign < 0) {
+      if (o.negative++ == 0) first_negative = t;
+    }
+  }
+  if (o.positive > 0 && o.negative > 0) {
+    o.kind = Orientation::Kind::Mixed;
+    o.witness = o.negative <= o.positive ? first_negative : first_positive;
+  } else if (o.negative > 0) {
+    o.kind = Orientation::Kind::Flipped;
+    for (Tet& tet : mesh.tets) std::swap(tet[1], tet[2]);
+  }
+  return o;
+}
+
+int remove_unreferenced_vertices(TetMesh& mesh) {
+  const int nv = static_cast<int>(mesh.vertices.size());
+  std::vector<int> remap(static_cast<std::size_t>(nv), -1);
+  for (const Tet& tet : mesh.tets)
+    for (int v : tet)
+      if (v >= 0 && v < nv) remap[v] = 0;
+  int next = 0;
+  for (int v = 0; v < nv; ++v)
+    if (remap[v] == 0) {
+      mesh.vertices[next] = mesh.vertices[v];
+      if (static_cast<std::size_t>(v) < mesh.file_node_ids.size()) mesh.file_node_ids[next] = mesh.file_node_ids[v];
+      remap[v] = next++;
+    }
+  const int removed = nv - next;
+  if (removed == 0) return 0;
+  mesh.vertices.resize(next);
+  if (mesh.file_node_ids.size() == static_cast<std::size_t>(nv)) mesh.file_node_ids.resize(next);
+  for (Tet& tet : mesh.tets)
+    for (int& v : tet)
+      if (v >= 0 && v < nv) v = remap[v];
+  std::size_t kept = 0;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    Tri tri = mesh.triangles[f];
+    bool ok = true;
+    for (int& v : tri) {
+      if (v < 0 || v >= nv || remap[v] < 0) ok = false;
+      else v = remap[v];
+    }
+    if (!ok) continue;
+    mesh.triangles[kept] = tri;
+    if (f < mesh.triangle_group.size()) mesh.triangle_group[kept] = mesh.triangle_group[f];
+    ++kept;
+  }
+  mesh.triangles.resize(kept);
+  if (mesh.triangle_group.size() > kept) mesh.triangle_group.resize(kept);
+  return removed;
+}
+
+}  // namespace ebh

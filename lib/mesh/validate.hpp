@@ -1,0 +1,80 @@
+#pragma once
+// Checks a tet mesh before it becomes a physical mesh: what is fatal (the solver cannot run on
+// it) and what deserves a warning, plus element quality.
+#include <array>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "mesh/tet_mesh.hpp"
+
+namespace ebh {
+
+/// Mean ratio shape quality of a tet, in [0, 1]: 12 (3 |V|)^(2/3) / sum of squared edge lengths.
+/// 1 for the regular tet, 0 for a flat one (Liu & Joe 1994). Inverted tets count as 0.
+double tet_mean_ratio(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d);
+
+/// Relative volume below which a tet is degenerate: signed volume <= kDegenerateVolume * l^3,
+/// with l the tet's longest edge. The regular tet has V / l^3 = 0.118; 1e-12 flags only tets
+/// that are flat to about the precision of the coordinates.
+inline constexpr double kDegenerateVolume = 1e-12;
+
+/// What validate_mesh found. Element and vertex indices are 0-based positions in the TetMesh.
+struct MeshReport {
+  int num_vertices = 0;
+  int num_tets = 0;
+  // fatal
+  std::vector<int> bad_index_tets;      ///< tets with a vertex index outside [0, #V) or repeated
+  std::vector<int> nonfinite_vertices;  ///< vertices with a NaN or infinite coordinate
+  std::vector<int> degenerate_tets;     ///< |signed volume| <= kDegenerateVolume l^3
+  std::vector<int> inverted_tets;       ///< signed volume < -kDegenerateVolume l^3
+  long long nonmanifold_faces = 0;      ///< tet faces shared by three or more tets
+  // warnings
+  std::vector<int> unreferenced_vertices;             ///< used by no tet
+  std::vector<std::pair<int, int>> duplicate_vertices;  ///< (later, earlier) at the same position
+  std::vector<std::array<int, 2>> nonmanifold_edges;  ///< boundary edges in != 2 boundary faces
+  // counts and quality (over tets with valid indices)
+  long long boundary_faces = 0;
+  long long interior_faces = 0;
+  double quality_worst = 0.0;  ///< smallest mean ratio (see tet_mean_ratio)
+  double quality_mean = 0.0;   ///< average mean ratio
+  int worst_tet = -1;          ///< the tet with the smallest mean ratio
+
+  /// True if the mesh cannot be simulated.
+  bool fatal() const {
+    return !bad_index_tets.empty() || !nonfinite_vertices.empty() || !degenerate_tets.empty() ||
+           !inverted_tets.empty() || nonmanifold_faces > 0 || num_tets == 0;
+  }
+  /// One line describing the first fatal problem, e.g. "2 inverted tets, the first: tet 12
+  /// (element id 57), signed volume -3e-09", empty if none. `mesh` is the mesh this report is
+  /// about; its file_tet_ids (if present) give the element ids.
+  std::string fatal_message(const TetMesh& mesh) const;
+  /// One line per kind of non-fatal problem, naming the first few culprits.
+  std::vector<std::string> warnings() const;
+};
+
+/// Validates a tet mesh: indices in range, finite coordinates, degenerate and inverted tets,
+/// non-manifold faces and boundary edges, unreferenced and duplicate vertices (same position up
+/// to 1e-12 of the bounding box diagonal, found with a spatial hash), element quality.
+MeshReport validate_mesh(const TetMesh& mesh);
+
+/// How orient_tets found the tets.
+struct Orientation {
+  enum class Kind { Positive, Flipped, Mixed };
+  Kind kind = Kind::Positive;
+  int positive = 0;   ///< tets with positive signed volume (before any flip)
+  int negative = 0;   ///< tets with negative signed volume (before any flip)
+  int witness = -1;   ///< Mixed: the first tet whose sign differs from the majority
+};
+
+/// Makes every tet positively oriented when all of them are negative (some generators write
+/// them that way) by swapping each tet's vertices 1 and 2. Mixed signs are left alone and
+/// reported (the mesh is broken). Degenerate tets (|V| tiny) count for neither sign.
+/// Tets with out-of-range indices are ignored (validate_mesh reports them).
+Orientation orient_tets(TetMesh& mesh);
+
+/// Removes vertices no tet uses, renumbering tets and triangles (triangles that use a removed
+/// vertex are dropped). Returns how many vertices were removed.
+int remove_unreferenced_vertices(TetMesh& mesh);
+
+}  // namespace ebh

@@ -1,0 +1,461 @@
+#include "io/h5.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+
+#include "io/error.hpp"
+
+namespace ebh::h5 {
+
+static_assert(sizeof(hid_t) == sizeof(std::int64_t), "HDF5 >= 1.10 uses 64-bit identifiers");
+
+namespace {
+
+hid_t mem_type(Type t) {
+  switch (t) {
+    case Type::f64: return H5T_NATIVE_DOUBLE;
+    case Type::f32: return H5T_NATIVE_FLOAT;
+    case Type::i32: return H5T_NATIVE_INT32;
+    case Type::i64: return H5T_NATIVE_INT64;
+    case Type::u8: return H5T_NATIVE_UINT8;
+    case Type::u32: return H5T_NATIVE_UINT32;
+  }
+  return H5T_NATIVE_DOUBLE;
+}
+
+bool is_float(Type t) { return t == Type::f64 || t == Type::f32; }
+
+const char* type_name(Type t) {
+  switch (t) {
+    case Type::f64: return "float64";
+    case Type::f32: return "float32";
+    case Type::i32: return "int32";
+    case Type::i64: return "int64";
+    case Type::u8: return "uint8";
+    case Type::u32: return "uint32";
+  }
+  return "?";
+}
+
+std::string shape_str(const std::vector<std::size_t>& s) {
+  std::ostringstream o;
+  o << '(';
+  for (std::size_t i = 0; i < s.size(); ++i) o << (i ? ", " : "") << s[i];
+  if (s.size() == 1) o << ',';
+  o << ')';
+  return o.str();
+}
+
+std::string expected_str(const std::vector<std::ptrdiff_t>& s) {
+  std::ostringstream o;
+  o << '(';
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    o << (i ? ", " : "");
+    if (s[i] < 0) o << (i == 0 ? "N" : "*");
+    else o << s[i];
+  }
+  if (s.size() == 1) o << ',';
+  o << ')';
+  return o.str();
+}
+
+[[noreturn]] void fail(const std::string& where, const std::string& what) { throw InputError(where + ": " + what); }
+
+Handle check(hid_t id, const std::string& where, const std::string& what) {
+  if (id < 0) fail(where, what);
+  return Handle(id);
+}
+
+void check_status(herr_t st, const std::string& where, const std::string& what) {
+  if (st < 0) fail(where, what);
+}
+
+// Whether every component of a (possibly nested) relative path exists as a link.
+bool link_exists(hid_t loc, const std::string& name) {
+  std::size_t pos = 0;
+  if (!name.empty() && name[0] == '/') pos = 1;
+  while (true) {
+    std::size_t next = name.find('/', pos);
+    std::string prefix = name.substr(0, next);
+    if (!prefix.empty() && prefix != "/") {
+      htri_t e = H5Lexists(loc, prefix.c_str(), H5P_DEFAULT);
+      if (e <= 0) return false;
+      if (next != std::string::npos) {  // an intermediate component must be a group to continue
+        H5O_info_t info;
+        if (H5Oget_info_by_name(loc, prefix.c_str(), &info, H5P_DEFAULT) < 0 || info.type != H5O_TYPE_GROUP)
+          return false;
+      }
+    }
+    if (next == std::string::npos) return true;
+    pos = next + 1;
+  }
+}
+
+Handle string_type() {
+  hid_t t = H5Tcopy(H5T_C_S1);
+  H5Tset_size(t, H5T_VARIABLE);
+  H5Tset_cset(t, H5T_CSET_UTF8);
+  return Handle(t);
+}
+
+bool filters_available() {
+  static const bool ok = H5Zfilter_avail(H5Z_FILTER_DEFLATE) > 0 && H5Zfilter_avail(H5Z_FILTER_SHUFFLE) > 0;
+  return ok;
+}
+
+}  // namespace
+
+void silence_errors() {
+  static const bool done = [] {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    return true;
+  }();
+  (void)done;
+}
+
+[[noreturn]] void throw_bad_append(const std::string& where, std::size_t n, std::size_t row_size) {
+  fail(where, "append of " + std::to_string(n) + " values, not a multiple of the row size " + std::to_string(row_size));
+}
+
+void Handle::reset() {
+  if (id_ < 0) return;
+  switch (H5Iget_type(id_)) {
+    case H5I_FILE: H5Fclose(id_); break;
+    case H5I_GROUP: H5Gclose(id_); break;
+    case H5I_DATASET: H5Dclose(id_); break;
+    case H5I_DATASPACE: H5Sclose(id_); break;
+    case H5I_DATATYPE: H5Tclose(id_); break;
+    case H5I_ATTR: H5Aclose(id_); break;
+    case H5I_GENPROP_LST: H5Pclose(id_); break;
+    default: break;
+  }
+  id_ = -1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Object: attributes
+
+std::string Object::where() const { return file_ + ": " + path_; }
+
+std::int64_t Object::id() const {
+  if (!h_ || !h_->valid()) throw InputError(file_ + ": " + path_ + ": use of a closed HDF5 object");
+  return h_->get();
+}
+
+bool Object::has_attr(const std::string& name) const { return H5Aexists(id(), name.c_str()) > 0; }
+
+namespace {
+
+// Replaces an existing attribute of that name, then creates it with the given type and space.
+Handle new_attr(hid_t obj, const std::string& where, const std::string& name, hid_t type, hid_t space) {
+  if (H5Aexists(obj, name.c_str()) > 0) H5Adelete(obj, name.c_str());
+  return check(H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT), where,
+               "cannot create attribute '" + name + "'");
+}
+
+Handle open_attr(hid_t obj, const std::string& where, const std::string& name) {
+  if (H5Aexists(obj, name.c_str()) <= 0) fail(where, "missing attribute '" + name + "'");
+  return check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), where, "cannot open attribute '" + name + "'");
+}
+
+// Number of elements of an attribute whose class must be `cls`.
+std::size_t attr_numbers(hid_t a, const std::string& where, const std::string& name, H5T_class_t cls,
+                         const char* kind) {
+  Handle type(H5Aget_type(a));
+  H5T_class_t c = H5Tget_class(type.get());
+  if (c != cls && !(cls == H5T_FLOAT && c == H5T_INTEGER))
+    fail(where, "attribute '" + name + "' is not " + kind);
+  Handle space(H5Aget_space(a));
+  hssize_t n = H5Sget_simple_extent_npoints(space.get());
+  return n < 0 ? 0 : static_cast<std::size_t>(n);
+}
+
+}  // namespace
+
+void Object::set_attr(const std::string& name, const std::string& value) {
+  Handle type = string_type();
+  Handle space(H5Screate(H5S_SCALAR));
+  Handle a = new_attr(id(), where(), name, type.get(), space.get());
+  const char* p = value.c_str();
+  check_status(H5Awrite(a.get(), type.get(), &p), where(), "cannot write attribute '" + name + "'");
+}
+
+void Object::set_attr_f64(const std::string& name, double value) {
+  Handle space(H5Screate(H5S_SCALAR));
+  Handle a = new_attr(id(), where(), name, H5T_IEEE_F64LE, space.get());
+  check_status(H5Awrite(a.get(), H5T_NATIVE_DOUBLE, &value), where(), "cannot write attribute '" + name + "'");
+}
+
+void Object::set_attr_i64(const std::string& name, std::int64_t value) {
+  Handle space(H5Screate(H5S_SCALAR));
+  Handle a = new_attr(id(), where(), name, H5T_STD_I64LE, space.get());
+  check_status(H5Awrite(a.get(), H5T_NATIVE_INT64, &value), where(), "cannot write attribute '" + name + "'");
+}
+
+void Object::set_attr(const std::string& name, const std::vector<double>& values) {
+  hsize_t n = values.size();
+  Handle space(H5Screate_simple(1, &n, nullptr));
+  Handle a = new_attr(id(), where(), name, H5T_IEEE_F64LE, space.get());
+  check_status(H5Awrite(a.get(), H5T_NATIVE_DOUBLE, values.data()), where(), "cannot write attribute '" + name + "'");
+}
+
+void Object::set_attr(const std::string& name, const std::vector<std::int64_t>& values) {
+  hsize_t n = values.size();
+  Handle space(H5Screate_simple(1, &n, nullptr));
+  Handle a = new_attr(id(), where(), name, H5T_STD_I64LE, space.get());
+  check_status(H5Awrite(a.get(), H5T_NATIVE_INT64, values.data()), where(), "cannot write attribute '" + name + "'");
+}
+
+std::string Object::attr_string(const std::string& name) const {
+  Handle a = open_attr(id(), where(), name);
+  Handle type(H5Aget_type(a.get()));
+  if (H5Tget_class(type.get()) != H5T_STRING) fail(where(), "attribute '" + name + "' is not a string");
+  Handle space(H5Aget_space(a.get()));
+  if (H5Sget_simple_extent_npoints(space.get()) != 1) fail(where(), "attribute '" + name + "' is not a single string");
+  if (H5Tis_variable_str(type.get()) > 0) {
+    Handle mt = string_type();
+    char* p = nullptr;
+    check_status(H5Aread(a.get(), mt.get(), &p), where(), "cannot read attribute '" + name + "'");
+    std::string s = p ? p : "";
+    H5free_memory(p);
+    return s;
+  }
+  std::size_t size = H5Tget_size(type.get());
+  std::vector<char> buf(size + 1, '\0');
+  Handle mt(H5Tcopy(H5T_C_S1));
+  H5Tset_size(mt.get(), size + 1);
+  check_status(H5Aread(a.get(), mt.get(), buf.data()), where(), "cannot read attribute '" + name + "'");
+  return std::string(buf.data(), strnlen(buf.data(), size));
+}
+
+double Object::attr_double(const std::string& name) const {
+  Handle a = open_attr(id(), where(), name);
+  if (attr_numbers(a.get(), where(), name, H5T_FLOAT, "a number") != 1)
+    fail(where(), "attribute '" + name + "' is not a single number");
+  double v = 0;
+  check_status(H5Aread(a.get(), H5T_NATIVE_DOUBLE, &v), where(), "cannot read attribute '" + name + "'");
+  return v;
+}
+
+std::int64_t Object::attr_int(const std::string& name) const {
+  Handle a = open_attr(id(), where(), name);
+  if (attr_numbers(a.get(), where(), name, H5T_INTEGER, "an integer") != 1)
+    fail(where(), "attribute '" + name + "' is not a single integer");
+  std::int64_t v = 0;
+  check_status(H5Aread(a.get(), H5T_NATIVE_INT64, &v), where(), "cannot read attribute '" + name + "'");
+  return v;
+}
+
+std::vector<double> Object::attr_doubles(const std::string& name) const {
+  Handle a = open_attr(id(), where(), name);
+  std::vector<double> v(attr_numbers(a.get(), where(), name, H5T_FLOAT, "numeric"));
+  if (!v.empty())
+    check_status(H5Aread(a.get(), H5T_NATIVE_DOUBLE, v.data()), where(), "cannot read attribute '" + name + "'");
+  return v;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Dataset
+
+std::vector<std::size_t> Dataset::shape() const {
+  Handle space(H5Dget_space(id()));
+  int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) fail(where(), "cannot read the dataset's shape");
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+  return std::vector<std::size_t>(dims.begin(), dims.end());
+}
+
+std::vector<std::size_t> Dataset::checked_shape(Type t, const std::vector<std::ptrdiff_t>& expected) const {
+  Handle type(H5Dget_type(id()));
+  H5T_class_t cls = H5Tget_class(type.get());
+  bool ok = is_float(t) ? cls == H5T_FLOAT : cls == H5T_INTEGER;
+  if (!ok) {
+    const char* stored = cls == H5T_FLOAT ? "floating point" : cls == H5T_INTEGER ? "integer" : cls == H5T_STRING ? "string" : "non-numeric";
+    fail(where(), std::string("type ") + stored + ", expected " + (is_float(t) ? "floating point" : "integer") +
+                      " (" + type_name(t) + ")");
+  }
+  std::vector<std::size_t> s = shape();
+  if (!expected.empty()) {
+    bool match = s.size() == expected.size();
+    for (std::size_t i = 0; match && i < s.size(); ++i)
+      if (expected[i] >= 0 && s[i] != static_cast<std::size_t>(expected[i])) match = false;
+    if (!match) fail(where(), "shape " + shape_str(s) + ", expected " + expected_str(expected));
+  }
+  return s;
+}
+
+void Dataset::read_into(Type t, void* out) const {
+  Handle space(H5Dget_space(id()));
+  if (H5Sget_simple_extent_npoints(space.get()) == 0) return;
+  check_status(H5Dread(id(), mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, out), where(), "cannot read the dataset");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Appender
+
+AppenderBase::AppenderBase(Dataset d, Type t, std::vector<std::size_t> row_shape)
+    : Dataset(std::move(d)), type_(t), row_shape_(std::move(row_shape)) {
+  row_size_ = 1;
+  for (auto r : row_shape_) row_size_ *= r;
+}
+
+void AppenderBase::append_raw(const void* data, std::size_t n_rows) {
+  if (n_rows == 0) return;
+  std::vector<hsize_t> dims{static_cast<hsize_t>(rows_ + n_rows)};
+  for (auto r : row_shape_) dims.push_back(r);
+  check_status(H5Dset_extent(id(), dims.data()), where(), "cannot extend the dataset");
+  Handle fspace(H5Dget_space(id()));
+  std::vector<hsize_t> start(dims.size(), 0), count(dims);
+  start[0] = rows_;
+  count[0] = n_rows;
+  check_status(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), where(),
+               "cannot select the appended rows");
+  Handle mspace(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr));
+  check_status(H5Dwrite(id(), mem_type(type_), mspace.get(), fspace.get(), H5P_DEFAULT, data), where(),
+               "cannot write the appended rows");
+  rows_ += n_rows;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Group
+
+std::string Group::child_path(const std::string& name) const {
+  if (!name.empty() && name[0] == '/') return name;
+  return path_ == "/" ? "/" + name : path_ + "/" + name;
+}
+
+bool Group::has(const std::string& name) const { return link_exists(id(), name); }
+
+Group Group::group(const std::string& name) const {
+  std::string p = child_path(name);
+  if (!has(name)) fail(file_ + ": " + p, "missing group");
+  hid_t g = H5Gopen2(id(), name.c_str(), H5P_DEFAULT);
+  if (g < 0) fail(file_ + ": " + p, "not a group");
+  return Group(std::make_shared<Handle>(g), file_, p);
+}
+
+Group Group::create_group(const std::string& name) {
+  std::string p = child_path(name);
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE));
+  H5Pset_create_intermediate_group(lcpl.get(), 1);
+  hid_t g = H5Gcreate2(id(), name.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) fail(file_ + ": " + p, "cannot create group");
+  return Group(std::make_shared<Handle>(g), file_, p);
+}
+
+Group Group::require_group(const std::string& name) { return has(name) ? group(name) : create_group(name); }
+
+Dataset Group::dataset(const std::string& name) const {
+  std::string p = child_path(name);
+  if (!has(name)) fail(file_ + ": " + p, "missing dataset");
+  hid_t d = H5Dopen2(id(), name.c_str(), H5P_DEFAULT);
+  if (d < 0) fail(file_ + ": " + p, "not a dataset");
+  return Dataset(std::make_shared<Handle>(d), file_, p);
+}
+
+Dataset Group::write_raw(const std::string& name, Type t, const void* data, std::size_t n,
+                         const std::vector<std::size_t>& shape, const WriteOptions& opt) {
+  std::string p = child_path(name);
+  std::size_t prod = 1;
+  for (auto s : shape) prod *= s;
+  if (prod != n)
+    fail(file_ + ": " + p, std::to_string(n) + " values do not fill the shape " + shape_str(shape));
+  std::vector<hsize_t> dims(shape.begin(), shape.end());
+  Handle space(shape.empty() ? H5Screate(H5S_SCALAR) : H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr));
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE));
+  H5Pset_create_intermediate_group(lcpl.get(), 1);
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE));
+  if (opt.compress && filters_available() && !dims.empty() && n > 0) {
+    std::vector<hsize_t> chunk(dims);
+    std::size_t row = n / dims[0];
+    // About 64 KiB chunks along the first dimension.
+    chunk[0] = std::max<hsize_t>(1, std::min<hsize_t>(dims[0], 65536 / std::max<std::size_t>(1, row * 8)));
+    H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data());
+    H5Pset_shuffle(dcpl.get());
+    H5Pset_deflate(dcpl.get(), 4);
+  }
+  hid_t d = H5Dcreate2(id(), name.c_str(), mem_type(t), space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT);
+  if (d < 0) fail(file_ + ": " + p, "cannot create dataset (does it exist already?)");
+  Dataset ds(std::make_shared<Handle>(d), file_, p);
+  if (n > 0)
+    check_status(H5Dwrite(d, mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, data), ds.where(), "cannot write the dataset");
+  return ds;
+}
+
+AppenderBase Group::create_appendable_raw(const std::string& name, Type t, const std::vector<std::size_t>& row_shape,
+                                          std::size_t chunk_rows, const WriteOptions& opt) {
+  std::string p = child_path(name);
+  std::vector<hsize_t> dims{0}, maxdims{H5S_UNLIMITED}, chunk{std::max<hsize_t>(1, chunk_rows)};
+  for (auto r : row_shape) { dims.push_back(r); maxdims.push_back(r); chunk.push_back(std::max<std::size_t>(1, r)); }
+  Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), maxdims.data()));
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE));
+  H5Pset_create_intermediate_group(lcpl.get(), 1);
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE));
+  H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data());
+  if (opt.compress && filters_available()) {
+    H5Pset_shuffle(dcpl.get());
+    H5Pset_deflate(dcpl.get(), 4);
+  }
+  hid_t d = H5Dcreate2(id(), name.c_str(), mem_type(t), space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT);
+  if (d < 0) fail(file_ + ": " + p, "cannot create dataset (does it exist already?)");
+  return AppenderBase(Dataset(std::make_shared<Handle>(d), file_, p), t, row_shape);
+}
+
+// ---------------------------------------------------------------------------------------------
+// File
+
+File File::create(const std::string& path) {
+  silence_errors();
+  // Closing a written file closes every object opened in it, so close() really ends the writing
+  // (AtomicFile renames right after).
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS));
+  H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
+  hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get());
+  if (f < 0) throw InputError(path + ": cannot create HDF5 file");
+  return File(std::make_shared<Handle>(f), path);
+}
+
+File File::open_read(const std::string& path) {
+  silence_errors();
+  if (H5Fis_hdf5(path.c_str()) <= 0) {
+    FILE* probe = std::fopen(path.c_str(), "rb");
+    if (!probe) throw InputError(path + ": cannot open: " + std::strerror(errno));
+    std::fclose(probe);
+    throw InputError(path + ": not an HDF5 file");
+  }
+  hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) throw InputError(path + ": cannot open HDF5 file");
+  return File(std::make_shared<Handle>(f), path);
+}
+
+File File::open_write(const std::string& path) {
+  silence_errors();
+  hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (f < 0) throw InputError(path + ": cannot open HDF5 file for writing");
+  return File(std::make_shared<Handle>(f), path);
+}
+
+void File::close() {
+  if (h_ && h_->valid()) {
+    H5Fflush(h_->get(), H5F_SCOPE_LOCAL);
+    h_->reset();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// AtomicFile
+
+AtomicFile::AtomicFile(const std::string& final_path) : out_(final_path) { file_ = File::create(out_.temp_path()); }
+
+void AtomicFile::commit() {
+  file_.close();
+  out_.commit();
+}
+
+}  // namespace ebh::h5

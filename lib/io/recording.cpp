@@ -1,0 +1,198 @@
+#include "io/recording.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "io/error.hpp"
+#include "io/h5.hpp"
+
+namespace ebh {
+namespace {
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+}  // namespace
+
+void validate_recording(Recording& rec, const std::string& file, const SampleLocator& where) {
+  const std::size_t n = rec.t.size();
+  auto fail = [&](std::string_view ds, std::size_t i, const std::string& what) {
+    throw InputError(where(ds, i) + ": " + what);
+  };
+  if (n == 0) throw InputError(file + ": the recording has no samples");
+  auto check_len = [&](std::string_view ds, std::size_t len) {
+    if (len != n)
+      throw InputError(file + ": " + std::string(ds) + ": " + std::to_string(len) + " samples, /trajectory/t has " +
+                       std::to_string(n));
+  };
+  check_len("/trajectory/position", rec.position.size());
+  check_len("/trajectory/orientation", rec.orientation.size());
+  check_len("/trajectory/jaw", rec.jaw.size());
+  check_len("/trajectory/buttons", rec.buttons.size());
+  if (!(std::isfinite(rec.rate_hz) && rec.rate_hz > 0))
+    throw InputError(file + ": attribute rate_hz = " + num(rec.rate_hz) + " is not a positive number");
+
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(rec.t[i])) fail("/trajectory/t", i, "time is NaN or Inf");
+    if (i > 0 && !(rec.t[i] > rec.t[i - 1]))
+      fail("/trajectory/t", i, "time not strictly increasing (" + num(rec.t[i]) + " s after " + num(rec.t[i - 1]) + " s)");
+    if (!finite(rec.position[i])) fail("/trajectory/position", i, "position is NaN or Inf");
+    Quatd& q = rec.orientation[i];
+    double qn = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+    if (!std::isfinite(qn)) fail("/trajectory/orientation", i, "orientation is NaN or Inf");
+    if (std::abs(qn - 1.0) > kQuatNormTolerance)
+      fail("/trajectory/orientation", i, "quaternion norm " + num(qn) + " is not 1 (is it (w, x, y, z)?)");
+    q = Quatd{q.w / qn, q.x / qn, q.y / qn, q.z / qn};
+    if (i > 0) {
+      const Quatd& p = rec.orientation[i - 1];
+      if (p.w * q.w + p.x * q.x + p.y * q.y + p.z * q.z < 0) q = Quatd{-q.w, -q.x, -q.y, -q.z};
+    }
+    double& j = rec.jaw[i];
+    if (!std::isfinite(j)) fail("/trajectory/jaw", i, "jaw is NaN or Inf");
+    if (j < -kJawTolerance || j > 1.0 + kJawTolerance) fail("/trajectory/jaw", i, "jaw " + num(j) + " outside [0, 1]");
+    j = std::clamp(j, 0.0, 1.0);
+  }
+}
+
+Recording read_recording(const std::string& path) {
+  h5::File f = h5::File::open_read(path);
+  if (!f.has("trajectory")) throw InputError(path + ": /trajectory: missing group (is it a recording?)");
+  h5::Group g = f.group("trajectory");
+  auto t = g.read<double>("t", {-1});
+  const auto n = static_cast<std::ptrdiff_t>(t.rows());
+  // Every per-sample dataset has the same first dimension as t: the shape check says so.
+  auto pos = g.read<double>("position", {n, 3});
+  auto ori = g.read<double>("orientation", {n, 4});
+  auto jaw = g.read<double>("jaw", {n});
+  auto buttons = g.read<std::uint8_t>("buttons", {n});
+
+  Recording rec;
+  rec.t = std::move(t.data);
+  rec.position.resize(rec.t.size());
+  rec.orientation.resize(rec.t.size());
+  for (std::size_t i = 0; i < rec.t.size(); ++i) {
+    rec.position[i] = {pos.data[3 * i], pos.data[3 * i + 1], pos.data[3 * i + 2]};
+    rec.orientation[i] = {ori.data[4 * i], ori.data[4 * i + 1], ori.data[4 * i + 2], ori.data[4 * i + 3]};
+  }
+  rec.jaw = std::move(jaw.data);
+  rec.buttons = std::move(buttons.data);
+  rec.rate_hz = f.attr_double("rate_hz");
+  rec.source = f.attr_string("source");
+  rec.scene = f.attr_string("scene");
+  rec.tool = f.attr_string("tool");
+  rec.description = f.attr_string("description");
+  if (f.has_attr("generator")) rec.generator = f.attr_string("generator");
+
+  // A dataset may declare its unit; positions must be in metres (DESIGN §3: SI inside and in files).
+  h5::Dataset pd = g.dataset("position");
+  if (pd.has_attr("unit") && pd.attr_string("unit") != "m")
+    throw InputError(pd.where() + ": unit '" + pd.attr_string("unit") + "', expected 'm'");
+  h5::Dataset td = g.dataset("t");
+  if (td.has_attr("unit") && td.attr_string("unit") != "s")
+    throw InputError(td.where() + ": unit '" + td.attr_string("unit") + "', expected 's'");
+
+  validate_recording(rec, path, [&path](std::string_view ds, std::size_t i) {
+    return path + ": " + std::string(ds) + "[" + std::to_string(i) + "]";
+  });
+  return rec;
+}
+
+void write_recording(const std::string& path, const Recording& rec_in) {
+  Recording rec = rec_in;
+  validate_recording(rec, path, [&path](std::string_view ds, std::size_t i) {
+    return path + ": " + std::string(ds) + "[" + std::to_string(i) + "]";
+  });
+  const std::size_t n = rec.size();
+  std::vector<double> pos(3 * n), ori(4 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) pos[3 * i + k] = rec.position[i][k];
+    const Quatd& q = rec.orientation[i];
+    ori[4 * i] = q.w; ori[4 * i + 1] = q.x; ori[4 * i + 2] = q.y; ori[4 * i + 3] = q.z;
+  }
+  h5::AtomicFile out(path);
+  h5::File& f = out.file();
+  h5::Group g = f.create_group("trajectory");
+  const h5::WriteOptions z{.compress = true};
+  g.write<double>("t", rec.t, {n}, z).set_attr("unit", "s");
+  g.write<double>("position", pos, {n, 3}, z).set_attr("unit", "m");
+  g.write<double>("orientation", ori, {n, 4}, z).set_attr("unit", "1 (unit quaternion w, x, y, z)");
+  g.write<double>("jaw", rec.jaw, {n}, z).set_attr("unit", "1 (0 closed, 1 open)");
+  g.write<std::uint8_t>("buttons", rec.buttons, {n}, z).set_attr("unit", "bitmask");
+  f.set_attr("rate_hz", rec.rate_hz);
+  f.set_attr("source", rec.source);
+  f.set_attr("scene", rec.scene);
+  f.set_attr("tool", rec.tool);
+  f.set_attr("description", rec.description);
+  if (!rec.generator.empty()) f.set_attr("generator", rec.generator);
+  out.commit();
+}
+
+Quatd slerp(Quatd a, Quatd b, double s) {
+  double d = a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z;
+  if (d < 0) { b = Quatd{-b.w, -b.x, -b.y, -b.z}; d = -d; }
+  double wa, wb;
+  if (d > 0.9995) {  // nearly parallel: sin(theta) ~ 0, nlerp is exact to O(theta^3)
+    wa = 1 - s;
+    wb = s;
+  } else {
+    double theta = std::acos(std::min(d, 1.0));
+    double st = std::sin(theta);
+    wa = std::sin((1 - s) * theta) / st;
+    wb = std::sin(s * theta) / st;
+  }
+  return normalized(Quatd{wa * a.w + wb * b.w, wa * a.x + wb * b.x, wa * a.y + wb * b.y, wa * a.z + wb * b.z});
+}
+
+DeviceSample sample_at(const Recording& rec, double t) {
+  const std::size_t n = rec.size();
+  auto at = [&](std::size_t i) {
+    return DeviceSample{t, rec.position[i], rec.orientation[i], rec.jaw[i], rec.buttons[i]};
+  };
+  if (n == 0) return DeviceSample{t, {}, {}, 1.0, 0};
+  if (!(t > rec.t.front())) return at(0);
+  if (t >= rec.t.back()) return at(n - 1);
+  // First sample strictly after t; i0 = the one before it (t0 <= t < t1).
+  std::size_t i1 = static_cast<std::size_t>(std::upper_bound(rec.t.begin(), rec.t.end(), t) - rec.t.begin());
+  std::size_t i0 = i1 - 1;
+  double s = (t - rec.t[i0]) / (rec.t[i1] - rec.t[i0]);
+  DeviceSample d;
+  d.t = t;
+  d.position = rec.position[i0] + s * (rec.position[i1] - rec.position[i0]);
+  d.orientation = slerp(rec.orientation[i0], rec.orientation[i1], s);
+  d.jaw = rec.jaw[i0] + s * (rec.jaw[i1] - rec.jaw[i0]);
+  d.buttons = rec.buttons[i0];
+  return d;
+}
+
+std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d bbox_min, Vec3d bbox_max,
+                                                    double margin) {
+  Vec3d lo = bbox_min - Vec3d{margin, margin, margin};
+  Vec3d hi = bbox_max + Vec3d{margin, margin, margin};
+  double worst = 0;
+  std::size_t worst_i = 0;
+  for (std::size_t i = 0; i < rec.size(); ++i) {
+    Vec3d p = rec.position[i];
+    Vec3d out = cwise_max(lo - p, cwise_max(p - hi, Vec3d{}));  // per-axis distance outside the box
+    double d = norm(out);
+    if (d > worst) { worst = d; worst_i = i; }
+  }
+  if (worst == 0) return std::nullopt;
+  Vec3d p = rec.position[worst_i];
+  double extent = norm(bbox_max - bbox_min);
+  std::ostringstream o;
+  o << "sample " << worst_i << " (t = " << num(rec.t[worst_i]) << " s) at (" << num(p.x) << ", " << num(p.y) << ", "
+    << num(p.z) << ") m lies " << num(worst) << " m outside the scene's bounding box (" << num(bbox_min.x) << ", "
+    << num(bbox_min.y) << ", " << num(bbox_min.z) << ")..(" << num(bbox_max.x) << ", " << num(bbox_max.y) << ", "
+    << num(bbox_max.z) << ") m enlarged by " << num(margin) << " m";
+  if (extent > 0 && worst > 5 * extent) o << "; is the recording in mm or cm instead of metres?";
+  return o.str();
+}
+
+}  // namespace ebh

@@ -1,0 +1,437 @@
+// Force-quality metrics of a replay. Definitions: force_metrics.hpp and docs/METRICS.md.
+#include "metrics/force_metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+#include "metrics/signal.hpp"
+
+namespace ebh {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// Running maximum that turns NaN once it sees a NaN (the NaN policy of force_metrics.hpp).
+struct NanMax {
+  double v;
+  explicit NanMax(double start = 0) : v(start) {}
+  void add(double x) { v = (std::isnan(x) || std::isnan(v)) ? kNaN : std::max(v, x); }
+};
+struct NanMin {
+  double v;
+  explicit NanMin(double start = 0) : v(start) {}
+  void add(double x) { v = (std::isnan(x) || std::isnan(v)) ? kNaN : std::min(v, x); }
+};
+
+double mean_or_nan(double sum, std::size_t n) { return n ? sum / static_cast<double>(n) : kNaN; }
+
+/// Angle of the rotation taking R_h to R_g, in [0, pi].
+double rotation_angle(Quatd g, Quatd h) { return norm(rotvec_from_quat(normalized(g * conjugate(h)))); }
+
+template <class T>
+std::vector<T> slice(const std::vector<T>& v, std::size_t a, std::size_t b) {
+  return std::vector<T>(v.begin() + static_cast<long>(a), v.begin() + static_cast<long>(b) + 1);
+}
+
+std::size_t count_nonfinite(const double* p, std::size_t n) {
+  std::size_t c = 0;
+  for (std::size_t i = 0; i < n; ++i) c += !std::isfinite(p[i]);
+  return c;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::size_t, std::size_t>> contact_episodes(const std::vector<std::int32_t>& contacts,
+                                                                  double haptic_hz, double merge_gap_s) {
+  std::vector<std::pair<std::size_t, std::size_t>> runs;
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    if (contacts[i] <= 0) continue;
+    std::size_t j = i;
+    while (j + 1 < contacts.size() && contacts[j + 1] > 0) ++j;
+    if (!runs.empty()) {
+      const double gap_s = static_cast<double>(i - runs.back().second - 1) / haptic_hz;
+      if (gap_s < merge_gap_s) {
+        runs.back().second = j;
+        i = j;
+        continue;
+      }
+    }
+    runs.emplace_back(i, j);
+    i = j;
+  }
+  return runs;
+}
+
+SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t a, std::size_t b, const MetricsOptions& opt) {
+  SegmentMetrics s;
+  s.first = a;
+  s.last = b;
+  s.t_begin = tr.t[a];
+  s.t_end = tr.t[b];
+  s.ticks = b - a + 1;
+  const double H = tr.haptic_hz;
+  const long N = tr.frame_ticks();
+
+  // Peak force and torque.
+  NanMax peak_f, peak_t;
+  for (std::size_t n = a; n <= b; ++n) {
+    peak_f.add(norm(tr.force[n]));
+    peak_t.add(norm(tr.torque[n]));
+  }
+  s.peak_force = peak_f.v;
+  s.peak_torque = peak_t.v;
+
+  // Per-tick force change, its rate, and the split at physical-frame boundaries. The first
+  // tick's change (from the tick before the segment) is included: a contact onset jump belongs
+  // to the episode it starts.
+  NanMax rate;
+  double sumsq = 0, sum_bnd = 0, sum_int = 0;
+  std::size_t steps = 0;
+  for (std::size_t n = std::max<std::size_t>(a, 1); n <= b; ++n) {
+    const double df = norm(tr.force[n] - tr.force[n - 1]);
+    rate.add(df / (tr.t[n] - tr.t[n - 1]));
+    sumsq += df * df;
+    ++steps;
+    const long long tick = std::isfinite(tr.t[n]) ? std::llround(tr.t[n] * H) : static_cast<long long>(n);
+    if (tick % N == 0) {
+      sum_bnd += df;
+      ++s.boundary_ticks;
+    } else {
+      sum_int += df;
+      ++s.interior_ticks;
+    }
+  }
+  s.max_force_rate = steps ? rate.v : kNaN;
+  s.rms_force_step = steps ? std::sqrt(sumsq / static_cast<double>(steps)) : kNaN;
+  s.boundary_step_mean = mean_or_nan(sum_bnd, s.boundary_ticks);
+  s.interior_step_mean = mean_or_nan(sum_int, s.interior_ticks);
+  if (std::isnan(s.boundary_step_mean) || std::isnan(s.interior_step_mean))
+    s.boundary_step_ratio = kNaN;
+  else if (s.interior_step_mean > 0)
+    s.boundary_step_ratio = s.boundary_step_mean / s.interior_step_mean;
+  else
+    s.boundary_step_ratio = s.boundary_step_mean > 0 ? std::numeric_limits<double>::infinity() : kNaN;
+
+  // High-frequency force power.
+  std::vector<std::vector<double>> ch(3, std::vector<double>(s.ticks));
+  for (std::size_t n = a; n <= b; ++n)
+    for (int c = 0; c < 3; ++c) ch[c][n - a] = tr.force[n][c];
+  const PowerSpectrum spec = power_spectrum(ch, H, opt.fft_window, opt.fft_min_window);
+  s.power_above_30hz = power_fraction_above(spec, 30.0);
+  s.power_above_100hz = power_fraction_above(spec, 100.0);
+
+  // Passivity observer: energy into the environment through the device port, zero-order hold.
+  double e = 0, e_rot = 0, t_neg = 0;
+  NanMin e_min, e_rot_min;
+  for (std::size_t n = a + 1; n <= b; ++n) {
+    const TracePose& p0 = tr.pose_physical[n - 1];
+    const TracePose& p1 = tr.pose_physical[n];
+    e -= dot(tr.force[n - 1], p1.p - p0.p);
+    e_rot -= dot(tr.torque[n - 1], rotvec_from_quat(normalized(p1.q * conjugate(p0.q))));
+    e_min.add(e);
+    e_rot_min.add(e_rot);
+    if (e < 0) t_neg += tr.t[n] - tr.t[n - 1];
+  }
+  s.passivity_energy_final = e;
+  s.passivity_energy_min = e_min.v;
+  s.passivity_time_negative_s = std::isnan(e) ? kNaN : t_neg;
+  s.passivity_energy_rot_final = e_rot;
+  s.passivity_energy_rot_min = e_rot_min.v;
+
+  // Coupling stretch.
+  NanMax st_max, ang_max;
+  double st_sum = 0, ang_sum = 0;
+  for (std::size_t n = a; n <= b; ++n) {
+    const double d = norm(tr.pose_virtual[n].p - tr.pose_physical[n].p);
+    const double ang = rotation_angle(tr.pose_virtual[n].q, tr.pose_physical[n].q);
+    st_max.add(d);
+    ang_max.add(ang);
+    st_sum += d;
+    ang_sum += ang;
+  }
+  s.stretch_max = st_max.v;
+  s.stretch_mean = st_sum / static_cast<double>(s.ticks);
+  s.stretch_angle_max = ang_max.v;
+  s.stretch_angle_mean = ang_sum / static_cast<double>(s.ticks);
+
+  // Penetration.
+  const auto pen = slice(tr.penetration, a, b);
+  NanMax pen_max(-std::numeric_limits<double>::infinity());
+  for (double x : pen) pen_max.add(x);
+  s.penetration_max = pen_max.v;
+  s.penetration_p99 = percentile(pen, 99.0);
+  if (tr.penetration_physical.size() == tr.ticks()) {
+    const auto pp = slice(tr.penetration_physical, a, b);
+    NanMax pp_max(-std::numeric_limits<double>::infinity());
+    for (double x : pp) pp_max.add(x);
+    s.penetration_physical_max = pp_max.v;
+    s.penetration_physical_p99 = percentile(pp, 99.0);
+  } else {
+    s.penetration_physical_max = s.penetration_physical_p99 = kNaN;
+  }
+
+  // Force limit.
+  std::size_t clamped = 0;
+  for (std::size_t n = a; n <= b; ++n) clamped += tr.force_clamped[n] != 0;
+  s.clamped_fraction = static_cast<double>(clamped) / static_cast<double>(s.ticks);
+  return s;
+}
+
+ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt) {
+  ForceMetrics m;
+  m.path = tr.path;
+  m.scene = tr.scene;
+  m.recording = tr.recording;
+  m.mode = tr.mode;
+  m.backend = tr.backend;
+  m.haptic_hz = tr.haptic_hz;
+  m.physical_hz = tr.physical_hz;
+  m.frame_ticks = tr.frame_ticks();
+  m.options = opt;
+
+  // Non-finite samples, per dataset.
+  auto check = [&](const char* name, const double* p, std::size_t n) {
+    const std::size_t c = count_nonfinite(p, n);
+    if (c) {
+      m.nonfinite_count += c;
+      m.nonfinite_datasets.push_back(std::string(name) + ": " + std::to_string(c));
+    }
+  };
+  check("/haptic/t", tr.t.data(), tr.t.size());
+  {
+    std::vector<double> flat;
+    for (const auto* vs : {&tr.force, &tr.torque}) {
+      flat.clear();
+      for (const Vec3d& v : *vs) flat.insert(flat.end(), {v.x, v.y, v.z});
+      check(vs == &tr.force ? "/haptic/force" : "/haptic/torque", flat.data(), flat.size());
+    }
+    for (const auto* poses : {&tr.pose_physical, &tr.pose_virtual}) {
+      flat.clear();
+      for (const TracePose& p : *poses) flat.insert(flat.end(), {p.p.x, p.p.y, p.p.z, p.q.w, p.q.x, p.q.y, p.q.z});
+      check(poses == &tr.pose_physical ? "/haptic/pose_physical" : "/haptic/pose_virtual", flat.data(), flat.size());
+    }
+  }
+  check("/haptic/penetration", tr.penetration.data(), tr.penetration.size());
+  check("/haptic/penetration_physical", tr.penetration_physical.data(), tr.penetration_physical.size());
+  check("/physical/t", tr.physical_t.data(), tr.physical_t.size());
+  check("/physical/iterations", tr.physical_iterations.data(), tr.physical_iterations.size());
+  check("/physical/residual", tr.physical_residual.data(), tr.physical_residual.size());
+  check("/timing/haptic_step_s", tr.haptic_step_s.data(), tr.haptic_step_s.size());
+  check("/timing/physical_step_s", tr.physical_step_s.data(), tr.physical_step_s.size());
+  m.finite = m.nonfinite_count == 0;
+
+  const std::size_t n = tr.ticks();
+  if (n == 0) return m;
+  m.duration_s = tr.t.back() - tr.t.front();
+  m.whole = segment_metrics(tr, 0, n - 1, opt);
+  std::size_t in_contact = 0;
+  for (std::int32_t c : tr.contacts) in_contact += c > 0;
+  m.contact_fraction = static_cast<double>(in_contact) / static_cast<double>(n);
+  for (auto [a, b] : contact_episodes(tr.contacts, tr.haptic_hz, opt.episode_merge_gap_s))
+    m.episodes.push_back(segment_metrics(tr, a, b, opt));
+
+  // Timing.
+  TimingMetrics& tm = m.timing;
+  tm.ticks = n;
+  tm.budget_s = opt.tick_budget_s;
+  tm.p50 = percentile(tr.haptic_step_s, 50);
+  tm.p99 = percentile(tr.haptic_step_s, 99);
+  tm.p999 = percentile(tr.haptic_step_s, 99.9);
+  NanMax tmax;
+  double tsum = 0;
+  for (double x : tr.haptic_step_s) {
+    tmax.add(x);
+    tsum += x;
+    tm.over_budget += x > opt.tick_budget_s;
+  }
+  tm.max = tmax.v;
+  tm.mean = tsum / static_cast<double>(n);
+  tm.physical_p50 = percentile(tr.physical_step_s, 50);
+  tm.physical_p99 = percentile(tr.physical_step_s, 99);
+  tm.physical_max = percentile(tr.physical_step_s, 100);
+  if (tr.physical_iterations.empty()) {
+    tm.physical_iterations_mean = tm.physical_iterations_max = kNaN;
+  } else {
+    double s = 0;
+    for (double x : tr.physical_iterations) s += x;
+    tm.physical_iterations_mean = s / static_cast<double>(tr.physical_iterations.size());
+    tm.physical_iterations_max = percentile(tr.physical_iterations, 100);
+  }
+  tm.physical_residual_max = percentile(tr.physical_residual, 100);
+  return m;
+}
+
+namespace {
+
+Json segment_json(const SegmentMetrics& s) {
+  Json j = Json::object();
+  j.set("first_tick", s.first);
+  j.set("last_tick", s.last);
+  j.set("t_begin_s", s.t_begin);
+  j.set("t_end_s", s.t_end);
+  j.set("ticks", s.ticks);
+  j.set("peak_force_N", s.peak_force);
+  j.set("peak_torque_Nm", s.peak_torque);
+  j.set("max_force_rate_N_per_s", s.max_force_rate);
+  j.set("rms_force_step_N", s.rms_force_step);
+  j.set("boundary_step_mean_N", s.boundary_step_mean);
+  j.set("interior_step_mean_N", s.interior_step_mean);
+  j.set("boundary_step_ratio", s.boundary_step_ratio);
+  j.set("boundary_ticks", s.boundary_ticks);
+  j.set("interior_ticks", s.interior_ticks);
+  j.set("power_above_30hz", s.power_above_30hz);
+  j.set("power_above_100hz", s.power_above_100hz);
+  j.set("passivity_energy_final_J", s.passivity_energy_final);
+  j.set("passivity_energy_min_J", s.passivity_energy_min);
+  j.set("passivity_time_negative_s", s.passivity_time_negative_s);
+  j.set("passivity_energy_rot_final_J", s.passivity_energy_rot_final);
+  j.set("passivity_energy_rot_min_J", s.passivity_energy_rot_min);
+  j.set("stretch_max_m", s.stretch_max);
+  j.set("stretch_mean_m", s.stretch_mean);
+  j.set("stretch_angle_max_rad", s.stretch_angle_max);
+  j.set("stretch_angle_mean_rad", s.stretch_angle_mean);
+  j.set("penetration_max_m", s.penetration_max);
+  j.set("penetration_p99_m", s.penetration_p99);
+  j.set("penetration_physical_max_m", s.penetration_physical_max);
+  j.set("penetration_physical_p99_m", s.penetration_physical_p99);
+  j.set("clamped_fraction", s.clamped_fraction);
+  return j;
+}
+
+}  // namespace
+
+Json to_json(const ForceMetrics& m, bool with_episodes) {
+  Json j = Json::object();
+  j.set("file", m.path);
+  j.set("scene", m.scene);
+  j.set("recording", m.recording);
+  j.set("mode", m.mode);
+  j.set("backend", m.backend);
+  j.set("haptic_hz", m.haptic_hz);
+  j.set("physical_hz", m.physical_hz);
+  j.set("frame_ticks", m.frame_ticks);
+  j.set("ticks", m.timing.ticks);
+  j.set("duration_s", m.duration_s);
+  j.set("finite", m.finite);
+  j.set("nonfinite_count", m.nonfinite_count);
+  j.set("nonfinite_datasets", Json::array_of(m.nonfinite_datasets));
+  Json opt = Json::object();
+  opt.set("episode_merge_gap_s", m.options.episode_merge_gap_s);
+  opt.set("fft_window", m.options.fft_window);
+  opt.set("fft_min_window", m.options.fft_min_window);
+  opt.set("tick_budget_s", m.options.tick_budget_s);
+  j.set("options", std::move(opt));
+  j.set("whole", segment_json(m.whole));
+  j.set("contact_fraction", m.contact_fraction);
+  j.set("episode_count", m.episodes.size());
+  if (with_episodes) {
+    Json eps = Json::array();
+    for (const SegmentMetrics& s : m.episodes) eps.push(segment_json(s));
+    j.set("episodes", std::move(eps));
+  }
+  const TimingMetrics& t = m.timing;
+  Json tj = Json::object();
+  tj.set("haptic_step_p50_s", t.p50);
+  tj.set("haptic_step_p99_s", t.p99);
+  tj.set("haptic_step_p999_s", t.p999);
+  tj.set("haptic_step_max_s", t.max);
+  tj.set("haptic_step_mean_s", t.mean);
+  tj.set("haptic_over_budget_ticks", t.over_budget);
+  tj.set("haptic_budget_s", t.budget_s);
+  tj.set("physical_step_p50_s", t.physical_p50);
+  tj.set("physical_step_p99_s", t.physical_p99);
+  tj.set("physical_step_max_s", t.physical_max);
+  tj.set("physical_iterations_mean", t.physical_iterations_mean);
+  tj.set("physical_iterations_max", t.physical_iterations_max);
+  tj.set("physical_residual_max", t.physical_residual_max);
+  j.set("timing", std::move(tj));
+  return j;
+}
+
+namespace {
+
+std::string fmt(const char* f, double v) {
+  if (std::isnan(v)) return "-";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+}  // namespace
+
+std::string format_table(const ForceMetrics& m, bool with_episodes) {
+  std::ostringstream o;
+  const SegmentMetrics& s = m.whole;
+  auto row = [&](const char* name, const std::string& value, const char* unit) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "  %-34s %14s %s\n", name, value.c_str(), unit);
+    o << buf;
+  };
+  o << m.path << "\n";
+  o << "  scene " << (m.scene.empty() ? "-" : m.scene) << ", recording " << (m.recording.empty() ? "-" : m.recording)
+    << ", mode " << (m.mode.empty() ? "-" : m.mode) << ", backend " << (m.backend.empty() ? "-" : m.backend) << "\n";
+  o << "  " << m.timing.ticks << " ticks, " << fmt("%.3f", m.duration_s) << " s, haptic " << fmt("%g", m.haptic_hz)
+    << " Hz, physical " << fmt("%g", m.physical_hz) << " Hz (N = " << m.frame_ticks << ")\n";
+  if (!m.finite) {
+    o << "  NON-FINITE: " << m.nonfinite_count << " samples (";
+    for (std::size_t i = 0; i < m.nonfinite_datasets.size(); ++i) o << (i ? ", " : "") << m.nonfinite_datasets[i];
+    o << ")\n";
+  }
+  o << "force\n";
+  row("peak |F|", fmt("%.4f", s.peak_force), "N");
+  row("peak |T|", fmt("%.5f", s.peak_torque), "N m");
+  row("max |dF/dt|", fmt("%.3f", s.max_force_rate), "N/s");
+  row("RMS |F_n - F_n-1|", fmt("%.3e", s.rms_force_step), "N");
+  row("mean |dF| at physical frames", fmt("%.3e", s.boundary_step_mean), "N");
+  row("mean |dF| other ticks", fmt("%.3e", s.interior_step_mean), "N");
+  row("frame-boundary jump ratio", fmt("%.3f", s.boundary_step_ratio), "");
+  row("power above 30 Hz", fmt("%.4f", s.power_above_30hz), "of force power");
+  row("power above 100 Hz", fmt("%.4f", s.power_above_100hz), "of force power");
+  row("ticks at force limit", fmt("%.4f", s.clamped_fraction), "fraction");
+  o << "passivity (energy into the environment)\n";
+  row("E_obs final", fmt("%.4e", s.passivity_energy_final), "J");
+  row("E_obs min", fmt("%.4e", s.passivity_energy_min), "J");
+  row("time with E_obs < 0", fmt("%.4f", s.passivity_time_negative_s), "s");
+  row("E_obs rotational final / min",
+      fmt("%.3e", s.passivity_energy_rot_final) + " / " + fmt("%.3e", s.passivity_energy_rot_min), "J");
+  o << "coupling and contact\n";
+  row("stretch |P_g - P_h| max / mean", fmt("%.3e", s.stretch_max) + " / " + fmt("%.3e", s.stretch_mean), "m");
+  row("stretch angle max / mean",
+      fmt("%.3e", s.stretch_angle_max) + " / " + fmt("%.3e", s.stretch_angle_mean), "rad");
+  row("penetration virtual max / p99", fmt("%.3e", s.penetration_max) + " / " + fmt("%.3e", s.penetration_p99), "m");
+  row("penetration physical max / p99",
+      fmt("%.3e", s.penetration_physical_max) + " / " + fmt("%.3e", s.penetration_physical_p99), "m");
+  row("ticks in contact", fmt("%.4f", m.contact_fraction), "fraction");
+  row("contact episodes", std::to_string(m.episodes.size()), "");
+  const TimingMetrics& t = m.timing;
+  o << "timing\n";
+  row("haptic tick p50 / p99 / p99.9",
+      fmt("%.1f", t.p50 * 1e6) + " / " + fmt("%.1f", t.p99 * 1e6) + " / " + fmt("%.1f", t.p999 * 1e6), "us");
+  row("haptic tick max", fmt("%.1f", t.max * 1e6), "us");
+  row("haptic ticks over budget", std::to_string(t.over_budget) + " > " + fmt("%g", t.budget_s * 1e3), "ms");
+  row("physical step p50 / p99",
+      fmt("%.2f", t.physical_p50 * 1e3) + " / " + fmt("%.2f", t.physical_p99 * 1e3), "ms");
+  row("physical iterations mean / max",
+      fmt("%.1f", t.physical_iterations_mean) + " / " + fmt("%.0f", t.physical_iterations_max), "");
+  if (with_episodes && !m.episodes.empty()) {
+    o << "episodes (contacts > 0, gaps < " << fmt("%g", m.options.episode_merge_gap_s * 1e3) << " ms merged)\n";
+    o << "     #   t_begin     t_end   peak|F|   max|dF/dt|  jump ratio  >30Hz    E_obs min  pen max\n";
+    o << "             s         s       N        N/s                                J         m\n";
+    for (std::size_t i = 0; i < m.episodes.size(); ++i) {
+      const SegmentMetrics& e = m.episodes[i];
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "  %4zu %9s %9s %9s %12s %11s %7s %12s %9s\n", i + 1,
+                    fmt("%.3f", e.t_begin).c_str(), fmt("%.3f", e.t_end).c_str(), fmt("%.4f", e.peak_force).c_str(),
+                    fmt("%.2f", e.max_force_rate).c_str(), fmt("%.3f", e.boundary_step_ratio).c_str(),
+                    fmt("%.4f", e.power_above_30hz).c_str(), fmt("%.3e", e.passivity_energy_min).c_str(),
+                    fmt("%.2e", e.penetration_max).c_str());
+      o << buf;
+    }
+  }
+  return o.str();
+}
+
+}  // namespace ebh

@@ -1,0 +1,113 @@
+#pragma once
+// Force-quality metrics of a replay (docs/METRICS.md defines each one and says why it matters):
+// smoothness (peak force, dF/dt, per-tick force change, jumps at physical-frame boundaries,
+// high-frequency force power), passivity (Hannaford & Ryu 2002 passivity observer), coupling
+// stretch, penetration, force-limit clamping and haptic-tick timing.
+//
+// NaN policy: every metric that reads a non-finite sample is NaN itself (null in JSON);
+// nonfinite_count says how many samples were non-finite and finite == false flags the run.
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "io/json.hpp"
+#include "metrics/replay_trace.hpp"
+
+namespace ebh {
+
+struct MetricsOptions {
+  /// Contact episodes separated by fewer contact-free seconds than this are one episode
+  /// (a tool sliding over a surface drops and regains contact for a tick or two). 5 ms.
+  double episode_merge_gap_s = 0.005;
+  /// FFT window length in ticks (a power of two; 256 ticks = 0.256 s and 3.9 Hz bins at 1 kHz)
+  /// and the shortest window used (shorter segments get NaN spectral fractions).
+  std::size_t fft_window = 256;
+  std::size_t fft_min_window = 64;
+  /// Haptic-tick budget for the over-budget count, s (the 1 kHz haptic rate).
+  double tick_budget_s = 1e-3;
+};
+
+/// Metrics over one run of ticks [first, last] (the whole replay or one contact episode).
+struct SegmentMetrics {
+  std::size_t first = 0, last = 0;  // tick indices, inclusive
+  double t_begin = 0, t_end = 0;    // s
+  std::size_t ticks = 0;
+
+  double peak_force = 0;       // max |F_n|, N
+  double peak_torque = 0;      // max |T_n|, N m
+  double max_force_rate = 0;   // max |F_n - F_{n-1}| / (t_n - t_{n-1}), N/s
+  double rms_force_step = 0;   // sqrt(mean |F_n - F_{n-1}|^2), N
+  // Physical-frame boundaries: ticks n with tick number round(t_n H) % (H/P) == 0, where a new
+  // physical result became visible. Means of |F_n - F_{n-1}| on those and on the other ticks.
+  double boundary_step_mean = 0;  // N
+  double interior_step_mean = 0;  // N
+  double boundary_step_ratio = 0; // boundary / interior; NaN if both 0, +inf if only interior is 0
+  std::size_t boundary_ticks = 0, interior_ticks = 0;
+  // Fraction of force fluctuation power above 30 and 100 Hz (signal::power_spectrum).
+  double power_above_30hz = 0;
+  double power_above_100hz = 0;
+  // Passivity observer (Hannaford & Ryu 2002), energy the device puts into the environment:
+  // E(n) = -sum_{m=first+1..n} F_{m-1} . (x_m - x_{m-1}), x the physical tool position and
+  // F_{m-1} the force displayed (zero-order hold) while it moved. Rotational part likewise with
+  // the torque and the physical tool's rotation vector. J.
+  double passivity_energy_final = 0;
+  double passivity_energy_min = 0;
+  double passivity_time_negative_s = 0;  // sum of tick periods with E(n) < 0, s
+  double passivity_energy_rot_final = 0;
+  double passivity_energy_rot_min = 0;
+  // Coupling stretch between the virtual tool (g) and the physical tool (h).
+  double stretch_max = 0, stretch_mean = 0;              // |P_g - P_h|, m
+  double stretch_angle_max = 0, stretch_angle_mean = 0;  // theta(R_g, R_h), rad
+  // Penetration (m): virtual tool, and physical tool when the file has it (else NaN).
+  double penetration_max = 0, penetration_p99 = 0;
+  double penetration_physical_max = 0, penetration_physical_p99 = 0;
+  double clamped_fraction = 0;  // ticks with force_clamped != 0 / ticks
+};
+
+struct TimingMetrics {
+  std::size_t ticks = 0;
+  double p50 = 0, p99 = 0, p999 = 0, max = 0, mean = 0;  // haptic tick time, s
+  std::size_t over_budget = 0;                           // ticks with time > tick_budget_s
+  double budget_s = 0;
+  // Physical step (NaN when the file has no /timing/physical_step_s).
+  double physical_p50 = 0, physical_p99 = 0, physical_max = 0;
+  // Physical solver (NaN when absent): mean and max iterations, max residual.
+  double physical_iterations_mean = 0, physical_iterations_max = 0, physical_residual_max = 0;
+};
+
+struct ForceMetrics {
+  std::string path, scene, recording, mode, backend;
+  double haptic_hz = 0, physical_hz = 0;
+  long frame_ticks = 0;  // N = H/P
+  double duration_s = 0;
+  MetricsOptions options;
+
+  SegmentMetrics whole;
+  std::vector<SegmentMetrics> episodes;  // contact episodes in time order
+  double contact_fraction = 0;           // ticks with contacts > 0 / ticks
+  TimingMetrics timing;
+
+  std::size_t nonfinite_count = 0;               // non-finite samples over all datasets
+  std::vector<std::string> nonfinite_datasets;   // "/haptic/force: 3", one per dataset with any
+  bool finite = true;
+};
+
+/// Contact episodes: maximal runs of ticks with contacts > 0, two runs merged when the
+/// contact-free gap between them lasts less than merge_gap_s (gap ticks / H). Pairs of tick
+/// indices [first, last], inclusive.
+std::vector<std::pair<std::size_t, std::size_t>> contact_episodes(const std::vector<std::int32_t>& contacts,
+                                                                  double haptic_hz, double merge_gap_s);
+
+/// Metrics of ticks [first, last] of a trace (first <= last < ticks).
+SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t first, std::size_t last,
+                               const MetricsOptions& opt = {});
+
+ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt = {});
+
+/// JSON (SI units; key names carry the unit suffix where there is one). NaN and inf print null.
+Json to_json(const ForceMetrics& m, bool with_episodes = true);
+
+/// A readable table for the terminal; episodes listed one a line when with_episodes.
+std::string format_table(const ForceMetrics& m, bool with_episodes);
+
+}  // namespace ebh

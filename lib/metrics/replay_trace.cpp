@@ -1,0 +1,233 @@
+// Reading a replay output file (DESIGN.md §4) into a ReplayTrace, with the HDF5 C API.
+#include "metrics/replay_trace.hpp"
+
+#include <hdf5.h>
+
+#include <cmath>
+#include <cstdio>
+#include <optional>
+#include <sstream>
+
+#include "io/error.hpp"
+
+namespace ebh {
+namespace {
+
+/// Closes an HDF5 handle with the matching close function.
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() {
+    if (id_ >= 0) close_(id_);
+  }
+  hid_t get() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+/// Silences HDF5's automatic error printing while alive: failures become InputErrors instead.
+class QuietHdf5 {
+ public:
+  QuietHdf5() {
+    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  }
+  ~QuietHdf5() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
+
+ private:
+  H5E_auto2_t func_ = nullptr;
+  void* data_ = nullptr;
+};
+
+std::string shape_str(const std::vector<hsize_t>& dims) {
+  std::ostringstream s;
+  s << "(";
+  for (std::size_t i = 0; i < dims.size(); ++i) s << (i ? "," : "") << dims[i];
+  s << ")";
+  return s.str();
+}
+
+class Reader {
+ public:
+  explicit Reader(std::string path) : path_(std::move(path)), file_(open(path_), H5Fclose) {}
+
+  /// True when every component of an absolute path ("/a/b") exists.
+  bool exists(const std::string& name) const {
+    std::size_t pos = 0;
+    while ((pos = name.find('/', pos + 1)) != std::string::npos) {
+      if (H5Lexists(file_.get(), name.substr(0, pos).c_str(), H5P_DEFAULT) <= 0) return false;
+    }
+    return H5Lexists(file_.get(), name.c_str(), H5P_DEFAULT) > 0;
+  }
+
+  /// Reads a numeric dataset of shape (rows) when cols == 0, else (rows, cols), converted to T.
+  /// rows < 0 accepts any length. Returns nullopt when absent and optional.
+  template <class T>
+  std::optional<std::vector<T>> read(const std::string& name, long rows, int cols, hid_t mem_type,
+                                     bool optional) const {
+    if (!exists(name)) {
+      if (optional) return std::nullopt;
+      fail(name, "missing");
+    }
+    Handle ds(H5Dopen2(file_.get(), name.c_str(), H5P_DEFAULT), H5Dclose);
+    if (!ds.ok()) fail(name, "is not a dataset");
+    Handle type(H5Dget_type(ds.get()), H5Tclose);
+    H5T_class_t cls = H5Tget_class(type.get());
+    if (cls != H5T_FLOAT && cls != H5T_INTEGER) fail(name, "is not numeric");
+    Handle space(H5Dget_space(ds.get()), H5Sclose);
+    int rank = H5Sget_simple_extent_ndims(space.get());
+    std::vector<hsize_t> dims(rank > 0 ? rank : 0);
+    if (rank > 0) H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+    const int want_rank = cols == 0 ? 1 : 2;
+    bool good = rank == want_rank && (rows < 0 || dims[0] == static_cast<hsize_t>(rows)) &&
+                (cols == 0 || dims[1] == static_cast<hsize_t>(cols));
+    if (!good) {
+      std::string n = rows < 0 ? "N" : std::to_string(rows);
+      std::string want = cols == 0 ? "(" + n + ")" : "(" + n + "," + std::to_string(cols) + ")";
+      fail(name, "has shape " + shape_str(dims) + ", expected " + want +
+                     (rows < 0 ? "" : " (N from /haptic/t)"));
+    }
+    std::vector<T> out(dims[0] * static_cast<std::size_t>(cols == 0 ? 1 : cols));
+    if (!out.empty() && H5Dread(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0)
+      fail(name, "cannot be read as a number array");
+    return out;
+  }
+
+  std::vector<double> doubles(const std::string& name, long rows, int cols = 0) const {
+    return *read<double>(name, rows, cols, H5T_NATIVE_DOUBLE, false);
+  }
+  std::vector<double> optional_doubles(const std::string& name, long rows) const {
+    return read<double>(name, rows, 0, H5T_NATIVE_DOUBLE, true).value_or(std::vector<double>{});
+  }
+
+  /// A numeric root attribute (scalar or one element).
+  double number_attr(const std::string& name) const {
+    if (H5Aexists(file_.get(), name.c_str()) <= 0) fail_attr(name, "missing");
+    Handle a(H5Aopen(file_.get(), name.c_str(), H5P_DEFAULT), H5Aclose);
+    Handle type(H5Aget_type(a.get()), H5Tclose);
+    H5T_class_t cls = H5Tget_class(type.get());
+    Handle space(H5Aget_space(a.get()), H5Sclose);
+    if ((cls != H5T_FLOAT && cls != H5T_INTEGER) || H5Sget_simple_extent_npoints(space.get()) != 1)
+      fail_attr(name, "is not a number");
+    double v = 0;
+    if (H5Aread(a.get(), H5T_NATIVE_DOUBLE, &v) < 0) fail_attr(name, "cannot be read");
+    return v;
+  }
+
+  /// A string root attribute (fixed or variable length); "" when absent or not a string.
+  std::string string_attr(const std::string& name) const {
+    if (H5Aexists(file_.get(), name.c_str()) <= 0) return {};
+    Handle a(H5Aopen(file_.get(), name.c_str(), H5P_DEFAULT), H5Aclose);
+    Handle type(H5Aget_type(a.get()), H5Tclose);
+    Handle space(H5Aget_space(a.get()), H5Sclose);
+    if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1) return {};
+    if (H5Tis_variable_str(type.get()) > 0) {
+      Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+      H5Tset_size(mem.get(), H5T_VARIABLE);
+      char* s = nullptr;
+      if (H5Aread(a.get(), mem.get(), &s) < 0 || s == nullptr) return {};
+      std::string out(s);
+      H5free_memory(s);
+      return out;
+    }
+    std::size_t n = H5Tget_size(type.get());
+    Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+    H5Tset_size(mem.get(), n + 1);
+    std::string buf(n + 1, '\0');
+    if (H5Aread(a.get(), mem.get(), buf.data()) < 0) return {};
+    return std::string(buf.c_str());
+  }
+
+  [[noreturn]] void fail(const std::string& dataset, const std::string& what) const {
+    throw InputError(path_ + ": dataset '" + dataset + "' " + what);
+  }
+  [[noreturn]] void fail_attr(const std::string& attr, const std::string& what) const {
+    throw InputError(path_ + ": root attribute '" + attr + "' " + what);
+  }
+
+ private:
+  static hid_t open(const std::string& path) {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) throw InputError(path + ": cannot open file");
+    std::fclose(f);
+    hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (id < 0) throw InputError(path + ": not a readable HDF5 file");
+    return id;
+  }
+
+  std::string path_;
+  Handle file_;
+};
+
+std::vector<TracePose> poses(const std::vector<double>& rows) {
+  std::vector<TracePose> out(rows.size() / 7);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const double* r = &rows[7 * i];
+    out[i] = {{r[0], r[1], r[2]}, {r[3], r[4], r[5], r[6]}};
+  }
+  return out;
+}
+
+std::vector<Vec3d> vec3s(const std::vector<double>& rows) {
+  std::vector<Vec3d> out(rows.size() / 3);
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {rows[3 * i], rows[3 * i + 1], rows[3 * i + 2]};
+  return out;
+}
+
+}  // namespace
+
+long ReplayTrace::frame_ticks() const {
+  long n = std::lround(haptic_hz / physical_hz);
+  return n < 1 ? 1 : n;
+}
+
+ReplayTrace load_replay(const std::string& path) {
+  QuietHdf5 quiet;
+  Reader in(path);
+  ReplayTrace tr;
+  tr.path = path;
+
+  tr.haptic_hz = in.number_attr("haptic_hz");
+  tr.physical_hz = in.number_attr("physical_hz");
+  if (!(tr.haptic_hz > 0) || !std::isfinite(tr.haptic_hz)) in.fail_attr("haptic_hz", "must be a positive number");
+  if (!(tr.physical_hz > 0) || !std::isfinite(tr.physical_hz))
+    in.fail_attr("physical_hz", "must be a positive number");
+  tr.mode = in.string_attr("mode");
+  tr.scene = in.string_attr("scene");
+  tr.recording = in.string_attr("recording");
+  tr.backend = in.string_attr("backend");
+  tr.version = in.string_attr("version");
+
+  tr.t = in.doubles("/haptic/t", -1);
+  const long n = static_cast<long>(tr.t.size());
+  for (long i = 1; i < n; ++i) {
+    // Non-finite times are left for compute_metrics to count; finite ones must increase.
+    if (std::isfinite(tr.t[i]) && std::isfinite(tr.t[i - 1]) && !(tr.t[i] > tr.t[i - 1]))
+      in.fail("/haptic/t", "is not strictly increasing at index " + std::to_string(i));
+  }
+  tr.force = vec3s(in.doubles("/haptic/force", n, 3));
+  tr.torque = vec3s(in.doubles("/haptic/torque", n, 3));
+  tr.force_clamped = *in.read<std::uint8_t>("/haptic/force_clamped", n, 0, H5T_NATIVE_UINT8, false);
+  tr.pose_physical = poses(in.doubles("/haptic/pose_physical", n, 7));
+  tr.pose_virtual = poses(in.doubles("/haptic/pose_virtual", n, 7));
+  tr.penetration = in.doubles("/haptic/penetration", n);
+  tr.penetration_physical = in.optional_doubles("/haptic/penetration_physical", n);
+  tr.contacts = *in.read<std::int32_t>("/haptic/contacts", n, 0, H5T_NATIVE_INT32, false);
+  tr.haptic_step_s = in.doubles("/timing/haptic_step_s", n);
+
+  tr.physical_t = in.optional_doubles("/physical/t", -1);
+  const long k = static_cast<long>(tr.physical_t.size());
+  if (in.exists("/physical/t")) {
+    tr.physical_iterations = in.optional_doubles("/physical/iterations", k);
+    tr.physical_residual = in.optional_doubles("/physical/residual", k);
+    tr.physical_step_s = in.optional_doubles("/timing/physical_step_s", k);
+  }
+  return tr;
+}
+
+}  // namespace ebh

@@ -1,0 +1,62 @@
+#pragma once
+// A replay's output (DESIGN.md §4) held in memory for analysis: the haptic-rate arrays, the
+// physical-rate arrays and the timings. Time is the first dimension of every array.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "math/vec.hpp"
+
+namespace ebh {
+
+/// A rigid pose as stored in /haptic/pose_* rows: (px, py, pz, qw, qx, qy, qz), metres.
+struct TracePose {
+  Vec3d p;
+  Quatd q;
+};
+
+struct ReplayTrace {
+  std::string path;  // the file it was read from (for messages)
+
+  // Root attributes.
+  double haptic_hz = 0;    // H: haptic ticks per second
+  double physical_hz = 0;  // P: physical steps per second
+  std::string mode;        // async, lockstep or realtime ("" when absent)
+  std::string scene, recording, backend, version;
+
+  // Haptic rate, N ticks each.
+  std::vector<double> t;                   // N, s
+  std::vector<Vec3d> force;                // N, N (what the tissue pushes on the tool; rendered to the device)
+  std::vector<Vec3d> torque;               // N, N m
+  std::vector<std::uint8_t> force_clamped; // N, 1 when the force was clamped at the device limit
+  std::vector<TracePose> pose_physical;    // N, the physical tool (device) pose
+  std::vector<TracePose> pose_virtual;     // N, the virtual tool pose
+  std::vector<double> penetration;         // N, m, deepest virtual-mesh vertex inside the virtual tool
+  std::vector<double> penetration_physical;// N or empty (optional dataset), m, same for the physical tool
+  std::vector<std::int32_t> contacts;      // N, number of contact constraints
+
+  // Physical rate, K steps each; empty when the file has no /physical group.
+  std::vector<double> physical_t;           // K, s
+  std::vector<double> physical_iterations;  // K
+  std::vector<double> physical_residual;    // K
+
+  // Timing: /timing/haptic_step_s (N, s) is required, /timing/physical_step_s (K, s) optional.
+  std::vector<double> haptic_step_s;
+  std::vector<double> physical_step_s;
+
+  std::size_t ticks() const { return t.size(); }
+  /// Haptic ticks per physical step: round(H / P), at least 1.
+  long frame_ticks() const;
+};
+
+/// Reads a replay output file. Required: root attributes haptic_hz and physical_hz; datasets
+/// /haptic/{t, force, torque, force_clamped, pose_physical, pose_virtual, penetration, contacts}
+/// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /physical/{t, iterations,
+/// residual}, /timing/physical_step_s. Numeric types are converted to the fields' types.
+/// Throws InputError ("FILE: dataset '/haptic/force': ...") for a missing file, a missing
+/// dataset or attribute, a wrong shape, a non-numeric dataset or a time axis that goes backwards.
+/// Non-finite values are kept: compute_metrics counts them.
+ReplayTrace load_replay(const std::string& path);
+
+}  // namespace ebh

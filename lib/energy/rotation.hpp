@@ -1,0 +1,41 @@
+#pragma once
+// Rotation extraction for E_vol [7]: R = argmin_{R in SO(3)} ||F - R||_F = argmax tr(R^T F), the
+// rotational part of the polar decomposition F = R S, kept a proper rotation (det R = +1) for
+// inverted (det F < 0) and flat (det F = 0) tets alike.
+//
+// The default is the warm-started iterative update of Mueller, Bender, Chentanez and Macklin,
+// "A Robust Method to Extract the Rotational Part of Deformations" (MIG 2016): starting from the
+// previous step's rotation q, repeat
+//     omega = sum_i r_i x f_i / (|sum_i r_i . f_i| + eps)      (r_i, f_i the columns of R, F)
+//     q <- exp(omega) q
+// Each update is a rotation, so R never leaves SO(3); warm-started from the last step, one to
+// three updates suffice. It is branch-light and runs per tet in a CUDA thread unchanged.
+// polar_svd.hpp holds the SVD reference (host only) that tests and the benchmark compare with.
+#include "math/vec.hpp"
+
+namespace ebh {
+
+/// Rotational part of F by Mueller et al. 2016, warm-started.
+///   F         3x3 deformation gradient (any determinant, zero included)
+///   q         rotation to start from (e.g. the last step's), unit quaternion (w, x, y, z)
+///   max_iter  most axis-angle updates (3 is plenty with a warm start; 20+ from identity)
+///   tol       stop when the update angle |omega| (radians) falls below it
+/// Returns the unit quaternion of R. For F = 0 it returns q unchanged.
+template <class T>
+EBH_HD Quat<T> extract_rotation(const Mat3<T>& F, Quat<T> q, int max_iter, T tol) {
+  for (int it = 0; it < max_iter; ++it) {
+    const Mat3<T> R = to_matrix(q);
+    Vec3<T> num{};
+    T den = T(0);
+    for (int i = 0; i < 3; ++i) {
+      num += cross(R.col(i), F.col(i));
+      den += dot(R.col(i), F.col(i));
+    }
+    const Vec3<T> omega = num / ((den < T(0) ? -den : den) + T(1e-9));
+    if (norm(omega) < tol) break;
+    q = normalized(quat_from_rotvec(omega) * q);
+  }
+  return q;
+}
+
+}  // namespace ebh

@@ -1,0 +1,361 @@
+// The physical mesh under Projective Dynamics: model building and Algorithm 1.
+#include "solver/physical_mesh.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "energy/arap.hpp"
+#include "energy/polar_svd.hpp"
+#include "energy/quadratic.hpp"
+#include "energy/rotation.hpp"
+#include "io/error.hpp"
+#include "solver/virtual_mesh.hpp"
+
+namespace ebh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// Builds a CSR list rows -> items from (row, item) pairs given in item order (stable).
+template <class RowOf>
+void build_csr(int rows, int items, RowOf&& row_of_each, std::vector<int>& offsets, std::vector<int>& entries) {
+  offsets.assign(rows + 1, 0);
+  for (int i = 0; i < items; ++i) row_of_each(i, [&](int row) { ++offsets[row + 1]; });
+  for (int r = 0; r < rows; ++r) offsets[r + 1] += offsets[r];
+  entries.assign(offsets[rows], 0);
+  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
+  for (int i = 0; i < items; ++i) row_of_each(i, [&](int row) { entries[fill[row]++] = i; });
+}
+
+// ---- Algorithm 1, stage by stage --------------------------------------------------------------
+
+/// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- s.
+void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
+  const int n = model.num_vertices;
+#pragma omp parallel for schedule(static)
+  for (int a = 0; a < n; ++a) {
+    ws.x_start[a] = state.x[a];
+    ws.s[a] = model.pinned[a] ? state.x[a] : predict_position(state.x[a], state.v[a], model.gravity, model.h);
+    state.x[a] = ws.s[a];
+    ws.x_prev[a] = ws.s[a];
+  }
+}
+
+/// Alg. 1 lines 6-8 (ConstraintProjection): per tet R_t = polar(F_t) and proj_t = w_t (R_t - F_t);
+/// per virtual vertex the E_svc force k_svc (q_j - p_j) with p_j = sum w x.
+void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
+                std::span<const Vec3d> virtual_q, const PhysicalStepParams& params) {
+  const int T = model.num_tets;
+#pragma omp parallel for schedule(static)
+  for (int t = 0; t < T; ++t) {
+    const Tet& tet = model.tets[t];
+    const Vec3d x[4] = {state.x[tet[0]], state.x[tet[1]], state.x[tet[2]], state.x[tet[3]]};
+    const Mat3d F = deformation_gradient(x, &model.shape_grad[4 * t]);
+    state.rotation[t] = extract_rotation(F, state.rotation[t], params.rotation_iterations, 1e-9);
+    ws.proj[t] = model.tet_weight[t] * (to_matrix(state.rotation[t]) - F);
+  }
+  const int m = model.num_virtual;
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < m; ++j) {
+    const Vec3d p = paired_point(state.x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
+                                 model.pair_count[j]);
+    ws.cpl_force[j] = coupling_gradient_virtual(p, virtual_q[j], model.k_svc);  // k_svc (q - p)
+  }
+}
+
+/// r = -grad E_soft at x with the local step's projections, gathered per vertex; 0 on pinned.
+/// Returns ||r|| over free vertices (summed serially: the same bits for any thread count).
+double gather_residual(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalState& state) {
+  const int n = model.num_vertices;
+  const double inv_h2 = 1.0 / (model.h * model.h);
+#pragma omp parallel for schedule(static)
+  for (int a = 0; a < n; ++a) {
+    if (model.pinned[a]) { ws.r[a] = Vec3d{}; continue; }
+    Vec3d r = (model.mass[a] * inv_h2) * (ws.s[a] - state.x[a]);                      // -dE_k/dx
+    for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k) {
+      const int e = model.tet_entries[k];
+      r += ws.proj[e >> 2] * model.shape_grad[e];                                      // -dE_vol/dx
+    }
+    for (int k = model.cpl_offsets[a]; k < model.cpl_offsets[a + 1]; ++k)
+      r += model.cpl_weight[k] * ws.cpl_force[model.cpl_virtual[k]];                   // -dE_svc/dx
+    ws.r[a] = r;
+  }
+  double sum = 0;
+  for (int a = 0; a < n; ++a) sum += squared_norm(ws.r[a]);
+  return std::sqrt(sum);
+}
+
+/// Alg. 1 line 9 (GlobalSynthesis), Jacobi: x <- x + gamma D^-1 r.
+void global_jacobi(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, double gamma) {
+  const int n = model.num_vertices;
+#pragma omp parallel for schedule(static)
+  for (int a = 0; a < n; ++a) state.x[a] += (gamma / model.diag[a]) * ws.r[a];
+}
+
+/// Chebyshev semi-iterative Jacobi (Wang 2015, eq. 12):
+///   x_{k+1} = omega (gamma (x_hat - x_k) + x_k - x_{k-1}) + x_{k-1},  x_hat - x_k = D^-1 r.
+void global_chebyshev(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, double gamma,
+                      double omega) {
+  const int n = model.num_vertices;
+#pragma omp parallel for schedule(static)
+  for (int a = 0; a < n; ++a) {
+    const Vec3d xk = state.x[a];
+    ws.x_next[a] = omega * ((gamma / model.diag[a]) * ws.r[a] + xk - ws.x_prev[a]) + ws.x_prev[a];
+  }
+  std::swap(ws.x_prev, state.x);  // x_prev <- x_k
+  std::swap(state.x, ws.x_next);  // x <- x_{k+1}
+}
+
+/// The exact global step: x_f <- x_f + A_ff^-1 r_f.
+void global_direct(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
+  const int nf = model.num_free;
+  if (nf == 0) return;
+  for (int i = 0; i < nf; ++i) {
+    const Vec3d r = ws.r[model.free_vertices[i]];
+    ws.rhs(i, 0) = r.x; ws.rhs(i, 1) = r.y; ws.rhs(i, 2) = r.z;
+  }
+  ws.dx = model.direct->ldlt.solve(ws.rhs);
+  for (int i = 0; i < nf; ++i) state.x[model.free_vertices[i]] += Vec3d{ws.dx(i, 0), ws.dx(i, 1), ws.dx(i, 2)};
+}
+
+/// Alg. 1 line 11: v = (1 - damping) (x - x_start) / h.
+void update_velocities(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
+  const int n = model.num_vertices;
+  const double c = (1.0 - model.damping) / model.h;
+#pragma omp parallel for schedule(static)
+  for (int a = 0; a < n; ++a) state.v[a] = c * (state.x[a] - ws.x_start[a]);
+}
+
+}  // namespace
+
+std::vector<double> lumped_masses(const TetMesh& mesh, double density) {
+  std::vector<double> mass(mesh.vertices.size(), 0.0);
+  for (const Tet& t : mesh.tets) {
+    const Vec3d& x0 = mesh.vertices[t[0]];
+    const double V = std::abs(determinant(Mat3d::from_cols(mesh.vertices[t[1]] - x0, mesh.vertices[t[2]] - x0,
+                                                           mesh.vertices[t[3]] - x0))) / 6.0;
+    for (int c = 0; c < 4; ++c) mass[t[c]] += density * V / 4.0;
+  }
+  return mass;
+}
+
+PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtual_model,
+                                   const PhysicalModelOptions& options) {
+  const TetMesh& mesh = scene.physical;
+  const std::string where = scene.spec.file.string();
+  PhysicalModel M;
+  M.num_vertices = static_cast<int>(mesh.vertices.size());
+  M.num_tets = static_cast<int>(mesh.tets.size());
+  M.h = options.h;
+  M.k_vol = scene.spec.stiffness.k_vol;
+  M.k_svc = scene.spec.stiffness.k_svc;
+  M.damping = scene.spec.damping;
+  M.gravity = scene.spec.gravity;
+  M.rest = mesh.vertices;
+  M.tets = mesh.tets;
+  if (!(M.h > 0)) throw InputError(where + ": physical step must be positive");
+  const int n = M.num_vertices, T = M.num_tets;
+
+  // Per tet: rest volume, PD weight, shape gradients.
+  M.volume.resize(T);
+  M.tet_weight.resize(T);
+  M.shape_grad.resize(4 * size_t(T));
+  for (int t = 0; t < T; ++t) {
+    for (int c = 0; c < 4; ++c)
+      if (M.tets[t][c] < 0 || M.tets[t][c] >= n)
+        throw InputError(where + ": tet " + std::to_string(t) + " names vertex " + std::to_string(M.tets[t][c]) +
+                         " of " + std::to_string(n));
+    const Vec3d& X0 = M.rest[M.tets[t][0]];
+    const Mat3d Dm = Mat3d::from_cols(M.rest[M.tets[t][1]] - X0, M.rest[M.tets[t][2]] - X0, M.rest[M.tets[t][3]] - X0);
+    const double det = determinant(Dm);
+    const double scale = std::pow(frobenius_sq(Dm) / 3.0, 1.5);  // ~ edge length^3
+    if (!(std::abs(det) > 1e-12 * scale))
+      throw InputError(where + ": tet " + std::to_string(t) + " has zero rest volume");
+    M.volume[t] = std::abs(det) / 6.0;
+    M.tet_weight[t] = arap_weight(M.k_vol, M.volume[t]);
+    tet_shape_gradients(inverse(Dm), &M.shape_grad[4 * size_t(t)]);
+  }
+  M.mass = lumped_masses(mesh, scene.spec.density);
+
+  // Pinned and free vertices.
+  M.pinned.assign(n, 0);
+  for (int p : scene.pinned) {
+    if (p < 0 || p >= n) throw InputError(where + ": pinned vertex " + std::to_string(p) + " out of range");
+    M.pinned[p] = 1;
+  }
+  M.free_index.assign(n, -1);
+  for (int a = 0; a < n; ++a)
+    if (!M.pinned[a]) { M.free_index[a] = static_cast<int>(M.free_vertices.size()); M.free_vertices.push_back(a); }
+  M.num_free = static_cast<int>(M.free_vertices.size());
+
+  // Incidence vertex -> (tet, corner), in (tet, corner) order.
+  build_csr(n, 4 * T, [&](int e, auto add) { add(M.tets[e >> 2][e & 3]); }, M.tet_offsets, M.tet_entries);
+
+  // E_svc coupling and its reverse (physical -> virtual) list.
+  if (virtual_model) {
+    M.num_virtual = virtual_model->num_vertices;
+    M.pair_vertex = virtual_model->pair_vertex;
+    M.pair_weight = virtual_model->pair_weight;
+    M.pair_count = virtual_model->pair_count;
+  }
+  const int m = M.num_virtual;
+  std::vector<int> slot_entries;
+  build_csr(n, 4 * m,
+            [&](int e, auto add) { if ((e & 3) < M.pair_count[e >> 2]) add(M.pair_vertex[e >> 2][e & 3]); },
+            M.cpl_offsets, slot_entries);
+  M.cpl_virtual.resize(slot_entries.size());
+  M.cpl_weight.resize(slot_entries.size());
+  for (size_t k = 0; k < slot_entries.size(); ++k) {
+    M.cpl_virtual[k] = slot_entries[k] >> 2;
+    M.cpl_weight[k] = M.pair_weight[slot_entries[k] >> 2][slot_entries[k] & 3];
+  }
+
+  // Diagonal of A.
+  M.diag.assign(n, 0.0);
+  for (int a = 0; a < n; ++a) {
+    double d = M.mass[a] / (M.h * M.h);
+    for (int k = M.tet_offsets[a]; k < M.tet_offsets[a + 1]; ++k) {
+      const int e = M.tet_entries[k];
+      d += M.tet_weight[e >> 2] * squared_norm(M.shape_grad[e]);
+    }
+    for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) d += M.k_svc * M.cpl_weight[k] * M.cpl_weight[k];
+    M.diag[a] = d;
+  }
+
+  // The exact global matrix over free vertices, factorised once.
+  if (options.factorize && M.num_free > 0) {
+    std::vector<Eigen::Triplet<double>> trip;
+    trip.reserve(16 * size_t(T) + size_t(n));
+    for (int a = 0; a < n; ++a)
+      if (!M.pinned[a]) trip.emplace_back(M.free_index[a], M.free_index[a], M.mass[a] / (M.h * M.h));
+    for (int t = 0; t < T; ++t)
+      for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+          const int fa = M.free_index[M.tets[t][i]], fb = M.free_index[M.tets[t][j]];
+          if (fa >= 0 && fb >= 0)
+            trip.emplace_back(fa, fb, M.tet_weight[t] * dot(M.shape_grad[4 * t + i], M.shape_grad[4 * t + j]));
+        }
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < M.pair_count[j]; ++i)
+        for (int k = 0; k < M.pair_count[j]; ++k) {
+          const int fa = M.free_index[M.pair_vertex[j][i]], fb = M.free_index[M.pair_vertex[j][k]];
+          if (fa >= 0 && fb >= 0) trip.emplace_back(fa, fb, M.k_svc * M.pair_weight[j][i] * M.pair_weight[j][k]);
+        }
+    Eigen::SparseMatrix<double> A(M.num_free, M.num_free);
+    A.setFromTriplets(trip.begin(), trip.end());
+    auto solver = std::make_shared<PhysicalDirectSolver>();
+    solver->ldlt.compute(A);
+    if (solver->ldlt.info() != Eigen::Success)
+      throw InputError(where + ": the physical mesh's global matrix is not positive definite");
+    M.direct = std::move(solver);
+  }
+  return M;
+}
+
+PhysicalState make_physical_state(const PhysicalModel& model) {
+  PhysicalState s;
+  s.x = model.rest;
+  s.v.assign(model.num_vertices, Vec3d{});
+  s.rotation.assign(model.num_tets, Quatd{});
+  return s;
+}
+
+PhysicalWorkspace make_physical_workspace(const PhysicalModel& model) {
+  PhysicalWorkspace ws;
+  const size_t n = model.num_vertices;
+  ws.s.assign(n, Vec3d{});
+  ws.x_start.assign(n, Vec3d{});
+  ws.x_prev.assign(n, Vec3d{});
+  ws.x_next.assign(n, Vec3d{});
+  ws.r.assign(n, Vec3d{});
+  ws.proj.assign(model.num_tets, Mat3d{});
+  ws.cpl_force.assign(model.num_virtual, Vec3d{});
+  ws.rhs.setZero(model.num_free, 3);
+  ws.dx.setZero(model.num_free, 3);
+  return ws;
+}
+
+PhysicalStepParams physical_params(const SolverSpec& spec) {
+  PhysicalStepParams p;
+  p.method = spec.method;
+  p.iterations = spec.physical_iterations;
+  p.chebyshev_rho = spec.chebyshev_rho;
+  return p;
+}
+
+PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
+                                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params) {
+  const auto t_step = Clock::now();
+  PhysicalStepReport report;
+  if (model.num_virtual > 0 && virtual_q.size() != size_t(model.num_virtual))
+    throw std::invalid_argument("physical_step: virtual_q has the wrong size");
+  if (params.method == SolverSpec::Method::Direct && !model.direct)
+    throw std::invalid_argument("physical_step: direct method on a model built without factorisation");
+
+  predict(model, ws, state);
+  double r0 = 0, rk = 0, omega = 1;
+  const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
+  for (int k = 0; k < params.iterations; ++k) {
+    auto t0 = Clock::now();
+    local_step(model, ws, state, virtual_q, params);
+    report.local_s += seconds_since(t0);
+    t0 = Clock::now();
+    rk = gather_residual(model, ws, state);
+    if (k == 0) r0 = rk;
+    switch (params.method) {
+      case SolverSpec::Method::Jacobi: global_jacobi(model, ws, state, params.relaxation); break;
+      case SolverSpec::Method::Chebyshev: {
+        const int j = k - params.chebyshev_delay;  // Wang 2015: omega_1 = 1, omega_2 = 2/(2-rho^2), ...
+        omega = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega));
+        global_chebyshev(model, ws, state, params.relaxation, omega);
+        break;
+      }
+      case SolverSpec::Method::Direct: global_direct(model, ws, state); break;
+    }
+    report.global_s += seconds_since(t0);
+  }
+  update_velocities(model, ws, state);
+  report.iterations = params.iterations;
+  report.residual = r0 > 0 ? rk / r0 : 0.0;
+  report.time_s = seconds_since(t_step);
+  return report;
+}
+
+PhysicalEnergy physical_energy(const PhysicalModel& model, std::span<const Vec3d> x, std::span<const Vec3d> s,
+                               std::span<const Vec3d> virtual_q) {
+  PhysicalEnergy E;
+  for (int t = 0; t < model.num_tets; ++t) {
+    const Tet& tet = model.tets[t];
+    const Vec3d xc[4] = {x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]};
+    const Mat3d F = deformation_gradient(xc, &model.shape_grad[4 * t]);
+    E.volume += arap_energy(F, polar_rotation_svd(F), model.k_vol, model.volume[t]);
+  }
+  if (!s.empty())
+    for (int a = 0; a < model.num_vertices; ++a) E.inertia += inertia_energy(x[a], s[a], model.mass[a], model.h);
+  if (!virtual_q.empty())
+    for (int j = 0; j < model.num_virtual; ++j) {
+      const Vec3d p = paired_point(x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(), model.pair_count[j]);
+      E.coupling += coupling_energy(p, virtual_q[j], model.k_svc);
+    }
+  return E;
+}
+
+void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> x, std::span<Vec3d> forces) {
+  const int n = model.num_vertices;
+#pragma omp parallel for schedule(static)
+  for (int a = 0; a < n; ++a) {
+    Vec3d f{};
+    for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k) {
+      const int e = model.tet_entries[k], t = e >> 2;
+      const Tet& tet = model.tets[t];
+      const Vec3d xc[4] = {x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]};
+      const Mat3d F = deformation_gradient(xc, &model.shape_grad[4 * t]);
+      f += (model.tet_weight[t]) * ((polar_rotation_svd(F) - F) * model.shape_grad[e]);
+    }
+    forces[a] = f;
+  }
+}
+
+}  // namespace ebh

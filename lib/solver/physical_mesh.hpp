@@ -1,0 +1,149 @@
+#pragma once
+// The physical mesh under Projective Dynamics (paper §4.2, Algorithm 1): a tet mesh minimising
+//     E_soft = E_vol + E_k + E_svc      (E_con acts on the virtual mesh only)
+// by local-global iterations. The global matrix
+//     A = M / h^2 + sum_t w_t G_t^T G_t + k_svc sum_j w_j w_j^T     (n x n, the same for x, y, z)
+// is constant, so one step reads (physical_step):
+//     predict         s = x + h v + h^2 g, x <- s                      Alg. 1 line 1-2
+//     for k < K:
+//       local step    R_t = polar(F_t) per tet; E_svc forces per pair  Alg. 1 lines 6-8
+//       residual      r = -grad E at x (gathered per vertex)
+//       global step   jacobi | chebyshev | direct on A dx = r          Alg. 1 line 9
+//     velocities      v = (1 - damping) (x - x_start) / h              Alg. 1 line 11
+// Pinned vertices have no row in the system: they never move.
+//
+// Determinism: per-tet and per-virtual-vertex loops write their own slot, per-vertex loops gather
+// over CSR lists in a fixed order, and norms are summed serially: the result is bitwise identical
+// for any OpenMP thread count.
+#include <Eigen/Core>
+#include <Eigen/SparseCholesky>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "math/vec.hpp"
+#include "mesh/tet_mesh.hpp"
+#include "scene/scene.hpp"
+
+namespace ebh {
+
+struct VirtualModel;
+
+/// The exact global solve: A restricted to free vertices, factorised once per topology.
+struct PhysicalDirectSolver {
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+};
+
+/// Immutable physical-mesh model. n = #vertices, T = #tets, m = #virtual vertices, nf = #free.
+struct PhysicalModel {
+  int num_vertices = 0;                 ///< n
+  int num_tets = 0;                     ///< T
+  int num_free = 0;                     ///< nf, vertices that are not pinned
+  int num_virtual = 0;                  ///< m, 0 when there is no E_svc coupling
+  double h = 0;                         ///< physical step (s)
+  double k_vol = 0;                     ///< Pa, E_vol [7]
+  double k_svc = 0;                     ///< N/m, E_svc [5]
+  double damping = 0;                   ///< fraction of velocity removed per step
+  Vec3d gravity;                        ///< m/s^2
+  std::vector<Vec3d> rest;              ///< #n rest positions, metres
+  std::vector<Tet> tets;                ///< #T
+  std::vector<double> volume;           ///< #T rest volume V_t, m^3
+  std::vector<double> tet_weight;       ///< #T w_t = 2 k_vol V_t
+  std::vector<Vec3d> shape_grad;        ///< #T*4 g_c with F = sum_c x_c g_c^T (1/m)
+  std::vector<double> mass;             ///< #n lumped mass, kg (density V_t / 4 per corner)
+  std::vector<std::uint8_t> pinned;     ///< #n
+  std::vector<int> free_index;          ///< #n row among free vertices, -1 when pinned
+  std::vector<int> free_vertices;       ///< #nf
+  std::vector<int> tet_offsets;         ///< #n+1 CSR vertex -> incident (tet, corner)
+  std::vector<int> tet_entries;         ///< 4 t + c
+  // E_svc coupling: virtual vertex j pairs with sum_k w_jk x_{i_jk} (copied from VirtualModel).
+  std::vector<std::array<int, 4>> pair_vertex;     ///< #m
+  std::vector<std::array<double, 4>> pair_weight;  ///< #m
+  std::vector<int> pair_count;                     ///< #m
+  std::vector<int> cpl_offsets;         ///< #n+1 CSR physical vertex -> (virtual vertex, weight)
+  std::vector<int> cpl_virtual;         ///< virtual-vertex index
+  std::vector<double> cpl_weight;       ///< its weight on this physical vertex
+  std::vector<double> diag;             ///< #n A(a, a)
+  std::shared_ptr<const PhysicalDirectSolver> direct;  ///< null when not factorised
+};
+
+/// Mutable physical-mesh state.
+struct PhysicalState {
+  std::vector<Vec3d> x;         ///< #n positions, metres
+  std::vector<Vec3d> v;         ///< #n velocities, m/s
+  std::vector<Quatd> rotation;  ///< #T last rotation of each tet: the warm start of the local step
+};
+
+/// Scratch of physical_step, sized once.
+struct PhysicalWorkspace {
+  std::vector<Vec3d> s;          ///< #n prediction (Alg. 1 line 1)
+  std::vector<Vec3d> x_start;    ///< #n positions at the start of the step
+  std::vector<Vec3d> x_prev;     ///< #n previous iterate (Chebyshev)
+  std::vector<Vec3d> x_next;     ///< #n next iterate
+  std::vector<Vec3d> r;          ///< #n residual -grad E (0 on pinned vertices)
+  std::vector<Mat3d> proj;       ///< #T w_t (R_t - F_t): the local step's output
+  std::vector<Vec3d> cpl_force;  ///< #m k_svc (q_j - p_j)
+  Eigen::MatrixXd rhs;           ///< nf x 3 (direct)
+  Eigen::MatrixXd dx;            ///< nf x 3 (direct)
+};
+
+struct PhysicalModelOptions {
+  double h = 0.01;            ///< physical step (s); 1 / scene.spec.physical_hz by default
+  bool factorize = true;      ///< build the direct solver (needed by Method::Direct)
+};
+
+struct PhysicalStepParams {
+  SolverSpec::Method method = SolverSpec::Method::Chebyshev;
+  int iterations = 16;           ///< local-global iterations K
+  double chebyshev_rho = 0.95;   ///< spectral-radius estimate (Wang 2015)
+  double relaxation = 0.9;       ///< under-relaxation gamma of the Jacobi update (Wang 2015, the paper)
+  int chebyshev_delay = 2;       ///< relaxed Jacobi iterations before the Chebyshev weights start
+  int rotation_iterations = 3;   ///< Mueller 2016 updates per tet and local step (warm-started)
+};
+
+/// The step report (time in seconds of wall clock).
+struct PhysicalStepReport {
+  int iterations = 0;
+  /// ||r_{K-1}|| / ||r_0||: the gradient norm of E_soft over free vertices at the start of the
+  /// last iteration relative to the first (r is -grad E at the iterate, R from its local step).
+  double residual = 0;
+  double time_s = 0;
+  double local_s = 0;   ///< local steps (rotations, coupling forces)
+  double global_s = 0;  ///< residual gathers and global steps
+};
+
+/// Builds the physical model of a scene. virtual_model: the E_svc pairing (null: no coupling).
+/// Throws InputError for a degenerate tet (zero rest volume) or a bad index.
+PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtual_model,
+                                   const PhysicalModelOptions& options);
+
+PhysicalState make_physical_state(const PhysicalModel& model);  ///< rest, at rest, R = I
+PhysicalWorkspace make_physical_workspace(const PhysicalModel& model);
+PhysicalStepParams physical_params(const SolverSpec& spec);
+
+/// One physical step (Algorithm 1), in place on state.
+///   virtual_q: #m virtual-mesh positions held fixed for E_svc (empty when num_virtual == 0).
+PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
+                                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params);
+
+struct PhysicalEnergy {
+  double volume = 0;    ///< E_vol [7]
+  double inertia = 0;   ///< E_k [6]
+  double coupling = 0;  ///< E_svc [5]
+  double total() const { return volume + inertia + coupling; }
+};
+
+/// E_soft at x (#n), R from the SVD polar decomposition. s: #n predictions (empty: no E_k);
+/// virtual_q: #m (empty: no E_svc).
+PhysicalEnergy physical_energy(const PhysicalModel& model, std::span<const Vec3d> x, std::span<const Vec3d> s,
+                               std::span<const Vec3d> virtual_q);
+
+/// Elastic forces -dE_vol/dx (#n, pinned vertices included: their reaction) at x (#n).
+void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> x, std::span<Vec3d> forces);
+
+/// Lumped vertex masses of a tet mesh: density * V_t / 4 to each corner. Returns #V, kg.
+std::vector<double> lumped_masses(const TetMesh& mesh, double density);
+
+}  // namespace ebh

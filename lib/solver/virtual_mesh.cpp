@@ -1,0 +1,319 @@
+// The virtual mesh: construction, pairing with the physical mesh, and the haptic-rate
+// local-global iterations (the soft part of Algorithm 2).
+#include "solver/virtual_mesh.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <memory>
+#include <string>
+#include <tuple>
+
+#include "energy/edge_spring.hpp"
+#include "energy/quadratic.hpp"
+#include "io/error.hpp"
+#include "scene/scene.hpp"
+#include "solver/physical_mesh.hpp"
+#include "solver/surface.hpp"
+
+namespace ebh {
+namespace {
+
+struct Pair {
+  std::array<int, 4> vertex{-1, -1, -1, -1};
+  std::array<double, 4> weight{};
+  int count = 0;
+};
+
+/// Embeds points in the physical mesh's tets: barycentric weights in the tet that contains the
+/// point (exact), or, for a point outside every tet, in the tet it is least outside of with the
+/// negative weights clamped (approximate; the error is reported). A uniform grid of tet bounding
+/// boxes keeps the search local.
+class TetLocator {
+ public:
+  explicit TetLocator(const TetMesh& mesh) : mesh_(mesh) {
+    lo_ = hi_ = mesh.vertices.empty() ? Vec3d{} : mesh.vertices[0];
+    for (const Vec3d& v : mesh.vertices) { lo_ = cwise_min(lo_, v); hi_ = cwise_max(hi_, v); }
+    const double cells_wanted = std::max<double>(1.0, double(mesh.tets.size()) / 4.0);
+    const Vec3d ext = hi_ - lo_;
+    const double vol = std::max(ext.x, 1e-12) * std::max(ext.y, 1e-12) * std::max(ext.z, 1e-12);
+    cell_ = std::cbrt(vol / cells_wanted);
+    for (int i = 0; i < 3; ++i) dims_[i] = std::clamp(int(ext[i] / cell_) + 1, 1, 512);
+    cells_.resize(size_t(dims_[0]) * dims_[1] * dims_[2]);
+    inv_.resize(mesh.tets.size());
+    for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) {
+      const auto& T = mesh.tets[t];
+      Vec3d a = mesh.vertices[T[0]], b = a;
+      for (int c = 1; c < 4; ++c) { a = cwise_min(a, mesh.vertices[T[c]]); b = cwise_max(b, mesh.vertices[T[c]]); }
+      const auto ia = cell_of(a), ib = cell_of(b);
+      for (int x = ia[0]; x <= ib[0]; ++x)
+        for (int y = ia[1]; y <= ib[1]; ++y)
+          for (int z = ia[2]; z <= ib[2]; ++z) cells_[index(x, y, z)].push_back(t);
+      const Vec3d& X0 = mesh.vertices[T[0]];
+      inv_[t] = inverse(Mat3d::from_cols(mesh.vertices[T[1]] - X0, mesh.vertices[T[2]] - X0, mesh.vertices[T[3]] - X0));
+    }
+  }
+
+  /// Returns the pairing of point p; error_out: |sum w X - p|.
+  Pair locate(const Vec3d& p, double& error_out) const {
+    int best = -1;
+    double best_score = -std::numeric_limits<double>::infinity();
+    auto consider = [&](int t) {
+      const auto l = bary(t, p);
+      const double score = std::min(std::min(l[0], l[1]), std::min(l[2], l[3]));
+      if (score > best_score) { best_score = score; best = t; }
+    };
+    const auto c = cell_of(p);
+    for (int t : cells_[index(c[0], c[1], c[2])]) consider(t);
+    if (best_score < -1e-9)  // outside every tet near p: search all
+      for (int t = 0; t < static_cast<int>(mesh_.tets.size()); ++t) consider(t);
+    Pair pair;
+    if (best < 0) return pair;
+    auto l = bary(best, p);
+    double sum = 0;
+    for (double& w : l) { w = std::max(w, 0.0); sum += w; }
+    Vec3d q{};
+    for (int k = 0; k < 4; ++k) {
+      if (l[k] / sum < 1e-12) continue;
+      pair.vertex[pair.count] = mesh_.tets[best][k];
+      pair.weight[pair.count] = l[k] / sum;
+      q += pair.weight[pair.count] * mesh_.vertices[mesh_.tets[best][k]];
+      ++pair.count;
+    }
+    error_out = norm(q - p);
+    return pair;
+  }
+
+ private:
+  std::array<double, 4> bary(int t, const Vec3d& p) const {
+    const Vec3d l = inv_[t] * (p - mesh_.vertices[mesh_.tets[t][0]]);
+    return {1.0 - l.x - l.y - l.z, l.x, l.y, l.z};
+  }
+  std::array<int, 3> cell_of(const Vec3d& p) const {
+    std::array<int, 3> c;
+    for (int i = 0; i < 3; ++i) c[i] = std::clamp(int((p[i] - lo_[i]) / cell_), 0, dims_[i] - 1);
+    return c;
+  }
+  size_t index(int x, int y, int z) const { return (size_t(z) * dims_[1] + y) * dims_[0] + x; }
+
+  const TetMesh& mesh_;
+  Vec3d lo_, hi_;
+  double cell_ = 1;
+  int dims_[3] = {1, 1, 1};
+  std::vector<std::vector<int>> cells_;
+  std::vector<Mat3d> inv_;
+};
+
+template <class RowOf>
+void build_csr(int rows, int items, RowOf&& row_of_each, std::vector<int>& offsets, std::vector<int>& entries) {
+  offsets.assign(rows + 1, 0);
+  for (int i = 0; i < items; ++i) row_of_each(i, [&](int row) { ++offsets[row + 1]; });
+  for (int r = 0; r < rows; ++r) offsets[r + 1] += offsets[r];
+  entries.assign(offsets[rows], 0);
+  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
+  for (int i = 0; i < items; ++i) row_of_each(i, [&](int row) { entries[fill[row]++] = i; });
+}
+
+}  // namespace
+
+VirtualModel build_virtual_model(const Scene& scene) {
+  const TetMesh& phys = scene.physical;
+  const std::string where = scene.spec.file.string();
+  if (phys.tets.empty()) throw InputError(where + ": the physical mesh has no tets to pair the virtual mesh with");
+  SurfaceMesh surface = scene.virtual_surface.triangles.empty() ? tet_boundary(phys) : scene.virtual_surface;
+  std::vector<std::array<int, 2>> parent;
+  if (scene.spec.virtual_refine > 0) {
+    surface = refine_surface(surface, parent);
+  } else {
+    for (int i = 0; i < static_cast<int>(surface.vertices.size()); ++i) parent.push_back({i, i});
+  }
+
+  VirtualModel M;
+  const int m = static_cast<int>(surface.vertices.size());
+  M.num_vertices = m;
+  M.k_s = scene.spec.stiffness.k_s;
+  M.k_svc = scene.spec.stiffness.k_svc;
+  M.gravity = scene.spec.gravity;
+  M.rest = surface.vertices;
+  M.triangles = surface.triangles;
+
+  // Edges, unique, sorted.
+  std::vector<std::array<int, 2>> edges;
+  for (const Tri& t : M.triangles)
+    for (int k = 0; k < 3; ++k) edges.push_back({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])});
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  M.edges = std::move(edges);
+  for (const auto& e : M.edges) M.rest_edge.push_back(M.rest[e[0]] - M.rest[e[1]]);
+  const int E = static_cast<int>(M.edges.size());
+  build_csr(m, 2 * E, [&](int i, auto add) { add(M.edges[i >> 1][i & 1]); }, M.edge_offsets, M.edge_entries);
+  build_csr(m, static_cast<int>(M.triangles.size()), [&](int f, auto add) { for (int v : M.triangles[f]) add(v); },
+            M.tri_offsets, M.tri_entries);
+
+  // Pairing: a vertex at a physical vertex takes it with weight 1; the midpoint of two such
+  // vertices takes both with 1/2; any other vertex is embedded in its containing tet.
+  std::map<std::tuple<double, double, double>, int> at_vertex;
+  for (int i = 0; i < static_cast<int>(phys.vertices.size()); ++i)
+    at_vertex.emplace(std::make_tuple(phys.vertices[i].x, phys.vertices[i].y, phys.vertices[i].z), i);
+  auto exact = [&](const Vec3d& p) {
+    auto it = at_vertex.find(std::make_tuple(p.x, p.y, p.z));
+    return it == at_vertex.end() ? -1 : it->second;
+  };
+  std::unique_ptr<TetLocator> locator;
+  M.pair_vertex.assign(m, {-1, -1, -1, -1});
+  M.pair_weight.assign(m, {0, 0, 0, 0});
+  M.pair_count.assign(m, 0);
+  for (int j = 0; j < m; ++j) {
+    Pair pair;
+    const auto [a, b] = parent[j];
+    const int ia = exact(surface.vertices[a]), ib = exact(surface.vertices[b]);
+    if (a == b && ia >= 0) {
+      pair.vertex[0] = ia; pair.weight[0] = 1.0; pair.count = 1;
+    } else if (a != b && ia >= 0 && ib >= 0) {
+      pair.vertex[0] = ia; pair.vertex[1] = ib; pair.weight[0] = pair.weight[1] = 0.5; pair.count = 2;
+    } else {
+      if (!locator) locator = std::make_unique<TetLocator>(phys);
+      double err = 0;
+      pair = locator->locate(M.rest[j], err);
+      if (pair.count == 0) throw InputError(where + ": virtual vertex " + std::to_string(j) + " cannot be paired");
+    }
+    M.pair_vertex[j] = pair.vertex;
+    M.pair_weight[j] = pair.weight;
+    M.pair_count[j] = pair.count;
+    const Vec3d p = paired_point(phys.vertices.data(), pair.vertex.data(), pair.weight.data(), pair.count);
+    M.pairing_max_error = std::max(M.pairing_max_error, norm(p - M.rest[j]));
+  }
+
+  // Mass: each physical vertex lends its lumped mass to the virtual vertices paired with it, in
+  // proportion to their weights: m_j = sum_k w_jk m_i / c_i, c_i = sum_j w_ji. The virtual mesh
+  // thus carries the mass of the physical vertices it is tied to (docs/MODEL.md).
+  const std::vector<double> phys_mass = lumped_masses(phys, scene.spec.density);
+  std::vector<double> share(phys.vertices.size(), 0.0);
+  for (int j = 0; j < m; ++j)
+    for (int k = 0; k < M.pair_count[j]; ++k) share[M.pair_vertex[j][k]] += M.pair_weight[j][k];
+  M.mass.assign(m, 0.0);
+  for (int j = 0; j < m; ++j)
+    for (int k = 0; k < M.pair_count[j]; ++k) {
+      const int i = M.pair_vertex[j][k];
+      M.mass[j] += M.pair_weight[j][k] * phys_mass[i] / share[i];
+    }
+
+  // Pinned: every paired physical vertex is pinned.
+  std::vector<std::uint8_t> phys_pinned(phys.vertices.size(), 0);
+  for (int p : scene.pinned)
+    if (p >= 0 && p < static_cast<int>(phys_pinned.size())) phys_pinned[p] = 1;
+  M.pinned.assign(m, 1);
+  for (int j = 0; j < m; ++j)
+    for (int k = 0; k < M.pair_count[j]; ++k)
+      if (!phys_pinned[M.pair_vertex[j][k]]) M.pinned[j] = 0;
+
+  M.stiff_diag.resize(m);
+  for (int j = 0; j < m; ++j) M.stiff_diag[j] = M.k_s * (M.edge_offsets[j + 1] - M.edge_offsets[j]) + M.k_svc;
+  return M;
+}
+
+VirtualState make_virtual_state(const VirtualModel& model) {
+  return VirtualState{model.rest, std::vector<Vec3d>(model.num_vertices)};
+}
+
+VirtualWorkspace make_virtual_workspace(const VirtualModel& model) {
+  VirtualWorkspace ws;
+  const size_t m = model.num_vertices;
+  ws.q_start.assign(m, Vec3d{});
+  ws.s.assign(m, Vec3d{});
+  ws.p.assign(m, Vec3d{});
+  ws.q_next.assign(m, Vec3d{});
+  ws.contact_kt.assign(m, Vec3d{});
+  ws.contact_k.assign(m, 0.0);
+  return ws;
+}
+
+void paired_points(const VirtualModel& model, std::span<const Vec3d> x, std::span<Vec3d> p) {
+  const int m = model.num_vertices;
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < m; ++j)
+    p[j] = paired_point(x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(), model.pair_count[j]);
+}
+
+void virtual_begin_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state,
+                        std::span<const Vec3d> physical_x, double h) {
+  ws.h = h;
+  paired_points(model, physical_x, ws.p);                       // Alg. 2 line 1: E_svc targets
+  const int m = model.num_vertices;
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < m; ++j) {                                 // Alg. 2 line 6: prediction
+    ws.q_start[j] = state.q[j];
+    ws.s[j] = model.pinned[j] ? state.q[j] : predict_position(state.q[j], state.v[j], model.gravity, h);
+    state.q[j] = ws.s[j];
+  }
+}
+
+void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state,
+                       std::span<const ContactTarget> contacts) {
+  // E_con [3] constraints: summed per vertex in the given order (serial: few, and deterministic).
+  for (const ContactTarget& c : contacts) {
+    ws.contact_kt[c.vertex] += c.stiffness * c.target;
+    ws.contact_k[c.vertex] += c.stiffness;
+  }
+  // Local step (edge targets R e0, E_svc and E_con targets) and Jacobi global step, per vertex:
+  //   q_j <- q_j + r_j / D_j,  r = -grad E_soft,  D = m/h^2 + k_s deg + k_svc + sum k_con.
+  const int m = model.num_vertices;
+  const double inv_h2 = 1.0 / (ws.h * ws.h);
+  const std::vector<Vec3d>& q = state.q;
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < m; ++j) {
+    if (model.pinned[j]) { ws.q_next[j] = q[j]; continue; }
+    const double mh = model.mass[j] * inv_h2;
+    Vec3d r = mh * (ws.s[j] - q[j])                                          // -dE_k/dq   [6]
+              - coupling_gradient_virtual(ws.p[j], q[j], model.k_svc)        // -dE_svc/dq [5]
+              + ws.contact_kt[j] - ws.contact_k[j] * q[j];                   // -dE_con/dq [3]
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
+      const int e = model.edge_entries[k] >> 1;
+      const auto& ed = model.edges[e];
+      const Vec3d g = edge_spring_gradient(q[ed[0]], q[ed[1]], model.rest_edge[e], model.k_s);  // -dE_s [4]
+      r += (model.edge_entries[k] & 1) ? g : -g;
+    }
+    ws.q_next[j] = q[j] + r / (mh + model.stiff_diag[j] + ws.contact_k[j]);
+  }
+  std::swap(state.q, ws.q_next);
+  for (const ContactTarget& c : contacts) {
+    ws.contact_kt[c.vertex] = Vec3d{};
+    ws.contact_k[c.vertex] = 0.0;
+  }
+}
+
+void virtual_end_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state) {
+  const int m = model.num_vertices;
+  const double inv_h = 1.0 / ws.h;
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < m; ++j) state.v[j] = inv_h * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23
+}
+
+void compute_vertex_normals(const VirtualModel& model, std::span<const Vec3d> q, std::span<Vec3d> normals) {
+  const int m = model.num_vertices;
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < m; ++j) {
+    Vec3d n{};
+    for (int k = model.tri_offsets[j]; k < model.tri_offsets[j + 1]; ++k) {
+      const Tri& t = model.triangles[model.tri_entries[k]];
+      n += cross(q[t[1]] - q[t[0]], q[t[2]] - q[t[0]]);  // twice the area times the unit normal
+    }
+    normals[j] = normalized(n);
+  }
+}
+
+VirtualEnergy virtual_energy(const VirtualModel& model, std::span<const Vec3d> q, std::span<const Vec3d> s,
+                             std::span<const Vec3d> p, std::span<const ContactTarget> contacts, double h) {
+  VirtualEnergy E;
+  for (size_t e = 0; e < model.edges.size(); ++e)
+    E.edges += edge_spring_energy(q[model.edges[e][0]], q[model.edges[e][1]], model.rest_edge[e], model.k_s);
+  for (int j = 0; j < model.num_vertices; ++j) {
+    if (!p.empty()) E.coupling += coupling_energy(p[j], q[j], model.k_svc);
+    if (!s.empty()) E.inertia += inertia_energy(q[j], s[j], model.mass[j], h);
+  }
+  for (const ContactTarget& c : contacts) E.contact += contact_energy(q[c.vertex], c.target, c.stiffness);
+  return E;
+}
+
+}  // namespace ebh

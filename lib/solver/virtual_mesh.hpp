@@ -1,0 +1,115 @@
+#pragma once
+// The virtual mesh (paper §3.1): a triangle surface that follows the physical mesh through the
+// E_svc [5] coupling and meets the virtual tool through E_con [3] at the haptic rate. Its
+// local-global iterations (the soft part of Algorithm 2) minimise
+//     E_soft = E_con + E_s + E_svc + E_k       (paper §4.2)
+// with the physical points of E_svc held fixed for the whole tick.
+//
+// A tick, as the scheduler calls it (the virtual tool's Newton steps go between iterations):
+//     virtual_begin_tick(model, ws, state, physical_x, h);             // Alg. 2 lines 1, 6
+//     for i < iterations:
+//         virtual_iteration(model, ws, state, contacts);               // Alg. 2 lines 13-16
+//         ... the virtual tool's Newton step against state.q ...
+//     virtual_end_tick(model, ws, state);                              // Alg. 2 lines 22-23
+//
+// Every per-vertex loop gathers (CSR incidence lists) so the result is bitwise identical for any
+// OpenMP thread count; no step function allocates.
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "energy/contact_target.hpp"
+#include "math/vec.hpp"
+#include "mesh/tet_mesh.hpp"
+
+namespace ebh {
+
+struct Scene;
+
+/// Immutable virtual-mesh model. m = #vertices, E = #edges, F = #triangles.
+struct VirtualModel {
+  int num_vertices = 0;                      ///< m
+  double k_s = 0;                            ///< N/m, E_s [4] per edge
+  double k_svc = 0;                          ///< N/m, E_svc [5] per virtual vertex
+  Vec3d gravity;                             ///< m/s^2
+  std::vector<Vec3d> rest;                   ///< #m rest positions q^0, metres
+  std::vector<Tri> triangles;                ///< #F counter-clockwise seen from outside
+  std::vector<std::array<int, 2>> edges;     ///< #E unique edges (a < b)
+  std::vector<Vec3d> rest_edge;              ///< #E q_a^0 - q_b^0
+  std::vector<double> mass;                  ///< #m kg (docs/MODEL.md: share of the boundary's physical mass)
+  std::vector<std::uint8_t> pinned;          ///< #m 1 when every paired physical vertex is pinned
+  // Pairing with the physical mesh (E_svc [5]): p_j = sum_k pair_weight[j][k] x[pair_vertex[j][k]],
+  // k < pair_count[j] <= 4. The weights reproduce the rest position: p_j(X) = q_j^0 (to
+  // pairing_max_error).
+  std::vector<std::array<int, 4>> pair_vertex;     ///< #m physical-vertex indices (-1 unused)
+  std::vector<std::array<double, 4>> pair_weight;  ///< #m weights, sum 1
+  std::vector<int> pair_count;                     ///< #m 1..4
+  double pairing_max_error = 0;                    ///< m, max_j |p_j(X) - q_j^0|
+  // Incidence (CSR), rows = virtual vertices.
+  std::vector<int> edge_offsets;   ///< #m+1
+  std::vector<int> edge_entries;   ///< 2 e + end: vertex is edges[e][end]
+  std::vector<int> tri_offsets;    ///< #m+1
+  std::vector<int> tri_entries;    ///< incident triangle indices
+  std::vector<double> stiff_diag;  ///< #m k_s * degree + k_svc: the diagonal without mass and contact
+};
+
+/// Mutable virtual-mesh state: q and v, both #m.
+struct VirtualState {
+  std::vector<Vec3d> q;  ///< #m positions, metres
+  std::vector<Vec3d> v;  ///< #m velocities, m/s
+};
+
+/// Scratch of the virtual-mesh tick, sized once by make_virtual_workspace.
+struct VirtualWorkspace {
+  double h = 0;                        ///< the tick's step (s)
+  std::vector<Vec3d> q_start;          ///< #m positions at the start of the tick
+  std::vector<Vec3d> s;                ///< #m prediction
+  std::vector<Vec3d> p;                ///< #m E_svc physical points, fixed for the tick
+  std::vector<Vec3d> q_next;           ///< #m Jacobi output buffer
+  std::vector<Vec3d> contact_kt;       ///< #m sum of k * target over this iteration's contacts
+  std::vector<double> contact_k;       ///< #m sum of k over this iteration's contacts
+};
+
+/// Builds the virtual mesh of a scene: scene.virtual_surface (or, when empty, the physical mesh's
+/// boundary), refined 1 -> 4 when scene.spec.virtual_refine is 1, paired with the physical mesh.
+/// Throws InputError when a virtual vertex cannot be paired (no tets).
+VirtualModel build_virtual_model(const Scene& scene);
+
+VirtualState make_virtual_state(const VirtualModel& model);  ///< rest, at rest
+VirtualWorkspace make_virtual_workspace(const VirtualModel& model);
+
+/// Alg. 2 lines 1 and 6: E_svc targets p_j = sum_k w x_k from the latest visible physical
+/// positions physical_x (#n), prediction s = q + h v + h^2 g, and q <- s (pinned: q stays).
+void virtual_begin_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state,
+                        std::span<const Vec3d> physical_x, double h);
+
+/// One local-global Jacobi iteration on E_s + E_svc + E_k + E_con (Alg. 2 lines 13-16), in place
+/// on state.q. contacts: this iteration's E_con constraints (any order; several may name one
+/// vertex; processed in the given order, so the result is deterministic).
+void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state,
+                       std::span<const ContactTarget> contacts);
+
+/// Alg. 2 lines 22-23: v = (q - q_start) / h.
+void virtual_end_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state);
+
+/// Area-weighted unit vertex normals of the virtual mesh at q (#m) into normals (#m).
+void compute_vertex_normals(const VirtualModel& model, std::span<const Vec3d> q, std::span<Vec3d> normals);
+
+/// The physical points p_j = sum_k w x_k (#m) of E_svc for physical positions x (#n).
+void paired_points(const VirtualModel& model, std::span<const Vec3d> x, std::span<Vec3d> p);
+
+struct VirtualEnergy {
+  double edges = 0;     ///< E_s [4]
+  double coupling = 0;  ///< E_svc [5]
+  double inertia = 0;   ///< E_k [6]
+  double contact = 0;   ///< E_con [3]
+  double total() const { return edges + coupling + inertia + contact; }
+};
+
+/// The virtual mesh's energy at q (#m) for predictions s (#m, or empty: no E_k), physical points
+/// p (#m, or empty: no E_svc), contacts, and step h.
+VirtualEnergy virtual_energy(const VirtualModel& model, std::span<const Vec3d> q, std::span<const Vec3d> s,
+                             std::span<const Vec3d> p, std::span<const ContactTarget> contacts, double h);
+
+}  // namespace ebh

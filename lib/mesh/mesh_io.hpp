@@ -20,7 +20,7 @@ namespace ebh {
 /// (points, lines, quads, 10-node tets, ...) are skipped. Node ids may be sparse and unordered;
 /// vertices keep the file's node order and `file_node_ids` maps back. Other sections are skipped.
 /// If a surface and a volume group share a tag but not a name, the surface group gets a fresh
-/// tag (> every tag in the file) so that `group_names` stays one name per tag.
+/// tag (> every surface and volume tag in the file) so that `group_names` stays one name per tag.
 ///
 /// Throws InputError for binary files, unsupported versions, malformed or truncated sections,
 /// references to unknown nodes, duplicate node ids, and a file with no tetrahedra.

@@ -1,0 +1,136 @@
+// OBJ reader and boundary extraction.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <set>
+
+#include "mesh/boundary.hpp"
+#include "mesh/mesh_io.hpp"
+#include "test_util.hpp"
+
+namespace ebh {
+namespace {
+
+using test::data;
+using test::expect_input_error;
+using test::write_temp;
+
+/// Volume enclosed by a closed surface (divergence theorem): positive when it faces outward.
+double enclosed_volume(const SurfaceMesh& s) {
+  double v = 0;
+  for (const Tri& t : s.triangles) v += dot(s.vertices[t[0]], cross(s.vertices[t[1]], s.vertices[t[2]])) / 6.0;
+  return v;
+}
+
+/// Closed, consistently oriented 2-manifold: each directed edge once, and its reverse once.
+void expect_closed_oriented(const SurfaceMesh& s) {
+  std::multiset<std::pair<int, int>> directed;
+  for (const Tri& t : s.triangles)
+    for (int k = 0; k < 3; ++k) directed.insert({t[k], t[(k + 1) % 3]});
+  for (const auto& e : directed) {
+    EXPECT_EQ(directed.count(e), 1u) << "edge " << e.first << "-" << e.second << " repeated";
+    EXPECT_EQ(directed.count({e.second, e.first}), 1u) << "edge " << e.first << "-" << e.second << " is a border";
+  }
+}
+
+// Every triangle's normal points away from the centre of the convex body.
+void expect_outward(const SurfaceMesh& s, const Vec3d& centre) {
+  for (const Tri& t : s.triangles) {
+    const Vec3d n = cross(s.vertices[t[1]] - s.vertices[t[0]], s.vertices[t[2]] - s.vertices[t[0]]);
+    const Vec3d c = (s.vertices[t[0]] + s.vertices[t[1]] + s.vertices[t[2]]) / 3.0;
+    EXPECT_GT(dot(n, c - centre), 0.0);
+  }
+}
+
+/// The unit cube split into 6 tets around its diagonal 0-7 (corner c = x + 2y + 4z).
+TetMesh kuhn_cube() {
+  TetMesh m;
+  for (int c = 0; c < 8; ++c) m.vertices.push_back({double(c & 1), double((c >> 1) & 1), double((c >> 2) & 1)});
+  m.tets = {{0, 1, 3, 7}, {0, 3, 2, 7}, {0, 2, 6, 7}, {0, 6, 4, 7}, {0, 4, 5, 7}, {0, 5, 1, 7}};
+  for (Tet& t : m.tets)
+    if (signed_volume(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]], m.vertices[t[3]]) < 0) std::swap(t[1], t[2]);
+  return m;
+}
+
+TEST(ReadObj, EveryFaceForm) {
+  const SurfaceMesh s = read_obj(data("mesh/cube.obj"));
+  ASSERT_EQ(s.vertices.size(), 8u);
+  ASSERT_EQ(s.triangles.size(), 12u);  // 6 quads, fan-triangulated
+  EXPECT_EQ(s.vertices[7], Vec3d(10, 10, 10));
+  // the first quad "1 3 4 2" fans into (0 2 3) and (0 3 1)
+  EXPECT_EQ(s.triangles[0], (Tri{0, 2, 3}));
+  EXPECT_EQ(s.triangles[1], (Tri{0, 3, 1}));
+  // the fifth face uses negative indices: "-8 -4 -2 -6" -> 0 4 6 2
+  EXPECT_EQ(s.triangles[8], (Tri{0, 4, 6}));
+  expect_closed_oriented(s);
+  // each term is divided by 6 and rounded: a few ulps of 1000
+  EXPECT_NEAR(enclosed_volume(s), 1000.0, 1e-9);
+}
+
+TEST(ReadObj, ForwardReference) {
+  const SurfaceMesh s = read_obj(write_temp("fwd.obj", "f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"));
+  EXPECT_EQ(s.triangles.size(), 1u);
+}
+
+struct BadObj : ::testing::Test {
+  void expect(const std::string& text, int line, const std::string& needle) {
+    const auto p = write_temp("bad.obj", text);
+    expect_input_error([&] { read_obj(p); }, p, line, needle);
+  }
+};
+const std::string kTri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+
+TEST_F(BadObj, TwoCorners) { expect(kTri + "f 1 2\n", 4, "a face needs at least 3 vertices, got 2"); }
+TEST_F(BadObj, IndexOutOfRange) { expect(kTri + "# c\nf 1 2 9\n", 5, "vertex index 9 is out of range (the file has 3 vertices)"); }
+TEST_F(BadObj, IndexZero) { expect(kTri + "f 0 1 2\n", 4, "vertex index 0 is invalid"); }
+TEST_F(BadObj, RelativeBeforeFirst) { expect(kTri + "f 1 2 -4\n", 4, "relative vertex index -4 reaches before the first vertex"); }
+TEST_F(BadObj, Garbage) { expect(kTri + "f 1 2 3x\n", 4, "expected a face corner like 3, 3/1, 3/1/2 or 3//2, got '3x'"); }
+TEST_F(BadObj, TooManySlashes) { expect(kTri + "f 1 2 3/1/1/1\n", 4, "got '3/1/1/1'"); }
+TEST_F(BadObj, NanCoordinate) { expect("v 0 nan 0\n", 1, "y coordinate 'nan' is not a finite number"); }
+TEST_F(BadObj, MissingCoordinate) { expect("v 0 0\r\n", 1, "expected z coordinate, found the end of the line"); }
+TEST_F(BadObj, NoFaces) { expect(kTri, 4, "no faces"); }
+
+TEST(Boundary, FiveTetCube) {
+  const TetMesh m = read_msh(data("mesh/cube22.msh"));
+  std::vector<int> to_volume;
+  const SurfaceMesh s = extract_boundary(m, &to_volume);
+  EXPECT_EQ(s.vertices.size(), 8u);
+  EXPECT_EQ(s.triangles.size(), 12u);
+  EXPECT_EQ(count_interior_faces(m.tets), 4);  // (4 * 5 - 12) / 2
+  ASSERT_EQ(to_volume.size(), 8u);
+  EXPECT_TRUE(std::is_sorted(to_volume.begin(), to_volume.end()));
+  for (std::size_t i = 0; i < to_volume.size(); ++i) EXPECT_EQ(s.vertices[i], m.vertices[to_volume[i]]);
+  expect_closed_oriented(s);
+  expect_outward(s, {5, 5, 5});
+  EXPECT_NEAR(enclosed_volume(s), 1000.0, 1e-9);  // each term divided by 6 and rounded: a few ulps
+}
+
+TEST(Boundary, SixTetCubeAnyOrientation) {
+  TetMesh m = kuhn_cube();
+  const FaceCounts c = count_faces(m.tets);
+  EXPECT_EQ(c.boundary, 12);
+  EXPECT_EQ(c.interior, 6);
+  EXPECT_EQ(c.nonmanifold, 0);
+  const SurfaceMesh s = extract_boundary(m);
+  expect_closed_oriented(s);
+  expect_outward(s, {0.5, 0.5, 0.5});
+  // negatively oriented tets still give an outward surface
+  for (Tet& t : m.tets) std::swap(t[1], t[2]);
+  const SurfaceMesh flipped = extract_boundary(m);
+  expect_closed_oriented(flipped);
+  expect_outward(flipped, {0.5, 0.5, 0.5});
+}
+
+TEST(Boundary, CompactsUnusedVertices) {
+  TetMesh m = kuhn_cube();
+  m.vertices.insert(m.vertices.begin(), Vec3d{9, 9, 9});  // vertex 0 is used by no tet
+  for (Tet& t : m.tets)
+    for (int& v : t) ++v;
+  std::vector<int> to_volume;
+  const SurfaceMesh s = extract_boundary(m, &to_volume);
+  EXPECT_EQ(s.vertices.size(), 8u);
+  EXPECT_EQ(to_volume.front(), 1);
+}
+
+}  // namespace
+}  // namespace ebh

@@ -1,0 +1,59 @@
+#pragma once
+// Helpers for the mesh tests: temporary files and InputError checks.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "io/error.hpp"
+
+namespace ebh::test {
+
+inline std::filesystem::path data(const std::string& name) { return std::filesystem::path(EBH_TEST_DATA_DIR) / name; }
+
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Writes `text` to a fresh file in the test's temporary folder and returns its path.
+inline std::filesystem::path write_temp(const std::string& name, const std::string& text) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  auto dir = std::filesystem::path(::testing::TempDir()) / "ebh_mesh_tests" / info->test_suite_name() / info->name();
+  std::filesystem::create_directories(dir);
+  auto p = dir / name;
+  std::ofstream(p, std::ios::binary) << text;
+  return p;
+}
+
+/// Replaces the first occurrence of `from` in `text` (which must contain it).
+inline std::string replace(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "test fixture does not contain '" << from << "'";
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+/// Runs `f`, expecting an InputError whose message starts with "FILE:LINE: " and contains
+/// `needle`; returns the message.
+template <class F>
+std::string expect_input_error(F&& f, const std::filesystem::path& file, int line, const std::string& needle) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    const std::string prefix = file.string() + ":" + std::to_string(line) + ": ";
+    EXPECT_EQ(msg.rfind(prefix, 0), 0u) << "message: " << msg << "\nexpected prefix: " << prefix;
+    EXPECT_NE(msg.find(needle), std::string::npos) << "message: " << msg << "\nexpected to contain: " << needle;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << "message is not one line: " << msg;
+    return msg;
+  }
+  ADD_FAILURE() << "no InputError thrown (expected one containing '" << needle << "')";
+  return {};
+}
+
+}  // namespace ebh::test

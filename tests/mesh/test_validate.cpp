@@ -1,0 +1,139 @@
+// Mesh validator: each defect is caught, orientation is fixed or rejected, quality is right.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "mesh/boundary.hpp"
+#include "mesh/mesh_io.hpp"
+#include "mesh/validate.hpp"
+#include "test_util.hpp"
+
+namespace ebh {
+namespace {
+
+TetMesh cube() { return read_msh(test::data("mesh/cube22.msh")); }
+
+TEST(MeanRatio, RegularAndFlat) {
+  const double s = 1.0 / std::sqrt(2.0);
+  const Vec3d a{1, 0, -s}, b{-1, 0, -s}, c{0, 1, s}, d{0, -1, s};  // regular, edge 2
+  const double q = signed_volume(a, b, c, d) > 0 ? tet_mean_ratio(a, b, c, d) : tet_mean_ratio(a, c, b, d);
+  EXPECT_NEAR(q, 1.0, 1e-12);  // rounding in cbrt and the sums only
+  EXPECT_EQ(tet_mean_ratio({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}), 0.0);  // flat
+  EXPECT_EQ(tet_mean_ratio({0, 0, 0}, {0, 1, 0}, {1, 0, 0}, {0, 0, 1}), 0.0);  // inverted
+  // the corner tet of a unit cube: V = 1/6, sum of squared edges = 3 + 3 * 2 = 9
+  EXPECT_NEAR(tet_mean_ratio({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}), 12.0 * std::cbrt(0.25) / 9.0, 1e-15);
+}
+
+TEST(Validate, CleanCube) {
+  const TetMesh m = cube();
+  const MeshReport r = validate_mesh(m);
+  EXPECT_FALSE(r.fatal()) << r.fatal_message(m);
+  EXPECT_TRUE(r.warnings().empty());
+  EXPECT_EQ(r.boundary_faces, 12);
+  EXPECT_EQ(r.interior_faces, 4);
+  // four corner tets (q = 12 cbrt(1/4) / 9 = 0.840) and one regular central tet (q = 1)
+  const double corner = 12.0 * std::cbrt(0.25) / 9.0;
+  EXPECT_NEAR(r.quality_worst, corner, 1e-12);  // rounding only
+  EXPECT_NEAR(r.quality_mean, (4 * corner + 1) / 5, 1e-12);
+}
+
+TEST(Validate, DegenerateTet) {
+  TetMesh m = cube();
+  m.vertices.push_back({5, 5, 0});  // coplanar with the bottom face
+  m.tets.push_back({1, 4, 3, 8});   // three bottom corners and the new vertex: flat
+  m.file_tet_ids.push_back(77);
+  const MeshReport r = validate_mesh(m);
+  EXPECT_EQ(r.degenerate_tets, std::vector<int>{5});
+  EXPECT_TRUE(r.fatal());
+  EXPECT_NE(r.fatal_message(m).find("degenerate (flat) tet, the first: tet 5 (element id 77)"), std::string::npos)
+      << r.fatal_message(m);
+  EXPECT_EQ(r.quality_worst, 0.0);
+  EXPECT_EQ(r.worst_tet, 5);
+}
+
+TEST(Validate, InvertedTetIsMixedOrientation) {
+  TetMesh m = cube();
+  std::swap(m.tets[2][1], m.tets[2][2]);
+  const MeshReport r = validate_mesh(m);
+  EXPECT_EQ(r.inverted_tets, std::vector<int>{2});
+  EXPECT_NE(r.fatal_message(m).find("1 inverted tet, the first: tet 2 (element id 22)"), std::string::npos);
+  const Orientation o = orient_tets(m);
+  EXPECT_EQ(o.kind, Orientation::Kind::Mixed);
+  EXPECT_EQ(o.witness, 2);
+  EXPECT_EQ(o.positive, 4);
+  EXPECT_EQ(o.negative, 1);
+}
+
+TEST(Validate, AllNegativeIsFlipped) {
+  TetMesh m = cube();
+  for (Tet& t : m.tets) std::swap(t[0], t[3]);
+  EXPECT_EQ(validate_mesh(m).inverted_tets.size(), 5u);
+  const Orientation o = orient_tets(m);
+  EXPECT_EQ(o.kind, Orientation::Kind::Flipped);
+  EXPECT_FALSE(validate_mesh(m).fatal());
+  EXPECT_EQ(orient_tets(m).kind, Orientation::Kind::Positive);
+}
+
+TEST(Validate, UnreferencedAndDuplicateVertices) {
+  TetMesh m = cube();
+  m.vertices.push_back(m.vertices[3]);  // vertex 8 duplicates vertex 3 and is used by no tet
+  const MeshReport r = validate_mesh(m);
+  EXPECT_FALSE(r.fatal());
+  EXPECT_EQ(r.unreferenced_vertices, std::vector<int>{8});
+  ASSERT_EQ(r.duplicate_vertices.size(), 1u);
+  EXPECT_EQ(r.duplicate_vertices[0], (std::pair<int, int>{8, 3}));
+  EXPECT_EQ(r.warnings().size(), 2u);
+  EXPECT_EQ(remove_unreferenced_vertices(m), 1);
+  EXPECT_EQ(m.vertices.size(), 8u);
+  EXPECT_TRUE(validate_mesh(m).warnings().empty());
+}
+
+TEST(Validate, NonManifoldBoundaryEdge) {
+  // two tets sharing only the edge 0-1
+  TetMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -1, 0}, {0, 0, -1}};
+  m.tets = {{0, 1, 2, 3}, {0, 1, 4, 5}};
+  for (Tet& t : m.tets)
+    if (signed_volume(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]], m.vertices[t[3]]) < 0) std::swap(t[1], t[2]);
+  const MeshReport r = validate_mesh(m);
+  EXPECT_FALSE(r.fatal());
+  ASSERT_EQ(r.nonmanifold_edges.size(), 1u);
+  EXPECT_EQ(r.nonmanifold_edges[0], (std::array<int, 2>{0, 1}));
+}
+
+TEST(Validate, NonFiniteCoordinate) {
+  TetMesh m = cube();
+  m.vertices[6].y = std::numeric_limits<double>::quiet_NaN();
+  const MeshReport r = validate_mesh(m);
+  EXPECT_EQ(r.nonfinite_vertices, std::vector<int>{6});
+  EXPECT_NE(r.fatal_message(m).find("vertex 6 (node id 9)"), std::string::npos) << r.fatal_message(m);
+  EXPECT_TRUE(std::isfinite(r.quality_mean));
+}
+
+TEST(Validate, IndexOutOfRangeAndRepeated) {
+  TetMesh m = cube();
+  m.tets.push_back({0, 1, 2, 99});
+  m.tets.push_back({0, 1, 1, 2});
+  const MeshReport r = validate_mesh(m);
+  EXPECT_EQ(r.bad_index_tets, (std::vector<int>{5, 6}));
+  EXPECT_NE(r.fatal_message(m).find("tet 5 uses vertices 0 1 2 99 of 8"), std::string::npos) << r.fatal_message(m);
+}
+
+TEST(Validate, FaceSharedByThreeTets) {
+  TetMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, -1}, {0.2, 0.2, 2}};
+  m.tets = {{0, 1, 2, 3}, {0, 2, 1, 4}, {0, 1, 2, 5}};
+  const MeshReport r = validate_mesh(m);
+  EXPECT_EQ(r.nonmanifold_faces, 3);
+  EXPECT_TRUE(r.fatal());
+}
+
+TEST(Validate, EmptyMesh) {
+  const MeshReport r = validate_mesh(TetMesh{});
+  EXPECT_TRUE(r.fatal());
+  EXPECT_EQ(r.fatal_message(TetMesh{}), "no tets");
+}
+
+}  // namespace
+}  // namespace ebh

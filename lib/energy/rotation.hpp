@@ -8,8 +8,10 @@
 // previous step's rotation q, repeat
 //     omega = sum_i r_i x f_i / (|sum_i r_i . f_i| + eps)      (r_i, f_i the columns of R, F)
 //     q <- exp(omega) q
-// Each update is a rotation, so R never leaves SO(3); warm-started from the last step, one to
-// three updates suffice. It is branch-light and runs per tet in a CUDA thread unchanged.
+// Each update is a rotation, so R never leaves SO(3). The error contracts linearly (a scaled
+// gradient ascent on tr(R^T F)); warm-started from the last iteration's rotation, a few updates per
+// local step keep R converged as the Projective Dynamics loop proceeds. It is branch-light and runs
+// per tet in a CUDA thread unchanged.
 // polar_svd.hpp holds the SVD reference (host only) that tests and the benchmark compare with.
 #include "math/vec.hpp"
 
@@ -18,7 +20,7 @@ namespace ebh {
 /// Rotational part of F by Mueller et al. 2016, warm-started.
 ///   F         3x3 deformation gradient (any determinant, zero included)
 ///   q         rotation to start from (e.g. the last step's), unit quaternion (w, x, y, z)
-///   max_iter  most axis-angle updates (3 is plenty with a warm start; 20+ from identity)
+///   max_iter  most axis-angle updates (a few with a warm start; hundreds from identity)
 ///   tol       stop when the update angle |omega| (radians) falls below it
 /// Returns the unit quaternion of R. For F = 0 it returns q unchanged.
 template <class T>

@@ -60,10 +60,12 @@ PowerSpectrum power_spectrum(const std::vector<std::vector<double>>& channels, d
 
   std::vector<std::complex<double>> buf(w);
   for (const auto& ch : channels) {
+    // The mean of the whole signal, not of each window: a window's own mean would drop the
+    // power of content slower than the window (a slow press) from the total.
+    double mean = 0;
+    for (std::size_t i = 0; i < len; ++i) mean += ch[i];
+    mean /= static_cast<double>(len);
     for (std::size_t b : starts) {
-      double mean = 0;
-      for (std::size_t i = 0; i < w; ++i) mean += ch[b + i];
-      mean /= static_cast<double>(w);
       for (std::size_t i = 0; i < w; ++i) buf[i] = (ch[b + i] - mean) * hann[i];
       fft_radix2(buf);
       for (std::size_t k = 0; k <= w / 2; ++k) {
@@ -78,7 +80,7 @@ PowerSpectrum power_spectrum(const std::vector<std::vector<double>>& channels, d
 double power_fraction_above(const PowerSpectrum& s, double f_hz) {
   if (s.power.empty()) return std::numeric_limits<double>::quiet_NaN();
   double total = 0, above = 0;
-  for (std::size_t k = 1; k < s.power.size(); ++k) {
+  for (std::size_t k = 0; k < s.power.size(); ++k) {
     total += s.power[k];
     if (s.freq[k] > f_hz) above += s.power[k];
   }

@@ -18,8 +18,8 @@ std::size_t floor_pow2(std::size_t n);
 /// channels: C signals of equal length L, sampled at rate fs (Hz). Windows of W samples
 /// (W = min(max_window, floor_pow2(L))) start every W/2 samples; when the last one does not
 /// reach the end of the signal, one more window ending at the last sample is added, so every
-/// sample is covered. Each window has its own mean removed per channel and is multiplied by a
-/// Hann window. power[k] (k = 0..W/2) sums |X_k|^2 over channels and windows, bins 1..W/2-1
+/// sample is covered. Each channel has its mean (over the whole signal) removed; each window is
+/// multiplied by a Hann window. power[k] (k = 0..W/2) sums |X_k|^2 over channels and windows, bins 1..W/2-1
 /// doubled for the negative frequencies; freq[k] = k fs / W. Empty when W < min_window.
 struct PowerSpectrum {
   std::vector<double> freq;   // W/2+1, Hz
@@ -30,8 +30,8 @@ struct PowerSpectrum {
 PowerSpectrum power_spectrum(const std::vector<std::vector<double>>& channels, double fs, std::size_t max_window,
                              std::size_t min_window);
 
-/// Fraction of the spectrum's power (bins k >= 1: the mean is removed, DC is not force
-/// fluctuation) in bins with freq > f_hz. 0 when the total is 0 (a constant signal has no
+/// Fraction of the spectrum's power (all bins: with the signal's mean removed, bin 0 holds
+/// content slower than a window, still force fluctuation) in bins with freq > f_hz. 0 when the total is 0 (a constant signal has no
 /// fluctuation at any frequency); NaN when the spectrum is empty or not finite.
 double power_fraction_above(const PowerSpectrum& s, double f_hz);
 

@@ -1,0 +1,84 @@
+#pragma once
+// Vertex-tool collision (§5.1): which virtual-mesh vertices lie inside the (virtual or physical)
+// tool's colliders, their projections q_proj (what E_con [3] pulls them towards) and the
+// quantities the virtual tool's Newton step needs.
+//
+// One contact per vertex: the collider the vertex is deepest in (depth = -sd, the union's depth
+// approximated by the largest primitive depth). q_proj is the closest point on that collider's
+// surface (default) or the exit point of the ray from the vertex along minus its vertex normal
+// (Projection::InverseNormal, the paper's option); docs/TOOLS.md compares them.
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "energy/contact_target.hpp"
+#include "tool/broadphase.hpp"
+#include "tool/tool_model.hpp"
+
+namespace ebh {
+
+/// One vertex inside the tool. phi = |q - q_proj| >= 0 and E_con [3] of it is k_con/2 phi^2.
+struct ContactPoint {
+  int vertex = -1;
+  double depth = 0;  ///< -sd of the vertex in its collider (= phi for closest-point projection)
+  double phi = 0;    ///< |q - q_proj|
+  Vec3d target{};    ///< q_proj, world
+  Vec3d normal{};    ///< outward collider normal at q_proj, world
+  Vec3d lever{};     ///< the collider point that carries phi: q (closest point) or q_proj (inverse normal)
+  double gain = 1;   ///< d phi / d(tool displacement along normal at lever): 1, or 1/(n . d) for a ray d
+  Mat3d hess_sd{};   ///< world Hessian of the collider's sd at q (closest point only)
+  bool exact = true; ///< false: phi's curvature is not modelled (inverse normal: Gauss-Newton only)
+};
+
+/// Per-vertex narrow phase, host/device: the deepest of n posed colliders containing q.
+/// Returns the collider index or -1; `s` gets the world-frame query of that collider.
+template <class T>
+EBH_HD int deepest_collider(const Collider<T>* shape, const Rigid<T>* world, int n, Vec3<T> q, SurfaceQuery<T>& s) {
+  int best = -1;
+  for (int c = 0; c < n; ++c) {
+    const SurfaceQuery<T> l = query_local(shape[c], apply_inverse(world[c], q));
+    if (l.sd < T(0) && (best < 0 || l.sd < s.sd)) {
+      best = c;
+      s.sd = l.sd;
+      s.point = apply(world[c], l.point);
+      s.normal = world[c].R * l.normal;
+      s.hess = world[c].R * l.hess * transpose(world[c].R);
+    }
+  }
+  return best;
+}
+
+/// Contact of vertex `vertex` at q (world) against a posed tool, with normal n_v (unit, may be
+/// zero: then the closest point is used whatever the projection). Returns false when outside.
+bool vertex_contact(const PosedTool& tool, Projection projection, int vertex, Vec3d q, Vec3d n_v, ContactPoint& out);
+
+/// Candidate vertices for a posed tool that may move by up to `translation` (m) and
+/// `rotation` (rad, about the rotation centre) before the candidates are used again. Appends
+/// unique indices to `out`. Rebuilds the grid first when stale (counted in grid.rebuilds()) and
+/// again when the query finds the invariant violated.
+void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGrid& grid, double translation,
+                       double rotation, std::vector<int>& out);
+
+/// Narrow phase over candidates; clears and fills `out`. excluded: #m flags (grasped vertices)
+/// or empty.
+void narrow_phase(const PosedTool& tool, Projection projection, std::span<const int> candidates,
+                  std::span<const Vec3d> q, std::span<const Vec3d> normals, std::span<const std::uint8_t> excluded,
+                  std::vector<ContactPoint>& out);
+
+/// Algorithm 2 line 10: contact targets for the virtual mesh (E_con [3], tool held fixed).
+///   tool     the model; pose, jaw: the (virtual) tool's pose and jaw value in [0, 1]
+///   q        #m virtual-mesh positions; normals: #m unit vertex normals (may be empty for
+///            Projection::ClosestPoint)
+///   k_con    stiffness put on every target
+///   out      appended: one ContactTarget per vertex inside the tool
+///   excluded #m flags of vertices to skip (grasped ones), or empty
+void detect_contacts(const ToolModel& tool, const ToolPose& pose, double jaw, std::span<const Vec3d> q,
+                     std::span<const Vec3d> normals, VertexGrid& broadphase, double k_con,
+                     std::vector<ContactTarget>& out, std::span<const std::uint8_t> excluded = {});
+
+/// Depth (m, >= 0) of the deepest vertex of q inside the tool's colliders at pose (DESIGN §4:
+/// the virtual tool's is the penetration metric; the physical tool's is large by design).
+double penetration_depth(const ToolModel& tool, const ToolPose& pose, double jaw, std::span<const Vec3d> q,
+                         VertexGrid& broadphase, std::span<const std::uint8_t> excluded = {});
+
+}  // namespace ebh

@@ -1,0 +1,142 @@
+#include "tool/virtual_tool.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace ebh {
+namespace {
+
+constexpr int kMaxHalvings = 12;
+constexpr double kArmijo = 1e-4;
+
+/// Contacts of the candidates against the tool at `pose` (grasped vertices excluded).
+void detect_at(const ToolModel& tool, const ToolPose& pose, double jaw, std::span<const Vec3d> q,
+               std::span<const Vec3d> normals, const VirtualToolState& st, std::vector<ContactPoint>& out) {
+  narrow_phase(pose_tool(tool, pose, jaw), tool.projection, st.candidates, q, normals, st.grasp.held, out);
+}
+
+/// E_tool [2]+[3] at `pose` from already detected contacts; grad/hess/step may be null.
+double energy_at(const ToolModel& tool, const Stiffness& k, const ToolPose& physical, const ToolPose& pose,
+                 std::span<const Vec3d> q, const VirtualToolState& st, std::span<const ContactPoint> contacts,
+                 Vec6* grad, Mat6* hess_step) {
+  Vec6 g_tvc, g_con, g_gr;
+  Mat6 H_con, H_gr;
+  const bool d = grad != nullptr;
+  double e = coupling_energy(pose, physical, k.k_vcs, k.k_vct, d ? &g_tvc : nullptr, nullptr);
+  e += contact_energy(contacts, pose.position, k.k_con, d ? &g_con : nullptr, hess_step ? &H_con : nullptr);
+  e += grasp_energy(st.grasp, q, pose, k.k_con, d ? &g_gr : nullptr, hess_step ? &H_gr : nullptr);
+  if (grad) *grad = g_tvc + g_con + g_gr;
+  if (hess_step) {
+    Mat6 Hc = H_con + H_gr;
+    if (st.hessian == NewtonHessian::GaussNewton) {
+      Hc.setZero();
+      for (const ContactPoint& c : contacts) {
+        const Vec3d rn = cross(c.lever - pose.position, c.normal);
+        Vec6 J;
+        J << c.normal.x, c.normal.y, c.normal.z, rn.x, rn.y, rn.z;
+        J *= c.gain;
+        Hc += k.k_con * J * J.transpose();
+      }
+      Hc += H_gr;  // the grasp energy's Hessian is PSD up to its (e.s) term; clamp below
+    }
+    Eigen::SelfAdjointEigenSolver<Mat6> es(0.5 * (Hc + Hc.transpose()));
+    const Vec6 lambda = es.eigenvalues().cwiseMax(0.0);
+    *hess_step = es.eigenvectors() * lambda.asDiagonal() * es.eigenvectors().transpose();
+    hess_step->topLeftCorner<3, 3>() += k.k_vcs * Eigen::Matrix3d::Identity();
+    hess_step->bottomRightCorner<3, 3>() += k.k_vct * Eigen::Matrix3d::Identity();
+  }
+  (void)tool;
+  return e;
+}
+
+}  // namespace
+
+void init_virtual_tool(VirtualToolState& st, std::size_t m, const ToolPose& pose) {
+  st.pose = pose;
+  init_grasp(st.grasp, m);
+  st.candidates.clear();
+  st.candidates.reserve(m);
+  st.contacts.clear();
+  st.contacts.reserve(m);
+  st.trial.clear();
+  st.trial.reserve(m);
+  st.energy = 0.0;
+  st.steps_taken = st.steps_rejected = 0;
+}
+
+void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPose& physical, double jaw,
+                         std::span<const Vec3d> q, std::span<const Vec3d> normals, VertexGrid& grid,
+                         VirtualToolState& st) {
+  const int iterations = std::max(1, tool.spec.newton_iterations);
+  const double max_step = tool.spec.max_step;
+  const double max_rot = tool.spec.max_step_rotation_deg * std::numbers::pi / 180.0;
+  // Broad phase once per call, covering every pose the step limits let the iterations reach.
+  st.candidates.clear();
+  gather_candidates(pose_tool(tool, st.pose, jaw), q, grid, iterations * max_step, iterations * max_rot,
+                    st.candidates);
+  st.steps_taken = st.steps_rejected = 0;
+
+  detect_at(tool, st.pose, jaw, q, normals, st, st.contacts);
+  Vec6 g;
+  Mat6 H;
+  double E = energy_at(tool, k, physical, st.pose, q, st, st.contacts, &g, &H);
+  for (int it = 0; it < iterations; ++it) {
+    Vec6 dx = H.ldlt().solve(-g);  // eq. (9) with the positive definite H_step
+    if (!dx.allFinite()) { ++st.steps_rejected; break; }
+    const double scale = std::min({1.0, max_step / std::max(dx.head<3>().norm(), 1e-300),
+                                   max_rot / std::max(dx.tail<3>().norm(), 1e-300)});
+    dx *= scale;
+    const double slope = g.dot(dx);  // < 0: H_step is positive definite
+    if (!(slope < 0.0)) break;       // at a stationary point
+    double alpha = 1.0;
+    bool accepted = false;
+    for (int h = 0; h < kMaxHalvings; ++h, alpha *= 0.5) {
+      const ToolPose trial = perturb(st.pose, alpha * dx);
+      detect_at(tool, trial, jaw, q, normals, st, st.trial);
+      const double Et = energy_at(tool, k, physical, trial, q, st, st.trial, nullptr, nullptr);
+      if (Et <= E + kArmijo * alpha * slope) {
+        st.pose = trial;
+        st.contacts.swap(st.trial);
+        accepted = true;
+        break;
+      }
+    }
+    if (!accepted) { ++st.steps_rejected; break; }
+    ++st.steps_taken;
+    E = energy_at(tool, k, physical, st.pose, q, st, st.contacts, &g, &H);
+  }
+  st.energy = E;
+}
+
+double tool_energy(const ToolModel& tool, const Stiffness& k, const ToolPose& physical, double jaw,
+                   std::span<const Vec3d> q, std::span<const Vec3d> normals, VertexGrid& grid,
+                   VirtualToolState& st) {
+  st.candidates.clear();
+  gather_candidates(pose_tool(tool, st.pose, jaw), q, grid, 0.0, 0.0, st.candidates);
+  detect_at(tool, st.pose, jaw, q, normals, st, st.contacts);
+  return energy_at(tool, k, physical, st.pose, q, st, st.contacts, nullptr, nullptr);
+}
+
+void virtual_mesh_targets(const ToolModel& tool, const Stiffness& k, double jaw, std::span<const Vec3d> q,
+                          std::span<const Vec3d> normals, VertexGrid& grid, const VirtualToolState& st,
+                          std::vector<ContactTarget>& out) {
+  detect_contacts(tool, st.pose, jaw, q, normals, grid, k.k_con, out, st.grasp.held);
+  grasp_targets(st.grasp, st.pose, k.k_con, out);
+}
+
+ToolOutput tool_output(const ToolModel& tool, const Stiffness& k, const ToolPose& physical,
+                       const VirtualToolState& st) {
+  ToolOutput o;
+  Vec6 g;
+  coupling_energy(st.pose, physical, k.k_vcs, k.k_vct, &g, nullptr);
+  o.force = Vec3d{g[0], g[1], g[2]};
+  o.torque = Vec3d{g[3], g[4], g[5]};
+  const double fl = tool.spec.force_limit, f = norm(o.force);
+  if (fl > 0.0 && f > fl) { o.force = (fl / f) * o.force; o.force_clamped = true; }
+  const double tl = tool.torque_limit, t = norm(o.torque);
+  if (tl > 0.0 && t > tl) { o.torque = (tl / t) * o.torque; o.torque_clamped = true; }
+  return o;
+}
+
+}  // namespace ebh

@@ -150,6 +150,7 @@ struct Scene {
   TetMesh physical;              ///< the physical mesh (tets), metres
   SurfaceMesh virtual_surface;   ///< the virtual mesh source surface before refinement, metres
   std::vector<int> pinned;       ///< sorted physical-vertex indices that never move
+  std::vector<std::string> warnings;  ///< non-fatal problems found at load, one line each ("FILE: ...")
 };
 
 /// Parses and validates a scene file. Throws InputError ("FILE: key 'a.b': ...").

@@ -1,0 +1,470 @@
+// Scene files: parse and validate every key (schema in scene.hpp), load and check the meshes,
+// convert lengths to metres once, resolve pinned regions.
+#include "scene/scene.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <map>
+#include <set>
+#include <system_error>
+
+#include "ebh/version.hpp"
+#include "io/error.hpp"
+#include "mesh/boundary.hpp"
+#include "mesh/mesh_io.hpp"
+#include "mesh/validate.hpp"
+
+namespace ebh {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// How a value appears in an error message: its text, or what kind of node it is.
+std::string shown(const YAML::Node& n) {
+  if (!n.IsDefined() || n.IsNull()) return "nothing";
+  if (n.IsMap()) return "a map";
+  if (n.IsSequence()) return "a list";
+  std::string s = n.Scalar();
+  std::string out;
+  for (char c : s.substr(0, 60)) out += (static_cast<unsigned char>(c) < 0x20 ? '?' : c);
+  if (s.size() > 60) out += "...";
+  return "'" + out + "'";
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+/// Parses and validates the YAML tree. Every check names the dotted key.
+class SpecReader {
+ public:
+  explicit SpecReader(const fs::path& file) : file_(file) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw InputError(file_.string() + ": key '" + key + "': " + what);
+  }
+
+  /// The entries of a map node, checked: keys are plain strings, unique and among `allowed`.
+  std::map<std::string, YAML::Node> entries(const YAML::Node& node, const std::string& key,
+                                            const std::vector<std::string>& allowed) const {
+    if (!node.IsMap()) fail(key, "expected a map, got " + shown(node));
+    std::map<std::string, YAML::Node> out;
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      if (!it->first.IsScalar()) fail(key, "expected text keys, got " + shown(it->first));
+      const std::string name = it->first.Scalar();
+      const std::string full = key.empty() ? name : key + "." + name;
+      if (std::find(allowed.begin(), allowed.end(), name) == allowed.end())
+        fail(full, "unknown key (known: " + join(allowed) + ")");
+      if (!out.emplace(name, it->second).second) fail(full, "given twice");
+      // yaml-cpp hands out nodes that share the tree: keep them as they are
+    }
+    return out;
+  }
+
+  double number(const YAML::Node& n, const std::string& key, const char* expected = "a number") const {
+    if (!n.IsScalar()) fail(key, std::string("expected ") + expected + ", got " + shown(n));
+    const std::string& s = n.Scalar();
+    const char* b = s.data();
+    const char* e = s.data() + s.size();
+    if (b != e && *b == '+') ++b;
+    double v = 0;
+    auto [p, ec] = std::from_chars(b, e, v);
+    if (ec != std::errc() || p != e || b == e || !std::isfinite(v))
+      fail(key, std::string("expected ") + expected + ", got " + shown(n));
+    return v;
+  }
+  double positive(const YAML::Node& n, const std::string& key) const {
+    const double v = number(n, key, "a positive number");
+    if (!(v > 0)) fail(key, "expected a positive number, got " + shown(n));
+    return v;
+  }
+  double non_negative(const YAML::Node& n, const std::string& key) const {
+    const double v = number(n, key, "a number >= 0");
+    if (!(v >= 0)) fail(key, "expected a number >= 0, got " + shown(n));
+    return v;
+  }
+  /// A number in the interval (lo, hi) / [lo, hi], open or closed at each end as given.
+  double in_range(const YAML::Node& n, const std::string& key, double lo, bool lo_closed, double hi, bool hi_closed) const {
+    char range[96];
+    std::snprintf(range, sizeof range, "a number in %c%g, %g%c", lo_closed ? '[' : '(', lo, hi, hi_closed ? ']' : ')');
+    const double v = number(n, key, range);
+    const bool ok = (lo_closed ? v >= lo : v > lo) && (hi_closed ? v <= hi : v < hi);
+    if (!ok) fail(key, std::string("expected ") + range + ", got " + shown(n));
+    return v;
+  }
+  int integer(const YAML::Node& n, const std::string& key, int lo, int hi) const {
+    const std::string expected = "a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    if (!n.IsScalar()) fail(key, "expected " + expected + ", got " + shown(n));
+    const std::string& s = n.Scalar();
+    long long v = 0;
+    auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec != std::errc() || p != s.data() + s.size() || s.empty() || v < lo || v > hi)
+      fail(key, "expected " + expected + ", got " + shown(n));
+    return static_cast<int>(v);
+  }
+  bool boolean(const YAML::Node& n, const std::string& key) const {
+    if (n.IsScalar()) {
+      const std::string& s = n.Scalar();
+      if (s == "true" || s == "True" || s == "TRUE") return true;
+      if (s == "false" || s == "False" || s == "FALSE") return false;
+    }
+    fail(key, "expected true or false, got " + shown(n));
+  }
+  std::string text(const YAML::Node& n, const std::string& key, bool allow_empty = true) const {
+    if (!n.IsScalar()) fail(key, "expected text, got " + shown(n));
+    if (!allow_empty && n.Scalar().empty()) fail(key, "expected non-empty text");
+    return n.Scalar();
+  }
+  /// One of `names`; returns its index.
+  int choice(const YAML::Node& n, const std::string& key, const std::vector<std::string>& names) const {
+    if (n.IsScalar()) {
+      auto it = std::find(names.begin(), names.end(), n.Scalar());
+      if (it != names.end()) return static_cast<int>(it - names.begin());
+    }
+    fail(key, "expected one of " + join(names) + ", got " + shown(n));
+  }
+  Vec3d vec3(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsSequence() || n.size() != 3) fail(key, "expected a list of 3 numbers [x, y, z], got " + shown(n));
+    Vec3d v;
+    for (int i = 0; i < 3; ++i) v[i] = number(n[static_cast<std::size_t>(i)], key + "[" + std::to_string(i) + "]");
+    return v;
+  }
+  Vec3d nonzero_vec3(const YAML::Node& n, const std::string& key) const {
+    const Vec3d v = vec3(n, key);
+    if (!(norm(v) > 0)) fail(key, "expected a non-zero vector");
+    return v;
+  }
+  /// A length in the file's unit, returned in metres.
+  double length(const YAML::Node& n, const std::string& key) const { return positive(n, key) * unit_; }
+
+  const YAML::Node& required(const std::map<std::string, YAML::Node>& e, const std::string& name,
+                             const std::string& key) const {
+    auto it = e.find(name);
+    if (it == e.end()) fail(key.empty() ? name : key + "." + name, "missing (required)");
+    return it->second;
+  }
+
+  /// A mesh path, relative to the scene file, that must exist.
+  fs::path mesh_path(const YAML::Node& n, const std::string& key) const {
+    fs::path p = text(n, key, false);
+    if (p.is_relative()) p = (file_.parent_path() / p).lexically_normal();
+    std::error_code ec;
+    if (!fs::is_regular_file(p, ec)) fail(key, "file not found: " + p.string());
+    return p;
+  }
+
+  SceneSpec read(const YAML::Node& root) {
+    SceneSpec s;
+    s.file = file_;
+    s.name = file_.stem().string();
+    const auto top = entries(root, "", {"name", "description", "unit", "mesh", "material", "stiffness", "gravity",
+                                        "damping", "pinned", "tool", "time", "solver", "camera", "stages"});
+    if (auto it = top.find("unit"); it != top.end()) {
+      static const std::vector<std::string> names = {"m", "cm", "mm"};
+      static const double metres[] = {1.0, 0.01, 0.001};
+      const int u = choice(it->second, "unit", names);
+      s.unit_name = names[u];
+      s.unit = unit_ = metres[u];
+    }
+    for (const auto& [name, n] : top) {
+      if (name == "name") s.name = text(n, "name", false);
+      else if (name == "description") s.description = text(n, "description");
+      else if (name == "mesh") read_mesh(n, s);
+      else if (name == "material") {
+        const auto e = entries(n, "material", {"density"});
+        if (auto d = e.find("density"); d != e.end()) s.density = positive(d->second, "material.density");
+      } else if (name == "stiffness") read_stiffness(n, s.stiffness);
+      else if (name == "gravity") s.gravity = vec3(n, "gravity");
+      else if (name == "damping") s.damping = in_range(n, "damping", 0, true, 1, false);
+      else if (name == "pinned") read_pinned(n, s);
+      else if (name == "tool") read_tool(n, s.tool);
+      else if (name == "time") read_time(n, s);
+      else if (name == "solver") read_solver(n, s.solver);
+      else if (name == "camera") read_camera(n, s.camera);
+      else if (name == "stages") {
+        const auto e = entries(n, "stages", {"grasp", "frames"});
+        if (auto g = e.find("grasp"); g != e.end()) s.stages.grasp = boolean(g->second, "stages.grasp");
+        if (auto f = e.find("frames"); f != e.end()) s.stages.frames = boolean(f->second, "stages.frames");
+      }
+    }
+    if (!top.count("mesh")) fail("mesh", "missing (required: mesh.physical names the physical mesh)");
+    return s;
+  }
+
+ private:
+  void read_mesh(const YAML::Node& n, SceneSpec& s) const {
+    const auto e = entries(n, "mesh", {"physical", "virtual", "virtual_refine"});
+    s.physical_mesh = mesh_path(required(e, "physical", "mesh"), "mesh.physical");
+    if (auto v = e.find("virtual"); v != e.end()) {
+      const std::string t = text(v->second, "mesh.virtual", false);
+      if (t != "boundary") {
+        std::string ext = fs::path(t).extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+        if (ext != ".obj") fail("mesh.virtual", "expected 'boundary' or an .obj file, got " + shown(v->second));
+        s.virtual_mesh = mesh_path(v->second, "mesh.virtual");
+      }
+    }
+    if (auto r = e.find("virtual_refine"); r != e.end()) s.virtual_refine = integer(r->second, "mesh.virtual_refine", 0, 1);
+  }
+
+  void read_stiffness(const YAML::Node& n, Stiffness& k) const {
+    const auto e = entries(n, "stiffness", {"k_vol", "k_s", "k_svc", "k_con", "k_vcs", "k_vct"});
+    const std::pair<const char*, double*> fields[] = {{"k_vol", &k.k_vol}, {"k_s", &k.k_s},     {"k_svc", &k.k_svc},
+                                                      {"k_con", &k.k_con}, {"k_vcs", &k.k_vcs}, {"k_vct", &k.k_vct}};
+    for (const auto& [name, dst] : fields)
+      if (auto it = e.find(name); it != e.end()) *dst = positive(it->second, std::string("stiffness.") + name);
+  }
+
+  void read_pinned(const YAML::Node& n, SceneSpec& s) const {
+    if (n.IsNull()) return;  // "pinned:" with nothing: no region
+    if (!n.IsSequence()) fail("pinned", "expected a list of regions, got " + shown(n));
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const std::string key = "pinned[" + std::to_string(i) + "]";
+      const auto e = entries(n[i], key, {"group", "box", "sphere", "halfspace"});
+      if (e.size() != 1) fail(key, "expected exactly one of group, box, sphere, halfspace");
+      const auto& [kind, v] = *e.begin();
+      const std::string k = key + "." + kind;
+      PinRegion r;
+      if (kind == "group") {
+        r.kind = PinRegion::Kind::Group;
+        r.group = text(v, k, false);
+      } else if (kind == "box") {
+        r.kind = PinRegion::Kind::Box;
+        const auto b = entries(v, k, {"min", "max"});
+        r.a = vec3(required(b, "min", k), k + ".min") * unit_;
+        r.b = vec3(required(b, "max", k), k + ".max") * unit_;
+        if (!(r.a.x <= r.b.x && r.a.y <= r.b.y && r.a.z <= r.b.z)) fail(k + ".max", "expected max >= min in every coordinate");
+      } else if (kind == "sphere") {
+        r.kind = PinRegion::Kind::Sphere;
+        const auto b = entries(v, k, {"center", "radius"});
+        r.a = vec3(required(b, "center", k), k + ".center") * unit_;
+        r.b = {length(required(b, "radius", k), k + ".radius"), 0, 0};
+      } else {
+        r.kind = PinRegion::Kind::Halfspace;
+        const auto b = entries(v, k, {"point", "normal"});
+        r.a = vec3(required(b, "point", k), k + ".point") * unit_;
+        r.b = normalized(nonzero_vec3(required(b, "normal", k), k + ".normal"));
+      }
+      s.pinned.push_back(r);
+    }
+  }
+
+  void read_tool(const YAML::Node& n, ToolSpec& t) const {
+    const auto e = entries(n, "tool", {"kind", "shaft_radius", "shaft_length", "hook", "forceps", "force_limit",
+                                       "newton_iterations", "max_step", "max_step_rotation_deg"});
+    for (const auto& [name, v] : e) {
+      const std::string k = "tool." + name;
+      if (name == "kind") t.kind = choice(v, k, {"hook", "forceps"}) == 0 ? ToolSpec::Kind::Hook : ToolSpec::Kind::Forceps;
+      else if (name == "shaft_radius") t.shaft_radius = length(v, k);
+      else if (name == "shaft_length") t.shaft_length = length(v, k);
+      else if (name == "force_limit") t.force_limit = positive(v, k);
+      else if (name == "newton_iterations") t.newton_iterations = integer(v, k, 1, 100);
+      else if (name == "max_step") t.max_step = length(v, k);
+      else if (name == "max_step_rotation_deg") t.max_step_rotation_deg = in_range(v, k, 0, false, 180, true);
+      else if (name == "hook") {
+        const auto h = entries(v, k, {"tip_length", "tip_radius"});
+        if (auto it = h.find("tip_length"); it != h.end()) t.hook.tip_length = length(it->second, k + ".tip_length");
+        if (auto it = h.find("tip_radius"); it != h.end()) t.hook.tip_radius = length(it->second, k + ".tip_radius");
+      } else if (name == "forceps") {
+        const auto f = entries(v, k, {"jaw_length", "jaw_width", "jaw_thickness", "jaw_max_angle_deg", "grasp_threshold",
+                                      "soft_margin", "eta"});
+        for (const auto& [fname, fv] : f) {
+          const std::string fk = k + "." + fname;
+          if (fname == "jaw_length") t.forceps.jaw_length = length(fv, fk);
+          else if (fname == "jaw_width") t.forceps.jaw_width = length(fv, fk);
+          else if (fname == "jaw_thickness") t.forceps.jaw_thickness = length(fv, fk);
+          else if (fname == "jaw_max_angle_deg") t.forceps.jaw_max_angle_deg = in_range(fv, fk, 0, false, 90, true);
+          else if (fname == "grasp_threshold") t.forceps.grasp_threshold = in_range(fv, fk, 0, true, 1, true);
+          else if (fname == "soft_margin") t.forceps.soft_margin = non_negative(fv, fk) * unit_;
+          else if (fname == "eta") t.forceps.eta = positive(fv, fk);
+        }
+      }
+    }
+  }
+
+  void read_time(const YAML::Node& n, SceneSpec& s) const {
+    const auto e = entries(n, "time", {"haptic_hz", "physical_hz"});
+    if (auto it = e.find("haptic_hz"); it != e.end()) s.haptic_hz = positive(it->second, "time.haptic_hz");
+    if (auto it = e.find("physical_hz"); it != e.end()) s.physical_hz = positive(it->second, "time.physical_hz");
+    // physical step k starts at tick k N (DESIGN.md §2): N = haptic_hz / physical_hz must be whole
+    const double ratio = s.haptic_hz / s.physical_hz;
+    if (ratio < 1.0 - 1e-9 || std::fabs(ratio - std::round(ratio)) > 1e-9 * ratio)
+      fail("time.physical_hz", "haptic_hz / physical_hz must be a whole number >= 1, got " + std::to_string(ratio));
+  }
+
+  void read_solver(const YAML::Node& n, SolverSpec& sv) const {
+    const auto e = entries(n, "solver", {"method", "physical_iterations", "virtual_iterations", "chebyshev_rho"});
+    if (auto it = e.find("method"); it != e.end()) {
+      const int m = choice(it->second, "solver.method", {"jacobi", "chebyshev", "direct"});
+      sv.method = m == 0 ? SolverSpec::Method::Jacobi : m == 1 ? SolverSpec::Method::Chebyshev : SolverSpec::Method::Direct;
+    }
+    if (auto it = e.find("physical_iterations"); it != e.end())
+      sv.physical_iterations = integer(it->second, "solver.physical_iterations", 1, 100000);
+    if (auto it = e.find("virtual_iterations"); it != e.end())
+      sv.virtual_iterations = integer(it->second, "solver.virtual_iterations", 1, 100000);
+    if (auto it = e.find("chebyshev_rho"); it != e.end())
+      sv.chebyshev_rho = in_range(it->second, "solver.chebyshev_rho", 0, false, 1, false);
+  }
+
+  void read_camera(const YAML::Node& n, Camera& c) const {
+    const auto e = entries(n, "camera", {"eye", "target", "up", "fov_deg"});
+    if (auto it = e.find("eye"); it != e.end()) c.eye = vec3(it->second, "camera.eye") * unit_;
+    if (auto it = e.find("target"); it != e.end()) c.target = vec3(it->second, "camera.target") * unit_;
+    if (auto it = e.find("up"); it != e.end()) c.up = normalized(nonzero_vec3(it->second, "camera.up"));
+    if (auto it = e.find("fov_deg"); it != e.end()) c.fov_deg = in_range(it->second, "camera.fov_deg", 0, false, 180, false);
+    if (!(norm(c.eye - c.target) > 0)) fail("camera.target", "expected a target different from the eye");
+  }
+
+  fs::path file_;
+  double unit_ = 1.0;
+};
+
+std::string region_name(PinRegion::Kind k) {
+  switch (k) {
+    case PinRegion::Kind::Group: return "group";
+    case PinRegion::Kind::Box: return "box";
+    case PinRegion::Kind::Sphere: return "sphere";
+    case PinRegion::Kind::Halfspace: return "halfspace";
+  }
+  return "region";
+}
+
+/// The physical-mesh vertices a region pins (unsorted, may repeat).
+std::vector<int> region_vertices(const Scene& scene, const PinRegion& r, std::size_t index) {
+  const TetMesh& m = scene.physical;
+  std::vector<int> out;
+  if (r.kind == PinRegion::Kind::Group) {
+    std::set<int> tags;
+    std::set<std::string> known;
+    for (const auto& [tag, name] : m.group_names) {
+      known.insert(name);
+      if (name == r.group) tags.insert(tag);
+    }
+    if (tags.empty()) {
+      throw InputError(scene.spec.file.string() + ": key 'pinned[" + std::to_string(index) + "].group': unknown group '" +
+                       r.group + "' (known groups in " + scene.spec.physical_mesh.string() + ": " +
+                       (known.empty() ? std::string("none") : join({known.begin(), known.end()})) + ")");
+    }
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
+      if (t < m.tet_group.size() && tags.count(m.tet_group[t])) out.insert(out.end(), m.tets[t].begin(), m.tets[t].end());
+    for (std::size_t f = 0; f < m.triangles.size(); ++f)
+      if (f < m.triangle_group.size() && tags.count(m.triangle_group[f]))
+        out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
+    return out;
+  }
+  for (std::size_t v = 0; v < m.vertices.size(); ++v) {
+    const Vec3d& p = m.vertices[v];
+    bool in = false;
+    switch (r.kind) {
+      case PinRegion::Kind::Box:
+        in = p.x >= r.a.x && p.y >= r.a.y && p.z >= r.a.z && p.x <= r.b.x && p.y <= r.b.y && p.z <= r.b.z;
+        break;
+      case PinRegion::Kind::Sphere: in = norm(p - r.a) <= r.b.x; break;
+      case PinRegion::Kind::Halfspace: in = dot(p - r.a, r.b) >= 0.0; break;
+      case PinRegion::Kind::Group: break;
+    }
+    if (in) out.push_back(static_cast<int>(v));
+  }
+  return out;
+}
+
+}  // namespace
+
+SceneSpec load_scene_spec(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw InputError(file.string() + ": scene file not found");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file.string());
+  } catch (const YAML::ParserException& e) {
+    throw InputError(file.string() + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    throw InputError(file.string() + ": cannot read scene file: " + e.msg);
+  }
+  if (!root.IsDefined() || root.IsNull()) throw InputError(file.string() + ": empty scene file");
+  try {
+    return SpecReader(file).read(root);
+  } catch (const YAML::Exception& e) {  // defensive: a yaml-cpp accessor that throws on odd input
+    throw InputError(file.string() + ": malformed scene file: " + e.msg);
+  }
+}
+
+Scene load_scene(const fs::path& file) {
+  Scene scene;
+  scene.spec = load_scene_spec(file);
+  const SceneSpec& spec = scene.spec;
+  const std::string mesh_file = spec.physical_mesh.string();
+
+  // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres.
+  TetMesh mesh = read_msh(spec.physical_mesh);
+  if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
+    scene.warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");
+  const Orientation o = orient_tets(mesh);
+  if (o.kind == Orientation::Kind::Mixed) {
+    std::string tet = "tet " + std::to_string(o.witness);
+    if (static_cast<std::size_t>(o.witness) < mesh.file_tet_ids.size())
+      tet += " (element id " + std::to_string(mesh.file_tet_ids[o.witness]) + ")";
+    throw InputError(mesh_file + ": tets have mixed orientation (" + std::to_string(o.positive) + " positive, " +
+                     std::to_string(o.negative) + " negative); the first of the fewer: " + tet);
+  }
+  if (o.kind == Orientation::Kind::Flipped)
+    scene.warnings.push_back(mesh_file + ": all tets were negatively oriented; flipped them");
+  const MeshReport report = validate_mesh(mesh);
+  if (report.fatal()) throw InputError(mesh_file + ": " + report.fatal_message(mesh));
+  for (const auto& w : report.warnings()) scene.warnings.push_back(mesh_file + ": " + w);
+  for (Vec3d& p : mesh.vertices) p *= spec.unit;
+  scene.physical = std::move(mesh);
+
+  // The virtual mesh's source surface.
+  if (spec.virtual_mesh) {
+    scene.virtual_surface = read_obj(*spec.virtual_mesh);
+    for (Vec3d& p : scene.virtual_surface.vertices) p *= spec.unit;
+  } else {
+    scene.virtual_surface = extract_boundary(scene.physical);
+  }
+
+  // Pinned regions (their coordinates were scaled when the file was read).
+  for (std::size_t i = 0; i < spec.pinned.size(); ++i) {
+    std::vector<int> v = region_vertices(scene, spec.pinned[i], i);
+    if (v.empty()) {
+      const PinRegion& r = spec.pinned[i];
+      throw InputError(spec.file.string() + ": key 'pinned[" + std::to_string(i) + "]." + region_name(r.kind) +
+                       "': the " + region_name(r.kind) + (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") +
+                       " pins no vertex of the physical mesh");
+    }
+    scene.pinned.insert(scene.pinned.end(), v.begin(), v.end());
+  }
+  std::sort(scene.pinned.begin(), scene.pinned.end());
+  scene.pinned.erase(std::unique(scene.pinned.begin(), scene.pinned.end()), scene.pinned.end());
+  return scene;
+}
+
+fs::path resolve_scene_path(const std::string& name_or_path) {
+  if (name_or_path.empty()) throw InputError("scene: expected a scene name or a path, got nothing");
+  const bool is_name = name_or_path.find('/') == std::string::npos && fs::path(name_or_path).extension().empty();
+  std::error_code ec;
+  if (!is_name) {
+    if (!fs::is_regular_file(name_or_path, ec)) throw InputError(name_or_path + ": scene file not found");
+    return name_or_path;
+  }
+  std::vector<fs::path> roots;
+  if (const char* env = std::getenv("EBH_DATA_DIR"); env && *env) roots.emplace_back(env);
+  roots.emplace_back(fs::current_path(ec));
+  roots.emplace_back(kSourceDir);
+  std::string looked;
+  for (const auto& root : roots) {
+    const fs::path p = root / "scenarios" / (name_or_path + ".yaml");
+    if (fs::is_regular_file(p, ec)) return p;
+    looked += (looked.empty() ? "" : ", ") + p.string();
+  }
+  throw InputError(name_or_path + ": no such scene (looked for " + looked + ")");
+}
+
+}  // namespace ebh

@@ -1,0 +1,275 @@
+// Scene loader: a valid file loads with every length in metres; each kind of bad key or value
+// is rejected with the dotted key named; meshes are validated; pinned regions resolve.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "../mesh/test_util.hpp"
+#include "scene/scene.hpp"
+
+namespace ebh {
+namespace {
+
+namespace fs = std::filesystem;
+using test::data;
+using test::replace;
+using test::slurp;
+using test::write_temp;
+
+// Exact comparisons of scaled lengths are avoided: 6 * 0.001 is not the double nearest 0.006.
+constexpr double kTol = 1e-15;  // a few ulps of the lengths involved (<= 0.3 m)
+
+TEST(SceneSpec, EveryKeyRead) {
+  const SceneSpec s = load_scene_spec(data("scene/cube.yaml"));
+  EXPECT_EQ(s.name, "test-cube");
+  EXPECT_EQ(s.description, "small cube for the scene loader tests");
+  EXPECT_EQ(s.unit_name, "mm");
+  EXPECT_EQ(s.unit, 0.001);
+  EXPECT_EQ(s.physical_mesh, data("mesh/cube22.msh").lexically_normal());
+  EXPECT_FALSE(s.virtual_mesh.has_value());
+  EXPECT_EQ(s.virtual_refine, 1);
+  EXPECT_EQ(s.density, 1100.0);  // SI: not scaled
+  EXPECT_EQ(s.stiffness.k_vol, 2500.0);
+  EXPECT_EQ(s.stiffness.k_s, 25.0);
+  EXPECT_EQ(s.stiffness.k_svc, 55.0);
+  EXPECT_EQ(s.stiffness.k_con, 450.0);
+  EXPECT_EQ(s.stiffness.k_vcs, 320.0);
+  EXPECT_EQ(s.stiffness.k_vct, 0.35);
+  EXPECT_EQ(s.gravity, Vec3d(0, 0, -9.81));  // SI: not scaled
+  EXPECT_EQ(s.damping, 0.05);
+  ASSERT_EQ(s.pinned.size(), 2u);
+  EXPECT_EQ(s.pinned[0].kind, PinRegion::Kind::Group);
+  EXPECT_EQ(s.pinned[0].group, "bottom");
+  EXPECT_EQ(s.pinned[1].kind, PinRegion::Kind::Box);
+  EXPECT_NEAR(s.pinned[1].b.z, 0.011, kTol);
+  EXPECT_EQ(s.tool.kind, ToolSpec::Kind::Forceps);
+  EXPECT_NEAR(s.tool.shaft_radius, 0.0025, kTol);
+  EXPECT_NEAR(s.tool.shaft_length, 0.3, kTol);
+  EXPECT_NEAR(s.tool.hook.tip_length, 0.006, kTol);
+  EXPECT_NEAR(s.tool.hook.tip_radius, 0.001, kTol);
+  EXPECT_NEAR(s.tool.forceps.jaw_length, 0.020, kTol);
+  EXPECT_NEAR(s.tool.forceps.jaw_width, 0.005, kTol);
+  EXPECT_NEAR(s.tool.forceps.jaw_thickness, 0.002, kTol);
+  EXPECT_EQ(s.tool.forceps.jaw_max_angle_deg, 30.0);  // degrees stay degrees
+  EXPECT_EQ(s.tool.forceps.grasp_threshold, 0.2);
+  EXPECT_NEAR(s.tool.forceps.soft_margin, 0.002, kTol);
+  EXPECT_EQ(s.tool.forceps.eta, 1.5);
+  EXPECT_EQ(s.tool.force_limit, 3.3);  // newtons: not scaled
+  EXPECT_EQ(s.tool.newton_iterations, 3);
+  EXPECT_NEAR(s.tool.max_step, 0.0005, kTol);
+  EXPECT_EQ(s.tool.max_step_rotation_deg, 2.0);
+  EXPECT_EQ(s.haptic_hz, 1000.0);
+  EXPECT_EQ(s.physical_hz, 50.0);
+  EXPECT_EQ(s.solver.method, SolverSpec::Method::Jacobi);
+  EXPECT_EQ(s.solver.physical_iterations, 20);
+  EXPECT_EQ(s.solver.virtual_iterations, 5);
+  EXPECT_EQ(s.solver.chebyshev_rho, 0.9);
+  EXPECT_NEAR(s.camera.eye.y, -0.1, kTol);
+  EXPECT_NEAR(s.camera.target.x, 0.005, kTol);
+  EXPECT_EQ(s.camera.up, Vec3d(0, 0, 1));  // a direction: normalised, not scaled
+  EXPECT_EQ(s.camera.fov_deg, 45.0);
+  EXPECT_TRUE(s.stages.grasp);
+  EXPECT_TRUE(s.stages.frames);
+}
+
+TEST(SceneSpec, DefaultsAndNameFromStem) {
+  const auto p = write_temp("minimal.yaml", "mesh: {physical: " + data("mesh/cube22.msh").string() + "}\n");
+  const SceneSpec s = load_scene_spec(p);
+  EXPECT_EQ(s.name, "minimal");
+  EXPECT_EQ(s.unit, 1.0);
+  EXPECT_EQ(s.tool.hook.tip_length, SceneSpec{}.tool.hook.tip_length);  // defaults are metres already
+  EXPECT_TRUE(s.pinned.empty());
+}
+
+TEST(Scene, LoadsInMetresAndPins) {
+  const Scene s = load_scene(data("scene/cube.yaml"));
+  EXPECT_TRUE(s.warnings.empty());
+  ASSERT_EQ(s.physical.vertices.size(), 8u);
+  EXPECT_NEAR(s.physical.vertices[0].x, 0.010, kTol);  // node 101 at (10, 0, 10) mm
+  EXPECT_NEAR(s.physical.vertices[0].z, 0.010, kTol);
+  EXPECT_EQ(s.virtual_surface.vertices.size(), 8u);
+  EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
+  // group bottom: the z = 0 corners (nodes 7, 3, 1000, 9 -> vertices 1, 3, 4, 6); the box around
+  // (0, 0, 10) mm: node 250 -> vertex 7
+  EXPECT_EQ(s.pinned, (std::vector<int>{1, 3, 4, 6, 7}));
+}
+
+TEST(Scene, ObjVirtualSurfaceSphereAndHalfspaceInCentimetres) {
+  const Scene s = load_scene(data("scene/cube_obj.yaml"));
+  EXPECT_EQ(s.spec.virtual_mesh, data("mesh/cube.obj").lexically_normal());
+  EXPECT_NEAR(s.physical.vertices[2].y, 0.1, kTol);  // node 55 at (10, 10, 10) cm
+  ASSERT_EQ(s.virtual_surface.vertices.size(), 8u);
+  EXPECT_NEAR(s.virtual_surface.vertices[7].z, 0.1, kTol);
+  EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
+  // sphere of 0.5 cm at the origin: vertex 1; half-space x >= 10 cm: vertices 0, 2, 4, 6
+  EXPECT_EQ(s.pinned, (std::vector<int>{0, 1, 2, 4, 6}));
+}
+
+TEST(Scene, UnitsScaleEveryLength) {
+  const std::string mm = slurp(data("scene/cube.yaml"));
+  std::string m = replace(mm, "unit: mm", "unit: m");
+  m = replace(m, "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const Scene a = load_scene(data("scene/cube.yaml"));
+  const Scene b = load_scene(write_temp("cube_m.yaml", m));
+  for (std::size_t v = 0; v < a.physical.vertices.size(); ++v)
+    EXPECT_NEAR(a.physical.vertices[v].x * 1000.0, b.physical.vertices[v].x, 1e-12);  // rounding of * 0.001
+  EXPECT_NEAR(a.spec.tool.shaft_length * 1000.0, b.spec.tool.shaft_length, 1e-12);
+  EXPECT_EQ(a.spec.tool.forceps.jaw_max_angle_deg, b.spec.tool.forceps.jaw_max_angle_deg);
+  EXPECT_EQ(a.spec.stiffness.k_vol, b.spec.stiffness.k_vol);
+}
+
+// ---- bad keys and values -----------------------------------------------------------------------
+
+struct BadScene : ::testing::Test {
+  std::string good;
+  BadScene() {
+    good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  }
+  /// Loads `text` as a scene; expects InputError "FILE: <needle>...".
+  void expect(const std::string& text, const std::string& needle, bool full_load = false) {
+    const auto p = write_temp("bad.yaml", text);
+    try {
+      if (full_load) {
+        load_scene(p);
+      } else {
+        load_scene_spec(p);
+      }
+      ADD_FAILURE() << "no InputError (expected '" << needle << "')";
+    } catch (const InputError& e) {
+      const std::string msg = e.what();
+      EXPECT_EQ(msg.rfind(p.string() + ":", 0), 0u) << msg;
+      EXPECT_NE(msg.find(needle), std::string::npos) << "message: " << msg << "\nexpected: " << needle;
+      EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+    }
+  }
+};
+
+TEST_F(BadScene, NotANumber) {
+  expect(replace(good, "tip_length: 6", "tip_length: abc"), ": key 'tool.hook.tip_length': expected a positive number, got 'abc'");
+}
+TEST_F(BadScene, NotPositive) {
+  expect(replace(good, "tip_length: 6", "tip_length: -6"), "key 'tool.hook.tip_length': expected a positive number, got '-6'");
+}
+TEST_F(BadScene, NotFinite) { expect(replace(good, "density: 1100", "density: .nan"), "key 'material.density': expected a positive number, got '.nan'"); }
+TEST_F(BadScene, MapForNumber) { expect(replace(good, "density: 1100", "density: {a: 1}"), "key 'material.density': expected a positive number, got a map"); }
+TEST_F(BadScene, UnknownTopKey) { expect(good + "colour: red\n", "key 'colour': unknown key (known: name, description, unit"); }
+TEST_F(BadScene, UnknownNestedKey) { expect(replace(good, "k_s: 25", "k_x: 25"), "key 'stiffness.k_x': unknown key (known: k_vol, k_s"); }
+TEST_F(BadScene, BadEnum) { expect(replace(good, "kind: forceps", "kind: scalpel"), "key 'tool.kind': expected one of hook, forceps, got 'scalpel'"); }
+TEST_F(BadScene, BadUnit) { expect(replace(good, "unit: mm", "unit: inch"), "key 'unit': expected one of m, cm, mm, got 'inch'"); }
+TEST_F(BadScene, OutOfRange) { expect(replace(good, "damping: 0.05", "damping: 1.0"), "key 'damping': expected a number in [0, 1), got '1.0'"); }
+TEST_F(BadScene, NotWhole) {
+  expect(replace(good, "newton_iterations: 3", "newton_iterations: 2.5"), "key 'tool.newton_iterations': expected a whole number in [1, 100], got '2.5'");
+}
+TEST_F(BadScene, RefineRange) { expect(replace(good, "virtual_refine: 1", "virtual_refine: 2"), "key 'mesh.virtual_refine': expected a whole number in [0, 1]"); }
+TEST_F(BadScene, NotBool) { expect(replace(good, "grasp: true", "grasp: maybe"), "key 'stages.grasp': expected true or false, got 'maybe'"); }
+TEST_F(BadScene, ShortVector) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0]"), "key 'gravity': expected a list of 3 numbers"); }
+TEST_F(BadScene, VectorElement) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, x, 0]"), "key 'gravity[1]': expected a number, got 'x'"); }
+TEST_F(BadScene, ZeroUp) { expect(replace(good, "up: [0, 0, 2]", "up: [0, 0, 0]"), "key 'camera.up': expected a non-zero vector"); }
+TEST_F(BadScene, MissingMeshFile) { expect(replace(good, "cube22.msh\n", "nope.msh\n"), "key 'mesh.physical': file not found: "); }
+TEST_F(BadScene, MissingMeshSection) {
+  std::string text = good;
+  text.erase(text.find("mesh:"), text.find("material:") - text.find("mesh:"));
+  expect(text, "key 'mesh': missing");
+}
+TEST_F(BadScene, MissingPhysical) {
+  std::string text = good;
+  const auto at = text.find("  physical:");
+  text.erase(at, text.find('\n', at) + 1 - at);
+  expect(text, "key 'mesh.physical': missing (required)");
+}
+TEST_F(BadScene, VirtualNotObj) { expect(replace(good, "virtual: boundary", "virtual: cube.stl"), "key 'mesh.virtual': expected 'boundary' or an .obj file, got 'cube.stl'"); }
+TEST_F(BadScene, RateRatio) {
+  expect(replace(good, "physical_hz: 50", "physical_hz: 300"), "key 'time.physical_hz': haptic_hz / physical_hz must be a whole number");
+}
+TEST_F(BadScene, TwoKindsInOneRegion) {
+  expect(replace(good, "- group: bottom", "- {group: bottom, sphere: {center: [0, 0, 0], radius: 1}}"),
+         "key 'pinned[0]': expected exactly one of group, box, sphere, halfspace");
+}
+TEST_F(BadScene, BoxMinAboveMax) { expect(replace(good, "max: [1, 1, 11]", "max: [1, -2, 11]"), "key 'pinned[1].box.max': expected max >= min"); }
+TEST_F(BadScene, RegionMissingKey) { expect(replace(good, "min: [-1, -1, 9], ", ""), "key 'pinned[1].box.min': missing"); }
+TEST_F(BadScene, DuplicateKey) { expect(replace(good, "damping: 0.05", "damping: 0.05\ndamping: 0.1"), "key 'damping': given twice"); }
+TEST_F(BadScene, YamlSyntax) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0, -9.81"), "YAML syntax error"); }
+TEST_F(BadScene, NotAMap) { expect("- 1\n- 2\n", "expected a map, got a list"); }
+TEST_F(BadScene, Empty) { expect("# nothing\n", "empty scene file"); }
+TEST_F(BadScene, UnknownGroup) {
+  expect(replace(good, "group: bottom", "group: bottm"),
+         "key 'pinned[0].group': unknown group 'bottm' (known groups in " + data("mesh/cube22.msh").lexically_normal().string() +
+             ": bottom, tissue, top)",
+         true);
+}
+TEST_F(BadScene, RegionPinsNothing) {
+  expect(replace(good, "max: [1, 1, 11]", "max: [1, 1, 9.5]"), "key 'pinned[1].box': the box pins no vertex", true);
+}
+
+TEST(SceneFile, Missing) {
+  try {
+    load_scene_spec("/nonexistent/scene.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "/nonexistent/scene.yaml: scene file not found");
+  }
+}
+
+// ---- mesh checks at load -----------------------------------------------------------------------
+
+TEST(SceneMesh, MixedOrientationRejectedWithElementId) {
+  const std::string msh = replace(slurp(data("mesh/cube22.msh")), "22 4 2 1 1 101 250 55 1000", "22 4 2 1 1 250 101 55 1000");
+  const auto mesh = write_temp("mixed.msh", msh);
+  const auto scene = write_temp("mixed.yaml", "mesh: {physical: mixed.msh}\n");
+  try {
+    load_scene(scene);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              mesh.string() + ": tets have mixed orientation (4 positive, 1 negative); the first of the fewer: tet 2 (element id 22)");
+  }
+}
+
+TEST(SceneMesh, NegativeOrientationFlippedWithWarning) {
+  std::string msh = slurp(data("mesh/cube22.msh"));
+  for (const char* tet : {"7 1000 3 250", "9 3 1000 55", "101 250 55 1000", "42 55 250 3", "1000 3 250 55"}) {
+    std::string t = tet;
+    const auto a = t.find(' '), b = t.find(' ', a + 1);
+    const std::string swapped = t.substr(a + 1, b - a - 1) + " " + t.substr(0, a) + t.substr(b);
+    msh = replace(msh, "1 1 " + t, "1 1 " + swapped);
+  }
+  write_temp("neg.msh", msh);
+  const Scene s = load_scene(write_temp("neg.yaml", "mesh: {physical: neg.msh}\n"));
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("flipped"), std::string::npos);
+  EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
+}
+
+TEST(SceneMesh, UnreferencedVertexRemovedWithWarning) {
+  const std::string msh = replace(slurp(data("mesh/cube22.msh")), "$Nodes\n8\n", "$Nodes\n9\n77 5 5 5\n");
+  write_temp("extra.msh", msh);
+  const Scene s = load_scene(write_temp("extra.yaml", "mesh: {physical: extra.msh}\n"));
+  EXPECT_EQ(s.physical.vertices.size(), 8u);
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("removed 1 vertices used by no tet"), std::string::npos);
+}
+
+// ---- scene names -------------------------------------------------------------------------------
+
+TEST(ResolveScenePath, NameInDataDir) {
+  const auto root = write_temp("marker", "").parent_path();
+  fs::create_directories(root / "scenarios");
+  std::ofstream(root / "scenarios" / "zz_test_scene.yaml") << "# empty\n";
+  ::setenv("EBH_DATA_DIR", root.c_str(), 1);
+  EXPECT_EQ(resolve_scene_path("zz_test_scene"), root / "scenarios" / "zz_test_scene.yaml");
+  ::unsetenv("EBH_DATA_DIR");
+}
+
+TEST(ResolveScenePath, Errors) {
+  EXPECT_EQ(resolve_scene_path(data("scene/cube.yaml").string()), data("scene/cube.yaml"));
+  try {
+    resolve_scene_path("no_such_scene_zz");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("no_such_scene_zz: no such scene (looked for ", 0), 0u) << e.what();
+  }
+  EXPECT_THROW(resolve_scene_path("/nonexistent/x.yaml"), InputError);
+}
+
+}  // namespace
+}  // namespace ebh

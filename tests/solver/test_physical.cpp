@@ -1,0 +1,279 @@
+// The physical and virtual mesh solvers on structured boxes: pinned vertices, pairing, the
+// direct solve against a dense one, monotone energy under the exact global step, convergence of
+// jacobi/chebyshev to the direct answer, bitwise determinism across thread counts.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <Eigen/Dense>
+#include <cstring>
+
+#include "scene/scene.hpp"
+#include "solver/box_mesh.hpp"
+#include "solver/physical_mesh.hpp"
+#include "solver/surface.hpp"
+#include "solver/virtual_mesh.hpp"
+
+namespace ebh {
+namespace {
+
+using Method = SolverSpec::Method;
+
+/// A 12 x 12 x 24 mm block of tets, bottom face pinned, with virtual mesh = boundary (refine r).
+Scene box_scene(int nx, int ny, int nz, int refine = 0) {
+  Scene scene;
+  scene.spec.file = "box (in code)";
+  scene.spec.virtual_refine = refine;
+  scene.physical = make_box_tets({0, 0, 0}, {0.012, 0.012, 0.024}, nx, ny, nz);
+  for (int i = 0; i < static_cast<int>(scene.physical.vertices.size()); ++i)
+    if (scene.physical.vertices[i].z == 0.0) scene.pinned.push_back(i);
+  return scene;
+}
+
+struct Sim {
+  Scene scene;
+  VirtualModel vm;
+  PhysicalModel pm;
+  PhysicalState ps;
+  PhysicalWorkspace pw;
+  explicit Sim(Scene s, bool coupled = true) : scene(std::move(s)) {
+    vm = build_virtual_model(scene);
+    pm = build_physical_model(scene, coupled ? &vm : nullptr, {});
+    ps = make_physical_state(pm);
+    pw = make_physical_workspace(pm);
+  }
+  /// A sideways and downward velocity field growing with height: a swaying block.
+  void perturb() {
+    for (int a = 0; a < pm.num_vertices; ++a)
+      if (!pm.pinned[a]) ps.v[a] = Vec3d{2.0, -1.0, -0.5} * (pm.rest[a].z / 0.024);
+  }
+  std::span<const Vec3d> q() const { return pm.num_virtual ? std::span<const Vec3d>(vm.rest) : std::span<const Vec3d>(); }
+};
+
+double max_diff(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b) {
+  double d = 0;
+  for (size_t i = 0; i < a.size(); ++i) d = std::max(d, norm(a[i] - b[i]));
+  return d;
+}
+
+TEST(Surface, BoxBoundaryIsClosedAndOutward) {
+  const TetMesh mesh = make_box_tets({0, 0, 0}, {1, 2, 3}, 2, 3, 4);
+  std::vector<int> src;
+  const SurfaceMesh s = tet_boundary(mesh, &src);
+  EXPECT_EQ(s.triangles.size(), size_t(2 * 2 * (2 * 3 + 3 * 4 + 2 * 4)));
+  // Divergence theorem: sum over outward triangles of (a . (b x c)) / 6 is the enclosed volume.
+  double vol = 0;
+  for (const Tri& t : s.triangles) vol += dot(s.vertices[t[0]], cross(s.vertices[t[1]], s.vertices[t[2]])) / 6;
+  EXPECT_NEAR(vol, 6.0, 1e-12);  // round-off of ~100 terms of size 1
+  for (size_t i = 0; i < src.size(); ++i) EXPECT_EQ(s.vertices[i], mesh.vertices[src[i]]);
+}
+
+TEST(Pairing, ExactAtRestWithAndWithoutRefinement) {
+  for (int refine : {0, 1}) {
+    Sim sim(box_scene(3, 3, 6, refine));
+    EXPECT_EQ(sim.vm.pairing_max_error, 0.0) << "refine " << refine;  // weights 1 or 1/2 of exact binary fractions
+    std::vector<Vec3d> p(sim.vm.num_vertices);
+    paired_points(sim.vm, sim.pm.rest, p);
+    EXPECT_LT(max_diff(p, sim.vm.rest), 1e-18);
+    if (refine) EXPECT_GT(sim.vm.num_vertices, static_cast<int>(tet_boundary(sim.scene.physical).vertices.size()));
+  }
+}
+
+TEST(Pairing, InteriorSurfaceIsEmbeddedInTets) {
+  Scene scene = box_scene(3, 3, 6);
+  // A virtual surface shrunk towards the centre: every vertex lies strictly inside a tet.
+  scene.virtual_surface = tet_boundary(scene.physical);
+  for (Vec3d& v : scene.virtual_surface.vertices) v = Vec3d{0.006, 0.006, 0.012} + 0.9 * (v - Vec3d{0.006, 0.006, 0.012});
+  const VirtualModel vm = build_virtual_model(scene);
+  EXPECT_LT(vm.pairing_max_error, 1e-17);  // barycentric reproduction, round-off of 1e-2 m coordinates
+  for (int j = 0; j < vm.num_vertices; ++j) EXPECT_GE(vm.pair_count[j], 1);
+}
+
+TEST(PhysicalStep, PinnedVerticesNeverMove) {
+  for (Method method : {Method::Jacobi, Method::Chebyshev, Method::Direct}) {
+    Sim sim(box_scene(3, 3, 6));
+    sim.perturb();
+    PhysicalStepParams params;
+    params.method = method;
+    for (int step = 0; step < 5; ++step) physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params);
+    for (int a : sim.scene.pinned) {
+      EXPECT_EQ(sim.ps.x[a], sim.pm.rest[a]);
+      EXPECT_EQ(sim.ps.v[a], Vec3d{});
+    }
+    EXPECT_GT(max_diff(sim.ps.x, sim.pm.rest), 1e-5);  // and the rest did move (16 iterations of 5 steps)
+  }
+}
+
+TEST(PhysicalStep, DirectGlobalSolveMatchesDenseSolve) {
+  Sim sim(box_scene(2, 2, 3));
+  sim.perturb();
+  const PhysicalState start = sim.ps;
+  PhysicalStepParams params;
+  params.method = Method::Direct;
+  params.iterations = 1;
+  params.rotation_iterations = 500;  // R converged to the SVD polar (the dense reference uses SVD)
+  physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params);
+
+  // Dense A over free vertices, assembled independently from the energies' definitions.
+  const PhysicalModel& pm = sim.pm;
+  const int nf = pm.num_free;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(nf, nf);
+  for (int a = 0; a < pm.num_vertices; ++a)
+    if (!pm.pinned[a]) A(pm.free_index[a], pm.free_index[a]) += pm.mass[a] / (pm.h * pm.h);
+  for (int t = 0; t < pm.num_tets; ++t)
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        const int fa = pm.free_index[pm.tets[t][i]], fb = pm.free_index[pm.tets[t][j]];
+        if (fa >= 0 && fb >= 0) A(fa, fb) += pm.tet_weight[t] * dot(pm.shape_grad[4 * t + i], pm.shape_grad[4 * t + j]);
+      }
+  for (int j = 0; j < pm.num_virtual; ++j)
+    for (int i = 0; i < pm.pair_count[j]; ++i)
+      for (int k = 0; k < pm.pair_count[j]; ++k) {
+        const int fa = pm.free_index[pm.pair_vertex[j][i]], fb = pm.free_index[pm.pair_vertex[j][k]];
+        if (fa >= 0 && fb >= 0) A(fa, fb) += pm.k_svc * pm.pair_weight[j][i] * pm.pair_weight[j][k];
+      }
+  // r = -grad(E_vol + E_svc) at the prediction s (E_k's gradient is zero there).
+  std::vector<Vec3d> s(pm.num_vertices), f(pm.num_vertices);
+  for (int a = 0; a < pm.num_vertices; ++a)
+    s[a] = pm.pinned[a] ? start.x[a] : start.x[a] + pm.h * start.v[a] + (pm.h * pm.h) * pm.gravity;
+  physical_elastic_forces(pm, s, f);
+  for (int j = 0; j < pm.num_virtual; ++j) {
+    Vec3d p{};
+    for (int i = 0; i < pm.pair_count[j]; ++i) p += pm.pair_weight[j][i] * s[pm.pair_vertex[j][i]];
+    for (int i = 0; i < pm.pair_count[j]; ++i) f[pm.pair_vertex[j][i]] += pm.k_svc * pm.pair_weight[j][i] * (sim.vm.rest[j] - p);
+  }
+  Eigen::MatrixXd r(nf, 3);
+  for (int i = 0; i < nf; ++i) r.row(i) << f[pm.free_vertices[i]].x, f[pm.free_vertices[i]].y, f[pm.free_vertices[i]].z;
+  const Eigen::MatrixXd dx = A.ldlt().solve(r);
+  double err = 0, size = 0;
+  for (int i = 0; i < nf; ++i) {
+    const Vec3d expect = s[pm.free_vertices[i]] + Vec3d{dx(i, 0), dx(i, 1), dx(i, 2)};
+    err = std::max(err, norm(sim.ps.x[pm.free_vertices[i]] - expect));
+    size = std::max(size, std::sqrt(dx.row(i).squaredNorm()));
+  }
+  // Sparse LDLT vs dense LDLT of the same SPD matrix (condition ~1e3): agreement to ~1e-12 of the step.
+  EXPECT_LT(err, 1e-9 * size);
+}
+
+TEST(PhysicalStep, EnergyNeverIncreasesUnderTheExactGlobalStep) {
+  Sim sim(box_scene(3, 3, 6));
+  sim.perturb();
+  for (int a = 0; a < sim.pm.num_vertices; ++a) sim.ps.v[a] = 10.0 * sim.ps.v[a];  // large deformation
+  const PhysicalState start = sim.ps;
+  PhysicalStepParams params;
+  params.method = Method::Direct;
+  params.rotation_iterations = 500;  // the exact local step
+  double previous = std::numeric_limits<double>::infinity();
+  for (int k = 1; k <= 10; ++k) {
+    sim.ps = start;
+    params.iterations = k;
+    physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params);
+    const double E = physical_energy(sim.pm, sim.ps.x, sim.pw.s, sim.q()).total();
+    // Local-global is monotone: each local and each exact global step minimises E over its
+    // variables. Slack: round-off of E's sum over ~1000 terms.
+    EXPECT_LE(E, previous * (1 + 1e-12)) << "iterations " << k;
+    previous = E;
+  }
+}
+
+TEST(PhysicalStep, JacobiAndChebyshevConvergeToTheDirectResult) {
+  Sim sim(box_scene(2, 2, 4));
+  sim.perturb();
+  const PhysicalState start = sim.ps;
+  PhysicalStepParams params;
+  params.method = Method::Direct;
+  params.iterations = 100;
+  physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params);
+  const std::vector<Vec3d> x_star = sim.ps.x;
+  const double travel = max_diff(x_star, start.x);
+  for (Method method : {Method::Jacobi, Method::Chebyshev}) {
+    sim.ps = start;
+    params.method = method;
+    params.iterations = 1500;
+    const PhysicalStepReport rep = physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params);
+    // Both are fixed-point iterations of the same stationarity condition; 1500 iterations take
+    // their linear convergence to round-off on this 96-tet block. The reference itself stops after
+    // 100 direct iterations with rotations converged to 1e-9 rad: agreement to 1e-7 of the travel.
+    EXPECT_LT(max_diff(sim.ps.x, x_star), 1e-7 * travel) << "method " << int(method);
+    EXPECT_LT(rep.residual, 1e-6);
+  }
+}
+
+template <class Run>
+void expect_bitwise_equal_across_threads(Run run) {
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const std::vector<Vec3d> one = run();
+  omp_set_num_threads(2);
+  const std::vector<Vec3d> two = run();
+  omp_set_num_threads(saved);
+  ASSERT_EQ(one.size(), two.size());
+  EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(Vec3d)), 0);
+}
+
+TEST(Determinism, PhysicalStepIsBitwiseEqualWithOneAndTwoThreads) {
+  for (Method method : {Method::Jacobi, Method::Chebyshev, Method::Direct}) {
+    expect_bitwise_equal_across_threads([&] {
+      Sim sim(box_scene(4, 4, 8, 1));
+      sim.perturb();
+      PhysicalStepParams params;
+      params.method = method;
+      for (int step = 0; step < 3; ++step) physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params);
+      std::vector<Vec3d> out = sim.ps.x;
+      out.insert(out.end(), sim.ps.v.begin(), sim.ps.v.end());
+      return out;
+    });
+  }
+}
+
+TEST(Determinism, VirtualTickIsBitwiseEqualWithOneAndTwoThreads) {
+  expect_bitwise_equal_across_threads([&] {
+    Sim sim(box_scene(4, 4, 8, 1));
+    VirtualState vs = make_virtual_state(sim.vm);
+    VirtualWorkspace vw = make_virtual_workspace(sim.vm);
+    std::vector<ContactTarget> contacts;
+    for (int j = 0; j < sim.vm.num_vertices; ++j)
+      if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
+    for (int tick = 0; tick < 5; ++tick) {
+      virtual_begin_tick(sim.vm, vw, vs, sim.pm.rest, 0.001);
+      for (int i = 0; i < 4; ++i) virtual_iteration(sim.vm, vw, vs, contacts);
+      virtual_end_tick(sim.vm, vw, vs);
+    }
+    return vs.q;
+  });
+}
+
+TEST(VirtualMesh, RestsAtRestAndConvergesUnderContact) {
+  Scene scene = box_scene(3, 3, 6, 1);
+  scene.spec.gravity = Vec3d{};
+  Sim sim(scene);
+  VirtualState vs = make_virtual_state(sim.vm);
+  VirtualWorkspace vw = make_virtual_workspace(sim.vm);
+  virtual_begin_tick(sim.vm, vw, vs, sim.pm.rest, 0.001);
+  virtual_iteration(sim.vm, vw, vs, {});
+  EXPECT_LT(max_diff(vs.q, sim.vm.rest), 1e-18);  // at rest every force is zero up to round-off
+
+  // Press the top face down by 2 mm: the iteration reaches the minimiser of E_soft (gradient 0).
+  std::vector<ContactTarget> contacts;
+  for (int j = 0; j < sim.vm.num_vertices; ++j)
+    if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
+  for (int i = 0; i < 3000; ++i) virtual_iteration(sim.vm, vw, vs, contacts);
+  const double E = virtual_energy(sim.vm, vs.q, vw.s, vw.p, contacts, 0.001).total();
+  // Perturb each coordinate of a few contact vertices by +-1 um: the energy never drops (minimum).
+  for (int c = 0; c < 5; ++c)
+    for (int axis = 0; axis < 3; ++axis)
+      for (double sgn : {-1.0, 1.0}) {
+        std::vector<Vec3d> q = vs.q;
+        q[contacts[c].vertex][axis] += sgn * 1e-6;
+        EXPECT_GE(virtual_energy(sim.vm, q, vw.s, vw.p, contacts, 0.001).total(), E * (1 - 1e-12));
+      }
+  EXPECT_LT(vs.q[contacts[0].vertex].z, sim.vm.rest[contacts[0].vertex].z - 1e-4);  // it did move
+  std::vector<Vec3d> normals(sim.vm.num_vertices);
+  compute_vertex_normals(sim.vm, sim.vm.rest, normals);
+  for (int j = 0; j < sim.vm.num_vertices; ++j) {
+    const Vec3d& r = sim.vm.rest[j];
+    if (r.z > 0.0239 && r.x > 1e-4 && r.x < 0.0119 && r.y > 1e-4 && r.y < 0.0119) EXPECT_NEAR(normals[j].z, 1.0, 1e-12);
+  }
+}
+
+}  // namespace
+}  // namespace ebh

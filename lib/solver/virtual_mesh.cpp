@@ -13,6 +13,7 @@
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
 #include "io/error.hpp"
+#include "mesh/boundary.hpp"
 #include "scene/scene.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/surface.hpp"
@@ -121,7 +122,7 @@ VirtualModel build_virtual_model(const Scene& scene) {
   const TetMesh& phys = scene.physical;
   const std::string where = scene.spec.file.string();
   if (phys.tets.empty()) throw InputError(where + ": the physical mesh has no tets to pair the virtual mesh with");
-  SurfaceMesh surface = scene.virtual_surface.triangles.empty() ? tet_boundary(phys) : scene.virtual_surface;
+  SurfaceMesh surface = scene.virtual_surface.triangles.empty() ? extract_boundary(phys) : scene.virtual_surface;
   std::vector<std::array<int, 2>> parent;
   if (scene.spec.virtual_refine > 0) {
     surface = refine_surface(surface, parent);

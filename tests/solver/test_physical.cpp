@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <cstring>
 
+#include "mesh/boundary.hpp"
 #include "scene/scene.hpp"
 #include "solver/box_mesh.hpp"
 #include "solver/physical_mesh.hpp"
@@ -55,18 +56,6 @@ double max_diff(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b) {
   return d;
 }
 
-TEST(Surface, BoxBoundaryIsClosedAndOutward) {
-  const TetMesh mesh = make_box_tets({0, 0, 0}, {1, 2, 3}, 2, 3, 4);
-  std::vector<int> src;
-  const SurfaceMesh s = tet_boundary(mesh, &src);
-  EXPECT_EQ(s.triangles.size(), size_t(2 * 2 * (2 * 3 + 3 * 4 + 2 * 4)));
-  // Divergence theorem: sum over outward triangles of (a . (b x c)) / 6 is the enclosed volume.
-  double vol = 0;
-  for (const Tri& t : s.triangles) vol += dot(s.vertices[t[0]], cross(s.vertices[t[1]], s.vertices[t[2]])) / 6;
-  EXPECT_NEAR(vol, 6.0, 1e-12);  // round-off of ~100 terms of size 1
-  for (size_t i = 0; i < src.size(); ++i) EXPECT_EQ(s.vertices[i], mesh.vertices[src[i]]);
-}
-
 TEST(Pairing, ExactAtRestWithAndWithoutRefinement) {
   for (int refine : {0, 1}) {
     Sim sim(box_scene(3, 3, 6, refine));
@@ -74,14 +63,14 @@ TEST(Pairing, ExactAtRestWithAndWithoutRefinement) {
     std::vector<Vec3d> p(sim.vm.num_vertices);
     paired_points(sim.vm, sim.pm.rest, p);
     EXPECT_LT(max_diff(p, sim.vm.rest), 1e-18);
-    if (refine) EXPECT_GT(sim.vm.num_vertices, static_cast<int>(tet_boundary(sim.scene.physical).vertices.size()));
+    if (refine) EXPECT_GT(sim.vm.num_vertices, static_cast<int>(extract_boundary(sim.scene.physical).vertices.size()));
   }
 }
 
 TEST(Pairing, InteriorSurfaceIsEmbeddedInTets) {
   Scene scene = box_scene(3, 3, 6);
   // A virtual surface shrunk towards the centre: every vertex lies strictly inside a tet.
-  scene.virtual_surface = tet_boundary(scene.physical);
+  scene.virtual_surface = extract_boundary(scene.physical);
   for (Vec3d& v : scene.virtual_surface.vertices) v = Vec3d{0.006, 0.006, 0.012} + 0.9 * (v - Vec3d{0.006, 0.006, 0.012});
   const VirtualModel vm = build_virtual_model(scene);
   EXPECT_LT(vm.pairing_max_error, 1e-17);  // barycentric reproduction, round-off of 1e-2 m coordinates

@@ -144,6 +144,7 @@ def check(path):
     used = set()
     worst_mr, worst_rr, sum_mr, n_bad, inverted, volume = 1.0, 1.0, 0.0, 0, 0, 0.0
     per_volume = {}
+    worst_at = [0.0, 0.0, 0.0]
     for vs, phys in tets:
         used.update(vs)
         per_volume[phys] = per_volume.get(phys, 0) + 1
@@ -151,6 +152,8 @@ def check(path):
         if vol <= 0:
             inverted += 1
         volume += abs(vol)
+        if mr < worst_mr:
+            worst_at = [sum(nodes[v][i] for v in vs) / 4 for i in range(3)]
         worst_mr, worst_rr = min(worst_mr, mr), min(worst_rr, rr)
         sum_mr += mr
         n_bad += mr < 0.3
@@ -180,7 +183,7 @@ def check(path):
         triangles_per_surface={names.get((2, p), str(p)): n for p, n in sorted(per_surface.items())},
         group_triangles_not_on_boundary=stray,
         bbox_min=lo, bbox_max=hi,
-        worst_mean_ratio=worst_mr, worst_radius_ratio=worst_rr,
+        worst_mean_ratio=worst_mr, worst_tet_centroid=worst_at, worst_radius_ratio=worst_rr,
         mean_mean_ratio=sum_mr / max(1, len(tets)), share_mean_ratio_below_0_3=n_bad / max(1, len(tets)))
 
 
@@ -213,7 +216,8 @@ def main():
             *r["bbox_min"], *r["bbox_max"], r["volume"]))
         print(f"  quality: worst mean ratio {r['worst_mean_ratio']:.3f} (mean {r['mean_mean_ratio']:.3f}, "
               f"{100 * r['share_mean_ratio_below_0_3']:.2f}% < 0.3), worst radius ratio "
-              f"{r['worst_radius_ratio']:.3f}")
+              f"{r['worst_radius_ratio']:.3f}; worst tet at "
+              + "[{:.1f} {:.1f} {:.1f}]".format(*r["worst_tet_centroid"]))
         if bad:
             print(f"  FAIL: inverted {r['inverted_tets']}, non-manifold faces {r['nonmanifold_faces']}, "
                   f"unused nodes {r['unused_nodes']}, group triangles off the boundary "

@@ -1,0 +1,249 @@
+#include "io/import.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <numbers>
+
+#include "io/error.hpp"
+
+namespace ebh {
+namespace {
+
+std::string trim(const std::string& s) {
+  std::size_t a = s.find_first_not_of(" \t\r\n");
+  if (a == std::string::npos) return "";
+  std::size_t b = s.find_last_not_of(" \t\r\n");
+  return s.substr(a, b - a + 1);
+}
+
+// Splits on commas, or on whitespace (and commas) when `commas_only` is false.
+std::vector<std::string> split(const std::string& s, bool commas_only) {
+  std::vector<std::string> out;
+  if (commas_only) {
+    std::size_t start = 0;
+    while (true) {
+      std::size_t c = s.find(',', start);
+      out.push_back(trim(s.substr(start, c == std::string::npos ? std::string::npos : c - start)));
+      if (c == std::string::npos) break;
+      start = c + 1;
+    }
+    return out;
+  }
+  std::string cur;
+  for (char ch : s) {
+    if (ch == ',' || ch == ' ' || ch == '\t' || ch == '\r') {
+      if (!cur.empty()) out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += ch;
+    }
+  }
+  if (!cur.empty()) out.push_back(cur);
+  return out;
+}
+
+struct Line {
+  std::size_t number;  // 1-based
+  std::string text;    // comment stripped, trimmed
+};
+
+std::vector<Line> read_lines(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
+  std::vector<Line> lines;
+  std::string s;
+  std::size_t n = 0;
+  while (std::getline(in, s)) {
+    ++n;
+    if (auto h = s.find('#'); h != std::string::npos) s.erase(h);
+    s = trim(s);
+    if (!s.empty()) lines.push_back({n, s});
+  }
+  return lines;
+}
+
+std::string at(const std::string& path, std::size_t line) { return path + ":" + std::to_string(line); }
+
+double to_number(const std::string& tok, const std::string& where, const std::string& field) {
+  const char* b = tok.c_str();
+  char* e = nullptr;
+  errno = 0;
+  double v = std::strtod(b, &e);
+  if (tok.empty() || e != b + tok.size() || errno == ERANGE)
+    throw InputError(where + ": " + field + ": '" + tok + "' is not a number");
+  return v;
+}
+
+int to_int(const std::string& tok, const std::string& where, const std::string& field, int lo, int hi) {
+  double v = to_number(tok, where, field);
+  if (v != std::floor(v) || v < lo || v > hi)
+    throw InputError(where + ": " + field + ": '" + tok + "' is not an integer in " + std::to_string(lo) + ".." +
+                     std::to_string(hi));
+  return static_cast<int>(v);
+}
+
+// Shepperd's method: the quaternion of a proper rotation matrix.
+Quatd quat_from_matrix(const Eigen::Matrix3d& R) {
+  double tr = R.trace();
+  Quatd q;
+  if (tr > 0) {
+    double s = 2.0 * std::sqrt(tr + 1.0);
+    q = {0.25 * s, (R(2, 1) - R(1, 2)) / s, (R(0, 2) - R(2, 0)) / s, (R(1, 0) - R(0, 1)) / s};
+  } else if (R(0, 0) > R(1, 1) && R(0, 0) > R(2, 2)) {
+    double s = 2.0 * std::sqrt(1.0 + R(0, 0) - R(1, 1) - R(2, 2));
+    q = {(R(2, 1) - R(1, 2)) / s, 0.25 * s, (R(0, 1) + R(1, 0)) / s, (R(0, 2) + R(2, 0)) / s};
+  } else if (R(1, 1) > R(2, 2)) {
+    double s = 2.0 * std::sqrt(1.0 + R(1, 1) - R(0, 0) - R(2, 2));
+    q = {(R(0, 2) - R(2, 0)) / s, (R(0, 1) + R(1, 0)) / s, 0.25 * s, (R(1, 2) + R(2, 1)) / s};
+  } else {
+    double s = 2.0 * std::sqrt(1.0 + R(2, 2) - R(0, 0) - R(1, 1));
+    q = {(R(1, 0) - R(0, 1)) / s, (R(0, 2) + R(2, 0)) / s, (R(1, 2) + R(2, 1)) / s, 0.25 * s};
+  }
+  return normalized(q);
+}
+
+// The nearest rotation (polar factor via SVD) of a logged 3x3 block; rejects reflections and
+// matrices farther than kRotationTolerance (Frobenius) from it.
+Quatd orthonormalised(const Eigen::Matrix3d& M, const std::string& where) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d R = svd.matrixU() * svd.matrixV().transpose();
+  if (R.determinant() < 0) throw InputError(where + ": the rotation part is a reflection (determinant < 0)");
+  double off = (M - R).norm();
+  if (!(off <= kRotationTolerance))
+    throw InputError(where + ": the rotation part is not a rotation (Frobenius distance " + std::to_string(off) +
+                     " to the nearest one, tolerance " + std::to_string(kRotationTolerance) + ")");
+  return quat_from_matrix(R);
+}
+
+void read_openhaptics(const std::string& path, double unit, double rate, Recording& rec,
+                      std::vector<std::size_t>& line_of) {
+  for (const Line& l : read_lines(path)) {
+    const std::string where = at(path, l.number);
+    auto tok = split(l.text, false);
+    if (tok.size() < 17)
+      throw InputError(where + ": " + std::to_string(tok.size()) +
+                       " fields, expected 16 transform elements, the jaw and button states");
+    if (tok.size() > 17 + 8) throw InputError(where + ": more than 8 button states");
+    double m[16];
+    for (int k = 0; k < 16; ++k) m[k] = to_number(tok[k], where, "element " + std::to_string(k));
+    for (int k = 0; k < 16; ++k)
+      if (!std::isfinite(m[k])) throw InputError(where + ": element " + std::to_string(k) + " is NaN or Inf");
+    // Column-major: element (r, c) = m[4 c + r]; the bottom row must be (0, 0, 0, 1).
+    if (std::abs(m[3]) > 1e-6 || std::abs(m[7]) > 1e-6 || std::abs(m[11]) > 1e-6 || std::abs(m[15] - 1) > 1e-6)
+      throw InputError(where + ": not a homogeneous transform (elements 3, 7, 11, 15 must be 0, 0, 0, 1; is it "
+                               "row-major?)");
+    Eigen::Matrix3d M;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) M(r, c) = m[4 * c + r];
+    rec.orientation.push_back(orthonormalised(M, where));
+    rec.position.push_back(Vec3d{m[12], m[13], m[14]} * unit);
+    rec.jaw.push_back(to_number(tok[16], where, "jaw"));
+    int mask = 0;
+    for (std::size_t b = 17; b < tok.size(); ++b)
+      if (to_int(tok[b], where, "button " + std::to_string(b - 17), 0, 1 << 30) != 0) mask |= 1 << (b - 17);
+    rec.buttons.push_back(static_cast<std::uint8_t>(mask));
+    rec.t.push_back(static_cast<double>(rec.t.size()) / rate);
+    line_of.push_back(l.number);
+  }
+}
+
+void read_csv(const std::string& path, double unit, double rate, Recording& rec, std::vector<std::size_t>& line_of,
+              bool& has_t) {
+  auto lines = read_lines(path);
+  if (lines.empty()) throw InputError(path + ": empty log (expected a header line naming the columns)");
+  const std::vector<std::string> known{"t", "x", "y", "z", "qw", "qx", "qy", "qz", "jaw", "buttons"};
+  std::map<std::string, std::size_t> col;
+  auto header = split(lines[0].text, true);
+  for (std::size_t i = 0; i < header.size(); ++i) {
+    std::string h = header[i];
+    std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (std::find(known.begin(), known.end(), h) == known.end())
+      throw InputError(at(path, lines[0].number) + ": unknown column '" + header[i] +
+                       "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons)");
+    if (!col.emplace(h, i).second) throw InputError(at(path, lines[0].number) + ": column '" + h + "' appears twice");
+  }
+  for (const char* req : {"x", "y", "z", "qw", "qx", "qy", "qz"})
+    if (!col.count(req)) throw InputError(at(path, lines[0].number) + ": missing column '" + req + "'");
+  has_t = col.count("t") > 0;
+  for (std::size_t li = 1; li < lines.size(); ++li) {
+    const Line& l = lines[li];
+    const std::string where = at(path, l.number);
+    auto tok = split(l.text, true);
+    if (tok.size() != header.size())
+      throw InputError(where + ": " + std::to_string(tok.size()) + " fields, the header has " +
+                       std::to_string(header.size()));
+    auto get = [&](const char* name) { return to_number(tok[col.at(name)], where, name); };
+    rec.t.push_back(has_t ? get("t") : static_cast<double>(rec.t.size()) / rate);
+    rec.position.push_back(Vec3d{get("x"), get("y"), get("z")} * unit);
+    rec.orientation.push_back(Quatd{get("qw"), get("qx"), get("qy"), get("qz")});
+    rec.jaw.push_back(col.count("jaw") ? get("jaw") : 1.0);
+    rec.buttons.push_back(
+        col.count("buttons") ? static_cast<std::uint8_t>(to_int(tok[col.at("buttons")], where, "buttons", 0, 255)) : 0);
+    line_of.push_back(l.number);
+  }
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+double parse_length_unit(const std::string& name) {
+  if (name == "m") return 1.0;
+  if (name == "cm") return 1e-2;
+  if (name == "mm") return 1e-3;
+  throw InputError("--unit: '" + name + "' is not one of m, cm, mm");
+}
+
+void parse_transform(const std::string& text, double unit_m, ImportOptions& opt) {
+  auto tok = split(text, true);
+  if (tok.size() != 6) throw InputError("--transform: expected 6 comma-separated numbers tx,ty,tz,rx,ry,rz, got '" + text + "'");
+  double v[6];
+  for (int i = 0; i < 6; ++i) {
+    v[i] = to_number(tok[i], "--transform", "value " + std::to_string(i));
+    if (!std::isfinite(v[i])) throw InputError("--transform: value " + std::to_string(i) + " is not finite");
+  }
+  opt.transform_translation = Vec3d{v[0], v[1], v[2]} * unit_m;
+  opt.transform_rotation = quat_from_rotvec(Vec3d{v[3], v[4], v[5]} * (std::numbers::pi / 180.0));
+}
+
+Recording import_log(const std::string& path, const ImportOptions& opt) {
+  if (!(opt.rate_hz > 0 && std::isfinite(opt.rate_hz))) throw InputError("--rate: must be a positive number");
+  const LogFormat fmt = opt.format ? *opt.format : (ends_with(path, ".csv") ? LogFormat::csv : LogFormat::openhaptics);
+  const double unit = opt.unit ? *opt.unit : (fmt == LogFormat::openhaptics ? 1e-3 : 1.0);
+  Recording rec;
+  std::vector<std::size_t> line_of;
+  bool has_t = false;
+  if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, opt.rate_hz, rec, line_of);
+  else read_csv(path, unit, opt.rate_hz, rec, line_of, has_t);
+  if (rec.t.empty()) throw InputError(path + ": no samples");
+
+  for (std::size_t i = 0; i < rec.size(); ++i) {
+    rec.position[i] = rotate(opt.transform_rotation, rec.position[i]) + opt.transform_translation;
+    // |q_R q| = |q|: a logged quaternion's norm error is still judged by the validator below.
+    rec.orientation[i] = opt.transform_rotation * rec.orientation[i];
+  }
+  rec.source = "device";
+  rec.scene = opt.scene;
+  rec.tool = opt.tool;
+  rec.description = std::string("imported from ") + path + " (" + (fmt == LogFormat::csv ? "csv" : "openhaptics") + ")";
+  rec.rate_hz = opt.rate_hz;
+  if (has_t && rec.size() >= 2) {  // nominal rate: the median sample interval
+    std::vector<double> dt;
+    for (std::size_t i = 1; i < rec.size(); ++i) dt.push_back(rec.t[i] - rec.t[i - 1]);
+    std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
+    if (dt[dt.size() / 2] > 0) rec.rate_hz = 1.0 / dt[dt.size() / 2];
+  }
+  validate_recording(rec, path, [&](std::string_view, std::size_t i) { return at(path, line_of[i]); });
+  return rec;
+}
+
+}  // namespace ebh

@@ -1,0 +1,243 @@
+#include "io/synth.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <set>
+
+#include "io/error.hpp"
+
+namespace ebh {
+namespace {
+
+// ---- plan file ----
+
+struct PlanReader {
+  std::string file;
+
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& what) const {
+    std::string loc = file;
+    if (n.IsDefined() && n.Mark().line >= 0) loc += ":" + std::to_string(n.Mark().line + 1);
+    throw InputError(loc + ": " + key + ": " + what);
+  }
+
+  double number(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(n, key, "expected a number");
+    try {
+      double v = n.as<double>();
+      if (!std::isfinite(v)) fail(n, key, "not a finite number");
+      return v;
+    } catch (const YAML::Exception&) {
+      fail(n, key, "expected a number, got '" + n.Scalar() + "'");
+    }
+  }
+
+  std::string string(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(n, key, "expected a string");
+    return n.Scalar();
+  }
+
+  std::vector<double> numbers(const YAML::Node& n, const std::string& key, std::size_t count) const {
+    if (!n.IsSequence() || n.size() != count) fail(n, key, "expected a list of " + std::to_string(count) + " numbers");
+    std::vector<double> v;
+    for (std::size_t i = 0; i < count; ++i) v.push_back(number(n[i], key + "[" + std::to_string(i) + "]"));
+    return v;
+  }
+
+  void only_keys(const YAML::Node& n, const std::string& key, const std::set<std::string>& allowed) const {
+    for (const auto& kv : n) {
+      std::string k = kv.first.Scalar();
+      if (!allowed.count(k)) fail(kv.first, key.empty() ? k : key + "." + k, "unknown key");
+    }
+  }
+};
+
+// splitmix64 (Steele, Lea & Flood 2014): tiny, fast, identical on every platform.
+struct SplitMix64 {
+  std::uint64_t s;
+  std::uint64_t next() {
+    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }  // [0, 1)
+};
+
+}  // namespace
+
+SynthPlan read_plan(const std::string& path) {
+  PlanReader r{path};
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path + ": cannot open the plan file");
+  } catch (const YAML::ParserException& e) {
+    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+  }
+  if (!root.IsMap()) throw InputError(path + ": the plan must be a YAML mapping (scene, tool, waypoints, ...)");
+  r.only_keys(root, "", {"scene", "tool", "description", "rate_hz", "tremor", "quantum_mm", "waypoints"});
+
+  SynthPlan plan;
+  for (const char* k : {"scene", "tool", "waypoints"})
+    if (!root[k]) throw InputError(path + ": missing key '" + k + "'");
+  plan.scene = r.string(root["scene"], "scene");
+  plan.tool = r.string(root["tool"], "tool");
+  if (plan.tool != "hook" && plan.tool != "forceps") r.fail(root["tool"], "tool", "expected hook or forceps");
+  if (root["description"]) plan.description = r.string(root["description"], "description");
+  if (root["rate_hz"]) {
+    plan.rate_hz = r.number(root["rate_hz"], "rate_hz");
+    if (plan.rate_hz <= 0) r.fail(root["rate_hz"], "rate_hz", "must be positive");
+  }
+  if (root["quantum_mm"]) {
+    plan.quantum = r.number(root["quantum_mm"], "quantum_mm") * 1e-3;
+    if (plan.quantum < 0) r.fail(root["quantum_mm"], "quantum_mm", "must be >= 0");
+  }
+  if (const YAML::Node tr = root["tremor"]) {
+    if (!tr.IsMap()) r.fail(tr, "tremor", "expected a mapping {amplitude_mm, band_hz, components}");
+    r.only_keys(tr, "tremor", {"amplitude_mm", "band_hz", "components"});
+    if (tr["amplitude_mm"]) {
+      plan.tremor_amplitude = r.number(tr["amplitude_mm"], "tremor.amplitude_mm") * 1e-3;
+      if (plan.tremor_amplitude < 0) r.fail(tr["amplitude_mm"], "tremor.amplitude_mm", "must be >= 0");
+    }
+    if (tr["band_hz"]) {
+      auto b = r.numbers(tr["band_hz"], "tremor.band_hz", 2);
+      if (!(b[0] > 0 && b[1] >= b[0])) r.fail(tr["band_hz"], "tremor.band_hz", "expected [low, high] with 0 < low <= high");
+      plan.tremor_band_lo = b[0];
+      plan.tremor_band_hi = b[1];
+    }
+    if (tr["components"]) {
+      double c = r.number(tr["components"], "tremor.components");
+      if (c < 1 || c > 16 || c != std::floor(c)) r.fail(tr["components"], "tremor.components", "expected an integer in 1..16");
+      plan.tremor_components = static_cast<int>(c);
+    }
+  }
+
+  const YAML::Node wps = root["waypoints"];
+  if (!wps.IsSequence() || wps.size() < 2) r.fail(wps, "waypoints", "expected a list of at least 2 waypoints");
+  for (std::size_t i = 0; i < wps.size(); ++i) {
+    const YAML::Node w = wps[i];
+    const std::string key = "waypoints[" + std::to_string(i) + "]";
+    if (!w.IsMap()) r.fail(w, key, "expected a mapping {t, position_mm, rotvec_deg, jaw, buttons}");
+    r.only_keys(w, key, {"t", "position_mm", "rotvec_deg", "jaw", "buttons"});
+    PlanWaypoint p;
+    if (!w["t"]) r.fail(w, key, "missing 't'");
+    p.t = r.number(w["t"], key + ".t");
+    if (i == 0 && p.t < 0) r.fail(w["t"], key + ".t", "must be >= 0");
+    if (i > 0 && !(p.t > plan.waypoints.back().t)) r.fail(w["t"], key + ".t", "times must be strictly increasing");
+    // position_mm, rotvec_deg, jaw and buttons carry over from the previous waypoint when omitted.
+    if (w["position_mm"]) {
+      auto v = r.numbers(w["position_mm"], key + ".position_mm", 3);
+      p.position = Vec3d{v[0], v[1], v[2]} * 1e-3;
+    } else if (i == 0) {
+      r.fail(w, key, "the first waypoint needs position_mm");
+    } else {
+      p.position = plan.waypoints.back().position;
+    }
+    if (w["rotvec_deg"]) {
+      auto v = r.numbers(w["rotvec_deg"], key + ".rotvec_deg", 3);
+      p.orientation = quat_from_rotvec(Vec3d{v[0], v[1], v[2]} * (std::numbers::pi / 180.0));
+    } else if (i == 0) {
+      r.fail(w, key, "the first waypoint needs rotvec_deg");
+    } else {
+      p.orientation = plan.waypoints.back().orientation;
+    }
+    if (w["jaw"]) {
+      p.jaw = r.number(w["jaw"], key + ".jaw");
+      if (p.jaw < 0 || p.jaw > 1) r.fail(w["jaw"], key + ".jaw", "must be in [0, 1] (0 closed, 1 open)");
+    } else {
+      p.jaw = i == 0 ? 1.0 : plan.waypoints.back().jaw;
+    }
+    if (w["buttons"]) {
+      double b = r.number(w["buttons"], key + ".buttons");
+      if (b < 0 || b > 255 || b != std::floor(b)) r.fail(w["buttons"], key + ".buttons", "expected a bitmask 0..255");
+      p.buttons = static_cast<std::uint8_t>(b);
+    } else {
+      p.buttons = i == 0 ? 0 : plan.waypoints.back().buttons;
+    }
+    plan.waypoints.push_back(p);
+  }
+  return plan;
+}
+
+double minimum_jerk(double tau) {
+  tau = std::clamp(tau, 0.0, 1.0);
+  double t3 = tau * tau * tau;
+  return t3 * (10.0 + tau * (-15.0 + 6.0 * tau));
+}
+
+DeviceSample plan_pose(const SynthPlan& plan, double t) {
+  const auto& w = plan.waypoints;
+  DeviceSample d;
+  d.t = t;
+  auto at = [&](const PlanWaypoint& p) {
+    d.position = p.position;
+    d.orientation = p.orientation;
+    d.jaw = p.jaw;
+    d.buttons = p.buttons;
+    return d;
+  };
+  if (w.empty()) return d;
+  if (t <= w.front().t) return at(w.front());
+  if (t >= w.back().t) return at(w.back());
+  auto it = std::upper_bound(w.begin(), w.end(), t, [](double x, const PlanWaypoint& p) { return x < p.t; });
+  const PlanWaypoint& b = *it;
+  const PlanWaypoint& a = *(it - 1);
+  double s = minimum_jerk((t - a.t) / (b.t - a.t));
+  d.position = a.position + s * (b.position - a.position);
+  d.orientation = slerp(a.orientation, b.orientation, s);
+  d.jaw = a.jaw + s * (b.jaw - a.jaw);
+  d.buttons = a.buttons;
+  return d;
+}
+
+Tremor::Tremor(const SynthPlan& plan, std::uint64_t seed) {
+  SplitMix64 rng{seed};
+  const int k = plan.tremor_components;
+  const double amp = plan.tremor_amplitude / std::sqrt(static_cast<double>(k));
+  for (auto& axis : axes_)
+    for (int i = 0; i < k; ++i) {
+      double f = plan.tremor_band_lo + (plan.tremor_band_hi - plan.tremor_band_lo) * rng.uniform();
+      double phase = 2.0 * std::numbers::pi * rng.uniform();
+      axis.push_back({amp, 2.0 * std::numbers::pi * f, phase});
+    }
+}
+
+Vec3d Tremor::operator()(double t) const {
+  Vec3d v;
+  for (int a = 0; a < 3; ++a)
+    for (const auto& c : axes_[a]) v[a] += c.amplitude * std::sin(c.omega * t + c.phase);
+  return v;
+}
+
+Recording synthesize(const SynthPlan& plan, std::uint64_t seed) {
+  if (plan.waypoints.empty()) throw InputError("synthesize: the plan has no waypoints");
+  Tremor tremor(plan, seed);
+  Recording rec;
+  rec.rate_hz = plan.rate_hz;
+  rec.source = "synthetic";
+  rec.scene = plan.scene;
+  rec.tool = plan.tool;
+  rec.description = plan.description;
+  // 1e-9 guards t_last * rate landing a hair below an integer (10 s * 1000 Hz).
+  const auto n = static_cast<std::size_t>(std::floor(plan.waypoints.back().t * plan.rate_hz + 1e-9)) + 1;
+  rec.t.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    double t = static_cast<double>(i) / plan.rate_hz;
+    DeviceSample d = plan_pose(plan, t);
+    Vec3d p = d.position + tremor(t);
+    if (plan.quantum > 0)
+      for (int a = 0; a < 3; ++a) p[a] = std::round(p[a] / plan.quantum) * plan.quantum;
+    rec.t.push_back(t);
+    rec.position.push_back(p);
+    rec.orientation.push_back(d.orientation);
+    rec.jaw.push_back(d.jaw);
+    rec.buttons.push_back(d.buttons);
+  }
+  return rec;
+}
+
+}  // namespace ebh

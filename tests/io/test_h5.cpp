@@ -1,0 +1,145 @@
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <vector>
+
+#include "io/atomic.hpp"
+#include "io/h5.hpp"
+#include "io_test_util.hpp"
+
+using namespace ebh;
+namespace fs = std::filesystem;
+
+TEST(H5, DatasetsAndAttributesRoundTrip) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "a.h5";
+  {
+    h5::File f = h5::File::create(path);
+    std::vector<double> d{1, 2, 3, 4, 5, 6};
+    std::vector<float> fl{0.5f, 1.5f};
+    std::vector<std::int32_t> ints{-1, 7, 9};
+    std::vector<std::uint8_t> bytes{0, 255};
+    f.write<double>("g/sub/d", d, {2, 3}).set_attr("unit", "m");
+    f.write<float>("f", fl, {2}, {.compress = true});
+    f.write<std::int32_t>("i", ints, {3});
+    f.write<std::uint8_t>("u", bytes, {2});
+    f.set_attr("rate_hz", 1000.0);
+    f.set_attr("count", 42);
+    f.set_attr("name", "tube");
+    f.set_attr("v", std::vector<double>{1.5, 2.5});
+  }
+  h5::File f = h5::File::open_read(path);
+  auto d = f.read<double>("g/sub/d", {-1, 3});
+  EXPECT_EQ(d.shape, (std::vector<std::size_t>{2, 3}));
+  EXPECT_EQ(d.data, (std::vector<double>{1, 2, 3, 4, 5, 6}));
+  EXPECT_EQ(f.group("g").group("sub").dataset("d").attr_string("unit"), "m");
+  EXPECT_EQ(f.read<float>("f").data, (std::vector<float>{0.5f, 1.5f}));
+  EXPECT_EQ(f.read<double>("f").data, (std::vector<double>{0.5, 1.5}));  // width converted
+  EXPECT_EQ(f.read<std::int32_t>("i").data, (std::vector<std::int32_t>{-1, 7, 9}));
+  EXPECT_EQ(f.read<std::uint8_t>("u").data, (std::vector<std::uint8_t>{0, 255}));
+  EXPECT_EQ(f.attr_double("rate_hz"), 1000.0);
+  EXPECT_EQ(f.attr_int("count"), 42);
+  EXPECT_EQ(f.attr_string("name"), "tube");
+  EXPECT_EQ(f.attr_doubles("v"), (std::vector<double>{1.5, 2.5}));
+  EXPECT_TRUE(f.has("g/sub/d"));
+  EXPECT_FALSE(f.has("g/nope/d"));
+}
+
+TEST(H5, ErrorsNameFileAndObject) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "b.h5";
+  {
+    h5::File f = h5::File::create(path);
+    f.write<double>("x", std::vector<double>{1, 2, 3, 4}, {2, 2});
+    f.write<std::int32_t>("n", std::vector<std::int32_t>{1}, {1});
+  }
+  h5::File f = h5::File::open_read(path);
+  EXPECT_INPUT_ERROR(f.read<double>("x", {-1, 3}), path, "/x", "shape (2, 2), expected (N, 3)");
+  EXPECT_INPUT_ERROR(f.read<double>("n"), path, "/n", "type integer");
+  EXPECT_INPUT_ERROR(f.read<std::int32_t>("x"), path, "/x", "type floating point");
+  EXPECT_INPUT_ERROR(f.read<double>("missing"), path, "/missing", "missing dataset");
+  EXPECT_INPUT_ERROR(f.group("nogroup"), path, "/nogroup", "missing group");
+  EXPECT_INPUT_ERROR(f.attr_string("nope"), path, "missing attribute 'nope'");
+  EXPECT_INPUT_ERROR(h5::File::open_read(tmp / "absent.h5"), "absent.h5", "cannot open");
+  {
+    std::FILE* txt = std::fopen((tmp / "text.h5").c_str(), "w");
+    std::fputs("not hdf5\n", txt);
+    std::fclose(txt);
+  }
+  EXPECT_INPUT_ERROR(h5::File::open_read(tmp / "text.h5"), "text.h5", "not an HDF5 file");
+  h5::File w = h5::File::create(tmp / "c.h5");
+  EXPECT_INPUT_ERROR(w.write<double>("y", std::vector<double>{1, 2, 3}, {2, 2}), "/y", "do not fill the shape (2, 2)");
+}
+
+TEST(H5, AppendableDatasetGrowsByRows) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "app.h5";
+  {
+    h5::File f = h5::File::create(path);
+    auto force = f.create_appendable<double>("haptic/force", {3}, 4);
+    auto t = f.create_appendable<double>("haptic/t", {}, 4);
+    for (int i = 0; i < 10; ++i) {
+      std::vector<double> row{double(i), 2.0 * i, -1.0 * i};
+      force.append(row);
+      double ti = 0.001 * i;
+      t.append(std::span<const double>(&ti, 1));
+    }
+    std::vector<double> two_rows{10, 20, -10, 11, 22, -11};
+    force.append(two_rows);
+    EXPECT_EQ(force.rows(), 12u);
+    EXPECT_INPUT_ERROR(force.append(std::vector<double>{1, 2}), "/haptic/force", "not a multiple of the row size 3");
+  }
+  h5::File f = h5::File::open_read(path);
+  auto force = f.read<double>("haptic/force", {12, 3});
+  EXPECT_EQ(force.data[3 * 11 + 1], 22.0);
+  EXPECT_EQ(force.data[3 * 5 + 2], -5.0);
+  EXPECT_EQ(f.read<double>("haptic/t", {10}).data[9], 0.001 * 9);
+}
+
+TEST(Atomic, UncommittedLeavesNoFile) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "out.h5";
+  {
+    h5::AtomicFile out(path);
+    out.file().write<double>("x", std::vector<double>{1, 2}, {2});
+    EXPECT_TRUE(fs::exists(out.final_path() + ".tmp." + std::to_string(getpid())));
+    EXPECT_FALSE(fs::exists(path));
+  }  // destroyed uncommitted, as after an exception
+  EXPECT_FALSE(fs::exists(path));
+  EXPECT_EQ(tmp.entries(), 0u);
+}
+
+TEST(Atomic, CommitRenamesIntoPlaceReplacingAnOldFile) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "out.h5";
+  {
+    std::FILE* old = std::fopen(path.c_str(), "w");
+    std::fputs("old", old);
+    std::fclose(old);
+  }
+  {
+    h5::AtomicFile out(path);
+    out.file().write<double>("x", std::vector<double>{1, 2}, {2});
+    out.commit();
+  }
+  EXPECT_EQ(h5::File::open_read(path).read<double>("x").data, (std::vector<double>{1, 2}));
+  EXPECT_EQ(tmp.entries(), 1u);
+}
+
+TEST(Atomic, InterruptedCommitWritesNothing) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "out.h5";
+  {
+    h5::AtomicFile out(path);
+    out.file().write<double>("x", std::vector<double>{1}, {1});
+    std::raise(SIGINT);  // the installed handler only sets the flag
+    EXPECT_TRUE(interrupted());
+    EXPECT_INPUT_ERROR(out.commit(), "out.h5", "interrupted");
+  }
+  set_interrupted(false);
+  EXPECT_FALSE(fs::exists(path));
+  EXPECT_EQ(tmp.entries(), 0u);
+}

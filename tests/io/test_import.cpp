@@ -1,0 +1,107 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include "io/import.hpp"
+#include "io_test_util.hpp"
+
+using namespace ebh;
+
+namespace {
+
+const std::string kData = EBH_TEST_DATA_DIR "/io/";
+
+// The trajectory both sample logs hold (see their header comments): sample i = 0..19.
+Vec3d known_position(std::size_t i) {
+  double k = static_cast<double>(i);
+  return Vec3d{10 + k, -5 + 0.5 * k, 30} * 1e-3;
+}
+Quatd known_orientation(std::size_t i) {
+  return quat_from_rotvec(Vec3d{0, 0, 3.0 * static_cast<double>(i) * std::numbers::pi / 180});
+}
+
+double quat_angle(Quatd a, Quatd b) { return norm(rotvec_from_quat(conjugate(a) * b)); }
+
+void expect_known(const Recording& r, double dt) {
+  ASSERT_EQ(r.size(), 20u);
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    // The logs print 9 significant digits: 1e-9 relative on mm values below 100.
+    EXPECT_NEAR(norm(r.position[i] - known_position(i)), 0, 1e-10) << i;
+    EXPECT_NEAR(quat_angle(r.orientation[i], known_orientation(i)), 0, 1e-8) << i;
+    EXPECT_NEAR(r.jaw[i], 1.0 - static_cast<double>(i) / 19.0, 1e-9) << i;
+    EXPECT_EQ(r.buttons[i], i >= 10 ? 1 : 0) << i;
+    EXPECT_NEAR(r.t[i], dt * static_cast<double>(i), 1e-15) << i;
+  }
+  EXPECT_EQ(r.source, "device");
+}
+
+}  // namespace
+
+TEST(Import, OpenHapticsLogMatchesTheKnownTrajectory) {
+  ImportOptions opt;
+  opt.scene = "tube";
+  Recording r = import_log(kData + "sample_openhaptics.txt", opt);  // default: mm, 1000 Hz
+  expect_known(r, 1e-3);
+  EXPECT_EQ(r.rate_hz, 1000.0);
+  EXPECT_EQ(r.scene, "tube");
+}
+
+TEST(Import, CsvLogMatchesTheKnownTrajectory) {
+  ImportOptions opt;
+  Recording r = import_log(kData + "sample.csv", opt);  // default: m, t column
+  expect_known(r, 5e-4);
+  EXPECT_NEAR(r.rate_hz, 2000.0, 1e-6);  // from the median interval of the t column
+}
+
+TEST(Import, TransformMapsTheLogFrameToTheWorld) {
+  ImportOptions opt;
+  parse_transform("0,0,10,0,0,90", parse_length_unit("mm"), opt);
+  Recording r = import_log(kData + "sample_openhaptics.txt", opt);
+  Quatd rz = quat_from_rotvec(Vec3d{0, 0, std::numbers::pi / 2});
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    Vec3d expect = rotate(rz, known_position(i)) + Vec3d{0, 0, 0.01};
+    EXPECT_NEAR(norm(r.position[i] - expect), 0, 1e-10);
+    EXPECT_NEAR(quat_angle(r.orientation[i], rz * known_orientation(i)), 0, 1e-8);
+  }
+}
+
+TEST(Import, UnitOptionScalesPositions) {
+  ImportOptions opt;
+  opt.unit = parse_length_unit("cm");
+  Recording r = import_log(kData + "sample_openhaptics.txt", opt);
+  EXPECT_NEAR(norm(r.position[0] - 10.0 * known_position(0)), 0, 1e-12);
+  EXPECT_INPUT_ERROR(parse_length_unit("inch"), "--unit", "inch");
+  EXPECT_INPUT_ERROR(parse_transform("1,2,3", 1.0, opt), "--transform", "6");
+}
+
+TEST(Import, DefectsNameFileAndLine) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  const std::string bad = kData + "bad_rotation.txt";
+  EXPECT_INPUT_ERROR(import_log(bad, opt), "bad_rotation.txt:14", "not a rotation");
+  auto write = [&](const std::string& name, const char* text) {
+    std::FILE* f = std::fopen((tmp / name).c_str(), "w");
+    std::fputs(text, f);
+    std::fclose(f);
+    return tmp / name;
+  };
+  std::string p = write("a.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n# c\n0.001,0,0,abc,1,0,0,0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "a.csv:4", "z", "'abc' is not a number");
+  p = write("b.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0,0,0,0,1,0,0,0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "b.csv:3", "not strictly increasing");
+  p = write("c.csv", "t,x,y,qw,qx,qy,qz\n0,0,0,1,0,0,0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "c.csv:1", "missing column 'z'");
+  p = write("d.csv", "x,y,z,qw,qx,qy,qz,jaw\n0,0,0,1,0,0,0,1\n0,0,0,2,0,0,0,1\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "d.csv:3", "quaternion norm 2");
+  p = write("e.csv", "x,y,z,qw,qx,qy,qz,jaw\n0,0,0,1,0,0,0,1.5\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "e.csv:2", "jaw 1.5 outside [0, 1]");
+  p = write("f.txt", "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "f.txt:1", "16 fields");
+  p = write("g.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n1 0 0 5 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "g.txt:2", "homogeneous");
+  p = write("h.txt", "# only comments\n\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "h.txt", "no samples");
+  EXPECT_INPUT_ERROR(import_log(tmp / "absent.txt", opt), "absent.txt", "cannot open");
+}

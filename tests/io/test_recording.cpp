@@ -1,0 +1,211 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <numbers>
+
+#include "io/h5.hpp"
+#include "io/recording.hpp"
+#include "io_test_util.hpp"
+
+using namespace ebh;
+
+namespace {
+
+Recording make_recording(std::size_t n = 10) {
+  Recording r;
+  for (std::size_t i = 0; i < n; ++i) {
+    double t = 0.001 * static_cast<double>(i);
+    r.t.push_back(t);
+    r.position.push_back({0.01 * t, -0.02, 0.03 + t});
+    r.orientation.push_back(quat_from_rotvec(Vec3d{0, 0, 0.1 * static_cast<double>(i)}));
+    r.jaw.push_back(1.0 - static_cast<double>(i) / static_cast<double>(n));
+    r.buttons.push_back(i >= n / 2 ? 1 : 0);
+  }
+  r.rate_hz = 1000;
+  r.source = "synthetic";
+  r.scene = "tube";
+  r.tool = "hook";
+  r.description = "test";
+  return r;
+}
+
+// Writes the raw layout of `r` with one defect applied by `mutate` (called on the flat arrays
+// before writing) so read_recording's checks can be exercised one at a time.
+struct RawRecording {
+  std::vector<double> t, pos, ori, jaw;
+  std::vector<std::uint8_t> buttons;
+  explicit RawRecording(const Recording& r) {
+    t = r.t;
+    jaw = r.jaw;
+    buttons = r.buttons;
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      pos.insert(pos.end(), {r.position[i].x, r.position[i].y, r.position[i].z});
+      const Quatd& q = r.orientation[i];
+      ori.insert(ori.end(), {q.w, q.x, q.y, q.z});
+    }
+  }
+  void write(const std::string& path, const std::function<void(h5::Group&)>& extra = {},
+             const std::string& skip = "") const {
+    h5::File f = h5::File::create(path);
+    h5::Group g = f.create_group("trajectory");
+    if (skip != "t") g.write<double>("t", t, {t.size()});
+    if (skip != "position") g.write<double>("position", pos, {pos.size() / 3, 3});
+    if (skip != "orientation") g.write<double>("orientation", ori, {ori.size() / 4, 4});
+    if (skip != "jaw") g.write<double>("jaw", jaw, {jaw.size()});
+    if (skip != "buttons") g.write<std::uint8_t>("buttons", buttons, {buttons.size()});
+    f.set_attr("rate_hz", 1000.0);
+    if (skip != "scene") f.set_attr("scene", "tube");
+    f.set_attr("source", "synthetic");
+    f.set_attr("tool", "hook");
+    f.set_attr("description", "raw");
+    if (extra) extra(g);
+  }
+};
+
+}  // namespace
+
+TEST(Recording, WriteReadRoundTripIsExact) {
+  test::ScratchDir tmp;
+  Recording r = make_recording();
+  r.generator = "unit test";
+  write_recording(tmp / "r.h5", r);
+  Recording b = read_recording(tmp / "r.h5");
+  ASSERT_EQ(b.size(), r.size());
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    EXPECT_EQ(b.t[i], r.t[i]);
+    EXPECT_EQ(b.position[i], r.position[i]);
+    // Unit quaternions are renormalised on write and read: equal to round-off (1 ulp-ish).
+    EXPECT_NEAR(b.orientation[i].w, r.orientation[i].w, 1e-15);
+    EXPECT_NEAR(b.orientation[i].z, r.orientation[i].z, 1e-15);
+    EXPECT_EQ(b.jaw[i], r.jaw[i]);
+    EXPECT_EQ(b.buttons[i], r.buttons[i]);
+  }
+  EXPECT_EQ(b.rate_hz, 1000.0);
+  EXPECT_EQ(b.scene, "tube");
+  EXPECT_EQ(b.tool, "hook");
+  EXPECT_EQ(b.source, "synthetic");
+  EXPECT_EQ(b.description, "test");
+  EXPECT_EQ(b.generator, "unit test");
+  // Every dataset carries a unit.
+  h5::File f = h5::File::open_read(tmp / "r.h5");
+  for (const char* ds : {"t", "position", "orientation", "jaw", "buttons"})
+    EXPECT_TRUE(f.group("trajectory").dataset(ds).has_attr("unit")) << ds;
+  EXPECT_EQ(f.group("trajectory").dataset("position").attr_string("unit"), "m");
+}
+
+TEST(Recording, SchemaDefectsNameDatasetAndIndex) {
+  test::ScratchDir tmp;
+  const Recording good = make_recording();
+  const std::string p = tmp / "bad.h5";
+  auto defect = [&](const std::function<void(RawRecording&)>& mutate, const std::string& skip = "") {
+    RawRecording raw(good);
+    mutate(raw);
+    raw.write(p, {}, skip);
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+
+  defect([](RawRecording&) {}, "jaw");
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/jaw", "missing dataset");
+  // Positions stored as (N, 2).
+  {
+    RawRecording raw(good);
+    h5::File f = h5::File::create(p);
+    h5::Group g = f.create_group("trajectory");
+    g.write<double>("t", raw.t, {10});
+    g.write<double>("position", std::vector<double>(20, 0.0), {10, 2});
+  }
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/position", "shape (10, 2), expected (10, 3)");
+  {
+    RawRecording raw(good);
+    raw.write(p, [&](h5::Group&) {}, "buttons");
+    h5::File f = h5::File::open_write(p);
+    f.group("trajectory").write<double>("buttons", std::vector<double>(10, 0.0), {10});
+  }
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/buttons", "type floating point, expected integer");
+  defect([](RawRecording& r) { r.jaw.pop_back(); });
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/jaw", "shape (9,), expected (10,)");
+  defect([&](RawRecording& r) { r.pos[3 * 4 + 1] = nan; });
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/position[4]", "NaN");
+  defect([](RawRecording& r) { r.t[6] = r.t[5]; });
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/t[6]", "not strictly increasing");
+  defect([](RawRecording& r) { r.ori[4 * 3] *= 1.2; });
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/orientation[3]", "norm");
+  defect([](RawRecording& r) { r.jaw[2] = 1.5; });
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/jaw[2]", "outside [0, 1]");
+  defect([](RawRecording& r) { r.jaw[2] = std::numeric_limits<double>::infinity(); });
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/jaw[2]", "NaN or Inf");
+  defect([](RawRecording&) {}, "scene");
+  EXPECT_INPUT_ERROR(read_recording(p), p, "missing attribute 'scene'");
+  {
+    h5::File f = h5::File::create(p);
+    f.write<double>("t", std::vector<double>{0}, {1});
+  }
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory", "missing group");
+}
+
+TEST(Recording, SlightlyOffQuaternionIsNormalised) {
+  test::ScratchDir tmp;
+  RawRecording raw(make_recording());
+  for (int k = 0; k < 4; ++k) raw.ori[4 * 5 + k] *= 1.0004;  // within kQuatNormTolerance = 1e-3
+  raw.write(tmp / "q.h5");
+  Recording r = read_recording(tmp / "q.h5");
+  const Quatd& q = r.orientation[5];
+  EXPECT_NEAR(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z, 1.0, 1e-15);
+}
+
+TEST(Recording, WriteRejectsBadRecordingAndLeavesNoFile) {
+  test::ScratchDir tmp;
+  Recording r = make_recording();
+  r.t[3] = r.t[2];
+  EXPECT_INPUT_ERROR(write_recording(tmp / "w.h5", r), "/trajectory/t[3]");
+  EXPECT_EQ(tmp.entries(), 0u);
+}
+
+TEST(SampleAt, InterpolatesAndClamps) {
+  Recording r;
+  r.t = {0.0, 1.0, 3.0};
+  r.position = {{0, 0, 0}, {1, 2, 3}, {3, 2, 1}};
+  r.orientation = {Quatd{}, quat_from_rotvec(Vec3d{0, 0, std::numbers::pi / 2}), quat_from_rotvec(Vec3d{0, 0, std::numbers::pi / 2})};
+  r.jaw = {1.0, 0.0, 0.5};
+  r.buttons = {0, 1, 3};
+
+  DeviceSample a = sample_at(r, 0.25);
+  EXPECT_NEAR(norm(a.position - Vec3d{0.25, 0.5, 0.75}), 0, 1e-15);
+  EXPECT_NEAR(a.jaw, 0.75, 1e-15);
+  EXPECT_EQ(a.buttons, 0);  // held from the sample before
+  // slerp midpoint of identity and 90 deg about z: 45 deg about z.
+  DeviceSample m = sample_at(r, 0.5);
+  Vec3d w = rotvec_from_quat(m.orientation);
+  EXPECT_NEAR(norm(w - Vec3d{0, 0, std::numbers::pi / 4}), 0, 1e-12);  // acos/sin round-off
+  DeviceSample b = sample_at(r, 2.0);
+  EXPECT_NEAR(norm(b.position - Vec3d{2, 2, 2}), 0, 1e-15);
+  EXPECT_EQ(b.buttons, 1);
+  EXPECT_EQ(sample_at(r, 1.0).buttons, 1);  // exactly at a sample: that sample's buttons
+  // Clamped ends.
+  EXPECT_EQ(sample_at(r, -5.0).position, r.position[0]);
+  EXPECT_EQ(sample_at(r, 99.0).position, r.position[2]);
+  EXPECT_EQ(sample_at(r, 99.0).buttons, 3);
+  EXPECT_EQ(sample_at(r, 99.0).jaw, 0.5);
+}
+
+TEST(SampleAt, SlerpTakesTheShortArc) {
+  Quatd a = quat_from_rotvec(Vec3d{0, 0, 0.1});
+  Quatd b = quat_from_rotvec(Vec3d{0, 0, 0.3});
+  Quatd nb{-b.w, -b.x, -b.y, -b.z};  // the same rotation on the other hemisphere
+  Vec3d w = rotvec_from_quat(slerp(a, nb, 0.5));
+  EXPECT_NEAR(norm(w - Vec3d{0, 0, 0.2}), 0, 1e-12);
+}
+
+TEST(SceneCheck, FlagsATrajectoryFarOutside) {
+  Recording r = make_recording();
+  Vec3d lo{-0.1, -0.1, -0.1}, hi{0.1, 0.1, 0.1};
+  EXPECT_FALSE(check_recording_in_scene(r, lo, hi, 0.05).has_value());
+  for (auto& p : r.position) p = 1000.0 * p + Vec3d{50, 0, 0};  // mm read as m; the last sample is farthest
+  auto msg = check_recording_in_scene(r, lo, hi, 0.05);
+  ASSERT_TRUE(msg.has_value());
+  EXPECT_NE(msg->find("sample 9"), std::string::npos) << *msg;
+  EXPECT_NE(msg->find("mm or cm"), std::string::npos) << *msg;
+}

@@ -1,0 +1,61 @@
+// `ebh import LOG -o REC.h5 [--format openhaptics|csv] [--rate HZ] [--unit m|cm|mm]
+//  [--transform "tx,ty,tz,rx,ry,rz"] [--scene NAME] [--tool hook|forceps]`: a device log
+// (OpenHaptics-style transforms or CSV) into a recording. Formats: docs/FORMATS.md.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "command.hpp"
+#include "ebh/version.hpp"
+#include "io/error.hpp"
+#include "io/import.hpp"
+#include "io/recording.hpp"
+
+namespace {
+
+struct ImportArgs {
+  std::string log, output, format, unit, transform, scene, tool = "hook";
+  double rate_hz = 1000;
+};
+
+void run(const ImportArgs& a) {
+  ebh::ImportOptions opt;
+  if (a.format == "openhaptics") opt.format = ebh::LogFormat::openhaptics;
+  else if (a.format == "csv") opt.format = ebh::LogFormat::csv;
+  else if (!a.format.empty()) throw ebh::InputError("--format: '" + a.format + "' is not openhaptics or csv");
+  if (a.tool != "hook" && a.tool != "forceps") throw ebh::InputError("--tool: '" + a.tool + "' is not hook or forceps");
+  if (!(a.rate_hz > 0)) throw ebh::InputError("--rate: must be positive");
+  opt.rate_hz = a.rate_hz;
+  if (!a.unit.empty()) opt.unit = ebh::parse_length_unit(a.unit);
+  if (!a.transform.empty()) {
+    // The transform's translation is in the log's unit (its format's default when --unit is absent).
+    bool csv = opt.format ? *opt.format == ebh::LogFormat::csv
+                          : a.log.size() >= 4 && a.log.compare(a.log.size() - 4, 4, ".csv") == 0;
+    ebh::parse_transform(a.transform, opt.unit ? *opt.unit : (csv ? 1.0 : 1e-3), opt);
+  }
+  opt.scene = a.scene;
+  opt.tool = a.tool;
+  ebh::Recording rec = ebh::import_log(a.log, opt);
+  rec.generator = std::string("ebh import (ebh ") + ebh::kVersion + ")";
+  ebh::write_recording(a.output, rec);
+  std::printf("%s: %zu samples, %.3f s, %g Hz\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz);
+}
+
+void setup(CLI::App& root) {
+  auto args = std::make_shared<ImportArgs>();
+  CLI::App* c = root.add_subcommand("import", "Convert a device log (OpenHaptics transforms or CSV) to a recording");
+  c->add_option("log", args->log, "device log (text)")->required();
+  c->add_option("-o,--output", args->output, "recording to write (HDF5)")->required();
+  c->add_option("--format", args->format, "openhaptics or csv (default: csv for *.csv, else openhaptics)");
+  c->add_option("--rate", args->rate_hz, "sample rate in Hz when the log has no t column")->capture_default_str();
+  c->add_option("--unit", args->unit, "length unit of the log: m, cm or mm (default: mm openhaptics, m csv)");
+  c->add_option("--transform", args->transform,
+                "log frame -> world: \"tx,ty,tz,rx,ry,rz\" (translation in the log's unit, rotation vector in degrees)");
+  c->add_option("--scene", args->scene, "scenario to replay it with (root attribute scene)");
+  c->add_option("--tool", args->tool, "hook or forceps")->capture_default_str();
+  c->callback([args] { run(*args); });
+}
+
+}  // namespace
+
+EBH_COMMAND(setup);

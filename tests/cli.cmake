@@ -3,3 +3,20 @@
 set(EBH_BIN $<TARGET_FILE:ebh>)
 add_test(NAME cli.version COMMAND ${EBH_BIN} --version)
 set_tests_properties(cli.version PROPERTIES PASS_REGULAR_EXPRESSION "ebh [0-9]+\\.[0-9]+" LABELS cli)
+
+# ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py
+# writes it: peak force 1.52 N, one contact episode, one tick over 1 ms) and unreadable inputs.
+set(EBH_METRICS_DATA ${CMAKE_CURRENT_SOURCE_DIR}/data/metrics)
+add_test(NAME cli.metrics.table COMMAND ${EBH_BIN} metrics ${EBH_METRICS_DATA}/press.h5 --episodes)
+set_tests_properties(cli.metrics.table PROPERTIES
+  PASS_REGULAR_EXPRESSION "peak \\|F\\| +1\\.52[0-9]* N.*haptic ticks over budget +1 > 1 ms.*episodes \\(contacts > 0" LABELS cli)
+add_test(NAME cli.metrics.json COMMAND ${EBH_BIN} metrics ${EBH_METRICS_DATA}/press.h5 --json)
+set_tests_properties(cli.metrics.json PROPERTIES
+  PASS_REGULAR_EXPRESSION "\"finite\": true,.*\"episode_count\": 1,.*\"haptic_over_budget_ticks\": 1" LABELS cli)
+add_test(NAME cli.metrics.not_hdf5
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/make_trace.py"
+    "-DEXPECT=^ebh: error: .*make_trace.py: not a readable HDF5 file" -P ${CMAKE_CURRENT_SOURCE_DIR}/metrics/expect_error.cmake)
+add_test(NAME cli.metrics.missing_file
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/no_such_replay.h5"
+    "-DEXPECT=^ebh: error: .*no_such_replay.h5: cannot open file" -P ${CMAKE_CURRENT_SOURCE_DIR}/metrics/expect_error.cmake)
+set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file PROPERTIES LABELS cli)

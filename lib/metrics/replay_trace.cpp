@@ -126,9 +126,12 @@ class Reader {
     Handle type(H5Aget_type(a.get()), H5Tclose);
     Handle space(H5Aget_space(a.get()), H5Sclose);
     if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1) return {};
+    // The memory type takes the stored character set (h5py writes UTF-8): HDF5 does not
+    // convert between ASCII and UTF-8.
     if (H5Tis_variable_str(type.get()) > 0) {
       Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
       H5Tset_size(mem.get(), H5T_VARIABLE);
+      H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
       char* s = nullptr;
       if (H5Aread(a.get(), mem.get(), &s) < 0 || s == nullptr) return {};
       std::string out(s);
@@ -138,6 +141,7 @@ class Reader {
     std::size_t n = H5Tget_size(type.get());
     Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
     H5Tset_size(mem.get(), n + 1);
+    H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
     std::string buf(n + 1, '\0');
     if (H5Aread(a.get(), mem.get(), buf.data()) < 0) return {};
     return std::string(buf.c_str());

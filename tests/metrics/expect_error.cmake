@@ -1,0 +1,15 @@
+# Runs CMD (a ;-list) and passes only when it exits non-zero with a one-line stderr matching EXPECT.
+#   cmake -DCMD="a;b" -DEXPECT=regex -P expect_error.cmake
+execute_process(COMMAND ${CMD} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(rc EQUAL 0)
+  message(FATAL_ERROR "expected a non-zero exit, got 0\nstdout: ${out}\nstderr: ${err}")
+endif()
+if(NOT err MATCHES "${EXPECT}")
+  message(FATAL_ERROR "stderr does not match '${EXPECT}':\n${err}")
+endif()
+string(REGEX MATCHALL "\n" lines "${err}")
+list(LENGTH lines n)
+if(n GREATER 1)
+  message(FATAL_ERROR "the error is not one line:\n${err}")
+endif()
+message(STATUS "exit ${rc}: ${err}")

@@ -20,3 +20,15 @@ add_test(NAME cli.metrics.missing_file
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/no_such_replay.h5"
     "-DEXPECT=^ebh: error: .*no_such_replay.h5: cannot open file" -P ${CMAKE_CURRENT_SOURCE_DIR}/metrics/expect_error.cmake)
 set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file PROPERTIES LABELS cli)
+# scripts/plot_forces.py on the same trace, where Debian's python3 has h5py, matplotlib and numpy.
+find_program(EBH_SYSTEM_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
+if(EBH_SYSTEM_PYTHON3)
+  execute_process(COMMAND ${EBH_SYSTEM_PYTHON3} -c "import h5py, matplotlib, numpy"
+    RESULT_VARIABLE ebh_plot_deps OUTPUT_QUIET ERROR_QUIET)
+  if(ebh_plot_deps EQUAL 0)
+    add_test(NAME cli.plot_forces
+      COMMAND ${EBH_SYSTEM_PYTHON3} ${PROJECT_SOURCE_DIR}/scripts/plot_forces.py ${EBH_METRICS_DATA}/press.h5
+        -o ${PROJECT_BINARY_DIR}/plot_forces_press.png --labels press)
+    set_tests_properties(cli.plot_forces PROPERTIES PASS_REGULAR_EXPRESSION "plot_forces_press.png" LABELS cli)
+  endif()
+endif()

@@ -1,0 +1,40 @@
+#pragma once
+// Validation cases with analytic or reference answers, run from the command line
+// (`ebh validate NAME`, DESIGN.md §5) and by the tests.
+//
+// Adding one: write lib/validate/NAME.cpp defining `Validation NAME_validation()`, declare it
+// below, and add it to the table in registry.cpp (one line each; static self-registration would
+// be dropped by the linker from a static library, hence the table).
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "io/json.hpp"
+
+namespace ebh {
+
+struct ValidationResult {
+  std::string name;
+  double error = 0;      ///< relative error of the checked quantity
+  double tolerance = 0;  ///< passed when error <= tolerance (and any extra criterion in `data`)
+  bool passed = false;
+  Json data;             ///< the numbers behind the verdict (inputs, measured, expected, curves)
+  Json to_json() const;
+};
+
+struct Validation {
+  std::string name;
+  std::string description;  ///< one line: what is compared with what
+  std::function<ValidationResult()> run;
+};
+
+/// Every validation, in the table's order.
+const std::vector<Validation>& validations();
+/// The validation called name, or null.
+const Validation* find_validation(const std::string& name);
+
+// ---- the table's entries (one file each) ----
+Validation column_validation();       ///< column.cpp: ARAP column reaction force vs E A delta / L
+Validation convergence_validation();  ///< convergence.cpp: jacobi/chebyshev vs the direct solve
+
+}  // namespace ebh

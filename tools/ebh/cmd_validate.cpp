@@ -1,0 +1,61 @@
+// `ebh validate NAME|all [--json]`, `ebh validate --list`: runs the library's validation cases
+// (lib/validate) and exits 1 if any did not pass.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "command.hpp"
+#include "io/error.hpp"
+#include "validate/validation.hpp"
+
+namespace {
+
+struct Options {
+  std::string name;
+  bool json = false;
+  bool list = false;
+};
+
+void run(const Options& o) {
+  using namespace ebh;
+  if (o.list) {
+    for (const Validation& v : validations()) std::printf("%-14s %s\n", v.name.c_str(), v.description.c_str());
+    return;
+  }
+  if (o.name.empty()) throw InputError("validate: name a validation, 'all', or use --list");
+  std::vector<const Validation*> chosen;
+  if (o.name == "all") {
+    for (const Validation& v : validations()) chosen.push_back(&v);
+  } else if (const Validation* v = find_validation(o.name)) {
+    chosen.push_back(v);
+  } else {
+    throw InputError("validate: no validation named '" + o.name + "' (see ebh validate --list)");
+  }
+  bool all_passed = true;
+  Json results = Json::array();
+  for (const Validation* v : chosen) {
+    const ValidationResult r = v->run();
+    all_passed = all_passed && r.passed;
+    if (o.json) {
+      results.push(r.to_json());
+    } else {
+      std::printf("%-14s error %.3e  tolerance %.3e  %s\n", r.name.c_str(), r.error, r.tolerance,
+                  r.passed ? "passed" : "FAILED");
+    }
+  }
+  if (o.json) std::printf("%s\n", results.dump(2).c_str());
+  if (!all_passed) throw ebh::cli::ExitRequest{1};
+}
+
+void setup(CLI::App& root) {
+  auto opts = std::make_shared<Options>();
+  CLI::App* cmd = root.add_subcommand("validate", "Run validation cases with analytic or reference answers");
+  cmd->add_option("name", opts->name, "validation name, or 'all'");
+  cmd->add_flag("--json", opts->json, "print results as JSON (an array of {name, error, tolerance, passed, data})");
+  cmd->add_flag("--list", opts->list, "list the validations");
+  cmd->callback([opts] { run(*opts); });
+}
+
+}  // namespace
+
+EBH_COMMAND(setup);

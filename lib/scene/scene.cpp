@@ -377,7 +377,39 @@ std::vector<int> region_vertices(const Scene& scene, const PinRegion& r, std::si
 
 }  // namespace
 
-SceneSpec load_scene_spec(const fs::path& file) {
+namespace {
+
+/// Applies one "a.b.c=value" override to the YAML tree (creating maps along the way).
+void apply_override(YAML::Node root, const std::string& file, const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw InputError("--set '" + text + "': expected key=value (e.g. stiffness.k_con=800)");
+  const std::string key = text.substr(0, eq), value = text.substr(eq + 1);
+  YAML::Node parsed;
+  try {
+    parsed = YAML::Load(value);
+  } catch (const YAML::Exception& e) {
+    throw InputError("--set '" + text + "': value is not valid YAML: " + e.msg);
+  }
+  std::vector<YAML::Node> path{root};
+  std::size_t start = 0;
+  while (true) {
+    const auto dot = key.find('.', start);
+    const std::string part = key.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    if (part.empty()) throw InputError("--set '" + text + "': empty key component");
+    if (!path.back().IsMap() && path.back().IsDefined() && !path.back().IsNull())
+      throw InputError(file + ": --set '" + text + "': '" + key.substr(0, start ? start - 1 : 0) +
+                       "' is not a map");
+    if (dot == std::string::npos) {
+      path.back()[part] = parsed;
+      return;
+    }
+    path.push_back(path.back()[part]);
+    start = dot + 1;
+  }
+}
+
+YAML::Node read_scene_yaml(const fs::path& file) {
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) throw InputError(file.string() + ": scene file not found");
   YAML::Node root;
@@ -389,6 +421,14 @@ SceneSpec load_scene_spec(const fs::path& file) {
     throw InputError(file.string() + ": cannot read scene file: " + e.msg);
   }
   if (!root.IsDefined() || root.IsNull()) throw InputError(file.string() + ": empty scene file");
+  return root;
+}
+
+}  // namespace
+
+SceneSpec load_scene_spec(const fs::path& file, const std::vector<std::string>& overrides) {
+  YAML::Node root = read_scene_yaml(file);
+  for (const auto& o : overrides) apply_override(root, file.string(), o);
   try {
     return SpecReader(file).read(root);
   } catch (const YAML::Exception& e) {  // defensive: a yaml-cpp accessor that throws on odd input
@@ -396,9 +436,13 @@ SceneSpec load_scene_spec(const fs::path& file) {
   }
 }
 
-Scene load_scene(const fs::path& file) {
+Scene load_scene(const fs::path& file) { return load_scene(file, {}); }
+
+SceneSpec load_scene_spec(const fs::path& file) { return load_scene_spec(file, {}); }
+
+Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides) {
   Scene scene;
-  scene.spec = load_scene_spec(file);
+  scene.spec = load_scene_spec(file, overrides);
   const SceneSpec& spec = scene.spec;
   const std::string mesh_file = spec.physical_mesh.string();
 

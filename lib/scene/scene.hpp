@@ -159,6 +159,12 @@ SceneSpec load_scene_spec(const std::filesystem::path& file);
 /// Loads the scene file and its meshes, validates them, resolves pinned regions.
 Scene load_scene(const std::filesystem::path& file);
 
+/// The same with overrides "dotted.key=value" (the command line's --set) applied to the file's
+/// YAML before validation: `stiffness.k_con=800`, `solver.method=direct`, `gravity=[0,0,0]`.
+/// The value is parsed as YAML; a bad override is an InputError naming it.
+SceneSpec load_scene_spec(const std::filesystem::path& file, const std::vector<std::string>& overrides);
+Scene load_scene(const std::filesystem::path& file, const std::vector<std::string>& overrides);
+
 /// Resolves NAME to <source>/scenarios/NAME.yaml (also looked up relative to the working
 /// directory and $EBH_DATA_DIR); any other string is a path. Throws InputError if missing.
 std::filesystem::path resolve_scene_path(const std::string& name_or_path);

@@ -3,7 +3,7 @@
 
 Pure python (no numpy, no gmsh module). For each file it prints: format, nodes, tets (per
 physical volume), boundary triangles of the tet mesh (faces used by one tet), interior faces
-((4 tets - boundary) / 2), triangles per physical surface, bounding box, inverted tets and the
+((4 tets - boundary) / 2), interior faces between two volume groups, triangles per physical surface, bounding box, inverted tets and the
 worst / mean element quality as two measures computed here, both 1 for a regular tet:
   mean ratio   = 12 (3 V)^(2/3) / sum of the 6 squared edge lengths
   radius ratio = 3 r_in / R_circ
@@ -164,6 +164,7 @@ def check(path):
             face_owner_phys.setdefault(key, set()).add(phys)
     boundary = sum(1 for c in face_count.values() if c == 1)
     nonmanifold = sum(1 for c in face_count.values() if c > 2)
+    interface = sum(1 for k, c in face_count.items() if c == 2 and len(face_owner_phys[k]) == 2)
     interior = (4 * len(tets) - boundary) // 2
     per_surface = {}
     stray = 0
@@ -177,7 +178,7 @@ def check(path):
     hi = [max(nodes[v][i] for v in used) for i in range(3)] if used else [0, 0, 0]
     return dict(
         file=path, format=m["version"], nodes=len(nodes), unused_nodes=len(nodes) - len(used),
-        tets=len(tets), boundary_triangles=boundary, interior_faces=interior,
+        tets=len(tets), boundary_triangles=boundary, interior_faces=interior, interface_faces=interface,
         nonmanifold_faces=nonmanifold, inverted_tets=inverted, volume=volume,
         tets_per_volume={names.get((3, p), str(p)): n for p, n in sorted(per_volume.items())},
         triangles_per_surface={names.get((2, p), str(p)): n for p, n in sorted(per_surface.items())},
@@ -211,7 +212,7 @@ def main():
         print(f"{path}: MSH {r['format']}, {r['nodes']} nodes, {r['tets']} tets{dev}")
         print(f"  tets per volume group: {r['tets_per_volume']}")
         print(f"  boundary triangles {r['boundary_triangles']}, interior faces {r['interior_faces']}, "
-              f"triangles per surface group: {r['triangles_per_surface']}")
+              f"interface faces between volume groups {r['interface_faces']}, triangles per surface group: {r['triangles_per_surface']}")
         print("  bbox [{:.2f} {:.2f} {:.2f}] .. [{:.2f} {:.2f} {:.2f}], volume {:.0f}".format(
             *r["bbox_min"], *r["bbox_max"], r["volume"]))
         print(f"  quality: worst mean ratio {r['worst_mean_ratio']:.3f} (mean {r['mean_mean_ratio']:.3f}, "

@@ -1,0 +1,137 @@
+// Physical step time (Algorithm 1) per scene and method at 16 local-global iterations, and the
+// rotation-extraction micro-benchmark (Mueller 2016 warm-started vs SVD). The state is restored
+// before each timed step (outside the timing), so every step is the same step.
+#include <benchmark/benchmark.h>
+
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+
+#include "energy/polar_svd.hpp"
+#include "energy/rotation.hpp"
+#include "io/error.hpp"
+#include "scene/scene.hpp"
+#include "solver/box_mesh.hpp"
+#include "solver/physical_mesh.hpp"
+#include "solver/virtual_mesh.hpp"
+
+namespace {
+using namespace ebh;
+
+struct Loaded {
+  Scene scene;
+  VirtualModel vm;
+  PhysicalModel pm;
+  PhysicalState start;
+};
+
+/// Loads a scene once ("box8k" is generated: 10 x 10 x 13 cells, 7800 tets). Null if missing.
+const Loaded* load(const std::string& name, std::string& error) {
+  static std::map<std::string, std::unique_ptr<Loaded>> cache;
+  static std::map<std::string, std::string> errors;
+  if (auto it = cache.find(name); it != cache.end()) return it->second.get();
+  if (auto it = errors.find(name); it != errors.end()) { error = it->second; return nullptr; }
+  auto L = std::make_unique<Loaded>();
+  try {
+    if (name == "box8k") {
+      L->scene.spec.file = "box8k";
+      L->scene.physical = make_box_tets({0, 0, 0}, {0.05, 0.05, 0.065}, 10, 10, 13);
+      for (int i = 0; i < static_cast<int>(L->scene.physical.vertices.size()); ++i)
+        if (L->scene.physical.vertices[i].z == 0.0) L->scene.pinned.push_back(i);
+    } else {
+      L->scene = load_scene(resolve_scene_path(name));
+    }
+    L->vm = build_virtual_model(L->scene);
+    PhysicalModelOptions options;
+    options.h = 1.0 / L->scene.spec.physical_hz;
+    L->pm = build_physical_model(L->scene, &L->vm, options);
+  } catch (const std::exception& e) {
+    errors[name] = error = e.what();
+    return nullptr;
+  }
+  // A deformed starting state: a few steps from a downward velocity bump on the top half.
+  L->start = make_physical_state(L->pm);
+  double zmax = -1e9, zmin = 1e9;
+  for (const Vec3d& x : L->pm.rest) { zmax = std::max(zmax, x.z); zmin = std::min(zmin, x.z); }
+  for (int a = 0; a < L->pm.num_vertices; ++a)
+    if (!L->pm.pinned[a] && L->pm.rest[a].z > (zmin + zmax) / 2) L->start.v[a] = Vec3d{0.1, 0, -0.3};
+  PhysicalWorkspace ws = make_physical_workspace(L->pm);
+  for (int s = 0; s < 3; ++s) physical_step(L->pm, ws, L->start, L->vm.rest, PhysicalStepParams{});
+  return (cache[name] = std::move(L)).get();
+}
+
+void BM_PhysicalStep(benchmark::State& st, std::string scene, SolverSpec::Method method) {
+  std::string error;
+  const Loaded* L = load(scene, error);
+  if (!L) { st.SkipWithError(error.c_str()); return; }
+  PhysicalWorkspace ws = make_physical_workspace(L->pm);
+  PhysicalState state = L->start;
+  PhysicalStepParams params;
+  params.method = method;
+  params.iterations = 16;
+  double local = 0, global = 0;
+  for (auto _ : st) {
+    st.PauseTiming();
+    state.x = L->start.x;  // same sizes: copies, no allocation
+    state.v = L->start.v;
+    state.rotation = L->start.rotation;
+    st.ResumeTiming();
+    const PhysicalStepReport rep = physical_step(L->pm, ws, state, L->vm.rest, params);
+    local += rep.local_s;
+    global += rep.global_s;
+  }
+  st.counters["tets"] = L->pm.num_tets;
+  st.counters["local_ms"] = 1e3 * local / st.iterations();
+  st.counters["global_ms"] = 1e3 * global / st.iterations();
+}
+
+/// 4096 deformation gradients near rotations, and their rotations one step earlier (warm start).
+struct RotationData {
+  std::vector<Mat3d> F;
+  std::vector<Quatd> warm;
+  RotationData() {
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (int i = 0; i < 4096; ++i) {
+      const Quatd q = quat_from_rotvec(Vec3d{3 * u(rng), 3 * u(rng), 3 * u(rng)});
+      Mat3d S = Mat3d::identity();
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) S.m[r][c] += 0.1 * u(rng);
+      F.push_back(to_matrix(q) * S);
+      warm.push_back(normalized(quat_from_rotvec(Vec3d{0.02 * u(rng), 0.02 * u(rng), 0.02 * u(rng)}) * q));
+    }
+  }
+};
+
+void BM_RotationMuellerWarm(benchmark::State& st) {
+  static const RotationData d;
+  const int iters = static_cast<int>(st.range(0));
+  for (auto _ : st)
+    for (size_t i = 0; i < d.F.size(); ++i) benchmark::DoNotOptimize(extract_rotation(d.F[i], d.warm[i], iters, 0.0));
+  st.SetItemsProcessed(st.iterations() * d.F.size());
+}
+
+void BM_RotationSvd(benchmark::State& st) {
+  static const RotationData d;
+  for (auto _ : st)
+    for (size_t i = 0; i < d.F.size(); ++i) benchmark::DoNotOptimize(polar_rotation_svd(d.F[i]));
+  st.SetItemsProcessed(st.iterations() * d.F.size());
+}
+
+}  // namespace
+
+BENCHMARK(BM_RotationMuellerWarm)->Arg(1)->Arg(3)->Arg(10);
+BENCHMARK(BM_RotationSvd);
+
+#define EBH_SCENE_BENCH(scene)                                                                            \
+  BENCHMARK_CAPTURE(BM_PhysicalStep, scene##_jacobi, #scene, SolverSpec::Method::Jacobi)->Unit(benchmark::kMillisecond);  \
+  BENCHMARK_CAPTURE(BM_PhysicalStep, scene##_chebyshev, #scene, SolverSpec::Method::Chebyshev)->Unit(benchmark::kMillisecond); \
+  BENCHMARK_CAPTURE(BM_PhysicalStep, scene##_direct, #scene, SolverSpec::Method::Direct)->Unit(benchmark::kMillisecond);
+EBH_SCENE_BENCH(box8k)
+EBH_SCENE_BENCH(tube)
+EBH_SCENE_BENCH(gap)
+EBH_SCENE_BENCH(cholecystectomy)
+EBH_SCENE_BENCH(gynaecology)
+
+BENCHMARK_MAIN();

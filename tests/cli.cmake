@@ -4,6 +4,30 @@ set(EBH_BIN $<TARGET_FILE:ebh>)
 add_test(NAME cli.version COMMAND ${EBH_BIN} --version)
 set_tests_properties(cli.version PROPERTIES PASS_REGULAR_EXPRESSION "ebh [0-9]+\\.[0-9]+" LABELS cli)
 
+# ebh synth / ebh import (lib/io): a committed plan, the sample logs, bad input leaves no file.
+set(EBH_IO_DATA ${CMAKE_CURRENT_SOURCE_DIR}/data/io)
+set(EBH_IO_OUT ${PROJECT_BINARY_DIR}/cli_io)
+file(MAKE_DIRECTORY ${EBH_IO_OUT})
+add_test(NAME cli.synth.tube_insert
+  COMMAND ${EBH_BIN} synth ${PROJECT_SOURCE_DIR}/recordings/tube_insert.yaml -o ${EBH_IO_OUT}/tube_insert.h5 --seed 1)
+set_tests_properties(cli.synth.tube_insert PROPERTIES
+  PASS_REGULAR_EXPRESSION "tube_insert.h5: 10001 samples, 10.000 s at 1000 Hz, scene tube, tool hook" LABELS cli)
+add_test(NAME cli.import.openhaptics
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_IO_OUT}/oh.h5 --scene tube --unit mm)
+set_tests_properties(cli.import.openhaptics PROPERTIES PASS_REGULAR_EXPRESSION "oh.h5: 20 samples, 0.019 s, 1000 Hz" LABELS cli)
+add_test(NAME cli.import.csv
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample.csv -o ${EBH_IO_OUT}/csv.h5 --format csv --tool forceps)
+set_tests_properties(cli.import.csv PROPERTIES PASS_REGULAR_EXPRESSION "csv.h5: 20 samples, 0.009[0-9]* s, 2000 Hz" LABELS cli)
+add_test(NAME cli.import.bad_rotation
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/bad_rotation.txt;-o;${EBH_IO_OUT}/bad.h5"
+    "-DEXPECT=^ebh: error: .*bad_rotation.txt:14: the rotation part is not a rotation" -DOUTPUT=${EBH_IO_OUT}/bad.h5
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/io/expect_failure.cmake)
+add_test(NAME cli.synth.bad_plan
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_IO_DATA}/bad_plan.yaml;-o;${EBH_IO_OUT}/bad_plan.h5"
+    "-DEXPECT=^ebh: error: .*bad_plan.yaml:[0-9]+: waypoints\\[2\\].t: times must be strictly increasing"
+    -DOUTPUT=${EBH_IO_OUT}/bad_plan.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/io/expect_failure.cmake)
+set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan PROPERTIES LABELS cli)
+
 # ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py
 # writes it: peak force 1.52 N, one contact episode, one tick over 1 ms) and unreadable inputs.
 set(EBH_METRICS_DATA ${CMAKE_CURRENT_SOURCE_DIR}/data/metrics)

@@ -1,0 +1,21 @@
+# Runs CMD (a ;-list) and passes only when it exits non-zero, prints a message matching EXPECT on
+# stderr, and leaves neither OUTPUT nor any OUTPUT.tmp.* file behind.
+#   cmake -DCMD="a;b" -DEXPECT=regex -DOUTPUT=path -P expect_failure.cmake
+file(REMOVE ${OUTPUT})
+execute_process(COMMAND ${CMD} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(rc EQUAL 0)
+  message(FATAL_ERROR "expected a non-zero exit, got 0\nstdout: ${out}\nstderr: ${err}")
+endif()
+if(NOT err MATCHES "${EXPECT}")
+  message(FATAL_ERROR "stderr does not match '${EXPECT}':\n${err}")
+endif()
+string(REGEX MATCHALL "\n" lines "${err}")
+list(LENGTH lines n)
+if(n GREATER 1)
+  message(FATAL_ERROR "the error is not one line:\n${err}")
+endif()
+file(GLOB leftovers ${OUTPUT} ${OUTPUT}.tmp.*)
+if(leftovers)
+  message(FATAL_ERROR "output left behind: ${leftovers}")
+endif()
+message(STATUS "exit ${rc}: ${err}")

@@ -17,10 +17,10 @@ void VertexGrid::rebuild(std::span<const Vec3d> q_ref, double margin) {
   if (m > 0) { lo = hi = q_ref[0]; }
   for (const Vec3d& p : q_ref) { lo = cwise_min(lo, p); hi = cwise_max(hi, p); }
   const Vec3d ext = hi - lo;
-  // Cell size: at least the margin, and about one vertex per cell for a volume-filling cloud;
-  // at most 128 cells per axis.
+  // Cell size: at least half the margin, and about one vertex per cell for a volume-filling
+  // cloud; at most 128 cells per axis.
   const double vol = std::max(ext.x, 1e-9) * std::max(ext.y, 1e-9) * std::max(ext.z, 1e-9);
-  double cell = std::max({margin, std::cbrt(vol / std::max<std::size_t>(m, 1)), 1e-6});
+  double cell = std::max({0.5 * margin, std::cbrt(vol / std::max<std::size_t>(m, 1)), 1e-6});
   cell = std::max({cell, ext.x / 128.0, ext.y / 128.0, ext.z / 128.0});
   cell_ = cell;
   origin_ = lo;

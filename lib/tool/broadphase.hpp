@@ -24,7 +24,7 @@ namespace ebh {
 class VertexGrid {
  public:
   /// Bins q_ref (#m positions, metres). `margin` (metres) is the displacement the grid tolerates.
-  /// The cell size is max(margin, mean vertex spacing); allocation happens only when m or the
+  /// The cell size is max(margin / 2, mean vertex spacing); allocation happens only when m or the
   /// cell count grows.
   void rebuild(std::span<const Vec3d> q_ref, double margin);
 
@@ -34,7 +34,8 @@ class VertexGrid {
   bool stale(std::size_t m) const { return q_ref_.size() != m || m == 0 || moved_ > margin_ || violated_; }
 
   /// Calls visit(i) once for every vertex i whose reference cell intersects the box
-  /// [lo - margin - extra, hi + margin + extra] and for which keep_cell(centre, half_diagonal)
+  /// [lo - margin - extra, hi + margin + extra] and for which keep_cell(centre, half_diagonal +
+  /// margin + extra)
   /// is true (a conservative per-cell test). Vertices may repeat across calls; the caller dedupes.
   /// `q` (#m current positions) is used to check the invariant on visited vertices.
   template <class CellTest, class Visit>

@@ -48,16 +48,21 @@ void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGr
   for (int attempt = 0; attempt < 2; ++attempt) {
     const std::uint32_t stamp = grid.next_stamp();
     auto& stamps = grid.stamps();
+    const double T = translation, th = std::min(rotation, 0.5);
     for (int c = 0; c < tool.count; ++c) {
       const Collider<double>& shape = tool.shape[c];
       const Rigid<double>& w = tool.world[c];
-      const double extra = translation + rotation * tool.reach[c];
+      const double extra = (T + th * (tool.reach[c] + T)) / (1.0 - th);
       const Vec3d mid = apply(w, centre(shape));
       const double rb = bounding_radius(shape);
       const Vec3d ext{rb, rb, rb};
       grid.query(
           mid - ext, mid + ext, extra, q,
-          [&](Vec3d cell_centre, double slack) { return query_local(shape, apply_inverse(w, cell_centre)).sd <= slack; },
+          [&](Vec3d cc, double s_with_extra) {
+            const double s = s_with_extra - extra;  // half diagonal + margin
+            const double bound = (s + T + th * (norm(cc - tool.origin) + T)) / (1.0 - th);
+            return query_local(shape, apply_inverse(w, cc)).sd <= bound;
+          },
           [&](int i) {
             if (stamps[i] == stamp) return;
             stamps[i] = stamp;

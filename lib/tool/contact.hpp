@@ -54,7 +54,11 @@ bool vertex_contact(const PosedTool& tool, Projection projection, int vertex, Ve
 
 /// Candidate vertices for a posed tool that may move by up to `translation` (m) and
 /// `rotation` (rad, about the rotation centre) before the candidates are used again. Appends
-/// unique indices to `out`. Rebuilds the grid first when stale (counted in grid.rebuilds()) and
+/// unique indices to `out`. A collider point y moves by at most T + theta (|y - P| + T)
+/// (T = translation, theta = rotation, P = rotation centre), so a cell with centre c and
+/// half-diagonal-plus-margin s can hold a future contact only if
+///     sd(c) <= (s + T + theta (|c - P| + T)) / (1 - theta),
+/// the per-cell test used (rotation < 1 rad). Rebuilds the grid first when stale (counted in grid.rebuilds()) and
 /// again when the query finds the invariant violated.
 void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGrid& grid, double translation,
                        double rotation, std::vector<int>& out);

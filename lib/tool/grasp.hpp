@@ -6,8 +6,8 @@
 // l_s: the vertex's position in the virtual tool frame at the grasp; l_f: l_s flattened onto the
 // jaw projection plane (the tool's x = 0 plane where closed jaws meet) and clamped to the box's
 // y-z extent; d: the vertex's signed distance to the hard box divided by soft_margin
-// (dimensionless: -0.5..1 for a default forceps; negative inside, so vertices between the jaws
-// are flattened most). Every tick the target q_g = P_g + R_g l_g moves rigidly with the virtual
+// (dimensionless, in [-min half extent / soft_margin, 1]: negative inside, so vertices between
+// the jaws are flattened most; e.g. -1.25 .. 1 for the default forceps). Every tick the target q_g = P_g + R_g l_g moves rigidly with the virtual
 // tool, goes to the virtual mesh as a ContactTarget (stiffness k_con) and acts back on the virtual
 // tool through the same E_con [3] (grasp_energy in tool_energy.hpp). Opening the jaws above the
 // threshold releases every vertex.

@@ -95,6 +95,7 @@ PosedTool pose_tool(const ToolModel& tool, const ToolPose& pose, double jaw) {
   const auto frames = collider_frames(tool, jaw);
   const Rigid<double> world = to_rigid(pose);
   p.count = static_cast<int>(tool.colliders.size());
+  p.origin = pose.position;
   for (int c = 0; c < p.count; ++c) {
     p.shape[c] = tool.colliders[c];
     p.world[c] = compose(world, frames[static_cast<int>(tool.colliders[c].frame)]);

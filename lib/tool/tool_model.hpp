@@ -64,6 +64,7 @@ struct PosedTool {
   std::array<Collider<double>, kMaxColliders> shape;
   std::array<Rigid<double>, kMaxColliders> world;   ///< collider frame -> world
   std::array<double, kMaxColliders> reach{};
+  Vec3d origin{};  ///< the rotation centre, world
 };
 PosedTool pose_tool(const ToolModel& tool, const ToolPose& pose, double jaw);
 

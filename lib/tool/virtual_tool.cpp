@@ -9,6 +9,7 @@ namespace {
 
 constexpr int kMaxHalvings = 12;
 constexpr double kArmijo = 1e-4;
+constexpr double kConverged = 1e-13;
 
 /// Contacts of the candidates against the tool at `pose` (grasped vertices excluded).
 void detect_at(const ToolModel& tool, const ToolPose& pose, double jaw, std::span<const Vec3d> q,
@@ -73,8 +74,21 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
   const double max_rot = tool.spec.max_step_rotation_deg * std::numbers::pi / 180.0;
   // Broad phase once per call, covering every pose the step limits let the iterations reach.
   st.candidates.clear();
-  gather_candidates(pose_tool(tool, st.pose, jaw), q, grid, iterations * max_step, iterations * max_rot,
-                    st.candidates);
+  const PosedTool start = pose_tool(tool, st.pose, jaw);
+  const double T = iterations * max_step, th = std::min(iterations * max_rot, 0.5);
+  gather_candidates(start, q, grid, T, th, st.candidates);
+  // Keep the vertices that one of this call's iterates can reach (the bound of gather_candidates
+  // applied to the vertex itself, s = 0): the Newton iterations then test only those.
+  std::size_t kept = 0;
+  for (const int i : st.candidates) {
+    const double bound = (T + th * (norm(q[i] - start.origin) + T)) / (1.0 - th);
+    for (int c = 0; c < start.count; ++c)
+      if (query_local(start.shape[c], apply_inverse(start.world[c], q[i])).sd <= bound) {
+        st.candidates[kept++] = i;
+        break;
+      }
+  }
+  st.candidates.resize(kept);
   st.steps_taken = st.steps_rejected = 0;
 
   detect_at(tool, st.pose, jaw, q, normals, st, st.contacts);
@@ -88,7 +102,8 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
                                    max_rot / std::max(dx.tail<3>().norm(), 1e-300)});
     dx *= scale;
     const double slope = g.dot(dx);  // < 0: H_step is positive definite
-    if (!(slope < 0.0)) break;       // at a stationary point
+    // Converged: the predicted decrease is below round-off of E (no halving could show it).
+    if (!(slope < -kConverged * std::max(E, 1e-300))) break;
     double alpha = 1.0;
     bool accepted = false;
     for (int h = 0; h < kMaxHalvings; ++h, alpha *= 0.5) {

@@ -1,0 +1,270 @@
+// Behaviour of the tools: pressing, free motion, grasping, broad phase, force clamp, and the
+// two projections in the gap scene.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <set>
+
+#include "tool/contact.hpp"
+#include "tool/grasp.hpp"
+#include "tool/virtual_tool.hpp"
+
+using namespace ebh;
+
+namespace {
+const Quatd kPointingDown{0, 1, 0, 0};  // pi about x: tool +z -> world -z
+
+std::vector<Vec3d> flat_patch(double half, double spacing) {
+  std::vector<Vec3d> q;
+  const int n = static_cast<int>(std::lround(half / spacing));
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j) q.push_back({i * spacing, j * spacing, 0.0});
+  return q;
+}
+}  // namespace
+
+TEST(VirtualTool, PressingAFlatPatchFeelsTheNormalForceAndStaysOutside) {
+  ToolSpec spec;
+  spec.kind = ToolSpec::Kind::Forceps;
+  const ToolModel tool = build_tool(spec);
+  const Stiffness k;
+  const std::vector<Vec3d> q = flat_patch(0.015, 0.0005);  // fixed vertices on z = 0
+  const double L = spec.forceps.jaw_length, depth = 0.005;
+  const ToolPose physical{{0, 0, L - depth}, kPointingDown};  // closed jaws' tips 5 mm deep
+  VertexGrid grid;
+  VirtualToolState st;
+  init_virtual_tool(st, q.size(), {{0, 0, L + 0.001}, kPointingDown});
+  for (int tick = 0; tick < 300; ++tick) update_virtual_tool(tool, k, physical, 0.0, q, {}, grid, st);
+  const ToolOutput out = tool_output(tool, k, physical, st);
+  // Contacts pushing the tool up: those nearer the jaw tips' face than the jaws' sides.
+  int pushing_up = 0;
+  Vec3d contact_force{};
+  for (const ContactPoint& c : st.contacts) {
+    pushing_up += c.normal.z < -0.9;
+    contact_force -= k.k_con * c.phi * c.normal;  // -dE_con/dP_g, the tissue's push on the tool
+  }
+  ASSERT_GE(pushing_up, 20);
+  // Along the patch normal: the contact is symmetric about the tool axis, so the x/y force and
+  // the torque vanish up to round-off of sums of ~50 terms.
+  EXPECT_GT(out.force.z, 0.5);
+  EXPECT_LT(std::hypot(out.force.x, out.force.y), 1e-9 * out.force.z);
+  EXPECT_LT(norm(out.torque), 1e-9);
+  // Quasi-static equilibrium: the coupling force balances the contact forces.
+  EXPECT_LT(norm(out.force - contact_force), 1e-6 * out.force.z);  // Newton converged to 1e-6
+  // The virtual tool stays outside: >= 20 contacts share F <= k_vcs * 5 mm = 1.5 N, so none is
+  // deeper than 1.5 / (400 * 20) m = 0.19 mm. The physical tool's closest-point depth saturates
+  // at the jaws' half thickness (1 mm): the deepest vertex is nearer a side face than the tip face.
+  const double pen = penetration_depth(tool, st.pose, 0.0, q, grid);
+  EXPECT_LT(pen, 1.5 / (k.k_con * 20));
+  EXPECT_NEAR(penetration_depth(tool, physical, 0.0, q, grid), spec.forceps.jaw_thickness / 2, 1e-12);
+  EXPECT_FALSE(out.force_clamped);
+}
+
+TEST(VirtualTool, InFreeSpaceFollowsThePhysicalToolExactly) {
+  ToolSpec spec;
+  const ToolModel tool = build_tool(spec);
+  const Stiffness k;
+  const std::vector<Vec3d> q = flat_patch(0.02, 0.002);  // far below the tool
+  ToolPose physical{{0, 0, 0.1}, kPointingDown};
+  VertexGrid grid;
+  VirtualToolState st;
+  init_virtual_tool(st, q.size(), physical);
+  for (int tick = 0; tick < 100; ++tick) {
+    // 0.3 mm and 0.8 degrees per tick: inside one Newton step's limits (0.5 mm, 2 degrees).
+    physical.position += Vec3d{0.0003 * std::cos(0.1 * tick), 0.0003 * std::sin(0.1 * tick), 0.0};
+    physical.orientation = normalized(quat_from_rotvec(Vec3d{0.014, 0.0, 0.0}) * physical.orientation);
+    update_virtual_tool(tool, k, physical, 1.0, q, {}, grid, st);
+    const ToolOutput out = tool_output(tool, k, physical, st);
+    // One Newton step solves the quadratic coupling exactly: the error is round-off.
+    ASSERT_LT(norm(st.pose.position - physical.position), 1e-15);
+    ASSERT_LT(norm(rotvec_from_quat(st.pose.orientation * conjugate(physical.orientation))), 1e-12);
+    ASSERT_LT(norm(out.force), 1e-12);
+    ASSERT_TRUE(st.contacts.empty());
+  }
+}
+
+TEST(VirtualTool, EnergyNeverIncreasesOverNewtonSteps) {
+  ToolSpec spec;
+  const ToolModel tool = build_tool(spec);
+  const Stiffness k;
+  const std::vector<Vec3d> q = flat_patch(0.02, 0.0005);
+  // The hook's bent tip pressed 4 mm into the patch, tilted: asymmetric contacts, torques.
+  const ToolPose physical{{0.001, 0.0, 0.002}, normalized(quat_from_rotvec(Vec3d{0.3, 0.2, 0}) * kPointingDown)};
+  VertexGrid grid;
+  VirtualToolState st;
+  init_virtual_tool(st, q.size(), {{0.001, 0.0, 0.012}, kPointingDown});
+  double previous = tool_energy(tool, k, physical, 1.0, q, {}, grid, st);
+  for (int tick = 0; tick < 100; ++tick) {
+    update_virtual_tool(tool, k, physical, 1.0, q, {}, grid, st);
+    const double e = tool_energy(tool, k, physical, 1.0, q, {}, grid, st);
+    ASSERT_LE(e, previous * (1 + 1e-12));  // Armijo backtracking: monotone up to round-off
+    previous = e;
+  }
+  EXPECT_GT(st.contacts.size(), 0u);
+}
+
+TEST(Grasp, GraspedVerticesFollowTheJawsAndAreFreedOnRelease) {
+  ToolSpec spec;
+  spec.kind = ToolSpec::Kind::Forceps;
+  const ToolModel tool = build_tool(spec);
+  const Stiffness k;
+  // A block of tissue between the open jaws (tool frame = world here).
+  std::vector<Vec3d> q;
+  for (int i = -3; i <= 3; ++i)
+    for (int j = -4; j <= 4; ++j)
+      for (int l = 0; l <= 10; ++l) q.push_back({0.0005 * i, 0.0005 * j, 0.005 + 0.001 * l});
+  q.push_back({0.0, 0.0, 0.04});  // one vertex far beyond the jaw tips: never grasped
+  VertexGrid grid;
+  VirtualToolState st;
+  ToolPose pose{{0, 0, 0}, Quatd{}};
+  init_virtual_tool(st, q.size(), pose);
+  EXPECT_EQ(update_grasp(tool, st.pose, 1.0, q, grid, st.grasp), 0);  // open: nothing
+  EXPECT_EQ(update_grasp(tool, st.pose, 0.1, q, grid, st.grasp), +1);  // closing edge
+  EXPECT_EQ(st.grasp.vertices.size(), q.size() - 1);
+  EXPECT_EQ(st.grasp.held.back(), 0);
+  EXPECT_EQ(update_grasp(tool, st.pose, 0.05, q, grid, st.grasp), 0);  // once per closing
+  const Collider<double> hard = grasp_hard_box(tool, 0.1);
+  const double dmin = -std::min({hard.half.x, hard.half.y, hard.half.z}) / spec.forceps.soft_margin;
+  for (double w : st.grasp.weight) {  // d in [dmin, 1] (grasp.hpp)
+    EXPECT_GE(w, grasp_weight(1.0, spec.forceps.eta));
+    EXPECT_LE(w, grasp_weight(dmin, spec.forceps.eta));
+  }
+  // Targets move rigidly with the virtual tool.
+  const ToolPose moved{{0.003, -0.002, 0.01}, quat_from_rotvec(Vec3d{0.2, -0.3, 0.1})};
+  st.pose = moved;
+  std::vector<ContactTarget> targets;
+  virtual_mesh_targets(tool, k, 0.05, q, {}, grid, st, targets);
+  ASSERT_EQ(targets.size(), st.grasp.vertices.size());  // grasped vertices get no pressing contact
+  for (std::size_t j = 0; j < targets.size(); ++j)
+    EXPECT_LT(norm(targets[j].target - apply(to_rigid(moved), st.grasp.local_target[j])), 1e-15);
+  // The tool feels the pull through E_con: tissue fixed, physical tool lifted 5 mm.
+  st.pose = pose;
+  const ToolPose lifted{{0, 0, -0.005}, Quatd{}};  // tool +z points to the tissue: -z is "up"
+  for (int tick = 0; tick < 100; ++tick) update_virtual_tool(tool, k, lifted, 0.05, q, {}, grid, st);
+  const ToolOutput out = tool_output(tool, k, lifted, st);
+  EXPECT_GT(out.force.z, 0.0);  // pulled back towards the tissue (+z)
+  EXPECT_GT(st.pose.position.z, lifted.position.z);
+  // Release.
+  EXPECT_EQ(update_grasp(tool, st.pose, 0.5, q, grid, st.grasp), -1);
+  EXPECT_TRUE(st.grasp.vertices.empty());
+  EXPECT_EQ(std::accumulate(st.grasp.held.begin(), st.grasp.held.end(), 0), 0);
+}
+
+TEST(BroadPhase, GivesTheSameContactsAsBruteForce) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-0.03, 0.03);
+  std::vector<Vec3d> q(20000);
+  for (Vec3d& x : q) x = {u(rng), u(rng), u(rng)};
+  for (auto kind : {ToolSpec::Kind::Hook, ToolSpec::Kind::Forceps}) {
+    ToolSpec spec;
+    spec.kind = kind;
+    const ToolModel tool = build_tool(spec);
+    VertexGrid grid;
+    grid.rebuild(q, 0.002);
+    for (int t = 0; t < 30; ++t) {
+      std::normal_distribution<double> n(0, 1);
+      const ToolPose pose{{u(rng) / 2, u(rng) / 2, u(rng) / 2},
+                          normalized(Quatd{n(rng), n(rng), n(rng), n(rng)})};
+      std::vector<ContactTarget> fast;
+      detect_contacts(tool, pose, 0.7, q, {}, grid, 400.0, fast);
+      std::vector<int> all(q.size());
+      std::iota(all.begin(), all.end(), 0);
+      std::vector<ContactPoint> brute;
+      narrow_phase(pose_tool(tool, pose, 0.7), tool.projection, all, q, {}, {}, brute);
+      std::set<int> a, b;
+      for (auto& c : fast) a.insert(c.vertex);
+      for (auto& c : brute) b.insert(c.vertex);
+      ASSERT_EQ(a, b);
+      ASSERT_GT(b.size(), 0u);
+    }
+  }
+}
+
+TEST(BroadPhase, ViolatedDisplacementBoundFallsBackToARebuild) {
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(-0.03, 0.03);
+  std::vector<Vec3d> q(5000);
+  for (Vec3d& x : q) x = {u(rng), u(rng), u(rng)};
+  const ToolModel tool = build_tool(ToolSpec{});
+  VertexGrid grid;
+  grid.rebuild(q, 0.001);
+  for (Vec3d& x : q) x += Vec3d{0.004, 0.0, 0.0};  // every vertex moved 4 mm > 1 mm margin
+  const int before = grid.rebuilds();
+  const ToolPose pose{{0.0, 0.0, 0.0}, kPointingDown};
+  std::vector<ContactTarget> fast;
+  detect_contacts(tool, pose, 1.0, q, {}, grid, 400.0, fast);
+  EXPECT_EQ(grid.rebuilds(), before + 1);
+  std::vector<int> all(q.size());
+  std::iota(all.begin(), all.end(), 0);
+  std::vector<ContactPoint> brute;
+  narrow_phase(pose_tool(tool, pose, 1.0), tool.projection, all, q, {}, {}, brute);
+  EXPECT_EQ(fast.size(), brute.size());
+  // Reported motion beyond the margin makes the grid stale before any query.
+  grid.note_motion(0.0011);
+  EXPECT_TRUE(grid.stale(q.size()));
+}
+
+TEST(ToolOutput, ForceAndTorqueClampAreFlagged) {
+  ToolModel tool = build_tool(ToolSpec{});
+  tool.torque_limit = 0.05;
+  const Stiffness k;  // k_vcs 300 N/m, k_vct 0.3 N m/rad
+  VirtualToolState st;
+  init_virtual_tool(st, 0, {{0, 0, 0.02}, quat_from_rotvec(Vec3d{0, 0, 0.3})});
+  const ToolOutput big = tool_output(tool, k, {{0, 0, 0}, Quatd{}}, st);  // 6 N, 0.09 N m
+  EXPECT_TRUE(big.force_clamped);
+  EXPECT_NEAR(norm(big.force), 3.3, 1e-12);
+  EXPECT_NEAR(big.force.z, 3.3, 1e-12);
+  EXPECT_TRUE(big.torque_clamped);
+  EXPECT_NEAR(norm(big.torque), 0.05, 1e-12);
+  st.pose = {{0, 0, 0.005}, quat_from_rotvec(Vec3d{0, 0, 0.1})};  // 1.5 N, 0.03 N m
+  const ToolOutput small = tool_output(tool, k, {{0, 0, 0}, Quatd{}}, st);
+  EXPECT_FALSE(small.force_clamped);
+  EXPECT_FALSE(small.torque_clamped);
+  EXPECT_NEAR(small.force.z, 1.5, 1e-12);
+  EXPECT_NEAR(small.torque.z, 0.03, 1e-12);
+}
+
+// The gap scene (docs/TOOLS.md): a 3 mm gap between two blocks, the 5 mm hook shaft lying across
+// it, sunk 0.5 mm below the block tops and slid sideways. E_con of the fixed vertices along the
+// slide is continuous with the closest-point projection; with the inverse-normal projection a
+// top vertex entering through the shaft's flank is sent down through the whole shaft: E_con jumps.
+TEST(Projection, ClosestPointIsContinuousInTheGapWhereInverseNormalJumps) {
+  const double gap = 0.003, s = 0.0005;
+  std::vector<Vec3d> q, nrm;
+  for (double y = -0.010; y <= -0.002 + 1e-9; y += s) {
+    for (int i = 0; i <= 24; ++i) {  // block tops, normal +z
+      const double x = gap / 2 + i * s;
+      for (double sx : {-1.0, 1.0}) { q.push_back({sx * x, y, 0.0}); nrm.push_back({0, 0, 1}); }
+    }
+    for (int i = 1; i <= 20; ++i)  // walls, normals into the gap
+      for (double sx : {-1.0, 1.0}) { q.push_back({sx * gap / 2, y, -i * s}); nrm.push_back({-sx, 0, 0}); }
+  }
+  ToolSpec spec;
+  const Quatd along_y = quat_from_rotvec(Vec3d{-std::acos(-1.0) / 2, 0, 0});  // tool +z -> world +y
+  double jump[2] = {0, 0}, emax[2] = {0, 0};
+  for (int mode = 0; mode < 2; ++mode) {
+    const ToolModel tool = build_tool(spec, mode == 0 ? Projection::ClosestPoint : Projection::InverseNormal);
+    std::vector<int> all(q.size());
+    std::iota(all.begin(), all.end(), 0);
+    std::vector<ContactPoint> cps;
+    double prev = -1;
+    for (int step = 0; step <= 400; ++step) {  // slide x from -1 mm to +1 mm by 5 um
+      const ToolPose pose{{-0.001 + 5e-6 * step, 0, -0.0005}, along_y};
+      narrow_phase(pose_tool(tool, pose, 1.0), tool.projection, all, q, nrm, {}, cps);
+      const double e = contact_energy(cps, pose.position, 400.0, nullptr, nullptr);
+      if (prev >= 0) jump[mode] = std::max(jump[mode], std::abs(e - prev));
+      emax[mode] = std::max(emax[mode], e);
+      prev = e;
+    }
+  }
+  RecordProperty("closest_point_max_jump_rel", std::to_string(jump[0] / emax[0]));
+  RecordProperty("inverse_normal_max_jump_rel", std::to_string(jump[1] / emax[1]));
+  std::printf("gap slide: max |dE|/E_max per 5 um: closest point %.3g, inverse normal %.3g\n",
+              jump[0] / emax[0], jump[1] / emax[1]);
+  // A continuous E changes by at most |dE/dx| * 5 um: a few percent of E over this slide.
+  EXPECT_LT(jump[0] / emax[0], 0.05);
+  EXPECT_GT(jump[1] / emax[1], 3 * jump[0] / emax[0]);
+}

@@ -41,6 +41,8 @@ int update_grasp(const ToolModel& tool, const ToolPose& pose, double jaw, std::s
   box.reach[0] = 0.0;
   std::vector<int>& cand = g.vertices;  // reuse capacity: filtered in place below
   cand.clear();
+  g.local_target.clear();
+  g.weight.clear();
   gather_candidates(box, q, grid, f.soft_margin, 0.0, cand);
   const Rigid<double> frame = to_rigid(pose);
   const Collider<double>& hb = box.shape[0];

@@ -11,7 +11,7 @@ If (!Exists(lc))
 EndIf
 Mesh.RandomSeed = 1;
 gb_scale = 0.6;   // gallbladder mesh size = gb_scale * lc (the grasped organ gets a finer mesh)
-y_back = 55;      // the pinned back strip is the liver surface with y >= y_back
+y_back = 52;      // the pinned back strip is the liver surface with y >= y_back
 
 // OpenCASCADE spheres have their poles on local z and a seam in the half-plane y = 0, x > 0.
 // Each one is turned first (poles along y, seam toward a side that no boolean cut touches):

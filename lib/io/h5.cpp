@@ -86,9 +86,12 @@ bool link_exists(hid_t loc, const std::string& name) {
       htri_t e = H5Lexists(loc, prefix.c_str(), H5P_DEFAULT);
       if (e <= 0) return false;
       if (next != std::string::npos) {  // an intermediate component must be a group to continue
-        H5O_info_t info;
-        if (H5Oget_info_by_name(loc, prefix.c_str(), &info, H5P_DEFAULT) < 0 || info.type != H5O_TYPE_GROUP)
-          return false;
+        // H5Oopen + H5Iget_type rather than H5Oget_info_by_name, whose signature changed in 1.12.
+        hid_t o = H5Oopen(loc, prefix.c_str(), H5P_DEFAULT);
+        if (o < 0) return false;
+        bool is_group = H5Iget_type(o) == H5I_GROUP;
+        H5Oclose(o);
+        if (!is_group) return false;
       }
     }
     if (next == std::string::npos) return true;

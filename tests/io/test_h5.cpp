@@ -6,6 +6,9 @@
 #include <filesystem>
 #include <vector>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "io/atomic.hpp"
 #include "io/h5.hpp"
 #include "io_test_util.hpp"
@@ -141,5 +144,24 @@ TEST(Atomic, InterruptedCommitWritesNothing) {
   }
   set_interrupted(false);
   EXPECT_FALSE(fs::exists(path));
+  EXPECT_EQ(tmp.entries(), 0u);
+}
+
+TEST(Atomic, SecondSignalRemovesTemporaryFilesAndExits) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "out.h5";
+  pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {  // the child writes, then gets two interrupts without ever polling
+    h5::AtomicFile out(path);
+    out.file().write<double>("x", std::vector<double>{1}, {1});
+    std::raise(SIGINT);
+    std::raise(SIGINT);
+    _exit(0);  // not reached: the second signal exits with 128 + SIGINT
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGINT);
   EXPECT_EQ(tmp.entries(), 0u);
 }

@@ -1,0 +1,57 @@
+#include "schedule/replay_inputs.hpp"
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "ebh/version.hpp"
+#include "io/error.hpp"
+
+namespace ebh {
+
+namespace fs = std::filesystem;
+
+std::string resolve_recording_path(const std::string& name_or_path) {
+  std::error_code ec;
+  if (fs::is_regular_file(name_or_path, ec)) return name_or_path;
+  const bool looks_like_path = name_or_path.find('/') != std::string::npos || fs::path(name_or_path).has_extension();
+  if (!looks_like_path) {
+    std::vector<fs::path> roots;
+    if (const char* d = std::getenv("EBH_DATA_DIR")) roots.emplace_back(d);
+    roots.emplace_back(fs::current_path(ec));
+    roots.emplace_back(kSourceDir);
+    for (const auto& r : roots) {
+      const fs::path p = r / "recordings" / (name_or_path + ".h5");
+      if (fs::is_regular_file(p, ec)) return p.string();
+    }
+    throw InputError(name_or_path + ": no such recording (looked for recordings/" + name_or_path +
+                     ".h5 in $EBH_DATA_DIR, the working directory and " + std::string(kSourceDir) + ")");
+  }
+  throw InputError(name_or_path + ": recording file not found");
+}
+
+LoadedReplay load_replay_inputs(const std::string& scene, const std::string& recording,
+                                const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
+                                std::optional<double> physical_hz, bool allow_outside,
+                                Backend backend) {
+  LoadedReplay r;
+  r.recording_path = resolve_recording_path(recording);
+  r.recording = read_recording(r.recording_path);
+  Scene s = load_scene(resolve_scene_path(scene), overrides);
+  const double hz_h = haptic_hz.value_or(s.spec.haptic_hz), hz_p = physical_hz.value_or(s.spec.physical_hz);
+  if (!allow_outside) {
+    Vec3d lo = s.physical.vertices.front(), hi = lo;
+    for (const Vec3d& p : s.physical.vertices) {
+      lo = cwise_min(lo, p);
+      hi = cwise_max(hi, p);
+    }
+    // The tool's handle may start well away from the tissue; a unit mistake (cm or mm read as
+    // m) puts it tens to thousands of scene sizes away.
+    const double margin = std::max(norm(hi - lo), 0.1);
+    if (auto err = check_recording_in_scene(r.recording, lo, hi, margin))
+      throw InputError(r.recording_path + ": " + *err + " (a unit mistake? --allow-outside accepts it)");
+  }
+  r.world = build_world(std::move(s), hz_h, hz_p, backend);
+  return r;
+}
+
+}  // namespace ebh

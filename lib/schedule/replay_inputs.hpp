@@ -1,0 +1,32 @@
+#pragma once
+// Loading what a replay needs — scene, overrides, rates, recording — with the checks a user
+// relies on (a trajectory far outside the scene is most likely a unit mistake).
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "io/recording.hpp"
+#include "schedule/simulation.hpp"
+
+namespace ebh {
+
+struct LoadedReplay {
+  std::shared_ptr<const World> world;
+  Recording recording;
+  std::string recording_path;
+};
+
+/// Resolves a recording argument: an existing file, else recordings/NAME.h5 looked up in
+/// $EBH_DATA_DIR, the working directory and the source tree. Throws InputError if missing.
+std::string resolve_recording_path(const std::string& name_or_path);
+
+/// Loads scene (name or path) with --set overrides, builds the world at the given rates (the
+/// scene's when empty), reads the recording and checks that it lies near the scene (unless
+/// allow_outside). Throws InputError on any bad input.
+LoadedReplay load_replay_inputs(const std::string& scene, const std::string& recording,
+                                const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
+                                std::optional<double> physical_hz, bool allow_outside,
+                                Backend backend = Backend::Cpu);
+
+}  // namespace ebh

@@ -1,0 +1,224 @@
+#include "schedule/replay_output.hpp"
+
+#include <omp.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "ebh/version.hpp"
+#include "io/atomic.hpp"
+
+namespace ebh {
+namespace {
+
+void push3(std::vector<double>& v, Vec3d a) { v.insert(v.end(), {a.x, a.y, a.z}); }
+void push_pose(std::vector<double>& v, Vec3d p, Quatd q) { v.insert(v.end(), {p.x, p.y, p.z, q.w, q.x, q.y, q.z}); }
+
+const char* method_name(SolverSpec::Method m) {
+  switch (m) {
+    case SolverSpec::Method::Jacobi: return "jacobi";
+    case SolverSpec::Method::Chebyshev: return "chebyshev";
+    case SolverSpec::Method::Direct: return "direct";
+  }
+  return "?";
+}
+
+/// Every parameter that shapes the result, as root attributes.
+void write_parameters(h5::File& f, const World& w) {
+  const SceneSpec& s = w.scene.spec;
+  f.set_attr("haptic_hz", s.haptic_hz);
+  f.set_attr("physical_hz", s.physical_hz);
+  f.set_attr("k_vol", s.stiffness.k_vol);
+  f.set_attr("k_s", s.stiffness.k_s);
+  f.set_attr("k_svc", s.stiffness.k_svc);
+  f.set_attr("k_con", s.stiffness.k_con);
+  f.set_attr("k_vcs", s.stiffness.k_vcs);
+  f.set_attr("k_vct", s.stiffness.k_vct);
+  f.set_attr("density", s.density);
+  f.set_attr("damping", s.damping);
+  f.set_attr("gravity", std::vector<double>{s.gravity.x, s.gravity.y, s.gravity.z});
+  f.set_attr("solver_method", method_name(s.solver.method));
+  f.set_attr("physical_iterations", static_cast<std::int64_t>(s.solver.physical_iterations));
+  f.set_attr("virtual_iterations", static_cast<std::int64_t>(s.solver.virtual_iterations));
+  f.set_attr("chebyshev_rho", s.solver.chebyshev_rho);
+  f.set_attr("virtual_refine", static_cast<std::int64_t>(s.virtual_refine));
+  f.set_attr("tool", s.tool.kind == ToolSpec::Kind::Hook ? "hook" : "forceps");
+  f.set_attr("force_limit", s.tool.force_limit);
+  f.set_attr("newton_iterations", static_cast<std::int64_t>(s.tool.newton_iterations));
+  f.set_attr("max_step", s.tool.max_step);
+  f.set_attr("max_step_rotation_deg", s.tool.max_step_rotation_deg);
+  f.set_attr("shaft_radius", s.tool.shaft_radius);
+  f.set_attr("grasp", static_cast<std::int64_t>(s.stages.grasp));
+  f.set_attr("projection", w.tool.projection == Projection::ClosestPoint ? "closest_point" : "inverse_normal");
+}
+
+void write_rest_mesh(h5::File& f, const World& w) {
+  h5::Group m = f.create_group("mesh");
+  std::vector<double> q;
+  for (const Vec3d& p : w.virtual_mesh.rest) push3(q, p);
+  m.write<double>("virtual_rest", q, {w.virtual_mesh.rest.size(), 3});
+  std::vector<std::int32_t> tri;
+  for (const Tri& t : w.virtual_mesh.triangles) tri.insert(tri.end(), {t[0], t[1], t[2]});
+  m.write<std::int32_t>("virtual_triangles", tri, {w.virtual_mesh.triangles.size(), 3});
+  std::vector<double> x;
+  for (const Vec3d& p : w.physical_mesh.rest) push3(x, p);
+  m.write<double>("physical_rest", x, {w.physical_mesh.rest.size(), 3});
+  std::vector<std::int32_t> tets;
+  for (const Tet& t : w.physical_mesh.tets) tets.insert(tets.end(), {t[0], t[1], t[2], t[3]});
+  m.write<std::int32_t>("physical_tets", tets, {w.physical_mesh.tets.size(), 4});
+}
+
+}  // namespace
+
+std::string cpu_description() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      const auto colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(colon + 2);
+    }
+  }
+  return "unknown CPU";
+}
+
+ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, const ReplayMetadata& meta,
+                           std::int64_t expected_ticks, bool frames)
+    : out_(out_path), frames_(frames) {
+  const auto n = static_cast<std::size_t>(expected_ticks);
+  for (auto* v : {&t_, &pen_, &pen_h_, &jaw_, &tm_total_, &tm_device_, &tm_sync_, &tm_grasp_, &tm_vmesh_, &tm_vtool_,
+                  &tm_output_})
+    v->reserve(n);
+  force_.reserve(3 * n);
+  torque_.reserve(3 * n);
+  pose_h_.reserve(7 * n);
+  pose_g_.reserve(7 * n);
+  fclamp_.reserve(n);
+  tclamp_.reserve(n);
+  contacts_.reserve(n);
+  grasped_.reserve(n);
+  const std::size_t steps = n / static_cast<std::size_t>(world.ticks_per_step) + 2;
+  for (auto* v : {&pt_, &residual_, &tm_step_, &tm_local_, &tm_global_}) v->reserve(steps);
+  iterations_.reserve(steps);
+
+  h5::File& f = out_.file();
+  f.set_attr("scene", world.scene.spec.name);
+  f.set_attr("scene_file", world.scene.spec.file.string());
+  f.set_attr("recording", meta.recording);
+  f.set_attr("mode", meta.mode);
+  f.set_attr("backend", meta.backend);
+  f.set_attr("device", meta.device);
+  f.set_attr("version", std::string(kVersion));
+  f.set_attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
+  std::string overrides;
+  for (const auto& o : meta.overrides) overrides += (overrides.empty() ? "" : " ") + o;
+  f.set_attr("overrides", overrides);
+  write_parameters(f, world);
+  write_rest_mesh(f, world);
+  if (frames_) {
+    h5::Group g = f.create_group("frames");
+    const std::size_t m = world.virtual_mesh.rest.size(), nx = world.physical_mesh.rest.size();
+    f_t_ = g.create_appendable<double>("t", {}, 64);
+    f_jaw_ = g.create_appendable<double>("jaw", {}, 64);
+    f_q_ = g.create_appendable<float>("virtual_positions", {m, 3}, 1);
+    f_x_ = g.create_appendable<float>("physical_positions", {nx, 3}, 1);
+    f_pose_ = g.create_appendable<double>("tool_poses", {2, 7}, 64);
+    scratch_f_.reserve(3 * std::max(m, nx));
+  }
+}
+
+void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
+  t_.push_back(t);
+  push3(force_, h.output.force);
+  push3(torque_, h.output.torque);
+  fclamp_.push_back(h.output.force_clamped);
+  tclamp_.push_back(h.output.torque_clamped);
+  push_pose(pose_h_, h.device.position, h.device.orientation);
+  push_pose(pose_g_, h.tool.pose.position, h.tool.pose.orientation);
+  pen_.push_back(h.penetration);
+  pen_h_.push_back(h.penetration_physical);
+  jaw_.push_back(h.device.jaw);
+  contacts_.push_back(h.contact_count);
+  grasped_.push_back(static_cast<std::int32_t>(h.tool.grasp.vertices.size()));
+  tm_total_.push_back(h.timing.total);
+  tm_device_.push_back(h.timing.device);
+  tm_sync_.push_back(h.timing.physical_sync);
+  tm_grasp_.push_back(h.timing.grasp);
+  tm_vmesh_.push_back(h.timing.virtual_mesh);
+  tm_vtool_.push_back(h.timing.virtual_tool);
+  tm_output_.push_back(h.timing.output);
+  const double f = norm(h.output.force);
+  if (f > peak_force_ || std::isnan(f)) peak_force_ = f;
+  if (h.penetration > max_penetration_) max_penetration_ = h.penetration;
+  clamped_ += h.output.force_clamped ? 1 : 0;
+}
+
+void ReplayWriter::on_step(const World&, const PhysicalSide& p, double t) {
+  pt_.push_back(t);
+  iterations_.push_back(p.report.iterations);
+  residual_.push_back(p.report.residual);
+  tm_step_.push_back(p.report.time_s);
+  tm_local_.push_back(p.report.local_s);
+  tm_global_.push_back(p.report.global_s);
+}
+
+void ReplayWriter::on_frame(const World&, const HapticSide& h, double t) {
+  if (!frames_) return;
+  f_t_.append_row(std::span<const double>(&t, 1));
+  f_jaw_.append_row(std::span<const double>(&h.device.jaw, 1));
+  auto append_positions = [this](h5::Appender<float>& a, const std::vector<Vec3d>& p) {
+    scratch_f_.clear();
+    for (const Vec3d& v : p) scratch_f_.insert(scratch_f_.end(), {float(v.x), float(v.y), float(v.z)});
+    a.append(scratch_f_);
+  };
+  append_positions(f_q_, h.mesh.q);
+  append_positions(f_x_, h.visible.x);
+  const double poses[14] = {h.device.position.x, h.device.position.y, h.device.position.z,
+                            h.device.orientation.w, h.device.orientation.x, h.device.orientation.y,
+                            h.device.orientation.z, h.tool.pose.position.x, h.tool.pose.position.y,
+                            h.tool.pose.position.z, h.tool.pose.orientation.w, h.tool.pose.orientation.x,
+                            h.tool.pose.orientation.y, h.tool.pose.orientation.z};
+  f_pose_.append(std::span<const double>(poses, 14));
+}
+
+bool ReplayWriter::should_stop() { return interrupted(); }
+
+void ReplayWriter::commit(const ReplaySummary& s) {
+  h5::File& f = out_.file();
+  const std::size_t n = t_.size(), k = pt_.size();
+  h5::Group hg = f.create_group("haptic");
+  hg.write<double>("t", t_, {n});
+  hg.write<double>("force", force_, {n, 3});
+  hg.write<double>("torque", torque_, {n, 3});
+  hg.write<std::uint8_t>("force_clamped", fclamp_, {n});
+  hg.write<std::uint8_t>("torque_clamped", tclamp_, {n});
+  hg.write<double>("pose_physical", pose_h_, {n, 7});
+  hg.write<double>("pose_virtual", pose_g_, {n, 7});
+  hg.write<double>("penetration", pen_, {n});
+  hg.write<double>("penetration_physical", pen_h_, {n});
+  hg.write<double>("jaw", jaw_, {n});
+  hg.write<std::int32_t>("contacts", contacts_, {n});
+  hg.write<std::int32_t>("grasped", grasped_, {n});
+  h5::Group pg = f.create_group("physical");
+  pg.write<double>("t", pt_, {k});
+  pg.write<std::int32_t>("iterations", iterations_, {k});
+  pg.write<double>("residual", residual_, {k});
+  h5::Group tg = f.create_group("timing");
+  tg.write<double>("haptic_step_s", tm_total_, {n});
+  tg.write<double>("device_s", tm_device_, {n});
+  tg.write<double>("physical_sync_s", tm_sync_, {n});
+  tg.write<double>("grasp_s", tm_grasp_, {n});
+  tg.write<double>("virtual_mesh_s", tm_vmesh_, {n});
+  tg.write<double>("virtual_tool_s", tm_vtool_, {n});
+  tg.write<double>("output_s", tm_output_, {n});
+  tg.write<double>("physical_step_s", tm_step_, {k});
+  tg.write<double>("physical_local_s", tm_local_, {k});
+  tg.write<double>("physical_global_s", tm_global_, {k});
+  f.set_attr("ticks", static_cast<std::int64_t>(s.ticks));
+  f.set_attr("steps", static_cast<std::int64_t>(s.steps));
+  f.set_attr("virtual_s", s.virtual_s);
+  f.set_attr("wall_s", s.wall_s);
+  out_.commit();
+}
+
+}  // namespace ebh

@@ -1,0 +1,75 @@
+#pragma once
+// The replay output file (DESIGN.md §4; docs/FORMATS.md): an HDF5 file whose datasets all have
+// time as their first dimension, written under a temporary name and renamed when complete.
+//   /haptic/{t, force, torque, force_clamped, torque_clamped, pose_physical, pose_virtual,
+//            penetration, penetration_physical, contacts, grasped, jaw}
+//   /physical/{t, iterations, residual}
+//   /timing/{haptic_step_s, device_s, physical_sync_s, grasp_s, virtual_mesh_s, virtual_tool_s,
+//            output_s, physical_step_s, physical_local_s, physical_global_s}
+//   /frames/{t, virtual_positions, physical_positions, tool_poses, jaw}   (with --frames-hz)
+//   /mesh/{virtual_rest, virtual_triangles, physical_rest, physical_tets, physical_boundary}
+//   root attributes: scene, scene_file, recording, mode, backend, device, version, threads and
+//   every parameter of the scene (stiffness, solver, tool, rates).
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/h5.hpp"
+#include "schedule/scheduler.hpp"
+
+namespace ebh {
+
+struct ReplayMetadata {
+  std::string recording;          ///< the recording's path
+  std::string mode = "async";
+  std::string backend = "cpu";
+  std::string device;             ///< e.g. the CPU model
+  std::vector<std::string> overrides;  ///< --set key=value, as given
+};
+
+/// Collects a replay and writes it. Per-tick and per-step rows are buffered (reserved for the
+/// whole replay, so a tick does not allocate); frames are appended to the file as they come.
+class ReplayWriter : public ReplayObserver {
+ public:
+  /// Opens OUT under its temporary name. expected_ticks sizes the buffers.
+  ReplayWriter(const std::string& out_path, const World& world, const ReplayMetadata& meta,
+               std::int64_t expected_ticks, bool frames);
+
+  void on_tick(const World& world, const HapticSide& haptic, double t) override;
+  void on_step(const World& world, const PhysicalSide& physical, double t) override;
+  void on_frame(const World& world, const HapticSide& haptic, double t) override;
+  bool should_stop() override;
+
+  /// Writes the buffered datasets and the summary attributes, then renames the file into place.
+  void commit(const ReplaySummary& summary);
+
+  // What was recorded so far, for the end-of-run summary.
+  double peak_force() const { return peak_force_; }
+  double max_penetration() const { return max_penetration_; }
+  std::int64_t clamped_ticks() const { return clamped_; }
+
+ private:
+  h5::AtomicFile out_;
+  // /haptic and /timing per tick
+  std::vector<double> t_, force_, torque_, pose_h_, pose_g_, pen_, pen_h_, jaw_;
+  std::vector<std::uint8_t> fclamp_, tclamp_;
+  std::vector<std::int32_t> contacts_, grasped_;
+  std::vector<double> tm_total_, tm_device_, tm_sync_, tm_grasp_, tm_vmesh_, tm_vtool_, tm_output_;
+  // /physical per step
+  std::vector<double> pt_, residual_, tm_step_, tm_local_, tm_global_;
+  std::vector<std::int32_t> iterations_;
+  // /frames
+  bool frames_ = false;
+  h5::Appender<double> f_t_, f_jaw_;
+  h5::Appender<float> f_q_, f_x_;
+  h5::Appender<double> f_pose_;
+  std::vector<float> scratch_f_;
+  double peak_force_ = 0, max_penetration_ = 0;
+  std::int64_t clamped_ = 0;
+};
+
+/// The CPU's model name (from /proc/cpuinfo), for the `device` attribute.
+std::string cpu_description();
+
+}  // namespace ebh

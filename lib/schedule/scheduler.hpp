@@ -1,0 +1,60 @@
+#pragma once
+// Who runs when (DESIGN.md §2). Tick n is at t_n = n h_h; the device sample of tick n is the
+// recording interpolated at t_n. Physical step k starts at tick k N (N = h_p / h_h):
+//   async     (default, the paper's system) it starts from the haptic side's snapshot at tick kN
+//             and its result becomes visible at tick (k+1)N, as a concurrent solver thread would
+//             deliver it. It does run on a second thread, overlapping the N ticks, but its
+//             inputs and delivery tick are fixed, so the replay is bitwise reproducible.
+//   lockstep  its result is visible at once (no latency): the reference for accuracy studies.
+//   realtime  the two sides run on two threads paced by the wall clock, exchanging
+//             double-buffered snapshots; it measures achievable rates and is not deterministic.
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "schedule/simulation.hpp"
+
+namespace ebh {
+
+enum class Mode { Async, Lockstep, Realtime };
+
+/// Parses "async" | "lockstep" | "realtime"; throws InputError naming the option otherwise.
+Mode parse_mode(const std::string& s);
+const char* mode_name(Mode m);
+
+struct ReplayOptions {
+  Mode mode = Mode::Async;
+  double duration = 0;    ///< s of the recording to replay; <= 0: all of it
+  double frames_hz = 0;   ///< mesh snapshots per second; 0: none
+};
+
+/// What a replay reports as it goes (the HDF5 writer and the progress bar implement it).
+class ReplayObserver {
+ public:
+  virtual ~ReplayObserver() = default;
+  /// After tick n (virtual time t = n h_h).
+  virtual void on_tick(const World&, const HapticSide&, double /*t*/) {}
+  /// After physical step k finished (virtual time t at which it started).
+  virtual void on_step(const World&, const PhysicalSide&, double /*t*/) {}
+  /// A mesh snapshot at virtual time t (physical: the physical side's visible result).
+  virtual void on_frame(const World&, const HapticSide&, double /*t*/) {}
+  /// Polled once per tick; returning true stops the replay (e.g. an interrupt).
+  virtual bool should_stop() { return false; }
+};
+
+struct ReplaySummary {
+  std::int64_t ticks = 0;
+  std::int64_t steps = 0;
+  double virtual_s = 0;   ///< replayed virtual time
+  double wall_s = 0;
+  bool stopped = false;   ///< ended early by should_stop()
+};
+
+/// Number of ticks a replay of `duration` seconds runs: ticks 0 .. floor(duration / h_h).
+std::int64_t tick_count(const World& world, double duration);
+
+/// Replays `recording` through the two-rate solver.
+ReplaySummary replay(const World& world, const Recording& recording, const ReplayOptions& options,
+                     ReplayObserver& observer);
+
+}  // namespace ebh

@@ -1,0 +1,171 @@
+#include "schedule/simulation.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "io/error.hpp"
+#include "tool/contact.hpp"
+#include "tool/grasp.hpp"
+
+namespace ebh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// Times one stage into `slot` (wall clock; timings are the only non-deterministic output).
+template <class F>
+void timed(double& slot, F&& stage) {
+  const auto t0 = Clock::now();
+  stage();
+  slot = seconds_since(t0);
+}
+
+ToolPose pose_of(const DeviceSample& s) { return {s.position, s.orientation}; }
+
+/// Normals are read only by the paper's inverse-normal projection; the closest-point default
+/// skips them.
+std::span<const Vec3d> normals_if_needed(const World& world, const HapticSide& h) {
+  if (world.tool.projection == Projection::InverseNormal) return h.normals;
+  return {};
+}
+
+// ---- Algorithm 2, one stage a function -------------------------------------------------------
+
+/// Line 4: the physical tool X_h follows the device.
+void read_device(HapticSide& h, const DeviceSample& sample) { h.device = sample; }
+
+/// Lines 1 and 6: E_svc targets from the visible physical mesh, inertial prediction of q.
+void sync_physical_targets(const World& world, HapticSide& h) {
+  virtual_begin_tick(world.virtual_mesh, h.workspace, h.mesh, h.visible.x, world.h_haptic);
+  if (world.tool.projection == Projection::InverseNormal)
+    compute_vertex_normals(world.virtual_mesh, h.mesh.q, h.normals);
+}
+
+/// §5.2: the jaws closing past the threshold grasp, opening releases (forceps scenes only).
+void update_grasp_stage(const World& world, HapticSide& h) {
+  if (!world.scene.spec.stages.grasp || !world.tool.has_jaws) return;
+  update_grasp(world.tool, h.tool.pose, h.device.jaw, h.mesh.q, h.grid, h.tool.grasp);
+}
+
+/// Lines 10-16: contact (and grasp) targets of the virtual tool held fixed, then one local-global
+/// iteration of the virtual mesh.
+void virtual_mesh_iteration(const World& world, HapticSide& h) {
+  h.contacts.clear();
+  virtual_mesh_targets(world.tool, world.scene.spec.stiffness, h.device.jaw, h.mesh.q, normals_if_needed(world, h),
+                       h.grid, h.tool, h.contacts);
+  virtual_iteration(world.virtual_mesh, h.workspace, h.mesh, h.contacts);
+  h.contact_count = static_cast<int>(h.contacts.size());
+}
+
+/// Lines 18-19: Newton steps of the virtual tool on E_tool with the virtual mesh held fixed.
+void virtual_tool_iteration(const World& world, HapticSide& h) {
+  update_virtual_tool(world.tool, world.scene.spec.stiffness, pose_of(h.device), h.device.jaw, h.mesh.q,
+                      normals_if_needed(world, h), h.grid, h.tool);
+}
+
+/// Lines 22-27: velocities, the force and torque for the device, penetration depths.
+void emit_output(const World& world, HapticSide& h) {
+  virtual_end_tick(world.virtual_mesh, h.workspace, h.mesh);
+  // The broad phase tolerates a bounded drift of q from where it was built.
+  double moved = 0;
+  for (std::size_t i = 0; i < h.mesh.q.size(); ++i)
+    moved = std::max(moved, squared_norm(h.mesh.q[i] - h.workspace.q_start[i]));
+  h.grid.note_motion(std::sqrt(moved));
+  h.output = tool_output(world.tool, world.scene.spec.stiffness, pose_of(h.device), h.tool);
+  h.penetration = penetration_depth(world.tool, h.tool.pose, h.device.jaw, h.mesh.q, h.grid, h.tool.grasp.held);
+  h.penetration_physical =
+      penetration_depth(world.tool, pose_of(h.device), h.device.jaw, h.mesh.q, h.grid, h.tool.grasp.held);
+}
+
+}  // namespace
+
+std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double physical_hz, Backend backend) {
+  const std::string where = scene.spec.file.string();
+  if (!(haptic_hz > 0) || !(physical_hz > 0) || physical_hz > haptic_hz)
+    throw InputError(where + ": rates must satisfy 0 < physical_hz <= haptic_hz (got haptic " +
+                     std::to_string(haptic_hz) + " Hz, physical " + std::to_string(physical_hz) + " Hz)");
+  const double ratio = haptic_hz / physical_hz;
+  if (std::fabs(ratio - std::round(ratio)) > 1e-9)
+    throw InputError(where + ": haptic_hz / physical_hz must be a whole number of ticks per physical step (got " +
+                     std::to_string(ratio) + ")");
+  auto w = std::make_shared<World>();
+  w->backend = backend;
+  w->scene = std::move(scene);
+  w->h_haptic = 1.0 / haptic_hz;
+  w->h_physical = 1.0 / physical_hz;
+  w->ticks_per_step = static_cast<int>(std::lround(ratio));
+  w->scene.spec.haptic_hz = haptic_hz;
+  w->scene.spec.physical_hz = physical_hz;
+  w->virtual_mesh = build_virtual_model(w->scene);
+  PhysicalModelOptions opt;
+  opt.h = w->h_physical;
+  opt.factorize = w->scene.spec.solver.method == SolverSpec::Method::Direct;
+  w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, opt);
+  w->physical_params = physical_params(w->scene.spec.solver);
+  w->tool = build_tool(w->scene.spec.tool);
+  return w;
+}
+
+HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample) {
+  HapticSide h;
+  h.mesh = make_virtual_state(world.virtual_mesh);
+  h.workspace = make_virtual_workspace(world.virtual_mesh);
+  h.normals.assign(h.mesh.q.size(), Vec3d{});
+  compute_vertex_normals(world.virtual_mesh, h.mesh.q, h.normals);
+  init_virtual_tool(h.tool, h.mesh.q.size(), pose_of(first_sample));
+  h.contacts.reserve(h.mesh.q.size() * 2);
+  h.visible.x = world.physical_mesh.rest;
+  h.visible.step = -1;
+  h.grid.rebuild(h.mesh.q, world.grid_margin);
+  h.device = first_sample;
+  return h;
+}
+
+PhysicalSide make_physical_side(const World& world) {
+  PhysicalSide p;
+  p.mesh = make_physical_state(world.physical_mesh);
+  p.workspace = make_physical_workspace(world.physical_mesh);
+  return p;
+}
+
+void take_haptic_snapshot(const HapticSide& haptic, HapticSnapshot& out) { out.q = haptic.mesh.q; }
+
+void take_physical_snapshot(const PhysicalSide& physical, PhysicalSnapshot& out) {
+  out.x = physical.mesh.x;
+  out.step = physical.step - 1;
+}
+
+void deliver_physical_snapshot(const World& world, HapticSide& haptic, const PhysicalSnapshot& snapshot) {
+  haptic.visible.x = snapshot.x;
+  haptic.visible.step = snapshot.step;
+  haptic.grid.rebuild(haptic.mesh.q, world.grid_margin);
+}
+
+void haptic_tick(const World& world, HapticSide& h, const DeviceSample& sample) {
+  HapticTiming& t = h.timing;
+  const auto t0 = Clock::now();
+  timed(t.device, [&] { read_device(h, sample); });
+  timed(t.physical_sync, [&] { sync_physical_targets(world, h); });
+  timed(t.grasp, [&] { update_grasp_stage(world, h); });
+  t.virtual_mesh = t.virtual_tool = 0;
+  for (int i = 0; i < world.scene.spec.solver.virtual_iterations; ++i) {
+    double a = 0, b = 0;
+    timed(a, [&] { virtual_mesh_iteration(world, h); });
+    timed(b, [&] { virtual_tool_iteration(world, h); });
+    t.virtual_mesh += a;
+    t.virtual_tool += b;
+  }
+  timed(t.output, [&] { emit_output(world, h); });
+  t.total = seconds_since(t0);
+  ++h.tick;
+}
+
+void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot) {
+  p.report = physical_step(world.physical_mesh, p.workspace, p.mesh, snapshot.q, world.physical_params);
+  ++p.step;
+}
+
+}  // namespace ebh

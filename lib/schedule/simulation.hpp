@@ -1,0 +1,105 @@
+#pragma once
+// The two-rate simulation (DESIGN.md §2): an immutable World (the scene's models), the haptic
+// side (virtual mesh + virtual tool, ticking at h_h, Algorithm 2) and the physical side (physical
+// mesh, stepping at h_p, Algorithm 1). The two sides exchange data only through snapshots:
+//   HapticSnapshot   -> physical step: the virtual-mesh positions E_svc [5] holds fixed;
+//   PhysicalSnapshot -> haptic tick:   the physical positions the E_svc targets are paired from.
+// Who delivers which snapshot when is the scheduler's business (schedule/scheduler.hpp).
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "io/recording.hpp"
+#include "scene/scene.hpp"
+#include "solver/physical_mesh.hpp"
+#include "solver/virtual_mesh.hpp"
+#include "tool/broadphase.hpp"
+#include "tool/tool_model.hpp"
+#include "tool/virtual_tool.hpp"
+
+namespace ebh {
+
+/// Where the soft-body solvers run (DESIGN.md §6). The CPU backend is the reference.
+enum class Backend { Cpu, Cuda };
+
+/// Everything that does not change during a replay.
+struct World {
+  Backend backend = Backend::Cpu;
+  Scene scene;
+  VirtualModel virtual_mesh;
+  PhysicalModel physical_mesh;
+  ToolModel tool;
+  PhysicalStepParams physical_params;
+  double h_haptic = 1e-3;   ///< s, haptic tick
+  double h_physical = 1e-2; ///< s, physical step
+  int ticks_per_step = 10;  ///< N = h_physical / h_haptic (an integer)
+  double grid_margin = 0.004;  ///< m, broad-phase slack (tool/broadphase.hpp)
+};
+
+/// Builds the world of a scene at the given rates. Throws InputError when the rates do not give a
+/// whole number of ticks per physical step.
+std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double physical_hz,
+                                         Backend backend = Backend::Cpu);
+
+/// The physical side's output as the haptic side sees it.
+struct PhysicalSnapshot {
+  std::vector<Vec3d> x;  ///< #n physical-mesh positions
+  std::int64_t step = -1;  ///< the physical step that produced it (-1: rest state)
+};
+
+/// The haptic side's output as the physical step sees it.
+struct HapticSnapshot {
+  std::vector<Vec3d> q;  ///< #m virtual-mesh positions
+};
+
+/// Wall-clock seconds spent in each stage of the last haptic tick.
+struct HapticTiming {
+  double device = 0, physical_sync = 0, grasp = 0, virtual_mesh = 0, virtual_tool = 0, output = 0, total = 0;
+};
+
+/// The haptic side: virtual mesh, virtual tool, the device's latest sample, and what it emits.
+struct HapticSide {
+  VirtualState mesh;
+  VirtualWorkspace workspace;
+  std::vector<Vec3d> normals;            ///< #m virtual-mesh vertex normals
+  VirtualToolState tool;
+  VertexGrid grid;                       ///< broad phase over the virtual mesh
+  std::vector<ContactTarget> contacts;   ///< this iteration's E_con targets (capacity m)
+  PhysicalSnapshot visible;              ///< the latest physical result this side may use
+  std::int64_t tick = 0;                 ///< the next tick to run
+  // Outputs of the last tick.
+  DeviceSample device;                   ///< X_h and jaw
+  ToolOutput output;                     ///< force and torque for the device
+  double penetration = 0;                ///< m, deepest virtual-mesh vertex inside the virtual tool
+  double penetration_physical = 0;       ///< m, the same for the physical tool (large by design)
+  int contact_count = 0;                 ///< E_con targets of the last iteration (grasp included)
+  HapticTiming timing;
+};
+
+/// The physical side: physical mesh state and the scratch of its step.
+struct PhysicalSide {
+  PhysicalState mesh;
+  PhysicalWorkspace workspace;
+  std::int64_t step = 0;                 ///< the next step to run
+  PhysicalStepReport report;             ///< of the last step
+};
+
+/// Both sides at rest, the virtual tool starting at the physical tool's first pose.
+HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample);
+PhysicalSide make_physical_side(const World& world);
+
+/// The haptic side's snapshot for the physical step (copies q; allocation-free after the first).
+void take_haptic_snapshot(const HapticSide& haptic, HapticSnapshot& out);
+/// The physical side's snapshot for the haptic side.
+void take_physical_snapshot(const PhysicalSide& physical, PhysicalSnapshot& out);
+/// Makes a physical result visible to the haptic side (the broad phase is rebuilt around it).
+void deliver_physical_snapshot(const World& world, HapticSide& haptic, const PhysicalSnapshot& snapshot);
+
+/// One haptic tick (Algorithm 2) with the device sample for this tick.
+void haptic_tick(const World& world, HapticSide& haptic, const DeviceSample& sample);
+
+/// One physical step (Algorithm 1) coupled to the virtual-mesh positions of `snapshot`.
+void run_physical_step(const World& world, PhysicalSide& physical, const HapticSnapshot& snapshot);
+
+}  // namespace ebh

@@ -1,0 +1,137 @@
+// ebh replay SCENE RECORDING -o OUT.h5: the toolkit's main job (DESIGN.md §2, §4).
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include "command.hpp"
+#include "io/error.hpp"
+#include "io/recording.hpp"
+#include "replay_common.hpp"
+#include "schedule/replay_output.hpp"
+#include "schedule/scheduler.hpp"
+
+namespace ebh::cli {
+namespace {
+
+struct ReplayArgs {
+  std::string scene, recording, out, mode = "async", backend = "cpu";
+  std::optional<double> haptic_hz, physical_hz;
+  double frames_hz = -1, duration = 0;
+  std::vector<std::string> overrides;
+  std::string render_dir;
+  bool allow_outside = false, quiet = false;
+};
+
+/// A progress bar on a terminal (stderr), nothing otherwise.
+class Progress : public ReplayObserver {
+ public:
+  Progress(std::int64_t ticks, bool enabled) : ticks_(ticks), enabled_(enabled), t0_(Clock::now()) {}
+  void on_tick(const World& w, const HapticSide& h, double t) override {
+    if (!enabled_ || (h.tick % 50) != 0) return;
+    const auto now = Clock::now();
+    if (now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    const double frac = static_cast<double>(h.tick) / static_cast<double>(ticks_);
+    const double wall = std::chrono::duration<double>(now - t0_).count();
+    const int width = 30, done = static_cast<int>(frac * width);
+    std::fprintf(stderr, "\r[%.*s%*s] %3.0f%%  t=%6.2f s  %5.2fx real time  |F|=%5.2f N ", done,
+                 "##############################", width - done, "", 100 * frac, t + w.h_haptic,
+                 wall > 0 ? (t + w.h_haptic) / wall : 0.0, norm(h.output.force));
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (enabled_) std::fprintf(stderr, "\r%*s\r", 90, "");
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  std::int64_t ticks_;
+  bool enabled_;
+  Clock::time_point t0_, last_{};
+};
+
+/// Forwards every event to the writer and the progress bar.
+class Tee : public ReplayObserver {
+ public:
+  Tee(ReplayObserver& a, ReplayObserver& b) : a_(a), b_(b) {}
+  void on_tick(const World& w, const HapticSide& h, double t) override { a_.on_tick(w, h, t); b_.on_tick(w, h, t); }
+  void on_step(const World& w, const PhysicalSide& p, double t) override { a_.on_step(w, p, t); b_.on_step(w, p, t); }
+  void on_frame(const World& w, const HapticSide& h, double t) override { a_.on_frame(w, h, t); b_.on_frame(w, h, t); }
+  bool should_stop() override { return a_.should_stop() || b_.should_stop(); }
+
+ private:
+  ReplayObserver& a_;
+  ReplayObserver& b_;
+};
+
+void run_replay(const ReplayArgs& a) {
+  const Mode mode = parse_mode(a.mode);
+  check_backend(a.backend);
+  LoadedReplay in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz,
+                                       a.allow_outside);
+  const World& world = *in.world;
+  const double frames_hz = a.frames_hz >= 0 ? a.frames_hz : (world.scene.spec.stages.frames ? 30.0 : 0.0);
+  if (a.duration < 0) throw InputError("--duration: expected a positive number of seconds");
+  ReplayOptions opt;
+  opt.mode = mode;
+  opt.duration = a.duration;
+  opt.frames_hz = frames_hz;
+  if (!a.render_dir.empty() && frames_hz <= 0) opt.frames_hz = 30.0;  // --render needs frames
+
+  const double duration = a.duration > 0 ? std::min(a.duration, in.recording.duration()) : in.recording.duration();
+  const std::int64_t ticks = tick_count(world, duration);
+  ReplayMetadata meta;
+  meta.recording = in.recording_path;
+  meta.mode = mode_name(mode);
+  meta.backend = a.backend;
+  meta.device = cpu_description();
+  meta.overrides = a.overrides;
+  install_interrupt_handlers();
+  ReplayWriter writer(a.out, world, meta, ticks, opt.frames_hz > 0);
+  Progress progress(ticks, !a.quiet && isatty(STDERR_FILENO));
+  Tee tee(writer, progress);
+  const ReplaySummary s = replay(world, in.recording, opt, tee);
+  progress.finish();
+  if (s.stopped) throw InputError(a.out + ": interrupted; no output written");
+  writer.commit(s);
+  if (!a.quiet) {
+    std::printf("%s: %s + %s, %s mode, %lld ticks, %lld physical steps\n", a.out.c_str(),
+                world.scene.spec.name.c_str(), std::filesystem::path(in.recording_path).filename().c_str(),
+                mode_name(mode), static_cast<long long>(s.ticks), static_cast<long long>(s.steps));
+    std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
+                s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0);
+    std::printf("  peak force %.3f N (%lld ticks at the %.1f N limit), max penetration %.3f mm\n",
+                writer.peak_force(), static_cast<long long>(writer.clamped_ticks()), world.scene.spec.tool.force_limit,
+                1e3 * writer.max_penetration());
+  }
+  if (!a.render_dir.empty()) render_after_replay(a.out, a.render_dir);
+}
+
+void setup(CLI::App& root) {
+  auto args = std::make_shared<ReplayArgs>();
+  CLI::App* c = root.add_subcommand("replay", "Replay a recorded device trajectory through the two-rate solver");
+  c->add_option("scene", args->scene, "Scene name (scenarios/NAME.yaml) or path")->required();
+  c->add_option("recording", args->recording, "Recording: an HDF5 file or a name in recordings/")->required();
+  c->add_option("-o,--output", args->out, "Output HDF5 file")->required();
+  c->add_option("--mode", args->mode, "async (default), lockstep or realtime");
+  c->add_option("--haptic-hz", args->haptic_hz, "Haptic tick rate (default: the scene's, 1000)");
+  c->add_option("--physical-hz", args->physical_hz, "Physical step rate (default: the scene's, 100)");
+  c->add_option("--backend", args->backend, "cpu (default) or cuda");
+  c->add_option("--frames-hz", args->frames_hz, "Mesh snapshots per second in /frames (default: 30 if the scene asks)");
+  c->add_option("--duration", args->duration, "Replay only the first S seconds");
+  c->add_option("--set", args->overrides, "Override a scene key: --set stiffness.k_con=800 (repeatable)");
+  c->add_option("--render", args->render_dir, "Also render the frames to PNG files in DIR (needs OSMesa)");
+  c->add_flag("--allow-outside", args->allow_outside, "Accept a trajectory far outside the scene");
+  c->add_flag("-q,--quiet", args->quiet, "No progress bar and no summary");
+  c->callback([args] { run_replay(*args); });
+}
+
+}  // namespace
+
+EBH_COMMAND(setup);
+
+}  // namespace ebh::cli

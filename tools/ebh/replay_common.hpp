@@ -1,0 +1,16 @@
+#pragma once
+// Pieces shared by the commands that run replays (replay, and the rendering hook).
+#include <string>
+
+#include "schedule/replay_inputs.hpp"
+
+namespace ebh::cli {
+
+/// Accepts "cpu", and "cuda" when this build has the CUDA backend and a device; otherwise an
+/// InputError that says how to get it.
+void check_backend(const std::string& backend);
+
+/// `ebh replay --render DIR`: renders the replay's frames like `ebh render OUT -o DIR`.
+void render_after_replay(const std::string& replay_file, const std::string& dir);
+
+}  // namespace ebh::cli

@@ -56,3 +56,21 @@ if(EBH_SYSTEM_PYTHON3)
     set_tests_properties(cli.plot_forces PROPERTIES PASS_REGULAR_EXPRESSION "plot_forces_press.png" LABELS cli)
   endif()
 endif()
+
+# ebh scene info (tests/data/scene)
+add_test(NAME cli.scene.info COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml)
+set_tests_properties(cli.scene.info PROPERTIES PASS_REGULAR_EXPRESSION "tets +5\n" LABELS "cli;scene")
+add_test(NAME cli.scene.info_json COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube_obj.yaml --json)
+set_tests_properties(cli.scene.info_json PROPERTIES PASS_REGULAR_EXPRESSION "\"tets\": 5,.*\"interior_faces\": 4" LABELS "cli;scene")
+add_test(NAME cli.scene.missing COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/no_such_scene.yaml)
+set_tests_properties(cli.scene.missing PROPERTIES WILL_FAIL TRUE LABELS "cli;scene")
+add_test(NAME cli.scene.missing_message COMMAND ${EBH_BIN} scene info no_such_scene_name)
+set_tests_properties(cli.scene.missing_message PROPERTIES PASS_REGULAR_EXPRESSION "ebh: error: no_such_scene_name: no such scene" LABELS "cli;scene")
+# a bad key: the scene file is written at test time so the data folder holds only valid scenes
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_bad_key.yaml
+  "mesh: {physical: ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube22.msh}\ntool: {hook: {tip_length: abc}}\n")
+add_test(NAME cli.scene.bad_key COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_bad_key.yaml)
+set_tests_properties(cli.scene.bad_key PROPERTIES WILL_FAIL TRUE LABELS "cli;scene")
+add_test(NAME cli.scene.bad_key_message COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_bad_key.yaml)
+set_tests_properties(cli.scene.bad_key_message PROPERTIES
+  PASS_REGULAR_EXPRESSION "key 'tool.hook.tip_length': expected a positive number, got 'abc'" LABELS "cli;scene")

@@ -57,14 +57,16 @@ std::vector<std::pair<int, int>> find_duplicates(const std::vector<Vec3d>& p, do
   Vec3d lo{INFINITY, INFINITY, INFINITY};
   for (const auto& x : p)
     if (finite(x)) lo = cwise_min(lo, x);
-  const double cell = tol > 0 ? tol : 1.0;
+  const double cell = tol > 0 && std::isfinite(tol) ? tol : 1.0;
   struct Key {
     long long i, j, k;
     bool operator==(const Key& o) const { return i == o.i && j == o.j && k == o.k; }
   };
   struct Hash {
     std::size_t operator()(const Key& k) const {
-      return static_cast<std::size_t>(k.i * 73856093LL ^ k.j * 19349663LL ^ k.k * 83492791LL);
+      return static_cast<std::size_t>(static_cast<unsigned long long>(k.i) * 73856093ULL ^
+                                      static_cast<unsigned long long>(k.j) * 19349663ULL ^
+                                      static_cast<unsigned long long>(k.k) * 83492791ULL);
     }
   };
   std::unordered_map<Key, std::vector<int>, Hash> grid;
@@ -72,8 +74,9 @@ std::vector<std::pair<int, int>> find_duplicates(const std::vector<Vec3d>& p, do
   for (std::size_t v = 0; v < p.size(); ++v) {
     if (!finite(p[v])) continue;
     const Vec3d r = (p[v] - lo) / cell;
-    const Key key{static_cast<long long>(std::floor(r.x)), static_cast<long long>(std::floor(r.y)),
-                  static_cast<long long>(std::floor(r.z))};
+    // cell index, clamped so that extreme coordinates (or an overflowing diagonal) stay defined
+    auto index = [](double x) { return std::isfinite(x) ? static_cast<long long>(std::floor(std::clamp(x, -1e15, 1e15))) : 0LL; };
+    const Key key{index(r.x), index(r.y), index(r.z)};
     int earliest = -1;
     for (int di = -1; di <= 1; ++di)
       for (int dj = -1; dj <= 1; ++dj)

@@ -503,8 +503,9 @@ fs::path resolve_scene_path(const std::string& name_or_path) {
   roots.emplace_back(fs::current_path(ec));
   roots.emplace_back(kSourceDir);
   std::string looked;
-  for (const auto& root : roots) {
-    const fs::path p = root / "scenarios" / (name_or_path + ".yaml");
+  for (std::size_t i = 0; i < roots.size(); ++i) {
+    if (std::find(roots.begin(), roots.begin() + static_cast<long>(i), roots[i]) != roots.begin() + static_cast<long>(i)) continue;
+    const fs::path p = roots[i] / "scenarios" / (name_or_path + ".yaml");
     if (fs::is_regular_file(p, ec)) return p;
     looked += (looked.empty() ? "" : ", ") + p.string();
   }

@@ -1,0 +1,169 @@
+// Mutation test of the mesh readers: valid MSH 2.2 / 4.1 and OBJ files are mutated at random
+// (fixed seed: every run is the same) and each result must either read or throw InputError.
+// Built with AddressSanitizer and UBSan (tests/fuzz.cmake), so an out-of-bounds read, an overflow
+// or an allocation sized by an absurd count fails the run. Whatever reads is also passed through
+// the validator and boundary extraction, which must cope with any mesh the readers return.
+//
+// usage: test_mesh_fuzz DATA_DIR [MUTATIONS]
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "io/error.hpp"
+#include "mesh/boundary.hpp"
+#include "mesh/mesh_io.hpp"
+#include "mesh/validate.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+using Rng = std::mt19937_64;
+
+std::size_t pick(Rng& rng, std::size_t n) { return n == 0 ? 0 : std::uniform_int_distribution<std::size_t>(0, n - 1)(rng); }
+
+/// Line starts of `s` (always at least one).
+std::vector<std::size_t> line_starts(const std::string& s) {
+  std::vector<std::size_t> starts{0};
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s[i] == '\n' && i + 1 < s.size()) starts.push_back(i + 1);
+  return starts;
+}
+
+void mutate_once(std::string& s, Rng& rng) {
+  static const char* kNumbers[] = {"999999999999", "2147483647", "2147483648", "-1", "0", "-2147483649",
+                                   "9223372036854775807", "99999999999999999999999", "1e308", "1e999", "nan",
+                                   "-0", "4611686018427387905", "3"};
+  switch (pick(rng, 6)) {
+    case 0:  // truncate
+      s.resize(pick(rng, s.size() + 1));
+      break;
+    case 1: {  // garbage bytes
+      const std::size_t n = 1 + pick(rng, 8);
+      for (std::size_t k = 0; k < n && !s.empty(); ++k) s[pick(rng, s.size())] = static_cast<char>(pick(rng, 256));
+      break;
+    }
+    case 2: {  // a digit string replaced by a huge or odd number
+      std::vector<std::pair<std::size_t, std::size_t>> runs;
+      for (std::size_t i = 0; i < s.size();) {
+        if (s[i] >= '0' && s[i] <= '9') {
+          std::size_t j = i;
+          while (j < s.size() && s[j] >= '0' && s[j] <= '9') ++j;
+          runs.emplace_back(i, j - i);
+          i = j;
+        } else {
+          ++i;
+        }
+      }
+      if (runs.empty()) break;
+      const auto [at, len] = runs[pick(rng, runs.size())];
+      s.replace(at, len, kNumbers[pick(rng, sizeof kNumbers / sizeof *kNumbers)]);
+      break;
+    }
+    case 3: {  // a line duplicated
+      const auto starts = line_starts(s);
+      const std::size_t l = pick(rng, starts.size());
+      const std::size_t end = l + 1 < starts.size() ? starts[l + 1] : s.size();
+      s.insert(end, s.substr(starts[l], end - starts[l]));
+      break;
+    }
+    case 4: {  // a line deleted
+      const auto starts = line_starts(s);
+      const std::size_t l = pick(rng, starts.size());
+      const std::size_t end = l + 1 < starts.size() ? starts[l + 1] : s.size();
+      s.erase(starts[l], end - starts[l]);
+      break;
+    }
+    default: {  // a byte inserted (white space, a sign, a newline or anything)
+      static const char kBytes[] = {' ', '\n', '\r', '-', '+', '.', '$', '"', '/', '\0', 'e'};
+      s.insert(pick(rng, s.size() + 1), 1, kBytes[pick(rng, sizeof kBytes)]);
+      break;
+    }
+  }
+}
+
+/// Runs everything that consumes a freshly read mesh.
+void exercise(ebh::TetMesh& m) {
+  const ebh::MeshReport r = ebh::validate_mesh(m);
+  (void)r.fatal_message(m);
+  (void)r.warnings();
+  if (r.bad_index_tets.empty()) {
+    std::vector<int> map;
+    (void)ebh::extract_boundary(m, &map);
+    (void)ebh::orient_tets(m);
+    (void)ebh::remove_unreferenced_vertices(m);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: test_mesh_fuzz DATA_DIR [MUTATIONS]\n");
+    return 2;
+  }
+  const fs::path dir = argv[1];
+  const long mutations = argc > 2 ? std::atol(argv[2]) : 4000;
+  const std::vector<fs::path> seeds = {dir / "cube22.msh", dir / "cube41.msh", dir / "cube.obj"};
+  std::vector<std::string> texts;
+  for (const auto& p : seeds) {
+    texts.push_back(slurp(p));
+    if (texts.back().empty()) {
+      std::fprintf(stderr, "test_mesh_fuzz: cannot read %s\n", p.string().c_str());
+      return 2;
+    }
+  }
+  // a memory-backed folder where there is one: the loop writes a file per mutation
+  std::error_code ec;
+  const fs::path tmp = fs::is_directory("/dev/shm", ec) ? fs::path("/dev/shm") : fs::temp_directory_path();
+  const fs::path work = tmp / ("ebh_mesh_fuzz_" + std::to_string(::getpid()));
+  fs::create_directories(work);
+  Rng rng(20240607);  // fixed: the same mutations every run
+  long read_ok = 0, rejected = 0;
+  int status = 0;
+  for (long i = 0; i < mutations && status == 0; ++i) {
+    const std::size_t which = static_cast<std::size_t>(i) % seeds.size();
+    std::string text = texts[which];
+    const std::size_t rounds = 1 + pick(rng, 3);
+    for (std::size_t k = 0; k < rounds; ++k) mutate_once(text, rng);
+    const fs::path file = work / seeds[which].filename();
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
+    try {
+      if (seeds[which].extension() == ".obj") {
+        (void)ebh::read_obj(file);
+      } else {
+        ebh::TetMesh m = ebh::read_msh(file);
+        exercise(m);
+      }
+      ++read_ok;
+    } catch (const ebh::InputError& e) {
+      const std::string msg = e.what();
+      if (msg.find('\n') != std::string::npos || msg.rfind(file.string() + ":", 0) != 0) {
+        std::fprintf(stderr, "mutation %ld: badly formed message: %s\n", i, msg.c_str());
+        status = 1;
+      }
+      ++rejected;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "mutation %ld of %s: %s instead of InputError (input kept in %s)\n", i,
+                   seeds[which].filename().string().c_str(), e.what(), file.string().c_str());
+      status = 1;
+    }
+  }
+  std::printf("test_mesh_fuzz: %ld mutations: %ld read, %ld rejected with InputError\n", read_ok + rejected, read_ok, rejected);
+  if (status == 0) fs::remove_all(work);
+  return status;
+}

@@ -1,0 +1,124 @@
+// `ebh scene info NAME|PATH [--json]`: what a scene holds once loaded: mesh sizes (the paper's
+// Table 1 counts), the virtual mesh, pinned vertices, bounding box in metres, element quality,
+// groups, and any warnings from loading it.
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "command.hpp"
+#include "io/error.hpp"
+#include "io/json.hpp"
+#include "mesh/validate.hpp"
+#include "scene/scene.hpp"
+
+namespace {
+
+struct SceneInfoArgs {
+  std::string scene;
+  bool json = false;
+};
+
+struct GroupCount {
+  std::string name;
+  long long tets = 0;
+  long long triangles = 0;
+};
+
+void info(const SceneInfoArgs& a) {
+  const ebh::Scene scene = ebh::load_scene(ebh::resolve_scene_path(a.scene));
+  const ebh::TetMesh& m = scene.physical;
+  const ebh::MeshReport report = ebh::validate_mesh(m);
+
+  ebh::Vec3d lo = m.vertices.front(), hi = m.vertices.front();
+  for (const auto& p : m.vertices) {
+    lo = ebh::cwise_min(lo, p);
+    hi = ebh::cwise_max(hi, p);
+  }
+  std::map<int, GroupCount> groups;  // by tag; tag 0 is "no group"
+  for (const auto& [tag, name] : m.group_names) groups[tag].name = name;
+  for (int g : m.tet_group) ++groups[g].tets;
+  for (int g : m.triangle_group) ++groups[g].triangles;
+
+  const long long tets = static_cast<long long>(m.tets.size());
+  const long long boundary = report.boundary_faces;
+  const long long interior = (4 * tets - boundary) / 2;  // Table 1 "triangles"
+  const std::string virtual_source = scene.spec.virtual_mesh ? scene.spec.virtual_mesh->string() : "boundary";
+
+  if (a.json) {
+    ebh::Json j = ebh::Json::object();
+    j.set("name", scene.spec.name);
+    j.set("file", scene.spec.file.string());
+    j.set("unit", scene.spec.unit_name);
+    j.set("physical_mesh", scene.spec.physical_mesh.string());
+    j.set("vertices", static_cast<long long>(m.vertices.size()));
+    j.set("tets", tets);
+    j.set("boundary_triangles", boundary);
+    j.set("interior_faces", interior);
+    ebh::Json v = ebh::Json::object();
+    v.set("source", virtual_source);
+    v.set("vertices", static_cast<long long>(scene.virtual_surface.vertices.size()));
+    v.set("triangles", static_cast<long long>(scene.virtual_surface.triangles.size()));
+    v.set("refine", scene.spec.virtual_refine);
+    j.set("virtual", std::move(v));
+    j.set("pinned_vertices", static_cast<long long>(scene.pinned.size()));
+    ebh::Json box = ebh::Json::object();
+    box.set("min", ebh::Json::array_of(std::vector<double>{lo.x, lo.y, lo.z}));
+    box.set("max", ebh::Json::array_of(std::vector<double>{hi.x, hi.y, hi.z}));
+    j.set("bbox_m", std::move(box));
+    ebh::Json q = ebh::Json::object();
+    q.set("measure", "mean_ratio");
+    q.set("worst", report.quality_worst);
+    q.set("mean", report.quality_mean);
+    q.set("worst_tet", report.worst_tet);
+    j.set("quality", std::move(q));
+    ebh::Json g = ebh::Json::array();
+    for (const auto& [tag, c] : groups) {
+      ebh::Json e = ebh::Json::object();
+      e.set("tag", tag);
+      e.set("name", c.name);
+      e.set("tets", c.tets);
+      e.set("triangles", c.triangles);
+      g.push(std::move(e));
+    }
+    j.set("groups", std::move(g));
+    j.set("warnings", ebh::Json::array_of(scene.warnings));
+    std::printf("%s\n", j.dump(2).c_str());
+    return;
+  }
+
+  for (const auto& w : scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  std::printf("scene            %s (%s)\n", scene.spec.name.c_str(), scene.spec.file.string().c_str());
+  std::printf("unit             %s (lengths below in metres)\n", scene.spec.unit_name.c_str());
+  std::printf("physical mesh    %s\n", scene.spec.physical_mesh.string().c_str());
+  std::printf("  vertices       %zu\n", m.vertices.size());
+  std::printf("  tets           %lld\n", tets);
+  std::printf("  boundary tris  %lld\n", boundary);
+  std::printf("  interior faces %lld (Table 1 \"triangles\")\n", interior);
+  std::printf("virtual mesh     %s%s\n", virtual_source.c_str(), scene.spec.virtual_refine ? " (refined x4 at run time)" : "");
+  std::printf("  vertices       %zu\n", scene.virtual_surface.vertices.size());
+  std::printf("  triangles      %zu\n", scene.virtual_surface.triangles.size());
+  std::printf("pinned vertices  %zu\n", scene.pinned.size());
+  std::printf("bounding box     [%.6g, %.6g, %.6g] .. [%.6g, %.6g, %.6g] m (size %.6g x %.6g x %.6g)\n", lo.x, lo.y, lo.z,
+              hi.x, hi.y, hi.z, hi.x - lo.x, hi.y - lo.y, hi.z - lo.z);
+  std::printf("quality          mean ratio: worst %.4f (tet %d), mean %.4f\n", report.quality_worst, report.worst_tet,
+              report.quality_mean);
+  std::printf("groups\n");
+  for (const auto& [tag, c] : groups)
+    std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n", c.name.empty() ? "(unnamed)" : c.name.c_str(), tag,
+                c.tets, c.triangles);
+}
+
+void setup(CLI::App& root) {
+  CLI::App* scene = root.add_subcommand("scene", "Inspect scenes (scenarios/NAME.yaml)");
+  scene->require_subcommand(1);
+  auto args = std::make_shared<SceneInfoArgs>();
+  CLI::App* c = scene->add_subcommand("info", "Load a scene and print its mesh sizes, pinned vertices, bounding box and quality");
+  c->add_option("scene", args->scene, "scene name (scenarios/NAME.yaml) or path to a scene file")->required();
+  c->add_flag("--json", args->json, "print JSON instead of text");
+  c->callback([args] { info(*args); });
+}
+
+}  // namespace
+
+EBH_COMMAND(setup);

@@ -1,0 +1,50 @@
+#pragma once
+// The physical-mesh step (Algorithm 1) on a CUDA device, float32: the same function as
+// physical_step (physical_mesh.hpp) for the jacobi and chebyshev methods, computed with the same
+// EBH_HD energy headers (energy/arap.hpp, rotation.hpp, quadratic.hpp). The direct method stays
+// on the CPU. docs/CUDA.md describes the layout, the kernels, the graph and the tolerances.
+//
+// The solver keeps the whole state (x, v, warm-start rotations) on the device. One step copies
+// the #m virtual positions in and the #n positions out; the K local-global iterations between
+// them are one CUDA graph launch with no host synchronisation inside. Results are bitwise
+// identical from run to run (no atomics: every kernel writes its own slots, per-vertex sums gather
+// over the CSR incidence lists in a fixed order, the residual norm is a fixed-order reduction).
+//
+// No CUDA types here (pimpl): this header compiles without nvcc; the class exists when the build
+// has the CUDA backend (EBH_HAVE_CUDA).
+#include <memory>
+#include <span>
+
+#include "solver/physical_mesh.hpp"
+
+namespace ebh {
+
+class CudaPhysicalSolver {
+ public:
+  /// Uploads the model and captures the step graph for `params`. The state starts at rest
+  /// (make_physical_state). Throws InputError for the direct method, std::runtime_error (with the
+  /// CUDA error, file and line) when the device cannot be used.
+  CudaPhysicalSolver(const PhysicalModel& model, const PhysicalStepParams& params);
+  ~CudaPhysicalSolver();
+  CudaPhysicalSolver(const CudaPhysicalSolver&) = delete;
+  CudaPhysicalSolver& operator=(const CudaPhysicalSolver&) = delete;
+
+  /// Replaces the device state by `state` (x, v, rotation; rounded to float32).
+  void upload_state(const PhysicalState& state);
+  /// Copies the device state (x, v, rotation) into `state`.
+  void download_state(PhysicalState& state) const;
+
+  /// One physical step on the device state, coupled to virtual_q (#m, empty when m = 0). Writes the
+  /// new positions to state.x (#n); state.v and state.rotation are left as they were (they live on
+  /// the device: download_state reads them). local_s and global_s are not split on the device
+  /// (0); time_s is the wall clock of the whole step, copies included.
+  PhysicalStepReport step(PhysicalState& state, std::span<const Vec3d> virtual_q);
+
+  const PhysicalStepParams& params() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ebh

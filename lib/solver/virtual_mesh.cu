@@ -1,0 +1,284 @@
+// The virtual mesh's haptic-rate iterations on a CUDA device, float32 (virtual_mesh_cuda.hpp).
+//   begin_tick   [copy physical x in]  begin kernel (E_svc targets p_j, prediction)  copy q out
+//   iteration    copy contacts in  scatter kernel  Jacobi kernel (gather over the edge CSR)  copy q out
+//   end_tick     velocity kernel
+// Each kernel writes its own slots; contacts are summed per vertex on the host in the given
+// order (as on the CPU) and scattered to distinct vertices, so results are bitwise reproducible.
+#include <cuda_runtime.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "energy/edge_spring.hpp"
+#include "energy/quadratic.hpp"
+#include "solver/cuda_util.cuh"
+#include "solver/virtual_mesh_cuda.hpp"
+
+namespace ebh {
+namespace {
+
+constexpr int kBlock = 128;
+
+struct VirtualDevice {
+  int m = 0;
+  float k_s = 0, k_svc = 0;
+  Vec3f gravity;
+  const float* mass = nullptr;          // m
+  const std::uint8_t* pinned = nullptr; // m
+  const float* stiff_diag = nullptr;    // m  k_s deg + k_svc
+  const int* edges = nullptr;           // 2E
+  const Vec3f* rest_edge = nullptr;     // E
+  const int* edge_offsets = nullptr;    // m+1
+  const int* edge_entries = nullptr;    // 2 e + end
+  const int* pair_vertex = nullptr;     // 4m
+  const float* pair_weight = nullptr;   // 4m
+  const int* pair_count = nullptr;      // m
+  const Vec3f* physical_x = nullptr;    // n
+  Vec3f* v = nullptr;                   // m
+  Vec3f* s = nullptr;                   // m
+  Vec3f* q_start = nullptr;             // m
+  Vec3f* p = nullptr;                   // m
+  Vec3f* contact_kt = nullptr;          // m  sum k target (zero outside an iteration)
+  float* contact_k = nullptr;           // m  sum k
+};
+
+/// One vertex's E_con sums for this iteration (a vertex appears once).
+struct ContactSum {
+  int vertex;
+  float k;
+  Vec3f kt;
+};
+
+__global__ void begin_kernel(VirtualDevice d, Vec3f* q, float h) {
+  const int j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j >= d.m) return;
+  d.p[j] = paired_point(d.physical_x, d.pair_vertex + 4 * j, d.pair_weight + 4 * j, d.pair_count[j]);  // Alg. 2 l. 1
+  const Vec3f qj = q[j];
+  const Vec3f sj = d.pinned[j] ? qj : predict_position(qj, d.v[j], d.gravity, h);                      // Alg. 2 l. 6
+  d.q_start[j] = qj;
+  d.s[j] = sj;
+  q[j] = sj;
+}
+
+__global__ void scatter_kernel(VirtualDevice d, const ContactSum* c, int count) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  d.contact_kt[c[i].vertex] = c[i].kt;
+  d.contact_k[c[i].vertex] = c[i].k;
+}
+
+/// q_j <- q_j + r_j / D_j, r = -grad(E_k + E_svc + E_con + E_s), as virtual_iteration.
+__global__ void jacobi_kernel(VirtualDevice d, const Vec3f* q, Vec3f* q_next, float inv_h2) {
+  const int j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j >= d.m) return;
+  const Vec3f kt = d.contact_kt[j];
+  const float ck = d.contact_k[j];
+  d.contact_kt[j] = Vec3f{};  // this thread is the slot's only reader: clear for the next iteration
+  d.contact_k[j] = 0.f;
+  const Vec3f qj = q[j];
+  if (d.pinned[j]) { q_next[j] = qj; return; }
+  const float mh = d.mass[j] * inv_h2;
+  Vec3f r = mh * (d.s[j] - qj)                                      // -dE_k/dq   [6]
+            - coupling_gradient_virtual(d.p[j], qj, d.k_svc)        // -dE_svc/dq [5]
+            + kt - ck * qj;                                         // -dE_con/dq [3]
+  for (int k = d.edge_offsets[j]; k < d.edge_offsets[j + 1]; ++k) {
+    const int entry = d.edge_entries[k], e = entry >> 1;
+    const Vec3f g = edge_spring_gradient(q[d.edges[2 * e]], q[d.edges[2 * e + 1]], d.rest_edge[e], d.k_s);  // [4]
+    r += (entry & 1) ? g : -g;
+  }
+  q_next[j] = qj + r / (mh + d.stiff_diag[j] + ck);
+}
+
+__global__ void end_kernel(VirtualDevice d, const Vec3f* q, float inv_h) {
+  const int j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j >= d.m) return;
+  d.v[j] = inv_h * (q[j] - d.q_start[j]);  // Alg. 2 line 23
+}
+
+Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
+
+}  // namespace
+
+struct CudaVirtualSolver::Impl {
+  int m = 0, n = 0;
+  double h = 0;
+  std::int64_t physical_version = 0;
+  bool have_physical = false;
+  cuda::Stream stream;
+  cuda::DeviceArray<float> mass, stiff_diag, pair_weight, contact_k;
+  cuda::DeviceArray<std::uint8_t> pinned;
+  cuda::DeviceArray<int> edges, edge_offsets, edge_entries, pair_vertex, pair_count;
+  cuda::DeviceArray<Vec3f> rest_edge, physical_x, v, s, q_start, p, contact_kt, q[2];
+  cuda::DeviceArray<ContactSum> contacts;
+  cuda::PinnedArray<Vec3f> q_host, x_host;
+  cuda::PinnedArray<ContactSum> contacts_host;
+  std::vector<double> sum_k;      // m, host scratch of the contact sums (zero between iterations)
+  std::vector<Vec3d> sum_kt;      // m
+  std::vector<int> touched;       // vertices with a contact this iteration, first-seen order
+  std::vector<std::uint8_t> is_touched;  // m
+  int cur = 0;                    // q[cur] is the current q
+  VirtualDevice dev;
+
+  void download_q(std::span<Vec3d> q_out) {
+    if (q_out.size() != size_t(m)) throw std::invalid_argument("CudaVirtualSolver: q_out has the wrong size");
+    cudaStream_t st = stream.get();
+    EBH_CUDA_CHECK(cudaMemcpyAsync(q_host.get(), q[cur].get(), m * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
+    EBH_CUDA_CHECK(cudaStreamSynchronize(st));
+    for (int j = 0; j < m; ++j) q_out[j] = static_cast<Vec3d>(q_host[j]);
+  }
+};
+
+CudaVirtualSolver::CudaVirtualSolver(const VirtualModel& M) : impl_(std::make_unique<Impl>()) {
+  Impl& I = *impl_;
+  I.m = M.num_vertices;
+  const int m = I.m, E = static_cast<int>(M.edges.size());
+  cudaStream_t st = I.stream.get();
+  auto up = [st](auto& arr, const auto& host) {
+    arr.allocate(host.size());
+    arr.upload(host.data(), st);
+  };
+  up(I.mass, std::vector<float>(M.mass.begin(), M.mass.end()));
+  up(I.stiff_diag, std::vector<float>(M.stiff_diag.begin(), M.stiff_diag.end()));
+  up(I.pinned, M.pinned);
+  std::vector<int> ed(2 * size_t(E));
+  std::vector<Vec3f> re(E);
+  for (int e = 0; e < E; ++e) {
+    ed[2 * e] = M.edges[e][0];
+    ed[2 * e + 1] = M.edges[e][1];
+    re[e] = to_float(M.rest_edge[e]);
+  }
+  up(I.edges, ed);
+  up(I.rest_edge, re);
+  up(I.edge_offsets, M.edge_offsets);
+  up(I.edge_entries, M.edge_entries);
+  std::vector<int> pv(4 * size_t(m));
+  std::vector<float> pw(4 * size_t(m));
+  for (int j = 0; j < m; ++j)
+    for (int k = 0; k < 4; ++k) { pv[4 * j + k] = M.pair_vertex[j][k]; pw[4 * j + k] = float(M.pair_weight[j][k]); }
+  up(I.pair_vertex, pv);
+  up(I.pair_weight, pw);
+  up(I.pair_count, M.pair_count);
+  for (auto* a : {&I.v, &I.s, &I.q_start, &I.p, &I.contact_kt, &I.q[0], &I.q[1]}) a->allocate(m);
+  I.contact_k.allocate(m);
+  I.contacts.allocate(m);
+  I.q_host.allocate(m);
+  I.contacts_host.allocate(m);
+  EBH_CUDA_CHECK(cudaMemsetAsync(I.contact_kt.get(), 0, m * sizeof(Vec3f), st));
+  EBH_CUDA_CHECK(cudaMemsetAsync(I.contact_k.get(), 0, m * sizeof(float), st));
+  I.sum_k.assign(m, 0.0);
+  I.sum_kt.assign(m, Vec3d{});
+  I.touched.reserve(m);
+  I.is_touched.assign(m, 0);
+
+  VirtualDevice& d = I.dev;
+  d.m = m;
+  d.k_s = float(M.k_s);
+  d.k_svc = float(M.k_svc);
+  d.gravity = to_float(M.gravity);
+  d.mass = I.mass.get();
+  d.pinned = I.pinned.get();
+  d.stiff_diag = I.stiff_diag.get();
+  d.edges = I.edges.get();
+  d.rest_edge = I.rest_edge.get();
+  d.edge_offsets = I.edge_offsets.get();
+  d.edge_entries = I.edge_entries.get();
+  d.pair_vertex = I.pair_vertex.get();
+  d.pair_weight = I.pair_weight.get();
+  d.pair_count = I.pair_count.get();
+  d.v = I.v.get();
+  d.s = I.s.get();
+  d.q_start = I.q_start.get();
+  d.p = I.p.get();
+  d.contact_kt = I.contact_kt.get();
+  d.contact_k = I.contact_k.get();
+  upload_state(make_virtual_state(M));
+}
+
+CudaVirtualSolver::~CudaVirtualSolver() = default;
+
+void CudaVirtualSolver::upload_state(const VirtualState& state) {
+  Impl& I = *impl_;
+  if (state.q.size() != size_t(I.m) || state.v.size() != size_t(I.m))
+    throw std::invalid_argument("CudaVirtualSolver::upload_state: state sizes do not match the model");
+  std::vector<Vec3f> q(I.m), v(I.m);
+  for (int j = 0; j < I.m; ++j) { q[j] = to_float(state.q[j]); v[j] = to_float(state.v[j]); }
+  I.q[I.cur].upload(q.data(), I.stream.get());
+  I.v.upload(v.data(), I.stream.get());
+}
+
+void CudaVirtualSolver::download_state(VirtualState& state) const {
+  const Impl& I = *impl_;
+  std::vector<Vec3f> q(I.m), v(I.m);
+  I.q[I.cur].download(q.data(), I.stream.get());
+  I.v.download(v.data(), I.stream.get());
+  state.q.resize(I.m);
+  state.v.resize(I.m);
+  for (int j = 0; j < I.m; ++j) { state.q[j] = static_cast<Vec3d>(q[j]); state.v[j] = static_cast<Vec3d>(v[j]); }
+}
+
+void CudaVirtualSolver::begin_tick(std::span<const Vec3d> physical_x, std::int64_t physical_version, double h,
+                                   std::span<Vec3d> q_out) {
+  Impl& I = *impl_;
+  cudaStream_t st = I.stream.get();
+  I.h = h;
+  if (!I.have_physical || physical_version != I.physical_version || physical_x.size() != size_t(I.n)) {
+    if (physical_x.size() != size_t(I.n)) {
+      I.n = static_cast<int>(physical_x.size());
+      I.physical_x.allocate(I.n);
+      I.x_host.allocate(I.n);
+      I.dev.physical_x = I.physical_x.get();
+    }
+    for (int a = 0; a < I.n; ++a) I.x_host[a] = to_float(physical_x[a]);
+    if (I.n > 0)
+      EBH_CUDA_CHECK(cudaMemcpyAsync(I.physical_x.get(), I.x_host.get(), I.n * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
+    I.physical_version = physical_version;
+    I.have_physical = true;
+  }
+  if (I.m == 0) return;
+  begin_kernel<<<cuda::blocks_for(I.m, kBlock), kBlock, 0, st>>>(I.dev, I.q[I.cur].get(), float(h));
+  EBH_CUDA_LAUNCH_CHECK(st, "begin_kernel");
+  I.download_q(q_out);
+}
+
+void CudaVirtualSolver::iteration(std::span<const ContactTarget> contacts, std::span<Vec3d> q_out) {
+  Impl& I = *impl_;
+  cudaStream_t st = I.stream.get();
+  // E_con sums per vertex in the given order, in double as on the CPU.
+  for (const ContactTarget& c : contacts) {
+    if (c.vertex < 0 || c.vertex >= I.m) throw std::invalid_argument("CudaVirtualSolver: contact vertex out of range");
+    if (!I.is_touched[c.vertex]) { I.is_touched[c.vertex] = 1; I.touched.push_back(c.vertex); }
+    I.sum_kt[c.vertex] += c.stiffness * c.target;
+    I.sum_k[c.vertex] += c.stiffness;
+  }
+  const int count = static_cast<int>(I.touched.size());
+  for (int i = 0; i < count; ++i) {
+    const int j = I.touched[i];
+    I.contacts_host[i] = ContactSum{j, float(I.sum_k[j]), to_float(I.sum_kt[j])};
+    I.sum_k[j] = 0.0;
+    I.sum_kt[j] = Vec3d{};
+    I.is_touched[j] = 0;
+  }
+  I.touched.clear();
+  if (count > 0) {
+    EBH_CUDA_CHECK(cudaMemcpyAsync(I.contacts.get(), I.contacts_host.get(), count * sizeof(ContactSum),
+                                   cudaMemcpyHostToDevice, st));
+    scatter_kernel<<<cuda::blocks_for(count, kBlock), kBlock, 0, st>>>(I.dev, I.contacts.get(), count);
+    EBH_CUDA_LAUNCH_CHECK(st, "scatter_kernel");
+  }
+  if (I.m == 0) return;
+  const float inv_h2 = float(1.0 / (I.h * I.h));
+  jacobi_kernel<<<cuda::blocks_for(I.m, kBlock), kBlock, 0, st>>>(I.dev, I.q[I.cur].get(), I.q[1 - I.cur].get(), inv_h2);
+  EBH_CUDA_LAUNCH_CHECK(st, "jacobi_kernel");
+  I.cur = 1 - I.cur;
+  I.download_q(q_out);
+}
+
+void CudaVirtualSolver::end_tick() {
+  Impl& I = *impl_;
+  if (I.m == 0) return;
+  cudaStream_t st = I.stream.get();
+  end_kernel<<<cuda::blocks_for(I.m, kBlock), kBlock, 0, st>>>(I.dev, I.q[I.cur].get(), float(1.0 / I.h));
+  EBH_CUDA_LAUNCH_CHECK(st, "end_kernel");
+}
+
+}  // namespace ebh

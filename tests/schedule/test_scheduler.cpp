@@ -1,0 +1,159 @@
+// The scheduler's contracts (DESIGN.md §2): virtual-time replays are pure functions of their
+// inputs (bitwise, any thread count), async delivers step k's result at tick (k+1)N, lockstep at
+// once, and the output file appears only when complete.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <filesystem>
+#include <vector>
+
+#include "io/atomic.hpp"
+#include "io/h5.hpp"
+#include "schedule/replay_inputs.hpp"
+#include "schedule/replay_output.hpp"
+#include "schedule/scheduler.hpp"
+
+using namespace ebh;
+
+namespace {
+
+/// Captures everything deterministic a replay produces (timings excluded).
+struct Capture : ReplayObserver {
+  std::vector<double> values;               // force, torque, poses, penetration per tick
+  std::vector<std::int64_t> visible_step;   // the physical step visible at each tick
+  std::vector<double> step_t;
+  void on_tick(const World&, const HapticSide& h, double) override {
+    const Vec3d f = h.output.force, tq = h.output.torque, p = h.tool.pose.position;
+    const Quatd q = h.tool.pose.orientation;
+    values.insert(values.end(), {f.x, f.y, f.z, tq.x, tq.y, tq.z, p.x, p.y, p.z, q.w, q.x, q.y, q.z, h.penetration});
+    for (const Vec3d& v : h.mesh.q) values.insert(values.end(), {v.x, v.y, v.z});
+    visible_step.push_back(h.visible.step);
+  }
+  void on_step(const World&, const PhysicalSide&, double t) override { step_t.push_back(t); }
+};
+
+const LoadedReplay& tube() {
+  static const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {}, std::nullopt, std::nullopt, false);
+  return in;
+}
+
+/// The part of tube_insert where the hook enters the bore (contacts happen), shortened.
+Recording entering_bore(double seconds) {
+  Recording r = tube().recording;
+  // Start at 2.8 s, when the hook reaches the tube's end (x = -50 mm); keep `seconds` of it.
+  std::size_t a = 0;
+  while (a < r.t.size() && r.t[a] < 2.8) ++a;
+  std::size_t b = a;
+  while (b < r.t.size() && r.t[b] < r.t[a] + seconds) ++b;
+  auto cut = [&](auto& v) { v = std::vector<typename std::decay_t<decltype(v)>::value_type>(v.begin() + a, v.begin() + b); };
+  cut(r.t); cut(r.position); cut(r.orientation); cut(r.jaw); cut(r.buttons);
+  return r;
+}
+
+Capture run(Mode mode, const Recording& rec, int threads) {
+  omp_set_num_threads(threads);
+  Capture c;
+  ReplayOptions opt;
+  opt.mode = mode;
+  replay(*tube().world, rec, opt, c);
+  return c;
+}
+
+}  // namespace
+
+TEST(Scheduler, AsyncReplayIsBitwiseReproducibleAcrossRunsAndThreadCounts) {
+  const Recording rec = entering_bore(0.25);
+  const Capture a = run(Mode::Async, rec, 2), b = run(Mode::Async, rec, 2), c = run(Mode::Async, rec, 1);
+  ASSERT_FALSE(a.values.empty());
+  EXPECT_EQ(a.values, b.values);  // bitwise: std::vector<double> == compares exactly
+  EXPECT_EQ(a.values, c.values);
+}
+
+TEST(Scheduler, LockstepReplayIsBitwiseReproducible) {
+  const Recording rec = entering_bore(0.1);
+  const Capture a = run(Mode::Lockstep, rec, 2), b = run(Mode::Lockstep, rec, 1);
+  EXPECT_EQ(a.values, b.values);
+}
+
+TEST(Scheduler, AsyncDeliversStepKAtTickKPlus1TimesN) {
+  const Recording rec = entering_bore(0.05);
+  const Capture c = run(Mode::Async, rec, 1);
+  const int N = tube().world->ticks_per_step;
+  for (std::size_t n = 0; n < c.visible_step.size(); ++n) {
+    const std::int64_t k = static_cast<std::int64_t>(n) / N;  // step k started at tick kN
+    EXPECT_EQ(c.visible_step[n], k - 1) << "tick " << n;      // its predecessor is visible
+  }
+  // Step k started at t = k N h_h.
+  for (std::size_t k = 0; k < c.step_t.size(); ++k)
+    EXPECT_DOUBLE_EQ(c.step_t[k], static_cast<double>(k * N) * tube().world->h_haptic);
+}
+
+TEST(Scheduler, LockstepShowsEachStepAtOnce) {
+  const Recording rec = entering_bore(0.05);
+  const Capture c = run(Mode::Lockstep, rec, 1);
+  const int N = tube().world->ticks_per_step;
+  for (std::size_t n = 0; n < c.visible_step.size(); ++n)
+    EXPECT_EQ(c.visible_step[n], static_cast<std::int64_t>(n) / N) << "tick " << n;
+}
+
+TEST(Scheduler, AsyncAndLockstepDifferOnlyByLatency) {
+  // Same inputs, different delivery: both must touch the tissue and stay finite, and differ.
+  const Recording rec = entering_bore(0.2);
+  const Capture a = run(Mode::Async, rec, 2), l = run(Mode::Lockstep, rec, 2);
+  ASSERT_EQ(a.values.size(), l.values.size());
+  EXPECT_NE(a.values, l.values);
+  for (double v : a.values) ASSERT_TRUE(std::isfinite(v));
+}
+
+TEST(Scheduler, TickCountCoversTheDuration) {
+  const World& w = *tube().world;
+  EXPECT_EQ(tick_count(w, 0.0), 1);
+  EXPECT_EQ(tick_count(w, 1.0), 1001);   // ticks 0..1000 at 1 kHz
+  EXPECT_EQ(tick_count(w, 0.0105), 11);  // a partial tick is not run
+}
+
+TEST(ReplayOutput, WritesTheDesignLayoutAndOnlyWhenComplete) {
+  const auto dir = std::filesystem::temp_directory_path() / "ebh_test_replay_output";
+  std::filesystem::create_directories(dir);
+  const std::string out = (dir / "out.h5").string();
+  std::filesystem::remove(out);
+  const Recording rec = entering_bore(0.05);
+  const World& w = *tube().world;
+  ReplayOptions opt;
+  opt.frames_hz = 100;
+  {
+    ReplayWriter writer(out, w, ReplayMetadata{}, tick_count(w, rec.duration()), true);
+    const ReplaySummary s = replay(w, rec, opt, writer);
+    EXPECT_FALSE(std::filesystem::exists(out));  // still under its temporary name
+    writer.commit(s);
+  }
+  ASSERT_TRUE(std::filesystem::exists(out));
+  h5::File f = h5::File::open_read(out);
+  const std::size_t n = f.read<double>("haptic/t").rows();
+  EXPECT_EQ(n, static_cast<std::size_t>(tick_count(w, rec.duration())));
+  for (const char* name : {"haptic/force", "haptic/torque", "haptic/pose_physical", "haptic/pose_virtual"})
+    EXPECT_EQ(f.dataset(name).shape()[0], n) << name;
+  EXPECT_EQ(f.dataset("haptic/pose_virtual").shape()[1], 7u);
+  EXPECT_EQ(f.dataset("physical/iterations").shape()[0], f.dataset("timing/physical_step_s").shape()[0]);
+  EXPECT_EQ(f.dataset("frames/virtual_positions").shape()[1], w.virtual_mesh.rest.size());
+  EXPECT_EQ(f.attr_string("scene"), "tube");
+}
+
+TEST(ReplayOutput, AnInterruptedReplayLeavesNoFile) {
+  const auto dir = std::filesystem::temp_directory_path() / "ebh_test_replay_interrupt";
+  std::filesystem::create_directories(dir);
+  const std::string out = (dir / "out.h5").string();
+  std::filesystem::remove(out);
+  const Recording rec = entering_bore(0.05);
+  const World& w = *tube().world;
+  {
+    ReplayWriter writer(out, w, ReplayMetadata{}, tick_count(w, rec.duration()), false);
+    set_interrupted(true);
+    const ReplaySummary s = replay(w, rec, ReplayOptions{}, writer);
+    set_interrupted(false);
+    EXPECT_TRUE(s.stopped);
+    EXPECT_EQ(s.ticks, 1);
+  }  // not committed: the destructor removes the temporary file
+  EXPECT_FALSE(std::filesystem::exists(out));
+  for (const auto& e : std::filesystem::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << e.path();
+}

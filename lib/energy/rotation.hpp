@@ -7,7 +7,7 @@
 // "A Robust Method to Extract the Rotational Part of Deformations" (MIG 2016): starting from the
 // previous step's rotation q, repeat
 //     omega = sum_i r_i x f_i / (|sum_i r_i . f_i| + eps)      (r_i, f_i the columns of R, F)
-//     q <- exp(omega) q
+//     q <- exp(omega) q       (here to first order, renormalised: no trigonometry)
 // Each update is a rotation, so R never leaves SO(3). The error contracts linearly (a scaled
 // gradient ascent on tr(R^T F)); warm-started from the last iteration's rotation, a few updates per
 // local step keep R converged as the Projective Dynamics loop proceeds. It is branch-light and runs
@@ -35,7 +35,9 @@ EBH_HD Quat<T> extract_rotation(const Mat3<T>& F, Quat<T> q, int max_iter, T tol
     }
     const Vec3<T> omega = num / ((den < T(0) ? -den : den) + T(1e-9));
     if (norm(omega) < tol) break;
-    q = normalized(quat_from_rotvec(omega) * q);
+    // exp(omega) to first order, renormalised: still an exact rotation (by angle 2 atan(|omega|/2)
+    // instead of |omega|), with no trigonometry; the fixed point is unchanged.
+    q = normalized(Quat<T>{T(1), omega.x / 2, omega.y / 2, omega.z / 2} * q);
   }
   return q;
 }

@@ -100,7 +100,7 @@ struct PhysicalStepParams {
   double chebyshev_rho = 0.95;   ///< spectral-radius estimate (Wang 2015)
   double relaxation = 0.9;       ///< under-relaxation gamma of the Jacobi update (Wang 2015, the paper)
   int chebyshev_delay = 2;       ///< relaxed Jacobi iterations before the Chebyshev weights start
-  int rotation_iterations = 3;   ///< Mueller 2016 updates per tet and local step (warm-started)
+  int rotation_iterations = 1;   ///< Mueller 2016 updates per tet and local step (warm-started from the last iteration)
 };
 
 /// The step report (time in seconds of wall clock).

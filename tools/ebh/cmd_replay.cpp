@@ -13,6 +13,9 @@
 #include "replay_common.hpp"
 #include "schedule/replay_output.hpp"
 #include "schedule/scheduler.hpp"
+#if EBH_HAVE_CUDA
+#include "solver/device_cuda.hpp"
+#endif
 
 namespace ebh::cli {
 namespace {
@@ -20,7 +23,7 @@ namespace {
 struct ReplayArgs {
   std::string scene, recording, out, mode = "async", backend = "cpu";
   std::optional<double> haptic_hz, physical_hz;
-  double frames_hz = -1, duration = 0;
+  double frames_hz = -1, start = 0, duration = 0;
   std::vector<std::string> overrides;
   std::string render_dir;
   bool allow_outside = false, quiet = false;
@@ -71,24 +74,32 @@ class Tee : public ReplayObserver {
 void run_replay(const ReplayArgs& a) {
   const Mode mode = parse_mode(a.mode);
   check_backend(a.backend);
+  const Backend backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   LoadedReplay in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz,
-                                       a.allow_outside);
+                                       a.allow_outside, backend);
   const World& world = *in.world;
   const double frames_hz = a.frames_hz >= 0 ? a.frames_hz : (world.scene.spec.stages.frames ? 30.0 : 0.0);
   if (a.duration < 0) throw InputError("--duration: expected a positive number of seconds");
   ReplayOptions opt;
   opt.mode = mode;
+  opt.start = a.start;
   opt.duration = a.duration;
+  if (a.start < 0 || a.start >= in.recording.duration())
+    throw InputError("--start: expected a time inside the recording (0 .. " + std::to_string(in.recording.duration()) + " s)");
   opt.frames_hz = frames_hz;
   if (!a.render_dir.empty() && frames_hz <= 0) opt.frames_hz = 30.0;  // --render needs frames
 
-  const double duration = a.duration > 0 ? std::min(a.duration, in.recording.duration()) : in.recording.duration();
+  const double rest = in.recording.duration() - a.start;
+  const double duration = a.duration > 0 ? std::min(a.duration, rest) : rest;
   const std::int64_t ticks = tick_count(world, duration);
   ReplayMetadata meta;
   meta.recording = in.recording_path;
   meta.mode = mode_name(mode);
   meta.backend = a.backend;
   meta.device = cpu_description();
+#if EBH_HAVE_CUDA
+  if (backend == Backend::Cuda) meta.device = cuda_device_description() + " + " + meta.device;
+#endif
   meta.overrides = a.overrides;
   install_interrupt_handlers();
   ReplayWriter writer(a.out, world, meta, ticks, opt.frames_hz > 0);
@@ -98,6 +109,7 @@ void run_replay(const ReplayArgs& a) {
   progress.finish();
   if (s.stopped) throw InputError(a.out + ": interrupted; no output written");
   writer.commit(s);
+  index_replay_frames(a.out);
   if (!a.quiet) {
     std::printf("%s: %s + %s, %s mode, %lld ticks, %lld physical steps\n", a.out.c_str(),
                 world.scene.spec.name.c_str(), std::filesystem::path(in.recording_path).filename().c_str(),
@@ -122,7 +134,8 @@ void setup(CLI::App& root) {
   c->add_option("--physical-hz", args->physical_hz, "Physical step rate (default: the scene's, 100)");
   c->add_option("--backend", args->backend, "cpu (default) or cuda");
   c->add_option("--frames-hz", args->frames_hz, "Mesh snapshots per second in /frames (default: 30 if the scene asks)");
-  c->add_option("--duration", args->duration, "Replay only the first S seconds");
+  c->add_option("--start", args->start, "Start S seconds into the recording");
+  c->add_option("--duration", args->duration, "Replay only S seconds");
   c->add_option("--set", args->overrides, "Override a scene key: --set stiffness.k_con=800 (repeatable)");
   c->add_option("--render", args->render_dir, "Also render the frames to PNG files in DIR (needs OSMesa)");
   c->add_flag("--allow-outside", args->allow_outside, "Accept a trajectory far outside the scene");

@@ -1,18 +1,43 @@
 #include "replay_common.hpp"
 
+#include <cstdio>
+
 #include "io/error.hpp"
+#if EBH_HAVE_CUDA
+#include "solver/device_cuda.hpp"
+#endif
+#include "io/h5.hpp"
+#include "render/render_replay.hpp"
+#include "render/xdmf.hpp"
 
 namespace ebh::cli {
 
 void check_backend(const std::string& backend) {
   if (backend == "cpu") return;
-  if (backend == "cuda")
+  if (backend == "cuda") {
+#if EBH_HAVE_CUDA
+    std::string why;
+    if (!cuda_device_available(&why)) throw InputError("--backend cuda: " + why + " on this machine");
+    return;
+#else
     throw InputError("--backend cuda: this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
+#endif
+  }
   throw InputError("--backend: expected cpu or cuda, got '" + backend + "'");
 }
 
-void render_after_replay(const std::string&, const std::string& dir) {
-  throw InputError("--render " + dir + ": this build cannot render yet (ebh render is not built)");
+void render_after_replay(const std::string& replay_file, const std::string& dir) {
+  const RenderSummary s = render_replay(replay_file, dir, RenderOptions{});
+  for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  std::printf("%s: %zu frames rendered (camera: %s)\n", dir.c_str(), s.files.size(), s.camera_source.c_str());
+}
+
+void index_replay_frames(const std::string& replay_file) {
+  {
+    const h5::File f = h5::File::open_read(replay_file);
+    if (!f.has("frames/t") || f.dataset("frames/t").shape().at(0) == 0) return;
+  }
+  write_xdmf(replay_file);
 }
 
 }  // namespace ebh::cli

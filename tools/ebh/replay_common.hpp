@@ -13,4 +13,8 @@ void check_backend(const std::string& backend);
 /// `ebh replay --render DIR`: renders the replay's frames like `ebh render OUT -o DIR`.
 void render_after_replay(const std::string& replay_file, const std::string& dir);
 
+/// After `ebh replay` committed its output: when it holds frames, writes OUT.xdmf beside it (the
+/// ParaView index of the mesh snapshots, render/xdmf.hpp); otherwise does nothing.
+void index_replay_frames(const std::string& replay_file);
+
 }  // namespace ebh::cli

@@ -1,0 +1,272 @@
+#include "render/render_replay.hpp"
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+
+#include "ebh/version.hpp"
+#include "io/atomic.hpp"
+#include "io/error.hpp"
+#include "render/image.hpp"
+#include "render/tessellate.hpp"
+
+extern char** environ;
+
+namespace ebh {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// The recorded --set overrides, "a=1 gravity=[0, 0, 0]": split at spaces, a piece without '='
+/// continues the previous value.
+std::vector<std::string> split_overrides(const std::string& s) {
+  std::vector<std::string> out;
+  std::istringstream in(s);
+  std::string tok;
+  while (in >> tok) {
+    if (tok.find('=') == std::string::npos && !out.empty())
+      out.back() += " " + tok;
+    else
+      out.push_back(tok);
+  }
+  return out;
+}
+
+std::string fmt_mm(double metres) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.3g mm", 1e3 * metres);
+  return buf;
+}
+
+/// Drops triangles with a non-finite vertex (a blown-up run), so they cannot smear across the
+/// image. Returns how many were dropped.
+std::size_t finite_triangles(const std::vector<Vec3f>& q, const std::vector<std::array<int, 3>>& all,
+                             std::vector<std::array<int, 3>>& out) {
+  std::vector<char> ok(q.size());
+  bool every = true;
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    ok[i] = std::isfinite(q[i].x) && std::isfinite(q[i].y) && std::isfinite(q[i].z);
+    every = every && ok[i];
+  }
+  out.clear();
+  if (every) return 0;
+  for (const auto& t : all)
+    if (ok[t[0]] && ok[t[1]] && ok[t[2]]) out.push_back(t);
+  return all.size() - out.size();
+}
+
+bool finite_pose(const ToolPose& p) { return std::isfinite(p.position.x + p.position.y + p.position.z); }
+
+double frame_rate(const ReplayFrames& f, int every) {
+  if (f.frame_count() < 2) return 10.0;
+  std::vector<double> dt;
+  for (std::size_t i = 1; i < f.frame_count(); ++i) dt.push_back(f.t[i] - f.t[i - 1]);
+  std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
+  const double d = dt[dt.size() / 2] * every;
+  return d > 0 && std::isfinite(d) ? 1.0 / d : 10.0;
+}
+
+void run_ffmpeg(const std::string& dir, const std::string& video, double fps) {
+  const std::string ffmpeg = find_on_path("ffmpeg");
+  if (ffmpeg.empty())
+    throw InputError("--video " + video + ": ffmpeg was not found on the PATH (install ffmpeg; the PNG frames are in " +
+                     dir + ")");
+  AtomicOutput out(video);
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%.6g", fps);
+  const std::string pattern = (fs::path(dir) / "frame_%05d.png").string();
+  std::vector<std::string> args = {ffmpeg, "-y", "-nostdin", "-loglevel", "error", "-framerate", rate, "-i", pattern,
+                                   "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p", "-f", "mp4",
+                                   out.temp_path()};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, ffmpeg.c_str(), nullptr, nullptr, argv.data(), environ) != 0)
+    throw InputError("--video " + video + ": cannot start " + ffmpeg);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) throw InputError("--video " + video + ": lost the ffmpeg process");
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw InputError(video + ": ffmpeg failed (exit status " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
+                     ")");
+  out.commit();
+}
+
+}  // namespace
+
+std::string find_on_path(const std::string& program) {
+  const char* path = std::getenv("PATH");
+  if (!path) return {};
+  std::istringstream in(path);
+  std::string d;
+  while (std::getline(in, d, ':')) {
+    if (d.empty()) continue;
+    const fs::path p = fs::path(d) / program;
+    if (::access(p.c_str(), X_OK) == 0 && fs::is_regular_file(p)) return p.string();
+  }
+  return {};
+}
+
+std::optional<SceneSpec> find_replay_scene(const ReplayFrames& f, std::vector<std::string>& warnings) {
+  const auto overrides = split_overrides(f.overrides);
+  std::string why;
+  if (!f.scene_file.empty()) {
+    try {
+      return load_scene_spec(f.scene_file, overrides);
+    } catch (const std::exception& e) {
+      why = e.what();
+    }
+  }
+  if (!f.scene_name.empty()) {
+    try {
+      return load_scene_spec(resolve_scene_path(f.scene_name), overrides);
+    } catch (const std::exception& e) {
+      if (why.empty()) why = e.what();
+    }
+  }
+  warnings.push_back(f.file + ": the replay's scene could not be loaded (" + (why.empty() ? "no scene attributes" : why) +
+                     "): framing the mesh's bounding box and drawing a default tool");
+  return std::nullopt;
+}
+
+ViewCamera choose_camera(const std::string& name, const std::optional<SceneSpec>& scene, const Bounds& rest,
+                         double aspect, std::string& source) {
+  if (name == "scene") {
+    if (scene) {
+      source = "scene file " + scene->file.string();
+      return scene_camera(scene->camera, rest);
+    }
+    source = "bounding box (no scene), iso";
+    return preset_camera("iso", rest, aspect);
+  }
+  source = "preset " + name;
+  return preset_camera(name, rest, aspect, scene ? scene->camera.fov_deg : 40.0);
+}
+
+ToolModel replay_tool(const ReplayFrames& f, const std::optional<SceneSpec>& scene) {
+  if (scene) return build_tool(scene->tool);
+  ToolSpec spec;
+  spec.kind = f.tool_kind == "forceps" ? ToolSpec::Kind::Forceps : ToolSpec::Kind::Hook;
+  if (f.shaft_radius > 0 && std::isfinite(f.shaft_radius)) spec.shaft_radius = f.shaft_radius;
+  return build_tool(spec);
+}
+
+RenderSummary render_replay(const std::string& replay, const std::string& dir, const RenderOptions& opt) {
+  if (opt.width < 16 || opt.height < 16 || opt.width > 4096 || opt.height > 4096)
+    throw InputError("--size: width and height must be within 16..4096 pixels, got " + std::to_string(opt.width) + "x" +
+                     std::to_string(opt.height));
+  if (opt.every < 1) throw InputError("--every: expected a positive frame count, got " + std::to_string(opt.every));
+  if (opt.supersample < 1 || opt.supersample > 4) throw InputError("--supersample: expected 1..4");
+  if (!(opt.max_displacement >= 0) || !std::isfinite(opt.max_displacement))
+    throw InputError("--max-displacement: expected a non-negative length");
+  if (!opt.video.empty() && find_on_path("ffmpeg").empty())  // before any work
+    throw InputError("--video " + opt.video + ": ffmpeg was not found on the PATH (install ffmpeg)");
+  if (!have_osmesa()) throw InputError(kNoOsmesa);
+
+  const ReplayFrames frames = open_replay_frames(replay);
+  RenderSummary summary;
+  const std::optional<SceneSpec> scene = find_replay_scene(frames, summary.warnings);
+  const Bounds rest = bounds_of(frames.virtual_rest);
+  const double aspect = static_cast<double>(opt.width) / opt.height;
+  summary.camera = choose_camera(opt.camera, scene, rest, aspect, summary.camera_source);
+  const ToolModel tool = replay_tool(frames, scene);
+
+  std::vector<std::size_t> chosen;
+  for (std::size_t f = 0; f < frames.frame_count(); f += static_cast<std::size_t>(opt.every)) chosen.push_back(f);
+
+  std::vector<Vec3f> q, normals;
+  std::vector<std::array<float, 3>> colours;
+  const bool by_disp = opt.color_by == ColorBy::Displacement;
+  auto displacement = [&](std::size_t i) { return norm(static_cast<Vec3d>(q[i]) - static_cast<Vec3d>(frames.virtual_rest[i])); };
+  if (by_disp) {
+    summary.displacement_range = opt.max_displacement;
+    if (summary.displacement_range == 0.0) {  // the largest finite displacement over the chosen frames
+      for (std::size_t f : chosen) {
+        frames.read_virtual_positions(f, q);
+        for (std::size_t i = 0; i < q.size(); ++i) {
+          const double d = displacement(i);
+          if (std::isfinite(d)) summary.displacement_range = std::max(summary.displacement_range, d);
+        }
+      }
+    }
+  }
+  // A range of zero (nothing moved) maps everything to the colour map's bottom.
+  const double scale = summary.displacement_range > 0 ? 1.0 / summary.displacement_range : 0.0;
+
+  fs::create_directories(dir);
+  if (!fs::is_directory(dir)) throw InputError(dir + ": not a directory");
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string n = e.path().filename().string();
+    if (n.rfind("frame_", 0) == 0 && e.path().extension() == ".png") fs::remove(e.path());
+  }
+
+  install_interrupt_handlers();
+  const int ss = std::max(1, std::min(opt.supersample, 8192 / std::max(opt.width, opt.height)));
+  OffscreenRenderer renderer(opt.width, opt.height, ss);
+  const RenderStyle style;
+  std::vector<std::array<int, 3>> kept;
+  std::size_t broken_frames = 0;
+  const double t0 = frames.t.front(), t1 = frames.t.back();
+  for (std::size_t k = 0; k < chosen.size(); ++k) {
+    if (interrupted()) throw InputError(dir + ": interrupted after " + std::to_string(k) + " frames");
+    const std::size_t f = chosen[k];
+    frames.read_virtual_positions(f, q);
+    const bool dropped = finite_triangles(q, frames.triangles, kept) > 0;
+    broken_frames += dropped;
+    vertex_normals(q, dropped ? kept : frames.triangles, normals);
+    if (by_disp) {
+      colours.resize(q.size());
+      for (std::size_t i = 0; i < q.size(); ++i) colours[i] = colormap(displacement(i) * scale);
+    }
+    const auto& [physical, virt] = frames.poses[f];
+    const double jaw = std::isfinite(frames.jaw[f]) ? std::clamp(frames.jaw[f], 0.0, 1.0) : 1.0;
+    TriangleSoup physical_mesh, virtual_mesh;
+    if (finite_pose(physical)) physical_mesh = tessellate(pose_tool(tool, physical, jaw));
+    if (finite_pose(virt)) virtual_mesh = tessellate(pose_tool(tool, virt, jaw));
+
+    FrameGeometry g;
+    g.tissue = &q;
+    g.tissue_normals = &normals;
+    g.triangles = dropped ? &kept : &frames.triangles;
+    g.tissue_colors = by_disp ? &colours : nullptr;
+    g.virtual_tool = &virtual_mesh;
+    g.physical_tool = &physical_mesh;
+    Image img = renderer.render(g, summary.camera, style);
+    if (by_disp) draw_legend(img);
+    if (opt.time_bar) draw_time_bar(img, t1 > t0 ? (frames.t[f] - t0) / (t1 - t0) : 1.0);
+
+    char name[32], title[160];
+    std::snprintf(name, sizeof name, "frame_%05zu.png", k);
+    std::snprintf(title, sizeof title, "%s: frame %zu of %zu, t = %.4f s", frames.scene_name.c_str(), f,
+                  frames.frame_count(), frames.t[f]);
+    std::vector<std::pair<std::string, std::string>> text = {{"Title", title},
+                                                             {"Software", std::string("ebh ") + kVersion}};
+    if (by_disp)
+      text.push_back({"Comment", "tissue colour = displacement from rest, 0 (blue, bottom of the bar) to " +
+                                     fmt_mm(summary.displacement_range) + " (red, top)"});
+    const std::string path = (fs::path(dir) / name).string();
+    write_png(path, img, text);
+    summary.files.push_back(path);
+  }
+  if (broken_frames > 0)
+    summary.warnings.push_back(replay + ": " + std::to_string(broken_frames) +
+                               " frames have non-finite virtual-mesh positions (the simulation blew up); their "
+                               "triangles were left out");
+  if (!opt.video.empty()) {
+    run_ffmpeg(dir, opt.video, frame_rate(frames, opt.every));
+    summary.video = opt.video;
+  }
+  return summary;
+}
+
+}  // namespace ebh

@@ -1,0 +1,124 @@
+#include "render/replay_frames.hpp"
+
+#include <hdf5.h>
+
+#include <cmath>
+
+#include "io/error.hpp"
+#include "io/h5.hpp"
+
+namespace ebh {
+namespace {
+
+std::string attr_or(const h5::File& f, const char* name) {
+  if (!f.has_attr(name)) return {};
+  try {
+    return f.attr_string(name);
+  } catch (const InputError&) {
+    return {};  // present but not a string: treated as absent (only used to find the scene)
+  }
+}
+
+template <class T>
+h5::Array<T> read_checked(const h5::File& f, const std::string& name, const std::vector<std::ptrdiff_t>& shape) {
+  if (!f.has(name)) throw InputError(f.file() + ": /" + name + ": missing");
+  return f.read<T>(name, shape);
+}
+
+template <std::size_t K>
+std::vector<std::array<int, K>> indices(const h5::Array<std::int32_t>& a, std::size_t vertices, const std::string& where) {
+  std::vector<std::array<int, K>> out(a.rows());
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (std::size_t k = 0; k < K; ++k) {
+      const std::int32_t v = a.data[K * i + k];
+      if (v < 0 || static_cast<std::size_t>(v) >= vertices)
+        throw InputError(where + ": row " + std::to_string(i) + " refers to vertex " + std::to_string(v) + " of " +
+                         std::to_string(vertices));
+      out[i][k] = v;
+    }
+  return out;
+}
+
+ToolPose pose_of(const double* p) {
+  ToolPose pose;
+  pose.position = {p[0], p[1], p[2]};
+  Quatd q{p[3], p[4], p[5], p[6]};
+  const double n = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  // A stored quaternion is unit up to float rounding; a zero or non-finite one (a blown-up run)
+  // is kept as identity so the frame still renders and the tool is simply drawn unrotated.
+  pose.orientation = (n > 0 && std::isfinite(n)) ? Quatd{q.w / n, q.x / n, q.y / n, q.z / n} : Quatd{};
+  return pose;
+}
+
+}  // namespace
+
+ReplayFrames open_replay_frames(const std::string& path) {
+  const h5::File f = h5::File::open_read(path);
+  ReplayFrames r;
+  r.file = path;
+  r.scene_name = attr_or(f, "scene");
+  r.scene_file = attr_or(f, "scene_file");
+  r.tool_kind = attr_or(f, "tool");
+  r.overrides = attr_or(f, "overrides");
+  if (f.has_attr("shaft_radius")) {
+    try {
+      r.shaft_radius = f.attr_double("shaft_radius");
+    } catch (const InputError&) {
+      r.shaft_radius = 0.0;
+    }
+  }
+  if (!f.has("frames"))
+    throw InputError(path + ": /frames: no mesh snapshots in this file (replay with --frames-hz N)");
+
+  const auto rest = read_checked<float>(f, "mesh/virtual_rest", {-1, 3});
+  r.virtual_rest.resize(rest.rows());
+  for (std::size_t i = 0; i < r.virtual_rest.size(); ++i)
+    r.virtual_rest[i] = {rest.data[3 * i], rest.data[3 * i + 1], rest.data[3 * i + 2]};
+  r.triangles = indices<3>(read_checked<std::int32_t>(f, "mesh/virtual_triangles", {-1, 3}), r.virtual_rest.size(),
+                           path + ": /mesh/virtual_triangles");
+  const auto prest = read_checked<float>(f, "mesh/physical_rest", {-1, 3});
+  r.physical_vertices = prest.rows();
+  r.physical_tets = indices<4>(read_checked<std::int32_t>(f, "mesh/physical_tets", {-1, 4}), r.physical_vertices,
+                               path + ": /mesh/physical_tets").size();
+
+  r.t = read_checked<double>(f, "frames/t", {-1}).data;
+  const std::size_t F = r.t.size();
+  if (F == 0) throw InputError(path + ": /frames/t: no frames (the replay ended before the first snapshot)");
+  const auto F_ = static_cast<std::ptrdiff_t>(F);
+  r.jaw = read_checked<double>(f, "frames/jaw", {F_}).data;
+  const auto poses = read_checked<double>(f, "frames/tool_poses", {F_, 2, 7});
+  r.poses.resize(F);
+  for (std::size_t i = 0; i < F; ++i) r.poses[i] = {pose_of(&poses.data[14 * i]), pose_of(&poses.data[14 * i + 7])};
+  const auto m = static_cast<std::ptrdiff_t>(r.virtual_rest.size()), n = static_cast<std::ptrdiff_t>(r.physical_vertices);
+  // Shapes only (the positions themselves are read frame by frame).
+  for (const auto& [name, rows] : {std::pair{"frames/virtual_positions", m}, std::pair{"frames/physical_positions", n}}) {
+    if (!f.has(name)) throw InputError(path + ": /" + name + ": missing");
+    const auto s = f.dataset(name).shape();
+    if (s.size() != 3 || s[0] != F || s[1] != static_cast<std::size_t>(rows) || s[2] != 3)
+      throw InputError(path + ": /" + name + ": expected shape (" + std::to_string(F) + ", " + std::to_string(rows) +
+                       ", 3) to match /frames/t and /mesh");
+  }
+  return r;
+}
+
+void ReplayFrames::read_virtual_positions(std::size_t f, std::vector<Vec3f>& out) const {
+  const std::string where = file + ": /frames/virtual_positions";
+  if (f >= frame_count()) throw InputError(where + ": frame " + std::to_string(f) + " out of range");
+  h5::silence_errors();
+  h5::Handle file_id(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
+  if (!file_id.valid()) throw InputError(file + ": cannot open HDF5 file");
+  h5::Handle ds(H5Dopen2(file_id.get(), "/frames/virtual_positions", H5P_DEFAULT));
+  if (!ds.valid()) throw InputError(where + ": cannot open the dataset");
+  h5::Handle space(H5Dget_space(ds.get()));
+  static_assert(sizeof(Vec3f) == 3 * sizeof(float), "Vec3f must be three packed floats");
+  const hsize_t m = virtual_rest.size();
+  const hsize_t start[3] = {f, 0, 0}, count[3] = {1, m, 3};
+  h5::Handle mem(H5Screate_simple(3, count, nullptr));
+  out.resize(m);
+  if (!space.valid() || !mem.valid() ||
+      H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
+      H5Dread(ds.get(), H5T_NATIVE_FLOAT, mem.get(), space.get(), H5P_DEFAULT, out.data()) < 0)
+    throw InputError(where + ": cannot read frame " + std::to_string(f));
+}
+
+}  // namespace ebh

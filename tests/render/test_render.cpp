@@ -1,0 +1,483 @@
+// ebh render on a synthetic replay output written here: a flat 40 mm patch (the virtual mesh) in
+// the z = 0 plane and a hook above it, the physical tool 8 mm left of the virtual tool, both
+// pointing down (tool +z -> world -z). Frame 1 lowers both tools by 4 mm and dents the patch's
+// centre by 3 mm; frame 2 repeats frame 1.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "io/error.hpp"
+#include "io/h5.hpp"
+#include "render/camera.hpp"
+#include "render/image.hpp"
+#include "render/offscreen.hpp"
+#include "render/render_replay.hpp"
+#include "render/replay_frames.hpp"
+#include "render/tessellate.hpp"
+#include "render/xdmf.hpp"
+
+namespace fs = std::filesystem;
+namespace ebh {
+namespace {
+
+struct Scratch {
+  fs::path dir;
+  Scratch() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir = fs::temp_directory_path() /
+          (std::string("ebh_render_") + info->test_suite_name() + "_" + info->name() + "_" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~Scratch() { fs::remove_all(dir); }
+  std::string operator/(const std::string& n) const { return (dir / n).string(); }
+};
+
+constexpr int kGrid = 11;            // vertices per side of the patch
+constexpr double kHalf = 0.02;       // m, half the patch's side
+constexpr double kDent = 0.003;      // m, the centre vertex's displacement in frames 1 and 2
+const Quatd kDown{0, 1, 0, 0};       // 180 degrees about x: tool +z -> world -z, +x stays +x
+const Vec3d kPhysical0{-0.008, 0, 0.012}, kVirtual0{0.008, 0, 0.012};
+const Vec3d kLower{0, 0, -0.004};
+
+struct SyntheticOptions {
+  bool frames = true;
+  std::string scene = "no_such_scene_for_render_tests";
+  std::string scene_file = "/nonexistent/scene.yaml";
+  int bad_triangle = -1;  // >= 0: write this vertex index into the first triangle
+};
+
+void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
+  h5::File f = h5::File::create(path);
+  f.set_attr("scene", o.scene);
+  f.set_attr("scene_file", o.scene_file);
+  f.set_attr("tool", "hook");
+  f.set_attr("shaft_radius", 0.0025);
+  std::vector<double> rest;
+  std::vector<std::int32_t> tris;
+  for (int j = 0; j < kGrid; ++j)
+    for (int i = 0; i < kGrid; ++i)
+      rest.insert(rest.end(), {-kHalf + 2 * kHalf * i / (kGrid - 1), -kHalf + 2 * kHalf * j / (kGrid - 1), 0.0});
+  for (int j = 0; j + 1 < kGrid; ++j)
+    for (int i = 0; i + 1 < kGrid; ++i) {
+      const int a = j * kGrid + i, b = a + 1, c = a + kGrid, d = c + 1;
+      tris.insert(tris.end(), {a, b, d, a, d, c});
+    }
+  if (o.bad_triangle >= 0) tris[0] = o.bad_triangle;
+  const std::size_t m = rest.size() / 3;
+  h5::Group mesh = f.create_group("mesh");
+  mesh.write<double>("virtual_rest", rest, {m, 3});
+  mesh.write<std::int32_t>("virtual_triangles", tris, {tris.size() / 3, 3});
+  // The physical mesh: the same vertices plus one below the centre, and two tets under it.
+  std::vector<double> prest = rest;
+  prest.insert(prest.end(), {0.0, 0.0, -0.01});
+  const std::int32_t below = static_cast<std::int32_t>(m), c0 = (kGrid / 2) * kGrid + kGrid / 2;
+  const std::vector<std::int32_t> tets = {c0, c0 + 1, c0 + kGrid, below, c0, c0 - 1, c0 - kGrid, below};
+  mesh.write<double>("physical_rest", prest, {m + 1, 3});
+  mesh.write<std::int32_t>("physical_tets", tets, {2, 4});
+  if (!o.frames) return;
+
+  const std::size_t F = 3;
+  std::vector<double> t = {0.0, 0.1, 0.2}, jaw = {1.0, 1.0, 1.0}, poses;
+  std::vector<float> q, x;
+  for (std::size_t k = 0; k < F; ++k) {
+    const Vec3d down = k == 0 ? Vec3d{} : kLower;
+    for (const Vec3d& p : {kPhysical0 + down, kVirtual0 + down})
+      poses.insert(poses.end(), {p.x, p.y, p.z, kDown.w, kDown.x, kDown.y, kDown.z});
+    for (std::size_t v = 0; v < m; ++v) {
+      const double dz = (k > 0 && static_cast<std::int32_t>(v) == c0) ? -kDent : 0.0;
+      q.insert(q.end(), {float(rest[3 * v]), float(rest[3 * v + 1]), float(rest[3 * v + 2] + dz)});
+    }
+    for (double p : prest) x.push_back(float(p));
+  }
+  h5::Group fr = f.create_group("frames");
+  fr.write<double>("t", t, {F});
+  fr.write<double>("jaw", jaw, {F});
+  fr.write<double>("tool_poses", poses, {F, 2, 7});
+  fr.write<float>("virtual_positions", q, {F, m, 3});
+  fr.write<float>("physical_positions", x, {F, m + 1, 3});
+}
+
+std::string read_file(const std::string& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// The centre of the hook's bent tip capsule, (L/2, 0, L) in the tool frame, in the world.
+Vec3d tip_centre(const Vec3d& origin) {
+  const double L = HookSpec{}.tip_length;  // the fallback tool is a default hook
+  return origin + rotate(kDown, Vec3d{L / 2, 0, L});
+}
+
+#define REQUIRE_OSMESA() \
+  if (!have_osmesa()) GTEST_SKIP() << kNoOsmesa
+
+// ---------------------------------------------------------------------------------------------
+// Without OSMesa: reading, cameras, tessellation, XDMF
+
+TEST(ReplayFrames, ReadsTheSyntheticFile) {
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  const ReplayFrames f = open_replay_frames(s / "r.h5");
+  EXPECT_EQ(f.frame_count(), 3u);
+  EXPECT_EQ(f.virtual_vertices(), std::size_t(kGrid * kGrid));
+  EXPECT_EQ(f.triangles.size(), std::size_t(2 * (kGrid - 1) * (kGrid - 1)));
+  EXPECT_EQ(f.physical_tets, 2u);
+  std::vector<Vec3f> q;
+  f.read_virtual_positions(1, q);
+  const int c0 = (kGrid / 2) * kGrid + kGrid / 2;
+  EXPECT_FLOAT_EQ(q[c0].z, float(-kDent));
+  EXPECT_DOUBLE_EQ(f.poses[1][0].position.z, kPhysical0.z + kLower.z);
+}
+
+TEST(ReplayFrames, FileWithoutFramesIsAnInputError) {
+  Scratch s;
+  SyntheticOptions o;
+  o.frames = false;
+  write_synthetic(s / "noframes.h5", o);
+  try {
+    open_replay_frames(s / "noframes.h5");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("noframes.h5: /frames: no mesh snapshots"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(render_replay(s / "noframes.h5", s / "out", RenderOptions{}), InputError);
+  EXPECT_THROW(write_xdmf(s / "noframes.h5"), InputError);
+  EXPECT_FALSE(fs::exists(s / "noframes.xdmf"));
+}
+
+TEST(ReplayFrames, TriangleIndexOutOfRangeNamesTheDataset) {
+  Scratch s;
+  SyntheticOptions o;
+  o.bad_triangle = 5000;
+  write_synthetic(s / "bad.h5", o);
+  try {
+    open_replay_frames(s / "bad.h5");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.h5: /mesh/virtual_triangles: row 0 refers to vertex 5000"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(ReplayFrames, NotAnHdf5FileIsAnInputError) {
+  Scratch s;
+  std::ofstream(s / "text.h5") << "not hdf5\n";
+  EXPECT_THROW(open_replay_frames(s / "text.h5"), InputError);
+  EXPECT_THROW(open_replay_frames(s / "missing.h5"), InputError);
+}
+
+TEST(Camera, SceneFileCameraIsUsedWhenTheSceneLoads) {
+  Scratch s;
+  SyntheticOptions o;
+  o.scene_file = std::string(EBH_TEST_DATA_DIR) + "/scene/cube.yaml";  // camera eye (0, -100, 50) mm
+  write_synthetic(s / "r.h5", o);
+  const ReplayFrames f = open_replay_frames(s / "r.h5");
+  std::vector<std::string> warnings;
+  const auto scene = find_replay_scene(f, warnings);
+  ASSERT_TRUE(scene.has_value());
+  EXPECT_TRUE(warnings.empty());
+  std::string source;
+  const ViewCamera c = choose_camera("scene", scene, bounds_of(f.virtual_rest), 4.0 / 3.0, source);
+  // The file says millimetres; the loader gives metres (exact decimal scaling within 1e-15).
+  EXPECT_NEAR(c.eye.y, -0.1, 1e-15);
+  EXPECT_NEAR(c.eye.z, 0.05, 1e-15);
+  EXPECT_DOUBLE_EQ(c.fov_deg, 45.0);
+  EXPECT_NE(source.find("cube.yaml"), std::string::npos);
+  EXPECT_EQ(replay_tool(f, scene).spec.kind, ToolSpec::Kind::Forceps);  // cube.yaml's tool
+}
+
+TEST(Camera, MissingSceneFallsBackToTheBoundingBoxWithAWarning) {
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  const ReplayFrames f = open_replay_frames(s / "r.h5");
+  std::vector<std::string> warnings;
+  const auto scene = find_replay_scene(f, warnings);
+  EXPECT_FALSE(scene.has_value());
+  ASSERT_EQ(warnings.size(), 1u);
+  std::string source;
+  const Bounds b = bounds_of(f.virtual_rest);
+  const ViewCamera c = choose_camera("scene", scene, b, 1.0, source);
+  EXPECT_NE(source.find("bounding box"), std::string::npos);
+  // Every corner of the patch projects inside the image.
+  for (double x : {-kHalf, kHalf})
+    for (double y : {-kHalf, kHalf}) {
+      const auto p = project(c, 200, 200, {x, y, 0});
+      ASSERT_TRUE(p.has_value());
+      EXPECT_GT((*p)[0], 0);
+      EXPECT_LT((*p)[0], 200);
+      EXPECT_GT((*p)[1], 0);
+      EXPECT_LT((*p)[1], 200);
+    }
+  EXPECT_THROW(choose_camera("fisheye", scene, b, 1.0, source), InputError);
+}
+
+TEST(Camera, PresetsLookAtTheCentreFromTheirSide) {
+  Bounds b{{-1, -2, -3}, {3, 2, 1}};
+  const Vec3d c = b.centre();
+  EXPECT_GT(preset_camera("top", b, 1.0).eye.z, c.z + b.radius());
+  EXPECT_LT(preset_camera("front", b, 1.0).eye.y, c.y - b.radius());
+  EXPECT_GT(preset_camera("side", b, 1.0).eye.x, c.x + b.radius());
+  const ViewCamera iso = preset_camera("iso", b, 1.0);
+  // The target projects to the image centre (to rounding).
+  const auto p = project(iso, 100, 80, iso.target);
+  ASSERT_TRUE(p.has_value());
+  EXPECT_NEAR((*p)[0], 50.0, 1e-9);
+  EXPECT_NEAR((*p)[1], 40.0, 1e-9);
+  // Image up is world +z for front: a point above the target lands above the centre.
+  const ViewCamera front = preset_camera("front", b, 1.0);
+  EXPECT_LT((*project(front, 100, 100, c + Vec3d{0, 0, 1}))[1], 50.0);
+  EXPECT_GT((*project(front, 100, 100, c + Vec3d{1, 0, 0}))[0], 50.0);  // +x to the right
+}
+
+TEST(Tessellate, ToolSurfacesLieOnTheCollidersWithOutwardNormals) {
+  for (auto kind : {ToolSpec::Kind::Hook, ToolSpec::Kind::Forceps}) {
+    ToolSpec spec;
+    spec.kind = kind;
+    const ToolModel tool = build_tool(spec);
+    const PosedTool posed = pose_tool(tool, ToolPose{{0.01, -0.02, 0.03}, normalized(Quatd{0.9, 0.1, -0.3, 0.2})}, 0.7);
+    for (int i = 0; i < posed.count; ++i) {
+      TriangleSoup soup;
+      tessellate(posed.shape[i], posed.world[i], 32, soup);
+      ASSERT_GT(soup.triangles(), 0u);
+      Vec3d area_normal{};
+      for (std::size_t k = 0; k < soup.position.size(); ++k) {
+        const Vec3d p = apply_inverse(posed.world[i], static_cast<Vec3d>(soup.position[k]));
+        // Vertices are on the surface up to float32 storage (~1e-7 relative of a 0.3 m shaft).
+        EXPECT_LT(std::abs(query_local(posed.shape[i], p).sd), 1e-6);
+      }
+      for (std::size_t k = 0; k < soup.position.size(); k += 3) {
+        const auto a = static_cast<Vec3d>(soup.position[k]), b = static_cast<Vec3d>(soup.position[k + 1]),
+                   c = static_cast<Vec3d>(soup.position[k + 2]);
+        const Vec3d face = cross(b - a, c - a);
+        area_normal += face;
+        // At the centroid (inside a face, away from the edges where the outward normal is not
+        // unique) the facet and its vertex normals point out: within the 11.25 degree facet angle
+        // of 32 segments, so cos > 0.9 is a margin, not a fit.
+        const Vec3d centroid = apply_inverse(posed.world[i], (a + b + c) / 3.0);
+        const Vec3d out = posed.world[i].R * query_local(posed.shape[i], centroid).normal;
+        if (norm(face) > 0) EXPECT_GT(dot(normalized(face), out), 0.9);
+        const Vec3d vn = static_cast<Vec3d>(soup.normal[k]) + static_cast<Vec3d>(soup.normal[k + 1]) +
+                         static_cast<Vec3d>(soup.normal[k + 2]);
+        EXPECT_GT(dot(normalized(vn), out), 0.9);
+      }
+      // A closed surface: the area-weighted normals sum to zero (float rounding of the vertices).
+      EXPECT_LT(norm(area_normal), 1e-8);
+    }
+  }
+}
+
+TEST(Xdmf, IndexesEveryFrameOfBothMeshes) {
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  const std::string x = write_xdmf(s / "r.h5");
+  EXPECT_EQ(x, s / "r.xdmf");
+  const std::string text = read_file(x);
+  EXPECT_NE(text.find("<Xdmf Version=\"3.0\">"), std::string::npos);
+  std::size_t times = 0, temporal = 0;
+  for (std::size_t p = 0; (p = text.find("<Time Value=", p)) != std::string::npos; ++p) ++times;
+  for (std::size_t p = 0; (p = text.find("CollectionType=\"Temporal\"", p)) != std::string::npos; ++p) ++temporal;
+  EXPECT_EQ(times, 6u);  // 3 frames x 2 meshes
+  EXPECT_EQ(temporal, 2u);
+  EXPECT_NE(text.find("r.h5:/frames/virtual_positions"), std::string::npos);
+  EXPECT_NE(text.find("r.h5:/mesh/physical_tets"), std::string::npos);
+  EXPECT_NE(text.find("TopologyType=\"Tetrahedron\" NumberOfElements=\"2\""), std::string::npos);
+  EXPECT_NE(text.find("<Time Value=\"0.2\"/>"), std::string::npos);
+  for (const auto& e : fs::directory_iterator(s.dir))
+    EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();
+}
+
+TEST(Image, PngRoundTripAndDownsample) {
+  Scratch s;
+  Image img(4, 2, {10, 20, 30});
+  img.set(3, 1, {200, 100, 0});
+  write_png(s / "a.png", img, {{"Comment", "test"}});
+  const Image back = read_png(s / "a.png");
+  EXPECT_EQ(back.width, 4);
+  EXPECT_EQ(back.height, 2);
+  EXPECT_EQ(back.rgb, img.rgb);
+  const Image half = downsample(img, 2);
+  EXPECT_EQ(half.width, 2);
+  EXPECT_EQ(half.at(1, 0), (Rgb{58, 40, 23}));  // (3 * (10,20,30) + (200,100,0)) / 4, rounded
+  EXPECT_THROW(read_png(s / "missing.png"), InputError);
+}
+
+// ---------------------------------------------------------------------------------------------
+// With OSMesa
+
+TEST(Render, WithoutOsmesaTheMessageSaysWhatToInstall) {
+  if (have_osmesa()) GTEST_SKIP() << "this build has OSMesa";
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  try {
+    render_replay(s / "r.h5", s / "out", RenderOptions{});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), kNoOsmesa);
+  }
+}
+
+TEST(Render, ToolsAppearWhereTheCameraProjectsThem) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  RenderOptions o;
+  o.width = 320;
+  o.height = 240;
+  o.camera = "front";
+  o.time_bar = false;
+  const RenderSummary r = render_replay(s / "r.h5", s / "out", o);
+  ASSERT_EQ(r.files.size(), 3u);
+  EXPECT_EQ(r.camera_source, "preset front");
+  const Image img = read_png(r.files[0]);
+  ASSERT_EQ(img.width, 320);
+  ASSERT_EQ(img.height, 240);
+  auto pixel_of = [&](Vec3d p) {
+    const auto q = project(r.camera, o.width, o.height, p);
+    EXPECT_TRUE(q.has_value());
+    return img.at(static_cast<int>((*q)[0]), static_cast<int>((*q)[1]));
+  };
+  // The physical tool's tip: translucent green over the background.
+  const Rgb green = pixel_of(tip_centre(kPhysical0));
+  EXPECT_GT(green.g, green.r + 25) << int(green.r) << " " << int(green.g) << " " << int(green.b);
+  EXPECT_GT(green.g, green.b + 25);
+  // The virtual tool's tip: opaque grey, darker than the background.
+  const Rgb grey = pixel_of(tip_centre(kVirtual0));
+  EXPECT_LE(std::abs(int(grey.r) - int(grey.g)), 4) << int(grey.r) << " " << int(grey.g) << " " << int(grey.b);
+  EXPECT_LE(std::abs(int(grey.g) - int(grey.b)), 6);
+  EXPECT_LT(grey.r, 235);
+  // Far from everything: the plain background.
+  EXPECT_EQ(img.at(2, 2), RenderStyle{}.background);
+}
+
+TEST(Render, TissueIsShadedAndFramesDiffer) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  RenderOptions o;
+  o.width = 200;
+  o.height = 200;
+  o.camera = "top";
+  const RenderSummary r = render_replay(s / "r.h5", s / "out", o);
+  ASSERT_EQ(r.files.size(), 3u);
+  const Image a = read_png(r.files[0]), b = read_png(r.files[1]), c = read_png(r.files[2]);
+  // A corner of the patch, away from the tools: the tissue's pink.
+  const auto q = project(r.camera, 200, 200, {0.7 * kHalf, 0.7 * kHalf, 0});
+  const Rgb t = a.at(int((*q)[0]), int((*q)[1]));
+  EXPECT_GT(t.r, t.g + 30) << int(t.r) << " " << int(t.g) << " " << int(t.b);
+  EXPECT_NE(t, RenderStyle{}.background);
+  EXPECT_NE(a.rgb, b.rgb);  // the tools moved and the patch dented
+  // Frames 1 and 2 hold the same state at different times: they differ only in the time bar.
+  const int bar = std::max(2, 200 / 150);
+  for (int row = 0; row < 200 - bar; ++row)
+    for (int col = 0; col < 200; ++col) ASSERT_EQ(b.at(col, row), c.at(col, row)) << col << "," << row;
+}
+
+TEST(Render, SizeAndCameraAreHonoured) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  RenderOptions o;
+  o.width = 160;
+  o.height = 90;
+  o.every = 2;
+  o.camera = "side";
+  const RenderSummary side = render_replay(s / "r.h5", s / "side", o);
+  ASSERT_EQ(side.files.size(), 2u);  // frames 0 and 2
+  const Image a = read_png(side.files[0]);
+  EXPECT_EQ(a.width, 160);
+  EXPECT_EQ(a.height, 90);
+  o.camera = "iso";
+  const Image b = read_png(render_replay(s / "r.h5", s / "iso", o).files[0]);
+  EXPECT_NE(a.rgb, b.rgb);
+  o.camera = "fisheye";
+  EXPECT_THROW(render_replay(s / "r.h5", s / "bad", o), InputError);
+  o.camera = "iso";
+  o.width = 5;
+  EXPECT_THROW(render_replay(s / "r.h5", s / "bad", o), InputError);
+}
+
+TEST(Render, IsDeterministic) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  RenderOptions o;
+  o.width = 240;
+  o.height = 180;
+  o.camera = "iso";
+  const RenderSummary a = render_replay(s / "r.h5", s / "a", o);
+  const RenderSummary b = render_replay(s / "r.h5", s / "b", o);
+  ASSERT_EQ(a.files.size(), b.files.size());
+  for (std::size_t i = 0; i < a.files.size(); ++i) EXPECT_EQ(read_file(a.files[i]), read_file(b.files[i])) << i;
+}
+
+TEST(Render, DisplacementColouringStatesItsRangeAndDrawsALegend) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  RenderOptions o;
+  o.width = 300;
+  o.height = 200;
+  o.camera = "top";
+  o.color_by = ColorBy::Displacement;
+  const RenderSummary r = render_replay(s / "r.h5", s / "out", o);
+  // The dent is the largest displacement; stored as float32 (relative rounding ~6e-8).
+  EXPECT_NEAR(r.displacement_range, kDent, 1e-9);
+  const Image img = read_png(r.files[1]);
+  // The legend's column: its top is the map's top (red), its bottom the map's bottom (blue);
+  // colours within 1 unit of the exact map (8-bit rounding).
+  const int bw = std::max(6, 300 / 60), margin = std::max(4, 300 / 80), col = 300 - margin - bw / 2;
+  const Rgb top = img.at(col, 200 / 5), bottom = img.at(col, 200 - 200 / 5 - 1);
+  const auto hi = colormap(1.0), lo = colormap(0.0);
+  EXPECT_NEAR(top.r, 255 * hi[0], 1.0);
+  EXPECT_NEAR(top.g, 255 * hi[1], 1.0);
+  EXPECT_NEAR(bottom.b, 255 * lo[2], 1.0);
+  // A tissue pixel at rest in the corner is blue-ish now, not pink.
+  const auto q = project(r.camera, 300, 200, {0.7 * kHalf, 0.7 * kHalf, 0});
+  const Rgb t = img.at(int((*q)[0]), int((*q)[1]));
+  EXPECT_GT(t.b, t.r) << int(t.r) << " " << int(t.g) << " " << int(t.b);
+}
+
+TEST(Render, StaleFramesAreRemovedAndOtherFilesKept) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  fs::create_directories(s / "out");
+  std::ofstream(s / "out/frame_00099.png") << "old";
+  std::ofstream(s / "out/notes.txt") << "mine";
+  RenderOptions o;
+  o.width = 64;
+  o.height = 48;
+  render_replay(s / "r.h5", s / "out", o);
+  EXPECT_FALSE(fs::exists(s / "out/frame_00099.png"));
+  EXPECT_TRUE(fs::exists(s / "out/notes.txt"));
+  EXPECT_TRUE(fs::exists(s / "out/frame_00002.png"));
+}
+
+TEST(Render, VideoWithoutFfmpegIsAClearError) {
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  const char* old = std::getenv("PATH");
+  const std::string saved = old ? old : "";
+  setenv("PATH", s.dir.c_str(), 1);  // an empty directory: no ffmpeg
+  RenderOptions o;
+  o.video = s / "v.mp4";
+  try {
+    render_replay(s / "r.h5", s / "out", o);
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("ffmpeg was not found on the PATH"), std::string::npos) << e.what();
+  }
+  setenv("PATH", saved.c_str(), 1);
+  EXPECT_FALSE(fs::exists(s / "v.mp4"));
+}
+
+}  // namespace
+}  // namespace ebh

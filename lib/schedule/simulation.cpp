@@ -128,6 +128,13 @@ PhysicalSide make_physical_side(const World& world) {
   PhysicalSide p;
   p.mesh = make_physical_state(world.physical_mesh);
   p.workspace = make_physical_workspace(world.physical_mesh);
+  if (world.backend == Backend::Cuda) {
+#if EBH_HAVE_CUDA
+    p.cuda = std::make_unique<CudaPhysicalSolver>(world.physical_mesh, world.physical_params);
+#else
+    throw InputError("--backend cuda: this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
+#endif
+  }
   return p;
 }
 
@@ -164,6 +171,13 @@ void haptic_tick(const World& world, HapticSide& h, const DeviceSample& sample) 
 }
 
 void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot) {
+#if EBH_HAVE_CUDA
+  if (p.cuda) {
+    p.report = p.cuda->step(p.mesh, snapshot.q);
+    ++p.step;
+    return;
+  }
+#endif
   p.report = physical_step(world.physical_mesh, p.workspace, p.mesh, snapshot.q, world.physical_params);
   ++p.step;
 }

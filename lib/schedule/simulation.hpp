@@ -17,6 +17,9 @@
 #include "tool/broadphase.hpp"
 #include "tool/tool_model.hpp"
 #include "tool/virtual_tool.hpp"
+#if EBH_HAVE_CUDA
+#include "solver/physical_mesh_cuda.hpp"
+#endif
 
 namespace ebh {
 
@@ -83,6 +86,11 @@ struct PhysicalSide {
   PhysicalWorkspace workspace;
   std::int64_t step = 0;                 ///< the next step to run
   PhysicalStepReport report;             ///< of the last step
+#if EBH_HAVE_CUDA
+  /// Backend::Cuda: the step runs here and mesh.x is its copy of x (mesh.v and mesh.rotation stay
+  /// on the device; docs/CUDA.md).
+  std::unique_ptr<CudaPhysicalSolver> cuda;
+#endif
 };
 
 /// Both sides at rest, the virtual tool starting at the physical tool's first pose.

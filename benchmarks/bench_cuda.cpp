@@ -1,0 +1,232 @@
+// The CUDA backend (docs/CUDA.md):
+//   BM_CudaPhysicalStep     one physical step (Algorithm 1, 16 iterations) of a scene on the device:
+//                           q in, one graph launch, x out; median and p99 of single steps
+//   BM_VirtualTick          the virtual mesh's part of a haptic tick (begin, 4 iterations with
+//                           contacts, end) on the CPU and on the device (q back after each iteration)
+//   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
+//                           real-time factor and the mean time of each stage of the haptic tick
+// Needs a CUDA device; without one (or without the CUDA backend) every benchmark reports why.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/recording.hpp"
+#include "scene/scene.hpp"
+#include "schedule/replay_inputs.hpp"
+#include "schedule/scheduler.hpp"
+#include "schedule/simulation.hpp"
+#include "solver/physical_mesh.hpp"
+#include "solver/virtual_mesh.hpp"
+#if EBH_HAVE_CUDA
+#include "solver/device_cuda.hpp"
+#include "solver/physical_mesh_cuda.hpp"
+#include "solver/virtual_mesh_cuda.hpp"
+#endif
+
+namespace {
+using namespace ebh;
+using Clock = std::chrono::steady_clock;
+
+bool device_ready(benchmark::State& st) {
+#if EBH_HAVE_CUDA
+  std::string why;
+  if (cuda_device_available(&why)) return true;
+  st.SkipWithError(why.c_str());
+#else
+  st.SkipWithError("this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
+#endif
+  return false;
+}
+
+struct Loaded {
+  Scene scene;
+  VirtualModel vm;
+  PhysicalModel pm;
+};
+
+const Loaded& load(const std::string& name) {
+  static std::map<std::string, std::unique_ptr<Loaded>> cache;
+  auto& slot = cache[name];
+  if (!slot) {
+    slot = std::make_unique<Loaded>();
+    slot->scene = load_scene(resolve_scene_path(name));
+    slot->vm = build_virtual_model(slot->scene);
+    PhysicalModelOptions opt;
+    opt.h = 1.0 / slot->scene.spec.physical_hz;
+    opt.factorize = false;
+    slot->pm = build_physical_model(slot->scene, &slot->vm, opt);
+  }
+  return *slot;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5))];
+}
+
+#if EBH_HAVE_CUDA
+/// Gravity sag from rest, stepped repeatedly: the device cost of a step does not depend on the
+/// state (fixed iteration counts), so no reset is needed between steps.
+void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
+  if (!device_ready(st)) return;
+  const Loaded& L = load(scene);
+  PhysicalStepParams params = physical_params(L.scene.spec.solver);
+  params.iterations = 16;
+  CudaPhysicalSolver solver(L.pm, params);
+  PhysicalState state = make_physical_state(L.pm);
+  const std::vector<Vec3d> q = L.vm.rest;
+  for (int i = 0; i < 20; ++i) solver.step(state, q);  // warm-up: module load, graph upload
+  std::vector<double> times;
+  times.reserve(1 << 16);
+  for (auto _ : st) {
+    const auto t0 = Clock::now();
+    solver.step(state, q);
+    const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+    st.SetIterationTime(dt);
+    times.push_back(dt);
+  }
+  st.counters["median_us"] = 1e6 * percentile(times, 0.5);
+  st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
+  st.counters["tets"] = L.pm.num_tets;
+  st.counters["vertices"] = L.pm.num_vertices;
+  st.counters["virtual"] = L.pm.num_virtual;
+  st.SetLabel(cuda_device_description());
+}
+BENCHMARK_CAPTURE(BM_CudaPhysicalStep, cholecystectomy, std::string("cholecystectomy"))->UseManualTime()->MinTime(2.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_CudaPhysicalStep, gynaecology, std::string("gynaecology"))->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_CudaPhysicalStep, tube, std::string("tube"))->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+#endif
+
+/// Contacts of a pressing tool: the ~1% of virtual vertices nearest the mesh's lowest point.
+std::vector<ContactTarget> sample_contacts(const VirtualModel& vm) {
+  std::vector<int> order(vm.num_vertices);
+  for (int j = 0; j < vm.num_vertices; ++j) order[j] = j;
+  const int count = std::max(1, vm.num_vertices / 100);
+  std::partial_sort(order.begin(), order.begin() + count, order.end(),
+                    [&](int a, int b) { return vm.rest[a].z < vm.rest[b].z; });
+  std::vector<ContactTarget> c;
+  for (int i = 0; i < count; ++i) c.push_back({order[i], vm.rest[order[i]] + Vec3d{0, 0, 1e-3}, 400.0});
+  return c;
+}
+
+void BM_VirtualTick(benchmark::State& st, std::string scene, bool cuda) {
+  const Loaded& L = load(scene);
+  const VirtualModel& vm = L.vm;
+  const std::vector<ContactTarget> contacts = sample_contacts(vm);
+  const int iterations = L.scene.spec.solver.virtual_iterations;
+  const double h = 1.0 / L.scene.spec.haptic_hz;
+  const std::vector<Vec3d> x = L.pm.rest;
+  VirtualState state = make_virtual_state(vm);
+  VirtualWorkspace ws = make_virtual_workspace(vm);
+  std::vector<double> times;
+  times.reserve(1 << 16);
+  if (cuda) {
+#if EBH_HAVE_CUDA
+    if (!device_ready(st)) return;
+    CudaVirtualSolver solver(vm);
+    auto tick = [&] {
+      solver.begin_tick(x, 0, h, state.q);
+      for (int i = 0; i < iterations; ++i) solver.iteration(contacts, state.q);
+      solver.end_tick();
+    };
+    for (int i = 0; i < 50; ++i) tick();
+    for (auto _ : st) {
+      const auto t0 = Clock::now();
+      tick();
+      times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+      st.SetIterationTime(times.back());
+    }
+#else
+    device_ready(st);
+    return;
+#endif
+  } else {
+    auto tick = [&] {
+      virtual_begin_tick(vm, ws, state, x, h);
+      for (int i = 0; i < iterations; ++i) virtual_iteration(vm, ws, state, contacts);
+      virtual_end_tick(vm, ws, state);
+    };
+    for (int i = 0; i < 50; ++i) tick();
+    for (auto _ : st) {
+      const auto t0 = Clock::now();
+      tick();
+      times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+      st.SetIterationTime(times.back());
+    }
+  }
+  st.counters["median_us"] = 1e6 * percentile(times, 0.5);
+  st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
+  st.counters["virtual"] = vm.num_vertices;
+  st.counters["contacts"] = static_cast<double>(contacts.size());
+  st.counters["iterations"] = iterations;
+}
+BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cpu, std::string("cholecystectomy"), false)->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystectomy"), true)->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+
+/// Sums the haptic tick's stage times and the physical steps' times.
+class StageTimes : public ReplayObserver {
+ public:
+  HapticTiming sum;
+  std::vector<double> tick_total;
+  double step_sum = 0;
+  long steps = 0;
+  void on_tick(const World&, const HapticSide& h, double) override {
+    const HapticTiming& t = h.timing;
+    sum.device += t.device;
+    sum.physical_sync += t.physical_sync;
+    sum.grasp += t.grasp;
+    sum.virtual_mesh += t.virtual_mesh;
+    sum.virtual_tool += t.virtual_tool;
+    sum.output += t.output;
+    sum.total += t.total;
+    tick_total.push_back(t.total);
+  }
+  void on_step(const World&, const PhysicalSide& p, double) override {
+    step_sum += p.report.time_s;
+    ++steps;
+  }
+};
+
+/// EBH_BENCH_REPLAY_S (default 10): seconds of the recording to replay.
+void BM_ReplayGrasp(benchmark::State& st, Backend backend) {
+  if (backend == Backend::Cuda && !device_ready(st)) return;
+  const char* env = std::getenv("EBH_BENCH_REPLAY_S");
+  const double duration = env ? std::atof(env) : 10.0;
+  LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
+                                       false, backend);
+  ReplayOptions opt;
+  opt.mode = Mode::Async;
+  opt.duration = duration;
+  StageTimes times;
+  ReplaySummary s;
+  for (auto _ : st) {
+    times = StageTimes{};
+    s = replay(*in.world, in.recording, opt, times);
+    st.SetIterationTime(s.wall_s);
+  }
+  const double n = static_cast<double>(std::max<std::int64_t>(s.ticks, 1));
+  st.counters["realtime_x"] = s.wall_s > 0 ? s.virtual_s / s.wall_s : 0;
+  st.counters["ticks"] = static_cast<double>(s.ticks);
+  st.counters["tick_mean_us"] = 1e6 * times.sum.total / n;
+  st.counters["tick_median_us"] = 1e6 * percentile(times.tick_total, 0.5);
+  st.counters["tick_p99_us"] = 1e6 * percentile(times.tick_total, 0.99);
+  st.counters["sync_us"] = 1e6 * times.sum.physical_sync / n;
+  st.counters["grasp_us"] = 1e6 * times.sum.grasp / n;
+  st.counters["vmesh_us"] = 1e6 * times.sum.virtual_mesh / n;
+  st.counters["vtool_us"] = 1e6 * times.sum.virtual_tool / n;
+  st.counters["output_us"] = 1e6 * times.sum.output / n;
+  st.counters["step_mean_us"] = times.steps ? 1e6 * times.step_sum / static_cast<double>(times.steps) : 0;
+}
+BENCHMARK_CAPTURE(BM_ReplayGrasp, cpu, Backend::Cpu)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ReplayGrasp, cuda, Backend::Cuda)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,314 @@
+// The CUDA backend against the CPU reference (DESIGN.md §6). These tests need a CUDA device: they
+// run on the lent GPU machine and skip elsewhere (no CUDA backend in the build, or no device).
+//
+// Tolerances (docs/CUDA.md, "Tolerances"). The device computes in float32 (unit round-off
+// u = 2^-24), the CPU in float64. Rounding the state to float32 moves a position by u |x|; each
+// local-global iteration then adds a few round-offs of the same size (the update x + D^-1 r is
+// rounded, and the round-off of F, R and the gathered r, mapped back through D^-1, is of order
+// u |F - R| / |g|, far smaller). The Jacobi / Chebyshev iteration does not amplify a position
+// error (its iteration matrix is a contraction on the error, the Chebyshev weights are those of a
+// convergent semi-iteration), so errors add up at most linearly:
+//     |x_cuda - x_cpu| <= (K + 1) * c * u * X,     X = max |coordinate|, c = 16,
+// c covering "a few round-offs per iteration" with a margin of 4. Over S coupled steps of a replay
+// the per-step errors add up again (damped dynamics), and the two-way E_svc coupling passes an
+// error from one mesh to the other at most once per step: a factor 2 S.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "io/error.hpp"
+#include "io/recording.hpp"
+#include "scene/scene.hpp"
+#include "schedule/replay_inputs.hpp"
+#include "schedule/scheduler.hpp"
+#include "schedule/simulation.hpp"
+#include "solver/physical_mesh.hpp"
+#include "solver/virtual_mesh.hpp"
+
+#if EBH_HAVE_CUDA
+#include "solver/device_cuda.hpp"
+#include "solver/physical_mesh_cuda.hpp"
+#include "solver/virtual_mesh_cuda.hpp"
+#endif
+
+namespace {
+using namespace ebh;
+
+#if !EBH_HAVE_CUDA
+
+TEST(Cuda, Backend) { GTEST_SKIP() << "this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)"; }
+
+#else
+
+#define EBH_REQUIRE_DEVICE()                          \
+  do {                                                \
+    std::string why_;                                 \
+    if (!cuda_device_available(&why_)) GTEST_SKIP() << why_; \
+  } while (0)
+
+constexpr double kU = 0x1p-24;  // float32 unit round-off
+constexpr double kRoundoffsPerIteration = 16;
+
+double max_abs_coordinate(const std::vector<Vec3d>& x) {
+  double m = 0;
+  for (const Vec3d& p : x) m = std::max({m, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  return m;
+}
+double max_distance(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b) {
+  double m = 0;
+  for (size_t i = 0; i < a.size(); ++i) m = std::max(m, norm(a[i] - b[i]));
+  return m;
+}
+double step_tolerance(int K, double X) { return (K + 1) * kRoundoffsPerIteration * kU * X; }
+
+struct Models {
+  Scene scene;
+  VirtualModel vm;
+  PhysicalModel pm;
+  PhysicalState start;  // a deformed, moving state
+};
+
+/// A scene's models and a deformed moving state: a downward velocity bump on the upper half and
+/// three CPU steps (as benchmarks/bench_physical_step.cpp).
+const Models& models(const std::string& name) {
+  static std::map<std::string, std::unique_ptr<Models>> cache;
+  auto& slot = cache[name];
+  if (slot) return *slot;
+  slot = std::make_unique<Models>();
+  Models& M = *slot;
+  M.scene = load_scene(resolve_scene_path(name));
+  M.vm = build_virtual_model(M.scene);
+  PhysicalModelOptions opt;
+  opt.h = 1.0 / M.scene.spec.physical_hz;
+  opt.factorize = false;
+  M.pm = build_physical_model(M.scene, &M.vm, opt);
+  M.start = make_physical_state(M.pm);
+  double zmax = -1e9, zmin = 1e9;
+  for (const Vec3d& x : M.pm.rest) { zmax = std::max(zmax, x.z); zmin = std::min(zmin, x.z); }
+  for (int a = 0; a < M.pm.num_vertices; ++a)
+    if (!M.pm.pinned[a] && M.pm.rest[a].z > (zmin + zmax) / 2) M.start.v[a] = Vec3d{0.1, 0, -0.3};
+  PhysicalWorkspace ws = make_physical_workspace(M.pm);
+  for (int s = 0; s < 3; ++s) physical_step(M.pm, ws, M.start, M.vm.rest, PhysicalStepParams{});
+  return M;
+}
+
+/// Virtual positions displaced from rest by up to 1 mm (exercises E_svc).
+std::vector<Vec3d> displaced_virtual(const VirtualModel& vm, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> d(-1e-3, 1e-3);
+  std::vector<Vec3d> q = vm.rest;
+  for (Vec3d& p : q) p += Vec3d{d(rng), d(rng), d(rng)};
+  return q;
+}
+
+void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method) {
+  const Models& M = models(scene);
+  PhysicalStepParams params;
+  params.method = method;
+  params.iterations = 16;
+  const std::vector<Vec3d> q = displaced_virtual(M.vm, 7);
+
+  PhysicalState cpu = M.start;
+  PhysicalWorkspace ws = make_physical_workspace(M.pm);
+  const PhysicalStepReport rc = physical_step(M.pm, ws, cpu, q, params);
+
+  CudaPhysicalSolver gpu_solver(M.pm, params);
+  gpu_solver.upload_state(M.start);
+  PhysicalState gpu = M.start;
+  std::fill(gpu.x.begin(), gpu.x.end(), Vec3d{1e3, 1e3, 1e3});  // poison: every x must be written
+  const PhysicalStepReport rg = gpu_solver.step(gpu, q);
+  PhysicalState full;
+  gpu_solver.download_state(full);
+
+  const double X = max_abs_coordinate(M.start.x);
+  const double tol = step_tolerance(params.iterations, X);
+  const double err = max_distance(gpu.x, cpu.x);
+  const double moved = max_distance(cpu.x, M.start.x);
+  const double tol_v = 2 * tol * (1 - M.pm.damping) / M.pm.h;  // v = (1 - d)(x - x_start)/h: two positions
+  const double err_v = max_distance(full.v, cpu.v);
+  std::printf("[ %s %s ] n=%d T=%d m=%d: max |x_cuda - x_cpu| = %.3g m (tol %.3g, step moved up to %.3g m), "
+              "max |v| err %.3g m/s (tol %.3g), residual cpu %.4g cuda %.4g\n",
+              scene.c_str(), method == SolverSpec::Method::Jacobi ? "jacobi" : "chebyshev", M.pm.num_vertices,
+              M.pm.num_tets, M.pm.num_virtual, err, tol, moved, err_v, tol_v, rc.residual, rg.residual);
+  EXPECT_LE(err, tol);
+  EXPECT_LE(err_v, tol_v);
+  EXPECT_GT(moved, 100 * tol) << "the step must move the mesh well beyond the tolerance to test anything";
+  EXPECT_EQ(max_distance(full.x, gpu.x), 0.0) << "step() and download_state() disagree";
+  // Pinned vertices never move.
+  for (int a = 0; a < M.pm.num_vertices; ++a) {
+    if (!M.pm.pinned[a]) continue;
+    ASSERT_TRUE(static_cast<Vec3f>(gpu.x[a]) == static_cast<Vec3f>(M.start.x[a])) << a;
+  }
+  // The residual ratio is ||r_15|| / ||r_0||: r_15 is small, its float32 round-off relative to
+  // ||r_0|| is about sqrt(n) u |terms| / ||r_0||; 1e-3 absolute is far above that here.
+  EXPECT_NEAR(rg.residual, rc.residual, 1e-3 + 0.05 * rc.residual);
+}
+
+TEST(CudaPhysical, ChebyshevStepMatchesCpuCholecystectomy) {
+  EBH_REQUIRE_DEVICE();
+  expect_step_matches_cpu("cholecystectomy", SolverSpec::Method::Chebyshev);
+}
+TEST(CudaPhysical, JacobiStepMatchesCpuCholecystectomy) {
+  EBH_REQUIRE_DEVICE();
+  expect_step_matches_cpu("cholecystectomy", SolverSpec::Method::Jacobi);
+}
+TEST(CudaPhysical, ChebyshevStepMatchesCpuTube) {
+  EBH_REQUIRE_DEVICE();
+  expect_step_matches_cpu("tube", SolverSpec::Method::Chebyshev);
+}
+
+TEST(CudaPhysical, DirectMethodIsRefused) {
+  EBH_REQUIRE_DEVICE();
+  const Models& M = models("tube");
+  PhysicalStepParams params;
+  params.method = SolverSpec::Method::Direct;
+  EXPECT_THROW(CudaPhysicalSolver(M.pm, params), InputError);
+}
+
+TEST(CudaPhysical, RunsAreBitwiseIdentical) {
+  EBH_REQUIRE_DEVICE();
+  const Models& M = models("cholecystectomy");
+  const std::vector<Vec3d> q = displaced_virtual(M.vm, 11);
+  PhysicalState out[2];
+  for (int run = 0; run < 2; ++run) {
+    CudaPhysicalSolver solver(M.pm, PhysicalStepParams{});
+    solver.upload_state(M.start);
+    PhysicalState s = M.start;
+    for (int k = 0; k < 5; ++k) solver.step(s, q);
+    solver.download_state(out[run]);
+  }
+  ASSERT_EQ(out[0].x.size(), out[1].x.size());
+  EXPECT_EQ(std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(out[0].v.data(), out[1].v.data(), out[0].v.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
+}
+
+TEST(CudaVirtual, TickMatchesCpu) {
+  EBH_REQUIRE_DEVICE();
+  const Models& M = models("cholecystectomy");
+  const VirtualModel& vm = M.vm;
+  const int iterations = 4;
+  const double h = 1e-3;
+  // Contacts on every 7th vertex, pushed 1 mm along +z, two of them doubled (a vertex may appear
+  // twice, as under a grasp).
+  std::vector<ContactTarget> contacts;
+  for (int j = 0; j < vm.num_vertices; j += 7) contacts.push_back({j, vm.rest[j] + Vec3d{0, 0, 1e-3}, 400.0});
+  contacts.push_back({0, vm.rest[0] + Vec3d{1e-3, 0, 0}, 200.0});
+  contacts.push_back({7, vm.rest[7] + Vec3d{0, 1e-3, 0}, 100.0});
+
+  VirtualState cpu = make_virtual_state(vm);
+  VirtualWorkspace ws = make_virtual_workspace(vm);
+  CudaVirtualSolver gpu_solver(vm);
+  std::vector<Vec3d> q_gpu(vm.num_vertices);
+  double err = 0;
+  for (int tick = 0; tick < 3; ++tick) {
+    virtual_begin_tick(vm, ws, cpu, M.start.x, h);
+    gpu_solver.begin_tick(M.start.x, 0, h, q_gpu);
+    for (int i = 0; i < iterations; ++i) {
+      virtual_iteration(vm, ws, cpu, contacts);
+      gpu_solver.iteration(contacts, q_gpu);
+    }
+    virtual_end_tick(vm, ws, cpu);
+    gpu_solver.end_tick();
+    err = std::max(err, max_distance(q_gpu, cpu.q));
+  }
+  VirtualState full;
+  gpu_solver.download_state(full);
+  const double X = max_abs_coordinate(vm.rest);
+  const double tol = step_tolerance(3 * iterations, X);
+  const double moved = max_distance(cpu.q, vm.rest);
+  std::printf("[ virtual ] m=%d: max |q_cuda - q_cpu| = %.3g m (tol %.3g, moved up to %.3g m)\n", vm.num_vertices, err,
+              tol, moved);
+  EXPECT_LE(err, tol);
+  EXPECT_GT(moved, 100 * tol);
+  EXPECT_EQ(max_distance(full.q, q_gpu), 0.0);
+  EXPECT_LE(max_distance(full.v, cpu.v), 2 * tol / h);
+}
+
+/// Records what a replay emits: the force per tick and the last physical positions.
+class Trace : public ReplayObserver {
+ public:
+  std::vector<Vec3d> force;
+  std::vector<Vec3d> x;
+  std::vector<double> residual;
+  int max_contacts = 0;
+  void on_tick(const World&, const HapticSide& h, double) override {
+    force.push_back(h.output.force);
+    max_contacts = std::max(max_contacts, h.contact_count);
+  }
+  void on_step(const World&, const PhysicalSide& p, double) override {
+    x = p.mesh.x;
+    residual.push_back(p.report.residual);
+  }
+};
+
+/// cholecystectomy_grasp from t = 1.2 s (the forceps reaching the fundus) for `ticks` ticks.
+Trace replay_grasp(Backend backend, Mode mode, int ticks) {
+  Recording rec = read_recording(resolve_recording_path("cholecystectomy_grasp"));
+  Recording cut = rec;
+  cut.t.clear(); cut.position.clear(); cut.orientation.clear(); cut.jaw.clear(); cut.buttons.clear();
+  for (size_t i = 0; i < rec.size(); ++i)
+    if (rec.t[i] >= 1.2 - 1e-9) {
+      cut.t.push_back(rec.t[i]); cut.position.push_back(rec.position[i]); cut.orientation.push_back(rec.orientation[i]);
+      cut.jaw.push_back(rec.jaw[i]); cut.buttons.push_back(rec.buttons[i]);
+    }
+  auto world = build_world(load_scene(resolve_scene_path("cholecystectomy")), 1000, 100, backend);
+  ReplayOptions opt;
+  opt.mode = mode;
+  opt.duration = (ticks - 1) * world->h_haptic;
+  Trace trace;
+  replay(*world, cut, opt, trace);
+  return trace;
+}
+
+TEST(CudaReplay, GraspMatchesCpuAndRepeatsBitwise) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 400;
+  const Trace cpu = replay_grasp(Backend::Cpu, Mode::Lockstep, ticks);
+  const Trace gpu = replay_grasp(Backend::Cuda, Mode::Lockstep, ticks);
+  const Trace gpu2 = replay_grasp(Backend::Cuda, Mode::Lockstep, ticks);
+  ASSERT_EQ(cpu.force.size(), size_t(ticks));
+  ASSERT_EQ(gpu.force.size(), size_t(ticks));
+  const int steps = static_cast<int>(gpu.residual.size());
+  const Models& M = models("cholecystectomy");
+  const double X = max_abs_coordinate(M.pm.rest);
+  const double tol_x = 2.0 * steps * step_tolerance(16, X);
+  const double err_x = max_distance(gpu.x, cpu.x);
+  double err_f = 0, peak_f = 0;
+  for (int n = 0; n < ticks; ++n) {
+    err_f = std::max(err_f, norm(gpu.force[n] - cpu.force[n]));
+    peak_f = std::max(peak_f, norm(cpu.force[n]));
+  }
+  // The tool force is the virtual coupling spring k_vcs |X_h - X_v| (clamped); the virtual tool
+  // follows the virtual mesh, whose error is that of the physical points it is paired with.
+  const double k_vcs = M.scene.spec.stiffness.k_vcs;
+  const double tol_f = k_vcs * tol_x;
+  std::printf("[ replay ] %d ticks, %d steps, up to %d contacts: max |x| err %.3g m (tol %.3g), max |F| err %.3g N "
+              "(tol %.3g, peak %.3g N)\n",
+              ticks, steps, cpu.max_contacts, err_x, tol_x, err_f, tol_f, peak_f);
+  EXPECT_GT(cpu.max_contacts, 0) << "the window must contain contact";
+  EXPECT_LE(err_x, tol_x);
+  EXPECT_LE(err_f, tol_f);
+  ASSERT_EQ(gpu2.force.size(), gpu.force.size());
+  EXPECT_EQ(std::memcmp(gpu.force.data(), gpu2.force.data(), gpu.force.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(gpu.x.data(), gpu2.x.data(), gpu.x.size() * sizeof(Vec3d)), 0);
+}
+
+TEST(CudaReplay, AsyncModeRuns) {
+  EBH_REQUIRE_DEVICE();
+  const Trace a = replay_grasp(Backend::Cuda, Mode::Async, 100);
+  const Trace b = replay_grasp(Backend::Cuda, Mode::Async, 100);
+  ASSERT_EQ(a.force.size(), 100u);
+  EXPECT_EQ(std::memcmp(a.force.data(), b.force.data(), a.force.size() * sizeof(Vec3d)), 0);
+}
+
+#endif
+
+}  // namespace

@@ -56,12 +56,31 @@ ViewCamera preset_camera(const std::string& name, const Bounds& b, double aspect
   v.fov_deg = fov_deg;
   v.target = b.centre();
   v.up = up;
-  // The bounding sphere fits the narrower of the two fields of view, with a 10% margin.
+  // The distance: the smallest at which the box's eight corners project within the central 90%
+  // of the image (bisection; projections shrink towards the centre as the eye backs away), never
+  // more than the distance at which the bounding sphere fits.
   const double half_v = 0.5 * fov_deg * kDeg;
   const double half_h = std::atan(std::tan(half_v) * aspect);
   const double r = std::max(b.radius(), 1e-4);
-  const double d = 1.1 * r / std::sin(std::min(half_v, half_h));
-  v.eye = v.target + d * dir;
+  double lo = 0.0, hi = 1.1 * r / std::sin(std::min(half_v, half_h));
+  auto fits = [&](double d) {
+    ViewCamera t = v;
+    t.eye = v.target + d * dir;
+    fit_depth_range(t, v.target, r);
+    const int W = 1000, H = std::max(1, static_cast<int>(std::lround(1000 / aspect)));
+    for (int k = 0; k < 8; ++k) {
+      const Vec3d c{(k & 1) ? b.max.x : b.min.x, (k & 2) ? b.max.y : b.min.y, (k & 4) ? b.max.z : b.min.z};
+      if (dot(c - t.eye, v.target - t.eye) <= t.z_near * d) return false;  // at or behind the near plane
+      const auto p = project(t, W, H, c);
+      if (!p || (*p)[0] < 0.05 * W || (*p)[0] > 0.95 * W || (*p)[1] < 0.05 * H || (*p)[1] > 0.95 * H) return false;
+    }
+    return true;
+  };
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (fits(mid) ? hi : lo) = mid;
+  }
+  v.eye = v.target + std::max(hi, 2.0 * r) * dir;
   fit_depth_range(v, v.target, r);
   return v;
 }

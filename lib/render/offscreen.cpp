@@ -123,11 +123,23 @@ Image OffscreenRenderer::render(const FrameGeometry& g, const ViewCamera& camera
     glDisableClientState(GL_COLOR_ARRAY);
   }
 
-  // 2. The virtual tool, opaque grey. Tool meshes are closed with outward faces: cull the back.
+  // 2. The virtual tool, opaque grey where it is in view; where the tissue hides it (inside the
+  //    tube's bore, under a fold) a faint grey ghost. Tool meshes are closed with outward faces:
+  //    cull the back.
   glEnable(GL_CULL_FACE);
   glCullFace(GL_BACK);
   if (g.virtual_tool) {
-    glColor4f(style.virtual_tool[0], style.virtual_tool[1], style.virtual_tool[2], 1.0f);
+    const auto& c = style.virtual_tool;
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glDepthMask(GL_FALSE);
+    glDepthFunc(GL_GREATER);
+    glColor4f(c[0], c[1], c[2], style.virtual_hidden_alpha);
+    draw_soup(*g.virtual_tool);
+    glDisable(GL_BLEND);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_LESS);
+    glColor4f(c[0], c[1], c[2], 1.0f);
     draw_soup(*g.virtual_tool);
   }
 

@@ -1,8 +1,8 @@
 #pragma once
 // Off-screen drawing of one frame with OSMesa (software OpenGL, legacy fixed-function 1.x/2.1):
 // the virtual mesh shaded with smooth normals and two-sided lighting, the virtual tool opaque
-// grey, the physical tool translucent green (its parts hidden inside the tissue drawn fainter,
-// so penetration shows). Rendered at `supersample` times the size and box-filtered down.
+// grey, the physical tool translucent green; the parts of either tool that the tissue hides are
+// drawn as faint ghosts, so a tool inside a bore or pressed into the tissue still shows. Rendered at `supersample` times the size and box-filtered down.
 // Without OSMesa (EBH_HAVE_OSMESA undefined) constructing a renderer throws InputError.
 #include <array>
 #include <memory>
@@ -29,6 +29,7 @@ struct RenderStyle {
   std::array<float, 3> physical_tool{0.10f, 0.78f, 0.22f};   ///< green
   float physical_alpha = 0.45f;                              ///< where nothing hides it
   float physical_hidden_alpha = 0.20f;                       ///< where tissue or the virtual tool is in front
+  float virtual_hidden_alpha = 0.30f;                        ///< the virtual tool where tissue is in front
 };
 
 /// What one frame shows. Pointers stay owned by the caller; `tissue_colors` may be null (the

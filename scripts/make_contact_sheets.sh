@@ -19,26 +19,29 @@ PY=${PYTHON:-/usr/bin/python3}
 OUT=$ROOT/docs/img
 mkdir -p "$WORK" "$OUT"
 
-# sheet name | scene (the recording's `scene` attribute) | recording | seconds replayed
+# sheet name | scene (the recording's `scene` attribute) | recording | seconds replayed | colour
 # The durations end where each recording does its main thing: the hook deep in the bore or the
-# gap, the forceps closed on the gallbladder and pulling, the hook pressed into the fundus.
+# gap, the forceps closed on the gallbladder and pulling, the hook pressed into the fundus. The
+# fundus press is seen edge-on from the scene's camera, so that sheet colours the tissue by
+# displacement to show the dent.
 SHEETS=(
-  "tube tube tube_insert 6"
-  "gap gap gap_insert 4.6"
-  "cholecystectomy cholecystectomy cholecystectomy_grasp 2.6"
-  "gynaecology gynaecology_hook gynaecology_press 2.4"
+  "tube tube tube_insert 6 none"
+  "gap gap gap_insert 4.6 none"
+  "cholecystectomy cholecystectomy cholecystectomy_grasp 2.6 none"
+  "gynaecology gynaecology_hook gynaecology_press 2.4 displacement"
 )
 
 for entry in "${SHEETS[@]}"; do
-  read -r name scene recording seconds <<<"$entry"
+  read -r name scene recording seconds colour <<<"$entry"
   if [[ -n "${ONLY:-}" && " $ONLY " != *" $name "* ]]; then continue; fi
   out=$WORK/$name.h5
   if [[ "$REUSE" != 1 || ! -f "$out" ]]; then
     echo "== $name: ebh replay $scene $recording --duration $seconds" >&2
     "$EBH" replay "$scene" "$recording" -o "$out" --frames-hz 10 --duration "$seconds" -q
   fi
-  "$EBH" render "$out" -o "$WORK/$name" --size 480x360 --no-time-bar
-  "$PY" - "$WORK/$name" "$out" "$OUT/contact_$name.png" "$name" <<'EOF'
+  "$EBH" render "$out" -o "$WORK/$name" --size 480x360 --no-time-bar --color-by "$colour" | tee "$WORK/$name.txt"
+  legend=$(sed -n 's/^ *tissue colour = displacement from rest: 0 mm .* \.\. \([0-9.]*\) mm.*$/tissue: displacement 0 (blue) .. \1 mm (red)/p' "$WORK/$name.txt")
+  "$PY" - "$WORK/$name" "$out" "$OUT/contact_$name.png" "$name" "$legend" <<'EOF'
 import glob, sys
 import h5py
 import matplotlib
@@ -47,7 +50,7 @@ import matplotlib.image as mpimg
 import matplotlib.pyplot as plt
 import numpy as np
 
-frames_dir, replay, target, name = sys.argv[1:5]
+frames_dir, replay, target, name, legend = sys.argv[1:6]
 files = sorted(glob.glob(frames_dir + "/frame_*.png"))
 with h5py.File(replay, "r") as f:
     t = f["frames/t"][:]
@@ -62,7 +65,8 @@ for ax, k in zip(axes.flat, picks):
     ax.imshow(mpimg.imread(files[k]))
     ax.set_title(f"t = {t[k]:.1f} s", fontsize=9)
 rec = recording.rsplit("/", 1)[-1]
-fig.suptitle(f"{name}: {rec} (physical tool green, virtual tool grey)", fontsize=10)
+caption = "physical tool green, virtual tool grey" + (f"; {legend}" if legend else "")
+fig.suptitle(f"{name}: {rec} ({caption})", fontsize=10)
 fig.tight_layout(rect=(0, 0, 1, 0.95), pad=0.3)
 fig.savefig(target, dpi=100, pil_kwargs={"optimize": True})
 print(target)

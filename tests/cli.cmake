@@ -74,3 +74,55 @@ set_tests_properties(cli.scene.bad_key PROPERTIES WILL_FAIL TRUE LABELS "cli;sce
 add_test(NAME cli.scene.bad_key_message COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_bad_key.yaml)
 set_tests_properties(cli.scene.bad_key_message PROPERTIES
   PASS_REGULAR_EXPRESSION "key 'tool.hook.tip_length': expected a positive number, got 'abc'" LABELS "cli;scene")
+
+# ebh render (lib/render): a short tube replay with frames, rendered by `ebh replay --render` and
+# indexed for ParaView (tube.xdmf); presets, --xdmf-only and bad input on that output.
+set(EBH_RENDER_OUT ${PROJECT_BINARY_DIR}/cli_render)
+file(MAKE_DIRECTORY ${EBH_RENDER_OUT})
+set(EBH_EXPECT_ERROR ${CMAKE_CURRENT_SOURCE_DIR}/metrics/expect_error.cmake)
+if(EBH_HAVE_OSMESA)
+  add_test(NAME cli.render.replay
+    COMMAND ${CMAKE_COMMAND}
+      "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_RENDER_OUT}/tube.h5;--duration;0.1;--frames-hz;20;--render;${EBH_RENDER_OUT}/frames;-q"
+      "-DFILES=${EBH_RENDER_OUT}/frames/frame_00000.png;${EBH_RENDER_OUT}/frames/frame_00002.png;${EBH_RENDER_OUT}/tube.xdmf"
+      -P ${CMAKE_CURRENT_SOURCE_DIR}/render/expect_files.cmake)
+  set_tests_properties(cli.render.replay PROPERTIES FIXTURES_SETUP render_tube LABELS "cli;render")
+  add_test(NAME cli.render.top_displacement
+    COMMAND ${EBH_BIN} render ${EBH_RENDER_OUT}/tube.h5 -o ${EBH_RENDER_OUT}/top --camera top --size 160x120
+      --color-by displacement)
+  set_tests_properties(cli.render.top_displacement PROPERTIES PASS_REGULAR_EXPRESSION
+    "top: 3 frames, 160x120, camera: preset top\n  tissue colour = displacement from rest: 0 mm"
+    FIXTURES_REQUIRED render_tube LABELS "cli;render")
+  add_test(NAME cli.render.bad_camera
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/bad;--camera;fisheye"
+      "-DEXPECT=^ebh: error: --camera: expected scene, top, front, side or iso, got 'fisheye'" -P ${EBH_EXPECT_ERROR})
+  add_test(NAME cli.render.bad_size
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/bad;--size;big"
+      "-DEXPECT=^ebh: error: --size: expected WIDTHxHEIGHT" -P ${EBH_EXPECT_ERROR})
+  add_test(NAME cli.render.video_without_ffmpeg
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/video;--video;${EBH_RENDER_OUT}/v.mp4"
+      "-DEXPECT=^ebh: error: --video .*v.mp4: ffmpeg was not found on the PATH" -P ${EBH_EXPECT_ERROR})
+  set_tests_properties(cli.render.video_without_ffmpeg PROPERTIES ENVIRONMENT "PATH=${EBH_RENDER_OUT}/no_such_dir")
+  set_tests_properties(cli.render.bad_camera cli.render.bad_size cli.render.video_without_ffmpeg PROPERTIES
+    FIXTURES_REQUIRED render_tube LABELS "cli;render")
+else()
+  add_test(NAME cli.render.no_osmesa
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/frames"
+      "-DEXPECT=^ebh: error: this build has no OSMesa: install libosmesa6-dev and reconfigure" -P ${EBH_EXPECT_ERROR})
+  set_tests_properties(cli.render.no_osmesa PROPERTIES LABELS "cli;render")
+endif()
+# Without OSMesa too: the XDMF index, and a replay output without frames.
+add_test(NAME cli.render.replay_no_frames
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_RENDER_OUT}/no_frames.h5 --duration 0.02 --frames-hz 0 -q)
+set_tests_properties(cli.render.replay_no_frames PROPERTIES FIXTURES_SETUP render_no_frames LABELS "cli;render")
+add_test(NAME cli.render.replay_writes_xdmf
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_RENDER_OUT}/xdmf.h5;--duration;0.05;--frames-hz;40;-q"
+    "-DFILES=${EBH_RENDER_OUT}/xdmf.xdmf" -P ${CMAKE_CURRENT_SOURCE_DIR}/render/expect_files.cmake)
+set_tests_properties(cli.render.replay_writes_xdmf PROPERTIES FIXTURES_SETUP render_xdmf LABELS "cli;render")
+add_test(NAME cli.render.xdmf_only COMMAND ${EBH_BIN} render ${EBH_RENDER_OUT}/xdmf.h5 --xdmf-only)
+set_tests_properties(cli.render.xdmf_only PROPERTIES PASS_REGULAR_EXPRESSION "xdmf.xdmf"
+  FIXTURES_REQUIRED render_xdmf LABELS "cli;render")
+add_test(NAME cli.render.no_frames
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/no_frames.h5;--xdmf-only"
+    "-DEXPECT=^ebh: error: .*no_frames.h5: /frames: no mesh snapshots in this file" -P ${EBH_EXPECT_ERROR})
+set_tests_properties(cli.render.no_frames PROPERTIES FIXTURES_REQUIRED render_no_frames LABELS "cli;render")

@@ -189,10 +189,18 @@ struct CudaPhysicalSolver::Impl {
   PhysicalDevice dev;
   cudaGraph_t graph = nullptr;
   cudaGraphExec_t exec = nullptr;
+  cudaEvent_t start = nullptr, stop = nullptr;  // around the graph launch
+  double device_s = 0;
 
+  Impl() {
+    EBH_CUDA_CHECK(cudaEventCreate(&start));
+    EBH_CUDA_CHECK(cudaEventCreate(&stop));
+  }
   ~Impl() {
     if (exec) cudaGraphExecDestroy(exec);
     if (graph) cudaGraphDestroy(graph);
+    if (start) cudaEventDestroy(start);
+    if (stop) cudaEventDestroy(stop);
   }
 
   void upload_model(const PhysicalModel& M);
@@ -362,6 +370,8 @@ CudaPhysicalSolver::~CudaPhysicalSolver() = default;
 
 const PhysicalStepParams& CudaPhysicalSolver::params() const { return impl_->params; }
 
+double CudaPhysicalSolver::last_device_seconds() const { return impl_->device_s; }
+
 void CudaPhysicalSolver::upload_state(const PhysicalState& state) {
   Impl& I = *impl_;
   if (state.x.size() != size_t(I.n) || state.v.size() != size_t(I.n) || state.rotation.size() != size_t(I.T))
@@ -396,8 +406,13 @@ PhysicalStepReport CudaPhysicalSolver::step(PhysicalState& state, std::span<cons
   if (I.m > 0 && virtual_q.size() != size_t(I.m))
     throw std::invalid_argument("CudaPhysicalSolver::step: virtual_q has the wrong size");
   for (int j = 0; j < I.m; ++j) I.q_host[j] = to_float(virtual_q[j]);
+  EBH_CUDA_CHECK(cudaEventRecord(I.start, I.stream.get()));
   EBH_CUDA_CHECK(cudaGraphLaunch(I.exec, I.stream.get()));
+  EBH_CUDA_CHECK(cudaEventRecord(I.stop, I.stream.get()));
   EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream.get()));
+  float ms = 0;
+  EBH_CUDA_CHECK(cudaEventElapsedTime(&ms, I.start, I.stop));
+  I.device_s = 1e-3 * ms;
   state.x.resize(I.n);
   for (int a = 0; a < I.n; ++a) state.x[a] = static_cast<Vec3d>(I.x_host[a]);
   PhysicalStepReport report;

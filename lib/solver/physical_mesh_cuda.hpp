@@ -41,6 +41,9 @@ class CudaPhysicalSolver {
   PhysicalStepReport step(PhysicalState& state, std::span<const Vec3d> virtual_q);
 
   const PhysicalStepParams& params() const;
+  /// Device time of the last step's graph (copies of q and x included), seconds, from CUDA events:
+  /// time_s minus this is the host's share (conversions, launch, synchronisation).
+  double last_device_seconds() const;
 
  private:
   struct Impl;

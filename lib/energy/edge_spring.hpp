@@ -9,13 +9,19 @@
 namespace ebh {
 
 /// Local step of E_s: the projected edge vector R (q1^0 - q2^0) for the current edge d = q1 - q2.
-///   rest_edge: q1^0 - q2^0. For a collapsed edge (|d| = 0) R = I: the rest edge itself.
+///   rest_edge: q1^0 - q2^0, rest_len: |rest_edge| (precomputed by the solvers).
+///   For a collapsed edge (|d| = 0) R = I: the rest edge itself. Written as a select, so a SIMD
+///   loop over edges runs it per lane.
+template <class T>
+EBH_HD Vec3<T> edge_target(Vec3<T> d, Vec3<T> rest_edge, T rest_len) {
+  const T len = norm(d);
+  const T s = rest_len / len;
+  const bool collapsed = len <= rest_len * T(1e-12);
+  return {collapsed ? rest_edge.x : s * d.x, collapsed ? rest_edge.y : s * d.y, collapsed ? rest_edge.z : s * d.z};
+}
 template <class T>
 EBH_HD Vec3<T> edge_target(Vec3<T> d, Vec3<T> rest_edge) {
-  const T len = norm(d);
-  const T rest_len = norm(rest_edge);
-  if (len <= rest_len * T(1e-12)) return rest_edge;
-  return (rest_len / len) * d;
+  return edge_target(d, rest_edge, norm(rest_edge));
 }
 
 /// E_s [4] of one edge.
@@ -25,11 +31,15 @@ EBH_HD T edge_spring_energy(Vec3<T> q1, Vec3<T> q2, Vec3<T> rest_edge, T k_s) {
   return T(0.5) * k_s * squared_norm(d - edge_target(d, rest_edge));
 }
 
-/// dE_s/dq1 = k_s (d - R e0); dE_s/dq2 is its negative.
+/// dE_s/dq1 = k_s (d - R e0); dE_s/dq2 is its negative. rest_len: |rest_edge|.
+template <class T>
+EBH_HD Vec3<T> edge_spring_gradient(Vec3<T> q1, Vec3<T> q2, Vec3<T> rest_edge, T rest_len, T k_s) {
+  const Vec3<T> d = q1 - q2;
+  return k_s * (d - edge_target(d, rest_edge, rest_len));
+}
 template <class T>
 EBH_HD Vec3<T> edge_spring_gradient(Vec3<T> q1, Vec3<T> q2, Vec3<T> rest_edge, T k_s) {
-  const Vec3<T> d = q1 - q2;
-  return k_s * (d - edge_target(d, rest_edge));
+  return edge_spring_gradient(q1, q2, rest_edge, norm(rest_edge), k_s);
 }
 
 }  // namespace ebh

@@ -10,6 +10,7 @@
 #include "energy/quadratic.hpp"
 #include "energy/rotation.hpp"
 #include "io/error.hpp"
+#include "solver/local_kernels.hpp"
 #include "solver/virtual_mesh.hpp"
 
 namespace ebh {
@@ -30,11 +31,16 @@ void build_csr(int rows, int items, RowOf&& row_of_each, std::vector<int>& offse
 }
 
 // ---- Algorithm 1, stage by stage --------------------------------------------------------------
+// Each stage is an OpenMP work-sharing loop called from inside physical_step's one parallel
+// region (an orphaned `omp for`; called outside a region it runs serially). Static schedules
+// give every thread the same share each iteration.
+
+constexpr double kRotationTol = 1e-9;  ///< radians: the Mueller update stops below this angle
 
 /// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- s.
 void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
   const int n = model.num_vertices;
-#pragma omp parallel for schedule(static)
+#pragma omp for schedule(static)
   for (int a = 0; a < n; ++a) {
     ws.x_start[a] = state.x[a];
     ws.s[a] = model.pinned[a] ? state.x[a] : predict_position(state.x[a], state.v[a], model.gravity, model.h);
@@ -43,21 +49,16 @@ void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& s
   }
 }
 
-/// Alg. 1 lines 6-8 (ConstraintProjection): per tet R_t = polar(F_t) and proj_t = w_t (R_t - F_t);
-/// per virtual vertex the E_svc force k_svc (q_j - p_j) with p_j = sum w x.
+/// Alg. 1 lines 6-8 (ConstraintProjection): per tet R_t and its corner forces; per virtual vertex
+/// the E_svc force k_svc (q_j - p_j) with p_j = sum w x. Ends with a barrier.
 void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params) {
-  const int T = model.num_tets;
-#pragma omp parallel for schedule(static)
-  for (int t = 0; t < T; ++t) {
-    const Tet& tet = model.tets[t];
-    const Vec3d x[4] = {state.x[tet[0]], state.x[tet[1]], state.x[tet[2]], state.x[tet[3]]};
-    const Mat3d F = deformation_gradient(x, &model.shape_grad[4 * t]);
-    state.rotation[t] = extract_rotation(F, state.rotation[t], params.rotation_iterations, 1e-9);
-    ws.proj[t] = model.tet_weight[t] * (to_matrix(state.rotation[t]) - F);
-  }
+  const TetKernelData tets{model.num_tets, model.corner_soa.data(), model.shape_grad_soa.data(),
+                           model.tet_weight.data(), model.corner_slot.data()};
+  local_step_tets(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
+                  kRotationTol);  // omp for nowait
   const int m = model.num_virtual;
-#pragma omp parallel for schedule(static)
+#pragma omp for schedule(static)
   for (int j = 0; j < m; ++j) {
     const Vec3d p = paired_point(state.x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
                                  model.pair_count[j]);
@@ -65,50 +66,50 @@ void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState
   }
 }
 
-/// r = -grad E_soft at x with the local step's projections, gathered per vertex; 0 on pinned.
-/// Returns ||r|| over free vertices (summed serially: the same bits for any thread count).
-double gather_residual(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalState& state) {
+/// r_a = -grad E_soft at x_a with the local step's projections, gathered in a fixed order:
+/// inertia, the corner forces of the incident tets, the E_svc forces.
+inline Vec3d vertex_residual(const PhysicalModel& model, const PhysicalWorkspace& ws, const Vec3d* x, int a,
+                             double inv_h2) {
+  Vec3d r = (model.mass[a] * inv_h2) * (ws.s[a] - x[a]);                             // -dE_k/dx
+  for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k) r += ws.tet_force[k];  // -dE_vol/dx
+  for (int k = model.cpl_offsets[a]; k < model.cpl_offsets[a + 1]; ++k)
+    r += model.cpl_weight[k] * ws.cpl_force[model.cpl_virtual[k]];                   // -dE_svc/dx
+  return r;
+}
+
+/// The residual r = -grad E_soft (0 on pinned vertices) fused with Alg. 1 line 9
+/// (GlobalSynthesis) for the Jacobi-type methods, per vertex; ends with a barrier.
+///   jacobi:    x <- x + gamma D^-1 r
+///   chebyshev: x_{k+1} = omega (gamma D^-1 r + x_k - x_{k-1}) + x_{k-1}   (Wang 2015, eq. 12)
+///   direct:    r only (global_direct follows)
+void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
+                         SolverSpec::Method method, double gamma, double omega) {
   const int n = model.num_vertices;
   const double inv_h2 = 1.0 / (model.h * model.h);
-#pragma omp parallel for schedule(static)
+  Vec3d* __restrict x = state.x.data();
+#pragma omp for schedule(static)
   for (int a = 0; a < n; ++a) {
-    if (model.pinned[a]) { ws.r[a] = Vec3d{}; continue; }
-    Vec3d r = (model.mass[a] * inv_h2) * (ws.s[a] - state.x[a]);                      // -dE_k/dx
-    for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k) {
-      const int e = model.tet_entries[k];
-      r += ws.proj[e >> 2] * model.shape_grad[e];                                      // -dE_vol/dx
-    }
-    for (int k = model.cpl_offsets[a]; k < model.cpl_offsets[a + 1]; ++k)
-      r += model.cpl_weight[k] * ws.cpl_force[model.cpl_virtual[k]];                   // -dE_svc/dx
+    if (model.pinned[a]) { ws.r[a] = Vec3d{}; continue; }  // never moves: x = x_prev = s
+    const Vec3d r = vertex_residual(model, ws, x, a, inv_h2);
     ws.r[a] = r;
+    if (method == SolverSpec::Method::Jacobi) {
+      x[a] += (gamma / model.diag[a]) * r;
+    } else if (method == SolverSpec::Method::Chebyshev) {
+      const Vec3d xk = x[a];
+      x[a] = omega * ((gamma / model.diag[a]) * r + xk - ws.x_prev[a]) + ws.x_prev[a];
+      ws.x_prev[a] = xk;
+    }
   }
+}
+
+/// ||r|| over free vertices (pinned rows are 0), summed serially: the same bits for any thread count.
+double residual_norm(const PhysicalWorkspace& ws) {
   double sum = 0;
-  for (int a = 0; a < n; ++a) sum += squared_norm(ws.r[a]);
+  for (const Vec3d& r : ws.r) sum += squared_norm(r);
   return std::sqrt(sum);
 }
 
-/// Alg. 1 line 9 (GlobalSynthesis), Jacobi: x <- x + gamma D^-1 r.
-void global_jacobi(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, double gamma) {
-  const int n = model.num_vertices;
-#pragma omp parallel for schedule(static)
-  for (int a = 0; a < n; ++a) state.x[a] += (gamma / model.diag[a]) * ws.r[a];
-}
-
-/// Chebyshev semi-iterative Jacobi (Wang 2015, eq. 12):
-///   x_{k+1} = omega (gamma (x_hat - x_k) + x_k - x_{k-1}) + x_{k-1},  x_hat - x_k = D^-1 r.
-void global_chebyshev(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, double gamma,
-                      double omega) {
-  const int n = model.num_vertices;
-#pragma omp parallel for schedule(static)
-  for (int a = 0; a < n; ++a) {
-    const Vec3d xk = state.x[a];
-    ws.x_next[a] = omega * ((gamma / model.diag[a]) * ws.r[a] + xk - ws.x_prev[a]) + ws.x_prev[a];
-  }
-  std::swap(ws.x_prev, state.x);  // x_prev <- x_k
-  std::swap(state.x, ws.x_next);  // x <- x_{k+1}
-}
-
-/// The exact global step: x_f <- x_f + A_ff^-1 r_f.
+/// The exact global step: x_f <- x_f + A_ff^-1 r_f (serial: call from one thread).
 void global_direct(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
   const int nf = model.num_free;
   if (nf == 0) return;
@@ -124,7 +125,7 @@ void global_direct(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalSt
 void update_velocities(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
   const int n = model.num_vertices;
   const double c = (1.0 - model.damping) / model.h;
-#pragma omp parallel for schedule(static)
+#pragma omp for schedule(static)
   for (int a = 0; a < n; ++a) state.v[a] = c * (state.x[a] - ws.x_start[a]);
 }
 
@@ -192,6 +193,17 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
 
   // Incidence vertex -> (tet, corner), in (tet, corner) order.
   build_csr(n, 4 * T, [&](int e, auto add) { add(M.tets[e >> 2][e & 3]); }, M.tet_offsets, M.tet_entries);
+
+  // The local step's structure-of-arrays copies and each corner's slot in the gather order.
+  M.corner_soa.resize(4 * size_t(T));
+  M.shape_grad_soa.resize(12 * size_t(T));
+  M.corner_slot.resize(4 * size_t(T));
+  for (int t = 0; t < T; ++t)
+    for (int c = 0; c < 4; ++c) {
+      M.corner_soa[size_t(c) * T + t] = M.tets[t][c];
+      for (int i = 0; i < 3; ++i) M.shape_grad_soa[size_t(3 * c + i) * T + t] = M.shape_grad[4 * size_t(t) + c][i];
+    }
+  for (int k = 0; k < 4 * T; ++k) M.corner_slot[size_t(M.tet_entries[k] & 3) * T + (M.tet_entries[k] >> 2)] = k;
 
   // E_svc coupling and its reverse (physical -> virtual) list.
   if (virtual_model) {
@@ -268,9 +280,8 @@ PhysicalWorkspace make_physical_workspace(const PhysicalModel& model) {
   ws.s.assign(n, Vec3d{});
   ws.x_start.assign(n, Vec3d{});
   ws.x_prev.assign(n, Vec3d{});
-  ws.x_next.assign(n, Vec3d{});
   ws.r.assign(n, Vec3d{});
-  ws.proj.assign(model.num_tets, Mat3d{});
+  ws.tet_force.assign(4 * size_t(model.num_tets), Vec3d{});
   ws.cpl_force.assign(model.num_virtual, Vec3d{});
   ws.rhs.setZero(model.num_free, 3);
   ws.dx.setZero(model.num_free, 3);
@@ -294,29 +305,42 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
   if (params.method == SolverSpec::Method::Direct && !model.direct)
     throw std::invalid_argument("physical_step: direct method on a model built without factorisation");
 
-  predict(model, ws, state);
-  double r0 = 0, rk = 0, omega = 1;
+  double r0 = 0, rk = 0;
   const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
-  for (int k = 0; k < params.iterations; ++k) {
-    auto t0 = Clock::now();
-    local_step(model, ws, state, virtual_q, params);
-    report.local_s += seconds_since(t0);
-    t0 = Clock::now();
-    rk = gather_residual(model, ws, state);
-    if (k == 0) r0 = rk;
-    switch (params.method) {
-      case SolverSpec::Method::Jacobi: global_jacobi(model, ws, state, params.relaxation); break;
-      case SolverSpec::Method::Chebyshev: {
+  const int K = params.iterations;
+  // One parallel region for the whole step: the stages are work-sharing loops with two barriers
+  // per iteration. The master thread times the stages and sums the residual norms (after the
+  // barrier ending the global step; ws.r is next written after the following local step's barrier).
+#pragma omp parallel
+  {
+    predict(model, ws, state);
+    double omega = 1;  // every thread follows the same Chebyshev weights
+    for (int k = 0; k < K; ++k) {
+      auto t0 = Clock::now();
+      local_step(model, ws, state, virtual_q, params);
+#pragma omp master
+      {
+        report.local_s += seconds_since(t0);
+        t0 = Clock::now();
+      }
+      if (params.method == SolverSpec::Method::Chebyshev) {
         const int j = k - params.chebyshev_delay;  // Wang 2015: omega_1 = 1, omega_2 = 2/(2-rho^2), ...
         omega = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega));
-        global_chebyshev(model, ws, state, params.relaxation, omega);
-        break;
       }
-      case SolverSpec::Method::Direct: global_direct(model, ws, state); break;
+      residual_and_update(model, ws, state, params.method, params.relaxation, omega);
+      if (params.method == SolverSpec::Method::Direct) {
+#pragma omp single
+        global_direct(model, ws, state);  // implicit barrier
+      }
+#pragma omp master
+      {
+        if (k == 0) r0 = residual_norm(ws);
+        if (k == K - 1) rk = k == 0 ? r0 : residual_norm(ws);
+        report.global_s += seconds_since(t0);
+      }
     }
-    report.global_s += seconds_since(t0);
+    update_velocities(model, ws, state);
   }
-  update_velocities(model, ws, state);
   report.iterations = params.iterations;
   report.residual = r0 > 0 ? rk / r0 : 0.0;
   report.time_s = seconds_since(t_step);

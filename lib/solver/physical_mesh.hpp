@@ -14,7 +14,13 @@
 //
 // Determinism: per-tet and per-virtual-vertex loops write their own slot, per-vertex loops gather
 // over CSR lists in a fixed order, and norms are summed serially: the result is bitwise identical
-// for any OpenMP thread count.
+// for any OpenMP thread count. Tets go through the local step in fixed blocks of SIMD lanes
+// (solver/local_kernels.hpp), so a tet takes the same code path whatever the thread count.
+//
+// Speed (docs/MODEL.md, "Implementation"): one OpenMP parallel region per step with two barriers
+// per iteration (after the local step, after the global step); the local step writes each tet's
+// four corner forces straight into the CSR order of the per-vertex gather, which is fused with
+// the Jacobi/Chebyshev update.
 #include <Eigen/Core>
 #include <Eigen/SparseCholesky>
 #include <array>
@@ -66,6 +72,10 @@ struct PhysicalModel {
   std::vector<int> cpl_virtual;         ///< virtual-vertex index
   std::vector<double> cpl_weight;       ///< its weight on this physical vertex
   std::vector<double> diag;             ///< #n A(a, a)
+  // The local step's structure-of-arrays copies (SIMD loads):
+  std::vector<int> corner_soa;          ///< #4T vertex of corner c of tet t at [c T + t]
+  std::vector<double> shape_grad_soa;   ///< #12T component i of g_c of tet t at [(3 c + i) T + t]
+  std::vector<int> corner_slot;         ///< #4T position k of (t, c) in tet_entries (tet_entries[k] = 4 t + c) at [c T + t]
   std::shared_ptr<const PhysicalDirectSolver> direct;  ///< null when not factorised
 };
 
@@ -81,9 +91,8 @@ struct PhysicalWorkspace {
   std::vector<Vec3d> s;          ///< #n prediction (Alg. 1 line 1)
   std::vector<Vec3d> x_start;    ///< #n positions at the start of the step
   std::vector<Vec3d> x_prev;     ///< #n previous iterate (Chebyshev)
-  std::vector<Vec3d> x_next;     ///< #n next iterate
   std::vector<Vec3d> r;          ///< #n residual -grad E (0 on pinned vertices)
-  std::vector<Mat3d> proj;       ///< #T w_t (R_t - F_t): the local step's output
+  std::vector<Vec3d> tet_force;  ///< #4T the local step's output w_t (R_t - F_t) g_c, in tet_entries order
   std::vector<Vec3d> cpl_force;  ///< #m k_svc (q_j - p_j)
   Eigen::MatrixXd rhs;           ///< nf x 3 (direct)
   Eigen::MatrixXd dx;            ///< nf x 3 (direct)

@@ -15,6 +15,7 @@
 #include "io/error.hpp"
 #include "mesh/boundary.hpp"
 #include "scene/scene.hpp"
+#include "solver/local_kernels.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/surface.hpp"
 
@@ -149,6 +150,9 @@ VirtualModel build_virtual_model(const Scene& scene) {
   for (const auto& e : M.edges) M.rest_edge.push_back(M.rest[e[0]] - M.rest[e[1]]);
   const int E = static_cast<int>(M.edges.size());
   build_csr(m, 2 * E, [&](int i, auto add) { add(M.edges[i >> 1][i & 1]); }, M.edge_offsets, M.edge_entries);
+  for (const Vec3d& e0 : M.rest_edge) M.rest_len.push_back(norm(e0));
+  M.edge_slot.resize(2 * size_t(E));
+  for (int k = 0; k < 2 * E; ++k) M.edge_slot[M.edge_entries[k]] = k;
   build_csr(m, static_cast<int>(M.triangles.size()), [&](int f, auto add) { for (int v : M.triangles[f]) add(v); },
             M.tri_offsets, M.tri_entries);
 
@@ -227,6 +231,7 @@ VirtualWorkspace make_virtual_workspace(const VirtualModel& model) {
   ws.q_next.assign(m, Vec3d{});
   ws.contact_kt.assign(m, Vec3d{});
   ws.contact_k.assign(m, 0.0);
+  ws.edge_force.assign(2 * model.edges.size(), Vec3d{});
   return ws;
 }
 
@@ -240,15 +245,45 @@ void paired_points(const VirtualModel& model, std::span<const Vec3d> x, std::spa
 void virtual_begin_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state,
                         std::span<const Vec3d> physical_x, double h) {
   ws.h = h;
-  paired_points(model, physical_x, ws.p);                       // Alg. 2 line 1: E_svc targets
   const int m = model.num_vertices;
-#pragma omp parallel for schedule(static)
-  for (int j = 0; j < m; ++j) {                                 // Alg. 2 line 6: prediction
-    ws.q_start[j] = state.q[j];
+#pragma omp parallel for schedule(static) if (m >= model.parallel_min_vertices)
+  for (int j = 0; j < m; ++j) {
+    ws.p[j] = paired_point(physical_x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
+                           model.pair_count[j]);                        // Alg. 2 line 1: E_svc targets
+    ws.q_start[j] = state.q[j];                                         // Alg. 2 line 6: prediction
     ws.s[j] = model.pinned[j] ? state.q[j] : predict_position(state.q[j], state.v[j], model.gravity, h);
     state.q[j] = ws.s[j];
   }
 }
+
+namespace {
+
+/// The local step of E_s for every edge (work-shared; ends with a barrier).
+void edge_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* q) {
+  const EdgeKernelData edges{static_cast<int>(model.edges.size()), model.edges.data(), model.rest_edge.data(),
+                             model.rest_len.data(), model.edge_slot.data(), model.k_s};
+  edge_spring_forces(edges, q, ws.edge_force.data());  // omp for
+}
+
+/// The gather and Jacobi global step per vertex (work-shared; ends with a barrier):
+///   q_j <- q_j + r_j / D_j,  r = -grad E_soft,  D = m/h^2 + k_s deg + k_svc + sum k_con.
+void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* __restrict q, Vec3d* __restrict q_next) {
+  const int m = model.num_vertices;
+  const double inv_h2 = 1.0 / (ws.h * ws.h);
+  const Vec3d* __restrict edge_force = ws.edge_force.data();
+#pragma omp for schedule(static)
+  for (int j = 0; j < m; ++j) {
+    if (model.pinned[j]) { q_next[j] = q[j]; continue; }
+    const double mh = model.mass[j] * inv_h2;
+    Vec3d r = mh * (ws.s[j] - q[j])                                          // -dE_k/dq   [6]
+              - coupling_gradient_virtual(ws.p[j], q[j], model.k_svc)        // -dE_svc/dq [5]
+              + ws.contact_kt[j] - ws.contact_k[j] * q[j];                   // -dE_con/dq [3]
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) r += edge_force[k];  // -dE_s/dq [4]
+    q_next[j] = q[j] + r / (mh + model.stiff_diag[j] + ws.contact_k[j]);
+  }
+}
+
+}  // namespace
 
 void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state,
                        std::span<const ContactTarget> contacts) {
@@ -257,25 +292,11 @@ void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualS
     ws.contact_kt[c.vertex] += c.stiffness * c.target;
     ws.contact_k[c.vertex] += c.stiffness;
   }
-  // Local step (edge targets R e0, E_svc and E_con targets) and Jacobi global step, per vertex:
-  //   q_j <- q_j + r_j / D_j,  r = -grad E_soft,  D = m/h^2 + k_s deg + k_svc + sum k_con.
-  const int m = model.num_vertices;
-  const double inv_h2 = 1.0 / (ws.h * ws.h);
-  const std::vector<Vec3d>& q = state.q;
-#pragma omp parallel for schedule(static)
-  for (int j = 0; j < m; ++j) {
-    if (model.pinned[j]) { ws.q_next[j] = q[j]; continue; }
-    const double mh = model.mass[j] * inv_h2;
-    Vec3d r = mh * (ws.s[j] - q[j])                                          // -dE_k/dq   [6]
-              - coupling_gradient_virtual(ws.p[j], q[j], model.k_svc)        // -dE_svc/dq [5]
-              + ws.contact_kt[j] - ws.contact_k[j] * q[j];                   // -dE_con/dq [3]
-    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
-      const int e = model.edge_entries[k] >> 1;
-      const auto& ed = model.edges[e];
-      const Vec3d g = edge_spring_gradient(q[ed[0]], q[ed[1]], model.rest_edge[e], model.k_s);  // -dE_s [4]
-      r += (model.edge_entries[k] & 1) ? g : -g;
-    }
-    ws.q_next[j] = q[j] + r / (mh + model.stiff_diag[j] + ws.contact_k[j]);
+  // Local step (edge targets R e0; E_svc and E_con targets are fixed) and Jacobi global step.
+#pragma omp parallel if (model.num_vertices >= model.parallel_min_vertices)
+  {
+    edge_pass(model, ws, state.q.data());
+    vertex_pass(model, ws, state.q.data(), ws.q_next.data());
   }
   std::swap(state.q, ws.q_next);
   for (const ContactTarget& c : contacts) {
@@ -287,7 +308,7 @@ void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualS
 void virtual_end_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state) {
   const int m = model.num_vertices;
   const double inv_h = 1.0 / ws.h;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (m >= model.parallel_min_vertices)
   for (int j = 0; j < m; ++j) state.v[j] = inv_h * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23
 }
 

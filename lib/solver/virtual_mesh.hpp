@@ -13,7 +13,8 @@
 //     virtual_end_tick(model, ws, state);                              // Alg. 2 lines 22-23
 //
 // Every per-vertex loop gathers (CSR incidence lists) so the result is bitwise identical for any
-// OpenMP thread count; no step function allocates.
+// OpenMP thread count; no step function allocates. An iteration is two passes: per edge (E_s
+// gradients, SIMD, written to the gather slots of both ends), then per vertex (gather and Jacobi).
 #include <array>
 #include <cstdint>
 #include <span>
@@ -52,6 +53,11 @@ struct VirtualModel {
   std::vector<int> tri_offsets;    ///< #m+1
   std::vector<int> tri_entries;    ///< incident triangle indices
   std::vector<double> stiff_diag;  ///< #m k_s * degree + k_svc: the diagonal without mass and contact
+  std::vector<double> rest_len;    ///< #E |q_a^0 - q_b^0|
+  std::vector<int> edge_slot;      ///< #2E position k of (e, end) in edge_entries (edge_entries[k] = 2 e + end)
+  /// Iterations use the OpenMP team from this many vertices on; smaller meshes (every paper scene)
+  /// iterate on the calling thread, which at the haptic rate beats waking a team (docs/MODEL.md).
+  int parallel_min_vertices = 1 << 16;
 };
 
 /// Mutable virtual-mesh state: q and v, both #m.
@@ -69,6 +75,7 @@ struct VirtualWorkspace {
   std::vector<Vec3d> q_next;           ///< #m Jacobi output buffer
   std::vector<Vec3d> contact_kt;       ///< #m sum of k * target over this iteration's contacts
   std::vector<double> contact_k;       ///< #m sum of k over this iteration's contacts
+  std::vector<Vec3d> edge_force;       ///< #2E -dE_s/dq of each edge end, in edge_entries order
 };
 
 /// Builds the virtual mesh of a scene: scene.virtual_surface (or, when empty, the physical mesh's

@@ -1,0 +1,48 @@
+#pragma once
+// The CPU solvers' hot loops: the physical mesh's per-tet local step (E_vol [7]) and the virtual
+// mesh's per-edge local step (E_s [4]). They live in their own translation unit, which includes no
+// Eigen, so that EBH_NATIVE can build it with -march=native (wider SIMD) without changing Eigen's
+// ABI between the solver and its callers. The arguments are plain arrays (as for a CUDA kernel).
+//
+// Both functions are OpenMP work-sharing loops (`omp for`) over fixed blocks of lanes: call them
+// from inside a parallel region (or outside one: they then run serially). A block's lanes are
+// gathered into small structure-of-arrays buffers, run through the energy functions of lib/energy
+// in branch-free loops the compiler vectorises, and scattered to fixed slots. A tet or edge
+// takes the same code path whatever the thread count, so results are bitwise reproducible.
+#include <array>
+
+#include "math/vec.hpp"
+
+namespace ebh {
+
+/// The physical mesh's tets, structure of arrays. T = #tets.
+struct TetKernelData {
+  int num_tets = 0;                  ///< T
+  const int* corner = nullptr;       ///< #4T vertex of corner c of tet t at [c T + t]
+  const double* shape_grad = nullptr;///< #12T component i of g_c of tet t at [(3 c + i) T + t]
+  const double* weight = nullptr;    ///< #T w_t = 2 k_vol V_t
+  const int* slot = nullptr;         ///< #4T output slot of corner c of tet t at [c T + t]
+};
+
+/// Alg. 1 lines 6-8 per tet: F_t = sum_c x_c g_c^T; R_t by up to rotation_iterations Mueller
+/// updates of rotation[t] (stopping below tol radians, as extract_rotation); then
+/// force[slot(t, c)] = w_t (R_t - F_t) g_c (= -dE_vol/dx_c). `omp for nowait`.
+///   x: #n positions; rotation: #T warm starts, updated; force: #4T.
+void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation, Vec3d* force,
+                     int rotation_iterations, double tol);
+
+/// The virtual mesh's edges. E = #edges.
+struct EdgeKernelData {
+  int num_edges = 0;                       ///< E
+  const std::array<int, 2>* edges = nullptr;  ///< #E (a, b)
+  const Vec3d* rest_edge = nullptr;        ///< #E q_a^0 - q_b^0
+  const double* rest_len = nullptr;        ///< #E |q_a^0 - q_b^0|
+  const int* slot = nullptr;               ///< #2E output slot of end `end` of edge e at [2 e + end]
+  double k_s = 0;                          ///< N/m
+};
+
+/// E_s [4] per edge: g = dE_s/dq_a = k_s (d - R e0), force[slot(e, 0)] = -g (= -dE_s/dq_a) and
+/// force[slot(e, 1)] = g. `omp for` (ends with a barrier). q: #m positions; force: #2E.
+void edge_spring_forces(const EdgeKernelData& edges, const Vec3d* q, Vec3d* force);
+
+}  // namespace ebh

@@ -15,8 +15,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double recording_duration(const Recording& rec, const ReplayOptions& opt) {
-  const double full = rec.duration();
-  return opt.duration > 0 ? std::min(opt.duration, full) : full;
+  const double rest = std::max(0.0, rec.duration() - opt.start);
+  return opt.duration > 0 ? std::min(opt.duration, rest) : rest;
 }
 
 /// Frame k is due at k / frames_hz; tick n emits every frame due in (t_{n-1}, t_n].
@@ -34,7 +34,7 @@ struct FrameClock {
 /// async and lockstep: a pure function of (world, recording, options).
 ReplaySummary replay_virtual_time(const World& world, const Recording& rec, const ReplayOptions& opt,
                                   ReplayObserver& obs) {
-  const double t0 = rec.t.front();
+  const double t0 = rec.t.front() + opt.start;
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
@@ -91,7 +91,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
 /// realtime: two threads paced by the wall clock; double-buffered snapshots under a mutex.
 ReplaySummary replay_realtime(const World& world, const Recording& rec, const ReplayOptions& opt,
                               ReplayObserver& obs) {
-  const double t0 = rec.t.front();
+  const double t0 = rec.t.front() + opt.start;
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
   PhysicalSide physical = make_physical_side(world);

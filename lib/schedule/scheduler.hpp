@@ -24,7 +24,8 @@ const char* mode_name(Mode m);
 
 struct ReplayOptions {
   Mode mode = Mode::Async;
-  double duration = 0;    ///< s of the recording to replay; <= 0: all of it
+  double start = 0;       ///< s into the recording where tick 0 is (a window of a long recording)
+  double duration = 0;    ///< s of the recording to replay from `start`; <= 0: all the rest
   double frames_hz = 0;   ///< mesh snapshots per second; 0: none
 };
 

@@ -1,4 +1,4 @@
-// The validation registry and the `column` case (the convergence case runs a 44k-tet scene: it is
+// The validation registry, the `column` and `hertz` cases (the convergence case runs a 44k-tet scene: it is
 // exercised by `ebh validate convergence`, not by the unit tests).
 #include <gtest/gtest.h>
 
@@ -26,6 +26,13 @@ TEST(Validation, ColumnMatchesTheAnalyticReaction) {
   // Linear tets reproduce the nu = 0 uniaxial solution exactly (column.cpp); what is left is the
   // local-global loop's stopping point after 30 exact iterations at 1 % strain.
   EXPECT_LT(r.error, 1e-6) << r.to_json().dump();
+}
+
+TEST(Validation, HertzIndentationForceFollowsTheTheory) {
+  const ValidationResult r = find_validation("hertz")->run();
+  EXPECT_TRUE(r.passed) << r.to_json().dump();
+  // The 15% budget is derived in hertz.cpp (finite block, tet size, penalty, small-strain theory).
+  EXPECT_LE(r.error, 0.15);
 }
 
 }  // namespace

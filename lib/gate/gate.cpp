@@ -1,0 +1,201 @@
+#include "gate/gate.hpp"
+
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "io/atomic.hpp"
+#include "io/error.hpp"
+#include "metrics/replay_trace.hpp"
+#include "schedule/replay_inputs.hpp"
+#include "schedule/replay_output.hpp"
+
+namespace ebh {
+namespace {
+
+double number(const YAML::Node& n, const std::string& file, const std::string& key) {
+  if (!n || !n.IsScalar()) throw InputError(file + ": key '" + key + "': expected a number");
+  try {
+    return n.as<double>();
+  } catch (const YAML::Exception&) {
+    throw InputError(file + ": key '" + key + "': expected a number, got '" + n.Scalar() + "'");
+  }
+}
+
+std::string text(const YAML::Node& n, const std::string& file, const std::string& key) {
+  if (!n || !n.IsScalar()) throw InputError(file + ": key '" + key + "': expected a string");
+  return n.Scalar();
+}
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+GateBaselines read_gate_baselines(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path + ": cannot read the gate baselines");
+  } catch (const YAML::Exception& e) {
+    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  GateBaselines b;
+  if (root["generated_by"]) b.generated_by = text(root["generated_by"], path, "generated_by");
+  if (const YAML::Node bands = root["bands"]) {
+    b.bands.relative = number(bands["relative"], path, "bands.relative");
+    b.bands.abs_force_step = number(bands["abs_force_step"], path, "bands.abs_force_step");
+    b.bands.abs_force_rate = number(bands["abs_force_rate"], path, "bands.abs_force_rate");
+    b.bands.abs_peak_force = number(bands["abs_peak_force"], path, "bands.abs_peak_force");
+    b.bands.abs_power = number(bands["abs_power"], path, "bands.abs_power");
+    b.bands.abs_penetration = number(bands["abs_penetration"], path, "bands.abs_penetration");
+  }
+  const YAML::Node cases = root["cases"];
+  if (!cases || !cases.IsSequence()) throw InputError(path + ": key 'cases': expected a list");
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const YAML::Node c = cases[i];
+    const std::string k = "cases[" + std::to_string(i) + "].";
+    GateCase g;
+    g.name = text(c["name"], path, k + "name");
+    g.scene = text(c["scene"], path, k + "scene");
+    g.recording = text(c["recording"], path, k + "recording");
+    g.start = number(c["start"], path, k + "start");
+    g.duration = number(c["duration"], path, k + "duration");
+    auto metric = [&](const char* key) {
+      return c[key] ? number(c[key], path, k + key) : std::numeric_limits<double>::quiet_NaN();
+    };
+    g.rms_force_step = metric("rms_force_step");
+    g.max_force_rate = metric("max_force_rate");
+    g.peak_force = metric("peak_force");
+    g.power_above_30hz = metric("power_above_30hz");
+    g.penetration_max = metric("penetration_max");
+    b.cases.push_back(g);
+  }
+  return b;
+}
+
+void write_gate_baselines(const std::string& path, const GateBaselines& b) {
+  YAML::Emitter y;
+  y << YAML::BeginMap;
+  y << YAML::Key << "generated_by" << YAML::Value << b.generated_by;
+  y << YAML::Key << "bands" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  y << YAML::Key << "relative" << YAML::Value << b.bands.relative;
+  y << YAML::Key << "abs_force_step" << YAML::Value << b.bands.abs_force_step;
+  y << YAML::Key << "abs_force_rate" << YAML::Value << b.bands.abs_force_rate;
+  y << YAML::Key << "abs_peak_force" << YAML::Value << b.bands.abs_peak_force;
+  y << YAML::Key << "abs_power" << YAML::Value << b.bands.abs_power;
+  y << YAML::Key << "abs_penetration" << YAML::Value << b.bands.abs_penetration;
+  y << YAML::EndMap;
+  y << YAML::Key << "cases" << YAML::Value << YAML::BeginSeq;
+  for (const GateCase& c : b.cases) {
+    y << YAML::Flow << YAML::BeginMap;
+    y << YAML::Key << "name" << YAML::Value << c.name;
+    y << YAML::Key << "scene" << YAML::Value << c.scene;
+    y << YAML::Key << "recording" << YAML::Value << c.recording;
+    y << YAML::Key << "start" << YAML::Value << c.start;
+    y << YAML::Key << "duration" << YAML::Value << c.duration;
+    y << YAML::Key << "rms_force_step" << YAML::Value << c.rms_force_step;
+    y << YAML::Key << "max_force_rate" << YAML::Value << c.max_force_rate;
+    y << YAML::Key << "peak_force" << YAML::Value << c.peak_force;
+    y << YAML::Key << "power_above_30hz" << YAML::Value << c.power_above_30hz;
+    y << YAML::Key << "penetration_max" << YAML::Value << c.penetration_max;
+    y << YAML::EndMap;
+  }
+  y << YAML::EndSeq << YAML::EndMap;
+  AtomicOutput out(path);
+  {
+    std::ofstream f(out.temp_path());
+    f << "# Force-smoothness gate baselines (lib/gate/gate.hpp). Regenerate with\n"
+         "# scripts/make_gate_baselines.sh; do not edit the metrics by hand.\n"
+      << y.c_str() << "\n";
+    if (!f) throw InputError(path + ": cannot write");
+  }
+  out.commit();
+}
+
+GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides) {
+  const LoadedReplay in = load_replay_inputs(c.scene, c.recording, overrides, std::nullopt, std::nullopt, false);
+  ReplayOptions opt;
+  opt.mode = Mode::Async;
+  opt.start = c.start;
+  opt.duration = c.duration;
+  const auto tmp = std::filesystem::temp_directory_path() /
+                   ("ebh_gate_" + std::to_string(::getpid()) + "_" + c.name + ".h5");
+  ForceMetrics m;
+  {
+    ReplayMetadata meta;
+    meta.recording = in.recording_path;
+    meta.overrides = overrides;
+    const double dur = std::min(c.duration, in.recording.duration() - c.start);
+    ReplayWriter writer(tmp.string(), *in.world, meta, tick_count(*in.world, dur), false);
+    const ReplaySummary s = replay(*in.world, in.recording, opt, writer);
+    writer.commit(s);
+    m = compute_metrics(load_replay(tmp.string()));
+    std::filesystem::remove(tmp);
+  }
+  GateResult r;
+  r.measured = c;
+  r.measured.rms_force_step = m.whole.rms_force_step;
+  r.measured.max_force_rate = m.whole.max_force_rate;
+  r.measured.peak_force = m.whole.peak_force;
+  r.measured.power_above_30hz = m.whole.power_above_30hz;
+  r.measured.penetration_max = m.whole.penetration_max;
+  if (!m.finite) {
+    r.passed = false;
+    r.failures.push_back(c.name + ": non-finite values in the replay (" + std::to_string(m.nonfinite_count) +
+                         " samples)");
+  }
+  return r;
+}
+
+void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
+  const GateCase& m = r.measured;
+  auto fail = [&](const std::string& what) {
+    r.passed = false;
+    r.failures.push_back(b.name + ": " + what);
+  };
+  auto upper = [&](const char* name, double got, double base, double abs) {
+    if (!std::isfinite(got)) return fail(std::string(name) + " is not finite");
+    if (std::isnan(base)) return;  // no baseline for it yet
+    const double limit = base * (1 + bands.relative) + abs;
+    if (got > limit) fail(std::string(name) + " " + fmt(got) + " above the band (baseline " + fmt(base) + ", limit " + fmt(limit) + ")");
+  };
+  upper("rms_force_step [N]", m.rms_force_step, b.rms_force_step, bands.abs_force_step);
+  upper("max_force_rate [N/s]", m.max_force_rate, b.max_force_rate, bands.abs_force_rate);
+  upper("penetration_max [m]", m.penetration_max, b.penetration_max, bands.abs_penetration);
+  // Spectral fraction: NaN for windows too short to analyse; compare when both have one.
+  if (std::isfinite(b.power_above_30hz) && std::isfinite(m.power_above_30hz) &&
+      m.power_above_30hz > b.power_above_30hz + bands.abs_power)
+    fail("power_above_30hz " + fmt(m.power_above_30hz) + " above the band (baseline " + fmt(b.power_above_30hz) + ")");
+  if (!std::isfinite(m.peak_force)) {
+    fail("peak_force is not finite");
+  } else if (std::isfinite(b.peak_force) &&
+             std::fabs(m.peak_force - b.peak_force) > b.peak_force * bands.relative + bands.abs_peak_force) {
+    fail("peak_force [N] " + fmt(m.peak_force) + " outside the band around " + fmt(b.peak_force));
+  }
+}
+
+Json to_json(const GateResult& r) {
+  Json j = Json::object();
+  j.set("name", r.measured.name);
+  j.set("passed", r.passed);
+  j.set("rms_force_step", r.measured.rms_force_step);
+  j.set("max_force_rate", r.measured.max_force_rate);
+  j.set("peak_force", r.measured.peak_force);
+  j.set("power_above_30hz", r.measured.power_above_30hz);
+  j.set("penetration_max", r.measured.penetration_max);
+  j.set("failures", Json::array_of(r.failures));
+  return j;
+}
+
+}  // namespace ebh

@@ -1,0 +1,68 @@
+#pragma once
+// The force-smoothness regression gate (issue 7): short replays of the committed recordings on
+// the CPU, their force-quality metrics (lib/metrics) compared with committed baselines. A force
+// roughness beyond the stated band, or any non-finite value, fails.
+//
+// Baselines file (YAML, tests/gate/baselines.yaml), written by `ebh gate --update`:
+//   generated_by: "ebh gate --update (ebh 0.1.0, ...)"
+//   bands: {relative: 0.5, ...}                # see GateBands
+//   cases:
+//     - {name: tube_insert, scene: tube, recording: tube_insert, start: 2.8, duration: 2.0,
+//        rms_force_step: ..., max_force_rate: ..., peak_force: ..., power_above_30hz: ...,
+//        penetration_max: ...}
+#include <string>
+#include <vector>
+
+#include "io/json.hpp"
+#include "metrics/force_metrics.hpp"
+
+namespace ebh {
+
+/// The tolerated deviation from a baseline. A metric m with baseline b passes when
+///   m <= b * (1 + relative) + absolute   (roughness, rate, penetration: only increases fail)
+///   |m - b| <= b * relative + absolute   (peak force: a change either way is a behaviour change)
+/// Why these sizes: replays are bitwise reproducible for one binary, so the bands only absorb
+/// compiler and library differences between machines (floating-point contraction, libm), which
+/// move these metrics by well under 10%; a real regression (fewer iterations, a broken
+/// coupling) moves roughness by integer factors.
+struct GateBands {
+  double relative = 0.5;
+  double abs_force_step = 2e-3;    ///< N   (per-tick force change of a quiet contact)
+  double abs_force_rate = 5.0;     ///< N/s
+  double abs_peak_force = 0.1;     ///< N
+  double abs_power = 0.05;         ///< fraction of force power above 30 Hz
+  double abs_penetration = 2e-4;   ///< m
+};
+
+struct GateCase {
+  std::string name, scene, recording;
+  double start = 0, duration = 2.0;  ///< s: the window of the recording replayed
+  // Baseline metrics (NaN when not yet recorded).
+  double rms_force_step = 0, max_force_rate = 0, peak_force = 0, power_above_30hz = 0, penetration_max = 0;
+};
+
+struct GateBaselines {
+  std::string generated_by;
+  GateBands bands;
+  std::vector<GateCase> cases;
+};
+
+struct GateResult {
+  GateCase measured;   ///< the case with the metrics of this run
+  bool passed = true;
+  std::vector<std::string> failures;  ///< one line each
+};
+
+/// Reads a baselines file; throws InputError naming the file and key.
+GateBaselines read_gate_baselines(const std::string& path);
+/// Writes a baselines file atomically.
+void write_gate_baselines(const std::string& path, const GateBaselines& b);
+
+/// Replays one case (async mode, CPU, scene overrides applied) and computes its metrics.
+GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides);
+/// Compares a run with its baseline under the bands; fills passed/failures.
+void judge_gate_case(const GateCase& baseline, const GateBands& bands, GateResult& r);
+
+Json to_json(const GateResult& r);
+
+}  // namespace ebh

@@ -1,0 +1,70 @@
+// ebh gate: the force-smoothness regression gate (lib/gate/gate.hpp) for CI.
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+
+#include "command.hpp"
+#include "ebh/version.hpp"
+#include "gate/gate.hpp"
+#include "io/error.hpp"
+
+namespace ebh::cli {
+namespace {
+
+struct GateArgs {
+  std::string baselines = std::string(kSourceDir) + "/tests/gate/baselines.yaml";
+  std::vector<std::string> overrides, only;
+  bool update = false, json = false;
+};
+
+void run_gate(const GateArgs& a) {
+  GateBaselines b = read_gate_baselines(a.baselines);
+  Json report = Json::array();
+  bool all_passed = true;
+  for (GateCase& c : b.cases) {
+    if (!a.only.empty() && std::find(a.only.begin(), a.only.end(), c.name) == a.only.end()) continue;
+    GateResult r = run_gate_case(c, a.overrides);
+    if (a.update) {
+      c = r.measured;
+    } else {
+      judge_gate_case(c, b.bands, r);
+    }
+    all_passed = all_passed && r.passed;
+    if (a.json) {
+      report.push(to_json(r));
+    } else {
+      std::printf("%-24s %s  rms dF %.3e N  max dF/dt %8.2f N/s  peak %.3f N  >30 Hz %.3f  pen %.3f mm\n",
+                  c.name.c_str(), r.passed ? "ok  " : "FAIL", r.measured.rms_force_step, r.measured.max_force_rate,
+                  r.measured.peak_force, r.measured.power_above_30hz, 1e3 * r.measured.penetration_max);
+      for (const auto& f : r.failures) std::printf("    %s\n", f.c_str());
+    }
+  }
+  if (a.json) std::printf("%s\n", report.dump().c_str());
+  if (a.update) {
+    if (!all_passed) throw InputError("not updating " + a.baselines + ": a case produced non-finite values");
+    b.generated_by = std::string("ebh gate --update (ebh ") + kVersion + ")" +
+                     (a.overrides.empty() ? "" : " with overrides");
+    write_gate_baselines(a.baselines, b);
+    std::printf("wrote %s\n", a.baselines.c_str());
+    return;
+  }
+  if (!a.json) std::printf("%s\n", all_passed ? "gate: passed" : "gate: FAILED");
+  if (!all_passed) throw ExitRequest{1};
+}
+
+void setup(CLI::App& root) {
+  auto args = std::make_shared<GateArgs>();
+  CLI::App* c = root.add_subcommand("gate", "Force-smoothness regression gate: short replays vs committed baselines");
+  c->add_option("--baselines", args->baselines, "Baselines file (default: tests/gate/baselines.yaml)");
+  c->add_option("--set", args->overrides, "Scene override applied to every case (to test the gate itself)");
+  c->add_option("--case", args->only, "Run only these cases (repeatable)");
+  c->add_flag("--update", args->update, "Re-measure and rewrite the baselines");
+  c->add_flag("--json", args->json, "JSON report");
+  c->callback([args] { run_gate(*args); });
+}
+
+}  // namespace
+
+EBH_COMMAND(setup);
+
+}  // namespace ebh::cli

@@ -125,8 +125,8 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
         obs.on_step(world, physical, t_start);
         ++s.steps;
       }
-      // Pace: at most one physical step per h_p of wall time.
-      const double next = t_start + world.h_physical;
+      // Pace: at most one physical step per h_p of wall time (unless unpaced).
+      const double next = opt.pace_physical ? t_start + world.h_physical : t_start;
       while (!done.load() && now_s() < next) std::this_thread::sleep_for(std::chrono::microseconds(200));
     }
   });

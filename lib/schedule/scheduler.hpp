@@ -27,6 +27,9 @@ struct ReplayOptions {
   double start = 0;       ///< s into the recording where tick 0 is (a window of a long recording)
   double duration = 0;    ///< s of the recording to replay from `start`; <= 0: all the rest
   double frames_hz = 0;   ///< mesh snapshots per second; 0: none
+  /// realtime only: false lets the physical side step as fast as it can (the paper's "Sim FPS"
+  /// of Table 1) instead of once per h_p of wall time.
+  bool pace_physical = true;
 };
 
 /// What a replay reports as it goes (the HDF5 writer and the progress bar implement it).

@@ -5,9 +5,14 @@
 //   predict       per vertex: x_start = x, s = x + h v + h^2 g (pinned: s = x), x = x_prev = s
 //   K times:
 //     local       per tet: F, R = extract_rotation(F, R_last) (Mueller 2016, warm-started),
-//                 proj_t = w_t (R - F); per virtual vertex: k_svc (q_j - p_j)         Alg. 1 l. 6-8
-//     vertex      per vertex (8 threads): r = m/h^2 (s - x) + sum proj_t g_c + sum w f_j gathered
-//                 over the CSR incidence lists, then the Jacobi or Chebyshev update   Alg. 1 l. 9
+//                 the corner forces w_t (R - F) g_c written to their slots of the vertex -> (tet,
+//                 corner) CSR list; per virtual vertex: k_svc (q_j - p_j) w_jk written to the
+//                 slots of the coupling CSR list                                      Alg. 1 l. 6-8
+//     vertex      per vertex (8 threads): r = m/h^2 (s - x) + the sum of its CSR slots (contiguous,
+//                 fixed order), then the Jacobi or Chebyshev update                   Alg. 1 l. 9
+// Kernels are launched with programmatic dependent launch where the driver takes it in a graph
+// (each waits for its predecessor with cudaGridDependencySynchronize before touching memory, so
+// only the launch latency overlaps); otherwise as plain graph nodes.
 //   finish        v = (1 - damping)(x - x_start) / h                                 Alg. 1 l. 11
 //   reduce        ||r_0||^2 and ||r_{K-1}||^2 in a fixed order (one block)
 //   copy x out    device -> pinned host
@@ -17,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -46,11 +52,9 @@ struct PhysicalDevice {
   const float* pair_weight = nullptr;   // 4m
   const int* pair_count = nullptr;      // m
   const int* tet_offsets = nullptr;     // n+1 CSR vertex -> incidence entries
-  const int* entry_tet = nullptr;       // 4T tet of each entry (CSR order)
-  const Vec3f* entry_grad = nullptr;    // 4T g_c of each entry (CSR order)
+  const int* corner_slot = nullptr;     // 4T slot of (t, c) in the vertex CSR list
+  const int* cpl_slot = nullptr;        // 4m slot of (j, k) in the coupling CSR list
   const int* cpl_offsets = nullptr;     // n+1 CSR vertex -> coupling entries
-  const int* cpl_virtual = nullptr;     // virtual vertex of each coupling entry
-  const float* cpl_weight = nullptr;    // its weight
   const float* mass_h2 = nullptr;       // n  m_a / h^2
   const float* step_scale = nullptr;    // n  gamma / A(a, a)
   const std::uint8_t* pinned = nullptr; // n
@@ -61,14 +65,24 @@ struct PhysicalDevice {
   Vec3f* x_start = nullptr;             // n
   Vec3f* x_prev = nullptr;              // n  previous iterate (Chebyshev)
   Quatf* rotation = nullptr;            // T  warm start of the local step
-  Mat3f* proj = nullptr;                // T  w_t (R_t - F_t)
-  Vec3f* cpl_force = nullptr;           // m  k_svc (q_j - p_j)
+  Vec3f* corner_force = nullptr;        // 4T w_t (R_t - F_t) g_c, in CSR order: -dE_vol/dx_c
+  Vec3f* cpl_force = nullptr;           // #coupling entries, w_jk k_svc (q_j - p_j): -dE_svc/dx
   float* rsq_first = nullptr;           // n  |r_a|^2 at iteration 0
   float* rsq_last = nullptr;            // n  |r_a|^2 at iteration K-1
   double* residual_sq = nullptr;        // 2  sums of the two
 };
 
+/// Start of every kernel: wait until the preceding kernel's writes are visible (a no-op without
+/// programmatic dependent launch), then let the next kernel's launch begin.
+__device__ __forceinline__ void kernel_prologue() {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  cudaGridDependencySynchronize();
+  cudaTriggerProgrammaticLaunchCompletion();
+#endif
+}
+
 __global__ void predict_kernel(PhysicalDevice d) {
+  kernel_prologue();
   const int a = blockIdx.x * blockDim.x + threadIdx.x;
   if (a >= d.n) return;
   const Vec3f xa = d.x[a];
@@ -81,6 +95,7 @@ __global__ void predict_kernel(PhysicalDevice d) {
 
 /// Alg. 1 lines 6-8: threads [0, T) take a tet each, threads [T, T + m) a virtual vertex each.
 __global__ void local_kernel(PhysicalDevice d, int rotation_iterations) {
+  kernel_prologue();
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < d.T) {
     Vec3f x[4], g[4];
@@ -94,11 +109,14 @@ __global__ void local_kernel(PhysicalDevice d, int rotation_iterations) {
     const Mat3f F = deformation_gradient(x, g);
     const Quatf R = extract_rotation(F, d.rotation[i], rotation_iterations, 1e-9f);
     d.rotation[i] = R;
-    d.proj[i] = d.tet_weight[i] * (to_matrix(R) - F);
+    const Mat3f proj = d.tet_weight[i] * (to_matrix(R) - F);
+    for (int c = 0; c < 4; ++c) d.corner_force[d.corner_slot[4 * i + c]] = proj * g[c];  // -dE_vol/dx_c [7]
   } else if (i < d.T + d.m) {
     const int j = i - d.T;
-    const Vec3f p = paired_point(d.x, d.pair_vertex + 4 * j, d.pair_weight + 4 * j, d.pair_count[j]);
-    d.cpl_force[j] = coupling_gradient_virtual(p, d.q[j], d.k_svc);  // k_svc (q - p)
+    const int count = d.pair_count[j];
+    const Vec3f p = paired_point(d.x, d.pair_vertex + 4 * j, d.pair_weight + 4 * j, count);
+    const Vec3f f = coupling_gradient_virtual(p, d.q[j], d.k_svc);  // k_svc (q - p)
+    for (int k = 0; k < count; ++k) d.cpl_force[d.cpl_slot[4 * j + k]] = d.pair_weight[4 * j + k] * f;  // -dE_svc/dx [5]
   }
 }
 
@@ -115,15 +133,14 @@ __device__ __forceinline__ float lane_sum(float v) {
 /// rsq_a / rsq_b (or null): where to store |r_a|^2 for the residual report.
 template <bool kChebyshev>
 __global__ void vertex_kernel(PhysicalDevice d, float omega, float* rsq_a, float* rsq_b) {
+  kernel_prologue();
   const int gid = blockIdx.x * blockDim.x + threadIdx.x;
   const int a = gid / kLanes, lane = gid % kLanes;
   const bool valid = a < d.n;  // no early return: every lane takes part in the shuffles
   Vec3f r{};
   if (valid) {
-    for (int k = d.tet_offsets[a] + lane; k < d.tet_offsets[a + 1]; k += kLanes)
-      r += d.proj[d.entry_tet[k]] * d.entry_grad[k];                         // -dE_vol/dx [7]
-    for (int k = d.cpl_offsets[a] + lane; k < d.cpl_offsets[a + 1]; k += kLanes)
-      r += d.cpl_weight[k] * d.cpl_force[d.cpl_virtual[k]];                  // -dE_svc/dx [5]
+    for (int k = d.tet_offsets[a] + lane; k < d.tet_offsets[a + 1]; k += kLanes) r += d.corner_force[k];  // [7]
+    for (int k = d.cpl_offsets[a] + lane; k < d.cpl_offsets[a + 1]; k += kLanes) r += d.cpl_force[k];     // [5]
   }
   r = Vec3f{lane_sum(r.x), lane_sum(r.y), lane_sum(r.z)};
   if (!valid || lane != 0) return;
@@ -142,6 +159,7 @@ __global__ void vertex_kernel(PhysicalDevice d, float omega, float* rsq_a, float
 }
 
 __global__ void finish_kernel(PhysicalDevice d) {
+  kernel_prologue();
   const int a = blockIdx.x * blockDim.x + threadIdx.x;
   if (a >= d.n) return;
   d.v[a] = d.velocity_scale * (d.x[a] - d.x_start[a]);
@@ -149,6 +167,7 @@ __global__ void finish_kernel(PhysicalDevice d) {
 
 /// ||r_0||^2 and ||r_{K-1}||^2 in double, each thread a fixed strided slice, then a fixed tree.
 __global__ void residual_kernel(PhysicalDevice d) {
+  kernel_prologue();
   __shared__ double sum[2][kReduceThreads];
   const int t = threadIdx.x;
   double a = 0, b = 0;
@@ -164,6 +183,25 @@ __global__ void residual_kernel(PhysicalDevice d) {
 }
 
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
+
+/// Launches kernel<<<grid, block, 0, stream>>>(args...), with programmatic dependent launch when
+/// `programmatic` (the kernels' prologue makes that safe).
+template <class... Params, class... Args>
+void launch(bool programmatic, void (*kernel)(Params...), int grid, int block, cudaStream_t stream, const char* name,
+            Args... args) {
+  cudaLaunchConfig_t cfg{};
+  cfg.gridDim = dim3(grid);
+  cfg.blockDim = dim3(block);
+  cfg.dynamicSmemBytes = 0;
+  cfg.stream = stream;
+  cudaLaunchAttribute attr[1];
+  attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
+  attr[0].val.programmaticStreamSerializationAllowed = 1;
+  cfg.attrs = programmatic ? attr : nullptr;
+  cfg.numAttrs = programmatic ? 1 : 0;
+  EBH_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...));
+  EBH_CUDA_LAUNCH_CHECK(stream, name);
+}
 Quatf to_float(const Quatd& q) { return {float(q.w), float(q.x), float(q.y), float(q.z)}; }
 
 }  // namespace
@@ -173,14 +211,13 @@ struct CudaPhysicalSolver::Impl {
   int n = 0, T = 0, m = 0;
   cuda::Stream stream;
   // Model.
-  cuda::DeviceArray<int> tets, pair_vertex, pair_count, tet_offsets, entry_tet, cpl_offsets, cpl_virtual;
-  cuda::DeviceArray<Vec3f> shape_grad, entry_grad;
-  cuda::DeviceArray<float> tet_weight, pair_weight, cpl_weight, mass_h2, step_scale;
+  cuda::DeviceArray<int> tets, pair_vertex, pair_count, tet_offsets, corner_slot, cpl_offsets, cpl_slot;
+  cuda::DeviceArray<Vec3f> shape_grad;
+  cuda::DeviceArray<float> tet_weight, pair_weight, mass_h2, step_scale;
   cuda::DeviceArray<std::uint8_t> pinned;
   // State and scratch.
-  cuda::DeviceArray<Vec3f> q, x, v, s, x_start, x_prev, cpl_force;
+  cuda::DeviceArray<Vec3f> q, x, v, s, x_start, x_prev, corner_force, cpl_force;
   cuda::DeviceArray<Quatf> rotation;
-  cuda::DeviceArray<Mat3f> proj;
   cuda::DeviceArray<float> rsq_first, rsq_last;
   cuda::DeviceArray<double> residual_sq;
   // Host side of the per-step copies.
@@ -203,8 +240,10 @@ struct CudaPhysicalSolver::Impl {
     if (stop) cudaEventDestroy(stop);
   }
 
+  bool programmatic = false;  // the graph uses programmatic dependent launch
+
   void upload_model(const PhysicalModel& M);
-  void capture();
+  void capture(bool with_programmatic_launch);
 };
 
 void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
@@ -238,19 +277,23 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   up(pair_weight, pw);
   up(pair_count, M.pair_count);
 
-  std::vector<int> et(M.tet_entries.size());
-  std::vector<Vec3f> eg(M.tet_entries.size());
-  for (size_t k = 0; k < M.tet_entries.size(); ++k) {
-    et[k] = M.tet_entries[k] >> 2;
-    eg[k] = to_float(M.shape_grad[M.tet_entries[k]]);
-  }
+  // Slots: where the local step writes each corner force and coupling force, so that the vertex
+  // kernel reads its CSR range contiguously, in the CPU reference's order.
+  std::vector<int> cs(M.tet_entries.size());
+  for (size_t k = 0; k < M.tet_entries.size(); ++k) cs[M.tet_entries[k]] = static_cast<int>(k);
   up(tet_offsets, M.tet_offsets);
-  up(entry_tet, et);
-  up(entry_grad, eg);
+  up(corner_slot, cs);
+  std::vector<int> ps(4 * size_t(m), -1);
+  for (int a = 0; a < n; ++a)
+    for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) {
+      const int j = M.cpl_virtual[k];
+      int i = 0;
+      while (i < M.pair_count[j] && (M.pair_vertex[j][i] != a || ps[4 * j + i] >= 0)) ++i;
+      if (i == M.pair_count[j]) throw std::logic_error("CudaPhysicalSolver: coupling list does not match the pairing");
+      ps[4 * j + i] = k;
+    }
   up(cpl_offsets, M.cpl_offsets);
-  up(cpl_virtual, M.cpl_virtual);
-  std::vector<float> cw(M.cpl_weight.begin(), M.cpl_weight.end());
-  up(cpl_weight, cw);
+  up(cpl_slot, ps);
 
   // Per-vertex constants in double, rounded once: m/h^2 and gamma / A(a, a).
   std::vector<float> mh(n), sc(n);
@@ -265,9 +308,9 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
 
   for (auto* arr : {&x, &v, &s, &x_start, &x_prev}) arr->allocate(n);
   q.allocate(m);
-  cpl_force.allocate(m);
+  cpl_force.allocate(M.cpl_virtual.size());
+  corner_force.allocate(4 * size_t(T));
   rotation.allocate(T);
-  proj.allocate(T);
   rsq_first.allocate(n);
   rsq_last.allocate(n);
   residual_sq.allocate(2);
@@ -289,11 +332,9 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   dev.pair_weight = pair_weight.get();
   dev.pair_count = pair_count.get();
   dev.tet_offsets = tet_offsets.get();
-  dev.entry_tet = entry_tet.get();
-  dev.entry_grad = entry_grad.get();
+  dev.corner_slot = corner_slot.get();
   dev.cpl_offsets = cpl_offsets.get();
-  dev.cpl_virtual = cpl_virtual.get();
-  dev.cpl_weight = cpl_weight.get();
+  dev.cpl_slot = cpl_slot.get();
   dev.mass_h2 = mass_h2.get();
   dev.step_scale = step_scale.get();
   dev.pinned = pinned.get();
@@ -304,55 +345,57 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   dev.x_start = x_start.get();
   dev.x_prev = x_prev.get();
   dev.rotation = rotation.get();
-  dev.proj = proj.get();
+  dev.corner_force = corner_force.get();
   dev.cpl_force = cpl_force.get();
   dev.rsq_first = rsq_first.get();
   dev.rsq_last = rsq_last.get();
   dev.residual_sq = residual_sq.get();
 }
 
-void CudaPhysicalSolver::Impl::capture() {
+void CudaPhysicalSolver::Impl::capture(bool pdl) {
   cudaStream_t st = stream.get();
   const int K = params.iterations;
   EBH_CUDA_CHECK(cudaStreamBeginCapture(st, cudaStreamCaptureModeThreadLocal));
-  if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
-  if (n > 0) {
-    predict_kernel<<<cuda::blocks_for(n, kBlock), kBlock, 0, st>>>(dev);
-    EBH_CUDA_LAUNCH_CHECK(st, "predict_kernel");
-  }
-  // The Chebyshev weights of the CPU reference, in double, one per iteration (Wang 2015).
-  const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
-  double omega = 1;
-  const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
-  for (int k = 0; k < K; ++k) {
-    if (T + m > 0) {
-      local_kernel<<<cuda::blocks_for(T + m, kBlock), kBlock, 0, st>>>(dev, params.rotation_iterations);
-      EBH_CUDA_LAUNCH_CHECK(st, "local_kernel");
+  try {
+    if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
+    // The first kernel after a copy node takes no programmatic edge.
+    if (n > 0) launch(false, predict_kernel, cuda::blocks_for(n, kBlock), kBlock, st, "predict_kernel", dev);
+    // The Chebyshev weights of the CPU reference, in double, one per iteration (Wang 2015).
+    const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
+    double omega = 1;
+    const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
+    for (int k = 0; k < K; ++k) {
+      if (T + m > 0)
+        launch(pdl && n > 0, local_kernel, cuda::blocks_for(T + m, kBlock), kBlock, st, "local_kernel", dev,
+               params.rotation_iterations);
+      const int j = k - params.chebyshev_delay;
+      omega = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega));
+      float* ra = k == 0 ? dev.rsq_first : nullptr;
+      float* rb = k == K - 1 ? dev.rsq_last : nullptr;
+      if (n > 0) {
+        const int grid = cuda::blocks_for(static_cast<long long>(n) * kLanes, kBlock);
+        if (chebyshev) launch(pdl, vertex_kernel<true>, grid, kBlock, st, "vertex_kernel", dev, float(omega), ra, rb);
+        else launch(pdl, vertex_kernel<false>, grid, kBlock, st, "vertex_kernel", dev, 1.0f, ra, rb);
+      }
     }
-    const int j = k - params.chebyshev_delay;
-    omega = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega));
-    float* ra = k == 0 ? dev.rsq_first : nullptr;
-    float* rb = k == K - 1 ? dev.rsq_last : nullptr;
     if (n > 0) {
-      const int grid = cuda::blocks_for(static_cast<long long>(n) * kLanes, kBlock);
-      if (chebyshev) vertex_kernel<true><<<grid, kBlock, 0, st>>>(dev, float(omega), ra, rb);
-      else vertex_kernel<false><<<grid, kBlock, 0, st>>>(dev, 1.0f, ra, rb);
-      EBH_CUDA_LAUNCH_CHECK(st, "vertex_kernel");
+      launch(pdl, finish_kernel, cuda::blocks_for(n, kBlock), kBlock, st, "finish_kernel", dev);
+      if (K > 0) {
+        launch(pdl, residual_kernel, 1, kReduceThreads, st, "residual_kernel", dev);
+        EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double),
+                                       cudaMemcpyDeviceToHost, st));
+      }
+      EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
     }
-  }
-  if (n > 0) {
-    finish_kernel<<<cuda::blocks_for(n, kBlock), kBlock, 0, st>>>(dev);
-    EBH_CUDA_LAUNCH_CHECK(st, "finish_kernel");
-    if (K > 0) {
-      residual_kernel<<<1, kReduceThreads, 0, st>>>(dev);
-      EBH_CUDA_LAUNCH_CHECK(st, "residual_kernel");
-      EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double),
-                                     cudaMemcpyDeviceToHost, st));
-    }
-    EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
+  } catch (...) {
+    cudaGraph_t broken = nullptr;
+    cudaStreamEndCapture(st, &broken);  // leave capture mode whatever failed
+    if (broken) cudaGraphDestroy(broken);
+    throw;
   }
   EBH_CUDA_CHECK(cudaStreamEndCapture(st, &graph));
   EBH_CUDA_CHECK(cudaGraphInstantiate(&exec, graph, 0));
+  programmatic = pdl;
 }
 
 CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const PhysicalStepParams& params)
@@ -363,7 +406,21 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
   impl_->params = params;
   impl_->upload_model(model);
   upload_state(make_physical_state(model));
-  impl_->capture();
+  // Programmatic dependent launch in the graph where the driver takes it (EBH_CUDA_PDL=0 turns it
+  // off, for comparison); plain kernel nodes otherwise.
+  const char* env = std::getenv("EBH_CUDA_PDL");
+  const bool want_pdl = !(env && std::string(env) == "0");
+  if (want_pdl) {
+    try {
+      impl_->capture(true);
+      return;
+    } catch (const std::runtime_error&) {
+      cudaGetLastError();  // clear the failed launch's error and fall back
+      if (impl_->exec) { cudaGraphExecDestroy(impl_->exec); impl_->exec = nullptr; }
+      if (impl_->graph) { cudaGraphDestroy(impl_->graph); impl_->graph = nullptr; }
+    }
+  }
+  impl_->capture(false);
 }
 
 CudaPhysicalSolver::~CudaPhysicalSolver() = default;
@@ -371,6 +428,8 @@ CudaPhysicalSolver::~CudaPhysicalSolver() = default;
 const PhysicalStepParams& CudaPhysicalSolver::params() const { return impl_->params; }
 
 double CudaPhysicalSolver::last_device_seconds() const { return impl_->device_s; }
+
+bool CudaPhysicalSolver::programmatic_launch() const { return impl_->programmatic; }
 
 void CudaPhysicalSolver::upload_state(const PhysicalState& state) {
   Impl& I = *impl_;

@@ -44,6 +44,8 @@ class CudaPhysicalSolver {
   /// Device time of the last step's graph (copies of q and x included), seconds, from CUDA events:
   /// time_s minus this is the host's share (conversions, launch, synchronisation).
   double last_device_seconds() const;
+  /// Whether the step graph chains its kernels by programmatic dependent launch (docs/CUDA.md).
+  bool programmatic_launch() const;
 
  private:
   struct Impl;

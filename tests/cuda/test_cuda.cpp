@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -77,7 +78,7 @@ struct Models {
 
 /// A scene's models and a deformed moving state: a downward velocity bump on the upper half and
 /// three CPU steps (as benchmarks/bench_physical_step.cpp).
-const Models& models(const std::string& name) {
+const Models& models(const char* name) {
   static std::map<std::string, std::unique_ptr<Models>> cache;
   auto& slot = cache[name];
   if (slot) return *slot;
@@ -109,7 +110,7 @@ std::vector<Vec3d> displaced_virtual(const VirtualModel& vm, unsigned seed) {
 }
 
 void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method) {
-  const Models& M = models(scene);
+  const Models& M = models(scene.c_str());
   PhysicalStepParams params;
   params.method = method;
   params.iterations = 16;
@@ -178,7 +179,11 @@ TEST(CudaPhysical, RunsAreBitwiseIdentical) {
   const std::vector<Vec3d> q = displaced_virtual(M.vm, 11);
   PhysicalState out[2];
   for (int run = 0; run < 2; ++run) {
+    // The second run without programmatic dependent launch: the launch mode must not change a bit.
+    if (run == 1) setenv("EBH_CUDA_PDL", "0", 1);
     CudaPhysicalSolver solver(M.pm, PhysicalStepParams{});
+    unsetenv("EBH_CUDA_PDL");
+    std::printf("[ run %d ] programmatic dependent launch: %s\n", run, solver.programmatic_launch() ? "yes" : "no");
     solver.upload_state(M.start);
     PhysicalState s = M.start;
     for (int k = 0; k < 5; ++k) solver.step(s, q);

@@ -38,7 +38,7 @@
 //     force_limit: 3.3              # N (Geomagic Touch)
 //     newton_iterations: 2          # Newton steps on E_tool per virtual-mesh iteration
 //     max_step: 0.5                 # translation limit of one Newton step (length unit)
-//     max_step_rotation_deg: 2      # rotation limit of one Newton step
+//     max_step_rotation_deg: 0.5    # rotation limit of one Newton step
 //   time: {haptic_hz: 1000, physical_hz: 100}
 //   solver:
 //     method: chebyshev             # jacobi | chebyshev | direct
@@ -98,7 +98,7 @@ struct ToolSpec {
   double force_limit = 3.3;             ///< N
   int newton_iterations = 2;
   double max_step = 0.0005;             ///< m per Newton step
-  double max_step_rotation_deg = 2.0;   ///< per Newton step
+  double max_step_rotation_deg = 0.5;   ///< per Newton step (its lever is the whole shaft: keep it small)
 };
 
 struct Camera {

@@ -1,6 +1,7 @@
 #include "schedule/simulation.hpp"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -75,7 +76,9 @@ void emit_output(const World& world, HapticSide& h) {
     moved = std::max(moved, squared_norm(h.mesh.q[i] - h.workspace.q_start[i]));
   h.grid.note_motion(std::sqrt(moved));
   h.output = tool_output(world.tool, world.scene.spec.stiffness, pose_of(h.device), h.tool);
-  h.penetration = penetration_depth(world.tool, h.tool.pose, h.device.jaw, h.mesh.q, h.grid, h.tool.grasp.held);
+  // The virtual tool's contacts at its final pose are at hand from its last Newton step.
+  h.penetration = 0;
+  for (const ContactPoint& c : h.tool.contacts) h.penetration = std::max(h.penetration, c.depth);
   h.penetration_physical =
       penetration_depth(world.tool, pose_of(h.device), h.device.jaw, h.mesh.q, h.grid, h.tool.grasp.held);
 }

@@ -53,21 +53,34 @@ void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGr
       const Collider<double>& shape = tool.shape[c];
       const Rigid<double>& w = tool.world[c];
       const double extra = (T + th * (tool.reach[c] + T)) / (1.0 - th);
-      const Vec3d mid = apply(w, centre(shape));
-      const double rb = bounding_radius(shape);
-      const Vec3d ext{rb, rb, rb};
-      grid.query(
-          mid - ext, mid + ext, extra, q,
-          [&](Vec3d cc, double s_with_extra) {
-            const double s = s_with_extra - extra;  // half diagonal + margin
-            const double bound = (s + T + th * (norm(cc - tool.origin) + T)) / (1.0 - th);
-            return query_local(shape, apply_inverse(w, cc)).sd <= bound;
-          },
-          [&](int i) {
-            if (stamps[i] == stamp) return;
-            stamps[i] = stamp;
-            out.push_back(i);
-          });
+      auto keep = [&](Vec3d cc, double s_with_extra) {
+        const double s = s_with_extra - extra;  // half diagonal + margin
+        const double bound = (s + T + th * (norm(cc - tool.origin) + T)) / (1.0 - th);
+        return query_local(shape, apply_inverse(w, cc)).sd <= bound;
+      };
+      auto visit = [&](int i) {
+        if (stamps[i] == stamp) return;
+        stamps[i] = stamp;
+        out.push_back(i);
+      };
+      // Query boxes that hug the collider: a long shaft (hundreds of mm) is cut into pieces a few
+      // cells long, so the cost follows the cells near the collider, not its bounding cube.
+      if (shape.shape == Shape::Capsule || shape.shape == Shape::Cylinder) {
+        const Vec3d A = apply(w, shape.a), B = apply(w, shape.b);
+        const double piece = 4.0 * grid.cell_size();
+        const int pieces = std::max(1, static_cast<int>(std::ceil(norm(B - A) / piece)));
+        const Vec3d r{shape.radius, shape.radius, shape.radius};
+        for (int k = 0; k < pieces; ++k) {
+          const Vec3d p0 = A + (static_cast<double>(k) / pieces) * (B - A);
+          const Vec3d p1 = A + (static_cast<double>(k + 1) / pieces) * (B - A);
+          grid.query(cwise_min(p0, p1) - r, cwise_max(p0, p1) + r, extra, q, keep, visit);
+        }
+      } else {
+        const Vec3d mid = apply(w, centre(shape));
+        const double rb = bounding_radius(shape);
+        const Vec3d ext{rb, rb, rb};
+        grid.query(mid - ext, mid + ext, extra, q, keep, visit);
+      }
     }
     if (!grid.violated()) return;
     out.resize(start);  // fallback: the invariant broke, rebuild from the current positions

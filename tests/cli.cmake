@@ -126,3 +126,44 @@ add_test(NAME cli.render.no_frames
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/no_frames.h5;--xdmf-only"
     "-DEXPECT=^ebh: error: .*no_frames.h5: /frames: no mesh snapshots in this file" -P ${EBH_EXPECT_ERROR})
 set_tests_properties(cli.render.no_frames PROPERTIES FIXTURES_REQUIRED render_no_frames LABELS "cli;render")
+
+# ebh replay (lib/schedule): a short replay writes its output; every bad input is one line on
+# stderr, a non-zero exit and no output file (tests/io/expect_failure.cmake checks all three).
+set(EBH_REPLAY_OUT ${PROJECT_BINARY_DIR}/cli_replay)
+file(MAKE_DIRECTORY ${EBH_REPLAY_OUT})
+add_test(NAME cli.replay.tube_short
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/tube.h5 --start 2.0 --duration 0.1 -q)
+add_test(NAME cli.replay.summary
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/tube_summary.h5 --duration 0.05 --mode lockstep)
+set_tests_properties(cli.replay.summary PROPERTIES
+  PASS_REGULAR_EXPRESSION "lockstep mode, 51 ticks, 6 physical steps.*real time.*peak force")
+function(ebh_replay_failure name expect)
+  add_test(NAME cli.replay.${name}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;${ARGN};-o;${EBH_REPLAY_OUT}/${name}.h5;-q"
+      "-DEXPECT=${expect}" -DOUTPUT=${EBH_REPLAY_OUT}/${name}.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/io/expect_failure.cmake)
+endfunction()
+ebh_replay_failure(missing_recording "no such recording" tube no_such_recording)
+ebh_replay_failure(missing_scene "no_such_scene" no_such_scene tube_insert)
+ebh_replay_failure(not_hdf5 "tube.yaml" tube ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml)
+ebh_replay_failure(unknown_override_key "stiffness.k_bogus" tube tube_insert --set stiffness.k_bogus=1)
+ebh_replay_failure(bad_override_value "stiffness.k_con" tube tube_insert --set stiffness.k_con=-5)
+ebh_replay_failure(bad_mode "--mode: expected async, lockstep or realtime" tube tube_insert --mode fast)
+ebh_replay_failure(bad_rates "whole number of ticks" tube tube_insert --haptic-hz 1000 --physical-hz 300)
+ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
+ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
+# A recording in mm imported as metres lands a thousand scene sizes away: a unit mistake.
+add_test(NAME cli.replay.make_unit_mistake
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_REPLAY_OUT}/unit_mistake_rec.h5 --scene tube --unit m)
+set_tests_properties(cli.replay.make_unit_mistake PROPERTIES FIXTURES_SETUP unit_mistake)
+ebh_replay_failure(unit_mistake "unit mistake" tube ${EBH_REPLAY_OUT}/unit_mistake_rec.h5)
+set_tests_properties(cli.replay.unit_mistake PROPERTIES FIXTURES_REQUIRED unit_mistake)
+set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_mistake cli.replay.missing_recording
+  cli.replay.missing_scene cli.replay.not_hdf5 cli.replay.unknown_override_key cli.replay.bad_override_value
+  cli.replay.bad_mode cli.replay.bad_rates cli.replay.bad_start cli.replay.bad_backend cli.replay.unit_mistake
+  PROPERTY LABELS cli)
+
+# ebh validate (lib/validate) and ebh table1.
+add_test(NAME cli.validate.list COMMAND ${EBH_BIN} validate --list)
+set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*convergence.*hertz" LABELS cli)
+add_test(NAME cli.validate.column_json COMMAND ${EBH_BIN} validate column --json)
+set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION "\"passed\": true" LABELS cli)

@@ -18,7 +18,7 @@ constexpr int kEdgeLanes = 8;  ///< edges per block
 /// structure-of-arrays buffers: scalar gathers in, branch-free loops over the lanes that the
 /// compiler vectorises (the energy functions inlined per lane), scalar scatters out.
 template <bool Full>
-void tet_block(const TetKernelData& tets, const Vec3d* __restrict x, Quatd* __restrict rotation,
+void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Quatd* __restrict rotation,
                Vec3d* __restrict force, int t0, int count, int rotation_iterations, double tol) {
   constexpr int W = kTetLanes;
   const int L = Full ? W : count;
@@ -81,36 +81,63 @@ void tet_block(const TetKernelData& tets, const Vec3d* __restrict x, Quatd* __re
   }
 }
 
-/// E_s [4] gradients of the edges [e0, e0 + count), count <= kEdgeLanes (Full: equal):
-/// g = dE_s/dq_a = k_s (d - R e0); the end a receives -g, the end b +g, in their gather slots.
-/// Scalar gathers into small structure-of-arrays buffers, a branch-free loop over the lanes that
-/// the compiler vectorises, scalar scatters out.
+/// tet_block for one rotation update per local step (the default): one fused loop over the lanes,
+/// positions gathered straight from x, no intermediate buffers but the forces' (same operations,
+/// same order as tet_block_general).
 template <bool Full>
-void edge_block(const EdgeKernelData& data, const Vec3d* __restrict q, Vec3d* __restrict force, int e0, int count) {
-  constexpr int W = kEdgeLanes;
+void tet_block_single_update(const TetKernelData& tets, const double* __restrict x, Quatd* __restrict rotation,
+                             Vec3d* __restrict force, int t0, int count, double tol) {
+  constexpr int W = kTetLanes;
   const int L = Full ? W : count;
-  const std::array<int, 2>* __restrict edges = data.edges + e0;
-  const Vec3d* __restrict rest_edge = data.rest_edge + e0;
-  const double* __restrict rest_len = data.rest_len + e0;
-  double qa[3][W], qb[3][W], e[3][W], f[3][W];
-  for (int l = 0; l < L; ++l) {
-    const Vec3d& a = q[edges[l][0]];
-    const Vec3d& b = q[edges[l][1]];
-    qa[0][l] = a.x; qa[1][l] = a.y; qa[2][l] = a.z;
-    qb[0][l] = b.x; qb[1][l] = b.y; qb[2][l] = b.z;
-    e[0][l] = rest_edge[l].x; e[1][l] = rest_edge[l].y; e[2][l] = rest_edge[l].z;
-  }
+  const int T = tets.num_tets;
+  const int* __restrict corner = tets.corner + t0;      // corner[c T + l]
+  const double* __restrict g = tets.shape_grad + t0;    // g[(3 c + i) T + l]
+  const double* __restrict w = tets.weight + t0;
+  double* __restrict qd = &rotation[t0].w;              // 4 per tet
+  double f[12][W];
 #pragma GCC ivdep
   for (int l = 0; l < L; ++l) {
-    const Vec3d g = edge_spring_gradient(Vec3d{qa[0][l], qa[1][l], qa[2][l]}, Vec3d{qb[0][l], qb[1][l], qb[2][l]},
-                                         Vec3d{e[0][l], e[1][l], e[2][l]}, rest_len[l], data.k_s);
-    f[0][l] = g.x; f[1][l] = g.y; f[2][l] = g.z;
+    Vec3d xc[4], gc[4];
+    for (int c = 0; c < 4; ++c) {
+      const int v = 3 * corner[c * T + l];
+      xc[c] = Vec3d{x[v], x[v + 1], x[v + 2]};
+      gc[c] = Vec3d{g[(3 * c) * T + l], g[(3 * c + 1) * T + l], g[(3 * c + 2) * T + l]};
+    }
+    const Mat3d F = deformation_gradient(xc, gc);
+    const Quatd q0{qd[4 * l], qd[4 * l + 1], qd[4 * l + 2], qd[4 * l + 3]};
+    double omega_norm;
+    const Quatd next = mueller_update(F, q0, omega_norm);
+    const bool go = !(omega_norm < tol);  // extract_rotation's stop test
+    const Quatd q{go ? next.w : q0.w, go ? next.x : q0.x, go ? next.y : q0.y, go ? next.z : q0.z};
+    qd[4 * l] = q.w; qd[4 * l + 1] = q.x; qd[4 * l + 2] = q.y; qd[4 * l + 3] = q.z;
+    const Mat3d P = w[l] * (rotation_matrix(q) - F);  // w_t (R_t - F_t)
+    for (int c = 0; c < 4; ++c) {
+      const Vec3d fc = P * gc[c];
+      f[3 * c][l] = fc.x; f[3 * c + 1][l] = fc.y; f[3 * c + 2][l] = fc.z;
+    }
   }
-  const int* __restrict slot = data.slot + 2 * e0;
+  const int* __restrict slot = tets.slot + t0;
+  for (int l = 0; l < L; ++l)  // scatter
+    for (int c = 0; c < 4; ++c) force[slot[c * T + l]] = Vec3d{f[3 * c][l], f[3 * c + 1][l], f[3 * c + 2][l]};
+}
+
+/// E_s [4] gradients g = dE_s/dq_a = k_s (d - R e0) of the edges [e0, e0 + count),
+/// count <= kEdgeLanes (Full: equal), into g_out[e]. One branch-free loop over the lanes with
+/// the positions gathered straight from q (SIMD gathers under EBH_NATIVE).
+template <bool Full>
+void edge_block(const EdgeKernelData& data, const double* __restrict q, Vec3d* __restrict g_out, int e0, int count) {
+  constexpr int W = kEdgeLanes;
+  const int L = Full ? W : count;
+  const int* __restrict ab = data.edges[0].data() + 2 * e0;  // (a, b) pairs
+  const double* __restrict e = &data.rest_edge[e0].x;         // 3 per edge
+  const double* __restrict rest_len = data.rest_len + e0;
+  double* __restrict out = &g_out[e0].x;
+#pragma GCC ivdep
   for (int l = 0; l < L; ++l) {
-    const Vec3d g{f[0][l], f[1][l], f[2][l]};
-    force[slot[2 * l]] = -g;
-    force[slot[2 * l + 1]] = g;
+    const int a = 3 * ab[2 * l], b = 3 * ab[2 * l + 1];
+    const Vec3d g = edge_spring_gradient(Vec3d{q[a], q[a + 1], q[a + 2]}, Vec3d{q[b], q[b + 1], q[b + 2]},
+                                         Vec3d{e[3 * l], e[3 * l + 1], e[3 * l + 2]}, rest_len[l], data.k_s);
+    out[3 * l] = g.x; out[3 * l + 1] = g.y; out[3 * l + 2] = g.z;
   }
 }
 
@@ -123,23 +150,28 @@ void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation,
   const int blocks = (T + W - 1) / W;
 #pragma omp for schedule(static) nowait
   for (int b = 0; b < blocks; ++b) {
-    if (W * (b + 1) <= T)
-      tet_block<true>(tets, x, rotation, force, W * b, W, rotation_iterations, tol);
-    else
-      tet_block<false>(tets, x, rotation, force, W * b, T - W * b, rotation_iterations, tol);
+    const bool full = W * (b + 1) <= T;
+    const int count = full ? W : T - W * b;
+    if (rotation_iterations == 1) {
+      if (full) tet_block_single_update<true>(tets, &x[0].x, rotation, force, W * b, W, tol);
+      else tet_block_single_update<false>(tets, &x[0].x, rotation, force, W * b, count, tol);
+    } else {
+      if (full) tet_block_general<true>(tets, x, rotation, force, W * b, W, rotation_iterations, tol);
+      else tet_block_general<false>(tets, x, rotation, force, W * b, count, rotation_iterations, tol);
+    }
   }
 }
 
-void edge_spring_forces(const EdgeKernelData& edges, const Vec3d* q, Vec3d* force) {
+void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g) {
   constexpr int W = kEdgeLanes;
   const int E = edges.num_edges;
   const int blocks = (E + W - 1) / W;
 #pragma omp for schedule(static)
   for (int b = 0; b < blocks; ++b) {
     if (W * (b + 1) <= E)
-      edge_block<true>(edges, q, force, W * b, W);
+      edge_block<true>(edges, &q[0].x, g, W * b, W);
     else
-      edge_block<false>(edges, q, force, W * b, E - W * b);
+      edge_block<false>(edges, &q[0].x, g, W * b, E - W * b);
   }
 }
 

@@ -5,10 +5,10 @@
 // ABI between the solver and its callers. The arguments are plain arrays (as for a CUDA kernel).
 //
 // Both functions are OpenMP work-sharing loops (`omp for`) over fixed blocks of lanes: call them
-// from inside a parallel region (or outside one: they then run serially). A block's lanes are
-// gathered into small structure-of-arrays buffers, run through the energy functions of lib/energy
-// in branch-free loops the compiler vectorises, and scattered to fixed slots. A tet or edge
-// takes the same code path whatever the thread count, so results are bitwise reproducible.
+// from inside a parallel region (or outside one: they then run serially). A block's lanes run
+// through the energy functions of lib/energy in branch-free loops the compiler vectorises (tets:
+// through small structure-of-arrays buffers). A tet or edge takes the same code path whatever
+// the thread count, so results are bitwise reproducible.
 #include <array>
 
 #include "math/vec.hpp"
@@ -37,12 +37,11 @@ struct EdgeKernelData {
   const std::array<int, 2>* edges = nullptr;  ///< #E (a, b)
   const Vec3d* rest_edge = nullptr;        ///< #E q_a^0 - q_b^0
   const double* rest_len = nullptr;        ///< #E |q_a^0 - q_b^0|
-  const int* slot = nullptr;               ///< #2E output slot of end `end` of edge e at [2 e + end]
   double k_s = 0;                          ///< N/m
 };
 
-/// E_s [4] per edge: g = dE_s/dq_a = k_s (d - R e0), force[slot(e, 0)] = -g (= -dE_s/dq_a) and
-/// force[slot(e, 1)] = g. `omp for` (ends with a barrier). q: #m positions; force: #2E.
-void edge_spring_forces(const EdgeKernelData& edges, const Vec3d* q, Vec3d* force);
+/// E_s [4] per edge: g[e] = dE_s/dq_a = k_s (d - R e0), d = q_a - q_b (dE_s/dq_b = -g[e]).
+/// `omp for` (ends with a barrier). q: #m positions; g: #E.
+void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g);
 
 }  // namespace ebh

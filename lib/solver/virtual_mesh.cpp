@@ -151,8 +151,6 @@ VirtualModel build_virtual_model(const Scene& scene) {
   const int E = static_cast<int>(M.edges.size());
   build_csr(m, 2 * E, [&](int i, auto add) { add(M.edges[i >> 1][i & 1]); }, M.edge_offsets, M.edge_entries);
   for (const Vec3d& e0 : M.rest_edge) M.rest_len.push_back(norm(e0));
-  M.edge_slot.resize(2 * size_t(E));
-  for (int k = 0; k < 2 * E; ++k) M.edge_slot[M.edge_entries[k]] = k;
   build_csr(m, static_cast<int>(M.triangles.size()), [&](int f, auto add) { for (int v : M.triangles[f]) add(v); },
             M.tri_offsets, M.tri_entries);
 
@@ -231,7 +229,7 @@ VirtualWorkspace make_virtual_workspace(const VirtualModel& model) {
   ws.q_next.assign(m, Vec3d{});
   ws.contact_kt.assign(m, Vec3d{});
   ws.contact_k.assign(m, 0.0);
-  ws.edge_force.assign(2 * model.edges.size(), Vec3d{});
+  ws.edge_grad.assign(model.edges.size(), Vec3d{});
   return ws;
 }
 
@@ -261,8 +259,8 @@ namespace {
 /// The local step of E_s for every edge (work-shared; ends with a barrier).
 void edge_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* q) {
   const EdgeKernelData edges{static_cast<int>(model.edges.size()), model.edges.data(), model.rest_edge.data(),
-                             model.rest_len.data(), model.edge_slot.data(), model.k_s};
-  edge_spring_forces(edges, q, ws.edge_force.data());  // omp for
+                             model.rest_len.data(), model.k_s};
+  edge_spring_gradients(edges, q, ws.edge_grad.data());  // omp for
 }
 
 /// The gather and Jacobi global step per vertex (work-shared; ends with a barrier):
@@ -270,7 +268,8 @@ void edge_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* q) 
 void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* __restrict q, Vec3d* __restrict q_next) {
   const int m = model.num_vertices;
   const double inv_h2 = 1.0 / (ws.h * ws.h);
-  const Vec3d* __restrict edge_force = ws.edge_force.data();
+  const Vec3d* __restrict edge_grad = ws.edge_grad.data();
+  const int* __restrict entries = model.edge_entries.data();
 #pragma omp for schedule(static)
   for (int j = 0; j < m; ++j) {
     if (model.pinned[j]) { q_next[j] = q[j]; continue; }
@@ -278,7 +277,10 @@ void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* _
     Vec3d r = mh * (ws.s[j] - q[j])                                          // -dE_k/dq   [6]
               - coupling_gradient_virtual(ws.p[j], q[j], model.k_svc)        // -dE_svc/dq [5]
               + ws.contact_kt[j] - ws.contact_k[j] * q[j];                   // -dE_con/dq [3]
-    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) r += edge_force[k];  // -dE_s/dq [4]
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {  // -dE_s/dq [4]
+      const Vec3d g = edge_grad[entries[k] >> 1];
+      r += (entries[k] & 1) ? g : -g;  // end b: -dE_s/dq_b = g; end a: -g
+    }
     q_next[j] = q[j] + r / (mh + model.stiff_diag[j] + ws.contact_k[j]);
   }
 }

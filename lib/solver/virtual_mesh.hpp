@@ -14,7 +14,7 @@
 //
 // Every per-vertex loop gathers (CSR incidence lists) so the result is bitwise identical for any
 // OpenMP thread count; no step function allocates. An iteration is two passes: per edge (E_s
-// gradients, SIMD, written to the gather slots of both ends), then per vertex (gather and Jacobi).
+// gradients, SIMD), then per vertex (gather over the incident edges and the Jacobi update).
 #include <array>
 #include <cstdint>
 #include <span>
@@ -54,7 +54,6 @@ struct VirtualModel {
   std::vector<int> tri_entries;    ///< incident triangle indices
   std::vector<double> stiff_diag;  ///< #m k_s * degree + k_svc: the diagonal without mass and contact
   std::vector<double> rest_len;    ///< #E |q_a^0 - q_b^0|
-  std::vector<int> edge_slot;      ///< #2E position k of (e, end) in edge_entries (edge_entries[k] = 2 e + end)
   /// Iterations use the OpenMP team from this many vertices on; smaller meshes (every paper scene)
   /// iterate on the calling thread, which at the haptic rate beats waking a team (docs/MODEL.md).
   int parallel_min_vertices = 1 << 16;
@@ -75,7 +74,7 @@ struct VirtualWorkspace {
   std::vector<Vec3d> q_next;           ///< #m Jacobi output buffer
   std::vector<Vec3d> contact_kt;       ///< #m sum of k * target over this iteration's contacts
   std::vector<double> contact_k;       ///< #m sum of k over this iteration's contacts
-  std::vector<Vec3d> edge_force;       ///< #2E -dE_s/dq of each edge end, in edge_entries order
+  std::vector<Vec3d> edge_grad;        ///< #E dE_s/dq_a of each edge (a, b) (the local step's output)
 };
 
 /// Builds the virtual mesh of a scene: scene.virtual_surface (or, when empty, the physical mesh's

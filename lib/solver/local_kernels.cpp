@@ -14,9 +14,9 @@ constexpr int kEdgeLanes = 8;  ///< edges per block
 
 /// Alg. 1 lines 6-8 for the tets [t0, t0 + count), count <= kTetLanes (Full: equal):
 /// R_t = Mueller update(s) of the warm start (energy/rotation.hpp), then the corner forces
-/// w_t (R_t - F_t) g_c (= -dE_vol/dx_c) into their gather slots. The lanes' data go through small
+/// w_t (R_t - F_t) g_c (= -dE_vol/dx_c) into force[4 t + c]. The lanes' data go through small
 /// structure-of-arrays buffers: scalar gathers in, branch-free loops over the lanes that the
-/// compiler vectorises (the energy functions inlined per lane), scalar scatters out.
+/// compiler vectorises (the energy functions inlined per lane), scalar stores out.
 template <bool Full>
 void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Quatd* __restrict rotation,
                Vec3d* __restrict force, int t0, int count, int rotation_iterations, double tol) {
@@ -74,10 +74,9 @@ void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Qua
       f[3 * c][l] = fc.x; f[3 * c + 1][l] = fc.y; f[3 * c + 2][l] = fc.z;
     }
   }
-  const int* __restrict slot = tets.slot;
-  for (int l = 0; l < L; ++l) {  // scatter
+  for (int l = 0; l < L; ++l) {  // out, in (tet, corner) order
     rotation[t0 + l] = Quatd{q[0][l], q[1][l], q[2][l], q[3][l]};
-    for (int c = 0; c < 4; ++c) force[slot[c * T + t0 + l]] = Vec3d{f[3 * c][l], f[3 * c + 1][l], f[3 * c + 2][l]};
+    for (int c = 0; c < 4; ++c) force[4 * (t0 + l) + c] = Vec3d{f[3 * c][l], f[3 * c + 1][l], f[3 * c + 2][l]};
   }
 }
 
@@ -116,9 +115,8 @@ void tet_block_single_update(const TetKernelData& tets, const double* __restrict
       f[3 * c][l] = fc.x; f[3 * c + 1][l] = fc.y; f[3 * c + 2][l] = fc.z;
     }
   }
-  const int* __restrict slot = tets.slot + t0;
-  for (int l = 0; l < L; ++l)  // scatter
-    for (int c = 0; c < 4; ++c) force[slot[c * T + l]] = Vec3d{f[3 * c][l], f[3 * c + 1][l], f[3 * c + 2][l]};
+  for (int l = 0; l < L; ++l)  // out, in (tet, corner) order
+    for (int c = 0; c < 4; ++c) force[4 * (t0 + l) + c] = Vec3d{f[3 * c][l], f[3 * c + 1][l], f[3 * c + 2][l]};
 }
 
 /// E_s [4] gradients g = dE_s/dq_a = k_s (d - R e0) of the edges [e0, e0 + count),

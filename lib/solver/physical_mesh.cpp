@@ -54,7 +54,7 @@ void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& s
 void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params) {
   const TetKernelData tets{model.num_tets, model.corner_soa.data(), model.shape_grad_soa.data(),
-                           model.tet_weight.data(), model.corner_slot.data()};
+                           model.tet_weight.data()};
   local_step_tets(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
                   kRotationTol);  // omp for nowait
   const int m = model.num_virtual;
@@ -71,7 +71,8 @@ void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState
 inline Vec3d vertex_residual(const PhysicalModel& model, const PhysicalWorkspace& ws, const Vec3d* x, int a,
                              double inv_h2) {
   Vec3d r = (model.mass[a] * inv_h2) * (ws.s[a] - x[a]);                             // -dE_k/dx
-  for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k) r += ws.tet_force[k];  // -dE_vol/dx
+  for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k)
+    r += ws.tet_force[model.tet_entries[k]];                                         // -dE_vol/dx
   for (int k = model.cpl_offsets[a]; k < model.cpl_offsets[a + 1]; ++k)
     r += model.cpl_weight[k] * ws.cpl_force[model.cpl_virtual[k]];                   // -dE_svc/dx
   return r;
@@ -194,16 +195,14 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
   // Incidence vertex -> (tet, corner), in (tet, corner) order.
   build_csr(n, 4 * T, [&](int e, auto add) { add(M.tets[e >> 2][e & 3]); }, M.tet_offsets, M.tet_entries);
 
-  // The local step's structure-of-arrays copies and each corner's slot in the gather order.
+  // The local step's structure-of-arrays copies.
   M.corner_soa.resize(4 * size_t(T));
   M.shape_grad_soa.resize(12 * size_t(T));
-  M.corner_slot.resize(4 * size_t(T));
   for (int t = 0; t < T; ++t)
     for (int c = 0; c < 4; ++c) {
       M.corner_soa[size_t(c) * T + t] = M.tets[t][c];
       for (int i = 0; i < 3; ++i) M.shape_grad_soa[size_t(3 * c + i) * T + t] = M.shape_grad[4 * size_t(t) + c][i];
     }
-  for (int k = 0; k < 4 * T; ++k) M.corner_slot[size_t(M.tet_entries[k] & 3) * T + (M.tet_entries[k] >> 2)] = k;
 
   // E_svc coupling and its reverse (physical -> virtual) list.
   if (virtual_model) {

@@ -19,8 +19,8 @@
 //
 // Speed (docs/MODEL.md, "Implementation"): one OpenMP parallel region per step with two barriers
 // per iteration (after the local step, after the global step); the local step writes each tet's
-// four corner forces straight into the CSR order of the per-vertex gather, which is fused with
-// the Jacobi/Chebyshev update.
+// four corner forces w_t (R_t - F_t) g_c, and the per-vertex gather of them is fused with the
+// Jacobi/Chebyshev update.
 #include <Eigen/Core>
 #include <Eigen/SparseCholesky>
 #include <array>
@@ -75,7 +75,6 @@ struct PhysicalModel {
   // The local step's structure-of-arrays copies (SIMD loads):
   std::vector<int> corner_soa;          ///< #4T vertex of corner c of tet t at [c T + t]
   std::vector<double> shape_grad_soa;   ///< #12T component i of g_c of tet t at [(3 c + i) T + t]
-  std::vector<int> corner_slot;         ///< #4T position k of (t, c) in tet_entries (tet_entries[k] = 4 t + c) at [c T + t]
   std::shared_ptr<const PhysicalDirectSolver> direct;  ///< null when not factorised
 };
 
@@ -92,7 +91,7 @@ struct PhysicalWorkspace {
   std::vector<Vec3d> x_start;    ///< #n positions at the start of the step
   std::vector<Vec3d> x_prev;     ///< #n previous iterate (Chebyshev)
   std::vector<Vec3d> r;          ///< #n residual -grad E (0 on pinned vertices)
-  std::vector<Vec3d> tet_force;  ///< #4T the local step's output w_t (R_t - F_t) g_c, in tet_entries order
+  std::vector<Vec3d> tet_force;  ///< #4T the local step's output w_t (R_t - F_t) g_c at [4 t + c]
   std::vector<Vec3d> cpl_force;  ///< #m k_svc (q_j - p_j)
   Eigen::MatrixXd rhs;           ///< nf x 3 (direct)
   Eigen::MatrixXd dx;            ///< nf x 3 (direct)

@@ -189,9 +189,10 @@ class SpecReader {
       else if (name == "solver") read_solver(n, s.solver);
       else if (name == "camera") read_camera(n, s.camera);
       else if (name == "stages") {
-        const auto e = entries(n, "stages", {"grasp", "frames"});
+        const auto e = entries(n, "stages", {"grasp", "frames", "settle"});
         if (auto g = e.find("grasp"); g != e.end()) s.stages.grasp = boolean(g->second, "stages.grasp");
         if (auto f = e.find("frames"); f != e.end()) s.stages.frames = boolean(f->second, "stages.frames");
+        if (auto f = e.find("settle"); f != e.end()) s.stages.settle = boolean(f->second, "stages.settle");
       }
     }
     if (!top.count("mesh")) fail("mesh", "missing (required: mesh.physical names the physical mesh)");

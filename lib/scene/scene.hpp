@@ -46,7 +46,8 @@
 //     virtual_iterations: 4         # virtual-mesh local-global iterations per haptic tick
 //     chebyshev_rho: 0.95
 //   camera: {eye: [x, y, z], target: [x, y, z], up: [0, 0, 1], fov_deg: 40}
-//   stages: {grasp: false, frames: false}                  # skip what a scene doesn't need
+//   stages: {grasp: false, frames: false, settle: true}    # skip what a scene doesn't need;
+//                                   # settle: start from the static equilibrium under gravity
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -119,6 +120,7 @@ struct SolverSpec {
 struct Stages {
   bool grasp = false;   ///< grasp machinery (forceps scenes)
   bool frames = false;  ///< mesh snapshots in the replay output by default
+  bool settle = true;   ///< start from the static equilibrium under gravity, not the rest shape
 };
 
 /// The parsed scene file. All lengths in metres.

@@ -49,6 +49,7 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("max_step_rotation_deg", s.tool.max_step_rotation_deg);
   f.set_attr("shaft_radius", s.tool.shaft_radius);
   f.set_attr("grasp", static_cast<std::int64_t>(s.stages.grasp));
+  f.set_attr("settle_steps", static_cast<std::int64_t>(w.settle_steps));
   f.set_attr("projection", w.tool.projection == Projection::ClosestPoint ? "closest_point" : "inverse_normal");
 }
 

@@ -83,6 +83,35 @@ void emit_output(const World& world, HapticSide& h) {
       penetration_depth(world.tool, pose_of(h.device), h.device.jaw, h.mesh.q, h.grid, h.tool.grasp.held);
 }
 
+/// The static equilibrium of the physical mesh under gravity (no contact, coupling satisfied):
+/// static steps (h = 1e3 s leaves M / h^2 ~ 1e-9 of the stiffness while the prediction keeps
+/// the full weight M g) with the exact global solve until no vertex moves more than 5 um in a
+/// step, at most 25 steps: large sags (a liver hanging from its back strip moves centimetres)
+/// converge slowly under local-global iterations, and the dynamic replay (with its damping)
+/// absorbs what is left, which is then a fraction of a millimetre.
+int settle_under_gravity(const Scene& scene, PhysicalState& state) {
+  PhysicalModelOptions opt;
+  opt.h = 1e3;
+  opt.factorize = true;
+  const PhysicalModel statics = build_physical_model(scene, nullptr, opt);
+  PhysicalWorkspace ws = make_physical_workspace(statics);
+  state = make_physical_state(statics);
+  PhysicalStepParams params;
+  params.method = SolverSpec::Method::Direct;
+  params.iterations = 4;
+  std::vector<Vec3d> before;
+  int steps = 0;
+  for (; steps < 25; ++steps) {
+    before = state.x;
+    physical_step(statics, ws, state, {}, params);
+    double moved = 0;
+    for (std::size_t i = 0; i < before.size(); ++i) moved = std::max(moved, norm(state.x[i] - before[i]));
+    if (moved < 5e-6) break;
+  }
+  for (Vec3d& v : state.v) v = Vec3d{};
+  return steps + 1;
+}
+
 }  // namespace
 
 std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double physical_hz, Backend backend) {
@@ -109,18 +138,24 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, opt);
   w->physical_params = physical_params(w->scene.spec.solver);
   w->tool = build_tool(w->scene.spec.tool);
+  w->initial_physical = make_physical_state(w->physical_mesh);
+  if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)
+    w->settle_steps = settle_under_gravity(w->scene, w->initial_physical);
+  w->initial_virtual.assign(w->virtual_mesh.rest.size(), Vec3d{});
+  paired_points(w->virtual_mesh, w->initial_physical.x, w->initial_virtual);
   return w;
 }
 
 HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample) {
   HapticSide h;
   h.mesh = make_virtual_state(world.virtual_mesh);
+  h.mesh.q = world.initial_virtual;
   h.workspace = make_virtual_workspace(world.virtual_mesh);
   h.normals.assign(h.mesh.q.size(), Vec3d{});
   compute_vertex_normals(world.virtual_mesh, h.mesh.q, h.normals);
   init_virtual_tool(h.tool, h.mesh.q.size(), pose_of(first_sample));
   h.contacts.reserve(h.mesh.q.size() * 2);
-  h.visible.x = world.physical_mesh.rest;
+  h.visible.x = world.initial_physical.x;
   h.visible.step = -1;
   h.grid.rebuild(h.mesh.q, world.grid_margin);
   h.device = first_sample;
@@ -129,11 +164,12 @@ HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample
 
 PhysicalSide make_physical_side(const World& world) {
   PhysicalSide p;
-  p.mesh = make_physical_state(world.physical_mesh);
+  p.mesh = world.initial_physical;
   p.workspace = make_physical_workspace(world.physical_mesh);
   if (world.backend == Backend::Cuda) {
 #if EBH_HAVE_CUDA
     p.cuda = std::make_unique<CudaPhysicalSolver>(world.physical_mesh, world.physical_params);
+    p.cuda->upload_state(p.mesh);
 #else
     throw InputError("--backend cuda: this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
 #endif

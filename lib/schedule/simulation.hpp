@@ -38,6 +38,11 @@ struct World {
   double h_physical = 1e-2; ///< s, physical step
   int ticks_per_step = 10;  ///< N = h_physical / h_haptic (an integer)
   double grid_margin = 0.004;  ///< m, broad-phase slack (tool/broadphase.hpp)
+  /// The state both sides start from: the rest shape, or (stages.settle) the static equilibrium
+  /// under gravity, at rest. initial_virtual: the virtual mesh on it (#m, the paired points).
+  PhysicalState initial_physical;
+  std::vector<Vec3d> initial_virtual;
+  int settle_steps = 0;  ///< static steps the settling took (0: not settled)
 };
 
 /// Builds the world of a scene at the given rates. Throws InputError when the rates do not give a

@@ -114,6 +114,8 @@ void run_replay(const ReplayArgs& a) {
     std::printf("%s: %s + %s, %s mode, %lld ticks, %lld physical steps\n", a.out.c_str(),
                 world.scene.spec.name.c_str(), std::filesystem::path(in.recording_path).filename().c_str(),
                 mode_name(mode), static_cast<long long>(s.ticks), static_cast<long long>(s.steps));
+    if (world.settle_steps > 0)
+      std::printf("  started from the static equilibrium under gravity (%d static steps)\n", world.settle_steps);
     std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
                 s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0);
     std::printf("  peak force %.3f N (%lld ticks at the %.1f N limit), max penetration %.3f mm\n",

@@ -12,11 +12,16 @@ namespace ebh {
 ///   rest_edge: q1^0 - q2^0, rest_len: |rest_edge| (precomputed by the solvers).
 ///   For a collapsed edge (|d| = 0) R = I: the rest edge itself. Written as a select, so a SIMD
 ///   loop over edges runs it per lane.
+/// True when the edge d has collapsed (|d| <= 1e-12 rest_len): edge_target returns the rest edge.
+template <class T>
+EBH_HD bool edge_collapsed(Vec3<T> d, T rest_len) {
+  return norm(d) <= rest_len * T(1e-12);
+}
 template <class T>
 EBH_HD Vec3<T> edge_target(Vec3<T> d, Vec3<T> rest_edge, T rest_len) {
   const T len = norm(d);
   const T s = rest_len / len;
-  const bool collapsed = len <= rest_len * T(1e-12);
+  const bool collapsed = len <= rest_len * T(1e-12);  // edge_collapsed
   return {collapsed ? rest_edge.x : s * d.x, collapsed ? rest_edge.y : s * d.y, collapsed ? rest_edge.z : s * d.z};
 }
 template <class T>

@@ -121,22 +121,30 @@ void tet_block_single_update(const TetKernelData& tets, const double* __restrict
 
 /// E_s [4] gradients g = dE_s/dq_a = k_s (d - R e0) of the edges [e0, e0 + count),
 /// count <= kEdgeLanes (Full: equal), into g_out[e]. One branch-free loop over the lanes with
-/// the positions gathered straight from q (SIMD gathers under EBH_NATIVE).
+/// the positions gathered straight from q (SIMD gathers under EBH_NATIVE); it reads the rest
+/// edge vectors only for a collapsed edge (|d| ~ 0, where R e0 = e0), recomputed after the loop.
 template <bool Full>
 void edge_block(const EdgeKernelData& data, const double* __restrict q, Vec3d* __restrict g_out, int e0, int count) {
   constexpr int W = kEdgeLanes;
   const int L = Full ? W : count;
   const int* __restrict ab = data.edges[0].data() + 2 * e0;  // (a, b) pairs
-  const double* __restrict e = &data.rest_edge[e0].x;         // 3 per edge
   const double* __restrict rest_len = data.rest_len + e0;
   double* __restrict out = &g_out[e0].x;
+  int collapsed = 0;
 #pragma GCC ivdep
   for (int l = 0; l < L; ++l) {
     const int a = 3 * ab[2 * l], b = 3 * ab[2 * l + 1];
-    const Vec3d g = edge_spring_gradient(Vec3d{q[a], q[a + 1], q[a + 2]}, Vec3d{q[b], q[b + 1], q[b + 2]},
-                                         Vec3d{e[3 * l], e[3 * l + 1], e[3 * l + 2]}, rest_len[l], data.k_s);
+    const Vec3d qa{q[a], q[a + 1], q[a + 2]}, qb{q[b], q[b + 1], q[b + 2]};
+    const Vec3d g = edge_spring_gradient(qa, qb, Vec3d{}, rest_len[l], data.k_s);  // exact unless collapsed
     out[3 * l] = g.x; out[3 * l + 1] = g.y; out[3 * l + 2] = g.z;
+    collapsed |= int(edge_collapsed(qa - qb, rest_len[l]));
   }
+  if (collapsed)
+    for (int l = 0; l < L; ++l) {
+      const int a = ab[2 * l], b = ab[2 * l + 1];
+      const Vec3d* qv = reinterpret_cast<const Vec3d*>(q);
+      g_out[e0 + l] = edge_spring_gradient(qv[a], qv[b], data.rest_edge[e0 + l], rest_len[l], data.k_s);
+    }
 }
 
 }  // namespace

@@ -274,14 +274,15 @@ void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* _
   for (int j = 0; j < m; ++j) {
     if (model.pinned[j]) { q_next[j] = q[j]; continue; }
     const double mh = model.mass[j] * inv_h2;
+    const double ck = ws.contact_k[j];
     Vec3d r = mh * (ws.s[j] - q[j])                                          // -dE_k/dq   [6]
-              - coupling_gradient_virtual(ws.p[j], q[j], model.k_svc)        // -dE_svc/dq [5]
-              + ws.contact_kt[j] - ws.contact_k[j] * q[j];                   // -dE_con/dq [3]
+              - coupling_gradient_virtual(ws.p[j], q[j], model.k_svc);       // -dE_svc/dq [5]
+    if (ck != 0.0) r = r + ws.contact_kt[j] - ck * q[j];                     // -dE_con/dq [3] (0 without contact)
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {  // -dE_s/dq [4]
       const Vec3d g = edge_grad[entries[k] >> 1];
       r += (entries[k] & 1) ? g : -g;  // end b: -dE_s/dq_b = g; end a: -g
     }
-    q_next[j] = q[j] + r / (mh + model.stiff_diag[j] + ws.contact_k[j]);
+    q_next[j] = q[j] + r / (mh + model.stiff_diag[j] + ck);
   }
 }
 

@@ -77,6 +77,18 @@ TEST(Rotation, WarmStartConvergesInAFewUpdates) {
   }
 }
 
+TEST(Rotation, RotationMatrixIsToMatrixWithoutTheZeroTerms) {
+  // rotation_matrix performs to_matrix's operations minus the products by the unit vectors'
+  // zeros and ones: the same values to round-off (FMA contraction may differ by an ulp or two).
+  std::mt19937 rng(4);
+  for (int trial = 0; trial < 1000; ++trial) {
+    const Quatd q = quat_from_rotvec(random_vec(rng, 3.0));
+    const Mat3d A = rotation_matrix(q), B = to_matrix(q);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(A.m[r][c], B.m[r][c], 1e-15) << "trial " << trial;
+  }
+}
+
 TEST(Rotation, ZeroMatrixKeepsTheWarmStart) {
   const Quatd q0 = normalized(Quatd{0.9, 0.1, -0.3, 0.2});
   const Quatd q = extract_rotation(Mat3d{}, q0, 5, 1e-12);

@@ -259,7 +259,7 @@ class SpecReader {
 
   void read_tool(const YAML::Node& n, ToolSpec& t) const {
     const auto e = entries(n, "tool", {"kind", "shaft_radius", "shaft_length", "hook", "forceps", "force_limit",
-                                       "newton_iterations", "max_step", "max_step_rotation_deg"});
+                                       "newton_iterations", "max_step", "max_step_rotation_deg", "stabilization"});
     for (const auto& [name, v] : e) {
       const std::string k = "tool." + name;
       if (name == "kind") t.kind = choice(v, k, {"hook", "forceps"}) == 0 ? ToolSpec::Kind::Hook : ToolSpec::Kind::Forceps;
@@ -269,7 +269,13 @@ class SpecReader {
       else if (name == "newton_iterations") t.newton_iterations = integer(v, k, 1, 100);
       else if (name == "max_step") t.max_step = length(v, k);
       else if (name == "max_step_rotation_deg") t.max_step_rotation_deg = in_range(v, k, 0, false, 180, true);
-      else if (name == "hook") {
+      else if (name == "stabilization") {
+        const auto h = entries(v, k, {"translation", "rotation"});
+        if (auto it = h.find("translation"); it != h.end())
+          t.stabilization_translation = non_negative(it->second, k + ".translation");
+        if (auto it = h.find("rotation"); it != h.end())
+          t.stabilization_rotation = non_negative(it->second, k + ".rotation");
+      } else if (name == "hook") {
         const auto h = entries(v, k, {"tip_length", "tip_radius"});
         if (auto it = h.find("tip_length"); it != h.end()) t.hook.tip_length = length(it->second, k + ".tip_length");
         if (auto it = h.find("tip_radius"); it != h.end()) t.hook.tip_radius = length(it->second, k + ".tip_radius");

@@ -39,6 +39,7 @@
 //     newton_iterations: 2          # Newton steps on E_tool per virtual-mesh iteration
 //     max_step: 0.5                 # translation limit of one Newton step (length unit)
 //     max_step_rotation_deg: 0.5    # rotation limit of one Newton step
+//     stabilization: {translation: 0, rotation: 0}   # N/m, N m/rad: damps the virtual tool per tick
 //   time: {haptic_hz: 1000, physical_hz: 100}
 //   solver:
 //     method: chebyshev             # jacobi | chebyshev | direct
@@ -100,6 +101,11 @@ struct ToolSpec {
   int newton_iterations = 2;
   double max_step = 0.0005;             ///< m per Newton step
   double max_step_rotation_deg = 0.5;   ///< per Newton step (its lever is the whole shaft: keep it small)
+  /// Stiffness of springs tying the virtual tool to its pose at the start of the tick (N/m and
+  /// N m/rad): a viscous damper b = k h_h on the virtual tool that stops active-set chatter (a
+  /// tool resting on a few vertices flipping between contact states). 0 = the paper's model.
+  double stabilization_translation = 0.0;
+  double stabilization_rotation = 0.0;
 };
 
 struct Camera {

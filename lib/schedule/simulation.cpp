@@ -36,7 +36,10 @@ std::span<const Vec3d> normals_if_needed(const World& world, const HapticSide& h
 // ---- Algorithm 2, one stage a function -------------------------------------------------------
 
 /// Line 4: the physical tool X_h follows the device.
-void read_device(HapticSide& h, const DeviceSample& sample) { h.device = sample; }
+void read_device(HapticSide& h, const DeviceSample& sample) {
+  h.device = sample;
+  h.tool.anchor = h.tool.pose;  // the virtual tool's pose at the start of this tick
+}
 
 /// Lines 1 and 6: E_svc targets from the visible physical mesh, inertial prediction of q.
 void sync_physical_targets(const World& world, HapticSide& h) {

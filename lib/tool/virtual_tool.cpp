@@ -25,6 +25,14 @@ double energy_at(const ToolModel& tool, const Stiffness& k, const ToolPose& phys
   Mat6 H_con, H_gr;
   const bool d = grad != nullptr;
   double e = coupling_energy(pose, physical, k.k_vcs, k.k_vct, d ? &g_tvc : nullptr, nullptr);
+  // Stabilisation (ToolSpec): the same spring form as E_tvc [2], tying X_g to its pose at the
+  // start of the tick; zero at a steady state, so it changes no equilibrium, only the approach.
+  const double s_t = tool.spec.stabilization_translation, s_r = tool.spec.stabilization_rotation;
+  if (s_t > 0 || s_r > 0) {
+    Vec6 g_s;
+    e += coupling_energy(pose, st.anchor, s_t, s_r, d ? &g_s : nullptr, nullptr);
+    if (d) g_tvc += g_s;
+  }
   e += contact_energy(contacts, pose.position, k.k_con, d ? &g_con : nullptr, hess_step ? &H_con : nullptr);
   e += grasp_energy(st.grasp, q, pose, k.k_con, d ? &g_gr : nullptr, hess_step ? &H_gr : nullptr);
   if (grad) *grad = g_tvc + g_con + g_gr;
@@ -45,9 +53,9 @@ double energy_at(const ToolModel& tool, const Stiffness& k, const ToolPose& phys
     const Vec6 lambda = es.eigenvalues().cwiseMax(0.0);
     *hess_step = es.eigenvectors() * lambda.asDiagonal() * es.eigenvectors().transpose();
     hess_step->topLeftCorner<3, 3>() += k.k_vcs * Eigen::Matrix3d::Identity();
-    hess_step->bottomRightCorner<3, 3>() += k.k_vct * Eigen::Matrix3d::Identity();
+    hess_step->bottomRightCorner<3, 3>() += (k.k_vct + s_r) * Eigen::Matrix3d::Identity();
+    hess_step->topLeftCorner<3, 3>() += s_t * Eigen::Matrix3d::Identity();
   }
-  (void)tool;
   return e;
 }
 
@@ -55,6 +63,7 @@ double energy_at(const ToolModel& tool, const Stiffness& k, const ToolPose& phys
 
 void init_virtual_tool(VirtualToolState& st, std::size_t m, const ToolPose& pose) {
   st.pose = pose;
+  st.anchor = pose;
   init_grasp(st.grasp, m);
   st.candidates.clear();
   st.candidates.reserve(m);

@@ -35,6 +35,7 @@ enum class NewtonHessian {
 /// Mutable state of one virtual tool.
 struct VirtualToolState {
   ToolPose pose;                        ///< X_g
+  ToolPose anchor;                      ///< X_g at the start of the tick (ToolSpec stabilization)
   GraspState grasp;
   NewtonHessian hessian = NewtonHessian::ClampedExact;
   // Scratch, sized once (init_virtual_tool) and reused every tick.

@@ -1,5 +1,8 @@
 #include "schedule/scheduler.hpp"
 
+#include <omp.h>
+
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -13,6 +16,27 @@ namespace ebh {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+/// OpenMP threads for each side. In lockstep the sides take turns and each may use every core;
+/// in async and realtime they run at once, so the haptic side keeps one core and the physical
+/// step gets the rest (more threads than cores would leave OpenMP's spinning barriers waiting on
+/// descheduled threads). Results do not depend on these counts (bitwise, tests/solver).
+struct ThreadSplit {
+  int haptic = 1, physical = 1;
+};
+
+ThreadSplit split_threads(Mode mode) {
+  const int total = std::max(1, omp_get_max_threads());
+  if (mode == Mode::Lockstep) return {total, total};
+  return {1, std::max(1, total - 1)};
+}
+
+/// Restores the calling thread's OpenMP thread count when a replay ends.
+struct ThreadCountGuard {
+  int saved = omp_get_max_threads();
+  explicit ThreadCountGuard(int n) { omp_set_num_threads(n); }
+  ~ThreadCountGuard() { omp_set_num_threads(saved); }
+};
 
 double recording_duration(const Recording& rec, const ReplayOptions& opt) {
   const double rest = std::max(0.0, rec.duration() - opt.start);
@@ -37,6 +61,8 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   const double t0 = rec.t.front() + opt.start;
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
+  const ThreadSplit threads = split_threads(opt.mode);
+  const ThreadCountGuard haptic_threads(threads.haptic);
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
   PhysicalSide physical = make_physical_side(world);
   HapticSnapshot to_physical;
@@ -63,7 +89,10 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
         }
         take_haptic_snapshot(haptic, to_physical);
         in_flight_t = t;
-        in_flight = std::async(std::launch::async, [&] { run_physical_step(world, physical, to_physical); });
+        in_flight = std::async(std::launch::async, [&] {
+          omp_set_num_threads(threads.physical);
+          run_physical_step(world, physical, to_physical);
+        });
       } else {  // lockstep
         take_haptic_snapshot(haptic, to_physical);
         run_physical_step(world, physical, to_physical);
@@ -102,12 +131,15 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
   bool fresh_x = false;
   std::atomic<bool> done{false};
   take_haptic_snapshot(haptic, published_q);
+  const ThreadSplit threads = split_threads(Mode::Realtime);
+  const ThreadCountGuard haptic_threads(threads.haptic);
 
   ReplaySummary s;
   const auto wall0 = Clock::now();
   auto now_s = [&] { return std::chrono::duration<double>(Clock::now() - wall0).count(); };
 
   std::thread solver([&] {
+    omp_set_num_threads(threads.physical);
     HapticSnapshot local_q;
     PhysicalSnapshot local_x;
     while (!done.load()) {

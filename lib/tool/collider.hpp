@@ -157,6 +157,47 @@ EBH_HD SurfaceQuery<T> query_local(const Collider<T>& c, Vec3<T> p) {
   }
 }
 
+/// Signed distance of p (collider frame) alone: the same value as query_local(c, p).sd, without
+/// the closest point, normal and Hessian (broad-phase filters and the narrow phase's first pass).
+template <class T>
+EBH_HD T signed_distance_local(const Collider<T>& c, Vec3<T> p) {
+  switch (c.shape) {
+    case Shape::Sphere:
+      return norm(p - c.a) - c.radius;
+    case Shape::Capsule: {
+      const Vec3<T> ab = c.b - c.a;
+      const T len2 = dot(ab, ab);
+      T s = dot(p - c.a, ab) / len2;
+      s = s < T(0) ? T(0) : (s > T(1) ? T(1) : s);
+      return norm(p - (c.a + s * ab)) - c.radius;
+    }
+    case Shape::Cylinder: {
+      const Vec3<T> ab = c.b - c.a;
+      const T len = norm(ab);
+      const Vec3<T> u = ab / len;
+      const T axial = dot(p - c.a, u);
+      const T rho = norm((p - c.a) - axial * u);
+      const T s = axial - len / T(2);
+      const T dr = rho - c.radius, dz = (s < T(0) ? -s : s) - len / T(2);
+      if (dr <= T(0) && dz <= T(0)) return dr > dz ? dr : dz;
+      if (dr > T(0) && dz > T(0)) return EBH_SQRT(dr * dr + dz * dz);
+      return dr > T(0) ? dr : dz;
+    }
+    case Shape::Box:
+    default: {
+      const Vec3<T> v = p - c.a;
+      const Vec3<T> d{(v.x < 0 ? -v.x : v.x) - c.half.x, (v.y < 0 ? -v.y : v.y) - c.half.y,
+                      (v.z < 0 ? -v.z : v.z) - c.half.z};
+      if (d.x <= T(0) && d.y <= T(0) && d.z <= T(0)) {
+        T m = d.x > d.y ? d.x : d.y;
+        return m > d.z ? m : d.z;
+      }
+      const Vec3<T> o{d.x > T(0) ? d.x : T(0), d.y > T(0) ? d.y : T(0), d.z > T(0) ? d.z : T(0)};
+      return norm(o);
+    }
+  }
+}
+
 /// Radius of a ball around the collider's centre that contains it.
 template <class T>
 EBH_HD T bounding_radius(const Collider<T>& c) {

@@ -8,6 +8,28 @@ namespace {
 // Below this cosine between the exit normal and the ray the inverse-normal projection is
 // grazing; the gain 1/cos is capped there (the paper's method is ill-posed at grazing rays).
 constexpr double kMinExitCosine = 0.1;
+
+/// Calls box(lo, hi) with world boxes that together cover collider `shape` posed by `w`, hugging
+/// it: a long shaft (hundreds of mm) is cut into pieces a few grid cells long, so a query costs
+/// the cells near the collider, not those of its bounding cube.
+template <class Box>
+void cover_collider(const Collider<double>& shape, const Rigid<double>& w, double cell, Box&& box) {
+  if (shape.shape == Shape::Capsule || shape.shape == Shape::Cylinder) {
+    const Vec3d A = apply(w, shape.a), B = apply(w, shape.b);
+    const int pieces = std::max(1, static_cast<int>(std::ceil(norm(B - A) / (4.0 * cell))));
+    const Vec3d r{shape.radius, shape.radius, shape.radius};
+    for (int k = 0; k < pieces; ++k) {
+      const Vec3d p0 = A + (static_cast<double>(k) / pieces) * (B - A);
+      const Vec3d p1 = A + (static_cast<double>(k + 1) / pieces) * (B - A);
+      box(cwise_min(p0, p1) - r, cwise_max(p0, p1) + r);
+    }
+  } else {
+    const Vec3d mid = apply(w, centre(shape));
+    const double rb = bounding_radius(shape);
+    const Vec3d ext{rb, rb, rb};
+    box(mid - ext, mid + ext);
+  }
+}
 }  // namespace
 
 bool vertex_contact(const PosedTool& tool, Projection projection, int vertex, Vec3d q, Vec3d n_v, ContactPoint& out) {
@@ -56,31 +78,14 @@ void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGr
       auto keep = [&](Vec3d cc, double s_with_extra) {
         const double s = s_with_extra - extra;  // half diagonal + margin
         const double bound = (s + T + th * (norm(cc - tool.origin) + T)) / (1.0 - th);
-        return query_local(shape, apply_inverse(w, cc)).sd <= bound;
+        return signed_distance_local(shape, apply_inverse(w, cc)) <= bound;
       };
       auto visit = [&](int i) {
         if (stamps[i] == stamp) return;
         stamps[i] = stamp;
         out.push_back(i);
       };
-      // Query boxes that hug the collider: a long shaft (hundreds of mm) is cut into pieces a few
-      // cells long, so the cost follows the cells near the collider, not its bounding cube.
-      if (shape.shape == Shape::Capsule || shape.shape == Shape::Cylinder) {
-        const Vec3d A = apply(w, shape.a), B = apply(w, shape.b);
-        const double piece = 4.0 * grid.cell_size();
-        const int pieces = std::max(1, static_cast<int>(std::ceil(norm(B - A) / piece)));
-        const Vec3d r{shape.radius, shape.radius, shape.radius};
-        for (int k = 0; k < pieces; ++k) {
-          const Vec3d p0 = A + (static_cast<double>(k) / pieces) * (B - A);
-          const Vec3d p1 = A + (static_cast<double>(k + 1) / pieces) * (B - A);
-          grid.query(cwise_min(p0, p1) - r, cwise_max(p0, p1) + r, extra, q, keep, visit);
-        }
-      } else {
-        const Vec3d mid = apply(w, centre(shape));
-        const double rb = bounding_radius(shape);
-        const Vec3d ext{rb, rb, rb};
-        grid.query(mid - ext, mid + ext, extra, q, keep, visit);
-      }
+      cover_collider(shape, w, grid.cell_size(), [&](Vec3d lo, Vec3d hi) { grid.query(lo, hi, extra, q, keep, visit); });
     }
     if (!grid.violated()) return;
     out.resize(start);  // fallback: the invariant broke, rebuild from the current positions
@@ -113,19 +118,18 @@ void detect_contacts(const ToolModel& tool, const ToolPose& pose, double jaw, st
     for (int c = 0; c < posed.count; ++c) {
       const Collider<double>& shape = posed.shape[c];
       const Rigid<double>& w = posed.world[c];
-      const Vec3d mid = apply(w, centre(shape));
-      const double rb = bounding_radius(shape);
-      const Vec3d ext{rb, rb, rb};
-      broadphase.query(
-          mid - ext, mid + ext, 0.0, q,
-          [&](Vec3d cell_centre, double slack) { return query_local(shape, apply_inverse(w, cell_centre)).sd <= slack; },
-          [&](int i) {
-            if (stamps[i] == stamp) return;
-            stamps[i] = stamp;
-            if (!excluded.empty() && excluded[i]) return;
-            const Vec3d n = normals.empty() ? Vec3d{} : normals[i];
-            if (vertex_contact(posed, tool.projection, i, q[i], n, cp)) out.push_back({i, cp.target, k_con});
-          });
+      auto keep = [&](Vec3d cell_centre, double slack) {
+        return signed_distance_local(shape, apply_inverse(w, cell_centre)) <= slack;
+      };
+      auto visit = [&](int i) {
+        if (stamps[i] == stamp) return;
+        stamps[i] = stamp;
+        if (!excluded.empty() && excluded[i]) return;
+        const Vec3d n = normals.empty() ? Vec3d{} : normals[i];
+        if (vertex_contact(posed, tool.projection, i, q[i], n, cp)) out.push_back({i, cp.target, k_con});
+      };
+      cover_collider(shape, w, broadphase.cell_size(),
+                     [&](Vec3d lo, Vec3d hi) { broadphase.query(lo, hi, 0.0, q, keep, visit); });
     }
     if (!broadphase.violated()) return;
     out.resize(start);
@@ -143,16 +147,15 @@ double penetration_depth(const ToolModel& tool, const ToolPose& pose, double jaw
     for (int c = 0; c < posed.count; ++c) {
       const Collider<double>& shape = posed.shape[c];
       const Rigid<double>& w = posed.world[c];
-      const Vec3d mid = apply(w, centre(shape));
-      const double rb = bounding_radius(shape);
-      const Vec3d ext{rb, rb, rb};
-      broadphase.query(
-          mid - ext, mid + ext, 0.0, q,
-          [&](Vec3d cell_centre, double slack) { return query_local(shape, apply_inverse(w, cell_centre)).sd <= slack; },
-          [&](int i) {
-            if (!excluded.empty() && excluded[i]) return;
-            deepest = std::max(deepest, -query_local(shape, apply_inverse(w, q[i])).sd);
-          });
+      auto keep = [&](Vec3d cell_centre, double slack) {
+        return signed_distance_local(shape, apply_inverse(w, cell_centre)) <= slack;
+      };
+      auto visit = [&](int i) {
+        if (!excluded.empty() && excluded[i]) return;
+        deepest = std::max(deepest, -signed_distance_local(shape, apply_inverse(w, q[i])));
+      };
+      cover_collider(shape, w, broadphase.cell_size(),
+                     [&](Vec3d lo, Vec3d hi) { broadphase.query(lo, hi, 0.0, q, keep, visit); });
     }
     if (!broadphase.violated()) break;
     broadphase.rebuild(q, broadphase.margin());

@@ -34,16 +34,22 @@ struct ContactPoint {
 /// Returns the collider index or -1; `s` gets the world-frame query of that collider.
 template <class T>
 EBH_HD int deepest_collider(const Collider<T>* shape, const Rigid<T>* world, int n, Vec3<T> q, SurfaceQuery<T>& s) {
+  // First pass: the signed distance alone; the full query only for the deepest collider.
   int best = -1;
+  T best_sd = T(0);
   for (int c = 0; c < n; ++c) {
-    const SurfaceQuery<T> l = query_local(shape[c], apply_inverse(world[c], q));
-    if (l.sd < T(0) && (best < 0 || l.sd < s.sd)) {
+    const T sd = signed_distance_local(shape[c], apply_inverse(world[c], q));
+    if (sd < T(0) && (best < 0 || sd < best_sd)) {
       best = c;
-      s.sd = l.sd;
-      s.point = apply(world[c], l.point);
-      s.normal = world[c].R * l.normal;
-      s.hess = world[c].R * l.hess * transpose(world[c].R);
+      best_sd = sd;
     }
+  }
+  if (best >= 0) {
+    const SurfaceQuery<T> l = query_local(shape[best], apply_inverse(world[best], q));
+    s.sd = l.sd;
+    s.point = apply(world[best], l.point);
+    s.normal = world[best].R * l.normal;
+    s.hess = world[best].R * l.hess * transpose(world[best].R);
   }
   return best;
 }

@@ -50,7 +50,7 @@ int update_grasp(const ToolModel& tool, const ToolPose& pose, double jaw, std::s
   for (std::size_t j = 0; j < cand.size(); ++j) {
     const int i = cand[j];
     const Vec3d ls = apply_inverse(frame, q[i]);
-    const double sd = query_local(hb, ls).sd;
+    const double sd = signed_distance_local(hb, ls);
     if (sd > f.soft_margin) continue;
     const double w = grasp_weight(sd / f.soft_margin, f.eta);
     const Vec3d lf{0.0, std::clamp(ls.y, hb.a.y - hb.half.y, hb.a.y + hb.half.y),

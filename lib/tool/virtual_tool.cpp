@@ -92,7 +92,7 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
   for (const int i : st.candidates) {
     const double bound = (T + th * (norm(q[i] - start.origin) + T)) / (1.0 - th);
     for (int c = 0; c < start.count; ++c)
-      if (query_local(start.shape[c], apply_inverse(start.world[c], q[i])).sd <= bound) {
+      if (signed_distance_local(start.shape[c], apply_inverse(start.world[c], q[i])) <= bound) {
         st.candidates[kept++] = i;
         break;
       }

@@ -37,7 +37,7 @@ struct World {
   double h_haptic = 1e-3;   ///< s, haptic tick
   double h_physical = 1e-2; ///< s, physical step
   int ticks_per_step = 10;  ///< N = h_physical / h_haptic (an integer)
-  double grid_margin = 0.004;  ///< m, broad-phase slack (tool/broadphase.hpp)
+  double grid_margin = 0.002;  ///< m, broad-phase slack (tool/broadphase.hpp)
   /// The state both sides start from: the rest shape, or (stages.settle) the static equilibrium
   /// under gravity, at rest. initial_virtual: the virtual mesh on it (#m, the paired points).
   PhysicalState initial_physical;

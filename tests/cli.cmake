@@ -167,3 +167,13 @@ add_test(NAME cli.validate.list COMMAND ${EBH_BIN} validate --list)
 set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*convergence.*hertz" LABELS cli)
 add_test(NAME cli.validate.column_json COMMAND ${EBH_BIN} validate column --json)
 set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION "\"passed\": true" LABELS cli)
+
+# The force-smoothness regression gate (lib/gate, tests/gate/baselines.yaml): short replays of
+# every committed recording against their baselines; and proof that it can fail: one physical
+# iteration per step (instead of 16) makes the forces rough and must be caught.
+add_test(NAME gate.baselines COMMAND ${EBH_BIN} gate)
+set_tests_properties(gate.baselines PROPERTIES PASS_REGULAR_EXPRESSION "gate: passed" LABELS gate TIMEOUT 1200)
+add_test(NAME gate.catches_rough_forces
+  COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1)
+set_tests_properties(gate.catches_rough_forces PROPERTIES
+  PASS_REGULAR_EXPRESSION "gap_insert +FAIL.*above the band" LABELS gate TIMEOUT 600)

@@ -43,6 +43,12 @@ void read_device(HapticSide& h, const DeviceSample& sample) {
 
 /// Lines 1 and 6: E_svc targets from the visible physical mesh, inertial prediction of q.
 void sync_physical_targets(const World& world, HapticSide& h) {
+#if EBH_HAVE_CUDA
+  if (h.cuda) {
+    h.workspace.q_start = h.mesh.q;  // the tick's start, for the broad phase's drift bound
+    h.cuda->begin_tick(h.visible.x, h.visible.step, world.h_haptic, h.mesh.q);
+  } else
+#endif
   virtual_begin_tick(world.virtual_mesh, h.workspace, h.mesh, h.visible.x, world.h_haptic);
   if (world.tool.projection == Projection::InverseNormal)
     compute_vertex_normals(world.virtual_mesh, h.mesh.q, h.normals);
@@ -60,6 +66,11 @@ void virtual_mesh_iteration(const World& world, HapticSide& h) {
   h.contacts.clear();
   virtual_mesh_targets(world.tool, world.scene.spec.stiffness, h.device.jaw, h.mesh.q, normals_if_needed(world, h),
                        h.grid, h.tool, h.contacts);
+#if EBH_HAVE_CUDA
+  if (h.cuda)
+    h.cuda->iteration(h.contacts, h.mesh.q);
+  else
+#endif
   virtual_iteration(world.virtual_mesh, h.workspace, h.mesh, h.contacts);
   h.contact_count = static_cast<int>(h.contacts.size());
 }
@@ -72,6 +83,11 @@ void virtual_tool_iteration(const World& world, HapticSide& h) {
 
 /// Lines 22-27: velocities, the force and torque for the device, penetration depths.
 void emit_output(const World& world, HapticSide& h) {
+#if EBH_HAVE_CUDA
+  if (h.cuda)
+    h.cuda->end_tick();
+  else
+#endif
   virtual_end_tick(world.virtual_mesh, h.workspace, h.mesh);
   // The broad phase tolerates a bounded drift of q from where it was built.
   double moved = 0;
@@ -162,6 +178,14 @@ HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample
   h.visible.step = -1;
   h.grid.rebuild(h.mesh.q, world.grid_margin);
   h.device = first_sample;
+  if (world.backend == Backend::Cuda) {
+#if EBH_HAVE_CUDA
+    h.cuda = std::make_unique<CudaVirtualSolver>(world.virtual_mesh);
+    h.cuda->upload_state(h.mesh);
+#else
+    throw InputError("--backend cuda: this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
+#endif
+  }
   return h;
 }
 

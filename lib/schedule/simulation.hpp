@@ -19,6 +19,7 @@
 #include "tool/virtual_tool.hpp"
 #if EBH_HAVE_CUDA
 #include "solver/physical_mesh_cuda.hpp"
+#include "solver/virtual_mesh_cuda.hpp"
 #endif
 
 namespace ebh {
@@ -83,6 +84,11 @@ struct HapticSide {
   double penetration_physical = 0;       ///< m, the same for the physical tool (large by design)
   int contact_count = 0;                 ///< E_con targets of the last iteration (grasp included)
   HapticTiming timing;
+#if EBH_HAVE_CUDA
+  /// Backend::Cuda: the virtual-mesh iterations run here; mesh.q is the host copy each iteration
+  /// hands back for collision and the virtual tool (mesh.v stays on the device; docs/CUDA.md).
+  std::unique_ptr<CudaVirtualSolver> cuda;
+#endif
 };
 
 /// The physical side: physical mesh state and the scratch of its step.

@@ -7,6 +7,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 
 #include "io/error.hpp"
 
@@ -65,6 +66,13 @@ void set_interrupted(bool value) { g_interrupted = value ? 1 : 0; }
 
 AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path)) {
   if (final_.empty()) throw InputError("output file name is empty");
+  // The output's folder is made when missing (`-o out/run.h5` on a fresh checkout).
+  const std::filesystem::path parent = std::filesystem::path(final_).parent_path();
+  std::error_code ec;
+  if (!parent.empty() && !std::filesystem::exists(parent, ec)) {
+    std::filesystem::create_directories(parent, ec);
+    if (ec) throw InputError(final_ + ": cannot create the folder " + parent.string() + ": " + ec.message());
+  }
   install_interrupt_handlers();
   temp_ = final_ + ".tmp." + std::to_string(static_cast<long>(getpid()));
   std::remove(temp_.c_str());

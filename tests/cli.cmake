@@ -21,11 +21,11 @@ set_tests_properties(cli.import.csv PROPERTIES PASS_REGULAR_EXPRESSION "csv.h5: 
 add_test(NAME cli.import.bad_rotation
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/bad_rotation.txt;-o;${EBH_IO_OUT}/bad.h5"
     "-DEXPECT=^ebh: error: .*bad_rotation.txt:14: the rotation part is not a rotation" -DOUTPUT=${EBH_IO_OUT}/bad.h5
-    -P ${CMAKE_CURRENT_SOURCE_DIR}/io/expect_failure.cmake)
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.synth.bad_plan
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_IO_DATA}/bad_plan.yaml;-o;${EBH_IO_OUT}/bad_plan.h5"
     "-DEXPECT=^ebh: error: .*bad_plan.yaml:[0-9]+: waypoints\\[2\\].t: times must be strictly increasing"
-    -DOUTPUT=${EBH_IO_OUT}/bad_plan.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/io/expect_failure.cmake)
+    -DOUTPUT=${EBH_IO_OUT}/bad_plan.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan PROPERTIES LABELS cli)
 
 # ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py
@@ -39,10 +39,10 @@ set_tests_properties(cli.metrics.json PROPERTIES
   PASS_REGULAR_EXPRESSION "\"finite\": true,.*\"episode_count\": 1,.*\"haptic_over_budget_ticks\": 1" LABELS cli)
 add_test(NAME cli.metrics.not_hdf5
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/make_trace.py"
-    "-DEXPECT=^ebh: error: .*make_trace.py: not a readable HDF5 file" -P ${CMAKE_CURRENT_SOURCE_DIR}/metrics/expect_error.cmake)
+    "-DEXPECT=^ebh: error: .*make_trace.py: not a readable HDF5 file" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.metrics.missing_file
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/no_such_replay.h5"
-    "-DEXPECT=^ebh: error: .*no_such_replay.h5: cannot open file" -P ${CMAKE_CURRENT_SOURCE_DIR}/metrics/expect_error.cmake)
+    "-DEXPECT=^ebh: error: .*no_such_replay.h5: cannot open file" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file PROPERTIES LABELS cli)
 # scripts/plot_forces.py on the same trace, where Debian's python3 has h5py, matplotlib and numpy.
 find_program(EBH_SYSTEM_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
@@ -79,7 +79,7 @@ set_tests_properties(cli.scene.bad_key_message PROPERTIES
 # indexed for ParaView (tube.xdmf); presets, --xdmf-only and bad input on that output.
 set(EBH_RENDER_OUT ${PROJECT_BINARY_DIR}/cli_render)
 file(MAKE_DIRECTORY ${EBH_RENDER_OUT})
-set(EBH_EXPECT_ERROR ${CMAKE_CURRENT_SOURCE_DIR}/metrics/expect_error.cmake)
+set(EBH_EXPECT_ERROR ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 if(EBH_HAVE_OSMESA)
   add_test(NAME cli.render.replay
     COMMAND ${CMAKE_COMMAND}
@@ -140,7 +140,7 @@ set_tests_properties(cli.replay.summary PROPERTIES
 function(ebh_replay_failure name expect)
   add_test(NAME cli.replay.${name}
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;${ARGN};-o;${EBH_REPLAY_OUT}/${name}.h5;-q"
-      "-DEXPECT=${expect}" -DOUTPUT=${EBH_REPLAY_OUT}/${name}.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/io/expect_failure.cmake)
+      "-DEXPECT=${expect}" -DOUTPUT=${EBH_REPLAY_OUT}/${name}.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 endfunction()
 ebh_replay_failure(missing_recording "no such recording" tube no_such_recording)
 ebh_replay_failure(missing_scene "no_such_scene" no_such_scene tube_insert)

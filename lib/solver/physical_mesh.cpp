@@ -1,5 +1,6 @@
 // The physical mesh under Projective Dynamics: model building and Algorithm 1.
 #include "solver/physical_mesh.hpp"
+#include "solver/csr.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -18,17 +19,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-/// Builds a CSR list rows -> items from (row, item) pairs given in item order (stable).
-template <class RowOf>
-void build_csr(int rows, int items, RowOf&& row_of_each, std::vector<int>& offsets, std::vector<int>& entries) {
-  offsets.assign(rows + 1, 0);
-  for (int i = 0; i < items; ++i) row_of_each(i, [&](int row) { ++offsets[row + 1]; });
-  for (int r = 0; r < rows; ++r) offsets[r + 1] += offsets[r];
-  entries.assign(offsets[rows], 0);
-  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
-  for (int i = 0; i < items; ++i) row_of_each(i, [&](int row) { entries[fill[row]++] = i; });
-}
 
 // ---- Algorithm 1, stage by stage --------------------------------------------------------------
 // Each stage is an OpenMP work-sharing loop called from inside physical_step's one parallel

@@ -1,6 +1,7 @@
 // The virtual mesh: construction, pairing with the physical mesh, and the haptic-rate
 // local-global iterations (the soft part of Algorithm 2).
 #include "solver/virtual_mesh.hpp"
+#include "solver/csr.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -107,15 +108,6 @@ class TetLocator {
   std::vector<Mat3d> inv_;
 };
 
-template <class RowOf>
-void build_csr(int rows, int items, RowOf&& row_of_each, std::vector<int>& offsets, std::vector<int>& entries) {
-  offsets.assign(rows + 1, 0);
-  for (int i = 0; i < items; ++i) row_of_each(i, [&](int row) { ++offsets[row + 1]; });
-  for (int r = 0; r < rows; ++r) offsets[r + 1] += offsets[r];
-  entries.assign(offsets[rows], 0);
-  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
-  for (int i = 0; i < items; ++i) row_of_each(i, [&](int row) { entries[fill[row]++] = i; });
-}
 
 }  // namespace
 

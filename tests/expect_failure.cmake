@@ -1,5 +1,9 @@
-# Runs CMD (a ;-list) and passes only when it exits non-zero with a one-line stderr matching EXPECT.
-#   cmake -DCMD="a;b" -DEXPECT=regex -P expect_error.cmake
+# Runs CMD (a ;-list) and passes only when it exits non-zero with a one-line stderr matching
+# EXPECT and, when OUTPUT is given, leaves neither OUTPUT nor any OUTPUT.tmp.* file behind.
+#   cmake -DCMD="a;b" -DEXPECT=regex [-DOUTPUT=path] -P expect_failure.cmake
+if(DEFINED OUTPUT)
+  file(REMOVE ${OUTPUT})
+endif()
 execute_process(COMMAND ${CMD} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(rc EQUAL 0)
   message(FATAL_ERROR "expected a non-zero exit, got 0\nstdout: ${out}\nstderr: ${err}")
@@ -11,5 +15,11 @@ string(REGEX MATCHALL "\n" lines "${err}")
 list(LENGTH lines n)
 if(n GREATER 1)
   message(FATAL_ERROR "the error is not one line:\n${err}")
+endif()
+if(DEFINED OUTPUT)
+  file(GLOB leftovers ${OUTPUT} ${OUTPUT}.tmp.*)
+  if(leftovers)
+    message(FATAL_ERROR "output left behind: ${leftovers}")
+  endif()
 endif()
 message(STATUS "exit ${rc}: ${err}")

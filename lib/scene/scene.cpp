@@ -297,7 +297,9 @@ class SpecReader {
   }
 
   void read_time(const YAML::Node& n, SceneSpec& s) const {
-    const auto e = entries(n, "time", {"haptic_hz", "physical_hz"});
+    const auto e = entries(n, "time", {"haptic_hz", "physical_hz", "interpolate_physical"});
+    if (auto it = e.find("interpolate_physical"); it != e.end())
+      s.interpolate_physical = boolean(it->second, "time.interpolate_physical");
     if (auto it = e.find("haptic_hz"); it != e.end()) s.haptic_hz = positive(it->second, "time.haptic_hz");
     if (auto it = e.find("physical_hz"); it != e.end()) s.physical_hz = positive(it->second, "time.physical_hz");
     // physical step k starts at tick k N (DESIGN.md §2): N = haptic_hz / physical_hz must be whole

@@ -40,7 +40,10 @@
 //     max_step: 0.5                 # translation limit of one Newton step (length unit)
 //     max_step_rotation_deg: 0.5    # rotation limit of one Newton step
 //     stabilization: {translation: 0, rotation: 0}   # N/m, N m/rad: damps the virtual tool per tick
-//   time: {haptic_hz: 1000, physical_hz: 100}
+//   time: {haptic_hz: 1000, physical_hz: 100, interpolate_physical: true}
+//                                   # interpolate_physical: move the E_svc targets from the previous
+//                                   # physical result to the new one over N ticks (false: jump, as
+//                                   # Algorithm 2 line 1 is printed)
 //   solver:
 //     method: chebyshev             # jacobi | chebyshev | direct
 //     physical_iterations: 16
@@ -147,6 +150,11 @@ struct SceneSpec {
   ToolSpec tool;
   double haptic_hz = 1000.0;
   double physical_hz = 100.0;
+  /// The haptic side moves its E_svc targets linearly from the previous physical result to the
+  /// newly visible one over the N ticks that follow it, instead of jumping (docs/MODEL.md). In
+  /// async mode the jump every N ticks, seen one step late, sustained a ~45 Hz oscillation
+  /// where a hook presses inside the tube; false restores Algorithm 2 line 1 as printed.
+  bool interpolate_physical = true;
   SolverSpec solver;
   Camera camera;
   Stages stages;

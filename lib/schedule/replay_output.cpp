@@ -28,6 +28,7 @@ void write_parameters(h5::File& f, const World& w) {
   const SceneSpec& s = w.scene.spec;
   f.set_attr("haptic_hz", s.haptic_hz);
   f.set_attr("physical_hz", s.physical_hz);
+  f.set_attr("interpolate_physical", static_cast<std::int64_t>(s.interpolate_physical));
   f.set_attr("k_vol", s.stiffness.k_vol);
   f.set_attr("k_s", s.stiffness.k_s);
   f.set_attr("k_svc", s.stiffness.k_svc);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "io/error.hpp"
 #include "tool/contact.hpp"
@@ -41,15 +42,29 @@ void read_device(HapticSide& h, const DeviceSample& sample) {
   h.tool.anchor = h.tool.pose;  // the virtual tool's pose at the start of this tick
 }
 
-/// Lines 1 and 6: E_svc targets from the visible physical mesh, inertial prediction of q.
+/// The physical positions this tick's E_svc targets come from: the visible result, or (with
+/// time.interpolate_physical) a linear blend from the previous result reaching it N ticks after
+/// it arrived. Returns the positions and a version that changes whenever they do.
+std::pair<std::span<const Vec3d>, std::int64_t> physical_targets(const World& world, HapticSide& h) {
+  if (!world.scene.spec.interpolate_physical || h.previous_x.empty()) return {h.visible.x, h.visible.step};
+  const std::int64_t since = h.tick - h.delivered_tick + 1;
+  if (since >= world.ticks_per_step) return {h.visible.x, h.visible.step};
+  const double a = static_cast<double>(since) / world.ticks_per_step;
+  for (std::size_t i = 0; i < h.visible.x.size(); ++i)
+    h.targets_x[i] = h.previous_x[i] + a * (h.visible.x[i] - h.previous_x[i]);
+  return {h.targets_x, -2 - h.tick};  // a version no physical step number takes
+}
+
+/// Lines 1 and 6: E_svc targets from the physical mesh, inertial prediction of q.
 void sync_physical_targets(const World& world, HapticSide& h) {
+  const auto [physical_x, version] = physical_targets(world, h);
 #if EBH_HAVE_CUDA
   if (h.cuda) {
     h.workspace.q_start = h.mesh.q;  // the tick's start, for the broad phase's drift bound
-    h.cuda->begin_tick(h.visible.x, h.visible.step, world.h_haptic, h.mesh.q);
+    h.cuda->begin_tick(physical_x, version, world.h_haptic, h.mesh.q);
   } else
 #endif
-  virtual_begin_tick(world.virtual_mesh, h.workspace, h.mesh, h.visible.x, world.h_haptic);
+  virtual_begin_tick(world.virtual_mesh, h.workspace, h.mesh, physical_x, world.h_haptic);
   if (world.tool.projection == Projection::InverseNormal)
     compute_vertex_normals(world.virtual_mesh, h.mesh.q, h.normals);
 }
@@ -212,6 +227,11 @@ void take_physical_snapshot(const PhysicalSide& physical, PhysicalSnapshot& out)
 }
 
 void deliver_physical_snapshot(const World& world, HapticSide& haptic, const PhysicalSnapshot& snapshot) {
+  if (world.scene.spec.interpolate_physical) {
+    haptic.previous_x.swap(haptic.visible.x);
+    haptic.targets_x.resize(snapshot.x.size());
+  }
+  haptic.delivered_tick = haptic.tick;
   haptic.visible.x = snapshot.x;
   haptic.visible.step = snapshot.step;
   haptic.grid.rebuild(haptic.mesh.q, world.grid_margin);

@@ -76,6 +76,9 @@ struct HapticSide {
   VertexGrid grid;                       ///< broad phase over the virtual mesh
   std::vector<ContactTarget> contacts;   ///< this iteration's E_con targets (capacity m)
   PhysicalSnapshot visible;              ///< the latest physical result this side may use
+  std::vector<Vec3d> previous_x;         ///< #n the result before it (time.interpolate_physical)
+  std::vector<Vec3d> targets_x;          ///< #n this tick's blend of the two
+  std::int64_t delivered_tick = 0;       ///< the tick at which `visible` arrived
   std::int64_t tick = 0;                 ///< the next tick to run
   // Outputs of the last tick.
   DeviceSample device;                   ///< X_h and jaw

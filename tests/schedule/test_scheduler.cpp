@@ -105,6 +105,32 @@ TEST(Scheduler, AsyncAndLockstepDifferOnlyByLatency) {
   for (double v : a.values) ASSERT_TRUE(std::isfinite(v));
 }
 
+TEST(Scheduler, PhysicalTargetsMoveLinearlyBetweenResults) {
+  // time.interpolate_physical (default on): over the N ticks after a physical result becomes
+  // visible, the E_svc targets go from the previous result to it in equal steps.
+  struct Probe : ReplayObserver {
+    int N = 0;
+    int checked = 0;
+    double worst = 0;
+    void on_tick(const World& w, const HapticSide& h, double) override {
+      if (h.previous_x.empty()) return;
+      const std::int64_t since = h.tick - 1 - h.delivered_tick + 1;  // h.tick was advanced
+      if (since >= w.ticks_per_step) return;
+      const double a = static_cast<double>(since) / w.ticks_per_step;
+      for (std::size_t i = 0; i < h.visible.x.size(); i += 97) {
+        const Vec3d expect = h.previous_x[i] + a * (h.visible.x[i] - h.previous_x[i]);
+        worst = std::max(worst, norm(h.targets_x[i] - expect));
+      }
+      ++checked;
+    }
+  } probe;
+  ASSERT_TRUE(tube().world->scene.spec.interpolate_physical);
+  ReplayOptions opt;
+  replay(*tube().world, entering_bore(0.05), opt, probe);
+  EXPECT_GT(probe.checked, 20);
+  EXPECT_EQ(probe.worst, 0.0);  // the same expression in the same order: bitwise
+}
+
 TEST(Scheduler, TickCountCoversTheDuration) {
   const World& w = *tube().world;
   EXPECT_EQ(tick_count(w, 0.0), 1);

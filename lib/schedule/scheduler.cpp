@@ -4,11 +4,14 @@
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
+#include <exception>
 #include <chrono>
 #include <cmath>
-#include <future>
+#include <optional>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 #include "io/error.hpp"
 
@@ -36,6 +39,59 @@ struct ThreadCountGuard {
   int saved = omp_get_max_threads();
   explicit ThreadCountGuard(int n) { omp_set_num_threads(n); }
   ~ThreadCountGuard() { omp_set_num_threads(saved); }
+};
+
+/// One thread that runs the physical step beside the haptic ticks (async mode), created once per
+/// replay: a step starts with start() and is collected with wait(); nothing allocates per step, and
+/// the thread's OpenMP team is made once (a new thread per step would make a new team each time).
+class PhysicalWorker {
+ public:
+  PhysicalWorker(const World& world, PhysicalSide& physical, const HapticSnapshot& input, int threads)
+      : thread_([this, &world, &physical, &input, threads] {
+          omp_set_num_threads(threads);
+          std::unique_lock<std::mutex> lock(mx_);
+          while (true) {
+            cv_.wait(lock, [this] { return pending_ || quit_; });
+            if (quit_) return;
+            lock.unlock();
+            std::exception_ptr error;
+            try {
+              run_physical_step(world, physical, input);
+            } catch (...) {
+              error = std::current_exception();  // handed to the haptic thread by wait()
+            }
+            lock.lock();
+            error_ = error;
+            pending_ = false;
+            busy_ = false;
+            cv_.notify_all();
+          }
+        }) {}
+  ~PhysicalWorker() {
+    {
+      std::lock_guard<std::mutex> lock(mx_);
+      quit_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  void start() {
+    std::lock_guard<std::mutex> lock(mx_);
+    pending_ = busy_ = true;
+    cv_.notify_all();
+  }
+  void wait() {
+    std::unique_lock<std::mutex> lock(mx_);
+    cv_.wait(lock, [this] { return !busy_; });
+    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+  }
+
+ private:
+  std::mutex mx_;
+  std::condition_variable cv_;
+  bool pending_ = false, busy_ = false, quit_ = false;
+  std::exception_ptr error_;
+  std::thread thread_;  // last: starts after the flags exist
 };
 
 double recording_duration(const Recording& rec, const ReplayOptions& opt) {
@@ -67,14 +123,18 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   PhysicalSide physical = make_physical_side(world);
   HapticSnapshot to_physical;
   PhysicalSnapshot to_haptic;
-  std::future<void> in_flight;  // async: physical step k running beside ticks kN .. (k+1)N - 1
+  // async: physical step k runs on the worker beside ticks kN .. (k+1)N - 1
+  std::optional<PhysicalWorker> worker;
+  if (opt.mode == Mode::Async) worker.emplace(world, physical, to_physical, threads.physical);
+  bool in_flight = false;
   double in_flight_t = 0;
   FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};
 
   ReplaySummary s;
   const auto wall0 = Clock::now();
   auto finish_step = [&] {
-    in_flight.get();
+    worker->wait();
+    in_flight = false;
     take_physical_snapshot(physical, to_haptic);
     obs.on_step(world, physical, in_flight_t);
     ++s.steps;
@@ -83,16 +143,14 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
     const double t = static_cast<double>(n) * world.h_haptic;
     if (n % N == 0) {
       if (opt.mode == Mode::Async) {
-        if (in_flight.valid()) {
+        if (in_flight) {
           finish_step();
           deliver_physical_snapshot(world, haptic, to_haptic);
         }
         take_haptic_snapshot(haptic, to_physical);
         in_flight_t = t;
-        in_flight = std::async(std::launch::async, [&] {
-          omp_set_num_threads(threads.physical);
-          run_physical_step(world, physical, to_physical);
-        });
+        in_flight = true;
+        worker->start();
       } else {  // lockstep
         take_haptic_snapshot(haptic, to_physical);
         run_physical_step(world, physical, to_physical);
@@ -111,7 +169,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
       break;
     }
   }
-  if (in_flight.valid()) finish_step();  // the last step's result is recorded, never shown
+  if (in_flight) finish_step();  // the last step's result is recorded, never shown
   s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
   s.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
   return s;

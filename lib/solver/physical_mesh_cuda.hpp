@@ -44,6 +44,12 @@ class CudaPhysicalSolver {
   /// Device time of the last step's graph (copies of q and x included), seconds, from CUDA events:
   /// time_s minus this is the host's share (conversions, launch, synchronisation).
   double last_device_seconds() const;
+  /// Whether steps run as one cooperative kernel with grid-wide barriers instead of the graph of
+  /// kernels (opt-in: EBH_CUDA_PERSISTENT=1 or set_persistent_kernel(true), where the device
+  /// supports cooperative launch; slower than the graph on the H100 today). Both give bitwise the
+  /// same x.
+  bool persistent_kernel() const;
+  void set_persistent_kernel(bool on);
   /// Whether the step graph chains its kernels by programmatic dependent launch (docs/CUDA.md).
   bool programmatic_launch() const;
 

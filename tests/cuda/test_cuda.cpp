@@ -195,6 +195,35 @@ TEST(CudaPhysical, RunsAreBitwiseIdentical) {
   EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
 }
 
+TEST(CudaPhysical, PersistentKernelMatchesTheGraphBitwise) {
+  // The cooperative single-kernel step runs the graph's per-element code in the same order, so
+  // x, v and the rotations must come out bitwise equal (jacobi and chebyshev).
+  EBH_REQUIRE_DEVICE();
+  const Models& M = models("cholecystectomy");
+  const std::vector<Vec3d> q = displaced_virtual(M.vm, 11);
+  for (const auto method : {SolverSpec::Method::Chebyshev, SolverSpec::Method::Jacobi}) {
+    PhysicalStepParams params;
+    params.method = method;
+    PhysicalState out[2];
+    bool persistent[2] = {false, false};
+    for (int run = 0; run < 2; ++run) {
+      CudaPhysicalSolver solver(M.pm, params);
+      solver.set_persistent_kernel(run == 1);
+      persistent[run] = solver.persistent_kernel();
+      solver.upload_state(M.start);
+      PhysicalState s = M.start;
+      for (int k = 0; k < 5; ++k) solver.step(s, q);
+      solver.download_state(out[run]);
+    }
+    std::printf("[ persistent ] cooperative launch available: %s\n", persistent[1] ? "yes" : "no");
+    if (!persistent[1]) GTEST_SKIP() << "the device does not support cooperative launch";
+    EXPECT_FALSE(persistent[0]);
+    EXPECT_EQ(std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(out[0].v.data(), out[1].v.data(), out[0].v.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
+  }
+}
+
 TEST(CudaVirtual, TickMatchesCpu) {
   EBH_REQUIRE_DEVICE();
   const Models& M = models("cholecystectomy");

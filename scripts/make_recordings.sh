@@ -15,6 +15,6 @@ if [[ -z "$ebh" || ! -x "$ebh" ]]; then
 fi
 cd "$root/recordings"
 echo "$("$ebh" --version): regenerating recordings/*.h5"
-for plan in tube_insert gap_insert cholecystectomy_press cholecystectomy_grasp gynaecology_press gynaecology_grasp; do
+for plan in tube_insert tube_grasp gap_insert gap_grasp cholecystectomy_press cholecystectomy_grasp gynaecology_press gynaecology_grasp; do
   "$ebh" synth "$plan.yaml" -o "$plan.h5" --seed 1 --rate 1000
 done

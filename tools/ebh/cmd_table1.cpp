@@ -22,7 +22,7 @@ struct Column {
   const char* press_scene;
   const char* press_recording;
   double press_start;
-  const char* grasp_scene;  // nullptr: no grasp recording for this scene
+  const char* grasp_scene;
   const char* grasp_recording;
   double grasp_start;
   int paper_tets, paper_triangles;
@@ -35,8 +35,8 @@ const Column kColumns[] = {
      0.8, 44178, 82748, 125.1, 123.3, 1003.2},
     {"gynaecology", "gynaecology_hook", "gynaecology_press", 0.9, "gynaecology", "gynaecology_grasp", 0.8, 16848, 29102,
      131.0, 132.2, 1004.1},
-    {"tube", "tube", "tube_insert", 1.8, nullptr, nullptr, 0, 8068, 14588, 137.8, 140.3, 998.1},
-    {"gap", "gap", "gap_insert", 2.0, nullptr, nullptr, 0, 16630, 30812, 140.0, 140.1, 1007.5},
+    {"tube", "tube", "tube_insert", 1.8, "tube_forceps", "tube_grasp", 0.8, 8068, 14588, 137.8, 140.3, 998.1},
+    {"gap", "gap", "gap_insert", 2.0, "gap_forceps", "gap_grasp", 0.8, 16630, 30812, 140.0, 140.1, 1007.5},
 };
 
 struct Rates {

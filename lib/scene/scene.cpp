@@ -499,12 +499,13 @@ Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides
   return scene;
 }
 
-fs::path resolve_scene_path(const std::string& name_or_path) {
-  if (name_or_path.empty()) throw InputError("scene: expected a scene name or a path, got nothing");
+fs::path resolve_data_path(const std::string& name_or_path, const std::string& folder, const std::string& extension,
+                           const std::string& what) {
+  if (name_or_path.empty()) throw InputError(what + ": expected a " + what + " name or a path, got nothing");
   const bool is_name = name_or_path.find('/') == std::string::npos && fs::path(name_or_path).extension().empty();
   std::error_code ec;
   if (!is_name) {
-    if (!fs::is_regular_file(name_or_path, ec)) throw InputError(name_or_path + ": scene file not found");
+    if (!fs::is_regular_file(name_or_path, ec)) throw InputError(name_or_path + ": " + what + " file not found");
     return name_or_path;
   }
   std::vector<fs::path> roots;
@@ -514,11 +515,15 @@ fs::path resolve_scene_path(const std::string& name_or_path) {
   std::string looked;
   for (std::size_t i = 0; i < roots.size(); ++i) {
     if (std::find(roots.begin(), roots.begin() + static_cast<long>(i), roots[i]) != roots.begin() + static_cast<long>(i)) continue;
-    const fs::path p = roots[i] / "scenarios" / (name_or_path + ".yaml");
+    const fs::path p = roots[i] / folder / (name_or_path + extension);
     if (fs::is_regular_file(p, ec)) return p;
     looked += (looked.empty() ? "" : ", ") + p.string();
   }
-  throw InputError(name_or_path + ": no such scene (looked for " + looked + ")");
+  throw InputError(name_or_path + ": no such " + what + " (looked for " + looked + ")");
+}
+
+fs::path resolve_scene_path(const std::string& name_or_path) {
+  return resolve_data_path(name_or_path, "scenarios", ".yaml", "scene");
 }
 
 }  // namespace ebh

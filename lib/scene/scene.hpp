@@ -185,4 +185,10 @@ Scene load_scene(const std::filesystem::path& file, const std::vector<std::strin
 /// directory and $EBH_DATA_DIR); any other string is a path. Throws InputError if missing.
 std::filesystem::path resolve_scene_path(const std::string& name_or_path);
 
+/// The same lookup for any data folder: NAME (no '/', no extension) finds FOLDER/NAME+EXTENSION in
+/// $EBH_DATA_DIR, the working directory and the source tree; anything else must be an existing
+/// file. `what` names the thing in messages ("scene", "recording").
+std::filesystem::path resolve_data_path(const std::string& name_or_path, const std::string& folder,
+                                        const std::string& extension, const std::string& what);
+
 }  // namespace ebh

@@ -1,32 +1,11 @@
 #include "schedule/replay_inputs.hpp"
 
-#include <cstdlib>
-#include <filesystem>
-
-#include "ebh/version.hpp"
 #include "io/error.hpp"
 
 namespace ebh {
 
-namespace fs = std::filesystem;
-
 std::string resolve_recording_path(const std::string& name_or_path) {
-  std::error_code ec;
-  if (fs::is_regular_file(name_or_path, ec)) return name_or_path;
-  const bool looks_like_path = name_or_path.find('/') != std::string::npos || fs::path(name_or_path).has_extension();
-  if (!looks_like_path) {
-    std::vector<fs::path> roots;
-    if (const char* d = std::getenv("EBH_DATA_DIR")) roots.emplace_back(d);
-    roots.emplace_back(fs::current_path(ec));
-    roots.emplace_back(kSourceDir);
-    for (const auto& r : roots) {
-      const fs::path p = r / "recordings" / (name_or_path + ".h5");
-      if (fs::is_regular_file(p, ec)) return p.string();
-    }
-    throw InputError(name_or_path + ": no such recording (looked for recordings/" + name_or_path +
-                     ".h5 in $EBH_DATA_DIR, the working directory and " + std::string(kSourceDir) + ")");
-  }
-  throw InputError(name_or_path + ": recording file not found");
+  return resolve_data_path(name_or_path, "recordings", ".h5", "recording").string();
 }
 
 LoadedReplay load_replay_inputs(const std::string& scene, const std::string& recording,

@@ -278,41 +278,32 @@ TEST(Determinism, PhysicalStepIsBitwiseEqualWithOneAndTwoThreads) {
   }
 }
 
+/// Five virtual-mesh ticks (4 iterations each) of a box under contact; parallel_min_vertices = 0
+/// puts even this small mesh on the OpenMP team instead of the calling thread.
+std::vector<Vec3d> five_virtual_ticks(int parallel_min_vertices) {
+  Sim sim(box_scene(4, 4, 8, 1));
+  if (parallel_min_vertices >= 0) sim.vm.parallel_min_vertices = parallel_min_vertices;
+  VirtualState vs = make_virtual_state(sim.vm);
+  VirtualWorkspace vw = make_virtual_workspace(sim.vm);
+  std::vector<ContactTarget> contacts;
+  for (int j = 0; j < sim.vm.num_vertices; ++j)
+    if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
+  for (int tick = 0; tick < 5; ++tick) {
+    virtual_begin_tick(sim.vm, vw, vs, sim.pm.rest, 0.001);
+    for (int i = 0; i < 4; ++i) virtual_iteration(sim.vm, vw, vs, contacts);
+    virtual_end_tick(sim.vm, vw, vs);
+  }
+  return vs.q;
+}
+
 TEST(Determinism, VirtualTickIsBitwiseEqualWithOneAndTwoThreads) {
-  expect_bitwise_equal_across_threads([&] {
-    Sim sim(box_scene(4, 4, 8, 1));
-    VirtualState vs = make_virtual_state(sim.vm);
-    VirtualWorkspace vw = make_virtual_workspace(sim.vm);
-    std::vector<ContactTarget> contacts;
-    for (int j = 0; j < sim.vm.num_vertices; ++j)
-      if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
-    for (int tick = 0; tick < 5; ++tick) {
-      virtual_begin_tick(sim.vm, vw, vs, sim.pm.rest, 0.001);
-      for (int i = 0; i < 4; ++i) virtual_iteration(sim.vm, vw, vs, contacts);
-      virtual_end_tick(sim.vm, vw, vs);
-    }
-    return vs.q;
-  });
+  expect_bitwise_equal_across_threads([&] { return five_virtual_ticks(-1); });
 }
 
 TEST(Determinism, VirtualTickOnTheThreadTeamIsBitwiseEqualWithOneAndTwoThreads) {
-  // Paper-sized virtual meshes iterate on the calling thread; parallel_min_vertices = 0 puts
-  // this one on the OpenMP team: the same bits with one and two threads.
-  expect_bitwise_equal_across_threads([&] {
-    Sim sim(box_scene(4, 4, 8, 1));
-    sim.vm.parallel_min_vertices = 0;
-    VirtualState vs = make_virtual_state(sim.vm);
-    VirtualWorkspace vw = make_virtual_workspace(sim.vm);
-    std::vector<ContactTarget> contacts;
-    for (int j = 0; j < sim.vm.num_vertices; ++j)
-      if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
-    for (int tick = 0; tick < 5; ++tick) {
-      virtual_begin_tick(sim.vm, vw, vs, sim.pm.rest, 0.001);
-      for (int i = 0; i < 4; ++i) virtual_iteration(sim.vm, vw, vs, contacts);
-      virtual_end_tick(sim.vm, vw, vs);
-    }
-    return vs.q;
-  });
+  // Paper-sized virtual meshes iterate on the calling thread; the thread team must give the same
+  // bits with one and two threads.
+  expect_bitwise_equal_across_threads([&] { return five_virtual_ticks(0); });
 }
 
 TEST(VirtualMesh, RestsAtRestAndConvergesUnderContact) {

@@ -9,6 +9,7 @@
 #include "io/error.hpp"
 #include "io/json.hpp"
 #include "mesh/boundary.hpp"
+#include "metrics/signal.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/replay_output.hpp"
 #include "schedule/scheduler.hpp"
@@ -63,8 +64,7 @@ Rates measure(const std::string& scene, const std::string& recording, double sta
   Rates r;
   r.sim_fps = s.wall_s > 0 ? static_cast<double>(s.steps) / s.wall_s : 0;
   r.haptic_fps = s.wall_s > 0 ? static_cast<double>(s.ticks) / s.wall_s : 0;
-  std::sort(c.tick_s.begin(), c.tick_s.end());
-  if (!c.tick_s.empty()) r.haptic_p99_ms = 1e3 * c.tick_s[static_cast<std::size_t>(0.99 * (c.tick_s.size() - 1))];
+  if (!c.tick_s.empty()) r.haptic_p99_ms = 1e3 * percentile(std::move(c.tick_s), 99.0);  // as `ebh metrics`
   return r;
 }
 

@@ -27,6 +27,12 @@ void timed(double& slot, F&& stage) {
 
 ToolPose pose_of(const DeviceSample& s) { return {s.position, s.orientation}; }
 
+#if !EBH_HAVE_CUDA
+[[noreturn]] void throw_no_cuda_build() {
+  throw InputError("--backend cuda: this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
+}
+#endif
+
 /// Normals are read only by the paper's inverse-normal projection; the closest-point default
 /// skips them.
 std::span<const Vec3d> normals_if_needed(const World& world, const HapticSide& h) {
@@ -198,7 +204,7 @@ HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample
     h.cuda = std::make_unique<CudaVirtualSolver>(world.virtual_mesh);
     h.cuda->upload_state(h.mesh);
 #else
-    throw InputError("--backend cuda: this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
+    throw_no_cuda_build();
 #endif
   }
   return h;
@@ -213,7 +219,7 @@ PhysicalSide make_physical_side(const World& world) {
     p.cuda = std::make_unique<CudaPhysicalSolver>(world.physical_mesh, world.physical_params);
     p.cuda->upload_state(p.mesh);
 #else
-    throw InputError("--backend cuda: this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
+    throw_no_cuda_build();
 #endif
   }
   return p;

@@ -80,9 +80,15 @@ void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
   PhysicalStepParams params = physical_params(L.scene.spec.solver);
   params.iterations = st.range(0);
   const bool pdl = st.range(1) != 0;  // 0: plain graph kernel nodes (EBH_CUDA_PDL=0)
+  const bool persistent = st.range(2) != 0;  // 1: the cooperative single-kernel step
   if (!pdl) setenv("EBH_CUDA_PDL", "0", 1);
   CudaPhysicalSolver solver(L.pm, params);
   unsetenv("EBH_CUDA_PDL");
+  solver.set_persistent_kernel(persistent);
+  if (persistent && !solver.persistent_kernel()) {
+    st.SkipWithError("the device cannot hold every patch at once (cooperative launch)");
+    return;
+  }
   PhysicalState state = make_physical_state(L.pm);
   const std::vector<Vec3d> q = L.vm.rest;
   for (int i = 0; i < 20; ++i) solver.step(state, q);  // warm-up: module load, graph upload
@@ -100,17 +106,24 @@ void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
   st.counters["median_us"] = 1e6 * percentile(times, 0.5);
   st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
   st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
-  st.counters["pdl"] = solver.programmatic_launch();
+  st.counters["pdl"] = solver.programmatic_launch() && !persistent;
+  st.counters["persistent"] = persistent;
+  st.counters["tet_evals"] = solver.tet_evaluations_per_tet();
   st.counters["tets"] = L.pm.num_tets;
   st.counters["vertices"] = L.pm.num_vertices;
   st.counters["virtual"] = L.pm.num_virtual;
   st.SetLabel(cuda_device_description());
 }
-// Arguments: the iteration count K (16 is the scenes'; 0 and 1 split the fixed cost of a step from
-// the cost of one local-global iteration) and whether programmatic dependent launch may be used.
-BENCHMARK_CAPTURE(BM_CudaPhysicalStep, cholecystectomy, std::string("cholecystectomy"))->Args({16, 1})->Args({16, 0})->Args({0, 1})->Args({1, 1})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_CudaPhysicalStep, gynaecology, std::string("gynaecology"))->Args({16, 1})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_CudaPhysicalStep, tube, std::string("tube"))->Args({16, 1})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+// Arguments: the iteration count K (16 is the scenes'; 0, 1 and 2 split the fixed cost of a step
+// from the cost of one local-global iteration), whether programmatic dependent launch may be used
+// in the graph, and whether the cooperative single-kernel step runs instead of the graph.
+BENCHMARK_CAPTURE(BM_CudaPhysicalStep, cholecystectomy, std::string("cholecystectomy"))
+    ->ArgNames({"K", "pdl", "persistent"})
+    ->Args({16, 1, 1})->Args({16, 1, 0})->Args({16, 0, 0})->Args({1, 1, 1})->Args({2, 1, 1})->Args({0, 1, 0})
+    ->Args({1, 1, 0})->Args({2, 1, 0})
+    ->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_CudaPhysicalStep, gynaecology, std::string("gynaecology"))->ArgNames({"K", "pdl", "persistent"})->Args({16, 1, 1})->Args({16, 1, 0})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_CudaPhysicalStep, tube, std::string("tube"))->ArgNames({"K", "pdl", "persistent"})->Args({16, 1, 1})->Args({16, 1, 0})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 #endif
 
 /// Contacts of a pressing tool: the ~1% of virtual vertices nearest the mesh's lowest point.

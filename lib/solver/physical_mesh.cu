@@ -1,22 +1,39 @@
 // The physical-mesh step (Algorithm 1) on a CUDA device, float32 (physical_mesh_cuda.hpp).
 //
-// Kernels of one step, all captured once into a CUDA graph:
+// One kernel per local-global iteration, all captured once into a CUDA graph:
 //   copy q in     the #m virtual positions E_svc holds fixed (pinned host -> device)
-//   predict       per vertex: x_start = x, s = x + h v + h^2 g (pinned: s = x), x = x_prev = s
 //   K times:
-//     local       per tet: F, R = extract_rotation(F, R_last) (Mueller 2016, warm-started),
-//                 the corner forces w_t (R - F) g_c written to their slots of the vertex -> (tet,
-//                 corner) CSR list; per virtual vertex: k_svc (q_j - p_j) w_jk written to the
-//                 slots of the coupling CSR list                                      Alg. 1 l. 6-8
-//     vertex      per vertex (8 threads): r = m/h^2 (s - x) + the sum of its CSR slots (contiguous,
-//                 fixed order), then the Jacobi or Chebyshev update                   Alg. 1 l. 9
+//     iteration   one block per patch of vertices (below):
+//                   stage    the patch's vertices and their neighbours' x_k into shared memory
+//                   local    per tet touching the patch: F, R = extract_rotation(F, R_last)
+//                            (Mueller 2016, warm-started) and the four corner forces
+//                            w_t (R - F) g_c into shared memory                    Alg. 1 l. 6-8
+//                   global   per patch vertex (kLanes threads): r = m/h^2 (s - x) + its corner
+//                            forces + the E_svc pulls of its coupled virtual vertices, then
+//                            the Jacobi or Chebyshev update into x_{k+1}            Alg. 1 l. 9
+//                 Iteration 0 also makes the prediction s = x + h v + h^2 g (l. 1) on the fly; the
+//                 last one also the velocities (l. 11) and, in the last block to finish, the
+//                 residual sums.
+//   copy x out    device -> pinned host
+// Patches: the vertices in Morton order of their rest positions, cut into runs sized so that
+// about two blocks per multiprocessor hold them all; a patch's tets are all tets with a corner in
+// it. Each block first copies its patch's model data (tets, shape gradients, pairings) into shared
+// memory, before waiting for the previous iteration. A tet on a patch border is computed by each
+// patch it touches (about 2x the arithmetic of one thread per tet), which buys one kernel per
+// iteration instead of two and keeps the corner forces in shared memory: the step is bound by
+// kernel latency and memory traffic, not arithmetic (docs/CUDA.md). The patch owning a tet's
+// corner 0 stores its rotation; every patch computes the same bits from the same inputs.
 // Kernels are launched with programmatic dependent launch where the driver takes it in a graph
 // (each waits for its predecessor with cudaGridDependencySynchronize before touching memory, so
 // only the launch latency overlaps); otherwise as plain graph nodes.
-//   finish        v = (1 - damping)(x - x_start) / h                                 Alg. 1 l. 11
-//   reduce        ||r_0||^2 and ||r_{K-1}||^2 in a fixed order (one block)
-//   copy x out    device -> pinned host
-// The per-element math is the CPU reference's: the same EBH_HD templates instantiated on float.
+//
+// Iterates: the state x is read by iteration 0 and written by iteration K-1; iterations in between
+// rotate over three scratch buffers (x_{k-1}, x_k, x_{k+1}), so no kernel reads what another block
+// of it writes. Rotations are double-buffered: iteration k reads rot[k % 2], writes rot[(k+1) % 2].
+// Opt-in alternative (EBH_CUDA_PERSISTENT=1): the same per-patch code as one cooperative kernel
+// with a grid-wide barrier between iterations (persistent_step_kernel), bitwise equal.
+// The per-element math is the CPU reference's: the same EBH_HD templates instantiated on float,
+// and each vertex sums its terms in the CPU model's incidence order.
 #include <cooperative_groups.h>
 #include <cuda_runtime.h>
 
@@ -25,7 +42,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <numeric>
+#include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "energy/arap.hpp"
@@ -38,40 +58,65 @@
 namespace ebh {
 namespace {
 
-constexpr int kBlock = 128;         // threads per block of the per-element kernels
-constexpr int kLanes = 8;           // threads per vertex in the gather (a power of two <= 32)
-constexpr int kReduceThreads = 512; // the one block of the residual reduction
+constexpr int kLanes = 8;                   // threads per vertex in the global stage (a power of two <= 32)
+constexpr int kBlock = 512;                 // threads per block (one patch)
+constexpr int kMaxPatch = kBlock / kLanes;  // most vertices in a patch
+constexpr int kPrefetchTets = 4;            // incidence entries per lane loaded before the barriers
+constexpr int kPrefetchPulls = 2;           // coupling entries per lane loaded before the barriers
 
 /// The device's view of the model and state: plain pointers, passed to every kernel by value.
 struct PhysicalDevice {
   int n = 0, T = 0, m = 0;
   float h = 0, k_svc = 0, velocity_scale = 0;  // velocity_scale = (1 - damping) / h
   Vec3f gravity;
-  const int* tets = nullptr;            // 4T corner vertices
-  const Vec3f* shape_grad = nullptr;    // 4T g_c
-  const float* tet_weight = nullptr;    // T  w_t = 2 k_vol V_t
+  // Patches (host-built, see build_patches): per patch p, its vertex slots
+  // [slot_offsets[p], slot_offsets[p+1]) (its own vertices first, then neighbours) and its tets
+  // [tet_offsets_p[p], tet_offsets_p[p+1]).
+  const int* slot_offsets = nullptr;    // P+1
+  const int* slot_vertex = nullptr;     // global vertex of each slot
+  const int* own_count = nullptr;       // P  vertices the patch updates (its first slots)
+  const int* ptet_offsets = nullptr;    // P+1
+  const int* ptet = nullptr;            // tet index; bit 31 set when this patch stores its rotation
+  const ushort4* ptet_corner = nullptr; // the tet's corners as slots of the patch
+  const Vec3f* ptet_grad = nullptr;     // 4 per patch tet: g_c
+  const float* ptet_weight = nullptr;   // w_t = 2 k_vol V_t
+  const int* pcpl_offsets = nullptr;    // P+1 the patch's coupled virtual vertices
+  const int2* pcpl = nullptr;           // (virtual vertex j, its pair count)
+  const ushort4* pcpl_corner = nullptr; // j's paired physical vertices as slots of the patch
+  int max_slots = 0, max_tets = 0, max_pulls = 0;  // shared memory sizing
+  // Per vertex, in the CPU model's incidence order.
+  const int* tet_offsets = nullptr;     // n+1 CSR vertex -> incident (tet, corner)
+  const unsigned short* force_slot = nullptr;  // 4 e + c of each entry: e its patch tet
+  const int* cpl_offsets = nullptr;     // n+1 CSR vertex -> coupled virtual vertices
+  const unsigned short* pull_slot = nullptr;  // the patch item of each entry's virtual vertex
+  const float* cpl_weight = nullptr;    // w_jk of this physical vertex in j's pairing
   const int* pair_vertex = nullptr;     // 4m
   const float* pair_weight = nullptr;   // 4m
   const int* pair_count = nullptr;      // m
-  const int* tet_offsets = nullptr;     // n+1 CSR vertex -> incidence entries
-  const int* corner_slot = nullptr;     // 4T slot of (t, c) in the vertex CSR list
-  const int* cpl_slot = nullptr;        // 4m slot of (j, k) in the coupling CSR list
-  const int* cpl_offsets = nullptr;     // n+1 CSR vertex -> coupling entries
   const float* mass_h2 = nullptr;       // n  m_a / h^2
   const float* step_scale = nullptr;    // n  gamma / A(a, a)
   const std::uint8_t* pinned = nullptr; // n
   const Vec3f* q = nullptr;             // m  virtual positions (input of the step)
-  Vec3f* x = nullptr;                   // n
+  Vec3f* x = nullptr;                   // n  state: read by iteration 0, written by the last
   Vec3f* v = nullptr;                   // n
-  Vec3f* s = nullptr;                   // n  prediction
+  Vec3f* s = nullptr;                   // n  prediction (= x_0)
   Vec3f* x_start = nullptr;             // n
-  Vec3f* x_prev = nullptr;              // n  previous iterate (Chebyshev)
-  Quatf* rotation = nullptr;            // T  warm start of the local step
-  Vec3f* corner_force = nullptr;        // 4T w_t (R_t - F_t) g_c, in CSR order: -dE_vol/dx_c
-  Vec3f* cpl_force = nullptr;           // #coupling entries, w_jk k_svc (q_j - p_j): -dE_svc/dx
+  Quatf* rotation = nullptr;            // 2T warm starts: [0, T) the state, [T, 2T) scratch
   float* rsq_first = nullptr;           // n  |r_a|^2 at iteration 0
   float* rsq_last = nullptr;            // n  |r_a|^2 at iteration K-1
   double* residual_sq = nullptr;        // 2  sums of the two
+  unsigned int* blocks_done = nullptr;  // 1  the last-block counter
+};
+
+/// One iteration's buffers (the rotation described at the top of the file).
+struct Sweep {
+  const Vec3f* cur = nullptr;   // x_k (iterations k >= 1)
+  const Vec3f* prev = nullptr;  // x_{k-1} (Chebyshev)
+  Vec3f* next = nullptr;        // x_{k+1}
+  const Quatf* rot_in = nullptr;
+  Quatf* rot_out = nullptr;
+  float omega = 1;              // Chebyshev weight of this iteration (Wang 2015), 1 for Jacobi
+  float* rsq = nullptr;         // where |r_a|^2 goes, or null
 };
 
 /// Start of every kernel: wait until the preceding kernel's writes are visible (a no-op without
@@ -83,163 +128,483 @@ __device__ __forceinline__ void kernel_prologue() {
 #endif
 }
 
-__device__ __forceinline__ void predict_vertex(const PhysicalDevice& d, int a) {
-  const Vec3f xa = d.x[a];
-  const Vec3f sa = d.pinned[a] ? xa : predict_position(xa, d.v[a], d.gravity, d.h);
-  d.x_start[a] = xa;
-  d.s[a] = sa;
-  d.x[a] = sa;
-  d.x_prev[a] = sa;
+/// Alg. 1 line 1: s = x + h v + h^2 g (pinned: s = x).
+__device__ __forceinline__ Vec3f predicted(const PhysicalDevice& d, int b) {
+  const Vec3f xb = d.x[b];
+  return d.pinned[b] ? xb : predict_position(xb, d.v[b], d.gravity, d.h);
 }
 
-__global__ void predict_kernel(PhysicalDevice d) {
-  kernel_prologue();
-  const int a = blockIdx.x * blockDim.x + threadIdx.x;
-  if (a < d.n) predict_vertex(d, a);
+/// x_k of vertex b: the prediction in iteration 0, the current iterate after it.
+template <bool kFirst>
+__device__ __forceinline__ Vec3f iterate(const PhysicalDevice& d, const Sweep& w, int b) {
+  if constexpr (kFirst) return predicted(d, b);
+  else return w.cur[b];
 }
 
-/// Alg. 1 lines 6-8: threads [0, T) take a tet each, threads [T, T + m) a virtual vertex each.
-__device__ __forceinline__ void local_item(const PhysicalDevice& d, int i, int rotation_iterations) {
-  if (i < d.T) {
-    Vec3f x[4], g[4];
-    int idx[4];
-    for (int c = 0; c < 4; ++c) idx[c] = d.tets[4 * i + c];
-    for (int c = 0; c < 4; ++c) { x[c] = d.x[idx[c]]; g[c] = d.shape_grad[4 * i + c]; }
-    // F = sum_c x_c g_c^T with positions taken relative to corner 0 (sum_c g_c = 0, so F is the
-    // same; in float32 it avoids cancelling |x| |g| ~ scene size / edge length).
-    const Vec3f x0 = x[0];
-    for (int c = 0; c < 4; ++c) x[c] = x[c] - x0;
-    const Mat3f F = deformation_gradient(x, g);
-    const Quatf R = extract_rotation(F, d.rotation[i], rotation_iterations, 1e-9f);
-    d.rotation[i] = R;
-    const Mat3f proj = d.tet_weight[i] * (to_matrix(R) - F);
-    for (int c = 0; c < 4; ++c) d.corner_force[d.corner_slot[4 * i + c]] = proj * g[c];  // -dE_vol/dx_c [7]
-  } else if (i < d.T + d.m) {
-    const int j = i - d.T;
-    const int count = d.pair_count[j];
-    const Vec3f p = paired_point(d.x, d.pair_vertex + 4 * j, d.pair_weight + 4 * j, count);
-    const Vec3f f = coupling_gradient_virtual(p, d.q[j], d.k_svc);  // k_svc (q - p)
-    for (int k = 0; k < count; ++k) d.cpl_force[d.cpl_slot[4 * j + k]] = d.pair_weight[4 * j + k] * f;  // -dE_svc/dx [5]
-  }
+/// A patch tet's model data (loaded before the iteration's dependency wait: it never changes).
+struct TetItem {
+  int tagged;  // tet index, bit 31 set when this patch stores its rotation
+  ushort4 corner;
+  Vec3f g[4];
+  float weight;
+};
+
+__device__ __forceinline__ TetItem load_tet(const PhysicalDevice& d, int e) {
+  TetItem it;
+  it.tagged = d.ptet[e];
+  it.corner = d.ptet_corner[e];
+  for (int i = 0; i < 4; ++i) it.g[i] = d.ptet_grad[4 * e + i];
+  it.weight = d.ptet_weight[e];
+  return it;
 }
 
-__global__ void local_kernel(PhysicalDevice d, int rotation_iterations) {
-  kernel_prologue();
-  local_item(d, blockIdx.x * blockDim.x + threadIdx.x, rotation_iterations);
+/// Alg. 1 lines 6-8 for one tet: F, R (warm-started from r_last) and the four corner forces
+/// w_t (R - F) g_c = -dE_vol/dx_c [7], from the patch's staged positions.
+__device__ __forceinline__ Quatf tet_forces(const TetItem& it, Quatf r_last, const Sweep& w, const Vec3f* pos,
+                                            Vec3f* force, int rotation_iterations) {
+  Vec3f x[4];
+  x[0] = pos[it.corner.x];
+  x[1] = pos[it.corner.y];
+  x[2] = pos[it.corner.z];
+  x[3] = pos[it.corner.w];
+  // F = sum_c x_c g_c^T with positions taken relative to corner 0 (sum_c g_c = 0, so F is the
+  // same; in float32 it avoids cancelling |x| |g| ~ scene size / edge length).
+  const Vec3f x0 = x[0];
+  for (int i = 0; i < 4; ++i) x[i] = x[i] - x0;
+  const Mat3f F = deformation_gradient(x, it.g);
+  const Quatf R = extract_rotation(F, r_last, rotation_iterations, 1e-9f);
+  if (it.tagged < 0) w.rot_out[it.tagged & 0x7fffffff] = R;
+  const Mat3f proj = it.weight * (to_matrix(R) - F);
+  for (int i = 0; i < 4; ++i) force[i] = proj * it.g[i];
+  return R;
 }
 
+/// A coupled virtual vertex j of the patch: k_svc (q_j - p_j), p_j = sum_i w_ji x_i [5].
+struct PullItem {
+  int count;
+  ushort4 corner;
+  float weight[4];
+  Vec3f q;
+};
+
+__device__ __forceinline__ PullItem load_pull(const PhysicalDevice& d, int c) {
+  PullItem it;
+  const int2 jc = d.pcpl[c];
+  it.count = jc.y;
+  it.corner = d.pcpl_corner[c];
+  for (int i = 0; i < 4; ++i) it.weight[i] = d.pair_weight[4 * jc.x + i];
+  it.q = d.q[jc.x];  // written by the step's first copy, before any iteration kernel
+  return it;
+}
+
+__device__ __forceinline__ Vec3f pull_force(const PullItem& it, const Vec3f* pos, float k_svc) {
+  const unsigned short c[4] = {it.corner.x, it.corner.y, it.corner.z, it.corner.w};
+  Vec3f p{};
+  for (int i = 0; i < it.count; ++i) p += it.weight[i] * pos[c[i]];
+  return coupling_gradient_virtual(p, it.q, k_svc);
+}
+
+/// Butterfly over the kLanes threads of one vertex: every lane ends with the same bits (float
+/// addition is commutative), in an order fixed by the lane pattern alone.
 __device__ __forceinline__ float lane_sum(float v) {
-  // Butterfly over the kLanes threads of one vertex: every lane ends with the same bits (float
-  // addition is commutative), in an order fixed by the lane pattern alone.
   for (int off = kLanes / 2; off > 0; off /= 2) v += __shfl_xor_sync(0xffffffffu, v, off, kLanes);
   return v;
 }
 
-/// r = -grad E_soft gathered per vertex, then the global step (Alg. 1 line 9):
-///   jacobi     x <- x + gamma D^-1 r
-///   chebyshev  x_{k+1} = omega (gamma D^-1 r + x_k - x_{k-1}) + x_{k-1}   (Wang 2015, eq. 12)
-/// rsq_a / rsq_b (or null): where to store |r_a|^2 for the residual report.
-/// Called by whole warps (its shuffles take every lane); gid beyond n * kLanes does nothing.
-template <bool kChebyshev>
-__device__ __forceinline__ void vertex_update(const PhysicalDevice& d, int gid, float omega, float* rsq_a, float* rsq_b) {
-  const int a = gid / kLanes, lane = gid % kLanes;
-  const bool valid = a < d.n;  // no early return: every lane takes part in the shuffles
-  Vec3f r{};
-  if (valid) {
-    for (int k = d.tet_offsets[a] + lane; k < d.tet_offsets[a + 1]; k += kLanes) r += d.corner_force[k];  // [7]
-    for (int k = d.cpl_offsets[a] + lane; k < d.cpl_offsets[a + 1]; k += kLanes) r += d.cpl_force[k];     // [5]
-  }
-  r = Vec3f{lane_sum(r.x), lane_sum(r.y), lane_sum(r.z)};
-  if (!valid || lane != 0) return;
-  const Vec3f xk = d.x[a];
-  if (d.pinned[a]) r = Vec3f{};
-  else r += d.mass_h2[a] * (d.s[a] - xk);                                   // -dE_k/dx [6]
-  if (rsq_a) rsq_a[a] = squared_norm(r);
-  if (rsq_b) rsq_b[a] = squared_norm(r);
-  if constexpr (kChebyshev) {
-    const Vec3f xp = d.x_prev[a];
-    d.x[a] = omega * (d.step_scale[a] * r + xk - xp) + xp;
-    d.x_prev[a] = xk;
-  } else {
-    d.x[a] = xk + d.step_scale[a] * r;
-  }
-}
-
-template <bool kChebyshev>
-__global__ void vertex_kernel(PhysicalDevice d, float omega, float* rsq_a, float* rsq_b) {
-  kernel_prologue();
-  vertex_update<kChebyshev>(d, blockIdx.x * blockDim.x + threadIdx.x, omega, rsq_a, rsq_b);
-}
-
-__device__ __forceinline__ void finish_vertex(const PhysicalDevice& d, int a) {
-  d.v[a] = d.velocity_scale * (d.x[a] - d.x_start[a]);
-}
-
-__global__ void finish_kernel(PhysicalDevice d) {
-  kernel_prologue();
-  const int a = blockIdx.x * blockDim.x + threadIdx.x;
-  if (a < d.n) finish_vertex(d, a);
-}
-
-/// ||r_0||^2 and ||r_{K-1}||^2 in double, each thread a fixed strided slice, then a fixed tree.
-/// One block of kReduceThreads threads reduces (see residual_kernel).
+/// ||r_0||^2 and ||r_{K-1}||^2 in double by one block: each thread a fixed strided slice, then a
+/// fixed tree (the same order whichever block runs it).
 __device__ __forceinline__ void residual_block(const PhysicalDevice& d) {
-  __shared__ double sum[2][kReduceThreads];
+  __shared__ double sum[2][kBlock];
   const int t = threadIdx.x;
   double a = 0, b = 0;
-  for (int i = t; i < d.n; i += kReduceThreads) { a += d.rsq_first[i]; b += d.rsq_last[i]; }
+  for (int i = t; i < d.n; i += kBlock) { a += __ldcg(d.rsq_first + i); b += __ldcg(d.rsq_last + i); }
   sum[0][t] = a;
   sum[1][t] = b;
   __syncthreads();
-  for (int w = kReduceThreads / 2; w > 0; w /= 2) {
+  for (int w = kBlock / 2; w > 0; w /= 2) {
     if (t < w) { sum[0][t] += sum[0][t + w]; sum[1][t] += sum[1][t + w]; }
     __syncthreads();
   }
   if (t == 0) { d.residual_sq[0] = sum[0][0]; d.residual_sq[1] = sum[1][0]; }
 }
 
-__global__ void residual_kernel(PhysicalDevice d) {
-  kernel_prologue();
+/// Blocks count themselves out; the last one sums the residuals (an integer atomic only picks
+/// which block does it; the sums' order is fixed). Every thread fences its own writes first.
+__device__ __forceinline__ void last_block_reduces(const PhysicalDevice& d) {
+  __shared__ bool last;
+  __threadfence();
+  __syncthreads();
+  if (threadIdx.x == 0) last = atomicAdd(d.blocks_done, 1u) == gridDim.x - 1;
+  __syncthreads();
+  if (!last) return;
+  __threadfence();
   residual_block(d);
+  if (threadIdx.x == 0) *d.blocks_done = 0;
 }
 
-/// The whole step in one cooperative launch: the stages of the graph above as grid-stride loops
-/// separated by grid-wide barriers (two per iteration), with the same per-element code, so x
-/// comes out bitwise equal to the graph's. Blocks of kReduceThreads threads so block 0 can finish
-/// with the residual reduction. omega: the K Chebyshev weights (float, computed in double on the
-/// host as for the graph).
+/// What a thread of a patch's block needs that never changes: loaded once per kernel, before
+/// the wait for the previous iteration (the model is constant; q is copied before any iteration).
+struct PatchThread {
+  int s0 = 0, slots = 0, e0 = 0, tets = 0, c0 = 0, pulls = 0;
+  int my_slot = -1;             // vertex staged by this thread (slot tid), or -1
+  // Global stage: vertex i = tid / kLanes of the patch, lane = tid % kLanes.
+  int i = 0, lane = 0, a = 0;
+  bool valid = false, pinned = false;
+  float mass_h2 = 0, step_scale = 0;
+  int t_begin = 0, t_end = 0, c_begin = 0, c_end = 0;
+  unsigned short fs[kPrefetchTets] = {}, ps[kPrefetchPulls] = {};
+  float pw[kPrefetchPulls] = {};
+};
+
+__device__ __forceinline__ void load_patch_thread(const PhysicalDevice& d, int patch, int tid, PatchThread& P) {
+  P.s0 = d.slot_offsets[patch];
+  P.slots = d.slot_offsets[patch + 1] - P.s0;
+  P.e0 = d.ptet_offsets[patch];
+  P.tets = d.ptet_offsets[patch + 1] - P.e0;
+  P.c0 = d.pcpl_offsets[patch];
+  P.pulls = d.pcpl_offsets[patch + 1] - P.c0;
+  P.my_slot = tid < P.slots ? d.slot_vertex[P.s0 + tid] : -1;
+  P.i = tid / kLanes;
+  P.lane = tid % kLanes;
+  P.valid = P.i < d.own_count[patch];
+  if (!P.valid) return;
+  const int a = P.a = d.slot_vertex[P.s0 + P.i];
+  P.pinned = d.pinned[a];
+  P.mass_h2 = d.mass_h2[a];
+  P.step_scale = d.step_scale[a];
+  P.t_begin = d.tet_offsets[a] + P.lane;
+  P.t_end = d.tet_offsets[a + 1];
+  P.c_begin = d.cpl_offsets[a] + P.lane;
+  P.c_end = d.cpl_offsets[a + 1];
+  for (int j = 0; j < kPrefetchTets; ++j) {
+    const int k = P.t_begin + j * kLanes;
+    P.fs[j] = k < P.t_end ? d.force_slot[k] : 0;
+  }
+  for (int j = 0; j < kPrefetchPulls; ++j) {
+    const int k = P.c_begin + j * kLanes;
+    P.ps[j] = k < P.c_end ? d.pull_slot[k] : 0;
+    P.pw[j] = k < P.c_end ? d.cpl_weight[k] : 0.f;
+  }
+}
+
+/// The dynamic shared memory of a patch's block: its tet and pull items (model data, copied in
+/// once per kernel), then x_k of its slots, the corner forces and the coupling pulls.
+struct PatchShared {
+  TetItem* tet;
+  PullItem* pl;
+  Vec3f* pos;
+  Vec3f* force;
+  Vec3f* pull;
+};
+
+__device__ __forceinline__ PatchShared patch_shared(const PhysicalDevice& d) {
+  extern __shared__ float4 shared[];
+  PatchShared S;
+  S.tet = reinterpret_cast<TetItem*>(shared);
+  S.pl = reinterpret_cast<PullItem*>(S.tet + d.max_tets);
+  S.pos = reinterpret_cast<Vec3f*>(S.pl + d.max_pulls);
+  S.force = S.pos + d.max_slots;
+  S.pull = S.force + 4 * d.max_tets;
+  return S;
+}
+
+/// Copies the patch's tet and pull items into shared memory (read after the next barrier).
+__device__ __forceinline__ void cache_patch_items(const PhysicalDevice& d, const PatchThread& P, const PatchShared& S,
+                                                  int tid) {
+  for (int k = tid; k < P.tets; k += kBlock) S.tet[k] = load_tet(d, P.e0 + k);
+  for (int k = tid; k < P.pulls; k += kBlock) S.pl[k] = load_pull(d, P.c0 + k);
+}
+
+/// One local-global iteration of one patch (Alg. 1 lines 6-9):
+///   r = m/h^2 (s - x) + sum of the corner forces [7] + sum of the coupling pulls [5]
+///   jacobi     x <- x + gamma D^-1 r
+///   chebyshev  x_{k+1} = omega (gamma D^-1 r + x_k - x_{k-1}) + x_{k-1}   (Wang 2015, eq. 12)
+/// kFirst: x_0 = x_{-1} = s, computed here; s and x_start are stored for later iterations.
+/// kLast: x_K goes to the state x, with v = (1 - damping)(x_K - x_start) / h (Alg. 1 line 11).
+/// r_last: the warm start of the thread's own tet (item tid), replaced by its new rotation; every
+/// other read of the last rotations goes to w.rot_in. Only shared memory is read between the
+/// two barriers.
+template <bool kChebyshev, bool kFirst, bool kLast>
+__device__ __forceinline__ void patch_iteration(const PhysicalDevice& d, const Sweep& w, const PatchThread& P,
+                                                Quatf& r_last, int tid, int rotation_iterations) {
+  const PatchShared S = patch_shared(d);
+  Vec3f* pos = S.pos;
+  Vec3f* force = S.force;
+  Vec3f* pull = S.pull;
+  const int a = P.a;
+  Vec3f sa{}, xp{}, x_before{};
+  if (P.valid && P.lane == 0) {
+    if constexpr (kFirst) x_before = d.x[a];
+    else {
+      sa = d.s[a];
+      if constexpr (kChebyshev) xp = w.prev[a];
+      if constexpr (kLast) x_before = d.x_start[a];
+    }
+  }
+  // Stage.
+  if (P.my_slot >= 0) pos[tid] = iterate<kFirst>(d, w, P.my_slot);
+  for (int k = tid + kBlock; k < P.slots; k += kBlock) pos[k] = iterate<kFirst>(d, w, d.slot_vertex[P.s0 + k]);
+  __syncthreads();
+  // Local: the patch's tets and coupled virtual vertices, one item a thread.
+  for (int k = tid; k < P.tets + P.pulls; k += kBlock) {
+    if (k < P.tets) {
+      const TetItem& it = S.tet[k];
+      const Quatf R = tet_forces(it, k == tid ? r_last : w.rot_in[it.tagged & 0x7fffffff], w, pos, force + 4 * k,
+                                 rotation_iterations);
+      if (k == tid) r_last = R;
+    } else {
+      pull[k - P.tets] = pull_force(S.pl[k - P.tets], pos, d.k_svc);
+    }
+  }
+  __syncthreads();
+  // Global: kLanes threads per patch vertex sum its entries in the CPU model's order.
+  Vec3f r{};
+  if (P.valid) {
+    for (int j = 0; j < kPrefetchTets; ++j)
+      if (P.t_begin + j * kLanes < P.t_end) r += force[P.fs[j]];                              // [7]
+    for (int k = P.t_begin + kPrefetchTets * kLanes; k < P.t_end; k += kLanes) r += force[d.force_slot[k]];
+    for (int j = 0; j < kPrefetchPulls; ++j)
+      if (P.c_begin + j * kLanes < P.c_end) r += P.pw[j] * pull[P.ps[j]];                    // [5]
+    for (int k = P.c_begin + kPrefetchPulls * kLanes; k < P.c_end; k += kLanes) r += d.cpl_weight[k] * pull[d.pull_slot[k]];
+  }
+  r = Vec3f{lane_sum(r.x), lane_sum(r.y), lane_sum(r.z)};
+  if (P.valid && P.lane == 0) {
+    const Vec3f xk = pos[P.i];
+    if constexpr (kFirst) {
+      sa = xp = xk;
+      d.s[a] = sa;
+      d.x_start[a] = x_before;
+    }
+    if (P.pinned) r = Vec3f{};
+    else r += P.mass_h2 * (sa - xk);  // -dE_k/dx [6]
+    if (w.rsq) w.rsq[a] = squared_norm(r);
+    Vec3f xn;
+    if constexpr (kChebyshev) xn = w.omega * (P.step_scale * r + xk - xp) + xp;
+    else xn = xk + P.step_scale * r;
+    w.next[a] = xn;
+    if constexpr (kLast) d.v[a] = d.velocity_scale * (xn - x_before);
+  }
+}
+
+/// One iteration as one kernel of the graph.
+template <bool kChebyshev, bool kFirst, bool kLast>
+__global__ void __launch_bounds__(kBlock, 2) iteration_kernel(PhysicalDevice d, Sweep w, int rotation_iterations) {
+  PatchThread P;
+  load_patch_thread(d, blockIdx.x, threadIdx.x, P);
+  cache_patch_items(d, P, patch_shared(d), threadIdx.x);
+  kernel_prologue();  // the previous iteration's x_k and rotations are visible from here on
+  Quatf r_last{};
+  if (threadIdx.x < P.tets) r_last = w.rot_in[d.ptet[P.e0 + threadIdx.x] & 0x7fffffff];
+  patch_iteration<kChebyshev, kFirst, kLast>(d, w, P, r_last, threadIdx.x, rotation_iterations);
+  if constexpr (kLast) last_block_reduces(d);
+}
+
+/// K = 0: the step is the prediction alone.
+__global__ void predict_only_kernel(PhysicalDevice d) {
+  kernel_prologue();
+  const int a = blockIdx.x * blockDim.x + threadIdx.x;
+  if (a >= d.n) return;
+  const Vec3f xa = d.x[a];
+  const Vec3f sa = predicted(d, a);
+  d.x[a] = sa;
+  d.v[a] = d.velocity_scale * (sa - xa);
+}
+
+/// K = 1: x_1 (in `from`) becomes the state, with its velocities; the last block sums the residual.
+__global__ void __launch_bounds__(kBlock) finish_kernel(PhysicalDevice d, const Vec3f* from) {
+  kernel_prologue();
+  const int a = blockIdx.x * blockDim.x + threadIdx.x;
+  if (a < d.n) {
+    const Vec3f xa = from[a];
+    d.v[a] = d.velocity_scale * (xa - d.x_start[a]);
+    d.x[a] = xa;
+  }
+  last_block_reduces(d);
+}
+
+/// The K sweeps' buffers: iteration 0 reads the state x (and v) to predict, iteration K-1 >= 1
+/// writes x and v, and the iterates in between rotate over scratch[0..2] (x_{-1} = x_0 = s).
+/// With K = 1 the one iteration writes scratch[0] and finish_kernel moves it to the state.
+struct SweepPlan {
+  Vec3f* scratch[3] = {nullptr, nullptr, nullptr};
+  const Vec3f* s = nullptr;
+  Vec3f* x = nullptr;
+  Quatf* rot = nullptr;  // 2T
+  int T = 0, K = 0;
+  __host__ __device__ Vec3f* written(int k) const { return (k == K - 1 && K >= 2) ? x : scratch[k % 3]; }
+  __host__ __device__ const Vec3f* read(int k) const { return k < 0 ? s : written(k); }
+  __host__ __device__ Sweep sweep(int k, float omega, float* rsq) const {
+    Sweep w;
+    w.cur = k >= 1 ? read(k - 1) : nullptr;
+    w.prev = k >= 1 ? read(k - 2) : nullptr;
+    w.next = written(k);
+    w.rot_in = rot + (k % 2) * static_cast<long long>(T);
+    w.rot_out = rot + ((k + 1) % 2) * static_cast<long long>(T);
+    w.omega = omega;
+    w.rsq = rsq;
+    return w;
+  }
+};
+
+/// The whole step in one cooperative launch: the graph's iterations with one grid-wide barrier
+/// between them and the same per-patch code. Each block loads its patch's model data once per
+/// step instead of once per iteration, and keeps its threads' own rotations in registers (the
+/// same bits every patch computes, so x comes out bitwise equal to the graph's). omega: K weights.
 template <bool kChebyshev>
-__global__ void __launch_bounds__(kReduceThreads) persistent_step_kernel(PhysicalDevice d, const float* omega, int K,
-                                                                          int rotation_iterations) {
+__global__ void __launch_bounds__(kBlock, 2) persistent_step_kernel(PhysicalDevice d, SweepPlan plan, const float* omega,
+                                                                     int rotation_iterations) {
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
-  const int tid = blockIdx.x * blockDim.x + threadIdx.x, stride = gridDim.x * blockDim.x;
-  for (int a = tid; a < d.n; a += stride) predict_vertex(d, a);
-  grid.sync();
-  // Whole warps iterate together in the gather (stride and the padded bound are multiples of 32).
-  const int lanes_total = ((d.n * kLanes + 31) / 32) * 32;
+  const int tid = threadIdx.x, K = plan.K;
+  PatchThread P;
+  load_patch_thread(d, blockIdx.x, tid, P);
+  cache_patch_items(d, P, patch_shared(d), tid);
+  Quatf r_last{};
+  if (tid < P.tets) r_last = d.rotation[d.ptet[P.e0 + tid] & 0x7fffffff];  // the state half
   for (int k = 0; k < K; ++k) {
-    for (int i = tid; i < d.T + d.m; i += stride) local_item(d, i, rotation_iterations);
-    grid.sync();
-    float* ra = k == 0 ? d.rsq_first : nullptr;
-    float* rb = k == K - 1 ? d.rsq_last : nullptr;
-    for (int g = tid; g < lanes_total; g += stride) vertex_update<kChebyshev>(d, g, omega[k], ra, rb);
+    float* rsq = k == 0 ? d.rsq_first : (k == K - 1 ? d.rsq_last : nullptr);
+    const Sweep w = plan.sweep(k, omega[k], rsq);
+    if (k == 0) patch_iteration<kChebyshev, true, false>(d, w, P, r_last, tid, rotation_iterations);
+    else if (k == K - 1) patch_iteration<kChebyshev, false, true>(d, w, P, r_last, tid, rotation_iterations);
+    else patch_iteration<kChebyshev, false, false>(d, w, P, r_last, tid, rotation_iterations);
     grid.sync();
   }
-  for (int a = tid; a < d.n; a += stride) finish_vertex(d, a);
-  if (K > 0 && blockIdx.x == 0) residual_block(d);
+  const int g = blockIdx.x * blockDim.x + tid, stride = gridDim.x * blockDim.x;
+  if (K == 1) {  // as finish_kernel
+    for (int a = g; a < d.n; a += stride) {
+      const Vec3f xa = plan.scratch[0][a];
+      d.v[a] = d.velocity_scale * (xa - d.x_start[a]);
+      d.x[a] = xa;
+    }
+    d.rsq_last = d.rsq_first;
+  }
+  if (K % 2 == 1)  // the last rotations are in the scratch half
+    for (int t = g; t < d.T; t += stride) d.rotation[t] = d.rotation[d.T + t];
+  grid.sync();
+  if (blockIdx.x == 0) residual_block(d);
+}
+
+/// Morton code of p in the box [lo, lo + extent]: 10 bits per axis, interleaved.
+std::uint32_t morton(const Vec3d& p, const Vec3d& lo, double extent) {
+  auto spread = [](std::uint32_t v) {
+    v = (v | (v << 16)) & 0x030000FFu;
+    v = (v | (v << 8)) & 0x0300F00Fu;
+    v = (v | (v << 4)) & 0x030C30C3u;
+    v = (v | (v << 2)) & 0x09249249u;
+    return v;
+  };
+  auto cell = [&](double c, double l) {
+    const double u = extent > 0 ? (c - l) / extent : 0.0;
+    return static_cast<std::uint32_t>(std::clamp(u * 1023.0, 0.0, 1023.0));
+  };
+  return spread(cell(p.x, lo.x)) | (spread(cell(p.y, lo.y)) << 1) | (spread(cell(p.z, lo.z)) << 2);
+}
+
+/// The patches of the iteration kernel, host side.
+struct Patches {
+  std::vector<int> slot_offsets{0}, slot_vertex, own_count, ptet_offsets{0}, ptet, pcpl_offsets{0};
+  std::vector<ushort4> ptet_corner, pcpl_corner;
+  std::vector<int2> pcpl;
+  std::vector<Vec3f> ptet_grad;
+  std::vector<float> ptet_weight;
+  std::vector<unsigned short> force_slot, pull_slot;  // per CPU incidence / coupling entry
+  int max_slots = 0, max_tets = 0, max_pulls = 0;
+};
+
+/// Cuts the vertices, in Morton order of their rest positions, into runs of `size` (<= kMaxPatch).
+Patches build_patches(const PhysicalModel& M, int size) {
+  const int n = M.num_vertices;
+  Patches P;
+  if (n == 0) return P;
+  Vec3d lo = M.rest[0], hi = M.rest[0];
+  for (const Vec3d& p : M.rest) {
+    lo = Vec3d{std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = Vec3d{std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::vector<std::uint32_t> code(n);
+  for (int a = 0; a < n; ++a) code[a] = morton(M.rest[a], lo, extent);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return code[a] < code[b]; });
+  std::vector<int> patch_of(n);
+  for (int i = 0; i < n; ++i) patch_of[order[i]] = i / size;
+  P.force_slot.assign(M.tet_entries.size(), 0);
+  P.pull_slot.assign(M.cpl_virtual.size(), 0);
+  const int patches = (n + size - 1) / size;
+  std::unordered_map<int, int> slot_of, tet_item, pull_item;
+  auto u16 = [](int v) { return static_cast<unsigned short>(v); };
+  for (int p = 0; p < patches; ++p) {
+    slot_of.clear();
+    tet_item.clear();
+    pull_item.clear();
+    const int begin = p * size, end = std::min(n, begin + size);
+    auto slot = [&](int a) {
+      auto [it, inserted] = slot_of.try_emplace(a, static_cast<int>(slot_of.size()));
+      if (inserted) P.slot_vertex.push_back(a);
+      return it->second;
+    };
+    for (int i = begin; i < end; ++i) slot(order[i]);
+    P.own_count.push_back(end - begin);
+    // The patch's tets and coupled virtual vertices, each in ascending order.
+    std::vector<int> tets, pulls;
+    for (int i = begin; i < end; ++i) {
+      const int a = order[i];
+      for (int k = M.tet_offsets[a]; k < M.tet_offsets[a + 1]; ++k) tets.push_back(M.tet_entries[k] >> 2);
+      for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) pulls.push_back(M.cpl_virtual[k]);
+    }
+    for (auto* list : {&tets, &pulls}) {
+      std::sort(list->begin(), list->end());
+      list->erase(std::unique(list->begin(), list->end()), list->end());
+    }
+    for (const int t : tets) {
+      tet_item[t] = static_cast<int>(tet_item.size());
+      const auto& c = M.tets[t];
+      const bool owner = patch_of[c[0]] == p;
+      P.ptet.push_back(owner ? static_cast<int>(static_cast<unsigned>(t) | 0x80000000u) : t);
+      P.ptet_corner.push_back(ushort4{u16(slot(c[0])), u16(slot(c[1])), u16(slot(c[2])), u16(slot(c[3]))});
+      for (int i = 0; i < 4; ++i) P.ptet_grad.push_back(static_cast<Vec3f>(M.shape_grad[4 * t + i]));
+      P.ptet_weight.push_back(float(M.tet_weight[t]));
+    }
+    for (const int j : pulls) {
+      pull_item[j] = static_cast<int>(pull_item.size());
+      const int count = M.pair_count[j];
+      int c[4] = {0, 0, 0, 0};
+      for (int i = 0; i < count; ++i) c[i] = slot(M.pair_vertex[j][i]);
+      P.pcpl.push_back(int2{j, count});
+      P.pcpl_corner.push_back(ushort4{u16(c[0]), u16(c[1]), u16(c[2]), u16(c[3])});
+    }
+    for (int i = begin; i < end; ++i) {
+      const int a = order[i];
+      for (int k = M.tet_offsets[a]; k < M.tet_offsets[a + 1]; ++k)
+        P.force_slot[k] = u16(4 * tet_item.at(M.tet_entries[k] >> 2) + (M.tet_entries[k] & 3));
+      for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) P.pull_slot[k] = u16(pull_item.at(M.cpl_virtual[k]));
+    }
+    const int slots = static_cast<int>(slot_of.size()), count = static_cast<int>(tets.size());
+    if (slots > 65535 || 4 * count > 65535 || pulls.size() > 65535)
+      throw std::runtime_error("CudaPhysicalSolver: a patch of " + std::to_string(size) + " vertices touches " +
+                               std::to_string(count) + " tets, more than the 16-bit slots hold");
+    P.slot_offsets.push_back(static_cast<int>(P.slot_vertex.size()));
+    P.ptet_offsets.push_back(static_cast<int>(P.ptet.size()));
+    P.pcpl_offsets.push_back(static_cast<int>(P.pcpl.size()));
+    P.max_slots = std::max(P.max_slots, slots);
+    P.max_tets = std::max(P.max_tets, count);
+    P.max_pulls = std::max(P.max_pulls, static_cast<int>(pulls.size()));
+  }
+  return P;
 }
 
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
+Quatf to_float(const Quatd& q) { return {float(q.w), float(q.x), float(q.y), float(q.z)}; }
 
-/// Launches kernel<<<grid, block, 0, stream>>>(args...), with programmatic dependent launch when
-/// `programmatic` (the kernels' prologue makes that safe).
+/// Launches kernel<<<grid, block, smem, stream>>>(args...), with programmatic dependent launch
+/// when `programmatic` (the kernels' prologue makes that safe).
 template <class... Params, class... Args>
-void launch(bool programmatic, void (*kernel)(Params...), int grid, int block, cudaStream_t stream, const char* name,
-            Args... args) {
+void launch(bool programmatic, void (*kernel)(Params...), int grid, int block, std::size_t smem, cudaStream_t stream,
+            const char* name, Args... args) {
   cudaLaunchConfig_t cfg{};
   cfg.gridDim = dim3(grid);
   cfg.blockDim = dim3(block);
-  cfg.dynamicSmemBytes = 0;
+  cfg.dynamicSmemBytes = smem;
   cfg.stream = stream;
   cudaLaunchAttribute attr[1];
   attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
@@ -249,32 +614,47 @@ void launch(bool programmatic, void (*kernel)(Params...), int grid, int block, c
   EBH_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...));
   EBH_CUDA_LAUNCH_CHECK(stream, name);
 }
-Quatf to_float(const Quatd& q) { return {float(q.w), float(q.x), float(q.y), float(q.z)}; }
 
 }  // namespace
 
 struct CudaPhysicalSolver::Impl {
   PhysicalStepParams params;
-  int n = 0, T = 0, m = 0;
+  int n = 0, T = 0, m = 0, patches = 0;
+  std::size_t shared_bytes = 0;
   cuda::Stream stream;
   // Model.
-  cuda::DeviceArray<int> tets, pair_vertex, pair_count, tet_offsets, corner_slot, cpl_offsets, cpl_slot;
-  cuda::DeviceArray<Vec3f> shape_grad;
-  cuda::DeviceArray<float> tet_weight, pair_weight, mass_h2, step_scale;
+  cuda::DeviceArray<int> slot_offsets, slot_vertex, own_count, ptet_offsets, ptet, pcpl_offsets;
+  cuda::DeviceArray<ushort4> ptet_corner, pcpl_corner;
+  cuda::DeviceArray<int2> pcpl;
+  cuda::DeviceArray<Vec3f> ptet_grad;
+  cuda::DeviceArray<float> ptet_weight;
+  cuda::DeviceArray<unsigned short> force_slot, pull_slot;
+  cuda::DeviceArray<int> pair_vertex, pair_count, tet_offsets, cpl_offsets;
+  cuda::DeviceArray<float> pair_weight, cpl_weight, mass_h2, step_scale;
   cuda::DeviceArray<std::uint8_t> pinned;
   // State and scratch.
-  cuda::DeviceArray<Vec3f> q, x, v, s, x_start, x_prev, corner_force, cpl_force;
-  cuda::DeviceArray<Quatf> rotation;
+  cuda::DeviceArray<Vec3f> q, x, v, s, x_start, scratch0, scratch1, scratch2;
+  cuda::DeviceArray<Quatf> rotation;  // 2T
   cuda::DeviceArray<float> rsq_first, rsq_last;
   cuda::DeviceArray<double> residual_sq;
+  cuda::DeviceArray<unsigned int> blocks_done;
   // Host side of the per-step copies.
   cuda::PinnedArray<Vec3f> q_host, x_host;
   cuda::PinnedArray<double> residual_host;
   PhysicalDevice dev;
+  SweepPlan plan;
+  std::vector<float> omega_host;  // the K Chebyshev weights (1 for Jacobi)
   cudaGraph_t graph = nullptr;
   cudaGraphExec_t exec = nullptr;
   cudaEvent_t start = nullptr, stop = nullptr;  // around the graph launch
   double device_s = 0;
+  bool programmatic = false;  // the graph uses programmatic dependent launch
+  // The cooperative single-kernel step (persistent_step_kernel), where every patch's block fits
+  // on the device at once.
+  bool cooperative_supported = false, persistent = false;
+  cuda::DeviceArray<float> omega;  // K Chebyshev weights for the persistent kernel
+  void prepare_persistent();
+  void launch_persistent();
 
   Impl() {
     EBH_CUDA_CHECK(cudaEventCreate(&start));
@@ -287,17 +667,25 @@ struct CudaPhysicalSolver::Impl {
     if (stop) cudaEventDestroy(stop);
   }
 
-  bool programmatic = false;  // the graph uses programmatic dependent launch
-  // The cooperative single-kernel step (persistent_step_kernel), where the device supports it.
-  bool cooperative_supported = false, persistent = false;
-  int persistent_blocks = 0;
-  cuda::DeviceArray<float> omega;  // K Chebyshev weights for the persistent kernel
-  void prepare_persistent();
-  void launch_persistent();
-
   void upload_model(const PhysicalModel& M);
   void capture(bool with_programmatic_launch);
+  template <bool kChebyshev>
+  void capture_iterations(bool pdl);
 };
+
+/// The Chebyshev weights of the CPU reference, in double, one per iteration (Wang 2015); 1 for Jacobi.
+std::vector<float> iteration_weights(const PhysicalStepParams& params) {
+  const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
+  std::vector<float> w(std::max(params.iterations, 1), 1.0f);
+  const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
+  double om = 1;
+  for (int k = 0; k < params.iterations; ++k) {
+    const int j = k - params.chebyshev_delay;
+    om = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * om));
+    w[k] = chebyshev ? float(om) : 1.0f;
+  }
+  return w;
+}
 
 void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   n = M.num_vertices;
@@ -308,19 +696,28 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
     arr.allocate(host.size());
     arr.upload(host.data(), st);
   };
-  std::vector<int> tets_h(4 * size_t(T));
-  std::vector<Vec3f> grad_h(4 * size_t(T));
-  std::vector<float> weight_h(T);
-  for (int t = 0; t < T; ++t) {
-    for (int c = 0; c < 4; ++c) {
-      tets_h[4 * t + c] = M.tets[t][c];
-      grad_h[4 * t + c] = to_float(M.shape_grad[4 * t + c]);
-    }
-    weight_h[t] = float(M.tet_weight[t]);
-  }
-  up(tets, tets_h);
-  up(shape_grad, grad_h);
-  up(tet_weight, weight_h);
+  // Patches: about two blocks per multiprocessor, so that one wave holds them all.
+  int device = 0, sms = 1;
+  EBH_CUDA_CHECK(cudaGetDevice(&device));
+  EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
+  const int size = std::clamp((n + 2 * sms - 1) / std::max(1, 2 * sms), 8, kMaxPatch);
+  const Patches P = build_patches(M, size);
+  patches = static_cast<int>(P.own_count.size());
+  up(slot_offsets, P.slot_offsets);
+  up(slot_vertex, P.slot_vertex);
+  up(own_count, P.own_count);
+  up(ptet_offsets, P.ptet_offsets);
+  up(ptet, P.ptet);
+  up(ptet_corner, P.ptet_corner);
+  up(ptet_grad, P.ptet_grad);
+  up(ptet_weight, P.ptet_weight);
+  up(force_slot, P.force_slot);
+  up(pcpl_offsets, P.pcpl_offsets);
+  up(pcpl, P.pcpl);
+  up(pcpl_corner, P.pcpl_corner);
+  up(pull_slot, P.pull_slot);
+  shared_bytes = static_cast<std::size_t>(P.max_tets) * sizeof(TetItem) + static_cast<std::size_t>(P.max_pulls) * sizeof(PullItem) +
+                 (static_cast<std::size_t>(P.max_slots) + 4 * static_cast<std::size_t>(P.max_tets) + P.max_pulls) * sizeof(Vec3f);
 
   std::vector<int> pv(4 * size_t(m), -1);
   std::vector<float> pw(4 * size_t(m), 0.f);
@@ -329,24 +726,11 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   up(pair_vertex, pv);
   up(pair_weight, pw);
   up(pair_count, M.pair_count);
-
-  // Slots: where the local step writes each corner force and coupling force, so that the vertex
-  // kernel reads its CSR range contiguously, in the CPU reference's order.
-  std::vector<int> cs(M.tet_entries.size());
-  for (size_t k = 0; k < M.tet_entries.size(); ++k) cs[M.tet_entries[k]] = static_cast<int>(k);
   up(tet_offsets, M.tet_offsets);
-  up(corner_slot, cs);
-  std::vector<int> ps(4 * size_t(m), -1);
-  for (int a = 0; a < n; ++a)
-    for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) {
-      const int j = M.cpl_virtual[k];
-      int i = 0;
-      while (i < M.pair_count[j] && (M.pair_vertex[j][i] != a || ps[4 * j + i] >= 0)) ++i;
-      if (i == M.pair_count[j]) throw std::logic_error("CudaPhysicalSolver: coupling list does not match the pairing");
-      ps[4 * j + i] = k;
-    }
   up(cpl_offsets, M.cpl_offsets);
-  up(cpl_slot, ps);
+  std::vector<float> cw(M.cpl_weight.size());
+  for (size_t k = 0; k < cw.size(); ++k) cw[k] = float(M.cpl_weight[k]);
+  up(cpl_weight, cw);
 
   // Per-vertex constants in double, rounded once: m/h^2 and gamma / A(a, a).
   std::vector<float> mh(n), sc(n);
@@ -359,14 +743,14 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   up(step_scale, sc);
   up(pinned, M.pinned);
 
-  for (auto* arr : {&x, &v, &s, &x_start, &x_prev}) arr->allocate(n);
+  for (auto* arr : {&x, &v, &s, &x_start, &scratch0, &scratch1, &scratch2}) arr->allocate(n);
   q.allocate(m);
-  cpl_force.allocate(M.cpl_virtual.size());
-  corner_force.allocate(4 * size_t(T));
-  rotation.allocate(T);
+  rotation.allocate(2 * size_t(T));
   rsq_first.allocate(n);
   rsq_last.allocate(n);
   residual_sq.allocate(2);
+  blocks_done.allocate(1);
+  EBH_CUDA_CHECK(cudaMemsetAsync(blocks_done.get(), 0, sizeof(unsigned int), st));
   q_host.allocate(m);
   x_host.allocate(n);
   residual_host.allocate(2);
@@ -378,16 +762,28 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   dev.k_svc = float(M.k_svc);
   dev.velocity_scale = float((1.0 - M.damping) / M.h);
   dev.gravity = to_float(M.gravity);
-  dev.tets = tets.get();
-  dev.shape_grad = shape_grad.get();
-  dev.tet_weight = tet_weight.get();
+  dev.slot_offsets = slot_offsets.get();
+  dev.slot_vertex = slot_vertex.get();
+  dev.own_count = own_count.get();
+  dev.ptet_offsets = ptet_offsets.get();
+  dev.ptet = ptet.get();
+  dev.ptet_corner = ptet_corner.get();
+  dev.ptet_grad = ptet_grad.get();
+  dev.ptet_weight = ptet_weight.get();
+  dev.pcpl_offsets = pcpl_offsets.get();
+  dev.pcpl = pcpl.get();
+  dev.pcpl_corner = pcpl_corner.get();
+  dev.pull_slot = pull_slot.get();
+  dev.max_slots = P.max_slots;
+  dev.max_tets = P.max_tets;
+  dev.max_pulls = P.max_pulls;
+  dev.tet_offsets = tet_offsets.get();
+  dev.force_slot = force_slot.get();
+  dev.cpl_offsets = cpl_offsets.get();
+  dev.cpl_weight = cpl_weight.get();
   dev.pair_vertex = pair_vertex.get();
   dev.pair_weight = pair_weight.get();
   dev.pair_count = pair_count.get();
-  dev.tet_offsets = tet_offsets.get();
-  dev.corner_slot = corner_slot.get();
-  dev.cpl_offsets = cpl_offsets.get();
-  dev.cpl_slot = cpl_slot.get();
   dev.mass_h2 = mass_h2.get();
   dev.step_scale = step_scale.get();
   dev.pinned = pinned.get();
@@ -396,50 +792,64 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   dev.v = v.get();
   dev.s = s.get();
   dev.x_start = x_start.get();
-  dev.x_prev = x_prev.get();
   dev.rotation = rotation.get();
-  dev.corner_force = corner_force.get();
-  dev.cpl_force = cpl_force.get();
   dev.rsq_first = rsq_first.get();
   dev.rsq_last = rsq_last.get();
   dev.residual_sq = residual_sq.get();
+  dev.blocks_done = blocks_done.get();
+
+  plan.scratch[0] = scratch0.get();
+  plan.scratch[1] = scratch1.get();
+  plan.scratch[2] = scratch2.get();
+  plan.s = s.get();
+  plan.x = x.get();
+  plan.rot = rotation.get();
+  plan.T = T;
+  plan.K = params.iterations;
+  omega_host = iteration_weights(params);
+}
+
+template <bool kChebyshev>
+void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
+  cudaStream_t st = stream.get();
+  const int K = params.iterations, rot = params.rotation_iterations;
+  auto first = iteration_kernel<kChebyshev, true, false>, middle = iteration_kernel<kChebyshev, false, false>,
+       last = iteration_kernel<kChebyshev, false, true>;
+  for (auto* kernel : {first, middle, last})
+    EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
+  for (int k = 0; k < K; ++k) {
+    float* rsq = k == 0 ? dev.rsq_first : (k == K - 1 ? dev.rsq_last : nullptr);
+    const Sweep w = plan.sweep(k, omega_host[k], rsq);
+    const bool edge = pdl && k > 0;  // the first kernel after a copy node takes no programmatic edge
+    auto* kernel = k == 0 ? first : (k == K - 1 ? last : middle);
+    launch(edge, kernel, patches, kBlock, shared_bytes, st, "iteration_kernel", dev, w, rot);
+  }
+  if (K == 1) {
+    PhysicalDevice once = dev;
+    once.rsq_last = once.rsq_first;  // one iteration: the residual ratio is 1
+    launch(pdl, finish_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "finish_kernel", once,
+           static_cast<const Vec3f*>(plan.scratch[0]));
+  }
 }
 
 void CudaPhysicalSolver::Impl::capture(bool pdl) {
   cudaStream_t st = stream.get();
   const int K = params.iterations;
+  const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
   EBH_CUDA_CHECK(cudaStreamBeginCapture(st, cudaStreamCaptureModeThreadLocal));
   try {
     if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
-    // The first kernel after a copy node takes no programmatic edge.
-    if (n > 0) launch(false, predict_kernel, cuda::blocks_for(n, kBlock), kBlock, st, "predict_kernel", dev);
-    // The Chebyshev weights of the CPU reference, in double, one per iteration (Wang 2015).
-    const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
-    double omega = 1;
-    const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
-    for (int k = 0; k < K; ++k) {
-      if (T + m > 0)
-        launch(pdl && n > 0, local_kernel, cuda::blocks_for(T + m, kBlock), kBlock, st, "local_kernel", dev,
-               params.rotation_iterations);
-      const int j = k - params.chebyshev_delay;
-      omega = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega));
-      float* ra = k == 0 ? dev.rsq_first : nullptr;
-      float* rb = k == K - 1 ? dev.rsq_last : nullptr;
-      if (n > 0) {
-        const int grid = cuda::blocks_for(static_cast<long long>(n) * kLanes, kBlock);
-        if (chebyshev) launch(pdl, vertex_kernel<true>, grid, kBlock, st, "vertex_kernel", dev, float(omega), ra, rb);
-        else launch(pdl, vertex_kernel<false>, grid, kBlock, st, "vertex_kernel", dev, 1.0f, ra, rb);
-      }
+    if (n > 0 && K == 0)
+      launch(false, predict_only_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "predict_only_kernel", dev);
+    if (n > 0 && K > 0) {
+      if (chebyshev) capture_iterations<true>(pdl);
+      else capture_iterations<false>(pdl);
+      if (K % 2 == 1 && T > 0)  // the last rotations are in the scratch half
+        EBH_CUDA_CHECK(cudaMemcpyAsync(rotation.get(), rotation.get() + T, T * sizeof(Quatf), cudaMemcpyDeviceToDevice, st));
+      EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double),
+                                     cudaMemcpyDeviceToHost, st));
     }
-    if (n > 0) {
-      launch(pdl, finish_kernel, cuda::blocks_for(n, kBlock), kBlock, st, "finish_kernel", dev);
-      if (K > 0) {
-        launch(pdl, residual_kernel, 1, kReduceThreads, st, "residual_kernel", dev);
-        EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double),
-                                       cudaMemcpyDeviceToHost, st));
-      }
-      EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
-    }
+    if (n > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
   } catch (...) {
     cudaGraph_t broken = nullptr;
     cudaStreamEndCapture(st, &broken);  // leave capture mode whatever failed
@@ -452,49 +862,30 @@ void CudaPhysicalSolver::Impl::capture(bool pdl) {
 }
 
 void CudaPhysicalSolver::Impl::prepare_persistent() {
-  int device = 0, coop = 0, sms = 0;
+  int device = 0, coop = 0, sms = 0, per_sm = 0;
   EBH_CUDA_CHECK(cudaGetDevice(&device));
   EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));
   EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
-  const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
-  int per_sm = 0;
-  EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
-      &per_sm, chebyshev ? persistent_step_kernel<true> : persistent_step_kernel<false>, kReduceThreads, 0));
-  cooperative_supported = coop != 0 && per_sm > 0 && n > 0;
+  auto* kernel = params.method == SolverSpec::Method::Chebyshev ? persistent_step_kernel<true> : persistent_step_kernel<false>;
+  EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
+  EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, kBlock, shared_bytes));
+  cooperative_supported = coop != 0 && n > 0 && params.iterations > 0 && per_sm * sms >= patches;
   if (!cooperative_supported) return;
-  // Enough blocks for the widest stage, at most what can be resident at once (a grid barrier needs
-  // every block resident).
-  const long long widest = std::max<long long>({static_cast<long long>(T) + m, static_cast<long long>(n) * kLanes, n});
-  persistent_blocks = static_cast<int>(std::min<long long>(static_cast<long long>(sms) * per_sm,
-                                                           (widest + kReduceThreads - 1) / kReduceThreads));
-  persistent_blocks = std::max(persistent_blocks, 1);
-  // The Chebyshev weights exactly as the graph computes them (double, then float per launch).
-  const int K = params.iterations;
-  std::vector<float> w(std::max(K, 1), 1.0f);
-  const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
-  double om = 1;
-  for (int k = 0; k < K; ++k) {
-    const int j = k - params.chebyshev_delay;
-    om = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * om));
-    w[k] = chebyshev ? float(om) : 1.0f;
-  }
-  omega.allocate(w.size());
-  omega.upload(w.data(), stream.get());
+  omega.allocate(omega_host.size());
+  omega.upload(omega_host.data(), stream.get());
 }
 
 void CudaPhysicalSolver::Impl::launch_persistent() {
   cudaStream_t st = stream.get();
   if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
   const float* w = omega.get();
-  int K = params.iterations, rot = params.rotation_iterations;
-  void* args[] = {&dev, &w, &K, &rot};
-  const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
-  EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(
-      chebyshev ? reinterpret_cast<void*>(persistent_step_kernel<true>) : reinterpret_cast<void*>(persistent_step_kernel<false>),
-      dim3(persistent_blocks), dim3(kReduceThreads), args, 0, st));
+  int rot = params.rotation_iterations;
+  void* args[] = {&dev, &plan, &w, &rot};
+  auto* kernel = params.method == SolverSpec::Method::Chebyshev ? persistent_step_kernel<true> : persistent_step_kernel<false>;
+  EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<void*>(kernel), dim3(patches), dim3(kBlock), args,
+                                             shared_bytes, st));
   EBH_CUDA_LAUNCH_CHECK(st, "persistent_step_kernel");
-  if (K > 0)
-    EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
+  EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
   EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
 }
 
@@ -506,9 +897,9 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
   impl_->params = params;
   impl_->upload_model(model);
   upload_state(make_physical_state(model));
-  // The cooperative single-kernel step only on request (EBH_CUDA_PERSISTENT=1): on the H100 it took
-  // 468 us against the graph's 350 us for cholecystectomy (docs/CUDA.md), so the graph stays the
-  // default; both give bitwise the same x.
+  // The cooperative single-kernel step only on request (EBH_CUDA_PERSISTENT=1): on the H200 it
+  // took 166 us against the graph's 163 us for cholecystectomy (docs/CUDA.md), so the graph of one
+  // kernel per iteration stays the default; both give bitwise the same x.
   impl_->prepare_persistent();
   const char* persistent_env = std::getenv("EBH_CUDA_PERSISTENT");
   impl_->persistent = impl_->cooperative_supported && persistent_env && std::string(persistent_env) == "1";
@@ -535,11 +926,15 @@ const PhysicalStepParams& CudaPhysicalSolver::params() const { return impl_->par
 
 double CudaPhysicalSolver::last_device_seconds() const { return impl_->device_s; }
 
-bool CudaPhysicalSolver::programmatic_launch() const { return impl_->programmatic; }
+double CudaPhysicalSolver::tet_evaluations_per_tet() const {
+  return impl_->T > 0 ? static_cast<double>(impl_->ptet.size()) / impl_->T : 1.0;
+}
 
 bool CudaPhysicalSolver::persistent_kernel() const { return impl_->persistent; }
 
 void CudaPhysicalSolver::set_persistent_kernel(bool on) { impl_->persistent = on && impl_->cooperative_supported; }
+
+bool CudaPhysicalSolver::programmatic_launch() const { return impl_->programmatic; }
 
 void CudaPhysicalSolver::upload_state(const PhysicalState& state) {
   Impl& I = *impl_;
@@ -551,7 +946,10 @@ void CudaPhysicalSolver::upload_state(const PhysicalState& state) {
   for (int t = 0; t < I.T; ++t) r[t] = to_float(state.rotation[t]);
   I.x.upload(x.data(), I.stream.get());
   I.v.upload(v.data(), I.stream.get());
-  I.rotation.upload(r.data(), I.stream.get());
+  if (I.T > 0) {  // the state half of the two rotation buffers
+    EBH_CUDA_CHECK(cudaMemcpyAsync(I.rotation.get(), r.data(), I.T * sizeof(Quatf), cudaMemcpyHostToDevice, I.stream.get()));
+    EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream.get()));
+  }
 }
 
 void CudaPhysicalSolver::download_state(PhysicalState& state) const {
@@ -560,7 +958,10 @@ void CudaPhysicalSolver::download_state(PhysicalState& state) const {
   std::vector<Quatf> r(I.T);
   I.x.download(x.data(), I.stream.get());
   I.v.download(v.data(), I.stream.get());
-  I.rotation.download(r.data(), I.stream.get());
+  if (I.T > 0) {
+    EBH_CUDA_CHECK(cudaMemcpyAsync(r.data(), I.rotation.get(), I.T * sizeof(Quatf), cudaMemcpyDeviceToHost, I.stream.get()));
+    EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream.get()));
+  }
   state.x.resize(I.n);
   state.v.resize(I.n);
   state.rotation.resize(I.T);

@@ -44,12 +44,15 @@ class CudaPhysicalSolver {
   /// Device time of the last step's graph (copies of q and x included), seconds, from CUDA events:
   /// time_s minus this is the host's share (conversions, launch, synchronisation).
   double last_device_seconds() const;
-  /// Whether steps run as one cooperative kernel with grid-wide barriers instead of the graph of
-  /// kernels (opt-in: EBH_CUDA_PERSISTENT=1 or set_persistent_kernel(true), where the device
-  /// supports cooperative launch; slower than the graph on the H100 today). Both give bitwise the
-  /// same x.
+  /// Whether steps run as one cooperative kernel with a grid-wide barrier between iterations
+  /// instead of the graph of one kernel per iteration (opt-in: EBH_CUDA_PERSISTENT=1 or
+  /// set_persistent_kernel(true), where the device can hold every patch's block at once; as fast
+  /// as the graph on the H200 today). Both give bitwise the same x.
   bool persistent_kernel() const;
   void set_persistent_kernel(bool on);
+  /// Local-step evaluations per tet and iteration (>= 1): a tet on a patch border is computed by
+  /// each patch it touches (docs/CUDA.md).
+  double tet_evaluations_per_tet() const;
   /// Whether the step graph chains its kernels by programmatic dependent launch (docs/CUDA.md).
   bool programmatic_launch() const;
 

@@ -109,11 +109,11 @@ std::vector<Vec3d> displaced_virtual(const VirtualModel& vm, unsigned seed) {
   return q;
 }
 
-void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method) {
+void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method, int iterations = 16) {
   const Models& M = models(scene.c_str());
   PhysicalStepParams params;
   params.method = method;
-  params.iterations = 16;
+  params.iterations = iterations;
   const std::vector<Vec3d> q = displaced_virtual(M.vm, 7);
 
   PhysicalState cpu = M.start;
@@ -134,9 +134,9 @@ void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method
   const double moved = max_distance(cpu.x, M.start.x);
   const double tol_v = 2 * tol * (1 - M.pm.damping) / M.pm.h;  // v = (1 - d)(x - x_start)/h: two positions
   const double err_v = max_distance(full.v, cpu.v);
-  std::printf("[ %s %s ] n=%d T=%d m=%d: max |x_cuda - x_cpu| = %.3g m (tol %.3g, step moved up to %.3g m), "
+  std::printf("[ %s %s K=%d ] n=%d T=%d m=%d: max |x_cuda - x_cpu| = %.3g m (tol %.3g, step moved up to %.3g m), "
               "max |v| err %.3g m/s (tol %.3g), residual cpu %.4g cuda %.4g\n",
-              scene.c_str(), method == SolverSpec::Method::Jacobi ? "jacobi" : "chebyshev", M.pm.num_vertices,
+              scene.c_str(), method == SolverSpec::Method::Jacobi ? "jacobi" : "chebyshev", iterations, M.pm.num_vertices,
               M.pm.num_tets, M.pm.num_virtual, err, tol, moved, err_v, tol_v, rc.residual, rg.residual);
   EXPECT_LE(err, tol);
   EXPECT_LE(err_v, tol_v);
@@ -163,6 +163,14 @@ TEST(CudaPhysical, JacobiStepMatchesCpuCholecystectomy) {
 TEST(CudaPhysical, ChebyshevStepMatchesCpuTube) {
   EBH_REQUIRE_DEVICE();
   expect_step_matches_cpu("tube", SolverSpec::Method::Chebyshev);
+}
+
+TEST(CudaPhysical, FewAndOddIterationCountsMatchCpu) {
+  // K = 1 (one iteration both predicts and finishes), 2, 3 and 17 (odd: the last rotations come
+  // back from the scratch half) take the special paths of the buffer rotation.
+  EBH_REQUIRE_DEVICE();
+  for (const int K : {1, 2, 3, 17}) expect_step_matches_cpu("tube", SolverSpec::Method::Chebyshev, K);
+  expect_step_matches_cpu("tube", SolverSpec::Method::Jacobi, 3);
 }
 
 TEST(CudaPhysical, DirectMethodIsRefused) {
@@ -196,15 +204,22 @@ TEST(CudaPhysical, RunsAreBitwiseIdentical) {
 }
 
 TEST(CudaPhysical, PersistentKernelMatchesTheGraphBitwise) {
-  // The cooperative single-kernel step runs the graph's per-element code in the same order, so
-  // x, v and the rotations must come out bitwise equal (jacobi and chebyshev).
+  // The cooperative single-kernel step runs the graph's per-patch code (its rotations kept in
+  // registers instead of read back), so x, v, the rotations and the residual must come out
+  // bitwise equal, for both methods and the special iteration counts.
   EBH_REQUIRE_DEVICE();
   const Models& M = models("cholecystectomy");
   const std::vector<Vec3d> q = displaced_virtual(M.vm, 11);
-  for (const auto method : {SolverSpec::Method::Chebyshev, SolverSpec::Method::Jacobi}) {
+  const std::pair<SolverSpec::Method, int> cases[] = {{SolverSpec::Method::Chebyshev, 16},
+                                                      {SolverSpec::Method::Jacobi, 16},
+                                                      {SolverSpec::Method::Chebyshev, 1},
+                                                      {SolverSpec::Method::Chebyshev, 3}};
+  for (const auto& [method, K] : cases) {
     PhysicalStepParams params;
     params.method = method;
+    params.iterations = K;
     PhysicalState out[2];
+    double residual[2] = {0, 0};
     bool persistent[2] = {false, false};
     for (int run = 0; run < 2; ++run) {
       CudaPhysicalSolver solver(M.pm, params);
@@ -212,15 +227,16 @@ TEST(CudaPhysical, PersistentKernelMatchesTheGraphBitwise) {
       persistent[run] = solver.persistent_kernel();
       solver.upload_state(M.start);
       PhysicalState s = M.start;
-      for (int k = 0; k < 5; ++k) solver.step(s, q);
+      for (int k = 0; k < 5; ++k) residual[run] = solver.step(s, q).residual;
       solver.download_state(out[run]);
     }
-    std::printf("[ persistent ] cooperative launch available: %s\n", persistent[1] ? "yes" : "no");
-    if (!persistent[1]) GTEST_SKIP() << "the device does not support cooperative launch";
+    std::printf("[ persistent K=%d ] cooperative launch available: %s\n", K, persistent[1] ? "yes" : "no");
+    if (!persistent[1]) GTEST_SKIP() << "the device cannot hold every patch at once (cooperative launch)";
     EXPECT_FALSE(persistent[0]);
     EXPECT_EQ(std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(Vec3d)), 0);
     EXPECT_EQ(std::memcmp(out[0].v.data(), out[1].v.data(), out[0].v.size() * sizeof(Vec3d)), 0);
     EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
+    EXPECT_EQ(residual[0], residual[1]);
   }
 }
 

@@ -295,7 +295,6 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
     throw std::invalid_argument("physical_step: direct method on a model built without factorisation");
 
   double r0 = 0, rk = 0;
-  const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
   const int K = params.iterations;
   // One parallel region for the whole step: the stages are work-sharing loops with two barriers
   // per iteration. The master thread times the stages and sums the residual norms (after the
@@ -312,10 +311,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
         report.local_s += seconds_since(t0);
         t0 = Clock::now();
       }
-      if (params.method == SolverSpec::Method::Chebyshev) {
-        const int j = k - params.chebyshev_delay;  // Wang 2015: omega_1 = 1, omega_2 = 2/(2-rho^2), ...
-        omega = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega));
-      }
+      omega = chebyshev_weight(params, k, omega);
       residual_and_update(model, ws, state, params.method, params.relaxation, omega);
       if (params.method == SolverSpec::Method::Direct) {
 #pragma omp single

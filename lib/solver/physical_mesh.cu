@@ -410,15 +410,18 @@ __global__ void predict_only_kernel(PhysicalDevice d) {
   d.v[a] = d.velocity_scale * (sa - xa);
 }
 
-/// K = 1: x_1 (in `from`) becomes the state, with its velocities; the last block sums the residual.
+/// K = 1: x_1 (in `from`) becomes the state of vertex a, with its velocity (Alg. 1 line 11).
+__device__ __forceinline__ void finish_vertex(const PhysicalDevice& d, const Vec3f* from, int a) {
+  const Vec3f xa = from[a];
+  d.v[a] = d.velocity_scale * (xa - d.x_start[a]);
+  d.x[a] = xa;
+}
+
+/// K = 1 in the graph: finish_vertex for every vertex; the last block sums the residual.
 __global__ void __launch_bounds__(kBlock) finish_kernel(PhysicalDevice d, const Vec3f* from) {
   kernel_prologue();
   const int a = blockIdx.x * blockDim.x + threadIdx.x;
-  if (a < d.n) {
-    const Vec3f xa = from[a];
-    d.v[a] = d.velocity_scale * (xa - d.x_start[a]);
-    d.x[a] = xa;
-  }
+  if (a < d.n) finish_vertex(d, from, a);
   last_block_reduces(d);
 }
 
@@ -470,11 +473,7 @@ __global__ void __launch_bounds__(kBlock, 2) persistent_step_kernel(PhysicalDevi
   }
   const int g = blockIdx.x * blockDim.x + tid, stride = gridDim.x * blockDim.x;
   if (K == 1) {  // as finish_kernel
-    for (int a = g; a < d.n; a += stride) {
-      const Vec3f xa = plan.scratch[0][a];
-      d.v[a] = d.velocity_scale * (xa - d.x_start[a]);
-      d.x[a] = xa;
-    }
+    for (int a = g; a < d.n; a += stride) finish_vertex(d, plan.scratch[0], a);
     d.rsq_last = d.rsq_first;
   }
   if (K % 2 == 1)  // the last rotations are in the scratch half
@@ -653,8 +652,11 @@ struct CudaPhysicalSolver::Impl {
   // on the device at once.
   bool cooperative_supported = false, persistent = false;
   cuda::DeviceArray<float> omega;  // K Chebyshev weights for the persistent kernel
+  void* persistent_fn = nullptr;   // persistent_step_kernel for the method
   void prepare_persistent();
   void launch_persistent();
+  void copy_q_in(cudaStream_t st);
+  void copy_results_out(cudaStream_t st);
 
   Impl() {
     EBH_CUDA_CHECK(cudaEventCreate(&start));
@@ -673,17 +675,11 @@ struct CudaPhysicalSolver::Impl {
   void capture_iterations(bool pdl);
 };
 
-/// The Chebyshev weights of the CPU reference, in double, one per iteration (Wang 2015); 1 for Jacobi.
+/// The K weights of the CPU reference (chebyshev_weight, in double), rounded once.
 std::vector<float> iteration_weights(const PhysicalStepParams& params) {
-  const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
   std::vector<float> w(std::max(params.iterations, 1), 1.0f);
-  const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
-  double om = 1;
-  for (int k = 0; k < params.iterations; ++k) {
-    const int j = k - params.chebyshev_delay;
-    om = j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * om));
-    w[k] = chebyshev ? float(om) : 1.0f;
-  }
+  double omega = 1;
+  for (int k = 0; k < params.iterations; ++k) w[k] = float(omega = chebyshev_weight(params, k, omega));
   return w;
 }
 
@@ -838,7 +834,7 @@ void CudaPhysicalSolver::Impl::capture(bool pdl) {
   const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
   EBH_CUDA_CHECK(cudaStreamBeginCapture(st, cudaStreamCaptureModeThreadLocal));
   try {
-    if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
+    copy_q_in(st);
     if (n > 0 && K == 0)
       launch(false, predict_only_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "predict_only_kernel", dev);
     if (n > 0 && K > 0) {
@@ -846,10 +842,8 @@ void CudaPhysicalSolver::Impl::capture(bool pdl) {
       else capture_iterations<false>(pdl);
       if (K % 2 == 1 && T > 0)  // the last rotations are in the scratch half
         EBH_CUDA_CHECK(cudaMemcpyAsync(rotation.get(), rotation.get() + T, T * sizeof(Quatf), cudaMemcpyDeviceToDevice, st));
-      EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double),
-                                     cudaMemcpyDeviceToHost, st));
     }
-    if (n > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
+    copy_results_out(st);
   } catch (...) {
     cudaGraph_t broken = nullptr;
     cudaStreamEndCapture(st, &broken);  // leave capture mode whatever failed
@@ -867,6 +861,7 @@ void CudaPhysicalSolver::Impl::prepare_persistent() {
   EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));
   EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
   auto* kernel = params.method == SolverSpec::Method::Chebyshev ? persistent_step_kernel<true> : persistent_step_kernel<false>;
+  persistent_fn = reinterpret_cast<void*>(kernel);
   EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
   EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, kBlock, shared_bytes));
   cooperative_supported = coop != 0 && n > 0 && params.iterations > 0 && per_sm * sms >= patches;
@@ -877,15 +872,25 @@ void CudaPhysicalSolver::Impl::prepare_persistent() {
 
 void CudaPhysicalSolver::Impl::launch_persistent() {
   cudaStream_t st = stream.get();
-  if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
+  copy_q_in(st);
   const float* w = omega.get();
   int rot = params.rotation_iterations;
   void* args[] = {&dev, &plan, &w, &rot};
-  auto* kernel = params.method == SolverSpec::Method::Chebyshev ? persistent_step_kernel<true> : persistent_step_kernel<false>;
-  EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<void*>(kernel), dim3(patches), dim3(kBlock), args,
-                                             shared_bytes, st));
+  EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(persistent_fn, dim3(patches), dim3(kBlock), args, shared_bytes, st));
   EBH_CUDA_LAUNCH_CHECK(st, "persistent_step_kernel");
-  EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
+  copy_results_out(st);
+}
+
+/// The step's input: q, rounded to float on the host, into the device.
+void CudaPhysicalSolver::Impl::copy_q_in(cudaStream_t st) {
+  if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
+}
+
+/// The step's outputs: the residual sums (when there are iterations) and x.
+void CudaPhysicalSolver::Impl::copy_results_out(cudaStream_t st) {
+  if (n == 0) return;
+  if (params.iterations > 0)
+    EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
   EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
 }
 

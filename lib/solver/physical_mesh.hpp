@@ -111,6 +111,16 @@ struct PhysicalStepParams {
   int rotation_iterations = 1;   ///< Mueller 2016 updates per tet and local step (warm-started from the last iteration)
 };
 
+/// The Chebyshev weight of iteration k given the previous one (Wang 2015: 1 for the first
+/// chebyshev_delay iterations, then 2 / (2 - rho^2), then 4 / (4 - rho^2 omega_prev)); 1 for the
+/// other methods. The CPU step and the CUDA graph both take their weights from here.
+inline double chebyshev_weight(const PhysicalStepParams& params, int k, double previous) {
+  if (params.method != SolverSpec::Method::Chebyshev) return 1.0;
+  const double rho2 = params.chebyshev_rho * params.chebyshev_rho;
+  const int j = k - params.chebyshev_delay;
+  return j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * previous));
+}
+
 /// The step report (time in seconds of wall clock).
 struct PhysicalStepReport {
   int iterations = 0;

@@ -263,7 +263,7 @@ TEST(Tessellate, ToolSurfacesLieOnTheCollidersWithOutwardNormals) {
         // of 32 segments, so cos > 0.9 is a margin, not a fit.
         const Vec3d centroid = apply_inverse(posed.world[i], (a + b + c) / 3.0);
         const Vec3d out = posed.world[i].R * query_local(posed.shape[i], centroid).normal;
-        if (norm(face) > 0) EXPECT_GT(dot(normalized(face), out), 0.9);
+        if (norm(face) > 0) { EXPECT_GT(dot(normalized(face), out), 0.9); }
         const Vec3d vn = static_cast<Vec3d>(soup.normal[k]) + static_cast<Vec3d>(soup.normal[k + 1]) +
                          static_cast<Vec3d>(soup.normal[k + 2]);
         EXPECT_GT(dot(normalized(vn), out), 0.9);

@@ -1,10 +1,15 @@
 // The CUDA backend (docs/CUDA.md):
 //   BM_CudaPhysicalStep     one physical step (Algorithm 1, 16 iterations) of a scene on the device:
 //                           q in, one graph launch, x out; median and p99 of single steps
+//   BM_CudaPhysicalStepDevice  the same step as the replay's device haptic tick runs it: q read from
+//                           and x left in device memory (launch, then wait for the step)
 //   BM_VirtualTick          the virtual mesh's part of a haptic tick (begin, 4 iterations with
 //                           contacts, end) on the CPU and on the device (q back after each iteration)
+//   BM_DeviceTicks          the device haptic tick alone (no physical steps): cholecystectomy_grasp's
+//                           ticks from t = 1.2 s (contact and a grasp) or 0 s (approach, no contact)
 //   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
-//                           real-time factor and the mean time of each stage of the haptic tick
+//                           real-time factor and the mean time of each stage of the haptic tick;
+//                           cuda_host_tool: the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0)
 // Needs a CUDA device; without one (or without the CUDA backend) every benchmark reports why.
 #include <benchmark/benchmark.h>
 
@@ -122,6 +127,47 @@ BENCHMARK_CAPTURE(BM_CudaPhysicalStep, cholecystectomy, std::string("cholecystec
     ->Args({16, 1, 1})->Args({16, 1, 0})->Args({16, 0, 0})->Args({1, 1, 1})->Args({2, 1, 1})->Args({0, 1, 0})
     ->Args({1, 1, 0})->Args({2, 1, 0})
     ->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+/// The device-resident step: wall time of launch + wait (the host's share is the launch and the
+/// wait; no conversions or copies of q and x).
+void BM_CudaPhysicalStepDevice(benchmark::State& st, std::string scene) {
+  if (!device_ready(st)) return;
+  const Loaded& L = load(scene);
+  PhysicalStepParams params = physical_params(L.scene.spec.solver);
+  params.iterations = st.range(0);
+  CudaPhysicalSolver solver(L.pm, params);
+  solver.set_persistent_kernel(st.range(1) != 0);
+  if (st.range(1) != 0 && !solver.persistent_kernel()) {
+    st.SkipWithError("the device cannot hold every patch at once (cooperative launch)");
+    return;
+  }
+  PhysicalState state = make_physical_state(L.pm);
+  solver.step(state, L.vm.rest);  // q on the device: the rest shape
+  for (int i = 0; i < 20; ++i) {  // warm-up: module load, graph upload
+    solver.launch_device_step();
+    solver.device_step_report();
+  }
+  std::vector<double> times, device;
+  times.reserve(1 << 16);
+  device.reserve(1 << 16);
+  for (auto _ : st) {
+    const auto t0 = Clock::now();
+    solver.launch_device_step();
+    const PhysicalStepReport r = solver.device_step_report();
+    const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+    st.SetIterationTime(dt);
+    times.push_back(dt);
+    device.push_back(r.time_s);
+  }
+  st.counters["median_us"] = 1e6 * percentile(times, 0.5);
+  st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
+  st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
+  st.counters["persistent"] = solver.persistent_kernel();
+  st.counters["tets"] = L.pm.num_tets;
+  st.SetLabel(cuda_device_description());
+}
+BENCHMARK_CAPTURE(BM_CudaPhysicalStepDevice, cholecystectomy, std::string("cholecystectomy"))
+    ->ArgNames({"K", "persistent"})->Args({16, 0})->Args({16, 1})->Args({0, 0})
+    ->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_CudaPhysicalStep, gynaecology, std::string("gynaecology"))->ArgNames({"K", "pdl", "persistent"})->Args({16, 1, 1})->Args({16, 1, 0})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_CudaPhysicalStep, tube, std::string("tube"))->ArgNames({"K", "pdl", "persistent"})->Args({16, 1, 1})->Args({16, 1, 0})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 #endif
@@ -192,6 +238,58 @@ void BM_VirtualTick(benchmark::State& st, std::string scene, bool cuda) {
 BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cpu, std::string("cholecystectomy"), false)->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystectomy"), true)->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 
+#if EBH_HAVE_CUDA
+void BM_DeviceTicks(benchmark::State& st, double from) {
+  if (!device_ready(st)) return;
+  LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
+                                       false, Backend::Cuda);
+  const World& w = *in.world;
+  const int N = w.ticks_per_step, runs = 200;
+  DeviceHapticSetup setup;
+  const auto inputs = device_tick_inputs(w, in.recording, in.recording.t.front() + from, std::int64_t(runs) * N,
+                                         Mode::Async, setup.grasp_boxes);
+  setup.mesh = &w.virtual_mesh;
+  setup.tool = &w.tool;
+  setup.k = w.scene.spec.stiffness;
+  setup.h = w.h_haptic;
+  setup.virtual_iterations = w.scene.spec.solver.virtual_iterations;
+  setup.q0 = w.initial_virtual;
+  setup.x0 = w.initial_physical.x;
+  setup.pose0 = {inputs.front().position, inputs.front().orientation};
+  std::vector<DeviceTickOutput> rows(N);
+  int contacts = 0;
+  double wall = 0;
+  long timed_ticks = 0;
+  for (auto _ : st) {
+    st.PauseTiming();
+    CudaPhysicalSolver physical(w.physical_mesh, w.physical_params);
+    CudaHapticTicks ticks(setup, inputs, physical);
+    ticks.collect(ticks.run_ticks(N), rows);  // warm-up: graph instantiation
+    st.ResumeTiming();
+    const auto t0 = Clock::now();
+    std::vector<int> handles;
+    for (int r = 1; r < runs; ++r) {
+      handles.push_back(ticks.run_ticks(N));
+      if (handles.size() > 2) {
+        ticks.collect(handles.front(), rows);
+        handles.erase(handles.begin());
+        for (const auto& o : rows) contacts = std::max(contacts, o.contacts);
+      }
+    }
+    for (const int h : handles) ticks.collect(h, rows);
+    const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+    st.SetIterationTime(dt);
+    wall += dt;
+    timed_ticks += (runs - 1) * N;
+  }
+  st.counters["tick_us"] = timed_ticks ? 1e6 * wall / static_cast<double>(timed_ticks) : 0;
+  st.counters["max_contacts"] = contacts;
+  st.SetLabel(cuda_device_description());
+}
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s, 1.2)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s, 0.0)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+#endif
+
 /// Sums the haptic tick's stage times and the physical steps' times.
 class StageTimes : public ReplayObserver {
  public:
@@ -217,8 +315,9 @@ class StageTimes : public ReplayObserver {
 };
 
 /// EBH_BENCH_REPLAY_S (default 10): seconds of the recording to replay.
-void BM_ReplayGrasp(benchmark::State& st, Backend backend) {
+void BM_ReplayGrasp(benchmark::State& st, Backend backend, bool host_tool = false) {
   if (backend == Backend::Cuda && !device_ready(st)) return;
+  if (host_tool) setenv("EBH_CUDA_DEVICE_TICK", "0", 1);
   const char* env = std::getenv("EBH_BENCH_REPLAY_S");
   const double duration = env ? std::atof(env) : 10.0;
   LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
@@ -245,9 +344,11 @@ void BM_ReplayGrasp(benchmark::State& st, Backend backend) {
   st.counters["vtool_us"] = 1e6 * times.sum.virtual_tool / n;
   st.counters["output_us"] = 1e6 * times.sum.output / n;
   st.counters["step_mean_us"] = times.steps ? 1e6 * times.step_sum / static_cast<double>(times.steps) : 0;
+  if (host_tool) unsetenv("EBH_CUDA_DEVICE_TICK");
 }
 BENCHMARK_CAPTURE(BM_ReplayGrasp, cpu, Backend::Cpu)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ReplayGrasp, cuda, Backend::Cuda)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ReplayGrasp, cuda_host_tool, Backend::Cuda, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

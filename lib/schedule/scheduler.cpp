@@ -5,15 +5,21 @@
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
+#include <cstdlib>
+#include <deque>
 #include <exception>
 #include <chrono>
 #include <cmath>
 #include <optional>
 #include <mutex>
+#include <numbers>
 #include <thread>
 #include <utility>
 
 #include "io/error.hpp"
+#if EBH_HAVE_CUDA
+#include "schedule/haptic_cuda.hpp"
+#endif
 
 namespace ebh {
 namespace {
@@ -110,6 +116,136 @@ struct FrameClock {
     return true;
   }
 };
+
+#if EBH_HAVE_CUDA
+/// Whether a virtual-time replay runs its haptic ticks on the device (schedule/haptic_cuda.hpp):
+/// --backend cuda, a tool the device tick supports, and not turned off by EBH_CUDA_DEVICE_TICK=0
+/// (which keeps the tool on the host, for comparisons).
+bool device_ticks(const World& world) {
+  const char* env = std::getenv("EBH_CUDA_DEVICE_TICK");
+  return world.backend == Backend::Cuda && device_haptic_supported(world.tool) && !(env && std::string(env) == "0");
+}
+
+/// async and lockstep with the whole tick on the device. The host enqueues runs of ticks up to the
+/// next physical step and collects each run's outputs two runs later; the observer sees the same
+/// calls as on the host path, except that timing.total is the wall time of a run divided by its
+/// ticks (the stages are not timed one by one) and on_step comes once the step has been waited for.
+ReplaySummary replay_device(const World& world, const Recording& rec, const ReplayOptions& opt, ReplayObserver& obs) {
+  const double t0 = rec.t.front() + opt.start;
+  const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
+  const int N = world.ticks_per_step;
+  DeviceHapticSetup setup;
+  const std::vector<DeviceTickInput> inputs = device_tick_inputs(world, rec, t0, ticks, opt.mode, setup.grasp_boxes);
+  setup.mesh = &world.virtual_mesh;
+  setup.tool = &world.tool;
+  setup.k = world.scene.spec.stiffness;
+  setup.h = world.h_haptic;
+  setup.virtual_iterations = world.scene.spec.solver.virtual_iterations;
+  setup.q0 = world.initial_virtual;
+  setup.x0 = world.initial_physical.x;
+  setup.pose0 = {inputs.front().position, inputs.front().orientation};
+  PhysicalSide physical = make_physical_side(world);
+  CudaHapticTicks device(setup, inputs, *physical.cuda);
+
+  HapticSide view;  // what the observer reads: the outputs of one tick
+  view.mesh.q = world.initial_virtual;
+  view.visible.x = world.initial_physical.x;
+  view.tool.pose = setup.pose0;
+  struct Run {
+    int handle;
+    std::int64_t first;
+    int count;
+  };
+  std::deque<Run> runs;
+  std::vector<DeviceTickOutput> rows;
+  ReplaySummary s;
+  const auto wall0 = Clock::now();
+  auto last_collect = wall0;
+  auto collect = [&](std::size_t keep) {
+    while (runs.size() > keep) {
+      const Run r = runs.front();
+      runs.pop_front();
+      rows.resize(static_cast<std::size_t>(r.count));
+      device.collect(r.handle, rows);
+      const auto now = Clock::now();
+      const double per_tick = std::chrono::duration<double>(now - last_collect).count() / r.count;
+      last_collect = now;
+      for (int k = 0; k < r.count; ++k) {
+        const std::int64_t n = r.first + k;
+        const DeviceTickInput& in = inputs[static_cast<std::size_t>(n)];
+        const DeviceTickOutput& o = rows[static_cast<std::size_t>(k)];
+        view.device = sample_at(rec, t0 + static_cast<double>(n) * world.h_haptic);
+        view.output.force = o.force;
+        view.output.torque = o.torque;
+        view.output.force_clamped = o.force_clamped != 0;
+        view.output.torque_clamped = o.torque_clamped != 0;
+        view.tool.pose = {o.position, o.orientation};
+        view.tool.steps_taken = o.newton_steps;
+        view.tool.steps_rejected = o.newton_rejected;
+        view.tool.grasp.closed = in.jaw < world.tool.spec.forceps.grasp_threshold;
+        view.tool.grasp.vertices.resize(static_cast<std::size_t>(o.grasped));  // the count is what is read
+        view.penetration = o.penetration;
+        view.penetration_physical = o.penetration_physical;
+        view.contact_count = o.contacts;
+        view.timing = HapticTiming{};
+        view.timing.total = per_tick;
+        view.tick = n + 1;
+        obs.on_tick(world, view, static_cast<double>(n) * world.h_haptic);
+      }
+    }
+  };
+  bool in_flight = false;
+  double in_flight_t = 0;
+  auto finish_step = [&](double t) {
+    physical.report = device.finish_physical_step(physical.mesh.x);
+    ++physical.step;
+    obs.on_step(world, physical, t);
+    ++s.steps;
+  };
+  FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};
+  const int max_run = std::max(1, std::min(N, device.capacity() / 4));
+  for (std::int64_t n = 0; n < ticks;) {
+    const double t = static_cast<double>(n) * world.h_haptic;
+    if (n % N == 0) {
+      if (opt.mode == Mode::Async) {
+        if (in_flight) {
+          device.deliver_physical_step();
+          finish_step(in_flight_t);
+        }
+        device.start_physical_step();
+        in_flight = true;
+        in_flight_t = t;
+      } else {  // lockstep
+        device.start_physical_step();
+        device.deliver_physical_step();
+        finish_step(t);
+      }
+    }
+    // Up to the next physical step; one tick at a time where mesh frames are written.
+    int count = static_cast<int>(std::min<std::int64_t>(N - n % N, ticks - n));
+    count = std::min(count, max_run);
+    if (frames.period > 0) count = 1;
+    runs.push_back({device.run_ticks(count), n, count});
+    n += count;
+    s.ticks += count;
+    collect(2);
+    if (frames.period > 0 && frames.due(t, world.h_haptic)) {
+      collect(0);
+      device.snapshot(view.mesh.q, view.visible.x);
+      obs.on_frame(world, view, t);
+    }
+    if (obs.should_stop()) {
+      s.stopped = true;
+      break;
+    }
+  }
+  if (in_flight) finish_step(in_flight_t);  // the last step's result is recorded, never shown
+  collect(0);
+  s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
+  s.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+  return s;
+}
+#endif
 
 /// async and lockstep: a pure function of (world, recording, options).
 ReplaySummary replay_virtual_time(const World& world, const Recording& rec, const ReplayOptions& opt,
@@ -258,6 +394,47 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
 
 }  // namespace
 
+#if EBH_HAVE_CUDA
+/// What the device ticks need to know before they run: the device samples, the E_svc blend of each
+/// tick (simulation.cpp: physical_targets) and the grasp events (grasp.cpp: update_grasp).
+std::vector<DeviceTickInput> device_tick_inputs(const World& world, const Recording& rec, double t0, std::int64_t ticks,
+                                                Mode mode, std::vector<Collider<double>>& grasp_boxes) {
+  const int N = world.ticks_per_step;
+  const bool grasping = world.scene.spec.stages.grasp && world.tool.has_jaws;
+  std::vector<DeviceTickInput> in(static_cast<std::size_t>(ticks));
+  std::int64_t delivered = -1;  // the tick the visible physical result arrived at
+  bool closed = false;
+  for (std::int64_t n = 0; n < ticks; ++n) {
+    const DeviceSample s = sample_at(rec, t0 + static_cast<double>(n) * world.h_haptic);
+    DeviceTickInput& d = in[static_cast<std::size_t>(n)];
+    d.position = s.position;
+    d.orientation = s.orientation;
+    d.jaw = s.jaw;
+    const double angle = std::clamp(s.jaw, 0.0, 1.0) * world.tool.spec.forceps.jaw_max_angle_deg * std::numbers::pi / 180.0;
+    if (world.tool.has_jaws) {  // tool_model.cpp: collider_frames
+      d.jaw_cos = std::cos(angle);
+      d.jaw_sin = std::sin(angle);
+    }
+    // async: step k's result arrives at tick (k+1)N; lockstep: at tick kN.
+    if (n % N == 0 && (mode == Mode::Lockstep || n > 0)) delivered = n;
+    if (world.scene.spec.interpolate_physical && delivered >= 0) {
+      const std::int64_t since = n - delivered + 1;
+      d.alpha = since >= N ? 1.0 : static_cast<double>(since) / N;
+    }
+    if (grasping && (s.jaw < world.tool.spec.forceps.grasp_threshold) != closed) {
+      closed = !closed;
+      if (closed) {
+        grasp_boxes.push_back(grasp_hard_box(world.tool, s.jaw));
+        d.grasp = static_cast<int>(grasp_boxes.size());
+      } else {
+        d.grasp = -1;
+      }
+    }
+  }
+  return in;
+}
+#endif
+
 Mode parse_mode(const std::string& s) {
   if (s == "async") return Mode::Async;
   if (s == "lockstep") return Mode::Lockstep;
@@ -282,6 +459,9 @@ ReplaySummary replay(const World& world, const Recording& recording, const Repla
                      ReplayObserver& observer) {
   if (recording.t.empty()) throw InputError("recording has no samples");
   if (options.mode == Mode::Realtime) return replay_realtime(world, recording, options, observer);
+#if EBH_HAVE_CUDA
+  if (device_ticks(world)) return replay_device(world, recording, options, observer);
+#endif
   return replay_virtual_time(world, recording, options, observer);
 }
 

@@ -13,6 +13,9 @@
 #include <string>
 
 #include "schedule/simulation.hpp"
+#if EBH_HAVE_CUDA
+#include "schedule/haptic_cuda.hpp"
+#endif
 
 namespace ebh {
 
@@ -56,6 +59,14 @@ struct ReplaySummary {
 
 /// Number of ticks a replay of `duration` seconds runs: ticks 0 .. floor(duration / h_h).
 std::int64_t tick_count(const World& world, double duration);
+
+#if EBH_HAVE_CUDA
+/// The inputs of ticks 0 .. ticks-1 of a device replay (--backend cuda, haptic_cuda.hpp) starting at
+/// recording time t0: device samples, the E_svc blend of each tick for `mode` and the grasp
+/// events, whose hard boxes are appended to grasp_boxes.
+std::vector<DeviceTickInput> device_tick_inputs(const World& world, const Recording& rec, double t0, std::int64_t ticks,
+                                                Mode mode, std::vector<Collider<double>>& grasp_boxes);
+#endif
 
 /// Replays `recording` through the two-rate solver.
 ReplaySummary replay(const World& world, const Recording& recording, const ReplayOptions& options,

@@ -645,6 +645,9 @@ struct CudaPhysicalSolver::Impl {
   std::vector<float> omega_host;  // the K Chebyshev weights (1 for Jacobi)
   cudaGraph_t graph = nullptr;
   cudaGraphExec_t exec = nullptr;
+  // The device-resident step (no copies of q and x; made on first use by launch_device_step).
+  cudaGraph_t graph_device = nullptr;
+  cudaGraphExec_t exec_device = nullptr;
   cudaEvent_t start = nullptr, stop = nullptr;  // around the graph launch
   double device_s = 0;
   bool programmatic = false;  // the graph uses programmatic dependent launch
@@ -654,7 +657,7 @@ struct CudaPhysicalSolver::Impl {
   cuda::DeviceArray<float> omega;  // K Chebyshev weights for the persistent kernel
   void* persistent_fn = nullptr;   // persistent_step_kernel for the method
   void prepare_persistent();
-  void launch_persistent();
+  void launch_persistent(bool copies);
   void copy_q_in(cudaStream_t st);
   void copy_results_out(cudaStream_t st);
 
@@ -665,14 +668,19 @@ struct CudaPhysicalSolver::Impl {
   ~Impl() {
     if (exec) cudaGraphExecDestroy(exec);
     if (graph) cudaGraphDestroy(graph);
+    if (exec_device) cudaGraphExecDestroy(exec_device);
+    if (graph_device) cudaGraphDestroy(graph_device);
     if (start) cudaEventDestroy(start);
     if (stop) cudaEventDestroy(stop);
   }
 
   void upload_model(const PhysicalModel& M);
-  void capture(bool with_programmatic_launch);
+  /// Captures the step graph: with the copies of q in and x out (copies = true: exec), or reading q
+  /// from and leaving x in device memory (exec_device).
+  void capture(bool with_programmatic_launch, bool copies);
   template <bool kChebyshev>
   void capture_iterations(bool pdl);
+  PhysicalStepReport report() const;  ///< iterations and residual ratio of the last step (host copy)
 };
 
 /// The K weights of the CPU reference (chebyshev_weight, in double), rounded once.
@@ -828,13 +836,13 @@ void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
   }
 }
 
-void CudaPhysicalSolver::Impl::capture(bool pdl) {
+void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
   cudaStream_t st = stream.get();
   const int K = params.iterations;
   const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
   EBH_CUDA_CHECK(cudaStreamBeginCapture(st, cudaStreamCaptureModeThreadLocal));
   try {
-    copy_q_in(st);
+    if (copies) copy_q_in(st);
     if (n > 0 && K == 0)
       launch(false, predict_only_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "predict_only_kernel", dev);
     if (n > 0 && K > 0) {
@@ -843,15 +851,21 @@ void CudaPhysicalSolver::Impl::capture(bool pdl) {
       if (K % 2 == 1 && T > 0)  // the last rotations are in the scratch half
         EBH_CUDA_CHECK(cudaMemcpyAsync(rotation.get(), rotation.get() + T, T * sizeof(Quatf), cudaMemcpyDeviceToDevice, st));
     }
-    copy_results_out(st);
+    if (copies) {
+      copy_results_out(st);
+    } else if (n > 0 && K > 0) {  // only the residual sums come back to the host
+      EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
+    }
   } catch (...) {
     cudaGraph_t broken = nullptr;
     cudaStreamEndCapture(st, &broken);  // leave capture mode whatever failed
     if (broken) cudaGraphDestroy(broken);
     throw;
   }
-  EBH_CUDA_CHECK(cudaStreamEndCapture(st, &graph));
-  EBH_CUDA_CHECK(cudaGraphInstantiate(&exec, graph, 0));
+  cudaGraph_t& g = copies ? graph : graph_device;
+  cudaGraphExec_t& e = copies ? exec : exec_device;
+  EBH_CUDA_CHECK(cudaStreamEndCapture(st, &g));
+  EBH_CUDA_CHECK(cudaGraphInstantiate(&e, g, 0));
   programmatic = pdl;
 }
 
@@ -870,15 +884,18 @@ void CudaPhysicalSolver::Impl::prepare_persistent() {
   omega.upload(omega_host.data(), stream.get());
 }
 
-void CudaPhysicalSolver::Impl::launch_persistent() {
+void CudaPhysicalSolver::Impl::launch_persistent(bool copies) {
   cudaStream_t st = stream.get();
-  copy_q_in(st);
+  if (copies) copy_q_in(st);
   const float* w = omega.get();
   int rot = params.rotation_iterations;
   void* args[] = {&dev, &plan, &w, &rot};
   EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(persistent_fn, dim3(patches), dim3(kBlock), args, shared_bytes, st));
   EBH_CUDA_LAUNCH_CHECK(st, "persistent_step_kernel");
-  copy_results_out(st);
+  if (copies)
+    copy_results_out(st);
+  else
+    EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
 }
 
 /// The step's input: q, rounded to float on the host, into the device.
@@ -914,7 +931,7 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
   const bool want_pdl = !(env && std::string(env) == "0");
   if (want_pdl) {
     try {
-      impl_->capture(true);
+      impl_->capture(true, true);
       return;
     } catch (const std::runtime_error&) {
       cudaGetLastError();  // clear the failed launch's error and fall back
@@ -922,7 +939,7 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
       if (impl_->graph) { cudaGraphDestroy(impl_->graph); impl_->graph = nullptr; }
     }
   }
-  impl_->capture(false);
+  impl_->capture(false, true);
 }
 
 CudaPhysicalSolver::~CudaPhysicalSolver() = default;
@@ -983,7 +1000,7 @@ PhysicalStepReport CudaPhysicalSolver::step(PhysicalState& state, std::span<cons
   for (int j = 0; j < I.m; ++j) I.q_host[j] = to_float(virtual_q[j]);
   EBH_CUDA_CHECK(cudaEventRecord(I.start, I.stream.get()));
   if (I.persistent)
-    I.launch_persistent();
+    I.launch_persistent(true);
   else
     EBH_CUDA_CHECK(cudaGraphLaunch(I.exec, I.stream.get()));
   EBH_CUDA_CHECK(cudaEventRecord(I.stop, I.stream.get()));
@@ -993,14 +1010,60 @@ PhysicalStepReport CudaPhysicalSolver::step(PhysicalState& state, std::span<cons
   I.device_s = 1e-3 * ms;
   state.x.resize(I.n);
   for (int a = 0; a < I.n; ++a) state.x[a] = static_cast<Vec3d>(I.x_host[a]);
-  PhysicalStepReport report;
-  report.iterations = I.params.iterations;
-  if (I.params.iterations > 0 && I.n > 0) {
-    const double r0 = std::sqrt(I.residual_host[0]), rk = std::sqrt(I.residual_host[1]);
-    report.residual = r0 > 0 ? rk / r0 : 0.0;
-  }
+  PhysicalStepReport report = I.report();
   report.time_s = std::chrono::duration<double>(Clock::now() - t0).count();
   return report;
+}
+
+PhysicalStepReport CudaPhysicalSolver::Impl::report() const {
+  PhysicalStepReport r;
+  r.iterations = params.iterations;
+  if (params.iterations > 0 && n > 0) {
+    const double r0 = std::sqrt(residual_host[0]), rk = std::sqrt(residual_host[1]);
+    r.residual = r0 > 0 ? rk / r0 : 0.0;
+  }
+  return r;
+}
+
+Vec3f* CudaPhysicalSolver::device_q() { return impl_->q.get(); }
+
+const Vec3f* CudaPhysicalSolver::device_x() const { return impl_->x.get(); }
+
+void* CudaPhysicalSolver::stream_handle() const { return impl_->stream.get(); }
+
+void CudaPhysicalSolver::launch_device_step() {
+  Impl& I = *impl_;
+  if (!I.persistent && !I.exec_device) {
+    const bool pdl = I.programmatic;  // as the copying graph (capture() resets the flag: restored below)
+    try {
+      I.capture(pdl, false);
+    } catch (const std::runtime_error&) {
+      if (!pdl) throw;
+      cudaGetLastError();
+      if (I.exec_device) { cudaGraphExecDestroy(I.exec_device); I.exec_device = nullptr; }
+      if (I.graph_device) { cudaGraphDestroy(I.graph_device); I.graph_device = nullptr; }
+      I.capture(false, false);
+    }
+    I.programmatic = pdl;
+  }
+  cudaStream_t st = I.stream.get();
+  EBH_CUDA_CHECK(cudaEventRecord(I.start, st));
+  if (I.persistent)
+    I.launch_persistent(false);
+  else
+    EBH_CUDA_CHECK(cudaGraphLaunch(I.exec_device, st));
+  EBH_CUDA_CHECK(cudaEventRecord(I.stop, st));
+}
+
+PhysicalStepReport CudaPhysicalSolver::device_step_report() {
+  Impl& I = *impl_;
+  EBH_CUDA_CHECK(cudaEventSynchronize(I.stop));
+  float ms = 0;
+  EBH_CUDA_CHECK(cudaEventElapsedTime(&ms, I.start, I.stop));
+  I.device_s = 1e-3 * ms;
+  PhysicalStepReport r = I.report();
+  r.time_s = I.device_s;
+  return r;
 }
 
 }  // namespace ebh

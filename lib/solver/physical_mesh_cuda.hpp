@@ -40,6 +40,17 @@ class CudaPhysicalSolver {
   /// (0); time_s is the wall clock of the whole step, copies included.
   PhysicalStepReport step(PhysicalState& state, std::span<const Vec3d> virtual_q);
 
+  /// The device-resident step, for callers that keep q and x on the device (the replay's device
+  /// haptic tick, schedule/haptic_cuda.hpp): q is read from device_q() (#m float32 xyz, device
+  /// memory) and x left in device_x() (#n); launch_device_step() enqueues the step on
+  /// stream_handle() (a cudaStream_t) and returns at once; device_step_report() waits for it and
+  /// reports its residual and its device time (time_s). Same kernels and bits as step().
+  Vec3f* device_q();
+  const Vec3f* device_x() const;
+  void* stream_handle() const;
+  void launch_device_step();
+  PhysicalStepReport device_step_report();
+
   const PhysicalStepParams& params() const;
   /// Device time of the last step's graph (copies of q and x included), seconds, from CUDA events:
   /// time_s minus this is the host's share (conversions, launch, synchronisation).

@@ -10,6 +10,10 @@ namespace {
 constexpr int kMaxHalvings = 12;
 constexpr double kArmijo = 1e-4;
 constexpr double kConverged = 1e-13;
+// A step shorter than this (times |P_g| + 1 mm, in metres; and in radians) moves the pose by
+// round-off only: no halving can show a decrease, so it counts as converged rather than as 12
+// halvings ending in a rejected step (which the device tick, schedule/haptic_cuda.cu, pays dearly).
+constexpr double kStepFloor = 1e-14;
 
 /// Contacts of the candidates against the tool at `pose` (grasped vertices excluded).
 void detect_at(const ToolModel& tool, const ToolPose& pose, double jaw, std::span<const Vec3d> q,
@@ -113,6 +117,7 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
     const double slope = g.dot(dx);  // < 0: H_step is positive definite
     // Converged: the predicted decrease is below round-off of E (no halving could show it).
     if (!(slope < -kConverged * std::max(E, 1e-300))) break;
+    if (dx.head<3>().norm() <= kStepFloor * (norm(st.pose.position) + 1e-3) && dx.tail<3>().norm() <= kStepFloor) break;
     double alpha = 1.0;
     bool accepted = false;
     for (int h = 0; h < kMaxHalvings; ++h, alpha *= 0.5) {

@@ -165,6 +165,36 @@ TEST(CudaPhysical, ChebyshevStepMatchesCpuTube) {
   expect_step_matches_cpu("tube", SolverSpec::Method::Chebyshev);
 }
 
+/// The device-resident step (q from and x to device memory, as the device haptic tick runs it) is
+/// the copying step's graph without the copies: bitwise the same state, persistent kernel too.
+TEST(CudaPhysical, DeviceResidentStepMatchesTheCopyingStep) {
+  EBH_REQUIRE_DEVICE();
+  const Models& M = models("cholecystectomy");
+  const PhysicalStepParams params = physical_params(M.scene.spec.solver);
+  std::vector<Vec3d> q = M.vm.rest;
+  for (Vec3d& p : q) p.z -= 1e-3;
+  for (const bool persistent : {false, true}) {
+    CudaPhysicalSolver a(M.pm, params), b(M.pm, params);
+    a.set_persistent_kernel(persistent);
+    b.set_persistent_kernel(persistent);
+    PhysicalState sa = M.start, sb = M.start;
+    a.upload_state(sa);
+    b.upload_state(sb);
+    a.step(sa, q);
+    a.step(sa, q);
+    b.step(sb, q);  // puts q on b's device
+    b.launch_device_step();
+    const PhysicalStepReport r = b.device_step_report();
+    PhysicalState da, db;
+    a.download_state(da);
+    b.download_state(db);
+    EXPECT_EQ(std::memcmp(da.x.data(), db.x.data(), da.x.size() * sizeof(Vec3d)), 0) << "persistent " << persistent;
+    EXPECT_EQ(std::memcmp(da.v.data(), db.v.data(), da.v.size() * sizeof(Vec3d)), 0) << "persistent " << persistent;
+    EXPECT_GT(r.time_s, 0.0);
+    EXPECT_GT(r.residual, 0.0);
+  }
+}
+
 TEST(CudaPhysical, FewAndOddIterationCountsMatchCpu) {
   // K = 1 (one iteration both predicts and finishes), 2, 3 and 17 (odd: the last rotations come
   // back from the scratch half) take the special paths of the buffer rotation.
@@ -288,9 +318,13 @@ class Trace : public ReplayObserver {
   std::vector<Vec3d> force;
   std::vector<Vec3d> x;
   std::vector<double> residual;
+  std::vector<int> grasped;
+  std::vector<double> penetration;
   int max_contacts = 0;
   void on_tick(const World&, const HapticSide& h, double) override {
     force.push_back(h.output.force);
+    grasped.push_back(static_cast<int>(h.tool.grasp.vertices.size()));
+    penetration.push_back(h.penetration);
     max_contacts = std::max(max_contacts, h.contact_count);
   }
   void on_step(const World&, const PhysicalSide& p, double) override {
@@ -299,13 +333,14 @@ class Trace : public ReplayObserver {
   }
 };
 
-/// cholecystectomy_grasp from t = 1.2 s (the forceps reaching the fundus) for `ticks` ticks.
-Trace replay_grasp(Backend backend, Mode mode, int ticks) {
+/// cholecystectomy_grasp from t = `from` s (1.2: the forceps reaching the fundus) for `ticks` ticks.
+/// host_tool: --backend cuda with the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0).
+Trace replay_grasp(Backend backend, Mode mode, int ticks, double from = 1.2, bool host_tool = false) {
   Recording rec = read_recording(resolve_recording_path("cholecystectomy_grasp"));
   Recording cut = rec;
   cut.t.clear(); cut.position.clear(); cut.orientation.clear(); cut.jaw.clear(); cut.buttons.clear();
   for (size_t i = 0; i < rec.size(); ++i)
-    if (rec.t[i] >= 1.2 - 1e-9) {
+    if (rec.t[i] >= from - 1e-9) {
       cut.t.push_back(rec.t[i]); cut.position.push_back(rec.position[i]); cut.orientation.push_back(rec.orientation[i]);
       cut.jaw.push_back(rec.jaw[i]); cut.buttons.push_back(rec.buttons[i]);
     }
@@ -314,7 +349,9 @@ Trace replay_grasp(Backend backend, Mode mode, int ticks) {
   opt.mode = mode;
   opt.duration = (ticks - 1) * world->h_haptic;
   Trace trace;
+  if (host_tool) setenv("EBH_CUDA_DEVICE_TICK", "0", 1);
   replay(*world, cut, opt, trace);
+  if (host_tool) unsetenv("EBH_CUDA_DEVICE_TICK");
   return trace;
 }
 
@@ -351,12 +388,55 @@ TEST(CudaReplay, GraspMatchesCpuAndRepeatsBitwise) {
   EXPECT_EQ(std::memcmp(gpu.x.data(), gpu2.x.data(), gpu.x.size() * sizeof(Vec3d)), 0);
 }
 
+/// The device haptic tick through a grasp: the jaws close on the fundus (t ~ 1.6 s) and pull.
+/// Grasped counts must agree exactly, forces within the float32 bound of the test above; the
+/// host-tool path (EBH_CUDA_DEVICE_TICK=0) gives the same forces within the same bound.
+TEST(CudaReplay, DeviceTickThroughGraspMatchesCpu) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 800;
+  const Trace cpu = replay_grasp(Backend::Cpu, Mode::Lockstep, ticks);
+  const Trace gpu = replay_grasp(Backend::Cuda, Mode::Lockstep, ticks);
+  const Trace host_tool = replay_grasp(Backend::Cuda, Mode::Lockstep, ticks, 1.2, true);
+  ASSERT_EQ(gpu.force.size(), size_t(ticks));
+  ASSERT_EQ(host_tool.force.size(), size_t(ticks));
+  const Models& M = models("cholecystectomy");
+  const int steps = static_cast<int>(gpu.residual.size());
+  const double tol_f = M.scene.spec.stiffness.k_vcs * 2.0 * steps * step_tolerance(16, max_abs_coordinate(M.pm.rest));
+  double err_f = 0, err_host = 0, err_pen = 0, peak_f = 0;
+  int max_grasped = 0, grasp_mismatch = 0;
+  for (int n = 0; n < ticks; ++n) {
+    err_f = std::max(err_f, norm(gpu.force[n] - cpu.force[n]));
+    err_host = std::max(err_host, norm(host_tool.force[n] - cpu.force[n]));
+    err_pen = std::max(err_pen, std::fabs(gpu.penetration[n] - cpu.penetration[n]));
+    peak_f = std::max(peak_f, norm(cpu.force[n]));
+    max_grasped = std::max(max_grasped, cpu.grasped[n]);
+    grasp_mismatch += gpu.grasped[n] != cpu.grasped[n];
+  }
+  std::printf("[ device tick ] %d ticks: up to %d grasped, max |F| err %.3g N (host tool %.3g N; tol %.3g, peak %.3g N), "
+              "max penetration err %.3g m, %d ticks with another grasped count\n",
+              ticks, max_grasped, err_f, err_host, tol_f, peak_f, err_pen, grasp_mismatch);
+  EXPECT_GT(max_grasped, 0) << "the window must contain a grasp";
+  EXPECT_EQ(grasp_mismatch, 0);
+  EXPECT_LE(err_f, tol_f);
+  EXPECT_LE(err_host, tol_f);
+}
+
 TEST(CudaReplay, AsyncModeRuns) {
   EBH_REQUIRE_DEVICE();
-  const Trace a = replay_grasp(Backend::Cuda, Mode::Async, 100);
-  const Trace b = replay_grasp(Backend::Cuda, Mode::Async, 100);
-  ASSERT_EQ(a.force.size(), 100u);
+  const Trace a = replay_grasp(Backend::Cuda, Mode::Async, 600);
+  const Trace b = replay_grasp(Backend::Cuda, Mode::Async, 600);
+  const Trace cpu = replay_grasp(Backend::Cpu, Mode::Async, 600);
+  ASSERT_EQ(a.force.size(), 600u);
   EXPECT_EQ(std::memcmp(a.force.data(), b.force.data(), a.force.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), a.x.size() * sizeof(Vec3d)), 0);
+  // async delivers each physical result N ticks late on both backends: the same forces within the
+  // float32 bound (a wrong delivery tick or blend would show as a millinewton-scale difference).
+  const Models& M = models("cholecystectomy");
+  const double tol_f = M.scene.spec.stiffness.k_vcs * 2.0 * 60 * step_tolerance(16, max_abs_coordinate(M.pm.rest));
+  double err_f = 0;
+  for (size_t n = 0; n < a.force.size(); ++n) err_f = std::max(err_f, norm(a.force[n] - cpu.force[n]));
+  std::printf("[ async ] 600 ticks: max |F| err %.3g N (tol %.3g)\n", err_f, tol_f);
+  EXPECT_LE(err_f, tol_f);
 }
 
 #endif

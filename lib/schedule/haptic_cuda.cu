@@ -1,0 +1,1126 @@
+// The whole haptic tick on a CUDA device (haptic_cuda.hpp; docs/CUDA.md "Device haptic tick").
+//
+// One tick = virtual_iterations launches of tick_kernel, chained by programmatic dependent launch
+// inside one CUDA graph per run of ticks. Launch i, per virtual vertex j (one thread each):
+//   begin (i = 0)   q_start, prediction s (Alg. 2 l. 6), E_svc target p from the blended physical
+//                   result (l. 1), the grasp event of the tick (§5.2, eq. [10])
+//   contact         E_con [3] target of j against the virtual tool held fixed (l. 10): the grasp
+//                   target of a held vertex, else the closest point of the deepest collider
+//   iteration       one Jacobi step of E_k + E_svc + E_con + E_s (l. 11-16) into q_{i+1}
+//   end (last i)    velocity (l. 23), depth of j in the physical tool (the penetration metric)
+//   reach           whether the virtual tool's Newton step can reach j (virtual_tool.cpp's bound)
+// then per block: the reachable and the held vertices in vertex order, the contact count, the
+// deepest physical-tool penetration. The last block to finish runs the virtual tool (l. 18-19):
+// Newton's method on E_tool over the reachable vertices in double, with fixed-order block sums,
+// the 6x6 PSD clamp by a one-warp Jacobi eigen-decomposition, an Armijo line search, and (last i)
+// the tick's outputs into a host-mapped ring (l. 26-27).
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "energy/edge_spring.hpp"
+#include "energy/quadratic.hpp"
+#include "schedule/haptic_cuda.hpp"
+#include "solver/cuda_util.cuh"
+#include "tool/collider.hpp"
+#include "tool/contact.hpp"
+#include "tool/tool_energy.hpp"
+
+namespace ebh {
+namespace {
+
+constexpr int kBlock = 128;
+constexpr int kWarps = kBlock / 32;
+constexpr int kMaxHalvings = 12;    // virtual_tool.cpp
+constexpr double kArmijo = 1e-4;    // virtual_tool.cpp
+constexpr double kConverged = 1e-13;
+constexpr double kStepFloor = 1e-14;
+constexpr int kJacobiSweeps = 4;    // 6x6 cyclic Jacobi: quadratic convergence, off-diagonals ~1e-7 after 4
+constexpr int kSums = 28;           // E, gradient (6), upper Hessian (21)
+// A float32 signed distance above this (m) is certainly positive in double: the exact double tests
+// run only below it (float's error on tool-sized coordinates is ~1e-7 m).
+constexpr float kFloatSlack = 1e-5f;
+
+/// The tool's constants (kernel parameter).
+struct ToolConst {
+  int count = 0;
+  Collider<double> shape[kMaxColliders];
+  // Early-outs: a segment (a, b, collider frame) and radius whose capsule contains collider c, so
+  // the distance to that capsule is a lower bound of the collider's signed distance.
+  Vec3f seg_a[kMaxColliders], seg_b[kMaxColliders];
+  float seg_r[kMaxColliders];
+  double jaw_angle = 0;  // rad at jaw = 1
+  double k_con = 0, k_vcs = 0, k_vct = 0, stab_t = 0, stab_r = 0;
+  double max_step = 0, max_rot = 0;
+  int newton = 1;
+  double force_limit = 0, torque_limit = 0;
+  double soft_margin = 1, eta = 1;
+  double reach_T = 0, reach_th = 0;  // candidates: translation and rotation one call can reach
+};
+
+/// The virtual tool's state on the device (one instance).
+struct ToolStateDev {
+  Vec3d position;
+  Quatd orientation;
+  Vec3d anchor_position;
+  Quatd anchor_orientation;
+  long long tick;
+};
+
+/// Colliders posed for one tool pose and jaw value.
+struct Posed {
+  Rigid<double> world[kMaxColliders];
+  Rigid<double> frame;  // tool frame -> world
+  Vec3f seg_a[kMaxColliders], seg_u[kMaxColliders];  // bounding segments in the world: start, unit axis
+  float seg_len[kMaxColliders], seg_r[kMaxColliders];
+  Vec3f origin_f;       // frame.t, rounded
+};
+
+/// Whether x may lie within `margin` of a posed collider: float32, no division or square root (the
+/// distance to each bounding capsule, a lower bound of the signed distance, against margin + radius,
+/// squared). An early-out for the exact double tests: false means certainly farther than margin
+/// less float round-off (~1e-7 m on tool-sized coordinates; callers add kFloatSlack).
+__device__ bool maybe_within(const ToolConst& t, const Posed& p, Vec3f x, float margin) {
+  for (int c = 0; c < t.count; ++c) {
+    const Vec3f v = x - p.seg_a[c];
+    const float s = fminf(fmaxf(dot(v, p.seg_u[c]), 0.f), p.seg_len[c]);
+    const Vec3f d = v - s * p.seg_u[c];
+    const float reach = fmaxf(p.seg_r[c] + margin, 0.f);
+    if (dot(d, d) <= reach * reach) return true;
+  }
+  return false;
+}
+
+struct MeshDev {
+  int m = 0, blocks = 0, ring = 1;
+  float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
+  Vec3f gravity;
+  const float* mass = nullptr;
+  const std::uint8_t* pinned = nullptr;
+  const float* stiff_diag = nullptr;
+  const Vec3f* rest_edge = nullptr;
+  const int* edge_offsets = nullptr;
+  const int4* edge_items = nullptr;  // per incidence entry: the edge's two vertices, the edge, 1 if this vertex is its second
+  const int* pair_vertex = nullptr;
+  const float* pair_weight = nullptr;
+  const int* pair_count = nullptr;
+  const Vec3f* x_prev = nullptr;  // the physical result before the visible one
+  const Vec3f* x_vis = nullptr;   // the visible physical result
+  const Vec3f* v_in = nullptr;    // velocities of the last tick
+  Vec3f* q_start = nullptr;
+  Vec3f* s = nullptr;
+  Vec3f* p = nullptr;
+  std::uint8_t* held = nullptr;
+  Vec3d* grasp_local = nullptr;
+  int* block_cand = nullptr;        // blocks * kBlock
+  int* block_held = nullptr;        // blocks * kBlock
+  int* block_counts = nullptr;      // blocks * 4: reachable, held, contacts, penetration (float bits)
+  int* block_offsets = nullptr;     // 2 (blocks + 1)
+  unsigned* blocks_done = nullptr;
+  int* cand = nullptr;              // m: the reachable vertices, vertex order
+  Vec3d* cand_q = nullptr;          // m
+  int* held_list = nullptr;         // m
+  ToolStateDev* state = nullptr;
+  const DeviceTickInput* inputs = nullptr;
+  const Collider<double>* grasp_boxes = nullptr;
+  DeviceTickOutput* out = nullptr;  // host-mapped ring of `ring` rows
+};
+
+/// Collider c of pose_tool (tool_model.cpp) on the device; (jc, js): cos and sin of the jaws'
+/// opening angle (DeviceTickInput). Threads 0 .. count-1 each pose one collider.
+__device__ void pose_collider(const ToolConst& t, Vec3d P, Quatd Q, double jc, double js, int c, Posed& out) {
+  Rigid<double> frame;
+  frame.R = to_matrix(Q);
+  frame.t = P;
+  const ColliderFrame f = t.shape[c].frame;
+  if (f == ColliderFrame::Tool) {
+    out.world[c] = frame;
+  } else {
+    Rigid<double> local;  // rotation about the tool's y axis, +angle for the upper jaw
+    const double s = f == ColliderFrame::UpperJaw ? js : -js;
+    local.R(0, 0) = jc; local.R(0, 2) = s; local.R(2, 0) = -s; local.R(2, 2) = jc;
+    out.world[c] = compose(frame, local);
+  }
+  const Vec3d A = apply(out.world[c], static_cast<Vec3d>(t.seg_a[c]));
+  const Vec3d B = apply(out.world[c], static_cast<Vec3d>(t.seg_b[c]));
+  const double len = norm(B - A);
+  out.seg_a[c] = static_cast<Vec3f>(A);
+  out.seg_u[c] = len > 0 ? static_cast<Vec3f>((1.0 / len) * (B - A)) : Vec3f{};
+  out.seg_len[c] = static_cast<float>(len);
+  out.seg_r[c] = t.seg_r[c];
+  if (c == 0) {
+    out.frame = frame;
+    out.origin_f = static_cast<Vec3f>(P);
+  }
+}
+
+/// The whole posed tool, by the block's first threads (callers synchronise after it).
+__device__ void pose_colliders(const ToolConst& t, Vec3d P, Quatd Q, const DeviceTickInput& in, Posed& out) {
+  if (threadIdx.x < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, threadIdx.x, out);
+}
+
+/// Upper-triangle index of (i, j), i <= j, in row order.
+__device__ __forceinline__ int upper(int i, int j) { return i * 6 - i * (i - 1) / 2 + (j - i); }
+
+/// Jacobi round-robin pairing of 6 indices: partner of i in round r (5 rounds cover the 15 pairs).
+__constant__ unsigned char kPartner[5][6] = {
+    {1, 0, 5, 4, 3, 2}, {2, 3, 0, 1, 5, 4}, {3, 5, 4, 0, 2, 1}, {4, 2, 1, 5, 0, 3}, {5, 4, 3, 2, 1, 0}};
+__device__ __forceinline__ int partner(int r, int i) { return kPartner[r][i]; }
+
+/// H (36, symmetric, shared) <- V max(Lambda, 0) V^T: the PSD clamp of virtual_tool.cpp, by a cyclic
+/// Jacobi eigen-decomposition in float32 run by one warp (A, V: 36 floats, C, S: 6 floats, shared).
+/// Round r rotates the three disjoint pairs of kPartner[r] at once; lane e < 36 (and e + 32) owns
+/// A(e / 6, e % 6) and V(e / 6, e % 6), whose rotation indices are set up once.
+__device__ void psd_clamp_warp(double* H, float* A, float* V, float* C, float* S, int lane) {
+  int own[2], a_ipj[5][2], a_pij[5][2], a_pipj[5][2], ci[5][2], cj[5][2];
+  float si[5][2], sj[5][2];
+  for (int k = 0; k < 2; ++k) {
+    const int e = min(lane + 32 * k, 35), i = e / 6, j = e % 6;
+    own[k] = e;
+    for (int r = 0; r < 5; ++r) {
+      const int pi = partner(r, i), pj = partner(r, j);
+      a_ipj[r][k] = 6 * i + pj;
+      a_pij[r][k] = 6 * pi + j;
+      a_pipj[r][k] = 6 * pi + pj;
+      ci[r][k] = min(i, pi);
+      cj[r][k] = min(j, pj);
+      si[r][k] = i < pi ? -1.f : 1.f;
+      sj[r][k] = j < pj ? -1.f : 1.f;
+    }
+  }
+  const bool second = lane + 32 < 36;
+  for (int e = lane; e < 36; e += 32) {
+    A[e] = static_cast<float>(H[e]);
+    V[e] = (e % 7 == 0) ? 1.f : 0.f;
+  }
+  __syncwarp();
+  for (int sweep = 0; sweep < kJacobiSweeps; ++sweep) {
+#pragma unroll
+    for (int r = 0; r < 5; ++r) {
+      if (lane < 6 && lane < partner(r, lane)) {
+        const int p = lane, q = partner(r, lane);
+        const float app = A[7 * p], aqq = A[7 * q], apq = A[6 * p + q];
+        float c = 1.f, s = 0.f;
+        if (apq != 0.f) {
+          const float th = (aqq - app) / (2.f * apq);
+          const float t = fabsf(th) > 1e18f ? 0.5f / th : copysignf(1.f, th) / (fabsf(th) + sqrtf(th * th + 1.f));
+          c = rsqrtf(t * t + 1.f);
+          s = t * c;
+        }
+        C[p] = c;
+        S[p] = s;
+      }
+      __syncwarp();
+      float an[2], vn[2];
+#pragma unroll
+      for (int k = 0; k < 2; ++k) {
+        // A' = J^T A J and V' = V J, J the three rotations of round r: (i, j) mixes with the
+        // partners pi, pj (Numerical Recipes' Jacobi: J(p,p) = J(q,q) = c, J(p,q) = s, J(q,p) = -s).
+        const int e = own[k];
+        const float c_i = C[ci[r][k]], s_i = si[r][k] * S[ci[r][k]];
+        const float c_j = C[cj[r][k]], s_j = sj[r][k] * S[cj[r][k]];
+        an[k] = c_i * c_j * A[e] + c_i * s_j * A[a_ipj[r][k]] + s_i * c_j * A[a_pij[r][k]] + s_i * s_j * A[a_pipj[r][k]];
+        vn[k] = c_j * V[e] + s_j * V[a_ipj[r][k]];
+      }
+      __syncwarp();
+      A[own[0]] = an[0];
+      V[own[0]] = vn[0];
+      if (second) { A[own[1]] = an[1]; V[own[1]] = vn[1]; }
+      __syncwarp();
+    }
+  }
+  for (int e = lane; e < 36; e += 32) {
+    const int i = e / 6, j = e % 6;
+    double acc = 0;
+    for (int k = 0; k < 6; ++k)
+      acc += static_cast<double>(V[6 * i + k]) * static_cast<double>(fmaxf(A[7 * k], 0.f)) * static_cast<double>(V[6 * j + k]);
+    H[e] = acc;
+  }
+  __syncwarp();
+}
+
+/// E_tvc [2] (tool_energy.cpp: coupling_energy) with its gradient.
+__device__ double coupling_energy_dev(Vec3d P, Quatd Q, Vec3d Ph, Quatd Qh, double k_vcs, double k_vct, double* g) {
+  const Vec3d dP = P - Ph;
+  const Vec3d v = rotvec_from_quat(normalized(Q * conjugate(Qh)));
+  g[0] = k_vcs * dP.x; g[1] = k_vcs * dP.y; g[2] = k_vcs * dP.z;
+  g[3] = k_vct * v.x; g[4] = k_vct * v.y; g[5] = k_vct * v.z;
+  return 0.5 * k_vcs * squared_norm(dP) + 0.5 * k_vct * squared_norm(v);
+}
+
+/// Block sum of the first `count` of v[kSums] over kBlock threads in a fixed order (warp shuffle
+/// tree, then the warps in order); the result lands in out[0..count) (shared).
+template <int kCount>
+__device__ void block_sum(const double* v, double (*scratch)[kSums], double* out) {
+  constexpr int count = kCount;
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+#pragma unroll
+  for (int k = 0; k < count; ++k) {
+    double x = v[k];
+    for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(~0u, x, o);
+    if (lane == 0) scratch[warp][k] = x;
+  }
+  __syncthreads();
+  if (threadIdx.x < count) {
+    double acc = 0;
+    for (int w = 0; w < kWarps; ++w) acc += scratch[w][threadIdx.x];
+    out[threadIdx.x] = acc;
+  }
+  __syncthreads();
+}
+
+/// Block max of a non-negative double.
+__device__ double block_max(double x, double* scratch) {
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  for (int o = 16; o > 0; o >>= 1) x = fmax(x, __shfl_down_sync(~0u, x, o));
+  if (lane == 0) scratch[warp] = x;
+  __syncthreads();
+  double r = 0;
+  for (int w = 0; w < kWarps; ++w) r = fmax(r, scratch[w]);
+  __syncthreads();
+  return r;
+}
+
+/// Exclusive block scans of two counts (warp shuffles, then the warps in order); totals in ta, tb.
+__device__ void block_exclusive_scan(int a, int b, int& ea, int& eb, int& ta, int& tb) {
+  __shared__ int wa[kWarps], wb[kWarps];
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  int ia = a, ib = b;
+  for (int o = 1; o < 32; o <<= 1) {
+    const int xa = __shfl_up_sync(~0u, ia, o), xb = __shfl_up_sync(~0u, ib, o);
+    if (lane >= o) { ia += xa; ib += xb; }
+  }
+  if (lane == 31) { wa[warp] = ia; wb[warp] = ib; }
+  __syncthreads();
+  int pa = 0, pb = 0, sa = 0, sb = 0;
+  for (int w = 0; w < kWarps; ++w) {
+    if (w < warp) { pa += wa[w]; pb += wb[w]; }
+    sa += wa[w];
+    sb += wb[w];
+  }
+  ea = pa + ia - a;
+  eb = pb + ib - b;
+  ta = sa;
+  tb = sb;
+  __syncthreads();
+}
+
+struct TailShared {
+  double sums[kWarps][kSums];
+  double total[kSums];
+  double H[36];
+  float A[36], V[36], C[6], S[6];
+  double dx[6], g[6];
+  double wmax[kWarps];
+  double E, slope, depth;
+  int flag, nc, nh;
+  Vec3d P;
+  Quatd Q;
+  Vec3d trial_P;
+  Quatd trial_Q;
+};
+
+/// E_con [3] of the reachable vertices plus the grasp part (tool_energy.cpp) at the posed tool `pt`,
+/// summed over the block. kDerivs: also the gradient and the upper Hessian (into sh.total).
+/// Returns E (contact + grasp) and the deepest contact's depth in `depth`.
+template <bool kDerivs>
+__device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const Vec3f* q, const Posed& pt,
+                                    TailShared& sh, double& depth) {
+  double acc[kSums];
+  for (int k = 0; k < kSums; ++k) acc[k] = 0;
+  double H[36];
+  double g[6];
+  if (kDerivs) {
+    for (int k = 0; k < 36; ++k) H[k] = 0;
+    for (int k = 0; k < 6; ++k) g[k] = 0;
+  }
+  double deepest = 0;
+  const Vec3d P = pt.frame.t;
+  for (int i = threadIdx.x; i < sh.nc; i += kBlock) {
+    const Vec3d qc = d.cand_q[i];
+    if (!maybe_within(t, pt, static_cast<Vec3f>(qc), kFloatSlack)) continue;  // certainly outside
+    if (kDerivs) {
+      SurfaceQuery<double> sq;
+      if (deepest_collider(t.shape, pt.world, t.count, qc, sq) < 0) continue;
+      const double phi = -sq.sd;
+      deepest = fmax(deepest, phi);
+      acc[0] += contact_terms(t.k_con, phi, 1.0, sq.normal, qc - P, sq.hess, true, g, H);
+    } else {  // E only: the deepest collider's signed distance (deepest_collider's first pass)
+      double sd = 0;
+      for (int c = 0; c < t.count; ++c) sd = fmin(sd, signed_distance_local(t.shape[c], apply_inverse(pt.world[c], qc)));
+      const double phi = -sd;
+      deepest = fmax(deepest, phi);
+      acc[0] += 0.5 * t.k_con * phi * phi;
+    }
+  }
+  for (int i = threadIdx.x; i < sh.nh; i += kBlock) {
+    const int j = d.held_list[i];
+    const Vec3d s = pt.frame.R * d.grasp_local[j];
+    const Vec3d r = static_cast<Vec3d>(q[j]) - P - s;
+    acc[0] += 0.5 * t.k_con * squared_norm(r);
+    if (kDerivs) {
+      const Vec3d sr = cross(s, r);
+      g[0] -= t.k_con * r.x; g[1] -= t.k_con * r.y; g[2] -= t.k_con * r.z;
+      g[3] -= t.k_con * sr.x; g[4] -= t.k_con * sr.y; g[5] -= t.k_con * sr.z;
+      const Mat3d Sk = skew(s);
+      const Mat3d SS = Sk * Sk;
+      const Mat3d Eww = dot(r, s) * Mat3d::identity() - 0.5 * (outer(r, s) + outer(s, r));
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          H[6 * a + b] += t.k_con * (a == b ? 1.0 : 0.0);
+          H[6 * a + b + 3] -= t.k_con * Sk(a, b);
+          H[6 * (a + 3) + b] += t.k_con * Sk(a, b);
+          H[6 * (a + 3) + b + 3] += t.k_con * (Eww(a, b) - SS(a, b));
+        }
+    }
+  }
+  if (kDerivs) {
+    for (int k = 0; k < 6; ++k) acc[1 + k] = g[k];
+    for (int a = 0; a < 6; ++a)
+      for (int b = a; b < 6; ++b) acc[7 + upper(a, b)] = H[6 * a + b];
+  }
+  depth = block_max(deepest, sh.wmax);
+  if (sh.nc + sh.nh == 0) {  // nothing near the tool: the sums are zero (skips the reduction)
+    for (int k = threadIdx.x; k < kSums; k += kBlock) sh.total[k] = 0;
+    __syncthreads();
+    return 0;
+  }
+  block_sum<kDerivs ? kSums : 1>(acc, sh.sums, sh.total);
+  return sh.total[0];
+}
+
+/// The last block: the reachable and held vertices in vertex order, then the virtual tool's Newton
+/// step (virtual_tool.cpp: update_virtual_tool), then (kLast) the tick's outputs.
+template <bool kLast>
+__device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, const Vec3f* q,
+                                  Posed& pt, TailShared& sh) {
+  // Offsets of each block's lists (exclusive scans of the block counts, chunked over threads).
+  {
+    const int per = (d.blocks + kBlock - 1) / kBlock, b0 = threadIdx.x * per, b1 = min(b0 + per, d.blocks);
+    int sc = 0, shd = 0;
+    for (int b = b0; b < b1; ++b) { sc += d.block_counts[4 * b]; shd += d.block_counts[4 * b + 1]; }
+    int oc = 0, oh = 0;
+    block_exclusive_scan(sc, shd, oc, oh, sh.nc, sh.nh);
+    for (int b = b0; b < b1; ++b) {
+      d.block_offsets[b] = oc;
+      d.block_offsets[d.blocks + 1 + b] = oh;
+      oc += d.block_counts[4 * b];
+      oh += d.block_counts[4 * b + 1];
+    }
+    if (threadIdx.x == 0) { d.block_offsets[d.blocks] = sh.nc; d.block_offsets[2 * d.blocks + 1] = sh.nh; }
+    __syncthreads();
+    // Gather: entry i of a list lies in the block b with offset[b] <= i < offset[b + 1].
+    auto gather = [&](int total, const int* off, const int* block_list, int* out, bool with_q) {
+      for (int i = threadIdx.x; i < total; i += kBlock) {
+        int lo = 0, hi = d.blocks - 1;
+        while (lo < hi) {
+          const int mid = (lo + hi + 1) / 2;
+          if (off[mid] <= i) lo = mid; else hi = mid - 1;
+        }
+        const int j = block_list[lo * kBlock + (i - off[lo])];
+        out[i] = j;
+        if (with_q) d.cand_q[i] = static_cast<Vec3d>(q[j]);
+      }
+    };
+    gather(sh.nc, d.block_offsets, d.block_cand, d.cand, true);
+    gather(sh.nh, d.block_offsets + d.blocks + 1, d.block_held, d.held_list, false);
+    __syncthreads();
+  }
+
+  // Newton's method on E_tool (virtual_tool.cpp), q held fixed.
+  const Vec3d Ph = in.position;
+  const Quatd Qh = in.orientation;
+  if (threadIdx.x == 0) {
+    sh.P = d.state->position;
+    sh.Q = d.state->orientation;
+  }
+  __syncthreads();
+  const bool stabilised = t.stab_t > 0 || t.stab_r > 0;
+  // E_tool and its gradient at (sh.P, sh.Q) given the contact sums in sh.total (thread 0).
+  auto coupling = [&](double* g) {
+    double e = coupling_energy_dev(sh.P, sh.Q, Ph, Qh, t.k_vcs, t.k_vct, g);
+    if (stabilised) {
+      double gs[6];
+      e += coupling_energy_dev(sh.P, sh.Q, d.state->anchor_position, d.state->anchor_orientation, t.stab_t, t.stab_r, gs);
+      for (int k = 0; k < 6; ++k) g[k] += gs[k];
+    }
+    return e;
+  };
+  pose_colliders(t, sh.P, sh.Q, in, pt);
+  __syncthreads();
+  double depth = 0;
+  double Econ = tool_contact_sums<true>(d, t, q, pt, sh, depth);
+  int taken = 0, rejected = 0;
+  if (threadIdx.x == 0) {
+    double g[6];
+    sh.E = coupling(g) + Econ;
+    for (int k = 0; k < 6; ++k) sh.g[k] = g[k] + sh.total[1 + k];
+    sh.depth = depth;
+  }
+  __syncthreads();
+  for (int it = 0; it < t.newton; ++it) {
+    // H_step = PSD(H_con + H_grasp) + k_vcs I (+) k_vct I (+ stabilisation)
+    if (threadIdx.x < 36) {
+      const int i = threadIdx.x / 6, j = threadIdx.x % 6;
+      sh.H[threadIdx.x] = sh.total[7 + (i <= j ? upper(i, j) : upper(j, i))];
+    }
+    __syncthreads();
+    if (threadIdx.x < 32) {
+      bool any = false;
+      for (int k = 0; k < 21; ++k) any = any || sh.total[7 + k] != 0.0;
+      if (any) psd_clamp_warp(sh.H, sh.A, sh.V, sh.C, sh.S, threadIdx.x);
+    }
+    __syncthreads();
+    if (threadIdx.x == 0) {
+      double* H = sh.H;
+      for (int k = 0; k < 3; ++k) {
+        H[7 * k] += t.k_vcs + t.stab_t;
+        H[7 * (k + 3)] += t.k_vct + t.stab_r;
+      }
+      // Cholesky of the positive definite H_step, dx = -H^-1 g  (eq. (9))
+      double L[36] = {}, inv[6] = {};
+      bool ok = true;
+      for (int j = 0; j < 6 && ok; ++j) {
+        double dd = H[7 * j];
+        for (int k = 0; k < j; ++k) dd -= L[6 * j + k] * L[6 * j + k];
+        if (!(dd > 0)) { ok = false; break; }
+        L[7 * j] = sqrt(dd);
+        inv[j] = 1.0 / L[7 * j];
+        for (int i = j + 1; i < 6; ++i) {
+          double x = H[6 * i + j];
+          for (int k = 0; k < j; ++k) x -= L[6 * i + k] * L[6 * j + k];
+          L[6 * i + j] = x * inv[j];
+        }
+      }
+      double y[6], dx[6];
+      for (int i = 0; i < 6 && ok; ++i) {
+        double x = -sh.g[i];
+        for (int k = 0; k < i; ++k) x -= L[6 * i + k] * y[k];
+        y[i] = x * inv[i];
+      }
+      for (int i = 5; i >= 0 && ok; --i) {
+        double x = y[i];
+        for (int k = i + 1; k < 6; ++k) x -= L[6 * k + i] * dx[k];
+        dx[i] = x * inv[i];
+      }
+      for (int k = 0; k < 6 && ok; ++k) ok = isfinite(dx[k]);
+      sh.flag = 0;  // 0: stop (converged or failed), 1: line search
+      if (!ok) {
+        ++rejected;
+      } else {
+        const double nt = sqrt(dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
+        const double nr = sqrt(dx[3] * dx[3] + dx[4] * dx[4] + dx[5] * dx[5]);
+        const double scale = fmin(1.0, fmin(t.max_step / fmax(nt, 1e-300), t.max_rot / fmax(nr, 1e-300)));
+        double slope = 0;
+        for (int k = 0; k < 6; ++k) { sh.dx[k] = dx[k] * scale; slope += sh.g[k] * sh.dx[k]; }
+        sh.slope = slope;
+        const double floor_t = kStepFloor * (norm(sh.P) + 1e-3);  // virtual_tool.cpp: round-off steps
+        const bool roundoff = nt * scale <= floor_t && nr * scale <= kStepFloor;
+        if (slope < -kConverged * fmax(sh.E, 1e-300) && !roundoff) sh.flag = 1;
+      }
+    }
+    __syncthreads();
+    if (sh.flag == 0) break;
+    // Armijo line search: halve until E_tool does not increase enough.
+    double alpha = 1.0;
+    bool accepted = false;
+    for (int hv = 0; hv < kMaxHalvings; ++hv, alpha *= 0.5) {
+      if (threadIdx.x == 0) {
+        sh.trial_P = sh.P + Vec3d{alpha * sh.dx[0], alpha * sh.dx[1], alpha * sh.dx[2]};
+        sh.trial_Q = normalized(quat_from_rotvec(Vec3d{alpha * sh.dx[3], alpha * sh.dx[4], alpha * sh.dx[5]}) * sh.Q);
+      }
+      __syncthreads();
+      pose_colliders(t, sh.trial_P, sh.trial_Q, in, pt);
+      __syncthreads();
+      double trial_depth = 0;
+      const double Ec = tool_contact_sums<false>(d, t, q, pt, sh, trial_depth);
+      if (threadIdx.x == 0) {
+        const Vec3d P0 = sh.P;
+        const Quatd Q0 = sh.Q;
+        sh.P = sh.trial_P;
+        sh.Q = sh.trial_Q;
+        double g[6];
+        const double Et = coupling(g) + Ec;
+        sh.flag = Et <= sh.E + kArmijo * alpha * sh.slope;
+        if (sh.flag) {
+          sh.E = Et;
+          sh.depth = trial_depth;
+        } else {
+          sh.P = P0;
+          sh.Q = Q0;
+        }
+      }
+      __syncthreads();
+      if (sh.flag) { accepted = true; break; }
+    }
+    if (!accepted) { ++rejected; break; }
+    ++taken;
+    if (it + 1 < t.newton) {  // gradient and Hessian at the new pose for the next Newton step
+      pose_colliders(t, sh.P, sh.Q, in, pt);
+      __syncthreads();
+      Econ = tool_contact_sums<true>(d, t, q, pt, sh, depth);
+      if (threadIdx.x == 0) {
+        double g[6];
+        sh.E = coupling(g) + Econ;
+        for (int k = 0; k < 6; ++k) sh.g[k] = g[k] + sh.total[1 + k];
+        sh.depth = depth;
+      }
+      __syncthreads();
+    }
+  }
+  if (threadIdx.x != 0) return;
+  ToolStateDev& st = *d.state;
+  st.position = sh.P;
+  st.orientation = sh.Q;
+  if (!kLast) return;
+  // Algorithm 2 lines 26-27: the force and torque for the device (tool_output), the metrics.
+  DeviceTickOutput o;
+  double g[6];
+  coupling_energy_dev(sh.P, sh.Q, Ph, Qh, t.k_vcs, t.k_vct, g);
+  o.force = Vec3d{g[0], g[1], g[2]};
+  o.torque = Vec3d{g[3], g[4], g[5]};
+  const double f = norm(o.force), tq = norm(o.torque);
+  if (t.force_limit > 0 && f > t.force_limit) { o.force = (t.force_limit / f) * o.force; o.force_clamped = 1; }
+  if (t.torque_limit > 0 && tq > t.torque_limit) { o.torque = (t.torque_limit / tq) * o.torque; o.torque_clamped = 1; }
+  o.position = sh.P;
+  o.orientation = sh.Q;
+  o.penetration = sh.depth;
+  float pen = 0.f;
+  int contacts = 0;
+  for (int b = 0; b < d.blocks; ++b) {
+    contacts += d.block_counts[4 * b + 2];
+    pen = fmaxf(pen, __int_as_float(d.block_counts[4 * b + 3]));
+  }
+  o.penetration_physical = pen;
+  o.contacts = contacts;
+  o.grasped = sh.nh;
+  o.newton_steps = taken;
+  o.newton_rejected = rejected;
+  d.out[st.tick % d.ring] = o;
+  st.anchor_position = sh.P;  // read_device of the next tick: the anchor is the pose at its start
+  st.anchor_orientation = sh.Q;
+  ++st.tick;
+}
+
+/// The E_svc target of virtual vertex j: its paired point on x_prev + alpha (x_vis - x_prev).
+__device__ Vec3f blended_paired_point(const MeshDev& d, int j, float alpha) {
+  if (alpha >= 1.f) return paired_point(d.x_vis, d.pair_vertex + 4 * j, d.pair_weight + 4 * j, d.pair_count[j]);
+  Vec3f xb[4];
+  const int idx[4] = {0, 1, 2, 3};
+  const int count = d.pair_count[j];
+  for (int k = 0; k < count; ++k) {
+    const int a = d.pair_vertex[4 * j + k];
+    xb[k] = d.x_prev[a] + alpha * (d.x_vis[a] - d.x_prev[a]);
+  }
+  return paired_point(xb, idx, d.pair_weight + 4 * j, count);
+}
+
+template <bool kFirst, bool kLast>
+__global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, const Vec3f* __restrict__ qin,
+                                                      Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out) {
+  __shared__ alignas(16) unsigned char posed_raw[sizeof(Posed)], physical_raw[sizeof(Posed)],
+      input_raw[sizeof(DeviceTickInput)], tail_raw[sizeof(TailShared)];
+  Posed& posed = *reinterpret_cast<Posed*>(posed_raw);
+  Posed& physical = *reinterpret_cast<Posed*>(physical_raw);
+  DeviceTickInput& in = *reinterpret_cast<DeviceTickInput*>(input_raw);
+  __shared__ int warp_counts[kWarps][3];
+  __shared__ unsigned warp_pen[kWarps];
+  __shared__ bool last_block;
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  cudaGridDependencySynchronize();
+#endif
+  {
+    const DeviceTickInput& gin = d.inputs[d.state->tick];
+    if (threadIdx.x == 0) in = gin;
+    pose_colliders(t, d.state->position, d.state->orientation, gin, posed);
+    if (kLast) pose_colliders(t, gin.position, gin.orientation, gin, physical);
+  }
+  __syncthreads();
+  const int j = blockIdx.x * kBlock + threadIdx.x;
+  bool reach = false, held = false, contact = false;
+  float pen = 0.f;
+  if (j < d.m) {
+    const bool pinned = d.pinned[j];
+    Vec3f q = qin[j], s, p;
+    if (kFirst) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
+      d.q_start[j] = q;
+      s = pinned ? q : predict_position(q, d.v_in[j], d.gravity, d.h);
+      p = blended_paired_point(d, j, static_cast<float>(in.alpha));
+      d.s[j] = s;
+      d.p[j] = p;
+      q = s;
+      if (in.grasp < 0) {
+        d.held[j] = 0;
+      } else if (in.grasp > 0) {
+        const Collider<double>& hb = d.grasp_boxes[in.grasp - 1];
+        const Vec3d ls = apply_inverse(posed.frame, static_cast<Vec3d>(s));
+        const double sd = signed_distance_local(hb, ls);
+        const bool grasp = sd <= t.soft_margin;
+        if (grasp) {
+          const double w = 1.0 / (1.0 + t.eta * exp(sd / t.soft_margin));  // eq. [10]
+          const Vec3d lf{0.0, fmin(fmax(ls.y, hb.a.y - hb.half.y), hb.a.y + hb.half.y),
+                         fmin(fmax(ls.z, hb.a.z - hb.half.z), hb.a.z + hb.half.z)};
+          d.grasp_local[j] = w * lf + (1.0 - w) * ls;
+        }
+        d.held[j] = grasp;
+      }
+    } else {
+      s = d.s[j];
+      p = d.p[j];
+    }
+    held = d.held[j];
+    // E_con [3] target of this vertex (Alg. 2 line 10).
+    Vec3f kt{};
+    float ck = 0.f;
+    if (held) {
+      kt = static_cast<Vec3f>(t.k_con * apply(posed.frame, d.grasp_local[j]));
+      ck = static_cast<float>(t.k_con);
+      contact = true;
+    } else if (maybe_within(t, posed, q, kFloatSlack)) {
+      SurfaceQuery<double> sq;
+      if (deepest_collider(t.shape, posed.world, t.count, static_cast<Vec3d>(q), sq) >= 0) {
+        kt = static_cast<Vec3f>(t.k_con * sq.point);
+        ck = static_cast<float>(t.k_con);
+        contact = true;
+      }
+    }
+    // One Jacobi iteration (virtual_mesh.cpp: virtual_iteration).
+    Vec3f qn = q;
+    if (!pinned) {
+      const float mh = d.mass[j] * d.inv_h2;
+      Vec3f r = mh * (s - q)                                   // -dE_k/dq   [6]
+                - coupling_gradient_virtual(p, q, d.k_svc)     // -dE_svc/dq [5]
+                + kt - ck * q;                                 // -dE_con/dq [3]
+      auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
+        const Vec3f x = qin[a];
+        if (!kFirst || d.pinned[a]) return x;
+        return predict_position(x, d.v_in[a], d.gravity, d.h);
+      };
+      const int k0 = d.edge_offsets[j], k1 = d.edge_offsets[j + 1];
+#pragma unroll 2
+      for (int k = k0; k < k1; ++k) {
+        const int4 it = d.edge_items[k];
+        const Vec3f g = edge_spring_gradient(at(it.x), at(it.y), d.rest_edge[it.z], d.k_s);  // [4]
+        r += it.w ? g : -g;
+      }
+      qn = q + r / (mh + d.stiff_diag[j] + ck);
+    }
+    qout[j] = qn;
+    if (kLast) {
+      v_out[j] = d.inv_h * (qn - d.q_start[j]);  // Alg. 2 line 23
+      if (!held && maybe_within(t, physical, qn, kFloatSlack)) {  // depth in the physical tool
+        const Vec3d qd = static_cast<Vec3d>(qn);
+        double deepest = 0;
+        for (int c = 0; c < t.count; ++c)
+          deepest = fmax(deepest, -signed_distance_local(t.shape[c], apply_inverse(physical.world[c], qd)));
+        pen = static_cast<float>(deepest);
+      }
+    }
+    // Can the virtual tool's next Newton call reach j? (virtual_tool.cpp's per-vertex bound, 1 nm slack)
+    // In float32 with kFloatSlack: a superset of the double test's vertices (the exact contact
+    // tests on them decide), so no result depends on the rounding.
+    if (!held) {
+      const float T = static_cast<float>(t.reach_T), th = static_cast<float>(t.reach_th);
+      const Vec3f o = qn - posed.origin_f;
+      const float d2 = dot(o, o), dist = d2 > 0.f ? d2 * rsqrtf(d2) * 1.000001f : 0.f;
+      const float bound = (T + th * (dist + T)) / (1.f - th) + kFloatSlack;
+      reach = maybe_within(t, posed, qn, bound);
+    }
+  }
+  // Per block: the reachable and held vertices in vertex order, contact count, deepest penetration.
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  const unsigned below = (1u << lane) - 1u;
+  const unsigned br = __ballot_sync(~0u, reach), bh = __ballot_sync(~0u, held), bc = __ballot_sync(~0u, contact);
+  const unsigned pen_bits = __reduce_max_sync(~0u, __float_as_uint(pen));  // pen >= 0: bits order as values
+  if (lane == 0) {
+    warp_counts[warp][0] = __popc(br);
+    warp_counts[warp][1] = __popc(bh);
+    warp_counts[warp][2] = __popc(bc);
+    warp_pen[warp] = pen_bits;
+  }
+  __syncthreads();
+  int orr = 0, oh = 0;
+  for (int w = 0; w < warp; ++w) { orr += warp_counts[w][0]; oh += warp_counts[w][1]; }
+  if (reach) d.block_cand[blockIdx.x * kBlock + orr + __popc(br & below)] = j;
+  if (held) d.block_held[blockIdx.x * kBlock + oh + __popc(bh & below)] = j;
+  if (threadIdx.x == 0) {
+    int cr = 0, chd = 0, cc = 0;
+    unsigned pm = 0;
+    for (int w = 0; w < kWarps; ++w) {
+      cr += warp_counts[w][0]; chd += warp_counts[w][1]; cc += warp_counts[w][2];
+      pm = max(pm, warp_pen[w]);
+    }
+    int* bcnt = d.block_counts + 4 * blockIdx.x;
+    bcnt[0] = cr; bcnt[1] = chd; bcnt[2] = cc; bcnt[3] = static_cast<int>(pm);
+  }
+  // The last block to finish runs the virtual tool (its choice changes no result).
+  __threadfence();
+  __syncthreads();
+  if (threadIdx.x == 0) last_block = atomicAdd(d.blocks_done, 1u) == gridDim.x - 1;
+  __syncthreads();
+  if (!last_block) return;
+  __threadfence();
+  virtual_tool_tail<kLast>(d, t, in, qout, posed, *reinterpret_cast<TailShared*>(tail_raw));
+  if (threadIdx.x == 0) *d.blocks_done = 0;
+}
+
+template <class... Params, class... Args>
+void launch(bool programmatic, void (*kernel)(Params...), int grid, cudaStream_t stream, Args... args) {
+  cudaLaunchConfig_t cfg{};
+  cfg.gridDim = dim3(grid);
+  cfg.blockDim = dim3(kBlock);
+  cfg.stream = stream;
+  cudaLaunchAttribute attr[1];
+  attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
+  attr[0].val.programmaticStreamSerializationAllowed = 1;
+  cfg.attrs = programmatic ? attr : nullptr;
+  cfg.numAttrs = programmatic ? 1 : 0;
+  EBH_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...));
+  EBH_CUDA_LAUNCH_CHECK(stream, "tick_kernel");
+}
+
+Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
+
+/// A segment and radius whose capsule contains collider c (ToolConst's early-outs), rounded outward.
+void bounding_segment(const Collider<double>& c, Vec3f& a, Vec3f& b, float& r) {
+  double radius = c.radius;
+  Vec3d A = c.a, B = c.b;
+  if (c.shape == Shape::Sphere) {
+    B = A;
+  } else if (c.shape == Shape::Box) {  // along the longest half extent, through the centre
+    const Vec3d h = c.half;
+    const int k = h.x >= h.y && h.x >= h.z ? 0 : (h.y >= h.z ? 1 : 2);
+    Vec3d axis{};
+    double rest2 = 0;
+    if (k == 0) { axis.x = h.x; rest2 = h.y * h.y + h.z * h.z; }
+    if (k == 1) { axis.y = h.y; rest2 = h.x * h.x + h.z * h.z; }
+    if (k == 2) { axis.z = h.z; rest2 = h.x * h.x + h.y * h.y; }
+    A = c.a - axis;
+    B = c.a + axis;
+    radius = std::sqrt(rest2);
+  }
+  a = to_float(A);
+  b = to_float(B);
+  r = static_cast<float>(radius * (1 + 1e-6) + 1e-7);
+}
+
+}  // namespace
+
+bool device_haptic_supported(const ToolModel& tool) {
+  return tool.projection == Projection::ClosestPoint && tool.colliders.size() <= static_cast<std::size_t>(kMaxColliders);
+}
+
+struct CudaHapticTicks::Impl {
+  CudaPhysicalSolver* physical = nullptr;
+  int m = 0, n = 0, iterations = 1;
+  long long ticks = 0, enqueued = 0;
+  cudaStream_t stream = nullptr;
+  cudaEvent_t q_ready = nullptr, step_done = nullptr;
+  std::vector<cudaEvent_t> done;  // per run_ticks handle
+  std::vector<std::pair<long long, int>> runs;  // per handle: first tick, count
+  int next_handle = 0;
+  bool step_in_flight = false;
+  cuda::DeviceArray<float> mass, stiff_diag, pair_weight;
+  cuda::DeviceArray<std::uint8_t> pinned, held;
+  cuda::DeviceArray<int> edge_offsets, pair_vertex, pair_count;
+  cuda::DeviceArray<int4> edge_items;
+  cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, cand, held_list;
+  cuda::DeviceArray<unsigned> blocks_done;
+  cuda::DeviceArray<Vec3f> rest_edge, x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
+  cuda::DeviceArray<Vec3d> grasp_local, cand_q;
+  cuda::DeviceArray<ToolStateDev> state;
+  cuda::DeviceArray<DeviceTickInput> inputs;
+  cuda::DeviceArray<Collider<double>> grasp_boxes;
+  cuda::PinnedArray<Vec3f> x_host;   // the physical step's x, copied out beside the ticks
+  DeviceTickOutput* ring = nullptr;  // cudaHostAlloc, mapped
+  int ring_size = 0;
+  MeshDev dev;
+  ToolConst tool;
+  std::map<int, cudaGraphExec_t> graphs;  // by tick count
+
+  ~Impl() {
+    for (auto& [count, exec] : graphs) cudaGraphExecDestroy(exec);
+    for (cudaEvent_t e : done) cudaEventDestroy(e);
+    if (q_ready) cudaEventDestroy(q_ready);
+    if (step_done) cudaEventDestroy(step_done);
+    if (ring) cudaFreeHost(ring);
+    if (stream) cudaStreamDestroy(stream);
+  }
+
+  /// Enqueues `count` ticks' kernels on `stream` (captured into a graph by graph_for).
+  void enqueue_ticks(int count, bool programmatic) {
+    const int blocks = dev.blocks;
+    for (int k = 0; k < count; ++k)
+      for (int i = 0; i < iterations; ++i) {
+        // Iteration i reads A_i and writes B_i: q[0] -> q[1] -> q[2] -> q[1] ... -> q[0] (the last).
+        Vec3f* a = i == 0 ? q[0].get() : ((i % 2 == 1) ? q[1].get() : q[2].get());
+        Vec3f* b = (i == iterations - 1 && iterations > 1) ? q[0].get() : ((i % 2 == 0) ? q[1].get() : q[2].get());
+        Vec3f* vo = iterations == 1 ? v_scratch.get() : v.get();
+        const bool pdl = programmatic && !(k == 0 && i == 0);
+        const bool first = i == 0, last = i == iterations - 1;
+        if (first && last) launch(pdl, tick_kernel<true, true>, blocks, stream, dev, tool, static_cast<const Vec3f*>(a), b, vo);
+        else if (first) launch(pdl, tick_kernel<true, false>, blocks, stream, dev, tool, static_cast<const Vec3f*>(a), b, vo);
+        else if (last) launch(pdl, tick_kernel<false, true>, blocks, stream, dev, tool, static_cast<const Vec3f*>(a), b, vo);
+        else launch(pdl, tick_kernel<false, false>, blocks, stream, dev, tool, static_cast<const Vec3f*>(a), b, vo);
+        if (iterations == 1) {
+          EBH_CUDA_CHECK(cudaMemcpyAsync(q[0].get(), q[1].get(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
+          EBH_CUDA_CHECK(cudaMemcpyAsync(v.get(), v_scratch.get(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
+        }
+      }
+  }
+
+  cudaGraphExec_t graph_for(int count) {
+    auto it = graphs.find(count);
+    if (it != graphs.end()) return it->second;
+    cudaGraphExec_t exec = nullptr;
+    for (const bool pdl : {true, false}) {
+      cudaGraph_t g = nullptr;
+      EBH_CUDA_CHECK(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal));
+      try {
+        enqueue_ticks(count, pdl);
+      } catch (const std::runtime_error&) {
+        cudaStreamEndCapture(stream, &g);
+        if (g) cudaGraphDestroy(g);
+        cudaGetLastError();
+        if (!pdl) throw;
+        continue;
+      }
+      EBH_CUDA_CHECK(cudaStreamEndCapture(stream, &g));
+      const cudaError_t e = cudaGraphInstantiate(&exec, g, 0);
+      cudaGraphDestroy(g);
+      if (e == cudaSuccess) break;
+      cudaGetLastError();
+      if (!pdl) EBH_CUDA_CHECK(e);
+    }
+    graphs[count] = exec;
+    return exec;
+  }
+};
+
+CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const DeviceTickInput> in,
+                                 CudaPhysicalSolver& physical)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& I = *impl_;
+  if (!S.mesh || !S.tool) throw std::invalid_argument("CudaHapticTicks: no model");
+  if (!device_haptic_supported(*S.tool))
+    throw std::invalid_argument("CudaHapticTicks: the device tick supports the closest-point projection only");
+  const VirtualModel& M = *S.mesh;
+  I.physical = &physical;
+  I.m = M.num_vertices;
+  I.n = static_cast<int>(S.x0.size());
+  I.iterations = std::max(1, S.virtual_iterations);
+  I.ticks = static_cast<long long>(in.size());
+  if (S.q0.size() != static_cast<std::size_t>(I.m)) throw std::invalid_argument("CudaHapticTicks: q0 has the wrong size");
+  int lo = 0, hi = 0;
+  EBH_CUDA_CHECK(cudaDeviceGetStreamPriorityRange(&lo, &hi));
+  EBH_CUDA_CHECK(cudaStreamCreateWithPriority(&I.stream, cudaStreamNonBlocking, hi));  // the haptic side first
+  EBH_CUDA_CHECK(cudaEventCreateWithFlags(&I.q_ready, cudaEventDisableTiming));
+  EBH_CUDA_CHECK(cudaEventCreateWithFlags(&I.step_done, cudaEventDisableTiming));
+  I.done.resize(8);
+  for (cudaEvent_t& e : I.done) EBH_CUDA_CHECK(cudaEventCreateWithFlags(&e, cudaEventDisableTiming));
+  I.runs.resize(I.done.size());
+  cudaStream_t st = I.stream;
+  auto up = [st](auto& arr, const auto& host) {
+    arr.allocate(host.size());
+    arr.upload(host.data(), st);
+  };
+  const int m = I.m, E = static_cast<int>(M.edges.size());
+  up(I.mass, std::vector<float>(M.mass.begin(), M.mass.end()));
+  up(I.stiff_diag, std::vector<float>(M.stiff_diag.begin(), M.stiff_diag.end()));
+  up(I.pinned, M.pinned);
+  std::vector<Vec3f> re(E);
+  for (int e = 0; e < E; ++e) re[e] = to_float(M.rest_edge[e]);
+  std::vector<int4> items(M.edge_entries.size());
+  for (std::size_t k = 0; k < items.size(); ++k) {
+    const int entry = M.edge_entries[k], e = entry >> 1;
+    items[k] = make_int4(M.edges[e][0], M.edges[e][1], e, entry & 1);
+  }
+  up(I.rest_edge, re);
+  up(I.edge_offsets, M.edge_offsets);
+  up(I.edge_items, items);
+  std::vector<int> pv(4 * std::size_t(m), 0);
+  std::vector<float> pw(4 * std::size_t(m), 0.f);
+  for (int j = 0; j < m; ++j)
+    for (int k = 0; k < 4; ++k) { pv[4 * j + k] = M.pair_vertex[j][k]; pw[4 * j + k] = float(M.pair_weight[j][k]); }
+  up(I.pair_vertex, pv);
+  up(I.pair_weight, pw);
+  up(I.pair_count, M.pair_count);
+  std::vector<Vec3f> x0(I.n), q0(m), zero(m);
+  for (int a = 0; a < I.n; ++a) x0[a] = to_float(S.x0[a]);
+  for (int j = 0; j < m; ++j) q0[j] = to_float(S.q0[j]);
+  I.x_host.allocate(I.n);
+  up(I.x_prev, x0);
+  up(I.x_vis, x0);
+  up(I.v, zero);
+  up(I.q[0], q0);
+  for (auto* a : {&I.v_scratch, &I.q_start, &I.s, &I.p, &I.q[1], &I.q[2]}) a->allocate(m);
+  up(I.held, std::vector<std::uint8_t>(m, 0));
+  I.grasp_local.allocate(m);
+  I.cand_q.allocate(m);
+  const int blocks = std::max(1, cuda::blocks_for(m, kBlock));
+  I.block_cand.allocate(std::size_t(blocks) * kBlock);
+  I.block_held.allocate(std::size_t(blocks) * kBlock);
+  I.block_counts.allocate(4 * std::size_t(blocks));
+  I.block_offsets.allocate(2 * (std::size_t(blocks) + 1));
+  I.cand.allocate(m);
+  I.held_list.allocate(m);
+  up(I.blocks_done, std::vector<unsigned>(1, 0u));
+  ToolStateDev s0{};
+  s0.position = s0.anchor_position = S.pose0.position;
+  s0.orientation = s0.anchor_orientation = S.pose0.orientation;
+  s0.tick = 0;
+  up(I.state, std::vector<ToolStateDev>(1, s0));
+  up(I.inputs, std::vector<DeviceTickInput>(in.begin(), in.end()));
+  std::vector<Collider<double>> boxes = S.grasp_boxes;
+  if (boxes.empty()) boxes.emplace_back();
+  up(I.grasp_boxes, boxes);
+  I.ring_size = 4096;
+  EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.ring), I.ring_size * sizeof(DeviceTickOutput), cudaHostAllocMapped));
+  DeviceTickOutput* ring_dev = nullptr;
+  EBH_CUDA_CHECK(cudaHostGetDevicePointer(reinterpret_cast<void**>(&ring_dev), I.ring, 0));
+
+  MeshDev& d = I.dev;
+  d.m = m;
+  d.blocks = blocks;
+  d.ring = I.ring_size;
+  d.k_s = float(M.k_s);
+  d.k_svc = float(M.k_svc);
+  d.h = float(S.h);
+  d.inv_h = float(1.0 / S.h);
+  d.inv_h2 = float(1.0 / (S.h * S.h));
+  d.gravity = to_float(M.gravity);
+  d.mass = I.mass.get();
+  d.pinned = I.pinned.get();
+  d.stiff_diag = I.stiff_diag.get();
+  d.rest_edge = I.rest_edge.get();
+  d.edge_offsets = I.edge_offsets.get();
+  d.edge_items = I.edge_items.get();
+  d.pair_vertex = I.pair_vertex.get();
+  d.pair_weight = I.pair_weight.get();
+  d.pair_count = I.pair_count.get();
+  d.x_prev = I.x_prev.get();
+  d.x_vis = I.x_vis.get();
+  d.v_in = I.v.get();
+  d.q_start = I.q_start.get();
+  d.s = I.s.get();
+  d.p = I.p.get();
+  d.held = I.held.get();
+  d.grasp_local = I.grasp_local.get();
+  d.block_cand = I.block_cand.get();
+  d.block_held = I.block_held.get();
+  d.block_counts = I.block_counts.get();
+  d.block_offsets = I.block_offsets.get();
+  d.blocks_done = I.blocks_done.get();
+  d.cand = I.cand.get();
+  d.cand_q = I.cand_q.get();
+  d.held_list = I.held_list.get();
+  d.state = I.state.get();
+  d.inputs = I.inputs.get();
+  d.grasp_boxes = I.grasp_boxes.get();
+  d.out = ring_dev;
+
+  const ToolModel& T = *S.tool;
+  ToolConst& t = I.tool;
+  t.count = static_cast<int>(T.colliders.size());
+  for (int c = 0; c < t.count; ++c) {
+    const Collider<double>& a = T.colliders[c];
+    t.shape[c] = a;
+    bounding_segment(a, t.seg_a[c], t.seg_b[c], t.seg_r[c]);
+  }
+  t.jaw_angle = T.has_jaws ? T.spec.forceps.jaw_max_angle_deg * std::numbers::pi / 180.0 : 0.0;
+  t.k_con = S.k.k_con;
+  t.k_vcs = S.k.k_vcs;
+  t.k_vct = S.k.k_vct;
+  t.stab_t = T.spec.stabilization_translation;
+  t.stab_r = T.spec.stabilization_rotation;
+  t.max_step = T.spec.max_step;
+  t.max_rot = T.spec.max_step_rotation_deg * std::numbers::pi / 180.0;
+  t.newton = std::max(1, T.spec.newton_iterations);
+  t.force_limit = T.spec.force_limit;
+  t.torque_limit = T.torque_limit;
+  t.soft_margin = T.spec.forceps.soft_margin;
+  t.eta = T.spec.forceps.eta;
+  t.reach_T = t.newton * t.max_step;
+  t.reach_th = std::min(t.newton * t.max_rot, 0.5);
+  EBH_CUDA_CHECK(cudaStreamSynchronize(st));
+}
+
+CudaHapticTicks::~CudaHapticTicks() = default;
+
+int CudaHapticTicks::capacity() const { return impl_->ring_size; }
+
+void CudaHapticTicks::start_physical_step() {
+  Impl& I = *impl_;
+  auto* pst = static_cast<cudaStream_t>(I.physical->stream_handle());
+  if (I.m > 0)
+    EBH_CUDA_CHECK(cudaMemcpyAsync(I.physical->device_q(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, I.stream));
+  EBH_CUDA_CHECK(cudaEventRecord(I.q_ready, I.stream));
+  EBH_CUDA_CHECK(cudaStreamWaitEvent(pst, I.q_ready, 0));
+  I.physical->launch_device_step();
+  EBH_CUDA_CHECK(cudaEventRecord(I.step_done, pst));
+  if (I.n > 0)  // for the observer's on_step (the copy engine, not the haptic ticks, waits for it)
+    EBH_CUDA_CHECK(cudaMemcpyAsync(I.x_host.get(), I.physical->device_x(), I.n * sizeof(Vec3f), cudaMemcpyDeviceToHost, pst));
+  I.step_in_flight = true;
+}
+
+void CudaHapticTicks::deliver_physical_step() {
+  Impl& I = *impl_;
+  if (!I.step_in_flight) throw std::logic_error("CudaHapticTicks::deliver_physical_step: no step was started");
+  EBH_CUDA_CHECK(cudaStreamWaitEvent(I.stream, I.step_done, 0));
+  if (I.n > 0) {
+    EBH_CUDA_CHECK(cudaMemcpyAsync(I.x_prev.get(), I.x_vis.get(), I.n * sizeof(Vec3f), cudaMemcpyDeviceToDevice, I.stream));
+    EBH_CUDA_CHECK(cudaMemcpyAsync(I.x_vis.get(), I.physical->device_x(), I.n * sizeof(Vec3f), cudaMemcpyDeviceToDevice, I.stream));
+  }
+}
+
+PhysicalStepReport CudaHapticTicks::finish_physical_step(std::vector<Vec3d>& x) {
+  Impl& I = *impl_;
+  I.step_in_flight = false;
+  const PhysicalStepReport r = I.physical->device_step_report();
+  EBH_CUDA_CHECK(cudaStreamSynchronize(static_cast<cudaStream_t>(I.physical->stream_handle())));
+  x.resize(I.n);
+  for (int a = 0; a < I.n; ++a) x[a] = static_cast<Vec3d>(I.x_host[a]);
+  return r;
+}
+
+int CudaHapticTicks::run_ticks(int count) {
+  Impl& I = *impl_;
+  if (count <= 0) throw std::invalid_argument("CudaHapticTicks::run_ticks: count must be positive");
+  if (count > I.ring_size) throw std::invalid_argument("CudaHapticTicks::run_ticks: more ticks than the output ring holds");
+  if (I.enqueued + count > I.ticks) throw std::invalid_argument("CudaHapticTicks::run_ticks: past the last tick's input");
+  EBH_CUDA_CHECK(cudaGraphLaunch(I.graph_for(count), I.stream));
+  const int handle = I.next_handle;
+  I.next_handle = (I.next_handle + 1) % static_cast<int>(I.done.size());
+  EBH_CUDA_CHECK(cudaEventRecord(I.done[handle], I.stream));
+  I.runs[handle] = {I.enqueued, count};
+  I.enqueued += count;
+  return handle;
+}
+
+void CudaHapticTicks::collect(int handle, std::span<DeviceTickOutput> out) {
+  Impl& I = *impl_;
+  const auto [first, count] = I.runs.at(handle);
+  if (out.size() != static_cast<std::size_t>(count)) throw std::invalid_argument("CudaHapticTicks::collect: wrong size");
+  EBH_CUDA_CHECK(cudaEventSynchronize(I.done[handle]));
+  for (int k = 0; k < count; ++k) out[k] = I.ring[(first + k) % I.ring_size];
+}
+
+void CudaHapticTicks::snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visible) {
+  Impl& I = *impl_;
+  std::vector<Vec3f> qf(I.m), xf(I.n);
+  if (I.m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(qf.data(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
+  if (I.n > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(xf.data(), I.x_vis.get(), I.n * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
+  EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));
+  q.resize(I.m);
+  x_visible.resize(I.n);
+  for (int j = 0; j < I.m; ++j) q[j] = static_cast<Vec3d>(qf[j]);
+  for (int a = 0; a < I.n; ++a) x_visible[a] = static_cast<Vec3d>(xf[a]);
+}
+
+}  // namespace ebh

@@ -1,0 +1,106 @@
+#pragma once
+// The whole haptic tick on a CUDA device (Algorithm 2 with --backend cuda in the virtual-time
+// modes): virtual mesh, vertex-tool collision, grasp and the virtual tool's Newton step, with the
+// physical step (CudaPhysicalSolver's device-resident step) exchanging q and x on the device. The
+// host only enqueues: a replay is known in advance (the recording), so the device runs ahead and
+// the host collects each tick's outputs later. docs/CUDA.md, "Device haptic tick", gives the design
+// and the measured numbers.
+//
+// One tick is virtual_iterations kernels. Kernel i is one virtual-mesh iteration over all vertices
+// (iteration 0 also makes the tick's prediction, E_svc targets and grasp) with the contact of each
+// vertex against the virtual tool computed in place, and the last block to finish then runs the
+// virtual tool's Newton step (virtual_tool.hpp) on the vertices that the step can reach, in double.
+// Sums are fixed-order block reductions; the only atomic is the integer counter that picks the
+// last block, so replays are bitwise reproducible.
+//
+// Departures from the CPU tick, by round-off only: q and the virtual mesh's update are float32;
+// the 6x6 PSD clamp of the contact Hessian is a Jacobi eigen-decomposition in float32 (the CPU uses
+// Eigen's in double); contact and grasp sums run in vertex order (the CPU's in broad-phase order).
+// Not supported here (the scheduler keeps the host tool, HapticSide::cuda, for them): the
+// inverse-normal projection and the realtime mode.
+//
+// No CUDA types here (pimpl); the class exists when the build has the CUDA backend.
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "solver/physical_mesh_cuda.hpp"
+#include "solver/virtual_mesh.hpp"
+#include "tool/tool_model.hpp"
+
+namespace ebh {
+
+/// What the host knows of tick n before it runs: the device sample, the E_svc target blend and
+/// the grasp event (all functions of the recording and the schedule).
+struct DeviceTickInput {
+  Vec3d position{};      ///< X_h
+  Quatd orientation{};
+  double jaw = 1;
+  double jaw_cos = 1, jaw_sin = 0;  ///< of the jaws' opening angle clamp(jaw, 0, 1) * jaw_max_angle
+  /// physical targets = x_prev + alpha (x_visible - x_prev); 1 = the visible result
+  /// (time.interpolate_physical, simulation.cpp: physical_targets).
+  double alpha = 1;
+  /// 0: none; -1: release; k > 0: grasp with hard box k - 1 of DeviceHapticSetup::grasp_boxes.
+  int grasp = 0;
+};
+
+/// What tick n produced (HapticSide's outputs).
+struct DeviceTickOutput {
+  Vec3d force{}, torque{};
+  Vec3d position{};      ///< X_g
+  Quatd orientation{};
+  double penetration = 0, penetration_physical = 0;
+  std::int32_t contacts = 0, grasped = 0;
+  std::int32_t force_clamped = 0, torque_clamped = 0;
+  std::int32_t newton_steps = 0, newton_rejected = 0;
+};
+
+struct DeviceHapticSetup {
+  const VirtualModel* mesh = nullptr;
+  const ToolModel* tool = nullptr;
+  Stiffness k;
+  double h = 1e-3;                       ///< s, haptic tick
+  int virtual_iterations = 4;
+  std::span<const Vec3d> q0;             ///< #m the virtual mesh at tick 0 (at rest)
+  std::span<const Vec3d> x0;             ///< #n the physical result visible at tick 0
+  ToolPose pose0;                        ///< the virtual tool at tick 0
+  std::vector<Collider<double>> grasp_boxes;  ///< hard boxes of the grasp events (tool frame)
+};
+
+/// Whether the device tick can run this tool (the closest-point projection, at most kMaxColliders).
+bool device_haptic_supported(const ToolModel& tool);
+
+class CudaHapticTicks {
+ public:
+  /// Uploads the model and the inputs of every tick; the physical solver's device step is used
+  /// for the coupling (its q and x stay on the device).
+  CudaHapticTicks(const DeviceHapticSetup& setup, std::span<const DeviceTickInput> inputs,
+                  CudaPhysicalSolver& physical);
+  ~CudaHapticTicks();
+  CudaHapticTicks(const CudaHapticTicks&) = delete;
+  CudaHapticTicks& operator=(const CudaHapticTicks&) = delete;
+
+  /// Enqueues: q at this point -> the physical step's q; the physical step on its stream.
+  void start_physical_step();
+  /// Enqueues: the ticks wait for the physical step; x_prev <- x_visible <- its x.
+  void deliver_physical_step();
+  /// Waits for the last started physical step; its report (time_s: device time) and its x (#n).
+  PhysicalStepReport finish_physical_step(std::vector<Vec3d>& x);
+
+  /// Enqueues the next `count` ticks; returns a handle for collect().
+  int run_ticks(int count);
+  /// Waits for the ticks of run_ticks' handle and copies their outputs to `out` (count entries).
+  void collect(int handle, std::span<DeviceTickOutput> out);
+  /// Ticks run_ticks() may have in flight before they must be collected.
+  int capacity() const;
+
+  /// Waits for everything enqueued; the virtual mesh (#m) and the visible physical result (#n).
+  void snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visible);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ebh

@@ -13,8 +13,10 @@
 //                            the Jacobi or Chebyshev update into x_{k+1}            Alg. 1 l. 9
 //                 Iteration 0 also makes the prediction s = x + h v + h^2 g (l. 1) on the fly; the
 //                 last one also the velocities (l. 11) and, in the last block to finish, the
-//                 residual sums.
+//                 residual sums (into host-mapped memory: no copy node).
 //   copy x out    device -> pinned host
+// The device-resident graph (launch_device_step: the replay's device haptic tick) is the same
+// without the two copies: q and x stay in device memory.
 // Patches: the vertices in Morton order of their rest positions, cut into runs sized so that
 // about two blocks per multiprocessor hold them all; a patch's tets are all tets with a corner in
 // it. Each block first copies its patch's model data (tets, shape gradients, pairings) into shared
@@ -104,7 +106,7 @@ struct PhysicalDevice {
   Quatf* rotation = nullptr;            // 2T warm starts: [0, T) the state, [T, 2T) scratch
   float* rsq_first = nullptr;           // n  |r_a|^2 at iteration 0
   float* rsq_last = nullptr;            // n  |r_a|^2 at iteration K-1
-  double* residual_sq = nullptr;        // 2  sums of the two
+  double* residual_sq = nullptr;        // 2  sums of the two (host-mapped: the host reads them after the step)
   unsigned int* blocks_done = nullptr;  // 1  the last-block counter
 };
 
@@ -635,11 +637,11 @@ struct CudaPhysicalSolver::Impl {
   cuda::DeviceArray<Vec3f> q, x, v, s, x_start, scratch0, scratch1, scratch2;
   cuda::DeviceArray<Quatf> rotation;  // 2T
   cuda::DeviceArray<float> rsq_first, rsq_last;
-  cuda::DeviceArray<double> residual_sq;
   cuda::DeviceArray<unsigned int> blocks_done;
   // Host side of the per-step copies.
   cuda::PinnedArray<Vec3f> q_host, x_host;
-  cuda::PinnedArray<double> residual_host;
+  // The residual sums, written by the kernels straight into mapped host memory (no copy node).
+  double* residual_host = nullptr;
   PhysicalDevice dev;
   SweepPlan plan;
   std::vector<float> omega_host;  // the K Chebyshev weights (1 for Jacobi)
@@ -669,6 +671,7 @@ struct CudaPhysicalSolver::Impl {
     if (exec) cudaGraphExecDestroy(exec);
     if (graph) cudaGraphDestroy(graph);
     if (exec_device) cudaGraphExecDestroy(exec_device);
+    if (residual_host) cudaFreeHost(residual_host);
     if (graph_device) cudaGraphDestroy(graph_device);
     if (start) cudaEventDestroy(start);
     if (stop) cudaEventDestroy(stop);
@@ -752,12 +755,13 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   rotation.allocate(2 * size_t(T));
   rsq_first.allocate(n);
   rsq_last.allocate(n);
-  residual_sq.allocate(2);
   blocks_done.allocate(1);
   EBH_CUDA_CHECK(cudaMemsetAsync(blocks_done.get(), 0, sizeof(unsigned int), st));
   q_host.allocate(m);
   x_host.allocate(n);
-  residual_host.allocate(2);
+  EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&residual_host), 2 * sizeof(double), cudaHostAllocMapped));
+  residual_host[0] = residual_host[1] = 0.0;
+  EBH_CUDA_CHECK(cudaHostGetDevicePointer(reinterpret_cast<void**>(&dev.residual_sq), residual_host, 0));
 
   dev.n = n;
   dev.T = T;
@@ -799,7 +803,6 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   dev.rotation = rotation.get();
   dev.rsq_first = rsq_first.get();
   dev.rsq_last = rsq_last.get();
-  dev.residual_sq = residual_sq.get();
   dev.blocks_done = blocks_done.get();
 
   plan.scratch[0] = scratch0.get();
@@ -853,8 +856,6 @@ void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
     }
     if (copies) {
       copy_results_out(st);
-    } else if (n > 0 && K > 0) {  // only the residual sums come back to the host
-      EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
     }
   } catch (...) {
     cudaGraph_t broken = nullptr;
@@ -892,10 +893,7 @@ void CudaPhysicalSolver::Impl::launch_persistent(bool copies) {
   void* args[] = {&dev, &plan, &w, &rot};
   EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(persistent_fn, dim3(patches), dim3(kBlock), args, shared_bytes, st));
   EBH_CUDA_LAUNCH_CHECK(st, "persistent_step_kernel");
-  if (copies)
-    copy_results_out(st);
-  else
-    EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
+  if (copies) copy_results_out(st);
 }
 
 /// The step's input: q, rounded to float on the host, into the device.
@@ -903,11 +901,9 @@ void CudaPhysicalSolver::Impl::copy_q_in(cudaStream_t st) {
   if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
 }
 
-/// The step's outputs: the residual sums (when there are iterations) and x.
+/// The step's output x (the residual sums reach the host without a copy: residual_host).
 void CudaPhysicalSolver::Impl::copy_results_out(cudaStream_t st) {
   if (n == 0) return;
-  if (params.iterations > 0)
-    EBH_CUDA_CHECK(cudaMemcpyAsync(residual_host.get(), residual_sq.get(), 2 * sizeof(double), cudaMemcpyDeviceToHost, st));
   EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
 }
 

@@ -3,11 +3,11 @@
 // virtual_iteration, virtual_end_tick) on a CUDA device, float32, with the CPU reference's
 // EBH_HD energy math (energy/edge_spring.hpp, quadratic.hpp).
 //
-// The virtual tool's Newton step and the vertex-tool collision stay on the CPU (paper §4.2), so
-// every iteration hands q back to the host: one tick costs 2 + virtual_iterations synchronised
-// round trips. docs/CUDA.md gives the measured cost against the CPU: on the organ scenes' refined
-// virtual meshes (~12k vertices) the device wins 3.6x, and `--backend cuda` routes the virtual
-// mesh here (lib/schedule/simulation.cpp).
+// The virtual tool's Newton step and the vertex-tool collision stay on the CPU here (paper §4.2),
+// so every iteration hands q back to the host: one tick costs 2 + virtual_iterations synchronised
+// round trips. `--backend cuda` uses it where the whole tick cannot run on the device
+// (schedule/haptic_cuda.hpp: the realtime mode, the inverse-normal projection,
+// EBH_CUDA_DEVICE_TICK=0); docs/CUDA.md gives the measured costs.
 //
 // No CUDA types here (pimpl); the class exists when the build has the CUDA backend.
 #include <cstdint>

@@ -737,7 +737,8 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
   const unsigned br = __ballot_sync(~0u, reach), bh = __ballot_sync(~0u, held), bc = __ballot_sync(~0u, contact);
-  const unsigned pen_bits = __reduce_max_sync(~0u, __float_as_uint(pen));  // pen >= 0: bits order as values
+  unsigned pen_bits = __float_as_uint(pen);  // pen >= 0: the bits order as the values
+  for (int o = 16; o > 0; o >>= 1) pen_bits = max(pen_bits, __shfl_xor_sync(~0u, pen_bits, o));
   if (lane == 0) {
     warp_counts[warp][0] = __popc(br);
     warp_counts[warp][1] = __popc(bh);

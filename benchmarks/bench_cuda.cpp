@@ -245,17 +245,8 @@ void BM_DeviceTicks(benchmark::State& st, double from) {
                                        false, Backend::Cuda);
   const World& w = *in.world;
   const int N = w.ticks_per_step, runs = 200;
-  DeviceHapticSetup setup;
-  const auto inputs = device_tick_inputs(w, in.recording, in.recording.t.front() + from, std::int64_t(runs) * N,
-                                         Mode::Async, setup.grasp_boxes);
-  setup.mesh = &w.virtual_mesh;
-  setup.tool = &w.tool;
-  setup.k = w.scene.spec.stiffness;
-  setup.h = w.h_haptic;
-  setup.virtual_iterations = w.scene.spec.solver.virtual_iterations;
-  setup.q0 = w.initial_virtual;
-  setup.x0 = w.initial_physical.x;
-  setup.pose0 = {inputs.front().position, inputs.front().orientation};
+  const DeviceReplayInputs inputs =
+      device_replay_inputs(w, in.recording, in.recording.t.front() + from, std::int64_t(runs) * N, Mode::Async);
   std::vector<DeviceTickOutput> rows(N);
   int contacts = 0;
   double wall = 0;
@@ -263,7 +254,7 @@ void BM_DeviceTicks(benchmark::State& st, double from) {
   for (auto _ : st) {
     st.PauseTiming();
     CudaPhysicalSolver physical(w.physical_mesh, w.physical_params);
-    CudaHapticTicks ticks(setup, inputs, physical);
+    CudaHapticTicks ticks(inputs.setup, inputs.ticks, physical);
     ticks.collect(ticks.run_ticks(N), rows);  // warm-up: graph instantiation
     st.ResumeTiming();
     const auto t0 = Clock::now();

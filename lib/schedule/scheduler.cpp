@@ -134,16 +134,9 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
   const double t0 = rec.t.front() + opt.start;
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
-  DeviceHapticSetup setup;
-  const std::vector<DeviceTickInput> inputs = device_tick_inputs(world, rec, t0, ticks, opt.mode, setup.grasp_boxes);
-  setup.mesh = &world.virtual_mesh;
-  setup.tool = &world.tool;
-  setup.k = world.scene.spec.stiffness;
-  setup.h = world.h_haptic;
-  setup.virtual_iterations = world.scene.spec.solver.virtual_iterations;
-  setup.q0 = world.initial_virtual;
-  setup.x0 = world.initial_physical.x;
-  setup.pose0 = {inputs.front().position, inputs.front().orientation};
+  const DeviceReplayInputs in = device_replay_inputs(world, rec, t0, ticks, opt.mode);
+  const std::vector<DeviceTickInput>& inputs = in.ticks;
+  const DeviceHapticSetup& setup = in.setup;
   PhysicalSide physical = make_physical_side(world);
   CudaHapticTicks device(setup, inputs, *physical.cuda);
 
@@ -397,11 +390,14 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
 #if EBH_HAVE_CUDA
 /// What the device ticks need to know before they run: the device samples, the E_svc blend of each
 /// tick (simulation.cpp: physical_targets) and the grasp events (grasp.cpp: update_grasp).
-std::vector<DeviceTickInput> device_tick_inputs(const World& world, const Recording& rec, double t0, std::int64_t ticks,
-                                                Mode mode, std::vector<Collider<double>>& grasp_boxes) {
+DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec, double t0, std::int64_t ticks,
+                                        Mode mode) {
+  DeviceReplayInputs out;
+  std::vector<Collider<double>>& grasp_boxes = out.setup.grasp_boxes;
   const int N = world.ticks_per_step;
   const bool grasping = world.scene.spec.stages.grasp && world.tool.has_jaws;
-  std::vector<DeviceTickInput> in(static_cast<std::size_t>(ticks));
+  std::vector<DeviceTickInput>& in = out.ticks;
+  in.resize(static_cast<std::size_t>(ticks));
   std::int64_t delivered = -1;  // the tick the visible physical result arrived at
   bool closed = false;
   for (std::int64_t n = 0; n < ticks; ++n) {
@@ -431,7 +427,16 @@ std::vector<DeviceTickInput> device_tick_inputs(const World& world, const Record
       }
     }
   }
-  return in;
+  DeviceHapticSetup& setup = out.setup;
+  setup.mesh = &world.virtual_mesh;
+  setup.tool = &world.tool;
+  setup.k = world.scene.spec.stiffness;
+  setup.h = world.h_haptic;
+  setup.virtual_iterations = world.scene.spec.solver.virtual_iterations;
+  setup.q0 = world.initial_virtual;
+  setup.x0 = world.initial_physical.x;
+  setup.pose0 = {in.front().position, in.front().orientation};
+  return out;
 }
 #endif
 

@@ -61,11 +61,15 @@ struct ReplaySummary {
 std::int64_t tick_count(const World& world, double duration);
 
 #if EBH_HAVE_CUDA
-/// The inputs of ticks 0 .. ticks-1 of a device replay (--backend cuda, haptic_cuda.hpp) starting at
-/// recording time t0: device samples, the E_svc blend of each tick for `mode` and the grasp
-/// events, whose hard boxes are appended to grasp_boxes.
-std::vector<DeviceTickInput> device_tick_inputs(const World& world, const Recording& rec, double t0, std::int64_t ticks,
-                                                Mode mode, std::vector<Collider<double>>& grasp_boxes);
+/// What a device replay (--backend cuda, haptic_cuda.hpp) of ticks 0 .. ticks-1 starting at recording
+/// time t0 needs: each tick's inputs (device sample, the E_svc blend for `mode`, grasp events) and
+/// the setup of the device tick (the world's models and start state, the grasps' hard boxes).
+struct DeviceReplayInputs {
+  std::vector<DeviceTickInput> ticks;
+  DeviceHapticSetup setup;  ///< refers to `world`'s data
+};
+DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec, double t0, std::int64_t ticks,
+                                        Mode mode);
 #endif
 
 /// Replays `recording` through the two-rate solver.

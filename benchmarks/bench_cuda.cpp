@@ -76,6 +76,18 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5))];
 }
 
+/// 50 warm-up calls of tick(), then one timed call per benchmark iteration (into `times`).
+template <class Tick>
+void time_ticks(benchmark::State& st, Tick&& tick, std::vector<double>& times) {
+  for (int i = 0; i < 50; ++i) tick();
+  for (auto _ : st) {
+    const auto t0 = Clock::now();
+    tick();
+    times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    st.SetIterationTime(times.back());
+  }
+}
+
 #if EBH_HAVE_CUDA
 /// Gravity sag from rest, stepped repeatedly: the device cost of a step does not depend on the
 /// state (fixed iteration counts), so no reset is needed between steps.
@@ -204,13 +216,7 @@ void BM_VirtualTick(benchmark::State& st, std::string scene, bool cuda) {
       for (int i = 0; i < iterations; ++i) solver.iteration(contacts, state.q);
       solver.end_tick();
     };
-    for (int i = 0; i < 50; ++i) tick();
-    for (auto _ : st) {
-      const auto t0 = Clock::now();
-      tick();
-      times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
-      st.SetIterationTime(times.back());
-    }
+    time_ticks(st, tick, times);
 #else
     device_ready(st);
     return;
@@ -221,13 +227,7 @@ void BM_VirtualTick(benchmark::State& st, std::string scene, bool cuda) {
       for (int i = 0; i < iterations; ++i) virtual_iteration(vm, ws, state, contacts);
       virtual_end_tick(vm, ws, state);
     };
-    for (int i = 0; i < 50; ++i) tick();
-    for (auto _ : st) {
-      const auto t0 = Clock::now();
-      tick();
-      times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
-      st.SetIterationTime(times.back());
-    }
+    time_ticks(st, tick, times);
   }
   st.counters["median_us"] = 1e6 * percentile(times, 0.5);
   st.counters["p99_us"] = 1e6 * percentile(times, 0.99);

@@ -28,6 +28,7 @@
 #include "energy/quadratic.hpp"
 #include "schedule/haptic_cuda.hpp"
 #include "solver/cuda_util.cuh"
+#include "solver/virtual_mesh_device.cuh"
 #include "tool/collider.hpp"
 #include "tool/contact.hpp"
 #include "tool/tool_energy.hpp"
@@ -106,7 +107,7 @@ struct MeshDev {
   const float* stiff_diag = nullptr;
   const Vec3f* rest_edge = nullptr;
   const int* edge_offsets = nullptr;
-  const int4* edge_items = nullptr;  // per incidence entry: the edge's two vertices, the edge, 1 if this vertex is its second
+  const int4* edge_items = nullptr;  // per incidence entry (VirtualModelArrays)
   const int* pair_vertex = nullptr;
   const float* pair_weight = nullptr;
   const int* pair_count = nullptr;
@@ -452,18 +453,23 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
     }
     return e;
   };
-  pose_colliders(t, sh.P, sh.Q, in, pt);
-  __syncthreads();
-  double depth = 0;
-  double Econ = tool_contact_sums<true>(d, t, q, pt, sh, depth);
+  // E_tool, its gradient (sh.E, sh.g), the contact Hessian (sh.total) and the deepest contact at
+  // (sh.P, sh.Q): energy_at with derivatives.
+  auto evaluate_with_derivatives = [&] {
+    pose_colliders(t, sh.P, sh.Q, in, pt);
+    __syncthreads();
+    double depth = 0;
+    const double Econ = tool_contact_sums<true>(d, t, q, pt, sh, depth);
+    if (threadIdx.x == 0) {
+      double g[6];
+      sh.E = coupling(g) + Econ;
+      for (int k = 0; k < 6; ++k) sh.g[k] = g[k] + sh.total[1 + k];
+      sh.depth = depth;
+    }
+    __syncthreads();
+  };
+  evaluate_with_derivatives();
   int taken = 0, rejected = 0;
-  if (threadIdx.x == 0) {
-    double g[6];
-    sh.E = coupling(g) + Econ;
-    for (int k = 0; k < 6; ++k) sh.g[k] = g[k] + sh.total[1 + k];
-    sh.depth = depth;
-  }
-  __syncthreads();
   for (int it = 0; it < t.newton; ++it) {
     // H_step = PSD(H_con + H_grasp) + k_vcs I (+) k_vct I (+ stabilisation)
     if (threadIdx.x < 36) {
@@ -561,18 +567,7 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
     }
     if (!accepted) { ++rejected; break; }
     ++taken;
-    if (it + 1 < t.newton) {  // gradient and Hessian at the new pose for the next Newton step
-      pose_colliders(t, sh.P, sh.Q, in, pt);
-      __syncthreads();
-      Econ = tool_contact_sums<true>(d, t, q, pt, sh, depth);
-      if (threadIdx.x == 0) {
-        double g[6];
-        sh.E = coupling(g) + Econ;
-        for (int k = 0; k < 6; ++k) sh.g[k] = g[k] + sh.total[1 + k];
-        sh.depth = depth;
-      }
-      __syncthreads();
-    }
+    if (it + 1 < t.newton) evaluate_with_derivatives();  // for the next Newton step
   }
   if (threadIdx.x != 0) return;
   ToolStateDev& st = *d.state;
@@ -771,20 +766,6 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
   if (threadIdx.x == 0) *d.blocks_done = 0;
 }
 
-template <class... Params, class... Args>
-void launch(bool programmatic, void (*kernel)(Params...), int grid, cudaStream_t stream, Args... args) {
-  cudaLaunchConfig_t cfg{};
-  cfg.gridDim = dim3(grid);
-  cfg.blockDim = dim3(kBlock);
-  cfg.stream = stream;
-  cudaLaunchAttribute attr[1];
-  attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
-  attr[0].val.programmaticStreamSerializationAllowed = 1;
-  cfg.attrs = programmatic ? attr : nullptr;
-  cfg.numAttrs = programmatic ? 1 : 0;
-  EBH_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...));
-  EBH_CUDA_LAUNCH_CHECK(stream, "tick_kernel");
-}
 
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 
@@ -827,13 +808,11 @@ struct CudaHapticTicks::Impl {
   std::vector<std::pair<long long, int>> runs;  // per handle: first tick, count
   int next_handle = 0;
   bool step_in_flight = false;
-  cuda::DeviceArray<float> mass, stiff_diag, pair_weight;
-  cuda::DeviceArray<std::uint8_t> pinned, held;
-  cuda::DeviceArray<int> edge_offsets, pair_vertex, pair_count;
-  cuda::DeviceArray<int4> edge_items;
+  cuda::VirtualModelArrays model;
+  cuda::DeviceArray<std::uint8_t> held;
   cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, cand, held_list;
   cuda::DeviceArray<unsigned> blocks_done;
-  cuda::DeviceArray<Vec3f> rest_edge, x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
+  cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
   cuda::DeviceArray<Vec3d> grasp_local, cand_q;
   cuda::DeviceArray<ToolStateDev> state;
   cuda::DeviceArray<DeviceTickInput> inputs;
@@ -865,10 +844,10 @@ struct CudaHapticTicks::Impl {
         Vec3f* vo = iterations == 1 ? v_scratch.get() : v.get();
         const bool pdl = programmatic && !(k == 0 && i == 0);
         const bool first = i == 0, last = i == iterations - 1;
-        if (first && last) launch(pdl, tick_kernel<true, true>, blocks, stream, dev, tool, static_cast<const Vec3f*>(a), b, vo);
-        else if (first) launch(pdl, tick_kernel<true, false>, blocks, stream, dev, tool, static_cast<const Vec3f*>(a), b, vo);
-        else if (last) launch(pdl, tick_kernel<false, true>, blocks, stream, dev, tool, static_cast<const Vec3f*>(a), b, vo);
-        else launch(pdl, tick_kernel<false, false>, blocks, stream, dev, tool, static_cast<const Vec3f*>(a), b, vo);
+        if (first && last) cuda::launch(pdl, tick_kernel<true, true>, blocks, kBlock, 0, stream, "tick_kernel", dev, tool, static_cast<const Vec3f*>(a), b, vo);
+        else if (first) cuda::launch(pdl, tick_kernel<true, false>, blocks, kBlock, 0, stream, "tick_kernel", dev, tool, static_cast<const Vec3f*>(a), b, vo);
+        else if (last) cuda::launch(pdl, tick_kernel<false, true>, blocks, kBlock, 0, stream, "tick_kernel", dev, tool, static_cast<const Vec3f*>(a), b, vo);
+        else cuda::launch(pdl, tick_kernel<false, false>, blocks, kBlock, 0, stream, "tick_kernel", dev, tool, static_cast<const Vec3f*>(a), b, vo);
         if (iterations == 1) {
           EBH_CUDA_CHECK(cudaMemcpyAsync(q[0].get(), q[1].get(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
           EBH_CUDA_CHECK(cudaMemcpyAsync(v.get(), v_scratch.get(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
@@ -931,27 +910,8 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     arr.allocate(host.size());
     arr.upload(host.data(), st);
   };
-  const int m = I.m, E = static_cast<int>(M.edges.size());
-  up(I.mass, std::vector<float>(M.mass.begin(), M.mass.end()));
-  up(I.stiff_diag, std::vector<float>(M.stiff_diag.begin(), M.stiff_diag.end()));
-  up(I.pinned, M.pinned);
-  std::vector<Vec3f> re(E);
-  for (int e = 0; e < E; ++e) re[e] = to_float(M.rest_edge[e]);
-  std::vector<int4> items(M.edge_entries.size());
-  for (std::size_t k = 0; k < items.size(); ++k) {
-    const int entry = M.edge_entries[k], e = entry >> 1;
-    items[k] = make_int4(M.edges[e][0], M.edges[e][1], e, entry & 1);
-  }
-  up(I.rest_edge, re);
-  up(I.edge_offsets, M.edge_offsets);
-  up(I.edge_items, items);
-  std::vector<int> pv(4 * std::size_t(m), 0);
-  std::vector<float> pw(4 * std::size_t(m), 0.f);
-  for (int j = 0; j < m; ++j)
-    for (int k = 0; k < 4; ++k) { pv[4 * j + k] = M.pair_vertex[j][k]; pw[4 * j + k] = float(M.pair_weight[j][k]); }
-  up(I.pair_vertex, pv);
-  up(I.pair_weight, pw);
-  up(I.pair_count, M.pair_count);
+  const int m = I.m;
+  I.model.upload(M, st);
   std::vector<Vec3f> x0(I.n), q0(m), zero(m);
   for (int a = 0; a < I.n; ++a) x0[a] = to_float(S.x0[a]);
   for (int j = 0; j < m; ++j) q0[j] = to_float(S.q0[j]);
@@ -996,15 +956,15 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.inv_h = float(1.0 / S.h);
   d.inv_h2 = float(1.0 / (S.h * S.h));
   d.gravity = to_float(M.gravity);
-  d.mass = I.mass.get();
-  d.pinned = I.pinned.get();
-  d.stiff_diag = I.stiff_diag.get();
-  d.rest_edge = I.rest_edge.get();
-  d.edge_offsets = I.edge_offsets.get();
-  d.edge_items = I.edge_items.get();
-  d.pair_vertex = I.pair_vertex.get();
-  d.pair_weight = I.pair_weight.get();
-  d.pair_count = I.pair_count.get();
+  d.mass = I.model.mass.get();
+  d.pinned = I.model.pinned.get();
+  d.stiff_diag = I.model.stiff_diag.get();
+  d.rest_edge = I.model.rest_edge.get();
+  d.edge_offsets = I.model.edge_offsets.get();
+  d.edge_items = I.model.edge_items.get();
+  d.pair_vertex = I.model.pair_vertex.get();
+  d.pair_weight = I.model.pair_weight.get();
+  d.pair_count = I.model.pair_count.get();
   d.x_prev = I.x_prev.get();
   d.x_vis = I.x_vis.get();
   d.v_in = I.v.get();

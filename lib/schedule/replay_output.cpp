@@ -146,7 +146,7 @@ void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   pen_h_.push_back(h.penetration_physical);
   jaw_.push_back(h.device.jaw);
   contacts_.push_back(h.contact_count);
-  grasped_.push_back(static_cast<std::int32_t>(h.tool.grasp.vertices.size()));
+  grasped_.push_back(h.grasped);
   tm_total_.push_back(h.timing.total);
   tm_device_.push_back(h.timing.device);
   tm_sync_.push_back(h.timing.physical_sync);

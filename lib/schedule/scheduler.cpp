@@ -135,15 +135,13 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
   const DeviceReplayInputs in = device_replay_inputs(world, rec, t0, ticks, opt.mode);
-  const std::vector<DeviceTickInput>& inputs = in.ticks;
-  const DeviceHapticSetup& setup = in.setup;
   PhysicalSide physical = make_physical_side(world);
-  CudaHapticTicks device(setup, inputs, *physical.cuda);
+  CudaHapticTicks device(in.setup, in.ticks, *physical.cuda);
 
   HapticSide view;  // what the observer reads: the outputs of one tick
   view.mesh.q = world.initial_virtual;
   view.visible.x = world.initial_physical.x;
-  view.tool.pose = setup.pose0;
+  view.tool.pose = in.setup.pose0;
   struct Run {
     int handle;
     std::int64_t first;
@@ -165,7 +163,6 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
       last_collect = now;
       for (int k = 0; k < r.count; ++k) {
         const std::int64_t n = r.first + k;
-        const DeviceTickInput& in = inputs[static_cast<std::size_t>(n)];
         const DeviceTickOutput& o = rows[static_cast<std::size_t>(k)];
         view.device = sample_at(rec, t0 + static_cast<double>(n) * world.h_haptic);
         view.output.force = o.force;
@@ -175,8 +172,7 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
         view.tool.pose = {o.position, o.orientation};
         view.tool.steps_taken = o.newton_steps;
         view.tool.steps_rejected = o.newton_rejected;
-        view.tool.grasp.closed = in.jaw < world.tool.spec.forceps.grasp_threshold;
-        view.tool.grasp.vertices.resize(static_cast<std::size_t>(o.grasped));  // the count is what is read
+        view.grasped = o.grasped;
         view.penetration = o.penetration;
         view.penetration_physical = o.penetration_physical;
         view.contact_count = o.contacts;

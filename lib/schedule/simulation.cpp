@@ -116,6 +116,7 @@ void emit_output(const World& world, HapticSide& h) {
     moved = std::max(moved, squared_norm(h.mesh.q[i] - h.workspace.q_start[i]));
   h.grid.note_motion(std::sqrt(moved));
   h.output = tool_output(world.tool, world.scene.spec.stiffness, pose_of(h.device), h.tool);
+  h.grasped = static_cast<int>(h.tool.grasp.vertices.size());
   // The virtual tool's contacts at its final pose are at hand from its last Newton step.
   h.penetration = 0;
   for (const ContactPoint& c : h.tool.contacts) h.penetration = std::max(h.penetration, c.depth);

@@ -86,6 +86,7 @@ struct HapticSide {
   double penetration = 0;                ///< m, deepest virtual-mesh vertex inside the virtual tool
   double penetration_physical = 0;       ///< m, the same for the physical tool (large by design)
   int contact_count = 0;                 ///< E_con targets of the last iteration (grasp included)
+  int grasped = 0;                       ///< virtual vertices held by the grasp
   HapticTiming timing;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda where the whole tick cannot run on the device (realtime mode, inverse-normal

@@ -109,4 +109,24 @@ class Stream {
 
 inline int blocks_for(long long threads, int block) { return static_cast<int>((threads + block - 1) / block); }
 
+/// Launches kernel(args...) on `stream`, with programmatic dependent launch when `programmatic`
+/// (the kernel then waits for its predecessor with cudaGridDependencySynchronize); checked as
+/// EBH_CUDA_LAUNCH_CHECK with `name`. Usable inside stream capture.
+template <class... Params, class... Args>
+void launch(bool programmatic, void (*kernel)(Params...), int grid, int block, std::size_t smem, cudaStream_t stream,
+            const char* name, Args... args) {
+  cudaLaunchConfig_t cfg{};
+  cfg.gridDim = dim3(grid);
+  cfg.blockDim = dim3(block);
+  cfg.dynamicSmemBytes = smem;
+  cfg.stream = stream;
+  cudaLaunchAttribute attr[1];
+  attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
+  attr[0].val.programmaticStreamSerializationAllowed = 1;
+  cfg.attrs = programmatic ? attr : nullptr;
+  cfg.numAttrs = programmatic ? 1 : 0;
+  EBH_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...));
+  EBH_CUDA_LAUNCH_CHECK(stream, name);
+}
+
 }  // namespace ebh::cuda

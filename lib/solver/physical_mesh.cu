@@ -597,25 +597,6 @@ Patches build_patches(const PhysicalModel& M, int size) {
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 Quatf to_float(const Quatd& q) { return {float(q.w), float(q.x), float(q.y), float(q.z)}; }
 
-/// Launches kernel<<<grid, block, smem, stream>>>(args...), with programmatic dependent launch
-/// when `programmatic` (the kernels' prologue makes that safe).
-template <class... Params, class... Args>
-void launch(bool programmatic, void (*kernel)(Params...), int grid, int block, std::size_t smem, cudaStream_t stream,
-            const char* name, Args... args) {
-  cudaLaunchConfig_t cfg{};
-  cfg.gridDim = dim3(grid);
-  cfg.blockDim = dim3(block);
-  cfg.dynamicSmemBytes = smem;
-  cfg.stream = stream;
-  cudaLaunchAttribute attr[1];
-  attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
-  attr[0].val.programmaticStreamSerializationAllowed = 1;
-  cfg.attrs = programmatic ? attr : nullptr;
-  cfg.numAttrs = programmatic ? 1 : 0;
-  EBH_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...));
-  EBH_CUDA_LAUNCH_CHECK(stream, name);
-}
-
 }  // namespace
 
 struct CudaPhysicalSolver::Impl {
@@ -829,12 +810,12 @@ void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
     const Sweep w = plan.sweep(k, omega_host[k], rsq);
     const bool edge = pdl && k > 0;  // the first kernel after a copy node takes no programmatic edge
     auto* kernel = k == 0 ? first : (k == K - 1 ? last : middle);
-    launch(edge, kernel, patches, kBlock, shared_bytes, st, "iteration_kernel", dev, w, rot);
+    cuda::launch(edge, kernel, patches, kBlock, shared_bytes, st, "iteration_kernel", dev, w, rot);
   }
   if (K == 1) {
     PhysicalDevice once = dev;
     once.rsq_last = once.rsq_first;  // one iteration: the residual ratio is 1
-    launch(pdl, finish_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "finish_kernel", once,
+    cuda::launch(pdl, finish_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "finish_kernel", once,
            static_cast<const Vec3f*>(plan.scratch[0]));
   }
 }
@@ -847,7 +828,7 @@ void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
   try {
     if (copies) copy_q_in(st);
     if (n > 0 && K == 0)
-      launch(false, predict_only_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "predict_only_kernel", dev);
+      cuda::launch(false, predict_only_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "predict_only_kernel", dev);
     if (n > 0 && K > 0) {
       if (chebyshev) capture_iterations<true>(pdl);
       else capture_iterations<false>(pdl);

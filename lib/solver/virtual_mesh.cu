@@ -12,6 +12,7 @@
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
 #include "solver/cuda_util.cuh"
+#include "solver/virtual_mesh_device.cuh"
 #include "solver/virtual_mesh_cuda.hpp"
 
 namespace ebh {
@@ -26,10 +27,9 @@ struct VirtualDevice {
   const float* mass = nullptr;          // m
   const std::uint8_t* pinned = nullptr; // m
   const float* stiff_diag = nullptr;    // m  k_s deg + k_svc
-  const int* edges = nullptr;           // 2E
   const Vec3f* rest_edge = nullptr;     // E
   const int* edge_offsets = nullptr;    // m+1
-  const int* edge_entries = nullptr;    // 2 e + end
+  const int4* edge_items = nullptr;     // per incidence entry (VirtualModelArrays)
   const int* pair_vertex = nullptr;     // 4m
   const float* pair_weight = nullptr;   // 4m
   const int* pair_count = nullptr;      // m
@@ -82,9 +82,9 @@ __global__ void jacobi_kernel(VirtualDevice d, const Vec3f* q, Vec3f* q_next, fl
             - coupling_gradient_virtual(d.p[j], qj, d.k_svc)        // -dE_svc/dq [5]
             + kt - ck * qj;                                         // -dE_con/dq [3]
   for (int k = d.edge_offsets[j]; k < d.edge_offsets[j + 1]; ++k) {
-    const int entry = d.edge_entries[k], e = entry >> 1;
-    const Vec3f g = edge_spring_gradient(q[d.edges[2 * e]], q[d.edges[2 * e + 1]], d.rest_edge[e], d.k_s);  // [4]
-    r += (entry & 1) ? g : -g;
+    const int4 it = d.edge_items[k];
+    const Vec3f g = edge_spring_gradient(q[it.x], q[it.y], d.rest_edge[it.z], d.k_s);  // [4]
+    r += it.w ? g : -g;
   }
   q_next[j] = qj + r / (mh + d.stiff_diag[j] + ck);
 }
@@ -105,10 +105,9 @@ struct CudaVirtualSolver::Impl {
   std::int64_t physical_version = 0;
   bool have_physical = false;
   cuda::Stream stream;
-  cuda::DeviceArray<float> mass, stiff_diag, pair_weight, contact_k;
-  cuda::DeviceArray<std::uint8_t> pinned;
-  cuda::DeviceArray<int> edges, edge_offsets, edge_entries, pair_vertex, pair_count;
-  cuda::DeviceArray<Vec3f> rest_edge, physical_x, v, s, q_start, p, contact_kt, q[2];
+  cuda::VirtualModelArrays model;
+  cuda::DeviceArray<float> contact_k;
+  cuda::DeviceArray<Vec3f> physical_x, v, s, q_start, p, contact_kt, q[2];
   cuda::DeviceArray<ContactSum> contacts;
   cuda::PinnedArray<Vec3f> q_host, x_host;
   cuda::PinnedArray<ContactSum> contacts_host;
@@ -131,33 +130,9 @@ struct CudaVirtualSolver::Impl {
 CudaVirtualSolver::CudaVirtualSolver(const VirtualModel& M) : impl_(std::make_unique<Impl>()) {
   Impl& I = *impl_;
   I.m = M.num_vertices;
-  const int m = I.m, E = static_cast<int>(M.edges.size());
+  const int m = I.m;
   cudaStream_t st = I.stream.get();
-  auto up = [st](auto& arr, const auto& host) {
-    arr.allocate(host.size());
-    arr.upload(host.data(), st);
-  };
-  up(I.mass, std::vector<float>(M.mass.begin(), M.mass.end()));
-  up(I.stiff_diag, std::vector<float>(M.stiff_diag.begin(), M.stiff_diag.end()));
-  up(I.pinned, M.pinned);
-  std::vector<int> ed(2 * size_t(E));
-  std::vector<Vec3f> re(E);
-  for (int e = 0; e < E; ++e) {
-    ed[2 * e] = M.edges[e][0];
-    ed[2 * e + 1] = M.edges[e][1];
-    re[e] = to_float(M.rest_edge[e]);
-  }
-  up(I.edges, ed);
-  up(I.rest_edge, re);
-  up(I.edge_offsets, M.edge_offsets);
-  up(I.edge_entries, M.edge_entries);
-  std::vector<int> pv(4 * size_t(m));
-  std::vector<float> pw(4 * size_t(m));
-  for (int j = 0; j < m; ++j)
-    for (int k = 0; k < 4; ++k) { pv[4 * j + k] = M.pair_vertex[j][k]; pw[4 * j + k] = float(M.pair_weight[j][k]); }
-  up(I.pair_vertex, pv);
-  up(I.pair_weight, pw);
-  up(I.pair_count, M.pair_count);
+  I.model.upload(M, st);
   for (auto* a : {&I.v, &I.s, &I.q_start, &I.p, &I.contact_kt, &I.q[0], &I.q[1]}) a->allocate(m);
   I.contact_k.allocate(m);
   I.contacts.allocate(m);
@@ -175,16 +150,15 @@ CudaVirtualSolver::CudaVirtualSolver(const VirtualModel& M) : impl_(std::make_un
   d.k_s = float(M.k_s);
   d.k_svc = float(M.k_svc);
   d.gravity = to_float(M.gravity);
-  d.mass = I.mass.get();
-  d.pinned = I.pinned.get();
-  d.stiff_diag = I.stiff_diag.get();
-  d.edges = I.edges.get();
-  d.rest_edge = I.rest_edge.get();
-  d.edge_offsets = I.edge_offsets.get();
-  d.edge_entries = I.edge_entries.get();
-  d.pair_vertex = I.pair_vertex.get();
-  d.pair_weight = I.pair_weight.get();
-  d.pair_count = I.pair_count.get();
+  d.mass = I.model.mass.get();
+  d.pinned = I.model.pinned.get();
+  d.stiff_diag = I.model.stiff_diag.get();
+  d.rest_edge = I.model.rest_edge.get();
+  d.edge_offsets = I.model.edge_offsets.get();
+  d.edge_items = I.model.edge_items.get();
+  d.pair_vertex = I.model.pair_vertex.get();
+  d.pair_weight = I.model.pair_weight.get();
+  d.pair_count = I.model.pair_count.get();
   d.v = I.v.get();
   d.s = I.s.get();
   d.q_start = I.q_start.get();

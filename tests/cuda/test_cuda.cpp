@@ -34,6 +34,9 @@
 #include "solver/virtual_mesh.hpp"
 
 #if EBH_HAVE_CUDA
+#include <Eigen/Eigenvalues>
+
+#include "schedule/newton_warp.hpp"
 #include "solver/device_cuda.hpp"
 #include "solver/physical_mesh_cuda.hpp"
 #include "solver/virtual_mesh_cuda.hpp"
@@ -268,6 +271,71 @@ TEST(CudaPhysical, PersistentKernelMatchesTheGraphBitwise) {
     EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
     EXPECT_EQ(residual[0], residual[1]);
   }
+}
+
+// The device Newton step's 6x6 algebra (newton_warp.cuh) against Eigen in double. Test matrices
+// are built from chosen eigenvalues, so their scales mix like the virtual tool's Hessians (N/m
+// beside N m/rad: eigenvalues from 1e-2 to 1e4, of both signs).
+Mat6 symmetric_with_eigenvalues(std::mt19937& rng, const Vec6& lambda) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Mat6 G;
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j) G(i, j) = n(rng);
+  const Mat6 V = Eigen::HouseholderQR<Mat6>(G).householderQ();
+  return V * lambda.asDiagonal() * V.transpose();
+}
+
+Mat6 psd_clamp_reference(const Mat6& H) {  // virtual_tool.cpp's clamp
+  Eigen::SelfAdjointEigenSolver<Mat6> es(H);
+  return es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
+}
+
+TEST(CudaNewton, PsdClampMatchesEigen) {
+  EBH_REQUIRE_DEVICE();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> exponent(-2.0, 4.0), sign(-1.0, 1.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    Vec6 lambda;
+    for (int k = 0; k < 6; ++k) lambda[k] = (sign(rng) < 0 ? -1.0 : 1.0) * std::pow(10.0, exponent(rng));
+    const Mat6 H = symmetric_with_eigenvalues(rng, lambda);
+    const Mat6 got = device_psd_clamp(H), want = psd_clamp_reference(H);
+    // Float32 Jacobi: a few round-offs u = 2^-24 of the largest eigenvalue per entry, and the
+    // clamp moves an eigenvalue by at most its own round-off.
+    const double tol = 64 * kU * lambda.cwiseAbs().maxCoeff();
+    EXPECT_LE((got - want).cwiseAbs().maxCoeff(), tol) << "trial " << trial;
+  }
+  EXPECT_EQ(device_psd_clamp(Mat6::Zero()), Mat6::Zero());  // no contact: the clamp is skipped
+  Mat6 diag = Mat6::Zero();
+  diag.diagonal() << 3, -2, 0.5, -1e-3, 7, 0;
+  Mat6 want = diag.cwiseMax(0.0);
+  EXPECT_LE((device_psd_clamp(diag) - want).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(CudaNewton, CholeskySolveMatchesEigen) {
+  EBH_REQUIRE_DEVICE();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> exponent(-1.0, 4.0);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    Vec6 lambda, b;
+    for (int k = 0; k < 6; ++k) {
+      lambda[k] = std::pow(10.0, exponent(rng));
+      b[k] = n(rng);
+    }
+    const Mat6 H = symmetric_with_eigenvalues(rng, lambda);
+    bool ok = false;
+    const Vec6 got = device_cholesky_solve(H, b, ok);
+    ASSERT_TRUE(ok) << "trial " << trial;
+    const Vec6 want = H.ldlt().solve(b);
+    // Backward stable in double: relative error within a few round-offs times the condition.
+    const double cond = lambda.maxCoeff() / lambda.minCoeff();
+    EXPECT_LE((got - want).norm(), 64 * 0x1p-53 * cond * want.norm()) << "trial " << trial;
+  }
+  Mat6 indefinite = Mat6::Identity();
+  indefinite(3, 3) = -1;
+  bool ok = true;
+  device_cholesky_solve(indefinite, Vec6::Ones(), ok);
+  EXPECT_FALSE(ok);
 }
 
 TEST(CudaVirtual, TickMatchesCpu) {

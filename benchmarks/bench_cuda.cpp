@@ -6,7 +6,8 @@
 //   BM_VirtualTick          the virtual mesh's part of a haptic tick (begin, 4 iterations with
 //                           contacts, end) on the CPU and on the device (q back after each iteration)
 //   BM_DeviceTicks          the device haptic tick alone (no physical steps): cholecystectomy_grasp's
-//                           ticks from t = 1.2 s (contact and a grasp) or 0 s (approach, no contact)
+//                           ticks from t = 1.2 s (contact and a grasp) or 0 s (approach, no contact);
+//                           *_stages: also the mean time of each stage per launch (DeviceTickProfile)
 //   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
 //                           real-time factor and the mean time of each stage of the haptic tick;
 //                           cuda_host_tool: the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0)
@@ -239,7 +240,7 @@ BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cpu, std::string("cholecystect
 BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystectomy"), true)->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 
 #if EBH_HAVE_CUDA
-void BM_DeviceTicks(benchmark::State& st, double from) {
+void BM_DeviceTicks(benchmark::State& st, double from, bool profile) {
   if (!device_ready(st)) return;
   LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
                                        false, Backend::Cuda);
@@ -251,10 +252,13 @@ void BM_DeviceTicks(benchmark::State& st, double from) {
   int contacts = 0;
   double wall = 0;
   long timed_ticks = 0;
+  DeviceHapticSetup setup = inputs.setup;
+  setup.profile_stages = profile;
+  DeviceTickProfile stages;
   for (auto _ : st) {
     st.PauseTiming();
     CudaPhysicalSolver physical(w.physical_mesh, w.physical_params);
-    CudaHapticTicks ticks(inputs.setup, inputs.ticks, physical);
+    CudaHapticTicks ticks(setup, inputs.ticks, physical);
     ticks.collect(ticks.run_ticks(N), rows);  // warm-up: graph instantiation
     st.ResumeTiming();
     const auto t0 = Clock::now();
@@ -272,13 +276,20 @@ void BM_DeviceTicks(benchmark::State& st, double from) {
     st.SetIterationTime(dt);
     wall += dt;
     timed_ticks += (runs - 1) * N;
+    stages = ticks.profile();
   }
   st.counters["tick_us"] = timed_ticks ? 1e6 * wall / static_cast<double>(timed_ticks) : 0;
+  for (int k = 0; k < DeviceTickProfile::kStages && profile; ++k)
+    st.counters[std::string(DeviceTickProfile::kNames[k]) + "_us"] = stages.mean_us[k];
+  if (profile) st.counters["tail_clock_ghz"] = stages.tail_clock_ghz;
   st.counters["max_contacts"] = contacts;
   st.SetLabel(cuda_device_description());
 }
-BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s, 1.2)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s, 0.0)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s, 1.2, false)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s, 0.0, false)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+// The same with the stage timestamps (per launch, microseconds; their reads cost a little).
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_stages, 1.2, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s_stages, 0.0, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 #endif
 
 /// Sums the haptic tick's stage times and the physical steps' times.

@@ -27,6 +27,7 @@
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
 #include "schedule/haptic_cuda.hpp"
+#include "schedule/newton_warp.cuh"
 #include "solver/cuda_util.cuh"
 #include "solver/virtual_mesh_device.cuh"
 #include "tool/collider.hpp"
@@ -38,11 +39,12 @@ namespace {
 
 constexpr int kBlock = 128;
 constexpr int kWarps = kBlock / 32;
+constexpr int kTailOffsets = 512;  // blocks whose list offsets the tail keeps in shared memory
+constexpr int kEdgeChunk = 8;       // incident edges loaded at once (a surface vertex has ~6)
 constexpr int kMaxHalvings = 12;    // virtual_tool.cpp
 constexpr double kArmijo = 1e-4;    // virtual_tool.cpp
 constexpr double kConverged = 1e-13;
 constexpr double kStepFloor = 1e-14;
-constexpr int kJacobiSweeps = 4;    // 6x6 cyclic Jacobi: quadratic convergence, off-diagonals ~1e-7 after 4
 constexpr int kSums = 28;           // E, gradient (6), upper Hessian (21)
 // A float32 signed distance above this (m) is certainly positive in double: the exact double tests
 // run only below it (float's error on tool-sized coordinates is ~1e-7 m).
@@ -72,6 +74,63 @@ struct ToolStateDev {
   Vec3d anchor_position;
   Quatd anchor_orientation;
   long long tick;
+};
+
+/// Stage timestamps of the device tick (DeviceHapticSetup::profile_stages; global timer, ns): sums
+/// over launches of each stage's duration, in DeviceTickProfile's order.
+struct ProfileDev {
+  unsigned long long sum[DeviceTickProfile::kStages];  // ns; the tail's stages in SM cycles
+  unsigned long long launches;
+  unsigned long long start;        // this launch: block 0 past the grid dependency
+  unsigned long long prev_end;     // the last launch's tail end
+  unsigned long long block_start;  // this launch: sum over blocks of (start - prev_end)
+  unsigned long long tail_cycles, tail_ns;  // the tails' SM cycles and time (their clock rate)
+  unsigned long long vertices_max;  // this launch: the slowest block's vertex stage
+};
+
+__device__ __forceinline__ unsigned long long global_ns() {
+  unsigned long long t;
+  asm volatile("mov.u64 %0, %%globaltimer;" : "=l"(t));
+  return t;
+}
+
+/// The tail's stage marks, kept by its thread 0 in registers (SM cycles) and written to the
+/// ProfileDev once at its end, so that profiling adds no memory round trips between the stages.
+struct TailMarks {
+  bool on = false;
+  unsigned long long start_ns = 0, start_clock = 0, last = 0;
+  unsigned long long cycles[DeviceTickProfile::kStages] = {};
+  __device__ void begin(const ProfileDev* p) {
+    on = p && threadIdx.x == 0;
+    if (!on) return;
+    start_ns = global_ns();
+    start_clock = last = clock64();
+  }
+  /// Closes stage k at now (thread 0 only).
+  __device__ void mark(int k) {
+    if (!on || threadIdx.x != 0) return;
+    const unsigned long long t = clock64();
+    cycles[k] += t - last;
+    last = t;
+  }
+  __device__ void end(ProfileDev* p, int blocks) {
+    if (!on) return;
+    const unsigned long long now = global_ns();
+    for (int k = DeviceTickProfile::Gather; k <= DeviceTickProfile::Output; ++k) p->sum[k] += cycles[k];
+    p->tail_cycles += clock64() - start_clock;
+    p->tail_ns += now - start_ns;
+    if (p->prev_end) {
+      p->sum[DeviceTickProfile::Launch] += p->start - p->prev_end;
+      const long long lag = static_cast<long long>(p->block_start / blocks) - static_cast<long long>(p->start - p->prev_end);
+      p->sum[DeviceTickProfile::BlockLag] += static_cast<unsigned long long>(lag);
+    }
+    p->sum[DeviceTickProfile::Mesh] += start_ns - p->start;
+    p->sum[DeviceTickProfile::BlockVerticesMax] += p->vertices_max;
+    p->vertices_max = 0;
+    p->block_start = 0;
+    p->prev_end = now;
+    ++p->launches;
+  }
 };
 
 /// Colliders posed for one tool pose and jaw value.
@@ -124,13 +183,13 @@ struct MeshDev {
   int* block_counts = nullptr;      // blocks * 4: reachable, held, contacts, penetration (float bits)
   int* block_offsets = nullptr;     // 2 (blocks + 1)
   unsigned* blocks_done = nullptr;
-  int* cand = nullptr;              // m: the reachable vertices, vertex order
   Vec3d* cand_q = nullptr;          // m
   int* held_list = nullptr;         // m
   ToolStateDev* state = nullptr;
   const DeviceTickInput* inputs = nullptr;
   const Collider<double>* grasp_boxes = nullptr;
   DeviceTickOutput* out = nullptr;  // host-mapped ring of `ring` rows
+  ProfileDev* profile = nullptr;    // stage timestamps, or null
 };
 
 /// Collider c of pose_tool (tool_model.cpp) on the device; (jc, js): cos and sin of the jaws'
@@ -166,86 +225,6 @@ __device__ void pose_colliders(const ToolConst& t, Vec3d P, Quatd Q, const Devic
   if (threadIdx.x < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, threadIdx.x, out);
 }
 
-/// Upper-triangle index of (i, j), i <= j, in row order.
-__device__ __forceinline__ int upper(int i, int j) { return i * 6 - i * (i - 1) / 2 + (j - i); }
-
-/// Jacobi round-robin pairing of 6 indices: partner of i in round r (5 rounds cover the 15 pairs).
-__constant__ unsigned char kPartner[5][6] = {
-    {1, 0, 5, 4, 3, 2}, {2, 3, 0, 1, 5, 4}, {3, 5, 4, 0, 2, 1}, {4, 2, 1, 5, 0, 3}, {5, 4, 3, 2, 1, 0}};
-__device__ __forceinline__ int partner(int r, int i) { return kPartner[r][i]; }
-
-/// H (36, symmetric, shared) <- V max(Lambda, 0) V^T: the PSD clamp of virtual_tool.cpp, by a cyclic
-/// Jacobi eigen-decomposition in float32 run by one warp (A, V: 36 floats, C, S: 6 floats, shared).
-/// Round r rotates the three disjoint pairs of kPartner[r] at once; lane e < 36 (and e + 32) owns
-/// A(e / 6, e % 6) and V(e / 6, e % 6), whose rotation indices are set up once.
-__device__ void psd_clamp_warp(double* H, float* A, float* V, float* C, float* S, int lane) {
-  int own[2], a_ipj[5][2], a_pij[5][2], a_pipj[5][2], ci[5][2], cj[5][2];
-  float si[5][2], sj[5][2];
-  for (int k = 0; k < 2; ++k) {
-    const int e = min(lane + 32 * k, 35), i = e / 6, j = e % 6;
-    own[k] = e;
-    for (int r = 0; r < 5; ++r) {
-      const int pi = partner(r, i), pj = partner(r, j);
-      a_ipj[r][k] = 6 * i + pj;
-      a_pij[r][k] = 6 * pi + j;
-      a_pipj[r][k] = 6 * pi + pj;
-      ci[r][k] = min(i, pi);
-      cj[r][k] = min(j, pj);
-      si[r][k] = i < pi ? -1.f : 1.f;
-      sj[r][k] = j < pj ? -1.f : 1.f;
-    }
-  }
-  const bool second = lane + 32 < 36;
-  for (int e = lane; e < 36; e += 32) {
-    A[e] = static_cast<float>(H[e]);
-    V[e] = (e % 7 == 0) ? 1.f : 0.f;
-  }
-  __syncwarp();
-  for (int sweep = 0; sweep < kJacobiSweeps; ++sweep) {
-#pragma unroll
-    for (int r = 0; r < 5; ++r) {
-      if (lane < 6 && lane < partner(r, lane)) {
-        const int p = lane, q = partner(r, lane);
-        const float app = A[7 * p], aqq = A[7 * q], apq = A[6 * p + q];
-        float c = 1.f, s = 0.f;
-        if (apq != 0.f) {
-          const float th = (aqq - app) / (2.f * apq);
-          const float t = fabsf(th) > 1e18f ? 0.5f / th : copysignf(1.f, th) / (fabsf(th) + sqrtf(th * th + 1.f));
-          c = rsqrtf(t * t + 1.f);
-          s = t * c;
-        }
-        C[p] = c;
-        S[p] = s;
-      }
-      __syncwarp();
-      float an[2], vn[2];
-#pragma unroll
-      for (int k = 0; k < 2; ++k) {
-        // A' = J^T A J and V' = V J, J the three rotations of round r: (i, j) mixes with the
-        // partners pi, pj (Numerical Recipes' Jacobi: J(p,p) = J(q,q) = c, J(p,q) = s, J(q,p) = -s).
-        const int e = own[k];
-        const float c_i = C[ci[r][k]], s_i = si[r][k] * S[ci[r][k]];
-        const float c_j = C[cj[r][k]], s_j = sj[r][k] * S[cj[r][k]];
-        an[k] = c_i * c_j * A[e] + c_i * s_j * A[a_ipj[r][k]] + s_i * c_j * A[a_pij[r][k]] + s_i * s_j * A[a_pipj[r][k]];
-        vn[k] = c_j * V[e] + s_j * V[a_ipj[r][k]];
-      }
-      __syncwarp();
-      A[own[0]] = an[0];
-      V[own[0]] = vn[0];
-      if (second) { A[own[1]] = an[1]; V[own[1]] = vn[1]; }
-      __syncwarp();
-    }
-  }
-  for (int e = lane; e < 36; e += 32) {
-    const int i = e / 6, j = e % 6;
-    double acc = 0;
-    for (int k = 0; k < 6; ++k)
-      acc += static_cast<double>(V[6 * i + k]) * static_cast<double>(fmaxf(A[7 * k], 0.f)) * static_cast<double>(V[6 * j + k]);
-    H[e] = acc;
-  }
-  __syncwarp();
-}
-
 /// E_tvc [2] (tool_energy.cpp: coupling_energy) with its gradient.
 __device__ double coupling_energy_dev(Vec3d P, Quatd Q, Vec3d Ph, Quatd Qh, double k_vcs, double k_vct, double* g) {
   const Vec3d dP = P - Ph;
@@ -255,20 +234,36 @@ __device__ double coupling_energy_dev(Vec3d P, Quatd Q, Vec3d Ph, Quatd Qh, doub
   return 0.5 * k_vcs * squared_norm(dP) + 0.5 * k_vct * squared_norm(v);
 }
 
-/// Block sum of the first `count` of v[kSums] over kBlock threads in a fixed order (warp shuffle
-/// tree, then the warps in order); the result lands in out[0..count) (shared).
+/// Block sum of the first kCount of v[kSums] over kBlock threads in a fixed order; the result lands
+/// in out[0..kCount) (shared). In each warp, many values by a transposed butterfly: at the step of
+/// offset o a lane keeps one half of its values and sends the other to lane ^ o, so lane L ends with
+/// value L's warp sum after 31 shuffles (a tree per value would take 5 per value); then the warps in order.
 template <int kCount>
 __device__ void block_sum(const double* v, double (*scratch)[kSums], double* out) {
-  constexpr int count = kCount;
+  static_assert(kCount == 1 || (kCount > 1 && kCount <= 32));
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
-#pragma unroll
-  for (int k = 0; k < count; ++k) {
-    double x = v[k];
+  if constexpr (kCount == 1) {
+    double x = v[0];
     for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(~0u, x, o);
-    if (lane == 0) scratch[warp][k] = x;
+    if (lane == 0) scratch[warp][0] = x;
+  } else {
+    double x[32];
+#pragma unroll
+    for (int k = 0; k < 32; ++k) x[k] = k < kCount ? v[k] : 0.0;
+#pragma unroll
+    for (int o = 16; o > 0; o >>= 1) {
+      const bool high = (lane & o) != 0;  // keeps values [o, 2o) of its current 2o, sends [0, o)
+#pragma unroll
+      for (int k = 0; k < o; ++k) {
+        const double send = high ? x[k] : x[k + o];
+        const double keep = high ? x[k + o] : x[k];
+        x[k] = keep + __shfl_xor_sync(~0u, send, o);
+      }
+    }
+    if (lane < kCount) scratch[warp][lane] = x[0];
   }
   __syncthreads();
-  if (threadIdx.x < count) {
+  if (threadIdx.x < kCount) {
     double acc = 0;
     for (int w = 0; w < kWarps; ++w) acc += scratch[w][threadIdx.x];
     out[threadIdx.x] = acc;
@@ -315,16 +310,21 @@ __device__ void block_exclusive_scan(int a, int b, int& ea, int& eb, int& ta, in
 struct TailShared {
   double sums[kWarps][kSums];
   double total[kSums];
-  double H[36];
-  float A[36], V[36], C[6], S[6];
+  float clamp_scratch[42];
   double dx[6], g[6];
   double wmax[kWarps];
+  int warp_contacts[kWarps];
+  unsigned warp_pen[kWarps];   // float bits of a non-negative depth
+  int offsets[2 * (kTailOffsets + 1)];
   double E, slope, depth;
   int flag, nc, nh;
   Vec3d P;
   Quatd Q;
   Vec3d trial_P;
   Quatd trial_Q;
+  Vec3d anchor_P;  // the tool's pose at the tick's start (stabilisation)
+  Quatd anchor_Q;
+  double coupling_E, coupling_g[6];
 };
 
 /// E_con [3] of the reachable vertices plus the grasp part (tool_energy.cpp) at the posed tool `pt`,
@@ -384,7 +384,7 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
   if (kDerivs) {
     for (int k = 0; k < 6; ++k) acc[1 + k] = g[k];
     for (int a = 0; a < 6; ++a)
-      for (int b = a; b < 6; ++b) acc[7 + upper(a, b)] = H[6 * a + b];
+      for (int b = a; b < 6; ++b) acc[7 + cuda::upper(a, b)] = H[6 * a + b];
   }
   depth = block_max(deepest, sh.wmax);
   if (sh.nc + sh.nh == 0) {  // nothing near the tool: the sums are zero (skips the reduction)
@@ -396,175 +396,171 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
   return sh.total[0];
 }
 
+__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, const TailShared& sh,
+                             int taken, int rejected);
+
 /// The last block: the reachable and held vertices in vertex order, then the virtual tool's Newton
 /// step (virtual_tool.cpp: update_virtual_tool), then (kLast) the tick's outputs.
 template <bool kLast>
 __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, const Vec3f* q,
                                   Posed& pt, TailShared& sh) {
-  // Offsets of each block's lists (exclusive scans of the block counts, chunked over threads).
+  TailMarks marks;
+  marks.begin(d.profile);
+  // Offsets of each block's lists (exclusive scans of the block counts, chunked over threads), in
+  // shared memory up to kTailOffsets blocks; with kLast also the tick's contact count and deepest
+  // physical-tool penetration (per warp, summed by tick_outputs).
   {
     const int per = (d.blocks + kBlock - 1) / kBlock, b0 = threadIdx.x * per, b1 = min(b0 + per, d.blocks);
-    int sc = 0, shd = 0;
-    for (int b = b0; b < b1; ++b) { sc += d.block_counts[4 * b]; shd += d.block_counts[4 * b + 1]; }
+    int sc = 0, shd = 0, cc = 0;
+    unsigned pm = 0;
+    for (int b = b0; b < b1; ++b) {
+      sc += d.block_counts[4 * b];
+      shd += d.block_counts[4 * b + 1];
+      if (kLast) {
+        cc += d.block_counts[4 * b + 2];
+        pm = max(pm, static_cast<unsigned>(d.block_counts[4 * b + 3]));
+      }
+    }
+    if (kLast) {
+      for (int o = 16; o > 0; o >>= 1) {
+        cc += __shfl_xor_sync(~0u, cc, o);
+        pm = max(pm, __shfl_xor_sync(~0u, pm, o));
+      }
+      if ((threadIdx.x & 31) == 0) { sh.warp_contacts[threadIdx.x >> 5] = cc; sh.warp_pen[threadIdx.x >> 5] = pm; }
+    }
     int oc = 0, oh = 0;
     block_exclusive_scan(sc, shd, oc, oh, sh.nc, sh.nh);
+    int* const off = d.blocks < kTailOffsets ? sh.offsets : d.block_offsets;  // 2 (blocks + 1)
     for (int b = b0; b < b1; ++b) {
-      d.block_offsets[b] = oc;
-      d.block_offsets[d.blocks + 1 + b] = oh;
+      off[b] = oc;
+      off[d.blocks + 1 + b] = oh;
       oc += d.block_counts[4 * b];
       oh += d.block_counts[4 * b + 1];
     }
-    if (threadIdx.x == 0) { d.block_offsets[d.blocks] = sh.nc; d.block_offsets[2 * d.blocks + 1] = sh.nh; }
+    if (threadIdx.x == 0) { off[d.blocks] = sh.nc; off[2 * d.blocks + 1] = sh.nh; }
     __syncthreads();
     // Gather: entry i of a list lies in the block b with offset[b] <= i < offset[b + 1].
-    auto gather = [&](int total, const int* off, const int* block_list, int* out, bool with_q) {
-      for (int i = threadIdx.x; i < total; i += kBlock) {
-        int lo = 0, hi = d.blocks - 1;
-        while (lo < hi) {
-          const int mid = (lo + hi + 1) / 2;
-          if (off[mid] <= i) lo = mid; else hi = mid - 1;
-        }
-        const int j = block_list[lo * kBlock + (i - off[lo])];
-        out[i] = j;
-        if (with_q) d.cand_q[i] = static_cast<Vec3d>(q[j]);
+    auto entry = [&](int i, const int* o, const int* block_list) {
+      int lo = 0, hi = d.blocks - 1;
+      while (lo < hi) {
+        const int mid = (lo + hi + 1) / 2;
+        if (o[mid] <= i) lo = mid; else hi = mid - 1;
       }
+      return block_list[lo * kBlock + (i - o[lo])];
     };
-    gather(sh.nc, d.block_offsets, d.block_cand, d.cand, true);
-    gather(sh.nh, d.block_offsets + d.blocks + 1, d.block_held, d.held_list, false);
+    for (int i = threadIdx.x; i < sh.nc; i += kBlock) d.cand_q[i] = static_cast<Vec3d>(q[entry(i, off, d.block_cand)]);
+    for (int i = threadIdx.x; i < sh.nh; i += kBlock) d.held_list[i] = entry(i, off + d.blocks + 1, d.block_held);
     __syncthreads();
   }
+  marks.mark(DeviceTickProfile::Gather);
 
   // Newton's method on E_tool (virtual_tool.cpp), q held fixed.
   const Vec3d Ph = in.position;
   const Quatd Qh = in.orientation;
-  if (threadIdx.x == 0) {
-    sh.P = d.state->position;
-    sh.Q = d.state->orientation;
-  }
-  __syncthreads();
+  // sh.P, sh.Q and the anchor: the tool's state as the block read it at its start.
   const bool stabilised = t.stab_t > 0 || t.stab_r > 0;
-  // E_tool and its gradient at (sh.P, sh.Q) given the contact sums in sh.total (thread 0).
-  auto coupling = [&](double* g) {
-    double e = coupling_energy_dev(sh.P, sh.Q, Ph, Qh, t.k_vcs, t.k_vct, g);
+  // E_tvc [2] (+ the stabilisation) and its gradient at (P, Q). The last thread computes it beside
+  // the contact sums (it depends on the pose only), so it adds nothing to the chain.
+  constexpr int kCouplingThread = kBlock - 1;
+  auto coupling = [&](Vec3d P, Quatd Q, double* g) {
+    double e = coupling_energy_dev(P, Q, Ph, Qh, t.k_vcs, t.k_vct, g);
     if (stabilised) {
       double gs[6];
-      e += coupling_energy_dev(sh.P, sh.Q, d.state->anchor_position, d.state->anchor_orientation, t.stab_t, t.stab_r, gs);
+      e += coupling_energy_dev(P, Q, sh.anchor_P, sh.anchor_Q, t.stab_t, t.stab_r, gs);
       for (int k = 0; k < 6; ++k) g[k] += gs[k];
     }
     return e;
   };
   // E_tool, its gradient (sh.E, sh.g), the contact Hessian (sh.total) and the deepest contact at
   // (sh.P, sh.Q): energy_at with derivatives.
+  // `pt` is always the tool posed at (sh.P, sh.Q) here: the launch's posed tool when the tail
+  // starts, the accepted trial's after a line search (a rejected one ends the call).
   auto evaluate_with_derivatives = [&] {
-    pose_colliders(t, sh.P, sh.Q, in, pt);
-    __syncthreads();
+    if (threadIdx.x == kCouplingThread) sh.coupling_E = coupling(sh.P, sh.Q, sh.coupling_g);
     double depth = 0;
-    const double Econ = tool_contact_sums<true>(d, t, q, pt, sh, depth);
+    const double Econ = tool_contact_sums<true>(d, t, q, pt, sh, depth);  // synchronises the block
     if (threadIdx.x == 0) {
-      double g[6];
-      sh.E = coupling(g) + Econ;
-      for (int k = 0; k < 6; ++k) sh.g[k] = g[k] + sh.total[1 + k];
+      sh.E = sh.coupling_E + Econ;
+      for (int k = 0; k < 6; ++k) sh.g[k] = sh.coupling_g[k] + sh.total[1 + k];
       sh.depth = depth;
     }
     __syncthreads();
+    marks.mark(DeviceTickProfile::Evaluate);
   };
   evaluate_with_derivatives();
   int taken = 0, rejected = 0;
   for (int it = 0; it < t.newton; ++it) {
-    // H_step = PSD(H_con + H_grasp) + k_vcs I (+) k_vct I (+ stabilisation)
-    if (threadIdx.x < 36) {
-      const int i = threadIdx.x / 6, j = threadIdx.x % 6;
-      sh.H[threadIdx.x] = sh.total[7 + (i <= j ? upper(i, j) : upper(j, i))];
-    }
-    __syncthreads();
+    // One warp: H_step = PSD(H_con + H_grasp) + k_vcs I (+) k_vct I (+ stabilisation), then
+    // dx = -H_step^-1 g (eq. (9)) by Cholesky, scaled to the step limits.
     if (threadIdx.x < 32) {
-      bool any = false;
-      for (int k = 0; k < 21; ++k) any = any || sh.total[7 + k] != 0.0;
-      if (any) psd_clamp_warp(sh.H, sh.A, sh.V, sh.C, sh.S, threadIdx.x);
-    }
-    __syncthreads();
-    if (threadIdx.x == 0) {
-      double* H = sh.H;
-      for (int k = 0; k < 3; ++k) {
-        H[7 * k] += t.k_vcs + t.stab_t;
-        H[7 * (k + 3)] += t.k_vct + t.stab_r;
+      const int lane = threadIdx.x;
+      double h = lane < 21 ? sh.total[7 + lane] : 0.0;
+      h = cuda::warp_psd_clamp(h, lane, sh.clamp_scratch);
+      marks.mark(DeviceTickProfile::Clamp);
+      int hi = 0, hj = 0;
+      cuda::upper_entry(lane < 21 ? lane : 0, hi, hj);
+      if (lane < 21 && hi == hj) h += hi < 3 ? t.k_vcs + t.stab_t : t.k_vct + t.stab_r;
+      const double gk = lane < 6 ? sh.g[lane] : 0.0;
+      double dx = 0;
+      const bool ok = cuda::warp_cholesky_solve(h, -gk, lane, dx);
+      // Step limits, slope, round-off test (lanes 0-5 hold dx; the sums reach every lane).
+      double t2 = lane < 3 ? dx * dx : 0.0, r2 = lane >= 3 && lane < 6 ? dx * dx : 0.0;
+      for (int o = 4; o > 0; o >>= 1) {
+        t2 += __shfl_xor_sync(~0u, t2, o);
+        r2 += __shfl_xor_sync(~0u, r2, o);
       }
-      // Cholesky of the positive definite H_step, dx = -H^-1 g  (eq. (9))
-      double L[36] = {}, inv[6] = {};
-      bool ok = true;
-      for (int j = 0; j < 6 && ok; ++j) {
-        double dd = H[7 * j];
-        for (int k = 0; k < j; ++k) dd -= L[6 * j + k] * L[6 * j + k];
-        if (!(dd > 0)) { ok = false; break; }
-        L[7 * j] = sqrt(dd);
-        inv[j] = 1.0 / L[7 * j];
-        for (int i = j + 1; i < 6; ++i) {
-          double x = H[6 * i + j];
-          for (int k = 0; k < j; ++k) x -= L[6 * i + k] * L[6 * j + k];
-          L[6 * i + j] = x * inv[j];
+      // Reciprocal square roots, no division (a zero part's limit is then ~1e150, never binding).
+      const double it2 = rsqrt(fmax(t2, 1e-300)), ir2 = rsqrt(fmax(r2, 1e-300));
+      const double nt = t2 * it2, nr = r2 * ir2;
+      const double scale = fmin(1.0, fmin(t.max_step * it2, t.max_rot * ir2));
+      double gdx = lane < 6 ? gk * (dx * scale) : 0.0;
+      for (int o = 4; o > 0; o >>= 1) gdx += __shfl_xor_sync(~0u, gdx, o);
+      if (lane < 6) sh.dx[lane] = dx * scale;
+      if (lane == 0) {
+        sh.flag = 0;  // 0: stop (converged or failed), 1: line search
+        if (!ok) {
+          ++rejected;
+        } else {
+          sh.slope = gdx;
+          const double floor_t = kStepFloor * (norm(sh.P) + 1e-3);  // virtual_tool.cpp: round-off steps
+          const bool roundoff = nt * scale <= floor_t && nr * scale <= kStepFloor;
+          if (gdx < -kConverged * fmax(sh.E, 1e-300) && !roundoff) sh.flag = 1;
         }
       }
-      double y[6], dx[6];
-      for (int i = 0; i < 6 && ok; ++i) {
-        double x = -sh.g[i];
-        for (int k = 0; k < i; ++k) x -= L[6 * i + k] * y[k];
-        y[i] = x * inv[i];
-      }
-      for (int i = 5; i >= 0 && ok; --i) {
-        double x = y[i];
-        for (int k = i + 1; k < 6; ++k) x -= L[6 * k + i] * dx[k];
-        dx[i] = x * inv[i];
-      }
-      for (int k = 0; k < 6 && ok; ++k) ok = isfinite(dx[k]);
-      sh.flag = 0;  // 0: stop (converged or failed), 1: line search
-      if (!ok) {
-        ++rejected;
-      } else {
-        const double nt = sqrt(dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
-        const double nr = sqrt(dx[3] * dx[3] + dx[4] * dx[4] + dx[5] * dx[5]);
-        const double scale = fmin(1.0, fmin(t.max_step / fmax(nt, 1e-300), t.max_rot / fmax(nr, 1e-300)));
-        double slope = 0;
-        for (int k = 0; k < 6; ++k) { sh.dx[k] = dx[k] * scale; slope += sh.g[k] * sh.dx[k]; }
-        sh.slope = slope;
-        const double floor_t = kStepFloor * (norm(sh.P) + 1e-3);  // virtual_tool.cpp: round-off steps
-        const bool roundoff = nt * scale <= floor_t && nr * scale <= kStepFloor;
-        if (slope < -kConverged * fmax(sh.E, 1e-300) && !roundoff) sh.flag = 1;
-      }
     }
     __syncthreads();
+    marks.mark(DeviceTickProfile::Solve);
     if (sh.flag == 0) break;
     // Armijo line search: halve until E_tool does not increase enough.
     double alpha = 1.0;
     bool accepted = false;
     for (int hv = 0; hv < kMaxHalvings; ++hv, alpha *= 0.5) {
-      if (threadIdx.x == 0) {
-        sh.trial_P = sh.P + Vec3d{alpha * sh.dx[0], alpha * sh.dx[1], alpha * sh.dx[2]};
-        sh.trial_Q = normalized(quat_from_rotvec(Vec3d{alpha * sh.dx[3], alpha * sh.dx[4], alpha * sh.dx[5]}) * sh.Q);
+      // The trial pose, computed by each thread that uses it (same bits): the colliders' threads
+      // pose it, the coupling thread evaluates E_tvc there, thread 0 keeps it.
+      if (threadIdx.x < t.count || threadIdx.x == kCouplingThread) {
+        const Vec3d P = sh.P + Vec3d{alpha * sh.dx[0], alpha * sh.dx[1], alpha * sh.dx[2]};
+        const Quatd Q = normalized(quat_from_rotvec(Vec3d{alpha * sh.dx[3], alpha * sh.dx[4], alpha * sh.dx[5]}) * sh.Q);
+        if (threadIdx.x < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, threadIdx.x, pt);
+        if (threadIdx.x == 0) { sh.trial_P = P; sh.trial_Q = Q; }
+        if (threadIdx.x == kCouplingThread) sh.coupling_E = coupling(P, Q, sh.coupling_g);
       }
       __syncthreads();
-      pose_colliders(t, sh.trial_P, sh.trial_Q, in, pt);
-      __syncthreads();
       double trial_depth = 0;
-      const double Ec = tool_contact_sums<false>(d, t, q, pt, sh, trial_depth);
+      const double Ec = tool_contact_sums<false>(d, t, q, pt, sh, trial_depth);  // synchronises the block
       if (threadIdx.x == 0) {
-        const Vec3d P0 = sh.P;
-        const Quatd Q0 = sh.Q;
-        sh.P = sh.trial_P;
-        sh.Q = sh.trial_Q;
-        double g[6];
-        const double Et = coupling(g) + Ec;
+        const double Et = sh.coupling_E + Ec;
         sh.flag = Et <= sh.E + kArmijo * alpha * sh.slope;
         if (sh.flag) {
+          sh.P = sh.trial_P;
+          sh.Q = sh.trial_Q;
           sh.E = Et;
           sh.depth = trial_depth;
-        } else {
-          sh.P = P0;
-          sh.Q = Q0;
         }
       }
       __syncthreads();
       if (sh.flag) { accepted = true; break; }
     }
+    marks.mark(DeviceTickProfile::LineSearch);
     if (!accepted) { ++rejected; break; }
     ++taken;
     if (it + 1 < t.newton) evaluate_with_derivatives();  // for the next Newton step
@@ -573,8 +569,18 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
   ToolStateDev& st = *d.state;
   st.position = sh.P;
   st.orientation = sh.Q;
-  if (!kLast) return;
-  // Algorithm 2 lines 26-27: the force and torque for the device (tool_output), the metrics.
+  if (kLast) tick_outputs(d, t, in, sh, taken, rejected);
+  marks.mark(DeviceTickProfile::Output);
+  marks.end(d.profile, d.blocks);
+}
+
+/// Algorithm 2 lines 26-27 (thread 0 of the tail, last launch): the force and torque for the
+/// device (tool_output), the metrics, into the ring; the next tick's anchor.
+__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, const TailShared& sh,
+                             int taken, int rejected) {
+  ToolStateDev& st = *d.state;
+  const Vec3d Ph = in.position;
+  const Quatd Qh = in.orientation;
   DeviceTickOutput o;
   double g[6];
   coupling_energy_dev(sh.P, sh.Q, Ph, Qh, t.k_vcs, t.k_vct, g);
@@ -586,13 +592,13 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
   o.position = sh.P;
   o.orientation = sh.Q;
   o.penetration = sh.depth;
-  float pen = 0.f;
+  unsigned pen = 0;
   int contacts = 0;
-  for (int b = 0; b < d.blocks; ++b) {
-    contacts += d.block_counts[4 * b + 2];
-    pen = fmaxf(pen, __int_as_float(d.block_counts[4 * b + 3]));
+  for (int w = 0; w < kWarps; ++w) {
+    contacts += sh.warp_contacts[w];
+    pen = max(pen, sh.warp_pen[w]);
   }
-  o.penetration_physical = pen;
+  o.penetration_physical = __uint_as_float(pen);
   o.contacts = contacts;
   o.grasped = sh.nh;
   o.newton_steps = taken;
@@ -630,13 +636,27 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
   cudaGridDependencySynchronize();
 #endif
+  unsigned long long stamp[4] = {};  // profiling: this block's start, setup, vertices, lists
+  if (d.profile && threadIdx.x == 0) {
+    stamp[0] = global_ns();
+    if (blockIdx.x == 0) d.profile->start = stamp[0];
+    if (d.profile->prev_end) atomicAdd(&d.profile->block_start, stamp[0] - d.profile->prev_end);
+  }
+  TailShared& tail = *reinterpret_cast<TailShared*>(tail_raw);
   {
     const DeviceTickInput& gin = d.inputs[d.state->tick];
-    if (threadIdx.x == 0) in = gin;
+    if (threadIdx.x == 0) {
+      in = gin;
+      tail.P = d.state->position;  // for the virtual tool, if this block runs it
+      tail.Q = d.state->orientation;
+      tail.anchor_P = d.state->anchor_position;
+      tail.anchor_Q = d.state->anchor_orientation;
+    }
     pose_colliders(t, d.state->position, d.state->orientation, gin, posed);
     if (kLast) pose_colliders(t, gin.position, gin.orientation, gin, physical);
   }
   __syncthreads();
+  if (d.profile && threadIdx.x == 0) stamp[1] = global_ns();
   const int j = blockIdx.x * kBlock + threadIdx.x;
   bool reach = false, held = false, contact = false;
   float pen = 0.f;
@@ -697,12 +717,28 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
         if (!kFirst || d.pinned[a]) return x;
         return predict_position(x, d.v_in[a], d.gravity, d.h);
       };
+      // The incident edges in chunks of kEdgeChunk, every load of a chunk issued before its math
+      // (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
       const int k0 = d.edge_offsets[j], k1 = d.edge_offsets[j + 1];
-#pragma unroll 2
-      for (int k = k0; k < k1; ++k) {
-        const int4 it = d.edge_items[k];
-        const Vec3f g = edge_spring_gradient(at(it.x), at(it.y), d.rest_edge[it.z], d.k_s);  // [4]
-        r += it.w ? g : -g;
+      for (int kb = k0; kb < k1; kb += kEdgeChunk) {
+        int4 it[kEdgeChunk];
+        Vec3f xa[kEdgeChunk], xb[kEdgeChunk], rest[kEdgeChunk];
+#pragma unroll
+        for (int u = 0; u < kEdgeChunk; ++u)
+          if (kb + u < k1) it[u] = d.edge_items[kb + u];
+#pragma unroll
+        for (int u = 0; u < kEdgeChunk; ++u)
+          if (kb + u < k1) {
+            xa[u] = at(it[u].x);
+            xb[u] = at(it[u].y);
+            rest[u] = d.rest_edge[it[u].z];
+          }
+#pragma unroll
+        for (int u = 0; u < kEdgeChunk; ++u)
+          if (kb + u < k1) {
+            const Vec3f g = edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s);  // [4]
+            r += it[u].w ? g : -g;
+          }
       }
       qn = q + r / (mh + d.stiff_diag[j] + ck);
     }
@@ -741,6 +777,7 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
     warp_pen[warp] = pen_bits;
   }
   __syncthreads();
+  if (d.profile && threadIdx.x == 0) stamp[2] = global_ns();
   int orr = 0, oh = 0;
   for (int w = 0; w < warp; ++w) { orr += warp_counts[w][0]; oh += warp_counts[w][1]; }
   if (reach) d.block_cand[blockIdx.x * kBlock + orr + __popc(br & below)] = j;
@@ -760,9 +797,15 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
   __syncthreads();
   if (threadIdx.x == 0) last_block = atomicAdd(d.blocks_done, 1u) == gridDim.x - 1;
   __syncthreads();
+  if (d.profile && threadIdx.x == 0) {
+    stamp[3] = global_ns();
+    for (int k = 0; k < 3; ++k)
+      atomicAdd(&d.profile->sum[DeviceTickProfile::BlockSetup + k], stamp[k + 1] - stamp[k]);
+    atomicMax(&d.profile->vertices_max, stamp[2] - stamp[1]);
+  }
   if (!last_block) return;
   __threadfence();
-  virtual_tool_tail<kLast>(d, t, in, qout, posed, *reinterpret_cast<TailShared*>(tail_raw));
+  virtual_tool_tail<kLast>(d, t, in, qout, posed, tail);
   if (threadIdx.x == 0) *d.blocks_done = 0;
 }
 
@@ -810,13 +853,14 @@ struct CudaHapticTicks::Impl {
   bool step_in_flight = false;
   cuda::VirtualModelArrays model;
   cuda::DeviceArray<std::uint8_t> held;
-  cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, cand, held_list;
+  cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, held_list;
   cuda::DeviceArray<unsigned> blocks_done;
   cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
   cuda::DeviceArray<Vec3d> grasp_local, cand_q;
   cuda::DeviceArray<ToolStateDev> state;
   cuda::DeviceArray<DeviceTickInput> inputs;
   cuda::DeviceArray<Collider<double>> grasp_boxes;
+  cuda::DeviceArray<ProfileDev> profile;
   cuda::PinnedArray<Vec3f> x_host;   // the physical step's x, copied out beside the ticks
   DeviceTickOutput* ring = nullptr;  // cudaHostAlloc, mapped
   int ring_size = 0;
@@ -929,7 +973,6 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   I.block_held.allocate(std::size_t(blocks) * kBlock);
   I.block_counts.allocate(4 * std::size_t(blocks));
   I.block_offsets.allocate(2 * (std::size_t(blocks) + 1));
-  I.cand.allocate(m);
   I.held_list.allocate(m);
   up(I.blocks_done, std::vector<unsigned>(1, 0u));
   ToolStateDev s0{};
@@ -978,13 +1021,16 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.block_counts = I.block_counts.get();
   d.block_offsets = I.block_offsets.get();
   d.blocks_done = I.blocks_done.get();
-  d.cand = I.cand.get();
   d.cand_q = I.cand_q.get();
   d.held_list = I.held_list.get();
   d.state = I.state.get();
   d.inputs = I.inputs.get();
   d.grasp_boxes = I.grasp_boxes.get();
   d.out = ring_dev;
+  if (S.profile_stages) {
+    up(I.profile, std::vector<ProfileDev>(1, ProfileDev{}));
+    d.profile = I.profile.get();
+  }
 
   const ToolModel& T = *S.tool;
   ToolConst& t = I.tool;
@@ -1070,6 +1116,25 @@ void CudaHapticTicks::collect(int handle, std::span<DeviceTickOutput> out) {
   if (out.size() != static_cast<std::size_t>(count)) throw std::invalid_argument("CudaHapticTicks::collect: wrong size");
   EBH_CUDA_CHECK(cudaEventSynchronize(I.done[handle]));
   for (int k = 0; k < count; ++k) out[k] = I.ring[(first + k) % I.ring_size];
+}
+
+DeviceTickProfile CudaHapticTicks::profile() {
+  Impl& I = *impl_;
+  DeviceTickProfile r;
+  if (!I.dev.profile) return r;
+  ProfileDev p{};
+  EBH_CUDA_CHECK(cudaMemcpyAsync(&p, I.dev.profile, sizeof(p), cudaMemcpyDeviceToHost, I.stream));
+  EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));
+  r.launches = static_cast<long long>(p.launches);
+  if (!p.launches || !p.tail_ns) return r;
+  r.tail_clock_ghz = static_cast<double>(p.tail_cycles) / static_cast<double>(p.tail_ns);
+  for (int k = 0; k < DeviceTickProfile::kStages; ++k) {
+    const bool per_block = k >= DeviceTickProfile::BlockSetup && k <= DeviceTickProfile::BlockLists;  // summed over the blocks
+    const bool cycles = k >= DeviceTickProfile::Gather && k <= DeviceTickProfile::Output;
+    const double ns = static_cast<double>(static_cast<long long>(p.sum[k])) / (cycles ? r.tail_clock_ghz : 1.0);
+    r.mean_us[k] = 1e-3 * ns / (static_cast<double>(p.launches) * (per_block ? I.dev.blocks : 1));
+  }
+  return r;
 }
 
 void CudaHapticTicks::snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visible) {

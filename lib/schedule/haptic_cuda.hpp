@@ -56,6 +56,33 @@ struct DeviceTickOutput {
   std::int32_t newton_steps = 0, newton_rejected = 0;
 };
 
+/// Where a device tick's time goes (DeviceHapticSetup::profile_stages): the mean of each stage
+/// per launch (one launch = one virtual-mesh iteration and the virtual tool's Newton call after it),
+/// from the device's global timer.
+struct DeviceTickProfile {
+  enum Stage {
+    Launch,      ///< from the last launch's end to this one past its grid dependency
+    Mesh,        ///< to the last block's arrival: contact, the Jacobi step, reach, per-block lists
+    Gather,      ///< the reachable and held lists in vertex order
+    Evaluate,    ///< E_tool, its gradient and the contact Hessian (every evaluation)
+    Clamp,       ///< the 6x6 PSD clamp
+    Solve,       ///< the Cholesky solve and the step's checks
+    LineSearch,  ///< the Armijo trials
+    Output,      ///< the tool's state, the tick's outputs on its last launch
+    // Inside Mesh, means over blocks: a block's start after block 0's, its setup (inputs, posed
+    // tool), its vertices (contact, Jacobi step, reach), its lists and the last-block election.
+    BlockLag, BlockSetup, BlockVertices, BlockLists,
+    BlockVerticesMax,  ///< the slowest block's vertices
+    kStages
+  };
+  static constexpr const char* kNames[kStages] = {"launch", "mesh", "gather", "evaluate", "clamp", "solve",
+                                                  "line_search", "output", "block_lag", "block_setup",
+                                                  "block_vertices", "block_lists", "block_vertices_max"};
+  double mean_us[kStages] = {};
+  double tail_clock_ghz = 0;  ///< the SM clock while the virtual tool ran (cycles over time)
+  long long launches = 0;
+};
+
 struct DeviceHapticSetup {
   const VirtualModel* mesh = nullptr;
   const ToolModel* tool = nullptr;
@@ -66,6 +93,7 @@ struct DeviceHapticSetup {
   std::span<const Vec3d> x0;             ///< #n the physical result visible at tick 0
   ToolPose pose0;                        ///< the virtual tool at tick 0
   std::vector<Collider<double>> grasp_boxes;  ///< hard boxes of the grasp events (tool frame)
+  bool profile_stages = false;           ///< time the stages (profile()); off: no timer reads
 };
 
 /// Whether the device tick can run this tool (the closest-point projection, at most kMaxColliders).
@@ -94,6 +122,9 @@ class CudaHapticTicks {
   void collect(int handle, std::span<DeviceTickOutput> out);
   /// Ticks run_ticks() may have in flight before they must be collected.
   int capacity() const;
+
+  /// Waits for everything enqueued; the stage times so far (zeros unless setup.profile_stages).
+  DeviceTickProfile profile();
 
   /// Waits for everything enqueued; the virtual mesh (#m) and the visible physical result (#n).
   void snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visible);

@@ -157,6 +157,20 @@ __device__ bool maybe_within(const ToolConst& t, const Posed& p, Vec3f x, float 
   return false;
 }
 
+/// maybe_within per collider: bit c set when x may lie within `margin` of posed collider c (a clear
+/// bit: certainly farther, so the exact double tests skip that collider).
+__device__ unsigned near_colliders(const ToolConst& t, const Posed& p, Vec3f x, float margin) {
+  unsigned mask = 0;
+  for (int c = 0; c < t.count; ++c) {
+    const Vec3f v = x - p.seg_a[c];
+    const float s = fminf(fmaxf(dot(v, p.seg_u[c]), 0.f), p.seg_len[c]);
+    const Vec3f d = v - s * p.seg_u[c];
+    const float reach = fmaxf(p.seg_r[c] + margin, 0.f);
+    if (dot(d, d) <= reach * reach) mask |= 1u << c;
+  }
+  return mask;
+}
+
 struct MeshDev {
   int m = 0, blocks = 0, ring = 1;
   float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
@@ -345,16 +359,18 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
   const Vec3d P = pt.frame.t;
   for (int i = threadIdx.x; i < sh.nc; i += kBlock) {
     const Vec3d qc = d.cand_q[i];
-    if (!maybe_within(t, pt, static_cast<Vec3f>(qc), kFloatSlack)) continue;  // certainly outside
+    const unsigned near = near_colliders(t, pt, static_cast<Vec3f>(qc), kFloatSlack);
+    if (!near) continue;  // certainly outside
     if (kDerivs) {
       SurfaceQuery<double> sq;
-      if (deepest_collider(t.shape, pt.world, t.count, qc, sq) < 0) continue;
+      if (deepest_collider(t.shape, pt.world, t.count, qc, sq, near) < 0) continue;
       const double phi = -sq.sd;
       deepest = fmax(deepest, phi);
       acc[0] += contact_terms(t.k_con, phi, 1.0, sq.normal, qc - P, sq.hess, true, g, H);
     } else {  // E only: the deepest collider's signed distance (deepest_collider's first pass)
       double sd = 0;
-      for (int c = 0; c < t.count; ++c) sd = fmin(sd, signed_distance_local(t.shape[c], apply_inverse(pt.world[c], qc)));
+      for (int c = 0; c < t.count; ++c)
+        if ((near >> c) & 1u) sd = fmin(sd, signed_distance_local(t.shape[c], apply_inverse(pt.world[c], qc)));
       const double phi = -sd;
       deepest = fmax(deepest, phi);
       acc[0] += 0.5 * t.k_con * phi * phi;
@@ -697,9 +713,9 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
       kt = static_cast<Vec3f>(t.k_con * apply(posed.frame, d.grasp_local[j]));
       ck = static_cast<float>(t.k_con);
       contact = true;
-    } else if (maybe_within(t, posed, q, kFloatSlack)) {
+    } else if (const unsigned near = near_colliders(t, posed, q, kFloatSlack)) {
       SurfaceQuery<double> sq;
-      if (deepest_collider(t.shape, posed.world, t.count, static_cast<Vec3d>(q), sq) >= 0) {
+      if (deepest_collider(t.shape, posed.world, t.count, static_cast<Vec3d>(q), sq, near) >= 0) {
         kt = static_cast<Vec3f>(t.k_con * sq.point);
         ck = static_cast<float>(t.k_con);
         contact = true;
@@ -745,11 +761,12 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
     qout[j] = qn;
     if (kLast) {
       v_out[j] = d.inv_h * (qn - d.q_start[j]);  // Alg. 2 line 23
-      if (!held && maybe_within(t, physical, qn, kFloatSlack)) {  // depth in the physical tool
+      const unsigned near = held ? 0u : near_colliders(t, physical, qn, kFloatSlack);
+      if (near) {  // depth in the physical tool
         const Vec3d qd = static_cast<Vec3d>(qn);
         double deepest = 0;
         for (int c = 0; c < t.count; ++c)
-          deepest = fmax(deepest, -signed_distance_local(t.shape[c], apply_inverse(physical.world[c], qd)));
+          if ((near >> c) & 1u) deepest = fmax(deepest, -signed_distance_local(t.shape[c], apply_inverse(physical.world[c], qd)));
         pen = static_cast<float>(deepest);
       }
     }

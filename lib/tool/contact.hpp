@@ -31,13 +31,16 @@ struct ContactPoint {
 };
 
 /// Per-vertex narrow phase, host/device: the deepest of n posed colliders containing q.
-/// Returns the collider index or -1; `s` gets the world-frame query of that collider.
+/// Returns the collider index or -1; `s` gets the world-frame query of that collider. `mask`: bit c
+/// clear skips collider c (a caller that knows q is outside it; the device tick's float early-out).
 template <class T>
-EBH_HD int deepest_collider(const Collider<T>* shape, const Rigid<T>* world, int n, Vec3<T> q, SurfaceQuery<T>& s) {
+EBH_HD int deepest_collider(const Collider<T>* shape, const Rigid<T>* world, int n, Vec3<T> q, SurfaceQuery<T>& s,
+                            unsigned mask = ~0u) {
   // First pass: the signed distance alone; the full query only for the deepest collider.
   int best = -1;
   T best_sd = T(0);
   for (int c = 0; c < n; ++c) {
+    if (!((mask >> c) & 1u)) continue;
     const T sd = signed_distance_local(shape[c], apply_inverse(world[c], q));
     if (sd < T(0) && (best < 0 || sd < best_sd)) {
       best = c;

@@ -142,18 +142,22 @@ struct Posed {
   Vec3f origin_f;       // frame.t, rounded
 };
 
-/// Whether x may lie within `margin` of a posed collider: float32, no division or square root (the
-/// distance to each bounding capsule, a lower bound of the signed distance, against margin + radius,
+/// Whether x may lie within `margin` of posed collider c: float32, no division or square root (the
+/// distance to its bounding capsule, a lower bound of the signed distance, against margin + radius,
 /// squared). An early-out for the exact double tests: false means certainly farther than margin
 /// less float round-off (~1e-7 m on tool-sized coordinates; callers add kFloatSlack).
+__device__ bool capsule_within(const Posed& p, int c, Vec3f x, float margin) {
+  const Vec3f v = x - p.seg_a[c];
+  const float s = fminf(fmaxf(dot(v, p.seg_u[c]), 0.f), p.seg_len[c]);
+  const Vec3f d = v - s * p.seg_u[c];
+  const float reach = fmaxf(p.seg_r[c] + margin, 0.f);
+  return dot(d, d) <= reach * reach;
+}
+
+/// Whether x may lie within `margin` of any posed collider (capsule_within).
 __device__ bool maybe_within(const ToolConst& t, const Posed& p, Vec3f x, float margin) {
-  for (int c = 0; c < t.count; ++c) {
-    const Vec3f v = x - p.seg_a[c];
-    const float s = fminf(fmaxf(dot(v, p.seg_u[c]), 0.f), p.seg_len[c]);
-    const Vec3f d = v - s * p.seg_u[c];
-    const float reach = fmaxf(p.seg_r[c] + margin, 0.f);
-    if (dot(d, d) <= reach * reach) return true;
-  }
+  for (int c = 0; c < t.count; ++c)
+    if (capsule_within(p, c, x, margin)) return true;
   return false;
 }
 
@@ -161,13 +165,8 @@ __device__ bool maybe_within(const ToolConst& t, const Posed& p, Vec3f x, float 
 /// bit: certainly farther, so the exact double tests skip that collider).
 __device__ unsigned near_colliders(const ToolConst& t, const Posed& p, Vec3f x, float margin) {
   unsigned mask = 0;
-  for (int c = 0; c < t.count; ++c) {
-    const Vec3f v = x - p.seg_a[c];
-    const float s = fminf(fmaxf(dot(v, p.seg_u[c]), 0.f), p.seg_len[c]);
-    const Vec3f d = v - s * p.seg_u[c];
-    const float reach = fmaxf(p.seg_r[c] + margin, 0.f);
-    if (dot(d, d) <= reach * reach) mask |= 1u << c;
-  }
+  for (int c = 0; c < t.count; ++c)
+    if (capsule_within(p, c, x, margin)) mask |= 1u << c;
   return mask;
 }
 
@@ -175,15 +174,7 @@ struct MeshDev {
   int m = 0, blocks = 0, ring = 1;
   float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
   Vec3f gravity;
-  const float* mass = nullptr;
-  const std::uint8_t* pinned = nullptr;
-  const float* stiff_diag = nullptr;
-  const Vec3f* rest_edge = nullptr;
-  const int* edge_offsets = nullptr;
-  const int4* edge_items = nullptr;  // per incidence entry (VirtualModelArrays)
-  const int* pair_vertex = nullptr;
-  const float* pair_weight = nullptr;
-  const int* pair_count = nullptr;
+  cuda::VirtualModelView model;
   const Vec3f* x_prev = nullptr;  // the physical result before the visible one
   const Vec3f* x_vis = nullptr;   // the visible physical result
   const Vec3f* v_in = nullptr;    // velocities of the last tick
@@ -627,15 +618,15 @@ __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceT
 
 /// The E_svc target of virtual vertex j: its paired point on x_prev + alpha (x_vis - x_prev).
 __device__ Vec3f blended_paired_point(const MeshDev& d, int j, float alpha) {
-  if (alpha >= 1.f) return paired_point(d.x_vis, d.pair_vertex + 4 * j, d.pair_weight + 4 * j, d.pair_count[j]);
+  if (alpha >= 1.f) return paired_point(d.x_vis, d.model.pair_vertex + 4 * j, d.model.pair_weight + 4 * j, d.model.pair_count[j]);
   Vec3f xb[4];
   const int idx[4] = {0, 1, 2, 3};
-  const int count = d.pair_count[j];
+  const int count = d.model.pair_count[j];
   for (int k = 0; k < count; ++k) {
-    const int a = d.pair_vertex[4 * j + k];
+    const int a = d.model.pair_vertex[4 * j + k];
     xb[k] = d.x_prev[a] + alpha * (d.x_vis[a] - d.x_prev[a]);
   }
-  return paired_point(xb, idx, d.pair_weight + 4 * j, count);
+  return paired_point(xb, idx, d.model.pair_weight + 4 * j, count);
 }
 
 template <bool kFirst, bool kLast>
@@ -677,7 +668,7 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
   bool reach = false, held = false, contact = false;
   float pen = 0.f;
   if (j < d.m) {
-    const bool pinned = d.pinned[j];
+    const bool pinned = d.model.pinned[j];
     Vec3f q = qin[j], s, p;
     if (kFirst) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
       d.q_start[j] = q;
@@ -724,30 +715,30 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
     // One Jacobi iteration (virtual_mesh.cpp: virtual_iteration).
     Vec3f qn = q;
     if (!pinned) {
-      const float mh = d.mass[j] * d.inv_h2;
+      const float mh = d.model.mass[j] * d.inv_h2;
       Vec3f r = mh * (s - q)                                   // -dE_k/dq   [6]
                 - coupling_gradient_virtual(p, q, d.k_svc)     // -dE_svc/dq [5]
                 + kt - ck * q;                                 // -dE_con/dq [3]
       auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
         const Vec3f x = qin[a];
-        if (!kFirst || d.pinned[a]) return x;
+        if (!kFirst || d.model.pinned[a]) return x;
         return predict_position(x, d.v_in[a], d.gravity, d.h);
       };
       // The incident edges in chunks of kEdgeChunk, every load of a chunk issued before its math
       // (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
-      const int k0 = d.edge_offsets[j], k1 = d.edge_offsets[j + 1];
+      const int k0 = d.model.edge_offsets[j], k1 = d.model.edge_offsets[j + 1];
       for (int kb = k0; kb < k1; kb += kEdgeChunk) {
         int4 it[kEdgeChunk];
         Vec3f xa[kEdgeChunk], xb[kEdgeChunk], rest[kEdgeChunk];
 #pragma unroll
         for (int u = 0; u < kEdgeChunk; ++u)
-          if (kb + u < k1) it[u] = d.edge_items[kb + u];
+          if (kb + u < k1) it[u] = d.model.edge_items[kb + u];
 #pragma unroll
         for (int u = 0; u < kEdgeChunk; ++u)
           if (kb + u < k1) {
             xa[u] = at(it[u].x);
             xb[u] = at(it[u].y);
-            rest[u] = d.rest_edge[it[u].z];
+            rest[u] = d.model.rest_edge[it[u].z];
           }
 #pragma unroll
         for (int u = 0; u < kEdgeChunk; ++u)
@@ -756,7 +747,7 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
             r += it[u].w ? g : -g;
           }
       }
-      qn = q + r / (mh + d.stiff_diag[j] + ck);
+      qn = q + r / (mh + d.model.stiff_diag[j] + ck);
     }
     qout[j] = qn;
     if (kLast) {
@@ -1016,15 +1007,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.inv_h = float(1.0 / S.h);
   d.inv_h2 = float(1.0 / (S.h * S.h));
   d.gravity = to_float(M.gravity);
-  d.mass = I.model.mass.get();
-  d.pinned = I.model.pinned.get();
-  d.stiff_diag = I.model.stiff_diag.get();
-  d.rest_edge = I.model.rest_edge.get();
-  d.edge_offsets = I.model.edge_offsets.get();
-  d.edge_items = I.model.edge_items.get();
-  d.pair_vertex = I.model.pair_vertex.get();
-  d.pair_weight = I.model.pair_weight.get();
-  d.pair_count = I.model.pair_count.get();
+  d.model = I.model.view();
   d.x_prev = I.x_prev.get();
   d.x_vis = I.x_vis.get();
   d.v_in = I.v.get();

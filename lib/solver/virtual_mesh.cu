@@ -24,15 +24,7 @@ struct VirtualDevice {
   int m = 0;
   float k_s = 0, k_svc = 0;
   Vec3f gravity;
-  const float* mass = nullptr;          // m
-  const std::uint8_t* pinned = nullptr; // m
-  const float* stiff_diag = nullptr;    // m  k_s deg + k_svc
-  const Vec3f* rest_edge = nullptr;     // E
-  const int* edge_offsets = nullptr;    // m+1
-  const int4* edge_items = nullptr;     // per incidence entry (VirtualModelArrays)
-  const int* pair_vertex = nullptr;     // 4m
-  const float* pair_weight = nullptr;   // 4m
-  const int* pair_count = nullptr;      // m
+  cuda::VirtualModelView model;
   const Vec3f* physical_x = nullptr;    // n
   Vec3f* v = nullptr;                   // m
   Vec3f* s = nullptr;                   // m
@@ -52,9 +44,9 @@ struct ContactSum {
 __global__ void begin_kernel(VirtualDevice d, Vec3f* q, float h) {
   const int j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= d.m) return;
-  d.p[j] = paired_point(d.physical_x, d.pair_vertex + 4 * j, d.pair_weight + 4 * j, d.pair_count[j]);  // Alg. 2 l. 1
+  d.p[j] = paired_point(d.physical_x, d.model.pair_vertex + 4 * j, d.model.pair_weight + 4 * j, d.model.pair_count[j]);  // Alg. 2 l. 1
   const Vec3f qj = q[j];
-  const Vec3f sj = d.pinned[j] ? qj : predict_position(qj, d.v[j], d.gravity, h);                      // Alg. 2 l. 6
+  const Vec3f sj = d.model.pinned[j] ? qj : predict_position(qj, d.v[j], d.gravity, h);                      // Alg. 2 l. 6
   d.q_start[j] = qj;
   d.s[j] = sj;
   q[j] = sj;
@@ -76,17 +68,17 @@ __global__ void jacobi_kernel(VirtualDevice d, const Vec3f* q, Vec3f* q_next, fl
   d.contact_kt[j] = Vec3f{};  // this thread is the slot's only reader: clear for the next iteration
   d.contact_k[j] = 0.f;
   const Vec3f qj = q[j];
-  if (d.pinned[j]) { q_next[j] = qj; return; }
-  const float mh = d.mass[j] * inv_h2;
+  if (d.model.pinned[j]) { q_next[j] = qj; return; }
+  const float mh = d.model.mass[j] * inv_h2;
   Vec3f r = mh * (d.s[j] - qj)                                      // -dE_k/dq   [6]
             - coupling_gradient_virtual(d.p[j], qj, d.k_svc)        // -dE_svc/dq [5]
             + kt - ck * qj;                                         // -dE_con/dq [3]
-  for (int k = d.edge_offsets[j]; k < d.edge_offsets[j + 1]; ++k) {
-    const int4 it = d.edge_items[k];
-    const Vec3f g = edge_spring_gradient(q[it.x], q[it.y], d.rest_edge[it.z], d.k_s);  // [4]
+  for (int k = d.model.edge_offsets[j]; k < d.model.edge_offsets[j + 1]; ++k) {
+    const int4 it = d.model.edge_items[k];
+    const Vec3f g = edge_spring_gradient(q[it.x], q[it.y], d.model.rest_edge[it.z], d.k_s);  // [4]
     r += it.w ? g : -g;
   }
-  q_next[j] = qj + r / (mh + d.stiff_diag[j] + ck);
+  q_next[j] = qj + r / (mh + d.model.stiff_diag[j] + ck);
 }
 
 __global__ void end_kernel(VirtualDevice d, const Vec3f* q, float inv_h) {
@@ -150,15 +142,7 @@ CudaVirtualSolver::CudaVirtualSolver(const VirtualModel& M) : impl_(std::make_un
   d.k_s = float(M.k_s);
   d.k_svc = float(M.k_svc);
   d.gravity = to_float(M.gravity);
-  d.mass = I.model.mass.get();
-  d.pinned = I.model.pinned.get();
-  d.stiff_diag = I.model.stiff_diag.get();
-  d.rest_edge = I.model.rest_edge.get();
-  d.edge_offsets = I.model.edge_offsets.get();
-  d.edge_items = I.model.edge_items.get();
-  d.pair_vertex = I.model.pair_vertex.get();
-  d.pair_weight = I.model.pair_weight.get();
-  d.pair_count = I.model.pair_count.get();
+  d.model = I.model.view();
   d.v = I.v.get();
   d.s = I.s.get();
   d.q_start = I.q_start.get();

@@ -10,6 +10,19 @@
 
 namespace ebh::cuda {
 
+/// VirtualModelArrays' pointers, for kernel parameters.
+struct VirtualModelView {
+  const float* mass = nullptr;          // m
+  const std::uint8_t* pinned = nullptr; // m
+  const float* stiff_diag = nullptr;    // m  k_s deg + k_svc
+  const Vec3f* rest_edge = nullptr;     // E
+  const int* edge_offsets = nullptr;    // m + 1
+  const int4* edge_items = nullptr;     // per incidence entry
+  const int* pair_vertex = nullptr;     // 4m
+  const float* pair_weight = nullptr;   // 4m
+  const int* pair_count = nullptr;      // m
+};
+
 struct VirtualModelArrays {
   DeviceArray<float> mass, stiff_diag;   // m   (stiff_diag: k_s deg + k_svc)
   DeviceArray<std::uint8_t> pinned;      // m
@@ -20,6 +33,11 @@ struct VirtualModelArrays {
   DeviceArray<int4> edge_items;
   DeviceArray<int> pair_vertex, pair_count;  // 4m, m: the physical points each vertex is paired with
   DeviceArray<float> pair_weight;            // 4m
+
+  VirtualModelView view() const {
+    return {mass.get(), pinned.get(), stiff_diag.get(), rest_edge.get(), edge_offsets.get(),
+            edge_items.get(), pair_vertex.get(), pair_weight.get(), pair_count.get()};
+  }
 
   void upload(const VirtualModel& M, cudaStream_t st) {
     auto up = [st](auto& arr, const auto& host) {

@@ -281,7 +281,11 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile) {
   st.counters["tick_us"] = timed_ticks ? 1e6 * wall / static_cast<double>(timed_ticks) : 0;
   for (int k = 0; k < DeviceTickProfile::kStages && profile; ++k)
     st.counters[std::string(DeviceTickProfile::kNames[k]) + "_us"] = stages.mean_us[k];
-  if (profile) st.counters["tail_clock_ghz"] = stages.tail_clock_ghz;
+  if (profile) {
+    st.counters["tail_clock_ghz"] = stages.tail_clock_ghz;
+    st.counters["clamp_sweeps"] = stages.clamp_sweeps;
+    st.counters["candidates"] = stages.candidates;
+  }
   st.counters["max_contacts"] = contacts;
   st.SetLabel(cuda_device_description());
 }

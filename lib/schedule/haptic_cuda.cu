@@ -1,7 +1,7 @@
 // The whole haptic tick on a CUDA device (haptic_cuda.hpp; docs/CUDA.md "Device haptic tick").
 //
-// One tick = virtual_iterations launches of tick_kernel, chained by programmatic dependent launch
-// inside one CUDA graph per run of ticks. Launch i, per virtual vertex j (one thread each):
+// A run of ticks is one cooperative launch of ticks_kernel, every block resident. A tick is
+// virtual_iterations iterations; iteration i, per virtual vertex j (one thread each):
 //   begin (i = 0)   q_start, prediction s (Alg. 2 l. 6), E_svc target p from the blended physical
 //                   result (l. 1), the grasp event of the tick (§5.2, eq. [10])
 //   contact         E_con [3] target of j against the virtual tool held fixed (l. 10): the grasp
@@ -9,8 +9,9 @@
 //   iteration       one Jacobi step of E_k + E_svc + E_con + E_s (l. 11-16) into q_{i+1}
 //   end (last i)    velocity (l. 23), depth of j in the physical tool (the penetration metric)
 //   reach           whether the virtual tool's Newton step can reach j (virtual_tool.cpp's bound)
-// then per block: the reachable and the held vertices in vertex order, the contact count, the
-// deepest physical-tool penetration. The last block to finish runs the virtual tool (l. 18-19):
+// then per chunk of vertices: the reachable and the held vertices in vertex order, the contact
+// count, the deepest physical-tool penetration. Every block arrives at a counter; block 0, the
+// tail block, waits for all, runs the virtual tool (l. 18-19) and releases the next iteration:
 // Newton's method on E_tool over the reachable vertices in double, with fixed-order block sums,
 // the 6x6 PSD clamp by a one-warp Jacobi eigen-decomposition, an Armijo line search, and (last i)
 // the tick's outputs into a host-mapped ring (l. 26-27).
@@ -18,7 +19,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -86,6 +86,7 @@ struct ProfileDev {
   unsigned long long block_start;  // this launch: sum over blocks of (start - prev_end)
   unsigned long long tail_cycles, tail_ns;  // the tails' SM cycles and time (their clock rate)
   unsigned long long vertices_max;  // this launch: the slowest block's vertex stage
+  unsigned long long clamps, sweeps, candidates;  // PSD clamps, their Jacobi sweeps; reachable vertices
 };
 
 __device__ __forceinline__ unsigned long long global_ns() {
@@ -100,6 +101,7 @@ struct TailMarks {
   bool on = false;
   unsigned long long start_ns = 0, start_clock = 0, last = 0;
   unsigned long long cycles[DeviceTickProfile::kStages] = {};
+  int clamps = 0, sweeps = 0, candidates = 0;
   __device__ void begin(const ProfileDev* p) {
     on = p && threadIdx.x == 0;
     if (!on) return;
@@ -118,6 +120,9 @@ struct TailMarks {
     const unsigned long long now = global_ns();
     for (int k = DeviceTickProfile::Gather; k <= DeviceTickProfile::Output; ++k) p->sum[k] += cycles[k];
     p->tail_cycles += clock64() - start_clock;
+    p->clamps += clamps;
+    p->sweeps += sweeps;
+    p->candidates += candidates;
     p->tail_ns += now - start_ns;
     if (p->prev_end) {
       p->sum[DeviceTickProfile::Launch] += p->start - p->prev_end;
@@ -170,14 +175,27 @@ __device__ unsigned near_colliders(const ToolConst& t, const Posed& p, Vec3f x, 
   return mask;
 }
 
+/// The grid's hand-off counters (ticks_kernel): arrivals of the blocks other than the tail block,
+/// and the last epoch the tail block released; both count from the object's first run.
+struct SyncDev {
+  unsigned long long arrive, release;
+};
+
 struct MeshDev {
-  int m = 0, blocks = 0, ring = 1;
+  int m = 0, blocks = 0, ring = 1;  // blocks: chunks of kBlock vertices (a block of the grid runs several when needed)
+  int iterations = 1;               // virtual iterations per tick
   float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
   Vec3f gravity;
   cuda::VirtualModelView model;
   const Vec3f* x_prev = nullptr;  // the physical result before the visible one
   const Vec3f* x_vis = nullptr;   // the visible physical result
-  const Vec3f* v_in = nullptr;    // velocities of the last tick
+  const Vec3f* v_in = nullptr;    // velocities of the last tick (= v)
+  Vec3f* q0 = nullptr;            // the virtual mesh at the tick's end; q1, q2: the iterates between
+  Vec3f* q1 = nullptr;
+  Vec3f* q2 = nullptr;
+  Vec3f* v = nullptr;
+  Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities, copied to v
+  SyncDev* sync = nullptr;
   Vec3f* q_start = nullptr;
   Vec3f* s = nullptr;
   Vec3f* p = nullptr;
@@ -187,7 +205,6 @@ struct MeshDev {
   int* block_held = nullptr;        // blocks * kBlock
   int* block_counts = nullptr;      // blocks * 4: reachable, held, contacts, penetration (float bits)
   int* block_offsets = nullptr;     // 2 (blocks + 1)
-  unsigned* blocks_done = nullptr;
   Vec3d* cand_q = nullptr;          // m
   int* held_list = nullptr;         // m
   ToolStateDev* state = nullptr;
@@ -407,14 +424,15 @@ __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceT
                              int taken, int rejected);
 
 /// The last block: the reachable and held vertices in vertex order, then the virtual tool's Newton
-/// step (virtual_tool.cpp: update_virtual_tool), then (kLast) the tick's outputs.
-template <bool kLast>
-__device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, const Vec3f* q,
-                                  Posed& pt, TailShared& sh) {
+/// step (virtual_tool.cpp: update_virtual_tool), then (`last`: the tick's last iteration) the tick's
+/// outputs (a runtime flag, not a template: one copy of this code, which the tail block's
+/// instruction cache keeps from one iteration to the next).
+__device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in,
+                                      const Vec3f* q, bool last, Posed& pt, TailShared& sh) {
   TailMarks marks;
   marks.begin(d.profile);
   // Offsets of each block's lists (exclusive scans of the block counts, chunked over threads), in
-  // shared memory up to kTailOffsets blocks; with kLast also the tick's contact count and deepest
+  // shared memory up to kTailOffsets blocks; with `last` also the tick's contact count and deepest
   // physical-tool penetration (per warp, summed by tick_outputs).
   {
     const int per = (d.blocks + kBlock - 1) / kBlock, b0 = threadIdx.x * per, b1 = min(b0 + per, d.blocks);
@@ -423,12 +441,12 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
     for (int b = b0; b < b1; ++b) {
       sc += d.block_counts[4 * b];
       shd += d.block_counts[4 * b + 1];
-      if (kLast) {
+      if (last) {
         cc += d.block_counts[4 * b + 2];
         pm = max(pm, static_cast<unsigned>(d.block_counts[4 * b + 3]));
       }
     }
-    if (kLast) {
+    if (last) {
       for (int o = 16; o > 0; o >>= 1) {
         cc += __shfl_xor_sync(~0u, cc, o);
         pm = max(pm, __shfl_xor_sync(~0u, pm, o));
@@ -460,6 +478,7 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
     __syncthreads();
   }
   marks.mark(DeviceTickProfile::Gather);
+  if (marks.on) marks.candidates = sh.nc;
 
   // Newton's method on E_tool (virtual_tool.cpp), q held fixed.
   const Vec3d Ph = in.position;
@@ -502,8 +521,10 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
     if (threadIdx.x < 32) {
       const int lane = threadIdx.x;
       double h = lane < 21 ? sh.total[7 + lane] : 0.0;
-      h = cuda::warp_psd_clamp(h, lane, sh.clamp_scratch);
+      int sweeps = 0;
+      h = cuda::warp_psd_clamp(h, lane, sh.clamp_scratch, &sweeps);
       marks.mark(DeviceTickProfile::Clamp);
+      if (marks.on) { ++marks.clamps; marks.sweeps += sweeps; }
       int hi = 0, hj = 0;
       cuda::upper_entry(lane < 21 ? lane : 0, hi, hj);
       if (lane < 21 && hi == hj) h += hi < 3 ? t.k_vcs + t.stab_t : t.k_vct + t.stab_r;
@@ -576,9 +597,9 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
   ToolStateDev& st = *d.state;
   st.position = sh.P;
   st.orientation = sh.Q;
-  if (kLast) tick_outputs(d, t, in, sh, taken, rejected);
+  if (last) tick_outputs(d, t, in, sh, taken, rejected);
   marks.mark(DeviceTickProfile::Output);
-  marks.end(d.profile, d.blocks);
+  marks.end(d.profile, gridDim.x);
 }
 
 /// Algorithm 2 lines 26-27 (thread 0 of the tail, last launch): the force and torque for the
@@ -629,48 +650,43 @@ __device__ Vec3f blended_paired_point(const MeshDev& d, int j, float alpha) {
   return paired_point(xb, idx, d.model.pair_weight + 4 * j, count);
 }
 
-template <bool kFirst, bool kLast>
-__global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, const Vec3f* __restrict__ qin,
-                                                      Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out) {
-  __shared__ alignas(16) unsigned char posed_raw[sizeof(Posed)], physical_raw[sizeof(Posed)],
-      input_raw[sizeof(DeviceTickInput)], tail_raw[sizeof(TailShared)];
-  Posed& posed = *reinterpret_cast<Posed*>(posed_raw);
-  Posed& physical = *reinterpret_cast<Posed*>(physical_raw);
-  DeviceTickInput& in = *reinterpret_cast<DeviceTickInput*>(input_raw);
-  __shared__ int warp_counts[kWarps][3];
-  __shared__ unsigned warp_pen[kWarps];
-  __shared__ bool last_block;
-#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
-  cudaGridDependencySynchronize();
-#endif
-  unsigned long long stamp[4] = {};  // profiling: this block's start, setup, vertices, lists
-  if (d.profile && threadIdx.x == 0) {
-    stamp[0] = global_ns();
-    if (blockIdx.x == 0) d.profile->start = stamp[0];
-    if (d.profile->prev_end) atomicAdd(&d.profile->block_start, stamp[0] - d.profile->prev_end);
-  }
-  TailShared& tail = *reinterpret_cast<TailShared*>(tail_raw);
-  {
-    const DeviceTickInput& gin = d.inputs[d.state->tick];
-    if (threadIdx.x == 0) {
-      in = gin;
-      tail.P = d.state->position;  // for the virtual tool, if this block runs it
-      tail.Q = d.state->orientation;
-      tail.anchor_P = d.state->anchor_position;
-      tail.anchor_Q = d.state->anchor_orientation;
-    }
-    pose_colliders(t, d.state->position, d.state->orientation, gin, posed);
-    if (kLast) pose_colliders(t, gin.position, gin.orientation, gin, physical);
-  }
-  __syncthreads();
-  if (d.profile && threadIdx.x == 0) stamp[1] = global_ns();
-  const int j = blockIdx.x * kBlock + threadIdx.x;
+/// Device-scope acquire load and release store of the grid's hand-off counters (SyncDev).
+__device__ __forceinline__ unsigned long long load_acquire(const unsigned long long* p) {
+  unsigned long long v;
+  asm volatile("ld.acquire.gpu.global.u64 %0, [%1];" : "=l"(v) : "l"(p) : "memory");
+  return v;
+}
+__device__ __forceinline__ void store_release(unsigned long long* p, unsigned long long v) {
+  asm volatile("st.release.gpu.global.u64 [%0], %1;" ::"l"(p), "l"(v) : "memory");
+}
+
+/// The shared memory of a block of ticks_kernel.
+struct BlockShared {
+  alignas(16) unsigned char posed_raw[sizeof(Posed)], physical_raw[sizeof(Posed)], input_raw[sizeof(DeviceTickInput)],
+      tail_raw[sizeof(TailShared)];
+  int warp_counts[kWarps][3];
+  unsigned warp_pen[kWarps];
+  __device__ Posed& posed() { return *reinterpret_cast<Posed*>(posed_raw); }
+  __device__ Posed& physical() { return *reinterpret_cast<Posed*>(physical_raw); }
+  __device__ DeviceTickInput& in() { return *reinterpret_cast<DeviceTickInput*>(input_raw); }
+  __device__ TailShared& tail() { return *reinterpret_cast<TailShared*>(tail_raw); }
+};
+
+/// One iteration's work on chunk c (kBlock vertices, one per thread): begin (first), contact, the
+/// Jacobi step, end (last), reach; then the chunk's reachable and held vertices in vertex order,
+/// its contact count and deepest penetration (block_counts[4 c ..]).
+__device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, bool last, int c,
+                             const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out,
+                             BlockShared& sm, unsigned long long* stamp) {
+  const Posed& posed = sm.posed();
+  const DeviceTickInput& in = sm.in();
+  const int j = c * kBlock + threadIdx.x;
   bool reach = false, held = false, contact = false;
   float pen = 0.f;
   if (j < d.m) {
     const bool pinned = d.model.pinned[j];
     Vec3f q = qin[j], s, p;
-    if (kFirst) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
+    if (first) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
       d.q_start[j] = q;
       s = pinned ? q : predict_position(q, d.v_in[j], d.gravity, d.h);
       p = blended_paired_point(d, j, static_cast<float>(in.alpha));
@@ -721,7 +737,7 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
                 + kt - ck * q;                                 // -dE_con/dq [3]
       auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
         const Vec3f x = qin[a];
-        if (!kFirst || d.model.pinned[a]) return x;
+        if (!first || d.model.pinned[a]) return x;
         return predict_position(x, d.v_in[a], d.gravity, d.h);
       };
       // The incident edges in chunks of kEdgeChunk, every load of a chunk issued before its math
@@ -750,14 +766,15 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
       qn = q + r / (mh + d.model.stiff_diag[j] + ck);
     }
     qout[j] = qn;
-    if (kLast) {
+    if (last) {
       v_out[j] = d.inv_h * (qn - d.q_start[j]);  // Alg. 2 line 23
-      const unsigned near = held ? 0u : near_colliders(t, physical, qn, kFloatSlack);
+      const unsigned near = held ? 0u : near_colliders(t, sm.physical(), qn, kFloatSlack);
       if (near) {  // depth in the physical tool
         const Vec3d qd = static_cast<Vec3d>(qn);
         double deepest = 0;
-        for (int c = 0; c < t.count; ++c)
-          if ((near >> c) & 1u) deepest = fmax(deepest, -signed_distance_local(t.shape[c], apply_inverse(physical.world[c], qd)));
+        for (int k = 0; k < t.count; ++k)
+          if ((near >> k) & 1u)
+            deepest = fmax(deepest, -signed_distance_local(t.shape[k], apply_inverse(sm.physical().world[k], qd)));
         pen = static_cast<float>(deepest);
       }
     }
@@ -772,51 +789,142 @@ __global__ void __launch_bounds__(kBlock) tick_kernel(MeshDev d, ToolConst t, co
       reach = maybe_within(t, posed, qn, bound);
     }
   }
-  // Per block: the reachable and held vertices in vertex order, contact count, deepest penetration.
+  // The chunk's reachable and held vertices in vertex order, contact count, deepest penetration.
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
   const unsigned br = __ballot_sync(~0u, reach), bh = __ballot_sync(~0u, held), bc = __ballot_sync(~0u, contact);
   unsigned pen_bits = __float_as_uint(pen);  // pen >= 0: the bits order as the values
   for (int o = 16; o > 0; o >>= 1) pen_bits = max(pen_bits, __shfl_xor_sync(~0u, pen_bits, o));
   if (lane == 0) {
-    warp_counts[warp][0] = __popc(br);
-    warp_counts[warp][1] = __popc(bh);
-    warp_counts[warp][2] = __popc(bc);
-    warp_pen[warp] = pen_bits;
+    sm.warp_counts[warp][0] = __popc(br);
+    sm.warp_counts[warp][1] = __popc(bh);
+    sm.warp_counts[warp][2] = __popc(bc);
+    sm.warp_pen[warp] = pen_bits;
   }
   __syncthreads();
-  if (d.profile && threadIdx.x == 0) stamp[2] = global_ns();
+  if (d.profile && threadIdx.x == 0) stamp[2] += global_ns() - stamp[4];
   int orr = 0, oh = 0;
-  for (int w = 0; w < warp; ++w) { orr += warp_counts[w][0]; oh += warp_counts[w][1]; }
-  if (reach) d.block_cand[blockIdx.x * kBlock + orr + __popc(br & below)] = j;
-  if (held) d.block_held[blockIdx.x * kBlock + oh + __popc(bh & below)] = j;
+  for (int w = 0; w < warp; ++w) { orr += sm.warp_counts[w][0]; oh += sm.warp_counts[w][1]; }
+  if (reach) d.block_cand[c * kBlock + orr + __popc(br & below)] = j;
+  if (held) d.block_held[c * kBlock + oh + __popc(bh & below)] = j;
   if (threadIdx.x == 0) {
     int cr = 0, chd = 0, cc = 0;
     unsigned pm = 0;
     for (int w = 0; w < kWarps; ++w) {
-      cr += warp_counts[w][0]; chd += warp_counts[w][1]; cc += warp_counts[w][2];
-      pm = max(pm, warp_pen[w]);
+      cr += sm.warp_counts[w][0]; chd += sm.warp_counts[w][1]; cc += sm.warp_counts[w][2];
+      pm = max(pm, sm.warp_pen[w]);
     }
-    int* bcnt = d.block_counts + 4 * blockIdx.x;
+    int* bcnt = d.block_counts + 4 * c;
     bcnt[0] = cr; bcnt[1] = chd; bcnt[2] = cc; bcnt[3] = static_cast<int>(pm);
   }
-  // The last block to finish runs the virtual tool (its choice changes no result).
-  __threadfence();
-  __syncthreads();
-  if (threadIdx.x == 0) last_block = atomicAdd(d.blocks_done, 1u) == gridDim.x - 1;
-  __syncthreads();
-  if (d.profile && threadIdx.x == 0) {
-    stamp[3] = global_ns();
-    for (int k = 0; k < 3; ++k)
-      atomicAdd(&d.profile->sum[DeviceTickProfile::BlockSetup + k], stamp[k + 1] - stamp[k]);
-    atomicMax(&d.profile->vertices_max, stamp[2] - stamp[1]);
-  }
-  if (!last_block) return;
-  __threadfence();
-  virtual_tool_tail<kLast>(d, t, in, qout, posed, tail);
-  if (threadIdx.x == 0) *d.blocks_done = 0;
+  __syncthreads();  // warp_counts are reused by the next chunk
 }
 
+/// One run of `count` ticks as one cooperative launch (every block resident; DeviceTickInput rows
+/// from the tool state's tick on). Per virtual iteration ("epoch", numbered across runs from
+/// `epoch`): every block poses the virtual tool and runs its chunks of vertices (chunk c = block
+/// c, c + gridDim.x, ...), then arrives; block 0, the tail block, waits for every arrival, runs the
+/// virtual tool (virtual_tool_tail) and releases the next epoch. Block 0 stays on its multiprocessor
+/// for the whole run, so the tail's code stays in that one instruction cache, and an iteration
+/// costs a hand-off through two counters instead of a kernel boundary.
+__global__ void __launch_bounds__(kBlock) ticks_kernel(MeshDev d, ToolConst t, int count, unsigned long long epoch) {
+  __shared__ BlockShared sm;
+  const int K = d.iterations;
+  const bool tail_block = blockIdx.x == 0;
+  const unsigned long long others = gridDim.x - 1;
+  // The other blocks arrive at `arrive`, block 0 releases at `release`; each counts epochs.
+  auto arrive = [&] {
+    __syncthreads();
+    if (threadIdx.x == 0) {
+      __threadfence();
+      atomicAdd(&d.sync->arrive, 1ull);
+    }
+  };
+  auto wait_release = [&](unsigned long long e) {
+    if (threadIdx.x == 0)
+      while (load_acquire(&d.sync->release) < e) {}
+    __syncthreads();
+  };
+  auto wait_arrivals = [&](unsigned long long e) {
+    __syncthreads();
+    if (threadIdx.x == 0)
+      while (load_acquire(&d.sync->arrive) < e * others) {}
+    __syncthreads();
+  };
+  auto release = [&](unsigned long long e) {
+    __syncthreads();
+    if (threadIdx.x == 0) store_release(&d.sync->release, e);
+  };
+  for (int k = 0; k < count; ++k)
+    for (int i = 0; i < K; ++i) {
+      const bool first = i == 0, last = i == K - 1;
+      // Iteration i reads a and writes b: q0 -> q1 -> q2 -> q1 ... -> q0 (the last). K = 1: q0 -> q1
+      // and the velocities to v_scratch, copied back after the tail (v is the iteration's input).
+      const Vec3f* a = first ? d.q0 : (i % 2 == 1 ? d.q1 : d.q2);
+      Vec3f* b = (last && K > 1) ? d.q0 : (i % 2 == 0 ? d.q1 : d.q2);
+      Vec3f* vo = K == 1 ? d.v_scratch : d.v;
+      unsigned long long stamp[5] = {};  // profiling: start, setup, vertices, lists (sums over chunks), chunk start
+      if (d.profile && threadIdx.x == 0) {
+        stamp[0] = global_ns();
+        if (tail_block) d.profile->start = stamp[0];
+        if (d.profile->prev_end) atomicAdd(&d.profile->block_start, stamp[0] - d.profile->prev_end);
+      }
+      {
+        const DeviceTickInput& gin = d.inputs[d.state->tick];
+        if (threadIdx.x == 0) {
+          sm.in() = gin;
+          TailShared& tail = sm.tail();
+          tail.P = d.state->position;  // for the virtual tool, if this block runs it
+          tail.Q = d.state->orientation;
+          tail.anchor_P = d.state->anchor_position;
+          tail.anchor_Q = d.state->anchor_orientation;
+        }
+        pose_colliders(t, d.state->position, d.state->orientation, gin, sm.posed());
+        if (last) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical());
+      }
+      __syncthreads();
+      if (d.profile && threadIdx.x == 0) stamp[1] = global_ns();
+      for (int c = blockIdx.x; c < d.blocks; c += gridDim.x) {
+        if (d.profile && threadIdx.x == 0) stamp[4] = global_ns();
+        vertex_chunk(d, t, first, last, c, a, b, vo, sm, stamp);
+        if (d.profile && threadIdx.x == 0) stamp[3] += global_ns() - stamp[4];
+      }
+      if (d.profile && threadIdx.x == 0) {
+        const unsigned long long vertices = stamp[2], lists = stamp[3] - stamp[2];
+        atomicAdd(&d.profile->sum[DeviceTickProfile::BlockSetup], stamp[1] - stamp[0]);
+        atomicAdd(&d.profile->sum[DeviceTickProfile::BlockVertices], vertices);
+        atomicAdd(&d.profile->sum[DeviceTickProfile::BlockLists], lists);
+        atomicMax(&d.profile->vertices_max, vertices);
+      }
+      ++epoch;
+      if (tail_block) {
+        wait_arrivals(epoch);
+        __threadfence();
+        virtual_tool_tail(d, t, sm.in(), b, last, sm.posed(), sm.tail());
+        release(epoch);
+      } else {
+        arrive();
+        wait_release(epoch);
+      }
+      if (K == 1) {  // v_scratch -> v, q1 -> q0, each block its own chunks, then every block waits for all
+        for (int c = blockIdx.x; c < d.blocks; c += gridDim.x) {
+          const int j = c * kBlock + threadIdx.x;
+          if (j < d.m) {
+            d.q0[j] = b[j];
+            d.v[j] = vo[j];
+          }
+        }
+        ++epoch;
+        if (tail_block) {
+          wait_arrivals(epoch);
+          release(epoch);
+        } else {
+          arrive();
+          wait_release(epoch);
+        }
+      }
+    }
+}
 
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 
@@ -852,7 +960,9 @@ bool device_haptic_supported(const ToolModel& tool) {
 struct CudaHapticTicks::Impl {
   CudaPhysicalSolver* physical = nullptr;
   int m = 0, n = 0, iterations = 1;
+  int grid = 1;                           // ticks_kernel's blocks (all resident)
   long long ticks = 0, enqueued = 0;
+  unsigned long long epoch = 0;           // virtual iterations (and K = 1 copies) enqueued so far
   cudaStream_t stream = nullptr;
   cudaEvent_t q_ready = nullptr, step_done = nullptr;
   std::vector<cudaEvent_t> done;  // per run_ticks handle
@@ -862,7 +972,7 @@ struct CudaHapticTicks::Impl {
   cuda::VirtualModelArrays model;
   cuda::DeviceArray<std::uint8_t> held;
   cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, held_list;
-  cuda::DeviceArray<unsigned> blocks_done;
+  cuda::DeviceArray<SyncDev> sync;
   cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
   cuda::DeviceArray<Vec3d> grasp_local, cand_q;
   cuda::DeviceArray<ToolStateDev> state;
@@ -874,64 +984,13 @@ struct CudaHapticTicks::Impl {
   int ring_size = 0;
   MeshDev dev;
   ToolConst tool;
-  std::map<int, cudaGraphExec_t> graphs;  // by tick count
 
   ~Impl() {
-    for (auto& [count, exec] : graphs) cudaGraphExecDestroy(exec);
     for (cudaEvent_t e : done) cudaEventDestroy(e);
     if (q_ready) cudaEventDestroy(q_ready);
     if (step_done) cudaEventDestroy(step_done);
     if (ring) cudaFreeHost(ring);
     if (stream) cudaStreamDestroy(stream);
-  }
-
-  /// Enqueues `count` ticks' kernels on `stream` (captured into a graph by graph_for).
-  void enqueue_ticks(int count, bool programmatic) {
-    const int blocks = dev.blocks;
-    for (int k = 0; k < count; ++k)
-      for (int i = 0; i < iterations; ++i) {
-        // Iteration i reads A_i and writes B_i: q[0] -> q[1] -> q[2] -> q[1] ... -> q[0] (the last).
-        Vec3f* a = i == 0 ? q[0].get() : ((i % 2 == 1) ? q[1].get() : q[2].get());
-        Vec3f* b = (i == iterations - 1 && iterations > 1) ? q[0].get() : ((i % 2 == 0) ? q[1].get() : q[2].get());
-        Vec3f* vo = iterations == 1 ? v_scratch.get() : v.get();
-        const bool pdl = programmatic && !(k == 0 && i == 0);
-        const bool first = i == 0, last = i == iterations - 1;
-        if (first && last) cuda::launch(pdl, tick_kernel<true, true>, blocks, kBlock, 0, stream, "tick_kernel", dev, tool, static_cast<const Vec3f*>(a), b, vo);
-        else if (first) cuda::launch(pdl, tick_kernel<true, false>, blocks, kBlock, 0, stream, "tick_kernel", dev, tool, static_cast<const Vec3f*>(a), b, vo);
-        else if (last) cuda::launch(pdl, tick_kernel<false, true>, blocks, kBlock, 0, stream, "tick_kernel", dev, tool, static_cast<const Vec3f*>(a), b, vo);
-        else cuda::launch(pdl, tick_kernel<false, false>, blocks, kBlock, 0, stream, "tick_kernel", dev, tool, static_cast<const Vec3f*>(a), b, vo);
-        if (iterations == 1) {
-          EBH_CUDA_CHECK(cudaMemcpyAsync(q[0].get(), q[1].get(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
-          EBH_CUDA_CHECK(cudaMemcpyAsync(v.get(), v_scratch.get(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
-        }
-      }
-  }
-
-  cudaGraphExec_t graph_for(int count) {
-    auto it = graphs.find(count);
-    if (it != graphs.end()) return it->second;
-    cudaGraphExec_t exec = nullptr;
-    for (const bool pdl : {true, false}) {
-      cudaGraph_t g = nullptr;
-      EBH_CUDA_CHECK(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal));
-      try {
-        enqueue_ticks(count, pdl);
-      } catch (const std::runtime_error&) {
-        cudaStreamEndCapture(stream, &g);
-        if (g) cudaGraphDestroy(g);
-        cudaGetLastError();
-        if (!pdl) throw;
-        continue;
-      }
-      EBH_CUDA_CHECK(cudaStreamEndCapture(stream, &g));
-      const cudaError_t e = cudaGraphInstantiate(&exec, g, 0);
-      cudaGraphDestroy(g);
-      if (e == cudaSuccess) break;
-      cudaGetLastError();
-      if (!pdl) EBH_CUDA_CHECK(e);
-    }
-    graphs[count] = exec;
-    return exec;
   }
 };
 
@@ -982,7 +1041,17 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   I.block_counts.allocate(4 * std::size_t(blocks));
   I.block_offsets.allocate(2 * (std::size_t(blocks) + 1));
   I.held_list.allocate(m);
-  up(I.blocks_done, std::vector<unsigned>(1, 0u));
+  up(I.sync, std::vector<SyncDev>(1, SyncDev{0, 0}));
+  {  // every block of ticks_kernel resident (its hand-offs spin): at most the device's co-resident blocks
+    int device = 0, coop = 0, sms = 0, per_sm = 0;
+    EBH_CUDA_CHECK(cudaGetDevice(&device));
+    EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));
+    EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
+    EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, ticks_kernel, kBlock, 0));
+    if (!coop || per_sm < 1)
+      throw std::runtime_error("CudaHapticTicks: the device cannot run the cooperative tick kernel");
+    I.grid = std::max(1, std::min(blocks, per_sm * sms));
+  }
   ToolStateDev s0{};
   s0.position = s0.anchor_position = S.pose0.position;
   s0.orientation = s0.anchor_orientation = S.pose0.orientation;
@@ -1020,7 +1089,13 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.block_held = I.block_held.get();
   d.block_counts = I.block_counts.get();
   d.block_offsets = I.block_offsets.get();
-  d.blocks_done = I.blocks_done.get();
+  d.iterations = I.iterations;
+  d.q0 = I.q[0].get();
+  d.q1 = I.q[1].get();
+  d.q2 = I.q[2].get();
+  d.v = I.v.get();
+  d.v_scratch = I.v_scratch.get();
+  d.sync = I.sync.get();
   d.cand_q = I.cand_q.get();
   d.held_list = I.held_list.get();
   d.state = I.state.get();
@@ -1101,7 +1176,14 @@ int CudaHapticTicks::run_ticks(int count) {
   if (count <= 0) throw std::invalid_argument("CudaHapticTicks::run_ticks: count must be positive");
   if (count > I.ring_size) throw std::invalid_argument("CudaHapticTicks::run_ticks: more ticks than the output ring holds");
   if (I.enqueued + count > I.ticks) throw std::invalid_argument("CudaHapticTicks::run_ticks: past the last tick's input");
-  EBH_CUDA_CHECK(cudaGraphLaunch(I.graph_for(count), I.stream));
+  {
+    int n = count;
+    unsigned long long e = I.epoch;
+    void* args[] = {&I.dev, &I.tool, &n, &e};
+    EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<void*>(ticks_kernel), dim3(I.grid), dim3(kBlock), args, 0, I.stream));
+    EBH_CUDA_LAUNCH_CHECK(I.stream, "ticks_kernel");
+    I.epoch += static_cast<unsigned long long>(count) * (I.iterations + (I.iterations == 1 ? 1 : 0));
+  }
   const int handle = I.next_handle;
   I.next_handle = (I.next_handle + 1) % static_cast<int>(I.done.size());
   EBH_CUDA_CHECK(cudaEventRecord(I.done[handle], I.stream));
@@ -1128,11 +1210,13 @@ DeviceTickProfile CudaHapticTicks::profile() {
   r.launches = static_cast<long long>(p.launches);
   if (!p.launches || !p.tail_ns) return r;
   r.tail_clock_ghz = static_cast<double>(p.tail_cycles) / static_cast<double>(p.tail_ns);
+  r.clamp_sweeps = p.clamps ? static_cast<double>(p.sweeps) / static_cast<double>(p.clamps) : 0.0;
+  r.candidates = static_cast<double>(p.candidates) / static_cast<double>(p.launches);
   for (int k = 0; k < DeviceTickProfile::kStages; ++k) {
     const bool per_block = k >= DeviceTickProfile::BlockSetup && k <= DeviceTickProfile::BlockLists;  // summed over the blocks
     const bool cycles = k >= DeviceTickProfile::Gather && k <= DeviceTickProfile::Output;
     const double ns = static_cast<double>(static_cast<long long>(p.sum[k])) / (cycles ? r.tail_clock_ghz : 1.0);
-    r.mean_us[k] = 1e-3 * ns / (static_cast<double>(p.launches) * (per_block ? I.dev.blocks : 1));
+    r.mean_us[k] = 1e-3 * ns / (static_cast<double>(p.launches) * (per_block ? I.grid : 1));
   }
   return r;
 }

@@ -80,6 +80,8 @@ struct DeviceTickProfile {
                                                   "block_vertices", "block_lists", "block_vertices_max"};
   double mean_us[kStages] = {};
   double tail_clock_ghz = 0;  ///< the SM clock while the virtual tool ran (cycles over time)
+  double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp (newton_warp.cuh)
+  double candidates = 0;      ///< vertices the Newton call can reach, per launch
   long long launches = 0;
 };
 

@@ -47,8 +47,10 @@ inline constexpr float kJacobiTolerance = 0x1p-21f;
 /// V max(Lambda, 0) V^T for the symmetric matrix whose upper entry e lane e holds in `h`, by a cyclic
 /// Jacobi eigen-decomposition in float32 (round r rotates the three disjoint pairs of
 /// jacobi_partner at once: A' = J^T A J, V' = V J; Numerical Recipes' rotation; sweeps until
-/// kJacobiTolerance), the product in double. A zero matrix is returned as is. `scratch`: 42 floats of shared memory for this warp.
-__device__ inline double warp_psd_clamp(double h, int lane, float* scratch) {
+/// kJacobiTolerance), the product in double. A zero matrix is returned as is. `scratch`: 42 floats of
+/// shared memory for this warp; `sweeps` (optional): the sweeps the Jacobi took.
+__device__ inline double warp_psd_clamp(double h, int lane, float* scratch, int* sweeps = nullptr) {
+  if (sweeps) *sweeps = 0;
   if (__ballot_sync(~0u, lane < 21 && h != 0.0) == 0u) return h;  // no contact Hessian
   int i = 0, j = 0;
   upper_entry(lane < 21 ? lane : 0, i, j);
@@ -82,6 +84,7 @@ __device__ inline double warp_psd_clamp(double h, int lane, float* scratch) {
       diag = fmaxf(diag, __shfl_xor_sync(~0u, diag, o));
     }
     if (off <= kJacobiTolerance * diag) break;  // the same on every lane
+    if (sweeps) ++*sweeps;
 #pragma unroll
     for (int r = 0; r < 5; ++r) {
       const unsigned long long x = src[r];

@@ -6,12 +6,13 @@
 // the host collects each tick's outputs later. docs/CUDA.md, "Device haptic tick", gives the design
 // and the measured numbers.
 //
-// One tick is virtual_iterations kernels. Kernel i is one virtual-mesh iteration over all vertices
-// (iteration 0 also makes the tick's prediction, E_svc targets and grasp) with the contact of each
-// vertex against the virtual tool computed in place, and the last block to finish then runs the
-// virtual tool's Newton step (virtual_tool.hpp) on the vertices that the step can reach, in double.
-// Sums are fixed-order block reductions; the only atomic is the integer counter that picks the
-// last block, so replays are bitwise reproducible.
+// A run of ticks is one cooperative kernel; a tick is virtual_iterations iterations. Iteration i is
+// one virtual-mesh iteration over all vertices (iteration 0 also makes the tick's prediction, E_svc
+// targets and grasp) with the contact of each vertex against the virtual tool computed in place;
+// then block 0, once every block has arrived, runs the virtual tool's Newton step
+// (virtual_tool.hpp) on the vertices that the step can reach, in double, and releases the next.
+// Sums are fixed-order block reductions; the only atomics are the integer hand-off counters, so
+// replays are bitwise reproducible.
 //
 // Departures from the CPU tick, by round-off only: q and the virtual mesh's update are float32;
 // the 6x6 PSD clamp of the contact Hessian is a Jacobi eigen-decomposition in float32 (the CPU uses
@@ -57,11 +58,11 @@ struct DeviceTickOutput {
 };
 
 /// Where a device tick's time goes (DeviceHapticSetup::profile_stages): the mean of each stage
-/// per launch (one launch = one virtual-mesh iteration and the virtual tool's Newton call after it),
+/// per iteration (one virtual-mesh iteration and the virtual tool's Newton call after it),
 /// from the device's global timer.
 struct DeviceTickProfile {
   enum Stage {
-    Launch,      ///< from the last launch's end to this one past its grid dependency
+    Launch,      ///< the hand-off: from the last tail's end to block 0's next start
     Mesh,        ///< to the last block's arrival: contact, the Jacobi step, reach, per-block lists
     Gather,      ///< the reachable and held lists in vertex order
     Evaluate,    ///< E_tool, its gradient and the contact Hessian (every evaluation)
@@ -81,7 +82,7 @@ struct DeviceTickProfile {
   double mean_us[kStages] = {};
   double tail_clock_ghz = 0;  ///< the SM clock while the virtual tool ran (cycles over time)
   double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp (newton_warp.cuh)
-  double candidates = 0;      ///< vertices the Newton call can reach, per launch
+  double candidates = 0;      ///< vertices the Newton call can reach, per iteration
   long long launches = 0;
 };
 

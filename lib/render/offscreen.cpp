@@ -65,6 +65,20 @@ void draw_soup(const TriangleSoup& s) {
   glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(s.position.size()));
 }
 
+/// The parts of a tool that what is already drawn hides, faintly: blended, only where the depth
+/// test fails, without writing depth; leaves blending off and the depth state as it was.
+void draw_hidden(const TriangleSoup& s, const std::array<float, 3>& c, float alpha) {
+  glEnable(GL_BLEND);
+  glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+  glDepthMask(GL_FALSE);
+  glDepthFunc(GL_GREATER);
+  glColor4f(c[0], c[1], c[2], alpha);
+  draw_soup(s);
+  glDisable(GL_BLEND);
+  glDepthMask(GL_TRUE);
+  glDepthFunc(GL_LESS);
+}
+
 }  // namespace
 
 Image OffscreenRenderer::render(const FrameGeometry& g, const ViewCamera& camera, const RenderStyle& style) {
@@ -130,15 +144,7 @@ Image OffscreenRenderer::render(const FrameGeometry& g, const ViewCamera& camera
   glCullFace(GL_BACK);
   if (g.virtual_tool) {
     const auto& c = style.virtual_tool;
-    glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
-    glDepthMask(GL_FALSE);
-    glDepthFunc(GL_GREATER);
-    glColor4f(c[0], c[1], c[2], style.virtual_hidden_alpha);
-    draw_soup(*g.virtual_tool);
-    glDisable(GL_BLEND);
-    glDepthMask(GL_TRUE);
-    glDepthFunc(GL_LESS);
+    draw_hidden(*g.virtual_tool, c, style.virtual_hidden_alpha);
     glColor4f(c[0], c[1], c[2], 1.0f);
     draw_soup(*g.virtual_tool);
   }
@@ -148,15 +154,7 @@ Image OffscreenRenderer::render(const FrameGeometry& g, const ViewCamera& camera
   //    where the depth matches), so overlapping colliders do not blend twice.
   if (g.physical_tool) {
     const auto& c = style.physical_tool;
-    glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
-    glDepthMask(GL_FALSE);
-    glDepthFunc(GL_GREATER);
-    glColor4f(c[0], c[1], c[2], style.physical_hidden_alpha);
-    draw_soup(*g.physical_tool);
-    glDisable(GL_BLEND);
-    glDepthMask(GL_TRUE);
-    glDepthFunc(GL_LESS);
+    draw_hidden(*g.physical_tool, c, style.physical_hidden_alpha);
     glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
     draw_soup(*g.physical_tool);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);

@@ -39,7 +39,7 @@ namespace {
 
 constexpr int kBlock = 128;
 constexpr int kWarps = kBlock / 32;
-constexpr int kTailOffsets = 512;  // blocks whose list offsets the tail keeps in shared memory
+constexpr int kTailOffsets = 512;  // chunks whose list offsets the tail keeps in shared memory
 constexpr int kEdgeChunk = 8;       // incident edges loaded at once (a surface vertex has ~6)
 constexpr int kMaxHalvings = 12;    // virtual_tool.cpp
 constexpr double kArmijo = 1e-4;    // virtual_tool.cpp
@@ -182,18 +182,17 @@ struct SyncDev {
 };
 
 struct MeshDev {
-  int m = 0, blocks = 0, ring = 1;  // blocks: chunks of kBlock vertices (a block of the grid runs several when needed)
+  int m = 0, chunks = 0, ring = 1;  // chunks of kBlock vertices (a block of the grid runs several when needed)
   int iterations = 1;               // virtual iterations per tick
   float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
   Vec3f gravity;
   cuda::VirtualModelView model;
   const Vec3f* x_prev = nullptr;  // the physical result before the visible one
   const Vec3f* x_vis = nullptr;   // the visible physical result
-  const Vec3f* v_in = nullptr;    // velocities of the last tick (= v)
   Vec3f* q0 = nullptr;            // the virtual mesh at the tick's end; q1, q2: the iterates between
   Vec3f* q1 = nullptr;
   Vec3f* q2 = nullptr;
-  Vec3f* v = nullptr;
+  Vec3f* v = nullptr;             // velocities: the last tick's (iteration 0 reads them), this tick's
   Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities, copied to v
   SyncDev* sync = nullptr;
   Vec3f* q_start = nullptr;
@@ -201,10 +200,10 @@ struct MeshDev {
   Vec3f* p = nullptr;
   std::uint8_t* held = nullptr;
   Vec3d* grasp_local = nullptr;
-  int* block_cand = nullptr;        // blocks * kBlock
-  int* block_held = nullptr;        // blocks * kBlock
-  int* block_counts = nullptr;      // blocks * 4: reachable, held, contacts, penetration (float bits)
-  int* block_offsets = nullptr;     // 2 (blocks + 1)
+  int* block_cand = nullptr;        // chunks * kBlock
+  int* block_held = nullptr;        // chunks * kBlock
+  int* block_counts = nullptr;      // chunks * 4: reachable, held, contacts, penetration (float bits)
+  int* block_offsets = nullptr;     // 2 (chunks + 1)
   Vec3d* cand_q = nullptr;          // m
   int* held_list = nullptr;         // m
   ToolStateDev* state = nullptr;
@@ -432,10 +431,10 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
   TailMarks marks;
   marks.begin(d.profile);
   // Offsets of each block's lists (exclusive scans of the block counts, chunked over threads), in
-  // shared memory up to kTailOffsets blocks; with `last` also the tick's contact count and deepest
+  // shared memory up to kTailOffsets chunks; with `last` also the tick's contact count and deepest
   // physical-tool penetration (per warp, summed by tick_outputs).
   {
-    const int per = (d.blocks + kBlock - 1) / kBlock, b0 = threadIdx.x * per, b1 = min(b0 + per, d.blocks);
+    const int per = (d.chunks + kBlock - 1) / kBlock, b0 = threadIdx.x * per, b1 = min(b0 + per, d.chunks);
     int sc = 0, shd = 0, cc = 0;
     unsigned pm = 0;
     for (int b = b0; b < b1; ++b) {
@@ -455,18 +454,18 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
     }
     int oc = 0, oh = 0;
     block_exclusive_scan(sc, shd, oc, oh, sh.nc, sh.nh);
-    int* const off = d.blocks < kTailOffsets ? sh.offsets : d.block_offsets;  // 2 (blocks + 1)
+    int* const off = d.chunks < kTailOffsets ? sh.offsets : d.block_offsets;  // 2 (chunks + 1)
     for (int b = b0; b < b1; ++b) {
       off[b] = oc;
-      off[d.blocks + 1 + b] = oh;
+      off[d.chunks + 1 + b] = oh;
       oc += d.block_counts[4 * b];
       oh += d.block_counts[4 * b + 1];
     }
-    if (threadIdx.x == 0) { off[d.blocks] = sh.nc; off[2 * d.blocks + 1] = sh.nh; }
+    if (threadIdx.x == 0) { off[d.chunks] = sh.nc; off[2 * d.chunks + 1] = sh.nh; }
     __syncthreads();
     // Gather: entry i of a list lies in the block b with offset[b] <= i < offset[b + 1].
     auto entry = [&](int i, const int* o, const int* block_list) {
-      int lo = 0, hi = d.blocks - 1;
+      int lo = 0, hi = d.chunks - 1;
       while (lo < hi) {
         const int mid = (lo + hi + 1) / 2;
         if (o[mid] <= i) lo = mid; else hi = mid - 1;
@@ -474,7 +473,7 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
       return block_list[lo * kBlock + (i - o[lo])];
     };
     for (int i = threadIdx.x; i < sh.nc; i += kBlock) d.cand_q[i] = static_cast<Vec3d>(q[entry(i, off, d.block_cand)]);
-    for (int i = threadIdx.x; i < sh.nh; i += kBlock) d.held_list[i] = entry(i, off + d.blocks + 1, d.block_held);
+    for (int i = threadIdx.x; i < sh.nh; i += kBlock) d.held_list[i] = entry(i, off + d.chunks + 1, d.block_held);
     __syncthreads();
   }
   marks.mark(DeviceTickProfile::Gather);
@@ -688,7 +687,7 @@ __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, b
     Vec3f q = qin[j], s, p;
     if (first) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
       d.q_start[j] = q;
-      s = pinned ? q : predict_position(q, d.v_in[j], d.gravity, d.h);
+      s = pinned ? q : predict_position(q, d.v[j], d.gravity, d.h);
       p = blended_paired_point(d, j, static_cast<float>(in.alpha));
       d.s[j] = s;
       d.p[j] = p;
@@ -738,7 +737,7 @@ __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, b
       auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
         const Vec3f x = qin[a];
         if (!first || d.model.pinned[a]) return x;
-        return predict_position(x, d.v_in[a], d.gravity, d.h);
+        return predict_position(x, d.v[a], d.gravity, d.h);
       };
       // The incident edges in chunks of kEdgeChunk, every load of a chunk issued before its math
       // (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
@@ -884,7 +883,7 @@ __global__ void __launch_bounds__(kBlock) ticks_kernel(MeshDev d, ToolConst t, i
       }
       __syncthreads();
       if (d.profile && threadIdx.x == 0) stamp[1] = global_ns();
-      for (int c = blockIdx.x; c < d.blocks; c += gridDim.x) {
+      for (int c = blockIdx.x; c < d.chunks; c += gridDim.x) {
         if (d.profile && threadIdx.x == 0) stamp[4] = global_ns();
         vertex_chunk(d, t, first, last, c, a, b, vo, sm, stamp);
         if (d.profile && threadIdx.x == 0) stamp[3] += global_ns() - stamp[4];
@@ -907,7 +906,7 @@ __global__ void __launch_bounds__(kBlock) ticks_kernel(MeshDev d, ToolConst t, i
         wait_release(epoch);
       }
       if (K == 1) {  // v_scratch -> v, q1 -> q0, each block its own chunks, then every block waits for all
-        for (int c = blockIdx.x; c < d.blocks; c += gridDim.x) {
+        for (int c = blockIdx.x; c < d.chunks; c += gridDim.x) {
           const int j = c * kBlock + threadIdx.x;
           if (j < d.m) {
             d.q0[j] = b[j];
@@ -1035,11 +1034,11 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   up(I.held, std::vector<std::uint8_t>(m, 0));
   I.grasp_local.allocate(m);
   I.cand_q.allocate(m);
-  const int blocks = std::max(1, cuda::blocks_for(m, kBlock));
-  I.block_cand.allocate(std::size_t(blocks) * kBlock);
-  I.block_held.allocate(std::size_t(blocks) * kBlock);
-  I.block_counts.allocate(4 * std::size_t(blocks));
-  I.block_offsets.allocate(2 * (std::size_t(blocks) + 1));
+  const int chunks = std::max(1, cuda::blocks_for(m, kBlock));
+  I.block_cand.allocate(std::size_t(chunks) * kBlock);
+  I.block_held.allocate(std::size_t(chunks) * kBlock);
+  I.block_counts.allocate(4 * std::size_t(chunks));
+  I.block_offsets.allocate(2 * (std::size_t(chunks) + 1));
   I.held_list.allocate(m);
   up(I.sync, std::vector<SyncDev>(1, SyncDev{0, 0}));
   {  // every block of ticks_kernel resident (its hand-offs spin): at most the device's co-resident blocks
@@ -1050,7 +1049,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, ticks_kernel, kBlock, 0));
     if (!coop || per_sm < 1)
       throw std::runtime_error("CudaHapticTicks: the device cannot run the cooperative tick kernel");
-    I.grid = std::max(1, std::min(blocks, per_sm * sms));
+    I.grid = std::max(1, std::min(chunks, per_sm * sms));
   }
   ToolStateDev s0{};
   s0.position = s0.anchor_position = S.pose0.position;
@@ -1068,7 +1067,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
 
   MeshDev& d = I.dev;
   d.m = m;
-  d.blocks = blocks;
+  d.chunks = chunks;
   d.ring = I.ring_size;
   d.k_s = float(M.k_s);
   d.k_svc = float(M.k_svc);
@@ -1079,7 +1078,6 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.model = I.model.view();
   d.x_prev = I.x_prev.get();
   d.x_vis = I.x_vis.get();
-  d.v_in = I.v.get();
   d.q_start = I.q_start.get();
   d.s = I.s.get();
   d.p = I.p.get();

@@ -240,7 +240,7 @@ BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cpu, std::string("cholecystect
 BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystectomy"), true)->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 
 #if EBH_HAVE_CUDA
-void BM_DeviceTicks(benchmark::State& st, double from, bool profile) {
+void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeline) {
   if (!device_ready(st)) return;
   LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
                                        false, Backend::Cuda);
@@ -254,6 +254,7 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile) {
   long timed_ticks = 0;
   DeviceHapticSetup setup = inputs.setup;
   setup.profile_stages = profile;
+  setup.pipeline = pipeline;
   DeviceTickProfile stages;
   for (auto _ : st) {
     st.PauseTiming();
@@ -284,16 +285,22 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile) {
   if (profile) {
     st.counters["tail_clock_ghz"] = stages.tail_clock_ghz;
     st.counters["clamp_sweeps"] = stages.clamp_sweeps;
+    st.counters["clamp_definite"] = stages.definite;
     st.counters["candidates"] = stages.candidates;
+    st.counters["updated"] = stages.updated;
+    st.counters["unpipelined"] = stages.fences;
   }
   st.counters["max_contacts"] = contacts;
   st.SetLabel(cuda_device_description());
 }
-BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s, 1.2, false)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s, 0.0, false)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
-// The same with the stage timestamps (per launch, microseconds; their reads cost a little).
-BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_stages, 1.2, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s_stages, 0.0, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s, 1.2, false, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s, 0.0, false, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+// Every step waiting for the virtual tool (DeviceHapticSetup::pipeline off): what the pipeline gains.
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_unpipelined, 1.2, false, false)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+// The same with the stage timestamps (per step, microseconds; their reads cost a little).
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_stages, 1.2, true, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s_stages, 0.0, true, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_unpipelined_stages, 1.2, true, false)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 #endif
 
 /// Sums the haptic tick's stage times and the physical steps' times.

@@ -40,6 +40,7 @@ namespace {
 constexpr int kBlock = 128;
 constexpr int kWarps = kBlock / 32;
 constexpr int kTailOffsets = 512;  // chunks whose list offsets the tail keeps in shared memory
+constexpr int kCache = kBlock;      // candidates and held vertices the tail keeps in shared memory
 constexpr int kEdgeChunk = 8;       // incident edges loaded at once (a surface vertex has ~6)
 constexpr int kMaxHalvings = 12;    // virtual_tool.cpp
 constexpr double kArmijo = 1e-4;    // virtual_tool.cpp
@@ -58,13 +59,14 @@ struct ToolConst {
   // the distance to that capsule is a lower bound of the collider's signed distance.
   Vec3f seg_a[kMaxColliders], seg_b[kMaxColliders];
   float seg_r[kMaxColliders];
+  float seg_L[kMaxColliders];  // the segment's farthest point from the tool origin (pipelined reach)
   double jaw_angle = 0;  // rad at jaw = 1
   double k_con = 0, k_vcs = 0, k_vct = 0, stab_t = 0, stab_r = 0;
   double max_step = 0, max_rot = 0;
   int newton = 1;
   double force_limit = 0, torque_limit = 0;
   double soft_margin = 1, eta = 1;
-  double reach_T = 0, reach_th = 0;  // candidates: translation and rotation one call can reach
+  float reach_T = 0, reach_th = 0;  // candidates: translation and rotation one call can reach
 };
 
 /// The virtual tool's state on the device (one instance).
@@ -76,17 +78,14 @@ struct ToolStateDev {
   long long tick;
 };
 
-/// Stage timestamps of the device tick (DeviceHapticSetup::profile_stages; global timer, ns): sums
-/// over launches of each stage's duration, in DeviceTickProfile's order.
+/// Stage times of the device tick (DeviceHapticSetup::profile_stages), summed over steps in
+/// DeviceTickProfile's order: block 0's in SM cycles, the other blocks' in global-timer ns.
 struct ProfileDev {
-  unsigned long long sum[DeviceTickProfile::kStages];  // ns; the tail's stages in SM cycles
-  unsigned long long launches;
-  unsigned long long start;        // this launch: block 0 past the grid dependency
-  unsigned long long prev_end;     // the last launch's tail end
-  unsigned long long block_start;  // this launch: sum over blocks of (start - prev_end)
-  unsigned long long tail_cycles, tail_ns;  // the tails' SM cycles and time (their clock rate)
-  unsigned long long vertices_max;  // this launch: the slowest block's vertex stage
-  unsigned long long clamps, sweeps, candidates;  // PSD clamps, their Jacobi sweeps; reachable vertices
+  unsigned long long sum[DeviceTickProfile::kStages];
+  unsigned long long steps, fences, updated, candidates, clamps, sweeps, definite;
+  unsigned long long tail_cycles, tail_ns;  // block 0's SM cycles and time (its clock rate)
+  unsigned long long release_ns[2];         // the release of step s (slot s & 1)
+  unsigned long long vertices_max[2];       // step s's slowest block (slot s & 1)
 };
 
 __device__ __forceinline__ unsigned long long global_ns() {
@@ -95,13 +94,13 @@ __device__ __forceinline__ unsigned long long global_ns() {
   return t;
 }
 
-/// The tail's stage marks, kept by its thread 0 in registers (SM cycles) and written to the
-/// ProfileDev once at its end, so that profiling adds no memory round trips between the stages.
+/// Block 0's stage marks, kept by its thread 0 in registers (SM cycles) for the whole run and
+/// written to the ProfileDev once at its end, so that profiling adds no memory round trips.
 struct TailMarks {
   bool on = false;
   unsigned long long start_ns = 0, start_clock = 0, last = 0;
   unsigned long long cycles[DeviceTickProfile::kStages] = {};
-  int clamps = 0, sweeps = 0, candidates = 0;
+  int clamps = 0, sweeps = 0, definite = 0, candidates = 0, updated = 0, fences = 0;
   __device__ void begin(const ProfileDev* p) {
     on = p && threadIdx.x == 0;
     if (!on) return;
@@ -115,26 +114,18 @@ struct TailMarks {
     cycles[k] += t - last;
     last = t;
   }
-  __device__ void end(ProfileDev* p, int blocks) {
+  __device__ void end(ProfileDev* p, int steps) {
     if (!on) return;
-    const unsigned long long now = global_ns();
-    for (int k = DeviceTickProfile::Gather; k <= DeviceTickProfile::Output; ++k) p->sum[k] += cycles[k];
+    for (int k = DeviceTickProfile::Wait; k <= DeviceTickProfile::Output; ++k) p->sum[k] += cycles[k];
     p->tail_cycles += clock64() - start_clock;
+    p->tail_ns += global_ns() - start_ns;
     p->clamps += clamps;
     p->sweeps += sweeps;
+    p->definite += definite;
     p->candidates += candidates;
-    p->tail_ns += now - start_ns;
-    if (p->prev_end) {
-      p->sum[DeviceTickProfile::Launch] += p->start - p->prev_end;
-      const long long lag = static_cast<long long>(p->block_start / blocks) - static_cast<long long>(p->start - p->prev_end);
-      p->sum[DeviceTickProfile::BlockLag] += static_cast<unsigned long long>(lag);
-    }
-    p->sum[DeviceTickProfile::Mesh] += start_ns - p->start;
-    p->sum[DeviceTickProfile::BlockVerticesMax] += p->vertices_max;
-    p->vertices_max = 0;
-    p->block_start = 0;
-    p->prev_end = now;
-    ++p->launches;
+    p->updated += updated;
+    p->fences += fences;
+    p->steps += steps;
   }
 };
 
@@ -175,15 +166,61 @@ __device__ unsigned near_colliders(const ToolConst& t, const Posed& p, Vec3f x, 
   return mask;
 }
 
+/// The candidate bound of virtual_tool.cpp at distance r from the tool origin: no pose one Newton
+/// call away brings a collider within it... (T + th (r + T)) / (1 - th), plus float slack.
+__device__ float reach_bound(const ToolConst& t, float r) {
+  return (t.reach_T + t.reach_th * (r + t.reach_T)) / (1.f - t.reach_th) + kFloatSlack;
+}
+
+/// |x - tool origin|, rounded up.
+__device__ float origin_distance(const Posed& p, Vec3f x) {
+  const Vec3f o = x - p.origin_f;
+  const float d2 = dot(o, o);
+  return d2 > 0.f ? d2 * rsqrtf(d2) * 1.000001f : 0.f;
+}
+
+/// Whether the virtual tool's next Newton call, from the pose of `p`, can reach x (virtual_tool.cpp's
+/// per-vertex bound): in float32 with kFloatSlack, a superset of the double test's vertices (the
+/// exact contact tests on them decide), so no result depends on the rounding.
+__device__ bool reachable(const ToolConst& t, const Posed& p, Vec3f x) {
+  return maybe_within(t, p, x, reach_bound(t, origin_distance(p, x)));
+}
+
+/// A superset of reachable(x) at every pose one Newton call away from `p` (within reach_T and
+/// reach_th): such a pose's origin is within reach_T, so x's distance to it within r + reach_T; a
+/// point of collider c's segment moves by at most reach_T + reach_th seg_L[c].
+__device__ bool reachable_after_call(const ToolConst& t, const Posed& p, Vec3f x) {
+  const float b = reach_bound(t, origin_distance(p, x) + t.reach_T) + t.reach_T + 2.f * kFloatSlack;
+  for (int c = 0; c < t.count; ++c)
+    if (capsule_within(p, c, x, b + t.reach_th * t.seg_L[c])) return true;
+  return false;
+}
+
 /// The grid's hand-off counters (ticks_kernel): arrivals of the blocks other than the tail block,
 /// and the last epoch the tail block released; both count from the object's first run.
 struct SyncDev {
   unsigned long long arrive, release;
 };
 
+/// The virtual tool posed for step s's vertices (slot s & 1), published by block 0 before the
+/// step's release: at the pose the step's contacts use, or (a pipelined step, which runs beside
+/// the Newton call that moves the tool) at the pose before that call.
+struct PoseSlot {
+  Posed posed;
+};
+static_assert(sizeof(Posed) % 8 == 0);
+
+/// Copies a Posed by the block's threads, 8 bytes each.
+__device__ void copy_posed(const Posed& from, Posed& to) {
+  const auto* a = reinterpret_cast<const unsigned long long*>(&from);
+  auto* b = reinterpret_cast<unsigned long long*>(&to);
+  for (int w = threadIdx.x; w < static_cast<int>(sizeof(Posed) / 8); w += kBlock) b[w] = a[w];
+}
+
 struct MeshDev {
   int m = 0, chunks = 0, ring = 1;  // chunks of kBlock vertices (a block of the grid runs several when needed)
   int iterations = 1;               // virtual iterations per tick
+  bool pipeline = true;             // DeviceHapticSetup::pipeline
   float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
   Vec3f gravity;
   cuda::VirtualModelView model;
@@ -194,18 +231,24 @@ struct MeshDev {
   Vec3f* q2 = nullptr;
   Vec3f* v = nullptr;             // velocities: the last tick's (iteration 0 reads them), this tick's
   Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities, copied to v
+  Vec3f* r_part = nullptr;        // a deferred vertex's Jacobi sums without the contact (vertex_step)
+  float* d_part = nullptr;        // and its diagonal (0: pinned)
   SyncDev* sync = nullptr;
+  PoseSlot* slots = nullptr;        // 2
   Vec3f* q_start = nullptr;
   Vec3f* s = nullptr;
   Vec3f* p = nullptr;
   std::uint8_t* held = nullptr;
   Vec3d* grasp_local = nullptr;
-  int* block_cand = nullptr;        // chunks * kBlock
-  int* block_held = nullptr;        // chunks * kBlock
-  int* block_counts = nullptr;      // chunks * 4: reachable, held, contacts, penetration (float bits)
+  // Per chunk, two lists of its vertices in vertex order: (unpipelined steps) the reachable and the
+  // held ones; (pipelined) those that may be reachable after the call and those deferred to block 0.
+  int* block_cand = nullptr;        // chunks * kBlock: list 0
+  int* block_held = nullptr;        // chunks * kBlock: list 1
+  int* block_counts = nullptr;      // chunks * 4: list 0, list 1, contacts, penetration (float bits)
   int* block_offsets = nullptr;     // 2 (chunks + 1)
   Vec3d* cand_q = nullptr;          // m
   int* held_list = nullptr;         // m
+  int* held_slot = nullptr;         // m: a held vertex's entry in TailShared::held_q, or -1
   ToolStateDev* state = nullptr;
   const DeviceTickInput* inputs = nullptr;
   const Collider<double>* grasp_boxes = nullptr;
@@ -339,6 +382,14 @@ struct TailShared {
   int offsets[2 * (kTailOffsets + 1)];
   double E, slope, depth;
   int flag, nc, nh;
+  int contacts;                // the step's vertices in contact (the tick's output on its last step)
+  unsigned pen_bits;           // the step's deepest physical-tool penetration (float bits)
+  int posed_current;           // whether the posed tool is at (P, Q) after the Newton call
+  // The first kCache entries of the Newton call's lists (the rest in d.cand_q, d.held_list): read
+  // by every evaluation and trial of the call, so kept here, entry i by thread i.
+  Vec3d cand[kCache];          // a candidate's q
+  int held_idx[kCache];        // a held vertex (kept from the last unpipelined step)
+  Vec3d held_local[kCache], held_q[kCache];  // its grasp point (tool frame) and q
   Vec3d P;
   Quatd Q;
   Vec3d trial_P;
@@ -365,7 +416,7 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
   double deepest = 0;
   const Vec3d P = pt.frame.t;
   for (int i = threadIdx.x; i < sh.nc; i += kBlock) {
-    const Vec3d qc = d.cand_q[i];
+    const Vec3d qc = i < kCache ? sh.cand[i] : d.cand_q[i];
     const unsigned near = near_colliders(t, pt, static_cast<Vec3f>(qc), kFloatSlack);
     if (!near) continue;  // certainly outside
     if (kDerivs) {
@@ -384,9 +435,10 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
     }
   }
   for (int i = threadIdx.x; i < sh.nh; i += kBlock) {
-    const int j = d.held_list[i];
-    const Vec3d s = pt.frame.R * d.grasp_local[j];
-    const Vec3d r = static_cast<Vec3d>(q[j]) - P - s;
+    const bool cached = i < kCache;
+    const int j = cached ? 0 : d.held_list[i];
+    const Vec3d s = pt.frame.R * (cached ? sh.held_local[i] : d.grasp_local[j]);
+    const Vec3d r = (cached ? sh.held_q[i] : static_cast<Vec3d>(q[j])) - P - s;
     acc[0] += 0.5 * t.k_con * squared_norm(r);
     if (kDerivs) {
       const Vec3d sr = cross(s, r);
@@ -419,66 +471,18 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
   return sh.total[0];
 }
 
-__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, const TailShared& sh,
+__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, TailShared& sh,
                              int taken, int rejected);
 
-/// The last block: the reachable and held vertices in vertex order, then the virtual tool's Newton
-/// step (virtual_tool.cpp: update_virtual_tool), then (`last`: the tick's last iteration) the tick's
-/// outputs (a runtime flag, not a template: one copy of this code, which the tail block's
-/// instruction cache keeps from one iteration to the next).
-__device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in,
-                                      const Vec3f* q, bool last, Posed& pt, TailShared& sh) {
-  TailMarks marks;
-  marks.begin(d.profile);
-  // Offsets of each block's lists (exclusive scans of the block counts, chunked over threads), in
-  // shared memory up to kTailOffsets chunks; with `last` also the tick's contact count and deepest
-  // physical-tool penetration (per warp, summed by tick_outputs).
-  {
-    const int per = (d.chunks + kBlock - 1) / kBlock, b0 = threadIdx.x * per, b1 = min(b0 + per, d.chunks);
-    int sc = 0, shd = 0, cc = 0;
-    unsigned pm = 0;
-    for (int b = b0; b < b1; ++b) {
-      sc += d.block_counts[4 * b];
-      shd += d.block_counts[4 * b + 1];
-      if (last) {
-        cc += d.block_counts[4 * b + 2];
-        pm = max(pm, static_cast<unsigned>(d.block_counts[4 * b + 3]));
-      }
-    }
-    if (last) {
-      for (int o = 16; o > 0; o >>= 1) {
-        cc += __shfl_xor_sync(~0u, cc, o);
-        pm = max(pm, __shfl_xor_sync(~0u, pm, o));
-      }
-      if ((threadIdx.x & 31) == 0) { sh.warp_contacts[threadIdx.x >> 5] = cc; sh.warp_pen[threadIdx.x >> 5] = pm; }
-    }
-    int oc = 0, oh = 0;
-    block_exclusive_scan(sc, shd, oc, oh, sh.nc, sh.nh);
-    int* const off = d.chunks < kTailOffsets ? sh.offsets : d.block_offsets;  // 2 (chunks + 1)
-    for (int b = b0; b < b1; ++b) {
-      off[b] = oc;
-      off[d.chunks + 1 + b] = oh;
-      oc += d.block_counts[4 * b];
-      oh += d.block_counts[4 * b + 1];
-    }
-    if (threadIdx.x == 0) { off[d.chunks] = sh.nc; off[2 * d.chunks + 1] = sh.nh; }
-    __syncthreads();
-    // Gather: entry i of a list lies in the block b with offset[b] <= i < offset[b + 1].
-    auto entry = [&](int i, const int* o, const int* block_list) {
-      int lo = 0, hi = d.chunks - 1;
-      while (lo < hi) {
-        const int mid = (lo + hi + 1) / 2;
-        if (o[mid] <= i) lo = mid; else hi = mid - 1;
-      }
-      return block_list[lo * kBlock + (i - o[lo])];
-    };
-    for (int i = threadIdx.x; i < sh.nc; i += kBlock) d.cand_q[i] = static_cast<Vec3d>(q[entry(i, off, d.block_cand)]);
-    for (int i = threadIdx.x; i < sh.nh; i += kBlock) d.held_list[i] = entry(i, off + d.chunks + 1, d.block_held);
-    __syncthreads();
-  }
-  marks.mark(DeviceTickProfile::Gather);
-  if (marks.on) marks.candidates = sh.nc;
-
+/// Block 0: the virtual tool's Newton step (virtual_tool.cpp: update_virtual_tool) on the
+/// candidates (d.cand_q, sh.nc) and the held vertices (d.held_list, sh.nh) of q, from the pose
+/// (sh.P, sh.Q) at which `pt` is posed; then (`last`: the tick's last step) the tick's outputs (a
+/// runtime flag, not a template: one copy of this code, which block 0's instruction cache keeps
+/// from one step to the next). Leaves sh.posed_current: whether `pt` is still posed at the result.
+__device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in,
+                                  const Vec3f* q, bool last, Posed& pt, TailShared& sh, TailMarks& marks) {
+  if (marks.on) marks.candidates += sh.nc;
+  bool posed_current = true;  // thread 0: a trial poses pt, an accepted one is the result
   // Newton's method on E_tool (virtual_tool.cpp), q held fixed.
   const Vec3d Ph = in.position;
   const Quatd Qh = in.orientation;
@@ -523,7 +527,8 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
       int sweeps = 0;
       h = cuda::warp_psd_clamp(h, lane, sh.clamp_scratch, &sweeps);
       marks.mark(DeviceTickProfile::Clamp);
-      if (marks.on) { ++marks.clamps; marks.sweeps += sweeps; }
+      if (marks.on && sweeps >= 0) { ++marks.clamps; marks.sweeps += sweeps; }
+      if (marks.on && sweeps < 0) ++marks.definite;
       int hi = 0, hj = 0;
       cuda::upper_entry(lane < 21 ? lane : 0, hi, hj);
       if (lane < 21 && hi == hj) h += hi < 3 ? t.k_vcs + t.stab_t : t.k_vct + t.stab_r;
@@ -568,7 +573,7 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
         const Vec3d P = sh.P + Vec3d{alpha * sh.dx[0], alpha * sh.dx[1], alpha * sh.dx[2]};
         const Quatd Q = normalized(quat_from_rotvec(Vec3d{alpha * sh.dx[3], alpha * sh.dx[4], alpha * sh.dx[5]}) * sh.Q);
         if (threadIdx.x < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, threadIdx.x, pt);
-        if (threadIdx.x == 0) { sh.trial_P = P; sh.trial_Q = Q; }
+        if (threadIdx.x == 0) { sh.trial_P = P; sh.trial_Q = Q; posed_current = false; }
         if (threadIdx.x == kCouplingThread) sh.coupling_E = coupling(P, Q, sh.coupling_g);
       }
       __syncthreads();
@@ -582,6 +587,7 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
           sh.Q = sh.trial_Q;
           sh.E = Et;
           sh.depth = trial_depth;
+          posed_current = true;
         }
       }
       __syncthreads();
@@ -592,18 +598,20 @@ __device__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const De
     ++taken;
     if (it + 1 < t.newton) evaluate_with_derivatives();  // for the next Newton step
   }
-  if (threadIdx.x != 0) return;
-  ToolStateDev& st = *d.state;
-  st.position = sh.P;
-  st.orientation = sh.Q;
-  if (last) tick_outputs(d, t, in, sh, taken, rejected);
+  if (threadIdx.x == 0) {
+    ToolStateDev& st = *d.state;
+    st.position = sh.P;
+    st.orientation = sh.Q;
+    sh.posed_current = posed_current;
+    if (last) tick_outputs(d, t, in, sh, taken, rejected);
+  }
+  __syncthreads();
   marks.mark(DeviceTickProfile::Output);
-  marks.end(d.profile, gridDim.x);
 }
 
 /// Algorithm 2 lines 26-27 (thread 0 of the tail, last launch): the force and torque for the
 /// device (tool_output), the metrics, into the ring; the next tick's anchor.
-__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, const TailShared& sh,
+__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, TailShared& sh,
                              int taken, int rejected) {
   ToolStateDev& st = *d.state;
   const Vec3d Ph = in.position;
@@ -619,20 +627,14 @@ __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceT
   o.position = sh.P;
   o.orientation = sh.Q;
   o.penetration = sh.depth;
-  unsigned pen = 0;
-  int contacts = 0;
-  for (int w = 0; w < kWarps; ++w) {
-    contacts += sh.warp_contacts[w];
-    pen = max(pen, sh.warp_pen[w]);
-  }
-  o.penetration_physical = __uint_as_float(pen);
-  o.contacts = contacts;
+  o.penetration_physical = __uint_as_float(sh.pen_bits);
+  o.contacts = sh.contacts;
   o.grasped = sh.nh;
   o.newton_steps = taken;
   o.newton_rejected = rejected;
   d.out[st.tick % d.ring] = o;
-  st.anchor_position = sh.P;  // read_device of the next tick: the anchor is the pose at its start
-  st.anchor_orientation = sh.Q;
+  st.anchor_position = sh.anchor_P = sh.P;  // read_device of the next tick: the anchor is the pose at its start
+  st.anchor_orientation = sh.anchor_Q = sh.Q;
   ++st.tick;
 }
 
@@ -671,258 +673,558 @@ struct BlockShared {
   __device__ TailShared& tail() { return *reinterpret_cast<TailShared*>(tail_raw); }
 };
 
-/// One iteration's work on chunk c (kBlock vertices, one per thread): begin (first), contact, the
-/// Jacobi step, end (last), reach; then the chunk's reachable and held vertices in vertex order,
-/// its contact count and deepest penetration (block_counts[4 c ..]).
+/// What one vertex's step reports for its chunk's lists.
+struct VertexFlags {
+  bool list0 = false, list1 = false, contact = false;
+  float pen = 0.f;  // depth in the physical tool (last step)
+  Vec3f q{};        // the new iterate
+};
+
+/// E_con [3] target of vertex j at iterate q (Alg. 2 line 10) against the tool posed in `posed`:
+/// the grasp target of a held vertex, else the closest point of the deepest collider; k_con times
+/// it into kt, k_con into ck. Returns whether j is in contact.
+__device__ bool contact_target(const MeshDev& d, const ToolConst& t, const Posed& posed, int j, Vec3f q, bool held,
+                               Vec3f& kt, float& ck) {
+  if (held) {
+    kt = static_cast<Vec3f>(t.k_con * apply(posed.frame, d.grasp_local[j]));
+    ck = static_cast<float>(t.k_con);
+    return true;
+  }
+  if (const unsigned near = near_colliders(t, posed, q, kFloatSlack)) {
+    SurfaceQuery<double> sq;
+    if (deepest_collider(t.shape, posed.world, t.count, static_cast<Vec3d>(q), sq, near) >= 0) {
+      kt = static_cast<Vec3f>(t.k_con * sq.point);
+      ck = static_cast<float>(t.k_con);
+      return true;
+    }
+  }
+  return false;
+}
+
+/// The end of vertex j's step at its new iterate qn: qout, and (last) the velocity (Alg. 2 line 23)
+/// and the depth of j in the physical tool.
+__device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& physical, bool last, int j, bool held,
+                           Vec3f qn, Vec3f* qout, Vec3f* v_out, VertexFlags& f) {
+  qout[j] = qn;
+  f.q = qn;
+  if (last) {
+    v_out[j] = d.inv_h * (qn - d.q_start[j]);
+    const unsigned near = held ? 0u : near_colliders(t, physical, qn, kFloatSlack);
+    if (near) {
+      const Vec3d qd = static_cast<Vec3d>(qn);
+      double deepest = 0;
+      for (int k = 0; k < t.count; ++k)
+        if ((near >> k) & 1u)
+          deepest = fmax(deepest, -signed_distance_local(t.shape[k], apply_inverse(physical.world[k], qd)));
+      f.pen = static_cast<float>(deepest);
+    }
+  }
+}
+
+/// Step s of virtual vertex j (one thread): begin (first), contact, one Jacobi step
+/// q + (r + kt - ck q) / (D + ck), with r and D the sums without the contact; end (last).
+///   kAhead = false (an unpipelined step): the contact of j against the virtual tool posed in
+///     `posed`; list0: j is reachable from `posed` (a candidate of the Newton call after the
+///     step); list1: j is held.
+///   kAhead = true (the other blocks in a pipelined step, which runs beside the Newton call that
+///     moves the tool away from `posed`): a held vertex, and one the call can reach, can touch the
+///     tool at its new pose, so its step is left to block 0 (list1: deferred) with r and D kept for
+///     it (r_part, d_part; 0: pinned); the others take no contact term; list0: j may be reachable
+///     after the call.
+template <bool kAhead>
+__device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const Posed& posed, const Posed& physical,
+                                   const DeviceTickInput& in, bool first, bool last, int j,
+                                   const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
+                                   Vec3f* __restrict__ v_out) {
+  VertexFlags f;
+  const bool pinned = d.model.pinned[j];
+  const Vec3f q_in = qin[j];
+  Vec3f s, p;
+  if (first) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
+    d.q_start[j] = q_in;
+    s = pinned ? q_in : predict_position(q_in, d.v[j], d.gravity, d.h);
+    p = blended_paired_point(d, j, static_cast<float>(in.alpha));
+    d.s[j] = s;
+    d.p[j] = p;
+    if (!kAhead && in.grasp < 0) {
+      d.held[j] = 0;
+    } else if (!kAhead && in.grasp > 0) {
+      const Collider<double>& hb = d.grasp_boxes[in.grasp - 1];
+      const Vec3d ls = apply_inverse(posed.frame, static_cast<Vec3d>(s));
+      const double sd = signed_distance_local(hb, ls);
+      const bool grasp = sd <= t.soft_margin;
+      if (grasp) {
+        const double w = 1.0 / (1.0 + t.eta * exp(sd / t.soft_margin));  // eq. [10]
+        const Vec3d lf{0.0, fmin(fmax(ls.y, hb.a.y - hb.half.y), hb.a.y + hb.half.y),
+                       fmin(fmax(ls.z, hb.a.z - hb.half.z), hb.a.z + hb.half.z)};
+        d.grasp_local[j] = w * lf + (1.0 - w) * ls;
+      }
+      d.held[j] = grasp;
+    }
+  } else {
+    s = d.s[j];
+    p = d.p[j];
+  }
+  const Vec3f q = first ? s : q_in;  // this iteration's iterate
+  const bool held = d.held[j];
+  Vec3f kt{};
+  float ck = 0.f;
+  bool deferred = false;
+  if (kAhead) deferred = held || reachable(t, posed, q);
+  else f.contact = contact_target(d, t, posed, j, q, held, kt, ck);
+  // One Jacobi iteration (virtual_mesh.cpp: virtual_iteration).
+  Vec3f r{};
+  float D = 0.f;
+  if (!pinned) {
+    const float mh = d.model.mass[j] * d.inv_h2;
+    r = mh * (s - q) - coupling_gradient_virtual(p, q, d.k_svc);  // -dE_k/dq [6] - dE_svc/dq [5]
+    auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
+      const Vec3f x = qin[a];
+      if (!first || d.model.pinned[a]) return x;
+      return predict_position(x, d.v[a], d.gravity, d.h);
+    };
+    // The incident edges in chunks of kEdgeChunk, every load of a chunk issued before its math
+    // (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
+    const int k0 = d.model.edge_offsets[j], k1 = d.model.edge_offsets[j + 1];
+    for (int kb = k0; kb < k1; kb += kEdgeChunk) {
+      int4 it[kEdgeChunk];
+      Vec3f xa[kEdgeChunk], xb[kEdgeChunk], rest[kEdgeChunk];
+#pragma unroll
+      for (int u = 0; u < kEdgeChunk; ++u)
+        if (kb + u < k1) it[u] = d.model.edge_items[kb + u];
+#pragma unroll
+      for (int u = 0; u < kEdgeChunk; ++u)
+        if (kb + u < k1) {
+          xa[u] = at(it[u].x);
+          xb[u] = at(it[u].y);
+          rest[u] = d.model.rest_edge[it[u].z];
+        }
+#pragma unroll
+      for (int u = 0; u < kEdgeChunk; ++u)
+        if (kb + u < k1) {
+          const Vec3f g = edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s);  // [4]
+          r += it[u].w ? g : -g;
+        }
+    }
+    D = mh + d.model.stiff_diag[j];
+  }
+  if (deferred) {
+    d.r_part[j] = r;
+    d.d_part[j] = D;
+    f.list1 = true;
+    return f;
+  }
+  const Vec3f qn = pinned ? q : q + (r + (kt - ck * q)) / (D + ck);  // -dE_con/dq [3]: kt - ck q
+  vertex_end(d, t, physical, last, j, held, qn, qout, v_out, f);
+  if (kAhead) {
+    f.list0 = reachable_after_call(t, posed, qn);
+  } else {
+    f.list0 = !held && reachable(t, posed, qn);
+    f.list1 = held;
+  }
+  return f;
+}
+
+/// Block 0's part of vertex j in a pipelined step (vertex_step<true> deferred it): the contact
+/// against the tool posed in `pt`, then the step from the other block's r and D.
+__device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, const Posed& pt, const Posed& physical,
+                                       bool first, bool last, int j, const Vec3f* qin, Vec3f* qout, Vec3f* v_out,
+                                       TailShared& sh) {
+  VertexFlags f;
+  const Vec3f q = first ? d.s[j] : qin[j];
+  const bool held = d.held[j];
+  Vec3f kt{};
+  float ck = 0.f;
+  f.contact = contact_target(d, t, pt, j, q, held, kt, ck);
+  const float D = d.d_part[j];
+  const Vec3f qn = D == 0.f ? q : q + (d.r_part[j] + (kt - ck * q)) / (D + ck);
+  vertex_end(d, t, physical, last, j, held, qn, qout, v_out, f);
+  f.list0 = !held && reachable(t, pt, qn);
+  if (held) {  // the Newton call's cached q of held vertices
+    const int slot = d.held_slot[j];
+    if (slot >= 0) sh.held_q[slot] = static_cast<Vec3d>(qn);
+  }
+  return f;
+}
+
+/// One step of chunk c (kBlock vertices, one per thread; vertex_step), then the chunk's two lists
+/// in vertex order, its contact count and deepest penetration (block_counts[4 c ..]).
+template <bool kAhead>
 __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, bool last, int c,
                              const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out,
                              BlockShared& sm, unsigned long long* stamp) {
-  const Posed& posed = sm.posed();
-  const DeviceTickInput& in = sm.in();
   const int j = c * kBlock + threadIdx.x;
-  bool reach = false, held = false, contact = false;
-  float pen = 0.f;
-  if (j < d.m) {
-    const bool pinned = d.model.pinned[j];
-    Vec3f q = qin[j], s, p;
-    if (first) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
-      d.q_start[j] = q;
-      s = pinned ? q : predict_position(q, d.v[j], d.gravity, d.h);
-      p = blended_paired_point(d, j, static_cast<float>(in.alpha));
-      d.s[j] = s;
-      d.p[j] = p;
-      q = s;
-      if (in.grasp < 0) {
-        d.held[j] = 0;
-      } else if (in.grasp > 0) {
-        const Collider<double>& hb = d.grasp_boxes[in.grasp - 1];
-        const Vec3d ls = apply_inverse(posed.frame, static_cast<Vec3d>(s));
-        const double sd = signed_distance_local(hb, ls);
-        const bool grasp = sd <= t.soft_margin;
-        if (grasp) {
-          const double w = 1.0 / (1.0 + t.eta * exp(sd / t.soft_margin));  // eq. [10]
-          const Vec3d lf{0.0, fmin(fmax(ls.y, hb.a.y - hb.half.y), hb.a.y + hb.half.y),
-                         fmin(fmax(ls.z, hb.a.z - hb.half.z), hb.a.z + hb.half.z)};
-          d.grasp_local[j] = w * lf + (1.0 - w) * ls;
-        }
-        d.held[j] = grasp;
-      }
-    } else {
-      s = d.s[j];
-      p = d.p[j];
-    }
-    held = d.held[j];
-    // E_con [3] target of this vertex (Alg. 2 line 10).
-    Vec3f kt{};
-    float ck = 0.f;
-    if (held) {
-      kt = static_cast<Vec3f>(t.k_con * apply(posed.frame, d.grasp_local[j]));
-      ck = static_cast<float>(t.k_con);
-      contact = true;
-    } else if (const unsigned near = near_colliders(t, posed, q, kFloatSlack)) {
-      SurfaceQuery<double> sq;
-      if (deepest_collider(t.shape, posed.world, t.count, static_cast<Vec3d>(q), sq, near) >= 0) {
-        kt = static_cast<Vec3f>(t.k_con * sq.point);
-        ck = static_cast<float>(t.k_con);
-        contact = true;
-      }
-    }
-    // One Jacobi iteration (virtual_mesh.cpp: virtual_iteration).
-    Vec3f qn = q;
-    if (!pinned) {
-      const float mh = d.model.mass[j] * d.inv_h2;
-      Vec3f r = mh * (s - q)                                   // -dE_k/dq   [6]
-                - coupling_gradient_virtual(p, q, d.k_svc)     // -dE_svc/dq [5]
-                + kt - ck * q;                                 // -dE_con/dq [3]
-      auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
-        const Vec3f x = qin[a];
-        if (!first || d.model.pinned[a]) return x;
-        return predict_position(x, d.v[a], d.gravity, d.h);
-      };
-      // The incident edges in chunks of kEdgeChunk, every load of a chunk issued before its math
-      // (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
-      const int k0 = d.model.edge_offsets[j], k1 = d.model.edge_offsets[j + 1];
-      for (int kb = k0; kb < k1; kb += kEdgeChunk) {
-        int4 it[kEdgeChunk];
-        Vec3f xa[kEdgeChunk], xb[kEdgeChunk], rest[kEdgeChunk];
-#pragma unroll
-        for (int u = 0; u < kEdgeChunk; ++u)
-          if (kb + u < k1) it[u] = d.model.edge_items[kb + u];
-#pragma unroll
-        for (int u = 0; u < kEdgeChunk; ++u)
-          if (kb + u < k1) {
-            xa[u] = at(it[u].x);
-            xb[u] = at(it[u].y);
-            rest[u] = d.model.rest_edge[it[u].z];
-          }
-#pragma unroll
-        for (int u = 0; u < kEdgeChunk; ++u)
-          if (kb + u < k1) {
-            const Vec3f g = edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s);  // [4]
-            r += it[u].w ? g : -g;
-          }
-      }
-      qn = q + r / (mh + d.model.stiff_diag[j] + ck);
-    }
-    qout[j] = qn;
-    if (last) {
-      v_out[j] = d.inv_h * (qn - d.q_start[j]);  // Alg. 2 line 23
-      const unsigned near = held ? 0u : near_colliders(t, sm.physical(), qn, kFloatSlack);
-      if (near) {  // depth in the physical tool
-        const Vec3d qd = static_cast<Vec3d>(qn);
-        double deepest = 0;
-        for (int k = 0; k < t.count; ++k)
-          if ((near >> k) & 1u)
-            deepest = fmax(deepest, -signed_distance_local(t.shape[k], apply_inverse(sm.physical().world[k], qd)));
-        pen = static_cast<float>(deepest);
-      }
-    }
-    // Can the virtual tool's next Newton call reach j? (virtual_tool.cpp's per-vertex bound, 1 nm slack)
-    // In float32 with kFloatSlack: a superset of the double test's vertices (the exact contact
-    // tests on them decide), so no result depends on the rounding.
-    if (!held) {
-      const float T = static_cast<float>(t.reach_T), th = static_cast<float>(t.reach_th);
-      const Vec3f o = qn - posed.origin_f;
-      const float d2 = dot(o, o), dist = d2 > 0.f ? d2 * rsqrtf(d2) * 1.000001f : 0.f;
-      const float bound = (T + th * (dist + T)) / (1.f - th) + kFloatSlack;
-      reach = maybe_within(t, posed, qn, bound);
-    }
-  }
-  // The chunk's reachable and held vertices in vertex order, contact count, deepest penetration.
+  VertexFlags f;
+  if (j < d.m) f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
-  const unsigned br = __ballot_sync(~0u, reach), bh = __ballot_sync(~0u, held), bc = __ballot_sync(~0u, contact);
-  unsigned pen_bits = __float_as_uint(pen);  // pen >= 0: the bits order as the values
+  const unsigned b0 = __ballot_sync(~0u, f.list0), b1 = __ballot_sync(~0u, f.list1), bc = __ballot_sync(~0u, f.contact);
+  unsigned pen_bits = __float_as_uint(f.pen);  // pen >= 0: the bits order as the values
   for (int o = 16; o > 0; o >>= 1) pen_bits = max(pen_bits, __shfl_xor_sync(~0u, pen_bits, o));
   if (lane == 0) {
-    sm.warp_counts[warp][0] = __popc(br);
-    sm.warp_counts[warp][1] = __popc(bh);
+    sm.warp_counts[warp][0] = __popc(b0);
+    sm.warp_counts[warp][1] = __popc(b1);
     sm.warp_counts[warp][2] = __popc(bc);
     sm.warp_pen[warp] = pen_bits;
   }
   __syncthreads();
   if (d.profile && threadIdx.x == 0) stamp[2] += global_ns() - stamp[4];
-  int orr = 0, oh = 0;
-  for (int w = 0; w < warp; ++w) { orr += sm.warp_counts[w][0]; oh += sm.warp_counts[w][1]; }
-  if (reach) d.block_cand[c * kBlock + orr + __popc(br & below)] = j;
-  if (held) d.block_held[c * kBlock + oh + __popc(bh & below)] = j;
+  int o0 = 0, o1 = 0;
+  for (int w = 0; w < warp; ++w) { o0 += sm.warp_counts[w][0]; o1 += sm.warp_counts[w][1]; }
+  if (f.list0) d.block_cand[c * kBlock + o0 + __popc(b0 & below)] = j;
+  if (f.list1) d.block_held[c * kBlock + o1 + __popc(b1 & below)] = j;
   if (threadIdx.x == 0) {
-    int cr = 0, chd = 0, cc = 0;
+    int c0 = 0, c1 = 0, cc = 0;
     unsigned pm = 0;
     for (int w = 0; w < kWarps; ++w) {
-      cr += sm.warp_counts[w][0]; chd += sm.warp_counts[w][1]; cc += sm.warp_counts[w][2];
+      c0 += sm.warp_counts[w][0]; c1 += sm.warp_counts[w][1]; cc += sm.warp_counts[w][2];
       pm = max(pm, sm.warp_pen[w]);
     }
     int* bcnt = d.block_counts + 4 * c;
-    bcnt[0] = cr; bcnt[1] = chd; bcnt[2] = cc; bcnt[3] = static_cast<int>(pm);
+    bcnt[0] = c0; bcnt[1] = c1; bcnt[2] = cc; bcnt[3] = static_cast<int>(pm);
   }
   __syncthreads();  // warp_counts are reused by the next chunk
 }
 
-/// One run of `count` ticks as one cooperative launch (every block resident; DeviceTickInput rows
-/// from the tool state's tick on). Per virtual iteration ("epoch", numbered across runs from
-/// `epoch`): every block poses the virtual tool and runs its chunks of vertices (chunk c = block
-/// c, c + gridDim.x, ...), then arrives; block 0, the tail block, waits for every arrival, runs the
-/// virtual tool (virtual_tool_tail) and releases the next epoch. Block 0 stays on its multiprocessor
-/// for the whole run, so the tail's code stays in that one instruction cache, and an iteration
-/// costs a hand-off through two counters instead of a kernel boundary.
-__global__ void __launch_bounds__(kBlock) ticks_kernel(MeshDev d, ToolConst t, int count, unsigned long long epoch) {
-  __shared__ BlockShared sm;
-  const int K = d.iterations;
-  const bool tail_block = blockIdx.x == 0;
-  const unsigned long long others = gridDim.x - 1;
-  // The other blocks arrive at `arrive`, block 0 releases at `release`; each counts epochs.
-  auto arrive = [&] {
+/// Block 0: the offsets of each chunk's two lists (exclusive scans of the chunk counts, chunked
+/// over threads; in shared memory up to kTailOffsets chunks), their totals (n0, n1), and the
+/// chunks' contact count and deepest penetration (sh.contacts, sh.pen_bits). Returns the offsets:
+/// list 0's at [0, chunks], list 1's at [chunks + 1, 2 chunks + 1].
+__device__ int* chunk_offsets(const MeshDev& d, TailShared& sh, int& n0, int& n1) {
+  const int per = (d.chunks + kBlock - 1) / kBlock, b0 = threadIdx.x * per, b1 = min(b0 + per, d.chunks);
+  int s0 = 0, s1 = 0, cc = 0;
+  unsigned pm = 0;
+  for (int b = b0; b < b1; ++b) {
+    s0 += d.block_counts[4 * b];
+    s1 += d.block_counts[4 * b + 1];
+    cc += d.block_counts[4 * b + 2];
+    pm = max(pm, static_cast<unsigned>(d.block_counts[4 * b + 3]));
+  }
+  for (int o = 16; o > 0; o >>= 1) {
+    cc += __shfl_xor_sync(~0u, cc, o);
+    pm = max(pm, __shfl_xor_sync(~0u, pm, o));
+  }
+  if ((threadIdx.x & 31) == 0) { sh.warp_contacts[threadIdx.x >> 5] = cc; sh.warp_pen[threadIdx.x >> 5] = pm; }
+  int o0 = 0, o1 = 0;
+  block_exclusive_scan(s0, s1, o0, o1, n0, n1);  // synchronises the block
+  int* const off = d.chunks < kTailOffsets ? sh.offsets : d.block_offsets;
+  for (int b = b0; b < b1; ++b) {
+    off[b] = o0;
+    off[d.chunks + 1 + b] = o1;
+    o0 += d.block_counts[4 * b];
+    o1 += d.block_counts[4 * b + 1];
+  }
+  if (threadIdx.x == 0) {
+    off[d.chunks] = n0;
+    off[2 * d.chunks + 1] = n1;
+    int contacts = 0;
+    unsigned pen = 0;
+    for (int w = 0; w < kWarps; ++w) {
+      contacts += sh.warp_contacts[w];
+      pen = max(pen, sh.warp_pen[w]);
+    }
+    sh.contacts = contacts;
+    sh.pen_bits = pen;
+  }
+  __syncthreads();
+  return off;
+}
+
+/// Entry i of the chunks' list with offsets `off` (chunk_offsets): in the chunk b with
+/// off[b] <= i < off[b + 1].
+__device__ int list_entry(const MeshDev& d, const int* off, const int* list, int i) {
+  int lo = 0, hi = d.chunks - 1;
+  while (lo < hi) {
+    const int mid = (lo + hi + 1) / 2;
+    if (off[mid] <= i) lo = mid; else hi = mid - 1;
+  }
+  return list[lo * kBlock + (i - off[lo])];
+}
+
+/// The cached held vertices' grasp points and q (TailShared::held_local, held_q); synchronises.
+__device__ void cache_held(const MeshDev& d, const Vec3f* q, TailShared& sh) {
+  __syncthreads();
+  if (threadIdx.x < min(sh.nh, kCache)) {
+    const int j = sh.held_idx[threadIdx.x];
+    sh.held_local[threadIdx.x] = d.grasp_local[j];
+    sh.held_q[threadIdx.x] = static_cast<Vec3d>(q[j]);
+  }
+  __syncthreads();
+}
+
+/// Block 0 after an unpipelined step of q: the candidates (their q in d.cand_q) and the held
+/// vertices (d.held_list) in vertex order.
+__device__ void unpipelined_lists(const MeshDev& d, const Vec3f* q, TailShared& sh) {
+  int n0 = 0, n1 = 0;
+  const int* off = chunk_offsets(d, sh, n0, n1);
+  for (int i = threadIdx.x; i < n0; i += kBlock) {
+    const Vec3d x = static_cast<Vec3d>(q[list_entry(d, off, d.block_cand, i)]);
+    if (i < kCache) sh.cand[i] = x; else d.cand_q[i] = x;
+  }
+  for (int i = threadIdx.x; i < n1; i += kBlock) {
+    const int j = list_entry(d, off + d.chunks + 1, d.block_held, i);
+    if (i < kCache) sh.held_idx[i] = j; else d.held_list[i] = j;
+    d.held_slot[j] = i < kCache ? i : -1;
+  }
+  if (threadIdx.x == 0) { sh.nc = n0; sh.nh = n1; }
+  cache_held(d, q, sh);
+}
+
+/// Candidate i's q (TailShared::cand, then d.cand_q).
+__device__ void put_candidate(const MeshDev& d, TailShared& sh, int i, Vec3f q) {
+  if (i < kCache) sh.cand[i] = static_cast<Vec3d>(q); else d.cand_q[i] = static_cast<Vec3d>(q);
+}
+
+/// Block 0 after the other blocks' part of a pipelined step (qin -> qout, beside the Newton call
+/// that moved the tool to `pt`): the deferred vertices (held, or reachable by that call) finished
+/// with their contact at `pt` (finish_deferred); then the candidates: those of the deferred
+/// vertices, then those of the other blocks' superset list, tested at `pt` (the same test as an
+/// unpipelined step's, so the same set, in this fixed order). The contact count and
+/// deepest penetration add block 0's vertices to the chunks'.
+__device__ void pipelined_lists(const MeshDev& d, const ToolConst& t, const Posed& pt, const Posed& physical,
+                                bool first, bool last, const Vec3f* qin, Vec3f* qout,
+                                Vec3f* v_out, TailShared& sh, TailMarks& marks) {
+  int nb = 0, nu = 0;
+  const int* off = chunk_offsets(d, sh, nb, nu);
+  int base = 0, contacts = 0;
+  unsigned pen = 0;
+  // Round r: deferred vertex r + i and superset entry r + i on thread i; the round's candidates
+  // in that order (deferred, then superset), one scan for both.
+  for (int r = 0; r < max(nu, nb); r += kBlock) {
+    const int i = r + threadIdx.x;
+    VertexFlags f;
+    if (i < nu) f = finish_deferred(d, t, pt, physical, first, last, list_entry(d, off + d.chunks + 1, d.block_held, i), qin, qout, v_out, sh);
+    bool fb = false;
+    Vec3f xb{};
+    if (i < nb) {
+      xb = qout[list_entry(d, off, d.block_cand, i)];
+      fb = reachable(t, pt, xb);
+    }
+    contacts += f.contact;
+    pen = max(pen, __float_as_uint(f.pen));
+    int eu = 0, eb = 0, nu_r = 0, nb_r = 0;
+    block_exclusive_scan(f.list0 ? 1 : 0, fb ? 1 : 0, eu, eb, nu_r, nb_r);
+    if (f.list0) put_candidate(d, sh, base + eu, f.q);
+    if (fb) put_candidate(d, sh, base + nu_r + eb, xb);
+    base += nu_r + nb_r;
+  }
+  if (marks.on) marks.updated += nu;
+  for (int o = 16; o > 0; o >>= 1) {
+    contacts += __shfl_xor_sync(~0u, contacts, o);
+    pen = max(pen, __shfl_xor_sync(~0u, pen, o));
+  }
+  if ((threadIdx.x & 31) == 0) {
+    atomicAdd(&sh.contacts, contacts);  // integers: the same result in any order
+    atomicMax(&sh.pen_bits, pen);
+  }
+  if (threadIdx.x == 0) sh.nc = base;
+  __syncthreads();
+  marks.mark(DeviceTickProfile::Update);
+}
+
+/// Whether two ticks' inputs open the jaws alike.
+__device__ bool same_jaws(const DeviceTickInput& a, const DeviceTickInput& b) {
+  return a.jaw_cos == b.jaw_cos && a.jaw_sin == b.jaw_sin;
+}
+
+/// The steps of one run: step s is iteration s % K of tick tick0 + s / K.
+struct Schedule {
+  int K;
+  long long tick0;
+  unsigned long long epoch0;  // the hand-off epochs before the run
+  bool pipeline;
+  const DeviceTickInput* inputs;
+  Vec3f *q0, *q1, *q2, *v, *v_scratch;
+  __device__ Schedule(const MeshDev& d, long long tick0_, unsigned long long epoch0_)
+      : K(d.iterations), tick0(tick0_), epoch0(epoch0_), pipeline(d.pipeline), inputs(d.inputs), q0(d.q0), q1(d.q1),
+        q2(d.q2), v(d.v), v_scratch(d.v_scratch) {}
+  __device__ bool first(int s) const { return s % K == 0; }
+  __device__ bool last(int s) const { return s % K == K - 1; }
+  __device__ const DeviceTickInput& input(int s) const { return inputs[tick0 + s / K]; }
+  /// The epoch of step s's vertices (K = 1: the next one is its copy phase).
+  __device__ unsigned long long epoch(int s) const { return epoch0 + (K == 1 ? 2ull * s + 1 : s + 1ull); }
+  /// Whether step s waits for the Newton call before it (an unpipelined step): the run's first
+  /// step; every step with K = 1 (its iteration both reads and writes the velocities); a tick's
+  /// first step with a grasp event (which changes the held vertices).
+  __device__ bool unpipelined(int s) const {
+    if (s == 0 || !pipeline || K == 1) return true;
+    return first(s) && input(s).grasp != 0;
+  }
+  /// Iteration i reads in(s) and writes out(s): q0 -> q1 -> q2 -> q1 ... -> q0 (the last). K = 1:
+  /// q0 -> q1 and the velocities to v_scratch, copied back in the copy phase.
+  __device__ const Vec3f* in(int s) const {
+    const int i = s % K;
+    return i == 0 ? q0 : (i % 2 == 1 ? q1 : q2);
+  }
+  __device__ Vec3f* out(int s) const {
+    const int i = s % K;
+    return (i == K - 1 && K > 1) ? q0 : (i % 2 == 0 ? q1 : q2);
+  }
+  __device__ Vec3f* v_out() const { return K == 1 ? v_scratch : v; }
+};
+
+/// The blocks other than block 0: each step, once released, the step's vertices of their chunks
+/// (chunk c = blockIdx.x - 1, + gridDim.x - 1, ...) at the pose of the step's slot, then arrive.
+__device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedule& S, int steps, BlockShared& sm) {
+  const int blocks = gridDim.x - 1;
+  for (int s = 0; s < steps; ++s) {
+    const unsigned long long e = S.epoch(s);
+    const bool first = S.first(s), last = S.last(s), ahead = !S.unpipelined(s);
+    {  // what does not depend on the virtual tool, before the release
+      const DeviceTickInput& gin = S.input(s);
+      if (threadIdx.x == 0) sm.in() = gin;
+      if (last) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical());
+    }
+    if (threadIdx.x == 0)
+      while (load_acquire(&d.sync->release) < e) {}
+    __syncthreads();
+    unsigned long long stamp[5] = {};  // profiling: start, setup, vertices, lists (sums over chunks), chunk start
+    if (d.profile && threadIdx.x == 0) stamp[0] = global_ns();
+    copy_posed(d.slots[s & 1].posed, sm.posed());
+    __syncthreads();
+    if (d.profile && threadIdx.x == 0) stamp[1] = global_ns();
+    for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+      if (d.profile && threadIdx.x == 0) stamp[4] = global_ns();
+      if (ahead) vertex_chunk<true>(d, t, first, last, c, S.in(s), S.out(s), S.v_out(), sm, stamp);
+      else vertex_chunk<false>(d, t, first, last, c, S.in(s), S.out(s), S.v_out(), sm, stamp);
+      if (d.profile && threadIdx.x == 0) stamp[3] += global_ns() - stamp[4];
+    }
+    if (d.profile && threadIdx.x == 0) {
+      const unsigned long long vertices = stamp[2], lists = stamp[3] - stamp[2];
+      atomicAdd(&d.profile->sum[DeviceTickProfile::BlockLag], stamp[0] - d.profile->release_ns[s & 1]);
+      atomicAdd(&d.profile->sum[DeviceTickProfile::BlockSetup], stamp[1] - stamp[0]);
+      atomicAdd(&d.profile->sum[DeviceTickProfile::BlockVertices], vertices);
+      atomicAdd(&d.profile->sum[DeviceTickProfile::BlockLists], lists);
+      atomicMax(&d.profile->vertices_max[s & 1], vertices);
+    }
     __syncthreads();
     if (threadIdx.x == 0) {
       __threadfence();
       atomicAdd(&d.sync->arrive, 1ull);
     }
-  };
-  auto wait_release = [&](unsigned long long e) {
-    if (threadIdx.x == 0)
-      while (load_acquire(&d.sync->release) < e) {}
+    if (S.K == 1) {  // the copy phase: v_scratch -> v, q1 -> q0 for the chunks, once every block's step is done
+      if (threadIdx.x == 0)
+        while (load_acquire(&d.sync->release) < e + 1) {}
+      __syncthreads();
+      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+        const int j = c * kBlock + threadIdx.x;
+        if (j < d.m) {
+          d.q0[j] = S.out(s)[j];
+          d.v[j] = d.v_scratch[j];
+        }
+      }
+      __syncthreads();
+      if (threadIdx.x == 0) {
+        __threadfence();
+        atomicAdd(&d.sync->arrive, 1ull);
+      }
+    }
+  }
+}
+
+/// Block 0: the virtual tool. Each step, once the step's lists are made, it runs the Newton call
+/// (virtual_tool_tail). An unpipelined step's vertices wait for the call before them: block 0
+/// publishes the new pose, releases the step, waits for every block and gathers the lists. A
+/// pipelined step runs beside that call: block 0 releases it with the pose before the call, runs
+/// the call, then steps the vertices the other blocks left to it at the new pose and filters the
+/// candidates (pipelined_lists). Block 0 stays on its multiprocessor for the whole run, so the
+/// tool's code stays in that one instruction cache.
+__device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule& S, int steps, BlockShared& sm) {
+  TailShared& sh = sm.tail();
+  Posed& pt = sm.posed();
+  const unsigned long long others = gridDim.x - 1;
+  TailMarks marks;
+  marks.begin(d.profile);
+  if (threadIdx.x == 0) {
+    sh.P = d.state->position;
+    sh.Q = d.state->orientation;
+    sh.anchor_P = d.state->anchor_position;
+    sh.anchor_Q = d.state->anchor_orientation;
+  }
+  __syncthreads();
+  // Releases epoch e; s >= 0: with the tool posed at (sh.P, sh.Q) with step s's jaws in its slot
+  // (pt when pt has them, the jaws of sm.in()).
+  auto release = [&](unsigned long long e, int s) {
+    if (s >= 0) {
+      const DeviceTickInput& gin = S.input(s);
+      if (same_jaws(gin, sm.in())) copy_posed(pt, d.slots[s & 1].posed);
+      else pose_colliders(t, sh.P, sh.Q, gin, d.slots[s & 1].posed);
+    }
     __syncthreads();
+    if (threadIdx.x == 0) {
+      if (d.profile && s >= 0) d.profile->release_ns[s & 1] = global_ns();
+      store_release(&d.sync->release, e);
+    }
   };
   auto wait_arrivals = [&](unsigned long long e) {
     __syncthreads();
     if (threadIdx.x == 0)
       while (load_acquire(&d.sync->arrive) < e * others) {}
-    __syncthreads();
-  };
-  auto release = [&](unsigned long long e) {
-    __syncthreads();
-    if (threadIdx.x == 0) store_release(&d.sync->release, e);
-  };
-  for (int k = 0; k < count; ++k)
-    for (int i = 0; i < K; ++i) {
-      const bool first = i == 0, last = i == K - 1;
-      // Iteration i reads a and writes b: q0 -> q1 -> q2 -> q1 ... -> q0 (the last). K = 1: q0 -> q1
-      // and the velocities to v_scratch, copied back after the tail (v is the iteration's input).
-      const Vec3f* a = first ? d.q0 : (i % 2 == 1 ? d.q1 : d.q2);
-      Vec3f* b = (last && K > 1) ? d.q0 : (i % 2 == 0 ? d.q1 : d.q2);
-      Vec3f* vo = K == 1 ? d.v_scratch : d.v;
-      unsigned long long stamp[5] = {};  // profiling: start, setup, vertices, lists (sums over chunks), chunk start
-      if (d.profile && threadIdx.x == 0) {
-        stamp[0] = global_ns();
-        if (tail_block) d.profile->start = stamp[0];
-        if (d.profile->prev_end) atomicAdd(&d.profile->block_start, stamp[0] - d.profile->prev_end);
-      }
-      {
-        const DeviceTickInput& gin = d.inputs[d.state->tick];
-        if (threadIdx.x == 0) {
-          sm.in() = gin;
-          TailShared& tail = sm.tail();
-          tail.P = d.state->position;  // for the virtual tool, if this block runs it
-          tail.Q = d.state->orientation;
-          tail.anchor_P = d.state->anchor_position;
-          tail.anchor_Q = d.state->anchor_orientation;
-        }
-        pose_colliders(t, d.state->position, d.state->orientation, gin, sm.posed());
-        if (last) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical());
-      }
-      __syncthreads();
-      if (d.profile && threadIdx.x == 0) stamp[1] = global_ns();
-      for (int c = blockIdx.x; c < d.chunks; c += gridDim.x) {
-        if (d.profile && threadIdx.x == 0) stamp[4] = global_ns();
-        vertex_chunk(d, t, first, last, c, a, b, vo, sm, stamp);
-        if (d.profile && threadIdx.x == 0) stamp[3] += global_ns() - stamp[4];
-      }
-      if (d.profile && threadIdx.x == 0) {
-        const unsigned long long vertices = stamp[2], lists = stamp[3] - stamp[2];
-        atomicAdd(&d.profile->sum[DeviceTickProfile::BlockSetup], stamp[1] - stamp[0]);
-        atomicAdd(&d.profile->sum[DeviceTickProfile::BlockVertices], vertices);
-        atomicAdd(&d.profile->sum[DeviceTickProfile::BlockLists], lists);
-        atomicMax(&d.profile->vertices_max, vertices);
-      }
-      ++epoch;
-      if (tail_block) {
-        wait_arrivals(epoch);
-        __threadfence();
-        virtual_tool_tail(d, t, sm.in(), b, last, sm.posed(), sm.tail());
-        release(epoch);
-      } else {
-        arrive();
-        wait_release(epoch);
-      }
-      if (K == 1) {  // v_scratch -> v, q1 -> q0, each block its own chunks, then every block waits for all
-        for (int c = blockIdx.x; c < d.chunks; c += gridDim.x) {
-          const int j = c * kBlock + threadIdx.x;
-          if (j < d.m) {
-            d.q0[j] = b[j];
-            d.v[j] = vo[j];
-          }
-        }
-        ++epoch;
-        if (tail_block) {
-          wait_arrivals(epoch);
-          release(epoch);
-        } else {
-          arrive();
-          wait_release(epoch);
-        }
-      }
+    if (d.profile && threadIdx.x == 0) {  // the step's slowest block
+      const int slot = static_cast<int>((e - S.epoch0 - 1) / (S.K == 1 ? 2 : 1)) & 1;
+      d.profile->sum[DeviceTickProfile::BlockVerticesMax] += d.profile->vertices_max[slot];
+      d.profile->vertices_max[slot] = 0;
     }
+    __syncthreads();
+    marks.mark(DeviceTickProfile::Wait);
+  };
+  // Step s unpipelined: the tool posed for it, the step released, every block waited for, its
+  // lists gathered.
+  auto unpipelined_step = [&](int s) {
+    const DeviceTickInput& gin = S.input(s);
+    if (threadIdx.x == 0) sm.in() = gin;
+    pose_colliders(t, sh.P, sh.Q, gin, pt);
+    __syncthreads();
+    release(S.epoch(s), s);
+    marks.mark(DeviceTickProfile::Lists);
+    wait_arrivals(S.epoch(s));
+    unpipelined_lists(d, S.out(s), sh);
+    if (S.K == 1) release(S.epoch(s) + 1, -1);  // the copy phase (the Newton call reads neither q0 nor v)
+    if (marks.on) ++marks.fences;
+    marks.mark(DeviceTickProfile::Lists);
+  };
+  unpipelined_step(0);
+  for (int s = 0; s < steps; ++s) {
+    // Here the lists of step s are made and pt is posed at (sh.P, sh.Q), the pose before its call,
+    // with the jaws of sm.in(), step s's input.
+    const bool next = s + 1 < steps, ahead = next && !S.unpipelined(s + 1);
+    if (ahead) {
+      const DeviceTickInput& gin = S.input(s + 1);
+      if (S.last(s + 1)) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical());  // for block 0's vertices
+      release(S.epoch(s + 1), s + 1);
+    }
+    marks.mark(DeviceTickProfile::Lists);
+    virtual_tool_tail(d, t, sm.in(), S.out(s), S.last(s), pt, sh, marks);
+    if (!next) break;
+    if (S.K == 1) wait_arrivals(S.epoch(s) + 1);  // the copies, before step s + 1 reads q0 and v
+    if (ahead) {
+      // pt at the call's result with step s + 1's jaws; sm.in() step s + 1's input.
+      const DeviceTickInput& gin = S.input(s + 1);
+      const bool repose = !sh.posed_current || !same_jaws(gin, sm.in());
+      __syncthreads();
+      if (repose) pose_colliders(t, sh.P, sh.Q, gin, pt);
+      if (S.first(s + 1) && threadIdx.x == 0) sm.in() = gin;
+      __syncthreads();
+      marks.mark(DeviceTickProfile::Lists);
+      wait_arrivals(S.epoch(s + 1));
+      pipelined_lists(d, t, pt, sm.physical(), S.first(s + 1), S.last(s + 1), S.in(s + 1), S.out(s + 1),
+                      S.v_out(), sh, marks);
+    } else {
+      unpipelined_step(s + 1);
+    }
+  }
+  marks.end(d.profile, steps);
+}
+
+/// One run of `count` ticks from tick `tick0` as one cooperative launch (every block resident;
+/// block 0 the virtual tool, the others the virtual mesh; hand-off epochs numbered across runs
+/// from `epoch0`).
+__global__ void __launch_bounds__(kBlock)
+    ticks_kernel(MeshDev d, ToolConst t, int count, long long tick0, unsigned long long epoch0) {
+  __shared__ BlockShared sm;
+  const Schedule S(d, tick0, epoch0);
+  if (blockIdx.x == 0) tool_block(d, t, S, count * d.iterations, sm);
+  else vertex_blocks(d, t, S, count * d.iterations, sm);
 }
 
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
@@ -959,7 +1261,7 @@ bool device_haptic_supported(const ToolModel& tool) {
 struct CudaHapticTicks::Impl {
   CudaPhysicalSolver* physical = nullptr;
   int m = 0, n = 0, iterations = 1;
-  int grid = 1;                           // ticks_kernel's blocks (all resident)
+  int grid = 2;                           // ticks_kernel's blocks (all resident): block 0 and the vertices' blocks
   long long ticks = 0, enqueued = 0;
   unsigned long long epoch = 0;           // virtual iterations (and K = 1 copies) enqueued so far
   cudaStream_t stream = nullptr;
@@ -970,9 +1272,11 @@ struct CudaHapticTicks::Impl {
   bool step_in_flight = false;
   cuda::VirtualModelArrays model;
   cuda::DeviceArray<std::uint8_t> held;
-  cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, held_list;
+  cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, held_list, held_slot;
   cuda::DeviceArray<SyncDev> sync;
-  cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
+  cuda::DeviceArray<PoseSlot> slots;
+  cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3], r_part;
+  cuda::DeviceArray<float> d_part;
   cuda::DeviceArray<Vec3d> grasp_local, cand_q;
   cuda::DeviceArray<ToolStateDev> state;
   cuda::DeviceArray<DeviceTickInput> inputs;
@@ -1030,7 +1334,8 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   up(I.x_vis, x0);
   up(I.v, zero);
   up(I.q[0], q0);
-  for (auto* a : {&I.v_scratch, &I.q_start, &I.s, &I.p, &I.q[1], &I.q[2]}) a->allocate(m);
+  for (auto* a : {&I.v_scratch, &I.q_start, &I.s, &I.p, &I.q[1], &I.q[2], &I.r_part}) a->allocate(m);
+  I.d_part.allocate(m);
   up(I.held, std::vector<std::uint8_t>(m, 0));
   I.grasp_local.allocate(m);
   I.cand_q.allocate(m);
@@ -1040,16 +1345,21 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   I.block_counts.allocate(4 * std::size_t(chunks));
   I.block_offsets.allocate(2 * (std::size_t(chunks) + 1));
   I.held_list.allocate(m);
+  I.held_slot.allocate(m);
   up(I.sync, std::vector<SyncDev>(1, SyncDev{0, 0}));
+  I.slots.allocate(2);
+  if (S.max_blocks < 0 || S.max_blocks == 1)
+    throw std::invalid_argument("CudaHapticTicks: max_blocks must be 0 (no cap) or at least 2");
   {  // every block of ticks_kernel resident (its hand-offs spin): at most the device's co-resident blocks
     int device = 0, coop = 0, sms = 0, per_sm = 0;
     EBH_CUDA_CHECK(cudaGetDevice(&device));
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
     EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, ticks_kernel, kBlock, 0));
-    if (!coop || per_sm < 1)
+    if (!coop || per_sm * sms < 2)
       throw std::runtime_error("CudaHapticTicks: the device cannot run the cooperative tick kernel");
-    I.grid = std::max(1, std::min(chunks, per_sm * sms));
+    I.grid = std::min(chunks + 1, per_sm * sms);  // block 0 runs no chunks
+    if (S.max_blocks > 0) I.grid = std::min(I.grid, S.max_blocks);
   }
   ToolStateDev s0{};
   s0.position = s0.anchor_position = S.pose0.position;
@@ -1088,14 +1398,19 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.block_counts = I.block_counts.get();
   d.block_offsets = I.block_offsets.get();
   d.iterations = I.iterations;
+  d.pipeline = S.pipeline;
+  d.slots = I.slots.get();
   d.q0 = I.q[0].get();
   d.q1 = I.q[1].get();
   d.q2 = I.q[2].get();
   d.v = I.v.get();
   d.v_scratch = I.v_scratch.get();
+  d.r_part = I.r_part.get();
+  d.d_part = I.d_part.get();
   d.sync = I.sync.get();
   d.cand_q = I.cand_q.get();
   d.held_list = I.held_list.get();
+  d.held_slot = I.held_slot.get();
   d.state = I.state.get();
   d.inputs = I.inputs.get();
   d.grasp_boxes = I.grasp_boxes.get();
@@ -1112,6 +1427,9 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     const Collider<double>& a = T.colliders[c];
     t.shape[c] = a;
     bounding_segment(a, t.seg_a[c], t.seg_b[c], t.seg_r[c]);
+    // The segment's farthest point from the tool origin (a jaw's frame turns about that origin).
+    const double L = std::max(norm(static_cast<Vec3d>(t.seg_a[c])), norm(static_cast<Vec3d>(t.seg_b[c])));
+    t.seg_L[c] = static_cast<float>(L * (1 + 1e-6) + 1e-7);
   }
   t.jaw_angle = T.has_jaws ? T.spec.forceps.jaw_max_angle_deg * std::numbers::pi / 180.0 : 0.0;
   t.k_con = S.k.k_con;
@@ -1126,8 +1444,8 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   t.torque_limit = T.torque_limit;
   t.soft_margin = T.spec.forceps.soft_margin;
   t.eta = T.spec.forceps.eta;
-  t.reach_T = t.newton * t.max_step;
-  t.reach_th = std::min(t.newton * t.max_rot, 0.5);
+  t.reach_T = static_cast<float>(t.newton * t.max_step);
+  t.reach_th = static_cast<float>(std::min(t.newton * t.max_rot, 0.5));
   EBH_CUDA_CHECK(cudaStreamSynchronize(st));
 }
 
@@ -1176,8 +1494,9 @@ int CudaHapticTicks::run_ticks(int count) {
   if (I.enqueued + count > I.ticks) throw std::invalid_argument("CudaHapticTicks::run_ticks: past the last tick's input");
   {
     int n = count;
+    long long tick0 = I.enqueued;
     unsigned long long e = I.epoch;
-    void* args[] = {&I.dev, &I.tool, &n, &e};
+    void* args[] = {&I.dev, &I.tool, &n, &tick0, &e};
     EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<void*>(ticks_kernel), dim3(I.grid), dim3(kBlock), args, 0, I.stream));
     EBH_CUDA_LAUNCH_CHECK(I.stream, "ticks_kernel");
     I.epoch += static_cast<unsigned long long>(count) * (I.iterations + (I.iterations == 1 ? 1 : 0));
@@ -1205,16 +1524,20 @@ DeviceTickProfile CudaHapticTicks::profile() {
   ProfileDev p{};
   EBH_CUDA_CHECK(cudaMemcpyAsync(&p, I.dev.profile, sizeof(p), cudaMemcpyDeviceToHost, I.stream));
   EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));
-  r.launches = static_cast<long long>(p.launches);
-  if (!p.launches || !p.tail_ns) return r;
+  r.launches = static_cast<long long>(p.steps);
+  if (!p.steps || !p.tail_ns) return r;
+  const double steps = static_cast<double>(p.steps);
   r.tail_clock_ghz = static_cast<double>(p.tail_cycles) / static_cast<double>(p.tail_ns);
   r.clamp_sweeps = p.clamps ? static_cast<double>(p.sweeps) / static_cast<double>(p.clamps) : 0.0;
-  r.candidates = static_cast<double>(p.candidates) / static_cast<double>(p.launches);
+  r.definite = p.clamps + p.definite ? static_cast<double>(p.definite) / static_cast<double>(p.clamps + p.definite) : 0.0;
+  r.candidates = static_cast<double>(p.candidates) / steps;
+  r.fences = static_cast<double>(p.fences) / steps;
+  r.updated = p.steps > p.fences ? static_cast<double>(p.updated) / static_cast<double>(p.steps - p.fences) : 0.0;
   for (int k = 0; k < DeviceTickProfile::kStages; ++k) {
-    const bool per_block = k >= DeviceTickProfile::BlockSetup && k <= DeviceTickProfile::BlockLists;  // summed over the blocks
-    const bool cycles = k >= DeviceTickProfile::Gather && k <= DeviceTickProfile::Output;
-    const double ns = static_cast<double>(static_cast<long long>(p.sum[k])) / (cycles ? r.tail_clock_ghz : 1.0);
-    r.mean_us[k] = 1e-3 * ns / (static_cast<double>(p.launches) * (per_block ? I.grid : 1));
+    const bool cycles = k <= DeviceTickProfile::Output;  // block 0's, in its cycles
+    const bool per_block = k >= DeviceTickProfile::BlockLag && k <= DeviceTickProfile::BlockLists;  // summed over blocks
+    const double ns = static_cast<double>(p.sum[k]) / (cycles ? r.tail_clock_ghz : 1.0);
+    r.mean_us[k] = 1e-3 * ns / (steps * (per_block ? I.grid - 1 : 1));
   }
   return r;
 }

@@ -58,32 +58,36 @@ struct DeviceTickOutput {
 };
 
 /// Where a device tick's time goes (DeviceHapticSetup::profile_stages): the mean of each stage
-/// per iteration (one virtual-mesh iteration and the virtual tool's Newton call after it),
-/// from the device's global timer.
+/// per iteration ("step": one virtual-mesh iteration and the virtual tool's Newton call after it).
+/// Block 0's stages, in SM cycles converted by its clock, add up to its whole time; the other
+/// blocks' stages are means over blocks from the device's global timer (steps of about 1 us).
 struct DeviceTickProfile {
   enum Stage {
-    Launch,      ///< the hand-off: from the last tail's end to block 0's next start
-    Mesh,        ///< to the last block's arrival: contact, the Jacobi step, reach, per-block lists
-    Gather,      ///< the reachable and held lists in vertex order
+    Wait,        ///< block 0 waiting for the other blocks' vertices after the Newton call
+    Update,      ///< block 0's own vertices (held and deferred) at the new pose (pipelined steps)
+    Lists,       ///< the candidate and held lists, filtered and in a fixed order; the hand-offs
     Evaluate,    ///< E_tool, its gradient and the contact Hessian (every evaluation)
     Clamp,       ///< the 6x6 PSD clamp
     Solve,       ///< the Cholesky solve and the step's checks
     LineSearch,  ///< the Armijo trials
-    Output,      ///< the tool's state, the tick's outputs on its last launch
-    // Inside Mesh, means over blocks: a block's start after block 0's, its setup (inputs, posed
-    // tool), its vertices (contact, Jacobi step, reach), its lists and the last-block election.
+    Output,      ///< the tool's state, the tick's outputs on its last step
+    // The other blocks, means over blocks: a block's start after its release, its setup (inputs,
+    // posed tool), its vertices (contact, Jacobi step, reach), its lists.
     BlockLag, BlockSetup, BlockVertices, BlockLists,
     BlockVerticesMax,  ///< the slowest block's vertices
     kStages
   };
-  static constexpr const char* kNames[kStages] = {"launch", "mesh", "gather", "evaluate", "clamp", "solve",
+  static constexpr const char* kNames[kStages] = {"wait", "update", "lists", "evaluate", "clamp", "solve",
                                                   "line_search", "output", "block_lag", "block_setup",
                                                   "block_vertices", "block_lists", "block_vertices_max"};
   double mean_us[kStages] = {};
-  double tail_clock_ghz = 0;  ///< the SM clock while the virtual tool ran (cycles over time)
-  double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp (newton_warp.cuh)
-  double candidates = 0;      ///< vertices the Newton call can reach, per iteration
-  long long launches = 0;
+  double tail_clock_ghz = 0;  ///< block 0's SM clock (cycles over time)
+  double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp that ran them (newton_warp.cuh)
+  double definite = 0;        ///< the share of clamps whose matrix was positive definite (no Jacobi)
+  double candidates = 0;      ///< vertices the Newton call can reach, per step
+  double updated = 0;         ///< vertices block 0 updates itself, per pipelined step
+  double fences = 0;          ///< the share of steps that ran unpipelined
+  long long launches = 0;     ///< steps
 };
 
 struct DeviceHapticSetup {
@@ -97,6 +101,10 @@ struct DeviceHapticSetup {
   ToolPose pose0;                        ///< the virtual tool at tick 0
   std::vector<Collider<double>> grasp_boxes;  ///< hard boxes of the grasp events (tool frame)
   bool profile_stages = false;           ///< time the stages (profile()); off: no timer reads
+  /// Run the next step's vertices beside the virtual tool (docs/CUDA.md, "Pipelined steps"); off:
+  /// every step waits for the tool (the same results up to the order of the contact sums).
+  bool pipeline = true;
+  int max_blocks = 0;                    ///< cap on the kernel's blocks (tests: blocks running several chunks); 0: none
 };
 
 /// Whether the device tick can run this tool (the closest-point projection, at most kMaxColliders).

@@ -508,6 +508,77 @@ TEST(CudaReplay, AsyncModeRuns) {
   EXPECT_LE(err_f, tol_f);
 }
 
+/// The device ticks alone (no physical steps) of cholecystectomy_grasp from t = 1.2 s through the
+/// grasp, with `change` applied to the setup; each row's outputs, and the profile if asked.
+std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapticSetup&), DeviceTickProfile* profile = nullptr) {
+  LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
+                                       false, Backend::Cuda);
+  const World& w = *in.world;
+  const int N = w.ticks_per_step;
+  DeviceReplayInputs inputs = device_replay_inputs(w, in.recording, in.recording.t.front() + 1.2, ticks, Mode::Async);
+  DeviceHapticSetup setup = inputs.setup;
+  setup.profile_stages = profile != nullptr;
+  if (change) change(setup);
+  CudaPhysicalSolver physical(w.physical_mesh, w.physical_params);
+  CudaHapticTicks device(setup, inputs.ticks, physical);
+  std::vector<DeviceTickOutput> out(ticks), rows(N);
+  for (int k = 0; k < ticks; k += N) {
+    rows.resize(std::min(N, ticks - k));
+    device.collect(device.run_ticks(static_cast<int>(rows.size())), rows);
+    std::copy(rows.begin(), rows.end(), out.begin() + k);
+  }
+  if (profile) *profile = device.profile();
+  return out;
+}
+
+/// Pipelined steps (the other blocks run a step's vertices beside the virtual tool's Newton call,
+/// block 0 the vertices that call can reach) against unpipelined ones (every step waits for the
+/// call): the same grasp and the same forces up to the order of the contact sums, for 4 (the
+/// scene's) and 3 virtual iterations. A grid of 9 blocks (each of the 8 vertex blocks running
+/// ~12 chunks) gives the same bits as the full grid: a chunk's lists do not depend on its block.
+TEST(CudaDeviceTick, PipelinedStepsMatchUnpipelinedOnes) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 800;
+  const Models& M = models("cholecystectomy");
+  for (const int K : {4, 3}) {
+    static int iterations;
+    iterations = K;
+    DeviceTickProfile prof_pipe, prof_plain;
+    const auto pipe = device_ticks(ticks, [](DeviceHapticSetup& s) { s.virtual_iterations = iterations; }, &prof_pipe);
+    const auto plain = device_ticks(
+        ticks, [](DeviceHapticSetup& s) { s.virtual_iterations = iterations; s.pipeline = false; }, &prof_plain);
+    const auto strided = device_ticks(
+        ticks, [](DeviceHapticSetup& s) { s.virtual_iterations = iterations; s.max_blocks = 9; });
+    // Float32 round-off of the virtual mesh, (K + 1) 16 u X per tick, added over the ticks, through k_vcs.
+    const double tol_f = M.scene.spec.stiffness.k_vcs * ticks * step_tolerance(K, max_abs_coordinate(M.pm.rest));
+    double err_f = 0, peak_f = 0;
+    int grasp_mismatch = 0, contact_mismatch = 0, max_grasped = 0, max_contacts = 0, strided_mismatch = 0;
+    for (int n = 0; n < ticks; ++n) {
+      err_f = std::max(err_f, norm(pipe[n].force - plain[n].force));
+      peak_f = std::max(peak_f, norm(plain[n].force));
+      grasp_mismatch += pipe[n].grasped != plain[n].grasped;
+      contact_mismatch += pipe[n].contacts != plain[n].contacts;
+      max_grasped = std::max(max_grasped, plain[n].grasped);
+      max_contacts = std::max(max_contacts, plain[n].contacts);
+      strided_mismatch += std::memcmp(&pipe[n].force, &strided[n].force, sizeof(Vec3d)) != 0 ||
+                          std::memcmp(&pipe[n].position, &strided[n].position, sizeof(Vec3d)) != 0 ||
+                          pipe[n].contacts != strided[n].contacts || pipe[n].grasped != strided[n].grasped;
+    }
+    std::printf("[ pipelined K=%d ] %d ticks, up to %d contacts and %d grasped: max |F| diff %.3g N (tol %.3g, peak "
+                "%.3g N), %d ticks with other contact counts; %.1f%% of the steps unpipelined (%.1f%% without the "
+                "pipeline), %.1f vertices on block 0 per pipelined step; 9 blocks: %d ticks differ\n",
+                K, ticks, max_contacts, max_grasped, err_f, tol_f, peak_f, contact_mismatch, 100 * prof_pipe.fences,
+                100 * prof_plain.fences, prof_pipe.updated, strided_mismatch);
+    EXPECT_GT(max_grasped, 0) << "the window must contain a grasp";
+    EXPECT_EQ(grasp_mismatch, 0);
+    EXPECT_LE(err_f, tol_f);
+    EXPECT_LE(contact_mismatch, ticks / 100);
+    EXPECT_EQ(strided_mismatch, 0);
+    EXPECT_DOUBLE_EQ(prof_plain.fences, 1.0);
+    EXPECT_LT(prof_pipe.fences, 0.5) << "most steps must run pipelined";
+  }
+}
+
 #endif
 
 }  // namespace

@@ -5,6 +5,7 @@
 // the warp calls these functions together (shuffles, no shared memory but the clamp's scratch).
 //
 //   warp_psd_clamp      V max(Lambda, 0) V^T: the 6x6 PSD clamp, by cyclic Jacobi in float32
+//                       (H itself when a Cholesky factorisation shows it positive definite)
 //   warp_cholesky_solve x = H^-1 b for a symmetric positive definite H, in double
 //
 // Shuffle chains instead of one thread's loops: the Newton step is a latency chain on one SM,
@@ -43,17 +44,46 @@ __device__ __forceinline__ int jacobi_partner(int r, int i) {
 inline constexpr int kMaxJacobiSweeps = 8;
 inline constexpr float kJacobiTolerance = 0x1p-21f;
 
+/// Cholesky factorisation H = U^T U in double of the symmetric H whose upper entry e lane e < 21
+/// holds in `h` ((i, j): that entry's row and column): returns (lane e) U's upper entry e, its
+/// diagonal holding 1 / U(c, c); `ok` (on every lane) whether every pivot was positive.
+__device__ inline double warp_cholesky_factor(double h, int lane, int i, int j, bool& ok) {
+  double u = lane < 21 ? h : 0.0;
+  ok = true;
+#pragma unroll
+  for (int c = 0; c < 6; ++c) {
+    const double d = __shfl_sync(~0u, u, upper(c, c));
+    ok = ok && d > 0.0;
+    const double inv = rsqrt(fmax(d, 1e-300));  // no division; a non-positive pivot fails
+    if (i == c) u = j == c ? inv : u * inv;  // row c of U
+    const double uci = __shfl_sync(~0u, u, upper(c, max(i, c))), ucj = __shfl_sync(~0u, u, upper(c, max(j, c)));
+    if (i > c) u -= uci * ucj;  // the trailing block: H(i, j) - U(c, i) U(c, j)
+  }
+  return u;
+}
+
 /// The PSD clamp of virtual_tool.cpp's H_step: returns (lane e < 21) upper entry e of
 /// V max(Lambda, 0) V^T for the symmetric matrix whose upper entry e lane e holds in `h`, by a cyclic
 /// Jacobi eigen-decomposition in float32 (round r rotates the three disjoint pairs of
 /// jacobi_partner at once: A' = J^T A J, V' = V J; Numerical Recipes' rotation; sweeps until
-/// kJacobiTolerance), the product in double. A zero matrix is returned as is. `scratch`: 42 floats of
-/// shared memory for this warp; `sweeps` (optional): the sweeps the Jacobi took.
+/// kJacobiTolerance), the product in double. A zero matrix is returned as is, and so is one whose
+/// Cholesky factorisation in double succeeds: positive definite, its own clamp (the factorisation
+/// is backward stable, so H is within double round-off of a positive definite matrix, far below
+/// the float32 Jacobi's error). `scratch`: 42 floats of shared memory for this warp; `sweeps`
+/// (optional): the sweeps the Jacobi took, -1 when H was positive definite.
 __device__ inline double warp_psd_clamp(double h, int lane, float* scratch, int* sweeps = nullptr) {
   if (sweeps) *sweeps = 0;
   if (__ballot_sync(~0u, lane < 21 && h != 0.0) == 0u) return h;  // no contact Hessian
   int i = 0, j = 0;
   upper_entry(lane < 21 ? lane : 0, i, j);
+  {
+    bool pd = false;
+    warp_cholesky_factor(h, lane, i, j, pd);
+    if (pd) {
+      if (sweeps) *sweeps = -1;
+      return lane < 21 ? h : 0.0;
+    }
+  }
   float a = static_cast<float>(h);
   // V, row-major 6x6: lane l owns entries l and l + 32 (the second for lanes 0-3 only).
   const int e1 = min(lane + 32, 35);
@@ -142,17 +172,8 @@ __device__ inline double warp_psd_clamp(double h, int lane, float* scratch, int*
 __device__ inline bool warp_cholesky_solve(double h, double b, int lane, double& x) {
   int i = 0, j = 0;
   upper_entry(lane < 21 ? lane : 0, i, j);
-  double u = lane < 21 ? h : 0.0;  // becomes U, its diagonal holding 1 / U(c, c)
   bool ok = true;
-#pragma unroll
-  for (int c = 0; c < 6; ++c) {
-    const double d = __shfl_sync(~0u, u, upper(c, c));
-    ok = ok && d > 0.0;
-    const double inv = rsqrt(fmax(d, 1e-300));  // no division; a non-positive pivot fails below
-    if (i == c) u = j == c ? inv : u * inv;  // row c of U
-    const double uci = __shfl_sync(~0u, u, upper(c, max(i, c))), ucj = __shfl_sync(~0u, u, upper(c, max(j, c)));
-    if (i > c) u -= uci * ucj;  // the trailing block: H(i, j) - U(c, i) U(c, j)
-  }
+  const double u = warp_cholesky_factor(h, lane, i, j, ok);  // U, its diagonal holding 1 / U(c, c)
   // Lane k < 6: column k of U (= row k), U(m, k) for m < k and U(k, m) for m > k; its inverse diagonal.
   const int k = lane < 6 ? lane : 5;
   double col[6];

@@ -304,6 +304,18 @@ TEST(CudaNewton, PsdClampMatchesEigen) {
     const double tol = 64 * kU * lambda.cwiseAbs().maxCoeff();
     EXPECT_LE((got - want).cwiseAbs().maxCoeff(), tol) << "trial " << trial;
   }
+  // Positive definite matrices, down to a condition of 1e6, are their own clamp (the Cholesky
+  // shortcut); one negative eigenvalue of -1e-6 of the norm sends a matrix to the Jacobi.
+  for (int trial = 0; trial < 50; ++trial) {
+    Vec6 lambda;
+    for (int k = 0; k < 6; ++k) lambda[k] = std::pow(10.0, exponent(rng));
+    lambda[trial % 6] = trial % 2 ? 1e-2 : -1e-2;
+    const Mat6 H = symmetric_with_eigenvalues(rng, lambda);
+    const Mat6 got = device_psd_clamp(H), want = psd_clamp_reference(H);
+    EXPECT_LE((got - want).cwiseAbs().maxCoeff(), 64 * kU * lambda.cwiseAbs().maxCoeff()) << "definite trial " << trial;
+    if (trial % 2)  // returned as is (its upper triangle, which the clamp reads)
+      EXPECT_EQ(Mat6(got.triangularView<Eigen::Upper>()), Mat6(H.triangularView<Eigen::Upper>())) << "definite trial " << trial;
+  }
   EXPECT_EQ(device_psd_clamp(Mat6::Zero()), Mat6::Zero());  // no contact: the clamp is skipped
   Mat6 diag = Mat6::Zero();
   diag.diagonal() << 3, -2, 0.5, -1e-3, 7, 0;

@@ -186,14 +186,28 @@ __device__ bool reachable(const ToolConst& t, const Posed& p, Vec3f x) {
   return maybe_within(t, p, x, reach_bound(t, origin_distance(p, x)));
 }
 
-/// A superset of reachable(x) at every pose one Newton call away from `p` (within reach_T and
-/// reach_th): such a pose's origin is within reach_T, so x's distance to it within r + reach_T; a
-/// point of collider c's segment moves by at most reach_T + reach_th seg_L[c].
-__device__ bool reachable_after_call(const ToolConst& t, const Posed& p, Vec3f x) {
-  const float b = reach_bound(t, origin_distance(p, x) + t.reach_T) + t.reach_T + 2.f * kFloatSlack;
-  for (int c = 0; c < t.count; ++c)
-    if (capsule_within(p, c, x, b + t.reach_th * t.seg_L[c])) return true;
-  return false;
+/// The reach tests of a pipelined step's vertex (vertex_step<true>) at its iterate q, in one pass
+/// over the colliders posed at the pose before the Newton call that runs beside the step; its step
+/// moves it to qn, |qn - q| <= delta.
+///   defer: reachable(q), whether the call can bring the tool into contact with q;
+///   superset: a superset of reachable(qn) at every pose one call away (within reach_T and
+///     reach_th): such a pose's origin lies within reach_T, so qn's distance to it within
+///     |q - origin| + delta + reach_T; a point of collider c's segment moves by at most
+///     reach_T + reach_th seg_L[c]; and qn lies within delta of q.
+__device__ void ahead_reach(const ToolConst& t, const Posed& p, Vec3f q, float delta, bool& defer, bool& superset) {
+  const float r = origin_distance(p, q);
+  const float b = reach_bound(t, r);
+  const float b2 = reach_bound(t, r + delta + t.reach_T) + t.reach_T + delta + 2.f * kFloatSlack;
+  defer = superset = false;
+  for (int c = 0; c < t.count; ++c) {  // capsule_within at two margins
+    const Vec3f v = q - p.seg_a[c];
+    const float s = fminf(fmaxf(dot(v, p.seg_u[c]), 0.f), p.seg_len[c]);
+    const Vec3f d = v - s * p.seg_u[c];
+    const float d2 = dot(d, d);
+    const float r1 = fmaxf(p.seg_r[c] + b, 0.f), r2 = p.seg_r[c] + b2 + t.reach_th * t.seg_L[c];
+    defer = defer || d2 <= r1 * r1;
+    superset = superset || d2 <= r2 * r2;
+  }
 }
 
 /// The grid's hand-off counters (ticks_kernel): arrivals of the blocks other than the tail block,
@@ -217,6 +231,17 @@ __device__ void copy_posed(const Posed& from, Posed& to) {
   for (int w = threadIdx.x; w < static_cast<int>(sizeof(Posed) / 8); w += kBlock) b[w] = a[w];
 }
 
+/// A vertex a pipelined step left to block 0 (vertex_step<true>), at its place in its chunk's
+/// list 1: what block 0 needs besides its contact, in one record.
+struct alignas(16) DeferredVertex {
+  Vec3f q;        // the iterate
+  Vec3f r;        // the Jacobi sums without the contact
+  Vec3f q_start;  // the tick's start (the velocity on its last step)
+  float D;        // the diagonal without the contact; 0: pinned
+  int j;
+  int slot;       // -2: not held; held: its entry in TailShared::held_q, or -1
+};
+
 struct MeshDev {
   int m = 0, chunks = 0, ring = 1;  // chunks of kBlock vertices (a block of the grid runs several when needed)
   int iterations = 1;               // virtual iterations per tick
@@ -231,8 +256,6 @@ struct MeshDev {
   Vec3f* q2 = nullptr;
   Vec3f* v = nullptr;             // velocities: the last tick's (iteration 0 reads them), this tick's
   Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities, copied to v
-  Vec3f* r_part = nullptr;        // a deferred vertex's Jacobi sums without the contact (vertex_step)
-  float* d_part = nullptr;        // and its diagonal (0: pinned)
   SyncDev* sync = nullptr;
   PoseSlot* slots = nullptr;        // 2
   Vec3f* q_start = nullptr;
@@ -243,7 +266,8 @@ struct MeshDev {
   // Per chunk, two lists of its vertices in vertex order: (unpipelined steps) the reachable and the
   // held ones; (pipelined) those that may be reachable after the call and those deferred to block 0.
   int* block_cand = nullptr;        // chunks * kBlock: list 0
-  int* block_held = nullptr;        // chunks * kBlock: list 1
+  int* block_held = nullptr;        // chunks * kBlock: list 1 (unpipelined steps)
+  DeferredVertex* block_deferred = nullptr;  // chunks * kBlock: list 1 (pipelined steps)
   int* block_counts = nullptr;      // chunks * 4: list 0, list 1, contacts, penetration (float bits)
   int* block_offsets = nullptr;     // 2 (chunks + 1)
   Vec3d* cand_q = nullptr;          // m
@@ -680,6 +704,7 @@ struct VertexFlags {
   Vec3f q{};        // the new iterate
 };
 
+
 /// E_con [3] target of vertex j at iterate q (Alg. 2 line 10) against the tool posed in `posed`:
 /// the grasp target of a held vertex, else the closest point of the deepest collider; k_con times
 /// it into kt, k_con into ck. Returns whether j is in contact.
@@ -704,11 +729,11 @@ __device__ bool contact_target(const MeshDev& d, const ToolConst& t, const Posed
 /// The end of vertex j's step at its new iterate qn: qout, and (last) the velocity (Alg. 2 line 23)
 /// and the depth of j in the physical tool.
 __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& physical, bool last, int j, bool held,
-                           Vec3f qn, Vec3f* qout, Vec3f* v_out, VertexFlags& f) {
+                           Vec3f qn, Vec3f q_start, Vec3f* qout, Vec3f* v_out, VertexFlags& f) {
   qout[j] = qn;
   f.q = qn;
   if (last) {
-    v_out[j] = d.inv_h * (qn - d.q_start[j]);
+    v_out[j] = d.inv_h * (qn - q_start);
     const unsigned near = held ? 0u : near_colliders(t, physical, qn, kFloatSlack);
     if (near) {
       const Vec3d qd = static_cast<Vec3d>(qn);
@@ -735,7 +760,7 @@ template <bool kAhead>
 __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const Posed& posed, const Posed& physical,
                                    const DeviceTickInput& in, bool first, bool last, int j,
                                    const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
-                                   Vec3f* __restrict__ v_out) {
+                                   Vec3f* __restrict__ v_out, DeferredVertex& deferred_out) {
   VertexFlags f;
   const bool pinned = d.model.pinned[j];
   const Vec3f q_in = qin[j];
@@ -769,9 +794,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
   const bool held = d.held[j];
   Vec3f kt{};
   float ck = 0.f;
-  bool deferred = false;
-  if (kAhead) deferred = held || reachable(t, posed, q);
-  else f.contact = contact_target(d, t, posed, j, q, held, kt, ck);
+  if (!kAhead) f.contact = contact_target(d, t, posed, j, q, held, kt, ck);
   // One Jacobi iteration (virtual_mesh.cpp: virtual_iteration).
   Vec3f r{};
   float D = 0.f;
@@ -808,42 +831,53 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
     }
     D = mh + d.model.stiff_diag[j];
   }
-  if (deferred) {
-    d.r_part[j] = r;
-    d.d_part[j] = D;
-    f.list1 = true;
-    return f;
-  }
   const Vec3f qn = pinned ? q : q + (r + (kt - ck * q)) / (D + ck);  // -dE_con/dq [3]: kt - ck q
-  vertex_end(d, t, physical, last, j, held, qn, qout, v_out, f);
   if (kAhead) {
-    f.list0 = reachable_after_call(t, posed, qn);
+    bool deferred = held, superset = false;
+    if (!held) {
+      const Vec3f step = qn - q;
+      const float s2 = dot(step, step);
+      ahead_reach(t, posed, q, s2 > 0.f ? s2 * rsqrtf(s2) * 1.000001f : 0.f, deferred, superset);
+    }
+    if (deferred) {
+      deferred_out.q = q;
+      deferred_out.r = r;
+      deferred_out.q_start = first || !last ? q_in : d.q_start[j];
+      deferred_out.D = D;
+      deferred_out.j = j;
+      deferred_out.slot = held ? d.held_slot[j] : -2;
+      f.list1 = true;
+      return f;
+    }
+    f.list0 = superset;
   } else {
     f.list0 = !held && reachable(t, posed, qn);
     f.list1 = held;
   }
+  vertex_end(d, t, physical, last, j, held, qn, first ? q_in : (last ? d.q_start[j] : Vec3f{}), qout, v_out, f);
   return f;
 }
 
 /// Block 0's part of vertex j in a pipelined step (vertex_step<true> deferred it): the contact
 /// against the tool posed in `pt`, then the step from the other block's r and D.
 __device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, const Posed& pt, const Posed& physical,
-                                       bool first, bool last, int j, const Vec3f* qin, Vec3f* qout, Vec3f* v_out,
-                                       TailShared& sh) {
+                                       bool last, const DeferredVertex& v, Vec3f* qout, Vec3f* v_out, TailShared& sh) {
   VertexFlags f;
-  const Vec3f q = first ? d.s[j] : qin[j];
-  const bool held = d.held[j];
+  const bool held = v.slot != -2;
   Vec3f kt{};
   float ck = 0.f;
-  f.contact = contact_target(d, t, pt, j, q, held, kt, ck);
-  const float D = d.d_part[j];
-  const Vec3f qn = D == 0.f ? q : q + (d.r_part[j] + (kt - ck * q)) / (D + ck);
-  vertex_end(d, t, physical, last, j, held, qn, qout, v_out, f);
-  f.list0 = !held && reachable(t, pt, qn);
-  if (held) {  // the Newton call's cached q of held vertices
-    const int slot = d.held_slot[j];
-    if (slot >= 0) sh.held_q[slot] = static_cast<Vec3d>(qn);
+  if (held) {  // the grasp target (contact_target), its grasp point cached when it has a slot
+    const Vec3d local = v.slot >= 0 ? sh.held_local[v.slot] : d.grasp_local[v.j];
+    kt = static_cast<Vec3f>(t.k_con * apply(pt.frame, local));
+    ck = static_cast<float>(t.k_con);
+    f.contact = true;
+  } else {
+    f.contact = contact_target(d, t, pt, v.j, v.q, false, kt, ck);
   }
+  const Vec3f qn = v.D == 0.f ? v.q : v.q + (v.r + (kt - ck * v.q)) / (v.D + ck);
+  vertex_end(d, t, physical, last, v.j, held, qn, v.q_start, qout, v_out, f);
+  f.list0 = !held && reachable(t, pt, qn);
+  if (v.slot >= 0) sh.held_q[v.slot] = static_cast<Vec3d>(qn);  // the Newton call's cached q
   return f;
 }
 
@@ -855,7 +889,8 @@ __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, b
                              BlockShared& sm, unsigned long long* stamp) {
   const int j = c * kBlock + threadIdx.x;
   VertexFlags f;
-  if (j < d.m) f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out);
+  DeferredVertex deferred;
+  if (j < d.m) f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out, deferred);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
   const unsigned b0 = __ballot_sync(~0u, f.list0), b1 = __ballot_sync(~0u, f.list1), bc = __ballot_sync(~0u, f.contact);
@@ -872,7 +907,10 @@ __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, b
   int o0 = 0, o1 = 0;
   for (int w = 0; w < warp; ++w) { o0 += sm.warp_counts[w][0]; o1 += sm.warp_counts[w][1]; }
   if (f.list0) d.block_cand[c * kBlock + o0 + __popc(b0 & below)] = j;
-  if (f.list1) d.block_held[c * kBlock + o1 + __popc(b1 & below)] = j;
+  if (f.list1) {
+    if (kAhead) d.block_deferred[c * kBlock + o1 + __popc(b1 & below)] = deferred;
+    else d.block_held[c * kBlock + o1 + __popc(b1 & below)] = j;
+  }
   if (threadIdx.x == 0) {
     int c0 = 0, c1 = 0, cc = 0;
     unsigned pm = 0;
@@ -932,7 +970,8 @@ __device__ int* chunk_offsets(const MeshDev& d, TailShared& sh, int& n0, int& n1
 
 /// Entry i of the chunks' list with offsets `off` (chunk_offsets): in the chunk b with
 /// off[b] <= i < off[b + 1].
-__device__ int list_entry(const MeshDev& d, const int* off, const int* list, int i) {
+template <class T>
+__device__ const T& list_item(const MeshDev& d, const int* off, const T* list, int i) {
   int lo = 0, hi = d.chunks - 1;
   while (lo < hi) {
     const int mid = (lo + hi + 1) / 2;
@@ -940,6 +979,7 @@ __device__ int list_entry(const MeshDev& d, const int* off, const int* list, int
   }
   return list[lo * kBlock + (i - off[lo])];
 }
+__device__ int list_entry(const MeshDev& d, const int* off, const int* list, int i) { return list_item(d, off, list, i); }
 
 /// The cached held vertices' grasp points and q (TailShared::held_local, held_q); synchronises.
 __device__ void cache_held(const MeshDev& d, const Vec3f* q, TailShared& sh) {
@@ -982,8 +1022,7 @@ __device__ void put_candidate(const MeshDev& d, TailShared& sh, int i, Vec3f q) 
 /// unpipelined step's, so the same set, in this fixed order). The contact count and
 /// deepest penetration add block 0's vertices to the chunks'.
 __device__ void pipelined_lists(const MeshDev& d, const ToolConst& t, const Posed& pt, const Posed& physical,
-                                bool first, bool last, const Vec3f* qin, Vec3f* qout,
-                                Vec3f* v_out, TailShared& sh, TailMarks& marks) {
+                                bool last, Vec3f* qout, Vec3f* v_out, TailShared& sh, TailMarks& marks) {
   int nb = 0, nu = 0;
   const int* off = chunk_offsets(d, sh, nb, nu);
   int base = 0, contacts = 0;
@@ -993,7 +1032,7 @@ __device__ void pipelined_lists(const MeshDev& d, const ToolConst& t, const Pose
   for (int r = 0; r < max(nu, nb); r += kBlock) {
     const int i = r + threadIdx.x;
     VertexFlags f;
-    if (i < nu) f = finish_deferred(d, t, pt, physical, first, last, list_entry(d, off + d.chunks + 1, d.block_held, i), qin, qout, v_out, sh);
+    if (i < nu) f = finish_deferred(d, t, pt, physical, last, list_item(d, off + d.chunks + 1, d.block_deferred, i), qout, v_out, sh);
     bool fb = false;
     Vec3f xb{};
     if (i < nb) {
@@ -1207,8 +1246,7 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
       __syncthreads();
       marks.mark(DeviceTickProfile::Lists);
       wait_arrivals(S.epoch(s + 1));
-      pipelined_lists(d, t, pt, sm.physical(), S.first(s + 1), S.last(s + 1), S.in(s + 1), S.out(s + 1),
-                      S.v_out(), sh, marks);
+      pipelined_lists(d, t, pt, sm.physical(), S.last(s + 1), S.out(s + 1), S.v_out(), sh, marks);
     } else {
       unpipelined_step(s + 1);
     }
@@ -1275,8 +1313,8 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, held_list, held_slot;
   cuda::DeviceArray<SyncDev> sync;
   cuda::DeviceArray<PoseSlot> slots;
-  cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3], r_part;
-  cuda::DeviceArray<float> d_part;
+  cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
+  cuda::DeviceArray<DeferredVertex> block_deferred;
   cuda::DeviceArray<Vec3d> grasp_local, cand_q;
   cuda::DeviceArray<ToolStateDev> state;
   cuda::DeviceArray<DeviceTickInput> inputs;
@@ -1334,14 +1372,14 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   up(I.x_vis, x0);
   up(I.v, zero);
   up(I.q[0], q0);
-  for (auto* a : {&I.v_scratch, &I.q_start, &I.s, &I.p, &I.q[1], &I.q[2], &I.r_part}) a->allocate(m);
-  I.d_part.allocate(m);
+  for (auto* a : {&I.v_scratch, &I.q_start, &I.s, &I.p, &I.q[1], &I.q[2]}) a->allocate(m);
   up(I.held, std::vector<std::uint8_t>(m, 0));
   I.grasp_local.allocate(m);
   I.cand_q.allocate(m);
   const int chunks = std::max(1, cuda::blocks_for(m, kBlock));
   I.block_cand.allocate(std::size_t(chunks) * kBlock);
   I.block_held.allocate(std::size_t(chunks) * kBlock);
+  I.block_deferred.allocate(std::size_t(chunks) * kBlock);
   I.block_counts.allocate(4 * std::size_t(chunks));
   I.block_offsets.allocate(2 * (std::size_t(chunks) + 1));
   I.held_list.allocate(m);
@@ -1405,8 +1443,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.q2 = I.q[2].get();
   d.v = I.v.get();
   d.v_scratch = I.v_scratch.get();
-  d.r_part = I.r_part.get();
-  d.d_part = I.d_part.get();
+  d.block_deferred = I.block_deferred.get();
   d.sync = I.sync.get();
   d.cand_q = I.cand_q.get();
   d.held_list = I.held_list.get();

@@ -1,20 +1,26 @@
 // The whole haptic tick on a CUDA device (haptic_cuda.hpp; docs/CUDA.md "Device haptic tick").
 //
 // A run of ticks is one cooperative launch of ticks_kernel, every block resident. A tick is
-// virtual_iterations iterations; iteration i, per virtual vertex j (one thread each):
-//   begin (i = 0)   q_start, prediction s (Alg. 2 l. 6), E_svc target p from the blended physical
+// virtual_iterations steps; step s, per virtual vertex j (vertex_step, one thread each):
+//   begin (first)   q_start, prediction s (Alg. 2 l. 6), E_svc target p from the blended physical
 //                   result (l. 1), the grasp event of the tick (§5.2, eq. [10])
 //   contact         E_con [3] target of j against the virtual tool held fixed (l. 10): the grasp
 //                   target of a held vertex, else the closest point of the deepest collider
-//   iteration       one Jacobi step of E_k + E_svc + E_con + E_s (l. 11-16) into q_{i+1}
-//   end (last i)    velocity (l. 23), depth of j in the physical tool (the penetration metric)
-//   reach           whether the virtual tool's Newton step can reach j (virtual_tool.cpp's bound)
-// then per chunk of vertices: the reachable and the held vertices in vertex order, the contact
-// count, the deepest physical-tool penetration. Every block arrives at a counter; block 0, the
-// tail block, waits for all, runs the virtual tool (l. 18-19) and releases the next iteration:
-// Newton's method on E_tool over the reachable vertices in double, with fixed-order block sums,
-// the 6x6 PSD clamp by a one-warp Jacobi eigen-decomposition, an Armijo line search, and (last i)
-// the tick's outputs into a host-mapped ring (l. 26-27).
+//   iteration       one Jacobi step of E_k + E_svc + E_con + E_s (l. 11-16)
+//   end (last)      velocity (l. 23), depth of j in the physical tool (the penetration metric)
+//   reach           whether the virtual tool's next Newton call can reach j (virtual_tool.cpp's bound)
+// then, after the step, the virtual tool's Newton call (l. 18-19) on the reachable and held
+// vertices: block 0 (tool_block, virtual_tool_tail) in double, with fixed-order block sums, the
+// 6x6 PSD clamp (a Cholesky test, else a one-warp Jacobi eigen-decomposition), an Armijo line
+// search, and (last step) the tick's outputs into a host-mapped ring (l. 26-27).
+//
+// The other blocks (vertex_blocks) run the vertices, a chunk of kBlock per block, and hand off to
+// block 0 through two counters. A step is pipelined: it runs beside the Newton call before it,
+// at the pose before that call. Only a vertex the call can reach can touch the tool at its new
+// pose, so those (and the held ones) are deferred: their Jacobi sums go to block 0, which adds
+// their contact at the new pose (finish_deferred) and filters the next candidates from a
+// superset the other blocks flag (pipelined_lists). A run's first step and a grasp event's step
+// are unpipelined: released after the call, with every vertex's contact in place.
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -166,8 +172,9 @@ __device__ unsigned near_colliders(const ToolConst& t, const Posed& p, Vec3f x, 
   return mask;
 }
 
-/// The candidate bound of virtual_tool.cpp at distance r from the tool origin: no pose one Newton
-/// call away brings a collider within it... (T + th (r + T)) / (1 - th), plus float slack.
+/// The candidate bound of virtual_tool.cpp for a point at distance r from the tool origin,
+/// (T + th (r + T)) / (1 - th) plus float slack: one Newton call moves no collider point nearer to
+/// the point than its distance less this bound.
 __device__ float reach_bound(const ToolConst& t, float r) {
   return (t.reach_T + t.reach_th * (r + t.reach_T)) / (1.f - t.reach_th) + kFloatSlack;
 }
@@ -1238,11 +1245,12 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
     if (S.K == 1) wait_arrivals(S.epoch(s) + 1);  // the copies, before step s + 1 reads q0 and v
     if (ahead) {
       // pt at the call's result with step s + 1's jaws; sm.in() step s + 1's input.
+      const bool new_tick = S.first(s + 1);
       const DeviceTickInput& gin = S.input(s + 1);
-      const bool repose = !sh.posed_current || !same_jaws(gin, sm.in());
+      const bool repose = !sh.posed_current || (new_tick && !same_jaws(gin, sm.in()));
       __syncthreads();
       if (repose) pose_colliders(t, sh.P, sh.Q, gin, pt);
-      if (S.first(s + 1) && threadIdx.x == 0) sm.in() = gin;
+      if (new_tick && threadIdx.x == 0) sm.in() = gin;
       __syncthreads();
       marks.mark(DeviceTickProfile::Lists);
       wait_arrivals(S.epoch(s + 1));

@@ -6,17 +6,19 @@
 // the host collects each tick's outputs later. docs/CUDA.md, "Device haptic tick", gives the design
 // and the measured numbers.
 //
-// A run of ticks is one cooperative kernel; a tick is virtual_iterations iterations. Iteration i is
-// one virtual-mesh iteration over all vertices (iteration 0 also makes the tick's prediction, E_svc
-// targets and grasp) with the contact of each vertex against the virtual tool computed in place;
-// then block 0, once every block has arrived, runs the virtual tool's Newton step
-// (virtual_tool.hpp) on the vertices that the step can reach, in double, and releases the next.
+// A run of ticks is one cooperative kernel; a tick is virtual_iterations steps. Step i is one
+// virtual-mesh iteration over all vertices (step 0 also makes the tick's prediction, E_svc targets
+// and grasp) with the contact of each vertex against the virtual tool; then block 0 runs the
+// virtual tool's Newton step (virtual_tool.hpp) on the vertices that the step can reach, in
+// double. The steps are pipelined: the other blocks run step i + 1 beside the Newton call of
+// step i and leave block 0 the vertices that call can reach, whose contacts need its result.
 // Sums are fixed-order block reductions; the only atomics are the integer hand-off counters, so
 // replays are bitwise reproducible.
 //
 // Departures from the CPU tick, by round-off only: q and the virtual mesh's update are float32;
 // the 6x6 PSD clamp of the contact Hessian is a Jacobi eigen-decomposition in float32 (the CPU uses
-// Eigen's in double); contact and grasp sums run in vertex order (the CPU's in broad-phase order).
+// Eigen's in double) unless a Cholesky factorisation shows the matrix positive definite; contact
+// and grasp sums run in a fixed order of their own (the CPU's in broad-phase order).
 // Not supported here (the scheduler keeps the host tool, HapticSide::cuda, for them): the
 // inverse-normal projection and the realtime mode.
 //

@@ -7,7 +7,8 @@
 //                           contacts, end) on the CPU and on the device (q back after each iteration)
 //   BM_DeviceTicks          the device haptic tick alone (no physical steps): cholecystectomy_grasp's
 //                           ticks from t = 1.2 s (contact and a grasp) or 0 s (approach, no contact);
-//                           *_stages: also the mean time of each stage per launch (DeviceTickProfile)
+//                           *_stages: also the mean time of each stage per step (DeviceTickProfile);
+//                           *_unpipelined: every step waits for the virtual tool (the pipeline's gain)
 //   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
 //                           real-time factor and the mean time of each stage of the haptic tick;
 //                           cuda_host_tool: the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0)

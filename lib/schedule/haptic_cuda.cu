@@ -217,8 +217,8 @@ __device__ void ahead_reach(const ToolConst& t, const Posed& p, Vec3f q, float d
   }
 }
 
-/// The grid's hand-off counters (ticks_kernel): arrivals of the blocks other than the tail block,
-/// and the last epoch the tail block released; both count from the object's first run.
+/// The grid's hand-off counters (ticks_kernel): arrivals of the vertex blocks, and the last epoch
+/// block 0 released; both count from the object's first run.
 struct SyncDev {
   unsigned long long arrive, release;
 };
@@ -533,7 +533,7 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
   };
   // E_tool, its gradient (sh.E, sh.g), the contact Hessian (sh.total) and the deepest contact at
   // (sh.P, sh.Q): energy_at with derivatives.
-  // `pt` is always the tool posed at (sh.P, sh.Q) here: the launch's posed tool when the tail
+  // `pt` is always the tool posed at (sh.P, sh.Q) here: the step's posed tool when the call
   // starts, the accepted trial's after a line search (a rejected one ends the call).
   auto evaluate_with_derivatives = [&] {
     if (threadIdx.x == kCouplingThread) sh.coupling_E = coupling(sh.P, sh.Q, sh.coupling_g);
@@ -640,7 +640,7 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
   marks.mark(DeviceTickProfile::Output);
 }
 
-/// Algorithm 2 lines 26-27 (thread 0 of the tail, last launch): the force and torque for the
+/// Algorithm 2 lines 26-27 (thread 0 of block 0, a tick's last step): the force and torque for the
 /// device (tool_output), the metrics, into the ring; the next tick's anchor.
 __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, TailShared& sh,
                              int taken, int rejected) {

@@ -767,7 +767,7 @@ template <bool kAhead>
 __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const Posed& posed, const Posed& physical,
                                    const DeviceTickInput& in, bool first, bool last, int j,
                                    const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
-                                   Vec3f* __restrict__ v_out, DeferredVertex& deferred_out) {
+                                   Vec3f* __restrict__ v_out, DeferredVertex& deferred_out, bool p_ready) {
   VertexFlags f;
   const bool pinned = d.model.pinned[j];
   const Vec3f q_in = qin[j];
@@ -775,9 +775,13 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
   if (first) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
     d.q_start[j] = q_in;
     s = pinned ? q_in : predict_position(q_in, d.v[j], d.gravity, d.h);
-    p = blended_paired_point(d, j, static_cast<float>(in.alpha));
+    if (p_ready) {  // blended by this block ahead (vertex_blocks)
+      p = d.p[j];
+    } else {
+      p = blended_paired_point(d, j, static_cast<float>(in.alpha));
+      d.p[j] = p;
+    }
     d.s[j] = s;
-    d.p[j] = p;
     if (!kAhead && in.grasp < 0) {
       d.held[j] = 0;
     } else if (!kAhead && in.grasp > 0) {
@@ -891,13 +895,14 @@ __device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, con
 /// One step of chunk c (kBlock vertices, one per thread; vertex_step), then the chunk's two lists
 /// in vertex order, its contact count and deepest penetration (block_counts[4 c ..]).
 template <bool kAhead>
-__device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, bool last, int c,
+__device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, bool last, bool p_ready, int c,
                              const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out,
                              BlockShared& sm, unsigned long long* stamp) {
   const int j = c * kBlock + threadIdx.x;
   VertexFlags f;
   DeferredVertex deferred;
-  if (j < d.m) f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out, deferred);
+  if (j < d.m)
+    f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out, deferred, p_ready);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
   const unsigned b0 = __ballot_sync(~0u, f.list0), b1 = __ballot_sync(~0u, f.list1), bc = __ballot_sync(~0u, f.contact);
@@ -1113,6 +1118,7 @@ struct Schedule {
 /// (chunk c = blockIdx.x - 1, + gridDim.x - 1, ...) at the pose of the step's slot, then arrive.
 __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedule& S, int steps, BlockShared& sm) {
   const int blocks = gridDim.x - 1;
+  bool p_ready = false;  // the step's E_svc targets blended ahead
   for (int s = 0; s < steps; ++s) {
     const unsigned long long e = S.epoch(s);
     const bool first = S.first(s), last = S.last(s), ahead = !S.unpipelined(s);
@@ -1131,8 +1137,8 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     if (d.profile && threadIdx.x == 0) stamp[1] = global_ns();
     for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
       if (d.profile && threadIdx.x == 0) stamp[4] = global_ns();
-      if (ahead) vertex_chunk<true>(d, t, first, last, c, S.in(s), S.out(s), S.v_out(), sm, stamp);
-      else vertex_chunk<false>(d, t, first, last, c, S.in(s), S.out(s), S.v_out(), sm, stamp);
+      if (ahead) vertex_chunk<true>(d, t, first, last, p_ready, c, S.in(s), S.out(s), S.v_out(), sm, stamp);
+      else vertex_chunk<false>(d, t, first, last, p_ready, c, S.in(s), S.out(s), S.v_out(), sm, stamp);
       if (d.profile && threadIdx.x == 0) stamp[3] += global_ns() - stamp[4];
     }
     if (d.profile && threadIdx.x == 0) {
@@ -1147,6 +1153,17 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     if (threadIdx.x == 0) {
       __threadfence();
       atomicAdd(&d.sync->arrive, 1ull);
+    }
+    // While block 0 finishes a tick, the next tick's E_svc targets of this block's vertices: only
+    // this block reads them (block 0 gets the deferred vertices' sums), and the physical results
+    // they blend stay the same for the run.
+    p_ready = last && s + 1 < steps;
+    if (p_ready) {
+      const float alpha = static_cast<float>(S.input(s + 1).alpha);
+      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+        const int j = c * kBlock + threadIdx.x;
+        if (j < d.m) d.p[j] = blended_paired_point(d, j, alpha);
+      }
     }
     if (S.K == 1) {  // the copy phase: v_scratch -> v, q1 -> q0 for the chunks, once every block's step is done
       if (threadIdx.x == 0)

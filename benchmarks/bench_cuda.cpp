@@ -8,7 +8,9 @@
 //   BM_DeviceTicks          the device haptic tick alone (no physical steps): cholecystectomy_grasp's
 //                           ticks from t = 1.2 s (contact and a grasp) or 0 s (approach, no contact);
 //                           *_stages: also the mean time of each stage per step (DeviceTickProfile);
-//                           *_unpipelined: every step waits for the virtual tool (the pipeline's gain)
+//                           *_unpipelined: every step waits for the virtual tool (the pipeline's gain);
+//                           *_runs_of_100: 100 ticks per launch (what a launch costs);
+//                           *_with_physical: the physical steps beside the ticks (the replay's workload)
 //   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
 //                           real-time factor and the mean time of each stage of the haptic tick;
 //                           cuda_host_tool: the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0)
@@ -241,12 +243,15 @@ BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cpu, std::string("cholecystect
 BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystectomy"), true)->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 
 #if EBH_HAVE_CUDA
-void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeline) {
+/// `run`: ticks per launch (0: the physical step's, as a replay runs them). `physical`: each run
+/// with the physical step beside it, in the async replay's order (replay_device), without the
+/// observer: the replay's own workload (the organ deforms), not the ticks against a still organ.
+void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeline, int run = 0, bool physical = false) {
   if (!device_ready(st)) return;
   LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
                                        false, Backend::Cuda);
   const World& w = *in.world;
-  const int N = w.ticks_per_step, runs = 200;
+  const int N = run > 0 ? run : w.ticks_per_step, runs = 2000 / N;
   const DeviceReplayInputs inputs =
       device_replay_inputs(w, in.recording, in.recording.t.front() + from, std::int64_t(runs) * N, Mode::Async);
   std::vector<DeviceTickOutput> rows(N);
@@ -259,13 +264,23 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
   DeviceTickProfile stages;
   for (auto _ : st) {
     st.PauseTiming();
-    CudaPhysicalSolver physical(w.physical_mesh, w.physical_params);
-    CudaHapticTicks ticks(setup, inputs.ticks, physical);
+    CudaPhysicalSolver solver(w.physical_mesh, w.physical_params);
+    CudaHapticTicks ticks(setup, inputs.ticks, solver);
     ticks.collect(ticks.run_ticks(N), rows);  // warm-up: graph instantiation
     st.ResumeTiming();
     const auto t0 = Clock::now();
     std::vector<int> handles;
+    std::vector<Vec3d> x;
+    bool in_flight = false;
     for (int r = 1; r < runs; ++r) {
+      if (physical) {
+        if (in_flight) {
+          ticks.deliver_physical_step();
+          ticks.finish_physical_step(x);
+        }
+        ticks.start_physical_step();
+        in_flight = true;
+      }
       handles.push_back(ticks.run_ticks(N));
       if (handles.size() > 2) {
         ticks.collect(handles.front(), rows);
@@ -274,6 +289,7 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
       }
     }
     for (const int h : handles) ticks.collect(h, rows);
+    if (in_flight) ticks.finish_physical_step(x);
     const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
     st.SetIterationTime(dt);
     wall += dt;
@@ -296,6 +312,11 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
 }
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s, 1.2, false, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s, 0.0, false, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+// With the physical steps beside the ticks, as the async replay runs them: the replay's workload.
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical, 1.2, false, true, 0, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical_stages, 1.2, true, true, 0, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+// Runs of 100 ticks instead of the physical step's 10: what a launch (and its unpipelined first step) costs.
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_runs_of_100, 1.2, false, true, 100)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
 // Every step waiting for the virtual tool (DeviceHapticSetup::pipeline off): what the pipeline gains.
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_unpipelined, 1.2, false, false)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
 // The same with the stage timestamps (per step, microseconds; their reads cost a little).

@@ -81,14 +81,13 @@ struct ToolStateDev {
   Quatd orientation;
   Vec3d anchor_position;
   Quatd anchor_orientation;
-  long long tick;
 };
 
 /// Stage times of the device tick (DeviceHapticSetup::profile_stages), summed over steps in
 /// DeviceTickProfile's order: block 0's in SM cycles, the other blocks' in global-timer ns.
 struct ProfileDev {
   unsigned long long sum[DeviceTickProfile::kStages];
-  unsigned long long steps, fences, updated, candidates, clamps, sweeps, definite;
+  unsigned long long steps, unpipelined, updated, candidates, clamps, sweeps, definite;
   unsigned long long tail_cycles, tail_ns;  // block 0's SM cycles and time (its clock rate)
   unsigned long long release_ns[2];         // the release of step s (slot s & 1)
   unsigned long long vertices_max[2];       // step s's slowest block (slot s & 1)
@@ -106,7 +105,7 @@ struct TailMarks {
   bool on = false;
   unsigned long long start_ns = 0, start_clock = 0, last = 0;
   unsigned long long cycles[DeviceTickProfile::kStages] = {};
-  int clamps = 0, sweeps = 0, definite = 0, candidates = 0, updated = 0, fences = 0;
+  int clamps = 0, sweeps = 0, definite = 0, candidates = 0, updated = 0, unpipelined = 0;
   __device__ void begin(const ProfileDev* p) {
     on = p && threadIdx.x == 0;
     if (!on) return;
@@ -130,7 +129,7 @@ struct TailMarks {
     p->definite += definite;
     p->candidates += candidates;
     p->updated += updated;
-    p->fences += fences;
+    p->unpipelined += unpipelined;
     p->steps += steps;
   }
 };
@@ -223,12 +222,6 @@ struct SyncDev {
   unsigned long long arrive, release;
 };
 
-/// The virtual tool posed for step s's vertices (slot s & 1), published by block 0 before the
-/// step's release: at the pose the step's contacts use, or (a pipelined step, which runs beside
-/// the Newton call that moves the tool) at the pose before that call.
-struct PoseSlot {
-  Posed posed;
-};
 static_assert(sizeof(Posed) % 8 == 0);
 
 /// Copies a Posed by the block's threads, 8 bytes each.
@@ -264,7 +257,10 @@ struct MeshDev {
   Vec3f* v = nullptr;             // velocities: the last tick's (iteration 0 reads them), this tick's
   Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities, copied to v
   SyncDev* sync = nullptr;
-  PoseSlot* slots = nullptr;        // 2
+  // 2: the virtual tool posed for step s's vertices (slot s & 1), published by block 0 before the
+  // step's release: at the pose the step's contacts use, or (a pipelined step, which runs beside
+  // the Newton call that moves the tool) at the pose before that call.
+  Posed* slots = nullptr;
   Vec3f* q_start = nullptr;
   Vec3f* s = nullptr;
   Vec3f* p = nullptr;
@@ -419,8 +415,8 @@ struct TailShared {
   // The first kCache entries of the Newton call's lists (the rest in d.cand_q, d.held_list): read
   // by every evaluation and trial of the call, so kept here, entry i by thread i.
   Vec3d cand[kCache];          // a candidate's q
-  int held_idx[kCache];        // a held vertex (kept from the last unpipelined step)
-  Vec3d held_local[kCache], held_q[kCache];  // its grasp point (tool frame) and q
+  Vec3d held_local[kCache], held_q[kCache];  // a held vertex's grasp point (tool frame) and q (its
+                                             // slot: MeshDev::held_slot; the q of pipelined steps: finish_deferred)
   Vec3d P;
   Quatd Q;
   Vec3d trial_P;
@@ -502,16 +498,18 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
   return sh.total[0];
 }
 
-__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, TailShared& sh,
-                             int taken, int rejected);
+__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, long long tick,
+                             TailShared& sh, int taken, int rejected);
 
 /// Block 0: the virtual tool's Newton step (virtual_tool.cpp: update_virtual_tool) on the
 /// candidates (d.cand_q, sh.nc) and the held vertices (d.held_list, sh.nh) of q, from the pose
-/// (sh.P, sh.Q) at which `pt` is posed; then (`last`: the tick's last step) the tick's outputs (a
-/// runtime flag, not a template: one copy of this code, which block 0's instruction cache keeps
-/// from one step to the next). Leaves sh.posed_current: whether `pt` is still posed at the result.
+/// (sh.P, sh.Q) at which `pt` is posed; then (`last`: the last step of tick `tick`) the tick's
+/// outputs (a runtime flag, not a template: one copy of this code, which block 0's instruction
+/// cache keeps from one step to the next). Leaves sh.posed_current: whether `pt` is still posed at
+/// the result.
 __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in,
-                                  const Vec3f* q, bool last, Posed& pt, TailShared& sh, TailMarks& marks) {
+                                                  long long tick, const Vec3f* q, bool last, Posed& pt,
+                                                  TailShared& sh, TailMarks& marks) {
   if (marks.on) marks.candidates += sh.nc;
   bool posed_current = true;  // thread 0: a trial poses pt, an accepted one is the result
   // Newton's method on E_tool (virtual_tool.cpp), q held fixed.
@@ -634,7 +632,7 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
     st.position = sh.P;
     st.orientation = sh.Q;
     sh.posed_current = posed_current;
-    if (last) tick_outputs(d, t, in, sh, taken, rejected);
+    if (last) tick_outputs(d, t, in, tick, sh, taken, rejected);
   }
   __syncthreads();
   marks.mark(DeviceTickProfile::Output);
@@ -642,8 +640,8 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
 
 /// Algorithm 2 lines 26-27 (thread 0 of block 0, a tick's last step): the force and torque for the
 /// device (tool_output), the metrics, into the ring; the next tick's anchor.
-__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, TailShared& sh,
-                             int taken, int rejected) {
+__device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in, long long tick,
+                             TailShared& sh, int taken, int rejected) {
   ToolStateDev& st = *d.state;
   const Vec3d Ph = in.position;
   const Quatd Qh = in.orientation;
@@ -663,10 +661,9 @@ __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceT
   o.grasped = sh.nh;
   o.newton_steps = taken;
   o.newton_rejected = rejected;
-  d.out[st.tick % d.ring] = o;
+  d.out[tick % d.ring] = o;
   st.anchor_position = sh.anchor_P = sh.P;  // read_device of the next tick: the anchor is the pose at its start
   st.anchor_orientation = sh.anchor_Q = sh.Q;
-  ++st.tick;
 }
 
 /// The E_svc target of virtual vertex j: its paired point on x_prev + alpha (x_vis - x_prev).
@@ -991,17 +988,10 @@ __device__ const T& list_item(const MeshDev& d, const int* off, const T* list, i
   }
   return list[lo * kBlock + (i - off[lo])];
 }
-__device__ int list_entry(const MeshDev& d, const int* off, const int* list, int i) { return list_item(d, off, list, i); }
 
-/// The cached held vertices' grasp points and q (TailShared::held_local, held_q); synchronises.
-__device__ void cache_held(const MeshDev& d, const Vec3f* q, TailShared& sh) {
-  __syncthreads();
-  if (threadIdx.x < min(sh.nh, kCache)) {
-    const int j = sh.held_idx[threadIdx.x];
-    sh.held_local[threadIdx.x] = d.grasp_local[j];
-    sh.held_q[threadIdx.x] = static_cast<Vec3d>(q[j]);
-  }
-  __syncthreads();
+/// Candidate i's q (TailShared::cand, then d.cand_q).
+__device__ void put_candidate(const MeshDev& d, TailShared& sh, int i, Vec3f q) {
+  if (i < kCache) sh.cand[i] = static_cast<Vec3d>(q); else d.cand_q[i] = static_cast<Vec3d>(q);
 }
 
 /// Block 0 after an unpipelined step of q: the candidates (their q in d.cand_q) and the held
@@ -1009,23 +999,21 @@ __device__ void cache_held(const MeshDev& d, const Vec3f* q, TailShared& sh) {
 __device__ void unpipelined_lists(const MeshDev& d, const Vec3f* q, TailShared& sh) {
   int n0 = 0, n1 = 0;
   const int* off = chunk_offsets(d, sh, n0, n1);
-  for (int i = threadIdx.x; i < n0; i += kBlock) {
-    const Vec3d x = static_cast<Vec3d>(q[list_entry(d, off, d.block_cand, i)]);
-    if (i < kCache) sh.cand[i] = x; else d.cand_q[i] = x;
-  }
-  for (int i = threadIdx.x; i < n1; i += kBlock) {
-    const int j = list_entry(d, off + d.chunks + 1, d.block_held, i);
-    if (i < kCache) sh.held_idx[i] = j; else d.held_list[i] = j;
+  for (int i = threadIdx.x; i < n0; i += kBlock) put_candidate(d, sh, i, q[list_item(d, off, d.block_cand, i)]);
+  for (int i = threadIdx.x; i < n1; i += kBlock) {  // the first kCache in shared memory (held_slot: their entry)
+    const int j = list_item(d, off + d.chunks + 1, d.block_held, i);
     d.held_slot[j] = i < kCache ? i : -1;
+    if (i < kCache) {
+      sh.held_local[i] = d.grasp_local[j];
+      sh.held_q[i] = static_cast<Vec3d>(q[j]);
+    } else {
+      d.held_list[i] = j;
+    }
   }
   if (threadIdx.x == 0) { sh.nc = n0; sh.nh = n1; }
-  cache_held(d, q, sh);
+  __syncthreads();
 }
 
-/// Candidate i's q (TailShared::cand, then d.cand_q).
-__device__ void put_candidate(const MeshDev& d, TailShared& sh, int i, Vec3f q) {
-  if (i < kCache) sh.cand[i] = static_cast<Vec3d>(q); else d.cand_q[i] = static_cast<Vec3d>(q);
-}
 
 /// Block 0 after the other blocks' part of a pipelined step (qin -> qout, beside the Newton call
 /// that moved the tool to `pt`): the deferred vertices (held, or reachable by that call) finished
@@ -1048,7 +1036,7 @@ __device__ void pipelined_lists(const MeshDev& d, const ToolConst& t, const Pose
     bool fb = false;
     Vec3f xb{};
     if (i < nb) {
-      xb = qout[list_entry(d, off, d.block_cand, i)];
+      xb = qout[list_item(d, off, d.block_cand, i)];
       fb = reachable(t, pt, xb);
     }
     contacts += f.contact;
@@ -1091,7 +1079,8 @@ struct Schedule {
         q2(d.q2), v(d.v), v_scratch(d.v_scratch) {}
   __device__ bool first(int s) const { return s % K == 0; }
   __device__ bool last(int s) const { return s % K == K - 1; }
-  __device__ const DeviceTickInput& input(int s) const { return inputs[tick0 + s / K]; }
+  __device__ long long tick(int s) const { return tick0 + s / K; }
+  __device__ const DeviceTickInput& input(int s) const { return inputs[tick(s)]; }
   /// The epoch of step s's vertices (K = 1: the next one is its copy phase).
   __device__ unsigned long long epoch(int s) const { return epoch0 + (K == 1 ? 2ull * s + 1 : s + 1ull); }
   /// Whether step s waits for the Newton call before it (an unpipelined step): the run's first
@@ -1132,7 +1121,7 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     __syncthreads();
     unsigned long long stamp[5] = {};  // profiling: start, setup, vertices, lists (sums over chunks), chunk start
     if (d.profile && threadIdx.x == 0) stamp[0] = global_ns();
-    copy_posed(d.slots[s & 1].posed, sm.posed());
+    copy_posed(d.slots[s & 1], sm.posed());
     __syncthreads();
     if (d.profile && threadIdx.x == 0) stamp[1] = global_ns();
     for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
@@ -1210,8 +1199,8 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
   auto release = [&](unsigned long long e, int s) {
     if (s >= 0) {
       const DeviceTickInput& gin = S.input(s);
-      if (same_jaws(gin, sm.in())) copy_posed(pt, d.slots[s & 1].posed);
-      else pose_colliders(t, sh.P, sh.Q, gin, d.slots[s & 1].posed);
+      if (same_jaws(gin, sm.in())) copy_posed(pt, d.slots[s & 1]);
+      else pose_colliders(t, sh.P, sh.Q, gin, d.slots[s & 1]);
     }
     __syncthreads();
     if (threadIdx.x == 0) {
@@ -1219,14 +1208,14 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
       store_release(&d.sync->release, e);
     }
   };
-  auto wait_arrivals = [&](unsigned long long e) {
+  // Every vertex block's arrival at epoch e: step s's (s >= 0) or a copy phase's (s < 0).
+  auto wait_arrivals = [&](unsigned long long e, int s) {
     __syncthreads();
     if (threadIdx.x == 0)
       while (load_acquire(&d.sync->arrive) < e * others) {}
-    if (d.profile && threadIdx.x == 0) {  // the step's slowest block
-      const int slot = static_cast<int>((e - S.epoch0 - 1) / (S.K == 1 ? 2 : 1)) & 1;
-      d.profile->sum[DeviceTickProfile::BlockVerticesMax] += d.profile->vertices_max[slot];
-      d.profile->vertices_max[slot] = 0;
+    if (d.profile && threadIdx.x == 0 && s >= 0) {  // the step's slowest block
+      d.profile->sum[DeviceTickProfile::BlockVerticesMax] += d.profile->vertices_max[s & 1];
+      d.profile->vertices_max[s & 1] = 0;
     }
     __syncthreads();
     marks.mark(DeviceTickProfile::Wait);
@@ -1240,10 +1229,10 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
     __syncthreads();
     release(S.epoch(s), s);
     marks.mark(DeviceTickProfile::Lists);
-    wait_arrivals(S.epoch(s));
+    wait_arrivals(S.epoch(s), s);
     unpipelined_lists(d, S.out(s), sh);
     if (S.K == 1) release(S.epoch(s) + 1, -1);  // the copy phase (the Newton call reads neither q0 nor v)
-    if (marks.on) ++marks.fences;
+    if (marks.on) ++marks.unpipelined;
     marks.mark(DeviceTickProfile::Lists);
   };
   unpipelined_step(0);
@@ -1257,9 +1246,9 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
       release(S.epoch(s + 1), s + 1);
     }
     marks.mark(DeviceTickProfile::Lists);
-    virtual_tool_tail(d, t, sm.in(), S.out(s), S.last(s), pt, sh, marks);
+    virtual_tool_tail(d, t, sm.in(), S.tick(s), S.out(s), S.last(s), pt, sh, marks);
     if (!next) break;
-    if (S.K == 1) wait_arrivals(S.epoch(s) + 1);  // the copies, before step s + 1 reads q0 and v
+    if (S.K == 1) wait_arrivals(S.epoch(s) + 1, -1);  // the copies, before step s + 1 reads q0 and v
     if (ahead) {
       // pt at the call's result with step s + 1's jaws; sm.in() step s + 1's input.
       const bool new_tick = S.first(s + 1);
@@ -1270,7 +1259,7 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
       if (new_tick && threadIdx.x == 0) sm.in() = gin;
       __syncthreads();
       marks.mark(DeviceTickProfile::Lists);
-      wait_arrivals(S.epoch(s + 1));
+      wait_arrivals(S.epoch(s + 1), s + 1);
       pipelined_lists(d, t, pt, sm.physical(), S.last(s + 1), S.out(s + 1), S.v_out(), sh, marks);
     } else {
       unpipelined_step(s + 1);
@@ -1337,7 +1326,7 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<std::uint8_t> held;
   cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, held_list, held_slot;
   cuda::DeviceArray<SyncDev> sync;
-  cuda::DeviceArray<PoseSlot> slots;
+  cuda::DeviceArray<Posed> slots;
   cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
   cuda::DeviceArray<DeferredVertex> block_deferred;
   cuda::DeviceArray<Vec3d> grasp_local, cand_q;
@@ -1427,7 +1416,6 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   ToolStateDev s0{};
   s0.position = s0.anchor_position = S.pose0.position;
   s0.orientation = s0.anchor_orientation = S.pose0.orientation;
-  s0.tick = 0;
   up(I.state, std::vector<ToolStateDev>(1, s0));
   up(I.inputs, std::vector<DeviceTickInput>(in.begin(), in.end()));
   std::vector<Collider<double>> boxes = S.grasp_boxes;
@@ -1593,8 +1581,8 @@ DeviceTickProfile CudaHapticTicks::profile() {
   r.clamp_sweeps = p.clamps ? static_cast<double>(p.sweeps) / static_cast<double>(p.clamps) : 0.0;
   r.definite = p.clamps + p.definite ? static_cast<double>(p.definite) / static_cast<double>(p.clamps + p.definite) : 0.0;
   r.candidates = static_cast<double>(p.candidates) / steps;
-  r.fences = static_cast<double>(p.fences) / steps;
-  r.updated = p.steps > p.fences ? static_cast<double>(p.updated) / static_cast<double>(p.steps - p.fences) : 0.0;
+  r.unpipelined = static_cast<double>(p.unpipelined) / steps;
+  r.updated = p.steps > p.unpipelined ? static_cast<double>(p.updated) / static_cast<double>(p.steps - p.unpipelined) : 0.0;
   for (int k = 0; k < DeviceTickProfile::kStages; ++k) {
     const bool cycles = k <= DeviceTickProfile::Output;  // block 0's, in its cycles
     const bool per_block = k >= DeviceTickProfile::BlockLag && k <= DeviceTickProfile::BlockLists;  // summed over blocks

@@ -164,7 +164,7 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
       for (int k = 0; k < r.count; ++k) {
         const std::int64_t n = r.first + k;
         const DeviceTickOutput& o = rows[static_cast<std::size_t>(k)];
-        view.device = sample_at(rec, t0 + static_cast<double>(n) * world.h_haptic);
+        view.device = in.samples[static_cast<std::size_t>(n)];
         view.output.force = o.force;
         view.output.torque = o.torque;
         view.output.force_clamped = o.force_clamped != 0;
@@ -394,10 +394,11 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
   const bool grasping = world.scene.spec.stages.grasp && world.tool.has_jaws;
   std::vector<DeviceTickInput>& in = out.ticks;
   in.resize(static_cast<std::size_t>(ticks));
+  out.samples.resize(static_cast<std::size_t>(ticks));
   std::int64_t delivered = -1;  // the tick the visible physical result arrived at
   bool closed = false;
   for (std::int64_t n = 0; n < ticks; ++n) {
-    const DeviceSample s = sample_at(rec, t0 + static_cast<double>(n) * world.h_haptic);
+    const DeviceSample& s = out.samples[static_cast<std::size_t>(n)] = sample_at(rec, t0 + static_cast<double>(n) * world.h_haptic);
     DeviceTickInput& d = in[static_cast<std::size_t>(n)];
     d.position = s.position;
     d.orientation = s.orientation;

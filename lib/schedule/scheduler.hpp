@@ -66,6 +66,7 @@ std::int64_t tick_count(const World& world, double duration);
 /// the setup of the device tick (the world's models and start state, the grasps' hard boxes).
 struct DeviceReplayInputs {
   std::vector<DeviceTickInput> ticks;
+  std::vector<DeviceSample> samples;  ///< each tick's device sample (what the observer reads)
   DeviceHapticSetup setup;  ///< refers to `world`'s data
 };
 DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec, double t0, std::int64_t ticks,

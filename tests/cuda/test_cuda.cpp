@@ -313,8 +313,9 @@ TEST(CudaNewton, PsdClampMatchesEigen) {
     const Mat6 H = symmetric_with_eigenvalues(rng, lambda);
     const Mat6 got = device_psd_clamp(H), want = psd_clamp_reference(H);
     EXPECT_LE((got - want).cwiseAbs().maxCoeff(), 64 * kU * lambda.cwiseAbs().maxCoeff()) << "definite trial " << trial;
-    if (trial % 2)  // returned as is (its upper triangle, which the clamp reads)
+    if (trial % 2) {  // returned as is (its upper triangle, which the clamp reads)
       EXPECT_EQ(Mat6(got.triangularView<Eigen::Upper>()), Mat6(H.triangularView<Eigen::Upper>())) << "definite trial " << trial;
+    }
   }
   EXPECT_EQ(device_psd_clamp(Mat6::Zero()), Mat6::Zero());  // no contact: the clamp is skipped
   Mat6 diag = Mat6::Zero();
@@ -579,15 +580,17 @@ TEST(CudaDeviceTick, PipelinedStepsMatchUnpipelinedOnes) {
     std::printf("[ pipelined K=%d ] %d ticks, up to %d contacts and %d grasped: max |F| diff %.3g N (tol %.3g, peak "
                 "%.3g N), %d ticks with other contact counts; %.1f%% of the steps unpipelined (%.1f%% without the "
                 "pipeline), %.1f vertices on block 0 per pipelined step; 9 blocks: %d ticks differ\n",
-                K, ticks, max_contacts, max_grasped, err_f, tol_f, peak_f, contact_mismatch, 100 * prof_pipe.fences,
-                100 * prof_plain.fences, prof_pipe.updated, strided_mismatch);
+                K, ticks, max_contacts, max_grasped, err_f, tol_f, peak_f, contact_mismatch, 100 * prof_pipe.unpipelined,
+                100 * prof_plain.unpipelined, prof_pipe.updated, strided_mismatch);
     EXPECT_GT(max_grasped, 0) << "the window must contain a grasp";
     EXPECT_EQ(grasp_mismatch, 0);
     EXPECT_LE(err_f, tol_f);
+    // The contact sums' order differs, so a vertex within round-off of a collider's surface may
+    // count on one side only: a few ticks of the 800 (0 measured on the H100).
     EXPECT_LE(contact_mismatch, ticks / 100);
     EXPECT_EQ(strided_mismatch, 0);
-    EXPECT_DOUBLE_EQ(prof_plain.fences, 1.0);
-    EXPECT_LT(prof_pipe.fences, 0.5) << "most steps must run pipelined";
+    EXPECT_DOUBLE_EQ(prof_plain.unpipelined, 1.0);
+    EXPECT_LT(prof_pipe.unpipelined, 0.5) << "most steps must run pipelined";
   }
 }
 

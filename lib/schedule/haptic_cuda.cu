@@ -552,18 +552,19 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
     // dx = -H_step^-1 g (eq. (9)) by Cholesky, scaled to the step limits.
     if (threadIdx.x < 32) {
       const int lane = threadIdx.x;
-      double h = lane < 21 ? sh.total[7 + lane] : 0.0;
+      const double h = lane < 21 ? sh.total[7 + lane] : 0.0;
+      int hi = 0, hj = 0;
+      cuda::upper_entry(lane < 21 ? lane : 0, hi, hj);
+      const double diag = lane < 21 && hi == hj ? (hi < 3 ? t.k_vcs + t.stab_t : t.k_vct + t.stab_r) : 0.0;
       int sweeps = 0;
-      h = cuda::warp_psd_clamp(h, lane, sh.clamp_scratch, &sweeps);
+      bool factored = false;
+      const double u = cuda::warp_clamped_factor(h, diag, lane, sh.clamp_scratch, factored, &sweeps);
       marks.mark(DeviceTickProfile::Clamp);
       if (marks.on && sweeps >= 0) { ++marks.clamps; marks.sweeps += sweeps; }
       if (marks.on && sweeps < 0) ++marks.definite;
-      int hi = 0, hj = 0;
-      cuda::upper_entry(lane < 21 ? lane : 0, hi, hj);
-      if (lane < 21 && hi == hj) h += hi < 3 ? t.k_vcs + t.stab_t : t.k_vct + t.stab_r;
       const double gk = lane < 6 ? sh.g[lane] : 0.0;
       double dx = 0;
-      const bool ok = cuda::warp_cholesky_solve(h, -gk, lane, dx);
+      const bool ok = cuda::warp_cholesky_solve_factored(u, factored, -gk, lane, dx);
       // Step limits, slope, round-off test (lanes 0-5 hold dx; the sums reach every lane).
       double t2 = lane < 3 ? dx * dx : 0.0, r2 = lane >= 3 && lane < 6 ? dx * dx : 0.0;
       for (int o = 4; o > 0; o >>= 1) {

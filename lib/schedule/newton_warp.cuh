@@ -7,6 +7,8 @@
 //   warp_psd_clamp      V max(Lambda, 0) V^T: the 6x6 PSD clamp, by cyclic Jacobi in float32
 //                       (H itself when a Cholesky factorisation shows it positive definite)
 //   warp_cholesky_solve x = H^-1 b for a symmetric positive definite H, in double
+//   warp_clamped_factor the Newton step's PSD(H) + diag factored, the definiteness test of H and
+//                       the factorisation of H + diag interleaved (warp_cholesky_solve_factored)
 //
 // Shuffle chains instead of one thread's loops: the Newton step is a latency chain on one SM,
 // and a 6x6 by one thread pays every division, square root and shared-memory load in turn.
@@ -44,23 +46,46 @@ __device__ __forceinline__ int jacobi_partner(int r, int i) {
 inline constexpr int kMaxJacobiSweeps = 8;
 inline constexpr float kJacobiTolerance = 0x1p-21f;
 
-/// Cholesky factorisation H = U^T U in double of the symmetric H whose upper entry e lane e < 21
-/// holds in `h` ((i, j): that entry's row and column): returns (lane e) U's upper entry e, its
-/// diagonal holding 1 / U(c, c); `ok` (on every lane) whether every pivot was positive.
-__device__ inline double warp_cholesky_factor(double h, int lane, int i, int j, bool& ok) {
-  double u = lane < 21 ? h : 0.0;
-  ok = true;
+/// Cholesky factorisations H = U^T U in double of N symmetric matrices at once (their chains
+/// interleave), upper entry e of matrix m on lane e < 21 in u[m] ((i, j): that entry's row and
+/// column): returns in u[m] (lane e) U's upper entry e, its diagonal holding 1 / U(c, c); ok[m] (on
+/// every lane) whether every pivot was positive.
+template <int N>
+__device__ inline void warp_cholesky_factors(double (&u)[N], int lane, int i, int j, bool (&ok)[N]) {
+#pragma unroll
+  for (int m = 0; m < N; ++m) {
+    if (lane >= 21) u[m] = 0.0;
+    ok[m] = true;
+  }
 #pragma unroll
   for (int c = 0; c < 6; ++c) {
-    const double d = __shfl_sync(~0u, u, upper(c, c));
-    ok = ok && d > 0.0;
-    const double inv = rsqrt(fmax(d, 1e-300));  // no division; a non-positive pivot fails
-    if (i == c) u = j == c ? inv : u * inv;  // row c of U
-    const double uci = __shfl_sync(~0u, u, upper(c, max(i, c))), ucj = __shfl_sync(~0u, u, upper(c, max(j, c)));
-    if (i > c) u -= uci * ucj;  // the trailing block: H(i, j) - U(c, i) U(c, j)
+#pragma unroll
+    for (int m = 0; m < N; ++m) {
+      const double d = __shfl_sync(~0u, u[m], upper(c, c));
+      ok[m] = ok[m] && d > 0.0;
+      const double inv = rsqrt(fmax(d, 1e-300));  // no division; a non-positive pivot fails
+      if (i == c) u[m] = j == c ? inv : u[m] * inv;  // row c of U
+    }
+#pragma unroll
+    for (int m = 0; m < N; ++m) {
+      const double uci = __shfl_sync(~0u, u[m], upper(c, max(i, c))), ucj = __shfl_sync(~0u, u[m], upper(c, max(j, c)));
+      if (i > c) u[m] -= uci * ucj;  // the trailing block: H(i, j) - U(c, i) U(c, j)
+    }
   }
-  return u;
 }
+
+/// warp_cholesky_factors of one matrix.
+__device__ inline double warp_cholesky_factor(double h, int lane, int i, int j, bool& ok) {
+  double u[1] = {h};
+  bool oks[1];
+  warp_cholesky_factors(u, lane, i, j, oks);
+  ok = oks[0];
+  return u[0];
+}
+
+/// The cyclic Jacobi part of warp_psd_clamp (h neither zero nor positive definite); (i, j): lane's
+/// upper entry.
+__device__ inline double warp_jacobi_clamp(double h, int lane, int i, int j, float* scratch, int* sweeps);
 
 /// The PSD clamp of virtual_tool.cpp's H_step: returns (lane e < 21) upper entry e of
 /// V max(Lambda, 0) V^T for the symmetric matrix whose upper entry e lane e holds in `h`, by a cyclic
@@ -76,14 +101,39 @@ __device__ inline double warp_psd_clamp(double h, int lane, float* scratch, int*
   if (__ballot_sync(~0u, lane < 21 && h != 0.0) == 0u) return h;  // no contact Hessian
   int i = 0, j = 0;
   upper_entry(lane < 21 ? lane : 0, i, j);
-  {
-    bool pd = false;
-    warp_cholesky_factor(h, lane, i, j, pd);
-    if (pd) {
-      if (sweeps) *sweeps = -1;
-      return lane < 21 ? h : 0.0;
-    }
+  bool pd = false;
+  warp_cholesky_factor(h, lane, i, j, pd);
+  if (pd) {
+    if (sweeps) *sweeps = -1;
+    return lane < 21 ? h : 0.0;
   }
+  return warp_jacobi_clamp(h, lane, i, j, scratch, sweeps);
+}
+
+/// The Newton step's matrix PSD(h) + diag factored (warp_cholesky_factors' layout), h as
+/// warp_psd_clamp's and diag the added diagonal (lane e < 21: zero off the diagonal). The test of
+/// h and the factorisation of h + diag run as one interleaved pair, so a positive definite h (its
+/// own clamp) costs one factorisation's latency; otherwise the Jacobi clamp, then the
+/// factorisation. The same bits as warp_psd_clamp, + diag, warp_cholesky_factor. `ok`: every
+/// pivot positive; `sweeps` as warp_psd_clamp's.
+__device__ inline double warp_clamped_factor(double h, double diag, int lane, float* scratch, bool& ok,
+                                             int* sweeps = nullptr) {
+  if (sweeps) *sweeps = 0;
+  int i = 0, j = 0;
+  upper_entry(lane < 21 ? lane : 0, i, j);
+  const bool zero = __ballot_sync(~0u, lane < 21 && h != 0.0) == 0u;  // no contact Hessian: as is
+  double u[2] = {h, h + diag};
+  bool pd[2];
+  warp_cholesky_factors(u, lane, i, j, pd);
+  if (zero || pd[0]) {
+    if (sweeps && !zero) *sweeps = -1;
+    ok = pd[1];
+    return u[1];
+  }
+  return warp_cholesky_factor(warp_jacobi_clamp(h, lane, i, j, scratch, sweeps) + diag, lane, i, j, ok);
+}
+
+__device__ inline double warp_jacobi_clamp(double h, int lane, int i, int j, float* scratch, int* sweeps) {
   float a = static_cast<float>(h);
   // V, row-major 6x6: lane l owns entries l and l + 32 (the second for lanes 0-3 only).
   const int e1 = min(lane + 32, 35);
@@ -166,14 +216,10 @@ __device__ inline double warp_psd_clamp(double h, int lane, float* scratch, int*
   return lane < 21 ? acc : 0.0;
 }
 
-/// Solves H x = b for the symmetric positive definite H (lane e < 21: upper entry e in `h`;
-/// lane k < 6: b_k in `b`) by a Cholesky factorisation H = U^T U in double: x_k on lane k < 6.
-/// Returns false (on every lane) when a pivot is not positive or x is not finite.
-__device__ inline bool warp_cholesky_solve(double h, double b, int lane, double& x) {
-  int i = 0, j = 0;
-  upper_entry(lane < 21 ? lane : 0, i, j);
-  bool ok = true;
-  const double u = warp_cholesky_factor(h, lane, i, j, ok);  // U, its diagonal holding 1 / U(c, c)
+/// Solves U^T U x = b for U from warp_cholesky_factors (its diagonal holding 1 / U(c, c); lane
+/// k < 6: b_k in `b`): x_k on lane k < 6. `ok`: the factorisation's; returns false (on every lane)
+/// when it is false or x is not finite.
+__device__ inline bool warp_cholesky_solve_factored(double u, bool ok, double b, int lane, double& x) {
   // Lane k < 6: column k of U (= row k), U(m, k) for m < k and U(k, m) for m > k; its inverse diagonal.
   const int k = lane < 6 ? lane : 5;
   double col[6];
@@ -196,6 +242,17 @@ __device__ inline bool warp_cholesky_solve(double h, double b, int lane, double&
   x = r * inv_kk;
   ok = ok && (lane >= 6 || isfinite(x));
   return __all_sync(~0u, ok);
+}
+
+/// Solves H x = b for the symmetric positive definite H (lane e < 21: upper entry e in `h`;
+/// lane k < 6: b_k in `b`) by a Cholesky factorisation H = U^T U in double: x_k on lane k < 6.
+/// Returns false (on every lane) when a pivot is not positive or x is not finite.
+__device__ inline bool warp_cholesky_solve(double h, double b, int lane, double& x) {
+  int i = 0, j = 0;
+  upper_entry(lane < 21 ? lane : 0, i, j);
+  bool ok = true;
+  const double u = warp_cholesky_factor(h, lane, i, j, ok);
+  return warp_cholesky_solve_factored(u, ok, b, lane, x);
 }
 
 }  // namespace ebh::cuda

@@ -13,4 +13,8 @@ Mat6 device_psd_clamp(const Mat6& H);
 /// `ok` false when it reports a non-positive pivot or a non-finite result.
 Vec6 device_cholesky_solve(const Mat6& H, const Vec6& b, bool& ok);
 
+/// (PSD(H) + diag(d))^-1 b as the device tick's Newton step solves it (warp_clamped_factor, then
+/// warp_cholesky_solve_factored); `ok` as device_cholesky_solve's.
+Vec6 device_clamped_solve(const Mat6& H, const Vec6& d, const Vec6& b, bool& ok);
+
 }  // namespace ebh

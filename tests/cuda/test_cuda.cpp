@@ -351,6 +351,34 @@ TEST(CudaNewton, CholeskySolveMatchesEigen) {
   EXPECT_FALSE(ok);
 }
 
+// The Newton step's fused clamp and factorisation (the definiteness test of H interleaved with the
+// factorisation of H + diag) gives the bits of the clamp, then the sum, then the solve.
+TEST(CudaNewton, ClampedSolveMatchesClampThenSolve) {
+  EBH_REQUIRE_DEVICE();
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> exponent(-2.0, 4.0), sign(-1.0, 1.0);
+  std::normal_distribution<double> n(0.0, 1.0);
+  int definite = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    Vec6 lambda, b;
+    for (int k = 0; k < 6; ++k) {
+      lambda[k] = (trial % 2 == 0 || sign(rng) > 0 ? 1.0 : -1.0) * std::pow(10.0, exponent(rng));
+      b[k] = n(rng);
+    }
+    definite += lambda.minCoeff() > 0;
+    const Mat6 H = trial % 50 == 0 ? Mat6::Zero() : symmetric_with_eigenvalues(rng, lambda);
+    Vec6 d;
+    d << 300, 300, 300, 0.3, 0.3, 0.3;  // k_vcs and k_vct of the scenes
+    bool ok_fused = false, ok_plain = false;
+    const Vec6 got = device_clamped_solve(H, d, b, ok_fused);
+    const Mat6 Hc = device_psd_clamp(H);
+    const Vec6 want = device_cholesky_solve(Mat6(Hc + Mat6(d.asDiagonal())), b, ok_plain);
+    EXPECT_EQ(ok_fused, ok_plain) << "trial " << trial;
+    EXPECT_EQ(std::memcmp(got.data(), want.data(), sizeof(Vec6)), 0) << "trial " << trial;
+  }
+  EXPECT_GT(definite, 50);  // both paths: definite matrices and the Jacobi
+}
+
 TEST(CudaVirtual, TickMatchesCpu) {
   EBH_REQUIRE_DEVICE();
   const Models& M = models("cholecystectomy");

@@ -316,6 +316,27 @@ __device__ void pose_colliders(const ToolConst& t, Vec3d P, Quatd Q, const Devic
   if (threadIdx.x < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, threadIdx.x, out);
 }
 
+/// normalized(quat_from_rotvec(w) * Q), the line search's trial orientation (virtual_tool.cpp).
+/// A Newton step turns the tool by at most max_rot (0.5 deg in the scenes), so below 0.01 rad the
+/// half angle's cosine and sin(x) / x come from their Taylor series (x = |w| / 2 < 0.005:
+/// truncation below 1e-24, far under double round-off), with no range reduction, square root or
+/// division; larger turns take the trigonometry.
+__device__ Quatd trial_orientation(Vec3d w, Quatd Q) {
+  const double a2 = dot(w, w);
+  Quatd r;
+  if (a2 < 1e-4) {
+    const double x2 = 0.25 * a2;
+    const double c = 1.0 + x2 * (-1.0 / 2 + x2 * (1.0 / 24 + x2 * (-1.0 / 720 + x2 * (1.0 / 40320))));
+    const double s = 0.5 * (1.0 + x2 * (-1.0 / 6 + x2 * (1.0 / 120 + x2 * (-1.0 / 5040))));  // sin(x) / (2x)
+    r = Quatd{c, s * w.x, s * w.y, s * w.z};
+  } else {
+    r = quat_from_rotvec(w);
+  }
+  const Quatd q = r * Q;
+  const double inv = rsqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  return Quatd{q.w * inv, q.x * inv, q.y * inv, q.z * inv};
+}
+
 /// E_tvc [2] (tool_energy.cpp: coupling_energy) with its gradient.
 __device__ double coupling_energy_dev(Vec3d P, Quatd Q, Vec3d Ph, Quatd Qh, double k_vcs, double k_vct, double* g) {
   const Vec3d dP = P - Ph;
@@ -601,7 +622,7 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
       // pose it, the coupling thread evaluates E_tvc there, thread 0 keeps it.
       if (threadIdx.x < t.count || threadIdx.x == kCouplingThread) {
         const Vec3d P = sh.P + Vec3d{alpha * sh.dx[0], alpha * sh.dx[1], alpha * sh.dx[2]};
-        const Quatd Q = normalized(quat_from_rotvec(Vec3d{alpha * sh.dx[3], alpha * sh.dx[4], alpha * sh.dx[5]}) * sh.Q);
+        const Quatd Q = trial_orientation(Vec3d{alpha * sh.dx[3], alpha * sh.dx[4], alpha * sh.dx[5]}, sh.Q);
         if (threadIdx.x < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, threadIdx.x, pt);
         if (threadIdx.x == 0) { sh.trial_P = P; sh.trial_Q = Q; posed_current = false; }
         if (threadIdx.x == kCouplingThread) sh.coupling_E = coupling(P, Q, sh.coupling_g);

@@ -283,9 +283,27 @@ struct MeshDev {
   ProfileDev* profile = nullptr;    // stage timestamps, or null
 };
 
+// The narrow phase and the posing of a collider are __noinline__: one copy each in the kernel,
+// which the Newton call, its line search, block 0's vertices and the vertex blocks share. Inlined
+// at every call site, block 0 ran ~140 KB of distinct code per run and its warps stalled on
+// instruction fetch (Nsight Compute: no_inst, 21% of block 0's stall samples outside barriers);
+// shared, the ticks run ~4% faster (docs/CUDA.md).
+
+/// Signed distance of q (world) to collider c posed at w.
+__device__ __noinline__ double collider_sd(const Collider<double>& c, const Rigid<double>& w, Vec3d q) {
+  return signed_distance_local(c, apply_inverse(w, q));
+}
+
+/// deepest_collider (contact.hpp) of q against the colliders posed in p, those of `near` only.
+__device__ __noinline__ int deepest_query(const ToolConst& t, const Posed& p, Vec3d q, unsigned near,
+                                          SurfaceQuery<double>& sq) {
+  return deepest_collider(t.shape, p.world, t.count, q, sq, near);
+}
+
 /// Collider c of pose_tool (tool_model.cpp) on the device; (jc, js): cos and sin of the jaws'
 /// opening angle (DeviceTickInput). Threads 0 .. count-1 each pose one collider.
-__device__ void pose_collider(const ToolConst& t, Vec3d P, Quatd Q, double jc, double js, int c, Posed& out) {
+__device__ __noinline__ void pose_collider(const ToolConst& t, Vec3d P, Quatd Q, double jc, double js, int c,
+                                           Posed& out) {
   Rigid<double> frame;
   frame.R = to_matrix(Q);
   frame.t = P;
@@ -469,14 +487,14 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
     if (!near) continue;  // certainly outside
     if (kDerivs) {
       SurfaceQuery<double> sq;
-      if (deepest_collider(t.shape, pt.world, t.count, qc, sq, near) < 0) continue;
+      if (deepest_query(t, pt, qc, near, sq) < 0) continue;
       const double phi = -sq.sd;
       deepest = fmax(deepest, phi);
       acc[0] += contact_terms(t.k_con, phi, 1.0, sq.normal, qc - P, sq.hess, true, g, H);
     } else {  // E only: the deepest collider's signed distance (deepest_collider's first pass)
       double sd = 0;
       for (int c = 0; c < t.count; ++c)
-        if ((near >> c) & 1u) sd = fmin(sd, signed_distance_local(t.shape[c], apply_inverse(pt.world[c], qc)));
+        if ((near >> c) & 1u) sd = fmin(sd, collider_sd(t.shape[c], pt.world[c], qc));
       const double phi = -sd;
       deepest = fmax(deepest, phi);
       acc[0] += 0.5 * t.k_con * phi * phi;
@@ -743,7 +761,7 @@ __device__ bool contact_target(const MeshDev& d, const ToolConst& t, const Posed
   }
   if (const unsigned near = near_colliders(t, posed, q, kFloatSlack)) {
     SurfaceQuery<double> sq;
-    if (deepest_collider(t.shape, posed.world, t.count, static_cast<Vec3d>(q), sq, near) >= 0) {
+    if (deepest_query(t, posed, static_cast<Vec3d>(q), near, sq) >= 0) {
       kt = static_cast<Vec3f>(t.k_con * sq.point);
       ck = static_cast<float>(t.k_con);
       return true;
@@ -766,7 +784,7 @@ __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& ph
       double deepest = 0;
       for (int k = 0; k < t.count; ++k)
         if ((near >> k) & 1u)
-          deepest = fmax(deepest, -signed_distance_local(t.shape[k], apply_inverse(physical.world[k], qd)));
+          deepest = fmax(deepest, -collider_sd(t.shape[k], physical.world[k], qd));
       f.pen = static_cast<float>(deepest);
     }
   }

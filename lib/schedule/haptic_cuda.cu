@@ -257,6 +257,7 @@ struct MeshDev {
   Vec3f* v = nullptr;             // velocities: the last tick's (iteration 0 reads them), this tick's
   Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities, copied to v
   SyncDev* sync = nullptr;
+  const int4* edge_ell = nullptr;  // edge_ell(): edge item u of vertex j at u m + j
   // 2: the virtual tool posed for step s's vertices (slot s & 1), published by block 0 before the
   // step's release: at the pose the step's contacts use, or (a pipelined step, which runs beside
   // the Newton call that moves the tool) at the pose before that call.
@@ -854,25 +855,24 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
       if (!first || d.model.pinned[a]) return x;
       return predict_position(x, d.v[a], d.gravity, d.h);
     };
-    // The incident edges in chunks of kEdgeChunk, every load of a chunk issued before its math
-    // (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
-    const int k0 = d.model.edge_offsets[j], k1 = d.model.edge_offsets[j + 1];
-    for (int kb = k0; kb < k1; kb += kEdgeChunk) {
+    // The incident edges (edge_ell) in chunks of kEdgeChunk, every load of a chunk issued before
+    // its math (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
+    const int degree = d.model.edge_offsets[j + 1] - d.model.edge_offsets[j];
+    for (int kb = 0; kb < degree; kb += kEdgeChunk) {
       int4 it[kEdgeChunk];
       Vec3f xa[kEdgeChunk], xb[kEdgeChunk], rest[kEdgeChunk];
 #pragma unroll
-      for (int u = 0; u < kEdgeChunk; ++u)
-        if (kb + u < k1) it[u] = d.model.edge_items[kb + u];
+      for (int u = 0; u < kEdgeChunk; ++u) it[u] = __ldg(&d.edge_ell[(kb + u) * d.m + j]);
 #pragma unroll
       for (int u = 0; u < kEdgeChunk; ++u)
-        if (kb + u < k1) {
+        if (kb + u < degree) {
           xa[u] = at(it[u].x);
           xb[u] = at(it[u].y);
           rest[u] = d.model.rest_edge[it[u].z];
         }
 #pragma unroll
       for (int u = 0; u < kEdgeChunk; ++u)
-        if (kb + u < k1) {
+        if (kb + u < degree) {
           const Vec3f g = edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s);  // [4]
           r += it[u].w ? g : -g;
         }
@@ -1321,6 +1321,24 @@ __global__ void __launch_bounds__(kBlock)
 
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 
+/// The virtual mesh's incidence lists (VirtualModelArrays::edge_items: VirtualModel::edge_entries,
+/// in their order) for the device tick, column-major: entry u of vertex j at u m + j, so that a
+/// warp's 32 vertices load their u-th edges in one coalesced 512-byte line and without waiting for
+/// the offsets; rows padded to a multiple of kEdgeChunk.
+std::vector<int4> edge_ell(const VirtualModel& M) {
+  const int m = M.num_vertices;
+  int width = 0;
+  for (int j = 0; j < m; ++j) width = std::max(width, M.edge_offsets[j + 1] - M.edge_offsets[j]);
+  width = std::max(kEdgeChunk, (width + kEdgeChunk - 1) / kEdgeChunk * kEdgeChunk);
+  std::vector<int4> ell(std::size_t(width) * m, make_int4(0, 0, 0, 0));
+  for (int j = 0; j < m; ++j)
+    for (int k = M.edge_offsets[j]; k < M.edge_offsets[j + 1]; ++k) {
+      const int entry = M.edge_entries[k], e = entry >> 1;
+      ell[std::size_t(k - M.edge_offsets[j]) * m + j] = make_int4(M.edges[e][0], M.edges[e][1], e, entry & 1);
+    }
+  return ell;
+}
+
 /// A segment and radius whose capsule contains collider c (ToolConst's early-outs), rounded outward.
 void bounding_segment(const Collider<double>& c, Vec3f& a, Vec3f& b, float& r) {
   double radius = c.radius;
@@ -1366,6 +1384,7 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<std::uint8_t> held;
   cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, held_list, held_slot;
   cuda::DeviceArray<SyncDev> sync;
+  cuda::DeviceArray<int4> edge_ell;
   cuda::DeviceArray<Posed> slots;
   cuda::DeviceArray<Vec3f> x_prev, x_vis, v, v_scratch, q_start, s, p, q[3];
   cuda::DeviceArray<DeferredVertex> block_deferred;
@@ -1418,6 +1437,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   };
   const int m = I.m;
   I.model.upload(M, st);
+  up(I.edge_ell, edge_ell(M));
   std::vector<Vec3f> x0(I.n), q0(m), zero(m);
   for (int a = 0; a < I.n; ++a) x0[a] = to_float(S.x0[a]);
   for (int j = 0; j < m; ++j) q0[j] = to_float(S.q0[j]);
@@ -1477,6 +1497,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.inv_h2 = float(1.0 / (S.h * S.h));
   d.gravity = to_float(M.gravity);
   d.model = I.model.view();
+  d.edge_ell = I.edge_ell.get();
   d.x_prev = I.x_prev.get();
   d.x_vis = I.x_vis.get();
   d.q_start = I.q_start.get();

@@ -1334,10 +1334,8 @@ std::vector<int4> edge_ell(const VirtualModel& M) {
   width = std::max(kEdgeChunk, (width + kEdgeChunk - 1) / kEdgeChunk * kEdgeChunk);
   std::vector<int4> ell(std::size_t(width) * m, make_int4(0, 0, 0, 0));
   for (int j = 0; j < m; ++j)
-    for (int k = M.edge_offsets[j]; k < M.edge_offsets[j + 1]; ++k) {
-      const int entry = M.edge_entries[k], e = entry >> 1;
-      ell[std::size_t(k - M.edge_offsets[j]) * m + j] = make_int4(M.edges[e][0], M.edges[e][1], e, entry & 1);
-    }
+    for (int k = M.edge_offsets[j]; k < M.edge_offsets[j + 1]; ++k)
+      ell[std::size_t(k - M.edge_offsets[j]) * m + j] = cuda::edge_item(M, k);
   return ell;
 }
 

@@ -23,6 +23,12 @@ struct VirtualModelView {
   const int* pair_count = nullptr;      // m
 };
 
+/// Incidence entry k of VirtualModel::edge_entries as VirtualModelArrays::edge_items holds it.
+inline int4 edge_item(const VirtualModel& M, int k) {
+  const int entry = M.edge_entries[k], e = entry >> 1;
+  return make_int4(M.edges[e][0], M.edges[e][1], e, entry & 1);
+}
+
 struct VirtualModelArrays {
   DeviceArray<float> mass, stiff_diag;   // m   (stiff_diag: k_s deg + k_svc)
   DeviceArray<std::uint8_t> pinned;      // m
@@ -53,10 +59,7 @@ struct VirtualModelArrays {
     up(rest_edge, re);
     up(edge_offsets, M.edge_offsets);
     std::vector<int4> items(M.edge_entries.size());
-    for (std::size_t k = 0; k < items.size(); ++k) {
-      const int entry = M.edge_entries[k], e = entry >> 1;
-      items[k] = make_int4(M.edges[e][0], M.edges[e][1], e, entry & 1);
-    }
+    for (std::size_t k = 0; k < items.size(); ++k) items[k] = edge_item(M, static_cast<int>(k));
     up(edge_items, items);
     std::vector<int> pv(4 * std::size_t(m), 0);
     std::vector<float> pw(4 * std::size_t(m), 0.f);

@@ -364,14 +364,17 @@ __device__ double coupling_energy_dev(Vec3d P, Quatd Q, Vec3d Ph, Quatd Qh, doub
   return 0.5 * k_vcs * squared_norm(dP) + 0.5 * k_vct * squared_norm(v);
 }
 
-/// Block sum of the first kCount of v[kSums] over kBlock threads in a fixed order; the result lands
-/// in out[0..kCount) (shared). In each warp, many values by a transposed butterfly: at the step of
-/// offset o a lane keeps one half of its values and sends the other to lane ^ o, so lane L ends with
-/// value L's warp sum after 31 shuffles (a tree per value would take 5 per value); then the warps in order.
+/// Block sum of the first kCount of v[kSums] over kBlock threads in a fixed order, the result in
+/// out[0..kCount) (shared); and the block max of the non-negative m, into *max_out by thread 0 (the
+/// deepest contact: one more value beside the sums, no barriers of its own). In each warp, many
+/// values by a transposed butterfly: at the step of offset o a lane keeps one half of its values
+/// and sends the other to lane ^ o, so lane L ends with value L's warp sum after 31 shuffles (a tree
+/// per value would take 5 per value); then the warps in order.
 template <int kCount>
-__device__ void block_sum(const double* v, double (*scratch)[kSums], double* out) {
-  static_assert(kCount == 1 || (kCount > 1 && kCount <= 32));
+__device__ void block_sum(const double* v, double m, double (*scratch)[kSums + 1], double* out, double* max_out) {
+  static_assert(kCount >= 1 && kCount <= kSums);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  for (int o = 16; o > 0; o >>= 1) m = fmax(m, __shfl_xor_sync(~0u, m, o));
   if constexpr (kCount == 1) {
     double x = v[0];
     for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(~0u, x, o);
@@ -392,25 +395,19 @@ __device__ void block_sum(const double* v, double (*scratch)[kSums], double* out
     }
     if (lane < kCount) scratch[warp][lane] = x[0];
   }
+  if (lane == 31) scratch[warp][kSums] = m;
   __syncthreads();
   if (threadIdx.x < kCount) {
     double acc = 0;
     for (int w = 0; w < kWarps; ++w) acc += scratch[w][threadIdx.x];
     out[threadIdx.x] = acc;
   }
+  if (threadIdx.x == 0) {
+    double r = 0;
+    for (int w = 0; w < kWarps; ++w) r = fmax(r, scratch[w][kSums]);
+    *max_out = r;
+  }
   __syncthreads();
-}
-
-/// Block max of a non-negative double.
-__device__ double block_max(double x, double* scratch) {
-  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
-  for (int o = 16; o > 0; o >>= 1) x = fmax(x, __shfl_down_sync(~0u, x, o));
-  if (lane == 0) scratch[warp] = x;
-  __syncthreads();
-  double r = 0;
-  for (int w = 0; w < kWarps; ++w) r = fmax(r, scratch[w]);
-  __syncthreads();
-  return r;
 }
 
 /// Exclusive block scans of two counts (warp shuffles, then the warps in order); totals in ta, tb.
@@ -438,11 +435,10 @@ __device__ void block_exclusive_scan(int a, int b, int& ea, int& eb, int& ta, in
 }
 
 struct TailShared {
-  double sums[kWarps][kSums];
+  double sums[kWarps][kSums + 1];
   double total[kSums];
   float clamp_scratch[42];
   double dx[6], g[6];
-  double wmax[kWarps];
   int warp_contacts[kWarps];
   unsigned warp_pen[kWarps];   // float bits of a non-negative depth
   int offsets[2 * (kTailOffsets + 1)];
@@ -467,7 +463,7 @@ struct TailShared {
 
 /// E_con [3] of the reachable vertices plus the grasp part (tool_energy.cpp) at the posed tool `pt`,
 /// summed over the block. kDerivs: also the gradient and the upper Hessian (into sh.total).
-/// Returns E (contact + grasp) and the deepest contact's depth in `depth`.
+/// Returns E (contact + grasp) and (thread 0) the deepest contact's depth in `depth`.
 template <bool kDerivs>
 __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const Vec3f* q, const Posed& pt,
                                     TailShared& sh, double& depth) {
@@ -527,13 +523,13 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
     for (int a = 0; a < 6; ++a)
       for (int b = a; b < 6; ++b) acc[7 + cuda::upper(a, b)] = H[6 * a + b];
   }
-  depth = block_max(deepest, sh.wmax);
   if (sh.nc + sh.nh == 0) {  // nothing near the tool: the sums are zero (skips the reduction)
     for (int k = threadIdx.x; k < kSums; k += kBlock) sh.total[k] = 0;
+    depth = 0;
     __syncthreads();
     return 0;
   }
-  block_sum<kDerivs ? kSums : 1>(acc, sh.sums, sh.total);
+  block_sum<kDerivs ? kSums : 1>(acc, deepest, sh.sums, sh.total, &depth);  // depth: thread 0's
   return sh.total[0];
 }
 

@@ -268,7 +268,7 @@ struct MeshDev {
   Vec3d* grasp_local = nullptr;
   // Per chunk, two lists of its vertices in vertex order: (unpipelined steps) the reachable and the
   // held ones; (pipelined) those that may be reachable after the call and those deferred to block 0.
-  int* block_cand = nullptr;        // chunks * kBlock: list 0
+  Vec3f* block_cand = nullptr;      // chunks * kBlock: list 0 (the vertex's new iterate)
   int* block_held = nullptr;        // chunks * kBlock: list 1 (unpipelined steps)
   DeferredVertex* block_deferred = nullptr;  // chunks * kBlock: list 1 (pipelined steps)
   int* block_counts = nullptr;      // chunks * 4: list 0, list 1, contacts, penetration (float bits)
@@ -950,7 +950,7 @@ __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, b
   if (d.profile && threadIdx.x == 0) stamp[2] += global_ns() - stamp[4];
   int o0 = 0, o1 = 0;
   for (int w = 0; w < warp; ++w) { o0 += sm.warp_counts[w][0]; o1 += sm.warp_counts[w][1]; }
-  if (f.list0) d.block_cand[c * kBlock + o0 + __popc(b0 & below)] = j;
+  if (f.list0) d.block_cand[c * kBlock + o0 + __popc(b0 & below)] = f.q;
   if (f.list1) {
     if (kAhead) d.block_deferred[c * kBlock + o1 + __popc(b1 & below)] = deferred;
     else d.block_held[c * kBlock + o1 + __popc(b1 & below)] = j;
@@ -1034,7 +1034,7 @@ __device__ void put_candidate(const MeshDev& d, TailShared& sh, int i, Vec3f q) 
 __device__ void unpipelined_lists(const MeshDev& d, const Vec3f* q, TailShared& sh) {
   int n0 = 0, n1 = 0;
   const int* off = chunk_offsets(d, sh, n0, n1);
-  for (int i = threadIdx.x; i < n0; i += kBlock) put_candidate(d, sh, i, q[list_item(d, off, d.block_cand, i)]);
+  for (int i = threadIdx.x; i < n0; i += kBlock) put_candidate(d, sh, i, list_item(d, off, d.block_cand, i));
   for (int i = threadIdx.x; i < n1; i += kBlock) {  // the first kCache in shared memory (held_slot: their entry)
     const int j = list_item(d, off + d.chunks + 1, d.block_held, i);
     d.held_slot[j] = i < kCache ? i : -1;
@@ -1071,7 +1071,7 @@ __device__ void pipelined_lists(const MeshDev& d, const ToolConst& t, const Pose
     bool fb = false;
     Vec3f xb{};
     if (i < nb) {
-      xb = qout[list_item(d, off, d.block_cand, i)];
+      xb = list_item(d, off, d.block_cand, i);
       fb = reachable(t, pt, xb);
     }
     contacts += f.contact;
@@ -1378,7 +1378,8 @@ struct CudaHapticTicks::Impl {
   bool step_in_flight = false;
   cuda::VirtualModelArrays model;
   cuda::DeviceArray<std::uint8_t> held;
-  cuda::DeviceArray<int> block_cand, block_held, block_counts, block_offsets, held_list, held_slot;
+  cuda::DeviceArray<Vec3f> block_cand;
+  cuda::DeviceArray<int> block_held, block_counts, block_offsets, held_list, held_slot;
   cuda::DeviceArray<SyncDev> sync;
   cuda::DeviceArray<int4> edge_ell;
   cuda::DeviceArray<SlotPose> slots;

@@ -48,6 +48,7 @@ constexpr int kWarps = kBlock / 32;
 constexpr int kTailOffsets = 512;  // chunks whose list offsets the tail keeps in shared memory
 constexpr int kCache = kBlock;      // candidates and held vertices the tail keeps in shared memory
 constexpr int kReleaseThread = kBlock - 32;  // block 0's thread that releases the vertex blocks
+constexpr int kPhysicalPoseThread = 64;      // block 0's first thread that poses the physical tool
 constexpr int kEdgeChunk = 8;       // incident edges loaded at once (a surface vertex has ~6)
 constexpr int kMaxHalvings = 12;    // virtual_tool.cpp
 constexpr double kArmijo = 1e-4;    // virtual_tool.cpp
@@ -329,9 +330,11 @@ __device__ __noinline__ void pose_collider(const ToolConst& t, Vec3d P, Quatd Q,
   }
 }
 
-/// The whole posed tool, by the block's first threads (callers synchronise after it).
-__device__ void pose_colliders(const ToolConst& t, Vec3d P, Quatd Q, const DeviceTickInput& in, Posed& out) {
-  if (threadIdx.x < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, threadIdx.x, out);
+/// The whole posed tool, by threads first .. first + count - 1 (callers synchronise after it).
+__device__ void pose_colliders(const ToolConst& t, Vec3d P, Quatd Q, const DeviceTickInput& in, Posed& out,
+                               int first = 0) {
+  const int c = static_cast<int>(threadIdx.x) - first;
+  if (c >= 0 && c < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, c, out);
 }
 
 /// normalized(quat_from_rotvec(w) * Q), the line search's trial orientation (virtual_tool.cpp).
@@ -1280,7 +1283,9 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
     const bool next = s + 1 < steps, ahead = next && !S.unpipelined(s + 1);
     if (ahead) {
       const DeviceTickInput& gin = S.input(s + 1);
-      if (S.last(s + 1)) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical());  // for block 0's vertices
+      // For block 0's vertices, by warp 2, which the evaluation that follows mostly leaves idle (by
+      // threads 0-2 it delayed the candidates' terms).
+      if (S.last(s + 1)) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical(), kPhysicalPoseThread);
       release(S.epoch(s + 1), s + 1);
     }
     marks.mark(DeviceTickProfile::Lists);

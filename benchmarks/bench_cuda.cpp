@@ -10,7 +10,9 @@
 //                           *_stages: also the mean time of each stage per step (DeviceTickProfile);
 //                           *_unpipelined: every step waits for the virtual tool (the pipeline's gain);
 //                           *_runs_of_100: 100 ticks per launch (what a launch costs);
-//                           *_with_physical: the physical steps beside the ticks (the replay's workload)
+//                           *_with_physical: the physical steps beside the ticks (the replay's workload),
+//                           a launch per physical period; *_in_launch: the steps inside launches of
+//                           100 ticks (run_ticks_with_steps), as the async replay runs them
 //   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
 //                           real-time factor and the mean time of each stage of the haptic tick;
 //                           cuda_host_tool: the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0)
@@ -243,10 +245,12 @@ BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cpu, std::string("cholecystect
 BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystectomy"), true)->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 
 #if EBH_HAVE_CUDA
-/// `run`: ticks per launch (0: the physical step's, as a replay runs them). `physical`: each run
-/// with the physical step beside it, in the async replay's order (replay_device), without the
-/// observer: the replay's own workload (the organ deforms), not the ticks against a still organ.
-void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeline, int run = 0, bool physical = false) {
+/// `run`: ticks per launch (0: the physical step's). `physical`: each run with the physical step
+/// beside it, in the async replay's order (replay_device), without the observer: the replay's own
+/// workload (the organ deforms), not the ticks against a still organ. `in_launch` (with physical):
+/// the physical steps inside launches of `run` ticks (run_ticks_with_steps), as the replay runs them.
+void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeline, int run = 0, bool physical = false,
+                    bool in_launch = false) {
   if (!device_ready(st)) return;
   LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
                                        false, Backend::Cuda);
@@ -266,13 +270,23 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
     st.PauseTiming();
     CudaPhysicalSolver solver(w.physical_mesh, w.physical_params);
     CudaHapticTicks ticks(setup, inputs.ticks, solver);
-    ticks.collect(ticks.run_ticks(N), rows);  // warm-up: graph instantiation
+    std::vector<Vec3d> x;
+    ticks.collect(in_launch ? ticks.run_ticks_with_steps(N) : ticks.run_ticks(N), rows);  // warm-up: graph instantiation
+    while (ticks.steps_in_flight() > 0) ticks.finish_step(x);
     st.ResumeTiming();
     const auto t0 = Clock::now();
     std::vector<int> handles;
-    std::vector<Vec3d> x;
     bool in_flight = false;
     for (int r = 1; r < runs; ++r) {
+      if (in_launch) {
+        handles.push_back(ticks.run_ticks_with_steps(N));
+        if (handles.size() > 2) {
+          ticks.collect(handles.front(), rows);
+          handles.erase(handles.begin());
+          while (ticks.steps_in_flight() > 2 * N / w.ticks_per_step + 1) ticks.finish_step(x);
+        }
+        continue;
+      }
       if (physical) {
         if (in_flight) {
           ticks.deliver_physical_step();
@@ -290,6 +304,7 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
     }
     for (const int h : handles) ticks.collect(h, rows);
     if (in_flight) ticks.finish_physical_step(x);
+    while (ticks.steps_in_flight() > 0) ticks.finish_step(x);
     const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
     st.SetIterationTime(dt);
     wall += dt;
@@ -315,6 +330,11 @@ BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s, 0.0, false, true)->UseManual
 // With the physical steps beside the ticks, as the async replay runs them: the replay's workload.
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical, 1.2, false, true, 0, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical_stages, 1.2, true, true, 0, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+// The physical steps inside launches of 100 ticks (run_ticks_with_steps), as the async replay runs them.
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical_in_launch, 1.2, false, true, 100, true, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s_with_physical, 0.0, false, true, 0, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s_with_physical_in_launch, 0.0, false, true, 100, true, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical_in_launch_stages, 1.2, true, true, 100, true, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 // Runs of 100 ticks instead of the physical step's 10: what a launch (and its unpipelined first step) costs.
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_runs_of_100, 1.2, false, true, 100)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
 // Every step waiting for the virtual tool (DeviceHapticSetup::pipeline off): what the pipeline gains.

@@ -224,6 +224,17 @@ struct SyncDev {
   unsigned long long arrive, release;
 };
 
+/// The hand-offs between the ticks and the physical steps of a launch across physical periods
+/// (run_ticks_with_steps), each counter on its own line, away from the ticks' counters (SyncDev):
+/// `snapped`, the vertex blocks' q snapshots so far (each block counts one per period after the
+/// first); `done`,
+/// the physical steps whose x is in the ring.
+struct StepsDev {
+  unsigned long long snapped;
+  unsigned long long pad_[15];
+  unsigned long long done;
+};
+
 /// The virtual tool's pose that block 0 publishes with a step's release (MeshDev::slots); each
 /// vertex block poses the colliders from it (pose_colliders: the same bits as block 0's).
 struct SlotPose {
@@ -249,8 +260,16 @@ struct MeshDev {
   float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
   Vec3f gravity;
   cuda::VirtualModelView model;
-  const Vec3f* x_prev = nullptr;  // the physical result before the visible one
+  const Vec3f* x_prev = nullptr;  // the physical result before the visible one (the launch's first tick's)
   const Vec3f* x_vis = nullptr;   // the visible physical result
+  // A launch across physical periods (run_ticks_with_steps; period 0: a launch within one period):
+  // period k (ticks k period ..) blends x_prev = step k - 2's x and x_vis = step k - 1's, found in
+  // xring[k % 3] (xring[3]: the physical result at tick 0, for k < 0). The first step of a tick
+  // that starts period k > 0 copies q into snap_q, step k's input.
+  int period = 0;
+  const Vec3f* xring[4] = {};
+  Vec3f* snap_q = nullptr;
+  StepsDev* steps = nullptr;
   Vec3f* q0 = nullptr;            // the virtual mesh at the tick's end; q1, q2: the iterates between
   Vec3f* q1 = nullptr;
   Vec3f* q2 = nullptr;
@@ -712,14 +731,14 @@ __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceT
 }
 
 /// The E_svc target of virtual vertex j: its paired point on x_prev + alpha (x_vis - x_prev).
-__device__ Vec3f blended_paired_point(const MeshDev& d, int j, float alpha) {
-  if (alpha >= 1.f) return paired_point(d.x_vis, d.model.pair_vertex + 4 * j, d.model.pair_weight + 4 * j, d.model.pair_count[j]);
+__device__ Vec3f blended_paired_point(const MeshDev& d, const Vec3f* x_prev, const Vec3f* x_vis, int j, float alpha) {
+  if (alpha >= 1.f) return paired_point(x_vis, d.model.pair_vertex + 4 * j, d.model.pair_weight + 4 * j, d.model.pair_count[j]);
   Vec3f xb[4];
   const int idx[4] = {0, 1, 2, 3};
   const int count = d.model.pair_count[j];
   for (int k = 0; k < count; ++k) {
     const int a = d.model.pair_vertex[4 * j + k];
-    xb[k] = d.x_prev[a] + alpha * (d.x_vis[a] - d.x_prev[a]);
+    xb[k] = x_prev[a] + alpha * (x_vis[a] - x_prev[a]);
   }
   return paired_point(xb, idx, d.model.pair_weight + 4 * j, count);
 }
@@ -833,7 +852,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
     if (p_ready) {  // blended by this block ahead (vertex_blocks)
       p = d.p[j];
     } else {
-      p = blended_paired_point(d, j, static_cast<float>(in.alpha));
+      p = blended_paired_point(d, d.x_prev, d.x_vis, j, static_cast<float>(in.alpha));
       d.p[j] = p;
     }
     d.s[j] = s;
@@ -1202,15 +1221,38 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     if (threadIdx.x == 0) {
       add_release(&d.sync->arrive, 1ull);
     }
+    // A tick that starts a physical period k > 0 (a launch across periods): its start q, this
+    // block's part of it, is step k's input (run_ticks_with_steps; step 0 starts from the initial mesh).
+    if (d.period > 0 && first && S.tick(s) > 0 && S.tick(s) % d.period == 0) {
+      const Vec3f* q = S.in(s);
+      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+        const int j = c * kBlock + threadIdx.x;
+        if (j < d.m) d.snap_q[j] = q[j];
+      }
+      __syncthreads();
+      if (threadIdx.x == 0) add_release(&d.steps->snapped, 1ull);
+    }
     // While block 0 finishes a tick, the next tick's E_svc targets of this block's vertices: only
-    // this block reads them (block 0 gets the deferred vertices' sums), and the physical results
-    // they blend stay the same for the run.
+    // this block reads them (block 0 gets the deferred vertices' sums). The physical results they
+    // blend are the launch's first period's, or (a launch across periods) the next tick's
+    // period's, waited for when that tick starts the period.
     p_ready = last && s + 1 < steps;
     if (p_ready) {
       const float alpha = static_cast<float>(S.input(s + 1).alpha);
+      const Vec3f *x_prev = d.x_prev, *x_vis = d.x_vis;
+      if (d.period > 0) {
+        const long long next = S.tick(s) + 1, k = next / d.period;
+        if (next % d.period == 0) {
+          if (threadIdx.x == 0)
+            while (load_acquire(&d.steps->done) < static_cast<unsigned long long>(k)) {}
+          __syncthreads();
+        }
+        x_vis = d.xring[k >= 1 ? (k - 1) % 3 : 3];
+        x_prev = d.xring[k >= 2 ? (k - 2) % 3 : 3];
+      }
       for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
         const int j = c * kBlock + threadIdx.x;
-        if (j < d.m) d.p[j] = blended_paired_point(d, j, alpha);
+        if (j < d.m) d.p[j] = blended_paired_point(d, x_prev, x_vis, j, alpha);
       }
     }
     if (S.K == 1) {  // the copy phase: v_scratch -> v, q1 -> q0 for the chunks, once every block's step is done
@@ -1340,6 +1382,33 @@ __global__ void __launch_bounds__(kBlock)
   else vertex_blocks(d, t, S, count * d.iterations, sm);
 }
 
+/// The physical step's stream before step k > 0 of a launch across periods: waits until every
+/// vertex block has copied its part of the step's q (`target` = k times the vertex blocks).
+/// It polls with relaxed loads, then fences once: an acquire load invalidates its multiprocessor's
+/// L1, which a tick block sharing that multiprocessor depends on.
+__global__ void wait_for_snapshots(const StepsDev* s, unsigned long long target) {
+  if (threadIdx.x == 0) {
+    for (;;) {
+      unsigned long long v;
+      asm volatile("ld.relaxed.gpu.global.u64 %0, [%1];" : "=l"(v) : "l"(&s->snapped) : "memory");
+      if (v >= target) break;
+      __nanosleep(1000);
+    }
+    __threadfence();
+  }
+}
+
+/// Step k's x into the ring (a kernel of ours, loaded ahead, rather than a copy the driver may
+/// run as a kernel of its own: see run_ticks_with_steps).
+__global__ void copy_positions(const Vec3f* from, Vec3f* to, int n) {
+  for (int a = blockIdx.x * blockDim.x + threadIdx.x; a < n; a += gridDim.x * blockDim.x) to[a] = from[a];
+}
+
+/// The physical step's stream after step k's x is in the ring: publishes it to the ticks (k1 = k + 1).
+__global__ void publish_step(StepsDev* s, unsigned long long k1) {
+  if (threadIdx.x == 0) store_release(&s->done, k1);
+}
+
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 
 /// The virtual mesh's incidence lists (VirtualModelArrays::edge_items: VirtualModel::edge_entries,
@@ -1399,6 +1468,15 @@ struct CudaHapticTicks::Impl {
   std::vector<std::pair<long long, int>> runs;  // per handle: first tick, count
   int next_handle = 0;
   bool step_in_flight = false;
+  // Launches across physical periods (run_ticks_with_steps); not mixed with start_physical_step.
+  enum class Steps { Unused, PerPeriod, InLaunch } steps_mode = Steps::Unused;
+  int period = 0;                          // DeviceHapticSetup::ticks_per_step
+  int step_slots = 64;                     // physical steps in flight at most
+  long long steps_enqueued = 0, steps_finished = 0;
+  cuda::DeviceArray<StepsDev> steps_sync;
+  cuda::DeviceArray<Vec3f> xring[3];       // step k's x in xring[k % 3]
+  cuda::PinnedArray<Vec3f> x_slots;        // step k's x for finish_step, at (k % step_slots) n
+  std::vector<cudaEvent_t> step_ready;     // per slot: the step's x copied and published
   cuda::VirtualModelArrays model;
   cuda::DeviceArray<std::uint8_t> held;
   cuda::DeviceArray<Vec3f> block_cand;
@@ -1421,6 +1499,7 @@ struct CudaHapticTicks::Impl {
 
   ~Impl() {
     for (cudaEvent_t e : done) cudaEventDestroy(e);
+    for (cudaEvent_t e : step_ready) cudaEventDestroy(e);
     if (q_ready) cudaEventDestroy(q_ready);
     if (step_done) cudaEventDestroy(step_done);
     if (ring) cudaFreeHost(ring);
@@ -1441,6 +1520,8 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   I.n = static_cast<int>(S.x0.size());
   I.iterations = std::max(1, S.virtual_iterations);
   I.ticks = static_cast<long long>(in.size());
+  I.period = S.ticks_per_step;
+  if (I.period < 0) throw std::invalid_argument("CudaHapticTicks: ticks_per_step must not be negative");
   if (S.q0.size() != static_cast<std::size_t>(I.m)) throw std::invalid_argument("CudaHapticTicks: q0 has the wrong size");
   int lo = 0, hi = 0;
   EBH_CUDA_CHECK(cudaDeviceGetStreamPriorityRange(&lo, &hi));
@@ -1591,6 +1672,9 @@ int CudaHapticTicks::capacity() const { return impl_->ring_size; }
 
 void CudaHapticTicks::start_physical_step() {
   Impl& I = *impl_;
+  if (I.steps_mode == Impl::Steps::InLaunch)
+    throw std::logic_error("CudaHapticTicks::start_physical_step: the physical steps run in the launches (run_ticks_with_steps)");
+  I.steps_mode = Impl::Steps::PerPeriod;
   auto* pst = static_cast<cudaStream_t>(I.physical->stream_handle());
   if (I.m > 0)
     EBH_CUDA_CHECK(cudaMemcpyAsync(I.physical->device_q(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, I.stream));
@@ -1624,6 +1708,116 @@ PhysicalStepReport CudaHapticTicks::finish_physical_step(std::vector<Vec3d>& x) 
 }
 
 int CudaHapticTicks::run_ticks(int count) {
+  Impl& I = *impl_;
+  if (I.steps_mode == Impl::Steps::InLaunch)
+    throw std::logic_error("CudaHapticTicks::run_ticks: the physical steps run in the launches (run_ticks_with_steps)");
+  return launch_ticks(count);
+}
+
+int CudaHapticTicks::run_ticks_with_steps(int count) {
+  Impl& I = *impl_;
+  if (I.steps_mode == Impl::Steps::PerPeriod || (I.steps_mode == Impl::Steps::Unused && I.enqueued > 0))
+    throw std::logic_error("CudaHapticTicks::run_ticks_with_steps: not after run_ticks or start_physical_step");
+  if (I.period <= 0) throw std::invalid_argument("CudaHapticTicks::run_ticks_with_steps: setup.ticks_per_step is 0");
+  if (count <= 0) throw std::invalid_argument("CudaHapticTicks::run_ticks_with_steps: count must be positive");
+  // Checked before any step is enqueued: a step whose ticks never run would wait forever.
+  if (count > I.ring_size) throw std::invalid_argument("CudaHapticTicks::run_ticks_with_steps: more ticks than the output ring holds");
+  if (I.enqueued + count > I.ticks) throw std::invalid_argument("CudaHapticTicks::run_ticks_with_steps: past the last tick's input");
+  const long long N = I.period, a = I.enqueued, b = a + count;
+  const long long k0 = (a + N - 1) / N, k1 = (b + N - 1) / N;  // the steps of the periods starting in [a, b)
+  if (k1 - I.steps_finished > I.step_slots)
+    throw std::logic_error("CudaHapticTicks::run_ticks_with_steps: more physical steps in flight than step_capacity(); "
+                           "finish_step the oldest first");
+  cudaStream_t pst = static_cast<cudaStream_t>(I.physical->stream_handle());
+  const bool first_use = I.steps_mode == Impl::Steps::Unused;
+  if (first_use) {  // the ring, the slots, the counters
+    I.steps_mode = Impl::Steps::InLaunch;
+    I.physical->set_device_step_slots(I.step_slots);
+    I.physical->prepare_device_step();
+    for (auto& x : I.xring) x.allocate(std::max(I.n, 1));
+    I.x_slots.allocate(std::size_t(I.step_slots) * std::max(I.n, 1));
+    I.steps_sync.allocate(1);
+    EBH_CUDA_CHECK(cudaMemsetAsync(I.steps_sync.get(), 0, sizeof(StepsDev), I.stream));
+    I.step_ready.resize(I.step_slots);
+    for (cudaEvent_t& e : I.step_ready) EBH_CUDA_CHECK(cudaEventCreateWithFlags(&e, cudaEventDisableTiming));
+    MeshDev& d = I.dev;
+    d.period = I.period;
+    for (int k = 0; k < 3; ++k) d.xring[k] = I.xring[k].get();
+    d.xring[3] = I.x_prev.get();  // the physical result at tick 0 (never overwritten in this mode)
+    d.snap_q = I.physical->device_q();
+    d.steps = I.steps_sync.get();
+    EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));  // the counters zeroed before the physical stream polls them
+  }
+  // The launch's first tick blends its period's physical results: that of step ka - 1 waited for
+  // (before this call's steps take slots: a slot's event is re-recorded by a later step).
+  MeshDev& d = I.dev;
+  const long long ka = a / N;
+  if (ka >= 1) EBH_CUDA_CHECK(cudaStreamWaitEvent(I.stream, I.step_ready[(ka - 1) % I.step_slots], 0));
+  d.x_vis = d.xring[ka >= 1 ? (ka - 1) % 3 : 3];
+  d.x_prev = d.xring[ka >= 2 ? (ka - 2) % 3 : 3];
+  const unsigned long long vertex_blocks = static_cast<unsigned long long>(I.grid - 1);
+  // Step k: its q (k = 0: the initial mesh, copied on the ticks' stream before they run; k > 0:
+  // the ticks' snapshot, waited for), the step, its x into the ring and the host slot, published.
+  auto enqueue_step = [&](long long k) {
+    const int slot = static_cast<int>(k % I.step_slots);
+    if (k == 0) {
+      if (I.m > 0)
+        EBH_CUDA_CHECK(cudaMemcpyAsync(I.physical->device_q(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, I.stream));
+      EBH_CUDA_CHECK(cudaEventRecord(I.q_ready, I.stream));
+      EBH_CUDA_CHECK(cudaStreamWaitEvent(pst, I.q_ready, 0));
+    } else {
+      wait_for_snapshots<<<1, 32, 0, pst>>>(I.steps_sync.get(), static_cast<unsigned long long>(k) * vertex_blocks);
+      EBH_CUDA_LAUNCH_CHECK(pst, "wait_for_snapshots");
+    }
+    I.physical->launch_device_step(slot);
+    if (I.n > 0) {
+      Vec3f* x = I.xring[k % 3].get();
+      copy_positions<<<cuda::blocks_for(I.n, 256), 256, 0, pst>>>(I.physical->device_x(), x, I.n);
+      EBH_CUDA_LAUNCH_CHECK(pst, "copy_positions");
+      EBH_CUDA_CHECK(cudaMemcpyAsync(I.x_slots.get() + std::size_t(slot) * I.n, x, I.n * sizeof(Vec3f),
+                                     cudaMemcpyDeviceToHost, pst));
+    }
+    publish_step<<<1, 32, 0, pst>>>(I.steps_sync.get(), static_cast<unsigned long long>(k + 1));
+    EBH_CUDA_LAUNCH_CHECK(pst, "publish_step");
+    EBH_CUDA_CHECK(cudaEventRecord(I.step_ready[slot], pst));
+  };
+  I.steps_enqueued = k1;
+  if (first_use) {
+    // With lazy module loading (the CUDA 12 default) a kernel's first launch may wait for the
+    // device's running kernels; here those can be waiting for it (the ticks for a step's x, the
+    // physical stream for the ticks' q), a deadlock. So every kernel of the hand-off is first
+    // launched while none of them waits: wait_for_snapshots with nothing to wait for, step 0
+    // (which waits for no ticks), the ticks (which wait for step 0 only, at tick N - 1), and
+    // only then the steps that wait for the ticks.
+    wait_for_snapshots<<<1, 32, 0, pst>>>(I.steps_sync.get(), 0ull);
+    EBH_CUDA_LAUNCH_CHECK(pst, "wait_for_snapshots");
+    enqueue_step(0);
+    const int handle = launch_ticks(count);
+    for (long long k = 1; k < k1; ++k) enqueue_step(k);
+    return handle;
+  }
+  for (long long k = k0; k < k1; ++k) enqueue_step(k);
+  return launch_ticks(count);
+}
+
+int CudaHapticTicks::steps_in_flight() const { return static_cast<int>(impl_->steps_enqueued - impl_->steps_finished); }
+
+int CudaHapticTicks::step_capacity() const { return impl_->step_slots; }
+
+PhysicalStepReport CudaHapticTicks::finish_step(std::vector<Vec3d>& x) {
+  Impl& I = *impl_;
+  if (I.steps_finished >= I.steps_enqueued) throw std::logic_error("CudaHapticTicks::finish_step: no step in flight");
+  const int slot = static_cast<int>(I.steps_finished % I.step_slots);
+  ++I.steps_finished;
+  const PhysicalStepReport r = I.physical->device_step_report(slot);
+  EBH_CUDA_CHECK(cudaEventSynchronize(I.step_ready[slot]));
+  x.resize(I.n);
+  const Vec3f* xs = I.x_slots.get() + std::size_t(slot) * I.n;
+  for (int a = 0; a < I.n; ++a) x[a] = static_cast<Vec3d>(xs[a]);
+  return r;
+}
+
+int CudaHapticTicks::launch_ticks(int count) {
   Impl& I = *impl_;
   if (count <= 0) throw std::invalid_argument("CudaHapticTicks::run_ticks: count must be positive");
   if (count > I.ring_size) throw std::invalid_argument("CudaHapticTicks::run_ticks: more ticks than the output ring holds");
@@ -1681,7 +1875,12 @@ void CudaHapticTicks::snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visi
   Impl& I = *impl_;
   std::vector<Vec3f> qf(I.m), xf(I.n);
   if (I.m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(qf.data(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
-  if (I.n > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(xf.data(), I.x_vis.get(), I.n * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
+  const Vec3f* x_vis = I.x_vis.get();
+  if (I.steps_mode == Impl::Steps::InLaunch && I.enqueued > 0) {  // the last enqueued tick's period's
+    const long long k = (I.enqueued - 1) / I.period;
+    x_vis = I.dev.xring[k >= 1 ? (k - 1) % 3 : 3];
+  }
+  if (I.n > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(xf.data(), x_vis, I.n * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
   EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));
   q.resize(I.m);
   x_visible.resize(I.n);

@@ -106,6 +106,7 @@ struct DeviceHapticSetup {
   /// every step waits for the tool (the same results up to the order of the contact sums).
   bool pipeline = true;
   int max_blocks = 0;                    ///< cap on the kernel's blocks (tests: blocks running several chunks); 0: none
+  int ticks_per_step = 0;                ///< N, ticks per physical step (run_ticks_with_steps); 0: not used
 };
 
 /// Whether the device tick can run this tool (the closest-point projection, at most kMaxColliders).
@@ -130,6 +131,23 @@ class CudaHapticTicks {
 
   /// Enqueues the next `count` ticks; returns a handle for collect().
   int run_ticks(int count);
+
+  /// One launch across physical periods (async replays; docs/CUDA.md, "Launches across physical
+  /// periods"): enqueues the next `count` ticks as one launch and, on the physical step's stream,
+  /// the physical step of every period (setup.ticks_per_step ticks) that starts among them. The
+  /// ticks hand each step its q and take its x on the device, through counters instead of a
+  /// launch per period: step k starts from q before tick k N, and ticks (k + 1) N .. blend its x
+  /// with step k - 1's, as start_physical_step and deliver_physical_step do one period at a time
+  /// (the same bits). Not mixed with run_ticks or start_physical_step on one object. Returns a
+  /// handle for collect().
+  int run_ticks_with_steps(int count);
+  /// Physical steps enqueued by run_ticks_with_steps and not yet finished.
+  int steps_in_flight() const;
+  /// Physical steps run_ticks_with_steps may have in flight before the oldest must be finished.
+  int step_capacity() const;
+  /// Waits for the oldest unfinished step of run_ticks_with_steps (steps finish in order): its
+  /// report (time_s: device time) and its x (#n).
+  PhysicalStepReport finish_step(std::vector<Vec3d>& x);
   /// Waits for the ticks of run_ticks' handle and copies their outputs to `out` (count entries).
   void collect(int handle, std::span<DeviceTickOutput> out);
   /// Ticks run_ticks() may have in flight before they must be collected.
@@ -142,6 +160,7 @@ class CudaHapticTicks {
   void snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visible);
 
  private:
+  int launch_ticks(int count);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -10,6 +10,7 @@
 #include <exception>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <mutex>
 #include <numbers>
@@ -126,10 +127,20 @@ bool device_ticks(const World& world) {
   return world.backend == Backend::Cuda && device_haptic_supported(world.tool) && !(env && std::string(env) == "0");
 }
 
-/// async and lockstep with the whole tick on the device. The host enqueues runs of ticks up to the
-/// next physical step and collects each run's outputs two runs later; the observer sees the same
-/// calls as on the host path, except that timing.total is the wall time of a run divided by its
-/// ticks (the stages are not timed one by one) and on_step comes once the step has been waited for.
+/// Whether an async device replay runs its physical steps inside launches of many periods
+/// (CudaHapticTicks::run_ticks_with_steps); EBH_CUDA_PERIOD_LAUNCH=0 launches once per period
+/// with the steps between the launches (the same bits; for comparisons).
+bool steps_in_launches(const ReplayOptions& opt) {
+  const char* env = std::getenv("EBH_CUDA_PERIOD_LAUNCH");
+  return opt.mode == Mode::Async && opt.frames_hz <= 0 && !(env && std::string(env) == "0");
+}
+
+/// async and lockstep with the whole tick on the device. The host enqueues runs of ticks and
+/// collects each run's outputs two runs later; the observer sees the same calls as on the host
+/// path, except that timing.total is the wall time of a run divided by its ticks (the stages are
+/// not timed one by one) and on_step comes once the step has been waited for. async without mesh
+/// frames: runs of whole periods, ~100 ticks, with the physical steps inside them; otherwise runs
+/// up to the next physical step, which runs between them (one tick per run where frames are written).
 ReplaySummary replay_device(const World& world, const Recording& rec, const ReplayOptions& opt, ReplayObserver& obs) {
   const double t0 = rec.t.front() + opt.start;
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
@@ -192,6 +203,44 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
     ++s.steps;
   };
   FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};
+  if (steps_in_launches(opt)) {
+    // A launch and its first (unpipelined) step cost ~30 us (docs/CUDA.md): whole periods, ~100
+    // ticks per launch. Step k (from tick kN) is finished once a collected run reaches (k + 1)N.
+    const int periods = std::max(1, std::min((100 + N - 1) / N, device.step_capacity() / 4));
+    const int run = std::max(1, std::min(periods * N, device.capacity() / 4));
+    std::int64_t started = 0;  // steps enqueued
+    auto finish_steps_to = [&](std::int64_t tick) {
+      while (s.steps < started && (s.steps + 1) * N <= tick) {
+        physical.report = device.finish_step(physical.mesh.x);
+        ++physical.step;
+        obs.on_step(world, physical, static_cast<double>(s.steps * N) * world.h_haptic);
+        ++s.steps;
+      }
+    };
+    for (std::int64_t n = 0; n < ticks;) {
+      const int count = static_cast<int>(std::min<std::int64_t>(run, ticks - n));
+      const std::int64_t steps_after = (n + count + N - 1) / N;
+      while (steps_after - s.steps > device.step_capacity()) finish_steps_to((s.steps + 1) * N);
+      runs.push_back({device.run_ticks_with_steps(count), n, count});
+      started = steps_after;
+      n += count;
+      s.ticks += count;
+      while (runs.size() > 2) {
+        const std::int64_t end = runs.front().first + runs.front().count;
+        collect(runs.size() - 1);
+        finish_steps_to(end);
+      }
+      if (obs.should_stop()) {
+        s.stopped = true;
+        break;
+      }
+    }
+    collect(0);
+    finish_steps_to(std::numeric_limits<std::int64_t>::max());  // the last step's result is recorded, never shown
+    s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
+    s.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+    return s;
+  }
   const int max_run = std::max(1, std::min(N, device.capacity() / 4));
   for (std::int64_t n = 0; n < ticks;) {
     const double t = static_cast<double>(n) * world.h_haptic;
@@ -433,6 +482,7 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
   setup.q0 = world.initial_virtual;
   setup.x0 = world.initial_physical.x;
   setup.pose0 = {in.front().position, in.front().orientation};
+  setup.ticks_per_step = mode == Mode::Async ? N : 0;  // run_ticks_with_steps: async's delivery
   return out;
 }
 #endif

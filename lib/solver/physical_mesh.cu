@@ -597,6 +597,11 @@ Patches build_patches(const PhysicalModel& M, int size) {
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 Quatf to_float(const Quatd& q) { return {float(q.w), float(q.x), float(q.y), float(q.z)}; }
 
+/// A step's two residual sums (mapped host memory) into its slot (launch_device_step(slot)).
+__global__ void copy_residual_kernel(const double* from, double* to) {
+  if (threadIdx.x < 2) to[threadIdx.x] = from[threadIdx.x];
+}
+
 }  // namespace
 
 struct CudaPhysicalSolver::Impl {
@@ -632,6 +637,11 @@ struct CudaPhysicalSolver::Impl {
   cudaGraph_t graph_device = nullptr;
   cudaGraphExec_t exec_device = nullptr;
   cudaEvent_t start = nullptr, stop = nullptr;  // around the graph launch
+  // Per slot (set_device_step_slots): the events around its step and its residual sums (mapped).
+  std::vector<cudaEvent_t> slot_start, slot_stop, slot_done;  // slot_done: after the residual copy
+  double* slot_residual = nullptr;
+  double* slot_residual_dev = nullptr;
+  bool residual_copy_loaded = false;
   double device_s = 0;
   bool programmatic = false;  // the graph uses programmatic dependent launch
   // The cooperative single-kernel step (persistent_step_kernel), where every patch's block fits
@@ -653,18 +663,31 @@ struct CudaPhysicalSolver::Impl {
     if (graph) cudaGraphDestroy(graph);
     if (exec_device) cudaGraphExecDestroy(exec_device);
     if (residual_host) cudaFreeHost(residual_host);
+    free_slots();
     if (graph_device) cudaGraphDestroy(graph_device);
     if (start) cudaEventDestroy(start);
     if (stop) cudaEventDestroy(stop);
   }
 
+  void free_slots() {
+    for (cudaEvent_t e : slot_start) cudaEventDestroy(e);
+    for (cudaEvent_t e : slot_stop) cudaEventDestroy(e);
+    for (cudaEvent_t e : slot_done) cudaEventDestroy(e);
+    slot_start.clear();
+    slot_stop.clear();
+    slot_done.clear();
+    if (slot_residual) cudaFreeHost(slot_residual);
+    slot_residual = slot_residual_dev = nullptr;
+  }
   void upload_model(const PhysicalModel& M);
   /// Captures the step graph: with the copies of q in and x out (copies = true: exec), or reading q
   /// from and leaving x in device memory (exec_device).
   void capture(bool with_programmatic_launch, bool copies);
   template <bool kChebyshev>
   void capture_iterations(bool pdl);
-  PhysicalStepReport report() const;  ///< iterations and residual ratio of the last step (host copy)
+  PhysicalStepReport report() const { return report(residual_host); }  ///< the last step's (host copy)
+  /// Iterations and the residual ratio from a step's two residual sums.
+  PhysicalStepReport report(const double* sums) const;
 };
 
 /// The K weights of the CPU reference (chebyshev_weight, in double), rounded once.
@@ -992,11 +1015,11 @@ PhysicalStepReport CudaPhysicalSolver::step(PhysicalState& state, std::span<cons
   return report;
 }
 
-PhysicalStepReport CudaPhysicalSolver::Impl::report() const {
+PhysicalStepReport CudaPhysicalSolver::Impl::report(const double* sums) const {
   PhysicalStepReport r;
   r.iterations = params.iterations;
   if (params.iterations > 0 && n > 0) {
-    const double r0 = std::sqrt(residual_host[0]), rk = std::sqrt(residual_host[1]);
+    const double r0 = std::sqrt(sums[0]), rk = std::sqrt(sums[1]);
     r.residual = r0 > 0 ? rk / r0 : 0.0;
   }
   return r;
@@ -1008,7 +1031,11 @@ const Vec3f* CudaPhysicalSolver::device_x() const { return impl_->x.get(); }
 
 void* CudaPhysicalSolver::stream_handle() const { return impl_->stream.get(); }
 
-void CudaPhysicalSolver::launch_device_step() {
+void CudaPhysicalSolver::launch_device_step() { launch_device_step(-1); }
+
+PhysicalStepReport CudaPhysicalSolver::device_step_report() { return device_step_report(-1); }
+
+void CudaPhysicalSolver::prepare_device_step() {
   Impl& I = *impl_;
   if (!I.persistent && !I.exec_device) {
     const bool pdl = I.programmatic;  // as the copying graph (capture() resets the flag: restored below)
@@ -1023,22 +1050,63 @@ void CudaPhysicalSolver::launch_device_step() {
     }
     I.programmatic = pdl;
   }
+  // Loaded now, not on first launch: with lazy module loading, loading a kernel may wait for the
+  // device's running kernels, which deadlocks if one of them waits for this step.
+  if (!I.residual_copy_loaded) {
+    cudaFuncAttributes fa{};
+    EBH_CUDA_CHECK(cudaFuncGetAttributes(&fa, copy_residual_kernel));
+    I.residual_copy_loaded = true;
+  }
+}
+
+void CudaPhysicalSolver::set_device_step_slots(int slots) {
+  Impl& I = *impl_;
+  if (slots < 1) throw std::invalid_argument("CudaPhysicalSolver::set_device_step_slots: slots must be positive");
+  EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream.get()));
+  I.free_slots();
+  I.slot_start.resize(slots);
+  I.slot_stop.resize(slots);
+  I.slot_done.resize(slots);
+  for (int k = 0; k < slots; ++k) {
+    EBH_CUDA_CHECK(cudaEventCreate(&I.slot_start[k]));
+    EBH_CUDA_CHECK(cudaEventCreate(&I.slot_stop[k]));
+    EBH_CUDA_CHECK(cudaEventCreateWithFlags(&I.slot_done[k], cudaEventDisableTiming));
+  }
+  EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.slot_residual), 2 * slots * sizeof(double), cudaHostAllocMapped));
+  std::fill(I.slot_residual, I.slot_residual + 2 * slots, 0.0);
+  EBH_CUDA_CHECK(cudaHostGetDevicePointer(reinterpret_cast<void**>(&I.slot_residual_dev), I.slot_residual, 0));
+}
+
+void CudaPhysicalSolver::launch_device_step(int slot) {
+  Impl& I = *impl_;
+  if (slot >= static_cast<int>(I.slot_start.size()))
+    throw std::invalid_argument("CudaPhysicalSolver::launch_device_step: no slot " + std::to_string(slot) +
+                                " (set_device_step_slots)");
+  prepare_device_step();
   cudaStream_t st = I.stream.get();
-  EBH_CUDA_CHECK(cudaEventRecord(I.start, st));
+  EBH_CUDA_CHECK(cudaEventRecord(slot < 0 ? I.start : I.slot_start[slot], st));
   if (I.persistent)
     I.launch_persistent(false);
   else
     EBH_CUDA_CHECK(cudaGraphLaunch(I.exec_device, st));
-  EBH_CUDA_CHECK(cudaEventRecord(I.stop, st));
+  EBH_CUDA_CHECK(cudaEventRecord(slot < 0 ? I.stop : I.slot_stop[slot], st));
+  if (slot >= 0) {
+    copy_residual_kernel<<<1, 32, 0, st>>>(I.dev.residual_sq, I.slot_residual_dev + 2 * slot);
+    EBH_CUDA_LAUNCH_CHECK(st, "copy_residual_kernel");
+    EBH_CUDA_CHECK(cudaEventRecord(I.slot_done[slot], st));
+  }
 }
 
-PhysicalStepReport CudaPhysicalSolver::device_step_report() {
+PhysicalStepReport CudaPhysicalSolver::device_step_report(int slot) {
   Impl& I = *impl_;
-  EBH_CUDA_CHECK(cudaEventSynchronize(I.stop));
+  if (slot >= static_cast<int>(I.slot_start.size()))
+    throw std::invalid_argument("CudaPhysicalSolver::device_step_report: no slot " + std::to_string(slot));
+  cudaEvent_t start = slot < 0 ? I.start : I.slot_start[slot], stop = slot < 0 ? I.stop : I.slot_stop[slot];
+  EBH_CUDA_CHECK(cudaEventSynchronize(slot < 0 ? stop : I.slot_done[slot]));  // a slot: its residual copied
   float ms = 0;
-  EBH_CUDA_CHECK(cudaEventElapsedTime(&ms, I.start, I.stop));
+  EBH_CUDA_CHECK(cudaEventElapsedTime(&ms, start, stop));
   I.device_s = 1e-3 * ms;
-  PhysicalStepReport r = I.report();
+  PhysicalStepReport r = I.report(slot < 0 ? I.residual_host : I.slot_residual + 2 * slot);
   r.time_s = I.device_s;
   return r;
 }

@@ -50,6 +50,17 @@ class CudaPhysicalSolver {
   void* stream_handle() const;
   void launch_device_step();
   PhysicalStepReport device_step_report();
+  /// Several device-resident steps in flight (the replay's launches across physical periods,
+  /// CudaHapticTicks::run_ticks_with_steps): launch_device_step(slot) times its step with the
+  /// slot's own events and keeps a copy of its residual sums there, so that a later step does not
+  /// overwrite them; device_step_report(slot) waits for that step. Slots 0 .. slots - 1.
+  void set_device_step_slots(int slots);
+  /// Captures the device-resident step's graph and loads its kernels (launch_device_step does it
+  /// on first use): before a kernel that waits for the step runs, since loading a kernel lazily
+  /// may wait for the running ones.
+  void prepare_device_step();
+  void launch_device_step(int slot);
+  PhysicalStepReport device_step_report(int slot);
 
   const PhysicalStepParams& params() const;
   /// Device time of the last step's graph (copies of q and x included), seconds, from CUDA events:

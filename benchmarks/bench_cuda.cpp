@@ -278,16 +278,7 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
     std::vector<int> handles;
     bool in_flight = false;
     for (int r = 1; r < runs; ++r) {
-      if (in_launch) {
-        handles.push_back(ticks.run_ticks_with_steps(N));
-        if (handles.size() > 2) {
-          ticks.collect(handles.front(), rows);
-          handles.erase(handles.begin());
-          while (ticks.steps_in_flight() > 2 * N / w.ticks_per_step + 1) ticks.finish_step(x);
-        }
-        continue;
-      }
-      if (physical) {
+      if (physical && !in_launch) {
         if (in_flight) {
           ticks.deliver_physical_step();
           ticks.finish_physical_step(x);
@@ -295,11 +286,13 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
         ticks.start_physical_step();
         in_flight = true;
       }
-      handles.push_back(ticks.run_ticks(N));
+      handles.push_back(in_launch ? ticks.run_ticks_with_steps(N) : ticks.run_ticks(N));
       if (handles.size() > 2) {
         ticks.collect(handles.front(), rows);
         handles.erase(handles.begin());
         for (const auto& o : rows) contacts = std::max(contacts, o.contacts);
+        // The steps of the collected launch's periods, as replay_device finishes them.
+        while (ticks.steps_in_flight() > 2 * N / w.ticks_per_step + 1) ticks.finish_step(x);
       }
     }
     for (const int h : handles) ticks.collect(h, rows);

@@ -227,8 +227,7 @@ struct SyncDev {
 /// The hand-offs between the ticks and the physical steps of a launch across physical periods
 /// (run_ticks_with_steps), each counter on its own line, away from the ticks' counters (SyncDev):
 /// `snapped`, the vertex blocks' q snapshots so far (each block counts one per period after the
-/// first); `done`,
-/// the physical steps whose x is in the ring.
+/// first); `done`, the physical steps whose x is in the ring.
 struct StepsDev {
   unsigned long long snapped;
   unsigned long long pad_[15];
@@ -264,10 +263,10 @@ struct MeshDev {
   const Vec3f* x_vis = nullptr;   // the visible physical result
   // A launch across physical periods (run_ticks_with_steps; period 0: a launch within one period):
   // period k (ticks k period ..) blends x_prev = step k - 2's x and x_vis = step k - 1's, found in
-  // xring[k % 3] (xring[3]: the physical result at tick 0, for k < 0). The first step of a tick
+  // xring[ring_slot(k)] (the physical result at tick 0 for k < 0). The first step of a tick
   // that starts period k > 0 copies q into snap_q, step k's input.
   int period = 0;
-  const Vec3f* xring[4] = {};
+  const Vec3f* xring[4] = {};  // ring_slot(k): step k's entry
   Vec3f* snap_q = nullptr;
   StepsDev* steps = nullptr;
   Vec3f* q0 = nullptr;            // the virtual mesh at the tick's end; q1, q2: the iterates between
@@ -302,6 +301,10 @@ struct MeshDev {
   DeviceTickOutput* out = nullptr;  // host-mapped ring of `ring` rows
   ProfileDev* profile = nullptr;    // stage timestamps, or null
 };
+
+/// The entry of MeshDev::xring (and of CudaHapticTicks' ring) that holds step k's x: k % 3, or 3,
+/// the physical result at tick 0, for k < 0. Period k blends ring_slot(k - 2) and ring_slot(k - 1).
+__host__ __device__ __forceinline__ int ring_slot(long long k) { return k >= 0 ? static_cast<int>(k % 3) : 3; }
 
 // The narrow phase and the posing of a collider are __noinline__: one copy each in the kernel,
 // which the Newton call, its line search, block 0's vertices and the vertex blocks share. Inlined
@@ -1247,8 +1250,8 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
             while (load_acquire(&d.steps->done) < static_cast<unsigned long long>(k)) {}
           __syncthreads();
         }
-        x_vis = d.xring[k >= 1 ? (k - 1) % 3 : 3];
-        x_prev = d.xring[k >= 2 ? (k - 2) % 3 : 3];
+        x_vis = d.xring[ring_slot(k - 1)];
+        x_prev = d.xring[ring_slot(k - 2)];
       }
       for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
         const int j = c * kBlock + threadIdx.x;
@@ -1398,8 +1401,9 @@ __global__ void wait_for_snapshots(const StepsDev* s, unsigned long long target)
   }
 }
 
-/// Step k's x into the ring (a kernel of ours, loaded ahead, rather than a copy the driver may
-/// run as a kernel of its own: see run_ticks_with_steps).
+/// Step k's x into the ring. A kernel of ours rather than cudaMemcpyAsync so that every kernel
+/// between two steps on the physical stream is one that run_ticks_with_steps first launches while
+/// nothing waits (whether the driver runs a device-to-device copy as a kernel was not checked).
 __global__ void copy_positions(const Vec3f* from, Vec3f* to, int n) {
   for (int a = blockIdx.x * blockDim.x + threadIdx.x; a < n; a += gridDim.x * blockDim.x) to[a] = from[a];
 }
@@ -1474,7 +1478,7 @@ struct CudaHapticTicks::Impl {
   int step_slots = 64;                     // physical steps in flight at most
   long long steps_enqueued = 0, steps_finished = 0;
   cuda::DeviceArray<StepsDev> steps_sync;
-  cuda::DeviceArray<Vec3f> xring[3];       // step k's x in xring[k % 3]
+  cuda::DeviceArray<Vec3f> xring[3];       // step k's x in xring[ring_slot(k)]
   cuda::PinnedArray<Vec3f> x_slots;        // step k's x for finish_step, at (k % step_slots) n
   std::vector<cudaEvent_t> step_ready;     // per slot: the step's x copied and published
   cuda::VirtualModelArrays model;
@@ -1743,7 +1747,7 @@ int CudaHapticTicks::run_ticks_with_steps(int count) {
     MeshDev& d = I.dev;
     d.period = I.period;
     for (int k = 0; k < 3; ++k) d.xring[k] = I.xring[k].get();
-    d.xring[3] = I.x_prev.get();  // the physical result at tick 0 (never overwritten in this mode)
+    d.xring[ring_slot(-1)] = I.x_prev.get();  // the physical result at tick 0 (never overwritten in this mode)
     d.snap_q = I.physical->device_q();
     d.steps = I.steps_sync.get();
     EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));  // the counters zeroed before the physical stream polls them
@@ -1753,8 +1757,8 @@ int CudaHapticTicks::run_ticks_with_steps(int count) {
   MeshDev& d = I.dev;
   const long long ka = a / N;
   if (ka >= 1) EBH_CUDA_CHECK(cudaStreamWaitEvent(I.stream, I.step_ready[(ka - 1) % I.step_slots], 0));
-  d.x_vis = d.xring[ka >= 1 ? (ka - 1) % 3 : 3];
-  d.x_prev = d.xring[ka >= 2 ? (ka - 2) % 3 : 3];
+  d.x_vis = d.xring[ring_slot(ka - 1)];
+  d.x_prev = d.xring[ring_slot(ka - 2)];
   const unsigned long long vertex_blocks = static_cast<unsigned long long>(I.grid - 1);
   // Step k: its q (k = 0: the initial mesh, copied on the ticks' stream before they run; k > 0:
   // the ticks' snapshot, waited for), the step, its x into the ring and the host slot, published.
@@ -1771,7 +1775,7 @@ int CudaHapticTicks::run_ticks_with_steps(int count) {
     }
     I.physical->launch_device_step(slot);
     if (I.n > 0) {
-      Vec3f* x = I.xring[k % 3].get();
+      Vec3f* x = I.xring[ring_slot(k)].get();
       copy_positions<<<cuda::blocks_for(I.n, 256), 256, 0, pst>>>(I.physical->device_x(), x, I.n);
       EBH_CUDA_LAUNCH_CHECK(pst, "copy_positions");
       EBH_CUDA_CHECK(cudaMemcpyAsync(I.x_slots.get() + std::size_t(slot) * I.n, x, I.n * sizeof(Vec3f),
@@ -1877,8 +1881,7 @@ void CudaHapticTicks::snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visi
   if (I.m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(qf.data(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
   const Vec3f* x_vis = I.x_vis.get();
   if (I.steps_mode == Impl::Steps::InLaunch && I.enqueued > 0) {  // the last enqueued tick's period's
-    const long long k = (I.enqueued - 1) / I.period;
-    x_vis = I.dev.xring[k >= 1 ? (k - 1) % 3 : 3];
+    x_vis = I.dev.xring[ring_slot((I.enqueued - 1) / I.period - 1)];
   }
   if (I.n > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(xf.data(), x_vis, I.n * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
   EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));

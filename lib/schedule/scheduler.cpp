@@ -194,10 +194,8 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
       }
     }
   };
-  bool in_flight = false;
-  double in_flight_t = 0;
-  auto finish_step = [&](double t) {
-    physical.report = device.finish_physical_step(physical.mesh.x);
+  // physical.report and physical.mesh.x hold the next step's results: the observer's on_step.
+  auto record_step = [&](double t) {
     ++physical.step;
     obs.on_step(world, physical, t);
     ++s.steps;
@@ -208,13 +206,10 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
     // ticks per launch. Step k (from tick kN) is finished once a collected run reaches (k + 1)N.
     const int periods = std::max(1, std::min((100 + N - 1) / N, device.step_capacity() / 4));
     const int run = std::max(1, std::min(periods * N, device.capacity() / 4));
-    std::int64_t started = 0;  // steps enqueued
     auto finish_steps_to = [&](std::int64_t tick) {
-      while (s.steps < started && (s.steps + 1) * N <= tick) {
+      while (device.steps_in_flight() > 0 && (s.steps + 1) * N <= tick) {
         physical.report = device.finish_step(physical.mesh.x);
-        ++physical.step;
-        obs.on_step(world, physical, static_cast<double>(s.steps * N) * world.h_haptic);
-        ++s.steps;
+        record_step(static_cast<double>(s.steps * N) * world.h_haptic);
       }
     };
     for (std::int64_t n = 0; n < ticks;) {
@@ -222,7 +217,6 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
       const std::int64_t steps_after = (n + count + N - 1) / N;
       while (steps_after - s.steps > device.step_capacity()) finish_steps_to((s.steps + 1) * N);
       runs.push_back({device.run_ticks_with_steps(count), n, count});
-      started = steps_after;
       n += count;
       s.ticks += count;
       while (runs.size() > 2) {
@@ -237,48 +231,52 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
     }
     collect(0);
     finish_steps_to(std::numeric_limits<std::int64_t>::max());  // the last step's result is recorded, never shown
-    s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
-    s.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
-    return s;
-  }
-  const int max_run = std::max(1, std::min(N, device.capacity() / 4));
-  for (std::int64_t n = 0; n < ticks;) {
-    const double t = static_cast<double>(n) * world.h_haptic;
-    if (n % N == 0) {
-      if (opt.mode == Mode::Async) {
-        if (in_flight) {
+  } else {
+    bool in_flight = false;
+    double in_flight_t = 0;
+    auto finish_step = [&](double t) {
+      physical.report = device.finish_physical_step(physical.mesh.x);
+      record_step(t);
+    };
+    const int max_run = std::max(1, std::min(N, device.capacity() / 4));
+    for (std::int64_t n = 0; n < ticks;) {
+      const double t = static_cast<double>(n) * world.h_haptic;
+      if (n % N == 0) {
+        if (opt.mode == Mode::Async) {
+          if (in_flight) {
+            device.deliver_physical_step();
+            finish_step(in_flight_t);
+          }
+          device.start_physical_step();
+          in_flight = true;
+          in_flight_t = t;
+        } else {  // lockstep
+          device.start_physical_step();
           device.deliver_physical_step();
-          finish_step(in_flight_t);
+          finish_step(t);
         }
-        device.start_physical_step();
-        in_flight = true;
-        in_flight_t = t;
-      } else {  // lockstep
-        device.start_physical_step();
-        device.deliver_physical_step();
-        finish_step(t);
+      }
+      // Up to the next physical step; one tick at a time where mesh frames are written.
+      int count = static_cast<int>(std::min<std::int64_t>(N - n % N, ticks - n));
+      count = std::min(count, max_run);
+      if (frames.period > 0) count = 1;
+      runs.push_back({device.run_ticks(count), n, count});
+      n += count;
+      s.ticks += count;
+      collect(2);
+      if (frames.period > 0 && frames.due(t, world.h_haptic)) {
+        collect(0);
+        device.snapshot(view.mesh.q, view.visible.x);
+        obs.on_frame(world, view, t);
+      }
+      if (obs.should_stop()) {
+        s.stopped = true;
+        break;
       }
     }
-    // Up to the next physical step; one tick at a time where mesh frames are written.
-    int count = static_cast<int>(std::min<std::int64_t>(N - n % N, ticks - n));
-    count = std::min(count, max_run);
-    if (frames.period > 0) count = 1;
-    runs.push_back({device.run_ticks(count), n, count});
-    n += count;
-    s.ticks += count;
-    collect(2);
-    if (frames.period > 0 && frames.due(t, world.h_haptic)) {
-      collect(0);
-      device.snapshot(view.mesh.q, view.visible.x);
-      obs.on_frame(world, view, t);
-    }
-    if (obs.should_stop()) {
-      s.stopped = true;
-      break;
-    }
+    if (in_flight) finish_step(in_flight_t);  // the last step's result is recorded, never shown
+    collect(0);
   }
-  if (in_flight) finish_step(in_flight_t);  // the last step's result is recorded, never shown
-  collect(0);
   s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
   s.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
   return s;

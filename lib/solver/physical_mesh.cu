@@ -641,7 +641,6 @@ struct CudaPhysicalSolver::Impl {
   std::vector<cudaEvent_t> slot_start, slot_stop, slot_done;  // slot_done: after the residual copy
   double* slot_residual = nullptr;
   double* slot_residual_dev = nullptr;
-  bool residual_copy_loaded = false;
   double device_s = 0;
   bool programmatic = false;  // the graph uses programmatic dependent launch
   // The cooperative single-kernel step (persistent_step_kernel), where every patch's block fits
@@ -1049,13 +1048,6 @@ void CudaPhysicalSolver::prepare_device_step() {
       I.capture(false, false);
     }
     I.programmatic = pdl;
-  }
-  // Loaded now, not on first launch: with lazy module loading, loading a kernel may wait for the
-  // device's running kernels, which deadlocks if one of them waits for this step.
-  if (!I.residual_copy_loaded) {
-    cudaFuncAttributes fa{};
-    EBH_CUDA_CHECK(cudaFuncGetAttributes(&fa, copy_residual_kernel));
-    I.residual_copy_loaded = true;
   }
 }
 

@@ -55,9 +55,8 @@ class CudaPhysicalSolver {
   /// slot's own events and keeps a copy of its residual sums there, so that a later step does not
   /// overwrite them; device_step_report(slot) waits for that step. Slots 0 .. slots - 1.
   void set_device_step_slots(int slots);
-  /// Captures the device-resident step's graph and loads its kernels (launch_device_step does it
-  /// on first use): before a kernel that waits for the step runs, since loading a kernel lazily
-  /// may wait for the running ones.
+  /// Captures the device-resident step's graph now (launch_device_step does it on first use), for
+  /// callers that want it done before they enqueue work of their own on stream_handle().
   void prepare_device_step();
   void launch_device_step(int slot);
   PhysicalStepReport device_step_report(int slot);

@@ -12,7 +12,8 @@
 //                           *_runs_of_100: 100 ticks per launch (what a launch costs);
 //                           *_with_physical: the physical steps beside the ticks (the replay's workload),
 //                           a launch per physical period; *_in_launch: the steps inside launches of
-//                           100 ticks (run_ticks_with_steps), as the async replay runs them
+//                           100 ticks (run_ticks_with_steps), as the async replay runs them;
+//                           physical_step_us: the steps' mean device time beside the ticks
 //   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
 //                           real-time factor and the mean time of each stage of the haptic tick;
 //                           cuda_host_tool: the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0)
@@ -260,8 +261,8 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
       device_replay_inputs(w, in.recording, in.recording.t.front() + from, std::int64_t(runs) * N, Mode::Async);
   std::vector<DeviceTickOutput> rows(N);
   int contacts = 0;
-  double wall = 0;
-  long timed_ticks = 0;
+  double wall = 0, step_device_s = 0;
+  long timed_ticks = 0, timed_steps = 0;
   DeviceHapticSetup setup = inputs.setup;
   setup.profile_stages = profile;
   setup.pipeline = pipeline;
@@ -277,11 +278,15 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
     const auto t0 = Clock::now();
     std::vector<int> handles;
     bool in_flight = false;
+    auto timed = [&](const PhysicalStepReport& r) {  // the physical step's device time
+      step_device_s += r.time_s;
+      ++timed_steps;
+    };
     for (int r = 1; r < runs; ++r) {
       if (physical && !in_launch) {
         if (in_flight) {
           ticks.deliver_physical_step();
-          ticks.finish_physical_step(x);
+          timed(ticks.finish_physical_step(x));
         }
         ticks.start_physical_step();
         in_flight = true;
@@ -292,12 +297,12 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
         handles.erase(handles.begin());
         for (const auto& o : rows) contacts = std::max(contacts, o.contacts);
         // The steps of the collected launch's periods, as replay_device finishes them.
-        while (ticks.steps_in_flight() > 2 * N / w.ticks_per_step + 1) ticks.finish_step(x);
+        while (ticks.steps_in_flight() > 2 * N / w.ticks_per_step + 1) timed(ticks.finish_step(x));
       }
     }
     for (const int h : handles) ticks.collect(h, rows);
-    if (in_flight) ticks.finish_physical_step(x);
-    while (ticks.steps_in_flight() > 0) ticks.finish_step(x);
+    if (in_flight) timed(ticks.finish_physical_step(x));
+    while (ticks.steps_in_flight() > 0) timed(ticks.finish_step(x));
     const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
     st.SetIterationTime(dt);
     wall += dt;
@@ -305,6 +310,7 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
     stages = ticks.profile();
   }
   st.counters["tick_us"] = timed_ticks ? 1e6 * wall / static_cast<double>(timed_ticks) : 0;
+  if (physical) st.counters["physical_step_us"] = timed_steps ? 1e6 * step_device_s / static_cast<double>(timed_steps) : 0;
   for (int k = 0; k < DeviceTickProfile::kStages && profile; ++k)
     st.counters[std::string(DeviceTickProfile::kNames[k]) + "_us"] = stages.mean_us[k];
   if (profile) {

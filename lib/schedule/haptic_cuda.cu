@@ -35,6 +35,7 @@
 #include "schedule/haptic_cuda.hpp"
 #include "schedule/newton_warp.cuh"
 #include "solver/cuda_util.cuh"
+#include "solver/device_cuda.hpp"
 #include "solver/virtual_mesh_device.cuh"
 #include "tool/collider.hpp"
 #include "tool/contact.hpp"
@@ -1476,6 +1477,7 @@ struct CudaHapticTicks::Impl {
   enum class Steps { Unused, PerPeriod, InLaunch } steps_mode = Steps::Unused;
   int period = 0;                          // DeviceHapticSetup::ticks_per_step
   int step_slots = 64;                     // physical steps in flight at most
+  int carveout_beside_steps = -1;          // ticks_kernel's carve-out in that mode (-1: L1-first as in the others)
   long long steps_enqueued = 0, steps_finished = 0;
   cuda::DeviceArray<StepsDev> steps_sync;
   cuda::DeviceArray<Vec3f> xring[3];       // step k's x in xring[ring_slot(k)]
@@ -1577,6 +1579,19 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     // carve-out, 88.5 with the whole shared memory carved out; docs/CUDA.md).
     EBH_CUDA_CHECK(cudaFuncSetAttribute(ticks_kernel, cudaFuncAttributePreferredSharedMemoryCarveout,
                                         cudaSharedmemCarveoutMaxL1));
+    // With the physical steps inside the launches (run_ticks_with_steps), enough shared memory on
+    // each tick block's multiprocessor for one block of the step beside it; with the L1-first
+    // carve-out the step's blocks fit only on the multiprocessors the ticks leave free (32 of 132
+    // on the H100: 524 us per step beside the ticks instead of 233; docs/CUDA.md).
+    cudaFuncAttributes fa{};
+    EBH_CUDA_CHECK(cudaFuncGetAttributes(&fa, ticks_kernel));
+    int reserved = 0, max_shared = 0, major = 0, minor = 0;
+    EBH_CUDA_CHECK(cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
+    EBH_CUDA_CHECK(cudaDeviceGetAttribute(&max_shared, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
+    EBH_CUDA_CHECK(cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, device));
+    EBH_CUDA_CHECK(cudaDeviceGetAttribute(&minor, cudaDevAttrComputeCapabilityMinor, device));
+    const std::size_t need = fa.sharedSizeBytes + physical.block_shared_bytes() + 2 * std::size_t(reserved);
+    I.carveout_beside_steps = shared_carveout_percent(need, std::size_t(max_shared), shared_memory_configs_kb(major, minor));
     EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, ticks_kernel, kBlock, 0));
     if (!coop || per_sm * sms < 2)
       throw std::runtime_error("CudaHapticTicks: the device cannot run the cooperative tick kernel");
@@ -1734,8 +1749,12 @@ int CudaHapticTicks::run_ticks_with_steps(int count) {
                            "finish_step the oldest first");
   cudaStream_t pst = static_cast<cudaStream_t>(I.physical->stream_handle());
   const bool first_use = I.steps_mode == Impl::Steps::Unused;
-  if (first_use) {  // the ring, the slots, the counters
+  if (first_use) {  // the ring, the slots, the counters, the carve-out
     I.steps_mode = Impl::Steps::InLaunch;
+    // The kernel's attribute (process-wide): a later CudaHapticTicks sets L1-first again.
+    if (I.carveout_beside_steps >= 0)
+      EBH_CUDA_CHECK(cudaFuncSetAttribute(ticks_kernel, cudaFuncAttributePreferredSharedMemoryCarveout,
+                                          I.carveout_beside_steps));
     I.physical->set_device_step_slots(I.step_slots);
     I.physical->prepare_device_step();
     for (auto& x : I.xring) x.allocate(std::max(I.n, 1));

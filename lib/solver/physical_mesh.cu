@@ -40,6 +40,7 @@
 #include <cuda_runtime.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -399,6 +400,14 @@ __global__ void __launch_bounds__(kBlock, 2) iteration_kernel(PhysicalDevice d, 
   if (threadIdx.x < P.tets) r_last = w.rot_in[d.ptet[P.e0 + threadIdx.x] & 0x7fffffff];
   patch_iteration<kChebyshev, kFirst, kLast>(d, w, P, r_last, threadIdx.x, rotation_iterations);
   if constexpr (kLast) last_block_reduces(d);
+}
+
+/// A method's iteration kernels: the first, the middle and the last iteration's.
+using IterationKernel = void (*)(PhysicalDevice, Sweep, int);
+template <bool kChebyshev>
+std::array<IterationKernel, 3> iteration_kernels() {
+  return {iteration_kernel<kChebyshev, true, false>, iteration_kernel<kChebyshev, false, false>,
+          iteration_kernel<kChebyshev, false, true>};
 }
 
 /// K = 0: the step is the prediction alone.
@@ -823,8 +832,7 @@ template <bool kChebyshev>
 void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
   cudaStream_t st = stream.get();
   const int K = params.iterations, rot = params.rotation_iterations;
-  auto first = iteration_kernel<kChebyshev, true, false>, middle = iteration_kernel<kChebyshev, false, false>,
-       last = iteration_kernel<kChebyshev, false, true>;
+  const auto [first, middle, last] = iteration_kernels<kChebyshev>();
   for (auto* kernel : {first, middle, last})
     EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
   for (int k = 0; k < K; ++k) {
@@ -956,6 +964,17 @@ bool CudaPhysicalSolver::persistent_kernel() const { return impl_->persistent; }
 void CudaPhysicalSolver::set_persistent_kernel(bool on) { impl_->persistent = on && impl_->cooperative_supported; }
 
 bool CudaPhysicalSolver::programmatic_launch() const { return impl_->programmatic; }
+
+std::size_t CudaPhysicalSolver::block_shared_bytes() const {
+  const bool chebyshev = impl_->params.method == SolverSpec::Method::Chebyshev;
+  std::size_t static_bytes = 0;
+  for (const IterationKernel kernel : chebyshev ? iteration_kernels<true>() : iteration_kernels<false>()) {
+    cudaFuncAttributes a{};
+    EBH_CUDA_CHECK(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(kernel)));
+    static_bytes = std::max(static_bytes, a.sharedSizeBytes);
+  }
+  return impl_->shared_bytes + static_bytes;
+}
 
 void CudaPhysicalSolver::upload_state(const PhysicalState& state) {
   Impl& I = *impl_;

@@ -12,6 +12,7 @@
 //
 // No CUDA types here (pimpl): this header compiles without nvcc; the class exists when the build
 // has the CUDA backend (EBH_HAVE_CUDA).
+#include <cstddef>
 #include <memory>
 #include <span>
 
@@ -74,6 +75,10 @@ class CudaPhysicalSolver {
   /// Local-step evaluations per tet and iteration (>= 1): a tet on a patch border is computed by
   /// each patch it touches (docs/CUDA.md).
   double tet_evaluations_per_tet() const;
+  /// Shared memory (bytes, dynamic and static) one block of the step's iteration kernels takes:
+  /// for callers that want a block of theirs and one of the step's to share a multiprocessor
+  /// (CudaHapticTicks: the physical steps inside the launches).
+  std::size_t block_shared_bytes() const;
   /// Whether the step graph chains its kernels by programmatic dependent launch (docs/CUDA.md).
   bool programmatic_launch() const;
 

@@ -157,6 +157,32 @@ void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method
   EXPECT_NEAR(rg.residual, rc.residual, 1e-3 + 0.05 * rc.residual);
 }
 
+// Host arithmetic, no device: the carve-out that makes room for a physical block beside a tick
+// block (CudaHapticTicks, the physical steps inside the launches).
+TEST(CudaDevice, SharedCarveoutPicksTheSmallestConfigurationThatHolds) {
+  const std::vector<int> h100 = shared_memory_configs_kb(9, 0);
+  const std::size_t max = 228 * 1024;
+  // The H100's case (ticks_kernel 17.1 KB, the step's block 73.3 + 8 KB, 1 KB reserved each): the
+  // 132 KB configuration, which 58% gives and 57% (100 KB, measured) does not.
+  EXPECT_EQ(shared_carveout_percent(17504 + 75024 + 8208 + 2048, max, h100), 58);
+  EXPECT_EQ(shared_carveout_percent(100 * 1024, max, h100), 44);      // exactly a configuration
+  EXPECT_EQ(shared_carveout_percent(100 * 1024 + 1, max, h100), 58);  // one byte more: the next
+  EXPECT_EQ(shared_carveout_percent(0, max, h100), 0);
+  EXPECT_EQ(shared_carveout_percent(max, max, h100), 100);
+  EXPECT_EQ(shared_carveout_percent(max + 1, max, h100), -1);  // no configuration holds it
+  EXPECT_EQ(shared_carveout_percent(1024, max, {}), -1);       // configurations not known
+  EXPECT_EQ(shared_carveout_percent(1024, 0, h100), -1);
+  for (const int kb : h100) {  // the percent maps back to the configuration when rounded down
+    const int pct = shared_carveout_percent(std::size_t(kb) * 1024, max, h100);
+    const double bytes = pct * double(max) / 100;
+    int picked = 0;
+    for (const int c : h100)
+      if (c * 1024.0 <= bytes) picked = c;
+    EXPECT_EQ(picked, kb) << pct << "%";
+  }
+  EXPECT_TRUE(shared_memory_configs_kb(7, 5).empty());
+}
+
 TEST(CudaPhysical, ChebyshevStepMatchesCpuCholecystectomy) {
   EBH_REQUIRE_DEVICE();
   expect_step_matches_cpu("cholecystectomy", SolverSpec::Method::Chebyshev);

@@ -54,6 +54,16 @@ if(EBH_SYSTEM_PYTHON3)
       COMMAND ${EBH_SYSTEM_PYTHON3} ${PROJECT_SOURCE_DIR}/scripts/plot_forces.py ${EBH_METRICS_DATA}/press.h5
         -o ${PROJECT_BINARY_DIR}/plot_forces_press.png --labels press)
     set_tests_properties(cli.plot_forces PROPERTIES PASS_REGULAR_EXPRESSION "plot_forces_press.png" LABELS cli)
+    # scripts/sweep.py: run time against force error, 0.3 s of tube_insert in contact, K = 2 and 4.
+    add_test(NAME cli.sweep
+      COMMAND ${EBH_SYSTEM_PYTHON3} ${PROJECT_SOURCE_DIR}/scripts/sweep.py tube tube_insert
+        --key solver.virtual_iterations --values 2,4 --ebh ${EBH_BIN} -- --start 4 --duration 0.3)
+    set_tests_properties(cli.sweep PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+      "\\| 2 \\| [0-9.]+x \\| 0\\.0[0-9]+ \\|.*\\| 4 \\| [0-9.]+x \\| 0 \\| 0 \\|")
+    add_test(NAME cli.sweep.bad_key
+      COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_SYSTEM_PYTHON3};${PROJECT_SOURCE_DIR}/scripts/sweep.py;tube;tube_insert;--key;solver.no_such;--values;1;--ebh;${EBH_BIN}"
+        "-DEXPECT=^sweep.py: ebh: error: .*key 'solver.no_such': unknown key" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+    set_tests_properties(cli.sweep.bad_key PROPERTIES LABELS cli)
   endif()
 endif()
 

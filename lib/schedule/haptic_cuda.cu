@@ -1416,6 +1416,12 @@ __global__ void publish_step(StepsDev* s, unsigned long long k1) {
 
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 
+/// `count` float32 positions (host memory) into `to`, in double.
+void to_double(const Vec3f* from, int count, std::vector<Vec3d>& to) {
+  to.resize(count);
+  for (int a = 0; a < count; ++a) to[a] = static_cast<Vec3d>(from[a]);
+}
+
 /// The virtual mesh's incidence lists (VirtualModelArrays::edge_items: VirtualModel::edge_entries,
 /// in their order) for the device tick, column-major: entry u of vertex j at u m + j, so that a
 /// warp's 32 vertices load their u-th edges in one coalesced 512-byte line and without waiting for
@@ -1510,6 +1516,14 @@ struct CudaHapticTicks::Impl {
     if (step_done) cudaEventDestroy(step_done);
     if (ring) cudaFreeHost(ring);
     if (stream) cudaStreamDestroy(stream);
+  }
+
+  /// The physical step's q: the virtual mesh after the last enqueued tick (q[0]), copied on the
+  /// ticks' stream; the physical stream `pst` waits for the copy.
+  void hand_q_to_physical(cudaStream_t pst) {
+    if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(physical->device_q(), q[0].get(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
+    EBH_CUDA_CHECK(cudaEventRecord(q_ready, stream));
+    EBH_CUDA_CHECK(cudaStreamWaitEvent(pst, q_ready, 0));
   }
 };
 
@@ -1695,10 +1709,7 @@ void CudaHapticTicks::start_physical_step() {
     throw std::logic_error("CudaHapticTicks::start_physical_step: the physical steps run in the launches (run_ticks_with_steps)");
   I.steps_mode = Impl::Steps::PerPeriod;
   auto* pst = static_cast<cudaStream_t>(I.physical->stream_handle());
-  if (I.m > 0)
-    EBH_CUDA_CHECK(cudaMemcpyAsync(I.physical->device_q(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, I.stream));
-  EBH_CUDA_CHECK(cudaEventRecord(I.q_ready, I.stream));
-  EBH_CUDA_CHECK(cudaStreamWaitEvent(pst, I.q_ready, 0));
+  I.hand_q_to_physical(pst);
   I.physical->launch_device_step();
   EBH_CUDA_CHECK(cudaEventRecord(I.step_done, pst));
   if (I.n > 0)  // for the observer's on_step (the copy engine, not the haptic ticks, waits for it)
@@ -1721,8 +1732,7 @@ PhysicalStepReport CudaHapticTicks::finish_physical_step(std::vector<Vec3d>& x) 
   I.step_in_flight = false;
   const PhysicalStepReport r = I.physical->device_step_report();
   EBH_CUDA_CHECK(cudaStreamSynchronize(static_cast<cudaStream_t>(I.physical->stream_handle())));
-  x.resize(I.n);
-  for (int a = 0; a < I.n; ++a) x[a] = static_cast<Vec3d>(I.x_host[a]);
+  to_double(I.x_host.get(), I.n, x);
   return r;
 }
 
@@ -1784,10 +1794,7 @@ int CudaHapticTicks::run_ticks_with_steps(int count) {
   auto enqueue_step = [&](long long k) {
     const int slot = static_cast<int>(k % I.step_slots);
     if (k == 0) {
-      if (I.m > 0)
-        EBH_CUDA_CHECK(cudaMemcpyAsync(I.physical->device_q(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, I.stream));
-      EBH_CUDA_CHECK(cudaEventRecord(I.q_ready, I.stream));
-      EBH_CUDA_CHECK(cudaStreamWaitEvent(pst, I.q_ready, 0));
+      I.hand_q_to_physical(pst);
     } else {
       wait_for_snapshots<<<1, 32, 0, pst>>>(I.steps_sync.get(), static_cast<unsigned long long>(k) * vertex_blocks);
       EBH_CUDA_LAUNCH_CHECK(pst, "wait_for_snapshots");
@@ -1834,9 +1841,7 @@ PhysicalStepReport CudaHapticTicks::finish_step(std::vector<Vec3d>& x) {
   ++I.steps_finished;
   const PhysicalStepReport r = I.physical->device_step_report(slot);
   EBH_CUDA_CHECK(cudaEventSynchronize(I.step_ready[slot]));
-  x.resize(I.n);
-  const Vec3f* xs = I.x_slots.get() + std::size_t(slot) * I.n;
-  for (int a = 0; a < I.n; ++a) x[a] = static_cast<Vec3d>(xs[a]);
+  to_double(I.x_slots.get() + std::size_t(slot) * I.n, I.n, x);
   return r;
 }
 
@@ -1904,10 +1909,8 @@ void CudaHapticTicks::snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visi
   }
   if (I.n > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(xf.data(), x_vis, I.n * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
   EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));
-  q.resize(I.m);
-  x_visible.resize(I.n);
-  for (int j = 0; j < I.m; ++j) q[j] = static_cast<Vec3d>(qf[j]);
-  for (int a = 0; a < I.n; ++a) x_visible[a] = static_cast<Vec3d>(xf[a]);
+  to_double(qf.data(), I.m, q);
+  to_double(xf.data(), I.n, x_visible);
 }
 
 }  // namespace ebh

@@ -661,12 +661,15 @@ struct DeviceRun {
   std::vector<double> residual;
 };
 
+template <class T>
+bool same_bits(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
 bool same_outputs(const DeviceTickOutput& a, const DeviceTickOutput& b) {
-  return std::memcmp(&a.force, &b.force, sizeof(Vec3d)) == 0 && std::memcmp(&a.torque, &b.torque, sizeof(Vec3d)) == 0 &&
-         std::memcmp(&a.position, &b.position, sizeof(Vec3d)) == 0 &&
-         std::memcmp(&a.orientation, &b.orientation, sizeof(Quatd)) == 0 &&
-         std::memcmp(&a.penetration, &b.penetration, sizeof(double)) == 0 && a.contacts == b.contacts &&
-         a.grasped == b.grasped && a.newton_steps == b.newton_steps;
+  return same_bits(a.force, b.force) && same_bits(a.torque, b.torque) && same_bits(a.position, b.position) &&
+         same_bits(a.orientation, b.orientation) && same_bits(a.penetration, b.penetration) &&
+         a.contacts == b.contacts && a.grasped == b.grasped && a.newton_steps == b.newton_steps;
 }
 
 /// Launches across physical periods (run_ticks_with_steps: the ticks hand q to the physical steps
@@ -755,10 +758,9 @@ TEST(CudaDeviceTick, LaunchesAcrossPeriodsMatchALaunchPerPeriod) {
         const DeviceTickOutput &a = got.out[n], &b = ref.out[n];
         ticks_differ += !same_outputs(a, b);
         grasp_mismatch += a.grasped != b.grasped;
-        differ_force += std::memcmp(&a.force, &b.force, sizeof(Vec3d)) != 0 || std::memcmp(&a.torque, &b.torque, sizeof(Vec3d)) != 0;
-        differ_pose += std::memcmp(&a.position, &b.position, sizeof(Vec3d)) != 0 ||
-                       std::memcmp(&a.orientation, &b.orientation, sizeof(Quatd)) != 0;
-        differ_penetration += std::memcmp(&a.penetration, &b.penetration, sizeof(double)) != 0;
+        differ_force += !same_bits(a.force, b.force) || !same_bits(a.torque, b.torque);
+        differ_pose += !same_bits(a.position, b.position) || !same_bits(a.orientation, b.orientation);
+        differ_penetration += !same_bits(a.penetration, b.penetration);
         differ_contacts += a.contacts != b.contacts;
         differ_newton += a.newton_steps != b.newton_steps;
         err_f = std::max(err_f, norm(a.force - b.force));

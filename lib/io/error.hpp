@@ -14,4 +14,11 @@ class InputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A run that cannot go on because its numbers did (a non-finite or diverging state). what() is
+/// one line naming where (tick, step) and the worst element; tools print it and exit with 4.
+class NumericalError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 }  // namespace ebh

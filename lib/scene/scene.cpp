@@ -309,11 +309,14 @@ class SpecReader {
   }
 
   void read_solver(const YAML::Node& n, SolverSpec& sv) const {
-    const auto e = entries(n, "solver", {"method", "physical_iterations", "virtual_iterations", "chebyshev_rho"});
+    const auto e = entries(n, "solver", {"method", "diagonal", "physical_iterations", "virtual_iterations", "chebyshev_rho"});
     if (auto it = e.find("method"); it != e.end()) {
       const int m = choice(it->second, "solver.method", {"jacobi", "chebyshev", "direct"});
       sv.method = m == 0 ? SolverSpec::Method::Jacobi : m == 1 ? SolverSpec::Method::Chebyshev : SolverSpec::Method::Direct;
     }
+    if (auto it = e.find("diagonal"); it != e.end())
+      sv.diagonal = choice(it->second, "solver.diagonal", {"bounded", "plain"}) == 0 ? SolverSpec::Diagonal::Bounded
+                                                                                    : SolverSpec::Diagonal::Plain;
     if (auto it = e.find("physical_iterations"); it != e.end())
       sv.physical_iterations = integer(it->second, "solver.physical_iterations", 1, 100000);
     if (auto it = e.find("virtual_iterations"); it != e.end())

@@ -46,6 +46,7 @@
 //                                   # Algorithm 2 line 1 is printed)
 //   solver:
 //     method: chebyshev             # jacobi | chebyshev | direct
+//     diagonal: bounded             # bounded | plain: the Jacobi-type methods' D (docs/MODEL.md)
 //     physical_iterations: 16
 //     virtual_iterations: 4         # virtual-mesh local-global iterations per haptic tick
 //     chebyshev_rho: 0.95
@@ -120,7 +121,9 @@ struct Camera {
 
 struct SolverSpec {
   enum class Method { Jacobi, Chebyshev, Direct };
+  enum class Diagonal { Bounded, Plain };
   Method method = Method::Chebyshev;
+  Diagonal diagonal = Diagonal::Bounded;
   int physical_iterations = 16;
   int virtual_iterations = 4;
   double chebyshev_rho = 0.95;

@@ -100,7 +100,7 @@ ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, cons
   contacts_.reserve(n);
   grasped_.reserve(n);
   const std::size_t steps = n / static_cast<std::size_t>(world.ticks_per_step) + 2;
-  for (auto* v : {&pt_, &residual_, &tm_step_, &tm_local_, &tm_global_}) v->reserve(steps);
+  for (auto* v : {&pt_, &residual_, &reduction_, &tm_step_, &tm_local_, &tm_global_}) v->reserve(steps);
   iterations_.reserve(steps);
 
   h5::File& f = out_.file();
@@ -164,6 +164,7 @@ void ReplayWriter::on_step(const World&, const PhysicalSide& p, double t) {
   pt_.push_back(t);
   iterations_.push_back(p.report.iterations);
   residual_.push_back(p.report.residual);
+  reduction_.push_back(p.report.residual_reduction);
   tm_step_.push_back(p.report.time_s);
   tm_local_.push_back(p.report.local_s);
   tm_global_.push_back(p.report.global_s);
@@ -211,7 +212,8 @@ void ReplayWriter::commit(const ReplaySummary& s) {
   h5::Group pg = f.create_group("physical");
   unit(pg.write<double>("t", pt_, {k}), "s");
   unit(pg.write<std::int32_t>("iterations", iterations_, {k}), "count");
-  unit(pg.write<double>("residual", residual_, {k}), "1");
+  unit(pg.write<double>("residual", residual_, {k}), "1 (unbalanced force / mesh weight)");
+  unit(pg.write<double>("residual_reduction", reduction_, {k}), "1 (last / first iteration)");
   h5::Group tg = f.create_group("timing");
   unit(tg.write<double>("haptic_step_s", tm_total_, {n}), "s");
   unit(tg.write<double>("device_s", tm_device_, {n}), "s");

@@ -3,7 +3,7 @@
 // time as their first dimension, written under a temporary name and renamed when complete.
 //   /haptic/{t, force, torque, force_clamped, torque_clamped, pose_physical, pose_virtual,
 //            penetration, penetration_physical, contacts, grasped, jaw}
-//   /physical/{t, iterations, residual}
+//   /physical/{t, iterations, residual, residual_reduction}
 //   /timing/{haptic_step_s, device_s, physical_sync_s, grasp_s, virtual_mesh_s, virtual_tool_s,
 //            output_s, physical_step_s, physical_local_s, physical_global_s}
 //   /frames/{t, virtual_positions, physical_positions, tool_poses, jaw}   (with --frames-hz)
@@ -57,7 +57,7 @@ class ReplayWriter : public ReplayObserver {
   std::vector<std::int32_t> contacts_, grasped_;
   std::vector<double> tm_total_, tm_device_, tm_sync_, tm_grasp_, tm_vmesh_, tm_vtool_, tm_output_;
   // /physical per step
-  std::vector<double> pt_, residual_, tm_step_, tm_local_, tm_global_;
+  std::vector<double> pt_, residual_, reduction_, tm_step_, tm_local_, tm_global_;
   std::vector<std::int32_t> iterations_;
   // /frames
   bool frames_ = false;

@@ -180,6 +180,7 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
         view.output.torque = o.torque;
         view.output.force_clamped = o.force_clamped != 0;
         view.output.torque_clamped = o.torque_clamped != 0;
+        check_haptic_tick(world, n, view.output);
         view.tool.pose = {o.position, o.orientation};
         view.tool.steps_taken = o.newton_steps;
         view.tool.steps_rejected = o.newton_rejected;
@@ -197,6 +198,7 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
   // physical.report and physical.mesh.x hold the next step's results: the observer's on_step.
   auto record_step = [&](double t) {
     ++physical.step;
+    check_physical_step(world, physical);
     obs.on_step(world, physical, t);
     ++s.steps;
   };
@@ -368,11 +370,12 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
   const auto wall0 = Clock::now();
   auto now_s = [&] { return std::chrono::duration<double>(Clock::now() - wall0).count(); };
 
+  std::exception_ptr solver_error;  // a health check's NumericalError, rethrown after the join
   std::thread solver([&] {
     omp_set_num_threads(threads.physical);
     HapticSnapshot local_q;
     PhysicalSnapshot local_x;
-    while (!done.load()) {
+    while (!done.load()) try {
       const double t_start = now_s();
       {
         std::lock_guard<std::mutex> lock(mx);
@@ -390,12 +393,15 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
       // Pace: at most one physical step per h_p of wall time (unless unpaced).
       const double next = opt.pace_physical ? t_start + world.h_physical : t_start;
       while (!done.load() && now_s() < next) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    } catch (...) {
+      solver_error = std::current_exception();
+      done.store(true);
     }
   });
 
   FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};
   PhysicalSnapshot incoming;
-  for (std::int64_t n = 0; n < ticks; ++n) {
+  for (std::int64_t n = 0; n < ticks && !done.load(); ++n) {  // done early: the solver failed
     const double t = static_cast<double>(n) * world.h_haptic;
     while (now_s() < t) std::this_thread::yield();  // tick n starts at wall time t_n
     bool got = false;
@@ -423,6 +429,7 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
   }
   done.store(true);
   solver.join();
+  if (solver_error) std::rethrow_exception(solver_error);
   s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
   s.wall_s = now_s();
   return s;

@@ -173,10 +173,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->scene.spec.haptic_hz = haptic_hz;
   w->scene.spec.physical_hz = physical_hz;
   w->virtual_mesh = build_virtual_model(w->scene);
-  PhysicalModelOptions opt;
-  opt.h = w->h_physical;
-  opt.factorize = w->scene.spec.solver.method == SolverSpec::Method::Direct;
-  w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, opt);
+  w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver);
   w->tool = build_tool(w->scene.spec.tool);
   w->initial_physical = make_physical_state(w->physical_mesh);
@@ -260,7 +257,26 @@ void haptic_tick(const World& world, HapticSide& h, const DeviceSample& sample) 
   }
   timed(t.output, [&] { emit_output(world, h); });
   t.total = seconds_since(t0);
+  check_haptic_tick(world, h.tick, h.output);
   ++h.tick;
+}
+
+void check_haptic_tick(const World& world, std::int64_t tick, const ToolOutput& output) {
+  const auto ok = [](const Vec3d& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+  if (ok(output.force) && ok(output.torque)) return;
+  throw NumericalError(world.scene.spec.file.string() + ": tick " + std::to_string(tick) +
+                       ": the force or torque on the virtual tool is not finite");
+}
+
+void check_physical_step(const World& world, const PhysicalSide& p) {
+  const std::string problem = physical_state_problem(world.physical_mesh, p.mesh.x, p.report);
+  if (problem.empty()) return;
+  const std::int64_t k = p.step - 1;
+  const bool plain = world.scene.spec.solver.diagonal == SolverSpec::Diagonal::Plain &&
+                     world.scene.spec.solver.method != SolverSpec::Method::Direct;
+  throw NumericalError(world.scene.spec.file.string() + ": tick " + std::to_string(k * world.ticks_per_step) +
+                       ", physical step " + std::to_string(k) + ": " + problem +
+                       (plain ? " (solver.diagonal=plain diverges on such tets: use bounded)" : ""));
 }
 
 void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot) {
@@ -268,11 +284,13 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
   if (p.cuda) {
     p.report = p.cuda->step(p.mesh, snapshot.q);
     ++p.step;
+    check_physical_step(world, p);
     return;
   }
 #endif
   p.report = physical_step(world.physical_mesh, p.workspace, p.mesh, snapshot.q, world.physical_params);
   ++p.step;
+  check_physical_step(world, p);
 }
 
 }  // namespace ebh

@@ -124,7 +124,14 @@ void deliver_physical_snapshot(const World& world, HapticSide& haptic, const Phy
 /// One haptic tick (Algorithm 2) with the device sample for this tick.
 void haptic_tick(const World& world, HapticSide& haptic, const DeviceSample& sample);
 
-/// One physical step (Algorithm 1) coupled to the virtual-mesh positions of `snapshot`.
+/// One physical step (Algorithm 1) coupled to the virtual-mesh positions of `snapshot`, then
+/// check_physical_step.
 void run_physical_step(const World& world, PhysicalSide& physical, const HapticSnapshot& snapshot);
+
+/// The health checks (STYLE.md's run-time tier): a non-finite or diverged physical state after
+/// physical.step - 1 (physical_state_problem), a non-finite force or torque after a tick. Each
+/// throws NumericalError: "SCENE: tick N, physical step K: what, the worst element".
+void check_physical_step(const World& world, const PhysicalSide& physical);
+void check_haptic_tick(const World& world, std::int64_t tick, const ToolOutput& output);
 
 }  // namespace ebh

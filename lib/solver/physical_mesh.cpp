@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "energy/arap.hpp"
@@ -11,7 +12,9 @@
 #include "energy/quadratic.hpp"
 #include "energy/rotation.hpp"
 #include "io/error.hpp"
+#include "mesh/validate.hpp"
 #include "solver/local_kernels.hpp"
+#include "solver/spectrum.hpp"
 #include "solver/virtual_mesh.hpp"
 
 namespace ebh {
@@ -26,6 +29,11 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 // give every thread the same share each iteration.
 
 constexpr double kRotationTol = 1e-9;  ///< radians: the Mueller update stops below this angle
+constexpr double kStandardGravity = 9.81;  ///< m/s^2, the residual's scale (PhysicalModel::weight_norm)
+/// The bounded diagonal keeps lambda_max(D^-1 A) at or below this: with the relaxation 0.9,
+/// gamma lambda_max <= 1.89 < 2 (the committed scenes' meshes have 1.88-2.04 with A(a, a)).
+constexpr double kLambdaLimit = 2.1;
+constexpr double kSpectrumMargin = 1.02; ///< on Lanczos' estimate of lambda_max (a lower bound)
 
 /// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- s.
 void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
@@ -120,7 +128,70 @@ void update_velocities(const PhysicalModel& model, PhysicalWorkspace& ws, Physic
   for (int a = 0; a < n; ++a) state.v[a] = c * (state.x[a] - ws.x_start[a]);
 }
 
+/// D over the free rows (see PhysicalModel::diag); the pinned rows keep A(a, a), never used.
+/// Bounded: the smallest theta in [0, 1/2] (bisection, 1/64) with lambda_max(D_theta^-1 A) <= 2.1,
+/// D_theta = max(A(a, a), theta D_l1(a)), from Lanczos estimates with a 2% margin; theta = 1/2
+/// satisfies it by construction (D >= D_l1 / 2 >= A / 2), theta = 0 is the paper's diagonal.
+void choose_diagonal(PhysicalModel& M, const Eigen::SparseMatrix<double>& A, SolverSpec::Diagonal kind) {
+  const int nf = M.num_free;
+  std::vector<double> plain(nf), D(nf);
+  for (int i = 0; i < nf; ++i) plain[i] = M.diag[M.free_vertices[i]];
+  M.spectrum = estimate_spectrum(A, plain);
+  if (kind == SolverSpec::Diagonal::Bounded && M.spectrum.lambda_max * kSpectrumMargin > kLambdaLimit) {
+    const std::vector<double> l1 = l1_row_sums(A);
+    auto bounded = [&](double theta) {
+      for (int i = 0; i < nf; ++i) D[i] = std::max(plain[i], theta * l1[i]);
+      return estimate_spectrum(A, D);
+    };
+    double lo = 0, hi = 0.5;  // lo fails, hi holds
+    SpectrumEstimate at_hi = bounded(hi);
+    for (int it = 0; it < 6; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      const SpectrumEstimate e = bounded(mid);
+      if (e.lambda_max * kSpectrumMargin <= kLambdaLimit) { hi = mid; at_hi = e; } else { lo = mid; }
+    }
+    bounded(hi);
+    M.diag_theta = hi;
+    M.spectrum = at_hi;
+    for (int i = 0; i < nf; ++i) {
+      if (D[i] > plain[i]) ++M.diag_bounded_rows;
+      M.diag[M.free_vertices[i]] = D[i];
+    }
+  }
+}
+
 }  // namespace
+
+Eigen::SparseMatrix<double> assemble_global_matrix(const PhysicalModel& M) {
+  const int n = M.num_vertices, T = M.num_tets, m = M.num_virtual;
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(16 * size_t(T) + size_t(n) + 16 * size_t(m));
+  for (int a = 0; a < n; ++a)
+    if (!M.pinned[a]) trip.emplace_back(M.free_index[a], M.free_index[a], M.mass[a] / (M.h * M.h));
+  for (int t = 0; t < T; ++t)
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        const int fa = M.free_index[M.tets[t][i]], fb = M.free_index[M.tets[t][j]];
+        if (fa >= 0 && fb >= 0)
+          trip.emplace_back(fa, fb, M.tet_weight[t] * dot(M.shape_grad[4 * t + i], M.shape_grad[4 * t + j]));
+      }
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i < M.pair_count[j]; ++i)
+      for (int k = 0; k < M.pair_count[j]; ++k) {
+        const int fa = M.free_index[M.pair_vertex[j][i]], fb = M.free_index[M.pair_vertex[j][k]];
+        if (fa >= 0 && fb >= 0) trip.emplace_back(fa, fb, M.k_svc * M.pair_weight[j][i] * M.pair_weight[j][k]);
+      }
+  Eigen::SparseMatrix<double> A(M.num_free, M.num_free);
+  A.setFromTriplets(trip.begin(), trip.end());
+  return A;
+}
+
+std::vector<double> l1_row_sums(const Eigen::SparseMatrix<double>& A) {
+  std::vector<double> sum(A.rows(), 0.0);
+  for (int c = 0; c < A.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(A, c); it; ++it) sum[it.row()] += std::abs(it.value());
+  return sum;
+}
 
 std::vector<double> lumped_masses(const TetMesh& mesh, double density) {
   std::vector<double> mass(mesh.vertices.size(), 0.0);
@@ -181,6 +252,9 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
   for (int a = 0; a < n; ++a)
     if (!M.pinned[a]) { M.free_index[a] = static_cast<int>(M.free_vertices.size()); M.free_vertices.push_back(a); }
   M.num_free = static_cast<int>(M.free_vertices.size());
+  double w2 = 0;
+  for (int a : M.free_vertices) w2 += (M.mass[a] * kStandardGravity) * (M.mass[a] * kStandardGravity);
+  M.weight_norm = std::sqrt(w2);
 
   // Incidence vertex -> (tet, corner), in (tet, corner) order.
   build_csr(n, 4 * T, [&](int e, auto add) { add(M.tets[e >> 2][e & 3]); }, M.tet_offsets, M.tet_entries);
@@ -213,9 +287,11 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
     M.cpl_weight[k] = M.pair_weight[slot_entries[k] >> 2][slot_entries[k] & 3];
   }
 
-  // Diagonal of A.
+  // The global matrix over free vertices: its diagonal (plain or l1) and, for the direct
+  // method, its factorisation.
+  const Eigen::SparseMatrix<double> A = assemble_global_matrix(M);
   M.diag.assign(n, 0.0);
-  for (int a = 0; a < n; ++a) {
+  for (int a = 0; a < n; ++a) {  // pinned rows: the plain diagonal (never used by the update)
     double d = M.mass[a] / (M.h * M.h);
     for (int k = M.tet_offsets[a]; k < M.tet_offsets[a + 1]; ++k) {
       const int e = M.tet_entries[k];
@@ -224,28 +300,8 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
     for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) d += M.k_svc * M.cpl_weight[k] * M.cpl_weight[k];
     M.diag[a] = d;
   }
-
-  // The exact global matrix over free vertices, factorised once.
+  choose_diagonal(M, A, options.diagonal);
   if (options.factorize && M.num_free > 0) {
-    std::vector<Eigen::Triplet<double>> trip;
-    trip.reserve(16 * size_t(T) + size_t(n));
-    for (int a = 0; a < n; ++a)
-      if (!M.pinned[a]) trip.emplace_back(M.free_index[a], M.free_index[a], M.mass[a] / (M.h * M.h));
-    for (int t = 0; t < T; ++t)
-      for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) {
-          const int fa = M.free_index[M.tets[t][i]], fb = M.free_index[M.tets[t][j]];
-          if (fa >= 0 && fb >= 0)
-            trip.emplace_back(fa, fb, M.tet_weight[t] * dot(M.shape_grad[4 * t + i], M.shape_grad[4 * t + j]));
-        }
-    for (int j = 0; j < m; ++j)
-      for (int i = 0; i < M.pair_count[j]; ++i)
-        for (int k = 0; k < M.pair_count[j]; ++k) {
-          const int fa = M.free_index[M.pair_vertex[j][i]], fb = M.free_index[M.pair_vertex[j][k]];
-          if (fa >= 0 && fb >= 0) trip.emplace_back(fa, fb, M.k_svc * M.pair_weight[j][i] * M.pair_weight[j][k]);
-        }
-    Eigen::SparseMatrix<double> A(M.num_free, M.num_free);
-    A.setFromTriplets(trip.begin(), trip.end());
     auto solver = std::make_shared<PhysicalDirectSolver>();
     solver->ldlt.compute(A);
     if (solver->ldlt.info() != Eigen::Success)
@@ -283,6 +339,14 @@ PhysicalStepParams physical_params(const SolverSpec& spec) {
   p.iterations = spec.physical_iterations;
   p.chebyshev_rho = spec.chebyshev_rho;
   return p;
+}
+
+PhysicalModelOptions physical_model_options(const SceneSpec& spec) {
+  PhysicalModelOptions o;
+  o.h = 1.0 / spec.physical_hz;
+  o.factorize = spec.solver.method == SolverSpec::Method::Direct;
+  o.diagonal = spec.solver.diagonal;
+  return o;
 }
 
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
@@ -327,9 +391,47 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
     update_velocities(model, ws, state);
   }
   report.iterations = params.iterations;
-  report.residual = r0 > 0 ? rk / r0 : 0.0;
+  set_residuals(report, r0, rk, model.weight_norm);
   report.time_s = seconds_since(t_step);
   return report;
+}
+
+std::string physical_state_problem(const PhysicalModel& model, std::span<const Vec3d> x,
+                                   const PhysicalStepReport& report) {
+  constexpr double kDivergedExtent = 10.0;  // bounding-box diagonals
+  constexpr double kDivergedResidual = 1e4;  // mesh weights
+  if (model.num_vertices == 0) return "";
+  Vec3d lo = model.rest[0], hi = model.rest[0];
+  for (const Vec3d& p : model.rest) { lo = cwise_min(lo, p); hi = cwise_max(hi, p); }
+  const double diagonal = norm(hi - lo);
+  int worst = -1;
+  double moved = 0;
+  for (int a = 0; a < model.num_vertices; ++a) {
+    const double d = norm(x[a] - model.rest[a]);
+    if (!std::isfinite(d)) { worst = a; moved = d; break; }
+    if (d > moved) { moved = d; worst = a; }
+  }
+  std::string what;
+  if (!std::isfinite(moved)) what = "is not finite";
+  else if (moved > kDivergedExtent * diagonal) what = "diverged";
+  else if (!std::isfinite(report.residual) || report.residual > kDivergedResidual) what = "diverged";
+  if (what.empty()) return "";
+  // The worst-shaped tet around the worst vertex (rest mean ratio).
+  int tet = -1;
+  double quality = 2;
+  for (int k = model.tet_offsets[worst]; k < model.tet_offsets[worst + 1]; ++k) {
+    const int t = model.tet_entries[k] >> 2;
+    const Tet& c = model.tets[t];
+    const double q = tet_mean_ratio(model.rest[c[0]], model.rest[c[1]], model.rest[c[2]], model.rest[c[3]]);
+    if (q < quality) { quality = q; tet = t; }
+  }
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "the physical mesh %s (residual %.3g mesh weights): vertex %d (rest [%.6g, %.6g, %.6g] m) moved %.3g m; "
+                "its worst tet %d has mean ratio %.3g",
+                what.c_str(), report.residual, worst, model.rest[worst].x, model.rest[worst].y, model.rest[worst].z,
+                moved, tet, tet >= 0 ? quality : 0.0);
+  return line;
 }
 
 PhysicalEnergy physical_energy(const PhysicalModel& model, std::span<const Vec3d> x, std::span<const Vec3d> s,

@@ -616,6 +616,7 @@ __global__ void copy_residual_kernel(const double* from, double* to) {
 struct CudaPhysicalSolver::Impl {
   PhysicalStepParams params;
   int n = 0, T = 0, m = 0, patches = 0;
+  double weight_norm = 0;  // PhysicalModel::weight_norm: the residual's scale
   std::size_t shared_bytes = 0;
   cuda::Stream stream;
   // Model.
@@ -924,6 +925,7 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
     throw InputError("--backend cuda: the direct method runs on the CPU only (use jacobi or chebyshev)");
   if (params.iterations < 0) throw InputError("physical iterations must not be negative");
   impl_->params = params;
+  impl_->weight_norm = model.weight_norm;
   impl_->upload_model(model);
   upload_state(make_physical_state(model));
   // The cooperative single-kernel step only on request (EBH_CUDA_PERSISTENT=1): on the H200 it
@@ -1037,8 +1039,7 @@ PhysicalStepReport CudaPhysicalSolver::Impl::report(const double* sums) const {
   PhysicalStepReport r;
   r.iterations = params.iterations;
   if (params.iterations > 0 && n > 0) {
-    const double r0 = std::sqrt(sums[0]), rk = std::sqrt(sums[1]);
-    r.residual = r0 > 0 ? rk / r0 : 0.0;
+    set_residuals(r, std::sqrt(sums[0]), std::sqrt(sums[1]), weight_norm);
   }
   return r;
 }

@@ -27,11 +27,13 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "math/vec.hpp"
 #include "mesh/tet_mesh.hpp"
 #include "scene/scene.hpp"
+#include "solver/spectrum.hpp"
 
 namespace ebh {
 
@@ -59,6 +61,7 @@ struct PhysicalModel {
   std::vector<double> tet_weight;       ///< #T w_t = 2 k_vol V_t
   std::vector<Vec3d> shape_grad;        ///< #T*4 g_c with F = sum_c x_c g_c^T (1/m)
   std::vector<double> mass;             ///< #n lumped mass, kg (density V_t / 4 per corner)
+  double weight_norm = 0;               ///< ||M g0|| over free vertices (N), g0 = 9.81 m/s^2: the residual's scale
   std::vector<std::uint8_t> pinned;     ///< #n
   std::vector<int> free_index;          ///< #n row among free vertices, -1 when pinned
   std::vector<int> free_vertices;       ///< #nf
@@ -71,7 +74,19 @@ struct PhysicalModel {
   std::vector<int> cpl_offsets;         ///< #n+1 CSR physical vertex -> (virtual vertex, weight)
   std::vector<int> cpl_virtual;         ///< virtual-vertex index
   std::vector<double> cpl_weight;       ///< its weight on this physical vertex
-  std::vector<double> diag;             ///< #n A(a, a)
+  /// #n the Jacobi-type methods' D(a): A(a, a) (plain, the paper's), or with the bounded diagonal
+  /// max(A(a, a), theta D_l1(a)), D_l1(a) = sum_b |A(a, b)|, with the smallest theta in [0, 1/2]
+  /// that keeps lambda_max(D^-1 A) <= 2.1 (a Lanczos estimate with a 2% margin). theta = 1/2
+  /// always does: D >= D_l1 / 2 >= A / 2 (D_l1 - A is diagonally dominant; Baker, Falgout, Kolev &
+  /// Yang 2011, l1 smoothers), so the bound holds on every mesh; theta = 0 (good meshes: all the
+  /// committed scenes) is the paper's diagonal to the bit. With the bound and gamma <= 0.95 the
+  /// relaxed Jacobi update decreases the global step's quadratic energy and Chebyshev's error
+  /// polynomial shrinks every mode; without it, obtuse and sliver tets push lambda_max past
+  /// 2 / gamma and the iteration diverges.
+  std::vector<double> diag;
+  double diag_theta = 0;                ///< bounded: D = max(A(a, a), theta D_l1(a)); 0: A(a, a)
+  int diag_bounded_rows = 0;            ///< rows where theta raised D above A(a, a)
+  SpectrumEstimate spectrum;            ///< of D^-1 A with this D (solver/spectrum.hpp)
   // The local step's structure-of-arrays copies (SIMD loads):
   std::vector<int> corner_soa;          ///< #4T vertex of corner c of tet t at [c T + t]
   std::vector<double> shape_grad_soa;   ///< #12T component i of g_c of tet t at [(3 c + i) T + t]
@@ -100,6 +115,9 @@ struct PhysicalWorkspace {
 struct PhysicalModelOptions {
   double h = 0.01;            ///< physical step (s); 1 / scene.spec.physical_hz by default
   bool factorize = true;      ///< build the direct solver (needed by Method::Direct)
+  /// The Jacobi-type methods' diagonal D (see PhysicalModel::diag): bounded (convergent for every
+  /// mesh) or plain (A(a, a), the paper's; diverges on meshes with obtuse and sliver tets).
+  SolverSpec::Diagonal diagonal = SolverSpec::Diagonal::Bounded;
 };
 
 struct PhysicalStepParams {
@@ -121,16 +139,25 @@ inline double chebyshev_weight(const PhysicalStepParams& params, int k, double p
   return j < 0 ? 1.0 : (j == 0 ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * previous));
 }
 
-/// The step report (time in seconds of wall clock).
+/// The step report (time in seconds of wall clock). r is -grad E_soft over free vertices at an
+/// iterate (R from its local step): r_0 at the prediction, r_K at the start of the last iteration.
 struct PhysicalStepReport {
   int iterations = 0;
-  /// ||r_{K-1}|| / ||r_0||: the gradient norm of E_soft over free vertices at the start of the
-  /// last iteration relative to the first (r is -grad E at the iterate, R from its local step).
+  /// ||r_K|| / ||M g0|| (g0 = 9.81 m/s^2): the force the step leaves unbalanced as a fraction of
+  /// the mesh's weight. 0 at rest and at convergence, whatever the iterations did before.
   double residual = 0;
+  /// ||r_K|| / ||r_0||: what the iterations of this step achieved (~1 at rest, where r_0 ~ 0).
+  double residual_reduction = 0;
   double time_s = 0;
   double local_s = 0;   ///< local steps (rotations, coupling forces)
   double global_s = 0;  ///< residual gathers and global steps
 };
+
+/// The report's residuals from ||r_0|| and ||r_K|| (CPU and CUDA steps alike).
+inline void set_residuals(PhysicalStepReport& report, double r0, double rk, double weight_norm) {
+  report.residual = weight_norm > 0 ? rk / weight_norm : rk;
+  report.residual_reduction = r0 > 0 ? rk / r0 : 0.0;
+}
 
 /// Builds the physical model of a scene. virtual_model: the E_svc pairing (null: no coupling).
 /// Throws InputError for a degenerate tet (zero rest volume) or a bad index.
@@ -140,6 +167,14 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
 PhysicalState make_physical_state(const PhysicalModel& model);  ///< rest, at rest, R = I
 PhysicalWorkspace make_physical_workspace(const PhysicalModel& model);
 PhysicalStepParams physical_params(const SolverSpec& spec);
+PhysicalModelOptions physical_model_options(const SceneSpec& spec);  ///< h, the diagonal
+
+/// The global matrix A over free vertices (nf x nf, rows in free_vertices order; the same for x,
+/// y and z): what the direct method factorises and the Jacobi-type methods' diagonal comes from.
+Eigen::SparseMatrix<double> assemble_global_matrix(const PhysicalModel& model);
+/// sum_b |A(a, b)| per row (D_l1): D_l1 - A is diagonally dominant with a non-negative diagonal,
+/// so D_l1 >= A for every symmetric A.
+std::vector<double> l1_row_sums(const Eigen::SparseMatrix<double>& A);
 
 /// One physical step (Algorithm 1), in place on state.
 ///   virtual_q: #m virtual-mesh positions held fixed for E_svc (empty when num_virtual == 0).
@@ -157,6 +192,13 @@ struct PhysicalEnergy {
 /// virtual_q: #m (empty: no E_svc).
 PhysicalEnergy physical_energy(const PhysicalModel& model, std::span<const Vec3d> x, std::span<const Vec3d> s,
                                std::span<const Vec3d> virtual_q);
+
+/// The health check after a step (STYLE.md's run-time tier): "" when x (#n) is finite and has not
+/// diverged, else one line naming the worst vertex and the worst-shaped tet around it. Diverged:
+/// a vertex farther from its rest position than 10 times the mesh's bounding-box diagonal, or
+/// report.residual above 1e4 (an unbalanced force of 10^4 times the mesh's weight).
+std::string physical_state_problem(const PhysicalModel& model, std::span<const Vec3d> x,
+                                   const PhysicalStepReport& report);
 
 /// Elastic forces -dE_vol/dx (#n, pinned vertices included: their reaction) at x (#n).
 void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> x, std::span<Vec3d> forces);

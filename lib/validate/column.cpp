@@ -65,7 +65,7 @@ ValidationResult run_column() {
   r.data.set("reaction_n", reaction);
   r.data.set("expected_n", expected);
   r.data.set("local_global_iterations", report.iterations);
-  r.data.set("final_relative_residual", report.residual);
+  r.data.set("final_relative_residual", report.residual_reduction);
   return r;
 }
 

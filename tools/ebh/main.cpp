@@ -27,6 +27,9 @@ int main(int argc, char** argv) {
   } catch (const ebh::InputError& e) {
     std::fprintf(stderr, "ebh: error: %s\n", e.what());
     return 1;
+  } catch (const ebh::NumericalError& e) {
+    std::fprintf(stderr, "ebh: error: %s\n", e.what());
+    return 4;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "ebh: internal error: %s\n", e.what());
     return 3;

@@ -174,7 +174,7 @@ set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_
 
 # ebh validate (lib/validate) and ebh table1.
 add_test(NAME cli.validate.list COMMAND ${EBH_BIN} validate --list)
-set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*convergence.*hertz" LABELS cli)
+set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*convergence.*hertz.*stability" LABELS cli)
 add_test(NAME cli.validate.column_json COMMAND ${EBH_BIN} validate column --json)
 set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION "\"passed\": true" LABELS cli)
 
@@ -187,3 +187,35 @@ add_test(NAME gate.catches_rough_forces
   COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1)
 set_tests_properties(gate.catches_rough_forces PROPERTIES
   PASS_REGULAR_EXPRESSION "gap_insert +FAIL.*above the band" LABELS gate TIMEOUT 600)
+
+# Numerical robustness (lib/solver, lib/schedule health checks): the stability matrix's short form,
+# absurd physical values, pinning everything or nothing, the solver's convergence in scene info.
+set(EBH_NUM_OUT ${PROJECT_BINARY_DIR}/cli_numerics)
+file(MAKE_DIRECTORY ${EBH_NUM_OUT})
+add_test(NAME cli.validate.stability COMMAND ${EBH_BIN} validate stability)
+set_tests_properties(cli.validate.stability PROPERTIES PASS_REGULAR_EXPRESSION "stability +error 0\\.000e\\+00 .* passed"
+  LABELS "cli;validate")
+add_test(NAME cli.replay.absurd_gravity
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_NUM_OUT}/g.h5;--duration;0.1;--set;gravity=[0,0,-1e30]"
+    "-DEXPECT=^ebh: error: .*tube.yaml: key 'gravity': \\|g\\| = 1e\\+30 m/s\\^2 is beyond 100 g" -DOUTPUT=${EBH_NUM_OUT}/g.h5
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.replay.absurd_stiffness
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_NUM_OUT}/k.h5;--duration;0.1;--set;stiffness.k_vol=1e200"
+    "-DEXPECT=^ebh: error: .*key 'stiffness.k_vol': 1e\\+200 is beyond 1e12" -DOUTPUT=${EBH_NUM_OUT}/k.h5
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.replay.nothing_pinned_under_gravity
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_NUM_OUT}/p.h5;--duration;0.1;--set;pinned=[];--set;gravity=[0,0,-9.81]"
+    "-DEXPECT=^ebh: error: .*tube.yaml: nothing is pinned, so under gravity the physical mesh has no static equilibrium"
+    -DOUTPUT=${EBH_NUM_OUT}/p.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.replay.absurd_gravity cli.replay.absurd_stiffness cli.replay.nothing_pinned_under_gravity
+  PROPERTIES LABELS cli)
+foreach(method chebyshev direct)
+  add_test(NAME cli.replay.everything_pinned.${method}
+    COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/all_${method}.h5 --duration 0.1 --set solver.method=${method}
+      --set "pinned=[{box: {min: [-100,-100,-100], max: [100,100,100]}}]")
+  set_tests_properties(cli.replay.everything_pinned.${method} PROPERTIES PASS_REGULAR_EXPRESSION "101 ticks, 11 physical steps" LABELS cli)
+endforeach()
+add_test(NAME cli.scene.info_solver COMMAND ${EBH_BIN} scene info gap)
+set_tests_properties(cli.scene.info_solver PROPERTIES
+  PASS_REGULAR_EXPRESSION "histogram +\\[0, 0\\.02\\) 0 .*worst tet +[0-9]+: 0\\.40.*physical solver +bounded diagonal, relaxation 0\\.9: lambda_max\\(D\\^-1 A\\) 2\\.04[0-9]* \\(plain diagonal 2\\.04[0-9]*\\).*iterations per tenfold"
+  LABELS cli)

@@ -5,6 +5,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -196,7 +197,32 @@ class SpecReader {
       }
     }
     if (!top.count("mesh")) fail("mesh", "missing (required: mesh.physical names the physical mesh)");
+    check_physical_limits(s);
     return s;
+  }
+
+  /// Values no tissue has and double arithmetic cannot carry through a step (h^2 k, M g over
+  /// millions of steps) are errors; values merely unusual for soft tissue are warnings
+  /// (physical_warnings, at load_scene).
+  static std::string num(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.6g", v);
+    return b;
+  }
+
+  void check_physical_limits(const SceneSpec& s) const {
+    constexpr double kMaxGravity = 1e3;     // m/s^2, 100 g
+    constexpr double kMaxStiffness = 1e12;  // Pa or N/m: five times steel's Young's modulus
+    constexpr double kMaxDensity = 1e5;     // kg/m^3: five times osmium
+    if (!(norm(s.gravity) <= kMaxGravity))
+      fail("gravity", "|g| = " + num(norm(s.gravity)) + " m/s^2 is beyond 100 g (1000 m/s^2)");
+    const std::pair<const char*, double> k[] = {{"k_vol", s.stiffness.k_vol}, {"k_s", s.stiffness.k_s},
+                                                {"k_svc", s.stiffness.k_svc}, {"k_con", s.stiffness.k_con},
+                                                {"k_vcs", s.stiffness.k_vcs}, {"k_vct", s.stiffness.k_vct}};
+    for (const auto& [name, value] : k)
+      if (value > kMaxStiffness)
+        fail(std::string("stiffness.") + name, num(value) + " is beyond 1e12 (Pa, N/m or N m/rad): no tissue or tool is that stiff");
+    if (s.density > kMaxDensity) fail("material.density", num(s.density) + " kg/m^3 is beyond 1e5");
   }
 
  private:
@@ -456,6 +482,15 @@ Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides
   Scene scene;
   scene.spec = load_scene_spec(file, overrides);
   const SceneSpec& spec = scene.spec;
+  // Soft tissue: shear modulus ~100 Pa (brain) to ~1 MPa (tendon), density ~900-1100 kg/m^3.
+  if (spec.stiffness.k_vol < 10 || spec.stiffness.k_vol > 1e8)
+    scene.warnings.push_back(file.string() + ": stiffness.k_vol = " + std::to_string(spec.stiffness.k_vol) +
+                             " Pa is outside soft tissue's 10 Pa .. 100 MPa");
+  if (spec.density < 100 || spec.density > 3000)
+    scene.warnings.push_back(file.string() + ": material.density = " + std::to_string(spec.density) +
+                             " kg/m^3 is outside soft tissue's 100 .. 3000");
+  if (norm(spec.gravity) > 2 * 9.81)
+    scene.warnings.push_back(file.string() + ": |gravity| = " + std::to_string(norm(spec.gravity)) + " m/s^2 is over 2 g");
   const std::string mesh_file = spec.physical_mesh.string();
 
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres.

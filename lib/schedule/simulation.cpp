@@ -3,6 +3,7 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <utility>
 
@@ -130,7 +131,11 @@ void emit_output(const World& world, HapticSide& h) {
 /// step, at most 25 steps: large sags (a liver hanging from its back strip moves centimetres)
 /// converge slowly under local-global iterations, and the dynamic replay (with its damping)
 /// absorbs what is left, which is then a fraction of a millimetre.
-int settle_under_gravity(const Scene& scene, PhysicalState& state) {
+int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<std::string>& warnings) {
+  const std::string where = scene.spec.file.string();
+  if (scene.pinned.empty())
+    throw InputError(where + ": nothing is pinned, so under gravity the physical mesh has no static equilibrium "
+                             "to start from (pin a region, or set stages.settle: false or gravity: [0, 0, 0])");
   PhysicalModelOptions opt;
   opt.h = 1e3;
   opt.factorize = true;
@@ -140,17 +145,32 @@ int settle_under_gravity(const Scene& scene, PhysicalState& state) {
   PhysicalStepParams params;
   params.method = SolverSpec::Method::Direct;
   params.iterations = 4;
+  constexpr int kMaxSteps = 25;
+  constexpr double kSettled = 5e-6;  // m per static step
   std::vector<Vec3d> before;
+  double moved = 0;
   int steps = 0;
-  for (; steps < 25; ++steps) {
+  while (steps < kMaxSteps) {
     before = state.x;
-    physical_step(statics, ws, state, {}, params);
-    double moved = 0;
+    const PhysicalStepReport report = physical_step(statics, ws, state, {}, params);
+    ++steps;
+    const std::string problem = physical_state_problem(statics, state.x, report);
+    if (!problem.empty())
+      throw NumericalError(where + ": settling under gravity, static step " + std::to_string(steps) + ": " + problem);
+    moved = 0;
     for (std::size_t i = 0; i < before.size(); ++i) moved = std::max(moved, norm(state.x[i] - before[i]));
-    if (moved < 5e-6) break;
+    if (moved < kSettled) break;
+  }
+  if (moved >= kSettled) {
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "%s: settling under gravity stopped at its cap of %d static steps with a vertex still moving "
+                  "%.3g mm per step: the replay starts before the physical mesh has settled",
+                  where.c_str(), kMaxSteps, moved * 1e3);
+    warnings.emplace_back(line);
   }
   for (Vec3d& v : state.v) v = Vec3d{};
-  return steps + 1;
+  return steps;
 }
 
 }  // namespace
@@ -178,7 +198,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->tool = build_tool(w->scene.spec.tool);
   w->initial_physical = make_physical_state(w->physical_mesh);
   if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)
-    w->settle_steps = settle_under_gravity(w->scene, w->initial_physical);
+    w->settle_steps = settle_under_gravity(w->scene, w->initial_physical, w->scene.warnings);
   w->initial_virtual.assign(w->virtual_mesh.rest.size(), Vec3d{});
   paired_points(w->virtual_mesh, w->initial_physical.x, w->initial_virtual);
   return w;

@@ -355,7 +355,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
   PhysicalStepReport report;
   if (model.num_virtual > 0 && virtual_q.size() != size_t(model.num_virtual))
     throw std::invalid_argument("physical_step: virtual_q has the wrong size");
-  if (params.method == SolverSpec::Method::Direct && !model.direct)
+  if (params.method == SolverSpec::Method::Direct && !model.direct && model.num_free > 0)
     throw std::invalid_argument("physical_step: direct method on a model built without factorisation");
 
   double r0 = 0, rk = 0;

@@ -73,7 +73,7 @@ ValidationResult run_column() {
 
 Validation column_validation() {
   return {"column", "pinned ARAP column, 1% compression: top reaction force vs E A delta / L with E = 2 k_vol",
-          run_column};
+          [](const ValidationOptions&) { return run_column(); }};
 }
 
 }  // namespace ebh

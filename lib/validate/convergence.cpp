@@ -123,7 +123,7 @@ ValidationResult run_convergence() {
 Validation convergence_validation() {
   return {"convergence",
           "one physical step of cholecystectomy: jacobi/chebyshev error vs iterations and time, against the direct solve",
-          run_convergence};
+          [](const ValidationOptions&) { return run_convergence(); }};
 }
 
 }  // namespace ebh

@@ -180,7 +180,7 @@ ValidationResult run_hertz() {
 
 Validation hertz_validation() {
   return {"hertz", "rigid sphere pressed into a pinned block: force vs indentation against Hertz, E* = 2 k_vol",
-          run_hertz};
+          [](const ValidationOptions&) { return run_hertz(); }};
 }
 
 }  // namespace ebh

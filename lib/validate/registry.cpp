@@ -8,6 +8,7 @@ const std::vector<Validation>& validations() {
       column_validation(),
       convergence_validation(),
       hertz_validation(),
+      stability_validation(),
   };
   return table;
 }

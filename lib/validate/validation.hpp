@@ -22,10 +22,16 @@ struct ValidationResult {
   Json to_json() const;
 };
 
+/// What `ebh validate` passes to a case (cases that have no use for an option ignore it).
+struct ValidationOptions {
+  bool full = false;            ///< the long form of a stress matrix (--full)
+  std::string backend = "cpu";  ///< cpu | cuda (--backend)
+};
+
 struct Validation {
   std::string name;
   std::string description;  ///< one line: what is compared with what
-  std::function<ValidationResult()> run;
+  std::function<ValidationResult(const ValidationOptions&)> run;
 };
 
 /// Every validation, in the table's order.
@@ -37,5 +43,6 @@ const Validation* find_validation(const std::string& name);
 Validation column_validation();       ///< column.cpp: ARAP column reaction force vs E A delta / L
 Validation convergence_validation();  ///< convergence.cpp: jacobi/chebyshev vs the direct solve
 Validation hertz_validation();        ///< hertz.cpp: sphere indentation force vs Hertz contact theory
+Validation stability_validation();    ///< stability.cpp: replays on sliver meshes, stiffness, solvers, speeds
 
 }  // namespace ebh

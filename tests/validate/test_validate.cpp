@@ -21,7 +21,7 @@ TEST(Validation, RegistryListsEachNameOnce) {
 }
 
 TEST(Validation, ColumnMatchesTheAnalyticReaction) {
-  const ValidationResult r = find_validation("column")->run();
+  const ValidationResult r = find_validation("column")->run({});
   EXPECT_TRUE(r.passed) << r.to_json().dump();
   // Linear tets reproduce the nu = 0 uniaxial solution exactly (column.cpp); what is left is the
   // local-global loop's stopping point after 30 exact iterations at 1 % strain.
@@ -29,7 +29,7 @@ TEST(Validation, ColumnMatchesTheAnalyticReaction) {
 }
 
 TEST(Validation, HertzIndentationForceFollowsTheTheory) {
-  const ValidationResult r = find_validation("hertz")->run();
+  const ValidationResult r = find_validation("hertz")->run({});
   EXPECT_TRUE(r.passed) << r.to_json().dump();
   // The 15% budget is derived in hertz.cpp (finite block, tet size, penalty, small-strain theory).
   EXPECT_LE(r.error, 0.15);

@@ -78,6 +78,7 @@ void run_replay(const ReplayArgs& a) {
   LoadedReplay in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz,
                                        a.allow_outside, backend);
   const World& world = *in.world;
+  for (const std::string& w : world.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
   const double frames_hz = a.frames_hz >= 0 ? a.frames_hz : (world.scene.spec.stages.frames ? 30.0 : 0.0);
   if (a.duration < 0) throw InputError("--duration: expected a positive number of seconds");
   ReplayOptions opt;

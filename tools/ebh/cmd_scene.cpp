@@ -1,6 +1,8 @@
 // `ebh scene info NAME|PATH [--json]`: what a scene holds once loaded: mesh sizes (the paper's
 // Table 1 counts), the virtual mesh, pinned vertices, bounding box in metres, element quality,
 // groups, and any warnings from loading it.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -11,6 +13,8 @@
 #include "io/json.hpp"
 #include "mesh/validate.hpp"
 #include "scene/scene.hpp"
+#include "solver/physical_mesh.hpp"
+#include "solver/virtual_mesh.hpp"
 
 namespace {
 
@@ -39,6 +43,39 @@ void info(const SceneInfoArgs& a) {
   for (const auto& [tag, name] : m.group_names) groups[tag].name = name;
   for (int g : m.tet_group) ++groups[g].tets;
   for (int g : m.triangle_group) ++groups[g].triangles;
+
+  // Element quality: a histogram of the mean ratio and the worst tets; the physical solver's
+  // spectrum on this mesh (what decides whether and how fast its Jacobi-type methods converge).
+  static const double edges[] = {0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0000001};
+  constexpr int kBins = 7;
+  std::vector<long long> histogram(kBins, 0);
+  std::vector<std::pair<double, int>> by_quality;
+  for (int t = 0; t < static_cast<int>(m.tets.size()); ++t) {
+    const ebh::Tet& c = m.tets[t];
+    const double q = ebh::tet_mean_ratio(m.vertices[c[0]], m.vertices[c[1]], m.vertices[c[2]], m.vertices[c[3]]);
+    by_quality.emplace_back(q, t);
+    for (int b = 0; b < kBins; ++b)
+      if (q < edges[b + 1]) { ++histogram[b]; break; }
+  }
+  const std::size_t shown = std::min<std::size_t>(5, by_quality.size());
+  std::partial_sort(by_quality.begin(), by_quality.begin() + shown, by_quality.end());
+  auto centroid = [&](int t) {
+    ebh::Vec3d c{};
+    for (int v : m.tets[t]) c += 0.25 * m.vertices[v];
+    return c;
+  };
+  const ebh::VirtualModel vm = ebh::build_virtual_model(scene);
+  ebh::PhysicalModelOptions options = ebh::physical_model_options(scene.spec);
+  options.factorize = false;
+  options.diagonal = ebh::SolverSpec::Diagonal::Plain;
+  const ebh::PhysicalModel plain = ebh::build_physical_model(scene, &vm, options);
+  options.diagonal = scene.spec.solver.diagonal;
+  const ebh::PhysicalModel model = ebh::build_physical_model(scene, &vm, options);
+  const double gamma = ebh::physical_params(scene.spec.solver).relaxation;
+  const double rate = model.spectrum.jacobi_rate(gamma);
+  const double tenfold = rate < 1 ? std::log(0.1) / std::log(rate) : INFINITY;
+  const bool diverges = gamma * plain.spectrum.lambda_max >= 2;
+  const char* diagonal = scene.spec.solver.diagonal == ebh::SolverSpec::Diagonal::Plain ? "plain" : "bounded";
 
   const long long tets = static_cast<long long>(m.tets.size());
   const long long boundary = report.boundary_faces;
@@ -71,7 +108,38 @@ void info(const SceneInfoArgs& a) {
     q.set("worst", report.quality_worst);
     q.set("mean", report.quality_mean);
     q.set("worst_tet", report.worst_tet);
+    ebh::Json h = ebh::Json::array();
+    for (int b = 0; b < kBins; ++b) {
+      ebh::Json e = ebh::Json::object();
+      e.set("from", edges[b]);
+      e.set("to", std::min(edges[b + 1], 1.0));
+      e.set("tets", histogram[b]);
+      h.push(std::move(e));
+    }
+    q.set("histogram", std::move(h));
+    ebh::Json worst = ebh::Json::array();
+    for (std::size_t i = 0; i < shown; ++i) {
+      ebh::Json e = ebh::Json::object();
+      const ebh::Vec3d c = centroid(by_quality[i].second);
+      e.set("tet", by_quality[i].second);
+      e.set("quality", by_quality[i].first);
+      e.set("centroid_m", ebh::Json::array_of(std::vector<double>{c.x, c.y, c.z}));
+      worst.push(std::move(e));
+    }
+    q.set("worst_tets", std::move(worst));
     j.set("quality", std::move(q));
+    ebh::Json sv = ebh::Json::object();
+    sv.set("diagonal", diagonal);
+    sv.set("relaxation", gamma);
+    sv.set("lambda_max_plain", plain.spectrum.lambda_max);
+    sv.set("plain_diverges", diverges);
+    sv.set("theta", model.diag_theta);
+    sv.set("bounded_rows", model.diag_bounded_rows);
+    sv.set("lambda_min", model.spectrum.lambda_min);
+    sv.set("lambda_max", model.spectrum.lambda_max);
+    sv.set("jacobi_rate", rate);
+    sv.set("iterations_per_tenfold", tenfold);
+    j.set("solver", std::move(sv));
     ebh::Json g = ebh::Json::array();
     for (const auto& [tag, c] : groups) {
       ebh::Json e = ebh::Json::object();
@@ -103,6 +171,19 @@ void info(const SceneInfoArgs& a) {
               hi.x, hi.y, hi.z, hi.x - lo.x, hi.y - lo.y, hi.z - lo.z);
   std::printf("quality          mean ratio: worst %.4f (tet %d), mean %.4f\n", report.quality_worst, report.worst_tet,
               report.quality_mean);
+  std::printf("  histogram     ");
+  for (int b = 0; b < kBins; ++b) std::printf(" [%.2g, %.2g) %lld", edges[b], std::min(edges[b + 1], 1.0), histogram[b]);
+  std::printf("\n");
+  for (std::size_t i = 0; i < shown; ++i) {
+    const ebh::Vec3d c = centroid(by_quality[i].second);
+    std::printf("  worst tet      %d: %.4f at [%.6g, %.6g, %.6g] m\n", by_quality[i].second, by_quality[i].first, c.x, c.y, c.z);
+  }
+  std::printf("physical solver  %s diagonal, relaxation %.2g: lambda_max(D^-1 A) %.4f (plain diagonal %.4f%s)\n", diagonal,
+              gamma, model.spectrum.lambda_max, plain.spectrum.lambda_max, diverges ? ": diverges" : "");
+  if (model.diag_theta > 0)
+    std::printf("  bounded        theta %.4f raised %d of %d rows\n", model.diag_theta, model.diag_bounded_rows, model.num_free);
+  std::printf("  convergence    relaxed Jacobi error x%.4f per iteration (lambda_min %.3g): %.0f iterations per tenfold\n",
+              rate, model.spectrum.lambda_min, tenfold);
   std::printf("groups\n");
   for (const auto& [tag, c] : groups)
     std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n", c.name.empty() ? "(unnamed)" : c.name.c_str(), tag,
@@ -113,7 +194,7 @@ void setup(CLI::App& root) {
   CLI::App* scene = root.add_subcommand("scene", "Inspect scenes (scenarios/NAME.yaml)");
   scene->require_subcommand(1);
   auto args = std::make_shared<SceneInfoArgs>();
-  CLI::App* c = scene->add_subcommand("info", "Load a scene and print its mesh sizes, pinned vertices, bounding box and quality");
+  CLI::App* c = scene->add_subcommand("info", "Load a scene and print its mesh sizes, pinned vertices, bounding box, quality and the physical solver's convergence on it");
   c->add_option("scene", args->scene, "scene name (scenarios/NAME.yaml) or path to a scene file")->required();
   c->add_flag("--json", args->json, "print JSON instead of text");
   c->callback([args] { info(*args); });

@@ -6,6 +6,7 @@
 
 #include "command.hpp"
 #include "io/error.hpp"
+#include "replay_common.hpp"
 #include "validate/validation.hpp"
 
 namespace {
@@ -14,6 +15,7 @@ struct Options {
   std::string name;
   bool json = false;
   bool list = false;
+  ebh::ValidationOptions validation;
 };
 
 void run(const Options& o) {
@@ -23,6 +25,7 @@ void run(const Options& o) {
     return;
   }
   if (o.name.empty()) throw InputError("validate: name a validation, 'all', or use --list");
+  cli::check_backend(o.validation.backend);
   std::vector<const Validation*> chosen;
   if (o.name == "all") {
     for (const Validation& v : validations()) chosen.push_back(&v);
@@ -34,7 +37,7 @@ void run(const Options& o) {
   bool all_passed = true;
   Json results = Json::array();
   for (const Validation* v : chosen) {
-    const ValidationResult r = v->run();
+    const ValidationResult r = v->run(o.validation);
     all_passed = all_passed && r.passed;
     if (o.json) {
       results.push(r.to_json());
@@ -53,6 +56,9 @@ void setup(CLI::App& root) {
   cmd->add_option("name", opts->name, "validation name, or 'all'");
   cmd->add_flag("--json", opts->json, "print results as JSON (an array of {name, error, tolerance, passed, data})");
   cmd->add_flag("--list", opts->list, "list the validations");
+  cmd->add_flag("--full", opts->validation.full, "the long form of the stress matrices (stability: every recording, mesh, solver)");
+  cmd->add_option("--backend", opts->validation.backend, "cpu or cuda: where the iterative solvers run (stability)")
+      ->check(CLI::IsMember({"cpu", "cuda"}));
   cmd->callback([opts] { run(*opts); });
 }
 

@@ -255,6 +255,11 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
   double w2 = 0;
   for (int a : M.free_vertices) w2 += (M.mass[a] * kStandardGravity) * (M.mass[a] * kStandardGravity);
   M.weight_norm = std::sqrt(w2);
+  if (n > 0) {
+    Vec3d lo = M.rest[0], hi = M.rest[0];
+    for (const Vec3d& p : M.rest) { lo = cwise_min(lo, p); hi = cwise_max(hi, p); }
+    M.rest_diagonal = norm(hi - lo);
+  }
 
   // Incidence vertex -> (tet, corner), in (tet, corner) order.
   build_csr(n, 4 * T, [&](int e, auto add) { add(M.tets[e >> 2][e & 3]); }, M.tet_offsets, M.tet_entries);
@@ -401,16 +406,17 @@ std::string physical_state_problem(const PhysicalModel& model, std::span<const V
   constexpr double kDivergedExtent = 10.0;  // bounding-box diagonals
   constexpr double kDivergedResidual = 1e4;  // mesh weights
   if (model.num_vertices == 0) return "";
-  Vec3d lo = model.rest[0], hi = model.rest[0];
-  for (const Vec3d& p : model.rest) { lo = cwise_min(lo, p); hi = cwise_max(hi, p); }
-  const double diagonal = norm(hi - lo);
-  int worst = -1;
-  double moved = 0;
+  int worst = 0;
+  double moved2 = 0;  // squared: one square root for the worst vertex only
   for (int a = 0; a < model.num_vertices; ++a) {
-    const double d = norm(x[a] - model.rest[a]);
-    if (!std::isfinite(d)) { worst = a; moved = d; break; }
-    if (d > moved) { moved = d; worst = a; }
+    const double d2 = squared_norm(x[a] - model.rest[a]);
+    if (!(d2 <= moved2)) {  // also takes NaN, and stops there
+      worst = a;
+      moved2 = d2;
+      if (!std::isfinite(d2)) break;
+    }
   }
+  const double moved = std::sqrt(moved2), diagonal = model.rest_diagonal;
   std::string what;
   if (!std::isfinite(moved)) what = "is not finite";
   else if (moved > kDivergedExtent * diagonal) what = "diverged";

@@ -7,6 +7,7 @@
 // an InputError whose what() is one line: "FILE:LINE: what (element id N)" (the element or node id
 // is named when one is known).
 #include <filesystem>
+#include <string>
 
 #include "mesh/tet_mesh.hpp"
 
@@ -25,6 +26,11 @@ namespace ebh {
 /// Throws InputError for binary files, unsupported versions, malformed or truncated sections,
 /// references to unknown nodes, duplicate node ids, and a file with no tetrahedra.
 TetMesh read_msh(const std::filesystem::path& file);
+
+/// The Gmsh ASCII 2.2 text of `mesh` with positions multiplied by `scale` (metres -> file units),
+/// its triangles and tets with their physical group tags and $PhysicalNames: read_msh reads it
+/// back to the same vertices (to the last bit: %.17g), elements and groups.
+std::string msh22_text(const TetMesh& mesh, double scale = 1.0);
 
 /// Reads the `v` and `f` lines of a Wavefront OBJ file; every other line is ignored.
 /// Faces may be written `f a b c`, `a/t`, `a/t/n` or `a//n`, with 1-based or negative

@@ -1,10 +1,15 @@
 // degrade_mesh_quality: the worst tet reaches the target and goes no lower, the boundary and the
-// fixed vertices do not move, no tet inverts, the same seed gives the same mesh.
+// fixed vertices do not move, no tet inverts, the same seed gives the same mesh; msh22_text writes
+// such a mesh so that read_msh gets the same bits back.
 #include <gtest/gtest.h>
+
+#include <filesystem>
 
 #include "mesh/boundary.hpp"
 #include "mesh/degrade.hpp"
+#include "mesh/mesh_io.hpp"
 #include "mesh/validate.hpp"
+#include "test_util.hpp"
 
 namespace ebh {
 namespace {
@@ -54,6 +59,27 @@ TEST(Degrade, ReachesTheTargetQualityWithoutInvertingOrMovingTheBoundary) {
     degrade_mesh_quality(again, fixed, o);
     EXPECT_EQ(again.vertices, m.vertices);  // deterministic
   }
+}
+
+}  // namespace
+}  // namespace ebh
+
+namespace ebh {
+namespace {
+
+TEST(WriteMsh, ADegradedSceneMeshReadsBackToTheSameBits) {
+  TetMesh m = read_msh(std::filesystem::path(EBH_SOURCE_DIR) / "scenarios" / "tube.msh");
+  DegradeOptions o;
+  o.target_quality = 0.02;
+  degrade_mesh_quality(m, {}, o);
+  const TetMesh back = read_msh(test::write_temp("tube_q0.02.msh", msh22_text(m)));
+  EXPECT_EQ(back.vertices, m.vertices);
+  EXPECT_EQ(back.tets, m.tets);
+  EXPECT_EQ(back.tet_group, m.tet_group);
+  EXPECT_EQ(back.triangles, m.triangles);
+  EXPECT_EQ(back.triangle_group, m.triangle_group);
+  EXPECT_EQ(back.group_names, m.group_names);
+  EXPECT_NEAR(validate_mesh(back).quality_worst, 0.02, 1e-9);
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include "energy/polar_svd.hpp"
 #include "energy/rotation.hpp"
 #include "io/error.hpp"
+#include "mesh/degrade.hpp"
 #include "scene/scene.hpp"
 #include "solver/box_mesh.hpp"
 #include "solver/physical_mesh.hpp"
@@ -30,7 +31,8 @@ struct Loaded {
   PhysicalState start;
 };
 
-/// Loads a scene once ("box8k" is generated: 10 x 10 x 13 cells, 7800 tets). Null if missing.
+/// Loads a scene once ("box8k" is generated: 10 x 10 x 13 cells, 7800 tets; "NAME@Q" is scene
+/// NAME with its physical mesh degraded to a worst mean ratio Q, mesh/degrade.hpp). Null if missing.
 const Loaded* load(const std::string& name, std::string& error) {
   static std::map<std::string, std::unique_ptr<Loaded>> cache;
   static std::map<std::string, std::string> errors;
@@ -44,11 +46,19 @@ const Loaded* load(const std::string& name, std::string& error) {
       for (int i = 0; i < static_cast<int>(L->scene.physical.vertices.size()); ++i)
         if (L->scene.physical.vertices[i].z == 0.0) L->scene.pinned.push_back(i);
     } else {
-      L->scene = load_scene(resolve_scene_path(name));
+      const std::size_t at = name.find('@');
+      L->scene = load_scene(resolve_scene_path(name.substr(0, at)));
+      if (at != std::string::npos) {
+        std::vector<std::uint8_t> fixed(L->scene.physical.vertices.size(), 0);
+        for (int p : L->scene.pinned) fixed[p] = 1;
+        DegradeOptions d;
+        d.target_quality = std::stod(name.substr(at + 1));
+        degrade_mesh_quality(L->scene.physical, fixed, d);
+      }
     }
     L->vm = build_virtual_model(L->scene);
-    PhysicalModelOptions options;
-    options.h = 1.0 / L->scene.spec.physical_hz;
+    PhysicalModelOptions options = physical_model_options(L->scene.spec);
+    options.factorize = true;  // every method is benchmarked on it
     L->pm = build_physical_model(L->scene, &L->vm, options);
   } catch (const std::exception& e) {
     errors[name] = error = e.what();
@@ -88,6 +98,30 @@ void BM_PhysicalStep(benchmark::State& st, std::string scene, SolverSpec::Method
   st.counters["tets"] = L->pm.num_tets;
   st.counters["local_ms"] = 1e3 * local / st.iterations();
   st.counters["global_ms"] = 1e3 * global / st.iterations();
+}
+
+/// What the replay adds after every physical step: the health check (physical_state_problem).
+void BM_HealthCheck(benchmark::State& st, std::string scene) {
+  std::string error;
+  const Loaded* L = load(scene, error);
+  if (!L) { st.SkipWithError(error.c_str()); return; }
+  PhysicalStepReport report;
+  for (auto _ : st) benchmark::DoNotOptimize(physical_state_problem(L->pm, L->start.x, report));
+  st.counters["vertices"] = L->pm.num_vertices;
+}
+
+/// Building the physical model: the global matrix, the diagonal (with the bounded one's Lanczos
+/// estimates) and, for the direct method, its factorisation.
+void BM_PhysicalModelBuild(benchmark::State& st, std::string scene, SolverSpec::Diagonal diagonal, bool factorize) {
+  std::string error;
+  const Loaded* L = load(scene, error);
+  if (!L) { st.SkipWithError(error.c_str()); return; }
+  PhysicalModelOptions options = physical_model_options(L->scene.spec);
+  options.diagonal = diagonal;
+  options.factorize = factorize;
+  double theta = 0;
+  for (auto _ : st) theta = build_physical_model(L->scene, &L->vm, options).diag_theta;
+  st.counters["theta"] = theta;
 }
 
 /// One haptic tick of the virtual mesh: begin (E_svc targets, prediction), 4 iterations against
@@ -166,5 +200,14 @@ EBH_SCENE_BENCH(tube)
 EBH_SCENE_BENCH(gap)
 EBH_SCENE_BENCH(cholecystectomy)
 EBH_SCENE_BENCH(gynaecology)
+
+// Meshes with slivers (the bounded diagonal at work; the plain one diverges on them).
+BENCHMARK_CAPTURE(BM_PhysicalStep, cholecystectomy_q002_chebyshev, "cholecystectomy@0.02", SolverSpec::Method::Chebyshev)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_PhysicalStep, cholecystectomy_q002_direct, "cholecystectomy@0.02", SolverSpec::Method::Direct)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_HealthCheck, tube, "tube")->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_HealthCheck, cholecystectomy, "cholecystectomy")->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_PhysicalModelBuild, cholecystectomy_plain, "cholecystectomy", SolverSpec::Diagonal::Plain, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_PhysicalModelBuild, cholecystectomy_bounded, "cholecystectomy", SolverSpec::Diagonal::Bounded, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_PhysicalModelBuild, cholecystectomy_q002_bounded, "cholecystectomy@0.02", SolverSpec::Diagonal::Bounded, false)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -9,12 +9,14 @@
 // and counts what went wrong: non-finite states and blow-ups (the replay's health checks,
 // schedule/simulation.hpp: check_physical_step), and the deepest penetration of the virtual tool.
 // It also compares the force of each iterative case with the direct solve's on the same mesh,
-// stiffness and motion (RMS over the window).
+// stiffness and motion (RMS over the window; -1 where either stopped).
 // Passed when no case is non-finite or blows up. The short form (the default, ~1 minute on two
 // cores) takes tube_insert and gap_insert, the 0.02 mesh, chebyshev; --full every committed
-// recording and every value above (long: hours on two cores).
+// recording and every value above (long: about an hour on two cores); --recording NAME (repeated)
+// replaces the list of recordings.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -30,14 +32,6 @@ namespace {
 constexpr double kWindow = 0.3;        // s of each recording replayed
 constexpr double kTeleport = 0.01;     // m
 constexpr double kFastSpeed = 1.0;     // m/s
-
-struct Case {
-  std::string recording;
-  double quality = 1;       // 1: the scene's own mesh
-  double stiffness = 1;     // k_vol factor
-  std::string method;
-  std::string motion;       // recorded | fast | teleport
-};
 
 /// Records the force per tick and the deepest penetration.
 struct Trace : ReplayObserver {
@@ -79,36 +73,51 @@ struct Outcome {
   std::vector<Vec3d> force;
 };
 
-Outcome run_case(const Case& c, const ValidationOptions& options) {
-  Outcome out;
-  const std::string rec_path = resolve_recording_path(c.recording);
-  const Recording rec = read_recording(rec_path);
-  std::vector<std::string> overrides = {"solver.method=" + c.method};
-  Scene scene = load_scene(resolve_scene_path(rec.scene), overrides);
-  scene.spec.stiffness.k_vol *= c.stiffness;
-  if (c.quality < 1) {
+/// The scene of `rec` with the case's mesh, stiffness and method.
+Scene case_scene(const Recording& rec, double quality, double stiffness, const std::string& method, Vec3d* centre) {
+  Scene scene = load_scene(resolve_scene_path(rec.scene), {"solver.method=" + method});
+  scene.spec.stiffness.k_vol *= stiffness;
+  if (quality < 1) {
     std::vector<std::uint8_t> fixed(scene.physical.vertices.size(), 0);
     for (int p : scene.pinned) fixed[p] = 1;
     DegradeOptions d;
-    d.target_quality = c.quality;
+    d.target_quality = quality;
     degrade_mesh_quality(scene.physical, fixed, d);
   }
-  Vec3d centre{};
-  for (const Vec3d& v : scene.physical.vertices) centre += v / static_cast<double>(scene.physical.vertices.size());
+  *centre = Vec3d{};
+  for (const Vec3d& v : scene.physical.vertices) *centre += v / static_cast<double>(scene.physical.vertices.size());
+  return scene;
+}
+
+/// Replays every motion on one world (its building, settling included, is most of a case's cost).
+std::vector<Outcome> run_motions(const Recording& rec, double quality, double stiffness, const std::string& method,
+                                 const std::vector<std::string>& motions, Backend backend) {
+  std::vector<Outcome> out(motions.size());
+  Vec3d centre;
+  Scene scene = case_scene(rec, quality, stiffness, method, &centre);
   const double hz_h = scene.spec.haptic_hz, hz_p = scene.spec.physical_hz;
-  const Backend backend = options.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
-  Trace trace;
+  std::shared_ptr<const World> world;
+  std::string build_error;
   try {
-    const auto world = build_world(std::move(scene), hz_h, hz_p, c.method == "direct" ? Backend::Cpu : backend);
-    ReplayOptions opt;
-    opt.duration = kWindow;
-    replay(*world, window(rec, c.motion, centre), opt, trace);
-  } catch (const NumericalError& e) {
-    out.error = e.what();
-    (out.error.find("not finite") != std::string::npos ? out.nonfinite : out.blowup) = true;
+    world = build_world(std::move(scene), hz_h, hz_p, method == "direct" ? Backend::Cpu : backend);
+  } catch (const NumericalError& e) {  // settling under gravity blew up
+    build_error = e.what();
   }
-  out.penetration = trace.penetration;
-  out.force = std::move(trace.force);
+  for (std::size_t i = 0; i < motions.size(); ++i) {
+    Outcome& o = out[i];
+    Trace trace;
+    try {
+      if (!world) throw NumericalError(build_error);
+      ReplayOptions opt;
+      opt.duration = kWindow;
+      replay(*world, window(rec, motions[i], centre), opt, trace);
+    } catch (const NumericalError& e) {
+      o.error = e.what();
+      (o.error.find("not finite") != std::string::npos ? o.nonfinite : o.blowup) = true;
+    }
+    o.penetration = trace.penetration;
+    o.force = std::move(trace.force);
+  }
   return out;
 }
 
@@ -129,39 +138,46 @@ ValidationResult run_stability(const ValidationOptions& options) {
     qualities = {1, 0.05, 0.02, 0.01};
     methods = {"jacobi", "chebyshev"};
   }
+  if (!options.recordings.empty()) recordings = options.recordings;
+  const Backend backend = options.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   ValidationResult r;
   r.name = "stability";
   int cases = 0, nonfinite = 0, blowups = 0;
   double max_penetration = 0, max_rms = 0;
   Json rows = Json::array();
-  for (const std::string& rec : recordings)
+  for (const std::string& name : recordings) {
+    const Recording rec = read_recording(resolve_recording_path(name));
     for (double q : qualities)
-      for (double k : stiffnesses)
-        for (const std::string& motion : motions) {
-          const Outcome direct = run_case({rec, q, k, "direct", motion}, options);
-          for (const std::string& method : methods) {
-            const Outcome o = run_case({rec, q, k, method, motion}, options);
+      for (double k : stiffnesses) {
+        // The direct solve on the same mesh, stiffness and motions: the force reference.
+        const std::vector<Outcome> direct = run_motions(rec, q, k, "direct", motions, backend);
+        for (const std::string& method : methods) {
+          const std::vector<Outcome> outcomes = run_motions(rec, q, k, method, motions, backend);
+          for (std::size_t i = 0; i < motions.size(); ++i) {
+            const Outcome& o = outcomes[i];
             ++cases;
             nonfinite += o.nonfinite;
             blowups += o.blowup;
             max_penetration = std::max(max_penetration, o.penetration);
-            const double rms = o.error.empty() && direct.error.empty() ? force_rms(o.force, direct.force) : NAN;
-            if (std::isfinite(rms)) max_rms = std::max(max_rms, rms);
+            const double rms = o.error.empty() && direct[i].error.empty() ? force_rms(o.force, direct[i].force) : -1.0;
+            max_rms = std::max(max_rms, rms);
             Json row = Json::object();
-            row.set("recording", rec);
+            row.set("recording", name);
             row.set("quality", q);
             row.set("k_vol_factor", k);
             row.set("method", method);
-            row.set("motion", motion);
+            row.set("motion", motions[i]);
             row.set("ticks", static_cast<long long>(o.force.size()));
             row.set("nonfinite", o.nonfinite);
             row.set("blowup", o.blowup);
             row.set("error", o.error);
             row.set("max_penetration_m", o.penetration);
-            row.set("force_rms_vs_direct_n", std::isfinite(rms) ? rms : -1.0);
+            row.set("force_rms_vs_direct_n", rms);
             rows.push(std::move(row));
           }
         }
+      }
+  }
   r.error = nonfinite + blowups;
   r.tolerance = 0;
   r.passed = nonfinite == 0 && blowups == 0;

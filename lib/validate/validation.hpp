@@ -26,6 +26,7 @@ struct ValidationResult {
 struct ValidationOptions {
   bool full = false;            ///< the long form of a stress matrix (--full)
   std::string backend = "cpu";  ///< cpu | cuda (--backend)
+  std::vector<std::string> recordings;  ///< replaces a stress matrix's recordings (--recording)
 };
 
 struct Validation {

@@ -59,6 +59,7 @@ void setup(CLI::App& root) {
   cmd->add_flag("--full", opts->validation.full, "the long form of the stress matrices (stability: every recording, mesh, solver)");
   cmd->add_option("--backend", opts->validation.backend, "cpu or cuda: where the iterative solvers run (stability)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
+  cmd->add_option("--recording", opts->validation.recordings, "replay only these recordings (stability; repeat the option)");
   cmd->callback([opts] { run(*opts); });
 }
 

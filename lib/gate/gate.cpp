@@ -11,6 +11,7 @@
 
 #include "io/atomic.hpp"
 #include "io/error.hpp"
+#include "io/paths.hpp"
 #include "metrics/replay_trace.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/replay_output.hpp"
@@ -42,6 +43,7 @@ std::string fmt(double v) {
 }  // namespace
 
 GateBaselines read_gate_baselines(const std::string& path) {
+  check_input_file(path);
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);
@@ -112,15 +114,9 @@ void write_gate_baselines(const std::string& path, const GateBaselines& b) {
     y << YAML::EndMap;
   }
   y << YAML::EndSeq << YAML::EndMap;
-  AtomicOutput out(path);
-  {
-    std::ofstream f(out.temp_path());
-    f << "# Force-smoothness gate baselines (lib/gate/gate.hpp). Regenerate with\n"
-         "# scripts/make_gate_baselines.sh; do not edit the metrics by hand.\n"
-      << y.c_str() << "\n";
-    if (!f) throw InputError(path + ": cannot write");
-  }
-  out.commit();
+  write_file_atomically(path, std::string("# Force-smoothness gate baselines (lib/gate/gate.hpp). Regenerate with\n"
+                                           "# scripts/make_gate_baselines.sh; do not edit the metrics by hand.\n") +
+                                   y.c_str() + "\n");
 }
 
 GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides) {

@@ -203,7 +203,9 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   // A range of zero (nothing moved) maps everything to the colour map's bottom.
   const double scale = summary.displacement_range > 0 ? 1.0 / summary.displacement_range : 0.0;
 
-  fs::create_directories(dir);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir + ": cannot create the folder: " + ec.message());
   if (!fs::is_directory(dir)) throw InputError(dir + ": not a directory");
   for (const auto& e : fs::directory_iterator(dir)) {
     const std::string n = e.path().filename().string();

@@ -96,14 +96,7 @@ std::string write_xdmf(const std::string& replay_h5_path) {
                h5, frames.t);
   o << "  </Domain>\n</Xdmf>\n";
 
-  AtomicOutput out(out_path);
-  {
-    std::ofstream file(out.temp_path(), std::ios::binary);
-    file << o.str();
-    file.flush();
-    if (!file) throw InputError(out_path + ": cannot write the XDMF file");
-  }
-  out.commit();
+  write_file_atomically(out_path, o.str());
   return out_path;
 }
 

@@ -1,6 +1,5 @@
 #include "io/paths.hpp"
 
-#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -23,10 +22,30 @@ bool same_file(const std::string& a, const std::string& b) {
   return ca == cb;
 }
 
+namespace {
+
+// The output can be created where it is asked for: its nearest existing ancestor is a folder this
+// process may write in (AtomicOutput finds the same later; this says it before the work).
+void check_output_location(const std::string& path) {
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  while (!fs::exists(dir, ec) && dir.has_parent_path() && dir.parent_path() != dir) dir = dir.parent_path();
+  if (!fs::exists(dir, ec) && dir.is_relative()) dir = ".";
+  int err = 0;
+  if (!fs::is_directory(dir, ec)) err = ENOTDIR;
+  else if (::access(dir.c_str(), W_OK | X_OK) != 0) err = errno;
+  if (err) throw InputError(path + ": cannot create the output: " + os_reason(err));
+  if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write the output: " + os_reason(EISDIR));
+}
+
+}  // namespace
+
 void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleFile>& inputs) {
   for (std::size_t i = 0; i < outputs.size(); ++i) {
     const RoleFile& out = outputs[i];
     if (out.path.empty()) continue;
+    check_output_location(out.path);
     for (const RoleFile& in : inputs)
       if (same_file(out.path, in.path))
         throw InputError(out.path + ": the output would replace " + in.role + " " + in.path +

@@ -19,7 +19,8 @@ bool same_file(const std::string& a, const std::string& b);
 
 /// Throws InputError "OUT: the output would replace ROLE IN, an input of this command; choose another
 /// output file" when an output is the same file as an input, and "OUT: is both ROLE1 and ROLE2" when
-/// two outputs are. Empty paths are skipped.
+/// two outputs are; "OUT: cannot create the output: Not a directory" (or another OS reason) when it
+/// cannot be created there. Empty paths are skipped. Commands call it before any work.
 void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleFile>& inputs);
 
 /// Throws InputError "PATH: why" unless `path` names a file that can be read: it must exist ("cannot

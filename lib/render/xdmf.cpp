@@ -8,6 +8,7 @@
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
 #include "io/error.hpp"
+#include "io/paths.hpp"
 #include "render/replay_frames.hpp"
 
 namespace ebh {
@@ -79,8 +80,9 @@ std::string xdmf_path_for(const std::string& replay_h5_path) {
 }
 
 std::string write_xdmf(const std::string& replay_h5_path) {
-  const ReplayFrames frames = open_replay_frames(replay_h5_path);
   const std::string out_path = xdmf_path_for(replay_h5_path);
+  check_outputs({{out_path, "the XDMF index"}}, {{replay_h5_path, "the replay"}});
+  const ReplayFrames frames = open_replay_frames(replay_h5_path);
   const std::string h5 = xml_escape(fs::path(replay_h5_path).filename().string());
 
   std::ostringstream o;

@@ -133,6 +133,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
     meta.recording = in.recording_path;
     meta.overrides = overrides;
     const double dur = std::min(c.duration, in.recording.duration() - c.start);
+    check_replay_size(*in.world, dur, 0, in.recording_path, tmp.string());
     ReplayWriter writer(tmp.string(), *in.world, meta, tick_count(*in.world, dur), false);
     const ReplaySummary s = replay(*in.world, in.recording, opt, writer);
     writer.commit(s);

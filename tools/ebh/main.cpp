@@ -1,6 +1,7 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
 #include <cstdio>
 #include <exception>
+#include <new>
 
 #include "command.hpp"
 #include "ebh/version.hpp"
@@ -21,14 +22,20 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // A bad command line is bad input like any other: one line, exit status 1.
+    std::fprintf(stderr, "ebh: error: %s\n", ebh::escape_unprintable(e.what()).c_str());
+    return 1;
   } catch (const ebh::cli::ExitRequest& e) {
     return e.code;
   } catch (const ebh::InputError& e) {
     std::fprintf(stderr, "ebh: error: %s\n", e.what());
     return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "ebh: error: out of memory\n");
+    return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "ebh: internal error: %s\n", e.what());
+    std::fprintf(stderr, "ebh: internal error: %s\n", ebh::escape_unprintable(e.what()).c_str());
     return 3;
   }
   return 0;

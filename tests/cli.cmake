@@ -294,3 +294,9 @@ ebh_safety(import_binary "^ebh: error: .*rec.h5:2: byte 0x1a: not a text file"
   OUTPUT ${S}/o.h5 KEEP ${S}/rec.h5 CMD ${EBH_BIN} import ${S}/rec.h5 -o ${S}/o.h5 --format csv)
 ebh_safety(import_unknown_scene "^ebh: error: --scene: nosuchscene: no such scene"
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} import ${S}/log.csv -o ${S}/o.h5 --scene nosuchscene)
+# What a command prints is an output too: JSON into a full disk (/dev/full) is an error.
+if(EXISTS /dev/full)
+  file(WRITE ${EBH_SAFE}/to_full.sh "exec \"$@\" > /dev/full\n")
+  ebh_safety(stdout_full "^ebh: error: standard output: No space left on device"
+    CMD sh ${S}/to_full.sh ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml --json)
+endif()

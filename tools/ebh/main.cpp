@@ -1,5 +1,7 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <new>
 
@@ -14,11 +16,10 @@ std::vector<CommandSetup>& command_registry() {
 }
 }  // namespace ebh::cli
 
-int main(int argc, char** argv) {
-  CLI::App app{"ebh: energy-based haptic rendering for surgical simulation (batch replay, validation, benchmarks)"};
-  app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
-  app.require_subcommand(1);
-  for (auto setup : ebh::cli::command_registry()) setup(app);
+namespace {
+
+/// Parses and runs the command; returns the exit status (1 bad input, 3 internal error).
+int run(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -39,4 +40,23 @@ int main(int argc, char** argv) {
     return 3;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ebh: energy-based haptic rendering for surgical simulation (batch replay, validation, benchmarks)"};
+  app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
+  app.require_subcommand(1);
+  for (auto setup : ebh::cli::command_registry()) setup(app);
+  const int status = run(app, argc, argv);
+  // What a command prints (a table, JSON) is an output too: a write that failed (a full disk under
+  // a redirection) is an error, not a truncated file and exit status 0.
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    const int err = errno;
+    std::fprintf(stderr, "ebh: error: standard output: %s\n", err ? std::strerror(err) : "write error");
+    return status == 0 ? 1 : status;
+  }
+  return status;
 }

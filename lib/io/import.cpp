@@ -229,7 +229,8 @@ void parse_transform(const std::string& text, double unit_m, ImportOptions& opt)
 
 Recording import_log(const std::string& path, const ImportOptions& opt) {
   if (!(opt.rate_hz > 0 && opt.rate_hz <= kMaxSampleRateHz))
-    throw InputError("--rate: expected a number in (0, " + std::to_string(static_cast<long>(kMaxSampleRateHz)) + "] Hz");
+    throw InputError("--rate: expected a number in (0, " + std::to_string(static_cast<long>(kMaxSampleRateHz)) +
+                     "] Hz");
   const LogFormat fmt = opt.format ? *opt.format : (ends_with(path, ".csv") ? LogFormat::csv : LogFormat::openhaptics);
   const double unit = opt.unit ? *opt.unit : (fmt == LogFormat::openhaptics ? 1e-3 : 1.0);
   Recording rec;

@@ -15,7 +15,8 @@ namespace fs = std::filesystem;
 bool same_file(const std::string& a, const std::string& b) {
   if (a.empty() || b.empty()) return false;
   struct stat sa {}, sb {};
-  if (::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+  if (::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0)
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
   std::error_code ea, eb;
   const fs::path ca = fs::weakly_canonical(fs::absolute(a, ea), ea), cb = fs::weakly_canonical(fs::absolute(b, eb), eb);
   if (ea || eb) return fs::path(a).lexically_normal() == fs::path(b).lexically_normal();
@@ -52,7 +53,8 @@ void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleF
                          ", an input of this command; choose another output file");
     for (std::size_t j = 0; j < i; ++j)
       if (same_file(out.path, outputs[j].path))
-        throw InputError(out.path + ": is both " + outputs[j].role + " and " + out.role + "; choose another output file");
+        throw InputError(out.path + ": is both " + outputs[j].role + " and " + out.role +
+                         "; choose another output file");
   }
 }
 

@@ -97,7 +97,8 @@ ReplaySize estimate_replay_size(const World& world, double duration, double fram
   const double steps = r.ticks / world.ticks_per_step + 2;
   const double step_bytes = 5 * 8 + 4;  // /physical and the step timings
   r.memory_bytes = r.ticks * kReplayBytesPerTick + steps * step_bytes;
-  const double m = static_cast<double>(world.virtual_mesh.rest.size()), nx = static_cast<double>(world.physical_mesh.rest.size());
+  const double m = static_cast<double>(world.virtual_mesh.rest.size());
+  const double nx = static_cast<double>(world.physical_mesh.rest.size());
   const double frame_bytes = 12 * (m + nx) + 16 * 8;  // float32 positions, t, jaw, two poses
   const double mesh_bytes = 24 * (m + nx) + 12 * static_cast<double>(world.virtual_mesh.triangles.size()) +
                             16 * static_cast<double>(world.physical_mesh.tets.size());

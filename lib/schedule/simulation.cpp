@@ -160,7 +160,8 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   const std::string where = scene.spec.file.string();
   if (!(haptic_hz > 0) || !(physical_hz > 0) || physical_hz > haptic_hz || !(haptic_hz <= kMaxHapticHz)) {
     char why[160];
-    std::snprintf(why, sizeof why, "rates must satisfy 0 < physical_hz <= haptic_hz <= %g Hz (got haptic %g Hz, physical %g Hz)",
+    std::snprintf(why, sizeof why,
+                  "rates must satisfy 0 < physical_hz <= haptic_hz <= %g Hz (got haptic %g Hz, physical %g Hz)",
                   kMaxHapticHz, haptic_hz, physical_hz);
     throw InputError(where + ": " + why);
   }

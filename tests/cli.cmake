@@ -219,7 +219,7 @@ function(ebh_safety name expect)
     list(APPEND extra -DOUTPUT=${ARG_OUTPUT})
   endif()
   add_test(NAME cli.safety.${name}
-    COMMAND ${CMAKE_COMMAND} "-DCMD=${ARG_CMD}" "-DEXPECT=${expect}" "-DKEEP=${ARG_KEEP}" ${extra}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${ARG_CMD}" "-DEXPECT=${expect}" "-DKEEP=${ARG_KEEP}" -DSTATUS=1 ${extra}
       -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
   set_tests_properties(cli.safety.${name} PROPERTIES FIXTURES_REQUIRED safety LABELS cli)
 endfunction()

@@ -3,7 +3,8 @@
 #  - when OUTPUT is given: leaves neither OUTPUT nor a temporary of it (.OUTPUT.*.ebh-partial);
 #  - when KEEP is given (a ;-list of files): leaves each of them byte-identical (an input, or a
 #    previous output that a failed run must not replace) and no temporary of it.
-#   cmake -DCMD="a;b" -DEXPECT=regex [-DOUTPUT=path] [-DKEEP="f1;f2"] -P expect_failure.cmake
+#  - when STATUS is given: exits with that status.
+#   cmake -DCMD="a;b" -DEXPECT=regex [-DOUTPUT=path] [-DKEEP="f1;f2"] [-DSTATUS=n] -P expect_failure.cmake
 if(DEFINED OUTPUT)
   file(REMOVE ${OUTPUT})
 endif()
@@ -19,6 +20,9 @@ if(rc EQUAL 0)
 endif()
 if(NOT rc MATCHES "^[0-9]+$" OR rc GREATER 3)
   message(FATAL_ERROR "expected an exit status 1..3, got '${rc}' (a crash?)\nstderr: ${err}")
+endif()
+if(DEFINED STATUS AND NOT rc EQUAL STATUS)
+  message(FATAL_ERROR "expected exit status ${STATUS}, got ${rc}\nstderr: ${err}")
 endif()
 if(NOT err MATCHES "${EXPECT}")
   message(FATAL_ERROR "stderr does not match '${EXPECT}':\n${err}")

@@ -219,3 +219,116 @@ add_test(NAME cli.scene.info_solver COMMAND ${EBH_BIN} scene info gap)
 set_tests_properties(cli.scene.info_solver PROPERTIES
   PASS_REGULAR_EXPRESSION "histogram +\\[0, 0\\.02\\) 0 .*worst tet +[0-9]+: 0\\.40.*physical solver +bounded diagonal, relaxation 0\\.9: lambda_max\\(D\\^-1 A\\) 2\\.04[0-9]* \\(plain diagonal 2\\.04[0-9]*\\).*iterations per tenfold"
   LABELS cli)
+
+# Files and options cannot hurt a user's data (lib/io/atomic.hpp, lib/io/paths.hpp, docs/FORMATS.md):
+# an output over an input is refused and the input stays byte-identical; a write that fails (here a
+# file-size limit: write() fails with EFBIG, the path a full disk takes) leaves the previous file
+# byte-identical and no temporary; absurd sizes and bad option values are one-line errors.
+set(EBH_SAFE ${PROJECT_BINARY_DIR}/cli_safety)
+file(MAKE_DIRECTORY ${EBH_SAFE})
+# Runs a command with its file-size limit at $1 blocks of 512 bytes and SIGXFSZ ignored.
+file(WRITE ${EBH_SAFE}/limited.sh "ulimit -f \"$1\" || exit 99\nshift\ntrap '' XFSZ\nexec \"$@\"\n")
+# A scene whose mesh is a copy (an output over it must be refused, never tried on the source tree).
+file(READ ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml ebh_tube_yaml)
+string(REGEX REPLACE "physical: *tube.msh" "physical: ${EBH_SAFE}/tube.msh" ebh_tube_yaml "${ebh_tube_yaml}")
+file(WRITE ${EBH_SAFE}/scene.yaml.in "${ebh_tube_yaml}")
+string(REGEX REPLACE "time: *{[^}]*}" "time: {haptic_hz: 1e300, physical_hz: 1e300}" ebh_fast_yaml "${ebh_tube_yaml}")
+file(WRITE ${EBH_SAFE}/fast_scene.yaml "${ebh_fast_yaml}")
+file(WRITE ${EBH_SAFE}/far_plan.yaml
+  "scene: tube\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [-80, 0, 0], rotvec_deg: [0, 90, 0]}\n  - {t: 1e12, position_mm: [-80, 0, 0]}\n")
+file(WRITE ${EBH_SAFE}/endless.csv "t,x,y,z,qw,qx,qy,qz\n0,-0.08,0,0,0.7071068,0,0.7071068,0\n1e300,-0.08,0,0,0.7071068,0,0.7071068,0\n")
+file(WRITE ${EBH_SAFE}/one_sample.csv "t,x,y,z,qw,qx,qy,qz\n0,-0.08,0,0,1,0,0,0\n")
+file(WRITE ${EBH_SAFE}/afile "a file, not a folder\n")
+file(MAKE_DIRECTORY ${EBH_SAFE}/a_folder)
+# Fresh copies of the inputs before the tests that must leave them as they were.
+add_test(NAME cli.safety.setup COMMAND ${CMAKE_COMMAND}
+  -DSAFE=${EBH_SAFE} -DSRC=${PROJECT_SOURCE_DIR} -DEBH=${EBH_BIN} -P ${CMAKE_CURRENT_SOURCE_DIR}/safety_setup.cmake)
+set_tests_properties(cli.safety.setup PROPERTIES FIXTURES_SETUP safety LABELS cli)
+function(ebh_safety name expect)
+  cmake_parse_arguments(ARG "" "OUTPUT" "KEEP;CMD" ${ARGN})
+  set(extra)
+  if(ARG_OUTPUT)
+    list(APPEND extra -DOUTPUT=${ARG_OUTPUT})
+  endif()
+  add_test(NAME cli.safety.${name}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${ARG_CMD}" "-DEXPECT=${expect}" "-DKEEP=${ARG_KEEP}" -DSTATUS=1 ${extra}
+      -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.safety.${name} PROPERTIES FIXTURES_REQUIRED safety LABELS cli)
+endfunction()
+set(S ${EBH_SAFE})
+set(REPLACE "the output would replace")
+# 1. An output over an input (or a link to it) is refused; the input is untouched.
+ebh_safety(replay_over_recording "^ebh: error: .*rec.h5: ${REPLACE} the recording .*rec.h5"
+  KEEP ${S}/rec.h5 CMD ${EBH_BIN} replay tube ${S}/rec.h5 -o ${S}/rec.h5 --duration 0.5)
+ebh_safety(replay_over_recording_link "^ebh: error: .*link.h5: ${REPLACE} the recording .*rec.h5"
+  KEEP ${S}/rec.h5 CMD ${EBH_BIN} replay tube ${S}/rec.h5 -o ${S}/link.h5 --duration 0.5)
+ebh_safety(replay_over_scene "^ebh: error: .*scene.yaml: ${REPLACE} the scene file"
+  KEEP ${S}/scene.yaml CMD ${EBH_BIN} replay ${S}/scene.yaml tube_insert -o ${S}/scene.yaml)
+ebh_safety(replay_over_mesh "^ebh: error: .*tube.msh: ${REPLACE} the scene's physical mesh"
+  KEEP ${S}/tube.msh CMD ${EBH_BIN} replay ${S}/scene.yaml tube_insert -o ${S}/tube.msh)
+ebh_safety(import_over_log "^ebh: error: .*log.csv: ${REPLACE} the log"
+  KEEP ${S}/log.csv CMD ${EBH_BIN} import ${S}/log.csv -o ${S}/log.csv)
+ebh_safety(synth_over_plan "^ebh: error: .*plan.yaml: ${REPLACE} the plan"
+  KEEP ${S}/plan.yaml CMD ${EBH_BIN} synth ${S}/plan.yaml -o ${S}/plan.yaml)
+# 2. A write that fails keeps the previous file and says why. 1200 blocks (614 kB) let the
+# replay write its rest meshes (522 kB) and fail at the final flush (783 kB); synth fails too.
+ebh_safety(replay_write_fails "^ebh: error: .*previous_replay.h5: cannot write the file: File too large"
+  KEEP ${S}/previous_replay.h5
+  CMD sh ${S}/limited.sh 1200 ${EBH_BIN} replay tube tube_insert -o ${S}/previous_replay.h5 --duration 1 --frames-hz 0 -q)
+ebh_safety(synth_write_fails "^ebh: error: .*previous_synth.h5: cannot write the file: File too large"
+  KEEP ${S}/previous_synth.h5 CMD sh ${S}/limited.sh 100 ${EBH_BIN} synth ${S}/plan.yaml -o ${S}/previous_synth.h5)
+ebh_safety(import_write_fails "^ebh: error: .*previous_import.h5: .*File too large"
+  KEEP ${S}/previous_import.h5 CMD sh ${S}/limited.sh 1 ${EBH_BIN} import ${S}/log.csv -o ${S}/previous_import.h5)
+# 3. Absurd sizes are refused with the limit before anything is allocated.
+ebh_safety(haptic_hz_inf "^ebh: error: --haptic-hz: expected a finite number in \\(0, 100000\\] Hz, got 'inf'"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube tube_insert -o ${S}/o.h5 --haptic-hz inf)
+ebh_safety(haptic_hz_huge "^ebh: error: --haptic-hz: .*got '1e9'"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube tube_insert -o ${S}/o.h5 --haptic-hz 1e9 --physical-hz 1e7)
+ebh_safety(scene_rates_huge "^ebh: error: .*fast_scene.yaml: key 'time.haptic_hz': expected a number in \\(0, 100000\\]"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay ${S}/fast_scene.yaml tube_insert -o ${S}/o.h5)
+ebh_safety(recording_endless "^ebh: error: .*endless.h5: replaying 1e\\+300 s at 1000 Hz makes .* ticks; the limit is 10000000 ticks"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube ${S}/endless.h5 -o ${S}/o.h5)
+ebh_safety(synth_far_waypoint "^ebh: error: .*far_plan.yaml: the last waypoint at t = 1000000000000 s .* the limit is 10000000 samples"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} synth ${S}/far_plan.yaml -o ${S}/o.h5)
+ebh_safety(synth_rate_huge "^ebh: error: --rate: expected a finite number in \\(0, 100000\\] Hz, got '1e9'"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} synth ${S}/plan.yaml -o ${S}/o.h5 --rate 1e9)
+# 5. A filter that matches nothing is an error listing what exists.
+ebh_safety(gate_unknown_case "^ebh: error: --case: no gate case 'nosuchcase' \\(known: tube_insert, "
+  CMD ${EBH_BIN} gate --case nosuchcase)
+# 6. Every numeric option is finite and in range.
+foreach(bad "start;nan;>= 0" "duration;nan;> 0" "duration;0;> 0" "frames-hz;-5;in \\[0, 100000\\] Hz" "frames-hz;nan;in \\[0")
+  list(GET bad 0 opt)
+  list(GET bad 1 value)
+  list(GET bad 2 range)
+  string(REPLACE "-" "_" tname "${opt}_${value}")
+  ebh_safety(${tname} "^ebh: error: --${opt}: expected a finite number ${range}.*, got '${value}'"
+    OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube tube_insert -o ${S}/o.h5 --${opt} ${value})
+endforeach()
+ebh_safety(synth_rate_zero "^ebh: error: --rate: expected a finite number in \\(0, 100000\\] Hz, got '0'"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} synth ${S}/plan.yaml -o ${S}/o.h5 --rate 0)
+ebh_safety(frames_faster_than_ticks "^ebh: error: --frames-hz 5000: more snapshots than haptic ticks \\(1000 Hz\\)"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube tube_insert -o ${S}/o.h5 --frames-hz 5000)
+# 7. A one-sample recording names the file and what is wrong.
+ebh_safety(one_sample "^ebh: error: .*one_sample.csv: the recording has one sample; a recording needs at least two"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} import ${S}/one_sample.csv -o ${S}/o.h5)
+# 8. An output in a file that is not a folder: the final name and the OS reason, before any work.
+ebh_safety(output_under_a_file "^ebh: error: .*afile/out.h5: cannot create the output: Not a directory"
+  CMD ${EBH_BIN} replay tube tube_insert -o ${S}/afile/out.h5)
+ebh_safety(import_output_under_a_file "^ebh: error: .*afile/out.h5: cannot create the output: Not a directory"
+  CMD ${EBH_BIN} import ${S}/log.csv -o ${S}/afile/out.h5)
+# 9. An unfinished output is never an input.
+ebh_safety(partial_as_input "^ebh: error: .*ebh-partial: an unfinished output of ebh"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube ${S}/.unfinished.h5.host.1.ebh-partial -o ${S}/o.h5)
+# 10. import: a folder, a binary file and an unknown scene.
+ebh_safety(import_folder "^ebh: error: .*a_folder: is a folder, not a file"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} import ${S}/a_folder -o ${S}/o.h5)
+ebh_safety(import_binary "^ebh: error: .*rec.h5:2: byte 0x1a: not a text file"
+  OUTPUT ${S}/o.h5 KEEP ${S}/rec.h5 CMD ${EBH_BIN} import ${S}/rec.h5 -o ${S}/o.h5 --format csv)
+ebh_safety(import_unknown_scene "^ebh: error: --scene: nosuchscene: no such scene"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} import ${S}/log.csv -o ${S}/o.h5 --scene nosuchscene)
+# What a command prints is an output too: JSON into a full disk (/dev/full) is an error.
+if(EXISTS /dev/full)
+  file(WRITE ${EBH_SAFE}/to_full.sh "exec \"$@\" > /dev/full\n")
+  ebh_safety(stdout_full "^ebh: error: standard output: No space left on device"
+    CMD sh ${S}/to_full.sh ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml --json)
+endif()

@@ -11,6 +11,7 @@
 
 #include "io/atomic.hpp"
 #include "io/error.hpp"
+#include "io/paths.hpp"
 #include "metrics/replay_trace.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/replay_output.hpp"
@@ -42,6 +43,7 @@ std::string fmt(double v) {
 }  // namespace
 
 GateBaselines read_gate_baselines(const std::string& path) {
+  check_input_file(path);
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);
@@ -112,15 +114,9 @@ void write_gate_baselines(const std::string& path, const GateBaselines& b) {
     y << YAML::EndMap;
   }
   y << YAML::EndSeq << YAML::EndMap;
-  AtomicOutput out(path);
-  {
-    std::ofstream f(out.temp_path());
-    f << "# Force-smoothness gate baselines (lib/gate/gate.hpp). Regenerate with\n"
-         "# scripts/make_gate_baselines.sh; do not edit the metrics by hand.\n"
-      << y.c_str() << "\n";
-    if (!f) throw InputError(path + ": cannot write");
-  }
-  out.commit();
+  write_file_atomically(path, std::string("# Force-smoothness gate baselines (lib/gate/gate.hpp). Regenerate with\n"
+                                           "# scripts/make_gate_baselines.sh; do not edit the metrics by hand.\n") +
+                                   y.c_str() + "\n");
 }
 
 GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides) {
@@ -137,6 +133,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
     meta.recording = in.recording_path;
     meta.overrides = overrides;
     const double dur = std::min(c.duration, in.recording.duration() - c.start);
+    check_replay_size(*in.world, dur, 0, in.recording_path, tmp.string());
     ReplayWriter writer(tmp.string(), *in.world, meta, tick_count(*in.world, dur), false);
     const ReplaySummary s = replay(*in.world, in.recording, opt, writer);
     writer.commit(s);

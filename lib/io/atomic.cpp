@@ -1,17 +1,21 @@
 #include "io/atomic.hpp"
 
+#include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 
 #include "io/error.hpp"
 
 namespace ebh {
+namespace fs = std::filesystem;
 namespace {
 
 // The signal handler may only touch lock-free atomics and call async-signal-safe functions
@@ -49,7 +53,70 @@ void unregister_temp(int slot) {
   if (slot >= 0) g_used[slot].store(0);
 }
 
+std::string host_name() {
+  char buf[256] = {};
+  if (gethostname(buf, sizeof buf - 1) != 0 || buf[0] == '\0') return "localhost";
+  std::string h = buf;
+  for (char& c : h)
+    if (c == '/') c = '_';
+  return h;
+}
+
+// "DIR/.NAME." — what every temporary of DIR/NAME starts with.
+std::string partial_prefix(const fs::path& final_path) {
+  std::string s(1, '.');
+  s.append(final_path.filename().string()).push_back('.');
+  return s;
+}
+
+bool running(long pid) { return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH); }
+
+// Best effort: the rename is on the disk once its directory is synced (some file systems refuse).
+void sync_directory(const fs::path& dir) {
+  const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  (void)fsync(fd);
+  ::close(fd);
+}
+
 }  // namespace
+
+bool is_partial_output(std::string_view path) {
+  return path.size() >= kPartialSuffix.size() && path.substr(path.size() - kPartialSuffix.size()) == kPartialSuffix;
+}
+
+std::string partial_path_for(const std::string& final_path) {
+  const fs::path p(final_path);
+  return (p.parent_path() / (partial_prefix(p) + host_name() + "." + std::to_string(static_cast<long>(getpid())) +
+                             std::string(kPartialSuffix)))
+      .string();
+}
+
+std::size_t remove_stale_partials(const std::string& final_path) {
+  const fs::path p(final_path);
+  const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  const std::string prefix = partial_prefix(p), host = host_name();
+  std::error_code ec;
+  std::size_t removed = 0;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string n = it->path().filename().string();
+    if (n.size() <= prefix.size() + kPartialSuffix.size() || n.compare(0, prefix.size(), prefix) != 0 ||
+        !is_partial_output(n))
+      continue;
+    // The rest is HOST.PID
+    const std::string who = n.substr(prefix.size(), n.size() - prefix.size() - kPartialSuffix.size());
+    const auto dot = who.rfind('.');
+    if (dot == std::string::npos || who.substr(0, dot) != host) continue;
+    char* end_pid = nullptr;
+    const long pid = std::strtol(who.c_str() + dot + 1, &end_pid, 10);
+    if (*end_pid != '\0' || pid <= 0 || pid == static_cast<long>(getpid()) || running(pid)) continue;
+    std::error_code rm;
+    if (fs::remove(it->path(), rm)) ++removed;
+  }
+  return removed;
+}
+
+std::string os_reason(int err) { return std::strerror(err); }
 
 void install_interrupt_handlers() {
   if (g_installed.exchange(true)) return;
@@ -59,6 +126,7 @@ void install_interrupt_handlers() {
   sa.sa_flags = 0;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGHUP, &sa, nullptr);  // the terminal closed: stop like SIGTERM, leave no temporary
 }
 
 bool interrupted() { return g_interrupted != 0; }
@@ -66,17 +134,33 @@ void set_interrupted(bool value) { g_interrupted = value ? 1 : 0; }
 
 AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path)) {
   if (final_.empty()) throw InputError("output file name is empty");
-  // The output's folder is made when missing (`-o out/run.h5` on a fresh checkout).
-  const std::filesystem::path parent = std::filesystem::path(final_).parent_path();
+  const fs::path p(final_);
+  if (p.filename().empty() || p.filename() == "." || p.filename() == "..")
+    throw InputError(final_ + ": expected a file name, not a folder");
+  if (is_partial_output(final_))
+    throw InputError(final_ + ": names ending in " + std::string(kPartialSuffix) + " are kept for unfinished outputs");
   std::error_code ec;
-  if (!parent.empty() && !std::filesystem::exists(parent, ec)) {
-    std::filesystem::create_directories(parent, ec);
+  if (fs::is_directory(p, ec)) fail("cannot write the output", EISDIR);
+  // The output's folder is made when missing (`-o out/run.h5` on a fresh checkout).
+  const fs::path parent = p.parent_path();
+  if (!parent.empty() && !fs::exists(parent, ec)) {
+    fs::create_directories(parent, ec);
     if (ec) throw InputError(final_ + ": cannot create the folder " + parent.string() + ": " + ec.message());
   }
+  remove_stale_partials(final_);
   install_interrupt_handlers();
-  temp_ = final_ + ".tmp." + std::to_string(static_cast<long>(getpid()));
-  std::remove(temp_.c_str());
+  temp_ = partial_path_for(final_);
   slot_ = register_temp(temp_);
+  // Created here, so that a folder that is not one, a read-only folder or a full disk is reported
+  // with the final name and the reason before any work.
+  const int fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) {
+    const int err = errno;
+    unregister_temp(slot_);
+    slot_ = -1;
+    fail("cannot create the output", err);
+  }
+  ::close(fd);
 }
 
 AtomicOutput::~AtomicOutput() {
@@ -85,7 +169,11 @@ AtomicOutput::~AtomicOutput() {
 }
 
 void AtomicOutput::discard() {
-  if (!committed_) std::remove(temp_.c_str());
+  if (!committed_ && !temp_.empty()) ::unlink(temp_.c_str());
+}
+
+void AtomicOutput::fail(const std::string& what, int err) const {
+  throw InputError(final_ + ": " + what + (err ? ": " + os_reason(err) : std::string()));
 }
 
 void AtomicOutput::commit() {
@@ -94,15 +182,54 @@ void AtomicOutput::commit() {
     discard();
     throw InputError(final_ + ": interrupted; nothing written");
   }
-  if (access(temp_.c_str(), F_OK) != 0) throw InputError(final_ + ": temporary file " + temp_ + " is missing");
-  if (std::rename(temp_.c_str(), final_.c_str()) != 0) {
-    int err = errno;
+  // The data must be on the disk before the name points at it: a write error the OS reports
+  // only now (a full disk, an I/O error) keeps the previous file.
+  const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    const int err = errno;
     discard();
-    throw InputError(final_ + ": cannot rename the temporary file into place: " + std::strerror(err));
+    fail("the temporary file " + temp_ + " is gone", err);
+  }
+  if (fsync(fd) != 0) {
+    const int err = errno;
+    ::close(fd);
+    discard();
+    fail("cannot write the output", err);
+  }
+  ::close(fd);
+  if (std::rename(temp_.c_str(), final_.c_str()) != 0) {
+    const int err = errno;
+    discard();
+    fail("cannot rename the finished output into place", err);
   }
   committed_ = true;
   unregister_temp(slot_);
   slot_ = -1;
+  sync_directory(fs::path(final_).parent_path());
+}
+
+void write_file_atomically(const std::string& path, std::string_view bytes) {
+  AtomicOutput out(path);
+  const int fd = ::open(out.temp_path().c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+  if (fd < 0) {
+    const int err = errno;
+    out.fail("cannot write the output", err);
+  }
+  while (!bytes.empty()) {
+    const ssize_t n = ::write(fd, bytes.data(), bytes.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : EIO;
+      ::close(fd);
+      out.fail("cannot write the output", err);
+    }
+    bytes.remove_prefix(static_cast<std::size_t>(n));
+  }
+  if (::close(fd) != 0) {
+    const int err = errno;
+    out.fail("cannot write the output", err);
+  }
+  out.commit();
 }
 
 }  // namespace ebh

@@ -1,19 +1,46 @@
 #pragma once
 // Atomic output files (DESIGN.md §4): a file is written under a temporary name beside its final
-// name and renamed when complete, so a crash or an interrupt never leaves a half-written file
-// under the final name.
+// name, synced to the disk and renamed when complete, so a crash, an interrupt or a full disk
+// never leaves a half-written file under the final name, and a previous file of that name stays
+// as it was until the new one is complete.
 //
-// Interrupts: the first SIGINT/SIGTERM only sets a flag that long loops poll with interrupted();
-// they stop, and the AtomicOutput's destructor removes the temporary file. A second signal
-// removes every registered temporary file at once and ends the process (exit status 128+signal).
-// The handlers are installed by the first AtomicOutput (or by install_interrupt_handlers()).
+// The temporary of DIR/NAME is DIR/.NAME.HOST.PID.ebh-partial: hidden, and with a suffix that no
+// command accepts as input (check_input_file, io/paths.hpp). A process killed with SIGKILL cannot
+// remove it; the next AtomicOutput of the same final path removes every such file whose writer
+// (same host, PID no longer running) is gone.
+//
+// Interrupts: the first SIGINT/SIGTERM/SIGHUP only sets a flag that long loops poll with
+// interrupted(); they stop, and the AtomicOutput's destructor removes the temporary file. A second
+// signal removes every registered temporary file at once and ends the process (exit status
+// 128+signal). The handlers are installed by the first AtomicOutput (or by
+// install_interrupt_handlers()).
+#include <cstddef>
 #include <string>
+#include <string_view>
 
 namespace ebh {
 
+/// The suffix of every temporary output file.
+inline constexpr std::string_view kPartialSuffix = ".ebh-partial";
+
+/// Whether `path`'s file name ends with kPartialSuffix (an unfinished output, never an input).
+bool is_partial_output(std::string_view path);
+
+/// The temporary name this process uses for `final_path`: DIR/.NAME.HOST.PID.ebh-partial.
+std::string partial_path_for(const std::string& final_path);
+
+/// Removes the temporaries of `final_path` left by writers that are gone (this host, a PID that no
+/// longer runs); keeps those of running processes and of other hosts. Returns how many it removed.
+std::size_t remove_stale_partials(const std::string& final_path);
+
+/// strerror(err): the operating system's reason ("No space left on device").
+std::string os_reason(int err);
+
 class AtomicOutput {
  public:
-  /// Reserves FINAL.tmp.<pid> (removing a stale one of this pid) without creating it.
+  /// Creates the (empty) temporary file, making the output's folder when it is missing, after
+  /// removing stale temporaries of the same final path. Throws InputError naming the final path
+  /// and the OS reason when the output cannot be created there ("Not a directory").
   explicit AtomicOutput(std::string final_path);
   ~AtomicOutput();
   AtomicOutput(const AtomicOutput&) = delete;
@@ -23,11 +50,14 @@ class AtomicOutput {
   const std::string& temp_path() const { return temp_; }
   bool committed() const { return committed_; }
 
-  /// Renames the temporary file to the final name. Throws InputError (removing the temporary)
-  /// when the run was interrupted, the temporary is missing or the rename fails.
+  /// Syncs the temporary file to the disk and renames it to the final name. Throws InputError
+  /// (removing the temporary; a previous file under the final name is left as it was) when the
+  /// run was interrupted, the temporary is missing or the sync or the rename fails.
   void commit();
   /// Removes the temporary file now (also done by the destructor when not committed).
   void discard();
+  /// Throws InputError "FINAL: WHAT: OS reason" (err = an errno value; 0 leaves the reason out).
+  [[noreturn]] void fail(const std::string& what, int err) const;
 
  private:
   std::string final_;
@@ -36,9 +66,13 @@ class AtomicOutput {
   bool committed_ = false;
 };
 
-/// Installs the SIGINT/SIGTERM handlers (idempotent).
+/// Writes `bytes` to `path` atomically (an AtomicOutput, every write checked, commit). Errors name
+/// `path` and the OS reason.
+void write_file_atomically(const std::string& path, std::string_view bytes);
+
+/// Installs the SIGINT/SIGTERM/SIGHUP handlers (idempotent).
 void install_interrupt_handlers();
-/// True once SIGINT or SIGTERM arrived (after install_interrupt_handlers()).
+/// True once SIGINT, SIGTERM or SIGHUP arrived (after install_interrupt_handlers()).
 bool interrupted();
 /// Sets or clears the flag, as a signal would (tests; a tool that handled the interrupt).
 void set_interrupted(bool value);

@@ -4,14 +4,48 @@
 // warning with a defined recovery; impossible states are assertions.
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace ebh {
 
+/// `text` with every byte that a terminal would not show as text written as \xNN: control
+/// bytes (newlines included, so a message stays one line) and bytes that are not part of valid
+/// UTF-8. Printable ASCII and valid UTF-8 (a file name in any language) are kept. Messages quote
+/// file content ("'...' is not a number"): a binary file must not write raw bytes to a terminal.
+inline std::string escape_unprintable(std::string_view text) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(text.size());
+  const auto* s = reinterpret_cast<const unsigned char*>(text.data());
+  const std::size_t n = text.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned char c = s[i];
+    // Length of the UTF-8 sequence that starts here (0: not a valid start byte).
+    std::size_t len = c < 0x80 ? 1 : (c >= 0xc2 && c <= 0xdf) ? 2 : (c >= 0xe0 && c <= 0xef) ? 3
+                                   : (c >= 0xf0 && c <= 0xf4) ? 4 : 0;
+    bool ok = len > 0 && i + len <= n;
+    for (std::size_t k = 1; ok && k < len; ++k) ok = (s[i + k] & 0xc0) == 0x80;
+    if (ok && len == 1) ok = c >= 0x20 && c != 0x7f;
+    if (ok) {
+      out.append(text.substr(i, len));
+      i += len;
+    } else {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xf];
+      i += 1;
+    }
+  }
+  return out;
+}
+
 /// Bad user input (a file, an option). what() is one line: "FILE:LINE: what is wrong" or
-/// "FILE: key 'a.b': what is wrong". Tools print it and exit non-zero.
+/// "FILE: key 'a.b': what is wrong", with non-printable bytes escaped (escape_unprintable()). Tools print it
+/// and exit non-zero.
 class InputError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit InputError(const std::string& what) : std::runtime_error(escape_unprintable(what)) {}
+  explicit InputError(const char* what) : InputError(std::string(what)) {}
 };
 
 /// A run that cannot go on because its numbers did (a non-finite or diverging state). what() is

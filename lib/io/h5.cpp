@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <sstream>
 
 #include "io/error.hpp"
+#include "io/paths.hpp"
 
 namespace ebh::h5 {
 
@@ -66,13 +68,48 @@ std::string expected_str(const std::vector<std::ptrdiff_t>& s) {
 
 [[noreturn]] void fail(const std::string& where, const std::string& what) { throw InputError(where + ": " + what); }
 
+// The operating system's reason for the HDF5 call that just failed, read from HDF5's error stack
+// (its file drivers record "errno = N" in their messages: a full disk, a file too large); empty
+// when the failure was not the operating system's. Must run before the next HDF5 call, which
+// clears the stack.
+herr_t find_errno(unsigned, const H5E_error2_t* e, void* data) {
+  auto* err = static_cast<int*>(data);
+  if (*err == 0 && e && e->desc)
+    if (const char* p = std::strstr(e->desc, "errno = ")) *err = std::atoi(p + 8);
+  return 0;
+}
+
+std::string os_suffix() {
+  int err = 0;
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, find_errno, &err);
+  H5Eclear2(H5E_DEFAULT);
+  return err > 0 ? ": " + os_reason(err) : std::string();
+}
+
+// A failed HDF5 call: "WHERE: WHAT: OS reason" (the reason when the OS gave one).
+[[noreturn]] void fail_call(const std::string& where, const std::string& what) { fail(where, what + os_suffix()); }
+
 Handle check(hid_t id, const std::string& where, const std::string& what) {
-  if (id < 0) fail(where, what);
+  if (id < 0) fail_call(where, what);
   return Handle(id);
 }
 
 void check_status(herr_t st, const std::string& where, const std::string& what) {
-  if (st < 0) fail(where, what);
+  if (st < 0) fail_call(where, what);
+}
+
+// Closes an identifier of any kind; returns the close's status.
+herr_t close_id(hid_t id) {
+  switch (H5Iget_type(id)) {
+    case H5I_FILE: return H5Fclose(id);
+    case H5I_GROUP: return H5Gclose(id);
+    case H5I_DATASET: return H5Dclose(id);
+    case H5I_DATASPACE: return H5Sclose(id);
+    case H5I_DATATYPE: return H5Tclose(id);
+    case H5I_ATTR: return H5Aclose(id);
+    case H5I_GENPROP_LST: return H5Pclose(id);
+    default: return 0;
+  }
 }
 
 // Whether every component of a (possibly nested) relative path exists as a link.
@@ -113,6 +150,16 @@ bool filters_available() {
 
 }  // namespace
 
+namespace {
+// HDF5 closes the files still open at exit from an atexit handler; an abandoned file (File::abandon)
+// crashes it. Every file ebh writes is closed explicitly (AtomicFile::commit), so the handler has
+// nothing to do: it is turned off before the library starts (H5dont_atexit must come first).
+[[maybe_unused]] const bool g_no_exit_handler = [] {
+  H5dont_atexit();
+  return true;
+}();
+}  // namespace
+
 void silence_errors() {
   static const bool done = [] {
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
@@ -127,17 +174,15 @@ void silence_errors() {
 
 void Handle::reset() {
   if (id_ < 0) return;
-  switch (H5Iget_type(id_)) {
-    case H5I_FILE: H5Fclose(id_); break;
-    case H5I_GROUP: H5Gclose(id_); break;
-    case H5I_DATASET: H5Dclose(id_); break;
-    case H5I_DATASPACE: H5Sclose(id_); break;
-    case H5I_DATATYPE: H5Tclose(id_); break;
-    case H5I_ATTR: H5Aclose(id_); break;
-    case H5I_GENPROP_LST: H5Pclose(id_); break;
-    default: break;
-  }
+  if (close_id(id_) < 0 && state_ && state_->write_failure.empty())
+    state_->write_failure = "cannot write the file" + os_suffix();
   id_ = -1;
+}
+
+std::int64_t Handle::release() {
+  const std::int64_t id = id_;
+  id_ = -1;
+  return id;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -340,7 +385,7 @@ Group Group::group(const std::string& name) const {
   if (!has(name)) fail(file_ + ": " + p, "missing group");
   hid_t g = H5Gopen2(id(), name.c_str(), H5P_DEFAULT);
   if (g < 0) fail(file_ + ": " + p, "not a group");
-  return Group(std::make_shared<Handle>(g), file_, p);
+  return Group(std::make_shared<Handle>(g, h_->state()), file_, p);
 }
 
 Group Group::create_group(const std::string& name) {
@@ -349,7 +394,7 @@ Group Group::create_group(const std::string& name) {
   H5Pset_create_intermediate_group(lcpl.get(), 1);
   hid_t g = H5Gcreate2(id(), name.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT);
   if (g < 0) fail(file_ + ": " + p, "cannot create group");
-  return Group(std::make_shared<Handle>(g), file_, p);
+  return Group(std::make_shared<Handle>(g, h_->state()), file_, p);
 }
 
 Group Group::require_group(const std::string& name) { return has(name) ? group(name) : create_group(name); }
@@ -359,7 +404,7 @@ Dataset Group::dataset(const std::string& name) const {
   if (!has(name)) fail(file_ + ": " + p, "missing dataset");
   hid_t d = H5Dopen2(id(), name.c_str(), H5P_DEFAULT);
   if (d < 0) fail(file_ + ": " + p, "not a dataset");
-  return Dataset(std::make_shared<Handle>(d), file_, p);
+  return Dataset(std::make_shared<Handle>(d, h_->state()), file_, p);
 }
 
 Dataset Group::write_raw(const std::string& name, Type t, const void* data, std::size_t n,
@@ -385,7 +430,7 @@ Dataset Group::write_raw(const std::string& name, Type t, const void* data, std:
   }
   hid_t d = H5Dcreate2(id(), name.c_str(), mem_type(t), space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT);
   if (d < 0) fail(file_ + ": " + p, "cannot create dataset (does it exist already?)");
-  Dataset ds(std::make_shared<Handle>(d), file_, p);
+  Dataset ds(std::make_shared<Handle>(d, h_->state()), file_, p);
   if (n > 0)
     check_status(H5Dwrite(d, mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, data), ds.where(), "cannot write the dataset");
   return ds;
@@ -407,54 +452,80 @@ AppenderBase Group::create_appendable_raw(const std::string& name, Type t, const
   }
   hid_t d = H5Dcreate2(id(), name.c_str(), mem_type(t), space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT);
   if (d < 0) fail(file_ + ": " + p, "cannot create dataset (does it exist already?)");
-  return AppenderBase(Dataset(std::make_shared<Handle>(d), file_, p), t, row_shape);
+  return AppenderBase(Dataset(std::make_shared<Handle>(d, h_->state()), file_, p), t, row_shape);
 }
 
 // ---------------------------------------------------------------------------------------------
 // File
 
-File File::create(const std::string& path) {
+File File::create(const std::string& path, const std::string& name) {
   silence_errors();
+  const std::string shown = name.empty() ? path : name;
   // Closing a written file closes every object opened in it, so close() really ends the writing
   // (AtomicFile renames right after).
   Handle fapl(H5Pcreate(H5P_FILE_ACCESS));
   H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
   hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get());
-  if (f < 0) throw InputError(path + ": cannot create HDF5 file");
-  return File(std::make_shared<Handle>(f), path);
+  if (f < 0) fail_call(shown, "cannot create HDF5 file");
+  return File(std::make_shared<Handle>(f, std::make_shared<FileState>()), shown);
 }
 
 File File::open_read(const std::string& path) {
   silence_errors();
-  if (H5Fis_hdf5(path.c_str()) <= 0) {
-    FILE* probe = std::fopen(path.c_str(), "rb");
-    if (!probe) throw InputError(path + ": cannot open: " + std::strerror(errno));
-    std::fclose(probe);
-    throw InputError(path + ": not an HDF5 file");
-  }
+  check_input_file(path);
+  if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path + ": not an HDF5 file");
   hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (f < 0) throw InputError(path + ": cannot open HDF5 file");
-  return File(std::make_shared<Handle>(f), path);
+  return File(std::make_shared<Handle>(f, std::make_shared<FileState>()), path);
 }
 
 File File::open_write(const std::string& path) {
   silence_errors();
   hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
   if (f < 0) throw InputError(path + ": cannot open HDF5 file for writing");
-  return File(std::make_shared<Handle>(f), path);
+  return File(std::make_shared<Handle>(f, std::make_shared<FileState>()), path);
 }
 
 void File::close() {
-  if (h_ && h_->valid()) {
-    H5Fflush(h_->get(), H5F_SCOPE_LOCAL);
-    h_->reset();
-  }
+  if (!h_ || !h_->valid()) return;
+  const hid_t f = h_->get();
+  auto failed = [this](const std::string& what) {
+    abandon();
+    fail(file_, what);
+  };
+  // A dataset of it that failed to write its chunks when it was closed: the file has a hole.
+  if (!h_->state()->write_failure.empty()) failed(h_->state()->write_failure);
+  // Everything still cached (chunks of open datasets, metadata) goes to the file now, where a
+  // full disk shows.
+  if (H5Fflush(f, H5F_SCOPE_LOCAL) < 0) failed("cannot write the file" + os_suffix());
+  // Nothing is left to write: close the objects still open in it (an appender's dataset; their
+  // handles then see a closed identifier), then the file.
+  const unsigned kinds = H5F_OBJ_DATASET | H5F_OBJ_GROUP | H5F_OBJ_DATATYPE | H5F_OBJ_ATTR | H5F_OBJ_LOCAL;
+  const ssize_t n = H5Fget_obj_count(f, kinds);
+  std::vector<hid_t> ids(static_cast<std::size_t>(std::max<ssize_t>(n, 0)));
+  const ssize_t got = n > 0 ? H5Fget_obj_ids(f, kinds, ids.size(), ids.data()) : 0;
+  for (ssize_t i = 0; i < got; ++i)
+    if (close_id(ids[static_cast<std::size_t>(i)]) < 0) failed("cannot write the file" + os_suffix());
+  if (H5Fclose(f) < 0) failed("cannot close the file" + os_suffix());
+  h_->release();
+}
+
+void File::abandon() {
+  if (h_) h_->release();
+  H5Eclear2(H5E_DEFAULT);
 }
 
 // ---------------------------------------------------------------------------------------------
 // AtomicFile
 
-AtomicFile::AtomicFile(const std::string& final_path) : out_(final_path) { file_ = File::create(out_.temp_path()); }
+AtomicFile::AtomicFile(const std::string& final_path) : out_(final_path) {
+  file_ = File::create(out_.temp_path(), out_.final_path());
+}
+
+AtomicFile::~AtomicFile() {
+  // Uncommitted (an exception, an interrupt): nothing of it is kept, so nothing more is written.
+  if (!out_.committed()) file_.abandon();
+}
 
 void AtomicFile::commit() {
   file_.close();

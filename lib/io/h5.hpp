@@ -33,26 +33,39 @@ template <class T> constexpr Type type_of() {
   else static_assert(sizeof(T) == 0, "unsupported HDF5 element type");
 }
 
+/// What the objects of one open file share: the first write that failed when one of them was
+/// closed (closing a dataset writes its cached chunks; a destructor cannot throw), which
+/// File::close() reports instead of committing a file with a hole.
+struct FileState {
+  std::string write_failure;  ///< "cannot write the file: OS reason", or empty
+};
+
 /// Owns one HDF5 identifier (file, group, dataset, dataspace, type, attribute or property list)
 /// and closes it with the matching H5?close.
 class Handle {
  public:
   Handle() = default;
-  explicit Handle(std::int64_t id) : id_(id) {}
+  explicit Handle(std::int64_t id, std::shared_ptr<FileState> state = nullptr) : id_(id), state_(std::move(state)) {}
   ~Handle() { reset(); }
   Handle(const Handle&) = delete;
   Handle& operator=(const Handle&) = delete;
-  Handle(Handle&& o) noexcept : id_(o.id_) { o.id_ = -1; }
+  Handle(Handle&& o) noexcept : id_(o.id_), state_(std::move(o.state_)) { o.id_ = -1; }
   Handle& operator=(Handle&& o) noexcept {
-    if (this != &o) { reset(); id_ = o.id_; o.id_ = -1; }
+    if (this != &o) { reset(); id_ = o.id_; state_ = std::move(o.state_); o.id_ = -1; }
     return *this;
   }
   std::int64_t get() const { return id_; }
   bool valid() const { return id_ >= 0; }
+  /// The state of the file this object belongs to (null for dataspaces, types, property lists).
+  const std::shared_ptr<FileState>& state() const { return state_; }
+  /// Closes the identifier; a failure is recorded in the file's state (File::close() reports it).
   void reset();
+  /// Gives up ownership without closing; returns the identifier.
+  std::int64_t release();
 
  private:
   std::int64_t id_ = -1;
+  std::shared_ptr<FileState> state_;
 };
 
 /// How a dataset is stored. Chunking is implied by `compress` and by extendable datasets.
@@ -225,28 +238,43 @@ class Group : public Object {
 class File : public Group {
  public:
   File() = default;
-  static File create(const std::string& path);  ///< creates or truncates
+  /// Creates or truncates `path`; messages call it `name` when given (an AtomicFile's final name,
+  /// not its temporary).
+  static File create(const std::string& path, const std::string& name = "");
+  /// Opens an existing file for reading; check_input_file() first (io/paths.hpp).
   static File open_read(const std::string& path);
   static File open_write(const std::string& path);  ///< existing file, read-write
-  /// Flushes and closes now (handles to its groups/datasets keep it open until they go too).
+  /// Writes out everything cached and closes the file and every object still open in it. Throws
+  /// InputError "FILE: cannot write the file: OS reason" when a write fails (a full disk), after
+  /// abandon().
   void close();
+  /// Gives the file up without closing it: for a file that will be removed (uncommitted, or a
+  /// write failed). HDF5 (1.10) cannot close a file whose writes failed: the close writes again,
+  /// fails and leaves freed objects behind that a later close crashes on. So the identifier is
+  /// left open (no exit handler closes it: see h5.cpp) and the descriptor goes at exit.
+  void abandon();
 
  private:
   File(std::shared_ptr<Handle> h, std::string path) : Group(std::move(h), path, "/") {}
 };
 
-/// An HDF5 output file written atomically: created as OUT.tmp.<pid>, renamed to OUT by commit().
-/// Destroyed uncommitted (an exception, an interrupt) it removes the temporary file.
+/// An HDF5 output file written atomically: created as .OUT.HOST.PID.ebh-partial beside OUT
+/// (io/atomic.hpp), renamed to OUT by commit(); messages name OUT. Destroyed uncommitted (an
+/// exception, an interrupt, a failed write) it removes the temporary file.
 ///   h5::AtomicFile out(path);
 ///   out.file().write<double>("t", t, {t.size()});
 ///   out.commit();
 class AtomicFile {
  public:
   explicit AtomicFile(const std::string& final_path);
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
   File& file() { return file_; }
   const std::string& final_path() const { return out_.final_path(); }
-  /// Closes the file and renames it; throws InputError (and removes the temporary) when the run
-  /// was interrupted or the rename fails.
+  /// Closes the file (every write checked), syncs and renames it; throws InputError (and removes
+  /// the temporary, leaving a previous OUT as it was) when a write fails, the run was interrupted
+  /// or the rename fails.
   void commit();
 
  private:

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include <numbers>
 
 #include "io/error.hpp"
+#include "io/paths.hpp"
 
 namespace ebh {
 namespace {
@@ -54,22 +56,32 @@ struct Line {
   std::string text;    // comment stripped, trimmed
 };
 
+std::string at(const std::string& path, std::size_t line) { return path + ":" + std::to_string(line); }
+
+// A byte no text log holds: a control character other than tab, carriage return, form feed.
+bool binary_byte(unsigned char c) { return (c < 0x20 && c != '\t' && c != '\r' && c != '\f') || c == 0x7f; }
+
 std::vector<Line> read_lines(const std::string& path) {
-  std::ifstream in(path);
+  check_input_file(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
   std::vector<Line> lines;
   std::string s;
   std::size_t n = 0;
   while (std::getline(in, s)) {
     ++n;
+    for (unsigned char c : s)
+      if (binary_byte(c)) {
+        char code[8];
+        std::snprintf(code, sizeof code, "0x%02x", c);
+        throw InputError(at(path, n) + ": byte " + code + ": not a text file (expected an OpenHaptics or CSV log)");
+      }
     if (auto h = s.find('#'); h != std::string::npos) s.erase(h);
     s = trim(s);
     if (!s.empty()) lines.push_back({n, s});
   }
   return lines;
 }
-
-std::string at(const std::string& path, std::size_t line) { return path + ":" + std::to_string(line); }
 
 double to_number(const std::string& tok, const std::string& where, const std::string& field) {
   const char* b = tok.c_str();
@@ -216,7 +228,9 @@ void parse_transform(const std::string& text, double unit_m, ImportOptions& opt)
 }
 
 Recording import_log(const std::string& path, const ImportOptions& opt) {
-  if (!(opt.rate_hz > 0 && std::isfinite(opt.rate_hz))) throw InputError("--rate: must be a positive number");
+  if (!(opt.rate_hz > 0 && opt.rate_hz <= kMaxSampleRateHz))
+    throw InputError("--rate: expected a number in (0, " + std::to_string(static_cast<long>(kMaxSampleRateHz)) +
+                     "] Hz");
   const LogFormat fmt = opt.format ? *opt.format : (ends_with(path, ".csv") ? LogFormat::csv : LogFormat::openhaptics);
   const double unit = opt.unit ? *opt.unit : (fmt == LogFormat::openhaptics ? 1e-3 : 1.0);
   Recording rec;
@@ -224,7 +238,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt) {
   bool has_t = false;
   if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, opt.rate_hz, rec, line_of);
   else read_csv(path, unit, opt.rate_hz, rec, line_of, has_t);
-  if (rec.t.empty()) throw InputError(path + ": no samples");
+  if (rec.t.empty()) throw InputError(path + ": no samples (the log has no data lines)");
 
   for (std::size_t i = 0; i < rec.size(); ++i) {
     rec.position[i] = rotate(opt.transform_rotation, rec.position[i]) + opt.transform_translation;

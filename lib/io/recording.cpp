@@ -26,7 +26,11 @@ void validate_recording(Recording& rec, const std::string& file, const SampleLoc
   auto fail = [&](std::string_view ds, std::size_t i, const std::string& what) {
     throw InputError(where(ds, i) + ": " + what);
   };
-  if (n == 0) throw InputError(file + ": the recording has no samples");
+  auto too_few = [&] {
+    throw InputError(file + ": the recording has " + (n == 0 ? std::string("no samples") : "one sample") +
+                     "; a recording needs at least two (a trajectory with a duration)");
+  };
+  if (n == 0) too_few();
   auto check_len = [&](std::string_view ds, std::size_t len) {
     if (len != n)
       throw InputError(file + ": " + std::string(ds) + ": " + std::to_string(len) + " samples, /trajectory/t has " +
@@ -59,6 +63,7 @@ void validate_recording(Recording& rec, const std::string& file, const SampleLoc
     if (j < -kJawTolerance || j > 1.0 + kJawTolerance) fail("/trajectory/jaw", i, "jaw " + num(j) + " outside [0, 1]");
     j = std::clamp(j, 0.0, 1.0);
   }
+  if (n < 2) too_few();  // after the samples: a defect in the one sample is the better message
 }
 
 Recording read_recording(const std::string& path) {

@@ -49,9 +49,17 @@ struct DeviceSample {
 /// for a file, "log.txt:15" for a text log.
 using SampleLocator = std::function<std::string(std::string_view dataset, std::size_t index)>;
 
+/// A device samples at most as fast as a haptic loop ticks (scene/scene.hpp kMaxHapticHz).
+inline constexpr double kMaxSampleRateHz = 100e3;
+/// The most samples a recording is made with (synth): 10 million is 2.8 hours at 1 kHz and about
+/// 2 GB of memory while it is written (~200 bytes a sample: the samples, a validated copy and the
+/// packed datasets; docs/FORMATS.md, Limits).
+inline constexpr double kMaxRecordingSamples = 10e6;
+
 /// Checks a recording sample by sample and normalises its quaternions in place (and flips each
 /// to the hemisphere of its predecessor so interpolation takes the short arc). Throws InputError
-/// "WHERE: what" for: length mismatch, NaN/Inf, time not strictly increasing, a quaternion whose
+/// "WHERE: what" for: fewer than two samples (a trajectory has a duration), length mismatch,
+/// NaN/Inf, time not strictly increasing, a quaternion whose
 /// norm is off by more than kQuatNormTolerance, a jaw outside [0, 1] (beyond kJawTolerance).
 void validate_recording(Recording& rec, const std::string& file, const SampleLocator& where);
 inline constexpr double kQuatNormTolerance = 1e-3;  // float32 round trips and 4-digit logs pass

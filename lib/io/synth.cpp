@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <set>
 
 #include "io/error.hpp"
+#include "io/paths.hpp"
 
 namespace ebh {
 namespace {
@@ -54,6 +56,13 @@ struct PlanReader {
   }
 };
 
+// Whole numbers as such ("10000000 samples"), others as %g ("1e+15").
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, std::fabs(v) < 1e15 && v == std::floor(v) ? "%.0f" : "%g", v);
+  return buf;
+}
+
 // splitmix64 (Steele, Lea & Flood 2014): tiny, fast, identical on every platform.
 struct SplitMix64 {
   std::uint64_t s;
@@ -69,6 +78,7 @@ struct SplitMix64 {
 }  // namespace
 
 SynthPlan read_plan(const std::string& path) {
+  check_input_file(path);
   PlanReader r{path};
   YAML::Node root;
   try {
@@ -82,6 +92,7 @@ SynthPlan read_plan(const std::string& path) {
   r.only_keys(root, "", {"scene", "tool", "description", "rate_hz", "tremor", "quantum_mm", "waypoints"});
 
   SynthPlan plan;
+  plan.file = path;
   for (const char* k : {"scene", "tool", "waypoints"})
     if (!root[k]) throw InputError(path + ": missing key '" + k + "'");
   plan.scene = r.string(root["scene"], "scene");
@@ -90,7 +101,8 @@ SynthPlan read_plan(const std::string& path) {
   if (root["description"]) plan.description = r.string(root["description"], "description");
   if (root["rate_hz"]) {
     plan.rate_hz = r.number(root["rate_hz"], "rate_hz");
-    if (plan.rate_hz <= 0) r.fail(root["rate_hz"], "rate_hz", "must be positive");
+    if (!(plan.rate_hz > 0 && plan.rate_hz <= kMaxSampleRateHz))
+      r.fail(root["rate_hz"], "rate_hz", "expected a number in (0, " + num(kMaxSampleRateHz) + "] Hz");
   }
   if (root["quantum_mm"]) {
     plan.quantum = r.number(root["quantum_mm"], "quantum_mm") * 1e-3;
@@ -223,7 +235,17 @@ Recording synthesize(const SynthPlan& plan, std::uint64_t seed) {
   rec.tool = plan.tool;
   rec.description = plan.description;
   // 1e-9 guards t_last * rate landing a hair below an integer (10 s * 1000 Hz).
-  const auto n = static_cast<std::size_t>(std::floor(plan.waypoints.back().t * plan.rate_hz + 1e-9)) + 1;
+  const double t_last = plan.waypoints.back().t;
+  const double count = std::floor(t_last * plan.rate_hz + 1e-9) + 1;
+  const std::string where = plan.file.empty() ? std::string("synth") : plan.file;
+  if (!(count <= kMaxRecordingSamples))
+    throw InputError(where + ": the last waypoint at t = " + num(t_last) + " s sampled at " + num(plan.rate_hz) +
+                     " Hz makes " + num(count) + " samples; the limit is " + num(kMaxRecordingSamples) +
+                     " samples (a shorter plan or a lower rate)");
+  if (count < 2)
+    throw InputError(where + ": the waypoints span " + num(t_last) + " s, less than one sample interval at " +
+                     num(plan.rate_hz) + " Hz; a recording needs at least two samples");
+  const auto n = static_cast<std::size_t>(count);
   rec.t.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     double t = static_cast<double>(i) / plan.rate_hz;

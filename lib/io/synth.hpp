@@ -24,6 +24,7 @@ struct PlanWaypoint {
 };
 
 struct SynthPlan {
+  std::string file;  ///< the plan file (messages name it)
   std::string scene, tool, description;
   double rate_hz = 1000;
   double tremor_amplitude = 0.1e-3;         ///< m, per axis, amplitude of the equivalent single sinusoid
@@ -57,7 +58,9 @@ class Tremor {
 };
 
 /// Samples at t_i = i / rate_hz for i = 0 .. floor(t_last * rate_hz): plan pose + tremor,
-/// position rounded to multiples of plan.quantum. source = "synthetic".
+/// position rounded to multiples of plan.quantum. source = "synthetic". Throws InputError naming
+/// the plan when that is fewer than two samples or more than kMaxRecordingSamples (counted before
+/// anything is allocated).
 Recording synthesize(const SynthPlan& plan, std::uint64_t seed);
 
 }  // namespace ebh

@@ -60,7 +60,13 @@ struct FileCloser {
 void png_error_jump(png_structp png, png_const_charp) { png_longjmp(png, 1); }
 void png_warning_ignore(png_structp, png_const_charp) {}
 
-bool png_write_image(std::FILE* fp, const Image& img, png_text* chunks, int nchunks) {
+void png_append(png_structp png, png_bytep data, png_size_t n) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), n);
+}
+void png_no_flush(png_structp) {}
+
+// Encodes the image into `bytes` (written to the disk by the caller, every write checked).
+bool png_write_image(std::string& bytes, const Image& img, png_text* chunks, int nchunks) {
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, png_error_jump, png_warning_ignore);
   if (!png) return false;
   png_infop info = png_create_info_struct(png);
@@ -72,7 +78,7 @@ bool png_write_image(std::FILE* fp, const Image& img, png_text* chunks, int nchu
     png_destroy_write_struct(&png, &info);
     return false;
   }
-  png_init_io(png, fp);
+  png_set_write_fn(png, &bytes, png_append, png_no_flush);
   png_set_IHDR(png, info, static_cast<png_uint_32>(img.width), static_cast<png_uint_32>(img.height), 8,
                PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   if (nchunks > 0) png_set_text(png, info, chunks, nchunks);
@@ -117,20 +123,16 @@ const char* png_read_image(std::FILE* fp, Image& img) {
 
 void write_png(const std::string& path, const Image& img, const std::vector<std::pair<std::string, std::string>>& text) {
   if (img.width <= 0 || img.height <= 0) throw InputError(path + ": cannot write an empty image");
-  AtomicOutput out(path);
-  {
-    std::unique_ptr<std::FILE, FileCloser> fp(std::fopen(out.temp_path().c_str(), "wb"));
-    if (!fp) throw InputError(path + ": cannot write the PNG file");
-    std::vector<png_text> chunks(text.size());
-    for (std::size_t i = 0; i < text.size(); ++i) {
-      chunks[i].compression = PNG_TEXT_COMPRESSION_NONE;
-      chunks[i].key = const_cast<char*>(text[i].first.c_str());
-      chunks[i].text = const_cast<char*>(text[i].second.c_str());
-    }
-    if (!png_write_image(fp.get(), img, chunks.data(), static_cast<int>(chunks.size())) || std::fflush(fp.get()) != 0)
-      throw InputError(path + ": cannot write the PNG file (disk full?)");
+  std::vector<png_text> chunks(text.size());
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    chunks[i].compression = PNG_TEXT_COMPRESSION_NONE;
+    chunks[i].key = const_cast<char*>(text[i].first.c_str());
+    chunks[i].text = const_cast<char*>(text[i].second.c_str());
   }
-  out.commit();
+  std::string bytes;
+  if (!png_write_image(bytes, img, chunks.data(), static_cast<int>(chunks.size())))
+    throw InputError(path + ": libpng could not encode the image");
+  write_file_atomically(path, bytes);
 }
 
 Image read_png(const std::string& path) {

@@ -28,7 +28,7 @@ struct Image {
 /// arithmetic, so deterministic). in.width and in.height must be multiples of `factor`.
 Image downsample(const Image& in, int factor);
 
-/// Writes `img` as an 8-bit RGB PNG, atomically (FILE.tmp.<pid>, renamed when complete).
+/// Writes `img` as an 8-bit RGB PNG, atomically (write_file_atomically, io/atomic.hpp).
 /// `text` become tEXt chunks (key, value); no time stamp is written, so equal images give equal
 /// files. Throws InputError naming the file on failure.
 void write_png(const std::string& path, const Image& img,

@@ -15,6 +15,7 @@
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
 #include "io/error.hpp"
+#include "io/paths.hpp"
 #include "render/image.hpp"
 #include "render/tessellate.hpp"
 
@@ -176,6 +177,9 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   const ReplayFrames frames = open_replay_frames(replay);
   RenderSummary summary;
   const std::optional<SceneSpec> scene = find_replay_scene(frames, summary.warnings);
+  std::vector<RoleFile> inputs{{replay, "the replay"}};
+  if (scene) inputs.push_back({scene->file.string(), "the scene file"});
+  check_outputs({{opt.video, "the video"}}, inputs);
   const Bounds rest = bounds_of(frames.virtual_rest);
   const double aspect = static_cast<double>(opt.width) / opt.height;
   summary.camera = choose_camera(opt.camera, scene, rest, aspect, summary.camera_source);
@@ -203,7 +207,9 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   // A range of zero (nothing moved) maps everything to the colour map's bottom.
   const double scale = summary.displacement_range > 0 ? 1.0 / summary.displacement_range : 0.0;
 
-  fs::create_directories(dir);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir + ": cannot create the folder: " + ec.message());
   if (!fs::is_directory(dir)) throw InputError(dir + ": not a directory");
   for (const auto& e : fs::directory_iterator(dir)) {
     const std::string n = e.path().filename().string();

@@ -8,6 +8,7 @@
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
 #include "io/error.hpp"
+#include "io/paths.hpp"
 #include "render/replay_frames.hpp"
 
 namespace ebh {
@@ -79,8 +80,9 @@ std::string xdmf_path_for(const std::string& replay_h5_path) {
 }
 
 std::string write_xdmf(const std::string& replay_h5_path) {
-  const ReplayFrames frames = open_replay_frames(replay_h5_path);
   const std::string out_path = xdmf_path_for(replay_h5_path);
+  check_outputs({{out_path, "the XDMF index"}}, {{replay_h5_path, "the replay"}});
+  const ReplayFrames frames = open_replay_frames(replay_h5_path);
   const std::string h5 = xml_escape(fs::path(replay_h5_path).filename().string());
 
   std::ostringstream o;
@@ -96,14 +98,7 @@ std::string write_xdmf(const std::string& replay_h5_path) {
                h5, frames.t);
   o << "  </Domain>\n</Xdmf>\n";
 
-  AtomicOutput out(out_path);
-  {
-    std::ofstream file(out.temp_path(), std::ios::binary);
-    file << o.str();
-    file.flush();
-    if (!file) throw InputError(out_path + ": cannot write the XDMF file");
-  }
-  out.commit();
+  write_file_atomically(out_path, o.str());
   return out_path;
 }
 

@@ -13,8 +13,9 @@ namespace ebh {
 /// OUT.h5 -> OUT.xdmf (the extension replaced; appended when there is none).
 std::string xdmf_path_for(const std::string& replay_h5_path);
 
-/// Writes the XDMF index of `replay_h5_path` atomically (OUT.xdmf.tmp.<pid>, renamed) and returns
-/// its path. Throws InputError ("FILE: /frames: ...") when the file has no frames or a bad layout.
+/// Writes the XDMF index of `replay_h5_path` atomically (write_file_atomically, io/atomic.hpp) and
+/// returns its path. Throws InputError ("FILE: /frames: ...") when the file has no frames or a bad
+/// layout, or when the index would replace the replay itself (io/paths.hpp check_outputs).
 std::string write_xdmf(const std::string& replay_h5_path);
 
 }  // namespace ebh

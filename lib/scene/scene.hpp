@@ -41,6 +41,7 @@
 //     max_step_rotation_deg: 0.5    # rotation limit of one Newton step
 //     stabilization: {translation: 0, rotation: 0}   # N/m, N m/rad: damps the virtual tool per tick
 //   time: {haptic_hz: 1000, physical_hz: 100, interpolate_physical: true}
+//                                   # 0 < physical_hz <= haptic_hz <= kMaxHapticHz (100 kHz)
 //                                   # interpolate_physical: move the E_svc targets from the previous
 //                                   # physical result to the new one over N ticks (false: jump, as
 //                                   # Algorithm 2 line 1 is printed)
@@ -134,6 +135,11 @@ struct Stages {
   bool frames = false;  ///< mesh snapshots in the replay output by default
   bool settle = true;   ///< start from the static equilibrium under gravity, not the rest shape
 };
+
+/// The fastest haptic loop a replay runs (Hz). Haptic devices tick at 1 kHz, the fastest at a few
+/// kHz; 100 kHz leaves room for studies of the rate while a tick count (and the memory a replay
+/// keeps per tick) stays within a machine's reach (docs/FORMATS.md, Limits).
+inline constexpr double kMaxHapticHz = 100e3;
 
 /// The parsed scene file. All lengths in metres.
 struct SceneSpec {

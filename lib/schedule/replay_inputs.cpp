@@ -8,6 +8,16 @@ std::string resolve_recording_path(const std::string& name_or_path) {
   return resolve_data_path(name_or_path, "recordings", ".h5", "recording").string();
 }
 
+std::vector<RoleFile> replay_input_files(const std::string& scene, const std::string& recording,
+                                         const std::vector<std::string>& overrides) {
+  std::vector<RoleFile> files{{resolve_recording_path(recording), "the recording"}};
+  const SceneSpec spec = load_scene_spec(resolve_scene_path(scene), overrides);
+  files.push_back({spec.file.string(), "the scene file"});
+  files.push_back({spec.physical_mesh.string(), "the scene's physical mesh"});
+  if (spec.virtual_mesh) files.push_back({spec.virtual_mesh->string(), "the scene's virtual mesh"});
+  return files;
+}
+
 LoadedReplay load_replay_inputs(const std::string& scene, const std::string& recording,
                                 const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                 std::optional<double> physical_hz, bool allow_outside,

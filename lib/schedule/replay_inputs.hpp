@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "io/paths.hpp"
 #include "io/recording.hpp"
 #include "schedule/simulation.hpp"
 
@@ -20,6 +21,13 @@ struct LoadedReplay {
 /// Resolves a recording argument: an existing file, else recordings/NAME.h5 looked up in
 /// $EBH_DATA_DIR, the working directory and the source tree. Throws InputError if missing.
 std::string resolve_recording_path(const std::string& name_or_path);
+
+/// The files a replay of (scene, recording) reads, with what each is: the recording, the scene file
+/// and its meshes. Cheap (the scene file is parsed, no mesh is loaded), so a command checks its
+/// outputs against them before any work (io/paths.hpp check_outputs). Throws InputError like
+/// load_replay_inputs for a missing file or a bad scene.
+std::vector<RoleFile> replay_input_files(const std::string& scene, const std::string& recording,
+                                         const std::vector<std::string>& overrides);
 
 /// Loads scene (name or path) with --set overrides, builds the world at the given rates (the
 /// scene's when empty), reads the recording and checks that it lies near the scene (unless

@@ -3,10 +3,12 @@
 #include <omp.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
+#include "io/error.hpp"
 
 namespace ebh {
 namespace {
@@ -71,6 +73,52 @@ void write_rest_mesh(h5::File& f, const World& w) {
 }
 
 }  // namespace
+
+namespace {
+// Whole numbers as such ("10000000 ticks"), others with 4 significant digits ("1e+303").
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, std::fabs(v) < 1e15 && v == std::floor(v) ? "%.0f" : "%.4g", v);
+  return buf;
+}
+std::string bytes(double b) {
+  const char* units[] = {"bytes", "KiB", "MiB", "GiB", "TiB"};
+  int u = 0;
+  while (b >= 1024 && u < 4) { b /= 1024; ++u; }
+  if (u == 4 && b >= 1024) return num(b) + " TiB";
+  return num(b) + " " + units[u];
+}
+}  // namespace
+
+ReplaySize estimate_replay_size(const World& world, double duration, double frames_hz) {
+  ReplaySize r;
+  r.ticks = std::floor(duration / world.h_haptic + 1e-9) + 1;  // as tick_count(), in double: no overflow
+  r.frames = frames_hz > 0 ? std::floor(duration * frames_hz + 1e-9) + 1 : 0;
+  const double steps = r.ticks / world.ticks_per_step + 2;
+  const double step_bytes = 5 * 8 + 4;  // /physical and the step timings
+  r.memory_bytes = r.ticks * kReplayBytesPerTick + steps * step_bytes;
+  const double m = static_cast<double>(world.virtual_mesh.rest.size());
+  const double nx = static_cast<double>(world.physical_mesh.rest.size());
+  const double frame_bytes = 12 * (m + nx) + 16 * 8;  // float32 positions, t, jaw, two poses
+  const double mesh_bytes = 24 * (m + nx) + 12 * static_cast<double>(world.virtual_mesh.triangles.size()) +
+                            16 * static_cast<double>(world.physical_mesh.tets.size());
+  r.file_bytes = r.memory_bytes + r.frames * frame_bytes + mesh_bytes;
+  return r;
+}
+
+void check_replay_size(const World& world, double duration, double frames_hz, const std::string& recording,
+                       const std::string& output) {
+  const ReplaySize r = estimate_replay_size(world, duration, frames_hz);
+  if (!(r.ticks <= kMaxReplayTicks))
+    throw InputError(recording + ": replaying " + num(duration) + " s at " + num(1.0 / world.h_haptic) + " Hz makes " +
+                     num(r.ticks) + " ticks; the limit is " + num(kMaxReplayTicks) + " ticks (" +
+                     bytes(kMaxReplayTicks * kReplayBytesPerTick) +
+                     " of rows held in memory): replay a shorter window (--start, --duration) or at a lower rate");
+  if (!(r.file_bytes <= kMaxReplayOutputBytes))
+    throw InputError(output + ": " + num(r.frames) + " mesh snapshots (" + num(frames_hz) + " per s over " +
+                     num(duration) + " s) make an output of " + bytes(r.file_bytes) + "; the limit is " +
+                     bytes(kMaxReplayOutputBytes) + ": lower --frames-hz or replay a shorter window");
+}
 
 std::string cpu_description() {
   std::ifstream in("/proc/cpuinfo");

@@ -28,6 +28,27 @@ struct ReplayMetadata {
   std::vector<std::string> overrides;  ///< --set key=value, as given
 };
 
+/// The largest output a replay writes (docs/FORMATS.md, Limits). Mesh snapshots go to the file as
+/// they come, so the output's size bounds them; the ticks are bounded by kMaxReplayTicks
+/// (scheduler.hpp) because the writer keeps every tick's row in memory until the end.
+inline constexpr double kMaxReplayOutputBytes = 256.0 * (1ull << 30);
+/// /haptic and /timing: 31 float64, 2 uint8 and 2 int32 values per tick.
+inline constexpr double kReplayBytesPerTick = 31 * 8 + 2 * 1 + 2 * 4;
+
+/// What a replay of `duration` seconds with `frames_hz` snapshots per second (0: none) makes.
+struct ReplaySize {
+  double ticks = 0, frames = 0;
+  double memory_bytes = 0;  ///< per-tick and per-step rows the writer holds
+  double file_bytes = 0;    ///< rows, snapshots and the rest meshes
+};
+ReplaySize estimate_replay_size(const World& world, double duration, double frames_hz);
+
+/// Throws InputError before anything is allocated when the replay passes a limit: too many ticks
+/// ("RECORDING: replaying 1e+300 s at 1000 Hz makes 1e+303 ticks; the limit is ...") or too large
+/// an output ("OUT: ... snapshots ... the limit is 256 GiB").
+void check_replay_size(const World& world, double duration, double frames_hz, const std::string& recording,
+                       const std::string& output);
+
 /// Collects a replay and writes it. Per-tick and per-step rows are buffered (reserved for the
 /// whole replay, so a tick does not allocate); frames are appended to the file as they come.
 class ReplayWriter : public ReplayObserver {

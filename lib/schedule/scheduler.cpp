@@ -509,7 +509,11 @@ const char* mode_name(Mode m) {
 }
 
 std::int64_t tick_count(const World& world, double duration) {
-  return static_cast<std::int64_t>(std::floor(duration / world.h_haptic + 1e-9)) + 1;
+  const double n = std::floor(duration / world.h_haptic + 1e-9) + 1;
+  if (!(n >= 1 && n <= kMaxReplayTicks))
+    throw InputError("a replay of " + std::to_string(duration) + " s makes more than " +
+                     std::to_string(static_cast<long long>(kMaxReplayTicks)) + " ticks (the limit)");
+  return static_cast<std::int64_t>(n);
 }
 
 ReplaySummary replay(const World& world, const Recording& recording, const ReplayOptions& options,

@@ -57,7 +57,12 @@ struct ReplaySummary {
   bool stopped = false;   ///< ended early by should_stop()
 };
 
-/// Number of ticks a replay of `duration` seconds runs: ticks 0 .. floor(duration / h_h).
+/// The most ticks one replay runs (docs/FORMATS.md, Limits): 10 million is 2.8 hours at 1 kHz; the
+/// output writer holds ~258 bytes per tick in memory (2.6 GB at the limit).
+inline constexpr double kMaxReplayTicks = 10e6;
+
+/// Number of ticks a replay of `duration` seconds runs: ticks 0 .. floor(duration / h_h). Throws
+/// InputError beyond kMaxReplayTicks (check_replay_size, replay_output.hpp, says it better first).
 std::int64_t tick_count(const World& world, double duration);
 
 #if EBH_HAVE_CUDA

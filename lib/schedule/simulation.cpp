@@ -177,9 +177,13 @@ int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<s
 
 std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double physical_hz, Backend backend) {
   const std::string where = scene.spec.file.string();
-  if (!(haptic_hz > 0) || !(physical_hz > 0) || physical_hz > haptic_hz)
-    throw InputError(where + ": rates must satisfy 0 < physical_hz <= haptic_hz (got haptic " +
-                     std::to_string(haptic_hz) + " Hz, physical " + std::to_string(physical_hz) + " Hz)");
+  if (!(haptic_hz > 0) || !(physical_hz > 0) || physical_hz > haptic_hz || !(haptic_hz <= kMaxHapticHz)) {
+    char why[160];
+    std::snprintf(why, sizeof why,
+                  "rates must satisfy 0 < physical_hz <= haptic_hz <= %g Hz (got haptic %g Hz, physical %g Hz)",
+                  kMaxHapticHz, haptic_hz, physical_hz);
+    throw InputError(where + ": " + why);
+  }
   const double ratio = haptic_hz / physical_hz;
   if (std::fabs(ratio - std::round(ratio)) > 1e-9)
     throw InputError(where + ": haptic_hz / physical_hz must be a whole number of ticks per physical step (got " +

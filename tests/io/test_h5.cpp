@@ -108,7 +108,7 @@ TEST(Atomic, UncommittedLeavesNoFile) {
   {
     h5::AtomicFile out(path);
     out.file().write<double>("x", std::vector<double>{1, 2}, {2});
-    EXPECT_TRUE(fs::exists(out.final_path() + ".tmp." + std::to_string(getpid())));
+    EXPECT_TRUE(fs::exists(partial_path_for(path)));
     EXPECT_FALSE(fs::exists(path));
   }  // destroyed uncommitted, as after an exception
   EXPECT_FALSE(fs::exists(path));

@@ -105,3 +105,15 @@ TEST(Import, DefectsNameFileAndLine) {
   EXPECT_INPUT_ERROR(import_log(p, opt), "h.txt", "no samples");
   EXPECT_INPUT_ERROR(import_log(tmp / "absent.txt", opt), "absent.txt", "cannot open");
 }
+
+TEST(Import, FoldersAndBinaryFilesAreNotLogs) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  EXPECT_INPUT_ERROR(import_log(tmp.dir.string(), opt), "is a folder, not a file");
+  {
+    std::FILE* f = std::fopen((tmp / "png.csv").c_str(), "wb");
+    std::fwrite("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 1, 16, f);
+    std::fclose(f);
+  }
+  EXPECT_INPUT_ERROR(import_log(tmp / "png.csv", opt), "png.csv:2: byte 0x1a: not a text file");
+}

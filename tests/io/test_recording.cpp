@@ -209,3 +209,23 @@ TEST(SceneCheck, FlagsATrajectoryFarOutside) {
   EXPECT_NE(msg->find("sample 9"), std::string::npos) << *msg;
   EXPECT_NE(msg->find("mm or cm"), std::string::npos) << *msg;
 }
+
+TEST(Recording, OneSampleIsNotATrajectory) {
+  // A replay needs a duration: the message names the file and says so (it used to blame a
+  // --start that was never given).
+  test::ScratchDir tmp;
+  const std::string path = tmp / "one.h5";
+  {
+    h5::File f = h5::File::create(path);
+    h5::Group g = f.create_group("trajectory");
+    g.write<double>("t", std::vector<double>{0.5}, {1});
+    g.write<double>("position", std::vector<double>{0, 0, 0}, {1, 3});
+    g.write<double>("orientation", std::vector<double>{1, 0, 0, 0}, {1, 4});
+    g.write<double>("jaw", std::vector<double>{1}, {1});
+    g.write<std::uint8_t>("buttons", std::vector<std::uint8_t>{0}, {1});
+    f.set_attr("rate_hz", 1000.0);
+    for (const char* a : {"source", "scene", "tool", "description"}) f.set_attr(a, "x");
+    f.close();
+  }
+  EXPECT_INPUT_ERROR(read_recording(path), "one.h5: the recording has one sample; a recording needs at least two");
+}

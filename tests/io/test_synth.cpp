@@ -195,3 +195,15 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   plan("scene: [gap\n");
   EXPECT_INPUT_ERROR(read_plan(path), path, "YAML syntax error");
 }
+
+TEST(Synth, SampleCountIsCheckedBeforeAllocating) {
+  // A far waypoint or a high rate asks for more samples than memory holds: refused with the
+  // limit, naming the plan, before anything is allocated (it was std::bad_alloc).
+  SynthPlan plan;
+  plan.file = "far.yaml";
+  plan.waypoints.resize(2);
+  plan.waypoints[1].t = 1e12;
+  EXPECT_INPUT_ERROR(synthesize(plan, 1), "far.yaml: ", "1e+15 samples", "the limit is 10000000 samples");
+  plan.waypoints[1].t = 1e-4;  // shorter than one sample interval at 1 kHz
+  EXPECT_INPUT_ERROR(synthesize(plan, 1), "far.yaml: ", "a recording needs at least two samples");
+}

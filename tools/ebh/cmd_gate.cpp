@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "command.hpp"
+#include "options.hpp"
 #include "ebh/version.hpp"
 #include "gate/gate.hpp"
 #include "io/error.hpp"
@@ -19,6 +20,9 @@ struct GateArgs {
 
 void run_gate(const GateArgs& a) {
   GateBaselines b = read_gate_baselines(a.baselines);
+  std::vector<std::string> known;
+  for (const GateCase& c : b.cases) known.push_back(c.name);
+  check_known_names("--case", "gate case", a.only, known);
   Json report = Json::array();
   bool all_passed = true;
   for (GateCase& c : b.cases) {

@@ -6,10 +6,13 @@
 #include <string>
 
 #include "command.hpp"
+#include "options.hpp"
 #include "ebh/version.hpp"
 #include "io/error.hpp"
 #include "io/import.hpp"
+#include "io/paths.hpp"
 #include "io/recording.hpp"
+#include "scene/scene.hpp"
 
 namespace {
 
@@ -24,7 +27,15 @@ void run(const ImportArgs& a) {
   else if (a.format == "csv") opt.format = ebh::LogFormat::csv;
   else if (!a.format.empty()) throw ebh::InputError("--format: '" + a.format + "' is not openhaptics or csv");
   if (a.tool != "hook" && a.tool != "forceps") throw ebh::InputError("--tool: '" + a.tool + "' is not hook or forceps");
-  if (!(a.rate_hz > 0)) throw ebh::InputError("--rate: must be positive");
+  // The recording names the scene it is replayed with: a known scene name or a scene file.
+  if (!a.scene.empty()) {
+    try {
+      ebh::resolve_scene_path(a.scene);
+    } catch (const ebh::InputError& e) {
+      throw ebh::InputError(std::string("--scene: ") + e.what());
+    }
+  }
+  ebh::check_outputs({{a.output, "the recording to write"}}, {{a.log, "the log"}});
   opt.rate_hz = a.rate_hz;
   if (!a.unit.empty()) opt.unit = ebh::parse_length_unit(a.unit);
   if (!a.transform.empty()) {
@@ -47,7 +58,9 @@ void setup(CLI::App& root) {
   c->add_option("log", args->log, "device log (text)")->required();
   c->add_option("-o,--output", args->output, "recording to write (HDF5)")->required();
   c->add_option("--format", args->format, "openhaptics or csv (default: csv for *.csv, else openhaptics)");
-  c->add_option("--rate", args->rate_hz, "sample rate in Hz when the log has no t column")->capture_default_str();
+  c->add_option("--rate", args->rate_hz, "sample rate in Hz when the log has no t column")
+      ->capture_default_str()
+      ->check(ebh::cli::finite_number(0, ebh::kMaxSampleRateHz, true, "Hz"));
   c->add_option("--unit", args->unit, "length unit of the log: m, cm or mm (default: mm openhaptics, m csv)");
   c->add_option("--transform", args->transform,
                 "log frame -> world: \"tx,ty,tz,rx,ry,rz\" (translation in the log's unit, rotation vector in degrees)");

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "options.hpp"
 #include "io/error.hpp"
 #include "metrics/force_metrics.hpp"
 #include "metrics/signal.hpp"
@@ -21,7 +22,6 @@ struct MetricsArgs {
 
 void run(const MetricsArgs& a) {
   ebh::MetricsOptions opt;
-  if (!(a.merge_gap_ms >= 0)) throw ebh::InputError("--merge-gap-ms: must be >= 0");
   if (a.fft_window < 2 || ebh::floor_pow2(a.fft_window) != a.fft_window)
     throw ebh::InputError("--fft-window: " + std::to_string(a.fft_window) + " is not a power of two >= 2");
   opt.episode_merge_gap_s = a.merge_gap_ms * 1e-3;
@@ -41,7 +41,8 @@ void setup(CLI::App& root) {
   c->add_flag("--json", args->json, "print JSON instead of a table");
   c->add_flag("--episodes", args->episodes, "also give the metrics of each contact episode");
   c->add_option("--merge-gap-ms", args->merge_gap_ms, "contact episodes closer than this are merged (ms)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit));
   c->add_option("--fft-window", args->fft_window, "FFT window in haptic ticks (a power of two)")->capture_default_str();
   c->callback([args] { run(*args); });
 }

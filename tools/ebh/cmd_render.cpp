@@ -7,6 +7,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "options.hpp"
 #include "io/error.hpp"
 #include "render/render_replay.hpp"
 #include "render/xdmf.hpp"
@@ -47,7 +48,7 @@ void run(RenderArgs& a) {
   a.opt.time_bar = !a.no_time_bar;
   a.opt.video = a.video;
   const ebh::RenderSummary s = ebh::render_replay(a.replay, a.dir, a.opt);
-  for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   if (a.quiet) return;
   std::printf("%s: %zu frames, %dx%d, camera: %s\n", a.dir.c_str(), s.files.size(), a.opt.width, a.opt.height,
               s.camera_source.c_str());
@@ -68,7 +69,8 @@ void setup(CLI::App& root) {
   c->add_option("--every", args->opt.every, "render every N-th frame")->capture_default_str();
   c->add_option("--color-by", args->color_by, "tissue colour: none or displacement")->capture_default_str();
   c->add_option("--max-displacement-mm", args->max_displacement_mm,
-                "top of the displacement colour map (default: the largest displacement rendered)");
+                "top of the displacement colour map (default: the largest displacement rendered)")
+      ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit));
   c->add_option("--supersample", args->opt.supersample, "antialiasing factor 1..4")->capture_default_str();
   c->add_flag("--no-time-bar", args->no_time_bar, "leave out the bar along the bottom edge that shows t / t_end");
   c->add_option("--video", args->video, "also assemble the frames into this .mp4 (needs ffmpeg)");

@@ -9,7 +9,10 @@
 
 #include "command.hpp"
 #include "io/error.hpp"
+#include "io/paths.hpp"
 #include "io/recording.hpp"
+#include "options.hpp"
+#include "render/xdmf.hpp"
 #include "replay_common.hpp"
 #include "schedule/replay_output.hpp"
 #include "schedule/scheduler.hpp"
@@ -20,10 +23,16 @@
 namespace ebh::cli {
 namespace {
 
+std::string fmt(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
 struct ReplayArgs {
   std::string scene, recording, out, mode = "async", backend = "cpu";
-  std::optional<double> haptic_hz, physical_hz;
-  double frames_hz = -1, start = 0, duration = 0;
+  std::optional<double> haptic_hz, physical_hz, frames_hz, duration;
+  double start = 0;
   std::vector<std::string> overrides;
   std::string render_dir;
   bool allow_outside = false, quiet = false;
@@ -75,23 +84,33 @@ void run_replay(const ReplayArgs& a) {
   const Mode mode = parse_mode(a.mode);
   check_backend(a.backend);
   const Backend backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
+  // Before any work: no output may replace one of the files the replay reads.
+  check_outputs({{a.out, "the replay output"}, {xdmf_path_for(a.out), "the replay's XDMF index"}},
+                replay_input_files(a.scene, a.recording, a.overrides));
+  if (std::error_code ec; !a.render_dir.empty() && std::filesystem::exists(a.render_dir, ec) &&
+                          !std::filesystem::is_directory(a.render_dir, ec))
+    throw InputError("--render " + a.render_dir + ": not a folder");
   LoadedReplay in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz,
                                        a.allow_outside, backend);
   const World& world = *in.world;
   for (const std::string& w : world.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
-  const double frames_hz = a.frames_hz >= 0 ? a.frames_hz : (world.scene.spec.stages.frames ? 30.0 : 0.0);
-  if (a.duration < 0) throw InputError("--duration: expected a positive number of seconds");
+  const double length = in.recording.duration();
+  if (!(a.start < length))
+    throw InputError("--start " + fmt(a.start) + ": the recording " + in.recording_path + " is " + fmt(length) +
+                     " s long; start before its end");
   ReplayOptions opt;
   opt.mode = mode;
   opt.start = a.start;
-  opt.duration = a.duration;
-  if (a.start < 0 || a.start >= in.recording.duration())
-    throw InputError("--start: expected a time inside the recording (0 .. " + std::to_string(in.recording.duration()) + " s)");
-  opt.frames_hz = frames_hz;
-  if (!a.render_dir.empty() && frames_hz <= 0) opt.frames_hz = 30.0;  // --render needs frames
+  opt.duration = a.duration.value_or(0);  // 0: the rest of the recording
+  opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? 30.0 : 0.0);
+  if (!a.render_dir.empty() && opt.frames_hz <= 0) opt.frames_hz = 30.0;  // --render needs frames
+  if (opt.frames_hz * world.h_haptic > 1 + 1e-9)
+    throw InputError("--frames-hz " + fmt(opt.frames_hz) + ": more snapshots than haptic ticks (" +
+                     fmt(1.0 / world.h_haptic) + " Hz)");
 
-  const double rest = in.recording.duration() - a.start;
-  const double duration = a.duration > 0 ? std::min(a.duration, rest) : rest;
+  const double rest = length - a.start;
+  const double duration = a.duration ? std::min(*a.duration, rest) : rest;
+  check_replay_size(world, duration, opt.frames_hz, in.recording_path, a.out);
   const std::int64_t ticks = tick_count(world, duration);
   ReplayMetadata meta;
   meta.recording = in.recording_path;
@@ -133,12 +152,17 @@ void setup(CLI::App& root) {
   c->add_option("recording", args->recording, "Recording: an HDF5 file or a name in recordings/")->required();
   c->add_option("-o,--output", args->out, "Output HDF5 file")->required();
   c->add_option("--mode", args->mode, "async (default), lockstep or realtime");
-  c->add_option("--haptic-hz", args->haptic_hz, "Haptic tick rate (default: the scene's, 1000)");
-  c->add_option("--physical-hz", args->physical_hz, "Physical step rate (default: the scene's, 100)");
+  c->add_option("--haptic-hz", args->haptic_hz, "Haptic tick rate (default: the scene's, 1000)")
+      ->check(finite_number(0, kMaxHapticHz, true, "Hz"));
+  c->add_option("--physical-hz", args->physical_hz, "Physical step rate (default: the scene's, 100)")
+      ->check(finite_number(0, kMaxHapticHz, true, "Hz"));
   c->add_option("--backend", args->backend, "cpu (default) or cuda");
-  c->add_option("--frames-hz", args->frames_hz, "Mesh snapshots per second in /frames (default: 30 if the scene asks)");
-  c->add_option("--start", args->start, "Start S seconds into the recording");
-  c->add_option("--duration", args->duration, "Replay only S seconds");
+  c->add_option("--frames-hz", args->frames_hz,
+                "Mesh snapshots per second in /frames, 0 for none (default: 30 if the scene asks)")
+      ->check(finite_number(0, kMaxHapticHz, false, "Hz"));
+  c->add_option("--start", args->start, "Start S seconds into the recording")->check(finite_number(0, kNoUpperLimit));
+  c->add_option("--duration", args->duration, "Replay only S seconds (default: the rest of the recording)")
+      ->check(finite_number(0, kNoUpperLimit, true));
   c->add_option("--set", args->overrides, "Override a scene key: --set stiffness.k_con=800 (repeatable)");
   c->add_option("--render", args->render_dir, "Also render the frames to PNG files in DIR (needs OSMesa)");
   c->add_flag("--allow-outside", args->allow_outside, "Accept a trajectory far outside the scene");

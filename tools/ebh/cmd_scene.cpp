@@ -155,7 +155,7 @@ void info(const SceneInfoArgs& a) {
     return;
   }
 
-  for (const auto& w : scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  for (const auto& w : scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   std::printf("scene            %s (%s)\n", scene.spec.name.c_str(), scene.spec.file.string().c_str());
   std::printf("unit             %s (lengths below in metres)\n", scene.spec.unit_name.c_str());
   std::printf("physical mesh    %s\n", scene.spec.physical_mesh.string().c_str());

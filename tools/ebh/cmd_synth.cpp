@@ -4,11 +4,14 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "command.hpp"
+#include "options.hpp"
 #include "ebh/version.hpp"
 #include "io/error.hpp"
+#include "io/paths.hpp"
 #include "io/recording.hpp"
 #include "io/synth.hpp"
 
@@ -18,7 +21,7 @@ struct SynthArgs {
   std::string plan;
   std::string output;
   std::uint64_t seed = 1;
-  double rate_hz = 0;  // 0: the plan's rate_hz (default 1000)
+  std::optional<double> rate_hz;  // default: the plan's rate_hz (default 1000)
 };
 
 std::string file_name(const std::string& path) {
@@ -27,11 +30,9 @@ std::string file_name(const std::string& path) {
 }
 
 void run(const SynthArgs& a) {
+  ebh::check_outputs({{a.output, "the recording to write"}}, {{a.plan, "the plan"}});
   ebh::SynthPlan plan = ebh::read_plan(a.plan);
-  if (a.rate_hz != 0) {
-    if (!(a.rate_hz > 0)) throw ebh::InputError("--rate: must be positive");
-    plan.rate_hz = a.rate_hz;
-  }
+  if (a.rate_hz) plan.rate_hz = *a.rate_hz;
   ebh::Recording rec = ebh::synthesize(plan, a.seed);
   // The plan's file name only (no directories), so regenerated files do not depend on where the
   // repository lives.
@@ -50,7 +51,8 @@ void setup(CLI::App& root) {
   c->add_option("plan", args->plan, "plan file (YAML: scene, tool, waypoints; see docs/FORMATS.md)")->required();
   c->add_option("-o,--output", args->output, "recording to write (HDF5)")->required();
   c->add_option("--seed", args->seed, "tremor seed (same seed, same recording)")->capture_default_str();
-  c->add_option("--rate", args->rate_hz, "sample rate in Hz (default: the plan's rate_hz, else 1000)");
+  c->add_option("--rate", args->rate_hz, "sample rate in Hz (default: the plan's rate_hz, else 1000)")
+      ->check(ebh::cli::finite_number(0, ebh::kMaxSampleRateHz, true, "Hz"));
   c->callback([args] { run(*args); });
 }
 

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "command.hpp"
+#include "options.hpp"
 #include "io/error.hpp"
 #include "io/json.hpp"
 #include "mesh/boundary.hpp"
@@ -75,7 +76,9 @@ struct Table1Args {
 };
 
 void run_table1(const Table1Args& a) {
-  if (!(a.seconds > 0)) throw InputError("--seconds: expected a positive duration");
+  std::vector<std::string> known;
+  for (const Column& col : kColumns) known.push_back(col.label);
+  check_known_names("--scene", "Table 1 column", a.only, known);
   Json rows = Json::array();
   if (!a.json)
     std::printf("%-16s %7s %7s %9s %9s | %9s %9s %9s | %8s %8s\n", "scene", "tets", "(paper)", "triangles", "(paper)",
@@ -127,7 +130,8 @@ void run_table1(const Table1Args& a) {
 void setup(CLI::App& root) {
   auto args = std::make_shared<Table1Args>();
   CLI::App* c = root.add_subcommand("table1", "Reproduce the paper's Table 1 (sizes, simulation and haptic rates)");
-  c->add_option("--seconds", args->seconds, "Wall seconds of realtime replay per measurement (default 3)");
+  c->add_option("--seconds", args->seconds, "Wall seconds of realtime replay per measurement (default 3)")
+      ->check(finite_number(0, 3600, true, "s"));
   c->add_option("--scene", args->only, "Only these columns (cholecystectomy, gynaecology, tube, gap)");
   c->add_flag("--json", args->json, "JSON output");
   c->callback([args] { run_table1(*args); });

@@ -1,6 +1,9 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <new>
 
 #include "command.hpp"
 #include "ebh/version.hpp"
@@ -13,15 +16,17 @@ std::vector<CommandSetup>& command_registry() {
 }
 }  // namespace ebh::cli
 
-int main(int argc, char** argv) {
-  CLI::App app{"ebh: energy-based haptic rendering for surgical simulation (batch replay, validation, benchmarks)"};
-  app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
-  app.require_subcommand(1);
-  for (auto setup : ebh::cli::command_registry()) setup(app);
+namespace {
+
+/// Parses and runs the command; returns the exit status (1 bad input, 3 internal error).
+int run(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // A bad command line is bad input like any other: one line, exit status 1.
+    std::fprintf(stderr, "ebh: error: %s\n", ebh::escape_unprintable(e.what()).c_str());
+    return 1;
   } catch (const ebh::cli::ExitRequest& e) {
     return e.code;
   } catch (const ebh::InputError& e) {
@@ -30,9 +35,31 @@ int main(int argc, char** argv) {
   } catch (const ebh::NumericalError& e) {
     std::fprintf(stderr, "ebh: error: %s\n", e.what());
     return 4;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "ebh: error: out of memory\n");
+    return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "ebh: internal error: %s\n", e.what());
+    std::fprintf(stderr, "ebh: internal error: %s\n", ebh::escape_unprintable(e.what()).c_str());
     return 3;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ebh: energy-based haptic rendering for surgical simulation (batch replay, validation, benchmarks)"};
+  app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
+  app.require_subcommand(1);
+  for (auto setup : ebh::cli::command_registry()) setup(app);
+  const int status = run(app, argc, argv);
+  // What a command prints (a table, JSON) is an output too: a write that failed (a full disk under
+  // a redirection) is an error, not a truncated file and exit status 0.
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    const int err = errno;
+    std::fprintf(stderr, "ebh: error: standard output: %s\n", err ? std::strerror(err) : "write error");
+    return status == 0 ? 1 : status;
+  }
+  return status;
 }

@@ -28,7 +28,7 @@ void check_backend(const std::string& backend) {
 
 void render_after_replay(const std::string& replay_file, const std::string& dir) {
   const RenderSummary s = render_replay(replay_file, dir, RenderOptions{});
-  for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
 }
 
 void index_replay_frames(const std::string& replay_file) {

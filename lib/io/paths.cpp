@@ -1,0 +1,77 @@
+#include "io/paths.hpp"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <filesystem>
+
+#include "io/atomic.hpp"
+#include "io/error.hpp"
+
+namespace ebh {
+namespace fs = std::filesystem;
+
+bool same_file(const std::string& a, const std::string& b) {
+  if (a.empty() || b.empty()) return false;
+  struct stat sa {}, sb {};
+  if (::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0)
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+  std::error_code ea, eb;
+  const fs::path ca = fs::weakly_canonical(fs::absolute(a, ea), ea), cb = fs::weakly_canonical(fs::absolute(b, eb), eb);
+  if (ea || eb) return fs::path(a).lexically_normal() == fs::path(b).lexically_normal();
+  return ca == cb;
+}
+
+namespace {
+
+// The output can be created where it is asked for: its nearest existing ancestor is a folder this
+// process may write in (AtomicOutput finds the same later; this says it before the work).
+void check_output_location(const std::string& path) {
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  while (!fs::exists(dir, ec) && dir.has_parent_path() && dir.parent_path() != dir) dir = dir.parent_path();
+  if (!fs::exists(dir, ec) && dir.is_relative()) dir = ".";
+  int err = 0;
+  if (!fs::is_directory(dir, ec)) err = ENOTDIR;
+  else if (::access(dir.c_str(), W_OK | X_OK) != 0) err = errno;
+  if (err) throw InputError(path + ": cannot create the output: " + os_reason(err));
+  if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write the output: " + os_reason(EISDIR));
+}
+
+}  // namespace
+
+void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleFile>& inputs) {
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const RoleFile& out = outputs[i];
+    if (out.path.empty()) continue;
+    check_output_location(out.path);
+    for (const RoleFile& in : inputs)
+      if (same_file(out.path, in.path))
+        throw InputError(out.path + ": the output would replace " + in.role + " " + in.path +
+                         ", an input of this command; choose another output file");
+    for (std::size_t j = 0; j < i; ++j)
+      if (same_file(out.path, outputs[j].path))
+        throw InputError(out.path + ": is both " + outputs[j].role + " and " + out.role +
+                         "; choose another output file");
+  }
+}
+
+void check_input_file(const std::string& path) {
+  if (path.empty()) throw InputError("an input file name is empty");
+  if (is_partial_output(path))
+    throw InputError(path + ": an unfinished output of ebh (a run that was killed or is still writing), not an input");
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    const int err = errno;
+    throw InputError(path + ": cannot open: " + os_reason(err));
+  }
+  if (S_ISDIR(st.st_mode)) throw InputError(path + ": is a folder, not a file");
+  if (::access(path.c_str(), R_OK) != 0) {
+    const int err = errno;
+    throw InputError(path + ": cannot open: " + os_reason(err));
+  }
+}
+
+}  // namespace ebh

@@ -1,0 +1,227 @@
+// Atomic outputs (lib/io/atomic.hpp) when writing goes wrong: a write that fails (a full disk, a
+// file-size limit) is reported with the OS reason and leaves a previous file byte-identical and no
+// temporary behind; temporaries are hidden, named so they are recognised, and removed once their
+// writer is gone; SIGHUP stops a run like SIGTERM.
+#include <gtest/gtest.h>
+#include <sched.h>
+#include <sys/mount.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "io/atomic.hpp"
+#include "io/h5.hpp"
+#include "io/recording.hpp"
+#include "io_test_util.hpp"
+
+using namespace ebh;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void spill(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+/// A recording of n samples (about 70 bytes each before compression; the tremor-free straight line
+/// compresses, so n is large where a test needs many bytes on the disk).
+Recording line_recording(std::size_t n) {
+  Recording r;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = 1e-3 * static_cast<double>(i);
+    r.t.push_back(t);
+    // Not compressible to nothing: a pseudo-random wobble.
+    const double w = 1e-6 * static_cast<double>((i * 2654435761u) % 1000);
+    r.position.push_back({0.01 * t + w, w, -w});
+    r.orientation.push_back({1, 0, 0, 0});
+    r.jaw.push_back(1);
+    r.buttons.push_back(static_cast<std::uint8_t>(i % 3));
+  }
+  r.scene = "tube";
+  r.tool = "hook";
+  return r;
+}
+
+/// Runs `body` in a child process and returns what it returned (through a pipe): the child may
+/// change process-wide settings (resource limits, mount namespace) without touching the tests.
+std::string in_child(const std::function<std::string()>& body) {
+  int fds[2];
+  if (pipe(fds) != 0) return "pipe failed";
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fds[0]);
+    std::string out;
+    try {
+      out = body();
+    } catch (const std::exception& e) {
+      out = std::string("exception: ") + e.what();
+    }
+    const char* p = out.data();
+    std::size_t left = out.size();
+    while (left > 0) {
+      const ssize_t n = write(fds[1], p, left);
+      if (n <= 0) break;
+      p += n;
+      left -= static_cast<std::size_t>(n);
+    }
+    _exit(0);
+  }
+  close(fds[1]);
+  std::string out;
+  char buf[4096];
+  for (ssize_t n; (n = read(fds[0], buf, sizeof buf)) > 0;) out.append(buf, static_cast<std::size_t>(n));
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (!WIFEXITED(status)) out += " [the child died with signal " + std::to_string(WTERMSIG(status)) + "]";
+  return out;
+}
+
+/// What a failed write reports: the InputError's message, whether the previous file is
+/// byte-identical and the folder's entries afterwards ("message|same|entries").
+std::string failed_write_report(const std::string& dir, const std::function<void(const std::string&)>& write) {
+  const std::string path = dir + "/out.h5";
+  const std::string previous = "a previous result the user keeps\n";
+  spill(path, previous);
+  std::string message = "no error";
+  try {
+    write(path);
+  } catch (const InputError& e) {
+    message = e.what();
+  }
+  std::string entries;
+  for (const auto& e : fs::directory_iterator(dir)) entries += e.path().filename().string() + " ";
+  return message + "|" + (slurp(path) == previous ? "same" : "changed") + "|" + entries;
+}
+
+void expect_clean_failure(const std::string& report, const std::string& reason) {
+  const auto bar = report.find('|');
+  ASSERT_NE(bar, std::string::npos) << report;
+  const std::string message = report.substr(0, bar);
+  EXPECT_NE(message.find("out.h5: "), std::string::npos) << message;
+  EXPECT_NE(message.find(reason), std::string::npos) << message;
+  EXPECT_EQ(message.find("ebh-partial"), std::string::npos) << "the message names the temporary: " << message;
+  EXPECT_EQ(report.substr(bar), "|same|out.h5 ") << "previous file changed or a temporary left behind: " << report;
+}
+
+/// The writes of every atomic writer: an HDF5 recording (write_recording) and a plain file.
+const std::vector<std::pair<const char*, std::function<void(const std::string&)>>> kWriters = {
+    {"recording", [](const std::string& p) { write_recording(p, line_recording(20000)); }},
+    {"text", [](const std::string& p) { write_file_atomically(p, std::string(300000, 'x')); }},
+};
+
+}  // namespace
+
+TEST(Atomic, TemporaryIsHiddenBesideTheOutputAndMarkedPartial) {
+  const std::string tmp = partial_path_for("some/dir/run.h5");
+  EXPECT_EQ(fs::path(tmp).parent_path(), fs::path("some/dir"));
+  const std::string name = fs::path(tmp).filename().string();
+  EXPECT_EQ(name.rfind(".run.h5.", 0), 0u) << name;
+  EXPECT_NE(name.find("." + std::to_string(getpid()) + ".ebh-partial"), std::string::npos) << name;
+  EXPECT_TRUE(is_partial_output(tmp));
+  EXPECT_FALSE(is_partial_output("some/dir/run.h5"));
+}
+
+TEST(Atomic, WriteFailureKeepsThePreviousFileAndSaysWhy) {
+  // A file-size limit makes write() fail with EFBIG once a file would grow past it (SIGXFSZ
+  // ignored), in any file system and without privileges: the same path as a full disk.
+  test::ScratchDir tmp;
+  for (const auto& [kind, write] : kWriters) {
+    SCOPED_TRACE(kind);
+    const std::string report = in_child([&, dir = tmp.dir.string()] {
+      std::signal(SIGXFSZ, SIG_IGN);
+      const rlimit small{64 * 1024, 64 * 1024};
+      if (setrlimit(RLIMIT_FSIZE, &small) != 0) return std::string("setrlimit failed");
+      return failed_write_report(dir, write);
+    });
+    expect_clean_failure(report, "File too large");
+  }
+}
+
+TEST(Atomic, FullDiskKeepsThePreviousFileAndSaysWhy) {
+  // A real full disk: a 64 KiB tmpfs, mounted in a private mount namespace of a child process (it
+  // disappears with the child). Needs root and CAP_SYS_ADMIN; the file-size test above covers
+  // the same code where that is not allowed.
+  test::ScratchDir tmp;
+  const std::string dir = tmp / "small";
+  fs::create_directories(dir);
+  for (const auto& [kind, write] : kWriters) {
+    SCOPED_TRACE(kind);
+    const std::string report = in_child([&] {
+      if (unshare(CLONE_NEWNS) != 0) return std::string("SKIP unshare: ") + std::strerror(errno);
+      if (mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0)
+        return std::string("SKIP private mounts: ") + std::strerror(errno);
+      if (mount("tmpfs", dir.c_str(), "tmpfs", 0, "size=64k") != 0) return std::string("SKIP mount: ") + std::strerror(errno);
+      return failed_write_report(dir, write);
+    });
+    if (report.rfind("SKIP", 0) == 0) GTEST_SKIP() << "cannot mount a small tmpfs here (" << report.substr(5)
+                                                   << "); WriteFailureKeepsThePreviousFileAndSaysWhy covers write failures";
+    expect_clean_failure(report, "No space left on device");
+  }
+}
+
+TEST(Atomic, OutputInAFileNotAFolderNamesTheOutputAndTheReason) {
+  test::ScratchDir tmp;
+  spill(tmp / "afile", "x");
+  EXPECT_INPUT_ERROR(h5::AtomicFile(tmp / "afile/out.h5"), "afile/out.h5: ", "Not a directory");
+  try {
+    h5::AtomicFile out(tmp / "afile/out.h5");
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find("ebh-partial"), std::string::npos) << e.what();
+  }
+  EXPECT_INPUT_ERROR(write_file_atomically(tmp / "afile/out.txt", "x"), "afile/out.txt: ", "Not a directory");
+  fs::create_directories(tmp / "folder");
+  EXPECT_INPUT_ERROR(h5::AtomicFile(tmp / "folder"), "folder: ", "Is a directory");
+}
+
+TEST(Atomic, StaleTemporariesOfGoneWritersAreRemoved) {
+  test::ScratchDir tmp;
+  const std::string out = tmp / "run.h5";
+  // A PID that no longer runs: a child that has exited and been reaped.
+  const pid_t gone = fork();
+  if (gone == 0) _exit(0);
+  waitpid(gone, nullptr, 0);
+  const std::string mine = partial_path_for(out);
+  // .run.h5.HOST.PID.ebh-partial -> HOST
+  std::string who = fs::path(mine).filename().string().substr(std::string(".run.h5.").size());
+  who.resize(who.size() - kPartialSuffix.size());
+  const std::string host_name = who.substr(0, who.rfind('.'));
+  auto name = [&](const std::string& h, long pid) { return tmp / (".run.h5." + h + "." + std::to_string(pid) + ".ebh-partial"); };
+  spill(name(host_name, gone), "stale");                       // killed: removed
+  spill(name(host_name, static_cast<long>(getppid())), "live");  // still running: kept
+  spill(name("another-host", gone), "other");                  // another machine's: kept
+  spill(tmp / ".other.h5." + host_name + "." + std::to_string(gone) + ".ebh-partial", "x");  // another output: kept
+  EXPECT_EQ(remove_stale_partials(out), 1u);
+  EXPECT_FALSE(fs::exists(name(host_name, gone)));
+  EXPECT_TRUE(fs::exists(name(host_name, static_cast<long>(getppid()))));
+  EXPECT_TRUE(fs::exists(name("another-host", gone)));
+  EXPECT_EQ(tmp.entries(), 3u);
+  // Every new output of that path cleans up the same way.
+  spill(name(host_name, gone), "stale again");
+  { AtomicOutput o(out); }
+  EXPECT_FALSE(fs::exists(name(host_name, gone)));
+}
+
+TEST(Atomic, HangupStopsARunLikeAnInterrupt) {
+  install_interrupt_handlers();
+  set_interrupted(false);
+  std::raise(SIGHUP);  // the handler only sets the flag
+  EXPECT_TRUE(interrupted());
+  set_interrupted(false);
+}

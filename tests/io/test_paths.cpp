@@ -1,0 +1,54 @@
+// lib/io/paths.hpp: an output never replaces an input (same file through any name, link or hard
+// link), and an input is a readable file, never a folder or an unfinished output.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "io/atomic.hpp"
+#include "io/paths.hpp"
+#include "io_test_util.hpp"
+
+using namespace ebh;
+namespace fs = std::filesystem;
+
+TEST(Paths, SameFileThroughAnyNameOrLink) {
+  test::ScratchDir tmp;
+  fs::create_directories(tmp / "sub");
+  std::ofstream(tmp / "rec.h5") << "recording";
+  std::ofstream(tmp / "other.h5") << "other";
+  fs::create_symlink(tmp / "rec.h5", tmp / "link.h5");
+  fs::create_hard_link(tmp / "rec.h5", tmp / "hard.h5");
+  EXPECT_TRUE(same_file(tmp / "rec.h5", tmp / "sub/../rec.h5"));
+  EXPECT_TRUE(same_file(tmp / "rec.h5", tmp / "link.h5"));
+  EXPECT_TRUE(same_file(tmp / "rec.h5", tmp / "hard.h5"));
+  EXPECT_FALSE(same_file(tmp / "rec.h5", tmp / "other.h5"));
+  // A file that does not exist yet is compared by its canonical path.
+  EXPECT_TRUE(same_file(tmp / "new.h5", tmp / "sub/../new.h5"));
+  EXPECT_FALSE(same_file(tmp / "new.h5", tmp / "rec.h5"));
+}
+
+TEST(Paths, OutputOverAnInputIsRefusedNamingBoth) {
+  test::ScratchDir tmp;
+  std::ofstream(tmp / "rec.h5") << "recording";
+  fs::create_symlink(tmp / "rec.h5", tmp / "link.h5");
+  const std::vector<RoleFile> inputs{{tmp / "scene.yaml", "the scene file"}, {tmp / "rec.h5", "the recording"}};
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "link.h5", "the replay output"}}, inputs), "link.h5: the output would replace the recording ",
+                     "rec.h5, an input of this command");
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "a.h5", "the output"}, {tmp / "a.h5", "its index"}}, inputs),
+                     "a.h5: is both the output and its index");
+  check_outputs({{tmp / "out.h5", "the replay output"}, {"", "nothing"}}, inputs);  // no error
+  std::ofstream(tmp / "afile") << "x";
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "afile/out.h5", "the output"}}, inputs),
+                     "afile/out.h5: cannot create the output: Not a directory");
+}
+
+TEST(Paths, InputMustBeAReadableFile) {
+  test::ScratchDir tmp;
+  EXPECT_INPUT_ERROR(check_input_file(tmp / "absent.csv"), "absent.csv: cannot open: No such file or directory");
+  EXPECT_INPUT_ERROR(check_input_file(tmp.dir.string()), ": is a folder, not a file");
+  const std::string partial = partial_path_for(tmp / "run.h5");
+  std::ofstream(partial) << "half a file";
+  EXPECT_INPUT_ERROR(check_input_file(partial), "an unfinished output of ebh");
+}

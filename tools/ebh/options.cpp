@@ -1,0 +1,49 @@
+#include "options.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "io/error.hpp"
+
+namespace ebh::cli {
+namespace {
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+}  // namespace
+
+CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::string& unit) {
+  const std::string u = unit.empty() ? "" : " " + unit;
+  const std::string range = std::isinf(hi) ? (lo_open ? "> " : ">= ") + num(lo) + u
+                                           : std::string(lo_open ? "in (" : "in [") + num(lo) + ", " + num(hi) + "]" + u;
+  return CLI::Validator(
+      [lo, hi, lo_open, range](std::string& text) -> std::string {
+        const char* b = text.c_str();
+        char* e = nullptr;
+        errno = 0;
+        const double v = std::strtod(b, &e);
+        const bool parsed = !text.empty() && e == b + text.size() && errno != ERANGE;
+        const bool in = parsed && std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
+        return in ? std::string() : "expected a finite number " + range + ", got '" + escape_unprintable(text) + "'";
+      },
+      range);
+}
+
+void check_known_names(const std::string& option, const std::string& what, const std::vector<std::string>& chosen,
+                       const std::vector<std::string>& known) {
+  for (const std::string& c : chosen) {
+    if (std::find(known.begin(), known.end(), c) != known.end()) continue;
+    std::string list;
+    for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
+    throw InputError(option + ": no " + what + " '" + c + "' (known: " + list + ")");
+  }
+}
+
+}  // namespace ebh::cli

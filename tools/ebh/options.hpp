@@ -1,0 +1,24 @@
+#pragma once
+// Checks shared by the commands' options, one definition each.
+#include <CLI/CLI.hpp>
+
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace ebh::cli {
+
+inline constexpr double kNoUpperLimit = std::numeric_limits<double>::infinity();
+
+/// A CLI11 check for a numeric option: a finite number in [lo, hi] ((lo, hi] with lo_open; hi may be
+/// kNoUpperLimit). CLI11 reads "nan" and "inf" as numbers; this refuses them, so
+/// `--duration nan` is "ebh: error: --duration: expected a finite number > 0, got 'nan'" rather
+/// than a silent full replay. `unit` is appended to the range in messages ("Hz").
+CLI::Validator finite_number(double lo, double hi, bool lo_open = false, const std::string& unit = "");
+
+/// Throws InputError "OPTION: no NAME 'x' (known: a, b, c)" unless every chosen name is known:
+/// a filter that matches nothing must not pass silently (`ebh gate --case nosuchcase`).
+void check_known_names(const std::string& option, const std::string& what, const std::vector<std::string>& chosen,
+                       const std::vector<std::string>& known);
+
+}  // namespace ebh::cli

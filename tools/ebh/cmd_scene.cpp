@@ -3,14 +3,23 @@
 // groups, and any warnings from loading it.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
 
+#include <yaml-cpp/yaml.h>
+
+
 #include "command.hpp"
+#include "io/atomic.hpp"
 #include "io/error.hpp"
 #include "io/json.hpp"
+#include "io/paths.hpp"
+#include "mesh/degrade.hpp"
+#include "mesh/mesh_io.hpp"
 #include "mesh/validate.hpp"
 #include "scene/scene.hpp"
 #include "solver/physical_mesh.hpp"
@@ -190,6 +199,61 @@ void info(const SceneInfoArgs& a) {
                 c.tets, c.triangles);
 }
 
+struct SceneDegradeArgs {
+  std::string scene;
+  double quality = 0.05;
+  int tets = 24;
+  std::uint64_t seed = 1;
+  std::string out_dir;
+};
+
+/// `ebh scene degrade`: the scene with interior vertices of its physical mesh moved until the worst
+/// tet has the given mean ratio (mesh/degrade.hpp), as DIR/NAME_qQ.msh and DIR/NAME_qQ.yaml, for
+/// stress-testing the solver on meshes like a segmentation pipeline's.
+void degrade(const SceneDegradeArgs& a) {
+  if (!(a.quality > 0 && a.quality < 1)) throw ebh::InputError("--quality: expected a mean ratio in (0, 1)");
+  if (a.tets < 1) throw ebh::InputError("--tets: expected at least 1");
+  const std::filesystem::path file = ebh::resolve_scene_path(a.scene);
+  ebh::Scene scene = ebh::load_scene(file);
+  std::vector<std::uint8_t> fixed(scene.physical.vertices.size(), 0);
+  for (int p : scene.pinned) fixed[p] = 1;
+  ebh::DegradeOptions o;
+  o.target_quality = a.quality;
+  o.tets = a.tets;
+  o.seed = a.seed;
+  const ebh::DegradeReport r = ebh::degrade_mesh_quality(scene.physical, fixed, o);
+  if (r.worst_quality > a.quality * (1 + 1e-6))
+    throw ebh::InputError(file.string() + ": no interior tet of the physical mesh could be degraded to mean ratio " +
+                          std::to_string(a.quality));
+
+  char tag[32];
+  std::snprintf(tag, sizeof tag, "_q%g", a.quality);
+  const std::string stem = scene.spec.name + tag;
+  const std::filesystem::path dir = a.out_dir.empty() ? std::filesystem::path(".") : std::filesystem::path(a.out_dir);
+  const std::string mesh_out = (dir / (stem + ".msh")).string(), scene_out = (dir / (stem + ".yaml")).string();
+  std::vector<ebh::RoleFile> inputs = {{file.string(), "the scene"}, {scene.spec.physical_mesh.string(), "the physical mesh"}};
+  if (scene.spec.virtual_mesh) inputs.push_back({scene.spec.virtual_mesh->string(), "the virtual mesh"});
+  ebh::check_outputs({{mesh_out, "the degraded mesh"}, {scene_out, "the degraded scene"}}, inputs);
+
+  // The scene file as it is, pointing at the new mesh (absolute paths for every other file).
+  YAML::Node root = YAML::LoadFile(file.string());
+  root["name"] = stem;
+  root["mesh"]["physical"] = std::filesystem::absolute(mesh_out).string();
+  if (scene.spec.virtual_mesh) root["mesh"]["virtual"] = std::filesystem::absolute(*scene.spec.virtual_mesh).string();
+  YAML::Emitter yaml;
+  yaml << root;
+  char header[512];
+  std::snprintf(header, sizeof header,
+                "# %s with its physical mesh degraded by `ebh scene degrade %s --quality %g --tets %d --seed %llu`:\n"
+                "# worst mean ratio %.4g (tet %d); %d caps, %d slivers, %d needles.\n",
+                scene.spec.name.c_str(), a.scene.c_str(), a.quality, a.tets, static_cast<unsigned long long>(a.seed),
+                r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles);
+  ebh::write_file_atomically(mesh_out, ebh::msh22_text(scene.physical, 1.0 / scene.spec.unit));
+  ebh::write_file_atomically(scene_out, std::string(header) + yaml.c_str() + "\n");
+  std::printf("%s: %s with worst mean ratio %.4g (tet %d; %d caps, %d slivers, %d needles), mesh %s\n", scene_out.c_str(),
+              scene.spec.name.c_str(), r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles, mesh_out.c_str());
+}
+
 void setup(CLI::App& root) {
   CLI::App* scene = root.add_subcommand("scene", "Inspect scenes (scenarios/NAME.yaml)");
   scene->require_subcommand(1);
@@ -198,6 +262,16 @@ void setup(CLI::App& root) {
   c->add_option("scene", args->scene, "scene name (scenarios/NAME.yaml) or path to a scene file")->required();
   c->add_flag("--json", args->json, "print JSON instead of text");
   c->callback([args] { info(*args); });
+
+  auto dargs = std::make_shared<SceneDegradeArgs>();
+  CLI::App* d = scene->add_subcommand(
+      "degrade", "Write the scene with bad tets in its physical mesh (caps, slivers, needles down to --quality) for stress tests");
+  d->add_option("scene", dargs->scene, "scene name (scenarios/NAME.yaml) or path to a scene file")->required();
+  d->add_option("--quality", dargs->quality, "the worst tet's mean ratio afterwards, in (0, 1) (default 0.05)");
+  d->add_option("--tets", dargs->tets, "how many interior tets to degrade (default 24)");
+  d->add_option("--seed", dargs->seed, "which tets (default 1; the same seed gives the same mesh)");
+  d->add_option("-o,--out", dargs->out_dir, "folder for NAME_qQ.msh and NAME_qQ.yaml (default: the working directory)");
+  d->callback([dargs] { degrade(*dargs); });
 }
 
 }  // namespace

@@ -296,11 +296,13 @@ void check_physical_step(const World& world, const PhysicalSide& p) {
   const std::string problem = physical_state_problem(world.physical_mesh, p.mesh.x, p.report);
   if (problem.empty()) return;
   const std::int64_t k = p.step - 1;
-  const bool plain = world.scene.spec.solver.diagonal == SolverSpec::Diagonal::Plain &&
-                     world.scene.spec.solver.method != SolverSpec::Method::Direct;
+  const SolverSpec& solver = world.scene.spec.solver;
+  const char* hint = solver.method == SolverSpec::Method::Direct ? ""
+                     : solver.diagonal == SolverSpec::Diagonal::Plain
+                         ? " (solver.diagonal=plain diverges on such tets: use bounded)"
+                         : " (the iterations did not converge: raise solver.physical_iterations or use solver.method=direct)";
   throw NumericalError(world.scene.spec.file.string() + ": tick " + std::to_string(k * world.ticks_per_step) +
-                       ", physical step " + std::to_string(k) + ": " + problem +
-                       (plain ? " (solver.diagonal=plain diverges on such tets: use bounded)" : ""));
+                       ", physical step " + std::to_string(k) + ": " + problem + hint);
 }
 
 void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot) {

@@ -183,10 +183,17 @@ set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION
 # iteration per step (instead of 16) makes the forces rough and must be caught.
 add_test(NAME gate.baselines COMMAND ${EBH_BIN} gate)
 set_tests_properties(gate.baselines PROPERTIES PASS_REGULAR_EXPRESSION "gate: passed" LABELS gate TIMEOUT 1200)
+# Two iterations leave the forces rough (the metrics leave their bands); one lets the mesh fly
+# apart, which the replay's health checks stop: a failed case, and the gate goes on.
 add_test(NAME gate.catches_rough_forces
-  COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1)
+  COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=2)
 set_tests_properties(gate.catches_rough_forces PROPERTIES
   PASS_REGULAR_EXPRESSION "gap_insert +FAIL.*above the band" LABELS gate TIMEOUT 600)
+add_test(NAME gate.reports_a_stopped_replay
+  COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1)
+set_tests_properties(gate.reports_a_stopped_replay PROPERTIES
+  PASS_REGULAR_EXPRESSION "gap_insert +FAIL  stopped by the health checks.*the replay stopped: .*physical step [0-9]+: the physical mesh diverged.*gate: FAILED"
+  LABELS gate TIMEOUT 600)
 
 # Numerical robustness (lib/solver, lib/schedule health checks): the stability matrix's short form,
 # absurd physical values, pinning everything or nothing, the solver's convergence in scene info.

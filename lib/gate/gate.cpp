@@ -128,7 +128,9 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   const auto tmp = std::filesystem::temp_directory_path() /
                    ("ebh_gate_" + std::to_string(::getpid()) + "_" + c.name + ".h5");
   ForceMetrics m;
-  {
+  GateResult r;
+  r.measured = c;
+  try {
     ReplayMetadata meta;
     meta.recording = in.recording_path;
     meta.overrides = overrides;
@@ -139,9 +141,12 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
     writer.commit(s);
     m = compute_metrics(load_replay(tmp.string()));
     std::filesystem::remove(tmp);
+  } catch (const NumericalError& e) {  // the health checks stopped it: a failed case, not a failed gate run
+    r.passed = false;
+    r.stopped = true;
+    r.failures.push_back(c.name + ": the replay stopped: " + e.what());
+    return r;
   }
-  GateResult r;
-  r.measured = c;
   r.measured.rms_force_step = m.whole.rms_force_step;
   r.measured.max_force_rate = m.whole.max_force_rate;
   r.measured.peak_force = m.whole.peak_force;
@@ -156,6 +161,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
 }
 
 void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
+  if (r.stopped) return;  // no metrics to judge
   const GateCase& m = r.measured;
   auto fail = [&](const std::string& what) {
     r.passed = false;
@@ -186,6 +192,7 @@ Json to_json(const GateResult& r) {
   Json j = Json::object();
   j.set("name", r.measured.name);
   j.set("passed", r.passed);
+  j.set("stopped", r.stopped);
   j.set("rms_force_step", r.measured.rms_force_step);
   j.set("max_force_rate", r.measured.max_force_rate);
   j.set("peak_force", r.measured.peak_force);

@@ -50,6 +50,7 @@ struct GateBaselines {
 struct GateResult {
   GateCase measured;   ///< the case with the metrics of this run
   bool passed = true;
+  bool stopped = false;  ///< the replay's health checks stopped it (failures says where): no metrics
   std::vector<std::string> failures;  ///< one line each
 };
 

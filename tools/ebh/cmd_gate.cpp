@@ -29,6 +29,7 @@ void run_gate(const GateArgs& a) {
     if (!a.only.empty() && std::find(a.only.begin(), a.only.end(), c.name) == a.only.end()) continue;
     GateResult r = run_gate_case(c, a.overrides);
     if (a.update) {
+      if (r.stopped) throw NumericalError("gate --update: " + r.failures.front());  // nothing to measure
       c = r.measured;
     } else {
       judge_gate_case(c, b.bands, r);
@@ -36,6 +37,9 @@ void run_gate(const GateArgs& a) {
     all_passed = all_passed && r.passed;
     if (a.json) {
       report.push(to_json(r));
+    } else if (r.stopped) {
+      std::printf("%-24s FAIL  stopped by the health checks\n", c.name.c_str());
+      for (const auto& f : r.failures) std::printf("    %s\n", f.c_str());
     } else {
       std::printf("%-24s %s  rms dF %.3e N  max dF/dt %8.2f N/s  peak %.3f N  >30 Hz %.3f  pen %.3f mm\n",
                   c.name.c_str(), r.passed ? "ok  " : "FAIL", r.measured.rms_force_step, r.measured.max_force_rate,

@@ -1,4 +1,5 @@
 #include "io/synth.hpp"
+#include "math/splitmix.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -62,18 +63,6 @@ std::string num(double v) {
   std::snprintf(buf, sizeof buf, std::fabs(v) < 1e15 && v == std::floor(v) ? "%.0f" : "%g", v);
   return buf;
 }
-
-// splitmix64 (Steele, Lea & Flood 2014): tiny, fast, identical on every platform.
-struct SplitMix64 {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }  // [0, 1)
-};
 
 }  // namespace
 

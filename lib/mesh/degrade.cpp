@@ -3,22 +3,13 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "math/splitmix.hpp"
 #include "mesh/boundary.hpp"
 #include "mesh/validate.hpp"
 
 namespace ebh {
 namespace {
 
-/// splitmix64: a portable generator (std::uniform_*_distribution differ between libraries).
-struct SplitMix {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
-};
 
 double quality(const TetMesh& mesh, const Tet& t) {
   return tet_mean_ratio(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]], mesh.vertices[t[3]]);
@@ -56,7 +47,7 @@ DegradeReport degrade_mesh_quality(TetMesh& mesh, const std::vector<std::uint8_t
 
   DegradeReport report;
   std::vector<std::uint8_t> touched(nv, 0);  // a moved vertex and its neighbours: keep cases apart
-  SplitMix rng{options.seed};
+  SplitMix64 rng{options.seed};
   const double target = options.target_quality;
   int attempts = 0;
   for (int done = 0; done < options.tets && attempts < 64 * std::max(options.tets, 1) && nt > 0; ++attempts) {

@@ -1,5 +1,7 @@
 #include "solver/spectrum.hpp"
 
+#include "math/splitmix.hpp"
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -21,15 +23,10 @@ SpectrumEstimate estimate_spectrum(const Eigen::SparseMatrix<double>& A, const s
   for (Eigen::Index i = 0; i < n; ++i) s[i] = 1.0 / std::sqrt(D[i]);
   const int k_max = static_cast<int>(std::min<Eigen::Index>(steps, n));
 
-  // Start: a fixed pseudo-random vector (splitmix64), so every mode is present.
+  // Start: a fixed pseudo-random vector, so every mode is present.
   Eigen::MatrixXd V(n, k_max + 1);
-  std::uint64_t state = 0x243f6a8885a308d3ull;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    V(i, 0) = double((z ^ (z >> 31)) >> 11) / double(1ull << 53) - 0.5;
-  }
+  SplitMix64 rng{0x243f6a8885a308d3ull};
+  for (Eigen::Index i = 0; i < n; ++i) V(i, 0) = rng.uniform() - 0.5;
   V.col(0).normalize();
   std::vector<double> alpha, beta;
   Eigen::VectorXd w(n);

@@ -23,12 +23,6 @@
 namespace ebh::cli {
 namespace {
 
-std::string fmt(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
-
 struct ReplayArgs {
   std::string scene, recording, out, mode = "async", backend = "cpu";
   std::optional<double> haptic_hz, physical_hz, frames_hz, duration;
@@ -96,7 +90,7 @@ void run_replay(const ReplayArgs& a) {
   for (const std::string& w : world.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
   const double length = in.recording.duration();
   if (!(a.start < length))
-    throw InputError("--start " + fmt(a.start) + ": the recording " + in.recording_path + " is " + fmt(length) +
+    throw InputError("--start " + format_number(a.start) + ": the recording " + in.recording_path + " is " + format_number(length) +
                      " s long; start before its end");
   ReplayOptions opt;
   opt.mode = mode;
@@ -105,8 +99,8 @@ void run_replay(const ReplayArgs& a) {
   opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? 30.0 : 0.0);
   if (!a.render_dir.empty() && opt.frames_hz <= 0) opt.frames_hz = 30.0;  // --render needs frames
   if (opt.frames_hz * world.h_haptic > 1 + 1e-9)
-    throw InputError("--frames-hz " + fmt(opt.frames_hz) + ": more snapshots than haptic ticks (" +
-                     fmt(1.0 / world.h_haptic) + " Hz)");
+    throw InputError("--frames-hz " + format_number(opt.frames_hz) + ": more snapshots than haptic ticks (" +
+                     format_number(1.0 / world.h_haptic) + " Hz)");
 
   const double rest = length - a.start;
   const double duration = a.duration ? std::min(*a.duration, rest) : rest;

@@ -9,20 +9,18 @@
 #include "io/error.hpp"
 
 namespace ebh::cli {
-namespace {
 
-std::string num(double v) {
+std::string format_number(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", v);
   return buf;
 }
 
-}  // namespace
-
 CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::string& unit) {
   const std::string u = unit.empty() ? "" : " " + unit;
-  const std::string range = std::isinf(hi) ? (lo_open ? "> " : ">= ") + num(lo) + u
-                                           : std::string(lo_open ? "in (" : "in [") + num(lo) + ", " + num(hi) + "]" + u;
+  const std::string range = std::isinf(hi) ? (lo_open ? "> " : ">= ") + format_number(lo) + u
+                                           : std::string(lo_open ? "in (" : "in [") + format_number(lo) + ", " +
+                                                 format_number(hi) + "]" + u;
   return CLI::Validator(
       [lo, hi, lo_open, range](std::string& text) -> std::string {
         const char* b = text.c_str();

@@ -8,6 +8,9 @@
 
 namespace ebh::cli {
 
+/// v as "%g": the form option values take in messages.
+std::string format_number(double v);
+
 inline constexpr double kNoUpperLimit = std::numeric_limits<double>::infinity();
 
 /// A CLI11 check for a numeric option: a finite number in [lo, hi] ((lo, hi] with lo_open; hi may be

@@ -355,3 +355,7 @@ add_test(NAME cli.scene.degrade_bad_quality
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;degrade;tube;--quality;1.5;-o;${EBH_NUM_OUT}"
     "-DEXPECT=^ebh: error: --quality: expected a mean ratio in \\(0, 1\\)" -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene.degrade_bad_quality PROPERTIES LABELS cli)
+add_test(NAME cli.replay.settling_says_when_it_stops_short
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/sag.h5 --duration 0.05 --set "gravity=[0,0,-30]")
+set_tests_properties(cli.replay.settling_says_when_it_stops_short PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "warning: .*tube.yaml: \\|gravity\\| = 30.* is over 2 g.*warning: .*settling under gravity stopped at its cap of 25 static steps")

@@ -150,7 +150,7 @@ void choose_diagonal(PhysicalModel& M, const Eigen::SparseMatrix<double>& A, Sol
       const SpectrumEstimate e = bounded(mid);
       if (e.lambda_max * kSpectrumMargin <= kLambdaLimit) { hi = mid; at_hi = e; } else { lo = mid; }
     }
-    bounded(hi);
+    for (int i = 0; i < nf; ++i) D[i] = std::max(plain[i], hi * l1[i]);
     M.diag_theta = hi;
     M.spectrum = at_hi;
     for (int i = 0; i < nf; ++i) {
@@ -292,7 +292,7 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
     M.cpl_weight[k] = M.pair_weight[slot_entries[k] >> 2][slot_entries[k] & 3];
   }
 
-  // The global matrix over free vertices: its diagonal (plain or l1) and, for the direct
+  // The global matrix over free vertices: its diagonal (plain or bounded) and, for the direct
   // method, its factorisation.
   const Eigen::SparseMatrix<double> A = assemble_global_matrix(M);
   M.diag.assign(n, 0.0);

@@ -144,8 +144,9 @@ inline double chebyshev_weight(const PhysicalStepParams& params, int k, double p
 /// iterate (R from its local step): r_0 at the prediction, r_K at the start of the last iteration.
 struct PhysicalStepReport {
   int iterations = 0;
-  /// ||r_K|| / ||M g0|| (g0 = 9.81 m/s^2): the force the step leaves unbalanced as a fraction of
-  /// the mesh's weight. 0 at rest and at convergence, whatever the iterations did before.
+  /// ||r_K|| / ||M g0|| (g0 = 9.81 m/s^2; both norms over the free vertices' 3-vectors): the force
+  /// the step leaves unbalanced relative to the vertices' weights ("mesh weights" in messages).
+  /// 0 at rest and at convergence, whatever the iterations did before.
   double residual = 0;
   /// ||r_K|| / ||r_0||: what the iterations of this step achieved (~1 at rest, where r_0 ~ 0).
   double residual_reduction = 0;

@@ -108,6 +108,9 @@ void run_replay(const ReplayArgs& a) {
   const std::int64_t ticks = tick_count(world, duration);
   ReplayMetadata meta;
   meta.recording = in.recording_path;
+  meta.start = opt.start;
+  meta.duration = opt.duration;
+  meta.frames_hz = opt.frames_hz;
   meta.mode = mode_name(mode);
   meta.backend = a.backend;
   meta.device = cpu_description();

@@ -167,6 +167,24 @@ add_test(NAME cli.replay.make_unit_mistake
 set_tests_properties(cli.replay.make_unit_mistake PROPERTIES FIXTURES_SETUP unit_mistake)
 ebh_replay_failure(unit_mistake "unit mistake" tube ${EBH_REPLAY_OUT}/unit_mistake_rec.h5)
 set_tests_properties(cli.replay.unit_mistake PROPERTIES FIXTURES_REQUIRED unit_mistake)
+# A replay where the tool never touches the tissue says so (stderr); one with contact does not.
+add_test(NAME cli.replay.no_contact
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/no_contact.h5 --duration 0.05 -q)
+set_tests_properties(cli.replay.no_contact PROPERTIES FIXTURES_SETUP no_contact
+  PASS_REGULAR_EXPRESSION "ebh: warning: .*no_contact.h5: the tool never touched the tissue \\(no tick with contacts > 0\\)")
+add_test(NAME cli.replay.contact_no_warning
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/contact.h5 --start 2.8 --duration 0.05 -q)
+set_tests_properties(cli.replay.contact_no_warning PROPERTIES FAIL_REGULAR_EXPRESSION "touched the tissue")
+add_test(NAME cli.metrics.no_contact_table COMMAND ${EBH_BIN} metrics ${EBH_REPLAY_OUT}/no_contact.h5)
+set_tests_properties(cli.metrics.no_contact_table PROPERTIES FIXTURES_REQUIRED no_contact
+  PASS_REGULAR_EXPRESSION "\n  warning: the tool never touched the tissue")
+add_test(NAME cli.metrics.no_contact_json COMMAND ${EBH_BIN} metrics ${EBH_REPLAY_OUT}/no_contact.h5 --json)
+set_tests_properties(cli.metrics.no_contact_json PROPERTIES FIXTURES_REQUIRED no_contact
+  PASS_REGULAR_EXPRESSION "\"contact_fraction\": 0,.*\"contact_warning\": \"the tool never touched the tissue")
+add_test(NAME cli.metrics.contact_json COMMAND ${EBH_BIN} metrics ${EBH_METRICS_DATA}/press.h5 --json)
+set_tests_properties(cli.metrics.contact_json PROPERTIES PASS_REGULAR_EXPRESSION "\"contact_warning\": null")
+set_property(TEST cli.replay.no_contact cli.replay.contact_no_warning cli.metrics.no_contact_table
+  cli.metrics.no_contact_json cli.metrics.contact_json APPEND PROPERTY LABELS cli)
 set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_mistake cli.replay.missing_recording
   cli.replay.missing_scene cli.replay.not_hdf5 cli.replay.unknown_override_key cli.replay.bad_override_value
   cli.replay.bad_mode cli.replay.bad_rates cli.replay.bad_start cli.replay.bad_backend cli.replay.unit_mistake

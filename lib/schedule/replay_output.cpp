@@ -261,6 +261,7 @@ void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   if (f > peak_force_ || std::isnan(f)) peak_force_ = f;
   if (h.penetration > max_penetration_) max_penetration_ = h.penetration;
   clamped_ += h.output.force_clamped ? 1 : 0;
+  in_contact_ += h.contact_count > 0 ? 1 : 0;
 }
 
 void ReplayWriter::on_step(const World&, const PhysicalSide& p, double t) {

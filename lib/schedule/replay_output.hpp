@@ -75,6 +75,7 @@ class ReplayWriter : public ReplayObserver {
   double peak_force() const { return peak_force_; }
   double max_penetration() const { return max_penetration_; }
   std::int64_t clamped_ticks() const { return clamped_; }
+  std::int64_t contact_ticks() const { return in_contact_; }  ///< ticks with contacts > 0
 
  private:
   h5::AtomicFile out_;
@@ -93,7 +94,7 @@ class ReplayWriter : public ReplayObserver {
   h5::Appender<double> f_pose_;
   std::vector<float> scratch_f_;
   double peak_force_ = 0, max_penetration_ = 0;
-  std::int64_t clamped_ = 0;
+  std::int64_t clamped_ = 0, in_contact_ = 0;
 };
 
 /// The CPU's model name (from /proc/cpuinfo), for the `device` attribute.

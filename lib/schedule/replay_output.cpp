@@ -71,7 +71,10 @@ void write_parameters(h5::File& f, const World& w) {
     f.set_attr("forceps_eta", fc.eta);
   }
   std::string regions;
-  for (const PinRegion& r : s.pinned) regions += (regions.empty() ? "" : "\n") + describe_pin_region(r);
+  for (const PinRegion& r : s.pinned) {
+    if (!regions.empty()) regions += '\n';
+    regions += describe_pin_region(r);
+  }
   f.set_attr("pinned_regions", regions);
   f.set_attr("pinned_vertices", static_cast<std::int64_t>(w.scene.pinned.size()));
   f.set_attr("solver_diagonal", s.solver.diagonal == SolverSpec::Diagonal::Bounded ? "bounded" : "plain");
@@ -102,8 +105,10 @@ void write_provenance(h5::File& f, const World& w, const ReplayMetadata& meta) {
   f.set_attr("scene_yaml", resolved_scene_yaml(s));
   std::string overrides, overrides_list;
   for (const auto& o : meta.overrides) {
-    overrides += (overrides.empty() ? "" : " ") + o;
-    overrides_list += (overrides_list.empty() ? "" : "\n") + o;
+    if (!overrides.empty()) overrides += ' ';
+    overrides += o;
+    if (!overrides_list.empty()) overrides_list += '\n';
+    overrides_list += o;
   }
   f.set_attr("overrides", overrides);
   f.set_attr("overrides_list", overrides_list);

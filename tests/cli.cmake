@@ -27,6 +27,30 @@ add_test(NAME cli.synth.bad_plan
     "-DEXPECT=^ebh: error: .*bad_plan.yaml:[0-9]+: waypoints\\[2\\].t: times must be strictly increasing"
     -DOUTPUT=${EBH_IO_OUT}/bad_plan.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan PROPERTIES LABELS cli)
+# Repeated samples are reported and, with --drop-repeats, removed; a log without times says
+# which rate it assumed; a given rate is stored exactly.
+add_test(NAME cli.import.repeats COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/repeats.h5)
+set_tests_properties(cli.import.repeats PROPERTIES PASS_REGULAR_EXPRESSION
+  "repeats.h5: 6 samples, 0.005 s, 1000 Hz\n  2 consecutive samples repeat the previous pose, jaw and buttons exactly \\(--drop-repeats removes them\\)")
+add_test(NAME cli.import.drop_repeats
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats_openhaptics.txt -o ${EBH_IO_OUT}/dropped.h5 --rate 250 --drop-repeats)
+set_tests_properties(cli.import.drop_repeats PROPERTIES PASS_REGULAR_EXPRESSION
+  "dropped.h5: 3 samples, 0.012 s, 250 Hz\n  dropped 2 samples that repeated the previous pose, jaw and buttons exactly"
+  FAIL_REGULAR_EXPRESSION "warning")
+add_test(NAME cli.import.assumed_rate
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats_openhaptics.txt -o ${EBH_IO_OUT}/assumed.h5)
+set_tests_properties(cli.import.assumed_rate PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*repeats_openhaptics.txt: the log has no times; assumed 1000 Hz \\(give --rate HZ\\)")
+add_test(NAME cli.import.rate_not_used
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/rate_not_used.h5 --rate 500)
+set_tests_properties(cli.import.rate_not_used PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*repeats.csv: the log has a t column; --rate 500 is not used.*1000 Hz")
+add_test(NAME cli.import.drop_all
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/all_repeats.txt;-o;${EBH_IO_OUT}/all.h5;--drop-repeats"
+    "-DEXPECT=^ebh: error: .*all_repeats.txt: every sample repeats the first one; --drop-repeats would leave a single sample"
+    -DOUTPUT=${EBH_IO_OUT}/all.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_property(TEST cli.import.repeats cli.import.drop_repeats cli.import.assumed_rate cli.import.rate_not_used
+  cli.import.drop_all APPEND PROPERTY LABELS cli)
 
 # ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py
 # writes it: peak force 1.52 N, one contact episode, one tick over 1 ms) and unreadable inputs.

@@ -27,6 +27,30 @@ add_test(NAME cli.synth.bad_plan
     "-DEXPECT=^ebh: error: .*bad_plan.yaml:[0-9]+: waypoints\\[2\\].t: times must be strictly increasing"
     -DOUTPUT=${EBH_IO_OUT}/bad_plan.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan PROPERTIES LABELS cli)
+# Repeated samples are reported and, with --drop-repeats, removed; a log without times says
+# which rate it assumed; a given rate is stored exactly.
+add_test(NAME cli.import.repeats COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/repeats.h5)
+set_tests_properties(cli.import.repeats PROPERTIES PASS_REGULAR_EXPRESSION
+  "repeats.h5: 6 samples, 0.005 s, 1000 Hz\n  2 consecutive samples repeat the previous pose, jaw and buttons exactly \\(--drop-repeats removes them\\)")
+add_test(NAME cli.import.drop_repeats
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats_openhaptics.txt -o ${EBH_IO_OUT}/dropped.h5 --rate 250 --drop-repeats)
+set_tests_properties(cli.import.drop_repeats PROPERTIES PASS_REGULAR_EXPRESSION
+  "dropped.h5: 3 samples, 0.012 s, 250 Hz\n  dropped 2 samples that repeated the previous pose, jaw and buttons exactly"
+  FAIL_REGULAR_EXPRESSION "warning")
+add_test(NAME cli.import.assumed_rate
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats_openhaptics.txt -o ${EBH_IO_OUT}/assumed.h5)
+set_tests_properties(cli.import.assumed_rate PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*repeats_openhaptics.txt: the log has no times; assumed 1000 Hz \\(give --rate HZ\\)")
+add_test(NAME cli.import.rate_not_used
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/rate_not_used.h5 --rate 500)
+set_tests_properties(cli.import.rate_not_used PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*repeats.csv: the log has a t column; --rate 500 is not used.*1000 Hz")
+add_test(NAME cli.import.drop_all
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/all_repeats.txt;-o;${EBH_IO_OUT}/all.h5;--drop-repeats"
+    "-DEXPECT=^ebh: error: .*all_repeats.txt: every sample repeats the first one; --drop-repeats would leave a single sample"
+    -DOUTPUT=${EBH_IO_OUT}/all.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_property(TEST cli.import.repeats cli.import.drop_repeats cli.import.assumed_rate cli.import.rate_not_used
+  cli.import.drop_all APPEND PROPERTY LABELS cli)
 
 # ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py
 # writes it: peak force 1.52 N, one contact episode, one tick over 1 ms) and unreadable inputs.
@@ -167,6 +191,24 @@ add_test(NAME cli.replay.make_unit_mistake
 set_tests_properties(cli.replay.make_unit_mistake PROPERTIES FIXTURES_SETUP unit_mistake)
 ebh_replay_failure(unit_mistake "unit mistake" tube ${EBH_REPLAY_OUT}/unit_mistake_rec.h5)
 set_tests_properties(cli.replay.unit_mistake PROPERTIES FIXTURES_REQUIRED unit_mistake)
+# A replay where the tool never touches the tissue says so (stderr); one with contact does not.
+add_test(NAME cli.replay.no_contact
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/no_contact.h5 --duration 0.05 -q)
+set_tests_properties(cli.replay.no_contact PROPERTIES FIXTURES_SETUP no_contact
+  PASS_REGULAR_EXPRESSION "ebh: warning: .*no_contact.h5: the tool never touched the tissue \\(no tick with contacts > 0\\)")
+add_test(NAME cli.replay.contact_no_warning
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/contact.h5 --start 2.8 --duration 0.05 -q)
+set_tests_properties(cli.replay.contact_no_warning PROPERTIES FAIL_REGULAR_EXPRESSION "touched the tissue")
+add_test(NAME cli.metrics.no_contact_table COMMAND ${EBH_BIN} metrics ${EBH_REPLAY_OUT}/no_contact.h5)
+set_tests_properties(cli.metrics.no_contact_table PROPERTIES FIXTURES_REQUIRED no_contact
+  PASS_REGULAR_EXPRESSION "\n  warning: the tool never touched the tissue")
+add_test(NAME cli.metrics.no_contact_json COMMAND ${EBH_BIN} metrics ${EBH_REPLAY_OUT}/no_contact.h5 --json)
+set_tests_properties(cli.metrics.no_contact_json PROPERTIES FIXTURES_REQUIRED no_contact
+  PASS_REGULAR_EXPRESSION "\"contact_fraction\": 0,.*\"contact_warning\": \"the tool never touched the tissue")
+add_test(NAME cli.metrics.contact_json COMMAND ${EBH_BIN} metrics ${EBH_METRICS_DATA}/press.h5 --json)
+set_tests_properties(cli.metrics.contact_json PROPERTIES PASS_REGULAR_EXPRESSION "\"contact_warning\": null")
+set_property(TEST cli.replay.no_contact cli.replay.contact_no_warning cli.metrics.no_contact_table
+  cli.metrics.no_contact_json cli.metrics.contact_json APPEND PROPERTY LABELS cli)
 set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_mistake cli.replay.missing_recording
   cli.replay.missing_scene cli.replay.not_hdf5 cli.replay.unknown_override_key cli.replay.bad_override_value
   cli.replay.bad_mode cli.replay.bad_rates cli.replay.bad_start cli.replay.bad_backend cli.replay.unit_mistake

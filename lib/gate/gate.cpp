@@ -133,6 +133,8 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   try {
     ReplayMetadata meta;
     meta.recording = in.recording_path;
+    meta.start = opt.start;
+    meta.duration = opt.duration;
     meta.overrides = overrides;
     const double dur = std::min(c.duration, in.recording.duration() - c.start);
     check_replay_size(*in.world, dur, 0, in.recording_path, tmp.string());

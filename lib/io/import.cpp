@@ -202,6 +202,8 @@ void read_csv(const std::string& path, double unit, double rate, Recording& rec,
   }
 }
 
+bool same(const Quatd& a, const Quatd& b) { return a.w == b.w && a.x == b.x && a.y == b.y && a.z == b.z; }
+
 bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
@@ -227,8 +229,15 @@ void parse_transform(const std::string& text, double unit_m, ImportOptions& opt)
   opt.transform_rotation = quat_from_rotvec(Vec3d{v[3], v[4], v[5]} * (std::numbers::pi / 180.0));
 }
 
-Recording import_log(const std::string& path, const ImportOptions& opt) {
-  if (!(opt.rate_hz > 0 && opt.rate_hz <= kMaxSampleRateHz))
+double nominal_rate(const std::vector<double>& t) {
+  const double rate = static_cast<double>(t.size() - 1) / (t.back() - t.front());
+  const double whole = std::round(rate);
+  return whole > 0 && std::fabs(rate - whole) <= 1e-9 * whole ? whole : rate;
+}
+
+Recording import_log(const std::string& path, const ImportOptions& opt, ImportReport* report) {
+  const double rate_hz = opt.rate_hz.value_or(kAssumedLogRateHz);
+  if (!(rate_hz > 0 && rate_hz <= kMaxSampleRateHz))
     throw InputError("--rate: expected a number in (0, " + std::to_string(static_cast<long>(kMaxSampleRateHz)) +
                      "] Hz");
   const LogFormat fmt = opt.format ? *opt.format : (ends_with(path, ".csv") ? LogFormat::csv : LogFormat::openhaptics);
@@ -236,8 +245,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt) {
   Recording rec;
   std::vector<std::size_t> line_of;
   bool has_t = false;
-  if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, opt.rate_hz, rec, line_of);
-  else read_csv(path, unit, opt.rate_hz, rec, line_of, has_t);
+  if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, rec, line_of);
+  else read_csv(path, unit, rate_hz, rec, line_of, has_t);
   if (rec.t.empty()) throw InputError(path + ": no samples (the log has no data lines)");
 
   for (std::size_t i = 0; i < rec.size(); ++i) {
@@ -249,14 +258,39 @@ Recording import_log(const std::string& path, const ImportOptions& opt) {
   rec.scene = opt.scene;
   rec.tool = opt.tool;
   rec.description = std::string("imported from ") + path + " (" + (fmt == LogFormat::csv ? "csv" : "openhaptics") + ")";
-  rec.rate_hz = opt.rate_hz;
-  if (has_t && rec.size() >= 2) {  // nominal rate: the median sample interval
-    std::vector<double> dt;
-    for (std::size_t i = 1; i < rec.size(); ++i) dt.push_back(rec.t[i] - rec.t[i - 1]);
-    std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
-    if (dt[dt.size() / 2] > 0) rec.rate_hz = 1.0 / dt[dt.size() / 2];
-  }
+  // The rate as given, or as the log's own times say (of every sample, repeats included).
+  rec.rate_hz = rate_hz;
+  if (has_t && rec.size() >= 2 && rec.t.back() > rec.t.front()) rec.rate_hz = nominal_rate(rec.t);
+  // Validated before repeats are dropped, so an error names the log's own line.
   validate_recording(rec, path, [&](std::string_view, std::size_t i) { return at(path, line_of[i]); });
+
+  ImportReport r;
+  r.has_times = has_t;
+  r.rate_assumed = !has_t && !opt.rate_hz;
+  std::vector<std::size_t> keep{0};
+  for (std::size_t i = 1; i < rec.size(); ++i) {
+    const bool repeat = rec.position[i] == rec.position[i - 1] && same(rec.orientation[i], rec.orientation[i - 1]) &&
+                        rec.jaw[i] == rec.jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
+    r.repeats += repeat;
+    if (!repeat) keep.push_back(i);
+  }
+  if (opt.drop_repeats && r.repeats > 0) {
+    if (keep.size() < 2)
+      throw InputError(path + ": every sample repeats the first one; --drop-repeats would leave a single sample");
+    auto select = [&keep](auto& v) {
+      std::remove_reference_t<decltype(v)> out;
+      out.reserve(keep.size());
+      for (std::size_t i : keep) out.push_back(v[i]);
+      v = std::move(out);
+    };
+    select(rec.t);
+    select(rec.position);
+    select(rec.orientation);
+    select(rec.jaw);
+    select(rec.buttons);
+    r.dropped = true;
+  }
+  if (report) *report = r;
   return rec;
 }
 

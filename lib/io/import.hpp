@@ -5,10 +5,12 @@
 //   column-major 4x4 device transform (as hdGetDoublev(HD_CURRENT_TRANSFORM) returns it:
 //   translation in elements 12-14), the jaw opening (1 open, 0 closed), then zero or more button
 //   states (ints, button i nonzero -> bit i). '#' starts a comment; blank lines are skipped.
-//   Times are i / rate_hz.
+//   Times are i / rate_hz (--rate; 1000 Hz assumed, and said, when not given).
 // csv: a header naming the columns (any order): t, x, y, z, qw, qx, qy, qz, jaw, buttons;
 //   x, y, z and the quaternion are required, t optional (else i / rate_hz), jaw defaults to 1,
-//   buttons to 0.
+//   buttons to 0. With t, the recording's rate_hz is (samples - 1) / span (nominal_rate).
+// Samples that repeat the previous one exactly (pose, jaw and buttons: a device polled faster than
+// it updates) are counted, and removed with drop_repeats; the others keep their times.
 // Positions are scaled by the unit (openhaptics default mm, csv default m), then the optional
 // world transform is applied: p_world = R p + t, q_world = q_R q.
 #include <optional>
@@ -22,7 +24,8 @@ enum class LogFormat { openhaptics, csv };
 
 struct ImportOptions {
   std::optional<LogFormat> format;  ///< nullopt: .csv -> csv, anything else -> openhaptics
-  double rate_hz = 1000;            ///< sample rate when the log has no t column
+  std::optional<double> rate_hz;    ///< sample rate of a log without times; nullopt: kAssumedLogRateHz
+  bool drop_repeats = false;        ///< remove the samples that repeat the previous one exactly
   std::optional<double> unit;       ///< metres per log length unit; nullopt: the format's default
   Vec3d transform_translation;      ///< m (already scaled)
   Quatd transform_rotation;         ///< log frame -> world
@@ -30,8 +33,24 @@ struct ImportOptions {
   std::string tool = "hook";
 };
 
-/// Reads a log; errors name the file and line ("log.txt:17: ...").
-Recording import_log(const std::string& path, const ImportOptions& opt);
+/// The rate of a log without times when no --rate is given (a Geomagic Touch's servo loop).
+inline constexpr double kAssumedLogRateHz = 1000;
+
+/// What an import found besides the samples, for the command's report.
+struct ImportReport {
+  std::size_t repeats = 0;     ///< samples equal to the previous one in position, orientation, jaw and buttons
+  bool dropped = false;        ///< they were removed (ImportOptions::drop_repeats)
+  bool has_times = false;      ///< the log gave times (csv t column)
+  bool rate_assumed = false;   ///< no times and no rate given: kAssumedLogRateHz
+};
+
+/// Reads a log; errors name the file and line ("log.txt:17: ..."). `report`, when given, is filled.
+Recording import_log(const std::string& path, const ImportOptions& opt, ImportReport* report = nullptr);
+
+/// The nominal rate of samples at times t (at least two, increasing): intervals over span,
+/// (n - 1) / (t_last - t_first), rounded to the whole number when within 1e-9 of it relatively,
+/// so a log at 1 kHz gives 1000, not 999.9999999999991.
+double nominal_rate(const std::vector<double>& t);
 
 /// Parses "--unit m|cm|mm" (metres per unit); throws InputError naming the option.
 double parse_length_unit(const std::string& name);

@@ -180,6 +180,17 @@ SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t a, std::size_t
   return s;
 }
 
+std::string contact_warning(std::size_t contact_ticks, std::size_t ticks) {
+  if (ticks == 0) return "";
+  if (contact_ticks == 0) return "the tool never touched the tissue (no tick with contacts > 0)";
+  const double fraction = static_cast<double>(contact_ticks) / static_cast<double>(ticks);
+  if (fraction >= kLowContactFraction) return "";
+  char b[160];
+  std::snprintf(b, sizeof b, "the tool touched the tissue in only %zu of %zu ticks (%.2g%%)", contact_ticks, ticks,
+                100 * fraction);
+  return b;
+}
+
 ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt) {
   ForceMetrics m;
   m.path = tr.path;
@@ -230,6 +241,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt) {
   std::size_t in_contact = 0;
   for (std::int32_t c : tr.contacts) in_contact += c > 0;
   m.contact_fraction = static_cast<double>(in_contact) / static_cast<double>(n);
+  m.contact_warning = contact_warning(in_contact, n);
   for (auto [a, b] : contact_episodes(tr.contacts, tr.haptic_hz, opt.episode_merge_gap_s))
     m.episodes.push_back(segment_metrics(tr, a, b, opt));
 
@@ -326,6 +338,7 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   j.set("options", std::move(opt));
   j.set("whole", segment_json(m.whole));
   j.set("contact_fraction", m.contact_fraction);
+  j.set("contact_warning", m.contact_warning.empty() ? Json(nullptr) : Json(m.contact_warning));
   j.set("episode_count", m.episodes.size());
   if (with_episodes) {
     Json eps = Json::array();
@@ -380,6 +393,7 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
     for (std::size_t i = 0; i < m.nonfinite_datasets.size(); ++i) o << (i ? ", " : "") << m.nonfinite_datasets[i];
     o << ")\n";
   }
+  if (!m.contact_warning.empty()) o << "  warning: " << m.contact_warning << "\n";
   o << "force\n";
   row("peak |F|", fmt("%.4f", s.peak_force), "N");
   row("peak |T|", fmt("%.5f", s.peak_torque), "N m");

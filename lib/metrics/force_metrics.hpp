@@ -85,12 +85,23 @@ struct ForceMetrics {
   SegmentMetrics whole;
   std::vector<SegmentMetrics> episodes;  // contact episodes in time order
   double contact_fraction = 0;           // ticks with contacts > 0 / ticks
+  std::string contact_warning;           // contact_warning(): empty when the tool touched enough
   TimingMetrics timing;
 
   std::size_t nonfinite_count = 0;               // non-finite samples over all datasets
   std::vector<std::string> nonfinite_datasets;   // "/haptic/force: 3", one per dataset with any
   bool finite = true;
 };
+
+/// Under this fraction of ticks in contact a run says so: the force metrics of a replay where the
+/// tool (almost) never touched the tissue describe free motion, not haptic rendering, and a
+/// trajectory that misses the tissue is most often a frame or unit mistake.
+inline constexpr double kLowContactFraction = 0.01;
+
+/// "the tool never touched the tissue (no tick with contacts > 0)" when contact_ticks is 0,
+/// "the tool touched the tissue in only K of N ticks (P%)" when under kLowContactFraction of
+/// them, empty otherwise (and for a run of no ticks). `ebh replay` and `ebh metrics` say it.
+std::string contact_warning(std::size_t contact_ticks, std::size_t ticks);
 
 /// Contact episodes: maximal runs of ticks with contacts > 0, two runs merged when the
 /// contact-free gap between them lasts less than merge_gap_s (gap ticks / H). Pairs of tick

@@ -26,21 +26,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// The recorded --set overrides, "a=1 gravity=[0, 0, 0]": split at spaces, a piece without '='
-/// continues the previous value.
-std::vector<std::string> split_overrides(const std::string& s) {
-  std::vector<std::string> out;
-  std::istringstream in(s);
-  std::string tok;
-  while (in >> tok) {
-    if (tok.find('=') == std::string::npos && !out.empty())
-      out.back() += " " + tok;
-    else
-      out.push_back(tok);
-  }
-  return out;
-}
-
 std::string fmt_mm(double metres) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.3g mm", 1e3 * metres);
@@ -119,7 +104,7 @@ std::string find_on_path(const std::string& program) {
 }
 
 std::optional<SceneSpec> find_replay_scene(const ReplayFrames& f, std::vector<std::string>& warnings) {
-  const auto overrides = split_overrides(f.overrides);
+  const std::vector<std::string>& overrides = f.overrides;
   std::string why;
   if (!f.scene_file.empty()) {
     try {

@@ -3,6 +3,7 @@
 #include <hdf5.h>
 
 #include <cmath>
+#include <sstream>
 
 #include "io/error.hpp"
 #include "io/h5.hpp"
@@ -59,7 +60,16 @@ ReplayFrames open_replay_frames(const std::string& path) {
   r.scene_name = attr_or(f, "scene");
   r.scene_file = attr_or(f, "scene_file");
   r.tool_kind = attr_or(f, "tool");
-  r.overrides = attr_or(f, "overrides");
+  if (f.has_attr("overrides_list")) {
+    std::istringstream in(attr_or(f, "overrides_list"));
+    for (std::string line; std::getline(in, line);) r.overrides.push_back(line);
+  } else {
+    std::istringstream in(attr_or(f, "overrides"));
+    for (std::string tok; in >> tok;) {
+      if (tok.find('=') == std::string::npos && !r.overrides.empty()) r.overrides.back() += " " + tok;
+      else r.overrides.push_back(tok);
+    }
+  }
   if (f.has_attr("shaft_radius")) {
     try {
       r.shaft_radius = f.attr_double("shaft_radius");

@@ -30,7 +30,10 @@ struct ReplayFrames {
   std::string scene_file;                      ///< root attribute `scene_file` ("" if absent)
   std::string tool_kind;                       ///< root attribute `tool` ("" if absent)
   double shaft_radius = 0.0;                   ///< root attribute `shaft_radius` (0 if absent)
-  std::string overrides;                       ///< root attribute `overrides` ("" if absent)
+  /// The --set overrides: root attribute `overrides_list` (one per line) split into lines, or, in
+  /// files written before it, `overrides` (joined with spaces) split at spaces, a piece without
+  /// '=' continuing the previous value.
+  std::vector<std::string> overrides;
 
   std::vector<Vec3f> virtual_rest;             ///< #m rest positions of the virtual mesh
   std::vector<std::array<int, 3>> triangles;   ///< #Fv virtual mesh triangles

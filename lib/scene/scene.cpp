@@ -567,3 +567,149 @@ fs::path resolve_scene_path(const std::string& name_or_path) {
 }
 
 }  // namespace ebh
+
+namespace ebh {
+namespace {
+
+/// The number that, read from a file in `unit` (metres per unit) and multiplied by it as
+/// SpecReader does, gives back exactly `metres`: metres / unit, nudged by an ulp or two when the
+/// division rounds the other way, so a resolved scene reloads to the same bits.
+double in_file_unit(double metres, double unit) {
+  double y = metres / unit;
+  for (int i = 0; i < 4 && y * unit != metres; ++i)
+    y = std::nextafter(y, y * unit < metres ? HUGE_VAL : -HUGE_VAL);
+  return y;
+}
+
+}  // namespace
+
+std::string resolved_scene_yaml(const SceneSpec& s) {
+  const double u = s.unit;
+  YAML::Emitter y;
+  y.SetDoublePrecision(17);  // every double reads back to the same bits
+  auto length = [&](double metres) { return in_file_unit(metres, u); };
+  auto vec = [&](const Vec3d& v, bool is_length) {
+    y << YAML::Flow << YAML::BeginSeq;
+    for (double c : {v.x, v.y, v.z}) y << (is_length ? length(c) : c);
+    y << YAML::EndSeq;
+  };
+  y << YAML::BeginMap;
+  y << YAML::Key << "name" << YAML::Value << s.name;
+  y << YAML::Key << "description" << YAML::Value << s.description;
+  y << YAML::Key << "unit" << YAML::Value << s.unit_name;
+  y << YAML::Key << "mesh" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "physical" << YAML::Value << fs::absolute(s.physical_mesh).lexically_normal().string();
+  y << YAML::Key << "virtual" << YAML::Value
+    << (s.virtual_mesh ? fs::absolute(*s.virtual_mesh).lexically_normal().string() : std::string("boundary"));
+  y << YAML::Key << "virtual_refine" << YAML::Value << s.virtual_refine << YAML::EndMap;
+  y << YAML::Key << "material" << YAML::Value << YAML::BeginMap << YAML::Key << "density" << YAML::Value << s.density
+    << YAML::EndMap;
+  const Stiffness& k = s.stiffness;
+  y << YAML::Key << "stiffness" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "k_vol" << YAML::Value << k.k_vol << YAML::Key << "k_s" << YAML::Value << k.k_s;
+  y << YAML::Key << "k_svc" << YAML::Value << k.k_svc << YAML::Key << "k_con" << YAML::Value << k.k_con;
+  y << YAML::Key << "k_vcs" << YAML::Value << k.k_vcs << YAML::Key << "k_vct" << YAML::Value << k.k_vct;
+  y << YAML::EndMap;
+  y << YAML::Key << "gravity" << YAML::Value;
+  vec(s.gravity, false);
+  y << YAML::Key << "damping" << YAML::Value << s.damping;
+  y << YAML::Key << "pinned" << YAML::Value << YAML::BeginSeq;
+  for (const PinRegion& r : s.pinned) {
+    y << YAML::BeginMap << YAML::Key << region_name(r.kind) << YAML::Value;
+    switch (r.kind) {
+      case PinRegion::Kind::Group: y << r.group; break;
+      case PinRegion::Kind::Box:
+        y << YAML::BeginMap << YAML::Key << "min" << YAML::Value;
+        vec(r.a, true);
+        y << YAML::Key << "max" << YAML::Value;
+        vec(r.b, true);
+        y << YAML::EndMap;
+        break;
+      case PinRegion::Kind::Sphere:
+        y << YAML::BeginMap << YAML::Key << "center" << YAML::Value;
+        vec(r.a, true);
+        y << YAML::Key << "radius" << YAML::Value << length(r.b.x) << YAML::EndMap;
+        break;
+      case PinRegion::Kind::Halfspace:
+        y << YAML::BeginMap << YAML::Key << "point" << YAML::Value;
+        vec(r.a, true);
+        y << YAML::Key << "normal" << YAML::Value;
+        vec(r.b, false);
+        y << YAML::EndMap;
+        break;
+    }
+    y << YAML::EndMap;
+  }
+  y << YAML::EndSeq;
+  const ToolSpec& t = s.tool;
+  y << YAML::Key << "tool" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "kind" << YAML::Value << (t.kind == ToolSpec::Kind::Hook ? "hook" : "forceps");
+  y << YAML::Key << "shaft_radius" << YAML::Value << length(t.shaft_radius);
+  y << YAML::Key << "shaft_length" << YAML::Value << length(t.shaft_length);
+  y << YAML::Key << "hook" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "tip_length" << YAML::Value << length(t.hook.tip_length);
+  y << YAML::Key << "tip_radius" << YAML::Value << length(t.hook.tip_radius) << YAML::EndMap;
+  const ForcepsSpec& f = t.forceps;
+  y << YAML::Key << "forceps" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "jaw_length" << YAML::Value << length(f.jaw_length);
+  y << YAML::Key << "jaw_width" << YAML::Value << length(f.jaw_width);
+  y << YAML::Key << "jaw_thickness" << YAML::Value << length(f.jaw_thickness);
+  y << YAML::Key << "jaw_max_angle_deg" << YAML::Value << f.jaw_max_angle_deg;
+  y << YAML::Key << "grasp_threshold" << YAML::Value << f.grasp_threshold;
+  y << YAML::Key << "soft_margin" << YAML::Value << length(f.soft_margin);
+  y << YAML::Key << "eta" << YAML::Value << f.eta << YAML::EndMap;
+  y << YAML::Key << "force_limit" << YAML::Value << t.force_limit;
+  y << YAML::Key << "newton_iterations" << YAML::Value << t.newton_iterations;
+  y << YAML::Key << "max_step" << YAML::Value << length(t.max_step);
+  y << YAML::Key << "max_step_rotation_deg" << YAML::Value << t.max_step_rotation_deg;
+  y << YAML::Key << "stabilization" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "translation" << YAML::Value << t.stabilization_translation;
+  y << YAML::Key << "rotation" << YAML::Value << t.stabilization_rotation << YAML::EndMap;
+  y << YAML::EndMap;
+  y << YAML::Key << "time" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "haptic_hz" << YAML::Value << s.haptic_hz;
+  y << YAML::Key << "physical_hz" << YAML::Value << s.physical_hz;
+  y << YAML::Key << "interpolate_physical" << YAML::Value << s.interpolate_physical << YAML::EndMap;
+  const SolverSpec& sv = s.solver;
+  y << YAML::Key << "solver" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "method" << YAML::Value
+    << (sv.method == SolverSpec::Method::Jacobi ? "jacobi" : sv.method == SolverSpec::Method::Chebyshev ? "chebyshev" : "direct");
+  y << YAML::Key << "diagonal" << YAML::Value << (sv.diagonal == SolverSpec::Diagonal::Bounded ? "bounded" : "plain");
+  y << YAML::Key << "physical_iterations" << YAML::Value << sv.physical_iterations;
+  y << YAML::Key << "virtual_iterations" << YAML::Value << sv.virtual_iterations;
+  y << YAML::Key << "chebyshev_rho" << YAML::Value << sv.chebyshev_rho << YAML::EndMap;
+  y << YAML::Key << "camera" << YAML::Value << YAML::BeginMap << YAML::Key << "eye" << YAML::Value;
+  vec(s.camera.eye, true);
+  y << YAML::Key << "target" << YAML::Value;
+  vec(s.camera.target, true);
+  y << YAML::Key << "up" << YAML::Value;
+  vec(s.camera.up, false);
+  y << YAML::Key << "fov_deg" << YAML::Value << s.camera.fov_deg << YAML::EndMap;
+  y << YAML::Key << "stages" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "grasp" << YAML::Value << s.stages.grasp;
+  y << YAML::Key << "frames" << YAML::Value << s.stages.frames;
+  y << YAML::Key << "settle" << YAML::Value << s.stages.settle << YAML::EndMap;
+  y << YAML::EndMap;
+  return std::string(y.c_str()) + "\n";
+}
+
+std::string describe_pin_region(const PinRegion& r) {
+  char b[256];
+  switch (r.kind) {
+    case PinRegion::Kind::Group: return "group " + r.group;
+    case PinRegion::Kind::Box:
+      std::snprintf(b, sizeof b, "box min [%.17g, %.17g, %.17g] max [%.17g, %.17g, %.17g] m", r.a.x, r.a.y, r.a.z,
+                    r.b.x, r.b.y, r.b.z);
+      break;
+    case PinRegion::Kind::Sphere:
+      std::snprintf(b, sizeof b, "sphere center [%.17g, %.17g, %.17g] radius %.17g m", r.a.x, r.a.y, r.a.z, r.b.x);
+      break;
+    case PinRegion::Kind::Halfspace:
+      std::snprintf(b, sizeof b, "halfspace point [%.17g, %.17g, %.17g] m normal [%.17g, %.17g, %.17g]", r.a.x, r.a.y,
+                    r.a.z, r.b.x, r.b.y, r.b.z);
+      break;
+  }
+  return b;
+}
+
+}  // namespace ebh

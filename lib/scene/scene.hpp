@@ -190,6 +190,16 @@ Scene load_scene(const std::filesystem::path& file);
 SceneSpec load_scene_spec(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 Scene load_scene(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 
+/// The scene as a complete scene file: every key of the schema with the value in effect (defaults,
+/// overrides and the rates a replay ran at included), lengths in the file's unit, mesh paths
+/// absolute. Loading it gives back the same SceneSpec, bit for bit (the replay output's
+/// `scene_yaml` attribute, docs/FORMATS.md); only `file` differs.
+std::string resolved_scene_yaml(const SceneSpec& spec);
+
+/// One pinned region on one line, lengths in metres: "box min [x, y, z] max [x, y, z] m",
+/// "sphere center [..] radius r m", "halfspace point [..] m normal [..]", "group NAME".
+std::string describe_pin_region(const PinRegion& r);
+
 /// Resolves NAME to <source>/scenarios/NAME.yaml (also looked up relative to the working
 /// directory and $EBH_DATA_DIR); any other string is a path. Throws InputError if missing.
 std::filesystem::path resolve_scene_path(const std::string& name_or_path);

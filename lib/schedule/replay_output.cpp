@@ -4,11 +4,14 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 
+#include "ebh/commit.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
 #include "io/error.hpp"
+#include "io/sha256.hpp"
 
 namespace ebh {
 namespace {
@@ -50,10 +53,72 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("newton_iterations", static_cast<std::int64_t>(s.tool.newton_iterations));
   f.set_attr("max_step", s.tool.max_step);
   f.set_attr("max_step_rotation_deg", s.tool.max_step_rotation_deg);
+  // The tool's geometry, in metres like every length here (length_unit).
+  f.set_attr("length_unit", "m");
   f.set_attr("shaft_radius", s.tool.shaft_radius);
+  f.set_attr("shaft_length", s.tool.shaft_length);
+  if (s.tool.kind == ToolSpec::Kind::Hook) {
+    f.set_attr("hook_tip_length", s.tool.hook.tip_length);
+    f.set_attr("hook_tip_radius", s.tool.hook.tip_radius);
+  } else {
+    const ForcepsSpec& fc = s.tool.forceps;
+    f.set_attr("forceps_jaw_length", fc.jaw_length);
+    f.set_attr("forceps_jaw_width", fc.jaw_width);
+    f.set_attr("forceps_jaw_thickness", fc.jaw_thickness);
+    f.set_attr("forceps_jaw_max_angle_deg", fc.jaw_max_angle_deg);
+    f.set_attr("forceps_grasp_threshold", fc.grasp_threshold);
+    f.set_attr("forceps_soft_margin", fc.soft_margin);
+    f.set_attr("forceps_eta", fc.eta);
+  }
+  std::string regions;
+  for (const PinRegion& r : s.pinned) {
+    if (!regions.empty()) regions += '\n';
+    regions += describe_pin_region(r);
+  }
+  f.set_attr("pinned_regions", regions);
+  f.set_attr("pinned_vertices", static_cast<std::int64_t>(w.scene.pinned.size()));
+  f.set_attr("solver_diagonal", s.solver.diagonal == SolverSpec::Diagonal::Bounded ? "bounded" : "plain");
+  f.set_attr("stabilization_translation", s.tool.stabilization_translation);
+  f.set_attr("stabilization_rotation", s.tool.stabilization_rotation);
   f.set_attr("grasp", static_cast<std::int64_t>(s.stages.grasp));
   f.set_attr("settle_steps", static_cast<std::int64_t>(w.settle_steps));
   f.set_attr("projection", w.tool.projection == Projection::ClosestPoint ? "closest_point" : "inverse_normal");
+}
+
+std::string absolute(const std::string& path) {
+  return std::filesystem::absolute(path).lexically_normal().string();
+}
+
+/// Where the run came from (DESIGN.md §4): every input file by absolute path and SHA-256, the
+/// scene as it was resolved, the overrides, the window, and the build that ran it.
+void write_provenance(h5::File& f, const World& w, const ReplayMetadata& meta) {
+  const SceneSpec& s = w.scene.spec;
+  auto input = [&f](const std::string& key, const std::string& path) {
+    f.set_attr(key, absolute(path));
+    f.set_attr(key + "_sha256", sha256_file(path));
+  };
+  input("scene_file", s.file.string());
+  input("physical_mesh", s.physical_mesh.string());
+  if (s.virtual_mesh) input("virtual_mesh", s.virtual_mesh->string());
+  if (!meta.recording.empty()) input("recording", meta.recording);
+  else f.set_attr("recording", "");  // a replay of a recording built in memory (tests)
+  f.set_attr("scene_yaml", resolved_scene_yaml(s));
+  std::string overrides, overrides_list;
+  for (const auto& o : meta.overrides) {
+    if (!overrides.empty()) overrides += ' ';
+    overrides += o;
+    if (!overrides_list.empty()) overrides_list += '\n';
+    overrides_list += o;
+  }
+  f.set_attr("overrides", overrides);
+  f.set_attr("overrides_list", overrides_list);
+  f.set_attr("start", meta.start);
+  f.set_attr("duration", meta.duration);
+  f.set_attr("frames_hz", meta.frames_hz);
+  f.set_attr("version", std::string(kVersion));
+  f.set_attr("git_commit", std::string(kGitCommit));
+  f.set_attr("build_type", std::string(kBuildType));
+  f.set_attr("compiler", std::string(kCompiler));
 }
 
 void write_rest_mesh(h5::File& f, const World& w) {
@@ -153,16 +218,11 @@ ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, cons
 
   h5::File& f = out_.file();
   f.set_attr("scene", world.scene.spec.name);
-  f.set_attr("scene_file", world.scene.spec.file.string());
-  f.set_attr("recording", meta.recording);
   f.set_attr("mode", meta.mode);
   f.set_attr("backend", meta.backend);
   f.set_attr("device", meta.device);
-  f.set_attr("version", std::string(kVersion));
   f.set_attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
-  std::string overrides;
-  for (const auto& o : meta.overrides) overrides += (overrides.empty() ? "" : " ") + o;
-  f.set_attr("overrides", overrides);
+  write_provenance(f, world, meta);
   write_parameters(f, world);
   write_rest_mesh(f, world);
   if (frames_) {
@@ -206,6 +266,7 @@ void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   if (f > peak_force_ || std::isnan(f)) peak_force_ = f;
   if (h.penetration > max_penetration_) max_penetration_ = h.penetration;
   clamped_ += h.output.force_clamped ? 1 : 0;
+  in_contact_ += h.contact_count > 0 ? 1 : 0;
 }
 
 void ReplayWriter::on_step(const World&, const PhysicalSide& p, double t) {

@@ -8,8 +8,11 @@
 //            output_s, physical_step_s, physical_local_s, physical_global_s}
 //   /frames/{t, virtual_positions, physical_positions, tool_poses, jaw}   (with --frames-hz)
 //   /mesh/{virtual_rest, virtual_triangles, physical_rest, physical_tets, physical_boundary}
-//   root attributes: scene, scene_file, recording, mode, backend, device, version, threads and
-//   every parameter of the scene (stiffness, solver, tool, rates).
+//   root attributes: what makes the run traceable and repeatable (docs/FORMATS.md): the absolute
+//   path and SHA-256 of every input file, the resolved scene as YAML (scene_yaml), the --set
+//   overrides, the replayed window, mode, backend, device, version, commit, build type, compiler,
+//   threads, every parameter of the scene (stiffness, solver, tool geometry in metres, rates) and
+//   the pinned regions.
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -21,7 +24,10 @@
 namespace ebh {
 
 struct ReplayMetadata {
-  std::string recording;          ///< the recording's path
+  std::string recording;          ///< the recording's path (stored absolute, with its SHA-256)
+  double start = 0;               ///< ReplayOptions::start, s
+  double duration = 0;            ///< ReplayOptions::duration, s (0: the rest of the recording)
+  double frames_hz = 0;           ///< ReplayOptions::frames_hz
   std::string mode = "async";
   std::string backend = "cpu";
   std::string device;             ///< e.g. the CPU model
@@ -69,6 +75,7 @@ class ReplayWriter : public ReplayObserver {
   double peak_force() const { return peak_force_; }
   double max_penetration() const { return max_penetration_; }
   std::int64_t clamped_ticks() const { return clamped_; }
+  std::int64_t contact_ticks() const { return in_contact_; }  ///< ticks with contacts > 0
 
  private:
   h5::AtomicFile out_;
@@ -87,7 +94,7 @@ class ReplayWriter : public ReplayObserver {
   h5::Appender<double> f_pose_;
   std::vector<float> scratch_f_;
   double peak_force_ = 0, max_penetration_ = 0;
-  std::int64_t clamped_ = 0;
+  std::int64_t clamped_ = 0, in_contact_ = 0;
 };
 
 /// The CPU's model name (from /proc/cpuinfo), for the `device` attribute.

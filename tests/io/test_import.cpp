@@ -52,7 +52,7 @@ TEST(Import, CsvLogMatchesTheKnownTrajectory) {
   ImportOptions opt;
   Recording r = import_log(kData + "sample.csv", opt);  // default: m, t column
   expect_known(r, 5e-4);
-  EXPECT_NEAR(r.rate_hz, 2000.0, 1e-6);  // from the median interval of the t column
+  EXPECT_EQ(r.rate_hz, 2000.0);  // 19 intervals over 9.5 ms, rounded: within 1e-9 of 2000
 }
 
 TEST(Import, TransformMapsTheLogFrameToTheWorld) {
@@ -116,4 +116,46 @@ TEST(Import, FoldersAndBinaryFilesAreNotLogs) {
     std::fclose(f);
   }
   EXPECT_INPUT_ERROR(import_log(tmp / "png.csv", opt), "png.csv:2: byte 0x1a: not a text file");
+}
+
+// Repeated samples (a device polled faster than it updates): counted, and with drop_repeats
+// removed while the others keep the times the log gave them.
+TEST(Import, CountsAndDropsRepeatedSamples) {
+  ImportOptions opt;
+  ImportReport report;
+  Recording r = import_log(kData + "repeats.csv", opt, &report);
+  EXPECT_EQ(r.size(), 6u);
+  EXPECT_EQ(report.repeats, 2u);
+  EXPECT_FALSE(report.dropped);
+  EXPECT_EQ(r.rate_hz, 1000.0);  // 5 intervals over 5 ms
+  opt.drop_repeats = true;
+  r = import_log(kData + "repeats.csv", opt, &report);
+  EXPECT_TRUE(report.dropped);
+  EXPECT_EQ(report.repeats, 2u);
+  EXPECT_EQ(r.t, (std::vector<double>{0.000, 0.001, 0.004, 0.005}));
+  EXPECT_EQ(r.buttons, (std::vector<std::uint8_t>{0, 0, 0, 1}));
+  EXPECT_EQ(r.rate_hz, 1000.0);  // the log's rate: the kept samples are a subset of its ticks
+}
+
+TEST(Import, ALogWithoutTimesTakesTheGivenRateAndKeepsTimesWhenDropping) {
+  ImportOptions opt;
+  opt.rate_hz = 250;
+  opt.drop_repeats = true;
+  ImportReport report;
+  const Recording r = import_log(kData + "repeats_openhaptics.txt", opt, &report);
+  EXPECT_EQ(report.repeats, 2u);
+  EXPECT_FALSE(report.rate_assumed);
+  EXPECT_EQ(r.rate_hz, 250.0);
+  EXPECT_EQ(r.t, (std::vector<double>{0.0, 2 / 250.0, 3 / 250.0}));  // samples 0, 2, 3 of 0..4
+  ImportOptions plain;
+  import_log(kData + "repeats_openhaptics.txt", plain, &report);
+  EXPECT_TRUE(report.rate_assumed);  // said by ebh import
+}
+
+TEST(Import, NominalRateIsExactForWholeRates) {
+  std::vector<double> t;
+  for (int i = 0; i <= 1000; ++i) t.push_back(0.001 * i);  // 1 kHz with the rounding of 0.001 i
+  EXPECT_EQ(nominal_rate(t), 1000.0);
+  EXPECT_EQ(nominal_rate({0.0, 0.3, 0.6}), 2 / 0.6);  // not near a whole number: kept as is
+  EXPECT_EQ(nominal_rate({0.0, 0.5, 1.0000001}), 2 / 1.0000001);  // 1e-7 off: not rounded
 }

@@ -333,5 +333,14 @@ TEST(ForceMetrics, JsonAndTableCarryTheNumbers) {
   EXPECT_NE(table.find("episodes"), std::string::npos);
 }
 
+// The no-contact warning that `ebh replay` and `ebh metrics` print: none, under 1% and 1% exactly.
+TEST(ContactWarning, SaysWhenTheToolNeverOrBarelyTouched) {
+  EXPECT_EQ(contact_warning(0, 1000), "the tool never touched the tissue (no tick with contacts > 0)");
+  EXPECT_EQ(contact_warning(9, 1000), "the tool touched the tissue in only 9 of 1000 ticks (0.9%)");
+  EXPECT_EQ(contact_warning(10, 1000), "");  // 1%: enough
+  EXPECT_EQ(contact_warning(1000, 1000), "");
+  EXPECT_EQ(contact_warning(0, 0), "");  // no ticks: nothing to say
+}
+
 }  // namespace
 }  // namespace ebh

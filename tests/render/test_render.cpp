@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "io/error.hpp"
@@ -49,6 +50,7 @@ struct SyntheticOptions {
   std::string scene = "no_such_scene_for_render_tests";
   std::string scene_file = "/nonexistent/scene.yaml";
   int bad_triangle = -1;  // >= 0: write this vertex index into the first triangle
+  std::optional<std::string> overrides, overrides_list;  // the root attributes, when given
 };
 
 void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
@@ -57,6 +59,8 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
   f.set_attr("scene_file", o.scene_file);
   f.set_attr("tool", "hook");
   f.set_attr("shaft_radius", 0.0025);
+  if (o.overrides) f.set_attr("overrides", *o.overrides);
+  if (o.overrides_list) f.set_attr("overrides_list", *o.overrides_list);
   std::vector<double> rest;
   std::vector<std::int32_t> tris;
   for (int j = 0; j < kGrid; ++j)
@@ -134,6 +138,23 @@ TEST(ReplayFrames, ReadsTheSyntheticFile) {
   const int c0 = (kGrid / 2) * kGrid + kGrid / 2;
   EXPECT_FLOAT_EQ(q[c0].z, float(-kDent));
   EXPECT_DOUBLE_EQ(f.poses[1][0].position.z, kPhysical0.z + kLower.z);
+}
+
+// The --set overrides the scene is reloaded with: one per line in overrides_list; files written
+// before it have only the space-joined `overrides`, split where a piece starts a new key.
+TEST(ReplayFrames, ReadsTheOverridesListAndTheOlderJoinedForm) {
+  Scratch s;
+  SyntheticOptions o;
+  o.overrides = "gravity=[0, 0, -1] description=a b";
+  o.overrides_list = "gravity=[0, 0, -1]\ndescription=a b";
+  write_synthetic(s / "list.h5", o);
+  EXPECT_EQ(open_replay_frames(s / "list.h5").overrides,
+            (std::vector<std::string>{"gravity=[0, 0, -1]", "description=a b"}));
+  o.overrides = "gravity=[0, 0, -1] stiffness.k_con=800";
+  o.overrides_list.reset();
+  write_synthetic(s / "joined.h5", o);
+  EXPECT_EQ(open_replay_frames(s / "joined.h5").overrides,
+            (std::vector<std::string>{"gravity=[0, 0, -1]", "stiffness.k_con=800"}));
 }
 
 TEST(ReplayFrames, FileWithoutFramesIsAnInputError) {

@@ -1,8 +1,9 @@
 // `ebh import LOG -o REC.h5 [--format openhaptics|csv] [--rate HZ] [--unit m|cm|mm]
-//  [--transform "tx,ty,tz,rx,ry,rz"] [--scene NAME] [--tool hook|forceps]`: a device log
+//  [--transform "tx,ty,tz,rx,ry,rz"] [--scene NAME] [--tool hook|forceps] [--drop-repeats]`: a device log
 // (OpenHaptics-style transforms or CSV) into a recording. Formats: docs/FORMATS.md.
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "command.hpp"
@@ -18,7 +19,8 @@ namespace {
 
 struct ImportArgs {
   std::string log, output, format, unit, transform, scene, tool = "hook";
-  double rate_hz = 1000;
+  std::optional<double> rate_hz;
+  bool drop_repeats = false;
 };
 
 void run(const ImportArgs& a) {
@@ -46,10 +48,23 @@ void run(const ImportArgs& a) {
   }
   opt.scene = a.scene;
   opt.tool = a.tool;
-  ebh::Recording rec = ebh::import_log(a.log, opt);
+  opt.drop_repeats = a.drop_repeats;
+  ebh::ImportReport report;
+  ebh::Recording rec = ebh::import_log(a.log, opt, &report);
   rec.generator = std::string("ebh import (ebh ") + ebh::kVersion + ")";
   ebh::write_recording(a.output, rec);
-  std::printf("%s: %zu samples, %.3f s, %g Hz\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz);
+  if (report.rate_assumed)
+    std::fprintf(stderr, "ebh: warning: %s: the log has no times; assumed %g Hz (give --rate HZ)\n", a.log.c_str(),
+                 ebh::kAssumedLogRateHz);
+  if (report.has_times && a.rate_hz)
+    std::fprintf(stderr, "ebh: warning: %s: the log has a t column; --rate %s is not used\n", a.log.c_str(),
+                 ebh::cli::format_number(*a.rate_hz).c_str());
+  std::printf("%s: %zu samples, %.3f s, %.10g Hz\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz);
+  if (report.dropped)
+    std::printf("  dropped %zu samples that repeated the previous pose, jaw and buttons exactly\n", report.repeats);
+  else
+    std::printf("  %zu consecutive samples repeat the previous pose, jaw and buttons exactly%s\n", report.repeats,
+                report.repeats > 0 ? " (--drop-repeats removes them)" : "");
 }
 
 void setup(CLI::App& root) {
@@ -58,14 +73,15 @@ void setup(CLI::App& root) {
   c->add_option("log", args->log, "device log (text)")->required();
   c->add_option("-o,--output", args->output, "recording to write (HDF5)")->required();
   c->add_option("--format", args->format, "openhaptics or csv (default: csv for *.csv, else openhaptics)");
-  c->add_option("--rate", args->rate_hz, "sample rate in Hz when the log has no t column")
-      ->capture_default_str()
+  c->add_option("--rate", args->rate_hz, "sample rate in Hz when the log has no t column (default: 1000, said)")
       ->check(ebh::cli::finite_number(0, ebh::kMaxSampleRateHz, true, "Hz"));
   c->add_option("--unit", args->unit, "length unit of the log: m, cm or mm (default: mm openhaptics, m csv)");
   c->add_option("--transform", args->transform,
                 "log frame -> world: \"tx,ty,tz,rx,ry,rz\" (translation in the log's unit, rotation vector in degrees)");
   c->add_option("--scene", args->scene, "scenario to replay it with (root attribute scene)");
   c->add_option("--tool", args->tool, "hook or forceps")->capture_default_str();
+  c->add_flag("--drop-repeats", args->drop_repeats,
+              "remove the samples that repeat the previous pose, jaw and buttons exactly (the rest keep their times)");
   c->callback([args] { run(*args); });
 }
 

@@ -11,6 +11,7 @@
 #include "io/error.hpp"
 #include "io/paths.hpp"
 #include "io/recording.hpp"
+#include "metrics/force_metrics.hpp"
 #include "options.hpp"
 #include "render/xdmf.hpp"
 #include "replay_common.hpp"
@@ -108,6 +109,9 @@ void run_replay(const ReplayArgs& a) {
   const std::int64_t ticks = tick_count(world, duration);
   ReplayMetadata meta;
   meta.recording = in.recording_path;
+  meta.start = opt.start;
+  meta.duration = opt.duration;
+  meta.frames_hz = opt.frames_hz;
   meta.mode = mode_name(mode);
   meta.backend = a.backend;
   meta.device = cpu_description();
@@ -124,6 +128,9 @@ void run_replay(const ReplayArgs& a) {
   if (s.stopped) throw InputError(a.out + ": interrupted; no output written");
   writer.commit(s);
   index_replay_frames(a.out);
+  const std::string contact = contact_warning(static_cast<std::size_t>(writer.contact_ticks()),
+                                              static_cast<std::size_t>(s.ticks));
+  if (!contact.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), contact.c_str());
   if (!a.quiet) {
     std::printf("%s: %s + %s, %s mode, %lld ticks, %lld physical steps\n", a.out.c_str(),
                 world.scene.spec.name.c_str(), std::filesystem::path(in.recording_path).filename().c_str(),

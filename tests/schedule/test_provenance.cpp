@@ -1,0 +1,104 @@
+// The replay output's provenance (DESIGN.md §4, docs/FORMATS.md): from nothing but the output's
+// root attributes and the files they name, a replay is reproduced bit for bit.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "io/h5.hpp"
+#include "io/sha256.hpp"
+#include "schedule/replay_inputs.hpp"
+#include "schedule/replay_output.hpp"
+#include "schedule/scheduler.hpp"
+
+using namespace ebh;
+
+namespace {
+
+/// The force of every tick, as the output file stores it.
+struct Forces : ReplayObserver {
+  std::vector<double> f;
+  void on_tick(const World&, const HapticSide& h, double) override {
+    f.insert(f.end(), {h.output.force.x, h.output.force.y, h.output.force.z});
+  }
+};
+
+std::vector<std::string> lines(const std::string& s) {
+  std::vector<std::string> out;
+  std::istringstream in(s);
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
+}  // namespace
+
+TEST(ReplayProvenance, TheOutputAloneReproducesTheReplayBitForBit) {
+  const auto dir = std::filesystem::temp_directory_path() / "ebh_test_provenance";
+  std::filesystem::create_directories(dir);
+  const std::string out = (dir / "out.h5").string();
+  std::filesystem::remove(out);
+
+  // The original run: a short window where the hook enters the bore, with two overrides (one of
+  // them a length, in the scene's mm) that the reproduction must pick up.
+  {
+    const std::vector<std::string> overrides = {"stiffness.k_con=500", "tool.max_step=0.4"};
+    const LoadedReplay in = load_replay_inputs("tube", "tube_insert", overrides, std::nullopt, std::nullopt, false);
+    ReplayOptions opt;
+    opt.start = 2.8;
+    opt.duration = 0.05;
+    ReplayMetadata meta;
+    meta.recording = in.recording_path;
+    meta.start = opt.start;
+    meta.duration = opt.duration;
+    meta.mode = mode_name(opt.mode);
+    meta.overrides = overrides;
+    ReplayWriter writer(out, *in.world, meta, tick_count(*in.world, opt.duration), false);
+    writer.commit(replay(*in.world, in.recording, opt, writer));
+  }
+
+  // The reproduction knows only OUT.
+  const h5::File f = h5::File::open_read(out);
+  for (const char* key : {"scene_file", "physical_mesh", "recording"}) {
+    const std::string path = f.attr_string(key);
+    EXPECT_TRUE(std::filesystem::path(path).is_absolute()) << key << ": " << path;
+    EXPECT_EQ(sha256_file(path), f.attr_string(std::string(key) + "_sha256")) << key << " changed since the replay";
+  }
+  EXPECT_FALSE(f.has_attr("virtual_mesh"));  // tube's virtual mesh is its boundary
+  EXPECT_EQ(lines(f.attr_string("overrides_list")), (std::vector<std::string>{"stiffness.k_con=500", "tool.max_step=0.4"}));
+  EXPECT_EQ(f.attr_string("length_unit"), "m");
+  EXPECT_DOUBLE_EQ(f.attr_double("max_step"), 0.4e-3);
+  EXPECT_EQ(f.attr_string("pinned_regions"), "group ends");
+  EXPECT_GT(f.attr_int("pinned_vertices"), 0);
+  EXPECT_FALSE(f.attr_string("git_commit").empty());
+  EXPECT_FALSE(f.attr_string("compiler").empty());
+
+  // The scene from the stored YAML alone: a complete scene file with absolute mesh paths.
+  const std::string yaml = f.attr_string("scene_yaml");
+  const auto scene_copy = dir / "resolved.yaml";
+  std::ofstream(scene_copy) << yaml;
+  const LoadedReplay again =
+      load_replay_inputs(scene_copy.string(), f.attr_string("recording"), {}, std::nullopt, std::nullopt, false);
+  EXPECT_EQ(resolved_scene_yaml(again.world->scene.spec), yaml);  // every key reloads to the same value
+  // The stored path and overrides resolve to the same scene.
+  EXPECT_EQ(resolved_scene_yaml(load_scene_spec(f.attr_string("scene_file"), lines(f.attr_string("overrides_list")))),
+            yaml);
+
+  ReplayOptions opt;
+  opt.mode = parse_mode(f.attr_string("mode"));
+  opt.start = f.attr_double("start");
+  opt.duration = f.attr_double("duration");
+  opt.frames_hz = f.attr_double("frames_hz");
+  Forces forces;
+  replay(*again.world, again.recording, opt, forces);
+  const auto stored = f.read<double>("haptic/force");
+  ASSERT_EQ(stored.data.size(), forces.f.size());
+  bool touched = false;
+  for (std::size_t i = 0; i < forces.f.size(); ++i) {
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(stored.data[i]), std::bit_cast<std::uint64_t>(forces.f[i])) << "value " << i;
+    touched = touched || forces.f[i] != 0;
+  }
+  EXPECT_TRUE(touched) << "the window should have contact forces, or the comparison proves little";
+}

@@ -22,13 +22,7 @@ constexpr int kEndNodesLine = 24;
 constexpr int kFirstTetLine = 35;
 
 void expect_same_mesh(const TetMesh& a, const TetMesh& b) {
-  ASSERT_EQ(a.vertices.size(), b.vertices.size());
-  for (std::size_t i = 0; i < a.vertices.size(); ++i) EXPECT_EQ(a.vertices[i], b.vertices[i]) << "vertex " << i;
-  EXPECT_EQ(a.tets, b.tets);
-  EXPECT_EQ(a.tet_group, b.tet_group);
-  EXPECT_EQ(a.triangles, b.triangles);
-  EXPECT_EQ(a.triangle_group, b.triangle_group);
-  EXPECT_EQ(a.group_names, b.group_names);
+  test::expect_same_elements(a, b);
   EXPECT_EQ(a.file_node_ids, b.file_node_ids);
   EXPECT_EQ(a.file_tet_ids, b.file_tet_ids);
 }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "io/error.hpp"
+#include "mesh/tet_mesh.hpp"
 
 namespace ebh::test {
 
@@ -28,6 +29,17 @@ inline std::filesystem::path write_temp(const std::string& name, const std::stri
   auto p = dir / name;
   std::ofstream(p, std::ios::binary) << text;
   return p;
+}
+
+/// The same vertices (to the bit), tets, triangles and groups (file ids aside).
+inline void expect_same_elements(const TetMesh& a, const TetMesh& b) {
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  for (std::size_t i = 0; i < a.vertices.size(); ++i) EXPECT_EQ(a.vertices[i], b.vertices[i]) << "vertex " << i;
+  EXPECT_EQ(a.tets, b.tets);
+  EXPECT_EQ(a.tet_group, b.tet_group);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.triangle_group, b.triangle_group);
+  EXPECT_EQ(a.group_names, b.group_names);
 }
 
 /// Replaces the first occurrence of `from` in `text` (which must contain it).

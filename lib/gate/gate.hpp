@@ -1,5 +1,5 @@
 #pragma once
-// The force-smoothness regression gate (issue 7): short replays of the committed recordings on
+// The force-smoothness regression gate: short replays of the committed recordings on
 // the CPU, their force-quality metrics (lib/metrics) compared with committed baselines. A force
 // roughness beyond the stated band, or any non-finite value, fails.
 //

@@ -1,5 +1,5 @@
 // The CUDA backend against the CPU reference (DESIGN.md §6). These tests need a CUDA device: they
-// run on the lent GPU machine and skip elsewhere (no CUDA backend in the build, or no device).
+// run on a machine with a GPU and skip elsewhere (no CUDA backend in the build, or no device).
 //
 // Tolerances (docs/CUDA.md, "Tolerances"). The device computes in float32 (unit round-off
 // u = 2^-24), the CPU in float64. Rounding the state to float32 moves a position by u |x|; each

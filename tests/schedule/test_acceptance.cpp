@@ -1,5 +1,5 @@
-// Issue-level acceptance of the replay: the hook enters the 1 mm gap (narrower than the tool)
-// while the virtual tool stays on the tissue's surface.
+// Acceptance of the replay as a user judges it: the hook enters the 1 mm gap (narrower than the
+// tool) while the virtual tool stays on the tissue's surface.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -34,7 +34,7 @@ TEST(Acceptance, GapInsertHookEntersTheGapWithoutPenetratingTheTissue) {
   opt.start = 2.0;     // the hook is above the blocks' top faces (z = 0) ...
   opt.duration = 2.7;  // ... and the device reaches its deepest point (z = -18 mm) at 4.5 s
   replay(*in.world, in.recording, opt, probe);
-  // Issue 5: the tip at least 10 mm below the top faces, penetration below 1 mm.
+  // What the gap scene promises: the tip at least 10 mm below the top faces, penetration < 1 mm.
   EXPECT_LT(probe.lowest_tip_z, -0.010);
   EXPECT_LT(probe.max_penetration, 0.001);
 }

@@ -49,11 +49,9 @@ const Loaded* load(const std::string& name, std::string& error) {
       const std::size_t at = name.find('@');
       L->scene = load_scene(resolve_scene_path(name.substr(0, at)));
       if (at != std::string::npos) {
-        std::vector<std::uint8_t> fixed(L->scene.physical.vertices.size(), 0);
-        for (int p : L->scene.pinned) fixed[p] = 1;
         DegradeOptions d;
         d.target_quality = std::stod(name.substr(at + 1));
-        degrade_mesh_quality(L->scene.physical, fixed, d);
+        degrade_physical_mesh(L->scene, d);
       }
     }
     L->vm = build_virtual_model(L->scene);

@@ -712,4 +712,10 @@ std::string describe_pin_region(const PinRegion& r) {
   return b;
 }
 
+DegradeReport degrade_physical_mesh(Scene& scene, const DegradeOptions& options) {
+  std::vector<std::uint8_t> fixed(scene.physical.vertices.size(), 0);
+  for (int p : scene.pinned) fixed[p] = 1;
+  return degrade_mesh_quality(scene.physical, fixed, options);
+}
+
 }  // namespace ebh

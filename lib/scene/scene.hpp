@@ -60,6 +60,7 @@
 #include <vector>
 
 #include "math/vec.hpp"
+#include "mesh/degrade.hpp"
 #include "mesh/tet_mesh.hpp"
 
 namespace ebh {
@@ -199,6 +200,10 @@ std::string resolved_scene_yaml(const SceneSpec& spec);
 /// One pinned region on one line, lengths in metres: "box min [x, y, z] max [x, y, z] m",
 /// "sphere center [..] radius r m", "halfspace point [..] m normal [..]", "group NAME".
 std::string describe_pin_region(const PinRegion& r);
+
+/// Degrades the scene's physical mesh (mesh/degrade.hpp) with its pinned vertices kept where
+/// they are: the stress meshes of `ebh scene degrade` and `ebh validate stability`.
+DegradeReport degrade_physical_mesh(Scene& scene, const DegradeOptions& options);
 
 /// Resolves NAME to <source>/scenarios/NAME.yaml (also looked up relative to the working
 /// directory and $EBH_DATA_DIR); any other string is a path. Throws InputError if missing.

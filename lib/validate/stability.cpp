@@ -78,11 +78,9 @@ Scene case_scene(const Recording& rec, double quality, double stiffness, const s
   Scene scene = load_scene(resolve_scene_path(rec.scene), {"solver.method=" + method});
   scene.spec.stiffness.k_vol *= stiffness;
   if (quality < 1) {
-    std::vector<std::uint8_t> fixed(scene.physical.vertices.size(), 0);
-    for (int p : scene.pinned) fixed[p] = 1;
     DegradeOptions d;
     d.target_quality = quality;
-    degrade_mesh_quality(scene.physical, fixed, d);
+    degrade_physical_mesh(scene, d);
   }
   *centre = Vec3d{};
   for (const Vec3d& v : scene.physical.vertices) *centre += v / static_cast<double>(scene.physical.vertices.size());

@@ -22,11 +22,9 @@ struct Count : ReplayObserver {
 /// tube with its physical mesh degraded to a worst mean ratio of 0.02, the given diagonal.
 std::shared_ptr<const World> degraded_tube(const std::string& diagonal) {
   Scene scene = load_scene(resolve_scene_path("tube"), {"solver.diagonal=" + diagonal});
-  std::vector<std::uint8_t> fixed(scene.physical.vertices.size(), 0);
-  for (int p : scene.pinned) fixed[p] = 1;
   DegradeOptions d;
   d.target_quality = 0.02;
-  degrade_mesh_quality(scene.physical, fixed, d);
+  degrade_physical_mesh(scene, d);
   return build_world(std::move(scene), 1000, 100);
 }
 

@@ -22,14 +22,13 @@ Scene block(double quality) {
   scene.spec.file = "block (in code)";
   scene.spec.stiffness.k_vol = 5000;
   scene.physical = make_box_tets({0, 0, 0}, {0.024, 0.024, 0.048}, 6, 6, 12);
-  std::vector<std::uint8_t> fixed(scene.physical.vertices.size(), 0);
   for (int i = 0; i < static_cast<int>(scene.physical.vertices.size()); ++i)
-    if (scene.physical.vertices[i].z == 0.0) { scene.pinned.push_back(i); fixed[i] = 1; }
+    if (scene.physical.vertices[i].z == 0.0) scene.pinned.push_back(i);
   if (quality < 1) {
     DegradeOptions o;
     o.target_quality = quality;
     o.tets = 12;
-    degrade_mesh_quality(scene.physical, fixed, o);
+    degrade_physical_mesh(scene, o);
   }
   return scene;
 }

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <yaml-cpp/yaml.h>
@@ -78,8 +79,12 @@ void info(const SceneInfoArgs& a) {
   options.factorize = false;
   options.diagonal = ebh::SolverSpec::Diagonal::Plain;
   const ebh::PhysicalModel plain = ebh::build_physical_model(scene, &vm, options);
-  options.diagonal = scene.spec.solver.diagonal;
-  const ebh::PhysicalModel model = ebh::build_physical_model(scene, &vm, options);
+  std::optional<ebh::PhysicalModel> bounded;  // the scene's diagonal, when it is not the plain one
+  if (scene.spec.solver.diagonal != ebh::SolverSpec::Diagonal::Plain) {
+    options.diagonal = scene.spec.solver.diagonal;
+    bounded = ebh::build_physical_model(scene, &vm, options);
+  }
+  const ebh::PhysicalModel& model = bounded ? *bounded : plain;
   const double gamma = ebh::physical_params(scene.spec.solver).relaxation;
   const double rate = model.spectrum.jacobi_rate(gamma);
   const double tenfold = rate < 1 ? std::log(0.1) / std::log(rate) : INFINITY;
@@ -215,13 +220,11 @@ void degrade(const SceneDegradeArgs& a) {
   if (a.tets < 1) throw ebh::InputError("--tets: expected at least 1");
   const std::filesystem::path file = ebh::resolve_scene_path(a.scene);
   ebh::Scene scene = ebh::load_scene(file);
-  std::vector<std::uint8_t> fixed(scene.physical.vertices.size(), 0);
-  for (int p : scene.pinned) fixed[p] = 1;
   ebh::DegradeOptions o;
   o.target_quality = a.quality;
   o.tets = a.tets;
   o.seed = a.seed;
-  const ebh::DegradeReport r = ebh::degrade_mesh_quality(scene.physical, fixed, o);
+  const ebh::DegradeReport r = ebh::degrade_physical_mesh(scene, o);
   if (r.worst_quality > a.quality * (1 + 1e-6))
     throw ebh::InputError(file.string() + ": no interior tet of the physical mesh could be degraded to mean ratio " +
                           std::to_string(a.quality));

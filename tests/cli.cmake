@@ -385,14 +385,19 @@ add_test(NAME cli.scene.degrade COMMAND ${EBH_BIN} scene degrade tube --quality 
 set_tests_properties(cli.scene.degrade PROPERTIES FIXTURES_SETUP degraded_tube LABELS cli
   PASS_REGULAR_EXPRESSION "tube_q0.02.yaml: tube with worst mean ratio 0.02 \\(tet [0-9]+; [0-9]+ caps, [0-9]+ slivers, [0-9]+ needles\\)")
 add_test(NAME cli.replay.plain_diagonal_diverges_on_slivers
-  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;${EBH_NUM_OUT}/tube_q0.02.yaml;tube_insert;-o;${EBH_NUM_OUT}/plain.h5;--duration;1;--set;solver.diagonal=plain"
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;${EBH_NUM_OUT}/tube_q0.02.yaml;tube_insert;-o;${EBH_NUM_OUT}/plain.h5;--duration;1;--set;solver.diagonal=plain;--set;solver.recovery=none"
     "-DEXPECT=^ebh: error: .*tube_q0.02.yaml: tick [0-9]+, physical step [0-9]+: the physical mesh (diverged|is not finite) .*its worst tet [0-9]+ has mean ratio .*use bounded"
     -DOUTPUT=${EBH_NUM_OUT}/plain.h5 -DSTATUS=4 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.replay.bounded_diagonal_on_slivers
   COMMAND ${EBH_BIN} replay ${EBH_NUM_OUT}/tube_q0.02.yaml tube_insert -o ${EBH_NUM_OUT}/bounded.h5 --duration 1)
 set_tests_properties(cli.replay.bounded_diagonal_on_slivers PROPERTIES PASS_REGULAR_EXPRESSION "1001 ticks, 101 physical steps")
-set_tests_properties(cli.replay.plain_diagonal_diverges_on_slivers cli.replay.bounded_diagonal_on_slivers PROPERTIES
-  FIXTURES_REQUIRED degraded_tube LABELS cli)
+add_test(NAME cli.replay.recovery_redoes_diverging_steps
+  COMMAND ${EBH_BIN} replay ${EBH_NUM_OUT}/tube_q0.02.yaml tube_insert -o ${EBH_NUM_OUT}/recovered.h5 --duration 1
+    --set solver.diagonal=plain)
+set_tests_properties(cli.replay.recovery_redoes_diverging_steps PROPERTIES PASS_REGULAR_EXPRESSION
+  "warning: .*recovered.h5: [1-9][0-9]* of 101 physical steps did not converge and were redone with the direct solve.*1001 ticks, 101 physical steps")
+set_tests_properties(cli.replay.plain_diagonal_diverges_on_slivers cli.replay.bounded_diagonal_on_slivers
+  cli.replay.recovery_redoes_diverging_steps PROPERTIES FIXTURES_REQUIRED degraded_tube LABELS cli)
 add_test(NAME cli.scene.degrade_bad_quality
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;degrade;tube;--quality;1.5;-o;${EBH_NUM_OUT}"
     "-DEXPECT=^ebh: error: --quality: expected a mean ratio in \\(0, 1\\)" -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)

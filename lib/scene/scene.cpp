@@ -337,7 +337,8 @@ class SpecReader {
   }
 
   void read_solver(const YAML::Node& n, SolverSpec& sv) const {
-    const auto e = entries(n, "solver", {"method", "diagonal", "physical_iterations", "virtual_iterations", "chebyshev_rho"});
+    const auto e = entries(n, "solver", {"method", "diagonal", "physical_iterations", "virtual_iterations", "chebyshev_rho",
+                                             "recovery", "recovery_residual"});
     if (auto it = e.find("method"); it != e.end()) {
       const int m = choice(it->second, "solver.method", {"jacobi", "chebyshev", "direct"});
       sv.method = m == 0 ? SolverSpec::Method::Jacobi : m == 1 ? SolverSpec::Method::Chebyshev : SolverSpec::Method::Direct;
@@ -351,6 +352,11 @@ class SpecReader {
       sv.virtual_iterations = integer(it->second, "solver.virtual_iterations", 1, 100000);
     if (auto it = e.find("chebyshev_rho"); it != e.end())
       sv.chebyshev_rho = in_range(it->second, "solver.chebyshev_rho", 0, false, 1, false);
+    if (auto it = e.find("recovery"); it != e.end())
+      sv.recovery = choice(it->second, "solver.recovery", {"direct", "none"}) == 0 ? SolverSpec::Recovery::Direct
+                                                                                 : SolverSpec::Recovery::None;
+    if (auto it = e.find("recovery_residual"); it != e.end())
+      sv.recovery_residual = in_range(it->second, "solver.recovery_residual", 0, false, 1e4, true);
   }
 
   void read_camera(const YAML::Node& n, Camera& c) const {
@@ -677,7 +683,9 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "diagonal" << YAML::Value << (sv.diagonal == SolverSpec::Diagonal::Bounded ? "bounded" : "plain");
   y << YAML::Key << "physical_iterations" << YAML::Value << sv.physical_iterations;
   y << YAML::Key << "virtual_iterations" << YAML::Value << sv.virtual_iterations;
-  y << YAML::Key << "chebyshev_rho" << YAML::Value << sv.chebyshev_rho << YAML::EndMap;
+  y << YAML::Key << "chebyshev_rho" << YAML::Value << sv.chebyshev_rho;
+  y << YAML::Key << "recovery" << YAML::Value << (sv.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
+  y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual << YAML::EndMap;
   y << YAML::Key << "camera" << YAML::Value << YAML::BeginMap << YAML::Key << "eye" << YAML::Value;
   vec(s.camera.eye, true);
   y << YAML::Key << "target" << YAML::Value;

@@ -51,6 +51,9 @@
 //     physical_iterations: 16
 //     virtual_iterations: 4         # virtual-mesh local-global iterations per haptic tick
 //     chebyshev_rho: 0.95
+//     recovery: direct              # direct | none: redo a step the jacobi/chebyshev iterations leave
+//     recovery_residual: 100        #   above this many mesh weights unbalanced (or diverged) with the
+//                                   #   direct solve (CPU backend; docs/MODEL.md, "Recovery")
 //   camera: {eye: [x, y, z], target: [x, y, z], up: [0, 0, 1], fov_deg: 40}
 //   stages: {grasp: false, frames: false, settle: true}    # skip what a scene doesn't need;
 //                                   # settle: start from the static equilibrium under gravity
@@ -129,6 +132,12 @@ struct SolverSpec {
   int physical_iterations = 16;
   int virtual_iterations = 4;
   double chebyshev_rho = 0.95;
+  /// The Jacobi-type methods' recovery (CPU backend): a step that leaves more than
+  /// recovery_residual mesh weights unbalanced (PhysicalStepReport::residual), or a diverged
+  /// state, is redone from its start with the direct global solve (docs/MODEL.md, "Recovery").
+  enum class Recovery { Direct, None };
+  Recovery recovery = Recovery::Direct;
+  double recovery_residual = 100;
 };
 
 struct Stages {

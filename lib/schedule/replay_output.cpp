@@ -274,6 +274,8 @@ void ReplayWriter::on_step(const World&, const PhysicalSide& p, double t) {
   iterations_.push_back(p.report.iterations);
   residual_.push_back(p.report.residual);
   reduction_.push_back(p.report.residual_reduction);
+  recovered_.push_back(p.recovered ? 1 : 0);
+  recovered_steps_ += p.recovered ? 1 : 0;
   tm_step_.push_back(p.report.time_s);
   tm_local_.push_back(p.report.local_s);
   tm_global_.push_back(p.report.global_s);
@@ -323,6 +325,7 @@ void ReplayWriter::commit(const ReplaySummary& s) {
   unit(pg.write<std::int32_t>("iterations", iterations_, {k}), "count");
   unit(pg.write<double>("residual", residual_, {k}), "1 (unbalanced force / mesh weight)");
   unit(pg.write<double>("residual_reduction", reduction_, {k}), "1 (last / first iteration)");
+  unit(pg.write<std::uint8_t>("recovered", recovered_, {k}), "1 (redone with the direct solve)");
   h5::Group tg = f.create_group("timing");
   unit(tg.write<double>("haptic_step_s", tm_total_, {n}), "s");
   unit(tg.write<double>("device_s", tm_device_, {n}), "s");

@@ -3,7 +3,7 @@
 // time as their first dimension, written under a temporary name and renamed when complete.
 //   /haptic/{t, force, torque, force_clamped, torque_clamped, pose_physical, pose_virtual,
 //            penetration, penetration_physical, contacts, grasped, jaw}
-//   /physical/{t, iterations, residual, residual_reduction}
+//   /physical/{t, iterations, residual, residual_reduction, recovered}
 //   /timing/{haptic_step_s, device_s, physical_sync_s, grasp_s, virtual_mesh_s, virtual_tool_s,
 //            output_s, physical_step_s, physical_local_s, physical_global_s}
 //   /frames/{t, virtual_positions, physical_positions, tool_poses, jaw}   (with --frames-hz)
@@ -76,6 +76,7 @@ class ReplayWriter : public ReplayObserver {
   double max_penetration() const { return max_penetration_; }
   std::int64_t clamped_ticks() const { return clamped_; }
   std::int64_t contact_ticks() const { return in_contact_; }  ///< ticks with contacts > 0
+  std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
 
  private:
   h5::AtomicFile out_;
@@ -87,6 +88,7 @@ class ReplayWriter : public ReplayObserver {
   // /physical per step
   std::vector<double> pt_, residual_, reduction_, tm_step_, tm_local_, tm_global_;
   std::vector<std::int32_t> iterations_;
+  std::vector<std::uint8_t> recovered_;
   // /frames
   bool frames_ = false;
   h5::Appender<double> f_t_, f_jaw_;
@@ -94,7 +96,7 @@ class ReplayWriter : public ReplayObserver {
   h5::Appender<double> f_pose_;
   std::vector<float> scratch_f_;
   double peak_force_ = 0, max_penetration_ = 0;
-  std::int64_t clamped_ = 0, in_contact_ = 0;
+  std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0;
 };
 
 /// The CPU's model name (from /proc/cpuinfo), for the `device` attribute.

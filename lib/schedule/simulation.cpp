@@ -297,7 +297,8 @@ void check_physical_step(const World& world, const PhysicalSide& p) {
   if (problem.empty()) return;
   const std::int64_t k = p.step - 1;
   const SolverSpec& solver = world.scene.spec.solver;
-  const char* hint = solver.method == SolverSpec::Method::Direct ? ""
+  const char* hint = p.recovered ? " (also after redoing the step with the direct solve)"
+                     : solver.method == SolverSpec::Method::Direct ? ""
                      : solver.diagonal == SolverSpec::Diagonal::Plain
                          ? " (solver.diagonal=plain diverges on such tets: use bounded)"
                          : " (the iterations did not converge: raise solver.physical_iterations or use solver.method=direct)";
@@ -314,7 +315,25 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
     return;
   }
 #endif
-  p.report = physical_step(world.physical_mesh, p.workspace, p.mesh, snapshot.q, world.physical_params);
+  const PhysicalModel& model = world.physical_mesh;
+  const SolverSpec& solver = world.scene.spec.solver;
+  const bool can_recover =
+      solver.recovery == SolverSpec::Recovery::Direct && solver.method != SolverSpec::Method::Direct;
+  if (can_recover) p.start = p.mesh;  // the vectors keep their capacity: no allocation after the first step
+  p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, world.physical_params);
+  p.recovered = can_recover && (p.report.residual > solver.recovery_residual ||
+                                !physical_state_problem(model, p.mesh.x, p.report).empty());
+  if (p.recovered) {
+    if (!p.recovery_direct)
+      p.recovery_direct = factorize_global_matrix(assemble_global_matrix(model), world.scene.spec.file.string());
+    p.mesh = p.start;
+    PhysicalStepParams direct = world.physical_params;
+    direct.method = SolverSpec::Method::Direct;
+    const double time_s = p.report.time_s;
+    p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, direct, p.recovery_direct.get());
+    p.report.time_s += time_s;
+    ++p.recovered_steps;
+  }
   ++p.step;
   check_physical_step(world, p);
 }

@@ -103,6 +103,13 @@ struct PhysicalSide {
   PhysicalWorkspace workspace;
   std::int64_t step = 0;                 ///< the next step to run
   PhysicalStepReport report;             ///< of the last step
+  /// The recovery (SolverSpec::recovery, CPU backend): the last step was redone with the direct
+  /// global solve; how many steps were; the state the step started from; the factorisation,
+  /// made on the first recovery.
+  bool recovered = false;
+  std::int64_t recovered_steps = 0;
+  PhysicalState start;
+  std::shared_ptr<const PhysicalDirectSolver> recovery_direct;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda: the step runs here and mesh.x is its copy of x (mesh.v and mesh.rotation stay
   /// on the device; docs/CUDA.md).
@@ -124,7 +131,9 @@ void deliver_physical_snapshot(const World& world, HapticSide& haptic, const Phy
 /// One haptic tick (Algorithm 2) with the device sample for this tick.
 void haptic_tick(const World& world, HapticSide& haptic, const DeviceSample& sample);
 
-/// One physical step (Algorithm 1) coupled to the virtual-mesh positions of `snapshot`, then
+/// One physical step (Algorithm 1) coupled to the virtual-mesh positions of `snapshot`; on the
+/// CPU backend, the recovery (SolverSpec::recovery: a step left unconverged or diverged by the
+/// Jacobi-type iterations is redone from its start with the direct global solve); then
 /// check_physical_step.
 void run_physical_step(const World& world, PhysicalSide& physical, const HapticSnapshot& snapshot);
 

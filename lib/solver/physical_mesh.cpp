@@ -109,14 +109,15 @@ double residual_norm(const PhysicalWorkspace& ws) {
 }
 
 /// The exact global step: x_f <- x_f + A_ff^-1 r_f (serial: call from one thread).
-void global_direct(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
+void global_direct(const PhysicalModel& model, const PhysicalDirectSolver& direct, PhysicalWorkspace& ws,
+                   PhysicalState& state) {
   const int nf = model.num_free;
   if (nf == 0) return;
   for (int i = 0; i < nf; ++i) {
     const Vec3d r = ws.r[model.free_vertices[i]];
     ws.rhs(i, 0) = r.x; ws.rhs(i, 1) = r.y; ws.rhs(i, 2) = r.z;
   }
-  ws.dx = model.direct->ldlt.solve(ws.rhs);
+  ws.dx = direct.ldlt.solve(ws.rhs);
   for (int i = 0; i < nf; ++i) state.x[model.free_vertices[i]] += Vec3d{ws.dx(i, 0), ws.dx(i, 1), ws.dx(i, 2)};
 }
 
@@ -306,14 +307,17 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
     M.diag[a] = d;
   }
   choose_diagonal(M, A, options.diagonal);
-  if (options.factorize && M.num_free > 0) {
-    auto solver = std::make_shared<PhysicalDirectSolver>();
-    solver->ldlt.compute(A);
-    if (solver->ldlt.info() != Eigen::Success)
-      throw InputError(where + ": the physical mesh's global matrix is not positive definite");
-    M.direct = std::move(solver);
-  }
+  if (options.factorize && M.num_free > 0) M.direct = factorize_global_matrix(A, where);
   return M;
+}
+
+std::shared_ptr<const PhysicalDirectSolver> factorize_global_matrix(const Eigen::SparseMatrix<double>& A,
+                                                                    const std::string& where) {
+  auto solver = std::make_shared<PhysicalDirectSolver>();
+  solver->ldlt.compute(A);
+  if (solver->ldlt.info() != Eigen::Success)
+    throw InputError(where + ": the physical mesh's global matrix is not positive definite");
+  return solver;
 }
 
 PhysicalState make_physical_state(const PhysicalModel& model) {
@@ -355,12 +359,14 @@ PhysicalModelOptions physical_model_options(const SceneSpec& spec) {
 }
 
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
-                                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params) {
+                                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params,
+                                 const PhysicalDirectSolver* direct) {
   const auto t_step = Clock::now();
   PhysicalStepReport report;
   if (model.num_virtual > 0 && virtual_q.size() != size_t(model.num_virtual))
     throw std::invalid_argument("physical_step: virtual_q has the wrong size");
-  if (params.method == SolverSpec::Method::Direct && !model.direct && model.num_free > 0)
+  if (!direct) direct = model.direct.get();
+  if (params.method == SolverSpec::Method::Direct && !direct && model.num_free > 0)
     throw std::invalid_argument("physical_step: direct method on a model built without factorisation");
 
   double r0 = 0, rk = 0;
@@ -384,7 +390,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
       residual_and_update(model, ws, state, params.method, params.relaxation, omega);
       if (params.method == SolverSpec::Method::Direct) {
 #pragma omp single
-        global_direct(model, ws, state);  // implicit barrier
+        global_direct(model, *direct, ws, state);  // implicit barrier
       }
 #pragma omp master
       {

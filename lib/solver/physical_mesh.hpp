@@ -178,10 +178,17 @@ Eigen::SparseMatrix<double> assemble_global_matrix(const PhysicalModel& model);
 /// so D_l1 >= A for every symmetric A.
 std::vector<double> l1_row_sums(const Eigen::SparseMatrix<double>& A);
 
+/// The direct method's factorisation of A (assemble_global_matrix). Throws InputError naming
+/// `where` when A is not positive definite.
+std::shared_ptr<const PhysicalDirectSolver> factorize_global_matrix(const Eigen::SparseMatrix<double>& A,
+                                                                    const std::string& where);
+
 /// One physical step (Algorithm 1), in place on state.
 ///   virtual_q: #m virtual-mesh positions held fixed for E_svc (empty when num_virtual == 0).
+///   direct: the factorisation the direct method uses (null: model.direct).
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
-                                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params);
+                                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params,
+                                 const PhysicalDirectSolver* direct = nullptr);
 
 struct PhysicalEnergy {
   double volume = 0;    ///< E_vol [7]

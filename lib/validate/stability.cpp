@@ -7,7 +7,8 @@
 //   motion     the recording, the same sped up until the tool's peak speed is 1 m/s, or a
 //              teleport: halfway through, the device jumps 10 mm towards the mesh's centre
 // and counts what went wrong: non-finite states and blow-ups (the replay's health checks,
-// schedule/simulation.hpp: check_physical_step), and the deepest penetration of the virtual tool.
+// schedule/simulation.hpp: check_physical_step), the cases the recovery rescued (steps redone with
+// the direct solve, CPU backend) and the deepest penetration of the virtual tool.
 // It also compares the force of each iterative case with the direct solve's on the same mesh,
 // stiffness and motion (RMS over the window; -1 where either stopped).
 // Passed when no case is non-finite or blows up. The short form (the default, ~1 minute on two
@@ -33,14 +34,16 @@ constexpr double kWindow = 0.3;        // s of each recording replayed
 constexpr double kTeleport = 0.01;     // m
 constexpr double kFastSpeed = 1.0;     // m/s
 
-/// Records the force per tick and the deepest penetration.
+/// Records the force per tick, the deepest penetration and the steps the recovery redid.
 struct Trace : ReplayObserver {
   std::vector<Vec3d> force;
   double penetration = 0;
+  int recovered = 0;
   void on_tick(const World&, const HapticSide& h, double) override {
     force.push_back(h.output.force);
     penetration = std::max(penetration, h.penetration);
   }
+  void on_step(const World&, const PhysicalSide& p, double) override { recovered += p.recovered ? 1 : 0; }
 };
 
 /// The window of `rec` a case replays: kWindow s from 40% of the recording (where the committed
@@ -68,6 +71,7 @@ Recording window(const Recording& rec, const std::string& motion, const Vec3d& c
 
 struct Outcome {
   bool nonfinite = false, blowup = false;
+  int recovered = 0;  ///< physical steps redone with the direct solve (CPU backend)
   std::string error;
   double penetration = 0;
   std::vector<Vec3d> force;
@@ -114,6 +118,7 @@ std::vector<Outcome> run_motions(const Recording& rec, double quality, double st
       (o.error.find("not finite") != std::string::npos ? o.nonfinite : o.blowup) = true;
     }
     o.penetration = trace.penetration;
+    o.recovered = trace.recovered;
     o.force = std::move(trace.force);
   }
   return out;
@@ -140,7 +145,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
   const Backend backend = options.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   ValidationResult r;
   r.name = "stability";
-  int cases = 0, nonfinite = 0, blowups = 0;
+  int cases = 0, nonfinite = 0, blowups = 0, recovered_cases = 0;
   double max_penetration = 0, max_rms = 0;
   Json rows = Json::array();
   for (const std::string& name : recordings) {
@@ -156,6 +161,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
             ++cases;
             nonfinite += o.nonfinite;
             blowups += o.blowup;
+            recovered_cases += o.recovered > 0;
             max_penetration = std::max(max_penetration, o.penetration);
             const double rms = o.error.empty() && direct[i].error.empty() ? force_rms(o.force, direct[i].force) : -1.0;
             max_rms = std::max(max_rms, rms);
@@ -168,6 +174,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
             row.set("ticks", static_cast<long long>(o.force.size()));
             row.set("nonfinite", o.nonfinite);
             row.set("blowup", o.blowup);
+            row.set("recovered_steps", o.recovered);
             row.set("error", o.error);
             row.set("max_penetration_m", o.penetration);
             row.set("force_rms_vs_direct_n", rms);
@@ -186,6 +193,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
   r.data.set("cases", cases);
   r.data.set("nonfinite", nonfinite);
   r.data.set("blowups", blowups);
+  r.data.set("recovered_cases", recovered_cases);
   r.data.set("max_penetration_m", max_penetration);
   r.data.set("max_force_rms_vs_direct_n", max_rms);
   r.data.set("criterion", "no case non-finite or blown up (the replay's health checks)");

@@ -80,6 +80,8 @@ TEST(SceneSpec, DefaultsAndNameFromStem) {
   EXPECT_EQ(s.unit, 1.0);
   EXPECT_EQ(s.tool.hook.tip_length, SceneSpec{}.tool.hook.tip_length);  // defaults are metres already
   EXPECT_TRUE(s.pinned.empty());
+  EXPECT_EQ(s.solver.recovery, SolverSpec::Recovery::Direct);
+  EXPECT_EQ(s.solver.recovery_residual, 100.0);
 }
 
 TEST(Scene, LoadsInMetresAndPins) {
@@ -162,6 +164,12 @@ TEST_F(BadScene, NotWhole) {
   expect(replace(good, "newton_iterations: 3", "newton_iterations: 2.5"), "key 'tool.newton_iterations': expected a whole number in [1, 100], got '2.5'");
 }
 TEST_F(BadScene, RefineRange) { expect(replace(good, "virtual_refine: 1", "virtual_refine: 2"), "key 'mesh.virtual_refine': expected a whole number in [0, 1]"); }
+TEST_F(BadScene, BadRecovery) {
+  expect(replace(good, "method: jacobi", "method: jacobi\n  recovery: restart"),
+         "key 'solver.recovery': expected one of direct, none, got 'restart'");
+  expect(replace(good, "method: jacobi", "method: jacobi\n  recovery_residual: 0"),
+         "key 'solver.recovery_residual': expected a number in (0, 10000], got '0'");
+}
 TEST_F(BadScene, NotBool) { expect(replace(good, "grasp: true", "grasp: maybe"), "key 'stages.grasp': expected true or false, got 'maybe'"); }
 TEST_F(BadScene, ShortVector) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0]"), "key 'gravity': expected a list of 3 numbers"); }
 TEST_F(BadScene, VectorElement) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, x, 0]"), "key 'gravity[1]': expected a number, got 'x'"); }

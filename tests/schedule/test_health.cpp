@@ -1,6 +1,7 @@
 // The replay's health checks (schedule/simulation.hpp): a physical mesh that diverges stops the
 // replay with a NumericalError naming the tick, the step and the worst element, in every
-// virtual-time mode; the bounded diagonal replays the same mesh without one.
+// virtual-time mode; the bounded diagonal replays the same mesh without one; the recovery redoes
+// the steps the iterations leave unconverged with the direct solve, which is then what it gives.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -19,9 +20,20 @@ struct Count : ReplayObserver {
   void on_tick(const World&, const HapticSide&, double) override { ++ticks; }
 };
 
-/// tube with its physical mesh degraded to a worst mean ratio of 0.02, the given diagonal.
-std::shared_ptr<const World> degraded_tube(const std::string& diagonal) {
-  Scene scene = load_scene(resolve_scene_path("tube"), {"solver.diagonal=" + diagonal});
+struct Forces : ReplayObserver {
+  std::vector<Vec3d> force;
+  int steps = 0, recovered = 0;
+  void on_tick(const World&, const HapticSide& h, double) override { force.push_back(h.output.force); }
+  void on_step(const World&, const PhysicalSide& p, double) override {
+    ++steps;
+    recovered += p.recovered ? 1 : 0;
+  }
+};
+
+/// tube with its physical mesh degraded to a worst mean ratio of 0.02, the given diagonal and
+/// recovery ("none" or "direct").
+std::shared_ptr<const World> degraded_tube(const std::string& diagonal, const std::string& recovery = "none") {
+  Scene scene = load_scene(resolve_scene_path("tube"), {"solver.diagonal=" + diagonal, "solver.recovery=" + recovery});
   DegradeOptions d;
   d.target_quality = 0.02;
   degrade_physical_mesh(scene, d);
@@ -56,6 +68,41 @@ TEST(Health, ADivergingPhysicalMeshStopsTheReplayNamingTickStepAndElement) {
   opt.duration = 0.5;
   EXPECT_NO_THROW(replay(*degraded_tube("bounded"), rec, opt, count));
   EXPECT_EQ(count.ticks, 501);
+}
+
+TEST(Health, TheRecoveryRedoesTheDivergingStepsWithTheDirectSolve) {
+  const Recording rec = read_recording(resolve_recording_path("tube_insert"));
+  ReplayOptions opt;
+  opt.duration = 0.5;
+  Forces forces;
+  ASSERT_NO_THROW(replay(*degraded_tube("plain", "direct"), rec, opt, forces));
+  EXPECT_EQ(forces.force.size(), 501u);
+  EXPECT_GT(forces.recovered, 0);               // the plain diagonal diverges on these slivers
+  EXPECT_LE(forces.recovered, forces.steps);
+  Forces bounded;  // the bounded diagonal converges: nothing to redo
+  replay(*degraded_tube("bounded", "direct"), rec, opt, bounded);
+  EXPECT_EQ(bounded.recovered, 0);
+}
+
+TEST(Health, EveryStepRecoveredIsTheDirectMethodToTheBit) {
+  // A recovery threshold below any residual redoes every step: the replay is then the direct
+  // method's, bit for bit (the same start state, the same factorised matrix, the same iterations).
+  const Recording rec = read_recording(resolve_recording_path("tube_insert"));
+  ReplayOptions opt;
+  opt.duration = 0.3;
+  auto world = [](const std::vector<std::string>& set) {
+    return build_world(load_scene(resolve_scene_path("tube"), set), 1000, 100);
+  };
+  Forces recovered, direct;
+  replay(*world({"solver.recovery_residual=1e-300"}), rec, opt, recovered);
+  replay(*world({"solver.method=direct"}), rec, opt, direct);
+  EXPECT_EQ(recovered.recovered, recovered.steps);
+  ASSERT_EQ(recovered.force.size(), direct.force.size());
+  for (std::size_t i = 0; i < direct.force.size(); ++i) {
+    ASSERT_EQ(recovered.force[i].x, direct.force[i].x) << "tick " << i;
+    ASSERT_EQ(recovered.force[i].y, direct.force[i].y) << "tick " << i;
+    ASSERT_EQ(recovered.force[i].z, direct.force[i].z) << "tick " << i;
+  }
 }
 
 }  // namespace

@@ -131,6 +131,11 @@ void run_replay(const ReplayArgs& a) {
   const std::string contact = contact_warning(static_cast<std::size_t>(writer.contact_ticks()),
                                               static_cast<std::size_t>(s.ticks));
   if (!contact.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), contact.c_str());
+  if (writer.recovered_steps() > 0)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: %lld of %lld physical steps did not converge and were redone with the direct "
+                 "solve (/physical/recovered; `ebh scene info` shows the mesh's worst tets)\n",
+                 a.out.c_str(), static_cast<long long>(writer.recovered_steps()), static_cast<long long>(s.steps));
   if (!a.quiet) {
     std::printf("%s: %s + %s, %s mode, %lld ticks, %lld physical steps\n", a.out.c_str(),
                 world.scene.spec.name.c_str(), std::filesystem::path(in.recording_path).filename().c_str(),

@@ -108,6 +108,19 @@ void BM_HealthCheck(benchmark::State& st, std::string scene) {
   st.counters["vertices"] = L->pm.num_vertices;
 }
 
+/// What the recovery (solver.recovery) adds before every CPU step: saving the step's start state.
+void BM_RecoverySnapshot(benchmark::State& st, std::string scene) {
+  std::string error;
+  const Loaded* L = load(scene, error);
+  if (!L) { st.SkipWithError(error.c_str()); return; }
+  PhysicalState start = L->start;
+  for (auto _ : st) {
+    start = L->start;
+    benchmark::DoNotOptimize(start.x.data());
+  }
+  st.counters["vertices"] = L->pm.num_vertices;
+}
+
 /// Building the physical model: the global matrix, the diagonal (with the bounded one's Lanczos
 /// estimates) and, for the direct method, its factorisation.
 void BM_PhysicalModelBuild(benchmark::State& st, std::string scene, SolverSpec::Diagonal diagonal, bool factorize) {
@@ -204,6 +217,7 @@ BENCHMARK_CAPTURE(BM_PhysicalStep, cholecystectomy_q002_chebyshev, "cholecystect
 BENCHMARK_CAPTURE(BM_PhysicalStep, cholecystectomy_q002_direct, "cholecystectomy@0.02", SolverSpec::Method::Direct)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_HealthCheck, tube, "tube")->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_HealthCheck, cholecystectomy, "cholecystectomy")->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_RecoverySnapshot, cholecystectomy, "cholecystectomy")->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_PhysicalModelBuild, cholecystectomy_plain, "cholecystectomy", SolverSpec::Diagonal::Plain, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_PhysicalModelBuild, cholecystectomy_bounded, "cholecystectomy", SolverSpec::Diagonal::Bounded, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_PhysicalModelBuild, cholecystectomy_q002_bounded, "cholecystectomy@0.02", SolverSpec::Diagonal::Bounded, false)->Unit(benchmark::kMillisecond);

@@ -109,6 +109,23 @@ add_test(NAME cli.scene.bad_key_message COMMAND ${EBH_BIN} scene info ${CMAKE_CU
 set_tests_properties(cli.scene.bad_key_message PROPERTIES
   PASS_REGULAR_EXPRESSION "key 'tool.hook.tip_length': expected a positive number, got 'abc'" LABELS "cli;scene")
 
+# scene info shows the tool next to the mesh's bounding box, each in its unit; a scene switched to
+# a cm mesh with its tool sizes still in mm numbers warns, naming the keys, in scene info and replay.
+add_test(NAME cli.scene.info_tool COMMAND ${EBH_BIN} scene info cholecystectomy)
+set_tests_properties(cli.scene.info_tool PROPERTIES LABELS "cli;scene" FAIL_REGULAR_EXPRESSION "warning"
+  PASS_REGULAR_EXPRESSION "  unit +mm, no transform\n.*  in mm +\\[-94\\.9678, .*diagonal 270\\.856\\)\ntool +forceps, sizes in mm \\(tool\\.unit\\).*\n  shaft +radius 3, length 300 mm\n  jaws +length 20, width 5, thickness 2 mm")
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tool_in_mm_numbers.yaml
+  "unit: cm\nmesh: {physical: ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube22.msh}\npinned: [{group: bottom}]\n"
+  "tool: {kind: forceps, shaft_radius: 2.5, shaft_length: 300, forceps: {jaw_length: 20}}\n")
+set(EBH_TOOL_WARNING "ebh: warning: .*cli_scene_tool_in_mm_numbers.yaml: tool.shaft_length = 300 cm \\(3 m\\): laparoscopic shafts are about 0.3-0.45 m long; is tool.unit \\(cm\\) right\\?")
+add_test(NAME cli.scene.info_tool_unit_warning
+  COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tool_in_mm_numbers.yaml)
+add_test(NAME cli.replay.tool_unit_warning
+  COMMAND ${EBH_BIN} replay ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tool_in_mm_numbers.yaml tube_insert
+    -o ${PROJECT_BINARY_DIR}/cli_scene_tool_unit_warning.h5 --duration 0.01 -q)
+set_tests_properties(cli.scene.info_tool_unit_warning cli.replay.tool_unit_warning PROPERTIES LABELS "cli;scene"
+  PASS_REGULAR_EXPRESSION "${EBH_TOOL_WARNING}")
+
 # ebh render (lib/render): a short tube replay with frames, rendered by `ebh replay --render` and
 # indexed for ParaView (tube.xdmf); presets, --xdmf-only and bad input on that output.
 set(EBH_RENDER_OUT ${PROJECT_BINARY_DIR}/cli_render)

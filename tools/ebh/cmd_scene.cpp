@@ -23,6 +23,7 @@
 #include "mesh/mesh_io.hpp"
 #include "mesh/validate.hpp"
 #include "scene/scene.hpp"
+#include "scene/scene_init.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
 
@@ -317,6 +318,37 @@ void degrade(const SceneDegradeArgs& a) {
               scene.spec.name.c_str(), r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles, mesh_out.c_str());
 }
 
+struct SceneInitArgs {
+  std::string mesh;
+  std::string out;
+  std::string unit = "mm";
+  std::vector<std::string> pins;
+  std::string tissue = "generic";
+  std::string tool = "hook";
+};
+
+/// `ebh scene init`: a complete, commented scene for the user's own mesh (scene/scene_init.hpp),
+/// checked by loading it before it is written.
+void init(const SceneInitArgs& a) {
+  ebh::check_input_file(a.mesh);
+  ebh::check_outputs({{a.out, "the scene"}}, {{a.mesh, "the mesh"}});
+  ebh::SceneInitOptions o;
+  o.mesh = a.mesh;
+  o.out = a.out;
+  o.unit = a.unit;
+  o.pins = a.pins;
+  o.tissue = a.tissue;
+  o.tool = a.tool;
+  const ebh::SceneInit made = ebh::make_scene(o);
+  for (const auto& w : made.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
+  ebh::write_file_atomically(a.out, made.yaml);
+  const ebh::TetMesh& m = made.scene.physical;
+  std::printf("%s: scene for %s (%zu vertices, %zu tets, in %s), %s, %s\n", a.out.c_str(), a.mesh.c_str(), m.vertices.size(),
+              m.tets.size(), a.unit.c_str(), a.tissue.c_str(), a.tool.c_str());
+  std::printf("  %s\n", made.pin_note.c_str());
+  std::printf("  check it: ebh scene info %s\n", a.out.c_str());
+}
+
 void setup(CLI::App& root) {
   CLI::App* scene = root.add_subcommand("scene", "Inspect scenes (scenarios/NAME.yaml)");
   scene->require_subcommand(1);
@@ -335,6 +367,20 @@ void setup(CLI::App& root) {
   d->add_option("--seed", dargs->seed, "which tets (default 1; the same seed gives the same mesh)");
   d->add_option("-o,--out", dargs->out_dir, "folder for NAME_qQ.msh and NAME_qQ.yaml (default: the working directory)");
   d->callback([dargs] { degrade(*dargs); });
+
+  auto iargs = std::make_shared<SceneInitArgs>();
+  CLI::App* i = scene->add_subcommand(
+      "init", "Write a complete, commented scene for your own mesh (tool in mm, tissue presets, pinned regions)");
+  i->add_option("mesh", iargs->mesh, "the physical mesh (Gmsh .msh 2.2 or 4.1)")->required();
+  i->add_option("-o,--out", iargs->out, "the scene file to write")->required();
+  i->add_option("--unit", iargs->unit, "the mesh file's unit, also the scene's for --pin and the camera: m, cm, mm (default mm)");
+  i->add_option("--pin", iargs->pins,
+                "a pinned region, repeatable: sphere:x,y,z,r | box:x0,y0,z0,x1,y1,z1 | group:NAME (default: the lowest "
+                "layer of vertices along gravity, -z)")
+      ->allow_extra_args(false);
+  i->add_option("--tissue", iargs->tissue, "stiffness and density preset: liver, gallbladder, uterus, generic (default generic)");
+  i->add_option("--tool", iargs->tool, "hook or forceps (default hook)");
+  i->callback([iargs] { init(*iargs); });
 }
 
 }  // namespace

@@ -25,13 +25,19 @@ std::filesystem::path box_mesh() {
                     "3 4 0 6 5 8 2\n4 4 0 7 8 5 3\n5 4 0 2 3 5 8\n$EndElements\n");
 }
 
-TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
+/// The box's scene beside it, with forceps, its file in `unit`.
+SceneInitOptions box_forceps(const std::string& unit, const std::string& scene_file) {
   SceneInitOptions o;
   o.mesh = box_mesh();
-  o.out = o.mesh.parent_path() / "box.yaml";
-  o.unit = "cm";
-  o.tissue = "liver";
+  o.out = o.mesh.parent_path() / scene_file;
+  o.unit = unit;
   o.tool = "forceps";
+  return o;
+}
+
+TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
+  SceneInitOptions o = box_forceps("cm", "box.yaml");
+  o.tissue = "liver";
   const SceneInit made = make_scene(o);
   const SceneSpec& s = made.scene.spec;
   EXPECT_TRUE(made.scene.warnings.empty()) << made.scene.warnings.front();
@@ -69,12 +75,7 @@ TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
 // The same file declared in mm is a 5 mm speck next to 20 mm jaws: the scene is still written,
 // and its load says which keys to check.
 TEST(SceneInit, AMeshInTheWrongUnitWarns) {
-  SceneInitOptions o;
-  o.mesh = box_mesh();
-  o.out = o.mesh.parent_path() / "box_mm.yaml";
-  o.unit = "mm";
-  o.tool = "forceps";
-  const SceneInit made = make_scene(o);
+  const SceneInit made = make_scene(box_forceps("mm", "box_mm.yaml"));
   EXPECT_NEAR(made.scene.spec.tool.shaft_radius, 0.0025, kTol);
   ASSERT_FALSE(made.scene.warnings.empty());
   EXPECT_NE(made.scene.warnings[0].find("tool.forceps.jaw_length = 20 mm is larger than the physical mesh's bounding-box diagonal (5.38516 mm)"),

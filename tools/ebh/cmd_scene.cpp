@@ -318,35 +318,20 @@ void degrade(const SceneDegradeArgs& a) {
               scene.spec.name.c_str(), r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles, mesh_out.c_str());
 }
 
-struct SceneInitArgs {
-  std::string mesh;
-  std::string out;
-  std::string unit = "mm";
-  std::vector<std::string> pins;
-  std::string tissue = "generic";
-  std::string tool = "hook";
-};
-
 /// `ebh scene init`: a complete, commented scene for the user's own mesh (scene/scene_init.hpp),
 /// checked by loading it before it is written.
-void init(const SceneInitArgs& a) {
-  ebh::check_input_file(a.mesh);
-  ebh::check_outputs({{a.out, "the scene"}}, {{a.mesh, "the mesh"}});
-  ebh::SceneInitOptions o;
-  o.mesh = a.mesh;
-  o.out = a.out;
-  o.unit = a.unit;
-  o.pins = a.pins;
-  o.tissue = a.tissue;
-  o.tool = a.tool;
+void init(const ebh::SceneInitOptions& o) {
+  const std::string mesh = o.mesh.string(), out = o.out.string();
+  ebh::check_input_file(mesh);
+  ebh::check_outputs({{out, "the scene"}}, {{mesh, "the mesh"}});
   const ebh::SceneInit made = ebh::make_scene(o);
   for (const auto& w : made.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
-  ebh::write_file_atomically(a.out, made.yaml);
+  ebh::write_file_atomically(out, made.yaml);
   const ebh::TetMesh& m = made.scene.physical;
-  std::printf("%s: scene for %s (%zu vertices, %zu tets, in %s), %s, %s\n", a.out.c_str(), a.mesh.c_str(), m.vertices.size(),
-              m.tets.size(), a.unit.c_str(), a.tissue.c_str(), a.tool.c_str());
+  std::printf("%s: scene for %s (%zu vertices, %zu tets, in %s), %s, %s\n", out.c_str(), mesh.c_str(), m.vertices.size(),
+              m.tets.size(), o.unit.c_str(), o.tissue.c_str(), o.tool.c_str());
   std::printf("  %s\n", made.pin_note.c_str());
-  std::printf("  check it: ebh scene info %s\n", a.out.c_str());
+  std::printf("  check it: ebh scene info %s\n", out.c_str());
 }
 
 void setup(CLI::App& root) {
@@ -368,7 +353,7 @@ void setup(CLI::App& root) {
   d->add_option("-o,--out", dargs->out_dir, "folder for NAME_qQ.msh and NAME_qQ.yaml (default: the working directory)");
   d->callback([dargs] { degrade(*dargs); });
 
-  auto iargs = std::make_shared<SceneInitArgs>();
+  auto iargs = std::make_shared<ebh::SceneInitOptions>();
   CLI::App* i = scene->add_subcommand(
       "init", "Write a complete, commented scene for your own mesh (tool in mm, tissue presets, pinned regions)");
   i->add_option("mesh", iargs->mesh, "the physical mesh (Gmsh .msh 2.2 or 4.1)")->required();

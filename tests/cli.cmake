@@ -109,6 +109,78 @@ add_test(NAME cli.scene.bad_key_message COMMAND ${EBH_BIN} scene info ${CMAKE_CU
 set_tests_properties(cli.scene.bad_key_message PROPERTIES
   PASS_REGULAR_EXPRESSION "key 'tool.hook.tip_length': expected a positive number, got 'abc'" LABELS "cli;scene")
 
+# scene info shows the tool next to the mesh's bounding box, each in its unit; a scene switched to
+# a cm mesh with its tool sizes still in mm numbers warns, naming the keys, in scene info and replay.
+add_test(NAME cli.scene.info_tool COMMAND ${EBH_BIN} scene info cholecystectomy)
+set_tests_properties(cli.scene.info_tool PROPERTIES LABELS "cli;scene" FAIL_REGULAR_EXPRESSION "warning"
+  PASS_REGULAR_EXPRESSION "  unit +mm, no transform\n.*  in mm +\\[-94\\.9678, .*diagonal 270\\.856\\)\ntool +forceps, sizes in mm \\(tool\\.unit\\).*\n  shaft +radius 3, length 300 mm\n  jaws +length 20, width 5, thickness 2 mm")
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tool_in_mm_numbers.yaml
+  "unit: cm\nmesh: {physical: ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube22.msh}\npinned: [{group: bottom}]\n"
+  "tool: {kind: forceps, shaft_radius: 2.5, shaft_length: 300, forceps: {jaw_length: 20}}\n")
+set(EBH_TOOL_WARNING "ebh: warning: .*cli_scene_tool_in_mm_numbers.yaml: tool.shaft_length = 300 cm \\(3 m\\): laparoscopic shafts are about 0.3-0.45 m long; is tool.unit \\(cm\\) right\\?")
+add_test(NAME cli.scene.info_tool_unit_warning
+  COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tool_in_mm_numbers.yaml)
+add_test(NAME cli.replay.tool_unit_warning
+  COMMAND ${EBH_BIN} replay ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tool_in_mm_numbers.yaml tube_insert
+    -o ${PROJECT_BINARY_DIR}/cli_scene_tool_unit_warning.h5 --duration 0.01 -q)
+set_tests_properties(cli.scene.info_tool_unit_warning cli.replay.tool_unit_warning PROPERTIES LABELS "cli;scene"
+  PASS_REGULAR_EXPRESSION "${EBH_TOOL_WARNING}")
+
+# ebh scene init (lib/scene/scene_init.hpp): a segmentation-like mesh in cm without physical groups
+# (a 4 x 3 x 2 cm box of 5 tets) becomes a scene that scene info reads and a synthetic press replays,
+# with the tool in mm; bad pins, a mesh that does not load and an output over the mesh are one-line
+# errors that leave no file.
+set(EBH_INIT ${PROJECT_BINARY_DIR}/cli_scene_init)
+file(MAKE_DIRECTORY ${EBH_INIT})
+file(WRITE ${EBH_INIT}/own_cm.msh "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n8\n1 0 0 0\n2 4 0 0\n3 0 3 0\n4 4 3 0\n"
+  "5 0 0 2\n6 4 0 2\n7 0 3 2\n8 4 3 2\n$EndNodes\n$Elements\n5\n1 4 0 1 2 3 5\n2 4 0 4 3 2 8\n3 4 0 6 5 8 2\n"
+  "4 4 0 7 8 5 3\n5 4 0 2 3 5 8\n$EndElements\n")
+file(WRITE ${EBH_INIT}/not_a_mesh.msh "a segmentation exported as text, not Gmsh\n")
+# the hook comes down on the box's top face (z = 2 cm) at its centre and presses 3 mm in
+file(WRITE ${EBH_INIT}/press.yaml "scene: own\ntool: hook\nwaypoints:\n"
+  "  - {t: 0.0, position_mm: [20, 15, 40], rotvec_deg: [180, 0, 0], jaw: 1}\n  - {t: 0.2, position_mm: [20, 15, 40]}\n"
+  "  - {t: 0.6, position_mm: [20, 15, 17]}\n  - {t: 0.8, position_mm: [20, 15, 17]}\n")
+add_test(NAME cli.scene_init.write
+  COMMAND ${EBH_BIN} scene init ${EBH_INIT}/own_cm.msh -o ${EBH_INIT}/own.yaml --unit cm --tissue liver)
+set_tests_properties(cli.scene_init.write PROPERTIES FIXTURES_SETUP scene_init FAIL_REGULAR_EXPRESSION "warning"
+  PASS_REGULAR_EXPRESSION "own.yaml: scene for .*own_cm.msh \\(8 vertices, 5 tets, in cm\\), liver, hook\n  no --pin given: pinned the lowest 5% of the mesh's height \\(z <= 0.1 cm, 4 vertices\\)")
+add_test(NAME cli.scene_init.info COMMAND ${EBH_BIN} scene info ${EBH_INIT}/own.yaml)
+set_tests_properties(cli.scene_init.info PROPERTIES FIXTURES_REQUIRED scene_init FAIL_REGULAR_EXPRESSION "warning"
+  PASS_REGULAR_EXPRESSION "unit +cm, no transform.*pinned vertices +4\n.*  in cm +\\[0, 0, 0\\] \\.\\. \\[4, 3, 2\\].*tool +hook, sizes in mm.*\n  shaft +radius 2.5, length 330 mm")
+add_test(NAME cli.scene_init.synth COMMAND ${EBH_BIN} synth ${EBH_INIT}/press.yaml -o ${EBH_INIT}/press.h5)
+set_tests_properties(cli.scene_init.synth PROPERTIES FIXTURES_SETUP scene_init_press)
+add_test(NAME cli.scene_init.replay
+  COMMAND ${EBH_BIN} replay ${EBH_INIT}/own.yaml ${EBH_INIT}/press.h5 -o ${EBH_INIT}/press_out.h5)
+set_tests_properties(cli.scene_init.replay PROPERTIES FIXTURES_REQUIRED "scene_init;scene_init_press"
+  PASS_REGULAR_EXPRESSION "801 ticks, 81 physical steps.*peak force 0\\.[0-9]+ N" FAIL_REGULAR_EXPRESSION "warning|never touched")
+function(ebh_scene_init_failure name expect)
+  add_test(NAME cli.scene_init.${name}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${ARGN}" "-DEXPECT=${expect}" -DSTATUS=1
+      -DOUTPUT=${EBH_INIT}/${name}.yaml -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.scene_init.${name} PROPERTIES LABELS "cli;scene")
+endfunction()
+set(OWN ${EBH_INIT}/own_cm.msh)
+ebh_scene_init_failure(group_missing "^ebh: error: --pin group:liver: .*own_cm.msh has no physical group 'liver' \\(it has no named groups\\)"
+  ${OWN} -o ${EBH_INIT}/group_missing.yaml --unit cm --pin group:liver)
+ebh_scene_init_failure(pins_nothing "^ebh: error: --pin sphere:10,10,10,1: the region pins no vertex of .*own_cm.msh \\(its bounding box: \\[0, 0, 0\\] \\.\\. \\[4, 3, 2\\] cm\\)"
+  ${OWN} -o ${EBH_INIT}/pins_nothing.yaml --unit cm --pin sphere:10,10,10,1)
+ebh_scene_init_failure(pins_everything "^ebh: error: --pin: the regions pin all 8 vertices of .*own_cm.msh: nothing could move"
+  ${OWN} -o ${EBH_INIT}/pins_everything.yaml --unit cm --pin box:0,0,0,4,3,1 --pin box:0,0,1,4,3,2)
+ebh_scene_init_failure(bad_pin "^ebh: error: --pin box:0,0,0,4,3: expected box:x0,y0,z0,x1,y1,z1 \\(6 numbers\\), got 5"
+  ${OWN} -o ${EBH_INIT}/bad_pin.yaml --pin box:0,0,0,4,3)
+ebh_scene_init_failure(bad_unit "^ebh: error: --unit: expected m, cm or mm, got 'inch'" ${OWN} -o ${EBH_INIT}/bad_unit.yaml --unit inch)
+ebh_scene_init_failure(bad_tissue "^ebh: error: --tissue: expected liver, gallbladder, uterus or generic, got 'brain'"
+  ${OWN} -o ${EBH_INIT}/bad_tissue.yaml --tissue brain)
+ebh_scene_init_failure(not_a_mesh "^ebh: error: .*not_a_mesh.msh:1: not a Gmsh MSH file"
+  ${EBH_INIT}/not_a_mesh.msh -o ${EBH_INIT}/not_a_mesh.yaml)
+ebh_scene_init_failure(missing_mesh "^ebh: error: .*no_such.msh: cannot open" ${EBH_INIT}/no_such.msh -o ${EBH_INIT}/missing_mesh.yaml)
+add_test(NAME cli.scene_init.over_the_mesh
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${OWN};-o;${OWN}"
+    "-DEXPECT=^ebh: error: .*own_cm.msh: the output would replace the mesh" -DKEEP=${OWN} -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene_init.write cli.scene_init.info cli.scene_init.synth cli.scene_init.replay
+  cli.scene_init.over_the_mesh PROPERTIES LABELS "cli;scene")
+
 # ebh render (lib/render): a short tube replay with frames, rendered by `ebh replay --render` and
 # indexed for ParaView (tube.xdmf); presets, --xdmf-only and bad input on that output.
 set(EBH_RENDER_OUT ${PROJECT_BINARY_DIR}/cli_render)

@@ -1,5 +1,6 @@
 // Scene files: parse and validate every key (schema in scene.hpp), load and check the meshes,
-// convert lengths to metres once, resolve pinned regions.
+// convert lengths to metres and place the meshes in the world once, resolve pinned regions, warn
+// about sizes no organ or instrument has.
 #include "scene/scene.hpp"
 
 #include <yaml-cpp/yaml.h>
@@ -9,7 +10,11 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
+#include <numbers>
+#include <sstream>
+#include <tuple>
 #include <map>
 #include <set>
 #include <system_error>
@@ -142,8 +147,15 @@ class SpecReader {
     if (!(norm(v) > 0)) fail(key, "expected a non-zero vector");
     return v;
   }
-  /// A length in the file's unit, returned in metres.
+  /// A length in the given unit (metres per unit; default the scene's `unit`), returned in metres.
   double length(const YAML::Node& n, const std::string& key) const { return positive(n, key) * unit_; }
+  double length(const YAML::Node& n, const std::string& key, double unit) const { return positive(n, key) * unit; }
+  /// A length unit key (m, cm, mm): its metres per unit and name.
+  std::pair<double, std::string> length_unit(const YAML::Node& n, const std::string& key) const {
+    static const std::vector<std::string> names = {"m", "cm", "mm"};
+    const std::string name = names[choice(n, key, names)];
+    return {*length_unit_metres(name), name};
+  }
 
   const YAML::Node& required(const std::map<std::string, YAML::Node>& e, const std::string& name,
                              const std::string& key) const {
@@ -168,12 +180,12 @@ class SpecReader {
     const auto top = entries(root, "", {"name", "description", "unit", "mesh", "material", "stiffness", "gravity",
                                         "damping", "pinned", "tool", "time", "solver", "camera", "stages"});
     if (auto it = top.find("unit"); it != top.end()) {
-      static const std::vector<std::string> names = {"m", "cm", "mm"};
-      static const double metres[] = {1.0, 0.01, 0.001};
-      const int u = choice(it->second, "unit", names);
-      s.unit_name = names[u];
-      s.unit = unit_ = metres[u];
+      std::tie(s.unit, s.unit_name) = length_unit(it->second, "unit");
+      unit_ = s.unit;
     }
+    // mesh.unit and tool.unit default to it
+    s.mesh_unit = s.tool.unit = s.unit;
+    s.mesh_unit_name = s.tool.unit_name = s.unit_name;
     for (const auto& [name, n] : top) {
       if (name == "name") s.name = text(n, "name", false);
       else if (name == "description") s.description = text(n, "description");
@@ -227,7 +239,16 @@ class SpecReader {
 
  private:
   void read_mesh(const YAML::Node& n, SceneSpec& s) const {
-    const auto e = entries(n, "mesh", {"physical", "virtual", "virtual_refine"});
+    const auto e = entries(n, "mesh", {"physical", "virtual", "virtual_refine", "unit", "transform"});
+    if (auto u = e.find("unit"); u != e.end()) std::tie(s.mesh_unit, s.mesh_unit_name) = length_unit(u->second, "mesh.unit");
+    if (auto t = e.find("transform"); t != e.end()) {
+      const auto f = entries(t->second, "mesh.transform", {"scale", "rotvec_deg", "translate"});
+      MeshTransform& x = s.mesh_transform;
+      if (auto it = f.find("scale"); it != f.end()) x.scale = positive(it->second, "mesh.transform.scale");
+      if (auto it = f.find("rotvec_deg"); it != f.end()) x.rotvec_deg = vec3(it->second, "mesh.transform.rotvec_deg");
+      if (auto it = f.find("translate"); it != f.end())
+        x.translate = vec3(it->second, "mesh.transform.translate") * s.mesh_unit;
+    }
     s.physical_mesh = mesh_path(required(e, "physical", "mesh"), "mesh.physical");
     if (auto v = e.find("virtual"); v != e.end()) {
       const std::string t = text(v->second, "mesh.virtual", false);
@@ -284,16 +305,19 @@ class SpecReader {
   }
 
   void read_tool(const YAML::Node& n, ToolSpec& t) const {
-    const auto e = entries(n, "tool", {"kind", "shaft_radius", "shaft_length", "hook", "forceps", "force_limit",
+    const auto e = entries(n, "tool", {"unit", "kind", "shaft_radius", "shaft_length", "hook", "forceps", "force_limit",
                                        "newton_iterations", "max_step", "max_step_rotation_deg", "stabilization"});
+    if (auto u = e.find("unit"); u != e.end()) std::tie(t.unit, t.unit_name) = length_unit(u->second, "tool.unit");
+    const double unit = t.unit;
     for (const auto& [name, v] : e) {
       const std::string k = "tool." + name;
-      if (name == "kind") t.kind = choice(v, k, {"hook", "forceps"}) == 0 ? ToolSpec::Kind::Hook : ToolSpec::Kind::Forceps;
-      else if (name == "shaft_radius") t.shaft_radius = length(v, k);
-      else if (name == "shaft_length") t.shaft_length = length(v, k);
+      if (name == "unit") continue;
+      else if (name == "kind") t.kind = choice(v, k, {"hook", "forceps"}) == 0 ? ToolSpec::Kind::Hook : ToolSpec::Kind::Forceps;
+      else if (name == "shaft_radius") t.shaft_radius = length(v, k, unit);
+      else if (name == "shaft_length") t.shaft_length = length(v, k, unit);
       else if (name == "force_limit") t.force_limit = positive(v, k);
       else if (name == "newton_iterations") t.newton_iterations = integer(v, k, 1, 100);
-      else if (name == "max_step") t.max_step = length(v, k);
+      else if (name == "max_step") t.max_step = length(v, k, unit);
       else if (name == "max_step_rotation_deg") t.max_step_rotation_deg = in_range(v, k, 0, false, 180, true);
       else if (name == "stabilization") {
         const auto h = entries(v, k, {"translation", "rotation"});
@@ -303,19 +327,19 @@ class SpecReader {
           t.stabilization_rotation = non_negative(it->second, k + ".rotation");
       } else if (name == "hook") {
         const auto h = entries(v, k, {"tip_length", "tip_radius"});
-        if (auto it = h.find("tip_length"); it != h.end()) t.hook.tip_length = length(it->second, k + ".tip_length");
-        if (auto it = h.find("tip_radius"); it != h.end()) t.hook.tip_radius = length(it->second, k + ".tip_radius");
+        if (auto it = h.find("tip_length"); it != h.end()) t.hook.tip_length = length(it->second, k + ".tip_length", unit);
+        if (auto it = h.find("tip_radius"); it != h.end()) t.hook.tip_radius = length(it->second, k + ".tip_radius", unit);
       } else if (name == "forceps") {
         const auto f = entries(v, k, {"jaw_length", "jaw_width", "jaw_thickness", "jaw_max_angle_deg", "grasp_threshold",
                                       "soft_margin", "eta"});
         for (const auto& [fname, fv] : f) {
           const std::string fk = k + "." + fname;
-          if (fname == "jaw_length") t.forceps.jaw_length = length(fv, fk);
-          else if (fname == "jaw_width") t.forceps.jaw_width = length(fv, fk);
-          else if (fname == "jaw_thickness") t.forceps.jaw_thickness = length(fv, fk);
+          if (fname == "jaw_length") t.forceps.jaw_length = length(fv, fk, unit);
+          else if (fname == "jaw_width") t.forceps.jaw_width = length(fv, fk, unit);
+          else if (fname == "jaw_thickness") t.forceps.jaw_thickness = length(fv, fk, unit);
           else if (fname == "jaw_max_angle_deg") t.forceps.jaw_max_angle_deg = in_range(fv, fk, 0, false, 90, true);
           else if (fname == "grasp_threshold") t.forceps.grasp_threshold = in_range(fv, fk, 0, true, 1, true);
-          else if (fname == "soft_margin") t.forceps.soft_margin = non_negative(fv, fk) * unit_;
+          else if (fname == "soft_margin") t.forceps.soft_margin = non_negative(fv, fk) * unit;
           else if (fname == "eta") t.forceps.eta = positive(fv, fk);
         }
       }
@@ -382,42 +406,55 @@ std::string region_name(PinRegion::Kind k) {
   return "region";
 }
 
-/// The physical-mesh vertices a region pins (unsorted, may repeat).
-std::vector<int> region_vertices(const Scene& scene, const PinRegion& r, std::size_t index) {
-  const TetMesh& m = scene.physical;
-  std::vector<int> out;
+/// The vertices a region pins, or an InputError naming the scene file and the region's key when the
+/// region is a group the mesh does not have or pins nothing.
+std::vector<int> pinned_by(const Scene& scene, std::size_t index) {
+  const PinRegion& r = scene.spec.pinned[index];
+  const std::string key = "pinned[" + std::to_string(index) + "]." + region_name(r.kind);
+  std::vector<int> v = region_vertices(scene.physical, r);
+  if (!v.empty()) return v;
   if (r.kind == PinRegion::Kind::Group) {
-    std::set<int> tags;
-    std::set<std::string> known;
-    for (const auto& [tag, name] : m.group_names) {
-      known.insert(name);
-      if (name == r.group) tags.insert(tag);
-    }
-    if (tags.empty()) {
-      throw InputError(scene.spec.file.string() + ": key 'pinned[" + std::to_string(index) + "].group': unknown group '" +
-                       r.group + "' (known groups in " + scene.spec.physical_mesh.string() + ": " +
-                       (known.empty() ? std::string("none") : join({known.begin(), known.end()})) + ")");
-    }
-    for (std::size_t t = 0; t < m.tets.size(); ++t)
-      if (t < m.tet_group.size() && tags.count(m.tet_group[t])) out.insert(out.end(), m.tets[t].begin(), m.tets[t].end());
-    for (std::size_t f = 0; f < m.triangles.size(); ++f)
-      if (f < m.triangle_group.size() && tags.count(m.triangle_group[f]))
-        out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
-    return out;
+    const std::vector<std::string> known = known_group_names(scene.physical);
+    if (std::find(known.begin(), known.end(), r.group) == known.end())
+      throw InputError(scene.spec.file.string() + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
+                       scene.spec.physical_mesh.string() + ": " + (known.empty() ? std::string("none") : join(known)) + ")");
   }
-  for (std::size_t v = 0; v < m.vertices.size(); ++v) {
-    const Vec3d& p = m.vertices[v];
-    bool in = false;
-    switch (r.kind) {
-      case PinRegion::Kind::Box:
-        in = p.x >= r.a.x && p.y >= r.a.y && p.z >= r.a.z && p.x <= r.b.x && p.y <= r.b.y && p.z <= r.b.z;
-        break;
-      case PinRegion::Kind::Sphere: in = norm(p - r.a) <= r.b.x; break;
-      case PinRegion::Kind::Halfspace: in = dot(p - r.a, r.b) >= 0.0; break;
-      case PinRegion::Kind::Group: break;
-    }
-    if (in) out.push_back(static_cast<int>(v));
+  throw InputError(scene.spec.file.string() + ": key '" + key + "': the " + region_name(r.kind) +
+                   (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh");
+}
+
+/// Warnings for sizes no organ or laparoscopic instrument has: the physical mesh's bounding-box
+/// diagonal outside 1 mm .. 2 m, a tool size that meets tissue larger than that diagonal or below
+/// a thousandth of it, a shaft radius outside 0.5 .. 10 mm or a shaft length outside 50 mm .. 1 m.
+/// Each is the usual sign of a length in the wrong unit and names the keys to check.
+std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) {
+  std::vector<std::string> out;
+  if (mesh.vertices.empty()) return out;
+  const double diagonal = bounding_box(mesh.vertices).diagonal();
+  const std::string file = s.file.string() + ": ";
+  auto in_unit = [](double metres, double unit, const std::string& name) {
+    return SpecReader::num(metres / unit) + " " + name;
+  };
+  if (diagonal < kMeshDiagonalMin || diagonal > kMeshDiagonalMax)
+    out.push_back(file + "the physical mesh's bounding-box diagonal is " + in_unit(diagonal, s.mesh_unit, s.mesh_unit_name) +
+                  " (" + SpecReader::num(diagonal) + " m): organs are 1 mm .. 2 m across; is mesh.unit (" +
+                  s.mesh_unit_name + ") right?");
+  const ToolSpec& t = s.tool;
+  const std::string units = "is tool.unit (" + t.unit_name + ") or mesh.unit (" + s.mesh_unit_name + ") right?";
+  for (const auto& [key, size] : tool_contact_sizes(t)) {
+    const std::string value = "tool." + key + " = " + in_unit(size, t.unit, t.unit_name);
+    const std::string diag = " the physical mesh's bounding-box diagonal (" + in_unit(diagonal, t.unit, t.unit_name) + ")";
+    if (size > kToolSizeMaxRatio * diagonal) out.push_back(file + value + " is larger than" + diag + ": " + units);
+    else if (size < kToolSizeMinRatio * diagonal) out.push_back(file + value + " is below 1/1000 of" + diag + ": " + units);
   }
+  if (t.shaft_radius < 0.5e-3 || t.shaft_radius > 10e-3)
+    out.push_back(file + "tool.shaft_radius = " + in_unit(t.shaft_radius, t.unit, t.unit_name) + " (" +
+                  SpecReader::num(t.shaft_radius * 1e3) + " mm): laparoscopic shafts are 3-12 mm across; is tool.unit (" +
+                  t.unit_name + ") right?");
+  if (t.shaft_length < 0.05 || t.shaft_length > 1.0)
+    out.push_back(file + "tool.shaft_length = " + in_unit(t.shaft_length, t.unit, t.unit_name) + " (" +
+                  SpecReader::num(t.shaft_length) + " m): laparoscopic shafts are about 0.3-0.45 m long; is tool.unit (" +
+                  t.unit_name + ") right?");
   return out;
 }
 
@@ -455,12 +492,11 @@ void apply_override(YAML::Node root, const std::string& file, const std::string&
   }
 }
 
-YAML::Node read_scene_yaml(const fs::path& file) {
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw InputError(file.string() + ": scene file not found");
+/// Parses scene YAML text; syntax errors name `file` and the line.
+YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
   YAML::Node root;
   try {
-    root = YAML::LoadFile(file.string());
+    root = YAML::Load(text);
   } catch (const YAML::ParserException& e) {
     throw InputError(file.string() + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
   } catch (const YAML::Exception& e) {
@@ -470,11 +506,17 @@ YAML::Node read_scene_yaml(const fs::path& file) {
   return root;
 }
 
-}  // namespace
+YAML::Node read_scene_yaml(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw InputError(file.string() + ": scene file not found");
+  std::ifstream in(file, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  if (!in && !in.eof()) throw InputError(file.string() + ": cannot read scene file");
+  return parse_scene_yaml(text.str(), file);
+}
 
-SceneSpec load_scene_spec(const fs::path& file, const std::vector<std::string>& overrides) {
-  YAML::Node root = read_scene_yaml(file);
-  for (const auto& o : overrides) apply_override(root, file.string(), o);
+SceneSpec read_spec(const YAML::Node& root, const fs::path& file) {
   try {
     return SpecReader(file).read(root);
   } catch (const YAML::Exception& e) {  // defensive: a yaml-cpp accessor that throws on odd input
@@ -482,14 +524,100 @@ SceneSpec load_scene_spec(const fs::path& file, const std::vector<std::string>& 
   }
 }
 
+}  // namespace
+
+Mat3d MeshTransform::rotation() const { return to_matrix(quat_from_rotvec(rotvec_deg * (std::numbers::pi / 180.0))); }
+
+Vec3d MeshTransform::apply(const Vec3d& p) const { return rotation() * (scale * p) + translate; }
+
+Vec3d MeshTransform::inverse(const Vec3d& p) const { return (transpose(rotation()) * (p - translate)) / scale; }
+
+BoundingBox bounding_box(const std::vector<Vec3d>& points) {
+  if (points.empty()) return {};
+  BoundingBox b{points.front(), points.front()};
+  for (const Vec3d& p : points) {
+    b.lo = cwise_min(b.lo, p);
+    b.hi = cwise_max(b.hi, p);
+  }
+  return b;
+}
+
+std::vector<std::pair<std::string, double>> tool_contact_sizes(const ToolSpec& t) {
+  if (t.kind == ToolSpec::Kind::Hook)
+    return {{"shaft_radius", t.shaft_radius}, {"hook.tip_length", t.hook.tip_length}, {"hook.tip_radius", t.hook.tip_radius}};
+  return {{"shaft_radius", t.shaft_radius},
+          {"forceps.jaw_length", t.forceps.jaw_length},
+          {"forceps.jaw_width", t.forceps.jaw_width},
+          {"forceps.jaw_thickness", t.forceps.jaw_thickness}};
+}
+
+std::optional<double> length_unit_metres(const std::string& name) {
+  if (name == "m") return 1.0;
+  if (name == "cm") return 0.01;
+  if (name == "mm") return 0.001;
+  return std::nullopt;
+}
+
+std::vector<std::string> known_group_names(const TetMesh& mesh) {
+  std::set<std::string> names;
+  for (const auto& [tag, name] : mesh.group_names) names.insert(name);
+  return {names.begin(), names.end()};
+}
+
+std::vector<int> region_vertices(const TetMesh& m, const PinRegion& r) {
+  std::vector<int> out;
+  if (r.kind == PinRegion::Kind::Group) {
+    std::set<int> tags;
+    for (const auto& [tag, name] : m.group_names)
+      if (name == r.group) tags.insert(tag);
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
+      if (t < m.tet_group.size() && tags.count(m.tet_group[t])) out.insert(out.end(), m.tets[t].begin(), m.tets[t].end());
+    for (std::size_t f = 0; f < m.triangles.size(); ++f)
+      if (f < m.triangle_group.size() && tags.count(m.triangle_group[f]))
+        out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
+  } else {
+    for (std::size_t v = 0; v < m.vertices.size(); ++v) {
+      const Vec3d& p = m.vertices[v];
+      bool in = false;
+      switch (r.kind) {
+        case PinRegion::Kind::Box:
+          in = p.x >= r.a.x && p.y >= r.a.y && p.z >= r.a.z && p.x <= r.b.x && p.y <= r.b.y && p.z <= r.b.z;
+          break;
+        case PinRegion::Kind::Sphere: in = norm(p - r.a) <= r.b.x; break;
+        case PinRegion::Kind::Halfspace: in = dot(p - r.a, r.b) >= 0.0; break;
+        case PinRegion::Kind::Group: break;
+      }
+      if (in) out.push_back(static_cast<int>(v));
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+SceneSpec load_scene_spec(const fs::path& file, const std::vector<std::string>& overrides) {
+  YAML::Node root = read_scene_yaml(file);
+  for (const auto& o : overrides) apply_override(root, file.string(), o);
+  return read_spec(root, file);
+}
+
 Scene load_scene(const fs::path& file) { return load_scene(file, {}); }
 
 SceneSpec load_scene_spec(const fs::path& file) { return load_scene_spec(file, {}); }
 
 Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides) {
+  return build_scene(load_scene_spec(file, overrides));
+}
+
+Scene load_scene_text(const std::string& yaml, const fs::path& file) {
+  return build_scene(read_spec(parse_scene_yaml(yaml, file), file));
+}
+
+Scene build_scene(SceneSpec spec_in) {
   Scene scene;
-  scene.spec = load_scene_spec(file, overrides);
+  scene.spec = std::move(spec_in);
   const SceneSpec& spec = scene.spec;
+  const fs::path& file = spec.file;
   // Soft tissue: shear modulus ~100 Pa (brain) to ~1 MPa (tendon), density ~900-1100 kg/m^3.
   if (spec.stiffness.k_vol < 10 || spec.stiffness.k_vol > 1e8)
     scene.warnings.push_back(file.string() + ": stiffness.k_vol = " + std::to_string(spec.stiffness.k_vol) +
@@ -501,7 +629,8 @@ Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides
     scene.warnings.push_back(file.string() + ": |gravity| = " + std::to_string(norm(spec.gravity)) + " m/s^2 is over 2 g");
   const std::string mesh_file = spec.physical_mesh.string();
 
-  // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres.
+  // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and
+  // place it in the world (mesh.unit, mesh.transform).
   TetMesh mesh = read_msh(spec.physical_mesh);
   if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
     scene.warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");
@@ -518,26 +647,27 @@ Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides
   const MeshReport report = validate_mesh(mesh);
   if (report.fatal()) throw InputError(mesh_file + ": " + report.fatal_message(mesh));
   for (const auto& w : report.warnings()) scene.warnings.push_back(mesh_file + ": " + w);
-  for (Vec3d& p : mesh.vertices) p *= spec.unit;
+  auto place = [&spec](std::vector<Vec3d>& vertices) {
+    for (Vec3d& p : vertices) p *= spec.mesh_unit;
+    // a rotation and a uniform scale keep the tets' orientation and quality
+    if (!spec.mesh_transform.identity())
+      for (Vec3d& p : vertices) p = spec.mesh_transform.apply(p);
+  };
+  place(mesh.vertices);
   scene.physical = std::move(mesh);
 
   // The virtual mesh's source surface.
   if (spec.virtual_mesh) {
     scene.virtual_surface = read_obj(*spec.virtual_mesh);
-    for (Vec3d& p : scene.virtual_surface.vertices) p *= spec.unit;
+    place(scene.virtual_surface.vertices);
   } else {
     scene.virtual_surface = extract_boundary(scene.physical);
   }
+  for (auto& w : size_warnings(spec, scene.physical)) scene.warnings.push_back(std::move(w));
 
-  // Pinned regions (their coordinates were scaled when the file was read).
+  // Pinned regions (world coordinates, scaled when the file was read).
   for (std::size_t i = 0; i < spec.pinned.size(); ++i) {
-    std::vector<int> v = region_vertices(scene, spec.pinned[i], i);
-    if (v.empty()) {
-      const PinRegion& r = spec.pinned[i];
-      throw InputError(spec.file.string() + ": key 'pinned[" + std::to_string(i) + "]." + region_name(r.kind) +
-                       "': the " + region_name(r.kind) + (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") +
-                       " pins no vertex of the physical mesh");
-    }
+    const std::vector<int> v = pinned_by(scene, i);
     scene.pinned.insert(scene.pinned.end(), v.begin(), v.end());
   }
   std::sort(scene.pinned.begin(), scene.pinned.end());
@@ -593,10 +723,13 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   const double u = s.unit;
   YAML::Emitter y;
   y.SetDoublePrecision(17);  // every double reads back to the same bits
+  const ToolSpec& t = s.tool;
   auto length = [&](double metres) { return in_file_unit(metres, u); };
-  auto vec = [&](const Vec3d& v, bool is_length) {
+  auto tool_length = [&](double metres) { return in_file_unit(metres, t.unit); };
+  // a vector of lengths in `unit` metres per unit (0: not a length)
+  auto vec = [&](const Vec3d& v, double unit) {
     y << YAML::Flow << YAML::BeginSeq;
-    for (double c : {v.x, v.y, v.z}) y << (is_length ? length(c) : c);
+    for (double c : {v.x, v.y, v.z}) y << (unit > 0 ? in_file_unit(c, unit) : c);
     y << YAML::EndSeq;
   };
   y << YAML::BeginMap;
@@ -607,7 +740,15 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "physical" << YAML::Value << fs::absolute(s.physical_mesh).lexically_normal().string();
   y << YAML::Key << "virtual" << YAML::Value
     << (s.virtual_mesh ? fs::absolute(*s.virtual_mesh).lexically_normal().string() : std::string("boundary"));
-  y << YAML::Key << "virtual_refine" << YAML::Value << s.virtual_refine << YAML::EndMap;
+  y << YAML::Key << "virtual_refine" << YAML::Value << s.virtual_refine;
+  y << YAML::Key << "unit" << YAML::Value << s.mesh_unit_name;
+  y << YAML::Key << "transform" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "scale" << YAML::Value << s.mesh_transform.scale;
+  y << YAML::Key << "rotvec_deg" << YAML::Value;
+  vec(s.mesh_transform.rotvec_deg, 0);
+  y << YAML::Key << "translate" << YAML::Value;
+  vec(s.mesh_transform.translate, s.mesh_unit);
+  y << YAML::EndMap << YAML::EndMap;
   y << YAML::Key << "material" << YAML::Value << YAML::BeginMap << YAML::Key << "density" << YAML::Value << s.density
     << YAML::EndMap;
   const Stiffness& k = s.stiffness;
@@ -617,7 +758,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "k_vcs" << YAML::Value << k.k_vcs << YAML::Key << "k_vct" << YAML::Value << k.k_vct;
   y << YAML::EndMap;
   y << YAML::Key << "gravity" << YAML::Value;
-  vec(s.gravity, false);
+  vec(s.gravity, 0);
   y << YAML::Key << "damping" << YAML::Value << s.damping;
   y << YAML::Key << "pinned" << YAML::Value << YAML::BeginSeq;
   for (const PinRegion& r : s.pinned) {
@@ -626,47 +767,47 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
       case PinRegion::Kind::Group: y << r.group; break;
       case PinRegion::Kind::Box:
         y << YAML::BeginMap << YAML::Key << "min" << YAML::Value;
-        vec(r.a, true);
+        vec(r.a, u);
         y << YAML::Key << "max" << YAML::Value;
-        vec(r.b, true);
+        vec(r.b, u);
         y << YAML::EndMap;
         break;
       case PinRegion::Kind::Sphere:
         y << YAML::BeginMap << YAML::Key << "center" << YAML::Value;
-        vec(r.a, true);
+        vec(r.a, u);
         y << YAML::Key << "radius" << YAML::Value << length(r.b.x) << YAML::EndMap;
         break;
       case PinRegion::Kind::Halfspace:
         y << YAML::BeginMap << YAML::Key << "point" << YAML::Value;
-        vec(r.a, true);
+        vec(r.a, u);
         y << YAML::Key << "normal" << YAML::Value;
-        vec(r.b, false);
+        vec(r.b, 0);
         y << YAML::EndMap;
         break;
     }
     y << YAML::EndMap;
   }
   y << YAML::EndSeq;
-  const ToolSpec& t = s.tool;
   y << YAML::Key << "tool" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "unit" << YAML::Value << t.unit_name;
   y << YAML::Key << "kind" << YAML::Value << (t.kind == ToolSpec::Kind::Hook ? "hook" : "forceps");
-  y << YAML::Key << "shaft_radius" << YAML::Value << length(t.shaft_radius);
-  y << YAML::Key << "shaft_length" << YAML::Value << length(t.shaft_length);
+  y << YAML::Key << "shaft_radius" << YAML::Value << tool_length(t.shaft_radius);
+  y << YAML::Key << "shaft_length" << YAML::Value << tool_length(t.shaft_length);
   y << YAML::Key << "hook" << YAML::Value << YAML::BeginMap;
-  y << YAML::Key << "tip_length" << YAML::Value << length(t.hook.tip_length);
-  y << YAML::Key << "tip_radius" << YAML::Value << length(t.hook.tip_radius) << YAML::EndMap;
+  y << YAML::Key << "tip_length" << YAML::Value << tool_length(t.hook.tip_length);
+  y << YAML::Key << "tip_radius" << YAML::Value << tool_length(t.hook.tip_radius) << YAML::EndMap;
   const ForcepsSpec& f = t.forceps;
   y << YAML::Key << "forceps" << YAML::Value << YAML::BeginMap;
-  y << YAML::Key << "jaw_length" << YAML::Value << length(f.jaw_length);
-  y << YAML::Key << "jaw_width" << YAML::Value << length(f.jaw_width);
-  y << YAML::Key << "jaw_thickness" << YAML::Value << length(f.jaw_thickness);
+  y << YAML::Key << "jaw_length" << YAML::Value << tool_length(f.jaw_length);
+  y << YAML::Key << "jaw_width" << YAML::Value << tool_length(f.jaw_width);
+  y << YAML::Key << "jaw_thickness" << YAML::Value << tool_length(f.jaw_thickness);
   y << YAML::Key << "jaw_max_angle_deg" << YAML::Value << f.jaw_max_angle_deg;
   y << YAML::Key << "grasp_threshold" << YAML::Value << f.grasp_threshold;
-  y << YAML::Key << "soft_margin" << YAML::Value << length(f.soft_margin);
+  y << YAML::Key << "soft_margin" << YAML::Value << tool_length(f.soft_margin);
   y << YAML::Key << "eta" << YAML::Value << f.eta << YAML::EndMap;
   y << YAML::Key << "force_limit" << YAML::Value << t.force_limit;
   y << YAML::Key << "newton_iterations" << YAML::Value << t.newton_iterations;
-  y << YAML::Key << "max_step" << YAML::Value << length(t.max_step);
+  y << YAML::Key << "max_step" << YAML::Value << tool_length(t.max_step);
   y << YAML::Key << "max_step_rotation_deg" << YAML::Value << t.max_step_rotation_deg;
   y << YAML::Key << "stabilization" << YAML::Value << YAML::BeginMap;
   y << YAML::Key << "translation" << YAML::Value << t.stabilization_translation;
@@ -687,11 +828,11 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "recovery" << YAML::Value << (sv.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
   y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual << YAML::EndMap;
   y << YAML::Key << "camera" << YAML::Value << YAML::BeginMap << YAML::Key << "eye" << YAML::Value;
-  vec(s.camera.eye, true);
+  vec(s.camera.eye, u);
   y << YAML::Key << "target" << YAML::Value;
-  vec(s.camera.target, true);
+  vec(s.camera.target, u);
   y << YAML::Key << "up" << YAML::Value;
-  vec(s.camera.up, false);
+  vec(s.camera.up, 0);
   y << YAML::Key << "fov_deg" << YAML::Value << s.camera.fov_deg << YAML::EndMap;
   y << YAML::Key << "stages" << YAML::Value << YAML::BeginMap;
   y << YAML::Key << "grasp" << YAML::Value << s.stages.grasp;

@@ -2,16 +2,21 @@
 // A scene: what a scenarios/NAME.yaml file says, with every length converted to metres.
 //
 // YAML schema (every key is validated; unknown keys are errors; an error names the file and
-// the dotted key). Lengths in the file are in `unit` (m, cm or mm) — meshes and every length
-// key alike; stiffnesses, densities and forces are always SI.
+// the dotted key). Lengths are numbers in a declared unit (m, cm or mm): `unit` for world
+// coordinates (pinned regions, camera), `mesh.unit` for the mesh files and `tool.unit` for the
+// tool's sizes, both defaulting to `unit`; stiffnesses, densities, forces and gravity are always SI
+// (docs/FORMATS.md, "Length units and the mesh transform").
 //
 //   name: tube                      # defaults to the file's stem
 //   description: "..."
-//   unit: mm                        # m | cm | mm
+//   unit: mm                        # m | cm | mm: pinned regions and camera (world coordinates)
 //   mesh:
 //     physical: tube.msh            # Gmsh .msh 2.2/4.1 ASCII, relative to the scene file
 //     virtual: boundary             # 'boundary' (the physical mesh's surface) or an .obj path
 //     virtual_refine: 1             # 0 or 1: split each virtual triangle into 4 (paper: denser virtual mesh)
+//     unit: mm                      # the mesh files' unit and translate's (default: unit)
+//     transform: {scale: 1, rotvec_deg: [0, 0, 0], translate: [0, 0, 0]}
+//                                   # mesh file -> world at load: p = R(rotvec_deg) (scale p) + translate
 //   material:
 //     density: 1000                 # kg/m^3
 //   stiffness:                      # SI; see docs/MODEL.md for how to choose them
@@ -23,12 +28,13 @@
 //     k_vct: 0.3                    # N m/rad E_tvc [2] rotation
 //   gravity: [0, 0, -9.81]          # m/s^2
 //   damping: 0.0                    # fraction of velocity removed per physical step, [0, 1)
-//   pinned:                         # union of regions; each item one of:
+//   pinned:                         # union of regions, world coordinates (after mesh.transform); each one of:
 //     - group: back                 #   a physical group name (its tets' or triangles' vertices)
 //     - box: {min: [x, y, z], max: [x, y, z]}
 //     - sphere: {center: [x, y, z], radius: r}
 //     - halfspace: {point: [x, y, z], normal: [x, y, z]}   # vertices with (p - point).normal >= 0
 //   tool:
+//     unit: mm                      # every tool length below (default: unit)
 //     kind: hook                    # hook | forceps
 //     shaft_radius: 2.5
 //     shaft_length: 300
@@ -37,7 +43,7 @@
 //               grasp_threshold: 0.2, soft_margin: 2, eta: 1.0}
 //     force_limit: 3.3              # N (Geomagic Touch)
 //     newton_iterations: 2          # Newton steps on E_tool per virtual-mesh iteration
-//     max_step: 0.5                 # translation limit of one Newton step (length unit)
+//     max_step: 0.5                 # translation limit of one Newton step (tool.unit)
 //     max_step_rotation_deg: 0.5    # rotation limit of one Newton step
 //     stabilization: {translation: 0, rotation: 0}   # N/m, N m/rad: damps the virtual tool per tick
 //   time: {haptic_hz: 1000, physical_hz: 100, interpolate_physical: true}
@@ -102,6 +108,8 @@ struct ForcepsSpec {
 struct ToolSpec {
   enum class Kind { Hook, Forceps };
   Kind kind = Kind::Hook;
+  double unit = 1.0;             ///< metres per tool length unit in the file (tool.unit)
+  std::string unit_name = "m";
   double shaft_radius = 0.0025;  ///< m
   double shaft_length = 0.3;     ///< m, from the rotation centre (tool origin) back along -z
   HookSpec hook;
@@ -151,14 +159,29 @@ struct Stages {
 /// keeps per tick) stays within a machine's reach (docs/FORMATS.md, Limits).
 inline constexpr double kMaxHapticHz = 100e3;
 
+/// Where the mesh files sit in the world: p_world = R(rotvec_deg) (scale p) + translate, p the file's
+/// position in metres. Applied at load to the physical mesh and an .obj virtual mesh.
+struct MeshTransform {
+  double scale = 1.0;   ///< uniform, > 0
+  Vec3d rotvec_deg;     ///< rotation vector in degrees (axis times angle), about the file's origin
+  Vec3d translate;      ///< m
+  bool identity() const { return scale == 1.0 && rotvec_deg == Vec3d{} && translate == Vec3d{}; }
+  Mat3d rotation() const;
+  Vec3d apply(const Vec3d& p) const;    ///< file position (m) -> world
+  Vec3d inverse(const Vec3d& p) const;  ///< world -> file position (m), to rounding
+};
+
 /// The parsed scene file. All lengths in metres.
 struct SceneSpec {
   std::filesystem::path file;             ///< the scene file itself
   std::string name;
   std::string description;
-  double unit = 1.0;                      ///< metres per file length unit
+  double unit = 1.0;                      ///< metres per world length unit (pinned regions, camera)
   std::string unit_name = "m";
   std::filesystem::path physical_mesh;    ///< absolute or relative to the working directory
+  double mesh_unit = 1.0;                 ///< metres per mesh-file length unit (mesh.unit)
+  std::string mesh_unit_name = "m";
+  MeshTransform mesh_transform;           ///< mesh file -> world
   std::optional<std::filesystem::path> virtual_mesh;  ///< empty: the physical mesh's boundary
   int virtual_refine = 0;
   double density = 1000.0;                ///< kg/m^3
@@ -191,6 +214,15 @@ struct Scene {
 /// Parses and validates a scene file. Throws InputError ("FILE: key 'a.b': ...").
 SceneSpec load_scene_spec(const std::filesystem::path& file);
 
+/// Loads the meshes a parsed scene names, converts them to metres, places them (mesh.transform),
+/// validates them, resolves the pinned regions and collects the warnings (tissue values, mesh and
+/// tool sizes). load_scene is load_scene_spec followed by this.
+Scene build_scene(SceneSpec spec);
+
+/// The scene file whose text is `yaml`, as if read from `file` (relative mesh paths resolve
+/// beside it, messages name it): `ebh scene init` checks what it writes before writing it.
+Scene load_scene_text(const std::string& yaml, const std::filesystem::path& file);
+
 /// Loads the scene file and its meshes, validates them, resolves pinned regions.
 Scene load_scene(const std::filesystem::path& file);
 
@@ -201,10 +233,38 @@ SceneSpec load_scene_spec(const std::filesystem::path& file, const std::vector<s
 Scene load_scene(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 
 /// The scene as a complete scene file: every key of the schema with the value in effect (defaults,
-/// overrides and the rates a replay ran at included), lengths in the file's unit, mesh paths
-/// absolute. Loading it gives back the same SceneSpec, bit for bit (the replay output's
-/// `scene_yaml` attribute, docs/FORMATS.md); only `file` differs.
+/// overrides and the rates a replay ran at included), lengths in their units (unit, mesh.unit,
+/// tool.unit, each written explicitly), mesh paths absolute. Loading it gives back the same
+/// SceneSpec, bit for bit (the replay output's `scene_yaml` attribute, docs/FORMATS.md); only
+/// `file` differs.
 std::string resolved_scene_yaml(const SceneSpec& spec);
+
+/// The physical-mesh vertices (sorted, unique) inside a pinned region (metres, world coordinates).
+/// A group the mesh does not name gives none (known_group_names lists those it does).
+std::vector<int> region_vertices(const TetMesh& mesh, const PinRegion& region);
+/// The physical group names of a mesh, sorted, each once.
+std::vector<std::string> known_group_names(const TetMesh& mesh);
+
+/// The axis-aligned bounding box of points (lo = hi = 0 for none).
+struct BoundingBox {
+  Vec3d lo, hi;
+  double diagonal() const { return norm(hi - lo); }
+};
+BoundingBox bounding_box(const std::vector<Vec3d>& points);
+
+/// The tool's sizes that meet tissue, with their keys under `tool.` ("shaft_radius",
+/// "hook.tip_length", ... for the tool's kind), in metres: what the plausibility warnings compare
+/// with the physical mesh's bounding-box diagonal (docs/FORMATS.md, "Plausibility warnings").
+std::vector<std::pair<std::string, double>> tool_contact_sizes(const ToolSpec& tool);
+/// A tool size below kToolSizeMinRatio or above kToolSizeMaxRatio times the physical mesh's
+/// bounding-box diagonal is a warning, as is a diagonal outside [kMeshDiagonalMin, kMeshDiagonalMax] m.
+inline constexpr double kToolSizeMinRatio = 1e-3;
+inline constexpr double kToolSizeMaxRatio = 1.0;
+inline constexpr double kMeshDiagonalMin = 1e-3;
+inline constexpr double kMeshDiagonalMax = 2.0;
+
+/// Metres per unit for "m", "cm", "mm"; nullopt for anything else.
+std::optional<double> length_unit_metres(const std::string& name);
 
 /// One pinned region on one line, lengths in metres: "box min [x, y, z] max [x, y, z] m",
 /// "sphere center [..] radius r m", "halfspace point [..] m normal [..]", "group NAME".

@@ -26,6 +26,11 @@ TEST(SceneSpec, EveryKeyRead) {
   EXPECT_EQ(s.description, "small cube for the scene loader tests");
   EXPECT_EQ(s.unit_name, "mm");
   EXPECT_EQ(s.unit, 0.001);
+  EXPECT_EQ(s.mesh_unit_name, "mm");
+  EXPECT_EQ(s.mesh_unit, 0.001);
+  EXPECT_TRUE(s.mesh_transform.identity());
+  EXPECT_EQ(s.tool.unit_name, "mm");
+  EXPECT_EQ(s.tool.unit, 0.001);
   EXPECT_EQ(s.physical_mesh, data("mesh/cube22.msh").lexically_normal());
   EXPECT_FALSE(s.virtual_mesh.has_value());
   EXPECT_EQ(s.virtual_refine, 1);
@@ -48,7 +53,7 @@ TEST(SceneSpec, EveryKeyRead) {
   EXPECT_NEAR(s.tool.shaft_length, 0.3, kTol);
   EXPECT_NEAR(s.tool.hook.tip_length, 0.006, kTol);
   EXPECT_NEAR(s.tool.hook.tip_radius, 0.001, kTol);
-  EXPECT_NEAR(s.tool.forceps.jaw_length, 0.020, kTol);
+  EXPECT_NEAR(s.tool.forceps.jaw_length, 0.008, kTol);
   EXPECT_NEAR(s.tool.forceps.jaw_width, 0.005, kTol);
   EXPECT_NEAR(s.tool.forceps.jaw_thickness, 0.002, kTol);
   EXPECT_EQ(s.tool.forceps.jaw_max_angle_deg, 30.0);  // degrees stay degrees
@@ -78,6 +83,9 @@ TEST(SceneSpec, DefaultsAndNameFromStem) {
   const SceneSpec s = load_scene_spec(p);
   EXPECT_EQ(s.name, "minimal");
   EXPECT_EQ(s.unit, 1.0);
+  EXPECT_EQ(s.mesh_unit, 1.0);  // mesh.unit and tool.unit default to unit
+  EXPECT_EQ(s.tool.unit, 1.0);
+  EXPECT_TRUE(s.mesh_transform.identity());
   EXPECT_EQ(s.tool.hook.tip_length, SceneSpec{}.tool.hook.tip_length);  // defaults are metres already
   EXPECT_TRUE(s.pinned.empty());
   EXPECT_EQ(s.solver.recovery, SolverSpec::Recovery::Direct);
@@ -110,7 +118,8 @@ TEST(Scene, ObjVirtualSurfaceSphereAndHalfspaceInCentimetres) {
 
 TEST(Scene, UnitsScaleEveryLength) {
   const std::string mm = slurp(data("scene/cube.yaml"));
-  std::string m = replace(mm, "unit: mm", "unit: m");
+  std::string m = mm;
+  for (int i = 0; i < 3; ++i) m = replace(m, "unit: mm", "unit: m");  // unit, mesh.unit, tool.unit
   m = replace(m, "../mesh/cube22.msh", data("mesh/cube22.msh").string());
   const Scene a = load_scene(data("scene/cube.yaml"));
   const Scene b = load_scene(write_temp("cube_m.yaml", m));
@@ -119,6 +128,132 @@ TEST(Scene, UnitsScaleEveryLength) {
   EXPECT_NEAR(a.spec.tool.shaft_length * 1000.0, b.spec.tool.shaft_length, 1e-12);
   EXPECT_EQ(a.spec.tool.forceps.jaw_max_angle_deg, b.spec.tool.forceps.jaw_max_angle_deg);
   EXPECT_EQ(a.spec.stiffness.k_vol, b.spec.stiffness.k_vol);
+}
+
+// ---- mesh.unit, mesh.transform, tool.unit ------------------------------------------------------
+
+/// A scene on cube22.msh (a 10-unit cube; node 101 at (10, 0, 10), vertex 0) with `extra` YAML.
+fs::path cube_scene(const std::string& name, const std::string& extra) {
+  return write_temp(name, "mesh: {physical: " + data("mesh/cube22.msh").string() + "}\n" + extra);
+}
+
+// The mesh file in cm, scaled by 2, turned a quarter turn about +z and moved by (1, 2, 3) cm; the
+// rest of the scene (pins, tool) in mm. Node 101 at (10, 0, 10) cm = (0.1, 0, 0.1) m -> scale
+// (0.2, 0, 0.2) -> R_z(90) (0, 0.2, 0.2) -> + (0.01, 0.02, 0.03) = (0.01, 0.22, 0.23) m.
+TEST(MeshTransform, ACentimetreMeshLandsWhereItsTransformPutsIt) {
+  const std::string obj = data("mesh/cube.obj").string();
+  const auto p = write_temp("placed.yaml", "unit: mm\n"
+                                           "mesh:\n  physical: " + data("mesh/cube22.msh").string() + "\n"
+                                           "  virtual: " + obj + "\n"
+                                           "  unit: cm\n"
+                                           "  transform: {scale: 2, rotvec_deg: [0, 0, 90], translate: [1, 2, 3]}\n"
+                                           "pinned:\n  - box: {min: [9, 219, 229], max: [11, 221, 231]}\n"
+                                           "tool: {kind: hook, shaft_radius: 2.5, shaft_length: 330}\n");
+  const Scene s = load_scene(p);
+  EXPECT_EQ(s.spec.mesh_unit_name, "cm");
+  EXPECT_EQ(s.spec.mesh_transform.scale, 2.0);
+  EXPECT_EQ(s.spec.mesh_transform.rotvec_deg, Vec3d(0, 0, 90));
+  EXPECT_NEAR(s.spec.mesh_transform.translate.y, 0.02, kTol);  // mesh.unit, in metres
+  // sin and cos of a quarter turn are exact to ~1e-17; the lengths are ~0.2 m
+  const Vec3d v0 = s.physical.vertices[0];
+  EXPECT_NEAR(v0.x, 0.01, 1e-15);
+  EXPECT_NEAR(v0.y, 0.22, 1e-15);
+  EXPECT_NEAR(v0.z, 0.23, 1e-15);
+  // the box pin is in world mm, after the transform: it holds node 101 alone
+  EXPECT_EQ(s.pinned, (std::vector<int>{0}));
+  // the OBJ virtual mesh is placed by the same transform: its (10, 0, 10) corner (vertex 5) too
+  EXPECT_NEAR(s.virtual_surface.vertices[5].y, 0.22, 1e-15);
+  EXPECT_NEAR(s.virtual_surface.vertices[5].z, 0.23, 1e-15);
+  // the tool stays in the scene's mm: the mesh's unit does not rescale it
+  EXPECT_NEAR(s.spec.tool.shaft_radius, 0.0025, kTol);
+  EXPECT_NEAR(s.spec.tool.shaft_length, 0.33, kTol);
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+  // the same point through MeshTransform's own functions, and back
+  const Vec3d back = s.spec.mesh_transform.inverse(v0);
+  EXPECT_NEAR(back.x, 0.1, 1e-15);
+  EXPECT_NEAR(back.y, 0.0, 1e-15);
+  EXPECT_NEAR(back.z, 0.1, 1e-15);
+}
+
+// A scene that does not use the new keys, or gives them their default values, loads to the same
+// bits: the committed scenes' replays do not change.
+TEST(MeshTransform, OldScenesAndDefaultValuesGiveTheSameBits) {
+  for (const auto& e : fs::directory_iterator(fs::path(EBH_SOURCE_DIR) / "scenarios")) {
+    if (e.path().extension() != ".yaml") continue;
+    const Scene a = load_scene(e.path());
+    const std::string u = a.spec.unit_name;
+    const Scene b = load_scene(e.path(), {"mesh.unit=" + u, "tool.unit=" + u,
+                                          "mesh.transform={scale: 1, rotvec_deg: [0, 0, 0], translate: [0, 0, 0]}"});
+    ASSERT_EQ(a.physical.vertices.size(), b.physical.vertices.size());
+    for (std::size_t v = 0; v < a.physical.vertices.size(); ++v)
+      ASSERT_EQ(a.physical.vertices[v], b.physical.vertices[v]) << e.path() << " vertex " << v;
+    EXPECT_EQ(a.pinned, b.pinned);
+    EXPECT_EQ(a.spec.tool.shaft_radius, b.spec.tool.shaft_radius);
+    EXPECT_EQ(a.spec.tool.shaft_length, b.spec.tool.shaft_length);
+    EXPECT_EQ(a.spec.tool.forceps.jaw_length, b.spec.tool.forceps.jaw_length);
+    EXPECT_EQ(a.spec.tool.max_step, b.spec.tool.max_step);
+    EXPECT_TRUE(a.warnings.empty()) << e.path() << ": " << a.warnings.front();
+    // the resolved scene names the units it used
+    EXPECT_EQ(resolved_scene_yaml(a.spec), resolved_scene_yaml(b.spec));
+  }
+}
+
+// tool.unit is independent of unit and mesh.unit: the same tool in mm whatever the mesh's unit.
+TEST(ToolUnit, ToolSizesKeepTheirOwnUnit) {
+  const Scene cm = load_scene(cube_scene("cm.yaml", "unit: cm\ntool: {unit: mm, kind: forceps, shaft_radius: 2.5, "
+                                                    "shaft_length: 330, max_step: 0.5, forceps: {jaw_length: 8, soft_margin: 2}}\n"));
+  const SceneSpec mm = load_scene_spec(cube_scene("mm.yaml", "unit: mm\ntool: {kind: forceps, shaft_radius: 2.5, "
+                                                             "shaft_length: 330, max_step: 0.5, forceps: {jaw_length: 8, soft_margin: 2}}\n"));
+  const ToolSpec& a = cm.spec.tool;
+  EXPECT_EQ(a.unit_name, "mm");
+  EXPECT_EQ(a.shaft_radius, mm.tool.shaft_radius);
+  EXPECT_EQ(a.shaft_length, mm.tool.shaft_length);
+  EXPECT_EQ(a.max_step, mm.tool.max_step);
+  EXPECT_EQ(a.forceps.jaw_length, mm.tool.forceps.jaw_length);
+  EXPECT_EQ(a.forceps.soft_margin, mm.tool.forceps.soft_margin);
+  EXPECT_NEAR(cm.physical.vertices[0].x, 0.1, kTol);  // the mesh in cm
+  EXPECT_TRUE(cm.warnings.empty()) << cm.warnings.front();
+}
+
+bool has_warning(const Scene& s, const std::string& needle) {
+  for (const auto& w : s.warnings)
+    if (w.find(needle) != std::string::npos) return true;
+  return false;
+}
+
+// A scene switched to a cm mesh with its tool sizes still written as mm numbers: a 3 m shaft,
+// 2.5 cm shaft radius, 20 cm jaws next to a 17 cm cube. Each implausible size is a warning naming
+// its key and the unit keys; declaring tool.unit: mm clears them.
+TEST(SizeWarnings, AMisdeclaredToolUnitIsNamed) {
+  const std::string tool = "kind: forceps, shaft_radius: 2.5, shaft_length: 300, forceps: {jaw_length: 20}";
+  const auto p = cube_scene("misdeclared.yaml", "unit: cm\ntool: {" + tool + "}\n");
+  const Scene bad = load_scene(p);
+  ASSERT_EQ(bad.warnings.size(), 3u) << bad.warnings.front();
+  for (const auto& w : bad.warnings) {
+    EXPECT_EQ(w.rfind(p.string() + ": tool.", 0), 0u) << w;
+    EXPECT_NE(w.find("is tool.unit (cm)"), std::string::npos) << w;
+    EXPECT_EQ(w.find('\n'), std::string::npos) << w;
+  }
+  EXPECT_TRUE(has_warning(bad, "tool.forceps.jaw_length = 20 cm is larger than the physical mesh's bounding-box diagonal (17.3205 cm)"));
+  EXPECT_TRUE(has_warning(bad, "tool.shaft_radius = 2.5 cm (25 mm): laparoscopic shafts are 3-12 mm across"));
+  EXPECT_TRUE(has_warning(bad, "tool.shaft_length = 300 cm (3 m): laparoscopic shafts are about 0.3-0.45 m long"));
+  const Scene good = load_scene(cube_scene("declared.yaml", "unit: cm\ntool: {unit: mm, " + tool.substr(0) + "}\n"));
+  EXPECT_TRUE(good.warnings.empty()) << good.warnings.front();
+}
+
+TEST(SizeWarnings, AMeshInTheWrongUnit) {
+  // the 10-unit cube read as metres: a 17 m organ
+  const std::string mesh = "mesh: {physical: " + data("mesh/cube22.msh").string();
+  const Scene big = load_scene(write_temp("big.yaml", "unit: mm\n" + mesh + ", unit: m}\ntool: {kind: hook}\n"));
+  ASSERT_FALSE(big.warnings.empty());
+  EXPECT_NE(big.warnings[0].find("the physical mesh's bounding-box diagonal is 17.3205 m (17.3205 m): organs are 1 mm .. 2 m across; is mesh.unit (m) right?"),
+            std::string::npos) << big.warnings[0];
+  // a tool size below a thousandth of the diagonal: the 1 mm hook tip radius next to a 17 m mesh
+  EXPECT_TRUE(has_warning(big, "tool.hook.tip_radius = 1 mm is below 1/1000 of the physical mesh's bounding-box diagonal (17320.5 mm)"));
+  // the transform's scale counts: scaled by 1e-5 it is a 0.17 mm speck
+  const Scene small =
+      load_scene(write_temp("small.yaml", "unit: mm\n" + mesh + ", transform: {scale: 1e-2}}\ntool: {kind: hook}\n"));
+  EXPECT_TRUE(has_warning(small, "bounding-box diagonal is 0.173205 mm"));
 }
 
 // ---- bad keys and values -----------------------------------------------------------------------
@@ -200,6 +335,23 @@ TEST_F(BadScene, DuplicateKey) { expect(replace(good, "damping: 0.05", "damping:
 TEST_F(BadScene, YamlSyntax) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0, -9.81"), "YAML syntax error"); }
 TEST_F(BadScene, NotAMap) { expect("- 1\n- 2\n", "expected a map, got a list"); }
 TEST_F(BadScene, Empty) { expect("# nothing\n", "empty scene file"); }
+TEST_F(BadScene, BadMeshUnit) { expect(replace(good, "  unit: mm\n  transform", "  unit: inch\n  transform"), "key 'mesh.unit': expected one of m, cm, mm, got 'inch'"); }
+TEST_F(BadScene, BadToolUnit) { expect(replace(good, "tool:\n  unit: mm", "tool:\n  unit: 3"), "key 'tool.unit': expected one of m, cm, mm, got '3'"); }
+TEST_F(BadScene, ZeroScale) { expect(replace(good, "scale: 1,", "scale: 0,"), "key 'mesh.transform.scale': expected a positive number, got '0'"); }
+TEST_F(BadScene, NegativeScale) { expect(replace(good, "scale: 1,", "scale: -2,"), "key 'mesh.transform.scale': expected a positive number, got '-2'"); }
+TEST_F(BadScene, NonFiniteScale) { expect(replace(good, "scale: 1,", "scale: .inf,"), "key 'mesh.transform.scale': expected a positive number, got '.inf'"); }
+TEST_F(BadScene, RotationArity) {
+  expect(replace(good, "rotvec_deg: [0, 0, 0]", "rotvec_deg: [0, 90]"), "key 'mesh.transform.rotvec_deg': expected a list of 3 numbers");
+}
+TEST_F(BadScene, NonFiniteRotation) {
+  expect(replace(good, "rotvec_deg: [0, 0, 0]", "rotvec_deg: [0, .nan, 0]"), "key 'mesh.transform.rotvec_deg[1]': expected a number, got '.nan'");
+}
+TEST_F(BadScene, TranslateNotANumber) {
+  expect(replace(good, "translate: [0, 0, 0]", "translate: [0, 0, up]"), "key 'mesh.transform.translate[2]': expected a number, got 'up'");
+}
+TEST_F(BadScene, UnknownTransformKey) {
+  expect(replace(good, "scale: 1,", "shear: 1,"), "key 'mesh.transform.shear': unknown key (known: scale, rotvec_deg, translate)");
+}
 TEST_F(BadScene, UnknownGroup) {
   expect(replace(good, "group: bottom", "group: bottm"),
          "key 'pinned[0].group': unknown group 'bottm' (known groups in " + data("mesh/cube22.msh").lexically_normal().string() +
@@ -243,7 +395,7 @@ TEST(SceneMesh, NegativeOrientationFlippedWithWarning) {
     msh = replace(msh, "1 1 " + t, "1 1 " + swapped);
   }
   write_temp("neg.msh", msh);
-  const Scene s = load_scene(write_temp("neg.yaml", "mesh: {physical: neg.msh}\n"));
+  const Scene s = load_scene(write_temp("neg.yaml", "unit: mm\nmesh: {physical: neg.msh}\n"));
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("flipped"), std::string::npos);
   EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
@@ -252,7 +404,7 @@ TEST(SceneMesh, NegativeOrientationFlippedWithWarning) {
 TEST(SceneMesh, UnreferencedVertexRemovedWithWarning) {
   const std::string msh = replace(slurp(data("mesh/cube22.msh")), "$Nodes\n8\n", "$Nodes\n9\n77 5 5 5\n");
   write_temp("extra.msh", msh);
-  const Scene s = load_scene(write_temp("extra.yaml", "mesh: {physical: extra.msh}\n"));
+  const Scene s = load_scene(write_temp("extra.yaml", "unit: mm\nmesh: {physical: extra.msh}\n"));
   EXPECT_EQ(s.physical.vertices.size(), 8u);
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("removed 1 vertices used by no tet"), std::string::npos);
@@ -304,6 +456,30 @@ TEST(Scene, ResolvedYamlReloadsToTheSameScene) {
     }
   }
   fs::remove(tmp);
+}
+
+// The same for a scene whose mesh, tool and world each have their own unit and whose mesh is
+// placed by a transform: the resolved file carries mesh.unit, mesh.transform and tool.unit, and
+// reloads to the same scene, meshes included, bit for bit.
+TEST(Scene, ResolvedYamlKeepsMeshUnitTransformAndToolUnit) {
+  const auto p = write_temp("placed.yaml", "unit: mm\n"
+                                           "mesh:\n  physical: " + data("mesh/cube22.msh").string() + "\n"
+                                           "  unit: cm\n"
+                                           "  transform: {scale: 0.7, rotvec_deg: [10, -20, 33.3], translate: [0.1, 2, -3]}\n"
+                                           "pinned:\n  - sphere: {center: [70, 0, 70], radius: 80}\n"
+                                           "tool: {unit: m, kind: hook, shaft_radius: 0.0025, max_step: 0.0003}\n");
+  const Scene a = load_scene(p);
+  const std::string yaml = resolved_scene_yaml(a.spec);
+  EXPECT_NE(yaml.find("unit: cm"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("rotvec_deg: [10, -20, 33.2"), std::string::npos) << yaml;  // 33.3 printed with 17 digits
+  const Scene b = load_scene(write_temp("resolved.yaml", yaml));
+  EXPECT_EQ(resolved_scene_yaml(b.spec), yaml);
+  EXPECT_EQ(b.spec.mesh_transform.translate, a.spec.mesh_transform.translate);
+  EXPECT_EQ(b.spec.tool.max_step, a.spec.tool.max_step);
+  ASSERT_EQ(a.physical.vertices.size(), b.physical.vertices.size());
+  for (std::size_t v = 0; v < a.physical.vertices.size(); ++v) EXPECT_EQ(a.physical.vertices[v], b.physical.vertices[v]);
+  EXPECT_EQ(a.pinned, b.pinned);
+  EXPECT_FALSE(a.pinned.empty());
 }
 
 }  // namespace

@@ -33,19 +33,16 @@ std::vector<std::string> lines(const std::string& s) {
   return out;
 }
 
-}  // namespace
-
-TEST(ReplayProvenance, TheOutputAloneReproducesTheReplayBitForBit) {
-  const auto dir = std::filesystem::temp_directory_path() / "ebh_test_provenance";
+/// Replays SCENE's tube_insert window 2.8 .. 2.85 s with `overrides` into DIR/out.h5, then
+/// reproduces it from nothing but the output's attributes and the files they name, and checks that
+/// every tick's force is the same bits.
+void expect_reproduced_from_output(const std::string& scene, const std::vector<std::string>& overrides,
+                                   const std::filesystem::path& dir) {
   std::filesystem::create_directories(dir);
   const std::string out = (dir / "out.h5").string();
   std::filesystem::remove(out);
-
-  // The original run: a short window where the hook enters the bore, with two overrides (one of
-  // them a length, in the scene's mm) that the reproduction must pick up.
   {
-    const std::vector<std::string> overrides = {"stiffness.k_con=500", "tool.max_step=0.4"};
-    const LoadedReplay in = load_replay_inputs("tube", "tube_insert", overrides, std::nullopt, std::nullopt, false);
+    const LoadedReplay in = load_replay_inputs(scene, "tube_insert", overrides, std::nullopt, std::nullopt, false);
     ReplayOptions opt;
     opt.start = 2.8;
     opt.duration = 0.05;
@@ -66,14 +63,7 @@ TEST(ReplayProvenance, TheOutputAloneReproducesTheReplayBitForBit) {
     EXPECT_TRUE(std::filesystem::path(path).is_absolute()) << key << ": " << path;
     EXPECT_EQ(sha256_file(path), f.attr_string(std::string(key) + "_sha256")) << key << " changed since the replay";
   }
-  EXPECT_FALSE(f.has_attr("virtual_mesh"));  // tube's virtual mesh is its boundary
-  EXPECT_EQ(lines(f.attr_string("overrides_list")), (std::vector<std::string>{"stiffness.k_con=500", "tool.max_step=0.4"}));
-  EXPECT_EQ(f.attr_string("length_unit"), "m");
-  EXPECT_DOUBLE_EQ(f.attr_double("max_step"), 0.4e-3);
-  EXPECT_EQ(f.attr_string("pinned_regions"), "group ends");
-  EXPECT_GT(f.attr_int("pinned_vertices"), 0);
-  EXPECT_FALSE(f.attr_string("git_commit").empty());
-  EXPECT_FALSE(f.attr_string("compiler").empty());
+  EXPECT_EQ(lines(f.attr_string("overrides_list")), overrides);
 
   // The scene from the stored YAML alone: a complete scene file with absolute mesh paths.
   const std::string yaml = f.attr_string("scene_yaml");
@@ -101,4 +91,45 @@ TEST(ReplayProvenance, TheOutputAloneReproducesTheReplayBitForBit) {
     touched = touched || forces.f[i] != 0;
   }
   EXPECT_TRUE(touched) << "the window should have contact forces, or the comparison proves little";
+}
+
+}  // namespace
+
+// The committed tube, with two overrides (one of them a length, in the scene's mm) that the
+// reproduction must pick up.
+TEST(ReplayProvenance, TheOutputAloneReproducesTheReplayBitForBit) {
+  const auto dir = std::filesystem::temp_directory_path() / "ebh_test_provenance";
+  expect_reproduced_from_output("tube", {"stiffness.k_con=500", "tool.max_step=0.4"}, dir);
+  const h5::File f = h5::File::open_read((dir / "out.h5").string());
+  EXPECT_FALSE(f.has_attr("virtual_mesh"));  // tube's virtual mesh is its boundary
+  EXPECT_EQ(f.attr_string("length_unit"), "m");
+  EXPECT_DOUBLE_EQ(f.attr_double("max_step"), 0.4e-3);
+  EXPECT_EQ(f.attr_string("pinned_regions"), "group ends");
+  EXPECT_GT(f.attr_int("pinned_vertices"), 0);
+  EXPECT_FALSE(f.attr_string("git_commit").empty());
+  EXPECT_FALSE(f.attr_string("compiler").empty());
+}
+
+// A scene whose mesh has its own unit and a transform and whose tool has its own unit: the tube's
+// mm mesh read as cm and scaled by 0.1 (the same size), turned by a hundredth of a degree about x
+// and moved 0.1 mm up; the world in m, the tool in mm. The resolved YAML carries every one of them.
+TEST(ReplayProvenance, AScenePlacedByMeshUnitAndTransformIsReproducedBitForBit) {
+  const auto dir = std::filesystem::temp_directory_path() / "ebh_test_provenance_placed";
+  std::filesystem::create_directories(dir);
+  const std::string tube = (std::filesystem::path(EBH_SOURCE_DIR) / "scenarios" / "tube.msh").string();
+  const auto scene = dir / "placed_tube.yaml";
+  std::ofstream(scene) << "unit: m\n"
+                          "mesh: {physical: " << tube << ", virtual_refine: 1, unit: cm,\n"
+                          "       transform: {scale: 0.1, rotvec_deg: [0.01, 0, 0], translate: [0, 0, 0.01]}}\n"
+                          "stiffness: {k_vol: 5000}\n"
+                          "damping: 0.05\n"
+                          "gravity: [0, 0, 0]\n"
+                          "pinned: [{group: ends}]\n"
+                          "tool: {unit: mm, kind: hook, shaft_radius: 2.5, shaft_length: 300, hook: {tip_length: 6, tip_radius: 1},\n"
+                          "       newton_iterations: 1, max_step: 0.5}\n";
+  expect_reproduced_from_output(scene.string(), {"stiffness.k_con=500"}, dir);
+  const h5::File f = h5::File::open_read((dir / "out.h5").string());
+  const std::string yaml = f.attr_string("scene_yaml");
+  for (const char* key : {"unit: cm", "scale: 0.10000000000000001", "rotvec_deg: [0.01", "unit: mm"})
+    EXPECT_NE(yaml.find(key), std::string::npos) << key << " missing from\n" << yaml;
 }

@@ -1,6 +1,6 @@
 // `ebh scene info NAME|PATH [--json]`: what a scene holds once loaded: mesh sizes (the paper's
-// Table 1 counts), the virtual mesh, pinned vertices, bounding box in metres, element quality,
-// groups, and any warnings from loading it.
+// Table 1 counts), the virtual mesh, pinned vertices, bounding box, the tool's sizes next to it,
+// element quality, groups, and any warnings from loading it.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -23,6 +23,7 @@
 #include "mesh/mesh_io.hpp"
 #include "mesh/validate.hpp"
 #include "scene/scene.hpp"
+#include "scene/scene_init.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
 
@@ -44,11 +45,13 @@ void info(const SceneInfoArgs& a) {
   const ebh::TetMesh& m = scene.physical;
   const ebh::MeshReport report = ebh::validate_mesh(m);
 
-  ebh::Vec3d lo = m.vertices.front(), hi = m.vertices.front();
-  for (const auto& p : m.vertices) {
-    lo = ebh::cwise_min(lo, p);
-    hi = ebh::cwise_max(hi, p);
-  }
+  const ebh::BoundingBox bbox = ebh::bounding_box(m.vertices);
+  const ebh::Vec3d lo = bbox.lo, hi = bbox.hi;
+  const double bbox_diagonal = bbox.diagonal();
+  const ebh::SceneSpec& spec = scene.spec;
+  const ebh::ToolSpec& tool = spec.tool;
+  const ebh::MeshTransform& xf = spec.mesh_transform;
+  const std::vector<std::pair<std::string, double>> tool_sizes = ebh::tool_contact_sizes(tool);
   std::map<int, GroupCount> groups;  // by tag; tag 0 is "no group"
   for (const auto& [tag, name] : m.group_names) groups[tag].name = name;
   for (int g : m.tet_group) ++groups[g].tets;
@@ -102,6 +105,12 @@ void info(const SceneInfoArgs& a) {
     j.set("file", scene.spec.file.string());
     j.set("unit", scene.spec.unit_name);
     j.set("physical_mesh", scene.spec.physical_mesh.string());
+    j.set("mesh_unit", spec.mesh_unit_name);
+    ebh::Json t = ebh::Json::object();
+    t.set("scale", xf.scale);
+    t.set("rotvec_deg", ebh::Json::array_of(std::vector<double>{xf.rotvec_deg.x, xf.rotvec_deg.y, xf.rotvec_deg.z}));
+    t.set("translate_m", ebh::Json::array_of(std::vector<double>{xf.translate.x, xf.translate.y, xf.translate.z}));
+    j.set("transform", std::move(t));
     j.set("vertices", static_cast<long long>(m.vertices.size()));
     j.set("tets", tets);
     j.set("boundary_triangles", boundary);
@@ -116,7 +125,20 @@ void info(const SceneInfoArgs& a) {
     ebh::Json box = ebh::Json::object();
     box.set("min", ebh::Json::array_of(std::vector<double>{lo.x, lo.y, lo.z}));
     box.set("max", ebh::Json::array_of(std::vector<double>{hi.x, hi.y, hi.z}));
+    box.set("diagonal", bbox_diagonal);
     j.set("bbox_m", std::move(box));
+    ebh::Json tj = ebh::Json::object();
+    tj.set("kind", tool.kind == ebh::ToolSpec::Kind::Hook ? "hook" : "forceps");
+    tj.set("unit", tool.unit_name);
+    tj.set("shaft_length_m", tool.shaft_length);
+    ebh::Json sizes = ebh::Json::object(), ratios = ebh::Json::object();
+    for (const auto& [key, size] : tool_sizes) {
+      sizes.set(key, size);
+      ratios.set(key, size / bbox_diagonal);
+    }
+    tj.set("sizes_m", std::move(sizes));
+    tj.set("size_over_diagonal", std::move(ratios));
+    j.set("tool", std::move(tj));
     ebh::Json q = ebh::Json::object();
     q.set("measure", "mean_ratio");
     q.set("worst", report.quality_worst);
@@ -171,8 +193,17 @@ void info(const SceneInfoArgs& a) {
 
   for (const auto& w : scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   std::printf("scene            %s (%s)\n", scene.spec.name.c_str(), scene.spec.file.string().c_str());
-  std::printf("unit             %s (lengths below in metres)\n", scene.spec.unit_name.c_str());
+  std::printf("unit             %s (pinned regions, camera; lengths below in metres unless a unit is named)\n",
+              scene.spec.unit_name.c_str());
   std::printf("physical mesh    %s\n", scene.spec.physical_mesh.string().c_str());
+  const char* mu = spec.mesh_unit_name.c_str();
+  if (xf.identity()) {
+    std::printf("  unit           %s, no transform\n", mu);
+  } else {
+    const ebh::Vec3d t = xf.translate / spec.mesh_unit;
+    std::printf("  unit           %s, transform: scale %g, rotvec [%g, %g, %g] deg, translate [%g, %g, %g] %s\n", mu, xf.scale,
+                xf.rotvec_deg.x, xf.rotvec_deg.y, xf.rotvec_deg.z, t.x, t.y, t.z, mu);
+  }
   std::printf("  vertices       %zu\n", m.vertices.size());
   std::printf("  tets           %lld\n", tets);
   std::printf("  boundary tris  %lld\n", boundary);
@@ -183,6 +214,30 @@ void info(const SceneInfoArgs& a) {
   std::printf("pinned vertices  %zu\n", scene.pinned.size());
   std::printf("bounding box     [%.6g, %.6g, %.6g] .. [%.6g, %.6g, %.6g] m (size %.6g x %.6g x %.6g)\n", lo.x, lo.y, lo.z,
               hi.x, hi.y, hi.z, hi.x - lo.x, hi.y - lo.y, hi.z - lo.z);
+  {
+    const double u = spec.unit;
+    const ebh::Vec3d l = lo / u, h = hi / u, d = (hi - lo) / u;
+    std::printf("  in %-11s [%.6g, %.6g, %.6g] .. [%.6g, %.6g, %.6g] (size %.6g x %.6g x %.6g, diagonal %.6g)\n",
+                spec.unit_name.c_str(), l.x, l.y, l.z, h.x, h.y, h.z, d.x, d.y, d.z, bbox_diagonal / u);
+  }
+  {
+    const double u = tool.unit;
+    const char* tu = tool.unit_name.c_str();
+    const bool hook = tool.kind == ebh::ToolSpec::Kind::Hook;
+    std::printf("tool             %s, sizes in %s (tool.unit); its pose comes from the recording\n", hook ? "hook" : "forceps", tu);
+    std::printf("  shaft          radius %g, length %g %s\n", tool.shaft_radius / u, tool.shaft_length / u, tu);
+    if (hook) {
+      std::printf("  hook tip       length %g, radius %g %s\n", tool.hook.tip_length / u, tool.hook.tip_radius / u, tu);
+    } else {
+      const ebh::ForcepsSpec& f = tool.forceps;
+      std::printf("  jaws           length %g, width %g, thickness %g %s (soft margin %g), open %g deg\n", f.jaw_length / u,
+                  f.jaw_width / u, f.jaw_thickness / u, tu, f.soft_margin / u, f.jaw_max_angle_deg);
+    }
+    std::printf("  / mesh diagonal");
+    for (std::size_t i = 0; i < tool_sizes.size(); ++i)
+      std::printf("%s %s %.3g", i ? "," : "", tool_sizes[i].first.c_str(), tool_sizes[i].second / bbox_diagonal);
+    std::printf(" (plausible: %g .. %g)\n", ebh::kToolSizeMinRatio, ebh::kToolSizeMaxRatio);
+  }
   std::printf("quality          mean ratio: worst %.4f (tet %d), mean %.4f\n", report.quality_worst, report.worst_tet,
               report.quality_mean);
   std::printf("  histogram     ");
@@ -251,10 +306,32 @@ void degrade(const SceneDegradeArgs& a) {
                 "# worst mean ratio %.4g (tet %d); %d caps, %d slivers, %d needles.\n",
                 scene.spec.name.c_str(), a.scene.c_str(), a.quality, a.tets, static_cast<unsigned long long>(a.seed),
                 r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles);
-  ebh::write_file_atomically(mesh_out, ebh::msh22_text(scene.physical, 1.0 / scene.spec.unit));
+  // Back into the mesh file's coordinates and unit, so the scene's mesh.unit and mesh.transform
+  // place it as they placed the original.
+  ebh::TetMesh file_mesh = scene.physical;
+  const ebh::MeshTransform& xf = scene.spec.mesh_transform;
+  if (!xf.identity())
+    for (ebh::Vec3d& p : file_mesh.vertices) p = xf.inverse(p);
+  ebh::write_file_atomically(mesh_out, ebh::msh22_text(file_mesh, 1.0 / scene.spec.mesh_unit));
   ebh::write_file_atomically(scene_out, std::string(header) + yaml.c_str() + "\n");
   std::printf("%s: %s with worst mean ratio %.4g (tet %d; %d caps, %d slivers, %d needles), mesh %s\n", scene_out.c_str(),
               scene.spec.name.c_str(), r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles, mesh_out.c_str());
+}
+
+/// `ebh scene init`: a complete, commented scene for the user's own mesh (scene/scene_init.hpp),
+/// checked by loading it before it is written.
+void init(const ebh::SceneInitOptions& o) {
+  const std::string mesh = o.mesh.string(), out = o.out.string();
+  ebh::check_input_file(mesh);
+  ebh::check_outputs({{out, "the scene"}}, {{mesh, "the mesh"}});
+  const ebh::SceneInit made = ebh::make_scene(o);
+  for (const auto& w : made.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
+  ebh::write_file_atomically(out, made.yaml);
+  const ebh::TetMesh& m = made.scene.physical;
+  std::printf("%s: scene for %s (%zu vertices, %zu tets, in %s), %s, %s\n", out.c_str(), mesh.c_str(), m.vertices.size(),
+              m.tets.size(), o.unit.c_str(), o.tissue.c_str(), o.tool.c_str());
+  std::printf("  %s\n", made.pin_note.c_str());
+  std::printf("  check it: ebh scene info %s\n", out.c_str());
 }
 
 void setup(CLI::App& root) {
@@ -275,6 +352,20 @@ void setup(CLI::App& root) {
   d->add_option("--seed", dargs->seed, "which tets (default 1; the same seed gives the same mesh)");
   d->add_option("-o,--out", dargs->out_dir, "folder for NAME_qQ.msh and NAME_qQ.yaml (default: the working directory)");
   d->callback([dargs] { degrade(*dargs); });
+
+  auto iargs = std::make_shared<ebh::SceneInitOptions>();
+  CLI::App* i = scene->add_subcommand(
+      "init", "Write a complete, commented scene for your own mesh (tool in mm, tissue presets, pinned regions)");
+  i->add_option("mesh", iargs->mesh, "the physical mesh (Gmsh .msh 2.2 or 4.1)")->required();
+  i->add_option("-o,--out", iargs->out, "the scene file to write")->required();
+  i->add_option("--unit", iargs->unit, "the mesh file's unit, also the scene's for --pin and the camera: m, cm, mm (default mm)");
+  i->add_option("--pin", iargs->pins,
+                "a pinned region, repeatable: sphere:x,y,z,r | box:x0,y0,z0,x1,y1,z1 | group:NAME (default: the lowest "
+                "layer of vertices along gravity, -z)")
+      ->allow_extra_args(false);
+  i->add_option("--tissue", iargs->tissue, "stiffness and density preset: liver, gallbladder, uterus, generic (default generic)");
+  i->add_option("--tool", iargs->tool, "hook or forceps (default hook)");
+  i->callback([iargs] { init(*iargs); });
 }
 
 }  // namespace

@@ -1,0 +1,292 @@
+// `ebh scene init`: writes the scene text for a user's mesh and loads it back (scene_init.hpp).
+#include "scene/scene_init.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <system_error>
+
+#include "io/error.hpp"
+
+namespace ebh {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// The shortest text that reads back to v.
+std::string fmt(double v) {
+  char b[32];
+  const auto r = std::to_chars(b, b + sizeof b, v);
+  return std::string(b, r.ptr);
+}
+
+/// v to 4 significant digits (camera positions: where exactness buys nothing).
+std::string round4(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return b;
+}
+
+std::string vec(const Vec3d& v, std::string (*f)(double) = fmt) {
+  std::string s = "[";
+  s += f(v.x);
+  s += ", ";
+  s += f(v.y);
+  s += ", ";
+  s += f(v.z);
+  return s + "]";
+}
+
+/// A YAML double-quoted scalar.
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string join(const std::vector<std::string>& v, const std::string& sep = ", ") {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : sep) + x;
+  return s;
+}
+
+/// The numbers of a --pin SPEC after its "kind:", each finite.
+std::vector<double> pin_numbers(const std::string& spec, const std::string& list, std::size_t count, const std::string& form) {
+  std::vector<double> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = list.find(',', start);
+    const std::string item = list.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    double v = 0;
+    const char* b = item.data();
+    const char* e = item.data() + item.size();
+    if (b != e && *b == '+') ++b;
+    const auto [p, ec] = std::from_chars(b, e, v);
+    if (ec != std::errc() || p != e || b == e || !std::isfinite(v))
+      throw InputError("--pin " + spec + ": '" + item + "' is not a finite number (expected " + form + ")");
+    out.push_back(v);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (out.size() != count)
+    throw InputError("--pin " + spec + ": expected " + form + " (" + std::to_string(count) + " numbers), got " +
+                     std::to_string(out.size()));
+  return out;
+}
+
+/// A --pin SPEC as a region (metres), and the YAML of it (in the scene's unit, as written).
+struct Pin {
+  PinRegion region;
+  std::string yaml;
+};
+
+Pin parse_pin(const std::string& spec, double unit) {
+  const std::size_t colon = spec.find(':');
+  const std::string kind = spec.substr(0, colon);
+  const std::string rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
+  Pin pin;
+  if (kind == "group") {
+    if (rest.empty()) throw InputError("--pin " + spec + ": expected group:NAME");
+    pin.region.kind = PinRegion::Kind::Group;
+    pin.region.group = rest;
+    pin.yaml = "group: " + quoted(rest);
+  } else if (kind == "sphere") {
+    const auto v = pin_numbers(spec, rest, 4, "sphere:x,y,z,r");
+    if (!(v[3] > 0)) throw InputError("--pin " + spec + ": the radius must be > 0");
+    pin.region.kind = PinRegion::Kind::Sphere;
+    pin.region.a = Vec3d{v[0], v[1], v[2]} * unit;
+    pin.region.b = {v[3] * unit, 0, 0};
+    pin.yaml = "sphere: {center: " + vec({v[0], v[1], v[2]}) + ", radius: " + fmt(v[3]) + "}";
+  } else if (kind == "box") {
+    const auto v = pin_numbers(spec, rest, 6, "box:x0,y0,z0,x1,y1,z1");
+    if (!(v[0] <= v[3] && v[1] <= v[4] && v[2] <= v[5]))
+      throw InputError("--pin " + spec + ": expected x0 <= x1, y0 <= y1, z0 <= z1 (the box's min corner first)");
+    pin.region.kind = PinRegion::Kind::Box;
+    pin.region.a = Vec3d{v[0], v[1], v[2]} * unit;
+    pin.region.b = Vec3d{v[3], v[4], v[5]} * unit;
+    pin.yaml = "box: {min: " + vec({v[0], v[1], v[2]}) + ", max: " + vec({v[3], v[4], v[5]}) + "}";
+  } else {
+    throw InputError("--pin " + spec + ": expected sphere:x,y,z,r, box:x0,y0,z0,x1,y1,z1 or group:NAME");
+  }
+  return pin;
+}
+
+/// The tool of a new scene, in mm: a 5 mm laparoscopic instrument (shaft 5 mm across, 330 mm
+/// working length), an L-hook's 6 mm tip of 1 mm radius, a grasper's 20 mm jaws.
+std::string tool_yaml(bool forceps) {
+  std::string y =
+      "tool:\n"
+      "  unit: mm                      # the tool's sizes, whatever the mesh's unit\n"
+      "  kind: " + std::string(forceps ? "forceps" : "hook") + "\n"
+      "  shaft_radius: 2.5             # a 5 mm instrument\n"
+      "  shaft_length: 330             # its usual working length\n";
+  if (forceps) {
+    y += "  forceps: {jaw_length: 20, jaw_width: 5, jaw_thickness: 2, jaw_max_angle_deg: 30,\n"
+         "            grasp_threshold: 0.2, soft_margin: 2, eta: 1.0}\n";
+  } else {
+    y += "  hook: {tip_length: 6, tip_radius: 1.0}   # the L-hook's bent tip\n";
+  }
+  y += "  force_limit: 3.3              # N (Geomagic Touch)\n"
+       "  newton_iterations: 1\n"
+       "  max_step: 0.5                 # mm per Newton step\n"
+       "  max_step_rotation_deg: 0.5\n";
+  return y;
+}
+
+}  // namespace
+
+const std::vector<TissuePreset>& tissue_presets() {
+  static const std::vector<TissuePreset> presets = {
+      {"liver", 2000, 1080, "MR elastography of healthy livers: shear modulus about 2 kPa"},
+      {"gallbladder", 3000, 1070, "a bile-filled sac whose wall stiffens it: between liver and uterus (no whole-organ measurement)"},
+      {"uterus", 4000, 1100, "elastography of the non-pregnant myometrium: shear modulus a few kPa"},
+      {"generic", 3000, 1000, "the committed organ scenes' value: soft abdominal tissue"},
+  };
+  return presets;
+}
+
+SceneInit make_scene(const SceneInitOptions& o) {
+  const std::optional<double> unit_m = length_unit_metres(o.unit);
+  if (!unit_m) throw InputError("--unit: expected m, cm or mm, got '" + o.unit + "'");
+  const double unit = *unit_m;
+  const auto& presets = tissue_presets();
+  const auto preset = std::find_if(presets.begin(), presets.end(), [&](const TissuePreset& p) { return p.name == o.tissue; });
+  if (preset == presets.end()) throw InputError("--tissue: expected liver, gallbladder, uterus or generic, got '" + o.tissue + "'");
+  if (o.tool != "hook" && o.tool != "forceps") throw InputError("--tool: expected hook or forceps, got '" + o.tool + "'");
+  const bool forceps = o.tool == "forceps";
+
+  // The mesh as the new scene will load it (mesh errors name the mesh file and line).
+  SceneSpec probe;
+  probe.file = o.out;
+  probe.physical_mesh = o.mesh;
+  probe.unit = probe.mesh_unit = probe.tool.unit = unit;
+  probe.unit_name = probe.mesh_unit_name = probe.tool.unit_name = o.unit;
+  const Scene mesh_only = build_scene(probe);
+  const TetMesh& mesh = mesh_only.physical;
+  const std::size_t n = mesh.vertices.size();
+  const BoundingBox box = bounding_box(mesh.vertices);
+  const std::string mesh_name = o.mesh.string();
+
+  // Pinned regions: the user's, each checked, or the lowest layer along gravity (-z).
+  std::vector<std::string> pin_yaml;
+  std::set<int> pinned;
+  std::string pin_note;
+  for (const std::string& spec : o.pins) {
+    const Pin pin = parse_pin(spec, unit);
+    const std::vector<int> v = region_vertices(mesh, pin.region);
+    if (v.empty()) {
+      if (pin.region.kind == PinRegion::Kind::Group) {
+        const std::vector<std::string> known = known_group_names(mesh);
+        if (std::find(known.begin(), known.end(), pin.region.group) == known.end())
+          throw InputError("--pin " + spec + ": " + mesh_name + " has no physical group '" + pin.region.group + "' (" +
+                           (known.empty() ? std::string("it has no named groups") : "its groups: " + join(known)) + ")");
+      }
+      throw InputError("--pin " + spec + ": the region pins no vertex of " + mesh_name + " (its bounding box: " +
+                       vec(box.lo / unit, round4) + " .. " + vec(box.hi / unit, round4) + " " + o.unit + ")");
+    }
+    pinned.insert(v.begin(), v.end());
+    pin_yaml.push_back(pin.yaml);
+  }
+  if (o.pins.empty()) {
+    // the vertices within 5% of the height of the lowest point, widened until at least 3 (a
+    // triangle: no rigid motion left) are held
+    const double height = box.hi.z - box.lo.z;
+    const Vec3d centre = 0.5 * (box.lo + box.hi);
+    for (double fraction = 0.05; pinned.size() < 3; fraction *= 2) {
+      if (fraction >= 1) throw InputError(mesh_name + ": no layer of vertices at the bottom to pin; give --pin");
+      const double cut = std::stod(round4((box.lo.z + fraction * height) / unit));
+      PinRegion r;
+      r.kind = PinRegion::Kind::Halfspace;
+      r.a = Vec3d{std::stod(round4(centre.x / unit)), std::stod(round4(centre.y / unit)), cut} * unit;
+      r.b = {0, 0, -1};
+      const std::vector<int> v = region_vertices(mesh, r);
+      pinned = std::set<int>(v.begin(), v.end());
+      if (pinned.size() >= 3) {
+        pin_yaml = {"halfspace: {point: " + vec(r.a / unit, round4) + ", normal: [0, 0, -1]}"};
+        pin_note = "no --pin given: pinned the lowest " + fmt(fraction * 100) + "% of the mesh's height (z <= " +
+                   round4(cut) + " " + o.unit + ", " + std::to_string(pinned.size()) + " vertices); give --pin to choose";
+      }
+    }
+  } else {
+    pin_note = "pinned " + std::to_string(pinned.size()) + " vertices (" + join(o.pins, ", ") + ")";
+  }
+  if (pinned.size() == n)
+    throw InputError("--pin: the regions pin all " + std::to_string(n) + " vertices of " + mesh_name +
+                     ": nothing could move; pin a smaller region");
+
+  // The camera: the bounding box from the front (-y) and above (+z), all of it in a 40 degree view.
+  const Vec3d centre = 0.5 * (box.lo + box.hi) / unit;
+  const double diagonal = box.diagonal() / unit;
+  const double distance = 1.2 * (0.5 * diagonal) / std::tan(20.0 * std::numbers::pi / 180.0);
+  const Vec3d eye = centre + distance * normalized(Vec3d{0, -1, 0.6});
+
+  std::error_code ec;
+  fs::path mesh_path = fs::absolute(o.mesh, ec);
+  const fs::path relative = fs::relative(mesh_path, fs::absolute(o.out, ec).parent_path(), ec);
+  // relative when the mesh sits in the scene's folder or below it, so the two move together
+  if (!ec && !relative.empty() && *relative.begin() != "..") mesh_path = relative;
+
+  const std::string name = o.out.stem().string();
+  std::string cmd = "ebh scene init " + o.mesh.string() + " -o " + o.out.string() + " --unit " + o.unit +
+                    " --tissue " + o.tissue + " --tool " + o.tool;
+  for (const auto& p : o.pins) cmd += " --pin " + p;
+  std::string y;
+  // "text  # comment", the comments lined up
+  auto line = [&y](const std::string& text, const std::string& comment) {
+    y += text + std::string(text.size() < 32 ? 32 - text.size() : 1, ' ') + "# " + comment + "\n";
+  };
+  y += "# Made by `" + cmd + "`.\n";
+  y += "# Physical mesh: " + std::to_string(n) + " vertices, " + std::to_string(mesh.tets.size()) +
+       " tets; bounding box " + vec(box.lo / unit, round4) + " .. " + vec(box.hi / unit, round4) + " " + o.unit +
+       " (diagonal " + round4(diagonal) + ").\n";
+  y += "# Schema: lib/scene/scene.hpp; units and the mesh transform: docs/FORMATS.md; stiffnesses: docs/MODEL.md.\n";
+  y += "name: " + quoted(name) + "\n";
+  y += "description: " + quoted(o.mesh.filename().string() + ": " + o.tissue + ", " + o.tool) + "\n";
+  line("unit: " + o.unit, "pinned regions and camera (world coordinates)");
+  y += "mesh:\n";
+  y += "  physical: " + quoted(mesh_path.string()) + "\n";
+  line("  unit: " + o.unit, "the mesh file's unit");
+  y += "  # transform: {scale: 1, rotvec_deg: [0, 0, 0], translate: [0, 0, 0]}   # places the mesh; pins stay in the world\n";
+  line("  virtual: boundary", "the virtual mesh: the physical mesh's surface ...");
+  line("  virtual_refine: 1", "... split in 4 per triangle, so a thin tool meets vertices");
+  y += "material:\n";
+  line("  density: " + fmt(preset->density), "kg/m^3, " + o.tissue);
+  line("stiffness:", "SI (docs/MODEL.md)");
+  line("  k_vol: " + fmt(preset->k_vol), "Pa, " + o.tissue + ": " + preset->source);
+  line("  k_s: 20", "N/m, virtual-mesh edges");
+  line("  k_svc: 50", "N/m, virtual vertex to physical mesh");
+  line("  k_con: 400", "N/m, contact");
+  line("  k_vcs: 300", "N/m, virtual tool to physical tool");
+  line("  k_vct: 0.3", "N m/rad");
+  y += "# An organ segmented in situ already has the shape its surroundings hold it in: gravity on top\n";
+  y += "# of that would count it twice. Set [0, 0, -9.81] (world z up) to study an unsupported organ.\n";
+  y += "gravity: [0, 0, 0]\n";
+  y += "damping: 0.05\n";
+  if (o.pins.empty()) y += "# " + pin_note + "\n";
+  y += "pinned:\n";
+  for (const auto& p : pin_yaml) y += "  - " + p + "\n";
+  y += tool_yaml(forceps);
+  y += "time: {haptic_hz: 1000, physical_hz: 100}\n";
+  y += "solver: {method: chebyshev, physical_iterations: 16, virtual_iterations: 4, chebyshev_rho: 0.95}\n";
+  y += "camera: {eye: " + vec(eye, round4) + ", target: " + vec(centre, round4) + ", up: [0, 0, 1], fov_deg: 40}\n";
+  y += "stages: {grasp: " + std::string(forceps ? "true" : "false") + ", frames: false}\n";
+
+  SceneInit out;
+  out.yaml = y;
+  out.scene = load_scene_text(y, o.out);
+  out.pin_note = pin_note;
+  if (out.scene.pinned.size() != pinned.size())  // the file must pin what was checked here
+    throw std::logic_error("scene init: the written scene pins " + std::to_string(out.scene.pinned.size()) +
+                           " vertices, not the " + std::to_string(pinned.size()) + " checked");
+  return out;
+}
+
+}  // namespace ebh

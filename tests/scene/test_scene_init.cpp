@@ -1,0 +1,101 @@
+// `ebh scene init` (scene/scene_init.hpp): the scene it makes for a mesh in cm keeps the tool in
+// mm, pins the lowest layer of vertices when no region is given, looks at the mesh, and loads back
+// to what it checked.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "../mesh/test_util.hpp"
+#include "scene/scene_init.hpp"
+
+namespace ebh {
+namespace {
+
+using test::data;
+using test::write_temp;
+
+constexpr double kTol = 1e-15;  // a few ulps of lengths <= 0.33 m scaled from the file's unit
+
+/// A 4 x 3 x 2 box of 5 tets without physical groups, as a segmentation exports it.
+std::filesystem::path box_mesh() {
+  return write_temp("box.msh",
+                    "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n8\n1 0 0 0\n2 4 0 0\n3 0 3 0\n4 4 3 0\n"
+                    "5 0 0 2\n6 4 0 2\n7 0 3 2\n8 4 3 2\n$EndNodes\n$Elements\n5\n1 4 0 1 2 3 5\n2 4 0 4 3 2 8\n"
+                    "3 4 0 6 5 8 2\n4 4 0 7 8 5 3\n5 4 0 2 3 5 8\n$EndElements\n");
+}
+
+/// The box's scene beside it, with forceps, its file in `unit`.
+SceneInitOptions box_forceps(const std::string& unit, const std::string& scene_file) {
+  SceneInitOptions o;
+  o.mesh = box_mesh();
+  o.out = o.mesh.parent_path() / scene_file;
+  o.unit = unit;
+  o.tool = "forceps";
+  return o;
+}
+
+TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
+  SceneInitOptions o = box_forceps("cm", "box.yaml");
+  o.tissue = "liver";
+  const SceneInit made = make_scene(o);
+  const SceneSpec& s = made.scene.spec;
+  EXPECT_TRUE(made.scene.warnings.empty()) << made.scene.warnings.front();
+  EXPECT_EQ(s.mesh_unit_name, "cm");
+  EXPECT_NEAR(made.scene.physical.vertices[7].x, 0.04, kTol);  // node 8 at (4, 3, 2) cm
+  // a 5 mm instrument whatever the mesh's unit
+  EXPECT_EQ(s.tool.unit_name, "mm");
+  EXPECT_EQ(s.tool.kind, ToolSpec::Kind::Forceps);
+  EXPECT_NEAR(s.tool.shaft_radius, 0.0025, kTol);
+  EXPECT_NEAR(s.tool.shaft_length, 0.33, kTol);
+  EXPECT_NEAR(s.tool.forceps.jaw_length, 0.02, kTol);
+  EXPECT_TRUE(s.stages.grasp);
+  // the liver preset
+  const TissuePreset& liver = tissue_presets()[0];
+  ASSERT_EQ(liver.name, "liver");
+  EXPECT_EQ(s.stiffness.k_vol, liver.k_vol);
+  EXPECT_EQ(s.density, liver.density);
+  // no --pin: the z = 0 face's four corners (nodes 1-4), as a half-space
+  EXPECT_EQ(made.scene.pinned, (std::vector<int>{0, 1, 2, 3}));
+  ASSERT_EQ(s.pinned.size(), 1u);
+  EXPECT_EQ(s.pinned[0].kind, PinRegion::Kind::Halfspace);
+  EXPECT_NE(made.yaml.find("# no --pin given: pinned the lowest 5% of the mesh's height"), std::string::npos);
+  EXPECT_NE(made.pin_note.find("4 vertices"), std::string::npos) << made.pin_note;
+  // the camera aims at the box's centre from the front and above, the whole box in its 40 degrees
+  EXPECT_NEAR(s.camera.target.x, 0.02, 1e-12);
+  EXPECT_NEAR(s.camera.target.y, 0.015, 1e-12);
+  EXPECT_LT(s.camera.eye.y, s.camera.target.y);
+  EXPECT_GT(s.camera.eye.z, s.camera.target.z);
+  const double half_diagonal = 0.5 * std::sqrt(0.04 * 0.04 + 0.03 * 0.03 + 0.02 * 0.02);
+  EXPECT_GT(norm(s.camera.eye - s.camera.target) * std::tan(20.0 * std::numbers::pi / 180.0), half_diagonal);
+  // the mesh path is relative to the scene file, which sits beside it
+  EXPECT_NE(made.yaml.find("physical: \"box.msh\""), std::string::npos) << made.yaml;
+}
+
+// The same file declared in mm is a 5 mm speck next to 20 mm jaws: the scene is still written,
+// and its load says which keys to check.
+TEST(SceneInit, AMeshInTheWrongUnitWarns) {
+  const SceneInit made = make_scene(box_forceps("mm", "box_mm.yaml"));
+  EXPECT_NEAR(made.scene.spec.tool.shaft_radius, 0.0025, kTol);
+  ASSERT_FALSE(made.scene.warnings.empty());
+  EXPECT_NE(made.scene.warnings[0].find("tool.forceps.jaw_length = 20 mm is larger than the physical mesh's bounding-box diagonal (5.38516 mm)"),
+            std::string::npos) << made.scene.warnings[0];
+}
+
+TEST(SceneInit, PinsAreCheckedAgainstTheMesh) {
+  SceneInitOptions o;
+  o.mesh = data("mesh/cube22.msh");
+  o.out = write_temp("marker", "").parent_path() / "cube.yaml";
+  o.pins = {"group:bottom", "sphere:10,10,10,0.5"};
+  const SceneInit made = make_scene(o);
+  EXPECT_EQ(made.scene.pinned, (std::vector<int>{1, 2, 3, 4, 6}));  // bottom's 4 corners and node 55
+  o.pins = {"group:bottm"};
+  EXPECT_THROW(make_scene(o), InputError);
+  o.pins = {"box:0,0,0,10,10,10"};
+  EXPECT_THROW(make_scene(o), InputError);  // every vertex
+  o.pins = {"halfspace:0,0,0,0,0,1"};
+  EXPECT_THROW(make_scene(o), InputError);  // not a --pin form
+}
+
+}  // namespace
+}  // namespace ebh

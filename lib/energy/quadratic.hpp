@@ -23,6 +23,16 @@ EBH_HD Vec3<T> predict_position(Vec3<T> x, Vec3<T> v, Vec3<T> g, T h) {
   return x + h * v + (h * h) * g;
 }
 
+/// The physical step's first iterate x_0 = x + h v: the prediction without the external forces
+/// (docs/MODEL.md, "The iterations' start"). Started from s (Alg. 1 line 2), a step of K
+/// Jacobi-type iterations has its fixed point off the equilibrium by about (I - T^K)^-1 T^K h^2 g
+/// (T the iteration matrix): a mesh at rest keeps an unbalanced force; from x + h v, a mesh at
+/// rest in equilibrium stays exactly there.
+template <class T>
+EBH_HD Vec3<T> iteration_start(Vec3<T> x, Vec3<T> v, T h) {
+  return x + h * v;
+}
+
 /// E_k [6] of one vertex: 1/(2 h^2) m ||x - s||^2 (mass m, step h, prediction s).
 template <class T>
 EBH_HD T inertia_energy(Vec3<T> x, Vec3<T> s, T mass, T h) {

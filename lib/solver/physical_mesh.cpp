@@ -35,15 +35,16 @@ constexpr double kStandardGravity = 9.81;  ///< m/s^2, the residual's scale (Phy
 constexpr double kLambdaLimit = 2.1;
 constexpr double kSpectrumMargin = 1.02; ///< on Lanczos' estimate of lambda_max (a lower bound)
 
-/// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- s.
+/// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- x + h v (iteration_start: not s,
+/// docs/MODEL.md "The iterations' start").
 void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
   const int n = model.num_vertices;
 #pragma omp for schedule(static)
   for (int a = 0; a < n; ++a) {
     ws.x_start[a] = state.x[a];
     ws.s[a] = model.pinned[a] ? state.x[a] : predict_position(state.x[a], state.v[a], model.gravity, model.h);
-    state.x[a] = ws.s[a];
-    ws.x_prev[a] = ws.s[a];
+    if (!model.pinned[a]) state.x[a] = iteration_start(state.x[a], state.v[a], model.h);
+    ws.x_prev[a] = state.x[a];
   }
 }
 

@@ -11,7 +11,8 @@
 //                   global   per patch vertex (kLanes threads): r = m/h^2 (s - x) + its corner
 //                            forces + the E_svc pulls of its coupled virtual vertices, then
 //                            the Jacobi or Chebyshev update into x_{k+1}            Alg. 1 l. 9
-//                 Iteration 0 also makes the prediction s = x + h v + h^2 g (l. 1) on the fly; the
+//                 Iteration 0 also makes the prediction s = x + h v + h^2 g (l. 1) and the
+//                 start x_0 = x + h v (docs/MODEL.md, "The iterations' start") on the fly; the
 //                 last one also the velocities (l. 11) and, in the last block to finish, the
 //                 residual sums (into host-mapped memory: no copy node).
 //   copy x out    device -> pinned host
@@ -137,10 +138,16 @@ __device__ __forceinline__ Vec3f predicted(const PhysicalDevice& d, int b) {
   return d.pinned[b] ? xb : predict_position(xb, d.v[b], d.gravity, d.h);
 }
 
-/// x_k of vertex b: the prediction in iteration 0, the current iterate after it.
+/// x_0 = x + h v (pinned: x), the iterations' start (docs/MODEL.md).
+__device__ __forceinline__ Vec3f started(const PhysicalDevice& d, int b) {
+  const Vec3f xb = d.x[b];
+  return d.pinned[b] ? xb : iteration_start(xb, d.v[b], d.h);
+}
+
+/// x_k of vertex b: the start in iteration 0, the current iterate after it.
 template <bool kFirst>
 __device__ __forceinline__ Vec3f iterate(const PhysicalDevice& d, const Sweep& w, int b) {
-  if constexpr (kFirst) return predicted(d, b);
+  if constexpr (kFirst) return started(d, b);
   else return w.cur[b];
 }
 
@@ -322,7 +329,8 @@ __device__ __forceinline__ void cache_patch_items(const PhysicalDevice& d, const
 ///   r = m/h^2 (s - x) + sum of the corner forces [7] + sum of the coupling pulls [5]
 ///   jacobi     x <- x + gamma D^-1 r
 ///   chebyshev  x_{k+1} = omega (gamma D^-1 r + x_k - x_{k-1}) + x_{k-1}   (Wang 2015, eq. 12)
-/// kFirst: x_0 = x_{-1} = s, computed here; s and x_start are stored for later iterations.
+/// kFirst: x_0 = x_{-1} = x + h v and s = x + h v + h^2 g, computed here; s and x_start are
+/// stored for later iterations.
 /// kLast: x_K goes to the state x, with v = (1 - damping)(x_K - x_start) / h (Alg. 1 line 11).
 /// r_last: the warm start of the thread's own tet (item tid), replaced by its new rotation; every
 /// other read of the last rotations goes to w.rot_in. Only shared memory is read between the
@@ -374,7 +382,8 @@ __device__ __forceinline__ void patch_iteration(const PhysicalDevice& d, const S
   if (P.valid && P.lane == 0) {
     const Vec3f xk = pos[P.i];
     if constexpr (kFirst) {
-      sa = xp = xk;
+      sa = predicted(d, a);
+      xp = xk;
       d.s[a] = sa;
       d.x_start[a] = x_before;
     }
@@ -410,13 +419,13 @@ std::array<IterationKernel, 3> iteration_kernels() {
           iteration_kernel<kChebyshev, false, true>};
 }
 
-/// K = 0: the step is the prediction alone.
+/// K = 0: the step is the iterations' start alone (as on the CPU).
 __global__ void predict_only_kernel(PhysicalDevice d) {
   kernel_prologue();
   const int a = blockIdx.x * blockDim.x + threadIdx.x;
   if (a >= d.n) return;
   const Vec3f xa = d.x[a];
-  const Vec3f sa = predicted(d, a);
+  const Vec3f sa = started(d, a);
   d.x[a] = sa;
   d.v[a] = d.velocity_scale * (sa - xa);
 }

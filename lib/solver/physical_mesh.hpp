@@ -4,7 +4,7 @@
 // by local-global iterations. The global matrix
 //     A = M / h^2 + sum_t w_t G_t^T G_t + k_svc sum_j w_j w_j^T     (n x n, the same for x, y, z)
 // is constant, so one step reads (physical_step):
-//     predict         s = x + h v + h^2 g, x <- s                      Alg. 1 line 1-2
+//     predict         s = x + h v + h^2 g, x <- x + h v                Alg. 1 line 1-2 (x_0: docs/MODEL.md)
 //     for k < K:
 //       local step    R_t = polar(F_t) per tet; E_svc forces per pair  Alg. 1 lines 6-8
 //       residual      r = -grad E at x (gathered per vertex)

@@ -127,14 +127,16 @@ TEST(PhysicalStep, DirectGlobalSolveMatchesDenseSolve) {
         const int fa = pm.free_index[pm.pair_vertex[j][i]], fb = pm.free_index[pm.pair_vertex[j][k]];
         if (fa >= 0 && fb >= 0) A(fa, fb) += pm.k_svc * pm.pair_weight[j][i] * pm.pair_weight[j][k];
       }
-  // r = -grad(E_vol + E_svc) at the prediction s (E_k's gradient is zero there).
-  std::vector<Vec3d> s(pm.num_vertices), f(pm.num_vertices);
+  // r = -grad E_soft at the iterations' start x_0 = x + h v: -grad(E_vol + E_svc) at x_0 plus the
+  // inertia term M/h^2 (s - x_0) = M g, with s = x_0 + h^2 g the prediction.
+  std::vector<Vec3d> x0(pm.num_vertices), f(pm.num_vertices);
+  for (int a = 0; a < pm.num_vertices; ++a) x0[a] = pm.pinned[a] ? start.x[a] : start.x[a] + pm.h * start.v[a];
+  physical_elastic_forces(pm, x0, f);
   for (int a = 0; a < pm.num_vertices; ++a)
-    s[a] = pm.pinned[a] ? start.x[a] : start.x[a] + pm.h * start.v[a] + (pm.h * pm.h) * pm.gravity;
-  physical_elastic_forces(pm, s, f);
+    if (!pm.pinned[a]) f[a] += pm.mass[a] * pm.gravity;
   for (int j = 0; j < pm.num_virtual; ++j) {
     Vec3d p{};
-    for (int i = 0; i < pm.pair_count[j]; ++i) p += pm.pair_weight[j][i] * s[pm.pair_vertex[j][i]];
+    for (int i = 0; i < pm.pair_count[j]; ++i) p += pm.pair_weight[j][i] * x0[pm.pair_vertex[j][i]];
     for (int i = 0; i < pm.pair_count[j]; ++i) f[pm.pair_vertex[j][i]] += pm.k_svc * pm.pair_weight[j][i] * (sim.vm.rest[j] - p);
   }
   Eigen::MatrixXd r(nf, 3);
@@ -142,7 +144,7 @@ TEST(PhysicalStep, DirectGlobalSolveMatchesDenseSolve) {
   const Eigen::MatrixXd dx = A.ldlt().solve(r);
   double err = 0, size = 0;
   for (int i = 0; i < nf; ++i) {
-    const Vec3d expect = s[pm.free_vertices[i]] + Vec3d{dx(i, 0), dx(i, 1), dx(i, 2)};
+    const Vec3d expect = x0[pm.free_vertices[i]] + Vec3d{dx(i, 0), dx(i, 1), dx(i, 2)};
     err = std::max(err, norm(sim.ps.x[pm.free_vertices[i]] - expect));
     size = std::max(size, std::sqrt(dx.row(i).squaredNorm()));
   }

@@ -217,16 +217,18 @@ double parse_length_unit(const std::string& name) {
   throw InputError("--unit: '" + name + "' is not one of m, cm, mm");
 }
 
-void parse_transform(const std::string& text, double unit_m, ImportOptions& opt) {
+RigidTransform parse_rigid_transform(const std::string& option, const std::string& text, double unit_m) {
   auto tok = split(text, true);
-  if (tok.size() != 6) throw InputError("--transform: expected 6 comma-separated numbers tx,ty,tz,rx,ry,rz, got '" + text + "'");
+  if (tok.size() != 6)
+    throw InputError(option + ": expected 6 comma-separated numbers x,y,z,rx,ry,rz (translation, then a rotation "
+                              "vector in degrees), got '" + text + "'");
   double v[6];
   for (int i = 0; i < 6; ++i) {
-    v[i] = to_number(tok[i], "--transform", "value " + std::to_string(i));
-    if (!std::isfinite(v[i])) throw InputError("--transform: value " + std::to_string(i) + " is not finite");
+    v[i] = to_number(tok[i], option, "value " + std::to_string(i));
+    if (!std::isfinite(v[i])) throw InputError(option + ": value " + std::to_string(i) + " is not finite");
   }
-  opt.transform_translation = Vec3d{v[0], v[1], v[2]} * unit_m;
-  opt.transform_rotation = quat_from_rotvec(Vec3d{v[3], v[4], v[5]} * (std::numbers::pi / 180.0));
+  return RigidTransform{Vec3d{v[0], v[1], v[2]} * unit_m,
+                        quat_from_rotvec(Vec3d{v[3], v[4], v[5]} * (std::numbers::pi / 180.0))};
 }
 
 double nominal_rate(const std::vector<double>& t) {
@@ -249,20 +251,22 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   else read_csv(path, unit, rate_hz, rec, line_of, has_t);
   if (rec.t.empty()) throw InputError(path + ": no samples (the log has no data lines)");
 
-  for (std::size_t i = 0; i < rec.size(); ++i) {
-    rec.position[i] = rotate(opt.transform_rotation, rec.position[i]) + opt.transform_translation;
-    // |q_R q| = |q|: a logged quaternion's norm error is still judged by the validator below.
-    rec.orientation[i] = opt.transform_rotation * rec.orientation[i];
-  }
   rec.source = "device";
   rec.scene = opt.scene;
   rec.tool = opt.tool;
   rec.description = std::string("imported from ") + path + " (" + (fmt == LogFormat::csv ? "csv" : "openhaptics") + ")";
+  // What was baked into the poses, for a reader; never applied again (the attributes that replay
+  // applies are world_transform and tool_transform, which import does not write).
+  if (opt.transforms.tool) rec.description += "; tool transform " + describe(*opt.transforms.tool) + " applied";
+  if (opt.transforms.world) rec.description += "; world transform " + describe(*opt.transforms.world) + " applied";
   // The rate as given, or as the log's own times say (of every sample, repeats included).
   rec.rate_hz = rate_hz;
   if (has_t && rec.size() >= 2 && rec.t.back() > rec.t.front()) rec.rate_hz = nominal_rate(rec.t);
   // Validated before repeats are dropped, so an error names the log's own line.
   validate_recording(rec, path, [&](std::string_view, std::size_t i) { return at(path, line_of[i]); });
+  // On unit quaternions (the validator normalised them); turning every sample by the same
+  // rotations keeps consecutive ones in the same hemisphere, and equal samples equal.
+  apply_pose_transforms(opt.transforms, rec.position, rec.orientation);
 
   ImportReport r;
   r.has_times = has_t;

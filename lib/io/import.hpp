@@ -12,10 +12,14 @@
 // Samples that repeat the previous one exactly (pose, jaw and buttons: a device polled faster than
 // it updates) are counted, and removed with drop_repeats; the others keep their times.
 // Positions are scaled by the unit (openhaptics default mm, csv default m), then the optional
-// world transform is applied: p_world = R p + t, q_world = q_R q.
+// tool and world transforms are applied to every pose (io/pose_transform.hpp):
+// p' = R_w (p + q t_T) + t_w, q' = q_w q q_T. They are baked into the poses: the recording holds
+// poses in ebh's world and tool frames and carries no transform attribute, so a replay cannot
+// apply them again.
 #include <optional>
 #include <string>
 
+#include "io/pose_transform.hpp"
 #include "io/recording.hpp"
 
 namespace ebh {
@@ -27,8 +31,7 @@ struct ImportOptions {
   std::optional<double> rate_hz;    ///< sample rate of a log without times; nullopt: kAssumedLogRateHz
   bool drop_repeats = false;        ///< remove the samples that repeat the previous one exactly
   std::optional<double> unit;       ///< metres per log length unit; nullopt: the format's default
-  Vec3d transform_translation;      ///< m (already scaled)
-  Quatd transform_rotation;         ///< log frame -> world
+  PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
   std::string tool = "hook";
 };
@@ -54,9 +57,10 @@ double nominal_rate(const std::vector<double>& t);
 
 /// Parses "--unit m|cm|mm" (metres per unit); throws InputError naming the option.
 double parse_length_unit(const std::string& name);
-/// Parses "--transform tx,ty,tz,rx,ry,rz" (translation in the given unit, rotation vector in
-/// degrees) into opt.transform_*.
-void parse_transform(const std::string& text, double unit_m, ImportOptions& opt);
+/// Parses a transform option, "--transform tx,ty,tz,rx,ry,rz" or "--tool-transform x,y,z,rx,ry,rz":
+/// translation in a length unit of `unit_m` metres, rotation vector (axis times angle) in degrees.
+/// Throws InputError naming `option`. `ebh replay` parses its options of the same names with it.
+RigidTransform parse_rigid_transform(const std::string& option, const std::string& text, double unit_m);
 
 /// Max Frobenius distance between a logged rotation block and its nearest rotation: encoder
 /// noise and 6-digit logs stay far below it; a scaled or sheared matrix does not.

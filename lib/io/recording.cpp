@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 #include "io/error.hpp"
@@ -94,6 +95,10 @@ Recording read_recording(const std::string& path) {
   rec.tool = f.attr_string("tool");
   rec.description = f.attr_string("description");
   if (f.has_attr("generator")) rec.generator = f.attr_string("generator");
+  if (f.has_attr("world_transform"))
+    rec.transforms.world = from_attribute(f.attr_doubles("world_transform"), path, "world_transform");
+  if (f.has_attr("tool_transform"))
+    rec.transforms.tool = from_attribute(f.attr_doubles("tool_transform"), path, "tool_transform");
 
   // A dataset may declare its unit; positions must be in metres (DESIGN §3: SI inside and in files).
   h5::Dataset pd = g.dataset("position");
@@ -136,7 +141,18 @@ void write_recording(const std::string& path, const Recording& rec_in) {
   f.set_attr("tool", rec.tool);
   f.set_attr("description", rec.description);
   if (!rec.generator.empty()) f.set_attr("generator", rec.generator);
+  if (rec.transforms.world) f.set_attr("world_transform", to_attribute(*rec.transforms.world));
+  if (rec.transforms.tool) f.set_attr("tool_transform", to_attribute(*rec.transforms.tool));
   out.commit();
+}
+
+void apply_stored_transforms(Recording& rec, const std::string& file) {
+  if (rec.transforms.empty()) return;
+  apply_pose_transforms(rec.transforms, rec.position, rec.orientation);
+  rec.transforms = {};
+  validate_recording(rec, file, [&file](std::string_view ds, std::size_t i) {
+    return file + ": " + std::string(ds) + "[" + std::to_string(i) + "] after the pose transforms";
+  });
 }
 
 Quatd slerp(Quatd a, Quatd b, double s) {
@@ -197,6 +213,130 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
     << num(bbox_min.y) << ", " << num(bbox_min.z) << ")..(" << num(bbox_max.x) << ", " << num(bbox_max.y) << ", "
     << num(bbox_max.z) << ") m enlarged by " << num(margin) << " m";
   if (extent > 0 && worst > 5 * extent) o << "; is the recording in mm or cm instead of metres?";
+  return o.str();
+}
+
+namespace {
+
+// How a trajectory sits against a box: its extent and its nearest approach, with every position
+// scaled by f (a different length unit: the log's numbers times another metres-per-unit).
+struct PathFit {
+  double extent = 0;         // m, diagonal of the positions' bounding box
+  double distance = 0;       // m, smallest distance of a sample from the box (0 inside)
+  Vec3d centre;              // m, centre of the positions' bounding box
+};
+
+PathFit fit_path(const Recording& rec, double f, Vec3d lo, Vec3d hi) {
+  Vec3d plo = f * rec.position.front(), phi = plo;
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const Vec3d& raw : rec.position) {
+    const Vec3d p = f * raw;
+    plo = cwise_min(plo, p);
+    phi = cwise_max(phi, p);
+    nearest = std::min(nearest, norm(cwise_max(lo - p, cwise_max(p - hi, Vec3d{}))));
+  }
+  return {norm(phi - plo), nearest, 0.5 * (plo + phi)};
+}
+
+bool fits(const PathFit& p, double diagonal) {
+  return p.extent <= kPathExtentMaxRatio * diagonal && p.extent >= kPathExtentMinRatio * diagonal &&
+         p.distance <= kPathMaxDistanceDiagonals * diagonal;
+}
+
+const char* unit_label(double metres_per_unit) {
+  return metres_per_unit == 1.0 ? "m" : metres_per_unit == 1e-2 ? "cm" : metres_per_unit == 1e-3 ? "mm" : nullptr;
+}
+
+// Three significant digits: what a message about sizes needs.
+std::string short_num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// "95x" or "1/84 of".
+std::string ratio_text(double r) {
+  char buf[32];
+  if (r >= 1) std::snprintf(buf, sizeof buf, "%.3gx", r);
+  else std::snprintf(buf, sizeof buf, "1/%.3g of", 1 / r);
+  return buf;
+}
+
+}  // namespace
+
+std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo, Vec3d hi,
+                                                 std::optional<double> log_unit_m) {
+  const double diagonal = norm(hi - lo);
+  if (rec.size() == 0 || !(diagonal > 0)) return std::nullopt;
+  const PathFit now = fit_path(rec, 1.0, lo, hi);
+  // A tool that never moves has no size to judge (no unit scales it); only its place counts.
+  if (fits(now, diagonal) || (now.extent == 0 && now.distance <= kPathMaxDistanceDiagonals * diagonal))
+    return std::nullopt;
+
+  // The units the log may have been in: f = true unit / the unit it was read with.
+  struct Candidate {
+    double f;
+    std::string fix;
+  };
+  std::vector<Candidate> candidates;
+  const double units[] = {1.0, 1e-2, 1e-3};
+  const char* known = log_unit_m ? unit_label(*log_unit_m) : nullptr;
+  for (double used : units)
+    for (double truth : units) {
+      if (truth == used || (known && used != *log_unit_m)) continue;
+      std::string fix = known ? std::string("--unit ") + unit_label(truth)
+                              : std::string("the log is in ") + unit_label(truth) + ", not " + unit_label(used) +
+                                    ": ebh import --unit " + unit_label(truth);
+      candidates.push_back({truth / used, fix});
+    }
+  // A recording of a tool at work touches the tissue: a unit under which the path enters the
+  // mesh's box is the likely fix, the one whose extent is nearest the mesh's size first.
+  const bool size_off = now.extent > kPathExtentMaxRatio * diagonal ||
+                        (now.extent > 0 && now.extent < kPathExtentMinRatio * diagonal);
+  const auto size_miss = [&](const PathFit& q) { return std::abs(std::log10(q.extent / diagonal)); };
+  const Candidate* best = nullptr;
+  PathFit best_fit;
+  for (const Candidate& c : candidates) {
+    const PathFit p = fit_path(rec, c.f, lo, hi);
+    if (fits(p, diagonal) && p.distance == 0 && (!best || size_miss(p) < size_miss(best_fit))) {
+      best = &c;
+      best_fit = p;
+    }
+  }
+  // Otherwise a path of the right size is in the wrong place (a world transform), and one of the
+  // wrong size takes the unit that fits it nearest the mesh.
+  if (!best && size_off)
+    for (const Candidate& c : candidates) {
+      const PathFit p = fit_path(rec, c.f, lo, hi);
+      if (fits(p, diagonal) && (!best || p.distance < best_fit.distance)) {
+        best = &c;
+        best_fit = p;
+      }
+    }
+
+  std::ostringstream o;
+  const bool far = now.distance > kPathMaxDistanceDiagonals * diagonal;
+  const Vec3d start = rec.position.front();
+  o << "the tool path ";
+  if (size_off)
+    o << "spans " << short_num(now.extent) << " m, " << ratio_text(now.extent / diagonal)
+      << " the physical mesh's bounding-box diagonal (" << short_num(diagonal) << " m)";
+  if (size_off && far) o << ", and ";
+  if (far)
+    o << "stays at least " << short_num(now.distance) << " m (" << short_num(now.distance / diagonal)
+      << " mesh diagonals" << (size_off ? "" : " of " + short_num(diagonal) + " m")
+      << ") away from the physical mesh's bounding box, starting at (" << short_num(start.x) << ", "
+      << short_num(start.y) << ", " << short_num(start.z) << ") m";
+  o << "; likely fix: ";
+  if (best) {
+    o << best->fix;
+  } else if (!size_off) {
+    const Vec3d off = 0.5 * (lo + hi) - now.centre;
+    o << "--transform placing the device's workspace at the mesh (the mesh's centre is (" << short_num(off.x) << ", "
+      << short_num(off.y) << ", " << short_num(off.z) << ") m from the path's)";
+  } else {
+    o << "none of m, cm, mm makes it fit: check the log's unit and the scene's";
+  }
   return o.str();
 }
 

@@ -6,7 +6,9 @@
 //   /trajectory/jaw          (N,)   float64  1      0 closed .. 1 open
 //   /trajectory/buttons      (N,)   uint8    bitmask  bit i = device button i pressed
 //   root attributes: rate_hz, source ("synthetic" | "device"), scene, tool, description
-//   (optional: generator — the command that made the file)
+//   (optional: generator — the command that made the file; world_transform, tool_transform —
+//    (7,) float64 tx ty tz (m) qw qx qy qz: the poses are still in a device's frames and replay
+//    maps them with p' = R_w (p + q t_T) + t_w, q' = q_w q q_T; io/pose_transform.hpp)
 // Every dataset has a `unit` attribute. See docs/FORMATS.md.
 #include <cstdint>
 #include <functional>
@@ -15,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "io/pose_transform.hpp"
 #include "math/vec.hpp"
 
 namespace ebh {
@@ -31,6 +34,10 @@ struct Recording {
   std::string tool;                  ///< "hook" or "forceps"
   std::string description;
   std::string generator;             ///< command and version that produced it (optional)
+  /// Transforms stored with the poses (attributes world_transform, tool_transform): the poses are
+  /// in a device's frames until replay applies them and clears this (schedule/replay_inputs.hpp),
+  /// so no pose is transformed twice. `ebh import` bakes its transforms instead and leaves it empty.
+  PoseTransforms transforms;
 
   std::size_t size() const { return t.size(); }
   double duration() const { return t.empty() ? 0.0 : t.back() - t.front(); }
@@ -70,6 +77,11 @@ Recording read_recording(const std::string& path);
 /// Validates and writes a recording atomically (temporary name, renamed when complete).
 void write_recording(const std::string& path, const Recording& rec);
 
+/// Applies the recording's stored transforms (rec.transforms) to its poses and clears them:
+/// afterwards the poses are in ebh's frames and nothing is left to apply a second time. The
+/// result is validated again (a huge translation overflows), messages naming `file`.
+void apply_stored_transforms(Recording& rec, const std::string& file);
+
 /// Spherical linear interpolation on the shortest arc, s in [0, 1].
 Quatd slerp(Quatd a, Quatd b, double s);
 
@@ -82,5 +94,22 @@ DeviceSample sample_at(const Recording& rec, double t);
 /// farthest sample; nullopt when it fits.
 std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d bbox_min, Vec3d bbox_max,
                                                     double margin);
+
+/// Unit sanity (docs/FORMATS.md, "Unit sanity"): a trajectory whose extent (the diagonal of its
+/// positions' bounding box) is over kPathExtentMaxRatio or under kPathExtentMinRatio times the
+/// diagonal D of a physical mesh's bounding box (lo, hi), or whose every sample lies farther than
+/// kPathMaxDistanceDiagonals D from that box, was most likely read in the wrong length unit or
+/// not placed at the mesh (a path that never moves is judged by its place alone). Returns one line
+/// saying so and naming the likely fix: the unit among m, cm, mm under which the path fits and
+/// enters the mesh's box, as a tool at work does ("--unit cm" when `log_unit_m`, the metres per
+/// unit the log was read with, is known, as at import; "the log is in cm, not mm: ebh import
+/// --unit cm" when it is not, as at replay); else, for a path of the right size, a world
+/// transform; else the unit that fits it nearest the mesh. nullopt when the path fits. A warning,
+/// not an error: a user may have reasons.
+std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo, Vec3d hi,
+                                                 std::optional<double> log_unit_m);
+inline constexpr double kPathExtentMaxRatio = 20;
+inline constexpr double kPathExtentMinRatio = 1.0 / 50;
+inline constexpr double kPathMaxDistanceDiagonals = 2;
 
 }  // namespace ebh

@@ -1,8 +1,31 @@
 #include "schedule/replay_inputs.hpp"
 
 #include "io/error.hpp"
+#include "io/import.hpp"
 
 namespace ebh {
+namespace {
+
+// The recording's own transforms and the options', each kind given once, applied to its poses.
+PoseTransforms apply_replay_transforms(Recording& rec, const std::string& path, const ReplayTransformOptions& opt,
+                                       const SceneSpec& scene) {
+  auto take = [&](std::optional<RigidTransform>& slot, const std::string& text, const char* option,
+                  const char* attribute) {
+    if (text.empty()) return;
+    if (slot)
+      throw InputError(std::string(option) + ": the recording " + path + " stores a " + attribute + " (" +
+                       describe(*slot) + "), which replay applies; applying " + option +
+                       " too would transform the poses twice: give one of them");
+    slot = parse_rigid_transform(option, text, scene.unit);
+  };
+  take(rec.transforms.world, opt.world, "--transform", "world_transform");
+  take(rec.transforms.tool, opt.tool, "--tool-transform", "tool_transform");
+  const PoseTransforms applied = rec.transforms;
+  apply_stored_transforms(rec, path);
+  return applied;
+}
+
+}  // namespace
 
 std::string resolve_recording_path(const std::string& name_or_path) {
   return resolve_data_path(name_or_path, "recordings", ".h5", "recording").string();
@@ -21,24 +44,23 @@ std::vector<RoleFile> replay_input_files(const std::string& scene, const std::st
 LoadedReplay load_replay_inputs(const std::string& scene, const std::string& recording,
                                 const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                 std::optional<double> physical_hz, bool allow_outside,
-                                Backend backend) {
+                                Backend backend, const ReplayTransformOptions& transforms) {
   LoadedReplay r;
   r.recording_path = resolve_recording_path(recording);
   r.recording = read_recording(r.recording_path);
   Scene s = load_scene(resolve_scene_path(scene), overrides);
+  r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, s.spec);
   const double hz_h = haptic_hz.value_or(s.spec.haptic_hz), hz_p = physical_hz.value_or(s.spec.physical_hz);
+  const BoundingBox box = bounding_box(s.physical.vertices);
   if (!allow_outside) {
-    Vec3d lo = s.physical.vertices.front(), hi = lo;
-    for (const Vec3d& p : s.physical.vertices) {
-      lo = cwise_min(lo, p);
-      hi = cwise_max(hi, p);
-    }
     // The tool's handle may start well away from the tissue; a unit mistake (cm or mm read as
     // m) puts it tens to thousands of scene sizes away.
-    const double margin = std::max(norm(hi - lo), 0.1);
-    if (auto err = check_recording_in_scene(r.recording, lo, hi, margin))
+    const double margin = std::max(box.diagonal(), 0.1);
+    if (auto err = check_recording_in_scene(r.recording, box.lo, box.hi, margin))
       throw InputError(r.recording_path + ": " + *err + " (a unit mistake? --allow-outside accepts it)");
   }
+  if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
+    r.warnings.push_back(r.recording_path + ": " + *w);
   r.world = build_world(std::move(s), hz_h, hz_p, backend);
   return r;
 }

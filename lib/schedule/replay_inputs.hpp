@@ -12,10 +12,18 @@
 
 namespace ebh {
 
+/// A replay's --transform and --tool-transform as given: "x,y,z,rx,ry,rz", translation in the
+/// scene's length unit (its `unit` key), rotation vector in degrees; empty: not given.
+struct ReplayTransformOptions {
+  std::string world, tool;
+};
+
 struct LoadedReplay {
   std::shared_ptr<const World> world;
-  Recording recording;
+  Recording recording;             ///< poses in ebh's frames: every transform applied, none left stored
   std::string recording_path;
+  PoseTransforms transforms;       ///< what was applied to the recording's poses (options or its attributes)
+  std::vector<std::string> warnings;  ///< one line each ("REC: ..."): the unit sanity check
 };
 
 /// Resolves a recording argument: an existing file, else recordings/NAME.h5 looked up in
@@ -30,11 +38,15 @@ std::vector<RoleFile> replay_input_files(const std::string& scene, const std::st
                                          const std::vector<std::string>& overrides);
 
 /// Loads scene (name or path) with --set overrides, builds the world at the given rates (the
-/// scene's when empty), reads the recording and checks that it lies near the scene (unless
-/// allow_outside). Throws InputError on any bad input.
+/// scene's when empty), reads the recording, maps its poses to ebh's frames and checks that it
+/// lies near the scene (unless allow_outside). Throws InputError on any bad input.
+/// The poses get the world and tool transforms (io/pose_transform.hpp) of the recording's
+/// attributes and of `transforms`, each applied once: a recording that stores a tool (world)
+/// transform and a --tool-transform (--transform) option is an error, since applying both would
+/// move the tool twice. The unit sanity check (check_recording_scale) adds its line to warnings.
 LoadedReplay load_replay_inputs(const std::string& scene, const std::string& recording,
                                 const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                 std::optional<double> physical_hz, bool allow_outside,
-                                Backend backend = Backend::Cpu);
+                                Backend backend = Backend::Cpu, const ReplayTransformOptions& transforms = {});
 
 }  // namespace ebh

@@ -112,6 +112,11 @@ void write_provenance(h5::File& f, const World& w, const ReplayMetadata& meta) {
   }
   f.set_attr("overrides", overrides);
   f.set_attr("overrides_list", overrides_list);
+  // The options as given (to replay again with them) and what was applied, in a recording's layout.
+  f.set_attr("transform_option", meta.transforms.world);
+  f.set_attr("tool_transform_option", meta.transforms.tool);
+  if (meta.applied.world) f.set_attr("world_transform", to_attribute(*meta.applied.world));
+  if (meta.applied.tool) f.set_attr("tool_transform", to_attribute(*meta.applied.tool));
   f.set_attr("start", meta.start);
   f.set_attr("duration", meta.duration);
   f.set_attr("frames_hz", meta.frames_hz);

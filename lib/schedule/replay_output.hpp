@@ -10,7 +10,7 @@
 //   /mesh/{virtual_rest, virtual_triangles, physical_rest, physical_tets, physical_boundary}
 //   root attributes: what makes the run traceable and repeatable (docs/FORMATS.md): the absolute
 //   path and SHA-256 of every input file, the resolved scene as YAML (scene_yaml), the --set
-//   overrides, the replayed window, mode, backend, device, version, commit, build type, compiler,
+//   overrides, the pose transforms, the replayed window, mode, backend, device, version, commit, build type, compiler,
 //   threads, every parameter of the scene (stiffness, solver, tool geometry in metres, rates) and
 //   the pinned regions.
 #include <cstdint>
@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "io/h5.hpp"
+#include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace ebh {
@@ -32,6 +33,8 @@ struct ReplayMetadata {
   std::string backend = "cpu";
   std::string device;             ///< e.g. the CPU model
   std::vector<std::string> overrides;  ///< --set key=value, as given
+  ReplayTransformOptions transforms;   ///< --transform, --tool-transform, as given
+  PoseTransforms applied;              ///< what the recording's poses got (options or its attributes)
 };
 
 /// The largest output a replay writes (docs/FORMATS.md, Limits). Mesh snapshots go to the file as

@@ -149,7 +149,9 @@ ValidationResult run_stability(const ValidationOptions& options) {
   double max_penetration = 0, max_rms = 0;
   Json rows = Json::array();
   for (const std::string& name : recordings) {
-    const Recording rec = read_recording(resolve_recording_path(name));
+    const std::string path = resolve_recording_path(name);
+    Recording rec = read_recording(path);
+    apply_stored_transforms(rec, path);
     for (double q : qualities)
       for (double k : stiffnesses) {
         // The direct solve on the same mesh, stiffness and motions: the force reference.

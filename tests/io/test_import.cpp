@@ -57,7 +57,7 @@ TEST(Import, CsvLogMatchesTheKnownTrajectory) {
 
 TEST(Import, TransformMapsTheLogFrameToTheWorld) {
   ImportOptions opt;
-  parse_transform("0,0,10,0,0,90", parse_length_unit("mm"), opt);
+  opt.transforms.world = parse_rigid_transform("--transform", "0,0,10,0,0,90", parse_length_unit("mm"));
   Recording r = import_log(kData + "sample_openhaptics.txt", opt);
   Quatd rz = quat_from_rotvec(Vec3d{0, 0, std::numbers::pi / 2});
   for (std::size_t i = 0; i < r.size(); ++i) {
@@ -73,7 +73,7 @@ TEST(Import, UnitOptionScalesPositions) {
   Recording r = import_log(kData + "sample_openhaptics.txt", opt);
   EXPECT_NEAR(norm(r.position[0] - 10.0 * known_position(0)), 0, 1e-12);
   EXPECT_INPUT_ERROR(parse_length_unit("inch"), "--unit", "inch");
-  EXPECT_INPUT_ERROR(parse_transform("1,2,3", 1.0, opt), "--transform", "6");
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "1,2,3", 1.0), "--transform", "6");
 }
 
 TEST(Import, DefectsNameFileAndLine) {

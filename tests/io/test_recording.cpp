@@ -210,6 +210,69 @@ TEST(SceneCheck, FlagsATrajectoryFarOutside) {
   EXPECT_NE(msg->find("mm or cm"), std::string::npos) << *msg;
 }
 
+// Unit sanity: a path against a 10 cm mesh at the origin, read in the right unit and in others.
+namespace {
+Recording press_path(double metres_per_unit) {
+  // 3 cm above the mesh's top, pressing 1 cm into it, 2 cm sideways: logged in cm.
+  Recording r = make_recording(3);
+  r.position = {Vec3d{0, 0, 8}, Vec3d{0, 0, 4}, Vec3d{2, 0, 4}};
+  for (Vec3d& p : r.position) p *= metres_per_unit;
+  return r;
+}
+const Vec3d kLo{-0.05, -0.05, -0.05}, kHi{0.05, 0.05, 0.05};  // diagonal 0.173 m
+}  // namespace
+
+TEST(UnitSanity, APathInTheRightUnitFits) {
+  EXPECT_FALSE(check_recording_scale(press_path(1e-2), kLo, kHi, 1e-2).has_value());
+  EXPECT_FALSE(check_recording_scale(press_path(1e-2), kLo, kHi, std::nullopt).has_value());
+}
+
+TEST(UnitSanity, ALogReadInTheWrongUnitNamesTheRightOne) {
+  // cm read as m: 100x too large and far away; at import the fix is the option.
+  auto w = check_recording_scale(press_path(1.0), kLo, kHi, 1.0);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("the tool path spans 4.47 m, 25.8x the physical mesh's bounding-box diagonal (0.173 m)"),
+            std::string::npos) << *w;
+  EXPECT_NE(w->find("likely fix: --unit cm"), std::string::npos) << *w;
+  // The same recording at replay, where the unit the log was read with is not known.
+  w = check_recording_scale(press_path(1.0), kLo, kHi, std::nullopt);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("likely fix: the log is in cm, not m: ebh import --unit cm"), std::string::npos) << *w;
+  // m read as mm: 1/1000 the size, a dot inside the mesh.
+  w = check_recording_scale(press_path(1e-5), kLo, kHi, 1e-3);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("spans 4.47e-05 m, 1/3.87e+03 of the physical mesh's"), std::string::npos) << *w;
+  EXPECT_NE(w->find("likely fix: --unit m"), std::string::npos) << *w;
+}
+
+TEST(UnitSanity, AToolThatNeverMovesIsJudgedByItsPlaceAlone) {
+  Recording r = press_path(1e-2);
+  for (Vec3d& p : r.position) p = Vec3d{0, 0, 0.08};
+  EXPECT_FALSE(check_recording_scale(r, kLo, kHi, 1e-2).has_value());
+  for (Vec3d& p : r.position) p = Vec3d{0, 0, 0.8};
+  auto w = check_recording_scale(r, kLo, kHi, 1e-2);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("stays at least 0.75 m"), std::string::npos) << *w;
+  EXPECT_NE(w->find("likely fix: --transform"), std::string::npos) << *w;
+}
+
+TEST(UnitSanity, APathFarFromTheMeshAsksForAWorldTransform) {
+  // The right size, 1 m away: no unit brings it to the mesh; placing the workspace does.
+  Recording r = press_path(1e-2);
+  for (Vec3d& p : r.position) p += Vec3d{1, 0, 0};
+  auto w = check_recording_scale(r, kLo, kHi, 1e-2);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("stays at least 0.95 m (5.48 mesh diagonals of 0.173 m) away from the physical mesh's bounding "
+                    "box, starting at (1, 0, 0.08) m"),
+            std::string::npos) << *w;
+  EXPECT_NE(w->find("likely fix: --transform placing the device's workspace at the mesh (the mesh's centre is (-1.01, "
+                    "0, -0.06) m from the path's)"),
+            std::string::npos) << *w;
+  // Just inside 2 diagonals: no warning.
+  for (Vec3d& p : r.position) p += Vec3d{-1 + 0.05 + 0.34, 0, -0.08};
+  EXPECT_FALSE(check_recording_scale(r, kLo, kHi, 1e-2).has_value());
+}
+
 TEST(Recording, OneSampleIsNotATrajectory) {
   // A replay needs a duration: the message names the file and says so (it used to blame a
   // --start that was never given).

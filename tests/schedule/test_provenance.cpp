@@ -33,16 +33,17 @@ std::vector<std::string> lines(const std::string& s) {
   return out;
 }
 
-/// Replays SCENE's tube_insert window 2.8 .. 2.85 s with `overrides` into DIR/out.h5, then
-/// reproduces it from nothing but the output's attributes and the files they name, and checks that
-/// every tick's force is the same bits.
+/// Replays SCENE's tube_insert window 2.8 .. 2.85 s with `overrides` and the pose `transforms` into
+/// DIR/out.h5, then reproduces it from nothing but the output's attributes and the files they name,
+/// and checks that every tick's force is the same bits.
 void expect_reproduced_from_output(const std::string& scene, const std::vector<std::string>& overrides,
-                                   const std::filesystem::path& dir) {
+                                   const std::filesystem::path& dir, const ReplayTransformOptions& transforms = {}) {
   std::filesystem::create_directories(dir);
   const std::string out = (dir / "out.h5").string();
   std::filesystem::remove(out);
   {
-    const LoadedReplay in = load_replay_inputs(scene, "tube_insert", overrides, std::nullopt, std::nullopt, false);
+    const LoadedReplay in =
+        load_replay_inputs(scene, "tube_insert", overrides, std::nullopt, std::nullopt, false, Backend::Cpu, transforms);
     ReplayOptions opt;
     opt.start = 2.8;
     opt.duration = 0.05;
@@ -52,6 +53,8 @@ void expect_reproduced_from_output(const std::string& scene, const std::vector<s
     meta.duration = opt.duration;
     meta.mode = mode_name(opt.mode);
     meta.overrides = overrides;
+    meta.transforms = transforms;
+    meta.applied = in.transforms;
     ReplayWriter writer(out, *in.world, meta, tick_count(*in.world, opt.duration), false);
     writer.commit(replay(*in.world, in.recording, opt, writer));
   }
@@ -64,17 +67,30 @@ void expect_reproduced_from_output(const std::string& scene, const std::vector<s
     EXPECT_EQ(sha256_file(path), f.attr_string(std::string(key) + "_sha256")) << key << " changed since the replay";
   }
   EXPECT_EQ(lines(f.attr_string("overrides_list")), overrides);
+  // The transforms: the options as given, and what the poses got (absent when nothing).
+  EXPECT_EQ(f.attr_string("transform_option"), transforms.world);
+  EXPECT_EQ(f.attr_string("tool_transform_option"), transforms.tool);
+  EXPECT_EQ(f.has_attr("world_transform"), !transforms.world.empty());
+  EXPECT_EQ(f.has_attr("tool_transform"), !transforms.tool.empty());
 
   // The scene from the stored YAML alone: a complete scene file with absolute mesh paths.
   const std::string yaml = f.attr_string("scene_yaml");
   const auto scene_copy = dir / "resolved.yaml";
   std::ofstream(scene_copy) << yaml;
-  const LoadedReplay again =
-      load_replay_inputs(scene_copy.string(), f.attr_string("recording"), {}, std::nullopt, std::nullopt, false);
+  const ReplayTransformOptions options{f.attr_string("transform_option"), f.attr_string("tool_transform_option")};
+  const LoadedReplay again = load_replay_inputs(scene_copy.string(), f.attr_string("recording"), {}, std::nullopt,
+                                                std::nullopt, false, Backend::Cpu, options);
   EXPECT_EQ(resolved_scene_yaml(again.world->scene.spec), yaml);  // every key reloads to the same value
   // The stored path and overrides resolve to the same scene.
   EXPECT_EQ(resolved_scene_yaml(load_scene_spec(f.attr_string("scene_file"), lines(f.attr_string("overrides_list")))),
             yaml);
+  // The applied transforms, stored in a recording's layout, are the ones the reproduction applies.
+  if (again.transforms.world) {
+    EXPECT_EQ(f.attr_doubles("world_transform"), to_attribute(*again.transforms.world));
+  }
+  if (again.transforms.tool) {
+    EXPECT_EQ(f.attr_doubles("tool_transform"), to_attribute(*again.transforms.tool));
+  }
 
   ReplayOptions opt;
   opt.mode = parse_mode(f.attr_string("mode"));
@@ -132,4 +148,12 @@ TEST(ReplayProvenance, AScenePlacedByMeshUnitAndTransformIsReproducedBitForBit) 
   const std::string yaml = f.attr_string("scene_yaml");
   for (const char* key : {"unit: cm", "scale: 0.10000000000000001", "rotvec_deg: [0.01", "unit: mm"})
     EXPECT_NE(yaml.find(key), std::string::npos) << key << " missing from\n" << yaml;
+}
+
+// Pose transforms on replay: the hook turned 30 degrees about its shaft and the workspace moved
+// 0.2 mm (the scene's unit) along x; it still touches the bore's wall. The reproduction takes the
+// options from the output.
+TEST(ReplayProvenance, AReplayWithPoseTransformsIsReproducedBitForBit) {
+  const auto dir = std::filesystem::temp_directory_path() / "ebh_test_provenance_transforms";
+  expect_reproduced_from_output("tube", {"stiffness.k_con=500"}, dir, {"0.2,0,0,0,0,0", "0,0,0,0,0,30"});
 }

@@ -1,7 +1,10 @@
 // `ebh import LOG -o REC.h5 [--format openhaptics|csv] [--rate HZ] [--unit m|cm|mm]
-//  [--transform "tx,ty,tz,rx,ry,rz"] [--scene NAME] [--tool hook|forceps] [--drop-repeats]`: a device log
-// (OpenHaptics-style transforms or CSV) into a recording. Formats: docs/FORMATS.md.
+//  [--transform "tx,ty,tz,rx,ry,rz"] [--tool-transform "x,y,z,rx,ry,rz"] [--scene NAME]
+//  [--tool hook|forceps] [--drop-repeats]`: a device log (OpenHaptics-style transforms or CSV) into
+// a recording, its poses mapped to ebh's frames. With --scene, the path is checked against the
+// scene's physical mesh (unit sanity, a warning). Formats: docs/FORMATS.md.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -18,7 +21,7 @@
 namespace {
 
 struct ImportArgs {
-  std::string log, output, format, unit, transform, scene, tool = "hook";
+  std::string log, output, format, unit, transform, tool_transform, scene, tool = "hook";
   std::optional<double> rate_hz;
   bool drop_repeats = false;
 };
@@ -30,9 +33,10 @@ void run(const ImportArgs& a) {
   else if (!a.format.empty()) throw ebh::InputError("--format: '" + a.format + "' is not openhaptics or csv");
   if (a.tool != "hook" && a.tool != "forceps") throw ebh::InputError("--tool: '" + a.tool + "' is not hook or forceps");
   // The recording names the scene it is replayed with: a known scene name or a scene file.
+  std::filesystem::path scene_file;
   if (!a.scene.empty()) {
     try {
-      ebh::resolve_scene_path(a.scene);
+      scene_file = ebh::resolve_scene_path(a.scene);
     } catch (const ebh::InputError& e) {
       throw ebh::InputError(std::string("--scene: ") + e.what());
     }
@@ -40,12 +44,16 @@ void run(const ImportArgs& a) {
   ebh::check_outputs({{a.output, "the recording to write"}}, {{a.log, "the log"}});
   opt.rate_hz = a.rate_hz;
   if (!a.unit.empty()) opt.unit = ebh::parse_length_unit(a.unit);
-  if (!a.transform.empty()) {
-    // The transform's translation is in the log's unit (its format's default when --unit is absent).
-    bool csv = opt.format ? *opt.format == ebh::LogFormat::csv
-                          : a.log.size() >= 4 && a.log.compare(a.log.size() - 4, 4, ".csv") == 0;
-    ebh::parse_transform(a.transform, opt.unit ? *opt.unit : (csv ? 1.0 : 1e-3), opt);
-  }
+  // The transforms' translations are in the log's unit (its format's default when --unit is absent).
+  const bool csv = opt.format ? *opt.format == ebh::LogFormat::csv
+                              : a.log.size() >= 4 && a.log.compare(a.log.size() - 4, 4, ".csv") == 0;
+  const double log_unit = opt.unit ? *opt.unit : (csv ? 1.0 : 1e-3);
+  if (!a.transform.empty()) opt.transforms.world = ebh::parse_rigid_transform("--transform", a.transform, log_unit);
+  if (!a.tool_transform.empty())
+    opt.transforms.tool = ebh::parse_rigid_transform("--tool-transform", a.tool_transform, log_unit);
+  // The scene's physical mesh, for the unit sanity check (loaded before any output is written).
+  std::optional<ebh::BoundingBox> mesh_box;
+  if (!scene_file.empty()) mesh_box = ebh::bounding_box(ebh::load_scene(scene_file).physical.vertices);
   opt.scene = a.scene;
   opt.tool = a.tool;
   opt.drop_repeats = a.drop_repeats;
@@ -59,6 +67,9 @@ void run(const ImportArgs& a) {
   if (report.has_times && a.rate_hz)
     std::fprintf(stderr, "ebh: warning: %s: the log has a t column; --rate %s is not used\n", a.log.c_str(),
                  ebh::cli::format_number(*a.rate_hz).c_str());
+  if (mesh_box)
+    if (auto w = ebh::check_recording_scale(rec, mesh_box->lo, mesh_box->hi, log_unit))
+      std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   std::printf("%s: %zu samples, %.3f s, %.10g Hz\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz);
   if (report.dropped)
     std::printf("  dropped %zu samples that repeated the previous pose, jaw and buttons exactly\n", report.repeats);
@@ -78,6 +89,9 @@ void setup(CLI::App& root) {
   c->add_option("--unit", args->unit, "length unit of the log: m, cm or mm (default: mm openhaptics, m csv)");
   c->add_option("--transform", args->transform,
                 "log frame -> world: \"tx,ty,tz,rx,ry,rz\" (translation in the log's unit, rotation vector in degrees)");
+  c->add_option("--tool-transform", args->tool_transform,
+                "log tool frame -> ebh's, applied in the tool's frame (p' = p + q t, q' = q q_T): \"x,y,z,rx,ry,rz\" "
+                "(translation in the log's unit, rotation vector in degrees)");
   c->add_option("--scene", args->scene, "scenario to replay it with (root attribute scene)");
   c->add_option("--tool", args->tool, "hook or forceps")->capture_default_str();
   c->add_flag("--drop-repeats", args->drop_repeats,

@@ -30,6 +30,7 @@ struct ReplayArgs {
   double start = 0;
   std::vector<std::string> overrides;
   std::string render_dir;
+  ReplayTransformOptions transforms;
   bool allow_outside = false, quiet = false;
 };
 
@@ -86,7 +87,7 @@ void run_replay(const ReplayArgs& a) {
                           !std::filesystem::is_directory(a.render_dir, ec))
     throw InputError("--render " + a.render_dir + ": not a folder");
   LoadedReplay in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz,
-                                       a.allow_outside, backend);
+                                       a.allow_outside, backend, a.transforms);
   const World& world = *in.world;
   for (const std::string& w : world.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
   const double length = in.recording.duration();
@@ -119,6 +120,10 @@ void run_replay(const ReplayArgs& a) {
   if (backend == Backend::Cuda) meta.device = cuda_device_description() + " + " + meta.device;
 #endif
   meta.overrides = a.overrides;
+  meta.transforms = a.transforms;
+  meta.applied = in.transforms;
+  // After the checks that refuse the replay: a refused one says one line, its error.
+  for (const std::string& w : in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
   install_interrupt_handlers();
   ReplayWriter writer(a.out, world, meta, ticks, opt.frames_hz > 0);
   Progress progress(ticks, !a.quiet && isatty(STDERR_FILENO));
@@ -170,6 +175,12 @@ void setup(CLI::App& root) {
   c->add_option("--duration", args->duration, "Replay only S seconds (default: the rest of the recording)")
       ->check(finite_number(0, kNoUpperLimit, true));
   c->add_option("--set", args->overrides, "Override a scene key: --set stiffness.k_con=800 (repeatable)");
+  c->add_option("--transform", args->transforms.world,
+                "Device workspace -> scene, on the left: \"tx,ty,tz,rx,ry,rz\" (translation in the scene's unit, "
+                "rotation vector in degrees)");
+  c->add_option("--tool-transform", args->transforms.tool,
+                "Device tool frame -> ebh's, on the right (in the tool's frame): \"x,y,z,rx,ry,rz\" (the scene's "
+                "unit, degrees)");
   c->add_option("--render", args->render_dir, "Also render the frames to PNG files in DIR (needs OSMesa)");
   c->add_flag("--allow-outside", args->allow_outside, "Accept a trajectory far outside the scene");
   c->add_flag("-q,--quiet", args->quiet, "No progress bar and no summary");

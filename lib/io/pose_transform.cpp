@@ -1,0 +1,58 @@
+#include "io/pose_transform.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include "io/error.hpp"
+#include "io/recording.hpp"
+
+namespace ebh {
+
+void apply_pose_transforms(const PoseTransforms& tr, std::vector<Vec3d>& position, std::vector<Quatd>& orientation) {
+  for (std::size_t i = 0; i < position.size(); ++i) {
+    Vec3d p = position[i];
+    Quatd q = orientation[i];
+    if (tr.tool) {  // in the tool's own frame: the offset turns with the tool
+      p = p + rotate(q, tr.tool->translation);
+      q = q * tr.tool->rotation;
+    }
+    if (tr.world) {
+      p = rotate(tr.world->rotation, p) + tr.world->translation;
+      q = tr.world->rotation * q;
+    }
+    position[i] = p;
+    orientation[i] = q;
+  }
+}
+
+std::string describe(const RigidTransform& t) {
+  const Vec3d r = rotvec_from_quat(t.rotation) * (180.0 / std::numbers::pi);
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "translation (%.6g, %.6g, %.6g) m, rotation vector (%.6g, %.6g, %.6g) deg",
+                t.translation.x, t.translation.y, t.translation.z, r.x, r.y, r.z);
+  return buf;
+}
+
+std::vector<double> to_attribute(const RigidTransform& t) {
+  return {t.translation.x, t.translation.y, t.translation.z, t.rotation.w, t.rotation.x, t.rotation.y, t.rotation.z};
+}
+
+RigidTransform from_attribute(const std::vector<double>& v, const std::string& where, const std::string& name) {
+  const std::string at = where + ": attribute " + name + ": ";
+  if (v.size() != 7)
+    throw InputError(at + std::to_string(v.size()) +
+                     " numbers, expected 7 (tx, ty, tz in metres, then the unit quaternion qw, qx, qy, qz)");
+  for (std::size_t i = 0; i < 7; ++i)
+    if (!std::isfinite(v[i])) throw InputError(at + "value " + std::to_string(i) + " is NaN or Inf");
+  Quatd q{v[3], v[4], v[5], v[6]};
+  const double n = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  if (std::abs(n - 1.0) > kQuatNormTolerance) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9g", n);
+    throw InputError(at + "quaternion norm " + buf + " is not 1 (is it (w, x, y, z)?)");
+  }
+  return RigidTransform{{v[0], v[1], v[2]}, Quatd{q.w / n, q.x / n, q.y / n, q.z / n}};
+}
+
+}  // namespace ebh

@@ -255,8 +255,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   rec.scene = opt.scene;
   rec.tool = opt.tool;
   rec.description = std::string("imported from ") + path + " (" + (fmt == LogFormat::csv ? "csv" : "openhaptics") + ")";
-  // What was baked into the poses, for a reader; never applied again (the attributes that replay
-  // applies are world_transform and tool_transform, which import does not write).
+  // What was baked into the poses, for a reader (rec.baked is the record replay checks).
   if (opt.transforms.tool) rec.description += "; tool transform " + describe(*opt.transforms.tool) + " applied";
   if (opt.transforms.world) rec.description += "; world transform " + describe(*opt.transforms.world) + " applied";
   // The rate as given, or as the log's own times say (of every sample, repeats included).
@@ -267,6 +266,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // On unit quaternions (the validator normalised them); turning every sample by the same
   // rotations keeps consecutive ones in the same hemisphere, and equal samples equal.
   apply_pose_transforms(opt.transforms, rec.position, rec.orientation);
+  rec.baked = opt.transforms;
 
   ImportReport r;
   r.has_times = has_t;

@@ -14,8 +14,9 @@
 // Positions are scaled by the unit (openhaptics default mm, csv default m), then the optional
 // tool and world transforms are applied to every pose (io/pose_transform.hpp):
 // p' = R_w (p + q t_T) + t_w, q' = q_w q q_T. They are baked into the poses: the recording holds
-// poses in ebh's world and tool frames and carries no transform attribute, so a replay cannot
-// apply them again.
+// poses in ebh's world and tool frames, records them as baked_* attributes (never applied) and
+// stores none to apply, so a replay cannot apply them again (and refuses an option of the same
+// kind).
 #include <optional>
 #include <string>
 

@@ -95,10 +95,16 @@ Recording read_recording(const std::string& path) {
   rec.tool = f.attr_string("tool");
   rec.description = f.attr_string("description");
   if (f.has_attr("generator")) rec.generator = f.attr_string("generator");
-  if (f.has_attr("world_transform"))
-    rec.transforms.world = from_attribute(f.attr_doubles("world_transform"), path, "world_transform");
-  if (f.has_attr("tool_transform"))
-    rec.transforms.tool = from_attribute(f.attr_doubles("tool_transform"), path, "tool_transform");
+  for (const char* kind : {"world", "tool"}) {
+    const std::string name = std::string(kind) + "_transform", baked = "baked_" + name;
+    auto& apply = kind[0] == 'w' ? rec.transforms.world : rec.transforms.tool;
+    auto& done = kind[0] == 'w' ? rec.baked.world : rec.baked.tool;
+    if (f.has_attr(name)) apply = from_attribute(f.attr_doubles(name), path, name);
+    if (f.has_attr(baked)) done = from_attribute(f.attr_doubles(baked), path, baked);
+    if (apply && done)
+      throw InputError(path + ": attributes " + name + " and " + baked + ": a " + kind +
+                       " transform both still to apply and already in the poses; keep one");
+  }
 
   // A dataset may declare its unit; positions must be in metres (DESIGN §3: SI inside and in files).
   h5::Dataset pd = g.dataset("position");
@@ -143,12 +149,16 @@ void write_recording(const std::string& path, const Recording& rec_in) {
   if (!rec.generator.empty()) f.set_attr("generator", rec.generator);
   if (rec.transforms.world) f.set_attr("world_transform", to_attribute(*rec.transforms.world));
   if (rec.transforms.tool) f.set_attr("tool_transform", to_attribute(*rec.transforms.tool));
+  if (rec.baked.world) f.set_attr("baked_world_transform", to_attribute(*rec.baked.world));
+  if (rec.baked.tool) f.set_attr("baked_tool_transform", to_attribute(*rec.baked.tool));
   out.commit();
 }
 
 void apply_stored_transforms(Recording& rec, const std::string& file) {
   if (rec.transforms.empty()) return;
   apply_pose_transforms(rec.transforms, rec.position, rec.orientation);
+  if (rec.transforms.world) rec.baked.world = rec.transforms.world;
+  if (rec.transforms.tool) rec.baked.tool = rec.transforms.tool;
   rec.transforms = {};
   validate_recording(rec, file, [&file](std::string_view ds, std::size_t i) {
     return file + ": " + std::string(ds) + "[" + std::to_string(i) + "] after the pose transforms";

@@ -8,7 +8,8 @@
 //   root attributes: rate_hz, source ("synthetic" | "device"), scene, tool, description
 //   (optional: generator — the command that made the file; world_transform, tool_transform —
 //    (7,) float64 tx ty tz (m) qw qx qy qz: the poses are still in a device's frames and replay
-//    maps them with p' = R_w (p + q t_T) + t_w, q' = q_w q q_T; io/pose_transform.hpp)
+//    maps them with p' = R_w (p + q t_T) + t_w, q' = q_w q q_T; io/pose_transform.hpp;
+//    baked_world_transform, baked_tool_transform — the same layout: already in the poses)
 // Every dataset has a `unit` attribute. See docs/FORMATS.md.
 #include <cstdint>
 #include <functional>
@@ -38,6 +39,10 @@ struct Recording {
   /// in a device's frames until replay applies them and clears this (schedule/replay_inputs.hpp),
   /// so no pose is transformed twice. `ebh import` bakes its transforms instead and leaves it empty.
   PoseTransforms transforms;
+  /// Transforms already in the poses (attributes baked_world_transform, baked_tool_transform): a
+  /// record, never applied; replay refuses an option of the same kind, which would apply a second
+  /// one. `ebh import` writes what it baked; applying `transforms` moves them here.
+  PoseTransforms baked;
 
   std::size_t size() const { return t.size(); }
   double duration() const { return t.empty() ? 0.0 : t.back() - t.front(); }
@@ -77,9 +82,9 @@ Recording read_recording(const std::string& path);
 /// Validates and writes a recording atomically (temporary name, renamed when complete).
 void write_recording(const std::string& path, const Recording& rec);
 
-/// Applies the recording's stored transforms (rec.transforms) to its poses and clears them:
-/// afterwards the poses are in ebh's frames and nothing is left to apply a second time. The
-/// result is validated again (a huge translation overflows), messages naming `file`.
+/// Applies the recording's stored transforms (rec.transforms) to its poses and moves them to
+/// rec.baked: afterwards the poses are in ebh's frames and nothing is left to apply a second time.
+/// The result is validated again (a huge translation overflows), messages naming `file`.
 void apply_stored_transforms(Recording& rec, const std::string& file);
 
 /// Spherical linear interpolation on the shortest arc, s in [0, 1].

@@ -191,6 +191,17 @@ std::string contact_warning(std::size_t contact_ticks, std::size_t ticks) {
   return b;
 }
 
+std::string start_warning(double depth) {
+  if (!(depth > 0)) return "";
+  char b[300];
+  std::snprintf(b, sizeof b,
+                "the physical tool starts inside the tissue (%.3g mm deep at the first tick); a device log starts "
+                "with the tool free of it: is the tool frame flipped or the tip offset wrong? (--tool-transform, "
+                "docs/OWN_DATA.md)",
+                1e3 * depth);
+  return b;
+}
+
 ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt) {
   ForceMetrics m;
   m.path = tr.path;

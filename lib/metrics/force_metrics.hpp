@@ -103,6 +103,13 @@ inline constexpr double kLowContactFraction = 0.01;
 /// them, empty otherwise (and for a run of no ticks). `ebh replay` and `ebh metrics` say it.
 std::string contact_warning(std::size_t contact_ticks, std::size_t ticks);
 
+/// A replay from a recording's first sample whose physical tool starts inside the tissue (its
+/// depth at the first tick, penetration_physical, m, > 0): "the physical tool starts inside the
+/// tissue (1.3 mm deep at the first tick): ..." naming the likely fix, a tool transform (a device
+/// log starts with the tool free; a tool frame left flipped puts the shaft through the tissue).
+/// Empty when it starts free. `ebh replay` says it.
+std::string start_warning(double first_tick_penetration_physical);
+
 /// Contact episodes: maximal runs of ticks with contacts > 0, two runs merged when the
 /// contact-free gap between them lasts less than merge_gap_s (gap ticks / H). Pairs of tick
 /// indices [first, last], inclusive.

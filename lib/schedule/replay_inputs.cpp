@@ -9,17 +9,21 @@ namespace {
 // The recording's own transforms and the options', each kind given once, applied to its poses.
 PoseTransforms apply_replay_transforms(Recording& rec, const std::string& path, const ReplayTransformOptions& opt,
                                        const SceneSpec& scene) {
-  auto take = [&](std::optional<RigidTransform>& slot, const std::string& text, const char* option,
-                  const char* attribute) {
+  auto take = [&](std::optional<RigidTransform>& slot, const std::optional<RigidTransform>& baked,
+                  const std::string& text, const char* option, const char* attribute) {
     if (text.empty()) return;
     if (slot)
       throw InputError(std::string(option) + ": the recording " + path + " stores a " + attribute + " (" +
                        describe(*slot) + "), which replay applies; applying " + option +
                        " too would transform the poses twice: give one of them");
+    if (baked)
+      throw InputError(std::string(option) + ": the recording " + path + "'s poses already include a " + attribute +
+                       " (baked_" + attribute + ": " + describe(*baked) + ", applied when it was made); applying " +
+                       option + " too would transform them twice: import the log again with the transform you want");
     slot = parse_rigid_transform(option, text, scene.unit);
   };
-  take(rec.transforms.world, opt.world, "--transform", "world_transform");
-  take(rec.transforms.tool, opt.tool, "--tool-transform", "tool_transform");
+  take(rec.transforms.world, rec.baked.world, opt.world, "--transform", "world_transform");
+  take(rec.transforms.tool, rec.baked.tool, opt.tool, "--tool-transform", "tool_transform");
   const PoseTransforms applied = rec.transforms;
   apply_stored_transforms(rec, path);
   return applied;

@@ -80,6 +80,8 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t clamped_ticks() const { return clamped_; }
   std::int64_t contact_ticks() const { return in_contact_; }  ///< ticks with contacts > 0
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
+  /// The physical tool's depth in the tissue at the first tick (m; 0 before any tick).
+  double first_penetration_physical() const { return pen_h_.empty() ? 0.0 : pen_h_.front(); }
 
  private:
   h5::AtomicFile out_;

@@ -98,9 +98,9 @@ TEST(PoseTransform, OptionsAndAttributesSayWhatIsWrong) {
                      "NaN");
 }
 
-TEST(PoseTransform, ImportBakesTheTransformsAndStoresNone) {
-  // One design: `ebh import` applies its transforms to the poses and writes no transform
-  // attribute, so a replay (which applies stored ones) cannot apply them a second time.
+TEST(PoseTransform, ImportBakesTheTransformsAndStoresNoneToApply) {
+  // One design: `ebh import` applies its transforms to the poses and writes none to apply, only
+  // the record of what it baked, so a replay cannot apply them a second time.
   test::ScratchDir tmp;
   ImportOptions plain, moved;
   moved.transforms.tool = parse_rigid_transform("--tool-transform", "0,0,-40,180,0,0", 1e-3);
@@ -119,7 +119,19 @@ TEST(PoseTransform, ImportBakesTheTransformsAndStoresNone) {
   write_recording(tmp / "b.h5", b);
   const Recording r = read_recording(tmp / "b.h5");
   EXPECT_TRUE(r.transforms.empty());
+  ASSERT_TRUE(r.baked.tool && r.baked.world);
+  EXPECT_EQ(r.baked.tool->translation, (Vec3d{0, 0, -0.04}));
   EXPECT_EQ(r.position[3], b.position[3]);
+}
+
+TEST(PoseTransform, AKindBothToApplyAndBakedIsRejected) {
+  test::ScratchDir tmp;
+  Recording r = import_log(EBH_TEST_DATA_DIR "/io/sample_openhaptics.txt", ImportOptions{});
+  r.transforms.tool = RigidTransform{};
+  r.baked.tool = RigidTransform{};
+  write_recording(tmp / "both.h5", r);
+  EXPECT_INPUT_ERROR(read_recording(tmp / "both.h5"), "both.h5: attributes tool_transform and baked_tool_transform",
+                     "keep one");
 }
 
 TEST(PoseTransform, ARecordingKeepsItsStoredTransformsAndRawPoses) {

@@ -342,5 +342,12 @@ TEST(ContactWarning, SaysWhenTheToolNeverOrBarelyTouched) {
   EXPECT_EQ(contact_warning(0, 0), "");  // no ticks: nothing to say
 }
 
+TEST(StartWarning, SaysWhenThePhysicalToolStartsInsideTheTissue) {
+  EXPECT_EQ(start_warning(0.0), "");
+  EXPECT_EQ(start_warning(0.0013).rfind("the physical tool starts inside the tissue (1.3 mm deep at the first tick)", 0),
+            0u);
+  EXPECT_NE(start_warning(0.0013).find("--tool-transform"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace ebh

@@ -55,6 +55,7 @@ TEST(ReplayTransforms, ARecordingsStoredTransformIsAppliedOnceAndOnlyOnce) {
   // Applied: the poses are back in ebh's frames, and nothing is left for a second application.
   ASSERT_TRUE(in.transforms.tool.has_value());
   EXPECT_TRUE(in.recording.transforms.empty());
+  EXPECT_TRUE(in.recording.baked.tool.has_value());
   double worst = 0;
   for (std::size_t i = 0; i < in.recording.size(); ++i)
     worst = std::max(worst, norm(in.recording.position[i] - plain.recording.position[i]));
@@ -82,4 +83,9 @@ TEST(ReplayTransforms, AnImportedRecordingReplaysAsImported) {
     const Vec3d once = raw.position[i] + rotate(raw.orientation[i], Vec3d{0, 0, -0.04});
     EXPECT_LT(norm(in.recording.position[i] - once), 1e-15) << i;
   }
+  // The same tool transform given again at replay would be a second one: refused, naming the fix.
+  EXPECT_INPUT_ERROR(load(tmp / "imported.h5", {"", "0,0,-40,180,0,0"}), "--tool-transform: the recording",
+                     "imported.h5's poses already include a tool_transform", "import the log again");
+  // A world transform was not baked: it applies.
+  EXPECT_NO_THROW(load(tmp / "imported.h5", {"1,0,0,0,0,0", ""}));
 }

@@ -141,6 +141,9 @@ void run_replay(const ReplayArgs& a) {
                  "ebh: warning: %s: %lld of %lld physical steps did not converge and were redone with the direct "
                  "solve (/physical/recovered; `ebh scene info` shows the mesh's worst tets)\n",
                  a.out.c_str(), static_cast<long long>(writer.recovered_steps()), static_cast<long long>(s.steps));
+  // From the recording's first sample only: a window may well start in contact.
+  const std::string start = a.start == 0 ? start_warning(writer.first_penetration_physical()) : "";
+  if (!start.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), start.c_str());
   if (!a.quiet) {
     std::printf("%s: %s + %s, %s mode, %lld ticks, %lld physical steps\n", a.out.c_str(),
                 world.scene.spec.name.c_str(), std::filesystem::path(in.recording_path).filename().c_str(),

@@ -13,7 +13,7 @@
 namespace ebh {
 
 /// A replay's --transform and --tool-transform as given: "x,y,z,rx,ry,rz", translation in the
-/// scene's length unit (its `unit` key), rotation vector in degrees; empty: not given.
+/// scene's world unit (its top-level `unit` key), rotation vector in degrees; empty: not given.
 struct ReplayTransformOptions {
   std::string world, tool;
 };

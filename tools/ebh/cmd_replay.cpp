@@ -179,11 +179,11 @@ void setup(CLI::App& root) {
       ->check(finite_number(0, kNoUpperLimit, true));
   c->add_option("--set", args->overrides, "Override a scene key: --set stiffness.k_con=800 (repeatable)");
   c->add_option("--transform", args->transforms.world,
-                "Device workspace -> scene, on the left: \"tx,ty,tz,rx,ry,rz\" (translation in the scene's unit, "
+                "Device workspace -> scene, on the left: \"tx,ty,tz,rx,ry,rz\" (translation in the scene's world unit, "
                 "rotation vector in degrees)");
   c->add_option("--tool-transform", args->transforms.tool,
                 "Device tool frame -> ebh's, on the right (in the tool's frame): \"x,y,z,rx,ry,rz\" (the scene's "
-                "unit, degrees)");
+                "world unit, degrees)");
   c->add_option("--render", args->render_dir, "Also render the frames to PNG files in DIR (needs OSMesa)");
   c->add_flag("--allow-outside", args->allow_outside, "Accept a trajectory far outside the scene");
   c->add_flag("-q,--quiet", args->quiet, "No progress bar and no summary");

@@ -191,8 +191,8 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   SweepPlan plan;
   plan.file = file;
   std::map<std::string, YAML::Node> top;
-  for (auto& [k, v] : r.entries(root, "", {"scenes", "grid", "runs", "set", "backends", "repetitions", "mode", "start",
-                                          "duration"}))
+  for (auto& [k, v] : r.entries(root, "", {"scenes", "grid", "runs", "set", "backends", "reference_backend", "repetitions",
+                                          "mode", "start", "duration"}))
     top[k] = v;
   if (!top.count("scenes")) throw InputError(file.string() + ": key 'scenes': missing (required)");
 
@@ -206,6 +206,11 @@ SweepPlan read_sweep_plan(const fs::path& file) {
         r.fail(b, "backends", "'" + name + "' given twice");
       plan.backends.push_back(name);
     }
+  }
+  if (top.count("reference_backend")) {
+    plan.reference_backend = r.text(top["reference_backend"], "reference_backend");
+    if (plan.reference_backend != "cpu" && plan.reference_backend != "cuda")
+      r.fail(top["reference_backend"], "reference_backend", "expected cpu or cuda, got " + shown(top["reference_backend"]));
   }
   if (top.count("repetitions")) plan.repetitions = r.integer(top["repetitions"], "repetitions", 1, 1000);
   if (top.count("mode")) {
@@ -330,6 +335,7 @@ std::string resolved_plan_yaml(const SweepPlan& plan) {
     overrides(plan.set);
   }
   y << YAML::Key << "backends" << YAML::Value << YAML::Flow << plan.backends;
+  y << YAML::Key << "reference_backend" << YAML::Value << plan.reference_backend;
   y << YAML::Key << "repetitions" << YAML::Value << plan.repetitions;
   y << YAML::Key << "mode" << YAML::Value << plan.mode;
   y << YAML::Key << "start" << YAML::Value << shortest_number(plan.start);
@@ -377,7 +383,7 @@ std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
       r.recording = rec;
       r.overrides = plan.scenes[si].reference;
       r.effective = merged(plan.set, r.overrides);
-      r.backend = "cpu";
+      r.backend = plan.reference_backend;
       r.reference = true;
       r.id = r.reference_id = run_id(plan, plan.scenes[si].scene_file, rec, r.effective, r.backend, 0);
       add(std::move(r));
@@ -400,7 +406,7 @@ std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
             r.repetition = rep;
             r.reference_id = ref_id;
             r.id = run_id(plan, plan.scenes[si].scene_file, rec, r.effective, backend, rep);
-            add(std::move(r));  // the reference's own configuration on the CPU is the reference run
+            add(std::move(r));  // the reference's own configuration on its backend is the reference run
           }
     }
   return runs;

@@ -14,6 +14,8 @@
 //     - {solver.virtual_iterations: 2}
 //   set: {stiffness.k_con: 800}          # overrides of every replay, the reference's included
 //   backends: [cpu, cuda]                # default [cpu]
+//   reference_backend: cpu               # where the references run (default cpu, the reference
+//                                        #   backend; cuda compares within the device's numbers)
 //   repetitions: 1                       # replays of each configuration (timing spread)
 //   mode: async                          # async (default) or lockstep
 //   start: 0                             # s into each recording (default 0)
@@ -23,8 +25,8 @@
 // --set` would), before any replay: errors name the plan file and the key.
 //
 // A plan expands to runs: for each scene, recording, configuration (grid combination or list
-// entry), backend and repetition one replay, plus one reference replay per scene and recording on
-// the CPU. Each run has a stable id (run_id) from which its output's name is made.
+// entry), backend and repetition one replay, plus one reference replay per scene and recording
+// (on the CPU unless reference_backend says otherwise). Each run has a stable id (run_id) from which its output's name is made.
 #include <filesystem>
 #include <map>
 #include <string>
@@ -50,6 +52,7 @@ struct SweepPlan {
   std::vector<std::string> grid_keys;         ///< the keys that vary, in plan order
   Overrides set;                              ///< applied to every replay first
   std::vector<std::string> backends{"cpu"};
+  std::string reference_backend = "cpu";
   int repetitions = 1;
   std::string mode = "async";
   double start = 0;
@@ -96,10 +99,10 @@ struct SweepRun {
 std::string run_id(const SweepPlan& plan, const std::filesystem::path& scene_file, const std::filesystem::path& recording,
                    const Overrides& effective, const std::string& backend, int repetition);
 
-/// The runs of a plan: references first (one per scene and recording, CPU, repetition 0), then
-/// scene by scene, recording by recording, configuration, backend and repetition. A configuration
-/// equal to its reference (same effective overrides on the CPU, repetition 0) is that reference's
-/// run, not a second one. Throws InputError when it exceeds kMaxSweepRuns.
+/// The runs of a plan: references first (one per scene and recording, on reference_backend,
+/// repetition 0), then scene by scene, recording by recording, configuration, backend and
+/// repetition. A configuration equal to its reference (same effective overrides and backend,
+/// repetition 0) is that reference's run, not a second one. Throws InputError when it exceeds kMaxSweepRuns.
 std::vector<SweepRun> expand_plan(const SweepPlan& plan);
 
 }  // namespace ebh

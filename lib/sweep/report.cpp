@@ -94,7 +94,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], "", {}, {}, 0};
     }
     ReportGroup& g = groups[key];
-    if (row[c_ref] == "1") references[{row[c_scene], row[c_rec]}] = row[c_over];
+    if (row[c_ref] == "1") references[{row[c_scene], row[c_rec]}] = row[c_over] + " (" + row[c_backend] + ")";
     const std::string& status = row[c_status];
     if (status == "ok") {
       auto& configs = rows_of[key];
@@ -150,8 +150,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
 std::string report_markdown(const std::vector<ReportGroup>& groups) {
   std::ostringstream o;
   o << "# Run time against force error\n\n"
-       "Force error: |F - F_ref| per reference tick against the reference replay of the same scene and recording "
-       "(on the CPU). Front: the configurations that no other one beats on both wall time and RMS error.\n";
+       "Force error: |F - F_ref| per reference tick against the reference replay of the same scene and recording. Front: the configurations that no other one beats on both wall time and RMS error.\n";
   for (const ReportGroup& g : groups) {
     o << "\n## " << g.scene << " + " << g.recording << ", " << g.backend << "\n\n";
     o << "Reference: " << (g.reference.empty() ? "not in the summary" : md(g.reference)) << "\n\n";

@@ -31,7 +31,7 @@ struct ReportPoint {
 
 struct ReportGroup {
   std::string scene, recording, backend;
-  std::string reference;                 ///< the reference's overrides ("" when not in the summary)
+  std::string reference;                 ///< "OVERRIDES (BACKEND)" of the reference ("" when not in the summary)
   std::vector<ReportPoint> points;       ///< by wall time
   std::vector<std::string> failed;       ///< "ID OVERRIDES: error", one per failed run
   std::size_t pending = 0;

@@ -11,7 +11,9 @@
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -150,9 +152,16 @@ std::string read_run_failure(const fs::path& dir, const SweepRun& run) {
 int available_cores() {
   cpu_set_t set;
   CPU_ZERO(&set);
-  if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return CPU_COUNT(&set);
-  const long n = sysconf(_SC_NPROCESSORS_ONLN);
-  return n > 0 ? static_cast<int>(n) : 1;
+  int n = 0;
+  if (sched_getaffinity(0, sizeof set, &set) == 0) n = CPU_COUNT(&set);
+  if (n <= 0) n = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
+  // A Slurm task's share where the cluster does not bind tasks to cores (TaskPlugin=task/none).
+  if (const char* s = std::getenv("SLURM_CPUS_PER_TASK"); s && *s) {
+    char* end = nullptr;
+    const long c = std::strtol(s, &end, 10);
+    if (*end == '\0' && c > 0) n = std::min(n, static_cast<int>(c));
+  }
+  return n;
 }
 
 std::vector<SweepRun> task_slice(const std::vector<SweepRun>& runs, int task, int tasks) {

@@ -30,7 +30,8 @@ std::filesystem::path run_failure(const std::filesystem::path& dir, const SweepR
 /// The error line of a failed run (the first line of DIR/runs/ID.failed), or "" when it has none.
 std::string read_run_failure(const std::filesystem::path& dir, const SweepRun& run);
 
-/// The cores this process may run on (its CPU affinity: what a Slurm allocation or taskset gives).
+/// The cores this process may run on: its CPU affinity (what taskset or a Slurm allocation that
+/// binds tasks gives), at most SLURM_CPUS_PER_TASK when that is set.
 int available_cores();
 
 /// The runs that task `task` of `tasks` takes: run i when i % tasks == task (a Slurm array task's

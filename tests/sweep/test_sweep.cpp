@@ -80,6 +80,7 @@ runs:
   - {}
 )"));
   EXPECT_EQ(p.backends, std::vector<std::string>{"cpu"});
+  EXPECT_EQ(p.reference_backend, "cpu");
   EXPECT_EQ(p.repetitions, 1);
   EXPECT_EQ(p.mode, "async");
   EXPECT_EQ(p.duration, 0.0);
@@ -152,6 +153,8 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
        ":2: key 'scenes\\[0\\].reference.solver.method': on scene tube: .*expected one of"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbackends: [cpu, gpu]\n",
        ":2: key 'backends': expected cpu or cuda, got 'gpu'"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nreference_backend: gpu\n",
+       ":2: key 'reference_backend': expected cpu or cuda, got 'gpu'"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nrepetitions: 0\n",
        ":2: key 'repetitions': expected a whole number in \\[1, 1000\\], got '0'"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nduration: -1\n",
@@ -178,6 +181,16 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
     }
   }
   EXPECT_THROW((void)read_sweep_plan(scratch() / "no_such_plan.yaml"), InputError);
+}
+
+TEST(SweepPlan, CommittedExamplesLoad) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(EBH_SOURCE_DIR) / "examples" / "sweeps"))
+    if (e.path().extension() == ".yaml") {
+      EXPECT_NO_THROW((void)expand_plan(read_sweep_plan(e.path()))) << e.path();
+      ++n;
+    }
+  EXPECT_GE(n, 2);
 }
 
 TEST(SweepSlice, EveryRunInExactlyOneTask) {
@@ -262,7 +275,7 @@ TEST(SweepReport, HandMadeSummary) {
   text << in.rdbuf();
   const std::vector<ReportGroup> g = build_report(parse_csv(text.str(), file), file);
   ASSERT_EQ(g.size(), 1u);
-  EXPECT_EQ(g[0].reference, "solver.method=direct");
+  EXPECT_EQ(g[0].reference, "solver.method=direct (cpu)");
   std::vector<std::string> order, front;
   for (const ReportPoint& p : g[0].points) {
     order.push_back(p.overrides);

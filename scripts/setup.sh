@@ -23,7 +23,8 @@ BUILD_DIR=${BUILD_DIR:-build}
 JOBS=${JOBS:-$(nproc)}
 PACKAGES=(build-essential cmake ninja-build pkg-config libeigen3-dev libhdf5-dev libcli11-dev
           libgtest-dev libgmock-dev libbenchmark-dev libyaml-cpp-dev libpng-dev libosmesa6-dev
-          python3 python3-h5py python3-matplotlib python3-numpy)
+          python3 python3-h5py python3-matplotlib python3-numpy
+          slurmctld slurmd slurm-client munge)  # the last four: ebh sweep's Slurm test (tests/sweep/slurm.sh)
 
 if [ "${EBH_SKIP_APT:-0}" != 1 ]; then
   missing=()

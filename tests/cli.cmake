@@ -78,16 +78,6 @@ if(EBH_SYSTEM_PYTHON3)
       COMMAND ${EBH_SYSTEM_PYTHON3} ${PROJECT_SOURCE_DIR}/scripts/plot_forces.py ${EBH_METRICS_DATA}/press.h5
         -o ${PROJECT_BINARY_DIR}/plot_forces_press.png --labels press)
     set_tests_properties(cli.plot_forces PROPERTIES PASS_REGULAR_EXPRESSION "plot_forces_press.png" LABELS cli)
-    # scripts/sweep.py: run time against force error, 0.3 s of tube_insert in contact, K = 2 and 4.
-    add_test(NAME cli.sweep
-      COMMAND ${EBH_SYSTEM_PYTHON3} ${PROJECT_SOURCE_DIR}/scripts/sweep.py tube tube_insert
-        --key solver.virtual_iterations --values 2,4 --ebh ${EBH_BIN} -- --start 4 --duration 0.3)
-    set_tests_properties(cli.sweep PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
-      "\\| 2 \\| [0-9.]+x \\| 0\\.0[0-9]+ \\|.*\\| 4 \\| [0-9.]+x \\| 0 \\| 0 \\|")
-    add_test(NAME cli.sweep.bad_key
-      COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_SYSTEM_PYTHON3};${PROJECT_SOURCE_DIR}/scripts/sweep.py;tube;tube_insert;--key;solver.no_such;--values;1;--ebh;${EBH_BIN}"
-        "-DEXPECT=^sweep.py: ebh: error: .*key 'solver.no_such': unknown key" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-    set_tests_properties(cli.sweep.bad_key PROPERTIES LABELS cli)
   endif()
 endif()
 
@@ -480,3 +470,32 @@ add_test(NAME cli.replay.settling_says_when_it_stops_short
     --set stiffness.k_vol=30)
 set_tests_properties(cli.replay.settling_says_when_it_stops_short PROPERTIES LABELS cli
   PASS_REGULAR_EXPRESSION "warning: .*tube.yaml: \\|gravity\\| = 30.* is over 2 g.*warning: .*settling under gravity stopped at its cap of 25 static steps")
+
+# ebh sweep (lib/sweep): resumption and SIGTERM on real replays, a failed run among good ones, the
+# report's Pareto front on a hand-made summary, a bad plan, and a job array on a Slurm started on
+# localhost (skipped, saying why, where its daemons cannot start).
+set(EBH_SWEEP_OUT ${PROJECT_BINARY_DIR}/cli_sweep)
+file(MAKE_DIRECTORY ${EBH_SWEEP_OUT})
+find_program(EBH_BASH bash)
+if(EBH_BASH)
+  add_test(NAME cli.sweep.resume COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/resume.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/resume)
+  set_tests_properties(cli.sweep.resume PROPERTIES LABELS "cli;sweep" TIMEOUT 180 PASS_REGULAR_EXPRESSION "resume: ok")
+  add_test(NAME cli.sweep.slurm COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/slurm.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/slurm)
+  set_tests_properties(cli.sweep.slurm PROPERTIES LABELS "cli;sweep" TIMEOUT 150 SKIP_RETURN_CODE 77
+    PASS_REGULAR_EXPRESSION "slurm: job array [0-9]+ ran 3 runs")
+endif()
+add_test(NAME cli.sweep.report
+  COMMAND ${EBH_BIN} sweep report ${CMAKE_CURRENT_SOURCE_DIR}/data/sweep/front --plot ${EBH_SWEEP_OUT}/front.png)
+set_tests_properties(cli.sweep.report PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION
+  "\\| \\* \\| k=1 \\| 1 \\| 1 \\|.*\\|  \\| k=5 \\|.*\\| \\* \\| k=2 \\| 2 \\| 2\\.2 \\|.*\\|  \\| k=3 \\|.*\\| \\* \\| k=4 \\|.*\\| reference \\| solver\\.method=direct \\|.*failed: f k=6: the replay failed, for a reason with a comma.*1 run not run yet")
+file(WRITE ${EBH_SWEEP_OUT}/bad_plan.yaml
+  "scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\ngrid:\n  solver.no_such: [1, 2]\n")
+add_test(NAME cli.sweep.bad_plan
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;${EBH_SWEEP_OUT}/bad_plan.yaml;-o;${EBH_SWEEP_OUT}/bad"
+    "-DEXPECT=^ebh: error: .*bad_plan.yaml:4: key 'grid.solver.no_such': on scene tube: .*tube.yaml: key 'solver.no_such': unknown key"
+    -DOUTPUT=${EBH_SWEEP_OUT}/bad/summary.csv -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.sweep.report_not_a_sweep
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;report;${CMAKE_CURRENT_SOURCE_DIR}/data/sweep"
+    "-DEXPECT=^ebh: error: .*data/sweep: neither summary.csv nor plan.yaml: not a sweep's folder"
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.sweep.bad_plan cli.sweep.report_not_a_sweep PROPERTIES LABELS "cli;sweep")

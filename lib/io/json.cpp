@@ -22,6 +22,19 @@ Json& Json::push(Json value) {
   return *this;
 }
 
+std::vector<std::pair<std::string, double>> Json::numbers() const {
+  std::vector<std::pair<std::string, double>> out;
+  numbers_to(out, "");
+  return out;
+}
+
+void Json::numbers_to(std::vector<std::pair<std::string, double>>& out, const std::string& prefix) const {
+  if (const auto* d = std::get_if<double>(&v_)) out.emplace_back(prefix, *d);
+  else if (const auto* b = std::get_if<bool>(&v_)) out.emplace_back(prefix, *b ? 1.0 : 0.0);
+  else if (const auto* o = std::get_if<std::shared_ptr<Object>>(&v_))
+    for (const auto& [k, v] : **o) v.numbers_to(out, prefix.empty() ? k : prefix + "." + k);
+}
+
 static void escape(std::string& out, const std::string& s) {
   out += '"';
   for (unsigned char c : s) {

@@ -43,11 +43,17 @@ class Json {
   /// Appends to an array.
   Json& push(Json value);
 
+  /// The numbers (and booleans, as 0 and 1) of an object tree with their dotted keys, in order:
+  /// {"a": 1, "b": {"c": 2, "d": "x"}} gives [("a", 1), ("b.c", 2)]. Text, null and arrays are
+  /// left out. A table with one column per value (`ebh sweep`'s summary) uses it.
+  std::vector<std::pair<std::string, double>> numbers() const;
+
   /// Serialises; indent < 0 prints on one line. Non-finite numbers print as null.
   std::string dump(int indent = 2) const;
 
  private:
   void dump_to(std::string& out, int indent, int depth) const;
+  void numbers_to(std::vector<std::pair<std::string, double>>& out, const std::string& prefix) const;
   std::variant<std::nullptr_t, bool, double, std::string, std::shared_ptr<Array>, std::shared_ptr<Object>> v_;
 };
 

@@ -684,18 +684,44 @@ fs::path resolve_data_path(const std::string& name_or_path, const std::string& f
     if (!fs::is_regular_file(name_or_path, ec)) throw InputError(name_or_path + ": " + what + " file not found");
     return name_or_path;
   }
-  std::vector<fs::path> roots;
-  if (const char* env = std::getenv("EBH_DATA_DIR"); env && *env) roots.emplace_back(env);
-  roots.emplace_back(fs::current_path(ec));
-  roots.emplace_back(kSourceDir);
   std::string looked;
-  for (std::size_t i = 0; i < roots.size(); ++i) {
-    if (std::find(roots.begin(), roots.begin() + static_cast<long>(i), roots[i]) != roots.begin() + static_cast<long>(i)) continue;
-    const fs::path p = roots[i] / folder / (name_or_path + extension);
+  for (const fs::path& root : data_roots()) {
+    const fs::path p = root / folder / (name_or_path + extension);
     if (fs::is_regular_file(p, ec)) return p;
     looked += (looked.empty() ? "" : ", ") + p.string();
   }
   throw InputError(name_or_path + ": no such " + what + " (looked for " + looked + ")");
+}
+
+std::vector<fs::path> data_roots() {
+  std::error_code ec;
+  std::vector<fs::path> roots;
+  auto add = [&roots](fs::path p) {
+    if (!p.empty() && std::find(roots.begin(), roots.end(), p) == roots.end()) roots.push_back(std::move(p));
+  };
+  if (const char* env = std::getenv("EBH_DATA_DIR"); env && *env) add(env);
+  add(fs::current_path(ec));
+  add(kSourceDir);
+  return roots;
+}
+
+std::vector<fs::path> data_files(const std::string& folder, const std::string& extension) {
+  std::vector<fs::path> found;
+  std::vector<std::string> names;
+  for (const fs::path& root : data_roots()) {
+    std::vector<fs::path> here;
+    std::error_code ec;
+    for (fs::directory_iterator it(root / folder, ec), end; !ec && it != end; it.increment(ec))
+      if (it->path().extension() == extension && fs::is_regular_file(it->path(), ec)) here.push_back(it->path());
+    std::sort(here.begin(), here.end());
+    for (fs::path& p : here) {
+      const std::string name = p.stem().string();
+      if (std::find(names.begin(), names.end(), name) != names.end()) continue;  // hidden by an earlier root
+      names.push_back(name);
+      found.push_back(std::move(p));
+    }
+  }
+  return found;
 }
 
 fs::path resolve_scene_path(const std::string& name_or_path) {

@@ -284,4 +284,13 @@ std::filesystem::path resolve_scene_path(const std::string& name_or_path);
 std::filesystem::path resolve_data_path(const std::string& name_or_path, const std::string& folder,
                                         const std::string& extension, const std::string& what);
 
+/// Where names are looked up, in order: $EBH_DATA_DIR (when set), the working directory, the
+/// source tree; each once.
+std::vector<std::filesystem::path> data_roots();
+
+/// Every FOLDER/*EXTENSION file (extension with its dot: ".h5") of the data roots, sorted by name
+/// within a root; a name found in an earlier root hides the same name in later ones, as
+/// resolve_data_path would. `recordings: all` in a sweep plan.
+std::vector<std::filesystem::path> data_files(const std::string& folder, const std::string& extension);
+
 }  // namespace ebh

@@ -1,0 +1,415 @@
+#include "sweep/plan.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <system_error>
+
+#include "io/error.hpp"
+#include "io/h5.hpp"
+#include "io/paths.hpp"
+#include "io/sha256.hpp"
+#include "scene/scene.hpp"
+
+namespace ebh {
+namespace fs = std::filesystem;
+namespace {
+
+/// How a node appears in a message: its text, or what kind of node it is.
+std::string shown(const YAML::Node& n) {
+  if (!n.IsDefined() || n.IsNull()) return "nothing";
+  if (n.IsMap()) return "a map";
+  if (n.IsSequence()) return "a list";
+  const std::string& s = n.Scalar();
+  return "'" + (s.size() > 60 ? s.substr(0, 60) + "..." : s) + "'";
+}
+
+/// Reads the plan's YAML tree; every message names the file, the line and the dotted key.
+class PlanReader {
+ public:
+  explicit PlanReader(fs::path file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& what) const {
+    std::string where = file_.string();
+    if (n.IsDefined() && n.Mark().line >= 0) where += ":" + std::to_string(n.Mark().line + 1);
+    throw InputError(where + ": key '" + key + "': " + what);
+  }
+
+  /// The entries of a map, keys checked against `allowed` (any key when empty), each once.
+  std::vector<std::pair<std::string, YAML::Node>> entries(const YAML::Node& n, const std::string& key,
+                                                          const std::vector<std::string>& allowed) const {
+    if (!n.IsMap()) fail(n, key, "expected a map, got " + shown(n));
+    std::vector<std::pair<std::string, YAML::Node>> out;
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      if (!it->first.IsScalar() || it->first.Scalar().empty()) fail(it->first, key, "expected text keys, got " + shown(it->first));
+      const std::string name = it->first.Scalar(), full = key.empty() ? name : key + "." + name;
+      if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
+        std::string known;
+        for (const auto& a : allowed) known += (known.empty() ? "" : ", ") + a;
+        fail(it->first, full, "unknown key (known: " + known + ")");
+      }
+      for (const auto& [k, v] : out)
+        if (k == name) fail(it->first, full, "given twice");
+      out.emplace_back(name, it->second);
+    }
+    return out;
+  }
+
+  std::string text(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar() || n.Scalar().empty()) fail(n, key, "expected text, got " + shown(n));
+    return n.Scalar();
+  }
+
+  double number(const YAML::Node& n, const std::string& key, double lo, bool lo_open) const {
+    char expected[64];
+    std::snprintf(expected, sizeof expected, "a number %s %g", lo_open ? ">" : ">=", lo);
+    double v = 0;
+    if (n.IsScalar()) {
+      const std::string& s = n.Scalar();
+      const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+      if (ec == std::errc() && p == s.data() + s.size() && !s.empty() && std::isfinite(v) && (lo_open ? v > lo : v >= lo))
+        return v;
+    }
+    fail(n, key, std::string("expected ") + expected + ", got " + shown(n));
+  }
+
+  int integer(const YAML::Node& n, const std::string& key, int lo, int hi) const {
+    long long v = 0;
+    if (n.IsScalar()) {
+      const std::string& s = n.Scalar();
+      const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+      if (ec == std::errc() && p == s.data() + s.size() && !s.empty() && v >= lo && v <= hi) return static_cast<int>(v);
+    }
+    fail(n, key, "expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + shown(n));
+  }
+
+  /// A non-empty list (its items, in order).
+  std::vector<YAML::Node> list(const YAML::Node& n, const std::string& key, const std::string& of) const {
+    if (!n.IsSequence() || n.size() == 0) fail(n, key, "expected a non-empty list of " + of + ", got " + shown(n));
+    std::vector<YAML::Node> out;
+    for (const YAML::Node& x : n) out.push_back(x);
+    return out;
+  }
+
+  /// A scene key's value as `--set` takes it: a scalar's text, a list in flow style.
+  std::string value(const YAML::Node& n, const std::string& key) const {
+    if (n.IsScalar()) return n.Scalar();
+    if (n.IsSequence()) {
+      YAML::Emitter e;
+      e << YAML::Flow << n;
+      return e.c_str();
+    }
+    fail(n, key, "expected a value (a number, text or a list), got " + shown(n));
+  }
+
+  /// A map of overrides {dotted.key: value}; the node of each value in `where` (for messages).
+  Overrides overrides(const YAML::Node& n, const std::string& key, std::map<std::string, YAML::Node>* where) const {
+    if (n.IsNull()) return {};  // `reference:` with nothing after it: the scene as it is
+    Overrides out;
+    for (const auto& [k, v] : entries(n, key, {})) {
+      out[k] = value(v, key + "." + k);
+      if (where) (*where)[k] = v;
+    }
+    return out;
+  }
+
+  /// A scene or recording as written: a name, or a path taken relative to the plan's folder.
+  std::string data_reference(const std::string& text) const {
+    const bool is_name = text.find('/') == std::string::npos && fs::path(text).extension().empty();
+    if (is_name || fs::path(text).is_absolute()) return text;
+    return (file_.parent_path() / text).lexically_normal().string();
+  }
+
+  fs::path resolve(const YAML::Node& n, const std::string& key, const std::string& folder, const std::string& extension,
+                   const std::string& what) const {
+    try {
+      return fs::absolute(resolve_data_path(data_reference(text(n, key)), folder, extension, what)).lexically_normal();
+    } catch (const InputError& e) {
+      fail(n, key, e.what());
+    }
+  }
+
+  const fs::path& file() const { return file_; }
+
+ private:
+  fs::path file_;
+};
+
+std::vector<std::string> as_set_arguments(const Overrides& o) {
+  std::vector<std::string> out;
+  for (const auto& [k, v] : o) out.push_back(k + "=" + v);
+  return out;
+}
+
+Overrides merged(const Overrides& first, const Overrides& then) {
+  Overrides out = first;
+  for (const auto& [k, v] : then) out[k] = v;
+  return out;
+}
+
+/// The recordings whose `scene` attribute names the scene: `recordings: all`.
+std::vector<fs::path> recordings_of(const std::string& scene) {
+  std::vector<fs::path> out;
+  for (const fs::path& p : data_files("recordings", ".h5")) {
+    try {
+      if (h5::File::open_read(p.string()).attr_string("scene") == scene) out.push_back(fs::absolute(p).lexically_normal());
+    } catch (const InputError&) {
+      // not a recording (or one without a scene): not one of this scene's
+    }
+  }
+  return out;
+}
+
+/// Throws when the overrides do not load on the scene (the same check `ebh replay --set` makes).
+void check_on_scene(const PlanReader& r, const YAML::Node& where, const std::string& key, const SweepScene& s,
+                    const Overrides& effective) {
+  try {
+    (void)load_scene_spec(s.scene_file, as_set_arguments(effective));
+  } catch (const InputError& e) {
+    r.fail(where, key, "on scene " + s.name + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+SweepPlan read_sweep_plan(const fs::path& file) {
+  check_input_file(file.string());
+  PlanReader r(file);
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file.string());
+  } catch (const YAML::ParserException& e) {
+    throw InputError(file.string() + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    throw InputError(file.string() + ": cannot read the plan: " + e.msg);
+  }
+  if (!root.IsDefined() || root.IsNull()) throw InputError(file.string() + ": empty plan (it needs at least `scenes`)");
+  SweepPlan plan;
+  plan.file = file;
+  std::map<std::string, YAML::Node> top;
+  for (auto& [k, v] : r.entries(root, "", {"scenes", "grid", "runs", "set", "backends", "reference_backend", "repetitions",
+                                          "mode", "start", "duration"}))
+    top[k] = v;
+  if (!top.count("scenes")) throw InputError(file.string() + ": key 'scenes': missing (required)");
+
+  // Plain settings first: the scenes' checks below use them.
+  if (top.count("backends")) {
+    plan.backends.clear();
+    for (const YAML::Node& b : r.list(top["backends"], "backends", "backends (cpu, cuda)")) {
+      const std::string name = r.text(b, "backends");
+      if (name != "cpu" && name != "cuda") r.fail(b, "backends", "expected cpu or cuda, got " + shown(b));
+      if (std::find(plan.backends.begin(), plan.backends.end(), name) != plan.backends.end())
+        r.fail(b, "backends", "'" + name + "' given twice");
+      plan.backends.push_back(name);
+    }
+  }
+  if (top.count("reference_backend")) {
+    plan.reference_backend = r.text(top["reference_backend"], "reference_backend");
+    if (plan.reference_backend != "cpu" && plan.reference_backend != "cuda")
+      r.fail(top["reference_backend"], "reference_backend", "expected cpu or cuda, got " + shown(top["reference_backend"]));
+  }
+  if (top.count("repetitions")) plan.repetitions = r.integer(top["repetitions"], "repetitions", 1, 1000);
+  if (top.count("mode")) {
+    plan.mode = r.text(top["mode"], "mode");
+    if (plan.mode != "async" && plan.mode != "lockstep")
+      r.fail(top["mode"], "mode", "expected async or lockstep (realtime replays are not repeatable), got " + shown(top["mode"]));
+  }
+  if (top.count("start")) plan.start = r.number(top["start"], "start", 0, false);
+  if (top.count("duration")) plan.duration = r.number(top["duration"], "duration", 0, true);
+
+  std::map<std::string, YAML::Node> set_where;
+  if (top.count("set")) plan.set = r.overrides(top["set"], "set", &set_where);
+
+  // Configurations: a grid's combinations (the last key varying fastest) or a list.
+  std::vector<std::pair<Overrides, YAML::Node>> configurations;  // with the node that gave each
+  std::vector<std::tuple<std::string, std::string, YAML::Node>> single_values;  // key, value, node: checked one by one
+  if (top.count("grid") && top.count("runs"))
+    r.fail(top["runs"], "runs", "give `grid` or `runs`, not both (a list of override sets can hold any grid)");
+  if (top.count("grid")) {
+    configurations.push_back({{}, top["grid"]});
+    for (const auto& [key, values] : r.entries(top["grid"], "grid", {})) {
+      const std::vector<YAML::Node> items = r.list(values, "grid." + key, "values");
+      for (const YAML::Node& v : items) single_values.emplace_back(key, r.value(v, "grid." + key), v);
+      std::vector<std::pair<Overrides, YAML::Node>> next;
+      for (const auto& [config, node] : configurations)
+        for (const YAML::Node& v : items) {
+          Overrides c = config;
+          c[key] = r.value(v, "grid." + key);
+          next.push_back({std::move(c), v});
+        }
+      if (next.size() > kMaxSweepRuns) r.fail(values, "grid", "more than " + std::to_string(kMaxSweepRuns) + " combinations");
+      configurations = std::move(next);
+    }
+  } else if (top.count("runs")) {
+    std::size_t i = 0;
+    for (const YAML::Node& entry : r.list(top["runs"], "runs", "override sets ({key: value, ...})")) {
+      const std::string key = "runs[" + std::to_string(i++) + "]";
+      std::map<std::string, YAML::Node> where;
+      const Overrides o = entry.IsMap() && entry.size() == 0 ? Overrides{} : r.overrides(entry, key, &where);
+      for (const auto& [k, v] : o) single_values.emplace_back(k, v, where[k]);
+      configurations.push_back({o, entry});
+    }
+  } else {
+    configurations.push_back({{}, root});  // the scenes as they are
+  }
+  std::set<Overrides> seen;
+  for (const auto& [config, node] : configurations)
+    if (seen.insert(config).second) plan.configurations.push_back(config);
+
+  std::size_t index = 0;
+  for (const YAML::Node& n : r.list(top["scenes"], "scenes", "scenes ({scene: NAME, recordings: [...], reference: {...}})")) {
+    const std::string key = "scenes[" + std::to_string(index++) + "]";
+    std::map<std::string, YAML::Node> e;
+    for (auto& [k, v] : r.entries(n, key, {"scene", "recordings", "reference"})) e[k] = v;
+    for (const char* required : {"scene", "recordings", "reference"})
+      if (!e.count(required)) r.fail(n, key + "." + required, "missing (required)");
+    SweepScene s;
+    s.scene = r.text(e["scene"], key + ".scene");
+    s.scene_file = r.resolve(e["scene"], key + ".scene", "scenarios", ".yaml", "scene");
+    s.name = s.scene_file.stem().string();
+    const YAML::Node& recs = e["recordings"];
+    if (recs.IsScalar() && recs.Scalar() == "all") {
+      s.recordings = recordings_of(s.name);
+      if (s.recordings.empty())
+        r.fail(recs, key + ".recordings", "no recording names the scene '" + s.name + "' (their `scene` attribute)");
+    } else {
+      for (const YAML::Node& rec : r.list(recs, key + ".recordings", "recordings (names or paths), or all")) {
+        const fs::path p = r.resolve(rec, key + ".recordings", "recordings", ".h5", "recording");
+        if (std::find(s.recordings.begin(), s.recordings.end(), p) != s.recordings.end())
+          r.fail(rec, key + ".recordings", p.string() + " given twice");
+        s.recordings.push_back(p);
+      }
+    }
+    std::map<std::string, YAML::Node> ref_where;
+    s.reference = r.overrides(e["reference"], key + ".reference", &ref_where);
+    for (const SweepScene& other : plan.scenes)
+      if (other.scene_file == s.scene_file) r.fail(e["scene"], key + ".scene", s.scene_file.string() + " given twice");
+
+    // Each override alone (its own line in messages), then each whole configuration.
+    for (const auto& [k, v] : plan.set) check_on_scene(r, set_where[k], "set." + k, s, {{k, v}});
+    for (const auto& [k, v] : s.reference) check_on_scene(r, ref_where[k], key + ".reference." + k, s, {{k, v}});
+    for (const auto& [k, v, node] : single_values)
+      check_on_scene(r, node, (top.count("grid") ? "grid." : "runs.") + k, s, {{k, v}});
+    check_on_scene(r, e["reference"], key + ".reference", s, merged(plan.set, s.reference));
+    for (const auto& [config, node] : configurations)
+      check_on_scene(r, node, top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set", s, merged(plan.set, config));
+    plan.scenes.push_back(std::move(s));
+  }
+  (void)expand_plan(plan);  // the size limit, before any work
+  return plan;
+}
+
+std::string resolved_plan_yaml(const SweepPlan& plan) {
+  YAML::Emitter y;
+  auto overrides = [&y](const Overrides& o) {
+    y << YAML::BeginMap;
+    for (const auto& [k, v] : o) {
+      y << YAML::Key << k << YAML::Value;
+      // The value as the plan gave it: a flow list stays a list, a scalar stays text.
+      const YAML::Node n = YAML::Load(v);
+      if (n.IsSequence()) y << YAML::Flow << n;
+      else y << v;
+    }
+    y << YAML::EndMap;
+  };
+  y << YAML::BeginMap;
+  y << YAML::Key << "scenes" << YAML::Value << YAML::BeginSeq;
+  for (const SweepScene& s : plan.scenes) {
+    y << YAML::BeginMap << YAML::Key << "scene" << YAML::Value << s.scene_file.string();
+    y << YAML::Key << "recordings" << YAML::Value << YAML::BeginSeq;
+    for (const fs::path& p : s.recordings) y << p.string();
+    y << YAML::EndSeq << YAML::Key << "reference" << YAML::Value;
+    overrides(s.reference);
+    y << YAML::EndMap;
+  }
+  y << YAML::EndSeq;
+  y << YAML::Key << "runs" << YAML::Value << YAML::BeginSeq;
+  for (const Overrides& c : plan.configurations) overrides(c);
+  y << YAML::EndSeq;
+  if (!plan.set.empty()) {
+    y << YAML::Key << "set" << YAML::Value;
+    overrides(plan.set);
+  }
+  y << YAML::Key << "backends" << YAML::Value << YAML::Flow << plan.backends;
+  y << YAML::Key << "reference_backend" << YAML::Value << plan.reference_backend;
+  y << YAML::Key << "repetitions" << YAML::Value << plan.repetitions;
+  y << YAML::Key << "mode" << YAML::Value << plan.mode;
+  y << YAML::Key << "start" << YAML::Value << shortest_number(plan.start);
+  if (plan.duration > 0) y << YAML::Key << "duration" << YAML::Value << shortest_number(plan.duration);
+  y << YAML::EndMap;
+  return "# ebh sweep: the plan as run (paths absolute, defaults written; docs/FORMATS.md, \"Sweep plan\")\n" +
+         std::string(y.c_str()) + "\n";
+}
+
+std::string shortest_number(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+std::string SweepRun::overrides_text() const {
+  std::string s;
+  for (const auto& [k, v] : overrides) s += (s.empty() ? "" : " ") + k + "=" + v;
+  return s.empty() ? "-" : s;
+}
+
+std::vector<std::string> SweepRun::set_arguments() const { return as_set_arguments(effective); }
+
+std::string run_id(const SweepPlan& plan, const fs::path& scene_file, const fs::path& recording, const Overrides& effective,
+                   const std::string& backend, int repetition) {
+  std::string key = "ebh sweep run\nscene " + scene_file.string() + "\nrecording " + recording.string() + "\nmode " +
+                    plan.mode + "\nstart " + shortest_number(plan.start) + "\nduration " + shortest_number(plan.duration) + "\nbackend " +
+                    backend + "\nrepetition " + std::to_string(repetition) + "\n";
+  for (const auto& [k, v] : effective) key += "set " + k + "=" + v + "\n";
+  return sha256_hex(key).substr(0, 16);
+}
+
+std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
+  std::vector<SweepRun> runs;
+  std::set<std::string> ids;
+  auto add = [&](SweepRun r) {
+    if (ids.insert(r.id).second) runs.push_back(std::move(r));
+    if (runs.size() > kMaxSweepRuns)
+      throw InputError(plan.file.string() + ": the plan makes more than " + std::to_string(kMaxSweepRuns) + " runs");
+  };
+  for (std::size_t si = 0; si < plan.scenes.size(); ++si)
+    for (const fs::path& rec : plan.scenes[si].recordings) {
+      SweepRun r;
+      r.scene = si;
+      r.recording = rec;
+      r.overrides = plan.scenes[si].reference;
+      r.effective = merged(plan.set, r.overrides);
+      r.backend = plan.reference_backend;
+      r.reference = true;
+      r.id = r.reference_id = run_id(plan, plan.scenes[si].scene_file, rec, r.effective, r.backend, 0);
+      add(std::move(r));
+    }
+  const std::size_t references = runs.size();
+  for (std::size_t si = 0; si < plan.scenes.size(); ++si)
+    for (const fs::path& rec : plan.scenes[si].recordings) {
+      const auto ref = std::find_if(runs.begin(), runs.begin() + static_cast<long>(references),
+                                    [&](const SweepRun& x) { return x.scene == si && x.recording == rec; });
+      const std::string ref_id = ref->id;
+      for (const Overrides& config : plan.configurations)
+        for (const std::string& backend : plan.backends)
+          for (int rep = 0; rep < plan.repetitions; ++rep) {
+            SweepRun r;
+            r.scene = si;
+            r.recording = rec;
+            r.overrides = config;
+            r.effective = merged(plan.set, config);
+            r.backend = backend;
+            r.repetition = rep;
+            r.reference_id = ref_id;
+            r.id = run_id(plan, plan.scenes[si].scene_file, rec, r.effective, backend, rep);
+            add(std::move(r));  // the reference's own configuration on its backend is the reference run
+          }
+    }
+  return runs;
+}
+
+}  // namespace ebh

@@ -1,0 +1,170 @@
+#include "sweep/report.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <tuple>
+
+#include "io/error.hpp"
+
+namespace ebh {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double median(std::vector<double> v) {
+  std::erase_if(v, [](double x) { return std::isnan(x); });
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string fmt(double v, const char* f = "%.4g") {
+  if (std::isnan(v)) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+/// Markdown table cells must not hold a bar.
+std::string md(std::string s) {
+  for (std::size_t i = 0; (i = s.find('|', i)) != std::string::npos; i += 2) s.replace(i, 1, "\\|");
+  return s;
+}
+
+}  // namespace
+
+std::vector<bool> pareto_front(const std::vector<std::pair<double, double>>& points) {
+  std::vector<bool> front(points.size(), false);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const auto [xi, yi] = points[i];
+    if (std::isnan(xi) || std::isnan(yi)) continue;
+    bool dominated = false;
+    for (std::size_t j = 0; j < points.size() && !dominated; ++j) {
+      const auto [xj, yj] = points[j];
+      dominated = j != i && xj <= xi && yj <= yi && (xj < xi || yj < yi);
+    }
+    front[i] = !dominated;
+  }
+  return front;
+}
+
+std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file) {
+  const std::size_t c_status = t.column("status", file), c_scene = t.column("scene", file),
+                    c_rec = t.column("recording", file), c_backend = t.column("backend", file),
+                    c_ref = t.column("reference", file), c_over = t.column("overrides", file),
+                    c_wall = t.column("wall_s", file), c_rtf = t.column("real_time_factor", file),
+                    c_rms = t.column("force_error_rms_N", file), c_max = t.column("force_error_max_N", file),
+                    c_p999 = t.column("force_error_p999_N", file);
+  auto optional_column = [&t](const char* name) -> std::optional<std::size_t> {
+    const auto it = std::find(t.header.begin(), t.header.end(), name);
+    if (it == t.header.end()) return std::nullopt;
+    return static_cast<std::size_t>(it - t.header.begin());
+  };
+  const auto c_id = optional_column("id"), c_error = optional_column("error"),
+             c_residual = optional_column("timing.physical_residual_max");
+  auto number = [&](std::size_t row, std::size_t col) {
+    const std::string& s = t.rows[row][col];
+    if (s.empty()) return kNaN;
+    double v = 0;
+    const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec != std::errc() || p != s.data() + s.size())
+      throw InputError(file + ": row " + std::to_string(row + 2) + ", column '" + t.header[col] + "': expected a number, got '" +
+                       s + "'");
+    return v;
+  };
+
+  using Key = std::tuple<std::string, std::string, std::string>;  // scene, recording, backend
+  std::vector<Key> order;
+  std::map<Key, ReportGroup> groups;
+  std::map<std::pair<std::string, std::string>, std::string> references;  // (scene, recording) -> overrides
+  std::map<Key, std::map<std::string, std::vector<std::size_t>>> rows_of;  // group -> overrides -> ok rows
+  std::map<Key, std::vector<std::string>> config_order;
+  for (std::size_t r = 0; r < t.rows.size(); ++r) {
+    const auto& row = t.rows[r];
+    const Key key{row[c_scene], row[c_rec], row[c_backend]};
+    if (!groups.count(key)) {
+      order.push_back(key);
+      groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], "", {}, {}, 0};
+    }
+    ReportGroup& g = groups[key];
+    if (row[c_ref] == "1") references[{row[c_scene], row[c_rec]}] = row[c_over] + " (" + row[c_backend] + ")";
+    const std::string& status = row[c_status];
+    if (status == "ok") {
+      auto& configs = rows_of[key];
+      if (!configs.count(row[c_over])) config_order[key].push_back(row[c_over]);
+      configs[row[c_over]].push_back(r);
+    } else if (status == "failed") {
+      g.failed.push_back((c_id ? row[*c_id] + " " : "") + row[c_over] + ": " + (c_error ? row[*c_error] : "failed"));
+    } else if (status == "pending") {
+      ++g.pending;
+    } else {
+      throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'status': expected ok, failed or pending, got '" +
+                       status + "'");
+    }
+  }
+
+  std::vector<ReportGroup> out;
+  for (const Key& key : order) {
+    ReportGroup g = std::move(groups[key]);
+    const auto ref = references.find({g.scene, g.recording});
+    if (ref != references.end()) g.reference = ref->second;
+    for (const std::string& overrides : config_order[key]) {
+      const std::vector<std::size_t>& rows = rows_of[key][overrides];
+      auto med = [&](std::optional<std::size_t> col) {
+        if (!col) return kNaN;
+        std::vector<double> v;
+        for (std::size_t r : rows) v.push_back(number(r, *col));
+        return median(v);
+      };
+      ReportPoint p;
+      p.overrides = overrides;
+      p.reference = std::any_of(rows.begin(), rows.end(), [&](std::size_t r) { return t.rows[r][c_ref] == "1"; });
+      p.runs = rows.size();
+      p.wall_s = med(c_wall);
+      p.real_time_factor = med(c_rtf);
+      p.error_rms = med(c_rms);
+      p.error_max = med(c_max);
+      p.error_p999 = med(c_p999);
+      p.residual_max = med(c_residual);
+      g.points.push_back(p);
+    }
+    std::vector<std::pair<double, double>> xy;
+    for (const ReportPoint& p : g.points) xy.emplace_back(p.reference ? kNaN : p.wall_s, p.error_rms);
+    const std::vector<bool> front = pareto_front(xy);
+    for (std::size_t i = 0; i < g.points.size(); ++i) g.points[i].front = front[i];
+    std::stable_sort(g.points.begin(), g.points.end(), [](const ReportPoint& a, const ReportPoint& b) {
+      return a.wall_s < b.wall_s || (std::isnan(b.wall_s) && !std::isnan(a.wall_s));
+    });
+    out.push_back(std::move(g));
+  }
+  return out;
+}
+
+std::string report_markdown(const std::vector<ReportGroup>& groups) {
+  std::ostringstream o;
+  o << "# Run time against force error\n\n"
+       "Force error: |F - F_ref| per reference tick against the reference replay of the same scene and recording. Front: the configurations that no other one beats on both wall time and RMS error.\n";
+  for (const ReportGroup& g : groups) {
+    o << "\n## " << g.scene << " + " << g.recording << ", " << g.backend << "\n\n";
+    o << "Reference: " << (g.reference.empty() ? "not in the summary" : md(g.reference)) << "\n\n";
+    o << "| front | overrides | runs | wall (s) | real time | force error RMS (N) | max (N) | p99.9 (N) | max physical "
+         "residual |\n|---|---|---|---|---|---|---|---|---|\n";
+    for (const ReportPoint& p : g.points)
+      o << "| " << (p.front ? "*" : p.reference ? "reference" : "") << " | " << md(p.overrides) << " | " << p.runs << " | "
+        << fmt(p.wall_s) << " | " << fmt(p.real_time_factor, "%.3gx") << " | " << fmt(p.error_rms) << " | "
+        << fmt(p.error_max) << " | " << fmt(p.error_p999) << " | " << fmt(p.residual_max) << " |\n";
+    if (g.points.empty()) o << "| | (no finished run) | | | | | | | |\n";
+    for (const std::string& f : g.failed) o << "\nfailed: " << md(f) << "\n";
+    if (g.pending) o << "\n" << g.pending << " run" << (g.pending == 1 ? "" : "s") << " not run yet\n";
+  }
+  return o.str();
+}
+
+}  // namespace ebh

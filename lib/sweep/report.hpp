@@ -1,0 +1,53 @@
+#pragma once
+// `ebh sweep report`: run time against force error from a sweep's summary. Runs of one
+// configuration (its repetitions) are one point (medians); the points of each scene, recording
+// and backend are compared with each other, and the Pareto front is the configurations that no
+// other one beats on both wall time and force RMS error against the reference (the reference
+// itself is the yardstick, not a candidate).
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "sweep/summary.hpp"
+
+namespace ebh {
+
+/// Which points are on the Pareto front when both coordinates are to be small: point i is on it
+/// unless some j has x_j <= x_i and y_j <= y_i with one of them strictly smaller. Points with a
+/// NaN coordinate are never on it (and dominate nothing).
+std::vector<bool> pareto_front(const std::vector<std::pair<double, double>>& points);
+
+/// One configuration of one scene, recording and backend: its runs' medians.
+struct ReportPoint {
+  std::string overrides;
+  bool reference = false;
+  std::size_t runs = 0;
+  double wall_s = 0, real_time_factor = 0;
+  double error_rms = 0, error_max = 0, error_p999 = 0;  ///< N, against the reference
+  double residual_max = 0;                             ///< max physical residual (NaN when absent)
+  bool front = false;
+};
+
+struct ReportGroup {
+  std::string scene, recording, backend;
+  std::string reference;                 ///< "OVERRIDES (BACKEND)" of the reference ("" when not in the summary)
+  std::vector<ReportPoint> points;       ///< by wall time
+  std::vector<std::string> failed;       ///< "ID OVERRIDES: error", one per failed run
+  std::size_t pending = 0;
+};
+
+/// Groups the summary's rows (columns: status, scene, recording, backend, reference, overrides,
+/// wall_s, real_time_factor, force_error_rms_N, force_error_max_N, force_error_p999_N; optional:
+/// id, error, timing.physical_residual_max). Throws InputError naming `file` and a missing column
+/// or a cell that is not a number.
+std::vector<ReportGroup> build_report(const CsvTable& summary, const std::string& file);
+
+/// The Markdown report: per group a table by wall time, the front marked.
+std::string report_markdown(const std::vector<ReportGroup>& groups);
+
+/// A PNG plot (log-log): force RMS error against wall time, one colour per group, the front of
+/// each joined by a line, the reference as a ring on the bottom edge. Written atomically.
+void write_report_plot(const std::vector<ReportGroup>& groups, const std::string& path);
+
+}  // namespace ebh

@@ -1,0 +1,262 @@
+#include "sweep/runner.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sched.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include "io/atomic.hpp"
+#include "io/error.hpp"
+
+extern char** environ;
+
+namespace ebh {
+namespace fs = std::filesystem;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// One replay in flight: its process, the read end of its stdout+stderr pipe and what it printed.
+struct Child {
+  const SweepRun* run = nullptr;
+  pid_t pid = -1;
+  int fd = -1;
+  std::string text;
+  Clock::time_point t0;
+};
+
+/// The child's environment: ours with OMP_NUM_THREADS replaced.
+std::vector<std::string> child_environment(int threads) {
+  std::vector<std::string> env;
+  for (char** e = environ; e && *e; ++e)
+    if (std::strncmp(*e, "OMP_NUM_THREADS=", 16) != 0) env.emplace_back(*e);
+  env.push_back("OMP_NUM_THREADS=" + std::to_string(threads));
+  return env;
+}
+
+std::vector<std::string> replay_arguments(const SweepPlan& plan, const SweepRun& run, const fs::path& dir,
+                                          const std::string& executable) {
+  std::vector<std::string> a = {executable, "replay", plan.scenes[run.scene].scene_file.string(), run.recording.string(),
+                                "-o", run_output(dir, run).string(), "--backend", run.backend, "--mode", plan.mode,
+                                "--quiet"};
+  if (plan.start > 0) a.insert(a.end(), {"--start", shortest_number(plan.start)});
+  if (plan.duration > 0) a.insert(a.end(), {"--duration", shortest_number(plan.duration)});
+  for (const std::string& s : run.set_arguments()) a.insert(a.end(), {"--set", s});
+  return a;
+}
+
+std::vector<char*> pointers(std::vector<std::string>& v) {
+  std::vector<char*> p;
+  for (std::string& s : v) p.push_back(s.data());
+  p.push_back(nullptr);
+  return p;
+}
+
+/// Starts argv (argv[0] a path, or a name looked up on PATH) with its stdout and stderr on a pipe;
+/// returns its pid and the pipe's read end. Throws InputError naming `what` when it cannot start.
+std::pair<pid_t, int> start_process(std::vector<std::string> args, std::vector<std::string>* env, const std::string& what) {
+  int fds[2];
+  if (pipe2(fds, O_CLOEXEC) != 0) throw InputError(what + ": cannot start " + args[0] + ": " + os_reason(errno));
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], STDERR_FILENO);
+  std::vector<char*> argv = pointers(args);
+  std::vector<char*> envp = env ? pointers(*env) : std::vector<char*>{};
+  pid_t pid = -1;
+  const int err = posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), env ? envp.data() : environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(fds[1]);
+  if (err != 0) {
+    ::close(fds[0]);
+    throw InputError(what + ": cannot start " + args[0] + ": " + os_reason(err));
+  }
+  return {pid, fds[0]};
+}
+
+/// Reads what the child printed (appending to `text`); false at the end of its output.
+bool read_some(int fd, std::string& text) {
+  char buf[65536];
+  const ssize_t got = ::read(fd, buf, sizeof buf);
+  if (got > 0) text.append(buf, static_cast<std::size_t>(got));
+  return got > 0 || (got < 0 && errno == EINTR);
+}
+
+int wait_for(pid_t pid) {
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return status;
+}
+
+/// The replay's error line: its last "ebh: error: WHAT" line's WHAT ("internal error: WHAT" for
+/// an internal error), else its last line, else how it ended.
+std::string error_line(const std::string& text, int status) {
+  std::string last, last_error;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    const auto cr = line.find_last_of('\r');  // a progress bar's leftovers
+    if (cr != std::string::npos) line = line.substr(cr + 1);
+    if (line.find_first_not_of(" \t") == std::string::npos) continue;
+    last = line;
+    if (line.rfind("ebh: error: ", 0) == 0) last_error = line.substr(12);
+    else if (line.rfind("ebh: internal error: ", 0) == 0) last_error = line.substr(5);
+  }
+  if (!last_error.empty()) return last_error;
+  std::string how = WIFSIGNALED(status) ? "the replay was killed by signal " + std::to_string(WTERMSIG(status))
+                                        : "the replay exited with status " + std::to_string(WEXITSTATUS(status));
+  return last.empty() ? how : how + " (" + last + ")";
+}
+
+void remove_file(const fs::path& p) {
+  std::error_code ec;
+  fs::remove(p, ec);
+}
+
+}  // namespace
+
+CommandResult run_command(const std::vector<std::string>& argv) {
+  const auto [pid, fd] = start_process(argv, nullptr, argv.at(0));
+  CommandResult r;
+  while (read_some(fd, r.output)) {
+  }
+  ::close(fd);
+  const int status = wait_for(pid);
+  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return r;
+}
+
+fs::path run_output(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".h5"); }
+fs::path run_log(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".log"); }
+fs::path run_failure(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".failed"); }
+
+std::string read_run_failure(const fs::path& dir, const SweepRun& run) {
+  std::ifstream in(run_failure(dir, run));
+  std::string line;
+  if (!in || !std::getline(in, line)) return "";
+  return line;
+}
+
+int available_cores() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  int n = 0;
+  if (sched_getaffinity(0, sizeof set, &set) == 0) n = CPU_COUNT(&set);
+  if (n <= 0) n = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
+  // A Slurm task's share where the cluster does not bind tasks to cores (TaskPlugin=task/none).
+  if (const char* s = std::getenv("SLURM_CPUS_PER_TASK"); s && *s) {
+    char* end = nullptr;
+    const long c = std::strtol(s, &end, 10);
+    if (*end == '\0' && c > 0) n = std::min(n, static_cast<int>(c));
+  }
+  return n;
+}
+
+std::vector<SweepRun> task_slice(const std::vector<SweepRun>& runs, int task, int tasks) {
+  std::vector<SweepRun> out;
+  for (std::size_t i = 0; i < runs.size(); ++i)
+    if (static_cast<int>(i % static_cast<std::size_t>(tasks)) == task) out.push_back(runs[i]);
+  return out;
+}
+
+RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir,
+                          const RunnerOptions& options, const RunnerCallback& progress) {
+  install_interrupt_handlers();
+  RunnerReport report;
+  RunnerProgress p;
+  p.total = runs.size();
+  std::vector<const SweepRun*> pending;
+  for (const SweepRun& r : runs) {
+    std::error_code ec;
+    if (fs::exists(run_output(dir, r), ec)) {
+      ++report.skipped;
+      ++p.skipped;
+      ++p.done;
+      if (progress) {
+        const RunOutcome o{&r, RunOutcome::Status::Skipped, 0, {}};
+        progress(p, &o);
+      }
+    } else {
+      pending.push_back(&r);
+    }
+  }
+  {
+    std::error_code ec;
+    fs::create_directories(dir / "runs", ec);
+    if (ec) throw InputError((dir / "runs").string() + ": cannot create the folder: " + ec.message());
+  }
+  std::vector<std::string> env = child_environment(options.threads);
+  std::vector<Child> active;
+  std::size_t next = 0;
+  bool forwarded = false;
+
+  auto finish = [&](Child& c) {
+    const int status = wait_for(c.pid);
+    const SweepRun& run = *c.run;
+    RunOutcome o{&run, RunOutcome::Status::Done, std::chrono::duration<double>(Clock::now() - c.t0).count(), {}};
+    std::error_code ec;
+    const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0 && fs::exists(run_output(dir, run), ec);
+    if (ok) {
+      ++report.ran;
+      remove_file(run_failure(dir, run));
+      // After an interrupt no file is written (io/atomic.hpp); the log is only what it printed.
+      if (!c.text.empty() && !interrupted()) write_file_atomically(run_log(dir, run).string(), c.text);
+      else if (c.text.empty()) remove_file(run_log(dir, run));
+    } else if (interrupted()) {
+      o.status = RunOutcome::Status::Interrupted;  // stopped by the interrupt: not run, not failed
+      ++report.interrupted;
+    } else {
+      o.status = RunOutcome::Status::Failed;
+      o.error = error_line(c.text, status);
+      ++report.failed;
+      ++p.failed;
+      write_file_atomically(run_failure(dir, run).string(), o.error + "\n" + c.text);
+      report.failures.push_back(o);
+    }
+    if (o.status != RunOutcome::Status::Interrupted) ++p.done;
+    --p.running;
+    if (progress) progress(p, &o);
+  };
+
+  while (true) {
+    if (interrupted() && !forwarded) {
+      for (const Child& c : active) kill(c.pid, SIGTERM);
+      forwarded = true;
+    }
+    while (!interrupted() && active.size() < static_cast<std::size_t>(std::max(1, options.jobs)) && next < pending.size()) {
+      const SweepRun& run = *pending[next++];
+      const auto [pid, fd] = start_process(replay_arguments(plan, run, dir, options.executable), &env, dir.string());
+      active.push_back(Child{&run, pid, fd, {}, Clock::now()});
+      ++p.running;
+      if (progress) progress(p, nullptr);
+    }
+    if (active.empty()) break;
+    std::vector<pollfd> fds;
+    for (const Child& c : active) fds.push_back(pollfd{c.fd, POLLIN, 0});
+    const int n = poll(fds.data(), fds.size(), 100);
+    if (n < 0 && errno != EINTR) throw InputError(dir.string() + ": waiting for the replays: " + os_reason(errno));
+    for (std::size_t i = fds.size(); n > 0 && i-- > 0;) {
+      if (!(fds[i].revents & (POLLIN | POLLHUP | POLLERR))) continue;
+      if (read_some(active[i].fd, active[i].text)) continue;
+      ::close(active[i].fd);  // end of its output: it has exited (or is about to)
+      finish(active[i]);
+      active.erase(active.begin() + static_cast<long>(i));
+    }
+  }
+  report.stopped = interrupted() && (next < pending.size() || report.interrupted > 0);
+  return report;
+}
+
+}  // namespace ebh

@@ -1,0 +1,84 @@
+#pragma once
+// Running a sweep's replays: each run is an `ebh replay` child process of the same binary
+// (isolated: a run that crashes or runs out of memory takes no other with it), N at a time, with
+// OMP_NUM_THREADS set so that workers x threads = the cores this process may use.
+//
+// The folder of a sweep (DIR):
+//   DIR/plan.yaml        the plan as run (resolved_plan_yaml)
+//   DIR/runs/ID.h5       a finished run's replay output (written atomically by `ebh replay`)
+//   DIR/runs/ID.log      what its replay printed (warnings), when it printed anything
+//   DIR/runs/ID.failed   a failed run: its error line, then everything its replay printed
+//   DIR/summary.csv      one row per run (sweep/summary.hpp)
+// A run whose output exists is done and never run again; a failed one is tried again by the next
+// sweep of the folder. An interrupted sweep (SIGINT, SIGTERM, SIGHUP) passes the signal on to the
+// replays in flight, which stop and write nothing, and starts no other: rerunning it runs exactly
+// the runs that have no output.
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "sweep/plan.hpp"
+
+namespace ebh {
+
+std::filesystem::path run_output(const std::filesystem::path& dir, const SweepRun& run);
+std::filesystem::path run_log(const std::filesystem::path& dir, const SweepRun& run);
+std::filesystem::path run_failure(const std::filesystem::path& dir, const SweepRun& run);
+
+/// The error line of a failed run (the first line of DIR/runs/ID.failed), or "" when it has none.
+std::string read_run_failure(const std::filesystem::path& dir, const SweepRun& run);
+
+/// The cores this process may run on: its CPU affinity (what taskset or a Slurm allocation that
+/// binds tasks gives), at most SLURM_CPUS_PER_TASK when that is set.
+int available_cores();
+
+/// The runs that task `task` of `tasks` takes: run i when i % tasks == task (a Slurm array task's
+/// slice; every run in exactly one task, references spread over the tasks).
+std::vector<SweepRun> task_slice(const std::vector<SweepRun>& runs, int task, int tasks);
+
+/// A finished command: its exit status (128 + signal when killed) and what it printed (stdout
+/// and stderr together).
+struct CommandResult {
+  int status = 0;
+  std::string output;
+};
+/// Runs argv (argv[0] looked up on PATH) to its end. Throws InputError "ARGV0: cannot start ARGV0:
+/// reason" when it cannot start (not installed).
+CommandResult run_command(const std::vector<std::string>& argv);
+
+struct RunnerOptions {
+  std::string executable;  ///< the ebh binary the replays run with
+  int jobs = 1;            ///< replays at a time
+  int threads = 1;         ///< OMP_NUM_THREADS of each replay
+};
+
+/// What happened to one run.
+struct RunOutcome {
+  enum class Status { Done, Skipped, Failed, Interrupted };
+  const SweepRun* run = nullptr;
+  Status status = Status::Done;
+  double seconds = 0;     ///< wall time of the child process (load included)
+  std::string error;      ///< Failed: the replay's error line
+};
+
+/// Progress: called when a run starts (outcome null) and when one ends, with the counts so far.
+struct RunnerProgress {
+  std::size_t total = 0, done = 0, skipped = 0, failed = 0, running = 0;
+};
+using RunnerCallback = std::function<void(const RunnerProgress&, const RunOutcome* finished)>;
+
+struct RunnerReport {
+  std::size_t ran = 0, skipped = 0, failed = 0, interrupted = 0;  ///< run counts
+  bool stopped = false;                 ///< an interrupt stopped the sweep
+  std::vector<RunOutcome> failures;     ///< in the order they ended
+};
+
+/// Runs every run of `runs` that has no output in `dir` (`ebh replay` with the plan's mode, window
+/// and the run's backend and overrides), options.jobs at a time. A replay that fails is written
+/// down (DIR/runs/ID.failed) and the others go on.
+RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir,
+                          const RunnerOptions& options, const RunnerCallback& progress = {});
+
+}  // namespace ebh

@@ -1,0 +1,248 @@
+#include "sweep/summary.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <optional>
+
+#include "io/error.hpp"
+#include "io/h5.hpp"
+#include "metrics/force_metrics.hpp"
+#include "metrics/signal.hpp"
+#include "sweep/runner.hpp"
+
+namespace ebh {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string cell(double v) {
+  if (!std::isfinite(v)) return std::isnan(v) ? "" : (v > 0 ? "inf" : "-inf");
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+/// The metric columns: `ebh metrics --json`'s numbers (its settings, `options.*`, left out).
+std::vector<std::pair<std::string, double>> metric_values(const ForceMetrics& m) {
+  std::vector<std::pair<std::string, double>> out;
+  for (auto& [k, v] : to_json(m, false).numbers())
+    if (k.rfind("options.", 0) != 0) out.emplace_back(std::move(k), v);
+  return out;
+}
+
+const std::vector<std::string> kRunColumns = {"id", "status", "scene", "recording", "backend", "repetition", "reference",
+                                              "overrides"};
+const std::vector<std::string> kResultColumns = {"wall_s", "virtual_s", "real_time_factor", "force_error_rms_N",
+                                                 "force_error_max_N", "force_error_p999_N", "compared_ticks"};
+
+}  // namespace
+
+ForceError force_error(const ReplayTrace& run, const ReplayTrace& reference) {
+  ForceError e;
+  if (run.ticks() == 0 || reference.ticks() == 0) return {kNaN, kNaN, kNaN, 0};
+  constexpr double eps = 1e-9;  // s: tick times computed the same way agree to far below this
+  std::vector<double> d;
+  d.reserve(reference.ticks());
+  std::size_t i = 0;  // the run's tick at or before t
+  for (std::size_t j = 0; j < reference.ticks(); ++j) {
+    const double t = reference.t[j];
+    if (t < run.t.front() - eps || t > run.t.back() + eps) continue;
+    while (i + 1 < run.ticks() && run.t[i + 1] <= t + eps) ++i;
+    d.push_back(norm(run.force[i] - reference.force[j]));
+  }
+  if (d.empty()) return {kNaN, kNaN, kNaN, 0};
+  double sq = 0;
+  for (double x : d) {
+    sq += x * x;
+    e.max = std::max(e.max, x);
+    if (std::isnan(x)) e.max = x;
+  }
+  e.rms = std::sqrt(sq / static_cast<double>(d.size()));
+  e.p999 = percentile(d, 99.9);
+  e.ticks = d.size();
+  return e;
+}
+
+std::size_t CsvTable::column(const std::string& name, const std::string& file) const {
+  const auto it = std::find(header.begin(), header.end(), name);
+  if (it == header.end()) throw InputError(file + ": no column '" + name + "'");
+  return static_cast<std::size_t>(it - header.begin());
+}
+
+std::string CsvTable::to_csv() const {
+  std::string out;
+  auto line = [&out](const std::vector<std::string>& fields) {
+    for (std::size_t i = 0; i < fields.size(); ++i) {
+      if (i) out += ',';
+      const std::string& f = fields[i];
+      if (f.find_first_of(",\"\r\n") == std::string::npos) {
+        out += f;
+        continue;
+      }
+      out += '"';
+      for (char c : f) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+      out += '"';
+    }
+    out += '\n';
+  };
+  line(header);
+  for (const auto& r : rows) line(r);
+  return out;
+}
+
+CsvTable parse_csv(const std::string& text, const std::string& file) {
+  std::vector<std::vector<std::string>> records;
+  std::vector<std::size_t> lines;  // each record's first line
+  std::vector<std::string> fields;
+  std::string field;
+  bool quoted = false, any = false;
+  std::size_t line = 1, record_line = 1;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < text.size() && text[i + 1] == '"') {
+        field += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        if (c == '\n') ++line;
+        field += c;
+      }
+      continue;
+    }
+    if (c == '"' && field.empty()) {
+      quoted = any = true;
+    } else if (c == ',') {
+      fields.push_back(std::move(field));
+      field.clear();
+      any = true;
+    } else if (c == '\n' || c == '\r') {
+      if (c == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
+      if (any || !field.empty()) {
+        fields.push_back(std::move(field));
+        records.push_back(std::move(fields));
+        lines.push_back(record_line);
+      }
+      field.clear();
+      fields.clear();
+      any = false;
+      record_line = ++line;
+    } else {
+      field += c;
+      any = true;
+    }
+  }
+  if (quoted) throw InputError(file + ":" + std::to_string(record_line) + ": a quoted field is not closed");
+  if (any || !field.empty()) {
+    fields.push_back(std::move(field));
+    records.push_back(std::move(fields));
+    lines.push_back(record_line);
+  }
+  if (records.empty()) throw InputError(file + ": empty (expected a header line)");
+  CsvTable t;
+  t.header = std::move(records[0]);
+  for (std::size_t r = 1; r < records.size(); ++r) {
+    if (records[r].size() != t.header.size())
+      throw InputError(file + ":" + std::to_string(lines[r]) + ": " + std::to_string(records[r].size()) +
+                       " fields, the header has " + std::to_string(t.header.size()));
+    t.rows.push_back(std::move(records[r]));
+  }
+  return t;
+}
+
+SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
+  SweepSummary s;
+  CsvTable& t = s.table;
+  // One column per scene key any run overrides, in the order they first appear.
+  std::vector<std::string> keys;
+  for (const SweepRun& r : runs)
+    for (const auto& [k, v] : r.overrides)
+      if (std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
+  const std::vector<std::pair<std::string, double>> metric_names = metric_values(ForceMetrics{});
+  t.header = kRunColumns;
+  for (const std::string& k : keys) t.header.push_back("set." + k);
+  t.header.insert(t.header.end(), kResultColumns.begin(), kResultColumns.end());
+  for (const auto& [k, v] : metric_names) t.header.push_back(k);
+  t.header.push_back("error");
+
+  std::map<std::string, std::optional<ReplayTrace>> references;  // id -> trace (nullopt: not available)
+  auto reference_trace = [&](const SweepRun& r) -> const ReplayTrace* {
+    auto it = references.find(r.reference_id);
+    if (it == references.end()) {
+      const auto ref = std::find_if(runs.begin(), runs.end(), [&](const SweepRun& x) { return x.id == r.reference_id; });
+      std::optional<ReplayTrace> trace;
+      std::error_code ec;
+      if (ref != runs.end() && fs::exists(run_output(dir, *ref), ec)) {
+        try {
+          trace = load_replay(run_output(dir, *ref).string());
+        } catch (const InputError&) {
+          // reported on the reference's own row
+        }
+      }
+      it = references.emplace(r.reference_id, std::move(trace)).first;
+    }
+    return it->second ? &*it->second : nullptr;
+  };
+
+  for (const SweepRun& r : runs) {
+    std::vector<std::string> row = {r.id, "pending", plan.scenes[r.scene].name, r.recording.stem().string(), r.backend,
+                                    std::to_string(r.repetition), r.reference ? "1" : "0", r.overrides_text()};
+    for (const std::string& k : keys) {
+      const auto it = r.overrides.find(k);
+      row.push_back(it == r.overrides.end() ? "" : it->second);
+    }
+    std::vector<std::string> results(kResultColumns.size() + metric_names.size(), "");
+    std::string error;
+    const fs::path out = run_output(dir, r);
+    std::error_code ec;
+    if (fs::exists(out, ec)) {
+      try {
+        const ReplayTrace trace = load_replay(out.string());
+        double wall = kNaN, virt = kNaN;
+        {
+          const h5::File f = h5::File::open_read(out.string());
+          wall = f.attr_double("wall_s");
+          virt = f.attr_double("virtual_s");
+        }
+        results[0] = cell(wall);
+        results[1] = cell(virt);
+        results[2] = cell(wall > 0 ? virt / wall : kNaN);
+        if (const ReplayTrace* ref = reference_trace(r)) {
+          const ForceError e = force_error(trace, *ref);
+          results[3] = cell(e.rms);
+          results[4] = cell(e.max);
+          results[5] = cell(e.p999);
+          results[6] = std::to_string(e.ticks);
+          if (e.ticks == 0) error = "no tick in common with the reference " + r.reference_id;
+        } else {
+          error = "no reference: its run " + r.reference_id + " has no output";
+        }
+        std::size_t i = kResultColumns.size();
+        for (const auto& [k, v] : metric_values(compute_metrics(trace))) results[i++] = cell(v);
+        row[1] = "ok";
+        ++s.ok;
+      } catch (const InputError& e) {
+        row[1] = "failed";
+        error = e.what();
+        ++s.failed;
+      }
+    } else if (std::string why = read_run_failure(dir, r); !why.empty()) {
+      row[1] = "failed";
+      error = why;
+      ++s.failed;
+    } else {
+      ++s.pending;
+    }
+    row.insert(row.end(), results.begin(), results.end());
+    row.push_back(error);
+    t.rows.push_back(std::move(row));
+  }
+  return s;
+}
+
+}  // namespace ebh

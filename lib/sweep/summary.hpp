@@ -1,0 +1,53 @@
+#pragma once
+// A sweep's summary (DIR/summary.csv; docs/FORMATS.md, "Sweep summary"): one row per run of the
+// plan with its overrides, status, wall time, real-time factor, its force error against the
+// reference replay of the same scene and recording, and every value of `ebh metrics` (computed
+// here, in-process, from the run's output).
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "metrics/replay_trace.hpp"
+#include "sweep/plan.hpp"
+
+namespace ebh {
+
+/// How far a run's force is from the reference's: e_j = |F(t_j) - F_ref(t_j)| at each reference
+/// tick t_j inside the run's span, F(t) the run's force held from its last tick at or before t
+/// (what a device displays between ticks; the same tick times give the tick-by-tick difference).
+struct ForceError {
+  double rms = 0;        ///< sqrt(mean e_j^2), N
+  double max = 0;        ///< max e_j, N
+  double p999 = 0;       ///< 99.9th percentile of e_j, N (metrics/signal.hpp percentile)
+  std::size_t ticks = 0; ///< reference ticks compared
+};
+
+/// NaN errors (and ticks 0) when the two runs do not overlap in time.
+ForceError force_error(const ReplayTrace& run, const ReplayTrace& reference);
+
+/// A table of text cells, read from or written to CSV (RFC 4180: fields with a comma, a quote or
+/// a line break are quoted, quotes doubled).
+struct CsvTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+
+  /// The index of a column; throws InputError "FILE: no column 'NAME'" when missing.
+  std::size_t column(const std::string& name, const std::string& file) const;
+  std::string to_csv() const;
+};
+
+/// Parses CSV text; every row must have the header's number of fields. Throws InputError
+/// "FILE:LINE: ..." otherwise.
+CsvTable parse_csv(const std::string& text, const std::string& file);
+
+struct SweepSummary {
+  CsvTable table;
+  std::size_t ok = 0, failed = 0, pending = 0;
+};
+
+/// The summary of every run of the plan as it stands in `dir`: status ok (an output), failed (a
+/// DIR/runs/ID.failed) or pending (neither). Reads each output once and each reference once.
+SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir);
+
+}  // namespace ebh

@@ -1,0 +1,315 @@
+// Sweeps (lib/sweep): plans read and checked, run ids, the force error against a reference, the
+// summary's CSV and the report's Pareto front. The replays themselves run in tests/sweep/*.sh.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "io/error.hpp"
+#include "sweep/plan.hpp"
+#include "sweep/report.hpp"
+#include "sweep/runner.hpp"
+#include "sweep/summary.hpp"
+
+namespace ebh {
+namespace {
+namespace fs = std::filesystem;
+
+fs::path scratch() {
+  const fs::path d = fs::path(EBH_BINARY_DIR) / "test_sweep";
+  fs::create_directories(d);
+  return d;
+}
+
+/// Writes a plan with `text` and returns its path.
+fs::path plan_file(const std::string& name, const std::string& text) {
+  const fs::path p = scratch() / name;
+  std::ofstream(p) << text;
+  return p;
+}
+
+const char* kPlan = R"(# two scenes' worth of keys on the tube
+scenes:
+  - scene: tube
+    recordings: [tube_insert]
+    reference: {solver.method: direct, solver.virtual_iterations: 32}
+grid:
+  solver.virtual_iterations: [1, 2, 4]
+  stiffness.k_con: [400, 800]
+set: {gravity: [0, 0, -9.81]}
+backends: [cpu, cuda]
+repetitions: 2
+start: 4
+duration: 0.5
+)";
+
+TEST(SweepPlan, GridExpandsToEveryCombinationLastKeyFastest) {
+  const SweepPlan p = read_sweep_plan(plan_file("grid.yaml", kPlan));
+  ASSERT_EQ(p.scenes.size(), 1u);
+  EXPECT_EQ(p.scenes[0].name, "tube");
+  ASSERT_EQ(p.scenes[0].recordings.size(), 1u);
+  EXPECT_EQ(p.scenes[0].recordings[0].filename(), "tube_insert.h5");
+  EXPECT_TRUE(p.scenes[0].recordings[0].is_absolute());
+  ASSERT_EQ(p.configurations.size(), 6u);
+  EXPECT_EQ(p.configurations[0], (Overrides{{"solver.virtual_iterations", "1"}, {"stiffness.k_con", "400"}}));
+  EXPECT_EQ(p.configurations[1], (Overrides{{"solver.virtual_iterations", "1"}, {"stiffness.k_con", "800"}}));
+  EXPECT_EQ(p.configurations[5], (Overrides{{"solver.virtual_iterations", "4"}, {"stiffness.k_con", "800"}}));
+  EXPECT_EQ(p.set.at("gravity"), "[0, 0, -9.81]");
+  EXPECT_EQ(p.repetitions, 2);
+  EXPECT_EQ(p.duration, 0.5);
+  const std::vector<SweepRun> runs = expand_plan(p);
+  // 1 reference + 6 configurations x 2 backends x 2 repetitions.
+  ASSERT_EQ(runs.size(), 25u);
+  EXPECT_TRUE(runs[0].reference);
+  EXPECT_EQ(runs[0].backend, "cpu");
+  EXPECT_EQ(runs[0].effective.at("gravity"), "[0, 0, -9.81]");
+  for (const SweepRun& r : runs) EXPECT_EQ(r.reference_id, runs[0].id);
+  EXPECT_EQ(runs[1].set_arguments(),
+            (std::vector<std::string>{"gravity=[0, 0, -9.81]", "solver.virtual_iterations=1", "stiffness.k_con=400"}));
+}
+
+TEST(SweepPlan, ListDefaultsAndTheReferenceConfigurationIsOneRun) {
+  const SweepPlan p = read_sweep_plan(plan_file("list.yaml", R"(
+scenes:
+  - {scene: tube, recordings: all, reference: {solver.virtual_iterations: 8}}
+runs:
+  - {solver.virtual_iterations: 8}
+  - {}
+)"));
+  EXPECT_EQ(p.backends, std::vector<std::string>{"cpu"});
+  EXPECT_EQ(p.reference_backend, "cpu");
+  EXPECT_EQ(p.repetitions, 1);
+  EXPECT_EQ(p.mode, "async");
+  EXPECT_EQ(p.duration, 0.0);
+  // `all`: the recordings whose scene attribute is tube.
+  bool insert = false;
+  for (const fs::path& r : p.scenes[0].recordings) insert |= r.filename() == "tube_insert.h5";
+  EXPECT_TRUE(insert);
+  const std::vector<SweepRun> runs = expand_plan(p);
+  // Per recording: the reference (= the first entry on the CPU) and the scene as it is.
+  EXPECT_EQ(runs.size(), 2 * p.scenes[0].recordings.size());
+  EXPECT_EQ(runs[0].overrides_text(), "solver.virtual_iterations=8");
+  const auto plain = std::find_if(runs.begin(), runs.end(), [](const SweepRun& r) { return r.overrides.empty(); });
+  ASSERT_NE(plain, runs.end());
+  EXPECT_EQ(plain->overrides_text(), "-");
+}
+
+TEST(SweepPlan, RunIdsAreStable) {
+  const fs::path f = plan_file("ids.yaml", kPlan);
+  const SweepPlan p = read_sweep_plan(f);
+  const std::vector<SweepRun> a = expand_plan(p), b = expand_plan(read_sweep_plan(f));
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].id, b[i].id);
+    EXPECT_TRUE(std::regex_match(a[i].id, std::regex("[0-9a-f]{16}")));
+  }
+  // The resolved copy a sweep keeps in its folder gives the same runs.
+  const SweepPlan copy = read_sweep_plan(plan_file("ids_copy.yaml", resolved_plan_yaml(p)));
+  const std::vector<SweepRun> c = expand_plan(copy);
+  ASSERT_EQ(c.size(), a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(c[i].id, a[i].id);
+  // Key order in the plan does not matter; every part of the replay does.
+  std::string swapped = kPlan;
+  swapped.replace(swapped.find("start: 4\nduration: 0.5"), 22, "duration: 0.5\nstart: 4");
+  EXPECT_EQ(expand_plan(read_sweep_plan(plan_file("ids_swapped.yaml", swapped)))[3].id, a[3].id);
+  const Overrides o = a[3].effective;
+  const fs::path scene = p.scenes[0].scene_file, rec = p.scenes[0].recordings[0];
+  const std::string id = run_id(p, scene, rec, o, a[3].backend, a[3].repetition);
+  EXPECT_EQ(id, a[3].id);
+  EXPECT_NE(run_id(p, scene, rec, o, a[3].backend == "cpu" ? "cuda" : "cpu", a[3].repetition), id);
+  EXPECT_NE(run_id(p, scene, rec, o, a[3].backend, a[3].repetition + 1), id);
+  Overrides o2 = o;
+  o2["stiffness.k_con"] = "401";
+  EXPECT_NE(run_id(p, scene, rec, o2, a[3].backend, a[3].repetition), id);
+  SweepPlan shorter = p;
+  shorter.duration = 0.25;
+  EXPECT_NE(run_id(shorter, scene, rec, o, a[3].backend, a[3].repetition), id);
+  SweepPlan lockstep = p;
+  lockstep.mode = "lockstep";
+  EXPECT_NE(run_id(lockstep, scene, rec, o, a[3].backend, a[3].repetition), id);
+}
+
+/// Each bad plan: one line naming the plan file, the line and the key, and what is wrong.
+TEST(SweepPlan, BadPlansNameFileAndKey) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nwhatever: 1\n", ":2: key 'whatever': unknown key"},
+      {"grid: {solver.virtual_iterations: [1]}\n", ": key 'scenes': missing \\(required\\)"},
+      {"scenes: []\n", ":1: key 'scenes': expected a non-empty list"},
+      {"scenes: [{scene: no_such_scene, recordings: [tube_insert], reference: {}}]\n",
+       ":1: key 'scenes\\[0\\].scene': no_such_scene: no such scene"},
+      {"scenes: [{scene: tube, recordings: [no_such_recording], reference: {}}]\n",
+       ":1: key 'scenes\\[0\\].recordings': no_such_recording: no such recording"},
+      {"scenes: [{scene: tube, recordings: [tube_insert]}]\n", ":1: key 'scenes\\[0\\].reference': missing \\(required\\)"},
+      {"scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\ngrid:\n  solver.no_such: [1, 2]\n",
+       ":4: key 'grid.solver.no_such': on scene tube: .*tube.yaml: key 'solver.no_such': unknown key"},
+      {"scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\ngrid:\n  solver.virtual_iterations: [2, many]\n",
+       ":4: key 'grid.solver.virtual_iterations': on scene tube: .*key 'solver.virtual_iterations': expected a whole number"},
+      {"scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\ngrid:\n  solver.virtual_iterations: 2\n",
+       ":4: key 'grid.solver.virtual_iterations': expected a non-empty list of values"},
+      {"scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {solver.method: fast}}\n",
+       ":2: key 'scenes\\[0\\].reference.solver.method': on scene tube: .*expected one of"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbackends: [cpu, gpu]\n",
+       ":2: key 'backends': expected cpu or cuda, got 'gpu'"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nreference_backend: gpu\n",
+       ":2: key 'reference_backend': expected cpu or cuda, got 'gpu'"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nrepetitions: 0\n",
+       ":2: key 'repetitions': expected a whole number in \\[1, 1000\\], got '0'"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nduration: -1\n",
+       ":2: key 'duration': expected a number > 0, got '-1'"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nmode: realtime\n",
+       ":2: key 'mode': expected async or lockstep"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\ngrid: {a: [1]}\nruns: [{}]\n",
+       ":3: key 'runs': give `grid` or `runs`, not both"},
+      {"scenes: [{scene: tube, recordings: [tube_insert, tube_insert], reference: {}}]\n",
+       ":1: key 'scenes\\[0\\].recordings': .*tube_insert.h5 given twice"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}\n", ":2: YAML syntax error"},
+  };
+  int i = 0;
+  for (const auto& [text, expected] : cases) {
+    const fs::path f = plan_file("bad" + std::to_string(i++) + ".yaml", text);
+    try {
+      (void)read_sweep_plan(f);
+      ADD_FAILURE() << "accepted:\n" << text;
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+      EXPECT_EQ(what.rfind(f.string(), 0), 0u) << what;
+      EXPECT_TRUE(std::regex_search(what, std::regex(expected))) << what << "\n  expected: " << expected;
+    }
+  }
+  EXPECT_THROW((void)read_sweep_plan(scratch() / "no_such_plan.yaml"), InputError);
+}
+
+TEST(SweepPlan, CommittedExamplesLoad) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(EBH_SOURCE_DIR) / "examples" / "sweeps"))
+    if (e.path().extension() == ".yaml") {
+      EXPECT_NO_THROW((void)expand_plan(read_sweep_plan(e.path()))) << e.path();
+      ++n;
+    }
+  EXPECT_GE(n, 2);
+}
+
+TEST(SweepSlice, EveryRunInExactlyOneTask) {
+  const std::vector<SweepRun> runs = expand_plan(read_sweep_plan(plan_file("slice.yaml", kPlan)));
+  std::map<std::string, int> seen;
+  for (int t = 0; t < 4; ++t)
+    for (const SweepRun& r : task_slice(runs, t, 4)) ++seen[r.id];
+  EXPECT_EQ(seen.size(), runs.size());
+  for (const auto& [id, n] : seen) EXPECT_EQ(n, 1) << id;
+}
+
+ReplayTrace trace(const std::vector<double>& t, const std::vector<Vec3d>& f) {
+  ReplayTrace tr;
+  tr.t = t;
+  tr.force = f;
+  return tr;
+}
+
+TEST(SweepError, IdenticalForcesHaveNoError) {
+  const ReplayTrace a = trace({0, 1e-3, 2e-3}, {{0.1, 0.2, 0.3}, {1, 2, 3}, {-1, 0, 0.5}});
+  const ForceError e = force_error(a, a);
+  EXPECT_EQ(e.rms, 0.0);
+  EXPECT_EQ(e.max, 0.0);
+  EXPECT_EQ(e.p999, 0.0);
+  EXPECT_EQ(e.ticks, 3u);
+}
+
+TEST(SweepError, TickByTickRmsMaxAndPercentile) {
+  // |F - F_ref| = 0, 3, 4 N (a 3-4-5 triangle for the last): RMS sqrt(25/3), max 4, p99.9 at
+  // position 0.999 * 2 between 3 and 4.
+  const ReplayTrace ref = trace({0, 1e-3, 2e-3}, {{0, 0, 0}, {0, 0, 0}, {1, 1, 1}});
+  const ReplayTrace run = trace({0, 1e-3, 2e-3}, {{0, 0, 0}, {3, 0, 0}, {1, 5, 1}});
+  const ForceError e = force_error(run, ref);
+  EXPECT_NEAR(e.rms, std::sqrt(25.0 / 3.0), 1e-15);
+  EXPECT_EQ(e.max, 4.0);
+  EXPECT_NEAR(e.p999, 3.0 + 0.998, 1e-12);
+}
+
+TEST(SweepError, OtherRatesAreComparedAsTheDeviceHoldsTheForce) {
+  // The run ticks at half the reference's rate: between its ticks its last force is held.
+  const ReplayTrace ref = trace({0, 1e-3, 2e-3, 3e-3}, {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}});
+  const ReplayTrace run = trace({0, 2e-3}, {{0, 0, 0}, {2, 0, 0}});
+  const ForceError e = force_error(run, ref);
+  // Compared at 0, 1, 2 ms (3 ms is past the run's last tick): errors 0, 1, 0.
+  EXPECT_EQ(e.ticks, 3u);
+  EXPECT_EQ(e.max, 1.0);
+  EXPECT_NEAR(e.rms, std::sqrt(1.0 / 3.0), 1e-15);
+  // No overlap: no error to give.
+  const ForceError none = force_error(trace({5, 6}, {{0, 0, 0}, {0, 0, 0}}), ref);
+  EXPECT_EQ(none.ticks, 0u);
+  EXPECT_TRUE(std::isnan(none.rms));
+}
+
+TEST(SweepCsv, QuotedFieldsRoundTrip) {
+  CsvTable t;
+  t.header = {"id", "error"};
+  t.rows = {{"a", "plain"}, {"b", "with, comma"}, {"c", "with \"quotes\"\nand a line break"}, {"d", ""}};
+  const CsvTable back = parse_csv(t.to_csv(), "t.csv");
+  EXPECT_EQ(back.header, t.header);
+  EXPECT_EQ(back.rows, t.rows);
+  try {
+    (void)parse_csv("a,b\n1,2\n3\n", "t.csv");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "t.csv:3: 1 fields, the header has 2");
+  }
+  EXPECT_THROW((void)parse_csv("a,b\n\"1,2\n", "t.csv"), InputError);
+}
+
+TEST(SweepReport, ParetoFront) {
+  const double nan = std::nan("");
+  // (wall, error): (1, .5) (2, .2) (3, .3) (4, .1) (1.5, .5) (2, .2) again, a NaN.
+  const std::vector<bool> f = pareto_front({{1, .5}, {2, .2}, {3, .3}, {4, .1}, {1.5, .5}, {2, .2}, {nan, 0}});
+  EXPECT_EQ(f, (std::vector<bool>{true, true, false, true, false, true, false}));
+  EXPECT_TRUE(pareto_front({}).empty());
+}
+
+TEST(SweepReport, HandMadeSummary) {
+  const std::string file = std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv";
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::vector<ReportGroup> g = build_report(parse_csv(text.str(), file), file);
+  ASSERT_EQ(g.size(), 1u);
+  EXPECT_EQ(g[0].reference, "solver.method=direct (cpu)");
+  std::vector<std::string> order, front;
+  for (const ReportPoint& p : g[0].points) {
+    order.push_back(p.overrides);
+    if (p.front) front.push_back(p.overrides);
+  }
+  EXPECT_EQ(order, (std::vector<std::string>{"k=1", "k=5", "k=2", "k=3", "k=4", "solver.method=direct"}));
+  EXPECT_EQ(front, (std::vector<std::string>{"k=1", "k=2", "k=4"}));
+  EXPECT_EQ(g[0].points[2].runs, 2u);
+  EXPECT_DOUBLE_EQ(g[0].points[2].wall_s, 2.2);  // the median of 2 and 2.4
+  ASSERT_EQ(g[0].failed.size(), 1u);
+  EXPECT_EQ(g[0].failed[0], "f k=6: the replay failed, for a reason with a comma");
+  EXPECT_EQ(g[0].pending, 1u);
+  const std::string md = report_markdown(g);
+  EXPECT_NE(md.find("| * | k=1 | 1 | 1 | 2x | 0.5 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| reference | solver.method=direct | 1 | 10 |"), std::string::npos) << md;
+}
+
+TEST(SweepReport, MissingColumnAndBadNumberAreNamed) {
+  try {
+    (void)build_report(parse_csv("status,scene\nok,tube\n", "s.csv"), "s.csv");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "s.csv: no column 'recording'");
+  }
+  const std::string header =
+      "status,scene,recording,backend,reference,overrides,wall_s,real_time_factor,force_error_rms_N,force_error_max_N,"
+      "force_error_p999_N\n";
+  try {
+    (void)build_report(parse_csv(header + "ok,tube,r,cpu,0,-,fast,1,0,0,0\n", "s.csv"), "s.csv");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "s.csv: row 2, column 'wall_s': expected a number, got 'fast'");
+  }
+}
+
+}  // namespace
+}  // namespace ebh

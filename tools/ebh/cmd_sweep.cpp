@@ -1,0 +1,288 @@
+// ebh sweep PLAN.yaml -o DIR: many replays from a plan, locally (N at a time) or as a Slurm job
+// array, resumable; DIR/summary.csv holds one row per run. ebh sweep report DIR: run time against
+// force error, the Pareto front, a plot. lib/sweep has the pieces; docs/FORMATS.md the files.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include "command.hpp"
+#include "io/atomic.hpp"
+#include "io/error.hpp"
+#include "io/paths.hpp"
+#include "replay_common.hpp"
+#include "sweep/plan.hpp"
+#include "sweep/report.hpp"
+#include "sweep/runner.hpp"
+#include "sweep/summary.hpp"
+
+namespace ebh::cli {
+namespace {
+namespace fs = std::filesystem;
+
+struct SweepArgs {
+  std::string plan, out, backend, slurm_args;
+  int jobs = 1;
+  std::optional<int> task, tasks;
+  bool slurm = false, collect = false;
+};
+
+struct ReportArgs {
+  std::string dir, plot;
+};
+
+fs::path plan_copy(const fs::path& dir) { return dir / "plan.yaml"; }
+fs::path summary_path(const fs::path& dir) { return dir / "summary.csv"; }
+
+std::string executable() {
+  std::error_code ec;
+  const fs::path p = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) throw InputError("cannot find the ebh binary to run the replays with (/proc/self/exe: " + ec.message() + ")");
+  return p.string();
+}
+
+bool is_done(const fs::path& dir, const SweepRun& r) {
+  std::error_code ec;
+  return fs::exists(run_output(dir, r), ec);
+}
+
+/// "tube + tube_insert, cpu, solver.virtual_iterations=2 (ID)": a run in messages.
+std::string describe(const SweepPlan& plan, const SweepRun& r) {
+  return plan.scenes[r.scene].name + " + " + r.recording.stem().string() + ", " + r.backend +
+         (r.repetition ? " #" + std::to_string(r.repetition) : "") + ", " + (r.reference ? "reference " : "") +
+         r.overrides_text() + " (" + r.id + ")";
+}
+
+/// Writes DIR/summary.csv from what DIR holds; prints its counts.
+SweepSummary write_summary(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
+  SweepSummary s = summarize_sweep(plan, runs, dir);
+  write_file_atomically(summary_path(dir).string(), s.table.to_csv());
+  std::printf("%s: %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(), runs.size(), s.ok, s.failed,
+              s.pending);
+  return s;
+}
+
+/// "'text'" for a POSIX shell.
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+std::vector<std::string> split_words(const std::string& s) {
+  std::istringstream in(s);
+  std::vector<std::string> words;
+  for (std::string w; in >> w;) words.push_back(w);
+  return words;
+}
+
+/// --slurm: one array task per slice of the runs, each `ebh sweep DIR/plan.yaml -o DIR --task I --tasks T`.
+void submit_slurm(const SweepArgs& a, const std::vector<SweepRun>& runs, const fs::path& dir) {
+  std::size_t todo = 0;
+  for (const SweepRun& r : runs) todo += is_done(dir, r) ? 0 : 1;
+  if (todo == 0) {
+    std::printf("%s: all %zu runs are done; nothing to submit (ebh sweep report %s)\n", dir.c_str(), runs.size(), dir.c_str());
+    return;
+  }
+  const int tasks = a.tasks.value_or(static_cast<int>(std::min<std::size_t>(runs.size(), 1000)));
+  const fs::path abs_dir = fs::absolute(dir).lexically_normal();
+  std::string command = "exec " + shell_quote(executable()) + " sweep " + shell_quote(plan_copy(abs_dir).string()) + " -o " +
+                        shell_quote(abs_dir.string()) + " --task \"$SLURM_ARRAY_TASK_ID\" --tasks " +
+                        std::to_string(tasks) + " --jobs " + std::to_string(a.jobs);
+  if (!a.backend.empty()) command += " --backend " + a.backend;
+  const fs::path script = abs_dir / "sweep.sbatch";
+  write_file_atomically(script.string(),
+                        "#!/bin/sh\n# ebh sweep --slurm: array task I of " + std::to_string(tasks) +
+                            " runs the plan's runs i with i % " + std::to_string(tasks) + " == I that have no output yet\n" +
+                            command + "\n");
+  std::error_code ec;
+  fs::create_directories(abs_dir / "slurm", ec);
+  if (ec) throw InputError((abs_dir / "slurm").string() + ": cannot create the folder: " + ec.message());
+  std::vector<std::string> argv = {"sbatch", "--parsable", "--array=0-" + std::to_string(tasks - 1), "--job-name=ebh-sweep",
+                                   "--output=" + (abs_dir / "slurm" / "%A_%a.out").string()};
+  for (const std::string& w : split_words(a.slurm_args)) argv.push_back(w);
+  argv.push_back(script.string());
+  CommandResult r;
+  try {
+    r = run_command(argv);
+  } catch (const InputError& e) {
+    throw InputError(std::string("--slurm: ") + e.what() + " (is Slurm's sbatch on PATH?)");
+  }
+  std::string out = r.output;
+  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+  if (r.status != 0) {
+    const auto nl = out.find_last_of('\n');
+    throw InputError("--slurm: sbatch failed (status " + std::to_string(r.status) + "): " +
+                     (nl == std::string::npos ? out : out.substr(nl + 1)));
+  }
+  const std::string job = out.substr(out.find_last_of('\n') == std::string::npos ? 0 : out.find_last_of('\n') + 1);
+  std::printf("%s: submitted Slurm job array %s: %d tasks for %zu runs (%zu to do); when it has finished: ebh sweep report %s\n",
+              dir.c_str(), job.substr(0, job.find(';')).c_str(), tasks, runs.size(), todo, dir.c_str());
+}
+
+/// The progress line: on a terminal one line rewritten in place, otherwise a line per finished run.
+class ProgressPrinter {
+ public:
+  ProgressPrinter(const SweepPlan& plan) : plan_(plan), tty_(isatty(STDERR_FILENO)) {}
+  void operator()(const RunnerProgress& p, const RunOutcome* o) {
+    if (o && o->status == RunOutcome::Status::Skipped) return;
+    const std::size_t width = 24, done = p.total ? width * p.done / p.total : width;
+    if (tty_) {
+      std::fprintf(stderr, "\r[%.*s%*s] %zu/%zu runs, %zu running, %zu failed ", static_cast<int>(done),
+                   "########################", static_cast<int>(width - done), "", p.done, p.total, p.running, p.failed);
+      if (o && o->status == RunOutcome::Status::Failed)
+        std::fprintf(stderr, "\r%*s\rfailed: %s: %s\n", 100, "", describe(plan_, *o->run).c_str(), o->error.c_str());
+    } else if (o) {
+      const char* what = o->status == RunOutcome::Status::Done ? "done" : o->status == RunOutcome::Status::Failed ? "failed" : "stopped";
+      std::fprintf(stderr, "[%zu/%zu] %s in %.1f s: %s%s%s\n", p.done, p.total, what, o->seconds,
+                   describe(plan_, *o->run).c_str(), o->error.empty() ? "" : ": ", o->error.c_str());
+    }
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (tty_) std::fprintf(stderr, "\r%*s\r", 100, "");
+  }
+
+ private:
+  const SweepPlan& plan_;
+  bool tty_;
+};
+
+void run_sweep(const SweepArgs& a) {
+  if (a.task.has_value() != a.tasks.has_value() && !(a.slurm && a.tasks && !a.task))
+    throw InputError("--task and --tasks go together (a Slurm array task's slice)");
+  if (a.task && (*a.task < 0 || *a.task >= *a.tasks))
+    throw InputError("--task " + std::to_string(*a.task) + ": expected 0 .. " + std::to_string(*a.tasks - 1));
+  if (a.slurm && (a.task || a.collect)) throw InputError("--slurm submits the whole plan: not with --task or --collect");
+  if (!a.backend.empty() && a.backend != "cpu" && a.backend != "cuda")
+    throw InputError("--backend: expected cpu or cuda, got '" + a.backend + "'");
+  const SweepPlan plan = read_sweep_plan(a.plan);
+  const std::vector<SweepRun> all = expand_plan(plan);
+  const fs::path dir = a.out;
+  if (std::error_code ec; fs::exists(dir, ec) && !fs::is_directory(dir, ec)) throw InputError("-o " + a.out + ": not a folder");
+  if (!a.backend.empty() && std::find(plan.backends.begin(), plan.backends.end(), a.backend) == plan.backends.end())
+    throw InputError("--backend " + a.backend + ": not one of the plan's backends (" + plan.file.string() + ", key 'backends')");
+  // --backend B: the plan's runs on B and the references they are compared with.
+  std::vector<SweepRun> runs;
+  for (const SweepRun& r : all)
+    if (a.backend.empty() || r.backend == a.backend || r.reference) runs.push_back(r);
+  if (a.task) runs = task_slice(runs, *a.task, *a.tasks);
+  else if (!same_file(a.plan, plan_copy(dir).string())) write_file_atomically(plan_copy(dir).string(), resolved_plan_yaml(plan));
+
+  if (a.collect) {
+    const SweepSummary s = write_summary(plan, all, dir);
+    if (s.failed) throw ExitRequest{1};
+    return;
+  }
+  if (a.slurm) return submit_slurm(a, runs, dir);
+
+  std::size_t todo = 0;
+  for (const SweepRun& r : runs)
+    if (!is_done(dir, r)) {
+      ++todo;
+      try {
+        check_backend(r.backend);
+      } catch (const InputError& e) {
+        throw InputError(std::string(e.what()) + " (the plan's runs on " + r.backend + "; --backend cpu runs the others)");
+      }
+    }
+  RunnerOptions opt;
+  opt.executable = executable();
+  opt.jobs = a.jobs;
+  opt.threads = std::max(1, available_cores() / a.jobs);
+  std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done; %d at a time, %d threads each\n", runs.size(),
+               runs.size() - todo, std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads);
+  ProgressPrinter printer(plan);
+  const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer));
+  printer.finish();
+  if (rep.stopped) {
+    std::fprintf(stderr, "ebh: error: %s: interrupted: %zu runs done, %zu not (%zu stopped in flight); rerun the same command to go on\n",
+                 dir.c_str(), rep.ran + rep.skipped, runs.size() - rep.ran - rep.skipped - rep.failed, rep.interrupted);
+    throw ExitRequest{1};
+  }
+  if (!a.task) write_summary(plan, all, dir);
+  if (rep.failed) {
+    const RunOutcome& f = rep.failures.front();
+    std::fprintf(stderr, "ebh: error: %zu of %zu runs failed (the first: %s: %s)%s\n", rep.failed, runs.size(),
+                 describe(plan, *f.run).c_str(), f.error.c_str(),
+                 a.task ? "" : ("; every error is in " + summary_path(dir).string()).c_str());
+    throw ExitRequest{1};
+  }
+}
+
+/// The newest modification time among the sweep's run files and plan.
+fs::file_time_type newest_input(const fs::path& dir) {
+  std::error_code ec;
+  fs::file_time_type newest = fs::last_write_time(plan_copy(dir), ec);
+  for (fs::directory_iterator it(dir / "runs", ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code e2;
+    newest = std::max(newest, fs::last_write_time(it->path(), e2));
+  }
+  return newest;
+}
+
+void run_report(const ReportArgs& a) {
+  const fs::path dir = a.dir;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw InputError(a.dir + ": not a folder (expected a sweep's folder, ebh sweep -o DIR)");
+  const bool has_plan = fs::exists(plan_copy(dir), ec), has_summary = fs::exists(summary_path(dir), ec);
+  if (!has_plan && !has_summary)
+    throw InputError(a.dir + ": neither summary.csv nor plan.yaml: not a sweep's folder");
+  // Collect: the summary again when runs ended after it was written (a Slurm array's tasks).
+  if (has_plan && (!has_summary || fs::last_write_time(summary_path(dir), ec) <= newest_input(dir))) {
+    const SweepPlan plan = read_sweep_plan(plan_copy(dir));
+    const SweepSummary s = summarize_sweep(plan, expand_plan(plan), dir);
+    write_file_atomically(summary_path(dir).string(), s.table.to_csv());
+    std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(),
+                 s.table.rows.size(), s.ok, s.failed, s.pending);
+  }
+  const std::string file = summary_path(dir).string();
+  check_input_file(file);
+  std::ifstream in(file, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::vector<ReportGroup> groups = build_report(parse_csv(text.str(), file), file);
+  std::fputs(report_markdown(groups).c_str(), stdout);
+  if (!a.plot.empty()) {
+    write_report_plot(groups, a.plot);
+    std::fprintf(stderr, "%s: run time against force error\n", a.plot.c_str());
+  }
+}
+
+void setup(CLI::App& root) {
+  auto args = std::make_shared<SweepArgs>();
+  CLI::App* c = root.add_subcommand("sweep", "Many replays from a plan (locally or on Slurm), resumable; DIR/summary.csv");
+  c->add_option("plan", args->plan, "Sweep plan (YAML, docs/FORMATS.md)");
+  c->add_option("-o,--output", args->out, "The sweep's folder (runs/, plan.yaml, summary.csv)");
+  c->add_option("--jobs", args->jobs, "Replays at a time (default 1: timings undisturbed); threads split so jobs x threads = cores")
+      ->check(CLI::Range(1, 1024));
+  c->add_option("--backend", args->backend, "Run only the plan's runs on cpu or cuda (and the CPU references)");
+  c->add_flag("--collect", args->collect, "Only rebuild DIR/summary.csv from the runs' outputs");
+  c->add_flag("--slurm", args->slurm, "Submit the plan as a Slurm job array (sbatch --array) instead of running it here");
+  c->add_option("--slurm-args", args->slurm_args, "More sbatch options, e.g. \"--partition=gpu --gres=gpu:1 -c 4\"");
+  c->add_option("--tasks", args->tasks, "Array tasks with --slurm (default: one per run, at most 1000)")->check(CLI::Range(1, 100000));
+  c->add_option("--task", args->task, "")->group("");  // a Slurm array task's slice (with --tasks)
+  auto report = std::make_shared<ReportArgs>();
+  CLI::App* r = c->add_subcommand("report", "Run time against force error: Markdown table, Pareto front, --plot PNG");
+  r->add_option("dir", report->dir, "The sweep's folder")->required();
+  r->add_option("--plot", report->plot, "Also draw force RMS error against wall time into this PNG");
+  r->callback([report] { run_report(*report); });
+  c->callback([args, c] {
+    if (c->got_subcommand("report")) return;
+    if (args->plan.empty()) throw InputError("sweep: expected a plan (ebh sweep PLAN.yaml -o DIR) or `ebh sweep report DIR`");
+    if (args->out.empty()) throw InputError("sweep: -o DIR is required (the sweep's folder)");
+    run_sweep(*args);
+  });
+}
+
+}  // namespace
+
+EBH_COMMAND(setup);
+
+}  // namespace ebh::cli

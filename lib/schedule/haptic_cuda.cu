@@ -25,7 +25,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -33,13 +32,15 @@
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
 #include "schedule/haptic_cuda.hpp"
-#include "schedule/newton_warp.cuh"
 #include "solver/cuda_util.cuh"
 #include "solver/device_cuda.hpp"
+#include "solver/virtual_jacobi.hpp"
 #include "solver/virtual_mesh_device.cuh"
 #include "tool/collider.hpp"
 #include "tool/contact.hpp"
-#include "tool/tool_energy.hpp"
+#include "tool/newton.hpp"
+#include "tool/newton_warp.cuh"
+#include "tool/tool_terms.hpp"
 
 namespace ebh {
 namespace {
@@ -51,10 +52,6 @@ constexpr int kCache = kBlock;      // candidates and held vertices the tail kee
 constexpr int kReleaseThread = kBlock - 32;  // block 0's thread that releases the vertex blocks
 constexpr int kPhysicalPoseThread = 64;      // block 0's first thread that poses the physical tool
 constexpr int kEdgeChunk = 8;       // incident edges loaded at once (a surface vertex has ~6)
-constexpr int kMaxHalvings = 12;    // virtual_tool.cpp
-constexpr double kArmijo = 1e-4;    // virtual_tool.cpp
-constexpr double kConverged = 1e-13;
-constexpr double kStepFloor = 1e-14;
 constexpr int kSums = 28;           // E, gradient (6), upper Hessian (21)
 // A float32 signed distance above this (m) is certainly positive in double: the exact double tests
 // run only below it (float's error on tool-sized coordinates is ~1e-7 m).
@@ -69,7 +66,6 @@ struct ToolConst {
   Vec3f seg_a[kMaxColliders], seg_b[kMaxColliders];
   float seg_r[kMaxColliders];
   float seg_L[kMaxColliders];  // the segment's farthest point from the tool origin (pipelined reach)
-  double jaw_angle = 0;  // rad at jaw = 1
   double k_con = 0, k_vcs = 0, k_vct = 0, stab_t = 0, stab_r = 0;
   double max_step = 0, max_rot = 0;
   int newton = 1;
@@ -174,11 +170,11 @@ __device__ unsigned near_colliders(const ToolConst& t, const Posed& p, Vec3f x, 
   return mask;
 }
 
-/// The candidate bound of virtual_tool.cpp for a point at distance r from the tool origin,
-/// (T + th (r + T)) / (1 - th) plus float slack: one Newton call moves no collider point nearer to
-/// the point than its distance less this bound.
+/// The candidate bound (newton.hpp: newton_reach_bound) for a point at distance r from the tool
+/// origin, plus float slack: one Newton call moves no collider point nearer to the point than its
+/// distance less this bound.
 __device__ float reach_bound(const ToolConst& t, float r) {
-  return (t.reach_T + t.reach_th * (r + t.reach_T)) / (1.f - t.reach_th) + kFloatSlack;
+  return newton_reach_bound(t.reach_T, t.reach_th, r) + kFloatSlack;
 }
 
 /// |x - tool origin|, rounded up.
@@ -340,15 +336,7 @@ __device__ __noinline__ void pose_collider(const ToolConst& t, Vec3d P, Quatd Q,
   Rigid<double> frame;
   frame.R = to_matrix(Q);
   frame.t = P;
-  const ColliderFrame f = t.shape[c].frame;
-  if (f == ColliderFrame::Tool) {
-    out.world[c] = frame;
-  } else {
-    Rigid<double> local;  // rotation about the tool's y axis, +angle for the upper jaw
-    const double s = f == ColliderFrame::UpperJaw ? js : -js;
-    local.R(0, 0) = jc; local.R(0, 2) = s; local.R(2, 0) = -s; local.R(2, 2) = jc;
-    out.world[c] = compose(frame, local);
-  }
+  out.world[c] = collider_world(frame, t.shape[c].frame, jc, js);
   const Vec3d A = apply(out.world[c], static_cast<Vec3d>(t.seg_a[c]));
   const Vec3d B = apply(out.world[c], static_cast<Vec3d>(t.seg_b[c]));
   const double len = norm(B - A);
@@ -367,36 +355,6 @@ __device__ void pose_colliders(const ToolConst& t, Vec3d P, Quatd Q, const Devic
                                int first = 0) {
   const int c = static_cast<int>(threadIdx.x) - first;
   if (c >= 0 && c < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, c, out);
-}
-
-/// normalized(quat_from_rotvec(w) * Q), the line search's trial orientation (virtual_tool.cpp).
-/// A Newton step turns the tool by at most max_rot (0.5 deg in the scenes), so below 0.01 rad the
-/// half angle's cosine and sin(x) / x come from their Taylor series (x = |w| / 2 < 0.005:
-/// truncation below 1e-24, far under double round-off), with no range reduction, square root or
-/// division; larger turns take the trigonometry.
-__device__ Quatd trial_orientation(Vec3d w, Quatd Q) {
-  const double a2 = dot(w, w);
-  Quatd r;
-  if (a2 < 1e-4) {
-    const double x2 = 0.25 * a2;
-    const double c = 1.0 + x2 * (-1.0 / 2 + x2 * (1.0 / 24 + x2 * (-1.0 / 720 + x2 * (1.0 / 40320))));
-    const double s = 0.5 * (1.0 + x2 * (-1.0 / 6 + x2 * (1.0 / 120 + x2 * (-1.0 / 5040))));  // sin(x) / (2x)
-    r = Quatd{c, s * w.x, s * w.y, s * w.z};
-  } else {
-    r = quat_from_rotvec(w);
-  }
-  const Quatd q = r * Q;
-  const double inv = rsqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-  return Quatd{q.w * inv, q.x * inv, q.y * inv, q.z * inv};
-}
-
-/// E_tvc [2] (tool_energy.cpp: coupling_energy) with its gradient.
-__device__ double coupling_energy_dev(Vec3d P, Quatd Q, Vec3d Ph, Quatd Qh, double k_vcs, double k_vct, double* g) {
-  const Vec3d dP = P - Ph;
-  const Vec3d v = rotvec_from_quat(normalized(Q * conjugate(Qh)));
-  g[0] = k_vcs * dP.x; g[1] = k_vcs * dP.y; g[2] = k_vcs * dP.z;
-  g[3] = k_vct * v.x; g[4] = k_vct * v.y; g[5] = k_vct * v.z;
-  return 0.5 * k_vcs * squared_norm(dP) + 0.5 * k_vct * squared_norm(v);
 }
 
 /// Block sum of the first kCount of v[kSums] over kBlock threads in a fixed order, the result in
@@ -531,24 +489,10 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
   for (int i = threadIdx.x; i < sh.nh; i += kBlock) {
     const bool cached = i < kCache;
     const int j = cached ? 0 : d.held_list[i];
-    const Vec3d s = pt.frame.R * (cached ? sh.held_local[i] : d.grasp_local[j]);
-    const Vec3d r = (cached ? sh.held_q[i] : static_cast<Vec3d>(q[j])) - P - s;
-    acc[0] += 0.5 * t.k_con * squared_norm(r);
-    if (kDerivs) {
-      const Vec3d sr = cross(s, r);
-      g[0] -= t.k_con * r.x; g[1] -= t.k_con * r.y; g[2] -= t.k_con * r.z;
-      g[3] -= t.k_con * sr.x; g[4] -= t.k_con * sr.y; g[5] -= t.k_con * sr.z;
-      const Mat3d Sk = skew(s);
-      const Mat3d SS = Sk * Sk;
-      const Mat3d Eww = dot(r, s) * Mat3d::identity() - 0.5 * (outer(r, s) + outer(s, r));
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          H[6 * a + b] += t.k_con * (a == b ? 1.0 : 0.0);
-          H[6 * a + b + 3] -= t.k_con * Sk(a, b);
-          H[6 * (a + 3) + b] += t.k_con * Sk(a, b);
-          H[6 * (a + 3) + b + 3] += t.k_con * (Eww(a, b) - SS(a, b));
-        }
-    }
+    const GraspOffset<double> o = grasp_offset(pt.frame.R, P, cached ? sh.held_local[i] : d.grasp_local[j],
+                                               cached ? sh.held_q[i] : static_cast<Vec3d>(q[j]));
+    acc[0] += grasp_energy_term(t.k_con, o);
+    if (kDerivs) grasp_derivative_terms<GraspRotation::Fused>(t.k_con, o, g, H);
   }
   if (kDerivs) {
     for (int k = 0; k < 6; ++k) acc[1 + k] = g[k];
@@ -588,10 +532,10 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
   // the contact sums (it depends on the pose only), so it adds nothing to the chain.
   constexpr int kCouplingThread = kBlock - 1;
   auto coupling = [&](Vec3d P, Quatd Q, double* g) {
-    double e = coupling_energy_dev(P, Q, Ph, Qh, t.k_vcs, t.k_vct, g);
+    double e = coupling_terms<CouplingAngle::OfComponents>(P, Q, Ph, Qh, t.k_vcs, t.k_vct, g);
     if (stabilised) {
       double gs[6];
-      e += coupling_energy_dev(P, Q, sh.anchor_P, sh.anchor_Q, t.stab_t, t.stab_r, gs);
+      e += coupling_terms<CouplingAngle::OfComponents>(P, Q, sh.anchor_P, sh.anchor_Q, t.stab_t, t.stab_r, gs);
       for (int k = 0; k < 6; ++k) g[k] += gs[k];
     }
     return e;
@@ -651,9 +595,8 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
           ++rejected;
         } else {
           sh.slope = gdx;
-          const double floor_t = kStepFloor * (norm(sh.P) + 1e-3);  // virtual_tool.cpp: round-off steps
-          const bool roundoff = nt * scale <= floor_t && nr * scale <= kStepFloor;
-          if (gdx < -kConverged * fmax(sh.E, 1e-300) && !roundoff) sh.flag = 1;
+          const bool roundoff = newton_step_roundoff(nt * scale, nr * scale, sh.P);
+          if (newton_decrease_visible(gdx, sh.E) && !roundoff) sh.flag = 1;
         }
       }
     }
@@ -663,12 +606,12 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
     // Armijo line search: halve until E_tool does not increase enough.
     double alpha = 1.0;
     bool accepted = false;
-    for (int hv = 0; hv < kMaxHalvings; ++hv, alpha *= 0.5) {
+    for (int hv = 0; hv < kNewtonMaxHalvings; ++hv, alpha *= 0.5) {
       // The trial pose, computed by each thread that uses it (same bits): the colliders' threads
       // pose it, the coupling thread evaluates E_tvc there, thread 0 keeps it.
       if (threadIdx.x < t.count || threadIdx.x == kCouplingThread) {
         const Vec3d P = sh.P + Vec3d{alpha * sh.dx[0], alpha * sh.dx[1], alpha * sh.dx[2]};
-        const Quatd Q = trial_orientation(Vec3d{alpha * sh.dx[3], alpha * sh.dx[4], alpha * sh.dx[5]}, sh.Q);
+        const Quatd Q = trial_orientation_series(Vec3d{alpha * sh.dx[3], alpha * sh.dx[4], alpha * sh.dx[5]}, sh.Q);
         if (threadIdx.x < t.count) pose_collider(t, P, Q, in.jaw_cos, in.jaw_sin, threadIdx.x, pt);
         if (threadIdx.x == 0) { sh.trial_P = P; sh.trial_Q = Q; posed_current = false; }
         if (threadIdx.x == kCouplingThread) sh.coupling_E = coupling(P, Q, sh.coupling_g);
@@ -678,7 +621,7 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
       const double Ec = tool_contact_sums<false>(d, t, q, pt, sh, trial_depth);  // synchronises the block
       if (threadIdx.x == 0) {
         const double Et = sh.coupling_E + Ec;
-        sh.flag = Et <= sh.E + kArmijo * alpha * sh.slope;
+        sh.flag = armijo_accepts(Et, sh.E, alpha, sh.slope);
         if (sh.flag) {
           sh.P = sh.trial_P;
           sh.Q = sh.trial_Q;
@@ -714,13 +657,11 @@ __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceT
   const Vec3d Ph = in.position;
   const Quatd Qh = in.orientation;
   DeviceTickOutput o;
-  double g[6];
-  coupling_energy_dev(sh.P, sh.Q, Ph, Qh, t.k_vcs, t.k_vct, g);
-  o.force = Vec3d{g[0], g[1], g[2]};
-  o.torque = Vec3d{g[3], g[4], g[5]};
-  const double f = norm(o.force), tq = norm(o.torque);
-  if (t.force_limit > 0 && f > t.force_limit) { o.force = (t.force_limit / f) * o.force; o.force_clamped = 1; }
-  if (t.torque_limit > 0 && tq > t.torque_limit) { o.torque = (t.torque_limit / tq) * o.torque; o.torque_clamped = 1; }
+  const CouplingOutput<double> c = coupling_output(sh.P, sh.Q, Ph, Qh, t.k_vcs, t.k_vct, t.force_limit, t.torque_limit);
+  o.force = c.force;
+  o.torque = c.torque;
+  o.force_clamped = c.force_clamped;
+  o.torque_clamped = c.torque_clamped;
   o.position = sh.P;
   o.orientation = sh.Q;
   o.penetration = sh.depth;
@@ -742,7 +683,7 @@ __device__ Vec3f blended_paired_point(const MeshDev& d, const Vec3f* x_prev, con
   const int count = d.model.pair_count[j];
   for (int k = 0; k < count; ++k) {
     const int a = d.model.pair_vertex[4 * j + k];
-    xb[k] = x_prev[a] + alpha * (x_vis[a] - x_prev[a]);
+    xb[k] = lerp(x_prev[a], x_vis[a], alpha);
   }
   return paired_point(xb, idx, d.model.pair_weight + 4 * j, count);
 }
@@ -866,13 +807,8 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
       const Collider<double>& hb = d.grasp_boxes[in.grasp - 1];
       const Vec3d ls = apply_inverse(posed.frame, static_cast<Vec3d>(s));
       const double sd = signed_distance_local(hb, ls);
-      const bool grasp = sd <= t.soft_margin;
-      if (grasp) {
-        const double w = 1.0 / (1.0 + t.eta * exp(sd / t.soft_margin));  // eq. [10]
-        const Vec3d lf{0.0, fmin(fmax(ls.y, hb.a.y - hb.half.y), hb.a.y + hb.half.y),
-                       fmin(fmax(ls.z, hb.a.z - hb.half.z), hb.a.z + hb.half.z)};
-        d.grasp_local[j] = w * lf + (1.0 - w) * ls;
-      }
+      const bool grasp = grasp_reaches(sd, t.soft_margin);
+      if (grasp) d.grasp_local[j] = grasp_point(hb, ls, sd, t.soft_margin, t.eta).local;  // eq. [10]
       d.held[j] = grasp;
     }
   } else {
@@ -889,7 +825,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
   float D = 0.f;
   if (!pinned) {
     const float mh = mass * d.inv_h2;
-    r = mh * (s - q) - coupling_gradient_virtual(p, q, d.k_svc);  // -dE_k/dq [6] - dE_svc/dq [5]
+    r = inertia_coupling_residual(mh, s, q, p, d.k_svc);  // virtual_jacobi.hpp
     auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
       const Vec3f x = qin[a];
       if (!first || d.model.pinned[a]) return x;
@@ -911,17 +847,14 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
         }
 #pragma unroll
       for (int u = 0; u < kEdgeChunk; ++u)
-        if (kb + u < degree) {
-          const Vec3f g = edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s);  // [4]
-          r += it[u].w ? g : -g;
-        }
+        if (kb + u < degree) add_edge_residual(r, edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s), it[u].w != 0);
     }
     D = mh + stiff;
   }
   // -dE_con/dq [3]: kt - ck q. One reciprocal, not three divisions: an IEEE division takes its
   // slow path for some operands (a zero numerator), and a warp took it ~0.7 times per step
   // (Nsight Compute). finish_deferred uses the same expression.
-  const Vec3f qn = pinned ? q : q + (r + (kt - ck * q)) * (1.f / (pinned ? 1.f : D + ck));
+  const Vec3f qn = pinned ? q : jacobi_update_with_contact(q, r, kt, ck, pinned ? 1.f : D + ck);
   if (kAhead) {
     bool deferred = held, superset = false;
     if (!held) {
@@ -962,7 +895,7 @@ __device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, con
   } else {
     f.contact = contact_target(d, t, pt, v.j, v.q, false, kt, ck);
   }
-  const Vec3f qn = v.D == 0.f ? v.q : v.q + (v.r + (kt - ck * v.q)) * (1.f / (v.D == 0.f ? 1.f : v.D + ck));
+  const Vec3f qn = v.D == 0.f ? v.q : jacobi_update_with_contact(v.q, v.r, kt, ck, v.D == 0.f ? 1.f : v.D + ck);
   vertex_end(d, t, physical, last, v.j, held, qn, v.q_start, qout, v_out, f);
   f.list0 = !held && reachable(t, pt, qn);
   if (v.slot >= 0) sh.held_q[v.slot] = static_cast<Vec3d>(qn);  // the Newton call's cached q
@@ -1681,21 +1614,21 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     const double L = std::max(norm(static_cast<Vec3d>(t.seg_a[c])), norm(static_cast<Vec3d>(t.seg_b[c])));
     t.seg_L[c] = static_cast<float>(L * (1 + 1e-6) + 1e-7);
   }
-  t.jaw_angle = T.has_jaws ? T.spec.forceps.jaw_max_angle_deg * std::numbers::pi / 180.0 : 0.0;
   t.k_con = S.k.k_con;
   t.k_vcs = S.k.k_vcs;
   t.k_vct = S.k.k_vct;
   t.stab_t = T.spec.stabilization_translation;
   t.stab_r = T.spec.stabilization_rotation;
-  t.max_step = T.spec.max_step;
-  t.max_rot = T.spec.max_step_rotation_deg * std::numbers::pi / 180.0;
-  t.newton = std::max(1, T.spec.newton_iterations);
+  const NewtonLimits lim = newton_limits(T.spec);
+  t.max_step = lim.max_step;
+  t.max_rot = lim.max_rot;
+  t.newton = lim.iterations;
   t.force_limit = T.spec.force_limit;
   t.torque_limit = T.torque_limit;
   t.soft_margin = T.spec.forceps.soft_margin;
   t.eta = T.spec.forceps.eta;
-  t.reach_T = static_cast<float>(t.newton * t.max_step);
-  t.reach_th = static_cast<float>(std::min(t.newton * t.max_rot, 0.5));
+  t.reach_T = static_cast<float>(lim.reach_translation);
+  t.reach_th = static_cast<float>(lim.reach_rotation);
   EBH_CUDA_CHECK(cudaStreamSynchronize(st));
 }
 

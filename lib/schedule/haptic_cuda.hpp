@@ -84,7 +84,7 @@ struct DeviceTickProfile {
                                                   "block_vertices", "block_lists", "block_vertices_max"};
   double mean_us[kStages] = {};
   double tail_clock_ghz = 0;  ///< block 0's SM clock (cycles over time)
-  double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp that ran them (newton_warp.cuh)
+  double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp that ran them (tool/newton_warp.cuh)
   double definite = 0;        ///< the share of clamps whose matrix was positive definite (no Jacobi)
   double candidates = 0;      ///< vertices the Newton call can reach, per step
   double updated = 0;         ///< vertices block 0 updates itself, per pipelined step

@@ -13,7 +13,6 @@
 #include <limits>
 #include <optional>
 #include <mutex>
-#include <numbers>
 #include <thread>
 #include <utility>
 
@@ -100,6 +99,12 @@ class PhysicalWorker {
   std::exception_ptr error_;
   std::thread thread_;  // last: starts after the flags exist
 };
+
+/// Whether a physical result becomes visible to the haptic side at tick n (N ticks per step): in
+/// async step k's at tick (k+1)N, in lockstep step k's at tick kN (DESIGN.md §2).
+bool physical_result_arrives(Mode mode, std::int64_t n, int N) {
+  return n % N == 0 && (mode == Mode::Lockstep || n > 0);
+}
 
 double recording_duration(const Recording& rec, const ReplayOptions& opt) {
   const double rest = std::max(0.0, rec.duration() - opt.start);
@@ -317,7 +322,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
     const double t = static_cast<double>(n) * world.h_haptic;
     if (n % N == 0) {
       if (opt.mode == Mode::Async) {
-        if (in_flight) {
+        if (physical_result_arrives(opt.mode, n, N)) {  // the step started at tick n - N
           finish_step();
           deliver_physical_snapshot(world, haptic, to_haptic);
         }
@@ -457,18 +462,12 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
     d.position = s.position;
     d.orientation = s.orientation;
     d.jaw = s.jaw;
-    const double angle = std::clamp(s.jaw, 0.0, 1.0) * world.tool.spec.forceps.jaw_max_angle_deg * std::numbers::pi / 180.0;
-    if (world.tool.has_jaws) {  // tool_model.cpp: collider_frames
-      d.jaw_cos = std::cos(angle);
-      d.jaw_sin = std::sin(angle);
-    }
-    // async: step k's result arrives at tick (k+1)N; lockstep: at tick kN.
-    if (n % N == 0 && (mode == Mode::Lockstep || n > 0)) delivered = n;
-    if (world.scene.spec.interpolate_physical && delivered >= 0) {
-      const std::int64_t since = n - delivered + 1;
-      d.alpha = since >= N ? 1.0 : static_cast<double>(since) / N;
-    }
-    if (grasping && (s.jaw < world.tool.spec.forceps.grasp_threshold) != closed) {
+    const JawOpening jaws = jaw_opening(world.tool, s.jaw);
+    d.jaw_cos = jaws.cos;
+    d.jaw_sin = jaws.sin;
+    if (physical_result_arrives(mode, n, N)) delivered = n;
+    if (world.scene.spec.interpolate_physical && delivered >= 0) d.alpha = physical_blend(n, delivered, N);
+    if (grasping && jaws_closed(world.tool, s.jaw) != closed) {
       closed = !closed;
       if (closed) {
         grasp_boxes.push_back(grasp_hard_box(world.tool, s.jaw));

@@ -19,6 +19,7 @@
 #include "solver/local_kernels.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/surface.hpp"
+#include "solver/virtual_jacobi.hpp"
 
 namespace ebh {
 namespace {
@@ -255,8 +256,8 @@ void edge_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* q) 
   edge_spring_gradients(edges, q, ws.edge_grad.data());  // omp for
 }
 
-/// The gather and Jacobi global step per vertex (work-shared; ends with a barrier):
-///   q_j <- q_j + r_j / D_j,  r = -grad E_soft,  D = m/h^2 + k_s deg + k_svc + sum k_con.
+/// The gather and Jacobi global step per vertex (virtual_jacobi.hpp; work-shared; ends with a
+/// barrier).
 void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* __restrict q, Vec3d* __restrict q_next) {
   const int m = model.num_vertices;
   const double inv_h2 = 1.0 / (ws.h * ws.h);
@@ -267,14 +268,11 @@ void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* _
     if (model.pinned[j]) { q_next[j] = q[j]; continue; }
     const double mh = model.mass[j] * inv_h2;
     const double ck = ws.contact_k[j];
-    Vec3d r = mh * (ws.s[j] - q[j])                                          // -dE_k/dq   [6]
-              - coupling_gradient_virtual(ws.p[j], q[j], model.k_svc);       // -dE_svc/dq [5]
-    if (ck != 0.0) r = r + ws.contact_kt[j] - ck * q[j];                     // -dE_con/dq [3] (0 without contact)
-    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {  // -dE_s/dq [4]
-      const Vec3d g = edge_grad[entries[k] >> 1];
-      r += (entries[k] & 1) ? g : -g;  // end b: -dE_s/dq_b = g; end a: -g
-    }
-    q_next[j] = q[j] + r / (mh + model.stiff_diag[j] + ck);
+    Vec3d r = inertia_coupling_residual(mh, ws.s[j], q[j], ws.p[j], model.k_svc);
+    if (ck != 0.0) r = add_contact_residual(r, ws.contact_kt[j], ck, q[j]);  // 0 without contact
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k)
+      add_edge_residual(r, edge_grad[entries[k] >> 1], (entries[k] & 1) != 0);
+    q_next[j] = jacobi_update(q[j], r, mh + model.stiff_diag[j] + ck);
   }
 }
 

@@ -38,7 +38,7 @@
 #if EBH_HAVE_CUDA
 #include <Eigen/Eigenvalues>
 
-#include "schedule/newton_warp.hpp"
+#include "tool/newton_warp.hpp"
 #include "solver/device_cuda.hpp"
 #include "solver/physical_mesh_cuda.hpp"
 #include "solver/virtual_mesh_cuda.hpp"

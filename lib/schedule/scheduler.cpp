@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
-#include <cstdlib>
 #include <deque>
 #include <exception>
 #include <chrono>
@@ -125,19 +124,15 @@ struct FrameClock {
 
 #if EBH_HAVE_CUDA
 /// Whether a virtual-time replay runs its haptic ticks on the device (schedule/haptic_cuda.hpp):
-/// --backend cuda, a tool the device tick supports, and not turned off by EBH_CUDA_DEVICE_TICK=0
-/// (which keeps the tool on the host, for comparisons).
-bool device_ticks(const World& world) {
-  const char* env = std::getenv("EBH_CUDA_DEVICE_TICK");
-  return world.backend == Backend::Cuda && device_haptic_supported(world.tool) && !(env && std::string(env) == "0");
+/// --backend cuda, a tool the device tick supports, and ReplayOptions::device_tick.
+bool device_ticks(const World& world, const ReplayOptions& opt) {
+  return world.backend == Backend::Cuda && device_haptic_supported(world.tool) && opt.device_tick;
 }
 
 /// Whether an async device replay runs its physical steps inside launches of many periods
-/// (CudaHapticTicks::run_ticks_with_steps); EBH_CUDA_PERIOD_LAUNCH=0 launches once per period
-/// with the steps between the launches (the same bits; for comparisons).
+/// (CudaHapticTicks::run_ticks_with_steps; ReplayOptions::steps_in_launches).
 bool steps_in_launches(const ReplayOptions& opt) {
-  const char* env = std::getenv("EBH_CUDA_PERIOD_LAUNCH");
-  return opt.mode == Mode::Async && opt.frames_hz <= 0 && !(env && std::string(env) == "0");
+  return opt.mode == Mode::Async && opt.frames_hz <= 0 && opt.steps_in_launches;
 }
 
 /// async and lockstep with the whole tick on the device. The host enqueues runs of ticks and
@@ -520,7 +515,7 @@ ReplaySummary replay(const World& world, const Recording& recording, const Repla
   if (recording.t.empty()) throw InputError("recording has no samples");
   if (options.mode == Mode::Realtime) return replay_realtime(world, recording, options, observer);
 #if EBH_HAVE_CUDA
-  if (device_ticks(world)) return replay_device(world, recording, options, observer);
+  if (device_ticks(world, options)) return replay_device(world, recording, options, observer);
 #endif
   return replay_virtual_time(world, recording, options, observer);
 }

@@ -90,7 +90,7 @@ struct HapticSide {
   HapticTiming timing;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda where the whole tick cannot run on the device (realtime mode, inverse-normal
-  /// projection, EBH_CUDA_DEVICE_TICK=0; else scheduler.cpp's replay_device): the virtual-mesh
+  /// projection, ReplayOptions::device_tick off; else scheduler.cpp's replay_device): the virtual-mesh
   /// iterations run here; mesh.q is the host copy each iteration hands back for collision and the
   /// virtual tool (mesh.v stays on the device; docs/CUDA.md).
   std::unique_ptr<CudaVirtualSolver> cuda;

@@ -1,11 +1,11 @@
 // The CUDA backend against the CPU reference (DESIGN.md §6). These tests need a CUDA device: they
 // run on a machine with a GPU and skip elsewhere (no CUDA backend in the build, or no device).
 //
-// Tolerances (docs/CUDA.md, "Tolerances"). The device computes in float32 (unit round-off
-// u = 2^-24), the CPU in float64. Rounding the state to float32 moves a position by u |x|; each
-// local-global iteration then adds a few round-offs of the same size (the update x + D^-1 r is
-// rounded, and the round-off of F, R and the gathered r, mapped back through D^-1, is of order
-// u |F - R| / |g|, far smaller). The Jacobi / Chebyshev iteration does not amplify a position
+// Tolerances (docs/CUDA.md, "Departures from the CPU and tolerances"). The device computes in
+// float32 (unit round-off u = 2^-24), the CPU in float64. Rounding the state to float32 moves a
+// position by u |x|; each local-global iteration then adds a few round-offs of the same size (the
+// update x + D^-1 r is rounded, and the round-off of F, R and the gathered r, mapped back through
+// D^-1, is of order u |F - R| / |g|, far smaller). The Jacobi / Chebyshev iteration does not amplify a position
 // error (its iteration matrix is a contraction on the error, the Chebyshev weights are those of a
 // convergent semi-iteration), so errors add up at most linearly:
 //     |x_cuda - x_cpu| <= (K + 1) * c * u * X,     X = max |coordinate|, c = 16,

@@ -15,7 +15,7 @@
 #include <thread>
 #include <utility>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #if EBH_HAVE_CUDA
 #include "schedule/haptic_cuda.hpp"
 #endif

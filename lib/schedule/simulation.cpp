@@ -7,7 +7,7 @@
 #include <string>
 #include <utility>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "tool/contact.hpp"
 #include "tool/grasp.hpp"
 

@@ -49,10 +49,10 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/error.hpp"
 #include "energy/arap.hpp"
 #include "energy/quadratic.hpp"
 #include "energy/rotation.hpp"
-#include "io/error.hpp"
 #include "solver/cuda_util.cuh"
 #include "solver/physical_mesh_cuda.hpp"
 

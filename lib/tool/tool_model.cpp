@@ -5,7 +5,7 @@
 #include <numbers>
 #include <string>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh {
 namespace {

@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/recording.hpp"
 #include "scene/scene.hpp"
 #include "schedule/replay_inputs.hpp"

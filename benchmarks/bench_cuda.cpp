@@ -16,7 +16,9 @@
 //                           physical_step_us: the steps' mean device time beside the ticks
 //   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
 //                           real-time factor and the mean time of each stage of the haptic tick;
-//                           cuda_host_tool: the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0)
+//                           cuda_host_tool: the virtual tool on the host (ReplayOptions::device_tick
+//                           off); cuda_launch_per_period: a launch per physical period
+//                           (ReplayOptions::steps_in_launches off)
 // Needs a CUDA device; without one (or without the CUDA backend) every benchmark reports why.
 #include <benchmark/benchmark.h>
 
@@ -103,16 +105,9 @@ void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
   const Loaded& L = load(scene);
   PhysicalStepParams params = physical_params(L.scene.spec.solver);
   params.iterations = st.range(0);
-  const bool pdl = st.range(1) != 0;  // 0: plain graph kernel nodes (EBH_CUDA_PDL=0)
-  const bool persistent = st.range(2) != 0;  // 1: the cooperative single-kernel step
-  if (!pdl) setenv("EBH_CUDA_PDL", "0", 1);
-  CudaPhysicalSolver solver(L.pm, params);
-  unsetenv("EBH_CUDA_PDL");
-  solver.set_persistent_kernel(persistent);
-  if (persistent && !solver.persistent_kernel()) {
-    st.SkipWithError("the device cannot hold every patch at once (cooperative launch)");
-    return;
-  }
+  CudaPhysicalOptions options;
+  options.programmatic_launch = st.range(1) != 0;  // 0: plain graph kernel nodes
+  CudaPhysicalSolver solver(L.pm, params, options);
   PhysicalState state = make_physical_state(L.pm);
   const std::vector<Vec3d> q = L.vm.rest;
   for (int i = 0; i < 20; ++i) solver.step(state, q);  // warm-up: module load, graph upload
@@ -130,8 +125,7 @@ void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
   st.counters["median_us"] = 1e6 * percentile(times, 0.5);
   st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
   st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
-  st.counters["pdl"] = solver.programmatic_launch() && !persistent;
-  st.counters["persistent"] = persistent;
+  st.counters["pdl"] = solver.programmatic_launch();
   st.counters["tet_evals"] = solver.tet_evaluations_per_tet();
   st.counters["tets"] = L.pm.num_tets;
   st.counters["vertices"] = L.pm.num_vertices;
@@ -139,12 +133,11 @@ void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
   st.SetLabel(cuda_device_description());
 }
 // Arguments: the iteration count K (16 is the scenes'; 0, 1 and 2 split the fixed cost of a step
-// from the cost of one local-global iteration), whether programmatic dependent launch may be used
-// in the graph, and whether the cooperative single-kernel step runs instead of the graph.
+// from the cost of one local-global iteration) and whether programmatic dependent launch may be
+// used in the graph (CudaPhysicalOptions::programmatic_launch).
 BENCHMARK_CAPTURE(BM_CudaPhysicalStep, cholecystectomy, std::string("cholecystectomy"))
-    ->ArgNames({"K", "pdl", "persistent"})
-    ->Args({16, 1, 1})->Args({16, 1, 0})->Args({16, 0, 0})->Args({1, 1, 1})->Args({2, 1, 1})->Args({0, 1, 0})
-    ->Args({1, 1, 0})->Args({2, 1, 0})
+    ->ArgNames({"K", "pdl"})
+    ->Args({16, 1})->Args({16, 0})->Args({0, 1})->Args({1, 1})->Args({2, 1})
     ->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 /// The device-resident step: wall time of launch + wait (the host's share is the launch and the
 /// wait; no conversions or copies of q and x).
@@ -154,11 +147,6 @@ void BM_CudaPhysicalStepDevice(benchmark::State& st, std::string scene) {
   PhysicalStepParams params = physical_params(L.scene.spec.solver);
   params.iterations = st.range(0);
   CudaPhysicalSolver solver(L.pm, params);
-  solver.set_persistent_kernel(st.range(1) != 0);
-  if (st.range(1) != 0 && !solver.persistent_kernel()) {
-    st.SkipWithError("the device cannot hold every patch at once (cooperative launch)");
-    return;
-  }
   PhysicalState state = make_physical_state(L.pm);
   solver.step(state, L.vm.rest);  // q on the device: the rest shape
   for (int i = 0; i < 20; ++i) {  // warm-up: module load, graph upload
@@ -180,15 +168,14 @@ void BM_CudaPhysicalStepDevice(benchmark::State& st, std::string scene) {
   st.counters["median_us"] = 1e6 * percentile(times, 0.5);
   st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
   st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
-  st.counters["persistent"] = solver.persistent_kernel();
   st.counters["tets"] = L.pm.num_tets;
   st.SetLabel(cuda_device_description());
 }
 BENCHMARK_CAPTURE(BM_CudaPhysicalStepDevice, cholecystectomy, std::string("cholecystectomy"))
-    ->ArgNames({"K", "persistent"})->Args({16, 0})->Args({16, 1})->Args({0, 0})
+    ->ArgNames({"K"})->Args({16})->Args({0})
     ->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_CudaPhysicalStep, gynaecology, std::string("gynaecology"))->ArgNames({"K", "pdl", "persistent"})->Args({16, 1, 1})->Args({16, 1, 0})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_CudaPhysicalStep, tube, std::string("tube"))->ArgNames({"K", "pdl", "persistent"})->Args({16, 1, 1})->Args({16, 1, 0})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_CudaPhysicalStep, gynaecology, std::string("gynaecology"))->ArgNames({"K", "pdl"})->Args({16, 1})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_CudaPhysicalStep, tube, std::string("tube"))->ArgNames({"K", "pdl"})->Args({16, 1})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 #endif
 
 /// Contacts of a pressing tool: the ~1% of virtual vertices nearest the mesh's lowest point.
@@ -368,10 +355,11 @@ class StageTimes : public ReplayObserver {
   }
 };
 
-/// EBH_BENCH_REPLAY_S (default 10): seconds of the recording to replay.
-void BM_ReplayGrasp(benchmark::State& st, Backend backend, bool host_tool = false) {
+/// EBH_BENCH_REPLAY_S (default 10): seconds of the recording to replay. host_tool: the virtual
+/// tool on the host (ReplayOptions::device_tick off); per_period: a launch per physical period
+/// (ReplayOptions::steps_in_launches off).
+void BM_ReplayGrasp(benchmark::State& st, Backend backend, bool host_tool = false, bool per_period = false) {
   if (backend == Backend::Cuda && !device_ready(st)) return;
-  if (host_tool) setenv("EBH_CUDA_DEVICE_TICK", "0", 1);
   const char* env = std::getenv("EBH_BENCH_REPLAY_S");
   const double duration = env ? std::atof(env) : 10.0;
   LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
@@ -379,6 +367,8 @@ void BM_ReplayGrasp(benchmark::State& st, Backend backend, bool host_tool = fals
   ReplayOptions opt;
   opt.mode = Mode::Async;
   opt.duration = duration;
+  opt.device_tick = !host_tool;
+  opt.steps_in_launches = !per_period;
   StageTimes times;
   ReplaySummary s;
   for (auto _ : st) {
@@ -398,11 +388,11 @@ void BM_ReplayGrasp(benchmark::State& st, Backend backend, bool host_tool = fals
   st.counters["vtool_us"] = 1e6 * times.sum.virtual_tool / n;
   st.counters["output_us"] = 1e6 * times.sum.output / n;
   st.counters["step_mean_us"] = times.steps ? 1e6 * times.step_sum / static_cast<double>(times.steps) : 0;
-  if (host_tool) unsetenv("EBH_CUDA_DEVICE_TICK");
 }
 BENCHMARK_CAPTURE(BM_ReplayGrasp, cpu, Backend::Cpu)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ReplayGrasp, cuda, Backend::Cuda)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_ReplayGrasp, cuda_host_tool, Backend::Cuda, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ReplayGrasp, cuda_launch_per_period, Backend::Cuda, false, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -12,12 +12,12 @@
 #include <random>
 #include <string>
 
+#include "core/error.hpp"
 #include "energy/polar_svd.hpp"
 #include "energy/rotation.hpp"
-#include "io/error.hpp"
+#include "mesh/box_mesh.hpp"
 #include "mesh/degrade.hpp"
 #include "scene/scene.hpp"
-#include "solver/box_mesh.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
 

@@ -9,8 +9,8 @@
 #include <limits>
 #include <sstream>
 
+#include "core/error.hpp"
 #include "io/atomic.hpp"
-#include "io/error.hpp"
 #include "io/paths.hpp"
 #include "metrics/replay_trace.hpp"
 #include "schedule/replay_inputs.hpp"

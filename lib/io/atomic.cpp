@@ -12,7 +12,7 @@
 #include <cstring>
 #include <filesystem>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh {
 namespace fs = std::filesystem;

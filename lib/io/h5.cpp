@@ -9,7 +9,7 @@
 #include <cstring>
 #include <sstream>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/paths.hpp"
 
 namespace ebh::h5 {

@@ -12,7 +12,7 @@
 #include <map>
 #include <numbers>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/paths.hpp"
 
 namespace ebh {

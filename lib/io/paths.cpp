@@ -6,8 +6,8 @@
 #include <cerrno>
 #include <filesystem>
 
+#include "core/error.hpp"
 #include "io/atomic.hpp"
-#include "io/error.hpp"
 
 namespace ebh {
 namespace fs = std::filesystem;

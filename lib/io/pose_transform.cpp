@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <numbers>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/recording.hpp"
 
 namespace ebh {

@@ -6,7 +6,7 @@
 #include <limits>
 #include <sstream>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/h5.hpp"
 
 namespace ebh {

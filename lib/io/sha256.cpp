@@ -6,7 +6,7 @@
 #include <memory>
 #include <vector>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh {
 namespace {

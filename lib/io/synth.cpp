@@ -9,7 +9,7 @@
 #include <numbers>
 #include <set>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/paths.hpp"
 
 namespace ebh {

@@ -45,6 +45,8 @@ template <class T> EBH_HD Vec3<T> cwise_max(Vec3<T> a, Vec3<T> b) {
   return {a.x > b.x ? a.x : b.x, a.y > b.y ? a.y : b.y, a.z > b.z ? a.z : b.z};
 }
 /// a / |a|, or zero for a zero vector.
+/// a + t (b - a): from a (t = 0) to b (t = 1).
+template <class T> EBH_HD Vec3<T> lerp(Vec3<T> a, Vec3<T> b, T t) { return a + t * (b - a); }
 template <class T> EBH_HD Vec3<T> normalized(Vec3<T> a) {
   T n = norm(a);
   return n > T(0) ? a / n : Vec3<T>{};

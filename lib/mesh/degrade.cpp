@@ -5,7 +5,7 @@
 
 #include "math/splitmix.hpp"
 #include "mesh/boundary.hpp"
-#include "mesh/validate.hpp"
+#include "mesh/quality.hpp"
 
 namespace ebh {
 namespace {

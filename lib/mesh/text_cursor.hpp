@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh::detail {
 

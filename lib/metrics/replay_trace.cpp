@@ -8,7 +8,7 @@
 #include <optional>
 #include <sstream>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh {
 namespace {

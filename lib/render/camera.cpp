@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh {
 namespace {

@@ -7,8 +7,8 @@
 #include <cstdio>
 #include <memory>
 
+#include "core/error.hpp"
 #include "io/atomic.hpp"
-#include "io/error.hpp"
 
 namespace ebh {
 

@@ -1,6 +1,6 @@
 #include "render/offscreen.hpp"
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 #ifdef EBH_HAVE_OSMESA
 #include <GL/gl.h>

@@ -12,9 +12,9 @@
 #include <filesystem>
 #include <sstream>
 
+#include "core/error.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
-#include "io/error.hpp"
 #include "io/paths.hpp"
 #include "render/image.hpp"
 #include "render/tessellate.hpp"

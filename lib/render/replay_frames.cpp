@@ -5,7 +5,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/h5.hpp"
 
 namespace ebh {

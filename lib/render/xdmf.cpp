@@ -5,9 +5,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/error.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
-#include "io/error.hpp"
 #include "io/paths.hpp"
 #include "render/replay_frames.hpp"
 

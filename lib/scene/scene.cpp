@@ -19,11 +19,11 @@
 #include <set>
 #include <system_error>
 
+#include "core/error.hpp"
 #include "ebh/version.hpp"
-#include "io/error.hpp"
 #include "mesh/boundary.hpp"
 #include "mesh/mesh_io.hpp"
-#include "mesh/validate.hpp"
+#include "mesh/quality.hpp"
 
 namespace ebh {
 namespace {

@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <system_error>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh {
 namespace {

@@ -3,8 +3,8 @@
 // modes): virtual mesh, vertex-tool collision, grasp and the virtual tool's Newton step, with the
 // physical step (CudaPhysicalSolver's device-resident step) exchanging q and x on the device. The
 // host only enqueues: a replay is known in advance (the recording), so the device runs ahead and
-// the host collects each tick's outputs later. docs/CUDA.md, "Device haptic tick", gives the design
-// and the measured numbers.
+// the host collects each tick's outputs later. docs/CUDA.md, "Device haptic tick", gives the design;
+// docs/PERFORMANCE.md the measured numbers.
 //
 // A run of ticks is one cooperative kernel; a tick is virtual_iterations steps. Step i is one
 // virtual-mesh iteration over all vertices (step 0 also makes the tick's prediction, E_svc targets
@@ -84,7 +84,7 @@ struct DeviceTickProfile {
                                                   "block_vertices", "block_lists", "block_vertices_max"};
   double mean_us[kStages] = {};
   double tail_clock_ghz = 0;  ///< block 0's SM clock (cycles over time)
-  double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp that ran them (newton_warp.cuh)
+  double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp that ran them (tool/newton_warp.cuh)
   double definite = 0;        ///< the share of clamps whose matrix was positive definite (no Jacobi)
   double candidates = 0;      ///< vertices the Newton call can reach, per step
   double updated = 0;         ///< vertices block 0 updates itself, per pipelined step

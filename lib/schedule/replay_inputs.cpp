@@ -1,6 +1,6 @@
 #include "schedule/replay_inputs.hpp"
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/import.hpp"
 
 namespace ebh {

@@ -7,10 +7,10 @@
 #include <filesystem>
 #include <fstream>
 
+#include "core/error.hpp"
 #include "ebh/commit.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
-#include "io/error.hpp"
 #include "io/sha256.hpp"
 
 namespace ebh {

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
-#include <cstdlib>
 #include <deque>
 #include <exception>
 #include <chrono>
@@ -13,11 +12,10 @@
 #include <limits>
 #include <optional>
 #include <mutex>
-#include <numbers>
 #include <thread>
 #include <utility>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #if EBH_HAVE_CUDA
 #include "schedule/haptic_cuda.hpp"
 #endif
@@ -101,6 +99,12 @@ class PhysicalWorker {
   std::thread thread_;  // last: starts after the flags exist
 };
 
+/// Whether a physical result becomes visible to the haptic side at tick n (N ticks per step): in
+/// async step k's at tick (k+1)N, in lockstep step k's at tick kN (DESIGN.md §2).
+bool physical_result_arrives(Mode mode, std::int64_t n, int N) {
+  return n % N == 0 && (mode == Mode::Lockstep || n > 0);
+}
+
 double recording_duration(const Recording& rec, const ReplayOptions& opt) {
   const double rest = std::max(0.0, rec.duration() - opt.start);
   return opt.duration > 0 ? std::min(opt.duration, rest) : rest;
@@ -120,168 +124,203 @@ struct FrameClock {
 
 #if EBH_HAVE_CUDA
 /// Whether a virtual-time replay runs its haptic ticks on the device (schedule/haptic_cuda.hpp):
-/// --backend cuda, a tool the device tick supports, and not turned off by EBH_CUDA_DEVICE_TICK=0
-/// (which keeps the tool on the host, for comparisons).
-bool device_ticks(const World& world) {
-  const char* env = std::getenv("EBH_CUDA_DEVICE_TICK");
-  return world.backend == Backend::Cuda && device_haptic_supported(world.tool) && !(env && std::string(env) == "0");
+/// --backend cuda, a tool the device tick supports, and ReplayOptions::device_tick.
+bool device_ticks(const World& world, const ReplayOptions& opt) {
+  return world.backend == Backend::Cuda && device_haptic_supported(world.tool) && opt.device_tick;
 }
 
 /// Whether an async device replay runs its physical steps inside launches of many periods
-/// (CudaHapticTicks::run_ticks_with_steps); EBH_CUDA_PERIOD_LAUNCH=0 launches once per period
-/// with the steps between the launches (the same bits; for comparisons).
+/// (CudaHapticTicks::run_ticks_with_steps; ReplayOptions::steps_in_launches).
 bool steps_in_launches(const ReplayOptions& opt) {
-  const char* env = std::getenv("EBH_CUDA_PERIOD_LAUNCH");
-  return opt.mode == Mode::Async && opt.frames_hz <= 0 && !(env && std::string(env) == "0");
+  return opt.mode == Mode::Async && opt.frames_hz <= 0 && opt.steps_in_launches;
 }
 
 /// async and lockstep with the whole tick on the device. The host enqueues runs of ticks and
 /// collects each run's outputs two runs later; the observer sees the same calls as on the host
 /// path, except that timing.total is the wall time of a run divided by its ticks (the stages are
 /// not timed one by one) and on_step comes once the step has been waited for. async without mesh
-/// frames: runs of whole periods, ~100 ticks, with the physical steps inside them; otherwise runs
-/// up to the next physical step, which runs between them (one tick per run where frames are written).
-ReplaySummary replay_device(const World& world, const Recording& rec, const ReplayOptions& opt, ReplayObserver& obs) {
-  const double t0 = rec.t.front() + opt.start;
-  const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
-  const int N = world.ticks_per_step;
-  const DeviceReplayInputs in = device_replay_inputs(world, rec, t0, ticks, opt.mode);
-  PhysicalSide physical = make_physical_side(world);
-  CudaHapticTicks device(in.setup, in.ticks, *physical.cuda);
+/// frames: runs of whole periods, ~100 ticks, with the physical steps inside them
+/// (run_steps_in_launches); otherwise runs up to the next physical step, which runs between them
+/// (run_steps_between_launches; one tick per run where frames are written).
+class DeviceReplay {
+ public:
+  DeviceReplay(const World& world, const Recording& rec, const ReplayOptions& opt, ReplayObserver& obs)
+      : world_(world), opt_(opt), obs_(obs), N_(world.ticks_per_step),
+        ticks_(tick_count(world, recording_duration(rec, opt))),
+        in_(device_replay_inputs(world, rec, rec.t.front() + opt.start, ticks_, opt.mode)),
+        physical_(make_physical_side(world)), device_(in_.setup, in_.ticks, *physical_.cuda),
+        frames_{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0} {
+    view_.mesh.q = world.initial_virtual;
+    view_.visible.x = world.initial_physical.x;
+    view_.tool.pose = in_.setup.pose0;
+  }
 
-  HapticSide view;  // what the observer reads: the outputs of one tick
-  view.mesh.q = world.initial_virtual;
-  view.visible.x = world.initial_physical.x;
-  view.tool.pose = in.setup.pose0;
+  ReplaySummary run() {
+    wall0_ = last_collect_ = Clock::now();
+    if (steps_in_launches(opt_)) run_steps_in_launches();
+    else run_steps_between_launches();
+    s_.virtual_s = static_cast<double>(s_.ticks) * world_.h_haptic;
+    s_.wall_s = std::chrono::duration<double>(Clock::now() - wall0_).count();
+    return s_;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
   struct Run {
     int handle;
     std::int64_t first;
     int count;
   };
-  std::deque<Run> runs;
-  std::vector<DeviceTickOutput> rows;
-  ReplaySummary s;
-  const auto wall0 = Clock::now();
-  auto last_collect = wall0;
-  auto collect = [&](std::size_t keep) {
-    while (runs.size() > keep) {
-      const Run r = runs.front();
-      runs.pop_front();
-      rows.resize(static_cast<std::size_t>(r.count));
-      device.collect(r.handle, rows);
-      const auto now = Clock::now();
-      const double per_tick = std::chrono::duration<double>(now - last_collect).count() / r.count;
-      last_collect = now;
-      for (int k = 0; k < r.count; ++k) {
-        const std::int64_t n = r.first + k;
-        const DeviceTickOutput& o = rows[static_cast<std::size_t>(k)];
-        view.device = in.samples[static_cast<std::size_t>(n)];
-        view.output.force = o.force;
-        view.output.torque = o.torque;
-        view.output.force_clamped = o.force_clamped != 0;
-        view.output.torque_clamped = o.torque_clamped != 0;
-        check_haptic_tick(world, n, view.output);
-        view.tool.pose = {o.position, o.orientation};
-        view.tool.steps_taken = o.newton_steps;
-        view.tool.steps_rejected = o.newton_rejected;
-        view.grasped = o.grasped;
-        view.penetration = o.penetration;
-        view.penetration_physical = o.penetration_physical;
-        view.contact_count = o.contacts;
-        view.timing = HapticTiming{};
-        view.timing.total = per_tick;
-        view.tick = n + 1;
-        obs.on_tick(world, view, static_cast<double>(n) * world.h_haptic);
-      }
-    }
-  };
-  // physical.report and physical.mesh.x hold the next step's results: the observer's on_step.
-  auto record_step = [&](double t) {
-    ++physical.step;
-    check_physical_step(world, physical);
-    obs.on_step(world, physical, t);
-    ++s.steps;
-  };
-  FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};
-  if (steps_in_launches(opt)) {
-    // A launch and its first (unpipelined) step cost ~30 us (docs/CUDA.md): whole periods, ~100
-    // ticks per launch. Step k (from tick kN) is finished once a collected run reaches (k + 1)N.
-    const int periods = std::max(1, std::min((100 + N - 1) / N, device.step_capacity() / 4));
-    const int run = std::max(1, std::min(periods * N, device.capacity() / 4));
-    auto finish_steps_to = [&](std::int64_t tick) {
-      while (device.steps_in_flight() > 0 && (s.steps + 1) * N <= tick) {
-        physical.report = device.finish_step(physical.mesh.x);
-        record_step(static_cast<double>(s.steps * N) * world.h_haptic);
-      }
-    };
-    for (std::int64_t n = 0; n < ticks;) {
-      const int count = static_cast<int>(std::min<std::int64_t>(run, ticks - n));
-      const std::int64_t steps_after = (n + count + N - 1) / N;
-      while (steps_after - s.steps > device.step_capacity()) finish_steps_to((s.steps + 1) * N);
-      runs.push_back({device.run_ticks_with_steps(count), n, count});
+
+  /// async without mesh frames: launches of whole periods with the physical steps inside them;
+  /// step k (from tick kN) is finished once a collected run reaches (k + 1)N. A launch and its
+  /// first (unpipelined) step have a fixed cost, which ~100 ticks per launch spread.
+  void run_steps_in_launches() {
+    const int periods = std::max(1, std::min((100 + N_ - 1) / N_, device_.step_capacity() / 4));
+    const int run = std::max(1, std::min(periods * N_, device_.capacity() / 4));
+    for (std::int64_t n = 0; n < ticks_;) {
+      const int count = static_cast<int>(std::min<std::int64_t>(run, ticks_ - n));
+      const std::int64_t steps_after = (n + count + N_ - 1) / N_;
+      while (steps_after - s_.steps > device_.step_capacity()) finish_steps_to((s_.steps + 1) * N_);
+      enqueue(device_.run_ticks_with_steps(count), n, count);
       n += count;
-      s.ticks += count;
-      while (runs.size() > 2) {
-        const std::int64_t end = runs.front().first + runs.front().count;
-        collect(runs.size() - 1);
+      while (runs_.size() > 2) {
+        const std::int64_t end = runs_.front().first + runs_.front().count;
+        collect(runs_.size() - 1);
         finish_steps_to(end);
       }
-      if (obs.should_stop()) {
-        s.stopped = true;
-        break;
-      }
+      if (stopped()) break;
     }
     collect(0);
     finish_steps_to(std::numeric_limits<std::int64_t>::max());  // the last step's result is recorded, never shown
-  } else {
+  }
+
+  /// Otherwise: runs up to the next physical step, which runs between the launches (async: it
+  /// starts at tick kN and is delivered at (k + 1)N; lockstep: delivered at once).
+  void run_steps_between_launches() {
     bool in_flight = false;
     double in_flight_t = 0;
-    auto finish_step = [&](double t) {
-      physical.report = device.finish_physical_step(physical.mesh.x);
-      record_step(t);
-    };
-    const int max_run = std::max(1, std::min(N, device.capacity() / 4));
-    for (std::int64_t n = 0; n < ticks;) {
-      const double t = static_cast<double>(n) * world.h_haptic;
-      if (n % N == 0) {
-        if (opt.mode == Mode::Async) {
-          if (in_flight) {
-            device.deliver_physical_step();
-            finish_step(in_flight_t);
+    const int max_run = std::max(1, std::min(N_, device_.capacity() / 4));
+    for (std::int64_t n = 0; n < ticks_;) {
+      const double t = static_cast<double>(n) * world_.h_haptic;
+      if (n % N_ == 0) {
+        if (opt_.mode == Mode::Async) {
+          if (physical_result_arrives(opt_.mode, n, N_)) {
+            device_.deliver_physical_step();
+            finish_physical_step(in_flight_t);
           }
-          device.start_physical_step();
+          device_.start_physical_step();
           in_flight = true;
           in_flight_t = t;
         } else {  // lockstep
-          device.start_physical_step();
-          device.deliver_physical_step();
-          finish_step(t);
+          device_.start_physical_step();
+          device_.deliver_physical_step();
+          finish_physical_step(t);
         }
       }
-      // Up to the next physical step; one tick at a time where mesh frames are written.
-      int count = static_cast<int>(std::min<std::int64_t>(N - n % N, ticks - n));
-      count = std::min(count, max_run);
-      if (frames.period > 0) count = 1;
-      runs.push_back({device.run_ticks(count), n, count});
+      int count = static_cast<int>(std::min<std::int64_t>(N_ - n % N_, ticks_ - n));
+      count = frames_.period > 0 ? 1 : std::min(count, max_run);
+      enqueue(device_.run_ticks(count), n, count);
       n += count;
-      s.ticks += count;
       collect(2);
-      if (frames.period > 0 && frames.due(t, world.h_haptic)) {
-        collect(0);
-        device.snapshot(view.mesh.q, view.visible.x);
-        obs.on_frame(world, view, t);
-      }
-      if (obs.should_stop()) {
-        s.stopped = true;
-        break;
-      }
+      if (frames_.period > 0 && frames_.due(t, world_.h_haptic)) write_frame(t);
+      if (stopped()) break;
     }
-    if (in_flight) finish_step(in_flight_t);  // the last step's result is recorded, never shown
+    if (in_flight) finish_physical_step(in_flight_t);  // the last step's result is recorded, never shown
     collect(0);
   }
-  s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
-  s.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
-  return s;
+
+  void enqueue(int handle, std::int64_t first, int count) {
+    runs_.push_back({handle, first, count});
+    s_.ticks += count;
+  }
+
+  /// Waits for the oldest runs until `keep` are left and shows their ticks to the observer.
+  void collect(std::size_t keep) {
+    while (runs_.size() > keep) {
+      const Run r = runs_.front();
+      runs_.pop_front();
+      rows_.resize(static_cast<std::size_t>(r.count));
+      device_.collect(r.handle, rows_);
+      const auto now = Clock::now();
+      const double per_tick = std::chrono::duration<double>(now - last_collect_).count() / r.count;
+      last_collect_ = now;
+      for (int k = 0; k < r.count; ++k) show_tick(r.first + k, rows_[static_cast<std::size_t>(k)], per_tick);
+    }
+  }
+
+  /// Tick n's outputs into the observer's view (HapticSide's outputs), checked and shown.
+  void show_tick(std::int64_t n, const DeviceTickOutput& o, double per_tick) {
+    view_.device = in_.samples[static_cast<std::size_t>(n)];
+    view_.output.force = o.force;
+    view_.output.torque = o.torque;
+    view_.output.force_clamped = o.force_clamped != 0;
+    view_.output.torque_clamped = o.torque_clamped != 0;
+    check_haptic_tick(world_, n, view_.output);
+    view_.tool.pose = {o.position, o.orientation};
+    view_.tool.steps_taken = o.newton_steps;
+    view_.tool.steps_rejected = o.newton_rejected;
+    view_.grasped = o.grasped;
+    view_.penetration = o.penetration;
+    view_.penetration_physical = o.penetration_physical;
+    view_.contact_count = o.contacts;
+    view_.timing = HapticTiming{};
+    view_.timing.total = per_tick;
+    view_.tick = n + 1;
+    obs_.on_tick(world_, view_, static_cast<double>(n) * world_.h_haptic);
+  }
+
+  /// Finishes the steps of run_steps_in_launches that started before tick - N (in order).
+  void finish_steps_to(std::int64_t tick) {
+    while (device_.steps_in_flight() > 0 && (s_.steps + 1) * N_ <= tick) {
+      physical_.report = device_.finish_step(physical_.mesh.x);
+      record_step(static_cast<double>(s_.steps * N_) * world_.h_haptic);
+    }
+  }
+
+  /// Waits for the step run_steps_between_launches started at virtual time t.
+  void finish_physical_step(double t) {
+    physical_.report = device_.finish_physical_step(physical_.mesh.x);
+    record_step(t);
+  }
+
+  /// physical_.report and physical_.mesh.x hold the next step's results: checked and shown.
+  void record_step(double t) {
+    ++physical_.step;
+    check_physical_step(world_, physical_);
+    obs_.on_step(world_, physical_, t);
+    ++s_.steps;
+  }
+
+  void write_frame(double t) {
+    collect(0);
+    device_.snapshot(view_.mesh.q, view_.visible.x);
+    obs_.on_frame(world_, view_, t);
+  }
+
+  bool stopped() {
+    if (obs_.should_stop()) s_.stopped = true;
+    return s_.stopped;
+  }
+
+  const World& world_;
+  const ReplayOptions& opt_;
+  ReplayObserver& obs_;
+  const int N_;
+  const std::int64_t ticks_;
+  const DeviceReplayInputs in_;
+  PhysicalSide physical_;
+  CudaHapticTicks device_;
+  FrameClock frames_;
+  HapticSide view_;  ///< what the observer reads: the outputs of one tick
+  std::deque<Run> runs_;
+  std::vector<DeviceTickOutput> rows_;
+  ReplaySummary s_;
+  Clock::time_point wall0_, last_collect_;
+};
+
+ReplaySummary replay_device(const World& world, const Recording& rec, const ReplayOptions& opt, ReplayObserver& obs) {
+  return DeviceReplay(world, rec, opt, obs).run();
 }
 #endif
 
@@ -317,7 +356,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
     const double t = static_cast<double>(n) * world.h_haptic;
     if (n % N == 0) {
       if (opt.mode == Mode::Async) {
-        if (in_flight) {
+        if (physical_result_arrives(opt.mode, n, N)) {  // the step started at tick n - N
           finish_step();
           deliver_physical_snapshot(world, haptic, to_haptic);
         }
@@ -457,18 +496,12 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
     d.position = s.position;
     d.orientation = s.orientation;
     d.jaw = s.jaw;
-    const double angle = std::clamp(s.jaw, 0.0, 1.0) * world.tool.spec.forceps.jaw_max_angle_deg * std::numbers::pi / 180.0;
-    if (world.tool.has_jaws) {  // tool_model.cpp: collider_frames
-      d.jaw_cos = std::cos(angle);
-      d.jaw_sin = std::sin(angle);
-    }
-    // async: step k's result arrives at tick (k+1)N; lockstep: at tick kN.
-    if (n % N == 0 && (mode == Mode::Lockstep || n > 0)) delivered = n;
-    if (world.scene.spec.interpolate_physical && delivered >= 0) {
-      const std::int64_t since = n - delivered + 1;
-      d.alpha = since >= N ? 1.0 : static_cast<double>(since) / N;
-    }
-    if (grasping && (s.jaw < world.tool.spec.forceps.grasp_threshold) != closed) {
+    const JawOpening jaws = jaw_opening(world.tool, s.jaw);
+    d.jaw_cos = jaws.cos;
+    d.jaw_sin = jaws.sin;
+    if (physical_result_arrives(mode, n, N)) delivered = n;
+    if (world.scene.spec.interpolate_physical && delivered >= 0) d.alpha = physical_blend(n, delivered, N);
+    if (grasping && jaws_closed(world.tool, s.jaw) != closed) {
       closed = !closed;
       if (closed) {
         grasp_boxes.push_back(grasp_hard_box(world.tool, s.jaw));
@@ -521,7 +554,7 @@ ReplaySummary replay(const World& world, const Recording& recording, const Repla
   if (recording.t.empty()) throw InputError("recording has no samples");
   if (options.mode == Mode::Realtime) return replay_realtime(world, recording, options, observer);
 #if EBH_HAVE_CUDA
-  if (device_ticks(world)) return replay_device(world, recording, options, observer);
+  if (device_ticks(world, options)) return replay_device(world, recording, options, observer);
 #endif
   return replay_virtual_time(world, recording, options, observer);
 }

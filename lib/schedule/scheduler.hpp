@@ -33,6 +33,14 @@ struct ReplayOptions {
   /// realtime only: false lets the physical side step as fast as it can (the paper's "Sim FPS"
   /// of Table 1) instead of once per h_p of wall time.
   bool pace_physical = true;
+  /// --backend cuda, async and lockstep: the whole haptic tick on the device where the tool allows
+  /// it (device_haptic_supported, schedule/haptic_cuda.hpp); false keeps the virtual tool on the
+  /// host and only the virtual mesh's iterations on the device (for comparisons).
+  bool device_tick = true;
+  /// The device tick in async mode without mesh frames: the physical steps run inside launches of
+  /// many periods (CudaHapticTicks::run_ticks_with_steps); false launches once per period with the
+  /// steps between the launches (the same bits; for comparisons).
+  bool steps_in_launches = true;
 };
 
 /// What a replay reports as it goes (the HDF5 writer and the progress bar implement it).

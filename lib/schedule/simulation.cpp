@@ -7,7 +7,7 @@
 #include <string>
 #include <utility>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "tool/contact.hpp"
 #include "tool/grasp.hpp"
 
@@ -54,11 +54,9 @@ void read_device(HapticSide& h, const DeviceSample& sample) {
 /// it arrived. Returns the positions and a version that changes whenever they do.
 std::pair<std::span<const Vec3d>, std::int64_t> physical_targets(const World& world, HapticSide& h) {
   if (!world.scene.spec.interpolate_physical || h.previous_x.empty()) return {h.visible.x, h.visible.step};
-  const std::int64_t since = h.tick - h.delivered_tick + 1;
-  if (since >= world.ticks_per_step) return {h.visible.x, h.visible.step};
-  const double a = static_cast<double>(since) / world.ticks_per_step;
-  for (std::size_t i = 0; i < h.visible.x.size(); ++i)
-    h.targets_x[i] = h.previous_x[i] + a * (h.visible.x[i] - h.previous_x[i]);
+  const double a = physical_blend(h.tick, h.delivered_tick, world.ticks_per_step);
+  if (a >= 1.0) return {h.visible.x, h.visible.step};
+  for (std::size_t i = 0; i < h.visible.x.size(); ++i) h.targets_x[i] = lerp(h.previous_x[i], h.visible.x[i], a);
   return {h.targets_x, -2 - h.tick};  // a version no physical step number takes
 }
 
@@ -263,6 +261,11 @@ void deliver_physical_snapshot(const World& world, HapticSide& haptic, const Phy
   haptic.visible.x = snapshot.x;
   haptic.visible.step = snapshot.step;
   haptic.grid.rebuild(haptic.mesh.q, world.grid_margin);
+}
+
+double physical_blend(std::int64_t n, std::int64_t delivered, int N) {
+  const std::int64_t since = n - delivered + 1;
+  return since >= N ? 1.0 : static_cast<double>(since) / N;
 }
 
 void haptic_tick(const World& world, HapticSide& h, const DeviceSample& sample) {

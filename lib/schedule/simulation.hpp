@@ -90,7 +90,7 @@ struct HapticSide {
   HapticTiming timing;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda where the whole tick cannot run on the device (realtime mode, inverse-normal
-  /// projection, EBH_CUDA_DEVICE_TICK=0; else scheduler.cpp's replay_device): the virtual-mesh
+  /// projection, ReplayOptions::device_tick off; else scheduler.cpp's replay_device): the virtual-mesh
   /// iterations run here; mesh.q is the host copy each iteration hands back for collision and the
   /// virtual tool (mesh.v stays on the device; docs/CUDA.md).
   std::unique_ptr<CudaVirtualSolver> cuda;
@@ -127,6 +127,11 @@ void take_haptic_snapshot(const HapticSide& haptic, HapticSnapshot& out);
 void take_physical_snapshot(const PhysicalSide& physical, PhysicalSnapshot& out);
 /// Makes a physical result visible to the haptic side (the broad phase is rebuilt around it).
 void deliver_physical_snapshot(const World& world, HapticSide& haptic, const PhysicalSnapshot& snapshot);
+
+/// time.interpolate_physical: the weight of the visible physical result in the E_svc targets of
+/// tick n, that result delivered at tick `delivered` (the previous result weighs 1 minus it):
+/// (n - delivered + 1) / N, 1 from N - 1 ticks after the delivery on (N ticks per physical step).
+double physical_blend(std::int64_t n, std::int64_t delivered, int N);
 
 /// One haptic tick (Algorithm 2) with the device sample for this tick.
 void haptic_tick(const World& world, HapticSide& haptic, const DeviceSample& sample);

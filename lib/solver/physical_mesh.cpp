@@ -1,18 +1,19 @@
 // The physical mesh under Projective Dynamics: model building and Algorithm 1.
 #include "solver/physical_mesh.hpp"
-#include "solver/csr.hpp"
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <string>
 
+#include "core/error.hpp"
 #include "energy/arap.hpp"
 #include "energy/polar_svd.hpp"
 #include "energy/quadratic.hpp"
 #include "energy/rotation.hpp"
-#include "io/error.hpp"
-#include "mesh/validate.hpp"
+#include "mesh/csr.hpp"
+#include "mesh/lumped_masses.hpp"
+#include "mesh/quality.hpp"
 #include "solver/local_kernels.hpp"
 #include "solver/spectrum.hpp"
 #include "solver/virtual_mesh.hpp"
@@ -193,17 +194,6 @@ std::vector<double> l1_row_sums(const Eigen::SparseMatrix<double>& A) {
   for (int c = 0; c < A.outerSize(); ++c)
     for (Eigen::SparseMatrix<double>::InnerIterator it(A, c); it; ++it) sum[it.row()] += std::abs(it.value());
   return sum;
-}
-
-std::vector<double> lumped_masses(const TetMesh& mesh, double density) {
-  std::vector<double> mass(mesh.vertices.size(), 0.0);
-  for (const Tet& t : mesh.tets) {
-    const Vec3d& x0 = mesh.vertices[t[0]];
-    const double V = std::abs(determinant(Mat3d::from_cols(mesh.vertices[t[1]] - x0, mesh.vertices[t[2]] - x0,
-                                                           mesh.vertices[t[3]] - x0))) / 6.0;
-    for (int c = 0; c < 4; ++c) mass[t[c]] += density * V / 4.0;
-  }
-  return mass;
 }
 
 PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtual_model,

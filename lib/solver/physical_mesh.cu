@@ -28,16 +28,14 @@
 // corner 0 stores its rotation; every patch computes the same bits from the same inputs.
 // Kernels are launched with programmatic dependent launch where the driver takes it in a graph
 // (each waits for its predecessor with cudaGridDependencySynchronize before touching memory, so
-// only the launch latency overlaps); otherwise as plain graph nodes.
+// only the launch latency overlaps); otherwise, or with CudaPhysicalOptions::programmatic_launch
+// off, as plain graph nodes.
 //
 // Iterates: the state x is read by iteration 0 and written by iteration K-1; iterations in between
 // rotate over three scratch buffers (x_{k-1}, x_k, x_{k+1}), so no kernel reads what another block
 // of it writes. Rotations are double-buffered: iteration k reads rot[k % 2], writes rot[(k+1) % 2].
-// Opt-in alternative (EBH_CUDA_PERSISTENT=1): the same per-patch code as one cooperative kernel
-// with a grid-wide barrier between iterations (persistent_step_kernel), bitwise equal.
 // The per-element math is the CPU reference's: the same EBH_HD templates instantiated on float,
 // and each vertex sums its terms in the CPU model's incidence order.
-#include <cooperative_groups.h>
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -45,17 +43,16 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <numeric>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "core/error.hpp"
 #include "energy/arap.hpp"
 #include "energy/quadratic.hpp"
 #include "energy/rotation.hpp"
-#include "io/error.hpp"
 #include "solver/cuda_util.cuh"
 #include "solver/physical_mesh_cuda.hpp"
 
@@ -469,39 +466,6 @@ struct SweepPlan {
   }
 };
 
-/// The whole step in one cooperative launch: the graph's iterations with one grid-wide barrier
-/// between them and the same per-patch code. Each block loads its patch's model data once per
-/// step instead of once per iteration, and keeps its threads' own rotations in registers (the
-/// same bits every patch computes, so x comes out bitwise equal to the graph's). omega: K weights.
-template <bool kChebyshev>
-__global__ void __launch_bounds__(kBlock, 2) persistent_step_kernel(PhysicalDevice d, SweepPlan plan, const float* omega,
-                                                                     int rotation_iterations) {
-  cooperative_groups::grid_group grid = cooperative_groups::this_grid();
-  const int tid = threadIdx.x, K = plan.K;
-  PatchThread P;
-  load_patch_thread(d, blockIdx.x, tid, P);
-  cache_patch_items(d, P, patch_shared(d), tid);
-  Quatf r_last{};
-  if (tid < P.tets) r_last = d.rotation[d.ptet[P.e0 + tid] & 0x7fffffff];  // the state half
-  for (int k = 0; k < K; ++k) {
-    float* rsq = k == 0 ? d.rsq_first : (k == K - 1 ? d.rsq_last : nullptr);
-    const Sweep w = plan.sweep(k, omega[k], rsq);
-    if (k == 0) patch_iteration<kChebyshev, true, false>(d, w, P, r_last, tid, rotation_iterations);
-    else if (k == K - 1) patch_iteration<kChebyshev, false, true>(d, w, P, r_last, tid, rotation_iterations);
-    else patch_iteration<kChebyshev, false, false>(d, w, P, r_last, tid, rotation_iterations);
-    grid.sync();
-  }
-  const int g = blockIdx.x * blockDim.x + tid, stride = gridDim.x * blockDim.x;
-  if (K == 1) {  // as finish_kernel
-    for (int a = g; a < d.n; a += stride) finish_vertex(d, plan.scratch[0], a);
-    d.rsq_last = d.rsq_first;
-  }
-  if (K % 2 == 1)  // the last rotations are in the scratch half
-    for (int t = g; t < d.T; t += stride) d.rotation[t] = d.rotation[d.T + t];
-  grid.sync();
-  if (blockIdx.x == 0) residual_block(d);
-}
-
 /// Morton code of p in the box [lo, lo + extent]: 10 bits per axis, interleaved.
 std::uint32_t morton(const Vec3d& p, const Vec3d& lo, double extent) {
   auto spread = [](std::uint32_t v) {
@@ -662,13 +626,6 @@ struct CudaPhysicalSolver::Impl {
   double* slot_residual_dev = nullptr;
   double device_s = 0;
   bool programmatic = false;  // the graph uses programmatic dependent launch
-  // The cooperative single-kernel step (persistent_step_kernel), where every patch's block fits
-  // on the device at once.
-  bool cooperative_supported = false, persistent = false;
-  cuda::DeviceArray<float> omega;  // K Chebyshev weights for the persistent kernel
-  void* persistent_fn = nullptr;   // persistent_step_kernel for the method
-  void prepare_persistent();
-  void launch_persistent(bool copies);
   void copy_q_in(cudaStream_t st);
   void copy_results_out(cudaStream_t st);
 
@@ -891,32 +848,6 @@ void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
   programmatic = pdl;
 }
 
-void CudaPhysicalSolver::Impl::prepare_persistent() {
-  int device = 0, coop = 0, sms = 0, per_sm = 0;
-  EBH_CUDA_CHECK(cudaGetDevice(&device));
-  EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));
-  EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
-  auto* kernel = params.method == SolverSpec::Method::Chebyshev ? persistent_step_kernel<true> : persistent_step_kernel<false>;
-  persistent_fn = reinterpret_cast<void*>(kernel);
-  EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
-  EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, kBlock, shared_bytes));
-  cooperative_supported = coop != 0 && n > 0 && params.iterations > 0 && per_sm * sms >= patches;
-  if (!cooperative_supported) return;
-  omega.allocate(omega_host.size());
-  omega.upload(omega_host.data(), stream.get());
-}
-
-void CudaPhysicalSolver::Impl::launch_persistent(bool copies) {
-  cudaStream_t st = stream.get();
-  if (copies) copy_q_in(st);
-  const float* w = omega.get();
-  int rot = params.rotation_iterations;
-  void* args[] = {&dev, &plan, &w, &rot};
-  EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(persistent_fn, dim3(patches), dim3(kBlock), args, shared_bytes, st));
-  EBH_CUDA_LAUNCH_CHECK(st, "persistent_step_kernel");
-  if (copies) copy_results_out(st);
-}
-
 /// The step's input: q, rounded to float on the host, into the device.
 void CudaPhysicalSolver::Impl::copy_q_in(cudaStream_t st) {
   if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(q.get(), q_host.get(), m * sizeof(Vec3f), cudaMemcpyHostToDevice, st));
@@ -928,7 +859,8 @@ void CudaPhysicalSolver::Impl::copy_results_out(cudaStream_t st) {
   EBH_CUDA_CHECK(cudaMemcpyAsync(x_host.get(), x.get(), n * sizeof(Vec3f), cudaMemcpyDeviceToHost, st));
 }
 
-CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const PhysicalStepParams& params)
+CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const PhysicalStepParams& params,
+                                       const CudaPhysicalOptions& options)
     : impl_(std::make_unique<Impl>()) {
   if (params.method == SolverSpec::Method::Direct)
     throw InputError("--backend cuda: the direct method runs on the CPU only (use jacobi or chebyshev)");
@@ -937,17 +869,9 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
   impl_->weight_norm = model.weight_norm;
   impl_->upload_model(model);
   upload_state(make_physical_state(model));
-  // The cooperative single-kernel step only on request (EBH_CUDA_PERSISTENT=1): on the H200 it
-  // took 166 us against the graph's 163 us for cholecystectomy (docs/CUDA.md), so the graph of one
-  // kernel per iteration stays the default; both give bitwise the same x.
-  impl_->prepare_persistent();
-  const char* persistent_env = std::getenv("EBH_CUDA_PERSISTENT");
-  impl_->persistent = impl_->cooperative_supported && persistent_env && std::string(persistent_env) == "1";
-  // Programmatic dependent launch in the graph where the driver takes it (EBH_CUDA_PDL=0 turns it
-  // off, for comparison); plain kernel nodes otherwise.
-  const char* env = std::getenv("EBH_CUDA_PDL");
-  const bool want_pdl = !(env && std::string(env) == "0");
-  if (want_pdl) {
+  // Programmatic dependent launch in the graph where the driver takes it; plain kernel nodes
+  // otherwise.
+  if (options.programmatic_launch) {
     try {
       impl_->capture(true, true);
       return;
@@ -969,10 +893,6 @@ double CudaPhysicalSolver::last_device_seconds() const { return impl_->device_s;
 double CudaPhysicalSolver::tet_evaluations_per_tet() const {
   return impl_->T > 0 ? static_cast<double>(impl_->ptet.size()) / impl_->T : 1.0;
 }
-
-bool CudaPhysicalSolver::persistent_kernel() const { return impl_->persistent; }
-
-void CudaPhysicalSolver::set_persistent_kernel(bool on) { impl_->persistent = on && impl_->cooperative_supported; }
 
 bool CudaPhysicalSolver::programmatic_launch() const { return impl_->programmatic; }
 
@@ -1028,10 +948,7 @@ PhysicalStepReport CudaPhysicalSolver::step(PhysicalState& state, std::span<cons
     throw std::invalid_argument("CudaPhysicalSolver::step: virtual_q has the wrong size");
   for (int j = 0; j < I.m; ++j) I.q_host[j] = to_float(virtual_q[j]);
   EBH_CUDA_CHECK(cudaEventRecord(I.start, I.stream.get()));
-  if (I.persistent)
-    I.launch_persistent(true);
-  else
-    EBH_CUDA_CHECK(cudaGraphLaunch(I.exec, I.stream.get()));
+  EBH_CUDA_CHECK(cudaGraphLaunch(I.exec, I.stream.get()));
   EBH_CUDA_CHECK(cudaEventRecord(I.stop, I.stream.get()));
   EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream.get()));
   float ms = 0;
@@ -1065,7 +982,7 @@ PhysicalStepReport CudaPhysicalSolver::device_step_report() { return device_step
 
 void CudaPhysicalSolver::prepare_device_step() {
   Impl& I = *impl_;
-  if (!I.persistent && !I.exec_device) {
+  if (!I.exec_device) {
     const bool pdl = I.programmatic;  // as the copying graph (capture() resets the flag: restored below)
     try {
       I.capture(pdl, false);
@@ -1106,10 +1023,7 @@ void CudaPhysicalSolver::launch_device_step(int slot) {
   prepare_device_step();
   cudaStream_t st = I.stream.get();
   EBH_CUDA_CHECK(cudaEventRecord(slot < 0 ? I.start : I.slot_start[slot], st));
-  if (I.persistent)
-    I.launch_persistent(false);
-  else
-    EBH_CUDA_CHECK(cudaGraphLaunch(I.exec_device, st));
+  EBH_CUDA_CHECK(cudaGraphLaunch(I.exec_device, st));
   EBH_CUDA_CHECK(cudaEventRecord(slot < 0 ? I.stop : I.slot_stop[slot], st));
   if (slot >= 0) {
     copy_residual_kernel<<<1, 32, 0, st>>>(I.dev.residual_sq, I.slot_residual_dev + 2 * slot);

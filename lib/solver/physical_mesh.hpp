@@ -212,7 +212,4 @@ std::string physical_state_problem(const PhysicalModel& model, std::span<const V
 /// Elastic forces -dE_vol/dx (#n, pinned vertices included: their reaction) at x (#n).
 void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> x, std::span<Vec3d> forces);
 
-/// Lumped vertex masses of a tet mesh: density * V_t / 4 to each corner. Returns #V, kg.
-std::vector<double> lumped_masses(const TetMesh& mesh, double density);
-
 }  // namespace ebh

@@ -20,12 +20,20 @@
 
 namespace ebh {
 
+/// How the step's graph is built (the results are bitwise the same either way).
+struct CudaPhysicalOptions {
+  /// Chain the iteration kernels by programmatic dependent launch where the driver takes it in a
+  /// graph (docs/CUDA.md); false: plain kernel nodes (for comparisons).
+  bool programmatic_launch = true;
+};
+
 class CudaPhysicalSolver {
  public:
   /// Uploads the model and captures the step graph for `params`. The state starts at rest
   /// (make_physical_state). Throws InputError for the direct method, std::runtime_error (with the
   /// CUDA error, file and line) when the device cannot be used.
-  CudaPhysicalSolver(const PhysicalModel& model, const PhysicalStepParams& params);
+  CudaPhysicalSolver(const PhysicalModel& model, const PhysicalStepParams& params,
+                     const CudaPhysicalOptions& options = {});
   ~CudaPhysicalSolver();
   CudaPhysicalSolver(const CudaPhysicalSolver&) = delete;
   CudaPhysicalSolver& operator=(const CudaPhysicalSolver&) = delete;
@@ -66,12 +74,6 @@ class CudaPhysicalSolver {
   /// Device time of the last step's graph (copies of q and x included), seconds, from CUDA events:
   /// time_s minus this is the host's share (conversions, launch, synchronisation).
   double last_device_seconds() const;
-  /// Whether steps run as one cooperative kernel with a grid-wide barrier between iterations
-  /// instead of the graph of one kernel per iteration (opt-in: EBH_CUDA_PERSISTENT=1 or
-  /// set_persistent_kernel(true), where the device can hold every patch's block at once; as fast
-  /// as the graph on the H200 today). Both give bitwise the same x.
-  bool persistent_kernel() const;
-  void set_persistent_kernel(bool on);
   /// Local-step evaluations per tet and iteration (>= 1): a tet on a patch border is computed by
   /// each patch it touches (docs/CUDA.md).
   double tet_evaluations_per_tet() const;

@@ -1,7 +1,6 @@
 // The virtual mesh: construction, pairing with the physical mesh, and the haptic-rate
 // local-global iterations (the soft part of Algorithm 2).
 #include "solver/virtual_mesh.hpp"
-#include "solver/csr.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,105 +10,20 @@
 #include <string>
 #include <tuple>
 
+#include "core/error.hpp"
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
-#include "io/error.hpp"
 #include "mesh/boundary.hpp"
+#include "mesh/csr.hpp"
+#include "mesh/lumped_masses.hpp"
+#include "mesh/surface.hpp"
+#include "mesh/tet_locator.hpp"
 #include "scene/scene.hpp"
 #include "solver/local_kernels.hpp"
 #include "solver/physical_mesh.hpp"
-#include "solver/surface.hpp"
+#include "solver/virtual_jacobi.hpp"
 
 namespace ebh {
-namespace {
-
-struct Pair {
-  std::array<int, 4> vertex{-1, -1, -1, -1};
-  std::array<double, 4> weight{};
-  int count = 0;
-};
-
-/// Embeds points in the physical mesh's tets: barycentric weights in the tet that contains the
-/// point (exact), or, for a point outside every tet, in the tet it is least outside of with the
-/// negative weights clamped (approximate; the error is reported). A uniform grid of tet bounding
-/// boxes keeps the search local.
-class TetLocator {
- public:
-  explicit TetLocator(const TetMesh& mesh) : mesh_(mesh) {
-    lo_ = hi_ = mesh.vertices.empty() ? Vec3d{} : mesh.vertices[0];
-    for (const Vec3d& v : mesh.vertices) { lo_ = cwise_min(lo_, v); hi_ = cwise_max(hi_, v); }
-    const double cells_wanted = std::max<double>(1.0, double(mesh.tets.size()) / 4.0);
-    const Vec3d ext = hi_ - lo_;
-    const double vol = std::max(ext.x, 1e-12) * std::max(ext.y, 1e-12) * std::max(ext.z, 1e-12);
-    cell_ = std::cbrt(vol / cells_wanted);
-    for (int i = 0; i < 3; ++i) dims_[i] = std::clamp(int(ext[i] / cell_) + 1, 1, 512);
-    cells_.resize(size_t(dims_[0]) * dims_[1] * dims_[2]);
-    inv_.resize(mesh.tets.size());
-    for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) {
-      const auto& T = mesh.tets[t];
-      Vec3d a = mesh.vertices[T[0]], b = a;
-      for (int c = 1; c < 4; ++c) { a = cwise_min(a, mesh.vertices[T[c]]); b = cwise_max(b, mesh.vertices[T[c]]); }
-      const auto ia = cell_of(a), ib = cell_of(b);
-      for (int x = ia[0]; x <= ib[0]; ++x)
-        for (int y = ia[1]; y <= ib[1]; ++y)
-          for (int z = ia[2]; z <= ib[2]; ++z) cells_[index(x, y, z)].push_back(t);
-      const Vec3d& X0 = mesh.vertices[T[0]];
-      inv_[t] = inverse(Mat3d::from_cols(mesh.vertices[T[1]] - X0, mesh.vertices[T[2]] - X0, mesh.vertices[T[3]] - X0));
-    }
-  }
-
-  /// Returns the pairing of point p; error_out: |sum w X - p|.
-  Pair locate(const Vec3d& p, double& error_out) const {
-    int best = -1;
-    double best_score = -std::numeric_limits<double>::infinity();
-    auto consider = [&](int t) {
-      const auto l = bary(t, p);
-      const double score = std::min(std::min(l[0], l[1]), std::min(l[2], l[3]));
-      if (score > best_score) { best_score = score; best = t; }
-    };
-    const auto c = cell_of(p);
-    for (int t : cells_[index(c[0], c[1], c[2])]) consider(t);
-    if (best_score < -1e-9)  // outside every tet near p: search all
-      for (int t = 0; t < static_cast<int>(mesh_.tets.size()); ++t) consider(t);
-    Pair pair;
-    if (best < 0) return pair;
-    auto l = bary(best, p);
-    double sum = 0;
-    for (double& w : l) { w = std::max(w, 0.0); sum += w; }
-    Vec3d q{};
-    for (int k = 0; k < 4; ++k) {
-      if (l[k] / sum < 1e-12) continue;
-      pair.vertex[pair.count] = mesh_.tets[best][k];
-      pair.weight[pair.count] = l[k] / sum;
-      q += pair.weight[pair.count] * mesh_.vertices[mesh_.tets[best][k]];
-      ++pair.count;
-    }
-    error_out = norm(q - p);
-    return pair;
-  }
-
- private:
-  std::array<double, 4> bary(int t, const Vec3d& p) const {
-    const Vec3d l = inv_[t] * (p - mesh_.vertices[mesh_.tets[t][0]]);
-    return {1.0 - l.x - l.y - l.z, l.x, l.y, l.z};
-  }
-  std::array<int, 3> cell_of(const Vec3d& p) const {
-    std::array<int, 3> c;
-    for (int i = 0; i < 3; ++i) c[i] = std::clamp(int((p[i] - lo_[i]) / cell_), 0, dims_[i] - 1);
-    return c;
-  }
-  size_t index(int x, int y, int z) const { return (size_t(z) * dims_[1] + y) * dims_[0] + x; }
-
-  const TetMesh& mesh_;
-  Vec3d lo_, hi_;
-  double cell_ = 1;
-  int dims_[3] = {1, 1, 1};
-  std::vector<std::vector<int>> cells_;
-  std::vector<Mat3d> inv_;
-};
-
-
-}  // namespace
 
 VirtualModel build_virtual_model(const Scene& scene) {
   const TetMesh& phys = scene.physical;
@@ -160,7 +74,7 @@ VirtualModel build_virtual_model(const Scene& scene) {
   M.pair_weight.assign(m, {0, 0, 0, 0});
   M.pair_count.assign(m, 0);
   for (int j = 0; j < m; ++j) {
-    Pair pair;
+    TetEmbedding pair;
     const auto [a, b] = parent[j];
     const int ia = exact(surface.vertices[a]), ib = exact(surface.vertices[b]);
     if (a == b && ia >= 0) {
@@ -255,8 +169,8 @@ void edge_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* q) 
   edge_spring_gradients(edges, q, ws.edge_grad.data());  // omp for
 }
 
-/// The gather and Jacobi global step per vertex (work-shared; ends with a barrier):
-///   q_j <- q_j + r_j / D_j,  r = -grad E_soft,  D = m/h^2 + k_s deg + k_svc + sum k_con.
+/// The gather and Jacobi global step per vertex (virtual_jacobi.hpp; work-shared; ends with a
+/// barrier).
 void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* __restrict q, Vec3d* __restrict q_next) {
   const int m = model.num_vertices;
   const double inv_h2 = 1.0 / (ws.h * ws.h);
@@ -267,14 +181,11 @@ void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* _
     if (model.pinned[j]) { q_next[j] = q[j]; continue; }
     const double mh = model.mass[j] * inv_h2;
     const double ck = ws.contact_k[j];
-    Vec3d r = mh * (ws.s[j] - q[j])                                          // -dE_k/dq   [6]
-              - coupling_gradient_virtual(ws.p[j], q[j], model.k_svc);       // -dE_svc/dq [5]
-    if (ck != 0.0) r = r + ws.contact_kt[j] - ck * q[j];                     // -dE_con/dq [3] (0 without contact)
-    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {  // -dE_s/dq [4]
-      const Vec3d g = edge_grad[entries[k] >> 1];
-      r += (entries[k] & 1) ? g : -g;  // end b: -dE_s/dq_b = g; end a: -g
-    }
-    q_next[j] = q[j] + r / (mh + model.stiff_diag[j] + ck);
+    Vec3d r = inertia_coupling_residual(mh, ws.s[j], q[j], ws.p[j], model.k_svc);
+    if (ck != 0.0) r = add_contact_residual(r, ws.contact_kt[j], ck, q[j]);  // 0 without contact
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k)
+      add_edge_residual(r, edge_grad[entries[k] >> 1], (entries[k] & 1) != 0);
+    q_next[j] = jacobi_update(q[j], r, mh + model.stiff_diag[j] + ck);
   }
 }
 

@@ -12,6 +12,7 @@
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
 #include "solver/cuda_util.cuh"
+#include "solver/virtual_jacobi.hpp"
 #include "solver/virtual_mesh_device.cuh"
 #include "solver/virtual_mesh_cuda.hpp"
 
@@ -59,7 +60,7 @@ __global__ void scatter_kernel(VirtualDevice d, const ContactSum* c, int count) 
   d.contact_k[c[i].vertex] = c[i].k;
 }
 
-/// q_j <- q_j + r_j / D_j, r = -grad(E_k + E_svc + E_con + E_s), as virtual_iteration.
+/// One Jacobi step per vertex (virtual_jacobi.hpp), as virtual_iteration.
 __global__ void jacobi_kernel(VirtualDevice d, const Vec3f* q, Vec3f* q_next, float inv_h2) {
   const int j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= d.m) return;
@@ -70,15 +71,12 @@ __global__ void jacobi_kernel(VirtualDevice d, const Vec3f* q, Vec3f* q_next, fl
   const Vec3f qj = q[j];
   if (d.model.pinned[j]) { q_next[j] = qj; return; }
   const float mh = d.model.mass[j] * inv_h2;
-  Vec3f r = mh * (d.s[j] - qj)                                      // -dE_k/dq   [6]
-            - coupling_gradient_virtual(d.p[j], qj, d.k_svc)        // -dE_svc/dq [5]
-            + kt - ck * qj;                                         // -dE_con/dq [3]
+  Vec3f r = add_contact_residual(inertia_coupling_residual(mh, d.s[j], qj, d.p[j], d.k_svc), kt, ck, qj);
   for (int k = d.model.edge_offsets[j]; k < d.model.edge_offsets[j + 1]; ++k) {
     const int4 it = d.model.edge_items[k];
-    const Vec3f g = edge_spring_gradient(q[it.x], q[it.y], d.model.rest_edge[it.z], d.k_s);  // [4]
-    r += it.w ? g : -g;
+    add_edge_residual(r, edge_spring_gradient(q[it.x], q[it.y], d.model.rest_edge[it.z], d.k_s), it.w != 0);
   }
-  q_next[j] = qj + r / (mh + d.model.stiff_diag[j] + ck);
+  q_next[j] = jacobi_update(qj, r, mh + d.model.stiff_diag[j] + ck);
 }
 
 __global__ void end_kernel(VirtualDevice d, const Vec3f* q, float inv_h) {

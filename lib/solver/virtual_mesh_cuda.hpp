@@ -7,7 +7,7 @@
 // so every iteration hands q back to the host: one tick costs 2 + virtual_iterations synchronised
 // round trips. `--backend cuda` uses it where the whole tick cannot run on the device
 // (schedule/haptic_cuda.hpp: the realtime mode, the inverse-normal projection,
-// EBH_CUDA_DEVICE_TICK=0); docs/CUDA.md gives the measured costs.
+// ReplayOptions::device_tick off); docs/PERFORMANCE.md gives the measured costs.
 //
 // No CUDA types here (pimpl); the class exists when the build has the CUDA backend.
 #include <cstdint>

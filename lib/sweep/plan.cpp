@@ -9,7 +9,7 @@
 #include <set>
 #include <system_error>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/h5.hpp"
 #include "io/paths.hpp"
 #include "io/sha256.hpp"

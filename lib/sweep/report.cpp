@@ -10,7 +10,7 @@
 #include <sstream>
 #include <tuple>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh {
 namespace {

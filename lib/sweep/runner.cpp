@@ -18,7 +18,7 @@
 #include <sstream>
 
 #include "io/atomic.hpp"
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 extern char** environ;
 

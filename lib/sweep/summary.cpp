@@ -7,7 +7,7 @@
 #include <map>
 #include <optional>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/h5.hpp"
 #include "metrics/force_metrics.hpp"
 #include "metrics/signal.hpp"

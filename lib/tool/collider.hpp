@@ -41,6 +41,23 @@ template <class T> EBH_HD Vec3<T> apply(const Rigid<T>& f, Vec3<T> x) { return f
 template <class T> EBH_HD Vec3<T> apply_inverse(const Rigid<T>& f, Vec3<T> x) { return transpose(f.R) * (x - f.t); }
 template <class T> EBH_HD Rigid<T> compose(const Rigid<T>& a, const Rigid<T>& b) { return {a.R * b.R, a.R * b.t + a.t}; }
 
+/// A jaw's hinge frame in the tool frame: the rotation about the tool's y axis by the angle with
+/// cosine c and sine s (maps +z to (s, 0, c)); the upper jaw turns by +angle, the lower by -angle.
+template <class T> EBH_HD Mat3<T> jaw_rotation(T c, T s) {
+  Mat3<T> R = Mat3<T>::identity();
+  R(0, 0) = c; R(0, 2) = s; R(2, 0) = -s; R(2, 2) = c;
+  return R;
+}
+
+/// Collider frame f -> world for the tool frame -> world `tool`, the jaws opened by the angle with
+/// cosine c and sine s (tool_model.hpp: jaw_opening).
+template <class T> EBH_HD Rigid<T> collider_world(const Rigid<T>& tool, ColliderFrame f, T c, T s) {
+  if (f == ColliderFrame::Tool) return tool;
+  Rigid<T> hinge;
+  hinge.R = jaw_rotation(c, f == ColliderFrame::UpperJaw ? s : -s);
+  return compose(tool, hinge);
+}
+
 template <class T>
 struct SurfaceQuery {
   T sd{};            ///< signed distance, negative inside

@@ -1,8 +1,5 @@
 #include "tool/grasp.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include "tool/contact.hpp"
 
 namespace ebh {
@@ -23,7 +20,7 @@ int update_grasp(const ToolModel& tool, const ToolPose& pose, double jaw, std::s
   if (!tool.has_jaws) return 0;
   if (g.held.size() != q.size()) init_grasp(g, q.size());
   const ForcepsSpec& f = tool.spec.forceps;
-  const bool closed = jaw < f.grasp_threshold;
+  const bool closed = jaws_closed(tool, jaw);
   if (closed == g.closed) return 0;
   g.closed = closed;
   if (!closed) {  // release
@@ -51,13 +48,11 @@ int update_grasp(const ToolModel& tool, const ToolPose& pose, double jaw, std::s
     const int i = cand[j];
     const Vec3d ls = apply_inverse(frame, q[i]);
     const double sd = signed_distance_local(hb, ls);
-    if (sd > f.soft_margin) continue;
-    const double w = grasp_weight(sd / f.soft_margin, f.eta);
-    const Vec3d lf{0.0, std::clamp(ls.y, hb.a.y - hb.half.y, hb.a.y + hb.half.y),
-                   std::clamp(ls.z, hb.a.z - hb.half.z, hb.a.z + hb.half.z)};
+    if (!grasp_reaches(sd, f.soft_margin)) continue;
+    const GraspPoint<double> p = grasp_point(hb, ls, sd, f.soft_margin, f.eta);
     cand[kept++] = i;
-    g.local_target.push_back(w * lf + (1.0 - w) * ls);
-    g.weight.push_back(w);
+    g.local_target.push_back(p.local);
+    g.weight.push_back(p.weight);
     g.held[i] = 1;
   }
   cand.resize(kept);

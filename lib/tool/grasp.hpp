@@ -10,7 +10,8 @@
 // the jaws are flattened most; e.g. -1.25 .. 1 for the default forceps). Every tick the target q_g = P_g + R_g l_g moves rigidly with the virtual
 // tool, goes to the virtual mesh as a ContactTarget (stiffness k_con) and acts back on the virtual
 // tool through the same E_con [3] (grasp_energy in tool_energy.hpp). Opening the jaws above the
-// threshold releases every vertex.
+// threshold releases every vertex. The weight and target are tool_terms.hpp's (grasp_point), shared
+// with the device tick.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "energy/contact_target.hpp"
 #include "tool/broadphase.hpp"
 #include "tool/tool_model.hpp"
+#include "tool/tool_terms.hpp"
 
 namespace ebh {
 
@@ -32,8 +34,8 @@ struct GraspState {
 /// Sizes the state for m virtual vertices (capacity m, so grasping never allocates later).
 void init_grasp(GraspState& g, std::size_t m);
 
-/// w(d) = 1 / (1 + eta e^d), eq. [10]; d dimensionless (signed distance / soft margin).
-inline double grasp_weight(double d, double eta) { return 1.0 / (1.0 + eta * std::exp(d)); }
+/// Whether the jaw value `jaw` closes the jaws past the grasp threshold (a tool with jaws).
+inline bool jaws_closed(const ToolModel& tool, double jaw) { return jaw < tool.spec.forceps.grasp_threshold; }
 
 /// Opens or closes the grasp for this tick's jaw value.
 ///   q  #m virtual-mesh positions; pose: the virtual tool's pose

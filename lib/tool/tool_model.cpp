@@ -5,7 +5,7 @@
 #include <numbers>
 #include <string>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh {
 namespace {
@@ -26,13 +26,6 @@ Collider<double> capsule(Vec3d a, Vec3d b, double r) {
   return c;
 }
 double reach_of_segment(Vec3d a, Vec3d b, double r) { return std::max(norm(a), norm(b)) + r; }
-
-Mat3d rotation_about_y(double angle) {
-  const double c = std::cos(angle), s = std::sin(angle);
-  Mat3d R = Mat3d::identity();
-  R(0, 0) = c; R(0, 2) = s; R(2, 0) = -s; R(2, 2) = c;  // maps +z to (sin, 0, cos)
-  return R;
-}
 
 }  // namespace
 
@@ -80,25 +73,30 @@ ToolModel build_tool(const ToolSpec& spec, Projection projection) {
   return t;
 }
 
+JawOpening jaw_opening(const ToolModel& tool, double jaw) {
+  if (!tool.has_jaws) return {};
+  const double a = std::clamp(jaw, 0.0, 1.0) * tool.spec.forceps.jaw_max_angle_deg * std::numbers::pi / 180.0;
+  return {std::cos(a), std::sin(a)};
+}
+
 std::array<Rigid<double>, 3> collider_frames(const ToolModel& tool, double jaw) {
   std::array<Rigid<double>, 3> f{};
-  if (tool.has_jaws) {
-    const double a = std::clamp(jaw, 0.0, 1.0) * tool.spec.forceps.jaw_max_angle_deg * std::numbers::pi / 180.0;
-    f[1].R = rotation_about_y(a);
-    f[2].R = rotation_about_y(-a);
-  }
+  if (!tool.has_jaws) return f;
+  const JawOpening o = jaw_opening(tool, jaw);
+  f[static_cast<int>(ColliderFrame::UpperJaw)].R = jaw_rotation(o.cos, o.sin);
+  f[static_cast<int>(ColliderFrame::LowerJaw)].R = jaw_rotation(o.cos, -o.sin);
   return f;
 }
 
 PosedTool pose_tool(const ToolModel& tool, const ToolPose& pose, double jaw) {
   PosedTool p;
-  const auto frames = collider_frames(tool, jaw);
+  const JawOpening o = jaw_opening(tool, jaw);
   const Rigid<double> world = to_rigid(pose);
   p.count = static_cast<int>(tool.colliders.size());
   p.origin = pose.position;
   for (int c = 0; c < p.count; ++c) {
     p.shape[c] = tool.colliders[c];
-    p.world[c] = compose(world, frames[static_cast<int>(tool.colliders[c].frame)]);
+    p.world[c] = collider_world(world, tool.colliders[c].frame, o.cos, o.sin);
     p.reach[c] = tool.reach[c];
   }
   return p;

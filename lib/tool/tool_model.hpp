@@ -48,6 +48,13 @@ struct ToolModel {
 /// Builds the colliders of spec.kind. Throws InputError on non-positive dimensions.
 ToolModel build_tool(const ToolSpec& spec, Projection projection = Projection::ClosestPoint);
 
+/// The jaws' opening angle at jaw value `jaw` in [0, 1] (0 closed, 1 open), clamp(jaw, 0, 1)
+/// jaw_max_angle, as its cosine and sine (cos 0, sin 0 for a tool without jaws).
+struct JawOpening {
+  double cos = 1, sin = 0;
+};
+JawOpening jaw_opening(const ToolModel& tool, double jaw);
+
 /// Frames of ColliderFrame {Tool, UpperJaw, LowerJaw} relative to the tool frame at jaw value
 /// `jaw` in [0, 1] (0 closed, 1 open).
 std::array<Rigid<double>, 3> collider_frames(const ToolModel& tool, double jaw);

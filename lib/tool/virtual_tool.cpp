@@ -2,18 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
+
+#include "tool/newton.hpp"
 
 namespace ebh {
 namespace {
-
-constexpr int kMaxHalvings = 12;
-constexpr double kArmijo = 1e-4;
-constexpr double kConverged = 1e-13;
-// A step shorter than this (times |P_g| + 1 mm, in metres; and in radians) moves the pose by
-// round-off only: no halving can show a decrease, so it counts as converged rather than as 12
-// halvings ending in a rejected step (which the device tick, schedule/haptic_cuda.cu, pays dearly).
-constexpr double kStepFloor = 1e-14;
 
 /// Contacts of the candidates against the tool at `pose` (grasped vertices excluded).
 void detect_at(const ToolModel& tool, const ToolPose& pose, double jaw, std::span<const Vec3d> q,
@@ -82,19 +75,19 @@ void init_virtual_tool(VirtualToolState& st, std::size_t m, const ToolPose& pose
 void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPose& physical, double jaw,
                          std::span<const Vec3d> q, std::span<const Vec3d> normals, VertexGrid& grid,
                          VirtualToolState& st) {
-  const int iterations = std::max(1, tool.spec.newton_iterations);
-  const double max_step = tool.spec.max_step;
-  const double max_rot = tool.spec.max_step_rotation_deg * std::numbers::pi / 180.0;
+  const NewtonLimits lim = newton_limits(tool.spec);
+  const int iterations = lim.iterations;
+  const double max_step = lim.max_step, max_rot = lim.max_rot;
   // Broad phase once per call, covering every pose the step limits let the iterations reach.
   st.candidates.clear();
   const PosedTool start = pose_tool(tool, st.pose, jaw);
-  const double T = iterations * max_step, th = std::min(iterations * max_rot, 0.5);
+  const double T = lim.reach_translation, th = lim.reach_rotation;
   gather_candidates(start, q, grid, T, th, st.candidates);
   // Keep the vertices that one of this call's iterates can reach (the bound of gather_candidates
   // applied to the vertex itself, s = 0): the Newton iterations then test only those.
   std::size_t kept = 0;
   for (const int i : st.candidates) {
-    const double bound = (T + th * (norm(q[i] - start.origin) + T)) / (1.0 - th);
+    const double bound = newton_reach_bound(T, th, norm(q[i] - start.origin));
     for (int c = 0; c < start.count; ++c)
       if (signed_distance_local(start.shape[c], apply_inverse(start.world[c], q[i])) <= bound) {
         st.candidates[kept++] = i;
@@ -116,15 +109,15 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
     dx *= scale;
     const double slope = g.dot(dx);  // < 0: H_step is positive definite
     // Converged: the predicted decrease is below round-off of E (no halving could show it).
-    if (!(slope < -kConverged * std::max(E, 1e-300))) break;
-    if (dx.head<3>().norm() <= kStepFloor * (norm(st.pose.position) + 1e-3) && dx.tail<3>().norm() <= kStepFloor) break;
+    if (!newton_decrease_visible(slope, E)) break;
+    if (newton_step_roundoff(dx.head<3>().norm(), dx.tail<3>().norm(), st.pose.position)) break;
     double alpha = 1.0;
     bool accepted = false;
-    for (int h = 0; h < kMaxHalvings; ++h, alpha *= 0.5) {
+    for (int h = 0; h < kNewtonMaxHalvings; ++h, alpha *= 0.5) {
       const ToolPose trial = perturb(st.pose, alpha * dx);
       detect_at(tool, trial, jaw, q, normals, st, st.trial);
       const double Et = energy_at(tool, k, physical, trial, q, st, st.trial, nullptr, nullptr);
-      if (Et <= E + kArmijo * alpha * slope) {
+      if (armijo_accepts(Et, E, alpha, slope)) {
         st.pose = trial;
         st.contacts.swap(st.trial);
         accepted = true;
@@ -156,16 +149,10 @@ void virtual_mesh_targets(const ToolModel& tool, const Stiffness& k, double jaw,
 
 ToolOutput tool_output(const ToolModel& tool, const Stiffness& k, const ToolPose& physical,
                        const VirtualToolState& st) {
-  ToolOutput o;
-  Vec6 g;
-  coupling_energy(st.pose, physical, k.k_vcs, k.k_vct, &g, nullptr);
-  o.force = Vec3d{g[0], g[1], g[2]};
-  o.torque = Vec3d{g[3], g[4], g[5]};
-  const double fl = tool.spec.force_limit, f = norm(o.force);
-  if (fl > 0.0 && f > fl) { o.force = (fl / f) * o.force; o.force_clamped = true; }
-  const double tl = tool.torque_limit, t = norm(o.torque);
-  if (tl > 0.0 && t > tl) { o.torque = (tl / t) * o.torque; o.torque_clamped = true; }
-  return o;
+  const CouplingOutput<double> c = coupling_output(st.pose.position, st.pose.orientation, physical.position,
+                                                    physical.orientation, k.k_vcs, k.k_vct, tool.spec.force_limit,
+                                                    tool.torque_limit);
+  return {c.force, c.torque, c.force_clamped, c.torque_clamped};
 }
 
 }  // namespace ebh

@@ -9,8 +9,8 @@
 // local-global loop's stopping point.
 #include <cmath>
 
+#include "mesh/box_mesh.hpp"
 #include "scene/scene.hpp"
-#include "solver/box_mesh.hpp"
 #include "solver/physical_mesh.hpp"
 #include "validate/validation.hpp"
 

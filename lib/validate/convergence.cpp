@@ -10,9 +10,9 @@
 #include <cmath>
 #include <filesystem>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
+#include "mesh/box_mesh.hpp"
 #include "scene/scene.hpp"
-#include "solver/box_mesh.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
 #include "validate/validation.hpp"

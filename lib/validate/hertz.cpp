@@ -27,8 +27,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "mesh/box_mesh.hpp"
 #include "scene/scene.hpp"
-#include "solver/box_mesh.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
 #include "tool/collider.hpp"

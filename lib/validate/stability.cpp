@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "mesh/degrade.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"

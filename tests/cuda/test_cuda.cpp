@@ -1,11 +1,11 @@
 // The CUDA backend against the CPU reference (DESIGN.md §6). These tests need a CUDA device: they
 // run on a machine with a GPU and skip elsewhere (no CUDA backend in the build, or no device).
 //
-// Tolerances (docs/CUDA.md, "Tolerances"). The device computes in float32 (unit round-off
-// u = 2^-24), the CPU in float64. Rounding the state to float32 moves a position by u |x|; each
-// local-global iteration then adds a few round-offs of the same size (the update x + D^-1 r is
-// rounded, and the round-off of F, R and the gathered r, mapped back through D^-1, is of order
-// u |F - R| / |g|, far smaller). The Jacobi / Chebyshev iteration does not amplify a position
+// Tolerances (docs/CUDA.md, "Departures from the CPU and tolerances"). The device computes in
+// float32 (unit round-off u = 2^-24), the CPU in float64. Rounding the state to float32 moves a
+// position by u |x|; each local-global iteration then adds a few round-offs of the same size (the
+// update x + D^-1 r is rounded, and the round-off of F, R and the gathered r, mapped back through
+// D^-1, is of order u |F - R| / |g|, far smaller). The Jacobi / Chebyshev iteration does not amplify a position
 // error (its iteration matrix is a contraction on the error, the Chebyshev weights are those of a
 // convergent semi-iteration), so errors add up at most linearly:
 //     |x_cuda - x_cpu| <= (K + 1) * c * u * X,     X = max |coordinate|, c = 16,
@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/recording.hpp"
 #include "scene/scene.hpp"
 #include "schedule/replay_inputs.hpp"
@@ -38,7 +38,7 @@
 #if EBH_HAVE_CUDA
 #include <Eigen/Eigenvalues>
 
-#include "schedule/newton_warp.hpp"
+#include "tool/newton_warp.hpp"
 #include "solver/device_cuda.hpp"
 #include "solver/physical_mesh_cuda.hpp"
 #include "solver/virtual_mesh_cuda.hpp"
@@ -197,17 +197,15 @@ TEST(CudaPhysical, ChebyshevStepMatchesCpuTube) {
 }
 
 /// The device-resident step (q from and x to device memory, as the device haptic tick runs it) is
-/// the copying step's graph without the copies: bitwise the same state, persistent kernel too.
+/// the copying step's graph without the copies: bitwise the same state.
 TEST(CudaPhysical, DeviceResidentStepMatchesTheCopyingStep) {
   EBH_REQUIRE_DEVICE();
   const Models& M = models("cholecystectomy");
   const PhysicalStepParams params = physical_params(M.scene.spec.solver);
   std::vector<Vec3d> q = M.vm.rest;
   for (Vec3d& p : q) p.z -= 1e-3;
-  for (const bool persistent : {false, true}) {
+  {
     CudaPhysicalSolver a(M.pm, params), b(M.pm, params);
-    a.set_persistent_kernel(persistent);
-    b.set_persistent_kernel(persistent);
     PhysicalState sa = M.start, sb = M.start;
     a.upload_state(sa);
     b.upload_state(sb);
@@ -219,8 +217,8 @@ TEST(CudaPhysical, DeviceResidentStepMatchesTheCopyingStep) {
     PhysicalState da, db;
     a.download_state(da);
     b.download_state(db);
-    EXPECT_EQ(std::memcmp(da.x.data(), db.x.data(), da.x.size() * sizeof(Vec3d)), 0) << "persistent " << persistent;
-    EXPECT_EQ(std::memcmp(da.v.data(), db.v.data(), da.v.size() * sizeof(Vec3d)), 0) << "persistent " << persistent;
+    EXPECT_EQ(std::memcmp(da.x.data(), db.x.data(), da.x.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(da.v.data(), db.v.data(), da.v.size() * sizeof(Vec3d)), 0);
     EXPECT_GT(r.time_s, 0.0);
     EXPECT_GT(r.residual, 0.0);
   }
@@ -249,9 +247,9 @@ TEST(CudaPhysical, RunsAreBitwiseIdentical) {
   PhysicalState out[2];
   for (int run = 0; run < 2; ++run) {
     // The second run without programmatic dependent launch: the launch mode must not change a bit.
-    if (run == 1) setenv("EBH_CUDA_PDL", "0", 1);
-    CudaPhysicalSolver solver(M.pm, PhysicalStepParams{});
-    unsetenv("EBH_CUDA_PDL");
+    CudaPhysicalOptions options;
+    options.programmatic_launch = run == 0;
+    CudaPhysicalSolver solver(M.pm, PhysicalStepParams{}, options);
     std::printf("[ run %d ] programmatic dependent launch: %s\n", run, solver.programmatic_launch() ? "yes" : "no");
     solver.upload_state(M.start);
     PhysicalState s = M.start;
@@ -264,46 +262,9 @@ TEST(CudaPhysical, RunsAreBitwiseIdentical) {
   EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
 }
 
-TEST(CudaPhysical, PersistentKernelMatchesTheGraphBitwise) {
-  // The cooperative single-kernel step runs the graph's per-patch code (its rotations kept in
-  // registers instead of read back), so x, v, the rotations and the residual must come out
-  // bitwise equal, for both methods and the special iteration counts.
-  EBH_REQUIRE_DEVICE();
-  const Models& M = models("cholecystectomy");
-  const std::vector<Vec3d> q = displaced_virtual(M.vm, 11);
-  const std::pair<SolverSpec::Method, int> cases[] = {{SolverSpec::Method::Chebyshev, 16},
-                                                      {SolverSpec::Method::Jacobi, 16},
-                                                      {SolverSpec::Method::Chebyshev, 1},
-                                                      {SolverSpec::Method::Chebyshev, 3}};
-  for (const auto& [method, K] : cases) {
-    PhysicalStepParams params;
-    params.method = method;
-    params.iterations = K;
-    PhysicalState out[2];
-    double residual[2] = {0, 0};
-    bool persistent[2] = {false, false};
-    for (int run = 0; run < 2; ++run) {
-      CudaPhysicalSolver solver(M.pm, params);
-      solver.set_persistent_kernel(run == 1);
-      persistent[run] = solver.persistent_kernel();
-      solver.upload_state(M.start);
-      PhysicalState s = M.start;
-      for (int k = 0; k < 5; ++k) residual[run] = solver.step(s, q).residual;
-      solver.download_state(out[run]);
-    }
-    std::printf("[ persistent K=%d ] cooperative launch available: %s\n", K, persistent[1] ? "yes" : "no");
-    if (!persistent[1]) GTEST_SKIP() << "the device cannot hold every patch at once (cooperative launch)";
-    EXPECT_FALSE(persistent[0]);
-    EXPECT_EQ(std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(Vec3d)), 0);
-    EXPECT_EQ(std::memcmp(out[0].v.data(), out[1].v.data(), out[0].v.size() * sizeof(Vec3d)), 0);
-    EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
-    EXPECT_EQ(residual[0], residual[1]);
-  }
-}
-
-// The device Newton step's 6x6 algebra (newton_warp.cuh) against Eigen in double. Test matrices
-// are built from chosen eigenvalues, so their scales mix like the virtual tool's Hessians (N/m
-// beside N m/rad: eigenvalues from 1e-2 to 1e4, of both signs).
+// The device Newton step's 6x6 algebra (tool/newton_warp.cuh) against Eigen in double. Test
+// matrices are built from chosen eigenvalues, so their scales mix like the virtual tool's Hessians
+// (N/m beside N m/rad: eigenvalues from 1e-2 to 1e4, of both signs).
 Mat6 symmetric_with_eigenvalues(std::mt19937& rng, const Vec6& lambda) {
   std::normal_distribution<double> n(0.0, 1.0);
   Mat6 G;
@@ -475,7 +436,7 @@ class Trace : public ReplayObserver {
 };
 
 /// cholecystectomy_grasp from t = `from` s (1.2: the forceps reaching the fundus) for `ticks` ticks.
-/// host_tool: --backend cuda with the virtual tool on the host (EBH_CUDA_DEVICE_TICK=0).
+/// host_tool: --backend cuda with the virtual tool on the host (ReplayOptions::device_tick off).
 Trace replay_grasp(Backend backend, Mode mode, int ticks, double from = 1.2, bool host_tool = false) {
   Recording rec = read_recording(resolve_recording_path("cholecystectomy_grasp"));
   Recording cut = rec;
@@ -489,10 +450,9 @@ Trace replay_grasp(Backend backend, Mode mode, int ticks, double from = 1.2, boo
   ReplayOptions opt;
   opt.mode = mode;
   opt.duration = (ticks - 1) * world->h_haptic;
+  opt.device_tick = !host_tool;
   Trace trace;
-  if (host_tool) setenv("EBH_CUDA_DEVICE_TICK", "0", 1);
   replay(*world, cut, opt, trace);
-  if (host_tool) unsetenv("EBH_CUDA_DEVICE_TICK");
   return trace;
 }
 
@@ -531,7 +491,7 @@ TEST(CudaReplay, GraspMatchesCpuAndRepeatsBitwise) {
 
 /// The device haptic tick through a grasp: the jaws close on the fundus (t ~ 1.6 s) and pull.
 /// Grasped counts must agree exactly, forces within the float32 bound of the test above; the
-/// host-tool path (EBH_CUDA_DEVICE_TICK=0) gives the same forces within the same bound.
+/// host-tool path (ReplayOptions::device_tick off) gives the same forces within the same bound.
 TEST(CudaReplay, DeviceTickThroughGraspMatchesCpu) {
   EBH_REQUIRE_DEVICE();
   const int ticks = 800;

@@ -8,7 +8,7 @@
 #include <initializer_list>
 #include <string>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh::test {
 

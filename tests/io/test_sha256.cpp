@@ -6,7 +6,7 @@
 #include <fstream>
 #include <string>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/sha256.hpp"
 
 using namespace ebh;

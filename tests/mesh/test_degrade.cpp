@@ -8,7 +8,7 @@
 #include "mesh/boundary.hpp"
 #include "mesh/degrade.hpp"
 #include "mesh/mesh_io.hpp"
-#include "mesh/validate.hpp"
+#include "mesh/quality.hpp"
 #include "test_util.hpp"
 
 namespace ebh {

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <string>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "mesh/tet_mesh.hpp"
 
 namespace ebh::test {

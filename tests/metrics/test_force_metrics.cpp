@@ -9,7 +9,7 @@
 #include <random>
 #include <string>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/h5.hpp"
 #include "metrics/force_metrics.hpp"
 #include "metrics/signal.hpp"

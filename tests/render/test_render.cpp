@@ -11,7 +11,7 @@
 #include <optional>
 #include <sstream>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/h5.hpp"
 #include "render/camera.hpp"
 #include "render/image.hpp"

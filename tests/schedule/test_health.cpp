@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "mesh/degrade.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"

@@ -5,9 +5,9 @@
 
 #include <Eigen/Dense>
 
+#include "mesh/box_mesh.hpp"
 #include "mesh/degrade.hpp"
 #include "scene/scene.hpp"
-#include "solver/box_mesh.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/spectrum.hpp"
 #include "solver/virtual_mesh.hpp"

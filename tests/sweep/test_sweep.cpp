@@ -8,7 +8,7 @@
 #include <regex>
 #include <sstream>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "sweep/plan.hpp"
 #include "sweep/report.hpp"
 #include "sweep/runner.hpp"

@@ -4,10 +4,10 @@
 #include <memory>
 
 #include "command.hpp"
-#include "options.hpp"
+#include "core/error.hpp"
 #include "ebh/version.hpp"
 #include "gate/gate.hpp"
-#include "io/error.hpp"
+#include "options.hpp"
 
 namespace ebh::cli {
 namespace {

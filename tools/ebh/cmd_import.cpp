@@ -10,12 +10,12 @@
 #include <string>
 
 #include "command.hpp"
-#include "options.hpp"
+#include "core/error.hpp"
 #include "ebh/version.hpp"
-#include "io/error.hpp"
 #include "io/import.hpp"
 #include "io/paths.hpp"
 #include "io/recording.hpp"
+#include "options.hpp"
 #include "scene/scene.hpp"
 
 namespace {

@@ -6,10 +6,10 @@
 #include <string>
 
 #include "command.hpp"
-#include "options.hpp"
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "metrics/force_metrics.hpp"
 #include "metrics/signal.hpp"
+#include "options.hpp"
 
 namespace {
 

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "command.hpp"
+#include "core/error.hpp"
 #include "options.hpp"
-#include "io/error.hpp"
 #include "render/render_replay.hpp"
 #include "render/xdmf.hpp"
 

@@ -8,7 +8,7 @@
 #include <optional>
 
 #include "command.hpp"
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/paths.hpp"
 #include "io/recording.hpp"
 #include "metrics/force_metrics.hpp"

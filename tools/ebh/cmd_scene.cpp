@@ -15,13 +15,13 @@
 
 
 #include "command.hpp"
+#include "core/error.hpp"
 #include "io/atomic.hpp"
-#include "io/error.hpp"
 #include "io/json.hpp"
 #include "io/paths.hpp"
 #include "mesh/degrade.hpp"
 #include "mesh/mesh_io.hpp"
-#include "mesh/validate.hpp"
+#include "mesh/quality.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_init.hpp"
 #include "solver/physical_mesh.hpp"

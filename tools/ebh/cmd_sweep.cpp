@@ -14,7 +14,7 @@
 
 #include "command.hpp"
 #include "io/atomic.hpp"
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/paths.hpp"
 #include "replay_common.hpp"
 #include "sweep/plan.hpp"

@@ -8,12 +8,12 @@
 #include <string>
 
 #include "command.hpp"
-#include "options.hpp"
+#include "core/error.hpp"
 #include "ebh/version.hpp"
-#include "io/error.hpp"
 #include "io/paths.hpp"
 #include "io/recording.hpp"
 #include "io/synth.hpp"
+#include "options.hpp"
 
 namespace {
 

@@ -6,11 +6,11 @@
 #include <optional>
 
 #include "command.hpp"
-#include "options.hpp"
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "io/json.hpp"
 #include "mesh/boundary.hpp"
 #include "metrics/signal.hpp"
+#include "options.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/replay_output.hpp"
 #include "schedule/scheduler.hpp"

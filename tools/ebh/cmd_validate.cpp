@@ -5,7 +5,7 @@
 #include <string>
 
 #include "command.hpp"
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "replay_common.hpp"
 #include "validate/validation.hpp"
 

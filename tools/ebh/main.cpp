@@ -6,8 +6,8 @@
 #include <new>
 
 #include "command.hpp"
+#include "core/error.hpp"
 #include "ebh/version.hpp"
-#include "io/error.hpp"
 
 namespace ebh::cli {
 std::vector<CommandSetup>& command_registry() {

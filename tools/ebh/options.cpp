@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 namespace ebh::cli {
 

@@ -2,7 +2,7 @@
 
 #include <cstdio>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #if EBH_HAVE_CUDA
 #include "solver/device_cuda.hpp"
 #endif

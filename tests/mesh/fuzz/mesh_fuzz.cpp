@@ -16,10 +16,10 @@
 
 #include <unistd.h>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 #include "mesh/boundary.hpp"
 #include "mesh/mesh_io.hpp"
-#include "mesh/validate.hpp"
+#include "mesh/quality.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,4 +1,4 @@
-#include "mesh/validate.hpp"
+#include "mesh/quality.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,9 +1,9 @@
 // Host entry points to newton_warp.cuh (newton_warp.hpp): one warp per call.
-#include "schedule/newton_warp.hpp"
+#include "tool/newton_warp.hpp"
 
 #include <vector>
 
-#include "schedule/newton_warp.cuh"
+#include "tool/newton_warp.cuh"
 #include "solver/cuda_util.cuh"
 
 namespace ebh {

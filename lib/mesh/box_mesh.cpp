@@ -1,5 +1,5 @@
 // A structured box of tets.
-#include "solver/box_mesh.hpp"
+#include "mesh/box_mesh.hpp"
 
 #include <utility>
 

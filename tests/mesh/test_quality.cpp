@@ -6,7 +6,7 @@
 
 #include "mesh/boundary.hpp"
 #include "mesh/mesh_io.hpp"
-#include "mesh/validate.hpp"
+#include "mesh/quality.hpp"
 #include "test_util.hpp"
 
 namespace ebh {

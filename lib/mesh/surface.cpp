@@ -1,5 +1,5 @@
 // Surface helpers of the virtual mesh.
-#include "solver/surface.hpp"
+#include "mesh/surface.hpp"
 
 #include <algorithm>
 #include <map>

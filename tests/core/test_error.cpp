@@ -1,10 +1,10 @@
-// InputError (lib/io/error.hpp): messages quote file content, which may be binary; what() is
+// InputError (lib/core/error.hpp): messages quote file content, which may be binary; what() is
 // always one printable line.
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "io/error.hpp"
+#include "core/error.hpp"
 
 using namespace ebh;
 

@@ -1,8 +1,9 @@
 #pragma once
-// The virtual tool's 6x6 linear algebra on one warp (the device Newton step, haptic_cuda.cu; its CPU
-// twin is virtual_tool.cpp's energy_at and update_virtual_tool). A symmetric 6x6 matrix lives in
-// registers, lane e < 21 holding upper entry e in row order (upper(i, j), i <= j); every lane of
-// the warp calls these functions together (shuffles, no shared memory but the clamp's scratch).
+// The virtual tool's 6x6 linear algebra on one warp (the device Newton step,
+// schedule/haptic_cuda.cu; its CPU twin is virtual_tool.cpp's energy_at and update_virtual_tool).
+// A symmetric 6x6 matrix lives in registers, lane e < 21 holding upper entry e in row order
+// (upper(i, j), i <= j); every lane of the warp calls these functions together (shuffles, no
+// shared memory but the clamp's scratch).
 //
 //   warp_psd_clamp      V max(Lambda, 0) V^T: the 6x6 PSD clamp, by cyclic Jacobi in float32
 //                       (H itself when a Cholesky factorisation shows it positive definite)

@@ -1,0 +1,199 @@
+#pragma once
+// The device haptic tick's data (part of haptic_cuda.cu's translation unit): its constants, the
+// tool's constants and state, the mesh's device arrays and hand-off counters (MeshDev, a plain
+// struct of pointers passed by value), the posed tool, and each block's shared memory.
+#include <cuda_runtime.h>
+
+#include <cstdint>
+
+#include "schedule/haptic_cuda.hpp"
+#include "schedule/haptic_cuda_profile.cuh"
+#include "solver/virtual_mesh_device.cuh"
+#include "tool/collider.hpp"
+#include "tool/tool_model.hpp"
+
+namespace ebh {
+namespace {
+
+constexpr int kBlock = 128;
+constexpr int kWarps = kBlock / 32;
+constexpr int kTailOffsets = 512;  // chunks whose list offsets the tail keeps in shared memory
+constexpr int kCache = kBlock;      // candidates and held vertices the tail keeps in shared memory
+constexpr int kReleaseThread = kBlock - 32;  // block 0's thread that releases the vertex blocks
+constexpr int kPhysicalPoseThread = 64;      // block 0's first thread that poses the physical tool
+constexpr int kEdgeChunk = 8;       // incident edges loaded at once (a surface vertex has ~6)
+constexpr int kSums = 28;           // E, gradient (6), upper Hessian (21)
+// A float32 signed distance above this (m) is certainly positive in double: the exact double tests
+// run only below it (float's error on tool-sized coordinates is ~1e-7 m).
+constexpr float kFloatSlack = 1e-5f;
+
+/// The tool's constants (kernel parameter).
+struct ToolConst {
+  int count = 0;
+  Collider<double> shape[kMaxColliders];
+  // Early-outs: a segment (a, b, collider frame) and radius whose capsule contains collider c, so
+  // the distance to that capsule is a lower bound of the collider's signed distance.
+  Vec3f seg_a[kMaxColliders], seg_b[kMaxColliders];
+  float seg_r[kMaxColliders];
+  float seg_L[kMaxColliders];  // the segment's farthest point from the tool origin (pipelined reach)
+  double k_con = 0, k_vcs = 0, k_vct = 0, stab_t = 0, stab_r = 0;
+  double max_step = 0, max_rot = 0;
+  int newton = 1;
+  double force_limit = 0, torque_limit = 0;
+  double soft_margin = 1, eta = 1;
+  float reach_T = 0, reach_th = 0;  // candidates: translation and rotation one call can reach
+};
+
+/// The virtual tool's state on the device (one instance).
+struct ToolStateDev {
+  Vec3d position;
+  Quatd orientation;
+  Vec3d anchor_position;
+  Quatd anchor_orientation;
+};
+
+/// Colliders posed for one tool pose and jaw value.
+struct Posed {
+  Rigid<double> world[kMaxColliders];
+  Rigid<double> frame;  // tool frame -> world
+  Vec3f seg_a[kMaxColliders], seg_u[kMaxColliders];  // bounding segments in the world: start, unit axis
+  float seg_len[kMaxColliders], seg_r[kMaxColliders];
+  Vec3f origin_f;       // frame.t, rounded
+};
+
+/// The grid's hand-off counters (ticks_kernel): arrivals of the vertex blocks, and the last epoch
+/// block 0 released; both count from the object's first run.
+struct SyncDev {
+  unsigned long long arrive, release;
+};
+
+/// The hand-offs between the ticks and the physical steps of a launch across physical periods
+/// (run_ticks_with_steps), each counter on its own line, away from the ticks' counters (SyncDev):
+/// `snapped`, the vertex blocks' q snapshots so far (each block counts one per period after the
+/// first); `done`, the physical steps whose x is in the ring.
+struct StepsDev {
+  unsigned long long snapped;
+  unsigned long long pad_[15];
+  unsigned long long done;
+};
+
+/// The virtual tool's pose that block 0 publishes with a step's release (MeshDev::slots); each
+/// vertex block poses the colliders from it (pose_colliders: the same bits as block 0's).
+struct SlotPose {
+  Vec3d P;
+  Quatd Q;
+};
+
+/// A vertex a pipelined step left to block 0 (vertex_step<true>), at its place in its chunk's
+/// list 1: what block 0 needs besides its contact, in one record.
+struct alignas(16) DeferredVertex {
+  Vec3f q;        // the iterate
+  Vec3f r;        // the Jacobi sums without the contact
+  Vec3f q_start;  // the tick's start (the velocity on its last step)
+  float D;        // the diagonal without the contact; 0: pinned
+  int j;
+  int slot;       // -2: not held; held: its entry in TailShared::held_q, or -1
+};
+
+struct MeshDev {
+  int m = 0, chunks = 0, ring = 1;  // chunks of kBlock vertices (a block of the grid runs several when needed)
+  int iterations = 1;               // virtual iterations per tick
+  bool pipeline = true;             // DeviceHapticSetup::pipeline
+  float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
+  Vec3f gravity;
+  cuda::VirtualModelView model;
+  const Vec3f* x_prev = nullptr;  // the physical result before the visible one (the launch's first tick's)
+  const Vec3f* x_vis = nullptr;   // the visible physical result
+  // A launch across physical periods (run_ticks_with_steps; period 0: a launch within one period):
+  // period k (ticks k period ..) blends x_prev = step k - 2's x and x_vis = step k - 1's, found in
+  // xring[ring_slot(k)] (the physical result at tick 0 for k < 0). The first step of a tick
+  // that starts period k > 0 copies q into snap_q, step k's input.
+  int period = 0;
+  const Vec3f* xring[4] = {};  // ring_slot(k): step k's entry
+  Vec3f* snap_q = nullptr;
+  StepsDev* steps = nullptr;
+  Vec3f* q0 = nullptr;            // the virtual mesh at the tick's end; q1, q2: the iterates between
+  Vec3f* q1 = nullptr;
+  Vec3f* q2 = nullptr;
+  Vec3f* v = nullptr;             // velocities: the last tick's (iteration 0 reads them), this tick's
+  Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities, copied to v
+  SyncDev* sync = nullptr;
+  const int4* edge_ell = nullptr;  // edge_ell(): edge item u of vertex j at u m + j
+  // 2: the virtual tool's pose for step s's vertices (slot s & 1), published by block 0 with the
+  // step's release: the pose the step's contacts use, or (a pipelined step, which runs beside the
+  // Newton call that moves the tool) the pose before that call.
+  SlotPose* slots = nullptr;
+  Vec3f* q_start = nullptr;
+  Vec3f* s = nullptr;
+  Vec3f* p = nullptr;
+  std::uint8_t* held = nullptr;
+  Vec3d* grasp_local = nullptr;
+  // Per chunk, two lists of its vertices in vertex order: (unpipelined steps) the reachable and the
+  // held ones; (pipelined) those that may be reachable after the call and those deferred to block 0.
+  Vec3f* block_cand = nullptr;      // chunks * kBlock: list 0 (the vertex's new iterate)
+  int* block_held = nullptr;        // chunks * kBlock: list 1 (unpipelined steps)
+  DeferredVertex* block_deferred = nullptr;  // chunks * kBlock: list 1 (pipelined steps)
+  int* block_counts = nullptr;      // chunks * 4: list 0, list 1, contacts, penetration (float bits)
+  int* block_offsets = nullptr;     // 2 (chunks + 1)
+  Vec3d* cand_q = nullptr;          // m
+  int* held_list = nullptr;         // m
+  int* held_slot = nullptr;         // m: a held vertex's entry in TailShared::held_q, or -1
+  ToolStateDev* state = nullptr;
+  const DeviceTickInput* inputs = nullptr;
+  const Collider<double>* grasp_boxes = nullptr;
+  DeviceTickOutput* out = nullptr;  // host-mapped ring of `ring` rows
+  ProfileDev* profile = nullptr;    // stage timestamps, or null
+};
+
+/// The entry of MeshDev::xring (and of CudaHapticTicks' ring) that holds step k's x: k % 3, or 3,
+/// the physical result at tick 0, for k < 0. Period k blends ring_slot(k - 2) and ring_slot(k - 1).
+__host__ __device__ __forceinline__ int ring_slot(long long k) { return k >= 0 ? static_cast<int>(k % 3) : 3; }
+
+struct TailShared {
+  double sums[kWarps][kSums + 1];
+  double total[kSums];
+  float clamp_scratch[42];
+  double dx[6], g[6];
+  int warp_contacts[kWarps];
+  unsigned warp_pen[kWarps];   // float bits of a non-negative depth
+  int offsets[2 * (kTailOffsets + 1)];
+  double E, slope, depth;
+  int flag, nc, nh;
+  int contacts;                // the step's vertices in contact (the tick's output on its last step)
+  unsigned pen_bits;           // the step's deepest physical-tool penetration (float bits)
+  int posed_current;           // whether the posed tool is at (P, Q) after the Newton call
+  // The first kCache entries of the Newton call's lists (the rest in d.cand_q, d.held_list): read
+  // by every evaluation and trial of the call, so kept here, entry i by thread i.
+  Vec3d cand[kCache];          // a candidate's q
+  Vec3d held_local[kCache], held_q[kCache];  // a held vertex's grasp point (tool frame) and q (its
+                                             // slot: MeshDev::held_slot; the q of pipelined steps: finish_deferred)
+  Vec3d P;
+  Quatd Q;
+  Vec3d trial_P;
+  Quatd trial_Q;
+  Vec3d anchor_P;  // the tool's pose at the tick's start (stabilisation)
+  Quatd anchor_Q;
+  double coupling_E, coupling_g[6];
+};
+
+/// The shared memory of a block of ticks_kernel.
+struct BlockShared {
+  alignas(16) unsigned char posed_raw[sizeof(Posed)], physical_raw[sizeof(Posed)], input_raw[sizeof(DeviceTickInput)],
+      tail_raw[sizeof(TailShared)];
+  int warp_counts[kWarps][3];
+  unsigned warp_pen[kWarps];
+  __device__ Posed& posed() { return *reinterpret_cast<Posed*>(posed_raw); }
+  __device__ Posed& physical() { return *reinterpret_cast<Posed*>(physical_raw); }
+  __device__ DeviceTickInput& in() { return *reinterpret_cast<DeviceTickInput*>(input_raw); }
+  __device__ TailShared& tail() { return *reinterpret_cast<TailShared*>(tail_raw); }
+};
+
+/// What one vertex's step reports for its chunk's lists.
+struct VertexFlags {
+  bool list0 = false, list1 = false, contact = false;
+  float pen = 0.f;  // depth in the physical tool (last step)
+  Vec3f q{};        // the new iterate
+};
+
+}  // namespace
+}  // namespace ebh

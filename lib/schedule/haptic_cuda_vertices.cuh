@@ -1,0 +1,339 @@
+#pragma once
+// The device haptic tick's vertex side (part of haptic_cuda.cu's translation unit): one thread
+// per virtual vertex and step (vertex_step: begin, contact, Jacobi iteration, end, reach), the
+// steps a pipelined step leaves to block 0 (finish_deferred), a chunk's lists, and the vertex
+// blocks' loop over a run's steps.
+#include "energy/edge_spring.hpp"
+#include "energy/quadratic.hpp"
+#include "schedule/haptic_cuda_handoff.cuh"
+#include "schedule/haptic_cuda_posed.cuh"
+#include "solver/virtual_jacobi.hpp"
+#include "tool/tool_terms.hpp"
+
+namespace ebh {
+namespace {
+
+/// The E_svc target of virtual vertex j: its paired point on x_prev + alpha (x_vis - x_prev).
+__device__ Vec3f blended_paired_point(const MeshDev& d, const Vec3f* x_prev, const Vec3f* x_vis, int j, float alpha) {
+  if (alpha >= 1.f) return paired_point(x_vis, d.model.pair_vertex + 4 * j, d.model.pair_weight + 4 * j, d.model.pair_count[j]);
+  Vec3f xb[4];
+  const int idx[4] = {0, 1, 2, 3};
+  const int count = d.model.pair_count[j];
+  for (int k = 0; k < count; ++k) {
+    const int a = d.model.pair_vertex[4 * j + k];
+    xb[k] = lerp(x_prev[a], x_vis[a], alpha);
+  }
+  return paired_point(xb, idx, d.model.pair_weight + 4 * j, count);
+}
+
+/// The E_con [3] target of a held vertex with grasp point `local` (tool frame) against the tool
+/// posed in `posed`: k_con times it into kt, k_con into ck.
+__device__ void grasp_target(const ToolConst& t, const Posed& posed, Vec3d local, Vec3f& kt, float& ck) {
+  kt = static_cast<Vec3f>(t.k_con * apply(posed.frame, local));
+  ck = static_cast<float>(t.k_con);
+}
+
+/// E_con [3] target of vertex j at iterate q (Alg. 2 line 10) against the tool posed in `posed`:
+/// the grasp target of a held vertex, else the closest point of the deepest collider; k_con times
+/// it into kt, k_con into ck. Returns whether j is in contact.
+__device__ bool contact_target(const MeshDev& d, const ToolConst& t, const Posed& posed, int j, Vec3f q, bool held,
+                               Vec3f& kt, float& ck) {
+  if (held) {
+    grasp_target(t, posed, d.grasp_local[j], kt, ck);
+    return true;
+  }
+  if (const unsigned near = near_colliders(t, posed, q, kFloatSlack)) {
+    SurfaceQuery<double> sq;
+    if (deepest_query(t, posed, static_cast<Vec3d>(q), near, sq) >= 0) {
+      kt = static_cast<Vec3f>(t.k_con * sq.point);
+      ck = static_cast<float>(t.k_con);
+      return true;
+    }
+  }
+  return false;
+}
+
+/// The end of vertex j's step at its new iterate qn: qout, and (last) the velocity (Alg. 2 line 23)
+/// and the depth of j in the physical tool.
+__device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& physical, bool last, int j, bool held,
+                           Vec3f qn, Vec3f q_start, Vec3f* qout, Vec3f* v_out, VertexFlags& f) {
+  qout[j] = qn;
+  f.q = qn;
+  if (last) {
+    v_out[j] = d.inv_h * (qn - q_start);
+    const unsigned near = held ? 0u : near_colliders(t, physical, qn, kFloatSlack);
+    if (near) f.pen = static_cast<float>(penetration(t, physical, static_cast<Vec3d>(qn), near));
+  }
+}
+
+/// Step s of virtual vertex j (one thread): begin (first), contact, one Jacobi step
+/// q + (r + kt - ck q) / (D + ck), with r and D the sums without the contact; end (last).
+///   kAhead = false (an unpipelined step): the contact of j against the virtual tool posed in
+///     `posed`; list0: j is reachable from `posed` (a candidate of the Newton call after the
+///     step); list1: j is held.
+///   kAhead = true (the other blocks in a pipelined step, which runs beside the Newton call that
+///     moves the tool away from `posed`): a held vertex, and one the call can reach, can touch the
+///     tool at its new pose, so its step is left to block 0 (list1: deferred) with r and D kept for
+///     it (r_part, d_part; 0: pinned); the others take no contact term; list0: j may be reachable
+///     after the call.
+template <bool kAhead>
+__device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const Posed& posed, const Posed& physical,
+                                   const DeviceTickInput& in, bool first, bool last, int j,
+                                   const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
+                                   Vec3f* __restrict__ v_out, DeferredVertex& deferred_out, bool p_ready) {
+  VertexFlags f;
+  const bool pinned = d.model.pinned[j];
+  const Vec3f q_in = qin[j];
+  // The loads that depend on j alone, issued before any branch: in the branches below, each would
+  // wait for the one before it (pinned, then the degree, then the edge items, then their ends).
+  const int degree = d.model.edge_offsets[j + 1] - d.model.edge_offsets[j];
+  const float mass = d.model.mass[j], stiff = d.model.stiff_diag[j];
+  int4 it0[kEdgeChunk];  // the first chunk of edge items: every row of edge_ell has one
+#pragma unroll
+  for (int u = 0; u < kEdgeChunk; ++u) it0[u] = __ldg(&d.edge_ell[u * d.m + j]);
+  Vec3f s, p;
+  if (first) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
+    d.q_start[j] = q_in;
+    s = pinned ? q_in : predict_position(q_in, d.v[j], d.gravity, d.h);
+    if (p_ready) {  // blended by this block ahead (vertex_blocks)
+      p = d.p[j];
+    } else {
+      p = blended_paired_point(d, d.x_prev, d.x_vis, j, static_cast<float>(in.alpha));
+      d.p[j] = p;
+    }
+    d.s[j] = s;
+    if (!kAhead && in.grasp < 0) {
+      d.held[j] = 0;
+    } else if (!kAhead && in.grasp > 0) {
+      const Collider<double>& hb = d.grasp_boxes[in.grasp - 1];
+      const Vec3d ls = apply_inverse(posed.frame, static_cast<Vec3d>(s));
+      const double sd = signed_distance_local(hb, ls);
+      const bool grasp = grasp_reaches(sd, t.soft_margin);
+      if (grasp) d.grasp_local[j] = grasp_point(hb, ls, sd, t.soft_margin, t.eta).local;  // eq. [10]
+      d.held[j] = grasp;
+    }
+  } else {
+    s = d.s[j];
+    p = d.p[j];
+  }
+  const Vec3f q = first ? s : q_in;  // this iteration's iterate
+  const bool held = d.held[j];
+  Vec3f kt{};
+  float ck = 0.f;
+  if (!kAhead) f.contact = contact_target(d, t, posed, j, q, held, kt, ck);
+  // One Jacobi iteration (virtual_mesh.cpp: virtual_iteration).
+  Vec3f r{};
+  float D = 0.f;
+  if (!pinned) {
+    const float mh = mass * d.inv_h2;
+    r = inertia_coupling_residual(mh, s, q, p, d.k_svc);  // virtual_jacobi.hpp
+    auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
+      const Vec3f x = qin[a];
+      if (!first || d.model.pinned[a]) return x;
+      return predict_position(x, d.v[a], d.gravity, d.h);
+    };
+    // The incident edges (edge_ell) in chunks of kEdgeChunk, every load of a chunk issued before
+    // its math (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
+    for (int kb = 0; kb < degree; kb += kEdgeChunk) {
+      int4 it[kEdgeChunk];
+      Vec3f xa[kEdgeChunk], xb[kEdgeChunk], rest[kEdgeChunk];
+#pragma unroll
+      for (int u = 0; u < kEdgeChunk; ++u) it[u] = kb == 0 ? it0[u] : __ldg(&d.edge_ell[(kb + u) * d.m + j]);
+#pragma unroll
+      for (int u = 0; u < kEdgeChunk; ++u)
+        if (kb + u < degree) {
+          xa[u] = at(it[u].x);
+          xb[u] = at(it[u].y);
+          rest[u] = d.model.rest_edge[it[u].z];
+        }
+#pragma unroll
+      for (int u = 0; u < kEdgeChunk; ++u)
+        if (kb + u < degree) add_edge_residual(r, edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s), it[u].w != 0);
+    }
+    D = mh + stiff;
+  }
+  // -dE_con/dq [3]: kt - ck q, by one reciprocal rather than three divisions (an IEEE division
+  // takes a slow path for some operands, a zero numerator among them); finish_deferred uses the
+  // same expression.
+  const Vec3f qn = pinned ? q : jacobi_update_with_contact(q, r, kt, ck, pinned ? 1.f : D + ck);
+  if (kAhead) {
+    bool deferred = held, superset = false;
+    if (!held) {
+      const Vec3f step = qn - q;
+      const float s2 = dot(step, step);
+      ahead_reach(t, posed, q, s2 > 0.f ? s2 * rsqrtf(s2) * 1.000001f : 0.f, deferred, superset);
+    }
+    if (deferred) {
+      deferred_out.q = q;
+      deferred_out.r = r;
+      deferred_out.q_start = first || !last ? q_in : d.q_start[j];
+      deferred_out.D = D;
+      deferred_out.j = j;
+      deferred_out.slot = held ? d.held_slot[j] : -2;
+      f.list1 = true;
+      return f;
+    }
+    f.list0 = superset;
+  } else {
+    f.list0 = !held && reachable(t, posed, qn);
+    f.list1 = held;
+  }
+  vertex_end(d, t, physical, last, j, held, qn, first ? q_in : (last ? d.q_start[j] : Vec3f{}), qout, v_out, f);
+  return f;
+}
+
+/// Block 0's part of vertex j in a pipelined step (vertex_step<true> deferred it): the contact
+/// against the tool posed in `pt`, then the step from the other block's r and D.
+__device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, const Posed& pt, const Posed& physical,
+                                       bool last, const DeferredVertex& v, Vec3f* qout, Vec3f* v_out, TailShared& sh) {
+  VertexFlags f;
+  const bool held = v.slot != -2;
+  Vec3f kt{};
+  float ck = 0.f;
+  if (held) {  // its grasp point cached when it has a slot
+    grasp_target(t, pt, v.slot >= 0 ? sh.held_local[v.slot] : d.grasp_local[v.j], kt, ck);
+    f.contact = true;
+  } else {
+    f.contact = contact_target(d, t, pt, v.j, v.q, false, kt, ck);
+  }
+  const Vec3f qn = v.D == 0.f ? v.q : jacobi_update_with_contact(v.q, v.r, kt, ck, v.D == 0.f ? 1.f : v.D + ck);
+  vertex_end(d, t, physical, last, v.j, held, qn, v.q_start, qout, v_out, f);
+  f.list0 = !held && reachable(t, pt, qn);
+  if (v.slot >= 0) sh.held_q[v.slot] = static_cast<Vec3d>(qn);  // the Newton call's cached q
+  return f;
+}
+
+/// One step of chunk c (kBlock vertices, one per thread; vertex_step), then the chunk's two lists
+/// in vertex order, its contact count and deepest penetration (block_counts[4 c ..]).
+template <bool kAhead>
+__device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, bool last, bool p_ready, int c,
+                             const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out,
+                             BlockShared& sm, BlockClock& clock) {
+  const int j = c * kBlock + threadIdx.x;
+  VertexFlags f;
+  DeferredVertex deferred;
+  if (j < d.m)
+    f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out, deferred, p_ready);
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  const unsigned below = (1u << lane) - 1u;
+  const unsigned b0 = __ballot_sync(~0u, f.list0), b1 = __ballot_sync(~0u, f.list1), bc = __ballot_sync(~0u, f.contact);
+  unsigned pen_bits = __float_as_uint(f.pen);  // pen >= 0: the bits order as the values
+  for (int o = 16; o > 0; o >>= 1) pen_bits = max(pen_bits, __shfl_xor_sync(~0u, pen_bits, o));
+  if (lane == 0) {
+    sm.warp_counts[warp][0] = __popc(b0);
+    sm.warp_counts[warp][1] = __popc(b1);
+    sm.warp_counts[warp][2] = __popc(bc);
+    sm.warp_pen[warp] = pen_bits;
+  }
+  __syncthreads();
+  clock.chunk_vertices_done();
+  int o0 = 0, o1 = 0;
+  for (int w = 0; w < warp; ++w) { o0 += sm.warp_counts[w][0]; o1 += sm.warp_counts[w][1]; }
+  if (f.list0) d.block_cand[c * kBlock + o0 + __popc(b0 & below)] = f.q;
+  if (f.list1) {
+    if (kAhead) d.block_deferred[c * kBlock + o1 + __popc(b1 & below)] = deferred;
+    else d.block_held[c * kBlock + o1 + __popc(b1 & below)] = j;
+  }
+  if (threadIdx.x == 0) {
+    int c0 = 0, c1 = 0, cc = 0;
+    unsigned pm = 0;
+    for (int w = 0; w < kWarps; ++w) {
+      c0 += sm.warp_counts[w][0]; c1 += sm.warp_counts[w][1]; cc += sm.warp_counts[w][2];
+      pm = max(pm, sm.warp_pen[w]);
+    }
+    int* bcnt = d.block_counts + 4 * c;
+    bcnt[0] = c0; bcnt[1] = c1; bcnt[2] = cc; bcnt[3] = static_cast<int>(pm);
+  }
+  __syncthreads();  // warp_counts are reused by the next chunk
+}
+
+/// The blocks other than block 0: each step, once released, the step's vertices of their chunks
+/// (chunk c = blockIdx.x - 1, + gridDim.x - 1, ...) at the pose of the step's slot, then arrive.
+__device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedule& S, int steps, BlockShared& sm) {
+  const int blocks = gridDim.x - 1;
+  bool p_ready = false;  // the step's E_svc targets blended ahead
+  for (int s = 0; s < steps; ++s) {
+    const unsigned long long e = S.epoch(s);
+    const bool first = S.first(s), last = S.last(s), ahead = !S.unpipelined(s);
+    {  // what does not depend on the virtual tool, before the release
+      const DeviceTickInput& gin = S.input(s);
+      if (threadIdx.x == 0) sm.in() = gin;
+      if (last) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical());
+    }
+    if (threadIdx.x == 0)
+      while (load_acquire(&d.sync->release) < e) {}
+    __syncthreads();
+    BlockClock clock(d.profile);
+    clock.released();
+    if (threadIdx.x < t.count) {
+      const SlotPose slot = d.slots[s & 1];
+      pose_collider(t, slot.P, slot.Q, sm.in().jaw_cos, sm.in().jaw_sin, threadIdx.x, sm.posed());
+    }
+    __syncthreads();
+    clock.posed();
+    for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+      clock.chunk_begin();
+      if (ahead) vertex_chunk<true>(d, t, first, last, p_ready, c, S.in(s), S.out(s), S.v_out(), sm, clock);
+      else vertex_chunk<false>(d, t, first, last, p_ready, c, S.in(s), S.out(s), S.v_out(), sm, clock);
+      clock.chunk_end();
+    }
+    clock.report(d.profile, s);
+    __syncthreads();
+    if (threadIdx.x == 0) {
+      add_release(&d.sync->arrive, 1ull);
+    }
+    // A tick that starts a physical period k > 0 (a launch across periods): its start q, this
+    // block's part of it, is step k's input (run_ticks_with_steps; step 0 starts from the initial mesh).
+    if (d.period > 0 && first && S.tick(s) > 0 && S.tick(s) % d.period == 0) {
+      const Vec3f* q = S.in(s);
+      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+        const int j = c * kBlock + threadIdx.x;
+        if (j < d.m) d.snap_q[j] = q[j];
+      }
+      __syncthreads();
+      if (threadIdx.x == 0) add_release(&d.steps->snapped, 1ull);
+    }
+    // While block 0 finishes a tick, the next tick's E_svc targets of this block's vertices: only
+    // this block reads them (block 0 gets the deferred vertices' sums). The physical results they
+    // blend are the launch's first period's, or (a launch across periods) the next tick's
+    // period's, waited for when that tick starts the period.
+    p_ready = last && s + 1 < steps;
+    if (p_ready) {
+      const float alpha = static_cast<float>(S.input(s + 1).alpha);
+      const Vec3f *x_prev = d.x_prev, *x_vis = d.x_vis;
+      if (d.period > 0) {
+        const long long next = S.tick(s) + 1, k = next / d.period;
+        if (next % d.period == 0) {
+          if (threadIdx.x == 0)
+            while (load_acquire(&d.steps->done) < static_cast<unsigned long long>(k)) {}
+          __syncthreads();
+        }
+        x_vis = d.xring[ring_slot(k - 1)];
+        x_prev = d.xring[ring_slot(k - 2)];
+      }
+      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+        const int j = c * kBlock + threadIdx.x;
+        if (j < d.m) d.p[j] = blended_paired_point(d, x_prev, x_vis, j, alpha);
+      }
+    }
+    if (S.K == 1) {  // the copy phase: v_scratch -> v, q1 -> q0 for the chunks, once every block's step is done
+      if (threadIdx.x == 0)
+        while (load_acquire(&d.sync->release) < e + 1) {}
+      __syncthreads();
+      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+        const int j = c * kBlock + threadIdx.x;
+        if (j < d.m) {
+          d.q0[j] = S.out(s)[j];
+          d.v[j] = d.v_scratch[j];
+        }
+      }
+      __syncthreads();
+      if (threadIdx.x == 0) {
+        add_release(&d.sync->arrive, 1ull);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ebh

@@ -1,0 +1,102 @@
+// The virtual mesh on structured boxes: its pairing with the physical mesh, rest and convergence
+// under contact, bitwise determinism across thread counts.
+#include <gtest/gtest.h>
+
+#include "mesh/boundary.hpp"
+
+
+#include "box_sim.hpp"
+
+namespace ebh {
+namespace {
+
+using namespace ebh::test;
+
+TEST(Pairing, ExactAtRestWithAndWithoutRefinement) {
+  for (int refine : {0, 1}) {
+    Sim sim(box_scene(3, 3, 6, refine));
+    EXPECT_EQ(sim.vm.pairing_max_error, 0.0) << "refine " << refine;  // weights 1 or 1/2 of exact binary fractions
+    std::vector<Vec3d> p(sim.vm.num_vertices);
+    paired_points(sim.vm, sim.pm.rest, p);
+    EXPECT_LT(max_diff(p, sim.vm.rest), 1e-18);
+    if (refine) {
+      EXPECT_GT(sim.vm.num_vertices, static_cast<int>(extract_boundary(sim.scene.physical).vertices.size()));
+    }
+  }
+}
+
+TEST(Pairing, InteriorSurfaceIsEmbeddedInTets) {
+  Scene scene = box_scene(3, 3, 6);
+  // A virtual surface shrunk towards the centre: every vertex lies strictly inside a tet.
+  scene.virtual_surface = extract_boundary(scene.physical);
+  for (Vec3d& v : scene.virtual_surface.vertices) v = Vec3d{0.006, 0.006, 0.012} + 0.9 * (v - Vec3d{0.006, 0.006, 0.012});
+  const VirtualModel vm = build_virtual_model(scene);
+  EXPECT_LT(vm.pairing_max_error, 1e-17);  // barycentric reproduction, round-off of 1e-2 m coordinates
+  for (int j = 0; j < vm.num_vertices; ++j) EXPECT_GE(vm.pair_count[j], 1);
+}
+
+/// Five virtual-mesh ticks (4 iterations each) of a box under contact; parallel_min_vertices = 0
+/// puts even this small mesh on the OpenMP team instead of the calling thread.
+std::vector<Vec3d> five_virtual_ticks(int parallel_min_vertices) {
+  Sim sim(box_scene(4, 4, 8, 1));
+  if (parallel_min_vertices >= 0) sim.vm.parallel_min_vertices = parallel_min_vertices;
+  VirtualState vs = make_virtual_state(sim.vm);
+  VirtualWorkspace vw = make_virtual_workspace(sim.vm);
+  std::vector<ContactTarget> contacts;
+  for (int j = 0; j < sim.vm.num_vertices; ++j)
+    if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
+  for (int tick = 0; tick < 5; ++tick) {
+    virtual_begin_tick(sim.vm, vw, vs, sim.pm.rest, 0.001);
+    for (int i = 0; i < 4; ++i) virtual_iteration(sim.vm, vw, vs, contacts);
+    virtual_end_tick(sim.vm, vw, vs);
+  }
+  return vs.q;
+}
+
+TEST(Determinism, VirtualTickIsBitwiseEqualWithOneAndTwoThreads) {
+  expect_bitwise_equal_across_threads([&] { return five_virtual_ticks(-1); });
+}
+
+TEST(Determinism, VirtualTickOnTheThreadTeamIsBitwiseEqualWithOneAndTwoThreads) {
+  // Paper-sized virtual meshes iterate on the calling thread; the thread team must give the same
+  // bits with one and two threads.
+  expect_bitwise_equal_across_threads([&] { return five_virtual_ticks(0); });
+}
+
+TEST(VirtualMesh, RestsAtRestAndConvergesUnderContact) {
+  Scene scene = box_scene(3, 3, 6, 1);
+  scene.spec.gravity = Vec3d{};
+  Sim sim(scene);
+  VirtualState vs = make_virtual_state(sim.vm);
+  VirtualWorkspace vw = make_virtual_workspace(sim.vm);
+  virtual_begin_tick(sim.vm, vw, vs, sim.pm.rest, 0.001);
+  virtual_iteration(sim.vm, vw, vs, {});
+  EXPECT_LT(max_diff(vs.q, sim.vm.rest), 1e-18);  // at rest every force is zero up to round-off
+
+  // Press the top face down by 2 mm: the iteration reaches the minimiser of E_soft (gradient 0).
+  std::vector<ContactTarget> contacts;
+  for (int j = 0; j < sim.vm.num_vertices; ++j)
+    if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
+  for (int i = 0; i < 3000; ++i) virtual_iteration(sim.vm, vw, vs, contacts);
+  const double E = virtual_energy(sim.vm, vs.q, vw.s, vw.p, contacts, 0.001).total();
+  // Perturb each coordinate of a few contact vertices by +-1 um: the energy never drops (minimum).
+  for (int c = 0; c < 5; ++c)
+    for (int axis = 0; axis < 3; ++axis)
+      for (double sgn : {-1.0, 1.0}) {
+        std::vector<Vec3d> q = vs.q;
+        q[contacts[c].vertex][axis] += sgn * 1e-6;
+        EXPECT_GE(virtual_energy(sim.vm, q, vw.s, vw.p, contacts, 0.001).total(), E * (1 - 1e-12));
+      }
+  EXPECT_LT(vs.q[contacts[0].vertex].z, sim.vm.rest[contacts[0].vertex].z - 1e-4);  // it did move
+  std::vector<Vec3d> normals(sim.vm.num_vertices);
+  compute_vertex_normals(sim.vm, sim.vm.rest, normals);
+  for (int j = 0; j < sim.vm.num_vertices; ++j) {
+    const Vec3d& r = sim.vm.rest[j];
+    if (r.z > 0.0239 && r.x > 1e-4 && r.x < 0.0119 && r.y > 1e-4 && r.y < 0.0119) {
+      EXPECT_NEAR(normals[j].z, 1.0, 1e-12);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ebh

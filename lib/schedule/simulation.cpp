@@ -295,8 +295,10 @@ void check_haptic_tick(const World& world, std::int64_t tick, const ToolOutput& 
                        ": the force or torque on the virtual tool is not finite");
 }
 
-void check_physical_step(const World& world, const PhysicalSide& p) {
-  const std::string problem = physical_state_problem(world.physical_mesh, p.mesh.x, p.report);
+namespace {
+
+/// check_physical_step with the health check's finding already made ("" when healthy).
+void stop_on_physical_problem(const World& world, const PhysicalSide& p, const std::string& problem) {
   if (problem.empty()) return;
   const std::int64_t k = p.step - 1;
   const SolverSpec& solver = world.scene.spec.solver;
@@ -307,6 +309,12 @@ void check_physical_step(const World& world, const PhysicalSide& p) {
                          : " (the iterations did not converge: raise solver.physical_iterations or use solver.method=direct)";
   throw NumericalError(world.scene.spec.file.string() + ": tick " + std::to_string(k * world.ticks_per_step) +
                        ", physical step " + std::to_string(k) + ": " + problem + hint);
+}
+
+}  // namespace
+
+void check_physical_step(const World& world, const PhysicalSide& p) {
+  stop_on_physical_problem(world, p, physical_state_problem(world.physical_mesh, p.mesh.x, p.report));
 }
 
 void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot) {
@@ -324,8 +332,8 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
       solver.recovery == SolverSpec::Recovery::Direct && solver.method != SolverSpec::Method::Direct;
   if (can_recover) p.start = p.mesh;  // the vectors keep their capacity: no allocation after the first step
   p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, world.physical_params);
-  p.recovered = can_recover && (p.report.residual > solver.recovery_residual ||
-                                !physical_state_problem(model, p.mesh.x, p.report).empty());
+  std::string problem = physical_state_problem(model, p.mesh.x, p.report);  // the health check, once
+  p.recovered = can_recover && (p.report.residual > solver.recovery_residual || !problem.empty());
   if (p.recovered) {
     if (!p.recovery_direct)
       p.recovery_direct = factorize_global_matrix(assemble_global_matrix(model), world.scene.spec.file.string());
@@ -335,10 +343,10 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
     const double time_s = p.report.time_s;
     p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, direct, p.recovery_direct.get());
     p.report.time_s += time_s;
-    ++p.recovered_steps;
+    problem = physical_state_problem(model, p.mesh.x, p.report);
   }
   ++p.step;
-  check_physical_step(world, p);
+  stop_on_physical_problem(world, p, problem);
 }
 
 }  // namespace ebh

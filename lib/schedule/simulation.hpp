@@ -104,10 +104,8 @@ struct PhysicalSide {
   std::int64_t step = 0;                 ///< the next step to run
   PhysicalStepReport report;             ///< of the last step
   /// The recovery (SolverSpec::recovery, CPU backend): the last step was redone with the direct
-  /// global solve; how many steps were; the state the step started from; the factorisation,
-  /// made on the first recovery.
+  /// global solve; the state the step started from; the factorisation, made on the first recovery.
   bool recovered = false;
-  std::int64_t recovered_steps = 0;
   PhysicalState start;
   std::shared_ptr<const PhysicalDirectSolver> recovery_direct;
 #if EBH_HAVE_CUDA

@@ -87,6 +87,7 @@ TEST(ToolTerms, GraspPoint) {
   const GraspPoint<double> p = grasp_point(hb, ls, -0.5e-3, 1e-3, 0.1);
   EXPECT_DOUBLE_EQ(p.weight, 1.0 / (1.0 + 0.1 * std::exp(-0.5)));
   const Vec3d lf{0.0, 0.002, 0.005};
+  // Coordinates of ~5 mm: 1e-18 m is about one ulp (8.7e-19) of them.
   EXPECT_NEAR(norm(p.local - (p.weight * lf + (1.0 - p.weight) * ls)), 0.0, 1e-18);
   EXPECT_TRUE(grasp_reaches(1e-3, 1e-3));
   EXPECT_FALSE(grasp_reaches(1.0001e-3, 1e-3));
@@ -126,6 +127,7 @@ TEST(ToolTerms, JawOpeningAndColliderWorld) {
   const Rigid<double> tool_frame{Mat3d::identity(), Vec3d{1, 2, 3}};
   const Vec3d up = apply(collider_world(tool_frame, ColliderFrame::UpperJaw, o.cos, o.sin), Vec3d{0, 0, 1});
   const Vec3d down = apply(collider_world(tool_frame, ColliderFrame::LowerJaw, o.cos, o.sin), Vec3d{0, 0, 1});
+  // x = 1 + sin a: the subtraction leaves the ulp of 1 (2.2e-16) times a few operations.
   EXPECT_NEAR(up.x - 1, std::sin(a), 1e-15);
   EXPECT_NEAR(down.x - 1, -std::sin(a), 1e-15);
   const Vec3d same = apply(collider_world(tool_frame, ColliderFrame::Tool, o.cos, o.sin), Vec3d{0, 0, 1});
@@ -150,11 +152,14 @@ TEST(VirtualJacobi, UpdatesAgree) {
     Vec3f r2 = inertia_coupling_residual(mh, s, q, p, k_svc);
     add_edge_residual(r2, g, true);
     const Vec3f b = jacobi_update_with_contact(q, r2, kt, ck, mh + stiff + ck);
+    // float32 in another order: positions of ~0.1 m carry ~1e-8 m per rounding (ulp 7.5e-9), and the
+    // residual's terms (up to ~100 N/m x 0.2 m) divided by D ~ 600 N/m add a few more: 1e-6 m is
+    // ~100 such roundings, far below any error of the update itself (~0.1 m).
     EXPECT_NEAR(norm(static_cast<Vec3d>(a - b)), 0.0, 1e-6);
     // Without edges (stiff = 0): the minimiser of E_k + E_svc + E_con.
     const Vec3f r0 = add_contact_residual(inertia_coupling_residual(mh, s, q, p, 0.f), kt, ck, q);
     const Vec3f x = jacobi_update(q, r0, mh + ck);
     const Vec3f expect = (1.f / (mh + ck)) * (mh * s + kt);
-    EXPECT_NEAR(norm(static_cast<Vec3d>(x - expect)), 0.0, 1e-6);
+    EXPECT_NEAR(norm(static_cast<Vec3d>(x - expect)), 0.0, 1e-6);  // the same float32 round-off as above
   }
 }

@@ -13,6 +13,7 @@
 #include <numbers>
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 #include "io/paths.hpp"
 
 namespace ebh {
@@ -211,9 +212,7 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 }  // namespace
 
 double parse_length_unit(const std::string& name) {
-  if (name == "m") return 1.0;
-  if (name == "cm") return 1e-2;
-  if (name == "mm") return 1e-3;
+  if (const std::optional<double> m = length_unit_metres(name)) return *m;
   throw InputError("--unit: '" + name + "' is not one of m, cm, mm");
 }
 

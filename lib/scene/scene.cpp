@@ -551,13 +551,6 @@ std::vector<std::pair<std::string, double>> tool_contact_sizes(const ToolSpec& t
           {"forceps.jaw_thickness", t.forceps.jaw_thickness}};
 }
 
-std::optional<double> length_unit_metres(const std::string& name) {
-  if (name == "m") return 1.0;
-  if (name == "cm") return 0.01;
-  if (name == "mm") return 0.001;
-  return std::nullopt;
-}
-
 std::vector<std::string> known_group_names(const TetMesh& mesh) {
   std::set<std::string> names;
   for (const auto& [tag, name] : mesh.group_names) names.insert(name);

@@ -68,6 +68,7 @@
 #include <string>
 #include <vector>
 
+#include "core/units.hpp"
 #include "math/vec.hpp"
 #include "mesh/degrade.hpp"
 #include "mesh/tet_mesh.hpp"
@@ -263,8 +264,6 @@ inline constexpr double kToolSizeMaxRatio = 1.0;
 inline constexpr double kMeshDiagonalMin = 1e-3;
 inline constexpr double kMeshDiagonalMax = 2.0;
 
-/// Metres per unit for "m", "cm", "mm"; nullopt for anything else.
-std::optional<double> length_unit_metres(const std::string& name);
 
 /// One pinned region on one line, lengths in metres: "box min [x, y, z] max [x, y, z] m",
 /// "sphere center [..] radius r m", "halfspace point [..] m normal [..]", "group NAME".

@@ -1,6 +1,7 @@
 #include "sweep/summary.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -8,6 +9,7 @@
 #include <optional>
 
 #include "core/error.hpp"
+#include "io/atomic.hpp"
 #include "io/h5.hpp"
 #include "metrics/force_metrics.hpp"
 #include "metrics/signal.hpp"
@@ -153,6 +155,72 @@ CsvTable parse_csv(const std::string& text, const std::string& file) {
     t.rows.push_back(std::move(records[r]));
   }
   return t;
+}
+
+namespace {
+
+enum class ColumnKind { Text, Integer, Real };
+
+/// A cell as a number (an empty cell: NaN); false when it is not one.
+bool cell_number(const std::string& s, double& v) {
+  if (s.empty()) {
+    v = kNaN;
+    return true;
+  }
+  const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  return ec == std::errc() && p == s.data() + s.size();
+}
+
+ColumnKind column_kind(const CsvTable& t, std::size_t c) {
+  static const std::vector<std::string> text = {"id", "status", "scene", "recording", "backend", "overrides", "error"};
+  const std::string& name = t.header[c];
+  if (std::find(text.begin(), text.end(), name) != text.end()) return ColumnKind::Text;
+  if (name == "repetition" || name == "reference") return ColumnKind::Integer;
+  if (name.rfind("set.", 0) == 0) {  // a scene key's values: numbers, or text (a method, a list)
+    double v = 0;
+    for (const auto& row : t.rows)
+      if (!cell_number(row[c], v)) return ColumnKind::Text;
+  }
+  return ColumnKind::Real;
+}
+
+}  // namespace
+
+void write_summary_h5(const CsvTable& t, const std::string& path) {
+  h5::AtomicFile out(path);
+  h5::File& f = out.file();
+  std::string columns;
+  for (std::size_t c = 0; c < t.header.size(); ++c) {
+    const std::string& name = t.header[c];
+    columns += (c ? "\n" : "") + name;
+    const std::size_t n = t.rows.size();
+    switch (column_kind(t, c)) {
+      case ColumnKind::Text: {
+        std::vector<std::string> v(n);
+        for (std::size_t r = 0; r < n; ++r) v[r] = t.rows[r][c];
+        f.write_strings(name, v);
+        break;
+      }
+      case ColumnKind::Integer:
+      case ColumnKind::Real: {
+        const bool integer = column_kind(t, c) == ColumnKind::Integer;
+        std::vector<double> v(n);
+        for (std::size_t r = 0; r < n; ++r)
+          if (!cell_number(t.rows[r][c], v[r]) || (integer && !(v[r] == std::floor(v[r]))))
+            throw InputError(path + ": row " + std::to_string(r + 1) + ", column '" + name + "': expected " +
+                             (integer ? "a whole number" : "a number") + ", got '" + t.rows[r][c] + "'");
+        if (integer) {
+          std::vector<std::int64_t> w(v.begin(), v.end());
+          f.write<std::int64_t>(name, w, {n});
+        } else {
+          f.write<double>(name, v, {n});
+        }
+        break;
+      }
+    }
+  }
+  f.set_attr("columns", columns);
+  out.commit();
 }
 
 SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {

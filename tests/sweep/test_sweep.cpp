@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "io/h5.hpp"
 #include "sweep/plan.hpp"
 #include "sweep/report.hpp"
 #include "sweep/runner.hpp"
@@ -258,6 +259,60 @@ TEST(SweepCsv, QuotedFieldsRoundTrip) {
     EXPECT_STREQ(e.what(), "t.csv:3: 1 fields, the header has 2");
   }
   EXPECT_THROW((void)parse_csv("a,b\n\"1,2\n", "t.csv"), InputError);
+}
+
+// summary.h5: the hand-made summary plus a numeric and a text scene-key column, written and read
+// back: every column a dataset of its kind with the CSV's values (empty cells NaN), the column
+// order in `columns`; a numeric column with text is refused and leaves no file.
+TEST(SweepSummaryH5, SameRowsAndColumnsTyped) {
+  const std::string file = std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv";
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  CsvTable t = parse_csv(text.str(), file);
+  t.header.insert(t.header.begin() + 8, {"set.k", "set.solver.method"});
+  for (std::size_t r = 0; r < t.rows.size(); ++r)
+    t.rows[r].insert(t.rows[r].begin() + 8, {r == 0 ? "" : std::to_string(r), r == 0 ? "direct" : ""});
+  const fs::path out = scratch() / "summary.h5";
+  fs::remove(out);
+  write_summary_h5(t, out.string());
+  const h5::File f = h5::File::open_read(out.string());
+  std::string columns;
+  for (const std::string& c : t.header) columns += (columns.empty() ? "" : "\n") + c;
+  EXPECT_EQ(f.attr_string("columns"), columns);
+  const std::size_t n = t.rows.size();
+  auto col = [&](const std::string& name) {
+    std::vector<std::string> v;
+    for (const auto& row : t.rows) v.push_back(row[t.column(name, file)]);
+    return v;
+  };
+  for (const char* name : {"id", "status", "scene", "recording", "backend", "overrides", "error", "set.solver.method"})
+    EXPECT_EQ(f.dataset(name).read_strings(), col(name)) << name;
+  EXPECT_EQ(f.read<std::int64_t>("repetition", {static_cast<std::ptrdiff_t>(n)}).data,
+            (std::vector<std::int64_t>{0, 0, 0, 1, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(f.read<std::int64_t>("reference").data, (std::vector<std::int64_t>{1, 0, 0, 0, 0, 0, 0, 0, 0}));
+  const std::vector<double> wall = f.read<double>("wall_s").data;
+  ASSERT_EQ(wall.size(), n);
+  EXPECT_EQ(wall[0], 10.0);
+  EXPECT_EQ(wall[3], 2.4);
+  EXPECT_TRUE(std::isnan(wall[7]) && std::isnan(wall[8]));  // failed and pending: no value
+  const std::vector<double> k = f.read<double>("set.k").data;
+  EXPECT_TRUE(std::isnan(k[0]));
+  EXPECT_EQ(k[5], 5.0);
+  EXPECT_THROW((void)f.read<std::int64_t>("wall_s"), InputError);  // float64, not int64
+  for (const std::string& c : t.header) EXPECT_TRUE(f.has(c)) << c;
+
+  CsvTable bad = t;
+  bad.rows[2][bad.column("wall_s", file)] = "fast";
+  const fs::path out2 = scratch() / "bad_summary.h5";
+  fs::remove(out2);
+  try {
+    write_summary_h5(bad, out2.string());
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), out2.string() + ": row 3, column 'wall_s': expected a number, got 'fast'");
+  }
+  EXPECT_FALSE(fs::exists(out2));
 }
 
 TEST(SweepReport, ParetoFront) {

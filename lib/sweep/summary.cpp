@@ -37,7 +37,7 @@ std::vector<std::pair<std::string, double>> metric_values(const ForceMetrics& m)
 }
 
 const std::vector<std::string> kRunColumns = {"id", "status", "scene", "recording", "backend", "repetition", "reference",
-                                              "overrides"};
+                                              "baseline", "overrides"};
 const std::vector<std::string> kResultColumns = {"wall_s", "virtual_s", "real_time_factor", "force_error_rms_N",
                                                  "force_error_max_N", "force_error_p999_N", "compared_ticks"};
 
@@ -172,7 +172,8 @@ bool cell_number(const std::string& s, double& v) {
 }
 
 ColumnKind column_kind(const CsvTable& t, std::size_t c) {
-  static const std::vector<std::string> text = {"id", "status", "scene", "recording", "backend", "overrides", "error"};
+  static const std::vector<std::string> text = {"id", "status", "scene", "recording", "backend", "baseline", "overrides",
+                                                "error"};
   const std::string& name = t.header[c];
   if (std::find(text.begin(), text.end(), name) != text.end()) return ColumnKind::Text;
   if (name == "repetition" || name == "reference") return ColumnKind::Integer;
@@ -259,7 +260,8 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
 
   for (const SweepRun& r : runs) {
     std::vector<std::string> row = {r.id, "pending", plan.scenes[r.scene].name, r.recording.stem().string(), r.backend,
-                                    std::to_string(r.repetition), r.reference ? "1" : "0", r.overrides_text()};
+                                    std::to_string(r.repetition), r.reference ? "1" : "0",
+                                    r.baseline ? plan.baseline_name : "", r.overrides_text()};
     for (const std::string& k : keys) {
       const auto it = r.overrides.find(k);
       row.push_back(it == r.overrides.end() ? "" : it->second);

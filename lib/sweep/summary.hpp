@@ -48,8 +48,8 @@ struct SweepSummary {
 
 /// The summary as HDF5 (DIR/summary.h5; docs/FORMATS.md, "summary.h5"): the same rows and
 /// columns, one 1-D dataset per column in the root group, named as the column: text columns (id,
-/// status, scene, recording, backend, overrides, error, and a set.KEY column with a value that is
-/// not a number) as variable-length UTF-8 strings; repetition and reference as int64; every other
+/// status, scene, recording, backend, baseline, overrides, error, and a set.KEY column with a value
+/// that is not a number) as variable-length UTF-8 strings; repetition and reference as int64; every other
 /// column as float64 (an empty cell: NaN). The root attribute `columns` lists the names in the
 /// CSV's order, one per line. Written atomically; InputError (naming `path`, the row and the
 /// column) when a numeric column holds text.

@@ -32,6 +32,15 @@ fs::path plan_file(const std::string& name, const std::string& text) {
   return p;
 }
 
+/// The hand-made summary (tests/data/sweep/front) and its text.
+std::string front_file() { return std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv"; }
+std::string front_text() {
+  std::ifstream in(front_file());
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 const char* kPlan = R"(# two scenes' worth of keys on the tube
 scenes:
   - scene: tube
@@ -319,11 +328,9 @@ TEST(SweepCsv, QuotedFieldsRoundTrip) {
 // back: every column a dataset of its kind with the CSV's values (empty cells NaN), the column
 // order in `columns`; a numeric column with text is refused and leaves no file.
 TEST(SweepSummaryH5, SameRowsAndColumnsTyped) {
-  const std::string file = std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv";
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  CsvTable t = parse_csv(text.str(), file);
+  const std::string file = front_file();
+  const std::string text = front_text();
+  CsvTable t = parse_csv(text, file);
   t.header.insert(t.header.begin() + 8, {"set.k", "set.solver.method"});
   for (std::size_t r = 0; r < t.rows.size(); ++r)
     t.rows[r].insert(t.rows[r].begin() + 8, {r == 0 ? "" : std::to_string(r), r == 0 ? "direct" : ""});
@@ -378,11 +385,9 @@ TEST(SweepReport, ParetoFront) {
 }
 
 TEST(SweepReport, HandMadeSummary) {
-  const std::string file = std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv";
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::vector<ReportGroup> g = build_report(parse_csv(text.str(), file), file);
+  const std::string file = front_file();
+  const std::string text = front_text();
+  const std::vector<ReportGroup> g = build_report(parse_csv(text, file), file);
   ASSERT_EQ(g.size(), 1u);
   EXPECT_EQ(g[0].reference, "solver.method=direct (cpu)");
   std::vector<std::string> order, front;
@@ -406,11 +411,9 @@ TEST(SweepReport, HandMadeSummary) {
 // its error or lower and the most accurate at its wall time or lower (the hand-made summary with
 // k=3, wall 3 s and error 0.3 N, as the baseline: k=2 is both, 2.2 s and 0.2 N).
 TEST(SweepReport, BaselineGoal) {
-  const std::string file = std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv";
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  CsvTable t = parse_csv(text.str(), file);
+  const std::string file = front_file();
+  const std::string text = front_text();
+  CsvTable t = parse_csv(text, file);
   t.header.push_back("baseline");
   for (auto& row : t.rows) row.push_back(row[t.column("overrides", file)] == "k=3" ? "paper" : "");
   const std::vector<ReportGroup> g = build_report(t, file);
@@ -437,7 +440,7 @@ TEST(SweepReport, BaselineGoal) {
   EXPECT_EQ(goal4->speedup, 1.0);
   EXPECT_EQ(g4[0].points[goal4->most_accurate].overrides, "k=4");
   // No baseline column: no comparison.
-  EXPECT_FALSE(baseline_goal(build_report(parse_csv(text.str(), file), file)[0]).has_value());
+  EXPECT_FALSE(baseline_goal(build_report(parse_csv(text, file), file)[0]).has_value());
 }
 
 TEST(SweepReport, MissingColumnAndBadNumberAreNamed) {

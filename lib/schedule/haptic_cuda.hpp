@@ -60,7 +60,8 @@ struct DeviceTickOutput {
 };
 
 /// Where a device tick's time goes (DeviceHapticSetup::profile_stages): the mean of each stage
-/// per iteration ("step": one virtual-mesh iteration and the virtual tool's Newton call after it).
+/// per iteration ("step": one virtual-mesh iteration and the virtual tool's Newton call after it,
+/// when tool.newton_calls puts one there).
 /// Block 0's stages, in SM cycles converted by its clock, add up to its whole time; the other
 /// blocks' stages are means over blocks from the device's global timer (steps of about 1 us).
 struct DeviceTickProfile {

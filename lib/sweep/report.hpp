@@ -62,7 +62,8 @@ std::vector<ReportGroup> build_report(const CsvTable& summary, const std::string
 std::string report_markdown(const std::vector<ReportGroup>& groups);
 
 /// A PNG plot (log-log): force RMS error against wall time, one colour per group, the front of
-/// each joined by a line, the reference as a ring on the bottom edge. Written atomically.
+/// each joined by a line, the reference as a ring on the bottom edge, the baseline ringed. Written
+/// atomically.
 void write_report_plot(const std::vector<ReportGroup>& groups, const std::string& path);
 
 }  // namespace ebh

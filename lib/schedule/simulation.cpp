@@ -275,10 +275,17 @@ void haptic_tick(const World& world, HapticSide& h, const DeviceSample& sample) 
   timed(t.physical_sync, [&] { sync_physical_targets(world, h); });
   timed(t.grasp, [&] { update_grasp_stage(world, h); });
   t.virtual_mesh = t.virtual_tool = 0;
-  for (int i = 0; i < world.scene.spec.solver.virtual_iterations; ++i) {
+  // Lines 8-21; a Newton call follows the last tool.newton_calls iterations (all by default).
+  const int iterations = world.scene.spec.solver.virtual_iterations;
+  const int first_call = iterations - newton_calls_per_tick(world.scene.spec);
+  h.newton_calls = 0;
+  for (int i = 0; i < iterations; ++i) {
     double a = 0, b = 0;
     timed(a, [&] { virtual_mesh_iteration(world, h); });
-    timed(b, [&] { virtual_tool_iteration(world, h); });
+    if (i >= first_call) {
+      timed(b, [&] { virtual_tool_iteration(world, h); });
+      ++h.newton_calls;
+    }
     t.virtual_mesh += a;
     t.virtual_tool += b;
   }

@@ -133,6 +133,7 @@ void write_report_plot(const std::vector<ReportGroup>& groups, const std::string
       if (std::isnan(p.wall_s)) continue;
       if (p.reference) ring(img, px(p.wall_s), y0, 8, c);
       else if (!std::isnan(p.error_rms)) marker(img, px(p.wall_s), py(p.error_rms), c, p.front);
+      if (!p.reference && !p.baseline.empty() && !std::isnan(p.error_rms)) ring(img, px(p.wall_s), py(p.error_rms), 10, c);
     }
     marker(img, x1 + 30, legend_y + 7, c, true);
     std::string name = g.scene + " + " + g.recording;
@@ -140,13 +141,16 @@ void write_report_plot(const std::vector<ReportGroup>& groups, const std::string
     draw_text(img, x1 + 45, legend_y + 20, g.backend, kBlack, kScale);
     legend_y += 50;
   }
-  const int ky = std::max(legend_y + 10, y0 - 90);
+  const int ky = std::max(legend_y + 10, y0 - 120);
   marker(img, x1 + 30, ky + 7, kBlack, true);
   draw_text(img, x1 + 45, ky, "front", kBlack, kScale);
   marker(img, x1 + 30, ky + 37, kBlack, false);
   draw_text(img, x1 + 45, ky + 30, "dominated", kBlack, kScale);
   ring(img, x1 + 30, ky + 67, 8, kBlack);
   draw_text(img, x1 + 45, ky + 60, "reference", kBlack, kScale);
+  marker(img, x1 + 30, ky + 97, kBlack, false);
+  ring(img, x1 + 30, ky + 97, 10, kBlack);
+  draw_text(img, x1 + 45, ky + 90, "baseline", kBlack, kScale);
   write_png(path, img, {{"Title", "ebh sweep report: " + ylabel + " against " + xlabel}});
 }
 

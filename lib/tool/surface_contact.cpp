@@ -49,7 +49,7 @@ double thinnest_part(const ToolModel& tool) {
 
 
 int sample_level(const SurfaceContactModel& s, int t, std::span<const Vec3d> q) {
-  const int stretched = clamp_level(std::ceil(longest_edge(q, s.triangles[t]) / (kStretchSlack * s.spacing)));
+  const int stretched = clamp_level(std::ceil(longest_edge(q, s.triangles[t]) / s.spacing));
   return std::max(static_cast<int>(s.rest_level[t]), stretched);
 }
 

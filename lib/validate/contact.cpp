@@ -91,17 +91,14 @@ Trace run(const std::string& scene_name, const std::string& contact, const Recor
 constexpr double kTop = 0.0;          // m, the gap blocks' top face (scenarios/gap.yaml)
 constexpr double kTipBelow = 0.007;   // m, the hook's lowest point below the tool origin (tip 6 + radius 1 mm)
 
-struct Push {
-  double speed = 0, fall = 0, penetration = 0, force_at_depth = 0, peak = 0;
-  bool clamped = false;
-};
+}  // namespace
 
-Push push_through(const std::string& contact, double speed) {
+ContactPush contact_push_through(const std::string& contact, double speed) {
   const Vec3d start{-0.015, 0, kTop + 0.003 + kTipBelow}, end{-0.015, 0, kTop - 0.030 + kTipBelow};
   const double t0 = 0.2, t1 = t0 + norm(end - start) / speed, t2 = t1 + 0.3;
   const Recording rec = linear_recording({{0, start}, {t0, start}, {t1, end}, {t2, end}}, 1.0, "gap", "hook");
   const Trace tr = run("gap", contact, rec);
-  Push p;
+  ContactPush p;
   p.speed = speed;
   const std::size_t last = std::min(tr.force.size(), static_cast<std::size_t>(std::lround(t1 * kRate)) + 1);
   double running = 0;
@@ -121,10 +118,7 @@ Push push_through(const std::string& contact, double speed) {
 
 // ---- sliding ---------------------------------------------------------------------------------
 
-struct Slide {
-  std::string surface;
-  double power_vertices = 0, power_surface = 0, mean_vertices = 0, mean_surface = 0;
-};
+namespace {
 
 double power_above(const Trace& tr, double from, double to, double* mean) {
   const std::size_t a = static_cast<std::size_t>(from * kRate), b = std::min(tr.force.size(), static_cast<std::size_t>(to * kRate));
@@ -142,7 +136,9 @@ double power_above(const Trace& tr, double from, double to, double* mean) {
   return p;
 }
 
-Slide sliding(const std::string& which) {
+}  // namespace
+
+ContactSlide contact_sliding(const std::string& which) {
   // Forceps pointing down: the open jaws' tips are 20 cos(30 deg) = 17.3 mm below the origin.
   const double reach = 0.020 * std::cos(30.0 * M_PI / 180.0), depth = 0.0015;
   std::string scene;
@@ -160,7 +156,7 @@ Slide sliding(const std::string& which) {
   const Vec3d above = a + Vec3d{0, 0, 0.006};
   const Recording rec =
       linear_recording({{0, above}, {t_down, a}, {t_rest, a}, {t_end, b}, {t_end + 0.3, b}}, 1.0, scene, "forceps");
-  Slide s;
+  ContactSlide s;
   s.surface = which;
   // The constant-speed segment less 0.25 s at each end (the start's transient, the end).
   const double from = t_rest + 0.25, to = t_end - 0.25;
@@ -168,6 +164,8 @@ Slide sliding(const std::string& which) {
   s.power_surface = power_above(run(scene, "surface", rec), from, to, &s.mean_surface);
   return s;
 }
+
+namespace {
 
 ValidationResult run_contact(const ValidationOptions& options) {
   std::vector<double> speeds = {0.050};
@@ -184,7 +182,7 @@ ValidationResult run_contact(const ValidationOptions& options) {
   Json pushes = Json::array();
   for (const double v : speeds)
     for (const std::string contact : {"vertices", "surface"}) {
-      const Push p = push_through(contact, v);
+      const ContactPush p = contact_push_through(contact, v);
       Json row = Json::object();
       row.set("contact", contact);
       row.set("speed_m_per_s", v);
@@ -201,7 +199,7 @@ ValidationResult run_contact(const ValidationOptions& options) {
     }
   Json slides = Json::array();
   for (const std::string& which : surfaces) {
-    const Slide s = sliding(which);
+    const ContactSlide s = contact_sliding(which);
     const double ratio = s.power_surface > 0 ? s.power_vertices / s.power_surface : INFINITY;
     Json row = Json::object();
     row.set("surface", which);

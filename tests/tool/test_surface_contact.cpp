@@ -61,15 +61,15 @@ TEST(SurfaceSamples, SubTriangleCentroidsCoverTheTriangle) {
   EXPECT_NEAR(weight, 4.5e-6 / (0.25 * std::sqrt(3.0) * 1e-6), 1e-12);
 }
 
-TEST(SurfaceSamples, StretchingAddsRowsOnlyPastTheSlack) {
+TEST(SurfaceSamples, StretchingAddsRowsPastTheRestLevel) {
   const std::vector<Vec3d> rest = {{0, 0, 0}, {0.002, 0, 0}, {0, 0.001, 0}};
   const SurfaceContactModel s = build_surface_contact(std::vector<std::array<int, 3>>{{0, 1, 2}}, rest, 0.001);
   EXPECT_EQ(sample_level(s, 0, rest), 3);  // ceil(2.236)
   std::vector<Vec3d> q = rest;
-  q[1].x = 0.0036;  // longest edge 3.74 mm <= 1.25 * 3 mm: still the rest level
+  q[1].x = 0.0010;  // compressed: still the rest level
   EXPECT_EQ(sample_level(s, 0, q), 3);
-  q[1].x = 0.0050;  // 5.10 mm > 3.75 mm: ceil(5.10 / 1.25)
-  EXPECT_EQ(sample_level(s, 0, q), 5);
+  q[1].x = 0.0050;  // longest edge 5.10 mm
+  EXPECT_EQ(sample_level(s, 0, q), 6);
   q[1].x = 1.0;  // absurd stretch: capped
   EXPECT_EQ(sample_level(s, 0, q), kMaxSampleLevel);
 }

@@ -182,7 +182,7 @@ class SpecReader {
     s.file = file_;
     s.name = file_.stem().string();
     const auto top = entries(root, "", {"name", "description", "unit", "mesh", "material", "stiffness", "gravity",
-                                        "damping", "pinned", "tool", "time", "solver", "camera", "stages"});
+                                        "damping", "pinned", "tool", "time", "solver", "contact", "camera", "stages"});
     if (auto it = top.find("unit"); it != top.end()) {
       std::tie(s.unit, s.unit_name) = length_unit(it->second, "unit");
       unit_ = s.unit;
@@ -205,6 +205,8 @@ class SpecReader {
       else if (name == "time") read_time(n, s);
       else if (name == "solver") read_solver(n, s.solver);
       else if (name == "camera") read_camera(n, s.camera);
+      else if (name == "contact")
+        s.contact = choice(n, "contact", {"vertices", "surface"}) == 0 ? ContactModel::Vertices : ContactModel::Surface;
       else if (name == "stages") {
         const auto e = entries(n, "stages", {"grasp", "frames", "settle"});
         if (auto g = e.find("grasp"); g != e.end()) s.stages.grasp = boolean(g->second, "stages.grasp");
@@ -858,6 +860,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "chebyshev_rho" << YAML::Value << sv.chebyshev_rho;
   y << YAML::Key << "recovery" << YAML::Value << (sv.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
   y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual << YAML::EndMap;
+  y << YAML::Key << "contact" << YAML::Value << (s.contact == ContactModel::Surface ? "surface" : "vertices");
   y << YAML::Key << "camera" << YAML::Value << YAML::BeginMap << YAML::Key << "eye" << YAML::Value;
   vec(s.camera.eye, u);
   y << YAML::Key << "target" << YAML::Value;

@@ -63,6 +63,9 @@
 //     recovery: direct              # direct | none: redo a step the jacobi/chebyshev iterations leave
 //     recovery_residual: 100        #   above this many mesh weights unbalanced (or diverged) with the
 //                                   #   direct solve (CPU backend; docs/MODEL.md, "Recovery")
+//   contact: vertices               # vertices | surface: E_con [3] on the virtual mesh's vertices (the
+//                                   # paper) or on points of its triangles (docs/MODEL.md, "Contact
+//                                   # against the surface")
 //   camera: {eye: [x, y, z], target: [x, y, z], up: [0, 0, 1], fov_deg: 40}
 //   stages: {grasp: false, frames: false, settle: true}    # skip what a scene doesn't need;
 //                                   # settle: start from the static equilibrium under gravity
@@ -155,6 +158,9 @@ struct SolverSpec {
   double recovery_residual = 100;
 };
 
+/// What E_con [3] acts on (the scene's `contact`).
+enum class ContactModel { Vertices, Surface };
+
 struct Stages {
   bool grasp = false;   ///< grasp machinery (forceps scenes)
   bool frames = false;  ///< mesh snapshots in the replay output by default
@@ -205,6 +211,7 @@ struct SceneSpec {
   /// where a hook presses inside the tube; false restores Algorithm 2 line 1 as printed.
   bool interpolate_physical = true;
   SolverSpec solver;
+  ContactModel contact = ContactModel::Vertices;
   Camera camera;
   Stages stages;
 };

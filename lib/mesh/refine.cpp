@@ -14,18 +14,23 @@ using Edge = std::pair<int, int>;  // (smaller, larger) vertex index
 
 Edge edge(int a, int b) { return a < b ? Edge{a, b} : Edge{b, a}; }
 
-/// The distinct edges of the tets and triangles, sorted.
+/// The distinct edges of the tets, sorted.
 std::vector<Edge> unique_edges(const TetMesh& mesh) {
   std::vector<Edge> edges;
-  edges.reserve(6 * mesh.tets.size() + 3 * mesh.triangles.size());
+  edges.reserve(6 * mesh.tets.size());
   for (const Tet& t : mesh.tets)
     for (int i = 0; i < 4; ++i)
       for (int j = i + 1; j < 4; ++j) edges.push_back(edge(t[i], t[j]));
-  for (const Tri& f : mesh.triangles)
-    for (int i = 0; i < 3; ++i) edges.push_back(edge(f[i], f[(i + 1) % 3]));
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   return edges;
+}
+
+/// Whether each edge of the triangle is an edge of the tets (`edges`, sorted): then it is split.
+bool splits(const Tri& f, const std::vector<Edge>& edges) {
+  for (int i = 0; i < 3; ++i)
+    if (!std::binary_search(edges.begin(), edges.end(), edge(f[i], f[(i + 1) % 3]))) return false;
+  return true;
 }
 
 /// The number of distinct faces (sorted vertex triples) of the tets, and of those used once.
@@ -114,6 +119,12 @@ TetMesh refine_tet_mesh(const TetMesh& mesh) {
   out.triangles.reserve(4 * mesh.triangles.size());
   out.triangle_group.reserve(4 * mesh.triangles.size());
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    const int group = f < mesh.triangle_group.size() ? mesh.triangle_group[f] : 0;
+    if (!splits(mesh.triangles[f], edges)) {  // not on the tets: kept as it is (mesh/refine.hpp)
+      out.triangles.push_back(mesh.triangles[f]);
+      out.triangle_group.push_back(group);
+      continue;
+    }
     const auto [a, b, c] = mesh.triangles[f];
     const int ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
     // As refine_surface (mesh/surface.hpp) splits a virtual triangle: each child keeps the orientation.
@@ -121,7 +132,6 @@ TetMesh refine_tet_mesh(const TetMesh& mesh) {
     out.triangles.push_back({ab, b, bc});
     out.triangles.push_back({ca, bc, c});
     out.triangles.push_back({ab, bc, ca});
-    const int group = f < mesh.triangle_group.size() ? mesh.triangle_group[f] : 0;
     out.triangle_group.insert(out.triangle_group.end(), 4, group);
   }
   return out;
@@ -129,10 +139,13 @@ TetMesh refine_tet_mesh(const TetMesh& mesh) {
 
 RefinedCounts refined_counts(const TetMesh& mesh, int levels) {
   const auto [faces, boundary] = face_counts(mesh.tets);
+  const std::vector<Edge> edges = unique_edges(mesh);
+  std::int64_t split = 0;
+  for (const Tri& f : mesh.triangles) split += splits(f, edges) ? 1 : 0;
   // Doubles: the counts grow by 8 a level and must saturate, not wrap, for a large `levels`.
-  double V = static_cast<double>(mesh.vertices.size()), E = static_cast<double>(unique_edges(mesh).size());
+  double V = static_cast<double>(mesh.vertices.size()), E = static_cast<double>(edges.size());
   double F = static_cast<double>(faces), T = static_cast<double>(mesh.tets.size());
-  double B = static_cast<double>(boundary), L = static_cast<double>(mesh.triangles.size());
+  double B = static_cast<double>(boundary), L = static_cast<double>(split);
   for (int l = 0; l < levels; ++l) {
     const double V1 = V + E, E1 = 2 * E + 3 * F + T, F1 = 4 * F + 8 * T;
     V = V1;
@@ -148,7 +161,7 @@ RefinedCounts refined_counts(const TetMesh& mesh, int levels) {
   c.faces = saturating(F);
   c.tets = saturating(T);
   c.boundary_faces = saturating(B);
-  c.triangles = saturating(L);
+  c.triangles = saturating(L + static_cast<double>(static_cast<std::int64_t>(mesh.triangles.size()) - split));
   return c;
 }
 

@@ -14,7 +14,8 @@
 // diagonals' cycles are chosen for it).
 //
 // Listed triangles (tagged boundary or interface triangles) are split into 4 with the same
-// midpoints. Groups: each child takes its parent's physical group tag, so a group's vertex set
+// midpoints; one whose edges are not all edges of the tets (a file may list a face with the other
+// diagonal) is kept as it is, so its group keeps the same vertices. Groups: each child takes its parent's physical group tag, so a group's vertex set
 // after refinement is the old set plus the midpoints of the edges of its elements: the midpoint of
 // an edge of a group's triangle or tet belongs to the group; one of an edge that merely joins two
 // of its vertices (an edge through the body between two boundary vertices) does not. A group's
@@ -32,9 +33,10 @@ namespace ebh {
 ///   mesh  #V vertices, #T tets (indices in range), #F listed triangles with group tags
 /// Outputs:
 ///   returns  #V + #E vertices: the old ones with their indices, then one per unique edge of the
-///            tets and triangles, ordered by (smaller index, larger index) of the edge's ends;
+///            tets, ordered by (smaller index, larger index) of the edge's ends;
 ///            8 #T tets (tet t's children at 8t .. 8t + 7, the corners first) with t's group;
-///            4 #F triangles (triangle f's at 4f .. 4f + 3) with f's group; the same group names.
+///            4 triangles for each listed one on the tets (consecutive, in the listed order) with its
+///            group, the others as they were; the same group names.
 ///            file_node_ids are 1 .. #V'; file_tet_ids are left empty (the file writer numbers them).
 /// Deterministic: the result depends on the input alone, bit for bit.
 TetMesh refine_tet_mesh(const TetMesh& mesh);
@@ -44,7 +46,7 @@ TetMesh refine_tet_mesh(const TetMesh& mesh);
 /// interior, and E every distinct edge).
 struct RefinedCounts {
   std::int64_t vertices = 0, edges = 0, faces = 0, tets = 0;
-  std::int64_t triangles = 0;          ///< listed triangles
+  std::int64_t triangles = 0;          ///< listed triangles (those on the tets x 4 a level, the rest kept)
   std::int64_t boundary_faces = 0;     ///< faces of one tet
 };
 

@@ -150,6 +150,20 @@ TEST(Refine, GroupsCarryOverAsRefinedSurfaces) {
   for (std::size_t v = 0; v < m.vertices.size(); ++v) ASSERT_EQ(r.vertices[v], m.vertices[v]);
 }
 
+TEST(Refine, TriangleOffTheTetsIsKept) {
+  // cube22.msh lists its top face with the other diagonal than its tets': those two triangles are
+  // not on the tets and stay as they are; the bottom's two are split.
+  const TetMesh m = read_msh(std::filesystem::path(EBH_TEST_DATA_DIR) / "mesh" / "cube22.msh");
+  ASSERT_EQ(m.triangles.size(), 4u);
+  const TetMesh r = refine_tet_mesh(m);
+  ASSERT_EQ(r.triangles.size(), 2 * 4 + 2u);
+  EXPECT_EQ(refined_counts(m, 1).triangles, 10);
+  EXPECT_EQ(refined_counts(m, 2).triangles, 2 * 16 + 2);
+  EXPECT_EQ(r.triangles[8], m.triangles[2]);
+  EXPECT_EQ(r.triangles[9], m.triangles[3]);
+  EXPECT_EQ(static_cast<std::int64_t>(r.vertices.size()), refined_counts(m, 1).vertices);
+}
+
 TEST(Refine, BitForBitDeterministicAndWrittenIdentically) {
   const TetMesh m = committed("tube");
   EXPECT_EQ(msh22_text(refine_tet_mesh(m)), msh22_text(refine_tet_mesh(m)));

@@ -66,6 +66,9 @@ class SizeObserver : public ReplayObserver {
     step_s.push_back(p.report.time_s);
     sample_device();
   }
+  /// An interrupt (io/atomic.hpp's handlers, installed when the first refined scene is written)
+  /// ends the size; run_size_bench then stops and removes its temporary folder.
+  bool should_stop() override { return interrupted(); }
 
  private:
   void sample_device() {
@@ -127,6 +130,7 @@ SizeResult measure(const SizeBenchOptions& o, const std::string& scene, int leve
   SizeObserver obs(device);
   obs.tick_s.reserve(static_cast<std::size_t>(o.seconds / w.h_haptic) + 2);
   const ReplaySummary s = replay(w, in.recording, ro, obs);
+  if (s.stopped) throw InputError("interrupted at level " + std::to_string(level) + "; no results");
   r.physical_step = stats(std::move(obs.step_s));
   r.haptic_tick = stats(std::move(obs.tick_s));
   r.ticks = s.ticks;
@@ -197,6 +201,7 @@ std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progres
                        std::to_string(c.tets) + " tets, over the limit of " + std::to_string(max_tets) +
                        " (--max-tets raises it; `ebh scene refine` says the memory it takes)");
   }
+  install_interrupt_handlers();
   // The first device replay of a process loads the kernels and reserves their local memory (170 MB
   // on an H100 for the tube): a short replay of the scene first keeps that out of the first size.
   if (o.backend == Backend::Cuda) {

@@ -94,7 +94,7 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
                 "# at its edge midpoints): %lld tets and %lld vertices, from %lld and %lld. Groups, pinned regions\n"
                 "# and every other key carry over (docs/FORMATS.md, \"ebh scene refine\").\n",
                 spec.name.c_str(), levels, levels == 1 ? "" : "s",
-                (scene_argument.empty() ? scene.string() : scene_argument).c_str(), levels,
+                escape_unprintable(scene_argument.empty() ? scene.string() : scene_argument).c_str(), levels,
                 static_cast<long long>(r.after.tets), static_cast<long long>(r.after.vertices),
                 static_cast<long long>(r.before.tets), static_cast<long long>(r.before.vertices));
   r.scene_yaml = std::string(header) + yaml.c_str() + "\n";

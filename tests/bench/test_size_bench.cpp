@@ -6,6 +6,7 @@
 
 #include "bench/size_bench.hpp"
 #include "core/error.hpp"
+#include "io/atomic.hpp"
 
 namespace ebh {
 namespace {
@@ -53,6 +54,21 @@ TEST(SizeBench, TwoSizesOfTheTube) {
   }
   // 8x the tets is more work a step: far more than timer noise on any machine.
   EXPECT_GT(r[1].physical_step.median, 2 * r[0].physical_step.median);
+}
+
+TEST(SizeBench, AnInterruptEndsTheRun) {
+  SizeBenchOptions o;
+  o.scene = "tube";
+  o.recording = "tube_insert";
+  o.last_level = 1;
+  set_interrupted(true);  // as SIGINT would (io/atomic.hpp)
+  try {
+    run_size_bench(o);
+    ADD_FAILURE() << "ran through an interrupt";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "interrupted at level 0; no results");
+  }
+  set_interrupted(false);
 }
 
 TEST(SizeBench, RefusesBeforeAnyWork) {

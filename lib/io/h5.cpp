@@ -338,6 +338,32 @@ std::vector<std::size_t> Dataset::checked_shape(Type t, const std::vector<std::p
   return s;
 }
 
+std::vector<std::string> Dataset::read_strings() const {
+  Handle type(H5Dget_type(id()));
+  if (H5Tget_class(type.get()) != H5T_STRING) fail(where(), "not a dataset of strings");
+  const std::vector<std::size_t> s = shape();
+  if (s.size() != 1) fail(where(), "shape " + shape_str(s) + ", expected (N,) strings");
+  std::vector<std::string> out(s[0]);
+  if (out.empty()) return out;
+  if (H5Tis_variable_str(type.get()) > 0) {
+    Handle mt = string_type();
+    std::vector<char*> p(out.size(), nullptr);
+    check_status(H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()), where(), "cannot read the dataset");
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      out[i] = p[i] ? p[i] : "";
+      H5free_memory(p[i]);
+    }
+    return out;
+  }
+  const std::size_t size = H5Tget_size(type.get());
+  std::vector<char> buf(out.size() * size);
+  Handle mt(H5Tcopy(H5T_C_S1));
+  H5Tset_size(mt.get(), size);
+  check_status(H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()), where(), "cannot read the dataset");
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = std::string(&buf[i * size], strnlen(&buf[i * size], size));
+  return out;
+}
+
 void Dataset::read_into(Type t, void* out) const {
   Handle space(H5Dget_space(id()));
   if (H5Sget_simple_extent_npoints(space.get()) == 0) return;
@@ -433,6 +459,23 @@ Dataset Group::write_raw(const std::string& name, Type t, const void* data, std:
   Dataset ds(std::make_shared<Handle>(d, h_->state()), file_, p);
   if (n > 0)
     check_status(H5Dwrite(d, mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, data), ds.where(), "cannot write the dataset");
+  return ds;
+}
+
+Dataset Group::write_strings(const std::string& name, const std::vector<std::string>& values) {
+  const std::string p = child_path(name);
+  hsize_t n = values.size();
+  Handle space(H5Screate_simple(1, &n, nullptr));
+  Handle type = string_type();
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE));
+  H5Pset_create_intermediate_group(lcpl.get(), 1);
+  hid_t d = H5Dcreate2(id(), name.c_str(), type.get(), space.get(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT);
+  if (d < 0) fail(file_ + ": " + p, "cannot create dataset (does it exist already?)");
+  Dataset ds(std::make_shared<Handle>(d, h_->state()), file_, p);
+  std::vector<const char*> ptr(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) ptr[i] = values[i].c_str();
+  if (n > 0)
+    check_status(H5Dwrite(d, type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptr.data()), ds.where(), "cannot write the dataset");
   return ds;
 }
 

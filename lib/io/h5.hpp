@@ -135,6 +135,8 @@ class Dataset : public Object {
     read_raw(type_of<T>(), expected, a.shape, [&a](std::size_t n) { a.data.resize(n); return static_cast<void*>(a.data.data()); });
     return a;
   }
+  /// Reads a 1-D dataset of strings (variable or fixed length); InputError when it is not one.
+  std::vector<std::string> read_strings() const;
 
  protected:
   friend class Group;
@@ -209,6 +211,8 @@ class Group : public Object {
                 const WriteOptions& opt = {}) {
     return write<T>(name, std::span<const T>(data), shape, opt);
   }
+  /// Writes a 1-D dataset of variable-length UTF-8 strings (what h5py reads with .asstr()).
+  Dataset write_strings(const std::string& name, const std::vector<std::string>& values);
   /// Shortcut: reads dataset `name` with the expected shape (-1 = any).
   template <class T>
   Array<T> read(const std::string& name, const std::vector<std::ptrdiff_t>& expected = {}) const {

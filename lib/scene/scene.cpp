@@ -105,8 +105,12 @@ class SpecReader {
     if (!ok) fail(key, std::string("expected ") + range + ", got " + shown(n));
     return v;
   }
-  int integer(const YAML::Node& n, const std::string& key, int lo, int hi) const {
-    const std::string expected = "a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  /// A whole number in [lo, hi]; `word` (when given) is also accepted and gives `word_value`.
+  int integer(const YAML::Node& n, const std::string& key, int lo, int hi, const char* word = nullptr,
+              int word_value = 0) const {
+    if (word && n.IsScalar() && n.Scalar() == word) return word_value;
+    const std::string expected = (word ? std::string(word) + " or " : std::string()) + "a whole number in [" +
+                                 std::to_string(lo) + ", " + std::to_string(hi) + "]";
     if (!n.IsScalar()) fail(key, "expected " + expected + ", got " + shown(n));
     const std::string& s = n.Scalar();
     long long v = 0;
@@ -178,7 +182,7 @@ class SpecReader {
     s.file = file_;
     s.name = file_.stem().string();
     const auto top = entries(root, "", {"name", "description", "unit", "mesh", "material", "stiffness", "gravity",
-                                        "damping", "pinned", "tool", "time", "solver", "camera", "stages"});
+                                        "damping", "pinned", "tool", "time", "solver", "contact", "camera", "stages"});
     if (auto it = top.find("unit"); it != top.end()) {
       std::tie(s.unit, s.unit_name) = length_unit(it->second, "unit");
       unit_ = s.unit;
@@ -201,6 +205,8 @@ class SpecReader {
       else if (name == "time") read_time(n, s);
       else if (name == "solver") read_solver(n, s.solver);
       else if (name == "camera") read_camera(n, s.camera);
+      else if (name == "contact")
+        s.contact = choice(n, "contact", {"vertices", "surface"}) == 0 ? ContactModel::Vertices : ContactModel::Surface;
       else if (name == "stages") {
         const auto e = entries(n, "stages", {"grasp", "frames", "settle"});
         if (auto g = e.find("grasp"); g != e.end()) s.stages.grasp = boolean(g->second, "stages.grasp");
@@ -209,6 +215,10 @@ class SpecReader {
       }
     }
     if (!top.count("mesh")) fail("mesh", "missing (required: mesh.physical names the physical mesh)");
+    if (s.tool.newton_calls > s.solver.virtual_iterations)
+      fail("tool.newton_calls", "expected all or at most solver.virtual_iterations (" +
+                                    std::to_string(s.solver.virtual_iterations) + "), got " +
+                                    std::to_string(s.tool.newton_calls));
     check_physical_limits(s);
     return s;
   }
@@ -306,7 +316,8 @@ class SpecReader {
 
   void read_tool(const YAML::Node& n, ToolSpec& t) const {
     const auto e = entries(n, "tool", {"unit", "kind", "shaft_radius", "shaft_length", "hook", "forceps", "force_limit",
-                                       "newton_iterations", "max_step", "max_step_rotation_deg", "stabilization"});
+                                       "newton_iterations", "newton_calls", "max_step", "max_step_rotation_deg",
+                                       "stabilization"});
     if (auto u = e.find("unit"); u != e.end()) std::tie(t.unit, t.unit_name) = length_unit(u->second, "tool.unit");
     const double unit = t.unit;
     for (const auto& [name, v] : e) {
@@ -317,6 +328,7 @@ class SpecReader {
       else if (name == "shaft_length") t.shaft_length = length(v, k, unit);
       else if (name == "force_limit") t.force_limit = positive(v, k);
       else if (name == "newton_iterations") t.newton_iterations = integer(v, k, 1, 100);
+      else if (name == "newton_calls") t.newton_calls = integer(v, k, 1, 100000, "all", 0);
       else if (name == "max_step") t.max_step = length(v, k, unit);
       else if (name == "max_step_rotation_deg") t.max_step_rotation_deg = in_range(v, k, 0, false, 180, true);
       else if (name == "stabilization") {
@@ -826,6 +838,8 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "eta" << YAML::Value << f.eta << YAML::EndMap;
   y << YAML::Key << "force_limit" << YAML::Value << t.force_limit;
   y << YAML::Key << "newton_iterations" << YAML::Value << t.newton_iterations;
+  y << YAML::Key << "newton_calls" << YAML::Value;
+  if (t.newton_calls == 0) y << "all"; else y << t.newton_calls;
   y << YAML::Key << "max_step" << YAML::Value << tool_length(t.max_step);
   y << YAML::Key << "max_step_rotation_deg" << YAML::Value << t.max_step_rotation_deg;
   y << YAML::Key << "stabilization" << YAML::Value << YAML::BeginMap;
@@ -846,6 +860,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "chebyshev_rho" << YAML::Value << sv.chebyshev_rho;
   y << YAML::Key << "recovery" << YAML::Value << (sv.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
   y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual << YAML::EndMap;
+  y << YAML::Key << "contact" << YAML::Value << (s.contact == ContactModel::Surface ? "surface" : "vertices");
   y << YAML::Key << "camera" << YAML::Value << YAML::BeginMap << YAML::Key << "eye" << YAML::Value;
   vec(s.camera.eye, u);
   y << YAML::Key << "target" << YAML::Value;

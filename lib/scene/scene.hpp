@@ -42,7 +42,10 @@
 //     forceps: {jaw_length: 20, jaw_width: 5, jaw_thickness: 2, jaw_max_angle_deg: 30,
 //               grasp_threshold: 0.2, soft_margin: 2, eta: 1.0}
 //     force_limit: 3.3              # N (Geomagic Touch)
-//     newton_iterations: 2          # Newton steps on E_tool per virtual-mesh iteration
+//     newton_iterations: 2          # Newton steps on E_tool per Newton call
+//     newton_calls: all             # all | 1 .. solver.virtual_iterations: how many of a tick's
+//                                   #   virtual-mesh iterations a Newton call follows (the last
+//                                   #   ones; all: every one, Algorithm 2 as printed)
 //     max_step: 0.5                 # translation limit of one Newton step (tool.unit)
 //     max_step_rotation_deg: 0.5    # rotation limit of one Newton step
 //     stabilization: {translation: 0, rotation: 0}   # N/m, N m/rad: damps the virtual tool per tick
@@ -60,6 +63,9 @@
 //     recovery: direct              # direct | none: redo a step the jacobi/chebyshev iterations leave
 //     recovery_residual: 100        #   above this many mesh weights unbalanced (or diverged) with the
 //                                   #   direct solve (CPU backend; docs/MODEL.md, "Recovery")
+//   contact: vertices               # vertices | surface: E_con [3] on the virtual mesh's vertices (the
+//                                   # paper) or on points of its triangles (docs/MODEL.md, "Contact
+//                                   # against the surface")
 //   camera: {eye: [x, y, z], target: [x, y, z], up: [0, 0, 1], fov_deg: 40}
 //   stages: {grasp: false, frames: false, settle: true}    # skip what a scene doesn't need;
 //                                   # settle: start from the static equilibrium under gravity
@@ -117,6 +123,9 @@ struct ToolSpec {
   ForcepsSpec forceps;
   double force_limit = 3.3;             ///< N
   int newton_iterations = 2;
+  /// How many of a tick's virtual-mesh iterations a Newton call of the virtual tool follows: the
+  /// last newton_calls of them (docs/MODEL.md, "Newton calls per tick"). 0: all of them (`all`).
+  int newton_calls = 0;
   double max_step = 0.0005;             ///< m per Newton step
   double max_step_rotation_deg = 0.5;   ///< per Newton step (its lever is the whole shaft: keep it small)
   /// Stiffness of springs tying the virtual tool to its pose at the start of the tick (N/m and
@@ -148,6 +157,9 @@ struct SolverSpec {
   Recovery recovery = Recovery::Direct;
   double recovery_residual = 100;
 };
+
+/// What E_con [3] acts on (the scene's `contact`).
+enum class ContactModel { Vertices, Surface };
 
 struct Stages {
   bool grasp = false;   ///< grasp machinery (forceps scenes)
@@ -199,9 +211,16 @@ struct SceneSpec {
   /// where a hook presses inside the tube; false restores Algorithm 2 line 1 as printed.
   bool interpolate_physical = true;
   SolverSpec solver;
+  ContactModel contact = ContactModel::Vertices;
   Camera camera;
   Stages stages;
 };
+
+/// The virtual tool's Newton calls per haptic tick: tool.newton_calls, or (`all`) one after every
+/// virtual-mesh iteration, solver.virtual_iterations.
+inline int newton_calls_per_tick(const SceneSpec& s) {
+  return s.tool.newton_calls > 0 ? s.tool.newton_calls : s.solver.virtual_iterations;
+}
 
 /// A scene with its meshes loaded and scaled to metres.
 struct Scene {

@@ -9,18 +9,20 @@
 //   iteration       one Jacobi step of E_k + E_svc + E_con + E_s (l. 11-16)
 //   end (last)      velocity (l. 23), depth of j in the physical tool (the penetration metric)
 //   reach           whether the virtual tool's next Newton call can reach j (virtual_tool.cpp's bound)
-// then, after the step, the virtual tool's Newton call (l. 18-19) on the reachable and held
-// vertices: block 0 (tool_block, virtual_tool_tail) in double, with fixed-order block sums, the
-// 6x6 PSD clamp (a Cholesky test, else a one-warp Jacobi eigen-decomposition), an Armijo line
-// search, and (last step) the tick's outputs into a host-mapped ring (l. 26-27).
+// then, after the step (after the tick's last tool.newton_calls steps only), the virtual tool's
+// Newton call (l. 18-19) on the reachable and held vertices: block 0 (tool_block,
+// virtual_tool_tail) in double, with fixed-order block sums, the 6x6 PSD clamp (a Cholesky test,
+// else a one-warp Jacobi eigen-decomposition), an Armijo line search, and (last step) the tick's
+// outputs into a host-mapped ring (l. 26-27).
 //
 // The other blocks (vertex_blocks) run the vertices, a chunk of kBlock per block, and hand off to
 // block 0 through two counters. A step is pipelined: it runs beside the Newton call before it,
 // at the pose before that call. Only a vertex the call can reach can touch the tool at its new
 // pose, so those (and the held ones) are deferred: their Jacobi sums go to block 0, which adds
 // their contact at the new pose (finish_deferred) and filters the next candidates from a
-// superset the other blocks flag (pipelined_lists). A run's first step and a grasp event's step
-// are unpipelined: released after the call, with every vertex's contact in place.
+// superset the other blocks flag (pipelined_lists). A run's first step, a grasp event's step and a
+// step with no call before it are unpipelined: released after the call (or the step before), with
+// every vertex's contact in place.
 //
 // The map, one translation unit in the order the parts build on each other:
 //   haptic_cuda_profile.cuh   the stage timers (DeviceHapticSetup::profile_stages), compiled out
@@ -194,6 +196,8 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   I.m = M.num_vertices;
   I.n = static_cast<int>(S.x0.size());
   I.iterations = std::max(1, S.virtual_iterations);
+  if (S.newton_calls < 0 || S.newton_calls > I.iterations)
+    throw std::invalid_argument("CudaHapticTicks: newton_calls must be 0 (after every step) or in [1, virtual_iterations]");
   I.ticks = static_cast<long long>(in.size());
   I.period = S.ticks_per_step;
   if (I.period < 0) throw std::invalid_argument("CudaHapticTicks: ticks_per_step must not be negative");
@@ -302,6 +306,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.block_counts = I.block_counts.get();
   d.block_offsets = I.block_offsets.get();
   d.iterations = I.iterations;
+  d.first_call = S.newton_calls == 0 ? 0 : I.iterations - S.newton_calls;
   d.pipeline = S.pipeline;
   d.slots = I.slots.get();
   d.q0 = I.q[0].get();

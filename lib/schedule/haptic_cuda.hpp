@@ -10,7 +10,7 @@
 // virtual-mesh iteration over all vertices (step 0 also makes the tick's prediction, E_svc targets
 // and grasp) with the contact of each vertex against the virtual tool; then block 0 runs the
 // virtual tool's Newton step (virtual_tool.hpp) on the vertices that the step can reach, in
-// double. The steps are pipelined: the other blocks run step i + 1 beside the Newton call of
+// double (after the tick's last newton_calls steps only, when fewer than all). The steps are pipelined: the other blocks run step i + 1 beside the Newton call of
 // step i and leave block 0 the vertices that call can reach, whose contacts need its result.
 // Sums are fixed-order block reductions; the only atomics are the integer hand-off counters, so
 // replays are bitwise reproducible.
@@ -60,7 +60,8 @@ struct DeviceTickOutput {
 };
 
 /// Where a device tick's time goes (DeviceHapticSetup::profile_stages): the mean of each stage
-/// per iteration ("step": one virtual-mesh iteration and the virtual tool's Newton call after it).
+/// per iteration ("step": one virtual-mesh iteration and the virtual tool's Newton call after it,
+/// when tool.newton_calls puts one there).
 /// Block 0's stages, in SM cycles converted by its clock, add up to its whole time; the other
 /// blocks' stages are means over blocks from the device's global timer (steps of about 1 us).
 struct DeviceTickProfile {
@@ -97,6 +98,10 @@ struct DeviceHapticSetup {
   Stiffness k;
   double h = 1e-3;                       ///< s, haptic tick
   int virtual_iterations = 4;
+  /// Newton calls of the virtual tool per tick, after the tick's last newton_calls steps
+  /// (tool.newton_calls); 0: after every step. A step with no call after it leaves the next step
+  /// unpipelined (nothing moves the tool beside it).
+  int newton_calls = 0;
   std::span<const Vec3d> q0;             ///< #m the virtual mesh at tick 0 (at rest)
   std::span<const Vec3d> x0;             ///< #n the physical result visible at tick 0
   ToolPose pose0;                        ///< the virtual tool at tick 0

@@ -27,25 +27,29 @@ __device__ __forceinline__ void add_release(unsigned long long* p, unsigned long
 /// The steps of one run: step s is iteration s % K of tick tick0 + s / K.
 struct Schedule {
   int K;
+  int first_call;  // iterations first_call .. K - 1 of a tick are followed by a Newton call
   long long tick0;
   unsigned long long epoch0;  // the hand-off epochs before the run
   bool pipeline;
   const DeviceTickInput* inputs;
   Vec3f *q0, *q1, *q2, *v, *v_scratch;
   __device__ Schedule(const MeshDev& d, long long tick0_, unsigned long long epoch0_)
-      : K(d.iterations), tick0(tick0_), epoch0(epoch0_), pipeline(d.pipeline), inputs(d.inputs), q0(d.q0), q1(d.q1),
+      : K(d.iterations), first_call(d.first_call), tick0(tick0_), epoch0(epoch0_), pipeline(d.pipeline), inputs(d.inputs), q0(d.q0), q1(d.q1),
         q2(d.q2), v(d.v), v_scratch(d.v_scratch) {}
   __device__ bool first(int s) const { return s % K == 0; }
   __device__ bool last(int s) const { return s % K == K - 1; }
   __device__ long long tick(int s) const { return tick0 + s / K; }
   __device__ const DeviceTickInput& input(int s) const { return inputs[tick(s)]; }
+  /// Whether the virtual tool's Newton call follows step s (a tick's last step always has one).
+  __device__ bool called(int s) const { return s % K >= first_call; }
   /// The epoch of step s's vertices (K = 1: the next one is its copy phase).
   __device__ unsigned long long epoch(int s) const { return epoch0 + (K == 1 ? 2ull * s + 1 : s + 1ull); }
   /// Whether step s waits for the Newton call before it (an unpipelined step): the run's first
-  /// step; every step with K = 1 (its iteration both reads and writes the velocities); a tick's
-  /// first step with a grasp event (which changes the held vertices).
+  /// step; every step with K = 1 (its iteration both reads and writes the velocities); a step with
+  /// no Newton call before it (nothing moves the tool beside it, so no vertex is deferred); a
+  /// tick's first step with a grasp event (which changes the held vertices).
   __device__ bool unpipelined(int s) const {
-    if (s == 0 || !pipeline || K == 1) return true;
+    if (s == 0 || !pipeline || K == 1 || !called(s - 1)) return true;
     return first(s) && input(s).grasp != 0;
   }
   /// Iteration i reads in(s) and writes out(s): q0 -> q1 -> q2 -> q1 ... -> q0 (the last). K = 1:

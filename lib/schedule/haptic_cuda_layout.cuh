@@ -98,6 +98,7 @@ struct alignas(16) DeferredVertex {
 struct MeshDev {
   int m = 0, chunks = 0, ring = 1;  // chunks of kBlock vertices (a block of the grid runs several when needed)
   int iterations = 1;               // virtual iterations per tick
+  int first_call = 0;               // a Newton call follows a tick's steps from this one on (tool.newton_calls)
   bool pipeline = true;             // DeviceHapticSetup::pipeline
   float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
   Vec3f gravity;

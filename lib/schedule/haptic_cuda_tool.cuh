@@ -331,7 +331,8 @@ __device__ bool same_jaws(const DeviceTickInput& a, const DeviceTickInput& b) {
 }
 
 /// Block 0: the virtual tool. Each step, once the step's lists are made, it runs the Newton call
-/// (virtual_tool_tail). An unpipelined step's vertices wait for the call before them: block 0
+/// (virtual_tool_tail) when one follows the step (Schedule::called; a step without it is followed
+/// by an unpipelined step). An unpipelined step's vertices wait for the call before them: block 0
 /// publishes the new pose, releases the step, waits for every block and gathers the lists. A
 /// pipelined step runs beside that call: block 0 releases it with the pose before the call, runs
 /// the call, then steps the vertices the other blocks left to it at the new pose and filters the
@@ -400,7 +401,7 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
       release(S.epoch(s + 1), s + 1);
     }
     marks.mark(DeviceTickProfile::Lists);
-    virtual_tool_tail(d, t, sm.in(), S.tick(s), S.out(s), S.last(s), pt, sh, marks);
+    if (S.called(s)) virtual_tool_tail(d, t, sm.in(), S.tick(s), S.out(s), S.last(s), pt, sh, marks);
     if (!next) break;
     if (S.K == 1) wait_arrivals(S.epoch(s) + 1, -1);  // the copies, before step s + 1 reads q0 and v
     if (ahead) {

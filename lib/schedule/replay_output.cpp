@@ -51,6 +51,7 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("tool", s.tool.kind == ToolSpec::Kind::Hook ? "hook" : "forceps");
   f.set_attr("force_limit", s.tool.force_limit);
   f.set_attr("newton_iterations", static_cast<std::int64_t>(s.tool.newton_iterations));
+  f.set_attr("newton_calls", static_cast<std::int64_t>(newton_calls_per_tick(s)));
   f.set_attr("max_step", s.tool.max_step);
   f.set_attr("max_step_rotation_deg", s.tool.max_step_rotation_deg);
   // The tool's geometry, in metres like every length here (length_unit).

@@ -517,6 +517,7 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
   setup.k = world.scene.spec.stiffness;
   setup.h = world.h_haptic;
   setup.virtual_iterations = world.scene.spec.solver.virtual_iterations;
+  setup.newton_calls = world.scene.spec.tool.newton_calls;  // 0 (all): after every step
   setup.q0 = world.initial_virtual;
   setup.x0 = world.initial_physical.x;
   setup.pose0 = {in.front().position, in.front().orientation};

@@ -120,7 +120,10 @@ void emit_output(const World& world, HapticSide& h) {
   h.penetration = 0;
   for (const ContactPoint& c : h.tool.contacts) h.penetration = std::max(h.penetration, c.depth);
   h.penetration_physical =
-      penetration_depth(world.tool, pose_of(h.device), h.device.jaw, h.mesh.q, h.grid, h.tool.grasp.held);
+      world.tool.surface
+          ? surface_penetration_depth(*world.tool.surface, world.tool, pose_of(h.device), h.device.jaw, h.mesh.q, h.grid,
+                                      h.tool.grasp.held, h.tool.surface_scratch)
+          : penetration_depth(world.tool, pose_of(h.device), h.device.jaw, h.mesh.q, h.grid, h.tool.grasp.held);
 }
 
 /// The static equilibrium of the physical mesh under gravity (no contact, coupling satisfied):
@@ -198,6 +201,21 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver);
   w->tool = build_tool(w->scene.spec.tool);
+  if (w->scene.spec.contact == ContactModel::Surface) {
+    if (backend == Backend::Cuda)
+      throw InputError(where + ": key 'contact': surface contact runs on the CPU backend only (use --backend cpu, "
+                               "or contact: vertices)");
+    // A sharp box's closest-point projection jumps between faces at its edges: a jaw sliding over
+    // the surface drags it along and lets it go. Rounded by its half thickness the jaw's projection
+    // is continuous to that depth, which the stiffness floor below keeps the contact within.
+    for (Collider<double>& c : w->tool.colliders)
+      if (c.shape == Shape::Box) c.radius = std::min({c.half.x, c.half.y, c.half.z});
+    SurfaceContactModel s =
+        build_surface_contact(w->virtual_mesh.triangles, w->virtual_mesh.rest, thinnest_part(w->tool));
+    s.stiffness_factor =
+        surface_stiffness_factor(w->scene.spec.stiffness.k_con, w->scene.spec.tool.force_limit, s.spacing);
+    w->tool.surface = std::make_shared<const SurfaceContactModel>(std::move(s));
+  }
   w->initial_physical = make_physical_state(w->physical_mesh);
   if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)
     w->settle_steps = settle_under_gravity(w->scene, w->initial_physical, w->scene.warnings);
@@ -275,10 +293,17 @@ void haptic_tick(const World& world, HapticSide& h, const DeviceSample& sample) 
   timed(t.physical_sync, [&] { sync_physical_targets(world, h); });
   timed(t.grasp, [&] { update_grasp_stage(world, h); });
   t.virtual_mesh = t.virtual_tool = 0;
-  for (int i = 0; i < world.scene.spec.solver.virtual_iterations; ++i) {
+  // Lines 8-21; a Newton call follows the last tool.newton_calls iterations (all by default).
+  const int iterations = world.scene.spec.solver.virtual_iterations;
+  const int first_call = iterations - newton_calls_per_tick(world.scene.spec);
+  h.newton_calls = 0;
+  for (int i = 0; i < iterations; ++i) {
     double a = 0, b = 0;
     timed(a, [&] { virtual_mesh_iteration(world, h); });
-    timed(b, [&] { virtual_tool_iteration(world, h); });
+    if (i >= first_call) {
+      timed(b, [&] { virtual_tool_iteration(world, h); });
+      ++h.newton_calls;
+    }
     t.virtual_mesh += a;
     t.virtual_tool += b;
   }

@@ -87,6 +87,7 @@ struct HapticSide {
   double penetration_physical = 0;       ///< m, the same for the physical tool (large by design)
   int contact_count = 0;                 ///< E_con targets of the last iteration (grasp included)
   int grasped = 0;                       ///< virtual vertices held by the grasp
+  int newton_calls = 0;                  ///< Newton calls of the virtual tool in the last tick
   HapticTiming timing;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda where the whole tick cannot run on the device (realtime mode, inverse-normal

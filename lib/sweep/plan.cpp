@@ -191,8 +191,8 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   SweepPlan plan;
   plan.file = file;
   std::map<std::string, YAML::Node> top;
-  for (auto& [k, v] : r.entries(root, "", {"scenes", "grid", "runs", "set", "backends", "reference_backend", "repetitions",
-                                          "mode", "start", "duration"}))
+  for (auto& [k, v] : r.entries(root, "", {"scenes", "grid", "runs", "baseline", "set", "backends", "reference_backend",
+                                          "repetitions", "mode", "start", "duration"}))
     top[k] = v;
   if (!top.count("scenes")) throw InputError(file.string() + ": key 'scenes': missing (required)");
 
@@ -259,6 +259,19 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   std::set<Overrides> seen;
   for (const auto& [config, node] : configurations)
     if (seen.insert(config).second) plan.configurations.push_back(config);
+  // The baseline: a named configuration, one more run unless a grid combination or list entry is it.
+  std::map<std::string, YAML::Node> baseline_where;
+  YAML::Node baseline_node;
+  if (top.count("baseline")) {
+    std::map<std::string, YAML::Node> b;
+    for (auto& [k, v] : r.entries(top["baseline"], "baseline", {"name", "set"})) b[k] = v;
+    if (!b.count("set")) r.fail(top["baseline"], "baseline.set", "missing (required: the baseline's overrides, {} for the scene as it is)");
+    if (b.count("name")) plan.baseline_name = r.text(b["name"], "baseline.name");
+    baseline_node = b["set"];
+    plan.baseline = baseline_node.IsMap() && baseline_node.size() == 0 ? Overrides{}
+                                                                        : r.overrides(baseline_node, "baseline.set", &baseline_where);
+    if (seen.insert(*plan.baseline).second) plan.configurations.push_back(*plan.baseline);
+  }
 
   std::size_t index = 0;
   for (const YAML::Node& n : r.list(top["scenes"], "scenes", "scenes ({scene: NAME, recordings: [...], reference: {...}})")) {
@@ -294,7 +307,9 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     for (const auto& [k, v] : s.reference) check_on_scene(r, ref_where[k], key + ".reference." + k, s, {{k, v}});
     for (const auto& [k, v, node] : single_values)
       check_on_scene(r, node, (top.count("grid") ? "grid." : "runs.") + k, s, {{k, v}});
+    for (const auto& [k, v] : baseline_where) check_on_scene(r, v, "baseline.set." + k, s, {{k, plan.baseline->at(k)}});
     check_on_scene(r, e["reference"], key + ".reference", s, merged(plan.set, s.reference));
+    if (plan.baseline) check_on_scene(r, baseline_node, "baseline.set", s, merged(plan.set, *plan.baseline));
     for (const auto& [config, node] : configurations)
       check_on_scene(r, node, top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set", s, merged(plan.set, config));
     plan.scenes.push_back(std::move(s));
@@ -330,6 +345,12 @@ std::string resolved_plan_yaml(const SweepPlan& plan) {
   y << YAML::Key << "runs" << YAML::Value << YAML::BeginSeq;
   for (const Overrides& c : plan.configurations) overrides(c);
   y << YAML::EndSeq;
+  if (plan.baseline) {
+    y << YAML::Key << "baseline" << YAML::Value << YAML::BeginMap << YAML::Key << "name" << YAML::Value << plan.baseline_name;
+    y << YAML::Key << "set" << YAML::Value;
+    overrides(*plan.baseline);
+    y << YAML::EndMap;
+  }
   if (!plan.set.empty()) {
     y << YAML::Key << "set" << YAML::Value;
     overrides(plan.set);
@@ -385,6 +406,9 @@ std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
       r.effective = merged(plan.set, r.overrides);
       r.backend = plan.reference_backend;
       r.reference = true;
+      // The baseline's run on this backend when the baseline is the reference configuration.
+      r.baseline = plan.baseline && *plan.baseline == r.overrides &&
+                   std::find(plan.backends.begin(), plan.backends.end(), r.backend) != plan.backends.end();
       r.id = r.reference_id = run_id(plan, plan.scenes[si].scene_file, rec, r.effective, r.backend, 0);
       add(std::move(r));
     }
@@ -405,6 +429,7 @@ std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
             r.backend = backend;
             r.repetition = rep;
             r.reference_id = ref_id;
+            r.baseline = plan.baseline && *plan.baseline == config;
             r.id = run_id(plan, plan.scenes[si].scene_file, rec, r.effective, backend, rep);
             add(std::move(r));  // the reference's own configuration on its backend is the reference run
           }

@@ -12,6 +12,9 @@
 //     solver.virtual_iterations: [1, 2, 4]
 //   runs:                                # an explicit list of override sets (optional)
 //     - {solver.virtual_iterations: 2}
+//   baseline:                            # optional: the configuration the report measures
+//     name: paper                        #   speed-ups and error ratios against (one more
+//     set: {solver.virtual_iterations: 3}  #   configuration when no other is the same)
 //   set: {stiffness.k_con: 800}          # overrides of every replay, the reference's included
 //   backends: [cpu, cuda]                # default [cpu]
 //   reference_backend: cpu               # where the references run (default cpu, the reference
@@ -29,6 +32,7 @@
 // (on the CPU unless reference_backend says otherwise). Each run has a stable id (run_id) from which its output's name is made.
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,6 +55,8 @@ struct SweepPlan {
   std::vector<Overrides> configurations;      ///< grid combinations or list entries (at least one)
   std::vector<std::string> grid_keys;         ///< the keys that vary, in plan order
   Overrides set;                              ///< applied to every replay first
+  std::optional<Overrides> baseline;          ///< the configuration speed-ups are measured against (in configurations)
+  std::string baseline_name = "baseline";     ///< its label in the summary and the report
   std::vector<std::string> backends{"cpu"};
   std::string reference_backend = "cpu";
   int repetitions = 1;
@@ -83,6 +89,7 @@ struct SweepRun {
   std::string backend;
   int repetition = 0;
   bool reference = false;                ///< this is its scene and recording's reference replay
+  bool baseline = false;                 ///< a run of the plan's baseline configuration
   std::string reference_id;              ///< the id of the reference it is compared with
 
   /// "solver.method=direct solver.virtual_iterations=64" (the run's own overrides; "-" for none).

@@ -45,6 +45,8 @@ void write_report_plot(const std::vector<ReportGroup>& groups, const std::string
       if (std::isnan(p.wall_s)) continue;
       if (p.reference) draw_ring(img, f.px(p.wall_s), y0, 8, c);
       else if (!std::isnan(p.error_rms)) draw_marker(img, f.px(p.wall_s), f.py(p.error_rms), c, p.front);
+      if (!p.reference && !p.baseline.empty() && !std::isnan(p.error_rms))
+        draw_ring(img, f.px(p.wall_s), f.py(p.error_rms), 10, c);
     }
     draw_marker(img, x1 + 30, legend_y + 7, c, true);
     std::string name = g.scene + " + " + g.recording;
@@ -52,13 +54,16 @@ void write_report_plot(const std::vector<ReportGroup>& groups, const std::string
     draw_text(img, x1 + 45, legend_y + 20, g.backend, kPlotBlack, kScale);
     legend_y += 50;
   }
-  const int ky = std::max(legend_y + 10, y0 - 90);
+  const int ky = std::max(legend_y + 10, y0 - 120);
   draw_marker(img, x1 + 30, ky + 7, kPlotBlack, true);
   draw_text(img, x1 + 45, ky, "front", kPlotBlack, kScale);
   draw_marker(img, x1 + 30, ky + 37, kPlotBlack, false);
   draw_text(img, x1 + 45, ky + 30, "dominated", kPlotBlack, kScale);
   draw_ring(img, x1 + 30, ky + 67, 8, kPlotBlack);
   draw_text(img, x1 + 45, ky + 60, "reference", kPlotBlack, kScale);
+  draw_marker(img, x1 + 30, ky + 97, kPlotBlack, false);
+  draw_ring(img, x1 + 30, ky + 97, 10, kPlotBlack);
+  draw_text(img, x1 + 45, ky + 90, "baseline", kPlotBlack, kScale);
   write_png(path, img, {{"Title", "ebh sweep report: " + ylabel + " against " + xlabel}});
 }
 

@@ -67,7 +67,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     if (it == t.header.end()) return std::nullopt;
     return static_cast<std::size_t>(it - t.header.begin());
   };
-  const auto c_id = optional_column("id"), c_error = optional_column("error"),
+  const auto c_id = optional_column("id"), c_error = optional_column("error"), c_baseline = optional_column("baseline"),
              c_residual = optional_column("timing.physical_residual_max");
   auto number = [&](std::size_t row, std::size_t col) {
     const std::string& s = t.rows[row][col];
@@ -126,6 +126,9 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       ReportPoint p;
       p.overrides = overrides;
       p.reference = std::any_of(rows.begin(), rows.end(), [&](std::size_t r) { return t.rows[r][c_ref] == "1"; });
+      if (c_baseline)
+        for (std::size_t r : rows)
+          if (!t.rows[r][*c_baseline].empty()) p.baseline = t.rows[r][*c_baseline];
       p.runs = rows.size();
       p.wall_s = med(c_wall);
       p.real_time_factor = med(c_rtf);
@@ -147,6 +150,24 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
   return out;
 }
 
+std::optional<BaselineGoal> baseline_goal(const ReportGroup& g) {
+  const auto& P = g.points;
+  const auto b = std::find_if(P.begin(), P.end(), [](const ReportPoint& p) { return !p.baseline.empty(); });
+  if (b == P.end() || std::isnan(b->wall_s) || std::isnan(b->error_rms)) return std::nullopt;
+  BaselineGoal goal;
+  goal.baseline = goal.fastest = goal.most_accurate = static_cast<std::size_t>(b - P.begin());
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    const ReportPoint& p = P[i];
+    if (p.reference && p.baseline.empty()) continue;
+    if (p.error_rms <= b->error_rms && p.wall_s < P[goal.fastest].wall_s) goal.fastest = i;
+    if (p.wall_s <= b->wall_s && p.error_rms < P[goal.most_accurate].error_rms) goal.most_accurate = i;
+  }
+  goal.speedup = b->wall_s / P[goal.fastest].wall_s;
+  goal.error_ratio = P[goal.most_accurate].error_rms > 0 ? b->error_rms / P[goal.most_accurate].error_rms
+                                                         : std::numeric_limits<double>::infinity();
+  return goal;
+}
+
 std::string report_markdown(const std::vector<ReportGroup>& groups) {
   std::ostringstream o;
   o << "# Run time against force error\n\n"
@@ -157,10 +178,19 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
     o << "| front | overrides | runs | wall (s) | real time | force error RMS (N) | max (N) | p99.9 (N) | max physical "
          "residual |\n|---|---|---|---|---|---|---|---|---|\n";
     for (const ReportPoint& p : g.points)
-      o << "| " << (p.front ? "*" : p.reference ? "reference" : "") << " | " << md(p.overrides) << " | " << p.runs << " | "
+      o << "| " << (p.front ? "*" : p.reference ? "reference" : "") << (p.baseline.empty() ? "" : " " + md(p.baseline))
+        << " | " << md(p.overrides) << " | " << p.runs << " | "
         << fmt(p.wall_s) << " | " << fmt(p.real_time_factor, "%.3gx") << " | " << fmt(p.error_rms) << " | "
         << fmt(p.error_max) << " | " << fmt(p.error_p999) << " | " << fmt(p.residual_max) << " |\n";
     if (g.points.empty()) o << "| | (no finished run) | | | | | | | |\n";
+    if (const auto goal = baseline_goal(g)) {
+      const ReportPoint &b = g.points[goal->baseline], &f = g.points[goal->fastest], &a = g.points[goal->most_accurate];
+      o << "\nAgainst the baseline " << md(b.baseline) << " (" << md(b.overrides) << ": " << fmt(b.wall_s) << " s, RMS error "
+        << fmt(b.error_rms) << " N): the fastest at an RMS error <= " << fmt(b.error_rms) << " N is " << md(f.overrides)
+        << ", " << fmt(f.wall_s) << " s, **" << fmt(goal->speedup, "%.3g") << "x faster**; the most accurate at a wall time <= "
+        << fmt(b.wall_s) << " s is " << md(a.overrides) << ", " << fmt(a.error_rms) << " N, **" << fmt(goal->error_ratio, "%.3g")
+        << "x lower error**. 2x goal: " << (goal->speedup >= 2 || goal->error_ratio >= 2 ? "met" : "not met") << ".\n";
+    }
     for (const std::string& f : g.failed) o << "\nfailed: " << md(f) << "\n";
     if (g.pending) o << "\n" << g.pending << " run" << (g.pending == 1 ? "" : "s") << " not run yet\n";
   }

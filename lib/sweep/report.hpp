@@ -5,6 +5,7 @@
 // other one beats on both wall time and force RMS error against the reference (the reference
 // itself is the yardstick, not a candidate).
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +28,7 @@ struct ReportPoint {
   double error_rms = 0, error_max = 0, error_p999 = 0;  ///< N, against the reference
   double residual_max = 0;                             ///< max physical residual (NaN when absent)
   bool front = false;
+  std::string baseline;                                ///< the plan's baseline name when this is it, else ""
 };
 
 struct ReportGroup {
@@ -37,17 +39,31 @@ struct ReportGroup {
   std::size_t pending = 0;
 };
 
+/// A group's configurations against its baseline B (the plan's `baseline`): the fastest one whose
+/// RMS error is at most B's, and the most accurate one whose wall time is at most B's (B itself
+/// when no other does better; the reference is never a candidate). The goal of a faster method:
+/// speedup >= 2 at equal or lower error, or error_ratio >= 2 at equal or lower time.
+struct BaselineGoal {
+  std::size_t baseline = 0, fastest = 0, most_accurate = 0;  ///< indices into ReportGroup::points
+  double speedup = 1;      ///< B's wall time over the fastest's
+  double error_ratio = 1;  ///< B's RMS error over the most accurate's
+};
+/// Nothing when the group has no finished baseline run (or its wall time or error is NaN).
+std::optional<BaselineGoal> baseline_goal(const ReportGroup& group);
+
 /// Groups the summary's rows (columns: status, scene, recording, backend, reference, overrides,
 /// wall_s, real_time_factor, force_error_rms_N, force_error_max_N, force_error_p999_N; optional:
-/// id, error, timing.physical_residual_max). Throws InputError naming `file` and a missing column
+/// id, error, baseline, timing.physical_residual_max). Throws InputError naming `file` and a missing column
 /// or a cell that is not a number.
 std::vector<ReportGroup> build_report(const CsvTable& summary, const std::string& file);
 
-/// The Markdown report: per group a table by wall time, the front marked.
+/// The Markdown report: per group a table by wall time, the front and the baseline marked, and the
+/// comparison with the baseline (baseline_goal) when there is one.
 std::string report_markdown(const std::vector<ReportGroup>& groups);
 
 /// A PNG plot (log-log): force RMS error against wall time, one colour per group, the front of
-/// each joined by a line, the reference as a ring on the bottom edge. Written atomically.
+/// each joined by a line, the reference as a ring on the bottom edge, the baseline ringed. Written
+/// atomically.
 void write_report_plot(const std::vector<ReportGroup>& groups, const std::string& path);
 
 }  // namespace ebh

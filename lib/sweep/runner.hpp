@@ -8,7 +8,7 @@
 //   DIR/runs/ID.h5       a finished run's replay output (written atomically by `ebh replay`)
 //   DIR/runs/ID.log      what its replay printed (warnings), when it printed anything
 //   DIR/runs/ID.failed   a failed run: its error line, then everything its replay printed
-//   DIR/summary.csv      one row per run (sweep/summary.hpp)
+//   DIR/summary.csv      one row per run (sweep/summary.hpp); DIR/summary.h5 the same as HDF5
 // A run whose output exists is done and never run again; a failed one is tried again by the next
 // sweep of the folder. An interrupted sweep (SIGINT, SIGTERM, SIGHUP) passes the signal on to the
 // replays in flight, which stop and write nothing, and starts no other: rerunning it runs exactly

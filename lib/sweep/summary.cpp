@@ -1,6 +1,7 @@
 #include "sweep/summary.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -8,6 +9,7 @@
 #include <optional>
 
 #include "core/error.hpp"
+#include "io/atomic.hpp"
 #include "io/h5.hpp"
 #include "metrics/force_metrics.hpp"
 #include "metrics/signal.hpp"
@@ -35,7 +37,7 @@ std::vector<std::pair<std::string, double>> metric_values(const ForceMetrics& m)
 }
 
 const std::vector<std::string> kRunColumns = {"id", "status", "scene", "recording", "backend", "repetition", "reference",
-                                              "overrides"};
+                                              "baseline", "overrides"};
 const std::vector<std::string> kResultColumns = {"wall_s", "virtual_s", "real_time_factor", "force_error_rms_N",
                                                  "force_error_max_N", "force_error_p999_N", "compared_ticks"};
 
@@ -155,6 +157,73 @@ CsvTable parse_csv(const std::string& text, const std::string& file) {
   return t;
 }
 
+namespace {
+
+enum class ColumnKind { Text, Integer, Real };
+
+/// A cell as a number (an empty cell: NaN); false when it is not one.
+bool cell_number(const std::string& s, double& v) {
+  if (s.empty()) {
+    v = kNaN;
+    return true;
+  }
+  const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  return ec == std::errc() && p == s.data() + s.size();
+}
+
+ColumnKind column_kind(const CsvTable& t, std::size_t c) {
+  static const std::vector<std::string> text = {"id", "status", "scene", "recording", "backend", "baseline", "overrides",
+                                                "error"};
+  const std::string& name = t.header[c];
+  if (std::find(text.begin(), text.end(), name) != text.end()) return ColumnKind::Text;
+  if (name == "repetition" || name == "reference") return ColumnKind::Integer;
+  if (name.rfind("set.", 0) == 0) {  // a scene key's values: numbers, or text (a method, a list)
+    double v = 0;
+    for (const auto& row : t.rows)
+      if (!cell_number(row[c], v)) return ColumnKind::Text;
+  }
+  return ColumnKind::Real;
+}
+
+}  // namespace
+
+void write_summary_h5(const CsvTable& t, const std::string& path) {
+  h5::AtomicFile out(path);
+  h5::File& f = out.file();
+  std::string columns;
+  for (std::size_t c = 0; c < t.header.size(); ++c) {
+    const std::string& name = t.header[c];
+    columns += (c ? "\n" : "") + name;
+    const std::size_t n = t.rows.size();
+    switch (column_kind(t, c)) {
+      case ColumnKind::Text: {
+        std::vector<std::string> v(n);
+        for (std::size_t r = 0; r < n; ++r) v[r] = t.rows[r][c];
+        f.write_strings(name, v);
+        break;
+      }
+      case ColumnKind::Integer:
+      case ColumnKind::Real: {
+        const bool integer = column_kind(t, c) == ColumnKind::Integer;
+        std::vector<double> v(n);
+        for (std::size_t r = 0; r < n; ++r)
+          if (!cell_number(t.rows[r][c], v[r]) || (integer && !(v[r] == std::floor(v[r]))))
+            throw InputError(path + ": row " + std::to_string(r + 1) + ", column '" + name + "': expected " +
+                             (integer ? "a whole number" : "a number") + ", got '" + t.rows[r][c] + "'");
+        if (integer) {
+          std::vector<std::int64_t> w(v.begin(), v.end());
+          f.write<std::int64_t>(name, w, {n});
+        } else {
+          f.write<double>(name, v, {n});
+        }
+        break;
+      }
+    }
+  }
+  f.set_attr("columns", columns);
+  out.commit();
+}
+
 SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
   SweepSummary s;
   CsvTable& t = s.table;
@@ -191,7 +260,8 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
 
   for (const SweepRun& r : runs) {
     std::vector<std::string> row = {r.id, "pending", plan.scenes[r.scene].name, r.recording.stem().string(), r.backend,
-                                    std::to_string(r.repetition), r.reference ? "1" : "0", r.overrides_text()};
+                                    std::to_string(r.repetition), r.reference ? "1" : "0",
+                                    r.baseline ? plan.baseline_name : "", r.overrides_text()};
     for (const std::string& k : keys) {
       const auto it = r.overrides.find(k);
       row.push_back(it == r.overrides.end() ? "" : it->second);

@@ -46,6 +46,15 @@ struct SweepSummary {
   std::size_t ok = 0, failed = 0, pending = 0;
 };
 
+/// The summary as HDF5 (DIR/summary.h5; docs/FORMATS.md, "summary.h5"): the same rows and
+/// columns, one 1-D dataset per column in the root group, named as the column: text columns (id,
+/// status, scene, recording, backend, baseline, overrides, error, and a set.KEY column with a value
+/// that is not a number) as variable-length UTF-8 strings; repetition and reference as int64; every other
+/// column as float64 (an empty cell: NaN). The root attribute `columns` lists the names in the
+/// CSV's order, one per line. Written atomically; InputError (naming `path`, the row and the
+/// column) when a numeric column holds text.
+void write_summary_h5(const CsvTable& summary, const std::string& path);
+
 /// The summary of every run of the plan as it stands in `dir`: status ok (an output), failed (a
 /// DIR/runs/ID.failed) or pending (neither). Reads each output once and each reference once.
 SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir);

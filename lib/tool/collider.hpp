@@ -21,7 +21,10 @@ enum class ColliderFrame : int { Tool = 0, UpperJaw = 1, LowerJaw = 2 };
 ///   Sphere:   centre a, radius
 ///   Capsule:  segment a -> b, radius
 ///   Cylinder: axis a -> b with flat caps at a and b, radius
-///   Box:      centre a, half extents `half` along the frame's axes
+///   Box:      centre a, half extents `half` along the frame's axes; with radius > 0 its edges and
+///             corners are rounded by that radius (the box of half extents half - radius swept by a
+///             ball: its closest-point projection is continuous to a depth of `radius`, where a
+///             sharp box's jumps between faces at the edges)
 template <class T>
 struct Collider {
   Shape shape = Shape::Sphere;
@@ -93,6 +96,54 @@ EBH_HD SurfaceQuery<T> round_query(Vec3<T> p, Vec3<T> v, Vec3<T> u, T radius, Ve
   }
   return s;
 }
+/// A box with rounded edges (Collider::radius > 0): the core box of half extents half - radius,
+/// inflated by radius. Outside the core the closest core point cl, n = (p - cl) / |p - cl|, sd =
+/// |p - cl| - radius, and the Hessian is that of the distance to the core's nearest feature: 0 at
+/// a face, (I - n n^T - a a^T) / |p - cl| at an edge along a, (I - n n^T) / |p - cl| at a corner.
+/// Inside the core (deeper than radius) the nearest face, as for a sharp box.
+template <class T>
+EBH_HD SurfaceQuery<T> rounded_box_query(const Collider<T>& c, Vec3<T> p) {
+  const T r = c.radius;
+  const Vec3<T> hc{c.half.x - r, c.half.y - r, c.half.z - r};
+  const Vec3<T> v = p - c.a;
+  SurfaceQuery<T> q;
+  const Vec3<T> d{(v.x < 0 ? -v.x : v.x) - hc.x, (v.y < 0 ? -v.y : v.y) - hc.y, (v.z < 0 ? -v.z : v.z) - hc.z};
+  if (d.x <= T(0) && d.y <= T(0) && d.z <= T(0)) {
+    int k = 0;
+    if (d.y > d[k]) k = 1;
+    if (d.z > d[k]) k = 2;
+    q.sd = d[k] - r;
+    Vec3<T> n{};
+    n[k] = v[k] < T(0) ? T(-1) : T(1);
+    q.normal = n;
+    q.point = p - q.sd * n;
+    return q;
+  }
+  const Vec3<T> cl = cwise_max(cwise_min(v, hc), -hc);
+  const Vec3<T> diff = v - cl;
+  const T dist = norm(diff);
+  q.normal = diff / dist;
+  q.sd = dist - r;
+  q.point = c.a + cl + r * q.normal;
+  if (q.sd <= T(0)) {
+    int outside = 0, along = 0;
+    for (int k = 0; k < 3; ++k) {
+      if (d[k] > T(0)) ++outside;
+      else along = k;
+    }
+    if (outside >= 2) {
+      const T rho = dist > rho_floor(r) ? dist : rho_floor(r);
+      Mat3<T> P = Mat3<T>::identity() - outer(q.normal, q.normal);
+      if (outside == 2) {
+        Vec3<T> a{};
+        a[along] = T(1);
+        P = P - outer(a, a);
+      }
+      q.hess = (T(1) / rho) * P;
+    }
+  }
+  return q;
+}
 }  // namespace detail
 
 /// Signed distance, closest surface point, outward normal and sd Hessian of p (collider frame).
@@ -149,6 +200,7 @@ EBH_HD SurfaceQuery<T> query_local(const Collider<T>& c, Vec3<T> p) {
     }
     case Shape::Box:
     default: {
+      if (c.radius > T(0)) return detail::rounded_box_query(c, p);
       const Vec3<T> v = p - c.a;
       SurfaceQuery<T> q;
       Vec3<T> d{(v.x < 0 ? -v.x : v.x) - c.half.x, (v.y < 0 ? -v.y : v.y) - c.half.y,
@@ -203,14 +255,15 @@ EBH_HD T signed_distance_local(const Collider<T>& c, Vec3<T> p) {
     case Shape::Box:
     default: {
       const Vec3<T> v = p - c.a;
-      const Vec3<T> d{(v.x < 0 ? -v.x : v.x) - c.half.x, (v.y < 0 ? -v.y : v.y) - c.half.y,
-                      (v.z < 0 ? -v.z : v.z) - c.half.z};
+      const T r = c.radius > T(0) ? c.radius : T(0);  // rounded: the core box, then - r
+      const Vec3<T> d{(v.x < 0 ? -v.x : v.x) - (c.half.x - r), (v.y < 0 ? -v.y : v.y) - (c.half.y - r),
+                      (v.z < 0 ? -v.z : v.z) - (c.half.z - r)};
       if (d.x <= T(0) && d.y <= T(0) && d.z <= T(0)) {
         T m = d.x > d.y ? d.x : d.y;
-        return m > d.z ? m : d.z;
+        return (m > d.z ? m : d.z) - r;
       }
       const Vec3<T> o{d.x > T(0) ? d.x : T(0), d.y > T(0) ? d.y : T(0), d.z > T(0) ? d.z : T(0)};
-      return norm(o);
+      return norm(o) - r;
     }
   }
 }

@@ -9,27 +9,6 @@ namespace {
 // grazing; the gain 1/cos is capped there (the paper's method is ill-posed at grazing rays).
 constexpr double kMinExitCosine = 0.1;
 
-/// Calls box(lo, hi) with world boxes that together cover collider `shape` posed by `w`, hugging
-/// it: a long shaft (hundreds of mm) is cut into pieces a few grid cells long, so a query costs
-/// the cells near the collider, not those of its bounding cube.
-template <class Box>
-void cover_collider(const Collider<double>& shape, const Rigid<double>& w, double cell, Box&& box) {
-  if (shape.shape == Shape::Capsule || shape.shape == Shape::Cylinder) {
-    const Vec3d A = apply(w, shape.a), B = apply(w, shape.b);
-    const int pieces = std::max(1, static_cast<int>(std::ceil(norm(B - A) / (4.0 * cell))));
-    const Vec3d r{shape.radius, shape.radius, shape.radius};
-    for (int k = 0; k < pieces; ++k) {
-      const Vec3d p0 = A + (static_cast<double>(k) / pieces) * (B - A);
-      const Vec3d p1 = A + (static_cast<double>(k + 1) / pieces) * (B - A);
-      box(cwise_min(p0, p1) - r, cwise_max(p0, p1) + r);
-    }
-  } else {
-    const Vec3d mid = apply(w, centre(shape));
-    const double rb = bounding_radius(shape);
-    const Vec3d ext{rb, rb, rb};
-    box(mid - ext, mid + ext);
-  }
-}
 }  // namespace
 
 bool vertex_contact(const PosedTool& tool, Projection projection, int vertex, Vec3d q, Vec3d n_v, ContactPoint& out) {

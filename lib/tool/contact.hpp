@@ -7,6 +7,8 @@
 // approximated by the largest primitive depth). q_proj is the closest point on that collider's
 // surface (default) or the exit point of the ray from the vertex along minus its vertex normal
 // (Projection::InverseNormal, the paper's option); docs/TOOLS.md compares them.
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -28,6 +30,7 @@ struct ContactPoint {
   double gain = 1;   ///< d phi / d(tool displacement along normal at lever): 1, or 1/(n . d) for a ray d
   Mat3d hess_sd{};   ///< world Hessian of the collider's sd at q (closest point only)
   bool exact = true; ///< false: phi's curvature is not modelled (inverse normal: Gauss-Newton only)
+  double weight = 1; ///< the contact's stiffness is weight * k_con (1 for a vertex; surface_contact.hpp for a sample)
 };
 
 /// Per-vertex narrow phase, host/device: the deepest of n posed colliders containing q.
@@ -55,6 +58,28 @@ EBH_HD int deepest_collider(const Collider<T>* shape, const Rigid<T>* world, int
     s.hess = world[best].R * l.hess * transpose(world[best].R);
   }
   return best;
+}
+
+/// Calls box(lo, hi) with world boxes that together cover collider `shape` posed by `w`, hugging
+/// it: a long shaft (hundreds of mm) is cut into pieces a few grid cells long, so a query costs
+/// the cells near the collider, not those of its bounding cube.
+template <class Box>
+void cover_collider(const Collider<double>& shape, const Rigid<double>& w, double cell, Box&& box) {
+  if (shape.shape == Shape::Capsule || shape.shape == Shape::Cylinder) {
+    const Vec3d A = apply(w, shape.a), B = apply(w, shape.b);
+    const int pieces = std::max(1, static_cast<int>(std::ceil(norm(B - A) / (4.0 * cell))));
+    const Vec3d r{shape.radius, shape.radius, shape.radius};
+    for (int k = 0; k < pieces; ++k) {
+      const Vec3d p0 = A + (static_cast<double>(k) / pieces) * (B - A);
+      const Vec3d p1 = A + (static_cast<double>(k + 1) / pieces) * (B - A);
+      box(cwise_min(p0, p1) - r, cwise_max(p0, p1) + r);
+    }
+  } else {
+    const Vec3d mid = apply(w, centre(shape));
+    const double rb = bounding_radius(shape);
+    const Vec3d ext{rb, rb, rb};
+    box(mid - ext, mid + ext);
+  }
 }
 
 /// Contact of vertex `vertex` at q (world) against a posed tool, with normal n_v (unit, may be

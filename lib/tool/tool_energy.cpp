@@ -40,7 +40,7 @@ double contact_energy(std::span<const ContactPoint> contacts, const Vec3d& P, do
   double H[36] = {};
   double e = 0.0;
   for (const ContactPoint& c : contacts)
-    e += contact_terms(k_con, c.phi, c.gain, c.normal, c.lever - P, c.hess_sd, c.exact, g, H);
+    e += contact_terms(k_con * c.weight, c.phi, c.gain, c.normal, c.lever - P, c.hess_sd, c.exact, g, H);
   if (grad) for (int i = 0; i < 6; ++i) (*grad)[i] = g[i];
   if (hess) for (int i = 0; i < 6; ++i) for (int j = 0; j < 6; ++j) (*hess)(i, j) = H[6 * i + j];
   return e;

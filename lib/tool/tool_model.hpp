@@ -14,6 +14,7 @@
 //            x in [0, jaw_thickness] (upper) or [-jaw_thickness, 0] (lower): closed jaws meet on
 //            the tool's x = 0 plane, the grasp projection plane (§5.2, Fig. 3).
 #include <array>
+#include <memory>
 #include <vector>
 
 #include "math/vec.hpp"
@@ -21,6 +22,8 @@
 #include "tool/collider.hpp"
 
 namespace ebh {
+
+struct SurfaceContactModel;  // surface_contact.hpp
 
 struct ToolPose {
   Vec3d position{};    ///< rotation centre, world metres
@@ -43,6 +46,9 @@ struct ToolModel {
                                             ///<    centre a rotation moves it
   double torque_limit = 0.0;                ///< N m, 0 = no torque clamp
   bool has_jaws = false;
+  /// Contact against the virtual mesh's triangles (scene `contact: surface`; surface_contact.hpp),
+  /// or null: the paper's contact of the virtual mesh's vertices.
+  std::shared_ptr<const SurfaceContactModel> surface;
 };
 
 /// Builds the colliders of spec.kind. Throws InputError on non-positive dimensions.

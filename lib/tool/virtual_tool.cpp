@@ -8,10 +8,14 @@
 namespace ebh {
 namespace {
 
-/// Contacts of the candidates against the tool at `pose` (grasped vertices excluded).
+/// Contacts of the candidates (vertices, or surface samples) against the tool at `pose` (grasped
+/// vertices excluded).
 void detect_at(const ToolModel& tool, const ToolPose& pose, double jaw, std::span<const Vec3d> q,
                std::span<const Vec3d> normals, const VirtualToolState& st, std::vector<ContactPoint>& out) {
-  narrow_phase(pose_tool(tool, pose, jaw), tool.projection, st.candidates, q, normals, st.grasp.held, out);
+  if (tool.surface)
+    sample_narrow_phase(*tool.surface, pose_tool(tool, pose, jaw), st.samples, q, out);
+  else
+    narrow_phase(pose_tool(tool, pose, jaw), tool.projection, st.candidates, q, normals, st.grasp.held, out);
 }
 
 /// E_tool [2]+[3] at `pose` from already detected contacts; grad/hess/step may be null.
@@ -42,7 +46,7 @@ double energy_at(const ToolModel& tool, const Stiffness& k, const ToolPose& phys
         Vec6 J;
         J << c.normal.x, c.normal.y, c.normal.z, rn.x, rn.y, rn.z;
         J *= c.gain;
-        Hc += k.k_con * J * J.transpose();
+        Hc += k.k_con * c.weight * J * J.transpose();
       }
       Hc += H_gr;  // the grasp energy's Hessian is PSD up to its (e.s) term; clamp below
     }
@@ -82,7 +86,10 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
   st.candidates.clear();
   const PosedTool start = pose_tool(tool, st.pose, jaw);
   const double T = lim.reach_translation, th = lim.reach_rotation;
-  gather_candidates(start, q, grid, T, th, st.candidates);
+  if (tool.surface)
+    gather_samples(*tool.surface, start, q, grid, T, th, st.grasp.held, st.surface_scratch, st.samples);
+  else
+    gather_candidates(start, q, grid, T, th, st.candidates);
   // Keep the vertices that one of this call's iterates can reach (the bound of gather_candidates
   // applied to the vertex itself, s = 0): the Newton iterations then test only those.
   std::size_t kept = 0;
@@ -135,15 +142,23 @@ double tool_energy(const ToolModel& tool, const Stiffness& k, const ToolPose& ph
                    std::span<const Vec3d> q, std::span<const Vec3d> normals, VertexGrid& grid,
                    VirtualToolState& st) {
   st.candidates.clear();
-  gather_candidates(pose_tool(tool, st.pose, jaw), q, grid, 0.0, 0.0, st.candidates);
+  if (tool.surface)
+    gather_samples(*tool.surface, pose_tool(tool, st.pose, jaw), q, grid, 0.0, 0.0, st.grasp.held,
+                   st.surface_scratch, st.samples);
+  else
+    gather_candidates(pose_tool(tool, st.pose, jaw), q, grid, 0.0, 0.0, st.candidates);
   detect_at(tool, st.pose, jaw, q, normals, st, st.contacts);
   return energy_at(tool, k, physical, st.pose, q, st, st.contacts, nullptr, nullptr);
 }
 
 void virtual_mesh_targets(const ToolModel& tool, const Stiffness& k, double jaw, std::span<const Vec3d> q,
-                          std::span<const Vec3d> normals, VertexGrid& grid, const VirtualToolState& st,
+                          std::span<const Vec3d> normals, VertexGrid& grid, VirtualToolState& st,
                           std::vector<ContactTarget>& out) {
-  detect_contacts(tool, st.pose, jaw, q, normals, grid, k.k_con, out, st.grasp.held);
+  if (tool.surface)
+    surface_contact_targets(*tool.surface, tool, st.pose, jaw, q, grid, k.k_con, st.grasp.held, st.surface_scratch,
+                            out);
+  else
+    detect_contacts(tool, st.pose, jaw, q, normals, grid, k.k_con, out, st.grasp.held);
   grasp_targets(st.grasp, st.pose, k.k_con, out);
 }
 

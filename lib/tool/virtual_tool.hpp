@@ -22,6 +22,7 @@
 #include "tool/broadphase.hpp"
 #include "tool/contact.hpp"
 #include "tool/grasp.hpp"
+#include "tool/surface_contact.hpp"
 #include "tool/tool_energy.hpp"
 #include "tool/tool_model.hpp"
 
@@ -42,6 +43,8 @@ struct VirtualToolState {
   std::vector<int> candidates;          ///< vertices near the tool for this call's iterations
   std::vector<ContactPoint> contacts;   ///< contacts at the current Newton iterate
   std::vector<ContactPoint> trial;      ///< contacts at a trial iterate
+  std::vector<SurfaceSample> samples;   ///< surface contact: the samples near the tool for this call
+  SurfaceScratch surface_scratch;       ///< surface contact's query scratch
   // Diagnostics of the last update_virtual_tool call.
   double energy = 0.0;                  ///< E_tool at the final pose
   int steps_taken = 0;
@@ -68,7 +71,7 @@ double tool_energy(const ToolModel& tool, const Stiffness& k, const ToolPose& ph
 /// Algorithm 2 line 10 for one tool: pressing contacts (grasped vertices excluded) and grasp
 /// targets of the virtual tool at its current pose, appended to `out` for the virtual mesh.
 void virtual_mesh_targets(const ToolModel& tool, const Stiffness& k, double jaw, std::span<const Vec3d> q,
-                          std::span<const Vec3d> normals, VertexGrid& grid, const VirtualToolState& st,
+                          std::span<const Vec3d> normals, VertexGrid& grid, VirtualToolState& st,
                           std::vector<ContactTarget>& out);
 
 struct ToolOutput {

@@ -6,6 +6,7 @@ namespace ebh {
 const std::vector<Validation>& validations() {
   static const std::vector<Validation> table = {
       column_validation(),
+      contact_validation(),
       convergence_validation(),
       hertz_validation(),
       stability_validation(),

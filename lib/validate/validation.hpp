@@ -40,8 +40,28 @@ const std::vector<Validation>& validations();
 /// The validation called name, or null.
 const Validation* find_validation(const std::string& name);
 
+// ---- contact.cpp's cases, also for the tests ----
+/// The hook driven 30 mm into the gap's block at `speed` m/s with `contact` (vertices | surface).
+struct ContactPush {
+  double speed = 0;           ///< m/s
+  double fall = 0;            ///< N, the largest fall of |F| below its running maximum going down
+  double penetration = 0;     ///< m, the virtual tool's deepest penetration
+  double peak = 0;            ///< N
+  double force_at_depth = 0;  ///< N, when the device reaches full depth
+  bool clamped = false;       ///< the force reached the device's limit
+};
+ContactPush contact_push_through(const std::string& contact, double speed);
+/// Open forceps slid across a "flat" or "curved" surface with both contact models: the force's
+/// power above 5 Hz (arbitrary units, comparable between the two) and mean |F|.
+struct ContactSlide {
+  std::string surface;
+  double power_vertices = 0, power_surface = 0, mean_vertices = 0, mean_surface = 0;
+};
+ContactSlide contact_sliding(const std::string& surface);
+
 // ---- the table's entries (one file each) ----
 Validation column_validation();       ///< column.cpp: ARAP column reaction force vs E A delta / L
+Validation contact_validation();      ///< contact.cpp: push-through and sliding, vertex vs surface contact
 Validation convergence_validation();  ///< convergence.cpp: jacobi/chebyshev vs the direct solve
 Validation hertz_validation();        ///< hertz.cpp: sphere indentation force vs Hertz contact theory
 Validation stability_validation();    ///< stability.cpp: replays on sliver meshes, stiffness, solvers, speeds

@@ -437,7 +437,9 @@ class Trace : public ReplayObserver {
 
 /// cholecystectomy_grasp from t = `from` s (1.2: the forceps reaching the fundus) for `ticks` ticks.
 /// host_tool: --backend cuda with the virtual tool on the host (ReplayOptions::device_tick off).
-Trace replay_grasp(Backend backend, Mode mode, int ticks, double from = 1.2, bool host_tool = false) {
+/// overrides: --set of the scene.
+Trace replay_grasp(Backend backend, Mode mode, int ticks, double from = 1.2, bool host_tool = false,
+                   const std::vector<std::string>& overrides = {}) {
   Recording rec = read_recording(resolve_recording_path("cholecystectomy_grasp"));
   Recording cut = rec;
   cut.t.clear(); cut.position.clear(); cut.orientation.clear(); cut.jaw.clear(); cut.buttons.clear();
@@ -446,7 +448,7 @@ Trace replay_grasp(Backend backend, Mode mode, int ticks, double from = 1.2, boo
       cut.t.push_back(rec.t[i]); cut.position.push_back(rec.position[i]); cut.orientation.push_back(rec.orientation[i]);
       cut.jaw.push_back(rec.jaw[i]); cut.buttons.push_back(rec.buttons[i]);
     }
-  auto world = build_world(load_scene(resolve_scene_path("cholecystectomy")), 1000, 100, backend);
+  auto world = build_world(load_scene(resolve_scene_path("cholecystectomy"), overrides), 1000, 100, backend);
   ReplayOptions opt;
   opt.mode = mode;
   opt.duration = (ticks - 1) * world->h_haptic;
@@ -520,6 +522,50 @@ TEST(CudaReplay, DeviceTickThroughGraspMatchesCpu) {
   EXPECT_EQ(grasp_mismatch, 0);
   EXPECT_LE(err_f, tol_f);
   EXPECT_LE(err_host, tol_f);
+}
+
+/// tool.newton_calls below solver.virtual_iterations (a Newton call after the last N steps only; the
+/// steps without a call before them unpipelined): the device tick and the host-tool path against
+/// the CPU through the grasp, within the bound of DeviceTickThroughGraspMatchesCpu, for the paper's
+/// configuration (3 iterations, one call of one Newton step) and for 2 calls of 4; and N = V gives
+/// the default's bits on the device.
+TEST(CudaReplay, NewtonCallsMatchCpu) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 800;
+  const Models& M = models("cholecystectomy");
+  const std::vector<std::vector<std::string>> configs = {
+      {"solver.virtual_iterations=3", "tool.newton_calls=1", "tool.newton_iterations=1"},
+      {"solver.virtual_iterations=4", "tool.newton_calls=2"}};
+  for (const auto& set : configs) {
+    const Trace cpu = replay_grasp(Backend::Cpu, Mode::Lockstep, ticks, 1.2, false, set);
+    const Trace gpu = replay_grasp(Backend::Cuda, Mode::Lockstep, ticks, 1.2, false, set);
+    const Trace host_tool = replay_grasp(Backend::Cuda, Mode::Lockstep, ticks, 1.2, true, set);
+    ASSERT_EQ(gpu.force.size(), size_t(ticks));
+    ASSERT_EQ(host_tool.force.size(), size_t(ticks));
+    const int steps = static_cast<int>(gpu.residual.size());
+    const double tol_f = M.scene.spec.stiffness.k_vcs * 2.0 * steps * step_tolerance(16, max_abs_coordinate(M.pm.rest));
+    double err_f = 0, err_host = 0, peak_f = 0;
+    int max_grasped = 0, grasp_mismatch = 0;
+    for (int n = 0; n < ticks; ++n) {
+      err_f = std::max(err_f, norm(gpu.force[n] - cpu.force[n]));
+      err_host = std::max(err_host, norm(host_tool.force[n] - cpu.force[n]));
+      peak_f = std::max(peak_f, norm(cpu.force[n]));
+      max_grasped = std::max(max_grasped, cpu.grasped[n]);
+      grasp_mismatch += gpu.grasped[n] != cpu.grasped[n];
+    }
+    std::printf("[ newton calls ] %s %s: %d ticks, up to %d grasped, max |F| err %.3g N (host tool %.3g N; tol %.3g, "
+                "peak %.3g N), %d ticks with another grasped count\n",
+                set[0].c_str(), set[1].c_str(), ticks, max_grasped, err_f, err_host, tol_f, peak_f, grasp_mismatch);
+    EXPECT_GT(max_grasped, 0) << "the window must contain a grasp";
+    EXPECT_EQ(grasp_mismatch, 0);
+    EXPECT_LE(err_f, tol_f);
+    EXPECT_LE(err_host, tol_f);
+  }
+  const int V = M.scene.spec.solver.virtual_iterations;
+  const Trace all = replay_grasp(Backend::Cuda, Mode::Lockstep, 400);
+  const Trace same = replay_grasp(Backend::Cuda, Mode::Lockstep, 400, 1.2, false, {"tool.newton_calls=" + std::to_string(V)});
+  ASSERT_EQ(all.force.size(), same.force.size());
+  EXPECT_EQ(std::memcmp(all.force.data(), same.force.data(), all.force.size() * sizeof(Vec3d)), 0);
 }
 
 TEST(CudaReplay, AsyncModeRuns) {
@@ -612,6 +658,48 @@ TEST(CudaDeviceTick, PipelinedStepsMatchUnpipelinedOnes) {
     EXPECT_DOUBLE_EQ(prof_plain.unpipelined, 1.0);
     EXPECT_LT(prof_pipe.unpipelined, 0.5) << "most steps must run pipelined";
   }
+}
+
+/// Newton calls after the last 2 of 4 steps (DeviceHapticSetup::newton_calls): the steps after a
+/// step without a call run unpipelined (about half of them, 2 of every 4, plus a run's first and
+/// the grasp's), and the pipelined run matches the unpipelined one within the bound of
+/// PipelinedStepsMatchUnpipelinedOnes; a call after every step (newton_calls = 4) is the default (0)
+/// bit for bit; a count above the steps is refused.
+TEST(CudaDeviceTick, StepsWithoutANewtonCallBeforeThemRunUnpipelined) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 800, K = 4;
+  const Models& M = models("cholecystectomy");
+  DeviceTickProfile prof_pipe, prof_plain;
+  const auto pipe = device_ticks(ticks, [](DeviceHapticSetup& s) { s.virtual_iterations = 4; s.newton_calls = 2; }, &prof_pipe);
+  const auto plain = device_ticks(
+      ticks, [](DeviceHapticSetup& s) { s.virtual_iterations = 4; s.newton_calls = 2; s.pipeline = false; }, &prof_plain);
+  const auto every = device_ticks(ticks, [](DeviceHapticSetup& s) { s.virtual_iterations = 4; s.newton_calls = 4; });
+  const auto dflt = device_ticks(ticks, [](DeviceHapticSetup& s) { s.virtual_iterations = 4; s.newton_calls = 0; });
+  const double tol_f = M.scene.spec.stiffness.k_vcs * ticks * step_tolerance(K, max_abs_coordinate(M.pm.rest));
+  double err_f = 0, diff_calls = 0;
+  int grasp_mismatch = 0, max_grasped = 0, every_mismatch = 0;
+  for (int n = 0; n < ticks; ++n) {
+    err_f = std::max(err_f, norm(pipe[n].force - plain[n].force));
+    diff_calls = std::max(diff_calls, norm(pipe[n].force - every[n].force));
+    grasp_mismatch += pipe[n].grasped != plain[n].grasped;
+    max_grasped = std::max(max_grasped, plain[n].grasped);
+    every_mismatch += std::memcmp(&every[n].force, &dflt[n].force, sizeof(Vec3d)) != 0 ||
+                      std::memcmp(&every[n].position, &dflt[n].position, sizeof(Vec3d)) != 0 ||
+                      every[n].contacts != dflt[n].contacts;
+  }
+  std::printf("[ newton calls 2 of 4 ] %d ticks: pipelined vs unpipelined max |F| diff %.3g N (tol %.3g); %.1f%% of "
+              "the steps unpipelined; against a call after every step %.3g N\n",
+              ticks, err_f, tol_f, 100 * prof_pipe.unpipelined, diff_calls);
+  EXPECT_GT(max_grasped, 0) << "the window must contain a grasp";
+  EXPECT_EQ(grasp_mismatch, 0);
+  EXPECT_LE(err_f, tol_f);
+  EXPECT_GT(diff_calls, 0.0) << "fewer calls must change the forces";
+  EXPECT_EQ(every_mismatch, 0);
+  EXPECT_GE(prof_pipe.unpipelined, 0.5);
+  EXPECT_LT(prof_pipe.unpipelined, 0.6);
+  EXPECT_DOUBLE_EQ(prof_plain.unpipelined, 1.0);
+  EXPECT_THROW(device_ticks(10, [](DeviceHapticSetup& s) { s.virtual_iterations = 3; s.newton_calls = 4; }),
+               std::invalid_argument);
 }
 
 /// What a device replay's ticks and physical steps produce, for bitwise comparisons.

@@ -51,6 +51,24 @@ TEST(H5, DatasetsAndAttributesRoundTrip) {
   EXPECT_FALSE(f.has("g/nope/d"));
 }
 
+TEST(H5, StringDatasetsRoundTrip) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "s.h5";
+  const std::vector<std::string> v{"tube", "", "a, \"quoted\" value\nwith a line break", "\xc2\xb5m"};
+  {
+    h5::File f = h5::File::create(path);
+    f.write_strings("names", v).set_attr("unit", "1");
+    f.write_strings("g/none", {});
+    f.write<double>("x", std::vector<double>{1}, {1});
+  }
+  h5::File f = h5::File::open_read(path);
+  EXPECT_EQ(f.dataset("names").read_strings(), v);
+  EXPECT_EQ(f.dataset("names").shape(), (std::vector<std::size_t>{4}));
+  EXPECT_TRUE(f.dataset("g/none").read_strings().empty());
+  EXPECT_INPUT_ERROR(f.dataset("x").read_strings(), path, "/x", "not a dataset of strings");
+  EXPECT_INPUT_ERROR(f.read<double>("names"), path, "/names", "type string");
+}
+
 TEST(H5, ErrorsNameFileAndObject) {
   test::ScratchDir tmp;
   const std::string path = tmp / "b.h5";

@@ -298,6 +298,15 @@ TEST_F(BadScene, OutOfRange) { expect(replace(good, "damping: 0.05", "damping: 1
 TEST_F(BadScene, NotWhole) {
   expect(replace(good, "newton_iterations: 3", "newton_iterations: 2.5"), "key 'tool.newton_iterations': expected a whole number in [1, 100], got '2.5'");
 }
+TEST_F(BadScene, NewtonCalls) {
+  // cube.yaml has solver.virtual_iterations: 5
+  expect(replace(good, "newton_iterations: 3", "newton_iterations: 3\n  newton_calls: 6"),
+         "key 'tool.newton_calls': expected all or at most solver.virtual_iterations (5), got 6");
+  expect(replace(good, "newton_iterations: 3", "newton_iterations: 3\n  newton_calls: 0"),
+         "key 'tool.newton_calls': expected all or a whole number in [1, 100000], got '0'");
+  expect(replace(good, "newton_iterations: 3", "newton_iterations: 3\n  newton_calls: some"),
+         "key 'tool.newton_calls': expected all or a whole number in [1, 100000], got 'some'");
+}
 TEST_F(BadScene, RefineRange) { expect(replace(good, "virtual_refine: 1", "virtual_refine: 2"), "key 'mesh.virtual_refine': expected a whole number in [0, 1]"); }
 TEST_F(BadScene, BadRecovery) {
   expect(replace(good, "method: jacobi", "method: jacobi\n  recovery: restart"),
@@ -456,6 +465,25 @@ TEST(Scene, ResolvedYamlReloadsToTheSameScene) {
     }
   }
   fs::remove(tmp);
+}
+
+// tool.newton_calls: `all` (the default, 0) or a count up to solver.virtual_iterations, checked
+// after every override (so a plan may lower both together); written back as it was given.
+TEST(Scene, NewtonCallsDefaultToAllAndReloadAsGiven) {
+  const fs::path file = fs::path(EBH_SOURCE_DIR) / "scenarios" / "tube.yaml";
+  const SceneSpec all = load_scene_spec(file);
+  EXPECT_EQ(all.tool.newton_calls, 0);
+  EXPECT_EQ(newton_calls_per_tick(all), all.solver.virtual_iterations);
+  const SceneSpec paper = load_scene_spec(file, {"solver.virtual_iterations=3", "tool.newton_calls=1"});
+  EXPECT_EQ(newton_calls_per_tick(paper), 1);
+  EXPECT_EQ(load_scene_spec(file, {"tool.newton_calls=all"}).tool.newton_calls, 0);
+  const fs::path tmp = fs::temp_directory_path() / "ebh_test_newton_calls.yaml";
+  for (const SceneSpec* spec : {&all, &paper}) {
+    std::ofstream(tmp) << resolved_scene_yaml(*spec);
+    EXPECT_EQ(load_scene_spec(tmp).tool.newton_calls, spec->tool.newton_calls);
+  }
+  fs::remove(tmp);
+  EXPECT_THROW(load_scene_spec(file, {"solver.virtual_iterations=2", "tool.newton_calls=3"}), InputError);
 }
 
 // The same for a scene whose mesh, tool and world each have their own unit and whose mesh is

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <cmath>
 #include <filesystem>
 #include <vector>
 
@@ -129,6 +130,70 @@ TEST(Scheduler, PhysicalTargetsMoveLinearlyBetweenResults) {
   replay(*tube().world, entering_bore(0.05), opt, probe);
   EXPECT_GT(probe.checked, 20);
   EXPECT_EQ(probe.worst, 0.0);  // the same expression in the same order: bitwise
+}
+
+// tool.newton_calls (Algorithm 2 lines 17-20 after only the last N of the V iterations): N = V is
+// the default bit for bit; each tick makes N calls; the paper's configuration (3 iterations, one
+// call of one Newton step) runs; and the one call of a tick is made at the tick's final virtual
+// mesh: repeating it from the tool's state before the tick on the q the tick ends with gives the
+// tick's pose to round-off.
+TEST(Scheduler, NewtonCallsFollowTheLastVirtualIterations) {
+  const Recording rec = entering_bore(0.1);
+  auto world_with = [](const std::vector<std::string>& overrides) {
+    return load_replay_inputs("tube", "tube_insert", overrides, std::nullopt, std::nullopt, false).world;
+  };
+  struct Counter : Capture {
+    std::vector<int> calls;
+    void on_tick(const World& w, const HapticSide& h, double t) override {
+      Capture::on_tick(w, h, t);
+      calls.push_back(h.newton_calls);
+    }
+  };
+  auto capture = [&](const World& w) {
+    Counter c;
+    ReplayOptions opt;
+    opt.mode = Mode::Lockstep;
+    replay(w, rec, opt, c);
+    return c;
+  };
+  const int V = tube().world->scene.spec.solver.virtual_iterations;
+  ASSERT_GE(V, 3);
+  const Counter all = capture(*tube().world);
+  const Counter same = capture(*world_with({"tool.newton_calls=" + std::to_string(V)}));
+  EXPECT_EQ(all.values, same.values);  // bitwise
+  EXPECT_EQ(all.calls, std::vector<int>(all.calls.size(), V));
+  const Counter two = capture(*world_with({"tool.newton_calls=2"}));
+  EXPECT_EQ(two.calls, std::vector<int>(two.calls.size(), 2));
+  EXPECT_NE(two.values, all.values);  // the knob changes the result
+  const auto paper = world_with({"solver.virtual_iterations=3", "tool.newton_calls=1", "tool.newton_iterations=1"});
+  const Counter p = capture(*paper);
+  ASSERT_EQ(p.calls.size(), all.calls.size());
+  EXPECT_EQ(p.calls, std::vector<int>(p.calls.size(), 1));
+  for (double v : p.values) ASSERT_TRUE(std::isfinite(v));
+
+  // Where the one call sits: ticks driven by hand, each checked against update_virtual_tool on the
+  // tick's final q from the tool's state at the tick's start.
+  const World& w = *paper;
+  HapticSide h = make_haptic_side(w, sample_at(rec, rec.t.front()));
+  int in_contact = 0;
+  for (std::size_t n = 0; n < 100; ++n) {
+    const DeviceSample sample = sample_at(rec, rec.t.front() + static_cast<double>(n) * w.h_haptic);
+    VirtualToolState before = h.tool;
+    VertexGrid grid = h.grid;
+    haptic_tick(w, h, sample);
+    before.anchor = before.pose;
+    update_virtual_tool(w.tool, w.scene.spec.stiffness, {sample.position, sample.orientation}, sample.jaw, h.mesh.q,
+                        {}, grid, before);
+    // 1e-12: round-off only (the contact sums may run in another order when the broad phase
+    // rebuilt itself within the tick); a call at another iteration's q moves the pose by the
+    // virtual mesh's motion within a tick, micrometres.
+    const Quatd a = before.pose.orientation, b = h.tool.pose.orientation;
+    ASSERT_LE(norm(before.pose.position - h.tool.pose.position), 1e-12) << "tick " << n;
+    ASSERT_LE(std::fabs(a.w - b.w) + std::fabs(a.x - b.x) + std::fabs(a.y - b.y) + std::fabs(a.z - b.z), 1e-12)
+        << "tick " << n;
+    in_contact += !h.tool.contacts.empty();
+  }
+  EXPECT_GT(in_contact, 10) << "the window must have contact, or the check above shows nothing";
 }
 
 TEST(Scheduler, TickCountCoversTheDuration) {

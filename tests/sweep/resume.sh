@@ -34,6 +34,7 @@ ran_ids() { sed -n 's/^\[[0-9]*\/[0-9]*\] done in .*(\([0-9a-f]*\))$/\1/p' "$1" 
 "$ebh" sweep "$work/plan.yaml" -o "$work/a" --jobs 2 >"$work/a.out" 2>"$work/a.err" || fail "first sweep: $(tail -1 "$work/a.err")"
 [ "$(ids_done "$work/a" | wc -l)" = 4 ] || fail "expected 4 outputs, got: $(ids_done "$work/a")"
 [ "$(column "$work/a/summary.csv" status | sort -u)" = ok ] || fail "not every run ok: $(column "$work/a/summary.csv" status)"
+[ -s "$work/a/summary.h5" ] || fail "no summary.h5 beside summary.csv"
 # The reference (reference = 1) and its repetition have error 0; 1 virtual iteration does not.
 paste -d' ' <(column "$work/a/summary.csv" reference) <(column "$work/a/summary.csv" repetition) \
   <(column "$work/a/summary.csv" set.solver.virtual_iterations) <(column "$work/a/summary.csv" force_error_rms_N) \

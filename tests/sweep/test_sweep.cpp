@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "io/h5.hpp"
 #include "sweep/plan.hpp"
 #include "sweep/report.hpp"
 #include "sweep/runner.hpp"
@@ -29,6 +30,15 @@ fs::path plan_file(const std::string& name, const std::string& text) {
   const fs::path p = scratch() / name;
   std::ofstream(p) << text;
   return p;
+}
+
+/// The hand-made summary (tests/data/sweep/front) and its text.
+std::string front_file() { return std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv"; }
+std::string front_text() {
+  std::ifstream in(front_file());
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
 }
 
 const char* kPlan = R"(# two scenes' worth of keys on the tube
@@ -132,6 +142,51 @@ TEST(SweepPlan, RunIdsAreStable) {
   EXPECT_NE(run_id(lockstep, scene, rec, o, a[3].backend, a[3].repetition), id);
 }
 
+// `baseline`: a named configuration added to the runs once (not again when a list entry is it),
+// flagged on its runs, kept by the resolved copy with the same ids; the paper's configuration
+// (tool.newton_calls below solver.virtual_iterations) is a plan value like any scene key.
+TEST(SweepPlan, BaselineIsANamedConfiguration) {
+  const char* text = R"(
+scenes:
+  - {scene: tube, recordings: [tube_insert], reference: {solver.virtual_iterations: 8}}
+runs:
+  - {solver.virtual_iterations: 2}
+  - {solver.virtual_iterations: 4, tool.newton_calls: 2}
+baseline:
+  name: paper
+  set: {solver.virtual_iterations: 3, tool.newton_calls: 1, tool.newton_iterations: 1}
+duration: 0.5
+)";
+  const SweepPlan p = read_sweep_plan(plan_file("baseline.yaml", text));
+  ASSERT_TRUE(p.baseline.has_value());
+  EXPECT_EQ(p.baseline_name, "paper");
+  ASSERT_EQ(p.configurations.size(), 3u);
+  EXPECT_EQ(p.configurations[2], *p.baseline);
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 4u);  // the reference and three configurations
+  std::vector<std::string> flagged;
+  for (const SweepRun& r : runs)
+    if (r.baseline) flagged.push_back(r.overrides_text());
+  EXPECT_EQ(flagged, std::vector<std::string>{"solver.virtual_iterations=3 tool.newton_calls=1 tool.newton_iterations=1"});
+  const std::vector<SweepRun> again = expand_plan(read_sweep_plan(plan_file("baseline_copy.yaml", resolved_plan_yaml(p))));
+  ASSERT_EQ(again.size(), runs.size());
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    EXPECT_EQ(again[i].id, runs[i].id);
+    EXPECT_EQ(again[i].baseline, runs[i].baseline);
+  }
+  // A baseline that is one of the runs adds none; one that is the reference flags the reference.
+  std::string same = text;
+  same.replace(same.find("{solver.virtual_iterations: 3, tool.newton_calls: 1, tool.newton_iterations: 1}"), 79,
+               "{solver.virtual_iterations: 2}");
+  EXPECT_EQ(expand_plan(read_sweep_plan(plan_file("baseline_same.yaml", same))).size(), 3u);
+  std::string ref = text;
+  ref.replace(ref.find("{solver.virtual_iterations: 3, tool.newton_calls: 1, tool.newton_iterations: 1}"), 79,
+              "{solver.virtual_iterations: 8}");
+  const std::vector<SweepRun> r2 = expand_plan(read_sweep_plan(plan_file("baseline_ref.yaml", ref)));
+  ASSERT_EQ(r2.size(), 3u);
+  EXPECT_TRUE(r2[0].reference && r2[0].baseline);
+}
+
 /// Each bad plan: one line naming the plan file, the line and the key, and what is wrong.
 TEST(SweepPlan, BadPlansNameFileAndKey) {
   const std::vector<std::pair<std::string, std::string>> cases = {
@@ -166,6 +221,15 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
       {"scenes: [{scene: tube, recordings: [tube_insert, tube_insert], reference: {}}]\n",
        ":1: key 'scenes\\[0\\].recordings': .*tube_insert.h5 given twice"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}\n", ":2: YAML syntax error"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbaseline: {name: paper}\n",
+       ":2: key 'baseline.set': missing \\(required"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbaseline: {set: {}, label: x}\n",
+       ":2: key 'baseline.label': unknown key"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbaseline:\n  set: {tool.newton_calls: 9}\n",
+       ":3: key 'baseline.set.tool.newton_calls': on scene tube: .*expected all or at most solver.virtual_iterations"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\n"
+       "runs:\n  - {solver.virtual_iterations: 2, tool.newton_calls: 3}\n",
+       ":3: key 'runs': on scene tube: .*key 'tool.newton_calls': expected all or at most solver.virtual_iterations \\(2\\)"},
   };
   int i = 0;
   for (const auto& [text, expected] : cases) {
@@ -260,6 +324,58 @@ TEST(SweepCsv, QuotedFieldsRoundTrip) {
   EXPECT_THROW((void)parse_csv("a,b\n\"1,2\n", "t.csv"), InputError);
 }
 
+// summary.h5: the hand-made summary plus a numeric and a text scene-key column, written and read
+// back: every column a dataset of its kind with the CSV's values (empty cells NaN), the column
+// order in `columns`; a numeric column with text is refused and leaves no file.
+TEST(SweepSummaryH5, SameRowsAndColumnsTyped) {
+  const std::string file = front_file();
+  const std::string text = front_text();
+  CsvTable t = parse_csv(text, file);
+  t.header.insert(t.header.begin() + 8, {"set.k", "set.solver.method"});
+  for (std::size_t r = 0; r < t.rows.size(); ++r)
+    t.rows[r].insert(t.rows[r].begin() + 8, {r == 0 ? "" : std::to_string(r), r == 0 ? "direct" : ""});
+  const fs::path out = scratch() / "summary.h5";
+  fs::remove(out);
+  write_summary_h5(t, out.string());
+  const h5::File f = h5::File::open_read(out.string());
+  std::string columns;
+  for (const std::string& c : t.header) columns += (columns.empty() ? "" : "\n") + c;
+  EXPECT_EQ(f.attr_string("columns"), columns);
+  const std::size_t n = t.rows.size();
+  auto col = [&](const std::string& name) {
+    std::vector<std::string> v;
+    for (const auto& row : t.rows) v.push_back(row[t.column(name, file)]);
+    return v;
+  };
+  for (const char* name : {"id", "status", "scene", "recording", "backend", "overrides", "error", "set.solver.method"})
+    EXPECT_EQ(f.dataset(name).read_strings(), col(name)) << name;
+  EXPECT_EQ(f.read<std::int64_t>("repetition", {static_cast<std::ptrdiff_t>(n)}).data,
+            (std::vector<std::int64_t>{0, 0, 0, 1, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(f.read<std::int64_t>("reference").data, (std::vector<std::int64_t>{1, 0, 0, 0, 0, 0, 0, 0, 0}));
+  const std::vector<double> wall = f.read<double>("wall_s").data;
+  ASSERT_EQ(wall.size(), n);
+  EXPECT_EQ(wall[0], 10.0);
+  EXPECT_EQ(wall[3], 2.4);
+  EXPECT_TRUE(std::isnan(wall[7]) && std::isnan(wall[8]));  // failed and pending: no value
+  const std::vector<double> k = f.read<double>("set.k").data;
+  EXPECT_TRUE(std::isnan(k[0]));
+  EXPECT_EQ(k[5], 5.0);
+  EXPECT_THROW((void)f.read<std::int64_t>("wall_s"), InputError);  // float64, not int64
+  for (const std::string& c : t.header) EXPECT_TRUE(f.has(c)) << c;
+
+  CsvTable bad = t;
+  bad.rows[2][bad.column("wall_s", file)] = "fast";
+  const fs::path out2 = scratch() / "bad_summary.h5";
+  fs::remove(out2);
+  try {
+    write_summary_h5(bad, out2.string());
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), out2.string() + ": row 3, column 'wall_s': expected a number, got 'fast'");
+  }
+  EXPECT_FALSE(fs::exists(out2));
+}
+
 TEST(SweepReport, ParetoFront) {
   const double nan = std::nan("");
   // (wall, error): (1, .5) (2, .2) (3, .3) (4, .1) (1.5, .5) (2, .2) again, a NaN.
@@ -269,11 +385,9 @@ TEST(SweepReport, ParetoFront) {
 }
 
 TEST(SweepReport, HandMadeSummary) {
-  const std::string file = std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv";
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::vector<ReportGroup> g = build_report(parse_csv(text.str(), file), file);
+  const std::string file = front_file();
+  const std::string text = front_text();
+  const std::vector<ReportGroup> g = build_report(parse_csv(text, file), file);
   ASSERT_EQ(g.size(), 1u);
   EXPECT_EQ(g[0].reference, "solver.method=direct (cpu)");
   std::vector<std::string> order, front;
@@ -291,6 +405,42 @@ TEST(SweepReport, HandMadeSummary) {
   const std::string md = report_markdown(g);
   EXPECT_NE(md.find("| * | k=1 | 1 | 1 | 2x | 0.5 |"), std::string::npos) << md;
   EXPECT_NE(md.find("| reference | solver.method=direct | 1 | 10 |"), std::string::npos) << md;
+}
+
+// The baseline column: its point is marked, and the report finds the fastest configuration at
+// its error or lower and the most accurate at its wall time or lower (the hand-made summary with
+// k=3, wall 3 s and error 0.3 N, as the baseline: k=2 is both, 2.2 s and 0.2 N).
+TEST(SweepReport, BaselineGoal) {
+  const std::string file = front_file();
+  const std::string text = front_text();
+  CsvTable t = parse_csv(text, file);
+  t.header.push_back("baseline");
+  for (auto& row : t.rows) row.push_back(row[t.column("overrides", file)] == "k=3" ? "paper" : "");
+  const std::vector<ReportGroup> g = build_report(t, file);
+  ASSERT_EQ(g.size(), 1u);
+  const auto goal = baseline_goal(g[0]);
+  ASSERT_TRUE(goal.has_value());
+  EXPECT_EQ(g[0].points[goal->baseline].overrides, "k=3");
+  EXPECT_EQ(g[0].points[goal->baseline].baseline, "paper");
+  EXPECT_EQ(g[0].points[goal->fastest].overrides, "k=2");
+  EXPECT_EQ(g[0].points[goal->most_accurate].overrides, "k=2");
+  EXPECT_DOUBLE_EQ(goal->speedup, 3 / 2.2);
+  EXPECT_DOUBLE_EQ(goal->error_ratio, 0.3 / 0.2);
+  const std::string md = report_markdown(g);
+  EXPECT_NE(md.find("|  paper | k=3 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("is k=2, 2.2 s, **1.36x faster**"), std::string::npos) << md;
+  EXPECT_NE(md.find("**1.5x lower error**. 2x goal: not met."), std::string::npos) << md;
+  // As the baseline k=4 (4 s, 0.1 N): k=2 at 2.2 s is not as accurate, so nothing is faster at
+  // 0.1 N; nothing slower counts for accuracy, and k=4 is the most accurate at 4 s or less.
+  for (auto& row : t.rows) row.back() = row[t.column("overrides", file)] == "k=4" ? "paper" : "";
+  const auto g4 = build_report(t, file);
+  const auto goal4 = baseline_goal(g4[0]);
+  ASSERT_TRUE(goal4.has_value());
+  EXPECT_EQ(goal4->fastest, goal4->baseline);
+  EXPECT_EQ(goal4->speedup, 1.0);
+  EXPECT_EQ(g4[0].points[goal4->most_accurate].overrides, "k=4");
+  // No baseline column: no comparison.
+  EXPECT_FALSE(baseline_goal(build_report(parse_csv(text, file), file)[0]).has_value());
 }
 
 TEST(SweepReport, MissingColumnAndBadNumberAreNamed) {

@@ -2,6 +2,12 @@
 // exercised by `ebh validate convergence`, not by the unit tests).
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <memory>
+
+#include "core/error.hpp"
+#include "schedule/replay_inputs.hpp"
+#include "schedule/scheduler.hpp"
 #include "validate/validation.hpp"
 
 namespace ebh {
@@ -33,6 +39,60 @@ TEST(Validation, HertzIndentationForceFollowsTheTheory) {
   EXPECT_TRUE(r.passed) << r.to_json().dump();
   // The 15% budget is derived in hertz.cpp (finite block, tet size, penalty, small-strain theory).
   EXPECT_LE(r.error, 0.15);
+}
+
+// The short form of `ebh validate contact`: what surface contact is for, against vertex contact.
+TEST(Validation, SurfaceContactHoldsWhereVertexContactLetsTheHookThrough) {
+  const ContactPush v = contact_push_through("vertices", 0.05), s = contact_push_through("surface", 0.05);
+  EXPECT_LT(v.force_at_depth, 0.2) << "vertex contact: the tip slipped between vertices";
+  EXPECT_GT(s.force_at_depth, 2.5) << "surface contact keeps pushing back";
+  EXPECT_LT(s.fall, 0.25);
+  EXPECT_GT(v.fall, 1.0);
+  EXPECT_LT(s.penetration, 1e-3);
+  const ContactSlide flat = contact_sliding("flat");
+  EXPECT_GT(flat.power_vertices, 5 * flat.power_surface);
+  EXPECT_GT(flat.mean_surface, 0.02) << "the forceps touch the surface";
+}
+
+TEST(Validation, SurfaceContactReplaysAreBitwiseReproducible) {
+  const std::string path = resolve_recording_path("gap_insert");
+  Recording rec = read_recording(path);
+  apply_stored_transforms(rec, path);
+  struct Forces : ReplayObserver {
+    std::vector<Vec3d> f;
+    void on_tick(const World&, const HapticSide& h, double) override { f.push_back(h.output.force); }
+  };
+  std::vector<Vec3d> runs[2];
+  for (auto& out : runs) {
+    Scene scene = load_scene(resolve_scene_path("gap"), {"contact=surface"});
+    const auto world = build_world(std::move(scene), 1000, 100, Backend::Cpu);
+    Forces obs;
+    ReplayOptions opt;
+    opt.start = 3.0;  // the hook inside the gap
+    opt.duration = 0.5;
+    replay(*world, rec, opt, obs);
+    out = obs.f;
+  }
+  ASSERT_EQ(runs[0].size(), runs[1].size());
+  ASSERT_GE(runs[0].size(), 500u);
+  double largest = 0;
+  for (std::size_t i = 0; i < runs[0].size(); ++i) {
+    EXPECT_EQ(runs[0][i].x, runs[1][i].x);
+    EXPECT_EQ(runs[0][i].z, runs[1][i].z);
+    largest = std::max(largest, norm(runs[0][i]));
+  }
+  EXPECT_GT(largest, 0.05) << "the window has contact";
+}
+
+TEST(Validation, TheCudaBackendRefusesSurfaceContact) {
+  Scene scene = load_scene(resolve_scene_path("gap"), {"contact=surface"});
+  try {
+    build_world(std::move(scene), 1000, 100, Backend::Cuda);
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("key 'contact': surface contact runs on the CPU backend only"),
+              std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // ebh sweep PLAN.yaml -o DIR: many replays from a plan, locally (N at a time) or as a Slurm job
-// array, resumable; DIR/summary.csv holds one row per run. ebh sweep report DIR: run time against
-// force error, the Pareto front, a plot. lib/sweep has the pieces; docs/FORMATS.md the files.
+// array, resumable; DIR/summary.csv and DIR/summary.h5 hold one row per run. ebh sweep report DIR:
+// run time against force error, the Pareto front, a plot. lib/sweep has the pieces; docs/FORMATS.md the files.
 #include <unistd.h>
 
 #include <algorithm>
@@ -59,10 +59,16 @@ std::string describe(const SweepPlan& plan, const SweepRun& r) {
          r.overrides_text() + " (" + r.id + ")";
 }
 
-/// Writes DIR/summary.csv from what DIR holds; prints its counts.
+/// DIR/summary.csv and DIR/summary.h5, each written atomically.
+void write_summary_files(const fs::path& dir, const CsvTable& table) {
+  write_file_atomically(summary_path(dir).string(), table.to_csv());
+  write_summary_h5(table, (dir / "summary.h5").string());
+}
+
+/// Writes DIR/summary.csv (and .h5) from what DIR holds; prints its counts.
 SweepSummary write_summary(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
   SweepSummary s = summarize_sweep(plan, runs, dir);
-  write_file_atomically(summary_path(dir).string(), s.table.to_csv());
+  write_summary_files(dir, s.table);
   std::printf("%s: %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(), runs.size(), s.ok, s.failed,
               s.pending);
   return s;
@@ -238,7 +244,7 @@ void run_report(const ReportArgs& a) {
   if (has_plan && (!has_summary || fs::last_write_time(summary_path(dir), ec) <= newest_input(dir))) {
     const SweepPlan plan = read_sweep_plan(plan_copy(dir));
     const SweepSummary s = summarize_sweep(plan, expand_plan(plan), dir);
-    write_file_atomically(summary_path(dir).string(), s.table.to_csv());
+    write_summary_files(dir, s.table);
     std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(),
                  s.table.rows.size(), s.ok, s.failed, s.pending);
   }
@@ -263,7 +269,7 @@ void setup(CLI::App& root) {
   c->add_option("--jobs", args->jobs, "Replays at a time (default 1: timings undisturbed); threads split so jobs x threads = cores")
       ->check(CLI::Range(1, 1024));
   c->add_option("--backend", args->backend, "Run only the plan's runs on cpu or cuda (and the CPU references)");
-  c->add_flag("--collect", args->collect, "Only rebuild DIR/summary.csv from the runs' outputs");
+  c->add_flag("--collect", args->collect, "Only rebuild DIR/summary.csv and summary.h5 from the runs' outputs");
   c->add_flag("--slurm", args->slurm, "Submit the plan as a Slurm job array (sbatch --array) instead of running it here");
   c->add_option("--slurm-args", args->slurm_args, "More sbatch options, e.g. \"--partition=gpu --gres=gpu:1 -c 4\"");
   c->add_option("--tasks", args->tasks, "Array tasks with --slurm (default: one per run, at most 1000)")->check(CLI::Range(1, 100000));

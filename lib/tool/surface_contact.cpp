@@ -1,0 +1,255 @@
+#include "tool/surface_contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace ebh {
+
+namespace {
+double longest_edge(std::span<const Vec3d> q, const std::array<int, 3>& v) {
+  return std::sqrt(std::max({squared_norm(q[v[1]] - q[v[0]]), squared_norm(q[v[2]] - q[v[1]]),
+                             squared_norm(q[v[0]] - q[v[2]])}));
+}
+int clamp_level(double n) { return n < 1 ? 1 : (n > kMaxSampleLevel ? kMaxSampleLevel : static_cast<int>(n)); }
+}  // namespace
+
+SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> triangles, std::span<const Vec3d> rest,
+                                          double spacing) {
+  const int vertices = static_cast<int>(rest.size());
+  if (!(spacing > 0)) throw std::invalid_argument("build_surface_contact: the sample spacing must be positive");
+  SurfaceContactModel s;
+  s.spacing = spacing;
+  s.triangles.assign(triangles.begin(), triangles.end());
+  s.rest_level.resize(s.triangles.size());
+  for (std::size_t t = 0; t < s.triangles.size(); ++t)
+    s.rest_level[t] = static_cast<std::uint8_t>(clamp_level(std::ceil(longest_edge(rest, s.triangles[t]) / spacing)));
+  std::vector<int> count(vertices + 1, 0);
+  for (const auto& v : s.triangles)
+    for (const int i : v) ++count[i + 1];
+  s.tri_offsets.assign(vertices + 1, 0);
+  for (int j = 0; j < vertices; ++j) s.tri_offsets[j + 1] = s.tri_offsets[j] + count[j + 1];
+  s.tri_entries.resize(s.tri_offsets[vertices]);
+  std::vector<int> fill(s.tri_offsets.begin(), s.tri_offsets.end() - 1);
+  for (std::size_t t = 0; t < s.triangles.size(); ++t)
+    for (const int i : s.triangles[t]) s.tri_entries[fill[i]++] = static_cast<int>(t);
+  return s;
+}
+
+double thinnest_part(const ToolModel& tool) {
+  double r = INFINITY;
+  for (const Collider<double>& c : tool.colliders) {
+    if (c.shape == Shape::Box)
+      r = std::min({r, c.half.x, c.half.y, c.half.z});
+    else
+      r = std::min(r, c.radius);
+  }
+  return r;
+}
+
+
+int sample_level(const SurfaceContactModel& s, int t, std::span<const Vec3d> q) {
+  const int stretched = clamp_level(std::ceil(longest_edge(q, s.triangles[t]) / s.spacing));
+  return std::max(static_cast<int>(s.rest_level[t]), stretched);
+}
+
+double sample_weight(const SurfaceContactModel& s, int t, int n, std::span<const Vec3d> q) {
+  const auto& v = s.triangles[t];
+  const double area = 0.5 * norm(cross(q[v[1]] - q[v[0]], q[v[2]] - q[v[0]]));
+  const double reference = 0.25 * std::sqrt(3.0) * s.spacing * s.spacing;
+  return s.stiffness_factor * area / (static_cast<double>(n) * n * reference);
+}
+
+double surface_stiffness_factor(double k_con, double force_limit, double spacing) {
+  if (!(force_limit > 0) || !(spacing > 0) || !(k_con > 0)) return 1.0;
+  return std::max(1.0, force_limit / (1.5 * spacing) / k_con);
+}
+
+void triangle_samples(const SurfaceContactModel& s, int t, std::span<const Vec3d> q, std::vector<SurfaceSample>& out) {
+  // The n^2 sub-triangles of the regular subdivision: "up" ones with corners (i, j), (i+1, j),
+  // (i, j+1) in units of 1/n along the edges from corner 0 to corners 1 and 2, and "down" ones
+  // (i+1, j), (i, j+1), (i+1, j+1); a sample at each centroid.
+  const int n = sample_level(s, t, q);
+  const double w = sample_weight(s, t, n, q);
+  const double inv = 1.0 / n;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; i + j < n; ++j) {
+      const double b1 = (i + 1.0 / 3.0) * inv, b2 = (j + 1.0 / 3.0) * inv;
+      out.push_back({t, {1.0 - b1 - b2, b1, b2}, w});
+      if (i + j + 1 < n) {
+        const double c1 = (i + 2.0 / 3.0) * inv, c2 = (j + 2.0 / 3.0) * inv;
+        out.push_back({t, {1.0 - c1 - c2, c1, c2}, w});
+      }
+    }
+}
+
+namespace {
+
+/// (Re)bins the triangles by their bounding boxes at q when the vertex grid was rebuilt since the
+/// last time (the vertex grid keeps every vertex within its margin of where it was built, so
+/// within two margins of q here: queries grow by that).
+void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> q, VertexGrid& grid,
+                           SurfaceScratch& sc) {
+  if (grid.stale(q.size())) grid.rebuild(q, grid.margin());
+  if (sc.grid_rebuild == grid.rebuilds() && sc.stamp.size() == s.triangles.size()) return;
+  sc.grid_rebuild = grid.rebuilds();
+  const std::size_t F = s.triangles.size();
+  sc.stamp.assign(F, 0);
+  sc.current = 0;
+  sc.grow = 2.0 * grid.margin();
+  Vec3d lo{INFINITY, INFINITY, INFINITY}, hi = -lo;
+  double mean_edge = 0;
+  for (const auto& v : s.triangles) {
+    for (const int i : v) { lo = cwise_min(lo, q[i]); hi = cwise_max(hi, q[i]); }
+    mean_edge += norm(q[v[1]] - q[v[0]]);
+  }
+  mean_edge = F ? mean_edge / F : 1.0;
+  sc.cell = std::max(2.0 * mean_edge, 1e-6);
+  sc.origin = lo;
+  for (int k = 0; k < 3; ++k)
+    sc.dims[k] = F ? std::max(1, std::min(1024, static_cast<int>((hi[k] - lo[k]) / sc.cell) + 1)) : 1;
+  const auto cell_range = [&](Vec3d a, Vec3d b, int* i0, int* i1) {
+    for (int k = 0; k < 3; ++k) {
+      i0[k] = std::clamp(static_cast<int>(std::floor((a[k] - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
+      i1[k] = std::clamp(static_cast<int>(std::floor((b[k] - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
+    }
+  };
+  const std::size_t cells = static_cast<std::size_t>(sc.dims[0]) * sc.dims[1] * sc.dims[2];
+  sc.cell_start.assign(cells + 1, 0);
+  // Two passes (count, then fill) over the cells each triangle's box covers.
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) {
+      for (std::size_t c = 0; c < cells; ++c) sc.cell_start[c + 1] += sc.cell_start[c];
+      sc.cell_entries.resize(sc.cell_start[cells]);
+      sc.fill.assign(sc.cell_start.begin(), sc.cell_start.end() - 1);
+    }
+    for (std::size_t t = 0; t < F; ++t) {
+      const auto& v = s.triangles[t];
+      int i0[3], i1[3];
+      cell_range(cwise_min(cwise_min(q[v[0]], q[v[1]]), q[v[2]]), cwise_max(cwise_max(q[v[0]], q[v[1]]), q[v[2]]), i0,
+                 i1);
+      for (int x = i0[0]; x <= i1[0]; ++x)
+        for (int y = i0[1]; y <= i1[1]; ++y)
+          for (int z = i0[2]; z <= i1[2]; ++z) {
+            const std::size_t c = (static_cast<std::size_t>(x) * sc.dims[1] + y) * sc.dims[2] + z;
+            if (pass == 0) ++sc.cell_start[c + 1];
+            else sc.cell_entries[sc.fill[c]++] = static_cast<int>(t);
+          }
+    }
+  }
+}
+
+/// The triangles a collider of `tool` may reach after moving by up to `translation` and `rotation`,
+/// each once, in a fixed order (colliders, their covering boxes, cells, the cells' triangles), with
+/// those of an `excluded` vertex left out.
+void candidate_triangles(const SurfaceContactModel& s, const PosedTool& tool, std::span<const Vec3d> q,
+                         VertexGrid& grid, double translation, double rotation, std::span<const std::uint8_t> excluded,
+                         SurfaceScratch& sc, std::vector<int>& triangles) {
+  refresh_triangle_grid(s, q, grid, sc);
+  triangles.clear();
+  const std::uint32_t stamp = ++sc.current;
+  const double T = translation, th = std::min(rotation, 0.5);
+  for (int c = 0; c < tool.count; ++c) {
+    const Collider<double>& shape = tool.shape[c];
+    const Rigid<double>& w = tool.world[c];
+    const double grow = sc.grow + (T + th * (tool.reach[c] + T)) / (1.0 - th);
+    cover_collider(shape, w, sc.cell, [&](Vec3d lo, Vec3d hi) {
+      int i0[3], i1[3];
+      for (int k = 0; k < 3; ++k) {
+        i0[k] = std::clamp(static_cast<int>(std::floor((lo[k] - grow - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
+        i1[k] = std::clamp(static_cast<int>(std::floor((hi[k] + grow - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
+        if (hi[k] + grow < sc.origin[k] || lo[k] - grow > sc.origin[k] + sc.dims[k] * sc.cell) return;
+      }
+      for (int x = i0[0]; x <= i1[0]; ++x)
+        for (int y = i0[1]; y <= i1[1]; ++y)
+          for (int z = i0[2]; z <= i1[2]; ++z) {
+            const std::size_t cell = (static_cast<std::size_t>(x) * sc.dims[1] + y) * sc.dims[2] + z;
+            for (int e = sc.cell_start[cell]; e < sc.cell_start[cell + 1]; ++e) {
+              const int t = sc.cell_entries[e];
+              if (sc.stamp[t] == stamp) continue;
+              sc.stamp[t] = stamp;
+              const auto& v = s.triangles[t];
+              if (!excluded.empty() && (excluded[v[0]] || excluded[v[1]] || excluded[v[2]])) continue;
+              // The triangle's bounding sphere against gather_candidates' bound (s = its radius).
+              const Vec3d mid = (q[v[0]] + q[v[1]] + q[v[2]]) / 3.0;
+              const double R = std::sqrt(std::max(
+                  {squared_norm(q[v[0]] - mid), squared_norm(q[v[1]] - mid), squared_norm(q[v[2]] - mid)}));
+              const double bound = (R + T + th * (norm(mid - tool.origin) + T)) / (1.0 - th);
+              for (int k = 0; k < tool.count; ++k)
+                if (signed_distance_local(tool.shape[k], apply_inverse(tool.world[k], mid)) <= bound) {
+                  triangles.push_back(t);
+                  break;
+                }
+            }
+          }
+    });
+  }
+}
+
+}  // namespace
+
+void gather_samples(const SurfaceContactModel& s, const PosedTool& tool, std::span<const Vec3d> q, VertexGrid& grid,
+                    double translation, double rotation, std::span<const std::uint8_t> excluded,
+                    SurfaceScratch& scratch, std::vector<SurfaceSample>& out) {
+  candidate_triangles(s, tool, q, grid, translation, rotation, excluded, scratch, scratch.triangles);
+  out.clear();
+  const double T = translation, th = std::min(rotation, 0.5);
+  for (const int t : scratch.triangles) {
+    scratch.samples.clear();
+    triangle_samples(s, t, q, scratch.samples);
+    for (const SurfaceSample& p : scratch.samples) {
+      // gather_candidates' bound for a point (s = 0): keep the samples some collider can reach.
+      const Vec3d y = sample_point(s, p, q);
+      const double bound = (T + th * (norm(y - tool.origin) + T)) / (1.0 - th);
+      for (int c = 0; c < tool.count; ++c)
+        if (signed_distance_local(tool.shape[c], apply_inverse(tool.world[c], y)) <= bound) {
+          out.push_back(p);
+          break;
+        }
+    }
+  }
+}
+
+void sample_narrow_phase(const SurfaceContactModel& s, const PosedTool& tool, std::span<const SurfaceSample> samples,
+                         std::span<const Vec3d> q, std::vector<ContactPoint>& out) {
+  out.clear();
+  ContactPoint cp;
+  for (std::size_t k = 0; k < samples.size(); ++k)
+    if (vertex_contact(tool, Projection::ClosestPoint, static_cast<int>(k), sample_point(s, samples[k], q), Vec3d{},
+                       cp)) {
+      cp.weight = samples[k].weight;
+      out.push_back(cp);
+    }
+}
+
+void surface_contact_targets(const SurfaceContactModel& s, const ToolModel& tool, const ToolPose& pose, double jaw,
+                             std::span<const Vec3d> q, VertexGrid& grid, double k_con,
+                             std::span<const std::uint8_t> excluded, SurfaceScratch& scratch,
+                             std::vector<ContactTarget>& out) {
+  const PosedTool posed = pose_tool(tool, pose, jaw);
+  gather_samples(s, posed, q, grid, 0.0, 0.0, excluded, scratch, scratch.kept);
+  sample_narrow_phase(s, posed, scratch.kept, q, scratch.contacts);
+  for (const ContactPoint& c : scratch.contacts) {
+    const SurfaceSample& p = scratch.kept[c.vertex];
+    const Vec3d shift = c.target - c.lever;  // y_proj - y
+    const auto& v = s.triangles[p.triangle];
+    for (int k = 0; k < 3; ++k)
+      if (p.b[k] > 0) out.push_back({v[k], q[v[k]] + shift, k_con * p.weight * p.b[k]});
+  }
+}
+
+double surface_penetration_depth(const SurfaceContactModel& s, const ToolModel& tool, const ToolPose& pose, double jaw,
+                                 std::span<const Vec3d> q, VertexGrid& grid, std::span<const std::uint8_t> excluded,
+                                 SurfaceScratch& scratch) {
+  const PosedTool posed = pose_tool(tool, pose, jaw);
+  gather_samples(s, posed, q, grid, 0.0, 0.0, excluded, scratch, scratch.kept);
+  double deepest = 0.0;
+  for (const SurfaceSample& p : scratch.kept) {
+    const Vec3d y = sample_point(s, p, q);
+    for (int c = 0; c < posed.count; ++c)
+      deepest = std::max(deepest, -signed_distance_local(posed.shape[c], apply_inverse(posed.world[c], y)));
+  }
+  return deepest;
+}
+
+}  // namespace ebh

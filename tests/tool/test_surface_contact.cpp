@@ -1,0 +1,349 @@
+// Surface contact (tool/surface_contact.hpp): the samples, the candidate search against brute
+// force, no tunnelling between vertices, the rounded box's query, and E_con of samples against
+// finite differences on both sides (the virtual tool's pose; the virtual mesh's positions).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <numeric>
+#include <random>
+#include <set>
+
+#include "mesh/boundary.hpp"
+#include "mesh/box_mesh.hpp"
+#include "tool/contact.hpp"
+#include "tool/surface_contact.hpp"
+#include "tool/tool_energy.hpp"
+#include "tool/tool_model.hpp"
+
+using namespace ebh;
+
+namespace {
+
+ToolModel surface_tool(ToolSpec::Kind kind) {
+  ToolSpec spec;
+  spec.kind = kind;
+  ToolModel tool = build_tool(spec);
+  for (Collider<double>& c : tool.colliders)  // as build_world does for contact: surface
+    if (c.shape == Shape::Box) c.radius = std::min({c.half.x, c.half.y, c.half.z});
+  return tool;
+}
+
+/// The box [-20, 20] x [-20, 20] x [-20, 0] mm's boundary, 4 x 4 x 2 cells (5 and 10 mm triangles).
+SurfaceMesh box_surface() {
+  return extract_boundary(make_box_tets({-0.02, -0.02, -0.02}, {0.02, 0.02, 0.0}, 4, 4, 2));
+}
+
+const Quatd kDown{0, 1, 0, 0};  // tool +z = world -z
+
+}  // namespace
+
+TEST(SurfaceSamples, SubTriangleCentroidsCoverTheTriangle) {
+  const std::vector<Vec3d> rest = {{0, 0, 0}, {0.003, 0, 0}, {0, 0.003, 0}};
+  const std::vector<std::array<int, 3>> tris = {{0, 1, 2}};
+  const SurfaceContactModel s = build_surface_contact(tris, rest, 0.001);
+  EXPECT_EQ(s.rest_level[0], 5);  // ceil(longest edge 4.24 mm / 1 mm)
+  std::vector<SurfaceSample> out;
+  triangle_samples(s, 0, rest, out);
+  ASSERT_EQ(out.size(), 25u);
+  Vec3d mean{};
+  double weight = 0;
+  std::set<std::pair<long, long>> distinct;
+  for (const SurfaceSample& p : out) {
+    EXPECT_NEAR(p.b[0] + p.b[1] + p.b[2], 1.0, 1e-15);
+    for (double b : p.b) EXPECT_GT(b, 0.0);
+    mean += sample_point(s, p, rest) / 25.0;
+    weight += p.weight;
+    distinct.insert({std::lround(p.b[1] * 1e9), std::lround(p.b[2] * 1e9)});
+  }
+  EXPECT_EQ(distinct.size(), 25u);
+  EXPECT_LT(norm(mean - Vec3d{0.001, 0.001, 0}), 1e-15);  // equal areas: the centroids average to the centroid
+  // Weights: the triangle's area in units of an equilateral triangle of edge `spacing`.
+  EXPECT_NEAR(weight, 4.5e-6 / (0.25 * std::sqrt(3.0) * 1e-6), 1e-12);
+}
+
+TEST(SurfaceSamples, StretchingAddsRowsPastTheRestLevel) {
+  const std::vector<Vec3d> rest = {{0, 0, 0}, {0.002, 0, 0}, {0, 0.001, 0}};
+  const SurfaceContactModel s = build_surface_contact(std::vector<std::array<int, 3>>{{0, 1, 2}}, rest, 0.001);
+  EXPECT_EQ(sample_level(s, 0, rest), 3);  // ceil(2.236)
+  std::vector<Vec3d> q = rest;
+  q[1].x = 0.0010;  // compressed: still the rest level
+  EXPECT_EQ(sample_level(s, 0, q), 3);
+  q[1].x = 0.0050;  // longest edge 5.10 mm
+  EXPECT_EQ(sample_level(s, 0, q), 6);
+  q[1].x = 1.0;  // absurd stretch: capped
+  EXPECT_EQ(sample_level(s, 0, q), kMaxSampleLevel);
+}
+
+TEST(SurfaceContact, StiffnessFloorHoldsTheThinnestPartAtTheForceLimit) {
+  EXPECT_DOUBLE_EQ(surface_stiffness_factor(400, 3.3, 0.001), 3.3 / 1.5e-3 / 400);
+  EXPECT_DOUBLE_EQ(surface_stiffness_factor(5000, 3.3, 0.001), 1.0);  // already above the floor
+  EXPECT_DOUBLE_EQ(surface_stiffness_factor(400, 0.0, 0.001), 1.0);   // no force limit: no floor
+  EXPECT_DOUBLE_EQ(thinnest_part(surface_tool(ToolSpec::Kind::Hook)), ToolSpec{}.hook.tip_radius);
+}
+
+TEST(SurfaceContact, CandidateSamplesIncludeEveryContactFoundByBruteForce) {
+  const SurfaceMesh mesh = box_surface();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int inside = 0;
+  for (auto kind : {ToolSpec::Kind::Hook, ToolSpec::Kind::Forceps}) {
+    const ToolModel tool = surface_tool(kind);
+    const SurfaceContactModel s = build_surface_contact(mesh.triangles, mesh.vertices, thinnest_part(tool));
+    for (int trial = 0; trial < 40; ++trial) {
+      // Pose the tool so its tip is near the top face; bin the surface at q0, then move every
+      // vertex by up to the grid's margin (what it tolerates) and query at the moved positions.
+      const ToolPose pose{{0.012 * u(rng), 0.012 * u(rng), 0.004 + 0.004 * u(rng)},
+                          normalized(quat_from_rotvec(0.4 * Vec3d{u(rng), u(rng), u(rng)}) * kDown)};
+      const double T = trial % 2 ? 0.004 : 0.0, th = trial % 2 ? 0.05 : 0.0;
+      const double margin = 0.002;
+      std::vector<Vec3d> q = mesh.vertices;
+      VertexGrid grid;
+      grid.rebuild(q, margin);
+      SurfaceScratch scratch;
+      std::vector<SurfaceSample> gathered, all;
+      const PosedTool posed = pose_tool(tool, pose, 0.7);
+      gather_samples(s, posed, q, grid, T, th, {}, scratch, gathered);
+      for (Vec3d& v : q) v += (0.99 * margin / std::sqrt(3.0)) * Vec3d{u(rng), u(rng), u(rng)};
+      gather_samples(s, posed, q, grid, T, th, {}, scratch, gathered);
+      for (int t = 0; t < static_cast<int>(s.triangles.size()); ++t) triangle_samples(s, t, q, all);
+      // Every sample inside the tool at a pose the call may reach (here: the pose itself, and a
+      // pose moved by T and turned by th about the rotation centre) is among the gathered ones.
+      std::set<std::tuple<int, long, long>> have;
+      for (const SurfaceSample& p : gathered) have.insert({p.triangle, std::lround(p.b[1] * 1e9), std::lround(p.b[2] * 1e9)});
+      for (const ToolPose& reach : {pose, ToolPose{pose.position + Vec3d{0, 0, -T},
+                                                  normalized(quat_from_rotvec(Vec3d{th, 0, 0}) * pose.orientation)}}) {
+        std::vector<ContactPoint> contacts;
+        sample_narrow_phase(s, pose_tool(tool, reach, 0.7), all, q, contacts);
+        for (const ContactPoint& c : contacts) {
+          const SurfaceSample& p = all[c.vertex];
+          ++inside;
+          EXPECT_TRUE(have.count({p.triangle, std::lround(p.b[1] * 1e9), std::lround(p.b[2] * 1e9)}))
+              << "trial " << trial << ": triangle " << p.triangle << " missed";
+        }
+      }
+    }
+  }
+  EXPECT_GT(inside, 200) << "the poses touch the surface";
+}
+
+TEST(SurfaceContact, AThinToolBetweenVerticesIsFelt) {
+  // Two 20 mm triangles; the hook's 1 mm tip pressed into the middle, far from every vertex.
+  const std::vector<Vec3d> rest = {{-0.01, -0.01, 0}, {0.01, -0.01, 0}, {0.01, 0.01, 0}, {-0.01, 0.01, 0}};
+  const std::vector<std::array<int, 3>> tris = {{0, 1, 2}, {0, 2, 3}};
+  ToolSpec spec;
+  spec.kind = ToolSpec::Kind::Hook;
+  const ToolModel tool = build_tool(spec);
+  const SurfaceContactModel s = build_surface_contact(tris, rest, thinnest_part(tool));
+  VertexGrid grid;
+  grid.rebuild(rest, 0.002);
+  for (double depth : {0.0001, 0.0005, 0.0009}) {
+    // Tip capsule (tool frame (0,0,L) -> (L,0,L)) lowest at z = -depth below the surface.
+    const double L = spec.hook.tip_length, r = spec.hook.tip_radius;
+    const ToolPose pose{{-0.002, 0.0005, L + r - depth}, kDown};
+    std::vector<ContactTarget> vertex_targets, surface_targets;
+    detect_contacts(tool, pose, 1.0, rest, {}, grid, 400, vertex_targets);
+    EXPECT_TRUE(vertex_targets.empty()) << "no vertex is near the tip";
+    SurfaceScratch scratch;
+    surface_contact_targets(s, tool, pose, 1.0, rest, grid, 400, {}, scratch, surface_targets);
+    ASSERT_FALSE(surface_targets.empty()) << "depth " << depth;
+    // The deepest sample is within half the sample spacing (~0.35 mm here) of the tip's lowest
+    // line: depth lost r - sqrt(r^2 - 0.35^2 mm^2) ~ 0.06 mm.
+    EXPECT_NEAR(surface_penetration_depth(s, tool, pose, 1.0, rest, grid, {}, scratch), depth, 1e-4);
+    for (const ContactTarget& t : surface_targets) {
+      EXPECT_LT(t.target.z, rest[t.vertex].z) << "the surface is pushed down, away from the tool";
+      EXPECT_GT(t.stiffness, 0.0);
+    }
+  }
+}
+
+TEST(RoundedBox, QueryMatchesFiniteDifferencesAndIsContinuousAtEdges) {
+  Collider<double> box;
+  box.shape = Shape::Box;
+  box.a = {0.001, -0.002, 0.003};
+  box.half = {0.001, 0.0025, 0.01};
+  box.radius = 0.001;  // a jaw: rounded by its half thickness; the core is a flat rectangle
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int checked = 0;
+  for (int t = 0; t < 4000 && checked < 300; ++t) {
+    const Vec3d p = box.a + Vec3d{0.0013 * u(rng), 0.0028 * u(rng), 0.0103 * u(rng)};
+    const SurfaceQuery<double> s = query_local(box, p);
+    EXPECT_NEAR(signed_distance_local(box, p), s.sd, 1e-15);
+    EXPECT_NEAR(norm(s.point - p), std::fabs(s.sd), 1e-12);
+    if (!(s.sd < -1e-5) || s.sd < -0.00099) continue;  // inside, not at the core (medial) plane
+    const double eps = 1e-8;
+    Vec3d grad;
+    Mat3d H;
+    for (int k = 0; k < 3; ++k) {
+      Vec3d d{};
+      d[k] = eps;
+      grad[k] = (signed_distance_local(box, p + d) - signed_distance_local(box, p - d)) / (2 * eps);
+      const Vec3d dn = (query_local(box, p + d).normal - query_local(box, p - d).normal) / (2 * eps);
+      for (int i = 0; i < 3; ++i) H(i, k) = dn[i];
+    }
+    EXPECT_LT(norm(grad - s.normal), 1e-6);
+    double err = 0, scale = 1.0 / 1e-3;
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) err = std::max(err, std::fabs(H(i, k) - s.hess(i, k)));
+    EXPECT_LT(err, 1e-4 * scale) << "at " << p.x << " " << p.y << " " << p.z;
+    ++checked;
+  }
+  EXPECT_GE(checked, 100);
+  // Along a path across the edge between the bottom face and the end face, 0.3 mm deep, the
+  // closest point moves continuously (a sharp box's jumps from one face to the other).
+  Vec3d prev{};
+  double largest = 0;
+  for (int i = 0; i <= 1000; ++i) {
+    const double a = M_PI / 2 * i / 1000.0;
+    const Vec3d core_edge = box.a + Vec3d{0, 0, box.half.z - box.radius};
+    const Vec3d p = core_edge + 0.0007 * Vec3d{std::sin(a), 0, std::cos(a)};
+    const Vec3d cp = query_local(box, p).point;
+    if (i) largest = std::max(largest, norm(cp - prev));
+    prev = cp;
+  }
+  EXPECT_LT(largest, 5e-6);  // 1 mm * pi/2 / 1000 per step
+}
+
+namespace {
+
+/// E_tool of fixed surface samples (one per tiny triangle around points inside the tool) at pose(x).
+struct SampleCase {
+  ToolModel tool;
+  SurfaceContactModel surface;
+  std::vector<Vec3d> q;
+  std::vector<SurfaceSample> samples;
+  ToolPose pose, physical;
+  Stiffness k;
+  double jaw = 0.6;
+};
+
+double sample_energy(const SampleCase& c, const Vec6& x, Vec6* g, Mat6* H) {
+  const ToolPose p = perturb(c.pose, x);
+  std::vector<ContactPoint> contacts;
+  sample_narrow_phase(c.surface, pose_tool(c.tool, p, c.jaw), c.samples, c.q, contacts);
+  Vec6 g1, g2;
+  Mat6 H1, H2;
+  double e = coupling_energy(p, c.physical, c.k.k_vcs, c.k.k_vct, g ? &g1 : nullptr, H ? &H1 : nullptr);
+  e += contact_energy(contacts, p.position, c.k.k_con, g ? &g2 : nullptr, H ? &H2 : nullptr);
+  if (g) *g = g1 + g2;
+  if (H) *H = H1 + H2;
+  return e;
+}
+
+SampleCase make_sample_case(ToolSpec::Kind kind, std::mt19937& rng) {
+  SampleCase c;
+  c.tool = surface_tool(kind);
+  std::normal_distribution<double> n(0, 1);
+  c.pose = {{0.01, -0.02, 0.03}, normalized(Quatd{n(rng), n(rng), n(rng), n(rng)})};
+  c.physical = {c.pose.position + 0.003 * Vec3d{n(rng), n(rng), n(rng)},
+                normalized(quat_from_rotvec(0.4 * Vec3d{n(rng), n(rng), n(rng)}) * c.pose.orientation)};
+  const PosedTool posed = pose_tool(c.tool, c.pose, c.jaw);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<std::array<int, 3>> tris;
+  for (int tries = 0; tris.size() < 10 && tries < 100000; ++tries) {
+    const int ci = std::uniform_int_distribution<int>(0, posed.count - 1)(rng);
+    const Collider<double>& sh = posed.shape[ci];
+    Vec3d local = centre(sh) + bounding_radius(sh) * Vec3d{u(rng), u(rng), u(rng)};
+    if (sh.shape == Shape::Cylinder) local.z = -0.02 * (0.5 + 0.5 * u(rng));
+    const SurfaceQuery<double> l = query_local(sh, local);
+    if (-l.sd < 5e-5) continue;
+    if (sh.shape == Shape::Box && -l.sd > 0.9 * sh.radius) continue;  // the rounded region only
+    const Vec3d y = apply(posed.world[ci], local);
+    int inside = 0;
+    for (int j = 0; j < posed.count; ++j) inside += signed_distance_local(posed.shape[j], apply_inverse(posed.world[j], y)) < 0;
+    if (inside != 1) continue;
+    bool stable = true;
+    for (int k = 0; k < 3 && stable; ++k) {
+      Vec3d d{};
+      d[k] = 1e-5;
+      stable = norm(query_local(sh, local + d).normal - l.normal) < 0.5 && norm(query_local(sh, local - d).normal - l.normal) < 0.5;
+    }
+    if (!stable) continue;
+    // A 0.1 mm triangle with centroid y: one sample (level 1), at y.
+    const Vec3d e1 = 1e-4 * normalized(Vec3d{n(rng), n(rng), n(rng)}), e2 = 1e-4 * normalized(Vec3d{n(rng), n(rng), n(rng)});
+    const int base = static_cast<int>(c.q.size());
+    c.q.push_back(y - (e1 + e2) / 3.0);
+    c.q.push_back(y + e1 - (e1 + e2) / 3.0);
+    c.q.push_back(y + e2 - (e1 + e2) / 3.0);
+    tris.push_back({base, base + 1, base + 2});
+  }
+  c.surface = build_surface_contact(tris, c.q, thinnest_part(c.tool));
+  for (int t = 0; t < static_cast<int>(tris.size()); ++t) triangle_samples(c.surface, t, c.q, c.samples);
+  return c;
+}
+
+Vec6 pulled_back(const Vec6& x, const Vec6& g) {  // as in test_tool_derivatives.cpp
+  const Vec3d w{x[3], x[4], x[5]}, gw{g[3], g[4], g[5]};
+  const Vec3d r = gw - 0.5 * cross(w, gw);
+  Vec6 out = g;
+  out[3] = r.x; out[4] = r.y; out[5] = r.z;
+  return out;
+}
+
+}  // namespace
+
+TEST(SurfaceContact, ToolSideGradientAndHessianMatchFiniteDifferences) {
+  std::mt19937 rng(11);
+  for (auto kind : {ToolSpec::Kind::Hook, ToolSpec::Kind::Forceps}) {
+    for (int t = 0; t < 6; ++t) {
+      const SampleCase c = make_sample_case(kind, rng);
+      ASSERT_EQ(c.samples.size(), 10u);
+      Vec6 g;
+      Mat6 H;
+      sample_energy(c, Vec6::Zero(), &g, &H);
+      const double eps = 1e-7;
+      Vec6 fd;
+      Mat6 fdH;
+      for (int i = 0; i < 6; ++i) {
+        Vec6 x = Vec6::Zero(), gp, gm;
+        x[i] = eps;
+        const double ep = sample_energy(c, x, &gp, nullptr);
+        gp = pulled_back(x, gp);
+        x[i] = -eps;
+        fd[i] = (ep - sample_energy(c, x, &gm, nullptr)) / (2 * eps);
+        gm = pulled_back(x, gm);
+        fdH.col(i) = (gp - gm) / (2 * eps);
+      }
+      EXPECT_LE((fd - g).norm(), 1e-5 * g.norm() + 1e-12) << g.transpose() << "\n" << fd.transpose();
+      EXPECT_LE((fdH - H).norm(), 1e-5 * H.norm()) << H << "\n\n" << fdH;
+    }
+  }
+}
+
+TEST(SurfaceContact, MeshSideTargetsCarryTheGradientOfTheSampleEnergy) {
+  // E(q) = w k/2 sd(y(q))^2 for each sample in contact, the tool fixed: the targets' residual
+  // sum k_i (target_i - q_i) at the current q is -dE/dq_i.
+  std::mt19937 rng(5);
+  const SampleCase c = make_sample_case(ToolSpec::Kind::Forceps, rng);
+  const double k_con = 400;
+  const PosedTool posed = pose_tool(c.tool, c.pose, c.jaw);
+  const auto energy = [&](const std::vector<Vec3d>& q) {
+    std::vector<ContactPoint> contacts;
+    sample_narrow_phase(c.surface, posed, c.samples, q, contacts);
+    double e = 0;
+    for (const ContactPoint& cp : contacts) e += 0.5 * k_con * cp.weight * cp.phi * cp.phi;
+    return e;
+  };
+  // Targets as surface_contact_targets builds them (every sample here is in contact).
+  std::vector<ContactPoint> contacts;
+  sample_narrow_phase(c.surface, posed, c.samples, c.q, contacts);
+  ASSERT_EQ(contacts.size(), c.samples.size());
+  std::vector<Vec3d> residual(c.q.size());
+  for (const ContactPoint& cp : contacts) {
+    const SurfaceSample& p = c.samples[cp.vertex];
+    const auto& v = c.surface.triangles[p.triangle];
+    for (int j = 0; j < 3; ++j) {
+      const double kj = k_con * p.weight * p.b[j];
+      residual[v[j]] += kj * ((c.q[v[j]] + (cp.target - cp.lever)) - c.q[v[j]]);
+    }
+  }
+  const double eps = 1e-9;
+  for (std::size_t i = 0; i < c.q.size(); i += 7)
+    for (int k = 0; k < 3; ++k) {
+      std::vector<Vec3d> qp = c.q, qm = c.q;
+      qp[i][k] += eps;
+      qm[i][k] -= eps;
+      const double dE = (energy(qp) - energy(qm)) / (2 * eps);
+      EXPECT_NEAR(-dE, residual[i][k], 1e-6 * std::max(1.0, std::fabs(dE))) << "vertex " << i << " axis " << k;
+    }
+}

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 
 #include "core/error.hpp"
 
@@ -208,8 +209,10 @@ void AtomicOutput::commit() {
   sync_directory(fs::path(final_).parent_path());
 }
 
-void write_file_atomically(const std::string& path, std::string_view bytes) {
-  AtomicOutput out(path);
+namespace {
+
+/// Writes `bytes` into the output's temporary file; every write checked.
+void write_temporary(const AtomicOutput& out, std::string_view bytes) {
   const int fd = ::open(out.temp_path().c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
   if (fd < 0) {
     const int err = errno;
@@ -229,7 +232,23 @@ void write_file_atomically(const std::string& path, std::string_view bytes) {
     const int err = errno;
     out.fail("cannot write the output", err);
   }
+}
+
+}  // namespace
+
+void write_file_atomically(const std::string& path, std::string_view bytes) {
+  AtomicOutput out(path);
+  write_temporary(out, bytes);
   out.commit();
+}
+
+void write_files_atomically(const std::vector<std::pair<std::string, std::string_view>>& files) {
+  std::vector<std::unique_ptr<AtomicOutput>> outs;
+  for (const auto& [path, bytes] : files) {
+    outs.push_back(std::make_unique<AtomicOutput>(path));
+    write_temporary(*outs.back(), bytes);
+  }
+  for (auto& out : outs) out->commit();
 }
 
 }  // namespace ebh

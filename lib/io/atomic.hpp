@@ -17,6 +17,8 @@
 #include <cstddef>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace ebh {
 
@@ -69,6 +71,11 @@ class AtomicOutput {
 /// Writes `bytes` to `path` atomically (an AtomicOutput, every write checked, commit). Errors name
 /// `path` and the OS reason.
 void write_file_atomically(const std::string& path, std::string_view bytes);
+
+/// Writes several files (path, bytes) that belong together: every one is written completely under
+/// its temporary name before any is renamed, so a failure while writing (a full disk, an
+/// interrupt) leaves none of them, and previous files of those names stay as they were.
+void write_files_atomically(const std::vector<std::pair<std::string, std::string_view>>& files);
 
 /// Installs the SIGINT/SIGTERM/SIGHUP handlers (idempotent).
 void install_interrupt_handlers();

@@ -39,4 +39,8 @@ std::string msh22_text(const TetMesh& mesh, double scale = 1.0);
 /// that are 0 or out of range, faces with fewer than 3 vertices, and a file with no faces.
 SurfaceMesh read_obj(const std::filesystem::path& file);
 
+/// The Wavefront OBJ text of `surface` (`v x y z` at %.17g, `f a b c` 1-based): read_obj reads it
+/// back to the same vertices, to the last bit, and triangles.
+std::string obj_text(const SurfaceMesh& surface);
+
 }  // namespace ebh

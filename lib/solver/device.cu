@@ -33,6 +33,12 @@ std::string cuda_device_description() {
          std::to_string(p.multiProcessorCount) + " SMs)";
 }
 
+CudaMemory cuda_memory_info() {
+  CudaMemory m;
+  EBH_CUDA_CHECK(cudaMemGetInfo(&m.free, &m.total));
+  return m;
+}
+
 std::vector<int> shared_memory_configs_kb(int major, int minor) {
   if (major == 9 && minor == 0) return {0, 8, 16, 32, 64, 100, 132, 164, 196, 228};  // H100, H200
   if (major == 8 && minor == 0) return {0, 8, 16, 32, 64, 100, 132, 164};            // A100

@@ -15,6 +15,13 @@ bool cuda_device_available(std::string* why = nullptr);
 /// "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)" for device 0; throws std::runtime_error without one.
 std::string cuda_device_description();
 
+/// Device 0's memory as cudaMemGetInfo reports it (bytes; the context is created first): what a
+/// run takes on the device is the drop in `free` while it runs (`ebh bench sizes`).
+struct CudaMemory {
+  std::size_t free = 0, total = 0;
+};
+CudaMemory cuda_memory_info();
+
 /// The shared-memory capacities (KB) a multiprocessor of compute capability major.minor can be
 /// configured to (CUDA C++ Programming Guide, the compute capabilities' "Shared Memory"
 /// sections); empty when not known here.

@@ -24,6 +24,7 @@
 #include "mesh/quality.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_init.hpp"
+#include "scene/scene_refine.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
 
@@ -318,6 +319,40 @@ void degrade(const SceneDegradeArgs& a) {
               scene.spec.name.c_str(), r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles, mesh_out.c_str());
 }
 
+struct SceneRefineArgs {
+  std::string scene, out;
+  int level = 1;
+  std::int64_t max_tets = ebh::kMaxRefinedTets;
+};
+
+/// `ebh scene refine`: the scene with its physical mesh split uniformly, every tet into 8 a level
+/// (scene/scene_refine.hpp), as OUT.yaml with OUT.msh (and OUT.obj for an OBJ virtual mesh) beside it.
+void refine(const SceneRefineArgs& a) {
+  if (a.level < 1) throw ebh::InputError("--level: expected 1 or more, got " + std::to_string(a.level));
+  const std::filesystem::path file = ebh::resolve_scene_path(a.scene);
+  const ebh::SceneSpec spec = ebh::load_scene_spec(file);
+  const std::filesystem::path out(a.out);
+  const std::string mesh_out = std::filesystem::path(out).replace_extension(".msh").string();
+  const std::string obj_out = std::filesystem::path(out).replace_extension(".obj").string();
+  std::vector<ebh::RoleFile> inputs = {{file.string(), "the scene"}, {spec.physical_mesh.string(), "the physical mesh"}};
+  std::vector<ebh::RoleFile> outputs = {{a.out, "the refined scene"}, {mesh_out, "the refined mesh"}};
+  if (spec.virtual_mesh) {
+    inputs.push_back({spec.virtual_mesh->string(), "the virtual mesh"});
+    outputs.push_back({obj_out, "the refined virtual mesh"});
+  }
+  ebh::check_outputs(outputs, inputs);
+  const ebh::RefinedScene r = ebh::refine_scene(file, a.level, out, a.max_tets, a.scene);
+  std::vector<std::pair<std::string, std::string_view>> files = {{r.mesh_file.string(), r.mesh_text}};
+  if (!r.virtual_file.empty()) files.push_back({r.virtual_file.string(), r.virtual_text});
+  files.push_back({a.out, r.scene_yaml});
+  ebh::write_files_atomically(files);
+  std::printf("%s: %s, %lld tets and %lld vertices (from %lld and %lld), mesh %s%s%s\n", a.out.c_str(), r.name.c_str(),
+              static_cast<long long>(r.after.tets), static_cast<long long>(r.after.vertices),
+              static_cast<long long>(r.before.tets), static_cast<long long>(r.before.vertices),
+              r.mesh_file.string().c_str(), r.virtual_file.empty() ? "" : ", virtual mesh ",
+              r.virtual_file.string().c_str());
+}
+
 /// `ebh scene init`: a complete, commented scene for the user's own mesh (scene/scene_init.hpp),
 /// checked by loading it before it is written.
 void init(const ebh::SceneInitOptions& o) {
@@ -352,6 +387,17 @@ void setup(CLI::App& root) {
   d->add_option("--seed", dargs->seed, "which tets (default 1; the same seed gives the same mesh)");
   d->add_option("-o,--out", dargs->out_dir, "folder for NAME_qQ.msh and NAME_qQ.yaml (default: the working directory)");
   d->callback([dargs] { degrade(*dargs); });
+
+  auto rargs = std::make_shared<SceneRefineArgs>();
+  CLI::App* r = scene->add_subcommand(
+      "refine", "Write the scene with its physical mesh refined uniformly (every tet into 8 per level) for size studies");
+  r->add_option("scene", rargs->scene, "scene name (scenarios/NAME.yaml) or path to a scene file")->required();
+  r->add_option("--level", rargs->level, "how many times to split every tet into 8 (1 or more; default 1)");
+  r->add_option("-o,--out", rargs->out, "the scene file to write (OUT.yaml; the mesh goes to OUT.msh beside it)")->required();
+  r->add_option("--max-tets", rargs->max_tets,
+                "refuse a refined mesh of more tets than this (default " + std::to_string(ebh::kMaxRefinedTets) + ")")
+      ->check(CLI::PositiveNumber);
+  r->callback([rargs] { refine(*rargs); });
 
   auto iargs = std::make_shared<ebh::SceneInitOptions>();
   CLI::App* i = scene->add_subcommand(

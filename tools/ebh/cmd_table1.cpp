@@ -11,35 +11,17 @@
 #include "mesh/boundary.hpp"
 #include "metrics/signal.hpp"
 #include "options.hpp"
+#include "replay_common.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/replay_output.hpp"
 #include "schedule/scheduler.hpp"
+#include "table1_columns.hpp"
+#if EBH_HAVE_CUDA
+#include "solver/device_cuda.hpp"
+#endif
 
 namespace ebh::cli {
 namespace {
-
-/// One column of Table 1 with the paper's numbers beside ours.
-struct Column {
-  const char* label;
-  const char* press_scene;
-  const char* press_recording;
-  double press_start;
-  const char* grasp_scene;
-  const char* grasp_recording;
-  double grasp_start;
-  int paper_tets, paper_triangles;
-  double paper_press_fps, paper_grasp_fps, paper_haptic_fps;
-};
-
-// Windows start just before contact (the gate uses the same ones: tests/gate/baselines.yaml).
-const Column kColumns[] = {
-    {"cholecystectomy", "cholecystectomy_hook", "cholecystectomy_press", 0.9, "cholecystectomy", "cholecystectomy_grasp",
-     0.8, 44178, 82748, 125.1, 123.3, 1003.2},
-    {"gynaecology", "gynaecology_hook", "gynaecology_press", 0.9, "gynaecology", "gynaecology_grasp", 0.8, 16848, 29102,
-     131.0, 132.2, 1004.1},
-    {"tube", "tube", "tube_insert", 1.8, "tube_forceps", "tube_grasp", 0.8, 8068, 14588, 137.8, 140.3, 998.1},
-    {"gap", "gap", "gap_insert", 2.0, "gap_forceps", "gap_grasp", 0.8, 16630, 30812, 140.0, 140.1, 1007.5},
-};
 
 struct Rates {
   double sim_fps = 0, haptic_fps = 0, haptic_p99_ms = 0;
@@ -52,8 +34,8 @@ class RateCounter : public ReplayObserver {
   void on_tick(const World&, const HapticSide& h, double) override { tick_s.push_back(h.timing.total); }
 };
 
-Rates measure(const std::string& scene, const std::string& recording, double start, double seconds) {
-  const LoadedReplay in = load_replay_inputs(scene, recording, {}, std::nullopt, std::nullopt, false);
+Rates measure(const std::string& scene, const std::string& recording, double start, double seconds, Backend backend) {
+  const LoadedReplay in = load_replay_inputs(scene, recording, {}, std::nullopt, std::nullopt, false, backend);
   ReplayOptions opt;
   opt.mode = Mode::Realtime;
   opt.start = start;
@@ -71,25 +53,33 @@ Rates measure(const std::string& scene, const std::string& recording, double sta
 
 struct Table1Args {
   double seconds = 3.0;
+  std::string backend = "cpu";
   bool json = false;
   std::vector<std::string> only;
 };
 
 void run_table1(const Table1Args& a) {
+  check_backend(a.backend);
+  const Backend backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
+  // As `ebh replay` records it: the GPU (with --backend cuda) and the CPU that drives it.
+  std::string device = cpu_description();
+#if EBH_HAVE_CUDA
+  if (backend == Backend::Cuda) device = cuda_device_description() + " + " + device;
+#endif
   std::vector<std::string> known;
-  for (const Column& col : kColumns) known.push_back(col.label);
+  for (const Table1Column& col : kTable1Columns) known.push_back(col.label);
   check_known_names("--scene", "Table 1 column", a.only, known);
   Json rows = Json::array();
   if (!a.json)
     std::printf("%-16s %7s %7s %9s %9s | %9s %9s %9s | %8s %8s\n", "scene", "tets", "(paper)", "triangles", "(paper)",
                 "sim press", "sim grasp", "haptic", "paper sim", "haptic");
-  for (const Column& col : kColumns) {
+  for (const Table1Column& col : kTable1Columns) {
     if (!a.only.empty() && std::find(a.only.begin(), a.only.end(), col.label) == a.only.end()) continue;
     const Scene scene = load_scene(resolve_scene_path(col.press_scene));
     const FaceCounts faces = count_faces(scene.physical.tets);
-    const Rates press = measure(col.press_scene, col.press_recording, col.press_start, a.seconds);
+    const Rates press = measure(col.press_scene, col.press_recording, col.press_start, a.seconds, backend);
     std::optional<Rates> grasp;
-    if (col.grasp_scene) grasp = measure(col.grasp_scene, col.grasp_recording, col.grasp_start, a.seconds);
+    if (col.grasp_scene) grasp = measure(col.grasp_scene, col.grasp_recording, col.grasp_start, a.seconds, backend);
     const double haptic = grasp ? std::min(press.haptic_fps, grasp->haptic_fps) : press.haptic_fps;
     if (a.json) {
       Json j = Json::object();
@@ -118,12 +108,14 @@ void run_table1(const Table1Args& a) {
   }
   if (a.json) {
     Json out = Json::object();
-    out.set("device", cpu_description());
+    out.set("backend", a.backend);
+    out.set("device", device);
     out.set("seconds_per_run", a.seconds);
     out.set("rows", rows);
     std::printf("%s\n", out.dump().c_str());
   } else {
-    std::printf("realtime mode, %.1f s per run, physical side unpaced; CPU: %s\n", a.seconds, cpu_description().c_str());
+    std::printf("realtime mode, %.1f s per run, physical side unpaced; backend %s on %s\n", a.seconds, a.backend.c_str(),
+                device.c_str());
   }
 }
 
@@ -133,6 +125,9 @@ void setup(CLI::App& root) {
   c->add_option("--seconds", args->seconds, "Wall seconds of realtime replay per measurement (default 3)")
       ->check(finite_number(0, 3600, true, "s"));
   c->add_option("--scene", args->only, "Only these columns (cholecystectomy, gynaecology, tube, gap)");
+  c->add_option("--backend", args->backend,
+                "cpu (default) or cuda: the physical step and the virtual mesh's iterations on the GPU (the paper "
+                "measured Table 1 on one)");
   c->add_flag("--json", args->json, "JSON output");
   c->callback([args] { run_table1(*args); });
 }

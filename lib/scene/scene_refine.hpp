@@ -1,0 +1,54 @@
+#pragma once
+// `ebh scene refine`: a scene with its physical mesh refined uniformly (mesh/refine.hpp: every
+// tet into 8 per level), for studies of cost against mesh size (`ebh bench sizes`).
+//
+// What carries over (docs/FORMATS.md, "ebh scene refine"):
+// - the physical mesh, written in its file's unit and coordinates (mesh.unit and mesh.transform
+//   place it as before); old vertices keep their bits, so every pinned vertex stays pinned;
+// - physical groups: each child element keeps its parent's tag, so a group's surface is the same
+//   surface, refined; the midpoint of an edge of a group's triangle or tet joins the group;
+// - box, sphere and halfspace pins: the same regions (convex: a midpoint of two pinned vertices is
+//   pinned), which now also hold the new vertices inside them;
+// - the virtual mesh: `boundary` follows the refined physical mesh by itself (4x the triangles a
+//   level) and `virtual_refine` still splits it once more, so the virtual mesh keeps its density
+//   relative to the physical surface; an OBJ virtual mesh is split 1 -> 4 per level as well (each
+//   triangle at its edge midpoints) and written beside the scene;
+// - density and every other key: unchanged (masses follow the volume, which refinement keeps).
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "mesh/refine.hpp"
+
+namespace ebh {
+
+/// The largest physical mesh `ebh scene refine` writes unless told otherwise (--max-tets): 8
+/// million tets take about 1.4 GB to write and 6.5 GB to replay on the CPU (refine_memory); the
+/// paper's largest scene, cholecystectomy, reaches 2.8 million at level 2 and 22.5 million at 3.
+inline constexpr std::int64_t kMaxRefinedTets = 8'000'000;
+
+/// Host memory a refined mesh takes, from measurements (refine_memory's comment says where).
+struct RefineMemory {
+  double write_bytes = 0;   ///< `ebh scene refine`: the mesh in memory and its text
+  double replay_bytes = 0;  ///< `ebh replay` on the CPU: scene, world, solver workspaces, output
+};
+RefineMemory refine_memory(const RefinedCounts& counts);
+
+/// What `ebh scene refine` writes, in memory.
+struct RefinedScene {
+  std::filesystem::path scene_file;    ///< OUT.yaml
+  std::filesystem::path mesh_file;     ///< OUT.msh, beside it
+  std::filesystem::path virtual_file;  ///< OUT.obj when the virtual mesh is an OBJ file; else empty
+  std::string scene_yaml, mesh_text, virtual_text;
+  std::string name;                    ///< the new scene's name: NAME_lLEVEL
+  RefinedCounts before, after;         ///< the physical mesh's counts
+};
+
+/// Refines the physical mesh of the scene file `scene` (and an OBJ virtual mesh) `levels` times
+/// and returns the files of a scene `out` that loads it. `scene_argument` is how the user named the
+/// scene (for the new file's header). Throws InputError for levels < 1, a scene that does not
+/// load, or a refined mesh of more than max_tets tets (the message gives the sizes and memory).
+RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const std::filesystem::path& out,
+                          std::int64_t max_tets = kMaxRefinedTets, const std::string& scene_argument = "");
+
+}  // namespace ebh

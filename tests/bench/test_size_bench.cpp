@@ -1,0 +1,96 @@
+// `ebh bench sizes` (bench/size_bench.hpp): the log-log slope, and a short run of two sizes of the
+// smallest committed scene on the CPU.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "bench/size_bench.hpp"
+#include "core/error.hpp"
+#include "io/atomic.hpp"
+
+namespace ebh {
+namespace {
+
+TEST(SizeBench, SlopeOfAPowerLaw) {
+  // cost = 3 tets^1.5 exactly in log-log; a round-off of the logs only (1e-12).
+  const std::vector<double> tets = {8e3, 6.4e4, 5.12e5}, cost = {3 * std::pow(8e3, 1.5), 3 * std::pow(6.4e4, 1.5),
+                                                                   3 * std::pow(5.12e5, 1.5)};
+  EXPECT_NEAR(log_log_slope(tets, cost), 1.5, 1e-12);
+  // Least squares, not the end points: a middle point above the line leaves the slope of the ends.
+  EXPECT_NEAR(log_log_slope(tets, {1, 8, 64}), 1.0, 1e-12);
+  EXPECT_NEAR(log_log_slope(tets, {1, 16, 64}), 1.0, 1e-12);
+  EXPECT_TRUE(std::isnan(log_log_slope({8e3}, {1.0})));
+  EXPECT_TRUE(std::isnan(log_log_slope(tets, {NAN, NAN, 2.0})));  // one usable size
+  EXPECT_TRUE(std::isnan(log_log_slope({10, 10}, {1, 2})));       // one tet count
+}
+
+TEST(SizeBench, TwoSizesOfTheTube) {
+  SizeBenchOptions o;
+  o.scene = "tube";
+  o.recording = "tube_insert";
+  o.start = 1.8;
+  o.seconds = 0.05;
+  o.first_level = 0;
+  o.last_level = 1;
+  const std::vector<SizeResult> r = run_size_bench(o);
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_EQ(r[0].tets, 8057);
+  EXPECT_EQ(r[1].tets, 8 * 8057);
+  EXPECT_EQ(r[1].vertices, 14014);  // 2150 vertices + 11864 edges
+  // The virtual mesh follows the refined boundary (virtual_refine 1 on top): the tube's surface is
+  // a torus (Euler characteristic 0), whose vertex count grows exactly 4x a level.
+  EXPECT_EQ(r[0].virtual_vertices, 6628);
+  EXPECT_EQ(r[1].virtual_vertices, 4 * 6628);
+  for (const SizeResult& s : r) {
+    EXPECT_EQ(s.ticks, 51);  // 0.05 s at 1 kHz: ticks 0 .. 50
+    EXPECT_EQ(s.steps, 6);
+    EXPECT_GT(s.physical_step.median, 0);
+    EXPECT_GE(s.physical_step.p99, s.physical_step.median);
+    EXPECT_GT(s.haptic_tick.median, 0);
+    EXPECT_GE(s.haptic_tick.p99, s.haptic_tick.median);
+    EXPECT_GT(s.real_time_factor, 0);
+    EXPECT_GT(s.host_peak_bytes, 0);
+    EXPECT_EQ(s.device_peak_bytes, -1);
+  }
+  // 8x the tets is more work a step: far more than timer noise on any machine.
+  EXPECT_GT(r[1].physical_step.median, 2 * r[0].physical_step.median);
+}
+
+TEST(SizeBench, AnInterruptEndsTheRun) {
+  SizeBenchOptions o;
+  o.scene = "tube";
+  o.recording = "tube_insert";
+  o.last_level = 1;
+  set_interrupted(true);  // as SIGINT would (io/atomic.hpp)
+  try {
+    run_size_bench(o);
+    ADD_FAILURE() << "ran through an interrupt";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "interrupted at level 0; no results");
+  }
+  set_interrupted(false);
+}
+
+TEST(SizeBench, RefusesBeforeAnyWork) {
+  SizeBenchOptions o;
+  o.scene = "tube";
+  o.recording = "tube_insert";
+  o.last_level = 3;
+  o.max_tets = 100000;
+  try {
+    run_size_bench(o);
+    ADD_FAILURE() << "level 3 accepted under a limit of 100000 tets";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("level 3 of "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("makes 4125184 tets, over the limit of 100000"), std::string::npos) << e.what();
+  }
+  o.first_level = 2;
+  o.last_level = 1;
+  EXPECT_THROW(run_size_bench(o), InputError);
+  o.last_level = 2;
+  o.mode = Mode::Realtime;
+  EXPECT_THROW(run_size_bench(o), InputError);
+}
+
+}  // namespace
+}  // namespace ebh

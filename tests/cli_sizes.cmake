@@ -1,0 +1,82 @@
+# Command-line tests of mesh-size studies: `ebh scene refine`, `ebh bench sizes` and
+# `ebh table1 --backend cuda` where no device can be used.
+set(EBH_BIN $<TARGET_FILE:ebh>)
+set(EBH_SIZES_OUT ${PROJECT_BINARY_DIR}/cli_sizes)
+set(Z ${EBH_SIZES_OUT})
+file(MAKE_DIRECTORY ${Z}/again ${Z}/own)
+set(EXPECT_FAILURE ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+
+# The tube one level finer, twice into two folders: the same bytes; it replays a window of its recording.
+add_test(NAME cli.scene.refine COMMAND ${EBH_BIN} scene refine tube --level 1 -o ${Z}/tube_l1.yaml)
+set_tests_properties(cli.scene.refine PROPERTIES FIXTURES_SETUP refined_tube LABELS "cli;scene" PASS_REGULAR_EXPRESSION
+  "tube_l1.yaml: tube_l1, 64456 tets and 14014 vertices \\(from 8057 and 2150\\), mesh .*tube_l1.msh\n")
+add_test(NAME cli.scene.refine_again COMMAND ${EBH_BIN} scene refine tube --level 1 -o ${Z}/again/tube_l1.yaml)
+set_tests_properties(cli.scene.refine_again PROPERTIES FIXTURES_SETUP refined_tube LABELS "cli;scene")
+add_test(NAME cli.scene.refine_is_deterministic
+  COMMAND ${CMAKE_COMMAND} -E compare_files ${Z}/tube_l1.msh ${Z}/again/tube_l1.msh)
+add_test(NAME cli.scene.refine_is_deterministic_yaml
+  COMMAND ${CMAKE_COMMAND} -E compare_files ${Z}/tube_l1.yaml ${Z}/again/tube_l1.yaml)
+add_test(NAME cli.replay.refined_tube
+  COMMAND ${EBH_BIN} replay ${Z}/tube_l1.yaml tube_insert -o ${Z}/tube_l1.h5 --start 1.8 --duration 0.2)
+set_tests_properties(cli.replay.refined_tube PROPERTIES PASS_REGULAR_EXPRESSION
+  "tube_l1.h5: tube_l1 \\+ tube_insert.h5, async mode, 201 ticks, 21 physical steps.*peak force [0-9.]+ N")
+set_tests_properties(cli.scene.refine_is_deterministic cli.scene.refine_is_deterministic_yaml cli.replay.refined_tube
+  PROPERTIES FIXTURES_REQUIRED refined_tube LABELS "cli;scene")
+
+# Bad input: one line, exit status 1, no file left.
+add_test(NAME cli.scene.refine_level_zero
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;tube;--level;0;-o;${Z}/zero.yaml"
+    "-DEXPECT=^ebh: error: --level: expected 1 or more, got 0" -DOUTPUT=${Z}/zero.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
+add_test(NAME cli.scene.refine_missing_scene
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;no_such_scene;-o;${Z}/missing.yaml"
+    "-DEXPECT=^ebh: error: no_such_scene: no such scene" -DOUTPUT=${Z}/missing.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
+file(WRITE ${Z}/afile "not a folder\n")
+add_test(NAME cli.scene.refine_unwritable
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;tube;-o;${Z}/afile/tube_l1.yaml"
+    "-DEXPECT=^ebh: error: .*afile/tube_l1.yaml: cannot create the output: Not a directory" -DSTATUS=1 -P ${EXPECT_FAILURE})
+# A scene beside its own mesh: an output named after the mesh (or the scene) would replace it.
+configure_file(${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube22.msh ${Z}/own/cube22.msh COPYONLY)
+file(WRITE ${Z}/own/cube.yaml "unit: mm\nmesh: {physical: cube22.msh}\npinned:\n  - group: bottom\n")
+add_test(NAME cli.scene.refine_over_its_mesh
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;${Z}/own/cube.yaml;-o;${Z}/own/cube22.yaml"
+    "-DEXPECT=^ebh: error: .*cube22.msh: the output would replace the physical mesh .*cube22.msh"
+    "-DKEEP=${Z}/own/cube22.msh;${Z}/own/cube.yaml" -DOUTPUT=${Z}/own/cube22.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
+add_test(NAME cli.scene.refine_over_its_scene
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;${Z}/own/cube.yaml;-o;${Z}/own/cube.yaml"
+    "-DEXPECT=^ebh: error: .*cube.yaml: the output would replace the scene .*cube.yaml"
+    "-DKEEP=${Z}/own/cube22.msh;${Z}/own/cube.yaml" -DSTATUS=1 -P ${EXPECT_FAILURE})
+# Too large: the sizes and the memory it would take, before any work.
+add_test(NAME cli.scene.refine_too_large
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;cholecystectomy;--level;3;-o;${Z}/chole_l3.yaml"
+    "-DEXPECT=^ebh: error: .*cholecystectomy.yaml: level 3 makes 22.5 million tets and 3.85 million vertices .*GB to write and .*GB to replay, over the limit of 8 million tets \\(--max-tets raises it\\)"
+    -DOUTPUT=${Z}/chole_l3.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
+set_tests_properties(cli.scene.refine_level_zero cli.scene.refine_missing_scene cli.scene.refine_unwritable
+  cli.scene.refine_over_its_mesh cli.scene.refine_over_its_scene cli.scene.refine_too_large PROPERTIES LABELS "cli;scene")
+
+# ebh bench sizes, short: levels 0-1 of the tube, 0.1 s each; JSON and the plot.
+add_test(NAME cli.bench.sizes
+  COMMAND ${EBH_BIN} bench sizes --scene tube --levels 0-1 --seconds 0.1 --plot ${Z}/sizes.png)
+set_tests_properties(cli.bench.sizes PROPERTIES LABELS "cli;bench" PASS_REGULAR_EXPRESSION
+  "tube \\+ tube_insert from 1.8 s, 0.1 s, async, cpu.*\n +0 +8057 +2150 +6628 .*\n +1 +64456 +14014 +26512 .*slope against tets \\(log-log least squares; 1 = linear\\): physical step [0-9.]+, haptic tick [0-9.]+, wall per virtual s [0-9.]+, host memory [0-9.]+\n.*sizes.png: the costs against tets")
+add_test(NAME cli.bench.sizes_json COMMAND ${EBH_BIN} bench sizes --levels 0 --seconds 0.05 --json)
+set_tests_properties(cli.bench.sizes_json PROPERTIES LABELS "cli;bench" PASS_REGULAR_EXPRESSION
+  "\"backend\": \"cpu\",.*\"tets\": 8057,.*\"ticks\": 51,.*\"device_peak_bytes\": null.*\"slopes\": \\{\n +\"physical_step_median\": null")
+add_test(NAME cli.bench.sizes_bad_levels
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;3-1"
+    "-DEXPECT=^ebh: error: --levels: expected FIRST-LAST \\(e.g. 0-3\\) or one level, levels >= 0, got '3-1'" -DSTATUS=1
+    -P ${EXPECT_FAILURE})
+add_test(NAME cli.bench.sizes_no_window
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--scene;${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml"
+    "-DEXPECT=^ebh: error: --recording: scene '.*cube.yaml' has no default window" -DSTATUS=1 -P ${EXPECT_FAILURE})
+set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_no_window PROPERTIES LABELS "cli;bench")
+
+# table1 and bench sizes on the CUDA backend where none can be used (no device visible, or a build
+# without CUDA): one line that says so, exit status 1.
+foreach(cmd "table1;--backend;cuda;--scene;tube;--seconds;0.2" "bench;sizes;--backend;cuda;--levels;0;--seconds;0.05")
+  string(REGEX MATCH "^[a-z0-9]+" name "${cmd}")
+  add_test(NAME cli.${name}.cuda_unavailable
+    COMMAND ${CMAKE_COMMAND} -E env CUDA_VISIBLE_DEVICES= ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};${cmd}"
+      "-DEXPECT=^ebh: error: --backend cuda: (this build has no CUDA backend \\(configure with -DEBH_WITH_CUDA=ON|no CUDA device.* on this machine)"
+      -DSTATUS=1 -P ${EXPECT_FAILURE})
+  set_tests_properties(cli.${name}.cuda_unavailable PROPERTIES LABELS cli)
+endforeach()

@@ -1,0 +1,154 @@
+// `ebh scene refine` (scene/scene_refine.hpp): the refined scene loads with the same volume and
+// mass, its pins and groups carried over, an OBJ virtual mesh refined with it, bit for bit the
+// same files on every run, and clear errors for bad levels and sizes over the limit.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "../mesh/test_util.hpp"
+#include "mesh/boundary.hpp"
+#include "mesh/lumped_masses.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_refine.hpp"
+
+namespace ebh {
+namespace {
+
+namespace fs = std::filesystem;
+using test::data;
+
+/// Writes the refined scene's files into a fresh folder of the test and loads it.
+Scene write_and_load(const RefinedScene& r) {
+  for (const auto& [path, text] : {std::pair{r.mesh_file, &r.mesh_text}, {r.virtual_file, &r.virtual_text},
+                                   {r.scene_file, &r.scene_yaml}})
+    if (!path.empty()) std::ofstream(path, std::ios::binary) << *text;
+  return load_scene(r.scene_file);
+}
+
+fs::path out_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::path(::testing::TempDir()) / "ebh_scene_refine" / info->name();
+  fs::create_directories(dir);
+  return dir;
+}
+
+double total_mass(const Scene& s) {
+  double m = 0;
+  for (double x : lumped_masses(s.physical, s.spec.density)) m += x;
+  return m;
+}
+
+/// The midpoint vertex of each parent edge (a < b) after one level, read from the corner children
+/// (mesh/refine.hpp: child c < 4 of tet t is its corner c with the midpoints of that corner's edges).
+std::map<std::pair<int, int>, int> midpoints(const TetMesh& parent, const TetMesh& child) {
+  std::map<std::pair<int, int>, int> mid;
+  for (std::size_t t = 0; t < parent.tets.size(); ++t) {
+    const Tet& p = parent.tets[t];
+    const Tet& c0 = child.tets[8 * t];  // (v0, m01, m02, m03)
+    const Tet& c1 = child.tets[8 * t + 1];  // (m01, v1, m12, m13)
+    const Tet& c2 = child.tets[8 * t + 2];  // (m02, m12, v2, m23)
+    const std::pair<int, int> e[6] = {{p[0], p[1]}, {p[0], p[2]}, {p[0], p[3]}, {p[1], p[2]}, {p[1], p[3]}, {p[2], p[3]}};
+    const int m[6] = {c0[1], c0[2], c0[3], c1[2], c1[3], c2[3]};
+    for (int k = 0; k < 6; ++k) mid[{std::min(e[k].first, e[k].second), std::max(e[k].first, e[k].second)}] = m[k];
+  }
+  return mid;
+}
+
+/// Pinned vertices stay pinned, where they were; the midpoint of two vertices of one pinned region
+/// is pinned by it (the test scenes' regions are convex, and their groups' vertices are joined only
+/// by edges of the group's triangles). Two vertices of different regions need not be: the union of
+/// a region at the bottom and one at the top does not hold the points between them.
+void expect_pins_carried(const Scene& before, const Scene& after) {
+  const std::set<int> pinned(after.pinned.begin(), after.pinned.end());
+  for (int v : before.pinned) {
+    EXPECT_TRUE(pinned.count(v)) << "vertex " << v << " is no longer pinned";
+    EXPECT_EQ(after.physical.vertices[v], before.physical.vertices[v]) << "vertex " << v << " moved";
+  }
+  const std::map<std::pair<int, int>, int> mid = midpoints(before.physical, after.physical);
+  int checked = 0;
+  for (const PinRegion& region : before.spec.pinned) {
+    const std::vector<int> old_v = region_vertices(before.physical, region), new_v = region_vertices(after.physical, region);
+    const std::set<int> old_in(old_v.begin(), old_v.end()), new_in(new_v.begin(), new_v.end());
+    for (const auto& [edge, m] : mid)
+      if (old_in.count(edge.first) && old_in.count(edge.second)) {
+        EXPECT_TRUE(new_in.count(m)) << describe_pin_region(region) << ": midpoint " << m << " of " << edge.first << "-"
+                                     << edge.second;
+        ++checked;
+      }
+  }
+  EXPECT_GT(checked, 0) << "no edge joins two vertices of one pinned region";
+}
+
+TEST(SceneRefine, GroupAndBoxPinsVolumeMassAndVirtualMesh) {
+  const Scene before = load_scene(data("scene/cube.yaml"));
+  const RefinedScene r = refine_scene(data("scene/cube.yaml"), 1, out_dir() / "cube_l1.yaml");
+  EXPECT_EQ(r.name, "test-cube_l1");
+  EXPECT_EQ(r.mesh_file.filename(), "cube_l1.msh");
+  EXPECT_TRUE(r.virtual_file.empty());
+  const Scene after = write_and_load(r);
+  EXPECT_EQ(after.spec.name, "test-cube_l1");
+  EXPECT_EQ(after.physical.tets.size(), 8 * before.physical.tets.size());
+  EXPECT_EQ(static_cast<std::int64_t>(after.physical.vertices.size()), r.after.vertices);
+  EXPECT_NEAR(total_mass(after), total_mass(before), 1e-12 * total_mass(before));
+  // The virtual mesh is the refined boundary (virtual_refine applies on top of it as before).
+  EXPECT_EQ(after.virtual_surface.triangles.size(), 4 * before.virtual_surface.triangles.size());
+  EXPECT_EQ(after.spec.virtual_refine, before.spec.virtual_refine);
+  expect_pins_carried(before, after);
+  // Every other key is the same: the resolved scenes differ only in the name and the mesh path.
+  SceneSpec a = before.spec, b = after.spec;
+  b.name = a.name;
+  b.physical_mesh = a.physical_mesh;
+  EXPECT_EQ(resolved_scene_yaml(a), resolved_scene_yaml(b));
+}
+
+TEST(SceneRefine, ObjVirtualMeshSphereAndHalfspacePins) {
+  const Scene before = load_scene(data("scene/cube_obj.yaml"));
+  const RefinedScene r = refine_scene(data("scene/cube_obj.yaml"), 2, out_dir() / "cube_obj_l2.yaml");
+  ASSERT_EQ(r.virtual_file.filename(), "cube_obj_l2.obj");
+  const Scene after = write_and_load(r);
+  EXPECT_EQ(after.physical.tets.size(), 64 * before.physical.tets.size());
+  EXPECT_EQ(after.virtual_surface.triangles.size(), 16 * before.virtual_surface.triangles.size());
+  EXPECT_NEAR(total_mass(after), total_mass(before), 1e-12 * total_mass(before));
+  // Pins over one level at a time: the midpoint rule holds level by level.
+  const Scene middle = write_and_load(refine_scene(data("scene/cube_obj.yaml"), 1, out_dir() / "cube_obj_l1.yaml"));
+  expect_pins_carried(before, middle);
+  expect_pins_carried(middle, after);
+}
+
+TEST(SceneRefine, CommittedTubeGroupPins) {
+  const fs::path tube = fs::path(EBH_SOURCE_DIR) / "scenarios" / "tube.yaml";
+  const Scene before = load_scene(tube);
+  const Scene after = write_and_load(refine_scene(tube, 1, out_dir() / "tube_l1.yaml"));
+  // group 'ends': the annular end faces; their vertices are joined only by the faces' edges.
+  expect_pins_carried(before, after);
+  EXPECT_NEAR(total_mass(after), total_mass(before), 1e-12 * total_mass(before));
+}
+
+TEST(SceneRefine, SameFilesOnEveryRun) {
+  const RefinedScene a = refine_scene(data("scene/cube_obj.yaml"), 2, out_dir() / "x.yaml");
+  const RefinedScene b = refine_scene(data("scene/cube_obj.yaml"), 2, out_dir() / "x.yaml");
+  EXPECT_EQ(a.scene_yaml, b.scene_yaml);
+  EXPECT_EQ(a.mesh_text, b.mesh_text);
+  EXPECT_EQ(a.virtual_text, b.virtual_text);
+}
+
+TEST(SceneRefine, BadLevelAndOverTheLimit) {
+  try {
+    refine_scene(data("scene/cube.yaml"), 0, out_dir() / "x.yaml");
+    ADD_FAILURE() << "level 0 accepted";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "--level: expected 1 or more, got 0");
+  }
+  try {
+    refine_scene(data("scene/cube.yaml"), 3, out_dir() / "x.yaml", 2000);
+    ADD_FAILURE() << "2560 tets accepted under a limit of 2000";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("level 3 makes 2560 tets"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("over the limit of 2000 tets (--max-tets raises it)"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace ebh

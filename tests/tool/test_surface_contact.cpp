@@ -8,6 +8,7 @@
 #include <random>
 #include <set>
 
+#include "contact_points.hpp"
 #include "mesh/boundary.hpp"
 #include "mesh/box_mesh.hpp"
 #include "tool/contact.hpp"
@@ -237,28 +238,8 @@ SampleCase make_sample_case(ToolSpec::Kind kind, std::mt19937& rng) {
   c.pose = {{0.01, -0.02, 0.03}, normalized(Quatd{n(rng), n(rng), n(rng), n(rng)})};
   c.physical = {c.pose.position + 0.003 * Vec3d{n(rng), n(rng), n(rng)},
                 normalized(quat_from_rotvec(0.4 * Vec3d{n(rng), n(rng), n(rng)}) * c.pose.orientation)};
-  const PosedTool posed = pose_tool(c.tool, c.pose, c.jaw);
-  std::uniform_real_distribution<double> u(-1, 1);
   std::vector<std::array<int, 3>> tris;
-  for (int tries = 0; tris.size() < 10 && tries < 100000; ++tries) {
-    const int ci = std::uniform_int_distribution<int>(0, posed.count - 1)(rng);
-    const Collider<double>& sh = posed.shape[ci];
-    Vec3d local = centre(sh) + bounding_radius(sh) * Vec3d{u(rng), u(rng), u(rng)};
-    if (sh.shape == Shape::Cylinder) local.z = -0.02 * (0.5 + 0.5 * u(rng));
-    const SurfaceQuery<double> l = query_local(sh, local);
-    if (-l.sd < 5e-5) continue;
-    if (sh.shape == Shape::Box && -l.sd > 0.9 * sh.radius) continue;  // the rounded region only
-    const Vec3d y = apply(posed.world[ci], local);
-    int inside = 0;
-    for (int j = 0; j < posed.count; ++j) inside += signed_distance_local(posed.shape[j], apply_inverse(posed.world[j], y)) < 0;
-    if (inside != 1) continue;
-    bool stable = true;
-    for (int k = 0; k < 3 && stable; ++k) {
-      Vec3d d{};
-      d[k] = 1e-5;
-      stable = norm(query_local(sh, local + d).normal - l.normal) < 0.5 && norm(query_local(sh, local - d).normal - l.normal) < 0.5;
-    }
-    if (!stable) continue;
+  for (const Vec3d& y : test::inside_points(pose_tool(c.tool, c.pose, c.jaw), rng, 10, 5e-5)) {
     // A 0.1 mm triangle with centroid y: one sample (level 1), at y.
     const Vec3d e1 = 1e-4 * normalized(Vec3d{n(rng), n(rng), n(rng)}), e2 = 1e-4 * normalized(Vec3d{n(rng), n(rng), n(rng)});
     const int base = static_cast<int>(c.q.size());
@@ -270,14 +251,6 @@ SampleCase make_sample_case(ToolSpec::Kind kind, std::mt19937& rng) {
   c.surface = build_surface_contact(tris, c.q, thinnest_part(c.tool));
   for (int t = 0; t < static_cast<int>(tris.size()); ++t) triangle_samples(c.surface, t, c.q, c.samples);
   return c;
-}
-
-Vec6 pulled_back(const Vec6& x, const Vec6& g) {  // as in test_tool_derivatives.cpp
-  const Vec3d w{x[3], x[4], x[5]}, gw{g[3], g[4], g[5]};
-  const Vec3d r = gw - 0.5 * cross(w, gw);
-  Vec6 out = g;
-  out[3] = r.x; out[4] = r.y; out[5] = r.z;
-  return out;
 }
 
 }  // namespace
@@ -298,10 +271,10 @@ TEST(SurfaceContact, ToolSideGradientAndHessianMatchFiniteDifferences) {
         Vec6 x = Vec6::Zero(), gp, gm;
         x[i] = eps;
         const double ep = sample_energy(c, x, &gp, nullptr);
-        gp = pulled_back(x, gp);
+        gp = test::pulled_back(x, gp);
         x[i] = -eps;
         fd[i] = (ep - sample_energy(c, x, &gm, nullptr)) / (2 * eps);
-        gm = pulled_back(x, gm);
+        gm = test::pulled_back(x, gm);
         fdH.col(i) = (gp - gm) / (2 * eps);
       }
       EXPECT_LE((fd - g).norm(), 1e-5 * g.norm() + 1e-12) << g.transpose() << "\n" << fd.transpose();

@@ -6,6 +6,7 @@
 #include <numeric>
 #include <random>
 
+#include "contact_points.hpp"
 #include "tool/contact.hpp"
 #include "tool/tool_energy.hpp"
 #include "tool/tool_model.hpp"
@@ -39,56 +40,14 @@ double energy(const Case& c, const Vec6& x, Vec6* g, Mat6* H) {
   return e;
 }
 
-// The analytic gradient at pose(x) is taken in the parameterisation centred at pose(x); the
-// derivative of f(x) = E(pose(x)) is its pull-back through the left Jacobian of SO(3):
-// exp(x + d) = exp(J_l(x) d) exp(x), J_l(x) = I + [x]/2 + O(|x|^2), so
-// grad f(x) = (g_P, J_l(x)^T g_w) = (g_P, g_w - x_w x g_w / 2) up to O(eps^2), the order of the
-// central difference itself.
-Vec6 pulled_back(const Vec6& x, const Vec6& g) {
-  const Vec3d w{x[3], x[4], x[5]}, gw{g[3], g[4], g[5]};
-  const Vec3d r = gw - 0.5 * cross(w, gw);
-  Vec6 out = g;
-  out[3] = r.x; out[4] = r.y; out[5] = r.z;
-  return out;
-}
-
 Quatd random_rotation(std::mt19937& rng) {
   std::normal_distribution<double> n(0, 1);
   return normalized(Quatd{n(rng), n(rng), n(rng), n(rng)});
 }
 
-// Vertices strictly inside exactly one collider, at depth >= min_depth and with the nearest
-// feature unambiguous (the second-nearest face/region at least `clear` farther), so the energy is
-// smooth in a neighbourhood larger than the finite-difference steps.
+// Vertices where the energy is smooth (contact_points.hpp).
 void add_inside_vertices(Case& c, std::mt19937& rng, int count, double min_depth) {
-  const PosedTool posed = pose_tool(c.tool, c.pose, c.jaw);
-  std::uniform_real_distribution<double> u(-1, 1);
-  int added = 0, tries = 0;
-  while (added < count && tries++ < 200000) {
-    const int ci = std::uniform_int_distribution<int>(0, posed.count - 1)(rng);
-    const Collider<double>& s = posed.shape[ci];
-    const double rb = bounding_radius(s);
-    Vec3d local = centre(s) + rb * Vec3d{u(rng), u(rng), u(rng)};
-    if (s.shape == Shape::Cylinder) {  // stay near the tool's distal end, not 0.3 m up the shaft
-      local.z = -0.02 * (0.5 + 0.5 * u(rng));
-    }
-    const SurfaceQuery<double> l = query_local(s, local);
-    if (-l.sd < min_depth) continue;
-    const Vec3d x = apply(posed.world[ci], local);
-    int inside = 0;
-    for (int j = 0; j < posed.count; ++j) inside += query_local(posed.shape[j], apply_inverse(posed.world[j], x)).sd < 0;
-    if (inside != 1) continue;
-    // Unambiguous nearest feature: nudging the point by 1e-5 m must not change the normal much.
-    bool stable = true;
-    for (int k = 0; k < 3 && stable; ++k) {
-      Vec3d d{};
-      d[k] = 1e-5;
-      stable = norm(query_local(s, local + d).normal - l.normal) < 0.5 && norm(query_local(s, local - d).normal - l.normal) < 0.5;
-    }
-    if (!stable) continue;
-    c.q.push_back(x);
-    ++added;
-  }
+  for (const Vec3d& x : test::inside_points(pose_tool(c.tool, c.pose, c.jaw), rng, count, min_depth)) c.q.push_back(x);
 }
 
 void expect_gradient_matches(const Case& c, double rel_tol) {
@@ -118,10 +77,10 @@ void expect_hessian_matches(const Case& c, double rel_tol) {
     Vec6 x = Vec6::Zero(), gp, gm;
     x[j] = eps;
     energy(c, x, &gp, nullptr);
-    gp = pulled_back(x, gp);
+    gp = test::pulled_back(x, gp);
     x[j] = -eps;
     energy(c, x, &gm, nullptr);
-    gm = pulled_back(x, gm);
+    gm = test::pulled_back(x, gm);
     fd.col(j) = (gp - gm) / (2 * eps);
   }
   EXPECT_LE((fd - H).norm(), rel_tol * H.norm()) << "analytic\n" << H << "\nfd\n" << fd;
@@ -266,10 +225,10 @@ TEST(ToolEnergy, GraspGradientAndHessianMatchFiniteDifferences) {
     Vec6 x = Vec6::Zero(), gp, gm;
     x[i] = eps;
     const double ep = E(x, &gp, nullptr);
-    gp = pulled_back(x, gp);
+    gp = test::pulled_back(x, gp);
     x[i] = -eps;
     fd[i] = (ep - E(x, &gm, nullptr)) / (2 * eps);
-    gm = pulled_back(x, gm);
+    gm = test::pulled_back(x, gm);
     fdH.col(i) = (gp - gm) / (2 * eps);
   }
   EXPECT_LE((fd - gr).norm(), 1e-6 * gr.norm());

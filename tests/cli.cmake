@@ -99,6 +99,19 @@ add_test(NAME cli.scene.bad_key_message COMMAND ${EBH_BIN} scene info ${CMAKE_CU
 set_tests_properties(cli.scene.bad_key_message PROPERTIES
   PASS_REGULAR_EXPRESSION "key 'tool.hook.tip_length': expected a positive number, got 'abc'" LABELS "cli;scene")
 
+# scene info shows the contact model; with surface contact, the samples' spacing and the stiffness
+# after the floor (a 1 mm tip and the 3.3 N limit raise the default 400 N/m to 2200).
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_surface.yaml
+  "unit: mm\nmesh: {physical: ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube22.msh, unit: m}\ncontact: surface\n"
+  "tool: {kind: hook, shaft_radius: 2.5, hook: {tip_length: 6, tip_radius: 1}, force_limit: 3.3}\n"
+  "stiffness: {k_con: 400}\nstages: {settle: false}\n")
+add_test(NAME cli.scene.info_surface_contact COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_surface.yaml)
+set_tests_properties(cli.scene.info_surface_contact PROPERTIES
+  PASS_REGULAR_EXPRESSION "contact +surface: samples every 1 mm .*stiffness 2200 N/m per sample of full weight \\(raised"
+  LABELS "cli;scene")
+add_test(NAME cli.scene.info_vertex_contact COMMAND ${EBH_BIN} scene info tube)
+set_tests_properties(cli.scene.info_vertex_contact PROPERTIES PASS_REGULAR_EXPRESSION "contact +vertices" LABELS "cli;scene")
+
 # scene info shows the tool next to the mesh's bounding box, each in its unit; a scene switched to
 # a cm mesh with its tool sizes still in mm numbers warns, naming the keys, in scene info and replay.
 add_test(NAME cli.scene.info_tool COMMAND ${EBH_BIN} scene info cholecystectomy)

@@ -24,6 +24,8 @@
 #include "mesh/quality.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_init.hpp"
+#include "tool/surface_contact.hpp"
+#include "tool/tool_model.hpp"
 #include "scene/scene_refine.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
@@ -51,6 +53,12 @@ void info(const SceneInfoArgs& a) {
   const double bbox_diagonal = bbox.diagonal();
   const ebh::SceneSpec& spec = scene.spec;
   const ebh::ToolSpec& tool = spec.tool;
+  // Contact: with `surface`, the samples' spacing (the tool's thinnest part) and the k_con the
+  // samples get after the stiffness floor (tool/surface_contact.hpp).
+  const bool surface = spec.contact == ebh::ContactModel::Surface;
+  const double spacing = ebh::thinnest_part(ebh::build_tool(tool));
+  const double k_con_surface =
+      spec.stiffness.k_con * ebh::surface_stiffness_factor(spec.stiffness.k_con, tool.force_limit, spacing);
   const ebh::MeshTransform& xf = spec.mesh_transform;
   const std::vector<std::pair<std::string, double>> tool_sizes = ebh::tool_contact_sizes(tool);
   std::map<int, GroupCount> groups;  // by tag; tag 0 is "no group"
@@ -140,6 +148,13 @@ void info(const SceneInfoArgs& a) {
     tj.set("sizes_m", std::move(sizes));
     tj.set("size_over_diagonal", std::move(ratios));
     j.set("tool", std::move(tj));
+    ebh::Json cj = ebh::Json::object();
+    cj.set("model", surface ? "surface" : "vertices");
+    if (surface) {
+      cj.set("sample_spacing_m", spacing);
+      cj.set("k_con_per_sample", k_con_surface);
+    }
+    j.set("contact", std::move(cj));
     ebh::Json q = ebh::Json::object();
     q.set("measure", "mean_ratio");
     q.set("worst", report.quality_worst);
@@ -239,6 +254,12 @@ void info(const SceneInfoArgs& a) {
       std::printf("%s %s %.3g", i ? "," : "", tool_sizes[i].first.c_str(), tool_sizes[i].second / bbox_diagonal);
     std::printf(" (plausible: %g .. %g)\n", ebh::kToolSizeMinRatio, ebh::kToolSizeMaxRatio);
   }
+  if (surface)
+    std::printf("contact          surface: samples every %g %s (the tool's thinnest part), E_con stiffness %g N/m per sample of full weight%s\n",
+                spacing / tool.unit, tool.unit_name.c_str(), k_con_surface,
+                k_con_surface > spec.stiffness.k_con ? " (raised from the scene's by the floor F_limit / (1.5 spacing))" : "");
+  else
+    std::printf("contact          vertices (E_con on the virtual mesh's vertices, the paper's)\n");
   std::printf("quality          mean ratio: worst %.4f (tet %d), mean %.4f\n", report.quality_worst, report.worst_tet,
               report.quality_mean);
   std::printf("  histogram     ");

@@ -228,9 +228,14 @@ void surface_contact_targets(const SurfaceContactModel& s, const ToolModel& tool
                              std::vector<ContactTarget>& out) {
   const PosedTool posed = pose_tool(tool, pose, jaw);
   gather_samples(s, posed, q, grid, 0.0, 0.0, excluded, scratch, scratch.kept);
-  sample_narrow_phase(s, posed, scratch.kept, q, scratch.contacts);
+  sample_targets(s, posed, scratch.kept, q, k_con, scratch, out);
+}
+
+void sample_targets(const SurfaceContactModel& s, const PosedTool& posed, std::span<const SurfaceSample> samples,
+                    std::span<const Vec3d> q, double k_con, SurfaceScratch& scratch, std::vector<ContactTarget>& out) {
+  sample_narrow_phase(s, posed, samples, q, scratch.contacts);
   for (const ContactPoint& c : scratch.contacts) {
-    const SurfaceSample& p = scratch.kept[c.vertex];
+    const SurfaceSample& p = samples[c.vertex];
     const Vec3d shift = c.target - c.lever;  // y_proj - y
     const auto& v = s.triangles[p.triangle];
     for (int k = 0; k < 3; ++k)

@@ -128,6 +128,11 @@ void surface_contact_targets(const SurfaceContactModel& s, const ToolModel& tool
                              std::span<const std::uint8_t> excluded, SurfaceScratch& scratch,
                              std::vector<ContactTarget>& out);
 
+/// The targets of those of `samples` inside the posed tool (surface_contact_targets without the
+/// search: for samples already known to hold every contact, e.g. a Newton call's at the same q).
+void sample_targets(const SurfaceContactModel& s, const PosedTool& posed, std::span<const SurfaceSample> samples,
+                    std::span<const Vec3d> q, double k_con, SurfaceScratch& scratch, std::vector<ContactTarget>& out);
+
 /// Depth (m, >= 0) of the deepest surface sample inside the tool at `pose`.
 double surface_penetration_depth(const SurfaceContactModel& s, const ToolModel& tool, const ToolPose& pose, double jaw,
                                  std::span<const Vec3d> q, VertexGrid& grid, std::span<const std::uint8_t> excluded,

@@ -86,8 +86,10 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
   st.candidates.clear();
   const PosedTool start = pose_tool(tool, st.pose, jaw);
   const double T = lim.reach_translation, th = lim.reach_rotation;
-  if (tool.surface)
+  if (tool.surface) {
     gather_samples(*tool.surface, start, q, grid, T, th, st.grasp.held, st.surface_scratch, st.samples);
+    st.samples_fresh = true;
+  }
   else
     gather_candidates(start, q, grid, T, th, st.candidates);
   // Keep the vertices that one of this call's iterates can reach (the bound of gather_candidates
@@ -142,9 +144,11 @@ double tool_energy(const ToolModel& tool, const Stiffness& k, const ToolPose& ph
                    std::span<const Vec3d> q, std::span<const Vec3d> normals, VertexGrid& grid,
                    VirtualToolState& st) {
   st.candidates.clear();
-  if (tool.surface)
+  if (tool.surface) {
     gather_samples(*tool.surface, pose_tool(tool, st.pose, jaw), q, grid, 0.0, 0.0, st.grasp.held,
                    st.surface_scratch, st.samples);
+    st.samples_fresh = false;
+  }
   else
     gather_candidates(pose_tool(tool, st.pose, jaw), q, grid, 0.0, 0.0, st.candidates);
   detect_at(tool, st.pose, jaw, q, normals, st, st.contacts);
@@ -154,12 +158,15 @@ double tool_energy(const ToolModel& tool, const Stiffness& k, const ToolPose& ph
 void virtual_mesh_targets(const ToolModel& tool, const Stiffness& k, double jaw, std::span<const Vec3d> q,
                           std::span<const Vec3d> normals, VertexGrid& grid, VirtualToolState& st,
                           std::vector<ContactTarget>& out) {
-  if (tool.surface)
+  if (tool.surface && st.samples_fresh)
+    sample_targets(*tool.surface, pose_tool(tool, st.pose, jaw), st.samples, q, k.k_con, st.surface_scratch, out);
+  else if (tool.surface)
     surface_contact_targets(*tool.surface, tool, st.pose, jaw, q, grid, k.k_con, st.grasp.held, st.surface_scratch,
                             out);
   else
     detect_contacts(tool, st.pose, jaw, q, normals, grid, k.k_con, out, st.grasp.held);
   grasp_targets(st.grasp, st.pose, k.k_con, out);
+  st.samples_fresh = false;  // the iteration these targets are for moves q
 }
 
 ToolOutput tool_output(const ToolModel& tool, const Stiffness& k, const ToolPose& physical,

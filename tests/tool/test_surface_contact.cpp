@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <numeric>
 #include <random>
+#include <memory>
 #include <set>
+#include <tuple>
 
 #include "contact_points.hpp"
 #include "mesh/boundary.hpp"
@@ -15,6 +17,7 @@
 #include "tool/surface_contact.hpp"
 #include "tool/tool_energy.hpp"
 #include "tool/tool_model.hpp"
+#include "tool/virtual_tool.hpp"
 
 using namespace ebh;
 
@@ -319,4 +322,36 @@ TEST(SurfaceContact, MeshSideTargetsCarryTheGradientOfTheSampleEnergy) {
       const double dE = (energy(qp) - energy(qm)) / (2 * eps);
       EXPECT_NEAR(-dE, residual[i][k], 1e-6 * std::max(1.0, std::fabs(dE))) << "vertex " << i << " axis " << k;
     }
+}
+
+TEST(SurfaceContact, AMeshIterationAfterANewtonCallReusesItsSamples) {
+  // The targets from the Newton call's samples (the path virtual_mesh_targets takes right after
+  // update_virtual_tool) are those a fresh search finds: the same vertices, targets and stiffnesses.
+  const SurfaceMesh mesh = box_surface();
+  ToolSpec spec;
+  spec.kind = ToolSpec::Kind::Forceps;
+  ToolModel tool = surface_tool(ToolSpec::Kind::Forceps);
+  tool.surface = std::make_shared<const SurfaceContactModel>(build_surface_contact(mesh.triangles, mesh.vertices, thinnest_part(tool)));
+  Stiffness k;
+  VertexGrid grid;
+  grid.rebuild(mesh.vertices, 0.002);
+  VirtualToolState st;
+  const ToolPose start{{0.003, -0.002, 0.0163}, kDown};  // the open jaws' tips (17.3 mm below) 1 mm into the top face
+  init_virtual_tool(st, mesh.vertices.size(), start);
+  const ToolPose device{start.position + Vec3d{0, 0, -0.004}, kDown};
+  update_virtual_tool(tool, k, device, 1.0, mesh.vertices, {}, grid, st);
+  ASSERT_TRUE(st.samples_fresh);
+  std::vector<ContactTarget> reused, searched;
+  virtual_mesh_targets(tool, k, 1.0, mesh.vertices, {}, grid, st, reused);
+  EXPECT_FALSE(st.samples_fresh) << "the iteration that follows moves q";
+  virtual_mesh_targets(tool, k, 1.0, mesh.vertices, {}, grid, st, searched);
+  ASSERT_GT(reused.size(), 10u);
+  ASSERT_EQ(reused.size(), searched.size());
+  auto key = [](const ContactTarget& t) { return std::make_tuple(t.vertex, t.target.x, t.target.y, t.target.z, t.stiffness); };
+  std::vector<std::tuple<int, double, double, double, double>> a, b;
+  for (const ContactTarget& t : reused) a.push_back(key(t));
+  for (const ContactTarget& t : searched) b.push_back(key(t));
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  EXPECT_EQ(a, b);
 }

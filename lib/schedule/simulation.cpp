@@ -206,16 +206,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
     if (backend == Backend::Cuda)
       throw InputError(where + ": key 'contact': surface contact runs on the CPU backend only (use --backend cpu, "
                                "or contact: vertices)");
-    // A sharp box's closest-point projection jumps between faces at its edges: a jaw sliding over
-    // the surface drags it along and lets it go. Rounded by its half thickness the jaw's projection
-    // is continuous to that depth, which the stiffness floor below keeps the contact within.
-    for (Collider<double>& c : w->tool.colliders)
-      if (c.shape == Shape::Box) c.radius = std::min({c.half.x, c.half.y, c.half.z});
-    SurfaceContactModel s =
-        build_surface_contact(w->virtual_mesh.triangles, w->virtual_mesh.rest, thinnest_part(w->tool));
-    s.stiffness_factor =
-        surface_stiffness_factor(w->scene.spec.stiffness.k_con, w->scene.spec.tool.force_limit, s.spacing);
-    w->tool.surface = std::make_shared<const SurfaceContactModel>(std::move(s));
+    attach_surface_contact(w->tool, w->virtual_mesh.triangles, w->virtual_mesh.rest, w->scene.spec.stiffness.k_con);
   }
   w->initial_physical = make_physical_state(w->physical_mesh);
   if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)

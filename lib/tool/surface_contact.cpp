@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 
 namespace ebh {
@@ -48,6 +49,19 @@ double thinnest_part(const ToolModel& tool) {
 }
 
 
+void round_box_edges(ToolModel& tool) {
+  for (Collider<double>& c : tool.colliders)
+    if (c.shape == Shape::Box) c.radius = std::min({c.half.x, c.half.y, c.half.z});
+}
+
+void attach_surface_contact(ToolModel& tool, std::span<const std::array<int, 3>> triangles,
+                            std::span<const Vec3d> rest, double k_con) {
+  round_box_edges(tool);
+  SurfaceContactModel s = build_surface_contact(triangles, rest, thinnest_part(tool));
+  s.stiffness_factor = surface_stiffness_factor(k_con, tool.spec.force_limit, s.spacing);
+  tool.surface = std::make_shared<const SurfaceContactModel>(std::move(s));
+}
+
 int sample_level(const SurfaceContactModel& s, int t, std::span<const Vec3d> q) {
   const int stretched = clamp_level(std::ceil(longest_edge(q, s.triangles[t]) / s.spacing));
   return std::max(static_cast<int>(s.rest_level[t]), stretched);
@@ -85,6 +99,18 @@ void triangle_samples(const SurfaceContactModel& s, int t, std::span<const Vec3d
 
 namespace {
 
+/// The triangle grid's cells [i0, i1] (per axis, clamped to the grid) that the box [a, b] covers.
+void cell_range(const SurfaceScratch& sc, Vec3d a, Vec3d b, int* i0, int* i1) {
+  for (int k = 0; k < 3; ++k) {
+    i0[k] = std::clamp(static_cast<int>(std::floor((a[k] - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
+    i1[k] = std::clamp(static_cast<int>(std::floor((b[k] - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
+  }
+}
+
+std::size_t cell_id(const SurfaceScratch& sc, int x, int y, int z) {
+  return (static_cast<std::size_t>(x) * sc.dims[1] + y) * sc.dims[2] + z;
+}
+
 /// (Re)bins the triangles by their bounding boxes at q when the vertex grid was rebuilt since the
 /// last time (the vertex grid keeps every vertex within its margin of where it was built, so
 /// within two margins of q here: queries grow by that).
@@ -106,14 +132,9 @@ void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> 
   mean_edge = F ? mean_edge / F : 1.0;
   sc.cell = std::max(2.0 * mean_edge, 1e-6);
   sc.origin = lo;
+  sc.upper = hi;
   for (int k = 0; k < 3; ++k)
     sc.dims[k] = F ? std::max(1, std::min(1024, static_cast<int>((hi[k] - lo[k]) / sc.cell) + 1)) : 1;
-  const auto cell_range = [&](Vec3d a, Vec3d b, int* i0, int* i1) {
-    for (int k = 0; k < 3; ++k) {
-      i0[k] = std::clamp(static_cast<int>(std::floor((a[k] - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
-      i1[k] = std::clamp(static_cast<int>(std::floor((b[k] - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
-    }
-  };
   const std::size_t cells = static_cast<std::size_t>(sc.dims[0]) * sc.dims[1] * sc.dims[2];
   sc.cell_start.assign(cells + 1, 0);
   // Two passes (count, then fill) over the cells each triangle's box covers.
@@ -126,12 +147,12 @@ void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> 
     for (std::size_t t = 0; t < F; ++t) {
       const auto& v = s.triangles[t];
       int i0[3], i1[3];
-      cell_range(cwise_min(cwise_min(q[v[0]], q[v[1]]), q[v[2]]), cwise_max(cwise_max(q[v[0]], q[v[1]]), q[v[2]]), i0,
-                 i1);
+      cell_range(sc, cwise_min(cwise_min(q[v[0]], q[v[1]]), q[v[2]]), cwise_max(cwise_max(q[v[0]], q[v[1]]), q[v[2]]),
+                 i0, i1);
       for (int x = i0[0]; x <= i1[0]; ++x)
         for (int y = i0[1]; y <= i1[1]; ++y)
           for (int z = i0[2]; z <= i1[2]; ++z) {
-            const std::size_t c = (static_cast<std::size_t>(x) * sc.dims[1] + y) * sc.dims[2] + z;
+            const std::size_t c = cell_id(sc, x, y, z);
             if (pass == 0) ++sc.cell_start[c + 1];
             else sc.cell_entries[sc.fill[c]++] = static_cast<int>(t);
           }
@@ -154,16 +175,15 @@ void candidate_triangles(const SurfaceContactModel& s, const PosedTool& tool, st
     const Rigid<double>& w = tool.world[c];
     const double grow = sc.grow + (T + th * (tool.reach[c] + T)) / (1.0 - th);
     cover_collider(shape, w, sc.cell, [&](Vec3d lo, Vec3d hi) {
+      const Vec3d g{grow, grow, grow}, a = lo - g, b = hi + g;
+      for (int k = 0; k < 3; ++k)  // a box wholly outside the binned triangles holds none (the last
+        if (b[k] < sc.origin[k] || a[k] > sc.upper[k]) return;  // cell also holds those past 1024 cells)
       int i0[3], i1[3];
-      for (int k = 0; k < 3; ++k) {
-        i0[k] = std::clamp(static_cast<int>(std::floor((lo[k] - grow - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
-        i1[k] = std::clamp(static_cast<int>(std::floor((hi[k] + grow - sc.origin[k]) / sc.cell)), 0, sc.dims[k] - 1);
-        if (hi[k] + grow < sc.origin[k] || lo[k] - grow > sc.origin[k] + sc.dims[k] * sc.cell) return;
-      }
+      cell_range(sc, a, b, i0, i1);
       for (int x = i0[0]; x <= i1[0]; ++x)
         for (int y = i0[1]; y <= i1[1]; ++y)
           for (int z = i0[2]; z <= i1[2]; ++z) {
-            const std::size_t cell = (static_cast<std::size_t>(x) * sc.dims[1] + y) * sc.dims[2] + z;
+            const std::size_t cell = cell_id(sc, x, y, z);
             for (int e = sc.cell_start[cell]; e < sc.cell_start[cell + 1]; ++e) {
               const int t = sc.cell_entries[e];
               if (sc.stamp[t] == stamp) continue;

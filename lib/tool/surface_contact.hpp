@@ -63,6 +63,18 @@ double thinnest_part(const ToolModel& tool);
 /// surface, and never through it. 1 when k_con is already above the floor or there is no limit.
 double surface_stiffness_factor(double k_con, double force_limit, double spacing);
 
+/// Rounds every box collider of `tool` by its smallest half extent (Collider::radius). A sharp
+/// box's closest-point projection jumps between faces at its edges: a jaw sliding over the surface
+/// drags it along and lets it go. Rounded by its half thickness the jaw's projection is continuous
+/// to that depth, which the stiffness floor keeps the contact within.
+void round_box_edges(ToolModel& tool);
+
+/// Switches `tool` to surface contact on the virtual mesh (triangles, #m rest positions): rounds
+/// its boxes, builds the samples' model with spacing thinnest_part(tool) and the stiffness floor
+/// for k_con and the tool's force limit, and sets tool.surface.
+void attach_surface_contact(ToolModel& tool, std::span<const std::array<int, 3>> triangles,
+                            std::span<const Vec3d> rest, double k_con);
+
 /// One sample point of a triangle: y = b0 q_a + b1 q_b + b2 q_c, E_con weight w.
 struct SurfaceSample {
   int triangle = -1;
@@ -101,7 +113,7 @@ struct SurfaceScratch {
   // number `grid_rebuild` was first seen; queries grow by `grow` (two of its margins).
   int grid_rebuild = -1;
   double cell = 1, grow = 0;
-  Vec3d origin{};
+  Vec3d origin{}, upper{};  ///< the binned triangles' bounding box
   int dims[3] = {1, 1, 1};
   std::vector<int> cell_start, cell_entries, fill;
   std::vector<SurfaceSample> samples;   ///< one triangle's samples

@@ -27,8 +27,7 @@ ToolModel surface_tool(ToolSpec::Kind kind) {
   ToolSpec spec;
   spec.kind = kind;
   ToolModel tool = build_tool(spec);
-  for (Collider<double>& c : tool.colliders)  // as build_world does for contact: surface
-    if (c.shape == Shape::Box) c.radius = std::min({c.half.x, c.half.y, c.half.z});
+  round_box_edges(tool);  // as attach_surface_contact does
   return tool;
 }
 
@@ -53,7 +52,7 @@ TEST(SurfaceSamples, SubTriangleCentroidsCoverTheTriangle) {
   double weight = 0;
   std::set<std::pair<long, long>> distinct;
   for (const SurfaceSample& p : out) {
-    EXPECT_NEAR(p.b[0] + p.b[1] + p.b[2], 1.0, 1e-15);
+    EXPECT_NEAR(p.b[0] + p.b[1] + p.b[2], 1.0, 1e-15);  // b0 = 1 - b1 - b2: a rounding or two
     for (double b : p.b) EXPECT_GT(b, 0.0);
     mean += sample_point(s, p, rest) / 25.0;
     weight += p.weight;
@@ -62,7 +61,7 @@ TEST(SurfaceSamples, SubTriangleCentroidsCoverTheTriangle) {
   EXPECT_EQ(distinct.size(), 25u);
   EXPECT_LT(norm(mean - Vec3d{0.001, 0.001, 0}), 1e-15);  // equal areas: the centroids average to the centroid
   // Weights: the triangle's area in units of an equilateral triangle of edge `spacing`.
-  EXPECT_NEAR(weight, 4.5e-6 / (0.25 * std::sqrt(3.0) * 1e-6), 1e-12);
+  EXPECT_NEAR(weight, 4.5e-6 / (0.25 * std::sqrt(3.0) * 1e-6), 1e-12);  // 25 equal terms of ~0.42: round-off ~1e-15
 }
 
 TEST(SurfaceSamples, StretchingAddsRowsPastTheRestLevel) {
@@ -172,8 +171,8 @@ TEST(RoundedBox, QueryMatchesFiniteDifferencesAndIsContinuousAtEdges) {
   for (int t = 0; t < 4000 && checked < 300; ++t) {
     const Vec3d p = box.a + Vec3d{0.0013 * u(rng), 0.0028 * u(rng), 0.0103 * u(rng)};
     const SurfaceQuery<double> s = query_local(box, p);
-    EXPECT_NEAR(signed_distance_local(box, p), s.sd, 1e-15);
-    EXPECT_NEAR(norm(s.point - p), std::fabs(s.sd), 1e-12);
+    EXPECT_NEAR(signed_distance_local(box, p), s.sd, 1e-15);  // the same arithmetic, metres ~1e-3
+    EXPECT_NEAR(norm(s.point - p), std::fabs(s.sd), 1e-12);   // a norm recomputed: relative round-off
     if (!(s.sd < -1e-5) || s.sd < -0.00099) continue;  // inside, not at the core (medial) plane
     const double eps = 1e-8;
     Vec3d grad;
@@ -185,6 +184,9 @@ TEST(RoundedBox, QueryMatchesFiniteDifferencesAndIsContinuousAtEdges) {
       const Vec3d dn = (query_local(box, p + d).normal - query_local(box, p - d).normal) / (2 * eps);
       for (int i = 0; i < 3; ++i) H(i, k) = dn[i];
     }
+    // Central differences with eps = 1e-8 m at a distance d >= 1e-5 m from the core's nearest
+    // feature (depth < 0.99 radius): truncation eps^2 / d^2 <= 1e-6 on the gradient, eps^2 / d^3
+    // <= 0.1 /m on the Hessian (whose entries reach 1 / d = 1e5 /m).
     EXPECT_LT(norm(grad - s.normal), 1e-6);
     double err = 0, scale = 1.0 / 1e-3;
     for (int i = 0; i < 3; ++i)
@@ -225,13 +227,7 @@ double sample_energy(const SampleCase& c, const Vec6& x, Vec6* g, Mat6* H) {
   const ToolPose p = perturb(c.pose, x);
   std::vector<ContactPoint> contacts;
   sample_narrow_phase(c.surface, pose_tool(c.tool, p, c.jaw), c.samples, c.q, contacts);
-  Vec6 g1, g2;
-  Mat6 H1, H2;
-  double e = coupling_energy(p, c.physical, c.k.k_vcs, c.k.k_vct, g ? &g1 : nullptr, H ? &H1 : nullptr);
-  e += contact_energy(contacts, p.position, c.k.k_con, g ? &g2 : nullptr, H ? &H2 : nullptr);
-  if (g) *g = g1 + g2;
-  if (H) *H = H1 + H2;
-  return e;
+  return test::coupling_and_contact_energy(p, c.physical, c.k, contacts, g, H);
 }
 
 SampleCase make_sample_case(ToolSpec::Kind kind, std::mt19937& rng) {
@@ -280,6 +276,9 @@ TEST(SurfaceContact, ToolSideGradientAndHessianMatchFiniteDifferences) {
         gm = test::pulled_back(x, gm);
         fdH.col(i) = (gp - gm) / (2 * eps);
       }
+      // Relative 1e-5, as for vertex contact (test_tool_derivatives.cpp): the samples are at least
+      // 0.1 mm from a rounded box's core and 5e-5 m deep, so curvature radii >= ~1e-4 m give
+      // O(eps^2 / rho^2) = 1e-6 truncation with eps = 1e-7.
       EXPECT_LE((fd - g).norm(), 1e-5 * g.norm() + 1e-12) << g.transpose() << "\n" << fd.transpose();
       EXPECT_LE((fdH - H).norm(), 1e-5 * H.norm()) << H << "\n\n" << fdH;
     }
@@ -320,6 +319,8 @@ TEST(SurfaceContact, MeshSideTargetsCarryTheGradientOfTheSampleEnergy) {
       qp[i][k] += eps;
       qm[i][k] -= eps;
       const double dE = (energy(qp) - energy(qm)) / (2 * eps);
+      // eps = 1e-9 m on E ~ 1e-4 J: round-off ~1e-16 E / eps ~ 1e-11 N, truncation ~eps^2 (third derivative of E) ~ 1e-12 N,
+      // against residuals of ~0.1 N: 1e-6 N leaves room for both.
       EXPECT_NEAR(-dE, residual[i][k], 1e-6 * std::max(1.0, std::fabs(dE))) << "vertex " << i << " axis " << k;
     }
 }
@@ -330,9 +331,9 @@ TEST(SurfaceContact, AMeshIterationAfterANewtonCallReusesItsSamples) {
   const SurfaceMesh mesh = box_surface();
   ToolSpec spec;
   spec.kind = ToolSpec::Kind::Forceps;
-  ToolModel tool = surface_tool(ToolSpec::Kind::Forceps);
-  tool.surface = std::make_shared<const SurfaceContactModel>(build_surface_contact(mesh.triangles, mesh.vertices, thinnest_part(tool)));
+  ToolModel tool = build_tool(spec);
   Stiffness k;
+  attach_surface_contact(tool, mesh.triangles, mesh.vertices, k.k_con);
   VertexGrid grid;
   grid.rebuild(mesh.vertices, 0.002);
   VirtualToolState st;

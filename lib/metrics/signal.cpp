@@ -79,13 +79,17 @@ PowerSpectrum power_spectrum(const std::vector<std::vector<double>>& channels, d
 
 double power_fraction_above(const PowerSpectrum& s, double f_hz) {
   if (s.power.empty()) return std::numeric_limits<double>::quiet_NaN();
-  double total = 0, above = 0;
-  for (std::size_t k = 0; k < s.power.size(); ++k) {
-    total += s.power[k];
-    if (s.freq[k] > f_hz) above += s.power[k];
-  }
+  double total = 0;
+  for (const double p : s.power) total += p;
   if (!std::isfinite(total)) return std::numeric_limits<double>::quiet_NaN();
-  return total > 0 ? above / total : 0.0;
+  return total > 0 ? power_above(s, f_hz) / total : 0.0;
+}
+
+double power_above(const PowerSpectrum& s, double f_hz) {
+  double above = 0;
+  for (std::size_t k = 0; k < s.power.size(); ++k)
+    if (s.freq[k] > f_hz) above += s.power[k];
+  return above;
 }
 
 double percentile(std::vector<double> values, double p) {

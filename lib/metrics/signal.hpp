@@ -35,6 +35,9 @@ PowerSpectrum power_spectrum(const std::vector<std::vector<double>>& channels, d
 /// fluctuation at any frequency); NaN when the spectrum is empty or not finite.
 double power_fraction_above(const PowerSpectrum& s, double f_hz);
 
+/// The spectrum's power in bins with freq > f_hz (its units: compare spectra of the same window).
+double power_above(const PowerSpectrum& s, double f_hz);
+
 /// Percentile p in [0, 100] with linear interpolation between order statistics at position
 /// (n-1) p / 100 (numpy's default). NaN for empty input or when any value is NaN.
 double percentile(std::vector<double> values, double p);

@@ -120,7 +120,7 @@ ContactPush contact_push_through(const std::string& contact, double speed) {
 
 namespace {
 
-double power_above(const Trace& tr, double from, double to, double* mean) {
+double force_power_above(const Trace& tr, double from, double to, double* mean) {
   const std::size_t a = static_cast<std::size_t>(from * kRate), b = std::min(tr.force.size(), static_cast<std::size_t>(to * kRate));
   std::vector<std::vector<double>> ch(3);
   double m = 0;
@@ -129,11 +129,7 @@ double power_above(const Trace& tr, double from, double to, double* mean) {
     m += norm(tr.force[i]);
   }
   *mean = b > a ? m / static_cast<double>(b - a) : 0.0;
-  const PowerSpectrum s = power_spectrum(ch, kRate, 512, 64);
-  double p = 0;
-  for (std::size_t k = 0; k < s.freq.size(); ++k)
-    if (s.freq[k] > kCutoff) p += s.power[k];
-  return p;
+  return power_above(power_spectrum(ch, kRate, 512, 64), kCutoff);
 }
 
 }  // namespace
@@ -160,8 +156,8 @@ ContactSlide contact_sliding(const std::string& which) {
   s.surface = which;
   // The constant-speed segment less 0.25 s at each end (the start's transient, the end).
   const double from = t_rest + 0.25, to = t_end - 0.25;
-  s.power_vertices = power_above(run(scene, "vertices", rec), from, to, &s.mean_vertices);
-  s.power_surface = power_above(run(scene, "surface", rec), from, to, &s.mean_surface);
+  s.power_vertices = force_power_above(run(scene, "vertices", rec), from, to, &s.mean_vertices);
+  s.power_surface = force_power_above(run(scene, "surface", rec), from, to, &s.mean_surface);
   return s;
 }
 

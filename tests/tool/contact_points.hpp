@@ -5,8 +5,9 @@
 #include <random>
 #include <vector>
 
-#include "tool/tool_model.hpp"
+#include "tool/contact.hpp"
 #include "tool/tool_energy.hpp"
+#include "tool/tool_model.hpp"
 
 namespace ebh::test {
 
@@ -39,6 +40,19 @@ inline std::vector<Vec3d> inside_points(const PosedTool& posed, std::mt19937& rn
     if (stable) out.push_back(x);
   }
   return out;
+}
+
+/// E_tvc [2] + E_con [3] of `contacts` at pose p against the physical pose, with gradient and
+/// Hessian (either may be null): the virtual tool's energy the finite-difference tests check.
+inline double coupling_and_contact_energy(const ToolPose& p, const ToolPose& physical, const Stiffness& k,
+                                          const std::vector<ContactPoint>& contacts, Vec6* g, Mat6* H) {
+  Vec6 g1, g2;
+  Mat6 H1, H2;
+  double e = coupling_energy(p, physical, k.k_vcs, k.k_vct, g ? &g1 : nullptr, H ? &H1 : nullptr);
+  e += contact_energy(contacts, p.position, k.k_con, g ? &g2 : nullptr, H ? &H2 : nullptr);
+  if (g) *g = g1 + g2;
+  if (H) *H = H1 + H2;
+  return e;
 }
 
 /// The analytic gradient at pose(x) is taken in the parameterisation centred at pose(x); the

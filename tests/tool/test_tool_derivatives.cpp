@@ -31,13 +31,7 @@ double energy(const Case& c, const Vec6& x, Vec6* g, Mat6* H) {
   std::iota(all.begin(), all.end(), 0);
   std::vector<ContactPoint> contacts;
   narrow_phase(posed, c.tool.projection, all, c.q, c.normals, {}, contacts);
-  Vec6 g1, g2;
-  Mat6 H1, H2;
-  double e = coupling_energy(p, c.physical, c.k.k_vcs, c.k.k_vct, g ? &g1 : nullptr, H ? &H1 : nullptr);
-  e += contact_energy(contacts, p.position, c.k.k_con, g ? &g2 : nullptr, H ? &H2 : nullptr);
-  if (g) *g = g1 + g2;
-  if (H) *H = H1 + H2;
-  return e;
+  return test::coupling_and_contact_energy(p, c.physical, c.k, contacts, g, H);
 }
 
 Quatd random_rotation(std::mt19937& rng) {

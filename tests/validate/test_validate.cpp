@@ -43,6 +43,9 @@ TEST(Validation, HertzIndentationForceFollowsTheTheory) {
 
 // The short form of `ebh validate contact`: what surface contact is for, against vertex contact.
 TEST(Validation, SurfaceContactHoldsWhereVertexContactLetsTheHookThrough) {
+  // Measured (dev): vertex contact 0.03 N at depth after a 1.42 N fall; surface contact 2.92 N, a
+  // 0.17 N fall, 0.2 mm penetration. The bounds sit between the two, with room for other
+  // compilers' rounding, not at the measured values.
   const ContactPush v = contact_push_through("vertices", 0.05), s = contact_push_through("surface", 0.05);
   EXPECT_LT(v.force_at_depth, 0.2) << "vertex contact: the tip slipped between vertices";
   EXPECT_GT(s.force_at_depth, 2.5) << "surface contact keeps pushing back";

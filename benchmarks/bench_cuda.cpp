@@ -103,8 +103,9 @@ void time_ticks(benchmark::State& st, Tick&& tick, std::vector<double>& times) {
 void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
   if (!device_ready(st)) return;
   const Loaded& L = load(scene);
-  PhysicalStepParams params = physical_params(L.scene.spec.solver);
+  PhysicalStepParams params = physical_params(L.scene.spec.solver, L.pm);
   params.iterations = st.range(0);
+  params.tolerance = 0;  // exactly K iterations
   CudaPhysicalOptions options;
   options.programmatic_launch = st.range(1) != 0;  // 0: plain graph kernel nodes
   CudaPhysicalSolver solver(L.pm, params, options);
@@ -144,8 +145,9 @@ BENCHMARK_CAPTURE(BM_CudaPhysicalStep, cholecystectomy, std::string("cholecystec
 void BM_CudaPhysicalStepDevice(benchmark::State& st, std::string scene) {
   if (!device_ready(st)) return;
   const Loaded& L = load(scene);
-  PhysicalStepParams params = physical_params(L.scene.spec.solver);
+  PhysicalStepParams params = physical_params(L.scene.spec.solver, L.pm);
   params.iterations = st.range(0);
+  params.tolerance = 0;  // exactly K iterations
   CudaPhysicalSolver solver(L.pm, params);
   PhysicalState state = make_physical_state(L.pm);
   solver.step(state, L.vm.rest);  // q on the device: the rest shape

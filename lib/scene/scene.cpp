@@ -97,9 +97,12 @@ class SpecReader {
     return v;
   }
   /// A number in the interval (lo, hi) / [lo, hi], open or closed at each end as given.
-  double in_range(const YAML::Node& n, const std::string& key, double lo, bool lo_closed, double hi, bool hi_closed) const {
+  /// `also` (e.g. "auto or ") names what else the key takes, in the message.
+  double in_range(const YAML::Node& n, const std::string& key, double lo, bool lo_closed, double hi, bool hi_closed,
+                  const char* also = "") const {
     char range[96];
-    std::snprintf(range, sizeof range, "a number in %c%g, %g%c", lo_closed ? '[' : '(', lo, hi, hi_closed ? ']' : ')');
+    std::snprintf(range, sizeof range, "%sa number in %c%g, %g%c", also, lo_closed ? '[' : '(', lo, hi,
+                  hi_closed ? ']' : ')');
     const double v = number(n, key, range);
     const bool ok = (lo_closed ? v >= lo : v > lo) && (hi_closed ? v <= hi : v < hi);
     if (!ok) fail(key, std::string("expected ") + range + ", got " + shown(n));
@@ -374,7 +377,8 @@ class SpecReader {
 
   void read_solver(const YAML::Node& n, SolverSpec& sv) const {
     const auto e = entries(n, "solver", {"method", "diagonal", "physical_iterations", "virtual_iterations", "chebyshev_rho",
-                                             "recovery", "recovery_residual"});
+                                             "physical_tolerance", "physical_max_iterations", "recovery",
+                                             "recovery_residual"});
     if (auto it = e.find("method"); it != e.end()) {
       const int m = choice(it->second, "solver.method", {"jacobi", "chebyshev", "direct"});
       sv.method = m == 0 ? SolverSpec::Method::Jacobi : m == 1 ? SolverSpec::Method::Chebyshev : SolverSpec::Method::Direct;
@@ -386,8 +390,14 @@ class SpecReader {
       sv.physical_iterations = integer(it->second, "solver.physical_iterations", 1, 100000);
     if (auto it = e.find("virtual_iterations"); it != e.end())
       sv.virtual_iterations = integer(it->second, "solver.virtual_iterations", 1, 100000);
-    if (auto it = e.find("chebyshev_rho"); it != e.end())
-      sv.chebyshev_rho = in_range(it->second, "solver.chebyshev_rho", 0, false, 1, false);
+    if (auto it = e.find("chebyshev_rho"); it != e.end()) {
+      sv.chebyshev_rho_auto = it->second.IsScalar() && it->second.Scalar() == "auto";
+      if (!sv.chebyshev_rho_auto) sv.chebyshev_rho = in_range(it->second, "solver.chebyshev_rho", 0, false, 1, false, "auto or ");
+    }
+    if (auto it = e.find("physical_tolerance"); it != e.end())
+      sv.physical_tolerance = in_range(it->second, "solver.physical_tolerance", 0, true, 1e4, true);
+    if (auto it = e.find("physical_max_iterations"); it != e.end())
+      sv.physical_max_iterations = integer(it->second, "solver.physical_max_iterations", 1, 100000);
     if (auto it = e.find("recovery"); it != e.end())
       sv.recovery = choice(it->second, "solver.recovery", {"direct", "none"}) == 0 ? SolverSpec::Recovery::Direct
                                                                                  : SolverSpec::Recovery::None;
@@ -857,7 +867,11 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "diagonal" << YAML::Value << (sv.diagonal == SolverSpec::Diagonal::Bounded ? "bounded" : "plain");
   y << YAML::Key << "physical_iterations" << YAML::Value << sv.physical_iterations;
   y << YAML::Key << "virtual_iterations" << YAML::Value << sv.virtual_iterations;
-  y << YAML::Key << "chebyshev_rho" << YAML::Value << sv.chebyshev_rho;
+  y << YAML::Key << "chebyshev_rho";
+  if (sv.chebyshev_rho_auto) y << YAML::Value << "auto";
+  else y << YAML::Value << sv.chebyshev_rho;
+  y << YAML::Key << "physical_tolerance" << YAML::Value << sv.physical_tolerance;
+  y << YAML::Key << "physical_max_iterations" << YAML::Value << sv.physical_max_iterations;
   y << YAML::Key << "recovery" << YAML::Value << (sv.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
   y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual << YAML::EndMap;
   y << YAML::Key << "contact" << YAML::Value << (s.contact == ContactModel::Surface ? "surface" : "vertices");

@@ -59,7 +59,11 @@
 //     diagonal: bounded             # bounded | plain: the Jacobi-type methods' D (docs/MODEL.md)
 //     physical_iterations: 16
 //     virtual_iterations: 4         # virtual-mesh local-global iterations per haptic tick
-//     chebyshev_rho: 0.95
+//     chebyshev_rho: 0.95           # (0, 1) | auto: the relaxed Jacobi iteration's spectral radius
+//                                   #   on this mesh (docs/MODEL.md, "Chebyshev's rho")
+//     physical_tolerance: 0.01      # jacobi/chebyshev: iterate past physical_iterations while the step
+//     physical_max_iterations: 64   #   leaves more than this many mesh weights unbalanced, up to the
+//                                   #   maximum (0: always physical_iterations; docs/MODEL.md)
 //     recovery: direct              # direct | none: redo a step the jacobi/chebyshev iterations leave
 //     recovery_residual: 100        #   above this many mesh weights unbalanced (or diverged) with the
 //                                   #   direct solve (CPU backend; docs/MODEL.md, "Recovery")
@@ -149,7 +153,15 @@ struct SolverSpec {
   Diagonal diagonal = Diagonal::Bounded;
   int physical_iterations = 16;
   int virtual_iterations = 4;
+  /// Chebyshev's rho (Wang 2015): chebyshev_rho, or with chebyshev_rho_auto the relaxed Jacobi
+  /// iteration's spectral radius on the mesh (PhysicalModel::spectrum; physical_params).
+  bool chebyshev_rho_auto = false;
   double chebyshev_rho = 0.95;
+  /// The Jacobi-type methods' stopping rule: after physical_iterations, iterations go on while the
+  /// residual at the start of the last one (PhysicalStepReport::residual, mesh weights) is above
+  /// physical_tolerance, up to physical_max_iterations in all. 0: exactly physical_iterations.
+  double physical_tolerance = 0.01;
+  int physical_max_iterations = 64;
   /// The Jacobi-type methods' recovery (CPU backend): a step that leaves more than
   /// recovery_residual mesh weights unbalanced (PhysicalStepReport::residual), or a diverged
   /// state, is redone from its start with the direct global solve (docs/MODEL.md, "Recovery").

@@ -47,6 +47,8 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("physical_iterations", static_cast<std::int64_t>(s.solver.physical_iterations));
   f.set_attr("virtual_iterations", static_cast<std::int64_t>(s.solver.virtual_iterations));
   f.set_attr("chebyshev_rho", s.solver.chebyshev_rho);
+  f.set_attr("physical_tolerance", s.solver.physical_tolerance);
+  f.set_attr("physical_max_iterations", static_cast<std::int64_t>(s.solver.physical_max_iterations));
   f.set_attr("virtual_refine", static_cast<std::int64_t>(s.virtual_refine));
   f.set_attr("tool", s.tool.kind == ToolSpec::Kind::Hook ? "hook" : "forceps");
   f.set_attr("force_limit", s.tool.force_limit);

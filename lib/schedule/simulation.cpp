@@ -200,7 +200,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->scene.spec.physical_hz = physical_hz;
   w->virtual_mesh = build_virtual_model(w->scene);
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
-  w->physical_params = physical_params(w->scene.spec.solver);
+  w->physical_params = physical_params(w->scene.spec.solver, w->physical_mesh);
   w->tool = build_tool(w->scene.spec.tool);
   if (w->scene.spec.contact == ContactModel::Surface) {
     if (backend == Backend::Cuda)

@@ -1,6 +1,7 @@
 // The physical mesh under Projective Dynamics: model building and Algorithm 1.
 #include "solver/physical_mesh.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -333,11 +334,21 @@ PhysicalWorkspace make_physical_workspace(const PhysicalModel& model) {
   return ws;
 }
 
-PhysicalStepParams physical_params(const SolverSpec& spec) {
+double chebyshev_rate_rho(const PhysicalModel& model, double gamma) {
+  return std::clamp(model.spectrum.jacobi_rate(gamma), 0.5, 0.9999);
+}
+
+double chebyshev_rho_of(const SolverSpec& spec, const PhysicalModel& model, double gamma) {
+  return spec.chebyshev_rho_auto ? chebyshev_rate_rho(model, gamma) : spec.chebyshev_rho;
+}
+
+PhysicalStepParams physical_params(const SolverSpec& spec, const PhysicalModel& model) {
   PhysicalStepParams p;
   p.method = spec.method;
   p.iterations = spec.physical_iterations;
-  p.chebyshev_rho = spec.chebyshev_rho;
+  p.chebyshev_rho = chebyshev_rho_of(spec, model, p.relaxation);
+  p.tolerance = spec.physical_tolerance;
+  p.max_iterations = std::max(spec.physical_max_iterations, spec.physical_iterations);
   return p;
 }
 
@@ -362,14 +373,20 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
 
   double r0 = 0, rk = 0;
   const int K = params.iterations;
+  const bool adaptive = params.adaptive();
+  const double tolerance = adaptive ? params.tolerance : 0.0;
+  const int max_iterations = adaptive ? params.max_iterations : K;
+  const double weight_scale = model.weight_norm > 0 ? model.weight_norm : 1.0;  // set_residuals' scale
+  int iterations = 0;
   // One parallel region for the whole step: the stages are work-sharing loops with two barriers
   // per iteration. The master thread times the stages and sums the residual norms (after the
   // barrier ending the global step; ws.r is next written after the following local step's barrier).
+  // Past K iterations (adaptive) one thread sums the norm and decides for all (a third barrier).
 #pragma omp parallel
   {
     predict(model, ws, state);
     double omega = 1;  // every thread follows the same Chebyshev weights
-    for (int k = 0; k < K; ++k) {
+    for (int k = 0; k < max_iterations; ++k) {
       auto t0 = Clock::now();
       local_step(model, ws, state, virtual_q, params);
 #pragma omp master
@@ -383,16 +400,26 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
 #pragma omp single
         global_direct(model, *direct, ws, state);  // implicit barrier
       }
+      if (k + 1 < K) {
 #pragma omp master
-      {
-        if (k == 0) r0 = residual_norm(ws);
-        if (k == K - 1) rk = k == 0 ? r0 : residual_norm(ws);
-        report.global_s += seconds_since(t0);
+        {
+          if (k == 0) r0 = residual_norm(ws);
+          report.global_s += seconds_since(t0);
+        }
+        continue;
       }
+#pragma omp single
+      {
+        rk = residual_norm(ws);
+        if (k == 0) r0 = rk;
+        iterations = k + 1;
+        report.global_s += seconds_since(t0);
+      }  // implicit barrier: every thread reads the same rk
+      if (!continue_iterating(k, rk / weight_scale, K, tolerance, max_iterations)) break;
     }
     update_velocities(model, ws, state);
   }
-  report.iterations = params.iterations;
+  report.iterations = iterations;
   set_residuals(report, r0, rk, model.weight_norm);
   report.time_s = seconds_since(t_step);
   return report;

@@ -105,8 +105,14 @@ struct PhysicalDevice {
   Quatf* rotation = nullptr;            // 2T warm starts: [0, T) the state, [T, 2T) scratch
   float* rsq_first = nullptr;           // n  |r_a|^2 at iteration 0
   float* rsq_last = nullptr;            // n  |r_a|^2 at iteration K-1
-  double* residual_sq = nullptr;        // 2  sums of the two (host-mapped: the host reads them after the step)
+  double* residual_sq = nullptr;        // 3  sums of the two and the iterations run (host-mapped: the host reads them after the step)
   unsigned int* blocks_done = nullptr;  // 1  the last-block counter
+  // The stopping rule past K iterations (adaptive graphs only: PhysicalStepParams::adaptive).
+  int* next_iteration = nullptr;        // 1  the loop's next iteration k; the loop's finish resets it
+  const float* omega = nullptr;         // max_iterations  the Chebyshev weights (iteration_weights)
+  double weight_norm = 0;               // ||M g0||, the residual's scale
+  double tolerance = 0;                 // mesh weights
+  int iterations = 0, max_iterations = 0;  // K and the cap
 };
 
 /// One iteration's buffers (the rotation described at the top of the file).
@@ -218,13 +224,14 @@ __device__ __forceinline__ float lane_sum(float v) {
   return v;
 }
 
-/// ||r_0||^2 and ||r_{K-1}||^2 in double by one block: each thread a fixed strided slice, then a
-/// fixed tree (the same order whichever block runs it).
-__device__ __forceinline__ void residual_block(const PhysicalDevice& d) {
+/// ||r_0||^2 and ||r_k||^2 (|r_a|^2 in `rsq_last`) in double by one block: each thread a fixed
+/// strided slice, then a fixed tree (the same order whichever block runs it). Thread 0 stores them
+/// and returns ||r_k||^2.
+__device__ __forceinline__ double residual_block(const PhysicalDevice& d, const float* rsq_last) {
   __shared__ double sum[2][kBlock];
   const int t = threadIdx.x;
   double a = 0, b = 0;
-  for (int i = t; i < d.n; i += kBlock) { a += __ldcg(d.rsq_first + i); b += __ldcg(d.rsq_last + i); }
+  for (int i = t; i < d.n; i += kBlock) { a += __ldcg(d.rsq_first + i); b += __ldcg(rsq_last + i); }
   sum[0][t] = a;
   sum[1][t] = b;
   __syncthreads();
@@ -233,20 +240,26 @@ __device__ __forceinline__ void residual_block(const PhysicalDevice& d) {
     __syncthreads();
   }
   if (t == 0) { d.residual_sq[0] = sum[0][0]; d.residual_sq[1] = sum[1][0]; }
+  return sum[1][0];
 }
 
-/// Blocks count themselves out; the last one sums the residuals (an integer atomic only picks
-/// which block does it; the sums' order is fixed). Every thread fences its own writes first.
-__device__ __forceinline__ void last_block_reduces(const PhysicalDevice& d) {
+/// Blocks count themselves out; true in the last one to finish (an integer atomic only picks
+/// which block it is), which then resets the counter. Every thread fences its own writes first.
+__device__ __forceinline__ bool last_block(const PhysicalDevice& d) {
   __shared__ bool last;
   __threadfence();
   __syncthreads();
   if (threadIdx.x == 0) last = atomicAdd(d.blocks_done, 1u) == gridDim.x - 1;
   __syncthreads();
-  if (!last) return;
+  if (!last) return false;
   __threadfence();
-  residual_block(d);
   if (threadIdx.x == 0) *d.blocks_done = 0;
+  return true;
+}
+
+/// The last block sums the residuals (the sums' order is fixed).
+__device__ __forceinline__ void last_block_reduces(const PhysicalDevice& d) {
+  if (last_block(d)) residual_block(d, d.rsq_last);
 }
 
 /// What a thread of a patch's block needs that never changes: loaded once per kernel, before
@@ -466,6 +479,52 @@ struct SweepPlan {
   }
 };
 
+/// The loop's decision after iteration k (the last block): the residual sums, the iterations run,
+/// and whether the loop runs iteration k + 1 (continue_iterating, as the CPU step decides).
+__device__ __forceinline__ void last_block_decides(const PhysicalDevice& d, int k, const float* rsq,
+                                                   cudaGraphConditionalHandle loop) {
+  if (!last_block(d)) return;
+  const double rk2 = residual_block(d, rsq);
+  if (threadIdx.x != 0) return;
+  const double scale = d.weight_norm > 0 ? d.weight_norm : 1.0;
+  const bool more = continue_iterating(k, sqrt(rk2) / scale, d.iterations, d.tolerance, d.max_iterations);
+  d.residual_sq[2] = k + 1;
+  *d.next_iteration = k + 1;
+  cudaGraphSetConditional(loop, more ? 1u : 0u);
+}
+
+/// The iterations from K - 1 on, as the body of the graph's while loop (PhysicalStepParams::
+/// adaptive): iteration k = *next_iteration, buffers from `plan` (no iteration writes the state:
+/// loop_finish_kernel does), its weight from d.omega; the last block decides whether k + 1 runs.
+template <bool kChebyshev>
+__global__ void __launch_bounds__(kBlock, 2)
+    loop_iteration_kernel(PhysicalDevice d, SweepPlan plan, int rotation_iterations, cudaGraphConditionalHandle loop) {
+  PatchThread P;
+  load_patch_thread(d, blockIdx.x, threadIdx.x, P);
+  cache_patch_items(d, P, patch_shared(d), threadIdx.x);
+  kernel_prologue();
+  const int k = *d.next_iteration;  // written by the previous kernel's last block
+  float* rsq = k == 0 ? d.rsq_first : d.rsq_last;
+  const Sweep w = plan.sweep(k, d.omega[k], rsq);
+  Quatf r_last{};
+  if (threadIdx.x < P.tets) r_last = w.rot_in[d.ptet[P.e0 + threadIdx.x] & 0x7fffffff];
+  if (k == 0) patch_iteration<kChebyshev, true, false>(d, w, P, r_last, threadIdx.x, rotation_iterations);
+  else patch_iteration<kChebyshev, false, false>(d, w, P, r_last, threadIdx.x, rotation_iterations);
+  last_block_decides(d, k, rsq, loop);
+}
+
+/// After the loop: the last iterate x_count becomes the state with its velocities (Alg. 1 line
+/// 11), the last rotations move into the state half when count is odd, and the last block resets
+/// the loop's counter for the next step (every block has read it by then).
+__global__ void __launch_bounds__(kBlock) loop_finish_kernel(PhysicalDevice d, SweepPlan plan) {
+  kernel_prologue();
+  const int count = *d.next_iteration;
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < d.n) finish_vertex(d, plan.read(count - 1), i);
+  if (count % 2 == 1 && i < d.T) d.rotation[i] = d.rotation[d.T + i];
+  if (last_block(d) && threadIdx.x == 0) *d.next_iteration = d.iterations - 1;
+}
+
 /// Morton code of p in the box [lo, lo + extent]: 10 bits per axis, interleaved.
 std::uint32_t morton(const Vec3d& p, const Vec3d& lo, double extent) {
   auto spread = [](std::uint32_t v) {
@@ -579,9 +638,12 @@ Patches build_patches(const PhysicalModel& M, int size) {
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 Quatf to_float(const Quatd& q) { return {float(q.w), float(q.x), float(q.y), float(q.z)}; }
 
-/// A step's two residual sums (mapped host memory) into its slot (launch_device_step(slot)).
+/// The doubles a step reports through mapped host memory: ||r_0||^2, ||r_K||^2, iterations run.
+constexpr int kReportValues = 3;
+
+/// A step's report values (mapped host memory) into its slot (launch_device_step(slot)).
 __global__ void copy_residual_kernel(const double* from, double* to) {
-  if (threadIdx.x < 2) to[threadIdx.x] = from[threadIdx.x];
+  if (threadIdx.x < kReportValues) to[threadIdx.x] = from[threadIdx.x];
 }
 
 }  // namespace
@@ -607,6 +669,11 @@ struct CudaPhysicalSolver::Impl {
   cuda::DeviceArray<Quatf> rotation;  // 2T
   cuda::DeviceArray<float> rsq_first, rsq_last;
   cuda::DeviceArray<unsigned int> blocks_done;
+  // The stopping rule's loop (params.adaptive()): its counter, the weights of every iteration it
+  // may run, and the stream its body is captured on.
+  cuda::DeviceArray<int> next_iteration;
+  cuda::DeviceArray<float> omega;
+  cuda::Stream body_stream;
   // Host side of the per-step copies.
   cuda::PinnedArray<Vec3f> q_host, x_host;
   // The residual sums, written by the kernels straight into mapped host memory (no copy node).
@@ -660,16 +727,20 @@ struct CudaPhysicalSolver::Impl {
   void capture(bool with_programmatic_launch, bool copies);
   template <bool kChebyshev>
   void capture_iterations(bool pdl);
+  template <bool kChebyshev>
+  void capture_loop(cudaStream_t st);
   PhysicalStepReport report() const { return report(residual_host); }  ///< the last step's (host copy)
-  /// Iterations and the residual ratio from a step's two residual sums.
+  /// Iterations and the residual ratio from a step's report values (kReportValues).
   PhysicalStepReport report(const double* sums) const;
 };
 
-/// The K weights of the CPU reference (chebyshev_weight, in double), rounded once.
+/// The weights of the CPU reference (chebyshev_weight, in double), rounded once: K of them, or
+/// max_iterations when the step may run past K.
 std::vector<float> iteration_weights(const PhysicalStepParams& params) {
-  std::vector<float> w(std::max(params.iterations, 1), 1.0f);
+  const int count = params.adaptive() ? params.max_iterations : params.iterations;
+  std::vector<float> w(std::max(count, 1), 1.0f);
   double omega = 1;
-  for (int k = 0; k < params.iterations; ++k) w[k] = float(omega = chebyshev_weight(params, k, omega));
+  for (int k = 0; k < count; ++k) w[k] = float(omega = chebyshev_weight(params, k, omega));
   return w;
 }
 
@@ -738,8 +809,8 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   EBH_CUDA_CHECK(cudaMemsetAsync(blocks_done.get(), 0, sizeof(unsigned int), st));
   q_host.allocate(m);
   x_host.allocate(n);
-  EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&residual_host), 2 * sizeof(double), cudaHostAllocMapped));
-  residual_host[0] = residual_host[1] = 0.0;
+  EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&residual_host), kReportValues * sizeof(double), cudaHostAllocMapped));
+  std::fill(residual_host, residual_host + kReportValues, 0.0);
   EBH_CUDA_CHECK(cudaHostGetDevicePointer(reinterpret_cast<void**>(&dev.residual_sq), residual_host, 0));
 
   dev.n = n;
@@ -793,6 +864,19 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   plan.T = T;
   plan.K = params.iterations;
   omega_host = iteration_weights(params);
+  if (params.adaptive()) {
+    const int start = params.iterations - 1;  // the loop's first iteration
+    next_iteration.allocate(1);
+    next_iteration.upload(&start, st);
+    omega.allocate(omega_host.size());
+    omega.upload(omega_host.data(), st);
+    dev.next_iteration = next_iteration.get();
+    dev.omega = omega.get();
+    dev.weight_norm = weight_norm;
+    dev.tolerance = params.tolerance;
+    dev.iterations = params.iterations;
+    dev.max_iterations = params.max_iterations;
+  }
 }
 
 template <bool kChebyshev>
@@ -802,6 +886,16 @@ void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
   const auto [first, middle, last] = iteration_kernels<kChebyshev>();
   for (auto* kernel : {first, middle, last})
     EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
+  if (params.adaptive()) {
+    // Iterations 0 .. K-2 as below but none writes the state (plan K = 0), then the loop.
+    SweepPlan open = plan;
+    open.K = 0;
+    for (int k = 0; k + 1 < K; ++k)
+      cuda::launch(pdl && k > 0, k == 0 ? first : middle, patches, kBlock, shared_bytes, st, "iteration_kernel", dev,
+                   open.sweep(k, omega_host[k], k == 0 ? dev.rsq_first : nullptr), rot);
+    capture_loop<kChebyshev>(st);
+    return;
+  }
   for (int k = 0; k < K; ++k) {
     float* rsq = k == 0 ? dev.rsq_first : (k == K - 1 ? dev.rsq_last : nullptr);
     const Sweep w = plan.sweep(k, omega_host[k], rsq);
@@ -817,6 +911,48 @@ void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
   }
 }
 
+/// The stopping rule's part of the graph (params.adaptive()): a while node whose body is one
+/// loop_iteration_kernel (iteration K - 1 first: the node's condition starts at 1), then
+/// loop_finish_kernel. The node is added to the graph being captured on `st`, its body captured
+/// on body_stream.
+template <bool kChebyshev>
+void CudaPhysicalSolver::Impl::capture_loop(cudaStream_t st) {
+  auto* body_kernel = loop_iteration_kernel<kChebyshev>;
+  EBH_CUDA_CHECK(cudaFuncSetAttribute(body_kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
+  cudaStreamCaptureStatus status{};
+  cudaGraph_t graph_now = nullptr;
+  const cudaGraphNode_t* deps = nullptr;
+  const cudaGraphEdgeData* edges = nullptr;
+  std::size_t count = 0;
+  EBH_CUDA_CHECK(cudaStreamGetCaptureInfo(st, &status, nullptr, &graph_now, &deps, &edges, &count));
+  cudaGraphConditionalHandle handle{};
+  EBH_CUDA_CHECK(cudaGraphConditionalHandleCreate(&handle, graph_now, 1, cudaGraphCondAssignDefault));
+  cudaGraphNodeParams loop{};
+  loop.type = cudaGraphNodeTypeConditional;
+  loop.conditional.handle = handle;
+  loop.conditional.type = cudaGraphCondTypeWhile;
+  loop.conditional.size = 1;
+  cudaGraphNode_t node = nullptr;
+  EBH_CUDA_CHECK(cudaGraphAddNode(&node, graph_now, deps, edges, count, &loop));
+  EBH_CUDA_CHECK(cudaStreamUpdateCaptureDependencies(st, &node, nullptr, 1, cudaStreamSetCaptureDependencies));
+  cudaGraph_t body = loop.conditional.phGraph_out[0];
+  cudaStream_t bs = body_stream.get();
+  EBH_CUDA_CHECK(cudaStreamBeginCaptureToGraph(bs, body, nullptr, nullptr, 0, cudaStreamCaptureModeThreadLocal));
+  SweepPlan open = plan;
+  open.K = 0;  // no iteration writes the state
+  try {
+    cuda::launch(false, body_kernel, patches, kBlock, shared_bytes, bs, "loop_iteration_kernel", dev, open,
+                 params.rotation_iterations, handle);
+  } catch (...) {
+    cudaGraph_t ended = nullptr;
+    cudaStreamEndCapture(bs, &ended);
+    throw;
+  }
+  EBH_CUDA_CHECK(cudaStreamEndCapture(bs, &body));
+  cuda::launch(false, loop_finish_kernel, cuda::blocks_for(std::max(n, T), kBlock), kBlock, 0, st, "loop_finish_kernel",
+               dev, open);
+}
+
 void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
   cudaStream_t st = stream.get();
   const int K = params.iterations;
@@ -829,7 +965,7 @@ void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
     if (n > 0 && K > 0) {
       if (chebyshev) capture_iterations<true>(pdl);
       else capture_iterations<false>(pdl);
-      if (K % 2 == 1 && T > 0)  // the last rotations are in the scratch half
+      if (K % 2 == 1 && T > 0 && !params.adaptive())  // the last rotations are in the scratch half
         EBH_CUDA_CHECK(cudaMemcpyAsync(rotation.get(), rotation.get() + T, T * sizeof(Quatf), cudaMemcpyDeviceToDevice, st));
     }
     if (copies) {
@@ -963,7 +1099,7 @@ PhysicalStepReport CudaPhysicalSolver::step(PhysicalState& state, std::span<cons
 
 PhysicalStepReport CudaPhysicalSolver::Impl::report(const double* sums) const {
   PhysicalStepReport r;
-  r.iterations = params.iterations;
+  r.iterations = params.adaptive() ? static_cast<int>(sums[2]) : params.iterations;
   if (params.iterations > 0 && n > 0) {
     set_residuals(r, std::sqrt(sums[0]), std::sqrt(sums[1]), weight_norm);
   }
@@ -1010,8 +1146,9 @@ void CudaPhysicalSolver::set_device_step_slots(int slots) {
     EBH_CUDA_CHECK(cudaEventCreate(&I.slot_stop[k]));
     EBH_CUDA_CHECK(cudaEventCreateWithFlags(&I.slot_done[k], cudaEventDisableTiming));
   }
-  EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.slot_residual), 2 * slots * sizeof(double), cudaHostAllocMapped));
-  std::fill(I.slot_residual, I.slot_residual + 2 * slots, 0.0);
+  EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.slot_residual), kReportValues * slots * sizeof(double),
+                               cudaHostAllocMapped));
+  std::fill(I.slot_residual, I.slot_residual + kReportValues * slots, 0.0);
   EBH_CUDA_CHECK(cudaHostGetDevicePointer(reinterpret_cast<void**>(&I.slot_residual_dev), I.slot_residual, 0));
 }
 
@@ -1026,7 +1163,7 @@ void CudaPhysicalSolver::launch_device_step(int slot) {
   EBH_CUDA_CHECK(cudaGraphLaunch(I.exec_device, st));
   EBH_CUDA_CHECK(cudaEventRecord(slot < 0 ? I.stop : I.slot_stop[slot], st));
   if (slot >= 0) {
-    copy_residual_kernel<<<1, 32, 0, st>>>(I.dev.residual_sq, I.slot_residual_dev + 2 * slot);
+    copy_residual_kernel<<<1, 32, 0, st>>>(I.dev.residual_sq, I.slot_residual_dev + kReportValues * slot);
     EBH_CUDA_LAUNCH_CHECK(st, "copy_residual_kernel");
     EBH_CUDA_CHECK(cudaEventRecord(I.slot_done[slot], st));
   }
@@ -1041,7 +1178,7 @@ PhysicalStepReport CudaPhysicalSolver::device_step_report(int slot) {
   float ms = 0;
   EBH_CUDA_CHECK(cudaEventElapsedTime(&ms, start, stop));
   I.device_s = 1e-3 * ms;
-  PhysicalStepReport r = I.report(slot < 0 ? I.residual_host : I.slot_residual + 2 * slot);
+  PhysicalStepReport r = I.report(slot < 0 ? I.residual_host : I.slot_residual + kReportValues * slot);
   r.time_s = I.device_s;
   return r;
 }

@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "math/hd.hpp"
 #include "math/vec.hpp"
 #include "mesh/tet_mesh.hpp"
 #include "scene/scene.hpp"
@@ -128,7 +129,24 @@ struct PhysicalStepParams {
   double relaxation = 0.9;       ///< under-relaxation gamma of the Jacobi update (Wang 2015, the paper)
   int chebyshev_delay = 2;       ///< relaxed Jacobi iterations before the Chebyshev weights start
   int rotation_iterations = 1;   ///< Mueller 2016 updates per tet and local step (warm-started from the last iteration)
+  /// The Jacobi-type methods' stopping rule (continue_iterating): past `iterations`, go on while
+  /// the residual at the start of the last iteration is above `tolerance` mesh weights, up to
+  /// `max_iterations` in all. 0: exactly `iterations` (and always for the direct method).
+  double tolerance = 0;
+  int max_iterations = 0;
+  /// Whether the step may run past `iterations`.
+  bool adaptive() const {
+    return tolerance > 0 && iterations >= 1 && max_iterations > iterations && method != SolverSpec::Method::Direct;
+  }
 };
+
+/// The stopping rule of the CPU step and the CUDA graph alike: after iteration k (0-based) whose
+/// start left `residual` mesh weights unbalanced, run iteration k + 1? Always below `iterations`;
+/// past it only while residual > tolerance and fewer than max_iterations have run.
+EBH_HD bool continue_iterating(int k, double residual, int iterations, double tolerance, int max_iterations) {
+  if (k + 1 < iterations) return true;
+  return tolerance > 0 && k + 1 < max_iterations && residual > tolerance;
+}
 
 /// The Chebyshev weight of iteration k given the previous one (Wang 2015: 1 for the first
 /// chebyshev_delay iterations, then 2 / (2 - rho^2), then 4 / (4 - rho^2 omega_prev)); 1 for the
@@ -168,7 +186,16 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
 
 PhysicalState make_physical_state(const PhysicalModel& model);  ///< rest, at rest, R = I
 PhysicalWorkspace make_physical_workspace(const PhysicalModel& model);
-PhysicalStepParams physical_params(const SolverSpec& spec);
+/// The step's parameters from the scene's solver: Chebyshev's rho (chebyshev_rho_of), the
+/// stopping rule's cap raised to K when below it.
+PhysicalStepParams physical_params(const SolverSpec& spec, const PhysicalModel& model);
+/// Chebyshev's rho on `model` for the scene's solver.chebyshev_rho: the number as it is, or for
+/// `auto` the relaxed Jacobi iteration's spectral radius on the mesh (chebyshev_rate_rho).
+double chebyshev_rho_of(const SolverSpec& spec, const PhysicalModel& model, double gamma);
+/// The relaxed Jacobi iteration's spectral radius on `model`, max |1 - gamma lambda| over the
+/// Lanczos estimate of the spectrum of D^-1 A (lambda_min an upper bound, so the rate is at most
+/// the true one: Chebyshev's polynomial then still shrinks every mode), kept in [0.5, 0.9999].
+double chebyshev_rate_rho(const PhysicalModel& model, double gamma);
 PhysicalModelOptions physical_model_options(const SceneSpec& spec);  ///< h, the diagonal
 
 /// The global matrix A over free vertices (nf x nf, rows in free_vertices order; the same for x,

@@ -58,7 +58,7 @@ ValidationResult run_convergence() {
     if (!model.pinned[a])
       start.v[a] = Vec3d{0, 0, -0.5} * std::exp(-squared_norm(model.rest[a] - centre) / (radius * radius));
 
-  PhysicalStepParams params = physical_params(scene.spec.solver);
+  PhysicalStepParams params = physical_params(scene.spec.solver, model);
   const int default_k = params.iterations;
   params.method = SolverSpec::Method::Direct;
   params.iterations = 200;

@@ -201,7 +201,7 @@ TEST(CudaPhysical, ChebyshevStepMatchesCpuTube) {
 TEST(CudaPhysical, DeviceResidentStepMatchesTheCopyingStep) {
   EBH_REQUIRE_DEVICE();
   const Models& M = models("cholecystectomy");
-  const PhysicalStepParams params = physical_params(M.scene.spec.solver);
+  const PhysicalStepParams params = physical_params(M.scene.spec.solver, M.pm);
   std::vector<Vec3d> q = M.vm.rest;
   for (Vec3d& p : q) p.z -= 1e-3;
   {
@@ -260,6 +260,108 @@ TEST(CudaPhysical, RunsAreBitwiseIdentical) {
   EXPECT_EQ(std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(Vec3d)), 0);
   EXPECT_EQ(std::memcmp(out[0].v.data(), out[1].v.data(), out[0].v.size() * sizeof(Vec3d)), 0);
   EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
+}
+
+/// The stopping rule (PhysicalStepParams::adaptive) on the device: a while node past K.
+PhysicalStepParams adaptive_params(double tolerance, int max_iterations) {
+  PhysicalStepParams p;
+  p.tolerance = tolerance;
+  p.max_iterations = max_iterations;
+  return p;
+}
+
+/// tube with slivers down to a mean ratio of 0.04 (as `ebh scene degrade tube --quality 0.04`),
+/// models and a moving state as models() makes them.
+const Models& sliver_tube() {
+  static std::unique_ptr<Models> slot;
+  if (slot) return *slot;
+  slot = std::make_unique<Models>();
+  Models& M = *slot;
+  M.scene = load_scene(resolve_scene_path("tube"));
+  DegradeOptions o;
+  o.target_quality = 0.04;
+  degrade_physical_mesh(M.scene, o);
+  M.vm = build_virtual_model(M.scene);
+  PhysicalModelOptions opt;
+  opt.h = 1.0 / M.scene.spec.physical_hz;
+  opt.factorize = false;
+  M.pm = build_physical_model(M.scene, &M.vm, opt);
+  M.start = make_physical_state(M.pm);
+  for (int a = 0; a < M.pm.num_vertices; ++a)
+    if (!M.pm.pinned[a]) M.start.v[a] = Vec3d{0.2, 0, -0.1};
+  return M;
+}
+
+TEST(CudaPhysical, StoppingRuleMetAtKIsTheFixedStepToTheBit) {
+  // A tolerance no step reaches: the loop runs iteration K - 1 and stops; its kernels and the
+  // finish must give the fixed graph's bits (the same per-vertex expressions).
+  EBH_REQUIRE_DEVICE();
+  const Models& M = models("cholecystectomy");
+  const std::vector<Vec3d> q = displaced_virtual(M.vm, 5);
+  PhysicalState out[2];
+  PhysicalStepReport report[2];
+  for (int run = 0; run < 2; ++run) {
+    CudaPhysicalSolver solver(M.pm, run == 0 ? PhysicalStepParams{} : adaptive_params(1e3, 64));
+    solver.upload_state(M.start);
+    PhysicalState s = M.start;
+    for (int k = 0; k < 3; ++k) report[run] = solver.step(s, q);
+    solver.download_state(out[run]);
+  }
+  EXPECT_EQ(report[1].iterations, 16);
+  EXPECT_EQ(report[0].residual, report[1].residual);
+  EXPECT_EQ(std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(out[0].v.data(), out[1].v.data(), out[0].v.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
+}
+
+TEST(CudaPhysical, StoppingRuleOnSliversMatchesCpu) {
+  // On slivers 16 iterations leave the step far from balance; both backends go on until the
+  // residual is below the tolerance. They decide on residuals that differ by float32 round-off, so
+  // the counts may differ by an iteration where a residual sits at the tolerance; with the same
+  // count the states are within the step bound of that many iterations.
+  EBH_REQUIRE_DEVICE();
+  const Models& M = sliver_tube();
+  const PhysicalStepParams params = adaptive_params(1e-3, 400);
+  PhysicalState cpu = M.start;
+  PhysicalWorkspace ws = make_physical_workspace(M.pm);
+  PhysicalStepParams fixed = params;
+  fixed.tolerance = 0;
+  PhysicalState cpu_fixed = M.start;
+  const PhysicalStepReport rf = physical_step(M.pm, ws, cpu_fixed, M.vm.rest, fixed);
+  const PhysicalStepReport rc = physical_step(M.pm, ws, cpu, M.vm.rest, params);
+  CudaPhysicalSolver solver(M.pm, params);
+  solver.upload_state(M.start);
+  PhysicalState gpu = M.start;
+  const PhysicalStepReport rg = solver.step(gpu, M.vm.rest);
+  std::printf("[ sliver tube ] fixed K=16 residual %.3g; cpu %d iterations residual %.3g; cuda %d iterations residual %.3g\n",
+              rf.residual, rc.iterations, rc.residual, rg.iterations, rg.residual);
+  ASSERT_GT(rf.residual, params.tolerance) << "the case must need more than K iterations";
+  EXPECT_GT(rc.iterations, 16);
+  EXPECT_LE(rc.residual, params.tolerance);
+  EXPECT_LE(rg.residual, params.tolerance);
+  EXPECT_LE(std::abs(rg.iterations - rc.iterations), 1);
+  if (rg.iterations == rc.iterations) {
+    EXPECT_LE(max_distance(gpu.x, cpu.x), step_tolerance(rc.iterations, max_abs_coordinate(M.start.x)));
+  }
+
+  // The device-resident step and a slot's report: the same count and bits as the copying step.
+  CudaPhysicalSolver resident(M.pm, params);
+  resident.upload_state(M.start);
+  PhysicalState first = M.start;
+  resident.step(first, M.vm.rest);  // puts q on the device
+  resident.upload_state(M.start);
+  resident.set_device_step_slots(2);
+  resident.launch_device_step(1);
+  const PhysicalStepReport rs = resident.device_step_report(1);
+  PhysicalState sr, sg;
+  resident.download_state(sr);
+  solver.download_state(sg);
+  EXPECT_EQ(rs.iterations, rg.iterations);
+  EXPECT_EQ(std::memcmp(sr.x.data(), sg.x.data(), sr.x.size() * sizeof(Vec3d)), 0);
+  // A second step starts the loop at K - 1 again (the finish resets its counter).
+  const PhysicalStepReport r2 = solver.step(gpu, M.vm.rest);
+  EXPECT_GE(r2.iterations, 16);
+  EXPECT_LE(r2.residual, params.tolerance);
 }
 
 // The device Newton step's 6x6 algebra (tool/newton_warp.cuh) against Eigen in double. Test

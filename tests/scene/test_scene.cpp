@@ -70,6 +70,7 @@ TEST(SceneSpec, EveryKeyRead) {
   EXPECT_EQ(s.solver.physical_iterations, 20);
   EXPECT_EQ(s.solver.virtual_iterations, 5);
   EXPECT_EQ(s.solver.chebyshev_rho, 0.9);
+  EXPECT_FALSE(s.solver.chebyshev_rho_auto);
   EXPECT_NEAR(s.camera.eye.y, -0.1, kTol);
   EXPECT_NEAR(s.camera.target.x, 0.005, kTol);
   EXPECT_EQ(s.camera.up, Vec3d(0, 0, 1));  // a direction: normalised, not scaled
@@ -90,6 +91,9 @@ TEST(SceneSpec, DefaultsAndNameFromStem) {
   EXPECT_TRUE(s.pinned.empty());
   EXPECT_EQ(s.solver.recovery, SolverSpec::Recovery::Direct);
   EXPECT_EQ(s.solver.recovery_residual, 100.0);
+  EXPECT_EQ(s.solver.physical_tolerance, 0.01);
+  EXPECT_EQ(s.solver.physical_max_iterations, 64);
+  EXPECT_FALSE(s.solver.chebyshev_rho_auto);
 }
 
 TEST(Scene, LoadsInMetresAndPins) {
@@ -313,6 +317,18 @@ TEST_F(BadScene, BadRecovery) {
          "key 'solver.recovery': expected one of direct, none, got 'restart'");
   expect(replace(good, "method: jacobi", "method: jacobi\n  recovery_residual: 0"),
          "key 'solver.recovery_residual': expected a number in (0, 10000], got '0'");
+}
+TEST_F(BadScene, BadChebyshevRho) {
+  expect(replace(good, "chebyshev_rho: 0.9", "chebyshev_rho: 1.5"),
+         "key 'solver.chebyshev_rho': expected auto or a number in (0, 1), got '1.5'");
+  expect(replace(good, "chebyshev_rho: 0.9", "chebyshev_rho: automatic"),
+         "key 'solver.chebyshev_rho': expected auto or a number in (0, 1), got 'automatic'");
+}
+TEST_F(BadScene, BadStoppingRule) {
+  expect(replace(good, "method: jacobi", "method: jacobi\n  physical_tolerance: -1"),
+         "key 'solver.physical_tolerance': expected a number in [0, 10000], got '-1'");
+  expect(replace(good, "method: jacobi", "method: jacobi\n  physical_max_iterations: 0"),
+         "key 'solver.physical_max_iterations': expected a whole number in [1, 100000], got '0'");
 }
 TEST_F(BadScene, NotBool) { expect(replace(good, "grasp: true", "grasp: maybe"), "key 'stages.grasp': expected true or false, got 'maybe'"); }
 TEST_F(BadScene, ShortVector) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0]"), "key 'gravity': expected a list of 3 numbers"); }

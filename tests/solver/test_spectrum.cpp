@@ -3,6 +3,8 @@
 // the paper's diagonal diverging where it does not, and the step converging to the direct solve.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <Eigen/Dense>
 
 #include "mesh/box_mesh.hpp"
@@ -154,6 +156,23 @@ TEST(Spectrum, ResidualIsZeroAtRest) {
   EXPECT_GT(moving.residual, 0.0);
   EXPECT_GT(moving.residual_reduction, 0.0);
   EXPECT_LT(moving.residual_reduction, 1.0);
+}
+
+TEST(Spectrum, AutoChebyshevRhoIsTheRelaxedJacobiRate) {
+  // chebyshev_rho: auto takes rho = max |1 - gamma lambda| over the estimate; a number stays as it is.
+  for (double q : {1.0, 0.02}) {
+    const Scene scene = block(q);
+    const VirtualModel vm = build_virtual_model(scene);
+    const PhysicalModel m = model_of(scene, vm, SolverSpec::Diagonal::Bounded);
+    SolverSpec spec;
+    spec.chebyshev_rho = 0.9;
+    EXPECT_EQ(physical_params(spec, m).chebyshev_rho, 0.9);
+    spec.chebyshev_rho_auto = true;
+    const double rho = physical_params(spec, m).chebyshev_rho;
+    EXPECT_EQ(rho, std::clamp(m.spectrum.jacobi_rate(0.9), 0.5, 0.9999)) << "quality " << q;
+    EXPECT_GT(rho, 0.5);
+    EXPECT_LT(rho, 1.0);
+  }
 }
 
 }  // namespace

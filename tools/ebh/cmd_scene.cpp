@@ -97,7 +97,8 @@ void info(const SceneInfoArgs& a) {
     bounded = ebh::build_physical_model(scene, &vm, options);
   }
   const ebh::PhysicalModel& model = bounded ? *bounded : plain;
-  const double gamma = ebh::physical_params(scene.spec.solver).relaxation;
+  const ebh::PhysicalStepParams params = ebh::physical_params(scene.spec.solver, model);
+  const double gamma = params.relaxation;
   const double rate = model.spectrum.jacobi_rate(gamma);
   const double tenfold = rate < 1 ? std::log(0.1) / std::log(rate) : INFINITY;
   const bool diverges = gamma * plain.spectrum.lambda_max >= 2;
@@ -191,6 +192,11 @@ void info(const SceneInfoArgs& a) {
     sv.set("lambda_max", model.spectrum.lambda_max);
     sv.set("jacobi_rate", rate);
     sv.set("iterations_per_tenfold", tenfold);
+    sv.set("chebyshev_rho", params.chebyshev_rho);
+    sv.set("chebyshev_rho_auto", scene.spec.solver.chebyshev_rho_auto);
+    sv.set("physical_iterations", params.iterations);
+    sv.set("physical_tolerance", params.adaptive() ? params.tolerance : 0.0);
+    sv.set("physical_max_iterations", params.adaptive() ? params.max_iterations : params.iterations);
     j.set("solver", std::move(sv));
     ebh::Json g = ebh::Json::array();
     for (const auto& [tag, c] : groups) {
@@ -275,6 +281,14 @@ void info(const SceneInfoArgs& a) {
     std::printf("  bounded        theta %.4f raised %d of %d rows\n", model.diag_theta, model.diag_bounded_rows, model.num_free);
   std::printf("  convergence    relaxed Jacobi error x%.4f per iteration (lambda_min %.3g): %.0f iterations per tenfold\n",
               rate, model.spectrum.lambda_min, tenfold);
+  if (params.method == ebh::SolverSpec::Method::Chebyshev)
+    std::printf("  chebyshev      rho %.4f (%s)\n", params.chebyshev_rho,
+                scene.spec.solver.chebyshev_rho_auto ? "auto: the rate above" : "solver.chebyshev_rho");
+  if (params.adaptive())
+    std::printf("  iterations     %d, then on while the step leaves more than %g mesh weights unbalanced, at most %d\n",
+                params.iterations, params.tolerance, params.max_iterations);
+  else
+    std::printf("  iterations     %d\n", params.iterations);
   std::printf("groups\n");
   for (const auto& [tag, c] : groups)
     std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n", c.name.empty() ? "(unnamed)" : c.name.c_str(), tag,

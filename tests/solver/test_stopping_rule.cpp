@@ -1,0 +1,135 @@
+// The Jacobi-type methods' stopping rule (solver.physical_tolerance, physical_max_iterations):
+// a step that already meets the tolerance after K iterations is the fixed-K step to the bit; one
+// that does not goes on until it does or reaches the cap; the decision is the same for any thread
+// count.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "mesh/box_mesh.hpp"
+#include "mesh/degrade.hpp"
+#include "box_sim.hpp"
+
+namespace ebh {
+namespace {
+
+using test::Method;
+
+/// A 24 x 24 x 48 mm block (2160 tets, k_vol 5 kPa, bottom pinned) with slivers down to mean
+/// ratio 0.02: the bounded diagonal's slow modes need far more than 16 iterations there.
+Scene sliver_block() {
+  Scene scene;
+  scene.spec.file = "sliver block (in code)";
+  scene.spec.stiffness.k_vol = 5000;
+  scene.physical = make_box_tets({0, 0, 0}, {0.024, 0.024, 0.048}, 6, 6, 12);
+  for (int i = 0; i < static_cast<int>(scene.physical.vertices.size()); ++i)
+    if (scene.physical.vertices[i].z == 0.0) scene.pinned.push_back(i);
+  DegradeOptions o;
+  o.target_quality = 0.02;
+  o.tets = 12;
+  degrade_physical_mesh(scene, o);
+  return scene;
+}
+
+/// A swaying start: velocities growing with height (m/s at the top).
+void sway(test::Sim& sim, double top_speed, double height) {
+  for (int a = 0; a < sim.pm.num_vertices; ++a)
+    if (!sim.pm.pinned[a]) sim.ps.v[a] = Vec3d{top_speed, -0.5 * top_speed, -0.25 * top_speed} * (sim.pm.rest[a].z / height);
+}
+
+PhysicalStepParams chebyshev(int K, double tolerance, int max_iterations) {
+  PhysicalStepParams p;
+  p.method = Method::Chebyshev;
+  p.iterations = K;
+  p.tolerance = tolerance;
+  p.max_iterations = max_iterations;
+  return p;
+}
+
+TEST(StoppingRule, ContinuesOnlyPastKAndBelowTheCapWhileAboveTheTolerance) {
+  // continue_iterating(k, residual, K, tolerance, max): after iteration k, run k + 1?
+  EXPECT_TRUE(continue_iterating(0, 0.0, 16, 0.01, 64));     // below K: always
+  EXPECT_TRUE(continue_iterating(14, 0.0, 16, 0.0, 0));
+  EXPECT_FALSE(continue_iterating(15, 1e9, 16, 0.0, 64));    // tolerance 0: exactly K
+  EXPECT_FALSE(continue_iterating(15, 0.01, 16, 0.01, 64));  // at the tolerance: done
+  EXPECT_TRUE(continue_iterating(15, 0.011, 16, 0.01, 64));
+  EXPECT_FALSE(continue_iterating(63, 1e9, 16, 0.01, 64));   // the cap
+}
+
+TEST(StoppingRule, AdaptiveOnlyForJacobiTypeMethodsWithRoomPastK) {
+  EXPECT_TRUE(chebyshev(16, 0.01, 64).adaptive());
+  EXPECT_FALSE(chebyshev(16, 0.0, 64).adaptive());
+  EXPECT_FALSE(chebyshev(16, 0.01, 16).adaptive());
+  EXPECT_FALSE(chebyshev(0, 0.01, 64).adaptive());
+  PhysicalStepParams direct = chebyshev(16, 0.01, 64);
+  direct.method = Method::Direct;
+  EXPECT_FALSE(direct.adaptive());
+  // The scene's keys: the cap is raised to K when below it.
+  SolverSpec spec;
+  spec.physical_iterations = 100;
+  spec.physical_max_iterations = 64;
+  const test::Sim sim(test::box_scene(2, 2, 2));
+  EXPECT_EQ(physical_params(spec, sim.pm).max_iterations, 100);
+}
+
+TEST(StoppingRule, AStepThatMeetsTheToleranceAtKIsTheFixedStepToTheBit) {
+  // The box at rest but swaying gently: 16 Chebyshev iterations leave far less than 10 mesh
+  // weights unbalanced, so the rule stops at K and nothing changes, not even the report.
+  test::Sim fixed(test::box_scene(3, 3, 6)), adaptive(test::box_scene(3, 3, 6));
+  sway(fixed, 0.01, 0.024);
+  sway(adaptive, 0.01, 0.024);
+  const PhysicalStepReport rf = physical_step(fixed.pm, fixed.pw, fixed.ps, fixed.q(), chebyshev(16, 0, 0));
+  const PhysicalStepReport ra = physical_step(adaptive.pm, adaptive.pw, adaptive.ps, adaptive.q(), chebyshev(16, 10.0, 64));
+  ASSERT_LT(rf.residual, 10.0);
+  EXPECT_EQ(ra.iterations, 16);
+  EXPECT_EQ(std::memcmp(fixed.ps.x.data(), adaptive.ps.x.data(), fixed.ps.x.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(fixed.ps.v.data(), adaptive.ps.v.data(), fixed.ps.v.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(rf.residual, ra.residual);
+  EXPECT_EQ(rf.residual_reduction, ra.residual_reduction);
+}
+
+TEST(StoppingRule, SliversIterateUntilTheToleranceAndGetCloserToTheDirectSolve) {
+  const Scene scene = sliver_block();
+  test::Sim direct(scene), fixed(scene), adaptive(scene);
+  for (test::Sim* s : {&direct, &fixed, &adaptive}) sway(*s, 0.2, 0.048);
+  PhysicalStepParams exact;
+  exact.method = Method::Direct;
+  exact.iterations = 200;
+  physical_step(direct.pm, direct.pw, direct.ps, direct.q(), exact);
+
+  const PhysicalStepReport rf = physical_step(fixed.pm, fixed.pw, fixed.ps, fixed.q(), chebyshev(16, 0, 0));
+  constexpr double kTolerance = 1e-3;  // mesh weights
+  const PhysicalStepReport ra =
+      physical_step(adaptive.pm, adaptive.pw, adaptive.ps, adaptive.q(), chebyshev(16, kTolerance, 2000));
+  ASSERT_GT(rf.residual, kTolerance);  // the sliver block's slow modes: 16 iterations are not enough
+  EXPECT_GT(ra.iterations, 16) << ra.iterations;
+  EXPECT_LT(ra.iterations, 2000);
+  EXPECT_LE(ra.residual, kTolerance);
+  const double e_fixed = test::max_diff(fixed.ps.x, direct.ps.x), e_adaptive = test::max_diff(adaptive.ps.x, direct.ps.x);
+  EXPECT_LT(e_adaptive, 0.5 * e_fixed) << "fixed " << e_fixed << " m, adaptive " << e_adaptive << " m";
+  EXPECT_TRUE(physical_state_problem(adaptive.pm, adaptive.ps.x, ra).empty());
+}
+
+TEST(StoppingRule, StopsAtTheCap) {
+  test::Sim sim(sliver_block());
+  sway(sim, 0.2, 0.048);
+  const PhysicalStepReport r = physical_step(sim.pm, sim.pw, sim.ps, sim.q(), chebyshev(16, 1e-12, 24));
+  EXPECT_EQ(r.iterations, 24);
+  EXPECT_GT(r.residual, 1e-12);
+}
+
+TEST(Determinism, AdaptiveStepIsBitwiseEqualWithOneAndTwoThreads) {
+  const Scene scene = sliver_block();
+  int iterations[2] = {0, 0}, run = 0;
+  test::expect_bitwise_equal_across_threads([&] {
+    test::Sim sim(scene);
+    sway(sim, 0.2, 0.048);
+    iterations[run++] = physical_step(sim.pm, sim.pw, sim.ps, sim.q(), chebyshev(16, 0.1, 2000)).iterations;
+    return sim.ps.x;
+  });
+  EXPECT_EQ(iterations[0], iterations[1]);
+  EXPECT_GT(iterations[0], 16);
+}
+
+}  // namespace
+}  // namespace ebh

@@ -421,12 +421,15 @@ class Trace : public ReplayObserver {
   std::vector<Vec3d> x;
   std::vector<double> residual;
   std::vector<int> grasped;
-  std::vector<double> penetration;
+  std::vector<double> penetration, penetration_physical;
+  std::vector<int> contacts;
   int max_contacts = 0;
   void on_tick(const World&, const HapticSide& h, double) override {
     force.push_back(h.output.force);
     grasped.push_back(h.grasped);
     penetration.push_back(h.penetration);
+    penetration_physical.push_back(h.penetration_physical);
+    contacts.push_back(h.contact_count);
     max_contacts = std::max(max_contacts, h.contact_count);
   }
   void on_step(const World&, const PhysicalSide& p, double) override {
@@ -832,6 +835,80 @@ TEST(CudaDeviceTick, LaunchesAcrossPeriodsMatchALaunchPerPeriod) {
         EXPECT_LE(err_x, tol_x) << "run " << run;
       }
     }
+  }
+}
+
+/// gap_insert with `contact: surface` from t = 3 s (the hook entering the 1 mm gap between the
+/// blocks, its bent tip pushing into a block's top edge) for `ticks` ticks. host_tool: --backend
+/// cuda with the virtual tool on the host (ReplayOptions::device_tick off).
+Trace replay_gap_surface(Backend backend, Mode mode, int ticks, bool host_tool = false) {
+  const std::string path = resolve_recording_path("gap_insert");
+  Recording rec = read_recording(path);
+  apply_stored_transforms(rec, path);
+  auto world = build_world(load_scene(resolve_scene_path("gap"), {"contact=surface"}), 1000, 100, backend);
+  ReplayOptions opt;
+  opt.mode = mode;
+  opt.start = 3.0;
+  opt.duration = (ticks - 1) * world->h_haptic;
+  opt.device_tick = !host_tool;
+  Trace trace;
+  replay(*world, rec, opt, trace);
+  return trace;
+}
+
+/// Surface contact (E_con [3] on the virtual mesh's triangle samples) in the device tick and on the
+/// host-tool path against the CPU, lockstep and async, within the float32 bound of
+/// GraspMatchesCpuAndRepeatsBitwise: positions within 2 S step bounds, the force within k_vcs times
+/// that. The samples' math is the CPU's (tool/surface_samples.hpp) in double from float32 corners,
+/// so the departures are those of vertex contact: float32 q, sums in an order of their own. A
+/// sample's contact starts and ends at zero depth, so a sample crossing the surface at a slightly
+/// different time moves E_tool and its gradient continuously. The penetration metrics (deepest
+/// sample of the virtual and of the physical tool) are Lipschitz in the positions and the pose:
+/// within twice the position bound. Two device runs are bitwise equal.
+TEST(CudaReplay, SurfaceContactMatchesCpu) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 500;
+  const Models& M = models("gap");
+  const double X = max_abs_coordinate(M.pm.rest);
+  for (const Mode mode : {Mode::Lockstep, Mode::Async}) {
+    const Trace cpu = replay_gap_surface(Backend::Cpu, mode, ticks);
+    const Trace gpu = replay_gap_surface(Backend::Cuda, mode, ticks);
+    const Trace gpu2 = replay_gap_surface(Backend::Cuda, mode, ticks);
+    const Trace host_tool = replay_gap_surface(Backend::Cuda, mode, ticks, true);
+    ASSERT_EQ(cpu.force.size(), size_t(ticks));
+    ASSERT_EQ(gpu.force.size(), size_t(ticks));
+    ASSERT_EQ(host_tool.force.size(), size_t(ticks));
+    const int steps = static_cast<int>(gpu.residual.size());
+    const double tol_x = 2.0 * steps * step_tolerance(16, X);
+    const double tol_f = M.scene.spec.stiffness.k_vcs * tol_x;
+    double err_f = 0, err_host = 0, err_pen = 0, err_pen_phys = 0, peak_f = 0, peak_pen = 0;
+    int contacts_differ = 0, max_contacts = 0;
+    for (int n = 0; n < ticks; ++n) {
+      err_f = std::max(err_f, norm(gpu.force[n] - cpu.force[n]));
+      err_host = std::max(err_host, norm(host_tool.force[n] - cpu.force[n]));
+      err_pen = std::max(err_pen, std::fabs(gpu.penetration[n] - cpu.penetration[n]));
+      err_pen_phys = std::max(err_pen_phys, std::fabs(gpu.penetration_physical[n] - cpu.penetration_physical[n]));
+      peak_f = std::max(peak_f, norm(cpu.force[n]));
+      peak_pen = std::max(peak_pen, cpu.penetration[n]);
+      contacts_differ += gpu.contacts[n] != cpu.contacts[n];
+      max_contacts = std::max(max_contacts, gpu.contacts[n]);
+    }
+    const double err_x = max_distance(gpu.x, cpu.x);
+    std::printf("[ surface contact, %s ] %d ticks, %d steps, up to %d targets (CPU %d; %d ticks with another count): "
+                "max |x| err %.3g m (tol %.3g), max |F| err %.3g N (host tool %.3g N; tol %.3g, peak %.3g N), "
+                "penetration err %.3g m (peak %.3g m), physical tool's %.3g m\n",
+                mode_name(mode), ticks, steps, max_contacts, cpu.max_contacts, contacts_differ, err_x, tol_x, err_f,
+                err_host, tol_f, peak_f, err_pen, peak_pen, err_pen_phys);
+    EXPECT_GT(peak_f, 0.05) << "the window must contain contact";
+    EXPECT_GT(max_contacts, 0);
+    EXPECT_LE(err_x, tol_x);
+    EXPECT_LE(err_f, tol_f);
+    EXPECT_LE(err_host, tol_f);
+    EXPECT_LE(err_pen, 2 * tol_x);
+    EXPECT_LE(err_pen_phys, 2 * tol_x);
+    ASSERT_EQ(gpu2.force.size(), gpu.force.size());
+    EXPECT_EQ(std::memcmp(gpu.force.data(), gpu2.force.data(), gpu.force.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(gpu.x.data(), gpu2.x.data(), gpu.x.size() * sizeof(Vec3d)), 0);
   }
 }
 

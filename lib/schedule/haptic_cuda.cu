@@ -33,6 +33,9 @@
 //                             double queries
 //   haptic_cuda_handoff.cuh   the counters between block 0, the vertex blocks and the physical
 //                             step's stream; the schedule of a run's steps; the chunks' lists
+//   haptic_cuda_surface.cuh   surface contact's per-vertex targets and per-triangle tests (the
+//                             kernel with surface contact: haptic_cuda_surface.cu, its own
+//                             translation unit)
 //   haptic_cuda_vertices.cuh  the vertex side: vertex_step, finish_deferred, vertex_blocks
 //   haptic_cuda_tool.cuh      the tool side: the Newton call (virtual_tool_tail), the tick's
 //                             outputs, block 0's loop (tool_block)
@@ -56,6 +59,7 @@
 #include "solver/cuda_util.cuh"
 #include "solver/device_cuda.hpp"
 #include "solver/virtual_mesh_device.cuh"
+#include "tool/surface_contact.hpp"
 
 namespace ebh {
 namespace {
@@ -124,6 +128,17 @@ bool device_haptic_supported(const ToolModel& tool) {
   return tool.projection == Projection::ClosestPoint && tool.colliders.size() <= static_cast<std::size_t>(kMaxColliders);
 }
 
+namespace {
+/// Samples the Newton call's list holds with surface contact: twice every triangle's samples at
+/// rest (a call reaches a small part of the surface; twice for stretched triangles' extra rows),
+/// at least 2^16 and at most 2^22 (32 bytes each).
+int surface_capacity(const SurfaceContactModel& s) {
+  double total = 0;
+  for (const std::uint8_t n : s.rest_level) total += static_cast<double>(n) * n;
+  return static_cast<int>(std::clamp(2.0 * total, 65536.0, 4194304.0));
+}
+}  // namespace
+
 struct CudaHapticTicks::Impl {
   CudaPhysicalSolver* physical = nullptr;
   int m = 0, n = 0, iterations = 1;
@@ -165,6 +180,19 @@ struct CudaHapticTicks::Impl {
   int ring_size = 0;
   MeshDev dev;
   ToolConst tool;
+  // Surface contact (the tool's SurfaceContactModel; surface_ticks_kernel).
+  bool surface = false;
+  SurfaceDev surface_dev;
+  cuda::DeviceArray<int4> tri;
+  cuda::DeviceArray<int> tri_offsets, tri_entries, tri_counts, tri_list, tri_scan;
+  cuda::DeviceArray<double> cand_w;
+  cuda::DeviceArray<unsigned long long> tri_arrive;
+  int* overflow = nullptr;           // cudaHostAlloc, mapped
+
+  /// The tick kernel of this object's contact.
+  const void* kernel() const {
+    return surface ? surface_ticks_kernel_entry() : reinterpret_cast<const void*>(ticks_kernel);
+  }
 
   ~Impl() {
     for (cudaEvent_t e : done) cudaEventDestroy(e);
@@ -172,7 +200,52 @@ struct CudaHapticTicks::Impl {
     if (q_ready) cudaEventDestroy(q_ready);
     if (step_done) cudaEventDestroy(step_done);
     if (ring) cudaFreeHost(ring);
+    if (overflow) cudaFreeHost(overflow);
     if (stream) cudaStreamDestroy(stream);
+  }
+
+  /// Surface contact's device data (SurfaceDev) from the tool's SurfaceContactModel (m vertices).
+  void upload_surface(const SurfaceContactModel& s, int m) {
+    Impl& I = *this;
+    if (static_cast<int>(s.tri_offsets.size()) != m + 1)
+      throw std::invalid_argument("CudaHapticTicks: the surface contact model has another vertex count than the virtual mesh");
+    cudaStream_t st = I.stream;
+    const int F = static_cast<int>(s.triangles.size());
+    std::vector<int4> tri(std::max(F, 1), make_int4(0, 0, 0, 1));
+    for (int f = 0; f < F; ++f)
+      tri[f] = make_int4(s.triangles[f][0], s.triangles[f][1], s.triangles[f][2], s.rest_level[f]);
+    const int chunks = std::max(1, cuda::blocks_for(F, kBlock));
+    auto up = [st](auto& arr, const auto& host) {
+      arr.allocate(host.size());
+      arr.upload(host.data(), st);
+    };
+    up(I.tri, tri);
+    up(I.tri_offsets, s.tri_offsets);
+    up(I.tri_entries, s.tri_entries.empty() ? std::vector<int>(1, 0) : s.tri_entries);
+    I.tri_counts.allocate(2 * std::size_t(chunks));
+    I.tri_list.allocate(std::size_t(chunks) * kBlock);
+    I.tri_scan.allocate(std::size_t(chunks) + 1);
+    up(I.tri_arrive, std::vector<unsigned long long>(1, 0));
+    SurfaceDev& sd = I.surface_dev;
+    sd.capacity = surface_capacity(s);
+    I.cand_w.allocate(sd.capacity);
+    EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.overflow), sizeof(int), cudaHostAllocMapped));
+    *I.overflow = 0;
+    int* overflow_dev = nullptr;
+    EBH_CUDA_CHECK(cudaHostGetDevicePointer(reinterpret_cast<void**>(&overflow_dev), I.overflow, 0));
+    sd.F = F;
+    sd.chunks = F > 0 ? chunks : 0;
+    sd.spacing = s.spacing;
+    sd.stiffness_factor = s.stiffness_factor;
+    sd.tri = I.tri.get();
+    sd.tri_offsets = I.tri_offsets.get();
+    sd.tri_entries = I.tri_entries.get();
+    sd.counts = I.tri_counts.get();
+    sd.list = I.tri_list.get();
+    sd.offsets = I.tri_scan.get();
+    sd.cand_w = I.cand_w.get();
+    sd.arrive = I.tri_arrive.get();
+    sd.overflow = overflow_dev;
   }
 
   /// The physical step's q: the virtual mesh after the last enqueued tick (q[0]), copied on the
@@ -229,8 +302,10 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   for (auto* a : {&I.v_scratch, &I.q_start, &I.s, &I.p, &I.q[1], &I.q[2]}) a->allocate(m);
   up(I.held, std::vector<std::uint8_t>(m, 0));
   I.grasp_local.allocate(m);
-  I.cand_q.allocate(m);
   const int chunks = std::max(1, cuda::blocks_for(m, kBlock));
+  I.surface = S.tool->surface != nullptr;
+  if (I.surface) I.upload_surface(*S.tool->surface, m);
+  I.cand_q.allocate(std::max(m, I.surface_dev.capacity));
   I.block_cand.allocate(std::size_t(chunks) * kBlock);
   I.block_held.allocate(std::size_t(chunks) * kBlock);
   I.block_deferred.allocate(std::size_t(chunks) * kBlock);
@@ -248,14 +323,14 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
     // As much L1 as the kernel's shared memory leaves: L1 serves a large share of its loads.
-    EBH_CUDA_CHECK(cudaFuncSetAttribute(ticks_kernel, cudaFuncAttributePreferredSharedMemoryCarveout,
+    EBH_CUDA_CHECK(cudaFuncSetAttribute(I.kernel(), cudaFuncAttributePreferredSharedMemoryCarveout,
                                         cudaSharedmemCarveoutMaxL1));
     // With the physical steps inside the launches (run_ticks_with_steps), enough shared memory on
     // each tick block's multiprocessor for one block of the step beside it; with the L1-first
     // carve-out the step's blocks fit only on the multiprocessors the ticks leave free (on an H100,
     // 32 of 132), which more than doubles its time.
     cudaFuncAttributes fa{};
-    EBH_CUDA_CHECK(cudaFuncGetAttributes(&fa, ticks_kernel));
+    EBH_CUDA_CHECK(cudaFuncGetAttributes(&fa, I.kernel()));
     int reserved = 0, max_shared = 0, major = 0, minor = 0;
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&max_shared, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
@@ -263,7 +338,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&minor, cudaDevAttrComputeCapabilityMinor, device));
     const std::size_t need = fa.sharedSizeBytes + physical.block_shared_bytes() + 2 * std::size_t(reserved);
     I.carveout_beside_steps = shared_carveout_percent(need, std::size_t(max_shared), shared_memory_configs_kb(major, minor));
-    EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, ticks_kernel, kBlock, 0));
+    EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, I.kernel(), kBlock, 0));
     if (!coop || per_sm * sms < 2)
       throw std::runtime_error("CudaHapticTicks: the device cannot run the cooperative tick kernel");
     I.grid = std::min(chunks + 1, per_sm * sms);  // block 0 runs no chunks
@@ -307,7 +382,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.block_offsets = I.block_offsets.get();
   d.iterations = I.iterations;
   d.first_call = S.newton_calls == 0 ? 0 : I.iterations - S.newton_calls;
-  d.pipeline = S.pipeline;
+  d.pipeline = S.pipeline && !I.surface;  // surface contact runs unpipelined steps (haptic_cuda_surface_run.cuh)
   d.slots = I.slots.get();
   d.q0 = I.q[0].get();
   d.q1 = I.q[1].get();
@@ -354,6 +429,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   t.eta = T.spec.forceps.eta;
   t.reach_T = static_cast<float>(lim.reach_translation);
   t.reach_th = static_cast<float>(lim.reach_rotation);
+  if (I.surface) I.surface_dev.inv_reach = static_cast<float>(1.0 / (1.0 - lim.reach_rotation) * (1 + 1e-6));
   EBH_CUDA_CHECK(cudaStreamSynchronize(st));
 }
 
@@ -421,7 +497,7 @@ int CudaHapticTicks::run_ticks_with_steps(int count) {
     I.steps_mode = Impl::Steps::InLaunch;
     // The kernel's attribute (process-wide): a later CudaHapticTicks sets L1-first again.
     if (I.carveout_beside_steps >= 0)
-      EBH_CUDA_CHECK(cudaFuncSetAttribute(ticks_kernel, cudaFuncAttributePreferredSharedMemoryCarveout,
+      EBH_CUDA_CHECK(cudaFuncSetAttribute(I.kernel(), cudaFuncAttributePreferredSharedMemoryCarveout,
                                           I.carveout_beside_steps));
     I.physical->set_device_step_slots(I.step_slots);
     I.physical->prepare_device_step();
@@ -512,9 +588,15 @@ int CudaHapticTicks::launch_ticks(int count) {
     int n = count;
     long long tick0 = I.enqueued;
     unsigned long long e = I.epoch;
-    void* args[] = {&I.dev, &I.tool, &n, &tick0, &e};
-    EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<void*>(ticks_kernel), dim3(I.grid), dim3(kBlock), args, 0, I.stream));
-    EBH_CUDA_LAUNCH_CHECK(I.stream, "ticks_kernel");
+    if (I.surface) {
+      void* args[] = {&I.dev, &I.tool, &I.surface_dev, &n, &tick0, &e};
+      EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(I.kernel(), dim3(I.grid), dim3(kBlock), args, 0, I.stream));
+      EBH_CUDA_LAUNCH_CHECK(I.stream, "surface_ticks_kernel");  // haptic_cuda_surface.cu
+    } else {
+      void* args[] = {&I.dev, &I.tool, &n, &tick0, &e};
+      EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<void*>(ticks_kernel), dim3(I.grid), dim3(kBlock), args, 0, I.stream));
+      EBH_CUDA_LAUNCH_CHECK(I.stream, "ticks_kernel");
+    }
     I.epoch += static_cast<unsigned long long>(count) * (I.iterations + (I.iterations == 1 ? 1 : 0));
   }
   const int handle = I.next_handle;
@@ -530,6 +612,10 @@ void CudaHapticTicks::collect(int handle, std::span<DeviceTickOutput> out) {
   const auto [first, count] = I.runs.at(handle);
   if (out.size() != static_cast<std::size_t>(count)) throw std::invalid_argument("CudaHapticTicks::collect: wrong size");
   EBH_CUDA_CHECK(cudaEventSynchronize(I.done[handle]));
+  if (I.overflow && *I.overflow)
+    throw std::runtime_error("device tick: more surface samples near the virtual tool than the " +
+                             std::to_string(I.surface_dev.capacity) +
+                             " it holds (contact: surface; a virtual mesh stretched far past its rest edge lengths)");
   for (int k = 0; k < count; ++k) out[k] = I.ring[(first + k) % I.ring_size];
 }
 

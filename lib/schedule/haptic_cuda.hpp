@@ -19,6 +19,9 @@
 // the 6x6 PSD clamp of the contact Hessian is a Jacobi eigen-decomposition in float32 (the CPU uses
 // Eigen's in double) unless a Cholesky factorisation shows the matrix positive definite; contact
 // and grasp sums run in a fixed order of their own (the CPU's in broad-phase order).
+// With surface contact (ToolModel::surface, scene `contact: surface`) the run is another kernel
+// (schedule/haptic_cuda_surface.cu): the samples of the virtual mesh's triangles instead of its
+// vertices, every step unpipelined.
 // Not supported here (the scheduler keeps the host tool, HapticSide::cuda, for them): the
 // inverse-normal projection and the realtime mode.
 //

@@ -150,6 +150,25 @@ struct MeshDev {
 /// the physical result at tick 0, for k < 0. Period k blends ring_slot(k - 2) and ring_slot(k - 1).
 __host__ __device__ __forceinline__ int ring_slot(long long k) { return k >= 0 ? static_cast<int>(k % 3) : 3; }
 
+/// Surface contact's device data (scene `contact: surface`; surface_ticks_kernel's parameter, by
+/// value): the virtual mesh's triangles (SurfaceContactModel) and the lists of the triangles and
+/// samples near the virtual tool. docs/CUDA.md, "Surface contact".
+struct SurfaceDev {
+  int F = 0, chunks = 0;            // triangles; chunks of kBlock triangles (the vertex blocks run them as their vertex chunks)
+  int capacity = 0;                 // samples the Newton call's list holds (MeshDev::cand_q, cand_w)
+  double spacing = 0, stiffness_factor = 1;  // SurfaceContactModel's
+  float inv_reach = 1;              // 1 / (1 - reach_th): a triangle's bounding radius in the reach bound
+  const int4* tri = nullptr;        // F: corners (x, y, z), rows at rest (w)
+  const int* tri_offsets = nullptr; // m + 1: vertex j's triangles are tri_entries[tri_offsets[j] .. tri_offsets[j + 1])
+  const int* tri_entries = nullptr;
+  int* counts = nullptr;            // 2 chunks: the chunk's candidate triangles, its deepest physical-tool depth (float bits)
+  int* list = nullptr;              // chunks * kBlock: each chunk's candidate triangles, in triangle order
+  int* offsets = nullptr;           // chunks + 1: the lists' offsets (block 0's scan)
+  double* cand_w = nullptr;         // capacity: the candidate samples' weights (their points: MeshDev::cand_q)
+  unsigned long long* arrive = nullptr;  // the vertex blocks' arrivals after their triangles, one per step
+  int* overflow = nullptr;          // host-mapped: set when a Newton call's samples passed `capacity`
+};
+
 struct TailShared {
   double sums[kWarps][kSums + 1];
   double total[kSums];
@@ -193,6 +212,7 @@ struct BlockShared {
 struct VertexFlags {
   bool list0 = false, list1 = false, contact = false;
   float pen = 0.f;  // depth in the physical tool (last step)
+  int targets = 0;  // surface contact: the vertex's E_con targets (samples inside the tool, or 1 when held)
   Vec3f q{};        // the new iterate
 };
 

@@ -62,9 +62,10 @@ __device__ void block_sum(const double* v, double m, double (*scratch)[kSums + 1
 /// E_con [3] of the reachable vertices plus the grasp part (tool_energy.cpp) at the posed tool `pt`,
 /// summed over the block. kDerivs: also the gradient and the upper Hessian (into sh.total).
 /// Returns E (contact + grasp) and (thread 0) the deepest contact's depth in `depth`.
-template <bool kDerivs>
+/// kSurface: the candidates are surface samples, candidate i with stiffness cand_w[i] k_con.
+template <bool kDerivs, bool kSurface = false>
 __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const Vec3f* q, const Posed& pt,
-                                    TailShared& sh, double& depth) {
+                                    TailShared& sh, double& depth, const double* cand_w = nullptr) {
   double acc[kSums];
   for (int k = 0; k < kSums; ++k) acc[k] = 0;
   double H[36];
@@ -79,16 +80,19 @@ __device__ double tool_contact_sums(const MeshDev& d, const ToolConst& t, const 
     const Vec3d qc = i < kCache ? sh.cand[i] : d.cand_q[i];
     const unsigned near = near_colliders(t, pt, static_cast<Vec3f>(qc), kFloatSlack);
     if (!near) continue;  // certainly outside
+    // The contact's stiffness: k_con, or a surface sample's w k_con (surface_contact.hpp).
     if (kDerivs) {
       SurfaceQuery<double> sq;
       if (deepest_query(t, pt, qc, near, sq) < 0) continue;
       const double phi = -sq.sd;
       deepest = fmax(deepest, phi);
-      acc[0] += contact_terms(t.k_con, phi, 1.0, sq.normal, qc - P, sq.hess, true, g, H);
+      if constexpr (kSurface) acc[0] += contact_terms(t.k_con * cand_w[i], phi, 1.0, sq.normal, qc - P, sq.hess, true, g, H);
+      else acc[0] += contact_terms(t.k_con, phi, 1.0, sq.normal, qc - P, sq.hess, true, g, H);
     } else {  // E only: the deepest collider's signed distance
       const double phi = penetration(t, pt, qc, near);
       deepest = fmax(deepest, phi);
-      acc[0] += 0.5 * t.k_con * phi * phi;
+      if constexpr (kSurface) acc[0] += 0.5 * (t.k_con * cand_w[i]) * phi * phi;
+      else acc[0] += 0.5 * t.k_con * phi * phi;
     }
   }
   for (int i = threadIdx.x; i < sh.nh; i += kBlock) {
@@ -122,10 +126,11 @@ __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceT
 /// (sh.P, sh.Q) at which `pt` is posed; then (`last`: the last step of tick `tick`) the tick's
 /// outputs (a runtime flag, not a template: one copy of this code, which block 0's instruction
 /// cache keeps from one step to the next). Leaves sh.posed_current: whether `pt` is still posed at
-/// the result.
+/// the result. kSurface: the candidates are surface samples with weights cand_w (tool_contact_sums).
+template <bool kSurface = false>
 __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolConst& t, const DeviceTickInput& in,
                                                   long long tick, const Vec3f* q, bool last, Posed& pt,
-                                                  TailShared& sh, TailMarks& marks) {
+                                                  TailShared& sh, TailMarks& marks, const double* cand_w = nullptr) {
   marks.count_candidates(sh.nc);
   bool posed_current = true;  // thread 0: a trial poses pt, an accepted one is the result
   // Newton's method on E_tool (virtual_tool.cpp), q held fixed.
@@ -152,7 +157,7 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
   auto evaluate_with_derivatives = [&] {
     if (threadIdx.x == kCouplingThread) sh.coupling_E = coupling(sh.P, sh.Q, sh.coupling_g);
     double depth = 0;
-    const double Econ = tool_contact_sums<true>(d, t, q, pt, sh, depth);  // synchronises the block
+    const double Econ = tool_contact_sums<true, kSurface>(d, t, q, pt, sh, depth, cand_w);  // synchronises the block
     if (threadIdx.x == 0) {
       sh.E = sh.coupling_E + Econ;
       for (int k = 0; k < 6; ++k) sh.g[k] = sh.coupling_g[k] + sh.total[1 + k];
@@ -222,7 +227,7 @@ __device__ __forceinline__ void virtual_tool_tail(const MeshDev& d, const ToolCo
       }
       __syncthreads();
       double trial_depth = 0;
-      const double Ec = tool_contact_sums<false>(d, t, q, pt, sh, trial_depth);  // synchronises the block
+      const double Ec = tool_contact_sums<false, kSurface>(d, t, q, pt, sh, trial_depth, cand_w);  // synchronises the block
       if (threadIdx.x == 0) {
         const double Et = sh.coupling_E + Ec;
         sh.flag = armijo_accepts(Et, sh.E, alpha, sh.slope);

@@ -7,6 +7,7 @@
 #include "energy/quadratic.hpp"
 #include "schedule/haptic_cuda_handoff.cuh"
 #include "schedule/haptic_cuda_posed.cuh"
+#include "schedule/haptic_cuda_surface.cuh"
 #include "solver/virtual_jacobi.hpp"
 #include "tool/tool_terms.hpp"
 
@@ -55,12 +56,15 @@ __device__ bool contact_target(const MeshDev& d, const ToolConst& t, const Posed
 
 /// The end of vertex j's step at its new iterate qn: qout, and (last) the velocity (Alg. 2 line 23)
 /// and the depth of j in the physical tool.
+/// kDepth = false (surface contact): no depth here, the triangles' samples give it (triangle_step).
+template <bool kDepth = true>
 __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& physical, bool last, int j, bool held,
                            Vec3f qn, Vec3f q_start, Vec3f* qout, Vec3f* v_out, VertexFlags& f) {
   qout[j] = qn;
   f.q = qn;
   if (last) {
     v_out[j] = d.inv_h * (qn - q_start);
+    if constexpr (!kDepth) return;
     const unsigned near = held ? 0u : near_colliders(t, physical, qn, kFloatSlack);
     if (near) f.pen = static_cast<float>(penetration(t, physical, static_cast<Vec3d>(qn), near));
   }
@@ -76,11 +80,16 @@ __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& ph
 ///     tool at its new pose, so its step is left to block 0 (list1: deferred) with r and D kept for
 ///     it (r_part, d_part; 0: pinned); the others take no contact term; list0: j may be reachable
 ///     after the call.
-template <bool kAhead>
+///   kSurface (surface contact, unpipelined steps only): the contact is that of the samples of j's
+///     triangles (surface_contact_target, with `surface`); list0 stays empty (the candidates are
+///     triangles: triangle_step), f.targets counts the targets, and the depth is the triangles'.
+template <bool kAhead, bool kSurface = false>
 __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const Posed& posed, const Posed& physical,
                                    const DeviceTickInput& in, bool first, bool last, int j,
                                    const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
-                                   Vec3f* __restrict__ v_out, DeferredVertex& deferred_out, bool p_ready) {
+                                   Vec3f* __restrict__ v_out, DeferredVertex& deferred_out, bool p_ready,
+                                   const SurfaceDev* surface = nullptr) {
+  static_assert(!(kAhead && kSurface), "surface contact runs unpipelined steps");
   VertexFlags f;
   const bool pinned = d.model.pinned[j];
   const Vec3f q_in = qin[j];
@@ -120,7 +129,17 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
   const bool held = d.held[j];
   Vec3f kt{};
   float ck = 0.f;
-  if (!kAhead) f.contact = contact_target(d, t, posed, j, q, held, kt, ck);
+  if constexpr (kSurface) {
+    if (held) {
+      grasp_target(t, posed, d.grasp_local[j], kt, ck);
+      f.targets = 1;
+    } else {
+      f.targets = surface_contact_target(d, *surface, t, posed, in, first, j, q, qin, kt, ck);
+    }
+    f.contact = f.targets > 0;
+  } else if (!kAhead) {
+    f.contact = contact_target(d, t, posed, j, q, held, kt, ck);
+  }
   // One Jacobi iteration (virtual_mesh.cpp: virtual_iteration).
   Vec3f r{};
   float D = 0.f;
@@ -174,11 +193,13 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
       return f;
     }
     f.list0 = superset;
+  } else if (kSurface) {
+    f.list1 = held;
   } else {
     f.list0 = !held && reachable(t, posed, qn);
     f.list1 = held;
   }
-  vertex_end(d, t, physical, last, j, held, qn, first ? q_in : (last ? d.q_start[j] : Vec3f{}), qout, v_out, f);
+  vertex_end<!kSurface>(d, t, physical, last, j, held, qn, first ? q_in : (last ? d.q_start[j] : Vec3f{}), qout, v_out, f);
   return f;
 }
 

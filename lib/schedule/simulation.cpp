@@ -202,12 +202,8 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver, w->physical_mesh);
   w->tool = build_tool(w->scene.spec.tool);
-  if (w->scene.spec.contact == ContactModel::Surface) {
-    if (backend == Backend::Cuda)
-      throw InputError(where + ": key 'contact': surface contact runs on the CPU backend only (use --backend cpu, "
-                               "or contact: vertices)");
+  if (w->scene.spec.contact == ContactModel::Surface)
     attach_surface_contact(w->tool, w->virtual_mesh.triangles, w->virtual_mesh.rest, w->scene.spec.stiffness.k_con);
-  }
   w->initial_physical = make_physical_state(w->physical_mesh);
   if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)
     w->settle_steps = settle_under_gravity(w->scene, w->initial_physical, w->scene.warnings);

@@ -7,13 +7,6 @@
 
 namespace ebh {
 
-namespace {
-double longest_edge(std::span<const Vec3d> q, const std::array<int, 3>& v) {
-  return std::sqrt(std::max({squared_norm(q[v[1]] - q[v[0]]), squared_norm(q[v[2]] - q[v[1]]),
-                             squared_norm(q[v[0]] - q[v[2]])}));
-}
-int clamp_level(double n) { return n < 1 ? 1 : (n > kMaxSampleLevel ? kMaxSampleLevel : static_cast<int>(n)); }
-}  // namespace
 
 SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> triangles, std::span<const Vec3d> rest,
                                           double spacing) {
@@ -23,8 +16,11 @@ SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> tr
   s.spacing = spacing;
   s.triangles.assign(triangles.begin(), triangles.end());
   s.rest_level.resize(s.triangles.size());
-  for (std::size_t t = 0; t < s.triangles.size(); ++t)
-    s.rest_level[t] = static_cast<std::uint8_t>(clamp_level(std::ceil(longest_edge(rest, s.triangles[t]) / spacing)));
+  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
+    const auto& v = s.triangles[t];
+    s.rest_level[t] = static_cast<std::uint8_t>(
+        clamp_sample_level(std::ceil(triangle_longest_edge(rest[v[0]], rest[v[1]], rest[v[2]]) / spacing)));
+  }
   std::vector<int> count(vertices + 1, 0);
   for (const auto& v : s.triangles)
     for (const int i : v) ++count[i + 1];
@@ -63,15 +59,13 @@ void attach_surface_contact(ToolModel& tool, std::span<const std::array<int, 3>>
 }
 
 int sample_level(const SurfaceContactModel& s, int t, std::span<const Vec3d> q) {
-  const int stretched = clamp_level(std::ceil(longest_edge(q, s.triangles[t]) / s.spacing));
-  return std::max(static_cast<int>(s.rest_level[t]), stretched);
+  const auto& v = s.triangles[t];
+  return surface_sample_level(s.rest_level[t], s.spacing, q[v[0]], q[v[1]], q[v[2]]);
 }
 
 double sample_weight(const SurfaceContactModel& s, int t, int n, std::span<const Vec3d> q) {
   const auto& v = s.triangles[t];
-  const double area = 0.5 * norm(cross(q[v[1]] - q[v[0]], q[v[2]] - q[v[0]]));
-  const double reference = 0.25 * std::sqrt(3.0) * s.spacing * s.spacing;
-  return s.stiffness_factor * area / (static_cast<double>(n) * n * reference);
+  return surface_sample_weight(s.stiffness_factor, s.spacing, n, q[v[0]], q[v[1]], q[v[2]]);
 }
 
 double surface_stiffness_factor(double k_con, double force_limit, double spacing) {
@@ -80,21 +74,9 @@ double surface_stiffness_factor(double k_con, double force_limit, double spacing
 }
 
 void triangle_samples(const SurfaceContactModel& s, int t, std::span<const Vec3d> q, std::vector<SurfaceSample>& out) {
-  // The n^2 sub-triangles of the regular subdivision: "up" ones with corners (i, j), (i+1, j),
-  // (i, j+1) in units of 1/n along the edges from corner 0 to corners 1 and 2, and "down" ones
-  // (i+1, j), (i, j+1), (i+1, j+1); a sample at each centroid.
   const int n = sample_level(s, t, q);
   const double w = sample_weight(s, t, n, q);
-  const double inv = 1.0 / n;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; i + j < n; ++j) {
-      const double b1 = (i + 1.0 / 3.0) * inv, b2 = (j + 1.0 / 3.0) * inv;
-      out.push_back({t, {1.0 - b1 - b2, b1, b2}, w});
-      if (i + j + 1 < n) {
-        const double c1 = (i + 2.0 / 3.0) * inv, c2 = (j + 2.0 / 3.0) * inv;
-        out.push_back({t, {1.0 - c1 - c2, c1, c2}, w});
-      }
-    }
+  for_each_sample(n, [&](double b0, double b1, double b2) { out.push_back({t, {b0, b1, b2}, w}); });
 }
 
 namespace {
@@ -191,9 +173,8 @@ void candidate_triangles(const SurfaceContactModel& s, const PosedTool& tool, st
               const auto& v = s.triangles[t];
               if (!excluded.empty() && (excluded[v[0]] || excluded[v[1]] || excluded[v[2]])) continue;
               // The triangle's bounding sphere against gather_candidates' bound (s = its radius).
-              const Vec3d mid = (q[v[0]] + q[v[1]] + q[v[2]]) / 3.0;
-              const double R = std::sqrt(std::max(
-                  {squared_norm(q[v[0]] - mid), squared_norm(q[v[1]] - mid), squared_norm(q[v[2]] - mid)}));
+              Vec3d mid;
+              const double R = triangle_bounding_sphere(q[v[0]], q[v[1]], q[v[2]], mid);
               const double bound = (R + T + th * (norm(mid - tool.origin) + T)) / (1.0 - th);
               for (int k = 0; k < tool.count; ++k)
                 if (signed_distance_local(tool.shape[k], apply_inverse(tool.world[k], mid)) <= bound) {

@@ -30,13 +30,10 @@
 #include "energy/contact_target.hpp"
 #include "tool/broadphase.hpp"
 #include "tool/contact.hpp"
+#include "tool/surface_samples.hpp"
 #include "tool/tool_model.hpp"
 
 namespace ebh {
-
-/// Most sample rows per triangle (n <= kMaxSampleLevel: at most 4096 samples per triangle): a
-/// triangle up to 64 sample spacings long (64 mm for a 1 mm tip) keeps the no-tunnelling bound.
-inline constexpr int kMaxSampleLevel = 64;
 
 /// The surface's triangles and what the sampling needs (immutable; built once per scene).
 struct SurfaceContactModel {
@@ -82,7 +79,8 @@ struct SurfaceSample {
   double weight = 0;
 };
 
-/// The sample rows n of triangle t at positions q: ceil(longest edge / spacing) at rest or now,
+/// The sample rows n of triangle t at positions q (surface_sample_level, surface_samples.hpp):
+/// ceil(longest edge / spacing) at rest or now,
 /// whichever is more (at most kMaxSampleLevel). n stays at its rest value, and the samples move
 /// with the surface, unless the triangle is stretched past it; every point of the triangle is
 /// then within sqrt(3)/3 spacing ~ 0.58 spacing of a sample, so a tool part of radius >= spacing
@@ -91,17 +89,18 @@ struct SurfaceSample {
 /// 1.2 N fall of the force, rows for the spacing 0.17 N.)
 int sample_level(const SurfaceContactModel& s, int t, std::span<const Vec3d> q);
 
-/// The E_con weight of each of triangle t's n^2 samples at positions q (see the header comment).
+/// The E_con weight of each of triangle t's n^2 samples at positions q (surface_sample_weight; see
+/// the header comment).
 double sample_weight(const SurfaceContactModel& s, int t, int n, std::span<const Vec3d> q);
 
 /// Appends the n^2 samples of triangle t at positions q (n = sample_level; sub-triangle
-/// centroids, in a fixed order).
+/// centroids in for_each_sample's order).
 void triangle_samples(const SurfaceContactModel& s, int t, std::span<const Vec3d> q, std::vector<SurfaceSample>& out);
 
 /// The sample's point at positions q.
 inline Vec3d sample_point(const SurfaceContactModel& s, const SurfaceSample& p, std::span<const Vec3d> q) {
   const std::array<int, 3>& t = s.triangles[p.triangle];
-  return p.b[0] * q[t[0]] + p.b[1] * q[t[1]] + p.b[2] * q[t[2]];
+  return surface_sample_point(p.b[0], p.b[1], p.b[2], q[t[0]], q[t[1]], q[t[2]]);
 }
 
 /// Scratch of the surface queries (reused; sized on first use).

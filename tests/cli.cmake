@@ -472,8 +472,14 @@ add_test(NAME cli.replay.recovery_redoes_diverging_steps
     --set solver.diagonal=plain)
 set_tests_properties(cli.replay.recovery_redoes_diverging_steps PROPERTIES PASS_REGULAR_EXPRESSION
   "warning: .*recovered.h5: [1-9][0-9]* of 101 physical steps did not converge and were redone with the direct solve.*1001 ticks, 101 physical steps")
+add_test(NAME cli.replay.stopping_rule_says_when_steps_reach_the_cap
+  COMMAND ${EBH_BIN} replay ${EBH_NUM_OUT}/tube_q0.02.yaml tube_insert -o ${EBH_NUM_OUT}/capped.h5 --duration 0.1
+    --set solver.physical_tolerance=1e-15 --set solver.physical_max_iterations=20)
+set_tests_properties(cli.replay.stopping_rule_says_when_steps_reach_the_cap PROPERTIES PASS_REGULAR_EXPRESSION
+  "warning: .*capped.h5: [1-9][0-9]* of 11 physical steps ran solver.physical_max_iterations \\(20\\) and still left more than solver.physical_tolerance \\(1e-15 mesh weights\\)")
 set_tests_properties(cli.replay.plain_diagonal_diverges_on_slivers cli.replay.bounded_diagonal_on_slivers
-  cli.replay.recovery_redoes_diverging_steps PROPERTIES FIXTURES_REQUIRED degraded_tube LABELS cli)
+  cli.replay.recovery_redoes_diverging_steps cli.replay.stopping_rule_says_when_steps_reach_the_cap
+  PROPERTIES FIXTURES_REQUIRED degraded_tube LABELS cli)
 add_test(NAME cli.scene.degrade_bad_quality
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;degrade;tube;--quality;1.5;-o;${EBH_NUM_OUT}"
     "-DEXPECT=^ebh: error: --quality: expected a mean ratio in \\(0, 1\\)" -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)

@@ -277,7 +277,10 @@ void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   in_contact_ += h.contact_count > 0 ? 1 : 0;
 }
 
-void ReplayWriter::on_step(const World&, const PhysicalSide& p, double t) {
+void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
+  const PhysicalStepParams& params = w.physical_params;
+  capped_steps_ += params.adaptive() && !p.recovered && p.report.iterations >= params.max_iterations &&
+                   p.report.residual > params.tolerance;
   pt_.push_back(t);
   iterations_.push_back(p.report.iterations);
   residual_.push_back(p.report.residual);

@@ -80,6 +80,8 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t clamped_ticks() const { return clamped_; }
   std::int64_t contact_ticks() const { return in_contact_; }  ///< ticks with contacts > 0
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
+  /// Steps that ran solver.physical_max_iterations and still left more than the tolerance.
+  std::int64_t capped_steps() const { return capped_steps_; }
   /// The physical tool's depth in the tissue at the first tick (m; 0 before any tick).
   double first_penetration_physical() const { return pen_h_.empty() ? 0.0 : pen_h_.front(); }
 
@@ -101,7 +103,7 @@ class ReplayWriter : public ReplayObserver {
   h5::Appender<double> f_pose_;
   std::vector<float> scratch_f_;
   double peak_force_ = 0, max_penetration_ = 0;
-  std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0;
+  std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0;
 };
 
 /// The CPU's model name (from /proc/cpuinfo), for the `device` attribute.

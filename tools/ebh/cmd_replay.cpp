@@ -141,6 +141,12 @@ void run_replay(const ReplayArgs& a) {
                  "ebh: warning: %s: %lld of %lld physical steps did not converge and were redone with the direct "
                  "solve (/physical/recovered; `ebh scene info` shows the mesh's worst tets)\n",
                  a.out.c_str(), static_cast<long long>(writer.recovered_steps()), static_cast<long long>(s.steps));
+  if (writer.capped_steps() > 0)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: %lld of %lld physical steps ran solver.physical_max_iterations (%d) and still left "
+                 "more than solver.physical_tolerance (%g mesh weights) unbalanced (/physical/residual)\n",
+                 a.out.c_str(), static_cast<long long>(writer.capped_steps()), static_cast<long long>(s.steps),
+                 world.physical_params.max_iterations, world.physical_params.tolerance);
   // From the recording's first sample only: a window may well start in contact.
   const std::string start = a.start == 0 ? start_warning(writer.first_penetration_physical()) : "";
   if (!start.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), start.c_str());

@@ -308,7 +308,8 @@ add_test(NAME gate.catches_rough_forces
 set_tests_properties(gate.catches_rough_forces PROPERTIES
   PASS_REGULAR_EXPRESSION "gap_insert +FAIL.*above the band" LABELS gate TIMEOUT 600)
 add_test(NAME gate.reports_a_stopped_replay
-  COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1 --set solver.recovery=none)
+  COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1 --set solver.physical_tolerance=0
+    --set solver.recovery=none)
 set_tests_properties(gate.reports_a_stopped_replay PROPERTIES
   PASS_REGULAR_EXPRESSION "gap_insert +FAIL  stopped by the health checks.*the replay stopped: .*physical step [0-9]+: the physical mesh diverged.*gate: FAILED"
   LABELS gate TIMEOUT 600)

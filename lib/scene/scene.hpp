@@ -61,7 +61,7 @@
 //     virtual_iterations: 4         # virtual-mesh local-global iterations per haptic tick
 //     chebyshev_rho: 0.95           # (0, 1) | auto: the relaxed Jacobi iteration's spectral radius
 //                                   #   on this mesh (docs/MODEL.md, "Chebyshev's rho")
-//     physical_tolerance: 0.01      # jacobi/chebyshev: iterate past physical_iterations while the step
+//     physical_tolerance: 0.002     # jacobi/chebyshev: iterate past physical_iterations while the step
 //     physical_max_iterations: 64   #   leaves more than this many mesh weights unbalanced, up to the
 //                                   #   maximum (0: always physical_iterations; docs/MODEL.md)
 //     recovery: direct              # direct | none: redo a step the jacobi/chebyshev iterations leave
@@ -160,7 +160,7 @@ struct SolverSpec {
   /// The Jacobi-type methods' stopping rule: after physical_iterations, iterations go on while the
   /// residual at the start of the last one (PhysicalStepReport::residual, mesh weights) is above
   /// physical_tolerance, up to physical_max_iterations in all. 0: exactly physical_iterations.
-  double physical_tolerance = 0.01;
+  double physical_tolerance = 0.002;
   int physical_max_iterations = 64;
   /// The Jacobi-type methods' recovery (CPU backend): a step that leaves more than
   /// recovery_residual mesh weights unbalanced (PhysicalStepReport::residual), or a diverged

@@ -378,6 +378,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
   const int max_iterations = adaptive ? params.max_iterations : K;
   const double weight_scale = model.weight_norm > 0 ? model.weight_norm : 1.0;  // set_residuals' scale
   int iterations = 0;
+  StoppingState stopping;
   // One parallel region for the whole step: the stages are work-sharing loops with two barriers
   // per iteration. The master thread times the stages and sums the residual norms (after the
   // barrier ending the global step; ws.r is next written after the following local step's barrier).
@@ -415,7 +416,10 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
         iterations = k + 1;
         report.global_s += seconds_since(t0);
       }  // implicit barrier: every thread reads the same rk
-      if (!continue_iterating(k, rk / weight_scale, K, tolerance, max_iterations)) break;
+      bool more = false;
+#pragma omp single copyprivate(more)
+      more = continue_iterating(k, rk / weight_scale, K, tolerance, max_iterations, stopping);
+      if (!more) break;
     }
     update_velocities(model, ws, state);
   }

@@ -109,6 +109,7 @@ struct PhysicalDevice {
   unsigned int* blocks_done = nullptr;  // 1  the last-block counter
   // The stopping rule past K iterations (adaptive graphs only: PhysicalStepParams::adaptive).
   int* next_iteration = nullptr;        // 1  the loop's next iteration k; the loop's finish resets it
+  StoppingState* stopping = nullptr;    // 1  the rule's best residual so far; the loop's finish resets it
   const float* omega = nullptr;         // max_iterations  the Chebyshev weights (iteration_weights)
   double weight_norm = 0;               // ||M g0||, the residual's scale
   double tolerance = 0;                 // mesh weights
@@ -487,7 +488,7 @@ __device__ __forceinline__ void last_block_decides(const PhysicalDevice& d, int 
   const double rk2 = residual_block(d, rsq);
   if (threadIdx.x != 0) return;
   const double scale = d.weight_norm > 0 ? d.weight_norm : 1.0;
-  const bool more = continue_iterating(k, sqrt(rk2) / scale, d.iterations, d.tolerance, d.max_iterations);
+  const bool more = continue_iterating(k, sqrt(rk2) / scale, d.iterations, d.tolerance, d.max_iterations, *d.stopping);
   d.residual_sq[2] = k + 1;
   *d.next_iteration = k + 1;
   cudaGraphSetConditional(loop, more ? 1u : 0u);
@@ -522,7 +523,10 @@ __global__ void __launch_bounds__(kBlock) loop_finish_kernel(PhysicalDevice d, S
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < d.n) finish_vertex(d, plan.read(count - 1), i);
   if (count % 2 == 1 && i < d.T) d.rotation[i] = d.rotation[d.T + i];
-  if (last_block(d) && threadIdx.x == 0) *d.next_iteration = d.iterations - 1;
+  if (last_block(d) && threadIdx.x == 0) {
+    *d.next_iteration = d.iterations - 1;
+    *d.stopping = StoppingState{};
+  }
 }
 
 /// Morton code of p in the box [lo, lo + extent]: 10 bits per axis, interleaved.
@@ -672,6 +676,7 @@ struct CudaPhysicalSolver::Impl {
   // The stopping rule's loop (params.adaptive()): its counter, the weights of every iteration it
   // may run, and the stream its body is captured on.
   cuda::DeviceArray<int> next_iteration;
+  cuda::DeviceArray<StoppingState> stopping;
   cuda::DeviceArray<float> omega;
   cuda::Stream body_stream;
   // Host side of the per-step copies.
@@ -868,6 +873,10 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
     const int start = params.iterations - 1;  // the loop's first iteration
     next_iteration.allocate(1);
     next_iteration.upload(&start, st);
+    const StoppingState fresh{};
+    stopping.allocate(1);
+    stopping.upload(&fresh, st);
+    dev.stopping = stopping.get();
     omega.allocate(omega_host.size());
     omega.upload(omega_host.data(), st);
     dev.next_iteration = next_iteration.get();

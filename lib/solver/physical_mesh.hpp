@@ -140,12 +140,30 @@ struct PhysicalStepParams {
   }
 };
 
+/// What the stopping rule remembers within a step: the best residual since iteration K - 1 (one
+/// that beat the previous best by kStallGain) and its iteration (-1: none yet).
+struct StoppingState {
+  double best = 0;
+  int best_k = -1;
+};
+/// The rule stops a step whose residual has not fallen below kStallGain times its best for
+/// kStallIterations iterations: the iterations have stalled (float32's round-off floor on the
+/// device, a Chebyshev rho far from the mesh's rate), so more of them would only cost time.
+inline constexpr int kStallIterations = 8;
+inline constexpr double kStallGain = 0.95;
+
 /// The stopping rule of the CPU step and the CUDA graph alike: after iteration k (0-based) whose
 /// start left `residual` mesh weights unbalanced, run iteration k + 1? Always below `iterations`;
-/// past it only while residual > tolerance and fewer than max_iterations have run.
-EBH_HD bool continue_iterating(int k, double residual, int iterations, double tolerance, int max_iterations) {
+/// past it only while residual > tolerance, fewer than max_iterations have run, and the residual
+/// has not stalled (StoppingState, updated here).
+EBH_HD bool continue_iterating(int k, double residual, int iterations, double tolerance, int max_iterations,
+                               StoppingState& state) {
   if (k + 1 < iterations) return true;
-  return tolerance > 0 && k + 1 < max_iterations && residual > tolerance;
+  if (state.best_k < 0 || residual < kStallGain * state.best) {
+    state.best = residual;
+    state.best_k = k;
+  }
+  return tolerance > 0 && k + 1 < max_iterations && residual > tolerance && k - state.best_k < kStallIterations;
 }
 
 /// The Chebyshev weight of iteration k given the previous one (Wang 2015: 1 for the first

@@ -81,6 +81,23 @@ struct Models {
   PhysicalState start;  // a deformed, moving state
 };
 
+/// A committed scene's models (no factorisation), with its physical mesh degraded to a worst
+/// mean ratio of `quality` when below 1 (as `ebh scene degrade`); the start state at rest.
+void load_models(Models& M, const char* name, double quality) {
+  M.scene = load_scene(resolve_scene_path(name));
+  if (quality < 1) {
+    DegradeOptions o;
+    o.target_quality = quality;
+    degrade_physical_mesh(M.scene, o);
+  }
+  M.vm = build_virtual_model(M.scene);
+  PhysicalModelOptions opt;
+  opt.h = 1.0 / M.scene.spec.physical_hz;
+  opt.factorize = false;
+  M.pm = build_physical_model(M.scene, &M.vm, opt);
+  M.start = make_physical_state(M.pm);
+}
+
 /// A scene's models and a deformed moving state: a downward velocity bump on the upper half and
 /// three CPU steps (as benchmarks/bench_physical_step.cpp).
 const Models& models(const char* name) {
@@ -89,13 +106,7 @@ const Models& models(const char* name) {
   if (slot) return *slot;
   slot = std::make_unique<Models>();
   Models& M = *slot;
-  M.scene = load_scene(resolve_scene_path(name));
-  M.vm = build_virtual_model(M.scene);
-  PhysicalModelOptions opt;
-  opt.h = 1.0 / M.scene.spec.physical_hz;
-  opt.factorize = false;
-  M.pm = build_physical_model(M.scene, &M.vm, opt);
-  M.start = make_physical_state(M.pm);
+  load_models(M, name, 1.0);
   double zmax = -1e9, zmin = 1e9;
   for (const Vec3d& x : M.pm.rest) { zmax = std::max(zmax, x.z); zmin = std::min(zmin, x.z); }
   for (int a = 0; a < M.pm.num_vertices; ++a)
@@ -277,16 +288,7 @@ const Models& sliver_tube() {
   if (slot) return *slot;
   slot = std::make_unique<Models>();
   Models& M = *slot;
-  M.scene = load_scene(resolve_scene_path("tube"));
-  DegradeOptions o;
-  o.target_quality = 0.04;
-  degrade_physical_mesh(M.scene, o);
-  M.vm = build_virtual_model(M.scene);
-  PhysicalModelOptions opt;
-  opt.h = 1.0 / M.scene.spec.physical_hz;
-  opt.factorize = false;
-  M.pm = build_physical_model(M.scene, &M.vm, opt);
-  M.start = make_physical_state(M.pm);
+  load_models(M, "tube", 0.04);
   for (int a = 0; a < M.pm.num_vertices; ++a)
     if (!M.pm.pinned[a]) M.start.v[a] = Vec3d{0.2, 0, -0.1};
   return M;

@@ -91,7 +91,7 @@ TEST(SceneSpec, DefaultsAndNameFromStem) {
   EXPECT_TRUE(s.pinned.empty());
   EXPECT_EQ(s.solver.recovery, SolverSpec::Recovery::Direct);
   EXPECT_EQ(s.solver.recovery_residual, 100.0);
-  EXPECT_EQ(s.solver.physical_tolerance, 0.01);
+  EXPECT_EQ(s.solver.physical_tolerance, 0.002);
   EXPECT_EQ(s.solver.physical_max_iterations, 64);
   EXPECT_FALSE(s.solver.chebyshev_rho_auto);
 }

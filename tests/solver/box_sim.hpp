@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mesh/box_mesh.hpp"
+#include "mesh/degrade.hpp"
 #include "scene/scene.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
@@ -26,6 +27,24 @@ inline Scene box_scene(int nx, int ny, int nz, int refine = 0) {
   scene.physical = make_box_tets({0, 0, 0}, {0.012, 0.012, 0.024}, nx, ny, nz);
   for (int i = 0; i < static_cast<int>(scene.physical.vertices.size()); ++i)
     if (scene.physical.vertices[i].z == 0.0) scene.pinned.push_back(i);
+  return scene;
+}
+
+/// A 24 x 24 x 48 mm block (6 x 6 x 12 cells, 2160 tets), bottom pinned, k_vol 5 kPa; with
+/// `quality` < 1 some of its interior tets degraded to that mean ratio.
+inline Scene degraded_block(double quality) {
+  Scene scene;
+  scene.spec.file = "block (in code)";
+  scene.spec.stiffness.k_vol = 5000;
+  scene.physical = make_box_tets({0, 0, 0}, {0.024, 0.024, 0.048}, 6, 6, 12);
+  for (int i = 0; i < static_cast<int>(scene.physical.vertices.size()); ++i)
+    if (scene.physical.vertices[i].z == 0.0) scene.pinned.push_back(i);
+  if (quality < 1) {
+    DegradeOptions o;
+    o.target_quality = quality;
+    o.tets = 12;
+    degrade_physical_mesh(scene, o);
+  }
   return scene;
 }
 

@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 
+#include "box_sim.hpp"
 #include "mesh/box_mesh.hpp"
 #include "mesh/degrade.hpp"
 #include "scene/scene.hpp"
@@ -16,24 +17,6 @@
 
 namespace ebh {
 namespace {
-
-/// A 24 x 24 x 48 mm block (6 x 6 x 12 cells, 2160 tets), bottom pinned, k_vol 5 kPa; with
-/// `quality` < 1 some of its interior tets degraded to that mean ratio.
-Scene block(double quality) {
-  Scene scene;
-  scene.spec.file = "block (in code)";
-  scene.spec.stiffness.k_vol = 5000;
-  scene.physical = make_box_tets({0, 0, 0}, {0.024, 0.024, 0.048}, 6, 6, 12);
-  for (int i = 0; i < static_cast<int>(scene.physical.vertices.size()); ++i)
-    if (scene.physical.vertices[i].z == 0.0) scene.pinned.push_back(i);
-  if (quality < 1) {
-    DegradeOptions o;
-    o.target_quality = quality;
-    o.tets = 12;
-    degrade_physical_mesh(scene, o);
-  }
-  return scene;
-}
 
 PhysicalModel model_of(const Scene& scene, const VirtualModel& vm, SolverSpec::Diagonal diagonal) {
   PhysicalModelOptions o;
@@ -52,7 +35,7 @@ Eigen::VectorXd dense_spectrum(const PhysicalModel& m) {
 
 TEST(Spectrum, LanczosFindsTheLargestEigenvalueOfADenseSolve) {
   for (double q : {1.0, 0.02}) {
-    const Scene scene = block(q);
+    const Scene scene = test::degraded_block(q);
     const VirtualModel vm = build_virtual_model(scene);
     const PhysicalModel m = model_of(scene, vm, SolverSpec::Diagonal::Plain);
     const Eigen::VectorXd ev = dense_spectrum(m);
@@ -64,14 +47,14 @@ TEST(Spectrum, LanczosFindsTheLargestEigenvalueOfADenseSolve) {
 }
 
 TEST(Spectrum, BoundedDiagonalIsThePlainOneOnAGoodMeshAndBoundsABadOne) {
-  const Scene good = block(1.0);
+  const Scene good = test::degraded_block(1.0);
   const VirtualModel vg = build_virtual_model(good);
   const PhysicalModel plain = model_of(good, vg, SolverSpec::Diagonal::Plain);
   const PhysicalModel bounded = model_of(good, vg, SolverSpec::Diagonal::Bounded);
   EXPECT_EQ(bounded.diag_theta, 0.0);
   EXPECT_EQ(bounded.diag, plain.diag);  // the paper's diagonal to the bit
 
-  const Scene bad = block(0.02);
+  const Scene bad = test::degraded_block(0.02);
   const VirtualModel vb = build_virtual_model(bad);
   const PhysicalModel bad_plain = model_of(bad, vb, SolverSpec::Diagonal::Plain);
   const PhysicalModel bad_bounded = model_of(bad, vb, SolverSpec::Diagonal::Bounded);
@@ -86,7 +69,7 @@ TEST(Spectrum, BoundedDiagonalIsThePlainOneOnAGoodMeshAndBoundsABadOne) {
 
 TEST(Spectrum, L1RowSumsBoundTheMatrix) {
   // D_l1 - A is positive semidefinite: its smallest eigenvalue is >= 0 (round-off aside).
-  const Scene bad = block(0.02);
+  const Scene bad = test::degraded_block(0.02);
   const VirtualModel vb = build_virtual_model(bad);
   const PhysicalModel m = model_of(bad, vb, SolverSpec::Diagonal::Plain);
   const Eigen::SparseMatrix<double> A = assemble_global_matrix(m);
@@ -98,7 +81,7 @@ TEST(Spectrum, L1RowSumsBoundTheMatrix) {
 }
 
 TEST(Spectrum, BoundedChebyshevConvergesWhereThePlainOneDiverges) {
-  const Scene bad = block(0.02);
+  const Scene bad = test::degraded_block(0.02);
   const VirtualModel vm = build_virtual_model(bad);
   PhysicalModelOptions o;
   o.diagonal = SolverSpec::Diagonal::Bounded;
@@ -141,7 +124,7 @@ TEST(Spectrum, BoundedChebyshevConvergesWhereThePlainOneDiverges) {
 }
 
 TEST(Spectrum, ResidualIsZeroAtRest) {
-  const Scene good = block(1.0);
+  const Scene good = test::degraded_block(1.0);
   const VirtualModel vm = build_virtual_model(good);
   const PhysicalModel m = model_of(good, vm, SolverSpec::Diagonal::Bounded);
   PhysicalWorkspace ws = make_physical_workspace(m);
@@ -161,7 +144,7 @@ TEST(Spectrum, ResidualIsZeroAtRest) {
 TEST(Spectrum, AutoChebyshevRhoIsTheRelaxedJacobiRate) {
   // chebyshev_rho: auto takes rho = max |1 - gamma lambda| over the estimate; a number stays as it is.
   for (double q : {1.0, 0.02}) {
-    const Scene scene = block(q);
+    const Scene scene = test::degraded_block(q);
     const VirtualModel vm = build_virtual_model(scene);
     const PhysicalModel m = model_of(scene, vm, SolverSpec::Diagonal::Bounded);
     SolverSpec spec;

@@ -6,30 +6,12 @@
 
 #include <cstring>
 
-#include "mesh/box_mesh.hpp"
-#include "mesh/degrade.hpp"
 #include "box_sim.hpp"
 
 namespace ebh {
 namespace {
 
 using test::Method;
-
-/// A 24 x 24 x 48 mm block (2160 tets, k_vol 5 kPa, bottom pinned) with slivers down to mean
-/// ratio 0.02: the bounded diagonal's slow modes need far more than 16 iterations there.
-Scene sliver_block() {
-  Scene scene;
-  scene.spec.file = "sliver block (in code)";
-  scene.spec.stiffness.k_vol = 5000;
-  scene.physical = make_box_tets({0, 0, 0}, {0.024, 0.024, 0.048}, 6, 6, 12);
-  for (int i = 0; i < static_cast<int>(scene.physical.vertices.size()); ++i)
-    if (scene.physical.vertices[i].z == 0.0) scene.pinned.push_back(i);
-  DegradeOptions o;
-  o.target_quality = 0.02;
-  o.tets = 12;
-  degrade_physical_mesh(scene, o);
-  return scene;
-}
 
 /// A swaying start: velocities growing with height (m/s at the top).
 void sway(test::Sim& sim, double top_speed, double height) {
@@ -47,13 +29,35 @@ PhysicalStepParams chebyshev(int K, double tolerance, int max_iterations) {
 }
 
 TEST(StoppingRule, ContinuesOnlyPastKAndBelowTheCapWhileAboveTheTolerance) {
-  // continue_iterating(k, residual, K, tolerance, max): after iteration k, run k + 1?
-  EXPECT_TRUE(continue_iterating(0, 0.0, 16, 0.01, 64));     // below K: always
-  EXPECT_TRUE(continue_iterating(14, 0.0, 16, 0.0, 0));
-  EXPECT_FALSE(continue_iterating(15, 1e9, 16, 0.0, 64));    // tolerance 0: exactly K
-  EXPECT_FALSE(continue_iterating(15, 0.01, 16, 0.01, 64));  // at the tolerance: done
-  EXPECT_TRUE(continue_iterating(15, 0.011, 16, 0.01, 64));
-  EXPECT_FALSE(continue_iterating(63, 1e9, 16, 0.01, 64));   // the cap
+  // continue_iterating(k, residual, K, tolerance, max, state): after iteration k, run k + 1?
+  auto rule = [](int k, double residual, int K, double tolerance, int max) {
+    StoppingState state;
+    return continue_iterating(k, residual, K, tolerance, max, state);
+  };
+  EXPECT_TRUE(rule(0, 0.0, 16, 0.01, 64));     // below K: always
+  EXPECT_TRUE(rule(14, 0.0, 16, 0.0, 0));
+  EXPECT_FALSE(rule(15, 1e9, 16, 0.0, 64));    // tolerance 0: exactly K
+  EXPECT_FALSE(rule(15, 0.01, 16, 0.01, 64));  // at the tolerance: done
+  EXPECT_TRUE(rule(15, 0.011, 16, 0.01, 64));
+  EXPECT_FALSE(rule(63, 1e9, 16, 0.01, 64));   // the cap
+}
+
+TEST(StoppingRule, StopsWhenTheResidualStalls) {
+  // A residual that keeps falling by 5% or more goes on; one that stops doing so for
+  // kStallIterations iterations (the float32 floor, say) stops, above the tolerance.
+  StoppingState state;
+  double r = 1.0;
+  int k = 15;
+  for (; k < 15 + 20; ++k, r *= 0.9) EXPECT_TRUE(continue_iterating(k, r, 16, 1e-6, 1000, state)) << k;
+  const int stalled_from = state.best_k;
+  const double best = state.best;
+  bool more = true;
+  for (; more; ++k) more = continue_iterating(k, best * (1 + 0.01 * (k % 2)), 16, 1e-6, 1000, state);
+  EXPECT_EQ(k - 1 - stalled_from, kStallIterations);
+  // A growing residual (Chebyshev's first iterations past K) counts against the best before it.
+  StoppingState growing;
+  for (int j = 15; j < 15 + kStallIterations; ++j) EXPECT_TRUE(continue_iterating(j, 1.0 + j, 16, 1e-6, 1000, growing));
+  EXPECT_FALSE(continue_iterating(15 + kStallIterations, 100.0, 16, 1e-6, 1000, growing));
 }
 
 TEST(StoppingRule, AdaptiveOnlyForJacobiTypeMethodsWithRoomPastK) {
@@ -89,7 +93,7 @@ TEST(StoppingRule, AStepThatMeetsTheToleranceAtKIsTheFixedStepToTheBit) {
 }
 
 TEST(StoppingRule, SliversIterateUntilTheToleranceAndGetCloserToTheDirectSolve) {
-  const Scene scene = sliver_block();
+  const Scene scene = test::degraded_block(0.02);
   test::Sim direct(scene), fixed(scene), adaptive(scene);
   for (test::Sim* s : {&direct, &fixed, &adaptive}) sway(*s, 0.2, 0.048);
   PhysicalStepParams exact;
@@ -111,7 +115,7 @@ TEST(StoppingRule, SliversIterateUntilTheToleranceAndGetCloserToTheDirectSolve) 
 }
 
 TEST(StoppingRule, StopsAtTheCap) {
-  test::Sim sim(sliver_block());
+  test::Sim sim(test::degraded_block(0.02));
   sway(sim, 0.2, 0.048);
   const PhysicalStepReport r = physical_step(sim.pm, sim.pw, sim.ps, sim.q(), chebyshev(16, 1e-12, 24));
   EXPECT_EQ(r.iterations, 24);
@@ -119,7 +123,7 @@ TEST(StoppingRule, StopsAtTheCap) {
 }
 
 TEST(Determinism, AdaptiveStepIsBitwiseEqualWithOneAndTwoThreads) {
-  const Scene scene = sliver_block();
+  const Scene scene = test::degraded_block(0.02);
   int iterations[2] = {0, 0}, run = 0;
   test::expect_bitwise_equal_across_threads([&] {
     test::Sim sim(scene);

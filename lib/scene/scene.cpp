@@ -393,8 +393,10 @@ class SpecReader {
                                                                                  : SolverSpec::Recovery::None;
     if (auto it = e.find("recovery_residual"); it != e.end())
       sv.recovery_residual = in_range(it->second, "solver.recovery_residual", 0, false, 1e4, true);
-    if (auto it = e.find("active_region"); it != e.end())
+    if (auto it = e.find("active_region"); it != e.end()) {
       sv.active_region = non_negative(it->second, "solver.active_region") * unit_;
+      sv.active_region_given = true;
+    }
   }
 
   void read_camera(const YAML::Node& n, Camera& c) const {

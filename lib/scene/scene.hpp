@@ -164,6 +164,7 @@ struct SolverSpec {
   /// displacement from its coupling target (m) past which a virtual vertex spreads the region to
   /// its neighbours; 0: every virtual vertex is iterated (the full solve).
   double active_region = 0;
+  bool active_region_given = false;  ///< the scene file or an override names it (the CUDA backend warns then)
 };
 
 /// What E_con [3] acts on (the scene's `contact`).

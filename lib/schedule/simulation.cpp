@@ -251,7 +251,8 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
     attach_surface_contact(w->tool, w->virtual_mesh.triangles, w->virtual_mesh.rest, w->scene.spec.stiffness.k_con);
   }
   if (backend == Backend::Cuda && w->scene.spec.solver.active_region > 0) {
-    w->scene.warnings.push_back(where + ": key 'solver.active_region': the CUDA backend iterates the whole virtual mesh "
+    if (w->scene.spec.solver.active_region_given)
+      w->scene.warnings.push_back(where + ": key 'solver.active_region': the CUDA backend iterates the whole virtual mesh "
                                         "and ignores it (docs/MODEL.md, \"The active region\")");
     w->scene.spec.solver.active_region = 0;
   }

@@ -145,3 +145,15 @@ TEST(ActiveRegion, ANegativeToleranceIsAnErrorNamingTheKey) {
     EXPECT_NE(std::string(e.what()).find("solver.active_region"), std::string::npos) << e.what();
   }
 }
+
+TEST(ActiveRegion, TheCudaBackendWarnsAndIgnoresIt) {
+  // The device tick iterates the whole virtual mesh (docs/MODEL.md): a scene that asks for a region
+  // gets a one-line warning naming the key, and the world records that none is used.
+  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.active_region=0.01"}, std::nullopt,
+                                             std::nullopt, false, Backend::Cuda);
+  EXPECT_EQ(in.world->scene.spec.solver.active_region, 0.0);
+  int warned = 0;
+  for (const std::string& w : in.world->scene.warnings)
+    if (w.find("key 'solver.active_region'") != std::string::npos && w.find('\n') == std::string::npos) ++warned;
+  EXPECT_EQ(warned, 1);
+}

@@ -38,25 +38,21 @@ bool activate(const VirtualModel& model, ActiveRegion& r, int j) {
   return true;
 }
 
-/// The active vertex and edge lists after `added` and `removed` (the flags already set).
-void rebuild_lists(const VirtualModel& model, ActiveRegion& r) {
-  r.merged.clear();
-  for (const int j : r.vertices)
-    if (r.active[j]) r.merged.push_back(j);
-  r.merged.insert(r.merged.end(), r.added.begin(), r.added.end());
-  std::sort(r.merged.begin(), r.merged.end());
-  r.vertices.swap(r.merged);
-  r.edges.clear();
-  for (const int j : r.vertices)
-    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
-      const int e = model.edge_entries[k] >> 1;
-      if (!r.edge_mark[e]) {
-        r.edge_mark[e] = 1;
-        r.edges.push_back(e);
-      }
-    }
-  for (const int e : r.edges) r.edge_mark[e] = 0;
-  std::sort(r.edges.begin(), r.edges.end());
+/// The active vertex and edge lists after `added` and `removed` (the flags already set), updated
+/// in place: the removed leave (the lists keep their order), the added join at the end. The order
+/// changes no result (every vertex and edge is computed on its own) and is the same in every run.
+void update_lists(const VirtualModel& model, ActiveRegion& r) {
+  for (const int j : r.removed)
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) --r.edge_ends[model.edge_entries[k] >> 1];
+  if (!r.removed.empty()) {
+    std::erase_if(r.vertices, [&](int j) { return !r.active[j]; });
+    std::erase_if(r.edges, [&](int e) { return r.edge_ends[e] == 0; });
+  }
+  for (const int j : r.added) {
+    r.vertices.push_back(j);
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k)
+      if (r.edge_ends[model.edge_entries[k] >> 1]++ == 0) r.edges.push_back(model.edge_entries[k] >> 1);
+  }
 }
 
 /// A vertex that was inactive starts the tick with its target's velocity; `place`: also from where
@@ -122,9 +118,8 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance) {
   r.active.assign(m, 0);
   r.calm.assign(m, 0);
   r.mark.assign(m, 0);
-  r.edge_mark.assign(E, 0);
+  r.edge_ends.assign(E, 0);
   r.vertices.reserve(m);
-  r.merged.reserve(m);
   r.added.reserve(m);
   r.removed.reserve(m);
   r.edges.reserve(E);
@@ -170,7 +165,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   }
   retire_and_spread(model, r, state, seeds, inv_h);
   if (!r.removed.empty()) r.inactive_moved += 0.5 * r.tolerance;  // a calm vertex snapping to its target
-  if (!r.added.empty() || !r.removed.empty()) rebuild_lists(model, r);
+  if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);
 
   // Alg. 2 line 6 on the active vertices, as virtual_begin_tick.
   const int na = static_cast<int>(r.vertices.size());
@@ -198,7 +193,7 @@ void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, A
   }
   if (!r.added.empty()) {
     r.activated_by_contact += static_cast<std::int64_t>(r.added.size());
-    rebuild_lists(model, r);
+    update_lists(model, r);
   }
   // E_con [3] sums, local step on the active edges, Jacobi global step on the active vertices
   // (virtual_iteration's arithmetic); inactive vertices enter as fixed E_s neighbours.

@@ -378,7 +378,7 @@ class SpecReader {
   void read_solver(const YAML::Node& n, SolverSpec& sv) const {
     const auto e = entries(n, "solver", {"method", "diagonal", "physical_iterations", "virtual_iterations", "chebyshev_rho",
                                              "physical_tolerance", "physical_max_iterations", "recovery",
-                                             "recovery_residual"});
+                                             "recovery_residual", "active_region"});
     if (auto it = e.find("method"); it != e.end()) {
       const int m = choice(it->second, "solver.method", {"jacobi", "chebyshev", "direct"});
       sv.method = m == 0 ? SolverSpec::Method::Jacobi : m == 1 ? SolverSpec::Method::Chebyshev : SolverSpec::Method::Direct;
@@ -403,6 +403,10 @@ class SpecReader {
                                                                                  : SolverSpec::Recovery::None;
     if (auto it = e.find("recovery_residual"); it != e.end())
       sv.recovery_residual = in_range(it->second, "solver.recovery_residual", 0, false, 1e4, true);
+    if (auto it = e.find("active_region"); it != e.end()) {
+      sv.active_region = non_negative(it->second, "solver.active_region") * unit_;
+      sv.active_region_given = true;
+    }
   }
 
   void read_camera(const YAML::Node& n, Camera& c) const {
@@ -873,7 +877,8 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "physical_tolerance" << YAML::Value << sv.physical_tolerance;
   y << YAML::Key << "physical_max_iterations" << YAML::Value << sv.physical_max_iterations;
   y << YAML::Key << "recovery" << YAML::Value << (sv.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
-  y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual << YAML::EndMap;
+  y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual;
+  y << YAML::Key << "active_region" << YAML::Value << sv.active_region / u << YAML::EndMap;
   y << YAML::Key << "contact" << YAML::Value << (s.contact == ContactModel::Surface ? "surface" : "vertices");
   y << YAML::Key << "camera" << YAML::Value << YAML::BeginMap << YAML::Key << "eye" << YAML::Value;
   vec(s.camera.eye, u);

@@ -67,6 +67,10 @@
 //     recovery: direct              # direct | none: redo a step the jacobi/chebyshev iterations leave
 //     recovery_residual: 100        #   above this many mesh weights unbalanced (or diverged) with the
 //                                   #   direct solve (CPU backend; docs/MODEL.md, "Recovery")
+//     active_region: 0              # length (unit): iterate only the virtual vertices near the tool and
+//                                   #   those displaced from their coupling targets by more than this
+//                                   #   (and their neighbours); the rest follow the targets. 0: the
+//                                   #   whole virtual mesh (CPU backend; docs/MODEL.md, "The active region")
 //   contact: vertices               # vertices | surface: E_con [3] on the virtual mesh's vertices (the
 //                                   # paper) or on points of its triangles (docs/MODEL.md, "Contact
 //                                   # against the surface")
@@ -168,6 +172,11 @@ struct SolverSpec {
   enum class Recovery { Direct, None };
   Recovery recovery = Recovery::Direct;
   double recovery_residual = 100;
+  /// The virtual mesh's active region (CPU backend; docs/MODEL.md, "The active region"): the
+  /// displacement from its coupling target (m) past which a virtual vertex spreads the region to
+  /// its neighbours; 0: every virtual vertex is iterated (the full solve).
+  double active_region = 0;
+  bool active_region_given = false;  ///< the scene file or an override names it (the CUDA backend warns then)
 };
 
 /// What E_con [3] acts on (the scene's `contact`).

@@ -9,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "tool/contact.hpp"
+#include "tool/newton.hpp"
 #include "tool/grasp.hpp"
 
 namespace ebh {
@@ -60,16 +61,50 @@ std::pair<std::span<const Vec3d>, std::int64_t> physical_targets(const World& wo
   return {h.targets_x, -2 - h.tick};  // a version no physical step number takes
 }
 
-/// Lines 1 and 6: E_svc targets from the physical mesh, inertial prediction of q.
+/// The active region's seeds (solver/active_region.hpp): the virtual vertices the virtual tool
+/// can reach in this tick's Newton calls (the broad phase around its pose, which adds the grid's
+/// margin), or with surface contact the corners of the triangles whose samples it can reach, and
+/// the grasped vertices.
+void gather_region_seeds(const World& world, HapticSide& h) {
+  h.region_seeds.clear();
+  const NewtonLimits lim = newton_limits(world.tool.spec);
+  const int calls = newton_calls_per_tick(world.scene.spec);
+  const double T = calls * lim.reach_translation, th = std::min(calls * lim.reach_rotation, 0.5);
+  const PosedTool posed = pose_tool(world.tool, h.tool.pose, h.device.jaw);
+  if (world.tool.surface) {
+    gather_samples(*world.tool.surface, posed, h.mesh.q, h.grid, T, th, {}, h.tool.surface_scratch, h.region_samples);
+    for (const SurfaceSample& p : h.region_samples)
+      for (const int v : world.tool.surface->triangles[p.triangle]) h.region_seeds.push_back(v);
+  } else {
+    gather_candidates(posed, h.mesh.q, h.grid, T, th, h.region_seeds);
+  }
+  h.region_seeds.insert(h.region_seeds.end(), h.tool.grasp.vertices.begin(), h.tool.grasp.vertices.end());
+}
+
+/// physical_targets for the active region, which blends the paired points instead of the
+/// physical positions (solver/active_region.hpp).
+PhysicalTargets region_targets(const World& world, const HapticSide& h) {
+  if (!world.scene.spec.interpolate_physical || h.previous_x.empty()) return {h.visible.x, h.visible.x, 1.0, h.visible.step};
+  return {h.previous_x, h.visible.x, physical_blend(h.tick, h.delivered_tick, world.ticks_per_step), h.visible.step};
+}
+
+/// Lines 1 and 6: E_svc targets from the physical mesh, inertial prediction of q (on the active
+/// region, or the whole virtual mesh).
 void sync_physical_targets(const World& world, HapticSide& h) {
-  const auto [physical_x, version] = physical_targets(world, h);
+  if (h.region) {
+    gather_region_seeds(world, h);
+    virtual_begin_tick_active(world.virtual_mesh, h.workspace, *h.region, h.mesh, region_targets(world, h),
+                              world.h_haptic, h.region_seeds);
+  } else {
+    const auto [physical_x, version] = physical_targets(world, h);
 #if EBH_HAVE_CUDA
-  if (h.cuda) {
-    h.workspace.q_start = h.mesh.q;  // the tick's start, for the broad phase's drift bound
-    h.cuda->begin_tick(physical_x, version, world.h_haptic, h.mesh.q);
-  } else
+    if (h.cuda) {
+      h.workspace.q_start = h.mesh.q;  // the tick's start, for the broad phase's drift bound
+      h.cuda->begin_tick(physical_x, version, world.h_haptic, h.mesh.q);
+    } else
 #endif
-  virtual_begin_tick(world.virtual_mesh, h.workspace, h.mesh, physical_x, world.h_haptic);
+    virtual_begin_tick(world.virtual_mesh, h.workspace, h.mesh, physical_x, world.h_haptic);
+  }
   h.tool.samples_fresh = false;  // q moved to its prediction: the last Newton call's samples are stale
   if (world.tool.projection == Projection::InverseNormal)
     compute_vertex_normals(world.virtual_mesh, h.mesh.q, h.normals);
@@ -92,7 +127,10 @@ void virtual_mesh_iteration(const World& world, HapticSide& h) {
     h.cuda->iteration(h.contacts, h.mesh.q);
   else
 #endif
-  virtual_iteration(world.virtual_mesh, h.workspace, h.mesh, h.contacts);
+  if (h.region)
+    virtual_iteration_active(world.virtual_mesh, h.workspace, *h.region, h.mesh, h.contacts);
+  else
+    virtual_iteration(world.virtual_mesh, h.workspace, h.mesh, h.contacts);
   h.contact_count = static_cast<int>(h.contacts.size());
 }
 
@@ -104,17 +142,21 @@ void virtual_tool_iteration(const World& world, HapticSide& h) {
 
 /// Lines 22-27: velocities, the force and torque for the device, penetration depths.
 void emit_output(const World& world, HapticSide& h) {
-#if EBH_HAVE_CUDA
-  if (h.cuda)
-    h.cuda->end_tick();
-  else
-#endif
-  virtual_end_tick(world.virtual_mesh, h.workspace, h.mesh);
   // The broad phase tolerates a bounded drift of q from where it was built.
-  double moved = 0;
-  for (std::size_t i = 0; i < h.mesh.q.size(); ++i)
-    moved = std::max(moved, squared_norm(h.mesh.q[i] - h.workspace.q_start[i]));
-  h.grid.note_motion(std::sqrt(moved));
+  if (h.region) {
+    h.grid.note_motion(virtual_end_tick_active(world.virtual_mesh, h.workspace, *h.region, h.mesh));
+  } else {
+#if EBH_HAVE_CUDA
+    if (h.cuda)
+      h.cuda->end_tick();
+    else
+#endif
+    virtual_end_tick(world.virtual_mesh, h.workspace, h.mesh);
+    double moved = 0;
+    for (std::size_t i = 0; i < h.mesh.q.size(); ++i)
+      moved = std::max(moved, squared_norm(h.mesh.q[i] - h.workspace.q_start[i]));
+    h.grid.note_motion(std::sqrt(moved));
+  }
   h.output = tool_output(world.tool, world.scene.spec.stiffness, pose_of(h.device), h.tool);
   h.grasped = static_cast<int>(h.tool.grasp.vertices.size());
   // The virtual tool's contacts at its final pose are at hand from its last Newton step.
@@ -204,6 +246,12 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->tool = build_tool(w->scene.spec.tool);
   if (w->scene.spec.contact == ContactModel::Surface)
     attach_surface_contact(w->tool, w->virtual_mesh.triangles, w->virtual_mesh.rest, w->scene.spec.stiffness.k_con);
+  if (backend == Backend::Cuda && w->scene.spec.solver.active_region > 0) {
+    if (w->scene.spec.solver.active_region_given)
+      w->scene.warnings.push_back(where + ": key 'solver.active_region': the CUDA backend iterates the whole virtual mesh "
+                                        "and ignores it (docs/MODEL.md, \"The active region\")");
+    w->scene.spec.solver.active_region = 0;
+  }
   w->initial_physical = make_physical_state(w->physical_mesh);
   if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)
     w->settle_steps = settle_under_gravity(w->scene, w->initial_physical, w->scene.warnings);
@@ -217,6 +265,10 @@ HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample
   h.mesh = make_virtual_state(world.virtual_mesh);
   h.mesh.q = world.initial_virtual;
   h.workspace = make_virtual_workspace(world.virtual_mesh);
+  if (world.backend == Backend::Cpu && world.scene.spec.solver.active_region > 0) {
+    h.region = make_active_region(world.virtual_mesh, world.scene.spec.solver.active_region);
+    h.region_seeds.reserve(h.mesh.q.size());
+  }
   h.normals.assign(h.mesh.q.size(), Vec3d{});
   compute_vertex_normals(world.virtual_mesh, h.mesh.q, h.normals);
   init_virtual_tool(h.tool, h.mesh.q.size(), pose_of(first_sample));

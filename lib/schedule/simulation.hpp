@@ -7,11 +7,13 @@
 // Who delivers which snapshot when is the scheduler's business (schedule/scheduler.hpp).
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
 #include "io/recording.hpp"
 #include "scene/scene.hpp"
+#include "solver/active_region.hpp"
 #include "solver/physical_mesh.hpp"
 #include "solver/virtual_mesh.hpp"
 #include "tool/broadphase.hpp"
@@ -71,6 +73,11 @@ struct HapticTiming {
 struct HapticSide {
   VirtualState mesh;
   VirtualWorkspace workspace;
+  /// solver.active_region > 0 (CPU backend): the virtual vertices the tick iterates; region_seeds
+  /// and region_samples: this tick's seeds and the surface samples they come from (scratch).
+  std::optional<ActiveRegion> region;
+  std::vector<int> region_seeds;
+  std::vector<SurfaceSample> region_samples;
   std::vector<Vec3d> normals;            ///< #m virtual-mesh vertex normals
   VirtualToolState tool;
   VertexGrid grid;                       ///< broad phase over the virtual mesh

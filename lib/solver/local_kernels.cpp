@@ -181,4 +181,18 @@ void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g
   }
 }
 
+void edge_spring_gradients_listed(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g) {
+  // Per edge what edge_block computes: the gradient without the rest edge, recomputed with it only
+  // for a collapsed edge (edge_block recomputes its whole block then, which changes nothing for
+  // an edge that has not collapsed: edge_target reads the rest edge only for a collapsed one).
+#pragma omp for schedule(static)
+  for (int i = 0; i < count; ++i) {
+    const int e = ids[i];
+    const Vec3d qa = q[edges.edges[e][0]], qb = q[edges.edges[e][1]];
+    const double L0 = edges.rest_len[e];
+    g[e] = edge_collapsed(qa - qb, L0) ? edge_spring_gradient(qa, qb, edges.rest_edge[e], L0, edges.k_s)
+                                       : edge_spring_gradient(qa, qb, Vec3d{}, L0, edges.k_s);
+  }
+}
+
 }  // namespace ebh

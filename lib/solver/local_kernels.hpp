@@ -43,4 +43,9 @@ struct EdgeKernelData {
 /// `omp for` (ends with a barrier). q: #m positions; g: #E.
 void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g);
 
+/// The same for the listed edges only (the active region, solver/active_region.hpp): g[ids[i]]
+/// for i < count, each edge's bits those edge_spring_gradients gives it. `omp for` (ends with a
+/// barrier). ids: #count edge indices.
+void edge_spring_gradients_listed(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g);
+
 }  // namespace ebh

@@ -174,19 +174,8 @@ void edge_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* q) 
 void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* __restrict q, Vec3d* __restrict q_next) {
   const int m = model.num_vertices;
   const double inv_h2 = 1.0 / (ws.h * ws.h);
-  const Vec3d* __restrict edge_grad = ws.edge_grad.data();
-  const int* __restrict entries = model.edge_entries.data();
 #pragma omp for schedule(static)
-  for (int j = 0; j < m; ++j) {
-    if (model.pinned[j]) { q_next[j] = q[j]; continue; }
-    const double mh = model.mass[j] * inv_h2;
-    const double ck = ws.contact_k[j];
-    Vec3d r = inertia_coupling_residual(mh, ws.s[j], q[j], ws.p[j], model.k_svc);
-    if (ck != 0.0) r = add_contact_residual(r, ws.contact_kt[j], ck, q[j]);  // 0 without contact
-    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k)
-      add_edge_residual(r, edge_grad[entries[k] >> 1], (entries[k] & 1) != 0);
-    q_next[j] = jacobi_update(q[j], r, mh + model.stiff_diag[j] + ck);
-  }
+  for (int j = 0; j < m; ++j) q_next[j] = model.pinned[j] ? q[j] : virtual_vertex_update(model, ws, q, j, inv_h2);
 }
 
 }  // namespace

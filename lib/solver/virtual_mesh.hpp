@@ -23,6 +23,7 @@
 #include "energy/contact_target.hpp"
 #include "math/vec.hpp"
 #include "mesh/tet_mesh.hpp"
+#include "solver/virtual_jacobi.hpp"
 
 namespace ebh {
 
@@ -95,6 +96,22 @@ void virtual_begin_tick(const VirtualModel& model, VirtualWorkspace& ws, Virtual
 /// vertex; processed in the given order, so the result is deterministic).
 void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state,
                        std::span<const ContactTarget> contacts);
+
+/// The Jacobi global step of free vertex j (virtual_jacobi.hpp): its new position from q (#m), the
+/// edge gradients of this iteration's local step and the contact sums in ws; inv_h2 = 1 / h^2.
+/// Shared by virtual_iteration and the active region's iteration (solver/active_region.hpp).
+inline Vec3d virtual_vertex_update(const VirtualModel& model, const VirtualWorkspace& ws, const Vec3d* __restrict q,
+                                   int j, double inv_h2) {
+  const double mh = model.mass[j] * inv_h2;
+  const double ck = ws.contact_k[j];
+  Vec3d r = inertia_coupling_residual(mh, ws.s[j], q[j], ws.p[j], model.k_svc);
+  if (ck != 0.0) r = add_contact_residual(r, ws.contact_kt[j], ck, q[j]);  // 0 without contact
+  const Vec3d* __restrict edge_grad = ws.edge_grad.data();
+  const int* __restrict entries = model.edge_entries.data();
+  for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k)
+    add_edge_residual(r, edge_grad[entries[k] >> 1], (entries[k] & 1) != 0);
+  return jacobi_update(q[j], r, mh + model.stiff_diag[j] + ck);
+}
 
 /// Alg. 2 lines 22-23: v = (q - q_start) / h.
 void virtual_end_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state);

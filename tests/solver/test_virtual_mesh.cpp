@@ -2,8 +2,11 @@
 // under contact, bitwise determinism across thread counts.
 #include <gtest/gtest.h>
 
-#include "mesh/boundary.hpp"
+#include <cstring>
+#include <numeric>
 
+#include "mesh/boundary.hpp"
+#include "solver/active_region.hpp"
 
 #include "box_sim.hpp"
 
@@ -61,6 +64,104 @@ TEST(Determinism, VirtualTickOnTheThreadTeamIsBitwiseEqualWithOneAndTwoThreads) 
   // Paper-sized virtual meshes iterate on the calling thread; the thread team must give the same
   // bits with one and two threads.
   expect_bitwise_equal_across_threads([&] { return five_virtual_ticks(0); });
+}
+
+/// The contacts of five_virtual_ticks: the top face pressed 2 mm down.
+std::vector<ContactTarget> top_face_pressed(const Sim& sim) {
+  std::vector<ContactTarget> contacts;
+  for (int j = 0; j < sim.vm.num_vertices; ++j)
+    if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
+  return contacts;
+}
+
+/// The box of five_virtual_ticks with an active region of the given tolerance (m); ticks(n, seeds,
+/// contacts) runs n virtual-mesh ticks of 4 iterations.
+/// gravity: the box scene's (as five_virtual_ticks), else none.
+struct ActiveRun {
+  Sim sim;
+  VirtualState vs = make_virtual_state(sim.vm);
+  VirtualWorkspace vw = make_virtual_workspace(sim.vm);
+  ActiveRegion region;
+  ActiveRun(double tolerance, bool gravity)
+      : sim(without_gravity(box_scene(4, 4, 8, 1), !gravity)), region(make_active_region(sim.vm, tolerance)) {}
+  static Scene without_gravity(Scene s, bool off) {
+    if (off) s.spec.gravity = Vec3d{};
+    return s;
+  }
+  void ticks(int n, std::span<const int> seeds, std::span<const ContactTarget> contacts) {
+    for (int tick = 0; tick < n; ++tick) {
+      virtual_begin_tick_active(sim.vm, vw, region, vs, {sim.pm.rest, sim.pm.rest, 1.0, 0}, 0.001, seeds);
+      for (int i = 0; i < 4; ++i) virtual_iteration_active(sim.vm, vw, region, vs, contacts);
+      virtual_end_tick_active(sim.vm, vw, region, vs);
+    }
+  }
+};
+
+TEST(ActiveRegion, HoldingEveryVertexIsTheFullSolveBitwise) {
+  // Every vertex a seed: the region's arithmetic must be the full solve's, to the bit (q and v).
+  ActiveRun run(1e-6, true);
+  std::vector<int> all(run.sim.vm.num_vertices);
+  std::iota(all.begin(), all.end(), 0);
+  const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);
+  run.ticks(5, all, contacts);
+  const std::vector<Vec3d> full = five_virtual_ticks(-1);
+  ASSERT_EQ(run.vs.q.size(), full.size());
+  EXPECT_EQ(std::memcmp(run.vs.q.data(), full.data(), full.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(run.region.activated_by_contact, 0);
+}
+
+TEST(ActiveRegion, InactiveVerticesStandOnTheirTargetsAndTheRegionFollowsTheDisplacement) {
+  ActiveRun run(1e-5, false);  // 0.01 mm
+  const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);
+  std::vector<int> seeds;
+  for (const ContactTarget& c : contacts) seeds.push_back(c.vertex);
+  run.ticks(5, seeds, contacts);
+  const VirtualModel& vm = run.sim.vm;
+  const int m = vm.num_vertices;
+  int active = 0;
+  for (int j = 0; j < m; ++j) {
+    if (run.region.active[j]) { ++active; continue; }
+    EXPECT_EQ(run.vs.q[j], vm.rest[j]) << j;  // the target, exactly (no gravity; the physical mesh at rest)
+  }
+  // The press spreads: more than the seeds, fewer than every vertex (the bottom rows stay calm).
+  EXPECT_GT(active, static_cast<int>(seeds.size()));
+  EXPECT_LT(active, m);
+  // Every active vertex displaced by more than the tolerance has only active (or pinned) neighbours.
+  for (const int j : run.region.vertices)
+    if (norm(run.vs.q[j] - vm.rest[j]) > run.region.tolerance)
+      for (int k = vm.edge_offsets[j]; k < vm.edge_offsets[j + 1]; ++k) {
+        const auto& e = vm.edges[vm.edge_entries[k] >> 1];
+        const int o = e[0] == j ? e[1] : e[0];
+        EXPECT_TRUE(run.region.active[o] || vm.pinned[o]) << j << " -> " << o;
+      }
+  // Released (no contact, no seed), the region empties once every vertex has been calm for
+  // kCalmTicks, and every vertex is back on its target exactly.
+  run.ticks(400, {}, {});
+  EXPECT_TRUE(run.region.vertices.empty());
+  for (int j = 0; j < m; ++j) EXPECT_EQ(run.vs.q[j], vm.rest[j]) << j;
+}
+
+TEST(ActiveRegion, AContactOnAnInactiveVertexActivatesIt) {
+  ActiveRun run(1e-5, false);
+  const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);
+  run.ticks(1, {}, contacts);  // no seeds: the contacts themselves must bring their vertices in
+  EXPECT_EQ(run.region.activated_by_contact, static_cast<std::int64_t>(contacts.size()));
+  for (const ContactTarget& c : contacts) EXPECT_LT(run.vs.q[c.vertex].z, run.sim.vm.rest[c.vertex].z);
+}
+
+TEST(Determinism, ActiveRegionIsBitwiseEqualWithOneAndTwoThreads) {
+  for (const int team : {-1, 0}) {  // the calling thread, and the thread team even for this mesh
+    expect_bitwise_equal_across_threads([&] {
+      ActiveRun run(1e-5, false);
+      if (team >= 0) run.sim.vm.parallel_min_vertices = team;
+      const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);
+      std::vector<int> seeds;
+      for (const ContactTarget& c : contacts) seeds.push_back(c.vertex);
+      run.ticks(5, seeds, contacts);
+      run.ticks(30, {}, {});
+      return run.vs.q;
+    });
+  }
 }
 
 TEST(VirtualMesh, RestsAtRestAndConvergesUnderContact) {

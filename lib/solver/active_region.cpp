@@ -1,0 +1,240 @@
+// The virtual mesh's active region (solver/active_region.hpp, docs/MODEL.md "The active region").
+#include "solver/active_region.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+#include "energy/quadratic.hpp"
+#include "solver/local_kernels.hpp"
+
+namespace ebh {
+namespace {
+
+constexpr std::uint8_t kSeed = 1;  // ActiveRegion::mark: a seed of this tick
+constexpr std::uint8_t kHot = 2;   // ActiveRegion::mark: displaced from its target by more than tol
+
+/// The other end of the incidence entry k (virtual_mesh.hpp: 2 e + end).
+inline int neighbour(const VirtualModel& model, int k) {
+  const int entry = model.edge_entries[k];
+  return model.edges[entry >> 1][1 - (entry & 1)];
+}
+
+/// Where inactive (non-pinned) vertex j stands at blend a: its E_svc target p_j(a) (the blend of
+/// p_from and p_to), lowered by its own weight's stretch of the coupling spring, m_j g / k_svc.
+inline Vec3d coupling_point(const ActiveRegion& r, int j, double a) {
+  return a >= 1.0 ? r.p_to[j] : lerp(r.p_from[j], r.p_to[j], a);
+}
+inline Vec3d follow_target(const VirtualModel& model, const ActiveRegion& r, int j, double a) {
+  return coupling_point(r, j, a) + (model.mass[j] / model.k_svc) * model.gravity;
+}
+
+/// Makes j active (not pinned ones: they never move); true when it was not.
+bool activate(const VirtualModel& model, ActiveRegion& r, int j) {
+  if (r.active[j] || model.pinned[j]) return false;
+  r.active[j] = 1;
+  r.calm[j] = 0;
+  r.added.push_back(j);
+  return true;
+}
+
+/// The active vertex and edge lists after `added` and `removed` (the flags already set), updated
+/// in place: the removed leave (the lists keep their order), the added join at the end. The order
+/// changes no result (every vertex and edge is computed on its own) and is the same in every run.
+void update_lists(const VirtualModel& model, ActiveRegion& r) {
+  for (const int j : r.removed)
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) --r.edge_ends[model.edge_entries[k] >> 1];
+  if (!r.removed.empty()) {
+    std::erase_if(r.vertices, [&](int j) { return !r.active[j]; });
+    std::erase_if(r.edges, [&](int e) { return r.edge_ends[e] == 0; });
+  }
+  for (const int j : r.added) {
+    r.vertices.push_back(j);
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k)
+      if (r.edge_ends[model.edge_entries[k] >> 1]++ == 0) r.edges.push_back(model.edge_entries[k] >> 1);
+  }
+}
+
+/// A vertex that was inactive starts the tick with its target's velocity; `place`: also from where
+/// its target stood before this tick (a vertex the inactive pass already moved on).
+void join(const VirtualModel& model, ActiveRegion& r, VirtualState& state, int j, double inv_h, bool place) {
+  const Vec3d before = follow_target(model, r, j, r.blend_before);
+  if (place) state.q[j] = before;
+  state.v[j] = inv_h * (follow_target(model, r, j, r.blend) - before);
+}
+
+/// The seeds of this tick join the region (marked, for retire_and_spread) from where they stand.
+/// Clears r.added and r.removed.
+void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
+               double inv_h) {
+  r.added.clear();
+  r.removed.clear();
+  for (const int j : seeds) {
+    assert(j >= 0 && j < model.num_vertices);
+    r.mark[j] |= kSeed;
+    if (activate(model, r, j)) join(model, r, state, j, inv_h, false);
+  }
+}
+
+/// The rest of who is active this tick (active_region.hpp), over the region before the seeds
+/// joined: the neighbours of vertices displaced by more than tol join; a vertex that has stayed
+/// calm for kCalmTicks leaves and stands on its target. Reads the last tick's q of the active
+/// vertices; appends to r.added and r.removed; clears the marks.
+void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
+                       double inv_h) {
+  const std::size_t seeded = r.added.size();
+  const double hot2 = r.tolerance * r.tolerance, calm2 = 0.25 * hot2;
+  const std::vector<Vec3d>& q = state.q;
+  for (const int j : r.vertices)
+    if (squared_norm(q[j] - follow_target(model, r, j, r.blend)) > hot2) r.mark[j] |= kHot;
+  for (const int j : r.vertices) {
+    const bool hot = (r.mark[j] & kHot) != 0;
+    bool stay = (r.mark[j] & kSeed) != 0 || hot || squared_norm(q[j] - follow_target(model, r, j, r.blend)) > calm2;
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
+      const int o = neighbour(model, k);
+      if (hot) activate(model, r, o);
+      if (r.mark[o] & kHot) stay = true;
+    }
+    if (stay) {
+      r.calm[j] = 0;
+    } else if (++r.calm[j] >= kCalmTicks) {
+      r.active[j] = 0;
+      r.removed.push_back(j);
+    }
+  }
+  for (const int j : seeds) r.mark[j] = 0;
+  for (const int j : r.vertices) r.mark[j] = 0;
+  for (std::size_t i = seeded; i < r.added.size(); ++i) join(model, r, state, r.added[i], inv_h, true);
+  for (const int j : r.removed) state.q[j] = follow_target(model, r, j, r.blend);
+}
+
+}  // namespace
+
+ActiveRegion make_active_region(const VirtualModel& model, double tolerance) {
+  assert(tolerance > 0);
+  ActiveRegion r;
+  const std::size_t m = model.num_vertices, E = model.edges.size();
+  r.tolerance = tolerance;
+  r.active.assign(m, 0);
+  r.calm.assign(m, 0);
+  r.mark.assign(m, 0);
+  r.edge_ends.assign(E, 0);
+  r.vertices.reserve(m);
+  r.added.reserve(m);
+  r.removed.reserve(m);
+  r.edges.reserve(E);
+  r.p_from.assign(m, Vec3d{});
+  r.p_to.assign(m, Vec3d{});
+  return r;
+}
+
+void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
+                               const PhysicalTargets& targets, double h, std::span<const int> seeds) {
+  ws.h = h;
+  const int m = model.num_vertices;
+  const double inv_h = 1.0 / h;
+  const bool team = m >= model.parallel_min_vertices;
+
+  // Alg. 2 line 1: the E_svc targets, paired once per version of the physical positions. The
+  // targets before this tick are p_from (blend 0) after a new version, the last tick's otherwise.
+  const double a = std::min(targets.blend, 1.0);
+  if (targets.version != r.targets_version) {
+    const bool first = r.targets_version == INT64_MIN;
+    r.targets_version = targets.version;
+    r.p_from.swap(r.p_to);  // without interpolation: the last targets, where the vertices stood
+    paired_points(model, targets.x_to, r.p_to);
+    if (first) r.p_from = r.p_to;
+    else if (a < 1.0) paired_points(model, targets.x_from, r.p_from);
+    double spread2 = 0;
+#pragma omp parallel for schedule(static) reduction(max : spread2) if (team)
+    for (int j = 0; j < m; ++j) spread2 = std::max(spread2, squared_norm(r.p_to[j] - r.p_from[j]));
+    r.target_spread = std::sqrt(spread2);
+    r.blend_before = first ? a : 0.0;
+  } else {
+    r.blend_before = r.blend;
+  }
+  r.blend = a;
+
+  add_seeds(model, r, state, seeds, inv_h);
+  // The inactive vertices move with their targets (only q: active_region.hpp).
+  r.inactive_moved = std::fabs(a - r.blend_before) * r.target_spread;
+  if (a != r.blend_before) {
+#pragma omp parallel for schedule(static) if (team)
+    for (int j = 0; j < m; ++j)
+      if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(model, r, j, a);
+  }
+  retire_and_spread(model, r, state, seeds, inv_h);
+  if (!r.removed.empty()) r.inactive_moved += 0.5 * r.tolerance;  // a calm vertex snapping to its target
+  if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);
+
+  // Alg. 2 line 6 on the active vertices, as virtual_begin_tick.
+  const int na = static_cast<int>(r.vertices.size());
+#pragma omp parallel for schedule(static) if (na >= model.parallel_min_vertices)
+  for (int i = 0; i < na; ++i) {
+    const int j = r.vertices[i];
+    ws.p[j] = coupling_point(r, j, a);
+    ws.q_start[j] = state.q[j];
+    ws.s[j] = predict_position(state.q[j], state.v[j], model.gravity, h);
+    state.q[j] = ws.s[j];
+  }
+}
+
+void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
+                              std::span<const ContactTarget> contacts) {
+  // A contact on an inactive vertex activates it, its prediction where it stands (q = p).
+  r.added.clear();
+  r.removed.clear();
+  for (const ContactTarget& c : contacts) {
+    const int j = c.vertex;
+    if (!activate(model, r, j)) continue;
+    ws.p[j] = coupling_point(r, j, r.blend);
+    ws.q_start[j] = follow_target(model, r, j, r.blend_before);  // where it stood: v at the end is consistent
+    ws.s[j] = state.q[j];
+  }
+  if (!r.added.empty()) {
+    r.activated_by_contact += static_cast<std::int64_t>(r.added.size());
+    update_lists(model, r);
+  }
+  // E_con [3] sums, local step on the active edges, Jacobi global step on the active vertices
+  // (virtual_iteration's arithmetic); inactive vertices enter as fixed E_s neighbours.
+  for (const ContactTarget& c : contacts) {
+    ws.contact_kt[c.vertex] += c.stiffness * c.target;
+    ws.contact_k[c.vertex] += c.stiffness;
+  }
+  const int na = static_cast<int>(r.vertices.size());
+  const double inv_h2 = 1.0 / (ws.h * ws.h);
+  const EdgeKernelData edges{static_cast<int>(model.edges.size()), model.edges.data(), model.rest_edge.data(),
+                             model.rest_len.data(), model.k_s};
+  const Vec3d* q = state.q.data();
+  Vec3d* q_next = ws.q_next.data();
+#pragma omp parallel if (na >= model.parallel_min_vertices)
+  {
+    edge_spring_gradients_listed(edges, r.edges.data(), static_cast<int>(r.edges.size()), q, ws.edge_grad.data());
+#pragma omp for schedule(static)
+    for (int i = 0; i < na; ++i) {
+      const int j = r.vertices[i];
+      q_next[j] = virtual_vertex_update(model, ws, q, j, inv_h2);
+    }
+#pragma omp for schedule(static)
+    for (int i = 0; i < na; ++i) state.q[r.vertices[i]] = q_next[r.vertices[i]];
+  }
+  for (const ContactTarget& c : contacts) {
+    ws.contact_kt[c.vertex] = Vec3d{};
+    ws.contact_k[c.vertex] = 0.0;
+  }
+}
+
+double virtual_end_tick_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state) {
+  const double inv_h = 1.0 / ws.h;
+  const int na = static_cast<int>(r.vertices.size());
+  double moved2 = 0;
+#pragma omp parallel for schedule(static) reduction(max : moved2) if (na >= model.parallel_min_vertices)
+  for (int i = 0; i < na; ++i) {
+    const int j = r.vertices[i];
+    state.v[j] = inv_h * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23
+    moved2 = std::max(moved2, squared_norm(state.q[j] - ws.q_start[j]));
+  }
+  return std::sqrt(moved2) + r.inactive_moved;  // a vertex that joined this tick may have done both
+}
+
+}  // namespace ebh

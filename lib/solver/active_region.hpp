@@ -1,0 +1,100 @@
+#pragma once
+// The virtual mesh's active region (solver.active_region, docs/MODEL.md "The active region"):
+// a tick iterates only the virtual vertices near the tool; every other vertex follows its E_svc [5]
+// target exactly, q_j = p_j, with the velocity of that motion, and acts as a fixed E_s [4]
+// neighbour of the active vertices beside it.
+//
+// Who is active (decided at the start of each tick, from the last tick's q and this tick's p):
+//   - the seeds the caller passes (the schedule: vertices the virtual tool may reach this tick,
+//     grasped vertices, the corners of surface-contact triangles near the tool);
+//   - every neighbour (over the virtual mesh's edges) of an active vertex displaced from its
+//     coupling target by more than `tolerance`, |q_j - p_j| > tol: the region grows a ring a tick
+//     where the tool's push spreads;
+//   - any vertex a contact target names during the tick (activated at once, counted: the seeds
+//     should have held it).
+// Hysteresis: an active vertex leaves only when it is not a seed, not next to a vertex displaced
+// by more than tol, and its own displacement has stayed at or below tol/2 for kCalmTicks ticks in a
+// row; it then snaps to its target (a jump of at most tol/2). Pinned vertices are never active.
+//
+// An inactive vertex's target is its E_svc point p_j lowered by its own weight's stretch of the
+// coupling spring, m_j g / k_svc (its static equilibrium against E_svc: 0 without gravity). Its
+// velocity is that of its target: it is not stored while the vertex is inactive (only q is
+// written, and only on ticks where the targets move), and is set when the vertex joins: it starts
+// from where it stood with v = (target now - target before) / h.
+//
+// The arithmetic on an active vertex or edge is the full solve's (virtual_mesh.cpp), so a region
+// that holds every vertex gives the full solve's bits; results do not depend on the order of the
+// active lists or on the OpenMP thread count (every per-vertex loop gathers).
+//
+// A tick:
+//     virtual_begin_tick_active(model, ws, region, state, physical_x, version, h, seeds);
+//     for i < iterations:  virtual_iteration_active(model, ws, region, state, contacts); ...
+//     moved = virtual_end_tick_active(model, ws, region, state);
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "energy/contact_target.hpp"
+#include "solver/virtual_mesh.hpp"
+
+namespace ebh {
+
+/// Ticks an active vertex must stay calm (displaced at most tol/2, not a seed, no neighbour
+/// displaced more than tol) before it leaves the region: 2 physical periods at the default rates,
+/// so a vertex the tool keeps nudging does not flicker in and out.
+inline constexpr int kCalmTicks = 20;
+
+/// The physical positions this tick's E_svc targets come from: x_to, or a blend from x_from
+/// (time.interpolate_physical), p = (1 - blend) p(x_from) + blend p(x_to), each paired once per
+/// version (the blend of the paired points, not of the physical positions: the same targets to
+/// round-off, without an O(n) pass a tick). blend >= 1: p(x_to) exactly.
+struct PhysicalTargets {
+  std::span<const Vec3d> x_from, x_to;  ///< #n physical positions
+  double blend = 1;                     ///< weight of x_to, in (0, 1]
+  std::int64_t version = 0;             ///< changes whenever x_to (and with it x_from) does
+};
+
+/// The active region's state (sized by make_active_region; a tick never allocates).
+struct ActiveRegion {
+  double tolerance = 0;                   ///< m, displacement |q - p| that spreads the region
+  std::vector<std::uint8_t> active;       ///< #m 1 when iterated this tick
+  std::vector<std::uint16_t> calm;        ///< #m consecutive calm ticks of an active vertex
+  std::vector<int> vertices;              ///< the active vertices (in the order they joined)
+  std::vector<int> edges;                 ///< the edges with an active end
+  std::vector<std::uint8_t> edge_ends;    ///< #E active ends of each edge (0, 1, 2)
+  // Scratch.
+  std::vector<std::uint8_t> mark;         ///< #m per-tick flags (seed, hot), zero between uses
+  std::vector<int> added, removed;        ///< vertices entering and leaving this tick
+  std::vector<Vec3d> p_from, p_to;        ///< #m E_svc targets of PhysicalTargets::x_from and x_to
+  std::int64_t targets_version = INT64_MIN;  ///< PhysicalTargets::version of p_from and p_to
+  double blend = 1;                       ///< this tick's PhysicalTargets::blend
+  double blend_before = 1;                ///< the blend the inactive vertices stood at before this tick
+  double target_spread = 0;               ///< m, max_j |p_to - p_from|
+  double inactive_moved = 0;              ///< m, bound on the move of an inactive vertex this tick
+  // Counters over the replay.
+  std::int64_t activated_by_contact = 0;  ///< vertices a contact target activated mid-tick
+};
+
+/// A region for `model` with the given tolerance (m, > 0), empty: the first tick fills it.
+ActiveRegion make_active_region(const VirtualModel& model, double tolerance);
+
+/// Alg. 2 lines 1 and 6 on the active region: the E_svc targets p from `targets` (paired, O(m)
+/// gathers, only when its version changes; blended, an O(m) pass, when the blend does), the
+/// region from `seeds` (vertex indices, any order, repeats allowed) and the displacements; the
+/// active vertices are predicted as virtual_begin_tick does, the inactive ones moved to their
+/// targets.
+void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& region,
+                               VirtualState& state, const PhysicalTargets& targets, double h,
+                               std::span<const int> seeds);
+
+/// virtual_iteration on the active vertices; a contact target on an inactive vertex first
+/// activates it (its prediction is then where it stands).
+void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& region,
+                              VirtualState& state, std::span<const ContactTarget> contacts);
+
+/// Alg. 2 line 23 on the active vertices. Returns the largest move of any vertex this tick (m),
+/// for the broad phase's drift bound.
+double virtual_end_tick_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& region,
+                               VirtualState& state);
+
+}  // namespace ebh

@@ -43,13 +43,15 @@ TEST(Validation, HertzIndentationForceFollowsTheTheory) {
 
 // The short form of `ebh validate contact`: what surface contact is for, against vertex contact.
 TEST(Validation, SurfaceContactHoldsWhereVertexContactLetsTheHookThrough) {
-  // Measured (dev): vertex contact 0.03 N at depth after a 1.42 N fall; surface contact 2.92 N, a
-  // 0.17 N fall, 0.2 mm penetration. The bounds sit between the two, with room for other
-  // compilers' rounding, not at the measured values.
+  // Measured (dev): vertex contact 0.03 N at depth after a 1.42 N fall; surface contact 2.93 N, a
+  // 0.25 N fall, 0.24 mm penetration. The bounds sit between the two, with room for other
+  // compilers' rounding, not at the measured values. The surface fall moves with the physical
+  // solver's stopping point, as the hook's tip rolls on the tented surface: 0.17 N with exactly 16
+  // iterations, 0.29 N with the stopping rule at 0.01 mesh weights, 0.25 N at the default 0.002.
   const ContactPush v = contact_push_through("vertices", 0.05), s = contact_push_through("surface", 0.05);
   EXPECT_LT(v.force_at_depth, 0.2) << "vertex contact: the tip slipped between vertices";
   EXPECT_GT(s.force_at_depth, 2.5) << "surface contact keeps pushing back";
-  EXPECT_LT(s.fall, 0.25);
+  EXPECT_LT(s.fall, 0.5);
   EXPECT_GT(v.fall, 1.0);
   EXPECT_LT(s.penetration, 1e-3);
   const ContactSlide flat = contact_sliding("flat");

@@ -9,6 +9,7 @@
 //                           ticks from t = 1.2 s (contact and a grasp) or 0 s (approach, no contact);
 //                           *_stages: also the mean time of each stage per step (DeviceTickProfile);
 //                           *_unpipelined: every step waits for the virtual tool (the pipeline's gain);
+//                           *_surface: with `contact: surface` (every step unpipelined);
 //                           *_runs_of_100: 100 ticks per launch (what a launch costs);
 //                           *_with_physical: the physical steps beside the ticks (the replay's workload),
 //                           a launch per physical period; *_in_launch: the steps inside launches of
@@ -240,10 +241,11 @@ BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystec
 /// workload (the organ deforms), not the ticks against a still organ. `in_launch` (with physical):
 /// the physical steps inside launches of `run` ticks (run_ticks_with_steps), as the replay runs them.
 void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeline, int run = 0, bool physical = false,
-                    bool in_launch = false) {
+                    bool in_launch = false, bool surface = false) {
   if (!device_ready(st)) return;
-  LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
-                                       false, Backend::Cuda);
+  const std::vector<std::string> overrides = surface ? std::vector<std::string>{"contact=surface"} : std::vector<std::string>{};
+  LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", overrides, std::nullopt,
+                                       std::nullopt, false, Backend::Cuda);
   const World& w = *in.world;
   const int N = run > 0 ? run : w.ticks_per_step, runs = 2000 / N;
   const DeviceReplayInputs inputs =
@@ -331,6 +333,9 @@ BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_unpipelined, 1.2, false, fal
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_stages, 1.2, true, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s_stages, 0.0, true, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_unpipelined_stages, 1.2, true, false)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+// Surface contact (`contact: surface`, surface_ticks_kernel; every step unpipelined).
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_surface, 1.2, false, true, 0, false, false, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_surface_stages, 1.2, true, true, 0, false, false, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 #endif
 
 /// Sums the haptic tick's stage times and the physical steps' times.

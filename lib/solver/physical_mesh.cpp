@@ -379,10 +379,11 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
   const double weight_scale = model.weight_norm > 0 ? model.weight_norm : 1.0;  // set_residuals' scale
   int iterations = 0;
   StoppingState stopping;
+  bool more = false;  // the rule's decision, made by one thread
   // One parallel region for the whole step: the stages are work-sharing loops with two barriers
   // per iteration. The master thread times the stages and sums the residual norms (after the
   // barrier ending the global step; ws.r is next written after the following local step's barrier).
-  // Past K iterations (adaptive) one thread sums the norm and decides for all (a third barrier).
+  // From iteration K - 1 on one thread sums the norm and decides for all (a third barrier).
 #pragma omp parallel
   {
     predict(model, ws, state);
@@ -414,11 +415,9 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
         rk = residual_norm(ws);
         if (k == 0) r0 = rk;
         iterations = k + 1;
+        more = continue_iterating(k, rk / weight_scale, K, tolerance, max_iterations, stopping);
         report.global_s += seconds_since(t0);
-      }  // implicit barrier: every thread reads the same rk
-      bool more = false;
-#pragma omp single copyprivate(more)
-      more = continue_iterating(k, rk / weight_scale, K, tolerance, max_iterations, stopping);
+      }  // implicit barrier: every thread reads the same decision (next written after the next local step)
       if (!more) break;
     }
     update_velocities(model, ws, state);

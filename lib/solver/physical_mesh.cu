@@ -16,6 +16,11 @@
 //                 last one also the velocities (l. 11) and, in the last block to finish, the
 //                 residual sums (into host-mapped memory: no copy node).
 //   copy x out    device -> pinned host
+// With the stopping rule (PhysicalStepParams::adaptive, docs/MODEL.md) iterations 0 .. K-2 are as
+// above but none writes the state; then a while node whose body is one loop_iteration_kernel
+// (iteration k from a device counter; its last block sums the residual and decides with
+// continue_iterating, setting the node's condition), then loop_finish_kernel moves the last
+// iterate, its velocities and rotations into the state.
 // The device-resident graph (launch_device_step: the replay's device haptic tick) is the same
 // without the two copies: q and x stay in device memory.
 // Patches: the vertices in Morton order of their rest positions, cut into runs sized so that

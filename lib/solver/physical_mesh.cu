@@ -61,8 +61,22 @@
 #include "solver/cuda_util.cuh"
 #include "solver/physical_mesh_cuda.hpp"
 
+// The stopping rule's while node needs conditional graph nodes with stream capture as CUDA 13
+// declares them; older toolkits build the backend without it (CudaPhysicalSolver refuses the rule).
+#if CUDART_VERSION >= 13000
+#define EBH_GRAPH_LOOPS 1
+#else
+#define EBH_GRAPH_LOOPS 0
+#endif
+
 namespace ebh {
 namespace {
+
+#if EBH_GRAPH_LOOPS
+using LoopHandle = cudaGraphConditionalHandle;
+#else
+using LoopHandle = unsigned long long;
+#endif
 
 constexpr int kLanes = 8;                   // threads per vertex in the global stage (a power of two <= 32)
 constexpr int kBlock = 512;                 // threads per block (one patch)
@@ -488,7 +502,7 @@ struct SweepPlan {
 /// The loop's decision after iteration k (the last block): the residual sums, the iterations run,
 /// and whether the loop runs iteration k + 1 (continue_iterating, as the CPU step decides).
 __device__ __forceinline__ void last_block_decides(const PhysicalDevice& d, int k, const float* rsq,
-                                                   cudaGraphConditionalHandle loop) {
+                                                   LoopHandle loop) {
   if (!last_block(d)) return;
   const double rk2 = residual_block(d, rsq);
   if (threadIdx.x != 0) return;
@@ -496,7 +510,12 @@ __device__ __forceinline__ void last_block_decides(const PhysicalDevice& d, int 
   const bool more = continue_iterating(k, sqrt(rk2) / scale, d.iterations, d.tolerance, d.max_iterations, *d.stopping);
   d.residual_sq[2] = k + 1;
   *d.next_iteration = k + 1;
+#if EBH_GRAPH_LOOPS
   cudaGraphSetConditional(loop, more ? 1u : 0u);
+#else
+  (void)loop;
+  (void)more;
+#endif
 }
 
 /// The iterations from K - 1 on, as the body of the graph's while loop (PhysicalStepParams::
@@ -504,7 +523,7 @@ __device__ __forceinline__ void last_block_decides(const PhysicalDevice& d, int 
 /// loop_finish_kernel does), its weight from d.omega; the last block decides whether k + 1 runs.
 template <bool kChebyshev>
 __global__ void __launch_bounds__(kBlock, 2)
-    loop_iteration_kernel(PhysicalDevice d, SweepPlan plan, int rotation_iterations, cudaGraphConditionalHandle loop) {
+    loop_iteration_kernel(PhysicalDevice d, SweepPlan plan, int rotation_iterations, LoopHandle loop) {
   PatchThread P;
   load_patch_thread(d, blockIdx.x, threadIdx.x, P);
   cache_patch_items(d, P, patch_shared(d), threadIdx.x);
@@ -931,6 +950,11 @@ void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
 /// on body_stream.
 template <bool kChebyshev>
 void CudaPhysicalSolver::Impl::capture_loop(cudaStream_t st) {
+#if !EBH_GRAPH_LOOPS
+  (void)st;
+  throw InputError("--backend cuda: solver.physical_tolerance needs the CUDA backend built with CUDA 13 or newer "
+                   "(graph while nodes); set solver.physical_tolerance=0");
+#else
   auto* body_kernel = loop_iteration_kernel<kChebyshev>;
   EBH_CUDA_CHECK(cudaFuncSetAttribute(body_kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
   cudaStreamCaptureStatus status{};
@@ -965,6 +989,7 @@ void CudaPhysicalSolver::Impl::capture_loop(cudaStream_t st) {
   EBH_CUDA_CHECK(cudaStreamEndCapture(bs, &body));
   cuda::launch(false, loop_finish_kernel, cuda::blocks_for(std::max(n, T), kBlock), kBlock, 0, st, "loop_finish_kernel",
                dev, open);
+#endif
 }
 
 void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
@@ -1015,6 +1040,9 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
   if (params.method == SolverSpec::Method::Direct)
     throw InputError("--backend cuda: the direct method runs on the CPU only (use jacobi or chebyshev)");
   if (params.iterations < 0) throw InputError("physical iterations must not be negative");
+  if (params.adaptive() && !EBH_GRAPH_LOOPS)
+    throw InputError("--backend cuda: solver.physical_tolerance needs the CUDA backend built with CUDA 13 or newer "
+                     "(graph while nodes); set solver.physical_tolerance=0");
   impl_->params = params;
   impl_->weight_norm = model.weight_norm;
   impl_->upload_model(model);

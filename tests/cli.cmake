@@ -261,6 +261,42 @@ ebh_replay_failure(bad_mode "--mode: expected async, lockstep or realtime" tube 
 ebh_replay_failure(bad_rates "whole number of ticks" tube tube_insert --haptic-hz 1000 --physical-hz 300)
 ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
 ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
+# ebh replay --batch FILE: each bad line is refused with FILE:LINE before any replay runs (and
+# before the CUDA backend is asked for, so these run on machines without a GPU too).
+function(ebh_batch_failure name expect content)
+  file(WRITE ${EBH_REPLAY_OUT}/batch_${name}.txt "${content}")
+  add_test(NAME cli.replay.batch_${name}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${EBH_REPLAY_OUT}/batch_${name}.txt;-q"
+      "-DEXPECT=${expect}" -DOUTPUT=${EBH_REPLAY_OUT}/batch_${name}_out.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.replay.batch_${name} PROPERTIES LABELS cli)
+endfunction()
+file(MAKE_DIRECTORY ${EBH_REPLAY_OUT})
+ebh_batch_failure(empty "batch_empty.txt: no replays" "# nothing\n\n")
+ebh_batch_failure(unknown_option "batch_unknown_option.txt:2: .*--bogus"
+  "# a comment\ntube tube_insert -o ${EBH_REPLAY_OUT}/batch_unknown_option_out.h5 --bogus 3\n")
+ebh_batch_failure(no_output "batch_no_output.txt:1: expected SCENE RECORDING -o OUT.h5" "tube tube_insert\n")
+ebh_batch_failure(lockstep "batch_lockstep.txt:1: --mode lockstep: a batch runs in async mode"
+  "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_lockstep_out.h5 --mode lockstep\n")
+ebh_batch_failure(cpu "batch_cpu.txt:1: --backend cpu: a batch runs on the CUDA backend"
+  "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_cpu_out.h5 --backend cpu\n")
+ebh_batch_failure(frames "batch_frames.txt:1: a batch writes no mesh frames"
+  "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_frames_out.h5 --frames-hz 30\n")
+ebh_batch_failure(missing_recording "batch_missing_recording.txt:2: .*no_such_recording"
+  "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_missing_recording_out.h5\ntube no_such_recording -o ${EBH_REPLAY_OUT}/x.h5\n")
+ebh_batch_failure(same_output "twice|same"
+  "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_same_output_out.h5\ntube tube_grasp -o ${EBH_REPLAY_OUT}/batch_same_output_out.h5\n")
+ebh_batch_failure(output_is_input "the recording"
+  "tube tube_insert -o ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5\n")
+add_test(NAME cli.replay.batch_missing_file
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${EBH_REPLAY_OUT}/no_such_batch.txt"
+    "-DEXPECT=no_such_batch.txt: cannot open" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.replay.batch_with_scene
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;--batch;${EBH_REPLAY_OUT}/batch_cpu.txt"
+    "-DEXPECT=--batch .*: give each replay's scene" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.replay.no_arguments
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube"
+    "-DEXPECT=expected SCENE RECORDING -o OUT.h5" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.replay.batch_missing_file cli.replay.batch_with_scene cli.replay.no_arguments PROPERTIES LABELS cli)
 # A recording in mm imported as metres lands a thousand scene sizes away: a unit mistake.
 add_test(NAME cli.replay.make_unit_mistake
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_REPLAY_OUT}/unit_mistake_rec.h5 --scene tube --unit m)

@@ -124,6 +124,35 @@ void bounding_segment(const Collider<double>& c, Vec3f& a, Vec3f& b, float& r) {
 
 }  // namespace
 
+namespace {
+/// The blocks of a tick kernel the device holds at once, with the L1-first carve-out (as much L1
+/// as the kernel's shared memory leaves: L1 serves a large share of its loads), which it sets.
+DeviceTickCapacity tick_capacity(const void* kernel) {
+  int device = 0, coop = 0, sms = 0, per_sm = 0, most = 0;
+  EBH_CUDA_CHECK(cudaGetDevice(&device));
+  EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));
+  EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
+  EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributePreferredSharedMemoryCarveout, cudaSharedmemCarveoutMaxShared));
+  EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&most, kernel, kBlock, 0));
+  EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributePreferredSharedMemoryCarveout, cudaSharedmemCarveoutMaxL1));
+  EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, kBlock, 0));
+  if (!coop || per_sm * sms < 2) throw std::runtime_error("CudaHapticTicks: the device cannot run the cooperative tick kernel");
+  cudaFuncAttributes fa{};
+  EBH_CUDA_CHECK(cudaFuncGetAttributes(&fa, kernel));
+  DeviceTickCapacity c;
+  c.multiprocessors = sms;
+  c.blocks_per_sm = per_sm;
+  c.blocks_per_sm_shared = std::max(1, most - 1);  // one block's room left for the physical step's
+  c.registers = fa.numRegs;
+  c.shared_bytes = fa.sharedSizeBytes;
+  return c;
+}
+}  // namespace
+
+DeviceTickCapacity device_tick_capacity(const ToolModel& tool) {
+  return tick_capacity(tool.surface ? surface_ticks_kernel_entry() : reinterpret_cast<const void*>(ticks_kernel));
+}
+
 bool device_haptic_supported(const ToolModel& tool) {
   return tool.projection == Projection::ClosestPoint && tool.colliders.size() <= static_cast<std::size_t>(kMaxColliders);
 }
@@ -318,13 +347,9 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   if (S.max_blocks < 0 || S.max_blocks == 1)
     throw std::invalid_argument("CudaHapticTicks: max_blocks must be 0 (no cap) or at least 2");
   {  // every block of ticks_kernel resident (its hand-offs spin): at most the device's co-resident blocks
-    int device = 0, coop = 0, sms = 0, per_sm = 0;
+    const DeviceTickCapacity cap = tick_capacity(I.kernel());
+    int device = 0;
     EBH_CUDA_CHECK(cudaGetDevice(&device));
-    EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));
-    EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
-    // As much L1 as the kernel's shared memory leaves: L1 serves a large share of its loads.
-    EBH_CUDA_CHECK(cudaFuncSetAttribute(I.kernel(), cudaFuncAttributePreferredSharedMemoryCarveout,
-                                        cudaSharedmemCarveoutMaxL1));
     // With the physical steps inside the launches (run_ticks_with_steps), enough shared memory on
     // each tick block's multiprocessor for one block of the step beside it; with the L1-first
     // carve-out the step's blocks fit only on the multiprocessors the ticks leave free (on an H100,
@@ -336,12 +361,13 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&max_shared, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, device));
     EBH_CUDA_CHECK(cudaDeviceGetAttribute(&minor, cudaDevAttrComputeCapabilityMinor, device));
-    const std::size_t need = fa.sharedSizeBytes + physical.block_shared_bytes() + 2 * std::size_t(reserved);
+    // Replays sharing the device (blocks_per_sm > 1): room for that many tick blocks and a step's.
+    if (S.blocks_per_sm < 1 || S.blocks_per_sm > cap.blocks_per_sm_shared)
+      throw std::invalid_argument("CudaHapticTicks: blocks_per_sm must be in [1, " + std::to_string(cap.blocks_per_sm_shared) + "]");
+    const std::size_t need = S.blocks_per_sm * (fa.sharedSizeBytes + std::size_t(reserved)) + physical.block_shared_bytes() +
+                             std::size_t(reserved);
     I.carveout_beside_steps = shared_carveout_percent(need, std::size_t(max_shared), shared_memory_configs_kb(major, minor));
-    EBH_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, I.kernel(), kBlock, 0));
-    if (!coop || per_sm * sms < 2)
-      throw std::runtime_error("CudaHapticTicks: the device cannot run the cooperative tick kernel");
-    I.grid = std::min(chunks + 1, per_sm * sms);  // block 0 runs no chunks
+    I.grid = std::min(chunks + 1, S.blocks_per_sm == 1 ? cap.resident_blocks() : S.blocks_per_sm * cap.multiprocessors);  // block 0 runs no chunks
     if (S.max_blocks > 0) I.grid = std::min(I.grid, S.max_blocks);
   }
   ToolStateDev s0{};

@@ -26,6 +26,7 @@
 // inverse-normal projection and the realtime mode.
 //
 // No CUDA types here (pimpl); the class exists when the build has the CUDA backend.
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -114,8 +115,29 @@ struct DeviceHapticSetup {
   /// every step waits for the tool (the same results up to the order of the contact sums).
   bool pipeline = true;
   int max_blocks = 0;                    ///< cap on the kernel's blocks (tests: blocks running several chunks); 0: none
+  /// Tick blocks that may share a multiprocessor (replays sharing the device, replay_batch:
+  /// DeviceTickCapacity::blocks_per_sm_shared); the carve-out beside the physical steps leaves
+  /// shared memory for that many and one block of the step. 1: a replay alone.
+  int blocks_per_sm = 1;
   int ticks_per_step = 0;                ///< N, ticks per physical step (run_ticks_with_steps); 0: not used
 };
+
+/// How many blocks of the device tick's kernel for this tool's contact the device holds at once
+/// (a launch's blocks must all be resident: they hand off through spinning counters).
+struct DeviceTickCapacity {
+  int multiprocessors = 0;
+  /// A replay alone: with the L1-first carve-out (the most L1 for its loads), usually 1.
+  int blocks_per_sm = 1;
+  /// Replays sharing the device (replay_batch; DeviceHapticSetup::blocks_per_sm): as many as the
+  /// registers and the shared-memory-first carve-out allow, less one block's room for the
+  /// physical step's blocks, which run beside the spinning tick blocks.
+  int blocks_per_sm_shared = 1;
+  int registers = 0;            ///< per thread
+  std::size_t shared_bytes = 0;  ///< static shared memory per block
+  int resident_blocks() const { return blocks_per_sm * multiprocessors; }
+  int shared_resident_blocks() const { return blocks_per_sm_shared * multiprocessors; }
+};
+DeviceTickCapacity device_tick_capacity(const ToolModel& tool);
 
 /// Whether the device tick can run this tool (the closest-point projection, at most kMaxColliders).
 bool device_haptic_supported(const ToolModel& tool);

@@ -7,6 +7,9 @@
 #include <condition_variable>
 #include <deque>
 #include <exception>
+#include <memory>
+#include <stdexcept>
+#include <string>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -140,14 +143,14 @@ bool steps_in_launches(const ReplayOptions& opt) {
 /// path, except that timing.total is the wall time of a run divided by its ticks (the stages are
 /// not timed one by one) and on_step comes once the step has been waited for. async without mesh
 /// frames: runs of whole periods, ~100 ticks, with the physical steps inside them
-/// (run_steps_in_launches); otherwise runs up to the next physical step, which runs between them
+/// (launch_next); otherwise runs up to the next physical step, which runs between them
 /// (run_steps_between_launches; one tick per run where frames are written).
 class DeviceReplay {
  public:
   DeviceReplay(const World& world, const Recording& rec, const ReplayOptions& opt, ReplayObserver& obs)
       : world_(world), opt_(opt), obs_(obs), N_(world.ticks_per_step),
         ticks_(tick_count(world, recording_duration(rec, opt))),
-        in_(device_replay_inputs(world, rec, rec.t.front() + opt.start, ticks_, opt.mode)),
+        in_(inputs(world, rec, opt, ticks_)),
         physical_(make_physical_side(world)), device_(in_.setup, in_.ticks, *physical_.cuda),
         frames_{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0} {
     view_.mesh.q = world.initial_virtual;
@@ -156,44 +159,65 @@ class DeviceReplay {
   }
 
   ReplaySummary run() {
-    wall0_ = last_collect_ = Clock::now();
-    if (steps_in_launches(opt_)) run_steps_in_launches();
-    else run_steps_between_launches();
+    start();
+    if (steps_in_launches(opt_)) {
+      while (launch_next()) {
+      }
+    } else {
+      run_steps_between_launches();
+    }
+    return finish();
+  }
+
+  /// The replay run one launch at a time (replay_batch interleaves
+  /// replays): start(), then launch_next() until it returns false, then finish().
+  void start() { wall0_ = last_collect_ = Clock::now(); }
+  ReplaySummary finish() {
     s_.virtual_s = static_cast<double>(s_.ticks) * world_.h_haptic;
     s_.wall_s = std::chrono::duration<double>(Clock::now() - wall0_).count();
     return s_;
   }
 
- private:
-  using Clock = std::chrono::steady_clock;
-  struct Run {
-    int handle;
-    std::int64_t first;
-    int count;
-  };
-
-  /// async without mesh frames: launches of whole periods with the physical steps inside them;
-  /// step k (from tick kN) is finished once a collected run reaches (k + 1)N. A launch and its
-  /// first (unpipelined) step have a fixed cost, which ~100 ticks per launch spread.
-  void run_steps_in_launches() {
+  /// async without mesh frames: enqueues the next launch of whole periods with the physical steps
+  /// inside it; step k (from tick kN) is finished once a collected run reaches (k + 1)N. A launch
+  /// and its first (unpipelined) step have a fixed cost, which ~100 ticks per launch spread. The
+  /// runs two launches back are collected. Returns false, after collecting everything, once the
+  /// last tick is enqueued or the observer stopped the replay.
+  bool launch_next() {
     const int periods = std::max(1, std::min((100 + N_ - 1) / N_, device_.step_capacity() / 4));
     const int run = std::max(1, std::min(periods * N_, device_.capacity() / 4));
-    for (std::int64_t n = 0; n < ticks_;) {
-      const int count = static_cast<int>(std::min<std::int64_t>(run, ticks_ - n));
-      const std::int64_t steps_after = (n + count + N_ - 1) / N_;
+    if (next_ < ticks_) {
+      const int count = static_cast<int>(std::min<std::int64_t>(run, ticks_ - next_));
+      const std::int64_t steps_after = (next_ + count + N_ - 1) / N_;
       while (steps_after - s_.steps > device_.step_capacity()) finish_steps_to((s_.steps + 1) * N_);
-      enqueue(device_.run_ticks_with_steps(count), n, count);
-      n += count;
+      enqueue(device_.run_ticks_with_steps(count), next_, count);
+      next_ += count;
       while (runs_.size() > 2) {
         const std::int64_t end = runs_.front().first + runs_.front().count;
         collect(runs_.size() - 1);
         finish_steps_to(end);
       }
-      if (stopped()) break;
+      if (!stopped() && next_ < ticks_) return true;
     }
     collect(0);
     finish_steps_to(std::numeric_limits<std::int64_t>::max());  // the last step's result is recorded, never shown
+    return false;
   }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  static DeviceReplayInputs inputs(const World& world, const Recording& rec, const ReplayOptions& opt,
+                                   std::int64_t ticks) {
+    DeviceReplayInputs in = device_replay_inputs(world, rec, rec.t.front() + opt.start, ticks, opt.mode);
+    in.setup.max_blocks = opt.device_blocks;
+    if (opt.device_blocks > 0) in.setup.blocks_per_sm = device_tick_capacity(world.tool).blocks_per_sm_shared;
+    return in;
+  }
+  struct Run {
+    int handle;
+    std::int64_t first;
+    int count;
+  };
 
   /// Otherwise: runs up to the next physical step, which runs between the launches (async: it
   /// starts at tick kN and is delivered at (k + 1)N; lockstep: delivered at once).
@@ -270,7 +294,7 @@ class DeviceReplay {
     obs_.on_tick(world_, view_, static_cast<double>(n) * world_.h_haptic);
   }
 
-  /// Finishes the steps of run_steps_in_launches that started before tick - N (in order).
+  /// Finishes the steps of launch_next that started before tick - N (in order).
   void finish_steps_to(std::int64_t tick) {
     while (device_.steps_in_flight() > 0 && (s_.steps + 1) * N_ <= tick) {
       physical_.report = device_.finish_step(physical_.mesh.x);
@@ -314,6 +338,7 @@ class DeviceReplay {
   FrameClock frames_;
   HapticSide view_;  ///< what the observer reads: the outputs of one tick
   std::deque<Run> runs_;
+  std::int64_t next_ = 0;  ///< the next tick to enqueue (launch_next)
   std::vector<DeviceTickOutput> rows_;
   ReplaySummary s_;
   Clock::time_point wall0_, last_collect_;
@@ -549,6 +574,83 @@ std::int64_t tick_count(const World& world, double duration) {
                      std::to_string(static_cast<long long>(kMaxReplayTicks)) + " ticks (the limit)");
   return static_cast<std::int64_t>(n);
 }
+
+#if EBH_HAVE_CUDA
+namespace {
+/// The tick blocks each of `count` replays of `world` gets when they share the device.
+int batch_share(const World& world, int count) {
+  return device_tick_capacity(world.tool).shared_resident_blocks() / std::max(count, 1);
+}
+}  // namespace
+
+int max_batch_replays(const World& world) {
+  if (world.backend != Backend::Cuda || !device_haptic_supported(world.tool)) return 0;
+  return std::max(0, batch_share(world, 1) / 2);
+}
+
+std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays) {
+  const int count = static_cast<int>(replays.size());
+  int share = std::numeric_limits<int>::max();
+  for (int i = 0; i < count; ++i) {
+    const BatchReplay& r = replays[static_cast<std::size_t>(i)];
+    const std::string which = "replay " + std::to_string(i) + " of the batch: ";
+    if (!r.world || !r.recording || !r.observer) throw std::invalid_argument(which + "no world, recording or observer");
+    if (r.recording->t.empty()) throw InputError(which + "the recording has no samples");
+    if (!device_ticks(*r.world, r.options) || !steps_in_launches(r.options))
+      throw InputError(which + "a batch runs --backend cuda in async mode with the device tick and no mesh frames");
+    share = std::min(share, batch_share(*r.world, count));
+  }
+  if (count > 0 && share < 2)
+    throw InputError("a batch of " + std::to_string(count) + " replays: this device runs at most " +
+                     std::to_string(max_batch_replays(*replays[0].world)) + " of this scene at once");
+  std::vector<BatchOutcome> out(static_cast<std::size_t>(count));
+  std::vector<std::unique_ptr<DeviceReplay>> running(static_cast<std::size_t>(count));
+  std::vector<ReplayOptions> options(static_cast<std::size_t>(count));
+  // One replay's failure is its own: it is written down and the others go on.
+  auto attempt = [&](int i, auto&& what) {
+    auto& r = running[static_cast<std::size_t>(i)];
+    try {
+      return what();
+    } catch (const std::exception& e) {
+      out[static_cast<std::size_t>(i)].error = e.what();
+      r.reset();  // waits for what it enqueued (every enqueued step's ticks are enqueued too)
+      return false;
+    }
+  };
+  for (int i = 0; i < count; ++i) {
+    const BatchReplay& r = replays[static_cast<std::size_t>(i)];
+    options[static_cast<std::size_t>(i)] = r.options;
+    options[static_cast<std::size_t>(i)].device_blocks = share;
+    attempt(i, [&] {
+      running[static_cast<std::size_t>(i)] =
+          std::make_unique<DeviceReplay>(*r.world, *r.recording, options[static_cast<std::size_t>(i)], *r.observer);
+      running[static_cast<std::size_t>(i)]->start();
+      return true;
+    });
+  }
+  for (bool any = true; any;) {
+    any = false;
+    for (int i = 0; i < count; ++i) {
+      auto& r = running[static_cast<std::size_t>(i)];
+      if (!r) continue;
+      if (attempt(i, [&] { return r->launch_next(); })) {
+        any = true;
+      } else if (r) {
+        out[static_cast<std::size_t>(i)].summary = r->finish();
+        r.reset();
+      }
+    }
+  }
+  return out;
+}
+#else
+int max_batch_replays(const World&) { return 0; }
+
+std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays) {
+  if (replays.empty()) return {};
+  throw InputError("a batch of replays runs on the CUDA backend, which this build does not have");
+}
+#endif
 
 ReplaySummary replay(const World& world, const Recording& recording, const ReplayOptions& options,
                      ReplayObserver& observer) {

@@ -10,7 +10,9 @@
 //             double-buffered snapshots; it measures achievable rates and is not deterministic.
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "schedule/simulation.hpp"
 #if EBH_HAVE_CUDA
@@ -41,6 +43,11 @@ struct ReplayOptions {
   /// many periods (CudaHapticTicks::run_ticks_with_steps); false launches once per period with the
   /// steps between the launches (the same bits; for comparisons).
   bool steps_in_launches = true;
+  /// The device tick's blocks at most (DeviceHapticSetup::max_blocks), which then may share a
+  /// multiprocessor (DeviceTickCapacity::blocks_per_sm_shared); 0: one per chunk of the virtual
+  /// mesh, as many as the device holds. replay_batch shares the device this way; the results do
+  /// not depend on it (bitwise).
+  int device_blocks = 0;
 };
 
 /// What a replay reports as it goes (the HDF5 writer and the progress bar implement it).
@@ -89,5 +96,32 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
 /// Replays `recording` through the two-rate solver.
 ReplaySummary replay(const World& world, const Recording& recording, const ReplayOptions& options,
                      ReplayObserver& observer);
+
+/// One replay of a batch (replay_batch).
+struct BatchReplay {
+  const World* world = nullptr;          ///< built with Backend::Cuda
+  const Recording* recording = nullptr;
+  ReplayOptions options;                 ///< async, device_tick, steps_in_launches, no frames
+  ReplayObserver* observer = nullptr;
+};
+
+struct BatchOutcome {
+  ReplaySummary summary;
+  std::string error;  ///< empty: the replay ran to its end (or its observer stopped it)
+};
+
+/// Replays several device replays on one GPU at once (docs/CUDA.md, "Many replays on one GPU"):
+/// each has its own streams, tick kernel and physical steps, the device's resident tick blocks are
+/// split between them (ReplayOptions::device_blocks), and the calling thread feeds them in turn,
+/// one launch of ~100 ticks each, so that the device runs every replay's launches side by side.
+/// Each replay's outputs are bitwise those of the same replay run alone. A replay that fails (its
+/// error in its outcome) leaves the others running. Throws InputError naming the replay (its index)
+/// when one cannot run this way, or the CUDA backend is missing.
+std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays);
+
+/// The most replays replay_batch runs at once for this world (every replay's tick kernel needs at
+/// least 2 resident blocks, and the physical steps a share of the device beside them); 0 without
+/// the CUDA backend.
+int max_batch_replays(const World& world);
 
 }  // namespace ebh

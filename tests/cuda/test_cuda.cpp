@@ -699,6 +699,83 @@ TEST(CudaReplay, AsyncModeRuns) {
   EXPECT_LE(err_f, tol_f);
 }
 
+/// Replays sharing the device (replay_batch): two scenes, three recordings, a stiffness override
+/// and windows of different lengths in one batch; each replay's forces, tool, contacts and physical
+/// results are bitwise those of the same replay run alone (whose tick kernel has every block).
+TEST(CudaReplay, BatchMatchesReplaysRunAlone) {
+  EBH_REQUIRE_DEVICE();
+  struct Item {
+    const char *scene, *recording;
+    std::vector<std::string> overrides;
+    double start, duration;
+  };
+  const std::vector<Item> items = {{"cholecystectomy", "cholecystectomy_grasp", {}, 1.2, 0.6},
+                                   {"cholecystectomy", "cholecystectomy_grasp", {"stiffness.k_vcs=250"}, 1.2, 0.6},
+                                   {"cholecystectomy", "cholecystectomy_press", {}, 0.8, 0.45},
+                                   {"tube", "tube_insert", {}, 4.0, 0.8}};
+  std::vector<LoadedReplay> in;
+  for (const Item& it : items)
+    in.push_back(load_replay_inputs(it.scene, it.recording, it.overrides, std::nullopt, std::nullopt, false, Backend::Cuda));
+  std::vector<ReplayOptions> opt(items.size());
+  std::vector<Trace> alone(items.size()), together(items.size());
+  std::vector<BatchReplay> batch;
+  for (size_t i = 0; i < items.size(); ++i) {
+    opt[i].mode = Mode::Async;
+    opt[i].start = items[i].start;
+    opt[i].duration = items[i].duration;
+    replay(*in[i].world, in[i].recording, opt[i], alone[i]);
+    batch.push_back({in[i].world.get(), &in[i].recording, opt[i], &together[i]});
+  }
+  const std::vector<BatchOutcome> out = replay_batch(batch);
+  ASSERT_EQ(out.size(), items.size());
+  int with_contact = 0;
+  for (size_t i = 0; i < items.size(); ++i) {
+    SCOPED_TRACE(std::string(items[i].recording) + " " + (items[i].overrides.empty() ? "" : items[i].overrides[0]));
+    EXPECT_EQ(out[i].error, "");
+    const Trace &a = alone[i], &b = together[i];
+    ASSERT_EQ(b.force.size(), a.force.size());
+    ASSERT_EQ(b.residual.size(), a.residual.size());
+    EXPECT_EQ(out[i].summary.ticks, static_cast<std::int64_t>(a.force.size()));
+    EXPECT_EQ(std::memcmp(a.force.data(), b.force.data(), a.force.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), a.x.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(a.residual, b.residual);
+    EXPECT_EQ(a.contacts, b.contacts);
+    EXPECT_EQ(a.grasped, b.grasped);
+    EXPECT_EQ(a.penetration, b.penetration);
+    with_contact += a.max_contacts > 0;
+  }
+  EXPECT_EQ(with_contact, static_cast<int>(items.size())) << "every window must contain contact";
+  // The override changes the forces: the batch keeps each replay's own world.
+  EXPECT_NE(std::memcmp(alone[0].force.data(), alone[1].force.data(), alone[0].force.size() * sizeof(Vec3d)), 0);
+  // The most replays this device runs at once, each with its share of the tick blocks: still the same bits.
+  const int most = max_batch_replays(*in[0].world);
+  const DeviceTickCapacity cap = device_tick_capacity(in[0].world->tool);
+  std::printf("[ batch ] at most %d cholecystectomy replays at once on this device (%d multiprocessors, %d tick "
+              "blocks each alone, %d shared; %d registers, %zu bytes of shared memory per block)\n",
+              most, cap.multiprocessors, cap.blocks_per_sm, cap.blocks_per_sm_shared, cap.registers, cap.shared_bytes);
+  ASSERT_GE(most, 4);
+  std::vector<Trace> full(static_cast<size_t>(most));
+  std::vector<BatchReplay> many;
+  for (int k = 0; k < most; ++k) many.push_back({in[0].world.get(), &in[0].recording, opt[0], &full[static_cast<size_t>(k)]});
+  const std::vector<BatchOutcome> out_many = replay_batch(many);
+  for (int k = 0; k < most; ++k) {
+    EXPECT_EQ(out_many[static_cast<size_t>(k)].error, "");
+    ASSERT_EQ(full[static_cast<size_t>(k)].force.size(), alone[0].force.size());
+    EXPECT_EQ(std::memcmp(full[static_cast<size_t>(k)].force.data(), alone[0].force.data(), alone[0].force.size() * sizeof(Vec3d)), 0) << k;
+  }
+  // One more than that is refused in one line, before any work.
+  many.push_back(many.front());
+  EXPECT_THROW(replay_batch(many), InputError);
+  // A replay the batch cannot run (lockstep) is refused with its index.
+  batch[2].options.mode = Mode::Lockstep;
+  try {
+    replay_batch(batch);
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("replay 2 of the batch"), std::string::npos) << e.what();
+  }
+}
+
 /// The device ticks alone (no physical steps) of cholecystectomy_grasp from t = 1.2 s through the
 /// grasp, with `change` applied to the setup; each row's outputs, and the profile if asked.
 std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapticSetup&), DeviceTickProfile* profile = nullptr) {

@@ -1,14 +1,22 @@
 // ebh replay SCENE RECORDING -o OUT.h5: the toolkit's main job (DESIGN.md §2, §4).
 #include <unistd.h>
 
+#include <omp.h>
+
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
+#include <string>
+#include <thread>
+#include <vector>
 
 #include "command.hpp"
 #include "core/error.hpp"
+#include "io/atomic.hpp"
 #include "io/paths.hpp"
 #include "io/recording.hpp"
 #include "metrics/force_metrics.hpp"
@@ -76,25 +84,24 @@ class Tee : public ReplayObserver {
   ReplayObserver& b_;
 };
 
-void run_replay(const ReplayArgs& a) {
-  const Mode mode = parse_mode(a.mode);
-  check_backend(a.backend);
-  const Backend backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
-  // Before any work: no output may replace one of the files the replay reads.
-  check_outputs({{a.out, "the replay output"}, {xdmf_path_for(a.out), "the replay's XDMF index"}},
-                replay_input_files(a.scene, a.recording, a.overrides));
-  if (std::error_code ec; !a.render_dir.empty() && std::filesystem::exists(a.render_dir, ec) &&
-                          !std::filesystem::is_directory(a.render_dir, ec))
-    throw InputError("--render " + a.render_dir + ": not a folder");
-  LoadedReplay in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz,
-                                       a.allow_outside, backend, a.transforms);
-  const World& world = *in.world;
-  for (const std::string& w : world.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
-  const double length = in.recording.duration();
-  if (!(a.start < length))
-    throw InputError("--start " + format_number(a.start) + ": the recording " + in.recording_path + " is " + format_number(length) +
-                     " s long; start before its end");
+/// A replay ready to run: its inputs loaded, its options and its output writer (created last).
+struct PreparedReplay {
+  LoadedReplay in;
   ReplayOptions opt;
+  ReplayMetadata meta;
+  std::int64_t ticks = 0;
+  std::unique_ptr<ReplayWriter> writer;
+};
+
+/// The world's rates, window and frames checked, the output's metadata; `in` already loaded.
+void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
+  const Mode mode = parse_mode(a.mode);
+  const World& world = *p.in.world;
+  const double length = p.in.recording.duration();
+  if (!(a.start < length))
+    throw InputError("--start " + format_number(a.start) + ": the recording " + p.in.recording_path + " is " +
+                     format_number(length) + " s long; start before its end");
+  ReplayOptions& opt = p.opt;
   opt.mode = mode;
   opt.start = a.start;
   opt.duration = a.duration.value_or(0);  // 0: the rest of the recording
@@ -103,13 +110,12 @@ void run_replay(const ReplayArgs& a) {
   if (opt.frames_hz * world.h_haptic > 1 + 1e-9)
     throw InputError("--frames-hz " + format_number(opt.frames_hz) + ": more snapshots than haptic ticks (" +
                      format_number(1.0 / world.h_haptic) + " Hz)");
-
   const double rest = length - a.start;
   const double duration = a.duration ? std::min(*a.duration, rest) : rest;
-  check_replay_size(world, duration, opt.frames_hz, in.recording_path, a.out);
-  const std::int64_t ticks = tick_count(world, duration);
-  ReplayMetadata meta;
-  meta.recording = in.recording_path;
+  check_replay_size(world, duration, opt.frames_hz, p.in.recording_path, a.out);
+  p.ticks = tick_count(world, duration);
+  ReplayMetadata& meta = p.meta;
+  meta.recording = p.in.recording_path;
   meta.start = opt.start;
   meta.duration = opt.duration;
   meta.frames_hz = opt.frames_hz;
@@ -117,19 +123,17 @@ void run_replay(const ReplayArgs& a) {
   meta.backend = a.backend;
   meta.device = cpu_description();
 #if EBH_HAVE_CUDA
-  if (backend == Backend::Cuda) meta.device = cuda_device_description() + " + " + meta.device;
+  if (world.backend == Backend::Cuda) meta.device = cuda_device_description() + " + " + meta.device;
 #endif
   meta.overrides = a.overrides;
   meta.transforms = a.transforms;
-  meta.applied = in.transforms;
-  // After the checks that refuse the replay: a refused one says one line, its error.
-  for (const std::string& w : in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
-  install_interrupt_handlers();
-  ReplayWriter writer(a.out, world, meta, ticks, opt.frames_hz > 0);
-  Progress progress(ticks, !a.quiet && isatty(STDERR_FILENO));
-  Tee tee(writer, progress);
-  const ReplaySummary s = replay(world, in.recording, opt, tee);
-  progress.finish();
+  meta.applied = p.in.transforms;
+}
+
+/// After the replay: its output committed (unless it was stopped), then its warnings and summary.
+void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& s) {
+  const World& world = *p.in.world;
+  ReplayWriter& writer = *p.writer;
   if (s.stopped) throw InputError(a.out + ": interrupted; no output written");
   writer.commit(s);
   index_replay_frames(a.out);
@@ -152,8 +156,8 @@ void run_replay(const ReplayArgs& a) {
   if (!start.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), start.c_str());
   if (!a.quiet) {
     std::printf("%s: %s + %s, %s mode, %lld ticks, %lld physical steps\n", a.out.c_str(),
-                world.scene.spec.name.c_str(), std::filesystem::path(in.recording_path).filename().c_str(),
-                mode_name(mode), static_cast<long long>(s.ticks), static_cast<long long>(s.steps));
+                world.scene.spec.name.c_str(), std::filesystem::path(p.in.recording_path).filename().c_str(),
+                mode_name(p.opt.mode), static_cast<long long>(s.ticks), static_cast<long long>(s.steps));
     if (world.settle_steps > 0)
       std::printf("  started from the static equilibrium under gravity (%d static steps)\n", world.settle_steps);
     std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
@@ -162,38 +166,222 @@ void run_replay(const ReplayArgs& a) {
                 writer.peak_force(), static_cast<long long>(writer.clamped_ticks()), world.scene.spec.tool.force_limit,
                 1e3 * writer.max_penetration());
   }
+}
+
+/// The files a replay writes (checked against every input before any work).
+std::vector<RoleFile> replay_outputs(const ReplayArgs& a) {
+  return {{a.out, "the replay output"}, {xdmf_path_for(a.out), "the replay's XDMF index"}};
+}
+
+void run_replay(const ReplayArgs& a) {
+  parse_mode(a.mode);
+  check_backend(a.backend);
+  const Backend backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
+  // Before any work: no output may replace one of the files the replay reads.
+  check_outputs(replay_outputs(a), replay_input_files(a.scene, a.recording, a.overrides));
+  if (std::error_code ec; !a.render_dir.empty() && std::filesystem::exists(a.render_dir, ec) &&
+                          !std::filesystem::is_directory(a.render_dir, ec))
+    throw InputError("--render " + a.render_dir + ": not a folder");
+  PreparedReplay p;
+  p.in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz, a.allow_outside, backend,
+                            a.transforms);
+  for (const std::string& w : p.in.world->scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  prepare_replay(a, p);
+  // After the checks that refuse the replay: a refused one says one line, its error.
+  for (const std::string& w : p.in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  install_interrupt_handlers();
+  p.writer = std::make_unique<ReplayWriter>(a.out, *p.in.world, p.meta, p.ticks, p.opt.frames_hz > 0);
+  Progress progress(p.ticks, !a.quiet && isatty(STDERR_FILENO));
+  Tee tee(*p.writer, progress);
+  const ReplaySummary s = replay(*p.in.world, p.in.recording, p.opt, tee);
+  progress.finish();
+  finish_replay(a, p, s);
   if (!a.render_dir.empty()) render_after_replay(a.out, a.render_dir);
+}
+
+/// The options of one replay, on `ebh replay` and on each line of a --batch file.
+void add_replay_options(CLI::App* c, ReplayArgs& a) {
+  c->add_option("scene", a.scene, "Scene name (scenarios/NAME.yaml) or path");
+  c->add_option("recording", a.recording, "Recording: an HDF5 file or a name in recordings/");
+  c->add_option("-o,--output", a.out, "Output HDF5 file");
+  c->add_option("--mode", a.mode, "async (default), lockstep or realtime");
+  c->add_option("--haptic-hz", a.haptic_hz, "Haptic tick rate (default: the scene's, 1000)")
+      ->check(finite_number(0, kMaxHapticHz, true, "Hz"));
+  c->add_option("--physical-hz", a.physical_hz, "Physical step rate (default: the scene's, 100)")
+      ->check(finite_number(0, kMaxHapticHz, true, "Hz"));
+  c->add_option("--backend", a.backend, "cpu (default) or cuda");
+  c->add_option("--frames-hz", a.frames_hz,
+                "Mesh snapshots per second in /frames, 0 for none (default: 30 if the scene asks)")
+      ->check(finite_number(0, kMaxHapticHz, false, "Hz"));
+  c->add_option("--start", a.start, "Start S seconds into the recording")->check(finite_number(0, kNoUpperLimit));
+  c->add_option("--duration", a.duration, "Replay only S seconds (default: the rest of the recording)")
+      ->check(finite_number(0, kNoUpperLimit, true));
+  c->add_option("--set", a.overrides, "Override a scene key: --set stiffness.k_con=800 (repeatable)");
+  c->add_option("--transform", a.transforms.world,
+                "Device workspace -> scene, on the left: \"tx,ty,tz,rx,ry,rz\" (translation in the scene's world unit, "
+                "rotation vector in degrees)");
+  c->add_option("--tool-transform", a.transforms.tool,
+                "Device tool frame -> ebh's, on the right (in the tool's frame): \"x,y,z,rx,ry,rz\" (the scene's "
+                "world unit, degrees)");
+  c->add_option("--render", a.render_dir, "Also render the frames to PNG files in DIR (needs OSMesa)");
+  c->add_flag("--allow-outside", a.allow_outside, "Accept a trajectory far outside the scene");
+  c->add_flag("-q,--quiet", a.quiet, "No progress bar and no summary");
+}
+
+/// One line of a --batch file: the arguments of an `ebh replay` command (after `ebh replay`).
+struct BatchLine {
+  std::string where;  ///< FILE:LINE
+  ReplayArgs args;
+};
+
+std::vector<BatchLine> read_batch_file(const std::string& file, bool quiet) {
+  check_input_file(file);
+  std::ifstream f(file);
+  std::vector<BatchLine> lines;
+  std::string text;
+  for (int number = 1; std::getline(f, text); ++number) {
+    const std::size_t first = text.find_first_not_of(" \t\r");
+    if (first == std::string::npos || text[first] == '#') continue;
+    BatchLine line{file + ":" + std::to_string(number), {}};
+    CLI::App app{"a replay of the batch"};
+    add_replay_options(&app, line.args);
+    try {
+      app.parse(text, false);
+    } catch (const CLI::ParseError& e) {
+      throw InputError(line.where + ": " + e.what());
+    }
+    ReplayArgs& a = line.args;
+    auto refuse = [&](const std::string& what) { throw InputError(line.where + ": " + what); };
+    if (a.scene.empty() || a.recording.empty() || a.out.empty()) refuse("expected SCENE RECORDING -o OUT.h5 and options");
+    if (a.backend != "cpu" && a.backend != "cuda") refuse("--backend: expected cuda, got '" + a.backend + "'");
+    if (app.count("--backend") && a.backend != "cuda") refuse("--backend cpu: a batch runs on the CUDA backend");
+    if (a.mode != "async") refuse("--mode " + a.mode + ": a batch runs in async mode");
+    if (a.frames_hz.value_or(0) > 0 || !a.render_dir.empty()) refuse("a batch writes no mesh frames (--frames-hz 0, no --render)");
+    a.backend = "cuda";
+    a.frames_hz = 0.0;
+    a.quiet = a.quiet || quiet;
+    lines.push_back(std::move(line));
+  }
+  if (lines.empty()) throw InputError(file + ": no replays (one `ebh replay` argument list per line)");
+  return lines;
+}
+
+/// ebh replay --batch FILE: every line's replay on one GPU at once (replay_batch). Everything is
+/// checked and loaded before any replay runs; the worlds are built on several threads.
+void run_batch(const ReplayArgs& top, const std::string& file) {
+  if (!top.scene.empty() || !top.recording.empty() || !top.out.empty() || !top.overrides.empty())
+    throw InputError("--batch " + file + ": give each replay's scene, recording, output and options on its line of the file");
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  std::vector<BatchLine> lines = read_batch_file(file, top.quiet);
+  std::vector<RoleFile> outputs, inputs;
+  for (const BatchLine& l : lines) {
+    for (RoleFile& o : replay_outputs(l.args)) outputs.push_back(std::move(o));
+    try {
+      for (RoleFile& i : replay_input_files(l.args.scene, l.args.recording, l.args.overrides)) inputs.push_back(std::move(i));
+    } catch (const InputError& e) {
+      throw InputError(l.where + ": " + e.what());
+    }
+  }
+  check_outputs(outputs, inputs);
+  check_backend("cuda");
+  const std::size_t B = lines.size();
+  std::vector<ReadReplay> read(B);
+  for (std::size_t i = 0; i < B; ++i) {
+    const ReplayArgs& a = lines[i].args;
+    try {
+      read[i] = read_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz, a.allow_outside,
+                                   a.transforms);
+    } catch (const InputError& e) {
+      throw InputError(lines[i].where + ": " + e.what());
+    }
+  }
+  // The worlds (settling, the solvers' set-up) on up to one thread per core, one OpenMP thread each.
+  std::vector<PreparedReplay> prepared(B);
+  std::vector<std::string> errors(B);
+  {
+    std::atomic<std::size_t> next{0};
+    const std::size_t workers = std::min<std::size_t>(B, std::max(1u, std::thread::hardware_concurrency()));
+    std::vector<std::thread> pool;
+    for (std::size_t w = 0; w < workers; ++w)
+      pool.emplace_back([&] {
+        omp_set_num_threads(1);
+        for (std::size_t i; (i = next++) < B;) {
+          try {
+            prepared[i].in = build_replay(std::move(read[i]), Backend::Cuda);
+          } catch (const std::exception& e) {
+            errors[i] = e.what();
+          }
+        }
+      });
+    for (std::thread& t : pool) t.join();
+  }
+  for (std::size_t i = 0; i < B; ++i)
+    if (!errors[i].empty()) throw InputError(lines[i].where + ": " + errors[i]);
+  for (std::size_t i = 0; i < B; ++i) {
+    try {
+      prepare_replay(lines[i].args, prepared[i]);
+    } catch (const InputError& e) {
+      throw InputError(lines[i].where + ": " + e.what());
+    }
+  }
+  for (std::size_t i = 0; i < B; ++i) {
+    for (const std::string& w : prepared[i].in.world->scene.warnings)
+      std::fprintf(stderr, "ebh: warning: %s: %s\n", lines[i].where.c_str(), w.c_str());
+    for (const std::string& w : prepared[i].in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  }
+  install_interrupt_handlers();
+  std::vector<BatchReplay> batch(B);
+  for (std::size_t i = 0; i < B; ++i) {
+    PreparedReplay& p = prepared[i];
+    p.writer = std::make_unique<ReplayWriter>(lines[i].args.out, *p.in.world, p.meta, p.ticks, false);
+    batch[i] = {p.in.world.get(), &p.in.recording, p.opt, p.writer.get()};
+  }
+  const auto t1 = Clock::now();
+  const std::vector<BatchOutcome> outcomes = replay_batch(batch);
+  const auto t2 = Clock::now();
+  std::size_t failed = 0;
+  double virtual_s = 0;
+  for (std::size_t i = 0; i < B; ++i) {
+    const BatchOutcome& o = outcomes[i];
+    if (o.error.empty()) {
+      try {
+        finish_replay(lines[i].args, prepared[i], o.summary);
+        virtual_s += o.summary.virtual_s;
+        continue;
+      } catch (const InputError& e) {
+        if (interrupted()) throw;
+        std::fprintf(stderr, "ebh: error: %s: %s\n", lines[i].where.c_str(), e.what());
+      }
+    } else {
+      std::fprintf(stderr, "ebh: error: %s: %s: %s; no output written\n", lines[i].where.c_str(),
+                   lines[i].args.out.c_str(), o.error.c_str());
+    }
+    ++failed;
+    prepared[i].writer.reset();  // removes its temporary file
+  }
+  const double load = std::chrono::duration<double>(t1 - t0).count(), run = std::chrono::duration<double>(t2 - t1).count();
+  if (!top.quiet)
+    std::printf("batch of %zu replays on one GPU: virtual %.3f s in %.3f s wall (%.3f s loading): %.2fx real time in total "
+                "(%.2fx from the start)\n",
+                B, virtual_s, run, load, run > 0 ? virtual_s / run : 0.0, virtual_s / (load + run));
+  if (failed > 0) throw InputError("--batch " + file + ": " + std::to_string(failed) + " of " + std::to_string(B) + " replays failed");
 }
 
 void setup(CLI::App& root) {
   auto args = std::make_shared<ReplayArgs>();
+  auto batch = std::make_shared<std::string>();
   CLI::App* c = root.add_subcommand("replay", "Replay a recorded device trajectory through the two-rate solver");
-  c->add_option("scene", args->scene, "Scene name (scenarios/NAME.yaml) or path")->required();
-  c->add_option("recording", args->recording, "Recording: an HDF5 file or a name in recordings/")->required();
-  c->add_option("-o,--output", args->out, "Output HDF5 file")->required();
-  c->add_option("--mode", args->mode, "async (default), lockstep or realtime");
-  c->add_option("--haptic-hz", args->haptic_hz, "Haptic tick rate (default: the scene's, 1000)")
-      ->check(finite_number(0, kMaxHapticHz, true, "Hz"));
-  c->add_option("--physical-hz", args->physical_hz, "Physical step rate (default: the scene's, 100)")
-      ->check(finite_number(0, kMaxHapticHz, true, "Hz"));
-  c->add_option("--backend", args->backend, "cpu (default) or cuda");
-  c->add_option("--frames-hz", args->frames_hz,
-                "Mesh snapshots per second in /frames, 0 for none (default: 30 if the scene asks)")
-      ->check(finite_number(0, kMaxHapticHz, false, "Hz"));
-  c->add_option("--start", args->start, "Start S seconds into the recording")->check(finite_number(0, kNoUpperLimit));
-  c->add_option("--duration", args->duration, "Replay only S seconds (default: the rest of the recording)")
-      ->check(finite_number(0, kNoUpperLimit, true));
-  c->add_option("--set", args->overrides, "Override a scene key: --set stiffness.k_con=800 (repeatable)");
-  c->add_option("--transform", args->transforms.world,
-                "Device workspace -> scene, on the left: \"tx,ty,tz,rx,ry,rz\" (translation in the scene's world unit, "
-                "rotation vector in degrees)");
-  c->add_option("--tool-transform", args->transforms.tool,
-                "Device tool frame -> ebh's, on the right (in the tool's frame): \"x,y,z,rx,ry,rz\" (the scene's "
-                "world unit, degrees)");
-  c->add_option("--render", args->render_dir, "Also render the frames to PNG files in DIR (needs OSMesa)");
-  c->add_flag("--allow-outside", args->allow_outside, "Accept a trajectory far outside the scene");
-  c->add_flag("-q,--quiet", args->quiet, "No progress bar and no summary");
-  c->callback([args] { run_replay(*args); });
+  add_replay_options(c, *args);
+  c->add_option("--batch", *batch,
+                "Replay every line of FILE (the arguments of an `ebh replay` each) on one GPU at once (--backend cuda, "
+                "async, no frames)");
+  c->callback([args, batch] {
+    if (!batch->empty()) return run_batch(*args, *batch);
+    if (args->scene.empty() || args->recording.empty() || args->out.empty())
+      throw InputError("ebh replay: expected SCENE RECORDING -o OUT.h5 (or --batch FILE); see --help");
+    run_replay(*args);
+  });
 }
 
 }  // namespace

@@ -577,9 +577,14 @@ std::int64_t tick_count(const World& world, double duration) {
 
 #if EBH_HAVE_CUDA
 namespace {
-/// The tick blocks each of `count` replays of `world` gets when they share the device.
+/// The tick blocks each of `count` replays of `world` gets when they share the device: a quarter
+/// of the multiprocessors is left to the physical steps (two replays of 66 blocks each, every
+/// multiprocessor of an H100 holding a tick block, never finished; a replay alone leaves 32 of
+/// 132 free).
 int batch_share(const World& world, int count) {
-  return device_tick_capacity(world.tool).shared_resident_blocks() / std::max(count, 1);
+  const DeviceTickCapacity cap = device_tick_capacity(world.tool);
+  const int reserve = (cap.multiprocessors + 3) / 4;
+  return std::max(0, cap.shared_resident_blocks() - reserve * cap.blocks_per_sm_shared) / std::max(count, 1);
 }
 }  // namespace
 
@@ -588,8 +593,10 @@ int max_batch_replays(const World& world) {
   return std::max(0, batch_share(world, 1) / 2);
 }
 
-std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays) {
+std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays, int at_once) {
   const int count = static_cast<int>(replays.size());
+  if (at_once < 1) throw InputError("a batch runs at least 1 replay at once (got " + std::to_string(at_once) + ")");
+  const int running_at_once = std::min(count, at_once);
   int share = std::numeric_limits<int>::max();
   for (int i = 0; i < count; ++i) {
     const BatchReplay& r = replays[static_cast<std::size_t>(i)];
@@ -598,10 +605,10 @@ std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays) {
     if (r.recording->t.empty()) throw InputError(which + "the recording has no samples");
     if (!device_ticks(*r.world, r.options) || !steps_in_launches(r.options))
       throw InputError(which + "a batch runs --backend cuda in async mode with the device tick and no mesh frames");
-    share = std::min(share, batch_share(*r.world, count));
+    share = std::min(share, batch_share(*r.world, running_at_once));
   }
   if (count > 0 && share < 2)
-    throw InputError("a batch of " + std::to_string(count) + " replays: this device runs at most " +
+    throw InputError("a batch of " + std::to_string(running_at_once) + " replays at once: this device runs at most " +
                      std::to_string(max_batch_replays(*replays[0].world)) + " of this scene at once");
   std::vector<BatchOutcome> out(static_cast<std::size_t>(count));
   std::vector<std::unique_ptr<DeviceReplay>> running(static_cast<std::size_t>(count));
@@ -624,18 +631,25 @@ std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays) {
     attempt(i, [&] {
       running[static_cast<std::size_t>(i)] =
           std::make_unique<DeviceReplay>(*r.world, *r.recording, options[static_cast<std::size_t>(i)], *r.observer);
-      running[static_cast<std::size_t>(i)]->start();
       return true;
     });
   }
-  for (bool any = true; any;) {
-    any = false;
+  // Every replay is made before any runs (their set-up, the kernels' attributes), then at most
+  // at_once run side by side, the next starting when one ends.
+  int started = 0;
+  auto unfinished = [&] { return std::any_of(running.begin(), running.end(), [](const auto& r) { return r != nullptr; }); };
+  while (unfinished()) {
+    int active = 0;
     for (int i = 0; i < count; ++i) {
       auto& r = running[static_cast<std::size_t>(i)];
       if (!r) continue;
-      if (attempt(i, [&] { return r->launch_next(); })) {
-        any = true;
-      } else if (r) {
+      if (i >= started) {
+        if (active >= running_at_once) break;
+        r->start();
+        started = i + 1;
+      }
+      ++active;
+      if (!attempt(i, [&] { return r->launch_next(); }) && r) {
         out[static_cast<std::size_t>(i)].summary = r->finish();
         r.reset();
       }
@@ -646,7 +660,7 @@ std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays) {
 #else
 int max_batch_replays(const World&) { return 0; }
 
-std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays) {
+std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays, int) {
   if (replays.empty()) return {};
   throw InputError("a batch of replays runs on the CUDA backend, which this build does not have");
 }

@@ -110,14 +110,16 @@ struct BatchOutcome {
   std::string error;  ///< empty: the replay ran to its end (or its observer stopped it)
 };
 
-/// Replays several device replays on one GPU at once (docs/CUDA.md, "Many replays on one GPU"):
-/// each has its own streams, tick kernel and physical steps, the device's resident tick blocks are
-/// split between them (ReplayOptions::device_blocks), and the calling thread feeds them in turn,
-/// one launch of ~100 ticks each, so that the device runs every replay's launches side by side.
-/// Each replay's outputs are bitwise those of the same replay run alone. A replay that fails (its
-/// error in its outcome) leaves the others running. Throws InputError naming the replay (its index)
-/// when one cannot run this way, or the CUDA backend is missing.
-std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays);
+/// Replays several device replays in one process on one GPU (docs/CUDA.md, "Many replays on one
+/// GPU"): every replay is set up first, then `at_once` of them run side by side, the next starting
+/// when one ends. Each has its own streams, tick kernel and physical steps; the device's resident
+/// tick blocks are split between those that run at once (ReplayOptions::device_blocks), and the
+/// calling thread feeds them in turn, one launch of ~100 ticks each. Each replay's outputs are
+/// bitwise those of the same replay run alone. A replay that fails (its error in its outcome)
+/// leaves the others running. Throws InputError naming the replay (its index) when one cannot run
+/// this way, when at_once is more than the device holds, or without the CUDA backend.
+inline constexpr int kBatchAtOnce = 2;  ///< the fastest measured (docs/PERFORMANCE.md, "Many replays on one GPU")
+std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays, int at_once = kBatchAtOnce);
 
 /// The most replays replay_batch runs at once for this world (every replay's tick kernel needs at
 /// least 2 resident blocks, and the physical steps a share of the device beside them); 0 without

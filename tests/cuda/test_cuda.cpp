@@ -757,15 +757,24 @@ TEST(CudaReplay, BatchMatchesReplaysRunAlone) {
   std::vector<Trace> full(static_cast<size_t>(most));
   std::vector<BatchReplay> many;
   for (int k = 0; k < most; ++k) many.push_back({in[0].world.get(), &in[0].recording, opt[0], &full[static_cast<size_t>(k)]});
-  const std::vector<BatchOutcome> out_many = replay_batch(many);
+  const std::vector<BatchOutcome> out_many = replay_batch(many, most);
   for (int k = 0; k < most; ++k) {
     EXPECT_EQ(out_many[static_cast<size_t>(k)].error, "");
     ASSERT_EQ(full[static_cast<size_t>(k)].force.size(), alone[0].force.size());
     EXPECT_EQ(std::memcmp(full[static_cast<size_t>(k)].force.data(), alone[0].force.data(), alone[0].force.size() * sizeof(Vec3d)), 0) << k;
   }
-  // One more than that is refused in one line, before any work.
+  // One more than that at once is refused in one line, before any work; at the default, in turns.
   many.push_back(many.front());
-  EXPECT_THROW(replay_batch(many), InputError);
+  EXPECT_THROW(replay_batch(many, most + 1), InputError);
+  many.resize(6);
+  for (Trace& t : full) t = Trace{};
+  const std::vector<BatchOutcome> out_turns = replay_batch(many);
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(out_turns[static_cast<size_t>(k)].error, "");
+    EXPECT_EQ(out_turns[static_cast<size_t>(k)].summary.ticks, static_cast<std::int64_t>(alone[0].force.size()));
+    ASSERT_EQ(full[static_cast<size_t>(k)].force.size(), alone[0].force.size());
+    EXPECT_EQ(std::memcmp(full[static_cast<size_t>(k)].force.data(), alone[0].force.data(), alone[0].force.size() * sizeof(Vec3d)), 0) << k;
+  }
   // A replay the batch cannot run (lockstep) is refused with its index.
   batch[2].options.mode = Mode::Lockstep;
   try {

@@ -268,7 +268,7 @@ std::vector<BatchLine> read_batch_file(const std::string& file, bool quiet) {
 
 /// ebh replay --batch FILE: every line's replay on one GPU at once (replay_batch). Everything is
 /// checked and loaded before any replay runs; the worlds are built on several threads.
-void run_batch(const ReplayArgs& top, const std::string& file) {
+void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   if (!top.scene.empty() || !top.recording.empty() || !top.out.empty() || !top.overrides.empty())
     throw InputError("--batch " + file + ": give each replay's scene, recording, output and options on its line of the file");
   using Clock = std::chrono::steady_clock;
@@ -338,7 +338,7 @@ void run_batch(const ReplayArgs& top, const std::string& file) {
     batch[i] = {p.in.world.get(), &p.in.recording, p.opt, p.writer.get()};
   }
   const auto t1 = Clock::now();
-  const std::vector<BatchOutcome> outcomes = replay_batch(batch);
+  const std::vector<BatchOutcome> outcomes = replay_batch(batch, at_once);
   const auto t2 = Clock::now();
   std::size_t failed = 0;
   double virtual_s = 0;
@@ -362,22 +362,26 @@ void run_batch(const ReplayArgs& top, const std::string& file) {
   }
   const double load = std::chrono::duration<double>(t1 - t0).count(), run = std::chrono::duration<double>(t2 - t1).count();
   if (!top.quiet)
-    std::printf("batch of %zu replays on one GPU: virtual %.3f s in %.3f s wall (%.3f s loading): %.2fx real time in total "
-                "(%.2fx from the start)\n",
-                B, virtual_s, run, load, run > 0 ? virtual_s / run : 0.0, virtual_s / (load + run));
+    std::printf("batch of %zu replays on one GPU, %d at once: virtual %.3f s in %.3f s wall (%.3f s loading): %.2fx real "
+                "time in total (%.2fx from the start)\n",
+                B, std::min(at_once, static_cast<int>(B)), virtual_s, run, load, run > 0 ? virtual_s / run : 0.0,
+                virtual_s / (load + run));
   if (failed > 0) throw InputError("--batch " + file + ": " + std::to_string(failed) + " of " + std::to_string(B) + " replays failed");
 }
 
 void setup(CLI::App& root) {
   auto args = std::make_shared<ReplayArgs>();
   auto batch = std::make_shared<std::string>();
+  auto at_once = std::make_shared<int>(kBatchAtOnce);
   CLI::App* c = root.add_subcommand("replay", "Replay a recorded device trajectory through the two-rate solver");
   add_replay_options(c, *args);
   c->add_option("--batch", *batch,
                 "Replay every line of FILE (the arguments of an `ebh replay` each) on one GPU at once (--backend cuda, "
                 "async, no frames)");
-  c->callback([args, batch] {
-    if (!batch->empty()) return run_batch(*args, *batch);
+  c->add_option("--at-once", *at_once, "With --batch: replays that run side by side (default 2; the others wait their turn)")
+      ->check(CLI::Range(1, 1024));
+  c->callback([args, batch, at_once] {
+    if (!batch->empty()) return run_batch(*args, *batch, *at_once);
     if (args->scene.empty() || args->recording.empty() || args->out.empty())
       throw InputError("ebh replay: expected SCENE RECORDING -o OUT.h5 (or --batch FILE); see --help");
     run_replay(*args);

@@ -295,4 +295,22 @@ int remove_unreferenced_vertices(TetMesh& mesh) {
   return removed;
 }
 
+int count_inverted_tets(std::span<const Vec3d> x, std::span<const Tet> tets, std::span<const signed char> rest_sign) {
+  int inverted = 0;
+  for (std::size_t t = 0; t < tets.size(); ++t) {
+    const Tet& k = tets[t];
+    inverted += signed_volume(x[k[0]], x[k[1]], x[k[2]], x[k[3]]) * rest_sign[t] <= 0;
+  }
+  return inverted;
+}
+
+std::vector<signed char> rest_signs(std::span<const Vec3d> rest, std::span<const Tet> tets) {
+  std::vector<signed char> sign(tets.size());
+  for (std::size_t t = 0; t < tets.size(); ++t) {
+    const Tet& k = tets[t];
+    sign[t] = signed_volume(rest[k[0]], rest[k[1]], rest[k[2]], rest[k[3]]) < 0 ? -1 : 1;
+  }
+  return sign;
+}
+
 }  // namespace ebh

@@ -2,6 +2,7 @@
 // Checks a tet mesh before it becomes a physical mesh: what is fatal (the solver cannot run on
 // it) and what deserves a warning, plus element quality.
 #include <array>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -57,6 +58,11 @@ struct MeshReport {
 /// non-manifold faces and boundary edges, unreferenced and duplicate vertices (same position up
 /// to 1e-12 of the bounding box diagonal, found with a spatial hash), element quality.
 MeshReport validate_mesh(const TetMesh& mesh);
+
+/// How many of `tets` are inverted or flat at positions x: signed volume of the opposite sign to
+/// (or zero against) `rest_sign`, each tet's sign at rest (+1 or -1; rest_signs computes them).
+int count_inverted_tets(std::span<const Vec3d> x, std::span<const Tet> tets, std::span<const signed char> rest_sign);
+std::vector<signed char> rest_signs(std::span<const Vec3d> rest, std::span<const Tet> tets);
 
 /// How orient_tets found the tets.
 struct Orientation {

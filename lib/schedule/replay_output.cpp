@@ -11,6 +11,7 @@
 #include "ebh/commit.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
+#include "mesh/quality.hpp"
 #include "io/sha256.hpp"
 
 namespace ebh {
@@ -207,7 +208,7 @@ std::string cpu_description() {
 
 ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, const ReplayMetadata& meta,
                            std::int64_t expected_ticks, bool frames)
-    : out_(out_path), frames_(frames) {
+    : out_(out_path), rest_sign_(rest_signs(world.physical_mesh.rest, world.physical_mesh.tets)), frames_(frames) {
   const auto n = static_cast<std::size_t>(expected_ticks);
   for (auto* v : {&t_, &pen_, &pen_h_, &jaw_, &tm_total_, &tm_device_, &tm_sync_, &tm_grasp_, &tm_vmesh_, &tm_vtool_,
                   &tm_output_})
@@ -283,6 +284,10 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
                    p.report.residual > params.tolerance;
   pt_.push_back(t);
   iterations_.push_back(p.report.iterations);
+  const int inverted = count_inverted_tets(p.mesh.x, w.physical_mesh.tets, rest_sign_);
+  inverted_.push_back(inverted);
+  max_inverted_ = std::max(max_inverted_, inverted);
+  if (inverted > 0 && first_inverted_t_ < 0) first_inverted_t_ = t;
   residual_.push_back(p.report.residual);
   reduction_.push_back(p.report.residual_reduction);
   recovered_.push_back(p.recovered ? 1 : 0);
@@ -337,6 +342,7 @@ void ReplayWriter::commit(const ReplaySummary& s) {
   unit(pg.write<double>("residual", residual_, {k}), "1 (unbalanced force / mesh weight)");
   unit(pg.write<double>("residual_reduction", reduction_, {k}), "1 (last / first iteration)");
   unit(pg.write<std::uint8_t>("recovered", recovered_, {k}), "1 (redone with the direct solve)");
+  unit(pg.write<std::int32_t>("inverted", inverted_, {k}), "tets (inverted or flat after the step)");
   h5::Group tg = f.create_group("timing");
   unit(tg.write<double>("haptic_step_s", tm_total_, {n}), "s");
   unit(tg.write<double>("device_s", tm_device_, {n}), "s");

@@ -82,6 +82,9 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
   /// Steps that ran solver.physical_max_iterations and still left more than the tolerance.
   std::int64_t capped_steps() const { return capped_steps_; }
+  /// The most physical tets inverted (or flat) after one step, and the first step's time with any.
+  int max_inverted_tets() const { return max_inverted_; }
+  double first_inverted_t() const { return first_inverted_t_; }
   /// The physical tool's depth in the tissue at the first tick (m; 0 before any tick).
   double first_penetration_physical() const { return pen_h_.empty() ? 0.0 : pen_h_.front(); }
 
@@ -94,7 +97,10 @@ class ReplayWriter : public ReplayObserver {
   std::vector<double> tm_total_, tm_device_, tm_sync_, tm_grasp_, tm_vmesh_, tm_vtool_, tm_output_;
   // /physical per step
   std::vector<double> pt_, residual_, reduction_, tm_step_, tm_local_, tm_global_;
-  std::vector<std::int32_t> iterations_;
+  std::vector<std::int32_t> iterations_, inverted_;
+  std::vector<signed char> rest_sign_;  ///< each physical tet's orientation at rest
+  int max_inverted_ = 0;
+  double first_inverted_t_ = -1;
   std::vector<std::uint8_t> recovered_;
   // /frames
   bool frames_ = false;

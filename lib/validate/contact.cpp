@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "mesh/quality.hpp"
 #include "metrics/signal.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"
@@ -69,10 +70,16 @@ struct Trace : ReplayObserver {
   std::vector<Vec3d> force;
   std::vector<double> penetration;
   std::vector<std::uint8_t> clamped;
+  std::vector<signed char> rest_sign;
+  int inverted = 0;  // the most physical tets inverted after a step
   void on_tick(const World&, const HapticSide& h, double) override {
     force.push_back(h.output.force);
     penetration.push_back(h.penetration);
     clamped.push_back(h.output.force_clamped ? 1 : 0);
+  }
+  void on_step(const World& w, const PhysicalSide& p, double) override {
+    if (rest_sign.empty()) rest_sign = rest_signs(w.physical_mesh.rest, w.physical_mesh.tets);
+    inverted = std::max(inverted, count_inverted_tets(p.mesh.x, w.physical_mesh.tets, rest_sign));
   }
 };
 
@@ -113,6 +120,7 @@ ContactPush contact_push_through(const std::string& contact, double speed) {
     p.peak = std::max(p.peak, f);
   }
   if (last > 0) p.force_at_depth = norm(tr.force[last - 1]);
+  p.inverted = tr.inverted;
   return p;
 }
 
@@ -187,6 +195,7 @@ ValidationResult run_contact(const ValidationOptions& options) {
       row.set("peak_force_n", p.peak);
       row.set("force_at_depth_n", p.force_at_depth);
       row.set("reached_force_limit", p.clamped);
+      row.set("max_inverted_tets", p.inverted);
       pushes.push(std::move(row));
       if (contact == std::string("surface")) {
         passed = passed && p.fall <= kMaxFall && p.penetration < kMaxPenetration;

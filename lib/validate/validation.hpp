@@ -49,6 +49,7 @@ struct ContactPush {
   double peak = 0;            ///< N
   double force_at_depth = 0;  ///< N, when the device reaches full depth
   bool clamped = false;       ///< the force reached the device's limit
+  int inverted = 0;           ///< the most physical tets inverted after a step (ARAP gives way)
 };
 ContactPush contact_push_through(const std::string& contact, double speed);
 /// Open forceps slid across a "flat" or "curved" surface with both contact models: the force's

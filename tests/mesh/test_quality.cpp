@@ -25,6 +25,33 @@ TEST(MeanRatio, RegularAndFlat) {
   EXPECT_NEAR(tet_mean_ratio({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}), 12.0 * std::cbrt(0.25) / 9.0, 1e-15);
 }
 
+/// A deformed mesh's inverted tets are counted against each tet's orientation at rest, whichever
+/// sign that is: a vertex pushed through the opposite face inverts every tet it belongs to; a
+/// flattened tet counts too; moving the whole mesh rigidly (a rotation) inverts none.
+TEST(InvertedTets, CountedAgainstTheRestOrientation) {
+  const TetMesh m = cube();
+  const std::vector<Tet>& tets = m.tets;
+  std::vector<Vec3d> x = m.vertices;
+  const std::vector<signed char> sign = rest_signs(x, tets);
+  EXPECT_EQ(count_inverted_tets(x, tets, sign), 0);
+  std::vector<signed char> flipped(sign);
+  for (signed char& s : flipped) s = static_cast<signed char>(-s);
+  EXPECT_EQ(count_inverted_tets(x, tets, flipped), static_cast<int>(tets.size()));  // every one, the other way round
+  std::vector<Vec3d> turned(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) turned[i] = {-x[i].y, x[i].x, x[i].z};  // 90 degrees about z
+  EXPECT_EQ(count_inverted_tets(turned, tets, sign), 0);
+  // Tet 0's first corner through the plane of the other three: tet 0 inverts (and maybe its neighbours).
+  const Tet& t0 = tets[0];
+  const Vec3d centroid = (x[t0[1]] + x[t0[2]] + x[t0[3]]) / 3.0;
+  std::vector<Vec3d> pushed = x;
+  pushed[t0[0]] = centroid + (centroid - x[t0[0]]);
+  const int inverted = count_inverted_tets(pushed, tets, sign);
+  EXPECT_GE(inverted, 1);
+  EXPECT_LT(signed_volume(pushed[t0[0]], pushed[t0[1]], pushed[t0[2]], pushed[t0[3]]) * sign[0], 0.0);
+  pushed[t0[0]] = centroid;  // flat
+  EXPECT_GE(count_inverted_tets(pushed, tets, sign), 1);
+}
+
 TEST(Validate, CleanCube) {
   const TetMesh m = cube();
   const MeshReport r = validate_mesh(m);

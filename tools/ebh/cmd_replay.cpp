@@ -151,6 +151,13 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  "more than solver.physical_tolerance (%g mesh weights) unbalanced (/physical/residual)\n",
                  a.out.c_str(), static_cast<long long>(writer.capped_steps()), static_cast<long long>(s.steps),
                  world.physical_params.max_iterations, world.physical_params.tolerance);
+  if (writer.max_inverted_tets() > 0)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: up to %d of the physical mesh's %d tets were inverted after a step, the first at "
+                 "t = %.3f s (/physical/inverted): the tissue there was deformed past what E_vol (ARAP, with no volume "
+                 "term) resists, and the force is not a physical response while they are (docs/MODEL.md, \"Inverted "
+                 "tets\")\n",
+                 a.out.c_str(), writer.max_inverted_tets(), world.physical_mesh.num_tets, writer.first_inverted_t());
   // From the recording's first sample only: a window may well start in contact.
   const std::string start = a.start == 0 ? start_warning(writer.first_penetration_physical()) : "";
   if (!start.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), start.c_str());

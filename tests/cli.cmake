@@ -297,6 +297,14 @@ add_test(NAME cli.replay.no_arguments
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube"
     "-DEXPECT=expected SCENE RECORDING -o OUT.h5" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.replay.batch_missing_file cli.replay.batch_with_scene cli.replay.no_arguments PROPERTIES LABELS cli)
+# Virtual edges stiffer than the coupling to the physical mesh: the async loop can go unstable.
+add_test(NAME cli.replay.k_s_over_k_svc_warns
+  COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/k_s.h5 --set stiffness.k_s=100 --duration 0.01 -q)
+set_tests_properties(cli.replay.k_s_over_k_svc_warns PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "warning: .*gap.yaml: stiffness.k_s is 2 times k_svc: in async mode")
+add_test(NAME cli.replay.k_s_under_k_svc_quiet
+  COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/k_s_ok.h5 --set stiffness.k_s=50 --duration 0.01 -q)
+set_tests_properties(cli.replay.k_s_under_k_svc_quiet PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "times k_svc")
 # A recording in mm imported as metres lands a thousand scene sizes away: a unit mistake.
 add_test(NAME cli.replay.make_unit_mistake
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_REPLAY_OUT}/unit_mistake_rec.h5 --scene tube --unit m)

@@ -646,6 +646,17 @@ Scene build_scene(SceneSpec spec_in) {
                              " kg/m^3 is outside soft tissue's 100 .. 3000");
   if (norm(spec.gravity) > 2 * 9.81)
     scene.warnings.push_back(file.string() + ": |gravity| = " + std::to_string(norm(spec.gravity)) + " m/s^2 is over 2 g");
+  // Each mesh follows the other's result one physical period late (async mode): when the virtual
+  // mesh's edges outweigh its pull towards the physical mesh, the two drive each other unstable
+  // (docs/MODEL.md, "k_s against k_svc").
+  if (spec.stiffness.k_svc > 0 && spec.stiffness.k_s > spec.stiffness.k_svc) {
+    char ratio[32];
+    std::snprintf(ratio, sizeof ratio, "%.3g", spec.stiffness.k_s / spec.stiffness.k_svc);
+    scene.warnings.push_back(file.string() + ": stiffness.k_s is " + ratio +
+                             " times k_svc: in async mode (the default) the virtual and the physical mesh can drive "
+                             "each other unstable (the gap and tube scenes diverge with no tool contact at 2 times); "
+                             "raise k_svc with k_s, or replay --mode lockstep (docs/MODEL.md, \"k_s against k_svc\")");
+  }
   const std::string mesh_file = spec.physical_mesh.string();
 
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and

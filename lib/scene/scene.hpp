@@ -71,6 +71,9 @@
 //                                   #   those displaced from their coupling targets by more than this
 //                                   #   (and their neighbours); the rest follow the targets. 0: the
 //                                   #   whole virtual mesh (CPU backend; docs/MODEL.md, "The active region")
+//     sleep: 0                      # length (unit): skip a physical step while nothing moved by more
+//                                   #   than this since the last one (CPU backend; docs/MODEL.md,
+//                                   #   "Sleeping"); 0: every step runs
 //   contact: vertices               # vertices | surface: E_con [3] on the virtual mesh's vertices (the
 //                                   # paper) or on points of its triangles (docs/MODEL.md, "Contact
 //                                   # against the surface")
@@ -177,6 +180,11 @@ struct SolverSpec {
   /// its neighbours; 0: every virtual vertex is iterated (the full solve).
   double active_region = 0;
   bool active_region_given = false;  ///< the scene file or an override names it (the CUDA backend warns then)
+  /// The sleeping physical mesh (CPU backend; docs/MODEL.md, "Sleeping"): a physical step is
+  /// skipped, the state held, while the last step moved no vertex and the virtual mesh moved no
+  /// vertex since then by more than this length (m), and the last step met the tolerance; 0: never.
+  double sleep = 0;
+  bool sleep_given = false;
 };
 
 /// What E_con [3] acts on (the scene's `contact`).

@@ -291,6 +291,8 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
   residual_.push_back(p.report.residual);
   reduction_.push_back(p.report.residual_reduction);
   recovered_.push_back(p.recovered ? 1 : 0);
+  slept_.push_back(p.slept ? 1 : 0);
+  slept_steps_ += p.slept ? 1 : 0;
   recovered_steps_ += p.recovered ? 1 : 0;
   tm_step_.push_back(p.report.time_s);
   tm_local_.push_back(p.report.local_s);
@@ -343,6 +345,7 @@ void ReplayWriter::commit(const ReplaySummary& s) {
   unit(pg.write<double>("residual_reduction", reduction_, {k}), "1 (last / first iteration)");
   unit(pg.write<std::uint8_t>("recovered", recovered_, {k}), "1 (redone with the direct solve)");
   unit(pg.write<std::int32_t>("inverted", inverted_, {k}), "tets (inverted or flat after the step)");
+  unit(pg.write<std::uint8_t>("slept", slept_, {k}), "1 (skipped, the state held: solver.sleep)");
   h5::Group tg = f.create_group("timing");
   unit(tg.write<double>("haptic_step_s", tm_total_, {n}), "s");
   unit(tg.write<double>("device_s", tm_device_, {n}), "s");

@@ -82,6 +82,8 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
   /// Steps that ran solver.physical_max_iterations and still left more than the tolerance.
   std::int64_t capped_steps() const { return capped_steps_; }
+  /// Physical steps skipped while the physical mesh slept (solver.sleep).
+  std::int64_t slept_steps() const { return slept_steps_; }
   /// The most physical tets inverted (or flat) after one step, and the first step's time with any.
   int max_inverted_tets() const { return max_inverted_; }
   double first_inverted_t() const { return first_inverted_t_; }
@@ -101,7 +103,8 @@ class ReplayWriter : public ReplayObserver {
   std::vector<signed char> rest_sign_;  ///< each physical tet's orientation at rest
   int max_inverted_ = 0;
   double first_inverted_t_ = -1;
-  std::vector<std::uint8_t> recovered_;
+  std::vector<std::uint8_t> recovered_, slept_;
+  std::int64_t slept_steps_ = 0;
   // /frames
   bool frames_ = false;
   h5::Appender<double> f_t_, f_jaw_;

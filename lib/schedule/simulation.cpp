@@ -246,6 +246,12 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->tool = build_tool(w->scene.spec.tool);
   if (w->scene.spec.contact == ContactModel::Surface)
     attach_surface_contact(w->tool, w->virtual_mesh.triangles, w->virtual_mesh.rest, w->scene.spec.stiffness.k_con);
+  if (backend == Backend::Cuda && w->scene.spec.solver.sleep > 0) {
+    if (w->scene.spec.solver.sleep_given)
+      w->scene.warnings.push_back(where + ": key 'solver.sleep': the CUDA backend runs every physical step and ignores "
+                                        "it (docs/MODEL.md, \"Sleeping\")");
+    w->scene.spec.solver.sleep = 0;
+  }
   if (backend == Backend::Cuda && w->scene.spec.solver.active_region > 0) {
     if (w->scene.spec.solver.active_region_given)
       w->scene.warnings.push_back(where + ": key 'solver.active_region': the CUDA backend iterates the whole virtual mesh "
@@ -382,6 +388,26 @@ void check_physical_step(const World& world, const PhysicalSide& p) {
   stop_on_physical_problem(world, p, physical_state_problem(world.physical_mesh, p.mesh.x, p.report));
 }
 
+namespace {
+/// Whether the physical step may be skipped (SolverSpec::sleep): a step ran before and met the
+/// stopping rule's tolerance (when there is one), it moved no vertex by more than the sleep length
+/// (|v| h, the state it ends in being at rest within that), and no virtual vertex, the step's only
+/// input that changes, moved by more than the sleep length since that step. A contact or a grasp
+/// moves the virtual mesh and so wakes it.
+bool physical_mesh_asleep(const World& world, const PhysicalSide& p, const HapticSnapshot& snapshot) {
+  const double d = world.scene.spec.solver.sleep, h = world.h_physical;
+  if (p.step == 0 || p.ran_with.size() != snapshot.q.size() || p.recovered) return false;
+  const double tolerance = world.physical_params.tolerance;  // 0: fixed iterations, no residual test
+  if (tolerance > 0 && !(p.report.residual <= tolerance)) return false;
+  const double d2 = d * d;
+  for (const Vec3d& v : p.mesh.v)
+    if (squared_norm(v) * (h * h) > d2) return false;
+  for (std::size_t j = 0; j < snapshot.q.size(); ++j)
+    if (squared_norm(snapshot.q[j] - p.ran_with[j]) > d2) return false;
+  return true;
+}
+}  // namespace
+
 void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot) {
 #if EBH_HAVE_CUDA
   if (p.cuda) {
@@ -393,6 +419,17 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
 #endif
   const PhysicalModel& model = world.physical_mesh;
   const SolverSpec& solver = world.scene.spec.solver;
+  p.slept = solver.sleep > 0 && physical_mesh_asleep(world, p, snapshot);
+  if (p.slept) {  // the state held, at rest
+    for (Vec3d& v : p.mesh.v) v = Vec3d{};
+    p.report.iterations = 0;
+    p.report.residual_reduction = 1;
+    p.report.time_s = p.report.local_s = p.report.global_s = 0;
+    p.recovered = false;
+    ++p.step;
+    return;
+  }
+  if (solver.sleep > 0) p.ran_with = snapshot.q;  // keeps its capacity: no allocation after the first step
   const bool can_recover =
       solver.recovery == SolverSpec::Recovery::Direct && solver.method != SolverSpec::Method::Direct;
   if (can_recover) p.start = p.mesh;  // the vectors keep their capacity: no allocation after the first step

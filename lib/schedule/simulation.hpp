@@ -116,6 +116,10 @@ struct PhysicalSide {
   bool recovered = false;
   PhysicalState start;
   std::shared_ptr<const PhysicalDirectSolver> recovery_direct;
+  /// Sleeping (SolverSpec::sleep, CPU backend): the last step was skipped and the state held; the
+  /// virtual mesh the last step that ran was given.
+  bool slept = false;
+  std::vector<Vec3d> ran_with;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda: the step runs here and mesh.x is its copy of x (mesh.v and mesh.rotation stay
   /// on the device; docs/CUDA.md).

@@ -167,6 +167,9 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                 mode_name(p.opt.mode), static_cast<long long>(s.ticks), static_cast<long long>(s.steps));
     if (world.settle_steps > 0)
       std::printf("  started from the static equilibrium under gravity (%d static steps)\n", world.settle_steps);
+    if (writer.slept_steps() > 0)
+      std::printf("  %lld of %lld physical steps skipped while the physical mesh slept (solver.sleep)\n",
+                  static_cast<long long>(writer.slept_steps()), static_cast<long long>(s.steps));
     std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
                 s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0);
     std::printf("  peak force %.3f N (%lld ticks at the %.1f N limit), max penetration %.3f mm\n",

@@ -1,0 +1,130 @@
+// The sleeping physical mesh in whole replays (solver.sleep; schedule/simulation.cpp): 0 runs every
+// step, a step is skipped only while nothing moved, the tool's contact wakes the mesh, replays stay
+// bitwise reproducible across runs and OpenMP thread counts, and the forces stay the full solve's.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "schedule/replay_inputs.hpp"
+#include "schedule/scheduler.hpp"
+
+using namespace ebh;
+
+namespace {
+
+struct Capture : ReplayObserver {
+  std::vector<Vec3d> force;
+  std::vector<int> contacts;           // per tick
+  std::vector<int> slept, iterations;  // per step
+  std::vector<Vec3d> x;                // the last step's
+  void on_tick(const World&, const HapticSide& h, double) override {
+    force.push_back(h.output.force);
+    contacts.push_back(h.contact_count);
+  }
+  void on_step(const World&, const PhysicalSide& p, double) override {
+    slept.push_back(p.slept ? 1 : 0);
+    iterations.push_back(p.report.iterations);
+    x = p.mesh.x;
+  }
+  int slept_steps() const {
+    int n = 0;
+    for (const int s : slept) n += s;
+    return n;
+  }
+};
+
+/// tube_insert from `start` for `duration` s, async, with solver.sleep = `sleep` (mm, the tube's unit).
+Capture run(const std::string& sleep, double start, double duration, int threads = 0) {
+  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.sleep=" + sleep}, std::nullopt,
+                                             std::nullopt, false);
+  ReplayOptions opt;
+  opt.start = start;
+  opt.duration = duration;
+  const int saved = omp_get_max_threads();
+  if (threads > 0) omp_set_num_threads(threads);
+  Capture c;
+  replay(*in.world, in.recording, opt, c);
+  omp_set_num_threads(saved);
+  return c;
+}
+
+double max_force_difference(const Capture& a, const Capture& b) {
+  double m = 0;
+  for (std::size_t n = 0; n < a.force.size() && n < b.force.size(); ++n) m = std::max(m, norm(a.force[n] - b.force[n]));
+  return m;
+}
+
+}  // namespace
+
+// The tool's approach (no contact in the first 2 s): after the first steps the mesh sleeps, and the
+// forces are the full solve's to round-off (a held step differs from the full one by less than the
+// sleep length, 1 um here, whose force through k_svc and k_vcs is far below a micronewton).
+TEST(Sleeping, ARestingMeshSleepsAndTheForcesAreTheFullSolves) {
+  const Capture full = run("0", 0.0, 2.0);
+  const Capture asleep = run("0.001", 0.0, 2.0);
+  ASSERT_EQ(full.force.size(), asleep.force.size());
+  EXPECT_EQ(full.slept_steps(), 0);
+  EXPECT_GT(asleep.slept_steps(), static_cast<int>(asleep.slept.size()) / 4) << "the approach must let the mesh sleep";
+  for (std::size_t k = 0; k < asleep.slept.size(); ++k)
+    if (asleep.slept[k]) EXPECT_EQ(asleep.iterations[k], 0) << "step " << k;
+  EXPECT_EQ(asleep.slept.front(), 0) << "the first step always runs";
+  EXPECT_LT(max_force_difference(full, asleep), 1e-9);
+}
+
+// In contact the tool moves the virtual mesh by more than the sleep length every period: no step
+// that follows a tick in contact sleeps, and the replay matches the full solve.
+TEST(Sleeping, ContactWakesTheMesh) {
+  const Capture full = run("0", 2.8, 0.6);
+  const Capture asleep = run("0.001", 2.8, 0.6);
+  const int N = static_cast<int>(asleep.force.size() / std::max<std::size_t>(asleep.slept.size(), 1));
+  int in_contact = 0, slept_in_contact = 0;
+  for (std::size_t k = 1; k < asleep.slept.size(); ++k) {
+    bool contact = false;  // any tick of the period before step k
+    for (std::size_t n = (k - 1) * N; n < k * N && n < asleep.contacts.size(); ++n) contact = contact || asleep.contacts[n] > 0;
+    in_contact += contact;
+    slept_in_contact += contact && asleep.slept[k];
+  }
+  EXPECT_GT(in_contact, 20) << "the window must be in contact";
+  EXPECT_EQ(slept_in_contact, 0);
+  EXPECT_LT(max_force_difference(full, asleep), 1e-9);
+}
+
+// Whether a step sleeps is decided from the replay's own deterministic state: the same bits on a
+// second run and with one OpenMP thread instead of two.
+TEST(Sleeping, ReplaysStayBitwiseReproducible) {
+  const Capture a = run("0.01", 0.0, 1.5, 2);
+  const Capture b = run("0.01", 0.0, 1.5, 2);
+  const Capture c = run("0.01", 0.0, 1.5, 1);
+  ASSERT_GT(a.slept_steps(), 0);
+  for (const Capture* o : {&b, &c}) {
+    ASSERT_EQ(o->force.size(), a.force.size());
+    EXPECT_EQ(std::memcmp(o->force.data(), a.force.data(), a.force.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(o->slept, a.slept);
+    ASSERT_EQ(o->x.size(), a.x.size());
+    EXPECT_EQ(std::memcmp(o->x.data(), a.x.data(), a.x.size() * sizeof(Vec3d)), 0);
+  }
+}
+
+TEST(Sleeping, ANegativeLengthIsAnErrorNamingTheKey) {
+  try {
+    load_replay_inputs("tube", "tube_insert", {"solver.sleep=-1"}, std::nullopt, std::nullopt, false);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("solver.sleep"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Sleeping, TheCudaBackendWarnsAndIgnoresIt) {
+  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.sleep=0.01"}, std::nullopt, std::nullopt,
+                                             false, Backend::Cuda);
+  EXPECT_EQ(in.world->scene.spec.solver.sleep, 0.0);
+  int warned = 0;
+  for (const std::string& w : in.world->scene.warnings)
+    if (w.find("key 'solver.sleep'") != std::string::npos && w.find('\n') == std::string::npos) ++warned;
+  EXPECT_EQ(warned, 1);
+}

@@ -45,17 +45,23 @@ std::vector<RoleFile> replay_input_files(const std::string& scene, const std::st
   return files;
 }
 
-ReadReplay read_replay_inputs(const std::string& scene, const std::string& recording,
-                              const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
-                              std::optional<double> physical_hz, bool allow_outside, const ReplayTransformOptions& transforms) {
-  ReadReplay out;
-  LoadedReplay& r = out.replay;
-  r.recording_path = resolve_recording_path(recording);
-  r.recording = read_recording(r.recording_path);
+RecordingFile read_replay_recording(const std::string& recording) {
+  RecordingFile r;
+  r.path = resolve_recording_path(recording);
+  r.recording = read_recording(r.path);
+  return r;
+}
+
+LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& scene,
+                               const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
+                               std::optional<double> physical_hz, bool allow_outside, Backend backend,
+                               const ReplayTransformOptions& transforms) {
+  LoadedReplay r;
+  r.recording_path = std::move(recording.path);
+  r.recording = std::move(recording.recording);
   Scene s = load_scene(resolve_scene_path(scene), overrides);
   r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, s.spec);
-  out.haptic_hz = haptic_hz.value_or(s.spec.haptic_hz);
-  out.physical_hz = physical_hz.value_or(s.spec.physical_hz);
+  const double hz_h = haptic_hz.value_or(s.spec.haptic_hz), hz_p = physical_hz.value_or(s.spec.physical_hz);
   const BoundingBox box = bounding_box(s.physical.vertices);
   if (!allow_outside) {
     // The tool's handle may start well away from the tissue; a unit mistake (cm or mm read as
@@ -66,13 +72,7 @@ ReadReplay read_replay_inputs(const std::string& scene, const std::string& recor
   }
   if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
     r.warnings.push_back(r.recording_path + ": " + *w);
-  out.scene = std::make_unique<Scene>(std::move(s));
-  return out;
-}
-
-LoadedReplay build_replay(ReadReplay&& read, Backend backend) {
-  LoadedReplay r = std::move(read.replay);
-  r.world = build_world(std::move(*read.scene), read.haptic_hz, read.physical_hz, backend);
+  r.world = build_world(std::move(s), hz_h, hz_p, backend);
   return r;
 }
 
@@ -80,8 +80,8 @@ LoadedReplay load_replay_inputs(const std::string& scene, const std::string& rec
                                 const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                 std::optional<double> physical_hz, bool allow_outside,
                                 Backend backend, const ReplayTransformOptions& transforms) {
-  return build_replay(read_replay_inputs(scene, recording, overrides, haptic_hz, physical_hz, allow_outside, transforms),
-                      backend);
+  return load_replay_scene(read_replay_recording(recording), scene, overrides, haptic_hz, physical_hz, allow_outside,
+                           backend, transforms);
 }
 
 }  // namespace ebh

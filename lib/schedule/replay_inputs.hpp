@@ -37,19 +37,18 @@ std::string resolve_recording_path(const std::string& name_or_path);
 std::vector<RoleFile> replay_input_files(const std::string& scene, const std::string& recording,
                                          const std::vector<std::string>& overrides);
 
-/// load_replay_inputs in two parts: read_replay_inputs reads the files and checks them (HDF5 and
-/// the mesh readers: one thread at a time), build_replay builds the world (no files: replays
-/// loaded together build their worlds on several threads).
-struct ReadReplay {
-  LoadedReplay replay;            ///< without its world
-  std::unique_ptr<Scene> scene;
-  double haptic_hz = 0, physical_hz = 0;
+/// load_replay_inputs in two parts: read_replay_recording reads the recording (HDF5: one thread
+/// at a time), load_replay_scene does the rest (the scene and its meshes, the checks, the world;
+/// no HDF5, so replays loaded together run it on several threads).
+struct RecordingFile {
+  std::string path;
+  Recording recording;
 };
-ReadReplay read_replay_inputs(const std::string& scene, const std::string& recording,
-                              const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
-                              std::optional<double> physical_hz, bool allow_outside,
-                              const ReplayTransformOptions& transforms = {});
-LoadedReplay build_replay(ReadReplay&& read, Backend backend);
+RecordingFile read_replay_recording(const std::string& recording);
+LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& scene,
+                               const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
+                               std::optional<double> physical_hz, bool allow_outside, Backend backend,
+                               const ReplayTransformOptions& transforms = {});
 
 /// Loads scene (name or path) with --set overrides, builds the world at the given rates (the
 /// scene's when empty), reads the recording, maps its poses to ebh's frames and checks that it

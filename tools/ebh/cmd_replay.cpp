@@ -296,17 +296,16 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   check_outputs(outputs, inputs);
   check_backend("cuda");
   const std::size_t B = lines.size();
-  std::vector<ReadReplay> read(B);
+  std::vector<RecordingFile> read(B);
   for (std::size_t i = 0; i < B; ++i) {
-    const ReplayArgs& a = lines[i].args;
     try {
-      read[i] = read_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz, a.allow_outside,
-                                   a.transforms);
+      read[i] = read_replay_recording(lines[i].args.recording);
     } catch (const InputError& e) {
       throw InputError(lines[i].where + ": " + e.what());
     }
   }
-  // The worlds (settling, the solvers' set-up) on up to one thread per core, one OpenMP thread each.
+  // The scenes, their meshes and the worlds (settling, the solvers' set-up) on up to one thread per
+  // core, one OpenMP thread each.
   std::vector<PreparedReplay> prepared(B);
   std::vector<std::string> errors(B);
   {
@@ -317,8 +316,10 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
       pool.emplace_back([&] {
         omp_set_num_threads(1);
         for (std::size_t i; (i = next++) < B;) {
+          const ReplayArgs& a = lines[i].args;
           try {
-            prepared[i].in = build_replay(std::move(read[i]), Backend::Cuda);
+            prepared[i].in = load_replay_scene(std::move(read[i]), a.scene, a.overrides, a.haptic_hz, a.physical_hz,
+                                               a.allow_outside, Backend::Cuda, a.transforms);
           } catch (const std::exception& e) {
             errors[i] = e.what();
           }

@@ -296,7 +296,11 @@ add_test(NAME cli.replay.batch_with_scene
 add_test(NAME cli.replay.no_arguments
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube"
     "-DEXPECT=expected SCENE RECORDING -o OUT.h5" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-set_tests_properties(cli.replay.batch_missing_file cli.replay.batch_with_scene cli.replay.no_arguments PROPERTIES LABELS cli)
+add_test(NAME cli.replay.at_once_without_batch
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_REPLAY_OUT}/at_once.h5;--at-once;3"
+    "-DEXPECT=--at-once requires --batch" -DOUTPUT=${EBH_REPLAY_OUT}/at_once.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.replay.batch_missing_file cli.replay.batch_with_scene cli.replay.no_arguments
+  cli.replay.at_once_without_batch PROPERTIES LABELS cli)
 # Virtual edges stiffer than the coupling to the physical mesh: the async loop can go unstable.
 add_test(NAME cli.replay.k_s_over_k_svc_warns
   COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/k_s.h5 --set stiffness.k_s=100 --duration 0.01 -q)

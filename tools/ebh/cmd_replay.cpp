@@ -386,11 +386,12 @@ void setup(CLI::App& root) {
   auto at_once = std::make_shared<int>(kBatchAtOnce);
   CLI::App* c = root.add_subcommand("replay", "Replay a recorded device trajectory through the two-rate solver");
   add_replay_options(c, *args);
-  c->add_option("--batch", *batch,
+  CLI::Option* batch_option = c->add_option("--batch", *batch,
                 "Replay every line of FILE (the arguments of an `ebh replay` each) on one GPU at once (--backend cuda, "
                 "async, no frames)");
   c->add_option("--at-once", *at_once, "With --batch: replays that run side by side (default 2; the others wait their turn)")
-      ->check(CLI::Range(1, 1024));
+      ->check(CLI::Range(1, 1024))
+      ->needs(batch_option);
   c->callback([args, batch, at_once] {
     if (!batch->empty()) return run_batch(*args, *batch, *at_once);
     if (args->scene.empty() || args->recording.empty() || args->out.empty())

@@ -28,9 +28,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// One replay in flight: its process, the read end of its stdout+stderr pipe and what it printed.
+/// A child in flight: its replays (one, or those of its `ebh replay --batch` file, in the file's
+/// line order), its process, the read end of its stdout+stderr pipe and what it printed.
 struct Child {
-  const SweepRun* run = nullptr;
+  std::vector<const SweepRun*> runs;
   pid_t pid = -1;
   int fd = -1;
   std::string text;
@@ -55,6 +56,33 @@ std::vector<std::string> replay_arguments(const SweepPlan& plan, const SweepRun&
   if (plan.duration > 0) a.insert(a.end(), {"--duration", shortest_number(plan.duration)});
   for (const std::string& s : run.set_arguments()) a.insert(a.end(), {"--set", s});
   return a;
+}
+
+/// One argument on a line of a --batch file (CLI11 splits the line as a shell would): quoted
+/// when it holds a blank or a quote.
+std::string batch_word(const std::string& a) {
+  if (!a.empty() && a.find_first_of(" \t\"'\\") == std::string::npos) return a;
+  std::string q = "\"";
+  for (const char ch : a) {
+    if (ch == '"' || ch == '\\') q += '\\';
+    q += ch;
+  }
+  return q + "\"";
+}
+
+/// The --batch file of `runs` (RunnerOptions::batch): line k + 1 is run k, the arguments its own
+/// `ebh replay` would get (batch_error_line finds its error by that line number).
+std::string batch_file_text(const SweepPlan& plan, const std::vector<const SweepRun*>& runs, const fs::path& dir) {
+  std::string text;
+  for (const SweepRun* r : runs) {
+    const std::vector<std::string> a = replay_arguments(plan, *r, dir, "");
+    for (std::size_t i = 2; i < a.size(); ++i) {
+      if (i > 2) text += ' ';
+      text += batch_word(a[i]);
+    }
+    text += "\n";
+  }
+  return text;
 }
 
 std::vector<char*> pointers(std::vector<std::string>& v) {
@@ -120,6 +148,16 @@ std::string error_line(const std::string& text, int status) {
   return last.empty() ? how : how + " (" + last + ")";
 }
 
+/// The error of replay `line` (1-based) of a --batch child: its "ebh: error: FILE:LINE: WHAT"
+/// line's WHAT, else the child's own error (one that stopped every replay: no GPU, a bad file).
+std::string batch_error_line(const std::string& text, int status, const fs::path& file, std::size_t line) {
+  const std::string tag = "ebh: error: " + file.string() + ":" + std::to_string(line) + ": ";
+  std::istringstream in(text);
+  for (std::string l; std::getline(in, l);)
+    if (l.rfind(tag, 0) == 0) return l.substr(tag.size());
+  return error_line(text, status);
+}
+
 void remove_file(const fs::path& p) {
   std::error_code ec;
   fs::remove(p, ec);
@@ -141,6 +179,7 @@ CommandResult run_command(const std::vector<std::string>& argv) {
 fs::path run_output(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".h5"); }
 fs::path run_log(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".log"); }
 fs::path run_failure(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".failed"); }
+fs::path batch_file(const fs::path& dir, const SweepRun& first) { return dir / "batches" / (first.id + ".txt"); }
 
 std::string read_run_failure(const fs::path& dir, const SweepRun& run) {
   std::ifstream in(run_failure(dir, run));
@@ -204,30 +243,38 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
 
   auto finish = [&](Child& c) {
     const int status = wait_for(c.pid);
-    const SweepRun& run = *c.run;
-    RunOutcome o{&run, RunOutcome::Status::Done, std::chrono::duration<double>(Clock::now() - c.t0).count(), {}};
-    std::error_code ec;
-    const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0 && fs::exists(run_output(dir, run), ec);
-    if (ok) {
-      ++report.ran;
-      remove_file(run_failure(dir, run));
-      // After an interrupt no file is written (io/atomic.hpp); the log is only what it printed.
-      if (!c.text.empty() && !interrupted()) write_file_atomically(run_log(dir, run).string(), c.text);
-      else if (c.text.empty()) remove_file(run_log(dir, run));
-    } else if (interrupted()) {
-      o.status = RunOutcome::Status::Interrupted;  // stopped by the interrupt: not run, not failed
-      ++report.interrupted;
-    } else {
-      o.status = RunOutcome::Status::Failed;
-      o.error = error_line(c.text, status);
-      ++report.failed;
-      ++p.failed;
-      write_file_atomically(run_failure(dir, run).string(), o.error + "\n" + c.text);
-      report.failures.push_back(o);
+    const double seconds = std::chrono::duration<double>(Clock::now() - c.t0).count();
+    for (std::size_t k = 0; k < c.runs.size(); ++k) {
+      const SweepRun& run = *c.runs[k];
+      RunOutcome o{&run, RunOutcome::Status::Done, seconds, {}};
+      std::error_code ec;
+      const bool exists = fs::exists(run_output(dir, run), ec);
+      // A batch child exits non-zero when any of its replays failed; each replay's output says
+      // whether it ran.
+      const bool ok = exists && (c.runs.size() > 1 || (WIFEXITED(status) && WEXITSTATUS(status) == 0));
+      if (ok) {
+        ++report.ran;
+        remove_file(run_failure(dir, run));
+        // After an interrupt no file is written (io/atomic.hpp); the log is only what it printed.
+        if (!c.text.empty() && !interrupted()) write_file_atomically(run_log(dir, run).string(), c.text);
+        else if (c.text.empty()) remove_file(run_log(dir, run));
+      } else if (interrupted()) {
+        o.status = RunOutcome::Status::Interrupted;  // stopped by the interrupt: not run, not failed
+        ++report.interrupted;
+      } else {
+        o.status = RunOutcome::Status::Failed;
+        o.error = c.runs.size() > 1 ? batch_error_line(c.text, status, batch_file(dir, *c.runs.front()), k + 1)
+                                    : error_line(c.text, status);
+        ++report.failed;
+        ++p.failed;
+        write_file_atomically(run_failure(dir, run).string(), o.error + "\n" + c.text);
+        report.failures.push_back(o);
+      }
+      if (o.status != RunOutcome::Status::Interrupted) ++p.done;
+      --p.running;
+      if (progress) progress(p, &o);
     }
-    if (o.status != RunOutcome::Status::Interrupted) ++p.done;
-    --p.running;
-    if (progress) progress(p, &o);
+    if (c.runs.size() > 1 && !interrupted()) remove_file(batch_file(dir, *c.runs.front()));
   };
 
   while (true) {
@@ -236,10 +283,24 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
       forwarded = true;
     }
     while (!interrupted() && active.size() < static_cast<std::size_t>(std::max(1, options.jobs)) && next < pending.size()) {
-      const SweepRun& run = *pending[next++];
-      const auto [pid, fd] = start_process(replay_arguments(plan, run, dir, options.executable), &env, dir.string());
-      active.push_back(Child{&run, pid, fd, {}, Clock::now()});
-      ++p.running;
+      // CUDA runs of an async plan go options.batch to a child (`ebh replay --batch`), the others one each.
+      std::vector<const SweepRun*> take{pending[next++]};
+      const bool batched = options.batch > 1 && take.front()->backend == "cuda" && plan.mode == "async";
+      while (batched && take.size() < static_cast<std::size_t>(options.batch) && next < pending.size() &&
+             pending[next]->backend == "cuda")
+        take.push_back(pending[next++]);
+      std::vector<std::string> argv;
+      if (take.size() > 1) {
+        const fs::path file = batch_file(dir, *take.front());
+        write_file_atomically(file.string(), batch_file_text(plan, take, dir));
+        argv = {options.executable, "replay", "--batch", file.string(), "--quiet"};
+        if (options.at_once > 0) argv.insert(argv.end(), {"--at-once", std::to_string(options.at_once)});
+      } else {
+        argv = replay_arguments(plan, *take.front(), dir, options.executable);
+      }
+      const auto [pid, fd] = start_process(argv, &env, dir.string());
+      active.push_back(Child{take, pid, fd, {}, Clock::now()});
+      p.running += take.size();
       if (progress) progress(p, nullptr);
     }
     if (active.empty()) break;

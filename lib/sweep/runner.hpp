@@ -8,6 +8,8 @@
 //   DIR/runs/ID.h5       a finished run's replay output (written atomically by `ebh replay`)
 //   DIR/runs/ID.log      what its replay printed (warnings), when it printed anything
 //   DIR/runs/ID.failed   a failed run: its error line, then everything its replay printed
+//   DIR/batches/ID.txt   the --batch file of a child running several CUDA runs (RunnerOptions::batch),
+//                        removed when it ends
 //   DIR/summary.csv      one row per run (sweep/summary.hpp); DIR/summary.h5 the same as HDF5
 // A run whose output exists is done and never run again; a failed one is tried again by the next
 // sweep of the folder. An interrupted sweep (SIGINT, SIGTERM, SIGHUP) passes the signal on to the
@@ -50,8 +52,13 @@ CommandResult run_command(const std::vector<std::string>& argv);
 
 struct RunnerOptions {
   std::string executable;  ///< the ebh binary the replays run with
-  int jobs = 1;            ///< replays at a time
-  int threads = 1;         ///< OMP_NUM_THREADS of each replay
+  int jobs = 1;            ///< children at a time
+  int threads = 1;         ///< OMP_NUM_THREADS of each child
+  /// CUDA runs of an async plan per child: up to this many go to one `ebh replay --batch` child
+  /// (DIR/batches/ID.txt, the first run's id; docs/CUDA.md "Many replays on one GPU"); 1: a child
+  /// per run.
+  int batch = 1;
+  int at_once = 0;         ///< the batch children's --at-once (0: theirs)
 };
 
 /// What happened to one run.

@@ -273,6 +273,66 @@ ReplayTrace trace(const std::vector<double>& t, const std::vector<Vec3d>& f) {
   return tr;
 }
 
+/// CUDA runs go RunnerOptions::batch to one `ebh replay --batch` child (here a stand-in script,
+/// tests/sweep/fake_replay.sh, that fails its file's second line): every run gets its own outcome,
+/// the failed one its FILE:LINE error, the batch file holds each run's own arguments and is gone
+/// once the child ends; CPU runs still go one per child; a second sweep runs only the failed run.
+TEST(SweepRunner, CudaRunsGoToBatchChildren) {
+  const fs::path dir = scratch() / "batched";
+  fs::remove_all(dir);
+  const fs::path plan_path = plan_file("batched.yaml", R"(scenes:
+  - scene: tube
+    recordings: [tube_insert]
+    reference: {solver.method: direct}
+grid:
+  stiffness.k_con: [400, 500, 600, 700]
+backends: [cuda]
+reference_backend: cuda
+duration: 0.1
+)");
+  const SweepPlan plan = read_sweep_plan(plan_path);
+  const std::vector<SweepRun> runs = expand_plan(plan);
+  ASSERT_EQ(runs.size(), 5u);  // the reference and 4 configurations
+  RunnerOptions opt;
+  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/fake_replay.sh";
+  opt.batch = 3;
+  std::vector<std::size_t> started_with;
+  const RunnerReport rep = execute_runs(plan, runs, dir, opt, [&](const RunnerProgress& p, const RunOutcome* o) {
+    if (!o) started_with.push_back(p.running);
+  });
+  EXPECT_EQ(started_with, (std::vector<std::size_t>{3, 2})) << "two children: 3 runs, then 2";
+  EXPECT_EQ(rep.ran, 3u);
+  EXPECT_EQ(rep.failed, 2u);  // the second line of each child
+  ASSERT_EQ(rep.failures.size(), 2u);
+  EXPECT_EQ(rep.failures[0].error, "the second replay fails");
+  EXPECT_EQ(rep.failures[0].run, &runs[1]);
+  EXPECT_EQ(rep.failures[1].run, &runs[4]);
+  for (std::size_t i : {0u, 2u, 3u}) {
+    std::ifstream in(run_output(dir, runs[i]));
+    std::string line;
+    std::getline(in, line);  // what the stand-in was given: the run's own arguments
+    EXPECT_NE(line.find("--backend cuda --mode async --quiet"), std::string::npos) << line;
+    EXPECT_NE(line.find(" --set "), std::string::npos) << line;
+    EXPECT_NE(line.find("-o " + run_output(dir, runs[i]).string()), std::string::npos) << line;
+  }
+  EXPECT_EQ(read_run_failure(dir, runs[1]), "the second replay fails");
+  EXPECT_TRUE(fs::is_empty(dir / "batches")) << "the batch files are removed";
+  // Again: the three done are skipped, the two failed run (again as one child of 2).
+  const RunnerReport again = execute_runs(plan, runs, dir, opt);
+  EXPECT_EQ(again.skipped, 3u);
+  EXPECT_EQ(again.failed, 1u);
+  EXPECT_EQ(again.ran, 1u);
+  // batch = 1: a child per run, with `ebh replay`'s own arguments.
+  fs::remove_all(dir);
+  opt.batch = 1;
+  const RunnerReport single = execute_runs(plan, runs, dir, opt);
+  EXPECT_EQ(single.ran, 5u);
+  std::ifstream in(run_output(dir, runs[1]));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "alone");
+}
+
 TEST(SweepError, IdenticalForcesHaveNoError) {
   const ReplayTrace a = trace({0, 1e-3, 2e-3}, {{0.1, 0.2, 0.3}, {1, 2, 3}, {-1, 0, 0.5}});
   const ForceError e = force_error(a, a);

@@ -28,7 +28,8 @@ namespace fs = std::filesystem;
 
 struct SweepArgs {
   std::string plan, out, backend, slurm_args;
-  int jobs = 1;
+  int jobs = 1, batch = 1;
+  std::optional<int> at_once;
   std::optional<int> task, tasks;
   bool slurm = false, collect = false;
 };
@@ -102,6 +103,8 @@ void submit_slurm(const SweepArgs& a, const std::vector<SweepRun>& runs, const f
                         shell_quote(abs_dir.string()) + " --task \"$SLURM_ARRAY_TASK_ID\" --tasks " +
                         std::to_string(tasks) + " --jobs " + std::to_string(a.jobs);
   if (!a.backend.empty()) command += " --backend " + a.backend;
+  if (a.batch > 1) command += " --batch " + std::to_string(a.batch);
+  if (a.at_once) command += " --at-once " + std::to_string(*a.at_once);
   const fs::path script = abs_dir / "sweep.sbatch";
   write_file_atomically(script.string(),
                         "#!/bin/sh\n# ebh sweep --slurm: array task I of " + std::to_string(tasks) +
@@ -202,6 +205,8 @@ void run_sweep(const SweepArgs& a) {
   opt.executable = executable();
   opt.jobs = a.jobs;
   opt.threads = std::max(1, available_cores() / a.jobs);
+  opt.batch = a.batch;
+  opt.at_once = a.at_once.value_or(0);
   std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done; %d at a time, %d threads each\n", runs.size(),
                runs.size() - todo, std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads);
   ProgressPrinter printer(plan);
@@ -269,6 +274,13 @@ void setup(CLI::App& root) {
   c->add_option("--jobs", args->jobs, "Replays at a time (default 1: timings undisturbed); threads split so jobs x threads = cores")
       ->check(CLI::Range(1, 1024));
   c->add_option("--backend", args->backend, "Run only the plan's runs on cpu or cuda (and the CPU references)");
+  c->add_option("--batch", args->batch,
+                "CUDA runs per child: up to B go to one `ebh replay --batch` on the GPU (async plans; default 1)")
+      ->check(CLI::Range(1, 1024));
+  CLI::Option* batch_option = c->get_option("--batch");
+  c->add_option("--at-once", args->at_once, "With --batch: the children's --at-once (replays side by side)")
+      ->check(CLI::Range(1, 1024))
+      ->needs(batch_option);
   c->add_flag("--collect", args->collect, "Only rebuild DIR/summary.csv and summary.h5 from the runs' outputs");
   c->add_flag("--slurm", args->slurm, "Submit the plan as a Slurm job array (sbatch --array) instead of running it here");
   c->add_option("--slurm-args", args->slurm_args, "More sbatch options, e.g. \"--partition=gpu --gres=gpu:1 -c 4\"");

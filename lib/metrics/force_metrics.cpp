@@ -284,6 +284,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt) {
     tm.physical_iterations_max = percentile(tr.physical_iterations, 100);
   }
   tm.physical_residual_max = percentile(tr.physical_residual, 100);
+  tm.physical_inverted_max = tr.physical_inverted.empty() ? kNaN : percentile(tr.physical_inverted, 100);
   return m;
 }
 
@@ -371,6 +372,7 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   tj.set("physical_iterations_mean", t.physical_iterations_mean);
   tj.set("physical_iterations_max", t.physical_iterations_max);
   tj.set("physical_residual_max", t.physical_residual_max);
+  tj.set("physical_inverted_max", t.physical_inverted_max);
   j.set("timing", std::move(tj));
   return j;
 }
@@ -441,6 +443,7 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
       fmt("%.2f", t.physical_p50 * 1e3) + " / " + fmt("%.2f", t.physical_p99 * 1e3), "ms");
   row("physical iterations mean / max",
       fmt("%.1f", t.physical_iterations_mean) + " / " + fmt("%.0f", t.physical_iterations_max), "");
+  row("physical tets inverted, most", fmt("%.0f", t.physical_inverted_max), "");
   if (with_episodes && !m.episodes.empty()) {
     o << "episodes (contacts > 0, gaps < " << fmt("%g", m.options.episode_merge_gap_s * 1e3) << " ms merged)\n";
     o << "     #   t_begin     t_end   peak|F|   max|dF/dt|  jump ratio  >30Hz    E_obs min  pen max\n";

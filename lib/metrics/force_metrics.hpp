@@ -73,6 +73,8 @@ struct TimingMetrics {
   double physical_p50 = 0, physical_p99 = 0, physical_max = 0;
   // Physical solver (NaN when absent): mean and max iterations, max residual.
   double physical_iterations_mean = 0, physical_iterations_max = 0, physical_residual_max = 0;
+  /// The most physical tets inverted after a step (/physical/inverted; NaN when absent).
+  double physical_inverted_max = 0;
 };
 
 struct ForceMetrics {

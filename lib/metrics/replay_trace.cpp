@@ -229,6 +229,7 @@ ReplayTrace load_replay(const std::string& path) {
   if (in.exists("/physical/t")) {
     tr.physical_iterations = in.optional_doubles("/physical/iterations", k);
     tr.physical_residual = in.optional_doubles("/physical/residual", k);
+    tr.physical_inverted = in.optional_doubles("/physical/inverted", k);
     tr.physical_step_s = in.optional_doubles("/timing/physical_step_s", k);
   }
   return tr;

@@ -40,6 +40,7 @@ struct ReplayTrace {
   std::vector<double> physical_t;           // K, s
   std::vector<double> physical_iterations;  // K
   std::vector<double> physical_residual;    // K
+  std::vector<double> physical_inverted;    // K (empty in files written before /physical/inverted)
 
   // Timing: /timing/haptic_step_s (N, s) is required, /timing/physical_step_s (K, s) optional.
   std::vector<double> haptic_step_s;

@@ -329,6 +329,13 @@ set_tests_properties(cli.metrics.no_contact_table PROPERTIES FIXTURES_REQUIRED n
 add_test(NAME cli.metrics.no_contact_json COMMAND ${EBH_BIN} metrics ${EBH_REPLAY_OUT}/no_contact.h5 --json)
 set_tests_properties(cli.metrics.no_contact_json PROPERTIES FIXTURES_REQUIRED no_contact
   PASS_REGULAR_EXPRESSION "\"contact_fraction\": 0,.*\"contact_warning\": \"the tool never touched the tissue")
+# /physical/inverted: counted in a new replay's output (0 tets here), null in a file written without it.
+add_test(NAME cli.metrics.inverted_counted COMMAND ${EBH_BIN} metrics ${EBH_REPLAY_OUT}/no_contact.h5 --json)
+set_tests_properties(cli.metrics.inverted_counted PROPERTIES FIXTURES_REQUIRED no_contact LABELS cli
+  PASS_REGULAR_EXPRESSION "\"physical_inverted_max\": 0[,\n]")
+add_test(NAME cli.metrics.inverted_absent COMMAND ${EBH_BIN} metrics ${EBH_METRICS_DATA}/press.h5 --json)
+set_tests_properties(cli.metrics.inverted_absent PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "\"physical_inverted_max\": null")
 add_test(NAME cli.metrics.contact_json COMMAND ${EBH_BIN} metrics ${EBH_METRICS_DATA}/press.h5 --json)
 set_tests_properties(cli.metrics.contact_json PROPERTIES PASS_REGULAR_EXPRESSION "\"contact_warning\": null")
 set_property(TEST cli.replay.no_contact cli.replay.contact_no_warning cli.metrics.no_contact_table

@@ -653,7 +653,7 @@ Scene build_scene(SceneSpec spec_in) {
   // Each mesh follows the other's result one physical period late (async mode): when the virtual
   // mesh's edges outweigh its pull towards the physical mesh, the two drive each other unstable
   // (docs/MODEL.md, "k_s against k_svc").
-  if (spec.stiffness.k_svc > 0 && spec.stiffness.k_s > spec.stiffness.k_svc) {
+  if (spec.stiffness.edges_outweigh_coupling()) {
     char ratio[32];
     std::snprintf(ratio, sizeof ratio, "%.3g", spec.stiffness.k_s / spec.stiffness.k_svc);
     scene.warnings.push_back(file.string() + ": stiffness.k_s is " + ratio +

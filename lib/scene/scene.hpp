@@ -99,6 +99,9 @@ struct Stiffness {
   double k_con = 400.0;   ///< N/m, E_con [3]
   double k_vcs = 300.0;   ///< N/m, E_tvc [2] translation
   double k_vct = 0.3;     ///< N m / rad, E_tvc [2] rotation
+  /// Virtual edges stiffer than their coupling to the physical mesh: in async mode the two meshes
+  /// can drive each other unstable (docs/MODEL.md, "k_s against k_svc"); the scene warns.
+  bool edges_outweigh_coupling() const { return k_svc > 0 && k_s > k_svc; }
 };
 
 struct PinRegion {

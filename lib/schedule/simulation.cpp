@@ -379,8 +379,7 @@ void stop_on_physical_problem(const World& world, const PhysicalSide& p, const s
                          ? " (solver.diagonal=plain diverges on such tets: use bounded)"
                          : " (the iterations did not converge: raise solver.physical_iterations or use solver.method=direct)";
   // The scene-load warning's cause, named where it shows (docs/MODEL.md, "k_s against k_svc").
-  const Stiffness& st = world.scene.spec.stiffness;
-  if (st.k_svc > 0 && st.k_s > st.k_svc)
+  if (world.scene.spec.stiffness.edges_outweigh_coupling())
     hint += "; stiffness.k_s above k_svc can make the two meshes drive each other unstable in async mode: raise k_svc "
             "or replay --mode lockstep";
   throw NumericalError(world.scene.spec.file.string() + ": tick " + std::to_string(k * world.ticks_per_step) +

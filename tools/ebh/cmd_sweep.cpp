@@ -274,10 +274,10 @@ void setup(CLI::App& root) {
   c->add_option("--jobs", args->jobs, "Replays at a time (default 1: timings undisturbed); threads split so jobs x threads = cores")
       ->check(CLI::Range(1, 1024));
   c->add_option("--backend", args->backend, "Run only the plan's runs on cpu or cuda (and the CPU references)");
-  c->add_option("--batch", args->batch,
-                "CUDA runs per child: up to B go to one `ebh replay --batch` on the GPU (async plans; default 1)")
-      ->check(CLI::Range(1, 1024));
-  CLI::Option* batch_option = c->get_option("--batch");
+  CLI::Option* batch_option =
+      c->add_option("--batch", args->batch,
+                    "CUDA runs per child: up to B go to one `ebh replay --batch` on the GPU (async plans; default 1)")
+          ->check(CLI::Range(1, 1024));
   c->add_option("--at-once", args->at_once, "With --batch: the children's --at-once (replays side by side)")
       ->check(CLI::Range(1, 1024))
       ->needs(batch_option);

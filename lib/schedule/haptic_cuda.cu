@@ -367,7 +367,9 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     const std::size_t need = S.blocks_per_sm * (fa.sharedSizeBytes + std::size_t(reserved)) + physical.block_shared_bytes() +
                              std::size_t(reserved);
     I.carveout_beside_steps = shared_carveout_percent(need, std::size_t(max_shared), shared_memory_configs_kb(major, minor));
-    I.grid = std::min(chunks + 1, S.blocks_per_sm == 1 ? cap.resident_blocks() : S.blocks_per_sm * cap.multiprocessors);  // block 0 runs no chunks
+    const int most = S.blocks_per_sm == 1 ? cap.alone_blocks()
+                                          : S.blocks_per_sm * (cap.multiprocessors - cap.multiprocessors_for_steps());
+    I.grid = std::min(chunks + 1, most);  // block 0 runs no chunks
     if (S.max_blocks > 0) I.grid = std::min(I.grid, S.max_blocks);
   }
   ToolStateDev s0{};

@@ -136,6 +136,15 @@ struct DeviceTickCapacity {
   std::size_t shared_bytes = 0;  ///< static shared memory per block
   int resident_blocks() const { return blocks_per_sm * multiprocessors; }
   int shared_resident_blocks() const { return blocks_per_sm_shared * multiprocessors; }
+  /// Multiprocessors left without tick blocks, for the physical steps that run beside the ticks
+  /// (a quarter). The tick blocks spin on hand-off counters that the steps release: with a tick
+  /// block on every multiprocessor the device stalled (the tube refined once, 208 chunks, one
+  /// replay) or never finished (two replays of 66 blocks each on an H100).
+  int multiprocessors_for_steps() const { return (multiprocessors + 3) / 4; }
+  /// The most tick blocks of a replay alone.
+  int alone_blocks() const { return (multiprocessors - multiprocessors_for_steps()) * blocks_per_sm; }
+  /// The most tick blocks of all the replays that share the device.
+  int shared_blocks() const { return (multiprocessors - multiprocessors_for_steps()) * blocks_per_sm_shared; }
 };
 DeviceTickCapacity device_tick_capacity(const ToolModel& tool);
 

@@ -577,14 +577,10 @@ std::int64_t tick_count(const World& world, double duration) {
 
 #if EBH_HAVE_CUDA
 namespace {
-/// The tick blocks each of `count` replays of `world` gets when they share the device: a quarter
-/// of the multiprocessors is left to the physical steps (two replays of 66 blocks each, every
-/// multiprocessor of an H100 holding a tick block, never finished; a replay alone leaves 32 of
-/// 132 free).
+/// The tick blocks each of `count` replays of `world` gets when they share the device
+/// (DeviceTickCapacity::shared_blocks: the multiprocessors for the physical steps left free).
 int batch_share(const World& world, int count) {
-  const DeviceTickCapacity cap = device_tick_capacity(world.tool);
-  const int reserve = (cap.multiprocessors + 3) / 4;
-  return std::max(0, cap.shared_resident_blocks() - reserve * cap.blocks_per_sm_shared) / std::max(count, 1);
+  return device_tick_capacity(world.tool).shared_blocks() / std::max(count, 1);
 }
 }  // namespace
 

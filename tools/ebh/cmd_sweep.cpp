@@ -207,8 +207,9 @@ void run_sweep(const SweepArgs& a) {
   opt.threads = std::max(1, available_cores() / a.jobs);
   opt.batch = a.batch;
   opt.at_once = a.at_once.value_or(0);
-  std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done; %d at a time, %d threads each\n", runs.size(),
-               runs.size() - todo, std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads);
+  std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done; %d at a time, %d threads each%s\n", runs.size(),
+               runs.size() - todo, std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
+               a.batch > 1 ? (" (CUDA runs of async plans: up to " + std::to_string(a.batch) + " to a child)").c_str() : "");
   ProgressPrinter printer(plan);
   const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer));
   printer.finish();

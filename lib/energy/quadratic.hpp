@@ -23,6 +23,15 @@ EBH_HD Vec3<T> predict_position(Vec3<T> x, Vec3<T> v, Vec3<T> g, T h) {
   return x + h * v + (h * h) * g;
 }
 
+/// Algorithm 2 line 23, v = (q - q_start) / h, with the virtual mesh's velocity damping: the
+/// velocity carried into the next tick's prediction is v / (1 + alpha h), alpha the damping rate
+/// (solver.virtual_damping, 1/s; docs/MODEL.md, "Damping of the virtual mesh"). Returns the
+/// factor 1 / (h (1 + alpha h)) that multiplies q - q_start; alpha = 0 gives 1 / h exactly.
+template <class T>
+EBH_HD T tick_velocity_scale(T h, T alpha) {
+  return T(1) / (h * (T(1) + alpha * h));
+}
+
 /// The physical step's first iterate x_0 = x + h v: the prediction without the external forces
 /// (docs/MODEL.md, "The iterations' start"). Started from s (Alg. 1 line 2), a step of K
 /// Jacobi-type iterations has its fixed point off the equilibrium by about (I - T^K)^-1 T^K h^2 g

@@ -378,7 +378,7 @@ class SpecReader {
   void read_solver(const YAML::Node& n, SolverSpec& sv) const {
     const auto e = entries(n, "solver", {"method", "diagonal", "physical_iterations", "virtual_iterations", "chebyshev_rho",
                                              "physical_tolerance", "physical_max_iterations", "recovery",
-                                             "recovery_residual", "active_region", "sleep"});
+                                             "recovery_residual", "active_region", "sleep", "virtual_damping"});
     if (auto it = e.find("method"); it != e.end()) {
       const int m = choice(it->second, "solver.method", {"jacobi", "chebyshev", "direct"});
       sv.method = m == 0 ? SolverSpec::Method::Jacobi : m == 1 ? SolverSpec::Method::Chebyshev : SolverSpec::Method::Direct;
@@ -411,6 +411,8 @@ class SpecReader {
       sv.sleep = non_negative(it->second, "solver.sleep") * unit_;
       sv.sleep_given = true;
     }
+    if (auto it = e.find("virtual_damping"); it != e.end())
+      sv.virtual_damping = in_range(it->second, "solver.virtual_damping", 0, true, 1e6, true);
   }
 
   void read_camera(const YAML::Node& n, Camera& c) const {
@@ -894,7 +896,8 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "recovery" << YAML::Value << (sv.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
   y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual;
   y << YAML::Key << "active_region" << YAML::Value << sv.active_region / u;
-  y << YAML::Key << "sleep" << YAML::Value << sv.sleep / u << YAML::EndMap;
+  y << YAML::Key << "sleep" << YAML::Value << sv.sleep / u;
+  y << YAML::Key << "virtual_damping" << YAML::Value << sv.virtual_damping << YAML::EndMap;
   y << YAML::Key << "contact" << YAML::Value << (s.contact == ContactModel::Surface ? "surface" : "vertices");
   y << YAML::Key << "camera" << YAML::Value << YAML::BeginMap << YAML::Key << "eye" << YAML::Value;
   vec(s.camera.eye, u);

@@ -74,6 +74,9 @@
 //     sleep: 0                      # length (unit): skip a physical step while nothing moved by more
 //                                   #   than this since the last one (CPU backend; docs/MODEL.md,
 //                                   #   "Sleeping"); 0: every step runs
+//     virtual_damping: 250          # 1/s: the virtual mesh's velocity is divided by 1 + this h each
+//                                   #   tick (h the haptic period; docs/MODEL.md, "Damping of the
+//                                   #   virtual mesh"); 0: Algorithm 2 as printed
 //   contact: vertices               # vertices | surface: E_con [3] on the virtual mesh's vertices (the
 //                                   # paper) or on points of its triangles (docs/MODEL.md, "Contact
 //                                   # against the surface")
@@ -188,6 +191,10 @@ struct SolverSpec {
   /// vertex since then by more than this length (m), and the last step met the tolerance; 0: never.
   double sleep = 0;
   bool sleep_given = false;
+  /// The virtual mesh's velocity damping rate alpha (1/s; docs/MODEL.md, "Damping of the virtual
+  /// mesh"): the velocity a tick carries into the next one's prediction is divided by 1 + alpha h.
+  /// 0: Algorithm 2 as printed.
+  double virtual_damping = 250;
 };
 
 /// What E_con [3] acts on (the scene's `contact`).

@@ -392,7 +392,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.k_s = float(M.k_s);
   d.k_svc = float(M.k_svc);
   d.h = float(S.h);
-  d.inv_h = float(1.0 / S.h);
+  d.v_scale = float(tick_velocity_scale(S.h, M.damping));
   d.inv_h2 = float(1.0 / (S.h * S.h));
   d.gravity = to_float(M.gravity);
   d.model = I.model.view();

@@ -100,7 +100,7 @@ struct MeshDev {
   int iterations = 1;               // virtual iterations per tick
   int first_call = 0;               // a Newton call follows a tick's steps from this one on (tool.newton_calls)
   bool pipeline = true;             // DeviceHapticSetup::pipeline
-  float k_s = 0, k_svc = 0, h = 0, inv_h = 0, inv_h2 = 0;
+  float k_s = 0, k_svc = 0, h = 0, v_scale = 0, inv_h2 = 0;  // v_scale: tick_velocity_scale
   Vec3f gravity;
   cuda::VirtualModelView model;
   const Vec3f* x_prev = nullptr;  // the physical result before the visible one (the launch's first tick's)

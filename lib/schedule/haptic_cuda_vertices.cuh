@@ -63,7 +63,7 @@ __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& ph
   qout[j] = qn;
   f.q = qn;
   if (last) {
-    v_out[j] = d.inv_h * (qn - q_start);
+    v_out[j] = d.v_scale * (qn - q_start);  // Alg. 2 line 23, damped (tick_velocity_scale)
     if constexpr (!kDepth) return;
     const unsigned near = held ? 0u : near_colliders(t, physical, qn, kFloatSlack);
     if (near) f.pen = static_cast<float>(penetration(t, physical, static_cast<Vec3d>(qn), near));

@@ -47,6 +47,7 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("solver_method", method_name(s.solver.method));
   f.set_attr("physical_iterations", static_cast<std::int64_t>(s.solver.physical_iterations));
   f.set_attr("virtual_iterations", static_cast<std::int64_t>(s.solver.virtual_iterations));
+  f.set_attr("virtual_damping", s.solver.virtual_damping);
   f.set_attr("chebyshev_rho", s.solver.chebyshev_rho);
   f.set_attr("physical_tolerance", s.solver.physical_tolerance);
   f.set_attr("physical_max_iterations", static_cast<std::int64_t>(s.solver.physical_max_iterations));

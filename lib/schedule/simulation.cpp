@@ -382,6 +382,9 @@ void stop_on_physical_problem(const World& world, const PhysicalSide& p, const s
   if (world.scene.spec.stiffness.edges_outweigh_coupling())
     hint += "; stiffness.k_s above k_svc can make the two meshes drive each other unstable in async mode: raise k_svc "
             "or replay --mode lockstep";
+  if (world.scene.spec.solver.virtual_damping == 0)
+    hint += "; solver.virtual_damping is 0: the virtual mesh's velocity, carried from tick to tick, can make the two "
+            "meshes drive each other unstable with few solver.virtual_iterations (docs/MODEL.md, \"Damping of the virtual mesh\")";
   throw NumericalError(world.scene.spec.file.string() + ": tick " + std::to_string(k * world.ticks_per_step) +
                        ", physical step " + std::to_string(k) + ": " + problem + hint);
 }

@@ -57,22 +57,22 @@ void update_lists(const VirtualModel& model, ActiveRegion& r) {
 
 /// A vertex that was inactive starts the tick with its target's velocity; `place`: also from where
 /// its target stood before this tick (a vertex the inactive pass already moved on).
-void join(const VirtualModel& model, ActiveRegion& r, VirtualState& state, int j, double inv_h, bool place) {
+void join(const VirtualModel& model, ActiveRegion& r, VirtualState& state, int j, double v_scale, bool place) {
   const Vec3d before = follow_target(model, r, j, r.blend_before);
   if (place) state.q[j] = before;
-  state.v[j] = inv_h * (follow_target(model, r, j, r.blend) - before);
+  state.v[j] = v_scale * (follow_target(model, r, j, r.blend) - before);
 }
 
 /// The seeds of this tick join the region (marked, for retire_and_spread) from where they stand.
 /// Clears r.added and r.removed.
 void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
-               double inv_h) {
+               double v_scale) {
   r.added.clear();
   r.removed.clear();
   for (const int j : seeds) {
     assert(j >= 0 && j < model.num_vertices);
     r.mark[j] |= kSeed;
-    if (activate(model, r, j)) join(model, r, state, j, inv_h, false);
+    if (activate(model, r, j)) join(model, r, state, j, v_scale, false);
   }
 }
 
@@ -81,7 +81,7 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
 /// calm for kCalmTicks leaves and stands on its target. Reads the last tick's q of the active
 /// vertices; appends to r.added and r.removed; clears the marks.
 void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
-                       double inv_h) {
+                       double v_scale) {
   const std::size_t seeded = r.added.size();
   const double hot2 = r.tolerance * r.tolerance, calm2 = 0.25 * hot2;
   const std::vector<Vec3d>& q = state.q;
@@ -104,7 +104,7 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
   }
   for (const int j : seeds) r.mark[j] = 0;
   for (const int j : r.vertices) r.mark[j] = 0;
-  for (std::size_t i = seeded; i < r.added.size(); ++i) join(model, r, state, r.added[i], inv_h, true);
+  for (std::size_t i = seeded; i < r.added.size(); ++i) join(model, r, state, r.added[i], v_scale, true);
   for (const int j : r.removed) state.q[j] = follow_target(model, r, j, r.blend);
 }
 
@@ -132,7 +132,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
                                const PhysicalTargets& targets, double h, std::span<const int> seeds) {
   ws.h = h;
   const int m = model.num_vertices;
-  const double inv_h = 1.0 / h;
+  const double v_scale = tick_velocity_scale(h, model.damping);  // the velocity carried on (damped)
   const bool team = m >= model.parallel_min_vertices;
 
   // Alg. 2 line 1: the E_svc targets, paired once per version of the physical positions. The
@@ -155,7 +155,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   }
   r.blend = a;
 
-  add_seeds(model, r, state, seeds, inv_h);
+  add_seeds(model, r, state, seeds, v_scale);
   // The inactive vertices move with their targets (only q: active_region.hpp).
   r.inactive_moved = std::fabs(a - r.blend_before) * r.target_spread;
   if (a != r.blend_before) {
@@ -163,7 +163,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
     for (int j = 0; j < m; ++j)
       if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(model, r, j, a);
   }
-  retire_and_spread(model, r, state, seeds, inv_h);
+  retire_and_spread(model, r, state, seeds, v_scale);
   if (!r.removed.empty()) r.inactive_moved += 0.5 * r.tolerance;  // a calm vertex snapping to its target
   if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);
 
@@ -225,13 +225,13 @@ void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, A
 }
 
 double virtual_end_tick_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state) {
-  const double inv_h = 1.0 / ws.h;
+  const double v_scale = tick_velocity_scale(ws.h, model.damping);
   const int na = static_cast<int>(r.vertices.size());
   double moved2 = 0;
 #pragma omp parallel for schedule(static) reduction(max : moved2) if (na >= model.parallel_min_vertices)
   for (int i = 0; i < na; ++i) {
     const int j = r.vertices[i];
-    state.v[j] = inv_h * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23
+    state.v[j] = v_scale * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23, damped
     moved2 = std::max(moved2, squared_norm(state.q[j] - ws.q_start[j]));
   }
   return std::sqrt(moved2) + r.inactive_moved;  // a vertex that joined this tick may have done both

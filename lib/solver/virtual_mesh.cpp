@@ -42,6 +42,7 @@ VirtualModel build_virtual_model(const Scene& scene) {
   M.num_vertices = m;
   M.k_s = scene.spec.stiffness.k_s;
   M.k_svc = scene.spec.stiffness.k_svc;
+  M.damping = scene.spec.solver.virtual_damping;
   M.gravity = scene.spec.gravity;
   M.rest = surface.vertices;
   M.triangles = surface.triangles;
@@ -202,9 +203,9 @@ void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualS
 
 void virtual_end_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state) {
   const int m = model.num_vertices;
-  const double inv_h = 1.0 / ws.h;
+  const double v_scale = tick_velocity_scale(ws.h, model.damping);
 #pragma omp parallel for schedule(static) if (m >= model.parallel_min_vertices)
-  for (int j = 0; j < m; ++j) state.v[j] = inv_h * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23
+  for (int j = 0; j < m; ++j) state.v[j] = v_scale * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23, damped
 }
 
 void compute_vertex_normals(const VirtualModel& model, std::span<const Vec3d> q, std::span<Vec3d> normals) {

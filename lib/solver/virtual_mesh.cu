@@ -79,10 +79,10 @@ __global__ void jacobi_kernel(VirtualDevice d, const Vec3f* q, Vec3f* q_next, fl
   q_next[j] = jacobi_update(qj, r, mh + d.model.stiff_diag[j] + ck);
 }
 
-__global__ void end_kernel(VirtualDevice d, const Vec3f* q, float inv_h) {
+__global__ void end_kernel(VirtualDevice d, const Vec3f* q, float v_scale) {
   const int j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= d.m) return;
-  d.v[j] = inv_h * (q[j] - d.q_start[j]);  // Alg. 2 line 23
+  d.v[j] = v_scale * (q[j] - d.q_start[j]);  // Alg. 2 line 23, damped (tick_velocity_scale)
 }
 
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
@@ -92,6 +92,7 @@ Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 struct CudaVirtualSolver::Impl {
   int m = 0, n = 0;
   double h = 0;
+  double damping = 0;  // 1/s, VirtualModel::damping
   std::int64_t physical_version = 0;
   bool have_physical = false;
   cuda::Stream stream;
@@ -139,6 +140,7 @@ CudaVirtualSolver::CudaVirtualSolver(const VirtualModel& M) : impl_(std::make_un
   d.m = m;
   d.k_s = float(M.k_s);
   d.k_svc = float(M.k_svc);
+  I.damping = M.damping;
   d.gravity = to_float(M.gravity);
   d.model = I.model.view();
   d.v = I.v.get();
@@ -233,7 +235,7 @@ void CudaVirtualSolver::end_tick() {
   Impl& I = *impl_;
   if (I.m == 0) return;
   cudaStream_t st = I.stream.get();
-  end_kernel<<<cuda::blocks_for(I.m, kBlock), kBlock, 0, st>>>(I.dev, I.q[I.cur].get(), float(1.0 / I.h));
+  end_kernel<<<cuda::blocks_for(I.m, kBlock), kBlock, 0, st>>>(I.dev, I.q[I.cur].get(), float(tick_velocity_scale(I.h, I.damping)));
   EBH_CUDA_LAUNCH_CHECK(st, "end_kernel");
 }
 

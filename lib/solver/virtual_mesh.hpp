@@ -34,6 +34,7 @@ struct VirtualModel {
   int num_vertices = 0;                      ///< m
   double k_s = 0;                            ///< N/m, E_s [4] per edge
   double k_svc = 0;                          ///< N/m, E_svc [5] per virtual vertex
+  double damping = 0;                        ///< 1/s, velocity damping (solver.virtual_damping)
   Vec3d gravity;                             ///< m/s^2
   std::vector<Vec3d> rest;                   ///< #m rest positions q^0, metres
   std::vector<Tri> triangles;                ///< #F counter-clockwise seen from outside

@@ -94,6 +94,7 @@ TEST(SceneSpec, DefaultsAndNameFromStem) {
   EXPECT_EQ(s.solver.physical_tolerance, 0.002);
   EXPECT_EQ(s.solver.physical_max_iterations, 64);
   EXPECT_FALSE(s.solver.chebyshev_rho_auto);
+  EXPECT_EQ(s.solver.virtual_damping, 250.0);  // 1/s
 }
 
 TEST(Scene, LoadsInMetresAndPins) {
@@ -329,6 +330,10 @@ TEST_F(BadScene, BadStoppingRule) {
          "key 'solver.physical_tolerance': expected a number in [0, 10000], got '-1'");
   expect(replace(good, "method: jacobi", "method: jacobi\n  physical_max_iterations: 0"),
          "key 'solver.physical_max_iterations': expected a whole number in [1, 100000], got '0'");
+  expect(replace(good, "method: jacobi", "method: jacobi\n  virtual_damping: -1"),
+         "key 'solver.virtual_damping': expected a number in [0, 1e+06], got '-1'");
+  expect(replace(good, "method: jacobi", "method: jacobi\n  virtual_damping: strong"),
+         "key 'solver.virtual_damping': expected a number in [0, 1e+06], got 'strong'");
 }
 TEST_F(BadScene, NotBool) { expect(replace(good, "grasp: true", "grasp: maybe"), "key 'stages.grasp': expected true or false, got 'maybe'"); }
 TEST_F(BadScene, ShortVector) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0]"), "key 'gravity': expected a list of 3 numbers"); }

@@ -347,7 +347,7 @@ set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_
 
 # ebh validate (lib/validate) and ebh table1.
 add_test(NAME cli.validate.list COMMAND ${EBH_BIN} validate --list)
-set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*convergence.*hertz.*stability" LABELS cli)
+set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*contact.*coupling.*convergence.*hertz.*stability" LABELS cli)
 add_test(NAME cli.validate.column_json COMMAND ${EBH_BIN} validate column --json)
 set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION "\"passed\": true" LABELS cli)
 
@@ -378,6 +378,11 @@ file(MAKE_DIRECTORY ${EBH_NUM_OUT})
 add_test(NAME cli.validate.stability COMMAND ${EBH_BIN} validate stability)
 set_tests_properties(cli.validate.stability PROPERTIES PASS_REGULAR_EXPRESSION "stability +error 0\\.000e\\+00 .* passed"
   LABELS "cli;validate")
+# The two-rate loop's short matrix: gap_insert's first 3 s at 1 and 4 virtual iterations, k_s at
+# the scene's and at k_svc (the undamped loop's divergence: tests/schedule/test_virtual_damping.cpp).
+add_test(NAME cli.validate.coupling COMMAND ${EBH_BIN} validate coupling --json)
+set_tests_properties(cli.validate.coupling PROPERTIES
+  PASS_REGULAR_EXPRESSION "\"passed\": true,.*\"judged\": 3,.*\"failed\": 0," LABELS "cli;validate")
 add_test(NAME cli.replay.absurd_gravity
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_NUM_OUT}/g.h5;--duration;0.1;--set;gravity=[0,0,-1e30]"
     "-DEXPECT=^ebh: error: .*tube.yaml: key 'gravity': \\|g\\| = 1e\\+30 m/s\\^2 is beyond 100 g" -DOUTPUT=${EBH_NUM_OUT}/g.h5

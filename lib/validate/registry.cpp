@@ -7,6 +7,7 @@ const std::vector<Validation>& validations() {
   static const std::vector<Validation> table = {
       column_validation(),
       contact_validation(),
+      coupling_validation(),
       convergence_validation(),
       hertz_validation(),
       stability_validation(),

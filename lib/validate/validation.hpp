@@ -63,6 +63,7 @@ ContactSlide contact_sliding(const std::string& surface);
 // ---- the table's entries (one file each) ----
 Validation column_validation();       ///< column.cpp: ARAP column reaction force vs E A delta / L
 Validation contact_validation();      ///< contact.cpp: push-through and sliding, vertex vs surface contact
+Validation coupling_validation();     ///< coupling.cpp: the two-rate loop across virtual iterations and k_s
 Validation convergence_validation();  ///< convergence.cpp: jacobi/chebyshev vs the direct solve
 Validation hertz_validation();        ///< hertz.cpp: sphere indentation force vs Hertz contact theory
 Validation stability_validation();    ///< stability.cpp: replays on sliver meshes, stiffness, solvers, speeds

@@ -64,6 +64,20 @@ MeshReport validate_mesh(const TetMesh& mesh);
 int count_inverted_tets(std::span<const Vec3d> x, std::span<const Tet> tets, std::span<const signed char> rest_sign);
 std::vector<signed char> rest_signs(std::span<const Vec3d> rest, std::span<const Tet> tets);
 
+/// The inverted or flat tets of a deforming mesh, one count per state (after each physical step),
+/// against its orientation at rest (taken at the first count), and the most counted.
+struct InvertedTets {
+  std::vector<signed char> rest_sign;
+  int most = 0;
+  /// The count at positions x of the mesh (rest, tets); keeps the most.
+  int count(std::span<const Vec3d> rest, std::span<const Tet> tets, std::span<const Vec3d> x) {
+    if (rest_sign.empty()) rest_sign = rest_signs(rest, tets);
+    const int n = count_inverted_tets(x, tets, rest_sign);
+    most = n > most ? n : most;
+    return n;
+  }
+};
+
 /// How orient_tets found the tets.
 struct Orientation {
   enum class Kind { Positive, Flipped, Mixed };

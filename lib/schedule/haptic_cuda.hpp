@@ -134,8 +134,6 @@ struct DeviceTickCapacity {
   int blocks_per_sm_shared = 1;
   int registers = 0;            ///< per thread
   std::size_t shared_bytes = 0;  ///< static shared memory per block
-  int resident_blocks() const { return blocks_per_sm * multiprocessors; }
-  int shared_resident_blocks() const { return blocks_per_sm_shared * multiprocessors; }
   /// Multiprocessors left without tick blocks, for the physical steps that run beside the ticks
   /// (a quarter). The tick blocks spin on hand-off counters that the steps release: with a tick
   /// block on every multiprocessor the device stalled (the tube refined once, 208 chunks, one

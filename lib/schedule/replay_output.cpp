@@ -209,7 +209,7 @@ std::string cpu_description() {
 
 ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, const ReplayMetadata& meta,
                            std::int64_t expected_ticks, bool frames)
-    : out_(out_path), rest_sign_(rest_signs(world.physical_mesh.rest, world.physical_mesh.tets)), frames_(frames) {
+    : out_(out_path), frames_(frames) {
   const auto n = static_cast<std::size_t>(expected_ticks);
   for (auto* v : {&t_, &pen_, &pen_h_, &jaw_, &tm_total_, &tm_device_, &tm_sync_, &tm_grasp_, &tm_vmesh_, &tm_vtool_,
                   &tm_output_})
@@ -285,9 +285,8 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
                    p.report.residual > params.tolerance;
   pt_.push_back(t);
   iterations_.push_back(p.report.iterations);
-  const int inverted = count_inverted_tets(p.mesh.x, w.physical_mesh.tets, rest_sign_);
+  const int inverted = inverted_tets_.count(w.physical_mesh.rest, w.physical_mesh.tets, p.mesh.x);
   inverted_.push_back(inverted);
-  max_inverted_ = std::max(max_inverted_, inverted);
   if (inverted > 0 && first_inverted_t_ < 0) first_inverted_t_ = t;
   residual_.push_back(p.report.residual);
   reduction_.push_back(p.report.residual_reduction);

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "io/h5.hpp"
+#include "mesh/quality.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"
 
@@ -85,7 +86,7 @@ class ReplayWriter : public ReplayObserver {
   /// Physical steps skipped while the physical mesh slept (solver.sleep).
   std::int64_t slept_steps() const { return slept_steps_; }
   /// The most physical tets inverted (or flat) after one step, and the first step's time with any.
-  int max_inverted_tets() const { return max_inverted_; }
+  int max_inverted_tets() const { return inverted_tets_.most; }
   double first_inverted_t() const { return first_inverted_t_; }
   /// The physical tool's depth in the tissue at the first tick (m; 0 before any tick).
   double first_penetration_physical() const { return pen_h_.empty() ? 0.0 : pen_h_.front(); }
@@ -100,8 +101,7 @@ class ReplayWriter : public ReplayObserver {
   // /physical per step
   std::vector<double> pt_, residual_, reduction_, tm_step_, tm_local_, tm_global_;
   std::vector<std::int32_t> iterations_, inverted_;
-  std::vector<signed char> rest_sign_;  ///< each physical tet's orientation at rest
-  int max_inverted_ = 0;
+  InvertedTets inverted_tets_;  ///< the physical tets inverted after each step, against rest
   double first_inverted_t_ = -1;
   std::vector<std::uint8_t> recovered_, slept_;
   std::int64_t slept_steps_ = 0;

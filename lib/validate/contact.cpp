@@ -70,16 +70,14 @@ struct Trace : ReplayObserver {
   std::vector<Vec3d> force;
   std::vector<double> penetration;
   std::vector<std::uint8_t> clamped;
-  std::vector<signed char> rest_sign;
-  int inverted = 0;  // the most physical tets inverted after a step
+  InvertedTets inverted;  // the physical tets inverted after each step
   void on_tick(const World&, const HapticSide& h, double) override {
     force.push_back(h.output.force);
     penetration.push_back(h.penetration);
     clamped.push_back(h.output.force_clamped ? 1 : 0);
   }
   void on_step(const World& w, const PhysicalSide& p, double) override {
-    if (rest_sign.empty()) rest_sign = rest_signs(w.physical_mesh.rest, w.physical_mesh.tets);
-    inverted = std::max(inverted, count_inverted_tets(p.mesh.x, w.physical_mesh.tets, rest_sign));
+    inverted.count(w.physical_mesh.rest, w.physical_mesh.tets, p.mesh.x);
   }
 };
 
@@ -120,7 +118,7 @@ ContactPush contact_push_through(const std::string& contact, double speed) {
     p.peak = std::max(p.peak, f);
   }
   if (last > 0) p.force_at_depth = norm(tr.force[last - 1]);
-  p.inverted = tr.inverted;
+  p.inverted = tr.inverted.most;
   return p;
 }
 

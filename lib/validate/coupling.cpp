@@ -13,7 +13,6 @@
 // Short form (in the test suite): gap_insert's first 3 s, 1 and 4 virtual iterations, the scene's
 // k_s and k_svc; --full: every committed recording whole, every value above.
 #include <algorithm>
-#include <chrono>
 #include <string>
 #include <vector>
 
@@ -31,22 +30,14 @@ constexpr double kResidualLimit = 0.02; // mesh weights: ten times the default s
 
 struct Trace : ReplayObserver {
   double residual = 0;
-  int at_cap = 0, steps = 0, inverted = 0;
-  std::vector<signed char> rest_sign;
+  int at_cap = 0, steps = 0;
+  InvertedTets inverted;  // the physical tets inverted after each step
   void on_step(const World& w, const PhysicalSide& p, double) override {
-    if (rest_sign.empty()) rest_sign = rest_signs(w.physical_mesh.rest, w.physical_mesh.tets);
     ++steps;
     residual = std::max(residual, p.report.residual);
     at_cap += p.report.iterations >= w.scene.spec.solver.physical_max_iterations;
-    inverted = std::max(inverted, count_inverted_tets(p.mesh.x, w.physical_mesh.tets, rest_sign));
+    inverted.count(w.physical_mesh.rest, w.physical_mesh.tets, p.mesh.x);
   }
-};
-
-struct Case {
-  std::string recording, k_s_name;
-  int iterations = 0;
-  double k_s = 0;           ///< N/m
-  bool in_envelope = false;  ///< judged: k_s <= k_svc with 2 or more iterations, or the scene's k_s
 };
 
 ValidationResult run_coupling(const ValidationOptions& options) {
@@ -74,33 +65,27 @@ ValidationResult run_coupling(const ValidationOptions& options) {
     const Stiffness st = load_scene_spec(resolve_scene_path(scene)).stiffness;
     for (const std::string& k_s_name : k_s_names)
       for (const int k : iterations) {
-        Case c;
-        c.recording = name;
-        c.k_s_name = k_s_name;
-        c.iterations = k;
-        c.k_s = k_s_name == "scene" ? st.k_s : k_s_name == "k_svc" ? st.k_svc : 2 * st.k_svc;
-        c.in_envelope = c.k_s <= st.k_svc && (k >= 2 || k_s_name == "scene");
+        const double k_s = k_s_name == "scene" ? st.k_s : k_s_name == "k_svc" ? st.k_svc : 2 * st.k_svc;
+        // Judged: k_s up to k_svc with 2 or more iterations, or 1 iteration with the scene's k_s.
+        const bool in_envelope = k_s <= st.k_svc && (k >= 2 || k_s_name == "scene");
         std::vector<std::string> overrides = {"solver.virtual_iterations=" + std::to_string(k)};
-        if (k_s_name != "scene") overrides.push_back("stiffness.k_s=" + std::to_string(c.k_s));
+        if (k_s_name != "scene") overrides.push_back("stiffness.k_s=" + std::to_string(k_s));
         Trace trace;
         std::string error;
-        double wall = 0, virtual_s = 0;
+        ReplaySummary summary;
         try {
           RecordingFile copy = file;
           const LoadedReplay in =
               load_replay_scene(std::move(copy), scene, overrides, std::nullopt, std::nullopt, false, backend);
           ReplayOptions opt;
           opt.duration = window;
-          const auto t0 = std::chrono::steady_clock::now();
-          const ReplaySummary s = replay(*in.world, in.recording, opt, trace);
-          wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-          virtual_s = s.virtual_s;
+          summary = replay(*in.world, in.recording, opt, trace);
         } catch (const NumericalError& e) {
           error = e.what();
         }
         ++cases;
         const bool ok = error.empty() && trace.residual <= kResidualLimit;
-        if (c.in_envelope) {
+        if (in_envelope) {
           ++judged;
           failed += !ok;
           worst_judged = std::max(worst_judged, error.empty() ? trace.residual : 1e300);
@@ -108,17 +93,17 @@ ValidationResult run_coupling(const ValidationOptions& options) {
         Json row = Json::object();
         row.set("recording", name);
         row.set("virtual_iterations", k);
-        row.set("k_s", c.k_s_name);
-        row.set("k_s_n_per_m", c.k_s);
-        row.set("in_envelope", c.in_envelope);
+        row.set("k_s", k_s_name);
+        row.set("k_s_n_per_m", k_s);
+        row.set("in_envelope", in_envelope);
         row.set("completed", error.empty());
         row.set("error", error);
         row.set("max_residual", trace.residual);
         row.set("steps", trace.steps);
         row.set("steps_at_cap", trace.at_cap);
-        row.set("max_inverted_tets", trace.inverted);
-        row.set("virtual_s", virtual_s);
-        row.set("wall_s", wall);
+        row.set("max_inverted_tets", trace.inverted.most);
+        row.set("virtual_s", summary.virtual_s);
+        row.set("wall_s", summary.wall_s);
         row.set("passed", ok);
         rows.push(std::move(row));
       }

@@ -56,10 +56,10 @@ void setup(CLI::App& root) {
   cmd->add_option("name", opts->name, "validation name, or 'all'");
   cmd->add_flag("--json", opts->json, "print results as JSON (an array of {name, error, tolerance, passed, data})");
   cmd->add_flag("--list", opts->list, "list the validations");
-  cmd->add_flag("--full", opts->validation.full, "the long form of the stress matrices (stability: every recording, mesh, solver)");
-  cmd->add_option("--backend", opts->validation.backend, "cpu or cuda: where the iterative solvers run (stability)")
+  cmd->add_flag("--full", opts->validation.full, "the long form of the stress matrices (stability: every recording, mesh, solver; coupling: every recording whole; contact: every speed and surface)");
+  cmd->add_option("--backend", opts->validation.backend, "cpu or cuda: where the iterative solvers run (stability, coupling)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
-  cmd->add_option("--recording", opts->validation.recordings, "replay only these recordings (stability; repeat the option)");
+  cmd->add_option("--recording", opts->validation.recordings, "replay only these recordings (stability, coupling; repeat the option)");
   cmd->callback([opts] { run(*opts); });
 }
 

@@ -54,6 +54,8 @@ Residuals run_stiff_edges(const std::string& damping, double duration) {
 // a diverged mesh by 0.64 s; with the default damping it stays at the tolerance over 6 s.
 TEST(VirtualDamping, TheDefaultKeepsStiffEdgesWithFewIterationsBounded) {
   const Residuals damped = run_stiff_edges("250", 1.0);
+  // The stopping rule holds every step to 0.002 mesh weights; a step left at the iteration cap may
+  // end a little above it, a growing loop ends far above (undamped: 12.9 when it stops).
   EXPECT_LT(damped.max_residual, 0.01) << "mesh weights";
   bool undamped_diverged = false;
   double undamped_residual = 0;
@@ -62,6 +64,7 @@ TEST(VirtualDamping, TheDefaultKeepsStiffEdgesWithFewIterationsBounded) {
   } catch (const NumericalError&) {
     undamped_diverged = true;
   }
+  // Undamped the loop grows by orders of magnitude within the second (it diverges at 0.64 s).
   EXPECT_TRUE(undamped_diverged || undamped_residual > 10 * damped.max_residual)
       << "undamped, the replay should grow without bound (residual " << undamped_residual << ")";
 }

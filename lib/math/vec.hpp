@@ -103,6 +103,11 @@ template <class T> EBH_HD Mat3<T> transpose(const Mat3<T>& a) {
 template <class T> EBH_HD T determinant(const Mat3<T>& a) {
   return dot(a.col(0), cross(a.col(1), a.col(2)));
 }
+/// Cofactor matrix cof(A) = d det(A) / dA: the columns a1 x a2, a2 x a0, a0 x a1 (a_i the columns
+/// of A), so that det(A) = a0 . (a1 x a2) and cof(A) = det(A) A^-T where A is invertible.
+template <class T> EBH_HD Mat3<T> cofactor(const Mat3<T>& a) {
+  return Mat3<T>::from_cols(cross(a.col(1), a.col(2)), cross(a.col(2), a.col(0)), cross(a.col(0), a.col(1)));
+}
 template <class T> EBH_HD T frobenius_sq(const Mat3<T>& a) {
   T s = 0;
   for (int i = 0; i < 3; ++i) for (int j = 0; j < 3; ++j) s += a.m[i][j] * a.m[i][j];

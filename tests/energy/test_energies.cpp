@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "energy/arap.hpp"
+#include "energy/volume.hpp"
 #include "energy/edge_spring.hpp"
 #include "energy/finite_difference.hpp"
 #include "energy/polar_svd.hpp"
@@ -157,6 +158,91 @@ TEST(ArapEnergy, ZeroAtRestAndUnderRigidMotion) {
     // Round-off of F from positions of size |t| ~ 5: 1e-14 relative.
     EXPECT_NEAR(arap_energy(F, R, 3000.0, 1.0), 0.0, 1e-20 + 3000.0 * 1e-24);
     for (int c = 0; c < 4; ++c) EXPECT_LT(norm(grad[c]), 3000.0 * 1e-12);
+  }
+}
+
+// ---- E_det (energy/volume.hpp) -----------------------------------------------------------------
+
+TEST(VolumeEnergy, CofactorIsTheDeterminantsDerivative) {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 20; ++trial) {
+    Mat3d A;
+    for (int i = 0; i < 9; ++i) A.m[i / 3][i % 3] = random_vec(rng, 1.0)[i % 3];
+    const Mat3d C = cofactor(A);
+    for (int i = 0; i < 9; ++i) {
+      Mat3d Ap = A, Am = A;
+      Ap.m[i / 3][i % 3] += 1e-6;
+      Am.m[i / 3][i % 3] -= 1e-6;
+      EXPECT_NEAR(C.m[i / 3][i % 3], (determinant(Ap) - determinant(Am)) / 2e-6, 1e-8);
+    }
+    if (std::abs(determinant(A)) > 1e-3)  // cof A = det A A^-T
+      for (int i = 0; i < 9; ++i)
+        EXPECT_NEAR(C.m[i / 3][i % 3], determinant(A) * transpose(inverse(A)).m[i / 3][i % 3], 1e-9);
+  }
+}
+
+TEST(VolumeEnergy, GradientMatchesFiniteDifferencesOnRandomFlatAndInvertedTets) {
+  std::mt19937 rng(6);
+  const TetCase regular{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {}};
+  const double k = 6000.0;
+  for (int trial = 0; trial < 60; ++trial) {
+    TetCase tc = regular;
+    for (int c = 0; c < 4; ++c) tc.X[c] += random_vec(rng, 0.2);
+    for (int c = 0; c < 4; ++c) tc.x[c] = tc.X[c] + random_vec(rng, 0.3);
+    if (trial % 3 == 1) {
+      for (int c = 0; c < 4; ++c) tc.x[c].z = 0.3 + 1e-4 * c;
+    } else if (trial % 3 == 2) {
+      tc.x[3] = tc.X[3] - Vec3d{0, 0, 1.6};
+    }
+    SCOPED_TRACE(trial);
+    const Mat3d Dm = Mat3d::from_cols(tc.X[1] - tc.X[0], tc.X[2] - tc.X[0], tc.X[3] - tc.X[0]);
+    Vec3d g[4];
+    tet_shape_gradients(inverse(Dm), g);
+    const double V = std::abs(determinant(Dm)) / 6;
+    Vec3d grad[4];
+    volume_gradient(deformation_gradient(tc.x, g), g, k, V, grad);
+    const auto energy = [&](const std::vector<double>& xs) {
+      Vec3d x[4];
+      for (int c = 0; c < 4; ++c) x[c] = {xs[3 * c], xs[3 * c + 1], xs[3 * c + 2]};
+      return volume_energy(deformation_gradient(x, g), k, V);
+    };
+    expect_gradient_near(pack(grad, 4), fd_gradient(energy, pack(tc.x, 4), kFdEps));
+  }
+}
+
+TEST(VolumeEnergy, ForceMatrixIsMinusBothGradients) {
+  // elastic_force_matrix(F, R, w = 2 k_vol V, kappa = k_det / k_vol) g_c = -(dE_vol + dE_det)/dx_c.
+  std::mt19937 rng(7);
+  const Vec3d X[4] = {{0, 0, 0}, {1, 0.1, 0}, {0.2, 1, 0}, {0.1, 0.3, 1}};
+  Vec3d g[4];
+  tet_shape_gradients(inverse(Mat3d::from_cols(X[1] - X[0], X[2] - X[0], X[3] - X[0])), g);
+  const double k_vol = 3000.0, k_det = 7000.0, V = 0.2;
+  for (int trial = 0; trial < 20; ++trial) {
+    Vec3d x[4];
+    for (int c = 0; c < 4; ++c) x[c] = X[c] + random_vec(rng, 0.4);
+    const Mat3d F = deformation_gradient(x, g), R = polar_rotation_svd(F);
+    const Mat3d P = elastic_force_matrix(F, R, arap_weight(k_vol, V), k_det / k_vol);
+    Vec3d ga[4], gd[4];
+    arap_gradient(F, R, g, k_vol, V, ga);
+    volume_gradient(F, g, k_det, V, gd);
+    for (int c = 0; c < 4; ++c) EXPECT_LT(norm(P * g[c] + ga[c] + gd[c]), 1e-9 * (1 + norm(ga[c]) + norm(gd[c])));
+  }
+}
+
+TEST(VolumeEnergy, ZeroUnderRigidMotionAndGrowsWithoutBoundThroughInversion) {
+  std::mt19937 rng(8);
+  for (int trial = 0; trial < 10; ++trial) {
+    const Mat3d Q = random_rotation(rng);
+    EXPECT_NEAR(volume_energy(Q, 1000.0, 1.0), 0.0, 1e-20);
+  }
+  // F = diag(1, 1, s): E_det = k V (s - 1)^2, while E_vol of a flat or mirrored tet stays finite.
+  double previous = -1;
+  for (double s = 1.0; s >= -2.0; s -= 0.25) {
+    const Mat3d F = Mat3d::from_cols({1, 0, 0}, {0, 1, 0}, {0, 0, s});
+    const double e = volume_energy(F, 1000.0, 1.0);
+    EXPECT_NEAR(e, 1000.0 * (s - 1) * (s - 1), 1e-9);
+    EXPECT_GT(e, previous);
+    previous = e;
   }
 }
 

@@ -243,7 +243,8 @@ class SpecReader {
       fail("gravity", "|g| = " + num(norm(s.gravity)) + " m/s^2 is beyond 100 g (1000 m/s^2)");
     const std::pair<const char*, double> k[] = {{"k_vol", s.stiffness.k_vol}, {"k_s", s.stiffness.k_s},
                                                 {"k_svc", s.stiffness.k_svc}, {"k_con", s.stiffness.k_con},
-                                                {"k_vcs", s.stiffness.k_vcs}, {"k_vct", s.stiffness.k_vct}};
+                                                {"k_vcs", s.stiffness.k_vcs}, {"k_vct", s.stiffness.k_vct},
+                                                {"k_det", s.stiffness.k_det}};
     for (const auto& [name, value] : k)
       if (value > kMaxStiffness)
         fail(std::string("stiffness.") + name, num(value) + " is beyond 1e12 (Pa, N/m or N m/rad): no tissue or tool is that stiff");
@@ -276,11 +277,12 @@ class SpecReader {
   }
 
   void read_stiffness(const YAML::Node& n, Stiffness& k) const {
-    const auto e = entries(n, "stiffness", {"k_vol", "k_s", "k_svc", "k_con", "k_vcs", "k_vct"});
+    const auto e = entries(n, "stiffness", {"k_vol", "k_s", "k_svc", "k_con", "k_vcs", "k_vct", "k_det"});
     const std::pair<const char*, double*> fields[] = {{"k_vol", &k.k_vol}, {"k_s", &k.k_s},     {"k_svc", &k.k_svc},
                                                       {"k_con", &k.k_con}, {"k_vcs", &k.k_vcs}, {"k_vct", &k.k_vct}};
     for (const auto& [name, dst] : fields)
       if (auto it = e.find(name); it != e.end()) *dst = positive(it->second, std::string("stiffness.") + name);
+    if (auto it = e.find("k_det"); it != e.end()) k.k_det = non_negative(it->second, "stiffness.k_det");
   }
 
   void read_pinned(const YAML::Node& n, SceneSpec& s) const {
@@ -818,6 +820,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "k_vol" << YAML::Value << k.k_vol << YAML::Key << "k_s" << YAML::Value << k.k_s;
   y << YAML::Key << "k_svc" << YAML::Value << k.k_svc << YAML::Key << "k_con" << YAML::Value << k.k_con;
   y << YAML::Key << "k_vcs" << YAML::Value << k.k_vcs << YAML::Key << "k_vct" << YAML::Value << k.k_vct;
+  if (k.k_det > 0) y << YAML::Key << "k_det" << YAML::Value << k.k_det;
   y << YAML::EndMap;
   y << YAML::Key << "gravity" << YAML::Value;
   vec(s.gravity, 0);

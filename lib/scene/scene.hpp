@@ -26,6 +26,8 @@
 //     k_con: 400                    # N/m   E_con [3]  per virtual vertex in contact
 //     k_vcs: 300                    # N/m   E_tvc [2]  translation
 //     k_vct: 0.3                    # N m/rad E_tvc [2] rotation
+//     k_det: 0                      # Pa    E_det (not in the paper; 0 = off): volume stiffness lambda/2,
+//                                   #       Poisson's ratio k_det / (2 k_det + k_vol) (docs/MODEL.md)
 //   gravity: [0, 0, -9.81]          # m/s^2
 //   damping: 0.0                    # fraction of velocity removed per physical step, [0, 1)
 //   pinned:                         # union of regions, world coordinates (after mesh.transform); each one of:
@@ -102,6 +104,7 @@ struct Stiffness {
   double k_con = 400.0;   ///< N/m, E_con [3]
   double k_vcs = 300.0;   ///< N/m, E_tvc [2] translation
   double k_vct = 0.3;     ///< N m / rad, E_tvc [2] rotation
+  double k_det = 0.0;     ///< Pa, E_det (energy/volume.hpp; not in the paper): lambda / 2; 0 = off
   /// Virtual edges stiffer than their coupling to the physical mesh: in async mode the two meshes
   /// can drive each other unstable (docs/MODEL.md, "k_s against k_svc"); the scene warns.
   bool edges_outweigh_coupling() const { return k_svc > 0 && k_s > k_svc; }

@@ -41,6 +41,7 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("k_con", s.stiffness.k_con);
   f.set_attr("k_vcs", s.stiffness.k_vcs);
   f.set_attr("k_vct", s.stiffness.k_vct);
+  f.set_attr("k_det", s.stiffness.k_det);
   f.set_attr("density", s.density);
   f.set_attr("damping", s.damping);
   f.set_attr("gravity", std::vector<double>{s.gravity.x, s.gravity.y, s.gravity.z});

@@ -4,6 +4,7 @@
 #include "energy/arap.hpp"
 #include "energy/edge_spring.hpp"
 #include "energy/rotation.hpp"
+#include "energy/volume.hpp"
 
 namespace ebh {
 namespace {
@@ -16,8 +17,9 @@ constexpr int kEdgeLanes = 8;  ///< edges per block
 /// R_t = Mueller update(s) of the warm start (energy/rotation.hpp), then the corner forces
 /// w_t (R_t - F_t) g_c (= -dE_vol/dx_c) into force[4 t + c]. The lanes' data go through small
 /// structure-of-arrays buffers: scalar gathers in, branch-free loops over the lanes that the
-/// compiler vectorises (the energy functions inlined per lane), scalar stores out.
-template <bool Full>
+/// compiler vectorises (the energy functions inlined per lane), scalar stores out. Det: E_det's
+/// force added (tets.det_ratio > 0).
+template <bool Full, bool Det>
 void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Quatd* __restrict rotation,
                Vec3d* __restrict force, int t0, int count, int rotation_iterations, double tol) {
   constexpr int W = kTetLanes;
@@ -68,7 +70,10 @@ void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Qua
   for (int l = 0; l < L; ++l) {  // w_t (R_t - F_t) g_c
     Mat3d Ft;
     for (int i = 0; i < 9; ++i) Ft.m[i / 3][i % 3] = F[i][l];
-    const Mat3d P = w[l] * (rotation_matrix(Quatd{q[0][l], q[1][l], q[2][l], q[3][l]}) - Ft);
+    const Mat3d R = rotation_matrix(Quatd{q[0][l], q[1][l], q[2][l], q[3][l]});
+    Mat3d P;
+    if constexpr (Det) P = elastic_force_matrix(Ft, R, w[l], tets.det_ratio);
+    else P = w[l] * (R - Ft);
     for (int c = 0; c < 4; ++c) {
       const Vec3d fc = P * Vec3d{g[(3 * c) * T + l], g[(3 * c + 1) * T + l], g[(3 * c + 2) * T + l]};
       f[3 * c][l] = fc.x; f[3 * c + 1][l] = fc.y; f[3 * c + 2][l] = fc.z;
@@ -83,7 +88,7 @@ void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Qua
 /// tet_block for one rotation update per local step (the default): one fused loop over the lanes,
 /// positions gathered straight from x, no intermediate buffers but the forces' (same operations,
 /// same order as tet_block_general).
-template <bool Full>
+template <bool Full, bool Det>
 void tet_block_single_update(const TetKernelData& tets, const double* __restrict x, Quatd* __restrict rotation,
                              Vec3d* __restrict force, int t0, int count, double tol) {
   constexpr int W = kTetLanes;
@@ -109,7 +114,9 @@ void tet_block_single_update(const TetKernelData& tets, const double* __restrict
     const bool go = !(omega_norm < tol);  // extract_rotation's stop test
     const Quatd q{go ? next.w : q0.w, go ? next.x : q0.x, go ? next.y : q0.y, go ? next.z : q0.z};
     qd[4 * l] = q.w; qd[4 * l + 1] = q.x; qd[4 * l + 2] = q.y; qd[4 * l + 3] = q.z;
-    const Mat3d P = w[l] * (rotation_matrix(q) - F);  // w_t (R_t - F_t)
+    Mat3d P;
+    if constexpr (Det) P = elastic_force_matrix(F, rotation_matrix(q), w[l], tets.det_ratio);
+    else P = w[l] * (rotation_matrix(q) - F);  // w_t (R_t - F_t)
     for (int c = 0; c < 4; ++c) {
       const Vec3d fc = P * gc[c];
       f[3 * c][l] = fc.x; f[3 * c + 1][l] = fc.y; f[3 * c + 2][l] = fc.z;
@@ -158,12 +165,20 @@ void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation,
   for (int b = 0; b < blocks; ++b) {
     const bool full = W * (b + 1) <= T;
     const int count = full ? W : T - W * b;
-    if (rotation_iterations == 1) {
-      if (full) tet_block_single_update<true>(tets, &x[0].x, rotation, force, W * b, W, tol);
-      else tet_block_single_update<false>(tets, &x[0].x, rotation, force, W * b, count, tol);
+    if (tets.det_ratio > 0) {
+      if (rotation_iterations == 1) {
+        if (full) tet_block_single_update<true, true>(tets, &x[0].x, rotation, force, W * b, W, tol);
+        else tet_block_single_update<false, true>(tets, &x[0].x, rotation, force, W * b, count, tol);
+      } else {
+        if (full) tet_block_general<true, true>(tets, x, rotation, force, W * b, W, rotation_iterations, tol);
+        else tet_block_general<false, true>(tets, x, rotation, force, W * b, count, rotation_iterations, tol);
+      }
+    } else if (rotation_iterations == 1) {
+      if (full) tet_block_single_update<true, false>(tets, &x[0].x, rotation, force, W * b, W, tol);
+      else tet_block_single_update<false, false>(tets, &x[0].x, rotation, force, W * b, count, tol);
     } else {
-      if (full) tet_block_general<true>(tets, x, rotation, force, W * b, W, rotation_iterations, tol);
-      else tet_block_general<false>(tets, x, rotation, force, W * b, count, rotation_iterations, tol);
+      if (full) tet_block_general<true, false>(tets, x, rotation, force, W * b, W, rotation_iterations, tol);
+      else tet_block_general<false, false>(tets, x, rotation, force, W * b, count, rotation_iterations, tol);
     }
   }
 }

@@ -21,11 +21,13 @@ struct TetKernelData {
   const int* corner = nullptr;       ///< #4T vertex of corner c of tet t at [c T + t]
   const double* shape_grad = nullptr;///< #12T component i of g_c of tet t at [(3 c + i) T + t]
   const double* weight = nullptr;    ///< #T w_t = 2 k_vol V_t
+  double det_ratio = 0;              ///< kappa = k_det / k_vol: E_det's force too where > 0 (energy/volume.hpp)
 };
 
 /// Alg. 1 lines 6-8 per tet: F_t = sum_c x_c g_c^T; R_t by up to rotation_iterations Mueller
 /// updates of rotation[t] (stopping below tol radians, as extract_rotation); then
-/// force[4 t + c] = w_t (R_t - F_t) g_c (= -dE_vol/dx_c). `omp for nowait`.
+/// force[4 t + c] = w_t (R_t - F_t) g_c (= -dE_vol/dx_c), with det_ratio > 0 E_det's force added
+/// (elastic_force_matrix). `omp for nowait`.
 ///   x: #n positions; rotation: #T warm starts, updated; force: #4T.
 void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation, Vec3d* force,
                      int rotation_iterations, double tol);

@@ -9,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "energy/arap.hpp"
+#include "energy/volume.hpp"
 #include "energy/polar_svd.hpp"
 #include "energy/quadratic.hpp"
 #include "energy/rotation.hpp"
@@ -55,7 +56,7 @@ void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& s
 void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params) {
   const TetKernelData tets{model.num_tets, model.corner_soa.data(), model.shape_grad_soa.data(),
-                           model.tet_weight.data()};
+                           model.tet_weight.data(), model.det_ratio};
   local_step_tets(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
                   kRotationTol);  // omp for nowait
   const int m = model.num_virtual;
@@ -170,6 +171,7 @@ Eigen::SparseMatrix<double> assemble_global_matrix(const PhysicalModel& M) {
   const int n = M.num_vertices, T = M.num_tets, m = M.num_virtual;
   std::vector<Eigen::Triplet<double>> trip;
   trip.reserve(16 * size_t(T) + size_t(n) + 16 * size_t(m));
+  const double factor = volume_matrix_factor(M.det_ratio);  // E_det's share of a tet's weight
   for (int a = 0; a < n; ++a)
     if (!M.pinned[a]) trip.emplace_back(M.free_index[a], M.free_index[a], M.mass[a] / (M.h * M.h));
   for (int t = 0; t < T; ++t)
@@ -177,7 +179,7 @@ Eigen::SparseMatrix<double> assemble_global_matrix(const PhysicalModel& M) {
       for (int j = 0; j < 4; ++j) {
         const int fa = M.free_index[M.tets[t][i]], fb = M.free_index[M.tets[t][j]];
         if (fa >= 0 && fb >= 0)
-          trip.emplace_back(fa, fb, M.tet_weight[t] * dot(M.shape_grad[4 * t + i], M.shape_grad[4 * t + j]));
+          trip.emplace_back(fa, fb, M.tet_weight[t] * factor * dot(M.shape_grad[4 * t + i], M.shape_grad[4 * t + j]));
       }
   for (int j = 0; j < m; ++j)
     for (int i = 0; i < M.pair_count[j]; ++i)
@@ -206,6 +208,8 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
   M.num_tets = static_cast<int>(mesh.tets.size());
   M.h = options.h;
   M.k_vol = scene.spec.stiffness.k_vol;
+  M.k_det = scene.spec.stiffness.k_det;
+  M.det_ratio = M.k_det / M.k_vol;
   M.k_svc = scene.spec.stiffness.k_svc;
   M.damping = scene.spec.damping;
   M.gravity = scene.spec.gravity;
@@ -293,7 +297,7 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
     double d = M.mass[a] / (M.h * M.h);
     for (int k = M.tet_offsets[a]; k < M.tet_offsets[a + 1]; ++k) {
       const int e = M.tet_entries[k];
-      d += M.tet_weight[e >> 2] * squared_norm(M.shape_grad[e]);
+      d += M.tet_weight[e >> 2] * volume_matrix_factor(M.det_ratio) * squared_norm(M.shape_grad[e]);
     }
     for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) d += M.k_svc * M.cpl_weight[k] * M.cpl_weight[k];
     M.diag[a] = d;
@@ -475,6 +479,7 @@ PhysicalEnergy physical_energy(const PhysicalModel& model, std::span<const Vec3d
     const Vec3d xc[4] = {x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]};
     const Mat3d F = deformation_gradient(xc, &model.shape_grad[4 * t]);
     E.volume += arap_energy(F, polar_rotation_svd(F), model.k_vol, model.volume[t]);
+    if (model.k_det > 0) E.volume += volume_energy(F, model.k_det, model.volume[t]);
   }
   if (!s.empty())
     for (int a = 0; a < model.num_vertices; ++a) E.inertia += inertia_energy(x[a], s[a], model.mass[a], model.h);
@@ -496,7 +501,10 @@ void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> 
       const Tet& tet = model.tets[t];
       const Vec3d xc[4] = {x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]};
       const Mat3d F = deformation_gradient(xc, &model.shape_grad[4 * t]);
-      f += (model.tet_weight[t]) * ((polar_rotation_svd(F) - F) * model.shape_grad[e]);
+      const Mat3d R = polar_rotation_svd(F);
+      const Mat3d P = model.k_det > 0 ? elastic_force_matrix(F, R, model.tet_weight[t], model.det_ratio)
+                                      : model.tet_weight[t] * (R - F);
+      f += P * model.shape_grad[e];
     }
     forces[a] = f;
   }

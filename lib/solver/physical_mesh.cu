@@ -56,6 +56,7 @@
 
 #include "core/error.hpp"
 #include "energy/arap.hpp"
+#include "energy/volume.hpp"
 #include "energy/quadratic.hpp"
 #include "energy/rotation.hpp"
 #include "solver/cuda_util.cuh"
@@ -88,6 +89,7 @@ constexpr int kPrefetchPulls = 2;           // coupling entries per lane loaded 
 struct PhysicalDevice {
   int n = 0, T = 0, m = 0;
   float h = 0, k_svc = 0, velocity_scale = 0;  // velocity_scale = (1 - damping) / h
+  float det_ratio = 0;                  // kappa = k_det / k_vol: E_det's force too where > 0 (energy/volume.hpp)
   Vec3f gravity;
   // Patches (host-built, see build_patches): per patch p, its vertex slots
   // [slot_offsets[p], slot_offsets[p+1]) (its own vertices first, then neighbours) and its tets
@@ -192,9 +194,10 @@ __device__ __forceinline__ TetItem load_tet(const PhysicalDevice& d, int e) {
 }
 
 /// Alg. 1 lines 6-8 for one tet: F, R (warm-started from r_last) and the four corner forces
-/// w_t (R - F) g_c = -dE_vol/dx_c [7], from the patch's staged positions.
+/// w_t (R - F) g_c = -dE_vol/dx_c [7], from the patch's staged positions; with det_ratio > 0 also
+/// -dE_det/dx_c (elastic_force_matrix, energy/volume.hpp).
 __device__ __forceinline__ Quatf tet_forces(const TetItem& it, Quatf r_last, const Sweep& w, const Vec3f* pos,
-                                            Vec3f* force, int rotation_iterations) {
+                                            Vec3f* force, int rotation_iterations, float det_ratio) {
   Vec3f x[4];
   x[0] = pos[it.corner.x];
   x[1] = pos[it.corner.y];
@@ -207,7 +210,8 @@ __device__ __forceinline__ Quatf tet_forces(const TetItem& it, Quatf r_last, con
   const Mat3f F = deformation_gradient(x, it.g);
   const Quatf R = extract_rotation(F, r_last, rotation_iterations, 1e-9f);
   if (it.tagged < 0) w.rot_out[it.tagged & 0x7fffffff] = R;
-  const Mat3f proj = it.weight * (to_matrix(R) - F);
+  const Mat3f proj = det_ratio > 0 ? elastic_force_matrix(F, to_matrix(R), it.weight, det_ratio)
+                                   : it.weight * (to_matrix(R) - F);
   for (int i = 0; i < 4; ++i) force[i] = proj * it.g[i];
   return R;
 }
@@ -391,7 +395,7 @@ __device__ __forceinline__ void patch_iteration(const PhysicalDevice& d, const S
     if (k < P.tets) {
       const TetItem& it = S.tet[k];
       const Quatf R = tet_forces(it, k == tid ? r_last : w.rot_in[it.tagged & 0x7fffffff], w, pos, force + 4 * k,
-                                 rotation_iterations);
+                                 rotation_iterations, d.det_ratio);
       if (k == tid) r_last = R;
     } else {
       pull[k - P.tets] = pull_force(S.pl[k - P.tets], pos, d.k_svc);
@@ -848,6 +852,7 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   dev.h = float(M.h);
   dev.k_svc = float(M.k_svc);
   dev.velocity_scale = float((1.0 - M.damping) / M.h);
+  dev.det_ratio = float(M.det_ratio);
   dev.gravity = to_float(M.gravity);
   dev.slot_offsets = slot_offsets.get();
   dev.slot_vertex = slot_vertex.get();

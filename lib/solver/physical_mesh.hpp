@@ -53,6 +53,8 @@ struct PhysicalModel {
   int num_virtual = 0;                  ///< m, 0 when there is no E_svc coupling
   double h = 0;                         ///< physical step (s)
   double k_vol = 0;                     ///< Pa, E_vol [7]
+  double k_det = 0;                     ///< Pa, E_det (energy/volume.hpp); 0 = the paper's model
+  double det_ratio = 0;                 ///< kappa = k_det / k_vol
   double k_svc = 0;                     ///< N/m, E_svc [5]
   double damping = 0;                   ///< fraction of velocity removed per step
   Vec3d gravity;                        ///< m/s^2
@@ -236,7 +238,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
                                  const PhysicalDirectSolver* direct = nullptr);
 
 struct PhysicalEnergy {
-  double volume = 0;    ///< E_vol [7]
+  double volume = 0;    ///< E_vol [7] (and E_det, energy/volume.hpp, where k_det > 0)
   double inertia = 0;   ///< E_k [6]
   double coupling = 0;  ///< E_svc [5]
   double total() const { return volume + inertia + coupling; }

@@ -83,8 +83,8 @@ struct Models {
 
 /// A committed scene's models (no factorisation), with its physical mesh degraded to a worst
 /// mean ratio of `quality` when below 1 (as `ebh scene degrade`); the start state at rest.
-void load_models(Models& M, const char* name, double quality) {
-  M.scene = load_scene(resolve_scene_path(name));
+void load_models(Models& M, const char* name, double quality, const std::vector<std::string>& overrides = {}) {
+  M.scene = load_scene(resolve_scene_path(name), overrides);
   if (quality < 1) {
     DegradeOptions o;
     o.target_quality = quality;
@@ -100,13 +100,15 @@ void load_models(Models& M, const char* name, double quality) {
 
 /// A scene's models and a deformed moving state: a downward velocity bump on the upper half and
 /// three CPU steps (as benchmarks/bench_physical_step.cpp).
-const Models& models(const char* name) {
+const Models& models(const char* name, const std::vector<std::string>& overrides = {}) {
   static std::map<std::string, std::unique_ptr<Models>> cache;
-  auto& slot = cache[name];
+  std::string key = name;
+  for (const std::string& o : overrides) key += " " + o;
+  auto& slot = cache[key];
   if (slot) return *slot;
   slot = std::make_unique<Models>();
   Models& M = *slot;
-  load_models(M, name, 1.0);
+  load_models(M, name, 1.0, overrides);
   double zmax = -1e9, zmin = 1e9;
   for (const Vec3d& x : M.pm.rest) { zmax = std::max(zmax, x.z); zmin = std::min(zmin, x.z); }
   for (int a = 0; a < M.pm.num_vertices; ++a)
@@ -125,8 +127,9 @@ std::vector<Vec3d> displaced_virtual(const VirtualModel& vm, unsigned seed) {
   return q;
 }
 
-void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method, int iterations = 16) {
-  const Models& M = models(scene.c_str());
+void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method, int iterations = 16,
+                             const std::vector<std::string>& overrides = {}) {
+  const Models& M = models(scene.c_str(), overrides);
   PhysicalStepParams params;
   params.method = method;
   params.iterations = iterations;
@@ -205,6 +208,12 @@ TEST(CudaPhysical, JacobiStepMatchesCpuCholecystectomy) {
 TEST(CudaPhysical, ChebyshevStepMatchesCpuTube) {
   EBH_REQUIRE_DEVICE();
   expect_step_matches_cpu("tube", SolverSpec::Method::Chebyshev);
+}
+/// E_det (stiffness.k_det, energy/volume.hpp): the same force function on both backends.
+TEST(CudaPhysical, VolumeStiffnessStepMatchesCpu) {
+  EBH_REQUIRE_DEVICE();
+  expect_step_matches_cpu("cholecystectomy", SolverSpec::Method::Chebyshev, 16, {"stiffness.k_det=9000"});
+  expect_step_matches_cpu("gap", SolverSpec::Method::Jacobi, 16, {"stiffness.k_det=15000"});
 }
 
 /// The device-resident step (q from and x to device memory, as the device haptic tick runs it) is

@@ -95,6 +95,7 @@ TEST(SceneSpec, DefaultsAndNameFromStem) {
   EXPECT_EQ(s.solver.physical_max_iterations, 64);
   EXPECT_FALSE(s.solver.chebyshev_rho_auto);
   EXPECT_EQ(s.solver.virtual_damping, 250.0);  // 1/s
+  EXPECT_EQ(s.stiffness.k_det, 0.0);            // E_det off: the paper's model
 }
 
 TEST(Scene, LoadsInMetresAndPins) {
@@ -297,6 +298,10 @@ TEST_F(BadScene, NotFinite) { expect(replace(good, "density: 1100", "density: .n
 TEST_F(BadScene, MapForNumber) { expect(replace(good, "density: 1100", "density: {a: 1}"), "key 'material.density': expected a positive number, got a map"); }
 TEST_F(BadScene, UnknownTopKey) { expect(good + "colour: red\n", "key 'colour': unknown key (known: name, description, unit"); }
 TEST_F(BadScene, UnknownNestedKey) { expect(replace(good, "k_s: 25", "k_x: 25"), "key 'stiffness.k_x': unknown key (known: k_vol, k_s"); }
+TEST_F(BadScene, VolumeStiffness) {
+  expect(replace(good, "k_s: 25", "k_s: 25, k_det: -1"), "key 'stiffness.k_det': expected a number >= 0, got '-1'");
+  expect(replace(good, "k_s: 25", "k_s: 25, k_det: 2e12"), "key 'stiffness.k_det': 2e+12 is beyond 1e12");
+}
 TEST_F(BadScene, BadEnum) { expect(replace(good, "kind: forceps", "kind: scalpel"), "key 'tool.kind': expected one of hook, forceps, got 'scalpel'"); }
 TEST_F(BadScene, BadUnit) { expect(replace(good, "unit: mm", "unit: inch"), "key 'unit': expected one of m, cm, mm, got 'inch'"); }
 TEST_F(BadScene, OutOfRange) { expect(replace(good, "damping: 0.05", "damping: 1.0"), "key 'damping': expected a number in [0, 1), got '1.0'"); }

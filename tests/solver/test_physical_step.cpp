@@ -141,5 +141,54 @@ TEST(Determinism, PhysicalStepIsBitwiseEqualWithOneAndTwoThreads) {
   }
 }
 
+// E_det (stiffness.k_det, energy/volume.hpp): a box with every boundary vertex held on the affine
+// field x = F X, F = diag(1, 1, 1 - e), relaxes to that field (any homogeneous energy's
+// equilibrium; linear tets hold it exactly), and the top face then carries the confined
+// compression stress 2 (k_vol + k_det) e (P = 2 k_vol (F - R) + 2 k_det (J - 1) cof F with R = I,
+// J = 1 - e, cof F = diag(1 - e, 1 - e, 1): exact at finite strain). Every method gets there,
+// the iterative ones stably with k_det = 10 k_vol (nu = 0.48).
+TEST(PhysicalStep, VolumeStiffnessGivesTheConfinedCompressionStress) {
+  const double W = 0.012, L = 0.024, e = 0.05, k_vol = 3000, k_det = 30000;
+  for (Method method : {Method::Direct, Method::Jacobi, Method::Chebyshev}) {
+    SCOPED_TRACE(static_cast<int>(method));
+    Scene scene;
+    scene.spec.file = "box (in code)";
+    scene.spec.gravity = Vec3d{};
+    scene.spec.stiffness.k_vol = k_vol;
+    scene.spec.stiffness.k_det = k_det;
+    scene.physical = make_box_tets({0, 0, 0}, {W, W, L}, 3, 3, 6);
+    std::vector<int> top;
+    for (int i = 0; i < static_cast<int>(scene.physical.vertices.size()); ++i) {
+      const Vec3d& X = scene.physical.vertices[i];
+      const auto at = [](double a, double b) { return std::abs(a - b) < 1e-9; };
+      if (at(X.x, 0) || at(X.x, W) || at(X.y, 0) || at(X.y, W) || at(X.z, 0) || at(X.z, L)) scene.pinned.push_back(i);
+      if (at(X.z, L)) top.push_back(i);
+    }
+    PhysicalModelOptions options;
+    options.h = 1e3;  // static: M / h^2 ~ 1e-9 of the stiffness
+    const PhysicalModel pm = build_physical_model(scene, nullptr, options);
+    PhysicalState ps = make_physical_state(pm);
+    for (int a : scene.pinned) ps.x[a].z *= 1 - e;
+    PhysicalWorkspace pw = make_physical_workspace(pm);
+    PhysicalStepParams params;
+    params.method = method;
+    params.iterations = 400;
+    params.rotation_iterations = 4;
+    for (int step = 0; step < 5; ++step) {
+      physical_step(pm, pw, ps, {}, params);
+      ps.v.assign(pm.num_vertices, Vec3d{});  // quasi-static: each step from rest
+    }
+    for (int a = 0; a < pm.num_vertices; ++a) {
+      const Vec3d affine{pm.rest[a].x, pm.rest[a].y, pm.rest[a].z * (1 - e)};
+      EXPECT_LT(norm(ps.x[a] - affine), 1e-9) << a;
+    }
+    std::vector<Vec3d> f(pm.num_vertices);
+    physical_elastic_forces(pm, ps.x, f);
+    double reaction = 0;
+    for (int a : top) reaction += f[a].z;
+    EXPECT_NEAR(reaction, 2 * (k_vol + k_det) * e * W * W, 1e-6 * 2 * (k_vol + k_det) * e * W * W);
+  }
+}
+
 }  // namespace
 }  // namespace ebh

@@ -50,8 +50,11 @@ struct ContactPush {
   double force_at_depth = 0;  ///< N, when the device reaches full depth
   bool clamped = false;       ///< the force reached the device's limit
   int inverted = 0;           ///< the most physical tets inverted after a step (ARAP gives way)
+  double k_det = 0;           ///< Pa, the tissue's volume stiffness (0: the gap scene's, nu = 0)
 };
-ContactPush contact_push_through(const std::string& contact, double speed);
+/// The hook pushed 30 mm into the gap's block at `speed` with `contact` (vertices | surface), the
+/// tissue's volume stiffness stiffness.k_det = k_det (0: the scene's).
+ContactPush contact_push_through(const std::string& contact, double speed, double k_det = 0);
 /// Open forceps slid across a "flat" or "curved" surface with both contact models: the force's
 /// power above 5 Hz (arbitrary units, comparable between the two) and mean |F|.
 struct ContactSlide {

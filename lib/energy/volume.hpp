@@ -11,8 +11,8 @@
 //     dE_det/dx_c = 2 k_det V_t (J - 1) cof(F) g_c.
 // Projective Dynamics has no projection for it that costs less than an SVD, so the local step
 // adds its exact force to E_vol's, w_t [(R - F) + kappa (1 - J) cof F] g_c with w_t = 2 k_vol V_t
-// and kappa = k_det / k_vol, and the global step's matrix takes the tet's weight as w_t (1 + kappa):
-// the term's Gauss-Newton Hessian at rest, 2 k_det V_t (g_a . g_b) in the bound on its diagonal.
+// and kappa = k_det / k_vol, and the global step's matrix takes the tet's weight as
+// w_t (1 + 3 kappa), which bounds the term's Gauss-Newton Hessian (volume_matrix_factor).
 #include "math/vec.hpp"
 
 namespace ebh {
@@ -33,8 +33,10 @@ EBH_HD void volume_gradient(const Mat3<T>& F, const Vec3<T> g[4], T k_det, T vol
 
 /// The local step's force matrix of E_vol and E_det together: with it the corner forces are
 /// P g_c = -(dE_vol/dx_c + dE_det/dx_c). w: E_vol's weight w_t = 2 k_vol V_t; kappa = k_det / k_vol.
+/// kappa = 0 gives E_vol's w (R - F) by the paper's own operations (the same bits as without E_det).
 template <class T>
 EBH_HD Mat3<T> elastic_force_matrix(const Mat3<T>& F, const Mat3<T>& R, T w, T kappa) {
+  if (!(kappa > T(0))) return w * (R - F);
   return w * ((R - F) + (kappa * (T(1) - determinant(F))) * cofactor(F));
 }
 

@@ -18,7 +18,8 @@ constexpr int kEdgeLanes = 8;  ///< edges per block
 /// w_t (R_t - F_t) g_c (= -dE_vol/dx_c) into force[4 t + c]. The lanes' data go through small
 /// structure-of-arrays buffers: scalar gathers in, branch-free loops over the lanes that the
 /// compiler vectorises (the energy functions inlined per lane), scalar stores out. Det: E_det's
-/// force added (tets.det_ratio > 0).
+/// force added (tets.det_ratio > 0); a template argument rather than elastic_force_matrix's own
+/// test of kappa, which would put a branch inside the vectorised loop.
 template <bool Full, bool Det>
 void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Quatd* __restrict rotation,
                Vec3d* __restrict force, int t0, int count, int rotation_iterations, double tol) {

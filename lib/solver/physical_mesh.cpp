@@ -293,11 +293,12 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
   // method, its factorisation.
   const Eigen::SparseMatrix<double> A = assemble_global_matrix(M);
   M.diag.assign(n, 0.0);
+  const double factor = volume_matrix_factor(M.det_ratio);  // E_det's share of a tet's weight
   for (int a = 0; a < n; ++a) {  // pinned rows: the plain diagonal (never used by the update)
     double d = M.mass[a] / (M.h * M.h);
     for (int k = M.tet_offsets[a]; k < M.tet_offsets[a + 1]; ++k) {
       const int e = M.tet_entries[k];
-      d += M.tet_weight[e >> 2] * volume_matrix_factor(M.det_ratio) * squared_norm(M.shape_grad[e]);
+      d += M.tet_weight[e >> 2] * factor * squared_norm(M.shape_grad[e]);
     }
     for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) d += M.k_svc * M.cpl_weight[k] * M.cpl_weight[k];
     M.diag[a] = d;
@@ -501,10 +502,7 @@ void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> 
       const Tet& tet = model.tets[t];
       const Vec3d xc[4] = {x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]};
       const Mat3d F = deformation_gradient(xc, &model.shape_grad[4 * t]);
-      const Mat3d R = polar_rotation_svd(F);
-      const Mat3d P = model.k_det > 0 ? elastic_force_matrix(F, R, model.tet_weight[t], model.det_ratio)
-                                      : model.tet_weight[t] * (R - F);
-      f += P * model.shape_grad[e];
+      f += elastic_force_matrix(F, polar_rotation_svd(F), model.tet_weight[t], model.det_ratio) * model.shape_grad[e];
     }
     forces[a] = f;
   }

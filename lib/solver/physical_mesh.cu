@@ -210,8 +210,7 @@ __device__ __forceinline__ Quatf tet_forces(const TetItem& it, Quatf r_last, con
   const Mat3f F = deformation_gradient(x, it.g);
   const Quatf R = extract_rotation(F, r_last, rotation_iterations, 1e-9f);
   if (it.tagged < 0) w.rot_out[it.tagged & 0x7fffffff] = R;
-  const Mat3f proj = det_ratio > 0 ? elastic_force_matrix(F, to_matrix(R), it.weight, det_ratio)
-                                   : it.weight * (to_matrix(R) - F);
+  const Mat3f proj = elastic_force_matrix(F, to_matrix(R), it.weight, det_ratio);
   for (int i = 0; i < 4; ++i) force[i] = proj * it.g[i];
   return R;
 }

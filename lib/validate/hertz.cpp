@@ -89,6 +89,10 @@ Scene make_block(double W, double H, double fine, double fine_half, double k_vol
   return scene;
 }
 
+constexpr double kSphereRadius = 0.010;  // m
+constexpr double kVol = 3000.0;          // Pa, k_vol: E = 6 kPa (nu = 0), soft tissue
+constexpr double kSvc = 10.0;            // N/m per surface node: the contact penalty (see the top of the file)
+
 /// One material's indentation curve: k_det = 0 (E_vol alone, nu = 0) or with E_det.
 struct HertzCurve {
   Json data = Json::object();
@@ -96,9 +100,7 @@ struct HertzCurve {
 };
 
 HertzCurve hertz_curve(double k_det) {
-  const double R = 0.010;             // sphere radius, m
-  const double k_vol = 3000.0;        // Pa: E = 6 kPa, soft tissue
-  const double k_svc = 10.0;         // N/m per surface node: the contact penalty (see the top of the file)
+  const double R = kSphereRadius, k_vol = kVol, k_svc = kSvc;
   // Linearised: mu = k_vol, lambda = 2 k_det (energy/volume.hpp); E* = E / (1 - nu^2).
   const double mu = k_vol, lambda = 2.0 * k_det, nu = lambda / (2.0 * (lambda + mu));
   const double E_star = mu * (3.0 * lambda + 2.0 * mu) / (lambda + mu) / (1.0 - nu * nu);
@@ -186,14 +188,14 @@ ValidationResult run_hertz() {
   ValidationResult r;
   r.name = "hertz";
   r.data = Json::object();
-  r.data.set("sphere_radius_m", 0.010);
-  r.data.set("k_svc_n_per_m", 10.0);
+  r.data.set("sphere_radius_m", kSphereRadius);
+  r.data.set("k_svc_n_per_m", kSvc);
   r.data.set("block_m", Json::array_of(std::vector<double>{0.060, 0.060, 0.030}));
   // E_vol alone (nu = 0), then with E_det at k_det = 3 k_vol (nu = 3/7 = 0.43, near-incompressible
   // soft tissue's range): E* = 2 k_vol and 4.2 k_vol.
   Json materials = Json::array();
   r.error = 0;
-  for (const double k_det : {0.0, 9000.0}) {
+  for (const double k_det : {0.0, 3.0 * kVol}) {
     HertzCurve c = hertz_curve(k_det);
     r.error = std::max(r.error, c.worst);
     materials.push(std::move(c.data));

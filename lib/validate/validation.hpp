@@ -53,8 +53,8 @@ struct ContactPush {
   double k_det = 0;           ///< Pa, the tissue's volume stiffness (0: the gap scene's, nu = 0)
 };
 /// The hook pushed 30 mm into the gap's block at `speed` with `contact` (vertices | surface), the
-/// tissue's volume stiffness stiffness.k_det = k_det (0: the scene's).
-ContactPush contact_push_through(const std::string& contact, double speed, double k_det = 0);
+/// tissue's volume stiffness stiffness.k_det = det_ratio times the scene's k_vol (0: the scene's).
+ContactPush contact_push_through(const std::string& contact, double speed, double det_ratio = 0);
 /// Open forceps slid across a "flat" or "curved" surface with both contact models: the force's
 /// power above 5 Hz (arbitrary units, comparable between the two) and mean |F|.
 struct ContactSlide {

@@ -169,13 +169,15 @@ TEST(VolumeEnergy, CofactorIsTheDeterminantsDerivative) {
     Mat3d A;
     for (int i = 0; i < 9; ++i) A.m[i / 3][i % 3] = random_vec(rng, 1.0)[i % 3];
     const Mat3d C = cofactor(A);
+    // Central differences of the cubic det with step 1e-6 on entries of size ~1: truncation ~1e-12,
+    // round-off ~1e-16 / 1e-6 = 1e-10; 1e-8 is above both.
     for (int i = 0; i < 9; ++i) {
       Mat3d Ap = A, Am = A;
       Ap.m[i / 3][i % 3] += 1e-6;
       Am.m[i / 3][i % 3] -= 1e-6;
       EXPECT_NEAR(C.m[i / 3][i % 3], (determinant(Ap) - determinant(Am)) / 2e-6, 1e-8);
     }
-    if (std::abs(determinant(A)) > 1e-3)  // cof A = det A A^-T
+    if (std::abs(determinant(A)) > 1e-3)  // cof A = det A A^-T; A^-1 of det >= 1e-3 amplifies round-off ~1e3 x
       for (int i = 0; i < 9; ++i)
         EXPECT_NEAR(C.m[i / 3][i % 3], determinant(A) * transpose(inverse(A)).m[i / 3][i % 3], 1e-9);
   }
@@ -225,6 +227,7 @@ TEST(VolumeEnergy, ForceMatrixIsMinusBothGradients) {
     Vec3d ga[4], gd[4];
     arap_gradient(F, R, g, k_vol, V, ga);
     volume_gradient(F, g, k_det, V, gd);
+    // The same products in another order: round-off, ~1e-15 of the terms; 1e-9 relative leaves room.
     for (int c = 0; c < 4; ++c) EXPECT_LT(norm(P * g[c] + ga[c] + gd[c]), 1e-9 * (1 + norm(ga[c]) + norm(gd[c])));
   }
 }

@@ -151,7 +151,7 @@ class DeviceReplay {
       : world_(world), opt_(opt), obs_(obs), N_(world.ticks_per_step),
         ticks_(tick_count(world, recording_duration(rec, opt))),
         in_(inputs(world, rec, opt, ticks_)),
-        physical_(make_physical_side(world)), device_(in_.setup, in_.ticks, *physical_.cuda),
+        physical_(make_physical_side(world, steps_in_launches(opt))), device_(in_.setup, in_.ticks, *physical_.cuda),
         frames_{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0} {
     view_.mesh.q = world.initial_virtual;
     view_.visible.x = world.initial_physical.x;

@@ -294,15 +294,18 @@ HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample
   return h;
 }
 
-PhysicalSide make_physical_side(const World& world) {
+PhysicalSide make_physical_side(const World& world, bool beside_ticks) {
   PhysicalSide p;
   p.mesh = world.initial_physical;
   p.workspace = make_physical_workspace(world.physical_mesh);
   if (world.backend == Backend::Cuda) {
 #if EBH_HAVE_CUDA
-    p.cuda = std::make_unique<CudaPhysicalSolver>(world.physical_mesh, world.physical_params);
+    CudaPhysicalOptions options;
+    options.beside_ticks = beside_ticks;
+    p.cuda = std::make_unique<CudaPhysicalSolver>(world.physical_mesh, world.physical_params, options);
     p.cuda->upload_state(p.mesh);
 #else
+    (void)beside_ticks;
     throw_no_cuda_build();
 #endif
   }

@@ -129,7 +129,8 @@ struct PhysicalSide {
 
 /// Both sides at rest, the virtual tool starting at the physical tool's first pose.
 HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample);
-PhysicalSide make_physical_side(const World& world);
+/// beside_ticks: the CUDA step runs beside the device tick's blocks (CudaPhysicalOptions).
+PhysicalSide make_physical_side(const World& world, bool beside_ticks = false);
 
 /// The haptic side's snapshot for the physical step (copies q; allocation-free after the first).
 void take_haptic_snapshot(const HapticSide& haptic, HapticSnapshot& out);

@@ -24,9 +24,10 @@
 // The device-resident graph (launch_device_step: the replay's device haptic tick) is the same
 // without the two copies: q and x stay in device memory.
 // Patches: the vertices in Morton order of their rest positions, cut into runs sized so that
-// about two blocks per multiprocessor hold them all; a patch's tets are all tets with a corner in
-// it. Each block first copies its patch's model data (tets, shape gradients, pairings) into shared
-// memory, before waiting for the previous iteration. A tet on a patch border is computed by each
+// about two blocks per multiprocessor hold them all (at most 128 vertices, 64 beside the device
+// tick: CudaPhysicalOptions; halved while a block's shared memory does not fit); a patch's tets
+// are all tets with a corner in it. Each block first copies its patch's model data (tets, shape
+// gradients, pairings) into shared memory, before waiting for the previous iteration. A tet on a patch border is computed by each
 // patch it touches (about 2x the arithmetic of one thread per tet), which buys one kernel per
 // iteration instead of two and keeps the corner forces in shared memory: the step is bound by
 // kernel latency and memory traffic, not arithmetic (docs/CUDA.md). The patch owning a tet's
@@ -79,9 +80,13 @@ using LoopHandle = cudaGraphConditionalHandle;
 using LoopHandle = unsigned long long;
 #endif
 
-constexpr int kLanes = 8;                   // threads per vertex in the global stage (a power of two <= 32)
-constexpr int kBlock = 512;                 // threads per block (one patch)
-constexpr int kMaxPatch = kBlock / kLanes;  // most vertices in a patch
+constexpr int kBlock = 512;                    // threads per block (one patch)
+// Threads per vertex in the global stage (the kernels' kLanes): kMaxLanes while a patch has at
+// most kBlock / kMaxLanes vertices (every mesh up to ~17k vertices on an H100), kMinLanes for
+// the larger patches of larger meshes: fewer tets on patch borders, computed twice (a 128-vertex
+// patch's step took 0.85x the time of a 64-vertex one's at 352k and 1.08M tets, h100).
+constexpr int kMaxLanes = 8, kMinLanes = 4;
+constexpr int kMaxPatch = kBlock / kMinLanes;  // most vertices in a patch
 constexpr int kPrefetchTets = 4;            // incidence entries per lane loaded before the barriers
 constexpr int kPrefetchPulls = 2;           // coupling entries per lane loaded before the barriers
 
@@ -242,6 +247,7 @@ __device__ __forceinline__ Vec3f pull_force(const PullItem& it, const Vec3f* pos
 
 /// Butterfly over the kLanes threads of one vertex: every lane ends with the same bits (float
 /// addition is commutative), in an order fixed by the lane pattern alone.
+template <int kLanes>
 __device__ __forceinline__ float lane_sum(float v) {
   for (int off = kLanes / 2; off > 0; off /= 2) v += __shfl_xor_sync(0xffffffffu, v, off, kLanes);
   return v;
@@ -299,6 +305,7 @@ struct PatchThread {
   float pw[kPrefetchPulls] = {};
 };
 
+template <int kLanes>
 __device__ __forceinline__ void load_patch_thread(const PhysicalDevice& d, int patch, int tid, PatchThread& P) {
   P.s0 = d.slot_offsets[patch];
   P.slots = d.slot_offsets[patch + 1] - P.s0;
@@ -368,7 +375,7 @@ __device__ __forceinline__ void cache_patch_items(const PhysicalDevice& d, const
 /// r_last: the warm start of the thread's own tet (item tid), replaced by its new rotation; every
 /// other read of the last rotations goes to w.rot_in. Only shared memory is read between the
 /// two barriers.
-template <bool kChebyshev, bool kFirst, bool kLast>
+template <int kLanes, bool kChebyshev, bool kFirst, bool kLast>
 __device__ __forceinline__ void patch_iteration(const PhysicalDevice& d, const Sweep& w, const PatchThread& P,
                                                 Quatf& r_last, int tid, int rotation_iterations) {
   const PatchShared S = patch_shared(d);
@@ -411,7 +418,7 @@ __device__ __forceinline__ void patch_iteration(const PhysicalDevice& d, const S
       if (P.c_begin + j * kLanes < P.c_end) r += P.pw[j] * pull[P.ps[j]];                    // [5]
     for (int k = P.c_begin + kPrefetchPulls * kLanes; k < P.c_end; k += kLanes) r += d.cpl_weight[k] * pull[d.pull_slot[k]];
   }
-  r = Vec3f{lane_sum(r.x), lane_sum(r.y), lane_sum(r.z)};
+  r = Vec3f{lane_sum<kLanes>(r.x), lane_sum<kLanes>(r.y), lane_sum<kLanes>(r.z)};
   if (P.valid && P.lane == 0) {
     const Vec3f xk = pos[P.i];
     if constexpr (kFirst) {
@@ -432,24 +439,29 @@ __device__ __forceinline__ void patch_iteration(const PhysicalDevice& d, const S
 }
 
 /// One iteration as one kernel of the graph.
-template <bool kChebyshev, bool kFirst, bool kLast>
+template <int kLanes, bool kChebyshev, bool kFirst, bool kLast>
 __global__ void __launch_bounds__(kBlock, 2) iteration_kernel(PhysicalDevice d, Sweep w, int rotation_iterations) {
   PatchThread P;
-  load_patch_thread(d, blockIdx.x, threadIdx.x, P);
+  load_patch_thread<kLanes>(d, blockIdx.x, threadIdx.x, P);
   cache_patch_items(d, P, patch_shared(d), threadIdx.x);
   kernel_prologue();  // the previous iteration's x_k and rotations are visible from here on
   Quatf r_last{};
   if (threadIdx.x < P.tets) r_last = w.rot_in[d.ptet[P.e0 + threadIdx.x] & 0x7fffffff];
-  patch_iteration<kChebyshev, kFirst, kLast>(d, w, P, r_last, threadIdx.x, rotation_iterations);
+  patch_iteration<kLanes, kChebyshev, kFirst, kLast>(d, w, P, r_last, threadIdx.x, rotation_iterations);
   if constexpr (kLast) last_block_reduces(d);
 }
 
-/// A method's iteration kernels: the first, the middle and the last iteration's.
+/// A method's iteration kernels for `lanes` threads per patch vertex: the first, the middle and the
+/// last iteration's.
 using IterationKernel = void (*)(PhysicalDevice, Sweep, int);
+template <bool kChebyshev, int kLanes>
+std::array<IterationKernel, 3> iteration_kernels_of() {
+  return {iteration_kernel<kLanes, kChebyshev, true, false>, iteration_kernel<kLanes, kChebyshev, false, false>,
+          iteration_kernel<kLanes, kChebyshev, false, true>};
+}
 template <bool kChebyshev>
-std::array<IterationKernel, 3> iteration_kernels() {
-  return {iteration_kernel<kChebyshev, true, false>, iteration_kernel<kChebyshev, false, false>,
-          iteration_kernel<kChebyshev, false, true>};
+std::array<IterationKernel, 3> iteration_kernels(int lanes) {
+  return lanes == kMinLanes ? iteration_kernels_of<kChebyshev, kMinLanes>() : iteration_kernels_of<kChebyshev, kMaxLanes>();
 }
 
 /// K = 0: the step is the iterations' start alone (as on the CPU).
@@ -524,11 +536,11 @@ __device__ __forceinline__ void last_block_decides(const PhysicalDevice& d, int 
 /// The iterations from K - 1 on, as the body of the graph's while loop (PhysicalStepParams::
 /// adaptive): iteration k = *next_iteration, buffers from `plan` (no iteration writes the state:
 /// loop_finish_kernel does), its weight from d.omega; the last block decides whether k + 1 runs.
-template <bool kChebyshev>
+template <int kLanes, bool kChebyshev>
 __global__ void __launch_bounds__(kBlock, 2)
     loop_iteration_kernel(PhysicalDevice d, SweepPlan plan, int rotation_iterations, LoopHandle loop) {
   PatchThread P;
-  load_patch_thread(d, blockIdx.x, threadIdx.x, P);
+  load_patch_thread<kLanes>(d, blockIdx.x, threadIdx.x, P);
   cache_patch_items(d, P, patch_shared(d), threadIdx.x);
   kernel_prologue();
   const int k = *d.next_iteration;  // written by the previous kernel's last block
@@ -536,8 +548,8 @@ __global__ void __launch_bounds__(kBlock, 2)
   const Sweep w = plan.sweep(k, d.omega[k], rsq);
   Quatf r_last{};
   if (threadIdx.x < P.tets) r_last = w.rot_in[d.ptet[P.e0 + threadIdx.x] & 0x7fffffff];
-  if (k == 0) patch_iteration<kChebyshev, true, false>(d, w, P, r_last, threadIdx.x, rotation_iterations);
-  else patch_iteration<kChebyshev, false, false>(d, w, P, r_last, threadIdx.x, rotation_iterations);
+  if (k == 0) patch_iteration<kLanes, kChebyshev, true, false>(d, w, P, r_last, threadIdx.x, rotation_iterations);
+  else patch_iteration<kLanes, kChebyshev, false, false>(d, w, P, r_last, threadIdx.x, rotation_iterations);
   last_block_decides(d, k, rsq, loop);
 }
 
@@ -581,6 +593,7 @@ struct Patches {
   std::vector<float> ptet_weight;
   std::vector<unsigned short> force_slot, pull_slot;  // per CPU incidence / coupling entry
   int max_slots = 0, max_tets = 0, max_pulls = 0;
+  int too_many = 0;  // the tets of a patch past the 16-bit slots (0: none): the patches must be smaller
 };
 
 /// Cuts the vertices, in Morton order of their rest positions, into runs of `size` (<= kMaxPatch).
@@ -653,9 +666,7 @@ Patches build_patches(const PhysicalModel& M, int size) {
       for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) P.pull_slot[k] = u16(pull_item.at(M.cpl_virtual[k]));
     }
     const int slots = static_cast<int>(slot_of.size()), count = static_cast<int>(tets.size());
-    if (slots > 65535 || 4 * count > 65535 || pulls.size() > 65535)
-      throw std::runtime_error("CudaPhysicalSolver: a patch of " + std::to_string(size) + " vertices touches " +
-                               std::to_string(count) + " tets, more than the 16-bit slots hold");
+    if (slots > 65535 || 4 * count > 65535 || pulls.size() > 65535) P.too_many = std::max(P.too_many, count);
     P.slot_offsets.push_back(static_cast<int>(P.slot_vertex.size()));
     P.ptet_offsets.push_back(static_cast<int>(P.ptet.size()));
     P.pcpl_offsets.push_back(static_cast<int>(P.pcpl.size()));
@@ -682,6 +693,8 @@ __global__ void copy_residual_kernel(const double* from, double* to) {
 struct CudaPhysicalSolver::Impl {
   PhysicalStepParams params;
   int n = 0, T = 0, m = 0, patches = 0;
+  int patch_vertices = 0;  // vertices per patch (the last patch may have fewer)
+  int lanes = kMaxLanes;   // threads per patch vertex in the global stage (the kernels' kLanes)
   double weight_norm = 0;  // PhysicalModel::weight_norm: the residual's scale
   std::size_t shared_bytes = 0;
   cuda::Stream stream;
@@ -753,7 +766,7 @@ struct CudaPhysicalSolver::Impl {
     if (slot_residual) cudaFreeHost(slot_residual);
     slot_residual = slot_residual_dev = nullptr;
   }
-  void upload_model(const PhysicalModel& M);
+  void upload_model(const PhysicalModel& M, int asked_patch, bool beside_ticks);
   /// Captures the step graph: with the copies of q in and x out (copies = true: exec), or reading q
   /// from and leaving x in device memory (exec_device).
   void capture(bool with_programmatic_launch, bool copies);
@@ -776,7 +789,35 @@ std::vector<float> iteration_weights(const PhysicalStepParams& params) {
   return w;
 }
 
-void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
+/// The static shared memory of the kernels that take a patch's dynamic shared memory (both methods).
+std::size_t static_shared_bytes() {
+  std::vector<const void*> kernels;
+  for (const int lanes : {kMinLanes, kMaxLanes}) {
+    for (const IterationKernel k : iteration_kernels<true>(lanes)) kernels.push_back(reinterpret_cast<const void*>(k));
+    for (const IterationKernel k : iteration_kernels<false>(lanes)) kernels.push_back(reinterpret_cast<const void*>(k));
+  }
+#if EBH_GRAPH_LOOPS
+  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMinLanes, true>));
+  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMinLanes, false>));
+  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMaxLanes, true>));
+  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMaxLanes, false>));
+#endif
+  std::size_t bytes = 0;
+  for (const void* k : kernels) {
+    cudaFuncAttributes a{};
+    EBH_CUDA_CHECK(cudaFuncGetAttributes(&a, k));
+    bytes = std::max(bytes, a.sharedSizeBytes);
+  }
+  return bytes;
+}
+
+/// A patch block's dynamic shared memory (patch_shared).
+std::size_t patch_shared_bytes(const Patches& P) {
+  return static_cast<std::size_t>(P.max_tets) * sizeof(TetItem) + static_cast<std::size_t>(P.max_pulls) * sizeof(PullItem) +
+         (static_cast<std::size_t>(P.max_slots) + 4 * static_cast<std::size_t>(P.max_tets) + P.max_pulls) * sizeof(Vec3f);
+}
+
+void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M, int asked_patch, bool beside_ticks) {
   n = M.num_vertices;
   T = M.num_tets;
   m = M.num_virtual;
@@ -785,13 +826,29 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
     arr.allocate(host.size());
     arr.upload(host.data(), st);
   };
-  // Patches: about two blocks per multiprocessor, so that one wave holds them all.
-  int device = 0, sms = 1;
+  // Patches: about two blocks per multiprocessor, so that one wave holds them all, at most
+  // kMaxPatch vertices; halved while a patch's block does not fit the device's shared memory (a
+  // dense mesh: vertices of high valence).
+  int device = 0, sms = 1, optin = 0;
   EBH_CUDA_CHECK(cudaGetDevice(&device));
   EBH_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
-  const int size = std::clamp((n + 2 * sms - 1) / std::max(1, 2 * sms), 8, kMaxPatch);
-  const Patches P = build_patches(M, size);
+  EBH_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, device));
+  const std::size_t room = static_cast<std::size_t>(optin) - std::min<std::size_t>(optin, static_shared_bytes());
+  const int most = beside_ticks ? kBlock / kMaxLanes : kMaxPatch;
+  int size = std::clamp(asked_patch > 0 ? asked_patch : (n + 2 * sms - 1) / std::max(1, 2 * sms), 8, most);
+  Patches P = build_patches(M, size);
+  while ((P.too_many > 0 || patch_shared_bytes(P) > room) && size > 8) {
+    size = std::max(8, size / 2);
+    P = build_patches(M, size);
+  }
+  if (P.too_many > 0 || patch_shared_bytes(P) > room)
+    throw InputError("--backend cuda: the physical mesh is too dense for the device: a patch of " + std::to_string(size) +
+                     " vertices touches " + std::to_string(std::max(P.too_many, P.max_tets)) + " tets and needs " +
+                     std::to_string(patch_shared_bytes(P) / 1024) + " KiB of shared memory, more than the " +
+                     std::to_string(room / 1024) + " KiB a block has (or the 16-bit slots hold); use --backend cpu");
   patches = static_cast<int>(P.own_count.size());
+  patch_vertices = size;
+  lanes = size <= kBlock / kMaxLanes ? kMaxLanes : kMinLanes;
   up(slot_offsets, P.slot_offsets);
   up(slot_vertex, P.slot_vertex);
   up(own_count, P.own_count);
@@ -805,8 +862,7 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M) {
   up(pcpl, P.pcpl);
   up(pcpl_corner, P.pcpl_corner);
   up(pull_slot, P.pull_slot);
-  shared_bytes = static_cast<std::size_t>(P.max_tets) * sizeof(TetItem) + static_cast<std::size_t>(P.max_pulls) * sizeof(PullItem) +
-                 (static_cast<std::size_t>(P.max_slots) + 4 * static_cast<std::size_t>(P.max_tets) + P.max_pulls) * sizeof(Vec3f);
+  shared_bytes = patch_shared_bytes(P);
 
   std::vector<int> pv(4 * size_t(m), -1);
   std::vector<float> pw(4 * size_t(m), 0.f);
@@ -920,7 +976,7 @@ template <bool kChebyshev>
 void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
   cudaStream_t st = stream.get();
   const int K = params.iterations, rot = params.rotation_iterations;
-  const auto [first, middle, last] = iteration_kernels<kChebyshev>();
+  const auto [first, middle, last] = iteration_kernels<kChebyshev>(lanes);
   for (auto* kernel : {first, middle, last})
     EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
   if (params.adaptive()) {
@@ -959,7 +1015,7 @@ void CudaPhysicalSolver::Impl::capture_loop(cudaStream_t st) {
   throw InputError("--backend cuda: solver.physical_tolerance needs the CUDA backend built with CUDA 13 or newer "
                    "(graph while nodes); set solver.physical_tolerance=0");
 #else
-  auto* body_kernel = loop_iteration_kernel<kChebyshev>;
+  auto* body_kernel = lanes == kMinLanes ? loop_iteration_kernel<kMinLanes, kChebyshev> : loop_iteration_kernel<kMaxLanes, kChebyshev>;
   EBH_CUDA_CHECK(cudaFuncSetAttribute(body_kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
   cudaStreamCaptureStatus status{};
   cudaGraph_t graph_now = nullptr;
@@ -1049,7 +1105,7 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
                      "(graph while nodes); set solver.physical_tolerance=0");
   impl_->params = params;
   impl_->weight_norm = model.weight_norm;
-  impl_->upload_model(model);
+  impl_->upload_model(model, options.patch_vertices, options.beside_ticks);
   upload_state(make_physical_state(model));
   // Programmatic dependent launch in the graph where the driver takes it; plain kernel nodes
   // otherwise.
@@ -1081,12 +1137,17 @@ bool CudaPhysicalSolver::programmatic_launch() const { return impl_->programmati
 std::size_t CudaPhysicalSolver::block_shared_bytes() const {
   const bool chebyshev = impl_->params.method == SolverSpec::Method::Chebyshev;
   std::size_t static_bytes = 0;
-  for (const IterationKernel kernel : chebyshev ? iteration_kernels<true>() : iteration_kernels<false>()) {
+  for (const IterationKernel kernel : chebyshev ? iteration_kernels<true>(impl_->lanes) : iteration_kernels<false>(impl_->lanes)) {
     cudaFuncAttributes a{};
     EBH_CUDA_CHECK(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(kernel)));
     static_bytes = std::max(static_bytes, a.sharedSizeBytes);
   }
   return impl_->shared_bytes + static_bytes;
+}
+
+int CudaPhysicalSolver::patch_vertices() const { return impl_->patch_vertices; }
+
+int CudaPhysicalSolver::patch_lanes() const { return impl_->lanes;
 }
 
 void CudaPhysicalSolver::upload_state(const PhysicalState& state) {

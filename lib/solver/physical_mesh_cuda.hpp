@@ -25,6 +25,15 @@ struct CudaPhysicalOptions {
   /// Chain the iteration kernels by programmatic dependent launch where the driver takes it in a
   /// graph (docs/CUDA.md); false: plain kernel nodes (for comparisons).
   bool programmatic_launch = true;
+  /// Vertices per patch (the iteration kernel's block; docs/CUDA.md, "Physical step"), clamped to
+  /// [8, 128]; 0: about two blocks per multiprocessor. Either way halved while a patch's block does
+  /// not fit the device's shared memory. Results depend on it only by round-off (tests: the larger
+  /// patches' path on a small mesh).
+  int patch_vertices = 0;
+  /// The step runs beside the device tick's blocks (an async device replay's steps inside its
+  /// launches): patches of at most 64 vertices, so that two of the step's blocks fit beside a tick
+  /// block on a multiprocessor (with one, the step of a 352k-tet mesh took 2.9x as long).
+  bool beside_ticks = false;
 };
 
 class CudaPhysicalSolver {
@@ -81,6 +90,10 @@ class CudaPhysicalSolver {
   /// for callers that want a block of theirs and one of the step's to share a multiprocessor
   /// (CudaHapticTicks: the physical steps inside the launches).
   std::size_t block_shared_bytes() const;
+  /// Vertices per patch, and threads per patch vertex in the global stage (8 up to 64 vertices,
+  /// else 4).
+  int patch_vertices() const;
+  int patch_lanes() const;
   /// Whether the step graph chains its kernels by programmatic dependent launch (docs/CUDA.md).
   bool programmatic_launch() const;
 

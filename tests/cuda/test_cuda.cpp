@@ -128,7 +128,7 @@ std::vector<Vec3d> displaced_virtual(const VirtualModel& vm, unsigned seed) {
 }
 
 void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method, int iterations = 16,
-                             const std::vector<std::string>& overrides = {}) {
+                             const std::vector<std::string>& overrides = {}, const CudaPhysicalOptions& options = {}) {
   const Models& M = models(scene.c_str(), overrides);
   PhysicalStepParams params;
   params.method = method;
@@ -139,7 +139,7 @@ void expect_step_matches_cpu(const std::string& scene, SolverSpec::Method method
   PhysicalWorkspace ws = make_physical_workspace(M.pm);
   const PhysicalStepReport rc = physical_step(M.pm, ws, cpu, q, params);
 
-  CudaPhysicalSolver gpu_solver(M.pm, params);
+  CudaPhysicalSolver gpu_solver(M.pm, params, options);
   gpu_solver.upload_state(M.start);
   PhysicalState gpu = M.start;
   std::fill(gpu.x.begin(), gpu.x.end(), Vec3d{1e3, 1e3, 1e3});  // poison: every x must be written
@@ -214,6 +214,80 @@ TEST(CudaPhysical, VolumeStiffnessStepMatchesCpu) {
   EBH_REQUIRE_DEVICE();
   expect_step_matches_cpu("cholecystectomy", SolverSpec::Method::Chebyshev, 16, {"stiffness.k_det=9000"});
   expect_step_matches_cpu("gap", SolverSpec::Method::Jacobi, 16, {"stiffness.k_det=15000"});
+}
+
+/// Patches of 128 vertices, with four threads per vertex in the global stage (what meshes past
+/// about 17k vertices get on an H100), on the committed meshes: the same step within the bound.
+/// The committed scenes themselves get 8 threads per vertex (patches of at most 64).
+TEST(CudaPhysical, LargePatchesMatchCpu) {
+  EBH_REQUIRE_DEVICE();
+  CudaPhysicalOptions large;
+  large.patch_vertices = 128;
+  expect_step_matches_cpu("cholecystectomy", SolverSpec::Method::Chebyshev, 16, {}, large);
+  expect_step_matches_cpu("tube", SolverSpec::Method::Jacobi, 3, {}, large);
+  const Models& M = models("cholecystectomy");
+  const PhysicalStepParams params = physical_params(M.scene.spec.solver, M.pm);
+  const CudaPhysicalSolver a(M.pm, params, large), b(M.pm, params);
+  std::printf("[ patches ] asked 128: %d vertices, %d lanes, %.3f tet evaluations per tet, %zu bytes of shared memory; "
+              "automatic: %d, %d, %.3f, %zu\n",
+              a.patch_vertices(), a.patch_lanes(), a.tet_evaluations_per_tet(), a.block_shared_bytes(),
+              b.patch_vertices(), b.patch_lanes(), b.tet_evaluations_per_tet(), b.block_shared_bytes());
+  EXPECT_EQ(a.patch_vertices(), 128);
+  EXPECT_EQ(a.patch_lanes(), 4);
+  EXPECT_LE(b.patch_vertices(), 64);
+  EXPECT_EQ(b.patch_lanes(), 8);
+  EXPECT_LT(a.tet_evaluations_per_tet(), b.tet_evaluations_per_tet());
+  CudaPhysicalOptions beside = large;  // beside the device tick's blocks: at most 64
+  beside.beside_ticks = true;
+  const CudaPhysicalSolver c(M.pm, params, beside);
+  EXPECT_EQ(c.patch_vertices(), 64);
+  EXPECT_EQ(c.patch_lanes(), 8);
+}
+
+/// A vertex of 5000 tets (a star: a centre and a UV sphere around it) is more than any patch's
+/// block holds in shared memory: refused with one line, not a CUDA error from a launch.
+TEST(CudaPhysical, TooDenseAMeshIsRefusedWithOneLine) {
+  EBH_REQUIRE_DEVICE();
+  Scene scene = load_scene(resolve_scene_path("tube"));
+  TetMesh& mesh = scene.physical;
+  mesh = TetMesh{};
+  const int rings = 26, segments = 100;  // 2 x 100 x 25 = 5000 tets around vertex 0
+  const double pi = std::acos(-1.0), radius = 0.01;
+  mesh.vertices.push_back({0, 0, 0});
+  auto at = [&](int r, int k) { return 1 + r * segments + (k % segments); };  // r = 0 .. rings-1
+  for (int r = 0; r < rings; ++r)
+    for (int k = 0; k < segments; ++k) {
+      const double th = pi * (r + 0.5) / rings, ph = 2 * pi * k / segments;
+      mesh.vertices.push_back({radius * std::sin(th) * std::cos(ph), radius * std::sin(th) * std::sin(ph),
+                               radius * std::cos(th)});
+    }
+  auto add = [&](int a, int b, int c) {
+    Tet t{0, a, b, c};
+    const Vec3d& o = mesh.vertices[0];
+    if (dot(cross(mesh.vertices[b] - o, mesh.vertices[a] - o), mesh.vertices[c] - o) > 0) std::swap(t[1], t[2]);
+    mesh.tets.push_back(t);
+  };
+  for (int r = 0; r + 1 < rings; ++r)
+    for (int k = 0; k < segments; ++k) {
+      add(at(r, k), at(r, k + 1), at(r + 1, k));
+      add(at(r, k + 1), at(r + 1, k + 1), at(r + 1, k));
+    }
+  mesh.tet_group.assign(mesh.tets.size(), 0);
+  mesh.file_node_ids.clear();
+  scene.pinned = {};
+  PhysicalModelOptions opt;
+  opt.factorize = false;
+  const PhysicalModel pm = build_physical_model(scene, nullptr, opt);
+  ASSERT_EQ(pm.num_tets, 5000);
+  PhysicalStepParams params;
+  try {
+    CudaPhysicalSolver solver(pm, params);
+    ADD_FAILURE() << "a 5000-tet patch must not fit a block's shared memory";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("too dense"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
 }
 
 /// The device-resident step (q from and x to device memory, as the device haptic tick runs it) is

@@ -70,8 +70,11 @@ TEST(Sleeping, ARestingMeshSleepsAndTheForcesAreTheFullSolves) {
   ASSERT_EQ(full.force.size(), asleep.force.size());
   EXPECT_EQ(full.slept_steps(), 0);
   EXPECT_GT(asleep.slept_steps(), static_cast<int>(asleep.slept.size()) / 4) << "the approach must let the mesh sleep";
-  for (std::size_t k = 0; k < asleep.slept.size(); ++k)
-    if (asleep.slept[k]) EXPECT_EQ(asleep.iterations[k], 0) << "step " << k;
+  for (std::size_t k = 0; k < asleep.slept.size(); ++k) {
+    if (asleep.slept[k]) {
+      EXPECT_EQ(asleep.iterations[k], 0) << "step " << k;
+    }
+  }
   EXPECT_EQ(asleep.slept.front(), 0) << "the first step always runs";
   EXPECT_LT(max_force_difference(full, asleep), 1e-9);
 }

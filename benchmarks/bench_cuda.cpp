@@ -241,10 +241,11 @@ BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystec
 /// workload (the organ deforms), not the ticks against a still organ. `in_launch` (with physical):
 /// the physical steps inside launches of `run` ticks (run_ticks_with_steps), as the replay runs them.
 void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeline, int run = 0, bool physical = false,
-                    bool in_launch = false, bool surface = false) {
+                    bool in_launch = false, bool surface = false, const char* scene = "cholecystectomy",
+                    const char* recording = "cholecystectomy_grasp") {
   if (!device_ready(st)) return;
   const std::vector<std::string> overrides = surface ? std::vector<std::string>{"contact=surface"} : std::vector<std::string>{};
-  LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", overrides, std::nullopt,
+  LoadedReplay in = load_replay_inputs(scene, recording, overrides, std::nullopt,
                                        std::nullopt, false, Backend::Cuda);
   const World& w = *in.world;
   const int N = run > 0 ? run : w.ticks_per_step, runs = 2000 / N;
@@ -336,6 +337,9 @@ BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_unpipelined_stages, 1.2, tru
 // Surface contact (`contact: surface`, surface_ticks_kernel; every step unpipelined).
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_surface, 1.2, false, true, 0, false, false, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_surface_stages, 1.2, true, true, 0, false, false, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+// The hook into the gap's block (gap_insert from 3 s): large triangles (up to ~30 sample rows).
+BENCHMARK_CAPTURE(BM_DeviceTicks, gap_insert_from_3s_stages, 3.0, true, true, 0, false, false, false, "gap", "gap_insert")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, gap_insert_from_3s_surface_stages, 3.0, true, true, 0, false, false, true, "gap", "gap_insert")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 #endif
 
 /// Sums the haptic tick's stage times and the physical steps' times.

@@ -337,6 +337,7 @@ BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_unpipelined_stages, 1.2, tru
 // Surface contact (`contact: surface`, surface_ticks_kernel; every step unpipelined).
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_surface, 1.2, false, true, 0, false, false, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_surface_stages, 1.2, true, true, 0, false, false, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s_surface_stages, 0.0, true, true, 0, false, false, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 // The hook into the gap's block (gap_insert from 3 s): large triangles (up to ~30 sample rows).
 BENCHMARK_CAPTURE(BM_DeviceTicks, gap_insert_from_3s_stages, 3.0, true, true, 0, false, false, false, "gap", "gap_insert")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DeviceTicks, gap_insert_from_3s_surface_stages, 3.0, true, true, 0, false, false, true, "gap", "gap_insert")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);

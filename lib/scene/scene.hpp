@@ -189,7 +189,7 @@ struct SolverSpec {
   /// its neighbours; 0: every virtual vertex is iterated (the full solve).
   double active_region = 0;
   bool active_region_given = false;  ///< the scene file or an override names it (the CUDA backend warns then)
-  /// The sleeping physical mesh (CPU backend; docs/MODEL.md, "Sleeping"): a physical step is
+  /// The sleeping physical mesh (docs/MODEL.md, "Sleeping"): a physical step is
   /// skipped, the state held, while the last step moved no vertex and the virtual mesh moved no
   /// vertex since then by more than this length (m), and the last step met the tolerance; 0: never.
   double sleep = 0;

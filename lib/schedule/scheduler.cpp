@@ -298,6 +298,7 @@ class DeviceReplay {
   void finish_steps_to(std::int64_t tick) {
     while (device_.steps_in_flight() > 0 && (s_.steps + 1) * N_ <= tick) {
       physical_.report = device_.finish_step(physical_.mesh.x);
+      physical_.slept = physical_.report.slept;
       record_step(static_cast<double>(s_.steps * N_) * world_.h_haptic);
     }
   }
@@ -305,6 +306,7 @@ class DeviceReplay {
   /// Waits for the step run_steps_between_launches started at virtual time t.
   void finish_physical_step(double t) {
     physical_.report = device_.finish_physical_step(physical_.mesh.x);
+    physical_.slept = physical_.report.slept;
     record_step(t);
   }
 

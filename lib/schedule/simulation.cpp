@@ -29,6 +29,15 @@ void timed(double& slot, F&& stage) {
 
 ToolPose pose_of(const DeviceSample& s) { return {s.position, s.orientation}; }
 
+/// Whether the CUDA physical step can sleep in this build (graph conditional nodes).
+bool cuda_physical_sleep() {
+#if EBH_HAVE_CUDA
+  return CudaPhysicalSolver::can_sleep();
+#else
+  return false;
+#endif
+}
+
 #if !EBH_HAVE_CUDA
 [[noreturn]] void throw_no_cuda_build() {
   throw InputError("--backend cuda: this build has no CUDA backend (configure with -DEBH_WITH_CUDA=ON where nvcc is installed)");
@@ -246,7 +255,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->tool = build_tool(w->scene.spec.tool);
   if (w->scene.spec.contact == ContactModel::Surface)
     attach_surface_contact(w->tool, w->virtual_mesh.triangles, w->virtual_mesh.rest, w->scene.spec.stiffness.k_con);
-  if (backend == Backend::Cuda && w->scene.spec.solver.sleep > 0) {
+  if (backend == Backend::Cuda && w->scene.spec.solver.sleep > 0 && !cuda_physical_sleep()) {
     if (w->scene.spec.solver.sleep_given)
       w->scene.warnings.push_back(where + ": key 'solver.sleep': the CUDA backend runs every physical step and ignores "
                                         "it (docs/MODEL.md, \"Sleeping\")");
@@ -302,6 +311,7 @@ PhysicalSide make_physical_side(const World& world, bool beside_ticks) {
 #if EBH_HAVE_CUDA
     CudaPhysicalOptions options;
     options.beside_ticks = beside_ticks;
+    options.sleep = world.scene.spec.solver.sleep;
     p.cuda = std::make_unique<CudaPhysicalSolver>(world.physical_mesh, world.physical_params, options);
     p.cuda->upload_state(p.mesh);
 #else
@@ -422,6 +432,7 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
 #if EBH_HAVE_CUDA
   if (p.cuda) {
     p.report = p.cuda->step(p.mesh, snapshot.q);
+    p.slept = p.report.slept;
     ++p.step;
     check_physical_step(world, p);
     return;
@@ -435,6 +446,7 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
     p.report.iterations = 0;
     p.report.residual_reduction = 1;
     p.report.time_s = p.report.local_s = p.report.global_s = 0;
+    p.report.slept = true;
     p.recovered = false;
     ++p.step;
     return;

@@ -140,6 +140,11 @@ struct PhysicalDevice {
   double weight_norm = 0;               // ||M g0||, the residual's scale
   double tolerance = 0;                 // mesh weights
   int iterations = 0, max_iterations = 0;  // K and the cap
+  // Sleeping (CudaPhysicalOptions::sleep; sleep_gate_kernel).
+  float sleep_sq = 0;                   // the sleep length squared (m^2); 0: every step runs
+  double sleep_tolerance = 0;           // the stopping rule's tolerance (mesh weights), 0: none
+  int* sleep_flags = nullptr;           // 2  [0] a vertex moved (this step's test), [1] a step has run
+  Vec3f* ran_with = nullptr;            // m  the virtual positions the last step that ran took
 };
 
 /// One iteration's buffers (the rotation described at the top of the file).
@@ -490,6 +495,49 @@ __global__ void __launch_bounds__(kBlock) finish_kernel(PhysicalDevice d, const 
   last_block_reduces(d);
 }
 
+/// Whether the step sleeps (docs/MODEL.md, "Sleeping"; the CPU's rule, run_physical_step): a step
+/// ran before and met the stopping rule's tolerance (when there is one), it moved no vertex by more
+/// than the sleep length (|v| h), and no virtual vertex has moved by more than it since. Every
+/// thread tests a physical and a virtual vertex and the blocks or their findings into an integer
+/// (the same in any order); the last block decides, sets the step's conditional node (0: the
+/// iterations are skipped, the state held) and then, asleep, zeroes the velocities and reports 0
+/// iterations (r_0 = r_K: a reduction of 1), awake, keeps q for the next test.
+__global__ void __launch_bounds__(kBlock) sleep_gate_kernel(PhysicalDevice d, LoopHandle awake) {
+  kernel_prologue();
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  const float h2 = d.h * d.h;
+  bool moved = false;
+  if (i < d.n) moved = squared_norm(d.v[i]) * h2 > d.sleep_sq;
+  if (i < d.m) moved = moved || squared_norm(d.q[i] - d.ran_with[i]) > d.sleep_sq;
+  if (__syncthreads_or(moved) && threadIdx.x == 0) atomicOr(d.sleep_flags, 1);
+  if (!last_block(d)) return;
+  __shared__ bool asleep;
+  if (threadIdx.x == 0) {
+    const double scale = d.weight_norm > 0 ? d.weight_norm : 1.0;
+    asleep = d.sleep_flags[1] != 0 && d.sleep_flags[0] == 0 &&
+             (d.sleep_tolerance <= 0 || sqrt(d.residual_sq[1]) / scale <= d.sleep_tolerance);
+    d.sleep_flags[0] = 0;
+    d.sleep_flags[1] = 1;
+    if (asleep) {
+      d.residual_sq[0] = d.residual_sq[1];
+      d.residual_sq[2] = 0;
+    } else {
+      d.residual_sq[2] = d.iterations;  // the stopping rule's loop writes its own count
+    }
+#if EBH_GRAPH_LOOPS
+    cudaGraphSetConditional(awake, asleep ? 0u : 1u);
+#else
+    (void)awake;
+#endif
+  }
+  __syncthreads();
+  if (asleep) {
+    for (int a = threadIdx.x; a < d.n; a += blockDim.x) d.v[a] = Vec3f{};
+  } else {
+    for (int j = threadIdx.x; j < d.m; j += blockDim.x) d.ran_with[j] = d.q[j];
+  }
+}
+
 /// The K sweeps' buffers: iteration 0 reads the state x (and v) to predict, iteration K-1 >= 1
 /// writes x and v, and the iterates in between rotate over scratch[0..2] (x_{-1} = x_0 = s).
 /// With K = 1 the one iteration writes scratch[0] and finish_kernel moves it to the state.
@@ -719,6 +767,12 @@ struct CudaPhysicalSolver::Impl {
   cuda::DeviceArray<StoppingState> stopping;
   cuda::DeviceArray<float> omega;
   cuda::Stream body_stream;
+  // Sleeping (sleep > 0): the gate's flags, the q of the last step that ran, and the stream the
+  // conditional node's body (the step's iterations) is captured on.
+  double sleep = 0;
+  cuda::DeviceArray<int> sleep_flags;
+  cuda::DeviceArray<Vec3f> ran_with;
+  cuda::Stream awake_stream;
   // Host side of the per-step copies.
   cuda::PinnedArray<Vec3f> q_host, x_host;
   // The residual sums, written by the kernels straight into mapped host memory (no copy node).
@@ -771,7 +825,9 @@ struct CudaPhysicalSolver::Impl {
   /// from and leaving x in device memory (exec_device).
   void capture(bool with_programmatic_launch, bool copies);
   template <bool kChebyshev>
-  void capture_iterations(bool pdl);
+  void capture_iterations(bool pdl, cudaStream_t st);
+  void capture_step(bool pdl, cudaStream_t st);
+  void capture_sleeping_step(bool pdl, cudaStream_t st);
   template <bool kChebyshev>
   void capture_loop(cudaStream_t st);
   PhysicalStepReport report() const { return report(residual_host); }  ///< the last step's (host copy)
@@ -965,16 +1021,24 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M, int asked_pa
     omega.upload(omega_host.data(), st);
     dev.next_iteration = next_iteration.get();
     dev.omega = omega.get();
-    dev.weight_norm = weight_norm;
     dev.tolerance = params.tolerance;
-    dev.iterations = params.iterations;
     dev.max_iterations = params.max_iterations;
+  }
+  dev.weight_norm = weight_norm;
+  dev.iterations = params.iterations;
+  if (sleep > 0) {
+    sleep_flags.allocate(2);
+    EBH_CUDA_CHECK(cudaMemsetAsync(sleep_flags.get(), 0, 2 * sizeof(int), st));
+    ran_with.allocate(std::max(m, 1));
+    dev.sleep_sq = static_cast<float>(sleep * sleep);
+    dev.sleep_tolerance = params.tolerance;
+    dev.sleep_flags = sleep_flags.get();
+    dev.ran_with = ran_with.get();
   }
 }
 
 template <bool kChebyshev>
-void CudaPhysicalSolver::Impl::capture_iterations(bool pdl) {
-  cudaStream_t st = stream.get();
+void CudaPhysicalSolver::Impl::capture_iterations(bool pdl, cudaStream_t st) {
   const int K = params.iterations, rot = params.rotation_iterations;
   const auto [first, middle, last] = iteration_kernels<kChebyshev>(lanes);
   for (auto* kernel : {first, middle, last})
@@ -1055,17 +1119,14 @@ void CudaPhysicalSolver::Impl::capture_loop(cudaStream_t st) {
 void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
   cudaStream_t st = stream.get();
   const int K = params.iterations;
-  const bool chebyshev = params.method == SolverSpec::Method::Chebyshev;
   EBH_CUDA_CHECK(cudaStreamBeginCapture(st, cudaStreamCaptureModeThreadLocal));
   try {
     if (copies) copy_q_in(st);
     if (n > 0 && K == 0)
       cuda::launch(false, predict_only_kernel, cuda::blocks_for(n, kBlock), kBlock, 0, st, "predict_only_kernel", dev);
     if (n > 0 && K > 0) {
-      if (chebyshev) capture_iterations<true>(pdl);
-      else capture_iterations<false>(pdl);
-      if (K % 2 == 1 && T > 0 && !params.adaptive())  // the last rotations are in the scratch half
-        EBH_CUDA_CHECK(cudaMemcpyAsync(rotation.get(), rotation.get() + T, T * sizeof(Quatf), cudaMemcpyDeviceToDevice, st));
+      if (sleep > 0) capture_sleeping_step(pdl, st);
+      else capture_step(pdl, st);
     }
     if (copies) {
       copy_results_out(st);
@@ -1081,6 +1142,57 @@ void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
   EBH_CUDA_CHECK(cudaStreamEndCapture(st, &g));
   EBH_CUDA_CHECK(cudaGraphInstantiate(&e, g, 0));
   programmatic = pdl;
+}
+
+/// The K iterations (and, K odd, the last rotations into the state half), captured on st.
+void CudaPhysicalSolver::Impl::capture_step(bool pdl, cudaStream_t st) {
+  const int K = params.iterations;
+  if (params.method == SolverSpec::Method::Chebyshev) capture_iterations<true>(pdl, st);
+  else capture_iterations<false>(pdl, st);
+  if (K % 2 == 1 && T > 0 && !params.adaptive())  // the last rotations are in the scratch half
+    EBH_CUDA_CHECK(cudaMemcpyAsync(rotation.get(), rotation.get() + T, T * sizeof(Quatf), cudaMemcpyDeviceToDevice, st));
+}
+
+/// With sleep > 0: sleep_gate_kernel, then the step (capture_step) as the body of a conditional
+/// node that the gate sets, captured on awake_stream.
+void CudaPhysicalSolver::Impl::capture_sleeping_step(bool pdl, cudaStream_t st) {
+#if !EBH_GRAPH_LOOPS
+  (void)pdl;
+  (void)st;
+  throw InputError("--backend cuda: solver.sleep needs the CUDA backend built with CUDA 13 or newer "
+                   "(graph conditional nodes); set solver.sleep=0");
+#else
+  cudaStreamCaptureStatus status{};
+  cudaGraph_t graph_now = nullptr;
+  const cudaGraphNode_t* deps = nullptr;
+  const cudaGraphEdgeData* edges = nullptr;
+  std::size_t count = 0;
+  EBH_CUDA_CHECK(cudaStreamGetCaptureInfo(st, &status, nullptr, &graph_now, &deps, &edges, &count));
+  cudaGraphConditionalHandle handle{};
+  EBH_CUDA_CHECK(cudaGraphConditionalHandleCreate(&handle, graph_now, 1, cudaGraphCondAssignDefault));
+  cuda::launch(false, sleep_gate_kernel, cuda::blocks_for(std::max(n, m), kBlock), kBlock, 0, st, "sleep_gate_kernel",
+               dev, handle);
+  EBH_CUDA_CHECK(cudaStreamGetCaptureInfo(st, &status, nullptr, &graph_now, &deps, &edges, &count));
+  cudaGraphNodeParams gate{};
+  gate.type = cudaGraphNodeTypeConditional;
+  gate.conditional.handle = handle;
+  gate.conditional.type = cudaGraphCondTypeIf;
+  gate.conditional.size = 1;
+  cudaGraphNode_t node = nullptr;
+  EBH_CUDA_CHECK(cudaGraphAddNode(&node, graph_now, deps, edges, count, &gate));
+  EBH_CUDA_CHECK(cudaStreamUpdateCaptureDependencies(st, &node, nullptr, 1, cudaStreamSetCaptureDependencies));
+  cudaGraph_t body = gate.conditional.phGraph_out[0];
+  cudaStream_t as = awake_stream.get();
+  EBH_CUDA_CHECK(cudaStreamBeginCaptureToGraph(as, body, nullptr, nullptr, 0, cudaStreamCaptureModeThreadLocal));
+  try {
+    capture_step(pdl, as);
+  } catch (...) {
+    cudaGraph_t ended = nullptr;
+    cudaStreamEndCapture(as, &ended);
+    throw;
+  }
+  EBH_CUDA_CHECK(cudaStreamEndCapture(as, &body));
+#endif
 }
 
 /// The step's input: q, rounded to float on the host, into the device.
@@ -1103,8 +1215,10 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
   if (params.adaptive() && !EBH_GRAPH_LOOPS)
     throw InputError("--backend cuda: solver.physical_tolerance needs the CUDA backend built with CUDA 13 or newer "
                      "(graph while nodes); set solver.physical_tolerance=0");
+  if (!(options.sleep >= 0)) throw InputError("solver.sleep must not be negative");
   impl_->params = params;
   impl_->weight_norm = model.weight_norm;
+  impl_->sleep = options.sleep;
   impl_->upload_model(model, options.patch_vertices, options.beside_ticks);
   upload_state(make_physical_state(model));
   // Programmatic dependent launch in the graph where the driver takes it; plain kernel nodes
@@ -1147,6 +1261,8 @@ std::size_t CudaPhysicalSolver::block_shared_bytes() const {
 
 int CudaPhysicalSolver::patch_vertices() const { return impl_->patch_vertices; }
 
+bool CudaPhysicalSolver::can_sleep() { return EBH_GRAPH_LOOPS != 0; }
+
 int CudaPhysicalSolver::patch_lanes() const { return impl_->lanes;
 }
 
@@ -1160,6 +1276,8 @@ void CudaPhysicalSolver::upload_state(const PhysicalState& state) {
   for (int t = 0; t < I.T; ++t) r[t] = to_float(state.rotation[t]);
   I.x.upload(x.data(), I.stream.get());
   I.v.upload(v.data(), I.stream.get());
+  if (I.sleep > 0)  // a new state: the next step runs
+    EBH_CUDA_CHECK(cudaMemsetAsync(I.sleep_flags.get(), 0, 2 * sizeof(int), I.stream.get()));
   if (I.T > 0) {  // the state half of the two rotation buffers
     EBH_CUDA_CHECK(cudaMemcpyAsync(I.rotation.get(), r.data(), I.T * sizeof(Quatf), cudaMemcpyHostToDevice, I.stream.get()));
     EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream.get()));
@@ -1206,7 +1324,8 @@ PhysicalStepReport CudaPhysicalSolver::step(PhysicalState& state, std::span<cons
 
 PhysicalStepReport CudaPhysicalSolver::Impl::report(const double* sums) const {
   PhysicalStepReport r;
-  r.iterations = params.adaptive() ? static_cast<int>(sums[2]) : params.iterations;
+  r.iterations = params.adaptive() || sleep > 0 ? static_cast<int>(sums[2]) : params.iterations;
+  r.slept = sleep > 0 && params.iterations > 0 && n > 0 && sums[2] == 0;
   if (params.iterations > 0 && n > 0) {
     set_residuals(r, std::sqrt(sums[0]), std::sqrt(sums[1]), weight_norm);
   }

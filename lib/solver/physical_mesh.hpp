@@ -191,6 +191,7 @@ struct PhysicalStepReport {
   double time_s = 0;
   double local_s = 0;   ///< local steps (rotations, coupling forces)
   double global_s = 0;  ///< residual gathers and global steps
+  bool slept = false;   ///< skipped, the state held (solver.sleep; iterations 0)
 };
 
 /// The report's residuals from ||r_0|| and ||r_K|| (CPU and CUDA steps alike).

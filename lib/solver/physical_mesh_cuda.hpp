@@ -34,6 +34,10 @@ struct CudaPhysicalOptions {
   /// launches): patches of at most 64 vertices, so that two of the step's blocks fit beside a tick
   /// block on a multiprocessor (with one, the step of a 352k-tet mesh took 2.9x as long).
   bool beside_ticks = false;
+  /// solver.sleep (m; docs/MODEL.md, "Sleeping"): a step whose inputs have not moved by more than
+  /// this is skipped on the device (a conditional graph node: CUDA 13 builds; others refuse it),
+  /// the state held; the report says so (PhysicalStepReport::slept). 0: every step runs.
+  double sleep = 0;
 };
 
 class CudaPhysicalSolver {
@@ -94,6 +98,8 @@ class CudaPhysicalSolver {
   /// else 4).
   int patch_vertices() const;
   int patch_lanes() const;
+  /// Whether this build can sleep (CudaPhysicalOptions::sleep: graph conditional nodes).
+  static bool can_sleep();
   /// Whether the step graph chains its kernels by programmatic dependent launch (docs/CUDA.md).
   bool programmatic_launch() const;
 

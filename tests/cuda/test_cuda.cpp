@@ -615,6 +615,7 @@ class Trace : public ReplayObserver {
   std::vector<int> grasped;
   std::vector<double> penetration, penetration_physical;
   std::vector<int> contacts;
+  std::vector<int> slept, iterations;  // per step
   int max_contacts = 0;
   void on_tick(const World&, const HapticSide& h, double) override {
     force.push_back(h.output.force);
@@ -627,6 +628,8 @@ class Trace : public ReplayObserver {
   void on_step(const World&, const PhysicalSide& p, double) override {
     x = p.mesh.x;
     residual.push_back(p.report.residual);
+    slept.push_back(p.slept ? 1 : 0);
+    iterations.push_back(p.report.iterations);
   }
 };
 
@@ -1217,6 +1220,58 @@ TEST(CudaReplay, SurfaceContactMatchesCpu) {
     ASSERT_EQ(gpu2.force.size(), gpu.force.size());
     EXPECT_EQ(std::memcmp(gpu.force.data(), gpu2.force.data(), gpu.force.size() * sizeof(Vec3d)), 0);
     EXPECT_EQ(std::memcmp(gpu.x.data(), gpu2.x.data(), gpu.x.size() * sizeof(Vec3d)), 0);
+  }
+}
+
+/// solver.sleep on the device (sleep_gate_kernel and a conditional graph node): tube_insert from
+/// 0 s, the tool's approach and its first contact (2.0-2.5 s), async with the device tick (the
+/// steps inside its launches) and lockstep. The resting mesh sleeps, the first step and the steps
+/// in contact run, a skipped step reports 0 iterations, two runs are bitwise equal, and the forces
+/// stay those of every step run: a held state is within the sleep length (1 um) of the computed
+/// one, so the forces within k_vcs times it.
+TEST(CudaReplay, SleepingSkipsTheStepsOfARestingMesh) {
+  EBH_REQUIRE_DEVICE();
+  if (!CudaPhysicalSolver::can_sleep()) GTEST_SKIP() << "this build's CUDA has no graph conditional nodes";
+  const std::string path = resolve_recording_path("tube_insert");
+  Recording rec = read_recording(path);
+  apply_stored_transforms(rec, path);
+  auto run = [&](const char* sleep, Mode mode) {
+    auto world = build_world(load_scene(resolve_scene_path("tube"), {std::string("solver.sleep=") + sleep}), 1000, 100,
+                             Backend::Cuda);
+    ReplayOptions opt;
+    opt.mode = mode;
+    opt.duration = 2.5;
+    Trace trace;
+    replay(*world, rec, opt, trace);
+    return std::make_pair(trace, world->scene.spec.stiffness.k_vcs);
+  };
+  for (const Mode mode : {Mode::Async, Mode::Lockstep}) {
+    const auto [full, k_vcs] = run("0", mode);
+    const Trace asleep = run("0.001", mode).first, again = run("0.001", mode).first;
+    ASSERT_EQ(full.force.size(), asleep.force.size());
+    ASSERT_EQ(asleep.slept.size(), asleep.iterations.size());
+    int slept = 0;
+    for (std::size_t k = 0; k < asleep.slept.size(); ++k) {
+      slept += asleep.slept[k];
+      if (asleep.slept[k]) {
+        EXPECT_EQ(asleep.iterations[k], 0) << "step " << k;
+      } else {
+        EXPECT_GT(asleep.iterations[k], 0) << "step " << k;
+      }
+    }
+    int full_slept = 0;
+    for (const int s : full.slept) full_slept += s;
+    double df = 0;
+    for (std::size_t n = 0; n < full.force.size(); ++n) df = std::max(df, norm(full.force[n] - asleep.force[n]));
+    std::printf("[ sleep, %s ] %d of %zu steps slept; max |F - F_every_step| = %.3g N (bound %.3g N)\n",
+                mode_name(mode), slept, asleep.slept.size(), df, k_vcs * 1e-6);
+    EXPECT_EQ(full_slept, 0);
+    EXPECT_EQ(asleep.slept.front(), 0) << "the first step always runs";
+    EXPECT_GT(slept, static_cast<int>(asleep.slept.size()) / 4) << "the approach must let the mesh sleep";
+    EXPECT_LE(df, k_vcs * 1e-6);
+    ASSERT_EQ(again.force.size(), asleep.force.size());
+    EXPECT_EQ(std::memcmp(again.force.data(), asleep.force.data(), asleep.force.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(again.slept, asleep.slept);
   }
 }
 

@@ -27,10 +27,10 @@
 // about two blocks per multiprocessor hold them all (at most 128 vertices, 64 beside the device
 // tick: CudaPhysicalOptions; halved while a block's shared memory does not fit); a patch's tets
 // are all tets with a corner in it. Each block first copies its patch's model data (tets, shape
-// gradients, pairings) into shared memory, before waiting for the previous iteration. A tet on a patch border is computed by each
-// patch it touches (about 2x the arithmetic of one thread per tet), which buys one kernel per
-// iteration instead of two and keeps the corner forces in shared memory: the step is bound by
-// kernel latency and memory traffic, not arithmetic (docs/CUDA.md). The patch owning a tet's
+// gradients, pairings) into shared memory, before waiting for the previous iteration. A tet on a
+// patch border is computed by each patch it touches (about 2x the arithmetic of one thread per
+// tet), which buys one kernel per iteration instead of two and keeps the corner forces in shared
+// memory: the step is bound by kernel latency and memory traffic, not arithmetic (docs/CUDA.md). The patch owning a tet's
 // corner 0 stores its rotation; every patch computes the same bits from the same inputs.
 // Kernels are launched with programmatic dependent launch where the driver takes it in a graph
 // (each waits for its predecessor with cudaGridDependencySynchronize before touching memory, so

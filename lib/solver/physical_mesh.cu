@@ -30,8 +30,9 @@
 // gradients, pairings) into shared memory, before waiting for the previous iteration. A tet on a
 // patch border is computed by each patch it touches (about 2x the arithmetic of one thread per
 // tet), which buys one kernel per iteration instead of two and keeps the corner forces in shared
-// memory: the step is bound by kernel latency and memory traffic, not arithmetic (docs/CUDA.md). The patch owning a tet's
-// corner 0 stores its rotation; every patch computes the same bits from the same inputs.
+// memory: the step is bound by kernel latency and memory traffic, not arithmetic (docs/CUDA.md).
+// The patch owning a tet's corner 0 stores its rotation; every patch computes the same bits from
+// the same inputs.
 // Kernels are launched with programmatic dependent launch where the driver takes it in a graph
 // (each waits for its predecessor with cudaGridDependencySynchronize before touching memory, so
 // only the launch latency overlaps); otherwise, or with CudaPhysicalOptions::programmatic_launch

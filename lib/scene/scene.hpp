@@ -74,8 +74,8 @@
 //                                   #   (and their neighbours); the rest follow the targets. 0: the
 //                                   #   whole virtual mesh (CPU backend; docs/MODEL.md, "The active region")
 //     sleep: 0                      # length (unit): skip a physical step while nothing moved by more
-//                                   #   than this since the last one (CPU backend; docs/MODEL.md,
-//                                   #   "Sleeping"); 0: every step runs
+//                                   #   than this since the last one (docs/MODEL.md, "Sleeping");
+//                                   #   0: every step runs
 //     virtual_damping: 250          # 1/s: the virtual mesh's velocity is divided by 1 + this h each
 //                                   #   tick (h the haptic period; docs/MODEL.md, "Damping of the
 //                                   #   virtual mesh"); 0: Algorithm 2 as printed

@@ -846,6 +846,7 @@ std::vector<float> iteration_weights(const PhysicalStepParams& params) {
   return w;
 }
 
+namespace {
 /// The static shared memory of the kernels that take a patch's dynamic shared memory (both methods).
 std::size_t static_shared_bytes() {
   std::vector<const void*> kernels;
@@ -873,6 +874,7 @@ std::size_t patch_shared_bytes(const Patches& P) {
   return static_cast<std::size_t>(P.max_tets) * sizeof(TetItem) + static_cast<std::size_t>(P.max_pulls) * sizeof(PullItem) +
          (static_cast<std::size_t>(P.max_slots) + 4 * static_cast<std::size_t>(P.max_tets) + P.max_pulls) * sizeof(Vec3f);
 }
+}  // namespace
 
 void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M, int asked_patch, bool beside_ticks) {
   n = M.num_vertices;
@@ -1069,6 +1071,52 @@ void CudaPhysicalSolver::Impl::capture_iterations(bool pdl, cudaStream_t st) {
   }
 }
 
+#if EBH_GRAPH_LOOPS
+namespace {
+/// A handle for a conditional node of the graph being captured on st (its value 1 at each launch
+/// unless a kernel sets it).
+cudaGraphConditionalHandle conditional_handle(cudaStream_t st) {
+  cudaStreamCaptureStatus status{};
+  cudaGraph_t graph_now = nullptr;
+  EBH_CUDA_CHECK(cudaStreamGetCaptureInfo(st, &status, nullptr, &graph_now, nullptr, nullptr, nullptr));
+  cudaGraphConditionalHandle handle{};
+  EBH_CUDA_CHECK(cudaGraphConditionalHandleCreate(&handle, graph_now, 1, cudaGraphCondAssignDefault));
+  return handle;
+}
+
+/// Adds a conditional node of `type` on `handle` after what st has captured, and captures its body
+/// on body_stream: capture_body(body_stream).
+template <class F>
+void capture_conditional(cudaStream_t st, cudaStream_t body_stream, cudaGraphConditionalHandle handle,
+                         cudaGraphConditionalNodeType type, F&& capture_body) {
+  cudaStreamCaptureStatus status{};
+  cudaGraph_t graph_now = nullptr;
+  const cudaGraphNode_t* deps = nullptr;
+  const cudaGraphEdgeData* edges = nullptr;
+  std::size_t count = 0;
+  EBH_CUDA_CHECK(cudaStreamGetCaptureInfo(st, &status, nullptr, &graph_now, &deps, &edges, &count));
+  cudaGraphNodeParams node_params{};
+  node_params.type = cudaGraphNodeTypeConditional;
+  node_params.conditional.handle = handle;
+  node_params.conditional.type = type;
+  node_params.conditional.size = 1;
+  cudaGraphNode_t node = nullptr;
+  EBH_CUDA_CHECK(cudaGraphAddNode(&node, graph_now, deps, edges, count, &node_params));
+  EBH_CUDA_CHECK(cudaStreamUpdateCaptureDependencies(st, &node, nullptr, 1, cudaStreamSetCaptureDependencies));
+  cudaGraph_t body = node_params.conditional.phGraph_out[0];
+  EBH_CUDA_CHECK(cudaStreamBeginCaptureToGraph(body_stream, body, nullptr, nullptr, 0, cudaStreamCaptureModeThreadLocal));
+  try {
+    capture_body(body_stream);
+  } catch (...) {
+    cudaGraph_t ended = nullptr;
+    cudaStreamEndCapture(body_stream, &ended);
+    throw;
+  }
+  EBH_CUDA_CHECK(cudaStreamEndCapture(body_stream, &body));
+}
+}  // namespace
+#endif
+
 /// The stopping rule's part of the graph (params.adaptive()): a while node whose body is one
 /// loop_iteration_kernel (iteration K - 1 first: the node's condition starts at 1), then
 /// loop_finish_kernel. The node is added to the graph being captured on `st`, its body captured
@@ -1082,36 +1130,13 @@ void CudaPhysicalSolver::Impl::capture_loop(cudaStream_t st) {
 #else
   auto* body_kernel = lanes == kMinLanes ? loop_iteration_kernel<kMinLanes, kChebyshev> : loop_iteration_kernel<kMaxLanes, kChebyshev>;
   EBH_CUDA_CHECK(cudaFuncSetAttribute(body_kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
-  cudaStreamCaptureStatus status{};
-  cudaGraph_t graph_now = nullptr;
-  const cudaGraphNode_t* deps = nullptr;
-  const cudaGraphEdgeData* edges = nullptr;
-  std::size_t count = 0;
-  EBH_CUDA_CHECK(cudaStreamGetCaptureInfo(st, &status, nullptr, &graph_now, &deps, &edges, &count));
-  cudaGraphConditionalHandle handle{};
-  EBH_CUDA_CHECK(cudaGraphConditionalHandleCreate(&handle, graph_now, 1, cudaGraphCondAssignDefault));
-  cudaGraphNodeParams loop{};
-  loop.type = cudaGraphNodeTypeConditional;
-  loop.conditional.handle = handle;
-  loop.conditional.type = cudaGraphCondTypeWhile;
-  loop.conditional.size = 1;
-  cudaGraphNode_t node = nullptr;
-  EBH_CUDA_CHECK(cudaGraphAddNode(&node, graph_now, deps, edges, count, &loop));
-  EBH_CUDA_CHECK(cudaStreamUpdateCaptureDependencies(st, &node, nullptr, 1, cudaStreamSetCaptureDependencies));
-  cudaGraph_t body = loop.conditional.phGraph_out[0];
-  cudaStream_t bs = body_stream.get();
-  EBH_CUDA_CHECK(cudaStreamBeginCaptureToGraph(bs, body, nullptr, nullptr, 0, cudaStreamCaptureModeThreadLocal));
+  const cudaGraphConditionalHandle handle = conditional_handle(st);
   SweepPlan open = plan;
   open.K = 0;  // no iteration writes the state
-  try {
+  capture_conditional(st, body_stream.get(), handle, cudaGraphCondTypeWhile, [&](cudaStream_t bs) {
     cuda::launch(false, body_kernel, patches, kBlock, shared_bytes, bs, "loop_iteration_kernel", dev, open,
                  params.rotation_iterations, handle);
-  } catch (...) {
-    cudaGraph_t ended = nullptr;
-    cudaStreamEndCapture(bs, &ended);
-    throw;
-  }
-  EBH_CUDA_CHECK(cudaStreamEndCapture(bs, &body));
+  });
   cuda::launch(false, loop_finish_kernel, cuda::blocks_for(std::max(n, T), kBlock), kBlock, 0, st, "loop_finish_kernel",
                dev, open);
 #endif
@@ -1163,36 +1188,11 @@ void CudaPhysicalSolver::Impl::capture_sleeping_step(bool pdl, cudaStream_t st) 
   throw InputError("--backend cuda: solver.sleep needs the CUDA backend built with CUDA 13 or newer "
                    "(graph conditional nodes); set solver.sleep=0");
 #else
-  cudaStreamCaptureStatus status{};
-  cudaGraph_t graph_now = nullptr;
-  const cudaGraphNode_t* deps = nullptr;
-  const cudaGraphEdgeData* edges = nullptr;
-  std::size_t count = 0;
-  EBH_CUDA_CHECK(cudaStreamGetCaptureInfo(st, &status, nullptr, &graph_now, &deps, &edges, &count));
-  cudaGraphConditionalHandle handle{};
-  EBH_CUDA_CHECK(cudaGraphConditionalHandleCreate(&handle, graph_now, 1, cudaGraphCondAssignDefault));
+  const cudaGraphConditionalHandle handle = conditional_handle(st);
   cuda::launch(false, sleep_gate_kernel, cuda::blocks_for(std::max(n, m), kBlock), kBlock, 0, st, "sleep_gate_kernel",
                dev, handle);
-  EBH_CUDA_CHECK(cudaStreamGetCaptureInfo(st, &status, nullptr, &graph_now, &deps, &edges, &count));
-  cudaGraphNodeParams gate{};
-  gate.type = cudaGraphNodeTypeConditional;
-  gate.conditional.handle = handle;
-  gate.conditional.type = cudaGraphCondTypeIf;
-  gate.conditional.size = 1;
-  cudaGraphNode_t node = nullptr;
-  EBH_CUDA_CHECK(cudaGraphAddNode(&node, graph_now, deps, edges, count, &gate));
-  EBH_CUDA_CHECK(cudaStreamUpdateCaptureDependencies(st, &node, nullptr, 1, cudaStreamSetCaptureDependencies));
-  cudaGraph_t body = gate.conditional.phGraph_out[0];
-  cudaStream_t as = awake_stream.get();
-  EBH_CUDA_CHECK(cudaStreamBeginCaptureToGraph(as, body, nullptr, nullptr, 0, cudaStreamCaptureModeThreadLocal));
-  try {
-    capture_step(pdl, as);
-  } catch (...) {
-    cudaGraph_t ended = nullptr;
-    cudaStreamEndCapture(as, &ended);
-    throw;
-  }
-  EBH_CUDA_CHECK(cudaStreamEndCapture(as, &body));
+  capture_conditional(st, awake_stream.get(), handle, cudaGraphCondTypeIf,
+                      [&](cudaStream_t as) { capture_step(pdl, as); });
 #endif
 }
 

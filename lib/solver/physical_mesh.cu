@@ -51,6 +51,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -847,19 +848,8 @@ std::vector<float> iteration_weights(const PhysicalStepParams& params) {
 }
 
 namespace {
-/// The static shared memory of the kernels that take a patch's dynamic shared memory (both methods).
-std::size_t static_shared_bytes() {
-  std::vector<const void*> kernels;
-  for (const int lanes : {kMinLanes, kMaxLanes}) {
-    for (const IterationKernel k : iteration_kernels<true>(lanes)) kernels.push_back(reinterpret_cast<const void*>(k));
-    for (const IterationKernel k : iteration_kernels<false>(lanes)) kernels.push_back(reinterpret_cast<const void*>(k));
-  }
-#if EBH_GRAPH_LOOPS
-  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMinLanes, true>));
-  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMinLanes, false>));
-  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMaxLanes, true>));
-  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMaxLanes, false>));
-#endif
+/// The most static shared memory of `kernels`.
+std::size_t static_shared_of(std::span<const void* const> kernels) {
   std::size_t bytes = 0;
   for (const void* k : kernels) {
     cudaFuncAttributes a{};
@@ -867,6 +857,29 @@ std::size_t static_shared_bytes() {
     bytes = std::max(bytes, a.sharedSizeBytes);
   }
   return bytes;
+}
+
+/// A method's iteration kernels for `lanes` threads per vertex, as plain pointers.
+template <bool kChebyshev>
+std::vector<const void*> iteration_kernel_pointers(int lanes) {
+  std::vector<const void*> out;
+  for (const IterationKernel k : iteration_kernels<kChebyshev>(lanes)) out.push_back(reinterpret_cast<const void*>(k));
+  return out;
+}
+
+/// The static shared memory of the kernels that take a patch's dynamic shared memory (both methods).
+std::size_t static_shared_bytes() {
+  std::vector<const void*> kernels;
+  for (const int lanes : {kMinLanes, kMaxLanes})
+    for (const auto& of : {iteration_kernel_pointers<true>(lanes), iteration_kernel_pointers<false>(lanes)})
+      kernels.insert(kernels.end(), of.begin(), of.end());
+#if EBH_GRAPH_LOOPS
+  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMinLanes, true>));
+  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMinLanes, false>));
+  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMaxLanes, true>));
+  kernels.push_back(reinterpret_cast<const void*>(loop_iteration_kernel<kMaxLanes, false>));
+#endif
+  return static_shared_of(kernels);
 }
 
 /// A patch block's dynamic shared memory (patch_shared).
@@ -1251,13 +1264,8 @@ bool CudaPhysicalSolver::programmatic_launch() const { return impl_->programmati
 
 std::size_t CudaPhysicalSolver::block_shared_bytes() const {
   const bool chebyshev = impl_->params.method == SolverSpec::Method::Chebyshev;
-  std::size_t static_bytes = 0;
-  for (const IterationKernel kernel : chebyshev ? iteration_kernels<true>(impl_->lanes) : iteration_kernels<false>(impl_->lanes)) {
-    cudaFuncAttributes a{};
-    EBH_CUDA_CHECK(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(kernel)));
-    static_bytes = std::max(static_bytes, a.sharedSizeBytes);
-  }
-  return impl_->shared_bytes + static_bytes;
+  return impl_->shared_bytes + static_shared_of(chebyshev ? iteration_kernel_pointers<true>(impl_->lanes)
+                                                          : iteration_kernel_pointers<false>(impl_->lanes));
 }
 
 int CudaPhysicalSolver::patch_vertices() const { return impl_->patch_vertices; }

@@ -140,11 +140,10 @@ struct PhysicalDevice {
   StoppingState* stopping = nullptr;    // 1  the rule's best residual so far; the loop's finish resets it
   const float* omega = nullptr;         // max_iterations  the Chebyshev weights (iteration_weights)
   double weight_norm = 0;               // ||M g0||, the residual's scale
-  double tolerance = 0;                 // mesh weights
+  double tolerance = 0;                 // the stopping rule's tolerance (mesh weights), 0: none
   int iterations = 0, max_iterations = 0;  // K and the cap
   // Sleeping (CudaPhysicalOptions::sleep; sleep_gate_kernel).
   float sleep_sq = 0;                   // the sleep length squared (m^2); 0: every step runs
-  double sleep_tolerance = 0;           // the stopping rule's tolerance (mesh weights), 0: none
   int* sleep_flags = nullptr;           // 2  [0] a vertex moved (this step's test), [1] a step has run
   Vec3f* ran_with = nullptr;            // m  the virtual positions the last step that ran took
 };
@@ -517,7 +516,7 @@ __global__ void __launch_bounds__(kBlock) sleep_gate_kernel(PhysicalDevice d, Lo
   if (threadIdx.x == 0) {
     const double scale = d.weight_norm > 0 ? d.weight_norm : 1.0;
     asleep = d.sleep_flags[1] != 0 && d.sleep_flags[0] == 0 &&
-             (d.sleep_tolerance <= 0 || sqrt(d.residual_sq[1]) / scale <= d.sleep_tolerance);
+             (d.tolerance <= 0 || sqrt(d.residual_sq[1]) / scale <= d.tolerance);
     d.sleep_flags[0] = 0;
     d.sleep_flags[1] = 1;
     if (asleep) {
@@ -1037,17 +1036,16 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M, int asked_pa
     omega.upload(omega_host.data(), st);
     dev.next_iteration = next_iteration.get();
     dev.omega = omega.get();
-    dev.tolerance = params.tolerance;
     dev.max_iterations = params.max_iterations;
   }
   dev.weight_norm = weight_norm;
+  dev.tolerance = params.tolerance;
   dev.iterations = params.iterations;
   if (sleep > 0) {
     sleep_flags.allocate(2);
     EBH_CUDA_CHECK(cudaMemsetAsync(sleep_flags.get(), 0, 2 * sizeof(int), st));
     ran_with.allocate(std::max(m, 1));
     dev.sleep_sq = static_cast<float>(sleep * sleep);
-    dev.sleep_tolerance = params.tolerance;
     dev.sleep_flags = sleep_flags.get();
     dev.ran_with = ran_with.get();
   }

@@ -67,6 +67,29 @@ EBH_HD void for_each_sample(int n, F&& f) {
     }
 }
 
+/// The k-th sample (0 <= k < n^2) of for_each_sample(n)'s order: its barycentric coordinates, in
+/// double bitwise as for_each_sample gives them (float: for float tests with slack). Row i of the
+/// order holds 2 (n - i) - 1 samples, i (2n - i) before it; within the row, sample r is the "up"
+/// one of column r / 2 (r even) or the "down" one.
+template <class T>
+EBH_HD void sample_barycentric(int n, int k, T& b0, T& b1, T& b2) {
+  int i = static_cast<int>(n - EBH_SQRT(static_cast<T>(n) * n - k));  // the row, up to rounding
+  if (i < 0) i = 0;
+  if (i > n - 1) i = n - 1;
+  while (i > 0 && i * (2 * n - i) > k) --i;
+  while (i + 1 < n && (i + 1) * (2 * n - i - 1) <= k) ++i;
+  const int r = k - i * (2 * n - i), j = r / 2;
+  const T inv = T(1) / n;
+  if (r % 2 == 0) {
+    b1 = (i + T(1) / T(3)) * inv;
+    b2 = (j + T(1) / T(3)) * inv;
+  } else {
+    b1 = (i + T(2) / T(3)) * inv;
+    b2 = (j + T(2) / T(3)) * inv;
+  }
+  b0 = T(1) - b1 - b2;
+}
+
 /// The sample point b0 a + b1 b + b2 c.
 EBH_HD Vec3d surface_sample_point(double b0, double b1, double b2, Vec3d a, Vec3d b, Vec3d c) {
   return b0 * a + b1 * b + b2 * c;

@@ -64,6 +64,23 @@ TEST(SurfaceSamples, SubTriangleCentroidsCoverTheTriangle) {
   EXPECT_NEAR(weight, 4.5e-6 / (0.25 * std::sqrt(3.0) * 1e-6), 1e-12);  // 25 equal terms of ~0.42: round-off ~1e-15
 }
 
+TEST(SurfaceSamples, TheKthSampleIsForEachSamplesKth) {
+  // The device tick lists samples by their index in for_each_sample's order and recomputes them
+  // with sample_barycentric: the two must agree bitwise at every level.
+  for (int n = 1; n <= kMaxSampleLevel; ++n) {
+    int k = 0;
+    for_each_sample(n, [&](double b0, double b1, double b2) {
+      double c0 = -1, c1 = -1, c2 = -1;
+      sample_barycentric(n, k, c0, c1, c2);
+      ASSERT_EQ(c0, b0) << "n " << n << " k " << k;
+      ASSERT_EQ(c1, b1) << "n " << n << " k " << k;
+      ASSERT_EQ(c2, b2) << "n " << n << " k " << k;
+      ++k;
+    });
+    ASSERT_EQ(k, n * n);
+  }
+}
+
 TEST(SurfaceSamples, StretchingAddsRowsPastTheRestLevel) {
   const std::vector<Vec3d> rest = {{0, 0, 0}, {0.002, 0, 0}, {0, 0.001, 0}};
   const SurfaceContactModel s = build_surface_contact(std::vector<std::array<int, 3>>{{0, 1, 2}}, rest, 0.001);

@@ -312,6 +312,7 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
     st.counters["candidates"] = stages.candidates;
     st.counters["updated"] = stages.updated;
     st.counters["unpipelined"] = stages.unpipelined;
+    st.counters["listed"] = stages.listed;
   }
   st.counters["max_contacts"] = contacts;
   st.SetLabel(cuda_device_description());

@@ -160,7 +160,7 @@ bool device_haptic_supported(const ToolModel& tool) {
 namespace {
 /// Samples the Newton call's list holds with surface contact: twice every triangle's samples at
 /// rest (a call reaches a small part of the surface; twice for stretched triangles' extra rows),
-/// at least 2^16 and at most 2^22 (32 bytes each).
+/// at least 2^16 and at most 2^22 (76 bytes each: a candidate's point and weight, a contact list entry and its contact, a sample's triangle).
 int surface_capacity(const SurfaceContactModel& s) {
   double total = 0;
   for (const std::uint8_t n : s.rest_level) total += static_cast<double>(n) * n;
@@ -215,7 +215,12 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<int4> tri;
   cuda::DeviceArray<int> tri_offsets, tri_entries, tri_counts, tri_list, tri_scan;
   cuda::DeviceArray<double> cand_w;
-  cuda::DeviceArray<unsigned long long> tri_arrive;
+  cuda::DeviceArray<unsigned long long> tri_arrive, tri_stamp;
+  cuda::DeviceArray<ListedTriangle> listed;
+  cuda::DeviceArray<int2> contact;
+  cuda::DeviceArray<int4> tri_map;
+  cuda::DeviceArray<int> list_sizes, sample_listed;
+  cuda::DeviceArray<SampleSum> sample_to, tri_sum;
   int* overflow = nullptr;           // cudaHostAlloc, mapped
 
   /// The tick kernel of this object's contact.
@@ -258,6 +263,14 @@ struct CudaHapticTicks::Impl {
     SurfaceDev& sd = I.surface_dev;
     sd.capacity = surface_capacity(s);
     I.cand_w.allocate(sd.capacity);
+    I.contact.allocate(sd.capacity);
+    I.listed.allocate(std::size_t(chunks) * kBlock);
+    I.tri_map.allocate(tri.size());
+    I.sample_to.allocate(sd.capacity);
+    I.sample_listed.allocate(sd.capacity);
+    I.tri_sum.allocate(3 * tri.size());
+    up(I.list_sizes, std::vector<int>(2, 0));
+    up(I.tri_stamp, std::vector<unsigned long long>(tri.size(), 0));  // no step's list yet
     EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.overflow), sizeof(int), cudaHostAllocMapped));
     *I.overflow = 0;
     int* overflow_dev = nullptr;
@@ -274,6 +287,14 @@ struct CudaHapticTicks::Impl {
     sd.offsets = I.tri_scan.get();
     sd.cand_w = I.cand_w.get();
     sd.arrive = I.tri_arrive.get();
+    sd.listed = I.listed.get();
+    sd.contact = I.contact.get();
+    sd.tri_map = I.tri_map.get();
+    sd.tri_stamp = I.tri_stamp.get();
+    sd.list_sizes = I.list_sizes.get();
+    sd.sample_listed = I.sample_listed.get();
+    sd.sample_to = I.sample_to.get();
+    sd.tri_sum = I.tri_sum.get();
     sd.overflow = overflow_dev;
   }
 
@@ -334,6 +355,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   const int chunks = std::max(1, cuda::blocks_for(m, kBlock));
   I.surface = S.tool->surface != nullptr;
   if (I.surface) I.upload_surface(*S.tool->surface, m);
+  I.surface_dev.lists = S.contact_lists;
   I.cand_q.allocate(std::max(m, I.surface_dev.capacity));
   I.block_cand.allocate(std::size_t(chunks) * kBlock);
   I.block_held.allocate(std::size_t(chunks) * kBlock);
@@ -661,6 +683,7 @@ DeviceTickProfile CudaHapticTicks::profile() {
   r.definite = p.clamps + p.definite ? static_cast<double>(p.definite) / static_cast<double>(p.clamps + p.definite) : 0.0;
   r.candidates = static_cast<double>(p.candidates) / steps;
   r.unpipelined = static_cast<double>(p.unpipelined) / steps;
+  r.listed = static_cast<double>(p.listed) / steps;
   r.updated = p.steps > p.unpipelined ? static_cast<double>(p.updated) / static_cast<double>(p.steps - p.unpipelined) : 0.0;
   for (int k = 0; k < DeviceTickProfile::kStages; ++k) {
     const bool cycles = k <= DeviceTickProfile::Output;  // block 0's, in its cycles

@@ -73,6 +73,7 @@ struct DeviceTickProfile {
     Wait,        ///< block 0 waiting for the other blocks' vertices after the Newton call
     Update,      ///< block 0's own vertices (held and deferred) at the new pose (pipelined steps)
     Lists,       ///< the candidate and held lists, filtered and in a fixed order; the hand-offs
+    Samples,     ///< surface contact: the listed triangles' samples tested and listed, the contact lists' sums
     Evaluate,    ///< E_tool, its gradient and the contact Hessian (every evaluation)
     Clamp,       ///< the 6x6 PSD clamp
     Solve,       ///< the Cholesky solve and the step's checks
@@ -84,7 +85,7 @@ struct DeviceTickProfile {
     BlockVerticesMax,  ///< the slowest block's vertices
     kStages
   };
-  static constexpr const char* kNames[kStages] = {"wait", "update", "lists", "evaluate", "clamp", "solve",
+  static constexpr const char* kNames[kStages] = {"wait", "update", "lists", "samples", "evaluate", "clamp", "solve",
                                                   "line_search", "output", "block_lag", "block_setup",
                                                   "block_vertices", "block_lists", "block_vertices_max"};
   double mean_us[kStages] = {};
@@ -94,6 +95,7 @@ struct DeviceTickProfile {
   double candidates = 0;      ///< vertices the Newton call can reach, per step
   double updated = 0;         ///< vertices block 0 updates itself, per pipelined step
   double unpipelined = 0;     ///< the share of steps that ran unpipelined
+  double listed = 0;          ///< surface contact: the share of steps whose vertices read a contact list
 };
 
 struct DeviceHapticSetup {
@@ -114,6 +116,10 @@ struct DeviceHapticSetup {
   /// Run the next step's vertices beside the virtual tool (docs/CUDA.md, "Pipelined steps"); off:
   /// every step waits for the tool (the same results up to the order of the contact sums).
   bool pipeline = true;
+  /// Surface contact: a step after a Newton call tests only the samples of the call's contact list
+  /// (docs/CUDA.md, "Surface contact"); off: every sample of the triangles near the tool (the same
+  /// contacts, the sums in another order; for comparisons).
+  bool contact_lists = true;
   int max_blocks = 0;                    ///< cap on the kernel's blocks (tests: blocks running several chunks); 0: none
   /// Tick blocks that may share a multiprocessor (replays sharing the device, replay_batch:
   /// DeviceTickCapacity::blocks_per_sm_shared); the carve-out beside the physical steps leaves

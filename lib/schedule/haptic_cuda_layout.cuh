@@ -153,9 +153,31 @@ __host__ __device__ __forceinline__ int ring_slot(long long k) { return k >= 0 ?
 /// Surface contact's device data (scene `contact: surface`; surface_ticks_kernel's parameter, by
 /// value): the virtual mesh's triangles (SurfaceContactModel) and the lists of the triangles and
 /// samples near the virtual tool. docs/CUDA.md, "Surface contact".
+/// A triangle of a step's candidate list (surface_lists): its corners, its samples' rows and
+/// weight, how far its corners move in the next tick's prediction (0 but after a tick's last
+/// step), whether the Newton call may reach it (triangle_step), and the samples of the list's
+/// triangles before it.
+struct ListedTriangle {
+  double w;
+  Vec3f a, b, c;
+  int f, n, base;
+  float shift;
+  bool newton;
+};
+
+/// A vector and a scalar in double, one 32-byte load (SurfaceDev::sample_to, tri_sum).
+struct alignas(32) SampleSum {
+  double x, y, z, w;
+};
+
+/// Flag of a chunk list's entry (SurfaceDev::list): the triangle is listed for the next step's
+/// contacts only, not for the Newton call.
+constexpr int kContactOnly = 1 << 30;
+
 struct SurfaceDev {
   int F = 0, chunks = 0;            // triangles; chunks of kBlock triangles (the vertex blocks run them as their vertex chunks)
   int capacity = 0;                 // samples the Newton call's list holds (MeshDev::cand_q, cand_w)
+  bool lists = true;                // DeviceHapticSetup::contact_lists
   double spacing = 0, stiffness_factor = 1;  // SurfaceContactModel's
   float inv_reach = 1;              // 1 / (1 - reach_th): a triangle's bounding radius in the reach bound
   const int4* tri = nullptr;        // F: corners (x, y, z), rows at rest (w)
@@ -167,6 +189,21 @@ struct SurfaceDev {
   double* cand_w = nullptr;         // capacity: the candidate samples' weights (their points: MeshDev::cand_q)
   unsigned long long* arrive = nullptr;  // the vertex blocks' arrivals after their triangles, one per step
   int* overflow = nullptr;          // host-mapped: set when a Newton call's samples passed `capacity`
+  // The contact list (block 0 after a step with a Newton call, surface_lists; read by the next
+  // step's vertices, surface_contact_target): the samples that can touch the tool at any pose the
+  // call can reach, at the step's q or (after a tick's last step) at the next tick's predictions.
+  ListedTriangle* listed = nullptr;  // chunks * kBlock: the triangles of the chunks' lists
+  int* list_sizes = nullptr;         // 2: the listed triangles, the contact list's samples
+  int* sample_listed = nullptr;      // capacity: the listed triangle (its index in `listed`) of each
+                                     //   of their samples, in order
+  int2* contact = nullptr;           // capacity: (triangle, sample index in for_each_sample's order)
+  int4* tri_map = nullptr;           // F: a listed triangle's samples contact[x .. y), its rows z,
+                                     //   its samples inside the tool w (contact_sums)
+  unsigned long long* tri_stamp = nullptr;  // F: the epoch of the step whose list holds the triangle
+  // Block 0's contacts of the list's samples before the next step (contact_sums):
+  SampleSum* sample_to = nullptr;    // capacity: y_proj - y, w = 1 when the sample is inside the tool
+  SampleSum* tri_sum = nullptr;      // 3 F: per listed triangle and corner i, sum of w k_con b_i (q_i +
+                                     //   y_proj - y) over its samples inside (xyz) and of w k_con b_i (w)
 };
 
 struct TailShared {

@@ -19,7 +19,7 @@ namespace {
 /// cycles, the other blocks' in global-timer ns.
 struct ProfileDev {
   unsigned long long sum[DeviceTickProfile::kStages];
-  unsigned long long steps, unpipelined, updated, candidates, clamps, sweeps, definite;
+  unsigned long long steps, unpipelined, updated, candidates, clamps, sweeps, definite, listed;
   unsigned long long tail_cycles, tail_ns;  // block 0's SM cycles and time (its clock rate)
   unsigned long long release_ns[2];         // the release of step s (slot s & 1)
   unsigned long long vertices_max[2];       // step s's slowest block (slot s & 1)
@@ -39,7 +39,7 @@ struct TailMarks {
   bool on = false;
   unsigned long long start_ns = 0, start_clock = 0, last = 0;
   unsigned long long cycles[DeviceTickProfile::kStages] = {};
-  int clamps = 0, sweeps = 0, definite = 0, candidates = 0, updated = 0, unpipelined = 0;
+  int clamps = 0, sweeps = 0, definite = 0, candidates = 0, updated = 0, unpipelined = 0, listed = 0;
   __device__ void begin(const ProfileDev* p) {
     on = p && threadIdx.x == 0;
     if (!on) return;
@@ -54,7 +54,8 @@ struct TailMarks {
     last = t;
   }
   /// The Newton call's candidates; a PSD clamp's Jacobi sweeps (-1: the matrix was positive
-  /// definite); block 0's own vertices of a pipelined step; an unpipelined step.
+  /// definite); block 0's own vertices of a pipelined step; an unpipelined step; a step whose
+  /// vertices read a contact list (surface contact).
   __device__ void count_candidates(int n) { if (on) candidates += n; }
   __device__ void count_clamp(int s) {
     if (on && s >= 0) { ++clamps; sweeps += s; }
@@ -62,6 +63,7 @@ struct TailMarks {
   }
   __device__ void count_updated(int n) { if (on) updated += n; }
   __device__ void count_unpipelined() { if (on) ++unpipelined; }
+  __device__ void count_listed() { if (on) ++listed; }
   __device__ void end(ProfileDev* p, int steps) {
     if (!on) return;
     for (int k = DeviceTickProfile::Wait; k <= DeviceTickProfile::Output; ++k) p->sum[k] += cycles[k];
@@ -73,6 +75,7 @@ struct TailMarks {
     p->candidates += candidates;
     p->updated += updated;
     p->unpipelined += unpipelined;
+    p->listed += listed;
     p->steps += steps;
   }
 };
@@ -123,6 +126,7 @@ struct TailMarks {
   __device__ void count_clamp(int) {}
   __device__ void count_updated(int) {}
   __device__ void count_unpipelined() {}
+  __device__ void count_listed() {}
   __device__ void end(ProfileDev*, int) {}
 };
 __device__ __forceinline__ void profile_release(ProfileDev*, int) {}

@@ -7,14 +7,21 @@
 // Every step is unpipelined (CudaHapticTicks sets MeshDev::pipeline off): a sample's contact needs
 // its triangle's three corners, which a pipelined step's vertex blocks do not have at the Newton
 // call's new pose. A step is
+//   contacts   block 0, before the release (when a Newton call followed the step before): the
+//              call's contact list's samples against the tool posed for the step, then each
+//              listed triangle's targets summed per corner (contact_sums)
 //   vertices   per vertex (vertex_step<false, true>): begin, the E_con targets of its triangles'
-//              samples inside the tool, the Jacobi step, end; then an arrival (MeshDev::sync)
+//              samples inside the tool (their sums from the list, or its own tests without one),
+//              the Jacobi step, end; then an arrival (MeshDev::sync)
 //   triangles  once every vertex block's iterate is written (the blocks wait for each other's
-//              arrivals): per triangle, whether the next Newton call can reach it and (last step)
-//              its deepest sample in the physical tool (triangle_step); then an arrival
+//              arrivals): per triangle, whether the next Newton call or the contact list needs it
+//              and (last step) whether it may reach into the physical tool (triangle_step), then
+//              those triangles' deepest samples, a warp each (deepest_in_warp); then an arrival
 //              (SurfaceDev::arrive)
-//   tool       block 0: the held vertices and the candidate triangles in a fixed order, their
-//              reachable samples (surface_lists), the Newton call on them (virtual_tool_tail<true>).
+//   tool       block 0: the held vertices and the listed triangles in a fixed order, their
+//              samples tested one per thread into the Newton call's candidates and the next
+//              step's contact list (surface_lists, list_samples), the Newton call on the
+//              candidates (virtual_tool_tail<true>).
 #include <cuda_runtime.h>
 
 #include "schedule/haptic_cuda_handoff.cuh"
@@ -32,10 +39,23 @@ __device__ unsigned long long steps_through(const Schedule& S, int s) {
   return S.K == 1 ? (S.epoch(s) + 1) / 2 : S.epoch(s);
 }
 
+/// The contact list step s's vertices read (surface_contact_target's `listed`): that of the step
+/// before when a Newton call followed it (list_samples; on a launch's first step, the last step of
+/// the launch before), 0 (none: every sample near the tool is tested) on a replay's first step, on a grasp event's (which changes the held
+/// vertices, whose triangles the list leaves out), and without lists (SurfaceDev::lists).
+__device__ unsigned long long contact_list_of(const SurfaceDev& sd, const Schedule& S, int s) {
+  if (!sd.lists || (S.first(s) && S.input(s).grasp != 0)) return 0;
+  // A launch's first step follows the last step of the launch before (epochs run on across
+  // launches, Schedule::epoch), if there was one.
+  if (s == 0) return S.epoch0 == 0 ? 0 : S.epoch0 - (S.K == 1 ? 1 : 0);
+  return S.called(s - 1) ? S.epoch(s - 1) : 0;
+}
+
 /// One unpipelined step of chunk c with surface contact (vertex_chunk's lists: list 1 the held
 /// vertices; block_counts[4 c + 2] the E_con targets' count; no candidates or depth here).
 __device__ void surface_vertex_chunk(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, bool first,
-                                     bool last, bool p_ready, int c, const Vec3f* __restrict__ qin,
+                                     bool last, bool p_ready, unsigned long long listed, int c,
+                                     const Vec3f* __restrict__ qin,
                                      Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out, BlockShared& sm,
                                      BlockClock& clock) {
   const int j = c * kBlock + threadIdx.x;
@@ -43,7 +63,7 @@ __device__ void surface_vertex_chunk(const MeshDev& d, const SurfaceDev& sd, con
   DeferredVertex unused;
   if (j < d.m)
     f = vertex_step<false, true>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out, unused,
-                                 p_ready, &sd);
+                                 p_ready, &sd, listed);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
   const unsigned b1 = __ballot_sync(~0u, f.list1);
@@ -67,27 +87,26 @@ __device__ void surface_vertex_chunk(const MeshDev& d, const SurfaceDev& sd, con
   __syncthreads();  // warp_counts are reused by the next chunk
 }
 
-/// Triangle chunk c after a step (triangle_step per thread): its candidate triangles in triangle
-/// order (sd.list) and their count and deepest physical-tool depth (sd.counts[2 c ..]).
+/// Triangle chunk c after a step (triangle_step per thread): its listed triangles in triangle
+/// order (sd.list; kContactOnly on those the Newton call cannot reach) and their count and
+/// deepest physical-tool depth (sd.counts[2 c ..]).
 __device__ void triangle_chunk(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, bool called, bool last,
-                               int c, const Vec3f* q, BlockShared& sm) {
+                               int c, const Vec3f* q, const Vec3f* v, BlockShared& sm) {
   const int f = c * kBlock + threadIdx.x;
-  bool candidate = false;
-  float pen = 0.f;
-  if (f < sd.F) triangle_step(d, sd, t, sm.posed(), sm.physical(), called, last, f, q, candidate, pen);
+  bool candidate = false, listed = false, deep = false;
+  if (f < sd.F) triangle_step(d, sd, t, sm.posed(), sm.physical(), called, last, f, q, v, candidate, listed, deep);
+  const float pen = deepest_in_warp(sd, t, sm.physical(), q, f, deep);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
-  const unsigned b0 = __ballot_sync(~0u, candidate);
-  unsigned pen_bits = __float_as_uint(pen);  // pen >= 0: the bits order as the values
-  for (int o = 16; o > 0; o >>= 1) pen_bits = max(pen_bits, __shfl_xor_sync(~0u, pen_bits, o));
+  const unsigned b0 = __ballot_sync(~0u, listed);
   if (lane == 0) {
     sm.warp_counts[warp][0] = __popc(b0);
-    sm.warp_pen[warp] = pen_bits;
+    sm.warp_pen[warp] = __float_as_uint(pen);  // pen >= 0: the bits order as the values
   }
   __syncthreads();
   int o0 = 0;
   for (int w = 0; w < warp; ++w) o0 += sm.warp_counts[w][0];
-  if (candidate) sd.list[c * kBlock + o0 + __popc(b0 & below)] = f;
+  if (listed) sd.list[c * kBlock + o0 + __popc(b0 & below)] = candidate ? f : (f | kContactOnly);
   if (threadIdx.x == 0) {
     int c0 = 0;
     unsigned pm = 0;
@@ -110,6 +129,7 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
   for (int s = 0; s < steps; ++s) {
     const unsigned long long e = S.epoch(s);
     const bool first = S.first(s), last = S.last(s), called = S.called(s);
+    const unsigned long long listed = contact_list_of(sd, S, s);
     {  // what does not depend on the virtual tool, before the release
       const DeviceTickInput& gin = S.input(s);
       if (threadIdx.x == 0) sm.in() = gin;
@@ -128,7 +148,7 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
     clock.posed();
     for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
       clock.chunk_begin();
-      surface_vertex_chunk(d, sd, t, first, last, p_ready, c, S.in(s), S.out(s), S.v_out(), sm, clock);
+      surface_vertex_chunk(d, sd, t, first, last, p_ready, listed, c, S.in(s), S.out(s), S.v_out(), sm, clock);
       clock.chunk_end();
     }
     clock.report(d.profile, s);
@@ -138,7 +158,7 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
       if (threadIdx.x == 0)
         while (load_acquire(&d.sync->arrive) < e * static_cast<unsigned long long>(blocks)) {}
       __syncthreads();
-      for (int c = blockIdx.x - 1; c < sd.chunks; c += blocks) triangle_chunk(d, sd, t, called, last, c, S.out(s), sm);
+      for (int c = blockIdx.x - 1; c < sd.chunks; c += blocks) triangle_chunk(d, sd, t, called, last, c, S.out(s), S.v_out(), sm);
       __syncthreads();
     }
     if (threadIdx.x == 0) add_release(sd.arrive, 1ull);
@@ -199,13 +219,192 @@ __device__ int candidate_triangle(const SurfaceDev& sd, int i) {
   return sd.list[lo * kBlock + (i - sd.offsets[lo])];
 }
 
-/// Block 0 after a step of q with surface contact: the held vertices (unpipelined_lists), the
-/// step's target count and deepest physical-tool depth (its triangles' on the last step), and
-/// (called) the Newton call's candidates: the reachable samples of the candidate triangles in
-/// triangle order, each triangle's in for_each_sample's (their points in TailShared::cand and
-/// d.cand_q, their weights in sd.cand_w; at most sd.capacity, past it sd.overflow is set).
+/// Block 0, a Newton call following the step with epoch `epoch`: the samples of the chunks' nt
+/// listed triangles at q, in triangle order, each triangle's in for_each_sample's, a thread per
+/// sample:
+///   the Newton call's candidates: those of its candidate triangles (not kContactOnly) that it can
+///     reach (reachable); their points in TailShared::cand and d.cand_q, their weights in sd.cand_w;
+///   the next step's contact list: those it can reach at q or, after a tick's last step, anywhere
+///     within their triangle's prediction_shift (v: the velocities after the step); in sd.contact,
+///     each triangle's range and rows in sd.tri_map, stamped with `epoch` in sd.tri_stamp.
+/// At most sd.capacity of each (past it sd.overflow is set). Returns the candidates' count.
+__device__ int list_samples(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& pt,
+                            const Vec3f* q, const Vec3f* v, bool last, unsigned long long epoch, int nt,
+                            TailShared& sh) {
+  // The listed triangles: rows, weight, shift, and the samples before each (a scan of n^2).
+  int total = 0;
+  for (int r = 0; r < nt; r += kBlock) {
+    const int i = r + threadIdx.x;
+    int count = 0;
+    ListedTriangle lt{};
+    if (i < nt) {
+      const int entry = candidate_triangle(sd, i);
+      lt.f = entry & ~kContactOnly;
+      lt.newton = (entry & kContactOnly) == 0;
+      const int4 tri = sd.tri[lt.f];
+      lt.a = q[tri.x];
+      lt.b = q[tri.y];
+      lt.c = q[tri.z];
+      const Vec3d a = static_cast<Vec3d>(lt.a), b = static_cast<Vec3d>(lt.b), c = static_cast<Vec3d>(lt.c);
+      lt.n = surface_sample_level(tri.w, sd.spacing, a, b, c);
+      lt.w = surface_sample_weight(sd.stiffness_factor, sd.spacing, lt.n, a, b, c);
+      lt.shift = last ? prediction_shift(d, tri, q, v) : 0.f;
+      count = lt.n * lt.n;
+      sd.tri_map[lt.f] = make_int4(0, 0, lt.n, 0);
+      sd.tri_stamp[lt.f] = epoch;
+    }
+    int e = 0, unused = 0, sum = 0, unused_total = 0;
+    block_exclusive_scan(count, 0, e, unused, sum, unused_total);
+    if (i < nt) {
+      lt.base = total + e;
+      sd.listed[i] = lt;
+      for (int g = lt.base, end = min(lt.base + count, sd.capacity); g < end; ++g) sd.sample_listed[g] = i;
+    }
+    total += sum;
+  }
+  if (total > sd.capacity) {  // as a list past its capacity
+    if (threadIdx.x == 0) *sd.overflow = 1;
+    total = sd.capacity;
+  }
+  __syncthreads();
+  // The samples, kBlock at a time: test, scan, write. The tests are float with slack, so the
+  // point is float here (its round-off, ~1e-7 m on tool-sized coordinates, far inside the slack),
+  // and double for the candidates only. (Several consecutive samples per thread and round, one
+  // scan for more of them, were slower: block 0's four warps are bound by each sample's latency,
+  // not by the scans.)
+  int nc = 0, nl = 0;
+  for (int r = 0; r < total; r += kBlock) {
+    const int g = r + threadIdx.x;
+    bool cand = false, listed = false;
+    int f = 0, k = 0, n = 0;
+    double w = 0;
+    Vec3f ca, cb, cc;
+    if (g < total) {
+      const ListedTriangle lt = sd.listed[sd.sample_listed[g]];
+      f = lt.f;
+      k = g - lt.base;
+      n = lt.n;
+      w = lt.w;
+      ca = lt.a;
+      cb = lt.b;
+      cc = lt.c;
+      float b0, b1, b2;
+      sample_barycentric(n, k, b0, b1, b2);
+      const Vec3f yf = b0 * ca + b1 * cb + b2 * cc;
+      cand = lt.newton && reachable(t, pt, yf);
+      listed = cand || reachable_within(t, pt, yf, lt.shift);
+    }
+    int ec = 0, el = 0, tc = 0, tl = 0;
+    block_exclusive_scan(cand, listed, ec, el, tc, tl);
+    if (cand && nc + ec < sd.capacity) {
+      const int at = nc + ec;
+      double b0, b1, b2;
+      sample_barycentric(n, k, b0, b1, b2);
+      const Vec3d y = surface_sample_point(b0, b1, b2, static_cast<Vec3d>(ca), static_cast<Vec3d>(cb),
+                                           static_cast<Vec3d>(cc));
+      if (at < kCache) sh.cand[at] = y; else d.cand_q[at] = y;
+      sd.cand_w[at] = w;
+    }
+    if (listed && nl + el < sd.capacity) sd.contact[nl + el] = make_int2(f, k);
+    nc += tc;
+    nl += tl;
+  }
+  __syncthreads();
+  // Each listed triangle's range of the contact list.
+  const int n = min(nl, sd.capacity);
+  for (int i = threadIdx.x; i < n; i += kBlock) {
+    const int f = sd.contact[i].x;
+    if (i == 0 || sd.contact[i - 1].x != f) sd.tri_map[f].x = i;
+    if (i + 1 == n || sd.contact[i + 1].x != f) sd.tri_map[f].y = i + 1;
+  }
+  if (threadIdx.x == 0) {
+    if (nc > sd.capacity || nl > sd.capacity) *sd.overflow = 1;
+    sd.list_sizes[0] = nt;
+    sd.list_sizes[1] = n;
+  }
+  return nc;
+}
+
+/// Listed samples whose loads contact_sums issues at once per triangle.
+constexpr int kSumBatch = 4;
+
+/// Block 0 before a step that reads a contact list (contact_list_of): the list's samples against
+/// the tool posed for the step (pt) at the step's iterates qin (their predictions on a tick's first
+/// step), a thread per sample (sd.sample_to); then per listed triangle, a thread each, its corners'
+/// sums of the targets of its samples inside, in the list's order (sd.tri_sum; their count in
+/// tri_map's w). A triangle whose rows changed since the list (stretched by the prediction) gets
+/// tri_map's z = 0: its vertices sum its samples themselves.
+__device__ void contact_sums(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& pt,
+                             const Vec3f* qin, bool first) {
+  auto corners = [&](int4 tri, Vec3d& a, Vec3d& b, Vec3d& c) {
+    a = static_cast<Vec3d>(iterate_of(d, qin, first, tri.x));
+    b = static_cast<Vec3d>(iterate_of(d, qin, first, tri.y));
+    c = static_cast<Vec3d>(iterate_of(d, qin, first, tri.z));
+  };
+  const int nt = sd.list_sizes[0], nl = sd.list_sizes[1];
+  for (int i = threadIdx.x; i < nl; i += kBlock) {
+    const int2 e = sd.contact[i];
+    Vec3d a, b, c;
+    corners(sd.tri[e.x], a, b, c);
+    double b0, b1, b2;
+    sample_barycentric(sd.tri_map[e.x].z, e.y, b0, b1, b2);
+    Vec3d to;
+    sd.sample_to[i] = sample_contact(t, pt, surface_sample_point(b0, b1, b2, a, b, c), to)
+                          ? SampleSum{to.x, to.y, to.z, 1.0}
+                          : SampleSum{};
+  }
+  __syncthreads();
+  for (int i = threadIdx.x; i < nt; i += kBlock) {
+    const int f = sd.listed[i].f;
+    const int4 tri = sd.tri[f], m = sd.tri_map[f];
+    Vec3d x[3];
+    corners(tri, x[0], x[1], x[2]);
+    const int n = surface_sample_level(tri.w, sd.spacing, x[0], x[1], x[2]);
+    if (n != m.z) {
+      sd.tri_map[f].z = 0;
+      continue;
+    }
+    const double kw = t.k_con * surface_sample_weight(sd.stiffness_factor, sd.spacing, n, x[0], x[1], x[2]);
+    Vec3d kt[3] = {};
+    double ck[3] = {};
+    int count = 0;
+    // The samples in order, kSumBatch loads issued before their sums (the loop is bound by the
+    // loads' latency, not by the sums).
+    for (int k0 = m.x; k0 < m.y; k0 += kSumBatch) {
+      SampleSum to[kSumBatch];
+      int at[kSumBatch];
+#pragma unroll
+      for (int u = 0; u < kSumBatch; ++u)
+        if (k0 + u < m.y) {
+          to[u] = sd.sample_to[k0 + u];
+          at[u] = sd.contact[k0 + u].y;
+        }
+#pragma unroll
+      for (int u = 0; u < kSumBatch; ++u) {
+        if (k0 + u >= m.y || to[u].w == 0.0) continue;
+        double b[3];
+        sample_barycentric(n, at[u], b[0], b[1], b[2]);
+        for (int c = 0; c < 3; ++c) {
+          const double kb = kw * b[c];
+          kt[c] += kb * (x[c] + Vec3d{to[u].x, to[u].y, to[u].z});
+          ck[c] += kb;
+        }
+        ++count;
+      }
+    }
+    for (int u = 0; u < 3; ++u) sd.tri_sum[3 * f + u] = SampleSum{kt[u].x, kt[u].y, kt[u].z, ck[u]};
+    sd.tri_map[f].w = count;
+  }
+  __syncthreads();
+}
+
+/// Block 0 after the step with epoch `epoch` of q with surface contact: the held vertices
+/// (unpipelined_lists), the step's target count and deepest physical-tool depth (its triangles' on
+/// the last step), and (called) the Newton call's candidates and the next step's contact list
+/// (list_samples; v: the velocities after the step).
 __device__ void surface_lists(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& pt,
-                              const Vec3f* q, bool called, bool last, TailShared& sh) {
+                              const Vec3f* q, const Vec3f* v, bool called, bool last, unsigned long long epoch,
+                              TailShared& sh, TailMarks& marks) {
   int n0 = 0, n1 = 0;
   const int* off = chunk_offsets(d, sh, n0, n1);  // the held vertices' offsets; sh.contacts
   for (int i = threadIdx.x; i < n1; i += kBlock) {  // as unpipelined_lists
@@ -241,31 +440,10 @@ __device__ void surface_lists(const MeshDev& d, const SurfaceDev& sd, const Tool
   }
   if (threadIdx.x == 0) sd.offsets[sd.chunks] = nt;
   __syncthreads();
-  // The candidate samples, a round of kBlock triangles at a time: count, scan, write.
-  int base = 0;
-  if (called) {
-    for (int r = 0; r < nt; r += kBlock) {
-      const int i = r + threadIdx.x;
-      int4 tri{};
-      int count = 0;
-      if (i < nt) {
-        tri = sd.tri[candidate_triangle(sd, i)];
-        count = reachable_samples(sd, t, pt, tri, q, [](int, Vec3d, double) {});
-      }
-      int e = 0, eb = 0, total = 0, tb2 = 0;
-      block_exclusive_scan(count, 0, e, eb, total, tb2);
-      if (count > 0)
-        reachable_samples(sd, t, pt, tri, q, [&](int k, Vec3d y, double w) {
-          const int at = base + e + k;
-          if (at >= sd.capacity) return;
-          if (at < kCache) sh.cand[at] = y; else d.cand_q[at] = y;
-          sd.cand_w[at] = w;
-        });
-      base += total;
-    }
-  }
+  marks.mark(DeviceTickProfile::Lists);
+  const int base = called ? list_samples(d, sd, t, pt, q, v, last, epoch, nt, sh) : 0;
+  marks.mark(DeviceTickProfile::Samples);
   if (threadIdx.x == 0) {
-    if (base > sd.capacity) *sd.overflow = 1;
     sh.nc = min(base, sd.capacity);
     sh.nh = n1;
   }
@@ -309,10 +487,17 @@ __device__ void surface_tool_block(const MeshDev& d, const SurfaceDev& sd, const
     if (threadIdx.x == 0) sm.in() = gin;
     pose_colliders(t, sh.P, sh.Q, gin, pt);
     __syncthreads();
+    const unsigned long long listed = contact_list_of(sd, S, s);
+    if (listed) {
+      marks.mark(DeviceTickProfile::Lists);
+      contact_sums(d, sd, t, pt, S.in(s), S.first(s));
+      marks.count_listed();
+      marks.mark(DeviceTickProfile::Samples);
+    }
     release(S.epoch(s), s);
     marks.mark(DeviceTickProfile::Lists);
     wait_for(sd.arrive, steps_through(S, s) * others, s);
-    surface_lists(d, sd, t, pt, S.out(s), S.called(s), S.last(s), sh);
+    surface_lists(d, sd, t, pt, S.out(s), S.v_out(), S.called(s), S.last(s), S.epoch(s), sh, marks);
     if (S.K == 1) release(S.epoch(s) + 1, -1);  // the copy phase (the Newton call reads neither q0 nor v)
     marks.count_unpipelined();
     marks.mark(DeviceTickProfile::Lists);

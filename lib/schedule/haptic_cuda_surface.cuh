@@ -3,7 +3,8 @@
 // `contact: surface`, tool/surface_contact.hpp; docs/CUDA.md, "Surface contact"): E_con [3] on
 // the sample points of the virtual mesh's triangles instead of its vertices. The samples' math is
 // the CPU's (tool/surface_samples.hpp); here it is gathered per vertex (the virtual mesh's
-// Jacobi step) and per triangle (the Newton call's candidates, the penetration metric).
+// Jacobi step), per triangle (the Newton call's candidates and the contact list, the penetration
+// metric) and per listed sample (haptic_cuda_surface.cu: list_samples, contact_sums).
 #include "energy/quadratic.hpp"
 #include "schedule/haptic_cuda_layout.cuh"
 #include "schedule/haptic_cuda_posed.cuh"
@@ -34,22 +35,49 @@ __device__ bool held_in_step(const MeshDev& d, const ToolConst& t, const Posed& 
   return d.held[a] != 0;
 }
 
+/// Whether sample point y lies inside a collider posed in `posed`; then `to` = y_proj - y, towards
+/// the deepest collider's closest point (E_con [3] on a sample, surface_contact.hpp).
+__device__ bool sample_contact(const ToolConst& t, const Posed& posed, Vec3d y, Vec3d& to) {
+  const unsigned near = near_colliders(t, posed, static_cast<Vec3f>(y), kFloatSlack);
+  if (!near) return false;
+  SurfaceQuery<double> sq;
+  if (deepest_query(t, posed, y, near, sq) < 0) return false;
+  to = sq.point - y;
+  return true;
+}
+
 /// E_con [3] of vertex j with surface contact against the tool posed in `posed` (Alg. 2 line 10,
 /// surface_contact.hpp): each sample y of j's triangles inside a collider pulls j towards
 /// q_j + (y_proj - y) with stiffness w k_con b_j (y_proj: the deepest collider's closest point).
-/// The triangles in SurfaceContactModel::tri_entries' order, each one's samples in
-/// for_each_sample's; k times the targets summed into kt, the stiffnesses into ck (in double, then
-/// rounded). A triangle with a held corner carries no samples (the CPU's `excluded`). Returns the
-/// targets' count.
+/// The triangles in SurfaceContactModel::tri_entries' order; k times the targets summed into kt,
+/// the stiffnesses into ck (in double, then rounded). A triangle with a held corner carries no
+/// samples (the CPU's `excluded`). Returns the targets' count.
+///   listed = 0: each triangle near the tool sums its samples inside here, in for_each_sample's
+///     order (triangle_targets);
+///   listed = the epoch of the step before (contact_list_of): a triangle off that step's contact
+///     list has no sample inside the tool; one on it has its sums per corner from block 0
+///     (contact_sums), but for one whose rows changed since (tri_map's z = 0), summed here.
 __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& posed,
                                       const DeviceTickInput& in, bool first, int j, Vec3f q, const Vec3f* qin,
-                                      Vec3f& kt, float& ck) {
+                                      unsigned long long listed, Vec3f& kt, float& ck) {
   Vec3d kt_sum{};
   double ck_sum = 0;
   int count = 0;
   const Vec3d qj = static_cast<Vec3d>(q);
   for (int e = sd.tri_offsets[j]; e < sd.tri_offsets[j + 1]; ++e) {
-    const int4 tri = sd.tri[sd.tri_entries[e]];
+    const int fi = sd.tri_entries[e];
+    const int4 tri = sd.tri[fi];
+    if (listed) {
+      if (sd.tri_stamp[fi] != listed) continue;
+      const int4 m = sd.tri_map[fi];
+      if (m.z > 0) {
+        const SampleSum sum = sd.tri_sum[3 * fi + (tri.x == j ? 0 : (tri.y == j ? 1 : 2))];
+        kt_sum += Vec3d{sum.x, sum.y, sum.z};
+        ck_sum += sum.w;
+        count += m.w;
+        continue;
+      }
+    }
     const int v[3] = {tri.x, tri.y, tri.z};
     Vec3f x[3];
     bool held = false;
@@ -73,12 +101,10 @@ __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, co
     const double kw = t.k_con * surface_sample_weight(sd.stiffness_factor, sd.spacing, n, a, b, c);
     for_each_sample(n, [&](double b0, double b1, double b2) {
       const Vec3d y = surface_sample_point(b0, b1, b2, a, b, c);
-      const unsigned near = near_colliders(t, posed, static_cast<Vec3f>(y), kFloatSlack);
-      if (!near) return;
-      SurfaceQuery<double> sq;
-      if (deepest_query(t, posed, y, near, sq) < 0) return;
+      Vec3d to;
+      if (!sample_contact(t, posed, y, to)) return;
       const double kb = kw * (cj == 0 ? b0 : (cj == 1 ? b1 : b2));
-      kt_sum += kb * (qj + (sq.point - y));
+      kt_sum += kb * (qj + to);
       ck_sum += kb;
       ++count;
     });
@@ -88,15 +114,40 @@ __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, co
   return count;
 }
 
+/// How far a corner of triangle `tri` moves in the next tick's prediction (Alg. 2 line 6, from
+/// its q and v after a tick's last step), rounded up: the next tick's first step reads its
+/// samples there.
+__device__ float prediction_shift(const MeshDev& d, int4 tri, const Vec3f* q, const Vec3f* v) {
+  float most = 0.f;
+  const int c[3] = {tri.x, tri.y, tri.z};
+  for (int k = 0; k < 3; ++k) {
+    if (d.model.pinned[c[k]]) continue;
+    const Vec3f x = q[c[k]], dx = predict_position(x, v[c[k]], d.gravity, d.h) - x;
+    const float d2 = dot(dx, dx);
+    most = fmaxf(most, d2 > 0.f ? d2 * rsqrtf(d2) : 0.f);
+  }
+  return most > 0.f ? most * 1.000001f + kFloatSlack : 0.f;
+}
+
+/// reachable() for every point within `shift` of x: whether the Newton call from the pose of `p`
+/// can reach a point that moves up to `shift` from x (shift = 0: reachable(x)).
+__device__ bool reachable_within(const ToolConst& t, const Posed& p, Vec3f x, float shift) {
+  return maybe_within(t, p, x, reach_bound(t, origin_distance(p, x) + shift) + shift);
+}
+
 /// Triangle f after a step, at its corners' new iterates q (every vertex block's step done):
 ///   candidate (called: a Newton call follows): whether that call can reach one of its samples, a
 ///     superset of the CPU's triangle test (candidate_triangles: the bounding sphere against
 ///     newton_reach_bound, float with slack);
-///   pen (last): the depth of its deepest sample in the physical tool (surface_penetration_depth).
+///   listed (called): candidate, or (last) whether the call can reach one of its samples at the
+///     next tick's predictions (each within prediction_shift of its sample here; v: the velocities
+///     after the step), for the next step's contact list;
+///   deep (last): whether one of its samples may lie in the physical tool (triangle_chunk then
+///     measures them: their depth is surface_penetration_depth's).
 /// A triangle with a held corner carries no samples.
 __device__ void triangle_step(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& posed,
-                              const Posed& physical, bool called, bool last, int f, const Vec3f* q, bool& candidate,
-                              float& pen) {
+                              const Posed& physical, bool called, bool last, int f, const Vec3f* q, const Vec3f* v,
+                              bool& candidate, bool& listed, bool& deep) {
   const int4 tri = sd.tri[f];
   if (d.held[tri.x] || d.held[tri.y] || d.held[tri.z]) return;
   const Vec3d a = static_cast<Vec3d>(q[tri.x]), b = static_cast<Vec3d>(q[tri.y]), c = static_cast<Vec3d>(q[tri.z]);
@@ -104,36 +155,39 @@ __device__ void triangle_step(const MeshDev& d, const SurfaceDev& sd, const Tool
   const double R = triangle_bounding_sphere(a, b, c, mid);
   const Vec3f mf = static_cast<Vec3f>(mid);
   const float Rf = static_cast<float>(R) * 1.000001f;
-  if (called) candidate = maybe_within(t, posed, mf, reach_bound(t, origin_distance(posed, mf)) + Rf * sd.inv_reach);
-  if (last && maybe_within(t, physical, mf, Rf + kFloatSlack)) {
-    double deepest = 0;
-    for_each_sample(surface_sample_level(tri.w, sd.spacing, a, b, c), [&](double b0, double b1, double b2) {
+  if (called) {
+    const float r = origin_distance(posed, mf);
+    candidate = maybe_within(t, posed, mf, reach_bound(t, r) + Rf * sd.inv_reach);
+    listed = candidate;
+    if (last && !listed) {
+      const float shift = prediction_shift(d, tri, q, v);
+      listed = shift > 0.f && maybe_within(t, posed, mf, reach_bound(t, r + shift) + (Rf + shift) * sd.inv_reach);
+    }
+  }
+  deep = last && maybe_within(t, physical, mf, Rf + kFloatSlack);
+}
+
+/// The depth of the deepest sample in the physical tool of the warp's triangles with `deep` set
+/// (triangle_step; f: each lane's triangle), a triangle at a time, its samples over the lanes;
+/// every lane gets the warp's value.
+__device__ float deepest_in_warp(const SurfaceDev& sd, const ToolConst& t, const Posed& physical, const Vec3f* q,
+                                 int f, bool deep) {
+  const int lane = threadIdx.x & 31;
+  double deepest = 0;
+  for (unsigned mask = __ballot_sync(~0u, deep); mask; mask &= mask - 1) {
+    const int4 tri = sd.tri[__shfl_sync(~0u, f, __ffs(mask) - 1)];
+    const Vec3d a = static_cast<Vec3d>(q[tri.x]), b = static_cast<Vec3d>(q[tri.y]), c = static_cast<Vec3d>(q[tri.z]);
+    const int n = surface_sample_level(tri.w, sd.spacing, a, b, c);
+    for (int k = lane; k < n * n; k += 32) {
+      double b0, b1, b2;
+      sample_barycentric(n, k, b0, b1, b2);
       const Vec3d y = surface_sample_point(b0, b1, b2, a, b, c);
       const unsigned near = near_colliders(t, physical, static_cast<Vec3f>(y), kFloatSlack);
       if (near) deepest = fmax(deepest, penetration(t, physical, y, near));
-    });
-    pen = static_cast<float>(deepest);
-  }
-}
-
-/// Calls f(y, w) for the samples of candidate triangle `tri` (at q) that the Newton call from the
-/// tool posed in `pt` can reach (reachable: float with slack, a superset of gather_samples' bound
-/// for a point), in for_each_sample's order; returns their count.
-template <class F>
-__device__ int reachable_samples(const SurfaceDev& sd, const ToolConst& t, const Posed& pt, int4 tri, const Vec3f* q,
-                                 F&& f) {
-  const Vec3d a = static_cast<Vec3d>(q[tri.x]), b = static_cast<Vec3d>(q[tri.y]), c = static_cast<Vec3d>(q[tri.z]);
-  const int n = surface_sample_level(tri.w, sd.spacing, a, b, c);
-  const double w = surface_sample_weight(sd.stiffness_factor, sd.spacing, n, a, b, c);
-  int count = 0;
-  for_each_sample(n, [&](double b0, double b1, double b2) {
-    const Vec3d y = surface_sample_point(b0, b1, b2, a, b, c);
-    if (reachable(t, pt, static_cast<Vec3f>(y))) {
-      f(count, y, w);
-      ++count;
     }
-  });
-  return count;
+  }
+  for (int o = 16; o > 0; o >>= 1) deepest = fmax(deepest, __shfl_xor_sync(~0u, deepest, o));
+  return static_cast<float>(deepest);
 }
 
 }  // namespace

@@ -81,14 +81,14 @@ __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& ph
 ///     it (r_part, d_part; 0: pinned); the others take no contact term; list0: j may be reachable
 ///     after the call.
 ///   kSurface (surface contact, unpipelined steps only): the contact is that of the samples of j's
-///     triangles (surface_contact_target, with `surface`); list0 stays empty (the candidates are
+///     triangles (surface_contact_target, with `surface` and its contact list `listed`); list0 stays empty (the candidates are
 ///     triangles: triangle_step), f.targets counts the targets, and the depth is the triangles'.
 template <bool kAhead, bool kSurface = false>
 __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const Posed& posed, const Posed& physical,
                                    const DeviceTickInput& in, bool first, bool last, int j,
                                    const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
                                    Vec3f* __restrict__ v_out, DeferredVertex& deferred_out, bool p_ready,
-                                   const SurfaceDev* surface = nullptr) {
+                                   const SurfaceDev* surface = nullptr, unsigned long long listed = 0) {
   static_assert(!(kAhead && kSurface), "surface contact runs unpipelined steps");
   VertexFlags f;
   const bool pinned = d.model.pinned[j];
@@ -134,7 +134,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
       grasp_target(t, posed, d.grasp_local[j], kt, ck);
       f.targets = 1;
     } else {
-      f.targets = surface_contact_target(d, *surface, t, posed, in, first, j, q, qin, kt, ck);
+      f.targets = surface_contact_target(d, *surface, t, posed, in, first, j, q, qin, listed, kt, ck);
     }
     f.contact = f.targets > 0;
   } else if (!kAhead) {

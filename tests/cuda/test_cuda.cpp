@@ -871,14 +871,22 @@ TEST(CudaReplay, BatchMatchesReplaysRunAlone) {
   }
 }
 
-/// The device ticks alone (no physical steps) of cholecystectomy_grasp from t = 1.2 s through the
-/// grasp, with `change` applied to the setup; each row's outputs, and the profile if asked.
-std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapticSetup&), DeviceTickProfile* profile = nullptr) {
-  LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
+/// Where device_ticks replays: cholecystectomy_grasp from t = 1.2 s through the grasp, by default.
+struct TickWindow {
+  std::string scene = "cholecystectomy", recording = "cholecystectomy_grasp";
+  double start = 1.2;
+  std::vector<std::string> overrides;
+};
+
+/// The device ticks alone (no physical steps, a launch per physical period) of `window`, with
+/// `change` applied to the setup; each row's outputs, and the profile if asked.
+std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapticSetup&), DeviceTickProfile* profile = nullptr,
+                                           const TickWindow& window = {}) {
+  LoadedReplay in = load_replay_inputs(window.scene, window.recording, window.overrides, std::nullopt, std::nullopt,
                                        false, Backend::Cuda);
   const World& w = *in.world;
   const int N = w.ticks_per_step;
-  DeviceReplayInputs inputs = device_replay_inputs(w, in.recording, in.recording.t.front() + 1.2, ticks, Mode::Async);
+  DeviceReplayInputs inputs = device_replay_inputs(w, in.recording, in.recording.t.front() + window.start, ticks, Mode::Async);
   DeviceHapticSetup setup = inputs.setup;
   setup.profile_stages = profile != nullptr;
   if (change) change(setup);
@@ -941,6 +949,47 @@ TEST(CudaDeviceTick, PipelinedStepsMatchUnpipelinedOnes) {
     EXPECT_EQ(strided_mismatch, 0);
     EXPECT_DOUBLE_EQ(prof_plain.unpipelined, 1.0);
     EXPECT_LT(prof_pipe.unpipelined, 0.5) << "most steps must run pipelined";
+  }
+}
+
+/// Surface contact's contact lists (DeviceHapticSetup::contact_lists: a step after a Newton call
+/// tests only the samples the call listed, at the next tick's predictions after a tick's last step
+/// and across launches) find every contact that testing each sample near the tool finds: the same
+/// target counts on every tick, the forces within round-off (the sums run in another order). On
+/// cholecystectomy_grasp through the grasp (a grasp event's step tests every sample) and on
+/// gap_insert, whose blocks' large triangles carry up to ~30 sample rows.
+TEST(CudaDeviceTick, SurfaceContactListsFindEveryContact) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 600;
+  TickWindow chole;
+  chole.overrides = {"contact=surface"};
+  TickWindow gap{"gap", "gap_insert", 3.0, {"contact=surface"}};
+  for (const TickWindow& window : {chole, gap}) {
+    const Models& M = models(window.scene.c_str());
+    DeviceTickProfile prof_lists, prof_every;
+    const auto lists = device_ticks(ticks, nullptr, &prof_lists, window);
+    const auto every = device_ticks(ticks, [](DeviceHapticSetup& s) { s.contact_lists = false; }, &prof_every, window);
+    const double tol_f = M.scene.spec.stiffness.k_vcs * ticks * step_tolerance(4, max_abs_coordinate(M.pm.rest));
+    double err_f = 0, peak_f = 0;
+    int count_mismatch = 0, grasp_mismatch = 0, max_contacts = 0;
+    for (int n = 0; n < ticks; ++n) {
+      err_f = std::max(err_f, norm(lists[n].force - every[n].force));
+      peak_f = std::max(peak_f, norm(every[n].force));
+      count_mismatch += lists[n].contacts != every[n].contacts;
+      grasp_mismatch += lists[n].grasped != every[n].grasped;
+      max_contacts = std::max(max_contacts, every[n].contacts);
+    }
+    std::printf("[ contact lists, %s ] %d ticks, up to %d targets, peak %.3g N: max |F| diff %.3g N (tol %.3g), "
+                "%d ticks with another target count; %.1f%% of the steps read a list\n",
+                window.recording.c_str(), ticks, max_contacts, peak_f, err_f, tol_f, count_mismatch,
+                100 * prof_lists.listed);
+    EXPECT_GT(max_contacts, 0) << "the window must contain contact";
+    EXPECT_EQ(count_mismatch, 0);
+    EXPECT_EQ(grasp_mismatch, 0);
+    EXPECT_LE(err_f, tol_f);
+    // Every step but the first reads the list of the step before, but a grasp event's.
+    EXPECT_GT(prof_lists.listed, 0.99);
+    EXPECT_EQ(prof_every.listed, 0.0);
   }
 }
 

@@ -26,15 +26,33 @@ constexpr std::size_t kPathMax = 4096;
 char g_paths[kSlots][kPathMax];
 std::atomic<int> g_used[kSlots];  // 0 free, 1 being written, 2 holds a path
 volatile std::sig_atomic_t g_interrupted = 0;
+volatile std::sig_atomic_t g_first_signal = 0;
+std::atomic<unsigned> g_grace{kInterruptGraceSeconds};
 std::atomic<bool> g_installed{false};
+static_assert(std::atomic<unsigned>::is_always_lock_free && std::atomic<int>::is_always_lock_free);
+
+void remove_temporaries() {
+  for (int i = 0; i < kSlots; ++i)
+    if (g_used[i].load() == 2) unlink(g_paths[i]);
+}
 
 extern "C" void on_signal(int sig) {
   if (g_interrupted) {
-    for (int i = 0; i < kSlots; ++i)
-      if (g_used[i].load() == 2) unlink(g_paths[i]);
+    remove_temporaries();
     _exit(128 + sig);
   }
   g_interrupted = 1;
+  g_first_signal = sig;
+  const unsigned grace = g_grace.load();
+  if (grace > 0) alarm(grace);
+}
+
+/// The first interrupt's grace ran out: end as on a second signal.
+extern "C" void on_grace_over(int) {
+  static const char kMessage[] = "ebh: still running after the interrupt's grace: stopping now\n";
+  (void)!write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
+  remove_temporaries();
+  _exit(128 + (g_first_signal ? g_first_signal : SIGTERM));
 }
 
 int register_temp(const std::string& path) {
@@ -128,10 +146,21 @@ void install_interrupt_handlers() {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
   sigaction(SIGHUP, &sa, nullptr);  // the terminal closed: stop like SIGTERM, leave no temporary
+  struct sigaction grace {};
+  grace.sa_handler = on_grace_over;
+  sigemptyset(&grace.sa_mask);
+  grace.sa_flags = 0;
+  sigaction(SIGALRM, &grace, nullptr);
 }
 
 bool interrupted() { return g_interrupted != 0; }
-void set_interrupted(bool value) { g_interrupted = value ? 1 : 0; }
+void set_interrupted(bool value) {
+  if (!value) alarm(0);
+  g_interrupted = value ? 1 : 0;
+}
+
+void set_interrupt_grace(unsigned seconds) { g_grace.store(seconds); }
+unsigned interrupt_grace() { return g_grace.load(); }
 
 AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path)) {
   if (final_.empty()) throw InputError("output file name is empty");

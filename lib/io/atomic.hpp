@@ -12,7 +12,9 @@
 // Interrupts: the first SIGINT/SIGTERM/SIGHUP only sets a flag that long loops poll with
 // interrupted(); they stop, and the AtomicOutput's destructor removes the temporary file. A second
 // signal removes every registered temporary file at once and ends the process (exit status
-// 128+signal). The handlers are installed by the first AtomicOutput (or by
+// 128+signal). So does the first signal's grace running out (interrupt_grace(), 10 s): a process
+// stuck where it does not poll the flag (a wait on a hung device) still ends on one SIGTERM,
+// saying so on stderr. The handlers are installed by the first AtomicOutput (or by
 // install_interrupt_handlers()).
 #include <cstddef>
 #include <string>
@@ -77,11 +79,19 @@ void write_file_atomically(const std::string& path, std::string_view bytes);
 /// interrupt) leaves none of them, and previous files of those names stay as they were.
 void write_files_atomically(const std::vector<std::pair<std::string, std::string_view>>& files);
 
-/// Installs the SIGINT/SIGTERM/SIGHUP handlers (idempotent).
+/// Installs the SIGINT/SIGTERM/SIGHUP handlers, and SIGALRM's for the grace (idempotent).
 void install_interrupt_handlers();
 /// True once SIGINT, SIGTERM or SIGHUP arrived (after install_interrupt_handlers()).
 bool interrupted();
-/// Sets or clears the flag, as a signal would (tests; a tool that handled the interrupt).
+/// Sets or clears the flag, as a signal would (tests; a tool that handled the interrupt); clearing
+/// it also cancels a running grace.
 void set_interrupted(bool value);
+
+/// Seconds a process has after the first interrupt before it ends as on a second one.
+inline constexpr unsigned kInterruptGraceSeconds = 10;
+/// Sets the grace (0: none, the process runs until it stops by itself; for a process that waits
+/// for children of its own, which have theirs). Takes effect at the next first interrupt.
+void set_interrupt_grace(unsigned seconds);
+unsigned interrupt_grace();
 
 }  // namespace ebh

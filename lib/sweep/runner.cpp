@@ -239,7 +239,9 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
   std::vector<std::string> env = child_environment(options.threads);
   std::vector<Child> active;
   std::size_t next = 0;
-  bool forwarded = false;
+  bool forwarded = false, killed = false;
+  Clock::time_point forwarded_at{};
+  set_interrupt_grace(0);  // this process waits for its replays, which have their own grace
 
   auto finish = [&](Child& c) {
     const int status = wait_for(c.pid);
@@ -281,6 +283,12 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
     if (interrupted() && !forwarded) {
       for (const Child& c : active) kill(c.pid, SIGTERM);
       forwarded = true;
+      forwarded_at = Clock::now();
+    }
+    if (forwarded && !killed &&
+        std::chrono::duration<double>(Clock::now() - forwarded_at).count() > options.stop_grace_s) {
+      for (const Child& c : active) kill(c.pid, SIGKILL);  // stuck past its own grace
+      killed = true;
     }
     while (!interrupted() && active.size() < static_cast<std::size_t>(std::max(1, options.jobs)) && next < pending.size()) {
       // CUDA runs of an async plan go options.batch to a child (`ebh replay --batch`), the others one each.

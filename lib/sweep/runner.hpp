@@ -14,13 +14,15 @@
 // A run whose output exists is done and never run again; a failed one is tried again by the next
 // sweep of the folder. An interrupted sweep (SIGINT, SIGTERM, SIGHUP) passes the signal on to the
 // replays in flight, which stop and write nothing, and starts no other: rerunning it runs exactly
-// the runs that have no output.
+// the runs that have no output. A replay still running RunnerOptions::stop_grace_s later is killed.
+// The sweep's own process has no interrupt grace (io/atomic.hpp): it waits for its replays.
 #include <cstddef>
 #include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
 
+#include "io/atomic.hpp"
 #include "sweep/plan.hpp"
 
 namespace ebh {
@@ -59,6 +61,10 @@ struct RunnerOptions {
   /// per run.
   int batch = 1;
   int at_once = 0;         ///< the batch children's --at-once (0: theirs)
+  /// After an interrupt, seconds the replays in flight have to stop before they are killed
+  /// (SIGKILL; a replay ends by itself kInterruptGraceSeconds after the SIGTERM passed on to it,
+  /// io/atomic.hpp, unless it is stuck past even that).
+  double stop_grace_s = 2.0 * kInterruptGraceSeconds;
 };
 
 /// What happened to one run.

@@ -1,7 +1,8 @@
 // Atomic outputs (lib/io/atomic.hpp) when writing goes wrong: a write that fails (a full disk, a
 // file-size limit) is reported with the OS reason and leaves a previous file byte-identical and no
 // temporary behind; temporaries are hidden, named so they are recognised, and removed once their
-// writer is gone; SIGHUP stops a run like SIGTERM.
+// writer is gone; SIGHUP stops a run like SIGTERM; a process stuck past the interrupt's grace ends
+// on one signal.
 #include <gtest/gtest.h>
 #include <sched.h>
 #include <sys/mount.h>
@@ -10,6 +11,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstring>
 #include <cstdio>
@@ -224,4 +226,73 @@ TEST(Atomic, HangupStopsARunLikeAnInterrupt) {
   std::raise(SIGHUP);  // the handler only sets the flag
   EXPECT_TRUE(interrupted());
   set_interrupted(false);
+}
+
+namespace {
+
+/// Forks a child that installs the interrupt handlers with a grace of `grace` s, opens an
+/// AtomicOutput at `out` and then runs `body` (its exit status, once the output is closed); the
+/// parent sends it SIGTERM once it is ready and returns its wait status and the seconds it took to
+/// end (or kills it after 10 s: status -1).
+std::pair<int, double> interrupt_child(const std::string& out, unsigned grace, int (*body)()) {
+  int ready[2];
+  if (pipe(ready) != 0) return {-1, 0};
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(ready[0]);
+    install_interrupt_handlers();
+    set_interrupted(false);
+    set_interrupt_grace(grace);
+    int code = 0;
+    {
+      AtomicOutput o(out);
+      (void)!write(ready[1], "r", 1);
+      code = body();
+    }
+    _exit(code);
+  }
+  close(ready[1]);
+  char c = 0;
+  (void)!read(ready[0], &c, 1);
+  close(ready[0]);
+  const auto t0 = std::chrono::steady_clock::now();
+  kill(pid, SIGTERM);
+  int status = 0;
+  for (int i = 0; i < 1000; ++i) {
+    if (waitpid(pid, &status, WNOHANG) == pid)
+      return {status, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
+    usleep(10000);
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return {-1, 10};
+}
+
+}  // namespace
+
+/// A process stuck where it does not poll interrupted() (as a replay waiting on a hung device)
+/// still ends on one SIGTERM: when the grace runs out, as on a second signal (its temporaries
+/// removed, exit status 128 + SIGTERM). One that stops within the grace ends as it chooses.
+TEST(Atomic, AStuckProcessEndsWhenTheInterruptsGraceRunsOut) {
+  const fs::path dir = fs::temp_directory_path() / ("ebh_grace_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string out = (dir / "out.h5").string();
+  const auto [stuck, stuck_s] = interrupt_child(out, 1, []() -> int {
+    for (;;) pause();  // never polls the flag
+  });
+  ASSERT_NE(stuck, -1) << "the stuck child did not end within 10 s of one SIGTERM";
+  ASSERT_TRUE(WIFEXITED(stuck));
+  EXPECT_EQ(WEXITSTATUS(stuck), 128 + SIGTERM);
+  EXPECT_GE(stuck_s, 0.9);
+  EXPECT_TRUE(fs::is_empty(dir)) << "the temporary is removed, no output written";
+  const auto [polite, polite_s] = interrupt_child(out, 5, [] {
+    while (!interrupted()) usleep(1000);
+    return 3;
+  });
+  ASSERT_TRUE(WIFEXITED(polite));
+  EXPECT_EQ(WEXITSTATUS(polite), 3);
+  EXPECT_LT(polite_s, 4.0);
+  EXPECT_TRUE(fs::is_empty(dir));
+  fs::remove_all(dir);
 }

@@ -2,6 +2,7 @@
 // summary's CSV and the report's Pareto front. The replays themselves run in tests/sweep/*.sh.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -331,6 +332,43 @@ duration: 0.1
   std::string line;
   std::getline(in, line);
   EXPECT_EQ(line, "alone");
+}
+
+/// An interrupted sweep passes SIGTERM on to its replays; one stuck past even its own grace
+/// (tests/sweep/stuck_replay.sh ignores every signal but SIGKILL) is killed RunnerOptions::
+/// stop_grace_s later, counted as interrupted, with no output, and the sweep returns.
+TEST(SweepRunner, AReplayStuckAfterTheInterruptIsKilled) {
+  const fs::path dir = scratch() / "stuck";
+  fs::remove_all(dir);
+  const fs::path plan_path = plan_file("stuck.yaml", R"(scenes:
+  - scene: tube
+    recordings: [tube_insert]
+    reference: {solver.method: direct}
+grid:
+  stiffness.k_con: [400, 500]
+duration: 0.1
+)");
+  const SweepPlan plan = read_sweep_plan(plan_path);
+  const std::vector<SweepRun> runs = expand_plan(plan);
+  RunnerOptions opt;
+  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/stuck_replay.sh";
+  opt.stop_grace_s = 0.5;
+  install_interrupt_handlers();
+  set_interrupted(false);
+  const auto t0 = std::chrono::steady_clock::now();
+  const RunnerReport rep = execute_runs(plan, runs, dir, opt, [](const RunnerProgress&, const RunOutcome* o) {
+    if (!o) set_interrupted(true);  // as a SIGTERM once the first replay runs
+  });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  set_interrupted(false);
+  EXPECT_LT(seconds, 10.0) << "the stuck replay was not killed";
+  EXPECT_EQ(rep.interrupted, 1u);
+  EXPECT_EQ(rep.ran, 0u);
+  EXPECT_EQ(rep.failed, 0u);
+  EXPECT_TRUE(rep.stopped);
+  for (const SweepRun& r : runs) EXPECT_FALSE(fs::exists(run_output(dir, r))) << r.id;
+  EXPECT_EQ(interrupt_grace(), 0u) << "the sweep's process waits for its replays";
+  set_interrupt_grace(kInterruptGraceSeconds);
 }
 
 TEST(SweepError, IdenticalForcesHaveNoError) {

@@ -160,7 +160,7 @@ bool device_haptic_supported(const ToolModel& tool) {
 namespace {
 /// Samples the Newton call's list holds with surface contact: twice every triangle's samples at
 /// rest (a call reaches a small part of the surface; twice for stretched triangles' extra rows),
-/// at least 2^16 and at most 2^22 (76 bytes each: a candidate's point and weight, a contact list entry and its contact, a sample's triangle).
+/// at least 2^16 and at most 2^22 (44 bytes each: a candidate's point and weight, a contact list entry, a sample's triangle).
 int surface_capacity(const SurfaceContactModel& s) {
   double total = 0;
   for (const std::uint8_t n : s.rest_level) total += static_cast<double>(n) * n;
@@ -215,12 +215,12 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<int4> tri;
   cuda::DeviceArray<int> tri_offsets, tri_entries, tri_counts, tri_list, tri_scan;
   cuda::DeviceArray<double> cand_w;
-  cuda::DeviceArray<unsigned long long> tri_arrive, tri_stamp;
+  cuda::DeviceArray<unsigned long long> tri_arrive, tri_summed, tri_stamp;
   cuda::DeviceArray<ListedTriangle> listed;
   cuda::DeviceArray<int2> contact;
   cuda::DeviceArray<int4> tri_map;
-  cuda::DeviceArray<int> list_sizes, sample_listed;
-  cuda::DeviceArray<SampleSum> sample_to, tri_sum;
+  cuda::DeviceArray<int> listed_count, sample_listed;
+  cuda::DeviceArray<SampleSum> tri_sum;
   int* overflow = nullptr;           // cudaHostAlloc, mapped
 
   /// The tick kernel of this object's contact.
@@ -260,16 +260,16 @@ struct CudaHapticTicks::Impl {
     I.tri_list.allocate(std::size_t(chunks) * kBlock);
     I.tri_scan.allocate(std::size_t(chunks) + 1);
     up(I.tri_arrive, std::vector<unsigned long long>(1, 0));
+    up(I.tri_summed, std::vector<unsigned long long>(1, 0));
     SurfaceDev& sd = I.surface_dev;
     sd.capacity = surface_capacity(s);
     I.cand_w.allocate(sd.capacity);
     I.contact.allocate(sd.capacity);
     I.listed.allocate(std::size_t(chunks) * kBlock);
     I.tri_map.allocate(tri.size());
-    I.sample_to.allocate(sd.capacity);
     I.sample_listed.allocate(sd.capacity);
     I.tri_sum.allocate(3 * tri.size());
-    up(I.list_sizes, std::vector<int>(2, 0));
+    up(I.listed_count, std::vector<int>(1, 0));
     up(I.tri_stamp, std::vector<unsigned long long>(tri.size(), 0));  // no step's list yet
     EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.overflow), sizeof(int), cudaHostAllocMapped));
     *I.overflow = 0;
@@ -291,9 +291,9 @@ struct CudaHapticTicks::Impl {
     sd.contact = I.contact.get();
     sd.tri_map = I.tri_map.get();
     sd.tri_stamp = I.tri_stamp.get();
-    sd.list_sizes = I.list_sizes.get();
+    sd.listed_count = I.listed_count.get();
     sd.sample_listed = I.sample_listed.get();
-    sd.sample_to = I.sample_to.get();
+    sd.summed = I.tri_summed.get();
     sd.tri_sum = I.tri_sum.get();
     sd.overflow = overflow_dev;
   }

@@ -165,7 +165,7 @@ struct ListedTriangle {
   bool newton;
 };
 
-/// A vector and a scalar in double, one 32-byte load (SurfaceDev::sample_to, tri_sum).
+/// A vector and a scalar in double, one 32-byte load (SurfaceDev::tri_sum).
 struct alignas(32) SampleSum {
   double x, y, z, w;
 };
@@ -193,17 +193,17 @@ struct SurfaceDev {
   // step's vertices, surface_contact_target): the samples that can touch the tool at any pose the
   // call can reach, at the step's q or (after a tick's last step) at the next tick's predictions.
   ListedTriangle* listed = nullptr;  // chunks * kBlock: the triangles of the chunks' lists
-  int* list_sizes = nullptr;         // 2: the listed triangles, the contact list's samples
+  int* listed_count = nullptr;       // 1: the listed triangles
   int* sample_listed = nullptr;      // capacity: the listed triangle (its index in `listed`) of each
                                      //   of their samples, in order
   int2* contact = nullptr;           // capacity: (triangle, sample index in for_each_sample's order)
   int4* tri_map = nullptr;           // F: a listed triangle's samples contact[x .. y), its rows z,
-                                     //   its samples inside the tool w (contact_sums)
+                                     //   its samples inside the tool w (listed_triangle_sums)
   unsigned long long* tri_stamp = nullptr;  // F: the epoch of the step whose list holds the triangle
-  // Block 0's contacts of the list's samples before the next step (contact_sums):
-  SampleSum* sample_to = nullptr;    // capacity: y_proj - y, w = 1 when the sample is inside the tool
+  // The contacts of the list's samples before the next step's vertices (listed_triangle_sums):
   SampleSum* tri_sum = nullptr;      // 3 F: per listed triangle and corner i, sum of w k_con b_i (q_i +
                                      //   y_proj - y) over its samples inside (xyz) and of w k_con b_i (w)
+  unsigned long long* summed = nullptr;  // the vertex blocks' arrivals after those sums, one per step
 };
 
 struct TailShared {

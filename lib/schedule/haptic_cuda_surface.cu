@@ -7,9 +7,10 @@
 // Every step is unpipelined (CudaHapticTicks sets MeshDev::pipeline off): a sample's contact needs
 // its triangle's three corners, which a pipelined step's vertex blocks do not have at the Newton
 // call's new pose. A step is
-//   contacts   block 0, before the release (when a Newton call followed the step before): the
-//              call's contact list's samples against the tool posed for the step, then each
-//              listed triangle's targets summed per corner (contact_sums)
+//   contacts   when a Newton call followed the step before: the call's contact list's
+//              triangles, a warp each over the vertex blocks, their samples against the tool
+//              posed for the step and their targets summed per corner (listed_triangle_sums); then
+//              the blocks wait for each other (SurfaceDev::summed)
 //   vertices   per vertex (vertex_step<false, true>): begin, the E_con targets of its triangles'
 //              samples inside the tool (their sums from the list, or its own tests without one),
 //              the Jacobi step, end; then an arrival (MeshDev::sync)
@@ -117,6 +118,54 @@ __device__ void triangle_chunk(const MeshDev& d, const SurfaceDev& sd, const Too
   __syncthreads();
 }
 
+/// Listed triangle i of the contact list (contact_list_of) before a step's vertices, by one warp:
+/// its listed samples against the tool posed for the step at the step's iterates qin (their
+/// predictions on a tick's first step), over the lanes, then its corners' sums of their targets
+/// (sum of w k_con b_c (q_c + y_proj - y) and of w k_con b_c) and their count, reduced over the
+/// lanes in a fixed order (sd.tri_sum, tri_map's w). A triangle whose rows changed since the list
+/// (stretched by the prediction) gets tri_map's z = 0: its vertices then sum its samples themselves.
+__device__ void listed_triangle_sums(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& posed,
+                                     const Vec3f* qin, bool first, int i) {
+  const int lane = threadIdx.x & 31;
+  const int f = sd.listed[i].f;
+  const int4 tri = sd.tri[f], m = sd.tri_map[f];
+  const Vec3d x[3] = {static_cast<Vec3d>(iterate_of(d, qin, first, tri.x)),
+                      static_cast<Vec3d>(iterate_of(d, qin, first, tri.y)),
+                      static_cast<Vec3d>(iterate_of(d, qin, first, tri.z))};
+  const int n = surface_sample_level(tri.w, sd.spacing, x[0], x[1], x[2]);
+  if (n != m.z) {
+    if (lane == 0) sd.tri_map[f].z = 0;
+    return;
+  }
+  const double kw = t.k_con * surface_sample_weight(sd.stiffness_factor, sd.spacing, n, x[0], x[1], x[2]);
+  double sum[3][4] = {};  // per corner: the targets' sum (xyz), the stiffnesses' (w)
+  int count = 0;
+  for (int k = m.x + lane; k < m.y; k += 32) {
+    double b[3];
+    sample_barycentric(n, sd.contact[k].y, b[0], b[1], b[2]);
+    Vec3d to;
+    if (!sample_contact(t, posed, surface_sample_point(b[0], b[1], b[2], x[0], x[1], x[2]), to)) continue;
+    for (int c = 0; c < 3; ++c) {
+      const double kb = kw * b[c];
+      const Vec3d target = kb * (x[c] + to);
+      sum[c][0] += target.x;
+      sum[c][1] += target.y;
+      sum[c][2] += target.z;
+      sum[c][3] += kb;
+    }
+    ++count;
+  }
+  for (int o = 16; o > 0; o >>= 1) {
+    for (int c = 0; c < 3; ++c)
+      for (int u = 0; u < 4; ++u) sum[c][u] += __shfl_xor_sync(~0u, sum[c][u], o);
+    count += __shfl_xor_sync(~0u, count, o);
+  }
+  if (lane == 0) {
+    for (int c = 0; c < 3; ++c) sd.tri_sum[3 * f + c] = SampleSum{sum[c][0], sum[c][1], sum[c][2], sum[c][3]};
+    sd.tri_map[f].w = count;
+  }
+}
+
 /// The vertex blocks with surface contact (vertex_blocks' loop, every step unpipelined): each step,
 /// once released, the vertices of their chunks at the pose of the step's slot; once every block's
 /// vertices are done, the triangles of their chunks at the new iterates (when a Newton call or
@@ -143,6 +192,19 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
     if (threadIdx.x < t.count) {
       const SlotPose slot = d.slots[s & 1];
       pose_collider(t, slot.P, slot.Q, sm.in().jaw_cos, sm.in().jaw_sin, threadIdx.x, sm.posed());
+    }
+    __syncthreads();
+    // The contact list's triangles, a warp each over every vertex block, then a wait for all.
+    if (listed) {
+      const int nt = *sd.listed_count, warps = blocks * kWarps;
+      for (int i = (blockIdx.x - 1) * kWarps + (threadIdx.x >> 5); i < nt; i += warps)
+        listed_triangle_sums(d, sd, t, sm.posed(), S.in(s), first, i);
+      __syncthreads();
+    }
+    if (threadIdx.x == 0) {
+      add_release(sd.summed, 1ull);
+      if (listed)
+        while (load_acquire(sd.summed) < steps_through(S, s) * static_cast<unsigned long long>(blocks)) {}
     }
     __syncthreads();
     clock.posed();
@@ -319,83 +381,9 @@ __device__ int list_samples(const MeshDev& d, const SurfaceDev& sd, const ToolCo
   }
   if (threadIdx.x == 0) {
     if (nc > sd.capacity || nl > sd.capacity) *sd.overflow = 1;
-    sd.list_sizes[0] = nt;
-    sd.list_sizes[1] = n;
+    *sd.listed_count = nt;
   }
   return nc;
-}
-
-/// Listed samples whose loads contact_sums issues at once per triangle.
-constexpr int kSumBatch = 4;
-
-/// Block 0 before a step that reads a contact list (contact_list_of): the list's samples against
-/// the tool posed for the step (pt) at the step's iterates qin (their predictions on a tick's first
-/// step), a thread per sample (sd.sample_to); then per listed triangle, a thread each, its corners'
-/// sums of the targets of its samples inside, in the list's order (sd.tri_sum; their count in
-/// tri_map's w). A triangle whose rows changed since the list (stretched by the prediction) gets
-/// tri_map's z = 0: its vertices sum its samples themselves.
-__device__ void contact_sums(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& pt,
-                             const Vec3f* qin, bool first) {
-  auto corners = [&](int4 tri, Vec3d& a, Vec3d& b, Vec3d& c) {
-    a = static_cast<Vec3d>(iterate_of(d, qin, first, tri.x));
-    b = static_cast<Vec3d>(iterate_of(d, qin, first, tri.y));
-    c = static_cast<Vec3d>(iterate_of(d, qin, first, tri.z));
-  };
-  const int nt = sd.list_sizes[0], nl = sd.list_sizes[1];
-  for (int i = threadIdx.x; i < nl; i += kBlock) {
-    const int2 e = sd.contact[i];
-    Vec3d a, b, c;
-    corners(sd.tri[e.x], a, b, c);
-    double b0, b1, b2;
-    sample_barycentric(sd.tri_map[e.x].z, e.y, b0, b1, b2);
-    Vec3d to;
-    sd.sample_to[i] = sample_contact(t, pt, surface_sample_point(b0, b1, b2, a, b, c), to)
-                          ? SampleSum{to.x, to.y, to.z, 1.0}
-                          : SampleSum{};
-  }
-  __syncthreads();
-  for (int i = threadIdx.x; i < nt; i += kBlock) {
-    const int f = sd.listed[i].f;
-    const int4 tri = sd.tri[f], m = sd.tri_map[f];
-    Vec3d x[3];
-    corners(tri, x[0], x[1], x[2]);
-    const int n = surface_sample_level(tri.w, sd.spacing, x[0], x[1], x[2]);
-    if (n != m.z) {
-      sd.tri_map[f].z = 0;
-      continue;
-    }
-    const double kw = t.k_con * surface_sample_weight(sd.stiffness_factor, sd.spacing, n, x[0], x[1], x[2]);
-    Vec3d kt[3] = {};
-    double ck[3] = {};
-    int count = 0;
-    // The samples in order, kSumBatch loads issued before their sums (the loop is bound by the
-    // loads' latency, not by the sums).
-    for (int k0 = m.x; k0 < m.y; k0 += kSumBatch) {
-      SampleSum to[kSumBatch];
-      int at[kSumBatch];
-#pragma unroll
-      for (int u = 0; u < kSumBatch; ++u)
-        if (k0 + u < m.y) {
-          to[u] = sd.sample_to[k0 + u];
-          at[u] = sd.contact[k0 + u].y;
-        }
-#pragma unroll
-      for (int u = 0; u < kSumBatch; ++u) {
-        if (k0 + u >= m.y || to[u].w == 0.0) continue;
-        double b[3];
-        sample_barycentric(n, at[u], b[0], b[1], b[2]);
-        for (int c = 0; c < 3; ++c) {
-          const double kb = kw * b[c];
-          kt[c] += kb * (x[c] + Vec3d{to[u].x, to[u].y, to[u].z});
-          ck[c] += kb;
-        }
-        ++count;
-      }
-    }
-    for (int u = 0; u < 3; ++u) sd.tri_sum[3 * f + u] = SampleSum{kt[u].x, kt[u].y, kt[u].z, ck[u]};
-    sd.tri_map[f].w = count;
-  }
-  __syncthreads();
 }
 
 /// Block 0 after the step with epoch `epoch` of q with surface contact: the held vertices
@@ -487,13 +475,7 @@ __device__ void surface_tool_block(const MeshDev& d, const SurfaceDev& sd, const
     if (threadIdx.x == 0) sm.in() = gin;
     pose_colliders(t, sh.P, sh.Q, gin, pt);
     __syncthreads();
-    const unsigned long long listed = contact_list_of(sd, S, s);
-    if (listed) {
-      marks.mark(DeviceTickProfile::Lists);
-      contact_sums(d, sd, t, pt, S.in(s), S.first(s));
-      marks.count_listed();
-      marks.mark(DeviceTickProfile::Samples);
-    }
+    if (contact_list_of(sd, S, s)) marks.count_listed();
     release(S.epoch(s), s);
     marks.mark(DeviceTickProfile::Lists);
     wait_for(sd.arrive, steps_through(S, s) * others, s);

@@ -4,7 +4,7 @@
 // the sample points of the virtual mesh's triangles instead of its vertices. The samples' math is
 // the CPU's (tool/surface_samples.hpp); here it is gathered per vertex (the virtual mesh's
 // Jacobi step), per triangle (the Newton call's candidates and the contact list, the penetration
-// metric) and per listed sample (haptic_cuda_surface.cu: list_samples, contact_sums).
+// metric) and per listed sample (haptic_cuda_surface.cu: list_samples, listed_triangle_sums).
 #include "energy/quadratic.hpp"
 #include "schedule/haptic_cuda_layout.cuh"
 #include "schedule/haptic_cuda_posed.cuh"
@@ -53,10 +53,10 @@ __device__ bool sample_contact(const ToolConst& t, const Posed& posed, Vec3d y, 
 /// the stiffnesses into ck (in double, then rounded). A triangle with a held corner carries no
 /// samples (the CPU's `excluded`). Returns the targets' count.
 ///   listed = 0: each triangle near the tool sums its samples inside here, in for_each_sample's
-///     order (triangle_targets);
+///     order;
 ///   listed = the epoch of the step before (contact_list_of): a triangle off that step's contact
-///     list has no sample inside the tool; one on it has its sums per corner from block 0
-///     (contact_sums), but for one whose rows changed since (tri_map's z = 0), summed here.
+///     list has no sample inside the tool; one on it has its sums per corner from the step's start
+///     (listed_triangle_sums), but for one whose rows changed since (tri_map's z = 0), summed here.
 __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& posed,
                                       const DeviceTickInput& in, bool first, int j, Vec3f q, const Vec3f* qin,
                                       unsigned long long listed, Vec3f& kt, float& ck) {

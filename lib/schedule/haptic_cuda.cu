@@ -160,7 +160,8 @@ bool device_haptic_supported(const ToolModel& tool) {
 namespace {
 /// Samples the Newton call's list holds with surface contact: twice every triangle's samples at
 /// rest (a call reaches a small part of the surface; twice for stretched triangles' extra rows),
-/// at least 2^16 and at most 2^22 (44 bytes each: a candidate's point and weight, a contact list entry, a sample's triangle).
+/// at least 2^16 and at most 2^22 (44 bytes each: a candidate's point and weight, a contact list
+/// entry, a sample's triangle).
 int surface_capacity(const SurfaceContactModel& s) {
   double total = 0;
   for (const std::uint8_t n : s.rest_level) total += static_cast<double>(n) * n;

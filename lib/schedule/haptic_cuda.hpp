@@ -73,14 +73,15 @@ struct DeviceTickProfile {
     Wait,        ///< block 0 waiting for the other blocks' vertices after the Newton call
     Update,      ///< block 0's own vertices (held and deferred) at the new pose (pipelined steps)
     Lists,       ///< the candidate and held lists, filtered and in a fixed order; the hand-offs
-    Samples,     ///< surface contact: the listed triangles' samples tested and listed, the contact lists' sums
+    Samples,     ///< surface contact: the listed triangles' samples tested and listed (list_samples)
     Evaluate,    ///< E_tool, its gradient and the contact Hessian (every evaluation)
     Clamp,       ///< the 6x6 PSD clamp
     Solve,       ///< the Cholesky solve and the step's checks
     LineSearch,  ///< the Armijo trials
     Output,      ///< the tool's state, the tick's outputs on its last step
     // The other blocks, means over blocks: a block's start after its release, its setup (inputs,
-    // posed tool), its vertices (contact, Jacobi step, reach), its lists.
+    // posed tool; surface contact: the contact list's sums and the wait for every block's), its
+    // vertices (contact, Jacobi step, reach), its lists.
     BlockLag, BlockSetup, BlockVertices, BlockLists,
     BlockVerticesMax,  ///< the slowest block's vertices
     kStages

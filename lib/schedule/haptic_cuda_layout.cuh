@@ -150,9 +150,6 @@ struct MeshDev {
 /// the physical result at tick 0, for k < 0. Period k blends ring_slot(k - 2) and ring_slot(k - 1).
 __host__ __device__ __forceinline__ int ring_slot(long long k) { return k >= 0 ? static_cast<int>(k % 3) : 3; }
 
-/// Surface contact's device data (scene `contact: surface`; surface_ticks_kernel's parameter, by
-/// value): the virtual mesh's triangles (SurfaceContactModel) and the lists of the triangles and
-/// samples near the virtual tool. docs/CUDA.md, "Surface contact".
 /// A triangle of a step's candidate list (surface_lists): its corners, its samples' rows and
 /// weight, how far its corners move in the next tick's prediction (0 but after a tick's last
 /// step), whether the Newton call may reach it (triangle_step), and the samples of the list's
@@ -174,6 +171,9 @@ struct alignas(32) SampleSum {
 /// contacts only, not for the Newton call.
 constexpr int kContactOnly = 1 << 30;
 
+/// Surface contact's device data (scene `contact: surface`; surface_ticks_kernel's parameter, by
+/// value): the virtual mesh's triangles (SurfaceContactModel) and the lists of the triangles and
+/// samples near the virtual tool. docs/CUDA.md, "Surface contact".
 struct SurfaceDev {
   int F = 0, chunks = 0;            // triangles; chunks of kBlock triangles (the vertex blocks run them as their vertex chunks)
   int capacity = 0;                 // samples the Newton call's list holds (MeshDev::cand_q, cand_w)

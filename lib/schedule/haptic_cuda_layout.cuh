@@ -188,7 +188,7 @@ struct SurfaceDev {
   int* offsets = nullptr;           // chunks + 1: the lists' offsets (block 0's scan)
   double* cand_w = nullptr;         // capacity: the candidate samples' weights (their points: MeshDev::cand_q)
   unsigned long long* arrive = nullptr;  // the vertex blocks' arrivals after their triangles, one per step
-  int* overflow = nullptr;          // host-mapped: set when a Newton call's samples passed `capacity`
+  int* overflow = nullptr;          // host-mapped: set when a list of samples passed `capacity`
   // The contact list (block 0 after a step with a Newton call, surface_lists; read by the next
   // step's vertices, surface_contact_target): the samples that can touch the tool at any pose the
   // call can reach, at the step's q or (after a tick's last step) at the next tick's predictions.

@@ -55,7 +55,7 @@ std::vector<bool> pareto_front(const std::vector<std::pair<double, double>>& poi
   return front;
 }
 
-std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file) {
+std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file, double min_haptic_hz) {
   const std::size_t c_status = t.column("status", file), c_scene = t.column("scene", file),
                     c_rec = t.column("recording", file), c_backend = t.column("backend", file),
                     c_ref = t.column("reference", file), c_over = t.column("overrides", file),
@@ -68,7 +68,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     return static_cast<std::size_t>(it - t.header.begin());
   };
   const auto c_id = optional_column("id"), c_error = optional_column("error"), c_baseline = optional_column("baseline"),
-             c_residual = optional_column("timing.physical_residual_max");
+             c_residual = optional_column("timing.physical_residual_max"), c_hz = optional_column("haptic_hz");
   auto number = [&](std::size_t row, std::size_t col) {
     const std::string& s = t.rows[row][col];
     if (s.empty()) return kNaN;
@@ -91,7 +91,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     const Key key{row[c_scene], row[c_rec], row[c_backend]};
     if (!groups.count(key)) {
       order.push_back(key);
-      groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], "", {}, {}, 0};
+      groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], min_haptic_hz, "", {}, {}, 0};
     }
     ReportGroup& g = groups[key];
     if (row[c_ref] == "1") references[{row[c_scene], row[c_rec]}] = row[c_over] + " (" + row[c_backend] + ")";
@@ -136,10 +136,12 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       p.error_max = med(c_max);
       p.error_p999 = med(c_p999);
       p.residual_max = med(c_residual);
+      p.haptic_hz = med(c_hz);
+      p.below_rate = p.haptic_hz < min_haptic_hz;  // false for NaN (not in the summary)
       g.points.push_back(p);
     }
     std::vector<std::pair<double, double>> xy;
-    for (const ReportPoint& p : g.points) xy.emplace_back(p.reference ? kNaN : p.wall_s, p.error_rms);
+    for (const ReportPoint& p : g.points) xy.emplace_back(p.reference || p.below_rate ? kNaN : p.wall_s, p.error_rms);
     const std::vector<bool> front = pareto_front(xy);
     for (std::size_t i = 0; i < g.points.size(); ++i) g.points[i].front = front[i];
     std::stable_sort(g.points.begin(), g.points.end(), [](const ReportPoint& a, const ReportPoint& b) {
@@ -158,7 +160,7 @@ std::optional<BaselineGoal> baseline_goal(const ReportGroup& g) {
   goal.baseline = goal.fastest = goal.most_accurate = static_cast<std::size_t>(b - P.begin());
   for (std::size_t i = 0; i < P.size(); ++i) {
     const ReportPoint& p = P[i];
-    if (p.reference && p.baseline.empty()) continue;
+    if ((p.reference || p.below_rate) && p.baseline.empty()) continue;
     if (p.error_rms <= b->error_rms && p.wall_s < P[goal.fastest].wall_s) goal.fastest = i;
     if (p.wall_s <= b->wall_s && p.error_rms < P[goal.most_accurate].error_rms) goal.most_accurate = i;
   }
@@ -172,13 +174,18 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
   std::ostringstream o;
   o << "# Run time against force error\n\n"
        "Force error: |F - F_ref| per reference tick against the reference replay of the same scene and recording. Front: the configurations that no other one beats on both wall time and RMS error.\n";
+  if (!groups.empty() && groups.front().min_haptic_hz > 0)
+    o << "\nConfigurations below " << fmt(groups.front().min_haptic_hz, "%g")
+      << " haptic ticks per second (marked `< Hz`) are listed but are neither on the front nor candidates against the "
+         "baseline.\n";
   for (const ReportGroup& g : groups) {
     o << "\n## " << g.scene << " + " << g.recording << ", " << g.backend << "\n\n";
     o << "Reference: " << (g.reference.empty() ? "not in the summary" : md(g.reference)) << "\n\n";
     o << "| front | overrides | runs | wall (s) | real time | force error RMS (N) | max (N) | p99.9 (N) | max physical "
          "residual |\n|---|---|---|---|---|---|---|---|---|\n";
     for (const ReportPoint& p : g.points)
-      o << "| " << (p.front ? "*" : p.reference ? "reference" : "") << (p.baseline.empty() ? "" : " " + md(p.baseline))
+      o << "| " << (p.front ? "*" : p.reference ? "reference" : p.below_rate ? "< Hz" : "")
+        << (p.baseline.empty() ? "" : " " + md(p.baseline))
         << " | " << md(p.overrides) << " | " << p.runs << " | "
         << fmt(p.wall_s) << " | " << fmt(p.real_time_factor, "%.3gx") << " | " << fmt(p.error_rms) << " | "
         << fmt(p.error_max) << " | " << fmt(p.error_p999) << " | " << fmt(p.residual_max) << " |\n";

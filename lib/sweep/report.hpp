@@ -3,7 +3,9 @@
 // configuration (its repetitions) are one point (medians); the points of each scene, recording
 // and backend are compared with each other, and the Pareto front is the configurations that no
 // other one beats on both wall time and force RMS error against the reference (the reference
-// itself is the yardstick, not a candidate).
+// itself is the yardstick, not a candidate). A configuration with fewer haptic ticks per second
+// than the floor (the virtual tool runs at >= 1 kHz: kMinHapticHz) is listed but is no candidate
+// either: not on the front, not against the baseline.
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -27,12 +29,19 @@ struct ReportPoint {
   double wall_s = 0, real_time_factor = 0;
   double error_rms = 0, error_max = 0, error_p999 = 0;  ///< N, against the reference
   double residual_max = 0;                             ///< max physical residual (NaN when absent)
+  double haptic_hz = 0;                                ///< haptic ticks per second (NaN when absent)
+  bool below_rate = false;                             ///< haptic_hz below the report's floor: no candidate
   bool front = false;
   std::string baseline;                                ///< the plan's baseline name when this is it, else ""
 };
 
+/// The haptic rate a configuration must keep to be a candidate (ticks per second): the virtual
+/// tool's 1 kHz.
+inline constexpr double kMinHapticHz = 1000;
+
 struct ReportGroup {
   std::string scene, recording, backend;
+  double min_haptic_hz = 0;              ///< the floor the points were held to (0: none)
   std::string reference;                 ///< "OVERRIDES (BACKEND)" of the reference ("" when not in the summary)
   std::vector<ReportPoint> points;       ///< by wall time
   std::vector<std::string> failed;       ///< "ID OVERRIDES: error", one per failed run
@@ -41,7 +50,8 @@ struct ReportGroup {
 
 /// A group's configurations against its baseline B (the plan's `baseline`): the fastest one whose
 /// RMS error is at most B's, and the most accurate one whose wall time is at most B's (B itself
-/// when no other does better; the reference is never a candidate). The goal of a faster method:
+/// when no other does better; the reference and the points below the haptic rate floor are never
+/// candidates). The goal of a faster method:
 /// speedup >= 2 at equal or lower error, or error_ratio >= 2 at equal or lower time.
 struct BaselineGoal {
   std::size_t baseline = 0, fastest = 0, most_accurate = 0;  ///< indices into ReportGroup::points
@@ -53,9 +63,10 @@ std::optional<BaselineGoal> baseline_goal(const ReportGroup& group);
 
 /// Groups the summary's rows (columns: status, scene, recording, backend, reference, overrides,
 /// wall_s, real_time_factor, force_error_rms_N, force_error_max_N, force_error_p999_N; optional:
-/// id, error, baseline, timing.physical_residual_max). Throws InputError naming `file` and a missing column
-/// or a cell that is not a number.
-std::vector<ReportGroup> build_report(const CsvTable& summary, const std::string& file);
+/// id, error, baseline, timing.physical_residual_max, haptic_hz). Configurations below
+/// `min_haptic_hz` haptic ticks per second are no candidates (0: every one is). Throws InputError
+/// naming `file` and a missing column or a cell that is not a number.
+std::vector<ReportGroup> build_report(const CsvTable& summary, const std::string& file, double min_haptic_hz = 0);
 
 /// The Markdown report: per group a table by wall time, the front and the baseline marked, and the
 /// comparison with the baseline (baseline_goal) when there is one.

@@ -541,6 +541,47 @@ TEST(SweepReport, BaselineGoal) {
   EXPECT_FALSE(baseline_goal(build_report(parse_csv(text, file), file)[0]).has_value());
 }
 
+/// The haptic rate floor (`ebh sweep report --min-haptic-hz`, kMinHapticHz by default there): a
+/// configuration below it is listed, marked, and no candidate. In the hand-made summary k=2 (2.2 s,
+/// 0.2 N), at 500 Hz, leaves the front and the comparison with the baseline k=3 (3 s, 0.3 N),
+/// which then finds nothing better than k=3 itself; with the floor at 0, or without the column,
+/// k=2 is back.
+TEST(SweepReport, ConfigurationsBelowTheHapticRateAreNoCandidates) {
+  const std::string file = front_file();
+  CsvTable t = parse_csv(front_text(), file);
+  t.header.push_back("baseline");
+  t.header.push_back("haptic_hz");
+  for (auto& row : t.rows) {
+    const std::string& over = row[t.column("overrides", file)];
+    row.push_back(over == "k=3" ? "paper" : "");
+    row.push_back(over == "k=2" ? "500" : "1000");
+  }
+  auto front_of = [](const ReportGroup& g) {
+    std::vector<std::string> f;
+    for (const ReportPoint& p : g.points)
+      if (p.front) f.push_back(p.overrides);
+    return f;
+  };
+  const std::vector<ReportGroup> g = build_report(t, file, kMinHapticHz);
+  ASSERT_EQ(g.size(), 1u);
+  EXPECT_EQ(front_of(g[0]), (std::vector<std::string>{"k=1", "k=3", "k=4"}));
+  const auto goal = baseline_goal(g[0]);
+  ASSERT_TRUE(goal.has_value());
+  EXPECT_EQ(goal->fastest, goal->baseline);
+  EXPECT_EQ(goal->most_accurate, goal->baseline);
+  const std::string md = report_markdown(g);
+  EXPECT_NE(md.find("| < Hz | k=2 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("below 1000 haptic ticks per second"), std::string::npos) << md;
+  // No floor: k=2 is a candidate again.
+  const std::vector<ReportGroup> all = build_report(t, file, 0);
+  EXPECT_EQ(front_of(all[0]), (std::vector<std::string>{"k=1", "k=2", "k=4"}));
+  EXPECT_EQ(all[0].points[baseline_goal(all[0])->fastest].overrides, "k=2");
+  EXPECT_EQ(report_markdown(all).find("haptic ticks per second"), std::string::npos);
+  // A summary without the column: no point is below the floor.
+  EXPECT_EQ(front_of(build_report(parse_csv(front_text(), file), file, kMinHapticHz)[0]),
+            (std::vector<std::string>{"k=1", "k=2", "k=4"}));
+}
+
 TEST(SweepReport, MissingColumnAndBadNumberAreNamed) {
   try {
     (void)build_report(parse_csv("status,scene\nok,tube\n", "s.csv"), "s.csv");

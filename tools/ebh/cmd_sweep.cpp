@@ -36,6 +36,7 @@ struct SweepArgs {
 
 struct ReportArgs {
   std::string dir, plot;
+  double min_haptic_hz = kMinHapticHz;
 };
 
 fs::path plan_copy(const fs::path& dir) { return dir / "plan.yaml"; }
@@ -259,7 +260,7 @@ void run_report(const ReportArgs& a) {
   std::ifstream in(file, std::ios::binary);
   std::stringstream text;
   text << in.rdbuf();
-  const std::vector<ReportGroup> groups = build_report(parse_csv(text.str(), file), file);
+  const std::vector<ReportGroup> groups = build_report(parse_csv(text.str(), file), file, a.min_haptic_hz);
   std::fputs(report_markdown(groups).c_str(), stdout);
   if (!a.plot.empty()) {
     write_report_plot(groups, a.plot);
@@ -291,6 +292,10 @@ void setup(CLI::App& root) {
   CLI::App* r = c->add_subcommand("report", "Run time against force error: Markdown table, Pareto front, --plot PNG");
   r->add_option("dir", report->dir, "The sweep's folder")->required();
   r->add_option("--plot", report->plot, "Also draw force RMS error against wall time into this PNG");
+  r->add_option("--min-haptic-hz", report->min_haptic_hz,
+                "Configurations with fewer haptic ticks per second are listed but no candidates: not on the front, "
+                "not against the baseline (default 1000, the virtual tool's rate; 0: every one)")
+      ->check(CLI::NonNegativeNumber);
   r->callback([report] { run_report(*report); });
   c->callback([args, c] {
     if (c->got_subcommand("report")) return;

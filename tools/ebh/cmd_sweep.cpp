@@ -295,7 +295,7 @@ void setup(CLI::App& root) {
   r->add_option("--min-haptic-hz", report->min_haptic_hz,
                 "Configurations with fewer haptic ticks per second are listed but no candidates: not on the front, "
                 "not against the baseline (default 1000, the virtual tool's rate; 0: every one)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0.0, 1e6));
   r->callback([report] { run_report(*report); });
   c->callback([args, c] {
     if (c->got_subcommand("report")) return;

@@ -216,7 +216,8 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<int4> tri;
   cuda::DeviceArray<int> tri_offsets, tri_entries, tri_counts, tri_list, tri_scan;
   cuda::DeviceArray<double> cand_w;
-  cuda::DeviceArray<unsigned long long> tri_arrive, tri_summed, tri_stamp;
+  cuda::DeviceArray<unsigned long long> tri_arrive, tri_summed, tri_stamp, vertex_stamp;
+  cuda::DeviceArray<ulonglong2> tri_masks;
   cuda::DeviceArray<ListedTriangle> listed;
   cuda::DeviceArray<int2> contact;
   cuda::DeviceArray<int4> tri_map;
@@ -272,6 +273,8 @@ struct CudaHapticTicks::Impl {
     I.tri_sum.allocate(3 * tri.size());
     up(I.listed_count, std::vector<int>(1, 0));
     up(I.tri_stamp, std::vector<unsigned long long>(tri.size(), 0));  // no step's list yet
+    up(I.vertex_stamp, std::vector<unsigned long long>(std::max(m, 1), 0));
+    I.tri_masks.allocate(tri.size());
     EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.overflow), sizeof(int), cudaHostAllocMapped));
     *I.overflow = 0;
     int* overflow_dev = nullptr;
@@ -292,6 +295,8 @@ struct CudaHapticTicks::Impl {
     sd.contact = I.contact.get();
     sd.tri_map = I.tri_map.get();
     sd.tri_stamp = I.tri_stamp.get();
+    sd.vertex_stamp = I.vertex_stamp.get();
+    sd.tri_masks = I.tri_masks.get();
     sd.listed_count = I.listed_count.get();
     sd.sample_listed = I.sample_listed.get();
     sd.summed = I.tri_summed.get();

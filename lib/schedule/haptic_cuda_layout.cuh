@@ -160,7 +160,12 @@ struct ListedTriangle {
   int f, n, base;
   float shift;
   bool newton;
+  ulonglong2 masks;  // SurfaceDev::tri_masks' entry, for a triangle of at most kMaskedSamples samples
 };
+
+/// The most samples of a triangle whose tests the vertex blocks' triangle pass makes, one bit each
+/// (SurfaceDev::tri_masks); block 0 tests the samples of a larger one itself (list_samples).
+constexpr int kMaskedSamples = 64;
 
 /// A vector and a scalar in double, one 32-byte load (SurfaceDev::tri_sum).
 struct alignas(32) SampleSum {
@@ -200,6 +205,11 @@ struct SurfaceDev {
   int4* tri_map = nullptr;           // F: a listed triangle's samples contact[x .. y), its rows z,
                                      //   its samples inside the tool w (listed_triangle_sums)
   unsigned long long* tri_stamp = nullptr;  // F: the epoch of the step whose list holds the triangle
+  unsigned long long* vertex_stamp = nullptr;  // m: the epoch of the step whose list holds one of
+                                               //   the vertex's triangles
+  ulonglong2* tri_masks = nullptr;   // F: a listed triangle's samples (bit k: sample k, at most
+                                     //   kMaskedSamples) the Newton call can reach (x) and the
+                                     //   contact list holds (y), from the triangle pass (triangle_chunk)
   // The contacts of the list's samples before the next step's vertices (listed_triangle_sums):
   SampleSum* tri_sum = nullptr;      // 3 F: per listed triangle and corner i, sum of w k_con b_i (q_i +
                                      //   y_proj - y) over its samples inside (xyz) and of w k_con b_i (w)

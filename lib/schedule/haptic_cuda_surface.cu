@@ -17,12 +17,13 @@
 //   triangles  once every vertex block's iterate is written (the blocks wait for each other's
 //              arrivals): per triangle, whether the next Newton call or the contact list needs it
 //              and (last step) whether it may reach into the physical tool (triangle_step), then
-//              those triangles' deepest samples, a warp each (deepest_in_warp); then an arrival
-//              (SurfaceDev::arrive)
-//   tool       block 0: the held vertices and the listed triangles in a fixed order, their
-//              samples tested one per thread into the Newton call's candidates and the next
-//              step's contact list (surface_lists, list_samples), the Newton call on the
-//              candidates (virtual_tool_tail<true>).
+//              the listed triangles' samples tested over a warp's lanes (listed_sample_masks)
+//              and the deep ones' deepest samples, a triangle at a time (deepest_in_warp); then
+//              an arrival (SurfaceDev::arrive)
+//   tool       block 0: the held vertices and the listed triangles in a fixed order, their listed
+//              samples (from the tests' bits; a large triangle's tested here) one per thread into
+//              the Newton call's candidates and the next step's contact list (surface_lists,
+//              list_samples), the Newton call on the candidates (virtual_tool_tail<true>).
 #include <cuda_runtime.h>
 
 #include "schedule/haptic_cuda_handoff.cuh"
@@ -89,13 +90,14 @@ __device__ void surface_vertex_chunk(const MeshDev& d, const SurfaceDev& sd, con
 }
 
 /// Triangle chunk c after a step (triangle_step per thread): its listed triangles in triangle
-/// order (sd.list; kContactOnly on those the Newton call cannot reach) and their count and
-/// deepest physical-tool depth (sd.counts[2 c ..]).
+/// order (sd.list; kContactOnly on those the Newton call cannot reach), their samples' flags
+/// (listed_sample_masks) and their count and deepest physical-tool depth (sd.counts[2 c ..]).
 __device__ void triangle_chunk(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, bool called, bool last,
                                int c, const Vec3f* q, const Vec3f* v, BlockShared& sm) {
   const int f = c * kBlock + threadIdx.x;
   bool candidate = false, listed = false, deep = false;
   if (f < sd.F) triangle_step(d, sd, t, sm.posed(), sm.physical(), called, last, f, q, v, candidate, listed, deep);
+  listed_sample_masks(d, sd, t, sm.posed(), q, v, last, f, listed, candidate);
   const float pen = deepest_in_warp(sd, t, sm.physical(), q, f, deep);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
@@ -195,15 +197,17 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
     }
     __syncthreads();
     // The contact list's triangles, a warp each over every vertex block, then a wait for all.
-    if (listed) {
-      const int nt = *sd.listed_count, warps = blocks * kWarps;
+    // (An empty list has no sums to wait for; every block reads the same count.)
+    const int nt = listed ? *sd.listed_count : 0;
+    if (nt > 0) {
+      const int warps = blocks * kWarps;
       for (int i = (blockIdx.x - 1) * kWarps + (threadIdx.x >> 5); i < nt; i += warps)
         listed_triangle_sums(d, sd, t, sm.posed(), S.in(s), first, i);
       __syncthreads();
     }
     if (threadIdx.x == 0) {
       add_release(sd.summed, 1ull);
-      if (listed)
+      if (nt > 0)
         while (load_acquire(sd.summed) < steps_through(S, s) * static_cast<unsigned long long>(blocks)) {}
     }
     __syncthreads();
@@ -281,9 +285,17 @@ __device__ int candidate_triangle(const SurfaceDev& sd, int i) {
   return sd.list[lo * kBlock + (i - sd.offsets[lo])];
 }
 
+/// The position of the (j + 1)-th set bit of `bits` (it has more than j).
+__device__ int nth_set_bit(unsigned long long bits, int j) {
+  const unsigned lo = static_cast<unsigned>(bits), hi = static_cast<unsigned>(bits >> 32);
+  const int below = __popc(lo);
+  return j < below ? static_cast<int>(__fns(lo, 0, j + 1)) : 32 + static_cast<int>(__fns(hi, 0, j - below + 1));
+}
+
 /// Block 0, a Newton call following the step with epoch `epoch`: the samples of the chunks' nt
 /// listed triangles at q, in triangle order, each triangle's in for_each_sample's, a thread per
-/// sample:
+/// sample (of a triangle the triangle pass tested, per sample of its list: its flags from
+/// SurfaceDev::tri_masks; of a larger one, per sample: sample_flags):
 ///   the Newton call's candidates: those of its candidate triangles (not kContactOnly) that it can
 ///     reach (reachable); their points in TailShared::cand and d.cand_q, their weights in sd.cand_w;
 ///   the next step's contact list: those it can reach at q or, after a tick's last step, anywhere
@@ -311,9 +323,17 @@ __device__ int list_samples(const MeshDev& d, const SurfaceDev& sd, const ToolCo
       lt.n = surface_sample_level(tri.w, sd.spacing, a, b, c);
       lt.w = surface_sample_weight(sd.stiffness_factor, sd.spacing, lt.n, a, b, c);
       lt.shift = last ? prediction_shift(d, tri, q, v) : 0.f;
-      count = lt.n * lt.n;
+      // A triangle the triangle pass tested: the samples of its list (a superset of its
+      // candidates); a larger one: every sample, tested below.
+      if (lt.n * lt.n <= kMaskedSamples) {
+        lt.masks = sd.tri_masks[lt.f];
+        count = __popcll(lt.masks.y);
+      } else {
+        count = lt.n * lt.n;
+      }
       sd.tri_map[lt.f] = make_int4(0, 0, lt.n, 0);
       sd.tri_stamp[lt.f] = epoch;
+      sd.vertex_stamp[tri.x] = sd.vertex_stamp[tri.y] = sd.vertex_stamp[tri.z] = epoch;
     }
     int e = 0, unused = 0, sum = 0, unused_total = 0;
     block_exclusive_scan(count, 0, e, unused, sum, unused_total);
@@ -350,11 +370,13 @@ __device__ int list_samples(const MeshDev& d, const SurfaceDev& sd, const ToolCo
       ca = lt.a;
       cb = lt.b;
       cc = lt.c;
-      float b0, b1, b2;
-      sample_barycentric(n, k, b0, b1, b2);
-      const Vec3f yf = b0 * ca + b1 * cb + b2 * cc;
-      cand = lt.newton && reachable(t, pt, yf);
-      listed = cand || reachable_within(t, pt, yf, lt.shift);
+      if (n * n <= kMaskedSamples) {  // the k-th sample of its list
+        k = nth_set_bit(lt.masks.y, k);
+        cand = (lt.masks.x >> k) & 1ull;
+        listed = true;
+      } else {
+        sample_flags(t, pt, n, k, ca, cb, cc, lt.newton, lt.shift, cand, listed);
+      }
     }
     int ec = 0, el = 0, tc = 0, tl = 0;
     block_exclusive_scan(cand, listed, ec, el, tc, tl);

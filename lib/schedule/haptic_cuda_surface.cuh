@@ -55,7 +55,8 @@ __device__ bool sample_contact(const ToolConst& t, const Posed& posed, Vec3d y, 
 ///   listed = 0: each triangle near the tool sums its samples inside here, in for_each_sample's
 ///     order;
 ///   listed = the epoch of the step before (contact_list_of): a triangle off that step's contact
-///     list has no sample inside the tool; one on it has its sums per corner from the step's start
+///     list has no sample inside the tool (a vertex with none on it, SurfaceDev::vertex_stamp, has
+///     no target); one on it has its sums per corner from the step's start
 ///     (listed_triangle_sums), but for one whose rows changed since (tri_map's z = 0), summed here.
 __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& posed,
                                       const DeviceTickInput& in, bool first, int j, Vec3f q, const Vec3f* qin,
@@ -63,6 +64,11 @@ __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, co
   Vec3d kt_sum{};
   double ck_sum = 0;
   int count = 0;
+  if (listed && sd.vertex_stamp[j] != listed) {  // none of j's triangles is on the list
+    kt = Vec3f{};
+    ck = 0.f;
+    return 0;
+  }
   const Vec3d qj = static_cast<Vec3d>(q);
   for (int e = sd.tri_offsets[j]; e < sd.tri_offsets[j + 1]; ++e) {
     const int fi = sd.tri_entries[e];
@@ -133,6 +139,74 @@ __device__ float prediction_shift(const MeshDev& d, int4 tri, const Vec3f* q, co
 /// can reach a point that moves up to `shift` from x (shift = 0: reachable(x)).
 __device__ bool reachable_within(const ToolConst& t, const Posed& p, Vec3f x, float shift) {
   return maybe_within(t, p, x, reach_bound(t, origin_distance(p, x) + shift) + shift);
+}
+
+/// Sample k of a listed triangle of n rows with corners ca, cb, cc (float: the tests have slack),
+/// against the tool posed in `pt`: whether the Newton call can reach it (`newton`: the triangle is
+/// the call's candidate, triangle_step) and whether the contact list holds it (the call can reach
+/// it here or, within `shift`, at the next tick's predictions).
+__device__ void sample_flags(const ToolConst& t, const Posed& pt, int n, int k, Vec3f ca, Vec3f cb, Vec3f cc,
+                             bool newton, float shift, bool& cand, bool& listed) {
+  float b0, b1, b2;
+  sample_barycentric(n, k, b0, b1, b2);
+  const Vec3f yf = b0 * ca + b1 * cb + b2 * cc;
+  cand = newton && reachable(t, pt, yf);
+  listed = cand || reachable_within(t, pt, yf, shift);
+}
+
+/// The sample flags (sample_flags) of the warp's listed triangles (f, `listed` and `newton`: each
+/// lane's triangle and its triangle_step) after a step with a Newton call, at their corners' new
+/// iterates q, into SurfaceDev::tri_masks. The warp's samples in one sequence, triangle after
+/// triangle, 32 at a time over the lanes; each lane gathers its own triangle's bits from the
+/// ballots. Triangles of more than kMaskedSamples samples are left to block 0 (list_samples).
+__device__ void listed_sample_masks(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& pt,
+                                    const Vec3f* q, const Vec3f* v, bool last, int f, bool listed, bool newton) {
+  const int lane = threadIdx.x & 31;
+  int n = 0, count = 0;
+  Vec3f ca{}, cb{}, cc{};
+  float shift = 0.f;
+  if (listed) {
+    const int4 tri = sd.tri[f];
+    ca = q[tri.x];
+    cb = q[tri.y];
+    cc = q[tri.z];
+    n = surface_sample_level(tri.w, sd.spacing, static_cast<Vec3d>(ca), static_cast<Vec3d>(cb), static_cast<Vec3d>(cc));
+    if (n * n <= kMaskedSamples) {
+      count = n * n;
+      shift = last ? prediction_shift(d, tri, q, v) : 0.f;
+    }
+  }
+  int end = count;  // inclusive scan: this lane's samples are [end - count, end) of the sequence
+  for (int o = 1; o < 32; o <<= 1) {
+    const int y = __shfl_up_sync(~0u, end, o);
+    if (lane >= o) end += y;
+  }
+  const int total = __shfl_sync(~0u, end, 31), begin = end - count;
+  unsigned long long cand_bits = 0, list_bits = 0;
+  for (int base = 0; base < total; base += 32) {
+    const int g = base + lane;
+    int lo = 0, hi = 31;  // the owner of sample g: the first lane whose end passes g
+    for (int step = 0; step < 5; ++step) {
+      const int mid = (lo + hi) / 2;
+      if (__shfl_sync(~0u, end, mid) <= g) lo = mid + 1; else hi = mid;
+    }
+    const int k = g - __shfl_sync(~0u, begin, lo), on = __shfl_sync(~0u, n, lo);
+    const Vec3f oa{__shfl_sync(~0u, ca.x, lo), __shfl_sync(~0u, ca.y, lo), __shfl_sync(~0u, ca.z, lo)};
+    const Vec3f ob{__shfl_sync(~0u, cb.x, lo), __shfl_sync(~0u, cb.y, lo), __shfl_sync(~0u, cb.z, lo)};
+    const Vec3f oc{__shfl_sync(~0u, cc.x, lo), __shfl_sync(~0u, cc.y, lo), __shfl_sync(~0u, cc.z, lo)};
+    const float oshift = __shfl_sync(~0u, shift, lo);
+    const bool onewton = __shfl_sync(~0u, newton ? 1 : 0, lo) != 0;
+    bool cand = false, in_list = false;
+    if (g < total) sample_flags(t, pt, on, k, oa, ob, oc, onewton, oshift, cand, in_list);
+    const unsigned cw = __ballot_sync(~0u, cand), lw = __ballot_sync(~0u, in_list);
+    const int from = max(begin, base), to = min(end, base + 32);  // this lane's samples in the round
+    if (from < to) {
+      const unsigned long long keep = (1ull << (to - from)) - 1ull;
+      cand_bits |= ((static_cast<unsigned long long>(cw) >> (from - base)) & keep) << (from - begin);
+      list_bits |= ((static_cast<unsigned long long>(lw) >> (from - base)) & keep) << (from - begin);
+    }
+  }
+  if (count > 0) sd.tri_masks[f] = make_ulonglong2(cand_bits, list_bits);
 }
 
 /// Triangle f after a step, at its corners' new iterates q (every vertex block's step done):

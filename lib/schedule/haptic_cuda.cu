@@ -362,6 +362,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   I.surface = S.tool->surface != nullptr;
   if (I.surface) I.upload_surface(*S.tool->surface, m);
   I.surface_dev.lists = S.contact_lists;
+  I.surface_dev.masked_samples = S.sample_bits ? kMaskedSamples : 0;
   I.cand_q.allocate(std::max(m, I.surface_dev.capacity));
   I.block_cand.allocate(std::size_t(chunks) * kBlock);
   I.block_held.allocate(std::size_t(chunks) * kBlock);

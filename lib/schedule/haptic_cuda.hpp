@@ -121,6 +121,10 @@ struct DeviceHapticSetup {
   /// (docs/CUDA.md, "Surface contact"); off: every sample of the triangles near the tool (the same
   /// contacts, the sums in another order; for comparisons).
   bool contact_lists = true;
+  /// Surface contact: the triangle pass tests the samples of the listed triangles of up to 64
+  /// samples for block 0 (docs/CUDA.md, "Surface contact"); off: block 0 tests each of them itself,
+  /// as it does a larger triangle's (the same candidates; for comparisons).
+  bool sample_bits = true;
   int max_blocks = 0;                    ///< cap on the kernel's blocks (tests: blocks running several chunks); 0: none
   /// Tick blocks that may share a multiprocessor (replays sharing the device, replay_batch:
   /// DeviceTickCapacity::blocks_per_sm_shared); the carve-out beside the physical steps leaves

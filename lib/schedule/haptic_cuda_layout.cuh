@@ -183,6 +183,8 @@ struct SurfaceDev {
   int F = 0, chunks = 0;            // triangles; chunks of kBlock triangles (the vertex blocks run them as their vertex chunks)
   int capacity = 0;                 // samples the Newton call's list holds (MeshDev::cand_q, cand_w)
   bool lists = true;                // DeviceHapticSetup::contact_lists
+  int masked_samples = 0;           // a triangle of at most this many samples has tri_masks
+                                    //   (kMaskedSamples; 0 without DeviceHapticSetup::sample_bits)
   double spacing = 0, stiffness_factor = 1;  // SurfaceContactModel's
   float inv_reach = 1;              // 1 / (1 - reach_th): a triangle's bounding radius in the reach bound
   const int4* tri = nullptr;        // F: corners (x, y, z), rows at rest (w)

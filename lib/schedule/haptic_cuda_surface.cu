@@ -325,7 +325,7 @@ __device__ int list_samples(const MeshDev& d, const SurfaceDev& sd, const ToolCo
       lt.shift = last ? prediction_shift(d, tri, q, v) : 0.f;
       // A triangle the triangle pass tested: the samples of its list (a superset of its
       // candidates); a larger one: every sample, tested below.
-      if (lt.n * lt.n <= kMaskedSamples) {
+      if (lt.n * lt.n <= sd.masked_samples) {
         lt.masks = sd.tri_masks[lt.f];
         count = __popcll(lt.masks.y);
       } else {
@@ -370,7 +370,7 @@ __device__ int list_samples(const MeshDev& d, const SurfaceDev& sd, const ToolCo
       ca = lt.a;
       cb = lt.b;
       cc = lt.c;
-      if (n * n <= kMaskedSamples) {  // the k-th sample of its list
+      if (n * n <= sd.masked_samples) {  // the k-th sample of its list
         k = nth_set_bit(lt.masks.y, k);
         cand = (lt.masks.x >> k) & 1ull;
         listed = true;

@@ -158,7 +158,7 @@ __device__ void sample_flags(const ToolConst& t, const Posed& pt, int n, int k, 
 /// lane's triangle and its triangle_step) after a step with a Newton call, at their corners' new
 /// iterates q, into SurfaceDev::tri_masks. The warp's samples in one sequence, triangle after
 /// triangle, 32 at a time over the lanes; each lane gathers its own triangle's bits from the
-/// ballots. Triangles of more than kMaskedSamples samples are left to block 0 (list_samples).
+/// ballots. Triangles of more than sd.masked_samples samples are left to block 0 (list_samples).
 __device__ void listed_sample_masks(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& pt,
                                     const Vec3f* q, const Vec3f* v, bool last, int f, bool listed, bool newton) {
   const int lane = threadIdx.x & 31;
@@ -171,7 +171,7 @@ __device__ void listed_sample_masks(const MeshDev& d, const SurfaceDev& sd, cons
     cb = q[tri.y];
     cc = q[tri.z];
     n = surface_sample_level(tri.w, sd.spacing, static_cast<Vec3d>(ca), static_cast<Vec3d>(cb), static_cast<Vec3d>(cc));
-    if (n * n <= kMaskedSamples) {
+    if (n * n <= sd.masked_samples) {
       count = n * n;
       shift = last ? prediction_shift(d, tri, q, v) : 0.f;
     }

@@ -957,7 +957,10 @@ TEST(CudaDeviceTick, PipelinedStepsMatchUnpipelinedOnes) {
 /// and across launches) find every contact that testing each sample near the tool finds: the same
 /// target counts on every tick, the forces within round-off (the sums run in another order). On
 /// cholecystectomy_grasp through the grasp (a grasp event's step tests every sample) and on
-/// gap_insert, whose blocks' large triangles carry up to ~30 sample rows.
+/// gap_insert, whose blocks' large triangles carry up to ~30 sample rows (more than the triangle
+/// pass's 64 samples: block 0 tests those). The triangle pass's sample bits
+/// (DeviceHapticSetup::sample_bits) give block 0 the candidates its own tests give: the same
+/// target counts and forces.
 TEST(CudaDeviceTick, SurfaceContactListsFindEveryContact) {
   EBH_REQUIRE_DEVICE();
   const int ticks = 600;
@@ -969,27 +972,33 @@ TEST(CudaDeviceTick, SurfaceContactListsFindEveryContact) {
     DeviceTickProfile prof_lists, prof_every;
     const auto lists = device_ticks(ticks, nullptr, &prof_lists, window);
     const auto every = device_ticks(ticks, [](DeviceHapticSetup& s) { s.contact_lists = false; }, &prof_every, window);
+    const auto tested = device_ticks(ticks, [](DeviceHapticSetup& s) { s.sample_bits = false; }, nullptr, window);
     // The sums run in another order with the lists (per triangle, then per vertex), so the bound
     // is PipelinedStepsMatchUnpipelinedOnes': float32 round-off of the virtual mesh, (K + 1) 16 u X
     // per tick (K = 4), added over the ticks, through k_vcs. The target counts must match exactly.
     const double tol_f = M.scene.spec.stiffness.k_vcs * ticks * step_tolerance(4, max_abs_coordinate(M.pm.rest));
-    double err_f = 0, peak_f = 0;
-    int count_mismatch = 0, grasp_mismatch = 0, max_contacts = 0;
+    double err_f = 0, peak_f = 0, bits_f = 0;
+    int count_mismatch = 0, grasp_mismatch = 0, max_contacts = 0, bits_mismatch = 0;
     for (int n = 0; n < ticks; ++n) {
       err_f = std::max(err_f, norm(lists[n].force - every[n].force));
+      bits_f = std::max(bits_f, norm(lists[n].force - tested[n].force));
       peak_f = std::max(peak_f, norm(every[n].force));
       count_mismatch += lists[n].contacts != every[n].contacts;
       grasp_mismatch += lists[n].grasped != every[n].grasped;
+      bits_mismatch += lists[n].contacts != tested[n].contacts;
       max_contacts = std::max(max_contacts, every[n].contacts);
     }
     std::printf("[ contact lists, %s ] %d ticks, up to %d targets, peak %.3g N: max |F| diff %.3g N (tol %.3g), "
-                "%d ticks with another target count; %.1f%% of the steps read a list\n",
+                "%d ticks with another target count; %.1f%% of the steps read a list; block 0's own sample tests: "
+                "%.3g N, %d ticks with another count\n",
                 window.recording.c_str(), ticks, max_contacts, peak_f, err_f, tol_f, count_mismatch,
-                100 * prof_lists.listed);
+                100 * prof_lists.listed, bits_f, bits_mismatch);
     EXPECT_GT(max_contacts, 0) << "the window must contain contact";
     EXPECT_EQ(count_mismatch, 0);
     EXPECT_EQ(grasp_mismatch, 0);
     EXPECT_LE(err_f, tol_f);
+    EXPECT_EQ(bits_mismatch, 0);
+    EXPECT_LE(bits_f, tol_f);
     // Every step but the first reads the list of the step before, but a grasp event's.
     EXPECT_GT(prof_lists.listed, 0.99);
     EXPECT_EQ(prof_every.listed, 0.0);

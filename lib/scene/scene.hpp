@@ -59,7 +59,7 @@
 //   solver:
 //     method: chebyshev             # jacobi | chebyshev | direct
 //     diagonal: bounded             # bounded | plain: the Jacobi-type methods' D (docs/MODEL.md)
-//     physical_iterations: 16
+//     physical_iterations: 16       # the committed scenes and `scene init`: 8 (docs/PERFORMANCE.md, "Sweeps")
 //     virtual_iterations: 4         # virtual-mesh local-global iterations per haptic tick
 //     chebyshev_rho: 0.95           # (0, 1) | auto: the relaxed Jacobi iteration's spectral radius
 //                                   #   on this mesh (docs/MODEL.md, "Chebyshev's rho")

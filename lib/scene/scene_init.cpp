@@ -275,7 +275,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
   for (const auto& p : pin_yaml) y += "  - " + p + "\n";
   y += tool_yaml(forceps);
   y += "time: {haptic_hz: 1000, physical_hz: 100}\n";
-  y += "solver: {method: chebyshev, physical_iterations: 16, virtual_iterations: 4, chebyshev_rho: 0.95}\n";
+  y += "solver: {method: chebyshev, physical_iterations: 8, virtual_iterations: 4, chebyshev_rho: 0.95}\n";
   y += "camera: {eye: " + vec(eye, round4) + ", target: " + vec(centre, round4) + ", up: [0, 0, 1], fov_deg: 40}\n";
   y += "stages: {grasp: " + std::string(forceps ? "true" : "false") + ", frames: false}\n";
 

@@ -997,6 +997,9 @@ TEST(CudaDeviceTick, SurfaceContactListsFindEveryContact) {
     EXPECT_EQ(count_mismatch, 0);
     EXPECT_EQ(grasp_mismatch, 0);
     EXPECT_LE(err_f, tol_f);
+    // The bits give block 0 the same samples in the same order, so the forces are expected equal
+    // (0 N on the h100); the same bound is kept in case a flag computed in the other kernel rounds
+    // differently at a reach test's boundary and adds a candidate without contact.
     EXPECT_EQ(bits_mismatch, 0);
     EXPECT_LE(bits_f, tol_f);
     // Every step but the first reads the list of the step before, but a grasp event's.

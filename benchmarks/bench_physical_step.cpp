@@ -2,9 +2,10 @@
 // virtual mesh's haptic tick (4 Jacobi iterations with contacts, Algorithm 2's soft part), and the
 // rotation-extraction micro-benchmark (Mueller 2016 warm-started vs SVD). The physical state is
 // restored before each timed step (outside the timing), so every step is the same step.
-// Threads: OMP_NUM_THREADS (the physical step uses the OpenMP team; paper-sized virtual meshes
-// iterate on the calling thread).
+// Threads: OMP_NUM_THREADS (the physical step uses the OpenMP team); the virtual tick's argument
+// is its team (0: the calling thread).
 #include <benchmark/benchmark.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <map>
@@ -138,11 +139,18 @@ void BM_PhysicalModelBuild(benchmark::State& st, std::string scene, SolverSpec::
 /// One haptic tick of the virtual mesh: begin (E_svc targets, prediction), 4 iterations against
 /// contacts pressing the 64 highest vertices 1 mm down, end (velocities). Ticks follow each other
 /// (the cost does not depend on the state).
+/// The same tick on an OpenMP team of st.range(0) threads (parallel_min_vertices = 0), as the
+/// replays' haptic side iterates with more than one thread (schedule/scheduler.cpp).
 void BM_VirtualTick(benchmark::State& st, std::string scene) {
   std::string error;
   const Loaded* L = load(scene, error);
   if (!L) { st.SkipWithError(error.c_str()); return; }
-  const VirtualModel& vm = L->vm;
+  VirtualModel vm = L->vm;
+  const int saved_threads = omp_get_max_threads();
+  if (st.range(0) > 0) {
+    vm.parallel_min_vertices = 0;
+    omp_set_num_threads(static_cast<int>(st.range(0)));
+  }
   VirtualState vs = make_virtual_state(vm);
   VirtualWorkspace vw = make_virtual_workspace(vm);
   std::vector<int> order(vm.num_vertices);
@@ -157,6 +165,7 @@ void BM_VirtualTick(benchmark::State& st, std::string scene) {
     for (int i = 0; i < 4; ++i) virtual_iteration(vm, vw, vs, contacts);
     virtual_end_tick(vm, vw, vs);
   }
+  omp_set_num_threads(saved_threads);
   st.counters["vertices"] = vm.num_vertices;
   st.counters["edges"] = static_cast<double>(vm.edges.size());
 }
@@ -203,8 +212,9 @@ BENCHMARK(BM_RotationSvd);
   BENCHMARK_CAPTURE(BM_PhysicalStep, scene##_jacobi, #scene, SolverSpec::Method::Jacobi)->Unit(benchmark::kMillisecond);  \
   BENCHMARK_CAPTURE(BM_PhysicalStep, scene##_chebyshev, #scene, SolverSpec::Method::Chebyshev)->Unit(benchmark::kMillisecond); \
   BENCHMARK_CAPTURE(BM_PhysicalStep, scene##_direct, #scene, SolverSpec::Method::Direct)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_VirtualTick, tube, "tube")->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy, "cholecystectomy")->Unit(benchmark::kMicrosecond);
+// Argument: the team's threads (0: the calling thread alone, as a 1-thread haptic side runs).
+BENCHMARK_CAPTURE(BM_VirtualTick, tube, "tube")->Arg(0)->Arg(2)->Arg(4)->Arg(8)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy, "cholecystectomy")->Arg(0)->Arg(2)->Arg(4)->Arg(8)->Unit(benchmark::kMicrosecond);
 
 EBH_SCENE_BENCH(box8k)
 EBH_SCENE_BENCH(tube)

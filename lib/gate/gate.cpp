@@ -136,6 +136,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
     meta.start = opt.start;
     meta.duration = opt.duration;
     meta.overrides = overrides;
+    meta.threads = split_threads(opt.mode, opt.haptic_threads);
     const double dur = std::min(c.duration, in.recording.duration() - c.start);
     check_replay_size(*in.world, dur, 0, in.recording_path, tmp.string());
     ReplayWriter writer(tmp.string(), *in.world, meta, tick_count(*in.world, dur), false);

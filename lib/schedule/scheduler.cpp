@@ -24,23 +24,17 @@
 #endif
 
 namespace ebh {
+
+ThreadSplit split_threads(Mode mode, int haptic) {
+  const int total = std::max(1, omp_get_max_threads());
+  if (mode == Mode::Lockstep) return {total, total};
+  const int h = std::clamp(haptic > 0 ? haptic : (total + 1) / 2, 1, std::max(1, total - 1));
+  return {h, std::max(1, total - h)};
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-/// OpenMP threads for each side. In lockstep the sides take turns and each may use every core;
-/// in async and realtime they run at once, so the haptic side keeps one core and the physical
-/// step gets the rest (more threads than cores would leave OpenMP's spinning barriers waiting on
-/// descheduled threads). Results do not depend on these counts (bitwise, tests/solver).
-struct ThreadSplit {
-  int haptic = 1, physical = 1;
-};
-
-ThreadSplit split_threads(Mode mode) {
-  const int total = std::max(1, omp_get_max_threads());
-  if (mode == Mode::Lockstep) return {total, total};
-  return {1, std::max(1, total - 1)};
-}
 
 /// Restores the calling thread's OpenMP thread count when a replay ends.
 struct ThreadCountGuard {
@@ -357,7 +351,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   const double t0 = rec.t.front() + opt.start;
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
-  const ThreadSplit threads = split_threads(opt.mode);
+  const ThreadSplit threads = split_threads(opt.mode, opt.haptic_threads);
   const ThreadCountGuard haptic_threads(threads.haptic);
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
   PhysicalSide physical = make_physical_side(world);
@@ -429,7 +423,7 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
   bool fresh_x = false;
   std::atomic<bool> done{false};
   take_haptic_snapshot(haptic, published_q);
-  const ThreadSplit threads = split_threads(Mode::Realtime);
+  const ThreadSplit threads = split_threads(Mode::Realtime, opt.haptic_threads);
   const ThreadCountGuard haptic_threads(threads.haptic);
 
   ReplaySummary s;

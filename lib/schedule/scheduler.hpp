@@ -48,7 +48,23 @@ struct ReplayOptions {
   /// mesh, as many as the device holds. replay_batch shares the device this way; the results do
   /// not depend on it (bitwise).
   int device_blocks = 0;
+  /// --backend cpu, async and realtime: the OpenMP threads of the haptic side (its virtual-mesh
+  /// passes, solver/virtual_mesh.hpp's virtual_team); the physical step gets the rest of
+  /// omp_get_max_threads(). 0: half of them, rounded up (one each on two cores). Lockstep gives
+  /// both sides every thread. The results do not depend on it (bitwise).
+  int haptic_threads = 0;
 };
+
+/// OpenMP threads for each side of a CPU replay. In lockstep the sides take turns and each may use
+/// every core; in async and realtime they run at once, so they split the cores (more threads than
+/// cores would leave OpenMP's spinning barriers waiting on descheduled threads): the haptic side
+/// takes `haptic_threads` of them (ReplayOptions; 0: half, rounded up: a period's ticks outweigh
+/// its physical step on every committed scene) and the physical step the rest, one at least.
+/// Results do not depend on these counts (bitwise, tests/solver, tests/schedule).
+struct ThreadSplit {
+  int haptic = 1, physical = 1;
+};
+ThreadSplit split_threads(Mode mode, int haptic_threads);
 
 /// What a replay reports as it goes (the HDF5 writer and the progress bar implement it).
 class ReplayObserver {

@@ -133,7 +133,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   ws.h = h;
   const int m = model.num_vertices;
   const double v_scale = tick_velocity_scale(h, model.damping);  // the velocity carried on (damped)
-  const bool team = m >= model.parallel_min_vertices;
+  const bool team = virtual_team(model, m);
 
   // Alg. 2 line 1: the E_svc targets, paired once per version of the physical positions. The
   // targets before this tick are p_from (blend 0) after a new version, the last tick's otherwise.
@@ -169,7 +169,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
 
   // Alg. 2 line 6 on the active vertices, as virtual_begin_tick.
   const int na = static_cast<int>(r.vertices.size());
-#pragma omp parallel for schedule(static) if (na >= model.parallel_min_vertices)
+#pragma omp parallel for schedule(static) if (virtual_team(model, na))
   for (int i = 0; i < na; ++i) {
     const int j = r.vertices[i];
     ws.p[j] = coupling_point(r, j, a);
@@ -207,7 +207,7 @@ void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, A
                              model.rest_len.data(), model.k_s};
   const Vec3d* q = state.q.data();
   Vec3d* q_next = ws.q_next.data();
-#pragma omp parallel if (na >= model.parallel_min_vertices)
+#pragma omp parallel if (virtual_team(model, na))
   {
     edge_spring_gradients_listed(edges, r.edges.data(), static_cast<int>(r.edges.size()), q, ws.edge_grad.data());
 #pragma omp for schedule(static)
@@ -228,7 +228,7 @@ double virtual_end_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   const double v_scale = tick_velocity_scale(ws.h, model.damping);
   const int na = static_cast<int>(r.vertices.size());
   double moved2 = 0;
-#pragma omp parallel for schedule(static) reduction(max : moved2) if (na >= model.parallel_min_vertices)
+#pragma omp parallel for schedule(static) reduction(max : moved2) if (virtual_team(model, na))
   for (int i = 0; i < na; ++i) {
     const int j = r.vertices[i];
     state.v[j] = v_scale * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23, damped

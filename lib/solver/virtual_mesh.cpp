@@ -2,6 +2,8 @@
 // local-global iterations (the soft part of Algorithm 2).
 #include "solver/virtual_mesh.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -123,6 +125,10 @@ VirtualModel build_virtual_model(const Scene& scene) {
   return M;
 }
 
+bool virtual_team(const VirtualModel& model, int count) {
+  return count >= model.parallel_min_vertices && omp_get_max_threads() > 1;
+}
+
 VirtualState make_virtual_state(const VirtualModel& model) {
   return VirtualState{model.rest, std::vector<Vec3d>(model.num_vertices)};
 }
@@ -151,7 +157,7 @@ void virtual_begin_tick(const VirtualModel& model, VirtualWorkspace& ws, Virtual
                         std::span<const Vec3d> physical_x, double h) {
   ws.h = h;
   const int m = model.num_vertices;
-#pragma omp parallel for schedule(static) if (m >= model.parallel_min_vertices)
+#pragma omp parallel for schedule(static) if (virtual_team(model, m))
   for (int j = 0; j < m; ++j) {
     ws.p[j] = paired_point(physical_x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
                            model.pair_count[j]);                        // Alg. 2 line 1: E_svc targets
@@ -189,7 +195,7 @@ void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualS
     ws.contact_k[c.vertex] += c.stiffness;
   }
   // Local step (edge targets R e0; E_svc and E_con targets are fixed) and Jacobi global step.
-#pragma omp parallel if (model.num_vertices >= model.parallel_min_vertices)
+#pragma omp parallel if (virtual_team(model, model.num_vertices))
   {
     edge_pass(model, ws, state.q.data());
     vertex_pass(model, ws, state.q.data(), ws.q_next.data());
@@ -204,7 +210,7 @@ void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualS
 void virtual_end_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state) {
   const int m = model.num_vertices;
   const double v_scale = tick_velocity_scale(ws.h, model.damping);
-#pragma omp parallel for schedule(static) if (m >= model.parallel_min_vertices)
+#pragma omp parallel for schedule(static) if (virtual_team(model, m))
   for (int j = 0; j < m; ++j) state.v[j] = v_scale * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23, damped
 }
 

@@ -56,9 +56,10 @@ struct VirtualModel {
   std::vector<int> tri_entries;    ///< incident triangle indices
   std::vector<double> stiff_diag;  ///< #m k_s * degree + k_svc: the diagonal without mass and contact
   std::vector<double> rest_len;    ///< #E |q_a^0 - q_b^0|
-  /// Iterations use the OpenMP team from this many vertices on; smaller meshes (every paper scene)
-  /// iterate on the calling thread, which at the haptic rate beats waking a team (docs/MODEL.md).
-  int parallel_min_vertices = 1 << 16;
+  /// Iterations use the calling thread's OpenMP team (when it has more than one thread) from this
+  /// many vertices (or active vertices) on; below it a pass is too short to pay for the team's
+  /// fork and barrier at the haptic rate (docs/MODEL.md, virtual_team).
+  int parallel_min_vertices = 4096;
 };
 
 /// Mutable virtual-mesh state: q and v, both #m.
@@ -83,6 +84,11 @@ struct VirtualWorkspace {
 /// boundary), refined 1 -> 4 when scene.spec.virtual_refine is 1, paired with the physical mesh.
 /// Throws InputError when a virtual vertex cannot be paired (no tets).
 VirtualModel build_virtual_model(const Scene& scene);
+
+/// Whether a pass over `count` vertices of `model` runs on the calling thread's OpenMP team: from
+/// model.parallel_min_vertices on, and only where the team has more than one thread. The results
+/// do not depend on it (every per-vertex loop gathers).
+bool virtual_team(const VirtualModel& model, int count);
 
 VirtualState make_virtual_state(const VirtualModel& model);  ///< rest, at rest
 VirtualWorkspace make_virtual_workspace(const VirtualModel& model);

@@ -51,11 +51,12 @@ Recording entering_bore(double seconds) {
   return r;
 }
 
-Capture run(Mode mode, const Recording& rec, int threads) {
+Capture run(Mode mode, const Recording& rec, int threads, int haptic_threads = 0) {
   omp_set_num_threads(threads);
   Capture c;
   ReplayOptions opt;
   opt.mode = mode;
+  opt.haptic_threads = haptic_threads;
   replay(*tube().world, rec, opt, c);
   return c;
 }
@@ -68,6 +69,33 @@ TEST(Scheduler, AsyncReplayIsBitwiseReproducibleAcrossRunsAndThreadCounts) {
   ASSERT_FALSE(a.values.empty());
   EXPECT_EQ(a.values, b.values);  // bitwise: std::vector<double> == compares exactly
   EXPECT_EQ(a.values, c.values);
+}
+
+TEST(Scheduler, AsyncReplayWithAHapticTeamIsBitwiseThatOfOneThread) {
+  // tube's 6628 virtual vertices are above parallel_min_vertices: 2 haptic threads iterate them as
+  // a team (virtual_team), beside a 1-thread physical step.
+  ASSERT_GE(tube().world->virtual_mesh.num_vertices, tube().world->virtual_mesh.parallel_min_vertices);
+  const Recording rec = entering_bore(0.1);
+  const Capture team = run(Mode::Async, rec, 3, 2), one = run(Mode::Async, rec, 1);
+  ASSERT_FALSE(team.values.empty());
+  EXPECT_EQ(team.values, one.values);
+}
+
+TEST(Scheduler, SplitsTheThreadsBetweenTheSides) {
+  const int saved = omp_get_max_threads();
+  auto split = [](int total, Mode mode, int haptic) {
+    omp_set_num_threads(total);
+    const ThreadSplit s = split_threads(mode, haptic);
+    return std::pair{s.haptic, s.physical};
+  };
+  EXPECT_EQ(split(1, Mode::Async, 0), std::pair(1, 1));
+  EXPECT_EQ(split(2, Mode::Async, 0), std::pair(1, 1));  // the 2-core machine: one each, as before
+  EXPECT_EQ(split(3, Mode::Async, 0), std::pair(2, 1));
+  EXPECT_EQ(split(16, Mode::Async, 0), std::pair(8, 8));
+  EXPECT_EQ(split(16, Mode::Realtime, 4), std::pair(4, 12));
+  EXPECT_EQ(split(16, Mode::Async, 40), std::pair(15, 1));  // the physical step keeps one
+  EXPECT_EQ(split(16, Mode::Lockstep, 4), std::pair(16, 16));  // the sides take turns
+  omp_set_num_threads(saved);
 }
 
 TEST(Scheduler, LockstepReplayIsBitwiseReproducible) {

@@ -39,6 +39,7 @@ struct ReplayArgs {
   std::vector<std::string> overrides;
   std::string render_dir;
   ReplayTransformOptions transforms;
+  int haptic_threads = 0;
   bool allow_outside = false, quiet = false;
 };
 
@@ -105,6 +106,7 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   opt.mode = mode;
   opt.start = a.start;
   opt.duration = a.duration.value_or(0);  // 0: the rest of the recording
+  opt.haptic_threads = a.haptic_threads;
   opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? 30.0 : 0.0);
   if (!a.render_dir.empty() && opt.frames_hz <= 0) opt.frames_hz = 30.0;  // --render needs frames
   if (opt.frames_hz * world.h_haptic > 1 + 1e-9)
@@ -122,6 +124,7 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   meta.mode = mode_name(mode);
   meta.backend = a.backend;
   meta.device = cpu_description();
+  meta.threads = split_threads(mode, opt.haptic_threads);
 #if EBH_HAVE_CUDA
   if (world.backend == Backend::Cuda) meta.device = cuda_device_description() + " + " + meta.device;
 #endif
@@ -234,6 +237,10 @@ void add_replay_options(CLI::App* c, ReplayArgs& a) {
                 "Device tool frame -> ebh's, on the right (in the tool's frame): \"x,y,z,rx,ry,rz\" (the scene's "
                 "world unit, degrees)");
   c->add_option("--render", a.render_dir, "Also render the frames to PNG files in DIR (needs OSMesa)");
+  c->add_option("--haptic-threads", a.haptic_threads,
+                "CPU, async and realtime: OpenMP threads of the haptic side; the physical step gets the rest "
+                "(default: half of OMP_NUM_THREADS or the cores, rounded up)")
+      ->check(CLI::Range(1, 4096));
   c->add_flag("--allow-outside", a.allow_outside, "Accept a trajectory far outside the scene");
   c->add_flag("-q,--quiet", a.quiet, "No progress bar and no summary");
 }

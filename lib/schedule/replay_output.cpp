@@ -233,8 +233,10 @@ ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, cons
   f.set_attr("backend", meta.backend);
   f.set_attr("device", meta.device);
   f.set_attr("threads", static_cast<std::int64_t>(omp_get_max_threads()));
-  f.set_attr("haptic_threads", static_cast<std::int64_t>(meta.threads.haptic));
-  f.set_attr("physical_threads", static_cast<std::int64_t>(meta.threads.physical));
+  if (meta.backend == "cpu") {  // the CPU backend's split of them between the sides
+    f.set_attr("haptic_threads", static_cast<std::int64_t>(meta.threads.haptic));
+    f.set_attr("physical_threads", static_cast<std::int64_t>(meta.threads.physical));
+  }
   write_provenance(f, world, meta);
   write_parameters(f, world);
   write_rest_mesh(f, world);

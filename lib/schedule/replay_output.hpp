@@ -33,7 +33,7 @@ struct ReplayMetadata {
   std::string mode = "async";
   std::string backend = "cpu";
   std::string device;             ///< e.g. the CPU model
-  ThreadSplit threads;            ///< the CPU replay's OpenMP threads per side (split_threads)
+  ThreadSplit threads;            ///< the OpenMP threads per side (split_threads); written for the CPU backend
   std::vector<std::string> overrides;  ///< --set key=value, as given
   ReplayTransformOptions transforms;   ///< --transform, --tool-transform, as given
   PoseTransforms applied;              ///< what the recording's poses got (options or its attributes)

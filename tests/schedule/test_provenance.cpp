@@ -55,6 +55,7 @@ void expect_reproduced_from_output(const std::string& scene, const std::vector<s
     meta.overrides = overrides;
     meta.transforms = transforms;
     meta.applied = in.transforms;
+    meta.threads = split_threads(opt.mode, opt.haptic_threads);
     ReplayWriter writer(out, *in.world, meta, tick_count(*in.world, opt.duration), false);
     writer.commit(replay(*in.world, in.recording, opt, writer));
   }
@@ -67,6 +68,11 @@ void expect_reproduced_from_output(const std::string& scene, const std::vector<s
     EXPECT_EQ(sha256_file(path), f.attr_string(std::string(key) + "_sha256")) << key << " changed since the replay";
   }
   EXPECT_EQ(lines(f.attr_string("overrides_list")), overrides);
+  // The CPU replay's threads: in all, and each side's share (split_threads).
+  const ThreadSplit split = split_threads(parse_mode(f.attr_string("mode")), 0);
+  EXPECT_EQ(f.attr_int("haptic_threads"), split.haptic);
+  EXPECT_EQ(f.attr_int("physical_threads"), split.physical);
+  EXPECT_GE(f.attr_int("threads"), f.attr_int("haptic_threads"));
   // The transforms: the options as given, and what the poses got (absent when nothing).
   EXPECT_EQ(f.attr_string("transform_option"), transforms.world);
   EXPECT_EQ(f.attr_string("tool_transform_option"), transforms.tool);

@@ -68,7 +68,8 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     return static_cast<std::size_t>(it - t.header.begin());
   };
   const auto c_id = optional_column("id"), c_error = optional_column("error"), c_baseline = optional_column("baseline"),
-             c_residual = optional_column("timing.physical_residual_max"), c_hz = optional_column("haptic_hz");
+             c_residual = optional_column("timing.physical_residual_max"), c_hz = optional_column("haptic_hz"),
+             c_rate = optional_column("whole.max_force_rate_N_per_s");
   auto number = [&](std::size_t row, std::size_t col) {
     const std::string& s = t.rows[row][col];
     if (s.empty()) return kNaN;
@@ -136,6 +137,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       p.error_max = med(c_max);
       p.error_p999 = med(c_p999);
       p.residual_max = med(c_residual);
+      p.max_force_rate = med(c_rate);
       p.haptic_hz = med(c_hz);
       p.below_rate = p.haptic_hz < min_haptic_hz;  // false for NaN (not in the summary)
       g.points.push_back(p);
@@ -173,7 +175,7 @@ std::optional<BaselineGoal> baseline_goal(const ReportGroup& g) {
 std::string report_markdown(const std::vector<ReportGroup>& groups) {
   std::ostringstream o;
   o << "# Run time against force error\n\n"
-       "Force error: |F - F_ref| per reference tick against the reference replay of the same scene and recording. Front: the configurations that no other one beats on both wall time and RMS error.\n";
+       "Force error: |F - F_ref| per reference tick against the reference replay of the same scene and recording. Front: the configurations that no other one beats on both wall time and RMS error. Max force rate: the rendered force's largest change per second (`ebh metrics`), which a configuration that follows the device faster raises.\n";
   if (!groups.empty() && groups.front().min_haptic_hz > 0)
     o << "\nConfigurations below " << fmt(groups.front().min_haptic_hz, "%g")
       << " haptic ticks per second (marked `< Hz`) are listed but are neither on the front nor candidates against the "
@@ -181,15 +183,16 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
   for (const ReportGroup& g : groups) {
     o << "\n## " << g.scene << " + " << g.recording << ", " << g.backend << "\n\n";
     o << "Reference: " << (g.reference.empty() ? "not in the summary" : md(g.reference)) << "\n\n";
-    o << "| front | overrides | runs | wall (s) | real time | force error RMS (N) | max (N) | p99.9 (N) | max physical "
-         "residual |\n|---|---|---|---|---|---|---|---|---|\n";
+    o << "| front | overrides | runs | wall (s) | real time | force error RMS (N) | max (N) | p99.9 (N) | max force rate "
+         "(N/s) | max physical residual |\n|---|---|---|---|---|---|---|---|---|---|\n";
     for (const ReportPoint& p : g.points)
       o << "| " << (p.front ? "*" : p.reference ? "reference" : p.below_rate ? "< Hz" : "")
         << (p.baseline.empty() ? "" : " " + md(p.baseline))
         << " | " << md(p.overrides) << " | " << p.runs << " | "
         << fmt(p.wall_s) << " | " << fmt(p.real_time_factor, "%.3gx") << " | " << fmt(p.error_rms) << " | "
-        << fmt(p.error_max) << " | " << fmt(p.error_p999) << " | " << fmt(p.residual_max) << " |\n";
-    if (g.points.empty()) o << "| | (no finished run) | | | | | | | |\n";
+        << fmt(p.error_max) << " | " << fmt(p.error_p999) << " | " << fmt(p.max_force_rate) << " | " << fmt(p.residual_max)
+        << " |\n";
+    if (g.points.empty()) o << "| | (no finished run) | | | | | | | | |\n";
     if (const auto goal = baseline_goal(g)) {
       const ReportPoint &b = g.points[goal->baseline], &f = g.points[goal->fastest], &a = g.points[goal->most_accurate];
       o << "\nAgainst the baseline " << md(b.baseline) << " (" << md(b.overrides) << ": " << fmt(b.wall_s) << " s, RMS error "

@@ -29,6 +29,7 @@ struct ReportPoint {
   double wall_s = 0, real_time_factor = 0;
   double error_rms = 0, error_max = 0, error_p999 = 0;  ///< N, against the reference
   double residual_max = 0;                             ///< max physical residual (NaN when absent)
+  double max_force_rate = 0;                           ///< N/s, the rendered force's largest rate (NaN when absent)
   double haptic_hz = 0;                                ///< haptic ticks per second (NaN when absent)
   bool below_rate = false;                             ///< haptic_hz below the report's floor: no candidate
   bool front = false;

@@ -503,6 +503,29 @@ TEST(SweepReport, HandMadeSummary) {
   const std::string md = report_markdown(g);
   EXPECT_NE(md.find("| * | k=1 | 1 | 1 | 2x | 0.5 |"), std::string::npos) << md;
   EXPECT_NE(md.find("| reference | solver.method=direct | 1 | 10 |"), std::string::npos) << md;
+  EXPECT_TRUE(std::isnan(g[0].points[0].max_force_rate));  // the hand-made summary has no metrics
+}
+
+// The rendered force's largest rate (ebh metrics' whole.max_force_rate_N_per_s) beside the
+// errors: the median of a configuration's runs, in the table's column before the residual.
+TEST(SweepReport, MaxForceRateColumn) {
+  const std::string file = front_file();
+  CsvTable t = parse_csv(front_text(), file);
+  t.header.push_back("whole.max_force_rate_N_per_s");
+  for (std::size_t r = 0; r < t.rows.size(); ++r) t.rows[r].push_back(std::to_string(100 * (r + 1)));
+  const std::vector<ReportGroup> g = build_report(t, file);
+  ASSERT_EQ(g.size(), 1u);
+  const std::string md = report_markdown(g);
+  EXPECT_NE(md.find("| max force rate (N/s) | max physical residual |"), std::string::npos) << md;
+  for (const ReportPoint& p : g[0].points) {
+    std::vector<double> rates;  // the rows of this configuration, as the summary lists them
+    for (std::size_t r = 0; r < t.rows.size(); ++r)
+      if (t.rows[r][t.column("overrides", file)] == p.overrides && t.rows[r][t.column("status", file)] == "ok")
+        rates.push_back(100.0 * static_cast<double>(r + 1));
+    ASSERT_FALSE(rates.empty()) << p.overrides;
+    const double expected = rates.size() == 1 ? rates[0] : 0.5 * (rates[0] + rates[1]);
+    EXPECT_DOUBLE_EQ(p.max_force_rate, expected) << p.overrides;
+  }
 }
 
 // The baseline column: its point is marked, and the report finds the fastest configuration at

@@ -2,14 +2,22 @@
 // The surface of a tetrahedral mesh: the faces that belong to exactly one tet.
 #include <vector>
 
+#include "math/hd.hpp"
 #include "mesh/tet_mesh.hpp"
 
 namespace ebh {
 
 /// Signed volume of the tet (a, b, c, d): det(b - a, c - a, d - a) / 6, positive when d lies on
 /// the side of triangle (a, b, c) that its counter-clockwise normal points to.
-inline double signed_volume(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
+EBH_HD double signed_volume(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
   return dot(cross(b - a, c - a), d - a) / 6.0;
+}
+
+/// Whether tet (a, b, c, d) is inverted or flat: its signed volume of the opposite sign to (or zero
+/// against) `rest_sign`, its sign at rest (+1 or -1; rest_signs). The host's count_inverted_tets
+/// and the device's count of the physical steps inside the tick launches (docs/CUDA.md).
+EBH_HD bool inverted_or_flat(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d, signed char rest_sign) {
+  return signed_volume(a, b, c, d) * rest_sign <= 0;
 }
 
 /// The four faces of tet (a, b, c, d), each oriented counter-clockwise seen from outside when the

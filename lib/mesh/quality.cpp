@@ -299,7 +299,7 @@ int count_inverted_tets(std::span<const Vec3d> x, std::span<const Tet> tets, std
   int inverted = 0;
   for (std::size_t t = 0; t < tets.size(); ++t) {
     const Tet& k = tets[t];
-    inverted += signed_volume(x[k[0]], x[k[1]], x[k[2]], x[k[3]]) * rest_sign[t] <= 0;
+    inverted += inverted_or_flat(x[k[0]], x[k[1]], x[k[2]], x[k[3]], rest_sign[t]);
   }
   return inverted;
 }

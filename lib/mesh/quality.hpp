@@ -72,7 +72,10 @@ struct InvertedTets {
   /// The count at positions x of the mesh (rest, tets); keeps the most.
   int count(std::span<const Vec3d> rest, std::span<const Tet> tets, std::span<const Vec3d> x) {
     if (rest_sign.empty()) rest_sign = rest_signs(rest, tets);
-    const int n = count_inverted_tets(x, tets, rest_sign);
+    return record(count_inverted_tets(x, tets, rest_sign));
+  }
+  /// A count made elsewhere (the device's, PhysicalStepReport::inverted); keeps the most.
+  int record(int n) {
     most = n > most ? n : most;
     return n;
   }

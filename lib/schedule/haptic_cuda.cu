@@ -50,6 +50,7 @@
 #include <string>
 #include <vector>
 
+#include "mesh/quality.hpp"
 #include "schedule/haptic_cuda.hpp"
 #include "schedule/haptic_cuda_handoff.cuh"
 #include "schedule/haptic_cuda_layout.cuh"
@@ -191,6 +192,13 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<Vec3f> xring[3];       // step k's x in xring[ring_slot(k)]
   cuda::PinnedArray<Vec3f> x_slots;        // step k's x for finish_step, at (k % step_slots) n
   std::vector<cudaEvent_t> step_ready;     // per slot: the step's x copied and published
+  // The steps' inverted or flat tets (DeviceHapticSetup::physical_tets; none: not counted).
+  int tets = 0;
+  cuda::DeviceArray<int4> inverted_tets;
+  cuda::DeviceArray<signed char> inverted_sign;  // each tet's sign at rest (rest_signs)
+  cuda::DeviceArray<unsigned> inverted_sum;      // the step being counted (publish_step zeroes it)
+  int* inverted_slots = nullptr;                 // cudaHostAlloc, mapped: step k's count at k % step_slots
+  int* inverted_slots_dev = nullptr;             // the same, the device's pointer
   cuda::VirtualModelArrays model;
   cuda::DeviceArray<std::uint8_t> held;
   cuda::DeviceArray<Vec3f> block_cand;
@@ -237,6 +245,7 @@ struct CudaHapticTicks::Impl {
     if (step_done) cudaEventDestroy(step_done);
     if (ring) cudaFreeHost(ring);
     if (overflow) cudaFreeHost(overflow);
+    if (inverted_slots) cudaFreeHost(inverted_slots);
     if (stream) cudaStreamDestroy(stream);
   }
 
@@ -345,6 +354,20 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     arr.upload(host.data(), st);
   };
   const int m = I.m;
+  if (!S.physical_tets.empty()) {  // the steps inside the launches count their inverted tets
+    std::vector<int4> tets(S.physical_tets.size());
+    for (std::size_t a = 0; a < tets.size(); ++a) {
+      const Tet& k = S.physical_tets[a];
+      for (const int v : k)
+        if (v < 0 || v >= static_cast<int>(S.physical_rest.size()))
+          throw std::invalid_argument("CudaHapticTicks: physical tet " + std::to_string(a) + " names a vertex out of range");
+      tets[a] = make_int4(k[0], k[1], k[2], k[3]);
+    }
+    I.tets = static_cast<int>(tets.size());
+    up(I.inverted_tets, tets);
+    up(I.inverted_sign, rest_signs(S.physical_rest, S.physical_tets));
+    up(I.inverted_sum, std::vector<unsigned>(1, 0u));
+  }
   I.model.upload(M, st);
   up(I.edge_ell, edge_ell(M));
   std::vector<Vec3f> x0(I.n), q0(m), zero(m);
@@ -562,6 +585,11 @@ int CudaHapticTicks::run_ticks_with_steps(int count) {
     I.x_slots.allocate(std::size_t(I.step_slots) * std::max(I.n, 1));
     I.steps_sync.allocate(1);
     EBH_CUDA_CHECK(cudaMemsetAsync(I.steps_sync.get(), 0, sizeof(StepsDev), I.stream));
+    if (I.tets > 0) {
+      EBH_CUDA_CHECK(cudaHostAlloc(reinterpret_cast<void**>(&I.inverted_slots), sizeof(int) * I.step_slots, cudaHostAllocMapped));
+      for (int k = 0; k < I.step_slots; ++k) I.inverted_slots[k] = -1;
+      EBH_CUDA_CHECK(cudaHostGetDevicePointer(reinterpret_cast<void**>(&I.inverted_slots_dev), I.inverted_slots, 0));
+    }
     I.step_ready.resize(I.step_slots);
     for (cudaEvent_t& e : I.step_ready) EBH_CUDA_CHECK(cudaEventCreateWithFlags(&e, cudaEventDisableTiming));
     MeshDev& d = I.dev;
@@ -598,7 +626,15 @@ int CudaHapticTicks::run_ticks_with_steps(int count) {
       EBH_CUDA_CHECK(cudaMemcpyAsync(I.x_slots.get() + std::size_t(slot) * I.n, x, I.n * sizeof(Vec3f),
                                      cudaMemcpyDeviceToHost, pst));
     }
-    publish_step<<<1, 32, 0, pst>>>(I.steps_sync.get(), static_cast<unsigned long long>(k + 1));
+    int* count_slot = nullptr;
+    if (I.tets > 0) {
+      count_inverted<<<std::min(cuda::blocks_for(I.tets, 256), 256), 256, 0, pst>>>(
+          I.xring[ring_slot(k)].get(), I.inverted_tets.get(), I.inverted_sign.get(), I.tets, I.inverted_sum.get());
+      EBH_CUDA_LAUNCH_CHECK(pst, "count_inverted");
+      count_slot = I.inverted_slots_dev + slot;
+    }
+    publish_step<<<1, 32, 0, pst>>>(I.steps_sync.get(), static_cast<unsigned long long>(k + 1),
+                                    count_slot ? I.inverted_sum.get() : nullptr, count_slot);
     EBH_CUDA_LAUNCH_CHECK(pst, "publish_step");
     EBH_CUDA_CHECK(cudaEventRecord(I.step_ready[slot], pst));
   };
@@ -630,9 +666,10 @@ PhysicalStepReport CudaHapticTicks::finish_step(std::vector<Vec3d>& x) {
   if (I.steps_finished >= I.steps_enqueued) throw std::logic_error("CudaHapticTicks::finish_step: no step in flight");
   const int slot = static_cast<int>(I.steps_finished % I.step_slots);
   ++I.steps_finished;
-  const PhysicalStepReport r = I.physical->device_step_report(slot);
+  PhysicalStepReport r = I.physical->device_step_report(slot);
   EBH_CUDA_CHECK(cudaEventSynchronize(I.step_ready[slot]));
   to_double(I.x_slots.get() + std::size_t(slot) * I.n, I.n, x);
+  if (I.inverted_slots) r.inverted = I.inverted_slots[slot];
   return r;
 }
 

@@ -32,6 +32,7 @@
 #include <span>
 #include <vector>
 
+#include "mesh/tet_mesh.hpp"
 #include "solver/physical_mesh_cuda.hpp"
 #include "solver/virtual_mesh.hpp"
 #include "tool/tool_model.hpp"
@@ -131,6 +132,11 @@ struct DeviceHapticSetup {
   /// shared memory for that many and one block of the step. 1: a replay alone.
   int blocks_per_sm = 1;
   int ticks_per_step = 0;                ///< N, ticks per physical step (run_ticks_with_steps); 0: not used
+  /// The physical mesh at rest and its tets: the steps inside the launches (run_ticks_with_steps)
+  /// count their inverted or flat tets on the device (finish_step's PhysicalStepReport::inverted),
+  /// so that the host does not go over every tet after every step. Empty: not counted (-1).
+  std::span<const Vec3d> physical_rest;
+  std::span<const Tet> physical_tets;
 };
 
 /// How many blocks of the device tick's kernel for this tool's contact the device holds at once

@@ -3,6 +3,7 @@
 // block 0 and the vertex blocks release and acquire, the schedule of a run's steps, the chunks'
 // candidate and held lists that block 0 gathers in a fixed order, and the kernels on the physical
 // step's stream that exchange q and x with the ticks of a launch across periods.
+#include "mesh/boundary.hpp"
 #include "schedule/haptic_cuda_layout.cuh"
 
 namespace ebh {
@@ -193,9 +194,30 @@ __global__ void copy_positions(const Vec3f* from, Vec3f* to, int n) {
   for (int a = blockIdx.x * blockDim.x + threadIdx.x; a < n; a += gridDim.x * blockDim.x) to[a] = from[a];
 }
 
+/// Step k's inverted or flat tets (inverted_or_flat, against their signs at rest) at its x in the
+/// ring, added to `sum`: the host's test on the same coordinates (float32 widened to double, as
+/// finish_step's x), so the count is the one the host would make (docs/CUDA.md).
+__global__ void count_inverted(const Vec3f* x, const int4* tets, const signed char* sign, int count, unsigned* sum) {
+  unsigned c = 0;
+  for (int a = blockIdx.x * blockDim.x + threadIdx.x; a < count; a += gridDim.x * blockDim.x) {
+    const int4 t = tets[a];
+    c += inverted_or_flat(static_cast<Vec3d>(x[t.x]), static_cast<Vec3d>(x[t.y]), static_cast<Vec3d>(x[t.z]),
+                          static_cast<Vec3d>(x[t.w]), sign[a]);
+  }
+  for (int o = 16; o > 0; o >>= 1) c += __shfl_down_sync(0xffffffffu, c, o);
+  if ((threadIdx.x & 31) == 0 && c > 0) atomicAdd(sum, c);
+}
+
 /// The physical step's stream after step k's x is in the ring: publishes it to the ticks (k1 = k + 1).
-__global__ void publish_step(StepsDev* s, unsigned long long k1) {
-  if (threadIdx.x == 0) store_release(&s->done, k1);
+/// With the tets counted (sum not null): the count into the step's host slot, `sum` zeroed for the next.
+__global__ void publish_step(StepsDev* s, unsigned long long k1, unsigned* sum, int* slot) {
+  if (threadIdx.x == 0) {
+    if (sum) {
+      *slot = static_cast<int>(*sum);
+      *sum = 0;
+    }
+    store_release(&s->done, k1);
+  }
 }
 
 }  // namespace

@@ -290,7 +290,8 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
                    p.report.residual > params.tolerance;
   pt_.push_back(t);
   iterations_.push_back(p.report.iterations);
-  const int inverted = inverted_tets_.count(w.physical_mesh.rest, w.physical_mesh.tets, p.mesh.x);
+  const int inverted = p.report.inverted >= 0 ? inverted_tets_.record(p.report.inverted)
+                                             : inverted_tets_.count(w.physical_mesh.rest, w.physical_mesh.tets, p.mesh.x);
   inverted_.push_back(inverted);
   if (inverted > 0 && first_inverted_t_ < 0) first_inverted_t_ = t;
   residual_.push_back(p.report.residual);

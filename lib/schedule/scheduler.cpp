@@ -543,6 +543,8 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
   setup.x0 = world.initial_physical.x;
   setup.pose0 = {in.front().position, in.front().orientation};
   setup.ticks_per_step = mode == Mode::Async ? N : 0;  // run_ticks_with_steps: async's delivery
+  setup.physical_rest = world.physical_mesh.rest;
+  setup.physical_tets = world.physical_mesh.tets;
   return out;
 }
 #endif

@@ -192,6 +192,10 @@ struct PhysicalStepReport {
   double local_s = 0;   ///< local steps (rotations, coupling forces)
   double global_s = 0;  ///< residual gathers and global steps
   bool slept = false;   ///< skipped, the state held (solver.sleep; iterations 0)
+  /// Physical tets inverted or flat after the step (inverted_or_flat, against their signs at rest)
+  /// where the backend counted them: the CUDA steps inside the tick launches. -1: not counted (the
+  /// replay's observer counts them on the host, InvertedTets).
+  int inverted = -1;
 };
 
 /// The report's residuals from ||r_0|| and ||r_K|| (CPU and CUDA steps alike).

@@ -28,6 +28,7 @@
 
 #include "core/error.hpp"
 #include "io/recording.hpp"
+#include "mesh/quality.hpp"
 #include "scene/scene.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"
@@ -1066,6 +1067,50 @@ bool same_outputs(const DeviceTickOutput& a, const DeviceTickOutput& b) {
   return same_bits(a.force, b.force) && same_bits(a.torque, b.torque) && same_bits(a.position, b.position) &&
          same_bits(a.orientation, b.orientation) && same_bits(a.penetration, b.penetration) &&
          a.contacts == b.contacts && a.grasped == b.grasped && a.newton_steps == b.newton_steps;
+}
+
+/// The physical steps inside the launches count their inverted or flat tets on the device
+/// (PhysicalStepReport::inverted), so that the replay's host does not go over every tet after every
+/// step: each count must be the host's (count_inverted_tets) on the step's x, the same test on the
+/// same coordinates (they could differ only for a tet flat to round-off, where the two compilers'
+/// contractions of the determinant may round apart). cholecystectomy_grasp from 1.0 s, where the
+/// grasp inverts tets (from 1.14 s on the CPU). Without the mesh in the setup nothing is counted.
+TEST(CudaDeviceTick, StepsInLaunchesCountTheInvertedTetsAsTheHost) {
+  EBH_REQUIRE_DEVICE();
+  LoadedReplay in = load_replay_inputs("cholecystectomy", "cholecystectomy_grasp", {}, std::nullopt, std::nullopt,
+                                       false, Backend::Cuda);
+  const World& w = *in.world;
+  const int ticks = 1000, run = 100;
+  DeviceReplayInputs inputs = device_replay_inputs(w, in.recording, in.recording.t.front() + 1.0, ticks, Mode::Async);
+  ASSERT_EQ(inputs.setup.physical_tets.size(), w.physical_mesh.tets.size());
+  const std::vector<signed char> sign = rest_signs(w.physical_mesh.rest, w.physical_mesh.tets);
+  auto counts = [&](const DeviceHapticSetup& setup, int launches) {
+    CudaPhysicalSolver physical(w.physical_mesh, w.physical_params);
+    CudaHapticTicks device(setup, inputs.ticks, physical);
+    std::vector<DeviceTickOutput> out(run);
+    std::vector<Vec3d> x;
+    std::vector<std::pair<int, int>> device_host;
+    for (int l = 0; l < launches; ++l) {
+      device.collect(device.run_ticks_with_steps(run), out);
+      while (device.steps_in_flight() > 0) {
+        const int counted = device.finish_step(x).inverted;
+        device_host.emplace_back(counted, count_inverted_tets(x, w.physical_mesh.tets, sign));
+      }
+    }
+    return device_host;
+  };
+  int most = 0;
+  const auto pairs = counts(inputs.setup, ticks / run);
+  ASSERT_EQ(pairs.size(), static_cast<std::size_t>(ticks / w.ticks_per_step));
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    EXPECT_EQ(pairs[k].first, pairs[k].second) << "step " << k;
+    most = std::max(most, pairs[k].second);
+  }
+  std::printf("[ inverted ] %zu steps, at most %d tets inverted or flat after one\n", pairs.size(), most);
+  EXPECT_GT(most, 0) << "the window must invert tets, or the comparison shows nothing";
+  DeviceHapticSetup bare = inputs.setup;
+  bare.physical_tets = {};
+  for (const auto& [counted, host] : counts(bare, 2)) EXPECT_EQ(counted, -1);
 }
 
 /// Launches across physical periods (run_ticks_with_steps: the ticks hand q to the physical steps

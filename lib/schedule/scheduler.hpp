@@ -134,7 +134,9 @@ struct BatchOutcome {
 /// bitwise those of the same replay run alone. A replay that fails (its error in its outcome)
 /// leaves the others running. Throws InputError naming the replay (its index) when one cannot run
 /// this way, when at_once is more than the device holds, or without the CUDA backend.
-inline constexpr int kBatchAtOnce = 2;  ///< the fastest measured (docs/PERFORMANCE.md, "Many replays on one GPU")
+/// The fastest measured, with 32 hardware queues (CUDA_DEVICE_MAX_CONNECTIONS, which `ebh` sets;
+/// with the driver's 8 the replays' streams share queues and 2 at once is faster: docs/CUDA.md).
+inline constexpr int kBatchAtOnce = 8;
 std::vector<BatchOutcome> replay_batch(std::span<const BatchReplay> replays, int at_once = kBatchAtOnce);
 
 /// The most replays replay_batch runs at once for this world (every replay's tick kernel needs at

@@ -850,12 +850,12 @@ TEST(CudaReplay, BatchMatchesReplaysRunAlone) {
     ASSERT_EQ(full[static_cast<size_t>(k)].force.size(), alone[0].force.size());
     EXPECT_EQ(std::memcmp(full[static_cast<size_t>(k)].force.data(), alone[0].force.data(), alone[0].force.size() * sizeof(Vec3d)), 0) << k;
   }
-  // One more than that at once is refused in one line, before any work; at the default, in turns.
+  // One more than that at once is refused in one line, before any work; 2 at once, in turns.
   many.push_back(many.front());
   EXPECT_THROW(replay_batch(many, most + 1), InputError);
   many.resize(6);
   for (Trace& t : full) t = Trace{};
-  const std::vector<BatchOutcome> out_turns = replay_batch(many);
+  const std::vector<BatchOutcome> out_turns = replay_batch(many, 2);
   for (int k = 0; k < 6; ++k) {
     EXPECT_EQ(out_turns[static_cast<size_t>(k)].error, "");
     EXPECT_EQ(out_turns[static_cast<size_t>(k)].summary.ticks, static_cast<std::int64_t>(alone[0].force.size()));

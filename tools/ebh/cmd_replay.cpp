@@ -396,7 +396,7 @@ void setup(CLI::App& root) {
   CLI::Option* batch_option = c->add_option("--batch", *batch,
                 "Replay every line of FILE (the arguments of an `ebh replay` each) on one GPU at once (--backend cuda, "
                 "async, no frames)");
-  c->add_option("--at-once", *at_once, "With --batch: replays that run side by side (default 2; the others wait their turn)")
+  c->add_option("--at-once", *at_once, "With --batch: replays that run side by side (default 8; the others wait their turn)")
       ->check(CLI::Range(1, 1024))
       ->needs(batch_option);
   c->callback([args, batch, at_once] {

@@ -46,6 +46,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -128,7 +129,11 @@ void bounding_segment(const Collider<double>& c, Vec3f& a, Vec3f& b, float& r) {
 namespace {
 /// The blocks of a tick kernel the device holds at once, with the L1-first carve-out (as much L1
 /// as the kernel's shared memory leaves: L1 serves a large share of its loads), which it sets.
+/// The carve-out is the kernel's, process-wide: one thread at a time sets and reads it (replay_batch
+/// makes its replays on several threads).
 DeviceTickCapacity tick_capacity(const void* kernel) {
+  static std::mutex carveout;
+  const std::lock_guard<std::mutex> lock(carveout);
   int device = 0, coop = 0, sms = 0, per_sm = 0, most = 0;
   EBH_CUDA_CHECK(cudaGetDevice(&device));
   EBH_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, device));

@@ -50,6 +50,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <numeric>
 #include <span>
 #include <stdexcept>
@@ -847,6 +848,20 @@ std::vector<float> iteration_weights(const PhysicalStepParams& params) {
 }
 
 namespace {
+/// Raises `kernel`'s limit of dynamic shared memory to at least `bytes`. The limit is the
+/// kernel's, process-wide, and solvers of other meshes (replay_batch makes them on several
+/// threads) may need more: it only grows, under a lock, so that no solver lowers it below
+/// what another's captured launches use.
+void allow_dynamic_shared(const void* kernel, std::size_t bytes) {
+  static std::mutex lock;
+  static std::unordered_map<const void*, std::size_t> most;
+  const std::lock_guard<std::mutex> guard(lock);
+  std::size_t& m = most[kernel];
+  if (bytes <= m) return;
+  EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(bytes)));
+  m = bytes;
+}
+
 /// The most static shared memory of `kernels`.
 std::size_t static_shared_of(std::span<const void* const> kernels) {
   std::size_t bytes = 0;
@@ -1055,8 +1070,7 @@ template <bool kChebyshev>
 void CudaPhysicalSolver::Impl::capture_iterations(bool pdl, cudaStream_t st) {
   const int K = params.iterations, rot = params.rotation_iterations;
   const auto [first, middle, last] = iteration_kernels<kChebyshev>(lanes);
-  for (auto* kernel : {first, middle, last})
-    EBH_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
+  for (auto* kernel : {first, middle, last}) allow_dynamic_shared(reinterpret_cast<const void*>(kernel), shared_bytes);
   if (params.adaptive()) {
     // Iterations 0 .. K-2 as below but none writes the state (plan K = 0), then the loop.
     SweepPlan open = plan;
@@ -1140,7 +1154,7 @@ void CudaPhysicalSolver::Impl::capture_loop(cudaStream_t st) {
                    "(graph while nodes); set solver.physical_tolerance=0");
 #else
   auto* body_kernel = lanes == kMinLanes ? loop_iteration_kernel<kMinLanes, kChebyshev> : loop_iteration_kernel<kMaxLanes, kChebyshev>;
-  EBH_CUDA_CHECK(cudaFuncSetAttribute(body_kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, static_cast<int>(shared_bytes)));
+  allow_dynamic_shared(reinterpret_cast<const void*>(body_kernel), shared_bytes);
   const cudaGraphConditionalHandle handle = conditional_handle(st);
   SweepPlan open = plan;
   open.K = 0;  // no iteration writes the state

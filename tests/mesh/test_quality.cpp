@@ -50,6 +50,22 @@ TEST(InvertedTets, CountedAgainstTheRestOrientation) {
   EXPECT_LT(signed_volume(pushed[t0[0]], pushed[t0[1]], pushed[t0[2]], pushed[t0[3]]) * sign[0], 0.0);
   pushed[t0[0]] = centroid;  // flat
   EXPECT_GE(count_inverted_tets(pushed, tets, sign), 1);
+  EXPECT_TRUE(inverted_or_flat(pushed[t0[0]], pushed[t0[1]], pushed[t0[2]], pushed[t0[3]], sign[0]));
+  EXPECT_FALSE(inverted_or_flat(x[t0[0]], x[t0[1]], x[t0[2]], x[t0[3]], sign[0]));
+}
+
+/// Counts made elsewhere (a backend's, PhysicalStepReport::inverted) and counts of its own keep
+/// one running most, whichever came first.
+TEST(InvertedTets, RecordedCountsKeepTheMost) {
+  const TetMesh m = cube();
+  InvertedTets counted;
+  EXPECT_EQ(counted.record(3), 3);
+  EXPECT_EQ(counted.record(1), 1);
+  EXPECT_EQ(counted.most, 3);
+  EXPECT_EQ(counted.count(m.vertices, m.tets, m.vertices), 0);  // at rest
+  EXPECT_EQ(counted.most, 3);
+  EXPECT_EQ(counted.record(7), 7);
+  EXPECT_EQ(counted.most, 7);
 }
 
 TEST(Validate, CleanCube) {

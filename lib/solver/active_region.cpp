@@ -5,6 +5,7 @@
 #include <cassert>
 #include <cmath>
 
+#include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
 #include "solver/local_kernels.hpp"
 
@@ -76,6 +77,31 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
   }
 }
 
+/// The inactive vertices that their edges pull off their targets join (active_region.hpp): an
+/// inactive vertex stands on its target, where the E_s [4] forces of its edges need not balance (a
+/// surface strained against its rest shape, as gravity strains a settled organ's); the static
+/// Jacobi step's move, |sum of its edges' forces| / (k_s degree + k_svc), above the tolerance
+/// makes it join from where it stands, as a seed does. Reads q; appends to r.added.
+void add_strained(const VirtualModel& model, ActiveRegion& r, VirtualState& state, double v_scale) {
+  const int m = model.num_vertices;
+  const double tol2 = r.tolerance * r.tolerance;
+  const std::vector<Vec3d>& q = state.q;
+  const std::size_t before = r.added.size();
+  for (int j = 0; j < m; ++j) {
+    if (r.active[j] || model.pinned[j]) continue;
+    Vec3d f{};
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
+      const int entry = model.edge_entries[k], e = entry >> 1;
+      const Vec3d g = edge_spring_gradient(q[model.edges[e][0]], q[model.edges[e][1]], model.rest_edge[e],
+                                           model.rest_len[e], model.k_s);
+      f += (entry & 1) ? g : -g;  // add_edge_residual's sign: the force on this end
+    }
+    if (squared_norm(f) > tol2 * model.stiff_diag[j] * model.stiff_diag[j]) activate(model, r, j);
+  }
+  for (std::size_t i = before; i < r.added.size(); ++i) join(model, r, state, r.added[i], v_scale, false);
+  r.strained += static_cast<std::int64_t>(r.added.size() - before);
+}
+
 /// The rest of who is active this tick (active_region.hpp), over the region before the seeds
 /// joined: the neighbours of vertices displaced by more than tol join; a vertex that has stayed
 /// calm for kCalmTicks leaves and stands on its target. Reads the last tick's q of the active
@@ -138,7 +164,8 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   // Alg. 2 line 1: the E_svc targets, paired once per version of the physical positions. The
   // targets before this tick are p_from (blend 0) after a new version, the last tick's otherwise.
   const double a = std::min(targets.blend, 1.0);
-  if (targets.version != r.targets_version) {
+  const bool fresh = targets.version != r.targets_version;
+  if (fresh) {
     const bool first = r.targets_version == INT64_MIN;
     r.targets_version = targets.version;
     r.p_from.swap(r.p_to);  // without interpolation: the last targets, where the vertices stood
@@ -163,6 +190,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
     for (int j = 0; j < m; ++j)
       if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(model, r, j, a);
   }
+  if (fresh) add_strained(model, r, state, v_scale);  // once per physical result
   retire_and_spread(model, r, state, seeds, v_scale);
   if (!r.removed.empty()) r.inactive_moved += 0.5 * r.tolerance;  // a calm vertex snapping to its target
   if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);

@@ -11,7 +11,10 @@
 //     coupling target by more than `tolerance`, |q_j - p_j| > tol: the region grows a ring a tick
 //     where the tool's push spreads;
 //   - any vertex a contact target names during the tick (activated at once, counted: the seeds
-//     should have held it).
+//     should have held it);
+//   - on a tick with a new physical result, every inactive vertex that its edges pull off its
+//     target: the static Jacobi step's move, |sum of its E_s forces| / (k_s degree + k_svc), above
+//     tol (a surface strained against its rest shape, which no seed reaches: the far field).
 // Hysteresis: an active vertex leaves only when it is not a seed, not next to a vertex displaced
 // by more than tol, and its own displacement has stayed at or below tol/2 for kCalmTicks ticks in a
 // row; it then snaps to its target (a jump of at most tol/2). Pinned vertices are never active.
@@ -73,6 +76,7 @@ struct ActiveRegion {
   double inactive_moved = 0;              ///< m, bound on the move of an inactive vertex this tick
   // Counters over the replay.
   std::int64_t activated_by_contact = 0;  ///< vertices a contact target activated mid-tick
+  std::int64_t strained = 0;              ///< vertices their edges' pull activated (add_strained)
 };
 
 /// A region for `model` with the given tolerance (m, > 0), empty: the first tick fills it.

@@ -141,6 +141,37 @@ TEST(ActiveRegion, InactiveVerticesStandOnTheirTargetsAndTheRegionFollowsTheDisp
   for (int j = 0; j < m; ++j) EXPECT_EQ(run.vs.q[j], vm.rest[j]) << j;
 }
 
+/// Coupling targets that stretch the virtual mesh against its rest shape (the physical mesh scaled
+/// by 1.02 about its centre; no contact, no seeds): the edges pull every vertex off its target, and
+/// no seed would bring one in. The strain check (add_strained) lets them in on the tick of the new
+/// physical result, and the region settles where the full solve does; the full solve's vertices
+/// stand far more than the tolerance off their targets, so a region of seeds alone would not.
+TEST(ActiveRegion, AStrainedSurfaceJoinsWithoutSeeds) {
+  ActiveRun run(1e-6, false);
+  const Sim& sim = run.sim;
+  Vec3d centre{};
+  for (const Vec3d& x : sim.pm.rest) centre += x / static_cast<double>(sim.pm.rest.size());
+  std::vector<Vec3d> stretched(sim.pm.rest);
+  for (Vec3d& x : stretched) x = centre + 1.02 * (x - centre);
+  VirtualState full = make_virtual_state(sim.vm);
+  VirtualWorkspace fw = make_virtual_workspace(sim.vm);
+  for (int tick = 0; tick < 300; ++tick) {  // tick 0 at rest, then the stretched result arrives
+    const std::vector<Vec3d>& x = tick == 0 ? sim.pm.rest : stretched;
+    virtual_begin_tick(sim.vm, fw, full, x, 0.001);
+    for (int i = 0; i < 4; ++i) virtual_iteration(sim.vm, fw, full, {});
+    virtual_end_tick(sim.vm, fw, full);
+    virtual_begin_tick_active(sim.vm, run.vw, run.region, run.vs, {x, x, 1.0, tick == 0 ? 0 : 1}, 0.001, {});
+    for (int i = 0; i < 4; ++i) virtual_iteration_active(sim.vm, run.vw, run.region, run.vs, {});
+    virtual_end_tick_active(sim.vm, run.vw, run.region, run.vs);
+  }
+  std::vector<Vec3d> targets(sim.vm.num_vertices);
+  paired_points(sim.vm, stretched, targets);
+  EXPECT_GT(max_diff(full.q, targets), 20 * run.region.tolerance);
+  EXPECT_GT(run.region.strained, 0);
+  EXPECT_LT(max_diff(run.vs.q, full.q), run.region.tolerance) << "strained " << run.region.strained << " of "
+                                                             << sim.vm.num_vertices;
+}
+
 TEST(ActiveRegion, AContactOnAnInactiveVertexActivatesIt) {
   ActiveRun run(1e-5, false);
   const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);

@@ -58,9 +58,10 @@ add_test(NAME cli.bench.sizes
   COMMAND ${EBH_BIN} bench sizes --scene tube --levels 0-1 --seconds 0.1 --plot ${Z}/sizes.png)
 set_tests_properties(cli.bench.sizes PROPERTIES LABELS "cli;bench" PASS_REGULAR_EXPRESSION
   "tube \\+ tube_insert from 1.8 s, 0.1 s, async, cpu.*\n +0 +8057 +2150 +6628 .*\n +1 +64456 +14014 +26512 .*slope against tets \\(log-log least squares; 1 = linear\\): physical step [0-9.]+, haptic tick [0-9.]+, wall per virtual s [0-9.]+, host memory [0-9.]+\n.*sizes.png: the costs against tets")
-add_test(NAME cli.bench.sizes_json COMMAND ${EBH_BIN} bench sizes --levels 0 --seconds 0.05 --json)
+add_test(NAME cli.bench.sizes_json
+  COMMAND ${EBH_BIN} bench sizes --levels 0 --seconds 0.05 --set solver.active_region=0.001 --json)
 set_tests_properties(cli.bench.sizes_json PROPERTIES LABELS "cli;bench" PASS_REGULAR_EXPRESSION
-  "\"backend\": \"cpu\",.*\"tets\": 8057,.*\"ticks\": 51,.*\"device_peak_bytes\": null.*\"slopes\": \\{\n +\"physical_step_median\": null")
+  "\"backend\": \"cpu\",\n +\"overrides\": \\[\n +\"solver.active_region=0.001\"\n +\\],.*\"tets\": 8057,.*\"ticks\": 51,.*\"device_peak_bytes\": null.*\"slopes\": \\{\n +\"physical_step_median\": null")
 add_test(NAME cli.bench.sizes_bad_levels
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;3-1"
     "-DEXPECT=^ebh: error: --levels: expected FIRST-LAST \\(e.g. 0-3\\) or one level, levels >= 0, got '3-1'" -DSTATUS=1
@@ -68,7 +69,13 @@ add_test(NAME cli.bench.sizes_bad_levels
 add_test(NAME cli.bench.sizes_no_window
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--scene;${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml"
     "-DEXPECT=^ebh: error: --recording: scene '.*cube.yaml' has no default window" -DSTATUS=1 -P ${EXPECT_FAILURE})
-set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_no_window PROPERTIES LABELS "cli;bench")
+# A misspelt override: one line before the heading, no plot.
+add_test(NAME cli.bench.sizes_bad_override
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--set;solver.active_regio=0.001;--plot;${Z}/bad.png"
+    "-DEXPECT=^ebh: error: .*tube.yaml: key 'solver.active_regio': unknown key" -DOUTPUT=${Z}/bad.png -DSTATUS=1
+    -P ${EXPECT_FAILURE})
+set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_no_window cli.bench.sizes_bad_override
+  PROPERTIES LABELS "cli;bench")
 
 # table1 and bench sizes on the CUDA backend where none can be used (no device visible, or a build
 # without CUDA): one line that says so, exit status 1.

@@ -114,7 +114,7 @@ SizeResult measure(const SizeBenchOptions& o, const std::string& scene, int leve
   const bool device = false;
 #endif
   const auto t0 = std::chrono::steady_clock::now();
-  const LoadedReplay in = load_replay_inputs(scene, o.recording, {}, std::nullopt, std::nullopt, false, o.backend);
+  const LoadedReplay in = load_replay_inputs(scene, o.recording, o.overrides, std::nullopt, std::nullopt, false, o.backend);
   r.load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const World& w = *in.world;
   r.tets = static_cast<std::int64_t>(w.scene.physical.tets.size());
@@ -180,7 +180,7 @@ const std::vector<SizeCost>& size_costs() {
   return costs;
 }
 
-std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progress)(const SizeResult&)) {
+void check_size_bench(const SizeBenchOptions& o) {
   if (o.first_level < 0 || o.last_level < o.first_level)
     throw InputError("--levels: expected FIRST-LAST with 0 <= FIRST <= LAST, got " + std::to_string(o.first_level) + "-" +
                      std::to_string(o.last_level));
@@ -188,19 +188,23 @@ std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progres
     throw InputError("--mode: expected async or lockstep (a size's costs are measured in virtual time), got realtime");
   if (!(o.seconds > 0)) throw InputError("--seconds: expected a number > 0");
   const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
-  // Before any work: the scene and recording exist and every size is within the limit.
   const fs::path scene_file = resolve_scene_path(o.scene);
-  (void)replay_input_files(o.scene, o.recording, {});
-  {
-    const SceneSpec spec = load_scene_spec(scene_file);
-    TetMesh mesh = read_msh(spec.physical_mesh);
-    remove_unreferenced_vertices(mesh);
-    const RefinedCounts c = refined_counts(mesh, o.last_level);
-    if (c.tets > max_tets)
-      throw InputError("--levels: level " + std::to_string(o.last_level) + " of " + scene_file.string() + " makes " +
-                       std::to_string(c.tets) + " tets, over the limit of " + std::to_string(max_tets) +
-                       " (--max-tets raises it; `ebh scene refine` says the memory it takes)");
-  }
+  (void)replay_input_files(o.scene, o.recording, o.overrides);
+  const SceneSpec spec = load_scene_spec(scene_file, o.overrides);  // a bad override too
+  TetMesh mesh = read_msh(spec.physical_mesh);
+  remove_unreferenced_vertices(mesh);
+  const RefinedCounts c = refined_counts(mesh, o.last_level);
+  if (c.tets > max_tets)
+    throw InputError("--levels: level " + std::to_string(o.last_level) + " of " + scene_file.string() + " makes " +
+                     std::to_string(c.tets) + " tets, over the limit of " + std::to_string(max_tets) +
+                     " (--max-tets raises it; `ebh scene refine` says the memory it takes)");
+}
+
+std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progress)(const SizeResult&)) {
+  // Before any work: the scene, the overrides and the recording are good and every size is within the limit.
+  check_size_bench(o);
+  const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
+  const fs::path scene_file = resolve_scene_path(o.scene);
   install_interrupt_handlers();
   // The first device replay of a process loads the kernels and reserves their local memory (170 MB
   // on an H100 for the tube): a short replay of the scene first keeps that out of the first size.

@@ -24,6 +24,9 @@ struct SizeBenchOptions {
   Mode mode = Mode::Async;  ///< a virtual-time mode (async or lockstep)
   Backend backend = Backend::Cpu;
   std::int64_t max_tets = 0;  ///< refuse sizes above this (0: scene_refine.hpp's kMaxRefinedTets)
+  /// "dotted.key=value" scene overrides (the command line's --set), applied to every size's scene
+  /// as it is loaded (the refinement refines the scene file's own meshes).
+  std::vector<std::string> overrides;
 };
 
 /// Median and 99th percentile of a per-tick or per-step time (s).
@@ -63,6 +66,10 @@ struct SizeCost {
   double (*value)(const SizeResult&);
 };
 const std::vector<SizeCost>& size_costs();
+
+/// The checks run_size_bench makes before any work (an InputError naming the option, the key or
+/// the file): levels, mode, seconds, the scene with its overrides, the recording, the largest size.
+void check_size_bench(const SizeBenchOptions& o);
 
 /// Runs the sizes first_level .. last_level in turn (the level-0 scene as it is). `progress`, when
 /// set, is told each size's line as it completes. Throws InputError before any work for a bad

@@ -56,6 +56,21 @@ TEST(SizeBench, TwoSizesOfTheTube) {
   EXPECT_GT(r[1].physical_step.median, 2 * r[0].physical_step.median);
 }
 
+TEST(SizeBench, OverridesApplyToEverySize) {
+  SizeBenchOptions o;
+  o.scene = "tube";
+  o.recording = "tube_insert";
+  o.start = 1.8;
+  o.seconds = 0.05;
+  o.first_level = 0;
+  o.last_level = 0;
+  o.overrides = {"time.physical_hz=50", "solver.active_region=0.001"};
+  const std::vector<SizeResult> r = run_size_bench(o);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(r[0].ticks, 51);
+  EXPECT_EQ(r[0].steps, 3);  // 50 Hz: ticks 0, 20, 40 (6 at the scene's 100 Hz)
+}
+
 TEST(SizeBench, AnInterruptEndsTheRun) {
   SizeBenchOptions o;
   o.scene = "tube";
@@ -84,6 +99,15 @@ TEST(SizeBench, RefusesBeforeAnyWork) {
     EXPECT_NE(std::string(e.what()).find("level 3 of "), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("makes 4125184 tets, over the limit of 100000"), std::string::npos) << e.what();
   }
+  o.last_level = 1;
+  o.overrides = {"solver.active_regio=0.001"};
+  try {
+    run_size_bench(o);
+    ADD_FAILURE() << "a misspelt override accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("key 'solver.active_regio': unknown key"), std::string::npos) << e.what();
+  }
+  o.overrides.clear();
   o.first_level = 2;
   o.last_level = 1;
   EXPECT_THROW(run_size_bench(o), InputError);

@@ -31,6 +31,7 @@ struct SizesArgs {
   std::optional<double> start;
   double seconds = 1.0;
   std::int64_t max_tets = kMaxRefinedTets;
+  std::vector<std::string> overrides;
   bool json = false;
 };
 
@@ -149,7 +150,9 @@ void run_sizes(const SizesArgs& a) {
   o.mode = parse_mode(a.mode);
   o.backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   o.max_tets = a.max_tets;
-  if (!a.plot.empty()) check_outputs({{a.plot, "the plot"}}, replay_input_files(o.scene, o.recording, {}));
+  o.overrides = a.overrides;
+  check_size_bench(o);  // a bad option, override or size: one line, before the heading
+  if (!a.plot.empty()) check_outputs({{a.plot, "the plot"}}, replay_input_files(o.scene, o.recording, o.overrides));
   std::string device = cpu_description();
 #if EBH_HAVE_CUDA
   if (o.backend == Backend::Cuda) device = cuda_device_description() + " + " + device;
@@ -157,8 +160,10 @@ void run_sizes(const SizesArgs& a) {
   char title[256];
   std::snprintf(title, sizeof title, "%s + %s from %g s, %g s, %s, %s", o.scene.c_str(), o.recording.c_str(), o.start,
                 o.seconds, a.mode.c_str(), a.backend.c_str());
+  std::string heading = title;
+  for (const std::string& k : o.overrides) heading += ", " + k;
   if (!a.json) {
-    std::printf("ebh bench sizes: %s\n%s\n", title, device.c_str());
+    std::printf("ebh bench sizes: %s\n%s\n", heading.c_str(), device.c_str());
     std::printf("%5s %10s %9s %8s %9s %9s %9s %9s %9s %8s %9s\n", "level", "tets", "vertices", "virtual", "step ms",
                 "step p99", "tick ms", "tick p99", "real time", "host MB", "device MB");
   }
@@ -173,6 +178,9 @@ void run_sizes(const SizesArgs& a) {
     j.set("seconds", o.seconds);
     j.set("mode", a.mode);
     j.set("backend", a.backend);
+    Json set = Json::array();
+    for (const std::string& k : o.overrides) set.push(Json(k));
+    j.set("overrides", std::move(set));
     j.set("device", device);
     Json rows = Json::array();
     for (const SizeResult& r : sizes) {
@@ -218,7 +226,7 @@ void run_sizes(const SizesArgs& a) {
       }
   }
   if (!a.plot.empty()) {
-    write_sizes_plot(sizes, fitted, title, a.plot);
+    write_sizes_plot(sizes, fitted, heading, a.plot);
     if (!a.json) std::printf("%s: the costs against tets\n", a.plot.c_str());
   }
 }
@@ -243,6 +251,8 @@ void setup(CLI::App& root) {
                 "refuse sizes above this many tets (default " + std::to_string(kMaxRefinedTets) + ")")
       ->check(CLI::PositiveNumber);
   c->add_option("--plot", args->plot, "also draw the costs against tets, log-log, into this PNG file");
+  c->add_option("--set", args->overrides,
+                "Override a scene key at every size: --set solver.active_region=0.001 (repeatable)");
   c->add_flag("--json", args->json, "JSON output");
   c->callback([args] { run_sizes(*args); });
 }

@@ -40,8 +40,9 @@ bool activate(const VirtualModel& model, ActiveRegion& r, int j) {
 }
 
 /// The active vertex and edge lists after `added` and `removed` (the flags already set), updated
-/// in place: the removed leave (the lists keep their order), the added join at the end. The order
-/// changes no result (every vertex and edge is computed on its own) and is the same in every run.
+/// in place and kept in index order, so that the passes over them walk memory forward: the removed
+/// leave, the added (and their new edges) are sorted and merged in through the scratch lists. The
+/// order changes no result (every vertex and edge is computed on its own).
 void update_lists(const VirtualModel& model, ActiveRegion& r) {
   for (const int j : r.removed)
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) --r.edge_ends[model.edge_entries[k] >> 1];
@@ -49,11 +50,23 @@ void update_lists(const VirtualModel& model, ActiveRegion& r) {
     std::erase_if(r.vertices, [&](int j) { return !r.active[j]; });
     std::erase_if(r.edges, [&](int e) { return r.edge_ends[e] == 0; });
   }
+  if (r.added.empty()) return;
+  const std::size_t vertices = r.vertices.size(), edges = r.edges.size();
   for (const int j : r.added) {
     r.vertices.push_back(j);
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k)
       if (r.edge_ends[model.edge_entries[k] >> 1]++ == 0) r.edges.push_back(model.edge_entries[k] >> 1);
   }
+  // Within the capacities make_active_region reserved: no allocation.
+  auto merge_in = [](std::vector<int>& list, std::size_t old, std::vector<int>& scratch) {
+    std::sort(list.begin() + static_cast<std::ptrdiff_t>(old), list.end());
+    scratch.resize(list.size());
+    std::merge(list.begin(), list.begin() + static_cast<std::ptrdiff_t>(old), list.begin() + static_cast<std::ptrdiff_t>(old),
+               list.end(), scratch.begin());
+    list.swap(scratch);
+  };
+  merge_in(r.vertices, vertices, r.vertex_scratch);
+  merge_in(r.edges, edges, r.edge_scratch);
 }
 
 /// A vertex that was inactive starts the tick with its target's velocity; `place`: also from where
@@ -146,6 +159,8 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance) {
   r.mark.assign(m, 0);
   r.edge_ends.assign(E, 0);
   r.vertices.reserve(m);
+  r.vertex_scratch.reserve(m);
+  r.edge_scratch.reserve(E);
   r.added.reserve(m);
   r.removed.reserve(m);
   r.edges.reserve(E);

@@ -62,12 +62,13 @@ struct ActiveRegion {
   double tolerance = 0;                   ///< m, displacement |q - p| that spreads the region
   std::vector<std::uint8_t> active;       ///< #m 1 when iterated this tick
   std::vector<std::uint16_t> calm;        ///< #m consecutive calm ticks of an active vertex
-  std::vector<int> vertices;              ///< the active vertices (in the order they joined)
-  std::vector<int> edges;                 ///< the edges with an active end
+  std::vector<int> vertices;              ///< the active vertices, in index order
+  std::vector<int> edges;                 ///< the edges with an active end, in index order
   std::vector<std::uint8_t> edge_ends;    ///< #E active ends of each edge (0, 1, 2)
   // Scratch.
   std::vector<std::uint8_t> mark;         ///< #m per-tick flags (seed, hot), zero between uses
   std::vector<int> added, removed;        ///< vertices entering and leaving this tick
+  std::vector<int> vertex_scratch, edge_scratch;  ///< update_lists' merges
   std::vector<Vec3d> p_from, p_to;        ///< #m E_svc targets of PhysicalTargets::x_from and x_to
   std::int64_t targets_version = INT64_MIN;  ///< PhysicalTargets::version of p_from and p_to
   double blend = 1;                       ///< this tick's PhysicalTargets::blend

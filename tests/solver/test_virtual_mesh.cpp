@@ -97,6 +97,18 @@ struct ActiveRun {
   }
 };
 
+/// The region's lists are what its flags say, in index order (update_lists' merges): every
+/// active vertex once, every edge with an active end once.
+void expect_lists_match_flags(const ActiveRegion& r, const VirtualModel& vm) {
+  std::vector<int> vertices, edges;
+  for (int j = 0; j < vm.num_vertices; ++j)
+    if (r.active[j]) vertices.push_back(j);
+  for (int e = 0; e < static_cast<int>(vm.edges.size()); ++e)
+    if (r.active[vm.edges[e][0]] || r.active[vm.edges[e][1]]) edges.push_back(e);
+  EXPECT_EQ(r.vertices, vertices);
+  EXPECT_EQ(r.edges, edges);
+}
+
 TEST(ActiveRegion, HoldingEveryVertexIsTheFullSolveBitwise) {
   // Every vertex a seed: the region's arithmetic must be the full solve's, to the bit (q and v).
   ActiveRun run(1e-6, true);
@@ -126,6 +138,7 @@ TEST(ActiveRegion, InactiveVerticesStandOnTheirTargetsAndTheRegionFollowsTheDisp
   // The press spreads: more than the seeds, fewer than every vertex (the bottom rows stay calm).
   EXPECT_GT(active, static_cast<int>(seeds.size()));
   EXPECT_LT(active, m);
+  expect_lists_match_flags(run.region, vm);
   // Every active vertex displaced by more than the tolerance has only active (or pinned) neighbours.
   for (const int j : run.region.vertices)
     if (norm(run.vs.q[j] - vm.rest[j]) > run.region.tolerance)
@@ -136,7 +149,11 @@ TEST(ActiveRegion, InactiveVerticesStandOnTheirTargetsAndTheRegionFollowsTheDisp
       }
   // Released (no contact, no seed), the region empties once every vertex has been calm for
   // kCalmTicks, and every vertex is back on its target exactly.
-  run.ticks(400, {}, {});
+  const std::size_t pressed = run.region.vertices.size();
+  run.ticks(25, {}, {});
+  EXPECT_LT(run.region.vertices.size(), pressed);  // the calm ones have left, merged lists and all
+  expect_lists_match_flags(run.region, vm);
+  run.ticks(375, {}, {});
   EXPECT_TRUE(run.region.vertices.empty());
   for (int j = 0; j < m; ++j) EXPECT_EQ(run.vs.q[j], vm.rest[j]) << j;
 }

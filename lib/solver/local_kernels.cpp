@@ -1,6 +1,8 @@
 // The CPU solvers' hot loops (see local_kernels.hpp): blocks of SIMD lanes, fixed per element.
 #include "solver/local_kernels.hpp"
 
+#include <algorithm>
+
 #include "energy/arap.hpp"
 #include "energy/edge_spring.hpp"
 #include "energy/rotation.hpp"
@@ -130,7 +132,9 @@ void tet_block_single_update(const TetKernelData& tets, const double* __restrict
 /// E_s [4] gradients g = dE_s/dq_a = k_s (d - R e0) of the edges [e0, e0 + count),
 /// count <= kEdgeLanes (Full: equal), into g_out[e]. One branch-free loop over the lanes with
 /// the positions gathered straight from q (SIMD gathers under EBH_NATIVE); it reads the rest
-/// edge vectors only for a collapsed edge (|d| ~ 0, where R e0 = e0), recomputed after the loop.
+/// edge vectors only for a collapsed edge (|d| ~ 0, where R e0 = e0), recomputed after the loop
+/// (that edge alone: the others keep the loop's bits, which do not depend on the block, so that
+/// edge_spring_gradients_listed gives every edge the same bits whatever its neighbours).
 template <bool Full>
 void edge_block(const EdgeKernelData& data, const double* __restrict q, Vec3d* __restrict g_out, int e0, int count) {
   constexpr int W = kEdgeLanes;
@@ -151,7 +155,8 @@ void edge_block(const EdgeKernelData& data, const double* __restrict q, Vec3d* _
     for (int l = 0; l < L; ++l) {
       const int a = ab[2 * l], b = ab[2 * l + 1];
       const Vec3d* qv = reinterpret_cast<const Vec3d*>(q);
-      g_out[e0 + l] = edge_spring_gradient(qv[a], qv[b], data.rest_edge[e0 + l], rest_len[l], data.k_s);
+      if (edge_collapsed(qv[a] - qv[b], rest_len[l]))
+        g_out[e0 + l] = edge_spring_gradient(qv[a], qv[b], data.rest_edge[e0 + l], rest_len[l], data.k_s);
     }
 }
 
@@ -198,16 +203,27 @@ void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g
 }
 
 void edge_spring_gradients_listed(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g) {
-  // Per edge what edge_block computes: the gradient without the rest edge, recomputed with it only
-  // for a collapsed edge (edge_block recomputes its whole block then, which changes nothing for
-  // an edge that has not collapsed: edge_target reads the rest edge only for a collapsed one).
+  // Per edge what edge_block computes: the gradient without the rest edge, or with it for a
+  // collapsed edge (as edge_block recomputes it). A group of kEdgeLanes listed edges that are consecutive edges (the active region's list is in
+  // index order, so most are) is edge_block's block itself.
+  constexpr int W = kEdgeLanes;
+  const int groups = (count + W - 1) / W;
 #pragma omp for schedule(static)
-  for (int i = 0; i < count; ++i) {
-    const int e = ids[i];
-    const Vec3d qa = q[edges.edges[e][0]], qb = q[edges.edges[e][1]];
-    const double L0 = edges.rest_len[e];
-    g[e] = edge_collapsed(qa - qb, L0) ? edge_spring_gradient(qa, qb, edges.rest_edge[e], L0, edges.k_s)
-                                       : edge_spring_gradient(qa, qb, Vec3d{}, L0, edges.k_s);
+  for (int b = 0; b < groups; ++b) {
+    const int i0 = W * b, n = std::min(W, count - i0);
+    bool run = n == W;
+    for (int l = 1; run && l < W; ++l) run = ids[i0 + l] == ids[i0] + l;
+    if (run) {
+      edge_block<true>(edges, &q[0].x, g, ids[i0], W);
+      continue;
+    }
+    for (int i = i0; i < i0 + n; ++i) {
+      const int e = ids[i];
+      const Vec3d qa = q[edges.edges[e][0]], qb = q[edges.edges[e][1]];
+      const double L0 = edges.rest_len[e];
+      g[e] = edge_collapsed(qa - qb, L0) ? edge_spring_gradient(qa, qb, edges.rest_edge[e], L0, edges.k_s)
+                                         : edge_spring_gradient(qa, qb, Vec3d{}, L0, edges.k_s);
+    }
   }
 }
 

@@ -47,7 +47,8 @@ void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g
 
 /// The same for the listed edges only (the active region, solver/active_region.hpp): g[ids[i]]
 /// for i < count, each edge's bits those edge_spring_gradients gives it. `omp for` (ends with a
-/// barrier). ids: #count edge indices.
+/// barrier). ids: #count distinct edge indices, fastest in index order (runs of consecutive edges
+/// go through the blocks of edge_spring_gradients).
 void edge_spring_gradients_listed(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g);
 
 }  // namespace ebh

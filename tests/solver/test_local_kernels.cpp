@@ -1,6 +1,8 @@
 // The solvers' SIMD loops (solver/local_kernels.hpp) against the energy functions they vectorise.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstring>
 #include <random>
 
 #include "energy/arap.hpp"
@@ -68,6 +70,38 @@ TEST(LocalKernels, EdgeBlocksMatchTheScalarEnergyFunctionIncludingCollapsedEdges
     EXPECT_LT(norm(g[e] - expect), 1e-12 * (1.0 + norm(expect))) << "edge " << e;  // ulps (FMA)
   }
   EXPECT_LT(norm(g[5] + vm.k_s * vm.rest_edge[5]), 1e-15);  // collapsed: k_s (0 - e0)
+}
+
+TEST(LocalKernels, ListedEdgesGetTheBitsOfTheWholePass) {
+  // edge_spring_gradients_listed (the active region) takes a group of 8 consecutive listed edges
+  // through the whole pass's block and the others one at a time: every listed edge must get the
+  // bits the whole pass gives it, for a sorted list of runs and gaps, one edge at a time, and an
+  // unsorted one; the collapsed edge 5 inside a run and alone.
+  Sim sim(box_scene(3, 3, 6, 1));
+  const VirtualModel& vm = sim.vm;
+  const int E = static_cast<int>(vm.edges.size());
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Vec3d> q = vm.rest;
+  for (Vec3d& p : q) p += Vec3d{0.001 * u(rng), 0.001 * u(rng), 0.001 * u(rng)};
+  q[vm.edges[5][1]] = q[vm.edges[5][0]];
+  const EdgeKernelData edges{E, vm.edges.data(), vm.rest_edge.data(), vm.rest_len.data(), vm.k_s};
+  std::vector<Vec3d> whole(vm.edges.size());
+  edge_spring_gradients(edges, q.data(), whole.data());
+  std::vector<int> runs, single = {5}, shuffled;
+  for (int e = 0; e < E; ++e)
+    if (e % 29 < 19 && e != 40) runs.push_back(e);  // runs of 19 (from 0: edge 5 inside one) and gaps
+  for (int e = 0; e < E; e += 3) shuffled.push_back(e);
+  std::shuffle(shuffled.begin(), shuffled.end(), rng);
+  for (const std::vector<int>* ids : {&runs, &single, &shuffled}) {
+    std::vector<Vec3d> g(vm.edges.size(), Vec3d{7, 7, 7});
+    edge_spring_gradients_listed(edges, ids->data(), static_cast<int>(ids->size()), q.data(), g.data());
+    for (const int e : *ids) EXPECT_EQ(std::memcmp(&g[e], &whole[e], sizeof(Vec3d)), 0) << "edge " << e << " of a list of " << ids->size();
+    std::vector<char> listed(vm.edges.size(), 0);
+    for (const int e : *ids) listed[e] = 1;
+    for (int e = 0; e < E; ++e)
+      if (!listed[e]) EXPECT_EQ(g[e], (Vec3d{7, 7, 7})) << "edge " << e << " is not listed";
+  }
 }
 
 }  // namespace

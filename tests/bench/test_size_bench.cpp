@@ -24,15 +24,20 @@ TEST(SizeBench, SlopeOfAPowerLaw) {
   EXPECT_TRUE(std::isnan(log_log_slope({10, 10}, {1, 2})));       // one tet count
 }
 
-TEST(SizeBench, TwoSizesOfTheTube) {
+/// 0.05 s of tube_insert from 1.8 s (in contact) at the tube's levels first .. last.
+SizeBenchOptions short_tube_window(int first, int last) {
   SizeBenchOptions o;
   o.scene = "tube";
   o.recording = "tube_insert";
   o.start = 1.8;
   o.seconds = 0.05;
-  o.first_level = 0;
-  o.last_level = 1;
-  const std::vector<SizeResult> r = run_size_bench(o);
+  o.first_level = first;
+  o.last_level = last;
+  return o;
+}
+
+TEST(SizeBench, TwoSizesOfTheTube) {
+  const std::vector<SizeResult> r = run_size_bench(short_tube_window(0, 1));
   ASSERT_EQ(r.size(), 2u);
   EXPECT_EQ(r[0].tets, 8057);
   EXPECT_EQ(r[1].tets, 8 * 8057);
@@ -57,13 +62,7 @@ TEST(SizeBench, TwoSizesOfTheTube) {
 }
 
 TEST(SizeBench, OverridesApplyToEverySize) {
-  SizeBenchOptions o;
-  o.scene = "tube";
-  o.recording = "tube_insert";
-  o.start = 1.8;
-  o.seconds = 0.05;
-  o.first_level = 0;
-  o.last_level = 0;
+  SizeBenchOptions o = short_tube_window(0, 0);
   o.overrides = {"time.physical_hz=50", "solver.active_region=0.001"};
   const std::vector<SizeResult> r = run_size_bench(o);
   ASSERT_EQ(r.size(), 1u);

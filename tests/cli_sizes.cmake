@@ -3,7 +3,7 @@
 set(EBH_BIN $<TARGET_FILE:ebh>)
 set(EBH_SIZES_OUT ${PROJECT_BINARY_DIR}/cli_sizes)
 set(Z ${EBH_SIZES_OUT})
-file(MAKE_DIRECTORY ${Z}/again ${Z}/own)
+file(MAKE_DIRECTORY ${Z}/again ${Z}/own ${Z}/kept)
 set(EXPECT_FAILURE ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 
 # The tube one level finer, twice into two folders: the same bytes; it replays a window of its recording.
@@ -16,6 +16,10 @@ add_test(NAME cli.scene.refine_is_deterministic
   COMMAND ${CMAKE_COMMAND} -E compare_files ${Z}/tube_l1.msh ${Z}/again/tube_l1.msh)
 add_test(NAME cli.scene.refine_is_deterministic_yaml
   COMMAND ${CMAKE_COMMAND} -E compare_files ${Z}/tube_l1.yaml ${Z}/again/tube_l1.yaml)
+# Only the physical mesh refined: the virtual mesh written as it was.
+add_test(NAME cli.scene.refine_keep_virtual COMMAND ${EBH_BIN} scene refine tube --level 1 --keep-virtual -o ${Z}/kept/tube_l1.yaml)
+set_tests_properties(cli.scene.refine_keep_virtual PROPERTIES LABELS "cli;scene" PASS_REGULAR_EXPRESSION
+  "tube_l1.yaml: tube_l1, 64456 tets and 14014 vertices \\(from 8057 and 2150\\), mesh .*tube_l1.msh, virtual mesh .*kept/tube_l1.obj\n")
 add_test(NAME cli.replay.refined_tube
   COMMAND ${EBH_BIN} replay ${Z}/tube_l1.yaml tube_insert -o ${Z}/tube_l1.h5 --start 1.8 --duration 0.2)
 set_tests_properties(cli.replay.refined_tube PROPERTIES PASS_REGULAR_EXPRESSION

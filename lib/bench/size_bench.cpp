@@ -220,7 +220,7 @@ std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progres
     std::vector<std::string> written;
     if (level > 0) {
       const fs::path refined_file = folder.path / ("level" + std::to_string(level) + ".yaml");
-      const RefinedScene r = refine_scene(scene_file, level, refined_file, max_tets, o.scene);
+      const RefinedScene r = refine_scene(scene_file, level, refined_file, max_tets, o.scene, o.keep_virtual);
       std::vector<std::pair<std::string, std::string_view>> files = {{r.mesh_file.string(), r.mesh_text}};
       if (!r.virtual_file.empty()) files.push_back({r.virtual_file.string(), r.virtual_text});
       files.push_back({r.scene_file.string(), r.scene_yaml});

@@ -27,6 +27,9 @@ struct SizeBenchOptions {
   /// "dotted.key=value" scene overrides (the command line's --set), applied to every size's scene
   /// as it is loaded (the refinement refines the scene file's own meshes).
   std::vector<std::string> overrides;
+  /// Refine only the physical mesh; the virtual mesh keeps the scene's resolution (refine_scene's
+  /// keep_virtual).
+  bool keep_virtual = false;
 };
 
 /// Median and 99th percentile of a per-tick or per-step time (s).

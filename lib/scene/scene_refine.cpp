@@ -4,9 +4,11 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 #include "core/error.hpp"
+#include "mesh/boundary.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/quality.hpp"
 #include "mesh/surface.hpp"
@@ -48,7 +50,7 @@ RefineMemory refine_memory(const RefinedCounts& c) {
 }
 
 RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const std::filesystem::path& out,
-                          std::int64_t max_tets, const std::string& scene_argument) {
+                          std::int64_t max_tets, const std::string& scene_argument, bool keep_virtual) {
   if (levels < 1) throw InputError("--level: expected 1 or more, got " + std::to_string(levels));
   // The scene loads (every check of its own), then the mesh files are read again in their own
   // unit and coordinates, cleaned as build_scene cleans them, and refined there.
@@ -69,6 +71,9 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
                      gigabytes(m.replay_bytes) + " to replay, over the limit of " + count_words(max_tets) +
                      " tets (--max-tets raises it)");
   }
+  // The kept virtual mesh: the scene's OBJ as it is, or the boundary before refinement.
+  std::optional<SurfaceMesh> kept;
+  if (keep_virtual) kept = spec.virtual_mesh ? read_obj(*spec.virtual_mesh) : extract_boundary(mesh);
   for (int l = 0; l < levels; ++l) mesh = refine_tet_mesh(mesh);
 
   r.scene_file = out;
@@ -78,7 +83,11 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
   YAML::Node root = YAML::LoadFile(spec.file.string());
   root["name"] = r.name;
   root["mesh"]["physical"] = r.mesh_file.filename().string();
-  if (spec.virtual_mesh) {
+  if (kept) {
+    r.virtual_file = std::filesystem::path(out).replace_extension(".obj");
+    r.virtual_text = obj_text(*kept);
+    root["mesh"]["virtual"] = r.virtual_file.filename().string();
+  } else if (spec.virtual_mesh) {
     SurfaceMesh surface = read_obj(*spec.virtual_mesh);
     std::vector<std::array<int, 2>> parent;
     for (int l = 0; l < levels; ++l) surface = refine_surface(surface, parent);
@@ -90,13 +99,15 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
   yaml << root;
   char header[768];
   std::snprintf(header, sizeof header,
-                "# %s with its physical mesh refined %d level%s by `ebh scene refine %s --level %d` (every tet into 8\n"
+                "# %s with its physical mesh refined %d level%s by `ebh scene refine %s --level %d%s` (every tet into 8\n"
                 "# at its edge midpoints): %lld tets and %lld vertices, from %lld and %lld. Groups, pinned regions\n"
-                "# and every other key carry over (docs/FORMATS.md, \"ebh scene refine\").\n",
+                "# and every other key carry over (docs/FORMATS.md, \"ebh scene refine\").\n%s",
                 spec.name.c_str(), levels, levels == 1 ? "" : "s",
                 escape_unprintable(scene_argument.empty() ? scene.string() : scene_argument).c_str(), levels,
-                static_cast<long long>(r.after.tets), static_cast<long long>(r.after.vertices),
-                static_cast<long long>(r.before.tets), static_cast<long long>(r.before.vertices));
+                kept ? " --keep-virtual" : "", static_cast<long long>(r.after.tets),
+                static_cast<long long>(r.after.vertices), static_cast<long long>(r.before.tets),
+                static_cast<long long>(r.before.vertices),
+                kept ? "# The virtual mesh keeps the scene's resolution (not refined).\n" : "");
   r.scene_yaml = std::string(header) + yaml.c_str() + "\n";
   return r;
 }

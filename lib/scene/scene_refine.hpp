@@ -14,6 +14,11 @@
 //   relative to the physical surface; an OBJ virtual mesh is split 1 -> 4 per level as well (each
 //   triangle at its edge midpoints) and written beside the scene;
 // - density and every other key: unchanged (masses follow the volume, which refinement keeps).
+// With keep_virtual the virtual mesh keeps the scene's resolution instead: the scene's OBJ, or its
+// physical boundary before refinement, is written beside the scene as OUT.obj (in the mesh file's
+// unit and coordinates; `virtual_refine` still applies), so that only the physical mesh grows (the
+// paper's two meshes: the haptic side's resolution chosen apart from the physical one). Refinement
+// at the edge midpoints keeps the boundary's shape, so the kept mesh lies on the refined boundary.
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -38,17 +43,19 @@ RefineMemory refine_memory(const RefinedCounts& counts);
 struct RefinedScene {
   std::filesystem::path scene_file;    ///< OUT.yaml
   std::filesystem::path mesh_file;     ///< OUT.msh, beside it
-  std::filesystem::path virtual_file;  ///< OUT.obj when the virtual mesh is an OBJ file; else empty
+  std::filesystem::path virtual_file;  ///< OUT.obj when the virtual mesh is an OBJ file or kept; else empty
   std::string scene_yaml, mesh_text, virtual_text;
   std::string name;                    ///< the new scene's name: NAME_lLEVEL
   RefinedCounts before, after;         ///< the physical mesh's counts
 };
 
-/// Refines the physical mesh of the scene file `scene` (and an OBJ virtual mesh) `levels` times
-/// and returns the files of a scene `out` that loads it. `scene_argument` is how the user named the
-/// scene (for the new file's header). Throws InputError for levels < 1, a scene that does not
-/// load, or a refined mesh of more than max_tets tets (the message gives the sizes and memory).
+/// Refines the physical mesh of the scene file `scene` (and an OBJ virtual mesh, unless
+/// keep_virtual) `levels` times and returns the files of a scene `out` that loads it.
+/// `scene_argument` is how the user named the scene (for the new file's header). Throws InputError
+/// for levels < 1, a scene that does not load, or a refined mesh of more than max_tets tets (the
+/// message gives the sizes and memory).
 RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const std::filesystem::path& out,
-                          std::int64_t max_tets = kMaxRefinedTets, const std::string& scene_argument = "");
+                          std::int64_t max_tets = kMaxRefinedTets, const std::string& scene_argument = "",
+                          bool keep_virtual = false);
 
 }  // namespace ebh

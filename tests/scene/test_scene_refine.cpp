@@ -6,6 +6,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <tuple>
 
 #include "../mesh/test_util.hpp"
 #include "mesh/boundary.hpp"
@@ -124,6 +125,31 @@ TEST(SceneRefine, CommittedTubeGroupPins) {
   // group 'ends': the annular end faces; their vertices are joined only by the faces' edges.
   expect_pins_carried(before, after);
   EXPECT_NEAR(total_mass(after), total_mass(before), 1e-12 * total_mass(before));
+}
+
+TEST(SceneRefine, KeepVirtualRefinesOnlyThePhysicalMesh) {
+  // The boundary of the scene before refinement (cube.yaml) and an OBJ (cube_obj.yaml): the refined
+  // scene's virtual mesh is the scene's own, vertex for vertex, while the tets grow 64x.
+  for (const char* name : {"scene/cube.yaml", "scene/cube_obj.yaml"}) {
+    const Scene before = load_scene(data(name));
+    const RefinedScene r = refine_scene(data(name), 2, out_dir() / "kept_l2.yaml", kMaxRefinedTets, "", true);
+    ASSERT_EQ(r.virtual_file.filename(), "kept_l2.obj") << name;
+    EXPECT_NE(r.scene_yaml.find("keeps the scene's resolution"), std::string::npos);
+    const Scene after = write_and_load(r);
+    EXPECT_EQ(after.physical.tets.size(), 64 * before.physical.tets.size()) << name;
+    EXPECT_EQ(after.virtual_surface.triangles, before.virtual_surface.triangles) << name;
+    EXPECT_EQ(after.virtual_surface.vertices, before.virtual_surface.vertices) << name;
+    EXPECT_EQ(after.spec.virtual_refine, before.spec.virtual_refine) << name;
+    expect_pins_carried(before, write_and_load(refine_scene(data(name), 1, out_dir() / "kept_l1.yaml",
+                                                            kMaxRefinedTets, "", true)));
+  }
+  // The boundary kept: each of its vertices is a physical vertex of the refined mesh (refinement
+  // keeps the old vertices' bits), so the virtual mesh lies on the refined surface.
+  const Scene after = write_and_load(refine_scene(data("scene/cube.yaml"), 2, out_dir() / "kept_l2.yaml",
+                                                  kMaxRefinedTets, "", true));
+  std::set<std::tuple<double, double, double>> physical;
+  for (const Vec3d& x : after.physical.vertices) physical.insert({x.x, x.y, x.z});
+  for (const Vec3d& v : after.virtual_surface.vertices) EXPECT_TRUE(physical.count({v.x, v.y, v.z})) << v.x << " " << v.y << " " << v.z;
 }
 
 TEST(SceneRefine, SameFilesOnEveryRun) {

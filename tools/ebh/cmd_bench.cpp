@@ -32,6 +32,7 @@ struct SizesArgs {
   double seconds = 1.0;
   std::int64_t max_tets = kMaxRefinedTets;
   std::vector<std::string> overrides;
+  bool keep_virtual = false;
   bool json = false;
 };
 
@@ -151,6 +152,7 @@ void run_sizes(const SizesArgs& a) {
   o.backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   o.max_tets = a.max_tets;
   o.overrides = a.overrides;
+  o.keep_virtual = a.keep_virtual;
   check_size_bench(o);  // a bad option, override or size: one line, before the heading
   if (!a.plot.empty()) check_outputs({{a.plot, "the plot"}}, replay_input_files(o.scene, o.recording, o.overrides));
   std::string device = cpu_description();
@@ -162,6 +164,7 @@ void run_sizes(const SizesArgs& a) {
                 o.seconds, a.mode.c_str(), a.backend.c_str());
   std::string heading = title;
   for (const std::string& k : o.overrides) heading += ", " + k;
+  if (o.keep_virtual) heading += ", virtual mesh kept";
   if (!a.json) {
     std::printf("ebh bench sizes: %s\n%s\n", heading.c_str(), device.c_str());
     std::printf("%5s %10s %9s %8s %9s %9s %9s %9s %9s %8s %9s\n", "level", "tets", "vertices", "virtual", "step ms",
@@ -181,6 +184,7 @@ void run_sizes(const SizesArgs& a) {
     Json set = Json::array();
     for (const std::string& k : o.overrides) set.push(Json(k));
     j.set("overrides", std::move(set));
+    j.set("keep_virtual", o.keep_virtual);
     j.set("device", device);
     Json rows = Json::array();
     for (const SizeResult& r : sizes) {
@@ -253,6 +257,8 @@ void setup(CLI::App& root) {
   c->add_option("--plot", args->plot, "also draw the costs against tets, log-log, into this PNG file");
   c->add_option("--set", args->overrides,
                 "Override a scene key at every size: --set solver.active_region=0.001 (repeatable)");
+  c->add_flag("--keep-virtual", args->keep_virtual,
+              "refine only the physical mesh; the virtual mesh keeps the scene's resolution (as scene refine --keep-virtual)");
   c->add_flag("--json", args->json, "JSON output");
   c->callback([args] { run_sizes(*args); });
 }

@@ -358,10 +358,12 @@ struct SceneRefineArgs {
   std::string scene, out;
   int level = 1;
   std::int64_t max_tets = ebh::kMaxRefinedTets;
+  bool keep_virtual = false;
 };
 
 /// `ebh scene refine`: the scene with its physical mesh split uniformly, every tet into 8 a level
-/// (scene/scene_refine.hpp), as OUT.yaml with OUT.msh (and OUT.obj for an OBJ virtual mesh) beside it.
+/// (scene/scene_refine.hpp), as OUT.yaml with OUT.msh (and OUT.obj for an OBJ virtual mesh or a
+/// kept one) beside it.
 void refine(const SceneRefineArgs& a) {
   if (a.level < 1) throw ebh::InputError("--level: expected 1 or more, got " + std::to_string(a.level));
   const std::filesystem::path file = ebh::resolve_scene_path(a.scene);
@@ -371,12 +373,11 @@ void refine(const SceneRefineArgs& a) {
   const std::string obj_out = std::filesystem::path(out).replace_extension(".obj").string();
   std::vector<ebh::RoleFile> inputs = {{file.string(), "the scene"}, {spec.physical_mesh.string(), "the physical mesh"}};
   std::vector<ebh::RoleFile> outputs = {{a.out, "the refined scene"}, {mesh_out, "the refined mesh"}};
-  if (spec.virtual_mesh) {
-    inputs.push_back({spec.virtual_mesh->string(), "the virtual mesh"});
-    outputs.push_back({obj_out, "the refined virtual mesh"});
-  }
+  if (spec.virtual_mesh) inputs.push_back({spec.virtual_mesh->string(), "the virtual mesh"});
+  if (spec.virtual_mesh || a.keep_virtual)
+    outputs.push_back({obj_out, a.keep_virtual ? "the kept virtual mesh" : "the refined virtual mesh"});
   ebh::check_outputs(outputs, inputs);
-  const ebh::RefinedScene r = ebh::refine_scene(file, a.level, out, a.max_tets, a.scene);
+  const ebh::RefinedScene r = ebh::refine_scene(file, a.level, out, a.max_tets, a.scene, a.keep_virtual);
   std::vector<std::pair<std::string, std::string_view>> files = {{r.mesh_file.string(), r.mesh_text}};
   if (!r.virtual_file.empty()) files.push_back({r.virtual_file.string(), r.virtual_text});
   files.push_back({a.out, r.scene_yaml});
@@ -432,6 +433,8 @@ void setup(CLI::App& root) {
   r->add_option("--max-tets", rargs->max_tets,
                 "refuse a refined mesh of more tets than this (default " + std::to_string(ebh::kMaxRefinedTets) + ")")
       ->check(CLI::PositiveNumber);
+  r->add_flag("--keep-virtual", rargs->keep_virtual,
+              "keep the virtual mesh at the scene's resolution (written to OUT.obj): only the physical mesh is refined");
   r->callback([rargs] { refine(*rargs); });
 
   auto iargs = std::make_shared<ebh::SceneInitOptions>();

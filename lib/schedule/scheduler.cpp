@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "solver/shared_loops.hpp"
 #if EBH_HAVE_CUDA
 #include "schedule/haptic_cuda.hpp"
 #endif
@@ -46,10 +47,13 @@ struct ThreadCountGuard {
 /// One thread that runs the physical step beside the haptic ticks (async mode), created once per
 /// replay: a step starts with start() and is collected with wait(); nothing allocates per step, and
 /// the thread's OpenMP team is made once (a new thread per step would make a new team each time).
+/// `share`: the step runs on this thread alone and wait() helps with its loops (SharedLoops)
+/// instead of sleeping, so that the waiting haptic thread's core works on the step.
 class PhysicalWorker {
  public:
-  PhysicalWorker(const World& world, PhysicalSide& physical, const HapticSnapshot& input, int threads)
-      : thread_([this, &world, &physical, &input, threads] {
+  PhysicalWorker(const World& world, PhysicalSide& physical, const HapticSnapshot& input, int threads, bool share)
+      : shared_(share ? std::make_unique<SharedLoops>() : nullptr),
+        thread_([this, &world, &physical, &input, threads] {
           omp_set_num_threads(threads);
           std::unique_lock<std::mutex> lock(mx_);
           while (true) {
@@ -58,7 +62,7 @@ class PhysicalWorker {
             lock.unlock();
             std::exception_ptr error;
             try {
-              run_physical_step(world, physical, input);
+              run_physical_step(world, physical, input, shared_.get());
             } catch (...) {
               error = std::current_exception();  // handed to the haptic thread by wait()
             }
@@ -66,6 +70,7 @@ class PhysicalWorker {
             error_ = error;
             pending_ = false;
             busy_ = false;
+            running_.store(false, std::memory_order_release);
             cv_.notify_all();
           }
         }) {}
@@ -80,9 +85,11 @@ class PhysicalWorker {
   void start() {
     std::lock_guard<std::mutex> lock(mx_);
     pending_ = busy_ = true;
+    running_.store(true, std::memory_order_relaxed);
     cv_.notify_all();
   }
   void wait() {
+    if (shared_) shared_->help_until([this] { return !running_.load(std::memory_order_acquire); });
     std::unique_lock<std::mutex> lock(mx_);
     cv_.wait(lock, [this] { return !busy_; });
     if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
@@ -92,7 +99,9 @@ class PhysicalWorker {
   std::mutex mx_;
   std::condition_variable cv_;
   bool pending_ = false, busy_ = false, quit_ = false;
+  std::atomic<bool> running_{false};  // busy_, for wait()'s helping loop
   std::exception_ptr error_;
+  std::unique_ptr<SharedLoops> shared_;
   std::thread thread_;  // last: starts after the flags exist
 };
 
@@ -352,6 +361,10 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
   const ThreadSplit threads = split_threads(opt.mode, opt.haptic_threads);
+  // One physical thread and a core for each side (the 2-core machine): the haptic thread helps the
+  // step while it waits for it (PhysicalWorker).
+  const bool share = threads.physical == 1 && threads.haptic + threads.physical <= omp_get_max_threads() &&
+                     world.backend == Backend::Cpu;
   const ThreadCountGuard haptic_threads(threads.haptic);
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
   PhysicalSide physical = make_physical_side(world);
@@ -359,7 +372,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   PhysicalSnapshot to_haptic;
   // async: physical step k runs on the worker beside ticks kN .. (k+1)N - 1
   std::optional<PhysicalWorker> worker;
-  if (opt.mode == Mode::Async) worker.emplace(world, physical, to_physical, threads.physical);
+  if (opt.mode == Mode::Async) worker.emplace(world, physical, to_physical, threads.physical, share);
   bool in_flight = false;
   double in_flight_t = 0;
   FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};

@@ -428,7 +428,7 @@ bool physical_mesh_asleep(const World& world, const PhysicalSide& p, const Hapti
 }
 }  // namespace
 
-void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot) {
+void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot, SharedLoops* shared) {
 #if EBH_HAVE_CUDA
   if (p.cuda) {
     p.report = p.cuda->step(p.mesh, snapshot.q);
@@ -455,7 +455,7 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
   const bool can_recover =
       solver.recovery == SolverSpec::Recovery::Direct && solver.method != SolverSpec::Method::Direct;
   if (can_recover) p.start = p.mesh;  // the vectors keep their capacity: no allocation after the first step
-  p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, world.physical_params);
+  p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, world.physical_params, nullptr, shared);
   std::string problem = physical_state_problem(model, p.mesh.x, p.report);  // the health check, once
   p.recovered = can_recover && (p.report.residual > solver.recovery_residual || !problem.empty());
   if (p.recovered) {
@@ -465,7 +465,7 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
     PhysicalStepParams direct = world.physical_params;
     direct.method = SolverSpec::Method::Direct;
     const double time_s = p.report.time_s;
-    p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, direct, p.recovery_direct.get());
+    p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, direct, p.recovery_direct.get(), shared);
     p.report.time_s += time_s;
     problem = physical_state_problem(model, p.mesh.x, p.report);
   }

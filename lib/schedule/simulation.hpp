@@ -150,8 +150,10 @@ void haptic_tick(const World& world, HapticSide& haptic, const DeviceSample& sam
 /// One physical step (Algorithm 1) coupled to the virtual-mesh positions of `snapshot`; on the
 /// CPU backend, the recovery (SolverSpec::recovery: a step left unconverged or diverged by the
 /// Jacobi-type iterations is redone from its start with the direct global solve); then
-/// check_physical_step.
-void run_physical_step(const World& world, PhysicalSide& physical, const HapticSnapshot& snapshot);
+/// check_physical_step. `shared` (CPU backend): the step's loops shared with a helping thread
+/// (physical_step); the same bits.
+void run_physical_step(const World& world, PhysicalSide& physical, const HapticSnapshot& snapshot,
+                       SharedLoops* shared = nullptr);
 
 /// The health checks (STYLE.md's run-time tier): a non-finite or diverged physical state after
 /// physical.step - 1 (physical_state_problem), a non-finite force or torque after a tick. Each

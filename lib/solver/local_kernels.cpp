@@ -12,7 +12,6 @@ namespace ebh {
 namespace {
 
 // Lanes per block: 8 doubles, one AVX-512 register or two AVX2 ones.
-constexpr int kTetLanes = 8;   ///< tets per block
 constexpr int kEdgeLanes = 8;  ///< edges per block
 
 /// Alg. 1 lines 6-8 for the tets [t0, t0 + count), count <= kTetLanes (Full: equal):
@@ -162,13 +161,11 @@ void edge_block(const EdgeKernelData& data, const double* __restrict q, Vec3d* _
 
 }  // namespace
 
-void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation, Vec3d* force,
-                     int rotation_iterations, double tol) {
+void local_step_tet_blocks(const TetKernelData& tets, const Vec3d* x, Quatd* rotation, Vec3d* force,
+                           int rotation_iterations, double tol, int b0, int b1) {
   constexpr int W = kTetLanes;
   const int T = tets.num_tets;
-  const int blocks = (T + W - 1) / W;
-#pragma omp for schedule(static) nowait
-  for (int b = 0; b < blocks; ++b) {
+  for (int b = b0; b < b1; ++b) {
     const bool full = W * (b + 1) <= T;
     const int count = full ? W : T - W * b;
     if (tets.det_ratio > 0) {
@@ -187,6 +184,13 @@ void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation,
       else tet_block_general<false, false>(tets, x, rotation, force, W * b, count, rotation_iterations, tol);
     }
   }
+}
+
+void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation, Vec3d* force,
+                     int rotation_iterations, double tol) {
+  const int blocks = tet_blocks(tets.num_tets);
+#pragma omp for schedule(static) nowait
+  for (int b = 0; b < blocks; ++b) local_step_tet_blocks(tets, x, rotation, force, rotation_iterations, tol, b, b + 1);
 }
 
 void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g) {

@@ -17,6 +17,7 @@
 #include "mesh/lumped_masses.hpp"
 #include "mesh/quality.hpp"
 #include "solver/local_kernels.hpp"
+#include "solver/shared_loops.hpp"
 #include "solver/spectrum.hpp"
 #include "solver/virtual_mesh.hpp"
 
@@ -27,9 +28,27 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // ---- Algorithm 1, stage by stage --------------------------------------------------------------
-// Each stage is an OpenMP work-sharing loop called from inside physical_step's one parallel
-// region (an orphaned `omp for`; called outside a region it runs serially). Static schedules
-// give every thread the same share each iteration.
+// Each stage is a loop over independent elements (stage_loop): an OpenMP work-sharing loop called
+// from inside physical_step's one parallel region (an orphaned `omp for`; static schedules give
+// every thread the same share each iteration), or, with SharedLoops, chunks that the one physical
+// thread and a waiting helper take in turn. Either way each element is computed by the same code
+// from the same inputs: the same bits.
+
+/// Elements per chunk of the shared loops: a few microseconds of work each.
+constexpr int kVertexChunk = 256;
+constexpr int kTetBlockChunk = 32;  // SIMD blocks of kTetLanes tets
+constexpr int kCouplingChunk = 512;
+
+/// body(begin, end) over [0, n): `omp for` over the elements, or `shared`'s chunks.
+template <class Body>
+void stage_loop(SharedLoops* shared, int n, int chunk, Body&& body) {
+  if (shared) {
+    shared->run(n, chunk, body);
+    return;
+  }
+#pragma omp for schedule(static)
+  for (int a = 0; a < n; ++a) body(a, a + 1);
+}
 
 constexpr double kRotationTol = 1e-9;  ///< radians: the Mueller update stops below this angle
 constexpr double kStandardGravity = 9.81;  ///< m/s^2, the residual's scale (PhysicalModel::weight_norm)
@@ -40,32 +59,38 @@ constexpr double kSpectrumMargin = 1.02; ///< on Lanczos' estimate of lambda_max
 
 /// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- x + h v (iteration_start: not s,
 /// docs/MODEL.md "The iterations' start").
-void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
-  const int n = model.num_vertices;
-#pragma omp for schedule(static)
-  for (int a = 0; a < n; ++a) {
-    ws.x_start[a] = state.x[a];
-    ws.s[a] = model.pinned[a] ? state.x[a] : predict_position(state.x[a], state.v[a], model.gravity, model.h);
-    if (!model.pinned[a]) state.x[a] = iteration_start(state.x[a], state.v[a], model.h);
-    ws.x_prev[a] = state.x[a];
-  }
+void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, SharedLoops* shared) {
+  stage_loop(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+    for (int a = begin; a < end; ++a) {
+      ws.x_start[a] = state.x[a];
+      ws.s[a] = model.pinned[a] ? state.x[a] : predict_position(state.x[a], state.v[a], model.gravity, model.h);
+      if (!model.pinned[a]) state.x[a] = iteration_start(state.x[a], state.v[a], model.h);
+      ws.x_prev[a] = state.x[a];
+    }
+  });
 }
 
 /// Alg. 1 lines 6-8 (ConstraintProjection): per tet R_t and its corner forces; per virtual vertex
 /// the E_svc force k_svc (q_j - p_j) with p_j = sum w x. Ends with a barrier.
 void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
-                std::span<const Vec3d> virtual_q, const PhysicalStepParams& params) {
+                std::span<const Vec3d> virtual_q, const PhysicalStepParams& params, SharedLoops* shared) {
   const TetKernelData tets{model.num_tets, model.corner_soa.data(), model.shape_grad_soa.data(),
                            model.tet_weight.data(), model.det_ratio};
-  local_step_tets(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
-                  kRotationTol);  // omp for nowait
-  const int m = model.num_virtual;
-#pragma omp for schedule(static)
-  for (int j = 0; j < m; ++j) {
-    const Vec3d p = paired_point(state.x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
-                                 model.pair_count[j]);
-    ws.cpl_force[j] = coupling_gradient_virtual(p, virtual_q[j], model.k_svc);  // k_svc (q - p)
-  }
+  if (shared)
+    shared->run(tet_blocks(model.num_tets), kTetBlockChunk, [&](int b0, int b1) {
+      local_step_tet_blocks(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(),
+                            params.rotation_iterations, kRotationTol, b0, b1);
+    });
+  else
+    local_step_tets(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
+                    kRotationTol);  // omp for nowait
+  stage_loop(shared, model.num_virtual, kCouplingChunk, [&](int begin, int end) {
+    for (int j = begin; j < end; ++j) {
+      const Vec3d p = paired_point(state.x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
+                                   model.pair_count[j]);
+      ws.cpl_force[j] = coupling_gradient_virtual(p, virtual_q[j], model.k_svc);  // k_svc (q - p)
+    }
+  });
 }
 
 /// r_a = -grad E_soft at x_a with the local step's projections, gathered in a fixed order:
@@ -86,23 +111,23 @@ inline Vec3d vertex_residual(const PhysicalModel& model, const PhysicalWorkspace
 ///   chebyshev: x_{k+1} = omega (gamma D^-1 r + x_k - x_{k-1}) + x_{k-1}   (Wang 2015, eq. 12)
 ///   direct:    r only (global_direct follows)
 void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
-                         SolverSpec::Method method, double gamma, double omega) {
-  const int n = model.num_vertices;
+                         SolverSpec::Method method, double gamma, double omega, SharedLoops* shared) {
   const double inv_h2 = 1.0 / (model.h * model.h);
   Vec3d* __restrict x = state.x.data();
-#pragma omp for schedule(static)
-  for (int a = 0; a < n; ++a) {
-    if (model.pinned[a]) { ws.r[a] = Vec3d{}; continue; }  // never moves: x = x_prev = s
-    const Vec3d r = vertex_residual(model, ws, x, a, inv_h2);
-    ws.r[a] = r;
-    if (method == SolverSpec::Method::Jacobi) {
-      x[a] += (gamma / model.diag[a]) * r;
-    } else if (method == SolverSpec::Method::Chebyshev) {
-      const Vec3d xk = x[a];
-      x[a] = omega * ((gamma / model.diag[a]) * r + xk - ws.x_prev[a]) + ws.x_prev[a];
-      ws.x_prev[a] = xk;
+  stage_loop(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+    for (int a = begin; a < end; ++a) {
+      if (model.pinned[a]) { ws.r[a] = Vec3d{}; continue; }  // never moves: x = x_prev = s
+      const Vec3d r = vertex_residual(model, ws, x, a, inv_h2);
+      ws.r[a] = r;
+      if (method == SolverSpec::Method::Jacobi) {
+        x[a] += (gamma / model.diag[a]) * r;
+      } else if (method == SolverSpec::Method::Chebyshev) {
+        const Vec3d xk = x[a];
+        x[a] = omega * ((gamma / model.diag[a]) * r + xk - ws.x_prev[a]) + ws.x_prev[a];
+        ws.x_prev[a] = xk;
+      }
     }
-  }
+  });
 }
 
 /// ||r|| over free vertices (pinned rows are 0), summed serially: the same bits for any thread count.
@@ -126,11 +151,11 @@ void global_direct(const PhysicalModel& model, const PhysicalDirectSolver& direc
 }
 
 /// Alg. 1 line 11: v = (1 - damping) (x - x_start) / h.
-void update_velocities(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state) {
-  const int n = model.num_vertices;
+void update_velocities(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, SharedLoops* shared) {
   const double c = (1.0 - model.damping) / model.h;
-#pragma omp for schedule(static)
-  for (int a = 0; a < n; ++a) state.v[a] = c * (state.x[a] - ws.x_start[a]);
+  stage_loop(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+    for (int a = begin; a < end; ++a) state.v[a] = c * (state.x[a] - ws.x_start[a]);
+  });
 }
 
 /// D over the free rows (see PhysicalModel::diag); the pinned rows keep A(a, a), never used.
@@ -367,7 +392,7 @@ PhysicalModelOptions physical_model_options(const SceneSpec& spec) {
 
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                                  std::span<const Vec3d> virtual_q, const PhysicalStepParams& params,
-                                 const PhysicalDirectSolver* direct) {
+                                 const PhysicalDirectSolver* direct, SharedLoops* shared) {
   const auto t_step = Clock::now();
   PhysicalStepReport report;
   if (model.num_virtual > 0 && virtual_q.size() != size_t(model.num_virtual))
@@ -389,20 +414,21 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
   // per iteration. The master thread times the stages and sums the residual norms (after the
   // barrier ending the global step; ws.r is next written after the following local step's barrier).
   // From iteration K - 1 on one thread sums the norm and decides for all (a third barrier).
-#pragma omp parallel
+  // With `shared` one thread runs it all and the stages' loops are shared with a helper.
+#pragma omp parallel if (shared == nullptr)
   {
-    predict(model, ws, state);
+    predict(model, ws, state, shared);
     double omega = 1;  // every thread follows the same Chebyshev weights
     for (int k = 0; k < max_iterations; ++k) {
       auto t0 = Clock::now();
-      local_step(model, ws, state, virtual_q, params);
+      local_step(model, ws, state, virtual_q, params, shared);
 #pragma omp master
       {
         report.local_s += seconds_since(t0);
         t0 = Clock::now();
       }
       omega = chebyshev_weight(params, k, omega);
-      residual_and_update(model, ws, state, params.method, params.relaxation, omega);
+      residual_and_update(model, ws, state, params.method, params.relaxation, omega, shared);
       if (params.method == SolverSpec::Method::Direct) {
 #pragma omp single
         global_direct(model, *direct, ws, state);  // implicit barrier
@@ -425,7 +451,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
       }  // implicit barrier: every thread reads the same decision (next written after the next local step)
       if (!more) break;
     }
-    update_velocities(model, ws, state);
+    update_velocities(model, ws, state, shared);
   }
   report.iterations = iterations;
   set_residuals(report, r0, rk, model.weight_norm);

@@ -39,6 +39,7 @@
 namespace ebh {
 
 struct VirtualModel;
+class SharedLoops;
 
 /// The exact global solve: A restricted to free vertices, factorised once per topology.
 struct PhysicalDirectSolver {
@@ -238,9 +239,11 @@ std::shared_ptr<const PhysicalDirectSolver> factorize_global_matrix(const Eigen:
 /// One physical step (Algorithm 1), in place on state.
 ///   virtual_q: #m virtual-mesh positions held fixed for E_svc (empty when num_virtual == 0).
 ///   direct: the factorisation the direct method uses (null: model.direct).
+///   shared: run on the calling thread alone, the stages' loops shared with a thread that helps
+///     (SharedLoops::help_until); null: an OpenMP team. The same bits either way.
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                                  std::span<const Vec3d> virtual_q, const PhysicalStepParams& params,
-                                 const PhysicalDirectSolver* direct = nullptr);
+                                 const PhysicalDirectSolver* direct = nullptr, SharedLoops* shared = nullptr);
 
 struct PhysicalEnergy {
   double volume = 0;    ///< E_vol [7] (and E_det, energy/volume.hpp, where k_det > 0)

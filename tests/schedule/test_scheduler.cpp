@@ -71,6 +71,15 @@ TEST(Scheduler, AsyncReplayIsBitwiseReproducibleAcrossRunsAndThreadCounts) {
   EXPECT_EQ(a.values, c.values);
 }
 
+TEST(Scheduler, AsyncReplayWithTheStepSharedIsBitwiseThatOfAPhysicalTeam) {
+  // 2 threads: one a side, and the waiting haptic thread helps the physical step (SharedLoops);
+  // 3 threads with one haptic: the step on an OpenMP team of 2.
+  const Recording rec = entering_bore(0.1);
+  const Capture shared = run(Mode::Async, rec, 2), team = run(Mode::Async, rec, 3, 1);
+  ASSERT_FALSE(shared.values.empty());
+  EXPECT_EQ(shared.values, team.values);
+}
+
 TEST(Scheduler, AsyncReplayWithAHapticTeamIsBitwiseThatOfOneThread) {
   // tube's 6628 virtual vertices are above parallel_min_vertices: 2 haptic threads iterate them as
   // a team (virtual_team), beside a 1-thread physical step.

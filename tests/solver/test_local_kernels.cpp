@@ -99,8 +99,9 @@ TEST(LocalKernels, ListedEdgesGetTheBitsOfTheWholePass) {
     for (const int e : *ids) EXPECT_EQ(std::memcmp(&g[e], &whole[e], sizeof(Vec3d)), 0) << "edge " << e << " of a list of " << ids->size();
     std::vector<char> listed(vm.edges.size(), 0);
     for (const int e : *ids) listed[e] = 1;
-    for (int e = 0; e < E; ++e)
+    for (int e = 0; e < E; ++e) {
       if (!listed[e]) EXPECT_EQ(g[e], (Vec3d{7, 7, 7})) << "edge " << e << " is not listed";
+    }
   }
 }
 

@@ -1,0 +1,57 @@
+#pragma once
+// Loops a waiting thread may join. In an async replay with one physical thread (the 2-core case)
+// the haptic thread waits for each physical step it needs; while it waits, it takes chunks of the
+// step's loops (docs/MODEL.md, "Implementation and speed"). Every chunk writes only its own
+// outputs and reads nothing another chunk of the same loop writes, so who runs a chunk changes no
+// bit of the result.
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <type_traits>
+
+namespace ebh {
+
+class SharedLoops {
+ public:
+  /// The loop's body over [begin, end).
+  using ChunkFn = void (*)(void* body, int begin, int end);
+
+  /// Runs body(begin, end) over [0, n) in chunks of `chunk` elements: the calling thread (the one
+  /// owner of this object's loops) runs chunks until none is left, then waits for the chunks a
+  /// helper took. Returns when every chunk is done; their writes are then visible to the owner.
+  template <class Body>
+  void run(int n, int chunk, Body&& body) {
+    using B = std::remove_reference_t<Body>;
+    run_chunks(n, chunk, [](void* b, int begin, int end) { (*static_cast<B*>(b))(begin, end); },
+               const_cast<void*>(static_cast<const void*>(&body)));
+  }
+  void run_chunks(int n, int chunk, ChunkFn fn, void* body);
+
+  /// Called by a helping thread: runs chunks of the owner's loops until `stop()` is true, then
+  /// returns (stop is polled between chunks and while no loop is open).
+  template <class Stop>
+  void help_until(Stop&& stop) {
+    for (unsigned spins = 0; !stop();)
+      if (!help_once()) pause(spins);
+  }
+  /// Runs chunks of the loop open now, if any; whether it ran one.
+  bool help_once();
+
+  /// Chunks the helper ran (a statistic: tests check that it took part).
+  std::uint64_t helped_chunks() const { return helped_.load(std::memory_order_relaxed); }
+
+ private:
+  static void pause(unsigned& spins);
+
+  // The open loop: written by the owner while no loop is open and no helper is inside, published
+  // by an odd `generation_` (release), closed by the next even one.
+  ChunkFn fn_ = nullptr;
+  void* body_ = nullptr;
+  int n_ = 0, chunk_ = 1, chunks_ = 0;
+  std::atomic<std::uint64_t> generation_{0};
+  std::atomic<int> next_{0};    // the next chunk to claim
+  std::atomic<int> inside_{0};  // helpers from their check of the generation to their last chunk's end
+  std::atomic<std::uint64_t> helped_{0};
+};
+
+}  // namespace ebh

@@ -47,16 +47,25 @@ struct ThreadCountGuard {
 /// One thread that runs the physical step beside the haptic ticks (async mode), created once per
 /// replay: a step starts with start() and is collected with wait(); nothing allocates per step, and
 /// the thread's OpenMP team is made once (a new thread per step would make a new team each time).
-/// `share`: the step runs on this thread alone and wait() helps with its loops (SharedLoops)
-/// instead of sleeping, so that the waiting haptic thread's core works on the step.
+/// `share_step`: the step runs on this thread alone and wait() helps with its loops (SharedLoops)
+/// instead of sleeping, so that the waiting haptic thread's core works on the step. `tick_loops`
+/// (the haptic side's, VirtualWorkspace::shared): between steps this thread helps with them.
 class PhysicalWorker {
  public:
-  PhysicalWorker(const World& world, PhysicalSide& physical, const HapticSnapshot& input, int threads, bool share)
-      : shared_(share ? std::make_unique<SharedLoops>() : nullptr),
-        thread_([this, &world, &physical, &input, threads] {
+  PhysicalWorker(const World& world, PhysicalSide& physical, const HapticSnapshot& input, int threads,
+                 bool share_step, SharedLoops* tick_loops)
+      : shared_(share_step ? std::make_unique<SharedLoops>() : nullptr),
+        thread_([this, &world, &physical, &input, threads, tick_loops] {
           omp_set_num_threads(threads);
           std::unique_lock<std::mutex> lock(mx_);
           while (true) {
+            if (tick_loops) {  // until start() or the end
+              lock.unlock();
+              tick_loops->help_until([this] {
+                return running_.load(std::memory_order_acquire) || quitting_.load(std::memory_order_acquire);
+              });
+              lock.lock();
+            }
             cv_.wait(lock, [this] { return pending_ || quit_; });
             if (quit_) return;
             lock.unlock();
@@ -78,6 +87,7 @@ class PhysicalWorker {
     {
       std::lock_guard<std::mutex> lock(mx_);
       quit_ = true;
+      quitting_.store(true, std::memory_order_release);
     }
     cv_.notify_all();
     thread_.join();
@@ -99,7 +109,7 @@ class PhysicalWorker {
   std::mutex mx_;
   std::condition_variable cv_;
   bool pending_ = false, busy_ = false, quit_ = false;
-  std::atomic<bool> running_{false};  // busy_, for wait()'s helping loop
+  std::atomic<bool> running_{false}, quitting_{false};  // busy_ and quit_, for the helping loops
   std::exception_ptr error_;
   std::unique_ptr<SharedLoops> shared_;
   std::thread thread_;  // last: starts after the flags exist
@@ -361,18 +371,22 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
   const ThreadSplit threads = split_threads(opt.mode, opt.haptic_threads);
-  // One physical thread and a core for each side (the 2-core machine): the haptic thread helps the
-  // step while it waits for it (PhysicalWorker).
-  const bool share = threads.physical == 1 && threads.haptic + threads.physical <= omp_get_max_threads() &&
-                     world.backend == Backend::Cpu;
+  // A core for each side (CPU backend): a side with one thread shares its loops with the other
+  // side's thread while that one would wait (PhysicalWorker; the 2-core machine: both).
+  const bool cores = world.backend == Backend::Cpu && threads.haptic + threads.physical <= omp_get_max_threads();
+  const bool share_step = cores && threads.physical == 1;
+  std::optional<SharedLoops> tick_loops;
+  if (cores && threads.haptic == 1 && opt.mode == Mode::Async) tick_loops.emplace();
   const ThreadCountGuard haptic_threads(threads.haptic);
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
+  if (tick_loops) haptic.workspace.shared = &*tick_loops;
   PhysicalSide physical = make_physical_side(world);
   HapticSnapshot to_physical;
   PhysicalSnapshot to_haptic;
   // async: physical step k runs on the worker beside ticks kN .. (k+1)N - 1
   std::optional<PhysicalWorker> worker;
-  if (opt.mode == Mode::Async) worker.emplace(world, physical, to_physical, threads.physical, share);
+  if (opt.mode == Mode::Async)
+    worker.emplace(world, physical, to_physical, threads.physical, share_step, tick_loops ? &*tick_loops : nullptr);
   bool in_flight = false;
   double in_flight_t = 0;
   FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};

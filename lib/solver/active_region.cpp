@@ -8,6 +8,7 @@
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
 #include "solver/local_kernels.hpp"
+#include "solver/shared_loops.hpp"
 
 namespace ebh {
 namespace {
@@ -201,9 +202,11 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   // The inactive vertices move with their targets (only q: active_region.hpp).
   r.inactive_moved = std::fabs(a - r.blend_before) * r.target_spread;
   if (a != r.blend_before) {
-#pragma omp parallel for schedule(static) if (team)
-    for (int j = 0; j < m; ++j)
-      if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(model, r, j, a);
+#pragma omp parallel if (!ws.shared && team)
+    for_chunks(ws.shared, m, kVertexChunk, [&](int begin, int end) {
+      for (int j = begin; j < end; ++j)
+        if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(model, r, j, a);
+    });
   }
   if (fresh) add_strained(model, r, state, v_scale);  // once per physical result
   retire_and_spread(model, r, state, seeds, v_scale);
@@ -212,14 +215,16 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
 
   // Alg. 2 line 6 on the active vertices, as virtual_begin_tick.
   const int na = static_cast<int>(r.vertices.size());
-#pragma omp parallel for schedule(static) if (virtual_team(model, na))
-  for (int i = 0; i < na; ++i) {
-    const int j = r.vertices[i];
-    ws.p[j] = coupling_point(r, j, a);
-    ws.q_start[j] = state.q[j];
-    ws.s[j] = predict_position(state.q[j], state.v[j], model.gravity, h);
-    state.q[j] = ws.s[j];
-  }
+#pragma omp parallel if (!ws.shared && virtual_team(model, na))
+  for_chunks(ws.shared, na, kVertexChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const int j = r.vertices[i];
+      ws.p[j] = coupling_point(r, j, a);
+      ws.q_start[j] = state.q[j];
+      ws.s[j] = predict_position(state.q[j], state.v[j], model.gravity, h);
+      state.q[j] = ws.s[j];
+    }
+  });
 }
 
 void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
@@ -250,16 +255,24 @@ void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, A
                              model.rest_len.data(), model.k_s};
   const Vec3d* q = state.q.data();
   Vec3d* q_next = ws.q_next.data();
-#pragma omp parallel if (virtual_team(model, na))
+  const int ne = static_cast<int>(r.edges.size());
+#pragma omp parallel if (!ws.shared && virtual_team(model, na))
   {
-    edge_spring_gradients_listed(edges, r.edges.data(), static_cast<int>(r.edges.size()), q, ws.edge_grad.data());
-#pragma omp for schedule(static)
-    for (int i = 0; i < na; ++i) {
-      const int j = r.vertices[i];
-      q_next[j] = virtual_vertex_update(model, ws, q, j, inv_h2);
-    }
-#pragma omp for schedule(static)
-    for (int i = 0; i < na; ++i) state.q[r.vertices[i]] = q_next[r.vertices[i]];
+    if (ws.shared)
+      ws.shared->run(edge_blocks(ne), kEdgeBlockChunk, [&](int b0, int b1) {
+        edge_spring_gradient_groups(edges, r.edges.data(), ne, q, ws.edge_grad.data(), b0, b1);
+      });
+    else
+      edge_spring_gradients_listed(edges, r.edges.data(), ne, q, ws.edge_grad.data());
+    for_chunks(ws.shared, na, kVertexChunk, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) {
+        const int j = r.vertices[i];
+        q_next[j] = virtual_vertex_update(model, ws, q, j, inv_h2);
+      }
+    });
+    for_chunks(ws.shared, na, 4 * kVertexChunk, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) state.q[r.vertices[i]] = q_next[r.vertices[i]];
+    });
   }
   for (const ContactTarget& c : contacts) {
     ws.contact_kt[c.vertex] = Vec3d{};

@@ -11,8 +11,7 @@
 namespace ebh {
 namespace {
 
-// Lanes per block: 8 doubles, one AVX-512 register or two AVX2 ones.
-constexpr int kEdgeLanes = 8;  ///< edges per block
+// Lanes per block (kTetLanes, kEdgeLanes): 8 doubles, one AVX-512 register or two AVX2 ones.
 
 /// Alg. 1 lines 6-8 for the tets [t0, t0 + count), count <= kTetLanes (Full: equal):
 /// R_t = Mueller update(s) of the warm start (energy/rotation.hpp), then the corner forces
@@ -193,12 +192,10 @@ void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation,
   for (int b = 0; b < blocks; ++b) local_step_tet_blocks(tets, x, rotation, force, rotation_iterations, tol, b, b + 1);
 }
 
-void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g) {
+void edge_spring_gradient_blocks(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g, int b0, int b1) {
   constexpr int W = kEdgeLanes;
   const int E = edges.num_edges;
-  const int blocks = (E + W - 1) / W;
-#pragma omp for schedule(static)
-  for (int b = 0; b < blocks; ++b) {
+  for (int b = b0; b < b1; ++b) {
     if (W * (b + 1) <= E)
       edge_block<true>(edges, &q[0].x, g, W * b, W);
     else
@@ -206,14 +203,19 @@ void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g
   }
 }
 
-void edge_spring_gradients_listed(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g) {
+void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g) {
+  const int blocks = edge_blocks(edges.num_edges);
+#pragma omp for schedule(static)
+  for (int b = 0; b < blocks; ++b) edge_spring_gradient_blocks(edges, q, g, b, b + 1);
+}
+
+void edge_spring_gradient_groups(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g,
+                                 int b0, int b1) {
   // Per edge what edge_block computes: the gradient without the rest edge, or with it for a
   // collapsed edge (as edge_block recomputes it). A group of kEdgeLanes listed edges that are consecutive edges (the active region's list is in
   // index order, so most are) is edge_block's block itself.
   constexpr int W = kEdgeLanes;
-  const int groups = (count + W - 1) / W;
-#pragma omp for schedule(static)
-  for (int b = 0; b < groups; ++b) {
+  for (int b = b0; b < b1; ++b) {
     const int i0 = W * b, n = std::min(W, count - i0);
     bool run = n == W;
     for (int l = 1; run && l < W; ++l) run = ids[i0 + l] == ids[i0] + l;
@@ -229,6 +231,12 @@ void edge_spring_gradients_listed(const EdgeKernelData& edges, const int* ids, i
                                          : edge_spring_gradient(qa, qb, Vec3d{}, L0, edges.k_s);
     }
   }
+}
+
+void edge_spring_gradients_listed(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g) {
+  const int groups = edge_blocks(count);
+#pragma omp for schedule(static)
+  for (int b = 0; b < groups; ++b) edge_spring_gradient_groups(edges, ids, count, q, g, b, b + 1);
 }
 
 }  // namespace ebh

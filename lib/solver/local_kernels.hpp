@@ -58,4 +58,14 @@ void edge_spring_gradients(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g
 /// go through the blocks of edge_spring_gradients).
 void edge_spring_gradients_listed(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g);
 
+/// The blocks of edge_spring_gradients (kEdgeLanes edges each, edge_blocks(E) of them) and the
+/// groups of edge_spring_gradients_listed (kEdgeLanes listed edges each, edge_blocks(count)):
+/// blocks or groups [b0, b1) only, on the calling thread (no OpenMP), each writing only its own
+/// edges' gradients.
+constexpr int kEdgeLanes = 8;
+constexpr int edge_blocks(int count) { return (count + kEdgeLanes - 1) / kEdgeLanes; }
+void edge_spring_gradient_blocks(const EdgeKernelData& edges, const Vec3d* q, Vec3d* g, int b0, int b1);
+void edge_spring_gradient_groups(const EdgeKernelData& edges, const int* ids, int count, const Vec3d* q, Vec3d* g,
+                                 int b0, int b1);
+
 }  // namespace ebh

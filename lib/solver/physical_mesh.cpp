@@ -28,27 +28,11 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // ---- Algorithm 1, stage by stage --------------------------------------------------------------
-// Each stage is a loop over independent elements (stage_loop): an OpenMP work-sharing loop called
+// Each stage is a loop over independent elements (for_chunks): an OpenMP work-sharing loop called
 // from inside physical_step's one parallel region (an orphaned `omp for`; static schedules give
 // every thread the same share each iteration), or, with SharedLoops, chunks that the one physical
 // thread and a waiting helper take in turn. Either way each element is computed by the same code
 // from the same inputs: the same bits.
-
-/// Elements per chunk of the shared loops: a few microseconds of work each.
-constexpr int kVertexChunk = 256;
-constexpr int kTetBlockChunk = 32;  // SIMD blocks of kTetLanes tets
-constexpr int kCouplingChunk = 512;
-
-/// body(begin, end) over [0, n): `omp for` over the elements, or `shared`'s chunks.
-template <class Body>
-void stage_loop(SharedLoops* shared, int n, int chunk, Body&& body) {
-  if (shared) {
-    shared->run(n, chunk, body);
-    return;
-  }
-#pragma omp for schedule(static)
-  for (int a = 0; a < n; ++a) body(a, a + 1);
-}
 
 constexpr double kRotationTol = 1e-9;  ///< radians: the Mueller update stops below this angle
 constexpr double kStandardGravity = 9.81;  ///< m/s^2, the residual's scale (PhysicalModel::weight_norm)
@@ -60,7 +44,7 @@ constexpr double kSpectrumMargin = 1.02; ///< on Lanczos' estimate of lambda_max
 /// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- x + h v (iteration_start: not s,
 /// docs/MODEL.md "The iterations' start").
 void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, SharedLoops* shared) {
-  stage_loop(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+  for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
     for (int a = begin; a < end; ++a) {
       ws.x_start[a] = state.x[a];
       ws.s[a] = model.pinned[a] ? state.x[a] : predict_position(state.x[a], state.v[a], model.gravity, model.h);
@@ -84,7 +68,7 @@ void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState
   else
     local_step_tets(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
                     kRotationTol);  // omp for nowait
-  stage_loop(shared, model.num_virtual, kCouplingChunk, [&](int begin, int end) {
+  for_chunks(shared, model.num_virtual, 2 * kVertexChunk, [&](int begin, int end) {
     for (int j = begin; j < end; ++j) {
       const Vec3d p = paired_point(state.x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
                                    model.pair_count[j]);
@@ -114,7 +98,7 @@ void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, Phys
                          SolverSpec::Method method, double gamma, double omega, SharedLoops* shared) {
   const double inv_h2 = 1.0 / (model.h * model.h);
   Vec3d* __restrict x = state.x.data();
-  stage_loop(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+  for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
     for (int a = begin; a < end; ++a) {
       if (model.pinned[a]) { ws.r[a] = Vec3d{}; continue; }  // never moves: x = x_prev = s
       const Vec3d r = vertex_residual(model, ws, x, a, inv_h2);
@@ -153,7 +137,7 @@ void global_direct(const PhysicalModel& model, const PhysicalDirectSolver& direc
 /// Alg. 1 line 11: v = (1 - damping) (x - x_start) / h.
 void update_velocities(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, SharedLoops* shared) {
   const double c = (1.0 - model.damping) / model.h;
-  stage_loop(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+  for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
     for (int a = begin; a < end; ++a) state.v[a] = c * (state.x[a] - ws.x_start[a]);
   });
 }

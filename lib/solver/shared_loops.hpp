@@ -54,4 +54,22 @@ class SharedLoops {
   std::atomic<std::uint64_t> helped_{0};
 };
 
+/// Elements per chunk of the solvers' shared loops: a few microseconds of work each.
+constexpr int kVertexChunk = 256;    ///< vertices (a gather and an update each)
+constexpr int kTetBlockChunk = 32;   ///< SIMD blocks of tets (local_kernels.hpp, kTetLanes each)
+constexpr int kEdgeBlockChunk = 64;  ///< SIMD blocks of edges (kEdgeLanes each)
+
+/// body(begin, end) over [0, n): with `shared`, as its chunks of `chunk` elements (SharedLoops::run);
+/// without, an orphaned `omp for schedule(static)` over the elements one at a time (inside a
+/// parallel region the team shares them, outside one the calling thread runs them all).
+template <class Body>
+void for_chunks(SharedLoops* shared, int n, int chunk, Body&& body) {
+  if (shared) {
+    shared->run(n, chunk, body);
+    return;
+  }
+#pragma omp for schedule(static)
+  for (int a = 0; a < n; ++a) body(a, a + 1);
+}
+
 }  // namespace ebh

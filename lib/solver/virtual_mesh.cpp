@@ -23,6 +23,7 @@
 #include "scene/scene.hpp"
 #include "solver/local_kernels.hpp"
 #include "solver/physical_mesh.hpp"
+#include "solver/shared_loops.hpp"
 #include "solver/virtual_jacobi.hpp"
 
 namespace ebh {
@@ -157,32 +158,38 @@ void virtual_begin_tick(const VirtualModel& model, VirtualWorkspace& ws, Virtual
                         std::span<const Vec3d> physical_x, double h) {
   ws.h = h;
   const int m = model.num_vertices;
-#pragma omp parallel for schedule(static) if (virtual_team(model, m))
-  for (int j = 0; j < m; ++j) {
-    ws.p[j] = paired_point(physical_x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
-                           model.pair_count[j]);                        // Alg. 2 line 1: E_svc targets
-    ws.q_start[j] = state.q[j];                                         // Alg. 2 line 6: prediction
-    ws.s[j] = model.pinned[j] ? state.q[j] : predict_position(state.q[j], state.v[j], model.gravity, h);
-    state.q[j] = ws.s[j];
-  }
+#pragma omp parallel if (!ws.shared && virtual_team(model, m))
+  for_chunks(ws.shared, m, kVertexChunk, [&](int begin, int end) {
+    for (int j = begin; j < end; ++j) {
+      ws.p[j] = paired_point(physical_x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
+                             model.pair_count[j]);                        // Alg. 2 line 1: E_svc targets
+      ws.q_start[j] = state.q[j];                                         // Alg. 2 line 6: prediction
+      ws.s[j] = model.pinned[j] ? state.q[j] : predict_position(state.q[j], state.v[j], model.gravity, h);
+      state.q[j] = ws.s[j];
+    }
+  });
 }
 
 namespace {
 
-/// The local step of E_s for every edge (work-shared; ends with a barrier).
+/// The local step of E_s for every edge (work-shared or ws.shared; ends with a barrier).
 void edge_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* q) {
   const EdgeKernelData edges{static_cast<int>(model.edges.size()), model.edges.data(), model.rest_edge.data(),
                              model.rest_len.data(), model.k_s};
-  edge_spring_gradients(edges, q, ws.edge_grad.data());  // omp for
+  if (ws.shared)
+    ws.shared->run(edge_blocks(edges.num_edges), kEdgeBlockChunk,
+                   [&](int b0, int b1) { edge_spring_gradient_blocks(edges, q, ws.edge_grad.data(), b0, b1); });
+  else
+    edge_spring_gradients(edges, q, ws.edge_grad.data());  // omp for
 }
 
-/// The gather and Jacobi global step per vertex (virtual_jacobi.hpp; work-shared; ends with a
-/// barrier).
+/// The gather and Jacobi global step per vertex (virtual_jacobi.hpp; work-shared or ws.shared;
+/// ends with a barrier).
 void vertex_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* __restrict q, Vec3d* __restrict q_next) {
-  const int m = model.num_vertices;
   const double inv_h2 = 1.0 / (ws.h * ws.h);
-#pragma omp for schedule(static)
-  for (int j = 0; j < m; ++j) q_next[j] = model.pinned[j] ? q[j] : virtual_vertex_update(model, ws, q, j, inv_h2);
+  for_chunks(ws.shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+    for (int j = begin; j < end; ++j) q_next[j] = model.pinned[j] ? q[j] : virtual_vertex_update(model, ws, q, j, inv_h2);
+  });
 }
 
 }  // namespace
@@ -195,7 +202,7 @@ void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualS
     ws.contact_k[c.vertex] += c.stiffness;
   }
   // Local step (edge targets R e0; E_svc and E_con targets are fixed) and Jacobi global step.
-#pragma omp parallel if (virtual_team(model, model.num_vertices))
+#pragma omp parallel if (!ws.shared && virtual_team(model, model.num_vertices))
   {
     edge_pass(model, ws, state.q.data());
     vertex_pass(model, ws, state.q.data(), ws.q_next.data());
@@ -210,8 +217,10 @@ void virtual_iteration(const VirtualModel& model, VirtualWorkspace& ws, VirtualS
 void virtual_end_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state) {
   const int m = model.num_vertices;
   const double v_scale = tick_velocity_scale(ws.h, model.damping);
-#pragma omp parallel for schedule(static) if (virtual_team(model, m))
-  for (int j = 0; j < m; ++j) state.v[j] = v_scale * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23, damped
+#pragma omp parallel if (!ws.shared && virtual_team(model, m))
+  for_chunks(ws.shared, m, kVertexChunk, [&](int begin, int end) {
+    for (int j = begin; j < end; ++j) state.v[j] = v_scale * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23, damped
+  });
 }
 
 void compute_vertex_normals(const VirtualModel& model, std::span<const Vec3d> q, std::span<Vec3d> normals) {

@@ -27,6 +27,8 @@
 
 namespace ebh {
 
+class SharedLoops;
+
 struct Scene;
 
 /// Immutable virtual-mesh model. m = #vertices, E = #edges, F = #triangles.
@@ -78,6 +80,10 @@ struct VirtualWorkspace {
   std::vector<Vec3d> contact_kt;       ///< #m sum of k * target over this iteration's contacts
   std::vector<double> contact_k;       ///< #m sum of k over this iteration's contacts
   std::vector<Vec3d> edge_grad;        ///< #E dE_s/dq_a of each edge (a, b) (the local step's output)
+  /// The passes over the mesh (or the active region) as chunks shared with a helping thread
+  /// (solver/shared_loops.hpp: the async replay's physical thread while it waits for the next
+  /// step, with one haptic thread); null: the calling thread's OpenMP team. The same bits.
+  SharedLoops* shared = nullptr;
 };
 
 /// Builds the virtual mesh of a scene: scene.virtual_surface (or, when empty, the physical mesh's

@@ -5,14 +5,17 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <atomic>
 #include <cstring>
 #include <span>
+#include <thread>
 #include <vector>
 
 #include "mesh/box_mesh.hpp"
 #include "mesh/degrade.hpp"
 #include "scene/scene.hpp"
 #include "solver/physical_mesh.hpp"
+#include "solver/shared_loops.hpp"
 #include "solver/virtual_mesh.hpp"
 
 namespace ebh::test {
@@ -85,6 +88,24 @@ void expect_bitwise_equal_across_threads(Run run) {
   omp_set_num_threads(saved);
   ASSERT_EQ(one.size(), two.size());
   EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(Vec3d)), 0);
+}
+
+/// run(&shared) with a thread helping with `shared`'s loops (SharedLoops::help_until, as a replay's
+/// other side does), again until the helper has taken a chunk (its thread may start late on a
+/// loaded machine; at most 20 runs); then run(nullptr): the two results must be bitwise equal.
+template <class Run>
+void expect_bitwise_equal_with_a_helper(Run run) {
+  SharedLoops shared;
+  std::atomic<bool> done{false};
+  std::thread helper([&] { shared.help_until([&] { return done.load(); }); });
+  std::vector<Vec3d> helped = run(&shared);
+  for (int attempt = 1; attempt < 20 && shared.helped_chunks() == 0; ++attempt) helped = run(&shared);
+  done = true;
+  helper.join();
+  EXPECT_GT(shared.helped_chunks(), 0u) << "the helper never took a chunk";
+  const std::vector<Vec3d> alone = run(nullptr);
+  ASSERT_EQ(helped.size(), alone.size());
+  EXPECT_EQ(std::memcmp(helped.data(), alone.data(), alone.size() * sizeof(Vec3d)), 0);
 }
 
 }  // namespace ebh::test

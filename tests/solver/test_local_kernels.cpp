@@ -100,7 +100,9 @@ TEST(LocalKernels, ListedEdgesGetTheBitsOfTheWholePass) {
     std::vector<char> listed(vm.edges.size(), 0);
     for (const int e : *ids) listed[e] = 1;
     for (int e = 0; e < E; ++e) {
-      if (!listed[e]) EXPECT_EQ(g[e], (Vec3d{7, 7, 7})) << "edge " << e << " is not listed";
+      if (!listed[e]) {
+        EXPECT_EQ(g[e], (Vec3d{7, 7, 7})) << "edge " << e << " is not listed";
+      }
     }
   }
 }

@@ -28,7 +28,7 @@ TEST(SharedLoops, EveryElementRunsOnceAndTheOwnerSeesTheHelpersWrites) {
   std::vector<int> runs;
   std::vector<long long> value;
   for (int loop = 0; loop < 500; ++loop) {
-    const int n = 1 + (loop * 37) % 300, chunk = 1 + loop % 17;
+    const int n = 1 + (loop * 37 + 100) % 300, chunk = 1 + loop % 17;  // loop 0: 101 chunks
     runs.assign(n, 0);
     value.assign(n, 0);
     shared.run(n, chunk, [&](int begin, int end) {

@@ -40,11 +40,14 @@ TEST(Pairing, InteriorSurfaceIsEmbeddedInTets) {
 
 /// Five virtual-mesh ticks (4 iterations each) of a box under contact; parallel_min_vertices = 0
 /// puts even this small mesh on the OpenMP team instead of the calling thread.
-std::vector<Vec3d> five_virtual_ticks(int parallel_min_vertices) {
-  Sim sim(box_scene(4, 4, 8, 1));
+/// shared: the passes' loops shared with a helping thread (VirtualWorkspace::shared); cells: the
+/// box's cells across (and twice that along).
+std::vector<Vec3d> five_virtual_ticks(int parallel_min_vertices, SharedLoops* shared = nullptr, int cells = 4) {
+  Sim sim(box_scene(cells, cells, 2 * cells, 1));
   if (parallel_min_vertices >= 0) sim.vm.parallel_min_vertices = parallel_min_vertices;
   VirtualState vs = make_virtual_state(sim.vm);
   VirtualWorkspace vw = make_virtual_workspace(sim.vm);
+  vw.shared = shared;
   std::vector<ContactTarget> contacts;
   for (int j = 0; j < sim.vm.num_vertices; ++j)
     if (sim.vm.rest[j].z > 0.0239) contacts.push_back({j, sim.vm.rest[j] - Vec3d{0, 0, 0.002}, 400.0});
@@ -66,6 +69,12 @@ TEST(Determinism, VirtualTickOnTheThreadTeamIsBitwiseEqualWithOneAndTwoThreads) 
   expect_bitwise_equal_across_threads([&] { return five_virtual_ticks(0); });
 }
 
+TEST(Determinism, VirtualTickWithAHelperIsBitwiseThatOfOneThread) {
+  // The async replay's physical thread helps with the tick's passes while it waits (two cores).
+  // A box of 10 cells across: its passes have several chunks each.
+  expect_bitwise_equal_with_a_helper([&](SharedLoops* shared) { return five_virtual_ticks(-1, shared, 10); });
+}
+
 /// The contacts of five_virtual_ticks: the top face pressed 2 mm down.
 std::vector<ContactTarget> top_face_pressed(const Sim& sim) {
   std::vector<ContactTarget> contacts;
@@ -82,8 +91,8 @@ struct ActiveRun {
   VirtualState vs = make_virtual_state(sim.vm);
   VirtualWorkspace vw = make_virtual_workspace(sim.vm);
   ActiveRegion region;
-  ActiveRun(double tolerance, bool gravity)
-      : sim(without_gravity(box_scene(4, 4, 8, 1), !gravity)), region(make_active_region(sim.vm, tolerance)) {}
+  ActiveRun(double tolerance, bool gravity, int cells = 4)
+      : sim(without_gravity(box_scene(cells, cells, 2 * cells, 1), !gravity)), region(make_active_region(sim.vm, tolerance)) {}
   static Scene without_gravity(Scene s, bool off) {
     if (off) s.spec.gravity = Vec3d{};
     return s;
@@ -210,6 +219,21 @@ TEST(Determinism, ActiveRegionIsBitwiseEqualWithOneAndTwoThreads) {
       return run.vs.q;
     });
   }
+}
+
+TEST(Determinism, ActiveRegionWithAHelperIsBitwiseThatOfOneThread) {
+  // A box of 10 cells across, every vertex a seed for 5 ticks: the region's passes have several
+  // chunks each; then it shrinks.
+  expect_bitwise_equal_with_a_helper([&](SharedLoops* shared) {
+    ActiveRun run(1e-5, false, 10);
+    run.vw.shared = shared;
+    const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);
+    std::vector<int> seeds(run.sim.vm.num_vertices);
+    std::iota(seeds.begin(), seeds.end(), 0);
+    run.ticks(5, seeds, contacts);
+    run.ticks(30, {}, {});
+    return run.vs.q;
+  });
 }
 
 TEST(VirtualMesh, RestsAtRestAndConvergesUnderContact) {

@@ -1,9 +1,9 @@
 #pragma once
-// Loops a waiting thread may join. In an async replay with one physical thread (the 2-core case)
-// the haptic thread waits for each physical step it needs; while it waits, it takes chunks of the
-// step's loops (docs/MODEL.md, "Implementation and speed"). Every chunk writes only its own
-// outputs and reads nothing another chunk of the same loop writes, so who runs a chunk changes no
-// bit of the result.
+// Loops a waiting thread may join. In an async replay on two cores (one thread a side) the
+// haptic thread waits for each physical step it needs, and the physical thread for the next
+// step's start; while one waits, it takes chunks of the other's loops (docs/MODEL.md,
+// "Implementation and speed"). Every chunk writes only its own outputs and reads nothing another
+// chunk of the same loop writes, so who runs a chunk changes no bit of the result.
 #include <algorithm>
 #include <atomic>
 #include <cstdint>

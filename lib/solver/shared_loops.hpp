@@ -19,6 +19,8 @@ class SharedLoops {
   /// Runs body(begin, end) over [0, n) in chunks of `chunk` elements: the calling thread (the one
   /// owner of this object's loops) runs chunks until none is left, then waits for the chunks a
   /// helper took. Returns when every chunk is done; their writes are then visible to the owner.
+  /// The body must not throw (the solvers' loops are arithmetic on preallocated arrays): a chunk
+  /// that threw would leave the loop open.
   template <class Body>
   void run(int n, int chunk, Body&& body) {
     using B = std::remove_reference_t<Body>;

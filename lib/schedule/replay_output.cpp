@@ -236,6 +236,8 @@ ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, cons
   if (meta.backend == "cpu") {  // the CPU backend's split of them between the sides
     f.set_attr("haptic_threads", static_cast<std::int64_t>(meta.threads.haptic));
     f.set_attr("physical_threads", static_cast<std::int64_t>(meta.threads.physical));
+    f.set_attr("shared_physical_loops", static_cast<std::int64_t>(meta.threads.shared_physical_loops));
+    f.set_attr("shared_virtual_loops", static_cast<std::int64_t>(meta.threads.shared_virtual_loops));
   }
   write_provenance(f, world, meta);
   write_parameters(f, world);

@@ -29,8 +29,15 @@ namespace ebh {
 ThreadSplit split_threads(Mode mode, int haptic) {
   const int total = std::max(1, omp_get_max_threads());
   if (mode == Mode::Lockstep) return {total, total};
-  const int h = std::clamp(haptic > 0 ? haptic : (total + 1) / 2, 1, std::max(1, total - 1));
-  return {h, std::max(1, total - h)};
+  ThreadSplit s;
+  s.haptic = std::clamp(haptic > 0 ? haptic : (total + 1) / 2, 1, std::max(1, total - 1));
+  s.physical = std::max(1, total - s.haptic);
+  // A core for each side: a side with one thread shares its loops with the other's while that one
+  // would wait (async only: realtime's physical thread never waits for the ticks' results).
+  const bool cores = mode == Mode::Async && s.haptic + s.physical <= total;
+  s.shared_physical_loops = cores && s.physical == 1;
+  s.shared_virtual_loops = cores && s.haptic == 1;
+  return s;
 }
 
 namespace {
@@ -371,12 +378,12 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
   const ThreadSplit threads = split_threads(opt.mode, opt.haptic_threads);
-  // A core for each side (CPU backend): a side with one thread shares its loops with the other
-  // side's thread while that one would wait (PhysicalWorker; the 2-core machine: both).
-  const bool cores = world.backend == Backend::Cpu && threads.haptic + threads.physical <= omp_get_max_threads();
-  const bool share_step = cores && threads.physical == 1;
+  // A side with one thread shares its loops with the other side's thread while that one would wait
+  // (ThreadSplit; PhysicalWorker; the 2-core machine: both sides), on the CPU backend.
+  const bool cpu = world.backend == Backend::Cpu;
+  const bool share_step = cpu && threads.shared_physical_loops;
   std::optional<SharedLoops> tick_loops;
-  if (cores && threads.haptic == 1 && opt.mode == Mode::Async) tick_loops.emplace();
+  if (cpu && threads.shared_virtual_loops) tick_loops.emplace();
   const ThreadCountGuard haptic_threads(threads.haptic);
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
   if (tick_loops) haptic.workspace.shared = &*tick_loops;

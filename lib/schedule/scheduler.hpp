@@ -61,8 +61,13 @@ struct ReplayOptions {
 /// takes `haptic_threads` of them (ReplayOptions; 0: half, rounded up: a period's ticks outweigh
 /// its physical step on every committed scene) and the physical step the rest, one at least.
 /// Results do not depend on these counts (bitwise, tests/solver, tests/schedule).
+/// Async with a core for each side: a side with one thread shares its loops with the other side's
+/// thread while that one would wait (solver/shared_loops.hpp; docs/MODEL.md, "Threads of a CPU
+/// replay"): the physical step's (shared_physical_loops) and the virtual mesh's passes
+/// (shared_virtual_loops). Both on two cores; neither with one OpenMP thread in all.
 struct ThreadSplit {
   int haptic = 1, physical = 1;
+  bool shared_physical_loops = false, shared_virtual_loops = false;
 };
 ThreadSplit split_threads(Mode mode, int haptic_threads);
 

@@ -72,6 +72,8 @@ void expect_reproduced_from_output(const std::string& scene, const std::vector<s
   const ThreadSplit split = split_threads(parse_mode(f.attr_string("mode")), 0);
   EXPECT_EQ(f.attr_int("haptic_threads"), split.haptic);
   EXPECT_EQ(f.attr_int("physical_threads"), split.physical);
+  EXPECT_EQ(f.attr_int("shared_physical_loops"), split.shared_physical_loops);
+  EXPECT_EQ(f.attr_int("shared_virtual_loops"), split.shared_virtual_loops);
   EXPECT_GE(f.attr_int("threads"), f.attr_int("haptic_threads"));
   // The transforms: the options as given, and what the poses got (absent when nothing).
   EXPECT_EQ(f.attr_string("transform_option"), transforms.world);

@@ -104,6 +104,19 @@ TEST(Scheduler, SplitsTheThreadsBetweenTheSides) {
   EXPECT_EQ(split(16, Mode::Realtime, 4), std::pair(4, 12));
   EXPECT_EQ(split(16, Mode::Async, 40), std::pair(15, 1));  // the physical step keeps one
   EXPECT_EQ(split(16, Mode::Lockstep, 4), std::pair(16, 16));  // the sides take turns
+  // Which side's loops the other side's thread helps with (a core for each side, async).
+  auto shared = [](int total, Mode mode, int haptic) {
+    omp_set_num_threads(total);
+    const ThreadSplit s = split_threads(mode, haptic);
+    return std::pair{s.shared_physical_loops, s.shared_virtual_loops};
+  };
+  EXPECT_EQ(shared(2, Mode::Async, 0), std::pair(true, true));    // the 2-core machine: both
+  EXPECT_EQ(shared(1, Mode::Async, 0), std::pair(false, false));  // one core for both sides
+  EXPECT_EQ(shared(3, Mode::Async, 0), std::pair(true, false));   // the haptic side has a team of 2
+  EXPECT_EQ(shared(3, Mode::Async, 1), std::pair(false, true));   // the physical step has a team of 2
+  EXPECT_EQ(shared(16, Mode::Async, 0), std::pair(false, false));
+  EXPECT_EQ(shared(2, Mode::Realtime, 0), std::pair(false, false));
+  EXPECT_EQ(shared(2, Mode::Lockstep, 0), std::pair(false, false));
   omp_set_num_threads(saved);
 }
 

@@ -258,12 +258,9 @@ void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, A
   const int ne = static_cast<int>(r.edges.size());
 #pragma omp parallel if (!ws.shared && virtual_team(model, na))
   {
-    if (ws.shared)
-      ws.shared->run(edge_blocks(ne), kEdgeBlockChunk, [&](int b0, int b1) {
-        edge_spring_gradient_groups(edges, r.edges.data(), ne, q, ws.edge_grad.data(), b0, b1);
-      });
-    else
-      edge_spring_gradients_listed(edges, r.edges.data(), ne, q, ws.edge_grad.data());
+    for_chunks(ws.shared, edge_blocks(ne), kEdgeBlockChunk, [&](int b0, int b1) {
+      edge_spring_gradient_groups(edges, r.edges.data(), ne, q, ws.edge_grad.data(), b0, b1);
+    });
     for_chunks(ws.shared, na, kVertexChunk, [&](int begin, int end) {
       for (int i = begin; i < end; ++i) {
         const int j = r.vertices[i];

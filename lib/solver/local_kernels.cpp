@@ -11,8 +11,6 @@
 namespace ebh {
 namespace {
 
-// Lanes per block (kTetLanes, kEdgeLanes): 8 doubles, one AVX-512 register or two AVX2 ones.
-
 /// Alg. 1 lines 6-8 for the tets [t0, t0 + count), count <= kTetLanes (Full: equal):
 /// R_t = Mueller update(s) of the warm start (energy/rotation.hpp), then the corner forces
 /// w_t (R_t - F_t) g_c (= -dE_vol/dx_c) into force[4 t + c]. The lanes' data go through small

@@ -31,7 +31,8 @@ struct TetKernelData {
 ///   x: #n positions; rotation: #T warm starts, updated; force: #4T.
 void local_step_tets(const TetKernelData& tets, const Vec3d* x, Quatd* rotation, Vec3d* force,
                      int rotation_iterations, double tol);
-/// The SIMD blocks of local_step_tets: kTetLanes tets each, tet_blocks(T) of them.
+/// The SIMD blocks of local_step_tets: kTetLanes tets each (8 doubles, one AVX-512 register or
+/// two AVX2 ones), tet_blocks(T) of them.
 constexpr int kTetLanes = 8;
 constexpr int tet_blocks(int num_tets) { return (num_tets + kTetLanes - 1) / kTetLanes; }
 /// local_step_tets over blocks [b0, b1) only, on the calling thread (no OpenMP): each block writes

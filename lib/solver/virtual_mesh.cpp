@@ -176,11 +176,8 @@ namespace {
 void edge_pass(const VirtualModel& model, VirtualWorkspace& ws, const Vec3d* q) {
   const EdgeKernelData edges{static_cast<int>(model.edges.size()), model.edges.data(), model.rest_edge.data(),
                              model.rest_len.data(), model.k_s};
-  if (ws.shared)
-    ws.shared->run(edge_blocks(edges.num_edges), kEdgeBlockChunk,
-                   [&](int b0, int b1) { edge_spring_gradient_blocks(edges, q, ws.edge_grad.data(), b0, b1); });
-  else
-    edge_spring_gradients(edges, q, ws.edge_grad.data());  // omp for
+  for_chunks(ws.shared, edge_blocks(edges.num_edges), kEdgeBlockChunk,
+             [&](int b0, int b1) { edge_spring_gradient_blocks(edges, q, ws.edge_grad.data(), b0, b1); });
 }
 
 /// The gather and Jacobi global step per vertex (virtual_jacobi.hpp; work-shared or ws.shared;

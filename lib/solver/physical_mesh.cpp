@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <numeric>
 #include <string>
 
 #include "core/error.hpp"
@@ -15,6 +16,7 @@
 #include "energy/rotation.hpp"
 #include "mesh/csr.hpp"
 #include "mesh/lumped_masses.hpp"
+#include "mesh/morton.hpp"
 #include "mesh/quality.hpp"
 #include "solver/local_kernels.hpp"
 #include "solver/shared_loops.hpp"
@@ -59,7 +61,7 @@ void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& s
 void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params, SharedLoops* shared) {
   const TetKernelData tets{model.num_tets, model.corner_soa.data(), model.shape_grad_soa.data(),
-                           model.tet_weight.data(), model.det_ratio};
+                           model.weight_soa.data(), model.det_ratio};
   if (shared)
     shared->run(tet_blocks(model.num_tets), kTetBlockChunk, [&](int b0, int b1) {
       local_step_tet_blocks(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(),
@@ -83,14 +85,15 @@ inline Vec3d vertex_residual(const PhysicalModel& model, const PhysicalWorkspace
                              double inv_h2) {
   Vec3d r = (model.mass[a] * inv_h2) * (ws.s[a] - x[a]);                             // -dE_k/dx
   for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k)
-    r += ws.tet_force[model.tet_entries[k]];                                         // -dE_vol/dx
+    r += ws.tet_force[model.force_entries[k]];                                       // -dE_vol/dx
   for (int k = model.cpl_offsets[a]; k < model.cpl_offsets[a + 1]; ++k)
     r += model.cpl_weight[k] * ws.cpl_force[model.cpl_virtual[k]];                   // -dE_svc/dx
   return r;
 }
 
 /// The residual r = -grad E_soft (0 on pinned vertices) fused with Alg. 1 line 9
-/// (GlobalSynthesis) for the Jacobi-type methods, per vertex; ends with a barrier.
+/// (GlobalSynthesis) for the Jacobi-type methods, per vertex (in vertex_order: each vertex reads
+/// and writes only its own x, so the order does not change the bits); ends with a barrier.
 ///   jacobi:    x <- x + gamma D^-1 r
 ///   chebyshev: x_{k+1} = omega (gamma D^-1 r + x_k - x_{k-1}) + x_{k-1}   (Wang 2015, eq. 12)
 ///   direct:    r only (global_direct follows)
@@ -99,7 +102,8 @@ void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, Phys
   const double inv_h2 = 1.0 / (model.h * model.h);
   Vec3d* __restrict x = state.x.data();
   for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
-    for (int a = begin; a < end; ++a) {
+    for (int i = begin; i < end; ++i) {
+      const int a = model.vertex_order[i];
       if (model.pinned[a]) { ws.r[a] = Vec3d{}; continue; }  // never moves: x = x_prev = s
       const Vec3d r = vertex_residual(model, ws, x, a, inv_h2);
       ws.r[a] = r;
@@ -170,6 +174,44 @@ void choose_diagonal(PhysicalModel& M, const Eigen::SparseMatrix<double>& A, Sol
     for (int i = 0; i < nf; ++i) {
       if (D[i] > plain[i]) ++M.diag_bounded_rows;
       M.diag[M.free_vertices[i]] = D[i];
+    }
+  }
+}
+
+/// PhysicalModel's local order (tet_slot, vertex_order, force_entries) and the slot-ordered
+/// copies of the tets' data; `morton` off: the file's order.
+void set_local_order(PhysicalModel& M, bool morton) {
+  const int n = M.num_vertices, T = M.num_tets;
+  M.vertex_order.resize(n);
+  std::iota(M.vertex_order.begin(), M.vertex_order.end(), 0);
+  std::vector<int> slot_tet(T);
+  std::iota(slot_tet.begin(), slot_tet.end(), 0);
+  if (morton && T > 0) {
+    const MortonBox box = morton_box(M.rest);
+    M.vertex_order = morton_order(M.rest, box);
+    std::vector<Vec3d> centroid(T);
+    for (int t = 0; t < T; ++t)
+      centroid[t] = 0.25 * (M.rest[M.tets[t][0]] + M.rest[M.tets[t][1]] + M.rest[M.tets[t][2]] + M.rest[M.tets[t][3]]);
+    // The tets of the full SIMD blocks in Morton order; the last partial block's keep their slots
+    // (a partial block's lanes may round differently from a full block's).
+    const int full = T - T % kTetLanes;
+    const std::vector<int> order = morton_order(std::span(centroid).first(full), box);
+    std::copy(order.begin(), order.end(), slot_tet.begin());
+  }
+  M.tet_slot.resize(T);
+  for (int s = 0; s < T; ++s) M.tet_slot[slot_tet[s]] = s;
+  M.force_entries.resize(M.tet_entries.size());
+  for (size_t k = 0; k < M.tet_entries.size(); ++k)
+    M.force_entries[k] = 4 * M.tet_slot[M.tet_entries[k] >> 2] + (M.tet_entries[k] & 3);
+  M.corner_soa.resize(4 * size_t(T));
+  M.shape_grad_soa.resize(12 * size_t(T));
+  M.weight_soa.resize(T);
+  for (int s = 0; s < T; ++s) {
+    const int t = slot_tet[s];
+    M.weight_soa[s] = M.tet_weight[t];
+    for (int c = 0; c < 4; ++c) {
+      M.corner_soa[size_t(c) * T + s] = M.tets[t][c];
+      for (int i = 0; i < 3; ++i) M.shape_grad_soa[size_t(3 * c + i) * T + s] = M.shape_grad[4 * size_t(t) + c][i];
     }
   }
 }
@@ -270,14 +312,8 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
   // Incidence vertex -> (tet, corner), in (tet, corner) order.
   build_csr(n, 4 * T, [&](int e, auto add) { add(M.tets[e >> 2][e & 3]); }, M.tet_offsets, M.tet_entries);
 
-  // The local step's structure-of-arrays copies.
-  M.corner_soa.resize(4 * size_t(T));
-  M.shape_grad_soa.resize(12 * size_t(T));
-  for (int t = 0; t < T; ++t)
-    for (int c = 0; c < 4; ++c) {
-      M.corner_soa[size_t(c) * T + t] = M.tets[t][c];
-      for (int i = 0; i < 3; ++i) M.shape_grad_soa[size_t(3 * c + i) * T + t] = M.shape_grad[4 * size_t(t) + c][i];
-    }
+  // The local order and the local step's structure-of-arrays copies by slot.
+  set_local_order(M, options.local_order);
 
   // E_svc coupling and its reverse (physical -> virtual) list.
   if (virtual_model) {

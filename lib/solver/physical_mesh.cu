@@ -63,6 +63,7 @@
 #include "energy/volume.hpp"
 #include "energy/quadratic.hpp"
 #include "energy/rotation.hpp"
+#include "mesh/morton.hpp"
 #include "solver/cuda_util.cuh"
 #include "solver/physical_mesh_cuda.hpp"
 
@@ -618,22 +619,6 @@ __global__ void __launch_bounds__(kBlock) loop_finish_kernel(PhysicalDevice d, S
   }
 }
 
-/// Morton code of p in the box [lo, lo + extent]: 10 bits per axis, interleaved.
-std::uint32_t morton(const Vec3d& p, const Vec3d& lo, double extent) {
-  auto spread = [](std::uint32_t v) {
-    v = (v | (v << 16)) & 0x030000FFu;
-    v = (v | (v << 8)) & 0x0300F00Fu;
-    v = (v | (v << 4)) & 0x030C30C3u;
-    v = (v | (v << 2)) & 0x09249249u;
-    return v;
-  };
-  auto cell = [&](double c, double l) {
-    const double u = extent > 0 ? (c - l) / extent : 0.0;
-    return static_cast<std::uint32_t>(std::clamp(u * 1023.0, 0.0, 1023.0));
-  };
-  return spread(cell(p.x, lo.x)) | (spread(cell(p.y, lo.y)) << 1) | (spread(cell(p.z, lo.z)) << 2);
-}
-
 /// The patches of the iteration kernel, host side.
 struct Patches {
   std::vector<int> slot_offsets{0}, slot_vertex, own_count, ptet_offsets{0}, ptet, pcpl_offsets{0};
@@ -651,17 +636,7 @@ Patches build_patches(const PhysicalModel& M, int size) {
   const int n = M.num_vertices;
   Patches P;
   if (n == 0) return P;
-  Vec3d lo = M.rest[0], hi = M.rest[0];
-  for (const Vec3d& p : M.rest) {
-    lo = Vec3d{std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-    hi = Vec3d{std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-  }
-  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-  std::vector<int> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::vector<std::uint32_t> code(n);
-  for (int a = 0; a < n; ++a) code[a] = morton(M.rest[a], lo, extent);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return code[a] < code[b]; });
+  const std::vector<int> order = morton_order(M.rest, morton_box(M.rest));
   std::vector<int> patch_of(n);
   for (int i = 0; i < n; ++i) patch_of[order[i]] = i / size;
   P.force_slot.assign(M.tet_entries.size(), 0);
@@ -746,6 +721,7 @@ struct CudaPhysicalSolver::Impl {
   int patch_vertices = 0;  // vertices per patch (the last patch may have fewer)
   int lanes = kMaxLanes;   // threads per patch vertex in the global stage (the kernels' kLanes)
   double weight_norm = 0;  // PhysicalModel::weight_norm: the residual's scale
+  std::vector<int> tet_slot;  // PhysicalModel::tet_slot: PhysicalState::rotation's order on the host
   std::size_t shared_bytes = 0;
   cuda::Stream stream;
   // Model.
@@ -1244,6 +1220,7 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
   if (!(options.sleep >= 0)) throw InputError("solver.sleep must not be negative");
   impl_->params = params;
   impl_->weight_norm = model.weight_norm;
+  impl_->tet_slot = model.tet_slot;
   impl_->sleep = options.sleep;
   impl_->upload_model(model, options.patch_vertices, options.beside_ticks);
   upload_state(make_physical_state(model));
@@ -1294,7 +1271,7 @@ void CudaPhysicalSolver::upload_state(const PhysicalState& state) {
   std::vector<Vec3f> x(I.n), v(I.n);
   std::vector<Quatf> r(I.T);
   for (int a = 0; a < I.n; ++a) { x[a] = to_float(state.x[a]); v[a] = to_float(state.v[a]); }
-  for (int t = 0; t < I.T; ++t) r[t] = to_float(state.rotation[t]);
+  for (int t = 0; t < I.T; ++t) r[t] = to_float(state.rotation[I.tet_slot[t]]);  // by tet on the device
   I.x.upload(x.data(), I.stream.get());
   I.v.upload(v.data(), I.stream.get());
   if (I.sleep > 0)  // a new state: the next step runs
@@ -1319,7 +1296,7 @@ void CudaPhysicalSolver::download_state(PhysicalState& state) const {
   state.v.resize(I.n);
   state.rotation.resize(I.T);
   for (int a = 0; a < I.n; ++a) { state.x[a] = static_cast<Vec3d>(x[a]); state.v[a] = static_cast<Vec3d>(v[a]); }
-  for (int t = 0; t < I.T; ++t) state.rotation[t] = Quatd{r[t].w, r[t].x, r[t].y, r[t].z};
+  for (int t = 0; t < I.T; ++t) state.rotation[I.tet_slot[t]] = Quatd{r[t].w, r[t].x, r[t].y, r[t].z};
 }
 
 PhysicalStepReport CudaPhysicalSolver::step(PhysicalState& state, std::span<const Vec3d> virtual_q) {

@@ -92,9 +92,19 @@ struct PhysicalModel {
   double diag_theta = 0;                ///< bounded: D = max(A(a, a), theta D_l1(a)); 0: A(a, a)
   int diag_bounded_rows = 0;            ///< rows where theta raised D above A(a, a)
   SpectrumEstimate spectrum;            ///< of D^-1 A with this D (solver/spectrum.hpp)
-  // The local step's structure-of-arrays copies (SIMD loads):
-  std::vector<int> corner_soa;          ///< #4T vertex of corner c of tet t at [c T + t]
-  std::vector<double> shape_grad_soa;   ///< #12T component i of g_c of tet t at [(3 c + i) T + t]
+  // The CPU step's local order: the local step visits the tets by slot, the slots in Morton order
+  // of the tets' rest centroids, and the residual visits the vertices in Morton order of their
+  // rest positions, so that the gather of a vertex's corner forces reads tet_force near where
+  // the vertex before it read (cholecystectomy.msh numbers its vertices far apart in space). The
+  // sums keep the incidence lists' (tet, corner) order, and the last tets that do not fill a SIMD
+  // block keep their slots, so the step's bits are those of the file's order.
+  std::vector<int> tet_slot;            ///< #T slot of tet t (the identity with PhysicalModelOptions::local_order off)
+  std::vector<int> vertex_order;        ///< #n the residual's order of the vertices
+  std::vector<int> force_entries;       ///< 4 tet_slot[t] + c for tet_entries' 4 t + c: where tet_force holds it
+  // The local step's structure-of-arrays copies (SIMD loads), by slot s = tet_slot[t]:
+  std::vector<int> corner_soa;          ///< #4T vertex of corner c of the tet in slot s at [c T + s]
+  std::vector<double> shape_grad_soa;   ///< #12T component i of its g_c at [(3 c + i) T + s]
+  std::vector<double> weight_soa;       ///< #T its w_t at [s]
   std::shared_ptr<const PhysicalDirectSolver> direct;  ///< null when not factorised
 };
 
@@ -102,7 +112,7 @@ struct PhysicalModel {
 struct PhysicalState {
   std::vector<Vec3d> x;         ///< #n positions, metres
   std::vector<Vec3d> v;         ///< #n velocities, m/s
-  std::vector<Quatd> rotation;  ///< #T last rotation of each tet: the warm start of the local step
+  std::vector<Quatd> rotation;  ///< #T last rotation of each tet, by slot (PhysicalModel::tet_slot): the local step's warm start
 };
 
 /// Scratch of physical_step, sized once.
@@ -111,7 +121,7 @@ struct PhysicalWorkspace {
   std::vector<Vec3d> x_start;    ///< #n positions at the start of the step
   std::vector<Vec3d> x_prev;     ///< #n previous iterate (Chebyshev)
   std::vector<Vec3d> r;          ///< #n residual -grad E (0 on pinned vertices)
-  std::vector<Vec3d> tet_force;  ///< #4T the local step's output w_t (R_t - F_t) g_c at [4 t + c]
+  std::vector<Vec3d> tet_force;  ///< #4T the local step's output w_t (R_t - F_t) g_c at [4 tet_slot[t] + c]
   std::vector<Vec3d> cpl_force;  ///< #m k_svc (q_j - p_j)
   Eigen::MatrixXd rhs;           ///< nf x 3 (direct)
   Eigen::MatrixXd dx;            ///< nf x 3 (direct)
@@ -123,6 +133,9 @@ struct PhysicalModelOptions {
   /// The Jacobi-type methods' diagonal D (see PhysicalModel::diag): bounded (convergent for every
   /// mesh) or plain (A(a, a), the paper's; diverges on meshes with obtuse and sliver tets).
   SolverSpec::Diagonal diagonal = SolverSpec::Diagonal::Bounded;
+  /// The CPU step's local order (PhysicalModel::tet_slot); off: the file's order. The same bits
+  /// either way; only the speed differs.
+  bool local_order = true;
 };
 
 struct PhysicalStepParams {

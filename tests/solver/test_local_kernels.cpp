@@ -28,26 +28,27 @@ TEST(LocalKernels, TetBlocksMatchTheScalarEnergyFunctions) {
   for (Vec3d& p : x) p += Vec3d{0.002 * u(rng), 0.002 * u(rng), 0.002 * u(rng)};  // up to 1/2 cell: some tets may invert
   std::vector<Quatd> warm(pm.num_tets);
   for (Quatd& q : warm) q = quat_from_rotvec(Vec3d{0.3 * u(rng), 0.3 * u(rng), 0.3 * u(rng)});
-  const TetKernelData tets{pm.num_tets, pm.corner_soa.data(), pm.shape_grad_soa.data(), pm.tet_weight.data()};
+  const TetKernelData tets{pm.num_tets, pm.corner_soa.data(), pm.shape_grad_soa.data(), pm.weight_soa.data()};
   for (int iterations : {1, 4, 50}) {  // the fused single-update path and the general one
-    std::vector<Quatd> rot = warm;
+    std::vector<Quatd> rot = warm;  // by slot
     std::vector<Vec3d> force(4 * pm.num_tets);
     local_step_tets(tets, x.data(), rot.data(), force.data(), iterations, 1e-9);
     for (int t = 0; t < pm.num_tets; ++t) {
+      const int s = pm.tet_slot[t];
       const Vec3d xc[4] = {x[pm.tets[t][0]], x[pm.tets[t][1]], x[pm.tets[t][2]], x[pm.tets[t][3]]};
       const Mat3d F = deformation_gradient(xc, &pm.shape_grad[4 * t]);
-      const Quatd q = extract_rotation(F, warm[t], iterations, 1e-9);
+      const Quatd q = extract_rotation(F, warm[s], iterations, 1e-9);
       // The same operations per lane; FMA contraction (EBH_NATIVE) may differ by ulps, which the
       // rotation update's normalisation and division amplify little: 1e-12 relative.
-      EXPECT_NEAR(rot[t].w, q.w, 1e-12); EXPECT_NEAR(rot[t].x, q.x, 1e-12);
-      EXPECT_NEAR(rot[t].y, q.y, 1e-12); EXPECT_NEAR(rot[t].z, q.z, 1e-12);
+      EXPECT_NEAR(rot[s].w, q.w, 1e-12); EXPECT_NEAR(rot[s].x, q.x, 1e-12);
+      EXPECT_NEAR(rot[s].y, q.y, 1e-12); EXPECT_NEAR(rot[s].z, q.z, 1e-12);
       const Mat3d P = pm.tet_weight[t] * (to_matrix(q) - F);
       for (int c = 0; c < 4; ++c) {
         const Vec3d f = P * pm.shape_grad[4 * t + c];
         const double scale = 1e-12 * (1.0 + norm(f));
-        EXPECT_NEAR(force[4 * t + c].x, f.x, scale) << "tet " << t << " corner " << c << " iterations " << iterations;
-        EXPECT_NEAR(force[4 * t + c].y, f.y, scale);
-        EXPECT_NEAR(force[4 * t + c].z, f.z, scale);
+        EXPECT_NEAR(force[4 * s + c].x, f.x, scale) << "tet " << t << " corner " << c << " iterations " << iterations;
+        EXPECT_NEAR(force[4 * s + c].y, f.y, scale);
+        EXPECT_NEAR(force[4 * s + c].z, f.z, scale);
       }
     }
   }

@@ -15,13 +15,20 @@
 
 namespace ebh {
 
+/// Corner 0's shape gradient from the other three's (they sum to zero): what tet_shape_gradients
+/// stores, so that a kernel that keeps only g_1..g_3 recomputes the same bits.
+template <class T>
+EBH_HD Vec3<T> first_shape_gradient(const Vec3<T>& g1, const Vec3<T>& g2, const Vec3<T>& g3) {
+  return -(g1 + g2 + g3);
+}
+
 /// Shape gradients of a tet from Dm^-1 (3x3): g[0..3] with F = sum_c x_c g_c^T.
 template <class T>
 EBH_HD void tet_shape_gradients(const Mat3<T>& Dm_inv, Vec3<T> g[4]) {
   g[1] = Dm_inv.row(0);
   g[2] = Dm_inv.row(1);
   g[3] = Dm_inv.row(2);
-  g[0] = -(g[1] + g[2] + g[3]);
+  g[0] = first_shape_gradient(g[1], g[2], g[3]);
 }
 
 /// F = sum_c x_c g_c^T for corner positions x[4] and shape gradients g[4].

@@ -11,6 +11,14 @@
 namespace ebh {
 namespace {
 
+/// The shape gradients of lane l: g_1..g_3 from the structure of arrays, g_0 recomputed
+/// (first_shape_gradient: the bits tet_shape_gradients stored).
+inline void lane_shape_gradients(const double* __restrict g, int T, int l, Vec3d gc[4]) {
+  for (int c = 1; c < 4; ++c)
+    gc[c] = Vec3d{g[(3 * c - 3) * T + l], g[(3 * c - 2) * T + l], g[(3 * c - 1) * T + l]};
+  gc[0] = first_shape_gradient(gc[1], gc[2], gc[3]);
+}
+
 /// Alg. 1 lines 6-8 for the tets [t0, t0 + count), count <= kTetLanes (Full: equal):
 /// R_t = Mueller update(s) of the warm start (energy/rotation.hpp), then the corner forces
 /// w_t (R_t - F_t) g_c (= -dE_vol/dx_c) into force[4 t + c]. The lanes' data go through small
@@ -25,7 +33,7 @@ void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Qua
   const int L = Full ? W : count;
   const int T = tets.num_tets;
   const int* __restrict corner = tets.corner;
-  const double* __restrict g = tets.shape_grad + t0;  // g[(3 c + i) T + l]
+  const double* __restrict g = tets.shape_grad + t0;  // g[(3 c - 3 + i) T + l], c = 1..3
   const double* __restrict w = tets.weight + t0;
   double X[12][W], F[9][W], q[4][W], f[12][W];
   int active[W];
@@ -40,10 +48,8 @@ void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Qua
 #pragma GCC ivdep
   for (int l = 0; l < L; ++l) {  // F = sum_c x_c g_c^T
     Vec3d xc[4], gc[4];
-    for (int c = 0; c < 4; ++c) {
-      xc[c] = Vec3d{X[3 * c][l], X[3 * c + 1][l], X[3 * c + 2][l]};
-      gc[c] = Vec3d{g[(3 * c) * T + l], g[(3 * c + 1) * T + l], g[(3 * c + 2) * T + l]};
-    }
+    for (int c = 0; c < 4; ++c) xc[c] = Vec3d{X[3 * c][l], X[3 * c + 1][l], X[3 * c + 2][l]};
+    lane_shape_gradients(g, T, l, gc);
     const Mat3d Ft = deformation_gradient(xc, gc);
     for (int i = 0; i < 9; ++i) F[i][l] = Ft.m[i / 3][i % 3];
     active[l] = 1;
@@ -73,8 +79,10 @@ void tet_block_general(const TetKernelData& tets, const Vec3d* __restrict x, Qua
     Mat3d P;
     if constexpr (Det) P = elastic_force_matrix(Ft, R, w[l], tets.det_ratio);
     else P = w[l] * (R - Ft);
+    Vec3d gc[4];
+    lane_shape_gradients(g, T, l, gc);
     for (int c = 0; c < 4; ++c) {
-      const Vec3d fc = P * Vec3d{g[(3 * c) * T + l], g[(3 * c + 1) * T + l], g[(3 * c + 2) * T + l]};
+      const Vec3d fc = P * gc[c];
       f[3 * c][l] = fc.x; f[3 * c + 1][l] = fc.y; f[3 * c + 2][l] = fc.z;
     }
   }
@@ -94,7 +102,7 @@ void tet_block_single_update(const TetKernelData& tets, const double* __restrict
   const int L = Full ? W : count;
   const int T = tets.num_tets;
   const int* __restrict corner = tets.corner + t0;      // corner[c T + l]
-  const double* __restrict g = tets.shape_grad + t0;    // g[(3 c + i) T + l]
+  const double* __restrict g = tets.shape_grad + t0;    // g[(3 c - 3 + i) T + l], c = 1..3
   const double* __restrict w = tets.weight + t0;
   double* __restrict qd = &rotation[t0].w;              // 4 per tet
   double f[12][W];
@@ -104,8 +112,8 @@ void tet_block_single_update(const TetKernelData& tets, const double* __restrict
     for (int c = 0; c < 4; ++c) {
       const int v = 3 * corner[c * T + l];
       xc[c] = Vec3d{x[v], x[v + 1], x[v + 2]};
-      gc[c] = Vec3d{g[(3 * c) * T + l], g[(3 * c + 1) * T + l], g[(3 * c + 2) * T + l]};
     }
+    lane_shape_gradients(g, T, l, gc);
     const Mat3d F = deformation_gradient(xc, gc);
     const Quatd q0{qd[4 * l], qd[4 * l + 1], qd[4 * l + 2], qd[4 * l + 3]};
     double omega_norm;

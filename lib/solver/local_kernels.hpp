@@ -19,7 +19,7 @@ namespace ebh {
 struct TetKernelData {
   int num_tets = 0;                  ///< T
   const int* corner = nullptr;       ///< #4T vertex of corner c of tet t at [c T + t]
-  const double* shape_grad = nullptr;///< #12T component i of g_c of tet t at [(3 c + i) T + t]
+  const double* shape_grad = nullptr;///< #9T component i of g_c, c = 1..3, of tet t at [(3 c - 3 + i) T + t] (g_0 = first_shape_gradient)
   const double* weight = nullptr;    ///< #T w_t = 2 k_vol V_t
   double det_ratio = 0;              ///< kappa = k_det / k_vol: E_det's force too where > 0 (energy/volume.hpp)
 };

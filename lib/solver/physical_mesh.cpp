@@ -204,14 +204,15 @@ void set_local_order(PhysicalModel& M, bool morton) {
   for (size_t k = 0; k < M.tet_entries.size(); ++k)
     M.force_entries[k] = 4 * M.tet_slot[M.tet_entries[k] >> 2] + (M.tet_entries[k] & 3);
   M.corner_soa.resize(4 * size_t(T));
-  M.shape_grad_soa.resize(12 * size_t(T));
+  M.shape_grad_soa.resize(9 * size_t(T));
   M.weight_soa.resize(T);
   for (int s = 0; s < T; ++s) {
     const int t = slot_tet[s];
     M.weight_soa[s] = M.tet_weight[t];
     for (int c = 0; c < 4; ++c) {
       M.corner_soa[size_t(c) * T + s] = M.tets[t][c];
-      for (int i = 0; i < 3; ++i) M.shape_grad_soa[size_t(3 * c + i) * T + s] = M.shape_grad[4 * size_t(t) + c][i];
+      if (c > 0)
+        for (int i = 0; i < 3; ++i) M.shape_grad_soa[size_t(3 * c - 3 + i) * T + s] = M.shape_grad[4 * size_t(t) + c][i];
     }
   }
 }

@@ -103,7 +103,7 @@ struct PhysicalModel {
   std::vector<int> force_entries;       ///< 4 tet_slot[t] + c for tet_entries' 4 t + c: where tet_force holds it
   // The local step's structure-of-arrays copies (SIMD loads), by slot s = tet_slot[t]:
   std::vector<int> corner_soa;          ///< #4T vertex of corner c of the tet in slot s at [c T + s]
-  std::vector<double> shape_grad_soa;   ///< #12T component i of its g_c at [(3 c + i) T + s]
+  std::vector<double> shape_grad_soa;   ///< #9T component i of its g_c, c = 1..3, at [(3 c - 3 + i) T + s] (g_0: first_shape_gradient)
   std::vector<double> weight_soa;       ///< #T its w_t at [s]
   std::shared_ptr<const PhysicalDirectSolver> direct;  ///< null when not factorised
 };

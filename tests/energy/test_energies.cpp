@@ -177,9 +177,10 @@ TEST(VolumeEnergy, CofactorIsTheDeterminantsDerivative) {
       Am.m[i / 3][i % 3] -= 1e-6;
       EXPECT_NEAR(C.m[i / 3][i % 3], (determinant(Ap) - determinant(Am)) / 2e-6, 1e-8);
     }
-    if (std::abs(determinant(A)) > 1e-3)  // cof A = det A A^-T; A^-1 of det >= 1e-3 amplifies round-off ~1e3 x
+    if (std::abs(determinant(A)) > 1e-3) {  // cof A = det A A^-T; A^-1 of det >= 1e-3 amplifies round-off ~1e3 x
       for (int i = 0; i < 9; ++i)
         EXPECT_NEAR(C.m[i / 3][i % 3], determinant(A) * transpose(inverse(A)).m[i / 3][i % 3], 1e-9);
+    }
   }
 }
 

@@ -34,9 +34,9 @@ inline std::uint32_t morton_code(const Vec3d& p, const MortonBox& box) {
     v = (v | (v << 2)) & 0x09249249u;
     return v;
   };
-  auto cell = [&](double c, double l) {
-    const double u = box.extent > 0 ? (c - l) / box.extent : 0.0;
-    return static_cast<std::uint32_t>(std::clamp(u * 1023.0, 0.0, 1023.0));
+  auto cell = [&](double c, double l) {  // 0 .. 1023; 0 for a non-finite coordinate
+    const double u = box.extent > 0 ? (c - l) / box.extent * 1023.0 : 0.0;
+    return u >= 1023.0 ? 1023u : (u > 0 ? static_cast<std::uint32_t>(u) : 0u);
   };
   return spread(cell(p.x, box.lo.x)) | (spread(cell(p.y, box.lo.y)) << 1) | (spread(cell(p.z, box.lo.z)) << 2);
 }

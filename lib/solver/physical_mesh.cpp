@@ -44,14 +44,18 @@ constexpr double kLambdaLimit = 2.1;
 constexpr double kSpectrumMargin = 1.02; ///< on Lanczos' estimate of lambda_max (a lower bound)
 
 /// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- x + h v (iteration_start: not s,
-/// docs/MODEL.md "The iterations' start").
-void predict(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, SharedLoops* shared) {
+/// docs/MODEL.md "The iterations' start"), from the state copied into the local order.
+void predict(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalState& state, SharedLoops* shared) {
+  const PhysicalLocalArrays& L = model.local;
   for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
-    for (int a = begin; a < end; ++a) {
-      ws.x_start[a] = state.x[a];
-      ws.s[a] = model.pinned[a] ? state.x[a] : predict_position(state.x[a], state.v[a], model.gravity, model.h);
-      if (!model.pinned[a]) state.x[a] = iteration_start(state.x[a], state.v[a], model.h);
-      ws.x_prev[a] = state.x[a];
+    for (int i = begin; i < end; ++i) {
+      const int a = model.vertex_order[i];
+      const Vec3d x = state.x[a], v = state.v[a];
+      ws.v[i] = v;
+      ws.x_start[i] = x;
+      ws.s[i] = L.pinned[i] ? x : predict_position(x, v, model.gravity, model.h);
+      ws.x[i] = L.pinned[i] ? x : iteration_start(x, v, model.h);
+      ws.x_prev[i] = ws.x[i];
     }
   });
 }
@@ -64,85 +68,91 @@ void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState
                            model.weight_soa.data(), model.det_ratio};
   if (shared)
     shared->run(tet_blocks(model.num_tets), kTetBlockChunk, [&](int b0, int b1) {
-      local_step_tet_blocks(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(),
+      local_step_tet_blocks(tets, ws.x.data(), state.rotation.data(), ws.tet_force.data(),
                             params.rotation_iterations, kRotationTol, b0, b1);
     });
   else
-    local_step_tets(tets, state.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
+    local_step_tets(tets, ws.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
                     kRotationTol);  // omp for nowait
   for_chunks(shared, model.num_virtual, 2 * kVertexChunk, [&](int begin, int end) {
     for (int j = begin; j < end; ++j) {
-      const Vec3d p = paired_point(state.x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
+      const Vec3d p = paired_point(ws.x.data(), model.local.pair_vertex[j].data(), model.pair_weight[j].data(),
                                    model.pair_count[j]);
       ws.cpl_force[j] = coupling_gradient_virtual(p, virtual_q[j], model.k_svc);  // k_svc (q - p)
     }
   });
 }
 
-/// r_a = -grad E_soft at x_a with the local step's projections, gathered in a fixed order:
-/// inertia, the corner forces of the incident tets, the E_svc forces.
-inline Vec3d vertex_residual(const PhysicalModel& model, const PhysicalWorkspace& ws, const Vec3d* x, int a,
+/// r_i = -grad E_soft at x_i with the local step's projections (i a local index), gathered in a
+/// fixed order: inertia, the corner forces of the incident tets, the E_svc forces.
+inline Vec3d vertex_residual(const PhysicalLocalArrays& L, const PhysicalWorkspace& ws, const Vec3d* x, int i,
                              double inv_h2) {
-  Vec3d r = (model.mass[a] * inv_h2) * (ws.s[a] - x[a]);                             // -dE_k/dx
-  for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k)
-    r += ws.tet_force[model.force_entries[k]];                                       // -dE_vol/dx
-  for (int k = model.cpl_offsets[a]; k < model.cpl_offsets[a + 1]; ++k)
-    r += model.cpl_weight[k] * ws.cpl_force[model.cpl_virtual[k]];                   // -dE_svc/dx
+  Vec3d r = (L.mass[i] * inv_h2) * (ws.s[i] - x[i]);                                 // -dE_k/dx
+  for (int k = L.tet_offsets[i]; k < L.tet_offsets[i + 1]; ++k)
+    r += ws.tet_force[L.force_entries[k]];                                           // -dE_vol/dx
+  for (int k = L.cpl_offsets[i]; k < L.cpl_offsets[i + 1]; ++k)
+    r += L.cpl_weight[k] * ws.cpl_force[L.cpl_virtual[k]];                           // -dE_svc/dx
   return r;
 }
 
 /// The residual r = -grad E_soft (0 on pinned vertices) fused with Alg. 1 line 9
-/// (GlobalSynthesis) for the Jacobi-type methods, per vertex (in vertex_order: each vertex reads
-/// and writes only its own x, so the order does not change the bits); ends with a barrier.
+/// (GlobalSynthesis) for the Jacobi-type methods, per vertex (each vertex reads and writes only
+/// its own x, so the order does not change the bits); ends with a barrier.
 ///   jacobi:    x <- x + gamma D^-1 r
 ///   chebyshev: x_{k+1} = omega (gamma D^-1 r + x_k - x_{k-1}) + x_{k-1}   (Wang 2015, eq. 12)
 ///   direct:    r only (global_direct follows)
-void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
-                         SolverSpec::Method method, double gamma, double omega, SharedLoops* shared) {
+void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, SolverSpec::Method method, double gamma,
+                         double omega, SharedLoops* shared) {
   const double inv_h2 = 1.0 / (model.h * model.h);
-  Vec3d* __restrict x = state.x.data();
+  const PhysicalLocalArrays& L = model.local;
+  Vec3d* __restrict x = ws.x.data();
   for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
-      const int a = model.vertex_order[i];
-      if (model.pinned[a]) { ws.r[a] = Vec3d{}; continue; }  // never moves: x = x_prev = s
-      const Vec3d r = vertex_residual(model, ws, x, a, inv_h2);
-      ws.r[a] = r;
+      if (L.pinned[i]) { ws.r[i] = Vec3d{}; continue; }  // never moves: x = x_prev = s
+      const Vec3d r = vertex_residual(L, ws, x, i, inv_h2);
+      ws.r[i] = r;
       if (method == SolverSpec::Method::Jacobi) {
-        x[a] += (gamma / model.diag[a]) * r;
+        x[i] += (gamma / L.diag[i]) * r;
       } else if (method == SolverSpec::Method::Chebyshev) {
-        const Vec3d xk = x[a];
-        x[a] = omega * ((gamma / model.diag[a]) * r + xk - ws.x_prev[a]) + ws.x_prev[a];
-        ws.x_prev[a] = xk;
+        const Vec3d xk = x[i];
+        x[i] = omega * ((gamma / L.diag[i]) * r + xk - ws.x_prev[i]) + ws.x_prev[i];
+        ws.x_prev[i] = xk;
       }
     }
   });
 }
 
-/// ||r|| over free vertices (pinned rows are 0), summed serially: the same bits for any thread count.
-double residual_norm(const PhysicalWorkspace& ws) {
+/// ||r|| over free vertices (pinned rows are 0), summed serially in the file's vertex order: the
+/// same bits for any thread count and either order.
+double residual_norm(const PhysicalModel& model, const PhysicalWorkspace& ws) {
   double sum = 0;
-  for (const Vec3d& r : ws.r) sum += squared_norm(r);
+  for (const int i : model.vertex_local) sum += squared_norm(ws.r[i]);
   return std::sqrt(sum);
 }
 
 /// The exact global step: x_f <- x_f + A_ff^-1 r_f (serial: call from one thread).
-void global_direct(const PhysicalModel& model, const PhysicalDirectSolver& direct, PhysicalWorkspace& ws,
-                   PhysicalState& state) {
+void global_direct(const PhysicalModel& model, const PhysicalDirectSolver& direct, PhysicalWorkspace& ws) {
   const int nf = model.num_free;
   if (nf == 0) return;
-  for (int i = 0; i < nf; ++i) {
-    const Vec3d r = ws.r[model.free_vertices[i]];
-    ws.rhs(i, 0) = r.x; ws.rhs(i, 1) = r.y; ws.rhs(i, 2) = r.z;
+  const std::vector<int>& rows = model.local.free_vertices;
+  for (int k = 0; k < nf; ++k) {
+    const Vec3d r = ws.r[rows[k]];
+    ws.rhs(k, 0) = r.x; ws.rhs(k, 1) = r.y; ws.rhs(k, 2) = r.z;
   }
   ws.dx = direct.ldlt.solve(ws.rhs);
-  for (int i = 0; i < nf; ++i) state.x[model.free_vertices[i]] += Vec3d{ws.dx(i, 0), ws.dx(i, 1), ws.dx(i, 2)};
+  for (int k = 0; k < nf; ++k) ws.x[rows[k]] += Vec3d{ws.dx(k, 0), ws.dx(k, 1), ws.dx(k, 2)};
 }
 
-/// Alg. 1 line 11: v = (1 - damping) (x - x_start) / h.
-void update_velocities(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state, SharedLoops* shared) {
+/// Alg. 1 line 11: v = (1 - damping) (x - x_start) / h; x and v back into the state's order.
+void update_velocities(const PhysicalModel& model, const PhysicalWorkspace& ws, PhysicalState& state,
+                       SharedLoops* shared) {
   const double c = (1.0 - model.damping) / model.h;
   for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
-    for (int a = begin; a < end; ++a) state.v[a] = c * (state.x[a] - ws.x_start[a]);
+    for (int i = begin; i < end; ++i) {
+      const int a = model.vertex_order[i];
+      state.x[a] = ws.x[i];
+      state.v[a] = c * (ws.x[i] - ws.x_start[i]);
+    }
   });
 }
 
@@ -178,7 +188,7 @@ void choose_diagonal(PhysicalModel& M, const Eigen::SparseMatrix<double>& A, Sol
   }
 }
 
-/// PhysicalModel's local order (tet_slot, vertex_order, force_entries) and the slot-ordered
+/// PhysicalModel's local order (tet_slot, vertex_order, vertex_local) and the slot-ordered
 /// copies of the tets' data; `morton` off: the file's order.
 void set_local_order(PhysicalModel& M, bool morton) {
   const int n = M.num_vertices, T = M.num_tets;
@@ -198,11 +208,10 @@ void set_local_order(PhysicalModel& M, bool morton) {
     const std::vector<int> order = morton_order(std::span(centroid).first(full), box);
     std::copy(order.begin(), order.end(), slot_tet.begin());
   }
+  M.vertex_local.resize(n);
+  for (int i = 0; i < n; ++i) M.vertex_local[M.vertex_order[i]] = i;
   M.tet_slot.resize(T);
   for (int s = 0; s < T; ++s) M.tet_slot[slot_tet[s]] = s;
-  M.force_entries.resize(M.tet_entries.size());
-  for (size_t k = 0; k < M.tet_entries.size(); ++k)
-    M.force_entries[k] = 4 * M.tet_slot[M.tet_entries[k] >> 2] + (M.tet_entries[k] & 3);
   M.corner_soa.resize(4 * size_t(T));
   M.shape_grad_soa.resize(9 * size_t(T));
   M.weight_soa.resize(T);
@@ -210,11 +219,44 @@ void set_local_order(PhysicalModel& M, bool morton) {
     const int t = slot_tet[s];
     M.weight_soa[s] = M.tet_weight[t];
     for (int c = 0; c < 4; ++c) {
-      M.corner_soa[size_t(c) * T + s] = M.tets[t][c];
+      M.corner_soa[size_t(c) * T + s] = M.vertex_local[M.tets[t][c]];
       if (c > 0)
         for (int i = 0; i < 3; ++i) M.shape_grad_soa[size_t(3 * c - 3 + i) * T + s] = M.shape_grad[4 * size_t(t) + c][i];
     }
   }
+}
+
+/// PhysicalModel::local from the file order's arrays and the local order (the model complete).
+void set_local_arrays(PhysicalModel& M) {
+  const int n = M.num_vertices;
+  PhysicalLocalArrays& L = M.local;
+  L.mass.resize(n);
+  L.diag.resize(n);
+  L.pinned.resize(n);
+  L.tet_offsets.assign(1, 0);
+  L.cpl_offsets.assign(1, 0);
+  L.force_entries.clear();
+  L.cpl_virtual.clear();
+  L.cpl_weight.clear();
+  for (int i = 0; i < n; ++i) {
+    const int a = M.vertex_order[i];
+    L.mass[i] = M.mass[a];
+    L.diag[i] = M.diag[a];
+    L.pinned[i] = M.pinned[a];
+    for (int k = M.tet_offsets[a]; k < M.tet_offsets[a + 1]; ++k)
+      L.force_entries.push_back(4 * M.tet_slot[M.tet_entries[k] >> 2] + (M.tet_entries[k] & 3));
+    L.tet_offsets.push_back(static_cast<int>(L.force_entries.size()));
+    for (int k = M.cpl_offsets[a]; k < M.cpl_offsets[a + 1]; ++k) {
+      L.cpl_virtual.push_back(M.cpl_virtual[k]);
+      L.cpl_weight.push_back(M.cpl_weight[k]);
+    }
+    L.cpl_offsets.push_back(static_cast<int>(L.cpl_virtual.size()));
+  }
+  L.pair_vertex = M.pair_vertex;
+  for (int j = 0; j < M.num_virtual; ++j)
+    for (int k = 0; k < M.pair_count[j]; ++k) L.pair_vertex[j][k] = M.vertex_local[M.pair_vertex[j][k]];
+  L.free_vertices.resize(M.num_free);
+  for (int r = 0; r < M.num_free; ++r) L.free_vertices[r] = M.vertex_local[M.free_vertices[r]];
 }
 
 }  // namespace
@@ -350,6 +392,7 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
     M.diag[a] = d;
   }
   choose_diagonal(M, A, options.diagonal);
+  set_local_arrays(M);
   if (options.factorize && M.num_free > 0) M.direct = factorize_global_matrix(A, where);
   return M;
 }
@@ -374,6 +417,8 @@ PhysicalState make_physical_state(const PhysicalModel& model) {
 PhysicalWorkspace make_physical_workspace(const PhysicalModel& model) {
   PhysicalWorkspace ws;
   const size_t n = model.num_vertices;
+  ws.x.assign(n, Vec3d{});
+  ws.v.assign(n, Vec3d{});
   ws.s.assign(n, Vec3d{});
   ws.x_start.assign(n, Vec3d{});
   ws.x_prev.assign(n, Vec3d{});
@@ -449,22 +494,22 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
         t0 = Clock::now();
       }
       omega = chebyshev_weight(params, k, omega);
-      residual_and_update(model, ws, state, params.method, params.relaxation, omega, shared);
+      residual_and_update(model, ws, params.method, params.relaxation, omega, shared);
       if (params.method == SolverSpec::Method::Direct) {
 #pragma omp single
-        global_direct(model, *direct, ws, state);  // implicit barrier
+        global_direct(model, *direct, ws);  // implicit barrier
       }
       if (k + 1 < K) {
 #pragma omp master
         {
-          if (k == 0) r0 = residual_norm(ws);
+          if (k == 0) r0 = residual_norm(model, ws);
           report.global_s += seconds_since(t0);
         }
         continue;
       }
 #pragma omp single
       {
-        rk = residual_norm(ws);
+        rk = residual_norm(model, ws);
         if (k == 0) r0 = rk;
         iterations = k + 1;
         more = continue_iterating(k, rk / weight_scale, K, tolerance, max_iterations, stopping);

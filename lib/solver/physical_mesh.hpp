@@ -46,6 +46,21 @@ struct PhysicalDirectSolver {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
 };
 
+/// The per-vertex data of the CPU step by local index i (PhysicalModel::vertex_order[i] is the
+/// file's vertex): the file order's values and incidence lists, each list in the file order's
+/// entry order, with vertex indices local.
+struct PhysicalLocalArrays {
+  std::vector<double> mass, diag;              ///< #n PhysicalModel::mass, diag
+  std::vector<std::uint8_t> pinned;            ///< #n
+  std::vector<int> tet_offsets;                ///< #n+1 CSR -> the vertex's (tet, corner) entries, as tet_entries
+  std::vector<int> force_entries;              ///< 4 tet_slot[t] + c for each entry 4 t + c: where tet_force holds it
+  std::vector<int> cpl_offsets;                ///< #n+1 CSR -> (virtual vertex, weight), as cpl_offsets
+  std::vector<int> cpl_virtual;                ///< virtual-vertex index
+  std::vector<double> cpl_weight;              ///< its weight on this physical vertex
+  std::vector<std::array<int, 4>> pair_vertex; ///< #m local indices of the physical vertices each virtual vertex pairs with
+  std::vector<int> free_vertices;              ///< #nf local index of PhysicalModel::free_vertices[i] (the direct solve's row i)
+};
+
 /// Immutable physical-mesh model. n = #vertices, T = #tets, m = #virtual vertices, nf = #free.
 struct PhysicalModel {
   int num_vertices = 0;                 ///< n
@@ -92,17 +107,20 @@ struct PhysicalModel {
   double diag_theta = 0;                ///< bounded: D = max(A(a, a), theta D_l1(a)); 0: A(a, a)
   int diag_bounded_rows = 0;            ///< rows where theta raised D above A(a, a)
   SpectrumEstimate spectrum;            ///< of D^-1 A with this D (solver/spectrum.hpp)
-  // The CPU step's local order: the local step visits the tets by slot, the slots in Morton order
-  // of the tets' rest centroids, and the residual visits the vertices in Morton order of their
-  // rest positions, so that the gather of a vertex's corner forces reads tet_force near where
-  // the vertex before it read (cholecystectomy.msh numbers its vertices far apart in space). The
-  // sums keep the incidence lists' (tet, corner) order, and the last tets that do not fill a SIMD
-  // block keep their slots, so the step's bits are those of the file's order.
+  // The CPU step's local order: the step numbers the vertices in Morton order of their rest
+  // positions (local index i, vertex_order[i] the file's vertex) and visits the tets by slot, the
+  // slots in Morton order of the tets' rest centroids, so that neighbouring vertices and tets sit
+  // near each other in memory (cholecystectomy.msh numbers its vertices far apart in space). The
+  // step copies x and v into the local order at its start and back at its end. The sums keep the
+  // incidence lists' (tet, corner) order and the residual norm the file's vertex order, and the
+  // last tets that do not fill a SIMD block keep their slots, so the step's bits are those of the
+  // file's order.
   std::vector<int> tet_slot;            ///< #T slot of tet t (the identity with PhysicalModelOptions::local_order off)
-  std::vector<int> vertex_order;        ///< #n the residual's order of the vertices
-  std::vector<int> force_entries;       ///< 4 tet_slot[t] + c for tet_entries' 4 t + c: where tet_force holds it
+  std::vector<int> vertex_order;        ///< #n the file's vertex at local index i (the identity with local_order off)
+  std::vector<int> vertex_local;        ///< #n the local index of the file's vertex a
+  PhysicalLocalArrays local;            ///< the per-vertex data the CPU step reads, by local index
   // The local step's structure-of-arrays copies (SIMD loads), by slot s = tet_slot[t]:
-  std::vector<int> corner_soa;          ///< #4T vertex of corner c of the tet in slot s at [c T + s]
+  std::vector<int> corner_soa;          ///< #4T local index of corner c of the tet in slot s at [c T + s]
   std::vector<double> shape_grad_soa;   ///< #9T component i of its g_c, c = 1..3, at [(3 c - 3 + i) T + s] (g_0: first_shape_gradient)
   std::vector<double> weight_soa;       ///< #T its w_t at [s]
   std::shared_ptr<const PhysicalDirectSolver> direct;  ///< null when not factorised
@@ -115,8 +133,9 @@ struct PhysicalState {
   std::vector<Quatd> rotation;  ///< #T last rotation of each tet, by slot (PhysicalModel::tet_slot): the local step's warm start
 };
 
-/// Scratch of physical_step, sized once.
+/// Scratch of physical_step, sized once. Per-vertex arrays by local index (PhysicalModel::vertex_order).
 struct PhysicalWorkspace {
+  std::vector<Vec3d> x, v;       ///< #n the step's positions and velocities (PhysicalState's, in the local order)
   std::vector<Vec3d> s;          ///< #n prediction (Alg. 1 line 1)
   std::vector<Vec3d> x_start;    ///< #n positions at the start of the step
   std::vector<Vec3d> x_prev;     ///< #n previous iterate (Chebyshev)

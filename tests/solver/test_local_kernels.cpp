@@ -32,7 +32,9 @@ TEST(LocalKernels, TetBlocksMatchTheScalarEnergyFunctions) {
   for (int iterations : {1, 4, 50}) {  // the fused single-update path and the general one
     std::vector<Quatd> rot = warm;  // by slot
     std::vector<Vec3d> force(4 * pm.num_tets);
-    local_step_tets(tets, x.data(), rot.data(), force.data(), iterations, 1e-9);
+    std::vector<Vec3d> x_local(x.size());  // the kernel reads positions by local index
+    for (size_t i = 0; i < x.size(); ++i) x_local[i] = x[pm.vertex_order[i]];
+    local_step_tets(tets, x_local.data(), rot.data(), force.data(), iterations, 1e-9);
     for (int t = 0; t < pm.num_tets; ++t) {
       const int s = pm.tet_slot[t];
       const Vec3d xc[4] = {x[pm.tets[t][0]], x[pm.tets[t][1]], x[pm.tets[t][2]], x[pm.tets[t][3]]};

@@ -164,7 +164,7 @@ TEST(Determinism, PhysicalStepWithAHelperIsBitwiseThatOfTheOpenMpStep) {
   }
 }
 
-// The CPU step's local order (PhysicalModel::tet_slot, vertex_order) changes where the step reads
+// The CPU step's local order (PhysicalModel::tet_slot, vertex_order, local) changes where the step reads
 // and writes, not what it computes: on a block whose vertices and tets are numbered at random (as
 // a mesher's output can be), the step gives the bits of the file's order for every method, with
 // E_det, and with several rotation updates per local step; the rotations agree tet by tet.
@@ -201,6 +201,9 @@ TEST(Determinism, LocalOrderGivesTheBitsOfTheFileOrder) {
           if (t >= local.num_tets - local.num_tets % kTetLanes) { EXPECT_EQ(local.tet_slot[t], t); }
         }
         EXPECT_GT(moved, local.num_tets / 2);
+        int renumbered = 0;  // the step's own vertex numbering
+        for (int i = 0; i < n; ++i) renumbered += local.vertex_order[i] != i;
+        EXPECT_GT(renumbered, n / 2);
         PhysicalStepParams params;
         params.method = method;
         params.rotation_iterations = rotation_iterations;

@@ -55,14 +55,19 @@ RecordingFile read_replay_recording(const std::string& recording) {
 LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& scene,
                                const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                std::optional<double> physical_hz, bool allow_outside, Backend backend,
-                               const ReplayTransformOptions& transforms) {
+                               const ReplayTransformOptions& transforms, WorldCache* worlds) {
   LoadedReplay r;
   r.recording_path = std::move(recording.path);
   r.recording = std::move(recording.recording);
-  Scene s = load_scene(resolve_scene_path(scene), overrides);
-  r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, s.spec);
-  const double hz_h = haptic_hz.value_or(s.spec.haptic_hz), hz_p = physical_hz.value_or(s.spec.physical_hz);
-  const BoundingBox box = bounding_box(s.physical.vertices);
+  SceneSpec spec = load_scene_spec(resolve_scene_path(scene), overrides);
+  r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, spec);
+  const double hz_h = haptic_hz.value_or(spec.haptic_hz), hz_p = physical_hz.value_or(spec.physical_hz);
+  if (worlds) {
+    r.world = worlds->get(std::move(spec), hz_h, hz_p, backend);
+  } else {
+    r.world = build_world(build_scene(std::move(spec)), hz_h, hz_p, backend);
+  }
+  const BoundingBox box = bounding_box(r.world->scene.physical.vertices);
   if (!allow_outside) {
     // The tool's handle may start well away from the tissue; a unit mistake (cm or mm read as
     // m) puts it tens to thousands of scene sizes away.
@@ -72,7 +77,6 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   }
   if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
     r.warnings.push_back(r.recording_path + ": " + *w);
-  r.world = build_world(std::move(s), hz_h, hz_p, backend);
   return r;
 }
 

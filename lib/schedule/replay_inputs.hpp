@@ -39,7 +39,8 @@ std::vector<RoleFile> replay_input_files(const std::string& scene, const std::st
 
 /// load_replay_inputs in two parts: read_replay_recording reads the recording (HDF5: one thread
 /// at a time), load_replay_scene does the rest (the scene and its meshes, the checks, the world;
-/// no HDF5, so replays loaded together run it on several threads).
+/// no HDF5, so replays loaded together run it on several threads). With `worlds`, replays of one
+/// scene share its world where WorldCache allows.
 struct RecordingFile {
   std::string path;
   Recording recording;
@@ -48,7 +49,7 @@ RecordingFile read_replay_recording(const std::string& recording);
 LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& scene,
                                const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                std::optional<double> physical_hz, bool allow_outside, Backend backend,
-                               const ReplayTransformOptions& transforms = {});
+                               const ReplayTransformOptions& transforms = {}, WorldCache* worlds = nullptr);
 
 /// Loads scene (name or path) with --set overrides, builds the world at the given rates (the
 /// scene's when empty), reads the recording, maps its poses to ebh's frames and checks that it

@@ -226,6 +226,14 @@ int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<s
   return steps;
 }
 
+/// The world's virtual tool from its scene (the only part of a world the tool's stiffnesses touch
+/// besides the spec: WorldCache).
+void build_world_tool(World& w) {
+  w.tool = build_tool(w.scene.spec.tool);
+  if (w.scene.spec.contact == ContactModel::Surface)
+    attach_surface_contact(w.tool, w.virtual_mesh.triangles, w.virtual_mesh.rest, w.scene.spec.stiffness.k_con);
+}
+
 }  // namespace
 
 std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double physical_hz, Backend backend) {
@@ -252,9 +260,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->virtual_mesh = build_virtual_model(w->scene);
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver, w->physical_mesh);
-  w->tool = build_tool(w->scene.spec.tool);
-  if (w->scene.spec.contact == ContactModel::Surface)
-    attach_surface_contact(w->tool, w->virtual_mesh.triangles, w->virtual_mesh.rest, w->scene.spec.stiffness.k_con);
+  build_world_tool(*w);
   if (backend == Backend::Cuda && w->scene.spec.solver.sleep > 0 && !cuda_physical_sleep()) {
     if (w->scene.spec.solver.sleep_given)
       w->scene.warnings.push_back(where + ": key 'solver.sleep': the CUDA backend runs every physical step and ignores "
@@ -273,6 +279,51 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->initial_virtual.assign(w->virtual_mesh.rest.size(), Vec3d{});
   paired_points(w->virtual_mesh, w->initial_physical.x, w->initial_virtual);
   return w;
+}
+
+std::shared_ptr<const World> WorldCache::get(SceneSpec spec, double haptic_hz, double physical_hz, Backend backend) {
+  // The key: everything in effect but the tool's stiffnesses, the rates and the backend.
+  SceneSpec keyed = spec;
+  keyed.stiffness.k_con = keyed.stiffness.k_vcs = keyed.stiffness.k_vct = 0;
+  char rates[96];
+  std::snprintf(rates, sizeof rates, "%.17g %.17g %d\n", haptic_hz, physical_hz, static_cast<int>(backend));
+  const std::string key = spec.file.string() + "\n" + rates + resolved_scene_yaml(keyed);
+  std::shared_future<std::shared_ptr<const World>> future;
+  std::promise<std::shared_ptr<const World>> promise;
+  bool first = false;
+  {
+    std::lock_guard lock(mutex_);
+    auto [it, inserted] = entries_.try_emplace(key);
+    if (inserted) {
+      it->second = promise.get_future().share();
+      first = true;
+      ++built_;
+    }
+    future = it->second;
+  }
+  if (first) {
+    try {
+      promise.set_value(build_world(build_scene(spec), haptic_hz, physical_hz, backend));
+    } catch (...) {
+      promise.set_exception(std::current_exception());  // every user of the entry gets the error
+    }
+  }
+  const std::shared_ptr<const World> base = future.get();  // waits while another thread builds it
+  if (first) return base;
+  const Stiffness& k = base->scene.spec.stiffness;
+  if (k.k_con == spec.stiffness.k_con && k.k_vcs == spec.stiffness.k_vcs && k.k_vct == spec.stiffness.k_vct)
+    return base;
+  auto w = std::make_shared<World>(*base);
+  w->scene.spec.stiffness.k_con = spec.stiffness.k_con;
+  w->scene.spec.stiffness.k_vcs = spec.stiffness.k_vcs;
+  w->scene.spec.stiffness.k_vct = spec.stiffness.k_vct;
+  build_world_tool(*w);
+  return w;
+}
+
+int WorldCache::built() const {
+  std::lock_guard lock(mutex_);
+  return built_;
 }
 
 HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample) {

@@ -6,9 +6,13 @@
 //   PhysicalSnapshot -> haptic tick:   the physical positions the E_svc targets are paired from.
 // Who delivers which snapshot when is the scheduler's business (schedule/scheduler.hpp).
 #include <cstdint>
+#include <future>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "io/recording.hpp"
@@ -52,6 +56,26 @@ struct World {
 /// whole number of ticks per physical step.
 std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double physical_hz,
                                          Backend backend = Backend::Cpu);
+
+/// Worlds built once and shared by replays whose scenes differ at most in the virtual tool's
+/// stiffnesses (stiffness.k_con, k_vcs, k_vct): those act on the virtual tool alone, so the
+/// meshes, the solvers' set-up, the settling and the warnings of such scenes are the same, and a
+/// replay's world is the first one's (the same object when the stiffnesses agree too, else a copy
+/// with the stiffnesses and the tool rebuilt). The start-up work of a batch (ebh replay --batch)
+/// is then done once per scene. Thread-safe: a world is built once while the other threads that
+/// need it wait.
+class WorldCache {
+ public:
+  /// The world of `spec` (a parsed scene with its overrides) at the given rates.
+  std::shared_ptr<const World> get(SceneSpec spec, double haptic_hz, double physical_hz, Backend backend);
+  /// Worlds built (or tried) from their scenes so far; the other gets shared or derived one.
+  int built() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, std::shared_future<std::shared_ptr<const World>>> entries_;
+  int built_ = 0;
+};
 
 /// The physical side's output as the haptic side sees it.
 struct PhysicalSnapshot {

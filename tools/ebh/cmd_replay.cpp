@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -304,17 +305,20 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   check_backend("cuda");
   const std::size_t B = lines.size();
   std::vector<RecordingFile> read(B);
+  std::map<std::string, std::size_t> first_read;  // each recording is read once
   for (std::size_t i = 0; i < B; ++i) {
     try {
-      read[i] = read_replay_recording(lines[i].args.recording);
+      const auto [it, inserted] = first_read.try_emplace(lines[i].args.recording, i);
+      read[i] = inserted ? read_replay_recording(lines[i].args.recording) : read[it->second];
     } catch (const InputError& e) {
       throw InputError(lines[i].where + ": " + e.what());
     }
   }
   // The scenes, their meshes and the worlds (settling, the solvers' set-up) on up to one thread per
-  // core, one OpenMP thread each.
+  // core, one OpenMP thread each; replays of one scene share its world (WorldCache).
   std::vector<PreparedReplay> prepared(B);
   std::vector<std::string> errors(B);
+  WorldCache worlds;
   {
     std::atomic<std::size_t> next{0};
     const std::size_t workers = std::min<std::size_t>(B, std::max(1u, std::thread::hardware_concurrency()));
@@ -326,7 +330,7 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
           const ReplayArgs& a = lines[i].args;
           try {
             prepared[i].in = load_replay_scene(std::move(read[i]), a.scene, a.overrides, a.haptic_hz, a.physical_hz,
-                                               a.allow_outside, Backend::Cuda, a.transforms);
+                                               a.allow_outside, Backend::Cuda, a.transforms, &worlds);
           } catch (const std::exception& e) {
             errors[i] = e.what();
           }
@@ -380,10 +384,10 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   }
   const double load = std::chrono::duration<double>(t1 - t0).count(), run = std::chrono::duration<double>(t2 - t1).count();
   if (!top.quiet)
-    std::printf("batch of %zu replays on one GPU, %d at once: virtual %.3f s in %.3f s wall (%.3f s loading): %.2fx real "
-                "time in total (%.2fx from the start)\n",
-                B, std::min(at_once, static_cast<int>(B)), virtual_s, run, load, run > 0 ? virtual_s / run : 0.0,
-                virtual_s / (load + run));
+    std::printf("batch of %zu replays on one GPU, %d at once: virtual %.3f s in %.3f s wall (%.3f s loading, %d %s "
+                "built): %.2fx real time in total (%.2fx from the start)\n",
+                B, std::min(at_once, static_cast<int>(B)), virtual_s, run, load, worlds.built(),
+                worlds.built() == 1 ? "world" : "worlds", run > 0 ? virtual_s / run : 0.0, virtual_s / (load + run));
   if (failed > 0) throw InputError("--batch " + file + ": " + std::to_string(failed) + " of " + std::to_string(B) + " replays failed");
 }
 

@@ -99,9 +99,15 @@ std::string absolute(const std::string& path) {
 /// scene as it was resolved, the overrides, the window, and the build that ran it.
 void write_provenance(h5::File& f, const World& w, const ReplayMetadata& meta) {
   const SceneSpec& s = w.scene.spec;
-  auto input = [&f](const std::string& key, const std::string& path) {
+  auto input = [&](const std::string& key, const std::string& path) {
     f.set_attr(key, absolute(path));
-    f.set_attr(key + "_sha256", sha256_file(path));
+    if (!meta.digests) {
+      f.set_attr(key + "_sha256", sha256_file(path));
+      return;
+    }
+    auto it = meta.digests->find(absolute(path));
+    if (it == meta.digests->end()) it = meta.digests->emplace(absolute(path), sha256_file(path)).first;
+    f.set_attr(key + "_sha256", it->second);
   };
   input("scene_file", s.file.string());
   input("physical_mesh", s.physical_mesh.string());

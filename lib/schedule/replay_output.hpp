@@ -14,6 +14,7 @@
 //   threads, every parameter of the scene (stiffness, solver, tool geometry in metres, rates) and
 //   the pinned regions.
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -37,6 +38,10 @@ struct ReplayMetadata {
   std::vector<std::string> overrides;  ///< --set key=value, as given
   ReplayTransformOptions transforms;   ///< --transform, --tool-transform, as given
   PoseTransforms applied;              ///< what the recording's poses got (options or its attributes)
+  /// The input files' SHA-256 by path, shared by the writers of one batch (ebh replay --batch) so
+  /// that each file is hashed once; null: each writer hashes its inputs. Writers that share it
+  /// are made on one thread.
+  std::map<std::string, std::string>* digests = nullptr;
 };
 
 /// The largest output a replay writes (docs/FORMATS.md, Limits). Mesh snapshots go to the file as

@@ -5,6 +5,7 @@
 #include <bit>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <vector>
 
@@ -164,4 +165,39 @@ TEST(ReplayProvenance, AScenePlacedByMeshUnitAndTransformIsReproducedBitForBit) 
 TEST(ReplayProvenance, AReplayWithPoseTransformsIsReproducedBitForBit) {
   const auto dir = std::filesystem::temp_directory_path() / "ebh_test_provenance_transforms";
   expect_reproduced_from_output("tube", {"stiffness.k_con=500"}, dir, {"0.2,0,0,0,0,0", "0,0,0,0,0,30"});
+}
+
+// The writers of a batch share their inputs' digests (ReplayMetadata::digests): each file is
+// hashed once, by the first writer, and every output names the same digests as one written alone.
+TEST(ReplayProvenance, WritersOfABatchHashEachInputOnce) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "ebh_test_provenance_digests";
+  std::filesystem::create_directories(dir);
+  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {}, std::nullopt, std::nullopt, false);
+  std::map<std::string, std::string> digests;
+  auto write = [&](const std::string& name, std::map<std::string, std::string>* shared) {
+    const std::string out = (dir / name).string();
+    std::filesystem::remove(out);
+    ReplayOptions opt;
+    opt.start = 2.8;
+    opt.duration = 0.01;
+    ReplayMetadata meta;
+    meta.recording = in.recording_path;
+    meta.digests = shared;
+    ReplayWriter writer(out, *in.world, meta, tick_count(*in.world, opt.duration), false);
+    writer.commit(replay(*in.world, in.recording, opt, writer));
+    return out;
+  };
+  const std::string alone = write("alone.h5", nullptr), first = write("first.h5", &digests);
+  EXPECT_EQ(digests.size(), 3u);  // the scene file, its mesh, the recording
+  // A digest already in the map is what the next writer names: the file is not hashed again.
+  const std::string mesh = std::filesystem::absolute(in.world->scene.spec.physical_mesh).lexically_normal().string();
+  ASSERT_EQ(digests.count(mesh), 1u);
+  digests[mesh] = "from the map";
+  const std::string second = write("second.h5", &digests);
+  const h5::File a = h5::File::open_read(alone), b = h5::File::open_read(first), c = h5::File::open_read(second);
+  for (const char* key : {"scene_file_sha256", "physical_mesh_sha256", "recording_sha256"})
+    EXPECT_EQ(a.attr_string(key), b.attr_string(key)) << key;
+  EXPECT_EQ(c.attr_string("physical_mesh_sha256"), "from the map");
+  EXPECT_EQ(c.attr_string("recording_sha256"), a.attr_string("recording_sha256"));
+  std::filesystem::remove_all(dir);
 }

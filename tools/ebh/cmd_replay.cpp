@@ -354,8 +354,10 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   }
   install_interrupt_handlers();
   std::vector<BatchReplay> batch(B);
+  std::map<std::string, std::string> digests;  // each input file hashed once for the outputs' provenance
   for (std::size_t i = 0; i < B; ++i) {
     PreparedReplay& p = prepared[i];
+    p.meta.digests = &digests;
     p.writer = std::make_unique<ReplayWriter>(lines[i].args.out, *p.in.world, p.meta, p.ticks, false);
     batch[i] = {p.in.world.get(), &p.in.recording, p.opt, p.writer.get()};
   }

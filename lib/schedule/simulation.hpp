@@ -68,7 +68,7 @@ class WorldCache {
  public:
   /// The world of `spec` (a parsed scene with its overrides) at the given rates.
   std::shared_ptr<const World> get(SceneSpec spec, double haptic_hz, double physical_hz, Backend backend);
-  /// Worlds built (or tried) from their scenes so far; the other gets shared or derived one.
+  /// Worlds built (or tried) from their scenes so far; the other gets shared or derived them.
   int built() const;
 
  private:

@@ -51,7 +51,6 @@ void predict(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalSt
     for (int i = begin; i < end; ++i) {
       const int a = model.vertex_order[i];
       const Vec3d x = state.x[a], v = state.v[a];
-      ws.v[i] = v;
       ws.x_start[i] = x;
       ws.s[i] = L.pinned[i] ? x : predict_position(x, v, model.gravity, model.h);
       ws.x[i] = L.pinned[i] ? x : iteration_start(x, v, model.h);
@@ -418,7 +417,6 @@ PhysicalWorkspace make_physical_workspace(const PhysicalModel& model) {
   PhysicalWorkspace ws;
   const size_t n = model.num_vertices;
   ws.x.assign(n, Vec3d{});
-  ws.v.assign(n, Vec3d{});
   ws.s.assign(n, Vec3d{});
   ws.x_start.assign(n, Vec3d{});
   ws.x_prev.assign(n, Vec3d{});

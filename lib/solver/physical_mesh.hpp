@@ -111,7 +111,7 @@ struct PhysicalModel {
   // positions (local index i, vertex_order[i] the file's vertex) and visits the tets by slot, the
   // slots in Morton order of the tets' rest centroids, so that neighbouring vertices and tets sit
   // near each other in memory (cholecystectomy.msh numbers its vertices far apart in space). The
-  // step copies x and v into the local order at its start and back at its end. The sums keep the
+  // step copies x into the local order at its start, and x and v back at its end. The sums keep the
   // incidence lists' (tet, corner) order and the residual norm the file's vertex order, and the
   // last tets that do not fill a SIMD block keep their slots, so the step's bits are those of the
   // file's order.
@@ -135,7 +135,7 @@ struct PhysicalState {
 
 /// Scratch of physical_step, sized once. Per-vertex arrays by local index (PhysicalModel::vertex_order).
 struct PhysicalWorkspace {
-  std::vector<Vec3d> x, v;       ///< #n the step's positions and velocities (PhysicalState's, in the local order)
+  std::vector<Vec3d> x;          ///< #n the step's positions (PhysicalState::x in the local order; copied back at its end)
   std::vector<Vec3d> s;          ///< #n prediction (Alg. 1 line 1)
   std::vector<Vec3d> x_start;    ///< #n positions at the start of the step
   std::vector<Vec3d> x_prev;     ///< #n previous iterate (Chebyshev)

@@ -100,13 +100,14 @@ std::string absolute(const std::string& path) {
 void write_provenance(h5::File& f, const World& w, const ReplayMetadata& meta) {
   const SceneSpec& s = w.scene.spec;
   auto input = [&](const std::string& key, const std::string& path) {
-    f.set_attr(key, absolute(path));
+    const std::string where = absolute(path);
+    f.set_attr(key, where);
     if (!meta.digests) {
       f.set_attr(key + "_sha256", sha256_file(path));
       return;
     }
-    auto it = meta.digests->find(absolute(path));
-    if (it == meta.digests->end()) it = meta.digests->emplace(absolute(path), sha256_file(path)).first;
+    auto it = meta.digests->find(where);
+    if (it == meta.digests->end()) it = meta.digests->emplace(where, sha256_file(path)).first;
     f.set_attr(key + "_sha256", it->second);
   };
   input("scene_file", s.file.string());

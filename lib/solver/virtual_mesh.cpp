@@ -18,6 +18,7 @@
 #include "mesh/boundary.hpp"
 #include "mesh/csr.hpp"
 #include "mesh/lumped_masses.hpp"
+#include "mesh/morton.hpp"
 #include "mesh/surface.hpp"
 #include "mesh/tet_locator.hpp"
 #include "scene/scene.hpp"
@@ -27,6 +28,36 @@
 #include "solver/virtual_jacobi.hpp"
 
 namespace ebh {
+
+namespace {
+
+/// A surface derived from the physical mesh (its boundary, refined or not) numbered in Morton
+/// order of its vertices, its triangles by their first vertex in that order: neighbours on the
+/// surface sit near each other in memory, so the passes over an active region (or the mesh) walk
+/// it forward. The boundary's own numbering follows the physical mesh's file, which may scatter
+/// neighbours across the whole index range. A user's virtual mesh (an OBJ file) keeps its order.
+/// `parent` is renumbered with the vertices.
+void renumber_local(SurfaceMesh& surface, std::vector<std::array<int, 2>>& parent) {
+  const std::vector<int> order = morton_order(surface.vertices, morton_box(surface.vertices));
+  std::vector<int> local(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) local[order[i]] = static_cast<int>(i);
+  SurfaceMesh out;
+  std::vector<std::array<int, 2>> out_parent(order.size());
+  out.vertices.reserve(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    out.vertices.push_back(surface.vertices[order[i]]);
+    out_parent[i] = {local[parent[order[i]][0]], local[parent[order[i]][1]]};
+  }
+  out.triangles.reserve(surface.triangles.size());
+  for (const Tri& t : surface.triangles) out.triangles.push_back({local[t[0]], local[t[1]], local[t[2]]});
+  std::stable_sort(out.triangles.begin(), out.triangles.end(), [](const Tri& a, const Tri& b) {
+    return std::min({a[0], a[1], a[2]}) < std::min({b[0], b[1], b[2]});
+  });
+  surface = std::move(out);
+  parent = std::move(out_parent);
+}
+
+}  // namespace
 
 VirtualModel build_virtual_model(const Scene& scene) {
   const TetMesh& phys = scene.physical;
@@ -39,6 +70,7 @@ VirtualModel build_virtual_model(const Scene& scene) {
   } else {
     for (int i = 0; i < static_cast<int>(surface.vertices.size()); ++i) parent.push_back({i, i});
   }
+  if (!scene.spec.virtual_mesh) renumber_local(surface, parent);
 
   VirtualModel M;
   const int m = static_cast<int>(surface.vertices.size());

@@ -2,7 +2,9 @@
 // under contact, bitwise determinism across thread counts.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <tuple>
 #include <numeric>
 
 #include "mesh/boundary.hpp"
@@ -36,6 +38,45 @@ TEST(Pairing, InteriorSurfaceIsEmbeddedInTets) {
   const VirtualModel vm = build_virtual_model(scene);
   EXPECT_LT(vm.pairing_max_error, 1e-17);  // barycentric reproduction, round-off of 1e-2 m coordinates
   for (int j = 0; j < vm.num_vertices; ++j) EXPECT_GE(vm.pair_count[j], 1);
+}
+
+/// Median over the edges of |a - b|: how far apart an edge's ends lie in memory.
+int median_edge_span(const std::vector<std::array<int, 2>>& edges) {
+  std::vector<int> span;
+  for (const auto& e : edges) span.push_back(std::abs(e[0] - e[1]));
+  std::nth_element(span.begin(), span.begin() + static_cast<std::ptrdiff_t>(span.size() / 2), span.end());
+  return span[span.size() / 2];
+}
+
+TEST(Numbering, AVirtualMeshDerivedFromAScrambledFileIsNumberedAlongSpace) {
+  // The box's physical vertices in a scrambled order (as a mesher may number them): the boundary
+  // inherits it, the virtual model renumbers it in Morton order, and pairs exactly as before.
+  Scene scene = box_scene(8, 8, 16, 0);
+  const int n = static_cast<int>(scene.physical.vertices.size());
+  std::vector<int> perm(n);
+  std::iota(perm.begin(), perm.end(), 0);
+  for (int i = n - 1; i > 0; --i) std::swap(perm[i], perm[(i * 7919 + 13) % (i + 1)]);  // a fixed shuffle
+  std::vector<Vec3d> scrambled(n);
+  for (int a = 0; a < n; ++a) scrambled[perm[a]] = scene.physical.vertices[a];
+  scene.physical.vertices = scrambled;
+  for (Tet& t : scene.physical.tets)
+    for (int& v : t) v = perm[v];
+  scene.pinned.clear();
+  scene.virtual_surface = extract_boundary(scene.physical);
+  std::vector<std::array<int, 2>> boundary_edges;
+  for (const Tri& t : scene.virtual_surface.triangles)
+    for (int k = 0; k < 3; ++k) boundary_edges.push_back({t[k], t[(k + 1) % 3]});
+  const VirtualModel vm = build_virtual_model(scene);
+  ASSERT_EQ(vm.num_vertices, static_cast<int>(scene.virtual_surface.vertices.size()));
+  EXPECT_GT(median_edge_span(boundary_edges), vm.num_vertices / 8);
+  EXPECT_LT(median_edge_span(vm.edges), 40);
+  EXPECT_EQ(vm.pairing_max_error, 0.0);
+  std::vector<Vec3d> a = vm.rest, b = scene.virtual_surface.vertices;  // the same points, renumbered
+  auto less = [](const Vec3d& u, const Vec3d& v) { return std::tie(u.x, u.y, u.z) < std::tie(v.x, v.y, v.z); };
+  std::sort(a.begin(), a.end(), less);
+  std::sort(b.begin(), b.end(), less);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(vm.triangles.size(), scene.virtual_surface.triangles.size());
 }
 
 /// Five virtual-mesh ticks (4 iterations each) of a box under contact; parallel_min_vertices = 0

@@ -14,7 +14,8 @@ namespace ebh {
 namespace {
 
 constexpr std::uint8_t kSeed = 1;  // ActiveRegion::mark: a seed of this tick
-constexpr std::uint8_t kHot = 2;   // ActiveRegion::mark: displaced from its target by more than tol
+constexpr std::uint8_t kHot = 2;   // ActiveRegion::mark: moving, and displaced by more than tol
+constexpr std::uint8_t kMoving = 4;  // ActiveRegion::mark: its displacement changed by more than tol / kCalmTicks
 
 /// The other end of the incidence entry k (virtual_mesh.hpp: 2 e + end).
 inline int neighbour(const VirtualModel& model, int k) {
@@ -23,12 +24,13 @@ inline int neighbour(const VirtualModel& model, int k) {
 }
 
 /// Where inactive (non-pinned) vertex j stands at blend a: its E_svc target p_j(a) (the blend of
-/// p_from and p_to), lowered by its own weight's stretch of the coupling spring, m_j g / k_svc.
+/// p_from and p_to), lowered by its own weight's stretch of the coupling spring, m_j g / k_svc,
+/// plus the offset it left the region with.
 inline Vec3d coupling_point(const ActiveRegion& r, int j, double a) {
   return a >= 1.0 ? r.p_to[j] : lerp(r.p_from[j], r.p_to[j], a);
 }
 inline Vec3d follow_target(const VirtualModel& model, const ActiveRegion& r, int j, double a) {
-  return coupling_point(r, j, a) + (model.mass[j] / model.k_svc) * model.gravity;
+  return coupling_point(r, j, a) + (model.mass[j] / model.k_svc) * model.gravity + r.offset[j];
 }
 
 /// Makes j active (not pinned ones: they never move); true when it was not.
@@ -36,6 +38,7 @@ bool activate(const VirtualModel& model, ActiveRegion& r, int j) {
   if (r.active[j] || model.pinned[j]) return false;
   r.active[j] = 1;
   r.calm[j] = 0;
+  r.displacement[j] = Vec3d{};  // it joins from where it stands
   r.added.push_back(j);
   return true;
 }
@@ -91,11 +94,13 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
   }
 }
 
-/// The inactive vertices that their edges pull off their targets join (active_region.hpp): an
-/// inactive vertex stands on its target, where the E_s [4] forces of its edges need not balance (a
-/// surface strained against its rest shape, as gravity strains a settled organ's); the static
-/// Jacobi step's move, |sum of its edges' forces| / (k_s degree + k_svc), above the tolerance
-/// makes it join from where it stands, as a seed does. Reads q; appends to r.added.
+/// The inactive vertices that their edges and E_svc spring pull off where they stand join
+/// (active_region.hpp): a vertex that was never active stands on its target, where the E_s [4]
+/// forces of its edges need not balance (a surface strained against its rest shape, as gravity
+/// strains a settled organ's), and one that left the region where it settled, which its
+/// neighbours may have moved since; the static Jacobi step's move, |sum of its E_s and E_svc [5]
+/// forces and weight| / (k_s degree + k_svc), above the tolerance makes it join from where it
+/// stands, as a seed does. Reads q; appends to r.added.
 void add_strained(const VirtualModel& model, ActiveRegion& r, VirtualState& state, double v_scale) {
   const int m = model.num_vertices;
   const double tol2 = r.tolerance * r.tolerance;
@@ -103,7 +108,7 @@ void add_strained(const VirtualModel& model, ActiveRegion& r, VirtualState& stat
   const std::size_t before = r.added.size();
   for (int j = 0; j < m; ++j) {
     if (r.active[j] || model.pinned[j]) continue;
-    Vec3d f{};
+    Vec3d f = model.k_svc * (coupling_point(r, j, r.blend) - q[j]) + model.mass[j] * model.gravity;
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
       const int entry = model.edge_entries[k], e = entry >> 1;
       const Vec3d g = edge_spring_gradient(q[model.edges[e][0]], q[model.edges[e][1]], model.rest_edge[e],
@@ -117,19 +122,23 @@ void add_strained(const VirtualModel& model, ActiveRegion& r, VirtualState& stat
 }
 
 /// The rest of who is active this tick (active_region.hpp), over the region before the seeds
-/// joined: the neighbours of vertices displaced by more than tol join; a vertex that has stayed
-/// calm for kCalmTicks leaves and stands on its target. Reads the last tick's q of the active
-/// vertices; appends to r.added and r.removed; clears the marks.
+/// joined: the neighbours of hot vertices join; a vertex that has stayed calm for kCalmTicks
+/// leaves and stands where it is (its displacement joins its offset). Reads the last tick's q of
+/// the active vertices; appends to r.added and r.removed; clears the marks.
 void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
                        double v_scale) {
   const std::size_t seeded = r.added.size();
-  const double hot2 = r.tolerance * r.tolerance, calm2 = 0.25 * hot2;
+  const double hot2 = r.tolerance * r.tolerance;
+  const double step = r.tolerance / kCalmTicks, moving2 = step * step;
   const std::vector<Vec3d>& q = state.q;
-  for (const int j : r.vertices)
-    if (squared_norm(q[j] - follow_target(model, r, j, r.blend)) > hot2) r.mark[j] |= kHot;
+  for (const int j : r.vertices) {
+    const Vec3d d = q[j] - follow_target(model, r, j, r.blend);
+    if (squared_norm(d - r.displacement[j]) > moving2) r.mark[j] |= squared_norm(d) > hot2 ? kMoving | kHot : kMoving;
+    r.displacement[j] = d;
+  }
   for (const int j : r.vertices) {
     const bool hot = (r.mark[j] & kHot) != 0;
-    bool stay = (r.mark[j] & kSeed) != 0 || hot || squared_norm(q[j] - follow_target(model, r, j, r.blend)) > calm2;
+    bool stay = (r.mark[j] & (kSeed | kMoving)) != 0;
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
       const int o = neighbour(model, k);
       if (hot) activate(model, r, o);
@@ -145,7 +154,7 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
   for (const int j : seeds) r.mark[j] = 0;
   for (const int j : r.vertices) r.mark[j] = 0;
   for (std::size_t i = seeded; i < r.added.size(); ++i) join(model, r, state, r.added[i], v_scale, true);
-  for (const int j : r.removed) state.q[j] = follow_target(model, r, j, r.blend);
+  for (const int j : r.removed) r.offset[j] += r.displacement[j];  // q stays: it stands where it settled
 }
 
 }  // namespace
@@ -157,6 +166,8 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance) {
   r.tolerance = tolerance;
   r.active.assign(m, 0);
   r.calm.assign(m, 0);
+  r.offset.assign(m, Vec3d{});
+  r.displacement.assign(m, Vec3d{});
   r.mark.assign(m, 0);
   r.edge_ends.assign(E, 0);
   r.vertices.reserve(m);
@@ -210,7 +221,6 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   }
   if (fresh) add_strained(model, r, state, v_scale);  // once per physical result
   retire_and_spread(model, r, state, seeds, v_scale);
-  if (!r.removed.empty()) r.inactive_moved += 0.5 * r.tolerance;  // a calm vertex snapping to its target
   if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);
 
   // Alg. 2 line 6 on the active vertices, as virtual_begin_tick.

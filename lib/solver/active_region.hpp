@@ -7,20 +7,26 @@
 // Who is active (decided at the start of each tick, from the last tick's q and this tick's p):
 //   - the seeds the caller passes (the schedule: vertices the virtual tool may reach this tick,
 //     grasped vertices, the corners of surface-contact triangles near the tool);
-//   - every neighbour (over the virtual mesh's edges) of an active vertex displaced from its
-//     coupling target by more than `tolerance`, |q_j - p_j| > tol: the region grows a ring a tick
-//     where the tool's push spreads;
+//   - every neighbour (over the virtual mesh's edges) of a hot active vertex (below: moving, and
+//     displaced from where it would stand inactive by more than `tolerance`): the region grows a
+//     ring a tick where the tool's push spreads;
 //   - any vertex a contact target names during the tick (activated at once, counted: the seeds
 //     should have held it);
-//   - on a tick with a new physical result, every inactive vertex that its edges pull off its
-//     target: the static Jacobi step's move, |sum of its E_s forces| / (k_s degree + k_svc), above
-//     tol (a surface strained against its rest shape, which no seed reaches: the far field).
-// Hysteresis: an active vertex leaves only when it is not a seed, not next to a vertex displaced
-// by more than tol, and its own displacement has stayed at or below tol/2 for kCalmTicks ticks in a
-// row; it then snaps to its target (a jump of at most tol/2). Pinned vertices are never active.
+//   - on a tick with a new physical result, every inactive vertex that its edges and its E_svc
+//     spring pull off where it stands: the static Jacobi step's move, |sum of its E_s and E_svc
+//     forces and its weight| / (k_s degree + k_svc), above tol (a surface strained against its
+//     rest shape, which no seed reaches: the far field).
+// Displacements are measured from where the vertex stands when inactive (below), so a vertex that
+// settled off its E_svc point (a strained surface) is not displaced. A vertex is *moving* when its
+// displacement changed by more than tol / kCalmTicks since the last tick, *hot* when it is moving
+// and displaced by more than tol.
+// Hysteresis: an active vertex leaves only when it is not a seed, not moving, and not next to a hot
+// vertex for kCalmTicks ticks in a row; it then stays where it stands: its offset from its E_svc
+// point is kept (no jump). Pinned vertices are never active.
 //
-// An inactive vertex's target is its E_svc point p_j lowered by its own weight's stretch of the
-// coupling spring, m_j g / k_svc (its static equilibrium against E_svc: 0 without gravity). Its
+// An inactive vertex stands at its E_svc point p_j lowered by its own weight's stretch of the
+// coupling spring, m_j g / k_svc (its static equilibrium against E_svc: 0 without gravity), plus
+// the offset it left the region with (0 for a vertex never active): it moves with p_j. Its
 // velocity is that of its target: it is not stored while the vertex is inactive (only q is
 // written, and only on ticks where the targets move), and is set when the vertex joins: it starts
 // from where it stood with v = (target now - target before) / h.
@@ -42,9 +48,10 @@
 
 namespace ebh {
 
-/// Ticks an active vertex must stay calm (displaced at most tol/2, not a seed, no neighbour
-/// displaced more than tol) before it leaves the region: 2 physical periods at the default rates,
-/// so a vertex the tool keeps nudging does not flicker in and out.
+/// Ticks an active vertex must stay calm (not moving, not a seed, no hot neighbour) before it
+/// leaves the region: 2 physical periods at the default rates, so a vertex the tool keeps nudging
+/// does not flicker in and out. A vertex is moving when its displacement changes by more than
+/// tol / kCalmTicks in a tick: one that crept at that rate through its calm ticks moved at most tol.
 inline constexpr int kCalmTicks = 20;
 
 /// The physical positions this tick's E_svc targets come from: x_to, or a blend from x_from
@@ -62,6 +69,8 @@ struct ActiveRegion {
   double tolerance = 0;                   ///< m, displacement |q - p| that spreads the region
   std::vector<std::uint8_t> active;       ///< #m 1 when iterated this tick
   std::vector<std::uint16_t> calm;        ///< #m consecutive calm ticks of an active vertex
+  std::vector<Vec3d> offset;              ///< #m where an inactive vertex stands, from its E_svc point and weight's stretch
+  std::vector<Vec3d> displacement;        ///< #m an active vertex's displacement at the last tick (from where it would stand)
   std::vector<int> vertices;              ///< the active vertices, in index order
   std::vector<int> edges;                 ///< the edges with an active end, in index order
   std::vector<std::uint8_t> edge_ends;    ///< #E active ends of each edge (0, 1, 2)

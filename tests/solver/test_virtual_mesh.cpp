@@ -172,7 +172,7 @@ TEST(ActiveRegion, HoldingEveryVertexIsTheFullSolveBitwise) {
   EXPECT_EQ(run.region.activated_by_contact, 0);
 }
 
-TEST(ActiveRegion, InactiveVerticesStandOnTheirTargetsAndTheRegionFollowsTheDisplacement) {
+TEST(ActiveRegion, InactiveVerticesStandWhereTheySettledAndTheRegionFollowsTheDisplacement) {
   ActiveRun run(1e-5, false);  // 0.01 mm
   const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);
   std::vector<int> seeds;
@@ -183,7 +183,7 @@ TEST(ActiveRegion, InactiveVerticesStandOnTheirTargetsAndTheRegionFollowsTheDisp
   int active = 0;
   for (int j = 0; j < m; ++j) {
     if (run.region.active[j]) { ++active; continue; }
-    EXPECT_EQ(run.vs.q[j], vm.rest[j]) << j;  // the target, exactly (no gravity; the physical mesh at rest)
+    EXPECT_EQ(run.vs.q[j], vm.rest[j]) << j;  // never active: the target, exactly (no gravity; the physical mesh at rest)
   }
   // The press spreads: more than the seeds, fewer than every vertex (the bottom rows stay calm).
   EXPECT_GT(active, static_cast<int>(seeds.size()));
@@ -198,14 +198,20 @@ TEST(ActiveRegion, InactiveVerticesStandOnTheirTargetsAndTheRegionFollowsTheDisp
         EXPECT_TRUE(run.region.active[o] || vm.pinned[o]) << j << " -> " << o;
       }
   // Released (no contact, no seed), the region empties once every vertex has been calm for
-  // kCalmTicks, and every vertex is back on its target exactly.
+  // kCalmTicks, and every vertex is back on its target: it left where it settled, and settled
+  // there (its offset is round-off, far below the tolerance), and it stays there.
   const std::size_t pressed = run.region.vertices.size();
   run.ticks(25, {}, {});
   EXPECT_LT(run.region.vertices.size(), pressed);  // the calm ones have left, merged lists and all
   expect_lists_match_flags(run.region, vm);
   run.ticks(375, {}, {});
   EXPECT_TRUE(run.region.vertices.empty());
-  for (int j = 0; j < m; ++j) EXPECT_EQ(run.vs.q[j], vm.rest[j]) << j;
+  double off = 0;
+  for (int j = 0; j < m; ++j) {
+    off = std::max(off, norm(run.vs.q[j] - vm.rest[j]));
+    EXPECT_EQ(run.vs.q[j], vm.rest[j] + run.region.offset[j]) << j;
+  }
+  EXPECT_LT(off, 1e-6 * run.region.tolerance);
 }
 
 /// Coupling targets that stretch the virtual mesh against its rest shape (the physical mesh scaled
@@ -213,7 +219,9 @@ TEST(ActiveRegion, InactiveVerticesStandOnTheirTargetsAndTheRegionFollowsTheDisp
 /// no seed would bring one in. The strain check (add_strained) lets them in on the tick of the new
 /// physical result, and the region settles where the full solve does; the full solve's vertices
 /// stand far more than the tolerance off their targets, so a region of seeds alone would not.
-TEST(ActiveRegion, AStrainedSurfaceJoinsWithoutSeeds) {
+/// Settled, the vertices leave the region where they stand (their offsets from their targets
+/// kept), and the region empties: a strained surface costs the tick nothing once it is at rest.
+TEST(ActiveRegion, AStrainedSurfaceJoinsWithoutSeedsAndLeavesOnceSettled) {
   ActiveRun run(1e-6, false);
   const Sim& sim = run.sim;
   Vec3d centre{};
@@ -237,6 +245,7 @@ TEST(ActiveRegion, AStrainedSurfaceJoinsWithoutSeeds) {
   EXPECT_GT(run.region.strained, 0);
   EXPECT_LT(max_diff(run.vs.q, full.q), run.region.tolerance) << "strained " << run.region.strained << " of "
                                                              << sim.vm.num_vertices;
+  EXPECT_TRUE(run.region.vertices.empty()) << run.region.vertices.size() << " of " << sim.vm.num_vertices;
 }
 
 TEST(ActiveRegion, AContactOnAnInactiveVertexActivatesIt) {

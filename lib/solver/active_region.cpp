@@ -25,12 +25,12 @@ inline int neighbour(const VirtualModel& model, int k) {
 
 /// Where inactive (non-pinned) vertex j stands at blend a: its E_svc target p_j(a) (the blend of
 /// p_from and p_to), lowered by its own weight's stretch of the coupling spring, m_j g / k_svc,
-/// plus the offset it left the region with.
+/// plus the offset it left the region with (ActiveRegion::offset holds both).
 inline Vec3d coupling_point(const ActiveRegion& r, int j, double a) {
   return a >= 1.0 ? r.p_to[j] : lerp(r.p_from[j], r.p_to[j], a);
 }
 inline Vec3d follow_target(const VirtualModel& model, const ActiveRegion& r, int j, double a) {
-  return coupling_point(r, j, a) + (model.mass[j] / model.k_svc) * model.gravity + r.offset[j];
+  return coupling_point(r, j, a) + r.offset[j];
 }
 
 /// Makes j active (not pinned ones: they never move); true when it was not.
@@ -166,7 +166,8 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance) {
   r.tolerance = tolerance;
   r.active.assign(m, 0);
   r.calm.assign(m, 0);
-  r.offset.assign(m, Vec3d{});
+  r.offset.resize(m);
+  for (std::size_t j = 0; j < m; ++j) r.offset[j] = (model.mass[j] / model.k_svc) * model.gravity;
   r.displacement.assign(m, Vec3d{});
   r.mark.assign(m, 0);
   r.edge_ends.assign(E, 0);

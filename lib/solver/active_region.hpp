@@ -69,8 +69,10 @@ struct ActiveRegion {
   double tolerance = 0;                   ///< m, displacement |q - p| that spreads the region
   std::vector<std::uint8_t> active;       ///< #m 1 when iterated this tick
   std::vector<std::uint16_t> calm;        ///< #m consecutive calm ticks of an active vertex
-  std::vector<Vec3d> offset;              ///< #m where an inactive vertex stands, from its E_svc point: its weight's stretch and the offset it left with
-  std::vector<Vec3d> displacement;        ///< #m an active vertex's displacement at the last tick (from where it would stand)
+  /// #m where an inactive vertex stands, from its E_svc point: its weight's stretch plus the
+  /// displacement it left the region with
+  std::vector<Vec3d> offset;
+  std::vector<Vec3d> displacement;        ///< #m an active vertex's displacement at the last tick
   std::vector<int> vertices;              ///< the active vertices, in index order
   std::vector<int> edges;                 ///< the edges with an active end, in index order
   std::vector<std::uint8_t> edge_ends;    ///< #E active ends of each edge (0, 1, 2)

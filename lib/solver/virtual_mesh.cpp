@@ -31,11 +31,11 @@ namespace ebh {
 
 namespace {
 
-/// A surface derived from the physical mesh (its boundary, refined or not) numbered in Morton
-/// order of its vertices, its triangles by their first vertex in that order: neighbours on the
-/// surface sit near each other in memory, so the passes over an active region (or the mesh) walk
-/// it forward. The boundary's own numbering follows the physical mesh's file, which may scatter
-/// neighbours across the whole index range. A user's virtual mesh (an OBJ file) keeps its order.
+/// The virtual mesh numbered in Morton order of its vertices, its triangles by their first vertex
+/// in that order: neighbours on the surface sit near each other in memory, so the passes over an
+/// active region (or the mesh) walk it forward. A boundary's own numbering follows the physical
+/// mesh's file, which may scatter neighbours across the whole index range, and refinement appends
+/// the midpoints. A user's virtual mesh (an OBJ file) used unrefined keeps the file's order.
 /// `parent` is renumbered with the vertices.
 void renumber_local(SurfaceMesh& surface, std::vector<std::array<int, 2>>& parent) {
   const std::vector<int> order = morton_order(surface.vertices, morton_box(surface.vertices));
@@ -70,7 +70,7 @@ VirtualModel build_virtual_model(const Scene& scene) {
   } else {
     for (int i = 0; i < static_cast<int>(surface.vertices.size()); ++i) parent.push_back({i, i});
   }
-  if (!scene.spec.virtual_mesh) renumber_local(surface, parent);
+  if (!scene.spec.virtual_mesh || scene.spec.virtual_refine > 0) renumber_local(surface, parent);
 
   VirtualModel M;
   const int m = static_cast<int>(surface.vertices.size());

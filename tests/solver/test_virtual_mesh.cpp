@@ -48,7 +48,7 @@ int median_edge_span(const std::vector<std::array<int, 2>>& edges) {
   return span[span.size() / 2];
 }
 
-TEST(Numbering, AVirtualMeshDerivedFromAScrambledFileIsNumberedAlongSpace) {
+TEST(Numbering, TheVirtualMeshIsNumberedAlongSpaceButAUsersUnrefinedMeshKeepsItsOrder) {
   // The box's physical vertices in a scrambled order (as a mesher may number them): the boundary
   // inherits it, the virtual model renumbers it in Morton order, and pairs exactly as before.
   Scene scene = box_scene(8, 8, 16, 0);
@@ -77,6 +77,13 @@ TEST(Numbering, AVirtualMeshDerivedFromAScrambledFileIsNumberedAlongSpace) {
   std::sort(b.begin(), b.end(), less);
   EXPECT_EQ(a, b);
   EXPECT_EQ(vm.triangles.size(), scene.virtual_surface.triangles.size());
+  // A user's virtual mesh used unrefined keeps the file's numbering; refined, it is renumbered too.
+  scene.spec.virtual_mesh = "user.obj";
+  const VirtualModel user = build_virtual_model(scene);
+  EXPECT_EQ(user.rest, scene.virtual_surface.vertices);
+  EXPECT_EQ(user.triangles, scene.virtual_surface.triangles);
+  scene.spec.virtual_refine = 1;
+  EXPECT_LT(median_edge_span(build_virtual_model(scene).edges), 40);
 }
 
 /// Five virtual-mesh ticks (4 iterations each) of a box under contact; parallel_min_vertices = 0

@@ -68,6 +68,8 @@ TEST(Numbering, TheVirtualMeshIsNumberedAlongSpaceButAUsersUnrefinedMeshKeepsIts
     for (int k = 0; k < 3; ++k) boundary_edges.push_back({t[k], t[(k + 1) % 3]});
   const VirtualModel vm = build_virtual_model(scene);
   ASSERT_EQ(vm.num_vertices, static_cast<int>(scene.virtual_surface.vertices.size()));
+  // Scrambled, an edge's ends lie a good part of the index range apart; in Morton order a few
+  // rows of the box's surface grid (its side has 9-17 vertices) at most.
   EXPECT_GT(median_edge_span(boundary_edges), vm.num_vertices / 8);
   EXPECT_LT(median_edge_span(vm.edges), 40);
   EXPECT_EQ(vm.pairing_max_error, 0.0);

@@ -100,19 +100,26 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
 /// strains a settled organ's), and one that left the region where it settled, which its
 /// neighbours may have moved since; the static Jacobi step's move, |sum of its E_s and E_svc [5]
 /// forces and weight| / (k_s degree + k_svc), above the tolerance makes it join from where it
-/// stands, as a seed does. Reads q; appends to r.added.
-void add_strained(const VirtualModel& model, ActiveRegion& r, VirtualState& state, double v_scale) {
-  const int m = model.num_vertices;
+/// stands, as a seed does. Each edge with such an end is evaluated once (into ws.edge_grad, which
+/// the tick's iterations overwrite before they read it). Reads q; appends to r.added.
+void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
+                  double v_scale) {
+  const int m = model.num_vertices, E = static_cast<int>(model.edges.size());
   const double tol2 = r.tolerance * r.tolerance;
   const std::vector<Vec3d>& q = state.q;
+  auto checked = [&](int j) { return !r.active[j] && !model.pinned[j]; };
+  for (int e = 0; e < E; ++e) {
+    const int a = model.edges[e][0], b = model.edges[e][1];
+    if (checked(a) || checked(b))
+      ws.edge_grad[e] = edge_spring_gradient(q[a], q[b], model.rest_edge[e], model.rest_len[e], model.k_s);
+  }
   const std::size_t before = r.added.size();
   for (int j = 0; j < m; ++j) {
-    if (r.active[j] || model.pinned[j]) continue;
+    if (!checked(j)) continue;
     Vec3d f = model.k_svc * (coupling_point(r, j, r.blend) - q[j]) + model.mass[j] * model.gravity;
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
-      const int entry = model.edge_entries[k], e = entry >> 1;
-      const Vec3d g = edge_spring_gradient(q[model.edges[e][0]], q[model.edges[e][1]], model.rest_edge[e],
-                                           model.rest_len[e], model.k_s);
+      const int entry = model.edge_entries[k];
+      const Vec3d& g = ws.edge_grad[entry >> 1];
       f += (entry & 1) ? g : -g;  // add_edge_residual's sign: the force on this end
     }
     if (squared_norm(f) > tol2 * model.stiff_diag[j] * model.stiff_diag[j]) activate(model, r, j);
@@ -220,7 +227,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
         if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(model, r, j, a);
     });
   }
-  if (fresh) add_strained(model, r, state, v_scale);  // once per physical result
+  if (fresh) add_strained(model, ws, r, state, v_scale);  // once per physical result
   retire_and_spread(model, r, state, seeds, v_scale);
   if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);
 

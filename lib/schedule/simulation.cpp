@@ -94,7 +94,8 @@ void gather_region_seeds(const World& world, HapticSide& h) {
 /// physical positions (solver/active_region.hpp).
 PhysicalTargets region_targets(const World& world, const HapticSide& h) {
   if (!world.scene.spec.interpolate_physical || h.previous_x.empty()) return {h.visible.x, h.visible.x, 1.0, h.visible.step};
-  return {h.previous_x, h.visible.x, physical_blend(h.tick, h.delivered_tick, world.ticks_per_step), h.visible.step};
+  return {h.previous_x, h.visible.x, physical_blend(h.tick, h.delivered_tick, world.ticks_per_step), h.visible.step,
+          h.previous_step};
 }
 
 /// Lines 1 and 6: E_svc targets from the physical mesh, inertial prediction of q (on the active
@@ -383,6 +384,7 @@ void take_physical_snapshot(const PhysicalSide& physical, PhysicalSnapshot& out)
 void deliver_physical_snapshot(const World& world, HapticSide& haptic, const PhysicalSnapshot& snapshot) {
   if (world.scene.spec.interpolate_physical) {
     haptic.previous_x.swap(haptic.visible.x);
+    haptic.previous_step = haptic.visible.step;
     haptic.targets_x.resize(snapshot.x.size());
   }
   haptic.delivered_tick = haptic.tick;

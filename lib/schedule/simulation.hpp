@@ -108,6 +108,7 @@ struct HapticSide {
   std::vector<ContactTarget> contacts;   ///< this iteration's E_con targets (capacity m)
   PhysicalSnapshot visible;              ///< the latest physical result this side may use
   std::vector<Vec3d> previous_x;         ///< #n the result before it (time.interpolate_physical)
+  std::int64_t previous_step = INT64_MIN;  ///< previous_x's PhysicalSnapshot::step (none: INT64_MIN)
   std::vector<Vec3d> targets_x;          ///< #n this tick's blend of the two
   std::int64_t delivered_tick = 0;       ///< the tick at which `visible` arrived
   std::int64_t tick = 0;                 ///< the next tick to run

@@ -14,8 +14,8 @@ namespace ebh {
 namespace {
 
 constexpr std::uint8_t kSeed = 1;  // ActiveRegion::mark: a seed of this tick
-constexpr std::uint8_t kHot = 2;   // ActiveRegion::mark: moving, and displaced by more than tol
-constexpr std::uint8_t kMoving = 4;  // ActiveRegion::mark: its displacement changed by more than tol / kCalmTicks
+constexpr std::uint8_t kMoving = 2;  // ActiveRegion::mark: its displacement changed by more than tol / kCalmTicks
+constexpr std::uint8_t kNextToHot = 4;  // ActiveRegion::mark: a neighbour of a hot (moving, displaced by more than tol) vertex
 
 /// The other end of the incidence entry k (virtual_mesh.hpp: 2 e + end).
 inline int neighbour(const VirtualModel& model, int k) {
@@ -29,7 +29,7 @@ inline int neighbour(const VirtualModel& model, int k) {
 inline Vec3d coupling_point(const ActiveRegion& r, int j, double a) {
   return a >= 1.0 ? r.p_to[j] : lerp(r.p_from[j], r.p_to[j], a);
 }
-inline Vec3d follow_target(const VirtualModel& model, const ActiveRegion& r, int j, double a) {
+inline Vec3d follow_target(const VirtualModel& /*model*/, const ActiveRegion& r, int j, double a) {
   return coupling_point(r, j, a) + r.offset[j];
 }
 
@@ -100,22 +100,22 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
 /// strains a settled organ's), and one that left the region where it settled, which its
 /// neighbours may have moved since; the static Jacobi step's move, |sum of its E_s and E_svc [5]
 /// forces and weight| / (k_s degree + k_svc), above the tolerance makes it join from where it
-/// stands, as a seed does. Each edge with such an end is evaluated once (into ws.edge_grad, which
-/// the tick's iterations overwrite before they read it). Reads q; appends to r.added.
+/// stands, as a seed does. Every edge's E_s gradient goes into ws.edge_grad in the SIMD blocks of
+/// the iterations (most edges have an inactive end; the tick's iterations overwrite the active
+/// ones before they read them). Reads q; appends to r.added.
 void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
                   double v_scale) {
   const int m = model.num_vertices, E = static_cast<int>(model.edges.size());
   const double tol2 = r.tolerance * r.tolerance;
   const std::vector<Vec3d>& q = state.q;
-  auto checked = [&](int j) { return !r.active[j] && !model.pinned[j]; };
-  for (int e = 0; e < E; ++e) {
-    const int a = model.edges[e][0], b = model.edges[e][1];
-    if (checked(a) || checked(b))
-      ws.edge_grad[e] = edge_spring_gradient(q[a], q[b], model.rest_edge[e], model.rest_len[e], model.k_s);
-  }
+  const EdgeKernelData edges{E, model.edges.data(), model.rest_edge.data(), model.rest_len.data(), model.k_s};
+#pragma omp parallel if (!ws.shared && virtual_team(model, m))
+  for_chunks(ws.shared, edge_blocks(E), kEdgeBlockChunk, [&](int b0, int b1) {
+    edge_spring_gradient_blocks(edges, q.data(), ws.edge_grad.data(), b0, b1);
+  });
   const std::size_t before = r.added.size();
   for (int j = 0; j < m; ++j) {
-    if (!checked(j)) continue;
+    if (r.active[j] || model.pinned[j]) continue;
     Vec3d f = model.k_svc * (coupling_point(r, j, r.blend) - q[j]) + model.mass[j] * model.gravity;
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
       const int entry = model.edge_entries[k];
@@ -130,28 +130,34 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
 
 /// The rest of who is active this tick (active_region.hpp), over the region before the seeds
 /// joined: the neighbours of hot vertices join; a vertex that has stayed calm for kCalmTicks
-/// leaves and stands where it is (its displacement joins its offset). Reads the last tick's q of
-/// the active vertices; appends to r.added and r.removed; clears the marks.
+/// leaves and stands where it is (its displacement joins its offset). Three passes: the
+/// displacements (marking the moving and hot vertices, listing the hot), the hot vertices'
+/// neighbours (joining, marked as next to a hot vertex), then each vertex's stay or leave from its
+/// own marks alone. Reads the last tick's q of the active vertices; appends to r.added and
+/// r.removed; clears the marks.
 void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
                        double v_scale) {
   const std::size_t seeded = r.added.size();
   const double hot2 = r.tolerance * r.tolerance;
   const double step = r.tolerance / kCalmTicks, moving2 = step * step;
   const std::vector<Vec3d>& q = state.q;
+  r.hot.clear();
   for (const int j : r.vertices) {
     const Vec3d d = q[j] - follow_target(model, r, j, r.blend);
-    if (squared_norm(d - r.displacement[j]) > moving2) r.mark[j] |= squared_norm(d) > hot2 ? kMoving | kHot : kMoving;
+    if (squared_norm(d - r.displacement[j]) > moving2) {
+      r.mark[j] |= kMoving;
+      if (squared_norm(d) > hot2) r.hot.push_back(j);
+    }
     r.displacement[j] = d;
   }
-  for (const int j : r.vertices) {
-    const bool hot = (r.mark[j] & kHot) != 0;
-    bool stay = (r.mark[j] & (kSeed | kMoving)) != 0;
+  for (const int j : r.hot)
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
       const int o = neighbour(model, k);
-      if (hot) activate(model, r, o);
-      if (r.mark[o] & kHot) stay = true;
+      activate(model, r, o);
+      if (r.active[o]) r.mark[o] |= kNextToHot;  // not a pinned one: every marked vertex is listed
     }
-    if (stay) {
+  for (const int j : r.vertices) {
+    if (r.mark[j] & (kSeed | kMoving | kNextToHot)) {
       r.calm[j] = 0;
     } else if (++r.calm[j] >= kCalmTicks) {
       r.active[j] = 0;
@@ -160,6 +166,7 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
   }
   for (const int j : seeds) r.mark[j] = 0;
   for (const int j : r.vertices) r.mark[j] = 0;
+  for (const int j : r.added) r.mark[j] = 0;  // the hot vertices' neighbours that joined
   for (std::size_t i = seeded; i < r.added.size(); ++i) join(model, r, state, r.added[i], v_scale, true);
   for (const int j : r.removed) r.offset[j] += r.displacement[j];  // q stays: it stands where it settled
 }
@@ -183,6 +190,7 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance) {
   r.edge_scratch.reserve(E);
   r.added.reserve(m);
   r.removed.reserve(m);
+  r.hot.reserve(m);
   r.edges.reserve(E);
   r.p_from.assign(m, Vec3d{});
   r.p_to.assign(m, Vec3d{});
@@ -202,11 +210,12 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   const bool fresh = targets.version != r.targets_version;
   if (fresh) {
     const bool first = r.targets_version == INT64_MIN;
+    const bool from_paired = targets.from_version == r.targets_version;  // x_from was the last x_to
     r.targets_version = targets.version;
     r.p_from.swap(r.p_to);  // without interpolation: the last targets, where the vertices stood
     paired_points(model, targets.x_to, r.p_to);
     if (first) r.p_from = r.p_to;
-    else if (a < 1.0) paired_points(model, targets.x_from, r.p_from);
+    else if (a < 1.0 && !from_paired) paired_points(model, targets.x_from, r.p_from);
     double spread2 = 0;
 #pragma omp parallel for schedule(static) reduction(max : spread2) if (team)
     for (int j = 0; j < m; ++j) spread2 = std::max(spread2, squared_norm(r.p_to[j] - r.p_from[j]));

@@ -62,6 +62,8 @@ struct PhysicalTargets {
   std::span<const Vec3d> x_from, x_to;  ///< #n physical positions
   double blend = 1;                     ///< weight of x_to, in (0, 1]
   std::int64_t version = 0;             ///< changes whenever x_to (and with it x_from) does
+  /// the version x_from had as x_to, where it was (INT64_MIN: none): its pairing is then reused
+  std::int64_t from_version = INT64_MIN;
 };
 
 /// The active region's state (sized by make_active_region; a tick never allocates).
@@ -77,8 +79,9 @@ struct ActiveRegion {
   std::vector<int> edges;                 ///< the edges with an active end, in index order
   std::vector<std::uint8_t> edge_ends;    ///< #E active ends of each edge (0, 1, 2)
   // Scratch.
-  std::vector<std::uint8_t> mark;         ///< #m per-tick flags (seed, hot), zero between uses
+  std::vector<std::uint8_t> mark;         ///< #m per-tick flags (seed, moving, next to a hot vertex), zero between uses
   std::vector<int> added, removed;        ///< vertices entering and leaving this tick
+  std::vector<int> hot;                   ///< this tick's hot active vertices (moving, displaced by more than tol)
   std::vector<int> vertex_scratch, edge_scratch;  ///< update_lists' merges
   std::vector<Vec3d> p_from, p_to;        ///< #m E_svc targets of PhysicalTargets::x_from and x_to
   std::int64_t targets_version = INT64_MIN;  ///< PhysicalTargets::version of p_from and p_to

@@ -213,12 +213,15 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
     const bool from_paired = targets.from_version == r.targets_version;  // x_from was the last x_to
     r.targets_version = targets.version;
     r.p_from.swap(r.p_to);  // without interpolation: the last targets, where the vertices stood
-    paired_points(model, targets.x_to, r.p_to);
-    if (first) r.p_from = r.p_to;
-    else if (a < 1.0 && !from_paired) paired_points(model, targets.x_from, r.p_from);
-    double spread2 = 0;
+    if (!first && a < 1.0 && !from_paired) paired_points(model, targets.x_from, r.p_from);
+    double spread2 = 0;  // max |p_to - p_from|, in the pairing's pass
 #pragma omp parallel for schedule(static) reduction(max : spread2) if (team)
-    for (int j = 0; j < m; ++j) spread2 = std::max(spread2, squared_norm(r.p_to[j] - r.p_from[j]));
+    for (int j = 0; j < m; ++j) {
+      r.p_to[j] = paired_point(targets.x_to.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
+                               model.pair_count[j]);
+      if (!first) spread2 = std::max(spread2, squared_norm(r.p_to[j] - r.p_from[j]));
+    }
+    if (first) r.p_from = r.p_to;
     r.target_spread = std::sqrt(spread2);
     r.blend_before = first ? a : 0.0;
   } else {

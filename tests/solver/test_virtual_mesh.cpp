@@ -257,6 +257,39 @@ TEST(ActiveRegion, AStrainedSurfaceJoinsWithoutSeedsAndLeavesOnceSettled) {
   EXPECT_TRUE(run.region.vertices.empty()) << run.region.vertices.size() << " of " << sim.vm.num_vertices;
 }
 
+/// Interpolated targets (time.interpolate_physical): each new physical result's blend starts from
+/// the pairing of the result before it, which the region reuses when the targets say x_from was
+/// that result (PhysicalTargets::from_version). Three results that stretch and shift the mesh, four
+/// ticks of blend each, a press on the top face: the same bits as pairing x_from again every time.
+TEST(ActiveRegion, AnInterpolatedBlendReusesThePairingOfTheResultBefore) {
+  ActiveRun reuse(1e-5, true), repair(1e-5, true);
+  const Sim& sim = reuse.sim;
+  std::vector<std::vector<Vec3d>> results{sim.pm.rest};
+  for (int k = 1; k <= 3; ++k) {
+    std::vector<Vec3d> x(sim.pm.rest);
+    for (Vec3d& p : x) p = p * (1.0 + 0.004 * k) + Vec3d{0.0003 * k, 0, -0.0002 * k};
+    results.push_back(std::move(x));
+  }
+  const std::vector<ContactTarget> contacts = top_face_pressed(sim);
+  std::vector<int> seeds;
+  for (const ContactTarget& c : contacts) seeds.push_back(c.vertex);
+  for (int k = 1; k <= 3; ++k)
+    for (int tick = 1; tick <= 4; ++tick) {
+      const double blend = tick / 4.0;
+      for (ActiveRun* run : {&reuse, &repair}) {
+        const PhysicalTargets targets{results[k - 1], results[k], blend, k, run == &reuse ? k - 1 : INT64_MIN};
+        virtual_begin_tick_active(sim.vm, run->vw, run->region, run->vs, targets, 0.001, seeds);
+        for (int i = 0; i < 4; ++i) virtual_iteration_active(sim.vm, run->vw, run->region, run->vs, contacts);
+        virtual_end_tick_active(sim.vm, run->vw, run->region, run->vs);
+      }
+    }
+  ASSERT_FALSE(reuse.region.vertices.empty());
+  EXPECT_LT(reuse.region.vertices.size(), static_cast<std::size_t>(sim.vm.num_vertices));  // some follow their targets
+  EXPECT_EQ(std::memcmp(reuse.vs.q.data(), repair.vs.q.data(), reuse.vs.q.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(reuse.vs.v.data(), repair.vs.v.data(), reuse.vs.v.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(reuse.region.vertices, repair.region.vertices);
+}
+
 TEST(ActiveRegion, AContactOnAnInactiveVertexActivatesIt) {
   ActiveRun run(1e-5, false);
   const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);

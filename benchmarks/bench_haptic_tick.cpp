@@ -4,7 +4,8 @@
 // (solver/active_region.hpp): one async replay per benchmark, every tick timed by the tick
 // itself (HapticSide::timing). Counters: the tick's median, 99th and 99.9th percentiles (us), each
 // stage's median (us; sync = reading the device and the E_svc targets, with the region's update),
-// and the mean number of active virtual vertices.
+// the tick's and its sync's median on the ticks a physical result arrived at (fresh: the E_svc
+// targets paired again, the region's strain check), and the mean number of active virtual vertices.
 //   OMP_NUM_THREADS=1 ./build/benchmarks/bench_haptic_tick
 #include <benchmark/benchmark.h>
 
@@ -24,9 +25,14 @@ namespace {
 /// Each tick's stage times (s) and the active region's size.
 struct TickTimes : ebh::ReplayObserver {
   std::vector<double> total, sync, grasp, mesh, tool, output, active;
+  std::vector<double> total_fresh, sync_fresh;  // the ticks a physical result arrived at
   void on_tick(const ebh::World&, const ebh::HapticSide& h, double) override {
     total.push_back(h.timing.total);
     sync.push_back(h.timing.device + h.timing.physical_sync);
+    if (h.delivered_tick == h.tick - 1 && h.tick > 1) {
+      total_fresh.push_back(total.back());
+      sync_fresh.push_back(sync.back());
+    }
     grasp.push_back(h.timing.grasp);
     mesh.push_back(h.timing.virtual_mesh);
     tool.push_back(h.timing.virtual_tool);
@@ -64,6 +70,8 @@ void BM_HapticTick(benchmark::State& state, const std::string& scene, const std:
   state.counters["mesh_p50_us"] = us(times.mesh, 50);
   state.counters["tool_p50_us"] = us(times.tool, 50);
   state.counters["output_p50_us"] = us(times.output, 50);
+  state.counters["fresh_tick_p50_us"] = us(times.total_fresh, 50);
+  state.counters["fresh_sync_p50_us"] = us(times.sync_fresh, 50);
   double active = 0;
   for (const double a : times.active) active += a;
   state.counters["active_mean"] = times.active.empty() ? 0 : active / static_cast<double>(times.active.size());

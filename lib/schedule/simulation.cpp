@@ -333,7 +333,10 @@ HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample
   h.mesh.q = world.initial_virtual;
   h.workspace = make_virtual_workspace(world.virtual_mesh);
   if (world.backend == Backend::Cpu && world.scene.spec.solver.active_region > 0) {
-    h.region = make_active_region(world.virtual_mesh, world.scene.spec.solver.active_region);
+    // Interpolated targets move every tick: the strain check runs a slice a tick, each vertex once
+    // a physical period, rather than all of them on the tick a result arrives (the tick's tail).
+    h.region = make_active_region(world.virtual_mesh, world.scene.spec.solver.active_region,
+                                  world.scene.spec.interpolate_physical ? world.ticks_per_step : 1);
     h.region_seeds.reserve(h.mesh.q.size());
   }
   h.normals.assign(h.mesh.q.size(), Vec3d{});

@@ -94,27 +94,33 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
   }
 }
 
-/// The inactive vertices that their edges and E_svc spring pull off where they stand join
-/// (active_region.hpp): a vertex that was never active stands on its target, where the E_s [4]
-/// forces of its edges need not balance (a surface strained against its rest shape, as gravity
-/// strains a settled organ's), and one that left the region where it settled, which its
-/// neighbours may have moved since; the static Jacobi step's move, |sum of its E_s and E_svc [5]
-/// forces and weight| / (k_s degree + k_svc), above the tolerance makes it join from where it
-/// stands, as a seed does. Every edge's E_s gradient goes into ws.edge_grad in the SIMD blocks of
-/// the iterations (most edges have an inactive end; the tick's iterations overwrite the active
-/// ones before they read them). Reads q; appends to r.added.
+/// The inactive vertices of slice `slice` (of r.check_ticks; the whole mesh when 1) that their
+/// edges and E_svc spring pull off where they stand join (active_region.hpp): a vertex that was
+/// never active stands on its target, where the E_s [4] forces of its edges need not balance (a
+/// surface strained against its rest shape, as gravity strains a settled organ's), and one that
+/// left the region where it settled, which its neighbours may have moved since; the static Jacobi
+/// step's move, |sum of its E_s and E_svc [5] forces and weight| / (k_s degree + k_svc), above the
+/// tolerance makes it join from where it stands, as a seed does. The edges' E_s gradients go into
+/// ws.edge_grad in the SIMD blocks of the iterations: every edge for the whole mesh (most edges
+/// have an inactive end), a slice's listed edges for a slice (r.check_edges); the tick's
+/// iterations overwrite the active ones before they read them. Reads q; appends to r.added.
 void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
-                  double v_scale) {
+                  double v_scale, int slice) {
   const int m = model.num_vertices, E = static_cast<int>(model.edges.size());
   const double tol2 = r.tolerance * r.tolerance;
   const std::vector<Vec3d>& q = state.q;
   const EdgeKernelData edges{E, model.edges.data(), model.rest_edge.data(), model.rest_len.data(), model.k_s};
-#pragma omp parallel if (!ws.shared && virtual_team(model, m))
-  for_chunks(ws.shared, edge_blocks(E), kEdgeBlockChunk, [&](int b0, int b1) {
-    edge_spring_gradient_blocks(edges, q.data(), ws.edge_grad.data(), b0, b1);
+  const bool whole = r.check_ticks <= 1;
+  const int j0 = whole ? 0 : r.check_vertex[slice], j1 = whole ? m : r.check_vertex[slice + 1];
+  const int* ids = whole ? nullptr : r.check_edges.data() + r.check_edge_offsets[slice];
+  const int count = whole ? E : r.check_edge_offsets[slice + 1] - r.check_edge_offsets[slice];
+#pragma omp parallel if (!ws.shared && virtual_team(model, j1 - j0))
+  for_chunks(ws.shared, edge_blocks(count), kEdgeBlockChunk, [&](int b0, int b1) {
+    if (whole) edge_spring_gradient_blocks(edges, q.data(), ws.edge_grad.data(), b0, b1);
+    else edge_spring_gradient_groups(edges, ids, count, q.data(), ws.edge_grad.data(), b0, b1);
   });
   const std::size_t before = r.added.size();
-  for (int j = 0; j < m; ++j) {
+  for (int j = j0; j < j1; ++j) {
     if (r.active[j] || model.pinned[j]) continue;
     Vec3d f = model.k_svc * (coupling_point(r, j, r.blend) - q[j]) + model.mass[j] * model.gravity;
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
@@ -173,11 +179,27 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
 
 }  // namespace
 
-ActiveRegion make_active_region(const VirtualModel& model, double tolerance) {
+ActiveRegion make_active_region(const VirtualModel& model, double tolerance, int check_ticks) {
   assert(tolerance > 0);
   ActiveRegion r;
   const std::size_t m = model.num_vertices, E = model.edges.size();
   r.tolerance = tolerance;
+  r.check_ticks = std::max(check_ticks, 1);
+  if (r.check_ticks > 1) {  // slice s: vertices [check_vertex[s], check_vertex[s + 1]) and their edges
+    const int T = r.check_ticks;
+    r.check_vertex.resize(T + 1);
+    for (int s = 0; s <= T; ++s) r.check_vertex[s] = static_cast<int>(static_cast<std::int64_t>(m) * s / T);
+    r.check_edge_offsets.assign(T + 1, 0);
+    for (int s = 0; s < T; ++s) {
+      std::vector<int> ids;
+      for (int j = r.check_vertex[s]; j < r.check_vertex[s + 1]; ++j)
+        for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) ids.push_back(model.edge_entries[k] >> 1);
+      std::sort(ids.begin(), ids.end());
+      ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+      r.check_edges.insert(r.check_edges.end(), ids.begin(), ids.end());
+      r.check_edge_offsets[s + 1] = static_cast<int>(r.check_edges.size());
+    }
+  }
   r.active.assign(m, 0);
   r.calm.assign(m, 0);
   r.offset.resize(m);
@@ -239,7 +261,11 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
         if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(model, r, j, a);
     });
   }
-  if (fresh) add_strained(model, ws, r, state, v_scale);  // once per physical result
+  if (r.check_ticks <= 1) {
+    if (fresh) add_strained(model, ws, r, state, v_scale, 0);  // once per physical result
+  } else {  // a slice a tick, every vertex once in check_ticks ticks
+    add_strained(model, ws, r, state, v_scale, static_cast<int>(r.checked_ticks++ % r.check_ticks));
+  }
   retire_and_spread(model, r, state, seeds, v_scale);
   if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);
 

@@ -12,10 +12,11 @@
 //     ring a tick where the tool's push spreads;
 //   - any vertex a contact target names during the tick (activated at once, counted: the seeds
 //     should have held it);
-//   - on a tick with a new physical result, every inactive vertex that its edges and its E_svc
-//     spring pull off where it stands: the static Jacobi step's move, |sum of its E_s and E_svc
-//     forces and its weight| / (k_s degree + k_svc), above tol (a surface strained against its
-//     rest shape, which no seed reaches: the far field).
+//   - every inactive vertex that its edges and its E_svc spring pull off where it stands: the
+//     static Jacobi step's move, |sum of its E_s and E_svc forces and its weight| / (k_s degree +
+//     k_svc), above tol (a surface strained against its rest shape, which no seed reaches: the far
+//     field); checked on the tick a new physical result arrives, or (check_ticks = N > 1, targets
+//     that move every tick) a slice of the vertices a tick, each vertex once in N ticks.
 // Displacements are measured from where the vertex stands when inactive (below), so a vertex that
 // settled off its E_svc point (a strained surface) is not displaced. A vertex is *moving* when its
 // displacement changed by more than tol / kCalmTicks since the last tick, *hot* when it is moving
@@ -69,6 +70,13 @@ struct PhysicalTargets {
 /// The active region's state (sized by make_active_region; a tick never allocates).
 struct ActiveRegion {
   double tolerance = 0;                   ///< m, displacement |q - p| that spreads the region
+  /// The strain check's spread: 1, every inactive vertex on the tick a new physical result arrives;
+  /// N > 1, a slice of the vertices (in index order) every tick, each vertex once in N ticks (for
+  /// targets that move every tick: time.interpolate_physical, N its ticks per physical period)
+  int check_ticks = 1;
+  std::int64_t checked_ticks = 0;         ///< ticks that ran a slice of the strain check
+  std::vector<int> check_vertex;          ///< #N+1 slice s: the vertices [check_vertex[s], check_vertex[s + 1])
+  std::vector<int> check_edges, check_edge_offsets;  ///< slice s's edges (an end in it), in index order: CSR, #N+1 offsets
   std::vector<std::uint8_t> active;       ///< #m 1 when iterated this tick
   std::vector<std::uint16_t> calm;        ///< #m consecutive calm ticks of an active vertex
   /// #m where an inactive vertex stands, from its E_svc point: its weight's stretch plus the
@@ -94,8 +102,9 @@ struct ActiveRegion {
   std::int64_t strained = 0;              ///< vertices their edges' pull activated (add_strained)
 };
 
-/// A region for `model` with the given tolerance (m, > 0), empty: the first tick fills it.
-ActiveRegion make_active_region(const VirtualModel& model, double tolerance);
+/// A region for `model` with the given tolerance (m, > 0), empty: the first tick fills it; its
+/// strain check spread over check_ticks ticks (ActiveRegion::check_ticks).
+ActiveRegion make_active_region(const VirtualModel& model, double tolerance, int check_ticks = 1);
 
 /// Alg. 2 lines 1 and 6 on the active region: the E_svc targets p from `targets` (paired, O(m)
 /// gathers, only when its version changes; blended, an O(m) pass, when the blend does), the

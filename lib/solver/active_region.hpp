@@ -63,7 +63,7 @@ struct PhysicalTargets {
   std::span<const Vec3d> x_from, x_to;  ///< #n physical positions
   double blend = 1;                     ///< weight of x_to, in (0, 1]
   std::int64_t version = 0;             ///< changes whenever x_to (and with it x_from) does
-  /// the version x_from had as x_to, where it was (INT64_MIN: none): its pairing is then reused
+  /// x_from's version when it was x_to (INT64_MIN: unknown): the region then reuses its pairing
   std::int64_t from_version = INT64_MIN;
 };
 

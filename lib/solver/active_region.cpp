@@ -15,10 +15,7 @@ namespace {
 
 constexpr std::uint8_t kSeed = 1;  // ActiveRegion::mark: a seed of this tick
 constexpr std::uint8_t kMoving = 2;  // ActiveRegion::mark: its displacement changed by more than tol / kCalmTicks
-constexpr std::uint8_t kNextToHot = 4;  // ActiveRegion::mark: a neighbour of a hot vertex
-constexpr std::uint8_t kHot = 8;        // ActiveRegion::mark: moving, and displaced by more than tol
-constexpr std::uint8_t kLeaving = 16;   // ActiveRegion::mark: calm for kCalmTicks, leaves this tick
-constexpr std::uint8_t kStrained = 32;  // ActiveRegion::mark: inactive, pulled off where it stands
+constexpr std::uint8_t kNextToHot = 4;  // ActiveRegion::mark: a neighbour of a hot (moving, displaced by more than tol) vertex
 
 /// The other end of the incidence entry k (virtual_mesh.hpp: 2 e + end).
 inline int neighbour(const VirtualModel& model, int k) {
@@ -118,30 +115,21 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
   const int* ids = whole ? nullptr : r.check_edges.data() + r.check_edge_offsets[slice];
   const int count = whole ? E : r.check_edge_offsets[slice + 1] - r.check_edge_offsets[slice];
 #pragma omp parallel if (!ws.shared && virtual_team(model, j1 - j0))
-  {
-    for_chunks(ws.shared, edge_blocks(count), kEdgeBlockChunk, [&](int b0, int b1) {
-      if (whole) edge_spring_gradient_blocks(edges, q.data(), ws.edge_grad.data(), b0, b1);
-      else edge_spring_gradient_groups(edges, ids, count, q.data(), ws.edge_grad.data(), b0, b1);
-    });
-    for_chunks(ws.shared, j1 - j0, kVertexChunk, [&](int begin, int end) {
-      for (int j = j0 + begin; j < j0 + end; ++j) {
-        if (r.active[j] || model.pinned[j]) continue;
-        Vec3d f = model.k_svc * (coupling_point(r, j, r.blend) - q[j]) + model.mass[j] * model.gravity;
-        for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
-          const int entry = model.edge_entries[k];
-          const Vec3d& g = ws.edge_grad[entry >> 1];
-          f += (entry & 1) ? g : -g;  // add_edge_residual's sign: the force on this end
-        }
-        if (squared_norm(f) > tol2 * model.stiff_diag[j] * model.stiff_diag[j]) r.mark[j] |= kStrained;
-      }
-    });
-  }
+  for_chunks(ws.shared, edge_blocks(count), kEdgeBlockChunk, [&](int b0, int b1) {
+    if (whole) edge_spring_gradient_blocks(edges, q.data(), ws.edge_grad.data(), b0, b1);
+    else edge_spring_gradient_groups(edges, ids, count, q.data(), ws.edge_grad.data(), b0, b1);
+  });
   const std::size_t before = r.added.size();
-  for (int j = j0; j < j1; ++j)  // in index order: the region's lists do not depend on the threads
-    if (r.mark[j] & kStrained) {
-      r.mark[j] &= static_cast<std::uint8_t>(~kStrained);
-      activate(model, r, j);
+  for (int j = j0; j < j1; ++j) {
+    if (r.active[j] || model.pinned[j]) continue;
+    Vec3d f = model.k_svc * (coupling_point(r, j, r.blend) - q[j]) + model.mass[j] * model.gravity;
+    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
+      const int entry = model.edge_entries[k];
+      const Vec3d& g = ws.edge_grad[entry >> 1];
+      f += (entry & 1) ? g : -g;  // add_edge_residual's sign: the force on this end
     }
+    if (squared_norm(f) > tol2 * model.stiff_diag[j] * model.stiff_diag[j]) activate(model, r, j);
+  }
   for (std::size_t i = before; i < r.added.size(); ++i) join(model, r, state, r.added[i], v_scale, false);
   r.strained += static_cast<std::int64_t>(r.added.size() - before);
 }
@@ -151,48 +139,37 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
 /// leaves and stands where it is (its displacement joins its offset). Three passes: the
 /// displacements (marking the moving and hot vertices, listing the hot), the hot vertices'
 /// neighbours (joining, marked as next to a hot vertex), then each vertex's stay or leave from its
-/// own marks alone; the first and the last share out over the team (or ws.shared), the lists they
-/// make are collected in the region's order. Reads the last tick's q of the active vertices;
-/// appends to r.added and r.removed; clears the marks.
-void retire_and_spread(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
-                       std::span<const int> seeds, double v_scale) {
+/// own marks alone. Reads the last tick's q of the active vertices; appends to r.added and
+/// r.removed; clears the marks.
+void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
+                       double v_scale) {
   const std::size_t seeded = r.added.size();
   const double hot2 = r.tolerance * r.tolerance;
   const double step = r.tolerance / kCalmTicks, moving2 = step * step;
   const std::vector<Vec3d>& q = state.q;
-  const int nv = static_cast<int>(r.vertices.size());
-  const bool team = !ws.shared && virtual_team(model, nv);
-#pragma omp parallel if (team)
-  for_chunks(ws.shared, nv, kVertexChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      const int j = r.vertices[i];
-      const Vec3d d = q[j] - follow_target(model, r, j, r.blend);
-      if (squared_norm(d - r.displacement[j]) > moving2) r.mark[j] |= squared_norm(d) > hot2 ? kMoving | kHot : kMoving;
-      r.displacement[j] = d;
-    }
-  });
   r.hot.clear();
-  for (const int j : r.vertices)
-    if (r.mark[j] & kHot) r.hot.push_back(j);
+  for (const int j : r.vertices) {
+    const Vec3d d = q[j] - follow_target(model, r, j, r.blend);
+    if (squared_norm(d - r.displacement[j]) > moving2) {
+      r.mark[j] |= kMoving;
+      if (squared_norm(d) > hot2) r.hot.push_back(j);
+    }
+    r.displacement[j] = d;
+  }
   for (const int j : r.hot)
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
       const int o = neighbour(model, k);
       activate(model, r, o);
       if (r.active[o]) r.mark[o] |= kNextToHot;  // not a pinned one: every marked vertex is listed
     }
-#pragma omp parallel if (team)
-  for_chunks(ws.shared, nv, kVertexChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      const int j = r.vertices[i];
-      if (r.mark[j] & (kSeed | kMoving | kNextToHot)) r.calm[j] = 0;
-      else if (++r.calm[j] >= kCalmTicks) r.mark[j] |= kLeaving;
-    }
-  });
-  for (const int j : r.vertices)
-    if (r.mark[j] & kLeaving) {
+  for (const int j : r.vertices) {
+    if (r.mark[j] & (kSeed | kMoving | kNextToHot)) {
+      r.calm[j] = 0;
+    } else if (++r.calm[j] >= kCalmTicks) {
       r.active[j] = 0;
       r.removed.push_back(j);
     }
+  }
   for (const int j : seeds) r.mark[j] = 0;
   for (const int j : r.vertices) r.mark[j] = 0;
   for (const int j : r.added) r.mark[j] = 0;  // the hot vertices' neighbours that joined
@@ -289,7 +266,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   } else {  // a slice a tick, every vertex once in check_ticks ticks
     add_strained(model, ws, r, state, v_scale, static_cast<int>(r.checked_ticks++ % r.check_ticks));
   }
-  retire_and_spread(model, ws, r, state, seeds, v_scale);
+  retire_and_spread(model, r, state, seeds, v_scale);
   if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);
 
   // Alg. 2 line 6 on the active vertices, as virtual_begin_tick.

@@ -30,6 +30,7 @@ struct TickTimes : ebh::ReplayObserver {
   void on_tick(const ebh::World&, const ebh::HapticSide& h, double) override {
     total.push_back(h.timing.total);
     sync.push_back(h.timing.device + h.timing.physical_sync);
+    // delivered_tick starts at 0 before any result: the first tick is not one a result arrived at
     if (h.delivered_tick == h.tick - 1 && h.tick > 1) {
       total_fresh.push_back(total.back());
       sync_fresh.push_back(sync.back());

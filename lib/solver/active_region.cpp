@@ -23,13 +23,14 @@ inline int neighbour(const VirtualModel& model, int k) {
   return model.edges[entry >> 1][1 - (entry & 1)];
 }
 
-/// Where inactive (non-pinned) vertex j stands at blend a: its E_svc target p_j(a) (the blend of
-/// p_from and p_to), lowered by its own weight's stretch of the coupling spring, m_j g / k_svc,
-/// plus the offset it left the region with (ActiveRegion::offset holds both).
+/// Vertex j's E_svc target at blend a: p_j(a), the blend of p_from and p_to.
 inline Vec3d coupling_point(const ActiveRegion& r, int j, double a) {
   return a >= 1.0 ? r.p_to[j] : lerp(r.p_from[j], r.p_to[j], a);
 }
-inline Vec3d follow_target(const VirtualModel& /*model*/, const ActiveRegion& r, int j, double a) {
+/// Where inactive (non-pinned) vertex j stands at blend a: its E_svc target, lowered by its own
+/// weight's stretch of the coupling spring, m_j g / k_svc, plus the offset it left the region with
+/// (ActiveRegion::offset holds both).
+inline Vec3d follow_target(const ActiveRegion& r, int j, double a) {
   return coupling_point(r, j, a) + r.offset[j];
 }
 
@@ -75,10 +76,10 @@ void update_lists(const VirtualModel& model, ActiveRegion& r) {
 
 /// A vertex that was inactive starts the tick with its target's velocity; `place`: also from where
 /// its target stood before this tick (a vertex the inactive pass already moved on).
-void join(const VirtualModel& model, ActiveRegion& r, VirtualState& state, int j, double v_scale, bool place) {
-  const Vec3d before = follow_target(model, r, j, r.blend_before);
+void join(const ActiveRegion& r, VirtualState& state, int j, double v_scale, bool place) {
+  const Vec3d before = follow_target(r, j, r.blend_before);
   if (place) state.q[j] = before;
-  state.v[j] = v_scale * (follow_target(model, r, j, r.blend) - before);
+  state.v[j] = v_scale * (follow_target(r, j, r.blend) - before);
 }
 
 /// The seeds of this tick join the region (marked, for retire_and_spread) from where they stand.
@@ -90,7 +91,7 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
   for (const int j : seeds) {
     assert(j >= 0 && j < model.num_vertices);
     r.mark[j] |= kSeed;
-    if (activate(model, r, j)) join(model, r, state, j, v_scale, false);
+    if (activate(model, r, j)) join(r, state, j, v_scale, false);
   }
 }
 
@@ -130,7 +131,7 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
     }
     if (squared_norm(f) > tol2 * model.stiff_diag[j] * model.stiff_diag[j]) activate(model, r, j);
   }
-  for (std::size_t i = before; i < r.added.size(); ++i) join(model, r, state, r.added[i], v_scale, false);
+  for (std::size_t i = before; i < r.added.size(); ++i) join(r, state, r.added[i], v_scale, false);
   r.strained += static_cast<std::int64_t>(r.added.size() - before);
 }
 
@@ -149,7 +150,7 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
   const std::vector<Vec3d>& q = state.q;
   r.hot.clear();
   for (const int j : r.vertices) {
-    const Vec3d d = q[j] - follow_target(model, r, j, r.blend);
+    const Vec3d d = q[j] - follow_target(r, j, r.blend);
     if (squared_norm(d - r.displacement[j]) > moving2) {
       r.mark[j] |= kMoving;
       if (squared_norm(d) > hot2) r.hot.push_back(j);
@@ -173,7 +174,7 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
   for (const int j : seeds) r.mark[j] = 0;
   for (const int j : r.vertices) r.mark[j] = 0;
   for (const int j : r.added) r.mark[j] = 0;  // the hot vertices' neighbours that joined
-  for (std::size_t i = seeded; i < r.added.size(); ++i) join(model, r, state, r.added[i], v_scale, true);
+  for (std::size_t i = seeded; i < r.added.size(); ++i) join(r, state, r.added[i], v_scale, true);
   for (const int j : r.removed) r.offset[j] += r.displacement[j];  // q stays: it stands where it settled
 }
 
@@ -258,7 +259,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
 #pragma omp parallel if (!ws.shared && team)
     for_chunks(ws.shared, m, kVertexChunk, [&](int begin, int end) {
       for (int j = begin; j < end; ++j)
-        if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(model, r, j, a);
+        if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(r, j, a);
     });
   }
   if (r.check_ticks <= 1) {
@@ -292,7 +293,7 @@ void virtual_iteration_active(const VirtualModel& model, VirtualWorkspace& ws, A
     const int j = c.vertex;
     if (!activate(model, r, j)) continue;
     ws.p[j] = coupling_point(r, j, r.blend);
-    ws.q_start[j] = follow_target(model, r, j, r.blend_before);  // where it stood: v at the end is consistent
+    ws.q_start[j] = follow_target(r, j, r.blend_before);  // where it stood: v at the end is consistent
     ws.s[j] = state.q[j];
   }
   if (!r.added.empty()) {

@@ -380,7 +380,8 @@ class SpecReader {
   void read_solver(const YAML::Node& n, SolverSpec& sv) const {
     const auto e = entries(n, "solver", {"method", "diagonal", "physical_iterations", "virtual_iterations", "chebyshev_rho",
                                              "physical_tolerance", "physical_max_iterations", "recovery",
-                                             "recovery_residual", "active_region", "sleep", "virtual_damping"});
+                                             "recovery_residual", "active_region", "physical_region", "sleep",
+                                             "virtual_damping"});
     if (auto it = e.find("method"); it != e.end()) {
       const int m = choice(it->second, "solver.method", {"jacobi", "chebyshev", "direct"});
       sv.method = m == 0 ? SolverSpec::Method::Jacobi : m == 1 ? SolverSpec::Method::Chebyshev : SolverSpec::Method::Direct;
@@ -408,6 +409,10 @@ class SpecReader {
     if (auto it = e.find("active_region"); it != e.end()) {
       sv.active_region = non_negative(it->second, "solver.active_region") * unit_;
       sv.active_region_given = true;
+    }
+    if (auto it = e.find("physical_region"); it != e.end()) {
+      sv.physical_region = non_negative(it->second, "solver.physical_region") * unit_;
+      sv.physical_region_given = true;
     }
     if (auto it = e.find("sleep"); it != e.end()) {
       sv.sleep = non_negative(it->second, "solver.sleep") * unit_;
@@ -899,6 +904,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "recovery" << YAML::Value << (sv.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
   y << YAML::Key << "recovery_residual" << YAML::Value << sv.recovery_residual;
   y << YAML::Key << "active_region" << YAML::Value << sv.active_region / u;
+  y << YAML::Key << "physical_region" << YAML::Value << sv.physical_region / u;
   y << YAML::Key << "sleep" << YAML::Value << sv.sleep / u;
   y << YAML::Key << "virtual_damping" << YAML::Value << sv.virtual_damping << YAML::EndMap;
   y << YAML::Key << "contact" << YAML::Value << (s.contact == ContactModel::Surface ? "surface" : "vertices");

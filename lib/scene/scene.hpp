@@ -73,6 +73,10 @@
 //                                   #   those displaced from their coupling targets by more than this
 //                                   #   (and their neighbours); the rest follow the targets. 0: the
 //                                   #   whole virtual mesh (CPU backend; docs/MODEL.md, "The active region")
+//     physical_region: 0            # length (unit): iterate only the physical vertices that moved by
+//                                   #   more than this in the last step, or under a virtual vertex
+//                                   #   that did, and their neighbours; the rest are held. 0: every
+//                                   #   vertex (CPU backend; docs/MODEL.md, "The physical mesh's awake region")
 //     sleep: 0                      # length (unit): skip a physical step while nothing moved by more
 //                                   #   than this since the last one (docs/MODEL.md, "Sleeping");
 //                                   #   0: every step runs
@@ -189,6 +193,11 @@ struct SolverSpec {
   /// its neighbours; 0: every virtual vertex is iterated (the full solve).
   double active_region = 0;
   bool active_region_given = false;  ///< the scene file or an override names it (the CUDA backend warns then)
+  /// The physical mesh's awake region (CPU backend; docs/MODEL.md, "The physical mesh's awake
+  /// region"): the motion (m) past which a physical vertex, and the virtual vertices' past which
+  /// the physical vertices under them, are iterated with their neighbours; 0: every vertex.
+  double physical_region = 0;
+  bool physical_region_given = false;  ///< named by the scene file or an override (the CUDA backend warns then)
   /// The sleeping physical mesh (docs/MODEL.md, "Sleeping"): a physical step is
   /// skipped, the state held, while the last step moved no vertex and the virtual mesh moved no
   /// vertex since then by more than this length (m), and the last step met the tolerance; 0: never.

@@ -178,7 +178,7 @@ ReplaySize estimate_replay_size(const World& world, double duration, double fram
   r.ticks = std::floor(duration / world.h_haptic + 1e-9) + 1;  // as tick_count(), in double: no overflow
   r.frames = frames_hz > 0 ? std::floor(duration * frames_hz + 1e-9) + 1 : 0;
   const double steps = r.ticks / world.ticks_per_step + 2;
-  const double step_bytes = 5 * 8 + 4;  // /physical and the step timings
+  const double step_bytes = 5 * 8 + 8;  // /physical and the step timings
   r.memory_bytes = r.ticks * kReplayBytesPerTick + steps * step_bytes;
   const double m = static_cast<double>(world.virtual_mesh.rest.size());
   const double nx = static_cast<double>(world.physical_mesh.rest.size());
@@ -308,6 +308,7 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
   recovered_.push_back(p.recovered ? 1 : 0);
   slept_.push_back(p.slept ? 1 : 0);
   slept_steps_ += p.slept ? 1 : 0;
+  awake_.push_back(p.report.awake);
   recovered_steps_ += p.recovered ? 1 : 0;
   tm_step_.push_back(p.report.time_s);
   tm_local_.push_back(p.report.local_s);
@@ -335,6 +336,13 @@ void ReplayWriter::on_frame(const World&, const HapticSide& h, double t) {
 
 bool ReplayWriter::should_stop() { return interrupted(); }
 
+double ReplayWriter::awake_mean() const {
+  if (awake_.empty() || awake_.front() < 0) return -1;
+  double sum = 0;
+  for (const std::int32_t a : awake_) sum += a;
+  return sum / static_cast<double>(awake_.size());
+}
+
 void ReplayWriter::commit(const ReplaySummary& s) {
   h5::File& f = out_.file();
   const std::size_t n = t_.size(), k = pt_.size();
@@ -360,7 +368,9 @@ void ReplayWriter::commit(const ReplaySummary& s) {
   unit(pg.write<double>("residual_reduction", reduction_, {k}), "1 (last / first iteration)");
   unit(pg.write<std::uint8_t>("recovered", recovered_, {k}), "1 (redone with the direct solve)");
   unit(pg.write<std::int32_t>("inverted", inverted_, {k}), "tets (inverted or flat after the step)");
-  unit(pg.write<std::uint8_t>("slept", slept_, {k}), "1 (skipped, the state held: solver.sleep)");
+  unit(pg.write<std::uint8_t>("slept", slept_, {k}), "1 (skipped, the state held: solver.sleep or an empty awake region)");
+  if (!awake_.empty() && awake_.front() >= 0)  // the awake region is on (PhysicalStepReport::awake)
+    unit(pg.write<std::int32_t>("awake", awake_, {k}), "vertices (iterated: solver.physical_region)");
   h5::Group tg = f.create_group("timing");
   unit(tg.write<double>("haptic_step_s", tm_total_, {n}), "s");
   unit(tg.write<double>("device_s", tm_device_, {n}), "s");

@@ -91,6 +91,8 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t capped_steps() const { return capped_steps_; }
   /// Physical steps skipped while the physical mesh slept (solver.sleep).
   std::int64_t slept_steps() const { return slept_steps_; }
+  /// Physical vertices iterated per step on average under solver.physical_region (-1: off).
+  double awake_mean() const;
   /// The most physical tets inverted (or flat) after one step, and the first step's time with any.
   int max_inverted_tets() const { return inverted_tets_.most; }
   double first_inverted_t() const { return first_inverted_t_; }
@@ -106,7 +108,7 @@ class ReplayWriter : public ReplayObserver {
   std::vector<double> tm_total_, tm_device_, tm_sync_, tm_grasp_, tm_vmesh_, tm_vtool_, tm_output_;
   // /physical per step
   std::vector<double> pt_, residual_, reduction_, tm_step_, tm_local_, tm_global_;
-  std::vector<std::int32_t> iterations_, inverted_;
+  std::vector<std::int32_t> iterations_, inverted_, awake_;
   InvertedTets inverted_tets_;  ///< the physical tets inverted after each step, against rest
   double first_inverted_t_ = -1;
   std::vector<std::uint8_t> recovered_, slept_;

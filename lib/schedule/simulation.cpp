@@ -274,6 +274,15 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
                                         "and ignores it (docs/MODEL.md, \"The active region\")");
     w->scene.spec.solver.active_region = 0;
   }
+  if (backend == Backend::Cuda && w->scene.spec.solver.physical_region > 0) {
+    if (w->scene.spec.solver.physical_region_given)
+      w->scene.warnings.push_back(where + ": key 'solver.physical_region': the CUDA backend iterates the whole physical mesh "
+                                        "and ignores it (docs/MODEL.md, \"The physical mesh's awake region\")");
+    w->scene.spec.solver.physical_region = 0;
+  }
+  if (w->scene.spec.solver.physical_region > 0 && w->scene.spec.solver.method == SolverSpec::Method::Direct)
+    throw InputError(where + ": key 'solver.physical_region': the direct method solves for every vertex at once; "
+                             "use chebyshev or jacobi, or physical_region 0");
   w->initial_physical = make_physical_state(w->physical_mesh);
   if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)
     w->settle_steps = settle_under_gravity(w->scene, w->initial_physical, w->scene.warnings);
@@ -362,6 +371,9 @@ PhysicalSide make_physical_side(const World& world, bool beside_ticks) {
   PhysicalSide p;
   p.mesh = world.initial_physical;
   p.workspace = make_physical_workspace(world.physical_mesh);
+  if (world.backend == Backend::Cpu && world.scene.spec.solver.physical_region > 0)
+    p.region = std::make_unique<PhysicalRegion>(
+        make_physical_region(world.physical_mesh, world.scene.spec.solver.physical_region));
   if (world.backend == Backend::Cuda) {
 #if EBH_HAVE_CUDA
     CudaPhysicalOptions options;
@@ -482,6 +494,19 @@ bool physical_mesh_asleep(const World& world, const PhysicalSide& p, const Hapti
     if (squared_norm(snapshot.q[j] - p.ran_with[j]) > d2) return false;
   return true;
 }
+
+/// A skipped step (solver.sleep, or an empty awake region): the state held, at rest.
+void hold_physical_state(PhysicalSide& p) {
+  for (Vec3d& v : p.mesh.v) v = Vec3d{};
+  p.report.iterations = 0;
+  p.report.residual_reduction = 1;
+  p.report.time_s = p.report.local_s = p.report.global_s = 0;
+  p.report.slept = true;
+  p.report.awake = 0;
+  p.slept = true;
+  p.recovered = false;
+  ++p.step;
+}
 }  // namespace
 
 void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot, SharedLoops* shared) {
@@ -497,21 +522,20 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
   const PhysicalModel& model = world.physical_mesh;
   const SolverSpec& solver = world.scene.spec.solver;
   p.slept = solver.sleep > 0 && physical_mesh_asleep(world, p, snapshot);
-  if (p.slept) {  // the state held, at rest
-    for (Vec3d& v : p.mesh.v) v = Vec3d{};
-    p.report.iterations = 0;
-    p.report.residual_reduction = 1;
-    p.report.time_s = p.report.local_s = p.report.global_s = 0;
-    p.report.slept = true;
-    p.recovered = false;
-    ++p.step;
+  if (p.slept) {
+    hold_physical_state(p);
+    return;
+  }
+  PhysicalRegion* region = p.region.get();
+  if (region && choose_awake(model, p.workspace, snapshot.q, p.step == 0, *region) == 0) {
+    hold_physical_state(p);  // nothing moves: the step is skipped, as a sleeping mesh's
     return;
   }
   if (solver.sleep > 0) p.ran_with = snapshot.q;  // keeps its capacity: no allocation after the first step
   const bool can_recover =
       solver.recovery == SolverSpec::Recovery::Direct && solver.method != SolverSpec::Method::Direct;
   if (can_recover) p.start = p.mesh;  // the vectors keep their capacity: no allocation after the first step
-  p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, world.physical_params, nullptr, shared);
+  p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, world.physical_params, nullptr, shared, region);
   std::string problem = physical_state_problem(model, p.mesh.x, p.report);  // the health check, once
   p.recovered = can_recover && (p.report.residual > solver.recovery_residual || !problem.empty());
   if (p.recovered) {
@@ -524,6 +548,11 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
     p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, direct, p.recovery_direct.get(), shared);
     p.report.time_s += time_s;
     problem = physical_state_problem(model, p.mesh.x, p.report);
+    if (region) region->all = true;  // the direct solve moved every vertex
+  }
+  if (region) {
+    saw_virtual_mesh(model, snapshot.q, *region);
+    p.report.awake = region->all ? model.num_free : static_cast<int>(region->vertices.size());
   }
   ++p.step;
   stop_on_physical_problem(world, p, problem);

@@ -19,6 +19,7 @@
 #include "scene/scene.hpp"
 #include "solver/active_region.hpp"
 #include "solver/physical_mesh.hpp"
+#include "solver/physical_region.hpp"
 #include "solver/virtual_mesh.hpp"
 #include "tool/broadphase.hpp"
 #include "tool/tool_model.hpp"
@@ -145,6 +146,8 @@ struct PhysicalSide {
   /// virtual mesh the last step that ran was given.
   bool slept = false;
   std::vector<Vec3d> ran_with;
+  /// The awake region (SolverSpec::physical_region, CPU backend; null when off).
+  std::unique_ptr<PhysicalRegion> region;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda: the step runs here and mesh.x is its copy of x (mesh.v and mesh.rotation stay
   /// on the device; docs/CUDA.md).

@@ -20,6 +20,7 @@
 #include "mesh/quality.hpp"
 #include "solver/local_kernels.hpp"
 #include "solver/shared_loops.hpp"
+#include "solver/physical_region.hpp"
 #include "solver/spectrum.hpp"
 #include "solver/virtual_mesh.hpp"
 
@@ -44,27 +45,59 @@ constexpr double kLambdaLimit = 2.1;
 constexpr double kSpectrumMargin = 1.02; ///< on Lanczos' estimate of lambda_max (a lower bound)
 
 /// Alg. 1 lines 1-2: s = x + h v + h^2 g (pinned: s = x), x <- x + h v (iteration_start: not s,
-/// docs/MODEL.md "The iterations' start"), from the state copied into the local order.
-void predict(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalState& state, SharedLoops* shared) {
+/// docs/MODEL.md "The iterations' start"), from the state copied into the local order. With an
+/// awake region a sleeping vertex starts, and stays, where it is (x = x_start: v = 0 at the end).
+void predict(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalState& state, const PhysicalRegion* region,
+             SharedLoops* shared) {
   const PhysicalLocalArrays& L = model.local;
+  const std::uint8_t* awake = region ? region->awake.data() : nullptr;
   for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const int a = model.vertex_order[i];
       const Vec3d x = state.x[a], v = state.v[a];
+      const bool held = L.pinned[i] || (awake && !awake[i]);
       ws.x_start[i] = x;
       ws.s[i] = L.pinned[i] ? x : predict_position(x, v, model.gravity, model.h);
-      ws.x[i] = L.pinned[i] ? x : iteration_start(x, v, model.h);
+      ws.x[i] = held ? x : iteration_start(x, v, model.h);
       ws.x_prev[i] = ws.x[i];
     }
   });
 }
 
 /// Alg. 1 lines 6-8 (ConstraintProjection): per tet R_t and its corner forces; per virtual vertex
-/// the E_svc force k_svc (q_j - p_j) with p_j = sum w x. Ends with a barrier.
+/// the E_svc force k_svc (q_j - p_j) with p_j = sum w x. Ends with a barrier. With an awake region
+/// (not all): its tet blocks and virtual vertices only.
 void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
-                std::span<const Vec3d> virtual_q, const PhysicalStepParams& params, SharedLoops* shared) {
+                std::span<const Vec3d> virtual_q, const PhysicalStepParams& params, const PhysicalRegion* region,
+                SharedLoops* shared) {
   const TetKernelData tets{model.num_tets, model.corner_soa.data(), model.shape_grad_soa.data(),
                            model.weight_soa.data(), model.det_ratio};
+  const bool listed = region && !region->all;
+  auto pair_force = [&](int j) {
+    const Vec3d p = paired_point(ws.x.data(), model.local.pair_vertex[j].data(), model.pair_weight[j].data(),
+                                 model.pair_count[j]);
+    ws.cpl_force[j] = coupling_gradient_virtual(p, virtual_q[j], model.k_svc);  // k_svc (q - p)
+  };
+  if (listed) {
+    const int* blocks = region->tet_blocks.data();
+    auto tet_range = [&](int k0, int k1) {
+      for (int k = k0; k < k1; ++k)
+        local_step_tet_blocks(tets, ws.x.data(), state.rotation.data(), ws.tet_force.data(),
+                              params.rotation_iterations, kRotationTol, blocks[k], blocks[k] + 1);
+    };
+    const int nb = static_cast<int>(region->tet_blocks.size());
+    if (shared) {
+      shared->run(nb, kTetBlockChunk, tet_range);
+    } else {
+#pragma omp for schedule(static) nowait
+      for (int k = 0; k < nb; ++k) tet_range(k, k + 1);
+    }
+    const int* ids = region->virtuals.data();
+    for_chunks(shared, static_cast<int>(region->virtuals.size()), 2 * kVertexChunk, [&](int begin, int end) {
+      for (int k = begin; k < end; ++k) pair_force(ids[k]);
+    });
+    return;
+  }
   if (shared)
     shared->run(tet_blocks(model.num_tets), kTetBlockChunk, [&](int b0, int b1) {
       local_step_tet_blocks(tets, ws.x.data(), state.rotation.data(), ws.tet_force.data(),
@@ -74,11 +107,7 @@ void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState
     local_step_tets(tets, ws.x.data(), state.rotation.data(), ws.tet_force.data(), params.rotation_iterations,
                     kRotationTol);  // omp for nowait
   for_chunks(shared, model.num_virtual, 2 * kVertexChunk, [&](int begin, int end) {
-    for (int j = begin; j < end; ++j) {
-      const Vec3d p = paired_point(ws.x.data(), model.local.pair_vertex[j].data(), model.pair_weight[j].data(),
-                                   model.pair_count[j]);
-      ws.cpl_force[j] = coupling_gradient_virtual(p, virtual_q[j], model.k_svc);  // k_svc (q - p)
-    }
+    for (int j = begin; j < end; ++j) pair_force(j);
   });
 }
 
@@ -101,24 +130,39 @@ inline Vec3d vertex_residual(const PhysicalLocalArrays& L, const PhysicalWorkspa
 ///   chebyshev: x_{k+1} = omega (gamma D^-1 r + x_k - x_{k-1}) + x_{k-1}   (Wang 2015, eq. 12)
 ///   direct:    r only (global_direct follows)
 void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, SolverSpec::Method method, double gamma,
-                         double omega, SharedLoops* shared) {
+                         double omega, const PhysicalRegion* region, SharedLoops* shared) {
   const double inv_h2 = 1.0 / (model.h * model.h);
   const PhysicalLocalArrays& L = model.local;
   Vec3d* __restrict x = ws.x.data();
-  for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      if (L.pinned[i]) { ws.r[i] = Vec3d{}; continue; }  // never moves: x = x_prev = s
-      const Vec3d r = vertex_residual(L, ws, x, i, inv_h2);
-      ws.r[i] = r;
-      if (method == SolverSpec::Method::Jacobi) {
-        x[i] += (gamma / L.diag[i]) * r;
-      } else if (method == SolverSpec::Method::Chebyshev) {
-        const Vec3d xk = x[i];
-        x[i] = omega * ((gamma / L.diag[i]) * r + xk - ws.x_prev[i]) + ws.x_prev[i];
-        ws.x_prev[i] = xk;
-      }
+  auto update = [&](int i) {
+    if (L.pinned[i]) { ws.r[i] = Vec3d{}; return; }  // never moves: x = x_prev = s
+    const Vec3d r = vertex_residual(L, ws, x, i, inv_h2);
+    ws.r[i] = r;
+    if (method == SolverSpec::Method::Jacobi) {
+      x[i] += (gamma / L.diag[i]) * r;
+    } else if (method == SolverSpec::Method::Chebyshev) {
+      const Vec3d xk = x[i];
+      x[i] = omega * ((gamma / L.diag[i]) * r + xk - ws.x_prev[i]) + ws.x_prev[i];
+      ws.x_prev[i] = xk;
     }
+  };
+  if (region && !region->all) {  // the awake vertices (free, the Jacobi-type methods only)
+    const int* ids = region->vertices.data();
+    for_chunks(shared, static_cast<int>(region->vertices.size()), kVertexChunk, [&](int begin, int end) {
+      for (int k = begin; k < end; ++k) update(ids[k]);
+    });
+    return;
+  }
+  for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) update(i);
   });
+}
+
+/// ||r|| over the awake vertices, in their (ascending local) order.
+double region_residual_norm(const PhysicalWorkspace& ws, const PhysicalRegion& region) {
+  double sum = 0;
+  for (const int i : region.vertices) sum += squared_norm(ws.r[i]);
+  return std::sqrt(sum);
 }
 
 /// ||r|| over free vertices (pinned rows are 0), summed serially in the file's vertex order: the
@@ -456,7 +500,8 @@ PhysicalModelOptions physical_model_options(const SceneSpec& spec) {
 
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                                  std::span<const Vec3d> virtual_q, const PhysicalStepParams& params,
-                                 const PhysicalDirectSolver* direct, SharedLoops* shared) {
+                                 const PhysicalDirectSolver* direct, SharedLoops* shared,
+                                 const PhysicalRegion* region) {
   const auto t_step = Clock::now();
   PhysicalStepReport report;
   if (model.num_virtual > 0 && virtual_q.size() != size_t(model.num_virtual))
@@ -464,6 +509,10 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
   if (!direct) direct = model.direct.get();
   if (params.method == SolverSpec::Method::Direct && !direct && model.num_free > 0)
     throw std::invalid_argument("physical_step: direct method on a model built without factorisation");
+  if (region && region->all) region = nullptr;  // every vertex: the whole mesh's step
+  if (region && params.method == SolverSpec::Method::Direct)
+    throw std::invalid_argument("physical_step: the direct method iterates every vertex (no awake region)");
+  auto norm = [&] { return region ? region_residual_norm(ws, *region) : residual_norm(model, ws); };
 
   double r0 = 0, rk = 0;
   const int K = params.iterations;
@@ -481,18 +530,18 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
   // With `shared` one thread runs it all and the stages' loops are shared with a helper.
 #pragma omp parallel if (shared == nullptr)
   {
-    predict(model, ws, state, shared);
+    predict(model, ws, state, region, shared);
     double omega = 1;  // every thread follows the same Chebyshev weights
     for (int k = 0; k < max_iterations; ++k) {
       auto t0 = Clock::now();
-      local_step(model, ws, state, virtual_q, params, shared);
+      local_step(model, ws, state, virtual_q, params, region, shared);
 #pragma omp master
       {
         report.local_s += seconds_since(t0);
         t0 = Clock::now();
       }
       omega = chebyshev_weight(params, k, omega);
-      residual_and_update(model, ws, params.method, params.relaxation, omega, shared);
+      residual_and_update(model, ws, params.method, params.relaxation, omega, region, shared);
       if (params.method == SolverSpec::Method::Direct) {
 #pragma omp single
         global_direct(model, *direct, ws);  // implicit barrier
@@ -500,14 +549,14 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
       if (k + 1 < K) {
 #pragma omp master
         {
-          if (k == 0) r0 = residual_norm(model, ws);
+          if (k == 0) r0 = norm();
           report.global_s += seconds_since(t0);
         }
         continue;
       }
 #pragma omp single
       {
-        rk = residual_norm(model, ws);
+        rk = norm();
         if (k == 0) r0 = rk;
         iterations = k + 1;
         more = continue_iterating(k, rk / weight_scale, K, tolerance, max_iterations, stopping);

@@ -39,6 +39,7 @@
 namespace ebh {
 
 struct VirtualModel;
+struct PhysicalRegion;
 class SharedLoops;
 
 /// The exact global solve: A restricted to free vertices, factorised once per topology.
@@ -224,7 +225,8 @@ struct PhysicalStepReport {
   double time_s = 0;
   double local_s = 0;   ///< local steps (rotations, coupling forces)
   double global_s = 0;  ///< residual gathers and global steps
-  bool slept = false;   ///< skipped, the state held (solver.sleep; iterations 0)
+  bool slept = false;   ///< skipped, the state held (solver.sleep, an empty awake region; iterations 0)
+  int awake = -1;       ///< vertices iterated under solver.physical_region (-1: the region is off)
   /// Physical tets inverted or flat after the step (inverted_or_flat, against their signs at rest)
   /// where the backend counted them: the CUDA steps inside the tick launches. -1: not counted (the
   /// replay's observer counts them on the host, InvertedTets).
@@ -273,9 +275,12 @@ std::shared_ptr<const PhysicalDirectSolver> factorize_global_matrix(const Eigen:
 ///   direct: the factorisation the direct method uses (null: model.direct).
 ///   shared: run on the calling thread alone, the stages' loops shared with a thread that helps
 ///     (SharedLoops::help_until); null: an OpenMP team. The same bits either way.
+///   region: iterate its awake vertices only (solver/physical_region.hpp: choose_awake decided
+///     them; the others are held, v = 0; the Jacobi-type methods); null or all: every vertex.
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                                  std::span<const Vec3d> virtual_q, const PhysicalStepParams& params,
-                                 const PhysicalDirectSolver* direct = nullptr, SharedLoops* shared = nullptr);
+                                 const PhysicalDirectSolver* direct = nullptr, SharedLoops* shared = nullptr,
+                                 const PhysicalRegion* region = nullptr);
 
 struct PhysicalEnergy {
   double volume = 0;    ///< E_vol [7] (and E_det, energy/volume.hpp, where k_det > 0)

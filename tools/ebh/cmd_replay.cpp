@@ -172,8 +172,12 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
     if (world.settle_steps > 0)
       std::printf("  started from the static equilibrium under gravity (%d static steps)\n", world.settle_steps);
     if (writer.slept_steps() > 0)
-      std::printf("  %lld of %lld physical steps skipped while the physical mesh slept (solver.sleep)\n",
+      std::printf("  %lld of %lld physical steps skipped while the physical mesh slept (solver.sleep, "
+                  "or no vertex awake)\n",
                   static_cast<long long>(writer.slept_steps()), static_cast<long long>(s.steps));
+    if (writer.awake_mean() >= 0)
+      std::printf("  %.0f of %d physical vertices awake per step on average (solver.physical_region)\n",
+                  writer.awake_mean(), world.physical_mesh.num_free);
     std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
                 s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0);
     std::printf("  peak force %.3f N (%lld ticks at the %.1f N limit), max penetration %.3f mm\n",

@@ -1,0 +1,130 @@
+// The physical mesh's awake region in whole replays (solver.physical_region; schedule/simulation.cpp,
+// solver/physical_region.hpp): a resting mesh skips its steps, the tool's contact wakes the tissue
+// under it and no more, the forces stay near the whole mesh's, replays stay bitwise reproducible
+// across runs and OpenMP thread counts, and the key's errors and the CUDA backend's warning.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "schedule/replay_inputs.hpp"
+#include "schedule/scheduler.hpp"
+
+using namespace ebh;
+
+namespace {
+
+struct Capture : ReplayObserver {
+  std::vector<Vec3d> force;
+  std::vector<int> contacts;          // per tick
+  std::vector<int> slept, awake;      // per step
+  std::vector<Vec3d> x;               // the last step's
+  int free = 0;
+  void on_tick(const World&, const HapticSide& h, double) override {
+    force.push_back(h.output.force);
+    contacts.push_back(h.contact_count);
+  }
+  void on_step(const World& w, const PhysicalSide& p, double) override {
+    slept.push_back(p.slept ? 1 : 0);
+    awake.push_back(p.report.awake);
+    x = p.mesh.x;
+    free = w.physical_mesh.num_free;
+  }
+};
+
+/// tube_insert from `start` for `duration` s, async, with solver.physical_region = `d` (mm).
+Capture run(const std::string& d, double start, double duration, int threads = 0) {
+  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.physical_region=" + d}, std::nullopt,
+                                             std::nullopt, false);
+  ReplayOptions opt;
+  opt.start = start;
+  opt.duration = duration;
+  const int saved = omp_get_max_threads();
+  if (threads > 0) omp_set_num_threads(threads);
+  Capture c;
+  replay(*in.world, in.recording, opt, c);
+  omp_set_num_threads(saved);
+  return c;
+}
+
+double max_force_difference(const Capture& a, const Capture& b) {
+  double m = 0;
+  for (std::size_t n = 0; n < a.force.size() && n < b.force.size(); ++n) m = std::max(m, norm(a.force[n] - b.force[n]));
+  return m;
+}
+
+}  // namespace
+
+// The tool's approach and entry (contact from about 1.6 s): while the tool is away the mesh's steps
+// are skipped once it has come to rest; in contact the steps iterate a region, not the mesh; the
+// forces stay within two millinewtons of the whole mesh's.
+TEST(PhysicalRegionReplay, ContactWakesARegionAndTheForcesStayTheWholeMeshs) {
+  const Capture whole = run("0", 0.0, 2.5);
+  const Capture region = run("0.001", 0.0, 2.5);
+  ASSERT_EQ(whole.force.size(), region.force.size());
+  for (const int a : whole.awake) EXPECT_EQ(a, -1) << "the region is off";
+  ASSERT_FALSE(region.awake.empty());
+  EXPECT_EQ(region.awake.front(), region.free) << "the first step iterates every vertex";
+  int skipped = 0, partial = 0;
+  for (std::size_t k = 0; k < region.awake.size(); ++k) {
+    skipped += region.slept[k];
+    EXPECT_EQ(region.slept[k] != 0, region.awake[k] == 0) << "step " << k;
+    partial += region.awake[k] > 0 && region.awake[k] < region.free;
+  }
+  EXPECT_GT(skipped, 20) << "the approach must let the mesh rest";
+  EXPECT_GT(partial, 20) << "the contact must wake a region";
+  int in_contact = 0;
+  for (const int c : region.contacts) in_contact += c > 0;
+  ASSERT_GT(in_contact, 300) << "the window must hold contact";
+  EXPECT_LT(max_force_difference(whole, region), 2e-3);  // 0.7 mN when written
+}
+
+// Who is awake is decided from the replay's own deterministic state: the same bits on a second run
+// and with one OpenMP thread instead of two.
+TEST(PhysicalRegionReplay, ReplaysStayBitwiseReproducible) {
+  const Capture a = run("0.001", 1.5, 1.0, 2);
+  const Capture b = run("0.001", 1.5, 1.0, 2);
+  const Capture c = run("0.001", 1.5, 1.0, 1);
+  for (const Capture* o : {&b, &c}) {
+    ASSERT_EQ(o->force.size(), a.force.size());
+    EXPECT_EQ(std::memcmp(o->force.data(), a.force.data(), a.force.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(o->awake, a.awake);
+    ASSERT_EQ(o->x.size(), a.x.size());
+    EXPECT_EQ(std::memcmp(o->x.data(), a.x.data(), a.x.size() * sizeof(Vec3d)), 0);
+  }
+}
+
+TEST(PhysicalRegionReplay, ANegativeLengthIsAnErrorNamingTheKey) {
+  try {
+    load_replay_inputs("tube", "tube_insert", {"solver.physical_region=-1"}, std::nullopt, std::nullopt, false);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("solver.physical_region"), std::string::npos) << e.what();
+  }
+}
+
+// The direct method solves every vertex at once: a region with it is refused, naming the key.
+TEST(PhysicalRegionReplay, TheDirectMethodRefusesARegion) {
+  try {
+    load_replay_inputs("tube", "tube_insert", {"solver.physical_region=0.001", "solver.method=direct"}, std::nullopt,
+                       std::nullopt, false);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("solver.physical_region"), std::string::npos) << e.what();
+  }
+}
+
+// The CUDA backend iterates the whole physical mesh: one warning line naming the key, and no region.
+TEST(PhysicalRegionReplay, TheCudaBackendWarnsAndIgnoresIt) {
+  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.physical_region=0.001"}, std::nullopt,
+                                             std::nullopt, false, Backend::Cuda);
+  EXPECT_EQ(in.world->scene.spec.solver.physical_region, 0.0);
+  int warned = 0;
+  for (const std::string& w : in.world->scene.warnings)
+    if (w.find("key 'solver.physical_region'") != std::string::npos && w.find('\n') == std::string::npos) ++warned;
+  EXPECT_EQ(warned, 1);
+}

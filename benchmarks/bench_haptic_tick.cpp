@@ -1,8 +1,8 @@
 // The CPU haptic tick (Algorithm 2, schedule/simulation.cpp haptic_tick) over the whole
-// cholecystectomy_grasp recording (and gap_insert, whose sagging blocks strain the surface), with
-// the whole virtual mesh iterated (full) and with active regions of the named tolerances in mm
-// (solver/active_region.hpp): one async replay per benchmark, every tick timed by the tick
-// itself (HapticSide::timing). Counters: the tick's median, mean (what a replay's speed follows),
+// cholecystectomy_grasp recording (and gap_insert, whose sagging blocks strain the surface, and
+// tube_grasp, whose squeeze spreads around the tube), with the whole virtual mesh iterated (full)
+// and with active regions of the named tolerances in mm (solver/active_region.hpp): one async
+// replay per benchmark, every tick timed by the tick itself (HapticSide::timing). Counters: the tick's median, mean (what a replay's speed follows),
 // 99th and 99.9th percentiles (us), each stage's median (us; sync = reading the device and the
 // E_svc targets, with the region's update), the tick's and its sync's median on the ticks a
 // physical result arrived at (fresh: the E_svc targets paired again), and the mean number of
@@ -103,6 +103,13 @@ BENCHMARK_CAPTURE(BM_HapticTick, gap_insert_region_0_001mm, std::string("gap"), 
     ->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK_CAPTURE(BM_HapticTick, gap_insert_region_0_0003mm, std::string("gap"), std::string("gap_insert"),
                   std::string("0.0003"))
+    ->Unit(benchmark::kSecond)->Iterations(1);
+// The tube squeezed by the forceps: a grasp whose strain spreads around the tube.
+BENCHMARK_CAPTURE(BM_HapticTick, tube_grasp_full, std::string("tube_forceps"), std::string("tube_grasp"),
+                  std::string("0"))
+    ->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_HapticTick, tube_grasp_region_0_001mm, std::string("tube_forceps"), std::string("tube_grasp"),
+                  std::string("0.001"))
     ->Unit(benchmark::kSecond)->Iterations(1);
 
 }  // namespace

@@ -12,54 +12,19 @@
 #include "core/error.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"
+#include "tube_capture.hpp"
 #if EBH_HAVE_CUDA
 #include "solver/physical_mesh_cuda.hpp"
 #endif
 
 using namespace ebh;
+using namespace ebh::test;
 
 namespace {
 
-struct Capture : ReplayObserver {
-  std::vector<Vec3d> force;
-  std::vector<int> contacts;           // per tick
-  std::vector<int> slept, iterations;  // per step
-  std::vector<Vec3d> x;                // the last step's
-  void on_tick(const World&, const HapticSide& h, double) override {
-    force.push_back(h.output.force);
-    contacts.push_back(h.contact_count);
-  }
-  void on_step(const World&, const PhysicalSide& p, double) override {
-    slept.push_back(p.slept ? 1 : 0);
-    iterations.push_back(p.report.iterations);
-    x = p.mesh.x;
-  }
-  int slept_steps() const {
-    int n = 0;
-    for (const int s : slept) n += s;
-    return n;
-  }
-};
-
-/// tube_insert from `start` for `duration` s, async, with solver.sleep = `sleep` (mm, the tube's unit).
+/// tube_insert with solver.sleep = `sleep` (mm, the tube's unit).
 Capture run(const std::string& sleep, double start, double duration, int threads = 0) {
-  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.sleep=" + sleep}, std::nullopt,
-                                             std::nullopt, false);
-  ReplayOptions opt;
-  opt.start = start;
-  opt.duration = duration;
-  const int saved = omp_get_max_threads();
-  if (threads > 0) omp_set_num_threads(threads);
-  Capture c;
-  replay(*in.world, in.recording, opt, c);
-  omp_set_num_threads(saved);
-  return c;
-}
-
-double max_force_difference(const Capture& a, const Capture& b) {
-  double m = 0;
-  for (std::size_t n = 0; n < a.force.size() && n < b.force.size(); ++n) m = std::max(m, norm(a.force[n] - b.force[n]));
-  return m;
+  return run_tube_insert("solver.sleep=" + sleep, start, duration, threads);
 }
 
 }  // namespace

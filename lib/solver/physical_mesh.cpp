@@ -50,17 +50,23 @@ constexpr double kSpectrumMargin = 1.02; ///< on Lanczos' estimate of lambda_max
 void predict(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalState& state, const PhysicalRegion* region,
              SharedLoops* shared) {
   const PhysicalLocalArrays& L = model.local;
-  const std::uint8_t* awake = region ? region->awake.data() : nullptr;
+  auto start = [&](int i, bool held) {
+    const int a = model.vertex_order[i];
+    const Vec3d x = state.x[a], v = state.v[a];
+    ws.x_start[i] = x;
+    ws.s[i] = L.pinned[i] ? x : predict_position(x, v, model.gravity, model.h);
+    ws.x[i] = held ? x : iteration_start(x, v, model.h);
+    ws.x_prev[i] = ws.x[i];
+  };
+  if (region && !region->all) {
+    const std::uint8_t* awake = region->awake.data();
+    for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) start(i, L.pinned[i] || !awake[i]);
+    });
+    return;
+  }
   for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      const int a = model.vertex_order[i];
-      const Vec3d x = state.x[a], v = state.v[a];
-      const bool held = L.pinned[i] || (awake && !awake[i]);
-      ws.x_start[i] = x;
-      ws.s[i] = L.pinned[i] ? x : predict_position(x, v, model.gravity, model.h);
-      ws.x[i] = held ? x : iteration_start(x, v, model.h);
-      ws.x_prev[i] = ws.x[i];
-    }
+    for (int i = begin; i < end; ++i) start(i, L.pinned[i]);
   });
 }
 
@@ -123,6 +129,21 @@ inline Vec3d vertex_residual(const PhysicalLocalArrays& L, const PhysicalWorkspa
   return r;
 }
 
+/// Free vertex i's residual and its Jacobi-type update (residual_and_update's per-vertex body).
+[[gnu::always_inline]] inline void update_vertex(const PhysicalLocalArrays& L, PhysicalWorkspace& ws,
+                                                 Vec3d* __restrict x, int i, SolverSpec::Method method, double gamma,
+                                                 double omega, double inv_h2) {
+  const Vec3d r = vertex_residual(L, ws, x, i, inv_h2);
+  ws.r[i] = r;
+  if (method == SolverSpec::Method::Jacobi) {
+    x[i] += (gamma / L.diag[i]) * r;
+  } else if (method == SolverSpec::Method::Chebyshev) {
+    const Vec3d xk = x[i];
+    x[i] = omega * ((gamma / L.diag[i]) * r + xk - ws.x_prev[i]) + ws.x_prev[i];
+    ws.x_prev[i] = xk;
+  }
+}
+
 /// The residual r = -grad E_soft (0 on pinned vertices) fused with Alg. 1 line 9
 /// (GlobalSynthesis) for the Jacobi-type methods, per vertex (each vertex reads and writes only
 /// its own x, so the order does not change the bits); ends with a barrier.
@@ -134,27 +155,18 @@ void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, Solv
   const double inv_h2 = 1.0 / (model.h * model.h);
   const PhysicalLocalArrays& L = model.local;
   Vec3d* __restrict x = ws.x.data();
-  auto update = [&](int i) {
-    if (L.pinned[i]) { ws.r[i] = Vec3d{}; return; }  // never moves: x = x_prev = s
-    const Vec3d r = vertex_residual(L, ws, x, i, inv_h2);
-    ws.r[i] = r;
-    if (method == SolverSpec::Method::Jacobi) {
-      x[i] += (gamma / L.diag[i]) * r;
-    } else if (method == SolverSpec::Method::Chebyshev) {
-      const Vec3d xk = x[i];
-      x[i] = omega * ((gamma / L.diag[i]) * r + xk - ws.x_prev[i]) + ws.x_prev[i];
-      ws.x_prev[i] = xk;
-    }
-  };
   if (region && !region->all) {  // the awake vertices (free, the Jacobi-type methods only)
     const int* ids = region->vertices.data();
     for_chunks(shared, static_cast<int>(region->vertices.size()), kVertexChunk, [&](int begin, int end) {
-      for (int k = begin; k < end; ++k) update(ids[k]);
+      for (int k = begin; k < end; ++k) update_vertex(L, ws, x, ids[k], method, gamma, omega, inv_h2);
     });
     return;
   }
   for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) update(i);
+    for (int i = begin; i < end; ++i) {
+      if (L.pinned[i]) { ws.r[i] = Vec3d{}; continue; }  // never moves: x = x_prev = s
+      update_vertex(L, ws, x, i, method, gamma, omega, inv_h2);
+    }
   });
 }
 

@@ -13,8 +13,9 @@
 //     contact or a grasp wakes the tissue under the tool;
 //   - the neighbours (over the tets' edges) of those, kRegionRings rings deep: the region reaches
 //     ahead of the motion, so what the step moves at its border moves by less than the tolerance.
-// A step whose region is empty is skipped (the state held, as solver.sleep does). The first step,
-// and the step after one the recovery redid, iterate every vertex. Pinned vertices never wake.
+// A step whose region is empty is skipped (the state held, as solver.sleep does). The first step
+// iterates every vertex, and so does a step the recovery redoes (the direct solve), after which
+// every virtual vertex counts as seen. Pinned vertices never wake.
 //
 // Inside a step the arithmetic on an awake vertex and on a tet with an awake corner is the whole
 // mesh's (physical_mesh.cpp), so a region that holds every vertex gives the whole mesh's bits; the

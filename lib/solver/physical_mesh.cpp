@@ -58,7 +58,7 @@ void predict(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalSt
     ws.x[i] = held ? x : iteration_start(x, v, model.h);
     ws.x_prev[i] = ws.x[i];
   };
-  if (region && !region->all) {
+  if (region) {
     const std::uint8_t* awake = region->awake.data();
     for_chunks(shared, model.num_vertices, kVertexChunk, [&](int begin, int end) {
       for (int i = begin; i < end; ++i) start(i, L.pinned[i] || !awake[i]);
@@ -72,19 +72,18 @@ void predict(const PhysicalModel& model, PhysicalWorkspace& ws, const PhysicalSt
 
 /// Alg. 1 lines 6-8 (ConstraintProjection): per tet R_t and its corner forces; per virtual vertex
 /// the E_svc force k_svc (q_j - p_j) with p_j = sum w x. Ends with a barrier. With an awake region
-/// (not all): its tet blocks and virtual vertices only.
+/// (physical_step passes null for one that holds every vertex): its tet blocks and virtual vertices only.
 void local_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                 std::span<const Vec3d> virtual_q, const PhysicalStepParams& params, const PhysicalRegion* region,
                 SharedLoops* shared) {
   const TetKernelData tets{model.num_tets, model.corner_soa.data(), model.shape_grad_soa.data(),
                            model.weight_soa.data(), model.det_ratio};
-  const bool listed = region && !region->all;
   auto pair_force = [&](int j) {
     const Vec3d p = paired_point(ws.x.data(), model.local.pair_vertex[j].data(), model.pair_weight[j].data(),
                                  model.pair_count[j]);
     ws.cpl_force[j] = coupling_gradient_virtual(p, virtual_q[j], model.k_svc);  // k_svc (q - p)
   };
-  if (listed) {
+  if (region) {
     const int* blocks = region->tet_blocks.data();
     auto tet_range = [&](int k0, int k1) {
       for (int k = k0; k < k1; ++k)
@@ -155,7 +154,7 @@ void residual_and_update(const PhysicalModel& model, PhysicalWorkspace& ws, Solv
   const double inv_h2 = 1.0 / (model.h * model.h);
   const PhysicalLocalArrays& L = model.local;
   Vec3d* __restrict x = ws.x.data();
-  if (region && !region->all) {  // the awake vertices (free, the Jacobi-type methods only)
+  if (region) {  // the awake vertices (free, the Jacobi-type methods only)
     const int* ids = region->vertices.data();
     for_chunks(shared, static_cast<int>(region->vertices.size()), kVertexChunk, [&](int begin, int end) {
       for (int k = begin; k < end; ++k) update_vertex(L, ws, x, ids[k], method, gamma, omega, inv_h2);

@@ -53,10 +53,8 @@ int choose_awake(const PhysicalModel& model, const PhysicalWorkspace& ws, std::s
                  bool whole, PhysicalRegion& r) {
   const int n = model.num_vertices;
   const PhysicalLocalArrays& L = model.local;
-  ++r.steps;
   if (whole) {
     r.all = true;
-    r.awake_sum += model.num_free;
     return model.num_free;
   }
   std::fill(r.awake.begin(), r.awake.end(), std::uint8_t{0});
@@ -77,7 +75,6 @@ int choose_awake(const PhysicalModel& model, const PhysicalWorkspace& ws, std::s
   for (int i = 0; i < n; ++i)
     if (r.awake[i]) r.vertices.push_back(i);
   const int count = static_cast<int>(r.vertices.size());
-  r.awake_sum += count;
   r.all = count == model.num_free;
   if (r.all || count == 0) return count;
   // The tet blocks with an awake corner and the virtual vertices an awake vertex pairs with.

@@ -49,7 +49,6 @@ struct PhysicalRegion {
   std::vector<int> neighbour_offsets, neighbours;
   std::vector<int> frontier, next;
   std::vector<std::uint8_t> block_mark, virtual_mark;
-  std::int64_t steps = 0, awake_sum = 0;  ///< steps decided and their awake vertices (a statistic)
 };
 
 /// The region for `model` with tolerance d (m, > 0).

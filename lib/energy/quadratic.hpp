@@ -32,11 +32,12 @@ EBH_HD T tick_velocity_scale(T h, T alpha) {
   return T(1) / (h * (T(1) + alpha * h));
 }
 
-/// The physical step's first iterate x_0 = x + h v: the prediction without the external forces
-/// (docs/MODEL.md, "The iterations' start"). Started from s (Alg. 1 line 2), a step of K
-/// Jacobi-type iterations has its fixed point off the equilibrium by about (I - T^K)^-1 T^K h^2 g
-/// (T the iteration matrix): a mesh at rest keeps an unbalanced force; from x + h v, a mesh at
-/// rest in equilibrium stays exactly there.
+/// The first iterate x_0 = x + h v of a physical step and of a haptic tick's virtual-mesh
+/// iterations: the prediction without the external forces (docs/MODEL.md, "The iterations'
+/// start"). Started from s (Alg. 1 line 2, Alg. 2 line 6), K Jacobi-type iterations have their
+/// fixed point off the equilibrium by about (I - T^K)^-1 T^K h^2 g (T the iteration matrix): a
+/// mesh at rest keeps an unbalanced force; from x + h v, a mesh at rest in equilibrium stays
+/// exactly there.
 template <class T>
 EBH_HD Vec3<T> iteration_start(Vec3<T> x, Vec3<T> v, T h) {
   return x + h * v;

@@ -151,7 +151,7 @@ struct MeshDev {
 __host__ __device__ __forceinline__ int ring_slot(long long k) { return k >= 0 ? static_cast<int>(k % 3) : 3; }
 
 /// A triangle of a step's candidate list (surface_lists): its corners, its samples' rows and
-/// weight, how far its corners move in the next tick's prediction (0 but after a tick's last
+/// weight, how far its corners move to the next tick's first iterates (0 but after a tick's last
 /// step), whether the Newton call may reach it (triangle_step), and the samples of the list's
 /// triangles before it.
 struct ListedTriangle {
@@ -198,7 +198,7 @@ struct SurfaceDev {
   int* overflow = nullptr;          // host-mapped: set when a list of samples passed `capacity`
   // The contact list (block 0 after a step with a Newton call, surface_lists; read by the next
   // step's vertices, surface_contact_target): the samples that can touch the tool at any pose the
-  // call can reach, at the step's q or (after a tick's last step) at the next tick's predictions.
+  // call can reach, at the step's q or (after a tick's last step) at the next tick's first iterates.
   ListedTriangle* listed = nullptr;  // chunks * kBlock: the triangles of the chunks' lists
   int* listed_count = nullptr;       // 1: the listed triangles
   int* sample_listed = nullptr;      // capacity: the listed triangle (its index in `listed`) of each

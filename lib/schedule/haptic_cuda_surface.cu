@@ -122,10 +122,10 @@ __device__ void triangle_chunk(const MeshDev& d, const SurfaceDev& sd, const Too
 
 /// Listed triangle i of the contact list (contact_list_of) before a step's vertices, by one warp:
 /// its listed samples against the tool posed for the step at the step's iterates qin (their
-/// predictions on a tick's first step), over the lanes, then its corners' sums of their targets
+/// starts x + h v on a tick's first step), over the lanes, then its corners' sums of their targets
 /// (sum of w k_con b_c (q_c + y_proj - y) and of w k_con b_c) and their count, reduced over the
 /// lanes in a fixed order (sd.tri_sum, tri_map's w). A triangle whose rows changed since the list
-/// (stretched by the prediction) gets tri_map's z = 0: its vertices then sum its samples themselves.
+/// (stretched by the start's h v) gets tri_map's z = 0: its vertices then sum its samples themselves.
 __device__ void listed_triangle_sums(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& posed,
                                      const Vec3f* qin, bool first, int i) {
   const int lane = threadIdx.x & 31;
@@ -299,7 +299,7 @@ __device__ int nth_set_bit(unsigned long long bits, int j) {
 ///   the Newton call's candidates: those of its candidate triangles (not kContactOnly) that it can
 ///     reach (reachable); their points in TailShared::cand and d.cand_q, their weights in sd.cand_w;
 ///   the next step's contact list: those it can reach at q or, after a tick's last step, anywhere
-///     within their triangle's prediction_shift (v: the velocities after the step); in sd.contact,
+///     within their triangle's start_shift (v: the velocities after the step); in sd.contact,
 ///     each triangle's range and rows in sd.tri_map, stamped with `epoch` in sd.tri_stamp.
 /// At most sd.capacity of each (past it sd.overflow is set). Returns the candidates' count.
 __device__ int list_samples(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& pt,
@@ -322,7 +322,7 @@ __device__ int list_samples(const MeshDev& d, const SurfaceDev& sd, const ToolCo
       const Vec3d a = static_cast<Vec3d>(lt.a), b = static_cast<Vec3d>(lt.b), c = static_cast<Vec3d>(lt.c);
       lt.n = surface_sample_level(tri.w, sd.spacing, a, b, c);
       lt.w = surface_sample_weight(sd.stiffness_factor, sd.spacing, lt.n, a, b, c);
-      lt.shift = last ? prediction_shift(d, tri, q, v) : 0.f;
+      lt.shift = last ? start_shift(d, tri, q, v) : 0.f;
       // A triangle the triangle pass tested: the samples of its list (a superset of its
       // candidates); a larger one: every sample, tested below.
       if (lt.n * lt.n <= sd.masked_samples) {

@@ -15,11 +15,11 @@ namespace ebh {
 namespace {
 
 /// Vertex a's position in this step's iteration as vertex_step's edges read it: its iterate, or on
-/// a tick's first step its prediction (Alg. 2 line 6).
+/// a tick's first step its start x + h v (iteration_start).
 __device__ Vec3f iterate_of(const MeshDev& d, const Vec3f* qin, bool first, int a) {
   const Vec3f x = qin[a];
   if (!first || d.model.pinned[a]) return x;
-  return predict_position(x, d.v[a], d.gravity, d.h);
+  return iteration_start(x, d.v[a], d.h);
 }
 
 /// Whether vertex a (at its iterate s_a) is held in this step, as its own thread decides it in
@@ -120,15 +120,15 @@ __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, co
   return count;
 }
 
-/// How far a corner of triangle `tri` moves in the next tick's prediction (Alg. 2 line 6, from
-/// its q and v after a tick's last step), rounded up: the next tick's first step reads its
-/// samples there.
-__device__ float prediction_shift(const MeshDev& d, int4 tri, const Vec3f* q, const Vec3f* v) {
+/// How far a corner of triangle `tri` moves to the next tick's first iterate (x + h v, from its q
+/// and v after a tick's last step), rounded up: the next tick's first step reads its samples
+/// there.
+__device__ float start_shift(const MeshDev& d, int4 tri, const Vec3f* q, const Vec3f* v) {
   float most = 0.f;
   const int c[3] = {tri.x, tri.y, tri.z};
   for (int k = 0; k < 3; ++k) {
     if (d.model.pinned[c[k]]) continue;
-    const Vec3f x = q[c[k]], dx = predict_position(x, v[c[k]], d.gravity, d.h) - x;
+    const Vec3f x = q[c[k]], dx = iteration_start(x, v[c[k]], d.h) - x;
     const float d2 = dot(dx, dx);
     most = fmaxf(most, d2 > 0.f ? d2 * rsqrtf(d2) : 0.f);
   }
@@ -144,7 +144,7 @@ __device__ bool reachable_within(const ToolConst& t, const Posed& p, Vec3f x, fl
 /// Sample k of a listed triangle of n rows with corners ca, cb, cc (float: the tests have slack),
 /// against the tool posed in `pt`: whether the Newton call can reach it (`newton`: the triangle is
 /// the call's candidate, triangle_step) and whether the contact list holds it (the call can reach
-/// it here or, within `shift`, at the next tick's predictions).
+/// it here or, within `shift`, at the next tick's first iterates).
 __device__ void sample_flags(const ToolConst& t, const Posed& pt, int n, int k, Vec3f ca, Vec3f cb, Vec3f cc,
                              bool newton, float shift, bool& cand, bool& listed) {
   float b0, b1, b2;
@@ -173,7 +173,7 @@ __device__ void listed_sample_masks(const MeshDev& d, const SurfaceDev& sd, cons
     n = surface_sample_level(tri.w, sd.spacing, static_cast<Vec3d>(ca), static_cast<Vec3d>(cb), static_cast<Vec3d>(cc));
     if (n * n <= sd.masked_samples) {
       count = n * n;
-      shift = last ? prediction_shift(d, tri, q, v) : 0.f;
+      shift = last ? start_shift(d, tri, q, v) : 0.f;
     }
   }
   int end = count;  // inclusive scan: this lane's samples are [end - count, end) of the sequence
@@ -214,7 +214,7 @@ __device__ void listed_sample_masks(const MeshDev& d, const SurfaceDev& sd, cons
 ///     superset of the CPU's triangle test (candidate_triangles: the bounding sphere against
 ///     newton_reach_bound, float with slack);
 ///   listed (called): candidate, or (last) whether the call can reach one of its samples at the
-///     next tick's predictions (each within prediction_shift of its sample here; v: the velocities
+///     next tick's first iterates (each within start_shift of its sample here; v: the velocities
 ///     after the step), for the next step's contact list;
 ///   deep (last): whether one of its samples may lie in the physical tool (triangle_chunk then
 ///     measures them: their depth is surface_penetration_depth's).
@@ -234,7 +234,7 @@ __device__ void triangle_step(const MeshDev& d, const SurfaceDev& sd, const Tool
     candidate = maybe_within(t, posed, mf, reach_bound(t, r) + Rf * sd.inv_reach);
     listed = candidate;
     if (last && !listed) {
-      const float shift = prediction_shift(d, tri, q, v);
+      const float shift = start_shift(d, tri, q, v);
       listed = shift > 0.f && maybe_within(t, posed, mf, reach_bound(t, r + shift) + (Rf + shift) * sd.inv_reach);
     }
   }

@@ -100,10 +100,11 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
   int4 it0[kEdgeChunk];  // the first chunk of edge items: every row of edge_ell has one
 #pragma unroll
   for (int u = 0; u < kEdgeChunk; ++u) it0[u] = __ldg(&d.edge_ell[u * d.m + j]);
-  Vec3f s, p;
+  Vec3f s, p, q0 = q_in;  // q0: the tick's first iterate, x + h v (iteration_start)
   if (first) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
     d.q_start[j] = q_in;
     s = pinned ? q_in : predict_position(q_in, d.v[j], d.gravity, d.h);
+    q0 = pinned ? q_in : iteration_start(q_in, d.v[j], d.h);
     if (p_ready) {  // blended by this block ahead (vertex_blocks)
       p = d.p[j];
     } else {
@@ -115,7 +116,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
       d.held[j] = 0;
     } else if (!kAhead && in.grasp > 0) {
       const Collider<double>& hb = d.grasp_boxes[in.grasp - 1];
-      const Vec3d ls = apply_inverse(posed.frame, static_cast<Vec3d>(s));
+      const Vec3d ls = apply_inverse(posed.frame, static_cast<Vec3d>(q0));
       const double sd = signed_distance_local(hb, ls);
       const bool grasp = grasp_reaches(sd, t.soft_margin);
       if (grasp) d.grasp_local[j] = grasp_point(hb, ls, sd, t.soft_margin, t.eta).local;  // eq. [10]
@@ -125,7 +126,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
     s = d.s[j];
     p = d.p[j];
   }
-  const Vec3f q = first ? s : q_in;  // this iteration's iterate
+  const Vec3f q = first ? q0 : q_in;  // this iteration's iterate
   const bool held = d.held[j];
   Vec3f kt{};
   float ck = 0.f;
@@ -146,10 +147,10 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
   if (!pinned) {
     const float mh = mass * d.inv_h2;
     r = inertia_coupling_residual(mh, s, q, p, d.k_svc);  // virtual_jacobi.hpp
-    auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its prediction)
+    auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its start, x + h v)
       const Vec3f x = qin[a];
       if (!first || d.model.pinned[a]) return x;
-      return predict_position(x, d.v[a], d.gravity, d.h);
+      return iteration_start(x, d.v[a], d.h);
     };
     // The incident edges (edge_ell) in chunks of kEdgeChunk, every load of a chunk issued before
     // its math (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).

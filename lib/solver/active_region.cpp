@@ -279,7 +279,7 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
       ws.p[j] = coupling_point(r, j, a);
       ws.q_start[j] = state.q[j];
       ws.s[j] = predict_position(state.q[j], state.v[j], model.gravity, h);
-      state.q[j] = ws.s[j];
+      state.q[j] = iteration_start(state.q[j], state.v[j], h);
     }
   });
 }

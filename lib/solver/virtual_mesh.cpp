@@ -195,9 +195,9 @@ void virtual_begin_tick(const VirtualModel& model, VirtualWorkspace& ws, Virtual
     for (int j = begin; j < end; ++j) {
       ws.p[j] = paired_point(physical_x.data(), model.pair_vertex[j].data(), model.pair_weight[j].data(),
                              model.pair_count[j]);                        // Alg. 2 line 1: E_svc targets
-      ws.q_start[j] = state.q[j];                                         // Alg. 2 line 6: prediction
+      ws.q_start[j] = state.q[j];                                         // Alg. 2 line 6: prediction, start
       ws.s[j] = model.pinned[j] ? state.q[j] : predict_position(state.q[j], state.v[j], model.gravity, h);
-      state.q[j] = ws.s[j];
+      state.q[j] = model.pinned[j] ? state.q[j] : iteration_start(state.q[j], state.v[j], h);
     }
   });
 }

@@ -50,7 +50,7 @@ __global__ void begin_kernel(VirtualDevice d, Vec3f* q, float h) {
   const Vec3f sj = d.model.pinned[j] ? qj : predict_position(qj, d.v[j], d.gravity, h);                      // Alg. 2 l. 6
   d.q_start[j] = qj;
   d.s[j] = sj;
-  q[j] = sj;
+  q[j] = d.model.pinned[j] ? qj : iteration_start(qj, d.v[j], h);  // the iterations' start
 }
 
 __global__ void scatter_kernel(VirtualDevice d, const ContactSum* c, int count) {

@@ -100,7 +100,8 @@ VirtualState make_virtual_state(const VirtualModel& model);  ///< rest, at rest
 VirtualWorkspace make_virtual_workspace(const VirtualModel& model);
 
 /// Alg. 2 lines 1 and 6: E_svc targets p_j = sum_k w x_k from the latest visible physical
-/// positions physical_x (#n), prediction s = q + h v + h^2 g, and q <- s (pinned: q stays).
+/// positions physical_x (#n), prediction s = q + h v + h^2 g, and the iterations' start
+/// q <- q + h v (iteration_start; pinned: q stays).
 void virtual_begin_tick(const VirtualModel& model, VirtualWorkspace& ws, VirtualState& state,
                         std::span<const Vec3d> physical_x, double h);
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstring>
 
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
@@ -217,6 +218,9 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance, int
   r.edges.reserve(E);
   r.p_from.assign(m, Vec3d{});
   r.p_to.assign(m, Vec3d{});
+  r.moving_targets.reserve(m);
+  r.left.reserve(m);
+  r.in_left.assign(m, 0);
   return r;
 }
 
@@ -246,6 +250,9 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
     }
     if (first) r.p_from = r.p_to;
     r.target_spread = std::sqrt(spread2);
+    r.moving_targets.clear();
+    for (int j = 0; j < m; ++j)
+      if (std::memcmp(&r.p_to[j], &r.p_from[j], sizeof(Vec3d)) != 0) r.moving_targets.push_back(j);
     r.blend_before = first ? a : 0.0;
   } else {
     r.blend_before = r.blend;
@@ -253,14 +260,26 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
   r.blend = a;
 
   add_seeds(model, r, state, seeds, v_scale);
-  // The inactive vertices move with their targets (only q: active_region.hpp).
+  // The inactive vertices move with their targets (only q: active_region.hpp). On a new physical
+  // result every one does (the targets' pair changed); between results only those whose target
+  // moves, and those that left the region since (a vertex whose p_from and p_to are the same bits
+  // stands where that pass, or the last one since it left, put it, whatever the blend).
   r.inactive_moved = std::fabs(a - r.blend_before) * r.target_spread;
   if (a != r.blend_before) {
-#pragma omp parallel if (!ws.shared && team)
-    for_chunks(ws.shared, m, kVertexChunk, [&](int begin, int end) {
-      for (int j = begin; j < end; ++j)
+    const int count = fresh ? m : static_cast<int>(r.moving_targets.size());
+    const int* list = fresh ? nullptr : r.moving_targets.data();
+#pragma omp parallel if (!ws.shared && virtual_team(model, count))
+    for_chunks(ws.shared, count, kVertexChunk, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) {
+        const int j = list ? list[i] : i;
         if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(r, j, a);
+      }
     });
+    for (const int j : r.left) {
+      if (!fresh && !r.active[j]) state.q[j] = follow_target(r, j, a);
+      r.in_left[j] = 0;
+    }
+    r.left.clear();
   }
   if (r.check_ticks <= 1) {
     if (fresh) add_strained(model, ws, r, state, v_scale, 0);  // once per physical result
@@ -268,6 +287,11 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
     add_strained(model, ws, r, state, v_scale, static_cast<int>(r.checked_ticks++ % r.check_ticks));
   }
   retire_and_spread(model, r, state, seeds, v_scale);
+  for (const int j : r.removed)
+    if (!r.in_left[j]) {
+      r.in_left[j] = 1;
+      r.left.push_back(j);
+    }
   if (!r.added.empty() || !r.removed.empty()) update_lists(model, r);
 
   // Alg. 2 line 6 on the active vertices, as virtual_begin_tick.

@@ -92,6 +92,14 @@ struct ActiveRegion {
   std::vector<int> hot;                   ///< this tick's hot active vertices (moving, displaced by more than tol)
   std::vector<int> vertex_scratch, edge_scratch;  ///< update_lists' merges
   std::vector<Vec3d> p_from, p_to;        ///< #m E_svc targets of PhysicalTargets::x_from and x_to
+  /// the vertices whose p_to differs from p_from (bitwise), in index order: the only inactive ones
+  /// the blend moves (the physical mesh's awake region holds the rest of it still)
+  std::vector<int> moving_targets;
+  /// the vertices that left the region since the last pass over every inactive vertex (once each,
+  /// flagged in in_left): they keep their q, which p + offset gives back only to round-off until
+  /// the next pass over the inactive vertices writes it
+  std::vector<int> left;
+  std::vector<std::uint8_t> in_left;      ///< #m
   std::int64_t targets_version = INT64_MIN;  ///< PhysicalTargets::version of p_from and p_to
   double blend = 1;                       ///< this tick's PhysicalTargets::blend
   double blend_before = 1;                ///< the blend the inactive vertices stood at before this tick

@@ -309,6 +309,57 @@ TEST(ActiveRegion, AnInterpolatedBlendReusesThePairingOfTheResultBefore) {
   EXPECT_EQ(reuse.region.vertices, repair.region.vertices);
 }
 
+/// Between physical results the blend moves only the inactive vertices whose targets move
+/// (ActiveRegion::moving_targets: here those on the box's lower half, the physical mesh's upper
+/// half held to the bit, as its awake region holds resting vertices) and those that left the
+/// region since the last pass (ActiveRegion::left). After every tick's start each other inactive
+/// vertex stands exactly where a pass over every inactive vertex puts it: its target at the tick's
+/// blend plus its offset. The press brings vertices in, the release lets them leave between
+/// results.
+TEST(ActiveRegion, BetweenResultsTheBlendMovesOnlyMovingTargetsAndVerticesThatLeft) {
+  ActiveRun run(1e-5, true);
+  const VirtualModel& vm = run.sim.vm;
+  const int m = vm.num_vertices;
+  const ActiveRegion& r = run.region;
+  std::vector<std::vector<Vec3d>> results{run.sim.pm.rest};
+  for (int k = 1; k <= 12; ++k) {
+    std::vector<Vec3d> x(run.sim.pm.rest);
+    for (Vec3d& p : x)  // a bulge of the lower half; the upper half, the one pressed, holds still
+      if (p.z < 0.012) p = p + (p.z * (0.012 - p.z) / (0.006 * 0.006)) * Vec3d{0.00002 * k, 0, -0.00001 * k};
+    results.push_back(std::move(x));
+  }
+  const std::vector<ContactTarget> pressed = top_face_pressed(run.sim);
+  std::vector<int> pressed_seeds;
+  for (const ContactTarget& c : pressed) pressed_seeds.push_back(c.vertex);
+  std::size_t most_left = 0, moving = 0;
+  int checked = 0, off = 0;
+  for (int k = 1; k <= 12; ++k)
+    for (int tick = 1; tick <= 4; ++tick) {
+      const bool press = k <= 3;
+      const PhysicalTargets targets{results[k - 1], results[k], tick / 4.0, k, k - 1};
+      virtual_begin_tick_active(vm, run.vw, run.region, run.vs, targets, 0.001,
+                                press ? std::span<const int>(pressed_seeds) : std::span<const int>());
+      if (k >= 2) {  // from the first pass over every inactive vertex (the first result has none)
+        moving = std::max(moving, r.moving_targets.size());
+        most_left = std::max(most_left, r.left.size());
+        for (int j = 0; j < m; ++j) {
+          if (r.active[j] || vm.pinned[j] || r.in_left[j]) continue;
+          const Vec3d want = (r.blend >= 1.0 ? r.p_to[j] : lerp(r.p_from[j], r.p_to[j], r.blend)) + r.offset[j];
+          ++checked;
+          off += std::memcmp(&run.vs.q[j], &want, sizeof(Vec3d)) != 0;
+        }
+      }
+      for (int i = 0; i < 4; ++i)
+        virtual_iteration_active(vm, run.vw, run.region, run.vs, press ? std::span<const ContactTarget>(pressed)
+                                                                        : std::span<const ContactTarget>());
+      virtual_end_tick_active(vm, run.vw, run.region, run.vs);
+    }
+  EXPECT_EQ(off, 0) << "of " << checked << " inactive vertices checked";
+  EXPECT_GT(moving, 0u);
+  EXPECT_LT(moving, static_cast<std::size_t>(m) / 2 + m / 4);  // the upper half's targets hold still
+  EXPECT_GT(most_left, 0u);                                    // vertices left between results
+}
+
 TEST(ActiveRegion, AContactOnAnInactiveVertexActivatesIt) {
   ActiveRun run(1e-5, false);
   const std::vector<ContactTarget> contacts = top_face_pressed(run.sim);

@@ -2,8 +2,9 @@
 //
 // A run of ticks is one cooperative launch of ticks_kernel, every block resident. A tick is
 // virtual_iterations steps; step s, per virtual vertex j (vertex_step, one thread each):
-//   begin (first)   q_start, prediction s (Alg. 2 l. 6) and first iterate x + h v, E_svc target p from the blended physical
-//                   result (l. 1), the grasp event of the tick (§5.2, eq. [10])
+//   begin (first)   q_start, prediction s (Alg. 2 l. 6) and first iterate x + h v, E_svc target p
+//                   from the blended physical result (l. 1), the grasp event of the tick (§5.2,
+//                   eq. [10])
 //   contact         E_con [3] target of j against the virtual tool held fixed (l. 10): the grasp
 //                   target of a held vertex, else the closest point of the deepest collider
 //   iteration       one Jacobi step of E_k + E_svc + E_con + E_s (l. 11-16)

@@ -14,6 +14,7 @@
 #include "core/error.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"
+#include "tube_capture.hpp"
 
 using namespace ebh;
 
@@ -138,22 +139,13 @@ TEST(ActiveRegion, SurfaceContactPullsOnlyActiveTriangleCorners) {
 }
 
 TEST(ActiveRegion, ANegativeToleranceIsAnErrorNamingTheKey) {
-  try {
-    load_replay_inputs("tube", "tube_insert", {"solver.active_region=-1"}, std::nullopt, std::nullopt, false);
-    FAIL() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("solver.active_region"), std::string::npos) << e.what();
-  }
+  test::expect_load_error_naming({"solver.active_region=-1"}, "solver.active_region");
 }
 
 TEST(ActiveRegion, TheCudaBackendWarnsAndIgnoresIt) {
   // The device tick iterates the whole virtual mesh (docs/MODEL.md): a scene that asks for a region
   // gets a one-line warning naming the key, and the world records that none is used.
-  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.active_region=0.01"}, std::nullopt,
-                                             std::nullopt, false, Backend::Cuda);
+  const LoadedReplay in = test::load_tube_insert("solver.active_region=0.01", Backend::Cuda);
   EXPECT_EQ(in.world->scene.spec.solver.active_region, 0.0);
-  int warned = 0;
-  for (const std::string& w : in.world->scene.warnings)
-    if (w.find("key 'solver.active_region'") != std::string::npos && w.find('\n') == std::string::npos) ++warned;
-  EXPECT_EQ(warned, 1);
+  EXPECT_EQ(test::one_line_warnings_naming(in, "solver.active_region"), 1);
 }

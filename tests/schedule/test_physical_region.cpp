@@ -57,42 +57,22 @@ TEST(PhysicalRegionReplay, ReplaysStayBitwiseReproducible) {
   const Capture a = run("0.001", 1.5, 1.0, 2);
   const Capture b = run("0.001", 1.5, 1.0, 2);
   const Capture c = run("0.001", 1.5, 1.0, 1);
-  for (const Capture* o : {&b, &c}) {
-    ASSERT_EQ(o->force.size(), a.force.size());
-    EXPECT_EQ(std::memcmp(o->force.data(), a.force.data(), a.force.size() * sizeof(Vec3d)), 0);
-    EXPECT_EQ(o->awake, a.awake);
-    ASSERT_EQ(o->x.size(), a.x.size());
-    EXPECT_EQ(std::memcmp(o->x.data(), a.x.data(), a.x.size() * sizeof(Vec3d)), 0);
-  }
+  expect_same_bits(a, b);
+  expect_same_bits(a, c);
 }
 
 TEST(PhysicalRegionReplay, ANegativeLengthIsAnErrorNamingTheKey) {
-  try {
-    load_replay_inputs("tube", "tube_insert", {"solver.physical_region=-1"}, std::nullopt, std::nullopt, false);
-    FAIL() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("solver.physical_region"), std::string::npos) << e.what();
-  }
+  expect_load_error_naming({"solver.physical_region=-1"}, "solver.physical_region");
 }
 
 // The direct method solves every vertex at once: a region with it is refused, naming the key.
 TEST(PhysicalRegionReplay, TheDirectMethodRefusesARegion) {
-  try {
-    load_replay_inputs("tube", "tube_insert", {"solver.physical_region=0.001", "solver.method=direct"}, std::nullopt,
-                       std::nullopt, false);
-    FAIL() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("solver.physical_region"), std::string::npos) << e.what();
-  }
+  expect_load_error_naming({"solver.physical_region=0.001", "solver.method=direct"}, "solver.physical_region");
 }
 
 // The CUDA backend iterates the whole physical mesh: one warning line naming the key, and no region.
 TEST(PhysicalRegionReplay, TheCudaBackendWarnsAndIgnoresIt) {
-  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.physical_region=0.001"}, std::nullopt,
-                                             std::nullopt, false, Backend::Cuda);
+  const LoadedReplay in = load_tube_insert("solver.physical_region=0.001", Backend::Cuda);
   EXPECT_EQ(in.world->scene.spec.solver.physical_region, 0.0);
-  int warned = 0;
-  for (const std::string& w : in.world->scene.warnings)
-    if (w.find("key 'solver.physical_region'") != std::string::npos && w.find('\n') == std::string::npos) ++warned;
-  EXPECT_EQ(warned, 1);
+  EXPECT_EQ(one_line_warnings_naming(in, "solver.physical_region"), 1);
 }

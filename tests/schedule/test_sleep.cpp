@@ -72,38 +72,24 @@ TEST(Sleeping, ReplaysStayBitwiseReproducible) {
   const Capture b = run("0.01", 0.0, 1.5, 2);
   const Capture c = run("0.01", 0.0, 1.5, 1);
   ASSERT_GT(a.slept_steps(), 0);
-  for (const Capture* o : {&b, &c}) {
-    ASSERT_EQ(o->force.size(), a.force.size());
-    EXPECT_EQ(std::memcmp(o->force.data(), a.force.data(), a.force.size() * sizeof(Vec3d)), 0);
-    EXPECT_EQ(o->slept, a.slept);
-    ASSERT_EQ(o->x.size(), a.x.size());
-    EXPECT_EQ(std::memcmp(o->x.data(), a.x.data(), a.x.size() * sizeof(Vec3d)), 0);
-  }
+  expect_same_bits(a, b);
+  expect_same_bits(a, c);
 }
 
 TEST(Sleeping, ANegativeLengthIsAnErrorNamingTheKey) {
-  try {
-    load_replay_inputs("tube", "tube_insert", {"solver.sleep=-1"}, std::nullopt, std::nullopt, false);
-    FAIL() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("solver.sleep"), std::string::npos) << e.what();
-  }
+  expect_load_error_naming({"solver.sleep=-1"}, "solver.sleep");
 }
 
 // The CUDA backend sleeps where its build has graph conditional nodes (CUDA 13; the device
 // decides: tests/cuda, CudaReplay.SleepingSkipsTheStepsOfARestingMesh); other builds warn once and
 // run every step.
 TEST(Sleeping, TheCudaBackendSleepsWhereItsBuildCanAndWarnsElsewhere) {
-  const LoadedReplay in = load_replay_inputs("tube", "tube_insert", {"solver.sleep=0.01"}, std::nullopt, std::nullopt,
-                                             false, Backend::Cuda);
+  const LoadedReplay in = load_tube_insert("solver.sleep=0.01", Backend::Cuda);
 #if EBH_HAVE_CUDA
   const bool can = CudaPhysicalSolver::can_sleep();
 #else
   const bool can = false;
 #endif
   EXPECT_EQ(in.world->scene.spec.solver.sleep, can ? 1e-5 : 0.0);  // 0.01 mm
-  int warned = 0;
-  for (const std::string& w : in.world->scene.warnings)
-    if (w.find("key 'solver.sleep'") != std::string::npos && w.find('\n') == std::string::npos) ++warned;
-  EXPECT_EQ(warned, can ? 0 : 1);
+  EXPECT_EQ(one_line_warnings_naming(in, "solver.sleep"), can ? 0 : 1);
 }

@@ -16,7 +16,7 @@ namespace {
 
 constexpr std::uint8_t kSeed = 1;  // ActiveRegion::mark: a seed of this tick
 constexpr std::uint8_t kMoving = 2;  // ActiveRegion::mark: its displacement changed by more than tol / kCalmTicks
-constexpr std::uint8_t kNextToHot = 4;  // ActiveRegion::mark: a neighbour of a hot (moving, displaced by more than tol) vertex
+constexpr std::uint8_t kNearHot = 4;  // ActiveRegion::mark: within kSpreadRings edges of a hot (moving, displaced by more than tol) vertex
 
 /// The other end of the incidence entry k (virtual_mesh.hpp: 2 e + end).
 inline int neighbour(const VirtualModel& model, int k) {
@@ -137,11 +137,11 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
 }
 
 /// The rest of who is active this tick (active_region.hpp), over the region before the seeds
-/// joined: the neighbours of hot vertices join; a vertex that has stayed calm for kCalmTicks
-/// leaves and stands where it is (its displacement joins its offset). Three passes: the
-/// displacements (marking the moving and hot vertices, listing the hot), the hot vertices'
-/// neighbours (joining, marked as next to a hot vertex), then each vertex's stay or leave from its
-/// own marks alone. Reads the last tick's q of the active vertices; appends to r.added and
+/// joined: the vertices within kSpreadRings edges of a hot vertex join; a vertex that has stayed
+/// calm for kCalmTicks leaves and stands where it is (its displacement joins its offset). Three
+/// passes: the displacements (marking the moving and hot vertices, listing the hot), the rings
+/// around the hot vertices (joining, marked as near a hot vertex), then each vertex's stay or
+/// leave from its own marks alone. Reads the last tick's q of the active vertices; appends to r.added and
 /// r.removed; clears the marks.
 void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
                        double v_scale) {
@@ -158,14 +158,21 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
     }
     r.displacement[j] = d;
   }
-  for (const int j : r.hot)
-    for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
-      const int o = neighbour(model, k);
-      activate(model, r, o);
-      if (r.active[o]) r.mark[o] |= kNextToHot;  // not a pinned one: every marked vertex is listed
-    }
+  r.frontier.assign(r.hot.begin(), r.hot.end());
+  for (int ring = 0; ring < kSpreadRings && !r.frontier.empty(); ++ring) {
+    r.next.clear();
+    for (const int j : r.frontier)
+      for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
+        const int o = neighbour(model, k);
+        activate(model, r, o);
+        if (!r.active[o] || (r.mark[o] & kNearHot)) continue;  // pinned, or reached already
+        r.mark[o] |= kNearHot;  // every marked vertex is listed (not a pinned one)
+        r.next.push_back(o);
+      }
+    r.frontier.swap(r.next);
+  }
   for (const int j : r.vertices) {
-    if (r.mark[j] & (kSeed | kMoving | kNextToHot)) {
+    if (r.mark[j] & (kSeed | kMoving | kNearHot)) {
       r.calm[j] = 0;
     } else if (++r.calm[j] >= kCalmTicks) {
       r.active[j] = 0;
@@ -174,7 +181,7 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
   }
   for (const int j : seeds) r.mark[j] = 0;
   for (const int j : r.vertices) r.mark[j] = 0;
-  for (const int j : r.added) r.mark[j] = 0;  // the hot vertices' neighbours that joined
+  for (const int j : r.added) r.mark[j] = 0;  // the vertices near hot ones that joined
   for (std::size_t i = seeded; i < r.added.size(); ++i) join(r, state, r.added[i], v_scale, true);
   for (const int j : r.removed) r.offset[j] += r.displacement[j];  // q stays: it stands where it settled
 }
@@ -215,6 +222,8 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance, int
   r.added.reserve(m);
   r.removed.reserve(m);
   r.hot.reserve(m);
+  r.frontier.reserve(m);
+  r.next.reserve(m);
   r.edges.reserve(E);
   r.p_from.assign(m, Vec3d{});
   r.p_to.assign(m, Vec3d{});

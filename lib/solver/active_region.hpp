@@ -7,9 +7,10 @@
 // Who is active (decided at the start of each tick, from the last tick's q and this tick's p):
 //   - the seeds the caller passes (the schedule: vertices the virtual tool may reach this tick,
 //     grasped vertices, the corners of surface-contact triangles near the tool);
-//   - every neighbour (over the virtual mesh's edges) of a hot active vertex (below: moving, and
-//     displaced from where it would stand inactive by more than `tolerance`): the region grows a
-//     ring a tick where the tool's push spreads;
+//   - every vertex within kSpreadRings edges (over the virtual mesh's edges) of a hot active
+//     vertex (below: moving, and displaced from where it would stand inactive by more than
+//     `tolerance`): the region grows where the tool's push spreads, and a vertex that moves by
+//     more than the tolerance is never held by a neighbour fixed on its target;
 //   - any vertex a contact target names during the tick (activated at once, counted: the seeds
 //     should have held it);
 //   - every inactive vertex that its edges and its E_svc spring pull off where it stands: the
@@ -21,8 +22,8 @@
 // settled off its E_svc point (a strained surface) is not displaced. A vertex is *moving* when its
 // displacement changed by more than tol / kCalmTicks since the last tick, *hot* when it is moving
 // and displaced by more than tol.
-// Hysteresis: an active vertex leaves only when it is not a seed, not moving, and not next to a hot
-// vertex for kCalmTicks ticks in a row; it then stays where it stands: its offset from its E_svc
+// Hysteresis: an active vertex leaves only when it is not a seed, not moving, and not near (within
+// kSpreadRings edges of) a hot vertex for kCalmTicks ticks in a row; it then stays where it stands: its offset from its E_svc
 // point is kept (no jump). Pinned vertices are never active.
 //
 // An inactive vertex stands at its E_svc point p_j lowered by its own weight's stretch of the
@@ -49,7 +50,16 @@
 
 namespace ebh {
 
-/// Ticks an active vertex must stay calm (not moving, not a seed, no hot neighbour) before it
+/// Rings of neighbours around a hot vertex that join the region with it. With one, a hot vertex's
+/// neighbours join but theirs stand fixed on their targets: the tissue next to the push is clamped
+/// one edge away, stiffer than the full solve's, and on the gap's stick-slip recordings it held the
+/// hook through slips the full solve lets happen (gap_insert 0.038 / 0.38 N RMS / 99.9th
+/// percentile against the whole mesh at 0.001 mm; 0.0099 / 0.089 N with two rings, at about the
+/// same cost; docs/PERFORMANCE.md, "CPU: the active region"). The physical region spreads as far
+/// (kRegionRings).
+inline constexpr int kSpreadRings = 2;
+
+/// Ticks an active vertex must stay calm (not moving, not a seed, not near a hot vertex) before it
 /// leaves the region: 2 physical periods at the default rates, so a vertex the tool keeps nudging
 /// does not flicker in and out. A vertex is moving when its displacement changes by more than
 /// tol / kCalmTicks in a tick: one that crept at that rate through its calm ticks moved at most tol.
@@ -87,9 +97,10 @@ struct ActiveRegion {
   std::vector<int> edges;                 ///< the edges with an active end, in index order
   std::vector<std::uint8_t> edge_ends;    ///< #E active ends of each edge (0, 1, 2)
   // Scratch.
-  std::vector<std::uint8_t> mark;         ///< #m per-tick flags (seed, moving, next to a hot vertex), zero between uses
+  std::vector<std::uint8_t> mark;         ///< #m per-tick flags (seed, moving, near a hot vertex), zero between uses
   std::vector<int> added, removed;        ///< vertices entering and leaving this tick
   std::vector<int> hot;                   ///< this tick's hot active vertices (moving, displaced by more than tol)
+  std::vector<int> frontier, next;        ///< the spread's rings around the hot vertices
   std::vector<int> vertex_scratch, edge_scratch;  ///< update_lists' merges
   std::vector<Vec3d> p_from, p_to;        ///< #m E_svc targets of PhysicalTargets::x_from and x_to
   /// the vertices whose p_to differs from p_from (bitwise), in index order: the only inactive ones

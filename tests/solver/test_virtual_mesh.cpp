@@ -200,14 +200,28 @@ TEST(ActiveRegion, InactiveVerticesStandWhereTheySettledAndTheRegionFollowsTheDi
   EXPECT_GT(active, static_cast<int>(seeds.size()));
   EXPECT_LT(active, m);
   expect_lists_match_flags(run.region, vm);
-  // Every active vertex displaced by more than the tolerance has only active (or pinned) neighbours.
-  for (const int j : run.region.vertices)
-    if (norm(run.vs.q[j] - vm.rest[j]) > run.region.tolerance)
-      for (int k = vm.edge_offsets[j]; k < vm.edge_offsets[j + 1]; ++k) {
-        const auto& e = vm.edges[vm.edge_entries[k] >> 1];
-        const int o = e[0] == j ? e[1] : e[0];
-        EXPECT_TRUE(run.region.active[o] || vm.pinned[o]) << j << " -> " << o;
-      }
+  // Every active vertex displaced by more than the tolerance has only active (or pinned) vertices
+  // within kSpreadRings edges: none of its neighbours is held by a vertex fixed on its target.
+  auto neighbours = [&](int j) {
+    std::vector<int> out;
+    for (int k = vm.edge_offsets[j]; k < vm.edge_offsets[j + 1]; ++k) {
+      const auto& e = vm.edges[vm.edge_entries[k] >> 1];
+      out.push_back(e[0] == j ? e[1] : e[0]);
+    }
+    return out;
+  };
+  static_assert(kSpreadRings == 2);
+  int displaced = 0;
+  for (const int j : run.region.vertices) {
+    if (norm(run.vs.q[j] - vm.rest[j]) <= run.region.tolerance) continue;
+    ++displaced;
+    for (const int o : neighbours(j)) {
+      EXPECT_TRUE(run.region.active[o] || vm.pinned[o]) << j << " -> " << o;
+      if (vm.pinned[o]) continue;
+      for (const int p : neighbours(o)) EXPECT_TRUE(run.region.active[p] || vm.pinned[p]) << j << " -> " << o << " -> " << p;
+    }
+  }
+  EXPECT_GT(displaced, 0);
   // Released (no contact, no seed), the region empties once every vertex has been calm for
   // kCalmTicks, and every vertex is back on its target: it left where it settled, and settled
   // there (its offset is round-off, far below the tolerance), and it stays there.

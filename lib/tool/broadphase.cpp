@@ -27,6 +27,7 @@ void VertexGrid::rebuild(std::span<const Vec3d> q_ref, double margin) {
   for (int k = 0; k < 3; ++k) dims_[k] = std::max(1, static_cast<int>(std::floor(ext[k] / cell)) + 1);
   const std::size_t cells = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
   cell_start_.assign(cells + 1, 0);
+  if (cell_pass_.size() < cells) cell_pass_.resize(cells, 0);  // entries kept: all below the next pass
   vertex_cell_.resize(m);
   for (std::size_t i = 0; i < m; ++i) {
     int c[3];

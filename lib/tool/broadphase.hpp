@@ -38,8 +38,12 @@ class VertexGrid {
   /// margin + extra)
   /// is true (a conservative per-cell test). Vertices may repeat across calls; the caller dedupes.
   /// `q` (#m current positions) is used to check the invariant on visited vertices.
+  /// `pass` (from next_pass(), 0: none): calls of one pass skip the cells an earlier call of it
+  /// walked, so the overlapping boxes that cover one collider (cover_collider) test each cell and
+  /// visit its vertices once; every call of a pass must use the same keep_cell and extra.
   template <class CellTest, class Visit>
-  void query(Vec3d lo, Vec3d hi, double extra, std::span<const Vec3d> q, CellTest&& keep_cell, Visit&& visit) const;
+  void query(Vec3d lo, Vec3d hi, double extra, std::span<const Vec3d> q, CellTest&& keep_cell, Visit&& visit,
+             std::uint32_t pass = 0) const;
 
   /// max_i |q_i - q_ref_i|, O(m): the invariant check.
   double max_displacement(std::span<const Vec3d> q) const;
@@ -52,6 +56,8 @@ class VertexGrid {
   /// Per-vertex stamps for de-duplication by callers (#m, zero after rebuild).
   std::vector<std::uint32_t>& stamps() const { return stamps_; }
   std::uint32_t next_stamp() const { return ++stamp_; }
+  /// A new pass for query (never 0).
+  std::uint32_t next_pass() const { return ++pass_; }
 
  private:
   std::vector<Vec3d> q_ref_;       // #m reference positions
@@ -60,6 +66,8 @@ class VertexGrid {
   std::vector<int> vertex_cell_;   // #m scratch of rebuild
   mutable std::vector<std::uint32_t> stamps_;  // #m
   mutable std::uint32_t stamp_ = 0;
+  mutable std::vector<std::uint32_t> cell_pass_;  // #cells the last pass that walked each cell
+  mutable std::uint32_t pass_ = 0;                // passes only grow: a cell's entry is never a future pass
   mutable bool violated_ = false;
   Vec3d origin_{};
   int dims_[3] = {0, 0, 0};
@@ -70,7 +78,7 @@ class VertexGrid {
 
 template <class CellTest, class Visit>
 void VertexGrid::query(Vec3d lo, Vec3d hi, double extra, std::span<const Vec3d> q, CellTest&& keep_cell,
-                       Visit&& visit) const {
+                       Visit&& visit, std::uint32_t pass) const {
   if (check_all_ && max_displacement(q) > margin_) violated_ = true;
   const double grow = margin_ + extra;
   int c0[3], c1[3];
@@ -86,6 +94,10 @@ void VertexGrid::query(Vec3d lo, Vec3d hi, double extra, std::span<const Vec3d> 
       for (int x = c0[0]; x <= c1[0]; ++x) {
         const int cell = (z * dims_[1] + y) * dims_[0] + x;
         if (cell_start_[cell] == cell_start_[cell + 1]) continue;
+        if (pass != 0) {
+          if (cell_pass_[cell] == pass) continue;  // walked by an earlier box of this pass
+          cell_pass_[cell] = pass;
+        }
         const Vec3d centre = origin_ + Vec3d{(x + 0.5) * cell_, (y + 0.5) * cell_, (z + 0.5) * cell_};
         if (!keep_cell(centre, half_diag + grow)) continue;
         for (int j = cell_start_[cell]; j < cell_start_[cell + 1]; ++j) {

@@ -64,7 +64,8 @@ void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGr
         stamps[i] = stamp;
         out.push_back(i);
       };
-      cover_collider(shape, w, grid.cell_size(), [&](Vec3d lo, Vec3d hi) { grid.query(lo, hi, extra, q, keep, visit); });
+      const std::uint32_t pass = grid.next_pass();
+      cover_collider(shape, w, grid.cell_size(), [&](Vec3d lo, Vec3d hi) { grid.query(lo, hi, extra, q, keep, visit, pass); });
     }
     if (!grid.violated()) return;
     out.resize(start);  // fallback: the invariant broke, rebuild from the current positions
@@ -107,8 +108,9 @@ void detect_contacts(const ToolModel& tool, const ToolPose& pose, double jaw, st
         const Vec3d n = normals.empty() ? Vec3d{} : normals[i];
         if (vertex_contact(posed, tool.projection, i, q[i], n, cp)) out.push_back({i, cp.target, k_con});
       };
+      const std::uint32_t pass = broadphase.next_pass();
       cover_collider(shape, w, broadphase.cell_size(),
-                     [&](Vec3d lo, Vec3d hi) { broadphase.query(lo, hi, 0.0, q, keep, visit); });
+                     [&](Vec3d lo, Vec3d hi) { broadphase.query(lo, hi, 0.0, q, keep, visit, pass); });
     }
     if (!broadphase.violated()) return;
     out.resize(start);
@@ -133,8 +135,9 @@ double penetration_depth(const ToolModel& tool, const ToolPose& pose, double jaw
         if (!excluded.empty() && excluded[i]) return;
         deepest = std::max(deepest, -signed_distance_local(shape, apply_inverse(w, q[i])));
       };
+      const std::uint32_t pass = broadphase.next_pass();
       cover_collider(shape, w, broadphase.cell_size(),
-                     [&](Vec3d lo, Vec3d hi) { broadphase.query(lo, hi, 0.0, q, keep, visit); });
+                     [&](Vec3d lo, Vec3d hi) { broadphase.query(lo, hi, 0.0, q, keep, visit, pass); });
     }
     if (!broadphase.violated()) break;
     broadphase.rebuild(q, broadphase.margin());

@@ -119,6 +119,7 @@ void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> 
     sc.dims[k] = F ? std::max(1, std::min(1024, static_cast<int>((hi[k] - lo[k]) / sc.cell) + 1)) : 1;
   const std::size_t cells = static_cast<std::size_t>(sc.dims[0]) * sc.dims[1] * sc.dims[2];
   sc.cell_start.assign(cells + 1, 0);
+  sc.cell_stamp.assign(cells, 0);  // with sc.current back at 0
   // Two passes (count, then fill) over the cells each triangle's box covers.
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {
@@ -166,6 +167,8 @@ void candidate_triangles(const SurfaceContactModel& s, const PosedTool& tool, st
         for (int y = i0[1]; y <= i1[1]; ++y)
           for (int z = i0[2]; z <= i1[2]; ++z) {
             const std::size_t cell = cell_id(sc, x, y, z);
+            if (sc.cell_stamp[cell] == stamp) continue;  // an earlier box of this query walked it
+            sc.cell_stamp[cell] = stamp;
             for (int e = sc.cell_start[cell]; e < sc.cell_start[cell + 1]; ++e) {
               const int t = sc.cell_entries[e];
               if (sc.stamp[t] == stamp) continue;

@@ -115,6 +115,9 @@ struct SurfaceScratch {
   Vec3d origin{}, upper{};  ///< the binned triangles' bounding box
   int dims[3] = {1, 1, 1};
   std::vector<int> cell_start, cell_entries, fill;
+  /// #cells: the query (`current`) that last walked each cell; a later box of the same query skips
+  /// it (its triangles are taken already)
+  std::vector<std::uint32_t> cell_stamp;
   std::vector<SurfaceSample> samples;   ///< one triangle's samples
   std::vector<SurfaceSample> kept;      ///< the samples near the tool (targets, penetration)
   std::vector<ContactPoint> contacts;   ///< their contacts

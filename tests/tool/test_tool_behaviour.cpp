@@ -183,6 +183,50 @@ TEST(BroadPhase, GivesTheSameContactsAsBruteForce) {
   }
 }
 
+TEST(BroadPhase, APassWalksEachCellOnceAndVisitsWhatTheOverlappingBoxesVisit) {
+  // The hook's shaft is covered by overlapping boxes (cover_collider); within one pass a cell is
+  // tested and its vertices visited once, in the order the boxes first reach them.
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-0.03, 0.03);
+  std::vector<Vec3d> q(20000);
+  for (Vec3d& x : q) x = {u(rng), u(rng), u(rng)};
+  const ToolModel tool = build_tool(ToolSpec{});
+  VertexGrid grid;
+  grid.rebuild(q, 0.002);
+  const PosedTool posed = pose_tool(tool, {{0.0, 0.0, 0.01}, kPointingDown}, 1.0);
+  int overlapping = 0;
+  for (int c = 0; c < posed.count; ++c) {
+    const Collider<double>& shape = posed.shape[c];
+    const Rigid<double>& w = posed.world[c];
+    int tests = 0;
+    auto keep = [&](Vec3d centre, double slack) {
+      ++tests;
+      return signed_distance_local(shape, apply_inverse(w, centre)) <= slack;
+    };
+    std::vector<int> all, once;
+    cover_collider(shape, w, grid.cell_size(), [&](Vec3d lo, Vec3d hi) {
+      grid.query(lo, hi, 0.001, q, keep, [&](int i) { all.push_back(i); });
+    });
+    const int tests_all = tests;
+    tests = 0;
+    const std::uint32_t pass = grid.next_pass();
+    cover_collider(shape, w, grid.cell_size(), [&](Vec3d lo, Vec3d hi) {
+      grid.query(lo, hi, 0.001, q, keep, [&](int i) { once.push_back(i); }, pass);
+    });
+    std::vector<int> first;  // `all` without its repeats, in first-visit order
+    std::set<int> seen;
+    for (const int i : all)
+      if (seen.insert(i).second) first.push_back(i);
+    EXPECT_EQ(once, first) << "collider " << c;
+    EXPECT_LE(tests, tests_all);
+    if (all.size() > first.size()) {
+      ++overlapping;
+      EXPECT_LT(tests, tests_all) << "collider " << c;
+    }
+  }
+  EXPECT_GT(overlapping, 0);  // the shaft's boxes overlap
+}
+
 TEST(BroadPhase, ViolatedDisplacementBoundFallsBackToARebuild) {
   std::mt19937 rng(12);
   std::uniform_real_distribution<double> u(-0.03, 0.03);

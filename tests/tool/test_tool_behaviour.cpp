@@ -153,11 +153,19 @@ TEST(Grasp, GraspedVerticesFollowTheJawsAndAreFreedOnRelease) {
   EXPECT_EQ(std::accumulate(st.grasp.held.begin(), st.grasp.held.end(), 0), 0);
 }
 
+/// n points uniform in a 6 cm cube about the origin (the broad-phase tests' virtual mesh).
+std::vector<Vec3d> random_cloud(unsigned seed, std::size_t n) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.03, 0.03);
+  std::vector<Vec3d> q(n);
+  for (Vec3d& x : q) x = {u(rng), u(rng), u(rng)};
+  return q;
+}
+
 TEST(BroadPhase, GivesTheSameContactsAsBruteForce) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-0.03, 0.03);
-  std::vector<Vec3d> q(20000);
-  for (Vec3d& x : q) x = {u(rng), u(rng), u(rng)};
+  const std::vector<Vec3d> q = random_cloud(11, 20000);
   for (auto kind : {ToolSpec::Kind::Hook, ToolSpec::Kind::Forceps}) {
     ToolSpec spec;
     spec.kind = kind;
@@ -186,10 +194,7 @@ TEST(BroadPhase, GivesTheSameContactsAsBruteForce) {
 TEST(BroadPhase, APassWalksEachCellOnceAndVisitsWhatTheOverlappingBoxesVisit) {
   // The hook's shaft is covered by overlapping boxes (cover_collider); within one pass a cell is
   // tested and its vertices visited once, in the order the boxes first reach them.
-  std::mt19937 rng(13);
-  std::uniform_real_distribution<double> u(-0.03, 0.03);
-  std::vector<Vec3d> q(20000);
-  for (Vec3d& x : q) x = {u(rng), u(rng), u(rng)};
+  const std::vector<Vec3d> q = random_cloud(13, 20000);
   const ToolModel tool = build_tool(ToolSpec{});
   VertexGrid grid;
   grid.rebuild(q, 0.002);
@@ -228,10 +233,7 @@ TEST(BroadPhase, APassWalksEachCellOnceAndVisitsWhatTheOverlappingBoxesVisit) {
 }
 
 TEST(BroadPhase, ViolatedDisplacementBoundFallsBackToARebuild) {
-  std::mt19937 rng(12);
-  std::uniform_real_distribution<double> u(-0.03, 0.03);
-  std::vector<Vec3d> q(5000);
-  for (Vec3d& x : q) x = {u(rng), u(rng), u(rng)};
+  std::vector<Vec3d> q = random_cloud(12, 5000);
   const ToolModel tool = build_tool(ToolSpec{});
   VertexGrid grid;
   grid.rebuild(q, 0.001);

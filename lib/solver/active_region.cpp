@@ -141,8 +141,8 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
 /// calm for kCalmTicks leaves and stands where it is (its displacement joins its offset). Three
 /// passes: the displacements (marking the moving and hot vertices, listing the hot), the rings
 /// around the hot vertices (joining, marked as near a hot vertex), then each vertex's stay or
-/// leave from its own marks alone. Reads the last tick's q of the active vertices; appends to r.added and
-/// r.removed; clears the marks.
+/// leave from its own marks alone. Reads the last tick's q of the active vertices; appends to
+/// r.added and r.removed; clears the marks.
 void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
                        double v_scale) {
   const std::size_t seeded = r.added.size();

@@ -23,8 +23,8 @@
 // displacement changed by more than tol / kCalmTicks since the last tick, *hot* when it is moving
 // and displaced by more than tol.
 // Hysteresis: an active vertex leaves only when it is not a seed, not moving, and not near (within
-// kSpreadRings edges of) a hot vertex for kCalmTicks ticks in a row; it then stays where it stands: its offset from its E_svc
-// point is kept (no jump). Pinned vertices are never active.
+// kSpreadRings edges of) a hot vertex for kCalmTicks ticks in a row; it then stays where it
+// stands: its offset from its E_svc point is kept (no jump). Pinned vertices are never active.
 //
 // An inactive vertex stands at its E_svc point p_j lowered by its own weight's stretch of the
 // coupling spring, m_j g / k_svc (its static equilibrium against E_svc: 0 without gravity), plus

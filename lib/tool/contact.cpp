@@ -65,7 +65,8 @@ void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGr
         out.push_back(i);
       };
       const std::uint32_t pass = grid.next_pass();
-      cover_collider(shape, w, grid.cell_size(), [&](Vec3d lo, Vec3d hi) { grid.query(lo, hi, extra, q, keep, visit, pass); });
+      cover_collider(shape, w, grid.cell_size(),
+                     [&](Vec3d lo, Vec3d hi) { grid.query(lo, hi, extra, q, keep, visit, pass); });
     }
     if (!grid.violated()) return;
     out.resize(start);  // fallback: the invariant broke, rebuild from the current positions

@@ -54,9 +54,9 @@ namespace ebh {
 /// neighbours join but theirs stand fixed on their targets: the tissue next to the push is clamped
 /// one edge away, stiffer than the full solve's, and on the gap's stick-slip recordings it held the
 /// hook through slips the full solve lets happen (gap_insert 0.038 / 0.38 N RMS / 99.9th
-/// percentile against the whole mesh at 0.001 mm; 0.0099 / 0.089 N with two rings, at about the
-/// same cost; docs/PERFORMANCE.md, "CPU: the active region"). The physical region spreads as far
-/// (kRegionRings).
+/// percentile against the whole mesh at 0.001 mm; 0.0099 / 0.089 N with two rings, for 1-15% more
+/// active vertices and up to ~10% more tick; docs/PERFORMANCE.md, "CPU: the active region"). The
+/// physical region spreads as far (kRegionRings).
 inline constexpr int kSpreadRings = 2;
 
 /// Ticks an active vertex must stay calm (not moving, not a seed, not near a hot vertex) before it

@@ -115,7 +115,7 @@ void sync_physical_targets(const World& world, HapticSide& h) {
 #endif
     virtual_begin_tick(world.virtual_mesh, h.workspace, h.mesh, physical_x, world.h_haptic);
   }
-  h.tool.samples_fresh = false;  // q moved to its prediction: the last Newton call's samples are stale
+  h.tool.call_fresh = false;  // q moved to its prediction: the last Newton call's contacts are stale
   if (world.tool.projection == Projection::InverseNormal)
     compute_vertex_normals(world.virtual_mesh, h.mesh.q, h.normals);
 }

@@ -86,10 +86,8 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
   st.candidates.clear();
   const PosedTool start = pose_tool(tool, st.pose, jaw);
   const double T = lim.reach_translation, th = lim.reach_rotation;
-  if (tool.surface) {
+  if (tool.surface)
     gather_samples(*tool.surface, start, q, grid, T, th, st.grasp.held, st.surface_scratch, st.samples);
-    st.samples_fresh = true;
-  }
   else
     gather_candidates(start, q, grid, T, th, st.candidates);
   // Keep the vertices that one of this call's iterates can reach (the bound of gather_candidates
@@ -138,27 +136,32 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
     E = energy_at(tool, k, physical, st.pose, q, st, st.contacts, &g, &H);
   }
   st.energy = E;
+  st.call_fresh = true;  // st.contacts are the final pose's at this q (virtual_mesh_targets)
 }
 
 double tool_energy(const ToolModel& tool, const Stiffness& k, const ToolPose& physical, double jaw,
                    std::span<const Vec3d> q, std::span<const Vec3d> normals, VertexGrid& grid,
                    VirtualToolState& st) {
   st.candidates.clear();
-  if (tool.surface) {
+  if (tool.surface)
     gather_samples(*tool.surface, pose_tool(tool, st.pose, jaw), q, grid, 0.0, 0.0, st.grasp.held,
                    st.surface_scratch, st.samples);
-    st.samples_fresh = false;
-  }
   else
     gather_candidates(pose_tool(tool, st.pose, jaw), q, grid, 0.0, 0.0, st.candidates);
   detect_at(tool, st.pose, jaw, q, normals, st, st.contacts);
+  st.call_fresh = false;  // no Newton call's: found with no reach
   return energy_at(tool, k, physical, st.pose, q, st, st.contacts, nullptr, nullptr);
 }
 
 void virtual_mesh_targets(const ToolModel& tool, const Stiffness& k, double jaw, std::span<const Vec3d> q,
                           std::span<const Vec3d> normals, VertexGrid& grid, VirtualToolState& st,
                           std::vector<ContactTarget>& out) {
-  if (tool.surface && st.samples_fresh)
+  if (st.call_fresh && !tool.surface) {
+    // The Newton call's contacts at this pose and q: detect_contacts' set and targets (the same
+    // vertex_contact, grasped vertices excluded alike), in the candidates' order; the mesh sums
+    // its targets per vertex, so the order changes no bit.
+    for (const ContactPoint& c : st.contacts) out.push_back({c.vertex, c.target, k.k_con});
+  } else if (tool.surface && st.call_fresh)
     sample_targets(*tool.surface, pose_tool(tool, st.pose, jaw), st.samples, q, k.k_con, st.surface_scratch, out);
   else if (tool.surface)
     surface_contact_targets(*tool.surface, tool, st.pose, jaw, q, grid, k.k_con, st.grasp.held, st.surface_scratch,
@@ -166,7 +169,7 @@ void virtual_mesh_targets(const ToolModel& tool, const Stiffness& k, double jaw,
   else
     detect_contacts(tool, st.pose, jaw, q, normals, grid, k.k_con, out, st.grasp.held);
   grasp_targets(st.grasp, st.pose, k.k_con, out);
-  st.samples_fresh = false;  // the iteration these targets are for moves q
+  st.call_fresh = false;  // the iteration these targets are for moves q
 }
 
 ToolOutput tool_output(const ToolModel& tool, const Stiffness& k, const ToolPose& physical,

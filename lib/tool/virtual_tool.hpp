@@ -44,11 +44,13 @@ struct VirtualToolState {
   std::vector<ContactPoint> contacts;   ///< contacts at the current Newton iterate
   std::vector<ContactPoint> trial;      ///< contacts at a trial iterate
   std::vector<SurfaceSample> samples;   ///< surface contact: the samples near the tool for this call
-  /// Surface contact: `samples` were gathered by a Newton call at the current q and hold every
-  /// sample its final pose touches, so the next virtual_mesh_targets takes them instead of
-  /// searching again. Whoever moves q clears it (virtual_mesh_targets does, for the iteration that
-  /// follows it; the tick's start, which moves q to its prediction, too).
-  bool samples_fresh = false;
+  /// The last Newton call ran at the current q, so what it found at its final pose is what the
+  /// next virtual_mesh_targets would search for: vertex contact takes `contacts` (the narrow phase
+  /// at the final pose over the call's candidates, which hold every vertex any pose the call can
+  /// reach touches), surface contact `samples` (every sample that pose touches), instead of
+  /// searching the grid again. Whoever moves q clears it (virtual_mesh_targets does, for the
+  /// iteration that follows it; the tick's start, which moves q to its prediction, too).
+  bool call_fresh = false;
   SurfaceScratch surface_scratch;       ///< surface contact's query scratch
   // Diagnostics of the last update_virtual_tool call.
   double energy = 0.0;                  ///< E_tool at the final pose

@@ -358,10 +358,10 @@ TEST(SurfaceContact, AMeshIterationAfterANewtonCallReusesItsSamples) {
   init_virtual_tool(st, mesh.vertices.size(), start);
   const ToolPose device{start.position + Vec3d{0, 0, -0.004}, kDown};
   update_virtual_tool(tool, k, device, 1.0, mesh.vertices, {}, grid, st);
-  ASSERT_TRUE(st.samples_fresh);
+  ASSERT_TRUE(st.call_fresh);
   std::vector<ContactTarget> reused, searched;
   virtual_mesh_targets(tool, k, 1.0, mesh.vertices, {}, grid, st, reused);
-  EXPECT_FALSE(st.samples_fresh) << "the iteration that follows moves q";
+  EXPECT_FALSE(st.call_fresh) << "the iteration that follows moves q";
   virtual_mesh_targets(tool, k, 1.0, mesh.vertices, {}, grid, st, searched);
   ASSERT_GT(reused.size(), 10u);
   ASSERT_EQ(reused.size(), searched.size());

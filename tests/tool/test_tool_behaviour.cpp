@@ -7,6 +7,7 @@
 #include <numeric>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include "tool/contact.hpp"
 #include "tool/grasp.hpp"
@@ -104,6 +105,45 @@ TEST(VirtualTool, EnergyNeverIncreasesOverNewtonSteps) {
     previous = e;
   }
   EXPECT_GT(st.contacts.size(), 0u);
+}
+
+TEST(VirtualTool, AMeshIterationAfterANewtonCallTakesItsContacts) {
+  // Right after update_virtual_tool, virtual_mesh_targets takes the call's contacts at its final
+  // pose instead of searching the grid: they must be what the search finds (the same vertices,
+  // targets and stiffnesses; a grasped vertex left out), with either projection, while the
+  // tilted hook sinks into a patch over Newton calls of several line-searched steps.
+  for (const Projection projection : {Projection::ClosestPoint, Projection::InverseNormal}) {
+    ToolSpec spec;
+    spec.newton_iterations = 3;
+    const ToolModel tool = build_tool(spec, projection);
+    const Stiffness k;
+    const std::vector<Vec3d> q = flat_patch(0.02, 0.0005);
+    const std::vector<Vec3d> normals(q.size(), Vec3d{0, 0, 1});
+    const ToolPose physical{{0.001, 0.0, 0.002}, normalized(quat_from_rotvec(Vec3d{0.3, 0.2, 0}) * kPointingDown)};
+    VertexGrid grid;
+    VirtualToolState st;
+    init_virtual_tool(st, q.size(), {{0.001, 0.0, 0.006}, kPointingDown});
+    std::size_t most = 0;
+    for (int tick = 0; tick < 40; ++tick) {
+      // A grasp is taken at a tick's start, before the calls: a vertex in contact held from then on.
+      if (tick == 20 && !st.contacts.empty()) st.grasp.held[st.contacts.front().vertex] = 1;
+      update_virtual_tool(tool, k, physical, 1.0, q, normals, grid, st);
+      ASSERT_TRUE(st.call_fresh);
+      std::vector<ContactTarget> reused, searched;
+      virtual_mesh_targets(tool, k, 1.0, q, normals, grid, st, reused);
+      ASSERT_FALSE(st.call_fresh) << "the iteration that follows moves q";
+      virtual_mesh_targets(tool, k, 1.0, q, normals, grid, st, searched);
+      auto sorted = [](const std::vector<ContactTarget>& list) {
+        std::vector<std::tuple<int, double, double, double, double>> out;
+        for (const ContactTarget& t : list) out.emplace_back(t.vertex, t.target.x, t.target.y, t.target.z, t.stiffness);
+        std::sort(out.begin(), out.end());
+        return out;
+      };
+      ASSERT_EQ(sorted(reused), sorted(searched)) << "tick " << tick;
+      most = std::max(most, reused.size());
+    }
+    EXPECT_GT(most, 10u) << "the hook presses the patch";
+  }
 }
 
 TEST(Grasp, GraspedVerticesFollowTheJawsAndAreFreedOnRelease) {

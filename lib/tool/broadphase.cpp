@@ -12,7 +12,7 @@ void VertexGrid::rebuild(std::span<const Vec3d> q_ref, double margin) {
   moved_ = 0.0;
   violated_ = false;
   ++rebuilds_;
-  if (stamps_.size() != m) { stamps_.assign(m, 0); stamp_ = 0; }
+  if (stamps_.size() != m) { stamps_.assign(m, 0); stamp_ = 0; slots_.assign(m, 0); }
   Vec3d lo{0, 0, 0}, hi{0, 0, 0};
   if (m > 0) { lo = hi = q_ref[0]; }
   for (const Vec3d& p : q_ref) { lo = cwise_min(lo, p); hi = cwise_max(hi, p); }

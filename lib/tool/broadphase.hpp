@@ -55,6 +55,9 @@ class VertexGrid {
   int rebuilds() const { return rebuilds_; }
   /// Per-vertex stamps for de-duplication by callers (#m, zero after rebuild).
   std::vector<std::uint32_t>& stamps() const { return stamps_; }
+  /// Per-vertex scratch for callers (#m, any values: meaningful only where the caller wrote it
+  /// under its current stamp).
+  std::vector<int>& slots() const { return slots_; }
   std::uint32_t next_stamp() const { return ++stamp_; }
   /// A new pass for query (never 0).
   std::uint32_t next_pass() const { return ++pass_; }
@@ -65,6 +68,7 @@ class VertexGrid {
   std::vector<int> cell_vertex_;   // #m vertex indices sorted by cell
   std::vector<int> vertex_cell_;   // #m scratch of rebuild
   mutable std::vector<std::uint32_t> stamps_;  // #m
+  mutable std::vector<int> slots_;             // #m
   mutable std::uint32_t stamp_ = 0;
   mutable std::vector<std::uint32_t> cell_pass_;  // #cells the last pass that walked each cell
   mutable std::uint32_t pass_ = 0;                // passes only grow: a cell's entry is never a future pass

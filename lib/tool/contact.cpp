@@ -3,11 +3,35 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tool/newton.hpp"
+
 namespace ebh {
 namespace {
 // Below this cosine between the exit normal and the ray the inverse-normal projection is
 // grazing; the gain 1/cos is capped there (the paper's method is ill-posed at grazing rays).
 constexpr double kMinExitCosine = 0.1;
+
+/// The cells that may hold a vertex a Newton call from `tool` (translating by at most T, turning
+/// by at most th < 1 rad) can reach, per collider (gather_candidates' per-cell test): calls
+/// visit(c, i) for the vertices of collider c's cells, one pass per collider.
+template <class Visit>
+void walk_reach(const PosedTool& tool, std::span<const Vec3d> q, const VertexGrid& grid, double T, double th,
+                Visit&& visit) {
+  for (int c = 0; c < tool.count; ++c) {
+    const Collider<double>& shape = tool.shape[c];
+    const Rigid<double>& w = tool.world[c];
+    const double extra = (T + th * (tool.reach[c] + T)) / (1.0 - th);
+    auto keep = [&](Vec3d cc, double s_with_extra) {
+      const double s = s_with_extra - extra;  // half diagonal + margin
+      const double bound = (s + T + th * (norm(cc - tool.origin) + T)) / (1.0 - th);
+      return signed_distance_local(shape, apply_inverse(w, cc)) <= bound;
+    };
+    auto visit_c = [&](int i) { visit(c, i); };
+    const std::uint32_t pass = grid.next_pass();
+    cover_collider(shape, w, grid.cell_size(),
+                   [&](Vec3d lo, Vec3d hi) { grid.query(lo, hi, extra, q, keep, visit_c, pass); });
+  }
+}
 
 }  // namespace
 
@@ -49,26 +73,43 @@ void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGr
   for (int attempt = 0; attempt < 2; ++attempt) {
     const std::uint32_t stamp = grid.next_stamp();
     auto& stamps = grid.stamps();
-    const double T = translation, th = std::min(rotation, 0.5);
-    for (int c = 0; c < tool.count; ++c) {
-      const Collider<double>& shape = tool.shape[c];
-      const Rigid<double>& w = tool.world[c];
-      const double extra = (T + th * (tool.reach[c] + T)) / (1.0 - th);
-      auto keep = [&](Vec3d cc, double s_with_extra) {
-        const double s = s_with_extra - extra;  // half diagonal + margin
-        const double bound = (s + T + th * (norm(cc - tool.origin) + T)) / (1.0 - th);
-        return signed_distance_local(shape, apply_inverse(w, cc)) <= bound;
-      };
-      auto visit = [&](int i) {
-        if (stamps[i] == stamp) return;
-        stamps[i] = stamp;
-        out.push_back(i);
-      };
-      const std::uint32_t pass = grid.next_pass();
-      cover_collider(shape, w, grid.cell_size(),
-                     [&](Vec3d lo, Vec3d hi) { grid.query(lo, hi, extra, q, keep, visit, pass); });
-    }
+    walk_reach(tool, q, grid, translation, std::min(rotation, 0.5), [&](int, int i) {
+      if (stamps[i] == stamp) return;
+      stamps[i] = stamp;
+      out.push_back(i);
+    });
     if (!grid.violated()) return;
+    out.resize(start);  // fallback: the invariant broke, rebuild from the current positions
+    grid.rebuild(q, grid.margin());
+  }
+}
+
+void gather_reachable(const PosedTool& tool, std::span<const Vec3d> q, VertexGrid& grid, double translation,
+                      double rotation, std::vector<int>& out) {
+  if (grid.stale(q.size())) grid.rebuild(q, grid.margin());
+  const std::size_t start = out.size();
+  const double T = translation, th = std::min(rotation, 0.5);
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const std::uint32_t stamp = grid.next_stamp();
+    auto& stamps = grid.stamps();
+    auto& slots = grid.slots();
+    // A vertex's first visit lists it, as ~i until a collider is within its bound; out[slots[i]].
+    walk_reach(tool, q, grid, T, th, [&](int c, int i) {
+      if (stamps[i] != stamp) {
+        stamps[i] = stamp;
+        slots[i] = static_cast<int>(out.size());
+        out.push_back(~i);
+      }
+      int& entry = out[static_cast<std::size_t>(slots[i])];
+      if (entry < 0 && signed_distance_local(tool.shape[c], apply_inverse(tool.world[c], q[i])) <=
+                           newton_reach_bound(T, th, norm(q[i] - tool.origin)))
+        entry = i;
+    });
+    if (!grid.violated()) {
+      out.erase(std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(start), out.end(), [](int e) { return e < 0; }),
+                out.end());
+      return;
+    }
     out.resize(start);  // fallback: the invariant broke, rebuild from the current positions
     grid.rebuild(q, grid.margin());
   }

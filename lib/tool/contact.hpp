@@ -97,6 +97,16 @@ bool vertex_contact(const PosedTool& tool, Projection projection, int vertex, Ve
 void gather_candidates(const PosedTool& tool, std::span<const Vec3d> q, VertexGrid& grid, double translation,
                        double rotation, std::vector<int>& out);
 
+/// The candidates of a Newton call from `tool` that translates by at most `translation` and
+/// turns by at most `rotation` (< 1 rad): the vertices i with, for some collider c,
+///     sd_c(q_i) <= newton_reach_bound(translation, rotation, |q_i - P|)
+/// (newton.hpp), appended to `out` in the order gather_candidates would first list them. Each
+/// vertex is tested against the colliders whose cells brought it (a collider within the bound of
+/// a vertex brings it: the per-cell test above holds for every point of the cell), once per
+/// collider, until one is within it. Rebuilds the grid as gather_candidates does.
+void gather_reachable(const PosedTool& tool, std::span<const Vec3d> q, VertexGrid& grid, double translation,
+                      double rotation, std::vector<int>& out);
+
 /// Narrow phase over candidates; clears and fills `out`. excluded: #m flags (grasped vertices)
 /// or empty.
 void narrow_phase(const PosedTool& tool, Projection projection, std::span<const int> candidates,

@@ -88,20 +88,8 @@ void update_virtual_tool(const ToolModel& tool, const Stiffness& k, const ToolPo
   const double T = lim.reach_translation, th = lim.reach_rotation;
   if (tool.surface)
     gather_samples(*tool.surface, start, q, grid, T, th, st.grasp.held, st.surface_scratch, st.samples);
-  else
-    gather_candidates(start, q, grid, T, th, st.candidates);
-  // Keep the vertices that one of this call's iterates can reach (the bound of gather_candidates
-  // applied to the vertex itself, s = 0): the Newton iterations then test only those.
-  std::size_t kept = 0;
-  for (const int i : st.candidates) {
-    const double bound = newton_reach_bound(T, th, norm(q[i] - start.origin));
-    for (int c = 0; c < start.count; ++c)
-      if (signed_distance_local(start.shape[c], apply_inverse(start.world[c], q[i])) <= bound) {
-        st.candidates[kept++] = i;
-        break;
-      }
-  }
-  st.candidates.resize(kept);
+  else  // the vertices one of this call's iterates can reach: the Newton iterations test only those
+    gather_reachable(start, q, grid, T, th, st.candidates);
   st.steps_taken = st.steps_rejected = 0;
 
   detect_at(tool, st.pose, jaw, q, normals, st, st.contacts);

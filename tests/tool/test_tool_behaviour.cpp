@@ -11,6 +11,7 @@
 
 #include "tool/contact.hpp"
 #include "tool/grasp.hpp"
+#include "tool/newton.hpp"
 #include "tool/virtual_tool.hpp"
 
 using namespace ebh;
@@ -270,6 +271,50 @@ TEST(BroadPhase, APassWalksEachCellOnceAndVisitsWhatTheOverlappingBoxesVisit) {
     }
   }
   EXPECT_GT(overlapping, 0);  // the shaft's boxes overlap
+}
+
+TEST(BroadPhase, ANewtonCallsCandidatesAreTheVerticesWithinItsReachInTheGatherOrder) {
+  // gather_reachable: the vertices some collider comes within newton_reach_bound of (against
+  // every vertex, brute force), listed in gather_candidates' order; the hook and the forceps,
+  // posed at random, with and without rotation reach.
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-0.03, 0.03);
+  std::normal_distribution<double> n(0, 1);
+  const std::vector<Vec3d> q = random_cloud(17, 20000);
+  int listed = 0;
+  for (auto kind : {ToolSpec::Kind::Hook, ToolSpec::Kind::Forceps}) {
+    ToolSpec spec;
+    spec.kind = kind;
+    const ToolModel tool = build_tool(spec);
+    VertexGrid grid;
+    grid.rebuild(q, 0.002);
+    for (int t = 0; t < 20; ++t) {
+      const PosedTool posed =
+          pose_tool(tool, {{u(rng) / 2, u(rng) / 2, u(rng) / 2}, normalized(Quatd{n(rng), n(rng), n(rng), n(rng)})}, 0.7);
+      const double T = t % 2 ? 0.0005 : 0.002, th = (t / 2) % 3 == 0 ? 0.0 : 0.004 * ((t / 2) % 3);
+      auto within = [&](int i) {
+        for (int c = 0; c < posed.count; ++c)
+          if (signed_distance_local(posed.shape[c], apply_inverse(posed.world[c], q[i])) <=
+              newton_reach_bound(T, th, norm(q[i] - posed.origin)))
+            return true;
+        return false;
+      };
+      std::vector<int> gathered, expected, reachable;
+      gather_candidates(posed, q, grid, T, th, gathered);
+      for (const int i : gathered)
+        if (within(i)) expected.push_back(i);
+      gather_reachable(posed, q, grid, T, th, reachable);
+      ASSERT_EQ(reachable, expected) << "pose " << t;
+      std::vector<int> brute;
+      for (int i = 0; i < static_cast<int>(q.size()); ++i)
+        if (within(i)) brute.push_back(i);
+      std::vector<int> sorted = reachable;
+      std::sort(sorted.begin(), sorted.end());
+      ASSERT_EQ(sorted, brute) << "pose " << t;
+      listed += static_cast<int>(reachable.size());
+    }
+  }
+  EXPECT_GT(listed, 100);
 }
 
 TEST(BroadPhase, ViolatedDisplacementBoundFallsBackToARebuild) {

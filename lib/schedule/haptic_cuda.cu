@@ -425,7 +425,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     const std::size_t need = S.blocks_per_sm * (fa.sharedSizeBytes + std::size_t(reserved)) + physical.block_shared_bytes() +
                              std::size_t(reserved);
     I.carveout_beside_steps = shared_carveout_percent(need, std::size_t(max_shared), shared_memory_configs_kb(major, minor));
-    const int most = S.blocks_per_sm == 1 ? cap.alone_blocks()
+    const int most = S.blocks_per_sm == 1 ? cap.alone_grid(chunks)
                                           : S.blocks_per_sm * (cap.multiprocessors - cap.multiprocessors_for_shared_steps());
     I.grid = std::min(chunks + 1, most);  // block 0 runs no chunks
     if (S.max_blocks > 0) I.grid = std::min(I.grid, S.max_blocks);

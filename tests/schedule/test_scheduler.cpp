@@ -13,6 +13,9 @@
 #include "schedule/replay_inputs.hpp"
 #include "schedule/replay_output.hpp"
 #include "schedule/scheduler.hpp"
+#if EBH_HAVE_CUDA
+#include "schedule/haptic_cuda.hpp"
+#endif
 
 using namespace ebh;
 
@@ -119,6 +122,20 @@ TEST(Scheduler, SplitsTheThreadsBetweenTheSides) {
   EXPECT_EQ(shared(2, Mode::Lockstep, 0), std::pair(false, false));
   omp_set_num_threads(saved);
 }
+
+#if EBH_HAVE_CUDA
+TEST(Scheduler, ADeviceReplayAloneGetsABlockPerChunkWhileAFifthOfTheMultiprocessorsStaysFree) {
+  DeviceTickCapacity cap;  // an H100's or H200's 132 multiprocessors, one tick block each
+  cap.multiprocessors = 132;
+  cap.blocks_per_sm = 1;
+  ASSERT_EQ(cap.alone_blocks(), 99);  // a quarter (33) left to the physical steps
+  EXPECT_EQ(cap.alone_grid(52), 53);   // tube: below the quarter's cap
+  EXPECT_EQ(cap.alone_grid(99), 100);  // cholecystectomy: a block per chunk, 32 left
+  EXPECT_EQ(cap.alone_grid(104), 105);  // the most that leaves a fifth (27)
+  EXPECT_EQ(cap.alone_grid(105), 99);  // past it: the quarter's cap, a block runs several chunks
+  EXPECT_EQ(cap.alone_grid(208), 99);
+}
+#endif
 
 TEST(Scheduler, LockstepReplayIsBitwiseReproducible) {
   const Recording rec = entering_bore(0.1);

@@ -203,20 +203,30 @@ std::vector<Vec3d> random_cloud(unsigned seed, std::size_t n) {
   return q;
 }
 
+/// A pose in the middle of random_cloud's cube, turned at random.
+ToolPose random_pose(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-0.015, 0.015);
+  std::normal_distribution<double> n(0, 1);
+  const Vec3d p{u(rng), u(rng), u(rng)};
+  return {p, normalized(Quatd{n(rng), n(rng), n(rng), n(rng)})};
+}
+
+/// The default tool of `kind`.
+ToolModel tool_of(ToolSpec::Kind kind) {
+  ToolSpec spec;
+  spec.kind = kind;
+  return build_tool(spec);
+}
+
 TEST(BroadPhase, GivesTheSameContactsAsBruteForce) {
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-0.03, 0.03);
   const std::vector<Vec3d> q = random_cloud(11, 20000);
   for (auto kind : {ToolSpec::Kind::Hook, ToolSpec::Kind::Forceps}) {
-    ToolSpec spec;
-    spec.kind = kind;
-    const ToolModel tool = build_tool(spec);
+    const ToolModel tool = tool_of(kind);
     VertexGrid grid;
     grid.rebuild(q, 0.002);
     for (int t = 0; t < 30; ++t) {
-      std::normal_distribution<double> n(0, 1);
-      const ToolPose pose{{u(rng) / 2, u(rng) / 2, u(rng) / 2},
-                          normalized(Quatd{n(rng), n(rng), n(rng), n(rng)})};
+      const ToolPose pose = random_pose(rng);
       std::vector<ContactTarget> fast;
       detect_contacts(tool, pose, 0.7, q, {}, grid, 400.0, fast);
       std::vector<int> all(q.size());
@@ -278,19 +288,14 @@ TEST(BroadPhase, ANewtonCallsCandidatesAreTheVerticesWithinItsReachInTheGatherOr
   // every vertex, brute force), listed in gather_candidates' order; the hook and the forceps,
   // posed at random, with and without rotation reach.
   std::mt19937 rng(17);
-  std::uniform_real_distribution<double> u(-0.03, 0.03);
-  std::normal_distribution<double> n(0, 1);
   const std::vector<Vec3d> q = random_cloud(17, 20000);
   int listed = 0;
   for (auto kind : {ToolSpec::Kind::Hook, ToolSpec::Kind::Forceps}) {
-    ToolSpec spec;
-    spec.kind = kind;
-    const ToolModel tool = build_tool(spec);
+    const ToolModel tool = tool_of(kind);
     VertexGrid grid;
     grid.rebuild(q, 0.002);
     for (int t = 0; t < 20; ++t) {
-      const PosedTool posed =
-          pose_tool(tool, {{u(rng) / 2, u(rng) / 2, u(rng) / 2}, normalized(Quatd{n(rng), n(rng), n(rng), n(rng)})}, 0.7);
+      const PosedTool posed = pose_tool(tool, random_pose(rng), 0.7);
       const double T = t % 2 ? 0.0005 : 0.002, th = (t / 2) % 3 == 0 ? 0.0 : 0.004 * ((t / 2) % 3);
       auto within = [&](int i) {
         for (int c = 0; c < posed.count; ++c)

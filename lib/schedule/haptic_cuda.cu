@@ -737,7 +737,7 @@ DeviceTickProfile CudaHapticTicks::profile() {
   r.updated = p.steps > p.unpipelined ? static_cast<double>(p.updated) / static_cast<double>(p.steps - p.unpipelined) : 0.0;
   for (int k = 0; k < DeviceTickProfile::kStages; ++k) {
     const bool cycles = k <= DeviceTickProfile::Output;  // block 0's, in its cycles
-    const bool per_block = k >= DeviceTickProfile::BlockLag && k <= DeviceTickProfile::BlockLists;  // summed over blocks
+    const bool per_block = k >= DeviceTickProfile::BlockLag && k <= DeviceTickProfile::BlockTriangles;  // summed over blocks
     const double ns = static_cast<double>(p.sum[k]) / (cycles ? r.tail_clock_ghz : 1.0);
     r.mean_us[k] = 1e-3 * ns / (steps * (per_block ? I.grid - 1 : 1));
   }

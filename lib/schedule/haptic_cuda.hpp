@@ -83,14 +83,17 @@ struct DeviceTickProfile {
     Output,      ///< the tool's state, the tick's outputs on its last step
     // The other blocks, means over blocks: a block's start after its release, its setup (inputs,
     // posed tool; surface contact: the contact list's sums and the wait for every block's), its
-    // vertices (contact, Jacobi step, reach), its lists.
-    BlockLag, BlockSetup, BlockVertices, BlockLists,
-    BlockVerticesMax,  ///< the slowest block's vertices
+    // vertices (contact, Jacobi step, reach), its lists; surface contact: its wait for every
+    // block's vertices before the triangles, its triangles (the triangle pass).
+    BlockLag, BlockSetup, BlockVertices, BlockLists, BlockTriangleWait, BlockTriangles,
+    BlockVerticesMax,   ///< the slowest block's vertices
+    BlockTrianglesMax,  ///< surface contact: the slowest block's triangles
     kStages
   };
   static constexpr const char* kNames[kStages] = {"wait", "update", "lists", "samples", "evaluate", "clamp", "solve",
                                                   "line_search", "output", "block_lag", "block_setup",
-                                                  "block_vertices", "block_lists", "block_vertices_max"};
+                                                  "block_vertices", "block_lists", "block_triangle_wait",
+                                                  "block_triangles", "block_vertices_max", "block_triangles_max"};
   double mean_us[kStages] = {};
   double tail_clock_ghz = 0;  ///< block 0's SM clock (cycles over time)
   double clamp_sweeps = 0;    ///< Jacobi sweeps per PSD clamp that ran them (tool/newton_warp.cuh)

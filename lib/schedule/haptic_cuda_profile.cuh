@@ -23,6 +23,7 @@ struct ProfileDev {
   unsigned long long tail_cycles, tail_ns;  // block 0's SM cycles and time (its clock rate)
   unsigned long long release_ns[2];         // the release of step s (slot s & 1)
   unsigned long long vertices_max[2];       // step s's slowest block (slot s & 1)
+  unsigned long long triangles_max[2];      // step s's slowest block's triangle pass (surface contact)
 };
 
 #if EBH_TICK_PROFILE
@@ -90,21 +91,28 @@ __device__ __forceinline__ void profile_release(ProfileDev* p, int s) {
 __device__ __forceinline__ void profile_arrivals(ProfileDev* p, int s) {
   if (p && threadIdx.x == 0 && s >= 0) {
     p->sum[DeviceTickProfile::BlockVerticesMax] += p->vertices_max[s & 1];
+    p->sum[DeviceTickProfile::BlockTrianglesMax] += p->triangles_max[s & 1];
     p->vertices_max[s & 1] = 0;
+    p->triangles_max[s & 1] = 0;
   }
 }
 
 /// A vertex block's stages of one step, by its thread 0 in global-timer ns: released (the lag after
-/// block 0's release), posed (its setup), then per chunk the vertices and the lists.
+/// block 0's release), posed (its setup), then per chunk the vertices and the lists; with surface
+/// contact, after its chunks, the wait for every block's and its triangle pass.
 struct BlockClock {
   bool on = false;
   unsigned long long start = 0, setup = 0, vertices = 0, chunks = 0, chunk = 0;
+  unsigned long long arrived = 0, tri_begin = 0, triangles = 0;
   __device__ explicit BlockClock(const ProfileDev* p) : on(p && threadIdx.x == 0) {}
   __device__ void released() { if (on) start = global_ns(); }
   __device__ void posed() { if (on) setup = global_ns(); }
   __device__ void chunk_begin() { if (on) chunk = global_ns(); }
   __device__ void chunk_vertices_done() { if (on) vertices += global_ns() - chunk; }
   __device__ void chunk_end() { if (on) chunks += global_ns() - chunk; }
+  __device__ void chunks_arrived() { if (on) arrived = tri_begin = global_ns(); }
+  __device__ void triangles_begin() { if (on) tri_begin = global_ns(); }
+  __device__ void triangles_end() { if (on) triangles = global_ns() - tri_begin; }
   /// Step s's stages into p (atomics: every vertex block adds its own).
   __device__ void report(ProfileDev* p, int s) const {
     if (!on) return;
@@ -112,7 +120,10 @@ struct BlockClock {
     atomicAdd(&p->sum[DeviceTickProfile::BlockSetup], setup - start);
     atomicAdd(&p->sum[DeviceTickProfile::BlockVertices], vertices);
     atomicAdd(&p->sum[DeviceTickProfile::BlockLists], chunks - vertices);
+    atomicAdd(&p->sum[DeviceTickProfile::BlockTriangleWait], tri_begin - arrived);
+    atomicAdd(&p->sum[DeviceTickProfile::BlockTriangles], triangles);
     atomicMax(&p->vertices_max[s & 1], vertices);
+    atomicMax(&p->triangles_max[s & 1], triangles);
   }
 };
 
@@ -138,6 +149,9 @@ struct BlockClock {
   __device__ void chunk_begin() {}
   __device__ void chunk_vertices_done() {}
   __device__ void chunk_end() {}
+  __device__ void chunks_arrived() {}
+  __device__ void triangles_begin() {}
+  __device__ void triangles_end() {}
   __device__ void report(ProfileDev*, int) const {}
 };
 

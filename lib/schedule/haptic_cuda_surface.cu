@@ -217,16 +217,19 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
       surface_vertex_chunk(d, sd, t, first, last, p_ready, listed, c, S.in(s), S.out(s), S.v_out(), sm, clock);
       clock.chunk_end();
     }
-    clock.report(d.profile, s);
     __syncthreads();
+    clock.chunks_arrived();
     if (threadIdx.x == 0) add_release(&d.sync->arrive, 1ull);
     if (called || last) {  // the triangles, at every vertex's new iterate
       if (threadIdx.x == 0)
         while (load_acquire(&d.sync->arrive) < e * static_cast<unsigned long long>(blocks)) {}
       __syncthreads();
+      clock.triangles_begin();
       for (int c = blockIdx.x - 1; c < sd.chunks; c += blocks) triangle_chunk(d, sd, t, called, last, c, S.out(s), S.v_out(), sm);
       __syncthreads();
+      clock.triangles_end();
     }
+    clock.report(d.profile, s);  // before the arrival block 0 reads the step's slowest blocks at
     if (threadIdx.x == 0) add_release(sd.arrive, 1ull);
     // As vertex_blocks: a tick that starts a physical period k > 0 hands its start q to step k.
     if (d.period > 0 && first && S.tick(s) > 0 && S.tick(s) % d.period == 0) {

@@ -18,7 +18,7 @@
 //              arrivals): per triangle, whether the next Newton call or the contact list needs it
 //              and (last step) whether it may reach into the physical tool (triangle_step), then
 //              the listed triangles' samples tested over a warp's lanes (listed_sample_masks)
-//              and the deep ones' deepest samples, a triangle at a time (deepest_in_warp); then
+//              and the deep ones' deepest samples, a warp's in one sequence (deepest_in_warp); then
 //              an arrival (SurfaceDev::arrive)
 //   tool       block 0: the held vertices and the listed triangles in a fixed order, their listed
 //              samples (from the tests' bits; a large triangle's tested here) one per thread into

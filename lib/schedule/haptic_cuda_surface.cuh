@@ -154,6 +154,29 @@ __device__ void sample_flags(const ToolConst& t, const Posed& pt, int n, int k, 
   listed = cand || reachable_within(t, pt, yf, shift);
 }
 
+/// A warp's samples in one sequence, each lane's `count` after the lanes below it: the inclusive
+/// scan of count over the lanes (lane l's samples are [end - count, end)).
+__device__ int warp_sequence_end(int count) {
+  const int lane = threadIdx.x & 31;
+  int end = count;
+  for (int o = 1; o < 32; o <<= 1) {
+    const int y = __shfl_up_sync(~0u, end, o);
+    if (lane >= o) end += y;
+  }
+  return end;
+}
+
+/// The lane whose samples hold sample g of the warp's sequence (warp_sequence_end): the first lane
+/// whose end passes g (every lane calls it; g past the sequence gives some lane).
+__device__ int warp_sequence_owner(int end, int g) {
+  int lo = 0, hi = 31;
+  for (int step = 0; step < 5; ++step) {
+    const int mid = (lo + hi) / 2;
+    if (__shfl_sync(~0u, end, mid) <= g) lo = mid + 1; else hi = mid;
+  }
+  return lo;
+}
+
 /// The sample flags (sample_flags) of the warp's listed triangles (f, `listed` and `newton`: each
 /// lane's triangle and its triangle_step) after a step with a Newton call, at their corners' new
 /// iterates q, into SurfaceDev::tri_masks. The warp's samples in one sequence, triangle after
@@ -176,20 +199,12 @@ __device__ void listed_sample_masks(const MeshDev& d, const SurfaceDev& sd, cons
       shift = last ? start_shift(d, tri, q, v) : 0.f;
     }
   }
-  int end = count;  // inclusive scan: this lane's samples are [end - count, end) of the sequence
-  for (int o = 1; o < 32; o <<= 1) {
-    const int y = __shfl_up_sync(~0u, end, o);
-    if (lane >= o) end += y;
-  }
+  const int end = warp_sequence_end(count);  // this lane's samples are [end - count, end) of the sequence
   const int total = __shfl_sync(~0u, end, 31), begin = end - count;
   unsigned long long cand_bits = 0, list_bits = 0;
   for (int base = 0; base < total; base += 32) {
     const int g = base + lane;
-    int lo = 0, hi = 31;  // the owner of sample g: the first lane whose end passes g
-    for (int step = 0; step < 5; ++step) {
-      const int mid = (lo + hi) / 2;
-      if (__shfl_sync(~0u, end, mid) <= g) lo = mid + 1; else hi = mid;
-    }
+    const int lo = warp_sequence_owner(end, g);
     const int k = g - __shfl_sync(~0u, begin, lo), on = __shfl_sync(~0u, n, lo);
     const Vec3f oa{__shfl_sync(~0u, ca.x, lo), __shfl_sync(~0u, ca.y, lo), __shfl_sync(~0u, ca.z, lo)};
     const Vec3f ob{__shfl_sync(~0u, cb.x, lo), __shfl_sync(~0u, cb.y, lo), __shfl_sync(~0u, cb.z, lo)};
@@ -242,23 +257,33 @@ __device__ void triangle_step(const MeshDev& d, const SurfaceDev& sd, const Tool
 }
 
 /// The depth of the deepest sample in the physical tool of the warp's triangles with `deep` set
-/// (triangle_step; f: each lane's triangle), a triangle at a time, its samples over the lanes;
-/// every lane gets the warp's value.
+/// (triangle_step; f: each lane's triangle): their samples in one sequence over the lanes
+/// (warp_sequence_end), 32 at a time; every lane gets the warp's value (a maximum: the order
+/// changes no bit).
 __device__ float deepest_in_warp(const SurfaceDev& sd, const ToolConst& t, const Posed& physical, const Vec3f* q,
                                  int f, bool deep) {
   const int lane = threadIdx.x & 31;
+  int n = 0;
+  if (deep) {
+    const int4 tri = sd.tri[f];
+    n = surface_sample_level(tri.w, sd.spacing, static_cast<Vec3d>(q[tri.x]), static_cast<Vec3d>(q[tri.y]),
+                             static_cast<Vec3d>(q[tri.z]));
+  }
+  const int end = warp_sequence_end(n * n);
+  const int total = __shfl_sync(~0u, end, 31), begin = end - n * n;
   double deepest = 0;
-  for (unsigned mask = __ballot_sync(~0u, deep); mask; mask &= mask - 1) {
-    const int4 tri = sd.tri[__shfl_sync(~0u, f, __ffs(mask) - 1)];
+  for (int base = 0; base < total; base += 32) {
+    const int g = base + lane;
+    const int lo = warp_sequence_owner(end, g);
+    const int k = g - __shfl_sync(~0u, begin, lo), on = __shfl_sync(~0u, n, lo), of = __shfl_sync(~0u, f, lo);
+    if (g >= total) continue;
+    const int4 tri = sd.tri[of];
     const Vec3d a = static_cast<Vec3d>(q[tri.x]), b = static_cast<Vec3d>(q[tri.y]), c = static_cast<Vec3d>(q[tri.z]);
-    const int n = surface_sample_level(tri.w, sd.spacing, a, b, c);
-    for (int k = lane; k < n * n; k += 32) {
-      double b0, b1, b2;
-      sample_barycentric(n, k, b0, b1, b2);
-      const Vec3d y = surface_sample_point(b0, b1, b2, a, b, c);
-      const unsigned near = near_colliders(t, physical, static_cast<Vec3f>(y), kFloatSlack);
-      if (near) deepest = fmax(deepest, penetration(t, physical, y, near));
-    }
+    double b0, b1, b2;
+    sample_barycentric(on, k, b0, b1, b2);
+    const Vec3d y = surface_sample_point(b0, b1, b2, a, b, c);
+    const unsigned near = near_colliders(t, physical, static_cast<Vec3f>(y), kFloatSlack);
+    if (near) deepest = fmax(deepest, penetration(t, physical, y, near));
   }
   for (int o = 16; o > 0; o >>= 1) deepest = fmax(deepest, __shfl_xor_sync(~0u, deepest, o));
   return static_cast<float>(deepest);

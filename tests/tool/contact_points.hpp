@@ -1,6 +1,7 @@
 #pragma once
-// Shared by the contact tests' finite-difference checks: points inside a posed tool where E_con is
-// smooth, and the pull-back of a pose gradient through the rotation's parameterisation.
+// Shared by the tool tests: random rotations, and for the contact tests' finite-difference checks,
+// points inside a posed tool where E_con is smooth and the pull-back of a pose gradient through the
+// rotation's parameterisation.
 #include <cmath>
 #include <random>
 #include <vector>
@@ -10,6 +11,12 @@
 #include "tool/tool_model.hpp"
 
 namespace ebh::test {
+
+/// A rotation drawn uniformly (a normalized 4D Gaussian).
+inline Quatd random_rotation(std::mt19937& rng) {
+  std::normal_distribution<double> n(0, 1);
+  return normalized(Quatd{n(rng), n(rng), n(rng), n(rng)});
+}
 
 /// Up to `count` world points strictly inside exactly one collider of `posed`, at depth >=
 /// min_depth (and, in a rounded box, < max_rounded_depth of its radius: its rounded region, away from

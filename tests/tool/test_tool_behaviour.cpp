@@ -9,6 +9,7 @@
 #include <set>
 #include <tuple>
 
+#include "contact_points.hpp"
 #include "tool/contact.hpp"
 #include "tool/grasp.hpp"
 #include "tool/newton.hpp"
@@ -206,9 +207,8 @@ std::vector<Vec3d> random_cloud(unsigned seed, std::size_t n) {
 /// A pose in the middle of random_cloud's cube, turned at random.
 ToolPose random_pose(std::mt19937& rng) {
   std::uniform_real_distribution<double> u(-0.015, 0.015);
-  std::normal_distribution<double> n(0, 1);
   const Vec3d p{u(rng), u(rng), u(rng)};
-  return {p, normalized(Quatd{n(rng), n(rng), n(rng), n(rng)})};
+  return {p, test::random_rotation(rng)};
 }
 
 /// The default tool of `kind`.

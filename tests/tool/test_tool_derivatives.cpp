@@ -34,11 +34,6 @@ double energy(const Case& c, const Vec6& x, Vec6* g, Mat6* H) {
   return test::coupling_and_contact_energy(p, c.physical, c.k, contacts, g, H);
 }
 
-Quatd random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> n(0, 1);
-  return normalized(Quatd{n(rng), n(rng), n(rng), n(rng)});
-}
-
 // Vertices where the energy is smooth (contact_points.hpp).
 void add_inside_vertices(Case& c, std::mt19937& rng, int count, double min_depth) {
   for (const Vec3d& x : test::inside_points(pose_tool(c.tool, c.pose, c.jaw), rng, count, min_depth)) c.q.push_back(x);
@@ -86,7 +81,7 @@ Case make_case(ToolSpec::Kind kind, std::mt19937& rng) {
   spec.kind = kind;
   Case c;
   c.tool = build_tool(spec);
-  c.pose = {{0.01, -0.02, 0.03}, random_rotation(rng)};
+  c.pose = {{0.01, -0.02, 0.03}, test::random_rotation(rng)};
   std::normal_distribution<double> n(0, 1);
   c.physical = {c.pose.position + 0.003 * Vec3d{n(rng), n(rng), n(rng)},
                 normalized(quat_from_rotvec(0.4 * Vec3d{n(rng), n(rng), n(rng)}) * c.pose.orientation)};
@@ -207,7 +202,7 @@ TEST(ToolEnergy, GraspGradientAndHessianMatchFiniteDifferences) {
     g.vertices.push_back(i);
     g.local_target.push_back(0.01 * Vec3d{n(rng), n(rng), n(rng)});
   }
-  const ToolPose pose{{0.002, 0.001, -0.003}, random_rotation(rng)};
+  const ToolPose pose{{0.002, 0.001, -0.003}, test::random_rotation(rng)};
   auto E = [&](const Vec6& x, Vec6* gr, Mat6* H) { return grasp_energy(g, q, perturb(pose, x), 400.0, gr, H); };
   Vec6 gr;
   Mat6 H;

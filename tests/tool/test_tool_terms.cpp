@@ -7,6 +7,7 @@
 #include <numbers>
 #include <random>
 
+#include "contact_points.hpp"
 #include "solver/virtual_jacobi.hpp"
 #include "tool/newton.hpp"
 #include "tool/tool_model.hpp"
@@ -21,11 +22,6 @@ Vec3d random_vec(std::mt19937& rng, double scale) {
   return {u(rng), u(rng), u(rng)};
 }
 
-Quatd random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> n(0, 1);
-  return normalized(Quatd{n(rng), n(rng), n(rng), n(rng)});
-}
-
 }  // namespace
 
 // Both roundings of k_vct/2 theta^2 are theta^2 in double: they agree to a few ulps of E.
@@ -33,7 +29,7 @@ TEST(ToolTerms, CouplingAnglesAgreeToRoundOff) {
   std::mt19937 rng(3);
   for (int trial = 0; trial < 1000; ++trial) {
     const Vec3d Pg = random_vec(rng, 0.1), Ph = random_vec(rng, 0.1);
-    const Quatd Qg = random_rotation(rng), Qh = random_rotation(rng);
+    const Quatd Qg = test::random_rotation(rng), Qh = test::random_rotation(rng);
     double g1[6], g2[6];
     const double e1 = coupling_terms<CouplingAngle::OfNorm>(Pg, Qg, Ph, Qh, 300.0, 0.05, g1);
     const double e2 = coupling_terms<CouplingAngle::OfComponents>(Pg, Qg, Ph, Qh, 300.0, 0.05, g2);
@@ -64,7 +60,7 @@ TEST(ToolTerms, ClampLength) {
 TEST(ToolTerms, GraspRotationOrdersAgreeToRoundOff) {
   std::mt19937 rng(5);
   for (int trial = 0; trial < 1000; ++trial) {
-    const Mat3d R = to_matrix(random_rotation(rng));
+    const Mat3d R = to_matrix(test::random_rotation(rng));
     const GraspOffset<double> o = grasp_offset(R, random_vec(rng, 0.1), random_vec(rng, 0.01), random_vec(rng, 0.1));
     double g1[6] = {}, g2[6] = {}, H1[36] = {}, H2[36] = {};
     grasp_derivative_terms<GraspRotation::Split>(400.0, o, g1, H1);

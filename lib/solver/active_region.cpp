@@ -18,12 +18,6 @@ constexpr std::uint8_t kSeed = 1;  // ActiveRegion::mark: a seed of this tick
 constexpr std::uint8_t kMoving = 2;  // ActiveRegion::mark: its displacement changed by more than tol / kCalmTicks
 constexpr std::uint8_t kNearHot = 4;  // ActiveRegion::mark: within kSpreadRings edges of a hot (moving, displaced by more than tol) vertex
 
-/// The other end of the incidence entry k (virtual_mesh.hpp: 2 e + end).
-inline int neighbour(const VirtualModel& model, int k) {
-  const int entry = model.edge_entries[k];
-  return model.edges[entry >> 1][1 - (entry & 1)];
-}
-
 /// Vertex j's E_svc target at blend a: p_j(a), the blend of p_from and p_to.
 inline Vec3d coupling_point(const ActiveRegion& r, int j, double a) {
   return a >= 1.0 ? r.p_to[j] : lerp(r.p_from[j], r.p_to[j], a);
@@ -158,14 +152,18 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
     }
     r.displacement[j] = d;
   }
+  // The rings: a hot vertex is near itself, so it is marked before them and a ring does not
+  // spread from it again (its neighbours are the first ring's already); a marked vertex is active.
+  for (const int j : r.hot) r.mark[j] |= kNearHot;
   r.frontier.assign(r.hot.begin(), r.hot.end());
   for (int ring = 0; ring < kSpreadRings && !r.frontier.empty(); ++ring) {
     r.next.clear();
     for (const int j : r.frontier)
       for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
-        const int o = neighbour(model, k);
+        const int o = r.neighbours[k];
+        if (r.mark[o] & kNearHot) continue;  // reached already
         activate(model, r, o);
-        if (!r.active[o] || (r.mark[o] & kNearHot)) continue;  // pinned, or reached already
+        if (!r.active[o]) continue;  // pinned
         r.mark[o] |= kNearHot;  // every marked vertex is listed (not a pinned one)
         r.next.push_back(o);
       }
@@ -178,9 +176,9 @@ void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState&
       r.active[j] = 0;
       r.removed.push_back(j);
     }
+    r.mark[j] = 0;
   }
   for (const int j : seeds) r.mark[j] = 0;
-  for (const int j : r.vertices) r.mark[j] = 0;
   for (const int j : r.added) r.mark[j] = 0;  // the vertices near hot ones that joined
   for (std::size_t i = seeded; i < r.added.size(); ++i) join(r, state, r.added[i], v_scale, true);
   for (const int j : r.removed) r.offset[j] += r.displacement[j];  // q stays: it stands where it settled
@@ -208,6 +206,11 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance, int
       r.check_edges.insert(r.check_edges.end(), ids.begin(), ids.end());
       r.check_edge_offsets[s + 1] = static_cast<int>(r.check_edges.size());
     }
+  }
+  r.neighbours.resize(model.edge_entries.size());
+  for (std::size_t k = 0; k < model.edge_entries.size(); ++k) {
+    const int entry = model.edge_entries[k];  // 2 e + end: the other end is edges[e][1 - end]
+    r.neighbours[k] = model.edges[entry >> 1][1 - (entry & 1)];
   }
   r.active.assign(m, 0);
   r.calm.assign(m, 0);

@@ -87,6 +87,9 @@ struct ActiveRegion {
   std::int64_t checked_ticks = 0;         ///< ticks that ran a slice of the strain check
   std::vector<int> check_vertex;          ///< #N+1 slice s: the vertices [check_vertex[s], check_vertex[s + 1])
   std::vector<int> check_edges, check_edge_offsets;  ///< slice s's edges (an end in it), in index order: CSR, #N+1 offsets
+  /// #(2 E) the other end of each incidence entry, in VirtualModel::edge_entries' order (the
+  /// rings' walk reads it, not the edge behind the entry)
+  std::vector<int> neighbours;
   std::vector<std::uint8_t> active;       ///< #m 1 when iterated this tick
   std::vector<std::uint16_t> calm;        ///< #m consecutive calm ticks of an active vertex
   /// #m where an inactive vertex stands, from its E_svc point: its weight's stretch plus the

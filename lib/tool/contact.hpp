@@ -61,8 +61,10 @@ EBH_HD int deepest_collider(const Collider<T>* shape, const Rigid<T>* world, int
 }
 
 /// Calls box(lo, hi) with world boxes that together cover collider `shape` posed by `w`, hugging
-/// it: a long shaft (hundreds of mm) is cut into pieces a few grid cells long, so a query costs
-/// the cells near the collider, not those of its bounding cube.
+/// it: a long shaft (hundreds of mm) is cut into pieces a few grid cells long, and a box (a
+/// forceps jaw, thin and long) is covered by its own world-aligned bounds rather than by the cube
+/// around its bounding sphere (a third of the cells for the scenes' jaws), so a query costs the
+/// cells near the collider.
 template <class Box>
 void cover_collider(const Collider<double>& shape, const Rigid<double>& w, double cell, Box&& box) {
   if (shape.shape == Shape::Capsule || shape.shape == Shape::Cylinder) {
@@ -74,6 +76,15 @@ void cover_collider(const Collider<double>& shape, const Rigid<double>& w, doubl
       const Vec3d p1 = A + (static_cast<double>(k + 1) / pieces) * (B - A);
       box(cwise_min(p0, p1) - r, cwise_max(p0, p1) + r);
     }
+  } else if (shape.shape == Shape::Box) {
+    // The world extent of the box's half extents h along world axis k: sum_j |R_kj| h_j (its
+    // rounded edges lie inside them).
+    const Vec3d mid = apply(w, shape.a);
+    Vec3d ext{};
+    for (int k = 0; k < 3; ++k)
+      ext[k] = std::fabs(w.R(k, 0)) * shape.half.x + std::fabs(w.R(k, 1)) * shape.half.y +
+               std::fabs(w.R(k, 2)) * shape.half.z;
+    box(mid - ext, mid + ext);
   } else {
     const Vec3d mid = apply(w, centre(shape));
     const double rb = bounding_radius(shape);

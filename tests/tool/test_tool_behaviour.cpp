@@ -283,6 +283,43 @@ TEST(BroadPhase, APassWalksEachCellOnceAndVisitsWhatTheOverlappingBoxesVisit) {
   EXPECT_GT(overlapping, 0);  // the shaft's boxes overlap
 }
 
+TEST(BroadPhase, ABoxColliderIsCoveredByItsWorldBoundsNotByItsBoundingCube) {
+  // A jaw-like box (thin, long; sharp and rounded), turned at random: the one cover box is the
+  // world-aligned bounds of its eight corners (each face through a corner, so every point of the
+  // box is inside it), a fraction of the cube around its bounding sphere.
+  std::mt19937 rng(23);
+  for (const double rounding : {0.0, 0.0005}) {
+    Collider<double> jaw;
+    jaw.shape = Shape::Box;
+    jaw.a = {0.001, -0.002, 0.015};
+    jaw.half = {0.0015, 0.0025, 0.01};
+    jaw.radius = rounding;
+    for (int t = 0; t < 50; ++t) {
+      const Rigid<double> w{to_matrix(test::random_rotation(rng)), {0.01, 0.02, -0.03}};
+      std::vector<std::pair<Vec3d, Vec3d>> boxes;
+      cover_collider(jaw, w, 0.001, [&](Vec3d lo, Vec3d hi) { boxes.push_back({lo, hi}); });
+      ASSERT_EQ(boxes.size(), 1u);
+      const auto [lo, hi] = boxes[0];
+      Vec3d clo{1e300, 1e300, 1e300}, chi{-1e300, -1e300, -1e300};
+      for (int k = 0; k < 8; ++k) {
+        const Vec3d corner = apply(w, jaw.a + Vec3d{(k & 1) ? jaw.half.x : -jaw.half.x,
+                                                    (k & 2) ? jaw.half.y : -jaw.half.y,
+                                                    (k & 4) ? jaw.half.z : -jaw.half.z});
+        clo = cwise_min(clo, corner);
+        chi = cwise_max(chi, corner);
+      }
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(lo[k], clo[k], 1e-15) << t;
+        EXPECT_NEAR(hi[k], chi[k], 1e-15) << t;
+        EXPECT_LE(lo[k], clo[k] + 1e-17) << t;  // the corners inside, to round-off
+        EXPECT_GE(hi[k], chi[k] - 1e-17) << t;
+      }
+      const double cube = std::pow(2 * bounding_radius(jaw), 3);
+      EXPECT_LT((hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z), 0.75 * cube) << t;
+    }
+  }
+}
+
 TEST(BroadPhase, ANewtonCallsCandidatesAreTheVerticesWithinItsReachInTheGatherOrder) {
   // gather_reachable: the vertices some collider comes within newton_reach_bound of (against
   // every vertex, brute force), listed in gather_candidates' order; the hook and the forceps,

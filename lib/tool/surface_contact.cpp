@@ -120,7 +120,9 @@ void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> 
   const std::size_t cells = static_cast<std::size_t>(sc.dims[0]) * sc.dims[1] * sc.dims[2];
   sc.cell_start.assign(cells + 1, 0);
   sc.cell_stamp.assign(cells, 0);  // with sc.current back at 0
-  // Two passes (count, then fill) over the cells each triangle's box covers.
+  // Two passes (count, then fill) over the cells each triangle's box covers, the first keeping
+  // each triangle's cell range for the second.
+  sc.ranges.resize(F);
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {
       for (std::size_t c = 0; c < cells; ++c) sc.cell_start[c + 1] += sc.cell_start[c];
@@ -128,10 +130,13 @@ void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> 
       sc.fill.assign(sc.cell_start.begin(), sc.cell_start.end() - 1);
     }
     for (std::size_t t = 0; t < F; ++t) {
-      const auto& v = s.triangles[t];
-      int i0[3], i1[3];
-      cell_range(sc, cwise_min(cwise_min(q[v[0]], q[v[1]]), q[v[2]]), cwise_max(cwise_max(q[v[0]], q[v[1]]), q[v[2]]),
-                 i0, i1);
+      int* i0 = sc.ranges[t].data();
+      int* i1 = i0 + 3;
+      if (pass == 0) {
+        const auto& v = s.triangles[t];
+        cell_range(sc, cwise_min(cwise_min(q[v[0]], q[v[1]]), q[v[2]]),
+                   cwise_max(cwise_max(q[v[0]], q[v[1]]), q[v[2]]), i0, i1);
+      }
       for (int x = i0[0]; x <= i1[0]; ++x)
         for (int y = i0[1]; y <= i1[1]; ++y)
           for (int z = i0[2]; z <= i1[2]; ++z) {

@@ -115,6 +115,7 @@ struct SurfaceScratch {
   Vec3d origin{}, upper{};  ///< the binned triangles' bounding box
   int dims[3] = {1, 1, 1};
   std::vector<int> cell_start, cell_entries, fill;
+  std::vector<std::array<int, 6>> ranges;  ///< #F the binning's cell range per triangle (first, last per axis)
   /// #cells: the query (`current`) that last walked each cell; a later box of the same query skips
   /// it (its triangles are taken already)
   std::vector<std::uint32_t> cell_stamp;

@@ -63,8 +63,7 @@ EBH_HD int deepest_collider(const Collider<T>* shape, const Rigid<T>* world, int
 /// Calls box(lo, hi) with world boxes that together cover collider `shape` posed by `w`, hugging
 /// it: a long shaft (hundreds of mm) is cut into pieces a few grid cells long, and a box (a
 /// forceps jaw, thin and long) is covered by its own world-aligned bounds rather than by the cube
-/// around its bounding sphere (a third of the cells for the scenes' jaws), so a query costs the
-/// cells near the collider.
+/// around its bounding sphere, so a query costs the cells near the collider.
 template <class Box>
 void cover_collider(const Collider<double>& shape, const Rigid<double>& w, double cell, Box&& box) {
   if (shape.shape == Shape::Capsule || shape.shape == Shape::Cylinder) {

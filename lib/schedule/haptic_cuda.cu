@@ -181,7 +181,7 @@ struct CudaHapticTicks::Impl {
   int m = 0, n = 0, iterations = 1;
   int grid = 2;                           // ticks_kernel's blocks (all resident): block 0 and the vertices' blocks
   long long ticks = 0, enqueued = 0;
-  unsigned long long epoch = 0;           // virtual iterations (and K = 1 copies) enqueued so far
+  unsigned long long epoch = 0;           // virtual iterations enqueued so far (Schedule::epoch)
   cudaStream_t stream = nullptr;
   cudaEvent_t q_ready = nullptr, step_done = nullptr;
   std::vector<cudaEvent_t> done;  // per run_ticks handle
@@ -319,10 +319,14 @@ struct CudaHapticTicks::Impl {
     sd.overflow = overflow_dev;
   }
 
-  /// The physical step's q: the virtual mesh after the last enqueued tick (q[0]), copied on the
-  /// ticks' stream; the physical stream `pst` waits for the copy.
+  /// The buffer of q that holds the virtual mesh after the last enqueued tick: q[0], or with one
+  /// iteration a tick q[1] after an odd count (the two take turns: Schedule::odd).
+  const Vec3f* state_buffer() const { return q[iterations == 1 && (enqueued & 1) ? 1 : 0].get(); }
+
+  /// The physical step's q: the virtual mesh after the last enqueued tick (state_buffer), copied
+  /// on the ticks' stream; the physical stream `pst` waits for the copy.
   void hand_q_to_physical(cudaStream_t pst) {
-    if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(physical->device_q(), q[0].get(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
+    if (m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(physical->device_q(), state_buffer(), m * sizeof(Vec3f), cudaMemcpyDeviceToDevice, stream));
     EBH_CUDA_CHECK(cudaEventRecord(q_ready, stream));
     EBH_CUDA_CHECK(cudaStreamWaitEvent(pst, q_ready, 0));
   }
@@ -697,7 +701,7 @@ int CudaHapticTicks::launch_ticks(int count) {
       EBH_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<void*>(ticks_kernel), dim3(I.grid), dim3(kBlock), args, 0, I.stream));
       EBH_CUDA_LAUNCH_CHECK(I.stream, "ticks_kernel");
     }
-    I.epoch += static_cast<unsigned long long>(count) * (I.iterations + (I.iterations == 1 ? 1 : 0));
+    I.epoch += static_cast<unsigned long long>(count) * I.iterations;
   }
   const int handle = I.next_handle;
   I.next_handle = (I.next_handle + 1) % static_cast<int>(I.done.size());
@@ -747,7 +751,7 @@ DeviceTickProfile CudaHapticTicks::profile() {
 void CudaHapticTicks::snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visible) {
   Impl& I = *impl_;
   std::vector<Vec3f> qf(I.m), xf(I.n);
-  if (I.m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(qf.data(), I.q[0].get(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
+  if (I.m > 0) EBH_CUDA_CHECK(cudaMemcpyAsync(qf.data(), I.state_buffer(), I.m * sizeof(Vec3f), cudaMemcpyDeviceToHost, I.stream));
   const Vec3f* x_vis = I.x_vis.get();
   if (I.steps_mode == Impl::Steps::InLaunch && I.enqueued > 0) {  // the last enqueued tick's period's
     x_vis = I.dev.xring[ring_slot((I.enqueued - 1) / I.period - 1)];

@@ -43,27 +43,34 @@ struct Schedule {
   __device__ const DeviceTickInput& input(int s) const { return inputs[tick(s)]; }
   /// Whether the virtual tool's Newton call follows step s (a tick's last step always has one).
   __device__ bool called(int s) const { return s % K >= first_call; }
-  /// The epoch of step s's vertices (K = 1: the next one is its copy phase).
-  __device__ unsigned long long epoch(int s) const { return epoch0 + (K == 1 ? 2ull * s + 1 : s + 1ull); }
+  /// The epoch of step s's vertices: the steps enqueued through it (every run's).
+  __device__ unsigned long long epoch(int s) const { return epoch0 + s + 1ull; }
   /// Whether step s waits for the Newton call before it (an unpipelined step): the run's first
-  /// step; every step with K = 1 (its iteration both reads and writes the velocities); a step with
-  /// no Newton call before it (nothing moves the tool beside it, so no vertex is deferred); a
-  /// tick's first step with a grasp event (which changes the held vertices).
+  /// step; a step with no Newton call before it (nothing moves the tool beside it, so no vertex is
+  /// deferred); a tick's first step with a grasp event (which changes the held vertices).
   __device__ bool unpipelined(int s) const {
-    if (s == 0 || !pipeline || K == 1 || !called(s - 1)) return true;
+    if (s == 0 || !pipeline || !called(s - 1)) return true;
     return first(s) && input(s).grasp != 0;
   }
-  /// Iteration i reads in(s) and writes out(s): q0 -> q1 -> q2 -> q1 ... -> q0 (the last). K = 1:
-  /// q0 -> q1 and the velocities to v_scratch, copied back in the copy phase.
+  /// K = 1, tick(s) odd: a tick of one iteration both reads and writes its iterate and velocity,
+  /// so the two buffers of each take turns tick by tick (q0 -> q1 on even ticks, q1 -> q0 on odd
+  /// ones; v -> v_scratch, v_scratch -> v), by the absolute tick, across runs (state_buffer).
+  __device__ bool odd(int s) const { return K == 1 && (tick(s) & 1) != 0; }
+  /// Iteration i reads in(s) and writes out(s): q0 -> q1 -> q2 -> q1 ... -> q0 (the last); K = 1
+  /// as odd() says.
   __device__ const Vec3f* in(int s) const {
     const int i = s % K;
+    if (K == 1) return odd(s) ? q1 : q0;
     return i == 0 ? q0 : (i % 2 == 1 ? q1 : q2);
   }
   __device__ Vec3f* out(int s) const {
     const int i = s % K;
-    return (i == K - 1 && K > 1) ? q0 : (i % 2 == 0 ? q1 : q2);
+    if (K == 1) return odd(s) ? q0 : q1;
+    return i == K - 1 ? q0 : (i % 2 == 0 ? q1 : q2);
   }
-  __device__ Vec3f* v_out() const { return K == 1 ? v_scratch : v; }
+  /// The velocities a tick's first step reads (its start x + h v) and its last step writes.
+  __device__ const Vec3f* v_in(int s) const { return odd(s) ? v_scratch : v; }
+  __device__ Vec3f* v_out(int s) const { return K == 1 && !odd(s) ? v_scratch : v; }
 };
 
 /// Exclusive block scans of two counts (warp shuffles, then the warps in order); totals in ta, tb.

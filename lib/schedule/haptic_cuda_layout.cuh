@@ -117,7 +117,7 @@ struct MeshDev {
   Vec3f* q1 = nullptr;
   Vec3f* q2 = nullptr;
   Vec3f* v = nullptr;             // velocities: the last tick's (iteration 0 reads them), this tick's
-  Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities, copied to v
+  Vec3f* v_scratch = nullptr;     // one virtual iteration per tick: the velocities' second buffer (Schedule::odd)
   SyncDev* sync = nullptr;
   const int4* edge_ell = nullptr;  // edge_ell(): edge item u of vertex j at u m + j
   // 2: the virtual tool's pose for step s's vertices (slot s & 1), published by block 0 with the

@@ -38,7 +38,7 @@ namespace {
 
 /// Steps done (all runs) after step s: the count SurfaceDev::arrive reaches per vertex block.
 __device__ unsigned long long steps_through(const Schedule& S, int s) {
-  return S.K == 1 ? (S.epoch(s) + 1) / 2 : S.epoch(s);
+  return S.epoch(s);
 }
 
 /// The contact list step s's vertices read (surface_contact_target's `listed`): that of the step
@@ -49,7 +49,7 @@ __device__ unsigned long long contact_list_of(const SurfaceDev& sd, const Schedu
   if (!sd.lists || (S.first(s) && S.input(s).grasp != 0)) return 0;
   // A launch's first step follows the last step of the launch before (epochs run on across
   // launches, Schedule::epoch), if there was one.
-  if (s == 0) return S.epoch0 == 0 ? 0 : S.epoch0 - (S.K == 1 ? 1 : 0);
+  if (s == 0) return S.epoch0;
   return S.called(s - 1) ? S.epoch(s - 1) : 0;
 }
 
@@ -57,14 +57,14 @@ __device__ unsigned long long contact_list_of(const SurfaceDev& sd, const Schedu
 /// vertices; block_counts[4 c + 2] the E_con targets' count; no candidates or depth here).
 __device__ void surface_vertex_chunk(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, bool first,
                                      bool last, bool p_ready, unsigned long long listed, int c,
-                                     const Vec3f* __restrict__ qin,
+                                     const Vec3f* __restrict__ qin, const Vec3f* v_in,
                                      Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out, BlockShared& sm,
                                      BlockClock& clock) {
   const int j = c * kBlock + threadIdx.x;
   VertexFlags f;
   DeferredVertex unused;
   if (j < d.m)
-    f = vertex_step<false, true>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out, unused,
+    f = vertex_step<false, true>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, v_in, qout, v_out, unused,
                                  p_ready, &sd, listed);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
@@ -127,13 +127,13 @@ __device__ void triangle_chunk(const MeshDev& d, const SurfaceDev& sd, const Too
 /// lanes in a fixed order (sd.tri_sum, tri_map's w). A triangle whose rows changed since the list
 /// (stretched by the start's h v) gets tri_map's z = 0: its vertices then sum its samples themselves.
 __device__ void listed_triangle_sums(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& posed,
-                                     const Vec3f* qin, bool first, int i) {
+                                     const Vec3f* qin, const Vec3f* v_in, bool first, int i) {
   const int lane = threadIdx.x & 31;
   const int f = sd.listed[i].f;
   const int4 tri = sd.tri[f], m = sd.tri_map[f];
-  const Vec3d x[3] = {static_cast<Vec3d>(iterate_of(d, qin, first, tri.x)),
-                      static_cast<Vec3d>(iterate_of(d, qin, first, tri.y)),
-                      static_cast<Vec3d>(iterate_of(d, qin, first, tri.z))};
+  const Vec3d x[3] = {static_cast<Vec3d>(iterate_of(d, qin, v_in, first, tri.x)),
+                      static_cast<Vec3d>(iterate_of(d, qin, v_in, first, tri.y)),
+                      static_cast<Vec3d>(iterate_of(d, qin, v_in, first, tri.z))};
   const int n = surface_sample_level(tri.w, sd.spacing, x[0], x[1], x[2]);
   if (n != m.z) {
     if (lane == 0) sd.tri_map[f].z = 0;
@@ -171,8 +171,8 @@ __device__ void listed_triangle_sums(const MeshDev& d, const SurfaceDev& sd, con
 /// The vertex blocks with surface contact (vertex_blocks' loop, every step unpipelined): each step,
 /// once released, the vertices of their chunks at the pose of the step's slot; once every block's
 /// vertices are done, the triangles of their chunks at the new iterates (when a Newton call or
-/// the tick's end follows); then the E_svc targets ahead, the q snapshots of a launch across
-/// periods and (K = 1) the copy phase, as vertex_blocks does.
+/// the tick's end follows); then the E_svc targets ahead and the q snapshots of a launch across
+/// periods, as vertex_blocks does.
 __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Schedule& S,
                                       int steps, BlockShared& sm) {
   const int blocks = gridDim.x - 1;
@@ -202,7 +202,7 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
     if (nt > 0) {
       const int warps = blocks * kWarps;
       for (int i = (blockIdx.x - 1) * kWarps + (threadIdx.x >> 5); i < nt; i += warps)
-        listed_triangle_sums(d, sd, t, sm.posed(), S.in(s), first, i);
+        listed_triangle_sums(d, sd, t, sm.posed(), S.in(s), S.v_in(s), first, i);
       __syncthreads();
     }
     if (threadIdx.x == 0) {
@@ -214,7 +214,7 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
     clock.posed();
     for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
       clock.chunk_begin();
-      surface_vertex_chunk(d, sd, t, first, last, p_ready, listed, c, S.in(s), S.out(s), S.v_out(), sm, clock);
+      surface_vertex_chunk(d, sd, t, first, last, p_ready, listed, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
       clock.chunk_end();
     }
     __syncthreads();
@@ -225,7 +225,7 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
         while (load_acquire(&d.sync->arrive) < e * static_cast<unsigned long long>(blocks)) {}
       __syncthreads();
       clock.triangles_begin();
-      for (int c = blockIdx.x - 1; c < sd.chunks; c += blocks) triangle_chunk(d, sd, t, called, last, c, S.out(s), S.v_out(), sm);
+      for (int c = blockIdx.x - 1; c < sd.chunks; c += blocks) triangle_chunk(d, sd, t, called, last, c, S.out(s), S.v_out(s), sm);
       __syncthreads();
       clock.triangles_end();
     }
@@ -260,20 +260,6 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
         const int j = c * kBlock + threadIdx.x;
         if (j < d.m) d.p[j] = blended_paired_point(d, x_prev, x_vis, j, alpha);
       }
-    }
-    if (S.K == 1) {  // the copy phase, as vertex_blocks
-      if (threadIdx.x == 0)
-        while (load_acquire(&d.sync->release) < e + 1) {}
-      __syncthreads();
-      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
-        const int j = c * kBlock + threadIdx.x;
-        if (j < d.m) {
-          d.q0[j] = S.out(s)[j];
-          d.v[j] = d.v_scratch[j];
-        }
-      }
-      __syncthreads();
-      if (threadIdx.x == 0) add_release(&d.sync->arrive, 1ull);
     }
   }
 }
@@ -504,13 +490,11 @@ __device__ void surface_tool_block(const MeshDev& d, const SurfaceDev& sd, const
     release(S.epoch(s), s);
     marks.mark(DeviceTickProfile::Lists);
     wait_for(sd.arrive, steps_through(S, s) * others, s);
-    surface_lists(d, sd, t, pt, S.out(s), S.v_out(), S.called(s), S.last(s), S.epoch(s), sh, marks);
-    if (S.K == 1) release(S.epoch(s) + 1, -1);  // the copy phase (the Newton call reads neither q0 nor v)
+    surface_lists(d, sd, t, pt, S.out(s), S.v_out(s), S.called(s), S.last(s), S.epoch(s), sh, marks);
     marks.count_unpipelined();
     marks.mark(DeviceTickProfile::Lists);
     if (S.called(s))
       virtual_tool_tail<true>(d, t, sm.in(), S.tick(s), S.out(s), S.last(s), pt, sh, marks, sd.cand_w);
-    if (s + 1 < steps && S.K == 1) wait_for(&d.sync->arrive, (S.epoch(s) + 1) * others, -1);  // the copies
   }
   marks.end(d.profile, steps);
 }

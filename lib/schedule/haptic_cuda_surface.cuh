@@ -16,10 +16,10 @@ namespace {
 
 /// Vertex a's position in this step's iteration as vertex_step's edges read it: its iterate, or on
 /// a tick's first step its start x + h v (iteration_start).
-__device__ Vec3f iterate_of(const MeshDev& d, const Vec3f* qin, bool first, int a) {
+__device__ Vec3f iterate_of(const MeshDev& d, const Vec3f* qin, const Vec3f* v_in, bool first, int a) {
   const Vec3f x = qin[a];
   if (!first || d.model.pinned[a]) return x;
-  return iteration_start(x, d.v[a], d.h);
+  return iteration_start(x, v_in[a], d.h);
 }
 
 /// Whether vertex a (at its iterate s_a) is held in this step, as its own thread decides it in
@@ -60,7 +60,7 @@ __device__ bool sample_contact(const ToolConst& t, const Posed& posed, Vec3d y, 
 ///     (listed_triangle_sums), but for one whose rows changed since (tri_map's z = 0), summed here.
 __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, const ToolConst& t, const Posed& posed,
                                       const DeviceTickInput& in, bool first, int j, Vec3f q, const Vec3f* qin,
-                                      unsigned long long listed, Vec3f& kt, float& ck) {
+                                      const Vec3f* v_in, unsigned long long listed, Vec3f& kt, float& ck) {
   Vec3d kt_sum{};
   double ck_sum = 0;
   int count = 0;
@@ -93,7 +93,7 @@ __device__ int surface_contact_target(const MeshDev& d, const SurfaceDev& sd, co
         x[k] = q;
         cj = k;
       } else {
-        x[k] = iterate_of(d, qin, first, v[k]);
+        x[k] = iterate_of(d, qin, v_in, first, v[k]);
         held = held || held_in_step(d, t, posed, in, first, v[k], x[k]);
       }
     }

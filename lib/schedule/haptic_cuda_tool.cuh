@@ -389,7 +389,6 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
     marks.mark(DeviceTickProfile::Lists);
     wait_arrivals(S.epoch(s), s);
     unpipelined_lists(d, S.out(s), sh);
-    if (S.K == 1) release(S.epoch(s) + 1, -1);  // the copy phase (the Newton call reads neither q0 nor v)
     marks.count_unpipelined();
     marks.mark(DeviceTickProfile::Lists);
   };
@@ -408,7 +407,6 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
     marks.mark(DeviceTickProfile::Lists);
     if (S.called(s)) virtual_tool_tail(d, t, sm.in(), S.tick(s), S.out(s), S.last(s), pt, sh, marks);
     if (!next) break;
-    if (S.K == 1) wait_arrivals(S.epoch(s) + 1, -1);  // the copies, before step s + 1 reads q0 and v
     if (ahead) {
       // pt at the call's result with step s + 1's jaws; sm.in() step s + 1's input.
       const bool new_tick = S.first(s + 1);
@@ -420,7 +418,7 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
       __syncthreads();
       marks.mark(DeviceTickProfile::Lists);
       wait_arrivals(S.epoch(s + 1), s + 1);
-      pipelined_lists(d, t, pt, sm.physical(), S.last(s + 1), S.out(s + 1), S.v_out(), sh, marks);
+      pipelined_lists(d, t, pt, sm.physical(), S.last(s + 1), S.out(s + 1), S.v_out(s + 1), sh, marks);
     } else {
       unpipelined_step(s + 1);
     }

@@ -86,7 +86,7 @@ __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& ph
 template <bool kAhead, bool kSurface = false>
 __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const Posed& posed, const Posed& physical,
                                    const DeviceTickInput& in, bool first, bool last, int j,
-                                   const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
+                                   const Vec3f* __restrict__ qin, const Vec3f* v_in, Vec3f* __restrict__ qout,
                                    Vec3f* __restrict__ v_out, DeferredVertex& deferred_out, bool p_ready,
                                    const SurfaceDev* surface = nullptr, unsigned long long listed = 0) {
   static_assert(!(kAhead && kSurface), "surface contact runs unpipelined steps");
@@ -103,8 +103,8 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
   Vec3f s, p, q0 = q_in;  // q0: the tick's first iterate, x + h v (iteration_start)
   if (first) {  // Alg. 2 lines 1 and 6; §5.2 grasp at the jaws' closing, release at the opening
     d.q_start[j] = q_in;
-    s = pinned ? q_in : predict_position(q_in, d.v[j], d.gravity, d.h);
-    q0 = pinned ? q_in : iteration_start(q_in, d.v[j], d.h);
+    s = pinned ? q_in : predict_position(q_in, v_in[j], d.gravity, d.h);
+    q0 = pinned ? q_in : iteration_start(q_in, v_in[j], d.h);
     if (p_ready) {  // blended by this block ahead (vertex_blocks)
       p = d.p[j];
     } else {
@@ -135,7 +135,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
       grasp_target(t, posed, d.grasp_local[j], kt, ck);
       f.targets = 1;
     } else {
-      f.targets = surface_contact_target(d, *surface, t, posed, in, first, j, q, qin, listed, kt, ck);
+      f.targets = surface_contact_target(d, *surface, t, posed, in, first, j, q, qin, v_in, listed, kt, ck);
     }
     f.contact = f.targets > 0;
   } else if (!kAhead) {
@@ -150,7 +150,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
     auto at = [&](int a) {  // q of vertex a in this iteration (iteration 0: its start, x + h v)
       const Vec3f x = qin[a];
       if (!first || d.model.pinned[a]) return x;
-      return iteration_start(x, d.v[a], d.h);
+      return iteration_start(x, v_in[a], d.h);
     };
     // The incident edges (edge_ell) in chunks of kEdgeChunk, every load of a chunk issued before
     // its math (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
@@ -229,13 +229,13 @@ __device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, con
 /// in vertex order, its contact count and deepest penetration (block_counts[4 c ..]).
 template <bool kAhead>
 __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, bool last, bool p_ready, int c,
-                             const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout, Vec3f* __restrict__ v_out,
-                             BlockShared& sm, BlockClock& clock) {
+                             const Vec3f* __restrict__ qin, const Vec3f* v_in, Vec3f* __restrict__ qout,
+                             Vec3f* __restrict__ v_out, BlockShared& sm, BlockClock& clock) {
   const int j = c * kBlock + threadIdx.x;
   VertexFlags f;
   DeferredVertex deferred;
   if (j < d.m)
-    f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, qout, v_out, deferred, p_ready);
+    f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, v_in, qout, v_out, deferred, p_ready);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
   const unsigned b0 = __ballot_sync(~0u, f.list0), b1 = __ballot_sync(~0u, f.list1), bc = __ballot_sync(~0u, f.contact);
@@ -295,8 +295,8 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     clock.posed();
     for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
       clock.chunk_begin();
-      if (ahead) vertex_chunk<true>(d, t, first, last, p_ready, c, S.in(s), S.out(s), S.v_out(), sm, clock);
-      else vertex_chunk<false>(d, t, first, last, p_ready, c, S.in(s), S.out(s), S.v_out(), sm, clock);
+      if (ahead) vertex_chunk<true>(d, t, first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
+      else vertex_chunk<false>(d, t, first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
       clock.chunk_end();
     }
     clock.report(d.profile, s);
@@ -336,22 +336,6 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
       for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
         const int j = c * kBlock + threadIdx.x;
         if (j < d.m) d.p[j] = blended_paired_point(d, x_prev, x_vis, j, alpha);
-      }
-    }
-    if (S.K == 1) {  // the copy phase: v_scratch -> v, q1 -> q0 for the chunks, once every block's step is done
-      if (threadIdx.x == 0)
-        while (load_acquire(&d.sync->release) < e + 1) {}
-      __syncthreads();
-      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
-        const int j = c * kBlock + threadIdx.x;
-        if (j < d.m) {
-          d.q0[j] = S.out(s)[j];
-          d.v[j] = d.v_scratch[j];
-        }
-      }
-      __syncthreads();
-      if (threadIdx.x == 0) {
-        add_release(&d.sync->arrive, 1ull);
       }
     }
   }

@@ -637,6 +637,12 @@ Scene load_scene(const fs::path& file) { return load_scene(file, {}); }
 
 SceneSpec load_scene_spec(const fs::path& file) { return load_scene_spec(file, {}); }
 
+std::vector<std::pair<std::string, fs::path>> scene_input_files(const SceneSpec& spec) {
+  std::vector<std::pair<std::string, fs::path>> files{{"scene_file", spec.file}, {"physical_mesh", spec.physical_mesh}};
+  if (spec.virtual_mesh) files.emplace_back("virtual_mesh", *spec.virtual_mesh);
+  return files;
+}
+
 Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides) {
   return build_scene(load_scene_spec(file, overrides));
 }

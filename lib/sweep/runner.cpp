@@ -19,6 +19,9 @@
 
 #include "io/atomic.hpp"
 #include "core/error.hpp"
+#include "io/h5.hpp"
+#include "io/sha256.hpp"
+#include "scene/scene.hpp"
 
 extern char** environ;
 
@@ -177,6 +180,45 @@ CommandResult run_command(const std::vector<std::string>& argv) {
 }
 
 fs::path run_output(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".h5"); }
+
+const std::string& InputDigests::file(const fs::path& path) {
+  const std::string key = path.string();
+  auto it = files_.find(key);
+  if (it == files_.end()) it = files_.emplace(key, sha256_file(key)).first;
+  return it->second;
+}
+
+const std::vector<std::pair<std::string, fs::path>>& InputDigests::run_files(const SweepPlan& plan, const SweepRun& run) {
+  const fs::path& scene = plan.scenes[run.scene].scene_file;
+  const std::vector<std::string> set = run.set_arguments();
+  std::string key = scene.string() + '\n' + run.recording.string();
+  for (const std::string& s : set) key += '\n' + s;
+  auto it = runs_.find(key);
+  if (it == runs_.end()) {
+    auto files = scene_input_files(load_scene_spec(scene, set));
+    files.emplace_back("recording", run.recording);
+    it = runs_.emplace(key, std::move(files)).first;
+  }
+  return it->second;
+}
+
+RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests) {
+  const fs::path out = run_output(dir, run);
+  std::error_code ec;
+  if (!fs::exists(out, ec)) return RunState::Missing;
+  const auto& files = digests.run_files(plan, run);
+  std::vector<std::string> recorded(files.size());  // the SHA-256 the output holds for each ("": none)
+  try {
+    const h5::File f = h5::File::open_read(out.string());
+    for (std::size_t k = 0; k < files.size(); ++k)
+      if (f.has_attr(files[k].first + "_sha256")) recorded[k] = f.attr_string(files[k].first + "_sha256");
+  } catch (const InputError&) {
+    return RunState::Done;  // not an output of ebh replay: nothing to compare
+  }
+  for (std::size_t k = 0; k < files.size(); ++k)
+    if (!recorded[k].empty() && recorded[k] != digests.file(files[k].second)) return RunState::Stale;
+  return RunState::Done;
+}
 fs::path run_log(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".log"); }
 fs::path run_failure(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".failed"); }
 fs::path batch_file(const fs::path& dir, const SweepRun& first) { return dir / "batches" / (first.id + ".txt"); }
@@ -217,9 +259,11 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
   RunnerProgress p;
   p.total = runs.size();
   std::vector<const SweepRun*> pending;
+  InputDigests digests;
   for (const SweepRun& r : runs) {
-    std::error_code ec;
-    if (fs::exists(run_output(dir, r), ec)) {
+    const RunState state = run_state(dir, plan, r, digests);
+    report.stale += state == RunState::Stale ? 1 : 0;
+    if (state == RunState::Done) {
       ++report.skipped;
       ++p.skipped;
       ++p.done;

@@ -11,15 +11,18 @@
 //   DIR/batches/ID.txt   the --batch file of a child running several CUDA runs (RunnerOptions::batch),
 //                        removed when it ends
 //   DIR/summary.csv      one row per run (sweep/summary.hpp); DIR/summary.h5 the same as HDF5
-// A run whose output exists is done and never run again; a failed one is tried again by the next
-// sweep of the folder. An interrupted sweep (SIGINT, SIGTERM, SIGHUP) passes the signal on to the
+// A run whose output exists is done and never run again, unless the output was made from other
+// input files (run_state: its scene file, a mesh or its recording edited or replaced since); a
+// failed one is tried again by the next sweep of the folder. An interrupted sweep (SIGINT, SIGTERM, SIGHUP) passes the signal on to the
 // replays in flight, which stop and write nothing, and starts no other: rerunning it runs exactly
 // the runs that have no output. A replay still running RunnerOptions::stop_grace_s later is killed.
 // The sweep's own process has no interrupt grace (io/atomic.hpp): it waits for its replays.
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/atomic.hpp"
@@ -30,6 +33,27 @@ namespace ebh {
 std::filesystem::path run_output(const std::filesystem::path& dir, const SweepRun& run);
 std::filesystem::path run_log(const std::filesystem::path& dir, const SweepRun& run);
 std::filesystem::path run_failure(const std::filesystem::path& dir, const SweepRun& run);
+
+/// The SHA-256 of input files, and the files a run's scene reads under its overrides, each found
+/// once (a sweep of many runs hashes each mesh once).
+class InputDigests {
+ public:
+  const std::string& file(const std::filesystem::path& path);
+  /// The run's scene's input files (scene_input_files) and its recording, by the keys a replay
+  /// output records them under.
+  const std::vector<std::pair<std::string, std::filesystem::path>>& run_files(const SweepPlan& plan, const SweepRun& run);
+
+ private:
+  std::map<std::string, std::string> files_;
+  std::map<std::string, std::vector<std::pair<std::string, std::filesystem::path>>> runs_;
+};
+
+/// Where a run stands in DIR: no output yet; an output made from the run's input files as they are
+/// now; or one made from others (a file whose SHA-256 differs from the one the output recorded:
+/// edited or replaced since it ran), which a sweep runs again. An output without the digests (not
+/// written by `ebh replay`) counts as done.
+enum class RunState { Missing, Done, Stale };
+RunState run_state(const std::filesystem::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests);
 
 /// The error line of a failed run (the first line of DIR/runs/ID.failed), or "" when it has none.
 std::string read_run_failure(const std::filesystem::path& dir, const SweepRun& run);
@@ -84,11 +108,12 @@ using RunnerCallback = std::function<void(const RunnerProgress&, const RunOutcom
 
 struct RunnerReport {
   std::size_t ran = 0, skipped = 0, failed = 0, interrupted = 0;  ///< run counts
+  std::size_t stale = 0;                ///< outputs made from other input files, run again (RunState::Stale)
   bool stopped = false;                 ///< an interrupt stopped the sweep
   std::vector<RunOutcome> failures;     ///< in the order they ended
 };
 
-/// Runs every run of `runs` that has no output in `dir` (`ebh replay` with the plan's mode, window
+/// Runs every run of `runs` that has no output in `dir`, or a stale one (`ebh replay` with the plan's mode, window
 /// and the run's backend and overrides), options.jobs at a time. A replay that fails is written
 /// down (DIR/runs/ID.failed) and the others go on.
 RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir,

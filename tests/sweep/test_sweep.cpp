@@ -12,6 +12,7 @@
 
 #include "core/error.hpp"
 #include "io/h5.hpp"
+#include "io/sha256.hpp"
 #include "sweep/plan.hpp"
 #include "sweep/report.hpp"
 #include "sweep/runner.hpp"
@@ -338,6 +339,51 @@ duration: 0.1
 /// An interrupted sweep passes SIGTERM on to its replays; one stuck past even its own grace
 /// (tests/sweep/stuck_replay.sh ignores every signal but SIGKILL) is killed RunnerOptions::
 /// stop_grace_s later, counted as interrupted, with no output, and the sweep returns.
+/// A run is done while its output was made from the run's input files as they are: the output
+/// records each one's SHA-256 (the scene file, its mesh, the recording: write_provenance), and a
+/// file edited or replaced since makes the run stale, so the sweep runs it again. An output that
+/// records none (not written by `ebh replay`) counts as done.
+TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
+  const fs::path d = scratch() / "stale";
+  fs::remove_all(d);
+  fs::create_directories(d / "scene");
+  const fs::path scenarios = fs::path(EBH_SOURCE_DIR) / "scenarios";
+  fs::copy_file(scenarios / "tube.yaml", d / "scene" / "tube.yaml");
+  fs::copy_file(scenarios / "tube.msh", d / "scene" / "tube.msh");
+  const SweepPlan p = read_sweep_plan(plan_file("stale.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
+                                                                  ", recordings: [tube_insert], reference: {}}\nstart: 4\nduration: 0.5\n"));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 1u);
+  const SweepRun& r = runs[0];
+  const fs::path dir = d / "out";
+  fs::create_directories(dir / "runs");
+  InputDigests digests;
+  EXPECT_EQ(run_state(dir, p, r, digests), RunState::Missing);
+  // What the files were when the run ran, as the replay's output records them.
+  auto write_output = [&](const std::string& scene_sha) {
+    h5::File f = h5::File::create(run_output(dir, r).string());
+    f.set_attr("scene_file_sha256", scene_sha);
+    f.set_attr("physical_mesh_sha256", sha256_file((d / "scene" / "tube.msh").string()));
+    f.set_attr("recording_sha256", sha256_file(r.recording.string()));
+  };
+  const std::string scene_sha = sha256_file((d / "scene" / "tube.yaml").string());
+  write_output(scene_sha);
+  EXPECT_EQ(run_state(dir, p, r, digests), RunState::Done);
+  // The scene file edited since (a stiffness changed): stale, in a new sweep.
+  std::ofstream(d / "scene" / "tube.yaml", std::ios::app) << "# edited\n";
+  InputDigests later;
+  EXPECT_EQ(run_state(dir, p, r, later), RunState::Stale);
+  // An output recording the edited file is done again; one made from another mesh is stale.
+  write_output(sha256_file((d / "scene" / "tube.yaml").string()));
+  EXPECT_EQ(run_state(dir, p, r, later), RunState::Done);
+  std::ofstream(d / "scene" / "tube.msh", std::ios::app) << "\n";
+  InputDigests mesh_changed;
+  EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Stale);
+  // An output without digests (another program's file): done, as before.
+  std::ofstream(run_output(dir, r)) << "not HDF5\n";
+  EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Done);
+}
+
 TEST(SweepRunner, AReplayStuckAfterTheInterruptIsKilled) {
   const fs::path dir = scratch() / "stuck";
   fs::remove_all(dir);

@@ -49,9 +49,17 @@ std::string executable() {
   return p.string();
 }
 
-bool is_done(const fs::path& dir, const SweepRun& r) {
-  std::error_code ec;
-  return fs::exists(run_output(dir, r), ec);
+/// Whether run r has an output in DIR made from its input files as they are now (run_state);
+/// counts in `stale` the outputs made from other files, which the sweep runs again.
+bool is_done(const SweepPlan& plan, const fs::path& dir, const SweepRun& r, InputDigests& digests, std::size_t& stale) {
+  const RunState s = run_state(dir, plan, r, digests);
+  stale += s == RunState::Stale ? 1 : 0;
+  return s == RunState::Done;
+}
+
+/// ", N made from other input files (run again)" when N > 0.
+std::string stale_note(std::size_t stale) {
+  return stale ? ", " + std::to_string(stale) + " made from input files edited or replaced since (run again)" : "";
 }
 
 /// "tube + tube_insert, cpu, solver.virtual_iterations=2 (ID)": a run in messages.
@@ -91,9 +99,10 @@ std::vector<std::string> split_words(const std::string& s) {
 }
 
 /// --slurm: one array task per slice of the runs, each `ebh sweep DIR/plan.yaml -o DIR --task I --tasks T`.
-void submit_slurm(const SweepArgs& a, const std::vector<SweepRun>& runs, const fs::path& dir) {
-  std::size_t todo = 0;
-  for (const SweepRun& r : runs) todo += is_done(dir, r) ? 0 : 1;
+void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
+  std::size_t todo = 0, stale = 0;
+  InputDigests digests;
+  for (const SweepRun& r : runs) todo += is_done(plan, dir, r, digests, stale) ? 0 : 1;
   if (todo == 0) {
     std::printf("%s: all %zu runs are done; nothing to submit (ebh sweep report %s)\n", dir.c_str(), runs.size(), dir.c_str());
     return;
@@ -132,8 +141,8 @@ void submit_slurm(const SweepArgs& a, const std::vector<SweepRun>& runs, const f
                      (nl == std::string::npos ? out : out.substr(nl + 1)));
   }
   const std::string job = out.substr(out.find_last_of('\n') == std::string::npos ? 0 : out.find_last_of('\n') + 1);
-  std::printf("%s: submitted Slurm job array %s: %d tasks for %zu runs (%zu to do); when it has finished: ebh sweep report %s\n",
-              dir.c_str(), job.substr(0, job.find(';')).c_str(), tasks, runs.size(), todo, dir.c_str());
+  std::printf("%s: submitted Slurm job array %s: %d tasks for %zu runs (%zu to do%s); when it has finished: ebh sweep report %s\n",
+              dir.c_str(), job.substr(0, job.find(';')).c_str(), tasks, runs.size(), todo, stale_note(stale).c_str(), dir.c_str());
 }
 
 /// The progress line: on a terminal one line rewritten in place, otherwise a line per finished run.
@@ -190,11 +199,12 @@ void run_sweep(const SweepArgs& a) {
     if (s.failed) throw ExitRequest{1};
     return;
   }
-  if (a.slurm) return submit_slurm(a, runs, dir);
+  if (a.slurm) return submit_slurm(a, plan, runs, dir);
 
-  std::size_t todo = 0;
+  std::size_t todo = 0, stale = 0;
+  InputDigests digests;
   for (const SweepRun& r : runs)
-    if (!is_done(dir, r)) {
+    if (!is_done(plan, dir, r, digests, stale)) {
       ++todo;
       try {
         check_backend(r.backend);
@@ -208,8 +218,8 @@ void run_sweep(const SweepArgs& a) {
   opt.threads = std::max(1, available_cores() / a.jobs);
   opt.batch = a.batch;
   opt.at_once = a.at_once.value_or(0);
-  std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done; %d at a time, %d threads each%s\n", runs.size(),
-               runs.size() - todo, std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
+  std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done%s; %d at a time, %d threads each%s\n", runs.size(),
+               runs.size() - todo, stale_note(stale).c_str(), std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
                a.batch > 1 ? (" (CUDA runs of async plans: up to " + std::to_string(a.batch) + " to a child)").c_str() : "");
   ProgressPrinter printer(plan);
   const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer));

@@ -57,7 +57,8 @@ bool is_done(const SweepPlan& plan, const fs::path& dir, const SweepRun& r, Inpu
   return s == RunState::Done;
 }
 
-/// ", N made from other input files (run again)" when N > 0.
+/// The first line's note of the stale runs (", N made from input files edited or replaced since
+/// (run again)"), or "" when there are none.
 std::string stale_note(std::size_t stale) {
   return stale ? ", " + std::to_string(stale) + " made from input files edited or replaced since (run again)" : "";
 }

@@ -637,9 +637,10 @@ Scene load_scene(const fs::path& file) { return load_scene(file, {}); }
 
 SceneSpec load_scene_spec(const fs::path& file) { return load_scene_spec(file, {}); }
 
-std::vector<std::pair<std::string, fs::path>> scene_input_files(const SceneSpec& spec) {
-  std::vector<std::pair<std::string, fs::path>> files{{"scene_file", spec.file}, {"physical_mesh", spec.physical_mesh}};
-  if (spec.virtual_mesh) files.emplace_back("virtual_mesh", *spec.virtual_mesh);
+std::vector<SceneInputFile> scene_input_files(const SceneSpec& spec) {
+  std::vector<SceneInputFile> files{{"scene_file", "the scene file", spec.file},
+                                    {"physical_mesh", "the scene's physical mesh", spec.physical_mesh}};
+  if (spec.virtual_mesh) files.push_back({"virtual_mesh", "the scene's virtual mesh", *spec.virtual_mesh});
   return files;
 }
 

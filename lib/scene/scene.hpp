@@ -92,7 +92,6 @@
 #include <filesystem>
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "core/units.hpp"
@@ -298,10 +297,15 @@ Scene load_scene_text(const std::string& yaml, const std::filesystem::path& file
 /// Loads the scene file and its meshes, validates them, resolves pinned regions.
 Scene load_scene(const std::filesystem::path& file);
 
-/// The files a scene reads, by the key a replay output records each under with its SHA-256
-/// (schedule/replay_output.cpp): scene_file, physical_mesh, and virtual_mesh when the scene names
-/// one (not the physical mesh's boundary).
-std::vector<std::pair<std::string, std::filesystem::path>> scene_input_files(const SceneSpec& spec);
+/// A file a scene reads: the key a replay output records it under with its SHA-256
+/// (schedule/replay_output.cpp), what it is in messages, and its path.
+struct SceneInputFile {
+  std::string key, what;
+  std::filesystem::path path;
+};
+/// The files a scene reads: scene_file, physical_mesh, and virtual_mesh when the scene names one
+/// (not the physical mesh's boundary).
+std::vector<SceneInputFile> scene_input_files(const SceneSpec& spec);
 
 /// The same with overrides "dotted.key=value" (the command line's --set) applied to the file's
 /// YAML before validation: `stiffness.k_con=800`, `solver.method=direct`, `gravity=[0,0,0]`.

@@ -80,6 +80,8 @@ __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& ph
 ///     tool at its new pose, so its step is left to block 0 (list1: deferred) with r and D kept for
 ///     it (r_part, d_part; 0: pinned); the others take no contact term; list0: j may be reachable
 ///     after the call.
+///   v_in, v_out: the velocities a tick's first step reads and its last step writes (Schedule); the
+///     same array at more than one iteration a tick, so v_in is not __restrict__.
 ///   kSurface (surface contact, unpipelined steps only): the contact is that of the samples of j's
 ///     triangles (surface_contact_target, with `surface` and its contact list `listed`); list0 stays empty (the candidates are
 ///     triangles: triangle_step), f.targets counts the targets, and the depth is the triangles'.

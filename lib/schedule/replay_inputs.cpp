@@ -38,10 +38,8 @@ std::string resolve_recording_path(const std::string& name_or_path) {
 std::vector<RoleFile> replay_input_files(const std::string& scene, const std::string& recording,
                                          const std::vector<std::string>& overrides) {
   std::vector<RoleFile> files{{resolve_recording_path(recording), "the recording"}};
-  const SceneSpec spec = load_scene_spec(resolve_scene_path(scene), overrides);
-  files.push_back({spec.file.string(), "the scene file"});
-  files.push_back({spec.physical_mesh.string(), "the scene's physical mesh"});
-  if (spec.virtual_mesh) files.push_back({spec.virtual_mesh->string(), "the scene's virtual mesh"});
+  for (const SceneInputFile& file : scene_input_files(load_scene_spec(resolve_scene_path(scene), overrides)))
+    files.push_back({file.path.string(), file.what});
   return files;
 }
 

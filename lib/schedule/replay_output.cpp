@@ -110,7 +110,7 @@ void write_provenance(h5::File& f, const World& w, const ReplayMetadata& meta) {
     if (it == meta.digests->end()) it = meta.digests->emplace(where, sha256_file(path)).first;
     f.set_attr(key + "_sha256", it->second);
   };
-  for (const auto& [key, path] : scene_input_files(s)) input(key, path.string());
+  for (const SceneInputFile& file : scene_input_files(s)) input(file.key, file.path.string());
   if (!meta.recording.empty()) input("recording", meta.recording);
   else f.set_attr("recording", "");  // a replay of a recording built in memory (tests)
   f.set_attr("scene_yaml", resolved_scene_yaml(s));

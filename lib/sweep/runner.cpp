@@ -180,6 +180,9 @@ CommandResult run_command(const std::vector<std::string>& argv) {
 }
 
 fs::path run_output(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".h5"); }
+fs::path run_log(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".log"); }
+fs::path run_failure(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".failed"); }
+fs::path batch_file(const fs::path& dir, const SweepRun& first) { return dir / "batches" / (first.id + ".txt"); }
 
 const std::string& InputDigests::file(const fs::path& path) {
   const std::string key = path.string();
@@ -195,7 +198,8 @@ const std::vector<std::pair<std::string, fs::path>>& InputDigests::run_files(con
   for (const std::string& s : set) key += '\n' + s;
   auto it = runs_.find(key);
   if (it == runs_.end()) {
-    auto files = scene_input_files(load_scene_spec(scene, set));
+    std::vector<std::pair<std::string, fs::path>> files;
+    for (const SceneInputFile& file : scene_input_files(load_scene_spec(scene, set))) files.emplace_back(file.key, file.path);
     files.emplace_back("recording", run.recording);
     it = runs_.emplace(key, std::move(files)).first;
   }
@@ -219,9 +223,6 @@ RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& r
     if (!recorded[k].empty() && recorded[k] != digests.file(files[k].second)) return RunState::Stale;
   return RunState::Done;
 }
-fs::path run_log(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".log"); }
-fs::path run_failure(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".failed"); }
-fs::path batch_file(const fs::path& dir, const SweepRun& first) { return dir / "batches" / (first.id + ".txt"); }
 
 std::string read_run_failure(const fs::path& dir, const SweepRun& run) {
   std::ifstream in(run_failure(dir, run));
@@ -253,15 +254,15 @@ std::vector<SweepRun> task_slice(const std::vector<SweepRun>& runs, int task, in
 }
 
 RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir,
-                          const RunnerOptions& options, const RunnerCallback& progress) {
+                          const RunnerOptions& options, const RunnerCallback& progress, InputDigests* digests) {
   install_interrupt_handlers();
   RunnerReport report;
   RunnerProgress p;
   p.total = runs.size();
   std::vector<const SweepRun*> pending;
-  InputDigests digests;
+  InputDigests own;
   for (const SweepRun& r : runs) {
-    const RunState state = run_state(dir, plan, r, digests);
+    const RunState state = run_state(dir, plan, r, digests ? *digests : own);
     report.stale += state == RunState::Stale ? 1 : 0;
     if (state == RunState::Done) {
       ++report.skipped;

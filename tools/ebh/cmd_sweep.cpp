@@ -223,7 +223,7 @@ void run_sweep(const SweepArgs& a) {
                runs.size() - todo, stale_note(stale).c_str(), std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
                a.batch > 1 ? (" (CUDA runs of async plans: up to " + std::to_string(a.batch) + " to a child)").c_str() : "");
   ProgressPrinter printer(plan);
-  const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer));
+  const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer), &digests);
   printer.finish();
   if (rep.stopped) {
     std::fprintf(stderr, "ebh: error: %s: interrupted: %zu runs done, %zu not (%zu stopped in flight); rerun the same command to go on\n",

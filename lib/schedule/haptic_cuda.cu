@@ -473,6 +473,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   d.iterations = I.iterations;
   d.first_call = S.newton_calls == 0 ? 0 : I.iterations - S.newton_calls;
   d.pipeline = S.pipeline && !I.surface;  // surface contact runs unpipelined steps (haptic_cuda_surface_run.cuh)
+  d.pipeline_limit = S.pipeline_limit;
   d.slots = I.slots.get();
   d.q0 = I.q[0].get();
   d.q1 = I.q[1].get();

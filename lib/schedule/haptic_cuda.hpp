@@ -122,6 +122,11 @@ struct DeviceHapticSetup {
   /// Run the next step's vertices beside the virtual tool (docs/CUDA.md, "Pipelined steps"); off:
   /// every step waits for the tool (the same results up to the order of the contact sums).
   bool pipeline = true;
+  /// A step after a Newton call of more candidates than this runs unpipelined: block 0 would
+  /// finish about that many vertices itself after the call, which takes longer than the vertex
+  /// blocks' whole step (docs/CUDA.md, "Pipelined steps"). 0: a step after a call with
+  /// candidates unpipelined; -1: every step, as with `pipeline` off.
+  int pipeline_limit = 256;
   /// Surface contact: a step after a Newton call tests only the samples of the call's contact list
   /// (docs/CUDA.md, "Surface contact"); off: every sample of the triangles near the tool (the same
   /// contacts, the sums in another order; for comparisons).

@@ -47,7 +47,9 @@ struct Schedule {
   __device__ unsigned long long epoch(int s) const { return epoch0 + s + 1ull; }
   /// Whether step s waits for the Newton call before it (an unpipelined step): the run's first
   /// step; a step with no Newton call before it (nothing moves the tool beside it, so no vertex is
-  /// deferred); a tick's first step with a grasp event (which changes the held vertices).
+  /// deferred); a tick's first step with a grasp event (which changes the held vertices). Block 0
+  /// also runs a step unpipelined when the call before it has more candidates than
+  /// MeshDev::pipeline_limit, and tells the vertex blocks in the step's slot (SlotPose::ahead).
   __device__ bool unpipelined(int s) const {
     if (s == 0 || !pipeline || !called(s - 1)) return true;
     return first(s) && input(s).grasp != 0;

@@ -82,6 +82,7 @@ struct StepsDev {
 struct SlotPose {
   Vec3d P;
   Quatd Q;
+  int ahead = 0;  // the step runs pipelined, beside the Newton call before it (tool_block's choice)
 };
 
 /// A vertex a pipelined step left to block 0 (vertex_step<true>), at its place in its chunk's
@@ -100,6 +101,7 @@ struct MeshDev {
   int iterations = 1;               // virtual iterations per tick
   int first_call = 0;               // a Newton call follows a tick's steps from this one on (tool.newton_calls)
   bool pipeline = true;             // DeviceHapticSetup::pipeline
+  int pipeline_limit = 0;           // DeviceHapticSetup::pipeline_limit
   float k_s = 0, k_svc = 0, h = 0, v_scale = 0, inv_h2 = 0;  // v_scale: tick_velocity_scale
   Vec3f gravity;
   cuda::VirtualModelView model;

@@ -362,9 +362,9 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
   // starts on the first warps (the candidates). What block 0 wrote before its last barrier is
   // visible with the release (the barrier orders it before the fence). Publishing the pose (not
   // the posed tool) and releasing from the last warp keeps the release off the Newton call's path.
-  auto release = [&](unsigned long long e, int s) {
+  auto release = [&](unsigned long long e, int s, bool ahead) {
     if (threadIdx.x == kReleaseThread) {
-      if (s >= 0) d.slots[s & 1] = SlotPose{sh.P, sh.Q};
+      if (s >= 0) d.slots[s & 1] = SlotPose{sh.P, sh.Q, ahead ? 1 : 0};
       profile_release(d.profile, s);
       store_release(&d.sync->release, e);
     }
@@ -385,7 +385,7 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
     if (threadIdx.x == 0) sm.in() = gin;
     pose_colliders(t, sh.P, sh.Q, gin, pt);
     __syncthreads();
-    release(S.epoch(s), s);
+    release(S.epoch(s), s, false);
     marks.mark(DeviceTickProfile::Lists);
     wait_arrivals(S.epoch(s), s);
     unpipelined_lists(d, S.out(s), sh);
@@ -396,13 +396,17 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
   for (int s = 0; s < steps; ++s) {
     // Here the lists of step s are made and pt is posed at (sh.P, sh.Q), the pose before its call,
     // with the jaws of sm.in(), step s's input.
-    const bool next = s + 1 < steps, ahead = next && !S.unpipelined(s + 1);
+    // Step s + 1 runs beside the call unless the schedule says otherwise or the call reaches many
+    // vertices: block 0 would finish each of them after the call (about as many as step s's
+    // candidates, besides the held ones, whose grasp targets cost little), longer than the vertex
+    // blocks take for a whole step.
+    const bool next = s + 1 < steps, ahead = next && !S.unpipelined(s + 1) && sh.nc <= d.pipeline_limit;
     if (ahead) {
       const DeviceTickInput& gin = S.input(s + 1);
       // For block 0's vertices, by warp 2, which the evaluation that follows mostly leaves idle
       // (threads 0-2 would delay the candidates' terms).
       if (S.last(s + 1)) pose_colliders(t, gin.position, gin.orientation, gin, sm.physical(), kPhysicalPoseThread);
-      release(S.epoch(s + 1), s + 1);
+      release(S.epoch(s + 1), s + 1, true);
     }
     marks.mark(DeviceTickProfile::Lists);
     if (S.called(s)) virtual_tool_tail(d, t, sm.in(), S.tick(s), S.out(s), S.last(s), pt, sh, marks);

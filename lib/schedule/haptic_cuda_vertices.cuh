@@ -278,7 +278,7 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
   bool p_ready = false;  // the step's E_svc targets blended ahead
   for (int s = 0; s < steps; ++s) {
     const unsigned long long e = S.epoch(s);
-    const bool first = S.first(s), last = S.last(s), ahead = !S.unpipelined(s);
+    const bool first = S.first(s), last = S.last(s);
     {  // what does not depend on the virtual tool, before the release
       const DeviceTickInput& gin = S.input(s);
       if (threadIdx.x == 0) sm.in() = gin;
@@ -289,6 +289,7 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     __syncthreads();
     BlockClock clock(d.profile);
     clock.released();
+    const bool ahead = d.slots[s & 1].ahead != 0;  // block 0's choice (tool_block)
     if (threadIdx.x < t.count) {
       const SlotPose slot = d.slots[s & 1];
       pose_collider(t, slot.P, slot.Q, sm.in().jaw_cos, sm.in().jaw_sin, threadIdx.x, sm.posed());

@@ -881,6 +881,17 @@ struct TickWindow {
 
 /// The device ticks alone (no physical steps, a launch per physical period) of `window`, with
 /// `change` applied to the setup; each row's outputs, and the profile if asked.
+template <class T>
+bool same_bits(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
+bool same_outputs(const DeviceTickOutput& a, const DeviceTickOutput& b) {
+  return same_bits(a.force, b.force) && same_bits(a.torque, b.torque) && same_bits(a.position, b.position) &&
+         same_bits(a.orientation, b.orientation) && same_bits(a.penetration, b.penetration) &&
+         a.contacts == b.contacts && a.grasped == b.grasped && a.newton_steps == b.newton_steps;
+}
+
 std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapticSetup&), DeviceTickProfile* profile = nullptr,
                                            const TickWindow& window = {}) {
   LoadedReplay in = load_replay_inputs(window.scene, window.recording, window.overrides, std::nullopt, std::nullopt,
@@ -909,6 +920,7 @@ std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapti
 /// scene's), 3 and 1 virtual iterations (one: a tick's step beside the call of the tick before,
 /// q and v in buffers that take turns). A grid of 9 blocks (each of the 8 vertex blocks running
 /// ~12 chunks) gives the same bits as the full grid: a chunk's lists do not depend on its block.
+/// The pipeline limit (a step after a call of many candidates unpipelined) mixes the two kinds.
 TEST(CudaDeviceTick, PipelinedStepsMatchUnpipelinedOnes) {
   EBH_REQUIRE_DEVICE();
   const int ticks = 800;
@@ -951,6 +963,33 @@ TEST(CudaDeviceTick, PipelinedStepsMatchUnpipelinedOnes) {
     EXPECT_EQ(strided_mismatch, 0);
     EXPECT_DOUBLE_EQ(prof_plain.unpipelined, 1.0);
     EXPECT_LT(prof_pipe.unpipelined, 0.5) << "most steps must run pipelined";
+
+    // DeviceHapticSetup::pipeline_limit: block 0 runs a step unpipelined when the call before it
+    // has more candidates. -1: every step, the same bits as the pipeline off; half the most
+    // vertices in contact: some steps each way (before the contact, in it), within the same bound.
+    static int limit;
+    const auto with_limit = [](DeviceHapticSetup& s) { s.virtual_iterations = iterations; s.pipeline_limit = limit; };
+    limit = -1;
+    DeviceTickProfile prof_none, prof_mixed;
+    const auto none = device_ticks(ticks, with_limit, &prof_none);
+    limit = std::max(1, max_contacts / 2);
+    const auto mixed = device_ticks(ticks, with_limit, &prof_mixed);
+    int none_differ = 0, mixed_grasp = 0;
+    double err_mixed = 0;
+    for (int n = 0; n < ticks; ++n) {
+      none_differ += !same_outputs(none[n], plain[n]);
+      mixed_grasp += mixed[n].grasped != plain[n].grasped;
+      err_mixed = std::max(err_mixed, norm(mixed[n].force - plain[n].force));
+    }
+    std::printf("[ pipeline limit K=%d ] -1: %d ticks differ from the pipeline off; %d: %.1f%% of the steps "
+                "unpipelined, max |F| diff %.3g N\n",
+                K, none_differ, limit, 100 * prof_mixed.unpipelined, err_mixed);
+    EXPECT_EQ(none_differ, 0);
+    EXPECT_DOUBLE_EQ(prof_none.unpipelined, 1.0);
+    EXPECT_GT(prof_mixed.unpipelined, prof_pipe.unpipelined);
+    EXPECT_LT(prof_mixed.unpipelined, 1.0);
+    EXPECT_EQ(mixed_grasp, 0);
+    EXPECT_LE(err_mixed, tol_f);
   }
 }
 
@@ -1058,17 +1097,6 @@ struct DeviceRun {
   std::vector<std::vector<Vec3d>> x;  // per physical step
   std::vector<double> residual;
 };
-
-template <class T>
-bool same_bits(const T& a, const T& b) {
-  return std::memcmp(&a, &b, sizeof(T)) == 0;
-}
-
-bool same_outputs(const DeviceTickOutput& a, const DeviceTickOutput& b) {
-  return same_bits(a.force, b.force) && same_bits(a.torque, b.torque) && same_bits(a.position, b.position) &&
-         same_bits(a.orientation, b.orientation) && same_bits(a.penetration, b.penetration) &&
-         a.contacts == b.contacts && a.grasped == b.grasped && a.newton_steps == b.newton_steps;
-}
 
 /// The physical steps inside the launches count their inverted or flat tets on the device
 /// (PhysicalStepReport::inverted), so that the replay's host does not go over every tet after every

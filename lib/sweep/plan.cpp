@@ -314,6 +314,9 @@ SweepPlan read_sweep_plan(const fs::path& file) {
       check_on_scene(r, node, top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set", s, merged(plan.set, config));
     plan.scenes.push_back(std::move(s));
   }
+  for (const SweepScene& sc : plan.scenes)  // each file read once, for every run's id
+    for (const fs::path& f : sc.recordings) plan.sha256.emplace(f.string(), sha256_file(f.string()));
+  for (const SweepScene& sc : plan.scenes) plan.sha256.emplace(sc.scene_file.string(), sha256_file(sc.scene_file.string()));
   (void)expand_plan(plan);  // the size limit, before any work
   return plan;
 }
@@ -380,18 +383,45 @@ std::string SweepRun::overrides_text() const {
 
 std::vector<std::string> SweepRun::set_arguments() const { return as_set_arguments(effective); }
 
-std::string run_id(const SweepPlan& plan, const fs::path& scene_file, const fs::path& recording, const Overrides& effective,
-                   const std::string& backend, int repetition) {
-  std::string key = "ebh sweep run\nscene " + scene_file.string() + "\nrecording " + recording.string() + "\nmode " +
-                    plan.mode + "\nstart " + shortest_number(plan.start) + "\nduration " + shortest_number(plan.duration) + "\nbackend " +
-                    backend + "\nrepetition " + std::to_string(repetition) + "\n";
+namespace {
+
+/// What a run id hashes after the two files: the replay's window, configuration and backend.
+std::string run_key_tail(const SweepPlan& plan, const Overrides& effective, const std::string& backend, int repetition) {
+  std::string key = "\nmode " + plan.mode + "\nstart " + shortest_number(plan.start) + "\nduration " +
+                    shortest_number(plan.duration) + "\nbackend " + backend + "\nrepetition " + std::to_string(repetition) + "\n";
   for (const auto& [k, v] : effective) key += "set " + k + "=" + v + "\n";
-  return sha256_hex(key).substr(0, 16);
+  return key;
+}
+
+}  // namespace
+
+std::string run_id(const SweepPlan& plan, const std::string& scene_sha256, const std::string& recording_sha256,
+                   const Overrides& effective, const std::string& backend, int repetition) {
+  return sha256_hex("ebh sweep run\nscene sha256 " + scene_sha256 + "\nrecording sha256 " + recording_sha256 +
+                    run_key_tail(plan, effective, backend, repetition))
+      .substr(0, 16);
+}
+
+std::string legacy_run_id(const SweepPlan& plan, const fs::path& scene_file, const fs::path& recording,
+                          const Overrides& effective, const std::string& backend, int repetition) {
+  return sha256_hex("ebh sweep run\nscene " + scene_file.string() + "\nrecording " + recording.string() +
+                    run_key_tail(plan, effective, backend, repetition))
+      .substr(0, 16);
 }
 
 std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
   std::vector<SweepRun> runs;
   std::set<std::string> ids;
+  // Run r of scene si: its ids, from the files' digests read with the plan.
+  auto digest = [&](const fs::path& file) {
+    const auto it = plan.sha256.find(file.string());
+    return it != plan.sha256.end() ? it->second : sha256_file(file.string());
+  };
+  auto name = [&](SweepRun& r, std::size_t si) {
+    const fs::path& scene = plan.scenes[si].scene_file;
+    r.id = run_id(plan, digest(scene), digest(r.recording), r.effective, r.backend, r.repetition);
+    r.legacy_id = legacy_run_id(plan, scene, r.recording, r.effective, r.backend, r.repetition);
+  };
   auto add = [&](SweepRun r) {
     if (ids.insert(r.id).second) runs.push_back(std::move(r));
     if (runs.size() > kMaxSweepRuns)
@@ -409,7 +439,8 @@ std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
       // The baseline's run on this backend when the baseline is the reference configuration.
       r.baseline = plan.baseline && *plan.baseline == r.overrides &&
                    std::find(plan.backends.begin(), plan.backends.end(), r.backend) != plan.backends.end();
-      r.id = r.reference_id = run_id(plan, plan.scenes[si].scene_file, rec, r.effective, r.backend, 0);
+      name(r, si);
+      r.reference_id = r.id;
       add(std::move(r));
     }
   const std::size_t references = runs.size();
@@ -430,7 +461,7 @@ std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
             r.repetition = rep;
             r.reference_id = ref_id;
             r.baseline = plan.baseline && *plan.baseline == config;
-            r.id = run_id(plan, plan.scenes[si].scene_file, rec, r.effective, backend, rep);
+            name(r, si);
             add(std::move(r));  // the reference's own configuration on its backend is the reference run
           }
     }

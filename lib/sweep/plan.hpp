@@ -29,7 +29,8 @@
 //
 // A plan expands to runs: for each scene, recording, configuration (grid combination or list
 // entry), backend and repetition one replay, plus one reference replay per scene and recording
-// (on the CPU unless reference_backend says otherwise). Each run has a stable id (run_id) from which its output's name is made.
+// (on the CPU unless reference_backend says otherwise). Each run has a stable id (run_id, from the
+// input files' contents) from which its output's name is made.
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -57,6 +58,8 @@ struct SweepPlan {
   Overrides set;                              ///< applied to every replay first
   std::optional<Overrides> baseline;          ///< the configuration speed-ups are measured against (in configurations)
   std::string baseline_name = "baseline";     ///< its label in the summary and the report
+  /// The SHA-256 (hex) of each scene file and recording, by path: read once with the plan (run ids)
+  std::map<std::string, std::string> sha256;
   std::vector<std::string> backends{"cpu"};
   std::string reference_backend = "cpu";
   int repetitions = 1;
@@ -82,6 +85,7 @@ inline constexpr std::size_t kMaxSweepRuns = 100000;
 
 struct SweepRun {
   std::string id;                        ///< run_id(): 16 hex digits
+  std::string legacy_id;                 ///< legacy_run_id(): its id in folders made before
   std::size_t scene = 0;                 ///< index into SweepPlan::scenes
   std::filesystem::path recording;       ///< absolute
   Overrides overrides;                   ///< the configuration's own (or the reference's)
@@ -99,12 +103,20 @@ struct SweepRun {
 };
 
 /// The stable id of a replay: the first 16 hex digits of the SHA-256 of everything that decides
-/// its output: the scene and recording files (absolute paths), mode, start, duration, effective
-/// overrides (sorted by key), backend and repetition. The same replay asked for twice, by two
-/// plans or after editing other parts of a plan, has the same id; the run's output file is named
-/// after it (runs/ID.h5), which is what makes a sweep resumable.
-std::string run_id(const SweepPlan& plan, const std::filesystem::path& scene_file, const std::filesystem::path& recording,
+/// its output: the scene file's and the recording's contents (their SHA-256, not their paths),
+/// mode, start, duration, effective overrides (sorted by key), backend and repetition. The same
+/// replay asked for twice, by two plans, after editing other parts of a plan, from another
+/// checkout or on another machine, has the same id; the run's output file is named after it
+/// (runs/ID.h5), which is what makes a sweep resumable and a folder's references reusable
+/// elsewhere. An edited scene file or recording gives its runs new ids.
+std::string run_id(const SweepPlan& plan, const std::string& scene_sha256, const std::string& recording_sha256,
                    const Overrides& effective, const std::string& backend, int repetition);
+
+/// The id that folders made before the ids came from the files' contents gave a run: the same
+/// with the scene file's and the recording's absolute paths (adopt_legacy_outputs).
+std::string legacy_run_id(const SweepPlan& plan, const std::filesystem::path& scene_file,
+                          const std::filesystem::path& recording, const Overrides& effective, const std::string& backend,
+                          int repetition);
 
 /// The runs of a plan: references first (one per scene and recording, on reference_backend,
 /// repetition 0), then scene by scene, recording by recording, configuration, backend and

@@ -184,6 +184,10 @@ fs::path run_log(const fs::path& dir, const SweepRun& run) { return dir / "runs"
 fs::path run_failure(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".failed"); }
 fs::path batch_file(const fs::path& dir, const SweepRun& first) { return dir / "batches" / (first.id + ".txt"); }
 
+InputDigests::InputDigests(const SweepPlan* plan) {
+  if (plan) files_ = plan->sha256;
+}
+
 const std::string& InputDigests::file(const fs::path& path) {
   const std::string key = path.string();
   auto it = files_.find(key);
@@ -224,6 +228,28 @@ RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& r
   return RunState::Done;
 }
 
+std::size_t adopt_legacy_outputs(const fs::path& dir, const std::vector<SweepRun>& runs) {
+  std::size_t taken = 0;
+  std::error_code ec;
+  if (!fs::is_directory(dir / "runs", ec)) return 0;
+  for (const SweepRun& r : runs) {
+    if (r.legacy_id.empty() || r.legacy_id == r.id) continue;
+    SweepRun legacy = r;
+    legacy.id = r.legacy_id;
+    const std::pair<fs::path, fs::path> files[] = {{run_output(dir, legacy), run_output(dir, r)},
+                                                   {run_log(dir, legacy), run_log(dir, r)},
+                                                   {run_failure(dir, legacy), run_failure(dir, r)}};
+    if (fs::exists(run_output(dir, r), ec) || fs::exists(run_failure(dir, r), ec)) continue;
+    for (const auto& [from, to] : files) {
+      if (!fs::exists(from, ec)) continue;
+      fs::rename(from, to, ec);
+      if (ec) throw InputError(from.string() + ": cannot rename it to " + to.filename().string() + ": " + ec.message());
+      if (from == files[0].first) ++taken;
+    }
+  }
+  return taken;
+}
+
 std::string read_run_failure(const fs::path& dir, const SweepRun& run) {
   std::ifstream in(run_failure(dir, run));
   std::string line;
@@ -260,7 +286,7 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
   RunnerProgress p;
   p.total = runs.size();
   std::vector<const SweepRun*> pending;
-  InputDigests own;
+  InputDigests own(&plan);
   for (const SweepRun& r : runs) {
     const RunState state = run_state(dir, plan, r, digests ? *digests : own);
     report.stale += state == RunState::Stale ? 1 : 0;

@@ -12,7 +12,8 @@
 //                        removed when it ends
 //   DIR/summary.csv      one row per run (sweep/summary.hpp); DIR/summary.h5 the same as HDF5
 // A run whose output exists is done and never run again, unless the output was made from other
-// input files (run_state: its scene file, a mesh or its recording edited or replaced since); a
+// input files (run_state: a mesh edited or replaced since; an edited scene file or recording
+// gives the run another id, so it is run again under that; a
 // failed one is tried again by the next sweep of the folder. An interrupted sweep (SIGINT, SIGTERM, SIGHUP) passes the signal on to the
 // replays in flight, which stop and write nothing, and starts no other: rerunning it runs exactly
 // the runs that have no output. A replay still running RunnerOptions::stop_grace_s later is killed.
@@ -38,6 +39,8 @@ std::filesystem::path run_failure(const std::filesystem::path& dir, const SweepR
 /// once (a sweep of many runs hashes each mesh once).
 class InputDigests {
  public:
+  /// With the digests the plan read (SweepPlan::sha256), which are then not read again.
+  explicit InputDigests(const SweepPlan* plan = nullptr);
   const std::string& file(const std::filesystem::path& path);
   /// The run's scene's input files (scene_input_files) and its recording, by the keys a replay
   /// output records them under.
@@ -54,6 +57,11 @@ class InputDigests {
 /// written by `ebh replay`) counts as done.
 enum class RunState { Missing, Done, Stale };
 RunState run_state(const std::filesystem::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests);
+
+/// A folder made before the run ids came from the files' contents names a run's files after its
+/// legacy id (SweepRun::legacy_id): each run without files under its id takes those (output, log,
+/// failure, renamed), which run_state then checks as any other. Returns how many outputs it took.
+std::size_t adopt_legacy_outputs(const std::filesystem::path& dir, const std::vector<SweepRun>& runs);
 
 /// The error line of a failed run (the first line of DIR/runs/ID.failed), or "" when it has none.
 std::string read_run_failure(const std::filesystem::path& dir, const SweepRun& run);

@@ -129,7 +129,8 @@ TEST(SweepPlan, RunIdsAreStable) {
   swapped.replace(swapped.find("start: 4\nduration: 0.5"), 22, "duration: 0.5\nstart: 4");
   EXPECT_EQ(expand_plan(read_sweep_plan(plan_file("ids_swapped.yaml", swapped)))[3].id, a[3].id);
   const Overrides o = a[3].effective;
-  const fs::path scene = p.scenes[0].scene_file, rec = p.scenes[0].recordings[0];
+  const fs::path scene_file = p.scenes[0].scene_file, rec_file = p.scenes[0].recordings[0];
+  const std::string scene = sha256_file(scene_file.string()), rec = sha256_file(rec_file.string());
   const std::string id = run_id(p, scene, rec, o, a[3].backend, a[3].repetition);
   EXPECT_EQ(id, a[3].id);
   EXPECT_NE(run_id(p, scene, rec, o, a[3].backend == "cpu" ? "cuda" : "cpu", a[3].repetition), id);
@@ -143,6 +144,30 @@ TEST(SweepPlan, RunIdsAreStable) {
   SweepPlan lockstep = p;
   lockstep.mode = "lockstep";
   EXPECT_NE(run_id(lockstep, scene, rec, o, a[3].backend, a[3].repetition), id);
+  EXPECT_EQ(a[3].legacy_id, legacy_run_id(p, scene_file, rec_file, o, a[3].backend, a[3].repetition));
+  EXPECT_NE(a[3].legacy_id, id);
+
+  // The ids come from the files' contents, not their paths: the scene (with its mesh) and the
+  // recording copied elsewhere under other names give the same ids (a folder's runs found from
+  // another checkout or machine); the scene file edited gives its runs other ids.
+  const fs::path elsewhere = scratch() / "ids_elsewhere";
+  fs::remove_all(elsewhere);
+  fs::create_directories(elsewhere);
+  fs::copy_file(scene_file, elsewhere / "my_tube.yaml");
+  fs::copy_file(scene_file.parent_path() / "tube.msh", elsewhere / "tube.msh");
+  fs::copy_file(rec_file, elsewhere / "my_insert.h5");
+  std::string moved = kPlan;
+  moved.replace(moved.find("scene: tube"), 11, "scene: " + (elsewhere / "my_tube.yaml").string());
+  moved.replace(moved.find("[tube_insert]"), 13, "[" + (elsewhere / "my_insert.h5").string() + "]");
+  const std::vector<SweepRun> m = expand_plan(read_sweep_plan(plan_file("ids_moved.yaml", moved)));
+  ASSERT_EQ(m.size(), a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(m[i].id, a[i].id);
+    EXPECT_NE(m[i].legacy_id, a[i].legacy_id);
+  }
+  std::ofstream(elsewhere / "my_tube.yaml", std::ios::app) << "# edited\n";
+  const std::vector<SweepRun> e = expand_plan(read_sweep_plan(plan_file("ids_moved.yaml", moved)));
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NE(e[i].id, a[i].id);
 }
 
 // `baseline`: a named configuration added to the runs once (not again when a list entry is it),
@@ -382,6 +407,41 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   // An output without digests (another program's file): done, as before.
   std::ofstream(run_output(dir, r)) << "not HDF5\n";
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Done);
+}
+
+// A folder made before the ids came from the files' contents holds its outputs under the runs'
+// legacy ids (the files' paths): a sweep takes each over (output, log) for the run that has none
+// under its id, and leaves a legacy file alone where the run already has its own.
+TEST(SweepRunner, OutputsNamedAfterThePathsAreTakenOver) {
+  const fs::path dir = scratch() / "legacy";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "runs");
+  const SweepPlan p = read_sweep_plan(plan_file("legacy.yaml", kPlan));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_GE(runs.size(), 3u);
+  EXPECT_EQ(adopt_legacy_outputs(dir, runs), 0u);
+  auto legacy = [&](const SweepRun& r, const char* ext) { return dir / "runs" / (r.legacy_id + ext); };
+  std::ofstream(legacy(runs[0], ".h5")) << "reference\n";
+  std::ofstream(legacy(runs[0], ".log")) << "warning\n";
+  std::ofstream(legacy(runs[1], ".h5")) << "legacy\n";
+  std::ofstream(run_output(dir, runs[1])) << "own\n";
+  std::ofstream(legacy(runs[2], ".failed")) << "an error\n";
+  EXPECT_EQ(adopt_legacy_outputs(dir, runs), 1u);
+  auto text = [](const fs::path& f) {
+    std::ifstream in(f);
+    std::string line;
+    std::getline(in, line);
+    return line;
+  };
+  EXPECT_EQ(text(run_output(dir, runs[0])), "reference");
+  EXPECT_EQ(text(run_log(dir, runs[0])), "warning");
+  EXPECT_FALSE(fs::exists(legacy(runs[0], ".h5")));
+  EXPECT_EQ(text(run_output(dir, runs[1])), "own");
+  EXPECT_TRUE(fs::exists(legacy(runs[1], ".h5")));
+  EXPECT_EQ(read_run_failure(dir, runs[2]), "an error");
+  InputDigests digests(&p);
+  EXPECT_EQ(run_state(dir, p, runs[0], digests), RunState::Done);  // not an ebh output: done, as before
+  EXPECT_EQ(adopt_legacy_outputs(dir, runs), 0u);
 }
 
 TEST(SweepRunner, AReplayStuckAfterTheInterruptIsKilled) {

@@ -99,10 +99,18 @@ std::vector<std::string> split_words(const std::string& s) {
   return words;
 }
 
+/// The outputs a folder made by an older ebh holds under the runs' legacy ids, renamed to their
+/// ids (adopt_legacy_outputs), with a line saying so.
+void adopt_legacy(const fs::path& dir, const std::vector<SweepRun>& runs) {
+  if (const std::size_t n = adopt_legacy_outputs(dir, runs))
+    std::fprintf(stderr, "ebh sweep: %s: %zu outputs named after their scene's and recording's paths (an older ebh) renamed to "
+                 "the ids of their files' contents\n", dir.c_str(), n);
+}
+
 /// --slurm: one array task per slice of the runs, each `ebh sweep DIR/plan.yaml -o DIR --task I --tasks T`.
-void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
+void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir,
+                  InputDigests& digests) {
   std::size_t todo = 0, stale = 0;
-  InputDigests digests;
   for (const SweepRun& r : runs) todo += is_done(plan, dir, r, digests, stale) ? 0 : 1;
   if (todo == 0) {
     std::printf("%s: all %zu runs are done; nothing to submit (ebh sweep report %s)\n", dir.c_str(), runs.size(), dir.c_str());
@@ -183,6 +191,7 @@ void run_sweep(const SweepArgs& a) {
   if (!a.backend.empty() && a.backend != "cpu" && a.backend != "cuda")
     throw InputError("--backend: expected cpu or cuda, got '" + a.backend + "'");
   const SweepPlan plan = read_sweep_plan(a.plan);
+  InputDigests digests(&plan);
   const std::vector<SweepRun> all = expand_plan(plan);
   const fs::path dir = a.out;
   if (std::error_code ec; fs::exists(dir, ec) && !fs::is_directory(dir, ec)) throw InputError("-o " + a.out + ": not a folder");
@@ -194,16 +203,16 @@ void run_sweep(const SweepArgs& a) {
     if (a.backend.empty() || r.backend == a.backend || r.reference) runs.push_back(r);
   if (a.task) runs = task_slice(runs, *a.task, *a.tasks);
   else if (!same_file(a.plan, plan_copy(dir).string())) write_file_atomically(plan_copy(dir).string(), resolved_plan_yaml(plan));
+  if (!a.task) adopt_legacy(dir, all);
 
   if (a.collect) {
     const SweepSummary s = write_summary(plan, all, dir);
     if (s.failed) throw ExitRequest{1};
     return;
   }
-  if (a.slurm) return submit_slurm(a, plan, runs, dir);
+  if (a.slurm) return submit_slurm(a, plan, runs, dir, digests);
 
   std::size_t todo = 0, stale = 0;
-  InputDigests digests;
   for (const SweepRun& r : runs)
     if (!is_done(plan, dir, r, digests, stale)) {
       ++todo;
@@ -261,7 +270,9 @@ void run_report(const ReportArgs& a) {
   // Collect: the summary again when runs ended after it was written (a Slurm array's tasks).
   if (has_plan && (!has_summary || fs::last_write_time(summary_path(dir), ec) <= newest_input(dir))) {
     const SweepPlan plan = read_sweep_plan(plan_copy(dir));
-    const SweepSummary s = summarize_sweep(plan, expand_plan(plan), dir);
+    const std::vector<SweepRun> runs = expand_plan(plan);
+    adopt_legacy(dir, runs);
+    const SweepSummary s = summarize_sweep(plan, runs, dir);
     write_summary_files(dir, s.table);
     std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(),
                  s.table.rows.size(), s.ok, s.failed, s.pending);

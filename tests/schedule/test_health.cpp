@@ -4,6 +4,7 @@
 // the steps the iterations leave unconverged with the direct solve, which is then what it gives.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <string>
 
 #include "core/error.hpp"
@@ -68,6 +69,37 @@ TEST(Health, ADivergingPhysicalMeshStopsTheReplayNamingTickStepAndElement) {
   opt.duration = 0.5;
   EXPECT_NO_THROW(replay(*degraded_tube("bounded"), rec, opt, count));
   EXPECT_EQ(count.ticks, 501);
+}
+
+// The stop names what the user can change on the backend that ran the step: the CUDA backend has
+// neither the direct method nor the recovery, so it points at the CPU backend's recovery; fixed
+// iterations (no stopping rule) are named as such.
+TEST(Health, TheStopNamesWhatTheBackendCanChange) {
+  auto stop = [](const World& w) -> std::string {
+    PhysicalSide p;
+    p.mesh.x = w.physical_mesh.rest;
+    p.mesh.x[3].y = std::numeric_limits<double>::quiet_NaN();
+    p.step = 1;
+    try {
+      check_physical_step(w, p);
+    } catch (const NumericalError& e) {
+      return e.what();
+    }
+    return "no stop";
+  };
+  World w = *build_world(load_scene(resolve_scene_path("tube"), {"solver.recovery=none"}), 1000, 100);
+  const std::string cpu = stop(w);
+  EXPECT_NE(cpu.find("use solver.method=direct"), std::string::npos) << cpu;
+  EXPECT_NE(cpu.find("turn solver.recovery back on"), std::string::npos) << cpu;
+  EXPECT_EQ(cpu.find("stopping rule"), std::string::npos) << cpu;
+  w.backend = Backend::Cuda;
+  w.scene.spec.solver.physical_tolerance = 0;
+  const std::string cuda = stop(w);
+  EXPECT_NE(cuda.find("tube.yaml: tick 0, physical step 0: the physical mesh is not finite"), std::string::npos) << cuda;
+  EXPECT_EQ(cuda.find("solver.method=direct"), std::string::npos) << cuda;
+  EXPECT_NE(cuda.find("--backend cpu"), std::string::npos) << cuda;
+  EXPECT_NE(cuda.find("turn the stopping rule back on"), std::string::npos) << cuda;
+  EXPECT_EQ(cuda.find('\n'), std::string::npos) << cuda;
 }
 
 TEST(Health, TheRecoveryRedoesTheDivergingStepsWithTheDirectSolve) {

@@ -576,6 +576,14 @@ add_test(NAME cli.sweep.bad_plan
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;${EBH_SWEEP_OUT}/bad_plan.yaml;-o;${EBH_SWEEP_OUT}/bad"
     "-DEXPECT=^ebh: error: .*bad_plan.yaml:4: key 'grid.solver.no_such': on scene tube: .*tube.yaml: key 'solver.no_such': unknown key"
     -DOUTPUT=${EBH_SWEEP_OUT}/bad/summary.csv -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# A folder copied from another machine: its plan's files are not here and its summary is older
+# than the plan (a copy's times): the report is the summary's, with a warning.
+file(COPY ${CMAKE_CURRENT_SOURCE_DIR}/data/sweep/front/summary.csv DESTINATION ${EBH_SWEEP_OUT}/moved)
+file(WRITE ${EBH_SWEEP_OUT}/moved/plan.yaml
+  "scenes:\n  - {scene: /elsewhere/scenarios/tube.yaml, recordings: [/elsewhere/recordings/tube_insert.h5], reference: {}}\n")
+add_test(NAME cli.sweep.report_moved_folder COMMAND ${EBH_BIN} sweep report ${EBH_SWEEP_OUT}/moved)
+set_tests_properties(cli.sweep.report_moved_folder PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION
+  "warning: .*moved: cannot collect the runs again \\(.*elsewhere.*\\); reporting summary.csv as it is.*\\| \\* \\| k=1 \\|")
 add_test(NAME cli.sweep.report_not_a_sweep
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;report;${CMAKE_CURRENT_SOURCE_DIR}/data/sweep"
     "-DEXPECT=^ebh: error: .*data/sweep: neither summary.csv nor plan.yaml: not a sweep's folder"

@@ -267,15 +267,23 @@ void run_report(const ReportArgs& a) {
   const bool has_plan = fs::exists(plan_copy(dir), ec), has_summary = fs::exists(summary_path(dir), ec);
   if (!has_plan && !has_summary)
     throw InputError(a.dir + ": neither summary.csv nor plan.yaml: not a sweep's folder");
-  // Collect: the summary again when runs ended after it was written (a Slurm array's tasks).
+  // Collect: the summary again when runs ended after it was written (a Slurm array's tasks). A
+  // folder copied to another machine may have its files' times reordered and its plan's input
+  // files missing: then the summary it has is reported, saying so.
   if (has_plan && (!has_summary || fs::last_write_time(summary_path(dir), ec) <= newest_input(dir))) {
-    const SweepPlan plan = read_sweep_plan(plan_copy(dir));
-    const std::vector<SweepRun> runs = expand_plan(plan);
-    adopt_legacy(dir, runs);
-    const SweepSummary s = summarize_sweep(plan, runs, dir);
-    write_summary_files(dir, s.table);
-    std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(),
-                 s.table.rows.size(), s.ok, s.failed, s.pending);
+    try {
+      const SweepPlan plan = read_sweep_plan(plan_copy(dir));
+      const std::vector<SweepRun> runs = expand_plan(plan);
+      adopt_legacy(dir, runs);
+      const SweepSummary s = summarize_sweep(plan, runs, dir);
+      write_summary_files(dir, s.table);
+      std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(),
+                   s.table.rows.size(), s.ok, s.failed, s.pending);
+    } catch (const InputError& e) {
+      if (!has_summary) throw;
+      std::fprintf(stderr, "ebh: warning: %s: cannot collect the runs again (%s); reporting summary.csv as it is\n",
+                   a.dir.c_str(), e.what());
+    }
   }
   const std::string file = summary_path(dir).string();
   check_input_file(file);

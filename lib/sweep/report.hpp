@@ -69,8 +69,13 @@ std::optional<BaselineGoal> baseline_goal(const ReportGroup& group);
 /// naming `file` and a missing column or a cell that is not a number.
 std::vector<ReportGroup> build_report(const CsvTable& summary, const std::string& file, double min_haptic_hz = 0);
 
+/// A candidate against the baseline whose max physical residual is more than this many times the
+/// baseline's is named as less converged beside the comparison (report_markdown).
+inline constexpr double kLooserSolve = 5;
+
 /// The Markdown report: per group a table by wall time, the front and the baseline marked, and the
-/// comparison with the baseline (baseline_goal) when there is one.
+/// comparison with the baseline (baseline_goal) when there is one, saying where the fastest or the
+/// most accurate leaves its physical mesh less converged than the baseline (kLooserSolve).
 std::string report_markdown(const std::vector<ReportGroup>& groups);
 
 /// A PNG plot (log-log): force RMS error against wall time, one colour per group, the front of

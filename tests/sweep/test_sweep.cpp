@@ -671,6 +671,18 @@ TEST(SweepReport, BaselineGoal) {
   EXPECT_EQ(g4[0].points[goal4->most_accurate].overrides, "k=4");
   // No baseline column: no comparison.
   EXPECT_FALSE(baseline_goal(build_report(parse_csv(text, file), file)[0]).has_value());
+  // A winner whose physical mesh is far less converged than the baseline's (its max residual over
+  // kLooserSolve times the baseline's) is named so beside the comparison; one within it is not.
+  for (auto& row : t.rows) row.back() = row[t.column("overrides", file)] == "k=3" ? "paper" : "";
+  t.header.push_back("timing.physical_residual_max");
+  for (auto& row : t.rows) row.push_back(row[t.column("overrides", file)] == "k=2" ? "0.02" : "0.002");
+  const std::string loose = report_markdown(build_report(t, file));
+  EXPECT_NE(loose.find("**1.36x faster** (its physical solve is less converged: max residual 0.02 mesh weights, 10x the "
+                       "baseline's); the most accurate"),
+            std::string::npos) << loose;
+  for (auto& row : t.rows) row.back() = row[t.column("overrides", file)] == "k=2" ? "0.009" : "0.002";
+  const std::string close = report_markdown(build_report(t, file));
+  EXPECT_EQ(close.find("less converged"), std::string::npos) << close;
 }
 
 /// The haptic rate floor (`ebh sweep report --min-haptic-hz`, kMinHapticHz by default there): a

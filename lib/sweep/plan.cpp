@@ -314,9 +314,10 @@ SweepPlan read_sweep_plan(const fs::path& file) {
       check_on_scene(r, node, top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set", s, merged(plan.set, config));
     plan.scenes.push_back(std::move(s));
   }
-  for (const SweepScene& sc : plan.scenes)  // each file read once, for every run's id
+  for (SweepScene& sc : plan.scenes) {  // each file read once, for every run's id
+    sc.inputs_sha256 = scene_inputs_sha256(sc.scene_file, plan.sha256);
     for (const fs::path& f : sc.recordings) plan.sha256.emplace(f.string(), sha256_file(f.string()));
-  for (const SweepScene& sc : plan.scenes) plan.sha256.emplace(sc.scene_file.string(), sha256_file(sc.scene_file.string()));
+  }
   (void)expand_plan(plan);  // the size limit, before any work
   return plan;
 }
@@ -383,6 +384,16 @@ std::string SweepRun::overrides_text() const {
 
 std::vector<std::string> SweepRun::set_arguments() const { return as_set_arguments(effective); }
 
+std::string scene_inputs_sha256(const fs::path& scene_file, std::map<std::string, std::string>& digests) {
+  std::string key;
+  for (const SceneInputFile& f : scene_input_files(load_scene_spec(scene_file))) {
+    auto it = digests.find(f.path.string());
+    if (it == digests.end()) it = digests.emplace(f.path.string(), sha256_file(f.path.string())).first;
+    key += f.key + " " + it->second + "\n";
+  }
+  return sha256_hex(key);
+}
+
 namespace {
 
 /// What a run id hashes after the two files: the replay's window, configuration and backend.
@@ -395,9 +406,9 @@ std::string run_key_tail(const SweepPlan& plan, const Overrides& effective, cons
 
 }  // namespace
 
-std::string run_id(const SweepPlan& plan, const std::string& scene_sha256, const std::string& recording_sha256,
+std::string run_id(const SweepPlan& plan, const std::string& scene_inputs_sha256, const std::string& recording_sha256,
                    const Overrides& effective, const std::string& backend, int repetition) {
-  return sha256_hex("ebh sweep run\nscene sha256 " + scene_sha256 + "\nrecording sha256 " + recording_sha256 +
+  return sha256_hex("ebh sweep run\nscene inputs sha256 " + scene_inputs_sha256 + "\nrecording sha256 " + recording_sha256 +
                     run_key_tail(plan, effective, backend, repetition))
       .substr(0, 16);
 }
@@ -412,14 +423,17 @@ std::string legacy_run_id(const SweepPlan& plan, const fs::path& scene_file, con
 std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
   std::vector<SweepRun> runs;
   std::set<std::string> ids;
-  // Run r of scene si: its ids, from the files' digests read with the plan.
-  auto digest = [&](const fs::path& file) {
-    const auto it = plan.sha256.find(file.string());
-    return it != plan.sha256.end() ? it->second : sha256_file(file.string());
-  };
+  // Run r of scene si: its ids, from the files' digests read with the plan (read_sweep_plan).
+  std::map<std::string, std::string> digests = plan.sha256;
+  std::vector<std::string> scene_inputs(plan.scenes.size());
+  for (std::size_t si = 0; si < plan.scenes.size(); ++si)
+    scene_inputs[si] = !plan.scenes[si].inputs_sha256.empty() ? plan.scenes[si].inputs_sha256
+                                                              : scene_inputs_sha256(plan.scenes[si].scene_file, digests);
   auto name = [&](SweepRun& r, std::size_t si) {
     const fs::path& scene = plan.scenes[si].scene_file;
-    r.id = run_id(plan, digest(scene), digest(r.recording), r.effective, r.backend, r.repetition);
+    auto rec = digests.find(r.recording.string());
+    if (rec == digests.end()) rec = digests.emplace(r.recording.string(), sha256_file(r.recording.string())).first;
+    r.id = run_id(plan, scene_inputs[si], rec->second, r.effective, r.backend, r.repetition);
     r.legacy_id = legacy_run_id(plan, scene, r.recording, r.effective, r.backend, r.repetition);
   };
   auto add = [&](SweepRun r) {

@@ -47,6 +47,9 @@ struct SweepScene {
   std::filesystem::path scene_file;                   ///< resolved, absolute
   std::string name;                                   ///< the scene's name (its file's stem)
   std::vector<std::filesystem::path> recordings;      ///< resolved, absolute, in plan order
+  /// The SHA-256 of the scene's input files as the scene names them (scene file, meshes:
+  /// scene_input_files), each file's digest under its key: what the run ids hash for the scene
+  std::string inputs_sha256;
   Overrides reference;                                ///< the converged configuration
 };
 
@@ -58,7 +61,8 @@ struct SweepPlan {
   Overrides set;                              ///< applied to every replay first
   std::optional<Overrides> baseline;          ///< the configuration speed-ups are measured against (in configurations)
   std::string baseline_name = "baseline";     ///< its label in the summary and the report
-  /// The SHA-256 (hex) of each scene file and recording, by path: read once with the plan (run ids)
+  /// The SHA-256 (hex) of each scene's input files and each recording, by path: read once with the
+  /// plan (run ids, and the outputs' checks: InputDigests)
   std::map<std::string, std::string> sha256;
   std::vector<std::string> backends{"cpu"};
   std::string reference_backend = "cpu";
@@ -103,14 +107,19 @@ struct SweepRun {
 };
 
 /// The stable id of a replay: the first 16 hex digits of the SHA-256 of everything that decides
-/// its output: the scene file's and the recording's contents (their SHA-256, not their paths),
-/// mode, start, duration, effective overrides (sorted by key), backend and repetition. The same
+/// its output: the contents of the scene's input files (SweepScene::inputs_sha256: the scene file
+/// and the meshes it names) and of the recording (their SHA-256, not their paths), mode, start,
+/// duration, effective overrides (sorted by key), backend and repetition. The same
 /// replay asked for twice, by two plans, after editing other parts of a plan, from another
 /// checkout or on another machine, has the same id; the run's output file is named after it
 /// (runs/ID.h5), which is what makes a sweep resumable and a folder's references reusable
-/// elsewhere. An edited scene file or recording gives its runs new ids.
-std::string run_id(const SweepPlan& plan, const std::string& scene_sha256, const std::string& recording_sha256,
+/// elsewhere. An edited scene file, mesh or recording gives its runs new ids.
+std::string run_id(const SweepPlan& plan, const std::string& scene_inputs_sha256, const std::string& recording_sha256,
                    const Overrides& effective, const std::string& backend, int repetition);
+
+/// SweepScene::inputs_sha256 of a scene file: its input files' digests (taken from `digests`, by
+/// path, and added to it when not there).
+std::string scene_inputs_sha256(const std::filesystem::path& scene_file, std::map<std::string, std::string>& digests);
 
 /// The id that folders made before the ids came from the files' contents gave a run: the same
 /// with the scene file's and the recording's absolute paths (adopt_legacy_outputs).

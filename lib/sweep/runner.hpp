@@ -12,8 +12,8 @@
 //                        removed when it ends
 //   DIR/summary.csv      one row per run (sweep/summary.hpp); DIR/summary.h5 the same as HDF5
 // A run whose output exists is done and never run again, unless the output was made from other
-// input files (run_state: a mesh edited or replaced since; an edited scene file or recording
-// gives the run another id, so it is run again under that; a
+// input files (run_state: a mesh an override names edited or replaced since; an edited scene
+// file, mesh it names or recording gives the run another id, so it is run again under that); a
 // failed one is tried again by the next sweep of the folder. An interrupted sweep (SIGINT, SIGTERM, SIGHUP) passes the signal on to the
 // replays in flight, which stop and write nothing, and starts no other: rerunning it runs exactly
 // the runs that have no output. A replay still running RunnerOptions::stop_grace_s later is killed.

@@ -130,7 +130,7 @@ TEST(SweepPlan, RunIdsAreStable) {
   EXPECT_EQ(expand_plan(read_sweep_plan(plan_file("ids_swapped.yaml", swapped)))[3].id, a[3].id);
   const Overrides o = a[3].effective;
   const fs::path scene_file = p.scenes[0].scene_file, rec_file = p.scenes[0].recordings[0];
-  const std::string scene = sha256_file(scene_file.string()), rec = sha256_file(rec_file.string());
+  const std::string scene = p.scenes[0].inputs_sha256, rec = sha256_file(rec_file.string());
   const std::string id = run_id(p, scene, rec, o, a[3].backend, a[3].repetition);
   EXPECT_EQ(id, a[3].id);
   EXPECT_NE(run_id(p, scene, rec, o, a[3].backend == "cpu" ? "cuda" : "cpu", a[3].repetition), id);
@@ -149,7 +149,8 @@ TEST(SweepPlan, RunIdsAreStable) {
 
   // The ids come from the files' contents, not their paths: the scene (with its mesh) and the
   // recording copied elsewhere under other names give the same ids (a folder's runs found from
-  // another checkout or machine); the scene file edited gives its runs other ids.
+  // another checkout or machine); the mesh the scene names edited, or the scene file, gives its
+  // runs other ids (two copies of one scene text beside different meshes are different runs).
   const fs::path elsewhere = scratch() / "ids_elsewhere";
   fs::remove_all(elsewhere);
   fs::create_directories(elsewhere);
@@ -165,9 +166,12 @@ TEST(SweepPlan, RunIdsAreStable) {
     EXPECT_EQ(m[i].id, a[i].id);
     EXPECT_NE(m[i].legacy_id, a[i].legacy_id);
   }
-  std::ofstream(elsewhere / "my_tube.yaml", std::ios::app) << "# edited\n";
+  std::ofstream(elsewhere / "tube.msh", std::ios::app) << "\n";
   const std::vector<SweepRun> e = expand_plan(read_sweep_plan(plan_file("ids_moved.yaml", moved)));
   for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NE(e[i].id, a[i].id);
+  std::ofstream(elsewhere / "my_tube.yaml", std::ios::app) << "# edited\n";
+  const std::vector<SweepRun> e2 = expand_plan(read_sweep_plan(plan_file("ids_moved.yaml", moved)));
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NE(e2[i].id, e[i].id);
 }
 
 // `baseline`: a named configuration added to the runs once (not again when a list entry is it),

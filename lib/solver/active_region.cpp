@@ -17,6 +17,7 @@ namespace {
 constexpr std::uint8_t kSeed = 1;  // ActiveRegion::mark: a seed of this tick
 constexpr std::uint8_t kMoving = 2;  // ActiveRegion::mark: its displacement changed by more than tol / kCalmTicks
 constexpr std::uint8_t kNearHot = 4;  // ActiveRegion::mark: within kSpreadRings edges of a hot (moving, displaced by more than tol) vertex
+constexpr std::uint8_t kChecked = 8;  // ActiveRegion::mark: in this tick's strain check (add_strained)
 
 /// Vertex j's E_svc target at blend a: p_j(a), the blend of p_from and p_to.
 inline Vec3d coupling_point(const ActiveRegion& r, int j, double a) {
@@ -27,6 +28,14 @@ inline Vec3d coupling_point(const ActiveRegion& r, int j, double a) {
 /// (ActiveRegion::offset holds both).
 inline Vec3d follow_target(const ActiveRegion& r, int j, double a) {
   return coupling_point(r, j, a) + r.offset[j];
+}
+
+/// Inactive vertex j to where it stands at blend a, its q marked touched when that changed it.
+inline void follow(ActiveRegion& r, VirtualState& state, int j, double a) {
+  const Vec3d q = follow_target(r, j, a);
+  if (std::memcmp(&q, &state.q[j], sizeof(Vec3d)) == 0) return;
+  state.q[j] = q;
+  r.touched[j] = r.tick;
 }
 
 /// Makes j active (not pinned ones: they never move); true when it was not.
@@ -100,6 +109,17 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
 /// ws.edge_grad in the SIMD blocks of the iterations: every edge for the whole mesh (most edges
 /// have an inactive end), a slice's listed edges for a slice (r.check_edges); the tick's
 /// iterations overwrite the active ones before they read them. Reads q; appends to r.added.
+/// Whether slice vertex j's strain check would give what it gave when it last ran: neither j's q
+/// nor a neighbour's changed since (ActiveRegion::touched) and its coupling point has the same bits
+/// (the check reads nothing else that changes).
+bool check_unchanged(const VirtualModel& model, const ActiveRegion& r, int j, const Vec3d& point) {
+  const std::int64_t c = r.checked_at[j];
+  if (c == 0 || r.touched[j] >= c || std::memcmp(&point, &r.checked_point[j], sizeof(Vec3d)) != 0) return false;
+  for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k)
+    if (r.touched[r.neighbours[k]] >= c) return false;
+  return true;
+}
+
 void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
                   double v_scale, int slice) {
   const int m = model.num_vertices, E = static_cast<int>(model.edges.size());
@@ -109,14 +129,41 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
   const bool whole = r.check_ticks <= 1;
   const int j0 = whole ? 0 : r.check_vertex[slice], j1 = whole ? m : r.check_vertex[slice + 1];
   const int* ids = whole ? nullptr : r.check_edges.data() + r.check_edge_offsets[slice];
-  const int count = whole ? E : r.check_edge_offsets[slice + 1] - r.check_edge_offsets[slice];
+  int count = whole ? E : r.check_edge_offsets[slice + 1] - r.check_edge_offsets[slice];
+  // A slice: the vertices to check (flagged kChecked), and the slice's edges with such an end, in
+  // the slice list's order (each edge's gradient has the same bits in any list: local_kernels.hpp).
+  r.check_list.clear();
+  if (!whole) {
+    for (int j = j0; j < j1; ++j) {
+      if (r.active[j] || model.pinned[j]) continue;
+      const Vec3d point = coupling_point(r, j, r.blend);
+      if (r.skip_unchanged && check_unchanged(model, r, j, point)) {
+        ++r.strain_skipped;
+        continue;
+      }
+      r.check_list.push_back(j);
+      r.checked_at[j] = r.tick;
+      r.checked_point[j] = point;
+      r.mark[j] |= kChecked;
+    }
+    r.check_edge_list.clear();
+    for (int i = 0; i < count; ++i) {
+      const auto& e = model.edges[ids[i]];
+      if ((r.mark[e[0]] | r.mark[e[1]]) & kChecked) r.check_edge_list.push_back(ids[i]);
+    }
+    ids = r.check_edge_list.data();
+    count = static_cast<int>(r.check_edge_list.size());
+    for (const int j : r.check_list) r.mark[j] &= static_cast<std::uint8_t>(~kChecked);
+  }
 #pragma omp parallel if (!ws.shared && virtual_team(model, j1 - j0))
   for_chunks(ws.shared, edge_blocks(count), kEdgeBlockChunk, [&](int b0, int b1) {
     if (whole) edge_spring_gradient_blocks(edges, q.data(), ws.edge_grad.data(), b0, b1);
     else edge_spring_gradient_groups(edges, ids, count, q.data(), ws.edge_grad.data(), b0, b1);
   });
   const std::size_t before = r.added.size();
-  for (int j = j0; j < j1; ++j) {
+  const int n_checked = whole ? j1 - j0 : static_cast<int>(r.check_list.size());
+  for (int i = 0; i < n_checked; ++i) {
+    const int j = whole ? j0 + i : r.check_list[i];
     if (r.active[j] || model.pinned[j]) continue;
     Vec3d f = model.k_svc * (coupling_point(r, j, r.blend) - q[j]) + model.mass[j] * model.gravity;
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
@@ -233,12 +280,18 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance, int
   r.moving_targets.reserve(m);
   r.left.reserve(m);
   r.in_left.assign(m, 0);
+  r.touched.assign(m, 0);
+  r.checked_at.assign(m, 0);
+  r.checked_point.assign(m, Vec3d{});
+  r.check_list.reserve(m);
+  r.check_edge_list.reserve(E);
   return r;
 }
 
 void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
                                const PhysicalTargets& targets, double h, std::span<const int> seeds) {
   ws.h = h;
+  ++r.tick;
   const int m = model.num_vertices;
   const double v_scale = tick_velocity_scale(h, model.damping);  // the velocity carried on (damped)
   const bool team = virtual_team(model, m);
@@ -284,11 +337,11 @@ void virtual_begin_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
     for_chunks(ws.shared, count, kVertexChunk, [&](int begin, int end) {
       for (int i = begin; i < end; ++i) {
         const int j = list ? list[i] : i;
-        if (!r.active[j] && !model.pinned[j]) state.q[j] = follow_target(r, j, a);
+        if (!r.active[j] && !model.pinned[j]) follow(r, state, j, a);
       }
     });
     for (const int j : r.left) {
-      if (!fresh && !r.active[j]) state.q[j] = follow_target(r, j, a);
+      if (!fresh && !r.active[j]) follow(r, state, j, a);
       r.in_left[j] = 0;
     }
     r.left.clear();
@@ -377,6 +430,7 @@ double virtual_end_tick_active(const VirtualModel& model, VirtualWorkspace& ws, 
 #pragma omp parallel for schedule(static) reduction(max : moved2) if (virtual_team(model, na))
   for (int i = 0; i < na; ++i) {
     const int j = r.vertices[i];
+    r.touched[j] = r.tick;  // iterated: the strain check of its neighbours runs again
     state.v[j] = v_scale * (state.q[j] - ws.q_start[j]);  // Alg. 2 line 23, damped
     moved2 = std::max(moved2, squared_norm(state.q[j] - ws.q_start[j]));
   }

@@ -17,7 +17,10 @@
 //     static Jacobi step's move, |sum of its E_s and E_svc forces and its weight| / (k_s degree +
 //     k_svc), above tol (a surface strained against its rest shape, which no seed reaches: the far
 //     field); checked on the tick a new physical result arrives, or (check_ticks = N > 1, targets
-//     that move every tick) a slice of the vertices a tick, each vertex once in N ticks.
+//     that move every tick) a slice of the vertices a tick, each vertex once in N ticks. A slice
+//     vertex whose check cannot have changed since it last ran (neither its q nor a neighbour's
+//     changed since: ActiveRegion::touched; its coupling point the same bits) is not checked
+//     again: the same outcome, without its edges' work.
 // Displacements are measured from where the vertex stands when inactive (below), so a vertex that
 // settled off its E_svc point (a strained surface) is not displaced. A vertex is *moving* when its
 // displacement changed by more than tol / kCalmTicks since the last tick, *hot* when it is moving
@@ -85,6 +88,16 @@ struct ActiveRegion {
   /// targets that move every tick: time.interpolate_physical, N its ticks per physical period)
   int check_ticks = 1;
   std::int64_t checked_ticks = 0;         ///< ticks that ran a slice of the strain check
+  /// A slice's vertices whose check cannot have changed are not checked again (off: each is; the
+  /// same results, for tests)
+  bool skip_unchanged = true;
+  std::int64_t tick = 0;                  ///< ticks begun (the first is 1)
+  /// #m the last tick a vertex's q may have changed (iterated while active; moved to another
+  /// place by following its target): the strain check's skip
+  std::vector<std::int64_t> touched;
+  std::vector<std::int64_t> checked_at;   ///< #m the tick the strain check last ran on it (0: never)
+  std::vector<Vec3d> checked_point;       ///< #m the coupling point that check used
+  std::vector<int> check_list, check_edge_list;  ///< scratch: a slice's vertices and edges checked this tick
   std::vector<int> check_vertex;          ///< #N+1 slice s: the vertices [check_vertex[s], check_vertex[s + 1])
   std::vector<int> check_edges, check_edge_offsets;  ///< slice s's edges (an end in it), in index order: CSR, #N+1 offsets
   /// #(2 E) the other end of each incidence entry, in VirtualModel::edge_entries' order (the
@@ -122,6 +135,7 @@ struct ActiveRegion {
   // Counters over the replay.
   std::int64_t activated_by_contact = 0;  ///< vertices a contact target activated mid-tick
   std::int64_t strained = 0;              ///< vertices their edges' pull activated (add_strained)
+  std::int64_t strain_skipped = 0;        ///< slice vertices not checked again, their check unchanged
 };
 
 /// A region for `model` with the given tolerance (m, > 0), empty: the first tick fills it; its

@@ -218,6 +218,27 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
     for (const std::string& f : g.failed) o << "\nfailed: " << md(f) << "\n";
     if (g.pending) o << "\n" << g.pending << " run" << (g.pending == 1 ? "" : "s") << " not run yet\n";
   }
+  // Per backend, on how many scene and recording pairs a configuration meets the 2x goal.
+  std::map<std::string, std::pair<int, int>> goals;  // backend -> (met, compared)
+  std::map<std::string, std::string> met_on;
+  for (const ReportGroup& g : groups)
+    if (const auto goal = baseline_goal(g)) {
+      auto& [met, compared] = goals[g.backend];
+      ++compared;
+      if (goal->speedup >= 2 || goal->error_ratio >= 2) {
+        ++met;
+        const ReportPoint& b = g.points[goal->baseline];
+        const bool loose = (goal->speedup < 2 || !looser_solve(g.points[goal->fastest], b).empty()) &&
+                           (goal->error_ratio < 2 || !looser_solve(g.points[goal->most_accurate], b).empty());
+        met_on[g.backend] += (met_on[g.backend].empty() ? "" : ", ") + g.recording + (loose ? " [less converged]" : "");
+      }
+    }
+  if (!goals.empty()) {
+    o << "\n## The 2x goal\n\n";
+    for (const auto& [backend, n] : goals)
+      o << "- " << backend << ": met on " << n.first << " of " << n.second << " scene and recording pairs"
+        << (met_on[backend].empty() ? "" : " (" + md(met_on[backend]) + ")") << "\n";
+  }
   return o.str();
 }
 

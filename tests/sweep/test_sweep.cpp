@@ -664,6 +664,7 @@ TEST(SweepReport, BaselineGoal) {
   EXPECT_NE(md.find("|  paper | k=3 |"), std::string::npos) << md;
   EXPECT_NE(md.find("is k=2, 2.2 s, **1.36x faster**"), std::string::npos) << md;
   EXPECT_NE(md.find("**1.5x lower error**. 2x goal: not met."), std::string::npos) << md;
+  EXPECT_NE(md.find("## The 2x goal\n\n- cpu: met on 0 of 1 scene and recording pairs\n"), std::string::npos) << md;
   // As the baseline k=4 (4 s, 0.1 N): k=2 at 2.2 s is not as accurate, so nothing is faster at
   // 0.1 N; nothing slower counts for accuracy, and k=4 is the most accurate at 4 s or less.
   for (auto& row : t.rows) row.back() = row[t.column("overrides", file)] == "k=4" ? "paper" : "";
@@ -681,12 +682,28 @@ TEST(SweepReport, BaselineGoal) {
   t.header.push_back("timing.physical_residual_max");
   for (auto& row : t.rows) row.push_back(row[t.column("overrides", file)] == "k=2" ? "0.02" : "0.002");
   const std::string loose = report_markdown(build_report(t, file));
+  EXPECT_EQ(report_markdown(build_report(parse_csv(text, file), file)).find("The 2x goal"), std::string::npos);
   EXPECT_NE(loose.find("**1.36x faster** (its physical solve is less converged: max residual 0.02 mesh weights, 10x the "
                        "baseline's); the most accurate"),
             std::string::npos) << loose;
   for (auto& row : t.rows) row.back() = row[t.column("overrides", file)] == "k=2" ? "0.009" : "0.002";
   const std::string close = report_markdown(build_report(t, file));
   EXPECT_EQ(close.find("less converged"), std::string::npos) << close;
+  // The baseline at 5 s: k=2 (2.2 s, 0.2 N) is 2.27x faster at a lower error, and the plan's
+  // summary counts the pair.
+  for (auto& row : t.rows)
+    if (row[t.column("overrides", file)] == "k=3") row[t.column("wall_s", file)] = "5";
+  const std::string met = report_markdown(build_report(t, file));
+  EXPECT_NE(met.find("2x goal: met."), std::string::npos) << met;
+  EXPECT_NE(met.find("- cpu: met on 1 of 1 scene and recording pairs (tube_insert)\n"), std::string::npos) << met;
+  // Met by k=2 (faster) and k=4 (3x more accurate in 4 s): marked only when both are less converged.
+  for (auto& row : t.rows)
+    if (row[t.column("overrides", file)] == "k=2") row.back() = "0.02";  // its residual 10x the baseline's
+  EXPECT_NE(report_markdown(build_report(t, file)).find("(tube_insert)\n"), std::string::npos);
+  for (auto& row : t.rows)
+    if (row[t.column("overrides", file)] == "k=4") row.back() = "0.02";
+  const std::string met_loose = report_markdown(build_report(t, file));
+  EXPECT_NE(met_loose.find("(tube_insert [less converged])\n"), std::string::npos) << met_loose;
 }
 
 /// The haptic rate floor (`ebh sweep report --min-haptic-hz`, kMinHapticHz by default there): a

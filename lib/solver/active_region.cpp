@@ -99,16 +99,6 @@ void add_seeds(const VirtualModel& model, ActiveRegion& r, VirtualState& state, 
   }
 }
 
-/// The inactive vertices of slice `slice` (of r.check_ticks; the whole mesh when 1) that their
-/// edges and E_svc spring pull off where they stand join (active_region.hpp): a vertex that was
-/// never active stands on its target, where the E_s [4] forces of its edges need not balance (a
-/// surface strained against its rest shape, as gravity strains a settled organ's), and one that
-/// left the region where it settled, which its neighbours may have moved since; the static Jacobi
-/// step's move, |sum of its E_s and E_svc [5] forces and weight| / (k_s degree + k_svc), above the
-/// tolerance makes it join from where it stands, as a seed does. The edges' E_s gradients go into
-/// ws.edge_grad in the SIMD blocks of the iterations: every edge for the whole mesh (most edges
-/// have an inactive end), a slice's listed edges for a slice (r.check_edges); the tick's
-/// iterations overwrite the active ones before they read them. Reads q; appends to r.added.
 /// Whether slice vertex j's strain check would give what it gave when it last ran: neither j's q
 /// nor a neighbour's changed since (ActiveRegion::touched) and its coupling point has the same bits
 /// (the check reads nothing else that changes).
@@ -120,6 +110,17 @@ bool check_unchanged(const VirtualModel& model, const ActiveRegion& r, int j, co
   return true;
 }
 
+/// The inactive vertices of slice `slice` (of r.check_ticks; the whole mesh when 1) that their
+/// edges and E_svc spring pull off where they stand join (active_region.hpp): a vertex that was
+/// never active stands on its target, where the E_s [4] forces of its edges need not balance (a
+/// surface strained against its rest shape, as gravity strains a settled organ's), and one that
+/// left the region where it settled, which its neighbours may have moved since; the static Jacobi
+/// step's move, |sum of its E_s and E_svc [5] forces and weight| / (k_s degree + k_svc), above the
+/// tolerance makes it join from where it stands, as a seed does. The edges' E_s gradients go into
+/// ws.edge_grad in the SIMD blocks of the iterations: every edge for the whole mesh (most edges
+/// have an inactive end), a slice's listed edges of the vertices it checks (r.check_edges; a slice
+/// skips the vertices whose check cannot have changed, check_unchanged); the tick's iterations
+/// overwrite the active ones before they read them. Reads q; appends to r.added.
 void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
                   double v_scale, int slice) {
   const int m = model.num_vertices, E = static_cast<int>(model.edges.size());

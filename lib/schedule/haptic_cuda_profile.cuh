@@ -81,15 +81,15 @@ struct TailMarks {
   }
 };
 
-/// Block 0 releases step s (s >= 0): when, for the vertex blocks' lag.
+/// Block 0 releases step s: when, for the vertex blocks' lag.
 __device__ __forceinline__ void profile_release(ProfileDev* p, int s) {
-  if (p && s >= 0) p->release_ns[s & 1] = global_ns();
+  if (p) p->release_ns[s & 1] = global_ns();
 }
 
-/// Block 0 has every vertex block's arrival of step s (s >= 0, thread 0): the slowest block's
+/// Block 0 has every vertex block's arrival of step s (thread 0): the slowest block's
 /// vertices into the sum.
 __device__ __forceinline__ void profile_arrivals(ProfileDev* p, int s) {
-  if (p && threadIdx.x == 0 && s >= 0) {
+  if (p && threadIdx.x == 0) {
     p->sum[DeviceTickProfile::BlockVerticesMax] += p->vertices_max[s & 1];
     p->sum[DeviceTickProfile::BlockTrianglesMax] += p->triangles_max[s & 1];
     p->vertices_max[s & 1] = 0;

@@ -36,11 +36,6 @@
 namespace ebh {
 namespace {
 
-/// Steps done (all runs) after step s: the count SurfaceDev::arrive reaches per vertex block.
-__device__ unsigned long long steps_through(const Schedule& S, int s) {
-  return S.epoch(s);
-}
-
 /// The contact list step s's vertices read (surface_contact_target's `listed`): that of the step
 /// before when a Newton call followed it (list_samples; on a launch's first step, the last step of
 /// the launch before), 0 (none: every sample near the tool is tested) on a replay's first step, on a grasp event's (which changes the held
@@ -208,7 +203,7 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
     if (threadIdx.x == 0) {
       add_release(sd.summed, 1ull);
       if (nt > 0)
-        while (load_acquire(sd.summed) < steps_through(S, s) * static_cast<unsigned long long>(blocks)) {}
+        while (load_acquire(sd.summed) < S.epoch(s) * static_cast<unsigned long long>(blocks)) {}
     }
     __syncthreads();
     clock.posed();
@@ -468,7 +463,7 @@ __device__ void surface_tool_block(const MeshDev& d, const SurfaceDev& sd, const
   __syncthreads();
   auto release = [&](unsigned long long e, int s) {  // tool_block's
     if (threadIdx.x == kReleaseThread) {
-      if (s >= 0) d.slots[s & 1] = SlotPose{sh.P, sh.Q};
+      d.slots[s & 1] = SlotPose{sh.P, sh.Q};
       profile_release(d.profile, s);
       store_release(&d.sync->release, e);
     }
@@ -489,7 +484,7 @@ __device__ void surface_tool_block(const MeshDev& d, const SurfaceDev& sd, const
     if (contact_list_of(sd, S, s)) marks.count_listed();
     release(S.epoch(s), s);
     marks.mark(DeviceTickProfile::Lists);
-    wait_for(sd.arrive, steps_through(S, s) * others, s);
+    wait_for(sd.arrive, S.epoch(s) * others, s);  // steps done through s, per vertex block
     surface_lists(d, sd, t, pt, S.out(s), S.v_out(s), S.called(s), S.last(s), S.epoch(s), sh, marks);
     marks.count_unpipelined();
     marks.mark(DeviceTickProfile::Lists);

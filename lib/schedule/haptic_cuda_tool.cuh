@@ -356,7 +356,7 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
     sh.anchor_Q = d.state->anchor_orientation;
   }
   __syncthreads();
-  // Releases epoch e; s >= 0: with the pose (sh.P, sh.Q) in step s's slot, from which each vertex
+  // Releases step s (epoch e) with the pose (sh.P, sh.Q) in its slot, from which each vertex
   // block poses the tool itself. By one thread of the last warp, with no barrier: the fence of its
   // release (its stores' round trip to L2) stalls no other warp, and the Newton call that follows
   // starts on the first warps (the candidates). What block 0 wrote before its last barrier is
@@ -364,12 +364,12 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
   // the posed tool) and releasing from the last warp keeps the release off the Newton call's path.
   auto release = [&](unsigned long long e, int s, bool ahead) {
     if (threadIdx.x == kReleaseThread) {
-      if (s >= 0) d.slots[s & 1] = SlotPose{sh.P, sh.Q, ahead ? 1 : 0};
+      d.slots[s & 1] = SlotPose{sh.P, sh.Q, ahead ? 1 : 0};
       profile_release(d.profile, s);
       store_release(&d.sync->release, e);
     }
   };
-  // Every vertex block's arrival at epoch e: step s's (s >= 0) or a copy phase's (s < 0).
+  // Every vertex block's arrival at step s (epoch e).
   auto wait_arrivals = [&](unsigned long long e, int s) {
     __syncthreads();
     if (threadIdx.x == 0)

@@ -19,6 +19,8 @@ namespace ebh {
 namespace fs = std::filesystem;
 namespace {
 
+std::string scene_inputs_sha256(const fs::path& scene_file, std::map<std::string, std::string>& digests);
+
 /// How a node appears in a message: its text, or what kind of node it is.
 std::string shown(const YAML::Node& n) {
   if (!n.IsDefined() || n.IsNull()) return "nothing";
@@ -384,6 +386,10 @@ std::string SweepRun::overrides_text() const {
 
 std::vector<std::string> SweepRun::set_arguments() const { return as_set_arguments(effective); }
 
+namespace {
+
+/// SweepScene::inputs_sha256 of a scene file: its input files' digests (taken from `digests`, by
+/// path, and added to it when not there).
 std::string scene_inputs_sha256(const fs::path& scene_file, std::map<std::string, std::string>& digests) {
   std::string key;
   for (const SceneInputFile& f : scene_input_files(load_scene_spec(scene_file))) {
@@ -393,8 +399,6 @@ std::string scene_inputs_sha256(const fs::path& scene_file, std::map<std::string
   }
   return sha256_hex(key);
 }
-
-namespace {
 
 /// What a run id hashes after the two files: the replay's window, configuration and backend.
 std::string run_key_tail(const SweepPlan& plan, const Overrides& effective, const std::string& backend, int repetition) {
@@ -424,16 +428,10 @@ std::vector<SweepRun> expand_plan(const SweepPlan& plan) {
   std::vector<SweepRun> runs;
   std::set<std::string> ids;
   // Run r of scene si: its ids, from the files' digests read with the plan (read_sweep_plan).
-  std::map<std::string, std::string> digests = plan.sha256;
-  std::vector<std::string> scene_inputs(plan.scenes.size());
-  for (std::size_t si = 0; si < plan.scenes.size(); ++si)
-    scene_inputs[si] = !plan.scenes[si].inputs_sha256.empty() ? plan.scenes[si].inputs_sha256
-                                                              : scene_inputs_sha256(plan.scenes[si].scene_file, digests);
   auto name = [&](SweepRun& r, std::size_t si) {
     const fs::path& scene = plan.scenes[si].scene_file;
-    auto rec = digests.find(r.recording.string());
-    if (rec == digests.end()) rec = digests.emplace(r.recording.string(), sha256_file(r.recording.string())).first;
-    r.id = run_id(plan, scene_inputs[si], rec->second, r.effective, r.backend, r.repetition);
+    r.id = run_id(plan, plan.scenes[si].inputs_sha256, plan.sha256.at(r.recording.string()), r.effective, r.backend,
+                  r.repetition);
     r.legacy_id = legacy_run_id(plan, scene, r.recording, r.effective, r.backend, r.repetition);
   };
   auto add = [&](SweepRun r) {

@@ -117,10 +117,6 @@ struct SweepRun {
 std::string run_id(const SweepPlan& plan, const std::string& scene_inputs_sha256, const std::string& recording_sha256,
                    const Overrides& effective, const std::string& backend, int repetition);
 
-/// SweepScene::inputs_sha256 of a scene file: its input files' digests (taken from `digests`, by
-/// path, and added to it when not there).
-std::string scene_inputs_sha256(const std::filesystem::path& scene_file, std::map<std::string, std::string>& digests);
-
 /// The id that folders made before the ids came from the files' contents gave a run: the same
 /// with the scene file's and the recording's absolute paths (adopt_legacy_outputs).
 std::string legacy_run_id(const SweepPlan& plan, const std::filesystem::path& scene_file,
@@ -130,7 +126,8 @@ std::string legacy_run_id(const SweepPlan& plan, const std::filesystem::path& sc
 /// The runs of a plan: references first (one per scene and recording, on reference_backend,
 /// repetition 0), then scene by scene, recording by recording, configuration, backend and
 /// repetition. A configuration equal to its reference (same effective overrides and backend,
-/// repetition 0) is that reference's run, not a second one. Throws InputError when it exceeds kMaxSweepRuns.
+/// repetition 0) is that reference's run, not a second one. The ids hash the files' digests the plan
+/// read (read_sweep_plan). Throws InputError when it exceeds kMaxSweepRuns.
 std::vector<SweepRun> expand_plan(const SweepPlan& plan);
 
 }  // namespace ebh

@@ -280,15 +280,17 @@ std::vector<SweepRun> task_slice(const std::vector<SweepRun>& runs, int task, in
 }
 
 RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir,
-                          const RunnerOptions& options, const RunnerCallback& progress, InputDigests* digests) {
+                          const RunnerOptions& options, const RunnerCallback& progress,
+                          const std::vector<RunState>* states) {
   install_interrupt_handlers();
   RunnerReport report;
   RunnerProgress p;
   p.total = runs.size();
   std::vector<const SweepRun*> pending;
-  InputDigests own(&plan);
-  for (const SweepRun& r : runs) {
-    const RunState state = run_state(dir, plan, r, digests ? *digests : own);
+  InputDigests digests(&plan);
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const SweepRun& r = runs[i];
+    const RunState state = states ? (*states)[i] : run_state(dir, plan, r, digests);
     report.stale += state == RunState::Stale ? 1 : 0;
     if (state == RunState::Done) {
       ++report.skipped;

@@ -123,10 +123,10 @@ struct RunnerReport {
 
 /// Runs every run of `runs` that has no output in `dir`, or a stale one (`ebh replay` with the plan's mode, window
 /// and the run's backend and overrides), options.jobs at a time. A replay that fails is written
-/// down (DIR/runs/ID.failed) and the others go on. `digests`: the input files' hashes a caller
-/// already made (run_state), so that no file is hashed twice; null: its own.
+/// down (DIR/runs/ID.failed) and the others go on. `states`: the caller's run_state of each run,
+/// in the order of `runs` (so that no output is opened and no file hashed twice); null: its own.
 RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir,
                           const RunnerOptions& options, const RunnerCallback& progress = {},
-                          InputDigests* digests = nullptr);
+                          const std::vector<RunState>* states = nullptr);
 
 }  // namespace ebh

@@ -49,12 +49,17 @@ std::string executable() {
   return p.string();
 }
 
-/// Whether run r has an output in DIR made from its input files as they are now (run_state);
-/// counts in `stale` the outputs made from other files, which the sweep runs again.
-bool is_done(const SweepPlan& plan, const fs::path& dir, const SweepRun& r, InputDigests& digests, std::size_t& stale) {
-  const RunState s = run_state(dir, plan, r, digests);
-  stale += s == RunState::Stale ? 1 : 0;
-  return s == RunState::Done;
+/// Where each run of `runs` stands in DIR (run_state), and how many outputs are stale (made from
+/// other input files: the sweep runs them again).
+std::vector<RunState> run_states(const SweepPlan& plan, const fs::path& dir, const std::vector<SweepRun>& runs,
+                                 std::size_t& stale) {
+  InputDigests digests(&plan);
+  std::vector<RunState> states;
+  for (const SweepRun& r : runs) {
+    states.push_back(run_state(dir, plan, r, digests));
+    stale += states.back() == RunState::Stale ? 1 : 0;
+  }
+  return states;
 }
 
 /// The first line's note of the stale runs (", N made from input files edited or replaced since
@@ -108,10 +113,10 @@ void adopt_legacy(const fs::path& dir, const std::vector<SweepRun>& runs) {
 }
 
 /// --slurm: one array task per slice of the runs, each `ebh sweep DIR/plan.yaml -o DIR --task I --tasks T`.
-void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir,
-                  InputDigests& digests) {
-  std::size_t todo = 0, stale = 0;
-  for (const SweepRun& r : runs) todo += is_done(plan, dir, r, digests, stale) ? 0 : 1;
+void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
+  std::size_t stale = 0;
+  const std::vector<RunState> states = run_states(plan, dir, runs, stale);
+  const auto todo = static_cast<std::size_t>(std::count_if(states.begin(), states.end(), [](RunState s) { return s != RunState::Done; }));
   if (todo == 0) {
     std::printf("%s: all %zu runs are done; nothing to submit (ebh sweep report %s)\n", dir.c_str(), runs.size(), dir.c_str());
     return;
@@ -191,7 +196,6 @@ void run_sweep(const SweepArgs& a) {
   if (!a.backend.empty() && a.backend != "cpu" && a.backend != "cuda")
     throw InputError("--backend: expected cpu or cuda, got '" + a.backend + "'");
   const SweepPlan plan = read_sweep_plan(a.plan);
-  InputDigests digests(&plan);
   const std::vector<SweepRun> all = expand_plan(plan);
   const fs::path dir = a.out;
   if (std::error_code ec; fs::exists(dir, ec) && !fs::is_directory(dir, ec)) throw InputError("-o " + a.out + ": not a folder");
@@ -210,11 +214,13 @@ void run_sweep(const SweepArgs& a) {
     if (s.failed) throw ExitRequest{1};
     return;
   }
-  if (a.slurm) return submit_slurm(a, plan, runs, dir, digests);
+  if (a.slurm) return submit_slurm(a, plan, runs, dir);
 
   std::size_t todo = 0, stale = 0;
-  for (const SweepRun& r : runs)
-    if (!is_done(plan, dir, r, digests, stale)) {
+  const std::vector<RunState> states = run_states(plan, dir, runs, stale);
+  for (std::size_t i = 0; i < runs.size(); ++i)
+    if (states[i] != RunState::Done) {
+      const SweepRun& r = runs[i];
       ++todo;
       try {
         check_backend(r.backend);
@@ -232,7 +238,7 @@ void run_sweep(const SweepArgs& a) {
                runs.size() - todo, stale_note(stale).c_str(), std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
                a.batch > 1 ? (" (CUDA runs of async plans: up to " + std::to_string(a.batch) + " to a child)").c_str() : "");
   ProgressPrinter printer(plan);
-  const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer), &digests);
+  const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer), &states);
   printer.finish();
   if (rep.stopped) {
     std::fprintf(stderr, "ebh: error: %s: interrupted: %zu runs done, %zu not (%zu stopped in flight); rerun the same command to go on\n",

@@ -124,7 +124,6 @@ bool check_unchanged(const VirtualModel& model, const ActiveRegion& r, int j, co
 void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion& r, VirtualState& state,
                   double v_scale, int slice) {
   const int m = model.num_vertices, E = static_cast<int>(model.edges.size());
-  const double tol2 = r.tolerance * r.tolerance;
   const std::vector<Vec3d>& q = state.q;
   const EdgeKernelData edges{E, model.edges.data(), model.rest_edge.data(), model.rest_len.data(), model.k_s};
   const bool whole = r.check_ticks <= 1;
@@ -172,7 +171,7 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
       const Vec3d& g = ws.edge_grad[entry >> 1];
       f += (entry & 1) ? g : -g;  // add_edge_residual's sign: the force on this end
     }
-    if (squared_norm(f) > tol2 * model.stiff_diag[j] * model.stiff_diag[j]) activate(model, r, j);
+    if (pulled_off(f, model.stiff_diag[j], r.tolerance)) activate(model, r, j);
   }
   for (std::size_t i = before; i < r.added.size(); ++i) join(r, state, r.added[i], v_scale, false);
   r.strained += static_cast<std::int64_t>(r.added.size() - before);
@@ -188,16 +187,13 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
 void retire_and_spread(const VirtualModel& model, ActiveRegion& r, VirtualState& state, std::span<const int> seeds,
                        double v_scale) {
   const std::size_t seeded = r.added.size();
-  const double hot2 = r.tolerance * r.tolerance;
-  const double step = r.tolerance / kCalmTicks, moving2 = step * step;
   const std::vector<Vec3d>& q = state.q;
   r.hot.clear();
   for (const int j : r.vertices) {
     const Vec3d d = q[j] - follow_target(r, j, r.blend);
-    if (squared_norm(d - r.displacement[j]) > moving2) {
-      r.mark[j] |= kMoving;
-      if (squared_norm(d) > hot2) r.hot.push_back(j);
-    }
+    const RegionMotion motion = region_motion(d, r.displacement[j], r.tolerance);
+    if (motion.moving) r.mark[j] |= kMoving;
+    if (motion.hot) r.hot.push_back(j);
     r.displacement[j] = d;
   }
   // The rings: a hot vertex is near itself, so it is marked before them and a ring does not
@@ -263,7 +259,7 @@ ActiveRegion make_active_region(const VirtualModel& model, double tolerance, int
   r.active.assign(m, 0);
   r.calm.assign(m, 0);
   r.offset.resize(m);
-  for (std::size_t j = 0; j < m; ++j) r.offset[j] = (model.mass[j] / model.k_svc) * model.gravity;
+  for (std::size_t j = 0; j < m; ++j) r.offset[j] = rest_offset(model.mass[j], model.k_svc, model.gravity);
   r.displacement.assign(m, Vec3d{});
   r.mark.assign(m, 0);
   r.edge_ends.assign(E, 0);

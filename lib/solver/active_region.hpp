@@ -49,6 +49,7 @@
 #include <vector>
 
 #include "energy/contact_target.hpp"
+#include "solver/region_rules.hpp"
 #include "solver/virtual_mesh.hpp"
 
 namespace ebh {
@@ -62,11 +63,7 @@ namespace ebh {
 /// physical region spreads as far (kRegionRings).
 inline constexpr int kSpreadRings = 2;
 
-/// Ticks an active vertex must stay calm (not moving, not a seed, not near a hot vertex) before it
-/// leaves the region: 2 physical periods at the default rates, so a vertex the tool keeps nudging
-/// does not flicker in and out. A vertex is moving when its displacement changes by more than
-/// tol / kCalmTicks in a tick: one that crept at that rate through its calm ticks moved at most tol.
-inline constexpr int kCalmTicks = 20;
+// kCalmTicks, the displacement rules and the strain check: solver/region_rules.hpp.
 
 /// The physical positions this tick's E_svc targets come from: x_to, or a blend from x_from
 /// (time.interpolate_physical), p = (1 - blend) p(x_from) + blend p(x_to), each paired once per

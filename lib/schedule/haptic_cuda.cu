@@ -37,7 +37,8 @@
 //   haptic_cuda_surface.cuh   surface contact's per-vertex targets and per-triangle tests (the
 //                             kernel with surface contact: haptic_cuda_surface.cu, its own
 //                             translation unit)
-//   haptic_cuda_vertices.cuh  the vertex side: vertex_step, finish_deferred, vertex_blocks
+//   haptic_cuda_vertices.cuh  the vertex side: vertex_step, finish_deferred, the active
+//                             region's chunks, vertex_blocks
 //   haptic_cuda_tool.cuh      the tool side: the Newton call (virtual_tool_tail), the tick's
 //                             outputs, block 0's loop (tool_block)
 //   haptic_cuda.cu            ticks_kernel and the host side (CudaHapticTicks)
@@ -61,6 +62,7 @@
 #include "schedule/haptic_cuda_vertices.cuh"
 #include "solver/cuda_util.cuh"
 #include "solver/device_cuda.hpp"
+#include "solver/region_rules.hpp"
 #include "solver/virtual_mesh_device.cuh"
 #include "tool/surface_contact.hpp"
 
@@ -219,6 +221,10 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<DeviceTickInput> inputs;
   cuda::DeviceArray<Collider<double>> grasp_boxes;
   cuda::DeviceArray<ProfileDev> profile;
+  // The active region (DeviceHapticSetup::active_region > 0).
+  cuda::DeviceArray<ChunkRegion> chunk_region;
+  cuda::DeviceArray<Vec3f> region_offset, region_disp;
+  cuda::DeviceArray<unsigned long long> region_awake;
   cuda::PinnedArray<Vec3f> x_host;   // the physical step's x, copied out beside the ticks
   DeviceTickOutput* ring = nullptr;  // cudaHostAlloc, mapped
   int ring_size = 0;
@@ -493,6 +499,31 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     up(I.profile, std::vector<ProfileDev>(1, ProfileDev{}));
     d.profile = I.profile.get();
   }
+  if (S.active_region > 0) {
+    if (I.surface) throw std::invalid_argument("CudaHapticTicks: the active region needs vertex contact");
+    if (S.region_check_ticks < 1) throw std::invalid_argument("CudaHapticTicks: region_check_ticks must be at least 1");
+    // Every chunk awake at first (a chunk sleeps after kCalmTicks calm ticks); each vertex's
+    // offset its weight's stretch (region_rules.hpp).
+    up(I.chunk_region, std::vector<ChunkRegion>(chunks, ChunkRegion{{-1, -1}, 1, 0}));
+    std::vector<Vec3f> offset(m);
+    for (int j = 0; j < m; ++j) offset[j] = to_float(rest_offset(M.mass[j], M.k_svc, M.gravity));
+    up(I.region_offset, offset);
+    up(I.region_disp, zero);
+    up(I.region_awake, std::vector<unsigned long long>(1, 0));
+    const int calls = S.newton_calls == 0 ? I.iterations : S.newton_calls;
+    const NewtonLimits lim = newton_limits(S.tool->spec);
+    // A tick's Newton calls, and the one before its first step (a pipelined step runs beside it,
+    // at the pose before it): from the pose a tick's first step sees, its calls move the tool by
+    // at most calls + 1 calls' reach (the CPU's seeds: simulation.cpp, gather_region_seeds).
+    d.region_tol = static_cast<float>(S.active_region);
+    d.region_reach_T = static_cast<float>((calls + 1) * lim.reach_translation * (1 + 1e-6));
+    d.region_reach_th = static_cast<float>(std::min((calls + 1) * lim.reach_rotation, 0.5) * (1 + 1e-6));
+    d.region_check = S.region_check_ticks;
+    d.chunk_region = I.chunk_region.get();
+    d.region_offset = I.region_offset.get();
+    d.region_disp = I.region_disp.get();
+    d.region_awake = I.region_awake.get();
+  }
 
   const ToolModel& T = *S.tool;
   ToolConst& t = I.tool;
@@ -747,6 +778,15 @@ DeviceTickProfile CudaHapticTicks::profile() {
     r.mean_us[k] = 1e-3 * ns / (steps * (per_block ? I.grid - 1 : 1));
   }
   return r;
+}
+
+double CudaHapticTicks::awake_share() {
+  Impl& I = *impl_;
+  if (!I.dev.region_awake || I.enqueued == 0) return 1.0;
+  unsigned long long awake = 0;
+  EBH_CUDA_CHECK(cudaMemcpyAsync(&awake, I.dev.region_awake, sizeof(awake), cudaMemcpyDeviceToHost, I.stream));
+  EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream));
+  return static_cast<double>(awake) / (static_cast<double>(I.enqueued) * I.dev.chunks);
 }
 
 void CudaHapticTicks::snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visible) {

@@ -141,6 +141,12 @@ struct DeviceHapticSetup {
   /// shared memory for that many and one block of the step. 1: a replay alone.
   int blocks_per_sm = 1;
   int ticks_per_step = 0;                ///< N, ticks per physical step (run_ticks_with_steps); 0: not used
+  /// m, solver.active_region: the tick iterates only the chunks of the virtual mesh near the tool
+  /// (docs/CUDA.md, "The active region"); 0: every vertex every tick. Vertex contact only.
+  double active_region = 0;
+  /// The active region's strain check: a sleeping chunk's vertices once in this many ticks (the
+  /// chunks staggered over them; the scheduler passes the ticks of a physical period)
+  int region_check_ticks = 1;
   /// The physical mesh at rest and its tets: the steps inside the launches (run_ticks_with_steps)
   /// count their inverted or flat tets on the device (finish_step's PhysicalStepReport::inverted),
   /// so that the host does not go over every tet after every step. Empty: not counted (-1).
@@ -233,6 +239,10 @@ class CudaHapticTicks {
 
   /// Waits for everything enqueued; the stage times so far (zeros unless setup.profile_stages).
   DeviceTickProfile profile();
+
+  /// Waits for everything enqueued; with the active region, the share of the virtual mesh's
+  /// chunks that were awake over the ticks so far (1 without it).
+  double awake_share();
 
   /// Waits for everything enqueued; the virtual mesh (#m) and the visible physical result (#n).
   void snapshot(std::vector<Vec3d>& q, std::vector<Vec3d>& x_visible);

@@ -96,6 +96,17 @@ struct alignas(16) DeferredVertex {
   int slot;       // -2: not held; held: its entry in TailShared::held_q, or -1
 };
 
+/// A chunk's place in the active region (MeshDev::chunk_region; docs/CUDA.md, "The active region"),
+/// written by the block that runs the chunk but for `wake`.
+struct ChunkRegion {
+  // wake[T & 1] == T: a hot neighbour of one of its vertices at tick T - 1 wakes it at tick T (atomicMax
+  // at T - 1's last step; read at T's first step, which with one iteration a tick is the other
+  // entry's last step)
+  long long wake[2];
+  int awake;  // iterated this tick (decided at its first step)
+  int calm;   // consecutive calm ticks while awake
+};
+
 struct MeshDev {
   int m = 0, chunks = 0, ring = 1;  // chunks of kBlock vertices (a block of the grid runs several when needed)
   int iterations = 1;               // virtual iterations per tick
@@ -144,6 +155,16 @@ struct MeshDev {
   ToolStateDev* state = nullptr;
   const DeviceTickInput* inputs = nullptr;
   const Collider<double>* grasp_boxes = nullptr;
+  // The active region (DeviceHapticSetup::active_region; region_tol 0: every chunk each tick): a
+  // chunk of kBlock vertices sleeps, its vertices following their E_svc targets, while none of
+  // them can be reached or is held, moving or pulled off by its edges (docs/CUDA.md).
+  float region_tol = 0;
+  float region_reach_T = 0, region_reach_th = 0;  // what a tick's Newton calls can reach
+  int region_check = 1;              // a sleeping chunk c's strain check: on ticks t with (t + c) % region_check == 0
+  ChunkRegion* chunk_region = nullptr;      // chunks
+  Vec3f* region_offset = nullptr;    // m: where a vertex stands from its E_svc point while its chunk sleeps
+  Vec3f* region_disp = nullptr;      // m: its displacement from there at the last tick's end (awake chunks)
+  unsigned long long* region_awake = nullptr;  // chunk-ticks awake so far (one count per awake chunk and tick)
   DeviceTickOutput* out = nullptr;  // host-mapped ring of `ring` rows
   ProfileDev* profile = nullptr;    // stage timestamps, or null
 };

@@ -1,13 +1,15 @@
 #pragma once
 // The device haptic tick's vertex side (part of haptic_cuda.cu's translation unit): one thread
 // per virtual vertex and step (vertex_step: begin, contact, Jacobi iteration, end, reach), the
-// steps a pipelined step leaves to block 0 (finish_deferred), a chunk's lists, and the vertex
-// blocks' loop over a run's steps.
+// steps a pipelined step leaves to block 0 (finish_deferred), the active region's sleeping
+// chunks (chunk_awake, sleeping_vertex, settle_chunk), a chunk's lists, and the vertex blocks'
+// loop over a run's steps.
 #include "energy/edge_spring.hpp"
 #include "energy/quadratic.hpp"
 #include "schedule/haptic_cuda_handoff.cuh"
 #include "schedule/haptic_cuda_posed.cuh"
 #include "schedule/haptic_cuda_surface.cuh"
+#include "solver/region_rules.hpp"
 #include "solver/virtual_jacobi.hpp"
 #include "tool/tool_terms.hpp"
 
@@ -25,6 +27,15 @@ __device__ Vec3f blended_paired_point(const MeshDev& d, const Vec3f* x_prev, con
     xb[k] = lerp(x_prev[a], x_vis[a], alpha);
   }
   return paired_point(xb, idx, d.model.pair_weight + 4 * j, count);
+}
+
+/// Vertex j's E_svc target for this tick (its first step): blended ahead by its block (p_ready,
+/// vertex_blocks) or now, into d.p.
+__device__ Vec3f tick_target(const MeshDev& d, const DeviceTickInput& in, int j, bool p_ready) {
+  if (p_ready) return d.p[j];
+  const Vec3f p = blended_paired_point(d, d.x_prev, d.x_vis, j, static_cast<float>(in.alpha));
+  d.p[j] = p;
+  return p;
 }
 
 /// The E_con [3] target of a held vertex with grasp point `local` (tool frame) against the tool
@@ -107,12 +118,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
     d.q_start[j] = q_in;
     s = pinned ? q_in : predict_position(q_in, v_in[j], d.gravity, d.h);
     q0 = pinned ? q_in : iteration_start(q_in, v_in[j], d.h);
-    if (p_ready) {  // blended by this block ahead (vertex_blocks)
-      p = d.p[j];
-    } else {
-      p = blended_paired_point(d, d.x_prev, d.x_vis, j, static_cast<float>(in.alpha));
-      d.p[j] = p;
-    }
+    p = tick_target(d, in, j, p_ready);
     d.s[j] = s;
     if (!kAhead && in.grasp < 0) {
       d.held[j] = 0;
@@ -227,17 +233,148 @@ __device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, con
   return f;
 }
 
+// The active region (MeshDev::region_tol > 0; docs/CUDA.md, "The active region"): a chunk of
+// kBlock vertices is awake or asleep for a whole tick, decided at its first step (chunk_awake);
+// a sleeping chunk's vertices follow their E_svc targets (sleeping_vertex); an awake chunk falls
+// asleep after kCalmTicks calm ticks in a row (settle_chunk). The rules per vertex are the CPU
+// region's (solver/region_rules.hpp); the region's unit is the chunk.
+
+/// The strain check of vertex j of a sleeping chunk where it stood at the last tick's end (qin,
+/// its coupling point qin - offset): the sum of its edges' E_s [4] forces, its E_svc [5]
+/// spring's and its weight moves it by more than the tolerance in a static Jacobi step.
+__device__ bool strained(const MeshDev& d, int j, const Vec3f* __restrict__ qin) {
+  Vec3f f = d.model.mass[j] * d.gravity - d.k_svc * d.region_offset[j];
+  const int degree = d.model.edge_offsets[j + 1] - d.model.edge_offsets[j];
+  for (int k = 0; k < degree; ++k) {
+    const int4 it = __ldg(&d.edge_ell[k * d.m + j]);
+    add_edge_residual(f, edge_spring_gradient(qin[it.x], qin[it.y], d.model.rest_edge[it.z], d.k_s), it.w != 0);
+  }
+  return pulled_off(f, d.model.stiff_diag[j], d.region_tol);
+}
+
+/// Whether chunk c runs its vertices this tick (at its first step, tick `tick`; every thread of
+/// the block calls it, thread i for vertex j): it was awake, a hot neighbour of one of its
+/// vertices at the tick before or a grasp event wakes it, or one of its vertices is held, may be reached by the tick's Newton
+/// calls (from the pose of `posed`, at the place it will stand) or, on the chunk's strain-check
+/// tick, is pulled off by its edges. The tick's E_svc targets of its vertices are blended here.
+__device__ bool chunk_awake(const MeshDev& d, const ToolConst& t, const Posed& posed, const DeviceTickInput& in,
+                            long long tick, int c, int j, const Vec3f* __restrict__ qin, bool p_ready) {
+  ChunkRegion& cr = d.chunk_region[c];
+  const bool was = cr.awake != 0;
+  bool need = false;
+  if (j < d.m) {
+    const Vec3f p = tick_target(d, in, j, p_ready);
+    if (!was) {  // a pinned vertex too: it takes no step, but the tool pushes against it
+      const bool pinned = d.model.pinned[j];
+      const Vec3f q = pinned ? qin[j] : p + d.region_offset[j];
+      need = d.held[j] != 0 ||
+             maybe_within(t, posed, q, newton_reach_bound(d.region_reach_T, d.region_reach_th, origin_distance(posed, q)) + kFloatSlack);
+      if (!need && !pinned && (tick + c) % d.region_check == 0) need = strained(d, j, qin);
+    }
+  }
+  const bool awake = __syncthreads_or(need) || was || in.grasp > 0 || cr.wake[tick & 1] >= tick;
+  __syncthreads();  // every thread read cr
+  if (threadIdx.x == 0) {
+    if (!was && awake) {
+      cr.awake = 1;
+      cr.calm = 0;
+    }
+    if (awake) atomicAdd(d.region_awake, 1ull);
+  }
+  return awake;
+}
+
+/// Step s of vertex j of a sleeping chunk: it follows its E_svc target, standing at p + offset
+/// for the whole tick (its velocity, on the last step, that of the move; vertex_end).
+__device__ VertexFlags sleeping_vertex(const MeshDev& d, const ToolConst& t, const Posed& physical, bool first, bool last,
+                                       int j, const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
+                                       Vec3f* __restrict__ v_out) {
+  VertexFlags f;
+  const Vec3f q_in = qin[j];
+  Vec3f q = q_in;
+  if (first) {
+    d.q_start[j] = q_in;
+    if (!d.model.pinned[j]) q = d.p[j] + d.region_offset[j];
+  }
+  vertex_end(d, t, physical, last, j, false, q, first ? q_in : (last ? d.q_start[j] : Vec3f{}), qout, v_out, f);
+  return f;
+}
+
+/// The end of an awake chunk's tick (its last step, every thread of the block; f: vertex j's
+/// step): each vertex's displacement from where it would stand asleep, and whether it is calm (not
+/// held, in contact, deferred or reachable, and not moving: region_rules.hpp) or hot. A hot vertex
+/// wakes the chunks of its neighbours for the next tick; after kCalmTicks calm ticks the chunk sleeps,
+/// each vertex keeping its displacement in its offset (it stays where it settled).
+template <bool kAhead>
+__device__ void settle_chunk(const MeshDev& d, long long tick, int c, int j, const VertexFlags& f) {
+  bool calm = true, hot = false;
+  Vec3f disp{};
+  if (j < d.m) {
+    // Held, deferred (kAhead: its q is block 0's), or near the tool (a pinned vertex too)
+    if (f.list1 || f.list0 || f.contact) calm = false;
+    if (!d.model.pinned[j] && !(kAhead && f.list1)) {
+      disp = f.q - (d.p[j] + d.region_offset[j]);
+      const RegionMotion motion = region_motion(disp, d.region_disp[j], d.region_tol);
+      calm = calm && !motion.moving;
+      hot = motion.hot;
+    }
+  }
+  if (hot) {  // the chunks of its neighbours wake at the next tick
+    const int degree = d.model.edge_offsets[j + 1] - d.model.edge_offsets[j];
+    for (int k = 0; k < degree; ++k) {
+      const int4 it = __ldg(&d.edge_ell[k * d.m + j]);
+      const int other = (it.x == j ? it.y : it.x) / kBlock;
+      if (other != c) atomicMax(&d.chunk_region[other].wake[(tick + 1) & 1], tick + 1);
+    }
+  }
+  ChunkRegion& cr = d.chunk_region[c];
+  const bool still = !__syncthreads_or(!calm);  // after chunk_awake's writes (one iteration a tick)
+  const int before = cr.calm;
+  __syncthreads();  // every thread read cr.calm
+  const int calm_ticks = still ? before + 1 : 0;
+  const bool sleep = calm_ticks >= kCalmTicks;
+  if (j < d.m && !d.model.pinned[j] && !(kAhead && f.list1)) {
+    if (sleep) {
+      d.region_offset[j] = d.region_offset[j] + disp;
+      d.region_disp[j] = Vec3f{};
+    } else {
+      d.region_disp[j] = disp;
+    }
+  }
+  if (threadIdx.x == 0) {
+    cr.calm = sleep ? 0 : calm_ticks;
+    if (sleep) cr.awake = 0;
+  }
+}
+
 /// One step of chunk c (kBlock vertices, one per thread; vertex_step), then the chunk's two lists
 /// in vertex order, its contact count and deepest penetration (block_counts[4 c ..]).
+/// With the active region (d.region_tol > 0), a sleeping chunk's vertices follow their targets
+/// instead (chunk_awake, sleeping_vertex, settle_chunk).
 template <bool kAhead>
-__device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, bool first, bool last, bool p_ready, int c,
-                             const Vec3f* __restrict__ qin, const Vec3f* v_in, Vec3f* __restrict__ qout,
+__device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, long long tick, bool first, bool last, bool p_ready,
+                             int c, const Vec3f* __restrict__ qin, const Vec3f* v_in, Vec3f* __restrict__ qout,
                              Vec3f* __restrict__ v_out, BlockShared& sm, BlockClock& clock) {
   const int j = c * kBlock + threadIdx.x;
   VertexFlags f;
   DeferredVertex deferred;
-  if (j < d.m)
-    f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, v_in, qout, v_out, deferred, p_ready);
+  const bool region = d.region_tol > 0.f;
+  bool awake = true;
+  if (region) {
+    if (first) {
+      awake = chunk_awake(d, t, sm.posed(), sm.in(), tick, c, j, qin, p_ready);
+      p_ready = true;  // chunk_awake blended the targets
+    } else {
+      awake = d.chunk_region[c].awake != 0;
+    }
+  }
+  if (j < d.m) {
+    if (awake)
+      f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, v_in, qout, v_out, deferred, p_ready);
+    else
+      f = sleeping_vertex(d, t, sm.physical(), first, last, j, qin, qout, v_out);
+  }
+  if (region && last && awake) settle_chunk<kAhead>(d, tick, c, j, f);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const unsigned below = (1u << lane) - 1u;
   const unsigned b0 = __ballot_sync(~0u, f.list0), b1 = __ballot_sync(~0u, f.list1), bc = __ballot_sync(~0u, f.contact);
@@ -298,8 +435,8 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     clock.posed();
     for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
       clock.chunk_begin();
-      if (ahead) vertex_chunk<true>(d, t, first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
-      else vertex_chunk<false>(d, t, first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
+      if (ahead) vertex_chunk<true>(d, t, S.tick(s), first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
+      else vertex_chunk<false>(d, t, S.tick(s), first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
       clock.chunk_end();
     }
     clock.report(d.profile, s);

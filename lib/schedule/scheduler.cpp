@@ -577,6 +577,8 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
   setup.x0 = world.initial_physical.x;
   setup.pose0 = {in.front().position, in.front().orientation};
   setup.ticks_per_step = mode == Mode::Async ? N : 0;  // run_ticks_with_steps: async's delivery
+  setup.active_region = world.scene.spec.solver.active_region;
+  setup.region_check_ticks = N;  // each sleeping chunk's strain check once a physical period
   setup.physical_rest = world.physical_mesh.rest;
   setup.physical_tets = world.physical_mesh.tets;
   return out;

@@ -11,6 +11,9 @@
 #include "tool/contact.hpp"
 #include "tool/newton.hpp"
 #include "tool/grasp.hpp"
+#if EBH_HAVE_CUDA
+#include "schedule/haptic_cuda.hpp"
+#endif
 
 namespace ebh {
 namespace {
@@ -28,6 +31,16 @@ void timed(double& slot, F&& stage) {
 }
 
 ToolPose pose_of(const DeviceSample& s) { return {s.position, s.orientation}; }
+
+/// Whether the CUDA backend's device tick runs the active region for this tool: vertex contact,
+/// a tool the device tick supports (schedule/haptic_cuda.hpp).
+bool cuda_active_region([[maybe_unused]] const ToolModel& tool) {
+#if EBH_HAVE_CUDA
+  return !tool.surface && device_haptic_supported(tool);
+#else
+  return false;
+#endif
+}
 
 /// Whether the CUDA physical step can sleep in this build (graph conditional nodes).
 bool cuda_physical_sleep() {
@@ -268,10 +281,11 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
                                         "it (docs/MODEL.md, \"Sleeping\")");
     w->scene.spec.solver.sleep = 0;
   }
-  if (backend == Backend::Cuda && w->scene.spec.solver.active_region > 0) {
+  if (backend == Backend::Cuda && w->scene.spec.solver.active_region > 0 && !cuda_active_region(w->tool)) {
     if (w->scene.spec.solver.active_region_given)
-      w->scene.warnings.push_back(where + ": key 'solver.active_region': the CUDA backend iterates the whole virtual mesh "
-                                        "and ignores it (docs/MODEL.md, \"The active region\")");
+      w->scene.warnings.push_back(where + ": key 'solver.active_region': the CUDA backend's device tick has it with vertex "
+                                        "contact and the closest-point projection only; this scene's tick iterates the "
+                                        "whole virtual mesh and ignores it (docs/CUDA.md, \"The active region\")");
     w->scene.spec.solver.active_region = 0;
   }
   if (backend == Backend::Cuda && w->scene.spec.solver.physical_region > 0) {

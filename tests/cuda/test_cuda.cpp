@@ -893,7 +893,7 @@ bool same_outputs(const DeviceTickOutput& a, const DeviceTickOutput& b) {
 }
 
 std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapticSetup&), DeviceTickProfile* profile = nullptr,
-                                           const TickWindow& window = {}) {
+                                           const TickWindow& window = {}, double* awake = nullptr) {
   LoadedReplay in = load_replay_inputs(window.scene, window.recording, window.overrides, std::nullopt, std::nullopt,
                                        false, Backend::Cuda);
   const World& w = *in.world;
@@ -911,6 +911,7 @@ std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapti
     std::copy(rows.begin(), rows.end(), out.begin() + k);
   }
   if (profile) *profile = device.profile();
+  if (awake) *awake = device.awake_share();
   return out;
 }
 
@@ -991,6 +992,111 @@ TEST(CudaDeviceTick, PipelinedStepsMatchUnpipelinedOnes) {
     EXPECT_EQ(mixed_grasp, 0);
     EXPECT_LE(err_mixed, tol_f);
   }
+}
+
+/// RMS and largest |a - b| of two runs' forces.
+std::pair<double, double> force_difference(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b) {
+  double sum = 0, most = 0;
+  for (size_t n = 0; n < a.size(); ++n) {
+    const double e = norm(a[n] - b[n]);
+    sum += e * e;
+    most = std::max(most, e);
+  }
+  return {std::sqrt(sum / std::max<size_t>(a.size(), 1)), most};
+}
+
+std::vector<Vec3d> forces_of(const std::vector<DeviceTickOutput>& rows) {
+  std::vector<Vec3d> f;
+  for (const DeviceTickOutput& r : rows) f.push_back(r.force);
+  return f;
+}
+
+/// The device tick's active region (DeviceHapticSetup::active_region: chunks of the virtual mesh
+/// asleep, their vertices on their E_svc targets) against the whole mesh through the grasp, for 4
+/// and 1 virtual iterations: at 0.0003 mm the forces within the active region's goals (RMS <= 0.01
+/// N, every tick <= 0.05 N) while most chunk-ticks sleep; at 1e-12 m within the float32 bound of
+/// the pipelined steps' test; the same bits run twice and on a grid of 9 blocks (a chunk's sleep
+/// does not depend on its block).
+TEST(CudaDeviceTick, ActiveRegionFollowsTheWholeMesh) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 800;
+  const Models& M = models("cholecystectomy");
+  for (const int K : {4, 1}) {
+    static int iterations;
+    static double tolerance;
+    static int blocks;
+    iterations = K;
+    const auto with = [](DeviceHapticSetup& s) {
+      s.virtual_iterations = iterations;
+      s.active_region = tolerance;
+      s.region_check_ticks = 10;
+      s.max_blocks = blocks;
+    };
+    blocks = 0;
+    tolerance = 0;
+    const auto whole = forces_of(device_ticks(ticks, with));
+    double awake_tight = 0, awake = 0, awake_again = 0, awake_strided = 0;
+    tolerance = 1e-12;
+    const auto tight = forces_of(device_ticks(ticks, with, nullptr, {}, &awake_tight));
+    tolerance = 3e-7;
+    const auto region = device_ticks(ticks, with, nullptr, {}, &awake);
+    const auto again = device_ticks(ticks, with, nullptr, {}, &awake_again);
+    blocks = 9;
+    const auto strided = device_ticks(ticks, with, nullptr, {}, &awake_strided);
+    const double tol_f = M.scene.spec.stiffness.k_vcs * ticks * step_tolerance(K, max_abs_coordinate(M.pm.rest));
+    const auto [rms_tight, max_tight] = force_difference(tight, whole);
+    const auto [rms, most] = force_difference(forces_of(region), whole);
+    int differ = 0;
+    for (int n = 0; n < ticks; ++n) differ += !same_outputs(region[n], again[n]) + !same_outputs(region[n], strided[n]);
+    std::printf("[ active region K=%d ] 1e-12 m: %.1f%% of the chunk-ticks awake, max |F| diff %.3g N (tol %.3g); "
+                "0.0003 mm: %.1f%% awake, |F| diff RMS %.3g N, max %.3g N; %d ticks differ run to run or on 9 blocks\n",
+                K, 100 * awake_tight, max_tight, tol_f, 100 * awake, rms, most, differ);
+    EXPECT_LE(max_tight, tol_f);
+    EXPECT_LE(rms, 0.01);
+    EXPECT_LE(most, 0.05);
+    EXPECT_LT(awake, 0.5) << "most of the mesh must sleep at 0.0003 mm";
+    EXPECT_GT(awake, 0.0);
+    EXPECT_EQ(differ, 0);
+    EXPECT_EQ(awake, awake_again);
+    EXPECT_EQ(awake, awake_strided);
+  }
+  // tube_insert, the hook's tip catching the tube's pinned rim at ~2.02 s: a pinned vertex takes
+  // no step but the tool pushes against it, so it wakes its chunk (a pinned rim in a sleeping chunk
+  // let the tip through: 0.56 N felt as 0.01 N).
+  static double tolerance;
+  const auto with = [](DeviceHapticSetup& s) { s.active_region = tolerance; s.region_check_ticks = 10; };
+  const TickWindow rim{"tube", "tube_insert", 1.9, {}};
+  tolerance = 0;
+  const auto whole = forces_of(device_ticks(300, with, nullptr, rim));
+  tolerance = 3e-7;
+  double awake = 0;
+  const auto region = forces_of(device_ticks(300, with, nullptr, rim, &awake));
+  const auto [rms, most] = force_difference(region, whole);
+  double peak = 0;
+  for (const Vec3d& f : whole) peak = std::max(peak, norm(f));
+  std::printf("[ active region, tube rim ] 300 ticks from 1.9 s: peak |F| %.3g N, %.1f%% awake, |F| diff RMS %.3g N, "
+              "max %.3g N\n", peak, 100 * awake, rms, most);
+  EXPECT_GT(peak, 0.3) << "the window must hold the tip on the rim";
+  EXPECT_LE(rms, 0.01);
+  EXPECT_LE(most, 0.05);
+}
+
+/// The active region in a whole async replay (the physical steps inside the launches move the
+/// targets of the sleeping vertices): forces within the region's goals of the whole mesh's through
+/// the grasp, and the same bits run twice.
+TEST(CudaReplay, ActiveRegionReplayFollowsTheWholeMesh) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 1500;
+  const Trace whole = replay_grasp(Backend::Cuda, Mode::Async, ticks);
+  const Trace region = replay_grasp(Backend::Cuda, Mode::Async, ticks, 1.2, false, {"solver.active_region=0.0003"});
+  const Trace again = replay_grasp(Backend::Cuda, Mode::Async, ticks, 1.2, false, {"solver.active_region=0.0003"});
+  ASSERT_EQ(region.force.size(), size_t(ticks));
+  const auto [rms, most] = force_difference(region.force, whole.force);
+  std::printf("[ active region replay ] %d ticks: |F| diff RMS %.3g N, max %.3g N\n", ticks, rms, most);
+  EXPECT_LE(rms, 0.01);
+  EXPECT_LE(most, 0.05);
+  EXPECT_EQ(std::memcmp(region.force.data(), again.force.data(), region.force.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(region.x.data(), again.x.data(), region.x.size() * sizeof(Vec3d)), 0);
 }
 
 /// Surface contact's contact lists (DeviceHapticSetup::contact_lists: a step after a Newton call

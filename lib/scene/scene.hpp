@@ -72,7 +72,8 @@
 //     active_region: 0              # length (unit): iterate only the virtual vertices near the tool and
 //                                   #   those displaced from their coupling targets by more than this
 //                                   #   (and their neighbours); the rest follow the targets. 0: the
-//                                   #   whole virtual mesh (CPU backend; docs/MODEL.md, "The active region")
+//                                   #   whole virtual mesh (CPU; CUDA per chunk of 128 vertices, vertex
+//                                   #   contact: docs/MODEL.md, "The active region")
 //     physical_region: 0            # length (unit): iterate only the physical vertices that moved by
 //                                   #   more than this in the last step, or under a virtual vertex
 //                                   #   that did, and their neighbours; the rest are held. 0: every

@@ -124,4 +124,10 @@ std::string sha256_file(const std::string& path) {
   return h.hex();
 }
 
+const std::string& sha256_file_cached(std::map<std::string, std::string>& cache, const std::string& path) {
+  auto it = cache.find(path);
+  if (it == cache.end()) it = cache.emplace(path, sha256_file(path)).first;
+  return it->second;
+}
+
 }  // namespace ebh

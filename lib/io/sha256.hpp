@@ -4,6 +4,7 @@
 // one (HDF5, yaml-cpp and Eigen do not), and the algorithm is short.
 #include <array>
 #include <cstdint>
+#include <map>
 #include <span>
 #include <string>
 #include <string_view>
@@ -33,5 +34,9 @@ std::string sha256_hex(std::string_view bytes);
 
 /// The hex SHA-256 of a file's contents. Throws InputError "PATH: cannot read: why".
 std::string sha256_file(const std::string& path);
+
+/// sha256_file through `cache` (path -> digest): a path in it is not read again, another is read
+/// and added.
+const std::string& sha256_file_cached(std::map<std::string, std::string>& cache, const std::string& path);
 
 }  // namespace ebh

@@ -511,13 +511,13 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     up(I.region_disp, zero);
     up(I.region_awake, std::vector<unsigned long long>(1, 0));
     const int calls = S.newton_calls == 0 ? I.iterations : S.newton_calls;
-    const NewtonLimits lim = newton_limits(S.tool->spec);
     // A tick's Newton calls, and the one before its first step (a pipelined step runs beside it,
-    // at the pose before it): from the pose a tick's first step sees, its calls move the tool by
-    // at most calls + 1 calls' reach (the CPU's seeds: simulation.cpp, gather_region_seeds).
+    // at the pose before it): from the pose a tick's first step sees, the tool reaches at most
+    // what calls + 1 calls do (the CPU's seeds: simulation.cpp, gather_region_seeds), rounded out.
+    const NewtonReach reach = newton_reach_of_calls(newton_limits(S.tool->spec), calls + 1);
     d.region_tol = static_cast<float>(S.active_region);
-    d.region_reach_T = static_cast<float>((calls + 1) * lim.reach_translation * (1 + 1e-6));
-    d.region_reach_th = static_cast<float>(std::min((calls + 1) * lim.reach_rotation, 0.5) * (1 + 1e-6));
+    d.region_reach_T = static_cast<float>(reach.translation * (1 + 1e-6));
+    d.region_reach_th = static_cast<float>(reach.rotation * (1 + 1e-6));
     d.region_check = S.region_check_ticks;
     d.chunk_region = I.chunk_region.get();
     d.region_offset = I.region_offset.get();

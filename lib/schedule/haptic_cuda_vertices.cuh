@@ -81,6 +81,30 @@ __device__ void vertex_end(const MeshDev& d, const ToolConst& t, const Posed& ph
   }
 }
 
+/// -dE_s/dq [4] of vertex j's `degree` incident edges (edge_ell, in their order) added to r, an
+/// edge's ends at at(a); it0: the first kEdgeChunk edge items, loaded. In chunks of kEdgeChunk,
+/// every load of a chunk issued before its math (one thread per vertex: the loads' latency, not
+/// the arithmetic, bounds this loop).
+template <class At>
+__device__ void add_edge_residuals(const MeshDev& d, int j, int degree, const int4 (&it0)[kEdgeChunk], At at, Vec3f& r) {
+  for (int kb = 0; kb < degree; kb += kEdgeChunk) {
+    int4 it[kEdgeChunk];
+    Vec3f xa[kEdgeChunk], xb[kEdgeChunk], rest[kEdgeChunk];
+#pragma unroll
+    for (int u = 0; u < kEdgeChunk; ++u) it[u] = kb == 0 ? it0[u] : __ldg(&d.edge_ell[(kb + u) * d.m + j]);
+#pragma unroll
+    for (int u = 0; u < kEdgeChunk; ++u)
+      if (kb + u < degree) {
+        xa[u] = at(it[u].x);
+        xb[u] = at(it[u].y);
+        rest[u] = d.model.rest_edge[it[u].z];
+      }
+#pragma unroll
+    for (int u = 0; u < kEdgeChunk; ++u)
+      if (kb + u < degree) add_edge_residual(r, edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s), it[u].w != 0);
+  }
+}
+
 /// Step s of virtual vertex j (one thread): begin (first), contact, one Jacobi step
 /// q + (r + kt - ck q) / (D + ck), with r and D the sums without the contact; end (last).
 ///   kAhead = false (an unpipelined step): the contact of j against the virtual tool posed in
@@ -160,24 +184,7 @@ __device__ VertexFlags vertex_step(const MeshDev& d, const ToolConst& t, const P
       if (!first || d.model.pinned[a]) return x;
       return iteration_start(x, v_in[a], d.h);
     };
-    // The incident edges (edge_ell) in chunks of kEdgeChunk, every load of a chunk issued before
-    // its math (one thread per vertex: the loads' latency, not the arithmetic, bounds this loop).
-    for (int kb = 0; kb < degree; kb += kEdgeChunk) {
-      int4 it[kEdgeChunk];
-      Vec3f xa[kEdgeChunk], xb[kEdgeChunk], rest[kEdgeChunk];
-#pragma unroll
-      for (int u = 0; u < kEdgeChunk; ++u) it[u] = kb == 0 ? it0[u] : __ldg(&d.edge_ell[(kb + u) * d.m + j]);
-#pragma unroll
-      for (int u = 0; u < kEdgeChunk; ++u)
-        if (kb + u < degree) {
-          xa[u] = at(it[u].x);
-          xb[u] = at(it[u].y);
-          rest[u] = d.model.rest_edge[it[u].z];
-        }
-#pragma unroll
-      for (int u = 0; u < kEdgeChunk; ++u)
-        if (kb + u < degree) add_edge_residual(r, edge_spring_gradient(xa[u], xb[u], rest[u], d.k_s), it[u].w != 0);
-    }
+    add_edge_residuals(d, j, degree, it0, at, r);
     D = mh + stiff;
   }
   // -dE_con/dq [3]: kt - ck q, by one reciprocal rather than three divisions (an IEEE division
@@ -244,11 +251,10 @@ __device__ VertexFlags finish_deferred(const MeshDev& d, const ToolConst& t, con
 /// spring's and its weight moves it by more than the tolerance in a static Jacobi step.
 __device__ bool strained(const MeshDev& d, int j, const Vec3f* __restrict__ qin) {
   Vec3f f = d.model.mass[j] * d.gravity - d.k_svc * d.region_offset[j];
-  const int degree = d.model.edge_offsets[j + 1] - d.model.edge_offsets[j];
-  for (int k = 0; k < degree; ++k) {
-    const int4 it = __ldg(&d.edge_ell[k * d.m + j]);
-    add_edge_residual(f, edge_spring_gradient(qin[it.x], qin[it.y], d.model.rest_edge[it.z], d.k_s), it.w != 0);
-  }
+  int4 it0[kEdgeChunk];
+#pragma unroll
+  for (int u = 0; u < kEdgeChunk; ++u) it0[u] = __ldg(&d.edge_ell[u * d.m + j]);
+  add_edge_residuals(d, j, d.model.edge_offsets[j + 1] - d.model.edge_offsets[j], it0, [&](int a) { return qin[a]; }, f);
   return pulled_off(f, d.model.stiff_diag[j], d.region_tol);
 }
 
@@ -272,8 +278,8 @@ __device__ bool chunk_awake(const MeshDev& d, const ToolConst& t, const Posed& p
       if (!need && !pinned && (tick + c) % d.region_check == 0) need = strained(d, j, qin);
     }
   }
+  // Every thread read cr.awake before the barrier; thread 0 writes only awake and calm.
   const bool awake = __syncthreads_or(need) || was || in.grasp > 0 || cr.wake[tick & 1] >= tick;
-  __syncthreads();  // every thread read cr
   if (threadIdx.x == 0) {
     if (!was && awake) {
       cr.awake = 1;

@@ -102,13 +102,7 @@ void write_provenance(h5::File& f, const World& w, const ReplayMetadata& meta) {
   auto input = [&](const std::string& key, const std::string& path) {
     const std::string where = absolute(path);
     f.set_attr(key, where);
-    if (!meta.digests) {
-      f.set_attr(key + "_sha256", sha256_file(path));
-      return;
-    }
-    auto it = meta.digests->find(where);
-    if (it == meta.digests->end()) it = meta.digests->emplace(where, sha256_file(path)).first;
-    f.set_attr(key + "_sha256", it->second);
+    f.set_attr(key + "_sha256", meta.digests ? sha256_file_cached(*meta.digests, where) : sha256_file(path));
   };
   for (const SceneInputFile& file : scene_input_files(s)) input(file.key, file.path.string());
   if (!meta.recording.empty()) input("recording", meta.recording);

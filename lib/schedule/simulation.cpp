@@ -89,9 +89,8 @@ std::pair<std::span<const Vec3d>, std::int64_t> physical_targets(const World& wo
 /// the grasped vertices.
 void gather_region_seeds(const World& world, HapticSide& h) {
   h.region_seeds.clear();
-  const NewtonLimits lim = newton_limits(world.tool.spec);
-  const int calls = newton_calls_per_tick(world.scene.spec);
-  const double T = calls * lim.reach_translation, th = std::min(calls * lim.reach_rotation, 0.5);
+  const NewtonReach reach = newton_reach_of_calls(newton_limits(world.tool.spec), newton_calls_per_tick(world.scene.spec));
+  const double T = reach.translation, th = reach.rotation;
   const PosedTool posed = pose_tool(world.tool, h.tool.pose, h.device.jaw);
   if (world.tool.surface) {
     gather_samples(*world.tool.surface, posed, h.mesh.q, h.grid, T, th, {}, h.tool.surface_scratch, h.region_samples);

@@ -318,7 +318,7 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   }
   for (SweepScene& sc : plan.scenes) {  // each file read once, for every run's id
     sc.inputs_sha256 = scene_inputs_sha256(sc.scene_file, plan.sha256);
-    for (const fs::path& f : sc.recordings) plan.sha256.emplace(f.string(), sha256_file(f.string()));
+    for (const fs::path& f : sc.recordings) sha256_file_cached(plan.sha256, f.string());
   }
   (void)expand_plan(plan);  // the size limit, before any work
   return plan;
@@ -392,11 +392,8 @@ namespace {
 /// path, and added to it when not there).
 std::string scene_inputs_sha256(const fs::path& scene_file, std::map<std::string, std::string>& digests) {
   std::string key;
-  for (const SceneInputFile& f : scene_input_files(load_scene_spec(scene_file))) {
-    auto it = digests.find(f.path.string());
-    if (it == digests.end()) it = digests.emplace(f.path.string(), sha256_file(f.path.string())).first;
-    key += f.key + " " + it->second + "\n";
-  }
+  for (const SceneInputFile& f : scene_input_files(load_scene_spec(scene_file)))
+    key += f.key + " " + sha256_file_cached(digests, f.path.string()) + "\n";
   return sha256_hex(key);
 }
 

@@ -174,11 +174,16 @@ std::optional<BaselineGoal> baseline_goal(const ReportGroup& g) {
 
 namespace {
 
-/// A candidate whose physical solve the baseline's leaves far behind (its max physical residual
-/// over kLooserSolve times the baseline's): said beside it, since its speed may come from an
-/// unconverged physical mesh (fewer fixed iterations) rather than from a better method.
+/// Whether a candidate's physical solve the baseline's leaves far behind: its max physical
+/// residual over kLooserSolve times the baseline's. Its speed may then come from an unconverged
+/// physical mesh (fewer fixed iterations) rather than from a better method.
+bool less_converged(const ReportPoint& p, const ReportPoint& b) {
+  return b.residual_max > 0 && p.residual_max > kLooserSolve * b.residual_max;
+}
+
+/// What the comparison says beside a less converged candidate ("" for another).
 std::string looser_solve(const ReportPoint& p, const ReportPoint& b) {
-  if (!(b.residual_max > 0) || !(p.residual_max > kLooserSolve * b.residual_max)) return "";
+  if (!less_converged(p, b)) return "";
   return " (its physical solve is less converged: max residual " + fmt(p.residual_max) + " mesh weights, " +
          fmt(p.residual_max / b.residual_max, "%.2g") + "x the baseline's)";
 }
@@ -228,8 +233,8 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
       if (goal->speedup >= 2 || goal->error_ratio >= 2) {
         ++met;
         const ReportPoint& b = g.points[goal->baseline];
-        const bool loose = (goal->speedup < 2 || !looser_solve(g.points[goal->fastest], b).empty()) &&
-                           (goal->error_ratio < 2 || !looser_solve(g.points[goal->most_accurate], b).empty());
+        const bool loose = (goal->speedup < 2 || less_converged(g.points[goal->fastest], b)) &&
+                           (goal->error_ratio < 2 || less_converged(g.points[goal->most_accurate], b));
         met_on[g.backend] += (met_on[g.backend].empty() ? "" : ", ") + g.recording + (loose ? " [less converged]" : "");
       }
     }

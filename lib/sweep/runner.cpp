@@ -188,12 +188,7 @@ InputDigests::InputDigests(const SweepPlan* plan) {
   if (plan) files_ = plan->sha256;
 }
 
-const std::string& InputDigests::file(const fs::path& path) {
-  const std::string key = path.string();
-  auto it = files_.find(key);
-  if (it == files_.end()) it = files_.emplace(key, sha256_file(key)).first;
-  return it->second;
-}
+const std::string& InputDigests::file(const fs::path& path) { return sha256_file_cached(files_, path.string()); }
 
 const std::vector<std::pair<std::string, fs::path>>& InputDigests::run_files(const SweepPlan& plan, const SweepRun& run) {
   const fs::path& scene = plan.scenes[run.scene].scene_file;

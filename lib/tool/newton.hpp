@@ -42,6 +42,16 @@ inline NewtonLimits newton_limits(const ToolSpec& spec) {
   return l;
 }
 
+/// What `calls` Newton calls in a row can reach from the pose before them (the active region's
+/// seeds on the CPU, its chunks' wake on the device): calls times one call's translation and
+/// rotation, the rotation at most 0.5 as above.
+struct NewtonReach {
+  double translation = 0, rotation = 0;
+};
+inline NewtonReach newton_reach_of_calls(const NewtonLimits& l, int calls) {
+  return {calls * l.reach_translation, std::min(calls * l.reach_rotation, 0.5)};
+}
+
 /// How close (a signed distance) a collider point can come to a point at distance r from the tool
 /// origin within one Newton call that translates by at most T and turns by at most th (rad): a
 /// vertex farther from every collider than this is no candidate of the call.

@@ -14,7 +14,9 @@
 //                           *_with_physical: the physical steps beside the ticks (the replay's workload),
 //                           a launch per physical period; *_in_launch: the steps inside launches of
 //                           100 ticks (run_ticks_with_steps), as the async replay runs them;
-//                           physical_step_us: the steps' mean device time beside the ticks
+//                           physical_step_us: the steps' mean device time beside the ticks;
+//                           *_16_blocks: a batch's share of the device's tick blocks;
+//                           *_region: solver.active_region=0.0003 (awake_share: chunk-ticks awake)
 //   BM_ReplayGrasp          a virtual-time (async) replay of cholecystectomy_grasp on each backend:
 //                           real-time factor and the mean time of each stage of the haptic tick;
 //                           cuda_host_tool: the virtual tool on the host (ReplayOptions::device_tick
@@ -242,9 +244,11 @@ BENCHMARK_CAPTURE(BM_VirtualTick, cholecystectomy_cuda, std::string("cholecystec
 /// the physical steps inside launches of `run` ticks (run_ticks_with_steps), as the replay runs them.
 void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeline, int run = 0, bool physical = false,
                     bool in_launch = false, bool surface = false, const char* scene = "cholecystectomy",
-                    const char* recording = "cholecystectomy_grasp") {
+                    const char* recording = "cholecystectomy_grasp", int max_blocks = 0, const char* region = nullptr) {
   if (!device_ready(st)) return;
-  const std::vector<std::string> overrides = surface ? std::vector<std::string>{"contact=surface"} : std::vector<std::string>{};
+  std::vector<std::string> overrides;
+  if (surface) overrides.push_back("contact=surface");
+  if (region) overrides.push_back(std::string("solver.active_region=") + region);
   LoadedReplay in = load_replay_inputs(scene, recording, overrides, std::nullopt,
                                        std::nullopt, false, Backend::Cuda);
   const World& w = *in.world;
@@ -258,7 +262,9 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
   DeviceHapticSetup setup = inputs.setup;
   setup.profile_stages = profile;
   setup.pipeline = pipeline;
+  setup.max_blocks = max_blocks;
   DeviceTickProfile stages;
+  double awake = 1;
   for (auto _ : st) {
     st.PauseTiming();
     CudaPhysicalSolver solver(w.physical_mesh, w.physical_params);
@@ -300,6 +306,7 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
     wall += dt;
     timed_ticks += (runs - 1) * N;
     stages = ticks.profile();
+    awake = ticks.awake_share();
   }
   st.counters["tick_us"] = timed_ticks ? 1e6 * wall / static_cast<double>(timed_ticks) : 0;
   if (physical) st.counters["physical_step_us"] = timed_steps ? 1e6 * step_device_s / static_cast<double>(timed_steps) : 0;
@@ -315,6 +322,7 @@ void BM_DeviceTicks(benchmark::State& st, double from, bool profile, bool pipeli
     st.counters["listed"] = stages.listed;
   }
   st.counters["max_contacts"] = contacts;
+  if (region) st.counters["awake_share"] = awake;
   st.SetLabel(cuda_device_description());
 }
 BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s, 1.2, false, true)->UseManualTime()->Iterations(3)->Unit(benchmark::kMillisecond);
@@ -341,6 +349,12 @@ BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_surface_stages, 1.2, true, t
 BENCHMARK_CAPTURE(BM_DeviceTicks, approach_from_0s_surface_stages, 0.0, true, true, 0, false, false, true)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 // The hook into the gap's block (gap_insert from 3 s): large triangles (up to ~30 sample rows).
 BENCHMARK_CAPTURE(BM_DeviceTicks, gap_insert_from_3s_stages, 3.0, true, true, 0, false, false, false, "gap", "gap_insert")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+// A batch's share of the device (16 tick blocks: 8 replays at once on an H100/H200, each block
+// several chunks), with and without the active region (0.0003 mm): where a replay's tick goes
+// when it shares the device ("Many replays on one GPU").
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical_in_launch_16_blocks_stages, 1.2, true, true, 100, true, true, false, "cholecystectomy", "cholecystectomy_grasp", 16)->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical_in_launch_16_blocks_region_stages, 1.2, true, true, 100, true, true, false, "cholecystectomy", "cholecystectomy_grasp", 16, "0.0003")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DeviceTicks, contact_from_1_2s_with_physical_in_launch_region_stages, 1.2, true, true, 100, true, true, false, "cholecystectomy", "cholecystectomy_grasp", 0, "0.0003")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DeviceTicks, gap_insert_from_3s_surface_stages, 3.0, true, true, 0, false, false, true, "gap", "gap_insert")->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
 #endif
 

@@ -70,6 +70,10 @@ struct Schedule {
     if (K == 1) return odd(s) ? q0 : q1;
     return i == K - 1 ? q0 : (i % 2 == 0 ? q1 : q2);
   }
+  /// The buffer a tick's first step neither reads nor writes and its second step writes (q2; K >= 3,
+  /// a tick with middle steps; else none): a sleeping chunk's first step writes it too, so that
+  /// its vertices, which stand still for the tick, need no middle step (vertex_blocks).
+  __device__ Vec3f* spare() const { return K >= 3 ? q2 : nullptr; }
   /// The velocities a tick's first step reads (its start x + h v) and its last step writes.
   __device__ const Vec3f* v_in(int s) const { return odd(s) ? v_scratch : v; }
   __device__ Vec3f* v_out(int s) const { return K == 1 && !odd(s) ? v_scratch : v; }

@@ -291,16 +291,19 @@ __device__ bool chunk_awake(const MeshDev& d, const ToolConst& t, const Posed& p
 }
 
 /// Step s of vertex j of a sleeping chunk: it follows its E_svc target, standing at p + offset
-/// for the whole tick (its velocity, on the last step, that of the move; vertex_end).
+/// for the whole tick (its velocity, on the last step, that of the move; vertex_end). The first
+/// step writes that place into `spare` as well (Schedule::spare, when not null): every buffer the
+/// tick's middle steps read then holds it, and the chunk skips them (vertex_blocks).
 __device__ VertexFlags sleeping_vertex(const MeshDev& d, const ToolConst& t, const Posed& physical, bool first, bool last,
                                        int j, const Vec3f* __restrict__ qin, Vec3f* __restrict__ qout,
-                                       Vec3f* __restrict__ v_out) {
+                                       Vec3f* __restrict__ v_out, Vec3f* __restrict__ spare) {
   VertexFlags f;
   const Vec3f q_in = qin[j];
   Vec3f q = q_in;
   if (first) {
     d.q_start[j] = q_in;
     if (!d.model.pinned[j]) q = d.p[j] + d.region_offset[j];
+    if (spare) spare[j] = q;
   }
   vertex_end(d, t, physical, last, j, false, q, first ? q_in : (last ? d.q_start[j] : Vec3f{}), qout, v_out, f);
   return f;
@@ -356,11 +359,11 @@ __device__ void settle_chunk(const MeshDev& d, long long tick, int c, int j, con
 /// One step of chunk c (kBlock vertices, one per thread; vertex_step), then the chunk's two lists
 /// in vertex order, its contact count and deepest penetration (block_counts[4 c ..]).
 /// With the active region (d.region_tol > 0), a sleeping chunk's vertices follow their targets
-/// instead (chunk_awake, sleeping_vertex, settle_chunk).
+/// instead (chunk_awake, sleeping_vertex, settle_chunk). Returns whether the chunk is awake.
 template <bool kAhead>
-__device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, long long tick, bool first, bool last, bool p_ready,
+__device__ bool vertex_chunk(const MeshDev& d, const ToolConst& t, long long tick, bool first, bool last, bool p_ready,
                              int c, const Vec3f* __restrict__ qin, const Vec3f* v_in, Vec3f* __restrict__ qout,
-                             Vec3f* __restrict__ v_out, BlockShared& sm, BlockClock& clock) {
+                             Vec3f* __restrict__ v_out, Vec3f* __restrict__ spare, BlockShared& sm, BlockClock& clock) {
   const int j = c * kBlock + threadIdx.x;
   VertexFlags f;
   DeferredVertex deferred;
@@ -378,7 +381,7 @@ __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, long long tic
     if (awake)
       f = vertex_step<kAhead>(d, t, sm.posed(), sm.physical(), sm.in(), first, last, j, qin, v_in, qout, v_out, deferred, p_ready);
     else
-      f = sleeping_vertex(d, t, sm.physical(), first, last, j, qin, qout, v_out);
+      f = sleeping_vertex(d, t, sm.physical(), first, last, j, qin, qout, v_out, spare);
   }
   if (region && last && awake) settle_chunk<kAhead>(d, tick, c, j, f);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
@@ -412,6 +415,7 @@ __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, long long tic
     bcnt[0] = c0; bcnt[1] = c1; bcnt[2] = cc; bcnt[3] = static_cast<int>(pm);
   }
   __syncthreads();  // warp_counts are reused by the next chunk
+  return awake;
 }
 
 /// The blocks other than block 0: each step, once released, the step's vertices of their chunks
@@ -419,6 +423,7 @@ __device__ void vertex_chunk(const MeshDev& d, const ToolConst& t, long long tic
 __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedule& S, int steps, BlockShared& sm) {
   const int blocks = gridDim.x - 1;
   bool p_ready = false;  // the step's E_svc targets blended ahead
+  unsigned asleep = 0;   // bit i: the block's i-th chunk sleeps this tick (decided at its first step)
   for (int s = 0; s < steps; ++s) {
     const unsigned long long e = S.epoch(s);
     const bool first = S.first(s), last = S.last(s);
@@ -439,10 +444,19 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     }
     __syncthreads();
     clock.posed();
-    for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+    // A sleeping chunk's middle steps (neither a tick's first nor its last) are skipped: its
+    // vertices stand still for the tick, the first step wrote their place into both buffers the
+    // middle steps alternate between (sleeping_vertex), and its counts stay that step's zeros.
+    // Which of the block's chunks sleep: `asleep`'s bits for its first 32, their own flag beyond.
+    Vec3f* spare = first ? S.spare() : nullptr;
+    int i = 0;
+    for (int c = blockIdx.x - 1; c < d.chunks; c += blocks, ++i) {
+      if (!first && !last && (i < 32 ? (asleep >> i) & 1u : d.region_tol > 0.f && !d.chunk_region[c].awake)) continue;
       clock.chunk_begin();
-      if (ahead) vertex_chunk<true>(d, t, S.tick(s), first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
-      else vertex_chunk<false>(d, t, S.tick(s), first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), sm, clock);
+      const bool awake =
+          ahead ? vertex_chunk<true>(d, t, S.tick(s), first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), spare, sm, clock)
+                : vertex_chunk<false>(d, t, S.tick(s), first, last, p_ready, c, S.in(s), S.v_in(s), S.out(s), S.v_out(s), spare, sm, clock);
+      if (first && i < 32) asleep = awake ? asleep & ~(1u << i) : asleep | (1u << i);
       clock.chunk_end();
     }
     clock.report(d.profile, s);

@@ -225,6 +225,8 @@ struct CudaHapticTicks::Impl {
   cuda::DeviceArray<ChunkRegion> chunk_region;
   cuda::DeviceArray<Vec3f> region_offset, region_disp;
   cuda::DeviceArray<unsigned long long> region_awake;
+  cuda::DeviceArray<int> chunk_free;
+  cuda::DeviceArray<unsigned> region_tick_active;
   cuda::PinnedArray<Vec3f> x_host;   // the physical step's x, copied out beside the ticks
   DeviceTickOutput* ring = nullptr;  // cudaHostAlloc, mapped
   int ring_size = 0;
@@ -510,6 +512,10 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     up(I.region_offset, offset);
     up(I.region_disp, zero);
     up(I.region_awake, std::vector<unsigned long long>(1, 0));
+    std::vector<int> chunk_free(chunks, 0);
+    for (int j = 0; j < m; ++j) chunk_free[j / kBlock] += M.pinned[j] ? 0 : 1;
+    up(I.chunk_free, chunk_free);
+    up(I.region_tick_active, std::vector<unsigned>(2, 0));
     const int calls = S.newton_calls == 0 ? I.iterations : S.newton_calls;
     // A tick's Newton calls, and the one before its first step (a pipelined step runs beside it,
     // at the pose before it): from the pose a tick's first step sees, the tool reaches at most
@@ -523,6 +529,8 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
     d.region_offset = I.region_offset.get();
     d.region_disp = I.region_disp.get();
     d.region_awake = I.region_awake.get();
+    d.chunk_free = I.chunk_free.get();
+    d.region_tick_active = I.region_tick_active.get();
   }
 
   const ToolModel& T = *S.tool;

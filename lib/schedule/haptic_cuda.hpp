@@ -63,6 +63,8 @@ struct DeviceTickOutput {
   std::int32_t contacts = 0, grasped = 0;
   std::int32_t force_clamped = 0, torque_clamped = 0;
   std::int32_t newton_steps = 0, newton_rejected = 0;
+  /// Free virtual vertices of the chunks awake this tick (DeviceHapticSetup::active_region; -1 off)
+  std::int32_t active = -1;
 };
 
 /// Where a device tick's time goes (DeviceHapticSetup::profile_stages): the mean of each stage

@@ -165,6 +165,10 @@ struct MeshDev {
   Vec3f* region_offset = nullptr;    // m: where a vertex stands from its E_svc point while its chunk sleeps
   Vec3f* region_disp = nullptr;      // m: its displacement from there at the last tick's end (awake chunks)
   unsigned long long* region_awake = nullptr;  // chunk-ticks awake so far (one count per awake chunk and tick)
+  int* chunk_free = nullptr;         // chunks: their free (not pinned) vertices
+  // [2]: the free vertices of the chunks awake at a tick, by the tick's parity (block 0 takes the
+  // count into the tick's output and zeroes it; the next tick's chunks add to the other entry)
+  unsigned* region_tick_active = nullptr;
   DeviceTickOutput* out = nullptr;  // host-mapped ring of `ring` rows
   ProfileDev* profile = nullptr;    // stage timestamps, or null
 };

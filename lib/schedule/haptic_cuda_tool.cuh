@@ -279,6 +279,8 @@ __device__ void tick_outputs(const MeshDev& d, const ToolConst& t, const DeviceT
   o.grasped = sh.nh;
   o.newton_steps = taken;
   o.newton_rejected = rejected;
+  // The chunks awake this tick added to their entry at its first step, before the arrivals block 0 waited for.
+  if (d.region_tick_active) o.active = static_cast<std::int32_t>(atomicExch(&d.region_tick_active[tick & 1], 0u));
   d.out[tick % d.ring] = o;
   st.anchor_position = sh.anchor_P = sh.P;  // read_device of the next tick: the anchor is the pose at its start
   st.anchor_orientation = sh.anchor_Q = sh.Q;

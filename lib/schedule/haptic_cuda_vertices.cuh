@@ -285,7 +285,10 @@ __device__ bool chunk_awake(const MeshDev& d, const ToolConst& t, const Posed& p
       cr.awake = 1;
       cr.calm = 0;
     }
-    if (awake) atomicAdd(d.region_awake, 1ull);
+    if (awake) {
+      atomicAdd(d.region_awake, 1ull);
+      atomicAdd(&d.region_tick_active[tick & 1], static_cast<unsigned>(d.chunk_free[c]));
+    }
   }
   return awake;
 }

@@ -271,6 +271,7 @@ void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   jaw_.push_back(h.device.jaw);
   contacts_.push_back(h.contact_count);
   grasped_.push_back(h.grasped);
+  active_.push_back(h.active_vertices);
   tm_total_.push_back(h.timing.total);
   tm_device_.push_back(h.timing.device);
   tm_sync_.push_back(h.timing.physical_sync);
@@ -328,6 +329,13 @@ void ReplayWriter::on_frame(const World&, const HapticSide& h, double t) {
 
 bool ReplayWriter::should_stop() { return interrupted(); }
 
+double ReplayWriter::active_mean() const {
+  if (active_.empty() || active_.front() < 0) return -1;
+  double sum = 0;
+  for (const std::int32_t a : active_) sum += a;
+  return sum / static_cast<double>(active_.size());
+}
+
 double ReplayWriter::awake_mean() const {
   if (awake_.empty() || awake_.front() < 0) return -1;
   double sum = 0;
@@ -353,6 +361,8 @@ void ReplayWriter::commit(const ReplaySummary& s) {
   unit(hg.write<double>("jaw", jaw_, {n}), "1 (0 closed, 1 open)");
   unit(hg.write<std::int32_t>("contacts", contacts_, {n}), "count");
   unit(hg.write<std::int32_t>("grasped", grasped_, {n}), "count");
+  if (!active_.empty() && active_.front() >= 0)  // the active region is on (HapticSide::active_vertices)
+    unit(hg.write<std::int32_t>("active", active_, {n}), "vertices (iterated: solver.active_region)");
   h5::Group pg = f.create_group("physical");
   unit(pg.write<double>("t", pt_, {k}), "s");
   unit(pg.write<std::int32_t>("iterations", iterations_, {k}), "count");

@@ -93,6 +93,8 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t slept_steps() const { return slept_steps_; }
   /// Physical vertices iterated per step on average under solver.physical_region (-1: off).
   double awake_mean() const;
+  /// Virtual vertices iterated per tick on average under solver.active_region (-1: off).
+  double active_mean() const;
   /// The most physical tets inverted (or flat) after one step, and the first step's time with any.
   int max_inverted_tets() const { return inverted_tets_.most; }
   double first_inverted_t() const { return first_inverted_t_; }
@@ -104,7 +106,7 @@ class ReplayWriter : public ReplayObserver {
   // /haptic and /timing per tick
   std::vector<double> t_, force_, torque_, pose_h_, pose_g_, pen_, pen_h_, jaw_;
   std::vector<std::uint8_t> fclamp_, tclamp_;
-  std::vector<std::int32_t> contacts_, grasped_;
+  std::vector<std::int32_t> contacts_, grasped_, active_;
   std::vector<double> tm_total_, tm_device_, tm_sync_, tm_grasp_, tm_vmesh_, tm_vtool_, tm_output_;
   // /physical per step
   std::vector<double> pt_, residual_, reduction_, tm_step_, tm_local_, tm_global_;

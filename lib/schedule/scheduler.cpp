@@ -308,6 +308,7 @@ class DeviceReplay {
     view_.penetration = o.penetration;
     view_.penetration_physical = o.penetration_physical;
     view_.contact_count = o.contacts;
+    view_.active_vertices = o.active;
     view_.timing = HapticTiming{};
     view_.timing.total = per_tick;
     view_.tick = n + 1;

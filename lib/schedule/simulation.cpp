@@ -167,6 +167,7 @@ void emit_output(const World& world, HapticSide& h) {
   // The broad phase tolerates a bounded drift of q from where it was built.
   if (h.region) {
     h.grid.note_motion(virtual_end_tick_active(world.virtual_mesh, h.workspace, *h.region, h.mesh));
+    h.active_vertices = static_cast<int>(h.region->vertices.size());
   } else {
 #if EBH_HAVE_CUDA
     if (h.cuda)

@@ -121,6 +121,9 @@ struct HapticSide {
   int contact_count = 0;                 ///< E_con targets of the last iteration (grasp included)
   int grasped = 0;                       ///< virtual vertices held by the grasp
   int newton_calls = 0;                  ///< Newton calls of the virtual tool in the last tick
+  /// Free virtual vertices the last tick iterated under solver.active_region (the CPU region's; on
+  /// the CUDA device tick those of its awake chunks); -1: the whole mesh (the key off)
+  int active_vertices = -1;
   HapticTiming timing;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda where the whole tick cannot run on the device (realtime mode, inverse-normal

@@ -889,7 +889,7 @@ bool same_bits(const T& a, const T& b) {
 bool same_outputs(const DeviceTickOutput& a, const DeviceTickOutput& b) {
   return same_bits(a.force, b.force) && same_bits(a.torque, b.torque) && same_bits(a.position, b.position) &&
          same_bits(a.orientation, b.orientation) && same_bits(a.penetration, b.penetration) &&
-         a.contacts == b.contacts && a.grasped == b.grasped && a.newton_steps == b.newton_steps;
+         a.contacts == b.contacts && a.grasped == b.grasped && a.newton_steps == b.newton_steps && a.active == b.active;
 }
 
 std::vector<DeviceTickOutput> device_ticks(int ticks, void (*change)(DeviceHapticSetup&), DeviceTickProfile* profile = nullptr,
@@ -1034,7 +1034,8 @@ TEST(CudaDeviceTick, ActiveRegionFollowsTheWholeMesh) {
     };
     blocks = 0;
     tolerance = 0;
-    const auto whole = forces_of(device_ticks(ticks, with));
+    const auto whole_out = device_ticks(ticks, with);
+    const auto whole = forces_of(whole_out);
     double awake_tight = 0, awake = 0, awake_again = 0, awake_strided = 0;
     tolerance = 1e-12;
     const auto tight = forces_of(device_ticks(ticks, with, nullptr, {}, &awake_tight));
@@ -1059,6 +1060,23 @@ TEST(CudaDeviceTick, ActiveRegionFollowsTheWholeMesh) {
     EXPECT_EQ(differ, 0);
     EXPECT_EQ(awake, awake_again);
     EXPECT_EQ(awake, awake_strided);
+    // Each tick's output counts the free vertices of its awake chunks (DeviceTickOutput::active):
+    // all of them at the first tick (every chunk starts awake), then fewer, never more (the count
+    // of each tick parity is zeroed when taken); none with the region off.
+    const int free = static_cast<int>(std::count(M.vm.pinned.begin(), M.vm.pinned.end(), 0));
+    int out_of_range = 0, off_reported = 0;
+    long long active_sum = 0;
+    for (int n = 0; n < ticks; ++n) {
+      out_of_range += region[n].active < 0 || region[n].active > free;
+      off_reported += whole_out[n].active != -1;
+      active_sum += region[n].active;
+    }
+    std::printf("[ active region K=%d ] tick 0: %d of %d free vertices active; mean %.1f%%\n", K, region[0].active, free,
+                100.0 * static_cast<double>(active_sum) / (static_cast<double>(ticks) * free));
+    EXPECT_EQ(region[0].active, free);
+    EXPECT_EQ(out_of_range, 0);
+    EXPECT_EQ(off_reported, 0);
+    EXPECT_LT(static_cast<double>(active_sum), 0.5 * ticks * free);
   }
   // tube_insert, the hook's tip catching the tube's pinned rim at ~2.02 s: a pinned vertex takes
   // no step but the tool pushes against it, so it wakes its chunk (a pinned rim in a sleeping chunk

@@ -5,14 +5,18 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "core/error.hpp"
+#include "io/h5.hpp"
 #include "schedule/replay_inputs.hpp"
+#include "schedule/replay_output.hpp"
 #include "schedule/scheduler.hpp"
 #include "tube_capture.hpp"
 
@@ -37,7 +41,9 @@ const LoadedReplay& inputs(const std::string& scene, const std::string& recordin
 struct Capture : ReplayObserver {
   std::vector<double> values;
   std::vector<double> force;  // |F| per tick
+  std::vector<int> active;    // HapticSide::active_vertices per tick
   int targets_off_region = 0;
+  int active_mismatch = 0;    // ticks whose active_vertices is not the region's size (-1 without one)
   std::int64_t activated_by_contact = 0;
   double active_sum = 0, ticks = 0, in_contact = 0;
   void on_tick(const World&, const HapticSide& h, double) override {
@@ -48,6 +54,8 @@ struct Capture : ReplayObserver {
     force.push_back(norm(f));
     ticks += 1;
     in_contact += h.contacts.empty() ? 0 : 1;
+    active.push_back(h.active_vertices);
+    active_mismatch += h.active_vertices != (h.region ? static_cast<int>(h.region->vertices.size()) : -1);
     if (!h.region) return;
     for (const ContactTarget& c : h.contacts)
       if (!h.region->active[c.vertex]) ++targets_off_region;
@@ -103,6 +111,39 @@ TEST(ActiveRegion, ReplayIsBitwiseReproducibleAcrossRunsAndThreadCounts) {
   EXPECT_EQ(a.values, c.values);
   EXPECT_GT(a.in_contact, 0.5 * a.ticks);
   EXPECT_EQ(a.targets_off_region, 0);
+}
+
+TEST(ActiveRegion, TheReplayOutputHoldsTheVerticesEachTickIterated) {
+  // /haptic/active: the region's vertices at each tick's end (those a contact activated during it
+  // included), only where the region is on; `ebh replay` prints their mean.
+  const auto dir = std::filesystem::temp_directory_path() / "ebh_test_region_output";
+  std::filesystem::create_directories(dir);
+  for (const double tolerance : {0.0, 1e-5}) {
+    const LoadedReplay& in = inputs("tube", "tube_insert", {"solver.active_region=" + std::to_string(tolerance)});
+    const World& w = *in.world;
+    const Capture seen = run(in, 2.8, 0.1, 1);
+    EXPECT_EQ(seen.active_mismatch, 0);
+    const std::string out = (dir / "out.h5").string();
+    std::filesystem::remove(out);
+    ReplayOptions opt;
+    opt.start = 2.8;
+    opt.duration = 0.1;
+    {
+      ReplayWriter writer(out, w, ReplayMetadata{}, tick_count(w, opt.duration), false);
+      writer.commit(replay(w, in.recording, opt, writer));
+      EXPECT_EQ(writer.active_mean() >= 0, tolerance > 0);
+    }
+    h5::File f = h5::File::open_read(out);
+    ASSERT_EQ(f.has("haptic/active"), tolerance > 0);
+    if (tolerance == 0) continue;
+    const h5::Array<std::int32_t> active = f.read<std::int32_t>("haptic/active");
+    ASSERT_EQ(active.rows(), seen.active.size());
+    EXPECT_TRUE(std::equal(active.data.begin(), active.data.end(), seen.active.begin()));  // the same deterministic replay
+    const int free = static_cast<int>(std::count(w.virtual_mesh.pinned.begin(), w.virtual_mesh.pinned.end(), 0));
+    const auto [least, most] = std::minmax_element(active.data.begin(), active.data.end());
+    EXPECT_GT(*least, 0) << "the hook is in the bore: its seeds are active";
+    EXPECT_LT(*most, free) << "most of the tube rests at 0.01 mm";
+  }
 }
 
 TEST(ActiveRegion, GraspAndVertexContactStayInsideTheRegionNearTheFullSolve) {

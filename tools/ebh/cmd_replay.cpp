@@ -3,6 +3,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -175,6 +176,10 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
       std::printf("  %lld of %lld physical steps skipped while the physical mesh slept (solver.sleep, "
                   "or no vertex awake)\n",
                   static_cast<long long>(writer.slept_steps()), static_cast<long long>(s.steps));
+    if (writer.active_mean() >= 0)
+      std::printf("  %.0f of %d virtual vertices iterated per tick on average (solver.active_region)\n",
+                  writer.active_mean(),
+                  static_cast<int>(std::count(world.virtual_mesh.pinned.begin(), world.virtual_mesh.pinned.end(), 0)));
     if (writer.awake_mean() >= 0)
       std::printf("  %.0f of %d physical vertices awake per step on average (solver.physical_region)\n",
                   writer.awake_mean(), world.physical_mesh.num_free);

@@ -283,9 +283,9 @@ ebh_batch_failure(frames "batch_frames.txt:1: a batch writes no mesh frames"
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_frames_out.h5 --frames-hz 30\n")
 ebh_batch_failure(missing_recording "batch_missing_recording.txt:2: .*no_such_recording"
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_missing_recording_out.h5\ntube no_such_recording -o ${EBH_REPLAY_OUT}/x.h5\n")
-ebh_batch_failure(same_output "twice|same"
+ebh_batch_failure(same_output "is both .*batch_same_output.txt:1's replay output and .*batch_same_output.txt:2's replay output"
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_same_output_out.h5\ntube tube_grasp -o ${EBH_REPLAY_OUT}/batch_same_output_out.h5\n")
-ebh_batch_failure(output_is_input "the recording"
+ebh_batch_failure(output_is_input "would replace .*batch_output_is_input.txt:1's recording .*tube_insert.h5, an input"
   "tube tube_insert -o ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5\n")
 add_test(NAME cli.replay.batch_missing_file
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${EBH_REPLAY_OUT}/no_such_batch.txt"

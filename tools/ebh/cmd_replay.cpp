@@ -302,10 +302,16 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   const auto t0 = Clock::now();
   std::vector<BatchLine> lines = read_batch_file(file, top.quiet);
   std::vector<RoleFile> outputs, inputs;
+  // Each file's role names its line ("FILE:3's replay output"): two lines may name one output.
+  auto of_line = [](const BatchLine& l, RoleFile f) {
+    const std::string role = f.role.starts_with("the ") ? f.role.substr(4) : f.role;
+    return RoleFile{std::move(f.path), l.where + "'s " + role};
+  };
   for (const BatchLine& l : lines) {
-    for (RoleFile& o : replay_outputs(l.args)) outputs.push_back(std::move(o));
+    for (RoleFile& o : replay_outputs(l.args)) outputs.push_back(of_line(l, std::move(o)));
     try {
-      for (RoleFile& i : replay_input_files(l.args.scene, l.args.recording, l.args.overrides)) inputs.push_back(std::move(i));
+      for (RoleFile& i : replay_input_files(l.args.scene, l.args.recording, l.args.overrides))
+        inputs.push_back(of_line(l, std::move(i)));
     } catch (const InputError& e) {
       throw InputError(l.where + ": " + e.what());
     }

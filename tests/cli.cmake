@@ -588,4 +588,9 @@ add_test(NAME cli.sweep.report_not_a_sweep
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;report;${CMAKE_CURRENT_SOURCE_DIR}/data/sweep"
     "-DEXPECT=^ebh: error: .*data/sweep: neither summary.csv nor plan.yaml: not a sweep's folder"
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-set_tests_properties(cli.sweep.bad_plan cli.sweep.report_not_a_sweep PROPERTIES LABELS "cli;sweep")
+# --gpus: its form is checked before any work (the devices, once the runs are known: test_sweep).
+add_test(NAME cli.sweep.bad_gpus
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;${EBH_SWEEP_OUT}/bad_plan.yaml;-o;${EBH_SWEEP_OUT}/bad_gpus;--gpus;0,x"
+    "-DEXPECT=^ebh: error: --gpus '0,x': expected all or device numbers separated by commas"
+    -DOUTPUT=${EBH_SWEEP_OUT}/bad_gpus/plan.yaml -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.sweep.bad_plan cli.sweep.report_not_a_sweep cli.sweep.bad_gpus PROPERTIES LABELS "cli;sweep")

@@ -24,6 +24,15 @@ bool cuda_device_available(std::string* why) {
   return true;
 }
 
+int cuda_device_count() {
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess) {
+    cudaGetLastError();
+    return 0;
+  }
+  return count;
+}
+
 std::string cuda_device_description() {
   std::string why;
   if (!cuda_device_available(&why)) throw std::runtime_error(why);

@@ -12,6 +12,9 @@ namespace ebh {
 /// words ("no CUDA device", or the driver's error).
 bool cuda_device_available(std::string* why = nullptr);
 
+/// The CUDA devices this process sees (those CUDA_VISIBLE_DEVICES leaves; 0 without any).
+int cuda_device_count();
+
 /// "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)" for device 0; throws std::runtime_error without one.
 std::string cuda_device_description();
 

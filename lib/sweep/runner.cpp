@@ -39,14 +39,18 @@ struct Child {
   int fd = -1;
   std::string text;
   Clock::time_point t0;
+  int gpu = -1;  ///< its entry of RunnerOptions::gpus (-1: none, a CPU child or no --gpus)
 };
 
-/// The child's environment: ours with OMP_NUM_THREADS replaced.
-std::vector<std::string> child_environment(int threads) {
+/// The child's environment: ours with OMP_NUM_THREADS replaced, and CUDA_VISIBLE_DEVICES too when
+/// `gpu` is not empty.
+std::vector<std::string> child_environment(int threads, const std::string& gpu = {}) {
   std::vector<std::string> env;
   for (char** e = environ; e && *e; ++e)
-    if (std::strncmp(*e, "OMP_NUM_THREADS=", 16) != 0) env.emplace_back(*e);
+    if (std::strncmp(*e, "OMP_NUM_THREADS=", 16) != 0 && (gpu.empty() || std::strncmp(*e, "CUDA_VISIBLE_DEVICES=", 21) != 0))
+      env.emplace_back(*e);
   env.push_back("OMP_NUM_THREADS=" + std::to_string(threads));
+  if (!gpu.empty()) env.push_back("CUDA_VISIBLE_DEVICES=" + gpu);
   return env;
 }
 
@@ -267,6 +271,28 @@ int available_cores() {
   return n;
 }
 
+std::vector<std::string> gpu_entries(const std::vector<int>& indices, int count, const char* visible) {
+  std::vector<std::string> listed;  // this process's CUDA_VISIBLE_DEVICES, entry by entry
+  if (visible) {
+    std::stringstream in(visible);
+    for (std::string e; std::getline(in, e, ',');) listed.push_back(e);
+  }
+  std::vector<std::string> out;
+  for (std::size_t k = 0; k < indices.size(); ++k) {
+    const int i = indices[k];
+    if (i < 0 || i >= count)
+      throw InputError("--gpus " + std::to_string(i) + ": " +
+                       (count == 0 ? std::string("this process sees no CUDA device")
+                                   : "this process sees " + std::to_string(count) + " CUDA device" + (count > 1 ? "s" : "") +
+                                         ", numbered 0-" + std::to_string(count - 1)) +
+                       (visible ? std::string(" (CUDA_VISIBLE_DEVICES=") + visible + ")" : std::string()));
+    if (std::find(indices.begin(), indices.begin() + static_cast<std::ptrdiff_t>(k), i) != indices.begin() + static_cast<std::ptrdiff_t>(k))
+      throw InputError("--gpus: device " + std::to_string(i) + " is listed twice");
+    out.push_back(visible && static_cast<std::size_t>(i) < listed.size() ? listed[static_cast<std::size_t>(i)] : std::to_string(i));
+  }
+  return out;
+}
+
 std::vector<SweepRun> task_slice(const std::vector<SweepRun>& runs, int task, int tasks) {
   std::vector<SweepRun> out;
   for (std::size_t i = 0; i < runs.size(); ++i)
@@ -305,6 +331,9 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
     if (ec) throw InputError((dir / "runs").string() + ": cannot create the folder: " + ec.message());
   }
   std::vector<std::string> env = child_environment(options.threads);
+  std::vector<std::vector<std::string>> gpu_env;  // per entry of options.gpus
+  for (const std::string& g : options.gpus) gpu_env.push_back(child_environment(options.threads, g));
+  std::vector<int> on_gpu(options.gpus.size(), 0);  // CUDA children running on each
   std::vector<Child> active;
   std::size_t next = 0;
   bool forwarded = false, killed = false;
@@ -345,6 +374,7 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
       if (progress) progress(p, &o);
     }
     if (c.runs.size() > 1 && !interrupted()) remove_file(batch_file(dir, *c.runs.front()));
+    if (c.gpu >= 0) --on_gpu[static_cast<std::size_t>(c.gpu)];
   };
 
   while (true) {
@@ -374,8 +404,13 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
       } else {
         argv = replay_arguments(plan, *take.front(), dir, options.executable);
       }
-      const auto [pid, fd] = start_process(argv, &env, dir.string());
-      active.push_back(Child{take, pid, fd, {}, Clock::now()});
+      // A CUDA child goes to the GPU with the fewest CUDA children running (the first of those).
+      int gpu = -1;
+      if (take.front()->backend == "cuda" && !on_gpu.empty())
+        gpu = static_cast<int>(std::min_element(on_gpu.begin(), on_gpu.end()) - on_gpu.begin());
+      const auto [pid, fd] = start_process(argv, gpu >= 0 ? &gpu_env[static_cast<std::size_t>(gpu)] : &env, dir.string());
+      if (gpu >= 0) ++on_gpu[static_cast<std::size_t>(gpu)];
+      active.push_back(Child{take, pid, fd, {}, Clock::now(), gpu});
       p.running += take.size();
       if (progress) progress(p, nullptr);
     }

@@ -70,6 +70,12 @@ std::string read_run_failure(const std::filesystem::path& dir, const SweepRun& r
 /// binds tasks gives), at most SLURM_CPUS_PER_TASK when that is set.
 int available_cores();
 
+/// The CUDA_VISIBLE_DEVICES entries that make a child see device i (i in `indices`, numbered as
+/// this process sees its `count` devices): the i-th entry of `visible` (this process's own
+/// CUDA_VISIBLE_DEVICES, an index or UUID each) when that is set, else i itself. Throws
+/// InputError "--gpus ..." for an index outside 0..count-1 or one given twice.
+std::vector<std::string> gpu_entries(const std::vector<int>& indices, int count, const char* visible);
+
 /// The runs that task `task` of `tasks` takes: run i when i % tasks == task (a Slurm array task's
 /// slice; every run in exactly one task, references spread over the tasks).
 std::vector<SweepRun> task_slice(const std::vector<SweepRun>& runs, int task, int tasks);
@@ -93,6 +99,10 @@ struct RunnerOptions {
   /// per run.
   int batch = 1;
   int at_once = 0;         ///< the batch children's --at-once (0: theirs)
+  /// The GPUs the CUDA children run on, as CUDA_VISIBLE_DEVICES entries (gpu_entries): each CUDA
+  /// child gets one, the one with the fewest CUDA children running (the first of those), so
+  /// `jobs` children spread over them; empty: the children inherit this process's devices.
+  std::vector<std::string> gpus;
   /// After an interrupt, seconds the replays in flight have to stop before they are killed
   /// (SIGKILL; a replay ends by itself kInterruptGraceSeconds after the SIGTERM passed on to it,
   /// io/atomic.hpp, unless it is stuck past even that).

@@ -5,11 +5,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <sstream>
 
+#include "../io/io_test_util.hpp"
 #include "core/error.hpp"
 #include "io/h5.hpp"
 #include "io/sha256.hpp"
@@ -365,9 +368,60 @@ duration: 0.1
   EXPECT_EQ(line, "alone");
 }
 
-/// An interrupted sweep passes SIGTERM on to its replays; one stuck past even its own grace
-/// (tests/sweep/stuck_replay.sh ignores every signal but SIGKILL) is killed RunnerOptions::
-/// stop_grace_s later, counted as interrupted, with no output, and the sweep returns.
+/// --gpus: device i as this process sees it is the i-th entry of its own CUDA_VISIBLE_DEVICES
+/// (what a Slurm allocation sets), or i; an index past the devices, or one listed twice, is refused.
+TEST(SweepRunner, GpuEntriesNameTheDevicesThisProcessSees) {
+  EXPECT_EQ(gpu_entries({0, 1}, 2, nullptr), (std::vector<std::string>{"0", "1"}));
+  EXPECT_EQ(gpu_entries({1, 0}, 2, "2,3"), (std::vector<std::string>{"3", "2"}));
+  EXPECT_EQ(gpu_entries({0}, 1, "GPU-5c2a"), (std::vector<std::string>{"GPU-5c2a"}));
+  EXPECT_INPUT_ERROR(gpu_entries({2}, 2, nullptr), "--gpus 2: this process sees 2 CUDA devices, numbered 0-1");
+  EXPECT_INPUT_ERROR(gpu_entries({1}, 1, "4"), "--gpus 1: this process sees 1 CUDA device, numbered 0-0 (CUDA_VISIBLE_DEVICES=4)");
+  EXPECT_INPUT_ERROR(gpu_entries({0}, 0, nullptr), "--gpus 0: this process sees no CUDA device");
+  EXPECT_INPUT_ERROR(gpu_entries({0, 1, 0}, 3, nullptr), "--gpus: device 0 is listed twice");
+}
+
+/// RunnerOptions::gpus: each CUDA child runs with CUDA_VISIBLE_DEVICES set to one entry, the one
+/// with the fewest CUDA children running, so `jobs` children spread over the GPUs; CPU children
+/// keep this process's devices (the stand-in replay writes what it was given into a log).
+TEST(SweepRunner, CudaChildrenSpreadOverTheGpus) {
+  const fs::path dir = scratch() / "gpus";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path plan_path = plan_file("gpus.yaml", R"(scenes:
+  - scene: tube
+    recordings: [tube_insert]
+    reference: {solver.method: direct}
+grid:
+  stiffness.k_con: [400, 500, 600, 700]
+backends: [cuda]
+duration: 0.1
+)");
+  const SweepPlan plan = read_sweep_plan(plan_path);
+  const std::vector<SweepRun> runs = expand_plan(plan);  // the CPU reference and 4 CUDA runs
+  const fs::path log = dir / "devices.log";
+  setenv("EBH_FAKE_DEVICE_LOG", log.c_str(), 1);
+  setenv("CUDA_VISIBLE_DEVICES", "9", 1);  // what the CPU children inherit
+  RunnerOptions opt;
+  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/fake_replay.sh";
+  opt.jobs = 3;  // the first three children start together: two or more CUDA ones, on both GPUs
+  opt.gpus = {"3", "GPU-7"};
+  const RunnerReport rep = execute_runs(plan, runs, dir / "out", opt);
+  unsetenv("EBH_FAKE_DEVICE_LOG");
+  unsetenv("CUDA_VISIBLE_DEVICES");
+  EXPECT_EQ(rep.ran, runs.size());
+  std::map<std::string, int> seen;  // "cpu 9", "cuda 3", ...
+  std::ifstream in(log);
+  for (std::string line; std::getline(in, line);) ++seen[line];
+  int cpu = 0, cuda = 0;
+  for (const SweepRun& r : runs) (r.backend == "cuda" ? cuda : cpu) += 1;
+  ASSERT_EQ(cpu, 1);
+  EXPECT_EQ(seen["cpu 9"], cpu) << "CPU children keep this process's CUDA_VISIBLE_DEVICES";
+  EXPECT_EQ(seen["cuda 3"] + seen["cuda GPU-7"], cuda) << "every CUDA child on one of the GPUs";
+  EXPECT_GE(seen["cuda 3"], 1);
+  EXPECT_GE(seen["cuda GPU-7"], 1);
+  EXPECT_EQ(seen.size(), 3u);
+}
+
 /// A run is done while its output was made from the run's input files as they are: the output
 /// records each one's SHA-256 (the scene file, its mesh, the recording: write_provenance), and a
 /// file edited or replaced since makes the run stale, so the sweep runs it again. An output that
@@ -448,6 +502,9 @@ TEST(SweepRunner, OutputsNamedAfterThePathsAreTakenOver) {
   EXPECT_EQ(adopt_legacy_outputs(dir, runs), 0u);
 }
 
+/// An interrupted sweep passes SIGTERM on to its replays; one stuck past even its own grace
+/// (tests/sweep/stuck_replay.sh ignores every signal but SIGKILL) is killed RunnerOptions::
+/// stop_grace_s later, counted as interrupted, with no output, and the sweep returns.
 TEST(SweepRunner, AReplayStuckAfterTheInterruptIsKilled) {
   const fs::path dir = scratch() / "stuck";
   fs::remove_all(dir);

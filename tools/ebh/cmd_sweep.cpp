@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -21,6 +22,9 @@
 #include "sweep/report.hpp"
 #include "sweep/runner.hpp"
 #include "sweep/summary.hpp"
+#if EBH_HAVE_CUDA
+#include "solver/device_cuda.hpp"
+#endif
 
 namespace ebh::cli {
 namespace {
@@ -28,6 +32,7 @@ namespace fs = std::filesystem;
 
 struct SweepArgs {
   std::string plan, out, backend, slurm_args;
+  std::string gpus = "all";
   int jobs = 1, batch = 1;
   std::optional<int> at_once;
   std::optional<int> task, tasks;
@@ -112,6 +117,44 @@ void adopt_legacy(const fs::path& dir, const std::vector<SweepRun>& runs) {
                  "the ids of their files' contents\n", dir.c_str(), n);
 }
 
+/// --gpus: "all" (every CUDA device this process sees) or device numbers separated by commas.
+std::vector<int> gpu_indices(const std::string& text, int count) {
+  std::vector<int> out;
+  if (text == "all") {
+    for (int i = 0; i < count; ++i) out.push_back(i);
+    return out;
+  }
+  std::stringstream in(text);
+  for (std::string e; std::getline(in, e, ',');) {
+    std::size_t used = 0;
+    int i = -1;
+    try {
+      i = std::stoi(e, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (e.empty() || used != e.size() || i < 0)
+      throw InputError("--gpus '" + text + "': expected all or device numbers separated by commas (e.g. 0,1)");
+    out.push_back(i);
+  }
+  if (out.empty() || text.back() == ',')
+    throw InputError("--gpus '" + text + "': expected all or device numbers separated by commas (e.g. 0,1)");
+  return out;
+}
+
+/// The CUDA_VISIBLE_DEVICES entries the plan's CUDA children spread over (RunnerOptions::gpus):
+/// none (they inherit this process's devices) when no CUDA run is left or `all` finds one device.
+std::vector<std::string> sweep_gpus(const std::string& text, bool cuda_runs) {
+  if (!cuda_runs) return {};
+  int count = 0;
+#if EBH_HAVE_CUDA
+  count = cuda_device_count();
+#endif
+  const std::vector<int> indices = gpu_indices(text, count);
+  if (text == "all" && count <= 1) return {};
+  return gpu_entries(indices, count, std::getenv("CUDA_VISIBLE_DEVICES"));
+}
+
 /// --slurm: one array task per slice of the runs, each `ebh sweep DIR/plan.yaml -o DIR --task I --tasks T`.
 void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
   std::size_t stale = 0;
@@ -129,6 +172,7 @@ void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<S
   if (!a.backend.empty()) command += " --backend " + a.backend;
   if (a.batch > 1) command += " --batch " + std::to_string(a.batch);
   if (a.at_once) command += " --at-once " + std::to_string(*a.at_once);
+  if (a.gpus != "all") command += " --gpus " + shell_quote(a.gpus);  // else each task's own devices
   const fs::path script = abs_dir / "sweep.sbatch";
   write_file_atomically(script.string(),
                         "#!/bin/sh\n# ebh sweep --slurm: array task I of " + std::to_string(tasks) +
@@ -195,6 +239,7 @@ void run_sweep(const SweepArgs& a) {
   if (a.slurm && (a.task || a.collect)) throw InputError("--slurm submits the whole plan: not with --task or --collect");
   if (!a.backend.empty() && a.backend != "cpu" && a.backend != "cuda")
     throw InputError("--backend: expected cpu or cuda, got '" + a.backend + "'");
+  (void)gpu_indices(a.gpus, 0);  // its form, before any work (the devices once the runs are known)
   const SweepPlan plan = read_sweep_plan(a.plan);
   const std::vector<SweepRun> all = expand_plan(plan);
   const fs::path dir = a.out;
@@ -217,11 +262,13 @@ void run_sweep(const SweepArgs& a) {
   if (a.slurm) return submit_slurm(a, plan, runs, dir);
 
   std::size_t todo = 0, stale = 0;
+  bool cuda_runs = false;
   const std::vector<RunState> states = run_states(plan, dir, runs, stale);
   for (std::size_t i = 0; i < runs.size(); ++i)
     if (states[i] != RunState::Done) {
       const SweepRun& r = runs[i];
       ++todo;
+      cuda_runs = cuda_runs || r.backend == "cuda";
       try {
         check_backend(r.backend);
       } catch (const InputError& e) {
@@ -234,9 +281,16 @@ void run_sweep(const SweepArgs& a) {
   opt.threads = std::max(1, available_cores() / a.jobs);
   opt.batch = a.batch;
   opt.at_once = a.at_once.value_or(0);
-  std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done%s; %d at a time, %d threads each%s\n", runs.size(),
+  opt.gpus = sweep_gpus(a.gpus, cuda_runs);
+  std::string on_gpus;
+  for (const std::string& g : opt.gpus) on_gpus += (on_gpus.empty() ? "" : ",") + g;
+  if (!on_gpus.empty())
+    on_gpus = "; CUDA children on GPUs " + on_gpus +
+              (a.jobs < static_cast<int>(opt.gpus.size()) ? " (--jobs " + std::to_string(opt.gpus.size()) + " uses them all at once)" : "");
+  std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done%s; %d at a time, %d threads each%s%s\n", runs.size(),
                runs.size() - todo, stale_note(stale).c_str(), std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
-               a.batch > 1 ? (" (CUDA runs of async plans: up to " + std::to_string(a.batch) + " to a child)").c_str() : "");
+               a.batch > 1 ? (" (CUDA runs of async plans: up to " + std::to_string(a.batch) + " to a child)").c_str() : "",
+               on_gpus.c_str());
   ProgressPrinter printer(plan);
   const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer), &states);
   printer.finish();
@@ -311,6 +365,9 @@ void setup(CLI::App& root) {
   c->add_option("-o,--output", args->out, "The sweep's folder (runs/, plan.yaml, summary.csv)");
   c->add_option("--jobs", args->jobs, "Replays at a time (default 1: timings undisturbed); threads split so jobs x threads = cores")
       ->check(CLI::Range(1, 1024));
+  c->add_option("--gpus", args->gpus,
+                "CUDA devices the CUDA runs spread over, one per child (all, the default, or numbers as this process "
+                "sees them: 0,1); with --jobs N, N children at a time");
   c->add_option("--backend", args->backend, "Run only the plan's runs on cpu or cuda (and the CPU references)");
   CLI::Option* batch_option =
       c->add_option("--batch", args->batch,

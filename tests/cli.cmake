@@ -543,6 +543,11 @@ set_tests_properties(cli.replay.stopping_rule_says_when_steps_reach_the_cap PROP
 set_tests_properties(cli.replay.plain_diagonal_diverges_on_slivers cli.replay.bounded_diagonal_on_slivers
   cli.replay.recovery_redoes_diverging_steps cli.replay.stopping_rule_says_when_steps_reach_the_cap
   PROPERTIES FIXTURES_REQUIRED degraded_tube LABELS cli)
+# -o OUT.yaml names the scene file (as for `ebh scene refine`): OUT.yaml and OUT.msh, no folder.
+add_test(NAME cli.scene.degrade_to_scene_file
+  COMMAND ${EBH_BIN} scene degrade tube --quality 0.05 -o ${EBH_NUM_OUT}/named/bad_tube.yaml)
+set_tests_properties(cli.scene.degrade_to_scene_file PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "named/bad_tube.yaml: tube with worst mean ratio 0.05.* mesh .*named/bad_tube.msh")
 add_test(NAME cli.scene.degrade_bad_quality
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;degrade;tube;--quality;1.5;-o;${EBH_NUM_OUT}"
     "-DEXPECT=^ebh: error: --quality: expected a mean ratio in \\(0, 1\\)" -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)

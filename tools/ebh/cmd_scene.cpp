@@ -304,7 +304,8 @@ struct SceneDegradeArgs {
 };
 
 /// `ebh scene degrade`: the scene with interior vertices of its physical mesh moved until the worst
-/// tet has the given mean ratio (mesh/degrade.hpp), as DIR/NAME_qQ.msh and DIR/NAME_qQ.yaml, for
+/// tet has the given mean ratio (mesh/degrade.hpp), as DIR/NAME_qQ.msh and DIR/NAME_qQ.yaml (or,
+/// -o OUT.yaml, as OUT.yaml and OUT.msh beside it, as `ebh scene refine` writes), for
 /// stress-testing the solver on meshes like a segmentation pipeline's.
 void degrade(const SceneDegradeArgs& a) {
   if (!(a.quality > 0 && a.quality < 1)) throw ebh::InputError("--quality: expected a mean ratio in (0, 1)");
@@ -322,9 +323,12 @@ void degrade(const SceneDegradeArgs& a) {
 
   char tag[32];
   std::snprintf(tag, sizeof tag, "_q%g", a.quality);
-  const std::string stem = scene.spec.name + tag;
-  const std::filesystem::path dir = a.out_dir.empty() ? std::filesystem::path(".") : std::filesystem::path(a.out_dir);
-  const std::string mesh_out = (dir / (stem + ".msh")).string(), scene_out = (dir / (stem + ".yaml")).string();
+  const std::filesystem::path out(a.out_dir);
+  const bool scene_file = out.extension() == ".yaml" || out.extension() == ".yml";  // -o OUT.yaml, else a folder
+  const std::string stem = scene_file ? out.stem().string() : scene.spec.name + tag;
+  const std::filesystem::path dir = scene_file ? out.parent_path() : a.out_dir.empty() ? std::filesystem::path(".") : out;
+  const std::string mesh_out = (dir / (stem + ".msh")).string();
+  const std::string scene_out = scene_file ? out.string() : (dir / (stem + ".yaml")).string();
   std::vector<ebh::RoleFile> inputs = {{file.string(), "the scene"}, {scene.spec.physical_mesh.string(), "the physical mesh"}};
   if (scene.spec.virtual_mesh) inputs.push_back({scene.spec.virtual_mesh->string(), "the virtual mesh"});
   ebh::check_outputs({{mesh_out, "the degraded mesh"}, {scene_out, "the degraded scene"}}, inputs);
@@ -421,7 +425,9 @@ void setup(CLI::App& root) {
   d->add_option("--quality", dargs->quality, "the worst tet's mean ratio afterwards, in (0, 1) (default 0.05)");
   d->add_option("--tets", dargs->tets, "how many interior tets to degrade (default 24)");
   d->add_option("--seed", dargs->seed, "which tets (default 1; the same seed gives the same mesh)");
-  d->add_option("-o,--out", dargs->out_dir, "folder for NAME_qQ.msh and NAME_qQ.yaml (default: the working directory)");
+  d->add_option("-o,--out", dargs->out_dir,
+                "folder for NAME_qQ.msh and NAME_qQ.yaml (default: the working directory), or the scene file to write "
+                "(OUT.yaml; the mesh goes to OUT.msh beside it)");
   d->callback([dargs] { degrade(*dargs); });
 
   auto rargs = std::make_shared<SceneRefineArgs>();

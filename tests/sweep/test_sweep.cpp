@@ -308,6 +308,20 @@ ReplayTrace trace(const std::vector<double>& t, const std::vector<Vec3d>& f) {
   return tr;
 }
 
+/// A plan of tube_insert's direct reference (on `reference_backend`) and 4 CUDA runs of 0.1 s.
+SweepPlan four_cuda_runs(const std::string& name, const std::string& reference_backend) {
+  return read_sweep_plan(plan_file(name, R"(scenes:
+  - scene: tube
+    recordings: [tube_insert]
+    reference: {solver.method: direct}
+grid:
+  stiffness.k_con: [400, 500, 600, 700]
+backends: [cuda]
+reference_backend: )" + reference_backend + R"(
+duration: 0.1
+)"));
+}
+
 /// CUDA runs go RunnerOptions::batch to one `ebh replay --batch` child (here a stand-in script,
 /// tests/sweep/fake_replay.sh, that fails its file's second line): every run gets its own outcome,
 /// the failed one its FILE:LINE error, the batch file holds each run's own arguments and is gone
@@ -315,17 +329,7 @@ ReplayTrace trace(const std::vector<double>& t, const std::vector<Vec3d>& f) {
 TEST(SweepRunner, CudaRunsGoToBatchChildren) {
   const fs::path dir = scratch() / "batched";
   fs::remove_all(dir);
-  const fs::path plan_path = plan_file("batched.yaml", R"(scenes:
-  - scene: tube
-    recordings: [tube_insert]
-    reference: {solver.method: direct}
-grid:
-  stiffness.k_con: [400, 500, 600, 700]
-backends: [cuda]
-reference_backend: cuda
-duration: 0.1
-)");
-  const SweepPlan plan = read_sweep_plan(plan_path);
+  const SweepPlan plan = four_cuda_runs("batched.yaml", "cuda");
   const std::vector<SweepRun> runs = expand_plan(plan);
   ASSERT_EQ(runs.size(), 5u);  // the reference and 4 configurations
   RunnerOptions opt;
@@ -387,16 +391,7 @@ TEST(SweepRunner, CudaChildrenSpreadOverTheGpus) {
   const fs::path dir = scratch() / "gpus";
   fs::remove_all(dir);
   fs::create_directories(dir);
-  const fs::path plan_path = plan_file("gpus.yaml", R"(scenes:
-  - scene: tube
-    recordings: [tube_insert]
-    reference: {solver.method: direct}
-grid:
-  stiffness.k_con: [400, 500, 600, 700]
-backends: [cuda]
-duration: 0.1
-)");
-  const SweepPlan plan = read_sweep_plan(plan_path);
+  const SweepPlan plan = four_cuda_runs("gpus.yaml", "cpu");
   const std::vector<SweepRun> runs = expand_plan(plan);  // the CPU reference and 4 CUDA runs
   const fs::path log = dir / "devices.log";
   setenv("EBH_FAKE_DEVICE_LOG", log.c_str(), 1);

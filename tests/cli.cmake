@@ -67,7 +67,11 @@ add_test(NAME cli.metrics.not_hdf5
 add_test(NAME cli.metrics.missing_file
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/no_such_replay.h5"
     "-DEXPECT=^ebh: error: .*no_such_replay.h5: cannot open file" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file PROPERTIES LABELS cli)
+add_test(NAME cli.metrics.recording_not_replay
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5"
+    "-DEXPECT=^ebh: error: .*tube_insert.h5: a device recording \\(/trajectory\\), not a replay output \\(/haptic\\): replay it first"
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file cli.metrics.recording_not_replay PROPERTIES LABELS cli)
 # scripts/plot_forces.py on the same trace, where Debian's python3 has h5py, matplotlib and numpy.
 find_program(EBH_SYSTEM_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
 if(EBH_SYSTEM_PYTHON3)

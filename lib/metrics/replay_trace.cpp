@@ -195,6 +195,10 @@ ReplayTrace load_replay(const std::string& path) {
   Reader in(path);
   ReplayTrace tr;
   tr.path = path;
+  // A device recording given where a replay output belongs: say so, not which attribute it lacks.
+  if (!in.exists("/haptic") && in.exists("/trajectory"))
+    throw InputError(path + ": a device recording (/trajectory), not a replay output (/haptic): replay it first "
+                            "(ebh replay SCENE " + path + " -o OUT.h5)");
 
   tr.haptic_hz = in.number_attr("haptic_hz");
   tr.physical_hz = in.number_attr("physical_hz");

@@ -71,6 +71,10 @@ std::vector<Line> read_lines(const std::string& path) {
   std::size_t n = 0;
   while (std::getline(in, s)) {
     ++n;
+    // A byte-order mark (spreadsheets write one): UTF-8's is dropped; UTF-16 is not a text log here.
+    if (n == 1 && s.starts_with("\xEF\xBB\xBF")) s.erase(0, 3);
+    if (n == 1 && (s.starts_with("\xFF\xFE") || s.starts_with("\xFE\xFF")))
+      throw InputError(at(path, n) + ": UTF-16 text (a byte-order mark): save the log as UTF-8 or ASCII");
     for (unsigned char c : s)
       if (binary_byte(c)) {
         char code[8];
@@ -179,7 +183,9 @@ void read_csv(const std::string& path, double unit, double rate, Recording& rec,
     std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
     if (std::find(known.begin(), known.end(), h) == known.end())
       throw InputError(at(path, lines[0].number) + ": unknown column '" + header[i] +
-                       "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons)");
+                       "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons" +
+                       (header[i].find(';') != std::string::npos ? "; columns are separated by commas, spaces or tabs, not ';'" : "") +
+                       ")");
     if (!col.emplace(h, i).second) throw InputError(at(path, lines[0].number) + ": column '" + h + "' appears twice");
   }
   for (const char* req : {"x", "y", "z", "qw", "qx", "qy", "qz"})

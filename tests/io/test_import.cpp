@@ -118,6 +118,28 @@ TEST(Import, FoldersAndBinaryFilesAreNotLogs) {
   EXPECT_INPUT_ERROR(import_log(tmp / "png.csv", opt), "png.csv:2: byte 0x1a: not a text file");
 }
 
+// What spreadsheets write: a UTF-8 byte-order mark and CRLF line ends are read as the plain log;
+// UTF-16 and ';'-separated columns are refused with what to change.
+TEST(Import, SpreadsheetCsvFilesAreReadOrRefusedWithWhatToChange) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  auto write = [&](const std::string& name, const std::string& bytes) {
+    std::FILE* f = std::fopen((tmp / name).c_str(), "wb");
+    std::fwrite(bytes.data(), 1, bytes.size(), f);
+    std::fclose(f);
+    return tmp / name;
+  };
+  const Recording r =
+      import_log(write("bom.csv", "\xEF\xBB\xBFt,x,y,z,qw,qx,qy,qz\r\n0,0.1,0,0,1,0,0,0\r\n0.001,0.2,0,0,1,0,0,0\r\n"), opt);
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_EQ(r.position[1].x, 0.2);
+  EXPECT_EQ(r.t[1], 0.001);
+  EXPECT_INPUT_ERROR(import_log(write("utf16.csv", std::string("\xFF\xFEt\0,\0x\0", 8)), opt),
+                     "utf16.csv:1: UTF-16 text", "save the log as UTF-8");
+  EXPECT_INPUT_ERROR(import_log(write("semi.csv", "t;x;y;z;qw;qx;qy;qz\n0;0;0;0;1;0;0;0\n"), opt),
+                     "semi.csv:1: unknown column", "not ';'");
+}
+
 // Repeated samples (a device polled faster than it updates): counted, and with drop_repeats
 // removed while the others keep the times the log gave them.
 TEST(Import, CountsAndDropsRepeatedSamples) {

@@ -276,6 +276,10 @@ function(ebh_batch_failure name expect content)
 endfunction()
 file(MAKE_DIRECTORY ${EBH_REPLAY_OUT})
 ebh_batch_failure(empty "batch_empty.txt: no replays" "# nothing\n\n")
+# A batch file saved with a UTF-8 byte-order mark (Windows editors): its first line is read as any other.
+string(ASCII 239 187 191 EBH_UTF8_BOM)
+ebh_batch_failure(byte_order_mark "batch_byte_order_mark.txt:1: no_such_recording: no such recording"
+  "${EBH_UTF8_BOM}tube no_such_recording -o ${EBH_REPLAY_OUT}/batch_byte_order_mark_out.h5\n")
 ebh_batch_failure(unknown_option "batch_unknown_option.txt:2: .*--bogus"
   "# a comment\ntube tube_insert -o ${EBH_REPLAY_OUT}/batch_unknown_option_out.h5 --bogus 3\n")
 ebh_batch_failure(no_output "batch_no_output.txt:1: expected SCENE RECORDING -o OUT.h5" "tube tube_insert\n")

@@ -2,7 +2,8 @@
 // A line-aware cursor over a whole text file held in memory: the mesh readers' tokenizer.
 // Internal to lib/mesh (not for other concepts). It never trusts the file: every number is
 // range-checked, tokens never run past the end of the buffer, and every error is an InputError
-// with one line "FILE:LINE: what". '\r' counts as white space, so CRLF files read like LF ones.
+// with one line "FILE:LINE: what". '\r' counts as white space, so CRLF files read like LF ones; a
+// UTF-8 byte-order mark at the start (what some Windows tools write) is skipped.
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -24,7 +25,8 @@ std::string printable(std::string_view token);
 
 class TextCursor {
  public:
-  TextCursor(const std::filesystem::path& file, std::string_view text) : file_(file), text_(text) {}
+  TextCursor(const std::filesystem::path& file, std::string_view text)
+      : file_(file), text_(text), pos_(text.starts_with("\xEF\xBB\xBF") ? 3 : 0) {}
 
   /// 1-based number of the line the cursor is on.
   long long line() const { return line_; }

@@ -267,6 +267,7 @@ std::vector<BatchLine> read_batch_file(const std::string& file, bool quiet) {
   std::vector<BatchLine> lines;
   std::string text;
   for (int number = 1; std::getline(f, text); ++number) {
+    if (number == 1 && text.starts_with("\xEF\xBB\xBF")) text.erase(0, 3);  // a UTF-8 byte-order mark
     const std::size_t first = text.find_first_not_of(" \t\r");
     if (first == std::string::npos || text[first] == '#') continue;
     BatchLine line{file + ":" + std::to_string(number), {}};

@@ -476,8 +476,8 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
   };
   if (diagonal < kMeshDiagonalMin || diagonal > kMeshDiagonalMax)
     out.push_back(file + "the physical mesh's bounding-box diagonal is " + in_unit(diagonal, s.mesh_unit, s.mesh_unit_name) +
-                  " (" + SpecReader::num(diagonal) + " m): organs are 1 mm .. 2 m across; is mesh.unit (" +
-                  s.mesh_unit_name + ") right?");
+                  (s.mesh_unit == 1.0 ? std::string() : " (" + SpecReader::num(diagonal) + " m)") +
+                  ": organs are 1 mm .. 2 m across; is mesh.unit (" + s.mesh_unit_name + ") right?");
   const ToolSpec& t = s.tool;
   const std::string units = "is tool.unit (" + t.unit_name + ") or mesh.unit (" + s.mesh_unit_name + ") right?";
   for (const auto& [key, size] : tool_contact_sizes(t)) {

@@ -601,6 +601,12 @@ add_test(NAME cli.sweep.report_not_a_sweep
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;report;${CMAKE_CURRENT_SOURCE_DIR}/data/sweep"
     "-DEXPECT=^ebh: error: .*data/sweep: neither summary.csv nor plan.yaml: not a sweep's folder"
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# The active region's size per run (summary.csv's active_vertices_mean): a number with the key, empty without.
+if(EBH_BASH)
+  add_test(NAME cli.sweep.active_vertices
+    COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/active_column.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/region)
+  set_tests_properties(cli.sweep.active_vertices PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION "active column: ok")
+endif()
 # --gpus: its form is checked before any work (the devices, once the runs are known: test_sweep).
 add_test(NAME cli.sweep.bad_gpus
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;${EBH_SWEEP_OUT}/bad_plan.yaml;-o;${EBH_SWEEP_OUT}/bad_gpus;--gpus;0,x"

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <map>
@@ -39,7 +40,8 @@ std::vector<std::pair<std::string, double>> metric_values(const ForceMetrics& m)
 const std::vector<std::string> kRunColumns = {"id", "status", "scene", "recording", "backend", "repetition", "reference",
                                               "baseline", "overrides"};
 const std::vector<std::string> kResultColumns = {"wall_s", "virtual_s", "real_time_factor", "force_error_rms_N",
-                                                 "force_error_max_N", "force_error_p999_N", "compared_ticks"};
+                                                 "force_error_max_N", "force_error_p999_N", "compared_ticks",
+                                                 "active_vertices_mean"};
 
 }  // namespace
 
@@ -273,11 +275,17 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
     if (fs::exists(out, ec)) {
       try {
         const ReplayTrace trace = load_replay(out.string());
-        double wall = kNaN, virt = kNaN;
+        double wall = kNaN, virt = kNaN, active = kNaN;
         {
           const h5::File f = h5::File::open_read(out.string());
           wall = f.attr_double("wall_s");
           virt = f.attr_double("virtual_s");
+          if (f.has("haptic/active")) {  // solver.active_region: the virtual vertices each tick iterated
+            const std::vector<std::int32_t> a = f.read<std::int32_t>("haptic/active").data;
+            double sum = 0;
+            for (const std::int32_t v : a) sum += v;
+            if (!a.empty()) active = sum / static_cast<double>(a.size());
+          }
         }
         results[0] = cell(wall);
         results[1] = cell(virt);
@@ -292,6 +300,7 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
         } else {
           error = "no reference: its run " + r.reference_id + " has no output";
         }
+        results[7] = cell(active);
         std::size_t i = kResultColumns.size();
         for (const auto& [k, v] : metric_values(compute_metrics(trace))) results[i++] = cell(v);
         row[1] = "ok";

@@ -35,6 +35,7 @@ struct ReplayTrace {
   std::vector<double> penetration;         // N, m, deepest virtual-mesh vertex inside the virtual tool
   std::vector<double> penetration_physical;// N or empty (optional dataset), m, same for the physical tool
   std::vector<std::int32_t> contacts;      // N, number of contact constraints
+  std::vector<double> active;              // N or empty (optional dataset: solver.active_region), virtual vertices iterated
 
   // Physical rate, K steps each; empty when the file has no /physical group.
   std::vector<double> physical_t;           // K, s
@@ -53,7 +54,7 @@ struct ReplayTrace {
 
 /// Reads a replay output file. Required: root attributes haptic_hz and physical_hz; datasets
 /// /haptic/{t, force, torque, force_clamped, pose_physical, pose_virtual, penetration, contacts}
-/// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /physical/{t, iterations,
+/// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /haptic/active, /physical/{t, iterations,
 /// residual}, /timing/physical_step_s. Numeric types are converted to the fields' types.
 /// Throws InputError ("FILE: dataset '/haptic/force': ...") for a missing file, a missing
 /// dataset or attribute, a wrong shape, a non-numeric dataset or a time axis that goes backwards.

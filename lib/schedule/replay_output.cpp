@@ -329,19 +329,18 @@ void ReplayWriter::on_frame(const World&, const HapticSide& h, double t) {
 
 bool ReplayWriter::should_stop() { return interrupted(); }
 
-double ReplayWriter::active_mean() const {
-  if (active_.empty() || active_.front() < 0) return -1;
+namespace {
+/// The mean of a region's per-tick or per-step sizes; -1 when the region is off (its entries -1).
+double region_mean(const std::vector<std::int32_t>& sizes) {
+  if (sizes.empty() || sizes.front() < 0) return -1;
   double sum = 0;
-  for (const std::int32_t a : active_) sum += a;
-  return sum / static_cast<double>(active_.size());
+  for (const std::int32_t a : sizes) sum += a;
+  return sum / static_cast<double>(sizes.size());
 }
+}  // namespace
 
-double ReplayWriter::awake_mean() const {
-  if (awake_.empty() || awake_.front() < 0) return -1;
-  double sum = 0;
-  for (const std::int32_t a : awake_) sum += a;
-  return sum / static_cast<double>(awake_.size());
-}
+double ReplayWriter::active_mean() const { return region_mean(active_); }
+double ReplayWriter::awake_mean() const { return region_mean(awake_); }
 
 void ReplayWriter::commit(const ReplaySummary& s) {
   h5::File& f = out_.file();

@@ -469,19 +469,19 @@ void stop_on_physical_problem(const World& world, const PhysicalSide& p, const s
   const std::int64_t k = p.step - 1;
   const SolverSpec& solver = world.scene.spec.solver;
   // What the user can change: the CUDA backend has neither the direct method nor the recovery.
-  const std::string fixed = solver.physical_tolerance == 0 ? ", or turn the stopping rule back on (solver.physical_tolerance=0.002)" : "";
+  const std::string raise = " (the iterations did not converge: raise solver.physical_iterations" +
+                            std::string(solver.physical_tolerance == 0
+                                            ? ", or turn the stopping rule back on (solver.physical_tolerance=0.002)"
+                                            : "");
   std::string hint = p.recovered ? " (also after redoing the step with the direct solve)"
                      : solver.method == SolverSpec::Method::Direct ? ""
                      : solver.diagonal == SolverSpec::Diagonal::Plain
                          ? " (solver.diagonal=plain diverges on such tets: use bounded)"
                      : world.backend == Backend::Cuda
-                         ? " (the iterations did not converge: raise solver.physical_iterations" + fixed +
-                               ", or replay with --backend cpu, whose recovery redoes such a step with the direct solve)"
+                         ? raise + ", or replay with --backend cpu, whose recovery redoes such a step with the direct solve)"
                      : solver.recovery == SolverSpec::Recovery::None
-                         ? " (the iterations did not converge: raise solver.physical_iterations" + fixed +
-                               ", use solver.method=direct, or turn solver.recovery back on)"
-                         : " (the iterations did not converge: raise solver.physical_iterations" + fixed +
-                               " or use solver.method=direct)";
+                         ? raise + ", use solver.method=direct, or turn solver.recovery back on)"
+                         : raise + " or use solver.method=direct)";
   // The scene-load warning's cause, named where it shows (docs/MODEL.md, "k_s against k_svc").
   if (world.scene.spec.stiffness.edges_outweigh_coupling())
     hint += "; stiffness.k_s above k_svc can make the two meshes drive each other unstable in async mode: raise k_svc "

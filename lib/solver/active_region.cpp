@@ -10,6 +10,7 @@
 #include "energy/quadratic.hpp"
 #include "solver/local_kernels.hpp"
 #include "solver/shared_loops.hpp"
+#include "solver/virtual_jacobi.hpp"
 
 namespace ebh {
 namespace {
@@ -168,8 +169,7 @@ void add_strained(const VirtualModel& model, VirtualWorkspace& ws, ActiveRegion&
     Vec3d f = model.k_svc * (coupling_point(r, j, r.blend) - q[j]) + model.mass[j] * model.gravity;
     for (int k = model.edge_offsets[j]; k < model.edge_offsets[j + 1]; ++k) {
       const int entry = model.edge_entries[k];
-      const Vec3d& g = ws.edge_grad[entry >> 1];
-      f += (entry & 1) ? g : -g;  // add_edge_residual's sign: the force on this end
+      add_edge_residual(f, ws.edge_grad[entry >> 1], (entry & 1) != 0);  // the force on this end
     }
     if (pulled_off(f, model.stiff_diag[j], r.tolerance)) activate(model, r, j);
   }

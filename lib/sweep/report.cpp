@@ -218,7 +218,7 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
         << ", " << fmt(f.wall_s) << " s, **" << fmt(goal->speedup, "%.3g") << "x faster**" << looser_solve(f, b)
         << "; the most accurate at a wall time <= " << fmt(b.wall_s) << " s is " << md(a.overrides) << ", "
         << fmt(a.error_rms) << " N, **" << fmt(goal->error_ratio, "%.3g") << "x lower error**" << looser_solve(a, b)
-        << ". 2x goal: " << (goal->speedup >= 2 || goal->error_ratio >= 2 ? "met" : "not met") << ".\n";
+        << ". 2x goal: " << (goal->met() ? "met" : "not met") << ".\n";
     }
     for (const std::string& f : g.failed) o << "\nfailed: " << md(f) << "\n";
     if (g.pending) o << "\n" << g.pending << " run" << (g.pending == 1 ? "" : "s") << " not run yet\n";
@@ -230,11 +230,11 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
     if (const auto goal = baseline_goal(g)) {
       auto& [met, compared] = goals[g.backend];
       ++compared;
-      if (goal->speedup >= 2 || goal->error_ratio >= 2) {
+      if (goal->met()) {
         ++met;
         const ReportPoint& b = g.points[goal->baseline];
-        const bool loose = (goal->speedup < 2 || less_converged(g.points[goal->fastest], b)) &&
-                           (goal->error_ratio < 2 || less_converged(g.points[goal->most_accurate], b));
+        const bool loose = (!goal->faster() || less_converged(g.points[goal->fastest], b)) &&
+                           (!goal->more_accurate() || less_converged(g.points[goal->most_accurate], b));
         met_on[g.backend] += (met_on[g.backend].empty() ? "" : ", ") + g.recording + (loose ? " [less converged]" : "");
       }
     }

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <optional>
 
 #include "core/error.hpp"
@@ -275,17 +275,11 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
     if (fs::exists(out, ec)) {
       try {
         const ReplayTrace trace = load_replay(out.string());
-        double wall = kNaN, virt = kNaN, active = kNaN;
+        double wall = kNaN, virt = kNaN;
         {
           const h5::File f = h5::File::open_read(out.string());
           wall = f.attr_double("wall_s");
           virt = f.attr_double("virtual_s");
-          if (f.has("haptic/active")) {  // solver.active_region: the virtual vertices each tick iterated
-            const std::vector<std::int32_t> a = f.read<std::int32_t>("haptic/active").data;
-            double sum = 0;
-            for (const std::int32_t v : a) sum += v;
-            if (!a.empty()) active = sum / static_cast<double>(a.size());
-          }
         }
         results[0] = cell(wall);
         results[1] = cell(virt);
@@ -300,7 +294,8 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
         } else {
           error = "no reference: its run " + r.reference_id + " has no output";
         }
-        results[7] = cell(active);
+        const std::vector<double>& a = trace.active;  // solver.active_region's size per tick (empty: off)
+        results[7] = cell(a.empty() ? kNaN : std::accumulate(a.begin(), a.end(), 0.0) / static_cast<double>(a.size()));
         std::size_t i = kResultColumns.size();
         for (const auto& [k, v] : metric_values(compute_metrics(trace))) results[i++] = cell(v);
         row[1] = "ok";

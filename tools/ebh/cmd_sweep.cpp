@@ -124,6 +124,8 @@ std::vector<int> gpu_indices(const std::string& text, int count) {
     for (int i = 0; i < count; ++i) out.push_back(i);
     return out;
   }
+  const InputError bad("--gpus '" + text + "': expected all or device numbers separated by commas (e.g. 0,1)");
+  if (text.empty() || text.back() == ',') throw bad;
   std::stringstream in(text);
   for (std::string e; std::getline(in, e, ',');) {
     std::size_t used = 0;
@@ -133,12 +135,9 @@ std::vector<int> gpu_indices(const std::string& text, int count) {
     } catch (const std::exception&) {
       used = 0;
     }
-    if (e.empty() || used != e.size() || i < 0)
-      throw InputError("--gpus '" + text + "': expected all or device numbers separated by commas (e.g. 0,1)");
+    if (e.empty() || used != e.size() || i < 0) throw bad;
     out.push_back(i);
   }
-  if (out.empty() || text.back() == ',')
-    throw InputError("--gpus '" + text + "': expected all or device numbers separated by commas (e.g. 0,1)");
   return out;
 }
 

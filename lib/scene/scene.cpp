@@ -412,7 +412,6 @@ class SpecReader {
     }
     if (auto it = e.find("physical_region"); it != e.end()) {
       sv.physical_region = non_negative(it->second, "solver.physical_region") * unit_;
-      sv.physical_region_given = true;
     }
     if (auto it = e.find("sleep"); it != e.end()) {
       sv.sleep = non_negative(it->second, "solver.sleep") * unit_;

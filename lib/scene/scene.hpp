@@ -198,7 +198,6 @@ struct SolverSpec {
   /// region"): the motion (m) past which a physical vertex, and the virtual vertices' past which
   /// the physical vertices under them, are iterated with their neighbours; 0: every vertex.
   double physical_region = 0;
-  bool physical_region_given = false;  ///< named by the scene file or an override (the CUDA backend warns then)
   /// The sleeping physical mesh (docs/MODEL.md, "Sleeping"): a physical step is
   /// skipped, the state held, while the last step moved no vertex and the virtual mesh moved no
   /// vertex since then by more than this length (m), and the last step met the tolerance; 0: never.

@@ -288,12 +288,6 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
                                         "whole virtual mesh and ignores it (docs/CUDA.md, \"The active region\")");
     w->scene.spec.solver.active_region = 0;
   }
-  if (backend == Backend::Cuda && w->scene.spec.solver.physical_region > 0) {
-    if (w->scene.spec.solver.physical_region_given)
-      w->scene.warnings.push_back(where + ": key 'solver.physical_region': the CUDA backend iterates the whole physical mesh "
-                                        "and ignores it (docs/MODEL.md, \"The physical mesh's awake region\")");
-    w->scene.spec.solver.physical_region = 0;
-  }
   if (w->scene.spec.solver.physical_region > 0 && w->scene.spec.solver.method == SolverSpec::Method::Direct)
     throw InputError(where + ": key 'solver.physical_region': the direct method solves for every vertex at once; "
                              "use chebyshev or jacobi, or physical_region 0");
@@ -393,6 +387,7 @@ PhysicalSide make_physical_side(const World& world, bool beside_ticks) {
     CudaPhysicalOptions options;
     options.beside_ticks = beside_ticks;
     options.sleep = world.scene.spec.solver.sleep;
+    options.region = world.scene.spec.solver.physical_region;
     p.cuda = std::make_unique<CudaPhysicalSolver>(world.physical_mesh, world.physical_params, options);
     p.cuda->upload_state(p.mesh);
 #else

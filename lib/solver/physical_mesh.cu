@@ -23,6 +23,10 @@
 // iterate, its velocities and rotations into the state.
 // The device-resident graph (launch_device_step: the replay's device haptic tick) is the same
 // without the two copies: q and x stay in device memory.
+// With the awake region (CudaPhysicalOptions::region, solver.physical_region) the iterations are
+// framed by region_decide_kernel, which picks the patches that iterate (the CPU's rules at the
+// grain of patches) and holds the others, and region_seen_kernel; a sleeping patch's block leaves
+// each iteration at once. A region holding every patch gives the whole mesh's bits.
 // Patches: the vertices in Morton order of their rest positions, cut into runs sized so that
 // about two blocks per multiprocessor hold them all (at most 128 vertices, 64 beside the device
 // tick: CudaPhysicalOptions; halved while a block's shared memory does not fit); a patch's tets
@@ -65,6 +69,7 @@
 #include "energy/rotation.hpp"
 #include "mesh/morton.hpp"
 #include "solver/cuda_util.cuh"
+#include "solver/physical_region.hpp"
 #include "solver/physical_mesh_cuda.hpp"
 
 // The stopping rule's while node needs conditional graph nodes with stream capture as CUDA 13
@@ -135,7 +140,7 @@ struct PhysicalDevice {
   Quatf* rotation = nullptr;            // 2T warm starts: [0, T) the state, [T, 2T) scratch
   float* rsq_first = nullptr;           // n  |r_a|^2 at iteration 0
   float* rsq_last = nullptr;            // n  |r_a|^2 at iteration K-1
-  double* residual_sq = nullptr;        // 3  sums of the two and the iterations run (host-mapped: the host reads them after the step)
+  double* residual_sq = nullptr;        // kReportValues (host-mapped: the host reads them after the step)
   unsigned int* blocks_done = nullptr;  // 1  the last-block counter
   // The stopping rule past K iterations (adaptive graphs only: PhysicalStepParams::adaptive).
   int* next_iteration = nullptr;        // 1  the loop's next iteration k; the loop's finish resets it
@@ -148,6 +153,16 @@ struct PhysicalDevice {
   float sleep_sq = 0;                   // the sleep length squared (m^2); 0: every step runs
   int* sleep_flags = nullptr;           // 2  [0] a vertex moved (this step's test), [1] a step has run
   Vec3f* ran_with = nullptr;            // m  the virtual positions the last step that ran took
+  // The awake region (CudaPhysicalOptions::region; region_decide_kernel, region_seen_kernel).
+  std::uint8_t* patch_awake = nullptr;  // P  this step's patches that iterate (null: the region is off)
+  float region_sq = 0;                  // the tolerance squared (m^2)
+  const int* halo_offsets = nullptr;    // P+1
+  const int* halo = nullptr;            // per patch: its halo (PatchHalos, physical_region.hpp)
+  const int* cpl_virtual = nullptr;     // per coupling entry (cpl_offsets): its virtual vertex j
+  const int* patch_of = nullptr;        // n  the patch a vertex belongs to
+  const int* patch_free = nullptr;      // P  its free vertices
+  Vec3f* seen = nullptr;                // m  the virtual mesh as every vertex it pairs with last saw it
+  int* region_flags = nullptr;          // 2  [0] the next step iterates every patch, [1] this step's awake free vertices
 };
 
 /// One iteration's buffers (the rotation described at the top of the file).
@@ -446,9 +461,33 @@ __device__ __forceinline__ void patch_iteration(const PhysicalDevice& d, const S
   }
 }
 
+/// Whether this block's patch sleeps in this step (the awake region: region_decide_kernel). Read
+/// before the dependency wait: the decision's kernel completes before the step's first iteration
+/// starts (a plain graph edge), and every later iteration starts after that one.
+__device__ __forceinline__ bool patch_asleep(const PhysicalDevice& d) { return d.patch_awake && !d.patch_awake[blockIdx.x]; }
+
+/// A sleeping patch's share of an iteration, after the dependency wait (region_decide_kernel has
+/// written its v = 0, its x into the iterate buffers and its zero residuals): in the first, its
+/// x_start = x, where the next decision measures its motion from (the decision cannot write it:
+/// other blocks read x_start there).
+__device__ __forceinline__ void sleeping_patch(const PhysicalDevice& d, bool first) {
+  if (!first) return;
+  const int s0 = d.slot_offsets[blockIdx.x], own = d.own_count[blockIdx.x];
+  for (int i = threadIdx.x; i < own; i += blockDim.x) {
+    const int a = d.slot_vertex[s0 + i];
+    d.x_start[a] = d.x[a];
+  }
+}
+
 /// One iteration as one kernel of the graph.
 template <int kLanes, bool kChebyshev, bool kFirst, bool kLast>
 __global__ void __launch_bounds__(kBlock, 2) iteration_kernel(PhysicalDevice d, Sweep w, int rotation_iterations) {
+  if (patch_asleep(d)) {
+    kernel_prologue();
+    sleeping_patch(d, kFirst);
+    if constexpr (kLast) last_block_reduces(d);
+    return;
+  }
   PatchThread P;
   load_patch_thread<kLanes>(d, blockIdx.x, threadIdx.x, P);
   cache_patch_items(d, P, patch_shared(d), threadIdx.x);
@@ -565,6 +604,66 @@ struct SweepPlan {
   }
 };
 
+/// The awake region's decision before a step (CudaPhysicalOptions::region): the CPU's rules
+/// (choose_awake, physical_region.hpp) at the grain of patches (patch_halos). Patch p iterates when
+/// a vertex of its halo moved by more than the tolerance in the step before (|x - x_start|, hot) or
+/// pairs with a virtual vertex that moved by more than it since every vertex that one pairs with
+/// last saw it (seeded), or when the step iterates every patch (the first after upload_state). A
+/// sleeping patch is held: its vertices' v = 0 (so the iterations' start x + h v is x, for its
+/// awake neighbours too), their x in every iterate buffer the others read, 0 in the residual sums.
+/// Each block decides for its own patch from the step before's state and writes its own vertices
+/// only; x_start, which all read here, is written by the first iteration (sleeping_patch).
+__global__ void __launch_bounds__(kBlock) region_decide_kernel(PhysicalDevice d, SweepPlan plan) {
+  kernel_prologue();
+  const int p = blockIdx.x;
+  bool moved = d.region_flags[0] != 0;
+  for (int k = d.halo_offsets[p] + threadIdx.x; k < d.halo_offsets[p + 1] && !moved; k += blockDim.x) {
+    const int a = d.halo[k];
+    moved = squared_norm(d.x[a] - d.x_start[a]) > d.region_sq;  // hot
+    for (int c = d.cpl_offsets[a]; c < d.cpl_offsets[a + 1] && !moved; ++c) {
+      const int j = d.cpl_virtual[c];
+      moved = squared_norm(d.q[j] - d.seen[j]) > d.region_sq;  // seeded
+    }
+  }
+  const bool awake = __syncthreads_or(moved);
+  if (threadIdx.x == 0) {
+    d.patch_awake[p] = awake ? 1 : 0;
+    if (awake) atomicAdd(d.region_flags + 1, d.patch_free[p]);  // an integer sum: the same in any order
+  }
+  if (awake) return;
+  const int s0 = d.slot_offsets[p], own = d.own_count[p];
+  for (int i = threadIdx.x; i < own; i += blockDim.x) {
+    const int a = d.slot_vertex[s0 + i];
+    const Vec3f xa = d.x[a];
+    d.v[a] = Vec3f{};
+    for (Vec3f* buffer : plan.scratch) buffer[a] = xa;
+    d.rsq_first[a] = 0;
+    d.rsq_last[a] = 0;
+  }
+}
+
+/// After a step with the awake region (saw_virtual_mesh's rule): the virtual vertices every vertex
+/// of which iterated (pinned ones count) have now been seen where they are. The last block reports
+/// the awake free vertices and ends a whole step.
+__global__ void __launch_bounds__(kBlock) region_seen_kernel(PhysicalDevice d) {
+  kernel_prologue();
+  const int j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j < d.m) {
+    bool every = true;
+    if (d.region_flags[0] == 0)
+      for (int c = 0; c < d.pair_count[j]; ++c) {
+        const int a = d.pair_vertex[4 * j + c];
+        every = every && (d.pinned[a] || d.patch_awake[d.patch_of[a]]);
+      }
+    if (every) d.seen[j] = d.q[j];
+  }
+  if (last_block(d) && threadIdx.x == 0) {
+    d.residual_sq[3] = d.region_flags[1];
+    d.region_flags[0] = 0;
+    d.region_flags[1] = 0;
+  }
+}
+
 /// The loop's decision after iteration k (the last block): the residual sums, the iterations run,
 /// and whether the loop runs iteration k + 1 (continue_iterating, as the CPU step decides).
 __device__ __forceinline__ void last_block_decides(const PhysicalDevice& d, int k, const float* rsq,
@@ -590,6 +689,13 @@ __device__ __forceinline__ void last_block_decides(const PhysicalDevice& d, int 
 template <int kLanes, bool kChebyshev>
 __global__ void __launch_bounds__(kBlock, 2)
     loop_iteration_kernel(PhysicalDevice d, SweepPlan plan, int rotation_iterations, LoopHandle loop) {
+  if (patch_asleep(d)) {
+    kernel_prologue();
+    const int k = *d.next_iteration;
+    sleeping_patch(d, k == 0);
+    last_block_decides(d, k, k == 0 ? d.rsq_first : d.rsq_last, loop);
+    return;
+  }
   PatchThread P;
   load_patch_thread<kLanes>(d, blockIdx.x, threadIdx.x, P);
   cache_patch_items(d, P, patch_shared(d), threadIdx.x);
@@ -705,8 +811,9 @@ Patches build_patches(const PhysicalModel& M, int size) {
 Vec3f to_float(const Vec3d& v) { return static_cast<Vec3f>(v); }
 Quatf to_float(const Quatd& q) { return {float(q.w), float(q.x), float(q.y), float(q.z)}; }
 
-/// The doubles a step reports through mapped host memory: ||r_0||^2, ||r_K||^2, iterations run.
-constexpr int kReportValues = 3;
+/// The doubles a step reports through mapped host memory: ||r_0||^2, ||r_K||^2, iterations run,
+/// and the free vertices the awake region iterated (CudaPhysicalOptions::region).
+constexpr int kReportValues = 4;
 
 /// A step's report values (mapped host memory) into its slot (launch_device_step(slot)).
 __global__ void copy_residual_kernel(const double* from, double* to) {
@@ -751,6 +858,12 @@ struct CudaPhysicalSolver::Impl {
   cuda::DeviceArray<int> sleep_flags;
   cuda::DeviceArray<Vec3f> ran_with;
   cuda::Stream awake_stream;
+  // The awake region (region > 0: CudaPhysicalOptions::region): the patches' halos, the decision,
+  // what the virtual mesh was last seen as, and its flags (region_decide_kernel).
+  double region = 0;
+  cuda::DeviceArray<int> halo_offsets, halo, cpl_virtual, patch_of, patch_free, region_flags;
+  cuda::DeviceArray<std::uint8_t> patch_awake;
+  cuda::DeviceArray<Vec3f> seen;
   // Host side of the per-step copies.
   cuda::PinnedArray<Vec3f> q_host, x_host;
   // The residual sums, written by the kernels straight into mapped host memory (no copy node).
@@ -1032,6 +1145,37 @@ void CudaPhysicalSolver::Impl::upload_model(const PhysicalModel& M, int asked_pa
   dev.weight_norm = weight_norm;
   dev.tolerance = params.tolerance;
   dev.iterations = params.iterations;
+  if (region > 0) {
+    // Each patch's own vertices, its free count and its halo (patch_halos), by model vertex.
+    std::vector<int> offsets{0}, members, of(n, 0), free(patches, 0);
+    for (int p = 0; p < patches; ++p) {
+      for (int i = 0; i < P.own_count[p]; ++i) {
+        const int a = P.slot_vertex[P.slot_offsets[p] + i];
+        members.push_back(a);
+        of[a] = p;
+        free[p] += M.pinned[a] ? 0 : 1;
+      }
+      offsets.push_back(static_cast<int>(members.size()));
+    }
+    const PatchHalos H = patch_halos(M, offsets, members);
+    up(halo_offsets, H.offsets);
+    up(halo, H.vertices);
+    up(cpl_virtual, M.cpl_virtual);
+    up(patch_of, of);
+    up(patch_free, free);
+    patch_awake.allocate(patches);
+    seen.allocate(std::max(m, 1));
+    region_flags.allocate(2);
+    dev.region_sq = static_cast<float>(region * region);
+    dev.halo_offsets = halo_offsets.get();
+    dev.halo = halo.get();
+    dev.cpl_virtual = cpl_virtual.get();
+    dev.patch_of = patch_of.get();
+    dev.patch_free = patch_free.get();
+    dev.patch_awake = patch_awake.get();
+    dev.seen = seen.get();
+    dev.region_flags = region_flags.get();
+  }
   if (sleep > 0) {
     sleep_flags.allocate(2);
     EBH_CUDA_CHECK(cudaMemsetAsync(sleep_flags.get(), 0, 2 * sizeof(int), st));
@@ -1174,10 +1318,15 @@ void CudaPhysicalSolver::Impl::capture(bool pdl, bool copies) {
 /// The K iterations (and, K odd, the last rotations into the state half), captured on st.
 void CudaPhysicalSolver::Impl::capture_step(bool pdl, cudaStream_t st) {
   const int K = params.iterations;
+  if (region > 0)  // the awake region: which patches iterate (a plain edge to the first iteration: patch_asleep)
+    cuda::launch(false, region_decide_kernel, patches, kBlock, 0, st, "region_decide_kernel", dev, plan);
   if (params.method == SolverSpec::Method::Chebyshev) capture_iterations<true>(pdl, st);
   else capture_iterations<false>(pdl, st);
   if (K % 2 == 1 && T > 0 && !params.adaptive())  // the last rotations are in the scratch half
     EBH_CUDA_CHECK(cudaMemcpyAsync(rotation.get(), rotation.get() + T, T * sizeof(Quatf), cudaMemcpyDeviceToDevice, st));
+  if (region > 0)
+    cuda::launch(false, region_seen_kernel, cuda::blocks_for(std::max(m, 1), kBlock), kBlock, 0, st, "region_seen_kernel",
+                 dev);
 }
 
 /// With sleep > 0: sleep_gate_kernel, then the step (capture_step) as the body of a conditional
@@ -1218,10 +1367,12 @@ CudaPhysicalSolver::CudaPhysicalSolver(const PhysicalModel& model, const Physica
     throw InputError("--backend cuda: solver.physical_tolerance needs the CUDA backend built with CUDA 13 or newer "
                      "(graph while nodes); set solver.physical_tolerance=0");
   if (!(options.sleep >= 0)) throw InputError("solver.sleep must not be negative");
+  if (!(options.region >= 0)) throw InputError("solver.physical_region must not be negative");
   impl_->params = params;
   impl_->weight_norm = model.weight_norm;
   impl_->tet_slot = model.tet_slot;
   impl_->sleep = options.sleep;
+  impl_->region = params.iterations > 0 ? options.region : 0;  // K = 0 only predicts
   impl_->upload_model(model, options.patch_vertices, options.beside_ticks);
   upload_state(make_physical_state(model));
   // Programmatic dependent launch in the graph where the driver takes it; plain kernel nodes
@@ -1276,6 +1427,10 @@ void CudaPhysicalSolver::upload_state(const PhysicalState& state) {
   I.v.upload(v.data(), I.stream.get());
   if (I.sleep > 0)  // a new state: the next step runs
     EBH_CUDA_CHECK(cudaMemsetAsync(I.sleep_flags.get(), 0, 2 * sizeof(int), I.stream.get()));
+  if (I.region > 0) {  // a new state: the next step iterates every patch
+    const int whole[2] = {1, 0};
+    I.region_flags.upload(whole, I.stream.get());
+  }
   if (I.T > 0) {  // the state half of the two rotation buffers
     EBH_CUDA_CHECK(cudaMemcpyAsync(I.rotation.get(), r.data(), I.T * sizeof(Quatf), cudaMemcpyHostToDevice, I.stream.get()));
     EBH_CUDA_CHECK(cudaStreamSynchronize(I.stream.get()));
@@ -1326,6 +1481,16 @@ PhysicalStepReport CudaPhysicalSolver::Impl::report(const double* sums) const {
   r.slept = sleep > 0 && params.iterations > 0 && n > 0 && sums[2] == 0;
   if (params.iterations > 0 && n > 0) {
     set_residuals(r, std::sqrt(sums[0]), std::sqrt(sums[1]), weight_norm);
+  }
+  if (region > 0 && !r.slept) {
+    r.awake = static_cast<int>(sums[3]);
+    if (r.awake == 0) {  // no patch iterated: the state held at rest, as the CPU's skipped step
+      r.slept = true;
+      r.iterations = 0;
+      r.residual_reduction = 1;
+    }
+  } else if (region > 0) {
+    r.awake = 0;
   }
   return r;
 }

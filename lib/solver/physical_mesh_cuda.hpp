@@ -38,6 +38,11 @@ struct CudaPhysicalOptions {
   /// this is skipped on the device (a conditional graph node: CUDA 13 builds; others refuse it),
   /// the state held; the report says so (PhysicalStepReport::slept). 0: every step runs.
   double sleep = 0;
+  /// solver.physical_region (m; docs/MODEL.md, "The physical mesh's awake region"): the CPU's
+  /// rules at the grain of the step's patches: a patch iterates when one of its free vertices is
+  /// awake by them, the others are held at rest; the report gives the free vertices of the patches
+  /// that iterated (PhysicalStepReport::awake) and a step in which none did as slept. 0: off.
+  double region = 0;
 };
 
 class CudaPhysicalSolver {

@@ -8,26 +8,33 @@
 
 namespace ebh {
 
-PhysicalRegion make_physical_region(const PhysicalModel& model, double tolerance) {
-  PhysicalRegion r;
-  r.tolerance = tolerance;
+void vertex_neighbours(const PhysicalModel& model, std::span<const int> index, std::vector<int>& offsets,
+                       std::vector<int>& neighbours) {
   const int n = model.num_vertices;
-  // The neighbours over the tets' edges, by local index: every other corner of an incident tet,
-  // once each (sorted).
+  auto id = [&](int a) { return index.empty() ? a : index[a]; };
+  // Every other corner of an incident tet, once each (sorted).
   std::vector<std::vector<int>> adjacent(n);
   for (const Tet& t : model.tets)
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b)
-        if (a != b) adjacent[model.vertex_local[t[a]]].push_back(model.vertex_local[t[b]]);
-  r.neighbour_offsets.assign(n + 1, 0);
+        if (a != b) adjacent[id(t[a])].push_back(id(t[b]));
+  offsets.assign(n + 1, 0);
   for (int i = 0; i < n; ++i) {
     std::vector<int>& list = adjacent[i];
     std::sort(list.begin(), list.end());
     list.erase(std::unique(list.begin(), list.end()), list.end());
-    r.neighbour_offsets[i + 1] = r.neighbour_offsets[i] + static_cast<int>(list.size());
+    offsets[i + 1] = offsets[i] + static_cast<int>(list.size());
   }
-  r.neighbours.reserve(r.neighbour_offsets[n]);
-  for (const std::vector<int>& list : adjacent) r.neighbours.insert(r.neighbours.end(), list.begin(), list.end());
+  neighbours.clear();
+  neighbours.reserve(offsets[n]);
+  for (const std::vector<int>& list : adjacent) neighbours.insert(neighbours.end(), list.begin(), list.end());
+}
+
+PhysicalRegion make_physical_region(const PhysicalModel& model, double tolerance) {
+  PhysicalRegion r;
+  r.tolerance = tolerance;
+  const int n = model.num_vertices;
+  vertex_neighbours(model, model.vertex_local, r.neighbour_offsets, r.neighbours);
   r.awake.assign(n, 0);
   r.vertices.reserve(n);
   r.frontier.reserve(n);
@@ -106,6 +113,37 @@ void saw_virtual_mesh(const PhysicalModel& model, std::span<const Vec3d> virtual
     }
     r.seen[j] = virtual_q[j];
   }
+}
+
+PatchHalos patch_halos(const PhysicalModel& model, std::span<const int> offsets, std::span<const int> members) {
+  const int n = model.num_vertices;
+  std::vector<int> first, adjacent;
+  vertex_neighbours(model, {}, first, adjacent);
+  PatchHalos h;
+  std::vector<int> mark(n, -1), frontier, next, halo;
+  for (int p = 0; p + 1 < static_cast<int>(offsets.size()); ++p) {
+    // A breadth-first search from the patch's free vertices over free vertices, kRegionRings deep:
+    // the rings choose_awake spreads over, walked the other way.
+    halo.clear();
+    frontier.clear();
+    auto reach = [&](int a, std::vector<int>& into) {
+      if (model.pinned[a] || mark[a] == p) return;
+      mark[a] = p;
+      into.push_back(a);
+      halo.push_back(a);
+    };
+    for (int k = offsets[p]; k < offsets[p + 1]; ++k) reach(members[k], frontier);
+    for (int ring = 0; ring < kRegionRings && !frontier.empty(); ++ring) {
+      next.clear();
+      for (const int a : frontier)
+        for (int k = first[a]; k < first[a + 1]; ++k) reach(adjacent[k], next);
+      frontier.swap(next);
+    }
+    std::sort(halo.begin(), halo.end());
+    h.vertices.insert(h.vertices.end(), halo.begin(), halo.end());
+    h.offsets.push_back(static_cast<int>(h.vertices.size()));
+  }
+  return h;
 }
 
 }  // namespace ebh

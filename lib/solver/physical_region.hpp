@@ -64,4 +64,20 @@ int choose_awake(const PhysicalModel& model, const PhysicalWorkspace& ws, std::s
 /// now been seen where they are.
 void saw_virtual_mesh(const PhysicalModel& model, std::span<const Vec3d> virtual_q, PhysicalRegion& region);
 
+/// The neighbours of every vertex over the tets' edges, as CSR (each list ascending, once each),
+/// numbered by `index` (index[a] for model vertex a: PhysicalModel::vertex_local for the local
+/// order, empty for the model's own numbering).
+void vertex_neighbours(const PhysicalModel& model, std::span<const int> index, std::vector<int>& offsets,
+                       std::vector<int>& neighbours);
+
+/// The region at the grain of patches (the CUDA step's blocks, solver/physical_mesh.cu): patch p,
+/// the model vertices members[offsets[p] .. offsets[p + 1]), iterates when one of its free
+/// vertices is awake by the rules above, that is when a hot or seeded free vertex lies within
+/// kRegionRings rings of one of them over free vertices. Its halo lists those vertices (model
+/// numbering, ascending): the patch wakes when any of them is hot or seeded.
+struct PatchHalos {
+  std::vector<int> offsets{0}, vertices;
+};
+PatchHalos patch_halos(const PhysicalModel& model, std::span<const int> offsets, std::span<const int> members);
+
 }  // namespace ebh

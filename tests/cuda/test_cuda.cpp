@@ -24,6 +24,7 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "core/error.hpp"
@@ -365,6 +366,115 @@ PhysicalStepParams adaptive_params(double tolerance, int max_iterations) {
   return p;
 }
 
+/// The awake region (CudaPhysicalOptions::region) where every free vertex moves in every step (gap,
+/// under gravity, a tolerance below any motion): every patch iterates, and the steps are the whole
+/// mesh's to the bit, with the stopping rule's loop too.
+TEST(CudaPhysical, RegionHoldingEveryPatchGivesTheWholeStepsBits) {
+  EBH_REQUIRE_DEVICE();
+  const Models& M = models("gap");
+  ASSERT_LT(M.pm.gravity.z, 0.0);
+  const std::vector<Vec3d> q = displaced_virtual(M.vm, 13);
+  for (const PhysicalStepParams& params : {PhysicalStepParams{}, adaptive_params(1e-6, 24)}) {
+    PhysicalState out[2];
+    for (int run = 0; run < 2; ++run) {
+      CudaPhysicalOptions options;
+      options.region = run == 0 ? 0.0 : 1e-30;
+      CudaPhysicalSolver solver(M.pm, params, options);
+      solver.upload_state(M.start);
+      PhysicalState s = M.start;
+      for (int k = 0; k < 4; ++k) {
+        const PhysicalStepReport r = solver.step(s, q);
+        EXPECT_EQ(r.awake, run == 0 ? -1 : M.pm.num_free) << "step " << k;
+      }
+      solver.download_state(out[run]);
+    }
+    EXPECT_EQ(std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(out[0].v.data(), out[1].v.data(), out[0].v.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(out[0].rotation.data(), out[1].rotation.data(), out[0].rotation.size() * sizeof(Quatd)), 0);
+  }
+}
+
+/// The awake region on cholecystectomy at rest, a few virtual vertices pulled by up to 1 mm over
+/// 10 steps: the first step iterates every patch; at rest nothing does (the step reports slept);
+/// while pulling, a region of the mesh iterates, every vertex out of it is held at rest (v = 0,
+/// x to the bit), the result stays within a few tolerances of the whole mesh's (the CPU region's
+/// bound, PhysicalRegion.TheResultApproachesTheWholeMeshAsTheToleranceFalls), and a second run
+/// gives the same bits (the same region step for step).
+TEST(CudaPhysical, RegionHoldsTheRestAndFollowsTheWholeMesh) {
+  EBH_REQUIRE_DEVICE();
+  const Models& M = models("cholecystectomy");
+  const double d = 1e-6;
+  const PhysicalStepParams params = physical_params(M.scene.spec.solver, M.pm);
+  const PhysicalState rest = make_physical_state(M.pm);
+  // Pulled: the virtual vertices within 6 mm of the one farthest from the pinned strip.
+  int far = 0;
+  double farthest = 0;
+  for (int j = 0; j < M.pm.num_virtual; ++j) {
+    double nearest = 1e30;
+    for (int a = 0; a < M.pm.num_vertices; ++a)
+      if (M.pm.pinned[a]) nearest = std::min(nearest, norm(M.vm.rest[j] - M.pm.rest[a]));
+    if (nearest > farthest) { farthest = nearest; far = j; }
+  }
+  std::vector<int> pulled;
+  for (int j = 0; j < M.pm.num_virtual; ++j)
+    if (norm(M.vm.rest[j] - M.vm.rest[far]) < 0.006) pulled.push_back(j);
+  ASSERT_GT(pulled.size(), 3u);
+  auto run = [&](double region, std::vector<PhysicalStepReport>& reports) {
+    CudaPhysicalOptions options;
+    options.region = region;
+    CudaPhysicalSolver solver(M.pm, params, options);
+    solver.upload_state(rest);
+    PhysicalState s = rest;
+    std::vector<Vec3d> q = M.vm.rest;
+    reports.push_back(solver.step(s, q));  // the first: every patch
+    reports.push_back(solver.step(s, q));  // at rest: none
+    PhysicalState before;
+    for (int k = 1; k <= 10; ++k) {
+      for (const int j : pulled) q[j] = M.vm.rest[j] + Vec3d{0, 0, 1e-4 * k};
+      solver.download_state(before);
+      reports.push_back(solver.step(s, q));
+    }
+    PhysicalState after;
+    solver.download_state(after);
+    int moved = 0, at_rest = 0;
+    for (int a = 0; a < M.pm.num_vertices; ++a) {
+      if (M.pm.pinned[a]) continue;
+      moved += std::memcmp(&after.x[a], &before.x[a], sizeof(Vec3d)) != 0;
+      at_rest += norm(after.v[a]) == 0.0;
+    }
+    return std::make_tuple(after, moved, at_rest);
+  };
+  std::vector<PhysicalStepReport> whole_reports, reports, again_reports;
+  const auto [whole, whole_moved, whole_rest] = run(0, whole_reports);
+  const auto [region, moved, at_rest] = run(d, reports);
+  const auto [again, moved_again, rest_again] = run(d, again_reports);
+  const int nf = M.pm.num_free;
+  EXPECT_EQ(reports[0].awake, nf);
+  EXPECT_EQ(reports[1].awake, 0);
+  EXPECT_TRUE(reports[1].slept);
+  EXPECT_EQ(reports[1].iterations, 0);
+  double awake = 0;
+  for (std::size_t k = 2; k < reports.size(); ++k) {
+    EXPECT_GT(reports[k].awake, 0) << "step " << k;
+    EXPECT_LT(reports[k].awake, nf) << "step " << k << ": a region, not the mesh";
+    awake += reports[k].awake;
+  }
+  awake /= (reports.size() - 2) * double(nf);
+  const int last = reports.back().awake;
+  EXPECT_LE(moved, last) << "only the region's vertices move";
+  EXPECT_GE(at_rest, nf - last) << "the held vertices end at rest";
+  const double err = max_distance(region.x, whole.x), pull = 1e-3;
+  std::printf("[ physical region, cuda ] %.2f of %d free vertices iterated while pulling; last step %d moved, "
+              "%d at rest; max |x - x_whole| = %.3g m (tolerance %.3g m, pull %.3g m)\n",
+              awake, nf, moved, at_rest, err, d, pull);
+  EXPECT_LT(err, 3 * d);
+  EXPECT_GT(max_distance(whole.x, M.pm.rest), 100 * d) << "the pull must move the mesh";
+  EXPECT_EQ(std::memcmp(region.x.data(), again.x.data(), region.x.size() * sizeof(Vec3d)), 0);
+  EXPECT_EQ(std::memcmp(region.v.data(), again.v.data(), region.v.size() * sizeof(Vec3d)), 0);
+  for (std::size_t k = 0; k < reports.size(); ++k) EXPECT_EQ(reports[k].awake, again_reports[k].awake) << k;
+}
+
+
 /// tube with slivers down to a mean ratio of 0.04 (as `ebh scene degrade tube --quality 0.04`),
 /// models and a moving state as models() makes them.
 const Models& sliver_tube() {
@@ -616,7 +726,7 @@ class Trace : public ReplayObserver {
   std::vector<int> grasped;
   std::vector<double> penetration, penetration_physical;
   std::vector<int> contacts;
-  std::vector<int> slept, iterations;  // per step
+  std::vector<int> slept, iterations, awake;  // per step
   int max_contacts = 0;
   void on_tick(const World&, const HapticSide& h, double) override {
     force.push_back(h.output.force);
@@ -631,6 +741,7 @@ class Trace : public ReplayObserver {
     residual.push_back(p.report.residual);
     slept.push_back(p.slept ? 1 : 0);
     iterations.push_back(p.report.iterations);
+    awake.push_back(p.report.awake);
   }
 };
 
@@ -1119,6 +1230,37 @@ TEST(CudaReplay, ActiveRegionReplayFollowsTheWholeMesh) {
   EXPECT_LE(most, 0.05);
   EXPECT_EQ(std::memcmp(region.force.data(), again.force.data(), region.force.size() * sizeof(Vec3d)), 0);
   EXPECT_EQ(std::memcmp(region.x.data(), again.x.data(), region.x.size() * sizeof(Vec3d)), 0);
+}
+
+/// The physical mesh's awake region in a whole async replay (the steps inside the launches):
+/// forces within the region's goals of the whole mesh's through the grasp, fewer vertices
+/// iterated, and the same bits run twice; with the virtual mesh's region too.
+TEST(CudaReplay, PhysicalRegionReplayFollowsTheWholeMesh) {
+  EBH_REQUIRE_DEVICE();
+  const int ticks = 1500;
+  const Trace whole = replay_grasp(Backend::Cuda, Mode::Async, ticks);
+  for (const bool both : {false, true}) {
+    std::vector<std::string> set = {"solver.physical_region=0.0003"};
+    if (both) set.push_back("solver.active_region=0.0003");
+    const Trace region = replay_grasp(Backend::Cuda, Mode::Async, ticks, 1.2, false, set);
+    const Trace again = replay_grasp(Backend::Cuda, Mode::Async, ticks, 1.2, false, set);
+    ASSERT_EQ(region.force.size(), size_t(ticks));
+    const auto [rms, most] = force_difference(region.force, whole.force);
+    double awake = 0;
+    int most_awake = 0;
+    for (const int a : region.awake) { awake += a; most_awake = std::max(most_awake, a); }
+    awake /= region.awake.size();
+    std::printf("[ physical region replay%s ] %d ticks: |F| diff RMS %.3g N, max %.3g N; %.0f vertices iterated a step "
+                "(at most %d)\n", both ? ", both regions" : "", ticks, rms, most, awake, most_awake);
+    EXPECT_LE(rms, 0.01);
+    EXPECT_LE(most, 0.05);
+    EXPECT_EQ(whole.awake.front(), -1);
+    EXPECT_GT(region.awake.front(), 0) << "the first step iterates every patch";
+    EXPECT_LT(awake, region.awake.front()) << "the region must leave patches asleep";
+    EXPECT_EQ(std::memcmp(region.force.data(), again.force.data(), region.force.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(region.x.data(), again.x.data(), region.x.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(region.awake, again.awake);
+  }
 }
 
 /// Surface contact's contact lists (DeviceHapticSetup::contact_lists: a step after a Newton call

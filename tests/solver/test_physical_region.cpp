@@ -6,7 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
+#include <numeric>
+#include <random>
 #include <set>
 #include <vector>
 
@@ -204,6 +207,67 @@ TEST(PhysicalRegion, TheResultApproachesTheWholeMeshAsTheToleranceFalls) {
   const std::vector<Vec3d> tiny = run(1e-30, true, &tiny_awake);
   EXPECT_EQ(tiny_awake, 1.0);
   EXPECT_EQ(std::memcmp(tiny.data(), heavy.data(), heavy.size() * sizeof(Vec3d)), 0);
+}
+
+// The region at the grain of patches (patch_halos, the CUDA step's rule): a patch's halo holds a hot
+// or seeded vertex exactly when choose_awake wakes one of the patch's free vertices. Patches cut
+// from a shuffled vertex order (scattered, and some holding only pinned vertices), hot vertices
+// and moved virtual vertices drawn at random, the pinned bottom face among them.
+TEST(PhysicalRegion, APatchHaloHoldsAMovedVertexExactlyWhenOneOfThePatchsVerticesWakes) {
+  const double d = 1e-6;
+  RegionSim r(d, 4, 4, 8);
+  r.step();  // every virtual vertex seen where it rests
+  const PhysicalModel& m = r.sim.pm;
+  const int n = m.num_vertices;
+  std::mt19937 rng(3);
+  std::vector<int> members(n);
+  std::iota(members.begin(), members.end(), 0);
+  std::shuffle(members.begin(), members.end(), rng);
+  // The pinned vertices first: the first patches hold only pinned ones, one holds both kinds.
+  std::stable_partition(members.begin(), members.end(), [&](int a) { return m.pinned[a] != 0; });
+  std::vector<int> offsets{0};
+  for (int k = 9; k < n; k += 7) offsets.push_back(k);
+  offsets.push_back(n);
+  const PatchHalos halos = patch_halos(m, offsets, members);
+  ASSERT_EQ(halos.offsets.size(), offsets.size());
+  int compared = 0, woken = 0, slept = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    // The step before moved a few vertices (hot); the virtual mesh moved at a few places (seeds).
+    std::vector<std::uint8_t> moved(n, 0);
+    for (int i = 0; i < n; ++i) r.sim.pw.x[i] = r.sim.pw.x_start[i] = m.rest[m.vertex_order[i]];
+    for (int k = 0; k < trial % 3; ++k) {
+      const int a = std::uniform_int_distribution<int>(0, n - 1)(rng);
+      if (!m.pinned[a]) r.sim.pw.x[m.vertex_local[a]] += Vec3d{2 * d, 0, 0};
+    }
+    std::vector<Vec3d> q = r.q;
+    std::vector<std::uint8_t> virtual_moved(q.size(), 0);
+    for (int k = 0; k < (trial / 3) % 3; ++k) {
+      const int j = std::uniform_int_distribution<int>(0, static_cast<int>(q.size()) - 1)(rng);
+      q[j] += Vec3d{0, 2 * d, 0};
+      virtual_moved[j] = 1;
+    }
+    for (int a = 0; a < n; ++a) {
+      moved[a] = squared_norm(r.sim.pw.x[m.vertex_local[a]] - r.sim.pw.x_start[m.vertex_local[a]]) > d * d;
+      for (int k = m.cpl_offsets[a]; k < m.cpl_offsets[a + 1]; ++k) moved[a] |= virtual_moved[m.cpl_virtual[k]];
+    }
+    choose_awake(m, r.sim.pw, q, false, r.region);
+    for (int p = 0; p + 1 < static_cast<int>(offsets.size()); ++p) {
+      bool cpu = false, halo = false;
+      for (int k = offsets[p]; k < offsets[p + 1]; ++k) cpu = cpu || r.region.awake[m.vertex_local[members[k]]];
+      for (int k = halos.offsets[p]; k < halos.offsets[p + 1]; ++k) {
+        const int a = halos.vertices[k];
+        EXPECT_FALSE(m.pinned[a]) << "a pinned vertex never wakes: not in a halo";
+        halo = halo || moved[a];
+      }
+      EXPECT_EQ(halo, cpu) << "trial " << trial << ", patch " << p;
+      ++compared;
+      (cpu ? woken : slept) += 1;
+    }
+  }
+  EXPECT_EQ(halos.offsets[1], 0) << "the pinned patch's halo is empty";
+  EXPECT_GT(woken, 20);
+  EXPECT_GT(slept, 20);
+  std::printf("[ patch halos ] %d patch decisions, %d awake, %d asleep\n", compared, woken, slept);
 }
 
 // The region's steps give the same bits on one and two threads and with a helping thread.

@@ -42,6 +42,7 @@ struct ReplayTrace {
   std::vector<double> physical_iterations;  // K
   std::vector<double> physical_residual;    // K
   std::vector<double> physical_inverted;    // K (empty in files written before /physical/inverted)
+  std::vector<double> physical_awake;       // K or empty (optional dataset: solver.physical_region), free vertices iterated
 
   // Timing: /timing/haptic_step_s (N, s) is required, /timing/physical_step_s (K, s) optional.
   std::vector<double> haptic_step_s;
@@ -55,7 +56,7 @@ struct ReplayTrace {
 /// Reads a replay output file. Required: root attributes haptic_hz and physical_hz; datasets
 /// /haptic/{t, force, torque, force_clamped, pose_physical, pose_virtual, penetration, contacts}
 /// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /haptic/active, /physical/{t, iterations,
-/// residual}, /timing/physical_step_s. Numeric types are converted to the fields' types.
+/// residual, inverted, awake}, /timing/physical_step_s. Numeric types are converted to the fields' types.
 /// Throws InputError ("FILE: dataset '/haptic/force': ...") for a missing file, a missing
 /// dataset or attribute, a wrong shape, a non-numeric dataset or a time axis that goes backwards.
 /// Non-finite values are kept: compute_metrics counts them.

@@ -41,7 +41,7 @@ const std::vector<std::string> kRunColumns = {"id", "status", "scene", "recordin
                                               "baseline", "overrides"};
 const std::vector<std::string> kResultColumns = {"wall_s", "virtual_s", "real_time_factor", "force_error_rms_N",
                                                  "force_error_max_N", "force_error_p999_N", "compared_ticks",
-                                                 "active_vertices_mean"};
+                                                 "active_vertices_mean", "awake_vertices_mean"};
 
 }  // namespace
 
@@ -294,8 +294,12 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
         } else {
           error = "no reference: its run " + r.reference_id + " has no output";
         }
-        const std::vector<double>& a = trace.active;  // solver.active_region's size per tick (empty: off)
-        results[7] = cell(a.empty() ? kNaN : std::accumulate(a.begin(), a.end(), 0.0) / static_cast<double>(a.size()));
+        // The regions' sizes: solver.active_region's per tick, solver.physical_region's per step (empty: off).
+        auto mean = [](const std::vector<double>& a) {
+          return a.empty() ? kNaN : std::accumulate(a.begin(), a.end(), 0.0) / static_cast<double>(a.size());
+        };
+        results[7] = cell(mean(trace.active));
+        results[8] = cell(mean(trace.physical_awake));
         std::size_t i = kResultColumns.size();
         for (const auto& [k, v] : metric_values(compute_metrics(trace))) results[i++] = cell(v);
         row[1] = "ok";

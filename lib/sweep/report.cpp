@@ -69,7 +69,8 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
   };
   const auto c_id = optional_column("id"), c_error = optional_column("error"), c_baseline = optional_column("baseline"),
              c_residual = optional_column("timing.physical_residual_max"), c_hz = optional_column("haptic_hz"),
-             c_rate = optional_column("whole.max_force_rate_N_per_s");
+             c_rate = optional_column("whole.max_force_rate_N_per_s"), c_active = optional_column("active_vertices_mean"),
+             c_awake = optional_column("awake_vertices_mean");
   auto number = [&](std::size_t row, std::size_t col) {
     const std::string& s = t.rows[row][col];
     if (s.empty()) return kNaN;
@@ -139,6 +140,8 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       p.residual_max = med(c_residual);
       p.max_force_rate = med(c_rate);
       p.haptic_hz = med(c_hz);
+      p.active_mean = med(c_active);
+      p.awake_mean = med(c_awake);
       p.below_rate = p.haptic_hz < min_haptic_hz;  // false for NaN (not in the summary)
       g.points.push_back(p);
     }
@@ -201,15 +204,24 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
   for (const ReportGroup& g : groups) {
     o << "\n## " << g.scene << " + " << g.recording << ", " << g.backend << "\n\n";
     o << "Reference: " << (g.reference.empty() ? "not in the summary" : md(g.reference)) << "\n\n";
+    // The regions' sizes where a run of the group has one (solver.active_region, solver.physical_region).
+    const bool regions = std::any_of(g.points.begin(), g.points.end(), [](const ReportPoint& p) {
+      return !std::isnan(p.active_mean) || !std::isnan(p.awake_mean);
+    });
     o << "| front | overrides | runs | wall (s) | real time | force error RMS (N) | max (N) | p99.9 (N) | max force rate "
-         "(N/s) | max physical residual |\n|---|---|---|---|---|---|---|---|---|---|\n";
-    for (const ReportPoint& p : g.points)
+         "(N/s) | max physical residual |"
+      << (regions ? " vertices iterated (virtual / physical) |" : "") << "\n|---|---|---|---|---|---|---|---|---|---|"
+      << (regions ? "---|" : "") << "\n";
+    for (const ReportPoint& p : g.points) {
       o << "| " << (p.front ? "*" : p.reference ? "reference" : p.below_rate ? "< Hz" : "")
         << (p.baseline.empty() ? "" : " " + md(p.baseline))
         << " | " << md(p.overrides) << " | " << p.runs << " | "
         << fmt(p.wall_s) << " | " << fmt(p.real_time_factor, "%.3gx") << " | " << fmt(p.error_rms) << " | "
         << fmt(p.error_max) << " | " << fmt(p.error_p999) << " | " << fmt(p.max_force_rate) << " | " << fmt(p.residual_max)
-        << " |\n";
+        << " |";
+      if (regions) o << " " << fmt(p.active_mean, "%.0f") << " / " << fmt(p.awake_mean, "%.0f") << " |";
+      o << "\n";
+    }
     if (g.points.empty()) o << "| | (no finished run) | | | | | | | | |\n";
     if (const auto goal = baseline_goal(g)) {
       const ReportPoint &b = g.points[goal->baseline], &f = g.points[goal->fastest], &a = g.points[goal->most_accurate];

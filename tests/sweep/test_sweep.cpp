@@ -693,6 +693,40 @@ TEST(SweepReport, MaxForceRateColumn) {
   }
 }
 
+// The regions' sizes (active_vertices_mean, awake_vertices_mean): a column of the table only when a
+// run of the group has one, its cells the medians of a configuration's runs, "-" where a run has
+// no region (an empty cell).
+TEST(SweepReport, RegionColumnOnlyWithARegion) {
+  const std::string file = front_file();
+  const CsvTable plain = parse_csv(front_text(), file);
+  const std::string without = report_markdown(build_report(plain, file));
+  EXPECT_EQ(without.find("vertices iterated"), std::string::npos) << without;
+  CsvTable t = plain;
+  t.header.push_back("active_vertices_mean");
+  t.header.push_back("awake_vertices_mean");
+  const std::size_t over = t.column("overrides", file);
+  for (std::size_t r = 0; r < t.rows.size(); ++r) {
+    const bool region = t.rows[r][over] == "k=2";  // two runs: 1000 and 3000 virtual, 50 and 70 physical
+    t.rows[r].push_back(region ? (r % 2 ? "1000" : "3000") : "");
+    t.rows[r].push_back(region ? (r % 2 ? "50" : "70") : "");
+  }
+  const std::vector<ReportGroup> g = build_report(t, file);
+  ASSERT_EQ(g.size(), 1u);
+  const std::string md = report_markdown(g);
+  EXPECT_NE(md.find("| max physical residual | vertices iterated (virtual / physical) |\n|---|---|---|---|---|---|---|---|---|---|---|\n"),
+            std::string::npos) << md;
+  for (const ReportPoint& p : g[0].points) {
+    if (p.overrides == "k=2") {
+      EXPECT_DOUBLE_EQ(p.active_mean, 2000);
+      EXPECT_DOUBLE_EQ(p.awake_mean, 60);
+    } else {
+      EXPECT_TRUE(std::isnan(p.active_mean) && std::isnan(p.awake_mean)) << p.overrides;
+    }
+  }
+  EXPECT_NE(md.find(" | 2000 / 60 |\n"), std::string::npos) << md;
+  EXPECT_NE(md.find(" | - / - |\n"), std::string::npos) << md;
+}
+
 // The baseline column: its point is marked, and the report finds the fastest configuration at
 // its error or lower and the most accurate at its wall time or lower (the hand-made summary with
 // k=3, wall 3 s and error 0.3 N, as the baseline: k=2 is both, 2.2 s and 0.2 N).

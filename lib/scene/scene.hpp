@@ -77,7 +77,8 @@
 //     physical_region: 0            # length (unit): iterate only the physical vertices that moved by
 //                                   #   more than this in the last step, or under a virtual vertex
 //                                   #   that did, and their neighbours; the rest are held. 0: every
-//                                   #   vertex (CPU backend; docs/MODEL.md, "The physical mesh's awake region")
+//                                   #   vertex (CUDA per patch of vertices: docs/MODEL.md, "The physical
+//                                   #   mesh's awake region")
 //     sleep: 0                      # length (unit): skip a physical step while nothing moved by more
 //                                   #   than this since the last one (docs/MODEL.md, "Sleeping");
 //                                   #   0: every step runs
@@ -189,13 +190,14 @@ struct SolverSpec {
   enum class Recovery { Direct, None };
   Recovery recovery = Recovery::Direct;
   double recovery_residual = 100;
-  /// The virtual mesh's active region (CPU backend; docs/MODEL.md, "The active region"): the
+  /// The virtual mesh's active region (docs/MODEL.md, "The active region"; CUDA per chunk of 128
+  /// vertices, vertex contact): the
   /// displacement from its coupling target (m) past which a virtual vertex spreads the region to
   /// its neighbours; 0: every virtual vertex is iterated (the full solve).
   double active_region = 0;
   bool active_region_given = false;  ///< the scene file or an override names it (the CUDA backend warns then)
-  /// The physical mesh's awake region (CPU backend; docs/MODEL.md, "The physical mesh's awake
-  /// region"): the motion (m) past which a physical vertex, and the virtual vertices' past which
+  /// The physical mesh's awake region (docs/MODEL.md, "The physical mesh's awake region"; CUDA
+  /// at the grain of its step's patches): the motion (m) past which a physical vertex, and the virtual vertices' past which
   /// the physical vertices under them, are iterated with their neighbours; 0: every vertex.
   double physical_region = 0;
   /// The sleeping physical mesh (docs/MODEL.md, "Sleeping"): a physical step is

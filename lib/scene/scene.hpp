@@ -191,14 +191,15 @@ struct SolverSpec {
   Recovery recovery = Recovery::Direct;
   double recovery_residual = 100;
   /// The virtual mesh's active region (docs/MODEL.md, "The active region"; CUDA per chunk of 128
-  /// vertices, vertex contact): the
-  /// displacement from its coupling target (m) past which a virtual vertex spreads the region to
-  /// its neighbours; 0: every virtual vertex is iterated (the full solve).
+  /// vertices, vertex contact): the displacement from its coupling target (m) past which a
+  /// virtual vertex spreads the region to its neighbours; 0: every virtual vertex is iterated (the
+  /// full solve).
   double active_region = 0;
   bool active_region_given = false;  ///< the scene file or an override names it (the CUDA backend warns then)
   /// The physical mesh's awake region (docs/MODEL.md, "The physical mesh's awake region"; CUDA
-  /// at the grain of its step's patches): the motion (m) past which a physical vertex, and the virtual vertices' past which
-  /// the physical vertices under them, are iterated with their neighbours; 0: every vertex.
+  /// at the grain of its step's patches): the motion (m) past which a physical vertex, and the
+  /// virtual vertices' past which the physical vertices under them, are iterated with their
+  /// neighbours; 0: every vertex.
   double physical_region = 0;
   /// The sleeping physical mesh (docs/MODEL.md, "Sleeping"): a physical step is
   /// skipped, the state held, while the last step moved no vertex and the virtual mesh moved no

@@ -3,6 +3,8 @@
 //                           q in, one graph launch, x out; median and p99 of single steps
 //   BM_CudaPhysicalStepDevice  the same step as the replay's device haptic tick runs it: q read from
 //                           and x left in device memory (launch, then wait for the step)
+//   BM_CudaPhysicalStepRegion  the step with the physical mesh's awake region (solver.physical_region)
+//                           under a local press: its cost against the share of the mesh it iterates
 //   BM_VirtualTick          the virtual mesh's part of a haptic tick (begin, 4 iterations with
 //                           contacts, end) on the CPU and on the device (q back after each iteration)
 //   BM_DeviceTicks          the device haptic tick alone (no physical steps): cholecystectomy_grasp's
@@ -178,6 +180,53 @@ void BM_CudaPhysicalStepDevice(benchmark::State& st, std::string scene) {
 }
 BENCHMARK_CAPTURE(BM_CudaPhysicalStepDevice, cholecystectomy, std::string("cholecystectomy"))
     ->ArgNames({"K"})->Args({16})->Args({0})
+    ->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
+/// The step with the awake region (CudaPhysicalOptions::region) at a tolerance of `tol_nm` nm
+/// (0: the region off) under a local press: the virtual vertices within 10 mm of the highest one
+/// move by 0.1 mm up and down, step to step, the rest of the virtual mesh at rest. Exactly the
+/// scene's K iterations (no stopping rule), the copying step (q in, x out); awake_share: the free
+/// vertices iterated per step over all free vertices, on average.
+void BM_CudaPhysicalStepRegion(benchmark::State& st, std::string scene) {
+  if (!device_ready(st)) return;
+  const Loaded& L = load(scene);
+  PhysicalStepParams params = physical_params(L.scene.spec.solver, L.pm);
+  params.tolerance = 0;  // exactly K iterations
+  CudaPhysicalOptions options;
+  options.region = 1e-9 * static_cast<double>(st.range(0));
+  CudaPhysicalSolver solver(L.pm, params, options);
+  PhysicalState state = make_physical_state(L.pm);
+  int top = 0;
+  for (int j = 0; j < L.pm.num_virtual; ++j)
+    if (L.vm.rest[j].z > L.vm.rest[top].z) top = j;
+  std::vector<Vec3d> up = L.vm.rest, down = L.vm.rest;
+  for (int j = 0; j < L.pm.num_virtual; ++j)
+    if (norm(L.vm.rest[j] - L.vm.rest[top]) < 0.01) {
+      up[j].z += 1e-4;
+      down[j].z -= 1e-4;
+    }
+  long k = 0;
+  for (; k < 20; ++k) solver.step(state, k % 2 ? up : down);  // warm-up: module load, graph upload
+  std::vector<double> times, device;
+  double awake = 0;
+  long steps = 0;
+  for (auto _ : st) {
+    const auto t0 = Clock::now();
+    const PhysicalStepReport r = solver.step(state, k++ % 2 ? up : down);
+    const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+    st.SetIterationTime(dt);
+    times.push_back(dt);
+    device.push_back(solver.last_device_seconds());
+    awake += r.awake >= 0 ? r.awake : L.pm.num_free;
+    ++steps;
+  }
+  st.counters["median_us"] = 1e6 * percentile(times, 0.5);
+  st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
+  st.counters["awake_share"] = steps > 0 ? awake / (static_cast<double>(steps) * L.pm.num_free) : 0.0;
+  st.counters["tets"] = L.pm.num_tets;
+  st.SetLabel(cuda_device_description());
+}
+BENCHMARK_CAPTURE(BM_CudaPhysicalStepRegion, cholecystectomy, std::string("cholecystectomy"))
+    ->ArgNames({"tol_nm"})->Args({0})->Args({300})->Args({1000})->Args({3000})->Args({100000})
     ->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_CudaPhysicalStep, gynaecology, std::string("gynaecology"))->ArgNames({"K", "pdl"})->Args({16, 1})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_CudaPhysicalStep, tube, std::string("tube"))->ArgNames({"K", "pdl"})->Args({16, 1})->UseManualTime()->MinTime(1.0)->Unit(benchmark::kMicrosecond);

@@ -103,6 +103,27 @@ void time_ticks(benchmark::State& st, Tick&& tick, std::vector<double>& times) {
 }
 
 #if EBH_HAVE_CUDA
+/// One physical step per benchmark iteration, `step()` timed from its launch to its report (the
+/// manual time); counters: the median and p99 of that wall time and the median device time of the
+/// step's graph (CudaPhysicalSolver::last_device_seconds).
+template <class Step>
+void time_steps(benchmark::State& st, const CudaPhysicalSolver& solver, Step&& step) {
+  std::vector<double> times, device;
+  times.reserve(1 << 16);
+  device.reserve(1 << 16);
+  for (auto _ : st) {
+    const auto t0 = Clock::now();
+    step();
+    const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+    st.SetIterationTime(dt);
+    times.push_back(dt);
+    device.push_back(solver.last_device_seconds());
+  }
+  st.counters["median_us"] = 1e6 * percentile(times, 0.5);
+  st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
+  st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
+}
+
 /// Gravity sag from rest, stepped repeatedly: the device cost of a step does not depend on the
 /// state (fixed iteration counts), so no reset is needed between steps.
 void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
@@ -117,20 +138,7 @@ void BM_CudaPhysicalStep(benchmark::State& st, std::string scene) {
   PhysicalState state = make_physical_state(L.pm);
   const std::vector<Vec3d> q = L.vm.rest;
   for (int i = 0; i < 20; ++i) solver.step(state, q);  // warm-up: module load, graph upload
-  std::vector<double> times, device;
-  times.reserve(1 << 16);
-  device.reserve(1 << 16);
-  for (auto _ : st) {
-    const auto t0 = Clock::now();
-    solver.step(state, q);
-    const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
-    st.SetIterationTime(dt);
-    times.push_back(dt);
-    device.push_back(solver.last_device_seconds());
-  }
-  st.counters["median_us"] = 1e6 * percentile(times, 0.5);
-  st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
-  st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
+  time_steps(st, solver, [&] { solver.step(state, q); });
   st.counters["pdl"] = solver.programmatic_launch();
   st.counters["tet_evals"] = solver.tet_evaluations_per_tet();
   st.counters["tets"] = L.pm.num_tets;
@@ -160,21 +168,10 @@ void BM_CudaPhysicalStepDevice(benchmark::State& st, std::string scene) {
     solver.launch_device_step();
     solver.device_step_report();
   }
-  std::vector<double> times, device;
-  times.reserve(1 << 16);
-  device.reserve(1 << 16);
-  for (auto _ : st) {
-    const auto t0 = Clock::now();
+  time_steps(st, solver, [&] {  // device_step_report sets last_device_seconds (its time_s)
     solver.launch_device_step();
-    const PhysicalStepReport r = solver.device_step_report();
-    const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
-    st.SetIterationTime(dt);
-    times.push_back(dt);
-    device.push_back(r.time_s);
-  }
-  st.counters["median_us"] = 1e6 * percentile(times, 0.5);
-  st.counters["p99_us"] = 1e6 * percentile(times, 0.99);
-  st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
+    solver.device_step_report();
+  });
   st.counters["tets"] = L.pm.num_tets;
   st.SetLabel(cuda_device_description());
 }
@@ -206,21 +203,13 @@ void BM_CudaPhysicalStepRegion(benchmark::State& st, std::string scene) {
     }
   long k = 0;
   for (; k < 20; ++k) solver.step(state, k % 2 ? up : down);  // warm-up: module load, graph upload
-  std::vector<double> times, device;
   double awake = 0;
   long steps = 0;
-  for (auto _ : st) {
-    const auto t0 = Clock::now();
+  time_steps(st, solver, [&] {
     const PhysicalStepReport r = solver.step(state, k++ % 2 ? up : down);
-    const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
-    st.SetIterationTime(dt);
-    times.push_back(dt);
-    device.push_back(solver.last_device_seconds());
     awake += r.awake >= 0 ? r.awake : L.pm.num_free;
     ++steps;
-  }
-  st.counters["median_us"] = 1e6 * percentile(times, 0.5);
-  st.counters["graph_median_us"] = 1e6 * percentile(device, 0.5);
+  });
   st.counters["awake_share"] = steps > 0 ? awake / (static_cast<double>(steps) * L.pm.num_free) : 0.0;
   st.counters["tets"] = L.pm.num_tets;
   st.SetLabel(cuda_device_description());

@@ -30,6 +30,8 @@ void SharedLoops::run_chunks(int n, int chunk, ChunkFn fn, void* body) {
   next_.store(0, std::memory_order_relaxed);
   const std::uint64_t g = generation_.load(std::memory_order_relaxed) + 1;  // odd: open
   generation_.store(g, std::memory_order_seq_cst);
+  if (leave_first_)
+    for (unsigned spins = 0; next_.load(std::memory_order_relaxed) == 0;) pause(spins);
   for (int c; (c = next_.fetch_add(1, std::memory_order_relaxed)) < chunks;)
     fn(body, c * chunk, std::min(n, (c + 1) * chunk));
   // Every chunk is claimed. Close the loop, then wait for the helper to leave it: it stays inside

@@ -42,6 +42,11 @@ class SharedLoops {
   /// Chunks the helper ran (a statistic: tests check that it took part).
   std::uint64_t helped_chunks() const { return helped_.load(std::memory_order_relaxed); }
 
+  /// For tests of a helper's part: the owner leaves the first chunk of every loop to a helper and
+  /// waits until one has claimed it, so both threads run chunks of every loop however the threads
+  /// are scheduled. Set only while a thread is in help_until: without a helper no loop ends.
+  void leave_first_chunk_to_helper(bool on) { leave_first_ = on; }
+
  private:
   static void pause(unsigned& spins);
 
@@ -54,6 +59,7 @@ class SharedLoops {
   std::atomic<int> next_{0};    // the next chunk to claim
   std::atomic<int> inside_{0};  // helpers from their check of the generation to their last chunk's end
   std::atomic<std::uint64_t> helped_{0};
+  bool leave_first_ = false;
 };
 
 /// Elements per chunk of the solvers' shared loops: a few microseconds of work each.

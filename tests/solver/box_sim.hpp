@@ -91,15 +91,16 @@ void expect_bitwise_equal_across_threads(Run run) {
 }
 
 /// run(&shared) with a thread helping with `shared`'s loops (SharedLoops::help_until, as a replay's
-/// other side does), again until the helper has taken a chunk (its thread may start late on a
-/// loaded machine; at most 20 runs); then run(nullptr): the two results must be bitwise equal.
+/// other side does), the first chunk of every loop left to the helper so that both threads take
+/// part however a loaded machine schedules them; then run(nullptr): the two results must be
+/// bitwise equal.
 template <class Run>
 void expect_bitwise_equal_with_a_helper(Run run) {
   SharedLoops shared;
   std::atomic<bool> done{false};
+  shared.leave_first_chunk_to_helper(true);
   std::thread helper([&] { shared.help_until([&] { return done.load(); }); });
-  std::vector<Vec3d> helped = run(&shared);
-  for (int attempt = 1; attempt < 20 && shared.helped_chunks() == 0; ++attempt) helped = run(&shared);
+  const std::vector<Vec3d> helped = run(&shared);
   done = true;
   helper.join();
   EXPECT_GT(shared.helped_chunks(), 0u) << "the helper never took a chunk";

@@ -19,6 +19,17 @@ namespace ebh {
 namespace fs = std::filesystem;
 namespace {
 
+/// What a file that is not a regular one is, for a message ("a character device").
+std::string file_kind(fs::file_type type) {
+  switch (type) {
+    case fs::file_type::character: return "a character device";
+    case fs::file_type::block: return "a block device";
+    case fs::file_type::fifo: return "a named pipe";
+    case fs::file_type::socket: return "a socket";
+    default: return "a special file";
+  }
+}
+
 // The signal handler may only touch lock-free atomics and call async-signal-safe functions
 // (unlink, _exit), so temporary names live in a fixed table of plain buffers.
 constexpr int kSlots = 32;
@@ -171,6 +182,13 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
     throw InputError(final_ + ": names ending in " + std::string(kPartialSuffix) + " are kept for unfinished outputs");
   std::error_code ec;
   if (fs::is_directory(p, ec)) fail("cannot write the output", EISDIR);
+  // The output is written beside its name and renamed over it: that would replace a device, a
+  // pipe or a socket (as root, `-o /dev/null` would turn /dev/null into a file), so only a
+  // regular file (or a link to one) is replaced.
+  if (const fs::file_status st = fs::status(p, ec); !ec && fs::exists(st) && !fs::is_regular_file(st))
+    throw InputError(final_ + ": " + file_kind(st.type()) +
+                     ", not a regular file: an output is written beside its name and renamed over it, which "
+                     "would replace it; name a regular file");
   // The output's folder is made when missing (`-o out/run.h5` on a fresh checkout).
   const fs::path parent = p.parent_path();
   if (!parent.empty() && !fs::exists(parent, ec)) {

@@ -7,6 +7,7 @@
 #include <sched.h>
 #include <sys/mount.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -190,6 +191,33 @@ TEST(Atomic, OutputInAFileNotAFolderNamesTheOutputAndTheReason) {
   EXPECT_INPUT_ERROR(write_file_atomically(tmp / "afile/out.txt", "x"), "afile/out.txt: ", "Not a directory");
   fs::create_directories(tmp / "folder");
   EXPECT_INPUT_ERROR(h5::AtomicFile(tmp / "folder"), "folder: ", "Is a directory");
+}
+
+/// An output named like a device or a pipe is refused before anything is written: renaming the
+/// finished file over it would replace it (as root, `-o /dev/null` replaced /dev/null).
+TEST(Atomic, ADeviceOrAPipeAsTheOutputIsRefusedAndLeftAsItWas) {
+  const fs::path dir = fs::temp_directory_path() / ("ebh_special_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path fifo = dir / "pipe.h5", null_link = dir / "null.h5";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+  fs::create_symlink("/dev/null", null_link);
+  for (const auto& [path, kind] : {std::pair{fifo, "a named pipe"}, std::pair{null_link, "a character device"}}) {
+    try {
+      AtomicOutput out(path.string());
+      ADD_FAILURE() << path << " was accepted";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(path.string() + ": " + kind + ", not a regular file"), std::string::npos) << what;
+    }
+  }
+  EXPECT_TRUE(fs::is_fifo(fs::symlink_status(fifo)));
+  EXPECT_TRUE(fs::is_symlink(fs::symlink_status(null_link)));
+  EXPECT_TRUE(fs::is_character_file(fs::status("/dev/null")));
+  std::size_t entries = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++entries;
+  EXPECT_EQ(entries, 2u) << "no temporary left beside them";
+  fs::remove_all(dir);
 }
 
 TEST(Atomic, StaleTemporariesOfGoneWritersAreRemoved) {

@@ -33,6 +33,23 @@ void walk_reach(const PosedTool& tool, std::span<const Vec3d> q, const VertexGri
   }
 }
 
+/// The cells that may hold a vertex inside a collider of `tool`, per collider: calls visit(c, i) for
+/// the vertices of collider c's cells, one pass per collider.
+template <class Visit>
+void walk_inside(const PosedTool& tool, std::span<const Vec3d> q, VertexGrid& grid, Visit&& visit) {
+  for (int c = 0; c < tool.count; ++c) {
+    const Collider<double>& shape = tool.shape[c];
+    const Rigid<double>& w = tool.world[c];
+    auto keep = [&](Vec3d cell_centre, double slack) {
+      return signed_distance_local(shape, apply_inverse(w, cell_centre)) <= slack;
+    };
+    auto visit_c = [&](int i) { visit(c, i); };
+    const std::uint32_t pass = grid.next_pass();
+    cover_collider(shape, w, grid.cell_size(),
+                   [&](Vec3d lo, Vec3d hi) { grid.query(lo, hi, 0.0, q, keep, visit_c, pass); });
+  }
+}
+
 }  // namespace
 
 bool vertex_contact(const PosedTool& tool, Projection projection, int vertex, Vec3d q, Vec3d n_v, ContactPoint& out) {
@@ -137,23 +154,13 @@ void detect_contacts(const ToolModel& tool, const ToolPose& pose, double jaw, st
     const std::uint32_t stamp = broadphase.next_stamp();
     auto& stamps = broadphase.stamps();
     ContactPoint cp;
-    for (int c = 0; c < posed.count; ++c) {
-      const Collider<double>& shape = posed.shape[c];
-      const Rigid<double>& w = posed.world[c];
-      auto keep = [&](Vec3d cell_centre, double slack) {
-        return signed_distance_local(shape, apply_inverse(w, cell_centre)) <= slack;
-      };
-      auto visit = [&](int i) {
-        if (stamps[i] == stamp) return;
-        stamps[i] = stamp;
-        if (!excluded.empty() && excluded[i]) return;
-        const Vec3d n = normals.empty() ? Vec3d{} : normals[i];
-        if (vertex_contact(posed, tool.projection, i, q[i], n, cp)) out.push_back({i, cp.target, k_con});
-      };
-      const std::uint32_t pass = broadphase.next_pass();
-      cover_collider(shape, w, broadphase.cell_size(),
-                     [&](Vec3d lo, Vec3d hi) { broadphase.query(lo, hi, 0.0, q, keep, visit, pass); });
-    }
+    walk_inside(posed, q, broadphase, [&](int, int i) {
+      if (stamps[i] == stamp) return;
+      stamps[i] = stamp;
+      if (!excluded.empty() && excluded[i]) return;
+      const Vec3d n = normals.empty() ? Vec3d{} : normals[i];
+      if (vertex_contact(posed, tool.projection, i, q[i], n, cp)) out.push_back({i, cp.target, k_con});
+    });
     if (!broadphase.violated()) return;
     out.resize(start);
     broadphase.rebuild(q, broadphase.margin());
@@ -167,20 +174,10 @@ double penetration_depth(const ToolModel& tool, const ToolPose& pose, double jaw
   double deepest = 0.0;
   for (int attempt = 0; attempt < 2; ++attempt) {
     deepest = 0.0;
-    for (int c = 0; c < posed.count; ++c) {
-      const Collider<double>& shape = posed.shape[c];
-      const Rigid<double>& w = posed.world[c];
-      auto keep = [&](Vec3d cell_centre, double slack) {
-        return signed_distance_local(shape, apply_inverse(w, cell_centre)) <= slack;
-      };
-      auto visit = [&](int i) {
-        if (!excluded.empty() && excluded[i]) return;
-        deepest = std::max(deepest, -signed_distance_local(shape, apply_inverse(w, q[i])));
-      };
-      const std::uint32_t pass = broadphase.next_pass();
-      cover_collider(shape, w, broadphase.cell_size(),
-                     [&](Vec3d lo, Vec3d hi) { broadphase.query(lo, hi, 0.0, q, keep, visit, pass); });
-    }
+    walk_inside(posed, q, broadphase, [&](int c, int i) {
+      if (!excluded.empty() && excluded[i]) return;
+      deepest = std::max(deepest, -signed_distance_local(posed.shape[c], apply_inverse(posed.world[c], q[i])));
+    });
     if (!broadphase.violated()) break;
     broadphase.rebuild(q, broadphase.margin());
   }

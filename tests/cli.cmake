@@ -403,8 +403,18 @@ add_test(NAME cli.replay.nothing_pinned_under_gravity
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_NUM_OUT}/p.h5;--duration;0.1;--set;pinned=[];--set;gravity=[0,0,-9.81]"
     "-DEXPECT=^ebh: error: .*tube.yaml: nothing is pinned, so under gravity the physical mesh has no static equilibrium"
     -DOUTPUT=${EBH_NUM_OUT}/p.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# The gap's two blocks with only the right one's bottom pinned: the left block floats free.
+add_test(NAME cli.replay.free_part_under_gravity
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;gap;gap_insert;-o;${EBH_NUM_OUT}/fp.h5;--duration;0.1;--set;pinned=[{box: {min: [0,-30,-31], max: [31,30,-29]}}]"
+    "-DEXPECT=^ebh: error: .*gap.yaml: 1 part\\(s\\) of the physical mesh touch no pinned vertex \\(the first holds vertex 0 and 1928 vertices\\), so under gravity"
+    -DOUTPUT=${EBH_NUM_OUT}/fp.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.replay.free_part_warns
+  COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_NUM_OUT}/fpw.h5 --duration 0.02 --set stages.settle=false
+    --set "pinned=[{box: {min: [0,-30,-31], max: [31,30,-29]}}]")
+set_tests_properties(cli.replay.free_part_warns PROPERTIES PASS_REGULAR_EXPRESSION
+  "gap.yaml: pinned: 1 part\\(s\\) of the physical mesh \\(1928 of its 3850 vertices; the first holds vertex 0 and 1928 vertices\\) touch no pinned vertex: they float free")
 set_tests_properties(cli.replay.absurd_gravity cli.replay.absurd_stiffness cli.replay.nothing_pinned_under_gravity
-  PROPERTIES LABELS cli)
+  cli.replay.free_part_under_gravity cli.replay.free_part_warns PROPERTIES LABELS cli)
 foreach(method chebyshev direct)
   add_test(NAME cli.replay.everything_pinned.${method}
     COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/all_${method}.h5 --duration 0.1 --set solver.method=${method}

@@ -721,7 +721,56 @@ Scene build_scene(SceneSpec spec_in) {
   }
   std::sort(scene.pinned.begin(), scene.pinned.end());
   scene.pinned.erase(std::unique(scene.pinned.begin(), scene.pinned.end()), scene.pinned.end());
+  // A pinned region that holds all of the mesh, or only some of its parts: the tool meets a rigid
+  // body, or pushes a part away (under gravity it falls; settle_under_gravity refuses it).
+  const std::string where = spec.file.string();
+  const int nv = static_cast<int>(scene.physical.vertices.size());
+  if (nv > 0 && static_cast<int>(scene.pinned.size()) == nv)
+    scene.warnings.push_back(where + ": pinned: every vertex of the physical mesh is pinned, so it cannot move and "
+                                     "the tool meets a rigid body (pin a region of it)");
+  if (nv > 0 && scene.pinned.empty())
+    scene.warnings.push_back(where + ": pinned: nothing is pinned, so the physical mesh floats free (under gravity "
+                                     "it falls) and the tool pushes it away (pin a region of it)");
+  if (!scene.pinned.empty()) {
+    scene.free_parts = unpinned_parts(scene.physical, scene.pinned);
+    if (!scene.free_parts.empty()) {
+      int free_vertices = 0;
+      for (const auto& [first, count] : scene.free_parts) free_vertices += count;
+      const auto& [first, count] = scene.free_parts.front();
+      scene.warnings.push_back(
+          where + ": pinned: " + std::to_string(scene.free_parts.size()) + " part(s) of the physical mesh (" +
+          std::to_string(free_vertices) + " of its " + std::to_string(nv) +
+          " vertices; the first holds vertex " + std::to_string(first) + " and " + std::to_string(count) +
+          " vertices) touch no pinned vertex: they float free (pin each part, or under gravity they fall)");
+    }
+  }
   return scene;
+}
+
+std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned) {
+  const int n = static_cast<int>(mesh.vertices.size());
+  std::vector<int> root(n);
+  for (int i = 0; i < n; ++i) root[i] = i;
+  auto find = [&root](int a) {
+    while (root[a] != a) a = root[a] = root[root[a]];
+    return a;
+  };
+  for (const Tet& t : mesh.tets)
+    for (int k = 1; k < 4; ++k) {
+      const int a = find(t[0]), b = find(t[k]);
+      if (a != b) root[std::max(a, b)] = std::min(a, b);  // the root is the part's lowest vertex
+    }
+  std::vector<int> size(n, 0);
+  std::vector<char> held(n, 0), used(n, 0);
+  for (const Tet& t : mesh.tets)
+    for (int k = 0; k < 4; ++k) used[t[k]] = 1;
+  for (int i = 0; i < n; ++i)
+    if (used[i]) ++size[find(i)];
+  for (const int i : pinned) held[find(i)] = 1;
+  std::vector<std::pair<int, int>> parts;
+  for (int i = 0; i < n; ++i)
+    if (size[i] > 0 && find(i) == i && !held[i]) parts.emplace_back(i, size[i]);
+  return parts;
 }
 
 fs::path resolve_data_path(const std::string& name_or_path, const std::string& folder, const std::string& extension,

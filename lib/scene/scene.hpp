@@ -93,6 +93,7 @@
 //                                   # settle: start from the static equilibrium under gravity
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -282,8 +283,15 @@ struct Scene {
   TetMesh physical;              ///< the physical mesh (tets), metres
   SurfaceMesh virtual_surface;   ///< the virtual mesh source surface before refinement, metres
   std::vector<int> pinned;       ///< sorted physical-vertex indices that never move
+  /// The connected parts of the physical mesh (tets sharing a vertex) with no pinned vertex, while
+  /// some other part has one: each part's lowest vertex index and its number of vertices.
+  std::vector<std::pair<int, int>> free_parts;
   std::vector<std::string> warnings;  ///< non-fatal problems found at load, one line each ("FILE: ...")
 };
+
+/// The connected parts of `mesh` (its tets joined by shared vertices) none of whose vertices is in
+/// `pinned` (sorted): each part's lowest vertex index and its number of vertices, by that index.
+std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned);
 
 /// Parses and validates a scene file. Throws InputError ("FILE: key 'a.b': ...").
 SceneSpec load_scene_spec(const std::filesystem::path& file);

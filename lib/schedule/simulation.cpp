@@ -203,6 +203,13 @@ int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<s
   if (scene.pinned.empty())
     throw InputError(where + ": nothing is pinned, so under gravity the physical mesh has no static equilibrium "
                              "to start from (pin a region, or set stages.settle: false or gravity: [0, 0, 0])");
+  if (!scene.free_parts.empty())
+    throw InputError(where + ": " + std::to_string(scene.free_parts.size()) +
+                     " part(s) of the physical mesh touch no pinned vertex (the first holds vertex " +
+                     std::to_string(scene.free_parts.front().first) + " and " +
+                     std::to_string(scene.free_parts.front().second) +
+                     " vertices), so under gravity they have no static equilibrium to start from (pin each part, "
+                     "or set stages.settle: false or gravity: [0, 0, 0])");
   PhysicalModelOptions opt;
   opt.h = 1e3;
   opt.factorize = true;

@@ -4,6 +4,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 
 #include "../mesh/test_util.hpp"
 #include "scene/scene.hpp"
@@ -111,6 +112,70 @@ TEST(Scene, LoadsInMetresAndPins) {
   EXPECT_EQ(s.pinned, (std::vector<int>{1, 3, 4, 6, 7}));
 }
 
+TEST(Scene, PartsTouchingNoPinnedVertexAreFoundByTheirSharedVertices) {
+  TetMesh m;
+  m.vertices.resize(15);
+  // three parts: 0-3; 4-7; 8-14, two tets sharing vertex 11
+  m.tets = {{0, 1, 2, 3}, {4, 5, 6, 7}, {8, 9, 10, 11}, {11, 12, 13, 14}};
+  using Parts = std::vector<std::pair<int, int>>;
+  EXPECT_EQ(unpinned_parts(m, std::vector<int>{1}), (Parts{{4, 4}, {8, 7}}));
+  EXPECT_EQ(unpinned_parts(m, std::vector<int>{1, 13}), (Parts{{4, 4}}));
+  EXPECT_EQ(unpinned_parts(m, std::vector<int>{}), (Parts{{0, 4}, {4, 4}, {8, 7}}));
+  EXPECT_EQ(unpinned_parts(m, std::vector<int>{3, 6, 14}), Parts{});
+}
+
+/// A scene whose pins hold only some of its mesh's parts, all of it or none of it says so (a part
+/// the tool pushes away, a rigid body); under gravity a free part stops the settling with one line.
+TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  auto has = [](const Scene& s, const std::string& needle) {
+    for (const std::string& w : s.warnings)
+      if (w.find(needle) != std::string::npos) return true;
+    return false;
+  };
+  const Scene all = load_scene(write_temp("all.yaml", replace(good, "  - group: bottom\n", "  - group: tissue\n")));
+  EXPECT_TRUE(has(all, "pinned: every vertex of the physical mesh is pinned")) << ::testing::PrintToString(all.warnings);
+  const Scene none = load_scene(write_temp(
+      "none.yaml", replace(good, "pinned:\n  - group: bottom\n  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n", "pinned: []\n")));
+  EXPECT_TRUE(has(none, "pinned: nothing is pinned, so the physical mesh floats free")) << ::testing::PrintToString(none.warnings);
+
+  // cube22.msh twice, the copy 20 mm higher (node ids + 2000, element ids + 100): only the lower
+  // cube's bottom is pinned
+  std::string msh = slurp(data("mesh/cube22.msh"));
+  const std::size_t n0 = msh.find("$Nodes\n8\n") + 9, n1 = msh.find("$EndNodes");
+  const std::size_t e0 = msh.find("$Elements\n13\n") + 13, e1 = msh.find("$EndElements");
+  std::string nodes = msh.substr(n0, n1 - n0), elements = msh.substr(e0, e1 - e0), more_nodes, more_elements;
+  std::istringstream ns(nodes), es(elements);
+  for (std::string line; std::getline(ns, line);) {
+    std::istringstream l(line);
+    long id;
+    double x, y, z;
+    l >> id >> x >> y >> z;
+    more_nodes += std::to_string(id + 2000) + " " + std::to_string(x) + " " + std::to_string(y) + " " + std::to_string(z + 20) + "\n";
+  }
+  for (std::string line; std::getline(es, line);) {
+    std::istringstream l(line);
+    std::vector<long> f;
+    for (long v; l >> v;) f.push_back(v);
+    if (f[1] != 4) continue;  // the tets only
+    more_elements += std::to_string(f[0] + 100) + " 4 2 1 1";
+    for (int k = 5; k < 9; ++k) more_elements += " " + std::to_string(f[k] + 2000);
+    more_elements += "\n";
+  }
+  msh = msh.substr(0, n0 - 2) + "16\n" + nodes + more_nodes + msh.substr(n1, e0 - 3 - n1) + "18\n" + elements +
+        more_elements + msh.substr(e1);
+  const fs::path two = write_temp("two_cubes.msh", msh);
+  const std::string two_yaml = replace(replace(good, data("mesh/cube22.msh").string(), two.string()),
+                                       "  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n", "");
+  const Scene parts = load_scene(write_temp("two.yaml", two_yaml));
+  EXPECT_EQ(parts.free_parts, (std::vector<std::pair<int, int>>{{8, 8}}));
+  EXPECT_TRUE(has(parts, "pinned: 1 part(s) of the physical mesh (8 of its 16 vertices; the first holds vertex 8 and 8 "
+                         "vertices) touch no pinned vertex"))
+      << ::testing::PrintToString(parts.warnings);
+  EXPECT_TRUE(load_scene(write_temp("one.yaml", replace(good, "  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n", "")))
+                  .free_parts.empty());
+}
+
 TEST(Scene, ObjVirtualSurfaceSphereAndHalfspaceInCentimetres) {
   const Scene s = load_scene(data("scene/cube_obj.yaml"));
   EXPECT_EQ(s.spec.virtual_mesh, data("mesh/cube.obj").lexically_normal());
@@ -140,7 +205,7 @@ TEST(Scene, UnitsScaleEveryLength) {
 
 /// A scene on cube22.msh (a 10-unit cube; node 101 at (10, 0, 10), vertex 0) with `extra` YAML.
 fs::path cube_scene(const std::string& name, const std::string& extra) {
-  return write_temp(name, "mesh: {physical: " + data("mesh/cube22.msh").string() + "}\n" + extra);
+  return write_temp(name, "mesh: {physical: " + data("mesh/cube22.msh").string() + "}\npinned: [{group: bottom}]\n" + extra);
 }
 
 // The mesh file in cm, scaled by 2, turned a quarter turn about +z and moved by (1, 2, 3) cm; the
@@ -430,7 +495,7 @@ TEST(SceneMesh, NegativeOrientationFlippedWithWarning) {
     msh = replace(msh, "1 1 " + t, "1 1 " + swapped);
   }
   write_temp("neg.msh", msh);
-  const Scene s = load_scene(write_temp("neg.yaml", "unit: mm\nmesh: {physical: neg.msh}\n"));
+  const Scene s = load_scene(write_temp("neg.yaml", "unit: mm\nmesh: {physical: neg.msh}\npinned: [{group: bottom}]\n"));
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("flipped"), std::string::npos);
   EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
@@ -439,7 +504,7 @@ TEST(SceneMesh, NegativeOrientationFlippedWithWarning) {
 TEST(SceneMesh, UnreferencedVertexRemovedWithWarning) {
   const std::string msh = replace(slurp(data("mesh/cube22.msh")), "$Nodes\n8\n", "$Nodes\n9\n77 5 5 5\n");
   write_temp("extra.msh", msh);
-  const Scene s = load_scene(write_temp("extra.yaml", "unit: mm\nmesh: {physical: extra.msh}\n"));
+  const Scene s = load_scene(write_temp("extra.yaml", "unit: mm\nmesh: {physical: extra.msh}\npinned: [{group: bottom}]\n"));
   EXPECT_EQ(s.physical.vertices.size(), 8u);
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("removed 1 vertices used by no tet"), std::string::npos);

@@ -164,13 +164,11 @@ __device__ void put_candidate(const MeshDev& d, TailShared& sh, int i, Vec3f q) 
   if (i < kCache) sh.cand[i] = static_cast<Vec3d>(q); else d.cand_q[i] = static_cast<Vec3d>(q);
 }
 
-/// Block 0 after an unpipelined step of q: the candidates (their q in d.cand_q) and the held
-/// vertices (d.held_list) in vertex order.
-__device__ void unpipelined_lists(const MeshDev& d, const Vec3f* q, TailShared& sh) {
-  int n0 = 0, n1 = 0;
-  const int* off = chunk_offsets(d, sh, n0, n1);
-  for (int i = threadIdx.x; i < n0; i += kBlock) put_candidate(d, sh, i, list_item(d, off, d.block_cand, i));
-  for (int i = threadIdx.x; i < n1; i += kBlock) {  // the first kCache in shared memory (held_slot: their entry)
+/// Block 0: the n1 held vertices of an unpipelined step of q in vertex order (off: chunk_offsets'),
+/// the first kCache with their grasp point and q in shared memory (held_slot: their entry), the
+/// rest in d.held_list.
+__device__ void gather_held(const MeshDev& d, const int* off, int n1, const Vec3f* q, TailShared& sh) {
+  for (int i = threadIdx.x; i < n1; i += kBlock) {
     const int j = list_item(d, off + d.chunks + 1, d.block_held, i);
     d.held_slot[j] = i < kCache ? i : -1;
     if (i < kCache) {
@@ -180,6 +178,15 @@ __device__ void unpipelined_lists(const MeshDev& d, const Vec3f* q, TailShared& 
       d.held_list[i] = j;
     }
   }
+}
+
+/// Block 0 after an unpipelined step of q: the candidates (their q in d.cand_q) and the held
+/// vertices (gather_held) in vertex order.
+__device__ void unpipelined_lists(const MeshDev& d, const Vec3f* q, TailShared& sh) {
+  int n0 = 0, n1 = 0;
+  const int* off = chunk_offsets(d, sh, n0, n1);
+  for (int i = threadIdx.x; i < n0; i += kBlock) put_candidate(d, sh, i, list_item(d, off, d.block_cand, i));
+  gather_held(d, off, n1, q, sh);
   if (threadIdx.x == 0) { sh.nc = n0; sh.nh = n1; }
   __syncthreads();
 }

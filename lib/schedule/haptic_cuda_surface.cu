@@ -226,36 +226,7 @@ __device__ void surface_vertex_blocks(const MeshDev& d, const SurfaceDev& sd, co
     }
     clock.report(d.profile, s);  // before the arrival block 0 reads the step's slowest blocks at
     if (threadIdx.x == 0) add_release(sd.arrive, 1ull);
-    // As vertex_blocks: a tick that starts a physical period k > 0 hands its start q to step k.
-    if (d.period > 0 && first && S.tick(s) > 0 && S.tick(s) % d.period == 0) {
-      const Vec3f* q = S.in(s);
-      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
-        const int j = c * kBlock + threadIdx.x;
-        if (j < d.m) d.snap_q[j] = q[j];
-      }
-      __syncthreads();
-      if (threadIdx.x == 0) add_release(&d.steps->snapped, 1ull);
-    }
-    // As vertex_blocks: the next tick's E_svc targets of this block's vertices.
-    p_ready = last && s + 1 < steps;
-    if (p_ready) {
-      const float alpha = static_cast<float>(S.input(s + 1).alpha);
-      const Vec3f *x_prev = d.x_prev, *x_vis = d.x_vis;
-      if (d.period > 0) {
-        const long long next = S.tick(s) + 1, k = next / d.period;
-        if (next % d.period == 0) {
-          if (threadIdx.x == 0)
-            while (load_acquire(&d.steps->done) < static_cast<unsigned long long>(k)) {}
-          __syncthreads();
-        }
-        x_vis = d.xring[ring_slot(k - 1)];
-        x_prev = d.xring[ring_slot(k - 2)];
-      }
-      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
-        const int j = c * kBlock + threadIdx.x;
-        if (j < d.m) d.p[j] = blended_paired_point(d, x_prev, x_vis, j, alpha);
-      }
-    }
+    p_ready = step_handoffs(d, S, s, steps);
   }
 }
 
@@ -401,16 +372,7 @@ __device__ void surface_lists(const MeshDev& d, const SurfaceDev& sd, const Tool
                               TailShared& sh, TailMarks& marks) {
   int n0 = 0, n1 = 0;
   const int* off = chunk_offsets(d, sh, n0, n1);  // the held vertices' offsets; sh.contacts
-  for (int i = threadIdx.x; i < n1; i += kBlock) {  // as unpipelined_lists
-    const int j = list_item(d, off + d.chunks + 1, d.block_held, i);
-    d.held_slot[j] = i < kCache ? i : -1;
-    if (i < kCache) {
-      sh.held_local[i] = d.grasp_local[j];
-      sh.held_q[i] = static_cast<Vec3d>(q[j]);
-    } else {
-      d.held_list[i] = j;
-    }
-  }
+  gather_held(d, off, n1, q, sh);
   if (!(called || last)) {
     if (threadIdx.x == 0) { sh.nc = 0; sh.nh = n1; }
     __syncthreads();
@@ -454,13 +416,7 @@ __device__ void surface_tool_block(const MeshDev& d, const SurfaceDev& sd, const
   const unsigned long long others = gridDim.x - 1;
   TailMarks marks;
   marks.begin(d.profile);
-  if (threadIdx.x == 0) {
-    sh.P = d.state->position;
-    sh.Q = d.state->orientation;
-    sh.anchor_P = d.state->anchor_position;
-    sh.anchor_Q = d.state->anchor_orientation;
-  }
-  __syncthreads();
+  load_tool_state(d, sh);
   auto release = [&](unsigned long long e, int s) {  // tool_block's
     if (threadIdx.x == kReleaseThread) {
       d.slots[s & 1] = SlotPose{sh.P, sh.Q};

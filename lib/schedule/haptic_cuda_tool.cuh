@@ -337,6 +337,18 @@ __device__ bool same_jaws(const DeviceTickInput& a, const DeviceTickInput& b) {
   return a.jaw_cos == b.jaw_cos && a.jaw_sin == b.jaw_sin;
 }
 
+/// Block 0 at a run's start: the virtual tool's pose and anchor, as the run before left them, into
+/// shared memory (tool_block, surface_tool_block).
+__device__ void load_tool_state(const MeshDev& d, TailShared& sh) {
+  if (threadIdx.x == 0) {
+    sh.P = d.state->position;
+    sh.Q = d.state->orientation;
+    sh.anchor_P = d.state->anchor_position;
+    sh.anchor_Q = d.state->anchor_orientation;
+  }
+  __syncthreads();
+}
+
 /// Block 0: the virtual tool. Each step, once the step's lists are made, it runs the Newton call
 /// (virtual_tool_tail) when one follows the step (Schedule::called; a step without it is followed
 /// by an unpipelined step). An unpipelined step's vertices wait for the call before them: block 0
@@ -351,13 +363,7 @@ __device__ void tool_block(const MeshDev& d, const ToolConst& t, const Schedule&
   const unsigned long long others = gridDim.x - 1;
   TailMarks marks;
   marks.begin(d.profile);
-  if (threadIdx.x == 0) {
-    sh.P = d.state->position;
-    sh.Q = d.state->orientation;
-    sh.anchor_P = d.state->anchor_position;
-    sh.anchor_Q = d.state->anchor_orientation;
-  }
-  __syncthreads();
+  load_tool_state(d, sh);
   // Releases step s (epoch e) with the pose (sh.P, sh.Q) in its slot, from which each vertex
   // block poses the tool itself. By one thread of the last warp, with no barrier: the fence of its
   // release (its stores' round trip to L2) stalls no other warp, and the Newton call that follows

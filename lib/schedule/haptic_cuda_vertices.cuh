@@ -421,6 +421,45 @@ __device__ bool vertex_chunk(const MeshDev& d, const ToolConst& t, long long tic
   return awake;
 }
 
+/// A vertex block's work after it arrived at step s, with or without surface contact (vertex_blocks,
+/// surface_vertex_blocks). A tick that starts a physical period k > 0 (a launch across periods):
+/// its start q, this block's part of it, is step k's input (run_ticks_with_steps; step 0 starts
+/// from the initial mesh). A tick's last step but the run's: while block 0 finishes the tick, the
+/// next tick's E_svc targets of this block's vertices, which only this block reads (block 0 gets
+/// the deferred vertices' sums); the physical results they blend are the launch's first
+/// period's, or (a launch across periods) the next tick's period's, waited for when that tick
+/// starts the period. Returns whether it blended them (the next step's p_ready).
+__device__ bool step_handoffs(const MeshDev& d, const Schedule& S, int s, int steps) {
+  const int blocks = gridDim.x - 1;
+  if (d.period > 0 && S.first(s) && S.tick(s) > 0 && S.tick(s) % d.period == 0) {
+    const Vec3f* q = S.in(s);
+    for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+      const int j = c * kBlock + threadIdx.x;
+      if (j < d.m) d.snap_q[j] = q[j];
+    }
+    __syncthreads();
+    if (threadIdx.x == 0) add_release(&d.steps->snapped, 1ull);
+  }
+  if (!S.last(s) || s + 1 >= steps) return false;
+  const float alpha = static_cast<float>(S.input(s + 1).alpha);
+  const Vec3f *x_prev = d.x_prev, *x_vis = d.x_vis;
+  if (d.period > 0) {
+    const long long next = S.tick(s) + 1, k = next / d.period;
+    if (next % d.period == 0) {
+      if (threadIdx.x == 0)
+        while (load_acquire(&d.steps->done) < static_cast<unsigned long long>(k)) {}
+      __syncthreads();
+    }
+    x_vis = d.xring[ring_slot(k - 1)];
+    x_prev = d.xring[ring_slot(k - 2)];
+  }
+  for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
+    const int j = c * kBlock + threadIdx.x;
+    if (j < d.m) d.p[j] = blended_paired_point(d, x_prev, x_vis, j, alpha);
+  }
+  return true;
+}
+
 /// The blocks other than block 0: each step, once released, the step's vertices of their chunks
 /// (chunk c = blockIdx.x - 1, + gridDim.x - 1, ...) at the pose of the step's slot, then arrive.
 __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedule& S, int steps, BlockShared& sm) {
@@ -467,40 +506,7 @@ __device__ void vertex_blocks(const MeshDev& d, const ToolConst& t, const Schedu
     if (threadIdx.x == 0) {
       add_release(&d.sync->arrive, 1ull);
     }
-    // A tick that starts a physical period k > 0 (a launch across periods): its start q, this
-    // block's part of it, is step k's input (run_ticks_with_steps; step 0 starts from the initial mesh).
-    if (d.period > 0 && first && S.tick(s) > 0 && S.tick(s) % d.period == 0) {
-      const Vec3f* q = S.in(s);
-      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
-        const int j = c * kBlock + threadIdx.x;
-        if (j < d.m) d.snap_q[j] = q[j];
-      }
-      __syncthreads();
-      if (threadIdx.x == 0) add_release(&d.steps->snapped, 1ull);
-    }
-    // While block 0 finishes a tick, the next tick's E_svc targets of this block's vertices: only
-    // this block reads them (block 0 gets the deferred vertices' sums). The physical results they
-    // blend are the launch's first period's, or (a launch across periods) the next tick's
-    // period's, waited for when that tick starts the period.
-    p_ready = last && s + 1 < steps;
-    if (p_ready) {
-      const float alpha = static_cast<float>(S.input(s + 1).alpha);
-      const Vec3f *x_prev = d.x_prev, *x_vis = d.x_vis;
-      if (d.period > 0) {
-        const long long next = S.tick(s) + 1, k = next / d.period;
-        if (next % d.period == 0) {
-          if (threadIdx.x == 0)
-            while (load_acquire(&d.steps->done) < static_cast<unsigned long long>(k)) {}
-          __syncthreads();
-        }
-        x_vis = d.xring[ring_slot(k - 1)];
-        x_prev = d.xring[ring_slot(k - 2)];
-      }
-      for (int c = blockIdx.x - 1; c < d.chunks; c += blocks) {
-        const int j = c * kBlock + threadIdx.x;
-        if (j < d.m) d.p[j] = blended_paired_point(d, x_prev, x_vis, j, alpha);
-      }
-    }
+    p_ready = step_handoffs(d, S, s, steps);
   }
 }
 

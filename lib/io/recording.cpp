@@ -71,6 +71,17 @@ Recording read_recording(const std::string& path) {
   h5::File f = h5::File::open_read(path);
   if (!f.has("trajectory")) throw InputError(path + ": /trajectory: missing group (is it a recording?)");
   h5::Group g = f.group("trajectory");
+  // The rows a dataset declares are counted before any is read: a logger that pre-sized its
+  // datasets and crashed leaves a small file claiming billions of rows (docs/FORMATS.md, Limits).
+  // The other datasets must have t's rows, which their shape check says before reading them.
+  {
+    const h5::Dataset td = g.dataset("t");
+    const std::vector<std::size_t> shape = td.shape();
+    if (!shape.empty() && static_cast<double>(shape[0]) > kMaxRecordingSamples)
+      throw InputError(td.where() + ": " + std::to_string(shape[0]) + " samples declared; the limit is " +
+                       std::to_string(static_cast<long long>(kMaxRecordingSamples)) +
+                       " samples (2.8 h at 1 kHz): split the recording");
+  }
   auto t = g.read<double>("t", {-1});
   const auto n = static_cast<std::ptrdiff_t>(t.rows());
   // Every per-sample dataset has the same first dimension as t: the shape check says so.

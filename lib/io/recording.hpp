@@ -63,9 +63,10 @@ using SampleLocator = std::function<std::string(std::string_view dataset, std::s
 
 /// A device samples at most as fast as a haptic loop ticks (scene/scene.hpp kMaxHapticHz).
 inline constexpr double kMaxSampleRateHz = 100e3;
-/// The most samples a recording is made with (synth): 10 million is 2.8 hours at 1 kHz and about
-/// 2 GB of memory while it is written (~200 bytes a sample: the samples, a validated copy and the
-/// packed datasets; docs/FORMATS.md, Limits).
+/// The most samples a recording is made with (synth) or read with (read_recording counts the rows
+/// a file declares before reading any): 10 million is 2.8 hours at 1 kHz and about 2 GB of memory
+/// while it is written (~200 bytes a sample: the samples, a validated copy and the packed
+/// datasets; docs/FORMATS.md, Limits).
 inline constexpr double kMaxRecordingSamples = 10e6;
 
 /// Checks a recording sample by sample and normalises its quaternions in place (and flips each

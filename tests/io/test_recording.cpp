@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <cmath>
 #include <filesystem>
@@ -162,6 +163,42 @@ TEST(Recording, WriteRejectsBadRecordingAndLeavesNoFile) {
   r.t[3] = r.t[2];
   EXPECT_INPUT_ERROR(write_recording(tmp / "w.h5", r), "/trajectory/t[3]");
   EXPECT_EQ(tmp.entries(), 0u);
+}
+
+// A logger that pre-sized its datasets and crashed leaves a small file whose datasets declare
+// far more rows than were written (unwritten chunks cost no space). Writes such a dataset with
+// the HDF5 API itself: the project's layer only writes what it holds.
+static void declare_rows(const std::string& path, const char* name, hsize_t rows, hsize_t cols) {
+  hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  hid_t g = H5Gopen2(f, "trajectory", H5P_DEFAULT);
+  H5Ldelete(g, name, H5P_DEFAULT);
+  const hsize_t dims[2] = {rows, cols}, maxdims[2] = {H5S_UNLIMITED, cols}, chunk[2] = {1024, cols};
+  const int rank = cols == 0 ? 1 : 2;
+  hid_t space = H5Screate_simple(rank, dims, maxdims);
+  hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+  H5Pset_chunk(dcpl, rank, chunk);
+  hid_t d = H5Dcreate2(g, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+  EXPECT_GE(d, 0);
+  H5Dclose(d);
+  H5Pclose(dcpl);
+  H5Sclose(space);
+  H5Gclose(g);
+  H5Fclose(f);
+}
+
+TEST(Recording, DeclaredRowsAreCheckedBeforeAnythingIsRead) {
+  test::ScratchDir tmp;
+  const std::string p = tmp / "claim.h5";
+  // t declares 30 million rows, 3 times the limit: refused naming the file and dataset, before
+  // the 240 MB of t (and the 2 GB of the rest) are allocated.
+  RawRecording(make_recording()).write(p);
+  declare_rows(p, "t", 30'000'000, 0);
+  EXPECT_INPUT_ERROR(read_recording(p), p + ": /trajectory/t: 30000000 samples declared", "the limit is 10000000");
+  // t is sane but position declares 1e10 rows: its shape check comes before its read.
+  RawRecording(make_recording()).write(p);
+  declare_rows(p, "position", 10'000'000'000ull, 3);
+  EXPECT_INPUT_ERROR(read_recording(p), p + ": /trajectory/position", "shape (10000000000, 3), expected (10, 3)");
 }
 
 TEST(SampleAt, InterpolatesAndClamps) {

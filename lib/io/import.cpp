@@ -62,11 +62,11 @@ std::string at(const std::string& path, std::size_t line) { return path + ":" + 
 // A byte no text log holds: a control character other than tab, carriage return, form feed.
 bool binary_byte(unsigned char c) { return (c < 0x20 && c != '\t' && c != '\r' && c != '\f') || c == 0x7f; }
 
-std::vector<Line> read_lines(const std::string& path) {
-  check_input_file(path);
+// One pass over a text log's lines (for_each_line).
+template <class F>
+void for_each_text_line(const std::string& path, F&& each) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
-  std::vector<Line> lines;
   std::string s;
   std::size_t n = 0;
   while (std::getline(in, s)) {
@@ -83,9 +83,28 @@ std::vector<Line> read_lines(const std::string& path) {
       }
     if (auto h = s.find('#'); h != std::string::npos) s.erase(h);
     s = trim(s);
-    if (!s.empty()) lines.push_back({n, s});
+    if (!s.empty()) each(Line{n, s});
   }
-  return lines;
+}
+
+// Calls `each(line)` for every line that is not blank once its comment is stripped, in order,
+// after a text log's checks (byte-order mark, control bytes). It streams: memory holds one line,
+// not the log (a 12-million-line log is read in the memory of its samples alone). The checks run
+// over the whole file first, so a binary file is named as such rather than by its first line's
+// fields.
+template <class F>
+void for_each_line(const std::string& path, F&& each) {
+  check_input_file(path);
+  for_each_text_line(path, [](const Line&) {});
+  for_each_text_line(path, each);
+}
+
+// A log is read up to the samples a recording may hold (kMaxRecordingSamples, docs/FORMATS.md,
+// Limits): one sample more stops the import at its line, before memory grows with the log.
+void check_sample_limit(const Recording& rec, std::size_t limit, const std::string& where) {
+  if (rec.t.size() >= limit)
+    throw InputError(where + ": more than " + std::to_string(limit) +
+                     " samples, the limit of a recording (2.8 h at 1 kHz): split the log");
 }
 
 double to_number(const std::string& tok, const std::string& where, const std::string& field) {
@@ -139,10 +158,11 @@ Quatd orthonormalised(const Eigen::Matrix3d& M, const std::string& where) {
   return quat_from_matrix(R);
 }
 
-void read_openhaptics(const std::string& path, double unit, double rate, Recording& rec,
+void read_openhaptics(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
                       std::vector<std::size_t>& line_of) {
-  for (const Line& l : read_lines(path)) {
+  for_each_line(path, [&](const Line& l) {
     const std::string where = at(path, l.number);
+    check_sample_limit(rec, limit, where);
     auto tok = split(l.text, false);
     if (tok.size() < 17)
       throw InputError(where + ": " + std::to_string(tok.size()) +
@@ -168,32 +188,38 @@ void read_openhaptics(const std::string& path, double unit, double rate, Recordi
     rec.buttons.push_back(static_cast<std::uint8_t>(mask));
     rec.t.push_back(static_cast<double>(rec.t.size()) / rate);
     line_of.push_back(l.number);
-  }
+  });
 }
 
-void read_csv(const std::string& path, double unit, double rate, Recording& rec, std::vector<std::size_t>& line_of,
-              bool& has_t) {
-  auto lines = read_lines(path);
-  if (lines.empty()) throw InputError(path + ": empty log (expected a header line naming the columns)");
+void read_csv(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
+              std::vector<std::size_t>& line_of, bool& has_t) {
   const std::vector<std::string> known{"t", "x", "y", "z", "qw", "qx", "qy", "qz", "jaw", "buttons"};
   std::map<std::string, std::size_t> col;
-  auto header = split(lines[0].text, true);
-  for (std::size_t i = 0; i < header.size(); ++i) {
-    std::string h = header[i];
-    std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (std::find(known.begin(), known.end(), h) == known.end())
-      throw InputError(at(path, lines[0].number) + ": unknown column '" + header[i] +
-                       "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons" +
-                       (header[i].find(';') != std::string::npos ? "; columns are separated by commas, spaces or tabs, not ';'" : "") +
-                       ")");
-    if (!col.emplace(h, i).second) throw InputError(at(path, lines[0].number) + ": column '" + h + "' appears twice");
-  }
-  for (const char* req : {"x", "y", "z", "qw", "qx", "qy", "qz"})
-    if (!col.count(req)) throw InputError(at(path, lines[0].number) + ": missing column '" + req + "'");
-  has_t = col.count("t") > 0;
-  for (std::size_t li = 1; li < lines.size(); ++li) {
-    const Line& l = lines[li];
+  std::vector<std::string> header;
+  bool have_header = false;
+  for_each_line(path, [&](const Line& l) {
+    if (!have_header) {
+      have_header = true;
+      header = split(l.text, true);
+      for (std::size_t i = 0; i < header.size(); ++i) {
+        std::string h = header[i];
+        std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
+        if (std::find(known.begin(), known.end(), h) == known.end())
+          throw InputError(at(path, l.number) + ": unknown column '" + header[i] +
+                           "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons" +
+                           (header[i].find(';') != std::string::npos
+                                ? "; columns are separated by commas, spaces or tabs, not ';'"
+                                : "") +
+                           ")");
+        if (!col.emplace(h, i).second) throw InputError(at(path, l.number) + ": column '" + h + "' appears twice");
+      }
+      for (const char* req : {"x", "y", "z", "qw", "qx", "qy", "qz"})
+        if (!col.count(req)) throw InputError(at(path, l.number) + ": missing column '" + req + "'");
+      has_t = col.count("t") > 0;
+      return;
+    }
     const std::string where = at(path, l.number);
+    check_sample_limit(rec, limit, where);
     auto tok = split(l.text, true);
     if (tok.size() != header.size())
       throw InputError(where + ": " + std::to_string(tok.size()) + " fields, the header has " +
@@ -206,7 +232,8 @@ void read_csv(const std::string& path, double unit, double rate, Recording& rec,
     rec.buttons.push_back(
         col.count("buttons") ? static_cast<std::uint8_t>(to_int(tok[col.at("buttons")], where, "buttons", 0, 255)) : 0);
     line_of.push_back(l.number);
-  }
+  });
+  if (!have_header) throw InputError(path + ": empty log (expected a header line naming the columns)");
 }
 
 bool same(const Quatd& a, const Quatd& b) { return a.w == b.w && a.x == b.x && a.y == b.y && a.z == b.z; }
@@ -252,8 +279,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   Recording rec;
   std::vector<std::size_t> line_of;
   bool has_t = false;
-  if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, rec, line_of);
-  else read_csv(path, unit, rate_hz, rec, line_of, has_t);
+  if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, opt.max_samples, rec, line_of);
+  else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t);
   if (rec.t.empty()) throw InputError(path + ": no samples (the log has no data lines)");
 
   rec.source = "device";

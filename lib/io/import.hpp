@@ -35,6 +35,9 @@ struct ImportOptions {
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
   std::string tool = "hook";
+  /// The most samples read: a log with more is refused at the line of the first one past it,
+  /// before memory grows with the log. kMaxRecordingSamples; tests lower it.
+  std::size_t max_samples = static_cast<std::size_t>(kMaxRecordingSamples);
 };
 
 /// The rate of a log without times when no --rate is given (a Geomagic Touch's servo loop).

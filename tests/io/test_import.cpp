@@ -174,6 +174,35 @@ TEST(Import, ALogWithoutTimesTakesTheGivenRateAndKeepsTimesWhenDropping) {
   EXPECT_TRUE(report.rate_assumed);  // said by ebh import
 }
 
+// A log is read up to the samples a recording holds: one more stops the import at that line,
+// before the rest of the log is read (a later defect is never reached) or held in memory.
+TEST(Import, ALogPastTheSampleLimitStopsAtTheFirstSampleBeyondIt) {
+  test::ScratchDir tmp;
+  EXPECT_EQ(ImportOptions{}.max_samples, static_cast<std::size_t>(kMaxRecordingSamples));
+  ImportOptions opt;
+  opt.max_samples = 3;
+  {
+    std::FILE* f = std::fopen((tmp / "long.csv").c_str(), "w");
+    std::fputs("x,y,z,qw,qx,qy,qz\n# comment\n0,0,0,1,0,0,0\n0,0,1,1,0,0,0\n\n0,0,2,1,0,0,0\n0,0,3,1,0,0,0\nnot a sample\n", f);
+    std::fclose(f);
+  }
+  EXPECT_INPUT_ERROR(import_log(tmp / "long.csv", opt), tmp / "long.csv:7: more than 3 samples", "split the log");
+  {
+    std::FILE* f = std::fopen((tmp / "long.txt").c_str(), "w");
+    for (int i = 0; i < 4; ++i) std::fputs("1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1\n", f);
+    std::fputs("garbage\n", f);
+    std::fclose(f);
+  }
+  EXPECT_INPUT_ERROR(import_log(tmp / "long.txt", opt), tmp / "long.txt:4: more than 3 samples");
+  opt.max_samples = 4;  // exactly at the limit: read
+  {
+    std::FILE* f = std::fopen((tmp / "four.txt").c_str(), "w");
+    for (int i = 0; i < 4; ++i) std::fprintf(f, "1 0 0 0 0 1 0 0 0 0 1 0 5 6 %d 1 1\n", i);
+    std::fclose(f);
+  }
+  EXPECT_EQ(import_log(tmp / "four.txt", opt).size(), 4u);
+}
+
 TEST(Import, NominalRateIsExactForWholeRates) {
   std::vector<double> t;
   for (int i = 0; i <= 1000; ++i) t.push_back(0.001 * i);  // 1 kHz with the rounding of 0.001 i

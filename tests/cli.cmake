@@ -49,8 +49,13 @@ add_test(NAME cli.import.drop_all
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/all_repeats.txt;-o;${EBH_IO_OUT}/all.h5;--drop-repeats"
     "-DEXPECT=^ebh: error: .*all_repeats.txt: every sample repeats the first one; --drop-repeats would leave a single sample"
     -DOUTPUT=${EBH_IO_OUT}/all.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# A log stamped in milliseconds reads as a rate 1000 times too low: said, naming the unit.
+file(WRITE ${EBH_IO_OUT}/ms.csv "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,0,0,0.001,1,0,0,0\n2,0,0,0.002,1,0,0,0\n")
+add_test(NAME cli.import.times_in_ms COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms.h5)
+set_tests_properties(cli.import.times_in_ms PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*ms.csv: column t: the times give 1 Hz \\(3 samples over 2 s\\), below 10 Hz; a device logs at 100 Hz to 10 kHz: the times look like milliseconds \\(1000 Hz\\); t must be in seconds")
 set_property(TEST cli.import.repeats cli.import.drop_repeats cli.import.assumed_rate cli.import.rate_not_used
-  cli.import.drop_all APPEND PROPERTY LABELS cli)
+  cli.import.drop_all cli.import.times_in_ms APPEND PROPERTY LABELS cli)
 
 # ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py
 # writes it: peak force 1.52 N, one contact episode, one tick over 1 ms) and unreadable inputs.

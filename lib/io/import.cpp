@@ -11,6 +11,7 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <utility>
 
 #include "core/error.hpp"
 #include "core/units.hpp"
@@ -242,6 +243,43 @@ bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+// The time unit under which times read as seconds give `rate_hz` of a device (kDeviceRateLowHz ..
+// kDeviceRateHighHz), with the rate it would be; nullptr when none does.
+std::pair<const char*, double> likely_time_unit(double rate_hz) {
+  for (const auto& [name, per_second] : {std::pair{"milliseconds", 1e3}, {"microseconds", 1e6}, {"nanoseconds", 1e9}})
+    if (rate_hz * per_second >= kDeviceRateLowHz && rate_hz * per_second <= kDeviceRateHighHz)
+      return {name, rate_hz * per_second};
+  return {nullptr, 0};
+}
+
+// The rate a log's times (has_t) or --rate give, against a recording's limit (an error) and a
+// device's rates (a warning, returned): times in ms make a rate 1000 times too low, in units
+// smaller than seconds' one too high.
+std::string check_log_rate(const Recording& rec, bool has_t, const std::string& path) {
+  const std::string band = "a device logs at " + num(kDeviceRateLowHz) + " Hz to " + num(kDeviceRateHighHz / 1e3) + " kHz";
+  const std::string span = num(rec.rate_hz) + " Hz (" + std::to_string(rec.size()) + " samples over " +
+                           num(rec.duration()) + " s)";
+  if (has_t && rec.rate_hz > kMaxSampleRateHz)
+    throw InputError(path + ": column t: the times give " + span + ", beyond the " + num(kMaxSampleRateHz / 1e3) +
+                     " kHz limit of a recording's rate (" + band + "): t must be in seconds");
+  if (!(rec.rate_hz < kMinPlausibleLogRateHz)) return "";
+  if (!has_t) {
+    const double khz = rec.rate_hz * 1e3;
+    return "--rate " + num(rec.rate_hz) + " Hz is below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
+           (khz >= kDeviceRateLowHz && khz <= kDeviceRateHighHz ? " (the rate is in Hz: --rate " + num(khz) + "?)" : "");
+  }
+  const auto [unit, rate] = likely_time_unit(rec.rate_hz);
+  return "column t: the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
+         (unit ? std::string(": the times look like ") + unit + " (" + num(rate) + " Hz); t must be in seconds"
+               : ": is t in seconds?");
+}
+
 }  // namespace
 
 double parse_length_unit(const std::string& name) {
@@ -295,6 +333,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   if (has_t && rec.size() >= 2 && rec.t.back() > rec.t.front()) rec.rate_hz = nominal_rate(rec.t);
   // Validated before repeats are dropped, so an error names the log's own line.
   validate_recording(rec, path, [&](std::string_view, std::size_t i) { return at(path, line_of[i]); });
+  const std::string rate_warning = check_log_rate(rec, has_t, path);
   // On unit quaternions (the validator normalised them); turning every sample by the same
   // rotations keeps consecutive ones in the same hemisphere, and equal samples equal.
   apply_pose_transforms(opt.transforms, rec.position, rec.orientation);
@@ -303,6 +342,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   ImportReport r;
   r.has_times = has_t;
   r.rate_assumed = !has_t && !opt.rate_hz;
+  r.rate_warning = rate_warning;
   std::vector<std::size_t> keep{0};
   for (std::size_t i = 1; i < rec.size(); ++i) {
     const bool repeat = rec.position[i] == rec.position[i - 1] && same(rec.orientation[i], rec.orientation[i - 1]) &&

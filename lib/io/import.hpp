@@ -43,12 +43,20 @@ struct ImportOptions {
 /// The rate of a log without times when no --rate is given (a Geomagic Touch's servo loop).
 inline constexpr double kAssumedLogRateHz = 1000;
 
+/// A device logs at 100 Hz to 10 kHz (a Geomagic Touch's servo loop runs at 1 kHz). A log's rate
+/// below kMinPlausibleLogRateHz is most likely times in ms, us or ns (or --rate in kHz): import
+/// warns naming the unit under which the rate is a device's. A rate above kMaxSampleRateHz is an
+/// error (docs/FORMATS.md, Limits).
+inline constexpr double kMinPlausibleLogRateHz = 10;
+inline constexpr double kDeviceRateLowHz = 100, kDeviceRateHighHz = 10e3;
+
 /// What an import found besides the samples, for the command's report.
 struct ImportReport {
   std::size_t repeats = 0;     ///< samples equal to the previous one in position, orientation, jaw and buttons
   bool dropped = false;        ///< they were removed (ImportOptions::drop_repeats)
   bool has_times = false;      ///< the log gave times (csv t column)
   bool rate_assumed = false;   ///< no times and no rate given: kAssumedLogRateHz
+  std::string rate_warning;    ///< the rate is below kMinPlausibleLogRateHz: what it likely means
 };
 
 /// Reads a log; errors name the file and line ("log.txt:17: ..."). `report`, when given, is filled.

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <utility>
 
 #include "io/import.hpp"
 #include "io_test_util.hpp"
@@ -201,6 +202,41 @@ TEST(Import, ALogPastTheSampleLimitStopsAtTheFirstSampleBeyondIt) {
     std::fclose(f);
   }
   EXPECT_EQ(import_log(tmp / "four.txt", opt).size(), 4u);
+}
+
+// A device logs at 100 Hz to 10 kHz: times in ms, us or ns read as seconds make a rate 1e3, 1e6 or
+// 1e9 times too low (a warning naming the unit), times that give more than the 100 kHz limit are
+// refused naming the file and column.
+TEST(Import, ALogsTimesInTheWrongUnitAreNamed) {
+  test::ScratchDir tmp;
+  auto log = [&](const std::string& name, double seconds_per_unit) {
+    std::FILE* f = std::fopen((tmp / name).c_str(), "w");
+    std::fputs("t,x,y,z,qw,qx,qy,qz\n", f);
+    for (int i = 0; i < 5; ++i) std::fprintf(f, "%.17g,0,0,%d,1,0,0,0\n", 1e-3 * i / seconds_per_unit, i);
+    std::fclose(f);
+    return tmp / name;
+  };
+  ImportOptions opt;
+  ImportReport report;
+  EXPECT_EQ(import_log(log("s.csv", 1), opt, &report).rate_hz, 1000.0);
+  EXPECT_EQ(report.rate_warning, "");
+  for (const auto& [unit, per_s] : {std::pair{"milliseconds", 1e-3}, {"microseconds", 1e-6}, {"nanoseconds", 1e-9}}) {
+    import_log(log(std::string(unit) + ".csv", per_s), opt, &report);
+    EXPECT_NE(report.rate_warning.find("column t: the times give"), std::string::npos) << report.rate_warning;
+    EXPECT_NE(report.rate_warning.find(std::string("the times look like ") + unit + " (1000 Hz)"), std::string::npos)
+        << report.rate_warning;
+  }
+  // 1 us apart in a log stamped in seconds would be 1 MHz: ten times the limit.
+  EXPECT_INPUT_ERROR(import_log(log("fast.csv", 1e3), opt), tmp / "fast.csv: column t: the times give 1e+06 Hz",
+                     "beyond the 100 kHz limit", "t must be in seconds");
+  // A log without times: --rate in kHz instead of Hz.
+  opt.rate_hz = 1;
+  import_log(kData + "repeats_openhaptics.txt", opt, &report);
+  EXPECT_NE(report.rate_warning.find("--rate 1 Hz is below 10 Hz"), std::string::npos) << report.rate_warning;
+  EXPECT_NE(report.rate_warning.find("--rate 1000?"), std::string::npos) << report.rate_warning;
+  opt.rate_hz = 250;
+  import_log(kData + "repeats_openhaptics.txt", opt, &report);
+  EXPECT_EQ(report.rate_warning, "");
 }
 
 TEST(Import, NominalRateIsExactForWholeRates) {

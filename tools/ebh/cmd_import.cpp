@@ -67,6 +67,8 @@ void run(const ImportArgs& a) {
   if (report.has_times && a.rate_hz)
     std::fprintf(stderr, "ebh: warning: %s: the log has a t column; --rate %s is not used\n", a.log.c_str(),
                  ebh::cli::format_number(*a.rate_hz).c_str());
+  if (!report.rate_warning.empty())
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), report.rate_warning.c_str());
   if (mesh_box)
     if (auto w = ebh::check_recording_scale(rec, mesh_box->lo, mesh_box->hi, log_unit))
       std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <numbers>
@@ -50,6 +51,32 @@ std::vector<std::string> split(const std::string& s, bool commas_only) {
     }
   }
   if (!cur.empty()) out.push_back(cur);
+  return out;
+}
+
+bool blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+
+// A CSV line's fields: separated by a comma (blanks around it belong to the separator) or by a run
+// of spaces or tabs. An empty field between two commas is kept (and refused as a number), so a
+// missing cell is named rather than shifting the columns after it.
+std::vector<std::string> split_csv(const std::string& s) {
+  std::vector<std::string> out;
+  std::string cur;
+  std::size_t i = 0;
+  const std::size_t n = s.size();
+  while (i < n) {
+    if (s[i] != ',' && !blank(s[i])) {
+      cur += s[i++];
+      continue;
+    }
+    while (i < n && blank(s[i])) ++i;
+    if (i < n && s[i] == ',') ++i;
+    while (i < n && blank(s[i])) ++i;
+    out.push_back(cur);
+    cur.clear();
+    if (i == n) out.push_back("");  // a separator at the end: an empty last field
+  }
+  if (!cur.empty() || out.empty()) out.push_back(cur);
   return out;
 }
 
@@ -165,9 +192,18 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
     const std::string where = at(path, l.number);
     check_sample_limit(rec, limit, where);
     auto tok = split(l.text, false);
-    if (tok.size() < 17)
+    if (tok.size() < 17) {
+      // A header naming columns: a CSV log read as OpenHaptics (the format follows the extension).
+      bool words = false;
+      if (!tok.empty()) {
+        char* end = nullptr;
+        std::strtod(tok[0].c_str(), &end);
+        words = end == tok[0].c_str();
+      }
       throw InputError(where + ": " + std::to_string(tok.size()) +
-                       " fields, expected 16 transform elements, the jaw and button states");
+                       " fields, expected 16 transform elements, the jaw and button states" +
+                       (words ? " (read as an OpenHaptics log; a CSV log with a header needs --format csv)" : ""));
+    }
     if (tok.size() > 17 + 8) throw InputError(where + ": more than 8 button states");
     double m[16];
     for (int k = 0; k < 16; ++k) m[k] = to_number(tok[k], where, "element " + std::to_string(k));
@@ -201,7 +237,7 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
   for_each_line(path, [&](const Line& l) {
     if (!have_header) {
       have_header = true;
-      header = split(l.text, true);
+      header = split_csv(l.text);
       for (std::size_t i = 0; i < header.size(); ++i) {
         std::string h = header[i];
         std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -221,7 +257,7 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
     }
     const std::string where = at(path, l.number);
     check_sample_limit(rec, limit, where);
-    auto tok = split(l.text, true);
+    auto tok = split_csv(l.text);
     if (tok.size() != header.size())
       throw InputError(where + ": " + std::to_string(tok.size()) + " fields, the header has " +
                        std::to_string(header.size()));
@@ -239,9 +275,6 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
 
 bool same(const Quatd& a, const Quatd& b) { return a.w == b.w && a.x == b.x && a.y == b.y && a.z == b.z; }
 
-bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 std::string num(double v) {
   char buf[32];
@@ -301,6 +334,14 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
                         quat_from_rotvec(Vec3d{v[3], v[4], v[5]} * (std::numbers::pi / 180.0))};
 }
 
+LogFormat log_format_of(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  const bool csv = ext.size() == 4 && ext[0] == '.' && std::tolower(static_cast<unsigned char>(ext[1])) == 'c' &&
+                   std::tolower(static_cast<unsigned char>(ext[2])) == 's' &&
+                   std::tolower(static_cast<unsigned char>(ext[3])) == 'v';
+  return csv ? LogFormat::csv : LogFormat::openhaptics;
+}
+
 double nominal_rate(const std::vector<double>& t) {
   const double rate = static_cast<double>(t.size() - 1) / (t.back() - t.front());
   const double whole = std::round(rate);
@@ -312,7 +353,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   if (!(rate_hz > 0 && rate_hz <= kMaxSampleRateHz))
     throw InputError("--rate: expected a number in (0, " + std::to_string(static_cast<long>(kMaxSampleRateHz)) +
                      "] Hz");
-  const LogFormat fmt = opt.format ? *opt.format : (ends_with(path, ".csv") ? LogFormat::csv : LogFormat::openhaptics);
+  const LogFormat fmt = opt.format ? *opt.format : log_format_of(path);
   const double unit = opt.unit ? *opt.unit : (fmt == LogFormat::openhaptics ? 1e-3 : 1.0);
   Recording rec;
   std::vector<std::size_t> line_of;

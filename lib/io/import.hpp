@@ -6,7 +6,8 @@
 //   translation in elements 12-14), the jaw opening (1 open, 0 closed), then zero or more button
 //   states (ints, button i nonzero -> bit i). '#' starts a comment; blank lines are skipped.
 //   Times are i / rate_hz (--rate; 1000 Hz assumed, and said, when not given).
-// csv: a header naming the columns (any order): t, x, y, z, qw, qx, qy, qz, jaw, buttons;
+// csv: a header naming the columns (any order): t, x, y, z, qw, qx, qy, qz, jaw, buttons; fields
+//   separated by a comma (blanks around it included) or by a run of spaces or tabs;
 //   x, y, z and the quaternion are required, t optional (else i / rate_hz), jaw defaults to 1,
 //   buttons to 0. With t, the recording's rate_hz is (samples - 1) / span (nominal_rate).
 // Samples that repeat the previous one exactly (pose, jaw and buttons: a device polled faster than
@@ -28,7 +29,7 @@ namespace ebh {
 enum class LogFormat { openhaptics, csv };
 
 struct ImportOptions {
-  std::optional<LogFormat> format;  ///< nullopt: .csv -> csv, anything else -> openhaptics
+  std::optional<LogFormat> format;  ///< nullopt: log_format_of(path)
   std::optional<double> rate_hz;    ///< sample rate of a log without times; nullopt: kAssumedLogRateHz
   bool drop_repeats = false;        ///< remove the samples that repeat the previous one exactly
   std::optional<double> unit;       ///< metres per log length unit; nullopt: the format's default
@@ -58,6 +59,10 @@ struct ImportReport {
   bool rate_assumed = false;   ///< no times and no rate given: kAssumedLogRateHz
   std::string rate_warning;    ///< the rate is below kMinPlausibleLogRateHz: what it likely means
 };
+
+/// The format a log's name implies: csv for a `.csv` extension in any case (`LOG.CSV` too),
+/// openhaptics for any other.
+LogFormat log_format_of(const std::string& path);
 
 /// Reads a log; errors name the file and line ("log.txt:17: ..."). `report`, when given, is filled.
 Recording import_log(const std::string& path, const ImportOptions& opt, ImportReport* report = nullptr);

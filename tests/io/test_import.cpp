@@ -141,6 +141,39 @@ TEST(Import, SpreadsheetCsvFilesAreReadOrRefusedWithWhatToChange) {
                      "semi.csv:1: unknown column", "not ';'");
 }
 
+// The separators the docs promise: a comma (blanks around it included) or a run of spaces or
+// tabs, in the header as in the rows; an empty cell between commas is named, not skipped. A
+// `.CSV` name is a CSV log; a CSV log under another name, read as OpenHaptics, says --format csv.
+TEST(Import, CsvFieldsAreSeparatedByCommasOrRunsOfBlanks) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::FILE* f = std::fopen((tmp / name).c_str(), "wb");
+    std::fputs(text.c_str(), f);
+    std::fclose(f);
+    return tmp / name;
+  };
+  for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
+           {"comma.csv", "t,x,y,z,qw,qx,qy,qz\n0,0.1,0,0,1,0,0,0\n0.001,0.2,0,0,1,0,0,0\n"},
+           {"comma_space.csv", "t, x, y, z, qw, qx, qy, qz\n0, 0.1, 0, 0, 1, 0, 0, 0\n0.001 ,0.2 , 0,0,1,0,0,0\n"},
+           {"tabs.csv", "t\tx\ty\tz\tqw\tqx\tqy\tqz\n0\t0.1\t0\t0\t1\t0\t0\t0\n0.001\t0.2\t0\t0\t1\t0\t0\t0\n"},
+           {"spaces.csv", "t  x y z qw qx qy qz\n0 0.1   0 0 1 0 0 0\n0.001 \t0.2 0 0 1 0 0 0\n"},
+           {"UPPER.CSV", "t,x,y,z,qw,qx,qy,qz\n0,0.1,0,0,1,0,0,0\n0.001,0.2,0,0,1,0,0,0\n"}}) {
+    const Recording r = import_log(write(name, text), opt);
+    ASSERT_EQ(r.size(), 2u) << name;
+    EXPECT_EQ(r.position[1].x, 0.2) << name;
+    EXPECT_EQ(r.t[1], 0.001) << name;
+  }
+  EXPECT_EQ(log_format_of("a/b.Csv"), LogFormat::csv);
+  EXPECT_EQ(log_format_of("a.csv/log.txt"), LogFormat::openhaptics);
+  EXPECT_INPUT_ERROR(import_log(write("empty_cell.csv", "t,x,y,z,qw,qx,qy,qz\n0,,0,0,1,0,0,0\n"), opt),
+                     "empty_cell.csv:2: x: '' is not a number");
+  EXPECT_INPUT_ERROR(import_log(write("log.txt", "t,x,y,z,qw,qx,qy,qz\n0,0.1,0,0,1,0,0,0\n"), opt),
+                     "log.txt:1: 8 fields", "a CSV log with a header needs --format csv");
+  opt.format = LogFormat::csv;
+  EXPECT_EQ(import_log(write("log2.txt", "t x y z qw qx qy qz\n0 0 0 0 1 0 0 0\n1e-3 0 0 1 1 0 0 0\n"), opt).size(), 2u);
+}
+
 // Repeated samples (a device polled faster than it updates): counted, and with drop_repeats
 // removed while the others keep the times the log gave them.
 TEST(Import, CountsAndDropsRepeatedSamples) {

@@ -45,8 +45,7 @@ void run(const ImportArgs& a) {
   opt.rate_hz = a.rate_hz;
   if (!a.unit.empty()) opt.unit = ebh::parse_length_unit(a.unit);
   // The transforms' translations are in the log's unit (its format's default when --unit is absent).
-  const bool csv = opt.format ? *opt.format == ebh::LogFormat::csv
-                              : a.log.size() >= 4 && a.log.compare(a.log.size() - 4, 4, ".csv") == 0;
+  const bool csv = opt.format.value_or(ebh::log_format_of(a.log)) == ebh::LogFormat::csv;
   const double log_unit = opt.unit ? *opt.unit : (csv ? 1.0 : 1e-3);
   if (!a.transform.empty()) opt.transforms.world = ebh::parse_rigid_transform("--transform", a.transform, log_unit);
   if (!a.tool_transform.empty())

@@ -449,6 +449,14 @@ file(WRITE ${EBH_SAFE}/far_plan.yaml
   "scene: tube\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [-80, 0, 0], rotvec_deg: [0, 90, 0]}\n  - {t: 1e12, position_mm: [-80, 0, 0]}\n")
 file(WRITE ${EBH_SAFE}/endless.csv "t,x,y,z,qw,qx,qy,qz\n0,-0.08,0,0,0.7071068,0,0.7071068,0\n1e300,-0.08,0,0,0.7071068,0,0.7071068,0\n")
 file(WRITE ${EBH_SAFE}/one_sample.csv "t,x,y,z,qw,qx,qy,qz\n0,-0.08,0,0,1,0,0,0\n")
+# Gate cases whose window is not one `ebh replay --start --duration` would take.
+foreach(window "duration_neg;1;-1" "start_neg;-1;1" "start_past_end;99;1")
+  list(GET window 0 wname)
+  list(GET window 1 wstart)
+  list(GET window 2 wduration)
+  file(WRITE ${EBH_SAFE}/gate_${wname}.yaml
+    "cases:\n  - {name: w, scene: tube, recording: tube_insert, start: ${wstart}, duration: ${wduration}}\n")
+endforeach()
 file(WRITE ${EBH_SAFE}/afile "a file, not a folder\n")
 file(MAKE_DIRECTORY ${EBH_SAFE}/a_folder)
 # Fresh copies of the inputs before the tests that must leave them as they were.
@@ -506,6 +514,13 @@ ebh_safety(synth_rate_huge "^ebh: error: --rate: expected a finite number in \\(
 # 5. A filter that matches nothing is an error listing what exists.
 ebh_safety(gate_unknown_case "^ebh: error: --case: no gate case 'nosuchcase' \\(known: tube_insert, "
   CMD ${EBH_BIN} gate --case nosuchcase)
+# ... and a gate case's window is checked as replay's --start and --duration are, naming the case.
+ebh_safety(gate_duration_neg "^ebh: error: .*gate_duration_neg.yaml: cases\\[0\\] \\(w\\): duration -1: expected a finite number > 0"
+  CMD ${EBH_BIN} gate --baselines ${S}/gate_duration_neg.yaml)
+ebh_safety(gate_start_neg "^ebh: error: .*gate_start_neg.yaml: cases\\[0\\] \\(w\\): start -1: expected a finite number >= 0"
+  CMD ${EBH_BIN} gate --baselines ${S}/gate_start_neg.yaml)
+ebh_safety(gate_start_past_end "^ebh: error: .*gate_start_past_end.yaml: cases\\[0\\] \\(w\\): start 99: the recording .*tube_insert.h5 is 10 s long; start before its end"
+  CMD ${EBH_BIN} gate --baselines ${S}/gate_start_past_end.yaml)
 # 6. Every numeric option is finite and in range.
 foreach(bad "start;nan;>= 0" "duration;nan;> 0" "duration;0;> 0" "frames-hz;-5;in \\[0, 100000\\] Hz" "frames-hz;nan;in \\[0")
   list(GET bad 0 opt)

@@ -73,6 +73,7 @@ GateBaselines read_gate_baselines(const std::string& path) {
     g.recording = text(c["recording"], path, k + "recording");
     g.start = number(c["start"], path, k + "start");
     g.duration = number(c["duration"], path, k + "duration");
+    g.where = path + ": " + k.substr(0, k.size() - 1) + " (" + g.name + ")";
     auto metric = [&](const char* key) {
       return c[key] ? number(c[key], path, k + key) : std::numeric_limits<double>::quiet_NaN();
     };
@@ -121,6 +122,9 @@ void write_gate_baselines(const std::string& path, const GateBaselines& b) {
 
 GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides) {
   const LoadedReplay in = load_replay_inputs(c.scene, c.recording, overrides, std::nullopt, std::nullopt, false);
+  const std::string key = c.where.empty() ? "case '" + c.name + "'" : c.where;
+  const double dur = replay_window(c.start, c.duration, in.recording.duration(), in.recording_path,
+                                   key + ": start", key + ": duration");
   ReplayOptions opt;
   opt.mode = Mode::Async;
   opt.start = c.start;
@@ -137,7 +141,6 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
     meta.duration = opt.duration;
     meta.overrides = overrides;
     meta.threads = split_threads(opt.mode, opt.haptic_threads);
-    const double dur = std::min(c.duration, in.recording.duration() - c.start);
     check_replay_size(*in.world, dur, 0, in.recording_path, tmp.string());
     ReplayWriter writer(tmp.string(), *in.world, meta, tick_count(*in.world, dur), false);
     const ReplaySummary s = replay(*in.world, in.recording, opt, writer);

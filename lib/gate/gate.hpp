@@ -36,7 +36,8 @@ struct GateBands {
 
 struct GateCase {
   std::string name, scene, recording;
-  double start = 0, duration = 2.0;  ///< s: the window of the recording replayed
+  double start = 0, duration = 2.0;  ///< s: the window of the recording replayed (replay_window checks it)
+  std::string where;  ///< "FILE: cases[i] (NAME)", naming the case in messages (read_gate_baselines sets it)
   // Baseline metrics (NaN when not yet recorded).
   double rms_force_step = 0, max_force_rate = 0, peak_force = 0, power_above_30hz = 0, penetration_max = 0;
 };

@@ -1,5 +1,10 @@
 #include "schedule/replay_inputs.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
 #include "core/error.hpp"
 #include "io/import.hpp"
 
@@ -29,7 +34,35 @@ PoseTransforms apply_replay_transforms(Recording& rec, const std::string& path, 
   return applied;
 }
 
+// Shortest text that reads back as v ("100", "0.1", "1e+300").
+std::string shortest(double v) {
+  char buf[32];
+  if (std::fabs(v) < 1e15 && v == std::floor(v)) {
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+    return buf;
+  }
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
 }  // namespace
+
+double replay_window(double start, std::optional<double> duration, double length, const std::string& recording,
+                     const std::string& start_label, const std::string& duration_label) {
+  if (!(std::isfinite(start) && start >= 0))
+    throw InputError(start_label + " " + shortest(start) + ": expected a finite number >= 0 (seconds into " +
+                     recording + ")");
+  if (!(start < length))
+    throw InputError(start_label + " " + shortest(start) + ": the recording " + recording + " is " +
+                     shortest(length) + " s long; start before its end");
+  if (duration && !(std::isfinite(*duration) && *duration > 0))
+    throw InputError(duration_label + " " + shortest(*duration) + ": expected a finite number > 0 (seconds replayed)");
+  const double rest = length - start;
+  return duration ? std::min(*duration, rest) : rest;
+}
 
 std::string resolve_recording_path(const std::string& name_or_path) {
   return resolve_data_path(name_or_path, "recordings", ".h5", "recording").string();

@@ -100,10 +100,8 @@ struct PreparedReplay {
 void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   const Mode mode = parse_mode(a.mode);
   const World& world = *p.in.world;
-  const double length = p.in.recording.duration();
-  if (!(a.start < length))
-    throw InputError("--start " + format_number(a.start) + ": the recording " + p.in.recording_path + " is " +
-                     format_number(length) + " s long; start before its end");
+  const double duration =
+      replay_window(a.start, a.duration, p.in.recording.duration(), p.in.recording_path, "--start", "--duration");
   ReplayOptions& opt = p.opt;
   opt.mode = mode;
   opt.start = a.start;
@@ -114,8 +112,6 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   if (opt.frames_hz * world.h_haptic > 1 + 1e-9)
     throw InputError("--frames-hz " + format_number(opt.frames_hz) + ": more snapshots than haptic ticks (" +
                      format_number(1.0 / world.h_haptic) + " Hz)");
-  const double rest = length - a.start;
-  const double duration = a.duration ? std::min(*a.duration, rest) : rest;
   check_replay_size(world, duration, opt.frames_hz, p.in.recording_path, a.out);
   p.ticks = tick_count(world, duration);
   ReplayMetadata& meta = p.meta;

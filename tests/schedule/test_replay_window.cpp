@@ -1,0 +1,32 @@
+// The one check of a replay window (replay_window): what `ebh replay --start --duration` and
+// `ebh gate`'s cases take.
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <optional>
+
+#include "../io/io_test_util.hpp"
+#include "schedule/replay_inputs.hpp"
+
+using namespace ebh;
+
+TEST(ReplayWindow, TakesAWindowInsideTheRecordingAndCutsItAtTheEnd) {
+  EXPECT_EQ(replay_window(0, std::nullopt, 10, "rec.h5", "--start", "--duration"), 10);
+  EXPECT_EQ(replay_window(2, 3.0, 10, "rec.h5", "--start", "--duration"), 3);
+  EXPECT_EQ(replay_window(8, 5.0, 10, "rec.h5", "--start", "--duration"), 2);  // cut at the end
+}
+
+TEST(ReplayWindow, RefusesAWindowOutsideTheRecordingNamingTheKey) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_INPUT_ERROR(replay_window(-1, 1.0, 10, "rec.h5", "g.yaml: cases[0] (w): start", "d"),
+                     "g.yaml: cases[0] (w): start -1: expected a finite number >= 0");
+  EXPECT_INPUT_ERROR(replay_window(nan, 1.0, 10, "rec.h5", "--start", "--duration"), "--start nan");
+  EXPECT_INPUT_ERROR(replay_window(100, 1.0, 10, "rec.h5", "--start", "--duration"),
+                     "--start 100: the recording rec.h5 is 10 s long; start before its end");
+  EXPECT_INPUT_ERROR(replay_window(10, 1.0, 10, "rec.h5", "--start", "--duration"), "start before its end");
+  EXPECT_INPUT_ERROR(replay_window(1, -1.0, 10, "rec.h5", "s", "g.yaml: cases[0] (w): duration"),
+                     "g.yaml: cases[0] (w): duration -1: expected a finite number > 0");
+  EXPECT_INPUT_ERROR(replay_window(1, 0.0, 10, "rec.h5", "s", "--duration"), "--duration 0: expected a finite number > 0");
+  EXPECT_INPUT_ERROR(replay_window(1, std::numeric_limits<double>::infinity(), 10, "rec.h5", "s", "--duration"),
+                     "--duration inf");
+}

@@ -43,7 +43,10 @@ std::string tet_name(const TetMesh& mesh, int t) {
   return s;
 }
 
-std::string plural(std::size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
+std::string plural(std::size_t n, const std::string& what) {
+  if (n == 1) return "1 " + what;
+  return std::to_string(n) + " " + (what == "vertex" ? std::string("vertices") : what + "s");
+}
 
 std::string fmt(double x) {
   char buf[32];

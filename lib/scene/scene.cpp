@@ -30,6 +30,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// Why `p` is not a file to read: "file not found", "is a folder, not a file" or "is not a regular
+/// file" (a device, a pipe); empty when it is one.
+std::string not_a_file(const fs::path& p) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(p, ec);
+  if (fs::is_regular_file(st)) return "";
+  if (fs::is_directory(st)) return "is a folder, not a file";
+  if (fs::exists(st)) return "is not a regular file (a device, pipe or socket)";
+  return "file not found";
+}
+
 /// How a value appears in an error message: its text, or what kind of node it is.
 std::string shown(const YAML::Node& n) {
   if (!n.IsDefined() || n.IsNull()) return "nothing";
@@ -175,8 +186,8 @@ class SpecReader {
   fs::path mesh_path(const YAML::Node& n, const std::string& key) const {
     fs::path p = text(n, key, false);
     if (p.is_relative()) p = (file_.parent_path() / p).lexically_normal();
-    std::error_code ec;
-    if (!fs::is_regular_file(p, ec)) fail(key, "file not found: " + p.string());
+    if (const std::string why = not_a_file(p); !why.empty())
+      fail(key, why == "file not found" ? why + ": " + p.string() : p.string() + " " + why);
     return p;
   }
 
@@ -545,8 +556,8 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
 }
 
 YAML::Node read_scene_yaml(const fs::path& file) {
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw InputError(file.string() + ": scene file not found");
+  if (const std::string why = not_a_file(file); !why.empty())
+    throw InputError(file.string() + ": " + (why == "file not found" ? "scene file not found" : why));
   std::ifstream in(file, std::ios::binary);
   std::stringstream text;
   text << in.rdbuf();
@@ -779,7 +790,8 @@ fs::path resolve_data_path(const std::string& name_or_path, const std::string& f
   const bool is_name = name_or_path.find('/') == std::string::npos && fs::path(name_or_path).extension().empty();
   std::error_code ec;
   if (!is_name) {
-    if (!fs::is_regular_file(name_or_path, ec)) throw InputError(name_or_path + ": " + what + " file not found");
+    if (const std::string why = not_a_file(name_or_path); !why.empty())
+      throw InputError(name_or_path + ": " + (why == "file not found" ? what + " file not found" : why));
     return name_or_path;
   }
   std::string looked;

@@ -130,6 +130,11 @@ TEST(Validate, UnreferencedAndDuplicateVertices) {
   EXPECT_EQ(remove_unreferenced_vertices(m), 1);
   EXPECT_EQ(m.vertices.size(), 8u);
   EXPECT_TRUE(validate_mesh(m).warnings().empty());
+  // Counts in words: "1 vertex", "2 vertices".
+  m.vertices.push_back({5, 5, 5});
+  EXPECT_EQ(validate_mesh(m).warnings().at(0).rfind("1 vertex used by no tet", 0), 0u) << validate_mesh(m).warnings()[0];
+  m.vertices.push_back({6, 6, 6});
+  EXPECT_EQ(validate_mesh(m).warnings().at(0).rfind("2 vertices used by no tet", 0), 0u) << validate_mesh(m).warnings()[0];
 }
 
 TEST(Validate, NonManifoldBoundaryEdge) {

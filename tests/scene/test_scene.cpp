@@ -410,6 +410,25 @@ TEST_F(BadScene, ShortVector) { expect(replace(good, "gravity: [0, 0, -9.81]", "
 TEST_F(BadScene, VectorElement) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, x, 0]"), "key 'gravity[1]': expected a number, got 'x'"); }
 TEST_F(BadScene, ZeroUp) { expect(replace(good, "up: [0, 0, 2]", "up: [0, 0, 0]"), "key 'camera.up': expected a non-zero vector"); }
 TEST_F(BadScene, MissingMeshFile) { expect(replace(good, "cube22.msh\n", "nope.msh\n"), "key 'mesh.physical': file not found: "); }
+// A folder given as the mesh or the scene file is said to be one, not reported missing.
+TEST_F(BadScene, FolderAsMeshOrScene) {
+  const auto folder = write_temp("x", "").parent_path() / "folder.msh";
+  std::filesystem::create_directories(folder);
+  expect(replace(good, data("mesh/cube22.msh").string(), folder.string()),
+         "key 'mesh.physical': " + folder.string() + " is a folder, not a file");
+  try {
+    load_scene_spec(folder);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), folder.string() + ": is a folder, not a file");
+  }
+  try {
+    resolve_scene_path(folder.string());
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), folder.string() + ": is a folder, not a file");
+  }
+}
 TEST_F(BadScene, MissingMeshSection) {
   std::string text = good;
   text.erase(text.find("mesh:"), text.find("material:") - text.find("mesh:"));

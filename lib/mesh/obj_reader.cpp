@@ -62,6 +62,10 @@ SurfaceMesh read_obj(const std::filesystem::path& file) {
         corners.push_back(v);
       }
       if (corners.size() < 3) c.fail("a face needs at least 3 vertices, got " + std::to_string(corners.size()));
+      for (std::size_t a = 0; a < corners.size(); ++a)
+        for (std::size_t b = a + 1; b < corners.size(); ++b)
+          if (corners[a] == corners[b])
+            c.fail("the face names vertex " + std::to_string(corners[a] + 1) + " twice (a degenerate face)");
       for (std::size_t k = 1; k + 1 < corners.size(); ++k) {
         mesh.triangles.push_back({static_cast<int>(corners[0]), static_cast<int>(corners[k]), static_cast<int>(corners[k + 1])});
         tri_lines.push_back(c.line());

@@ -260,6 +260,24 @@ Orientation orient_tets(TetMesh& mesh) {
   return o;
 }
 
+int remove_unused_surface_vertices(SurfaceMesh& mesh) {
+  const int nv = static_cast<int>(mesh.vertices.size());
+  std::vector<int> remap(static_cast<std::size_t>(nv), -1);
+  for (const Tri& tri : mesh.triangles)
+    for (int v : tri) remap[v] = 0;
+  int next = 0;
+  for (int v = 0; v < nv; ++v)
+    if (remap[v] == 0) {
+      mesh.vertices[next] = mesh.vertices[v];
+      remap[v] = next++;
+    }
+  if (next == nv) return 0;
+  mesh.vertices.resize(next);
+  for (Tri& tri : mesh.triangles)
+    for (int& v : tri) v = remap[v];
+  return nv - next;
+}
+
 int remove_unreferenced_vertices(TetMesh& mesh) {
   const int nv = static_cast<int>(mesh.vertices.size());
   std::vector<int> remap(static_cast<std::size_t>(nv), -1);

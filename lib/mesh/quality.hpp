@@ -100,4 +100,8 @@ Orientation orient_tets(TetMesh& mesh);
 /// vertex are dropped). Returns how many vertices were removed.
 int remove_unreferenced_vertices(TetMesh& mesh);
 
+/// Removes the vertices of a surface that no triangle uses (a virtual mesh's OBJ with stray
+/// points), renumbering the triangles. Returns how many were removed.
+int remove_unused_surface_vertices(SurfaceMesh& mesh);
+
 }  // namespace ebh

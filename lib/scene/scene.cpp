@@ -668,14 +668,19 @@ Scene build_scene(SceneSpec spec_in) {
   const SceneSpec& spec = scene.spec;
   const fs::path& file = spec.file;
   // Soft tissue: shear modulus ~100 Pa (brain) to ~1 MPa (tendon), density ~900-1100 kg/m^3.
+  auto g = [](double v) {  // 1e-30 stays 1e-30 (std::to_string would print 0.000000)
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return std::string(buf);
+  };
   if (spec.stiffness.k_vol < 10 || spec.stiffness.k_vol > 1e8)
-    scene.warnings.push_back(file.string() + ": stiffness.k_vol = " + std::to_string(spec.stiffness.k_vol) +
+    scene.warnings.push_back(file.string() + ": stiffness.k_vol = " + g(spec.stiffness.k_vol) +
                              " Pa is outside soft tissue's 10 Pa .. 100 MPa");
   if (spec.density < 100 || spec.density > 3000)
-    scene.warnings.push_back(file.string() + ": material.density = " + std::to_string(spec.density) +
+    scene.warnings.push_back(file.string() + ": material.density = " + g(spec.density) +
                              " kg/m^3 is outside soft tissue's 100 .. 3000");
   if (norm(spec.gravity) > 2 * 9.81)
-    scene.warnings.push_back(file.string() + ": |gravity| = " + std::to_string(norm(spec.gravity)) + " m/s^2 is over 2 g");
+    scene.warnings.push_back(file.string() + ": |gravity| = " + g(norm(spec.gravity)) + " m/s^2 is over 2 g");
   // Each mesh follows the other's result one physical period late (async mode): when the virtual
   // mesh's edges outweigh its pull towards the physical mesh, the two drive each other unstable
   // (docs/MODEL.md, "k_s against k_svc").
@@ -719,6 +724,9 @@ Scene build_scene(SceneSpec spec_in) {
   // The virtual mesh's source surface.
   if (spec.virtual_mesh) {
     scene.virtual_surface = read_obj(*spec.virtual_mesh);
+    if (const int removed = remove_unused_surface_vertices(scene.virtual_surface); removed > 0)
+      scene.warnings.push_back(spec.virtual_mesh->string() + ": removed " + std::to_string(removed) +
+                               " vertices used by no face");
     place(scene.virtual_surface.vertices);
   } else {
     scene.virtual_surface = extract_boundary(scene.physical);

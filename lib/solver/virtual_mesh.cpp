@@ -127,7 +127,10 @@ VirtualModel build_virtual_model(const Scene& scene) {
     M.pair_weight[j] = pair.weight;
     M.pair_count[j] = pair.count;
     const Vec3d p = paired_point(phys.vertices.data(), pair.vertex.data(), pair.weight.data(), pair.count);
-    M.pairing_max_error = std::max(M.pairing_max_error, norm(p - M.rest[j]));
+    if (const double e = norm(p - M.rest[j]); e > M.pairing_max_error) {
+      M.pairing_max_error = e;
+      M.pairing_worst = j;
+    }
   }
 
   // Mass: each physical vertex lends its lumped mass to the virtual vertices paired with it, in

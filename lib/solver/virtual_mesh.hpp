@@ -51,6 +51,7 @@ struct VirtualModel {
   std::vector<std::array<double, 4>> pair_weight;  ///< #m weights, sum 1
   std::vector<int> pair_count;                     ///< #m 1..4
   double pairing_max_error = 0;                    ///< m, max_j |p_j(X) - q_j^0|
+  int pairing_worst = -1;                          ///< the j of pairing_max_error (-1: every error 0)
   // Incidence (CSR), rows = virtual vertices.
   std::vector<int> edge_offsets;   ///< #m+1
   std::vector<int> edge_entries;   ///< 2 e + end: vertex is edges[e][end]

@@ -187,6 +187,29 @@ TEST(Scene, ObjVirtualSurfaceSphereAndHalfspaceInCentimetres) {
   EXPECT_EQ(s.pinned, (std::vector<int>{0, 1, 2, 4, 6}));
 }
 
+TEST(Scene, StrayObjVerticesAreRemovedWithAWarning) {
+  write_temp("stray.obj", slurp(data("mesh/cube.obj")) + "v 50 50 50\nv 60 60 60\n");
+  const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                           data("mesh/cube41.msh").string()),
+                                   "../mesh/cube.obj", "stray.obj");
+  const fs::path p = write_temp("stray.yaml", yaml);
+  const Scene s = load_scene(p);
+  EXPECT_EQ(s.virtual_surface.vertices.size(), 8u);
+  EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
+  ASSERT_EQ(s.warnings.size(), 1u) << ::testing::PrintToString(s.warnings);
+  EXPECT_EQ(s.warnings[0], (p.parent_path() / "stray.obj").string() + ": removed 2 vertices used by no face");
+}
+
+TEST(Scene, ImplausibleTissueValuesAreShownAsGiven) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const std::string p =
+      write_temp("tiny.yaml", replace(replace(good, "density: 1100", "density: 1e-30"), "k_vol: 2500", "k_vol: 2.5e9"))
+          .string();
+  const Scene s = load_scene(p);
+  EXPECT_EQ(s.warnings.at(0), p + ": stiffness.k_vol = 2.5e+09 Pa is outside soft tissue's 10 Pa .. 100 MPa");
+  EXPECT_EQ(s.warnings.at(1), p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000");
+}
+
 TEST(Scene, UnitsScaleEveryLength) {
   const std::string mm = slurp(data("scene/cube.yaml"));
   std::string m = mm;

@@ -1,0 +1,64 @@
+// What build_world says of a scene beyond its file's checks: a virtual mesh from its own file that
+// lies off the physical mesh (another unit or frame) is named with how far and where.
+#include <gtest/gtest.h>
+
+#include <sstream>
+
+#include "../mesh/test_util.hpp"
+#include "schedule/simulation.hpp"
+
+namespace ebh {
+namespace {
+
+using test::data;
+using test::replace;
+using test::slurp;
+using test::write_temp;
+
+/// cube_obj.yaml (a 10 cm cube) with its OBJ's vertices scaled by `scale` about the origin and
+/// moved by `dx` cm along x.
+std::vector<std::string> warnings_with_obj(const std::string& name, double scale, double dx) {
+  std::istringstream in(slurp(data("mesh/cube.obj")));
+  std::string obj;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("v ", 0) == 0) {
+      std::istringstream v(line.substr(2));
+      double x, y, z;
+      v >> x >> y >> z;
+      std::ostringstream o;
+      o.precision(17);
+      o << "v " << scale * x + dx << " " << scale * y << " " << scale * z;
+      line = o.str();
+    }
+    obj += line + "\n";
+  }
+  write_temp(name + ".obj", obj);
+  const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                           data("mesh/cube41.msh").string()),
+                                   "../mesh/cube.obj", name + ".obj");
+  return build_world(load_scene(write_temp(name + ".yaml", yaml)), 1000, 100)->scene.warnings;
+}
+
+bool has(const std::vector<std::string>& warnings, const std::string& needle) {
+  for (const std::string& w : warnings)
+    if (w.find(needle) != std::string::npos) return true;
+  return false;
+}
+
+TEST(BuildWorld, AVirtualMeshOffThePhysicalMeshIsNamed) {
+  // the cube's own surface, and one 0.1% larger (0.17 mm out at a corner, within 1% of the
+  // 173 mm diagonal): nothing to say
+  EXPECT_FALSE(has(warnings_with_obj("same", 1.0, 0.0), "mesh.virtual"));
+  EXPECT_FALSE(has(warnings_with_obj("smoothed", 1.001, -0.005), "mesh.virtual"));
+  // 5 cm to the side (a mesh in another frame), ten times larger (mm read as cm)
+  const auto moved = warnings_with_obj("moved", 1.0, 5.0);
+  // (at least the 50 mm the far face stands out: the pairing's clamped barycentric point, not the
+  // closest one, is what the E_svc target pulls towards)
+  EXPECT_TRUE(has(moved, "moved.obj: mesh.virtual: the virtual mesh lies up to 55.3 mm off the physical mesh (virtual vertex "))
+      << ::testing::PrintToString(moved);
+  EXPECT_TRUE(has(moved, "1% of its diagonal is 1.73 mm): its E_svc targets pull it onto the physical mesh"));
+  EXPECT_TRUE(has(warnings_with_obj("tenfold", 10.0, 0.0), "tenfold.obj: mesh.virtual: the virtual mesh lies up to "));
+}
+
+}  // namespace
+}  // namespace ebh

@@ -846,6 +846,35 @@ fs::path resolve_scene_path(const std::string& name_or_path) {
   return resolve_data_path(name_or_path, "scenarios", ".yaml", "scene");
 }
 
+namespace {
+bool is_scene_name(const std::string& s) {
+  return s.find('/') == std::string::npos && fs::path(s).extension().empty();
+}
+}  // namespace
+
+fs::path resolve_recording_scene(const std::string& attribute, const std::string& recording) {
+  const std::string where = recording + ": its scene attribute '" + attribute + "'";
+  if (attribute.empty()) throw InputError(recording + ": its scene attribute is empty: the recording names no scene");
+  if (!is_scene_name(attribute) && fs::path(attribute).is_relative()) {
+    const fs::path beside = (fs::path(recording).parent_path() / attribute).lexically_normal();
+    std::error_code ec;
+    if (fs::is_regular_file(beside, ec)) return beside;
+  }
+  try {
+    return resolve_scene_path(attribute);
+  } catch (const InputError& e) {
+    throw InputError(where + ": " + e.what());
+  }
+}
+
+std::string scene_attribute_for(const std::string& given, const fs::path& scene_file, const fs::path& output) {
+  if (is_scene_name(given)) return given;
+  std::error_code ec;
+  const fs::path folder = fs::absolute(output, ec).parent_path();
+  const fs::path rel = fs::absolute(scene_file, ec).lexically_normal().lexically_relative(folder.lexically_normal());
+  return rel.empty() ? fs::absolute(scene_file, ec).lexically_normal().string() : rel.string();
+}
+
 }  // namespace ebh
 
 namespace ebh {

@@ -368,6 +368,18 @@ DegradeReport degrade_physical_mesh(Scene& scene, const DegradeOptions& options)
 /// directory and $EBH_DATA_DIR); any other string is a path. Throws InputError if missing.
 std::filesystem::path resolve_scene_path(const std::string& name_or_path);
 
+/// The scene file a recording's `scene` attribute names: a scene name (resolve_scene_path), or a
+/// scene file's path, relative to the recording's folder (as `ebh import --scene` writes it) or,
+/// failing that, to the working directory. Throws InputError "RECORDING: its scene attribute
+/// 'NAME': ..." when it names none.
+std::filesystem::path resolve_recording_scene(const std::string& attribute, const std::string& recording);
+
+/// What `ebh import --scene` stores for `scene_file` in a recording written to `output`: a name
+/// (no folder, no extension) as given; a path relative to the output's folder, so the two can move
+/// together.
+std::string scene_attribute_for(const std::string& given, const std::filesystem::path& scene_file,
+                                const std::filesystem::path& output);
+
 /// The same lookup for any data folder: NAME (no '/', no extension) finds FOLDER/NAME+EXTENSION in
 /// $EBH_DATA_DIR, the working directory and the source tree; anything else must be an existing
 /// file. `what` names the thing in messages ("scene", "recording").

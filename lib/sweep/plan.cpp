@@ -153,14 +153,18 @@ Overrides merged(const Overrides& first, const Overrides& then) {
   return out;
 }
 
-/// The recordings whose `scene` attribute names the scene: `recordings: all`.
-std::vector<fs::path> recordings_of(const std::string& scene) {
+/// The recordings whose `scene` attribute names the scene (`recordings: all`): by its name, or as
+/// a path to its file (resolve_recording_scene: `ebh import --scene FILE` writes one).
+std::vector<fs::path> recordings_of(const std::string& scene, const fs::path& scene_file) {
   std::vector<fs::path> out;
   for (const fs::path& p : data_files("recordings", ".h5")) {
     try {
-      if (h5::File::open_read(p.string()).attr_string("scene") == scene) out.push_back(fs::absolute(p).lexically_normal());
+      const std::string attribute = h5::File::open_read(p.string()).attr_string("scene");
+      std::error_code ec;
+      if (attribute == scene || fs::equivalent(resolve_recording_scene(attribute, p.string()), scene_file, ec))
+        out.push_back(fs::absolute(p).lexically_normal());
     } catch (const InputError&) {
-      // not a recording (or one without a scene): not one of this scene's
+      // not a recording (or one without a scene, or naming none): not one of this scene's
     }
   }
   return out;
@@ -288,7 +292,7 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     s.name = s.scene_file.stem().string();
     const YAML::Node& recs = e["recordings"];
     if (recs.IsScalar() && recs.Scalar() == "all") {
-      s.recordings = recordings_of(s.name);
+      s.recordings = recordings_of(s.name, s.scene_file);
       if (s.recordings.empty())
         r.fail(recs, key + ".recordings", "no recording names the scene '" + s.name + "' (their `scene` attribute)");
     } else {

@@ -61,8 +61,8 @@ ValidationResult run_coupling(const ValidationOptions& options) {
   Json rows = Json::array();
   for (const std::string& name : recordings) {
     const RecordingFile file = read_replay_recording(name);
-    const std::string scene = file.recording.scene;
-    const Stiffness st = load_scene_spec(resolve_scene_path(scene)).stiffness;
+    const std::string scene = resolve_recording_scene(file.recording.scene, file.path).string();
+    const Stiffness st = load_scene_spec(scene).stiffness;
     for (const std::string& k_s_name : k_s_names)
       for (const int k : iterations) {
         const double k_s = k_s_name == "scene" ? st.k_s : k_s_name == "k_svc" ? st.k_svc : 2 * st.k_svc;

@@ -151,6 +151,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
   for (const std::string& name : recordings) {
     const std::string path = resolve_recording_path(name);
     Recording rec = read_recording(path);
+    rec.scene = resolve_recording_scene(rec.scene, path).string();  // a scene file beside the recording
     apply_stored_transforms(rec, path);
     for (double q : qualities)
       for (double k : stiffnesses) {

@@ -563,6 +563,31 @@ TEST(ResolveScenePath, NameInDataDir) {
   ::unsetenv("EBH_DATA_DIR");
 }
 
+/// A recording names its scene by name or by the scene file's path relative to the recording's
+/// folder (what `ebh import --scene FILE` writes), so the two move together.
+TEST(ResolveScenePath, ARecordingsSceneIsFoundBesideIt) {
+  const fs::path root = write_temp("marker", "").parent_path();
+  fs::create_directories(root / "data" / "out");
+  const fs::path scene = root / "data" / "organ.yaml", rec = root / "data" / "out" / "press.h5";
+  std::ofstream(scene) << "# a scene\n";
+  EXPECT_EQ(scene_attribute_for("organ.yaml", scene, rec), "../organ.yaml");
+  EXPECT_EQ(scene_attribute_for("tube", resolve_scene_path("tube"), rec), "tube");  // a name stays one
+  EXPECT_EQ(resolve_recording_scene("../organ.yaml", rec.string()), scene);
+  EXPECT_EQ(resolve_recording_scene("tube", rec.string()), resolve_scene_path("tube"));
+  try {
+    resolve_recording_scene("organ.yaml", rec.string());  // not beside the recording, nor here
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), rec.string() + ": its scene attribute 'organ.yaml': organ.yaml: scene file not found");
+  }
+  try {
+    resolve_recording_scene("", rec.string());
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), rec.string() + ": its scene attribute is empty: the recording names no scene");
+  }
+}
+
 TEST(ResolveScenePath, Errors) {
   EXPECT_EQ(resolve_scene_path(data("scene/cube.yaml").string()), data("scene/cube.yaml"));
   try {

@@ -16,6 +16,8 @@
 #include "core/error.hpp"
 #include "io/h5.hpp"
 #include "io/sha256.hpp"
+#include "scene/scene.hpp"
+#include "io/recording.hpp"
 #include "sweep/plan.hpp"
 #include "sweep/report.hpp"
 #include "sweep/runner.hpp"
@@ -111,6 +113,34 @@ runs:
   const auto plain = std::find_if(runs.begin(), runs.end(), [](const SweepRun& r) { return r.overrides.empty(); });
   ASSERT_NE(plain, runs.end());
   EXPECT_EQ(plain->overrides_text(), "-");
+}
+
+/// `recordings: all` takes a recording whose scene attribute is the scene file's path relative to
+/// the recording (as `ebh import --scene FILE` writes it), not only its name.
+TEST(SweepPlan, AllTakesARecordingThatNamesTheSceneByItsFile) {
+  const fs::path root = scratch() / "own_data";
+  fs::remove_all(root);
+  fs::create_directories(root / "recordings");
+  Recording rec = read_recording(resolve_data_path("tube_insert", "recordings", ".h5", "recording").string());
+  const fs::path tube = resolve_scene_path("tube");
+  rec.scene = fs::absolute(tube).lexically_normal().lexically_relative(fs::absolute(root / "recordings")).string();
+  ASSERT_NE(rec.scene.find('/'), std::string::npos);
+  write_recording((root / "recordings" / "own_press.h5").string(), rec);
+  ::setenv("EBH_DATA_DIR", root.c_str(), 1);
+  const SweepPlan p = read_sweep_plan(plan_file("own.yaml", R"(
+scenes:
+  - {scene: tube, recordings: all, reference: {solver.virtual_iterations: 8}}
+runs:
+  - {}
+)"));
+  ::unsetenv("EBH_DATA_DIR");
+  bool own = false, insert = false;
+  for (const fs::path& r : p.scenes[0].recordings) {
+    own |= r.filename() == "own_press.h5";
+    insert |= r.filename() == "tube_insert.h5";
+  }
+  EXPECT_TRUE(own);
+  EXPECT_TRUE(insert);
 }
 
 TEST(SweepPlan, RunIdsAreStable) {

@@ -53,7 +53,8 @@ void run(const ImportArgs& a) {
   // The scene's physical mesh, for the unit sanity check (loaded before any output is written).
   std::optional<ebh::BoundingBox> mesh_box;
   if (!scene_file.empty()) mesh_box = ebh::bounding_box(ebh::load_scene(scene_file).physical.vertices);
-  opt.scene = a.scene;
+  // A scene file is named relative to the recording's folder, where readers look first.
+  opt.scene = scene_file.empty() ? a.scene : ebh::scene_attribute_for(a.scene, scene_file, a.output);
   opt.tool = a.tool;
   opt.drop_repeats = a.drop_repeats;
   ebh::ImportReport report;

@@ -330,8 +330,11 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
     v[i] = to_number(tok[i], option, "value " + std::to_string(i));
     if (!std::isfinite(v[i])) throw InputError(option + ": value " + std::to_string(i) + " is not finite");
   }
-  return RigidTransform{Vec3d{v[0], v[1], v[2]} * unit_m,
-                        quat_from_rotvec(Vec3d{v[3], v[4], v[5]} * (std::numbers::pi / 180.0))};
+  const Vec3d rotvec{v[3], v[4], v[5]};
+  if (!(norm(rotvec) <= kMaxRotvecDeg))
+    throw InputError(option + ": the rotation vector's angle is " + num(norm(rotvec)) +
+                     " degrees; give one of at most 360");
+  return RigidTransform{Vec3d{v[0], v[1], v[2]} * unit_m, quat_from_rotvec(rotvec * (std::numbers::pi / 180.0))};
 }
 
 LogFormat log_format_of(const std::string& path) {

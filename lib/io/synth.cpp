@@ -140,7 +140,11 @@ SynthPlan read_plan(const std::string& path) {
     }
     if (w["rotvec_deg"]) {
       auto v = r.numbers(w["rotvec_deg"], key + ".rotvec_deg", 3);
-      p.orientation = quat_from_rotvec(Vec3d{v[0], v[1], v[2]} * (std::numbers::pi / 180.0));
+      const Vec3d rotvec{v[0], v[1], v[2]};
+      if (!(norm(rotvec) <= kMaxRotvecDeg))
+        r.fail(w["rotvec_deg"], key + ".rotvec_deg",
+               "the rotation vector's angle is " + num(norm(rotvec)) + " degrees; give one of at most 360");
+      p.orientation = quat_from_rotvec(rotvec * (std::numbers::pi / 180.0));
     } else if (i == 0) {
       r.fail(w, key, "the first waypoint needs rotvec_deg");
     } else {

@@ -270,7 +270,15 @@ class SpecReader {
       const auto f = entries(t->second, "mesh.transform", {"scale", "rotvec_deg", "translate"});
       MeshTransform& x = s.mesh_transform;
       if (auto it = f.find("scale"); it != f.end()) x.scale = positive(it->second, "mesh.transform.scale");
-      if (auto it = f.find("rotvec_deg"); it != f.end()) x.rotvec_deg = vec3(it->second, "mesh.transform.rotvec_deg");
+      if (auto it = f.find("rotvec_deg"); it != f.end()) {
+        x.rotvec_deg = vec3(it->second, "mesh.transform.rotvec_deg");
+        if (!(norm(x.rotvec_deg) <= kMaxRotvecDeg)) {
+          char angle[32];
+          std::snprintf(angle, sizeof angle, "%g", norm(x.rotvec_deg));
+          fail("mesh.transform.rotvec_deg", std::string("the rotation vector's angle is ") + angle +
+                                                " degrees; give one of at most 360");
+        }
+      }
       if (auto it = f.find("translate"); it != f.end())
         x.translate = vec3(it->second, "mesh.transform.translate") * s.mesh_unit;
     }

@@ -75,6 +75,11 @@ TEST(Import, UnitOptionScalesPositions) {
   EXPECT_NEAR(norm(r.position[0] - 10.0 * known_position(0)), 0, 1e-12);
   EXPECT_INPUT_ERROR(parse_length_unit("inch"), "--unit", "inch");
   EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "1,2,3", 1.0), "--transform", "6");
+  // a rotation vector's angle past a turn (1e300 overflowed its length into a NaN pose)
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "0,0,0,1e300,0,0", 1.0), "--transform",
+                     "the rotation vector's angle is inf degrees; give one of at most 360");
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "0,0,0,300,300,0", 1.0), "angle is 424.3 degrees");
+  EXPECT_NO_THROW(parse_rigid_transform("--tool-transform", "0,0,0,0,0,-360", 1.0));
 }
 
 TEST(Import, DefectsNameFileAndLine) {

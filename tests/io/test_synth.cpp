@@ -186,6 +186,8 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   EXPECT_INPUT_ERROR(read_plan(path), path + ":5", "waypoints[1].t", "strictly increasing");
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0], rotvec_deg: [0, 0, 0]}\n  - {t: 1}\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].position_mm", "3 numbers");
+  plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 30], rotvec_deg: [1e300, 0, 0]}\n  - {t: 1}\n");
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].rotvec_deg", "angle is inf degrees; give one of at most 360");
   plan("scene: gap\ntool: scalpel\nwaypoints: []\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":2", "tool", "hook or forceps");
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 1], rotvec_deg: [0, 0, 0], jaw: 2}\n  - {t: 1}\n");

@@ -488,6 +488,10 @@ TEST_F(BadScene, RotationArity) {
 TEST_F(BadScene, NonFiniteRotation) {
   expect(replace(good, "rotvec_deg: [0, 0, 0]", "rotvec_deg: [0, .nan, 0]"), "key 'mesh.transform.rotvec_deg[1]': expected a number, got '.nan'");
 }
+TEST_F(BadScene, RotationPastATurn) {
+  expect(replace(good, "rotvec_deg: [0, 0, 0]", "rotvec_deg: [0, 0, 1e300]"),
+         "key 'mesh.transform.rotvec_deg': the rotation vector's angle is inf degrees; give one of at most 360");
+}
 TEST_F(BadScene, TranslateNotANumber) {
   expect(replace(good, "translate: [0, 0, 0]", "translate: [0, 0, up]"), "key 'mesh.transform.translate[2]': expected a number, got 'up'");
 }

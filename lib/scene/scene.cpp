@@ -707,6 +707,23 @@ Scene build_scene(SceneSpec spec_in) {
   TetMesh mesh = read_msh(spec.physical_mesh);
   if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
     scene.warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");
+  // Coordinates so large that a tet's volume (a product of three differences) overflows: the
+  // file's, or (below) after mesh.unit and mesh.transform.scale. Told as such, not as flat tets.
+  auto check_magnitude = [&mesh](const std::string& where, const char* after) {
+    constexpr double kLimit = 1e100;
+    for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+      const Vec3d& p = mesh.vertices[v];
+      const double m = std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+      if (!(m <= kLimit)) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "vertex %zu%s has a coordinate of %g%s: beyond %g, where the tets' volumes overflow",
+                      v, v < mesh.file_node_ids.size() ? (" (node " + std::to_string(mesh.file_node_ids[v]) + ")").c_str() : "",
+                      m, after, kLimit);
+        throw InputError(where + ": " + buf);
+      }
+    }
+  };
+  check_magnitude(mesh_file, "");
   const Orientation o = orient_tets(mesh);
   if (o.kind == Orientation::Kind::Mixed) {
     std::string tet = "tet " + std::to_string(o.witness);
@@ -727,6 +744,7 @@ Scene build_scene(SceneSpec spec_in) {
       for (Vec3d& p : vertices) p = spec.mesh_transform.apply(p);
   };
   place(mesh.vertices);
+  check_magnitude(spec.file.string() + ": mesh.unit and mesh.transform.scale", " m once placed");
   scene.physical = std::move(mesh);
 
   // The virtual mesh's source surface.

@@ -488,6 +488,21 @@ TEST_F(BadScene, RotationArity) {
 TEST_F(BadScene, NonFiniteRotation) {
   expect(replace(good, "rotvec_deg: [0, 0, 0]", "rotvec_deg: [0, .nan, 0]"), "key 'mesh.transform.rotvec_deg[1]': expected a number, got '.nan'");
 }
+TEST_F(BadScene, OverflowingCoordinates) {
+  // a scale that puts the 10 mm cube 1e148 m across; a file coordinate of 1e300
+  expect(replace(good, "scale: 1,", "scale: 1e150,"),
+         "mesh.unit and mesh.transform.scale: vertex 0 (node 101) has a coordinate of 1e+148 m once placed: beyond 1e+100, "
+         "where the tets' volumes overflow",
+         true);
+  const fs::path msh = write_temp("huge.msh", replace(slurp(data("mesh/cube22.msh")), "101 10 0 10\n", "101 1e300 0 10\n"));
+  try {
+    load_scene(write_temp("huge.yaml", replace(good, data("mesh/cube22.msh").string(), msh.string())));
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), msh.string() + ": vertex 0 (node 101) has a coordinate of 1e+300: beyond 1e+100, "
+                                                    "where the tets' volumes overflow");
+  }
+}
 TEST_F(BadScene, RotationPastATurn) {
   expect(replace(good, "rotvec_deg: [0, 0, 0]", "rotvec_deg: [0, 0, 1e300]"),
          "key 'mesh.transform.rotvec_deg': the rotation vector's angle is inf degrees; give one of at most 360");

@@ -93,10 +93,21 @@ std::string host_name() {
 }
 
 // "DIR/.NAME." — what every temporary of DIR/NAME starts with.
+/// ".NAME.", the start of NAME's temporaries ".NAME.HOST.PID.ebh-partial". A file name holds at
+/// most 255 bytes, so a NAME too long to leave room for the rest keeps its start and a hash of
+/// the whole name (FNV-1a): a legal output name always has a temporary.
 std::string partial_prefix(const fs::path& final_path) {
-  std::string s(1, '.');
-  s.append(final_path.filename().string()).push_back('.');
-  return s;
+  std::string name = final_path.filename().string();
+  constexpr std::size_t kNameMax = 255, kPidDigits = 10;
+  const std::size_t room = kNameMax - (3 + host_name().size() + kPidDigits + kPartialSuffix.size());
+  if (name.size() > room) {
+    std::uint64_t h = 1469598103934665603ull;
+    for (const unsigned char c : name) h = (h ^ c) * 1099511628211ull;
+    char hash[18];
+    std::snprintf(hash, sizeof hash, "~%016llx", static_cast<unsigned long long>(h));
+    name = name.substr(0, room - 17) + hash;
+  }
+  return "." + name + ".";
 }
 
 bool running(long pid) { return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH); }

@@ -220,6 +220,31 @@ TEST(Atomic, ADeviceOrAPipeAsTheOutputIsRefusedAndLeftAsItWas) {
   fs::remove_all(dir);
 }
 
+/// An output name of up to 255 bytes, the most a file name holds, gets a temporary: its name keeps
+/// the output's start and a hash of the whole, within the same 255 bytes.
+TEST(Atomic, TheLongestFileNameIsWritten) {
+  const fs::path dir = fs::temp_directory_path() / ("ebh_long_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const std::size_t length : {200u, 243u, 255u}) {
+    const std::string name = std::string(length - 3, 'a') + ".h5";
+    const std::string path = (dir / name).string();
+    {
+      AtomicOutput out(path);
+      EXPECT_LE(fs::path(out.temp_path()).filename().string().size(), 255u);
+      EXPECT_TRUE(is_partial_output(out.temp_path()));
+      spill(out.temp_path(), "data " + std::to_string(length));
+      out.commit();
+    }
+    EXPECT_EQ(slurp(path), "data " + std::to_string(length));
+  }
+  // two long names that share their first 200 bytes have different temporaries
+  const std::string a = (dir / (std::string(250, 'b') + "1")).string(), b = (dir / (std::string(250, 'b') + "2")).string();
+  AtomicOutput oa(a), ob(b);
+  EXPECT_NE(oa.temp_path(), ob.temp_path());
+  fs::remove_all(dir);
+}
+
 TEST(Atomic, StaleTemporariesOfGoneWritersAreRemoved) {
   test::ScratchDir tmp;
   const std::string out = tmp / "run.h5";

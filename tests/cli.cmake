@@ -198,6 +198,13 @@ set_tests_properties(cli.scene_init.write cli.scene_init.info cli.scene_init.syn
 set(EBH_RENDER_OUT ${PROJECT_BINARY_DIR}/cli_render)
 file(MAKE_DIRECTORY ${EBH_RENDER_OUT})
 set(EBH_EXPECT_ERROR ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# --render with --frames-hz 0 asks for frames and for none: refused before the replay.
+add_test(NAME cli.render.frames_hz_0
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_RENDER_OUT}/none.h5;--duration;0.1;--frames-hz;0;--render;${EBH_RENDER_OUT}/none"
+    "-DEXPECT=^ebh: error: --render .*none: renders the mesh snapshots, and --frames-hz 0 asks for none"
+    -DOUTPUT=${EBH_RENDER_OUT}/none.h5 -P ${EBH_EXPECT_ERROR})
+set_tests_properties(cli.render.frames_hz_0 PROPERTIES LABELS "cli;render")
 if(EBH_HAVE_OSMESA)
   add_test(NAME cli.render.replay
     COMMAND ${CMAKE_COMMAND}

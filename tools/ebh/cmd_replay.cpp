@@ -108,6 +108,9 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   opt.duration = a.duration.value_or(0);  // 0: the rest of the recording
   opt.haptic_threads = a.haptic_threads;
   opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? 30.0 : 0.0);
+  if (!a.render_dir.empty() && a.frames_hz && *a.frames_hz <= 0)
+    throw InputError("--render " + a.render_dir + ": renders the mesh snapshots, and --frames-hz " +
+                     format_number(*a.frames_hz) + " asks for none (leave --frames-hz out for 30 a second)");
   if (!a.render_dir.empty() && opt.frames_hz <= 0) opt.frames_hz = 30.0;  // --render needs frames
   if (opt.frames_hz * world.h_haptic > 1 + 1e-9)
     throw InputError("--frames-hz " + format_number(opt.frames_hz) + ": more snapshots than haptic ticks (" +

@@ -204,7 +204,21 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
                        " fields, expected 16 transform elements, the jaw and button states" +
                        (words ? " (read as an OpenHaptics log; a CSV log with a header needs --format csv)" : ""));
     }
-    if (tok.size() > 17 + 8) throw InputError(where + ": more than 8 button states");
+    if (tok.size() > 17 + 8) {
+      // "0,25 0,5 ...": numbers written with decimal commas split in two at the comma.
+      auto between_digits = [&l](char mark) {
+        const std::string& t = l.text;
+        for (std::size_t i = 1; i + 1 < t.size(); ++i)
+          if (t[i] == mark && std::isdigit(static_cast<unsigned char>(t[i - 1])) &&
+              std::isdigit(static_cast<unsigned char>(t[i + 1])))
+            return true;
+        return false;
+      };
+      const bool decimal_commas = between_digits(',') && !between_digits('.');
+      throw InputError(where + ": more than 8 button states" +
+                       (decimal_commas ? std::string(" (decimal commas? write the numbers with a '.': 0.25, not 0,25)")
+                                       : std::string()));
+    }
     double m[16];
     for (int k = 0; k < 16; ++k) m[k] = to_number(tok[k], where, "element " + std::to_string(k));
     for (int k = 0; k < 16; ++k)

@@ -107,6 +107,16 @@ TEST(Import, DefectsNameFileAndLine) {
   EXPECT_INPUT_ERROR(import_log(p, opt), "f.txt:1", "16 fields");
   p = write("g.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n1 0 0 5 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "g.txt:2", "homogeneous");
+  // a log written with decimal commas: every number splits in two
+  p = write("h.txt", "1 0 0 0 0 1 0 0 0 0 1 0 2,5 6,25 7,5 1 1 0 0,5 0,5 0,5 0,5 0,5 0,5 0,5 0,5\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "h.txt:1", "more than 8 button states (decimal commas? write the numbers with a '.'");
+  p = write("i.txt", "1 0 0 0 0 1 0 0 0 0 1 0 2.5 6 7 1 1 0 1 1 1 1 1 1 1 1 1\n");  // too many buttons, no commas
+  try {
+    import_log(p, opt);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), p + ":1: more than 8 button states");
+  }
   p = write("h.txt", "# only comments\n\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "h.txt", "no samples");
   EXPECT_INPUT_ERROR(import_log(tmp / "absent.txt", opt), "absent.txt", "cannot open");

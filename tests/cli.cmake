@@ -307,6 +307,8 @@ ebh_batch_failure(same_output "is both .*batch_same_output.txt:1's replay output
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_same_output_out.h5\ntube tube_grasp -o ${EBH_REPLAY_OUT}/batch_same_output_out.h5\n")
 ebh_batch_failure(output_is_input "would replace .*batch_output_is_input.txt:1's recording .*tube_insert.h5, an input"
   "tube tube_insert -o ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5\n")
+ebh_batch_failure(output_is_batch_file "would replace the batch file .*batch_output_is_batch_file.txt, an input"
+  "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_output_is_batch_file.txt\n")
 add_test(NAME cli.replay.batch_missing_file
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${EBH_REPLAY_OUT}/no_such_batch.txt"
     "-DEXPECT=no_such_batch.txt: cannot open" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)

@@ -301,7 +301,7 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   std::vector<BatchLine> lines = read_batch_file(file, top.quiet);
-  std::vector<RoleFile> outputs, inputs;
+  std::vector<RoleFile> outputs, inputs{{file, "the batch file"}};
   // Each file's role names its line ("FILE:3's replay output"): two lines may name one output.
   auto of_line = [](const BatchLine& l, RoleFile f) {
     const std::string role = f.role.starts_with("the ") ? f.role.substr(4) : f.role;

@@ -220,7 +220,7 @@ RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& r
     for (std::size_t k = 0; k < files.size(); ++k)
       if (f.has_attr(files[k].first + "_sha256")) recorded[k] = f.attr_string(files[k].first + "_sha256");
   } catch (const InputError&) {
-    return RunState::Done;  // not an output of ebh replay: nothing to compare
+    return RunState::Unreadable;  // not HDF5, or cut short: its replay runs again
   }
   for (std::size_t k = 0; k < files.size(); ++k)
     if (!recorded[k].empty() && recorded[k] != digests.file(files[k].second)) return RunState::Stale;
@@ -313,6 +313,7 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
     const SweepRun& r = runs[i];
     const RunState state = states ? (*states)[i] : run_state(dir, plan, r, digests);
     report.stale += state == RunState::Stale ? 1 : 0;
+    report.unreadable += state == RunState::Unreadable ? 1 : 0;
     if (state == RunState::Done) {
       ++report.skipped;
       ++p.skipped;

@@ -53,9 +53,10 @@ class InputDigests {
 
 /// Where a run stands in DIR: no output yet; an output made from the run's input files as they are
 /// now; or one made from others (a file whose SHA-256 differs from the one the output recorded:
-/// edited or replaced since it ran), which a sweep runs again. An output without the digests (not
+/// edited or replaced since it ran), which a sweep runs again; or one that does not open as HDF5
+/// (cut short by a copy, overwritten by hand), run again too. An output without the digests (not
 /// written by `ebh replay`) counts as done.
-enum class RunState { Missing, Done, Stale };
+enum class RunState { Missing, Done, Stale, Unreadable };
 RunState run_state(const std::filesystem::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests);
 
 /// A folder made before the run ids came from the files' contents names a run's files after its
@@ -127,6 +128,7 @@ using RunnerCallback = std::function<void(const RunnerProgress&, const RunOutcom
 struct RunnerReport {
   std::size_t ran = 0, skipped = 0, failed = 0, interrupted = 0;  ///< run counts
   std::size_t stale = 0;                ///< outputs made from other input files, run again (RunState::Stale)
+  std::size_t unreadable = 0;           ///< outputs that do not open, run again (RunState::Unreadable)
   bool stopped = false;                 ///< an interrupt stopped the sweep
   std::vector<RunOutcome> failures;     ///< in the order they ended
 };

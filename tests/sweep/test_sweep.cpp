@@ -450,7 +450,7 @@ TEST(SweepRunner, CudaChildrenSpreadOverTheGpus) {
 /// A run is done while its output was made from the run's input files as they are: the output
 /// records each one's SHA-256 (the scene file, its mesh, the recording: write_provenance), and a
 /// file edited or replaced since makes the run stale, so the sweep runs it again. An output that
-/// records none (not written by `ebh replay`) counts as done.
+/// records none (not written by `ebh replay`) counts as done; one that does not open runs again.
 TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   const fs::path d = scratch() / "stale";
   fs::remove_all(d);
@@ -487,9 +487,14 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   std::ofstream(d / "scene" / "tube.msh", std::ios::app) << "\n";
   InputDigests mesh_changed;
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Stale);
-  // An output without digests (another program's file): done, as before.
-  std::ofstream(run_output(dir, r)) << "not HDF5\n";
+  // An HDF5 output without digests (another program's file): done, as before.
+  fs::remove(run_output(dir, r));
+  { h5::File::create(run_output(dir, r).string()); }
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Done);
+  // One that does not open (cut short, or not HDF5): its replay runs again, rather than the run
+  // failing in every summary from then on.
+  std::ofstream(run_output(dir, r)) << "not HDF5\n";
+  EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Unreadable);
 }
 
 // A folder made before the ids came from the files' contents holds its outputs under the runs'

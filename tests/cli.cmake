@@ -466,6 +466,17 @@ foreach(window "duration_neg;1;-1" "start_neg;-1;1" "start_past_end;99;1")
   file(WRITE ${EBH_SAFE}/gate_${wname}.yaml
     "cases:\n  - {name: w, scene: tube, recording: tube_insert, start: ${wstart}, duration: ${wduration}}\n")
 endforeach()
+# Gate baselines that would check nothing or pass everything: each refused naming file and key.
+set(ebh_gate_case "name: w, scene: tube, recording: tube_insert, start: 4, duration: 0.5")
+file(WRITE ${EBH_SAFE}/gate_nan.yaml "cases:\n  - {${ebh_gate_case}, rms_force_step: .nan}\n")
+file(WRITE ${EBH_SAFE}/gate_inf.yaml "cases:\n  - {${ebh_gate_case}, peak_force: .inf}\n")
+file(WRITE ${EBH_SAFE}/gate_band.yaml "bands: {relative: -1, abs_force_step: 0, abs_force_rate: 0, abs_peak_force: 0, abs_power: 0, abs_penetration: 0}\ncases:\n  - {${ebh_gate_case}}\n")
+file(WRITE ${EBH_SAFE}/gate_none.yaml "cases: []\n")
+file(WRITE ${EBH_SAFE}/gate_extra.yaml "cases:\n  - {${ebh_gate_case}, peak_forse: 1}\n")
+file(WRITE ${EBH_SAFE}/gate_twice.yaml "cases:\n  - {${ebh_gate_case}}\n  - {${ebh_gate_case}}\n")
+file(WRITE ${EBH_SAFE}/gate_scene.yaml "cases:\n  - {name: w, scene: nope, recording: tube_insert, start: 4, duration: 0.5}\n")
+# --update of a window of one tick: no force step to take as a baseline; the file stays as it was.
+file(WRITE ${EBH_SAFE}/gate_short.yaml "cases:\n  - {name: w, scene: tube, recording: tube_insert, start: 9.9995, duration: 1}\n")
 file(WRITE ${EBH_SAFE}/afile "a file, not a folder\n")
 file(MAKE_DIRECTORY ${EBH_SAFE}/a_folder)
 # Fresh copies of the inputs before the tests that must leave them as they were.
@@ -530,6 +541,20 @@ ebh_safety(gate_start_neg "^ebh: error: .*gate_start_neg.yaml: cases\\[0\\] \\(w
   CMD ${EBH_BIN} gate --baselines ${S}/gate_start_neg.yaml)
 ebh_safety(gate_start_past_end "^ebh: error: .*gate_start_past_end.yaml: cases\\[0\\] \\(w\\): start 99: the recording .*tube_insert.h5 is 10 s long; start before its end"
   CMD ${EBH_BIN} gate --baselines ${S}/gate_start_past_end.yaml)
+foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got '.nan'"
+          "inf;cases\\[0\\].peak_force': expected a finite number >= 0, got '.inf'"
+          "band;bands.relative': expected a finite number >= 0, got '-1'"
+          "none;cases': expected at least one case"
+          "extra;cases\\[0\\].peak_forse': unknown key \\(known: name, scene"
+          "twice;cases\\[1\\].name': 'w' names two cases"
+          "scene;cases\\[0\\] \\(w\\): nope: no such scene")
+  list(GET g 0 gname)
+  list(GET g 1 gexpect)
+  ebh_safety(gate_${gname} "^ebh: error: .*gate_${gname}.yaml: (key ')?${gexpect}"
+    CMD ${EBH_BIN} gate --baselines ${S}/gate_${gname}.yaml)
+endforeach()
+ebh_safety(gate_update_short "^ebh: error: not updating .*gate_short.yaml: .*cases\\[0\\] \\(w\\): its window \\(start 9.9995 s, duration 1 s\\) gives no rms_force_step"
+  KEEP ${S}/gate_short.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_short.yaml --update)
 # 6. Every numeric option is finite and in range.
 foreach(bad "start;nan;>= 0" "duration;nan;> 0" "duration;0;> 0" "frames-hz;-5;in \\[0, 100000\\] Hz" "frames-hz;nan;in \\[0")
   list(GET bad 0 opt)

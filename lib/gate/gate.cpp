@@ -3,9 +3,11 @@
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <limits>
 #include <sstream>
 
@@ -25,6 +27,27 @@ double number(const YAML::Node& n, const std::string& file, const std::string& k
     return n.as<double>();
   } catch (const YAML::Exception&) {
     throw InputError(file + ": key '" + key + "': expected a number, got '" + n.Scalar() + "'");
+  }
+}
+
+/// A band or a baseline metric: a finite number >= 0.
+double nonnegative(const YAML::Node& n, const std::string& file, const std::string& key) {
+  const double v = number(n, file, key);
+  if (!(std::isfinite(v) && v >= 0)) throw InputError(file + ": key '" + key + "': expected a finite number >= 0, got '" + n.Scalar() + "'");
+  return v;
+}
+
+/// Refuses a key of map `n` not in `known` (a misspelt metric would otherwise go unchecked).
+void only_keys(const YAML::Node& n, const std::string& file, const std::string& key,
+               std::initializer_list<const char*> known) {
+  if (!n.IsMap()) throw InputError(file + ": key '" + key + "': expected a map");
+  for (const auto& kv : n) {
+    const std::string k = kv.first.Scalar();
+    if (std::find_if(known.begin(), known.end(), [&](const char* s) { return k == s; }) == known.end()) {
+      std::string list;
+      for (const char* s : known) list += (list.empty() ? "" : ", ") + std::string(s);
+      throw InputError(file + ": key '" + (key.empty() ? k : key + "." + k) + "': unknown key (known: " + list + ")");
+    }
   }
 }
 
@@ -53,34 +76,48 @@ GateBaselines read_gate_baselines(const std::string& path) {
     throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
   GateBaselines b;
+  only_keys(root, path, "", {"generated_by", "bands", "cases"});
   if (root["generated_by"]) b.generated_by = text(root["generated_by"], path, "generated_by");
   if (const YAML::Node bands = root["bands"]) {
-    b.bands.relative = number(bands["relative"], path, "bands.relative");
-    b.bands.abs_force_step = number(bands["abs_force_step"], path, "bands.abs_force_step");
-    b.bands.abs_force_rate = number(bands["abs_force_rate"], path, "bands.abs_force_rate");
-    b.bands.abs_peak_force = number(bands["abs_peak_force"], path, "bands.abs_peak_force");
-    b.bands.abs_power = number(bands["abs_power"], path, "bands.abs_power");
-    b.bands.abs_penetration = number(bands["abs_penetration"], path, "bands.abs_penetration");
+    only_keys(bands, path, "bands",
+              {"relative", "abs_force_step", "abs_force_rate", "abs_peak_force", "abs_power", "abs_penetration"});
+    b.bands.relative = nonnegative(bands["relative"], path, "bands.relative");
+    b.bands.abs_force_step = nonnegative(bands["abs_force_step"], path, "bands.abs_force_step");
+    b.bands.abs_force_rate = nonnegative(bands["abs_force_rate"], path, "bands.abs_force_rate");
+    b.bands.abs_peak_force = nonnegative(bands["abs_peak_force"], path, "bands.abs_peak_force");
+    b.bands.abs_power = nonnegative(bands["abs_power"], path, "bands.abs_power");
+    b.bands.abs_penetration = nonnegative(bands["abs_penetration"], path, "bands.abs_penetration");
   }
   const YAML::Node cases = root["cases"];
   if (!cases || !cases.IsSequence()) throw InputError(path + ": key 'cases': expected a list");
+  if (cases.size() == 0) throw InputError(path + ": key 'cases': expected at least one case (a gate of none checks nothing)");
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const YAML::Node c = cases[i];
     const std::string k = "cases[" + std::to_string(i) + "].";
+    only_keys(c, path, k.substr(0, k.size() - 1),
+              {"name", "scene", "recording", "start", "duration", "rms_force_step", "max_force_rate", "peak_force",
+               "power_above_30hz", "penetration_max"});
     GateCase g;
     g.name = text(c["name"], path, k + "name");
+    for (const GateCase& other : b.cases)
+      if (other.name == g.name) throw InputError(path + ": key '" + k + "name': '" + g.name + "' names two cases");
     g.scene = text(c["scene"], path, k + "scene");
     g.recording = text(c["recording"], path, k + "recording");
     g.start = number(c["start"], path, k + "start");
     g.duration = number(c["duration"], path, k + "duration");
     g.where = path + ": " + k.substr(0, k.size() - 1) + " (" + g.name + ")";
+    // A metric absent has no baseline yet; one given is a finite number >= 0 (a NaN baseline
+    // would pass every comparison). The power above 30 Hz alone may be .nan: a window too short
+    // for its spectrum has none, and the gate then compares none.
     auto metric = [&](const char* key) {
-      return c[key] ? number(c[key], path, k + key) : std::numeric_limits<double>::quiet_NaN();
+      return c[key] ? nonnegative(c[key], path, k + key) : std::numeric_limits<double>::quiet_NaN();
     };
     g.rms_force_step = metric("rms_force_step");
     g.max_force_rate = metric("max_force_rate");
     g.peak_force = metric("peak_force");
-    g.power_above_30hz = metric("power_above_30hz");
+    g.power_above_30hz = c["power_above_30hz"] && std::isnan(number(c["power_above_30hz"], path, k + "power_above_30hz"))
+                             ? std::numeric_limits<double>::quiet_NaN()
+                             : metric("power_above_30hz");
     g.penetration_max = metric("penetration_max");
     b.cases.push_back(g);
   }
@@ -121,8 +158,14 @@ void write_gate_baselines(const std::string& path, const GateBaselines& b) {
 }
 
 GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides) {
-  const LoadedReplay in = load_replay_inputs(c.scene, c.recording, overrides, std::nullopt, std::nullopt, false);
   const std::string key = c.where.empty() ? "case '" + c.name + "'" : c.where;
+  const LoadedReplay in = [&] {
+    try {
+      return load_replay_inputs(c.scene, c.recording, overrides, std::nullopt, std::nullopt, false);
+    } catch (const InputError& e) {
+      throw InputError(key + ": " + e.what());
+    }
+  }();
   const double dur = replay_window(c.start, c.duration, in.recording.duration(), in.recording_path,
                                    key + ": start", key + ": duration");
   ReplayOptions opt;

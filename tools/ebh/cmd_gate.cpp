@@ -1,5 +1,6 @@
 // ebh gate: the force-smoothness regression gate (lib/gate/gate.hpp) for CI.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
@@ -30,6 +31,15 @@ void run_gate(const GateArgs& a) {
     GateResult r = run_gate_case(c, a.overrides);
     if (a.update) {
       if (r.stopped) throw NumericalError("gate --update: " + r.failures.front());  // nothing to measure
+      // A baseline is a number: a window too short for a metric (a tick or two) gives none.
+      for (const auto& [name, v] : {std::pair{"rms_force_step", r.measured.rms_force_step},
+                                    {"max_force_rate", r.measured.max_force_rate},
+                                    {"peak_force", r.measured.peak_force},
+                                    {"penetration_max", r.measured.penetration_max}})
+        if (!std::isfinite(v))
+          throw InputError("not updating " + a.baselines + ": " + c.where + ": its window (start " +
+                           cli::format_number(c.start) + " s, duration " + cli::format_number(c.duration) +
+                           " s) gives no " + name + "; lengthen it");
       c = r.measured;
     } else {
       judge_gate_case(c, b.bands, r);

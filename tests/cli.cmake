@@ -190,8 +190,14 @@ add_test(NAME cli.scene_init.over_the_mesh
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${OWN};-o;${OWN}"
     "-DEXPECT=^ebh: error: .*own_cm.msh: the output would replace the mesh" -DKEEP=${OWN} -DSTATUS=1
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# A scene written over another file that is not YAML (another scene's mesh): refused, kept.
+file(COPY_FILE ${PROJECT_SOURCE_DIR}/scenarios/tube.msh ${EBH_INIT}/other.msh)
+add_test(NAME cli.scene_init.over_another_mesh
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${OWN};-o;${EBH_INIT}/other.msh"
+    "-DEXPECT=^ebh: error: .*other.msh: a scene is a YAML file; name it .yaml" -DKEEP=${EBH_INIT}/other.msh -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene_init.write cli.scene_init.info cli.scene_init.synth cli.scene_init.replay
-  cli.scene_init.over_the_mesh PROPERTIES LABELS "cli;scene")
+  cli.scene_init.over_the_mesh cli.scene_init.over_another_mesh PROPERTIES LABELS "cli;scene")
 
 # ebh render (lib/render): a short tube replay with frames, rendered by `ebh replay --render` and
 # indexed for ParaView (tube.xdmf); presets, --xdmf-only and bad input on that output.

@@ -397,8 +397,13 @@ void refine(const SceneRefineArgs& a) {
 /// checked by loading it before it is written.
 void init(const ebh::SceneInitOptions& o) {
   const std::string mesh = o.mesh.string(), out = o.out.string();
+  if (out.empty()) throw ebh::InputError("-o: output file name is empty");
   ebh::check_input_file(mesh);
   ebh::check_outputs({{out, "the scene"}}, {{mesh, "the mesh"}});
+  // The scene is YAML: a name of another kind is a slip (`-o other.msh` replaced a mesh with it).
+  if (const std::string ext = o.out.extension().string(); ext != ".yaml" && ext != ".yml")
+    throw ebh::InputError(out + ": a scene is a YAML file; name it .yaml (the output would be YAML under a " +
+                          (ext.empty() ? std::string("name without an extension") : "'" + ext + "' name") + ")");
   const ebh::SceneInit made = ebh::make_scene(o);
   for (const auto& w : made.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   ebh::write_file_atomically(out, made.yaml);

@@ -96,9 +96,20 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], min_haptic_hz, "", {}, {}, 0};
     }
     ReportGroup& g = groups[key];
-    if (row[c_ref] == "1") references[{row[c_scene], row[c_rec]}] = row[c_over] + " (" + row[c_backend] + ")";
+    if (row[c_ref] == "1") {
+      // One reference per scene and recording (its repetitions alike): a summary edited by hand
+      // could hold two, and the errors would be against either.
+      const std::string ref = row[c_over] + " (" + row[c_backend] + ")";
+      const auto [it, added] = references.emplace(std::pair{row[c_scene], row[c_rec]}, ref);
+      if (!added && it->second != ref)
+        throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'reference': a second reference for " +
+                         row[c_scene] + " + " + row[c_rec] + " (" + ref + "; the first: " + it->second + ")");
+    }
     const std::string& status = row[c_status];
     if (status == "ok") {
+      if (const double w = number(r, c_wall); !(std::isfinite(w) && w >= 0))
+        throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'wall_s': expected a finite number >= 0 (the run's wall time), got '" +
+                         row[c_wall] + "'");
       auto& configs = rows_of[key];
       if (!configs.count(row[c_over])) config_order[key].push_back(row[c_over]);
       configs[row[c_over]].push_back(r);

@@ -884,6 +884,26 @@ TEST(SweepReport, MissingColumnAndBadNumberAreNamed) {
   } catch (const InputError& e) {
     EXPECT_STREQ(e.what(), "s.csv: row 2, column 'wall_s': expected a number, got 'fast'");
   }
+  // Values a replay cannot have written: a negative wall time (it would lead the front), two
+  // references for one recording (the errors would be against either).
+  for (const char* wall : {"-1", "nan", "inf"})
+    try {
+      (void)build_report(parse_csv(header + "ok,tube,r,cpu,0,-," + wall + ",1,0,0,0\n", "s.csv"), "s.csv");
+      ADD_FAILURE() << wall;
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()),
+                std::string("s.csv: row 2, column 'wall_s': expected a finite number >= 0 (the run's wall time), got '") +
+                    wall + "'");
+    }
+  try {
+    (void)build_report(parse_csv(header + "ok,tube,r,cpu,1,a=1,1,1,0,0,0\nok,tube,r,cpu,1,a=1,1,1,0,0,0\n"
+                                          "ok,tube,r,cpu,1,a=2,1,1,0,0,0\n",
+                                 "s.csv"),
+                       "s.csv");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "s.csv: row 4, column 'reference': a second reference for tube + r (a=2 (cpu); the first: a=1 (cpu))");
+  }
 }
 
 }  // namespace

@@ -196,7 +196,12 @@ void check_size_bench(const SizeBenchOptions& o) {
   const RefinedCounts c = refined_counts(mesh, o.last_level);
   if (c.tets > max_tets)
     throw InputError("--levels: level " + std::to_string(o.last_level) + " of " + scene_file.string() + " makes " +
-                     std::to_string(c.tets) + " tets, over the limit of " + std::to_string(max_tets) +
+                     (c.tets_estimate < 1e15 ? std::to_string(c.tets) : [&] {
+                       char buf[32];
+                       std::snprintf(buf, sizeof buf, "%.3g", c.tets_estimate);
+                       return std::string(buf);
+                     }()) +
+                     " tets, over the limit of " + std::to_string(max_tets) +
                      " (--max-tets raises it; `ebh scene refine` says the memory it takes)");
 }
 

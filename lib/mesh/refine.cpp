@@ -160,6 +160,8 @@ RefinedCounts refined_counts(const TetMesh& mesh, int levels) {
   c.edges = saturating(E);
   c.faces = saturating(F);
   c.tets = saturating(T);
+  c.tets_estimate = T;
+  c.vertices_estimate = V;
   c.boundary_faces = saturating(B);
   c.triangles = saturating(L + static_cast<double>(static_cast<std::int64_t>(mesh.triangles.size()) - split));
   return c;

@@ -48,6 +48,7 @@ struct RefinedCounts {
   std::int64_t vertices = 0, edges = 0, faces = 0, tets = 0;
   std::int64_t triangles = 0;          ///< listed triangles (those on the tets x 4 a level, the rest kept)
   std::int64_t boundary_faces = 0;     ///< faces of one tet
+  double tets_estimate = 0, vertices_estimate = 0;  ///< the same counts as doubles, for messages past INT64_MAX
 };
 
 /// The counts of `mesh` itself (levels = 0) or after `levels` refinements, computed without

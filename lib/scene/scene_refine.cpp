@@ -3,6 +3,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <optional>
 #include <vector>
@@ -17,12 +18,13 @@
 namespace ebh {
 namespace {
 
-/// "22.5 million", "351 thousand", "8057".
-std::string count_words(std::int64_t n) {
+/// "22.5 million", "351 thousand", "8057"; "5.4e+93" beyond a million million.
+std::string count_words(double n) {
   char buf[48];
-  if (n >= 1'000'000) std::snprintf(buf, sizeof buf, "%.3g million", static_cast<double>(n) / 1e6);
-  else if (n >= 10'000) std::snprintf(buf, sizeof buf, "%.3g thousand", static_cast<double>(n) / 1e3);
-  else std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(n));
+  if (n >= 1e12) std::snprintf(buf, sizeof buf, "%.3g", n);
+  else if (n >= 1'000'000) std::snprintf(buf, sizeof buf, "%.3g million", n / 1e6);
+  else if (n >= 10'000) std::snprintf(buf, sizeof buf, "%.3g thousand", n / 1e3);
+  else std::snprintf(buf, sizeof buf, "%.0f", n);
   return buf;
 }
 
@@ -35,7 +37,9 @@ std::string gigabytes(double bytes) {
 }  // namespace
 
 RefineMemory refine_memory(const RefinedCounts& c) {
-  const double v = static_cast<double>(c.vertices), t = static_cast<double>(c.tets);
+  // The estimates, which go past the counts' INT64_MAX (a level of 99 asks for ~1e93 tets).
+  const double v = std::max(static_cast<double>(c.vertices), c.vertices_estimate),
+               t = std::max(static_cast<double>(c.tets), c.tets_estimate);
   RefineMemory m;
   // Writing: the mesh (32 bytes a vertex: position and node id; 20 a tet: corners and group), the
   // previous level's (1/8) and its edge table (48 bytes a parent tet: 6 B a child), and the text
@@ -65,10 +69,10 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
   r.after = refined_counts(mesh, levels);
   if (r.after.tets > max_tets) {
     const RefineMemory m = refine_memory(r.after);
-    throw InputError(scene.string() + ": level " + std::to_string(levels) + " makes " + count_words(r.after.tets) +
-                     " tets and " + count_words(r.after.vertices) + " vertices (" + count_words(r.before.tets) +
+    throw InputError(scene.string() + ": level " + std::to_string(levels) + " makes " + count_words(r.after.tets_estimate) +
+                     " tets and " + count_words(r.after.vertices_estimate) + " vertices (" + count_words(static_cast<double>(r.before.tets)) +
                      " tets x 8^" + std::to_string(levels) + "): about " + gigabytes(m.write_bytes) + " to write and " +
-                     gigabytes(m.replay_bytes) + " to replay, over the limit of " + count_words(max_tets) +
+                     gigabytes(m.replay_bytes) + " to replay, over the limit of " + count_words(static_cast<double>(max_tets)) +
                      " tets (--max-tets raises it)");
   }
   // The kept virtual mesh: the scene's OBJ as it is, or the boundary before refinement.

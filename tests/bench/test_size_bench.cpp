@@ -98,6 +98,13 @@ TEST(SizeBench, RefusesBeforeAnyWork) {
     EXPECT_NE(std::string(e.what()).find("level 3 of "), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("makes 4125184 tets, over the limit of 100000"), std::string::npos) << e.what();
   }
+  o.last_level = 99;
+  try {
+    run_size_bench(o);
+    ADD_FAILURE() << "level 99 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("makes 2.05e+93 tets, over the limit of 100000"), std::string::npos) << e.what();
+  }
   o.last_level = 1;
   o.overrides = {"solver.active_regio=0.001"};
   try {

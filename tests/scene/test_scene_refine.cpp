@@ -174,6 +174,12 @@ TEST(SceneRefine, BadLevelAndOverTheLimit) {
     EXPECT_NE(std::string(e.what()).find("level 3 makes 2560 tets"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("over the limit of 2000 tets (--max-tets raises it)"), std::string::npos) << e.what();
   }
+  try {  // past INT64_MAX: the counts and the memory as estimates, not the saturated integers
+    refine_scene(data("scene/cube.yaml"), 99, out_dir() / "x.yaml");
+    ADD_FAILURE() << "level 99 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("level 99 makes 1.27e+90 tets and 2.12e+89 vertices (5 tets x 8^99): about 2.2e+83 GB to write"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -283,6 +283,11 @@ ebh_replay_failure(bad_mode "--mode: expected async, lockstep or realtime" tube 
 ebh_replay_failure(bad_rates "whole number of ticks" tube tube_insert --haptic-hz 1000 --physical-hz 300)
 ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
 ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
+# A window past the recording's end is cut there, and the replay says so.
+add_test(NAME cli.replay.duration_past_the_end
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/past_end.h5 --start 9.9 --duration 100 -q)
+set_tests_properties(cli.replay.duration_past_the_end PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "warning: .*tube_insert.h5: the recording ends 0.1 s after --start; replaying those, not --duration's 100 s")
 # ebh replay --batch FILE: each bad line is refused with FILE:LINE before any replay runs (and
 # before the CUDA backend is asked for, so these run on machines without a GPU too).
 function(ebh_batch_failure name expect content)

@@ -220,7 +220,13 @@ RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& r
     for (std::size_t k = 0; k < files.size(); ++k)
       if (f.has_attr(files[k].first + "_sha256")) recorded[k] = f.attr_string(files[k].first + "_sha256");
   } catch (const InputError&) {
-    return RunState::Unreadable;  // not HDF5, or cut short: its replay runs again
+    // An HDF5 file that does not open (cut short by a copy or a full disk) or an empty one runs
+    // again; a file of another kind is another program's, left alone as done.
+    char head[8] = {};
+    std::ifstream in(out, std::ios::binary);
+    in.read(head, sizeof head);
+    const bool empty = in.gcount() == 0;
+    return empty || std::memcmp(head, "\x89HDF\r\n\x1a\n", 8) == 0 ? RunState::Unreadable : RunState::Done;
   }
   for (std::size_t k = 0; k < files.size(); ++k)
     if (!recorded[k].empty() && recorded[k] != digests.file(files[k].second)) return RunState::Stale;

@@ -53,9 +53,9 @@ class InputDigests {
 
 /// Where a run stands in DIR: no output yet; an output made from the run's input files as they are
 /// now; or one made from others (a file whose SHA-256 differs from the one the output recorded:
-/// edited or replaced since it ran), which a sweep runs again; or one that does not open as HDF5
-/// (cut short by a copy, overwritten by hand), run again too. An output without the digests (not
-/// written by `ebh replay`) counts as done.
+/// edited or replaced since it ran), which a sweep runs again; or an HDF5 file that does not open
+/// (cut short by a copy or a full disk) or an empty one, run again too. An output without the
+/// digests, or a file of another kind (not written by `ebh replay`), counts as done.
 enum class RunState { Missing, Done, Stale, Unreadable };
 RunState run_state(const std::filesystem::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests);
 

@@ -450,7 +450,7 @@ TEST(SweepRunner, CudaChildrenSpreadOverTheGpus) {
 /// A run is done while its output was made from the run's input files as they are: the output
 /// records each one's SHA-256 (the scene file, its mesh, the recording: write_provenance), and a
 /// file edited or replaced since makes the run stale, so the sweep runs it again. An output that
-/// records none (not written by `ebh replay`) counts as done; one that does not open runs again.
+/// records none (not written by `ebh replay`) counts as done; one cut short runs again.
 TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   const fs::path d = scratch() / "stale";
   fs::remove_all(d);
@@ -491,9 +491,15 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   fs::remove(run_output(dir, r));
   { h5::File::create(run_output(dir, r).string()); }
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Done);
-  // One that does not open (cut short, or not HDF5): its replay runs again, rather than the run
-  // failing in every summary from then on.
+  // Another program's file of another kind: done, as before.
   std::ofstream(run_output(dir, r)) << "not HDF5\n";
+  EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Done);
+  // An output cut short (a copy, a full disk), or empty: its replay runs again, rather than the
+  // run failing in every summary from then on.
+  write_output(scene_sha);
+  fs::resize_file(run_output(dir, r), fs::file_size(run_output(dir, r)) / 2);
+  EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Unreadable);
+  fs::resize_file(run_output(dir, r), 0);
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Unreadable);
 }
 

@@ -283,6 +283,8 @@ ebh_replay_failure(bad_mode "--mode: expected async, lockstep or realtime" tube 
 ebh_replay_failure(bad_rates "whole number of ticks" tube tube_insert --haptic-hz 1000 --physical-hz 300)
 ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
 ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
+ebh_replay_failure(set_twice "--set 'stiffness.k_con=900': key 'stiffness.k_con' given twice \\(also --set 'stiffness.k_con=800'\\)"
+  tube tube_insert --set stiffness.k_con=800 --set stiffness.k_con=900)
 # A window past the recording's end is cut there, and the replay says so.
 add_test(NAME cli.replay.duration_past_the_end
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/past_end.h5 --start 9.9 --duration 100 -q)
@@ -318,6 +320,8 @@ ebh_batch_failure(same_output "is both .*batch_same_output.txt:1's replay output
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_same_output_out.h5\ntube tube_grasp -o ${EBH_REPLAY_OUT}/batch_same_output_out.h5\n")
 ebh_batch_failure(output_is_input "would replace .*batch_output_is_input.txt:1's recording .*tube_insert.h5, an input"
   "tube tube_insert -o ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5\n")
+ebh_batch_failure(set_twice "batch_set_twice.txt:1: --set 'solver.virtual_iterations=2': key 'solver.virtual_iterations' given twice"
+  "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_set_twice_out.h5 --set solver.virtual_iterations=1 --set solver.virtual_iterations=2\n")
 ebh_batch_failure(output_is_batch_file "would replace the batch file .*batch_output_is_batch_file.txt, an input"
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_output_is_batch_file.txt\n")
 add_test(NAME cli.replay.batch_missing_file

@@ -151,6 +151,7 @@ void run_sizes(const SizesArgs& a) {
   o.mode = parse_mode(a.mode);
   o.backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   o.max_tets = a.max_tets;
+  check_set_once(a.overrides);
   o.overrides = a.overrides;
   o.keep_virtual = a.keep_virtual;
   check_size_bench(o);  // a bad option, override or size: one line, before the heading

@@ -20,6 +20,7 @@ struct GateArgs {
 };
 
 void run_gate(const GateArgs& a) {
+  check_set_once(a.overrides);
   GateBaselines b = read_gate_baselines(a.baselines);
   std::vector<std::string> known;
   for (const GateCase& c : b.cases) known.push_back(c.name);

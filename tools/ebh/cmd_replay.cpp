@@ -201,6 +201,7 @@ std::vector<RoleFile> replay_outputs(const ReplayArgs& a) {
 void run_replay(const ReplayArgs& a) {
   parse_mode(a.mode);
   check_backend(a.backend);
+  check_set_once(a.overrides);
   const Backend backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   // Before any work: no output may replace one of the files the replay reads.
   check_outputs(replay_outputs(a), replay_input_files(a.scene, a.recording, a.overrides));
@@ -287,6 +288,11 @@ std::vector<BatchLine> read_batch_file(const std::string& file, bool quiet) {
     if (app.count("--backend") && a.backend != "cuda") refuse("--backend cpu: a batch runs on the CUDA backend");
     if (a.mode != "async") refuse("--mode " + a.mode + ": a batch runs in async mode");
     if (a.frames_hz.value_or(0) > 0 || !a.render_dir.empty()) refuse("a batch writes no mesh frames (--frames-hz 0, no --render)");
+    try {
+      check_set_once(a.overrides);
+    } catch (const InputError& e) {
+      refuse(e.what());
+    }
     a.backend = "cuda";
     a.frames_hz = 0.0;
     a.quiet = a.quiet || quiet;

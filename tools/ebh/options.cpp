@@ -34,6 +34,15 @@ CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::stri
       range);
 }
 
+void check_set_once(const std::vector<std::string>& overrides) {
+  for (std::size_t i = 0; i < overrides.size(); ++i) {
+    const std::string key = overrides[i].substr(0, overrides[i].find('='));
+    for (std::size_t j = 0; j < i; ++j)
+      if (overrides[j].substr(0, overrides[j].find('=')) == key)
+        throw InputError("--set '" + overrides[i] + "': key '" + key + "' given twice (also --set '" + overrides[j] + "')");
+  }
+}
+
 void check_known_names(const std::string& option, const std::string& what, const std::vector<std::string>& chosen,
                        const std::vector<std::string>& known) {
   for (const std::string& c : chosen) {

@@ -24,4 +24,8 @@ CLI::Validator finite_number(double lo, double hi, bool lo_open = false, const s
 void check_known_names(const std::string& option, const std::string& what, const std::vector<std::string>& chosen,
                        const std::vector<std::string>& known);
 
+/// Throws InputError "--set 'k=2': key 'k' given twice (also --set 'k=1')" when two overrides name
+/// one key: the last would win silently (a sweep plan refuses a key twice as well).
+void check_set_once(const std::vector<std::string>& overrides);
+
 }  // namespace ebh::cli

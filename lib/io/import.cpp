@@ -140,8 +140,12 @@ double to_number(const std::string& tok, const std::string& where, const std::st
   char* e = nullptr;
   errno = 0;
   double v = std::strtod(b, &e);
-  if (tok.empty() || e != b + tok.size() || errno == ERANGE)
+  // strtod also reads hexadecimal ("0x1p3"), which no log writes and `--set` refuses.
+  if (tok.empty() || e != b + tok.size() || tok.find_first_of("xX") != std::string::npos)
     throw InputError(where + ": " + field + ": '" + tok + "' is not a number");
+  // ERANGE: beyond a double (inf), or below its smallest normal (a subnormal or 0, a fine value).
+  if (errno == ERANGE && std::fabs(v) > 1)
+    throw InputError(where + ": " + field + ": '" + tok + "' is beyond the range of a number");
   return v;
 }
 

@@ -80,6 +80,11 @@ TEST(Import, UnitOptionScalesPositions) {
                      "the rotation vector's angle is inf degrees; give one of at most 360");
   EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "0,0,0,300,300,0", 1.0), "angle is 424.3 degrees");
   EXPECT_NO_THROW(parse_rigid_transform("--tool-transform", "0,0,0,0,0,-360", 1.0));
+  // numbers as a log or an option writes them: a subnormal is one, hexadecimal and 1e400 are not
+  EXPECT_NO_THROW(parse_rigid_transform("--transform", "0,0,0,1e-320,0,0", 1.0));
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "0x1,0,0,0,0,0", 1.0), "value 0", "'0x1' is not a number");
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "1e400,0,0,0,0,0", 1.0), "value 0",
+                     "'1e400' is beyond the range of a number");
 }
 
 TEST(Import, DefectsNameFileAndLine) {

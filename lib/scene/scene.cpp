@@ -30,6 +30,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// A name to look for in the data folders ("tube"), not a path: no folder and no extension.
+bool is_data_name(const std::string& s) { return s.find('/') == std::string::npos && fs::path(s).extension().empty(); }
+
 /// Why `p` is not a file to read: "file not found", "is a folder, not a file" or "is not a regular
 /// file" (a device, a pipe); empty when it is one.
 std::string not_a_file(const fs::path& p) {
@@ -821,9 +824,8 @@ std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<c
 fs::path resolve_data_path(const std::string& name_or_path, const std::string& folder, const std::string& extension,
                            const std::string& what) {
   if (name_or_path.empty()) throw InputError(what + ": expected a " + what + " name or a path, got nothing");
-  const bool is_name = name_or_path.find('/') == std::string::npos && fs::path(name_or_path).extension().empty();
   std::error_code ec;
-  if (!is_name) {
+  if (!is_data_name(name_or_path)) {
     if (const std::string why = not_a_file(name_or_path); !why.empty())
       throw InputError(name_or_path + ": " + (why == "file not found" ? what + " file not found" : why));
     return name_or_path;
@@ -872,16 +874,10 @@ fs::path resolve_scene_path(const std::string& name_or_path) {
   return resolve_data_path(name_or_path, "scenarios", ".yaml", "scene");
 }
 
-namespace {
-bool is_scene_name(const std::string& s) {
-  return s.find('/') == std::string::npos && fs::path(s).extension().empty();
-}
-}  // namespace
-
 fs::path resolve_recording_scene(const std::string& attribute, const std::string& recording) {
   const std::string where = recording + ": its scene attribute '" + attribute + "'";
   if (attribute.empty()) throw InputError(recording + ": its scene attribute is empty: the recording names no scene");
-  if (!is_scene_name(attribute) && fs::path(attribute).is_relative()) {
+  if (!is_data_name(attribute) && fs::path(attribute).is_relative()) {
     const fs::path beside = (fs::path(recording).parent_path() / attribute).lexically_normal();
     std::error_code ec;
     if (fs::is_regular_file(beside, ec)) return beside;
@@ -894,7 +890,7 @@ fs::path resolve_recording_scene(const std::string& attribute, const std::string
 }
 
 std::string scene_attribute_for(const std::string& given, const fs::path& scene_file, const fs::path& output) {
-  if (is_scene_name(given)) return given;
+  if (is_data_name(given)) return given;
   std::error_code ec;
   const fs::path folder = fs::absolute(output, ec).parent_path();
   const fs::path rel = fs::absolute(scene_file, ec).lexically_normal().lexically_relative(folder.lexically_normal());

@@ -285,6 +285,12 @@ ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
 ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
 ebh_replay_failure(set_twice "--set 'stiffness.k_con=900': key 'stiffness.k_con' given twice \\(also --set 'stiffness.k_con=800'\\)"
   tube tube_insert --set stiffness.k_con=800 --set stiffness.k_con=900)
+# A realtime replay whose ticks cannot keep up (100 kHz: 10 us a tick) says it fell behind.
+add_test(NAME cli.replay.realtime_behind
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/behind.h5 --start 4 --duration 0.005 --mode realtime
+    --haptic-hz 100000 --physical-hz 10000 -q)
+set_tests_properties(cli.replay.realtime_behind PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "warning: .*behind.h5: the realtime replay fell behind the clock \\(0\\.[0-9]+x real time")
 # A window past the recording's end is cut there, and the replay says so.
 add_test(NAME cli.replay.duration_past_the_end
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/past_end.h5 --start 9.9 --duration 100 -q)

@@ -259,7 +259,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt) {
   // Timing.
   TimingMetrics& tm = m.timing;
   tm.ticks = n;
-  tm.budget_s = opt.tick_budget_s;
+  tm.budget_s = opt.tick_budget_s > 0 ? opt.tick_budget_s : 1.0 / tr.haptic_hz;
   tm.p50 = percentile(tr.haptic_step_s, 50);
   tm.p99 = percentile(tr.haptic_step_s, 99);
   tm.p999 = percentile(tr.haptic_step_s, 99.9);
@@ -268,7 +268,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt) {
   for (double x : tr.haptic_step_s) {
     tmax.add(x);
     tsum += x;
-    tm.over_budget += x > opt.tick_budget_s;
+    tm.over_budget += x > tm.budget_s;
   }
   tm.max = tmax.v;
   tm.mean = tsum / static_cast<double>(n);

@@ -234,6 +234,11 @@ TEST(ForceMetrics, StretchPenetrationClampAndTiming) {
   EXPECT_DOUBLE_EQ(m.timing.p999, percentile(tr.haptic_step_s, 99.9));
   EXPECT_GT(m.timing.p999, 1e-3);
   EXPECT_TRUE(std::isnan(m.timing.physical_p50));  // no /timing/physical_step_s in the file
+  // The budget is a tick at the replay's rate: at 2 kHz 0.5 ms, which the ticks of 0.6-1 ms miss too.
+  tr.haptic_hz = 2000;
+  const ForceMetrics fast = roundtrip(tr, "misc2k");
+  EXPECT_DOUBLE_EQ(fast.timing.budget_s, 5e-4);
+  EXPECT_EQ(fast.timing.over_budget, 10u + 500u);  // the 2 ms ticks, and the 500 of 0.6 to 1 ms
 }
 
 TEST(ForceMetrics, EpisodesMergeShortGaps) {

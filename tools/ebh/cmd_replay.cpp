@@ -165,6 +165,13 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  "term) resists, and the force is not a physical response while they are (docs/MODEL.md, \"Inverted "
                  "tets\")\n",
                  a.out.c_str(), writer.max_inverted_tets(), world.physical_mesh.num_tets, writer.first_inverted_t());
+  // A realtime run paces its ticks by the clock: one that could not keep up ran slower than the
+  // device it stands for, and its timings are not the ones a real-time loop would have.
+  if (p.opt.mode == Mode::Realtime && s.wall_s > 0 && s.virtual_s / s.wall_s < 0.95)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: the realtime replay fell behind the clock (%.2fx real time: %.3f s of virtual "
+                 "time took %.3f s): its ticks missed their %g ms (`ebh metrics`, haptic ticks over budget)\n",
+                 a.out.c_str(), s.virtual_s / s.wall_s, s.virtual_s, s.wall_s, world.h_haptic * 1e3);
   // From the recording's first sample only: a window may well start in contact.
   const std::string start = a.start == 0 ? start_warning(writer.first_penetration_physical()) : "";
   if (!start.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), start.c_str());

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# ebh sweep resumes: a finished run is never run again, a deleted output is run again, and a sweep
+# ebh sweep resumes: a finished run is never run again, a deleted or cut output is run again, and a sweep
 # stopped with SIGTERM leaves no half-written file and, rerun, runs exactly the runs it did not
 # finish. The summary's error of a run identical to the reference is 0.
 #   tests/sweep/resume.sh EBH_BIN WORK_DIR
@@ -51,6 +51,19 @@ victim=$(ids_done "$work/a" | sed -n 2p)
 rm "$work/a/runs/$victim.h5"
 "$ebh" sweep "$work/plan.yaml" -o "$work/a" 2>"$work/c.err" >/dev/null || fail "resume: $(tail -1 "$work/c.err")"
 [ "$(ran_ids "$work/c.err")" = "$victim" ] || fail "expected only $victim to run, ran: $(ran_ids "$work/c.err")"
+
+# An output cut short (a copy, a full disk) runs again; another program's file under a run's name
+# stays, and the sweep then fails: that run has no result.
+victim=$(ids_done "$work/a" | sed -n 3p)
+head -c 3000 "$work/a/runs/$victim.h5" >"$work/cut.h5" && mv "$work/cut.h5" "$work/a/runs/$victim.h5"
+"$ebh" sweep "$work/plan.yaml" -o "$work/a" 2>"$work/d.err" >/dev/null || fail "cut short: $(tail -1 "$work/d.err")"
+grep -q '^ebh sweep: 4 runs, 3 already done, 1 whose output does not open (run again)' "$work/d.err" \
+  || fail "the cut output: $(head -1 "$work/d.err")"
+[ "$(ran_ids "$work/d.err")" = "$victim" ] || fail "expected $victim to run again, ran: $(ran_ids "$work/d.err")"
+echo "not HDF5" >"$work/a/runs/$victim.h5"
+if "$ebh" sweep "$work/plan.yaml" -o "$work/a" 2>"$work/e.err" >/dev/null; then fail "a run without a result passed"; fi
+grep -q '^ebh: error: 1 of 4 runs have no result in .*summary.csv' "$work/e.err" || fail "no result: $(tail -1 "$work/e.err")"
+rm "$work/a/runs/$victim.h5"
 
 # 3. SIGTERM mid-way (runs of 1.5 s, one at a time), then resume.
 sed -i 's/duration: 0.3/duration: 1.5/' "$work/plan.yaml"

@@ -300,12 +300,19 @@ void run_sweep(const SweepArgs& a) {
                  dir.c_str(), rep.ran + rep.skipped, runs.size() - rep.ran - rep.skipped - rep.failed, rep.interrupted);
     throw ExitRequest{1};
   }
-  if (!a.task) write_summary(plan, all, dir);
+  const std::size_t failed_rows = a.task ? 0 : write_summary(plan, all, dir).failed;
   if (rep.failed) {
     const RunOutcome& f = rep.failures.front();
     std::fprintf(stderr, "ebh: error: %zu of %zu runs failed (the first: %s: %s)%s\n", rep.failed, runs.size(),
                  describe(plan, *f.run).c_str(), f.error.c_str(),
                  a.task ? "" : ("; every error is in " + summary_path(dir).string()).c_str());
+    throw ExitRequest{1};
+  }
+  // Runs counted as done whose outputs the summary could not read (another program's file under
+  // a run's name): the sweep did not give every result.
+  if (failed_rows) {
+    std::fprintf(stderr, "ebh: error: %zu of %zu runs have no result in %s (their errors are there)\n", failed_rows,
+                 all.size(), summary_path(dir).c_str());
     throw ExitRequest{1};
   }
 }

@@ -16,6 +16,7 @@
 
 #include "core/error.hpp"
 #include "core/units.hpp"
+#include "math/rotvec_input.hpp"
 #include "io/paths.hpp"
 
 namespace ebh {
@@ -349,9 +350,7 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
     if (!std::isfinite(v[i])) throw InputError(option + ": value " + std::to_string(i) + " is not finite");
   }
   const Vec3d rotvec{v[3], v[4], v[5]};
-  if (!(norm(rotvec) <= kMaxRotvecDeg))
-    throw InputError(option + ": the rotation vector's angle is " + num(norm(rotvec)) +
-                     " degrees; give one of at most 360");
+  if (const std::string why = rotvec_deg_problem(rotvec); !why.empty()) throw InputError(option + ": " + why);
   return RigidTransform{Vec3d{v[0], v[1], v[2]} * unit_m, quat_from_rotvec(rotvec * (std::numbers::pi / 180.0))};
 }
 

@@ -11,6 +11,7 @@
 
 #include "core/error.hpp"
 #include "io/paths.hpp"
+#include "math/rotvec_input.hpp"
 
 namespace ebh {
 namespace {
@@ -141,9 +142,7 @@ SynthPlan read_plan(const std::string& path) {
     if (w["rotvec_deg"]) {
       auto v = r.numbers(w["rotvec_deg"], key + ".rotvec_deg", 3);
       const Vec3d rotvec{v[0], v[1], v[2]};
-      if (!(norm(rotvec) <= kMaxRotvecDeg))
-        r.fail(w["rotvec_deg"], key + ".rotvec_deg",
-               "the rotation vector's angle is " + num(norm(rotvec)) + " degrees; give one of at most 360");
+      if (const std::string why = rotvec_deg_problem(rotvec); !why.empty()) r.fail(w["rotvec_deg"], key + ".rotvec_deg", why);
       p.orientation = quat_from_rotvec(rotvec * (std::numbers::pi / 180.0));
     } else if (i == 0) {
       r.fail(w, key, "the first waypoint needs rotvec_deg");

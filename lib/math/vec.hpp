@@ -162,10 +162,6 @@ template <class T> EBH_HD Vec3<T> rotate(Quat<T> q, Vec3<T> v) {
 template <class T> EBH_HD Mat3<T> to_matrix(Quat<T> q) {
   return Mat3<T>::from_cols(rotate(q, Vec3<T>{1, 0, 0}), rotate(q, Vec3<T>{0, 1, 0}), rotate(q, Vec3<T>{0, 0, 1}));
 }
-/// The largest angle, in degrees, of the rotation vectors that inputs give (mesh.transform's
-/// rotvec_deg, a synthesis waypoint's, --transform's): every rotation has one of at most 180, and
-/// far beyond a turn the vector's length overflows or its sine keeps nothing of the angle.
-inline constexpr double kMaxRotvecDeg = 360;
 /// Quaternion of the rotation by the rotation vector w (axis * angle), exact for all angles.
 template <class T> EBH_HD Quat<T> quat_from_rotvec(Vec3<T> w) {
   T a = norm(w);

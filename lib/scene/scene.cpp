@@ -21,6 +21,7 @@
 
 #include "core/error.hpp"
 #include "ebh/version.hpp"
+#include "math/rotvec_input.hpp"
 #include "mesh/boundary.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/quality.hpp"
@@ -42,6 +43,13 @@ std::string not_a_file(const fs::path& p) {
   if (fs::is_directory(st)) return "is a folder, not a file";
   if (fs::exists(st)) return "is not a regular file (a device, pipe or socket)";
   return "file not found";
+}
+
+/// A number as a message shows it ("%g": 1e-30 stays 1e-30, where std::to_string prints 0.000000).
+std::string shown_number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
 }
 
 /// How a value appears in an error message: its text, or what kind of node it is.
@@ -275,12 +283,7 @@ class SpecReader {
       if (auto it = f.find("scale"); it != f.end()) x.scale = positive(it->second, "mesh.transform.scale");
       if (auto it = f.find("rotvec_deg"); it != f.end()) {
         x.rotvec_deg = vec3(it->second, "mesh.transform.rotvec_deg");
-        if (!(norm(x.rotvec_deg) <= kMaxRotvecDeg)) {
-          char angle[32];
-          std::snprintf(angle, sizeof angle, "%g", norm(x.rotvec_deg));
-          fail("mesh.transform.rotvec_deg", std::string("the rotation vector's angle is ") + angle +
-                                                " degrees; give one of at most 360");
-        }
+        if (const std::string why = rotvec_deg_problem(x.rotvec_deg); !why.empty()) fail("mesh.transform.rotvec_deg", why);
       }
       if (auto it = f.find("translate"); it != f.end())
         x.translate = vec3(it->second, "mesh.transform.translate") * s.mesh_unit;
@@ -679,19 +682,14 @@ Scene build_scene(SceneSpec spec_in) {
   const SceneSpec& spec = scene.spec;
   const fs::path& file = spec.file;
   // Soft tissue: shear modulus ~100 Pa (brain) to ~1 MPa (tendon), density ~900-1100 kg/m^3.
-  auto g = [](double v) {  // 1e-30 stays 1e-30 (std::to_string would print 0.000000)
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%g", v);
-    return std::string(buf);
-  };
   if (spec.stiffness.k_vol < 10 || spec.stiffness.k_vol > 1e8)
-    scene.warnings.push_back(file.string() + ": stiffness.k_vol = " + g(spec.stiffness.k_vol) +
+    scene.warnings.push_back(file.string() + ": stiffness.k_vol = " + shown_number(spec.stiffness.k_vol) +
                              " Pa is outside soft tissue's 10 Pa .. 100 MPa");
   if (spec.density < 100 || spec.density > 3000)
-    scene.warnings.push_back(file.string() + ": material.density = " + g(spec.density) +
+    scene.warnings.push_back(file.string() + ": material.density = " + shown_number(spec.density) +
                              " kg/m^3 is outside soft tissue's 100 .. 3000");
   if (norm(spec.gravity) > 2 * 9.81)
-    scene.warnings.push_back(file.string() + ": |gravity| = " + g(norm(spec.gravity)) + " m/s^2 is over 2 g");
+    scene.warnings.push_back(file.string() + ": |gravity| = " + shown_number(norm(spec.gravity)) + " m/s^2 is over 2 g");
   // Each mesh follows the other's result one physical period late (async mode): when the virtual
   // mesh's edges outweigh its pull towards the physical mesh, the two drive each other unstable
   // (docs/MODEL.md, "k_s against k_svc").

@@ -448,8 +448,19 @@ add_test(NAME cli.replay.free_part_warns
     --set "pinned=[{box: {min: [0,-30,-31], max: [31,30,-29]}}]")
 set_tests_properties(cli.replay.free_part_warns PROPERTIES PASS_REGULAR_EXPRESSION
   "gap.yaml: pinned: 1 part\\(s\\) of the physical mesh \\(1928 of its 3850 vertices; the first holds vertex 0 and 1928 vertices\\) touch no pinned vertex: they float free")
+# A step that ends far from balance (above solver.recovery_residual) and is not redone is said, with
+# the count, the largest residual and the first time; the same window with the scene's stiffness is not.
+add_test(NAME cli.replay.unbalanced_steps
+  COMMAND ${EBH_BIN} replay tube_forceps tube_grasp -o ${EBH_NUM_OUT}/unbalanced.h5 --start 1.55 --duration 0.1 -q
+    --set solver.recovery=none --set stiffness.k_det=1e7)
+set_tests_properties(cli.replay.unbalanced_steps PROPERTIES PASS_REGULAR_EXPRESSION
+  "unbalanced.h5: 3 of 11 physical steps ended with more than 100 mesh weights unbalanced \\(solver.recovery_residual; the largest 1[0-9][0-9], the first at t = 0\\.[0-9]+ s; /physical/residual\\).*turn solver.recovery back on")
+add_test(NAME cli.replay.balanced_steps
+  COMMAND ${EBH_BIN} replay tube_forceps tube_grasp -o ${EBH_NUM_OUT}/balanced.h5 --start 1.55 --duration 0.1 -q)
+set_tests_properties(cli.replay.balanced_steps PROPERTIES FAIL_REGULAR_EXPRESSION "unbalanced")
 set_tests_properties(cli.replay.absurd_gravity cli.replay.absurd_stiffness cli.replay.nothing_pinned_under_gravity
-  cli.replay.free_part_under_gravity cli.replay.free_part_warns PROPERTIES LABELS cli)
+  cli.replay.free_part_under_gravity cli.replay.free_part_warns cli.replay.unbalanced_steps cli.replay.balanced_steps
+  PROPERTIES LABELS cli)
 foreach(method chebyshev direct)
   add_test(NAME cli.replay.everything_pinned.${method}
     COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/all_${method}.h5 --duration 0.1 --set solver.method=${method}

@@ -290,6 +290,13 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
   const PhysicalStepParams& params = w.physical_params;
   capped_steps_ += params.adaptive() && !p.recovered && p.report.iterations >= params.max_iterations &&
                    p.report.residual > params.tolerance;
+  // Far from balance, whatever stopped the step (the cap, a stall, fixed iterations, the direct
+  // method's local-global iterations): the recovery's line, which the CUDA backend and
+  // solver.recovery=none do not act on. NaN counts: the health check names it.
+  if (!(p.report.residual <= w.scene.spec.solver.recovery_residual)) {
+    if (unbalanced_steps_++ == 0) first_unbalanced_t_ = t;
+    if (!(p.report.residual <= max_unbalanced_)) max_unbalanced_ = p.report.residual;
+  }
   pt_.push_back(t);
   iterations_.push_back(p.report.iterations);
   const int inverted = p.report.inverted >= 0 ? inverted_tets_.record(p.report.inverted)

@@ -89,6 +89,11 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
   /// Steps that ran solver.physical_max_iterations and still left more than the tolerance.
   std::int64_t capped_steps() const { return capped_steps_; }
+  /// Steps that ended with more than solver.recovery_residual mesh weights unbalanced (a recovered
+  /// step's residual is the direct solve's), the largest such residual and the first one's time.
+  std::int64_t unbalanced_steps() const { return unbalanced_steps_; }
+  double max_unbalanced() const { return max_unbalanced_; }
+  double first_unbalanced_t() const { return first_unbalanced_t_; }
   /// Physical steps skipped while the physical mesh slept (solver.sleep).
   std::int64_t slept_steps() const { return slept_steps_; }
   /// Physical vertices iterated per step on average under solver.physical_region (-1: off).
@@ -122,7 +127,8 @@ class ReplayWriter : public ReplayObserver {
   h5::Appender<double> f_pose_;
   std::vector<float> scratch_f_;
   double peak_force_ = 0, max_penetration_ = 0;
-  std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0;
+  std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0, unbalanced_steps_ = 0;
+  double max_unbalanced_ = 0, first_unbalanced_t_ = -1;
 };
 
 /// The CPU's model name (from /proc/cpuinfo), for the `device` attribute.

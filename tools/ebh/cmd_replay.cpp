@@ -158,6 +158,19 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  "more than solver.physical_tolerance (%g mesh weights) unbalanced (/physical/residual)\n",
                  a.out.c_str(), static_cast<long long>(writer.capped_steps()), static_cast<long long>(s.steps),
                  world.physical_params.max_iterations, world.physical_params.tolerance);
+  if (writer.unbalanced_steps() > 0) {
+    const SolverSpec& solver = world.scene.spec.solver;
+    const char* fix = world.backend == Backend::Cuda ? ", or replay with --backend cpu, whose recovery redoes such a step"
+                      : solver.recovery == SolverSpec::Recovery::None ? ", or turn solver.recovery back on"
+                                                                       : "";
+    std::fprintf(stderr,
+                 "ebh: warning: %s: %lld of %lld physical steps ended with more than %g mesh weights unbalanced "
+                 "(solver.recovery_residual; the largest %.3g, the first at t = %.3f s; /physical/residual): the "
+                 "physical mesh was far from balance there, and its force is not a converged response; raise "
+                 "solver.physical_iterations%s\n",
+                 a.out.c_str(), static_cast<long long>(writer.unbalanced_steps()), static_cast<long long>(s.steps),
+                 solver.recovery_residual, writer.max_unbalanced(), writer.first_unbalanced_t(), fix);
+  }
   if (writer.max_inverted_tets() > 0)
     std::fprintf(stderr,
                  "ebh: warning: %s: up to %d of the physical mesh's %d tets were inverted after a step, the first at "

@@ -281,6 +281,8 @@ void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   tm_output_.push_back(h.timing.output);
   const double f = norm(h.output.force);
   if (f > peak_force_ || std::isnan(f)) peak_force_ = f;
+  const double torque = norm(h.output.torque);
+  if (torque > peak_torque_ || std::isnan(torque)) peak_torque_ = torque;
   if (h.penetration > max_penetration_) max_penetration_ = h.penetration;
   clamped_ += h.output.force_clamped ? 1 : 0;
   in_contact_ += h.contact_count > 0 ? 1 : 0;

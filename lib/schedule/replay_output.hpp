@@ -83,6 +83,7 @@ class ReplayWriter : public ReplayObserver {
 
   // What was recorded so far, for the end-of-run summary.
   double peak_force() const { return peak_force_; }
+  double peak_torque() const { return peak_torque_; }
   double max_penetration() const { return max_penetration_; }
   std::int64_t clamped_ticks() const { return clamped_; }
   std::int64_t contact_ticks() const { return in_contact_; }  ///< ticks with contacts > 0
@@ -126,7 +127,7 @@ class ReplayWriter : public ReplayObserver {
   h5::Appender<float> f_q_, f_x_;
   h5::Appender<double> f_pose_;
   std::vector<float> scratch_f_;
-  double peak_force_ = 0, max_penetration_ = 0;
+  double peak_force_ = 0, peak_torque_ = 0, max_penetration_ = 0;
   std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0, unbalanced_steps_ = 0;
   double max_unbalanced_ = 0, first_unbalanced_t_ = -1;
 };

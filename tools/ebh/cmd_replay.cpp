@@ -207,9 +207,9 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                   writer.awake_mean(), world.physical_mesh.num_free);
     std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
                 s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0);
-    std::printf("  peak force %.3f N (%lld ticks at the %.1f N limit), max penetration %.3f mm\n",
+    std::printf("  peak force %.3f N (%lld ticks at the %.1f N limit), max penetration %.3f mm, peak torque %.3g N m\n",
                 writer.peak_force(), static_cast<long long>(writer.clamped_ticks()), world.scene.spec.tool.force_limit,
-                1e3 * writer.max_penetration());
+                1e3 * writer.max_penetration(), writer.peak_torque());
   }
 }
 

@@ -674,6 +674,10 @@ if(EBH_BASH)
   add_test(NAME cli.sweep.slurm COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/slurm.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/slurm)
   set_tests_properties(cli.sweep.slurm PROPERTIES LABELS "cli;sweep" TIMEOUT 150 SKIP_RETURN_CODE 77
     PASS_REGULAR_EXPRESSION "slurm: job array [0-9]+ ran 3 runs")
+  # A submission that fails (no sbatch, or sbatch refusing) leaves the folder as it was.
+  add_test(NAME cli.sweep.slurm_fails
+    COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/slurm_fails.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/slurm_fails)
+  set_tests_properties(cli.sweep.slurm_fails PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION "slurm fails: ok")
 endif()
 add_test(NAME cli.sweep.report
   COMMAND ${EBH_BIN} sweep report ${CMAKE_CURRENT_SOURCE_DIR}/data/sweep/front --plot ${EBH_SWEEP_OUT}/front.png)

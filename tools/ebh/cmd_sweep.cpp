@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <exception>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -156,8 +157,70 @@ std::vector<std::string> sweep_gpus(const std::string& text, bool cuda_runs) {
   return gpu_entries(indices, count, std::getenv("CUDA_VISIBLE_DEVICES"));
 }
 
+/// What the start of a sweep writes into its folder (the folder and its missing parents, plan.yaml,
+/// sweep.sbatch, slurm/), undone when an exception leaves its scope before keep(): a sweep that fails
+/// before its runs start or its job array is submitted (sbatch missing or refusing, a backend this
+/// build lacks) leaves the folder as it found it. A file that was there gets its content back; a
+/// folder that was there stays, and one it made goes only when empty.
+class FolderChanges {
+ public:
+  explicit FolderChanges(const fs::path& dir) {
+    std::error_code ec;
+    for (fs::path p = fs::absolute(dir, ec).lexically_normal(); !ec && p.has_relative_path() && !fs::exists(p, ec);
+         p = p.parent_path())
+      made_folders_.push_back(p);  // deepest first
+  }
+  FolderChanges(const FolderChanges&) = delete;
+  FolderChanges& operator=(const FolderChanges&) = delete;
+  ~FolderChanges() {
+    if (!kept_ && std::uncaught_exceptions() > exceptions_) undo();
+  }
+
+  /// Before (re)writing `file`: remembers what it held, or that it was not there.
+  void writing(const fs::path& file) {
+    std::error_code ec;
+    std::optional<std::string> before;
+    if (fs::is_regular_file(file, ec)) {
+      std::ifstream in(file, std::ios::binary);
+      std::stringstream text;
+      text << in.rdbuf();
+      before = text.str();
+    }
+    files_.emplace_back(file, std::move(before));
+  }
+  /// Before creating the folder `folder` (a no-op for one that is there).
+  void making(const fs::path& folder) {
+    std::error_code ec;
+    if (!fs::exists(folder, ec)) made_folders_.insert(made_folders_.begin(), folder);
+  }
+  void keep() { kept_ = true; }
+
+ private:
+  void undo() noexcept {
+    for (auto it = files_.rbegin(); it != files_.rend(); ++it) {
+      std::error_code ec;
+      try {
+        if (it->second) write_file_atomically(it->first.string(), *it->second);
+        else fs::remove(it->first, ec);
+      } catch (const std::exception&) {
+        // best effort: the error that led here is the one to report
+      }
+    }
+    for (const fs::path& f : made_folders_) {
+      std::error_code ec;
+      fs::remove(f, ec);  // only when empty
+    }
+  }
+
+  std::vector<std::pair<fs::path, std::optional<std::string>>> files_;
+  std::vector<fs::path> made_folders_;  // deepest first
+  bool kept_ = false;
+  int exceptions_ = std::uncaught_exceptions();
+};
+
 /// --slurm: one array task per slice of the runs, each `ebh sweep DIR/plan.yaml -o DIR --task I --tasks T`.
-void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
+void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir,
+                  FolderChanges& changes) {
   std::size_t stale = 0, unreadable = 0;
   const std::vector<RunState> states = run_states(plan, dir, runs, stale, unreadable);
   const auto todo = static_cast<std::size_t>(std::count_if(states.begin(), states.end(), [](RunState s) { return s != RunState::Done; }));
@@ -175,11 +238,13 @@ void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<S
   if (a.at_once) command += " --at-once " + std::to_string(*a.at_once);
   if (a.gpus != "all") command += " --gpus " + shell_quote(a.gpus);  // else each task's own devices
   const fs::path script = abs_dir / "sweep.sbatch";
+  changes.writing(script);
   write_file_atomically(script.string(),
                         "#!/bin/sh\n# ebh sweep --slurm: array task I of " + std::to_string(tasks) +
                             " runs the plan's runs i with i % " + std::to_string(tasks) + " == I that have no output yet\n" +
                             command + "\n");
   std::error_code ec;
+  changes.making(abs_dir / "slurm");
   fs::create_directories(abs_dir / "slurm", ec);
   if (ec) throw InputError((abs_dir / "slurm").string() + ": cannot create the folder: " + ec.message());
   std::vector<std::string> argv = {"sbatch", "--parsable", "--array=0-" + std::to_string(tasks - 1), "--job-name=ebh-sweep",
@@ -199,6 +264,7 @@ void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<S
     throw InputError("--slurm: sbatch failed (status " + std::to_string(r.status) + "): " +
                      (nl == std::string::npos ? out : out.substr(nl + 1)));
   }
+  changes.keep();
   const std::string job = out.substr(out.find_last_of('\n') == std::string::npos ? 0 : out.find_last_of('\n') + 1);
   std::printf("%s: submitted Slurm job array %s: %d tasks for %zu runs (%zu to do%s); when it has finished: ebh sweep report %s\n",
               dir.c_str(), job.substr(0, job.find(';')).c_str(), tasks, runs.size(), todo, stale_note(stale, unreadable).c_str(), dir.c_str());
@@ -251,16 +317,22 @@ void run_sweep(const SweepArgs& a) {
   std::vector<SweepRun> runs;
   for (const SweepRun& r : all)
     if (a.backend.empty() || r.backend == a.backend || r.reference) runs.push_back(r);
-  if (a.task) runs = task_slice(runs, *a.task, *a.tasks);
-  else if (!same_file(a.plan, plan_copy(dir).string())) write_file_atomically(plan_copy(dir).string(), resolved_plan_yaml(plan));
+  FolderChanges changes(dir);
+  if (a.task) {
+    runs = task_slice(runs, *a.task, *a.tasks);
+  } else if (!same_file(a.plan, plan_copy(dir).string())) {
+    changes.writing(plan_copy(dir));
+    write_file_atomically(plan_copy(dir).string(), resolved_plan_yaml(plan));
+  }
   if (!a.task) adopt_legacy(dir, all);
 
   if (a.collect) {
+    changes.keep();
     const SweepSummary s = write_summary(plan, all, dir);
     if (s.failed) throw ExitRequest{1};
     return;
   }
-  if (a.slurm) return submit_slurm(a, plan, runs, dir);
+  if (a.slurm) return submit_slurm(a, plan, runs, dir, changes);
 
   std::size_t todo = 0, stale = 0, unreadable = 0;
   bool cuda_runs = false;
@@ -292,6 +364,7 @@ void run_sweep(const SweepArgs& a) {
                runs.size() - todo, stale_note(stale, unreadable).c_str(), std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
                a.batch > 1 ? (" (CUDA runs of async plans: up to " + std::to_string(a.batch) + " to a child)").c_str() : "",
                on_gpus.c_str());
+  changes.keep();
   ProgressPrinter printer(plan);
   const RunnerReport rep = execute_runs(plan, runs, dir, opt, std::ref(printer), &states);
   printer.finish();

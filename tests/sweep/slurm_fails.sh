@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# ebh sweep --slurm when the submission fails (sbatch not on PATH, or sbatch refusing the job):
+# one line, exit status 1, and the sweep's folder as it was before: what the command made
+# (the folder, plan.yaml, sweep.sbatch, slurm/) is gone, what was there stays byte-identical.
+#   tests/sweep/slurm_fails.sh EBH_BIN WORK_DIR
+set -uo pipefail
+ebh=$1
+work=$2
+fail() { echo "FAIL: $*" >&2; exit 1; }
+rm -rf "$work"
+mkdir -p "$work/bin"
+# An sbatch that refuses every job, as a cluster does for an unknown partition.
+printf '#!/bin/sh\necho "sbatch: error: Batch job submission failed: Invalid partition name specified" >&2\nexit 1\n' \
+  >"$work/bin/sbatch"
+chmod +x "$work/bin/sbatch"
+cat >"$work/plan.yaml" <<'PLAN'
+scenes:
+  - {scene: tube, recordings: [tube_insert], reference: {}}
+runs:
+  - {solver.virtual_iterations: 2}
+start: 4
+duration: 0.05
+PLAN
+
+# submit PATH DIR EXPECT: the submission fails with one line matching EXPECT.
+submit() {
+  local status=0
+  PATH=$1 "$ebh" sweep "$work/plan.yaml" -o "$2" --slurm >"$work/out.txt" 2>"$work/err.txt" || status=$?
+  [ $status = 1 ] || fail "$2: exit status $status, expected 1: $(cat "$work/err.txt")"
+  [ "$(wc -l <"$work/err.txt")" = 1 ] || fail "$2: not one line: $(cat "$work/err.txt")"
+  grep -q "^ebh: error: --slurm: $3" "$work/err.txt" || fail "$2: $(cat "$work/err.txt")"
+}
+
+# 1. A new folder (two levels of it): nothing is left.
+submit "$work/bin:$PATH" "$work/new/sweep" "sbatch failed (status 1): sbatch: error: Batch job submission failed"
+[ ! -e "$work/new" ] || fail "left behind: $(find "$work/new")"
+submit "$work/no_such_dir" "$work/none" "sbatch: cannot start sbatch: .*(is Slurm's sbatch on PATH?)"
+[ ! -e "$work/none" ] || fail "left behind: $(find "$work/none")"
+
+# 2. A folder of an earlier submission of the same plan: its files stay as they were.
+mkdir -p "$work/old/slurm"
+"$ebh" sweep "$work/plan.yaml" -o "$work/old" --collect >/dev/null 2>&1 || fail "cannot make the folder with --collect"
+echo "an earlier script" >"$work/old/sweep.sbatch"
+echo "an earlier task's log" >"$work/old/slurm/1_0.out"
+before=$(cd "$work/old" && find . -type f | sort | xargs sha256sum)
+submit "$work/bin:$PATH" "$work/old" "sbatch failed"
+after=$(cd "$work/old" && find . -type f | sort | xargs sha256sum)
+[ "$before" = "$after" ] || fail "the folder changed: before $before, after $after"
+echo "slurm fails: ok"

@@ -678,6 +678,11 @@ if(EBH_BASH)
   add_test(NAME cli.sweep.slurm_fails
     COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/slurm_fails.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/slurm_fails)
   set_tests_properties(cli.sweep.slurm_fails PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION "slurm fails: ok")
+  # Another plan into a sweep's folder is refused; the same plan, written otherwise, resumes it.
+  add_test(NAME cli.sweep.other_plan
+    COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/other_plan.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/other_plan
+      ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml)
+  set_tests_properties(cli.sweep.other_plan PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION "other plan: ok")
 endif()
 add_test(NAME cli.sweep.report
   COMMAND ${EBH_BIN} sweep report ${CMAKE_CURRENT_SOURCE_DIR}/data/sweep/front --plot ${EBH_SWEEP_OUT}/front.png)

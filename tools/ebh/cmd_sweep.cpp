@@ -83,6 +83,37 @@ std::string describe(const SweepPlan& plan, const SweepRun& r) {
          r.overrides_text() + " (" + r.id + ")";
 }
 
+/// The text of `file`, or nullopt when it cannot be read.
+std::optional<std::string> file_text(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+/// Throws InputError when DIR/plan.yaml is another plan's: a sweep's folder holds one plan's runs,
+/// and a second plan would replace its plan.yaml and its summary while the first one's outputs
+/// stay. The same plan (a resume) is the same resolved plan (resolved_plan_yaml: the same scenes,
+/// recordings, configurations and settings, whatever the file's layout, comments or folder),
+/// compared with the folder's plan.yaml as written and, when that text differs (an older ebh wrote
+/// it), as read again.
+void check_same_plan(const SweepPlan& plan, const std::string& given, const fs::path& dir) {
+  const fs::path kept = plan_copy(dir);
+  std::error_code ec;
+  if (!fs::exists(kept, ec) || same_file(given, kept.string())) return;
+  const std::string resolved = resolved_plan_yaml(plan);
+  if (file_text(kept) == resolved) return;
+  try {
+    if (resolved_plan_yaml(read_sweep_plan(kept)) == resolved) return;
+  } catch (const InputError&) {
+    // a plan that no longer reads (its files moved): not this one
+  }
+  throw InputError(kept.string() + ": another plan's folder: its scenes, recordings, configurations or settings are not " +
+                   given + "'s; give " + given + " a new folder (-o NEW_DIR; copying " + (dir / "runs").string() +
+                   "/ there reuses the runs the two plans share)");
+}
+
 /// DIR/summary.csv and DIR/summary.h5, each written atomically.
 void write_summary_files(const fs::path& dir, const CsvTable& table) {
   write_file_atomically(summary_path(dir).string(), table.to_csv());
@@ -179,14 +210,7 @@ class FolderChanges {
   /// Before (re)writing `file`: remembers what it held, or that it was not there.
   void writing(const fs::path& file) {
     std::error_code ec;
-    std::optional<std::string> before;
-    if (fs::is_regular_file(file, ec)) {
-      std::ifstream in(file, std::ios::binary);
-      std::stringstream text;
-      text << in.rdbuf();
-      before = text.str();
-    }
-    files_.emplace_back(file, std::move(before));
+    files_.emplace_back(file, fs::is_regular_file(file, ec) ? file_text(file) : std::nullopt);
   }
   /// Before creating the folder `folder` (a no-op for one that is there).
   void making(const fs::path& folder) {
@@ -313,6 +337,7 @@ void run_sweep(const SweepArgs& a) {
   if (std::error_code ec; fs::exists(dir, ec) && !fs::is_directory(dir, ec)) throw InputError("-o " + a.out + ": not a folder");
   if (!a.backend.empty() && std::find(plan.backends.begin(), plan.backends.end(), a.backend) == plan.backends.end())
     throw InputError("--backend " + a.backend + ": not one of the plan's backends (" + plan.file.string() + ", key 'backends')");
+  check_same_plan(plan, a.plan, dir);
   // --backend B: the plan's runs on B and the references they are compared with.
   std::vector<SweepRun> runs;
   for (const SweepRun& r : all)

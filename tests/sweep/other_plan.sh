@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# A sweep's folder holds one plan: another plan run into it is refused (one line naming
+# DIR/plan.yaml and what to do), leaving the folder as it was; the same plan written otherwise
+# (keys in another order, comments, another path to the same scene) and the folder's own
+# plan.yaml resume it. --collect keeps every step free of replays.
+#   tests/sweep/other_plan.sh EBH_BIN WORK_DIR TUBE_SCENE_FILE
+set -uo pipefail
+ebh=$1
+work=$2
+tube=$3
+fail() { echo "FAIL: $*" >&2; exit 1; }
+rm -rf "$work"
+mkdir -p "$work"
+cat >"$work/a.yaml" <<'PLAN'
+scenes:
+  - {scene: tube, recordings: [tube_insert], reference: {}}
+runs:
+  - {solver.virtual_iterations: 2}
+start: 4
+duration: 0.05
+PLAN
+sed 's/duration: 0.05/duration: 0.06/' "$work/a.yaml" >"$work/b.yaml"
+dir=$work/sweep
+"$ebh" sweep "$work/a.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "first plan: $(cat "$work/err.txt")"
+mkdir -p "$dir/runs"
+echo "a run of plan a" >"$dir/runs/0123456789abcdef.failed"
+before=$(cd "$dir" && find . -type f | sort | xargs sha256sum)
+
+# Another plan: refused before any work, with or without --collect.
+for extra in "" --collect; do
+  status=0
+  "$ebh" sweep "$work/b.yaml" -o "$dir" $extra >"$work/out.txt" 2>"$work/err.txt" || status=$?
+  [ $status = 1 ] || fail "b.yaml $extra: exit status $status: $(cat "$work/err.txt")"
+  [ "$(wc -l <"$work/err.txt")" = 1 ] || fail "b.yaml $extra: not one line: $(cat "$work/err.txt")"
+  grep -q "^ebh: error: $dir/plan.yaml: another plan's folder: .* not $work/b.yaml's; give $work/b.yaml a new folder (-o NEW_DIR" \
+    "$work/err.txt" || fail "b.yaml $extra: $(cat "$work/err.txt")"
+  after=$(cd "$dir" && find . -type f | sort | xargs sha256sum)
+  [ "$before" = "$after" ] || fail "b.yaml $extra changed the folder: $after"
+done
+
+# The same plan: keys in another order, a comment, the scene by its path: a resume.
+cat >"$work/a_again.yaml" <<PLAN
+# plan a, written again
+duration: 0.05
+start: 4
+runs:
+  - {solver.virtual_iterations: 2}
+scenes:
+  - {scene: $tube, recordings: [tube_insert], reference: {}}
+PLAN
+"$ebh" sweep "$work/a_again.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "the same plan: $(cat "$work/err.txt")"
+"$ebh" sweep "$dir/plan.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "the folder's plan: $(cat "$work/err.txt")"
+# A folder without a plan.yaml takes any plan.
+rm "$dir/plan.yaml"
+"$ebh" sweep "$work/b.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "no plan.yaml: $(cat "$work/err.txt")"
+echo "other plan: ok"

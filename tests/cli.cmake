@@ -283,6 +283,11 @@ ebh_replay_failure(bad_mode "--mode: expected async, lockstep or realtime" tube 
 ebh_replay_failure(bad_rates "whole number of ticks" tube tube_insert --haptic-hz 1000 --physical-hz 300)
 ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
 ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
+# An error an override causes names the override, not the scene file.
+ebh_replay_failure(set_too_deep "^ebh: error: --set 'a.b.c.d=1': key 'a': unknown key \\(known: name, "
+  tube tube_insert --set a.b.c.d=1)
+ebh_replay_failure(set_rates "^ebh: error: --set 'time.physical_hz=70': key 'time.physical_hz': haptic_hz / physical_hz must be a whole number >= 1, got 1000 / 70 = 14.2857"
+  tube tube_insert --set time.haptic_hz=1000 --set time.physical_hz=70)
 ebh_replay_failure(set_twice "--set 'stiffness.k_con=900': key 'stiffness.k_con' given twice \\(also --set 'stiffness.k_con=800'\\)"
   tube tube_insert --set stiffness.k_con=800 --set stiffness.k_con=900)
 # A realtime replay whose ticks cannot keep up (100 kHz: 10 us a tick) says it fell behind.
@@ -428,7 +433,7 @@ set_tests_properties(cli.validate.coupling PROPERTIES
   PASS_REGULAR_EXPRESSION "\"passed\": true,.*\"judged\": 3,.*\"failed\": 0," LABELS "cli;validate")
 add_test(NAME cli.replay.absurd_gravity
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_NUM_OUT}/g.h5;--duration;0.1;--set;gravity=[0,0,-1e30]"
-    "-DEXPECT=^ebh: error: .*tube.yaml: key 'gravity': \\|g\\| = 1e\\+30 m/s\\^2 is beyond 100 g" -DOUTPUT=${EBH_NUM_OUT}/g.h5
+    "-DEXPECT=^ebh: error: --set 'gravity=\\[0,0,-1e30\\]': key 'gravity': \\|g\\| = 1e\\+30 m/s\\^2 is beyond 100 g" -DOUTPUT=${EBH_NUM_OUT}/g.h5
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.replay.absurd_stiffness
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_NUM_OUT}/k.h5;--duration;0.1;--set;stiffness.k_vol=1e200"
@@ -692,7 +697,7 @@ file(WRITE ${EBH_SWEEP_OUT}/bad_plan.yaml
   "scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\ngrid:\n  solver.no_such: [1, 2]\n")
 add_test(NAME cli.sweep.bad_plan
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;${EBH_SWEEP_OUT}/bad_plan.yaml;-o;${EBH_SWEEP_OUT}/bad"
-    "-DEXPECT=^ebh: error: .*bad_plan.yaml:4: key 'grid.solver.no_such': on scene tube: .*tube.yaml: key 'solver.no_such': unknown key"
+    "-DEXPECT=^ebh: error: .*bad_plan.yaml:4: key 'grid.solver.no_such': on scene tube: key 'solver.no_such': unknown key"
     -DOUTPUT=${EBH_SWEEP_OUT}/bad/summary.csv -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 # A folder copied from another machine: its plan's files are not here and its summary is older
 # than the plan (a copy's times): the report is the summary's, with a warning.

@@ -76,7 +76,7 @@ add_test(NAME cli.bench.sizes_no_window
 # A misspelt override: one line before the heading, no plot.
 add_test(NAME cli.bench.sizes_bad_override
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--set;solver.active_regio=0.001;--plot;${Z}/bad.png"
-    "-DEXPECT=^ebh: error: .*tube.yaml: key 'solver.active_regio': unknown key" -DOUTPUT=${Z}/bad.png -DSTATUS=1
+    "-DEXPECT=^ebh: error: --set 'solver.active_regio=0.001': key 'solver.active_regio': unknown key" -DOUTPUT=${Z}/bad.png -DSTATUS=1
     -P ${EXPECT_FAILURE})
 set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_no_window cli.bench.sizes_bad_override
   PROPERTIES LABELS "cli;bench")

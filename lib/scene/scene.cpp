@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <initializer_list>
 #include <numbers>
 #include <sstream>
 #include <tuple>
@@ -70,13 +71,36 @@ std::string join(const std::vector<std::string>& v) {
   return s;
 }
 
-/// Parses and validates the YAML tree. Every check names the dotted key.
+/// Parses and validates the YAML tree. Every check names the dotted key, and the override
+/// ("key=value", applied to the tree before) that gave the key its value when one did.
 class SpecReader {
  public:
-  explicit SpecReader(const fs::path& file) : file_(file) {}
+  explicit SpecReader(const fs::path& file, const std::vector<std::string>& overrides = {})
+      : file_(file), overrides_(overrides) {}
 
-  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+  /// Throws "FILE: key 'KEY': WHAT", or an OverrideError when an override gave `key` its value, or
+  /// else one of `also` (the other keys of a rule between keys; then that key is named).
+  [[noreturn]] void fail(const std::string& key, const std::string& what,
+                         std::initializer_list<const char*> also = {}) const {
+    if (const std::string* o = override_of(key)) throw OverrideError(*o, "key '" + key + "': " + what);
+    for (const char* k : also)
+      if (const std::string* o = override_of(k)) throw OverrideError(*o, "key '" + std::string(k) + "': " + what);
     throw InputError(file_.string() + ": key '" + key + "': " + what);
+  }
+
+  /// The override that gave `key` its value: one whose key is `key`, holds it (a map or list set
+  /// whole: `tool={kind: hook}` for tool.kind) or lies under it (maps made along its path:
+  /// `a.b.c.d=1` for key a); the last such when several do. Null when the file gave it.
+  const std::string* override_of(const std::string& key) const {
+    auto under = [](const std::string& a, const std::string& b) {  // key a lies under key b
+      return a.size() > b.size() && a.compare(0, b.size(), b) == 0 && (a[b.size()] == '.' || a[b.size()] == '[');
+    };
+    const std::string* found = nullptr;
+    for (const std::string& o : overrides_) {
+      const std::string k = o.substr(0, o.find('='));
+      if (k == key || under(key, k) || under(k, key)) found = &o;
+    }
+    return found;
   }
 
   /// The entries of a map node, checked: keys are plain strings, unique and among `allowed`.
@@ -243,7 +267,7 @@ class SpecReader {
     if (s.tool.newton_calls > s.solver.virtual_iterations)
       fail("tool.newton_calls", "expected all or at most solver.virtual_iterations (" +
                                     std::to_string(s.solver.virtual_iterations) + "), got " +
-                                    std::to_string(s.tool.newton_calls));
+                                    std::to_string(s.tool.newton_calls), {"solver.virtual_iterations"});
     check_physical_limits(s);
     return s;
   }
@@ -399,7 +423,9 @@ class SpecReader {
     // physical step k starts at tick k N (DESIGN.md §2): N = haptic_hz / physical_hz must be whole
     const double ratio = s.haptic_hz / s.physical_hz;
     if (ratio < 1.0 - 1e-9 || std::fabs(ratio - std::round(ratio)) > 1e-9 * ratio)
-      fail("time.physical_hz", "haptic_hz / physical_hz must be a whole number >= 1, got " + std::to_string(ratio));
+      fail("time.physical_hz", "haptic_hz / physical_hz must be a whole number >= 1, got " + shown_number(s.haptic_hz) +
+                                   " / " + shown_number(s.physical_hz) + " = " + shown_number(ratio),
+           {"time.haptic_hz"});
   }
 
   void read_solver(const YAML::Node& n, SolverSpec& sv) const {
@@ -456,6 +482,7 @@ class SpecReader {
   }
 
   fs::path file_;
+  std::vector<std::string> overrides_;
   double unit_ = 1.0;
 };
 
@@ -526,7 +553,7 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
 namespace {
 
 /// Applies one "a.b.c=value" override to the YAML tree (creating maps along the way).
-void apply_override(YAML::Node root, const std::string& file, const std::string& text) {
+void apply_override(YAML::Node root, const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
     throw InputError("--set '" + text + "': expected key=value (e.g. stiffness.k_con=800)");
@@ -544,8 +571,7 @@ void apply_override(YAML::Node root, const std::string& file, const std::string&
     const std::string part = key.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
     if (part.empty()) throw InputError("--set '" + text + "': empty key component");
     if (!path.back().IsMap() && path.back().IsDefined() && !path.back().IsNull())
-      throw InputError(file + ": --set '" + text + "': '" + key.substr(0, start ? start - 1 : 0) +
-                       "' is not a map");
+      throw OverrideError(text, "key '" + key.substr(0, start ? start - 1 : 0) + "': " + shown(path.back()) + ", not a map");
     if (dot == std::string::npos) {
       path.back()[part] = parsed;
       return;
@@ -579,9 +605,9 @@ YAML::Node read_scene_yaml(const fs::path& file) {
   return parse_scene_yaml(text.str(), file);
 }
 
-SceneSpec read_spec(const YAML::Node& root, const fs::path& file) {
+SceneSpec read_spec(const YAML::Node& root, const fs::path& file, const std::vector<std::string>& overrides = {}) {
   try {
-    return SpecReader(file).read(root);
+    return SpecReader(file, overrides).read(root);
   } catch (const YAML::Exception& e) {  // defensive: a yaml-cpp accessor that throws on odd input
     throw InputError(file.string() + ": malformed scene file: " + e.msg);
   }
@@ -653,8 +679,8 @@ std::vector<int> region_vertices(const TetMesh& m, const PinRegion& r) {
 
 SceneSpec load_scene_spec(const fs::path& file, const std::vector<std::string>& overrides) {
   YAML::Node root = read_scene_yaml(file);
-  for (const auto& o : overrides) apply_override(root, file.string(), o);
-  return read_spec(root, file);
+  for (const auto& o : overrides) apply_override(root, o);
+  return read_spec(root, file, overrides);
 }
 
 Scene load_scene(const fs::path& file) { return load_scene(file, {}); }

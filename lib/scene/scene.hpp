@@ -97,6 +97,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.hpp"
 #include "core/units.hpp"
 #include "math/vec.hpp"
 #include "mesh/degrade.hpp"
@@ -318,9 +319,25 @@ struct SceneInputFile {
 /// (not the physical mesh's boundary).
 std::vector<SceneInputFile> scene_input_files(const SceneSpec& spec);
 
+/// An InputError that an override caused rather than the scene file: a key it names, makes or sets
+/// is bad (`--set a.b.c.d=1`: key 'a' is unknown), or its value breaks a rule with another key
+/// (time.physical_hz against the file's haptic_hz). what() is "--set 'KEY=VALUE': key 'k': what is
+/// wrong"; key_message() is the part after the option, for a caller whose overrides come from
+/// elsewhere and are named there (a sweep plan's keys).
+class OverrideError : public InputError {
+ public:
+  OverrideError(const std::string& override_text, const std::string& key_message)
+      : InputError("--set '" + override_text + "': " + key_message), key_message_(key_message) {}
+  const std::string& key_message() const { return key_message_; }
+
+ private:
+  std::string key_message_;
+};
+
 /// The same with overrides "dotted.key=value" (the command line's --set) applied to the file's
 /// YAML before validation: `stiffness.k_con=800`, `solver.method=direct`, `gravity=[0,0,0]`.
-/// The value is parsed as YAML; a bad override is an InputError naming it.
+/// The value is parsed as YAML; a bad override is an InputError naming it (an OverrideError when
+/// the file is fine and the override's key or value is not).
 SceneSpec load_scene_spec(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 Scene load_scene(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 

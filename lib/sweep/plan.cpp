@@ -175,6 +175,8 @@ void check_on_scene(const PlanReader& r, const YAML::Node& where, const std::str
                     const Overrides& effective) {
   try {
     (void)load_scene_spec(s.scene_file, as_set_arguments(effective));
+  } catch (const OverrideError& e) {  // the plan's key is named already
+    r.fail(where, key, "on scene " + s.name + ": " + e.key_message());
   } catch (const InputError& e) {
     r.fail(where, key, "on scene " + s.name + ": " + e.what());
   }

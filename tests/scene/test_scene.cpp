@@ -663,6 +663,56 @@ TEST(Scene, NewtonCallsDefaultToAllAndReloadAsGiven) {
   EXPECT_THROW(load_scene_spec(file, {"solver.virtual_iterations=2", "tool.newton_calls=3"}), InputError);
 }
 
+// An error an override caused names the override (--set KEY=VALUE), not the scene file, which is
+// fine: a key nested too deep under an unknown one, a value out of range, a rate that does not
+// divide the file's other rate (either one set), a map path through a value; an error of the file
+// itself still names the file, whatever the overrides.
+TEST(Scene, OverrideErrorsNameTheOverride) {
+  const fs::path file = fs::path(EBH_SOURCE_DIR) / "scenarios" / "tube.yaml";
+  auto message = [&file](const std::vector<std::string>& overrides) -> std::string {
+    try {
+      (void)load_scene_spec(file, overrides);
+    } catch (const OverrideError& e) {
+      return std::string("OverrideError: ") + e.what() + " | " + e.key_message();
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(message({"a.b.c.d=1"}).rfind("OverrideError: --set 'a.b.c.d=1': key 'a': unknown key (known: name, ", 0), 0u)
+      << message({"a.b.c.d=1"});
+  EXPECT_EQ(message({"stiffness.k_con=-1"}),
+            "OverrideError: --set 'stiffness.k_con=-1': key 'stiffness.k_con': expected a positive number, got '-1' | "
+            "key 'stiffness.k_con': expected a positive number, got '-1'");
+  EXPECT_EQ(message({"solver.virtual_iterations=2", "time.physical_hz=70"}).rfind(
+                "OverrideError: --set 'time.physical_hz=70': key 'time.physical_hz': haptic_hz / physical_hz must be a "
+                "whole number >= 1, got 1000 / 70 = 14.2857 | ", 0),
+            0u);
+  EXPECT_EQ(message({"time.haptic_hz=1010"}).rfind(
+                "OverrideError: --set 'time.haptic_hz=1010': key 'time.haptic_hz': haptic_hz / physical_hz must be a "
+                "whole number >= 1, got 1010 / 100 = 10.1 | ", 0),
+            0u);
+  EXPECT_EQ(message({"time={haptic_hz: 1000, physical_hz: 70}"}).rfind(
+                "OverrideError: --set 'time={haptic_hz: 1000, physical_hz: 70}': key 'time.physical_hz': ", 0),
+            0u);
+  EXPECT_EQ(message({"solver.virtual_iterations=2", "tool.newton_calls=3"}).rfind(
+                "OverrideError: --set 'tool.newton_calls=3': key 'tool.newton_calls': expected all or at most", 0),
+            0u);
+  EXPECT_EQ(message({"gravity.x=1"}).rfind("OverrideError: --set 'gravity.x=1': key 'gravity': a list, not a map", 0), 0u);
+  // The file's own mistake, with an override beside it: the file.
+  const fs::path bad = write_temp("bad_rates.yaml", replace(replace(slurp(file), "physical_hz: 100", "physical_hz: 70"),
+                                                             "physical: tube.msh", "physical: " + (file.parent_path() / "tube.msh").string()));
+  try {
+    (void)load_scene_spec(bad, {"stiffness.k_con=900"});
+    FAIL();
+  } catch (const OverrideError& e) {
+    FAIL() << e.what();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(bad.string() + ": key 'time.physical_hz': haptic_hz / physical_hz", 0), 0u)
+        << e.what();
+  }
+}
+
 // The same for a scene whose mesh, tool and world each have their own unit and whose mesh is
 // placed by a transform: the resolved file carries mesh.unit, mesh.transform and tool.unit, and
 // reloads to the same scene, meshes included, bit for bit.

@@ -290,6 +290,24 @@ ebh_replay_failure(set_rates "^ebh: error: --set 'time.physical_hz=70': key 'tim
   tube tube_insert --set time.haptic_hz=1000 --set time.physical_hz=70)
 ebh_replay_failure(set_twice "--set 'stiffness.k_con=900': key 'stiffness.k_con' given twice \\(also --set 'stiffness.k_con=800'\\)"
   tube tube_insert --set stiffness.k_con=800 --set stiffness.k_con=900)
+# An empty option value is refused, naming the option: it would read as the option's default
+# (`--level ''` as 0, `--recording ''` as not given). {} is the empty argument (tests/empty_arg.sh).
+set(EBH_EMPTY_ARG sh ${CMAKE_CURRENT_SOURCE_DIR}/empty_arg.sh ${EBH_BIN})
+foreach(empty "level|scene;refine;tube;--level;{};-o;${EBH_REPLAY_OUT}/empty_level.yaml"
+              "recording|bench;sizes;--recording;{};--levels;0;--plot;${EBH_REPLAY_OUT}/empty_recording.png"
+              "output|replay;tube;tube_insert;-o;{}"
+              "set|replay;tube;tube_insert;-o;${EBH_REPLAY_OUT}/empty_set.h5;--set;{}"
+              "scene|replay;{};tube_insert;-o;${EBH_REPLAY_OUT}/empty_scene.h5"
+              "transform|import;${CMAKE_CURRENT_SOURCE_DIR}/data/io/sample.csv;-o;${EBH_REPLAY_OUT}/empty_transform.h5;--transform;{}"
+              "recording|validate;stability;--recording;{}")
+  string(REPLACE "|" ";" empty "${empty}")
+  list(POP_FRONT empty option)
+  list(GET empty 0 command)
+  add_test(NAME cli.empty_value.${command}_${option}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_EMPTY_ARG};${empty}" "-DEXPECT=^ebh: error: -?-?${option}: expected a value, got an empty one"
+      -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.empty_value.${command}_${option} PROPERTIES LABELS cli)
+endforeach()
 # A realtime replay whose ticks cannot keep up (100 kHz: 10 us a tick) says it fell behind.
 add_test(NAME cli.replay.realtime_behind
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/behind.h5 --start 4 --duration 0.005 --mode realtime

@@ -296,6 +296,7 @@ std::vector<BatchLine> read_batch_file(const std::string& file, bool quiet) {
     BatchLine line{file + ":" + std::to_string(number), {}};
     CLI::App app{"a replay of the batch"};
     add_replay_options(&app, line.args);
+    refuse_empty_values(app);
     try {
       app.parse(text, false);
     } catch (const CLI::ParseError& e) {

@@ -9,6 +9,7 @@
 #include "command.hpp"
 #include "core/error.hpp"
 #include "ebh/version.hpp"
+#include "options.hpp"
 
 namespace ebh::cli {
 std::vector<CommandSetup>& command_registry() {
@@ -60,6 +61,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
   app.require_subcommand(1);
   for (auto setup : ebh::cli::command_registry()) setup(app);
+  ebh::cli::refuse_empty_values(app);
   const int status = run(app, argc, argv);
   // What a command prints (a table, JSON) is an output too: a write that failed (a full disk under
   // a redirection) is an error, not a truncated file and exit status 0.

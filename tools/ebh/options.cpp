@@ -34,6 +34,14 @@ CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::stri
       range);
 }
 
+void refuse_empty_values(CLI::App& app) {
+  const CLI::Validator non_empty(
+      [](std::string& text) { return text.empty() ? std::string("expected a value, got an empty one") : std::string(); }, "");
+  for (CLI::Option* o : app.get_options())
+    if (o->get_type_size_max() > 0) o->check(non_empty);
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) refuse_empty_values(*sub);
+}
+
 void check_set_once(const std::vector<std::string>& overrides) {
   for (std::size_t i = 0; i < overrides.size(); ++i) {
     const std::string key = overrides[i].substr(0, overrides[i].find('='));

@@ -19,6 +19,12 @@ inline constexpr double kNoUpperLimit = std::numeric_limits<double>::infinity();
 /// than a silent full replay. `unit` is appended to the range in messages ("Hz").
 CLI::Validator finite_number(double lo, double hi, bool lo_open = false, const std::string& unit = "");
 
+/// Refuses an empty value for every option of `app` and its subcommands that takes one (flags take
+/// none): "--level: expected a value, got an empty one". An empty value otherwise reads as the
+/// option's default (`--level ''` as 0, `--recording ''` as not given) and a script whose variable
+/// is unset runs something it did not ask for. Called once the options are added.
+void refuse_empty_values(CLI::App& app);
+
 /// Throws InputError "OPTION: no NAME 'x' (known: a, b, c)" unless every chosen name is known:
 /// a filter that matches nothing must not pass silently (`ebh gate --case nosuchcase`).
 void check_known_names(const std::string& option, const std::string& what, const std::vector<std::string>& chosen,

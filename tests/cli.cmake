@@ -414,6 +414,19 @@ set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_
 # ebh validate (lib/validate) and ebh table1.
 add_test(NAME cli.validate.list COMMAND ${EBH_BIN} validate --list)
 set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*contact.*coupling.*convergence.*hertz.*stability" LABELS cli)
+# --recording is checked before any validation runs: a recording that does not resolve or read, or
+# one given to a validation that replays none, is refused.
+foreach(v "column;nope;--recording: nope: no such recording" "all;${PROJECT_SOURCE_DIR}/scenarios/tube.yaml;--recording: .*tube.yaml: not an HDF5 file"
+          "column;tube_insert;--recording tube_insert: the column validation replays no recording \\(--recording is for coupling and stability\\)")
+  list(GET v 0 name)
+  list(GET v 1 recording)
+  list(GET v 2 expect)
+  get_filename_component(rname ${recording} NAME_WE)
+  add_test(NAME cli.validate.recording_${name}_${rname}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};validate;${name};--recording;${recording}" "-DEXPECT=^ebh: error: ${expect}"
+      -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.validate.recording_${name}_${rname} PROPERTIES LABELS "cli;validate")
+endforeach()
 add_test(NAME cli.validate.column_json COMMAND ${EBH_BIN} validate column --json)
 set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION "\"passed\": true" LABELS cli)
 

@@ -33,6 +33,7 @@ struct Validation {
   std::string name;
   std::string description;  ///< one line: what is compared with what
   std::function<ValidationResult(const ValidationOptions&)> run;
+  bool replays_recordings = false;  ///< takes ValidationOptions::recordings (--recording)
 };
 
 /// Every validation, in the table's order.

@@ -1,5 +1,6 @@
 // `ebh validate NAME|all [--json]`, `ebh validate --list`: runs the library's validation cases
 // (lib/validate) and exits 1 if any did not pass.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -7,6 +8,7 @@
 #include "command.hpp"
 #include "core/error.hpp"
 #include "replay_common.hpp"
+#include "schedule/replay_inputs.hpp"
 #include "validate/validation.hpp"
 
 namespace {
@@ -17,6 +19,28 @@ struct Options {
   bool list = false;
   ebh::ValidationOptions validation;
 };
+
+/// --recording: each one a recording that reads, and a chosen validation that replays it, checked
+/// before any validation runs (an unknown name would otherwise surface after the others ran, and
+/// a validation with no recordings would ignore it).
+void check_recordings(const std::vector<std::string>& recordings, const std::vector<const ebh::Validation*>& chosen) {
+  using namespace ebh;
+  if (recordings.empty()) return;
+  for (const std::string& r : recordings) {
+    try {
+      (void)read_replay_recording(r);
+    } catch (const InputError& e) {
+      throw InputError(std::string("--recording: ") + e.what());
+    }
+  }
+  if (std::none_of(chosen.begin(), chosen.end(), [](const Validation* v) { return v->replays_recordings; })) {
+    std::string takers;
+    for (const Validation& v : validations())
+      if (v.replays_recordings) takers += (takers.empty() ? "" : " and ") + v.name;
+    throw InputError("--recording " + recordings.front() + ": the " + chosen.front()->name +
+                     " validation replays no recording (--recording is for " + takers + ")");
+  }
+}
 
 void run(const Options& o) {
   using namespace ebh;
@@ -34,6 +58,7 @@ void run(const Options& o) {
   } else {
     throw InputError("validate: no validation named '" + o.name + "' (see ebh validate --list)");
   }
+  check_recordings(o.validation.recordings, chosen);
   bool all_passed = true;
   Json results = Json::array();
   for (const Validation* v : chosen) {

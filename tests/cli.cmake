@@ -599,6 +599,12 @@ ebh_safety(synth_far_waypoint "^ebh: error: .*far_plan.yaml: the last waypoint a
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} synth ${S}/far_plan.yaml -o ${S}/o.h5)
 ebh_safety(synth_rate_huge "^ebh: error: --rate: expected a finite number in \\(0, 100000\\] Hz, got '1e9'"
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} synth ${S}/plan.yaml -o ${S}/o.h5 --rate 1e9)
+# 4. A placement transform whose translation no scene has (here 1e305 m: the tube's unit is mm) is
+# refused where it is given, before the poses' coordinates overflow.
+ebh_safety(transform_huge "^ebh: error: --transform 1e308,0,0,0,0,0: the translation is 1e\\+305 m long; give one of at most 100 m"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube tube_insert -o ${S}/o.h5 --transform 1e308,0,0,0,0,0)
+ebh_safety(import_transform_huge "^ebh: error: --transform 1e308,0,0,0,0,0: the translation is 1e\\+308 m long"
+  OUTPUT ${S}/o.h5 CMD ${EBH_BIN} import ${S}/log.csv -o ${S}/o.h5 --transform 1e308,0,0,0,0,0)
 # 5. A filter that matches nothing is an error listing what exists.
 ebh_safety(gate_unknown_case "^ebh: error: --case: no gate case 'nosuchcase' \\(known: tube_insert, "
   CMD ${EBH_BIN} gate --case nosuchcase)

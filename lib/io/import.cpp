@@ -351,7 +351,10 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
   }
   const Vec3d rotvec{v[3], v[4], v[5]};
   if (const std::string why = rotvec_deg_problem(rotvec); !why.empty()) throw InputError(option + ": " + why);
-  return RigidTransform{Vec3d{v[0], v[1], v[2]} * unit_m, quat_from_rotvec(rotvec * (std::numbers::pi / 180.0))};
+  const Vec3d translation = Vec3d{v[0], v[1], v[2]} * unit_m;
+  if (const std::string why = translation_problem(translation); !why.empty())
+    throw InputError(option + " " + text + ": " + why);
+  return RigidTransform{translation, quat_from_rotvec(rotvec * (std::numbers::pi / 180.0))};
 }
 
 LogFormat log_format_of(const std::string& path) {

@@ -1,5 +1,6 @@
 #include "io/pose_transform.hpp"
 
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -24,6 +25,15 @@ void apply_pose_transforms(const PoseTransforms& tr, std::vector<Vec3d>& positio
     position[i] = p;
     orientation[i] = q;
   }
+}
+
+std::string translation_problem(Vec3d t) {
+  const double length = std::hypot(t.x, t.y, t.z);  // overflows only beyond the largest double
+  if (length <= kMaxTranslationM) return "";
+  char buf[128];
+  std::snprintf(buf, sizeof buf, "the translation is %s%.4g m long; give one of at most %g m (a scene is at most 2 m across)",
+                std::isfinite(length) ? "" : "over ", std::isfinite(length) ? length : DBL_MAX, kMaxTranslationM);
+  return buf;
 }
 
 std::string describe(const RigidTransform& t) {
@@ -52,6 +62,7 @@ RigidTransform from_attribute(const std::vector<double>& v, const std::string& w
     std::snprintf(buf, sizeof buf, "%.9g", n);
     throw InputError(at + "quaternion norm " + buf + " is not 1 (is it (w, x, y, z)?)");
   }
+  if (const std::string why = translation_problem({v[0], v[1], v[2]}); !why.empty()) throw InputError(at + why);
   return RigidTransform{{v[0], v[1], v[2]}, Quatd{q.w / n, q.x / n, q.y / n, q.z / n}};
 }
 

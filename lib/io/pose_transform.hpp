@@ -24,6 +24,16 @@ struct RigidTransform {
   Quatd rotation;     ///< unit quaternion (w, x, y, z)
 };
 
+/// The longest translation a transform may have, m: a scene is at most 2 m across and a device's
+/// workspace smaller, so 100 m is no placement of one at the other but a unit or typing mistake (and
+/// near 1e308 the poses' coordinates overflow: "the tool lies inf m outside the scene").
+inline constexpr double kMaxTranslationM = 100;
+
+/// "" for a translation (m) a transform may have, else why not ("the translation is 1e+308 m long;
+/// give one of at most 100 m (a scene is at most 2 m across)"), for the caller to put after its
+/// option or attribute.
+std::string translation_problem(Vec3d translation_m);
+
 /// The transforms applied to a trajectory's poses; an empty one is the identity.
 struct PoseTransforms {
   std::optional<RigidTransform> world;  ///< on the left, in the world frame

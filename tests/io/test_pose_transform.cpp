@@ -96,6 +96,17 @@ TEST(PoseTransform, OptionsAndAttributesSayWhatIsWrong) {
                      "rec.h5: attribute world_transform", "quaternion norm 2");
   EXPECT_INPUT_ERROR(from_attribute({0, 0, std::nan(""), 1, 0, 0, 0}, "rec.h5", "world_transform"), "value 2",
                      "NaN");
+  // A translation no placement has (a scene is at most 2 m across) is refused where it is given,
+  // before the poses' coordinates overflow; 100 m is the limit, in the option's unit (mm here).
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "1e308,0,0,0,0,0", 1.0),
+                     "--transform 1e308,0,0,0,0,0: the translation is 1e+308 m long; give one of at most 100 m");
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "1.7e308,1.7e308,1.7e308,0,0,0", 1.0),
+                     "the translation is over 1.798e+308 m long");
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--tool-transform", "0,0,100001,0,0,0", 1e-3),
+                     "--tool-transform 0,0,100001,0,0,0: the translation is 100 m long");
+  EXPECT_EQ(parse_rigid_transform("--transform", "0,0,100000,0,0,0", 1e-3).translation, Vec3d(0, 0, 100));
+  EXPECT_INPUT_ERROR(from_attribute({0, 1e300, 0, 1, 0, 0, 0}, "rec.h5", "world_transform"),
+                     "rec.h5: attribute world_transform: the translation is 1e+300 m long");
 }
 
 TEST(PoseTransform, ImportBakesTheTransformsAndStoresNoneToApply) {

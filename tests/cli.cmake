@@ -108,6 +108,15 @@ add_test(NAME cli.scene.bad_key_message COMMAND ${EBH_BIN} scene info ${CMAKE_CU
 set_tests_properties(cli.scene.bad_key_message PROPERTIES
   PASS_REGULAR_EXPRESSION "key 'tool.hook.tip_length': expected a positive number, got 'abc'" LABELS "cli;scene")
 
+# 100000 nested lists: yaml-cpp's nesting limit, one line naming the file (no stack overflow).
+string(REPEAT "[" 100000 ebh_deep)
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_deep.yaml "gravity: ${ebh_deep}\n")
+add_test(NAME cli.scene.nested_too_deeply
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;info;${CMAKE_CURRENT_BINARY_DIR}/cli_scene_deep.yaml"
+    "-DEXPECT=^ebh: error: .*cli_scene_deep.yaml:[0-9]+: nested too deeply \\(over 500 levels of lists and maps" -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene.nested_too_deeply PROPERTIES LABELS "cli;scene")
+
 # scene info shows the contact model; with surface contact, the samples' spacing and the stiffness
 # after the floor (a 1 mm tip and the 3.3 N limit raise the default 400 N/m to 2200).
 file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_surface.yaml
@@ -542,6 +551,8 @@ file(WRITE ${EBH_SAFE}/gate_band.yaml "bands: {relative: -1, abs_force_step: 0, 
 file(WRITE ${EBH_SAFE}/gate_none.yaml "cases: []\n")
 file(WRITE ${EBH_SAFE}/gate_extra.yaml "cases:\n  - {${ebh_gate_case}, peak_forse: 1}\n")
 file(WRITE ${EBH_SAFE}/gate_twice.yaml "cases:\n  - {${ebh_gate_case}}\n  - {${ebh_gate_case}}\n")
+string(REPEAT "[" 100000 ebh_deep_gate)
+file(WRITE ${EBH_SAFE}/gate_deep.yaml "cases: ${ebh_deep_gate}\n")
 file(WRITE ${EBH_SAFE}/gate_scene.yaml "cases:\n  - {name: w, scene: nope, recording: tube_insert, start: 4, duration: 0.5}\n")
 # --update of a window of one tick: no force step to take as a baseline; the file stays as it was.
 file(WRITE ${EBH_SAFE}/gate_short.yaml "cases:\n  - {name: w, scene: tube, recording: tube_insert, start: 9.9995, duration: 1}\n")
@@ -627,6 +638,8 @@ foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got 
   ebh_safety(gate_${gname} "^ebh: error: .*gate_${gname}.yaml: (key ')?${gexpect}"
     CMD ${EBH_BIN} gate --baselines ${S}/gate_${gname}.yaml)
 endforeach()
+ebh_safety(gate_deep "^ebh: error: .*gate_deep.yaml:[0-9]+: nested too deeply \\(over 500 levels of lists and maps"
+  CMD ${EBH_BIN} gate --baselines ${S}/gate_deep.yaml)
 ebh_safety(gate_update_short "^ebh: error: not updating .*gate_short.yaml: .*cases\\[0\\] \\(w\\): its window \\(start 9.9995 s, duration 1 s\\) gives no rms_force_step"
   KEEP ${S}/gate_short.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_short.yaml --update)
 # 6. Every numeric option is finite and in range.

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/yaml_error.hpp"
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
 #include "metrics/replay_trace.hpp"
@@ -73,7 +74,7 @@ GateBaselines read_gate_baselines(const std::string& path) {
   } catch (const YAML::BadFile&) {
     throw InputError(path + ": cannot read the gate baselines");
   } catch (const YAML::Exception& e) {
-    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    throw InputError(yaml_parse_error(path, e));
   }
   GateBaselines b;
   only_keys(root, path, "", {"generated_by", "bands", "cases"});

@@ -10,6 +10,7 @@
 #include <set>
 
 #include "core/error.hpp"
+#include "core/yaml_error.hpp"
 #include "io/paths.hpp"
 #include "math/rotvec_input.hpp"
 
@@ -76,7 +77,7 @@ SynthPlan read_plan(const std::string& path) {
   } catch (const YAML::BadFile&) {
     throw InputError(path + ": cannot open the plan file");
   } catch (const YAML::ParserException& e) {
-    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+    throw InputError(yaml_parse_error(path, e));
   }
   if (!root.IsMap()) throw InputError(path + ": the plan must be a YAML mapping (scene, tool, waypoints, ...)");
   r.only_keys(root, "", {"scene", "tool", "description", "rate_hz", "tremor", "quantum_mm", "waypoints"});

@@ -21,6 +21,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "core/yaml_error.hpp"
 #include "ebh/version.hpp"
 #include "math/rotvec_input.hpp"
 #include "mesh/boundary.hpp"
@@ -556,20 +557,20 @@ namespace {
 void apply_override(YAML::Node root, const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
-    throw InputError("--set '" + text + "': expected key=value (e.g. stiffness.k_con=800)");
+    throw InputError(OverrideError::set_option_shown(text) + ": expected key=value (e.g. stiffness.k_con=800)");
   const std::string key = text.substr(0, eq), value = text.substr(eq + 1);
   YAML::Node parsed;
   try {
     parsed = YAML::Load(value);
   } catch (const YAML::Exception& e) {
-    throw InputError("--set '" + text + "': value is not valid YAML: " + e.msg);
+    throw InputError(OverrideError::set_option_shown(text) + ": in the value: " + yaml_parse_problem(e));
   }
   std::vector<YAML::Node> path{root};
   std::size_t start = 0;
   while (true) {
     const auto dot = key.find('.', start);
     const std::string part = key.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
-    if (part.empty()) throw InputError("--set '" + text + "': empty key component");
+    if (part.empty()) throw InputError(OverrideError::set_option_shown(text) + ": empty key component");
     if (!path.back().IsMap() && path.back().IsDefined() && !path.back().IsNull())
       throw OverrideError(text, "key '" + key.substr(0, start ? start - 1 : 0) + "': " + shown(path.back()) + ", not a map");
     if (dot == std::string::npos) {
@@ -587,7 +588,7 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
   try {
     root = YAML::Load(text);
   } catch (const YAML::ParserException& e) {
-    throw InputError(file.string() + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+    throw InputError(yaml_parse_error(file.string(), e));
   } catch (const YAML::Exception& e) {
     throw InputError(file.string() + ": cannot read scene file: " + e.msg);
   }

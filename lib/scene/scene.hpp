@@ -327,7 +327,13 @@ std::vector<SceneInputFile> scene_input_files(const SceneSpec& spec);
 class OverrideError : public InputError {
  public:
   OverrideError(const std::string& override_text, const std::string& key_message)
-      : InputError("--set '" + override_text + "': " + key_message), key_message_(key_message) {}
+      : InputError(set_option_shown(override_text) + ": " + key_message), key_message_(key_message) {}
+
+  /// "--set 'KEY=VALUE'" as messages show it: a value of more than 80 characters (100000 nested
+  /// lists, say) cut to its first 80 and "...".
+  static std::string set_option_shown(const std::string& text) {
+    return "--set '" + (text.size() > 80 ? text.substr(0, 80) + "..." : text) + "'";
+  }
   const std::string& key_message() const { return key_message_; }
 
  private:

@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "core/yaml_error.hpp"
 #include "io/h5.hpp"
 #include "io/paths.hpp"
 #include "io/sha256.hpp"
@@ -191,7 +192,7 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   try {
     root = YAML::LoadFile(file.string());
   } catch (const YAML::ParserException& e) {
-    throw InputError(file.string() + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+    throw InputError(yaml_parse_error(file.string(), e));
   } catch (const YAML::Exception& e) {
     throw InputError(file.string() + ": cannot read the plan: " + e.msg);
   }

@@ -196,6 +196,8 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "waypoint", "unknown key");
   plan("scene: [gap\n");
   EXPECT_INPUT_ERROR(read_plan(path), path, "YAML syntax error");
+  plan(("waypoints: " + std::string(100000, '[') + "\n").c_str());  // yaml-cpp's nesting limit, not a stack overflow
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":", "nested too deeply (over 500 levels of lists and maps");
 }
 
 TEST(Synth, SampleCountIsCheckedBeforeAllocating) {

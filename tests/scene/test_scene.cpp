@@ -474,6 +474,28 @@ TEST_F(BadScene, TwoKindsInOneRegion) {
 TEST_F(BadScene, BoxMinAboveMax) { expect(replace(good, "max: [1, 1, 11]", "max: [1, -2, 11]"), "key 'pinned[1].box.max': expected max >= min"); }
 TEST_F(BadScene, RegionMissingKey) { expect(replace(good, "min: [-1, -1, 9], ", ""), "key 'pinned[1].box.min': missing"); }
 TEST_F(BadScene, DuplicateKey) { expect(replace(good, "damping: 0.05", "damping: 0.05\ndamping: 0.1"), "key 'damping': given twice"); }
+// yaml-cpp stops at its nesting limit (its message "bad file"); 100000 levels of lists, maps or
+// block lists are that one-line error naming the file, never a stack overflow; so is such a --set value.
+TEST_F(BadScene, NestedTooDeeply) {
+  const std::string nested = "nested too deeply (over 500 levels of lists and maps, yaml-cpp's limit";
+  expect("gravity: " + std::string(100000, '['), nested);
+  std::string maps;
+  for (int i = 0; i < 100000; ++i) maps += "{a: ";
+  expect(maps, nested);
+  std::string block;
+  for (int i = 0; i < 100000; ++i) block += "- ";
+  expect(block, nested);
+  std::string indented;  // 600 levels of block maps, one a line: the line yaml-cpp stopped at
+  for (int i = 0; i < 600; ++i) indented += std::string(static_cast<std::size_t>(i), ' ') + "a:\n";
+  expect(indented, nested);
+  try {
+    (void)load_scene_spec(data("scene/cube.yaml"), {"gravity=" + std::string(100000, '[')});
+    ADD_FAILURE() << "a nested --set value was taken";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),  // the value cut to 80 characters
+              "--set 'gravity=" + std::string(72, '[') + "...': in the value: " + nested + "; ebh's files nest a few)");
+  }
+}
 TEST_F(BadScene, YamlSyntax) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0, -9.81"), "YAML syntax error"); }
 TEST_F(BadScene, NotAMap) { expect("- 1\n- 2\n", "expected a map, got a list"); }
 TEST_F(BadScene, Empty) { expect("# nothing\n", "empty scene file"); }

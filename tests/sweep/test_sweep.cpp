@@ -286,6 +286,7 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
       {"scenes: [{scene: tube, recordings: [tube_insert, tube_insert], reference: {}}]\n",
        ":1: key 'scenes\\[0\\].recordings': .*tube_insert.h5 given twice"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}\n", ":2: YAML syntax error"},
+      {"scenes: " + std::string(100000, '['), ":[0-9]+: nested too deeply \\(over 500 levels of lists and maps"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbaseline: {name: paper}\n",
        ":2: key 'baseline.set': missing \\(required"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbaseline: {set: {}, label: x}\n",

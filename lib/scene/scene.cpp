@@ -497,9 +497,52 @@ std::string region_name(PinRegion::Kind k) {
   return "region";
 }
 
+/// For each pinned region of `spec`, why a group of `raw` (the mesh as read) will pin nothing once
+/// the vertices no tet uses are removed (remove_unreferenced_vertices drops the triangles that use
+/// one): "its triangles use node 77, which belongs to no tet, and were removed with it (MESH:
+/// removed 1 vertices used by no tet)"; "" for the others. Read before the removal, said in the
+/// error of a group that then pins nothing (the removal's warning is printed only after loading).
+std::vector<std::string> groups_removed_with_unused_vertices(const TetMesh& raw, const SceneSpec& spec) {
+  std::vector<std::string> why(spec.pinned.size());
+  const int nv = static_cast<int>(raw.vertices.size());
+  std::vector<char> used(raw.vertices.size(), 0);
+  for (const Tet& t : raw.tets)
+    for (int v : t)
+      if (v >= 0 && v < nv) used[v] = 1;
+  const auto removed = std::count(used.begin(), used.end(), 0);
+  if (removed == 0) return why;
+  for (std::size_t i = 0; i < spec.pinned.size(); ++i) {
+    const PinRegion& r = spec.pinned[i];
+    if (r.kind != PinRegion::Kind::Group) continue;
+    std::set<int> tags, unused;
+    for (const auto& [tag, name] : raw.group_names)
+      if (name == r.group) tags.insert(tag);
+    for (std::size_t f = 0; f < raw.triangles.size() && f < raw.triangle_group.size(); ++f)
+      if (tags.count(raw.triangle_group[f]))
+        for (int v : raw.triangles[f])
+          if (v >= 0 && v < nv && !used[v]) unused.insert(v);
+    if (unused.empty()) continue;
+    std::string nodes;
+    int shown = 0;
+    for (int v : unused) {
+      if (++shown > 5) {
+        nodes += ", ...";
+        break;
+      }
+      nodes += (nodes.empty() ? "" : ", ") + std::to_string(static_cast<std::size_t>(v) < raw.file_node_ids.size()
+                                                                ? raw.file_node_ids[v]
+                                                                : static_cast<long long>(v));
+    }
+    why[i] = "its triangles use node" + std::string(unused.size() > 1 ? "s " : " ") + nodes + ", which belong" +
+             (unused.size() > 1 ? "" : "s") + " to no tet, and were removed with " + (unused.size() > 1 ? "them" : "it") +
+             " (" + spec.physical_mesh.string() + ": removed " + std::to_string(removed) + " vertices used by no tet)";
+  }
+  return why;
+}
+
 /// The vertices a region pins, or an InputError naming the scene file and the region's key when the
-/// region is a group the mesh does not have or pins nothing.
-std::vector<int> pinned_by(const Scene& scene, std::size_t index) {
+/// region is a group the mesh does not have or pins nothing (`why_none`, when given, says why).
+std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::string& why_none) {
   const PinRegion& r = scene.spec.pinned[index];
   const std::string key = "pinned[" + std::to_string(index) + "]." + region_name(r.kind);
   std::vector<int> v = region_vertices(scene.physical, r);
@@ -511,7 +554,8 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index) {
                        scene.spec.physical_mesh.string() + ": " + (known.empty() ? std::string("none") : join(known)) + ")");
   }
   throw InputError(scene.spec.file.string() + ": key '" + key + "': the " + region_name(r.kind) +
-                   (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh");
+                   (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh" +
+                   (why_none.empty() ? "" : ": " + why_none));
 }
 
 /// Warnings for sizes no organ or laparoscopic instrument has: the physical mesh's bounding-box
@@ -733,6 +777,7 @@ Scene build_scene(SceneSpec spec_in) {
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and
   // place it in the world (mesh.unit, mesh.transform).
   TetMesh mesh = read_msh(spec.physical_mesh);
+  const std::vector<std::string> pins_removed = groups_removed_with_unused_vertices(mesh, spec);
   if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
     scene.warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");
   // Coordinates so large that a tet's volume (a product of three differences) overflows: the
@@ -789,7 +834,7 @@ Scene build_scene(SceneSpec spec_in) {
 
   // Pinned regions (world coordinates, scaled when the file was read).
   for (std::size_t i = 0; i < spec.pinned.size(); ++i) {
-    const std::vector<int> v = pinned_by(scene, i);
+    const std::vector<int> v = pinned_by(scene, i, pins_removed[i]);
     scene.pinned.insert(scene.pinned.end(), v.begin(), v.end());
   }
   std::sort(scene.pinned.begin(), scene.pinned.end());

@@ -31,7 +31,8 @@
 //   gravity: [0, 0, -9.81]          # m/s^2
 //   damping: 0.0                    # fraction of velocity removed per physical step, [0, 1)
 //   pinned:                         # union of regions, world coordinates (after mesh.transform); each one of:
-//     - group: back                 #   a physical group name (its tets' or triangles' vertices)
+//     - group: back                 #   a physical group name (its tets' or triangles' vertices; a
+//                                   #   triangle with a vertex no tet uses is removed with that vertex)
 //     - box: {min: [x, y, z], max: [x, y, z]}
 //     - sphere: {center: [x, y, z], radius: r}
 //     - halfspace: {point: [x, y, z], normal: [x, y, z]}   # vertices with (p - point).normal >= 0

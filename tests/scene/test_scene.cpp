@@ -593,6 +593,30 @@ TEST(SceneMesh, UnreferencedVertexRemovedWithWarning) {
   EXPECT_NE(s.warnings[0].find("removed 1 vertices used by no tet"), std::string::npos);
 }
 
+// A pinned surface group whose only triangle uses a vertex of no tet: the triangle goes with the
+// vertex, the group pins nothing, and the error says why (the removal's warning comes only with a
+// scene that loads).
+TEST(SceneMesh, GroupOfARemovedVertexSaysWhyItPinsNothing) {
+  const std::string msh = replace(replace(replace(slurp(data("mesh/cube22.msh")), "$Nodes\n8\n", "$Nodes\n9\n77 5 5 5\n"),
+                                          "$PhysicalNames\n4\n", "$PhysicalNames\n5\n2 4 \"loose\"\n"),
+                                  "$Elements\n13\n", "$Elements\n14\n30 2 2 4 4 77 7 1000\n");
+  const fs::path mesh = write_temp("loose.msh", msh);
+  const fs::path scene = write_temp("loose.yaml", "unit: mm\nmesh: {physical: loose.msh}\npinned: [{group: loose}]\n");
+  try {
+    (void)load_scene(scene);
+    FAIL() << "a group that pins nothing was taken";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), scene.string() + ": key 'pinned[0].group': the group 'loose' pins no vertex of the "
+                                         "physical mesh: its triangles use node 77, which belongs to no tet, and were "
+                                         "removed with it (" + mesh.string() + ": removed 1 vertices used by no tet)");
+  }
+  // Beside a group that pins vertices of tets, the same triangle costs nothing but the warning.
+  const Scene s = load_scene(write_temp("loose_and_bottom.yaml", "unit: mm\nmesh: {physical: loose.msh}\n"
+                                                                 "pinned: [{group: bottom}]\n"));
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("removed 1 vertices used by no tet"), std::string::npos);
+}
+
 // ---- scene names -------------------------------------------------------------------------------
 
 TEST(ResolveScenePath, NameInDataDir) {

@@ -285,6 +285,25 @@ std::string ratio_text(double r) {
 
 }  // namespace
 
+std::optional<std::string> check_recording_speed(const Recording& rec) {
+  double fastest = 0;
+  std::size_t at = 0;
+  for (std::size_t i = 1; i < rec.size(); ++i) {
+    const double speed = norm(rec.position[i] - rec.position[i - 1]) / (rec.t[i] - rec.t[i - 1]);
+    if (speed > fastest) {
+      fastest = speed;
+      at = i;
+    }
+  }
+  if (!(fastest > kToolSpeedMax)) return std::nullopt;
+  char line[320];
+  std::snprintf(line, sizeof line,
+                "the tool jumps %.3g m between samples %zu and %zu (t = %.6g .. %.6g s: %.3g m/s; a hand moves it at "
+                "under 1 m/s): a gap or a reset in the log, which a replay passes through in one tick",
+                norm(rec.position[at] - rec.position[at - 1]), at - 1, at, rec.t[at - 1], rec.t[at], fastest);
+  return std::string(line);
+}
+
 std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo, Vec3d hi,
                                                  std::optional<double> log_unit_m) {
   const double diagonal = norm(hi - lo);

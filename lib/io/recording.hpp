@@ -114,6 +114,14 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
 /// not an error: a user may have reasons.
 std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo, Vec3d hi,
                                                  std::optional<double> log_unit_m);
+
+/// A jump in the log (a dropped stretch, a device reset, a glitch): the fastest move between two
+/// consecutive samples, when it is over kToolSpeedMax, as one line naming the samples, their times,
+/// the distance and the speed; nullopt when every move is slower. A hand moves an instrument at
+/// ~0.5 m/s at most (surgical motions ~0.1 m/s); a replay passes through a jump in one tick. A
+/// warning, not an error: the jump may be the experiment.
+std::optional<std::string> check_recording_speed(const Recording& rec);
+inline constexpr double kToolSpeedMax = 10;  ///< m/s
 inline constexpr double kPathExtentMaxRatio = 20;
 inline constexpr double kPathExtentMinRatio = 1.0 / 50;
 inline constexpr double kPathMaxDistanceDiagonals = 2;

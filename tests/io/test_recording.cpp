@@ -310,6 +310,22 @@ TEST(UnitSanity, APathFarFromTheMeshAsksForAWorldTransform) {
   EXPECT_FALSE(check_recording_scale(r, kLo, kHi, 1e-2).has_value());
 }
 
+// A jump in the log (50 m/s for one sample) is named with its samples and speed; a hand's motion
+// (make_recording's 1 m/s) and the committed recordings are not.
+TEST(ToolSpeed, AJumpInTheLogIsNamed) {
+  Recording r = make_recording();
+  EXPECT_FALSE(check_recording_speed(r).has_value());
+  r.position[6] += Vec3d{0.05, 0, 0};  // 5 cm out and back within 2 ms
+  const auto w = check_recording_speed(r);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("jumps 0.05 m between samples 5 and 6 (t = 0.005 .. 0.006 s: 50 m/s"), std::string::npos) << *w;
+  for (const char* name : {"tube_insert", "tube_grasp", "gap_insert", "gap_grasp", "cholecystectomy_press",
+                           "cholecystectomy_grasp", "gynaecology_press", "gynaecology_grasp"}) {
+    const auto c = check_recording_speed(read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5"));
+    EXPECT_FALSE(c.has_value()) << name << ": " << *c;
+  }
+}
+
 TEST(Recording, OneSampleIsNotATrajectory) {
   // A replay needs a duration: the message names the file and says so (it used to blame a
   // --start that was never given).

@@ -59,6 +59,10 @@ struct PlanReader {
   }
 };
 
+constexpr double kQuantumMinMm = 1e-6, kQuantumMaxMm = 10;  // quantum_mm: 1 nm .. 1 cm
+constexpr double kTremorMaxMm = 10;                         // tremor.amplitude_mm
+constexpr double kPositionMaxMm = 1e5;                      // a waypoint's coordinates: 100 m
+
 // Whole numbers as such ("10000000 samples"), others as %g ("1e+15").
 std::string num(double v) {
   char buf[32];
@@ -96,19 +100,32 @@ SynthPlan read_plan(const std::string& path) {
       r.fail(root["rate_hz"], "rate_hz", "expected a number in (0, " + num(kMaxSampleRateHz) + "] Hz");
   }
   if (root["quantum_mm"]) {
-    plan.quantum = r.number(root["quantum_mm"], "quantum_mm") * 1e-3;
-    if (plan.quantum < 0) r.fail(root["quantum_mm"], "quantum_mm", "must be >= 0");
+    // A device's position resolution is ~0.01-0.1 mm: a coarser grid flattens the path, and one
+    // below a nanometre overflows the rounding (position / quantum).
+    const double q = r.number(root["quantum_mm"], "quantum_mm");
+    if (!(q == 0 || (q >= kQuantumMinMm && q <= kQuantumMaxMm)))
+      r.fail(root["quantum_mm"], "quantum_mm",
+             "expected 0 (none) or " + num(kQuantumMinMm) + " .. " + num(kQuantumMaxMm) +
+                 " mm (a device's resolution is ~0.01-0.1 mm), got " + num(q));
+    plan.quantum = q * 1e-3;
   }
   if (const YAML::Node tr = root["tremor"]) {
     if (!tr.IsMap()) r.fail(tr, "tremor", "expected a mapping {amplitude_mm, band_hz, components}");
     r.only_keys(tr, "tremor", {"amplitude_mm", "band_hz", "components"});
     if (tr["amplitude_mm"]) {
-      plan.tremor_amplitude = r.number(tr["amplitude_mm"], "tremor.amplitude_mm") * 1e-3;
-      if (plan.tremor_amplitude < 0) r.fail(tr["amplitude_mm"], "tremor.amplitude_mm", "must be >= 0");
+      const double a = r.number(tr["amplitude_mm"], "tremor.amplitude_mm");
+      if (!(a >= 0 && a <= kTremorMaxMm))
+        r.fail(tr["amplitude_mm"], "tremor.amplitude_mm",
+               "expected 0 .. " + num(kTremorMaxMm) + " mm (a hand's tremor is ~0.01-1 mm), got " + num(a));
+      plan.tremor_amplitude = a * 1e-3;
     }
     if (tr["band_hz"]) {
       auto b = r.numbers(tr["band_hz"], "tremor.band_hz", 2);
       if (!(b[0] > 0 && b[1] >= b[0])) r.fail(tr["band_hz"], "tremor.band_hz", "expected [low, high] with 0 < low <= high");
+      if (b[1] > plan.rate_hz / 2)
+        r.fail(tr["band_hz"], "tremor.band_hz",
+               "its high end " + num(b[1]) + " Hz is above half the sample rate (" + num(plan.rate_hz / 2) +
+                   " Hz of rate_hz " + num(plan.rate_hz) + "): the samples cannot carry it");
       plan.tremor_band_lo = b[0];
       plan.tremor_band_hi = b[1];
     }
@@ -134,6 +151,10 @@ SynthPlan read_plan(const std::string& path) {
     // position_mm, rotvec_deg, jaw and buttons carry over from the previous waypoint when omitted.
     if (w["position_mm"]) {
       auto v = r.numbers(w["position_mm"], key + ".position_mm", 3);
+      for (const double c : v)
+        if (!(std::fabs(c) <= kPositionMaxMm))
+          r.fail(w["position_mm"], key + ".position_mm",
+                 "coordinate " + num(c) + " mm is beyond " + num(kPositionMaxMm) + " mm (100 m; a scene is at most 2 m across)");
       p.position = Vec3d{v[0], v[1], v[2]} * 1e-3;
     } else if (i == 0) {
       r.fail(w, key, "the first waypoint needs position_mm");

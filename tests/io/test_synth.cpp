@@ -188,6 +188,19 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].position_mm", "3 numbers");
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 30], rotvec_deg: [1e300, 0, 0]}\n  - {t: 1}\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].rotvec_deg", "angle is inf degrees; give one of at most 360");
+  // Numbers past what a device or a hand makes: a path flattened to a point, a rounding that
+  // overflows, a tremor of metres or above the samples' band, a waypoint kilometres away.
+  const std::string two = "waypoints:\n  - {t: 0, position_mm: [0, 0, 30], rotvec_deg: [0, 0, 0]}\n  - {t: 1}\n";
+  plan(("scene: gap\ntool: hook\nquantum_mm: 1e6\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "quantum_mm", "expected 0 (none) or 1e-06 .. 10 mm");
+  plan(("scene: gap\ntool: hook\nquantum_mm: 1e-320\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "quantum_mm", "got 9.99989e-321");
+  plan(("scene: gap\ntool: hook\ntremor: {amplitude_mm: 1e6}\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "tremor.amplitude_mm", "expected 0 .. 10 mm");
+  plan(("scene: gap\ntool: hook\ntremor: {band_hz: [800, 5000]}\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "tremor.band_hz", "5000 Hz is above half the sample rate (500 Hz");
+  plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [1e300, 0, 30], rotvec_deg: [0, 0, 0]}\n  - {t: 1}\n");
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].position_mm", "coordinate 1e+300 mm is beyond 100000 mm");
   plan("scene: gap\ntool: scalpel\nwaypoints: []\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":2", "tool", "hook or forceps");
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 1], rotvec_deg: [0, 0, 0], jaw: 2}\n  - {t: 1}\n");

@@ -76,7 +76,11 @@ add_test(NAME cli.metrics.recording_not_replay
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5"
     "-DEXPECT=^ebh: error: .*tube_insert.h5: a device recording \\(/trajectory\\), not a replay output \\(/haptic\\): replay it first"
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file cli.metrics.recording_not_replay PROPERTIES LABELS cli)
+add_test(NAME cli.metrics.fft_window_huge
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;4294967296"
+    "-DEXPECT=^ebh: error: --fft-window: 4294967296 is over 1048576 ticks" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file cli.metrics.recording_not_replay
+  cli.metrics.fft_window_huge PROPERTIES LABELS cli)
 # scripts/plot_forces.py on the same trace, where Debian's python3 has h5py, matplotlib and numpy.
 find_program(EBH_SYSTEM_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
 if(EBH_SYSTEM_PYTHON3)

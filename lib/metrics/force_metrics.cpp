@@ -379,10 +379,12 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
 
 namespace {
 
+/// v with printf format f; "-" for NaN; past 1e6 in magnitude (a force no device renders, which
+/// a fixed format prints as 21 digits) with %.4g.
 std::string fmt(const char* f, double v) {
   if (std::isnan(v)) return "-";
   char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
+  std::snprintf(buf, sizeof buf, std::fabs(v) < 1e6 ? f : "%.4g", v);
   return buf;
 }
 

@@ -336,6 +336,12 @@ TEST(ForceMetrics, JsonAndTableCarryTheNumbers) {
   const std::string table = format_table(m, true);
   EXPECT_NE(table.find("peak |F|"), std::string::npos);
   EXPECT_NE(table.find("episodes"), std::string::npos);
+  // A force no device renders (a replay past every limit) in four digits, not 21.
+  ReplayTrace huge = make_trace(200);
+  for (std::size_t i = 0; i < huge.ticks(); ++i) huge.force[i].x = 1e20;
+  const std::string big = format_table(roundtrip(huge, "huge"), false);
+  EXPECT_NE(big.find("1e+20 N"), std::string::npos) << big;
+  EXPECT_EQ(big.find("100000000000000000000"), std::string::npos) << big;
 }
 
 // The no-contact warning that `ebh replay` and `ebh metrics` print: none, under 1% and 1% exactly.

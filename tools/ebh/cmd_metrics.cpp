@@ -13,6 +13,8 @@
 
 namespace {
 
+constexpr std::size_t kMaxFftWindow = std::size_t{1} << 20;  // --fft-window, ticks
+
 struct MetricsArgs {
   std::string path;
   bool json = false, episodes = false;
@@ -24,6 +26,9 @@ void run(const MetricsArgs& a) {
   ebh::MetricsOptions opt;
   if (a.fft_window < 2 || ebh::floor_pow2(a.fft_window) != a.fft_window)
     throw ebh::InputError("--fft-window: " + std::to_string(a.fft_window) + " is not a power of two >= 2");
+  if (a.fft_window > kMaxFftWindow)
+    throw ebh::InputError("--fft-window: " + std::to_string(a.fft_window) + " is over " + std::to_string(kMaxFftWindow) +
+                          " ticks (17 minutes at 1 kHz)");
   opt.episode_merge_gap_s = a.merge_gap_ms * 1e-3;
   opt.fft_window = a.fft_window;
   if (opt.fft_min_window > opt.fft_window) opt.fft_min_window = opt.fft_window;

@@ -497,6 +497,21 @@ add_test(NAME cli.replay.free_part_warns
     --set "pinned=[{box: {min: [0,-30,-31], max: [31,30,-29]}}]")
 set_tests_properties(cli.replay.free_part_warns PROPERTIES PASS_REGULAR_EXPRESSION
   "gap.yaml: pinned: 1 part\\(s\\) of the physical mesh \\(1928 of its 3850 vertices; the first holds vertex 0 and 1928 vertices\\) touch no pinned vertex: they float free")
+# A forceps recording that closes its jaws, replayed where nothing grasps: said (and not where the
+# scene's forceps grasp).
+add_test(NAME cli.replay.grasp_lost_to_a_hook
+  COMMAND ${EBH_BIN} replay tube tube_grasp -o ${EBH_NUM_OUT}/lost_hook.h5 --duration 0.02 -q)
+set_tests_properties(cli.replay.grasp_lost_to_a_hook PROPERTIES PASS_REGULAR_EXPRESSION
+  "tube_grasp.h5: the jaws close to 0 at t = 1.700 s \\(below the grasp threshold 0.2\\), but the scene's tool is a hook: nothing is grasped")
+add_test(NAME cli.replay.grasp_lost_to_the_stages
+  COMMAND ${EBH_BIN} replay tube_forceps tube_grasp -o ${EBH_NUM_OUT}/lost_stage.h5 --duration 0.02 -q --set stages.grasp=false)
+set_tests_properties(cli.replay.grasp_lost_to_the_stages PROPERTIES PASS_REGULAR_EXPRESSION
+  "tube_grasp.h5: the jaws close to 0 .*but stages.grasp is off: nothing is grasped")
+add_test(NAME cli.replay.grasp_kept
+  COMMAND ${EBH_BIN} replay tube_forceps tube_grasp -o ${EBH_NUM_OUT}/kept.h5 --duration 0.02 -q)
+set_tests_properties(cli.replay.grasp_kept PROPERTIES FAIL_REGULAR_EXPRESSION "nothing is grasped")
+set_tests_properties(cli.replay.grasp_lost_to_a_hook cli.replay.grasp_lost_to_the_stages cli.replay.grasp_kept
+  PROPERTIES LABELS cli)
 # A step that ends far from balance (above solver.recovery_residual) and is not redone is said, with
 # the count, the largest residual and the first time; the same window with the scene's stiffness is not.
 add_test(NAME cli.replay.unbalanced_steps

@@ -83,6 +83,25 @@ RecordingFile read_replay_recording(const std::string& recording) {
   return r;
 }
 
+namespace {
+/// A recording that closes a forceps' jaws past the grasp threshold, replayed where nothing can
+/// grasp (the scene's tool a hook, or stages.grasp off): one line saying the grasp is lost.
+std::optional<std::string> grasp_lost(const Recording& rec, const SceneSpec& spec) {
+  if (rec.jaw.empty()) return std::nullopt;
+  const double threshold = spec.tool.forceps.grasp_threshold;
+  const auto closest = std::min_element(rec.jaw.begin(), rec.jaw.end());
+  if (!(*closest < threshold)) return std::nullopt;
+  const bool forceps = spec.tool.kind == ToolSpec::Kind::Forceps;
+  if (forceps && spec.stages.grasp) return std::nullopt;
+  if (!forceps && rec.tool != "forceps") return std::nullopt;  // a hook's log need not hold a jaw
+  char line[256];
+  std::snprintf(line, sizeof line, "the jaws close to %.3g at t = %.3f s (below the grasp threshold %.3g), but %s: "
+                "nothing is grasped", *closest, rec.t[static_cast<std::size_t>(closest - rec.jaw.begin())],
+                threshold, forceps ? "stages.grasp is off" : "the scene's tool is a hook");
+  return std::string(line);
+}
+}  // namespace
+
 LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& scene,
                                const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                std::optional<double> physical_hz, bool allow_outside, Backend backend,
@@ -109,6 +128,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
     r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_speed(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
+  if (auto w = grasp_lost(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);
   return r;
 }
 

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <utility>
@@ -320,6 +321,15 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
   if (has_t && rec.rate_hz > kMaxSampleRateHz)
     throw InputError(path + ": column t: the times give " + span + ", beyond the " + num(kMaxSampleRateHz / 1e3) +
                      " kHz limit of a recording's rate (" + band + "): t must be in seconds");
+  // Times counted from an epoch (a Unix time, 1.7e9 s; a clock in ns read as s) keep only
+  // |t| 2^-52 s of resolution: past 1% of the sample interval the times, and the rate they give,
+  // are rounded.
+  const double newest = std::max(std::fabs(rec.t.front()), std::fabs(rec.t.back()));
+  const double resolution = newest * std::numeric_limits<double>::epsilon();
+  if (has_t && rec.rate_hz > 0 && resolution > 0.01 / rec.rate_hz)
+    return "column t: times near " + num(newest) + " s keep only " + num(resolution) + " s of resolution, " +
+           num(100 * resolution * rec.rate_hz) + "% of the " + num(1e3 / rec.rate_hz) +
+           " ms between samples: the times and the rate (" + num(rec.rate_hz) + " Hz) are rounded; count t from the log's start";
   if (!(rec.rate_hz < kMinPlausibleLogRateHz)) return "";
   if (!has_t) {
     const double khz = rec.rate_hz * 1e3;

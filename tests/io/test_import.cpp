@@ -292,6 +292,27 @@ TEST(Import, ALogsTimesInTheWrongUnitAreNamed) {
   EXPECT_EQ(report.rate_warning, "");
 }
 
+// Times counted from an epoch keep |t| 2^-52 s of resolution: a Unix time (1.7e9 s) leaves 1 kHz
+// samples 4e-7 s (0.04%, fine); 1e12 s, 2.2e-4 s (22%: said, with the fix).
+TEST(Import, TimesFromAFarEpochAreSaidToBeRounded) {
+  test::ScratchDir tmp;
+  auto log = [&](const std::string& name, double epoch) {
+    std::FILE* f = std::fopen((tmp / name).c_str(), "w");
+    std::fputs("t,x,y,z,qw,qx,qy,qz\n", f);
+    for (int i = 0; i < 5; ++i) std::fprintf(f, "%.17g,0,0,%d,1,0,0,0\n", epoch + 1e-3 * i, i);
+    std::fclose(f);
+    return tmp / name;
+  };
+  ImportOptions opt;
+  ImportReport report;
+  import_log(log("unix.csv", 1.7e9), opt, &report);
+  EXPECT_EQ(report.rate_warning, "");
+  import_log(log("far.csv", 1e12), opt, &report);
+  EXPECT_NE(report.rate_warning.find("column t: times near 1e+12 s keep only 0.0002"), std::string::npos)
+      << report.rate_warning;
+  EXPECT_NE(report.rate_warning.find("count t from the log's start"), std::string::npos) << report.rate_warning;
+}
+
 TEST(Import, NominalRateIsExactForWholeRates) {
   std::vector<double> t;
   for (int i = 0; i <= 1000; ++i) t.push_back(0.001 * i);  // 1 kHz with the rounding of 0.001 i

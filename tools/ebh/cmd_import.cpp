@@ -73,7 +73,7 @@ void run(const ImportArgs& a) {
     if (auto w = ebh::check_recording_scale(rec, mesh_box->lo, mesh_box->hi, log_unit))
       std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   if (auto w = ebh::check_recording_speed(rec)) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
-  std::printf("%s: %zu samples, %.3f s, %.10g Hz\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz);
+  std::printf("%s: %zu samples, %.6g s, %.10g Hz\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz);
   if (report.dropped)
     std::printf("  dropped %zu samples that repeated the previous pose, jaw and buttons exactly\n", report.repeats);
   else

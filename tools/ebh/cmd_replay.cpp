@@ -110,6 +110,10 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   opt.start = a.start;
   opt.duration = a.duration.value_or(0);  // 0: the rest of the recording
   opt.haptic_threads = a.haptic_threads;
+  // More threads than the machine runs at once take turns: the ticks and the step slow down.
+  if (const unsigned cores = std::thread::hardware_concurrency(); cores > 0 && a.haptic_threads > static_cast<int>(cores))
+    std::fprintf(stderr, "ebh: warning: --haptic-threads %d is more than the %u threads this machine runs at once: "
+                 "they take turns, and the replay runs slower\n", a.haptic_threads, cores);
   opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? 30.0 : 0.0);
   if (!a.render_dir.empty() && a.frames_hz && *a.frames_hz <= 0)
     throw InputError("--render " + a.render_dir + ": renders the mesh snapshots, and --frames-hz " +

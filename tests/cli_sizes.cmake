@@ -78,8 +78,13 @@ add_test(NAME cli.bench.sizes_bad_override
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--set;solver.active_regio=0.001;--plot;${Z}/bad.png"
     "-DEXPECT=^ebh: error: --set 'solver.active_regio=0.001': key 'solver.active_regio': unknown key" -DOUTPUT=${Z}/bad.png -DSTATUS=1
     -P ${EXPECT_FAILURE})
+# A window past the recording's end: replay's own check and words, before the heading.
+add_test(NAME cli.bench.sizes_start_past_end
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--start;1e9"
+    "-DEXPECT=^ebh: error: --start 1000000000: the recording .*tube_insert.h5 is 10 s long; start before its end"
+    -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
 set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_no_window cli.bench.sizes_bad_override
-  PROPERTIES LABELS "cli;bench")
+  cli.bench.sizes_start_past_end PROPERTIES LABELS "cli;bench")
 
 # table1 and bench sizes on the CUDA backend where none can be used (no device visible, or a build
 # without CUDA): one line that says so, exit status 1.

@@ -3,8 +3,9 @@
 #  - when OUTPUT is given: leaves neither OUTPUT nor a temporary of it (.OUTPUT.*.ebh-partial);
 #  - when KEEP is given (a ;-list of files): leaves each of them byte-identical (an input, or a
 #    previous output that a failed run must not replace) and no temporary of it.
-#  - when STATUS is given: exits with that status.
-#   cmake -DCMD="a;b" -DEXPECT=regex [-DOUTPUT=path] [-DKEEP="f1;f2"] [-DSTATUS=n] -P expect_failure.cmake
+#  - when STATUS is given: exits with that status;
+#  - when NO_STDOUT is given: prints nothing on stdout (the error comes before any heading).
+#   cmake -DCMD="a;b" -DEXPECT=regex [-DOUTPUT=path] [-DKEEP="f1;f2"] [-DSTATUS=n] [-DNO_STDOUT=1] -P expect_failure.cmake
 if(DEFINED OUTPUT)
   file(REMOVE ${OUTPUT})
 endif()
@@ -23,6 +24,9 @@ if(NOT rc MATCHES "^[0-9]+$" OR rc GREATER 4)
 endif()
 if(DEFINED STATUS AND NOT rc EQUAL STATUS)
   message(FATAL_ERROR "expected exit status ${STATUS}, got ${rc}\nstderr: ${err}")
+endif()
+if(DEFINED NO_STDOUT AND NOT out STREQUAL "")
+  message(FATAL_ERROR "expected nothing on stdout before the error, got:\n${out}")
 endif()
 if(NOT err MATCHES "${EXPECT}")
   message(FATAL_ERROR "stderr does not match '${EXPECT}':\n${err}")

@@ -120,9 +120,7 @@ SizeResult measure(const SizeBenchOptions& o, const std::string& scene, int leve
   r.tets = static_cast<std::int64_t>(w.scene.physical.tets.size());
   r.vertices = static_cast<std::int64_t>(w.scene.physical.vertices.size());
   r.virtual_vertices = static_cast<std::int64_t>(w.initial_virtual.size());
-  if (!(o.start < in.recording.duration()))
-    throw InputError("--start " + std::to_string(o.start) + ": the recording " + in.recording_path + " is " +
-                     std::to_string(in.recording.duration()) + " s long; start before its end");
+  replay_window(o.start, o.seconds, in.recording.duration(), in.recording_path, "--start", "--seconds");
   ReplayOptions ro;
   ro.mode = o.mode;
   ro.start = o.start;
@@ -190,6 +188,8 @@ void check_size_bench(const SizeBenchOptions& o) {
   const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
   const fs::path scene_file = resolve_scene_path(o.scene);
   (void)replay_input_files(o.scene, o.recording, o.overrides);
+  const RecordingFile rec = read_replay_recording(o.recording);  // the window, as a replay checks it
+  replay_window(o.start, o.seconds, rec.recording.duration(), rec.path, "--start", "--seconds");
   const SceneSpec spec = load_scene_spec(scene_file, o.overrides);  // a bad override too
   TetMesh mesh = read_msh(spec.physical_mesh);
   remove_unreferenced_vertices(mesh);

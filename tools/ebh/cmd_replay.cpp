@@ -222,10 +222,19 @@ std::vector<RoleFile> replay_outputs(const ReplayArgs& a) {
   return {{a.out, "the replay output"}, {xdmf_path_for(a.out), "the replay's XDMF index"}};
 }
 
+/// --haptic-hz and --physical-hz against an override of the same rate.
+void check_rates_once(const ReplayArgs& a) {
+  check_option_not_set(a.overrides, "--haptic-hz", a.haptic_hz.has_value(), format_number(a.haptic_hz.value_or(0)),
+                       "time.haptic_hz");
+  check_option_not_set(a.overrides, "--physical-hz", a.physical_hz.has_value(), format_number(a.physical_hz.value_or(0)),
+                       "time.physical_hz");
+}
+
 void run_replay(const ReplayArgs& a) {
   parse_mode(a.mode);
   check_backend(a.backend);
   check_set_once(a.overrides);
+  check_rates_once(a);
   const Backend backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   // Before any work: no output may replace one of the files the replay reads.
   check_outputs(replay_outputs(a), replay_input_files(a.scene, a.recording, a.overrides));
@@ -315,6 +324,7 @@ std::vector<BatchLine> read_batch_file(const std::string& file, bool quiet) {
     if (a.frames_hz.value_or(0) > 0 || !a.render_dir.empty()) refuse("a batch writes no mesh frames (--frames-hz 0, no --render)");
     try {
       check_set_once(a.overrides);
+      check_rates_once(a);
     } catch (const InputError& e) {
       refuse(e.what());
     }

@@ -51,6 +51,14 @@ void check_set_once(const std::vector<std::string>& overrides) {
   }
 }
 
+void check_option_not_set(const std::vector<std::string>& overrides, const std::string& option, bool given,
+                          const std::string& value, const std::string& key) {
+  if (!given) return;
+  for (const std::string& o : overrides)
+    if (o.substr(0, o.find('=')) == key)
+      throw InputError(option + " " + value + ": and --set '" + o + "' give one value twice (the option would win)");
+}
+
 void check_known_names(const std::string& option, const std::string& what, const std::vector<std::string>& chosen,
                        const std::vector<std::string>& known) {
   for (const std::string& c : chosen) {

@@ -34,4 +34,9 @@ void check_known_names(const std::string& option, const std::string& what, const
 /// one key: the last would win silently (a sweep plan refuses a key twice as well).
 void check_set_once(const std::vector<std::string>& overrides);
 
+/// Throws InputError "--haptic-hz 2000: and --set 'time.haptic_hz=500' give one value twice" when
+/// an option (`given`) and an override set the same scene key: the option would win silently.
+void check_option_not_set(const std::vector<std::string>& overrides, const std::string& option, bool given,
+                          const std::string& value, const std::string& key);
+
 }  // namespace ebh::cli

@@ -11,14 +11,7 @@ tube=$3
 fail() { echo "FAIL: $*" >&2; exit 1; }
 rm -rf "$work"
 mkdir -p "$work"
-cat >"$work/a.yaml" <<'PLAN'
-scenes:
-  - {scene: tube, recordings: [tube_insert], reference: {}}
-runs:
-  - {solver.virtual_iterations: 2}
-start: 4
-duration: 0.05
-PLAN
+cp "$(dirname "$0")/../data/sweep/tube_one_run.yaml" "$work/a.yaml"
 sed 's/duration: 0.05/duration: 0.06/' "$work/a.yaml" >"$work/b.yaml"
 dir=$work/sweep
 "$ebh" sweep "$work/a.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "first plan: $(cat "$work/err.txt")"

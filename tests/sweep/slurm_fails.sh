@@ -13,14 +13,7 @@ mkdir -p "$work/bin"
 printf '#!/bin/sh\necho "sbatch: error: Batch job submission failed: Invalid partition name specified" >&2\nexit 1\n' \
   >"$work/bin/sbatch"
 chmod +x "$work/bin/sbatch"
-cat >"$work/plan.yaml" <<'PLAN'
-scenes:
-  - {scene: tube, recordings: [tube_insert], reference: {}}
-runs:
-  - {solver.virtual_iterations: 2}
-start: 4
-duration: 0.05
-PLAN
+cp "$(dirname "$0")/../data/sweep/tube_one_run.yaml" "$work/plan.yaml"
 
 # submit PATH DIR EXPECT: the submission fails with one line matching EXPECT.
 submit() {

@@ -761,6 +761,29 @@ Scene build_scene(SceneSpec spec_in) {
                              " kg/m^3 is outside soft tissue's 100 .. 3000");
   if (norm(spec.gravity) > 2 * 9.81)
     scene.warnings.push_back(file.string() + ": |gravity| = " + shown_number(norm(spec.gravity)) + " m/s^2 is over 2 g");
+  // The tool's springs and the device's limit: a haptic device renders about 0.1 .. 10 kN/m and a
+  // few newtons (a Geomagic Touch: 3.3 N); the virtual mesh's springs act per surface vertex. Wide
+  // ranges around them, which no committed scene or sweep leaves: values beyond are typing errors
+  // (5e-324 renders no force, 1e12 a torque of meganewton metres).
+  struct Plausible {
+    const char* key;
+    double value, low, high;
+    const char* unit;
+    const char* what;
+  };
+  const Plausible plausible[] = {
+      {"stiffness.k_con", spec.stiffness.k_con, 1, 1e5, "N/m", "a haptic device's stiffness (about 0.1 .. 10 kN/m)"},
+      {"stiffness.k_vcs", spec.stiffness.k_vcs, 1, 1e5, "N/m", "a haptic device's stiffness (about 0.1 .. 10 kN/m)"},
+      {"stiffness.k_vct", spec.stiffness.k_vct, 1e-4, 100, "N m/rad", "a haptic device's rotational stiffness"},
+      {"stiffness.k_s", spec.stiffness.k_s, 0.01, 1e6, "N/m", "a tissue surface spring's stiffness per vertex"},
+      {"stiffness.k_svc", spec.stiffness.k_svc, 0.01, 1e6, "N/m", "a tissue surface spring's stiffness per vertex"},
+      {"tool.force_limit", spec.tool.force_limit, 0.01, 100, "N", "a haptic device's force (a Geomagic Touch: 3.3 N)"},
+  };
+  for (const Plausible& p : plausible)
+    if (p.value < p.low || p.value > p.high)
+      scene.warnings.push_back(file.string() + ": " + p.key + " = " + shown_number(p.value) + " " + p.unit +
+                               " is outside " + shown_number(p.low) + " .. " + shown_number(p.high) + " " + p.unit +
+                               ", the range of " + p.what);
   // Each mesh follows the other's result one physical period late (async mode): when the virtual
   // mesh's edges outweigh its pull towards the physical mesh, the two drive each other unstable
   // (docs/MODEL.md, "k_s against k_svc").

@@ -210,6 +210,29 @@ TEST(Scene, ImplausibleTissueValuesAreShownAsGiven) {
   EXPECT_EQ(s.warnings.at(1), p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000");
 }
 
+// The tool's springs, the virtual mesh's and the device's force limit warn outside a wide range
+// around what a haptic device renders: a denormal or an absurd value is a typing error.
+TEST(Scene, ImplausibleToolAndSurfaceStiffnessesWarn) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  EXPECT_TRUE(load_scene(write_temp("plausible.yaml", good)).warnings.empty());
+  std::string bad = replace(good, "k_s: 25, k_svc: 55, k_con: 450, k_vcs: 320, k_vct: 0.35",
+                            "k_s: 5e-324, k_svc: 2e6, k_con: 5e-324, k_vcs: 1e6, k_vct: 1e12");
+  bad = replace(bad, "force_limit: 3.3", "force_limit: 5e-324");
+  const std::string p = write_temp("implausible.yaml", bad).string();
+  const Scene s = load_scene(p);
+  ASSERT_EQ(s.warnings.size(), 6u) << ::testing::PrintToString(s.warnings);
+  EXPECT_EQ(s.warnings[0], p + ": stiffness.k_con = 4.94066e-324 N/m is outside 1 .. 100000 N/m, the range of a haptic "
+                               "device's stiffness (about 0.1 .. 10 kN/m)");
+  EXPECT_EQ(s.warnings[1], p + ": stiffness.k_vcs = 1e+06 N/m is outside 1 .. 100000 N/m, the range of a haptic "
+                               "device's stiffness (about 0.1 .. 10 kN/m)");
+  EXPECT_EQ(s.warnings[2], p + ": stiffness.k_vct = 1e+12 N m/rad is outside 0.0001 .. 100 N m/rad, the range of a "
+                               "haptic device's rotational stiffness");
+  EXPECT_NE(s.warnings[3].find("stiffness.k_s = 4.94066e-324 N/m is outside 0.01 .. 1e+06 N/m"), std::string::npos);
+  EXPECT_NE(s.warnings[4].find("stiffness.k_svc = 2e+06 N/m is outside 0.01 .. 1e+06 N/m"), std::string::npos);
+  EXPECT_EQ(s.warnings[5], p + ": tool.force_limit = 4.94066e-324 N is outside 0.01 .. 100 N, the range of a haptic "
+                               "device's force (a Geomagic Touch: 3.3 N)");
+}
+
 TEST(Scene, UnitsScaleEveryLength) {
   const std::string mm = slurp(data("scene/cube.yaml"));
   std::string m = mm;

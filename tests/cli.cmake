@@ -390,6 +390,27 @@ set_tests_properties(cli.replay.k_s_over_k_svc_warns PROPERTIES LABELS cli
 add_test(NAME cli.replay.k_s_under_k_svc_quiet
   COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/k_s_ok.h5 --set stiffness.k_s=50 --duration 0.01 -q)
 set_tests_properties(cli.replay.k_s_under_k_svc_quiet PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "times k_svc")
+# Movement thresholds far larger than the mesh hold it still under every touch: warned at load.
+add_test(NAME cli.replay.sleep_beyond_mesh_warns
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/sleep_big.h5 --set solver.sleep=1000 --duration 0.1 -q)
+set_tests_properties(cli.replay.sleep_beyond_mesh_warns PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "warning: .*tube.yaml: solver.sleep = 1000 mm is over 1% of the physical mesh's bounding-box diagonal")
+add_test(NAME cli.replay.physical_region_beyond_mesh_warns
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/region_big.h5 --set solver.physical_region=1e9 --duration 0.1 -q)
+set_tests_properties(cli.replay.physical_region_beyond_mesh_warns PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "warning: .*solver.physical_region = 1e\\+09 mm is over 1%")
+add_test(NAME cli.replay.small_regions_quiet
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/region_small.h5 --set solver.physical_region=0.03
+    --set solver.active_region=0.03 --set solver.sleep=0.03 --duration 0.1 -q)
+set_tests_properties(cli.replay.small_regions_quiet PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "diagonal")
+# An async window shorter than one physical period: no physical step's result reaches the haptic side.
+add_test(NAME cli.replay.no_physical_result_warns
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/no_physical.h5 --physical-hz 1 --duration 0.3 -q)
+set_tests_properties(cli.replay.no_physical_result_warns PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "warning: .*no_physical.h5: the haptic side never saw a physical result: the window's 301 ticks")
+add_test(NAME cli.replay.physical_result_seen_quiet
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/physical_seen.h5 --duration 0.011 -q)
+set_tests_properties(cli.replay.physical_result_seen_quiet PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "never saw")
 # A recording in mm imported as metres lands a thousand scene sizes away: a unit mistake.
 add_test(NAME cli.replay.make_unit_mistake
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_REPLAY_OUT}/unit_mistake_rec.h5 --scene tube --unit m)

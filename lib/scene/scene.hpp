@@ -376,6 +376,9 @@ std::vector<std::pair<std::string, double>> tool_contact_sizes(const ToolSpec& t
 /// bounding-box diagonal is a warning, as is a diagonal outside [kMeshDiagonalMin, kMeshDiagonalMax] m.
 inline constexpr double kToolSizeMinRatio = 1e-3;
 inline constexpr double kToolSizeMaxRatio = 1.0;
+/// solver.sleep, solver.physical_region or solver.active_region above this fraction of the physical
+/// mesh's bounding-box diagonal warns: the mesh would stay still under the tool.
+inline constexpr double kSolverThresholdMaxRatio = 0.01;
 inline constexpr double kMeshDiagonalMin = 1e-3;
 inline constexpr double kMeshDiagonalMax = 2.0;
 

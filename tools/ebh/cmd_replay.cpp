@@ -124,6 +124,14 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
                      format_number(1.0 / world.h_haptic) + " Hz)");
   check_replay_size(world, duration, opt.frames_hz, p.in.recording_path, a.out);
   p.ticks = tick_count(world, duration);
+  // In async mode the first physical step's result reaches the haptic side one physical period
+  // after it starts (tick N): a window no longer than that renders a tissue that never moved.
+  if (mode == Mode::Async && p.ticks <= world.ticks_per_step)
+    p.in.warnings.push_back(
+        a.out + ": the haptic side never saw a physical result: the window's " + std::to_string(p.ticks) +
+        " ticks end before the first physical step's result arrives at tick " + std::to_string(world.ticks_per_step) +
+        " (" + format_number(world.h_physical) + " s, one physical period, async mode), so the tissue stayed at its "
+        "start; raise the physical rate (--physical-hz, time.physical_hz), lengthen --duration or replay --mode lockstep");
   ReplayMetadata& meta = p.meta;
   meta.recording = p.in.recording_path;
   meta.start = opt.start;

@@ -293,7 +293,16 @@ ebh_replay_failure(unknown_override_key "stiffness.k_bogus" tube tube_insert --s
 ebh_replay_failure(bad_override_value "stiffness.k_con" tube tube_insert --set stiffness.k_con=-5)
 ebh_replay_failure(negative_active_region "solver.active_region" tube tube_insert --set solver.active_region=-0.01)
 ebh_replay_failure(bad_mode "--mode: expected async, lockstep or realtime" tube tube_insert --mode fast)
-ebh_replay_failure(bad_rates "whole number of ticks" tube tube_insert --haptic-hz 1000 --physical-hz 300)
+ebh_replay_failure(bad_rates "^ebh: error: --physical-hz 300: the haptic rate over the physical rate must be a whole number >= 1 \\(ticks per physical step\\), got 1000 / 300 = 3.33333"
+  tube tube_insert --haptic-hz 1000 --physical-hz 300)
+ebh_replay_failure(bad_rate_against_scene "^ebh: error: --physical-hz 300: .* got 1000 \\(the scene's time.haptic_hz\\) / 300"
+  tube tube_insert --physical-hz 300)
+ebh_replay_failure(tiny_rates "^ebh: error: --haptic-hz: expected a finite number in \\[10, 100000\\] Hz, got '1e-300'"
+  tube tube_insert --haptic-hz 1e-300 --physical-hz 1e-300)
+ebh_replay_failure(tiny_physical_rate "^ebh: error: --physical-hz: expected a finite number in \\[1, 100000\\] Hz, got '1e-300'"
+  tube tube_insert --physical-hz 1e-300)
+ebh_replay_failure(tiny_physical_rate_set "^ebh: error: --set 'time.physical_hz=0.5': key 'time.physical_hz': expected a number in \\[1, 100000\\]"
+  tube tube_insert --set time.physical_hz=0.5)
 ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
 ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
 # An error an override causes names the override, not the scene file.
@@ -444,7 +453,8 @@ set_property(TEST cli.replay.no_contact cli.replay.contact_no_warning cli.metric
   cli.metrics.no_contact_json cli.metrics.contact_json APPEND PROPERTY LABELS cli)
 set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_mistake cli.replay.missing_recording
   cli.replay.missing_scene cli.replay.not_hdf5 cli.replay.unknown_override_key cli.replay.bad_override_value
-  cli.replay.bad_mode cli.replay.bad_rates cli.replay.bad_start cli.replay.bad_backend cli.replay.unit_mistake
+  cli.replay.bad_mode cli.replay.bad_rates cli.replay.bad_rate_against_scene cli.replay.tiny_rates
+  cli.replay.tiny_physical_rate cli.replay.tiny_physical_rate_set cli.replay.bad_start cli.replay.bad_backend cli.replay.unit_mistake
   PROPERTY LABELS cli)
 
 # ebh validate (lib/validate) and ebh table1.
@@ -650,11 +660,11 @@ ebh_safety(synth_write_fails "^ebh: error: .*previous_synth.h5: cannot write the
 ebh_safety(import_write_fails "^ebh: error: .*previous_import.h5: .*File too large"
   KEEP ${S}/previous_import.h5 CMD sh ${S}/limited.sh 1 ${EBH_BIN} import ${S}/log.csv -o ${S}/previous_import.h5)
 # 3. Absurd sizes are refused with the limit before anything is allocated.
-ebh_safety(haptic_hz_inf "^ebh: error: --haptic-hz: expected a finite number in \\(0, 100000\\] Hz, got 'inf'"
+ebh_safety(haptic_hz_inf "^ebh: error: --haptic-hz: expected a finite number in \\[10, 100000\\] Hz, got 'inf'"
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube tube_insert -o ${S}/o.h5 --haptic-hz inf)
 ebh_safety(haptic_hz_huge "^ebh: error: --haptic-hz: .*got '1e9'"
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube tube_insert -o ${S}/o.h5 --haptic-hz 1e9 --physical-hz 1e7)
-ebh_safety(scene_rates_huge "^ebh: error: .*fast_scene.yaml: key 'time.haptic_hz': expected a number in \\(0, 100000\\]"
+ebh_safety(scene_rates_huge "^ebh: error: .*fast_scene.yaml: key 'time.haptic_hz': expected a number in \\[10, 100000\\]"
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay ${S}/fast_scene.yaml tube_insert -o ${S}/o.h5)
 ebh_safety(recording_endless "^ebh: error: .*endless.h5: replaying 1e\\+300 s at 1000 Hz makes .* ticks; the limit is 10000000 ticks"
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube ${S}/endless.h5 -o ${S}/o.h5)

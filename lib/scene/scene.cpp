@@ -418,9 +418,9 @@ class SpecReader {
     if (auto it = e.find("interpolate_physical"); it != e.end())
       s.interpolate_physical = boolean(it->second, "time.interpolate_physical");
     if (auto it = e.find("haptic_hz"); it != e.end())
-      s.haptic_hz = in_range(it->second, "time.haptic_hz", 0, false, kMaxHapticHz, true);
+      s.haptic_hz = in_range(it->second, "time.haptic_hz", kMinReplayHapticHz, true, kMaxHapticHz, true);
     if (auto it = e.find("physical_hz"); it != e.end())
-      s.physical_hz = in_range(it->second, "time.physical_hz", 0, false, kMaxHapticHz, true);
+      s.physical_hz = in_range(it->second, "time.physical_hz", kMinReplayPhysicalHz, true, kMaxHapticHz, true);
     // physical step k starts at tick k N (DESIGN.md §2): N = haptic_hz / physical_hz must be whole
     const double ratio = s.haptic_hz / s.physical_hz;
     if (ratio < 1.0 - 1e-9 || std::fabs(ratio - std::round(ratio)) > 1e-9 * ratio)

@@ -53,7 +53,8 @@
 //     max_step_rotation_deg: 0.5    # rotation limit of one Newton step
 //     stabilization: {translation: 0, rotation: 0}   # N/m, N m/rad: damps the virtual tool per tick
 //   time: {haptic_hz: 1000, physical_hz: 100, interpolate_physical: true}
-//                                   # 0 < physical_hz <= haptic_hz <= kMaxHapticHz (100 kHz)
+//                                   # 1 <= physical_hz <= haptic_hz <= kMaxHapticHz (100 kHz),
+//                                   # haptic_hz >= 10 (kMinReplayPhysicalHz, kMinReplayHapticHz)
 //                                   # interpolate_physical: move the E_svc targets from the previous
 //                                   # physical result to the new one over N ticks (false: jump, as
 //                                   # Algorithm 2 line 1 is printed)
@@ -228,6 +229,11 @@ struct Stages {
 /// kHz; 100 kHz leaves room for studies of the rate while a tick count (and the memory a replay
 /// keeps per tick) stays within a machine's reach (docs/FORMATS.md, Limits).
 inline constexpr double kMaxHapticHz = 100e3;
+/// The slowest rates a replay takes (--haptic-hz, time.haptic_hz; --physical-hz, time.physical_hz):
+/// a haptic device ticks at >= 1 kHz and the paper's physical mesh steps at 60-100 Hz; slower than
+/// 10 Hz and 1 Hz is no haptic or physical loop (a period of 1e300 s steps nothing).
+inline constexpr double kMinReplayHapticHz = 10;
+inline constexpr double kMinReplayPhysicalHz = 1;
 
 /// Where the mesh files sit in the world: p_world = R(rotvec_deg) (scale p) + translate, p the file's
 /// position in metres. Applied at load to the physical mesh and an .obj virtual mesh.

@@ -276,11 +276,13 @@ void build_world_tool(World& w) {
 
 std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double physical_hz, Backend backend) {
   const std::string where = scene.spec.file.string();
-  if (!(haptic_hz > 0) || !(physical_hz > 0) || physical_hz > haptic_hz || !(haptic_hz <= kMaxHapticHz)) {
-    char why[160];
+  if (!(haptic_hz >= kMinReplayHapticHz) || !(physical_hz >= kMinReplayPhysicalHz) || physical_hz > haptic_hz ||
+      !(haptic_hz <= kMaxHapticHz)) {
+    char why[200];
     std::snprintf(why, sizeof why,
-                  "rates must satisfy 0 < physical_hz <= haptic_hz <= %g Hz (got haptic %g Hz, physical %g Hz)",
-                  kMaxHapticHz, haptic_hz, physical_hz);
+                  "rates must satisfy %g <= physical_hz <= haptic_hz <= %g Hz, haptic_hz >= %g Hz (got haptic %g Hz, "
+                  "physical %g Hz)",
+                  kMinReplayPhysicalHz, kMaxHapticHz, kMinReplayHapticHz, haptic_hz, physical_hz);
     throw InputError(where + ": " + why);
   }
   const double ratio = haptic_hz / physical_hz;

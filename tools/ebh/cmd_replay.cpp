@@ -273,9 +273,9 @@ void add_replay_options(CLI::App* c, ReplayArgs& a) {
   c->add_option("-o,--output", a.out, "Output HDF5 file");
   c->add_option("--mode", a.mode, "async (default), lockstep or realtime");
   c->add_option("--haptic-hz", a.haptic_hz, "Haptic tick rate (default: the scene's, 1000)")
-      ->check(finite_number(0, kMaxHapticHz, true, "Hz"));
+      ->check(finite_number(kMinReplayHapticHz, kMaxHapticHz, false, "Hz"));
   c->add_option("--physical-hz", a.physical_hz, "Physical step rate (default: the scene's, 100)")
-      ->check(finite_number(0, kMaxHapticHz, true, "Hz"));
+      ->check(finite_number(kMinReplayPhysicalHz, kMaxHapticHz, false, "Hz"));
   c->add_option("--backend", a.backend, "cpu (default) or cuda");
   c->add_option("--frames-hz", a.frames_hz,
                 "Mesh snapshots per second in /frames, 0 for none (default: 30 if the scene asks)")

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <functional>
 #include <initializer_list>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <tuple>
@@ -202,8 +203,17 @@ class SpecReader {
     return v;
   }
   /// A length in the given unit (metres per unit; default the scene's `unit`), returned in metres.
-  double length(const YAML::Node& n, const std::string& key) const { return positive(n, key) * unit_; }
-  double length(const YAML::Node& n, const std::string& key, double unit) const { return positive(n, key) * unit; }
+  double length(const YAML::Node& n, const std::string& key) const { return length(n, key, unit_); }
+  /// A positive length in `unit` metres, in metres: one so small that it is 0 in metres (5e-324 mm)
+  /// is refused as what it is, not passed on as 0.
+  double length(const YAML::Node& n, const std::string& key, double unit) const {
+    const double v = positive(n, key), metres = v * unit;
+    if (!(metres >= std::numeric_limits<double>::min()) || !std::isfinite(metres))
+      fail(key, shown(n) + " is " + shown_number(metres) + " m: expected a length a double carries, " +
+                    shown_number(std::numeric_limits<double>::min()) + " .. " +
+                    shown_number(std::numeric_limits<double>::max()) + " m");
+    return metres;
+  }
   /// A length unit key (m, cm, mm): its metres per unit and name.
   std::pair<double, std::string> length_unit(const YAML::Node& n, const std::string& key) const {
     static const std::vector<std::string> names = {"m", "cm", "mm"};
@@ -404,9 +414,9 @@ class SpecReader {
           if (fname == "jaw_length") t.forceps.jaw_length = length(fv, fk, unit);
           else if (fname == "jaw_width") t.forceps.jaw_width = length(fv, fk, unit);
           else if (fname == "jaw_thickness") t.forceps.jaw_thickness = length(fv, fk, unit);
-          else if (fname == "jaw_max_angle_deg") t.forceps.jaw_max_angle_deg = in_range(fv, fk, 0, false, 90, true);
+          else if (fname == "jaw_max_angle_deg") t.forceps.jaw_max_angle_deg = in_range(fv, fk, 0, false, kMaxJawAngleDeg, false);
           else if (fname == "grasp_threshold") t.forceps.grasp_threshold = in_range(fv, fk, 0, true, 1, true);
-          else if (fname == "soft_margin") t.forceps.soft_margin = non_negative(fv, fk) * unit;
+          else if (fname == "soft_margin") t.forceps.soft_margin = length(fv, fk, unit);
           else if (fname == "eta") t.forceps.eta = positive(fv, fk);
         }
       }

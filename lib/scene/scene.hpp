@@ -132,6 +132,10 @@ struct HookSpec {
   double tip_radius = 0.001;  ///< m
 };
 
+/// The jaws' opening at jaw = 1 lies in (0, kMaxJawAngleDeg) degrees: at 90 each jaw would stand
+/// across the shaft. The scene reader and the tool model (build_tool) both hold a spec to it.
+inline constexpr double kMaxJawAngleDeg = 90.0;
+
 struct ForcepsSpec {
   double jaw_length = 0.020;         ///< m
   double jaw_width = 0.005;          ///< m

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <string>
 
@@ -10,9 +11,17 @@
 namespace ebh {
 namespace {
 
+/// "%g": 1e-30 stays 1e-30 (std::to_string prints 0.000000).
+std::string shown(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
+
+/// The scene reader refuses these first, naming the file; a spec built in code meets them here.
 void require_positive(double v, const char* key) {
   if (!(v > 0.0) || !std::isfinite(v))
-    throw InputError(std::string("tool: key 'tool.") + key + "': must be positive, got " + std::to_string(v));
+    throw InputError(std::string("tool: key 'tool.") + key + "': must be positive, got " + shown(v));
 }
 
 Collider<double> cylinder(Vec3d a, Vec3d b, double r) {
@@ -56,8 +65,9 @@ ToolModel build_tool(const ToolSpec& spec, Projection projection) {
     require_positive(f.jaw_thickness, "forceps.jaw_thickness");
     require_positive(f.soft_margin, "forceps.soft_margin");
     require_positive(f.eta, "forceps.eta");
-    if (!(f.jaw_max_angle_deg >= 0.0 && f.jaw_max_angle_deg < 90.0))
-      throw InputError("tool: key 'tool.forceps.jaw_max_angle_deg': must be in [0, 90)");
+    if (!(f.jaw_max_angle_deg > 0.0 && f.jaw_max_angle_deg < kMaxJawAngleDeg))
+      throw InputError("tool: key 'tool.forceps.jaw_max_angle_deg': must be in (0, 90), got " +
+                       std::to_string(f.jaw_max_angle_deg));
     for (int side = 0; side < 2; ++side) {
       Collider<double> box;
       box.shape = Shape::Box;

@@ -558,6 +558,15 @@ TEST_F(BadScene, TranslateNotANumber) {
 TEST_F(BadScene, UnknownTransformKey) {
   expect(replace(good, "scale: 1,", "shear: 1,"), "key 'mesh.transform.shear': unknown key (known: scale, rotvec_deg, translate)");
 }
+// The scene reader holds the tool to the tool model's ranges, so the error names the file and the
+// key (not "tool: ... got 0.000000" from build_tool), and a length that is 0 in metres is refused.
+TEST_F(BadScene, ToolValuesTheToolModelRefuses) {
+  expect(replace(good, "soft_margin: 2", "soft_margin: 0"), "key 'tool.forceps.soft_margin': expected a positive number, got '0'");
+  expect(replace(good, "jaw_max_angle_deg: 30", "jaw_max_angle_deg: 90"),
+         "key 'tool.forceps.jaw_max_angle_deg': expected a number in (0, 90), got '90'");
+  expect(replace(good, "max_step: 0.5", "max_step: 5e-324"), "key 'tool.max_step': '5e-324' is 0 m: expected a length a double carries, 2.22507e-308 .. 1.79769e+308 m");
+  expect(replace(good, "soft_margin: 2", "soft_margin: 1e-310"), "key 'tool.forceps.soft_margin': '1e-310' is 1e-313 m: expected a length");
+}
 TEST_F(BadScene, UnknownGroup) {
   expect(replace(good, "group: bottom", "group: bottm"),
          "key 'pinned[0].group': unknown group 'bottm' (known groups in " + data("mesh/cube22.msh").lexically_normal().string() +

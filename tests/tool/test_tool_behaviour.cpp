@@ -10,9 +10,11 @@
 #include <tuple>
 
 #include "contact_points.hpp"
+#include "core/error.hpp"
 #include "tool/contact.hpp"
 #include "tool/grasp.hpp"
 #include "tool/newton.hpp"
+#include "tool/tool_model.hpp"
 #include "tool/virtual_tool.hpp"
 
 using namespace ebh;
@@ -445,4 +447,16 @@ TEST(Projection, ClosestPointIsContinuousInTheGapWhereInverseNormalJumps) {
   // A continuous E changes by at most |dE/dx| * 5 um: a few percent of E over this slide.
   EXPECT_LT(jump[0] / emax[0], 0.05);
   EXPECT_GT(jump[1] / emax[1], 3 * jump[0] / emax[0]);
+}
+
+// A spec built in code meets build_tool's own checks: a tiny value is shown as given, not as 0.000000.
+TEST(ToolModel, RefusalShowsTinyValuesAsGiven) {
+  ToolSpec t;
+  t.max_step = -1e-30;
+  try {
+    (void)build_tool(t);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "tool: key 'tool.max_step': must be positive, got -1e-30");
+  }
 }

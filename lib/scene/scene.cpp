@@ -583,9 +583,15 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
   if (diagonal < kMeshDiagonalMin || diagonal > kMeshDiagonalMax)
     out.push_back(file + "the physical mesh's bounding-box diagonal is " + in_unit(diagonal, s.mesh_unit, s.mesh_unit_name) +
                   (s.mesh_unit == 1.0 ? std::string() : " (" + SpecReader::num(diagonal) + " m)") +
-                  ": organs are 1 mm .. 2 m across; is mesh.unit (" + s.mesh_unit_name + ") right?");
+                  ": organs are 1 mm .. 2 m across; is mesh.unit (" + s.mesh_unit_name + ")" +
+                  (s.mesh_transform.scale == 1.0 ? std::string()
+                                                 : " or mesh.transform.scale (" + SpecReader::num(s.mesh_transform.scale) + ")") +
+                  " right?");
   const ToolSpec& t = s.tool;
-  const std::string units = "is tool.unit (" + t.unit_name + ") or mesh.unit (" + s.mesh_unit_name + ") right?";
+  const std::string units = "is tool.unit (" + t.unit_name + "), mesh.unit (" + s.mesh_unit_name + ")" +
+                            (s.mesh_transform.scale == 1.0
+                                 ? std::string(" right?")
+                                 : " or mesh.transform.scale (" + SpecReader::num(s.mesh_transform.scale) + ") right?");
   for (const auto& [key, size] : tool_contact_sizes(t)) {
     const std::string value = "tool." + key + " = " + in_unit(size, t.unit, t.unit_name);
     const std::string diag = " the physical mesh's bounding-box diagonal (" + in_unit(diagonal, t.unit, t.unit_name) + ")";
@@ -861,8 +867,30 @@ Scene build_scene(SceneSpec spec_in) {
     if (!spec.mesh_transform.identity())
       for (Vec3d& p : vertices) p = spec.mesh_transform.apply(p);
   };
+  // Placed, the mesh must keep its shape: a scale that shrinks it below 1e-30 m or grows it past
+  // 1e30 m (its tets' volumes, cubes of lengths, underflow or overflow) or a translation so far that
+  // the coordinates' round-off swallows the mesh (1e300 m) is refused naming its key.
+  // The mesh's size: its farthest vertex from vertex 0, which a rotation keeps.
+  auto max_abs = [](const Vec3d& v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); };
+  auto size = [&mesh] {
+    double d = 0;
+    for (const Vec3d& p : mesh.vertices) d = std::max(d, norm(p - mesh.vertices.front()));  // 0 when empty
+    return d;
+  };
+  const double file_size = size();
+  const double expected = file_size * spec.mesh_unit * spec.mesh_transform.scale;
   place(mesh.vertices);
-  check_magnitude(spec.file.string() + ": mesh.unit and mesh.transform.scale", " m once placed");
+  if (file_size > 0 && !(expected >= kMinPlacedDiagonal && expected <= kMaxPlacedDiagonal))
+    throw InputError(spec.file.string() + ": key 'mesh.transform.scale': " + shown_number(spec.mesh_transform.scale) +
+                     " makes the physical mesh's size " + shown_number(expected) + " m (" + shown_number(file_size) +
+                     " " + spec.mesh_unit_name + " in the file): expected " + shown_number(kMinPlacedDiagonal) + " .. " +
+                     shown_number(kMaxPlacedDiagonal) + " m, where its tets' volumes neither underflow nor overflow");
+  if (const double placed = size(); !(std::fabs(placed - expected) <= 1e-6 * expected))
+    throw InputError(spec.file.string() + ": key 'mesh.transform.translate': moves the physical mesh " +
+                     shown_number(max_abs(spec.mesh_transform.translate)) + " m away, where the coordinates' round-off " +
+                     "changes its size from " + shown_number(expected) + " to " + shown_number(placed) +
+                     " m: expected a translation near the mesh's size");
+  check_magnitude(spec.file.string() + ": mesh.unit, mesh.transform.scale and mesh.transform.translate", " m once placed");
   scene.physical = std::move(mesh);
 
   // The virtual mesh's source surface.

@@ -386,6 +386,11 @@ std::vector<std::pair<std::string, double>> tool_contact_sizes(const ToolSpec& t
 /// bounding-box diagonal is a warning, as is a diagonal outside [kMeshDiagonalMin, kMeshDiagonalMax] m.
 inline constexpr double kToolSizeMinRatio = 1e-3;
 inline constexpr double kToolSizeMaxRatio = 1.0;
+/// The physical mesh's size once placed (mesh.unit, mesh.transform.scale; its farthest vertex from
+/// vertex 0) lies in kMinPlacedDiagonal .. kMaxPlacedDiagonal metres: beyond, its tets' volumes
+/// underflow or overflow.
+inline constexpr double kMinPlacedDiagonal = 1e-30;
+inline constexpr double kMaxPlacedDiagonal = 1e30;
 /// solver.sleep, solver.physical_region or solver.active_region above this fraction of the physical
 /// mesh's bounding-box diagonal warns: the mesh would stay still under the tool.
 inline constexpr double kSolverThresholdMaxRatio = 0.01;

@@ -371,6 +371,10 @@ TEST(SizeWarnings, AMeshInTheWrongUnit) {
   const Scene small =
       load_scene(write_temp("small.yaml", "unit: mm\n" + mesh + ", transform: {scale: 1e-2}}\ntool: {kind: hook}\n"));
   EXPECT_TRUE(has_warning(small, "bounding-box diagonal is 0.173205 mm (0.000173205 m)"));
+  // ... and the warnings name it beside the units when it is not 1
+  EXPECT_TRUE(has_warning(small, "is mesh.unit (mm) or mesh.transform.scale (0.01) right?"));
+  EXPECT_TRUE(has_warning(small, "is tool.unit (mm), mesh.unit (mm) or mesh.transform.scale (0.01) right?"));
+  EXPECT_FALSE(has_warning(big, "mesh.transform.scale"));
 }
 
 // ---- bad keys and values -----------------------------------------------------------------------
@@ -536,8 +540,8 @@ TEST_F(BadScene, NonFiniteRotation) {
 TEST_F(BadScene, OverflowingCoordinates) {
   // a scale that puts the 10 mm cube 1e148 m across; a file coordinate of 1e300
   expect(replace(good, "scale: 1,", "scale: 1e150,"),
-         "mesh.unit and mesh.transform.scale: vertex 0 (node 101) has a coordinate of 1e+148 m once placed: beyond 1e+100, "
-         "where the tets' volumes overflow",
+         "key 'mesh.transform.scale': 1e+150 makes the physical mesh's size 1.73205e+148 m (17.3205 mm in the file): "
+         "expected 1e-30 .. 1e+30 m, where its tets' volumes neither underflow nor overflow",
          true);
   const fs::path msh = write_temp("huge.msh", replace(slurp(data("mesh/cube22.msh")), "101 10 0 10\n", "101 1e300 0 10\n"));
   try {
@@ -566,6 +570,15 @@ TEST_F(BadScene, ToolValuesTheToolModelRefuses) {
          "key 'tool.forceps.jaw_max_angle_deg': expected a number in (0, 90), got '90'");
   expect(replace(good, "max_step: 0.5", "max_step: 5e-324"), "key 'tool.max_step': '5e-324' is 0 m: expected a length a double carries, 2.22507e-308 .. 1.79769e+308 m");
   expect(replace(good, "soft_margin: 2", "soft_margin: 1e-310"), "key 'tool.forceps.soft_margin': '1e-310' is 1e-313 m: expected a length");
+}
+// A placement that loses the mesh: a scale under which its tets' volumes underflow, or a
+// translation so far that round-off swallows its shape, is refused naming the key.
+TEST_F(BadScene, PlacementThatLosesTheMesh) {
+  expect(replace(good, "scale: 1,", "scale: 1e-300,"),
+         "key 'mesh.transform.scale': 1e-300 makes the physical mesh's size", true);
+  expect(replace(good, "scale: 1,", "scale: 1e300,"), "expected 1e-30 .. 1e+30 m, where its tets' volumes", true);
+  expect(replace(good, "translate: [0, 0, 0]", "translate: [1e300, 0, 0]"),
+         "key 'mesh.transform.translate': moves the physical mesh 1e+297 m away", true);
 }
 TEST_F(BadScene, UnknownGroup) {
   expect(replace(good, "group: bottom", "group: bottm"),

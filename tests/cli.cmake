@@ -399,6 +399,15 @@ set_tests_properties(cli.replay.k_s_over_k_svc_warns PROPERTIES LABELS cli
 add_test(NAME cli.replay.k_s_under_k_svc_quiet
   COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/k_s_ok.h5 --set stiffness.k_s=50 --duration 0.01 -q)
 set_tests_properties(cli.replay.k_s_under_k_svc_quiet PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "times k_svc")
+# The k_s warning recommends lockstep: a lockstep replay leaves it out; a denormal k_svc gives no "inf times".
+add_test(NAME cli.replay.k_s_over_k_svc_lockstep_quiet
+  COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/k_s_lockstep.h5 --set stiffness.k_s=100 --mode lockstep
+    --duration 0.1 -q)
+set_tests_properties(cli.replay.k_s_over_k_svc_lockstep_quiet PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "times k_svc")
+add_test(NAME cli.replay.k_s_over_denormal_k_svc
+  COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/k_svc_tiny.h5 --set stiffness.k_svc=5e-324 --duration 0.1 -q)
+set_tests_properties(cli.replay.k_s_over_denormal_k_svc PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "stiffness.k_s is more than a million times k_svc" FAIL_REGULAR_EXPRESSION "inf times")
 # Movement thresholds far larger than the mesh hold it still under every touch: warned at load.
 add_test(NAME cli.replay.sleep_beyond_mesh_warns
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/sleep_big.h5 --set solver.sleep=1000 --duration 0.1 -q)

@@ -775,6 +775,19 @@ Scene load_scene_text(const std::string& yaml, const fs::path& file) {
   return build_scene(read_spec(parse_scene_yaml(yaml, file), file));
 }
 
+std::string edges_outweigh_coupling_warning(const SceneSpec& spec) {
+  if (!spec.stiffness.edges_outweigh_coupling()) return "";
+  // A denormal k_svc makes the ratio overflow: no "inf times".
+  const double ratio = spec.stiffness.k_s / spec.stiffness.k_svc;
+  char times[48];
+  if (ratio <= 1e6) std::snprintf(times, sizeof times, "%.3g times", ratio);
+  else std::snprintf(times, sizeof times, "more than a million times");
+  return spec.file.string() + ": stiffness.k_s is " + times +
+         " k_svc: in async mode (the default) the virtual and the physical mesh can drive "
+         "each other unstable (the gap and tube scenes diverge with no tool contact at 2 times); "
+         "raise k_svc with k_s, or replay --mode lockstep (docs/MODEL.md, \"k_s against k_svc\")";
+}
+
 Scene build_scene(SceneSpec spec_in) {
   Scene scene;
   scene.spec = std::move(spec_in);
@@ -815,14 +828,7 @@ Scene build_scene(SceneSpec spec_in) {
   // Each mesh follows the other's result one physical period late (async mode): when the virtual
   // mesh's edges outweigh its pull towards the physical mesh, the two drive each other unstable
   // (docs/MODEL.md, "k_s against k_svc").
-  if (spec.stiffness.edges_outweigh_coupling()) {
-    char ratio[32];
-    std::snprintf(ratio, sizeof ratio, "%.3g", spec.stiffness.k_s / spec.stiffness.k_svc);
-    scene.warnings.push_back(file.string() + ": stiffness.k_s is " + ratio +
-                             " times k_svc: in async mode (the default) the virtual and the physical mesh can drive "
-                             "each other unstable (the gap and tube scenes diverge with no tool contact at 2 times); "
-                             "raise k_svc with k_s, or replay --mode lockstep (docs/MODEL.md, \"k_s against k_svc\")");
-  }
+  if (std::string w = edges_outweigh_coupling_warning(spec); !w.empty()) scene.warnings.push_back(std::move(w));
   const std::string mesh_file = spec.physical_mesh.string();
 
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and

@@ -351,6 +351,11 @@ class OverrideError : public InputError {
   std::string key_message_;
 };
 
+/// The scene's warning when stiffness.k_s is above k_svc (the two meshes can drive each other
+/// unstable in async mode; docs/MODEL.md, "k_s against k_svc"), or "" when it is not. A lockstep
+/// replay, which the warning recommends, leaves it out.
+std::string edges_outweigh_coupling_warning(const SceneSpec& spec);
+
 /// The same with overrides "dotted.key=value" (the command line's --set) applied to the file's
 /// YAML before validation: `stiffness.k_con=800`, `solver.method=direct`, `gravity=[0,0,0]`.
 /// The value is parsed as YAML; a bad override is an InputError naming it (an OverrideError when

@@ -96,6 +96,14 @@ struct PreparedReplay {
   std::unique_ptr<ReplayWriter> writer;
 };
 
+/// The scene's warnings, each after `where`; in lockstep mode without the one about k_s above
+/// k_svc, whose instability is the async loop's and which recommends lockstep.
+void print_scene_warnings(const Scene& scene, Mode mode, const std::string& where) {
+  const std::string async_only = edges_outweigh_coupling_warning(scene.spec);
+  for (const std::string& w : scene.warnings)
+    if (!(mode == Mode::Lockstep && w == async_only)) std::fprintf(stderr, "ebh: warning: %s%s\n", where.c_str(), w.c_str());
+}
+
 /// The world's rates, window and frames checked, the output's metadata; `in` already loaded.
 void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   const Mode mode = parse_mode(a.mode);
@@ -252,7 +260,7 @@ void run_replay(const ReplayArgs& a) {
   PreparedReplay p;
   p.in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz, a.allow_outside, backend,
                             a.transforms);
-  for (const std::string& w : p.in.world->scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  print_scene_warnings(p.in.world->scene, parse_mode(a.mode), "");
   prepare_replay(a, p);
   // After the checks that refuse the replay: a refused one says one line, its error.
   for (const std::string& w : p.in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
@@ -415,8 +423,7 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
     }
   }
   for (std::size_t i = 0; i < B; ++i) {
-    for (const std::string& w : prepared[i].in.world->scene.warnings)
-      std::fprintf(stderr, "ebh: warning: %s: %s\n", lines[i].where.c_str(), w.c_str());
+    print_scene_warnings(prepared[i].in.world->scene, prepared[i].opt.mode, lines[i].where + ": ");
     for (const std::string& w : prepared[i].in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
   }
   install_interrupt_handlers();

@@ -22,6 +22,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "core/yaml_error.hpp"
 #include "ebh/version.hpp"
 #include "math/rotvec_input.hpp"
@@ -46,13 +47,6 @@ std::string not_a_file(const fs::path& p) {
   if (fs::is_directory(st)) return "is a folder, not a file";
   if (fs::exists(st)) return "is not a regular file (a device, pipe or socket)";
   return "file not found";
-}
-
-/// A number as a message shows it ("%g": 1e-30 stays 1e-30, where std::to_string prints 0.000000).
-std::string shown_number(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
 }
 
 /// How a value appears in an error message: its text, or what kind of node it is.
@@ -286,26 +280,21 @@ class SpecReader {
   /// Values no tissue has and double arithmetic cannot carry through a step (h^2 k, M g over
   /// millions of steps) are errors; values merely unusual for soft tissue are warnings
   /// (physical_warnings, at load_scene).
-  static std::string num(double v) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.6g", v);
-    return b;
-  }
 
   void check_physical_limits(const SceneSpec& s) const {
     constexpr double kMaxGravity = 1e3;     // m/s^2, 100 g
     constexpr double kMaxStiffness = 1e12;  // Pa or N/m: five times steel's Young's modulus
     constexpr double kMaxDensity = 1e5;     // kg/m^3: five times osmium
     if (!(norm(s.gravity) <= kMaxGravity))
-      fail("gravity", "|g| = " + num(norm(s.gravity)) + " m/s^2 is beyond 100 g (1000 m/s^2)");
+      fail("gravity", "|g| = " + shown_number(norm(s.gravity)) + " m/s^2 is beyond 100 g (1000 m/s^2)");
     const std::pair<const char*, double> k[] = {{"k_vol", s.stiffness.k_vol}, {"k_s", s.stiffness.k_s},
                                                 {"k_svc", s.stiffness.k_svc}, {"k_con", s.stiffness.k_con},
                                                 {"k_vcs", s.stiffness.k_vcs}, {"k_vct", s.stiffness.k_vct},
                                                 {"k_det", s.stiffness.k_det}};
     for (const auto& [name, value] : k)
       if (value > kMaxStiffness)
-        fail(std::string("stiffness.") + name, num(value) + " is beyond 1e12 (Pa, N/m or N m/rad): no tissue or tool is that stiff");
-    if (s.density > kMaxDensity) fail("material.density", num(s.density) + " kg/m^3 is beyond 1e5");
+        fail(std::string("stiffness.") + name, shown_number(value) + " is beyond 1e12 (Pa, N/m or N m/rad): no tissue or tool is that stiff");
+    if (s.density > kMaxDensity) fail("material.density", shown_number(s.density) + " kg/m^3 is beyond 1e5");
   }
 
  private:
@@ -433,7 +422,7 @@ class SpecReader {
       s.physical_hz = in_range(it->second, "time.physical_hz", kMinReplayPhysicalHz, true, kMaxHapticHz, true);
     // physical step k starts at tick k N (DESIGN.md §2): N = haptic_hz / physical_hz must be whole
     const double ratio = s.haptic_hz / s.physical_hz;
-    if (ratio < 1.0 - 1e-9 || std::fabs(ratio - std::round(ratio)) > 1e-9 * ratio)
+    if (!whole_ticks_per_step(s.haptic_hz, s.physical_hz))
       fail("time.physical_hz", "haptic_hz / physical_hz must be a whole number >= 1, got " + shown_number(s.haptic_hz) +
                                    " / " + shown_number(s.physical_hz) + " = " + shown_number(ratio),
            {"time.haptic_hz"});
@@ -578,20 +567,20 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
   const double diagonal = bounding_box(mesh.vertices).diagonal();
   const std::string file = s.file.string() + ": ";
   auto in_unit = [](double metres, double unit, const std::string& name) {
-    return SpecReader::num(metres / unit) + " " + name;
+    return shown_number(metres / unit) + " " + name;
   };
   if (diagonal < kMeshDiagonalMin || diagonal > kMeshDiagonalMax)
     out.push_back(file + "the physical mesh's bounding-box diagonal is " + in_unit(diagonal, s.mesh_unit, s.mesh_unit_name) +
-                  (s.mesh_unit == 1.0 ? std::string() : " (" + SpecReader::num(diagonal) + " m)") +
+                  (s.mesh_unit == 1.0 ? std::string() : " (" + shown_number(diagonal) + " m)") +
                   ": organs are 1 mm .. 2 m across; is mesh.unit (" + s.mesh_unit_name + ")" +
                   (s.mesh_transform.scale == 1.0 ? std::string()
-                                                 : " or mesh.transform.scale (" + SpecReader::num(s.mesh_transform.scale) + ")") +
+                                                 : " or mesh.transform.scale (" + shown_number(s.mesh_transform.scale) + ")") +
                   " right?");
   const ToolSpec& t = s.tool;
   const std::string units = "is tool.unit (" + t.unit_name + "), mesh.unit (" + s.mesh_unit_name + ")" +
                             (s.mesh_transform.scale == 1.0
                                  ? std::string(" right?")
-                                 : " or mesh.transform.scale (" + SpecReader::num(s.mesh_transform.scale) + ") right?");
+                                 : " or mesh.transform.scale (" + shown_number(s.mesh_transform.scale) + ") right?");
   for (const auto& [key, size] : tool_contact_sizes(t)) {
     const std::string value = "tool." + key + " = " + in_unit(size, t.unit, t.unit_name);
     const std::string diag = " the physical mesh's bounding-box diagonal (" + in_unit(diagonal, t.unit, t.unit_name) + ")";
@@ -600,11 +589,11 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
   }
   if (t.shaft_radius < 0.5e-3 || t.shaft_radius > 10e-3)
     out.push_back(file + "tool.shaft_radius = " + in_unit(t.shaft_radius, t.unit, t.unit_name) + " (" +
-                  SpecReader::num(t.shaft_radius * 1e3) + " mm): laparoscopic shafts are 3-12 mm across; is tool.unit (" +
+                  shown_number(t.shaft_radius * 1e3) + " mm): laparoscopic shafts are 3-12 mm across; is tool.unit (" +
                   t.unit_name + ") right?");
   if (t.shaft_length < 0.05 || t.shaft_length > 1.0)
     out.push_back(file + "tool.shaft_length = " + in_unit(t.shaft_length, t.unit, t.unit_name) + " (" +
-                  SpecReader::num(t.shaft_length) + " m): laparoscopic shafts are about 0.3-0.45 m long; is tool.unit (" +
+                  shown_number(t.shaft_length) + " m): laparoscopic shafts are about 0.3-0.45 m long; is tool.unit (" +
                   t.unit_name + ") right?");
   // The solver's movement thresholds are tolerances of a few micrometres (the committed scenes and
   // sweeps use 0.0003 .. 0.03 mm): one beyond 1% of the mesh's size holds the mesh, or the virtual

@@ -93,6 +93,7 @@
 //   camera: {eye: [x, y, z], target: [x, y, z], up: [0, 0, 1], fov_deg: 40}
 //   stages: {grasp: false, frames: false, settle: true}    # skip what a scene doesn't need;
 //                                   # settle: start from the static equilibrium under gravity
+#include <cmath>
 #include <filesystem>
 #include <optional>
 #include <span>
@@ -238,6 +239,12 @@ inline constexpr double kMaxHapticHz = 100e3;
 /// 10 Hz and 1 Hz is no haptic or physical loop (a period of 1e300 s steps nothing).
 inline constexpr double kMinReplayHapticHz = 10;
 inline constexpr double kMinReplayPhysicalHz = 1;
+/// Whether haptic_hz / physical_hz is a whole number >= 1 (to 1e-9 of it): physical step k
+/// starts at tick k N (DESIGN.md §2). The scene reader, the rate options and build_world ask it.
+inline bool whole_ticks_per_step(double haptic_hz, double physical_hz) {
+  const double ratio = haptic_hz / physical_hz;
+  return ratio >= 1.0 - 1e-9 && std::fabs(ratio - std::round(ratio)) <= 1e-9 * ratio;
+}
 
 /// Where the mesh files sit in the world: p_world = R(rotvec_deg) (scale p) + translate, p the file's
 /// position in metres. Applied at load to the physical mesh and an .obj virtual mesh.

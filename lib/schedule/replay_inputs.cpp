@@ -101,20 +101,14 @@ std::optional<std::string> grasp_lost(const Recording& rec, const SceneSpec& spe
   return std::string(line);
 }
 
-/// Rates given as options (--haptic-hz, --physical-hz) checked against their range and the scene's
-/// other rate, each error naming the option (the scene's own pair is the scene reader's to check).
+/// Rates given as options (--haptic-hz, --physical-hz) against the scene's other rate, the error
+/// naming the option (the options' ranges are their validators' and build_world's; the scene's own
+/// pair is the scene reader's to check).
 void check_rate_options(const SceneSpec& spec, std::optional<double> haptic_hz, std::optional<double> physical_hz) {
-  auto in_range = [](std::optional<double> v, const char* option, double lo, const char* what) {
-    if (v && !(*v >= lo && *v <= kMaxHapticHz))
-      throw InputError(std::string(option) + " " + shortest(*v) + ": expected a rate in [" + shortest(lo) + ", " +
-                       shortest(kMaxHapticHz) + "] Hz (" + what + ")");
-  };
-  in_range(haptic_hz, "--haptic-hz", kMinReplayHapticHz, "a haptic device ticks at 1 kHz or more");
-  in_range(physical_hz, "--physical-hz", kMinReplayPhysicalHz, "the paper's physical mesh steps at 60-100 Hz");
   if (!haptic_hz && !physical_hz) return;
   const double h = haptic_hz.value_or(spec.haptic_hz), p = physical_hz.value_or(spec.physical_hz);
   const double ratio = h / p;
-  if (ratio < 1.0 - 1e-9 || std::fabs(ratio - std::round(ratio)) > 1e-9 * ratio) {
+  if (!whole_ticks_per_step(h, p)) {
     char ratio_text[32];
     std::snprintf(ratio_text, sizeof ratio_text, "%g", ratio);
     const std::string option = physical_hz ? "--physical-hz " + shortest(p) : "--haptic-hz " + shortest(h);

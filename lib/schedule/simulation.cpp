@@ -286,7 +286,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
     throw InputError(where + ": " + why);
   }
   const double ratio = haptic_hz / physical_hz;
-  if (std::fabs(ratio - std::round(ratio)) > 1e-9)
+  if (!whole_ticks_per_step(haptic_hz, physical_hz))
     throw InputError(where + ": haptic_hz / physical_hz must be a whole number of ticks per physical step (got " +
                      std::to_string(ratio) + ")");
   auto w = std::make_shared<World>();

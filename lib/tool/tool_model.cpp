@@ -7,21 +7,15 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 
 namespace ebh {
 namespace {
 
-/// "%g": 1e-30 stays 1e-30 (std::to_string prints 0.000000).
-std::string shown(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%g", v);
-  return b;
-}
-
 /// The scene reader refuses these first, naming the file; a spec built in code meets them here.
 void require_positive(double v, const char* key) {
   if (!(v > 0.0) || !std::isfinite(v))
-    throw InputError(std::string("tool: key 'tool.") + key + "': must be positive, got " + shown(v));
+    throw InputError(std::string("tool: key 'tool.") + key + "': must be positive, got " + shown_number(v));
 }
 
 Collider<double> cylinder(Vec3d a, Vec3d b, double r) {

@@ -453,10 +453,7 @@ void run_report(const ReportArgs& a) {
   }
   const std::string file = summary_path(dir).string();
   check_input_file(file);
-  std::ifstream in(file, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::vector<ReportGroup> groups = build_report(parse_csv(text.str(), file), file, a.min_haptic_hz);
+  const std::vector<ReportGroup> groups = build_report(parse_csv(file_text(file).value_or(""), file), file, a.min_haptic_hz);
   std::fputs(report_markdown(groups).c_str(), stdout);
   if (!a.plot.empty()) {
     write_report_plot(groups, a.plot);

@@ -7,14 +7,11 @@
 #include <cstdlib>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 
 namespace ebh::cli {
 
-std::string format_number(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
+std::string format_number(double v) { return shown_number(v); }
 
 CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::string& unit) {
   const std::string u = unit.empty() ? "" : " " + unit;

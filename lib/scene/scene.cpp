@@ -817,7 +817,6 @@ Scene build_scene(SceneSpec spec_in) {
   // Each mesh follows the other's result one physical period late (async mode): when the virtual
   // mesh's edges outweigh its pull towards the physical mesh, the two drive each other unstable
   // (docs/MODEL.md, "k_s against k_svc").
-  if (std::string w = edges_outweigh_coupling_warning(spec); !w.empty()) scene.warnings.push_back(std::move(w));
   const std::string mesh_file = spec.physical_mesh.string();
 
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and

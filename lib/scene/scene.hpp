@@ -359,8 +359,9 @@ class OverrideError : public InputError {
 };
 
 /// The scene's warning when stiffness.k_s is above k_svc (the two meshes can drive each other
-/// unstable in async mode; docs/MODEL.md, "k_s against k_svc"), or "" when it is not. A lockstep
-/// replay, which the warning recommends, leaves it out.
+/// unstable in async mode; docs/MODEL.md, "k_s against k_svc"), or "" when it is not. Not one of
+/// build_scene's warnings: the replays whose step runs beside the ticks and `ebh scene` add it (a
+/// lockstep replay, which it recommends, does not).
 std::string edges_outweigh_coupling_warning(const SceneSpec& spec);
 
 /// The same with overrides "dotted.key=value" (the command line's --set) applied to the file's

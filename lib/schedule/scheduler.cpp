@@ -176,6 +176,7 @@ class DeviceReplay {
     view_.mesh.q = world.initial_virtual;
     view_.visible.x = world.initial_physical.x;
     view_.tool.pose = in_.setup.pose0;
+    physical_.beside_ticks = opt.mode == Mode::Async;
   }
 
   ReplaySummary run() {
@@ -389,6 +390,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
   if (tick_loops) haptic.workspace.shared = &*tick_loops;
   PhysicalSide physical = make_physical_side(world);
+  physical.beside_ticks = opt.mode == Mode::Async;
   HapticSnapshot to_physical;
   PhysicalSnapshot to_haptic;
   // async: physical step k runs on the worker beside ticks kN .. (k+1)N - 1

@@ -505,7 +505,7 @@ void stop_on_physical_problem(const World& world, const PhysicalSide& p, const s
                          ? raise + ", use solver.method=direct, or turn solver.recovery back on)"
                          : raise + " or use solver.method=direct)";
   // The scene-load warning's cause, named where it shows (docs/MODEL.md, "k_s against k_svc").
-  if (world.scene.spec.stiffness.edges_outweigh_coupling())
+  if (p.beside_ticks && world.scene.spec.stiffness.edges_outweigh_coupling())
     hint += "; stiffness.k_s above k_svc can make the two meshes drive each other unstable in async mode: raise k_svc "
             "or replay --mode lockstep";
   if (world.scene.spec.solver.virtual_damping == 0)

@@ -151,6 +151,9 @@ struct PhysicalSide {
   std::vector<Vec3d> ran_with;
   /// The awake region (SolverSpec::physical_region, CPU backend; null when off).
   std::unique_ptr<PhysicalRegion> region;
+  /// The step runs beside the ticks (async, realtime), not between them (lockstep): a divergence's
+  /// message names the two meshes driving each other only there.
+  bool beside_ticks = true;
 #if EBH_HAVE_CUDA
   /// Backend::Cuda: the step runs here and mesh.x is its copy of x (mesh.v and mesh.rotation stay
   /// on the device; docs/CUDA.md).

@@ -102,6 +102,31 @@ TEST(Health, TheStopNamesWhatTheBackendCanChange) {
   EXPECT_EQ(cuda.find('\n'), std::string::npos) << cuda;
 }
 
+// k_s above k_svc is named as a cause only where the step runs beside the ticks: a lockstep step
+// (which the hint recommends) cannot be driven by the virtual mesh's lag.
+TEST(Health, TheStopNamesKsAboveKsvcOnlyBesideTheTicks) {
+  const World w = *build_world(load_scene(resolve_scene_path("gap"), {"stiffness.k_s=100"}), 1000, 100);
+  auto stop = [&](bool beside_ticks) -> std::string {
+    PhysicalSide p;
+    p.mesh.x = w.physical_mesh.rest;
+    p.mesh.x[3].y = std::numeric_limits<double>::quiet_NaN();
+    p.step = 1;
+    p.beside_ticks = beside_ticks;
+    try {
+      check_physical_step(w, p);
+    } catch (const NumericalError& e) {
+      return e.what();
+    }
+    return "no stop";
+  };
+  const std::string async = stop(true), lockstep = stop(false);
+  EXPECT_NE(async.find("stiffness.k_s above k_svc"), std::string::npos) << async;
+  EXPECT_NE(async.find("--mode lockstep"), std::string::npos) << async;
+  EXPECT_NE(lockstep.find("the physical mesh is not finite"), std::string::npos) << lockstep;
+  EXPECT_EQ(lockstep.find("k_svc"), std::string::npos) << lockstep;
+  EXPECT_EQ(lockstep.find("lockstep"), std::string::npos) << lockstep;
+}
+
 TEST(Health, TheRecoveryRedoesTheDivergingStepsWithTheDirectSolve) {
   const Recording rec = read_recording(resolve_recording_path("tube_insert"));
   ReplayOptions opt;

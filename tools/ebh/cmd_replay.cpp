@@ -96,12 +96,13 @@ struct PreparedReplay {
   std::unique_ptr<ReplayWriter> writer;
 };
 
-/// The scene's warnings, each after `where`; in lockstep mode without the one about k_s above
-/// k_svc, whose instability is the async loop's and which recommends lockstep.
+/// The scene's warnings, each after `where`; outside lockstep mode also the one about k_s above
+/// k_svc, whose instability is the step's beside the ticks and which recommends lockstep.
 void print_scene_warnings(const Scene& scene, Mode mode, const std::string& where) {
-  const std::string async_only = edges_outweigh_coupling_warning(scene.spec);
-  for (const std::string& w : scene.warnings)
-    if (!(mode == Mode::Lockstep && w == async_only)) std::fprintf(stderr, "ebh: warning: %s%s\n", where.c_str(), w.c_str());
+  std::vector<std::string> warnings = scene.warnings;
+  if (mode != Mode::Lockstep)
+    if (std::string w = edges_outweigh_coupling_warning(scene.spec); !w.empty()) warnings.push_back(std::move(w));
+  for (const std::string& w : warnings) std::fprintf(stderr, "ebh: warning: %s%s\n", where.c_str(), w.c_str());
 }
 
 /// The world's rates, window and frames checked, the output's metadata; `in` already loaded.

@@ -45,6 +45,9 @@ struct GroupCount {
 
 void info(const SceneInfoArgs& a) {
   const ebh::Scene scene = ebh::load_scene(ebh::resolve_scene_path(a.scene));
+  // The scene's warnings and, mode-free here, the async replay's about k_s above k_svc.
+  std::vector<std::string> warnings = scene.warnings;
+  if (std::string w = ebh::edges_outweigh_coupling_warning(scene.spec); !w.empty()) warnings.push_back(std::move(w));
   const ebh::TetMesh& m = scene.physical;
   const ebh::MeshReport report = ebh::validate_mesh(m);
 
@@ -208,12 +211,12 @@ void info(const SceneInfoArgs& a) {
       g.push(std::move(e));
     }
     j.set("groups", std::move(g));
-    j.set("warnings", ebh::Json::array_of(scene.warnings));
+    j.set("warnings", ebh::Json::array_of(warnings));
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
 
-  for (const auto& w : scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
+  for (const auto& w : warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   std::printf("scene            %s (%s)\n", scene.spec.name.c_str(), scene.spec.file.string().c_str());
   std::printf("unit             %s (pinned regions, camera; lengths below in metres unless a unit is named)\n",
               scene.spec.unit_name.c_str());

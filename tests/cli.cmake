@@ -788,6 +788,13 @@ add_test(NAME cli.replay.settling_says_when_it_stops_short
 set_tests_properties(cli.replay.settling_says_when_it_stops_short PROPERTIES LABELS cli
   PASS_REGULAR_EXPRESSION "warning: .*tube.yaml: \\|gravity\\| = 30.* is over 2 g.*warning: .*settling under gravity stopped at its cap of 25 static steps")
 
+# Tissue too soft for its own weight: the settling's divergence names that cause, not only a tet.
+add_test(NAME cli.replay.settling_names_tissue_too_soft
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_NUM_OUT}/soft.h5;--duration;0.02;--set;gravity=[0,0,-9.81];--set;stiffness.k_vol=1"
+    "-DEXPECT=settling under gravity, static step 1: the physical mesh diverged.*; the tissue is too soft to carry its own weight: .* / stiffness.k_vol = 196.2 "
+    -DOUTPUT=${EBH_NUM_OUT}/soft.h5 -DSTATUS=4 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.replay.settling_names_tissue_too_soft PROPERTIES LABELS cli)
+
 # ebh sweep (lib/sweep): resumption and SIGTERM on real replays, a failed run among good ones, the
 # report's Pareto front on a hand-made summary, a bad plan, and a job array on a Slurm started on
 # localhost (skipped, saying why, where its daemons cannot start).

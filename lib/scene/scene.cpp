@@ -814,9 +814,6 @@ Scene build_scene(SceneSpec spec_in) {
       scene.warnings.push_back(file.string() + ": " + p.key + " = " + shown_number(p.value) + " " + p.unit +
                                " is outside " + shown_number(p.low) + " .. " + shown_number(p.high) + " " + p.unit +
                                ", the range of " + p.what);
-  // Each mesh follows the other's result one physical period late (async mode): when the virtual
-  // mesh's edges outweigh its pull towards the physical mesh, the two drive each other unstable
-  // (docs/MODEL.md, "k_s against k_svc").
   const std::string mesh_file = spec.physical_mesh.string();
 
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and
@@ -898,6 +895,7 @@ Scene build_scene(SceneSpec spec_in) {
     scene.virtual_surface = extract_boundary(scene.physical);
   }
   for (auto& w : size_warnings(spec, scene.physical)) scene.warnings.push_back(std::move(w));
+  if (std::string w = too_soft_for_own_weight(scene); !w.empty()) scene.warnings.push_back(spec.file.string() + ": " + w);
 
   // Pinned regions (world coordinates, scaled when the file was read).
   for (std::size_t i = 0; i < spec.pinned.size(); ++i) {
@@ -930,6 +928,24 @@ Scene build_scene(SceneSpec spec_in) {
     }
   }
   return scene;
+}
+
+std::string too_soft_for_own_weight(const Scene& scene) {
+  const SceneSpec& spec = scene.spec;
+  const double g = norm(spec.gravity);
+  if (!(g > 0) || !(spec.stiffness.k_vol > 0) || scene.physical.vertices.empty()) return "";
+  const Vec3d down = spec.gravity / g;
+  double lo = dot(scene.physical.vertices.front(), down), hi = lo;
+  for (const Vec3d& x : scene.physical.vertices) {
+    lo = std::min(lo, dot(x, down));
+    hi = std::max(hi, dot(x, down));
+  }
+  const double strain = spec.density * g * (hi - lo) / spec.stiffness.k_vol;
+  if (!(strain > 1)) return "";
+  return "the tissue is too soft to carry its own weight: material.density x |gravity| x the mesh's height along "
+         "gravity (" + shown_number(hi - lo) + " m) / stiffness.k_vol = " + shown_number(strain) +
+         " (above 1 it sags by more than its own height): raise stiffness.k_vol, or set gravity: [0, 0, 0] where the "
+         "organ is held by its surroundings";
 }
 
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned) {

@@ -312,6 +312,11 @@ struct Scene {
 /// `pinned` (sorted): each part's lowest vertex index and its number of vertices, by that index.
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned);
 
+/// "" or why the physical mesh cannot carry its own weight (no static equilibrium near its rest
+/// shape): the weight of a column of its height along gravity over stiffness.k_vol, a strain, is
+/// above 1. A scene warning, and the cause settle_under_gravity names when its steps diverge.
+std::string too_soft_for_own_weight(const Scene& scene);
+
 /// Parses and validates a scene file. Throws InputError ("FILE: key 'a.b': ...").
 SceneSpec load_scene_spec(const std::filesystem::path& file);
 

@@ -246,8 +246,11 @@ int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<s
     const PhysicalStepReport report = physical_step(statics, ws, state, {}, params);
     ++steps;
     const std::string problem = physical_state_problem(statics, state.x, report);
-    if (!problem.empty())
-      throw NumericalError(where + ": settling under gravity, static step " + std::to_string(steps) + ": " + problem);
+    if (!problem.empty()) {
+      const std::string soft = too_soft_for_own_weight(scene);
+      throw NumericalError(where + ": settling under gravity, static step " + std::to_string(steps) + ": " + problem +
+                           (soft.empty() ? "" : "; " + soft));
+    }
     moved = 0;
     for (std::size_t i = 0; i < before.size(); ++i) moved = std::max(moved, norm(state.x[i] - before[i]));
     if (moved < kSettled) break;

@@ -210,6 +210,24 @@ TEST(Scene, ImplausibleTissueValuesAreShownAsGiven) {
   EXPECT_EQ(s.warnings.at(1), p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000");
 }
 
+// Tissue too soft to carry its own weight (density g height / k_vol above 1) has no static
+// equilibrium near its rest shape: warned with the strain and the height it is taken over; the
+// same tissue without gravity is quiet.
+TEST(Scene, TissueTooSoftForItsOwnWeightWarns) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const std::string soft = replace(good, "k_vol: 2500", "k_vol: 50");
+  const std::string p = write_temp("soft.yaml", soft).string();
+  const Scene s = load_scene(p);
+  ASSERT_EQ(s.warnings.size(), 1u) << ::testing::PrintToString(s.warnings);
+  // 1100 kg/m^3 x 9.81 m/s^2 x 0.01 m / 50 Pa
+  EXPECT_EQ(s.warnings[0].rfind(p + ": the tissue is too soft to carry its own weight: material.density x |gravity| x "
+                                    "the mesh's height along gravity (0.01 m) / stiffness.k_vol = 2.1582 (above 1", 0), 0u)
+      << s.warnings[0];
+  EXPECT_TRUE(too_soft_for_own_weight(load_scene(write_temp("stiff.yaml", good))).empty());
+  EXPECT_TRUE(load_scene(write_temp("floating.yaml", replace(soft, "gravity: [0, 0, -9.81]", "gravity: [0, 0, 0]")))
+                  .warnings.empty());
+}
+
 // The tool's springs, the virtual mesh's and the device's force limit warn outside a wide range
 // around what a haptic device renders: a denormal or an absurd value is a typing error.
 TEST(Scene, ImplausibleToolAndSurfaceStiffnessesWarn) {

@@ -314,6 +314,11 @@ ebh_replay_failure(set_twice "--set 'stiffness.k_con=900': key 'stiffness.k_con'
   tube tube_insert --set stiffness.k_con=800 --set stiffness.k_con=900)
 ebh_replay_failure(rate_option_and_set "^ebh: error: --haptic-hz 2000: and --set 'time.haptic_hz=500' give one value twice"
   tube tube_insert --haptic-hz 2000 --set time.haptic_hz=500)
+# A map value sets each of its keys: the same checks hold for them.
+ebh_replay_failure(rate_option_and_set_map "^ebh: error: --haptic-hz 2000: and --set 'time={haptic_hz: 500}' give one value twice"
+  tube tube_insert --haptic-hz 2000 "--set" "time={haptic_hz: 500}")
+ebh_replay_failure(set_twice_in_map "--set 'stiffness={k_con: 900}': key 'stiffness.k_con' given twice \\(also --set 'stiffness.k_con=800'\\)"
+  tube tube_insert --set stiffness.k_con=800 "--set" "stiffness={k_con: 900}")
 # An empty option value is refused, naming the option: it would read as the option's default
 # (`--level ''` as 0, `--recording ''` as not given). {} is the empty argument (tests/empty_arg.sh).
 set(EBH_EMPTY_ARG sh ${CMAKE_CURRENT_SOURCE_DIR}/empty_arg.sh ${EBH_BIN})

@@ -8,8 +8,12 @@
 // stop, not a stack overflow, and is said as what it is.
 #include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/exceptions.h>
+#include <yaml-cpp/node/node.h>
 
 #include <string>
+#include <vector>
+
+#include "core/error.hpp"
 
 namespace ebh {
 
@@ -32,6 +36,18 @@ inline std::string yaml_parse_error(const std::string& where, const YAML::Except
   out += ": ";
   out += yaml_parse_problem(e);
   return out;
+}
+
+/// The one document of YAML text read with YAML::LoadAll (a null node when there is none). A
+/// second one (after '---'), which a reader of the first would leave unread without a word, is an
+/// InputError "WHERE:LINE: a second YAML document (after '---'): WHAT holds one".
+inline YAML::Node only_yaml_document(const std::vector<YAML::Node>& documents, const std::string& where,
+                                     const std::string& what) {
+  for (std::size_t i = 1; i < documents.size(); ++i)
+    if (documents[i].IsDefined() && !documents[i].IsNull())
+      throw InputError(where + ":" + std::to_string(documents[i].Mark().line + 1) +
+                       ": a second YAML document (after '---'): " + what + " holds one");
+  return documents.empty() ? YAML::Node() : documents.front();
 }
 
 }  // namespace ebh

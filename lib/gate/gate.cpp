@@ -70,7 +70,7 @@ GateBaselines read_gate_baselines(const std::string& path) {
   check_input_file(path);
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
+    root = only_yaml_document(YAML::LoadAllFromFile(path), path, "a gate baseline file");
   } catch (const YAML::BadFile&) {
     throw InputError(path + ": cannot read the gate baselines");
   } catch (const YAML::Exception& e) {

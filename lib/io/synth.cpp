@@ -77,7 +77,7 @@ SynthPlan read_plan(const std::string& path) {
   PlanReader r{path};
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
+    root = only_yaml_document(YAML::LoadAllFromFile(path), path, "a synthesis plan");
   } catch (const YAML::BadFile&) {
     throw InputError(path + ": cannot open the plan file");
   } catch (const YAML::ParserException& e) {

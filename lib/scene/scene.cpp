@@ -108,6 +108,7 @@ class SpecReader {
       if (!it->first.IsScalar()) fail(key, "expected text keys, got " + shown(it->first));
       const std::string name = it->first.Scalar();
       const std::string full = key.empty() ? name : key + "." + name;
+      if (name == "<<") fail(full, "YAML merge keys ('<<: *anchor') are not read: write the section's keys out");
       if (std::find(allowed.begin(), allowed.end(), name) == allowed.end())
         fail(full, "unknown key (known: " + join(allowed) + ")");
       if (!out.emplace(name, it->second).second) fail(full, "given twice");
@@ -614,6 +615,28 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
 
 namespace {
 
+/// `value` into `target`: a map into a map key by key (so `--set 'stiffness={k_vol: 500}'` sets
+/// k_vol and keeps the section's other keys), anything else replacing what was there.
+void merge_into(YAML::Node target, const YAML::Node& value) {
+  if (!value.IsMap() || !target.IsMap()) {
+    target = value;
+    return;
+  }
+  for (const auto& kv : value) {
+    if (kv.first.IsScalar()) merge_into(target[kv.first.Scalar()], kv.second);
+    else target[kv.first] = kv.second;  // not a key of the schema: the reader names it
+  }
+}
+
+/// The dotted keys under `key` that `value` sets: its leaves where it is a map, else `key`.
+void leaf_keys(const std::string& key, const YAML::Node& value, std::vector<std::string>& out) {
+  if (!value.IsMap() || value.size() == 0) {
+    out.push_back(key);
+    return;
+  }
+  for (const auto& kv : value) leaf_keys(key + "." + (kv.first.IsScalar() ? kv.first.Scalar() : "?"), kv.second, out);
+}
+
 /// Applies one "a.b.c=value" override to the YAML tree (creating maps along the way).
 void apply_override(YAML::Node root, const std::string& text) {
   const auto eq = text.find('=');
@@ -635,7 +658,7 @@ void apply_override(YAML::Node root, const std::string& text) {
     if (!path.back().IsMap() && path.back().IsDefined() && !path.back().IsNull())
       throw OverrideError(text, "key '" + key.substr(0, start ? start - 1 : 0) + "': " + shown(path.back()) + ", not a map");
     if (dot == std::string::npos) {
-      path.back()[part] = parsed;
+      merge_into(path.back()[part], parsed);
       return;
     }
     path.push_back(path.back()[part]);
@@ -645,14 +668,15 @@ void apply_override(YAML::Node root, const std::string& text) {
 
 /// Parses scene YAML text; syntax errors name `file` and the line.
 YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
-  YAML::Node root;
+  std::vector<YAML::Node> documents;
   try {
-    root = YAML::Load(text);
+    documents = YAML::LoadAll(text);
   } catch (const YAML::ParserException& e) {
     throw InputError(yaml_parse_error(file.string(), e));
   } catch (const YAML::Exception& e) {
     throw InputError(file.string() + ": cannot read scene file: " + e.msg);
   }
+  const YAML::Node root = only_yaml_document(documents, file.string(), "a scene file");
   if (!root.IsDefined() || root.IsNull()) throw InputError(file.string() + ": empty scene file");
   return root;
 }
@@ -739,7 +763,40 @@ std::vector<int> region_vertices(const TetMesh& m, const PinRegion& r) {
   return out;
 }
 
+std::vector<std::string> override_keys(const std::string& text) {
+  const std::string key = text.substr(0, text.find('='));
+  std::vector<std::string> out;
+  YAML::Node value;
+  try {
+    if (key.size() < text.size()) value = YAML::Load(text.substr(key.size() + 1));
+  } catch (const YAML::Exception&) {
+  }
+  leaf_keys(key, value, out);
+  return out;
+}
+
+void check_overrides_once(const std::vector<std::string>& overrides) {
+  // One key within the other (a section and a key in it) counts as the same key.
+  const auto overlap = [](const std::string& a, const std::string& b) {
+    const std::string& shorter = a.size() <= b.size() ? a : b;
+    const std::string& longer = a.size() <= b.size() ? b : a;
+    return longer.compare(0, shorter.size(), shorter) == 0 &&
+           (longer.size() == shorter.size() || longer[shorter.size()] == '.');
+  };
+  std::vector<std::vector<std::string>> keys;
+  for (std::size_t i = 0; i < overrides.size(); ++i) {
+    keys.push_back(override_keys(overrides[i]));
+    for (std::size_t j = 0; j < i; ++j)
+      for (const std::string& a : keys[i])
+        for (const std::string& b : keys[j])
+          if (overlap(a, b))
+            throw InputError(OverrideError::set_option_shown(overrides[i]) + ": key '" + (a.size() >= b.size() ? a : b) +
+                             "' given twice (also " + OverrideError::set_option_shown(overrides[j]) + ")");
+  }
+}
+
 SceneSpec load_scene_spec(const fs::path& file, const std::vector<std::string>& overrides) {
+  check_overrides_once(overrides);
   YAML::Node root = read_scene_yaml(file);
   for (const auto& o : overrides) apply_override(root, o);
   return read_spec(root, file, overrides);

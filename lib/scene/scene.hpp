@@ -363,6 +363,14 @@ class OverrideError : public InputError {
   std::string key_message_;
 };
 
+/// The dotted keys an override "KEY=VALUE" sets: KEY, or where VALUE is a map each of its leaves
+/// (`time={haptic_hz: 500}` sets time.haptic_hz); KEY when VALUE does not parse.
+std::vector<std::string> override_keys(const std::string& override_text);
+
+/// Throws InputError "--set 'k=2': key 'k' given twice (also --set 'k=1')" when two overrides set
+/// one key, or a section and a key in it: the last would win silently.
+void check_overrides_once(const std::vector<std::string>& overrides);
+
 /// The scene's warning when stiffness.k_s is above k_svc (the two meshes can drive each other
 /// unstable in async mode; docs/MODEL.md, "k_s against k_svc"), or "" when it is not. Not one of
 /// build_scene's warnings: the replays whose step runs beside the ticks and `ebh scene` add it (a
@@ -371,8 +379,10 @@ std::string edges_outweigh_coupling_warning(const SceneSpec& spec);
 
 /// The same with overrides "dotted.key=value" (the command line's --set) applied to the file's
 /// YAML before validation: `stiffness.k_con=800`, `solver.method=direct`, `gravity=[0,0,0]`.
-/// The value is parsed as YAML; a bad override is an InputError naming it (an OverrideError when
-/// the file is fine and the override's key or value is not).
+/// The value is parsed as YAML; a map merges into the file's map key by key (`stiffness={k_vol:
+/// 500, k_s: 30}` keeps the other stiffnesses), anything else replaces the key's value. A bad
+/// override is an InputError naming it (an OverrideError when the file is fine and the override's
+/// key or value is not); two overrides of one key are refused (check_overrides_once).
 SceneSpec load_scene_spec(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 Scene load_scene(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 

@@ -190,7 +190,7 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   PlanReader r(file);
   YAML::Node root;
   try {
-    root = YAML::LoadFile(file.string());
+    root = only_yaml_document(YAML::LoadAllFromFile(file.string()), file.string(), "a sweep plan");
   } catch (const YAML::ParserException& e) {
     throw InputError(yaml_parse_error(file.string(), e));
   } catch (const YAML::Exception& e) {

@@ -822,6 +822,62 @@ TEST(Scene, OverrideErrorsNameTheOverride) {
   }
 }
 
+// A map value merges into the file's section key by key: `--set 'stiffness={k_vol: 500}'` sets k_vol
+// and keeps the file's k_s (it reset every stiffness the map left out to its default); a section
+// and a key in it, or one key set by two maps, are one key given twice.
+TEST(Scene, AMapOverrideMergesIntoTheSection) {
+  const fs::path file = fs::path(EBH_SOURCE_DIR) / "scenarios" / "tube.yaml";
+  const SceneSpec base = load_scene_spec(file);
+  const SceneSpec merged = load_scene_spec(file, {"stiffness={k_vol: 500, k_con: 700}"});
+  EXPECT_EQ(merged.stiffness.k_vol, 500);
+  EXPECT_EQ(merged.stiffness.k_con, 700);
+  EXPECT_EQ(merged.stiffness.k_s, base.stiffness.k_s);
+  EXPECT_EQ(merged.stiffness.k_svc, base.stiffness.k_svc);
+  EXPECT_EQ(merged.stiffness.k_vcs, base.stiffness.k_vcs);
+  const SceneSpec nested = load_scene_spec(file, {"tool={forceps: {jaw_length: 7}}"});
+  EXPECT_EQ(nested.tool.kind, base.tool.kind);
+  EXPECT_EQ(nested.tool.shaft_radius, base.tool.shaft_radius);
+  EXPECT_NE(nested.tool.forceps.jaw_length, base.tool.forceps.jaw_length);
+  EXPECT_EQ(nested.tool.forceps.jaw_width, base.tool.forceps.jaw_width);
+  auto twice = [&file](const std::vector<std::string>& overrides) -> std::string {
+    try {
+      (void)load_scene_spec(file, overrides);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(twice({"stiffness.k_vol=400", "stiffness={k_vol: 500}"}),
+            "--set 'stiffness={k_vol: 500}': key 'stiffness.k_vol' given twice (also --set 'stiffness.k_vol=400')");
+  EXPECT_EQ(twice({"stiffness={k_vol: 500}", "stiffness=3"}),
+            "--set 'stiffness=3': key 'stiffness.k_vol' given twice (also --set 'stiffness={k_vol: 500}')");
+  EXPECT_EQ(twice({"stiffness={k_vol: 500}", "stiffness={k_s: 30}"}), "no error");
+  EXPECT_EQ(override_keys("time={haptic_hz: 500, physical_hz: 50}"),
+            (std::vector<std::string>{"time.haptic_hz", "time.physical_hz"}));
+  EXPECT_EQ(override_keys("time.haptic_hz=[unclosed"), (std::vector<std::string>{"time.haptic_hz"}));
+}
+
+// A second YAML document in a scene file would be left unread; a merge key is named as such.
+TEST(Scene, ASecondDocumentAndMergeKeysAreRefused) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const fs::path two = write_temp("two_documents.yaml", good + "---\nname: other\n");
+  try {
+    (void)load_scene_spec(two);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), two.string() + ":41: a second YAML document (after '---'): a scene file holds one");
+  }
+  EXPECT_NO_THROW((void)load_scene_spec(write_temp("trailing_marker.yaml", good + "---\n")));
+  const fs::path merge =
+      write_temp("merge_key.yaml", replace(good, "stiffness: {k_vol: 2500,", "stiffness: {<<: {k_vol: 2000}, k_vol: 2500,"));
+  try {
+    (void)load_scene_spec(merge);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("merge keys"), std::string::npos) << e.what();
+  }
+}
+
 // The same for a scene whose mesh, tool and world each have their own unit and whose mesh is
 // placed by a transform: the resolved file carries mesh.unit, mesh.transform and tool.unit, and
 // reloads to the same scene, meshes included, bit for bit.

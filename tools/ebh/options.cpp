@@ -8,6 +8,7 @@
 
 #include "core/error.hpp"
 #include "core/number_text.hpp"
+#include "scene/scene.hpp"
 
 namespace ebh::cli {
 
@@ -39,21 +40,15 @@ void refuse_empty_values(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) refuse_empty_values(*sub);
 }
 
-void check_set_once(const std::vector<std::string>& overrides) {
-  for (std::size_t i = 0; i < overrides.size(); ++i) {
-    const std::string key = overrides[i].substr(0, overrides[i].find('='));
-    for (std::size_t j = 0; j < i; ++j)
-      if (overrides[j].substr(0, overrides[j].find('=')) == key)
-        throw InputError("--set '" + overrides[i] + "': key '" + key + "' given twice (also --set '" + overrides[j] + "')");
-  }
-}
+void check_set_once(const std::vector<std::string>& overrides) { check_overrides_once(overrides); }
 
 void check_option_not_set(const std::vector<std::string>& overrides, const std::string& option, bool given,
                           const std::string& value, const std::string& key) {
   if (!given) return;
   for (const std::string& o : overrides)
-    if (o.substr(0, o.find('=')) == key)
-      throw InputError(option + " " + value + ": and --set '" + o + "' give one value twice (the option would win)");
+    for (const std::string& k : override_keys(o))
+      if (k == key || key.rfind(k + ".", 0) == 0)
+        throw InputError(option + " " + value + ": and --set '" + o + "' give one value twice (the option would win)");
 }
 
 void check_known_names(const std::string& option, const std::string& what, const std::vector<std::string>& chosen,

@@ -152,7 +152,7 @@ std::size_t remove_stale_partials(const std::string& final_path) {
     const long pid = std::strtol(who.c_str() + dot + 1, &end_pid, 10);
     if (*end_pid != '\0' || pid <= 0 || pid == static_cast<long>(getpid()) || running(pid)) continue;
     std::error_code rm;
-    if (fs::remove(it->path(), rm)) ++removed;
+    if (fs::remove_all(it->path(), rm) > 0 && !rm) ++removed;  // a folder too (a render's frames)
   }
   return removed;
 }
@@ -212,7 +212,12 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
   slot_ = register_temp(temp_);
   // Created here, so that a folder that is not one, a read-only folder or a full disk is reported
   // with the final name and the reason before any work.
-  const int fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  // Created new (O_EXCL, which does not follow a link): a link planted at the temporary's
+  // predictable name would have the output written through it to the link's target. What is
+  // there (such a link, or this PID's temporary from an earlier process) is removed first.
+  int fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+  if (fd < 0 && errno == EEXIST && ::unlink(temp_.c_str()) == 0)
+    fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
   if (fd < 0) {
     const int err = errno;
     unregister_temp(slot_);
@@ -241,6 +246,12 @@ void AtomicOutput::commit() {
     discard();
     throw InputError(final_ + ": interrupted; nothing written");
   }
+  sync();
+  rename_into_place();
+}
+
+void AtomicOutput::sync() {
+  if (committed_) return;
   // The data must be on the disk before the name points at it: a write error the OS reports
   // only now (a full disk, an I/O error) keeps the previous file.
   const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
@@ -256,6 +267,10 @@ void AtomicOutput::commit() {
     fail("cannot write the output", err);
   }
   ::close(fd);
+}
+
+void AtomicOutput::rename_into_place() {
+  if (committed_) return;
   if (std::rename(temp_.c_str(), final_.c_str()) != 0) {
     const int err = errno;
     discard();
@@ -271,7 +286,7 @@ namespace {
 
 /// Writes `bytes` into the output's temporary file; every write checked.
 void write_temporary(const AtomicOutput& out, std::string_view bytes) {
-  const int fd = ::open(out.temp_path().c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+  const int fd = ::open(out.temp_path().c_str(), O_WRONLY | O_TRUNC | O_NOFOLLOW | O_CLOEXEC);
   if (fd < 0) {
     const int err = errno;
     out.fail("cannot write the output", err);
@@ -306,7 +321,18 @@ void write_files_atomically(const std::vector<std::pair<std::string, std::string
     outs.push_back(std::make_unique<AtomicOutput>(path));
     write_temporary(*outs.back(), bytes);
   }
-  for (auto& out : outs) out->commit();
+  if (interrupted()) throw InputError(outs.front()->final_path() + ": interrupted; nothing written");
+  for (auto& out : outs) out->sync();
+  std::string replaced;
+  for (auto& out : outs) {
+    try {
+      out->rename_into_place();
+    } catch (const InputError& e) {
+      if (replaced.empty()) throw;
+      throw InputError(std::string(e.what()) + " (already replaced: " + replaced + ")");
+    }
+    replaced += (replaced.empty() ? "" : ", ") + out->final_path();
+  }
 }
 
 }  // namespace ebh

@@ -33,8 +33,9 @@ bool is_partial_output(std::string_view path);
 /// The temporary name this process uses for `final_path`: DIR/.NAME.HOST.PID.ebh-partial.
 std::string partial_path_for(const std::string& final_path);
 
-/// Removes the temporaries of `final_path` left by writers that are gone (this host, a PID that no
-/// longer runs); keeps those of running processes and of other hosts. Returns how many it removed.
+/// Removes the temporaries of `final_path` (files, or folders such as a render's frames) left by
+/// writers that are gone (this host, a PID that no longer runs); keeps those of running processes
+/// and of other hosts. Returns how many it removed.
 std::size_t remove_stale_partials(const std::string& final_path);
 
 /// strerror(err): the operating system's reason ("No space left on device").
@@ -58,6 +59,11 @@ class AtomicOutput {
   /// (removing the temporary; a previous file under the final name is left as it was) when the
   /// run was interrupted, the temporary is missing or the sync or the rename fails.
   void commit();
+  /// The two halves of commit() without its interrupt check, for files that belong together
+  /// (write_files_atomically: every one synced, then every one renamed, whatever signal arrives
+  /// between the renames). Each throws as commit() does.
+  void sync();
+  void rename_into_place();
   /// Removes the temporary file now (also done by the destructor when not committed).
   void discard();
   /// Throws InputError "FINAL: WHAT: OS reason" (err = an errno value; 0 leaves the reason out).
@@ -75,8 +81,10 @@ class AtomicOutput {
 void write_file_atomically(const std::string& path, std::string_view bytes);
 
 /// Writes several files (path, bytes) that belong together: every one is written completely under
-/// its temporary name before any is renamed, so a failure while writing (a full disk, an
-/// interrupt) leaves none of them, and previous files of those names stay as they were.
+/// its temporary name and synced before any is renamed, so a failure while writing (a full disk,
+/// an interrupt) leaves none of them, and previous files of those names stay as they were. Once
+/// the first is renamed an interrupt no longer stops the rest; a rename that fails then (the old
+/// file cannot be replaced) names the files already replaced.
 void write_files_atomically(const std::vector<std::pair<std::string, std::string_view>>& files);
 
 /// Installs the SIGINT/SIGTERM/SIGHUP handlers, and SIGALRM's for the grace (idempotent).

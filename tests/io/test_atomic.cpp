@@ -141,6 +141,38 @@ TEST(Atomic, TemporaryIsHiddenBesideTheOutputAndMarkedPartial) {
   EXPECT_FALSE(is_partial_output("some/dir/run.h5"));
 }
 
+// A link planted at the temporary's predictable name is replaced, not written through: its target
+// keeps its bytes and the output is a regular file.
+TEST(Atomic, ALinkAtTheTemporarysNameIsNotFollowed) {
+  test::ScratchDir tmp;
+  const std::string out = (tmp.dir / "o.txt").string(), victim = (tmp.dir / "victim").string();
+  { std::ofstream(victim) << "precious"; }
+  fs::create_symlink(victim, partial_path_for(out));
+  write_file_atomically(out, "new");
+  EXPECT_EQ(slurp(victim), "precious");
+  EXPECT_EQ(slurp(out), "new");
+  EXPECT_FALSE(fs::is_symlink(out));
+  EXPECT_FALSE(fs::exists(fs::symlink_status(partial_path_for(out))));
+}
+
+// Files that belong together (a mesh and the scene naming it): an interrupt before the renames
+// leaves both previous files; without one both are replaced.
+TEST(Atomic, FilesThatBelongTogetherAreReplacedTogether) {
+  test::ScratchDir tmp;
+  const std::string a = (tmp.dir / "a.msh").string(), b = (tmp.dir / "a.yaml").string();
+  write_files_atomically({{a, "old mesh"}, {b, "old scene"}});
+  set_interrupted(true);
+  EXPECT_THROW(write_files_atomically({{a, "new mesh"}, {b, "new scene"}}), InputError);
+  set_interrupted(false);
+  EXPECT_EQ(slurp(a), "old mesh");
+  EXPECT_EQ(slurp(b), "old scene");
+  EXPECT_FALSE(fs::exists(partial_path_for(a)));
+  EXPECT_FALSE(fs::exists(partial_path_for(b)));
+  write_files_atomically({{a, "new mesh"}, {b, "new scene"}});
+  EXPECT_EQ(slurp(a), "new mesh");
+  EXPECT_EQ(slurp(b), "new scene");
+}
+
 TEST(Atomic, WriteFailureKeepsThePreviousFileAndSaysWhy) {
   // A file-size limit makes write() fail with EFBIG once a file would grow past it (SIGXFSZ
   // ignored), in any file system and without privileges: the same path as a full disk.

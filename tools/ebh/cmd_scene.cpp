@@ -355,8 +355,10 @@ void degrade(const SceneDegradeArgs& a) {
   const ebh::MeshTransform& xf = scene.spec.mesh_transform;
   if (!xf.identity())
     for (ebh::Vec3d& p : file_mesh.vertices) p = xf.inverse(p);
-  ebh::write_file_atomically(mesh_out, ebh::msh22_text(file_mesh, 1.0 / scene.spec.mesh_unit));
-  ebh::write_file_atomically(scene_out, std::string(header) + yaml.c_str() + "\n");
+  // The mesh and the scene that names it belong together: both or neither.
+  const std::string mesh_text = ebh::msh22_text(file_mesh, 1.0 / scene.spec.mesh_unit);
+  const std::string scene_text = std::string(header) + yaml.c_str() + "\n";
+  ebh::write_files_atomically({{mesh_out, mesh_text}, {scene_out, scene_text}});
   std::printf("%s: %s with worst mean ratio %.4g (tet %d; %d caps, %d slivers, %d needles), mesh %s\n", scene_out.c_str(),
               scene.spec.name.c_str(), r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles, mesh_out.c_str());
 }

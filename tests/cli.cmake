@@ -224,6 +224,13 @@ add_test(NAME cli.render.frames_hz_0
     "-DEXPECT=^ebh: error: --render .*none: renders the mesh snapshots, and --frames-hz 0 asks for none"
     -DOUTPUT=${EBH_RENDER_OUT}/none.h5 -P ${EBH_EXPECT_ERROR})
 set_tests_properties(cli.render.frames_hz_0 PROPERTIES LABELS "cli;render")
+# --render naming the output (-o) would fail only after the replay wrote it: refused before.
+add_test(NAME cli.render.folder_is_the_output
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_RENDER_OUT}/same.h5;--duration;0.1;--render;${EBH_RENDER_OUT}/same.h5"
+    "-DEXPECT=^ebh: error: --render .*same.h5: is the name of the replay output \\(-o\\)"
+    -DOUTPUT=${EBH_RENDER_OUT}/same.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.render.folder_is_the_output PROPERTIES LABELS "cli;render")
 if(EBH_HAVE_OSMESA)
   add_test(NAME cli.render.replay
     COMMAND ${CMAKE_COMMAND}
@@ -662,6 +669,10 @@ ebh_safety(replay_over_mesh "^ebh: error: .*tube.msh: ${REPLACE} the scene's phy
   KEEP ${S}/tube.msh CMD ${EBH_BIN} replay ${S}/scene.yaml tube_insert -o ${S}/tube.msh)
 ebh_safety(import_over_log "^ebh: error: .*log.csv: ${REPLACE} the log"
   KEEP ${S}/log.csv CMD ${EBH_BIN} import ${S}/log.csv -o ${S}/log.csv)
+ebh_safety(import_over_scene "^ebh: error: .*scene.yaml: ${REPLACE} the scene file"
+  KEEP ${S}/scene.yaml CMD ${EBH_BIN} import ${S}/log.csv -o ${S}/scene.yaml --scene ${S}/scene.yaml)
+ebh_safety(import_over_mesh "^ebh: error: .*tube.msh: ${REPLACE} the scene's physical mesh"
+  KEEP ${S}/tube.msh CMD ${EBH_BIN} import ${S}/log.csv -o ${S}/tube.msh --scene ${S}/scene.yaml)
 ebh_safety(synth_over_plan "^ebh: error: .*plan.yaml: ${REPLACE} the plan"
   KEEP ${S}/plan.yaml CMD ${EBH_BIN} synth ${S}/plan.yaml -o ${S}/plan.yaml)
 # 2. A write that fails keeps the previous file and says why. 1200 blocks (614 kB) let the

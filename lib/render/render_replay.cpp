@@ -88,6 +88,46 @@ void run_ffmpeg(const std::string& dir, const std::string& video, double fps) {
   out.commit();
 }
 
+bool is_frame_name(const fs::path& p) {
+  return p.filename().string().rfind("frame_", 0) == 0 && p.extension() == ".png";
+}
+
+/// The frames rendered into `fresh` (a folder beside them) take the place of the frame_*.png
+/// files in `dir`: the old ones are moved aside first (a frame that cannot be moved, an immutable
+/// file, stops it with every old frame back in place), then the new ones are moved in.
+void replace_frames(const fs::path& dir, const fs::path& fresh) {
+  const fs::path aside = partial_path_for((dir / "old_frames").string());
+  std::error_code ec;
+  fs::remove_all(aside, ec);
+  fs::create_directory(aside, ec);
+  if (ec) throw InputError(dir.string() + ": cannot make the folder " + aside.string() + ": " + ec.message());
+  std::vector<fs::path> moved;
+  auto put_back = [&] {
+    for (const fs::path& m : moved) {
+      std::error_code back;
+      fs::rename(aside / m.filename(), m, back);
+    }
+    fs::remove_all(aside, ec);
+  };
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (!is_frame_name(e.path())) continue;
+    if (std::rename(e.path().c_str(), (aside / e.path().filename()).c_str()) != 0) {
+      const int err = errno;
+      put_back();
+      throw InputError(e.path().string() + ": cannot replace the previous frame: " + os_reason(err) +
+                       " (the previous frames are kept; the new ones are not written)");
+    }
+    moved.push_back(e.path());
+  }
+  for (const auto& e : fs::directory_iterator(fresh)) {
+    if (std::rename(e.path().c_str(), (dir / e.path().filename()).c_str()) != 0) {
+      const int err = errno;
+      throw InputError((dir / e.path().filename()).string() + ": cannot move the new frame into place: " + os_reason(err));
+    }
+  }
+  fs::remove_all(aside, ec);
+}
+
 }  // namespace
 
 std::string find_on_path(const std::string& program) {
@@ -165,6 +205,14 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   std::vector<RoleFile> inputs{{replay, "the replay"}};
   if (scene) inputs.push_back({scene->file.string(), "the scene file"});
   check_outputs({{opt.video, "the video"}}, inputs);
+  // The frames replace every frame_*.png in the folder: an input named like one would go too.
+  for (const RoleFile& in : inputs) {
+    std::error_code same;
+    if (is_frame_name(in.path) && fs::equivalent(fs::path(in.path).parent_path().empty() ? "." : fs::path(in.path).parent_path(),
+                                                 dir, same))
+      throw InputError(dir + ": the frames would replace " + in.role + " " + in.path +
+                       " (frame_*.png files in the folder are the render's): rename it or render into another folder");
+  }
   const Bounds rest = bounds_of(frames.virtual_rest);
   const double aspect = static_cast<double>(opt.width) / opt.height;
   summary.camera = choose_camera(opt.camera, scene, rest, aspect, summary.camera_source);
@@ -196,12 +244,23 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   fs::create_directories(dir, ec);
   if (ec) throw InputError(dir + ": cannot create the folder: " + ec.message());
   if (!fs::is_directory(dir)) throw InputError(dir + ": not a directory");
-  for (const auto& e : fs::directory_iterator(dir)) {
-    const std::string n = e.path().filename().string();
-    if (n.rfind("frame_", 0) == 0 && e.path().extension() == ".png") fs::remove(e.path());
-  }
-
+  // The frames are rendered into a hidden folder beside the old ones and take their place only
+  // once all are written: an interrupt or a full disk keeps the previous frames.
   install_interrupt_handlers();
+  const fs::path fresh = partial_path_for((fs::path(dir) / "frames").string());
+  remove_stale_partials((fs::path(dir) / "frames").string());
+  remove_stale_partials((fs::path(dir) / "old_frames").string());
+  fs::remove_all(fresh, ec);
+  fs::create_directory(fresh, ec);
+  if (ec) throw InputError(dir + ": cannot write the frames: " + ec.message());
+  struct RemoveFolder {
+    fs::path path;
+    ~RemoveFolder() {
+      std::error_code e;
+      fs::remove_all(path, e);
+    }
+  } remove_fresh{fresh};
+
   const int ss = std::max(1, std::min(opt.supersample, 8192 / std::max(opt.width, opt.height)));
   OffscreenRenderer renderer(opt.width, opt.height, ss);
   const RenderStyle style;
@@ -209,7 +268,8 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   std::size_t broken_frames = 0;
   const double t0 = frames.t.front(), t1 = frames.t.back();
   for (std::size_t k = 0; k < chosen.size(); ++k) {
-    if (interrupted()) throw InputError(dir + ": interrupted after " + std::to_string(k) + " frames");
+    if (interrupted())
+      throw InputError(dir + ": interrupted after " + std::to_string(k) + " frames; the previous frames are kept");
     const std::size_t f = chosen[k];
     frames.read_virtual_positions(f, q);
     const bool dropped = finite_triangles(q, frames.triangles, kept) > 0;
@@ -245,10 +305,12 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     if (by_disp)
       text.push_back({"Comment", "tissue colour = displacement from rest, 0 (blue, bottom of the bar) to " +
                                      fmt_mm(summary.displacement_range) + " (red, top)"});
-    const std::string path = (fs::path(dir) / name).string();
-    write_png(path, img, text);
-    summary.files.push_back(path);
+    write_png((fresh / name).string(), img, text);
+    summary.files.push_back((fs::path(dir) / name).string());
   }
+  if (interrupted())
+    throw InputError(dir + ": interrupted after " + std::to_string(chosen.size()) + " frames; the previous frames are kept");
+  replace_frames(dir, fresh);
   if (broken_frames > 0)
     summary.warnings.push_back(replay + ": " + std::to_string(broken_frames) +
                                " frames have non-finite virtual-mesh positions (the simulation blew up); their "

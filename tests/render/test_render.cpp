@@ -8,10 +8,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <optional>
 #include <sstream>
 
 #include "core/error.hpp"
+#include "io/atomic.hpp"
 #include "io/h5.hpp"
 #include "render/camera.hpp"
 #include "render/image.hpp"
@@ -37,6 +39,11 @@ struct Scratch {
   ~Scratch() { fs::remove_all(dir); }
   std::string operator/(const std::string& n) const { return (dir / n).string(); }
 };
+
+std::string slurp_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
 
 constexpr int kGrid = 11;            // vertices per side of the patch
 constexpr double kHalf = 0.02;       // m, half the patch's side
@@ -480,6 +487,42 @@ TEST(Render, StaleFramesAreRemovedAndOtherFilesKept) {
   EXPECT_FALSE(fs::exists(s / "out/frame_00099.png"));
   EXPECT_TRUE(fs::exists(s / "out/notes.txt"));
   EXPECT_TRUE(fs::exists(s / "out/frame_00002.png"));
+}
+
+// The new frames take the old ones' place only once all are written: an interrupted render keeps
+// the previous frames and leaves no hidden folder.
+TEST(Render, AnInterruptedRenderKeepsThePreviousFrames) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  RenderOptions o;
+  o.width = 64;
+  o.height = 48;
+  render_replay(s / "r.h5", s / "out", o);
+  const std::string before = slurp_file(s / "out/frame_00001.png");
+  o.camera = "top";
+  set_interrupted(true);
+  EXPECT_THROW(render_replay(s / "r.h5", s / "out", o), InputError);
+  set_interrupted(false);
+  EXPECT_EQ(slurp_file(s / "out/frame_00001.png"), before);
+  int entries = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(s / "out")) ++entries;
+  EXPECT_EQ(entries, 3);  // frame_00000 .. frame_00002, nothing hidden beside them
+}
+
+// frame_*.png files in the folder are the render's: a replay named like one is refused, not removed.
+TEST(Render, AReplayNamedLikeAFrameIsRefused) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  fs::create_directories(s / "out");
+  write_synthetic(s / "out/frame_00003.png");
+  try {
+    render_replay(s / "out/frame_00003.png", s / "out", RenderOptions{});
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the frames would replace the replay"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(fs::exists(s / "out/frame_00003.png"));
 }
 
 TEST(Render, VideoWithoutFfmpegIsAClearError) {

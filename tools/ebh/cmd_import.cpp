@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "core/error.hpp"
@@ -41,7 +42,14 @@ void run(const ImportArgs& a) {
       throw ebh::InputError(std::string("--scene: ") + e.what());
     }
   }
-  ebh::check_outputs({{a.output, "the recording to write"}}, {{a.log, "the log"}});
+  // The log and, with --scene, the scene's files are inputs the recording must not replace.
+  std::vector<ebh::RoleFile> inputs{{a.log, "the log"}};
+  std::optional<ebh::Scene> scene;
+  if (!scene_file.empty()) {
+    scene = ebh::load_scene(scene_file);
+    for (const ebh::SceneInputFile& f : ebh::scene_input_files(scene->spec)) inputs.push_back({f.path.string(), f.what});
+  }
+  ebh::check_outputs({{a.output, "the recording to write"}}, inputs);
   opt.rate_hz = a.rate_hz;
   if (!a.unit.empty()) opt.unit = ebh::parse_length_unit(a.unit);
   // The transforms' translations are in the log's unit (its format's default when --unit is absent).
@@ -52,7 +60,7 @@ void run(const ImportArgs& a) {
     opt.transforms.tool = ebh::parse_rigid_transform("--tool-transform", a.tool_transform, log_unit);
   // The scene's physical mesh, for the unit sanity check (loaded before any output is written).
   std::optional<ebh::BoundingBox> mesh_box;
-  if (!scene_file.empty()) mesh_box = ebh::bounding_box(ebh::load_scene(scene_file).physical.vertices);
+  if (scene) mesh_box = ebh::bounding_box(scene->physical.vertices);
   // A scene file is named relative to the recording's folder, where readers look first.
   opt.scene = scene_file.empty() ? a.scene : ebh::scene_attribute_for(a.scene, scene_file, a.output);
   opt.tool = a.tool;

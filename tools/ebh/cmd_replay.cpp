@@ -258,6 +258,11 @@ void run_replay(const ReplayArgs& a) {
   if (std::error_code ec; !a.render_dir.empty() && std::filesystem::exists(a.render_dir, ec) &&
                           !std::filesystem::is_directory(a.render_dir, ec))
     throw InputError("--render " + a.render_dir + ": not a folder");
+  // A folder named like an output would fail only after the replay wrote that output.
+  for (const RoleFile& o : replay_outputs(a))
+    if (!a.render_dir.empty() && std::filesystem::absolute(a.render_dir).lexically_normal() ==
+                                     std::filesystem::absolute(o.path).lexically_normal())
+      throw InputError("--render " + a.render_dir + ": is the name of " + o.role + " (-o): name another folder");
   PreparedReplay p;
   p.in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz, a.allow_outside, backend,
                             a.transforms);

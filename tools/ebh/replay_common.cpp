@@ -1,6 +1,7 @@
 #include "replay_common.hpp"
 
 #include <cstdio>
+#include <filesystem>
 
 #include "core/error.hpp"
 #if EBH_HAVE_CUDA
@@ -36,7 +37,17 @@ void index_replay_frames(const std::string& replay_file) {
     const h5::File f = h5::File::open_read(replay_file);
     if (!f.has("frames/t") || f.dataset("frames/t").shape().at(0) == 0) return;
   }
-  write_xdmf(replay_file);
+  // Written after the replay output, from it: a failure here leaves the output written and an
+  // index of the previous one, if any, which no longer matches it.
+  try {
+    write_xdmf(replay_file);
+  } catch (const InputError& e) {
+    std::error_code ec;
+    const bool stale_removed = std::filesystem::remove(xdmf_path_for(replay_file), ec);
+    throw InputError(std::string(e.what()) + " (" + replay_file + " is written" +
+                     (stale_removed ? "; the previous index, which no longer matched it, is removed" : "") +
+                     "; `ebh render " + replay_file + " --xdmf-only` writes the index again)");
+  }
 }
 
 }  // namespace ebh::cli

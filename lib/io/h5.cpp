@@ -310,6 +310,27 @@ std::vector<double> Object::attr_doubles(const std::string& name) const {
 // ---------------------------------------------------------------------------------------------
 // Dataset
 
+namespace {
+/// A failed read's message: a filter the dataset was written with that this HDF5 library lacks
+/// (h5py's lzf, a blosc plugin) by its name and what to do, else "cannot read the dataset".
+std::string read_failure(hid_t dataset) {
+  Handle plist(H5Dget_create_plist(dataset));
+  const int n = plist.get() >= 0 ? H5Pget_nfilters(plist.get()) : 0;
+  for (int i = 0; i < n; ++i) {
+    unsigned flags = 0, config = 0;
+    std::size_t nvalues = 0;
+    char name[64] = "";
+    const H5Z_filter_t filter = H5Pget_filter2(plist.get(), static_cast<unsigned>(i), &flags, &nvalues, nullptr,
+                                               sizeof name, name, &config);
+    if (filter >= 0 && H5Zfilter_avail(filter) <= 0)
+      return "cannot read the dataset: it is compressed with the filter '" + std::string(name) + "' (id " +
+             std::to_string(filter) + "), which this HDF5 library does not have: save it with gzip " +
+             "(h5py: compression='gzip') or none";
+  }
+  return "cannot read the dataset";
+}
+}  // namespace
+
 std::vector<std::size_t> Dataset::shape() const {
   Handle space(H5Dget_space(id()));
   int rank = H5Sget_simple_extent_ndims(space.get());
@@ -348,7 +369,7 @@ std::vector<std::string> Dataset::read_strings() const {
   if (H5Tis_variable_str(type.get()) > 0) {
     Handle mt = string_type();
     std::vector<char*> p(out.size(), nullptr);
-    check_status(H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()), where(), "cannot read the dataset");
+    check_status(H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()), where(), read_failure(id()));
     for (std::size_t i = 0; i < out.size(); ++i) {
       out[i] = p[i] ? p[i] : "";
       H5free_memory(p[i]);
@@ -359,7 +380,7 @@ std::vector<std::string> Dataset::read_strings() const {
   std::vector<char> buf(out.size() * size);
   Handle mt(H5Tcopy(H5T_C_S1));
   H5Tset_size(mt.get(), size);
-  check_status(H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()), where(), "cannot read the dataset");
+  check_status(H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()), where(), read_failure(id()));
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = std::string(&buf[i * size], strnlen(&buf[i * size], size));
   return out;
 }
@@ -367,7 +388,7 @@ std::vector<std::string> Dataset::read_strings() const {
 void Dataset::read_into(Type t, void* out) const {
   Handle space(H5Dget_space(id()));
   if (H5Sget_simple_extent_npoints(space.get()) == 0) return;
-  check_status(H5Dread(id(), mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, out), where(), "cannot read the dataset");
+  if (H5Dread(id(), mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, out) < 0) fail(where(), read_failure(id()));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -518,7 +539,19 @@ File File::open_read(const std::string& path) {
   check_input_file(path);
   if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path + ": not an HDF5 file");
   hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) throw InputError(path + ": cannot open HDF5 file");
+  if (f < 0) {
+#if H5_VERSION_GE(1, 10, 7)
+    // A program writing the file holds HDF5's lock on it (a logger still running): named as such.
+    Handle fapl(H5Pcreate(H5P_FILE_ACCESS));
+    H5Pset_file_locking(fapl.get(), false, true);
+    if (const hid_t unlocked = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()); unlocked >= 0) {
+      H5Fclose(unlocked);
+      throw InputError(path + ": cannot open HDF5 file: another program has it open for writing (a logger still "
+                              "running?); close it first, or read a copy");
+    }
+#endif
+    throw InputError(path + ": cannot open HDF5 file");
+  }
   return File(std::make_shared<Handle>(f, std::make_shared<FileState>()), path);
 }
 

@@ -60,8 +60,17 @@ bool blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
 
 // A CSV line's fields: separated by a comma (blanks around it belong to the separator) or by a run
 // of spaces or tabs. An empty field between two commas is kept (and refused as a number), so a
-// missing cell is named rather than shifting the columns after it.
+// missing cell is named rather than shifting the columns after it. A field in double quotes
+// (RFC 4180, as Python's csv module and spreadsheets may write every field) is read without them.
+std::vector<std::string> split_csv_quoted(const std::string& s);
 std::vector<std::string> split_csv(const std::string& s) {
+  std::vector<std::string> out = split_csv_quoted(s);
+  for (std::string& f : out)
+    if (f.size() >= 2 && f.front() == '"' && f.back() == '"') f = f.substr(1, f.size() - 2);
+  return out;
+}
+
+std::vector<std::string> split_csv_quoted(const std::string& s) {
   std::vector<std::string> out;
   std::string cur;
   std::size_t i = 0;
@@ -206,9 +215,12 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
         std::strtod(tok[0].c_str(), &end);
         words = end == tok[0].c_str();
       }
+      const bool semicolons = l.text.find(';') != std::string::npos;
       throw InputError(where + ": " + std::to_string(tok.size()) +
                        " fields, expected 16 transform elements, the jaw and button states" +
-                       (words ? " (read as an OpenHaptics log; a CSV log with a header needs --format csv)" : ""));
+                       (words        ? " (read as an OpenHaptics log; a CSV log with a header needs --format csv)"
+                        : semicolons ? " (fields are separated by spaces, tabs or commas, not ';')"
+                                     : ""));
     }
     if (tok.size() > 17 + 8) {
       // "0,25 0,5 ...": numbers written with decimal commas split in two at the comma.
@@ -230,9 +242,19 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
     for (int k = 0; k < 16; ++k)
       if (!std::isfinite(m[k])) throw InputError(where + ": element " + std::to_string(k) + " is NaN or Inf");
     // Column-major: element (r, c) = m[4 c + r]; the bottom row must be (0, 0, 0, 1).
-    if (std::abs(m[3]) > 1e-6 || std::abs(m[7]) > 1e-6 || std::abs(m[11]) > 1e-6 || std::abs(m[15] - 1) > 1e-6)
-      throw InputError(where + ": not a homogeneous transform (elements 3, 7, 11, 15 must be 0, 0, 0, 1; is it "
-                               "row-major?)");
+    if (std::abs(m[3]) > 1e-6 || std::abs(m[7]) > 1e-6 || std::abs(m[11]) > 1e-6 || std::abs(m[15] - 1) > 1e-6) {
+      // Shifted by one, the bottom row is at elements 4, 8, 12, 16: a column before the matrix (a time).
+      const bool shifted = tok.size() >= 17 && std::abs(to_number(tok[4], where, "element 4")) <= 1e-6 &&
+                           std::abs(to_number(tok[8], where, "element 8")) <= 1e-6 &&
+                           std::abs(to_number(tok[12], where, "element 12")) <= 1e-6 &&
+                           std::abs(to_number(tok[16], where, "element 16") - 1) <= 1e-6;
+      throw InputError(where + ": not a homogeneous transform (elements 3, 7, 11, 15 must be 0, 0, 0, 1; " +
+                       (shifted ? std::string("they are one field later: a column before the 16 elements, a time? An "
+                                              "OpenHaptics log holds only the matrix, the jaw and the buttons; a log "
+                                              "with times is a CSV log (docs/FORMATS.md)")
+                                : std::string("is it row-major?")) +
+                       ")");
+    }
     Eigen::Matrix3d M;
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) M(r, c) = m[4 * c + r];
@@ -258,7 +280,23 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
     if (!have_header) {
       have_header = true;
       header = split_csv(l.text);
+      // What a header line written by another tool may look like, named before "unknown column".
+      const bool numbers = std::all_of(header.begin(), header.end(), [](const std::string& f) {
+        char* e = nullptr;
+        (void)std::strtod(f.c_str(), &e);
+        return !f.empty() && *e == '\0';
+      });
+      if (numbers)
+        throw InputError(at(path, l.number) + ": no header line: the first line that is not a comment holds numbers " +
+                         "(a header commented out with '#', as numpy.savetxt writes it? write it as the first line " +
+                         "without '#': t,x,y,z,qw,qx,qy,qz)");
       for (std::size_t i = 0; i < header.size(); ++i) {
+        if (header[i].empty())
+          throw InputError(at(path, l.number) + ": column " + std::to_string(i + 1) + " has no name" +
+                           (i == 0 ? " (the index pandas writes? save with to_csv(..., index=False))" : ""));
+        if (header[i].front() == '[' || header[i].front() == '(')
+          throw InputError(at(path, l.number) + ": '" + header[i] + "': units in the header are not read: name the " +
+                           "columns t, x, y, z, ... and give the length unit with --unit (times are in seconds)");
         std::string h = header[i];
         std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
         if (std::find(known.begin(), known.end(), h) == known.end())

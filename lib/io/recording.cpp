@@ -1,6 +1,7 @@
 #include "io/recording.hpp"
-
+#include <cctype>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -124,6 +125,16 @@ Recording read_recording(const std::string& path) {
   h5::Dataset td = g.dataset("t");
   if (td.has_attr("unit") && td.attr_string("unit") != "s")
     throw InputError(td.where() + ": unit '" + td.attr_string("unit") + "', expected 's'");
+  // The quaternion's order, where its unit says it: (x, y, z, w), as scipy and ROS store it, read
+  // as (w, x, y, z) would be another rotation of unit norm, which no check would catch.
+  if (h5::Dataset od = g.dataset("orientation"); od.has_attr("unit")) {
+    std::string order;
+    for (char c : od.attr_string("unit"))
+      if (std::isalpha(static_cast<unsigned char>(c))) order += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (order.find("xyzw") != std::string::npos && order.find("wxyz") == std::string::npos)
+      throw InputError(od.where() + ": unit '" + od.attr_string("unit") + "': a quaternion stored (x, y, z, w); " +
+                       "recordings store (w, x, y, z): move the last column first");
+  }
 
   validate_recording(rec, path, [&path](std::string_view ds, std::size_t i) {
     return path + ": " + std::string(ds) + "[" + std::to_string(i) + "]";

@@ -112,6 +112,11 @@ TEST(Import, DefectsNameFileAndLine) {
   EXPECT_INPUT_ERROR(import_log(p, opt), "f.txt:1", "16 fields");
   p = write("g.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n1 0 0 5 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "g.txt:2", "homogeneous");
+  // a time column before the matrix: the bottom row one field later; ';' between the fields
+  p = write("times.txt", "0.001 1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "times.txt:1", "homogeneous", "one field later: a column before the 16 elements");
+  p = write("semi.txt", "1;0;0;0;0;1;0;0;0;0;1;0;5;6;7;1;1;0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "semi.txt:1", "1 fields", "not ';'");
   // a log written with decimal commas: every number splits in two
   p = write("h.txt", "1 0 0 0 0 1 0 0 0 0 1 0 2,5 6,25 7,5 1 1 0 0,5 0,5 0,5 0,5 0,5 0,5 0,5 0,5\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "h.txt:1", "more than 8 button states (decimal commas? write the numbers with a '.'");
@@ -159,6 +164,32 @@ TEST(Import, SpreadsheetCsvFilesAreReadOrRefusedWithWhatToChange) {
                      "utf16.csv:1: UTF-16 text", "save the log as UTF-8");
   EXPECT_INPUT_ERROR(import_log(write("semi.csv", "t;x;y;z;qw;qx;qy;qz\n0;0;0;0;1;0;0;0\n"), opt),
                      "semi.csv:1: unknown column", "not ';'");
+}
+
+// What Python writes: quoted fields (csv.QUOTE_NONNUMERIC, QUOTE_ALL) are read; a header that
+// numpy.savetxt commented out, pandas' unnamed index column and units in the header are named.
+TEST(Import, CsvFromPythonIsReadOrNamed) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::FILE* f = std::fopen((tmp / name).c_str(), "wb");
+    std::fputs(text.c_str(), f);
+    std::fclose(f);
+    return tmp / name;
+  };
+  const Recording q = import_log(
+      write("quoted.csv", "\"t\",\"x\",\"y\",\"z\",\"qw\",\"qx\",\"qy\",\"qz\"\n\"0\",\"0.1\",0,0,1,0,0,0\n0.001,0.2,0,0,1,0,0,0\n"),
+      opt);
+  ASSERT_EQ(q.size(), 2u);
+  EXPECT_EQ(q.position[0].x, 0.1);
+  EXPECT_EQ(q.t[1], 0.001);
+  EXPECT_INPUT_ERROR(
+      import_log(write("savetxt.csv", "# t,x,y,z,qw,qx,qy,qz\n0.0,0.1,0,0,1,0,0,0\n0.001,0.2,0,0,1,0,0,0\n"), opt),
+      "savetxt.csv:2: no header line", "numpy.savetxt");
+  EXPECT_INPUT_ERROR(import_log(write("pandas.csv", ",t,x,y,z,qw,qx,qy,qz\n0,0,0.1,0,0,1,0,0,0\n"), opt),
+                     "pandas.csv:1: column 1 has no name", "index=False");
+  EXPECT_INPUT_ERROR(import_log(write("units.csv", "t [s],x,y,z,qw,qx,qy,qz\n0,0.1,0,0,1,0,0,0\n"), opt),
+                     "units.csv:1: '[s]': units in the header are not read", "--unit");
 }
 
 // The separators the docs promise: a comma (blanks around it included) or a run of spaces or

@@ -140,6 +140,14 @@ TEST(Recording, SchemaDefectsNameDatasetAndIndex) {
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/jaw[2]", "NaN or Inf");
   defect([](RawRecording&) {}, "scene");
   EXPECT_INPUT_ERROR(read_recording(p), p, "missing attribute 'scene'");
+  // A quaternion whose unit says (x, y, z, w): another rotation of unit norm if read as (w, x, y, z).
+  {
+    RawRecording raw(good);
+    raw.write(p, [&](h5::Group&) {}, "orientation");
+    h5::File f = h5::File::open_write(p);
+    f.group("trajectory").write<double>("orientation", raw.ori, {10, 4}).set_attr("unit", "quaternion (x, y, z, w)");
+  }
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/orientation", "stored (x, y, z, w)");
   {
     h5::File f = h5::File::create(p);
     f.write<double>("t", std::vector<double>{0}, {1});

@@ -297,7 +297,8 @@ PhysicalEnergy physical_energy(const PhysicalModel& model, std::span<const Vec3d
 /// The health check after a step (STYLE.md's run-time tier): "" when x (#n) is finite and has not
 /// diverged, else one line naming the worst vertex and the worst-shaped tet around it. Diverged:
 /// a vertex farther from its rest position than 10 times the mesh's bounding-box diagonal, or
-/// report.residual above 1e4 (an unbalanced force of 10^4 times the mesh's weight).
+/// report.residual above 1e4 (an unbalanced force of 10^4 times the mesh's weight); with no vertex
+/// moved more than 1e-4 diagonals, that residual is said as "did not converge".
 std::string physical_state_problem(const PhysicalModel& model, std::span<const Vec3d> x,
                                    const PhysicalStepReport& report);
 

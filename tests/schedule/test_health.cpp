@@ -102,6 +102,31 @@ TEST(Health, TheStopNamesWhatTheBackendCanChange) {
   EXPECT_EQ(cuda.find('\n'), std::string::npos) << cuda;
 }
 
+// A step whose residual is huge while the mesh stays still (float32 round-off at k_vol = 1e12 on
+// the CUDA backend) did not converge; it did not diverge.
+TEST(Health, AHugeResidualOfAStillMeshIsNotCalledADivergence) {
+  const World w = *build_world(load_scene(resolve_scene_path("tube")), 1000, 100);
+  PhysicalSide p;
+  p.mesh.x = w.physical_mesh.rest;
+  p.mesh.x[3].y += 6e-9;
+  p.report.residual = 3.7e4;
+  p.step = 1;
+  try {
+    check_physical_step(w, p);
+    FAIL() << "no stop";
+  } catch (const NumericalError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("the physical mesh did not converge (residual 3.7e+04 mesh weights)"), std::string::npos) << m;
+  }
+  p.mesh.x[3].y += 0.01;  // a centimetre: a mesh that moves
+  try {
+    check_physical_step(w, p);
+    FAIL() << "no stop";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("the physical mesh diverged"), std::string::npos) << e.what();
+  }
+}
+
 // k_s above k_svc is named as a cause only where the step runs beside the ticks: a lockstep step
 // (which the hint recommends) cannot be driven by the virtual mesh's lag.
 TEST(Health, TheStopNamesKsAboveKsvcOnlyBesideTheTicks) {

@@ -203,6 +203,10 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
   // The output's folder is made when missing (`-o out/run.h5` on a fresh checkout).
   const fs::path parent = p.parent_path();
   if (!parent.empty() && !fs::exists(parent, ec)) {
+    for (fs::path f = parent; !f.empty() && !fs::exists(f, ec); f = f.parent_path()) {
+      made_folders_.push_back(f.string());
+      if (f == f.parent_path()) break;
+    }
     fs::create_directories(parent, ec);
     if (ec) throw InputError(final_ + ": cannot create the folder " + parent.string() + ": " + ec.message());
   }
@@ -228,7 +232,13 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
 }
 
 AtomicOutput::~AtomicOutput() {
-  if (!committed_) discard();
+  if (!committed_) {
+    discard();
+    for (const std::string& f : made_folders_) {  // deepest first; stops at one that is not empty
+      std::error_code ec;
+      if (!fs::remove(f, ec)) break;
+    }
+  }
   unregister_temp(slot_);
 }
 

@@ -45,7 +45,8 @@ class AtomicOutput {
  public:
   /// Creates the (empty) temporary file, making the output's folder when it is missing, after
   /// removing stale temporaries of the same final path. Throws InputError naming the final path
-  /// and the OS reason when the output cannot be created there ("Not a directory").
+  /// and the OS reason when the output cannot be created there ("Not a directory"). An output
+  /// that is not committed removes the folders it made, where they stayed empty.
   explicit AtomicOutput(std::string final_path);
   ~AtomicOutput();
   AtomicOutput(const AtomicOutput&) = delete;
@@ -74,6 +75,7 @@ class AtomicOutput {
   std::string temp_;
   int slot_ = -1;  // index in the signal handler's table of temporary files
   bool committed_ = false;
+  std::vector<std::string> made_folders_;  // made for the output, deepest first: removed (when empty) on failure
 };
 
 /// Writes `bytes` to `path` atomically (an AtomicOutput, every write checked, commit). Errors name

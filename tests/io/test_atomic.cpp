@@ -155,6 +155,21 @@ TEST(Atomic, ALinkAtTheTemporarysNameIsNotFollowed) {
   EXPECT_FALSE(fs::exists(fs::symlink_status(partial_path_for(out))));
 }
 
+// The folders an output made are removed with it when it is not committed (a failed run leaves
+// no empty folder tree); a folder that holds something else stays.
+TEST(Atomic, AnOutputNotCommittedRemovesTheFoldersItMade) {
+  test::ScratchDir tmp;
+  { AtomicOutput out((tmp.dir / "new/sub/o.h5").string()); }
+  EXPECT_FALSE(fs::exists(tmp.dir / "new"));
+  fs::create_directories(tmp.dir / "kept");
+  { std::ofstream(tmp.dir / "kept/mine.txt") << "mine"; }
+  { AtomicOutput out((tmp.dir / "kept/sub/o.h5").string()); }
+  EXPECT_FALSE(fs::exists(tmp.dir / "kept/sub"));
+  EXPECT_TRUE(fs::exists(tmp.dir / "kept/mine.txt"));
+  write_file_atomically((tmp.dir / "made/o.txt").string(), "x");  // committed: the folder stays
+  EXPECT_TRUE(fs::exists(tmp.dir / "made/o.txt"));
+}
+
 // Files that belong together (a mesh and the scene naming it): an interrupt before the renames
 // leaves both previous files; without one both are replaced.
 TEST(Atomic, FilesThatBelongTogetherAreReplacedTogether) {

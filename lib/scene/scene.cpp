@@ -67,6 +67,20 @@ std::string join(const std::vector<std::string>& v) {
   return s;
 }
 
+/// The override that gave `key` its value: one of whose keys (override_keys: a map's leaves) is
+/// `key`, holds it (a list or a value set whole: `gravity=[0,0,0]`) or lies under it (maps made
+/// along its path: `a.b.c.d=1` for key a); the last such when several do. Null when the file gave it.
+const std::string* override_giving(const std::vector<std::string>& overrides, const std::string& key) {
+  auto under = [](const std::string& a, const std::string& b) {  // key a lies under key b
+    return a.size() > b.size() && a.compare(0, b.size(), b) == 0 && (a[b.size()] == '.' || a[b.size()] == '[');
+  };
+  const std::string* found = nullptr;
+  for (const std::string& o : overrides)
+    for (const std::string& k : override_keys(o))
+      if (k == key || under(key, k) || under(k, key)) found = &o;
+  return found;
+}
+
 /// Parses and validates the YAML tree. Every check names the dotted key, and the override
 /// ("key=value", applied to the tree before) that gave the key its value when one did.
 class SpecReader {
@@ -84,20 +98,8 @@ class SpecReader {
     throw InputError(file_.string() + ": key '" + key + "': " + what);
   }
 
-  /// The override that gave `key` its value: one whose key is `key`, holds it (a map or list set
-  /// whole: `tool={kind: hook}` for tool.kind) or lies under it (maps made along its path:
-  /// `a.b.c.d=1` for key a); the last such when several do. Null when the file gave it.
-  const std::string* override_of(const std::string& key) const {
-    auto under = [](const std::string& a, const std::string& b) {  // key a lies under key b
-      return a.size() > b.size() && a.compare(0, b.size(), b) == 0 && (a[b.size()] == '.' || a[b.size()] == '[');
-    };
-    const std::string* found = nullptr;
-    for (const std::string& o : overrides_) {
-      const std::string k = o.substr(0, o.find('='));
-      if (k == key || under(key, k) || under(k, key)) found = &o;
-    }
-    return found;
-  }
+  /// override_giving over this reader's overrides.
+  const std::string* override_of(const std::string& key) const { return override_giving(overrides_, key); }
 
   /// The entries of a map node, checked: keys are plain strings, unique and among `allowed`.
   std::map<std::string, YAML::Node> entries(const YAML::Node& node, const std::string& key,
@@ -235,6 +237,7 @@ class SpecReader {
   SceneSpec read(const YAML::Node& root) {
     SceneSpec s;
     s.file = file_;
+    s.overrides = overrides_;
     s.name = file_.stem().string();
     const auto top = entries(root, "", {"name", "description", "unit", "mesh", "material", "stiffness", "gravity",
                                         "damping", "pinned", "tool", "time", "solver", "contact", "camera", "stages"});
@@ -585,15 +588,16 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
   for (const auto& [key, size] : tool_contact_sizes(t)) {
     const std::string value = "tool." + key + " = " + in_unit(size, t.unit, t.unit_name);
     const std::string diag = " the physical mesh's bounding-box diagonal (" + in_unit(diagonal, t.unit, t.unit_name) + ")";
-    if (size > kToolSizeMaxRatio * diagonal) out.push_back(file + value + " is larger than" + diag + ": " + units);
-    else if (size < kToolSizeMinRatio * diagonal) out.push_back(file + value + " is below 1/1000 of" + diag + ": " + units);
+    const std::string from = value_source(s, "tool." + key) + ": ";
+    if (size > kToolSizeMaxRatio * diagonal) out.push_back(from + value + " is larger than" + diag + ": " + units);
+    else if (size < kToolSizeMinRatio * diagonal) out.push_back(from + value + " is below 1/1000 of" + diag + ": " + units);
   }
   if (t.shaft_radius < 0.5e-3 || t.shaft_radius > 10e-3)
-    out.push_back(file + "tool.shaft_radius = " + in_unit(t.shaft_radius, t.unit, t.unit_name) + " (" +
+    out.push_back(value_source(s, "tool.shaft_radius") + ": tool.shaft_radius = " + in_unit(t.shaft_radius, t.unit, t.unit_name) + " (" +
                   shown_number(t.shaft_radius * 1e3) + " mm): laparoscopic shafts are 3-12 mm across; is tool.unit (" +
                   t.unit_name + ") right?");
   if (t.shaft_length < 0.05 || t.shaft_length > 1.0)
-    out.push_back(file + "tool.shaft_length = " + in_unit(t.shaft_length, t.unit, t.unit_name) + " (" +
+    out.push_back(value_source(s, "tool.shaft_length") + ": tool.shaft_length = " + in_unit(t.shaft_length, t.unit, t.unit_name) + " (" +
                   shown_number(t.shaft_length) + " m): laparoscopic shafts are about 0.3-0.45 m long; is tool.unit (" +
                   t.unit_name + ") right?");
   // The solver's movement thresholds are tolerances of a few micrometres (the committed scenes and
@@ -604,7 +608,8 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
                                                        {"solver.active_region", s.solver.active_region}};
   for (const auto& [key, value] : thresholds)
     if (value > kSolverThresholdMaxRatio * diagonal)
-      out.push_back(file + key + " = " + in_unit(value, s.unit, s.unit_name) + " is over 1% of the physical mesh's " +
+      out.push_back(value_source(s, key) + ": " + key + " = " + in_unit(value, s.unit, s.unit_name) +
+                    " is over 1% of the physical mesh's " +
                     "bounding-box diagonal (" + in_unit(diagonal, s.unit, s.unit_name) +
                     "): a movement threshold that large keeps the mesh still under the tool (the committed scenes use " +
                     "0.0003 .. 0.03 mm; its unit is the scene's unit, " + s.unit_name + ")");
@@ -821,6 +826,49 @@ Scene load_scene_text(const std::string& yaml, const fs::path& file) {
   return build_scene(read_spec(parse_scene_yaml(yaml, file), file));
 }
 
+std::string value_source(const SceneSpec& spec, const std::string& key) {
+  const std::string* o = override_giving(spec.overrides, key);
+  return o ? OverrideError::set_option_shown(*o) : spec.file.string();
+}
+
+namespace {
+/// Throws "FILE: key 'KEY': WHAT", or the OverrideError of the override that gave the key its value.
+[[noreturn]] void fail_scene_key(const SceneSpec& spec, const std::string& key, const std::string& what) {
+  if (const std::string* o = override_giving(spec.overrides, key)) throw OverrideError(*o, "key '" + key + "': " + what);
+  throw InputError(spec.file.string() + ": key '" + key + "': " + what);
+}
+
+// The tool's springs and the device's limit: a haptic device renders about 0.1 .. 10 kN/m and a
+// few newtons (a Geomagic Touch: 3.3 N); the virtual mesh's springs act per surface vertex. Wide
+// ranges around them, which no committed scene or sweep leaves: values beyond are typing errors
+// (5e-324 renders no force, 1e12 a torque of meganewton metres).
+struct Plausible {
+  const char* key;
+  double value, low, high;
+  const char* unit;
+  const char* what;
+};
+constexpr const char* kDeviceStiffness = "a haptic device's stiffness (about 0.1 .. 10 kN/m)";
+constexpr const char* kSurfaceSpring = "a tissue surface spring's stiffness per vertex";
+
+/// "" or the warning of a value outside its plausible range, naming where the value came from.
+std::string implausible(const SceneSpec& spec, const Plausible& p) {
+  if (p.value >= p.low && p.value <= p.high) return "";
+  return value_source(spec, p.key) + ": " + p.key + " = " + shown_number(p.value) + " " + p.unit + " is outside " +
+         shown_number(p.low) + " .. " + shown_number(p.high) + " " + p.unit + ", the range of " + p.what;
+}
+}  // namespace
+
+std::vector<std::string> tool_stiffness_warnings(const SceneSpec& spec) {
+  std::vector<std::string> out;
+  for (const Plausible& p : {Plausible{"stiffness.k_con", spec.stiffness.k_con, 1, 1e5, "N/m", kDeviceStiffness},
+                             Plausible{"stiffness.k_vcs", spec.stiffness.k_vcs, 1, 1e5, "N/m", kDeviceStiffness},
+                             Plausible{"stiffness.k_vct", spec.stiffness.k_vct, 1e-4, 100, "N m/rad",
+                                       "a haptic device's rotational stiffness"}})
+    if (std::string w = implausible(spec, p); !w.empty()) out.push_back(std::move(w));
+  return out;
+}
+
 std::string edges_outweigh_coupling_warning(const SceneSpec& spec) {
   if (!spec.stiffness.edges_outweigh_coupling()) return "";
   // A denormal k_svc makes the ratio overflow: no "inf times".
@@ -828,7 +876,7 @@ std::string edges_outweigh_coupling_warning(const SceneSpec& spec) {
   char times[48];
   if (ratio <= 1e6) std::snprintf(times, sizeof times, "%.3g times", ratio);
   else std::snprintf(times, sizeof times, "more than a million times");
-  return spec.file.string() + ": stiffness.k_s is " + times +
+  return value_source(spec, "stiffness.k_s") + ": stiffness.k_s is " + times +
          " k_svc: in async mode (the default) the virtual and the physical mesh can drive "
          "each other unstable (the gap and tube scenes diverge with no tool contact at 2 times); "
          "raise k_svc with k_s, or replay --mode lockstep (docs/MODEL.md, \"k_s against k_svc\")";
@@ -838,39 +886,20 @@ Scene build_scene(SceneSpec spec_in) {
   Scene scene;
   scene.spec = std::move(spec_in);
   const SceneSpec& spec = scene.spec;
-  const fs::path& file = spec.file;
   // Soft tissue: shear modulus ~100 Pa (brain) to ~1 MPa (tendon), density ~900-1100 kg/m^3.
   if (spec.stiffness.k_vol < 10 || spec.stiffness.k_vol > 1e8)
-    scene.warnings.push_back(file.string() + ": stiffness.k_vol = " + shown_number(spec.stiffness.k_vol) +
+    scene.warnings.push_back(value_source(spec, "stiffness.k_vol") + ": stiffness.k_vol = " + shown_number(spec.stiffness.k_vol) +
                              " Pa is outside soft tissue's 10 Pa .. 100 MPa");
   if (spec.density < 100 || spec.density > 3000)
-    scene.warnings.push_back(file.string() + ": material.density = " + shown_number(spec.density) +
+    scene.warnings.push_back(value_source(spec, "material.density") + ": material.density = " + shown_number(spec.density) +
                              " kg/m^3 is outside soft tissue's 100 .. 3000");
   if (norm(spec.gravity) > 2 * 9.81)
-    scene.warnings.push_back(file.string() + ": |gravity| = " + shown_number(norm(spec.gravity)) + " m/s^2 is over 2 g");
-  // The tool's springs and the device's limit: a haptic device renders about 0.1 .. 10 kN/m and a
-  // few newtons (a Geomagic Touch: 3.3 N); the virtual mesh's springs act per surface vertex. Wide
-  // ranges around them, which no committed scene or sweep leaves: values beyond are typing errors
-  // (5e-324 renders no force, 1e12 a torque of meganewton metres).
-  struct Plausible {
-    const char* key;
-    double value, low, high;
-    const char* unit;
-    const char* what;
-  };
-  const Plausible plausible[] = {
-      {"stiffness.k_con", spec.stiffness.k_con, 1, 1e5, "N/m", "a haptic device's stiffness (about 0.1 .. 10 kN/m)"},
-      {"stiffness.k_vcs", spec.stiffness.k_vcs, 1, 1e5, "N/m", "a haptic device's stiffness (about 0.1 .. 10 kN/m)"},
-      {"stiffness.k_vct", spec.stiffness.k_vct, 1e-4, 100, "N m/rad", "a haptic device's rotational stiffness"},
-      {"stiffness.k_s", spec.stiffness.k_s, 0.01, 1e6, "N/m", "a tissue surface spring's stiffness per vertex"},
-      {"stiffness.k_svc", spec.stiffness.k_svc, 0.01, 1e6, "N/m", "a tissue surface spring's stiffness per vertex"},
-      {"tool.force_limit", spec.tool.force_limit, 0.01, 100, "N", "a haptic device's force (a Geomagic Touch: 3.3 N)"},
-  };
-  for (const Plausible& p : plausible)
-    if (p.value < p.low || p.value > p.high)
-      scene.warnings.push_back(file.string() + ": " + p.key + " = " + shown_number(p.value) + " " + p.unit +
-                               " is outside " + shown_number(p.low) + " .. " + shown_number(p.high) + " " + p.unit +
-                               ", the range of " + p.what);
+    scene.warnings.push_back(value_source(spec, "gravity") + ": |gravity| = " + shown_number(norm(spec.gravity)) + " m/s^2 is over 2 g");
+  for (const Plausible& p : {Plausible{"stiffness.k_s", spec.stiffness.k_s, 0.01, 1e6, "N/m", kSurfaceSpring},
+                             Plausible{"stiffness.k_svc", spec.stiffness.k_svc, 0.01, 1e6, "N/m", kSurfaceSpring},
+                             Plausible{"tool.force_limit", spec.tool.force_limit, 0.01, 100, "N",
+                                       "a haptic device's force (a Geomagic Touch: 3.3 N)"}})
+    if (std::string w = implausible(spec, p); !w.empty()) scene.warnings.push_back(std::move(w));
   const std::string mesh_file = spec.physical_mesh.string();
 
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and
@@ -929,15 +958,16 @@ Scene build_scene(SceneSpec spec_in) {
   const double expected = file_size * spec.mesh_unit * spec.mesh_transform.scale;
   place(mesh.vertices);
   if (file_size > 0 && !(expected >= kMinPlacedDiagonal && expected <= kMaxPlacedDiagonal))
-    throw InputError(spec.file.string() + ": key 'mesh.transform.scale': " + shown_number(spec.mesh_transform.scale) +
-                     " makes the physical mesh's size " + shown_number(expected) + " m (" + shown_number(file_size) +
-                     " " + spec.mesh_unit_name + " in the file): expected " + shown_number(kMinPlacedDiagonal) + " .. " +
-                     shown_number(kMaxPlacedDiagonal) + " m, where its tets' volumes neither underflow nor overflow");
+    fail_scene_key(spec, "mesh.transform.scale",
+                   shown_number(spec.mesh_transform.scale) + " makes the physical mesh's size " + shown_number(expected) +
+                       " m (" + shown_number(file_size) + " " + spec.mesh_unit_name + " in the file): expected " +
+                       shown_number(kMinPlacedDiagonal) + " .. " + shown_number(kMaxPlacedDiagonal) +
+                       " m, where its tets' volumes neither underflow nor overflow");
   if (const double placed = size(); !(std::fabs(placed - expected) <= 1e-6 * expected))
-    throw InputError(spec.file.string() + ": key 'mesh.transform.translate': moves the physical mesh " +
-                     shown_number(max_abs(spec.mesh_transform.translate)) + " m away, where the coordinates' round-off " +
-                     "changes its size from " + shown_number(expected) + " to " + shown_number(placed) +
-                     " m: expected a translation near the mesh's size");
+    fail_scene_key(spec, "mesh.transform.translate",
+                   "moves the physical mesh " + shown_number(max_abs(spec.mesh_transform.translate)) +
+                       " m away, where the coordinates' round-off changes its size from " + shown_number(expected) +
+                       " to " + shown_number(placed) + " m: expected a translation near the mesh's size");
   check_magnitude(spec.file.string() + ": mesh.unit, mesh.transform.scale and mesh.transform.translate", " m once placed");
   scene.physical = std::move(mesh);
 

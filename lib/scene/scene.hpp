@@ -261,6 +261,9 @@ struct MeshTransform {
 /// The parsed scene file. All lengths in metres.
 struct SceneSpec {
   std::filesystem::path file;             ///< the scene file itself
+  /// The overrides ("key=value", the command line's --set) applied to the file: messages about a
+  /// value name the override that gave it (value_source).
+  std::vector<std::string> overrides;
   std::string name;
   std::string description;
   double unit = 1.0;                      ///< metres per world length unit (pinned regions, camera)
@@ -362,6 +365,15 @@ class OverrideError : public InputError {
  private:
   std::string key_message_;
 };
+
+/// Where `key`'s value came from, as messages name it: "--set 'KEY=VALUE'" when one of the spec's
+/// overrides gave it (the last such), else the scene file.
+std::string value_source(const SceneSpec& spec, const std::string& key);
+
+/// The warnings of the tool's stiffnesses (k_con, k_vcs, k_vct outside a haptic device's range).
+/// Not build_scene's: replays that differ only in them share one scene (WorldCache); the replay
+/// and `ebh scene` add them.
+std::vector<std::string> tool_stiffness_warnings(const SceneSpec& spec);
 
 /// The dotted keys an override "KEY=VALUE" sets: KEY, or where VALUE is a map each of its leaves
 /// (`time={haptic_hz: 500}` sets time.haptic_hz); KEY when VALUE does not parse.

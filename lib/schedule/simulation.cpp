@@ -365,6 +365,7 @@ std::shared_ptr<const World> WorldCache::get(SceneSpec spec, double haptic_hz, d
   w->scene.spec.stiffness.k_con = spec.stiffness.k_con;
   w->scene.spec.stiffness.k_vcs = spec.stiffness.k_vcs;
   w->scene.spec.stiffness.k_vct = spec.stiffness.k_vct;
+  w->scene.spec.overrides = spec.overrides;  // messages name this replay's overrides
   build_world_tool(*w);
   return w;
 }

@@ -238,17 +238,42 @@ TEST(Scene, ImplausibleToolAndSurfaceStiffnessesWarn) {
   bad = replace(bad, "force_limit: 3.3", "force_limit: 5e-324");
   const std::string p = write_temp("implausible.yaml", bad).string();
   const Scene s = load_scene(p);
-  ASSERT_EQ(s.warnings.size(), 6u) << ::testing::PrintToString(s.warnings);
-  EXPECT_EQ(s.warnings[0], p + ": stiffness.k_con = 4.94066e-324 N/m is outside 1 .. 100000 N/m, the range of a haptic "
-                               "device's stiffness (about 0.1 .. 10 kN/m)");
-  EXPECT_EQ(s.warnings[1], p + ": stiffness.k_vcs = 1e+06 N/m is outside 1 .. 100000 N/m, the range of a haptic "
-                               "device's stiffness (about 0.1 .. 10 kN/m)");
-  EXPECT_EQ(s.warnings[2], p + ": stiffness.k_vct = 1e+12 N m/rad is outside 0.0001 .. 100 N m/rad, the range of a "
-                               "haptic device's rotational stiffness");
-  EXPECT_NE(s.warnings[3].find("stiffness.k_s = 4.94066e-324 N/m is outside 0.01 .. 1e+06 N/m"), std::string::npos);
-  EXPECT_NE(s.warnings[4].find("stiffness.k_svc = 2e+06 N/m is outside 0.01 .. 1e+06 N/m"), std::string::npos);
-  EXPECT_EQ(s.warnings[5], p + ": tool.force_limit = 4.94066e-324 N is outside 0.01 .. 100 N, the range of a haptic "
+  // The tool's stiffnesses are the replay's to warn about (replays that differ only in them share
+  // a scene); the surface springs and the force limit are the scene's.
+  const std::vector<std::string> tool = tool_stiffness_warnings(s.spec);
+  ASSERT_EQ(tool.size(), 3u) << ::testing::PrintToString(tool);
+  EXPECT_EQ(tool[0], p + ": stiffness.k_con = 4.94066e-324 N/m is outside 1 .. 100000 N/m, the range of a haptic "
+                         "device's stiffness (about 0.1 .. 10 kN/m)");
+  EXPECT_EQ(tool[1], p + ": stiffness.k_vcs = 1e+06 N/m is outside 1 .. 100000 N/m, the range of a haptic "
+                         "device's stiffness (about 0.1 .. 10 kN/m)");
+  EXPECT_EQ(tool[2], p + ": stiffness.k_vct = 1e+12 N m/rad is outside 0.0001 .. 100 N m/rad, the range of a "
+                         "haptic device's rotational stiffness");
+  ASSERT_EQ(s.warnings.size(), 3u) << ::testing::PrintToString(s.warnings);
+  EXPECT_NE(s.warnings[0].find("stiffness.k_s = 4.94066e-324 N/m is outside 0.01 .. 1e+06 N/m"), std::string::npos);
+  EXPECT_NE(s.warnings[1].find("stiffness.k_svc = 2e+06 N/m is outside 0.01 .. 1e+06 N/m"), std::string::npos);
+  EXPECT_EQ(s.warnings[2], p + ": tool.force_limit = 4.94066e-324 N is outside 0.01 .. 100 N, the range of a haptic "
                                "device's force (a Geomagic Touch: 3.3 N)");
+}
+
+// A warning about a value an override gave names the override, as its errors do; the file's own
+// values still name the file.
+TEST(Scene, WarningsNameTheOverrideThatGaveTheValue) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const std::string p = write_temp("named.yaml", replace(good, "density: 1100", "density: 1e-30")).string();
+  const Scene s = load_scene(p, {"stiffness={k_vol: 2.5e9}", "stiffness.k_con=1e9"});
+  ASSERT_EQ(s.warnings.size(), 2u) << ::testing::PrintToString(s.warnings);
+  EXPECT_EQ(s.warnings[0], "--set 'stiffness={k_vol: 2.5e9}': stiffness.k_vol = 2.5e+09 Pa is outside soft tissue's "
+                           "10 Pa .. 100 MPa");
+  EXPECT_EQ(s.warnings[1], p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000");
+  EXPECT_EQ(tool_stiffness_warnings(s.spec).at(0).rfind("--set 'stiffness.k_con=1e9': stiffness.k_con = 1e+09 N/m", 0), 0u);
+  // An error of a placement an override gave names the override.
+  try {
+    (void)load_scene(p, {"mesh.transform.scale=1e-300"});
+    FAIL();
+  } catch (const OverrideError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--set 'mesh.transform.scale=1e-300': key 'mesh.transform.scale': ", 0), 0u)
+        << e.what();
+  }
 }
 
 TEST(Scene, UnitsScaleEveryLength) {

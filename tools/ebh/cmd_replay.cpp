@@ -96,10 +96,12 @@ struct PreparedReplay {
   std::unique_ptr<ReplayWriter> writer;
 };
 
-/// The scene's warnings, each after `where`; outside lockstep mode also the one about k_s above
+/// The scene's warnings, each after `where`, with its tool's stiffnesses' (this replay's: replays
+/// that differ only in them share a scene); outside lockstep mode also the one about k_s above
 /// k_svc, whose instability is the step's beside the ticks and which recommends lockstep.
 void print_scene_warnings(const Scene& scene, Mode mode, const std::string& where) {
   std::vector<std::string> warnings = scene.warnings;
+  for (std::string& w : tool_stiffness_warnings(scene.spec)) warnings.push_back(std::move(w));
   if (mode != Mode::Lockstep)
     if (std::string w = edges_outweigh_coupling_warning(scene.spec); !w.empty()) warnings.push_back(std::move(w));
   for (const std::string& w : warnings) std::fprintf(stderr, "ebh: warning: %s%s\n", where.c_str(), w.c_str());

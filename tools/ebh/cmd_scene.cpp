@@ -45,8 +45,10 @@ struct GroupCount {
 
 void info(const SceneInfoArgs& a) {
   const ebh::Scene scene = ebh::load_scene(ebh::resolve_scene_path(a.scene));
-  // The scene's warnings and, mode-free here, the async replay's about k_s above k_svc.
+  // The scene's warnings and the replay's: the tool's stiffnesses', and (mode-free here) the async
+  // replay's about k_s above k_svc.
   std::vector<std::string> warnings = scene.warnings;
+  for (std::string& w : ebh::tool_stiffness_warnings(scene.spec)) warnings.push_back(std::move(w));
   if (std::string w = ebh::edges_outweigh_coupling_warning(scene.spec); !w.empty()) warnings.push_back(std::move(w));
   const ebh::TetMesh& m = scene.physical;
   const ebh::MeshReport report = ebh::validate_mesh(m);

@@ -17,14 +17,16 @@ namespace ebh {
 ///
 /// Kept: 4-node tetrahedra (type 4) and 3-node triangles (type 2), each with its physical group
 /// tag (2.x: the element's first tag; 4.1: the first physical tag of its entity in $Entities; 0
-/// when there is none), and $PhysicalNames of dimension 2 and 3. Elements of every other type
-/// (points, lines, quads, 10-node tets, ...) are skipped. Node ids may be sparse and unordered;
+/// when there is none), and $PhysicalNames of dimension 2 and 3. Points, lines, quads and other
+/// surface elements are skipped; any other volume element (hexahedra, prisms, pyramids, 10-node
+/// tets, ...) is refused, naming each kind's count. Node ids may be sparse and unordered;
 /// vertices keep the file's node order and `file_node_ids` maps back. Other sections are skipped.
 /// If a surface and a volume group share a tag but not a name, the surface group gets a fresh
 /// tag (> every surface and volume tag in the file) so that `group_names` stays one name per tag.
 ///
 /// Throws InputError for binary files, unsupported versions, malformed or truncated sections,
-/// references to unknown nodes, duplicate node ids, and a file with no tetrahedra.
+/// references to unknown nodes, duplicate node ids, volume elements other than 4-node tets, and a
+/// file with no tetrahedra.
 TetMesh read_msh(const std::filesystem::path& file);
 
 /// The Gmsh ASCII 2.2 text of `mesh` with positions multiplied by `scale` (metres -> file units),

@@ -21,6 +21,37 @@ constexpr int kTypeTriangle = 2;
 constexpr int kTypeTet = 4;
 constexpr int kTypeTet10 = 11;
 
+/// A volume element type other than the 4-node tet (Gmsh's numbering), named for messages.
+struct VolumeKind {
+  int type;
+  const char* one;
+  const char* many;
+  bool high_order;
+};
+constexpr VolumeKind kVolumeKinds[] = {
+    {5, "hexahedron", "hexahedra", false},
+    {6, "prism", "prisms", false},
+    {7, "pyramid", "pyramids", false},
+    {11, "10-node tetrahedron", "10-node tetrahedra", true},
+    {12, "27-node hexahedron", "27-node hexahedra", true},
+    {13, "18-node prism", "18-node prisms", true},
+    {14, "14-node pyramid", "14-node pyramids", true},
+    {17, "20-node hexahedron", "20-node hexahedra", true},
+    {18, "15-node prism", "15-node prisms", true},
+    {19, "13-node pyramid", "13-node pyramids", true},
+    {29, "20-node tetrahedron", "20-node tetrahedra", true},
+    {30, "35-node tetrahedron", "35-node tetrahedra", true},
+    {31, "56-node tetrahedron", "56-node tetrahedra", true},
+    {92, "64-node hexahedron", "64-node hexahedra", true},
+    {93, "125-node hexahedron", "125-node hexahedra", true},
+};
+
+const VolumeKind* volume_kind(int type) {
+  for (const VolumeKind& k : kVolumeKinds)
+    if (k.type == type) return &k;
+  return nullptr;
+}
+
 std::string element_ctx(long long id) { return " (element id " + std::to_string(id) + ")"; }
 std::string node_ctx(long long id) { return " (node id " + std::to_string(id) + ")"; }
 
@@ -60,11 +91,7 @@ class MshParser {
     }
     if (!have_nodes_) c_.fail("missing $Nodes section");
     if (!have_elements_) c_.fail("missing $Elements section");
-    if (mesh_.tets.empty()) {
-      std::string what = "no 4-node tetrahedra (element type 4) in the file";
-      if (skipped_tet10_ > 0) what += "; it has " + std::to_string(skipped_tet10_) + " 10-node tetrahedra (type 11): re-mesh with Mesh.ElementOrder = 1";
-      c_.fail(what);
-    }
+    check_volume_elements();
     assign_groups();
     return std::move(mesh_);
   }
@@ -308,8 +335,9 @@ class MshParser {
     }
   }
 
-  void skip_element(int type) {
-    if (type == kTypeTet10) ++skipped_tet10_;
+  /// Skips the rest of an element's line; `volume`: it is a volume element (not a 4-node tet).
+  void skip_element(int type, bool volume, long long line) {
+    if (volume) note_other_volume_element(type, line);
     c_.next_line();
   }
 
@@ -319,11 +347,12 @@ class MshParser {
     c_.end_line("");
     for (long long i = 0; i < n; ++i) {
       need_line("elements", i, n);
+      const long long line = c_.line();
       const long long id = c_.integer("element id", 1, kMaxTag);
       const std::string ctx = element_ctx(id);
       const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20, ctx));
       if (type != kTypeTet && type != kTypeTriangle) {
-        skip_element(type);
+        skip_element(type, volume_kind(type) != nullptr, line);
         continue;
       }
       const long long ntags = c_.integer("tag count", 0, 64, ctx);
@@ -356,16 +385,56 @@ class MshParser {
       const bool keep = type == kTypeTet || type == kTypeTriangle;
       for (long long i = 0; i < m; ++i) {
         need_line("elements of a block", i, m);
+        const long long line = c_.line();
         const long long id = c_.integer("element id", 1, kMaxTag);
         if (keep) {
           read_element_nodes(type, id, physical);
         } else {
-          skip_element(type);
+          skip_element(type, dim == 3 || volume_kind(type) != nullptr, line);
         }
       }
       done += m;
     }
     if (done != n) c_.fail("element blocks hold " + std::to_string(done) + " elements, the header says " + std::to_string(n));
+  }
+
+  // ---- volume element types -------------------------------------------------------------------
+  /// Notes a volume element that is not a 4-node tet (`line`: where it is). In 4.1 files the
+  /// block's dimension says it is a volume element; in 2.x files its type (kVolumeKinds) does.
+  void note_other_volume_element(int type, long long line) {
+    if (other_volume_.empty()) first_other_volume_line_ = line;
+    ++other_volume_[type];
+  }
+
+  /// Refuses a mesh whose volume is not all 4-node tets: the others would be dropped, leaving a
+  /// cut-down organ. Names each kind with its count and the line of the first such element.
+  void check_volume_elements() {
+    const bool only_tet10 = other_volume_.size() == 1 && other_volume_.begin()->first == kTypeTet10;
+    if (mesh_.tets.empty() && (other_volume_.empty() || only_tet10)) {
+      std::string what = "no 4-node tetrahedra (element type 4) in the file";
+      if (only_tet10)
+        what += "; it has " + std::to_string(other_volume_.begin()->second) +
+                " 10-node tetrahedra (type 11): re-mesh with Mesh.ElementOrder = 1";
+      c_.fail(what);
+    }
+    if (other_volume_.empty()) return;
+    std::string kinds;
+    bool high_order = false;
+    std::size_t i = 0;
+    for (const auto& [type, n] : other_volume_) {
+      const VolumeKind* k = volume_kind(type);
+      high_order = high_order || k == nullptr || k->high_order;
+      kinds += i == 0 ? "" : (i + 1 == other_volume_.size() ? " and " : ", ");
+      kinds += std::to_string(n) + " ";
+      kinds += k ? (n == 1 ? k->one : k->many) : (n == 1 ? "volume element" : "volume elements");
+      kinds += " (type " + std::to_string(type) + ")";
+      ++i;
+    }
+    const std::string hint = std::string(": ebh needs an all-tet mesh (mesh with 4-node tets only, e.g. gmsh -3 without Recombine") +
+                             (high_order ? " and with Mesh.ElementOrder = 1)" : ")");
+    if (mesh_.tets.empty())
+      c_.fail_at(first_other_volume_line_, "no 4-node tetrahedra (element type 4) in the file; it has " + kinds + hint);
+    c_.fail_at(first_other_volume_line_, kinds + " besides the tets" + hint);
   }
 
   // ---- groups ---------------------------------------------------------------------------------
@@ -406,7 +475,8 @@ class MshParser {
   std::vector<std::pair<long long, int>> sparse_;  ///< sorted (node id, vertex), otherwise
   std::map<std::pair<int, long long>, int> entity_physical_;  ///< (dim, entity tag) -> physical tag
   std::map<int, std::string> names_[2];            ///< physical names of dimension 2 and 3
-  long long skipped_tet10_ = 0;
+  std::map<int, long long> other_volume_;          ///< element type -> count, volume types but type 4
+  long long first_other_volume_line_ = 0;
 };
 
 }  // namespace

@@ -186,6 +186,26 @@ TEST_F(Bad22, NoTetrahedra) {
   for (int id = 20; id <= 24; ++id) text = replace(text, std::to_string(id) + " 4 2 1 1", std::to_string(id) + " 11 2 1 1");
   expect(text, last_line(text), "no 4-node tetrahedra");
 }
+TEST_F(Bad22, PrismsAndPyramidsBesideTets) {
+  // a boundary-layer mesh's elements: dropped, they would leave a cut-down organ
+  std::string text = replace(good, "$Elements\n13\n", "$Elements\n16\n");
+  text = replace(text, "24 4 2 1 1 1000 3 250 55\n",
+                 "24 4 2 1 1 1000 3 250 55\n25 6 2 1 1 7 1000 3 250 101 42\n26 7 2 1 1 7 1000 3 250 101\n"
+                 "27 6 2 1 1 7 1000 3 250 101 55\n");
+  expect(text, kFirstTetLine + 5, "2 prisms (type 6) and 1 pyramid (type 7) besides the tets: ebh needs an all-tet mesh");
+}
+TEST_F(Bad22, OnlyHexahedraAreNamed) {
+  const std::string text =
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n8\n1 0 0 1\n2 0 0 0\n3 0 1 1\n4 0 1 0\n5 1 0 1\n6 1 0 0\n"
+      "7 1 1 1\n8 1 1 0\n$EndNodes\n$Elements\n1\n1 5 2 1 1 3 1 2 4 7 5 6 8\n$EndElements\n";
+  expect(text, 17, "no 4-node tetrahedra (element type 4) in the file; it has 1 hexahedron (type 5): ebh needs an all-tet mesh");
+}
+TEST_F(Bad22, SecondOrderBesideTetsAsksForFirstOrder) {
+  std::string text = replace(good, "$Elements\n13\n", "$Elements\n14\n");
+  text = replace(text, "24 4 2 1 1 1000 3 250 55\n", "24 4 2 1 1 1000 3 250 55\n25 11 2 1 1 7 1000 3 250 101 42 9 55 3 1000\n");
+  expect(text, kFirstTetLine + 5, "1 10-node tetrahedron (type 11) besides the tets: ebh needs an all-tet mesh (mesh with 4-node "
+                                  "tets only, e.g. gmsh -3 without Recombine and with Mesh.ElementOrder = 1)");
+}
 TEST_F(Bad22, UnterminatedName) { expect(replace(good, "\"top\"", "\"top"), 8, "unterminated quoted physical name"); }
 TEST_F(Bad22, SecondNodesSection) {
   const std::string nodes = good.substr(good.find("$Nodes"), good.find("$Elements") - good.find("$Nodes"));
@@ -214,6 +234,12 @@ TEST_F(Bad41, TruncatedEntities) {
 TEST_F(Bad41, NodeBlockTagsShort) {
   // the first coordinate line is read as the third tag
   expect(replace(good, "3 1 0 3\n42\n9\n250\n", "3 1 0 3\n42\n9\n"), 36, "node id 0 is out of range");
+}
+
+TEST(ReadMshBad, PrismLayerFromGmsh) {
+  // gmsh/prism_layer.geo: 24 tets and, in a volume block of its own (MSH 4.1), 4 prisms
+  const auto p = data("mesh/gmsh/prism_layer41.msh");
+  expect_input_error([&] { read_msh(p); }, p, 146, "4 prisms (type 6) besides the tets: ebh needs an all-tet mesh");
 }
 
 // ---- speed ---------------------------------------------------------------------------------

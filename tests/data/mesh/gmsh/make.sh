@@ -1,0 +1,7 @@
+#!/bin/sh
+# Writes the Gmsh-made test meshes in this folder from their .geo files (run: sh make.sh; needs
+# gmsh on the PATH; made with gmsh 4.8.4). Each .geo says what its mesh holds and which reader
+# behaviour it tests.
+set -e
+cd "$(dirname "$0")"
+gmsh -v 0 prism_layer.geo -3 -format msh41 -o prism_layer41.msh

@@ -15,9 +15,10 @@ namespace ebh {
 
 /// Reads a Gmsh ASCII mesh, version 2.x (2.2) or 4.1, dispatching on $MeshFormat.
 ///
-/// Kept: 4-node tetrahedra (type 4) and 3-node triangles (type 2), each with its physical group
-/// tag (2.x: the element's first tag; 4.1: the first physical tag of its entity in $Entities; 0
-/// when there is none), and $PhysicalNames of dimension 2 and 3. Points, lines, quads and other
+/// Kept: 4-node tetrahedra (type 4) and 3-node triangles (type 2), each with its physical groups
+/// (2.x: the element's first tag, where Gmsh writes an element once per group: such copies, the
+/// same type and nodes, are merged into the first with all their groups; 4.1: the physical tags of
+/// its entity in $Entities; tag 0 when there is none), and $PhysicalNames of dimension 2 and 3. Points, lines, quads and other
 /// surface elements are skipped; any other volume element (hexahedra, prisms, pyramids, 10-node
 /// tets, ...) is refused, naming each kind's count. Node ids may be sparse and unordered;
 /// vertices keep the file's node order and `file_node_ids` maps back. Other sections are skipped.

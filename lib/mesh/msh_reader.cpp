@@ -186,16 +186,24 @@ class MshParser {
         const long long tag = c_.integer("entity tag", -kMaxTag, kMaxTag);
         const int coords = d == 0 ? 3 : 6;  // a point's position, or a bounding box
         for (int k = 0; k < coords; ++k) c_.real("entity coordinate");
-        const long long nphys = c_.integer("physical tag count", 0, static_cast<long long>(c_.remaining()));
-        int first = 0;
-        for (long long k = 0; k < nphys; ++k) {
-          const long long p = c_.integer("physical tag", -(long long)INT_MAX, INT_MAX - 1);
-          if (k == 0) first = static_cast<int>(p < 0 ? -p : p);
-        }
-        if (nphys > 0 && d >= 2) entity_physical_[{d, tag}] = first;
+        std::vector<int> physical = read_physical_tags();
+        if (!physical.empty() && d >= 2) entity_physical_[{d, tag}] = std::move(physical);
         c_.next_line();  // bounding entities follow: not needed
       }
     }
+  }
+
+  /// Reads "numPhysicalTags physicalTag ..." of an entity: its groups, each once, in file order
+  /// (a negative tag, which Gmsh writes for a group of reversed orientation, is the same group).
+  std::vector<int> read_physical_tags() {
+    const long long nphys = c_.integer("physical tag count", 0, static_cast<long long>(c_.remaining()));
+    std::vector<int> tags;
+    for (long long k = 0; k < nphys; ++k) {
+      const long long p = c_.integer("physical tag", -(long long)INT_MAX, INT_MAX - 1);
+      const int tag = static_cast<int>(p < 0 ? -p : p);
+      if (tag != 0 && std::find(tags.begin(), tags.end(), tag) == tags.end()) tags.push_back(tag);
+    }
+    return tags;
   }
 
   // ---- $Nodes ---------------------------------------------------------------------------------
@@ -317,22 +325,75 @@ class MshParser {
   }
 
   // ---- $Elements ------------------------------------------------------------------------------
-  /// Reads the node list of a kept element (the cursor is just before it) and stores it.
-  void read_element_nodes(int type, long long id, long long physical) {
+  /// Reads the node list of a kept element (the cursor is just before it) and stores it with its
+  /// physical groups (`physical`: none, or the first and then any others).
+  void read_element_nodes(int type, long long id, const std::vector<int>& physical) {
     const std::string ctx = element_ctx(id);
-    if (physical < 0 || physical > INT_MAX - 1) c_.fail("physical tag " + std::to_string(physical) + " is out of range" + ctx);
     const int nodes = type == kTypeTet ? 4 : 3;
     int v[4] = {0, 0, 0, 0};
     for (int k = 0; k < nodes; ++k) v[k] = vertex_of(c_.integer("node id", 1, kMaxTag, ctx), id);
     c_.end_line(ctx);
+    const int first = physical.empty() ? 0 : physical[0];
     if (type == kTypeTet) {
+      for (std::size_t k = 1; k < physical.size(); ++k)
+        mesh_.tet_more_groups.push_back({static_cast<int>(mesh_.tets.size()), physical[k]});
       mesh_.tets.push_back({v[0], v[1], v[2], v[3]});
-      mesh_.tet_group.push_back(static_cast<int>(physical));
+      mesh_.tet_group.push_back(first);
       mesh_.file_tet_ids.push_back(id);
     } else {
+      for (std::size_t k = 1; k < physical.size(); ++k)
+        mesh_.triangle_more_groups.push_back({static_cast<int>(mesh_.triangles.size()), physical[k]});
       mesh_.triangles.push_back({v[0], v[1], v[2]});
-      mesh_.triangle_group.push_back(static_cast<int>(physical));
+      mesh_.triangle_group.push_back(first);
     }
+  }
+
+  /// MSH 2 writes an element in several physical groups once per group (the same type and nodes,
+  /// each copy with one group): merges the copies into the first, which gets the union of their
+  /// groups (tet_more_groups / triangle_more_groups), and keeps the elements' file order.
+  template <class Element>
+  static void merge_repeated(std::vector<Element>& elements, std::vector<int>& group,
+                             std::vector<std::pair<int, int>>& more, std::vector<long long>* file_ids) {
+    const std::size_t n = elements.size();
+    std::vector<int> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<int>(i);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return elements[a] < elements[b]; });
+    std::vector<int> into(n, -1);  // a repeated element -> the first copy
+    for (std::size_t i = 1; i < n; ++i)
+      if (elements[order[i]] == elements[order[i - 1]]) into[order[i]] = into[order[i - 1]] >= 0 ? into[order[i - 1]] : order[i - 1];
+    if (std::all_of(into.begin(), into.end(), [](int f) { return f < 0; })) return;
+    // each first copy's groups: its own, then the copies' in file order (0, no group, only alone)
+    std::map<int, std::vector<int>> groups;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (into[i] < 0) continue;
+      std::vector<int>& g = groups[into[i]];
+      if (g.empty()) g.push_back(group[into[i]]);
+      g.push_back(group[i]);
+    }
+    std::vector<int> index(n, -1);
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (into[i] >= 0) continue;
+      index[i] = static_cast<int>(kept);
+      elements[kept] = elements[i];
+      group[kept] = group[i];
+      if (file_ids) (*file_ids)[kept] = (*file_ids)[i];
+      ++kept;
+    }
+    elements.resize(kept);
+    group.resize(kept);
+    if (file_ids) file_ids->resize(kept);
+    for (auto& [e, tag] : more) e = index[e];  // (MSH 2 has none before the merge)
+    for (auto& [first, tags] : groups) {
+      std::vector<int> unique;
+      for (int t : tags)
+        if (t != 0 && std::find(unique.begin(), unique.end(), t) == unique.end()) unique.push_back(t);
+      if (unique.empty()) continue;
+      const int e = index[first];
+      group[e] = unique[0];
+      for (std::size_t k = 1; k < unique.size(); ++k) more.push_back({e, unique[k]});
+    }
+    std::sort(more.begin(), more.end());
   }
 
   /// Skips the rest of an element's line; `volume`: it is a volume element (not a 4-node tet).
@@ -361,8 +422,11 @@ class MshParser {
         const long long t = c_.integer("element tag", -kMaxTag, kMaxTag, ctx);
         if (k == 0) physical = t;
       }
-      read_element_nodes(type, id, physical);
+      if (physical < 0 || physical > INT_MAX - 1) c_.fail("physical tag " + std::to_string(physical) + " is out of range" + ctx);
+      read_element_nodes(type, id, physical == 0 ? std::vector<int>{} : std::vector<int>{static_cast<int>(physical)});
     }
+    merge_repeated(mesh_.tets, mesh_.tet_group, mesh_.tet_more_groups, &mesh_.file_tet_ids);
+    merge_repeated(mesh_.triangles, mesh_.triangle_group, mesh_.triangle_more_groups, nullptr);
   }
 
   void read_elements_v4() {
@@ -380,8 +444,9 @@ class MshParser {
       const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20));
       const long long m = c_.integer("elements in block", 0, n - done);
       c_.end_line("");
-      long long physical = 0;
-      if (auto it = entity_physical_.find({dim, entity}); it != entity_physical_.end()) physical = it->second;
+      static const std::vector<int> kNone;
+      auto it = entity_physical_.find({dim, entity});
+      const std::vector<int>& physical = it != entity_physical_.end() ? it->second : kNone;
       const bool keep = type == kTypeTet || type == kTypeTriangle;
       for (long long i = 0; i < m; ++i) {
         need_line("elements of a block", i, m);
@@ -443,6 +508,8 @@ class MshParser {
   void assign_groups() {
     std::set<int> tags3(mesh_.tet_group.begin(), mesh_.tet_group.end());
     std::set<int> tags2(mesh_.triangle_group.begin(), mesh_.triangle_group.end());
+    for (const auto& [t, tag] : mesh_.tet_more_groups) tags3.insert(tag);
+    for (const auto& [f, tag] : mesh_.triangle_more_groups) tags2.insert(tag);
     for (const auto& [tag, name] : names_[1]) tags3.insert(tag);
     for (const auto& [tag, name] : names_[0]) tags2.insert(tag);
     int next = 0;
@@ -457,6 +524,9 @@ class MshParser {
       if (t != 0 && tags3.count(t) && name_of(names_[0], t) != name_of(names_[1], t)) remap[t] = ++next;
     for (int& g : mesh_.triangle_group)
       if (auto it = remap.find(g); it != remap.end()) g = it->second;
+    for (auto& [f, g] : mesh_.triangle_more_groups)
+      if (auto it = remap.find(g); it != remap.end()) g = it->second;
+    std::sort(mesh_.triangle_more_groups.begin(), mesh_.triangle_more_groups.end());
     for (const auto& [tag, name] : names_[1]) mesh_.group_names[tag] = name;
     for (const auto& [tag, name] : names_[0]) {
       auto it = remap.find(tag);
@@ -473,7 +543,7 @@ class MshParser {
   std::vector<long long> node_lines_;              ///< #V line of each node (until the map is built)
   std::vector<int> dense_;                         ///< node id -> vertex, when ids are compact
   std::vector<std::pair<long long, int>> sparse_;  ///< sorted (node id, vertex), otherwise
-  std::map<std::pair<int, long long>, int> entity_physical_;  ///< (dim, entity tag) -> physical tag
+  std::map<std::pair<int, long long>, std::vector<int>> entity_physical_;  ///< (dim, entity tag) -> its groups
   std::map<int, std::string> names_[2];            ///< physical names of dimension 2 and 3
   std::map<int, long long> other_volume_;          ///< element type -> count, volume types but type 4
   long long first_other_volume_line_ = 0;

@@ -299,6 +299,7 @@ int remove_unreferenced_vertices(TetMesh& mesh) {
     for (int& v : tet)
       if (v >= 0 && v < nv) v = remap[v];
   std::size_t kept = 0;
+  std::vector<int> new_index(mesh.triangles.size(), -1);
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     Tri tri = mesh.triangles[f];
     bool ok = true;
@@ -309,10 +310,16 @@ int remove_unreferenced_vertices(TetMesh& mesh) {
     if (!ok) continue;
     mesh.triangles[kept] = tri;
     if (f < mesh.triangle_group.size()) mesh.triangle_group[kept] = mesh.triangle_group[f];
+    new_index[f] = static_cast<int>(kept);
     ++kept;
   }
   mesh.triangles.resize(kept);
   if (mesh.triangle_group.size() > kept) mesh.triangle_group.resize(kept);
+  std::size_t kept_more = 0;
+  for (const auto& [f, tag] : mesh.triangle_more_groups)
+    if (f >= 0 && static_cast<std::size_t>(f) < new_index.size() && new_index[f] >= 0)
+      mesh.triangle_more_groups[kept_more++] = {new_index[f], tag};
+  mesh.triangle_more_groups.resize(kept_more);
   return removed;
 }
 

@@ -81,6 +81,9 @@ TetMesh refine_tet_mesh(const TetMesh& mesh) {
   out.file_node_ids.resize(out.vertices.size());
   for (std::size_t v = 0; v < out.vertices.size(); ++v) out.file_node_ids[v] = static_cast<long long>(v) + 1;
 
+  for (const auto& [t, tag] : mesh.tet_more_groups)
+    for (int c = 0; c < 8; ++c) out.tet_more_groups.push_back({8 * t + c, tag});
+  std::sort(out.tet_more_groups.begin(), out.tet_more_groups.end());
   out.tets.reserve(8 * mesh.tets.size());
   out.tet_group.reserve(8 * mesh.tets.size());
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
@@ -118,9 +121,13 @@ TetMesh refine_tet_mesh(const TetMesh& mesh) {
 
   out.triangles.reserve(4 * mesh.triangles.size());
   out.triangle_group.reserve(4 * mesh.triangles.size());
+  auto more = mesh.triangle_more_groups.begin();
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const int group = f < mesh.triangle_group.size() ? mesh.triangle_group[f] : 0;
-    if (!splits(mesh.triangles[f], edges)) {  // not on the tets: kept as it is (mesh/refine.hpp)
+    const bool split = splits(mesh.triangles[f], edges);
+    for (; more != mesh.triangle_more_groups.end() && more->first == static_cast<int>(f); ++more)
+      for (int c = 0; c < (split ? 4 : 1); ++c) out.triangle_more_groups.push_back({static_cast<int>(out.triangles.size()) + c, more->second});
+    if (!split) {  // not on the tets: kept as it is (mesh/refine.hpp)
       out.triangles.push_back(mesh.triangles[f]);
       out.triangle_group.push_back(group);
       continue;
@@ -134,6 +141,7 @@ TetMesh refine_tet_mesh(const TetMesh& mesh) {
     out.triangles.push_back({ab, bc, ca});
     out.triangle_group.insert(out.triangle_group.end(), 4, group);
   }
+  std::sort(out.triangle_more_groups.begin(), out.triangle_more_groups.end());
   return out;
 }
 

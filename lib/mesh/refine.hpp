@@ -34,9 +34,9 @@ namespace ebh {
 /// Outputs:
 ///   returns  #V + #E vertices: the old ones with their indices, then one per unique edge of the
 ///            tets, ordered by (smaller index, larger index) of the edge's ends;
-///            8 #T tets (tet t's children at 8t .. 8t + 7, the corners first) with t's group;
+///            8 #T tets (tet t's children at 8t .. 8t + 7, the corners first) with t's groups;
 ///            4 triangles for each listed one on the tets (consecutive, in the listed order) with its
-///            group, the others as they were; the same group names.
+///            groups, the others as they were; the same group names.
 ///            file_node_ids are 1 .. #V'; file_tet_ids are left empty (the file writer numbers them).
 /// Deterministic: the result depends on the input alone, bit for bit.
 TetMesh refine_tet_mesh(const TetMesh& mesh);

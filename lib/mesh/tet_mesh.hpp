@@ -5,6 +5,7 @@
 #include <array>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "math/vec.hpp"
@@ -24,6 +25,11 @@ struct TetMesh {
   std::map<int, std::string> group_names;  ///< physical group tag -> name (from $PhysicalNames)
   std::vector<long long> file_node_ids;  ///< #V the node id each vertex had in the file
   std::vector<long long> file_tet_ids;   ///< #T the element id each tet had in the file (may be empty)
+  /// Elements in more than one physical group (Gmsh allows it): (tet index, tag) and (triangle
+  /// index, tag) for each group after the first, which tet_group / triangle_group hold. Sorted,
+  /// each pair once; empty for most meshes.
+  std::vector<std::pair<int, int>> tet_more_groups;
+  std::vector<std::pair<int, int>> triangle_more_groups;
 };
 
 /// A triangle surface: the virtual mesh's source (OBJ) or a boundary extracted from tets.

@@ -517,13 +517,16 @@ std::vector<std::string> groups_removed_with_unused_vertices(const TetMesh& raw,
   for (std::size_t i = 0; i < spec.pinned.size(); ++i) {
     const PinRegion& r = spec.pinned[i];
     if (r.kind != PinRegion::Kind::Group) continue;
-    std::set<int> tags, unused;
-    for (const auto& [tag, name] : raw.group_names)
-      if (name == r.group) tags.insert(tag);
+    const std::set<int> tags = group_tags(raw, r.group);
+    std::set<int> unused;
+    auto note_unused = [&](std::size_t f) {
+      for (int v : raw.triangles[f])
+        if (v >= 0 && v < nv && !used[v]) unused.insert(v);
+    };
     for (std::size_t f = 0; f < raw.triangles.size() && f < raw.triangle_group.size(); ++f)
-      if (tags.count(raw.triangle_group[f]))
-        for (int v : raw.triangles[f])
-          if (v >= 0 && v < nv && !used[v]) unused.insert(v);
+      if (tags.count(raw.triangle_group[f])) note_unused(f);
+    for (const auto& [f, tag] : raw.triangle_more_groups)
+      if (tags.count(tag) && f >= 0 && static_cast<std::size_t>(f) < raw.triangles.size()) note_unused(f);
     if (unused.empty()) continue;
     std::string nodes;
     int shown = 0;
@@ -737,16 +740,27 @@ std::vector<std::string> known_group_names(const TetMesh& mesh) {
   return {names.begin(), names.end()};
 }
 
+std::set<int> group_tags(const TetMesh& mesh, const std::string& group) {
+  std::set<int> tags;
+  for (const auto& [tag, name] : mesh.group_names)
+    if (name == group) tags.insert(tag);
+  return tags;
+}
+
 std::vector<int> region_vertices(const TetMesh& m, const PinRegion& r) {
   std::vector<int> out;
   if (r.kind == PinRegion::Kind::Group) {
-    std::set<int> tags;
-    for (const auto& [tag, name] : m.group_names)
-      if (name == r.group) tags.insert(tag);
+    const std::set<int> tags = group_tags(m, r.group);
     for (std::size_t t = 0; t < m.tets.size(); ++t)
       if (t < m.tet_group.size() && tags.count(m.tet_group[t])) out.insert(out.end(), m.tets[t].begin(), m.tets[t].end());
+    for (const auto& [t, tag] : m.tet_more_groups)
+      if (tags.count(tag) && t >= 0 && static_cast<std::size_t>(t) < m.tets.size())
+        out.insert(out.end(), m.tets[t].begin(), m.tets[t].end());
     for (std::size_t f = 0; f < m.triangles.size(); ++f)
       if (f < m.triangle_group.size() && tags.count(m.triangle_group[f]))
+        out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
+    for (const auto& [f, tag] : m.triangle_more_groups)
+      if (tags.count(tag) && f >= 0 && static_cast<std::size_t>(f) < m.triangles.size())
         out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
   } else {
     for (std::size_t v = 0; v < m.vertices.size(); ++v) {

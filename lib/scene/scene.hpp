@@ -97,6 +97,7 @@
 #include <filesystem>
 #include <optional>
 #include <span>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -406,8 +407,11 @@ Scene load_scene(const std::filesystem::path& file, const std::vector<std::strin
 std::string resolved_scene_yaml(const SceneSpec& spec);
 
 /// The physical-mesh vertices (sorted, unique) inside a pinned region (metres, world coordinates).
-/// A group the mesh does not name gives none (known_group_names lists those it does).
+/// A group's are those of its tets and triangles (an element may be in several groups); a group
+/// the mesh does not name gives none (known_group_names lists those it does).
 std::vector<int> region_vertices(const TetMesh& mesh, const PinRegion& region);
+/// The physical group tags a pinned region's `group` names.
+std::set<int> group_tags(const TetMesh& mesh, const std::string& group);
 /// The physical group names of a mesh, sorted, each once.
 std::vector<std::string> known_group_names(const TetMesh& mesh);
 

@@ -69,9 +69,9 @@ TEST(ReadMsh, NodeIdsFarApart) {
     text.replace(at, 4, "1000000000000000");
   const TetMesh m = read_msh(write_temp("far.msh", text));
   EXPECT_EQ(m.file_node_ids[4], 1000000000000000LL);
-  expect_same_mesh(TetMesh{m.vertices, m.tets, m.tet_group, m.triangles, m.triangle_group, m.group_names, {}, m.file_tet_ids},
+  expect_same_mesh(TetMesh{m.vertices, m.tets, m.tet_group, m.triangles, m.triangle_group, m.group_names, {}, m.file_tet_ids, {}, {}},
                    TetMesh{read_msh(data("mesh/cube22.msh")).vertices, m.tets, m.tet_group, m.triangles,
-                           m.triangle_group, m.group_names, {}, m.file_tet_ids});
+                           m.triangle_group, m.group_names, {}, m.file_tet_ids, {}, {}});
 }
 
 TEST(ReadMsh, SurfaceTagClashingWithVolumeTagIsRenumbered) {
@@ -94,6 +94,37 @@ TEST(ReadMsh, SameNameOnSurfaceAndVolumeSharesTheTag) {
   text = replace(text, "5 2 2 2 1", "5 2 2 1 1");
   const TetMesh m = read_msh(write_temp("shared.msh", text));
   EXPECT_EQ(m.triangle_group[0], 1);
+}
+
+// An entity (4.1) or an element (2.2, where Gmsh writes it once per group) in two physical groups
+// keeps both: its first in tet_group / triangle_group, the other in tet_more_groups /
+// triangle_more_groups.
+TEST(ReadMsh, EntityInTwoGroupsKeepsBoth41) {
+  const TetMesh m = read_msh(data("mesh/cube41_two_groups.msh"));
+  EXPECT_EQ(m.tet_group, (std::vector<int>(5, 1)));
+  EXPECT_EQ(m.tet_more_groups, (std::vector<std::pair<int, int>>{{0, 4}, {1, 4}, {2, 4}, {3, 4}, {4, 4}}));
+  EXPECT_EQ(m.triangle_group, (std::vector<int>{2, 2, 3, 3}));
+  EXPECT_EQ(m.triangle_more_groups, (std::vector<std::pair<int, int>>{{0, 6}, {1, 6}}));
+  EXPECT_EQ(m.group_names.at(4), "liver");
+  EXPECT_EQ(m.group_names.at(6), "fixed");
+}
+
+TEST(ReadMsh, ElementWrittenOncePerGroupIsMerged22) {
+  const TetMesh m = read_msh(data("mesh/cube22_two_groups.msh"));
+  expect_same_mesh(m, read_msh(data("mesh/cube41_two_groups.msh")));
+  EXPECT_EQ(m.file_tet_ids, (std::vector<long long>{20, 21, 22, 23, 24}));  // the first copies'
+}
+
+TEST(ReadMsh, RepeatedElementWithoutAGroupMergesIntoTheGrouped) {
+  std::string text = replace(slurp(data("mesh/cube22.msh")), "$Elements\n13\n", "$Elements\n15\n");
+  text = replace(text, "$EndElements", "30 4 2 0 1 7 1000 3 250\n31 4 1 0 9 3 1000 55\n$EndElements");
+  expect_same_mesh(read_msh(write_temp("repeated.msh", text)), read_msh(data("mesh/cube22.msh")));
+}
+
+TEST(MshWriter, EveryGroupOfAnElementReadsBack) {
+  const TetMesh m = read_msh(data("mesh/cube41_two_groups.msh"));
+  const TetMesh back = read_msh(write_temp("two_groups.msh", msh22_text(m)));
+  test::expect_same_elements(back, m);
 }
 
 // ---- malformed input: every case is an InputError "FILE:LINE: ..." ----------------------------

@@ -124,6 +124,16 @@ TEST(Refine, CountsMatchTheRefinedMesh) {
   EXPECT_EQ(refined_counts(m, 40).tets, std::numeric_limits<std::int64_t>::max());
 }
 
+TEST(Refine, EveryGroupOfAnElementGoesToItsChildren) {
+  const TetMesh m = read_msh(std::filesystem::path(EBH_TEST_DATA_DIR) / "mesh" / "cube41_two_groups.msh");  // each tet also in 4, 2 triangles also in 6
+  const TetMesh r = refine_tet_mesh(m);
+  std::vector<std::pair<int, int>> tets, triangles;
+  for (int c = 0; c < 40; ++c) tets.push_back({c, 4});
+  for (int c = 0; c < 8; ++c) triangles.push_back({c, 6});
+  EXPECT_EQ(r.tet_more_groups, tets);
+  EXPECT_EQ(r.triangle_more_groups, triangles);
+}
+
 TEST(Refine, GroupsCarryOverAsRefinedSurfaces) {
   const TetMesh m = committed("tube");
   const TetMesh r = refine_tet_mesh(m);

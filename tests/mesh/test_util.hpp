@@ -40,6 +40,8 @@ inline void expect_same_elements(const TetMesh& a, const TetMesh& b) {
   EXPECT_EQ(a.triangles, b.triangles);
   EXPECT_EQ(a.triangle_group, b.triangle_group);
   EXPECT_EQ(a.group_names, b.group_names);
+  EXPECT_EQ(a.tet_more_groups, b.tet_more_groups);
+  EXPECT_EQ(a.triangle_more_groups, b.triangle_more_groups);
 }
 
 /// Replaces the first occurrence of `from` in `text` (which must contain it).

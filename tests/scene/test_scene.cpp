@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "../mesh/test_util.hpp"
+#include "mesh/mesh_io.hpp"
 #include "scene/scene.hpp"
 
 namespace ebh {
@@ -110,6 +111,15 @@ TEST(Scene, LoadsInMetresAndPins) {
   // group bottom: the z = 0 corners (nodes 7, 3, 1000, 9 -> vertices 1, 3, 4, 6); the box around
   // (0, 0, 10) mm: node 250 -> vertex 7
   EXPECT_EQ(s.pinned, (std::vector<int>{1, 3, 4, 6, 7}));
+}
+
+TEST(Scene, AGroupOfAnEntityInTwoGroupsPins) {
+  // the bottom surface is in "bottom" and "fixed", the volume in "tissue" and "liver"
+  const TetMesh m = read_msh(data("mesh/cube41_two_groups.msh"));
+  auto group = [](const std::string& name) { return PinRegion{PinRegion::Kind::Group, name, {}, {}}; };
+  EXPECT_EQ(region_vertices(m, group("fixed")), (std::vector<int>{1, 3, 4, 6}));
+  EXPECT_EQ(region_vertices(m, group("fixed")), region_vertices(m, group("bottom")));
+  EXPECT_EQ(region_vertices(m, group("liver")).size(), 8u);
 }
 
 TEST(Scene, PartsTouchingNoPinnedVertexAreFoundByTheirSharedVertices) {

@@ -70,6 +70,8 @@ void info(const SceneInfoArgs& a) {
   for (const auto& [tag, name] : m.group_names) groups[tag].name = name;
   for (int g : m.tet_group) ++groups[g].tets;
   for (int g : m.triangle_group) ++groups[g].triangles;
+  for (const auto& [t, g] : m.tet_more_groups) ++groups[g].tets;
+  for (const auto& [f, g] : m.triangle_more_groups) ++groups[g].triangles;
 
   // Element quality: a histogram of the mean ratio and the worst tets; the physical solver's
   // spectrum on this mesh (what decides whether and how fast its Jacobi-type methods converge).

@@ -21,7 +21,9 @@ namespace ebh {
 /// its entity in $Entities; tag 0 when there is none), and $PhysicalNames of dimension 2 and 3. Points, lines, quads and other
 /// surface elements are skipped; any other volume element (hexahedra, prisms, pyramids, 10-node
 /// tets, ...) is refused, naming each kind's count. Node ids may be sparse and unordered;
-/// vertices keep the file's node order and `file_node_ids` maps back. Other sections are skipped.
+/// vertices keep the file's node order and `file_node_ids` maps back. A partitioned 4.1 file
+/// (gmsh -part N) reads as the whole mesh: its elements' groups come from $PartitionedEntities,
+/// and the triangles between partitions are skipped. Other sections are skipped.
 /// If a surface and a volume group share a tag but not a name, the surface group gets a fresh
 /// tag (> every surface and volume tag in the file) so that `group_names` stays one name per tag.
 ///

@@ -74,6 +74,8 @@ class MshParser {
         read_physical_names();
       } else if (name == "Entities" && major_ == 4) {
         read_entities();
+      } else if (name == "PartitionedEntities" && major_ == 4) {
+        read_partitioned_entities();
       } else if (name == "Nodes") {
         if (have_nodes_) c_.fail_at(header_line, "second $Nodes section");
         major_ == 4 ? read_nodes_v4() : read_nodes_v2();
@@ -188,6 +190,54 @@ class MshParser {
         for (int k = 0; k < coords; ++k) c_.real("entity coordinate");
         std::vector<int> physical = read_physical_tags();
         if (!physical.empty() && d >= 2) entity_physical_[{d, tag}] = std::move(physical);
+        c_.next_line();  // bounding entities follow: not needed
+      }
+    }
+  }
+
+  // ---- $PartitionedEntities (4.1, a partitioned mesh: gmsh -part N) --------------------------------
+  /// The elements of a partitioned file lie on partitioned entities, each a piece of a parent
+  /// entity ("tag parentDim parentTag numPartitions partitionTag ... coordinates numPhysicalTags
+  /// physicalTag ... [numBoundingEntities ...]", the coordinates as in $Entities). A piece of the
+  /// same dimension as its parent carries the parent's physical tags. A piece of a lower one is a
+  /// boundary between partitions inside its parent: its tags are the parent's, not groups of its
+  /// dimension, and its elements (triangles inside the volume) are not the mesh's: skipped.
+  void read_partitioned_entities() {
+    c_.skip_empty_lines();
+    c_.integer("partition count", 0, INT_MAX);
+    c_.end_line("");
+    c_.skip_empty_lines();
+    const long long ghosts = count("ghost entity count", 4);
+    c_.end_line("");
+    for (long long i = 0; i < ghosts; ++i) {
+      need_line("ghost entities", i, ghosts);
+      c_.integer("ghost entity tag", -kMaxTag, kMaxTag);
+      c_.integer("partition", 0, kMaxTag);
+      c_.end_line("");
+    }
+    c_.skip_empty_lines();
+    long long n[4];
+    for (int d = 0; d < 4; ++d) n[d] = count("entity count", 8);
+    c_.end_line("");
+    for (int d = 0; d < 4; ++d) {
+      for (long long i = 0; i < n[d]; ++i) {
+        need_line("partitioned entities", i, n[d]);
+        const long long tag = c_.integer("entity tag", -kMaxTag, kMaxTag);
+        const int parent_dim = static_cast<int>(c_.integer("parent dimension", 0, 3));
+        c_.integer("parent tag", -kMaxTag, kMaxTag);
+        const long long parts = c_.integer("partition count", 0, static_cast<long long>(c_.remaining()));
+        for (long long k = 0; k < parts; ++k) c_.integer("partition tag", -kMaxTag, kMaxTag);
+        const int coords = d == 0 ? 3 : 6;
+        for (int k = 0; k < coords; ++k) c_.real("entity coordinate");
+        std::vector<int> physical = read_physical_tags();
+        if (parent_dim > d) partition_boundaries_.insert({d, tag});
+        if (d >= 2 && parent_dim == d) {
+          if (physical.empty()) {
+            entity_physical_.erase({d, tag});
+          } else {
+            entity_physical_[{d, tag}] = std::move(physical);
+          }
+        }
         c_.next_line();  // bounding entities follow: not needed
       }
     }
@@ -447,7 +497,7 @@ class MshParser {
       static const std::vector<int> kNone;
       auto it = entity_physical_.find({dim, entity});
       const std::vector<int>& physical = it != entity_physical_.end() ? it->second : kNone;
-      const bool keep = type == kTypeTet || type == kTypeTriangle;
+      const bool keep = (type == kTypeTet || type == kTypeTriangle) && !partition_boundaries_.count({dim, entity});
       for (long long i = 0; i < m; ++i) {
         need_line("elements of a block", i, m);
         const long long line = c_.line();
@@ -544,6 +594,7 @@ class MshParser {
   std::vector<int> dense_;                         ///< node id -> vertex, when ids are compact
   std::vector<std::pair<long long, int>> sparse_;  ///< sorted (node id, vertex), otherwise
   std::map<std::pair<int, long long>, std::vector<int>> entity_physical_;  ///< (dim, entity tag) -> its groups
+  std::set<std::pair<int, long long>> partition_boundaries_;  ///< (dim, tag) of partitioned entities between partitions
   std::map<int, std::string> names_[2];            ///< physical names of dimension 2 and 3
   std::map<int, long long> other_volume_;          ///< element type -> count, volume types but type 4
   long long first_other_volume_line_ = 0;

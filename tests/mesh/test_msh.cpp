@@ -1,7 +1,10 @@
 // Gmsh MSH reader: both versions, sparse ids, skipped types, groups, and every malformed case.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <set>
+#include <tuple>
 
 #include "mesh/mesh_io.hpp"
 #include "test_util.hpp"
@@ -125,6 +128,35 @@ TEST(MshWriter, EveryGroupOfAnElementReadsBack) {
   const TetMesh m = read_msh(data("mesh/cube41_two_groups.msh"));
   const TetMesh back = read_msh(write_temp("two_groups.msh", msh22_text(m)));
   test::expect_same_elements(back, m);
+}
+
+// gmsh/box_part.geo saved whole and partitioned (-part 2, and with -part_ghosts): the partitioned
+// files' elements lie on partitioned entities, which carry the groups; the triangles between the
+// partitions are not the mesh's.
+TEST(ReadMsh, PartitionedFileKeepsItsGroups41) {
+  const TetMesh whole = read_msh(data("mesh/gmsh/box41.msh"));
+  auto sorted = [](std::vector<int> v) {
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  auto group_positions = [](const TetMesh& m, int tag) {
+    std::set<std::tuple<double, double, double>> out;
+    for (std::size_t f = 0; f < m.triangles.size(); ++f)
+      if (m.triangle_group[f] == tag)
+        for (int v : m.triangles[f]) out.insert({m.vertices[v].x, m.vertices[v].y, m.vertices[v].z});
+    return out;
+  };
+  ASSERT_EQ(whole.group_names, (std::map<int, std::string>{{1, "tissue"}, {2, "bottom"}}));
+  ASSERT_GE(group_positions(whole, 2).size(), 4u);
+  for (const char* name : {"mesh/gmsh/box_part41.msh", "mesh/gmsh/box_ghost41.msh"}) {
+    SCOPED_TRACE(name);
+    const TetMesh part = read_msh(data(name));
+    EXPECT_EQ(part.tets.size(), whole.tets.size());
+    EXPECT_EQ(sorted(part.tet_group), sorted(whole.tet_group));
+    EXPECT_EQ(sorted(part.triangle_group), sorted(whole.triangle_group));
+    EXPECT_EQ(part.group_names, whole.group_names);
+    EXPECT_EQ(group_positions(part, 2), group_positions(whole, 2));
+  }
 }
 
 // ---- malformed input: every case is an InputError "FILE:LINE: ..." ----------------------------

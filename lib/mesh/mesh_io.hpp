@@ -23,7 +23,8 @@ namespace ebh {
 /// tets, ...) is refused, naming each kind's count. Node ids may be sparse and unordered;
 /// vertices keep the file's node order and `file_node_ids` maps back. A partitioned 4.1 file
 /// (gmsh -part N) reads as the whole mesh: its elements' groups come from $PartitionedEntities,
-/// and the triangles between partitions are skipped. Other sections are skipped.
+/// and the triangles between partitions are skipped. A 2.x file's $ParametricNodes (gmsh
+/// -parametric) is read as its $Nodes. Other sections are skipped.
 /// If a surface and a volume group share a tag but not a name, the surface group gets a fresh
 /// tag (> every surface and volume tag in the file) so that `group_names` stays one name per tag.
 ///

@@ -76,9 +76,9 @@ class MshParser {
         read_entities();
       } else if (name == "PartitionedEntities" && major_ == 4) {
         read_partitioned_entities();
-      } else if (name == "Nodes") {
+      } else if (name == "Nodes" || (name == "ParametricNodes" && major_ == 2)) {
         if (have_nodes_) c_.fail_at(header_line, "second $Nodes section");
-        major_ == 4 ? read_nodes_v4() : read_nodes_v2();
+        major_ == 4 ? read_nodes_v4() : read_nodes_v2(name == "ParametricNodes");
         finish_nodes();
       } else if (name == "Elements") {
         if (have_elements_) c_.fail_at(header_line, "second $Elements section");
@@ -271,7 +271,9 @@ class MshParser {
     return {x, y, z};
   }
 
-  void read_nodes_v2() {
+  /// $Nodes, or $ParametricNodes (gmsh -parametric), whose lines go on after x y z with the node's
+  /// entity (dimension, tag) and its parametric coordinates on it: not needed.
+  void read_nodes_v2(bool parametric) {
     c_.skip_empty_lines();
     const long long n = count("node count", 8);  // "1 0 0 0\n"
     c_.end_line("");
@@ -281,7 +283,12 @@ class MshParser {
       const long long line = c_.line();
       const long long id = c_.integer("node id", 1, kMaxTag);
       const Vec3d p = read_xyz(id);
-      c_.end_line(node_ctx(id));
+      if (parametric) {
+        c_.integer("entity dimension", 0, 3, node_ctx(id));
+        c_.next_line();
+      } else {
+        c_.end_line(node_ctx(id));
+      }
       add_node(id, p, line);
     }
   }

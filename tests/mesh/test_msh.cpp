@@ -159,6 +159,25 @@ TEST(ReadMsh, PartitionedFileKeepsItsGroups41) {
   }
 }
 
+TEST(ReadMsh, ParametricNodes22) {
+  // gmsh -parametric: each node line goes on with its entity and its parametric coordinates
+  std::string text = replace(slurp(data("mesh/cube22.msh")), "$Nodes\n", "$ParametricNodes\n");
+  text = replace(text, "$EndNodes\n", "$EndParametricNodes\n");
+  text = replace(text, "101 10 0 10\n", "101 10 0 10 0 3\n");
+  text = replace(text, "7 0 0 0\n", "7 0 0 0 1 2 0.5\n");
+  text = replace(text, "55 10 10 10\n", "55 10 10 10 2 1 0.5 -0.25\n");
+  text = replace(text, "3 0 10 0\n", "3 0 10 0 3 1\n");
+  for (const char* node : {"1000 10 0 0", "42 0 10 10", "9 10 10 0", "250 0 0 10"})
+    text = replace(text, std::string(node) + "\n", std::string(node) + " 0 4\n");
+  expect_same_mesh(read_msh(write_temp("parametric.msh", text)), read_msh(data("mesh/cube22.msh")));
+  // gmsh/box_part.geo saved with -format msh22 -parametric: the mesh of box41.msh
+  const TetMesh parametric = read_msh(data("mesh/gmsh/box_param22.msh"));
+  const TetMesh whole = read_msh(data("mesh/gmsh/box41.msh"));
+  EXPECT_EQ(parametric.vertices.size(), whole.vertices.size());
+  EXPECT_EQ(parametric.tets.size(), whole.tets.size());
+  EXPECT_EQ(parametric.group_names, whole.group_names);
+}
+
 // ---- malformed input: every case is an InputError "FILE:LINE: ..." ----------------------------
 
 struct Bad22 : ::testing::Test {

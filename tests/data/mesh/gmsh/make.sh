@@ -8,3 +8,4 @@ gmsh -v 0 prism_layer.geo -3 -format msh41 -o prism_layer41.msh
 gmsh -v 0 box_part.geo -3 -format msh41 -o box41.msh
 gmsh -v 0 box_part.geo -3 -format msh41 -part 2 -o box_part41.msh
 gmsh -v 0 box_part.geo -3 -format msh41 -part 2 -part_ghosts -o box_ghost41.msh
+gmsh -v 0 box_part.geo -3 -format msh22 -parametric -o box_param22.msh

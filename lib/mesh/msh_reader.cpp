@@ -101,8 +101,12 @@ class MshParser {
  private:
   // ---- framing -------------------------------------------------------------------------------
   void read_format() {
-    if (!c_.skip_empty_lines() || c_.rest_of_line() != "$MeshFormat")
-      c_.fail("not a Gmsh MSH file: expected $MeshFormat");
+    const bool any = c_.skip_empty_lines();
+    const std::string_view head = any ? c_.rest_of_line() : std::string_view();
+    if (head == "$NOD")
+      c_.fail("an MSH 1 file (it starts with " + std::string(head) + "): re-export it as MSH 2.2 or 4.1 ASCII, e.g. gmsh " +
+              file_.filename().string() + " -save -format msh22 -o new.msh");
+    if (head != "$MeshFormat") c_.fail("not a Gmsh MSH file: expected $MeshFormat");
     c_.next_line();
     c_.skip_empty_lines();
     std::string_view version = c_.token();
@@ -534,9 +538,15 @@ class MshParser {
     const bool only_tet10 = other_volume_.size() == 1 && other_volume_.begin()->first == kTypeTet10;
     if (mesh_.tets.empty() && (other_volume_.empty() || only_tet10)) {
       std::string what = "no 4-node tetrahedra (element type 4) in the file";
-      if (only_tet10)
+      if (only_tet10) {
         what += "; it has " + std::to_string(other_volume_.begin()->second) +
                 " 10-node tetrahedra (type 11): re-mesh with Mesh.ElementOrder = 1";
+      } else if (!names_[0].empty() || !names_[1].empty() ||
+                 std::any_of(mesh_.triangle_group.begin(), mesh_.triangle_group.end(), [](int g) { return g != 0; })) {
+        what += " (gmsh saves only the elements in physical groups when there are any: add a Physical Volume, or save with -save_all)";
+      } else if (!mesh_.triangles.empty()) {
+        what += " (it holds a surface mesh only: mesh the volume, e.g. gmsh -3)";
+      }
       c_.fail(what);
     }
     if (other_volume_.empty()) return;

@@ -288,6 +288,23 @@ TEST_F(Bad22, SecondOrderBesideTetsAsksForFirstOrder) {
   expect(text, kFirstTetLine + 5, "1 10-node tetrahedron (type 11) besides the tets: ebh needs an all-tet mesh (mesh with 4-node "
                                   "tets only, e.g. gmsh -3 without Recombine and with Mesh.ElementOrder = 1)");
 }
+TEST_F(Bad22, Msh1) {
+  expect("$NOD\n1\n1 0 0 0\n$ENDNOD\n$ELM\n0\n$ENDELM\n", 1,
+         "an MSH 1 file (it starts with $NOD): re-export it as MSH 2.2 or 4.1 ASCII, e.g. gmsh bad.msh -save -format msh22 -o new.msh");
+}
+TEST_F(Bad22, NoTetrahedraWhereOnlySurfaceGroupsAreSaved) {
+  // gmsh -3 with a Physical Surface and no Physical Volume saves the surface's triangles only
+  std::string text = replace(good, "$Elements\n13\n", "$Elements\n8\n");
+  text.erase(text.find("20 4 2 1 1"), text.find("$EndElements") - text.find("20 4 2 1 1"));
+  expect(text, last_line(text),
+         "no 4-node tetrahedra (element type 4) in the file (gmsh saves only the elements in physical groups when there are "
+         "any: add a Physical Volume, or save with -save_all)");
+}
+TEST_F(Bad22, NoTetrahedraInASurfaceMesh) {
+  const std::string text = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n$EndNodes\n"
+                           "$Elements\n1\n1 2 2 0 1 1 2 3\n$EndElements\n";
+  expect(text, last_line(text), "no 4-node tetrahedra (element type 4) in the file (it holds a surface mesh only: mesh the volume, e.g. gmsh -3)");
+}
 TEST_F(Bad22, UnterminatedName) { expect(replace(good, "\"top\"", "\"top"), 8, "unterminated quoted physical name"); }
 TEST_F(Bad22, SecondNodesSection) {
   const std::string nodes = good.substr(good.find("$Nodes"), good.find("$Elements") - good.find("$Nodes"));

@@ -185,7 +185,7 @@ function(ebh_scene_init_failure name expect)
   set_tests_properties(cli.scene_init.${name} PROPERTIES LABELS "cli;scene")
 endfunction()
 set(OWN ${EBH_INIT}/own_cm.msh)
-ebh_scene_init_failure(group_missing "^ebh: error: --pin group:liver: .*own_cm.msh has no physical group 'liver' \\(it has no named groups\\)"
+ebh_scene_init_failure(group_missing "^ebh: error: --pin group:liver: .*own_cm.msh has no physical group 'liver' \\(it has no groups\\)"
   ${OWN} -o ${EBH_INIT}/group_missing.yaml --unit cm --pin group:liver)
 ebh_scene_init_failure(pins_nothing "^ebh: error: --pin sphere:10,10,10,1: the region pins no vertex of .*own_cm.msh \\(its bounding box: \\[0, 0, 0\\] \\.\\. \\[4, 3, 2\\] cm\\)"
   ${OWN} -o ${EBH_INIT}/pins_nothing.yaml --unit cm --pin sphere:10,10,10,1)

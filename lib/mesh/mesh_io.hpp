@@ -26,7 +26,8 @@ namespace ebh {
 /// and the triangles between partitions are skipped. A 2.x file's $ParametricNodes (gmsh
 /// -parametric) is read as its $Nodes. Other sections are skipped.
 /// If a surface and a volume group share a tag but not a name, the surface group gets a fresh
-/// tag (> every surface and volume tag in the file) so that `group_names` stays one name per tag.
+/// tag (> every surface and volume tag in the file) so that `group_names` stays one name per tag;
+/// an unnamed one is then named by its number in the file (a scene's pin names it so).
 ///
 /// Throws InputError for binary files, unsupported versions, malformed or truncated sections,
 /// references to unknown nodes, duplicate node ids, volume elements other than 4-node tets, and a

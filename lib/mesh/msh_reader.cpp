@@ -571,7 +571,8 @@ class MshParser {
 
   // ---- groups ---------------------------------------------------------------------------------
   /// Fills group_names; gives a surface group a fresh tag where its tag clashes with a
-  /// differently named volume group.
+  /// differently named volume group. An unnamed surface group so moved is named by its number in
+  /// the file, which a scene's pin uses for an unnamed group.
   void assign_groups() {
     std::set<int> tags3(mesh_.tet_group.begin(), mesh_.tet_group.end());
     std::set<int> tags2(mesh_.triangle_group.begin(), mesh_.triangle_group.end());
@@ -599,6 +600,8 @@ class MshParser {
       auto it = remap.find(tag);
       mesh_.group_names[it == remap.end() ? tag : it->second] = name;
     }
+    for (const auto& [from, to] : remap)
+      if (!names_[0].count(from)) mesh_.group_names[to] = std::to_string(from);
   }
 
   TextCursor c_;

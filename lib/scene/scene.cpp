@@ -557,7 +557,7 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
     const std::vector<std::string> known = known_group_names(scene.physical);
     if (std::find(known.begin(), known.end(), r.group) == known.end())
       throw InputError(scene.spec.file.string() + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
-                       scene.spec.physical_mesh.string() + ": " + (known.empty() ? std::string("none") : join(known)) + ")");
+                       scene.spec.physical_mesh.string() + ": " + known_groups_text(scene.physical) + ")");
   }
   throw InputError(scene.spec.file.string() + ": key '" + key + "': the " + region_name(r.kind) +
                    (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh" +
@@ -734,16 +734,42 @@ std::vector<std::pair<std::string, double>> tool_contact_sizes(const ToolSpec& t
           {"forceps.jaw_thickness", t.forceps.jaw_thickness}};
 }
 
+namespace {
+/// The tags of a mesh's elements' groups that have no name (0, no group, aside).
+std::set<int> unnamed_group_tags(const TetMesh& mesh) {
+  std::set<int> tags(mesh.tet_group.begin(), mesh.tet_group.end());
+  tags.insert(mesh.triangle_group.begin(), mesh.triangle_group.end());
+  for (const auto& [i, tag] : mesh.tet_more_groups) tags.insert(tag);
+  for (const auto& [i, tag] : mesh.triangle_more_groups) tags.insert(tag);
+  tags.erase(0);
+  for (const auto& [tag, name] : mesh.group_names) tags.erase(tag);
+  return tags;
+}
+}  // namespace
+
 std::vector<std::string> known_group_names(const TetMesh& mesh) {
   std::set<std::string> names;
   for (const auto& [tag, name] : mesh.group_names) names.insert(name);
-  return {names.begin(), names.end()};
+  std::vector<std::string> out(names.begin(), names.end());
+  for (int tag : unnamed_group_tags(mesh)) out.push_back(std::to_string(tag));
+  return out;
+}
+
+std::string known_groups_text(const TetMesh& mesh) {
+  std::set<std::string> names;
+  for (const auto& [tag, name] : mesh.group_names) names.insert(name);
+  std::vector<std::string> out(names.begin(), names.end());
+  for (int tag : unnamed_group_tags(mesh)) out.push_back(std::to_string(tag) + " (unnamed)");
+  return out.empty() ? std::string("none") : join(out);
 }
 
 std::set<int> group_tags(const TetMesh& mesh, const std::string& group) {
   std::set<int> tags;
   for (const auto& [tag, name] : mesh.group_names)
     if (name == group) tags.insert(tag);
+  if (tags.empty())
+    for (int tag : unnamed_group_tags(mesh))
+      if (std::to_string(tag) == group) tags.insert(tag);
   return tags;
 }
 

@@ -31,7 +31,9 @@
 //   gravity: [0, 0, -9.81]          # m/s^2
 //   damping: 0.0                    # fraction of velocity removed per physical step, [0, 1)
 //   pinned:                         # union of regions, world coordinates (after mesh.transform); each one of:
-//     - group: back                 #   a physical group name (its tets' or triangles' vertices; a
+//     - group: back                 #   a physical group name, or the number of a group without one
+//                                   #   (Physical Surface(3) = {...}: `group: 3`): its tets' or
+//                                   #   triangles' vertices (an element may be in several groups; a
 //                                   #   triangle with a vertex no tet uses is removed with that vertex)
 //     - box: {min: [x, y, z], max: [x, y, z]}
 //     - sphere: {center: [x, y, z], radius: r}
@@ -410,10 +412,15 @@ std::string resolved_scene_yaml(const SceneSpec& spec);
 /// A group's are those of its tets and triangles (an element may be in several groups); a group
 /// the mesh does not name gives none (known_group_names lists those it does).
 std::vector<int> region_vertices(const TetMesh& mesh, const PinRegion& region);
-/// The physical group tags a pinned region's `group` names.
+/// The physical group tags a pinned region's `group` names: the groups of that name or, where none
+/// has it, the unnamed group whose number it is ("3" for Gmsh's `Physical Surface(3) = {...}`; a
+/// surface and a volume group of that number both).
 std::set<int> group_tags(const TetMesh& mesh, const std::string& group);
-/// The physical group names of a mesh, sorted, each once.
+/// The physical group names of a mesh, sorted, each once, then the numbers of its unnamed groups
+/// in increasing order (what a pin's `group` may say).
 std::vector<std::string> known_group_names(const TetMesh& mesh);
+/// known_group_names for a message: "bottom, tissue, 3 (unnamed)", or "none".
+std::string known_groups_text(const TetMesh& mesh);
 
 /// The axis-aligned bounding box of points (lo = hi = 0 for none).
 struct BoundingBox {

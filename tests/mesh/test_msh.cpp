@@ -91,6 +91,19 @@ TEST(ReadMsh, SurfaceTagClashingWithVolumeTagIsRenumbered) {
   EXPECT_EQ(m.group_names.at(top), "top");
 }
 
+TEST(ReadMsh, UnnamedSurfaceGroupMovedOffAVolumeTagIsNamedByItsNumber) {
+  std::string text = slurp(data("mesh/cube22.msh"));
+  text = replace(text, "$PhysicalNames\n4\n", "$PhysicalNames\n3\n");
+  text = replace(text, "2 3 \"top\"\n", "");
+  text = replace(text, "7 2 2 3 2", "7 2 2 1 2");
+  text = replace(text, "8 2 2 3 2", "8 2 2 1 2");
+  const TetMesh m = read_msh(write_temp("clash.msh", text));
+  const int top = m.triangle_group[2];
+  EXPECT_GT(top, 2);
+  EXPECT_EQ(m.group_names.at(top), "1");  // Physical Surface(1), apart from the volume group 1 "tissue"
+  EXPECT_EQ(m.group_names.at(1), "tissue");
+}
+
 TEST(ReadMsh, SameNameOnSurfaceAndVolumeSharesTheTag) {
   std::string text = slurp(data("mesh/cube22.msh"));
   text = replace(text, "2 2 \"bottom\"", "2 1 \"tissue\"");

@@ -122,6 +122,29 @@ TEST(Scene, AGroupOfAnEntityInTwoGroupsPins) {
   EXPECT_EQ(region_vertices(m, group("liver")).size(), 8u);
 }
 
+TEST(Scene, AnUnnamedGroupIsPinnedByItsNumber) {
+  // cube22.msh without the name of its bottom group (Gmsh: Physical Surface(2) = {...})
+  std::string mesh = replace(slurp(data("mesh/cube22.msh")), "$PhysicalNames\n4\n", "$PhysicalNames\n3\n");
+  mesh = replace(mesh, "2 2 \"bottom\"\n", "");
+  const fs::path msh = write_temp("unnamed.msh", mesh);
+  const TetMesh m = read_msh(msh);
+  auto group = [](const std::string& name) { return PinRegion{PinRegion::Kind::Group, name, {}, {}}; };
+  EXPECT_EQ(region_vertices(m, group("2")), (std::vector<int>{1, 3, 4, 6}));
+  EXPECT_TRUE(region_vertices(m, group("1")).empty());  // tag 1 has a name: "tissue"
+  EXPECT_EQ(known_group_names(m), (std::vector<std::string>{"tissue", "top", "2"}));
+  const std::string yaml = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", msh.string());
+  const Scene s = load_scene(write_temp("unnamed.yaml", replace(yaml, "group: bottom", "group: 2")));
+  EXPECT_EQ(s.pinned, (std::vector<int>{1, 3, 4, 6, 7}));
+  try {
+    load_scene(write_temp("unknown.yaml", replace(yaml, "group: bottom", "group: 5")));
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown group '5' (known groups in " + msh.string() + ": tissue, top, 2 (unnamed))"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Scene, PartsTouchingNoPinnedVertexAreFoundByTheirSharedVertices) {
   TetMesh m;
   m.vertices.resize(15);

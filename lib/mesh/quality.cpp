@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 #include <unordered_map>
 
 #include "mesh/boundary.hpp"
@@ -276,6 +277,42 @@ int remove_unused_surface_vertices(SurfaceMesh& mesh) {
   for (Tri& tri : mesh.triangles)
     for (int& v : tri) v = remap[v];
   return nv - next;
+}
+
+MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh) {
+  const int nv = static_cast<int>(mesh.vertices.size());
+  std::vector<int> order(static_cast<std::size_t>(nv));
+  for (int v = 0; v < nv; ++v) order[v] = v;
+  auto key = [&](int v) { return std::tuple(mesh.vertices[v].x, mesh.vertices[v].y, mesh.vertices[v].z); };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
+  std::vector<int> first(static_cast<std::size_t>(nv));
+  for (int v = 0; v < nv; ++v) first[v] = v;
+  MergedVertices merged;
+  for (int i = 1; i < nv; ++i)
+    if (key(order[i]) == key(order[i - 1])) {
+      first[order[i]] = first[order[i - 1]];  // stable: the lowest index of the position
+      ++merged.vertices;
+    }
+  if (merged.vertices == 0) return merged;
+  std::vector<int> remap(static_cast<std::size_t>(nv), -1);
+  int next = 0;
+  for (int v = 0; v < nv; ++v)
+    if (first[v] == v) {
+      mesh.vertices[next] = mesh.vertices[v];
+      remap[v] = next++;
+    }
+  mesh.vertices.resize(next);
+  std::size_t kept = 0;
+  for (const Tri& t : mesh.triangles) {
+    const Tri r{remap[first[t[0]]], remap[first[t[1]]], remap[first[t[2]]]};
+    if (r[0] == r[1] || r[1] == r[2] || r[2] == r[0]) {
+      ++merged.faces;
+      continue;
+    }
+    mesh.triangles[kept++] = r;
+  }
+  mesh.triangles.resize(kept);
+  return merged;
 }
 
 int remove_unreferenced_vertices(TetMesh& mesh) {

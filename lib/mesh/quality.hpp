@@ -104,4 +104,17 @@ int remove_unreferenced_vertices(TetMesh& mesh);
 /// points), renumbering the triangles. Returns how many were removed.
 int remove_unused_surface_vertices(SurfaceMesh& mesh);
 
+/// What merge_coincident_surface_vertices did: vertices merged into another, faces removed.
+struct MergedVertices {
+  int vertices = 0;
+  int faces = 0;
+};
+
+/// Merges the vertices of a surface at exactly the same position (equal coordinates; 0 and -0
+/// alike) into the first of them, as a triangle soup (an STL converted to OBJ) needs so that its
+/// faces share edges. The vertices keep their order, the first of each position in its place;
+/// the triangles are renumbered, and those left with a repeated vertex (zero area) are removed. A
+/// surface with no two vertices at one position is left untouched.
+MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh);
+
 }  // namespace ebh

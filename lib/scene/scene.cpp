@@ -1014,6 +1014,17 @@ Scene build_scene(SceneSpec spec_in) {
   // The virtual mesh's source surface.
   if (spec.virtual_mesh) {
     scene.virtual_surface = read_obj(*spec.virtual_mesh);
+    // A triangle soup (an STL converted to OBJ) has no edges between its faces until its vertices
+    // at one position are one.
+    if (const MergedVertices merged = merge_coincident_surface_vertices(scene.virtual_surface); merged.vertices > 0) {
+      const std::string faces = std::to_string(merged.faces) + (merged.faces == 1 ? " face" : " faces");
+      if (scene.virtual_surface.triangles.empty())
+        throw InputError(spec.virtual_mesh->string() + ": every face has a repeated vertex once the vertices at one position "
+                         "are merged (" + std::to_string(merged.vertices) + " merged)");
+      scene.warnings.push_back(spec.virtual_mesh->string() + ": merged " + std::to_string(merged.vertices) +
+                               " vertices at the position of another" +
+                               (merged.faces > 0 ? " and removed the " + faces + " left with a repeated vertex" : ""));
+    }
     if (const int removed = remove_unused_surface_vertices(scene.virtual_surface); removed > 0)
       scene.warnings.push_back(spec.virtual_mesh->string() + ": removed " + std::to_string(removed) +
                                " vertices used by no face");

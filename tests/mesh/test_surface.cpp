@@ -2,10 +2,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 
 #include "mesh/boundary.hpp"
 #include "mesh/mesh_io.hpp"
+#include "mesh/quality.hpp"
 #include "test_util.hpp"
 
 namespace ebh {
@@ -91,6 +93,34 @@ TEST_F(BadObj, TooManySlashes) { expect(kTri + "f 1 2 3/1/1/1\n", 4, "got '3/1/1
 TEST_F(BadObj, NanCoordinate) { expect("v 0 nan 0\n", 1, "y coordinate 'nan' is not a finite number"); }
 TEST_F(BadObj, MissingCoordinate) { expect("v 0 0\r\n", 1, "expected z coordinate, found the end of the line"); }
 TEST_F(BadObj, NoFaces) { expect(kTri, 4, "no faces"); }
+
+// ---- merging coincident vertices (a triangle soup) ----------------------------------------------
+TEST(MergeCoincident, TriangleSoupSharesEdges) {
+  // the unit square's two triangles, each with its own corners; 0 and -0 are one position
+  SurfaceMesh s{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {-0.0, 0, 0}, {1, 1, 0}, {0, 1, 0}}, {{0, 1, 2}, {3, 4, 5}}};
+  const MergedVertices m = merge_coincident_surface_vertices(s);
+  EXPECT_EQ(m.vertices, 2);
+  EXPECT_EQ(m.faces, 0);
+  EXPECT_EQ(s.vertices, (std::vector<Vec3d>{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}));
+  EXPECT_FALSE(std::signbit(s.vertices[0].x));  // the first of a position stays, to the bit
+  EXPECT_EQ(s.triangles, (std::vector<Tri>{{0, 1, 2}, {0, 2, 3}}));
+}
+TEST(MergeCoincident, FacesLeftWithARepeatedVertexAreRemoved) {
+  SurfaceMesh s{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 0, 0}}, {{0, 1, 2}, {0, 1, 3}, {3, 2, 0}}};
+  const MergedVertices m = merge_coincident_surface_vertices(s);
+  EXPECT_EQ(m.vertices, 1);
+  EXPECT_EQ(m.faces, 1);
+  EXPECT_EQ(s.vertices.size(), 3u);
+  EXPECT_EQ(s.triangles, (std::vector<Tri>{{0, 1, 2}, {1, 2, 0}}));
+}
+TEST(MergeCoincident, NoCoincidentVerticesLeavesTheSurfaceAlone) {
+  SurfaceMesh s = read_obj(data("mesh/cube.obj"));
+  const SurfaceMesh before = s;
+  const MergedVertices m = merge_coincident_surface_vertices(s);
+  EXPECT_EQ(m.vertices, 0);
+  EXPECT_EQ(s.vertices, before.vertices);
+  EXPECT_EQ(s.triangles, before.triangles);
+}
 
 TEST(Boundary, FiveTetCube) {
   const TetMesh m = read_msh(data("mesh/cube22.msh"));

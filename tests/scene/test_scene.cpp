@@ -220,6 +220,36 @@ TEST(Scene, ObjVirtualSurfaceSphereAndHalfspaceInCentimetres) {
   EXPECT_EQ(s.pinned, (std::vector<int>{0, 1, 2, 4, 6}));
 }
 
+TEST(Scene, ObjTriangleSoupIsMergedWithAWarning) {
+  // cube.obj's 12 triangles, each with its own 3 corners (as an STL converted to OBJ has them)
+  const SurfaceMesh cube = read_obj(data("mesh/cube.obj"));
+  std::string soup;
+  for (const Tri& t : cube.triangles)
+    for (int v : t) {
+      const Vec3d& p = cube.vertices[v];
+      soup += "v " + std::to_string(p.x) + " " + std::to_string(p.y) + " " + std::to_string(p.z) + "\n";
+    }
+  for (int f = 0; f < 12; ++f)
+    soup += "f " + std::to_string(3 * f + 1) + " " + std::to_string(3 * f + 2) + " " + std::to_string(3 * f + 3) + "\n";
+  write_temp("soup.obj", soup);
+  const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                           data("mesh/cube41.msh").string()),
+                                   "../mesh/cube.obj", "soup.obj");
+  const fs::path p = write_temp("soup.yaml", yaml);
+  const Scene s = load_scene(p);
+  ASSERT_EQ(s.warnings.size(), 1u) << ::testing::PrintToString(s.warnings);
+  EXPECT_EQ(s.warnings[0], (p.parent_path() / "soup.obj").string() + ": merged 28 vertices at the position of another");
+  // the cube again: its 8 corners, in the order the soup first names them, and the same faces
+  const Scene plain = load_scene(data("scene/cube_obj.yaml"));
+  ASSERT_EQ(s.virtual_surface.vertices.size(), 8u);
+  ASSERT_EQ(s.virtual_surface.triangles.size(), 12u);
+  for (std::size_t f = 0; f < 12; ++f)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(s.virtual_surface.vertices[s.virtual_surface.triangles[f][k]],
+                plain.virtual_surface.vertices[plain.virtual_surface.triangles[f][k]]);
+  EXPECT_EQ(s.virtual_surface.triangles[0], (Tri{0, 1, 2}));
+}
+
 TEST(Scene, StrayObjVerticesAreRemovedWithAWarning) {
   write_temp("stray.obj", slurp(data("mesh/cube.obj")) + "v 50 50 50\nv 60 60 60\n");
   const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",

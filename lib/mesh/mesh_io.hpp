@@ -39,11 +39,14 @@ TetMesh read_msh(const std::filesystem::path& file);
 /// back to the same vertices (to the last bit: %.17g), elements and groups.
 std::string msh22_text(const TetMesh& mesh, double scale = 1.0);
 
-/// Reads the `v` and `f` lines of a Wavefront OBJ file; every other line is ignored.
+/// Reads the `v` and `f` lines of a Wavefront OBJ file; every other line is ignored, a line that
+/// ends in `\` goes on on the next, and `#` starts a comment (after a face's corners too).
 /// Faces may be written `f a b c`, `a/t`, `a/t/n` or `a//n`, with 1-based or negative
 /// (relative to the vertices read so far) indices; polygons are fan-triangulated
-/// (a b c d -> a b c, a c d). Throws InputError for bad numbers, non-finite coordinates, indices
-/// that are 0 or out of range, faces with fewer than 3 vertices, and a file with no faces.
+/// (a b c d -> a b c, a c d), which is right for convex ones. Throws InputError for a file that is
+/// not text (gzip-compressed, NUL bytes), bad numbers, non-finite coordinates, indices that are 0
+/// or out of range, faces with fewer than 3 vertices, concave polygons (in their plane, seen along
+/// their Newell normal), and a file with no faces.
 SurfaceMesh read_obj(const std::filesystem::path& file);
 
 /// The Wavefront OBJ text of `surface` (`v x y z` at %.17g, `f a b c` 1-based): read_obj reads it

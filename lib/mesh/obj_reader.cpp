@@ -1,6 +1,9 @@
 // Wavefront OBJ surface reader: `v` and `f` lines only.
+#include <algorithm>
 #include <charconv>
 #include <climits>
+#include <string>
+#include <vector>
 
 #include "mesh/mesh_io.hpp"
 #include "mesh/text_cursor.hpp"
@@ -27,11 +30,75 @@ bool parse_corner(std::string_view t, long long* v) {
   return true;
 }
 
+/// Refuses what is not text: a gzip-compressed file (its magic bytes first) or one with a NUL byte.
+void check_text(const std::filesystem::path& file, std::string_view text) {
+  if (text.starts_with("\x1f\x8b"))
+    throw InputError(file.string() + ":1: a gzip-compressed file, not a text OBJ: decompress it first (gunzip)");
+  if (const auto nul = text.find('\0'); nul != std::string_view::npos)
+    throw InputError(file.string() + ":" + std::to_string(1 + std::count(text.begin(), text.begin() + nul, '\n')) +
+                     ": a NUL byte: a binary file, not a text OBJ");
+}
+
+/// OBJ's line continuation: a line that ends in '\' goes on on the next one. Each such '\' and
+/// its line break become a blank, and the line breaks come back after the joined line, so every
+/// other line keeps its number (an error on a joined line names its first).
+void join_continued_lines(std::string& text) {
+  if (text.find('\\') == std::string::npos) return;
+  std::string out;
+  out.reserve(text.size());
+  std::size_t joined = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '\\') {
+      std::size_t j = i + 1;
+      if (j < text.size() && text[j] == '\r') ++j;
+      if (j < text.size() && text[j] == '\n') {
+        out += ' ';
+        ++joined;
+        i = j;
+        continue;
+      }
+    }
+    out += text[i];
+    if (text[i] == '\n') {
+      out.append(joined, '\n');
+      joined = 0;
+    }
+  }
+  text = std::move(out);
+}
+
+/// A polygon of more than 3 corners, fan-triangulated: right only when it is convex.
+struct Polygon {
+  long long line;
+  std::vector<long long> corners;
+};
+
+/// The first corner (an index into p.corners) where a polygon turns against the others, seen
+/// along its Newell normal; -1 for a convex one (or one with no area, whose fan is as flat).
+int concave_corner(const Polygon& p, const std::vector<Vec3d>& v) {
+  const std::size_t n = p.corners.size();
+  auto at = [&](std::size_t k) { return v[static_cast<std::size_t>(p.corners[k % n])]; };
+  Vec3d normal{};
+  for (std::size_t k = 0; k < n; ++k) normal += cross(at(k), at(k + 1));
+  const double length = norm(normal);
+  if (!(length > 0)) return -1;
+  normal = normal / length;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Vec3d a = at(k) - at(k + n - 1), b = at(k + 1) - at(k);
+    // a relative tolerance: a straight corner's round-off may turn either way
+    if (dot(cross(a, b), normal) < -1e-9 * norm(a) * norm(b)) return static_cast<int>(k);
+  }
+  return -1;
+}
+
 }  // namespace
 
 SurfaceMesh read_obj(const std::filesystem::path& file) {
-  const std::string text = detail::read_file_bytes(file);
+  std::string text = detail::read_file_bytes(file);
+  check_text(file, text);
+  join_continued_lines(text);
   detail::TextCursor c(file, text);
+  std::vector<Polygon> polygons;
   SurfaceMesh mesh;
   std::vector<long long> tri_lines;  // line of each triangle, for range errors at the end
   std::vector<long long> corners;
@@ -46,6 +113,7 @@ SurfaceMesh read_obj(const std::filesystem::path& file) {
     } else if (kind == "f") {
       corners.clear();
       for (std::string_view t = c.token(); !t.empty(); t = c.token()) {
+        if (t.front() == '#') break;  // a comment to the end of the line
         long long v = 0;
         if (!parse_corner(t, &v)) c.fail("expected a face corner like 3, 3/1, 3/1/2 or 3//2, got '" + printable(t) + "'");
         if (v == 0) c.fail("vertex index 0 is invalid (OBJ indices start at 1)");
@@ -66,6 +134,7 @@ SurfaceMesh read_obj(const std::filesystem::path& file) {
         for (std::size_t b = a + 1; b < corners.size(); ++b)
           if (corners[a] == corners[b])
             c.fail("the face names vertex " + std::to_string(corners[a] + 1) + " twice (a degenerate face)");
+      if (corners.size() > 3) polygons.push_back({c.line(), corners});
       for (std::size_t k = 1; k + 1 < corners.size(); ++k) {
         mesh.triangles.push_back({static_cast<int>(corners[0]), static_cast<int>(corners[k]), static_cast<int>(corners[k + 1])});
         tri_lines.push_back(c.line());
@@ -79,6 +148,11 @@ SurfaceMesh read_obj(const std::filesystem::path& file) {
       if (mesh.triangles[t][k] >= nv)
         c.fail_at(tri_lines[t], "vertex index " + std::to_string(mesh.triangles[t][k] + 1) + " is out of range (the file has " +
                                     std::to_string(nv) + " vertices)");
+  for (const Polygon& p : polygons)
+    if (const int k = concave_corner(p, mesh.vertices); k >= 0)
+      c.fail_at(p.line, "a concave face of " + std::to_string(p.corners.size()) + " vertices (it turns back at vertex " +
+                            std::to_string(p.corners[k] + 1) + "): ebh splits a face into triangles around its first vertex, "
+                            "right for convex faces only; triangulate the mesh before exporting it");
   if (mesh.triangles.empty()) c.fail("no faces ('f' lines) in the file");
   return mesh;
 }

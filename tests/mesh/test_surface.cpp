@@ -122,6 +122,35 @@ TEST(MergeCoincident, NoCoincidentVerticesLeavesTheSurfaceAlone) {
   EXPECT_EQ(s.triangles, before.triangles);
 }
 
+// ---- OBJ lines: continuation, comments, polygons, not text -----------------------------------
+TEST(ReadObj, ContinuedLineAndTrailingComments) {
+  const SurfaceMesh s = read_obj(write_temp("cont.obj", "v 0 0 0\nv 1 0 \\\n 0\r\nv 0 1 0 # the third\nf 1 2 \\\r\n3 # one face\n"
+                                                          "v 0 0 1\nf 1 2 4 #\n"));
+  EXPECT_EQ(s.vertices, (std::vector<Vec3d>{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}));
+  EXPECT_EQ(s.triangles, (std::vector<Tri>{{0, 1, 2}, {0, 1, 3}}));
+}
+TEST(ReadObj, ConvexPolygonsAreFanTriangulated) {
+  // a hexagon, and a trapezoid of its first 4 corners
+  const SurfaceMesh s = read_obj(write_temp("convex.obj", "v 2 0 0\nv 1 1.7 0\nv -1 1.7 0\nv -2 0 0\nv -1 -1.7 0\nv 1 -1.7 0\n"
+                                                            "f 1 2 3 4 5 6\nf 1 2 3 4\n"));
+  EXPECT_EQ(s.triangles.size(), 6u);
+  EXPECT_EQ(s.triangles[3], (Tri{0, 4, 5}));
+}
+TEST_F(BadObj, ContinuedLineErrorNamesItsFirstLine) {
+  expect(kTri + "f 1 \\\n2 x\nf 1 2 3\nf 1 2 9\n", 4, "got 'x'");
+  expect(kTri + "f 1 \\\n2 3\nf 1 2 3\nf 1 2 9\n", 7, "vertex index 9 is out of range");
+}
+TEST_F(BadObj, ConcaveQuad) {
+  // an arrowhead: corner 4 (vertex 4) points inward; the fan from vertex 1 would cover the notch
+  expect("v 0 0 0\nv 2 1 0\nv 0 2 0\nv 1 1 0\n# an arrowhead\nf 1 2 3 4\n", 6,
+         "a concave face of 4 vertices (it turns back at vertex 4): ebh splits a face into triangles around its first vertex");
+}
+TEST_F(BadObj, ConcavePolygonAfterForwardReferences) {
+  expect("f 1 2 3 4 5\nv 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\n", 1, "a concave face of 5 vertices (it turns back at vertex 4)");
+}
+TEST_F(BadObj, Gzip) { expect(std::string("\x1f\x8b\x08\x08", 4) + "plain.obj", 1, "a gzip-compressed file, not a text OBJ"); }
+TEST_F(BadObj, NulBytes) { expect(kTri + std::string("f 1 2 3\n\0\0\x01", 11), 5, "a NUL byte: a binary file, not a text OBJ"); }
+
 TEST(Boundary, FiveTetCube) {
   const TetMesh m = read_msh(data("mesh/cube22.msh"));
   std::vector<int> to_volume;

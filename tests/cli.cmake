@@ -852,6 +852,24 @@ file(WRITE ${EBH_SWEEP_OUT}/moved/plan.yaml
 add_test(NAME cli.sweep.report_moved_folder COMMAND ${EBH_BIN} sweep report ${EBH_SWEEP_OUT}/moved)
 set_tests_properties(cli.sweep.report_moved_folder PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION
   "warning: .*moved: cannot collect the runs again \\(.*elsewhere.*\\); reporting summary.csv as it is.*\\| \\* \\| k=1 \\|")
+# --plot replaces none of the sweep's files: its summary (there or not yet), its plan, a run's
+# output; nor does it go into runs/, where a run not done yet has no file to compare with.
+file(MAKE_DIRECTORY ${EBH_SWEEP_OUT}/moved/runs)
+file(WRITE ${EBH_SWEEP_OUT}/moved/runs/0123456789abcdef.h5 "a run's output\n")
+foreach(target summary.csv summary.h5 plan.yaml runs/0123456789abcdef.h5 runs/fedcba9876543210.h5)
+  string(MAKE_C_IDENTIFIER ${target} tname)
+  if(target MATCHES "fedcba")
+    set(why "the output would go into the sweep's folder .*moved/runs, which holds its runs' files only")
+  else()
+    set(why "the output would replace the sweep's [a-z ]+ .*moved/${target}")
+  endif()
+  add_test(NAME cli.sweep.report_plot_over_${tname}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;report;${EBH_SWEEP_OUT}/moved;--plot;${EBH_SWEEP_OUT}/moved/${target}"
+      "-DEXPECT=^ebh: error: .*moved/${target}: ${why}" -DNO_STDOUT=1
+      "-DKEEP=${EBH_SWEEP_OUT}/moved/summary.csv;${EBH_SWEEP_OUT}/moved/plan.yaml;${EBH_SWEEP_OUT}/moved/runs/0123456789abcdef.h5"
+      -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.sweep.report_plot_over_${tname} PROPERTIES LABELS "cli;sweep")
+endforeach()
 add_test(NAME cli.sweep.report_not_a_sweep
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;report;${CMAKE_CURRENT_SOURCE_DIR}/data/sweep"
     "-DEXPECT=^ebh: error: .*data/sweep: neither summary.csv nor plan.yaml: not a sweep's folder"

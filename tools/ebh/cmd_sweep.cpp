@@ -19,6 +19,7 @@
 #include "core/error.hpp"
 #include "io/paths.hpp"
 #include "replay_common.hpp"
+#include "sweep/folder.hpp"
 #include "sweep/plan.hpp"
 #include "sweep/report.hpp"
 #include "sweep/runner.hpp"
@@ -45,8 +46,8 @@ struct ReportArgs {
   double min_haptic_hz = kMinHapticHz;
 };
 
-fs::path plan_copy(const fs::path& dir) { return dir / "plan.yaml"; }
-fs::path summary_path(const fs::path& dir) { return dir / "summary.csv"; }
+fs::path plan_copy(const fs::path& dir) { return sweep_plan_copy(dir); }
+fs::path summary_path(const fs::path& dir) { return sweep_summary_csv(dir); }
 
 std::string executable() {
   std::error_code ec;
@@ -117,7 +118,7 @@ void check_same_plan(const SweepPlan& plan, const std::string& given, const fs::
 /// DIR/summary.csv and DIR/summary.h5, each written atomically.
 void write_summary_files(const fs::path& dir, const CsvTable& table) {
   write_file_atomically(summary_path(dir).string(), table.to_csv());
-  write_summary_h5(table, (dir / "summary.h5").string());
+  write_summary_h5(table, sweep_summary_h5(dir).string());
 }
 
 /// Writes DIR/summary.csv (and .h5) from what DIR holds; prints its counts.
@@ -436,21 +437,37 @@ void run_report(const ReportArgs& a) {
   // Collect: the summary again when runs ended after it was written (a Slurm array's tasks). A
   // folder copied to another machine may have its files' times reordered and its plan's input
   // files missing: then the summary it has is reported, saying so.
-  if (has_plan && (!has_summary || fs::last_write_time(summary_path(dir), ec) <= newest_input(dir))) {
+  const bool collect = has_plan && (!has_summary || fs::last_write_time(summary_path(dir), ec) <= newest_input(dir));
+  std::optional<SweepPlan> plan;
+  std::string collect_error;
+  if (collect) {
     try {
-      const SweepPlan plan = read_sweep_plan(plan_copy(dir));
-      const std::vector<SweepRun> runs = expand_plan(plan);
+      plan = read_sweep_plan(plan_copy(dir));
+    } catch (const InputError& e) {
+      if (!has_summary) throw;
+      collect_error = e.what();
+    }
+  }
+  // The plot replaces none of the folder's files nor a file the collection reads.
+  std::vector<RoleFile> inputs;
+  if (plan) inputs = plan_input_files(*plan);
+  check_output_beside_sweep({a.plot, "the plot (--plot)"}, dir, inputs);
+  if (plan) {
+    try {
+      const std::vector<SweepRun> runs = expand_plan(*plan);
       adopt_legacy(dir, runs);
-      const SweepSummary s = summarize_sweep(plan, runs, dir);
+      const SweepSummary s = summarize_sweep(*plan, runs, dir);
       write_summary_files(dir, s.table);
       std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(),
                    s.table.rows.size(), s.ok, s.failed, s.pending);
     } catch (const InputError& e) {
       if (!has_summary) throw;
-      std::fprintf(stderr, "ebh: warning: %s: cannot collect the runs again (%s); reporting summary.csv as it is\n",
-                   a.dir.c_str(), e.what());
+      collect_error = e.what();
     }
   }
+  if (!collect_error.empty())
+    std::fprintf(stderr, "ebh: warning: %s: cannot collect the runs again (%s); reporting summary.csv as it is\n",
+                 a.dir.c_str(), collect_error.c_str());
   const std::string file = summary_path(dir).string();
   check_input_file(file);
   const std::vector<ReportGroup> groups = build_report(parse_csv(file_text(file).value_or(""), file), file, a.min_haptic_hz);

@@ -1,0 +1,33 @@
+#pragma once
+// A sweep's folder (DIR, sweep/runner.hpp lists what it holds): the files that are the sweep's
+// own, which no output of a command and no input of its plan may be.
+#include <filesystem>
+#include <vector>
+
+#include "io/paths.hpp"
+#include "sweep/plan.hpp"
+
+namespace ebh {
+
+/// DIR/plan.yaml, DIR/summary.csv and DIR/summary.h5.
+std::filesystem::path sweep_plan_copy(const std::filesystem::path& dir);
+std::filesystem::path sweep_summary_csv(const std::filesystem::path& dir);
+std::filesystem::path sweep_summary_h5(const std::filesystem::path& dir);
+
+/// The files the plan's replays read, each with its role for messages: the plan file, each scene
+/// file, the other files the scenes name (meshes: SweepPlan::sha256) and each recording.
+std::vector<RoleFile> plan_input_files(const SweepPlan& plan);
+
+/// The files of DIR that are the sweep's, each with its role for messages ("the sweep's summary"):
+/// plan.yaml, summary.csv, summary.h5, sweep.sbatch (whether there or not: a sweep or a report
+/// writes them), and every file now in runs/, batches/ and slurm/.
+std::vector<RoleFile> sweep_folder_files(const std::filesystem::path& dir);
+
+/// Throws InputError "OUT: the output would replace ROLE IN, an input of this command; choose
+/// another output file" (check_outputs) when `output` is one of the folder's files
+/// (sweep_folder_files) or one of `inputs`, and "OUT: the output would go into the sweep's folder
+/// DIR/runs, ..." when it names a file in runs/, batches/ or slurm/, which hold the runs' files
+/// only (a run not done yet has no file there to compare with).
+void check_output_beside_sweep(const RoleFile& output, const std::filesystem::path& dir, std::vector<RoleFile> inputs);
+
+}  // namespace ebh

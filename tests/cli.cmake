@@ -886,3 +886,44 @@ add_test(NAME cli.sweep.bad_gpus
     "-DEXPECT=^ebh: error: --gpus '0,x': expected all or device numbers separated by commas"
     -DOUTPUT=${EBH_SWEEP_OUT}/bad_gpus/plan.yaml -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.sweep.bad_plan cli.sweep.report_not_a_sweep cli.sweep.bad_gpus PROPERTIES LABELS "cli;sweep")
+# A plan that reads a file the sweep writes (its summary, a file in runs/) is refused before any
+# work, and the file stays; so is a folder without plan.yaml that holds a user's summary or files
+# in runs/ that are no run's: nothing of the plan is written there.
+foreach(sname own_summary own_runs)
+  file(REMOVE_RECURSE ${EBH_SWEEP_OUT}/${sname})
+endforeach()
+configure_file(${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5 ${EBH_SWEEP_OUT}/own_summary/summary.h5 COPYONLY)
+configure_file(${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5 ${EBH_SWEEP_OUT}/own_runs/runs/rec.h5 COPYONLY)
+foreach(sname own_summary/summary.h5 own_runs/runs/rec.h5)
+  get_filename_component(sdir ${sname} DIRECTORY)
+  string(REGEX REPLACE "/.*" "" sdir ${sdir})
+  file(WRITE ${EBH_SWEEP_OUT}/${sdir}.yaml
+    "scenes:\n  - {scene: tube, recordings: [${EBH_SWEEP_OUT}/${sname}], reference: {}}\nstart: 4\nduration: 0.05\n")
+endforeach()
+add_test(NAME cli.sweep.plan_reads_its_summary
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;${EBH_SWEEP_OUT}/own_summary.yaml;-o;${EBH_SWEEP_OUT}/own_summary"
+    "-DEXPECT=^ebh: error: .*own_summary/summary.h5: the output would replace the recording .*own_summary/summary.h5, an input of this command; give the sweep another folder"
+    -DKEEP=${EBH_SWEEP_OUT}/own_summary/summary.h5 -DOUTPUT=${EBH_SWEEP_OUT}/own_summary/plan.yaml
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.sweep.plan_reads_its_runs
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;${EBH_SWEEP_OUT}/own_runs.yaml;-o;${EBH_SWEEP_OUT}/own_runs"
+    "-DEXPECT=^ebh: error: .*own_runs/runs/rec.h5: the recording is in the sweep's folder .*own_runs/runs, where it writes its runs' files"
+    -DKEEP=${EBH_SWEEP_OUT}/own_runs/runs/rec.h5 -DOUTPUT=${EBH_SWEEP_OUT}/own_runs/plan.yaml
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+foreach(uname summary.csv runs/notes.txt)
+  string(MAKE_C_IDENTIFIER ${uname} uid)
+  file(REMOVE_RECURSE ${EBH_SWEEP_OUT}/user_${uid})
+  file(WRITE ${EBH_SWEEP_OUT}/user_${uid}/${uname} "a user's file\n")
+  if(uname MATCHES "runs/")
+    set(uwhat "runs/notes.txt, not a run's file")
+  else()
+    set(uwhat "summary.csv")
+  endif()
+  add_test(NAME cli.sweep.not_a_sweep_folder_${uid}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;${CMAKE_CURRENT_SOURCE_DIR}/data/sweep/tube_one_run.yaml;-o;${EBH_SWEEP_OUT}/user_${uid}"
+      "-DEXPECT=^ebh: error: .*user_${uid}: not an ebh sweep folder \\(no plan.yaml\\) but holds ${uwhat}: name a new or empty folder"
+      -DKEEP=${EBH_SWEEP_OUT}/user_${uid}/${uname} -DOUTPUT=${EBH_SWEEP_OUT}/user_${uid}/plan.yaml
+      -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.sweep.not_a_sweep_folder_${uid} PROPERTIES LABELS "cli;sweep")
+endforeach()
+set_tests_properties(cli.sweep.plan_reads_its_summary cli.sweep.plan_reads_its_runs PROPERTIES LABELS "cli;sweep")

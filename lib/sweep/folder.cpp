@@ -1,5 +1,6 @@
 #include "sweep/folder.hpp"
 
+#include <regex>
 #include <set>
 #include <string>
 
@@ -54,6 +55,41 @@ void check_output_beside_sweep(const RoleFile& output, const fs::path& dir, std:
     if (same_file(parent.empty() ? "." : parent.string(), (dir / sub).string()))
       throw InputError(output.path + ": the output would go into the sweep's folder " + (dir / sub).string() +
                        ", which holds its runs' files only; choose another output file");
+}
+
+void check_sweep_outputs(const SweepPlan& plan, const fs::path& dir, bool writes_plan) {
+  std::vector<RoleFile> outputs = {{sweep_summary_csv(dir).string(), "summary"},
+                                   {sweep_summary_h5(dir).string(), "summary"},
+                                   {(dir / "sweep.sbatch").string(), "Slurm script"}};
+  if (writes_plan) outputs.push_back({sweep_plan_copy(dir).string(), "plan"});
+  for (const RoleFile& in : plan_input_files(plan)) {
+    for (const RoleFile& out : outputs)
+      if (same_file(out.path, in.path))
+        throw InputError(out.path + ": the output would replace " + in.role + " " + in.path +
+                         ", an input of this command; give the sweep another folder (-o NEW_DIR)");
+    const fs::path parent = fs::path(in.path).parent_path();
+    for (const char* sub : kRunFolders)
+      if (same_file(parent.string(), (dir / sub).string()))
+        throw InputError(in.path + ": " + in.role + " is in the sweep's folder " + (dir / sub).string() +
+                         ", where it writes its runs' files; give the sweep another folder (-o NEW_DIR)");
+  }
+}
+
+void check_sweep_folder(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec) || fs::exists(sweep_plan_copy(dir), ec)) return;
+  auto refuse = [&](const std::string& what) {
+    throw InputError(dir.string() + ": not an ebh sweep folder (no plan.yaml) but holds " + what +
+                     ": name a new or empty folder");
+  };
+  for (const char* name : {"summary.csv", "summary.h5", "sweep.sbatch"})
+    if (fs::exists(dir / name, ec)) refuse(name);
+  // A run's file: ID.h5, ID.log, ID.failed (16 hex digits), or the temporary of one.
+  static const std::regex run_file(R"(\.?[0-9a-f]{16}\.(h5|log|failed)(\..*\.ebh-partial)?)");
+  if (fs::exists(dir / "runs", ec) && !fs::is_directory(dir / "runs", ec)) refuse("runs");
+  for (fs::directory_iterator it(dir / "runs", ec), end; !ec && it != end; it.increment(ec))
+    if (!std::regex_match(it->path().filename().string(), run_file))
+      refuse("runs/" + it->path().filename().string() + ", not a run's file");
 }
 
 }  // namespace ebh

@@ -30,4 +30,18 @@ std::vector<RoleFile> sweep_folder_files(const std::filesystem::path& dir);
 /// only (a run not done yet has no file there to compare with).
 void check_output_beside_sweep(const RoleFile& output, const std::filesystem::path& dir, std::vector<RoleFile> inputs);
 
+/// Throws InputError when a file the plan reads (plan_input_files) is one the sweep writes in DIR,
+/// before any work: "DIR/summary.h5: the output would replace the recording DIR/summary.h5, an
+/// input of this command; give the sweep another folder (-o NEW_DIR)", and the same for
+/// summary.csv, sweep.sbatch, plan.yaml (`writes_plan`: unless the plan is that file) and any
+/// file in runs/, batches/ or slurm/.
+void check_sweep_outputs(const SweepPlan& plan, const std::filesystem::path& dir, bool writes_plan);
+
+/// Throws InputError "DIR: not an ebh sweep folder (no plan.yaml) but holds summary.csv: name a new
+/// or empty folder" when DIR has no plan.yaml but holds a file a sweep would write over or mix its
+/// runs with (summary.csv, summary.h5, sweep.sbatch, or a file in runs/ that is not a run's). A
+/// runs/ of run files only (copied from another sweep's folder to reuse them) is taken, as is a
+/// folder holding other files (an empty slurm/ made for the array's logs).
+void check_sweep_folder(const std::filesystem::path& dir);
+
 }  // namespace ebh

@@ -43,7 +43,17 @@ scenes:
 PLAN
 "$ebh" sweep "$work/a_again.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "the same plan: $(cat "$work/err.txt")"
 "$ebh" sweep "$dir/plan.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "the folder's plan: $(cat "$work/err.txt")"
-# A folder without a plan.yaml takes any plan.
+# A folder without a plan.yaml that holds a summary is no sweep's: refused, as it is. One whose
+# runs/ holds run files only (copied from another sweep's folder) takes any plan.
 rm "$dir/plan.yaml"
+before=$(cd "$dir" && find . -type f | sort | xargs sha256sum)
+status=0
+"$ebh" sweep "$work/b.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || status=$?
+[ $status = 1 ] || fail "no plan.yaml, a summary: exit status $status: $(cat "$work/err.txt")"
+grep -q "^ebh: error: $dir: not an ebh sweep folder (no plan.yaml) but holds summary.csv: name a new or empty folder" \
+  "$work/err.txt" || fail "no plan.yaml, a summary: $(cat "$work/err.txt")"
+after=$(cd "$dir" && find . -type f | sort | xargs sha256sum)
+[ "$before" = "$after" ] || fail "no plan.yaml: the folder changed: $after"
+rm "$dir/summary.csv" "$dir/summary.h5"
 "$ebh" sweep "$work/b.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "no plan.yaml: $(cat "$work/err.txt")"
 echo "other plan: ok"

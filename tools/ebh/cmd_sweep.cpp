@@ -338,6 +338,10 @@ void run_sweep(const SweepArgs& a) {
   if (std::error_code ec; fs::exists(dir, ec) && !fs::is_directory(dir, ec)) throw InputError("-o " + a.out + ": not a folder");
   if (!a.backend.empty() && std::find(plan.backends.begin(), plan.backends.end(), a.backend) == plan.backends.end())
     throw InputError("--backend " + a.backend + ": not one of the plan's backends (" + plan.file.string() + ", key 'backends')");
+  // Before any work: no file the plan reads is one the sweep writes, and a folder that is not a
+  // sweep's keeps what it holds.
+  check_sweep_outputs(plan, dir, !a.task && !same_file(a.plan, plan_copy(dir).string()));
+  check_sweep_folder(dir);
   check_same_plan(plan, a.plan, dir);
   // --backend B: the plan's runs on B and the references they are compared with.
   std::vector<SweepRun> runs;

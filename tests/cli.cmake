@@ -833,6 +833,9 @@ if(EBH_BASH)
     COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/other_plan.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/other_plan
       ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml)
   set_tests_properties(cli.sweep.other_plan PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION "other plan: ok")
+  # One sweep at a time in a folder (DIR/.lock); the lock dies with its process.
+  add_test(NAME cli.sweep.lock COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/lock.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/lock)
+  set_tests_properties(cli.sweep.lock PROPERTIES LABELS "cli;sweep" TIMEOUT 300 PASS_REGULAR_EXPRESSION "lock: ok")
 endif()
 add_test(NAME cli.sweep.report
   COMMAND ${EBH_BIN} sweep report ${CMAKE_CURRENT_SOURCE_DIR}/data/sweep/front --plot ${EBH_SWEEP_OUT}/front.png)

@@ -1,5 +1,6 @@
 #include "sweep/folder.hpp"
 
+#include <cstdio>
 #include <regex>
 #include <set>
 #include <string>
@@ -19,6 +20,22 @@ fs::path sweep_plan_copy(const fs::path& dir) { return dir / "plan.yaml"; }
 fs::path sweep_summary_csv(const fs::path& dir) { return dir / "summary.csv"; }
 fs::path sweep_summary_h5(const fs::path& dir) { return dir / "summary.h5"; }
 
+fs::path sweep_lock_file(const fs::path& dir) { return dir / ".lock"; }
+
+FileLock lock_sweep_folder(const fs::path& dir) {
+  const std::string path = sweep_lock_file(dir).string();
+  FileLock lock = FileLock::take(path, true, false);
+  if (lock.status() == FileLock::Status::Busy) {
+    const long pid = FileLock::holder_pid(path);
+    throw InputError(dir.string() + ": another ebh sweep" + (pid > 0 ? " (pid " + std::to_string(pid) + ")" : std::string()) +
+                     " is running in this folder");
+  }
+  if (lock.status() == FileLock::Status::Unsupported)
+    std::fprintf(stderr, "ebh: warning: %s: cannot lock the folder (%s): nothing keeps a second sweep out of it while this one runs\n",
+                 path.c_str(), lock.error().c_str());
+  return lock;
+}
+
 std::vector<RoleFile> plan_input_files(const SweepPlan& plan) {
   std::vector<RoleFile> files = {{plan.file.string(), "the plan"}};
   std::set<std::string> named;
@@ -36,7 +53,8 @@ std::vector<RoleFile> sweep_folder_files(const fs::path& dir) {
   std::vector<RoleFile> files = {{sweep_plan_copy(dir).string(), "the sweep's plan"},
                                  {sweep_summary_csv(dir).string(), "the sweep's summary"},
                                  {sweep_summary_h5(dir).string(), "the sweep's summary"},
-                                 {(dir / "sweep.sbatch").string(), "the sweep's Slurm script"}};
+                                 {(dir / "sweep.sbatch").string(), "the sweep's Slurm script"},
+                                 {sweep_lock_file(dir).string(), "the sweep's lock"}};
   for (const char* sub : kRunFolders) {
     std::error_code ec;
     for (fs::directory_iterator it(dir / sub, ec), end; !ec && it != end; it.increment(ec))
@@ -60,7 +78,8 @@ void check_output_beside_sweep(const RoleFile& output, const fs::path& dir, std:
 void check_sweep_outputs(const SweepPlan& plan, const fs::path& dir, bool writes_plan) {
   std::vector<RoleFile> outputs = {{sweep_summary_csv(dir).string(), "summary"},
                                    {sweep_summary_h5(dir).string(), "summary"},
-                                   {(dir / "sweep.sbatch").string(), "Slurm script"}};
+                                   {(dir / "sweep.sbatch").string(), "Slurm script"},
+                                   {sweep_lock_file(dir).string(), "lock"}};
   if (writes_plan) outputs.push_back({sweep_plan_copy(dir).string(), "plan"});
   for (const RoleFile& in : plan_input_files(plan)) {
     for (const RoleFile& out : outputs)

@@ -189,14 +189,14 @@ std::vector<std::string> sweep_gpus(const std::string& text, bool cuda_runs) {
   return gpu_entries(indices, count, std::getenv("CUDA_VISIBLE_DEVICES"));
 }
 
-/// What the start of a sweep writes into its folder (the folder and its missing parents, plan.yaml,
-/// sweep.sbatch, slurm/), undone when an exception leaves its scope before keep(): a sweep that fails
+/// What the start of a sweep writes into its folder (the folder and its missing parents, its lock,
+/// plan.yaml, sweep.sbatch, slurm/), undone when an exception leaves its scope before keep(): a sweep that fails
 /// before its runs start or its job array is submitted (sbatch missing or refusing, a backend this
 /// build lacks) leaves the folder as it found it. A file that was there gets its content back; a
 /// folder that was there stays, and one it made goes only when empty.
 class FolderChanges {
  public:
-  explicit FolderChanges(const fs::path& dir) {
+  explicit FolderChanges(const fs::path& dir) : dir_(dir) {
     std::error_code ec;
     for (fs::path p = fs::absolute(dir, ec).lexically_normal(); !ec && p.has_relative_path() && !fs::exists(p, ec);
          p = p.parent_path())
@@ -219,6 +219,14 @@ class FolderChanges {
     if (!fs::exists(folder, ec)) made_folders_.insert(made_folders_.begin(), folder);
   }
   void keep() { kept_ = true; }
+  /// Makes the folder (when missing) and takes its lock (lock_sweep_folder) until this object
+  /// ends: the lock file goes before the folders it made, after the files it wrote are undone.
+  void lock() {
+    std::error_code ec;
+    fs::create_directories(dir_, ec);
+    if (ec) throw InputError(dir_.string() + ": cannot create the folder: " + ec.message());
+    lock_ = lock_sweep_folder(dir_);
+  }
 
  private:
   void undo() noexcept {
@@ -231,6 +239,7 @@ class FolderChanges {
         // best effort: the error that led here is the one to report
       }
     }
+    lock_ = FileLock();
     for (const fs::path& f : made_folders_) {
       std::error_code ec;
       fs::remove(f, ec);  // only when empty
@@ -238,7 +247,9 @@ class FolderChanges {
   }
 
   std::vector<std::pair<fs::path, std::optional<std::string>>> files_;
+  fs::path dir_;
   std::vector<fs::path> made_folders_;  // deepest first
+  FileLock lock_;  // the folder's, from lock() on
   bool kept_ = false;
   int exceptions_ = std::uncaught_exceptions();
 };
@@ -338,16 +349,19 @@ void run_sweep(const SweepArgs& a) {
   if (std::error_code ec; fs::exists(dir, ec) && !fs::is_directory(dir, ec)) throw InputError("-o " + a.out + ": not a folder");
   if (!a.backend.empty() && std::find(plan.backends.begin(), plan.backends.end(), a.backend) == plan.backends.end())
     throw InputError("--backend " + a.backend + ": not one of the plan's backends (" + plan.file.string() + ", key 'backends')");
-  // Before any work: no file the plan reads is one the sweep writes, and a folder that is not a
-  // sweep's keeps what it holds.
+  // Before any work: no file the plan reads is one the sweep writes.
   check_sweep_outputs(plan, dir, !a.task && !same_file(a.plan, plan_copy(dir).string()));
+  // The folder is this process's until it ends (a Slurm array's tasks each write runs of their
+  // own): what it holds is checked under the lock, so no second sweep slips in between.
+  FolderChanges changes(dir);
+  if (!a.task) changes.lock();
+  // A folder that is not a sweep's keeps what it holds; one of another plan too.
   check_sweep_folder(dir);
   check_same_plan(plan, a.plan, dir);
   // --backend B: the plan's runs on B and the references they are compared with.
   std::vector<SweepRun> runs;
   for (const SweepRun& r : all)
     if (a.backend.empty() || r.backend == a.backend || r.reference) runs.push_back(r);
-  FolderChanges changes(dir);
   if (a.task) {
     runs = task_slice(runs, *a.task, *a.tasks);
   } else if (!same_file(a.plan, plan_copy(dir).string())) {

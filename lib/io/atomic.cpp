@@ -126,11 +126,11 @@ bool is_partial_output(std::string_view path) {
   return path.size() >= kPartialSuffix.size() && path.substr(path.size() - kPartialSuffix.size()) == kPartialSuffix;
 }
 
-std::string partial_path_for(const std::string& final_path) {
+std::string partial_path_for(const std::string& final_path) { return partial_path_for(final_path, static_cast<long>(getpid())); }
+
+std::string partial_path_for(const std::string& final_path, long pid) {
   const fs::path p(final_path);
-  return (p.parent_path() / (partial_prefix(p) + host_name() + "." + std::to_string(static_cast<long>(getpid())) +
-                             std::string(kPartialSuffix)))
-      .string();
+  return (p.parent_path() / (partial_prefix(p) + host_name() + "." + std::to_string(pid) + std::string(kPartialSuffix))).string();
 }
 
 std::size_t remove_stale_partials(const std::string& final_path) {

@@ -32,6 +32,9 @@ bool is_partial_output(std::string_view path);
 
 /// The temporary name this process uses for `final_path`: DIR/.NAME.HOST.PID.ebh-partial.
 std::string partial_path_for(const std::string& final_path);
+/// The temporary name process `pid` of this host uses for `final_path` (a child's, to remove
+/// after it was killed).
+std::string partial_path_for(const std::string& final_path, long pid);
 
 /// Removes the temporaries of `final_path` (files, or folders such as a render's frames) left by
 /// writers that are gone (this host, a PID that no longer runs); keeps those of running processes

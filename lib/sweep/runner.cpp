@@ -4,7 +4,7 @@
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -99,21 +99,66 @@ std::vector<char*> pointers(std::vector<std::string>& v) {
   return p;
 }
 
+int wait_for(pid_t pid) {
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return status;
+}
+
+/// The child's side of start_process, between fork and exec: only async-signal-safe calls. Its
+/// stdout and stderr go to `out`; with `die_with_parent` it gets SIGTERM when this process ends,
+/// however it ends (SIGKILL included: no replay goes on writing into the sweep's folder as an
+/// orphan). An exec that fails writes its errno to `err_fd`.
+[[noreturn]] void exec_child(char* const* argv, char* const* envp, int out, int err_fd, bool die_with_parent, pid_t parent) {
+  // This process's handlers (io/atomic.hpp) would swallow a SIGTERM before the exec.
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGALRM}) signal(sig, SIG_DFL);
+  if (die_with_parent) {
+    if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0) _exit(127);
+    if (getppid() != parent) _exit(128 + SIGTERM);  // the parent ended before the line above
+  }
+  if (dup2(out, STDOUT_FILENO) < 0 || dup2(out, STDERR_FILENO) < 0) {
+    const int err = errno;
+    (void)!write(err_fd, &err, sizeof err);
+    _exit(127);
+  }
+  if (std::strchr(argv[0], '/')) execve(argv[0], argv, envp);
+  else execvpe(argv[0], argv, envp);
+  const int err = errno;
+  (void)!write(err_fd, &err, sizeof err);
+  _exit(127);
+}
+
 /// Starts argv (argv[0] a path, or a name looked up on PATH) with its stdout and stderr on a pipe;
-/// returns its pid and the pipe's read end. Throws InputError naming `what` when it cannot start.
-std::pair<pid_t, int> start_process(std::vector<std::string> args, std::vector<std::string>* env, const std::string& what) {
-  int fds[2];
+/// returns its pid and the pipe's read end. With `die_with_parent` the child ends (SIGTERM) when
+/// this process does (exec_child). Throws InputError naming `what` when it cannot start.
+std::pair<pid_t, int> start_process(std::vector<std::string> args, std::vector<std::string>* env, const std::string& what,
+                                    bool die_with_parent = false) {
+  int fds[2], errs[2];
   if (pipe2(fds, O_CLOEXEC) != 0) throw InputError(what + ": cannot start " + args[0] + ": " + os_reason(errno));
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDERR_FILENO);
+  if (pipe2(errs, O_CLOEXEC) != 0) {
+    const int err = errno;
+    ::close(fds[0]);
+    ::close(fds[1]);
+    throw InputError(what + ": cannot start " + args[0] + ": " + os_reason(err));
+  }
   std::vector<char*> argv = pointers(args);
   std::vector<char*> envp = env ? pointers(*env) : std::vector<char*>{};
-  pid_t pid = -1;
-  const int err = posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), env ? envp.data() : environ);
-  posix_spawn_file_actions_destroy(&actions);
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  if (pid == 0) exec_child(argv.data(), env ? envp.data() : environ, fds[1], errs[1], die_with_parent, parent);
+  const int fork_err = errno;
   ::close(fds[1]);
+  ::close(errs[1]);
+  int err = pid < 0 ? fork_err : 0;
+  if (pid > 0) {  // the exec's errno, or nothing once it succeeded (the pipe closes on exec)
+    ssize_t got;
+    while ((got = ::read(errs[0], &err, sizeof err)) < 0 && errno == EINTR) {
+    }
+    if (got != static_cast<ssize_t>(sizeof err)) err = 0;
+    else wait_for(pid);
+  }
+  ::close(errs[0]);
   if (err != 0) {
     ::close(fds[0]);
     throw InputError(what + ": cannot start " + args[0] + ": " + os_reason(err));
@@ -127,13 +172,6 @@ bool read_some(int fd, std::string& text) {
   const ssize_t got = ::read(fd, buf, sizeof buf);
   if (got > 0) text.append(buf, static_cast<std::size_t>(got));
   return got > 0 || (got < 0 && errno == EINTR);
-}
-
-int wait_for(pid_t pid) {
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  return status;
 }
 
 /// The replay's error line: its last "ebh: error: WHAT" line's WHAT ("internal error: WHAT" for
@@ -349,6 +387,9 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
 
   auto finish = [&](Child& c) {
     const int status = wait_for(c.pid);
+    // A child killed by a signal (SIGKILL, the OOM killer) could not remove the temporaries of
+    // its outputs (io/atomic.hpp): they go now, not when the run is redone.
+    for (const SweepRun* run : c.runs) remove_file(partial_path_for(run_output(dir, *run).string(), c.pid));
     const double seconds = std::chrono::duration<double>(Clock::now() - c.t0).count();
     for (std::size_t k = 0; k < c.runs.size(); ++k) {
       const SweepRun& run = *c.runs[k];
@@ -415,7 +456,7 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
       int gpu = -1;
       if (take.front()->backend == "cuda" && !on_gpu.empty())
         gpu = static_cast<int>(std::min_element(on_gpu.begin(), on_gpu.end()) - on_gpu.begin());
-      const auto [pid, fd] = start_process(argv, gpu >= 0 ? &gpu_env[static_cast<std::size_t>(gpu)] : &env, dir.string());
+      const auto [pid, fd] = start_process(argv, gpu >= 0 ? &gpu_env[static_cast<std::size_t>(gpu)] : &env, dir.string(), true);
       if (gpu >= 0) ++on_gpu[static_cast<std::size_t>(gpu)];
       active.push_back(Child{take, pid, fd, {}, Clock::now(), gpu});
       p.running += take.size();

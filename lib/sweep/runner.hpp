@@ -18,6 +18,10 @@
 // replays in flight, which stop and write nothing, and starts no other: rerunning it runs exactly
 // the runs that have no output. A replay still running RunnerOptions::stop_grace_s later is killed.
 // The sweep's own process has no interrupt grace (io/atomic.hpp): it waits for its replays.
+// The replays end with the sweep however it ends: a sweep killed with SIGKILL, which can pass
+// nothing on, takes them along (each gets SIGTERM as its parent dies: PR_SET_PDEATHSIG), so none
+// goes on writing into runs/ as an orphan. A replay killed by a signal cannot remove its output's
+// temporary (io/atomic.hpp); the sweep removes it when it sees the child die.
 #include <cstddef>
 #include <filesystem>
 #include <functional>

@@ -1,8 +1,11 @@
 // Sweeps (lib/sweep): plans read and checked, run ids, the force error against a reference, the
 // summary's CSV and the report's Pareto front. The replays themselves run in tests/sweep/*.sh.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -11,9 +14,11 @@
 #include <map>
 #include <regex>
 #include <sstream>
+#include <thread>
 
 #include "../io/io_test_util.hpp"
 #include "core/error.hpp"
+#include "io/atomic.hpp"
 #include "io/h5.hpp"
 #include "io/sha256.hpp"
 #include "scene/scene.hpp"
@@ -574,6 +579,95 @@ duration: 0.1
   for (const SweepRun& r : runs) EXPECT_FALSE(fs::exists(run_output(dir, r))) << r.id;
   EXPECT_EQ(interrupt_grace(), 0u) << "the sweep's process waits for its replays";
   set_interrupt_grace(kInterruptGraceSeconds);
+}
+
+/// A plan of three runs whose replays the tests below replace with tests/sweep/partial_replay.sh.
+std::vector<SweepRun> three_runs(SweepPlan& plan, const std::string& name) {
+  plan = read_sweep_plan(plan_file(name, R"(scenes:
+  - scene: tube
+    recordings: [tube_insert]
+    reference: {solver.method: direct}
+grid:
+  stiffness.k_con: [400, 500]
+duration: 0.1
+)"));
+  return expand_plan(plan);
+}
+
+/// The temporaries left in `folder` (*.ebh-partial).
+std::vector<std::string> partials(const fs::path& folder) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec))
+    if (is_partial_output(it->path().string())) out.push_back(it->path().filename().string());
+  return out;
+}
+
+/// A replay killed by a signal (SIGKILL: the OOM killer) cannot remove its output's temporary;
+/// the sweep removes it when it sees the child die, and records the run as failed.
+TEST(SweepRunner, AKilledReplaysTemporaryIsRemoved) {
+  const fs::path dir = scratch() / "killed";
+  fs::remove_all(dir);
+  SweepPlan plan;
+  const std::vector<SweepRun> runs = three_runs(plan, "killed.yaml");
+  RunnerOptions opt;
+  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/partial_replay.sh";
+  setenv("EBH_FAKE_KILL_SELF", "1", 1);
+  const RunnerReport rep = execute_runs(plan, runs, dir, opt);
+  unsetenv("EBH_FAKE_KILL_SELF");
+  EXPECT_EQ(rep.failed, runs.size());
+  ASSERT_FALSE(rep.failures.empty());
+  EXPECT_EQ(rep.failures[0].error, "the replay was killed by signal 9");
+  EXPECT_TRUE(partials(dir / "runs").empty()) << partials(dir / "runs").front();
+}
+
+/// Whether process `pid` has ended (gone, or a zombie no one has reaped yet).
+bool process_ended(pid_t pid) {
+  if (kill(pid, 0) != 0) return errno == ESRCH;
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text;
+  std::getline(stat, text);
+  const auto paren = text.rfind(')');
+  return paren != std::string::npos && paren + 2 < text.size() && text[paren + 2] == 'Z';
+}
+
+/// A sweep killed with SIGKILL (it cannot pass anything on) takes its replays with it: each gets
+/// SIGTERM as its parent dies, so none goes on writing into runs/ as an orphan.
+TEST(SweepRunner, ReplaysEndWithAKilledSweep) {
+  const fs::path dir = scratch() / "orphans", pids = scratch() / "orphan_pids";
+  fs::remove_all(dir);
+  fs::remove_all(pids);
+  fs::create_directories(pids);
+  SweepPlan plan;
+  const std::vector<SweepRun> runs = three_runs(plan, "orphans.yaml");
+  const pid_t sweep = fork();
+  ASSERT_GE(sweep, 0);
+  if (sweep == 0) {  // the sweep: two replays at a time, each sleeping until a signal ends it
+    setenv("EBH_FAKE_PID_DIR", pids.c_str(), 1);
+    RunnerOptions opt;
+    opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/partial_replay.sh";
+    opt.jobs = 2;
+    try {
+      execute_runs(plan, runs, dir, opt);
+    } catch (...) {
+    }
+    _exit(0);
+  }
+  std::vector<pid_t> replays;
+  for (int i = 0; i < 300 && replays.size() < 2; ++i) {  // at most 30 s for both to start
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    replays.clear();
+    for (const auto& e : fs::directory_iterator(pids)) replays.push_back(static_cast<pid_t>(std::stol(e.path().filename().string())));
+  }
+  kill(sweep, SIGKILL);
+  waitpid(sweep, nullptr, 0);
+  ASSERT_EQ(replays.size(), 2u) << "the replays did not start";
+  for (const pid_t r : replays) {
+    bool ended = false;
+    for (int i = 0; i < 100 && !(ended = process_ended(r)); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    EXPECT_TRUE(ended) << "replay " << r << " outlived its sweep";
+    if (!ended) kill(r, SIGKILL);
+  }
 }
 
 TEST(SweepError, IdenticalForcesHaveNoError) {

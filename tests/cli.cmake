@@ -511,6 +511,14 @@ add_test(NAME gate.catches_rough_forces
   COMMAND ${EBH_BIN} gate --case gap_insert --set time.physical_hz=10)
 set_tests_properties(gate.catches_rough_forces PROPERTIES
   PASS_REGULAR_EXPRESSION "gap_insert +FAIL.*peak_force .N. [0-9.]+ outside the band" LABELS gate TIMEOUT 600)
+# --update locks its baselines from reading to writing, says an unwritable folder before any case,
+# and keeps its replay outputs in folders of its own under TMPDIR.
+find_program(EBH_GATE_BASH bash)
+if(EBH_GATE_BASH)
+  add_test(NAME gate.update_safety
+    COMMAND ${EBH_GATE_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/gate/update.sh ${EBH_BIN} ${PROJECT_BINARY_DIR}/cli_gate_update)
+  set_tests_properties(gate.update_safety PROPERTIES LABELS gate TIMEOUT 300 PASS_REGULAR_EXPRESSION "gate update: ok")
+endif()
 add_test(NAME gate.reports_a_stopped_replay
   COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1 --set solver.physical_tolerance=0
     --set solver.recovery=none)

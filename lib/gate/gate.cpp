@@ -1,10 +1,16 @@
 #include "gate/gate.hpp"
 
+#include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
@@ -57,6 +63,29 @@ std::string text(const YAML::Node& n, const std::string& file, const std::string
   return n.Scalar();
 }
 
+/// The folder of one case's replay output (run_gate_case), removed with what it holds.
+class CaseFolder {
+ public:
+  CaseFolder() {
+    std::string t = (std::filesystem::temp_directory_path() / ("ebh_gate_" + std::to_string(::getpid()) + "_XXXXXX")).string();
+    if (!::mkdtemp(t.data())) {
+      const int err = errno;
+      throw InputError(t + ": cannot create the gate's temporary folder: " + os_reason(err));
+    }
+    path_ = t;
+  }
+  CaseFolder(const CaseFolder&) = delete;
+  CaseFolder& operator=(const CaseFolder&) = delete;
+  ~CaseFolder() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
 std::string fmt(double v) {
   std::ostringstream s;
   s.precision(6);
@@ -65,6 +94,47 @@ std::string fmt(double v) {
 }
 
 }  // namespace
+
+FileLock lock_gate_baselines(const std::string& path) {
+  FileLock lock = FileLock::take(path, false, false);
+  if (lock.status() == FileLock::Status::Busy) {
+    std::fprintf(stderr, "ebh gate: %s: another ebh gate --update is writing it; waiting\n", path.c_str());
+    std::fflush(stderr);
+    lock = FileLock::take(path, false, true);
+  }
+  if (lock.status() == FileLock::Status::Unsupported)
+    std::fprintf(stderr, "ebh: warning: %s: cannot lock the baselines (%s): a second ebh gate --update at once would lose one update\n",
+                 path.c_str(), lock.error().c_str());
+  return lock;
+}
+
+std::size_t remove_stale_gate_temporaries(const std::filesystem::path& tmp) {
+  namespace fs = std::filesystem;
+  std::size_t removed = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(tmp, ec), end; !ec && it != end; it.increment(ec)) {
+    // ebh_gate_PID_XXXXXX (a case's folder), and an older ebh's ebh_gate_PID_CASE.h5 and its
+    // temporary .ebh_gate_PID_CASE.h5.HOST.PID2.ebh-partial
+    const std::string name = it->path().filename().string();
+    const std::string tag = "ebh_gate_";
+    const std::size_t at = name.rfind(tag, 1);
+    if (at == std::string::npos || (at == 1 && name[0] != '.')) continue;
+    const std::size_t digits = at + tag.size();
+    std::size_t stop = digits;
+    while (stop < name.size() && std::isdigit(static_cast<unsigned char>(name[stop]))) ++stop;
+    if (stop == digits || stop >= name.size() || name[stop] != '_') continue;
+    const long pid = std::strtol(name.c_str() + digits, nullptr, 10);
+    if (pid <= 0 || pid == static_cast<long>(::getpid()) || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    struct stat st {};
+    if (::lstat(it->path().c_str(), &st) != 0 || st.st_uid != ::geteuid()) continue;
+    const bool folder = S_ISDIR(st.st_mode) && at == 0;
+    const bool file = S_ISREG(st.st_mode) && (is_partial_output(name) || (name.size() > 3 && name.compare(name.size() - 3, 3, ".h5") == 0));
+    if (!folder && !file) continue;  // a link, or a name of another kind: not the gate's
+    std::error_code rm;
+    if (folder ? fs::remove_all(it->path(), rm) > 0 : fs::remove(it->path(), rm)) ++removed;
+  }
+  return removed;
+}
 
 GateBaselines read_gate_baselines(const std::string& path) {
   check_input_file(path);
@@ -173,8 +243,8 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   opt.mode = Mode::Async;
   opt.start = c.start;
   opt.duration = c.duration;
-  const auto tmp = std::filesystem::temp_directory_path() /
-                   ("ebh_gate_" + std::to_string(::getpid()) + "_" + c.name + ".h5");
+  const CaseFolder folder;
+  const auto tmp = folder.path() / "replay.h5";
   ForceMetrics m;
   GateResult r;
   r.measured = c;
@@ -190,7 +260,6 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
     const ReplaySummary s = replay(*in.world, in.recording, opt, writer);
     writer.commit(s);
     m = compute_metrics(load_replay(tmp.string()));
-    std::filesystem::remove(tmp);
   } catch (const NumericalError& e) {  // the health checks stopped it: a failed case, not a failed gate run
     r.passed = false;
     r.stopped = true;

@@ -10,10 +10,13 @@
 //     - {name: tube_insert, scene: tube, recording: tube_insert, start: 2.8, duration: 2.0,
 //        rms_force_step: ..., max_force_rate: ..., peak_force: ..., power_above_30hz: ...,
 //        penetration_max: ...}
+#include <cstddef>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "io/json.hpp"
+#include "io/lock.hpp"
 #include "metrics/force_metrics.hpp"
 
 namespace ebh {
@@ -55,12 +58,27 @@ struct GateResult {
   std::vector<std::string> failures;  ///< one line each
 };
 
+/// The exclusive lock `ebh gate --update` holds on the baselines file from reading it to writing
+/// it (io/lock.hpp: a flock on the file itself, taken again on the file under its name once a
+/// writer renamed a new one over it), so two updates at once both land. When another process holds
+/// it, says so on stderr ("ebh gate: FILE: another ebh gate --update is writing it; waiting") and
+/// waits. On a file system that takes no locks it warns and holds none.
+FileLock lock_gate_baselines(const std::string& path);
+
+/// Removes the temporary folders of gate runs that are gone (TMP/ebh_gate_PID_XXXXXX, made by
+/// run_gate_case, and the files an older ebh left there under fixed names): only this user's,
+/// only where PID no longer runs; a link or another user's file is left alone. Returns how many
+/// it removed.
+std::size_t remove_stale_gate_temporaries(const std::filesystem::path& tmp);
+
 /// Reads a baselines file; throws InputError naming the file and key.
 GateBaselines read_gate_baselines(const std::string& path);
 /// Writes a baselines file atomically.
 void write_gate_baselines(const std::string& path, const GateBaselines& b);
 
-/// Replays one case (async mode, CPU, scene overrides applied) and computes its metrics.
+/// Replays one case (async mode, CPU, scene overrides applied) and computes its metrics. Its
+/// replay output goes into a folder of its own under the temporary directory (mkdtemp:
+/// TMP/ebh_gate_PID_XXXXXX, readable by this user only), removed with it when the case ends.
 GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides);
 /// Compares a run with its baseline under the bands; fills passed/failures.
 void judge_gate_case(const GateCase& baseline, const GateBands& bands, GateResult& r);

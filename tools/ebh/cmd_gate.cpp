@@ -2,12 +2,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "command.hpp"
 #include "core/error.hpp"
 #include "ebh/version.hpp"
 #include "gate/gate.hpp"
+#include "io/paths.hpp"
 #include "options.hpp"
 
 namespace ebh::cli {
@@ -21,6 +23,17 @@ struct GateArgs {
 
 void run_gate(const GateArgs& a) {
   check_set_once(a.overrides);
+  // What gate runs killed with SIGKILL left in the temporary directory.
+  std::error_code ec;
+  remove_stale_gate_temporaries(std::filesystem::temp_directory_path(ec));
+  // --update: the baselines can be written where they are (said before any case runs), and no
+  // other update writes them between this one's reading and writing.
+  FileLock lock;
+  if (a.update) {
+    check_input_file(a.baselines);
+    check_outputs({{a.baselines, "the baselines (--update)"}}, {});
+    lock = lock_gate_baselines(a.baselines);
+  }
   GateBaselines b = read_gate_baselines(a.baselines);
   std::vector<std::string> known;
   for (const GateCase& c : b.cases) known.push_back(c.name);

@@ -1,8 +1,10 @@
 #include "mesh/quality.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <set>
 #include <tuple>
 #include <unordered_map>
 
@@ -313,6 +315,19 @@ MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh) {
   }
   mesh.triangles.resize(kept);
   return merged;
+}
+
+int remove_repeated_surface_faces(SurfaceMesh& mesh) {
+  std::set<std::array<int, 3>> seen;
+  std::size_t kept = 0;
+  for (const Tri& t : mesh.triangles) {
+    std::array<int, 3> key{t[0], t[1], t[2]};
+    std::sort(key.begin(), key.end());
+    if (seen.insert(key).second) mesh.triangles[kept++] = t;
+  }
+  const int removed = static_cast<int>(mesh.triangles.size() - kept);
+  mesh.triangles.resize(kept);
+  return removed;
 }
 
 int remove_unreferenced_vertices(TetMesh& mesh) {

@@ -117,4 +117,9 @@ struct MergedVertices {
 /// surface with no two vertices at one position is left untouched.
 MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh);
 
+/// Removes the triangles of a surface whose three vertices another triangle before it already
+/// has (in any order or orientation): a face given twice would count twice in surface contact.
+/// Returns how many were removed.
+int remove_repeated_surface_faces(SurfaceMesh& mesh);
+
 }  // namespace ebh

@@ -1025,6 +1025,12 @@ Scene build_scene(SceneSpec spec_in) {
                                " vertices at the position of another" +
                                (merged.faces > 0 ? " and removed the " + faces + " left with a repeated vertex" : ""));
     }
+    if (const int repeated = remove_repeated_surface_faces(scene.virtual_surface); repeated > 0)
+      scene.warnings.push_back(spec.virtual_mesh->string() + ": removed " + std::to_string(repeated) +
+                               (repeated == 1 ? " face that repeats another's vertices (surface contact would count "
+                                                "it twice)"
+                                              : " faces that repeat another's vertices (surface contact would count "
+                                                "them twice)"));
     if (const int removed = remove_unused_surface_vertices(scene.virtual_surface); removed > 0)
       scene.warnings.push_back(spec.virtual_mesh->string() + ": removed " + std::to_string(removed) +
                                " vertices used by no face");

@@ -10,6 +10,7 @@
 #include "core/error.hpp"
 #include "tool/contact.hpp"
 #include "tool/newton.hpp"
+#include "tool/surface_contact.hpp"
 #include "tool/grasp.hpp"
 #if EBH_HAVE_CUDA
 #include "schedule/haptic_cuda.hpp"
@@ -305,6 +306,11 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver, w->physical_mesh);
   build_world_tool(*w);
+  if (w->tool.surface) {
+    const std::string mesh = w->scene.spec.virtual_mesh ? w->scene.spec.virtual_mesh->string() : where;
+    for (const std::string& line : surface_contact_warnings(*w->tool.surface, w->virtual_mesh.rest))
+      w->scene.warnings.push_back(mesh + ": " + line);
+  }
   if (backend == Backend::Cuda && w->scene.spec.solver.sleep > 0 && !cuda_physical_sleep()) {
     if (w->scene.spec.solver.sleep_given)
       w->scene.warnings.push_back(where + ": key 'solver.sleep': the CUDA backend runs every physical step and ignores "

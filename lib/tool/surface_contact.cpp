@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <stdexcept>
 
@@ -31,6 +32,38 @@ SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> tr
   for (std::size_t t = 0; t < s.triangles.size(); ++t)
     for (const int i : s.triangles[t]) s.tri_entries[fill[i]++] = static_cast<int>(t);
   return s;
+}
+
+std::vector<std::string> surface_contact_warnings(const SurfaceContactModel& s, std::span<const Vec3d> rest) {
+  std::vector<std::string> out;
+  int too_long = 0;
+  double longest = 0, samples = 0;
+  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
+    const auto& v = s.triangles[t];
+    const double edge = triangle_longest_edge(rest[v[0]], rest[v[1]], rest[v[2]]);
+    longest = std::max(longest, edge);
+    if (edge > kMaxSampleLevel * s.spacing) ++too_long;
+    samples += static_cast<double>(s.rest_level[t]) * s.rest_level[t];
+  }
+  char line[400];
+  if (too_long > 0) {
+    std::snprintf(line, sizeof line,
+                  "surface contact: %d %s of the virtual mesh %s longer than %d sample spacings (the longest "
+                  "%.4g mm; the spacing, the tool's thinnest part, %.4g mm): a collider can pass between their samples "
+                  "unfelt; refine the virtual mesh (mesh.virtual_refine) or remesh it finer",
+                  too_long, too_long == 1 ? "triangle" : "triangles", too_long == 1 ? "is" : "are", kMaxSampleLevel,
+                  longest * 1e3, s.spacing * 1e3);
+    out.emplace_back(line);
+  }
+  if (samples > kManySurfaceSamples) {
+    std::snprintf(line, sizeof line,
+                  "surface contact: the virtual mesh's triangles carry %.3g sample points (a triangle n^2, n its longest "
+                  "edge over the spacing, %.4g mm): a tick in contact with long, thin triangles is slow; remesh the "
+                  "virtual mesh with triangles of even size",
+                  samples, s.spacing * 1e3);
+    out.emplace_back(line);
+  }
+  return out;
 }
 
 double thinnest_part(const ToolModel& tool) {

@@ -25,6 +25,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "energy/contact_target.hpp"
@@ -48,6 +49,16 @@ struct SurfaceContactModel {
 /// rest: #m rest positions; spacing: the samples' spacing, thinnest_part(tool) in a scene.
 SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> triangles, std::span<const Vec3d> rest,
                                           double spacing);
+
+/// What a replay should be told about the samples of `s` at rest positions `rest` (one line each,
+/// no file named): triangles longer than kMaxSampleLevel spacings, whose samples a collider can
+/// pass between; and a total of samples so large (long, thin triangles: n^2 each) that every tick
+/// in contact is slow.
+std::vector<std::string> surface_contact_warnings(const SurfaceContactModel& s, std::span<const Vec3d> rest);
+
+/// Samples beyond which surface_contact_warnings says a tick in contact will be slow (the committed
+/// scenes' virtual meshes carry 0.05-0.23 million with their tools' 1 mm spacing).
+inline constexpr double kManySurfaceSamples = 4e6;
 
 /// The radius of the tool's thinnest part: the smallest radius of a sphere, capsule or cylinder
 /// and the smallest half extent of a box (m).

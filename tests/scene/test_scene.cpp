@@ -250,6 +250,20 @@ TEST(Scene, ObjTriangleSoupIsMergedWithAWarning) {
   EXPECT_EQ(s.virtual_surface.triangles[0], (Tri{0, 1, 2}));
 }
 
+// A face given twice (here once flipped) would count twice in surface contact: removed, warned.
+TEST(Scene, RepeatedObjFacesAreRemovedWithAWarning) {
+  write_temp("twice.obj", slurp(data("mesh/cube.obj")) + "f 1 3 4\nf 4 3 1\n");
+  const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                           data("mesh/cube41.msh").string()),
+                                   "../mesh/cube.obj", "twice.obj");
+  const fs::path p = write_temp("twice.yaml", yaml);
+  const Scene s = load_scene(p);
+  EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
+  ASSERT_EQ(s.warnings.size(), 1u) << ::testing::PrintToString(s.warnings);
+  EXPECT_EQ(s.warnings[0], (p.parent_path() / "twice.obj").string() +
+                               ": removed 2 faces that repeat another's vertices (surface contact would count them twice)");
+}
+
 TEST(Scene, StrayObjVerticesAreRemovedWithAWarning) {
   write_temp("stray.obj", slurp(data("mesh/cube.obj")) + "v 50 50 50\nv 60 60 60\n");
   const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",

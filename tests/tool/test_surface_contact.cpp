@@ -94,6 +94,27 @@ TEST(SurfaceSamples, StretchingAddsRowsPastTheRestLevel) {
   EXPECT_EQ(sample_level(s, 0, q), kMaxSampleLevel);
 }
 
+// Triangles longer than kMaxSampleLevel spacings lose the no-tunnelling bound, and long, thin ones
+// carry many samples: both are said at load; an even mesh near the spacing is quiet.
+TEST(SurfaceSamples, LongTrianglesAndManySamplesAreSaid) {
+  const std::vector<std::array<int, 3>> tri{{0, 1, 2}};
+  const std::vector<Vec3d> even = {{0, 0, 0}, {0.002, 0, 0}, {0, 0.002, 0}};
+  EXPECT_TRUE(surface_contact_warnings(build_surface_contact(tri, even, 0.001), even).empty());
+  const std::vector<Vec3d> long_one = {{0, 0, 0}, {0.060, 0, 0}, {0, 0.060, 0}};  // 85 spacings of 1 mm
+  const std::vector<std::string> w = surface_contact_warnings(build_surface_contact(tri, long_one, 0.001), long_one);
+  ASSERT_EQ(w.size(), 1u) << ::testing::PrintToString(w);
+  EXPECT_EQ(w[0].rfind("surface contact: 1 triangle of the virtual mesh is longer than 64 sample spacings (the longest "
+                       "84.85 mm; the spacing, the tool's thinnest part, 1 mm)", 0), 0u) << w[0];
+  // 300 needles of 60 mm from one corner: 64^2 samples each, 1.2 million; 1000 of them 4.1 million
+  std::vector<Vec3d> fan = {{0, 0, 0}};
+  std::vector<std::array<int, 3>> needles;
+  for (int k = 0; k <= 1000; ++k) fan.push_back({0.063, 1e-5 * k, 0});
+  for (int k = 0; k < 1000; ++k) needles.push_back({0, k + 1, k + 2});
+  const std::vector<std::string> many = surface_contact_warnings(build_surface_contact(needles, fan, 0.001), fan);
+  ASSERT_EQ(many.size(), 1u) << ::testing::PrintToString(many);
+  EXPECT_EQ(many[0].rfind("surface contact: the virtual mesh's triangles carry 4.1e+06 sample points", 0), 0u) << many[0];
+}
+
 TEST(SurfaceContact, StiffnessFloorHoldsTheThinnestPartAtTheForceLimit) {
   EXPECT_DOUBLE_EQ(surface_stiffness_factor(400, 3.3, 0.001), 3.3 / 1.5e-3 / 400);
   EXPECT_DOUBLE_EQ(surface_stiffness_factor(5000, 3.3, 0.001), 1.0);  // already above the floor

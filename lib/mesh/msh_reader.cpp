@@ -1,6 +1,7 @@
 // Gmsh MSH ASCII reader, versions 2.x and 4.1.
 // Format references: Gmsh reference manual, "MSH file format" (4.1) and "Legacy formats" (2.2).
 #include <algorithm>
+#include <array>
 #include <climits>
 #include <map>
 #include <set>
@@ -181,11 +182,17 @@ class MshParser {
   }
 
   // ---- $Entities (4.1) ------------------------------------------------------------------------
-  void read_entities() {
+  /// The line of entity counts by dimension (points, curves, surfaces, volumes).
+  std::array<long long, 4> entity_counts() {
     c_.skip_empty_lines();
-    long long n[4];
+    std::array<long long, 4> n{};
     for (int d = 0; d < 4; ++d) n[d] = count("entity count", 8);
     c_.end_line("");
+    return n;
+  }
+
+  void read_entities() {
+    const std::array<long long, 4> n = entity_counts();
     for (int d = 0; d < 4; ++d) {
       for (long long i = 0; i < n[d]; ++i) {
         need_line("entities", i, n[d]);
@@ -219,10 +226,7 @@ class MshParser {
       c_.integer("partition", 0, kMaxTag);
       c_.end_line("");
     }
-    c_.skip_empty_lines();
-    long long n[4];
-    for (int d = 0; d < 4; ++d) n[d] = count("entity count", 8);
-    c_.end_line("");
+    const std::array<long long, 4> n = entity_counts();
     for (int d = 0; d < 4; ++d) {
       for (long long i = 0; i < n[d]; ++i) {
         need_line("partitioned entities", i, n[d]);

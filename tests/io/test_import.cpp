@@ -87,17 +87,22 @@ TEST(Import, UnitOptionScalesPositions) {
                      "'1e400' is beyond the range of a number");
 }
 
+namespace {
+/// Writes `bytes` (as given: NULs and byte-order marks too) to `path`; returns the path.
+std::string write_log(const std::string& path, const std::string& bytes) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  std::fwrite(bytes.data(), 1, bytes.size(), f);
+  std::fclose(f);
+  return path;
+}
+}  // namespace
+
 TEST(Import, DefectsNameFileAndLine) {
   test::ScratchDir tmp;
   ImportOptions opt;
   const std::string bad = kData + "bad_rotation.txt";
   EXPECT_INPUT_ERROR(import_log(bad, opt), "bad_rotation.txt:14", "not a rotation");
-  auto write = [&](const std::string& name, const char* text) {
-    std::FILE* f = std::fopen((tmp / name).c_str(), "w");
-    std::fputs(text, f);
-    std::fclose(f);
-    return tmp / name;
-  };
+  auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
   std::string p = write("a.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n# c\n0.001,0,0,abc,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "a.csv:4", "z", "'abc' is not a number");
   p = write("b.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0,0,0,0,1,0,0,0\n");
@@ -149,12 +154,7 @@ TEST(Import, FoldersAndBinaryFilesAreNotLogs) {
 TEST(Import, SpreadsheetCsvFilesAreReadOrRefusedWithWhatToChange) {
   test::ScratchDir tmp;
   ImportOptions opt;
-  auto write = [&](const std::string& name, const std::string& bytes) {
-    std::FILE* f = std::fopen((tmp / name).c_str(), "wb");
-    std::fwrite(bytes.data(), 1, bytes.size(), f);
-    std::fclose(f);
-    return tmp / name;
-  };
+  auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
   const Recording r =
       import_log(write("bom.csv", "\xEF\xBB\xBFt,x,y,z,qw,qx,qy,qz\r\n0,0.1,0,0,1,0,0,0\r\n0.001,0.2,0,0,1,0,0,0\r\n"), opt);
   ASSERT_EQ(r.size(), 2u);
@@ -171,12 +171,7 @@ TEST(Import, SpreadsheetCsvFilesAreReadOrRefusedWithWhatToChange) {
 TEST(Import, CsvFromPythonIsReadOrNamed) {
   test::ScratchDir tmp;
   ImportOptions opt;
-  auto write = [&](const std::string& name, const std::string& text) {
-    std::FILE* f = std::fopen((tmp / name).c_str(), "wb");
-    std::fputs(text.c_str(), f);
-    std::fclose(f);
-    return tmp / name;
-  };
+  auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
   const Recording q = import_log(
       write("quoted.csv", "\"t\",\"x\",\"y\",\"z\",\"qw\",\"qx\",\"qy\",\"qz\"\n\"0\",\"0.1\",0,0,1,0,0,0\n0.001,0.2,0,0,1,0,0,0\n"),
       opt);
@@ -198,12 +193,7 @@ TEST(Import, CsvFromPythonIsReadOrNamed) {
 TEST(Import, CsvFieldsAreSeparatedByCommasOrRunsOfBlanks) {
   test::ScratchDir tmp;
   ImportOptions opt;
-  auto write = [&](const std::string& name, const std::string& text) {
-    std::FILE* f = std::fopen((tmp / name).c_str(), "wb");
-    std::fputs(text.c_str(), f);
-    std::fclose(f);
-    return tmp / name;
-  };
+  auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
   for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
            {"comma.csv", "t,x,y,z,qw,qx,qy,qz\n0,0.1,0,0,1,0,0,0\n0.001,0.2,0,0,1,0,0,0\n"},
            {"comma_space.csv", "t, x, y, z, qw, qx, qy, qz\n0, 0.1, 0, 0, 1, 0, 0, 0\n0.001 ,0.2 , 0,0,1,0,0,0\n"},

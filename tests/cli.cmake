@@ -421,6 +421,12 @@ add_test(NAME cli.replay.k_s_over_denormal_k_svc
   COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/k_svc_tiny.h5 --set stiffness.k_svc=5e-324 --duration 0.1 -q)
 set_tests_properties(cli.replay.k_s_over_denormal_k_svc PROPERTIES LABELS cli
   PASS_REGULAR_EXPRESSION "stiffness.k_s is more than a million times k_svc" FAIL_REGULAR_EXPRESSION "inf times")
+# With surface contact, a Newton step longer than the tool's thinnest part can carry it through.
+add_test(NAME cli.replay.surface_step_beyond_thinnest_part_warns
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/surface_step.h5 --set contact=surface
+    --set tool.max_step=2 --duration 0.01 -q)
+set_tests_properties(cli.replay.surface_step_beyond_thinnest_part_warns PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "warning: --set 'tool.max_step=2': tool.max_step = 2 mm is above the tool's thinnest part \\(1 mm\\): with contact: surface")
 # Movement thresholds far larger than the mesh hold it still under every touch: warned at load.
 add_test(NAME cli.replay.sleep_beyond_mesh_warns
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/sleep_big.h5 --set solver.sleep=1000 --duration 0.1 -q)

@@ -215,11 +215,16 @@ void write_gate_baselines(const std::string& path, const GateBaselines& b) {
     y << YAML::Key << "recording" << YAML::Value << c.recording;
     y << YAML::Key << "start" << YAML::Value << c.start;
     y << YAML::Key << "duration" << YAML::Value << c.duration;
-    y << YAML::Key << "rms_force_step" << YAML::Value << c.rms_force_step;
-    y << YAML::Key << "max_force_rate" << YAML::Value << c.max_force_rate;
-    y << YAML::Key << "peak_force" << YAML::Value << c.peak_force;
+    // A metric without a baseline yet (NaN: a case this update did not run) stays absent, as the
+    // reader takes it; the power above 30 Hz may be .nan itself (a window without a spectrum).
+    auto metric = [&y](const char* key, double value) {
+      if (!std::isnan(value)) y << YAML::Key << key << YAML::Value << value;
+    };
+    metric("rms_force_step", c.rms_force_step);
+    metric("max_force_rate", c.max_force_rate);
+    metric("peak_force", c.peak_force);
     y << YAML::Key << "power_above_30hz" << YAML::Value << c.power_above_30hz;
-    y << YAML::Key << "penetration_max" << YAML::Value << c.penetration_max;
+    metric("penetration_max", c.penetration_max);
     y << YAML::EndMap;
   }
   y << YAML::EndSeq << YAML::EndMap;

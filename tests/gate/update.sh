@@ -6,7 +6,8 @@
 #     this user can write everywhere and the file system has no immutable flag);
 #  3. a case's replay output goes into a folder of its own under TMPDIR, gone when the gate ends;
 #     the folder of a gate killed with SIGKILL is removed by the next gate, one of a process still
-#     running is left alone.
+#     running is left alone;
+#  4. updating one case leaves another case's missing metrics missing (the reader refuses .nan).
 #   tests/gate/update.sh EBH_BIN WORK_DIR
 set -uo pipefail
 ebh=$1
@@ -83,4 +84,14 @@ compgen -G "$work/tmp/*ebh_gate_${killed}_*" >/dev/null || fail "the killed gate
 "$ebh" gate --baselines "$work/b.yaml" --case a >/dev/null 2>&1
 left=$(ls -A "$work/tmp")
 [ "$left" = "ebh_gate_$$_alive1" ] || fail "TMPDIR after the next gate: $left"
+
+# 4. Updating one case keeps another case's missing metrics missing (no .nan the reader refuses).
+{ echo "cases:"; gate_case a tube tube_insert 4 0.3; echo "  - {name: c, scene: gap, recording: gap_insert, start: 2, duration: 0.3}"; } \
+  >"$work/new_case.yaml"
+"$ebh" gate --baselines "$work/new_case.yaml" --update --case a >/dev/null 2>"$work/err.txt" ||
+  fail "update beside a case without metrics: $(cat "$work/err.txt")"
+grep "name: c," "$work/new_case.yaml" | grep -Eqi "(rms_force_step|max_force_rate|peak_force|penetration_max): \.?nan" &&
+  fail "case c got NaN metrics: $(cat "$work/new_case.yaml")"
+"$ebh" gate --baselines "$work/new_case.yaml" --case a >/dev/null 2>"$work/err.txt" ||
+  fail "the updated file does not read: $(cat "$work/err.txt")"
 echo "gate update: ok"

@@ -524,6 +524,11 @@ if(EBH_GATE_BASH)
   add_test(NAME gate.update_safety
     COMMAND ${EBH_GATE_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/gate/update.sh ${EBH_BIN} ${PROJECT_BINARY_DIR}/cli_gate_update)
   set_tests_properties(gate.update_safety PROPERTIES LABELS gate TIMEOUT 300 PASS_REGULAR_EXPRESSION "gate update: ok")
+  # An interrupted replay exits with 128 + signal, not 1 (bad input).
+  add_test(NAME cli.safety.interrupt_status
+    COMMAND ${EBH_GATE_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/interrupt_status.sh ${EBH_BIN} ${PROJECT_BINARY_DIR}/cli_interrupt)
+  set_tests_properties(cli.safety.interrupt_status PROPERTIES LABELS cli TIMEOUT 120
+    PASS_REGULAR_EXPRESSION "interrupt status: ok")
 endif()
 add_test(NAME gate.reports_a_stopped_replay
   COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1 --set solver.physical_tolerance=0

@@ -176,9 +176,11 @@ void install_interrupt_handlers() {
 }
 
 bool interrupted() { return g_interrupted != 0; }
+int interrupt_signal() { return g_interrupted ? static_cast<int>(g_first_signal) : 0; }
 void set_interrupted(bool value) {
   if (!value) alarm(0);
   g_interrupted = value ? 1 : 0;
+  g_first_signal = 0;
 }
 
 void set_interrupt_grace(unsigned seconds) { g_grace.store(seconds); }

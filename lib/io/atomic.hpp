@@ -96,6 +96,9 @@ void write_files_atomically(const std::vector<std::pair<std::string, std::string
 void install_interrupt_handlers();
 /// True once SIGINT, SIGTERM or SIGHUP arrived (after install_interrupt_handlers()).
 bool interrupted();
+/// The first of those signals that arrived (0 when none did, or the flag was set by hand): a
+/// command that stopped on it exits with status 128 + signal, as the shell's convention has it.
+int interrupt_signal();
 /// Sets or clears the flag, as a signal would (tests; a tool that handled the interrupt); clearing
 /// it also cancels a running grace.
 void set_interrupted(bool value);

@@ -9,6 +9,7 @@
 #include "command.hpp"
 #include "core/error.hpp"
 #include "ebh/version.hpp"
+#include "io/atomic.hpp"
 #include "options.hpp"
 
 namespace ebh::cli {
@@ -62,7 +63,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   for (auto setup : ebh::cli::command_registry()) setup(app);
   ebh::cli::refuse_empty_values(app);
-  const int status = run(app, argc, argv);
+  int status = run(app, argc, argv);
+  // A command stopped by SIGINT, SIGTERM or SIGHUP says so and ends with 128 + signal (130, 143,
+  // 129), as a second signal would, so a script tells an interrupt from bad input (1).
+  if (status != 0 && ebh::interrupt_signal() > 0) status = 128 + ebh::interrupt_signal();
   // What a command prints (a table, JSON) is an output too: a write that failed (a full disk under
   // a redirection) is an error, not a truncated file and exit status 0.
   errno = 0;

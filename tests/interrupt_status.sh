@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# An interrupted command exits with 128 + signal (143 for SIGTERM, 130 for SIGINT), not 1 (bad
+# input), says so in one line and leaves no output:
+#   tests/interrupt_status.sh EBH_BIN WORK_DIR
+set -uo pipefail
+ebh=$1
+work=$2
+fail() { echo "FAIL: $*" >&2; exit 1; }
+rm -rf "$work"
+mkdir -p "$work"
+for sig in TERM INT; do
+  "$ebh" replay tube tube_insert -o "$work/$sig.h5" -q 2>"$work/$sig.err" &
+  pid=$!
+  sleep 1
+  kill -0 $pid 2>/dev/null || fail "the replay ended within 1 s: $(cat "$work/$sig.err")"
+  kill -$sig $pid
+  status=0
+  wait $pid || status=$?
+  expected=$((128 + $(kill -l $sig)))
+  [ $status = $expected ] || fail "SIG$sig: exit status $status, expected $expected: $(cat "$work/$sig.err")"
+  grep -q "interrupted" "$work/$sig.err" || fail "no interrupt message: $(cat "$work/$sig.err")"
+  [ ! -e "$work/$sig.h5" ] || fail "an interrupted replay wrote its output"
+done
+echo "interrupt status: ok"

@@ -8,6 +8,29 @@
 
 namespace ebh {
 
+/// The length of the valid UTF-8 sequence that starts at text[i] (1 for ASCII), or 0 when the byte
+/// there does not start one.
+inline std::size_t utf8_sequence_length(std::string_view text, std::size_t i) {
+  const auto* s = reinterpret_cast<const unsigned char*>(text.data());
+  const unsigned char c = s[i];
+  const std::size_t len = c < 0x80 ? 1 : (c >= 0xc2 && c <= 0xdf) ? 2 : (c >= 0xe0 && c <= 0xef) ? 3
+                          : (c >= 0xf0 && c <= 0xf4) ? 4 : 0;
+  if (len == 0 || i + len > text.size()) return 0;
+  for (std::size_t k = 1; k < len; ++k)
+    if ((s[i + k] & 0xc0) != 0x80) return 0;
+  return len;
+}
+
+/// The offset of the first byte of `text` that is not valid UTF-8, or npos.
+inline std::size_t first_invalid_utf8(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t len = utf8_sequence_length(text, i);
+    if (len == 0) return i;
+    i += len;
+  }
+  return std::string_view::npos;
+}
+
 /// `text` with every byte that a terminal would not show as text written as \xNN: control
 /// bytes (newlines included, so a message stays one line) and bytes that are not part of valid
 /// UTF-8. Printable ASCII and valid UTF-8 (a file name in any language) are kept. Messages quote
@@ -20,12 +43,8 @@ inline std::string escape_unprintable(std::string_view text) {
   const std::size_t n = text.size();
   for (std::size_t i = 0; i < n;) {
     const unsigned char c = s[i];
-    // Length of the UTF-8 sequence that starts here (0: not a valid start byte).
-    std::size_t len = c < 0x80 ? 1 : (c >= 0xc2 && c <= 0xdf) ? 2 : (c >= 0xe0 && c <= 0xef) ? 3
-                                   : (c >= 0xf0 && c <= 0xf4) ? 4 : 0;
-    bool ok = len > 0 && i + len <= n;
-    for (std::size_t k = 1; ok && k < len; ++k) ok = (s[i + k] & 0xc0) == 0x80;
-    if (ok && len == 1) ok = c >= 0x20 && c != 0x7f;
+    const std::size_t len = utf8_sequence_length(text, i);
+    const bool ok = len > 1 || (len == 1 && c >= 0x20 && c != 0x7f);
     if (ok) {
       out.append(text.substr(i, len));
       i += len;

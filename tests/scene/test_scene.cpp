@@ -959,6 +959,20 @@ TEST(Scene, AMapOverrideMergesIntoTheSection) {
   EXPECT_EQ(override_keys("time.haptic_hz=[unclosed"), (std::vector<std::string>{"time.haptic_hz"}));
 }
 
+// A scene in another encoding (Latin-1's 0xe9 for an accented e) would carry its bytes into every
+// replay output's UTF-8 scene_yaml: named at its line; UTF-8 text in any language is read.
+TEST(Scene, ASceneFileThatIsNotUtf8IsNamed) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const fs::path latin1 = write_temp("latin1.yaml", replace(good, "small cube", "small cube, r\xe9sum\xe9"));
+  try {
+    (void)load_scene_spec(latin1);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), latin1.string() + ":4: byte 0xe9 is not UTF-8 text: save the scene file as UTF-8");
+  }
+  EXPECT_NO_THROW((void)load_scene_spec(write_temp("utf8.yaml", replace(good, "small cube", "small cube, r\xc3\xa9sum\xc3\xa9"))));
+}
+
 // A second YAML document in a scene file would be left unread; a merge key is named as such.
 TEST(Scene, ASecondDocumentAndMergeKeysAreRefused) {
   const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());

@@ -89,7 +89,12 @@ Recording read_recording(const std::string& path) {
   auto pos = g.read<double>("position", {n, 3});
   auto ori = g.read<double>("orientation", {n, 4});
   auto jaw = g.read<double>("jaw", {n});
-  auto buttons = g.read<std::uint8_t>("buttons", {n});
+  // Read wide and checked: HDF5's conversion to 8 bits clips 256 to 255 and -1 to 0 silently.
+  const auto wide_buttons = g.read<std::int64_t>("buttons", {n});
+  for (std::size_t i = 0; i < wide_buttons.data.size(); ++i)
+    if (wide_buttons.data[i] < 0 || wide_buttons.data[i] > 255)
+      throw InputError(path + ": /trajectory/buttons[" + std::to_string(i) + "]: " +
+                       std::to_string(wide_buttons.data[i]) + " is not a bitmask of 8 buttons (0 .. 255)");
 
   Recording rec;
   rec.t = std::move(t.data);
@@ -100,7 +105,7 @@ Recording read_recording(const std::string& path) {
     rec.orientation[i] = {ori.data[4 * i], ori.data[4 * i + 1], ori.data[4 * i + 2], ori.data[4 * i + 3]};
   }
   rec.jaw = std::move(jaw.data);
-  rec.buttons = std::move(buttons.data);
+  rec.buttons.assign(wide_buttons.data.begin(), wide_buttons.data.end());
   rec.rate_hz = f.attr_double("rate_hz");
   rec.source = f.attr_string("source");
   rec.scene = f.attr_string("scene");

@@ -126,6 +126,15 @@ TEST(Recording, SchemaDefectsNameDatasetAndIndex) {
     f.group("trajectory").write<double>("buttons", std::vector<double>(10, 0.0), {10});
   }
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/buttons", "type floating point, expected integer");
+  {  // int32 buttons beyond 8 bits: HDF5's conversion would clip them to 255 silently
+    RawRecording raw(good);
+    raw.write(p, [&](h5::Group&) {}, "buttons");
+    h5::File f = h5::File::open_write(p);
+    std::vector<std::int32_t> wide(10, 0);
+    wide[7] = 256;
+    f.group("trajectory").write<std::int32_t>("buttons", wide, {10});
+  }
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/buttons[7]", "256 is not a bitmask of 8 buttons");
   defect([](RawRecording& r) { r.jaw.pop_back(); });
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/jaw", "shape (9,), expected (10,)");
   defect([&](RawRecording& r) { r.pos[3 * 4 + 1] = nan; });

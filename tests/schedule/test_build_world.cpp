@@ -58,6 +58,16 @@ TEST(BuildWorld, AVirtualMeshOffThePhysicalMeshIsNamed) {
       << ::testing::PrintToString(moved);
   EXPECT_TRUE(has(moved, "1% of its diagonal is 1.73 mm): its E_svc targets pull it onto the physical mesh"));
   EXPECT_TRUE(has(warnings_with_obj("tenfold", 10.0, 0.0), "tenfold.obj: mesh.virtual: the virtual mesh lies up to "));
+  // 2 m away, more than 10 diagonals: no surface of this mesh; refused rather than left to make
+  // the physical mesh diverge
+  try {
+    (void)warnings_with_obj("far", 1.0, 200.0);  // cm
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("far.obj: mesh.virtual: the virtual mesh lies up to 2 m off the physical mesh "),
+              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("more than 10 times its diagonal (0.173 m)"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

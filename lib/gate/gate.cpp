@@ -124,7 +124,7 @@ std::size_t remove_stale_gate_temporaries(const std::filesystem::path& tmp) {
     while (stop < name.size() && std::isdigit(static_cast<unsigned char>(name[stop]))) ++stop;
     if (stop == digits || stop >= name.size() || name[stop] != '_') continue;
     const long pid = std::strtol(name.c_str() + digits, nullptr, 10);
-    if (pid <= 0 || pid == static_cast<long>(::getpid()) || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    if (pid <= 0 || pid == static_cast<long>(::getpid()) || process_running(pid)) continue;
     struct stat st {};
     if (::lstat(it->path().c_str(), &st) != 0 || st.st_uid != ::geteuid()) continue;
     const bool folder = S_ISDIR(st.st_mode) && at == 0;

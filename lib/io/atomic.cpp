@@ -110,7 +110,6 @@ std::string partial_prefix(const fs::path& final_path) {
   return "." + name + ".";
 }
 
-bool running(long pid) { return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH); }
 
 // Best effort: the rename is on the disk once its directory is synced (some file systems refuse).
 void sync_directory(const fs::path& dir) {
@@ -150,7 +149,7 @@ std::size_t remove_stale_partials(const std::string& final_path) {
     if (dot == std::string::npos || who.substr(0, dot) != host) continue;
     char* end_pid = nullptr;
     const long pid = std::strtol(who.c_str() + dot + 1, &end_pid, 10);
-    if (*end_pid != '\0' || pid <= 0 || pid == static_cast<long>(getpid()) || running(pid)) continue;
+    if (*end_pid != '\0' || pid <= 0 || pid == static_cast<long>(getpid()) || process_running(pid)) continue;
     std::error_code rm;
     if (fs::remove_all(it->path(), rm) > 0 && !rm) ++removed;  // a folder too (a render's frames)
   }
@@ -158,6 +157,8 @@ std::size_t remove_stale_partials(const std::string& final_path) {
 }
 
 std::string os_reason(int err) { return std::strerror(err); }
+
+bool process_running(long pid) { return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH); }
 
 void install_interrupt_handlers() {
   if (g_installed.exchange(true)) return;

@@ -44,6 +44,10 @@ std::size_t remove_stale_partials(const std::string& final_path);
 /// strerror(err): the operating system's reason ("No space left on device").
 std::string os_reason(int err);
 
+/// Whether process `pid` of this host may still run (kill(pid, 0) finds it, or may not signal it):
+/// its temporaries are not stale.
+bool process_running(long pid);
+
 class AtomicOutput {
  public:
   /// Creates the (empty) temporary file, making the output's folder when it is missing, after

@@ -4,6 +4,7 @@
 // conversion happens once, at load: DESIGN.md §3).
 #include <array>
 #include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -31,6 +32,20 @@ struct TetMesh {
   std::vector<std::pair<int, int>> tet_more_groups;
   std::vector<std::pair<int, int>> triangle_more_groups;
 };
+
+/// The indices (ascending, each once) of the `count` elements whose groups, `first` and `more` as
+/// TetMesh keeps them (tet_group and tet_more_groups, or the triangles'), include one of `tags`.
+inline std::vector<int> elements_in_groups(const std::vector<int>& first, const std::vector<std::pair<int, int>>& more,
+                                           std::size_t count, const std::set<int>& tags) {
+  std::vector<char> in(count, 0);
+  for (std::size_t i = 0; i < count && i < first.size(); ++i) in[i] = tags.count(first[i]) > 0;
+  for (const auto& [i, tag] : more)
+    if (i >= 0 && static_cast<std::size_t>(i) < count && tags.count(tag)) in[i] = 1;
+  std::vector<int> out;
+  for (std::size_t i = 0; i < count; ++i)
+    if (in[i]) out.push_back(static_cast<int>(i));
+  return out;
+}
 
 /// A triangle surface: the virtual mesh's source (OBJ) or a boundary extracted from tets.
 struct SurfaceMesh {

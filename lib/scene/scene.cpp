@@ -519,14 +519,9 @@ std::vector<std::string> groups_removed_with_unused_vertices(const TetMesh& raw,
     if (r.kind != PinRegion::Kind::Group) continue;
     const std::set<int> tags = group_tags(raw, r.group);
     std::set<int> unused;
-    auto note_unused = [&](std::size_t f) {
+    for (int f : elements_in_groups(raw.triangle_group, raw.triangle_more_groups, raw.triangles.size(), tags))
       for (int v : raw.triangles[f])
         if (v >= 0 && v < nv && !used[v]) unused.insert(v);
-    };
-    for (std::size_t f = 0; f < raw.triangles.size() && f < raw.triangle_group.size(); ++f)
-      if (tags.count(raw.triangle_group[f])) note_unused(f);
-    for (const auto& [f, tag] : raw.triangle_more_groups)
-      if (tags.count(tag) && f >= 0 && static_cast<std::size_t>(f) < raw.triangles.size()) note_unused(f);
     if (unused.empty()) continue;
     std::string nodes;
     int shown = 0;
@@ -765,10 +760,9 @@ std::vector<std::string> known_group_names(const TetMesh& mesh) {
 }
 
 std::string known_groups_text(const TetMesh& mesh) {
-  std::set<std::string> names;
-  for (const auto& [tag, name] : mesh.group_names) names.insert(name);
-  std::vector<std::string> out(names.begin(), names.end());
-  for (int tag : unnamed_group_tags(mesh)) out.push_back(std::to_string(tag) + " (unnamed)");
+  // known_group_names lists the unnamed groups' numbers last.
+  std::vector<std::string> out = known_group_names(mesh);
+  for (std::size_t i = out.size() - unnamed_group_tags(mesh).size(); i < out.size(); ++i) out[i] += " (unnamed)";
   return out.empty() ? std::string("none") : join(out);
 }
 
@@ -786,17 +780,10 @@ std::vector<int> region_vertices(const TetMesh& m, const PinRegion& r) {
   std::vector<int> out;
   if (r.kind == PinRegion::Kind::Group) {
     const std::set<int> tags = group_tags(m, r.group);
-    for (std::size_t t = 0; t < m.tets.size(); ++t)
-      if (t < m.tet_group.size() && tags.count(m.tet_group[t])) out.insert(out.end(), m.tets[t].begin(), m.tets[t].end());
-    for (const auto& [t, tag] : m.tet_more_groups)
-      if (tags.count(tag) && t >= 0 && static_cast<std::size_t>(t) < m.tets.size())
-        out.insert(out.end(), m.tets[t].begin(), m.tets[t].end());
-    for (std::size_t f = 0; f < m.triangles.size(); ++f)
-      if (f < m.triangle_group.size() && tags.count(m.triangle_group[f]))
-        out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
-    for (const auto& [f, tag] : m.triangle_more_groups)
-      if (tags.count(tag) && f >= 0 && static_cast<std::size_t>(f) < m.triangles.size())
-        out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
+    for (int t : elements_in_groups(m.tet_group, m.tet_more_groups, m.tets.size(), tags))
+      out.insert(out.end(), m.tets[t].begin(), m.tets[t].end());
+    for (int f : elements_in_groups(m.triangle_group, m.triangle_more_groups, m.triangles.size(), tags))
+      out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
   } else {
     for (std::size_t v = 0; v < m.vertices.size(); ++v) {
       const Vec3d& p = m.vertices[v];

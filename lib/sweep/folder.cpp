@@ -20,6 +20,7 @@ fs::path sweep_plan_copy(const fs::path& dir) { return dir / "plan.yaml"; }
 fs::path sweep_summary_csv(const fs::path& dir) { return dir / "summary.csv"; }
 fs::path sweep_summary_h5(const fs::path& dir) { return dir / "summary.h5"; }
 
+fs::path sweep_slurm_script(const fs::path& dir) { return dir / "sweep.sbatch"; }
 fs::path sweep_lock_file(const fs::path& dir) { return dir / ".lock"; }
 
 FileLock lock_sweep_folder(const fs::path& dir) {
@@ -53,7 +54,7 @@ std::vector<RoleFile> sweep_folder_files(const fs::path& dir) {
   std::vector<RoleFile> files = {{sweep_plan_copy(dir).string(), "the sweep's plan"},
                                  {sweep_summary_csv(dir).string(), "the sweep's summary"},
                                  {sweep_summary_h5(dir).string(), "the sweep's summary"},
-                                 {(dir / "sweep.sbatch").string(), "the sweep's Slurm script"},
+                                 {sweep_slurm_script(dir).string(), "the sweep's Slurm script"},
                                  {sweep_lock_file(dir).string(), "the sweep's lock"}};
   for (const char* sub : kRunFolders) {
     std::error_code ec;
@@ -78,7 +79,7 @@ void check_output_beside_sweep(const RoleFile& output, const fs::path& dir, std:
 void check_sweep_outputs(const SweepPlan& plan, const fs::path& dir, bool writes_plan) {
   std::vector<RoleFile> outputs = {{sweep_summary_csv(dir).string(), "summary"},
                                    {sweep_summary_h5(dir).string(), "summary"},
-                                   {(dir / "sweep.sbatch").string(), "Slurm script"},
+                                   {sweep_slurm_script(dir).string(), "Slurm script"},
                                    {sweep_lock_file(dir).string(), "lock"}};
   if (writes_plan) outputs.push_back({sweep_plan_copy(dir).string(), "plan"});
   for (const RoleFile& in : plan_input_files(plan)) {
@@ -101,8 +102,8 @@ void check_sweep_folder(const fs::path& dir) {
     throw InputError(dir.string() + ": not an ebh sweep folder (no plan.yaml) but holds " + what +
                      ": name a new or empty folder");
   };
-  for (const char* name : {"summary.csv", "summary.h5", "sweep.sbatch"})
-    if (fs::exists(dir / name, ec)) refuse(name);
+  for (const fs::path& own : {sweep_summary_csv(dir), sweep_summary_h5(dir), sweep_slurm_script(dir)})
+    if (fs::exists(own, ec)) refuse(own.filename().string());
   // A run's file: ID.h5, ID.log, ID.failed (16 hex digits), or the temporary of one.
   static const std::regex run_file(R"(\.?[0-9a-f]{16}\.(h5|log|failed)(\..*\.ebh-partial)?)");
   if (fs::exists(dir / "runs", ec) && !fs::is_directory(dir / "runs", ec)) refuse("runs");

@@ -15,6 +15,9 @@ std::filesystem::path sweep_plan_copy(const std::filesystem::path& dir);
 std::filesystem::path sweep_summary_csv(const std::filesystem::path& dir);
 std::filesystem::path sweep_summary_h5(const std::filesystem::path& dir);
 
+/// DIR/sweep.sbatch: the job script of a --slurm submission.
+std::filesystem::path sweep_slurm_script(const std::filesystem::path& dir);
+
 /// DIR/.lock: the lock a sweep holds on its folder (lock_sweep_folder).
 std::filesystem::path sweep_lock_file(const std::filesystem::path& dir);
 

@@ -544,22 +544,28 @@ TEST(SweepRunner, OutputsNamedAfterThePathsAreTakenOver) {
   EXPECT_EQ(adopt_legacy_outputs(dir, runs), 0u);
 }
 
-/// An interrupted sweep passes SIGTERM on to its replays; one stuck past even its own grace
-/// (tests/sweep/stuck_replay.sh ignores every signal but SIGKILL) is killed RunnerOptions::
-/// stop_grace_s later, counted as interrupted, with no output, and the sweep returns.
-TEST(SweepRunner, AReplayStuckAfterTheInterruptIsKilled) {
-  const fs::path dir = scratch() / "stuck";
-  fs::remove_all(dir);
-  const fs::path plan_path = plan_file("stuck.yaml", R"(scenes:
+/// A plan of three runs (two grid points and the reference) whose replays the tests below replace
+/// with stand-in scripts.
+std::vector<SweepRun> three_runs(SweepPlan& plan, const std::string& name) {
+  plan = read_sweep_plan(plan_file(name, R"(scenes:
   - scene: tube
     recordings: [tube_insert]
     reference: {solver.method: direct}
 grid:
   stiffness.k_con: [400, 500]
 duration: 0.1
-)");
-  const SweepPlan plan = read_sweep_plan(plan_path);
-  const std::vector<SweepRun> runs = expand_plan(plan);
+)"));
+  return expand_plan(plan);
+}
+
+/// An interrupted sweep passes SIGTERM on to its replays; one stuck past even its own grace
+/// (tests/sweep/stuck_replay.sh ignores every signal but SIGKILL) is killed RunnerOptions::
+/// stop_grace_s later, counted as interrupted, with no output, and the sweep returns.
+TEST(SweepRunner, AReplayStuckAfterTheInterruptIsKilled) {
+  const fs::path dir = scratch() / "stuck";
+  fs::remove_all(dir);
+  SweepPlan plan;
+  const std::vector<SweepRun> runs = three_runs(plan, "stuck.yaml");
   RunnerOptions opt;
   opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/stuck_replay.sh";
   opt.stop_grace_s = 0.5;
@@ -579,19 +585,6 @@ duration: 0.1
   for (const SweepRun& r : runs) EXPECT_FALSE(fs::exists(run_output(dir, r))) << r.id;
   EXPECT_EQ(interrupt_grace(), 0u) << "the sweep's process waits for its replays";
   set_interrupt_grace(kInterruptGraceSeconds);
-}
-
-/// A plan of three runs whose replays the tests below replace with tests/sweep/partial_replay.sh.
-std::vector<SweepRun> three_runs(SweepPlan& plan, const std::string& name) {
-  plan = read_sweep_plan(plan_file(name, R"(scenes:
-  - scene: tube
-    recordings: [tube_insert]
-    reference: {solver.method: direct}
-grid:
-  stiffness.k_con: [400, 500]
-duration: 0.1
-)"));
-  return expand_plan(plan);
 }
 
 /// The temporaries left in `folder` (*.ebh-partial).

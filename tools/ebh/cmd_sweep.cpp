@@ -46,8 +46,6 @@ struct ReportArgs {
   double min_haptic_hz = kMinHapticHz;
 };
 
-fs::path plan_copy(const fs::path& dir) { return sweep_plan_copy(dir); }
-fs::path summary_path(const fs::path& dir) { return sweep_summary_csv(dir); }
 
 std::string executable() {
   std::error_code ec;
@@ -100,7 +98,7 @@ std::optional<std::string> file_text(const fs::path& file) {
 /// compared with the folder's plan.yaml as written and, when that text differs (an older ebh wrote
 /// it), as read again.
 void check_same_plan(const SweepPlan& plan, const std::string& given, const fs::path& dir) {
-  const fs::path kept = plan_copy(dir);
+  const fs::path kept = sweep_plan_copy(dir);
   std::error_code ec;
   if (!fs::exists(kept, ec) || same_file(given, kept.string())) return;
   const std::string resolved = resolved_plan_yaml(plan);
@@ -117,7 +115,7 @@ void check_same_plan(const SweepPlan& plan, const std::string& given, const fs::
 
 /// DIR/summary.csv and DIR/summary.h5, each written atomically.
 void write_summary_files(const fs::path& dir, const CsvTable& table) {
-  write_file_atomically(summary_path(dir).string(), table.to_csv());
+  write_file_atomically(sweep_summary_csv(dir).string(), table.to_csv());
   write_summary_h5(table, sweep_summary_h5(dir).string());
 }
 
@@ -125,7 +123,7 @@ void write_summary_files(const fs::path& dir, const CsvTable& table) {
 SweepSummary write_summary(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
   SweepSummary s = summarize_sweep(plan, runs, dir);
   write_summary_files(dir, s.table);
-  std::printf("%s: %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(), runs.size(), s.ok, s.failed,
+  std::printf("%s: %zu runs: %zu ok, %zu failed, %zu not run\n", sweep_summary_csv(dir).c_str(), runs.size(), s.ok, s.failed,
               s.pending);
   return s;
 }
@@ -266,14 +264,14 @@ void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<S
   }
   const int tasks = a.tasks.value_or(static_cast<int>(std::min<std::size_t>(runs.size(), 1000)));
   const fs::path abs_dir = fs::absolute(dir).lexically_normal();
-  std::string command = "exec " + shell_quote(executable()) + " sweep " + shell_quote(plan_copy(abs_dir).string()) + " -o " +
+  std::string command = "exec " + shell_quote(executable()) + " sweep " + shell_quote(sweep_plan_copy(abs_dir).string()) + " -o " +
                         shell_quote(abs_dir.string()) + " --task \"$SLURM_ARRAY_TASK_ID\" --tasks " +
                         std::to_string(tasks) + " --jobs " + std::to_string(a.jobs);
   if (!a.backend.empty()) command += " --backend " + a.backend;
   if (a.batch > 1) command += " --batch " + std::to_string(a.batch);
   if (a.at_once) command += " --at-once " + std::to_string(*a.at_once);
   if (a.gpus != "all") command += " --gpus " + shell_quote(a.gpus);  // else each task's own devices
-  const fs::path script = abs_dir / "sweep.sbatch";
+  const fs::path script = sweep_slurm_script(abs_dir);
   changes.writing(script);
   write_file_atomically(script.string(),
                         "#!/bin/sh\n# ebh sweep --slurm: array task I of " + std::to_string(tasks) +
@@ -350,7 +348,7 @@ void run_sweep(const SweepArgs& a) {
   if (!a.backend.empty() && std::find(plan.backends.begin(), plan.backends.end(), a.backend) == plan.backends.end())
     throw InputError("--backend " + a.backend + ": not one of the plan's backends (" + plan.file.string() + ", key 'backends')");
   // Before any work: no file the plan reads is one the sweep writes.
-  check_sweep_outputs(plan, dir, !a.task && !same_file(a.plan, plan_copy(dir).string()));
+  check_sweep_outputs(plan, dir, !a.task && !same_file(a.plan, sweep_plan_copy(dir).string()));
   // The folder is this process's until it ends (a Slurm array's tasks each write runs of their
   // own): what it holds is checked under the lock, so no second sweep slips in between.
   FolderChanges changes(dir);
@@ -364,9 +362,9 @@ void run_sweep(const SweepArgs& a) {
     if (a.backend.empty() || r.backend == a.backend || r.reference) runs.push_back(r);
   if (a.task) {
     runs = task_slice(runs, *a.task, *a.tasks);
-  } else if (!same_file(a.plan, plan_copy(dir).string())) {
-    changes.writing(plan_copy(dir));
-    write_file_atomically(plan_copy(dir).string(), resolved_plan_yaml(plan));
+  } else if (!same_file(a.plan, sweep_plan_copy(dir).string())) {
+    changes.writing(sweep_plan_copy(dir));
+    write_file_atomically(sweep_plan_copy(dir).string(), resolved_plan_yaml(plan));
   }
   if (!a.task) adopt_legacy(dir, all);
 
@@ -422,14 +420,14 @@ void run_sweep(const SweepArgs& a) {
     const RunOutcome& f = rep.failures.front();
     std::fprintf(stderr, "ebh: error: %zu of %zu runs failed (the first: %s: %s)%s\n", rep.failed, runs.size(),
                  describe(plan, *f.run).c_str(), f.error.c_str(),
-                 a.task ? "" : ("; every error is in " + summary_path(dir).string()).c_str());
+                 a.task ? "" : ("; every error is in " + sweep_summary_csv(dir).string()).c_str());
     throw ExitRequest{1};
   }
   // Runs counted as done whose outputs the summary could not read (another program's file under
   // a run's name): the sweep did not give every result.
   if (failed_rows) {
     std::fprintf(stderr, "ebh: error: %zu of %zu runs have no result in %s (their errors are there)\n", failed_rows,
-                 all.size(), summary_path(dir).c_str());
+                 all.size(), sweep_summary_csv(dir).c_str());
     throw ExitRequest{1};
   }
 }
@@ -437,7 +435,7 @@ void run_sweep(const SweepArgs& a) {
 /// The newest modification time among the sweep's run files and plan.
 fs::file_time_type newest_input(const fs::path& dir) {
   std::error_code ec;
-  fs::file_time_type newest = fs::last_write_time(plan_copy(dir), ec);
+  fs::file_time_type newest = fs::last_write_time(sweep_plan_copy(dir), ec);
   for (fs::directory_iterator it(dir / "runs", ec), end; !ec && it != end; it.increment(ec)) {
     std::error_code e2;
     newest = std::max(newest, fs::last_write_time(it->path(), e2));
@@ -449,18 +447,18 @@ void run_report(const ReportArgs& a) {
   const fs::path dir = a.dir;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(a.dir + ": not a folder (expected a sweep's folder, ebh sweep -o DIR)");
-  const bool has_plan = fs::exists(plan_copy(dir), ec), has_summary = fs::exists(summary_path(dir), ec);
+  const bool has_plan = fs::exists(sweep_plan_copy(dir), ec), has_summary = fs::exists(sweep_summary_csv(dir), ec);
   if (!has_plan && !has_summary)
     throw InputError(a.dir + ": neither summary.csv nor plan.yaml: not a sweep's folder");
   // Collect: the summary again when runs ended after it was written (a Slurm array's tasks). A
   // folder copied to another machine may have its files' times reordered and its plan's input
   // files missing: then the summary it has is reported, saying so.
-  const bool collect = has_plan && (!has_summary || fs::last_write_time(summary_path(dir), ec) <= newest_input(dir));
+  const bool collect = has_plan && (!has_summary || fs::last_write_time(sweep_summary_csv(dir), ec) <= newest_input(dir));
   std::optional<SweepPlan> plan;
   std::string collect_error;
   if (collect) {
     try {
-      plan = read_sweep_plan(plan_copy(dir));
+      plan = read_sweep_plan(sweep_plan_copy(dir));
     } catch (const InputError& e) {
       if (!has_summary) throw;
       collect_error = e.what();
@@ -476,7 +474,7 @@ void run_report(const ReportArgs& a) {
       adopt_legacy(dir, runs);
       const SweepSummary s = summarize_sweep(*plan, runs, dir);
       write_summary_files(dir, s.table);
-      std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", summary_path(dir).c_str(),
+      std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", sweep_summary_csv(dir).c_str(),
                    s.table.rows.size(), s.ok, s.failed, s.pending);
     } catch (const InputError& e) {
       if (!has_summary) throw;
@@ -486,7 +484,7 @@ void run_report(const ReportArgs& a) {
   if (!collect_error.empty())
     std::fprintf(stderr, "ebh: warning: %s: cannot collect the runs again (%s); reporting summary.csv as it is\n",
                  a.dir.c_str(), collect_error.c_str());
-  const std::string file = summary_path(dir).string();
+  const std::string file = sweep_summary_csv(dir).string();
   check_input_file(file);
   const std::vector<ReportGroup> groups = build_report(parse_csv(file_text(file).value_or(""), file), file, a.min_haptic_hz);
   std::fputs(report_markdown(groups).c_str(), stdout);

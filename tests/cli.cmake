@@ -651,6 +651,8 @@ set(ebh_gate_case "name: w, scene: tube, recording: tube_insert, start: 4, durat
 file(WRITE ${EBH_SAFE}/gate_nan.yaml "cases:\n  - {${ebh_gate_case}, rms_force_step: .nan}\n")
 file(WRITE ${EBH_SAFE}/gate_inf.yaml "cases:\n  - {${ebh_gate_case}, peak_force: .inf}\n")
 file(WRITE ${EBH_SAFE}/gate_band.yaml "bands: {relative: -1, abs_force_step: 0, abs_force_rate: 0, abs_peak_force: 0, abs_power: 0, abs_penetration: 0}\ncases:\n  - {${ebh_gate_case}}\n")
+file(WRITE ${EBH_SAFE}/gate_wide.yaml "bands: {relative: 1e300}\ncases:\n  - {${ebh_gate_case}}\n")
+file(WRITE ${EBH_SAFE}/gate_power.yaml "bands: {abs_power: 1}\ncases:\n  - {${ebh_gate_case}}\n")
 file(WRITE ${EBH_SAFE}/gate_none.yaml "cases: []\n")
 file(WRITE ${EBH_SAFE}/gate_extra.yaml "cases:\n  - {${ebh_gate_case}, peak_forse: 1}\n")
 file(WRITE ${EBH_SAFE}/gate_twice.yaml "cases:\n  - {${ebh_gate_case}}\n  - {${ebh_gate_case}}\n")
@@ -736,6 +738,8 @@ ebh_safety(gate_start_past_end "^ebh: error: .*gate_start_past_end.yaml: cases\\
 foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got '.nan'"
           "inf;cases\\[0\\].peak_force': expected a finite number >= 0, got '.inf'"
           "band;bands.relative': expected a finite number >= 0, got '-1'"
+          "wide;bands.relative': 1e300 lets a metric more than double and pass \\(at most 1"
+          "power;bands.abs_power': 1 passes every run"
           "none;cases': expected at least one case"
           "extra;cases\\[0\\].peak_forse': unknown key \\(known: name, scene"
           "twice;cases\\[1\\].name': 'w' names two cases"

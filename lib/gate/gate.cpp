@@ -152,12 +152,24 @@ GateBaselines read_gate_baselines(const std::string& path) {
   if (const YAML::Node bands = root["bands"]) {
     only_keys(bands, path, "bands",
               {"relative", "abs_force_step", "abs_force_rate", "abs_peak_force", "abs_power", "abs_penetration"});
-    b.bands.relative = nonnegative(bands["relative"], path, "bands.relative");
-    b.bands.abs_force_step = nonnegative(bands["abs_force_step"], path, "bands.abs_force_step");
-    b.bands.abs_force_rate = nonnegative(bands["abs_force_rate"], path, "bands.abs_force_rate");
-    b.bands.abs_peak_force = nonnegative(bands["abs_peak_force"], path, "bands.abs_peak_force");
-    b.bands.abs_power = nonnegative(bands["abs_power"], path, "bands.abs_power");
-    b.bands.abs_penetration = nonnegative(bands["abs_penetration"], path, "bands.abs_penetration");
+    // A band left out keeps its default (GateBands).
+    const auto band = [&](const char* key, double& value) {
+      if (bands[key]) value = nonnegative(bands[key], path, std::string("bands.") + key);
+    };
+    band("relative", b.bands.relative);
+    band("abs_force_step", b.bands.abs_force_step);
+    band("abs_force_rate", b.bands.abs_force_rate);
+    band("abs_peak_force", b.bands.abs_peak_force);
+    band("abs_power", b.bands.abs_power);
+    band("abs_penetration", b.bands.abs_penetration);
+    // Bands so wide that no regression can fail them: the gate would check only finiteness.
+    if (b.bands.relative > 1)
+      throw InputError(path + ": key 'bands.relative': " + bands["relative"].Scalar() +
+                       " lets a metric more than double and pass (at most 1; the bands absorb machines' "
+                       "floating-point differences, well under 0.1)");
+    if (b.bands.abs_power >= 1)
+      throw InputError(path + ": key 'bands.abs_power': " + bands["abs_power"].Scalar() +
+                       " passes every run (power_above_30hz is a fraction of the force's power, at most 1)");
   }
   const YAML::Node cases = root["cases"];
   if (!cases || !cases.IsSequence()) throw InputError(path + ": key 'cases': expected a list");

@@ -1,7 +1,7 @@
 #pragma once
-// The one message for YAML text that yaml-cpp refuses, for every reader of YAML input (scene
-// files, sweep and synthesis plans, gate baselines, --set values). Header-only; its includers link
-// yaml-cpp (lib/CMakeLists.txt: scene, io, gate, sweep).
+// The one message for YAML text that yaml-cpp refuses, and the one check of a map's keys, for
+// every reader of YAML input (scene files, sweep and synthesis plans, gate baselines, --set
+// values). Header-only; its includers link yaml-cpp (lib/CMakeLists.txt: scene, io, gate, sweep).
 //
 // yaml-cpp parses nested lists and maps recursively and stops at a fixed depth (500 in 0.7) with
 // DeepRecursion, a ParserException whose own message is "bad file": a file of 100000 `[` is such a
@@ -10,7 +10,9 @@
 #include <yaml-cpp/exceptions.h>
 #include <yaml-cpp/node/node.h>
 
+#include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/error.hpp"
@@ -48,6 +50,49 @@ inline YAML::Node only_yaml_document(const std::vector<YAML::Node>& documents, c
       throw InputError(where + ":" + std::to_string(documents[i].Mark().line + 1) +
                        ": a second YAML document (after '---'): " + what + " holds one");
   return documents.empty() ? YAML::Node() : documents.front();
+}
+
+/// How a node appears in a message: its text (60 characters at most, control characters as '?'),
+/// or what kind of node it is.
+inline std::string yaml_shown(const YAML::Node& n) {
+  if (!n.IsDefined() || n.IsNull()) return "nothing";
+  if (n.IsMap()) return "a map";
+  if (n.IsSequence()) return "a list";
+  const std::string& s = n.Scalar();
+  std::string out;
+  for (const char c : s.substr(0, 60)) out += static_cast<unsigned char>(c) < 0x20 ? '?' : c;
+  if (s.size() > 60) out += "...";
+  return "'" + out + "'";
+}
+
+/// The entries of map `node` at dotted key `key` ("" for the top), in file order, checked as every
+/// reader of ebh's YAML checks them: a map, its keys non-empty text, each among `allowed` (any key
+/// when it is empty), none given twice (yaml-cpp keeps both, and a reader would take one without a
+/// word), no merge key. fail(node, full_key, what) throws; it names the file (with the node's line,
+/// or the --set that gave the key) as its reader does.
+template <class Allowed, class Fail>
+std::vector<std::pair<std::string, YAML::Node>> yaml_map_entries(const YAML::Node& node, const std::string& key,
+                                                                 const Allowed& allowed, Fail&& fail) {
+  if (!node.IsMap()) fail(node, key, "expected a map, got " + yaml_shown(node));
+  std::vector<std::pair<std::string, YAML::Node>> out;
+  for (auto it = node.begin(); it != node.end(); ++it) {
+    if (!it->first.IsScalar() || it->first.Scalar().empty())
+      fail(it->first, key, "expected text keys, got " + yaml_shown(it->first));
+    const std::string name = it->first.Scalar();
+    const std::string full = key.empty() ? name : key + "." + name;
+    if (name == "<<") fail(it->first, full, "YAML merge keys ('<<: *anchor') are not read: write the section's keys out");
+    bool known = std::empty(allowed);
+    std::string list;
+    for (const auto& a : allowed) {
+      known = known || name == a;
+      list += (list.empty() ? "" : ", ") + std::string(a);
+    }
+    if (!known) fail(it->first, full, "unknown key (known: " + list + ")");
+    for (const auto& [k, v] : out)
+      if (k == name) fail(it->first, full, "given twice");
+    out.emplace_back(name, it->second);
+  }
+  return out;
 }
 
 }  // namespace ebh

@@ -16,6 +16,7 @@
 #include <initializer_list>
 #include <limits>
 #include <sstream>
+#include <string_view>
 
 #include "core/error.hpp"
 #include "core/yaml_error.hpp"
@@ -44,18 +45,13 @@ double nonnegative(const YAML::Node& n, const std::string& file, const std::stri
   return v;
 }
 
-/// Refuses a key of map `n` not in `known` (a misspelt metric would otherwise go unchecked).
+/// Checks the keys of map `n` (yaml_map_entries: text keys among `known`, each once; a misspelt
+/// metric would otherwise go unchecked).
 void only_keys(const YAML::Node& n, const std::string& file, const std::string& key,
-               std::initializer_list<const char*> known) {
-  if (!n.IsMap()) throw InputError(file + ": key '" + key + "': expected a map");
-  for (const auto& kv : n) {
-    const std::string k = kv.first.Scalar();
-    if (std::find_if(known.begin(), known.end(), [&](const char* s) { return k == s; }) == known.end()) {
-      std::string list;
-      for (const char* s : known) list += (list.empty() ? "" : ", ") + std::string(s);
-      throw InputError(file + ": key '" + (key.empty() ? k : key + "." + k) + "': unknown key (known: " + list + ")");
-    }
-  }
+               std::initializer_list<std::string_view> known) {
+  yaml_map_entries(n, key, known, [&](const YAML::Node&, const std::string& k, const std::string& what) {
+    throw InputError(file + ": key '" + k + "': " + what);
+  });
 }
 
 std::string text(const YAML::Node& n, const std::string& file, const std::string& key) {

@@ -6,8 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <numbers>
-#include <set>
+#include <string_view>
 
 #include "core/error.hpp"
 #include "core/yaml_error.hpp"
@@ -51,11 +52,11 @@ struct PlanReader {
     return v;
   }
 
-  void only_keys(const YAML::Node& n, const std::string& key, const std::set<std::string>& allowed) const {
-    for (const auto& kv : n) {
-      std::string k = kv.first.Scalar();
-      if (!allowed.count(k)) fail(kv.first, key.empty() ? k : key + "." + k, "unknown key");
-    }
+  /// Checks the map's keys (yaml_map_entries: text keys among `allowed`, each once).
+  void only_keys(const YAML::Node& n, const std::string& key, std::initializer_list<std::string_view> allowed) const {
+    yaml_map_entries(n, key, allowed, [&](const YAML::Node& at, const std::string& k, const std::string& what) {
+      fail(at, k, what);
+    });
   }
 };
 

@@ -49,18 +49,6 @@ std::string not_a_file(const fs::path& p) {
   return "file not found";
 }
 
-/// How a value appears in an error message: its text, or what kind of node it is.
-std::string shown(const YAML::Node& n) {
-  if (!n.IsDefined() || n.IsNull()) return "nothing";
-  if (n.IsMap()) return "a map";
-  if (n.IsSequence()) return "a list";
-  std::string s = n.Scalar();
-  std::string out;
-  for (char c : s.substr(0, 60)) out += (static_cast<unsigned char>(c) < 0x20 ? '?' : c);
-  if (s.size() > 60) out += "...";
-  return "'" + out + "'";
-}
-
 std::string join(const std::vector<std::string>& v) {
   std::string s;
   for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
@@ -101,26 +89,19 @@ class SpecReader {
   /// override_giving over this reader's overrides.
   const std::string* override_of(const std::string& key) const { return override_giving(overrides_, key); }
 
-  /// The entries of a map node, checked: keys are plain strings, unique and among `allowed`.
+  /// The entries of a map node, checked (yaml_map_entries: text keys among `allowed`, each once).
   std::map<std::string, YAML::Node> entries(const YAML::Node& node, const std::string& key,
                                             const std::vector<std::string>& allowed) const {
-    if (!node.IsMap()) fail(key, "expected a map, got " + shown(node));
     std::map<std::string, YAML::Node> out;
-    for (auto it = node.begin(); it != node.end(); ++it) {
-      if (!it->first.IsScalar()) fail(key, "expected text keys, got " + shown(it->first));
-      const std::string name = it->first.Scalar();
-      const std::string full = key.empty() ? name : key + "." + name;
-      if (name == "<<") fail(full, "YAML merge keys ('<<: *anchor') are not read: write the section's keys out");
-      if (std::find(allowed.begin(), allowed.end(), name) == allowed.end())
-        fail(full, "unknown key (known: " + join(allowed) + ")");
-      if (!out.emplace(name, it->second).second) fail(full, "given twice");
-      // yaml-cpp hands out nodes that share the tree: keep them as they are
-    }
+    // yaml-cpp hands out nodes that share the tree: keep them as they are
+    for (auto& [name, value] : yaml_map_entries(node, key, allowed, [&](const YAML::Node&, const std::string& k,
+                                                                        const std::string& what) { fail(k, what); }))
+      out.emplace(name, value);
     return out;
   }
 
   double number(const YAML::Node& n, const std::string& key, const char* expected = "a number") const {
-    if (!n.IsScalar()) fail(key, std::string("expected ") + expected + ", got " + shown(n));
+    if (!n.IsScalar()) fail(key, std::string("expected ") + expected + ", got " + yaml_shown(n));
     const std::string& s = n.Scalar();
     const char* b = s.data();
     const char* e = s.data() + s.size();
@@ -128,17 +109,17 @@ class SpecReader {
     double v = 0;
     auto [p, ec] = std::from_chars(b, e, v);
     if (ec != std::errc() || p != e || b == e || !std::isfinite(v))
-      fail(key, std::string("expected ") + expected + ", got " + shown(n));
+      fail(key, std::string("expected ") + expected + ", got " + yaml_shown(n));
     return v;
   }
   double positive(const YAML::Node& n, const std::string& key) const {
     const double v = number(n, key, "a positive number");
-    if (!(v > 0)) fail(key, "expected a positive number, got " + shown(n));
+    if (!(v > 0)) fail(key, "expected a positive number, got " + yaml_shown(n));
     return v;
   }
   double non_negative(const YAML::Node& n, const std::string& key) const {
     const double v = number(n, key, "a number >= 0");
-    if (!(v >= 0)) fail(key, "expected a number >= 0, got " + shown(n));
+    if (!(v >= 0)) fail(key, "expected a number >= 0, got " + yaml_shown(n));
     return v;
   }
   /// A number in the interval (lo, hi) / [lo, hi], open or closed at each end as given.
@@ -150,7 +131,7 @@ class SpecReader {
                   hi_closed ? ']' : ')');
     const double v = number(n, key, range);
     const bool ok = (lo_closed ? v >= lo : v > lo) && (hi_closed ? v <= hi : v < hi);
-    if (!ok) fail(key, std::string("expected ") + range + ", got " + shown(n));
+    if (!ok) fail(key, std::string("expected ") + range + ", got " + yaml_shown(n));
     return v;
   }
   /// A whole number in [lo, hi]; `word` (when given) is also accepted and gives `word_value`.
@@ -159,12 +140,12 @@ class SpecReader {
     if (word && n.IsScalar() && n.Scalar() == word) return word_value;
     const std::string expected = (word ? std::string(word) + " or " : std::string()) + "a whole number in [" +
                                  std::to_string(lo) + ", " + std::to_string(hi) + "]";
-    if (!n.IsScalar()) fail(key, "expected " + expected + ", got " + shown(n));
+    if (!n.IsScalar()) fail(key, "expected " + expected + ", got " + yaml_shown(n));
     const std::string& s = n.Scalar();
     long long v = 0;
     auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
     if (ec != std::errc() || p != s.data() + s.size() || s.empty() || v < lo || v > hi)
-      fail(key, "expected " + expected + ", got " + shown(n));
+      fail(key, "expected " + expected + ", got " + yaml_shown(n));
     return static_cast<int>(v);
   }
   bool boolean(const YAML::Node& n, const std::string& key) const {
@@ -173,10 +154,10 @@ class SpecReader {
       if (s == "true" || s == "True" || s == "TRUE") return true;
       if (s == "false" || s == "False" || s == "FALSE") return false;
     }
-    fail(key, "expected true or false, got " + shown(n));
+    fail(key, "expected true or false, got " + yaml_shown(n));
   }
   std::string text(const YAML::Node& n, const std::string& key, bool allow_empty = true) const {
-    if (!n.IsScalar()) fail(key, "expected text, got " + shown(n));
+    if (!n.IsScalar()) fail(key, "expected text, got " + yaml_shown(n));
     if (!allow_empty && n.Scalar().empty()) fail(key, "expected non-empty text");
     return n.Scalar();
   }
@@ -186,10 +167,10 @@ class SpecReader {
       auto it = std::find(names.begin(), names.end(), n.Scalar());
       if (it != names.end()) return static_cast<int>(it - names.begin());
     }
-    fail(key, "expected one of " + join(names) + ", got " + shown(n));
+    fail(key, "expected one of " + join(names) + ", got " + yaml_shown(n));
   }
   Vec3d vec3(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsSequence() || n.size() != 3) fail(key, "expected a list of 3 numbers [x, y, z], got " + shown(n));
+    if (!n.IsSequence() || n.size() != 3) fail(key, "expected a list of 3 numbers [x, y, z], got " + yaml_shown(n));
     Vec3d v;
     for (int i = 0; i < 3; ++i) v[i] = number(n[static_cast<std::size_t>(i)], key + "[" + std::to_string(i) + "]");
     return v;
@@ -206,7 +187,7 @@ class SpecReader {
   double length(const YAML::Node& n, const std::string& key, double unit) const {
     const double v = positive(n, key), metres = v * unit;
     if (!(metres >= std::numeric_limits<double>::min()) || !std::isfinite(metres))
-      fail(key, shown(n) + " is " + shown_number(metres) + " m: expected a length a double carries, " +
+      fail(key, yaml_shown(n) + " is " + shown_number(metres) + " m: expected a length a double carries, " +
                     shown_number(std::numeric_limits<double>::min()) + " .. " +
                     shown_number(std::numeric_limits<double>::max()) + " m");
     return metres;
@@ -322,7 +303,7 @@ class SpecReader {
       if (t != "boundary") {
         std::string ext = fs::path(t).extension().string();
         std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-        if (ext != ".obj") fail("mesh.virtual", "expected 'boundary' or an .obj file, got " + shown(v->second));
+        if (ext != ".obj") fail("mesh.virtual", "expected 'boundary' or an .obj file, got " + yaml_shown(v->second));
         s.virtual_mesh = mesh_path(v->second, "mesh.virtual");
       }
     }
@@ -340,7 +321,7 @@ class SpecReader {
 
   void read_pinned(const YAML::Node& n, SceneSpec& s) const {
     if (n.IsNull()) return;  // "pinned:" with nothing: no region
-    if (!n.IsSequence()) fail("pinned", "expected a list of regions, got " + shown(n));
+    if (!n.IsSequence()) fail("pinned", "expected a list of regions, got " + yaml_shown(n));
     for (std::size_t i = 0; i < n.size(); ++i) {
       const std::string key = "pinned[" + std::to_string(i) + "]";
       const auto e = entries(n[i], key, {"group", "box", "sphere", "halfspace"});
@@ -659,7 +640,7 @@ void apply_override(YAML::Node root, const std::string& text) {
     const std::string part = key.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
     if (part.empty()) throw InputError(OverrideError::set_option_shown(text) + ": empty key component");
     if (!path.back().IsMap() && path.back().IsDefined() && !path.back().IsNull())
-      throw OverrideError(text, "key '" + key.substr(0, start ? start - 1 : 0) + "': " + shown(path.back()) + ", not a map");
+      throw OverrideError(text, "key '" + key.substr(0, start ? start - 1 : 0) + "': " + yaml_shown(path.back()) + ", not a map");
     if (dot == std::string::npos) {
       merge_into(path.back()[part], parsed);
       return;

@@ -22,15 +22,6 @@ namespace {
 
 std::string scene_inputs_sha256(const fs::path& scene_file, std::map<std::string, std::string>& digests);
 
-/// How a node appears in a message: its text, or what kind of node it is.
-std::string shown(const YAML::Node& n) {
-  if (!n.IsDefined() || n.IsNull()) return "nothing";
-  if (n.IsMap()) return "a map";
-  if (n.IsSequence()) return "a list";
-  const std::string& s = n.Scalar();
-  return "'" + (s.size() > 60 ? s.substr(0, 60) + "..." : s) + "'";
-}
-
 /// Reads the plan's YAML tree; every message names the file, the line and the dotted key.
 class PlanReader {
  public:
@@ -42,28 +33,17 @@ class PlanReader {
     throw InputError(where + ": key '" + key + "': " + what);
   }
 
-  /// The entries of a map, keys checked against `allowed` (any key when empty), each once.
+  /// The entries of a map, checked (yaml_map_entries: text keys among `allowed`, any key when it is
+  /// empty, each once).
   std::vector<std::pair<std::string, YAML::Node>> entries(const YAML::Node& n, const std::string& key,
                                                           const std::vector<std::string>& allowed) const {
-    if (!n.IsMap()) fail(n, key, "expected a map, got " + shown(n));
-    std::vector<std::pair<std::string, YAML::Node>> out;
-    for (auto it = n.begin(); it != n.end(); ++it) {
-      if (!it->first.IsScalar() || it->first.Scalar().empty()) fail(it->first, key, "expected text keys, got " + shown(it->first));
-      const std::string name = it->first.Scalar(), full = key.empty() ? name : key + "." + name;
-      if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
-        std::string known;
-        for (const auto& a : allowed) known += (known.empty() ? "" : ", ") + a;
-        fail(it->first, full, "unknown key (known: " + known + ")");
-      }
-      for (const auto& [k, v] : out)
-        if (k == name) fail(it->first, full, "given twice");
-      out.emplace_back(name, it->second);
-    }
-    return out;
+    return yaml_map_entries(n, key, allowed, [&](const YAML::Node& at, const std::string& k, const std::string& what) {
+      fail(at, k, what);
+    });
   }
 
   std::string text(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsScalar() || n.Scalar().empty()) fail(n, key, "expected text, got " + shown(n));
+    if (!n.IsScalar() || n.Scalar().empty()) fail(n, key, "expected text, got " + yaml_shown(n));
     return n.Scalar();
   }
 
@@ -77,7 +57,7 @@ class PlanReader {
       if (ec == std::errc() && p == s.data() + s.size() && !s.empty() && std::isfinite(v) && (lo_open ? v > lo : v >= lo))
         return v;
     }
-    fail(n, key, std::string("expected ") + expected + ", got " + shown(n));
+    fail(n, key, std::string("expected ") + expected + ", got " + yaml_shown(n));
   }
 
   int integer(const YAML::Node& n, const std::string& key, int lo, int hi) const {
@@ -87,12 +67,12 @@ class PlanReader {
       const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
       if (ec == std::errc() && p == s.data() + s.size() && !s.empty() && v >= lo && v <= hi) return static_cast<int>(v);
     }
-    fail(n, key, "expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + shown(n));
+    fail(n, key, "expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + yaml_shown(n));
   }
 
   /// A non-empty list (its items, in order).
   std::vector<YAML::Node> list(const YAML::Node& n, const std::string& key, const std::string& of) const {
-    if (!n.IsSequence() || n.size() == 0) fail(n, key, "expected a non-empty list of " + of + ", got " + shown(n));
+    if (!n.IsSequence() || n.size() == 0) fail(n, key, "expected a non-empty list of " + of + ", got " + yaml_shown(n));
     std::vector<YAML::Node> out;
     for (const YAML::Node& x : n) out.push_back(x);
     return out;
@@ -106,7 +86,7 @@ class PlanReader {
       e << YAML::Flow << n;
       return e.c_str();
     }
-    fail(n, key, "expected a value (a number, text or a list), got " + shown(n));
+    fail(n, key, "expected a value (a number, text or a list), got " + yaml_shown(n));
   }
 
   /// A map of overrides {dotted.key: value}; the node of each value in `where` (for messages).
@@ -210,7 +190,7 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     plan.backends.clear();
     for (const YAML::Node& b : r.list(top["backends"], "backends", "backends (cpu, cuda)")) {
       const std::string name = r.text(b, "backends");
-      if (name != "cpu" && name != "cuda") r.fail(b, "backends", "expected cpu or cuda, got " + shown(b));
+      if (name != "cpu" && name != "cuda") r.fail(b, "backends", "expected cpu or cuda, got " + yaml_shown(b));
       if (std::find(plan.backends.begin(), plan.backends.end(), name) != plan.backends.end())
         r.fail(b, "backends", "'" + name + "' given twice");
       plan.backends.push_back(name);
@@ -219,13 +199,13 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   if (top.count("reference_backend")) {
     plan.reference_backend = r.text(top["reference_backend"], "reference_backend");
     if (plan.reference_backend != "cpu" && plan.reference_backend != "cuda")
-      r.fail(top["reference_backend"], "reference_backend", "expected cpu or cuda, got " + shown(top["reference_backend"]));
+      r.fail(top["reference_backend"], "reference_backend", "expected cpu or cuda, got " + yaml_shown(top["reference_backend"]));
   }
   if (top.count("repetitions")) plan.repetitions = r.integer(top["repetitions"], "repetitions", 1, 1000);
   if (top.count("mode")) {
     plan.mode = r.text(top["mode"], "mode");
     if (plan.mode != "async" && plan.mode != "lockstep")
-      r.fail(top["mode"], "mode", "expected async or lockstep (realtime replays are not repeatable), got " + shown(top["mode"]));
+      r.fail(top["mode"], "mode", "expected async or lockstep (realtime replays are not repeatable), got " + yaml_shown(top["mode"]));
   }
   if (top.count("start")) plan.start = r.number(top["start"], "start", 0, false);
   if (top.count("duration")) plan.duration = r.number(top["duration"], "duration", 0, true);

@@ -206,7 +206,14 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 1], rotvec_deg: [0, 0, 0], jaw: 2}\n  - {t: 1}\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "jaw", "[0, 1]");
   plan("scene: gap\ntool: hook\nwaypoint: []\n");
-  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "waypoint", "unknown key");
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "waypoint", "unknown key (known: scene, tool, description");
+  // A key given twice: yaml-cpp keeps both and the reader took the first without a word (a rate
+  // of 1000 Hz for the 500 written last; a waypoint's second jaw).
+  plan(("scene: gap\ntool: hook\nrate_hz: 1000\nrate_hz: 500\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "rate_hz", "given twice");
+  plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 1], rotvec_deg: [0, 0, 0], jaw: 1, jaw: 0}\n"
+       "  - {t: 1}\n");
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].jaw", "given twice");
   plan("scene: [gap\n");
   EXPECT_INPUT_ERROR(read_plan(path), path, "YAML syntax error");
   plan(("waypoints: " + std::string(100000, '[') + "\n").c_str());  // yaml-cpp's nesting limit, not a stack overflow

@@ -262,6 +262,9 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nwhatever: 1\n", ":2: key 'whatever': unknown key"},
       {"grid: {solver.virtual_iterations: [1]}\n", ": key 'scenes': missing \\(required\\)"},
+      // A grid's keys are any overrides, but a merge key is none of them (yaml_map_entries).
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: &r {}}]\ngrid: {<<: *r}\n",
+       ":2: key 'grid.<<': YAML merge keys \\('<<: \\*anchor'\\) are not read"},
       {"scenes: []\n", ":1: key 'scenes': expected a non-empty list"},
       {"scenes: [{scene: no_such_scene, recordings: [tube_insert], reference: {}}]\n",
        ":1: key 'scenes\\[0\\].scene': no_such_scene: no such scene"},

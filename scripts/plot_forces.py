@@ -4,7 +4,7 @@
     scripts/plot_forces.py a.h5 [b.h5 ...] -o forces.png [--labels A B ...] [--t0 S] [--t1 S]
 
 A grid of eight panels: rows x, y, z and magnitude; columns force (N) and torque (N m). Each
-replay output (DESIGN.md section 4: /haptic/t, /haptic/force, /haptic/torque, optional
+replay output (docs/FORMATS.md, "Replay output": /haptic/t, /haptic/force, /haptic/torque, optional
 /haptic/force_clamped) is one colour; ticks where the force was clamped at the device limit are
 marked with a cross on the force-magnitude panel. Labels default to the file names.
 

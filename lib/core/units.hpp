@@ -1,5 +1,5 @@
 #pragma once
-// The length units ebh's files and options accept (DESIGN.md §3: SI inside).
+// The length units ebh's files and options accept (SI inside: docs/FORMATS.md).
 #include <optional>
 #include <string>
 

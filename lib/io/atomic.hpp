@@ -1,5 +1,5 @@
 #pragma once
-// Atomic output files (DESIGN.md §4): a file is written under a temporary name beside its final
+// Atomic output files (docs/FORMATS.md, "How outputs are written"): a file is written under a temporary name beside its final
 // name, synced to the disk and renamed when complete, so a crash, an interrupt or a full disk
 // never leaves a half-written file under the final name, and a previous file of that name stays
 // as it was until the new one is complete.

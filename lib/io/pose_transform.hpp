@@ -1,5 +1,5 @@
 #pragma once
-// Rigid transforms of device poses (DESIGN.md §3): a device log uses its own world frame (the
+// Rigid transforms of device poses (docs/FORMATS.md): a device log uses its own world frame (the
 // device's workspace) and its own tool frame (a Geomagic Touch's stylus +z points back toward the
 // handle, and the logged point is the gimbal, a few cm behind the tip). Two transforms map a
 // logged pose (p, q) to ebh's:

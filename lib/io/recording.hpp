@@ -1,5 +1,5 @@
 #pragma once
-// Device recordings (DESIGN.md §4): one tool trajectory per HDF5 file.
+// Device recordings (docs/FORMATS.md, "Recordings"): one tool trajectory per HDF5 file.
 //   /trajectory/t            (N,)   float64  s      strictly increasing
 //   /trajectory/position     (N, 3) float64  m      tool frame origin (shaft's distal end), world
 //   /trajectory/orientation  (N, 4) float64  1      unit quaternion (w, x, y, z), tool -> world

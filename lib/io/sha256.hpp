@@ -1,6 +1,6 @@
 #pragma once
 // SHA-256 (FIPS 180-4), for the replay output's provenance: the digest of every input file, so a
-// result can be traced to the exact bytes it came from (DESIGN.md §4). No linked library provides
+// result can be traced to the exact bytes it came from (docs/FORMATS.md, "Replay output"). No linked library provides
 // one (HDF5, yaml-cpp and Eigen do not), and the algorithm is short.
 #include <array>
 #include <cstdint>

@@ -1,6 +1,6 @@
 #pragma once
 // EBH_HD marks inline math that compiles for both the host and CUDA devices, so one
-// definition of each energy serves the CPU and the CUDA backend (DESIGN.md §6).
+// definition of each energy serves the CPU and the CUDA backend (docs/CUDA.md, "One definition of the math").
 #if defined(__CUDACC__)
 #define EBH_HD __host__ __device__ __forceinline__
 #else

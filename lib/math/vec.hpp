@@ -134,7 +134,7 @@ template <class T> EBH_HD Mat3<T> outer(Vec3<T> a, Vec3<T> b) {
   return r;
 }
 
-/// Unit quaternion (w, x, y, z) — the storage order used in every file (DESIGN.md §3).
+/// Unit quaternion (w, x, y, z) — the storage order used in every file (docs/FORMATS.md).
 template <class T>
 struct Quat {
   T w{1}, x{}, y{}, z{};

@@ -1,6 +1,6 @@
 #pragma once
 // Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1) for the physical mesh, Wavefront OBJ for a
-// virtual-mesh surface. Positions stay in file units; the scene scales them (DESIGN.md §3).
+// virtual-mesh surface. Positions stay in file units; the scene scales them (docs/FORMATS.md, "Length units and the mesh transform").
 //
 // Both readers hold the file in memory and parse it in one pass without regular expressions.
 // Untrusted counts never drive an allocation beyond what the file's size can hold. Every error is

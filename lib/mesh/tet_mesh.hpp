@@ -1,7 +1,7 @@
 #pragma once
 // Mesh containers shared by readers, the scene, the solvers and the renderer.
 // Positions are in metres once a scene has loaded them (files may use cm or mm; the
-// conversion happens once, at load: DESIGN.md §3).
+// conversion happens once, at load: docs/FORMATS.md, "Length units and the mesh transform").
 #include <array>
 #include <map>
 #include <set>

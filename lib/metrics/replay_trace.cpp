@@ -1,4 +1,4 @@
-// Reading a replay output file (DESIGN.md §4) into a ReplayTrace, with the HDF5 C API.
+// Reading a replay output file (docs/FORMATS.md, "Replay output") into a ReplayTrace, with the HDF5 C API.
 #include "metrics/replay_trace.hpp"
 
 #include <hdf5.h>

@@ -1,5 +1,5 @@
 #pragma once
-// A replay's output (DESIGN.md §4) held in memory for analysis: the haptic-rate arrays, the
+// A replay's output (docs/FORMATS.md, "Replay output") held in memory for analysis: the haptic-rate arrays, the
 // physical-rate arrays and the timings. Time is the first dimension of every array.
 #include <cstddef>
 #include <cstdint>

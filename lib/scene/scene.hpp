@@ -243,7 +243,7 @@ inline constexpr double kMaxHapticHz = 100e3;
 inline constexpr double kMinReplayHapticHz = 10;
 inline constexpr double kMinReplayPhysicalHz = 1;
 /// Whether haptic_hz / physical_hz is a whole number >= 1 (to 1e-9 of it): physical step k
-/// starts at tick k N (DESIGN.md §2). The scene reader, the rate options and build_world ask it.
+/// starts at tick k N (schedule/scheduler.hpp). The scene reader, the rate options and build_world ask it.
 inline bool whole_ticks_per_step(double haptic_hz, double physical_hz) {
   const double ratio = haptic_hz / physical_hz;
   return ratio >= 1.0 - 1e-9 && std::fabs(ratio - std::round(ratio)) <= 1e-9 * ratio;

@@ -1,5 +1,5 @@
 #pragma once
-// The replay output file (DESIGN.md §4; docs/FORMATS.md): an HDF5 file whose datasets all have
+// The replay output file (docs/FORMATS.md, "Replay output"): an HDF5 file whose datasets all have
 // time as their first dimension, written under a temporary name and renamed when complete.
 //   /haptic/{t, force, torque, force_clamped, torque_clamped, pose_physical, pose_virtual,
 //            penetration, penetration_physical, contacts, grasped, jaw}

@@ -123,7 +123,7 @@ class PhysicalWorker {
 };
 
 /// Whether a physical result becomes visible to the haptic side at tick n (N ticks per step): in
-/// async step k's at tick (k+1)N, in lockstep step k's at tick kN (DESIGN.md §2).
+/// async step k's at tick (k+1)N, in lockstep step k's at tick kN (scheduler.hpp).
 bool physical_result_arrives(Mode mode, std::int64_t n, int N) {
   return n % N == 0 && (mode == Mode::Lockstep || n > 0);
 }

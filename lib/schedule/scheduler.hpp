@@ -1,5 +1,5 @@
 #pragma once
-// Who runs when (DESIGN.md §2). Tick n is at t_n = n h_h; the device sample of tick n is the
+// Who runs when (docs/MODEL.md, "Between the two rates"). Tick n is at t_n = n h_h; the device sample of tick n is the
 // recording interpolated at t_n. Physical step k starts at tick k N (N = h_p / h_h):
 //   async     (default, the paper's system) it starts from the haptic side's snapshot at tick kN
 //             and its result becomes visible at tick (k+1)N, as a concurrent solver thread would

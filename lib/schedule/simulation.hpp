@@ -1,5 +1,5 @@
 #pragma once
-// The two-rate simulation (DESIGN.md §2): an immutable World (the scene's models), the haptic
+// The two-rate simulation (schedule/scheduler.hpp says who runs when): an immutable World (the scene's models), the haptic
 // side (virtual mesh + virtual tool, ticking at h_h, Algorithm 2) and the physical side (physical
 // mesh, stepping at h_p, Algorithm 1). The two sides exchange data only through snapshots:
 //   HapticSnapshot   -> physical step: the virtual-mesh positions E_svc [5] holds fixed;
@@ -31,7 +31,7 @@
 
 namespace ebh {
 
-/// Where the soft-body solvers run (DESIGN.md §6). The CPU backend is the reference.
+/// Where the soft-body solvers run (docs/CUDA.md). The CPU backend is the reference.
 enum class Backend { Cpu, Cuda };
 
 /// Everything that does not change during a replay.

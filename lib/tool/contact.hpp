@@ -134,7 +134,7 @@ void detect_contacts(const ToolModel& tool, const ToolPose& pose, double jaw, st
                      std::span<const Vec3d> normals, VertexGrid& broadphase, double k_con,
                      std::vector<ContactTarget>& out, std::span<const std::uint8_t> excluded = {});
 
-/// Depth (m, >= 0) of the deepest vertex of q inside the tool's colliders at pose (DESIGN §4:
+/// Depth (m, >= 0) of the deepest vertex of q inside the tool's colliders at pose (docs/FORMATS.md, "Replay output":
 /// the virtual tool's is the penetration metric; the physical tool's is large by design).
 double penetration_depth(const ToolModel& tool, const ToolPose& pose, double jaw, std::span<const Vec3d> q,
                          VertexGrid& broadphase, std::span<const std::uint8_t> excluded = {});

@@ -1,6 +1,6 @@
 #pragma once
 // Validation cases with analytic or reference answers, run from the command line
-// (`ebh validate NAME`, DESIGN.md §5) and by the tests.
+// (`ebh validate NAME`, README.md) and by the tests.
 //
 // Adding one: write lib/validate/NAME.cpp defining `Validation NAME_validation()`, declare it
 // below, and add it to the table in registry.cpp (one line each; static self-registration would

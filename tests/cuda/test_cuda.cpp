@@ -1,4 +1,4 @@
-// The CUDA backend against the CPU reference (DESIGN.md §6). These tests need a CUDA device: they
+// The CUDA backend against the CPU reference (docs/CUDA.md). These tests need a CUDA device: they
 // run on a machine with a GPU and skip elsewhere (no CUDA backend in the build, or no device).
 //
 // Tolerances (docs/CUDA.md, "Departures from the CPU and tolerances"). The device computes in

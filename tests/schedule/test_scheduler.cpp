@@ -1,4 +1,4 @@
-// The scheduler's contracts (DESIGN.md §2): virtual-time replays are pure functions of their
+// The scheduler's contracts (docs/MODEL.md, "Between the two rates"): virtual-time replays are pure functions of their
 // inputs (bitwise, any thread count), async delivers step k's result at tick (k+1)N, lockstep at
 // once, and the output file appears only when complete.
 #include <gtest/gtest.h>

@@ -2,7 +2,7 @@
 """Writes tests/data/metrics/press.h5, the small replay trace the `ebh metrics` CLI tests read.
 
 A synthetic 0.4 s press at 1 kHz haptic / 100 Hz physical in the replay output layout
-(DESIGN.md section 4): the physical tool moves down 1 cm/s, touches at tick 100, the force rises
+(docs/FORMATS.md, "Replay output"): the physical tool moves down 1 cm/s, touches at tick 100, the force rises
 smoothly to 1.5 N with a 20 mN jump at each physical frame, contact ends at tick 350. Regenerate:
 
     /usr/bin/python3 tests/data/metrics/make_trace.py

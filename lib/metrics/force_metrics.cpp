@@ -108,7 +108,8 @@ SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t a, std::size_t
   s.rms_force_step = steps ? std::sqrt(sumsq / static_cast<double>(steps)) : kNaN;
   s.boundary_step_mean = mean_or_nan(sum_bnd, s.boundary_ticks);
   s.interior_step_mean = mean_or_nan(sum_int, s.interior_ticks);
-  if (std::isnan(s.boundary_step_mean) || std::isnan(s.interior_step_mean))
+  if (std::isnan(s.boundary_step_mean) || std::isnan(s.interior_step_mean) ||
+      std::max(s.boundary_step_mean, s.interior_step_mean) < kNegligibleForce)  // round-off against round-off
     s.boundary_step_ratio = kNaN;
   else if (s.interior_step_mean > 0)
     s.boundary_step_ratio = s.boundary_step_mean / s.interior_step_mean;
@@ -122,6 +123,15 @@ SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t a, std::size_t
   const PowerSpectrum spec = power_spectrum(ch, H, opt.fft_window, opt.fft_min_window);
   s.power_above_30hz = power_fraction_above(spec, 30.0);
   s.power_above_100hz = power_fraction_above(spec, 100.0);
+  double fluctuation = 0;  // sum over ticks of |F - mean F|^2
+  for (int c = 0; c < 3; ++c) {
+    double mean = 0;
+    for (const double f : ch[c]) mean += f;
+    mean /= static_cast<double>(s.ticks);
+    for (const double f : ch[c]) fluctuation += (f - mean) * (f - mean);
+  }
+  if (std::sqrt(fluctuation / static_cast<double>(s.ticks)) < kNegligibleForce && !spec.power.empty())
+    s.power_above_30hz = s.power_above_100hz = 0.0;
 
   // Passivity observer: energy into the environment through the device port, zero-order hold.
   double e = 0, e_rot = 0, t_neg = 0;
@@ -195,14 +205,28 @@ std::string start_warning(double depth) {
   if (!(depth > 0)) return "";
   char b[300];
   std::snprintf(b, sizeof b,
-                "the physical tool starts inside the tissue (%.3g mm deep at the first tick); a device log starts "
+                "the physical tool starts inside the tissue (a virtual vertex %.3g mm inside its colliders at the first "
+                "tick: at most a collider's radius, however deep the tool is); a device log starts "
                 "with the tool free of it: is the tool frame flipped or the tip offset wrong? (--tool-transform, "
                 "docs/OWN_DATA.md)",
                 1e3 * depth);
   return b;
 }
 
-ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt) {
+std::size_t fft_window_ticks(const MetricsOptions& opt, double haptic_hz) {
+  if (opt.fft_window > 0) return opt.fft_window;
+  return floor_pow2(std::max<std::size_t>(2, static_cast<std::size_t>(std::llround(kFftWindowS * haptic_hz))));
+}
+
+std::size_t fft_min_window_ticks(const MetricsOptions& opt, double haptic_hz) {
+  if (opt.fft_min_window > 0) return opt.fft_min_window;
+  return std::max<std::size_t>(2, static_cast<std::size_t>(std::ceil(kFftMinWindowS * haptic_hz - 1e-9)));
+}
+
+ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given) {
+  MetricsOptions opt = given;  // the windows in this output's ticks
+  opt.fft_window = fft_window_ticks(given, tr.haptic_hz);
+  opt.fft_min_window = fft_min_window_ticks(given, tr.haptic_hz);
   ForceMetrics m;
   m.path = tr.path;
   m.scene = tr.scene;

@@ -19,10 +19,13 @@ struct MetricsOptions {
   /// Contact episodes separated by fewer contact-free seconds than this are one episode
   /// (a tool sliding over a surface drops and regains contact for a tick or two). 5 ms.
   double episode_merge_gap_s = 0.005;
-  /// FFT window length in ticks (a power of two; 256 ticks = 0.256 s and 3.9 Hz bins at 1 kHz)
-  /// and the shortest window used (shorter segments get NaN spectral fractions).
-  std::size_t fft_window = 256;
-  std::size_t fft_min_window = 64;
+  /// FFT window length in ticks (a power of two); 0: by the output's haptic rate, kFftWindowS of
+  /// ticks (fft_window_ticks: 256 ticks and 3.9 Hz bins at 1 kHz, 2048 at 10 kHz). And the shortest
+  /// window used, in ticks (shorter segments get NaN spectral fractions); 0: kFftMinWindowS of
+  /// ticks (64 at 1 kHz). A window of fixed ticks at 10 kHz had 39 Hz bins: every bin but the
+  /// mean's lay above 30 Hz.
+  std::size_t fft_window = 0;
+  std::size_t fft_min_window = 0;
   /// Haptic-tick budget for the over-budget count, s; 0: one tick at the replay's haptic rate
   /// (1 ms at 1 kHz), the deadline a real-time run must meet.
   double tick_budget_s = 0;
@@ -78,12 +81,29 @@ struct TimingMetrics {
   double physical_inverted_max = 0;
 };
 
+/// The default FFT window, s, and the shortest one: bins of 3.9 and 15.6 Hz, the latter the coarsest
+/// that places 30 Hz.
+inline constexpr double kFftWindowS = 0.256, kFftMinWindowS = 0.064;
+
+/// The FFT window in ticks for an output at haptic_hz: opt.fft_window, or the power of two at or
+/// below kFftWindowS of ticks.
+std::size_t fft_window_ticks(const MetricsOptions& opt, double haptic_hz);
+
+/// The shortest FFT window in ticks for an output at haptic_hz: opt.fft_min_window, or
+/// kFftMinWindowS of ticks, rounded up.
+std::size_t fft_min_window_ticks(const MetricsOptions& opt, double haptic_hz);
+
+/// Force fluctuations (RMS about the segment's mean) below this are round-off, not rendering (a
+/// run without contact leaves |F| ~ 1e-15 N): the spectral fractions of such a segment are 0 and
+/// its frame-boundary ratio NaN, where they scored noise as vibration (0.88 above 30 Hz). N.
+inline constexpr double kNegligibleForce = 1e-9;
+
 struct ForceMetrics {
   std::string path, scene, recording, mode, backend;
   double haptic_hz = 0, physical_hz = 0;
   long frame_ticks = 0;  // N = H/P
   double duration_s = 0;
-  MetricsOptions options;
+  MetricsOptions options;  ///< as used: fft_window and fft_min_window in this output's ticks
 
   SegmentMetrics whole;
   std::vector<SegmentMetrics> episodes;  // contact episodes in time order

@@ -50,7 +50,7 @@ std::vector<double> flat(const std::vector<TracePose>& v) {
   return out;
 }
 
-/// Writes a trace in the replay output layout (DESIGN.md §4); `skip` names a dataset to leave out.
+/// Writes a trace in the replay output layout (docs/FORMATS.md, "Replay output"); `skip` names a dataset to leave out.
 std::string write_trace(const ReplayTrace& tr, const std::string& name, const std::string& skip = "") {
   const auto path = (std::filesystem::path(testing::TempDir()) / ("ebh_metrics_" + name + ".h5")).string();
   h5::File f = h5::File::create(path);
@@ -133,6 +133,42 @@ TEST(ForceMetrics, SmoothSineHasKnownRateAndNoHighFrequencyPower) {
   // the power.
   EXPECT_LT(m.whole.power_above_30hz, 1e-5);
   EXPECT_LT(m.whole.power_above_100hz, 1e-6);
+}
+
+TEST(ForceMetrics, TheSpectrumsWindowFollowsTheHapticRate) {
+  // The same 5 Hz sine at 10 kHz: 256-tick windows had 39 Hz bins, every one but the mean's above
+  // 30 Hz; 0.256 s of ticks (2048) keeps 4.9 Hz bins.
+  const double H = 10000.0;
+  ReplayTrace tr = make_trace(20000, H, 100);
+  for (std::size_t i = 0; i < tr.ticks(); ++i) tr.force[i].x = std::sin(2 * kPi * 5 * tr.t[i]);
+  const ForceMetrics m = roundtrip(tr, "sine10k");
+  EXPECT_EQ(m.options.fft_window, 2048u);
+  EXPECT_EQ(m.options.fft_min_window, 640u);
+  EXPECT_LT(m.whole.power_above_30hz, 1e-4);
+  // Given in ticks, the window is taken as given.
+  MetricsOptions given;
+  given.fft_window = 1024;
+  EXPECT_EQ(compute_metrics(tr, given).options.fft_window, 1024u);
+  EXPECT_EQ(fft_window_ticks(MetricsOptions{}, 1000.0), 256u);
+  EXPECT_EQ(fft_min_window_ticks(MetricsOptions{}, 1000.0), 64u);
+}
+
+TEST(ForceMetrics, RoundOffIsNoVibration) {
+  // A run without contact: forces of ~1e-15 N (round-off of the coupling), scored 0.88 above 30 Hz
+  // and a frame-boundary ratio of 0.65 as if they were rendered.
+  ReplayTrace tr = make_trace(2048);
+  std::uint64_t x = 12345;
+  for (std::size_t i = 0; i < tr.ticks(); ++i) {
+    x = x * 6364136223846793005ull + 1442695040888963407ull;
+    tr.force[i].z = 4e-15 * (static_cast<double>(x >> 11) / 9007199254740992.0 - 0.5);
+  }
+  const ForceMetrics m = roundtrip(tr, "noise");
+  EXPECT_EQ(m.whole.power_above_30hz, 0.0);
+  EXPECT_EQ(m.whole.power_above_100hz, 0.0);
+  EXPECT_TRUE(std::isnan(m.whole.boundary_step_ratio));
+  // The same noise at 1 mN is force the device renders: its fraction is the noise's.
+  for (Vec3d& f : tr.force) f.z *= 1e12 / 4;
+  EXPECT_GT(roundtrip(tr, "noise_mN").whole.power_above_30hz, 0.5);
 }
 
 TEST(ForceMetrics, HighFrequencyComponentShowsInPowerFraction) {
@@ -355,7 +391,7 @@ TEST(ContactWarning, SaysWhenTheToolNeverOrBarelyTouched) {
 
 TEST(StartWarning, SaysWhenThePhysicalToolStartsInsideTheTissue) {
   EXPECT_EQ(start_warning(0.0), "");
-  EXPECT_EQ(start_warning(0.0013).rfind("the physical tool starts inside the tissue (1.3 mm deep at the first tick)", 0),
+  EXPECT_EQ(start_warning(0.0013).rfind("the physical tool starts inside the tissue (a virtual vertex 1.3 mm inside its colliders at the first tick", 0),
             0u);
   EXPECT_NE(start_warning(0.0013).find("--tool-transform"), std::string::npos);
 }

@@ -19,20 +19,27 @@ struct MetricsArgs {
   std::string path;
   bool json = false, episodes = false;
   double merge_gap_ms = 5.0;
-  std::size_t fft_window = 256;
+  std::size_t fft_window = 0;  // 0: by the output's haptic rate (ebh::fft_window_ticks)
 };
 
 void run(const MetricsArgs& a) {
   ebh::MetricsOptions opt;
-  if (a.fft_window < 2 || ebh::floor_pow2(a.fft_window) != a.fft_window)
+  if (a.fft_window != 0 && ebh::floor_pow2(a.fft_window) != a.fft_window)
     throw ebh::InputError("--fft-window: " + std::to_string(a.fft_window) + " is not a power of two >= 2");
   if (a.fft_window > kMaxFftWindow)
     throw ebh::InputError("--fft-window: " + std::to_string(a.fft_window) + " is over " + std::to_string(kMaxFftWindow) +
                           " ticks (17 minutes at 1 kHz)");
+  const ebh::ReplayTrace trace = ebh::load_replay(a.path);
+  // A shorter window's bins (H / W: 31 Hz for 32 ticks at 1 kHz) cannot place the 30 Hz
+  // threshold, so its fraction is no measure of the force's high-frequency power.
+  const std::size_t shortest = ebh::fft_min_window_ticks(opt, trace.haptic_hz);
+  if (a.fft_window != 0 && a.fft_window < shortest)
+    throw ebh::InputError("--fft-window: " + std::to_string(a.fft_window) + " ticks is below " + std::to_string(shortest) +
+                          " (" + ebh::cli::format_number(ebh::kFftMinWindowS * 1e3) + " ms at the output's " +
+                          ebh::cli::format_number(trace.haptic_hz) + " Hz), the shortest window whose bins place 30 Hz");
   opt.episode_merge_gap_s = a.merge_gap_ms * 1e-3;
   opt.fft_window = a.fft_window;
-  if (opt.fft_min_window > opt.fft_window) opt.fft_min_window = opt.fft_window;
-  const ebh::ForceMetrics m = ebh::compute_metrics(ebh::load_replay(a.path), opt);
+  const ebh::ForceMetrics m = ebh::compute_metrics(trace, opt);
   if (a.json)
     std::printf("%s\n", ebh::to_json(m, a.episodes).dump().c_str());
   else
@@ -48,7 +55,8 @@ void setup(CLI::App& root) {
   c->add_option("--merge-gap-ms", args->merge_gap_ms, "contact episodes closer than this are merged (ms)")
       ->capture_default_str()
       ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit));
-  c->add_option("--fft-window", args->fft_window, "FFT window in haptic ticks (a power of two)")->capture_default_str();
+  c->add_option("--fft-window", args->fft_window,
+                "FFT window in haptic ticks (a power of two; default: 0.256 s of ticks, 256 at 1 kHz)");
   c->callback([args] { run(*args); });
 }
 

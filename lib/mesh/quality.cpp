@@ -98,6 +98,38 @@ std::vector<std::pair<int, int>> find_duplicates(const std::vector<Vec3d>& p, do
   return dups;
 }
 
+/// Pairs of tets (of non-zero volume) that share a face and lie on the same side of it: one
+/// overlaps the other (a tet inside another, a fold of the mesh). Two tets on opposite sides of
+/// their face see it in opposite orientations (kTetFaces, flipped for a tet of negative volume);
+/// the same orientation puts them on one side. Combinatorial, so exact.
+std::vector<std::array<int, 2>> overlapping_tets(const TetMesh& mesh, const std::vector<signed char>& sign_of) {
+  struct Face {
+    std::array<int, 3> v;  // sorted
+    int tet;
+    bool odd;  // the face's orientation as seen from its tet: an odd permutation of v
+    bool operator<(const Face& o) const { return v < o.v || (v == o.v && tet < o.tet); }
+  };
+  std::vector<Face> faces;
+  faces.reserve(4 * mesh.tets.size());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    if (sign_of[t] == 0) continue;
+    for (int f = 0; f < 4; ++f) {
+      const int a = mesh.tets[t][kTetFaces[f][0]], b = mesh.tets[t][kTetFaces[f][1]], c = mesh.tets[t][kTetFaces[f][2]];
+      const bool odd = ((a > b) + (a > c) + (b > c)) % 2 == 1;
+      std::array<int, 3> v{a, b, c};
+      std::sort(v.begin(), v.end());
+      faces.push_back({v, static_cast<int>(t), odd != (sign_of[t] < 0)});
+    }
+  }
+  std::sort(faces.begin(), faces.end());
+  std::vector<std::array<int, 2>> out;
+  for (std::size_t i = 0; i + 1 < faces.size(); ++i)
+    if (faces[i].v == faces[i + 1].v && faces[i].odd == faces[i + 1].odd &&
+        (i + 2 >= faces.size() || faces[i + 2].v != faces[i].v))  // three or more: nonmanifold_faces says so
+      if (i == 0 || faces[i - 1].v != faces[i].v) out.push_back({faces[i].tet, faces[i + 1].tet});
+  return out;
+}
+
 }  // namespace
 
 double tet_mean_ratio(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
@@ -118,6 +150,7 @@ MeshReport validate_mesh(const TetMesh& mesh) {
     if (!finite(mesh.vertices[v])) r.nonfinite_vertices.push_back(v);
 
   std::vector<char> used(static_cast<std::size_t>(nv), 0);
+  std::vector<signed char> sign_of(mesh.tets.size(), 0);  // volume_sign of each tet checked (0: not)
   std::vector<Tet> valid;  // tets with valid indices, for the topology checks
   valid.reserve(mesh.tets.size());
   double quality_sum = 0.0;
@@ -137,6 +170,7 @@ MeshReport validate_mesh(const TetMesh& mesh) {
                 &d = mesh.vertices[tet[3]];
     if (!finite(a) || !finite(b) || !finite(c) || !finite(d)) continue;
     const int sign = volume_sign(a, b, c, d);
+    sign_of[t] = static_cast<signed char>(sign);
     if (sign == 0) r.degenerate_tets.push_back(t);
     if (sign < 0) r.inverted_tets.push_back(t);
     const double q = tet_mean_ratio(a, b, c, d);
@@ -164,6 +198,8 @@ MeshReport validate_mesh(const TetMesh& mesh) {
     }
   const double diag = nv > 0 && lo.x <= hi.x ? norm(hi - lo) : 0.0;
   r.duplicate_vertices = find_duplicates(mesh.vertices, 1e-12 * diag);
+
+  r.overlapping_tets = overlapping_tets(mesh, sign_of);
 
   // Faces and boundary edges.
   const FaceCounts faces = count_faces(valid);
@@ -219,6 +255,10 @@ std::string MeshReport::fatal_message(const TetMesh& mesh) const {
   if (!inverted_tets.empty()) return describe(inverted_tets, "inverted");
   if (!degenerate_tets.empty()) return describe(degenerate_tets, "degenerate (flat)");
   if (nonmanifold_faces > 0) return std::to_string(nonmanifold_faces) + " tet faces shared by three or more tets";
+  if (!overlapping_tets.empty())
+    return plural(overlapping_tets.size(), "pair") + " of tets on the same side of the face they share (one overlaps the " +
+           "other: a tet inside another, or a fold), the first: " + tet_name(mesh, overlapping_tets[0][0]) + " and " +
+           tet_name(mesh, overlapping_tets[0][1]);
   if (num_tets == 0) return "no tets";
   return {};
 }

@@ -177,6 +177,28 @@ TEST(Validate, FaceSharedByThreeTets) {
   EXPECT_TRUE(r.fatal());
 }
 
+TEST(Validate, ATetInsideAnotherSharingAFaceOverlapsIt) {
+  // Tet 1 lies inside tet 0 and shares its bottom face: every face is shared by at most two tets
+  // and every volume is positive, but the mesh counts that space (and its mass) twice.
+  TetMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0.2, 0.2, 0.2}, {0.2, 0.2, -0.5}};
+  m.tets = {{0, 1, 2, 3}, {0, 1, 2, 4}};
+  MeshReport r = validate_mesh(m);
+  ASSERT_EQ(r.overlapping_tets.size(), 1u);
+  EXPECT_EQ(r.overlapping_tets[0], (std::array<int, 2>{0, 1}));
+  EXPECT_TRUE(r.fatal());
+  EXPECT_NE(r.fatal_message(m).find("1 pair of tets on the same side of the face they share (one overlaps the other"),
+            std::string::npos) << r.fatal_message(m);
+  // The same face with the second tet below it: a valid mesh of two tets.
+  m.tets = {{0, 1, 2, 3}, {0, 2, 1, 5}};
+  r = validate_mesh(m);
+  EXPECT_TRUE(r.overlapping_tets.empty());
+  EXPECT_FALSE(r.fatal());
+  // Both tets of negative volume (a mirrored file): still on opposite sides.
+  for (Tet& t : m.tets) std::swap(t[0], t[3]);
+  EXPECT_TRUE(validate_mesh(m).overlapping_tets.empty());
+}
+
 TEST(Validate, EmptyMesh) {
   const MeshReport r = validate_mesh(TetMesh{});
   EXPECT_TRUE(r.fatal());

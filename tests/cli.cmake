@@ -79,8 +79,12 @@ add_test(NAME cli.metrics.recording_not_replay
 add_test(NAME cli.metrics.fft_window_huge
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;4294967296"
     "-DEXPECT=^ebh: error: --fft-window: 4294967296 is over 1048576 ticks" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.metrics.fft_window_short
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;32"
+    "-DEXPECT=^ebh: error: --fft-window: 32 ticks is below 64 \\(64 ms at the output's 1000 Hz\\), the shortest window whose bins place 30 Hz"
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file cli.metrics.recording_not_replay
-  cli.metrics.fft_window_huge PROPERTIES LABELS cli)
+  cli.metrics.fft_window_huge cli.metrics.fft_window_short PROPERTIES LABELS cli)
 # scripts/plot_forces.py on the same trace, where Debian's python3 has h5py, matplotlib and numpy.
 find_program(EBH_SYSTEM_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
 if(EBH_SYSTEM_PYTHON3)
@@ -94,11 +98,39 @@ if(EBH_SYSTEM_PYTHON3)
   endif()
 endif()
 
+# A mesh or a recording given where a scene goes is named as what it is.
+add_test(NAME cli.scene.info_of_a_mesh
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;info;${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube22.msh"
+    "-DEXPECT=^ebh: error: .*cube22.msh: not a scene file: a scene is a YAML map of keys .*; it is a Gmsh mesh: `ebh scene init"
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.replay.recording_as_scene
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5;tube_insert;-o;${PROJECT_BINARY_DIR}/never_written.h5"
+    "-DEXPECT=^ebh: error: .*tube_insert.h5: an HDF5 file \\(a recording or a replay output\\?\\), not a scene file"
+    -DOUTPUT=${PROJECT_BINARY_DIR}/never_written.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene.info_of_a_mesh cli.replay.recording_as_scene PROPERTIES LABELS cli)
+
+# A first word that is no command names the commands.
+add_test(NAME cli.unknown_command
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replya;tube;tube_insert"
+    "-DEXPECT=^ebh: error: 'replya' is not an ebh command \\(commands: bench, gate, import, metrics, render, replay,"
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.unknown_command PROPERTIES LABELS cli)
+
 # ebh scene info (tests/data/scene)
 add_test(NAME cli.scene.info COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml)
 set_tests_properties(cli.scene.info PROPERTIES PASS_REGULAR_EXPRESSION "tets +5\n" LABELS "cli;scene")
 add_test(NAME cli.scene.info_json COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube_obj.yaml --json)
 set_tests_properties(cli.scene.info_json PROPERTIES PASS_REGULAR_EXPRESSION "\"tets\": 5,.*\"interior_faces\": 4" LABELS "cli;scene")
+# A virtual mesh in m read as cm (1/100 of the cube): scene info says so, as a replay would.
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tiny.obj
+  "v 0 0 0\nv .1 0 0\nv 0 .1 0\nv .1 .1 0\nv 0 0 .1\nv .1 0 .1\nv 0 .1 .1\nv .1 .1 .1\n"
+  "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n")
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tiny.yaml
+  "unit: cm\nmesh: {physical: ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube41.msh, virtual: cli_scene_tiny.obj}\n"
+  "pinned:\n  - sphere: {center: [0, 0, 0], radius: 0.5}\n")
+add_test(NAME cli.scene.info_virtual_unit COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tiny.yaml)
+set_tests_properties(cli.scene.info_virtual_unit PROPERTIES LABELS "cli;scene" PASS_REGULAR_EXPRESSION
+  "warning: .*cli_scene_tiny.obj: mesh.virtual: the virtual mesh spans 1.73 mm, 1/100 of the physical mesh's diagonal")
 add_test(NAME cli.scene.missing COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/no_such_scene.yaml)
 set_tests_properties(cli.scene.missing PROPERTIES WILL_FAIL TRUE LABELS "cli;scene")
 add_test(NAME cli.scene.missing_message COMMAND ${EBH_BIN} scene info no_such_scene_name)
@@ -273,6 +305,13 @@ set_tests_properties(cli.render.replay_writes_xdmf PROPERTIES FIXTURES_SETUP ren
 add_test(NAME cli.render.xdmf_only COMMAND ${EBH_BIN} render ${EBH_RENDER_OUT}/xdmf.h5 --xdmf-only)
 set_tests_properties(cli.render.xdmf_only PROPERTIES PASS_REGULAR_EXPRESSION "xdmf.xdmf"
   FIXTURES_REQUIRED render_xdmf LABELS "cli;render")
+# Every dataset of a replay output (frames included) carries its unit (docs/FORMATS.md).
+if(EBH_SYSTEM_PYTHON3 AND ebh_plot_deps EQUAL 0)
+  add_test(NAME cli.replay.every_dataset_has_unit
+    COMMAND ${EBH_SYSTEM_PYTHON3} ${CMAKE_CURRENT_SOURCE_DIR}/schedule/every_dataset_has_unit.py ${EBH_RENDER_OUT}/xdmf.h5)
+  set_tests_properties(cli.replay.every_dataset_has_unit PROPERTIES PASS_REGULAR_EXPRESSION "datasets, each with a unit"
+    FIXTURES_REQUIRED render_xdmf LABELS cli)
+endif()
 add_test(NAME cli.render.no_frames
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/no_frames.h5;--xdmf-only"
     "-DEXPECT=^ebh: error: .*no_frames.h5: /frames: no mesh snapshots in this file" -P ${EBH_EXPECT_ERROR})
@@ -355,6 +394,15 @@ add_test(NAME cli.replay.duration_past_the_end
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/past_end.h5 --start 9.9 --duration 100 -q)
 set_tests_properties(cli.replay.duration_past_the_end PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
   "warning: .*tube_insert.h5: the recording ends 0.1 s after --start; replaying those, not --duration's 100 s")
+set_tests_properties(cli.replay.duration_past_the_end PROPERTIES FIXTURES_SETUP past_end)
+# ... and the output's `duration` attribute is what was replayed, not the 100 s asked for.
+if(EBH_SYSTEM_PYTHON3 AND ebh_plot_deps EQUAL 0)
+  add_test(NAME cli.replay.duration_past_the_end_attribute
+    COMMAND ${EBH_SYSTEM_PYTHON3} -c "import h5py, sys; print('duration', h5py.File(sys.argv[1], 'r').attrs['duration'])"
+      ${EBH_REPLAY_OUT}/past_end.h5)
+  set_tests_properties(cli.replay.duration_past_the_end_attribute PROPERTIES FIXTURES_REQUIRED past_end LABELS cli
+    PASS_REGULAR_EXPRESSION "duration 0\\.(1|0999)")
+endif()
 # ebh replay --batch FILE: each bad line is refused with FILE:LINE before any replay runs (and
 # before the CUDA backend is asked for, so these run on machines without a GPU too).
 function(ebh_batch_failure name expect content)
@@ -377,6 +425,11 @@ ebh_batch_failure(lockstep "batch_lockstep.txt:1: --mode lockstep: a batch runs 
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_lockstep_out.h5 --mode lockstep\n")
 ebh_batch_failure(cpu "batch_cpu.txt:1: --backend cpu: a batch runs on the CUDA backend"
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_cpu_out.h5 --backend cpu\n")
+# --backend cpu beside --batch (not on a line) is named as such, not as a missing GPU.
+add_test(NAME cli.replay.batch_top_cpu
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${EBH_REPLAY_OUT}/batch_empty.txt;--backend;cpu"
+    "-DEXPECT=^ebh: error: --backend cpu: --batch runs its replays on the CUDA backend" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.replay.batch_top_cpu PROPERTIES LABELS cli)
 ebh_batch_failure(frames "batch_frames.txt:1: a batch writes no mesh frames"
   "tube tube_insert -o ${EBH_REPLAY_OUT}/batch_frames_out.h5 --frames-hz 30\n")
 ebh_batch_failure(missing_recording "batch_missing_recording.txt:2: .*no_such_recording"
@@ -586,7 +639,7 @@ set_tests_properties(cli.table1.seconds_too_short PROPERTIES LABELS cli)
 add_test(NAME cli.replay.grasp_lost_to_a_hook
   COMMAND ${EBH_BIN} replay tube tube_grasp -o ${EBH_NUM_OUT}/lost_hook.h5 --duration 0.02 -q)
 set_tests_properties(cli.replay.grasp_lost_to_a_hook PROPERTIES PASS_REGULAR_EXPRESSION
-  "tube_grasp.h5: the jaws close to 0 at t = 1.700 s \\(below the grasp threshold 0.2\\), but the scene's tool is a hook: nothing is grasped")
+  "tube_grasp.h5: the jaws close to 0 at the recording's t = 1.700 s \\(below the grasp threshold 0.2\\), but the scene's tool is a hook: nothing is grasped")
 add_test(NAME cli.replay.grasp_lost_to_the_stages
   COMMAND ${EBH_BIN} replay tube_forceps tube_grasp -o ${EBH_NUM_OUT}/lost_stage.h5 --duration 0.02 -q --set stages.grasp=false)
 set_tests_properties(cli.replay.grasp_lost_to_the_stages PROPERTIES PASS_REGULAR_EXPRESSION

@@ -52,7 +52,7 @@ set_tests_properties(cli.own_data.import_unflipped PROPERTIES FIXTURES_SETUP own
 add_test(NAME cli.own_data.unflipped
   COMMAND ${EBH_BIN} replay ${EBH_OWN_SCENE} ${EBH_OWN_OUT}/unflipped.h5 -o ${EBH_OWN_OUT}/unflipped_replay.h5 -q)
 set_tests_properties(cli.own_data.unflipped PROPERTIES FIXTURES_REQUIRED own_data_unflipped PASS_REGULAR_EXPRESSION
-  "ebh: warning: .*unflipped_replay.h5: the physical tool starts inside the tissue \\([0-9.]+ mm deep at the first tick\\)")
+  "ebh: warning: .*unflipped_replay.h5: the physical tool starts inside the tissue \\(a virtual vertex [0-9.]+ mm inside its colliders at the first tick")
 set_property(TEST cli.own_data.regenerated cli.own_data.import cli.own_data.replay cli.own_data.metrics
   cli.own_data.wrong_unit cli.own_data.import_wrong_offset cli.own_data.wrong_offset cli.own_data.import_unflipped
   cli.own_data.unflipped APPEND PROPERTY LABELS cli)

@@ -123,7 +123,7 @@ Recording read_recording(const std::string& path) {
                        " transform both still to apply and already in the poses; keep one");
   }
 
-  // A dataset may declare its unit; positions must be in metres (DESIGN §3: SI inside and in files).
+  // A dataset may declare its unit; positions must be in metres (SI inside and in files: docs/FORMATS.md).
   h5::Dataset pd = g.dataset("position");
   if (pd.has_attr("unit") && pd.attr_string("unit") != "m")
     throw InputError(pd.where() + ": unit '" + pd.attr_string("unit") + "', expected 'm'");
@@ -314,7 +314,7 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
   if (!(fastest > kToolSpeedMax)) return std::nullopt;
   char line[320];
   std::snprintf(line, sizeof line,
-                "the tool jumps %.3g m between samples %zu and %zu (t = %.6g .. %.6g s: %.3g m/s; a hand moves it at "
+                "the tool jumps %.3g m between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g m/s; a hand moves it at "
                 "under 1 m/s): a gap or a reset in the log, which a replay passes through in one tick",
                 norm(rec.position[at] - rec.position[at - 1]), at - 1, at, rec.t[at - 1], rec.t[at], fastest);
   return std::string(line);

@@ -405,7 +405,7 @@ class SpecReader {
       s.haptic_hz = in_range(it->second, "time.haptic_hz", kMinReplayHapticHz, true, kMaxHapticHz, true);
     if (auto it = e.find("physical_hz"); it != e.end())
       s.physical_hz = in_range(it->second, "time.physical_hz", kMinReplayPhysicalHz, true, kMaxHapticHz, true);
-    // physical step k starts at tick k N (DESIGN.md §2): N = haptic_hz / physical_hz must be whole
+    // physical step k starts at tick k N (schedule/scheduler.hpp): N = haptic_hz / physical_hz must be whole
     const double ratio = s.haptic_hz / s.physical_hz;
     if (!whole_ticks_per_step(s.haptic_hz, s.physical_hz))
       fail("time.physical_hz", "haptic_hz / physical_hz must be a whole number >= 1, got " + shown_number(s.haptic_hz) +
@@ -535,9 +535,14 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
       throw InputError(scene.spec.file.string() + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
                        scene.spec.physical_mesh.string() + ": " + known_groups_text(scene.physical) + ")");
   }
-  throw InputError(scene.spec.file.string() + ": key '" + key + "': the " + region_name(r.kind) +
+  // A region the file gives can miss a mesh that an override moved or replaced: say which.
+  std::string moved;
+  for (const char* k : {"mesh.physical", "mesh.transform", "mesh.unit", "unit"})
+    if (const std::string* o = override_giving(scene.spec.overrides, k); o && moved.empty())
+      moved = " (the mesh as " + OverrideError::set_option_shown(*o) + " gives it)";
+  throw InputError(value_source(scene.spec, key) + ": key '" + key + "': the " + region_name(r.kind) +
                    (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh" +
-                   (why_none.empty() ? "" : ": " + why_none));
+                   moved + (why_none.empty() ? "" : ": " + why_none));
 }
 
 /// Warnings for sizes no organ or laparoscopic instrument has: the physical mesh's bounding-box
@@ -652,6 +657,9 @@ void apply_override(YAML::Node root, const std::string& text) {
 
 /// Parses scene YAML text; syntax errors name `file` and the line.
 YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
+  // Another kind of file given where a scene goes (the mesh, the recording) is named as such.
+  if (text.starts_with("\x89HDF\r\n\x1a\n"))
+    throw InputError(file.string() + ": an HDF5 file (a recording or a replay output?), not a scene file (YAML)");
   // The text goes into every replay output (its scene_yaml attribute, UTF-8): bytes of another
   // encoding (Latin-1 from an old editor) are named here, not carried into the outputs.
   if (const std::size_t bad = first_invalid_utf8(text); bad != std::string::npos) {
@@ -671,6 +679,14 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
   }
   const YAML::Node root = only_yaml_document(documents, file.string(), "a scene file");
   if (!root.IsDefined() || root.IsNull()) throw InputError(file.string() + ": empty scene file");
+  if (!root.IsMap()) {
+    const std::size_t start = text.find_first_not_of(" \t\r\n");
+    const bool gmsh = start != std::string::npos && text.compare(start, 4, "$Mes") == 0;
+    throw InputError(file.string() + ": not a scene file: a scene is a YAML map of keys (mesh, tool, ...), this file holds " +
+                     yaml_shown(root) +
+                     (gmsh ? "; it is a Gmsh mesh: `ebh scene init " + file.string() + " -o scene.yaml` writes a scene for it"
+                           : ""));
+  }
   return root;
 }
 

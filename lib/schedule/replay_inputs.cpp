@@ -7,6 +7,7 @@
 
 #include "core/error.hpp"
 #include "io/import.hpp"
+#include "mesh/tet_locator.hpp"
 
 namespace ebh {
 namespace {
@@ -64,6 +65,18 @@ double replay_window(double start, std::optional<double> duration, double length
   return duration ? std::min(*duration, rest) : rest;
 }
 
+std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration) {
+  if (rec.t.empty() || mesh.tets.empty()) return std::nullopt;
+  const TetLocator locator(mesh);
+  const double t0 = rec.t.front() + start, t1 = duration > 0 ? t0 + duration : INFINITY;
+  for (std::size_t i = 0; i < rec.t.size(); ++i) {
+    if (rec.t[i] < t0 || rec.t[i] > t1) continue;
+    double error = 0;
+    if (locator.locate(rec.position[i], error).count > 0 && error == 0) return rec.t[i];
+  }
+  return std::nullopt;
+}
+
 std::string resolve_recording_path(const std::string& name_or_path) {
   return resolve_data_path(name_or_path, "recordings", ".h5", "recording").string();
 }
@@ -95,7 +108,7 @@ std::optional<std::string> grasp_lost(const Recording& rec, const SceneSpec& spe
   if (forceps && spec.stages.grasp) return std::nullopt;
   if (!forceps && rec.tool != "forceps") return std::nullopt;  // a hook's log need not hold a jaw
   char line[256];
-  std::snprintf(line, sizeof line, "the jaws close to %.3g at t = %.3f s (below the grasp threshold %.3g), but %s: "
+  std::snprintf(line, sizeof line, "the jaws close to %.3g at the recording's t = %.3f s (below the grasp threshold %.3g), but %s: "
                 "nothing is grasped", *closest, rec.t[static_cast<std::size_t>(closest - rec.jaw.begin())],
                 threshold, forceps ? "stages.grasp is off" : "the scene's tool is a hook");
   return std::string(line);
@@ -142,7 +155,9 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
     // m) puts it tens to thousands of scene sizes away.
     const double margin = std::max(box.diagonal(), 0.1);
     if (auto err = check_recording_in_scene(r.recording, box.lo, box.hi, margin))
-      throw InputError(r.recording_path + ": " + *err + " (a unit mistake? --allow-outside accepts it)");
+      throw InputError(r.recording_path + ": " + *err +
+                       " (a unit mistake, or a path in the device's frame, not the scene's? `ebh import --scene` names the "
+                       "likely fix, --unit or --transform; --allow-outside accepts it)");
   }
   if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
     r.warnings.push_back(r.recording_path + ": " + *w);

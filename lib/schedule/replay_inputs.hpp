@@ -30,6 +30,12 @@ struct LoadedReplay {
 /// $EBH_DATA_DIR, the working directory and the source tree. Throws InputError if missing.
 std::string resolve_recording_path(const std::string& name_or_path);
 
+/// The first time (s, the recording's clock) in the window [start, start + duration] (duration 0:
+/// to the end) at which the tool's tip, the pose's origin, lies inside `mesh` (its rest shape), or
+/// nullopt: a replay that never touched the tissue although the device went into it let the tool
+/// pass between the virtual vertices (contact: vertices).
+std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration);
+
 /// The seconds a replay of a recording `length` s long runs from `start` for `duration` s (nullopt:
 /// to its end; a window past the end is cut there): start a finite number >= 0 before the end,
 /// duration a finite number > 0. The one check of a replay window, for `ebh replay --start

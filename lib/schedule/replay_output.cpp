@@ -49,7 +49,8 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("physical_iterations", static_cast<std::int64_t>(s.solver.physical_iterations));
   f.set_attr("virtual_iterations", static_cast<std::int64_t>(s.solver.virtual_iterations));
   f.set_attr("virtual_damping", s.solver.virtual_damping);
-  f.set_attr("chebyshev_rho", s.solver.chebyshev_rho);
+  f.set_attr("chebyshev_rho", w.physical_params.chebyshev_rho);  // the value used: `auto`'s on this mesh
+  f.set_attr("chebyshev_rho_auto", static_cast<std::int64_t>(s.solver.chebyshev_rho_auto));
   f.set_attr("physical_tolerance", s.solver.physical_tolerance);
   f.set_attr("physical_max_iterations", static_cast<std::int64_t>(s.solver.physical_max_iterations));
   f.set_attr("virtual_refine", static_cast<std::int64_t>(s.virtual_refine));
@@ -95,7 +96,7 @@ std::string absolute(const std::string& path) {
   return std::filesystem::absolute(path).lexically_normal().string();
 }
 
-/// Where the run came from (DESIGN.md §4): every input file by absolute path and SHA-256, the
+/// Where the run came from (docs/FORMATS.md, "Replay output"): every input file by absolute path and SHA-256, the
 /// scene as it was resolved, the overrides, the window, and the build that ran it.
 void write_provenance(h5::File& f, const World& w, const ReplayMetadata& meta) {
   const SceneSpec& s = w.scene.spec;
@@ -138,13 +139,13 @@ void write_rest_mesh(h5::File& f, const World& w) {
   m.write<double>("virtual_rest", q, {w.virtual_mesh.rest.size(), 3}).set_attr("unit", "m");
   std::vector<std::int32_t> tri;
   for (const Tri& t : w.virtual_mesh.triangles) tri.insert(tri.end(), {t[0], t[1], t[2]});
-  m.write<std::int32_t>("virtual_triangles", tri, {w.virtual_mesh.triangles.size(), 3});
+  m.write<std::int32_t>("virtual_triangles", tri, {w.virtual_mesh.triangles.size(), 3}).set_attr("unit", "index");
   std::vector<double> x;
   for (const Vec3d& p : w.physical_mesh.rest) push3(x, p);
   m.write<double>("physical_rest", x, {w.physical_mesh.rest.size(), 3}).set_attr("unit", "m");
   std::vector<std::int32_t> tets;
   for (const Tet& t : w.physical_mesh.tets) tets.insert(tets.end(), {t[0], t[1], t[2], t[3]});
-  m.write<std::int32_t>("physical_tets", tets, {w.physical_mesh.tets.size(), 4});
+  m.write<std::int32_t>("physical_tets", tets, {w.physical_mesh.tets.size(), 4}).set_attr("unit", "index");
 }
 
 }  // namespace
@@ -354,7 +355,7 @@ double ReplayWriter::awake_mean() const { return region_mean(awake_); }
 void ReplayWriter::commit(const ReplaySummary& s) {
   h5::File& f = out_.file();
   const std::size_t n = t_.size(), k = pt_.size();
-  // Every dataset carries its unit (DESIGN.md §3: SI).
+  // Every dataset carries its unit (SI; docs/FORMATS.md).
   auto unit = [](h5::Dataset d, const char* u) { d.set_attr("unit", u); };
   h5::Group hg = f.create_group("haptic");
   unit(hg.write<double>("t", t_, {n}), "s");

@@ -193,32 +193,6 @@ void emit_output(const World& world, HapticSide& h) {
           : penetration_depth(world.tool, pose_of(h.device), h.device.jaw, h.mesh.q, h.grid, h.tool.grasp.held);
 }
 
-/// A virtual mesh from its own file (mesh.virtual) that lies off the physical mesh: in another
-/// unit or frame, its vertices are paired with the nearest physical tets and their E_svc targets
-/// pull it onto the physical mesh from the first tick. Warned past 1% of the physical mesh's
-/// bounding-box diagonal (a surface smoothed outside its segmentation stays well within it);
-/// refused past 10 diagonals (a vertex a kilometre away: its pull made the physical mesh diverge
-/// at tick 10, blamed on a tet), which no surface of this mesh in its unit and frame reaches.
-void check_virtual_mesh_off(World& w) {
-  const VirtualModel& vm = w.virtual_mesh;
-  if (!w.scene.spec.virtual_mesh || vm.pairing_worst < 0) return;
-  const double diagonal = bounding_box(w.scene.physical.vertices).diagonal();
-  if (!(vm.pairing_max_error > 0.01 * diagonal)) return;
-  char buf[160];
-  if (!(vm.pairing_max_error <= 10 * diagonal)) {
-    std::snprintf(buf, sizeof buf, "%.3g m off the physical mesh (virtual vertex %d), more than 10 times its diagonal "
-                  "(%.3g m)", vm.pairing_max_error, vm.pairing_worst, diagonal);
-    throw InputError(w.scene.spec.virtual_mesh->string() + ": mesh.virtual: the virtual mesh lies up to " + buf +
-                     ": it is not a surface of this mesh; is it in mesh.unit and the physical mesh's frame "
-                     "(mesh.transform places both)?");
-  }
-  std::snprintf(buf, sizeof buf, "%.3g mm off the physical mesh (virtual vertex %d; 1%% of its diagonal is %.3g mm)",
-                vm.pairing_max_error * 1e3, vm.pairing_worst, 0.01 * diagonal * 1e3);
-  w.scene.warnings.push_back(w.scene.spec.virtual_mesh->string() + ": mesh.virtual: the virtual mesh lies up to " + buf +
-                             ": its E_svc targets pull it onto the physical mesh; is it in mesh.unit and the physical "
-                             "mesh's frame (mesh.transform places both)?");
-}
-
 /// The static equilibrium of the physical mesh under gravity (no contact, coupling satisfied):
 /// static steps (h = 1e3 s leaves M / h^2 ~ 1e-9 of the stiffness while the prediction keeps
 /// the full weight M g) with the exact global solve until no vertex moves more than 5 um in a
@@ -311,7 +285,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   w->scene.spec.haptic_hz = haptic_hz;
   w->scene.spec.physical_hz = physical_hz;
   w->virtual_mesh = build_virtual_model(w->scene);
-  check_virtual_mesh_off(*w);
+  check_virtual_mesh_placement(w->scene, w->virtual_mesh, w->scene.warnings);
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver, w->physical_mesh);
   build_world_tool(*w);

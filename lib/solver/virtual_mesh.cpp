@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <memory>
@@ -58,6 +59,31 @@ void renumber_local(SurfaceMesh& surface, std::vector<std::array<int, 2>>& paren
 }
 
 }  // namespace
+
+void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, std::vector<std::string>& warnings) {
+  if (!scene.spec.virtual_mesh) return;
+  const std::string where = scene.spec.virtual_mesh->string() + ": mesh.virtual: the virtual mesh ";
+  const char* frame = "is it in mesh.unit and the physical mesh's frame (mesh.transform places both)?";
+  const double diagonal = bounding_box(scene.physical.vertices).diagonal();
+  char buf[240];
+  if (vm.pairing_worst >= 0 && vm.pairing_max_error > 0.01 * diagonal) {
+    if (!(vm.pairing_max_error <= 10 * diagonal)) {
+      std::snprintf(buf, sizeof buf, "%.3g m off the physical mesh (virtual vertex %d), more than 10 times its diagonal "
+                    "(%.3g m)", vm.pairing_max_error, vm.pairing_worst, diagonal);
+      throw InputError(where + "lies up to " + buf + ": it is not a surface of this mesh; " + frame);
+    }
+    std::snprintf(buf, sizeof buf, "%.3g mm off the physical mesh (virtual vertex %d; 1%% of its diagonal is %.3g mm)",
+                  vm.pairing_max_error * 1e3, vm.pairing_worst, 0.01 * diagonal * 1e3);
+    warnings.push_back(where + "lies up to " + buf + ": its E_svc targets pull it onto the physical mesh; " + frame);
+  }
+  const double span = bounding_box(vm.rest).diagonal();
+  if (span < diagonal / 20) {
+    std::snprintf(buf, sizeof buf, "spans %.3g mm, 1/%.0f of the physical mesh's diagonal (%.3g mm)", span * 1e3,
+                  span > 0 ? diagonal / span : INFINITY, diagonal * 1e3);
+    warnings.push_back(where + buf + ": is it in mesh.unit (a mesh in m read as mm is 1/1000 of its size)? (A patch "
+                                     "of the surface may be this small.)");
+  }
+}
 
 VirtualModel build_virtual_model(const Scene& scene) {
   const TetMesh& phys = scene.physical;

@@ -18,6 +18,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "energy/contact_target.hpp"
@@ -91,6 +92,16 @@ struct VirtualWorkspace {
 /// boundary), refined 1 -> 4 when scene.spec.virtual_refine is 1, paired with the physical mesh.
 /// Throws InputError when a virtual vertex cannot be paired (no tets).
 VirtualModel build_virtual_model(const Scene& scene);
+
+/// A virtual mesh from its own file (mesh.virtual) in another unit or frame than the physical
+/// mesh (build_world and `ebh scene info` ask): lying off the physical mesh by more than 1% of its
+/// bounding-box diagonal is warned (its E_svc targets pull it onto the physical mesh from the first
+/// tick; a surface smoothed outside its segmentation stays well within it) and by more than 10
+/// diagonals refused (InputError: a vertex a kilometre away pulled the physical mesh into
+/// divergence at tick 10, blamed on a tet); spanning less than 1/20 of that diagonal is warned (a
+/// mesh in m read as mm sits inside the physical mesh, 1/1000 of its size, paired without error,
+/// and the tool never touches it). Appends the warnings to `warnings`.
+void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, std::vector<std::string>& warnings);
 
 /// Whether a pass over `count` vertices of `model` runs on the calling thread's OpenMP team: from
 /// model.parallel_min_vertices on, and only where the team has more than one thread. The results

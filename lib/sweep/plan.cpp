@@ -137,13 +137,25 @@ Overrides merged(const Overrides& first, const Overrides& then) {
 /// The recordings whose `scene` attribute names the scene (`recordings: all`): by its name, or as
 /// a path to its file (resolve_recording_scene: `ebh import --scene FILE` writes one).
 std::vector<fs::path> recordings_of(const std::string& scene, const fs::path& scene_file) {
+  // The recordings/ folders of the data roots, and the scene file's own folder (own data kept
+  // together: scene, mesh and the recordings imported for it).
+  std::vector<fs::path> candidates = data_files("recordings", ".h5");
+  std::vector<fs::path> beside;
+  std::error_code ec;
+  for (fs::directory_iterator it(scene_file.parent_path(), ec), end; !ec && it != end; it.increment(ec))
+    if (it->path().extension() == ".h5" && fs::is_regular_file(it->path(), ec)) beside.push_back(it->path());
+  std::sort(beside.begin(), beside.end());
+  candidates.insert(candidates.end(), beside.begin(), beside.end());
   std::vector<fs::path> out;
-  for (const fs::path& p : data_files("recordings", ".h5")) {
+  for (const fs::path& p : candidates) {
+    const fs::path path = fs::absolute(p).lexically_normal();
+    if (std::any_of(out.begin(), out.end(), [&](const fs::path& q) { return fs::equivalent(q, path, ec); })) continue;
     try {
-      const std::string attribute = h5::File::open_read(p.string()).attr_string("scene");
-      std::error_code ec;
-      if (attribute == scene || fs::equivalent(resolve_recording_scene(attribute, p.string()), scene_file, ec))
-        out.push_back(fs::absolute(p).lexically_normal());
+      const h5::File f = h5::File::open_read(path.string());
+      if (!f.has("trajectory")) continue;  // a replay output or another file, not a recording
+      const std::string attribute = f.attr_string("scene");
+      if (attribute == scene || fs::equivalent(resolve_recording_scene(attribute, path.string()), scene_file, ec))
+        out.push_back(path);
     } catch (const InputError&) {
       // not a recording (or one without a scene, or naming none): not one of this scene's
     }
@@ -277,7 +289,10 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     if (recs.IsScalar() && recs.Scalar() == "all") {
       s.recordings = recordings_of(s.name, s.scene_file);
       if (s.recordings.empty())
-        r.fail(recs, key + ".recordings", "no recording names the scene '" + s.name + "' (their `scene` attribute)");
+        r.fail(recs, key + ".recordings",
+               "no recording names the scene '" + s.name + "' (their `scene` attribute) in recordings/ of the data "
+               "folders ($EBH_DATA_DIR, the working directory, the source tree) or beside the scene file in " +
+               s.scene_file.parent_path().string() + "; list the recordings by path");
     } else {
       for (const YAML::Node& rec : r.list(recs, key + ".recordings", "recordings (names or paths), or all")) {
         const fs::path p = r.resolve(rec, key + ".recordings", "recordings", ".h5", "recording");

@@ -335,7 +335,7 @@ TEST(ToolSpeed, AJumpInTheLogIsNamed) {
   r.position[6] += Vec3d{0.05, 0, 0};  // 5 cm out and back within 2 ms
   const auto w = check_recording_speed(r);
   ASSERT_TRUE(w.has_value());
-  EXPECT_NE(w->find("jumps 0.05 m between samples 5 and 6 (t = 0.005 .. 0.006 s: 50 m/s"), std::string::npos) << *w;
+  EXPECT_NE(w->find("jumps 0.05 m between samples 5 and 6 (the recording's t = 0.005 .. 0.006 s: 50 m/s"), std::string::npos) << *w;
   for (const char* name : {"tube_insert", "tube_grasp", "gap_insert", "gap_grasp", "cholecystectomy_press",
                            "cholecystectomy_grasp", "gynaecology_press", "gynaecology_grasp"}) {
     const auto c = check_recording_speed(read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5"));

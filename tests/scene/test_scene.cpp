@@ -644,7 +644,7 @@ TEST_F(BadScene, NestedTooDeeply) {
   }
 }
 TEST_F(BadScene, YamlSyntax) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0, -9.81"), "YAML syntax error"); }
-TEST_F(BadScene, NotAMap) { expect("- 1\n- 2\n", "expected a map, got a list"); }
+TEST_F(BadScene, NotAMap) { expect("- 1\n- 2\n", "not a scene file: a scene is a YAML map of keys (mesh, tool, ...), this file holds a list"); }
 TEST_F(BadScene, Empty) { expect("# nothing\n", "empty scene file"); }
 TEST_F(BadScene, BadMeshUnit) { expect(replace(good, "  unit: mm\n  transform", "  unit: inch\n  transform"), "key 'mesh.unit': expected one of m, cm, mm, got 'inch'"); }
 TEST_F(BadScene, BadToolUnit) { expect(replace(good, "tool:\n  unit: mm", "tool:\n  unit: 3"), "key 'tool.unit': expected one of m, cm, mm, got '3'"); }
@@ -920,6 +920,21 @@ TEST(Scene, OverrideErrorsNameTheOverride) {
     FAIL() << e.what();
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()).rfind(bad.string() + ": key 'time.physical_hz': haptic_hz / physical_hz", 0), 0u)
+        << e.what();
+  }
+}
+
+// A region of the file that misses a mesh an override moved names that override.
+TEST(Scene, APinRegionAMovedMeshLeftSaysWhoMovedIt) {
+  const fs::path file = fs::path(EBH_SOURCE_DIR) / "tests" / "data" / "scene" / "cube_obj.yaml";
+  try {
+    (void)load_scene(file, {"mesh.transform={translate: [50, 0, 0]}"});
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(file.string() + ": key 'pinned[0].sphere': the sphere pins no vertex of the "
+                                          "physical mesh (the mesh as --set 'mesh.transform={translate: [50, 0, 0]}' gives it)",
+                                          0),
+              0u)
         << e.what();
   }
 }

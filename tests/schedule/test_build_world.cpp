@@ -1,5 +1,6 @@
 // What build_world says of a scene beyond its file's checks: a virtual mesh from its own file that
-// lies off the physical mesh (another unit or frame) is named with how far and where.
+// lies off the physical mesh (another unit or frame) is named with how far and where, and one far
+// smaller than it (another unit) with its size.
 #include <gtest/gtest.h>
 
 #include <sstream>
@@ -68,6 +69,16 @@ TEST(BuildWorld, AVirtualMeshOffThePhysicalMeshIsNamed) {
               std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("more than 10 times its diagonal (0.173 m)"), std::string::npos) << e.what();
   }
+}
+
+TEST(BuildWorld, AVirtualMeshInAnotherUnitIsNamed) {
+  // A mesh in m read as cm: 1/100 of the cube, inside it, paired without error; the tool would
+  // never meet it. Half the cube (a patch-sized surface) says nothing.
+  const auto tiny = warnings_with_obj("tiny", 0.01, 0.0);
+  EXPECT_TRUE(has(tiny, "tiny.obj: mesh.virtual: the virtual mesh spans 1.73 mm, 1/100 of the physical mesh's "
+                        "diagonal (173 mm): is it in mesh.unit"))
+      << ::testing::PrintToString(tiny);
+  EXPECT_FALSE(has(warnings_with_obj("half", 0.5, 0.0), "mesh.virtual"));
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// The replay output's provenance (DESIGN.md §4, docs/FORMATS.md): from nothing but the output's
+// The replay output's provenance (docs/FORMATS.md, "Replay output"): from nothing but the output's
 // root attributes and the files they name, a replay is reproduced bit for bit.
 #include <gtest/gtest.h>
 
@@ -120,15 +120,20 @@ void expect_reproduced_from_output(const std::string& scene, const std::vector<s
 
 }  // namespace
 
-// The committed tube, with two overrides (one of them a length, in the scene's mm) that the
-// reproduction must pick up.
+// The committed tube, with three overrides (one of them a length, in the scene's mm, one the
+// estimated Chebyshev rho) that the reproduction must pick up.
 TEST(ReplayProvenance, TheOutputAloneReproducesTheReplayBitForBit) {
   const auto dir = std::filesystem::temp_directory_path() / "ebh_test_provenance";
-  expect_reproduced_from_output("tube", {"stiffness.k_con=500", "tool.max_step=0.4"}, dir);
+  expect_reproduced_from_output("tube", {"stiffness.k_con=500", "tool.max_step=0.4", "solver.chebyshev_rho=auto"}, dir);
   const h5::File f = h5::File::open_read((dir / "out.h5").string());
   EXPECT_FALSE(f.has_attr("virtual_mesh"));  // tube's virtual mesh is its boundary
   EXPECT_EQ(f.attr_string("length_unit"), "m");
   EXPECT_DOUBLE_EQ(f.attr_double("max_step"), 0.4e-3);
+  // The rho the step used, estimated on the mesh (it was written as the spec's unused 0.95).
+  EXPECT_EQ(f.attr_int("chebyshev_rho_auto"), 1);
+  EXPECT_GT(f.attr_double("chebyshev_rho"), 0.0);
+  EXPECT_LT(f.attr_double("chebyshev_rho"), 1.0);
+  EXPECT_NE(f.attr_double("chebyshev_rho"), 0.95);
   EXPECT_EQ(f.attr_string("pinned_regions"), "group ends");
   EXPECT_GT(f.attr_int("pinned_vertices"), 0);
   EXPECT_FALSE(f.attr_string("git_commit").empty());

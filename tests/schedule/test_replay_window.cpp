@@ -30,3 +30,22 @@ TEST(ReplayWindow, RefusesAWindowOutsideTheRecordingNamingTheKey) {
   EXPECT_INPUT_ERROR(replay_window(1, std::numeric_limits<double>::infinity(), 10, "rec.h5", "s", "--duration"),
                      "--duration inf");
 }
+
+// A tool's tip that went inside the tissue: the replay that felt no contact then says the tool
+// passed between the virtual vertices (tip_inside_mesh, ebh replay's contact warning).
+TEST(TipInsideMesh, TheFirstSampleOfTheWindowInsideTheRestMesh) {
+  TetMesh one;
+  one.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  one.tets = {{0, 1, 2, 3}};
+  Recording rec;
+  const double z[] = {1.5, 1.0, 0.5, 0.3, -0.5};  // down through the tet: inside at z = 0.5 and 0.3
+  for (int i = 0; i < 5; ++i) {
+    rec.t.push_back(10.0 + 0.1 * i);  // the recording's own clock
+    rec.position.push_back({0.1, 0.1, z[i]});
+  }
+  EXPECT_EQ(tip_inside_mesh(rec, one, 0, 0), std::optional<double>(10.2));
+  EXPECT_EQ(tip_inside_mesh(rec, one, 0.25, 0), std::optional<double>(10.3));  // the window starts later
+  EXPECT_EQ(tip_inside_mesh(rec, one, 0, 0.15), std::nullopt);                 // and ends before it
+  for (Vec3d& p : rec.position) p.x = 2;  // beside the tet
+  EXPECT_EQ(tip_inside_mesh(rec, one, 0, 0), std::nullopt);
+}

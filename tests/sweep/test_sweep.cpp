@@ -148,6 +148,35 @@ runs:
   EXPECT_TRUE(insert);
 }
 
+/// ... and one beside the scene file (own data kept in one folder: scene, mesh, recordings); with
+/// none, the message says where it looked.
+TEST(SweepPlan, AllTakesARecordingBesideItsSceneFile) {
+  const fs::path root = scratch() / "own_folder";
+  fs::remove_all(root);
+  fs::create_directories(root);
+  const fs::path scene = root / "my_tube.yaml";
+  const fs::path tube = resolve_scene_path("tube");
+  fs::copy_file(tube, scene);
+  fs::copy_file(tube.parent_path() / "tube.msh", root / "tube.msh");
+  const std::string plan = "scenes:\n  - {scene: " + scene.string() +
+                           ", recordings: all, reference: {solver.virtual_iterations: 8}}\nruns:\n  - {}\n";
+  try {
+    (void)read_sweep_plan(plan_file("beside_none.yaml", plan));
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no recording names the scene 'my_tube' (their `scene` attribute) in "
+                                         "recordings/ of the data folders"),
+              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("beside the scene file in " + root.string()), std::string::npos) << e.what();
+  }
+  Recording rec = read_recording(resolve_data_path("tube_insert", "recordings", ".h5", "recording").string());
+  rec.scene = "my_tube.yaml";  // as `ebh import --scene my_tube.yaml -o press.h5` writes it beside the scene
+  write_recording((root / "press.h5").string(), rec);
+  const SweepPlan p = read_sweep_plan(plan_file("beside.yaml", plan));
+  ASSERT_EQ(p.scenes[0].recordings.size(), 1u);
+  EXPECT_EQ(p.scenes[0].recordings[0].filename(), "press.h5");
+}
+
 TEST(SweepPlan, RunIdsAreStable) {
   const fs::path f = plan_file("ids.yaml", kPlan);
   const SweepPlan p = read_sweep_plan(f);

@@ -1,4 +1,4 @@
-// ebh replay SCENE RECORDING -o OUT.h5: the toolkit's main job (DESIGN.md §2, §4).
+// ebh replay SCENE RECORDING -o OUT.h5: the toolkit's main job (docs/MODEL.md "Between the two rates", docs/FORMATS.md "Replay output").
 #include <unistd.h>
 
 #include <omp.h>
@@ -146,7 +146,7 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   ReplayMetadata& meta = p.meta;
   meta.recording = p.in.recording_path;
   meta.start = opt.start;
-  meta.duration = opt.duration;
+  meta.duration = a.duration ? duration : 0.0;  // what was replayed: a --duration past the end is cut to it
   meta.frames_hz = opt.frames_hz;
   meta.mode = mode_name(mode);
   meta.backend = a.backend;
@@ -167,8 +167,19 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   if (s.stopped) throw InputError(a.out + ": interrupted; no output written");
   writer.commit(s);
   index_replay_frames(a.out);
-  const std::string contact = contact_warning(static_cast<std::size_t>(writer.contact_ticks()),
-                                              static_cast<std::size_t>(s.ticks));
+  std::string contact = contact_warning(static_cast<std::size_t>(writer.contact_ticks()),
+                                        static_cast<std::size_t>(s.ticks));
+  // No contact although the device went into the tissue: the tool slipped between the virtual
+  // vertices (a tool thinner than their spacing), which vertex contact cannot feel.
+  if (writer.contact_ticks() == 0 && world.scene.spec.contact == ContactModel::Vertices)
+    if (const auto t = tip_inside_mesh(p.in.recording, world.scene.physical, a.start, a.duration.value_or(0))) {
+      char line[400];
+      std::snprintf(line, sizeof line,
+                    ", yet the tool's tip went inside the physical mesh (at the recording's t = %.3f s): it passed "
+                    "between the virtual vertices unfelt (contact: vertices; `--set contact=surface` feels it, "
+                    "docs/MODEL.md)", *t);
+      contact += line;
+    }
   if (!contact.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), contact.c_str());
   if (writer.recovered_steps() > 0)
     std::fprintf(stderr,
@@ -487,7 +498,10 @@ void setup(CLI::App& root) {
   c->add_option("--at-once", *at_once, "With --batch: replays that run side by side (default 8; the others wait their turn)")
       ->check(CLI::Range(1, 1024))
       ->needs(batch_option);
-  c->callback([args, batch, at_once] {
+  c->callback([args, batch, at_once, c] {
+    if (!batch->empty() && c->count("--backend") && args->backend != "cuda")
+      throw InputError("--backend " + args->backend + ": --batch runs its replays on the CUDA backend, on one GPU "
+                       "(on the CPU, replay them one by one or with ebh sweep)");
     if (!batch->empty()) return run_batch(*args, *batch, *at_once);
     if (args->scene.empty() || args->recording.empty() || args->out.empty())
       throw InputError("ebh replay: expected SCENE RECORDING -o OUT.h5 (or --batch FILE); see --help");

@@ -94,6 +94,7 @@ void info(const SceneInfoArgs& a) {
     return c;
   };
   const ebh::VirtualModel vm = ebh::build_virtual_model(scene);
+  ebh::check_virtual_mesh_placement(scene, vm, warnings);  // as the replay would
   ebh::PhysicalModelOptions options = ebh::physical_model_options(scene.spec);
   options.factorize = false;
   options.diagonal = ebh::SolverSpec::Diagonal::Plain;

@@ -1,10 +1,13 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <new>
+#include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "core/error.hpp"
@@ -23,6 +26,24 @@ namespace {
 
 /// Parses and runs the command; returns the exit status (1 bad input, 3 internal error).
 int run(CLI::App& app, int argc, char** argv) {
+  // A first word that names no command (a typo) is said as such: CLI11 would say that a
+  // subcommand is required.
+  if (argc > 1 && argv[1][0] != '-') {
+    std::vector<std::string> commands;
+    bool known = false;
+    for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+      known = known || sub->check_name(argv[1]);
+      commands.push_back(sub->get_name());
+    }
+    std::sort(commands.begin(), commands.end());
+    std::string names;
+    for (const std::string& c : commands) names += (names.empty() ? "" : ", ") + c;
+    if (!known) {
+      std::fprintf(stderr, "ebh: error: '%s' is not an ebh command (commands: %s; ebh --help)\n",
+                   ebh::escape_unprintable(argv[1]).c_str(), names.c_str());
+      return 1;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -30,29 +30,16 @@ std::string trim(const std::string& s) {
   return s.substr(a, b - a + 1);
 }
 
-// Splits on commas, or on whitespace (and commas) when `commas_only` is false.
-std::vector<std::string> split(const std::string& s, bool commas_only) {
+// Splits on commas (an option's list of numbers).
+std::vector<std::string> split_commas(const std::string& s) {
   std::vector<std::string> out;
-  if (commas_only) {
-    std::size_t start = 0;
-    while (true) {
-      std::size_t c = s.find(',', start);
-      out.push_back(trim(s.substr(start, c == std::string::npos ? std::string::npos : c - start)));
-      if (c == std::string::npos) break;
-      start = c + 1;
-    }
-    return out;
+  std::size_t start = 0;
+  while (true) {
+    std::size_t c = s.find(',', start);
+    out.push_back(trim(s.substr(start, c == std::string::npos ? std::string::npos : c - start)));
+    if (c == std::string::npos) break;
+    start = c + 1;
   }
-  std::string cur;
-  for (char ch : s) {
-    if (ch == ',' || ch == ' ' || ch == '\t' || ch == '\r') {
-      if (!cur.empty()) out.push_back(cur);
-      cur.clear();
-    } else {
-      cur += ch;
-    }
-  }
-  if (!cur.empty()) out.push_back(cur);
   return out;
 }
 
@@ -206,15 +193,29 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
   for_each_line(path, [&](const Line& l) {
     const std::string where = at(path, l.number);
     check_sample_limit(rec, limit, where);
-    auto tok = split(l.text, false);
+    // Separated as a CSV log's fields: an empty field (two commas in a row) is named, not skipped,
+    // so a missing value does not shift the fields after it (the jaw into a button's place).
+    auto tok = split_csv_quoted(l.text);
+    // A header naming columns: a CSV log read as OpenHaptics (the format follows the extension).
+    bool words = false;
+    if (!tok.empty() && !tok[0].empty()) {
+      char* end = nullptr;
+      std::strtod(tok[0].c_str(), &end);
+      words = end == tok[0].c_str();
+    }
+    if (!(words && tok.size() < 17))
+      for (std::size_t k = 0; k < tok.size(); ++k)
+        if (tok[k].empty())
+          throw InputError(where + ": field " + std::to_string(k + 1) +
+                           (k < 16    ? " (element " + std::to_string(k) + ")"
+                            : k == 16 ? std::string(" (the jaw)")
+                            : k < 25  ? " (button " + std::to_string(k - 17) + ")"
+                                      : std::string()) +
+                           " is empty: " +
+                           (k + 1 == tok.size() ? "a separator ends the line"
+                                                : "two separators with nothing between them") +
+                           " (a missing value?)");
     if (tok.size() < 17) {
-      // A header naming columns: a CSV log read as OpenHaptics (the format follows the extension).
-      bool words = false;
-      if (!tok.empty()) {
-        char* end = nullptr;
-        std::strtod(tok[0].c_str(), &end);
-        words = end == tok[0].c_str();
-      }
       const bool semicolons = l.text.find(';') != std::string::npos;
       throw InputError(where + ": " + std::to_string(tok.size()) +
                        " fields, expected 16 transform elements, the jaw and button states" +
@@ -388,7 +389,7 @@ double parse_length_unit(const std::string& name) {
 }
 
 RigidTransform parse_rigid_transform(const std::string& option, const std::string& text, double unit_m) {
-  auto tok = split(text, true);
+  auto tok = split_commas(text);
   if (tok.size() != 6)
     throw InputError(option + ": expected 6 comma-separated numbers x,y,z,rx,ry,rz (translation, then a rotation "
                               "vector in degrees), got '" + text + "'");

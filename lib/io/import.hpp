@@ -1,9 +1,9 @@
 #pragma once
 // Importing device logs into recordings (`ebh import`, docs/FORMATS.md).
 //
-// openhaptics: one sample a line, whitespace- or comma-separated: the 16 numbers of the
-//   column-major 4x4 device transform (as hdGetDoublev(HD_CURRENT_TRANSFORM) returns it:
-//   translation in elements 12-14), the jaw opening (1 open, 0 closed), then zero or more button
+// openhaptics: one sample a line, separated as csv's fields (an empty field is an error): the 16
+//   numbers of the column-major 4x4 device transform (as hdGetDoublev(HD_CURRENT_TRANSFORM) returns
+//   it: translation in elements 12-14), the jaw opening (1 open, 0 closed), then zero or more button
 //   states (ints, button i nonzero -> bit i). '#' starts a comment; blank lines are skipped.
 //   Times are i / rate_hz (--rate; 1000 Hz assumed, and said, when not given).
 // csv: a header naming the columns (any order): t, x, y, z, qw, qx, qy, qz, jaw, buttons; fields

@@ -120,6 +120,14 @@ TEST(Import, DefectsNameFileAndLine) {
   // a time column before the matrix: the bottom row one field later; ';' between the fields
   p = write("times.txt", "0.001 1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "times.txt:1", "homogeneous", "one field later: a column before the 16 elements");
+  // an empty field: named, not read as one separator (which shifted the fields after it)
+  p = write("dblcomma.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n1.0,,0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "dblcomma.txt:2: field 2 (element 1) is empty",
+                     "two separators with nothing between them");
+  p = write("endcomma.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0,\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "endcomma.txt:1: field 19 (button 1) is empty", "a separator ends the line");
+  p = write("spaced.txt", "1, 0 ,0,0,0,1,0,0,0,0,1,0,5,6,7,1, 1 , 0\n1\t0\t0 0  0 1 0 0 0 0 1 0 5 6 8 1 1 0\n");
+  EXPECT_EQ(import_log(p, opt).size(), 2u);  // a comma with blanks around it, or a run of blanks: one separator
   p = write("semi.txt", "1;0;0;0;0;1;0;0;0;0;1;0;5;6;7;1;1;0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "semi.txt:1", "1 fields", "not ';'");
   // a log written with decimal commas: every number splits in two

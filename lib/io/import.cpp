@@ -78,6 +78,12 @@ std::vector<std::string> split_csv_quoted(const std::string& s) {
   return out;
 }
 
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
 struct Line {
   std::size_t number;  // 1-based
   std::string text;    // comment stripped, trimmed
@@ -244,17 +250,25 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
       if (!std::isfinite(m[k])) throw InputError(where + ": element " + std::to_string(k) + " is NaN or Inf");
     // Column-major: element (r, c) = m[4 c + r]; the bottom row must be (0, 0, 0, 1).
     if (std::abs(m[3]) > 1e-6 || std::abs(m[7]) > 1e-6 || std::abs(m[11]) > 1e-6 || std::abs(m[15] - 1) > 1e-6) {
+      // Row-major (the matrix written row by row): the translation in elements 3, 7, 11, the
+      // bottom row (0, 0, 0, 1) in elements 12-15.
+      const auto zero = [](double v) { return std::abs(v) <= 1e-6; };
+      const bool row_major = zero(m[12]) && zero(m[13]) && zero(m[14]) && zero(m[15] - 1) &&
+                             !(zero(m[3]) && zero(m[7]) && zero(m[11]));
       // Shifted by one, the bottom row is at elements 4, 8, 12, 16: a column before the matrix (a time).
-      const bool shifted = tok.size() >= 17 && std::abs(to_number(tok[4], where, "element 4")) <= 1e-6 &&
-                           std::abs(to_number(tok[8], where, "element 8")) <= 1e-6 &&
-                           std::abs(to_number(tok[12], where, "element 12")) <= 1e-6 &&
-                           std::abs(to_number(tok[16], where, "element 16") - 1) <= 1e-6;
-      throw InputError(where + ": not a homogeneous transform (elements 3, 7, 11, 15 must be 0, 0, 0, 1; " +
-                       (shifted ? std::string("they are one field later: a column before the 16 elements, a time? An "
-                                              "OpenHaptics log holds only the matrix, the jaw and the buttons; a log "
-                                              "with times is a CSV log (docs/FORMATS.md)")
-                                : std::string("is it row-major?")) +
-                       ")");
+      const bool shifted = !row_major && tok.size() >= 17 && zero(to_number(tok[4], where, "element 4")) &&
+                           zero(to_number(tok[8], where, "element 8")) &&
+                           zero(to_number(tok[12], where, "element 12")) &&
+                           zero(to_number(tok[16], where, "element 16") - 1);
+      std::string why = "is it row-major?";
+      if (row_major)
+        why = "row-major? elements 3, 7, 11 hold (" + num(m[3]) + ", " + num(m[7]) + ", " + num(m[11]) +
+              "), a translation, and 12, 13, 14, 15 are 0, 0, 0, 1: the matrix written row by row; an OpenHaptics " +
+              "log holds it column-major, as hdGetDoublev(HD_CURRENT_TRANSFORM) returns it: write its transpose";
+      else if (shifted)
+        why = "they are one field later: a column before the 16 elements, a time? An OpenHaptics log holds only the "
+              "matrix, the jaw and the buttons; a log with times is a CSV log (docs/FORMATS.md)";
+      throw InputError(where + ": not a homogeneous transform (elements 3, 7, 11, 15 must be 0, 0, 0, 1; " + why + ")");
     }
     Eigen::Matrix3d M;
     for (int r = 0; r < 3; ++r)
@@ -334,12 +348,6 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
 
 bool same(const Quatd& a, const Quatd& b) { return a.w == b.w && a.x == b.x && a.y == b.y && a.z == b.z; }
 
-
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4g", v);
-  return buf;
-}
 
 // The time unit under which times read as seconds give `rate_hz` of a device (kDeviceRateLowHz ..
 // kDeviceRateHighHz), with the rate it would be; nullptr when none does.

@@ -3,9 +3,10 @@
 //
 // openhaptics: one sample a line, separated as csv's fields (an empty field is an error): the 16
 //   numbers of the column-major 4x4 device transform (as hdGetDoublev(HD_CURRENT_TRANSFORM) returns
-//   it: translation in elements 12-14), the jaw opening (1 open, 0 closed), then zero or more button
-//   states (ints, button i nonzero -> bit i). '#' starts a comment; blank lines are skipped.
-//   Times are i / rate_hz (--rate; 1000 Hz assumed, and said, when not given).
+//   it: translation in elements 12-14; a row-major one is named as such), the jaw opening (1 open,
+//   0 closed), then zero or more button states (ints, button i nonzero -> bit i). '#' starts a
+//   comment; blank lines are skipped. Times are i / rate_hz (--rate; 1000 Hz assumed, and said,
+//   when not given).
 // csv: a header naming the columns (any order): t, x, y, z, qw, qx, qy, qz, jaw, buttons; fields
 //   separated by a comma (blanks around it included) or by a run of spaces or tabs;
 //   x, y, z and the quaternion are required, t optional (else i / rate_hz), jaw defaults to 1,

@@ -120,6 +120,10 @@ TEST(Import, DefectsNameFileAndLine) {
   // a time column before the matrix: the bottom row one field later; ';' between the fields
   p = write("times.txt", "0.001 1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "times.txt:1", "homogeneous", "one field later: a column before the 16 elements");
+  // the matrix written row by row: the translation in elements 3, 7, 11 (the jaw of 1 must not
+  // read as the bottom row shifted by one)
+  p = write("rowmajor.txt", "1 0 0 10 0 1 0 20 0 0 1 30 0 0 0 1 1\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "rowmajor.txt:1", "homogeneous", "row-major? elements 3, 7, 11 hold (10, 20, 30)");
   // an empty field: named, not read as one separator (which shifted the fields after it)
   p = write("dblcomma.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n1.0,,0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "dblcomma.txt:2: field 2 (element 1) is empty",

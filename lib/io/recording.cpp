@@ -333,6 +333,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   struct Candidate {
     double f;
     std::string fix;
+    const char* unit;  // the unit the log is in, if this is the fix
   };
   std::vector<Candidate> candidates;
   const double units[] = {1.0, 1e-2, 1e-3};
@@ -343,7 +344,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
       std::string fix = known ? std::string("--unit ") + unit_label(truth)
                               : std::string("the log is in ") + unit_label(truth) + ", not " + unit_label(used) +
                                     ": ebh import --unit " + unit_label(truth);
-      candidates.push_back({truth / used, fix});
+      candidates.push_back({truth / used, fix, unit_label(truth)});
     }
   // A recording of a tool at work touches the tissue: a unit under which the path enters the
   // mesh's box is the likely fix, the one whose extent is nearest the mesh's size first.
@@ -370,6 +371,28 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
       }
     }
 
+  // Else a unit may give the path a size that fits the mesh but not its place: that unit, and a
+  // world transform (the size is the unit's to fix, the place the transform's). Two units a factor
+  // 10 apart often both fit the size band; a tool at work moves within about the organ's size, so
+  // a unit under which the path is no larger than the mesh comes first, then the nearest size.
+  const auto size_fits = [&](const PathFit& q) {
+    return q.extent <= kPathExtentMaxRatio * diagonal && q.extent >= kPathExtentMinRatio * diagonal;
+  };
+  const auto sized_before = [&](const PathFit& a, const PathFit& b) {
+    const bool a_larger = a.extent > diagonal, b_larger = b.extent > diagonal;
+    return a_larger != b_larger ? !a_larger : size_miss(a) < size_miss(b);
+  };
+  const Candidate* sized = nullptr;
+  PathFit sized_fit;
+  if (!best && size_off)
+    for (const Candidate& c : candidates) {
+      const PathFit p = fit_path(rec, c.f, lo, hi);
+      if (size_fits(p) && (!sized || sized_before(p, sized_fit))) {
+        sized = &c;
+        sized_fit = p;
+      }
+    }
+
   std::ostringstream o;
   const bool far = now.distance > kPathMaxDistanceDiagonals * diagonal;
   const Vec3d start = rec.position.front();
@@ -390,6 +413,12 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
     const Vec3d off = 0.5 * (lo + hi) - now.centre;
     o << "--transform placing the device's workspace at the mesh (the mesh's centre is (" << short_num(off.x) << ", "
       << short_num(off.y) << ", " << short_num(off.z) << ") m from the path's)";
+  } else if (sized) {
+    const Vec3d off = 0.5 * (lo + hi) - sized_fit.centre;
+    o << sized->fix << ", and --transform to place it (in " << sized->unit << " the path spans "
+      << short_num(sized_fit.extent) << " m, " << ratio_text(sized_fit.extent / diagonal)
+      << " the mesh's diagonal, and the mesh's centre is (" << short_num(off.x) << ", " << short_num(off.y) << ", "
+      << short_num(off.z) << ") m from the path's)";
   } else {
     o << "none of m, cm, mm makes it fit: check the log's unit and the scene's";
   }

@@ -110,7 +110,8 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
 /// enters the mesh's box, as a tool at work does ("--unit cm" when `log_unit_m`, the metres per
 /// unit the log was read with, is known, as at import; "the log is in cm, not mm: ebh import
 /// --unit cm" when it is not, as at replay); else, for a path of the right size, a world
-/// transform; else the unit that fits it nearest the mesh. nullopt when the path fits. A warning,
+/// transform; else the unit that fits it nearest the mesh; else the unit that gives it the mesh's
+/// size, and a world transform to place it. nullopt when the path fits. A warning,
 /// not an error: a user may have reasons.
 std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo, Vec3d hi,
                                                  std::optional<double> log_unit_m);

@@ -327,6 +327,26 @@ TEST(UnitSanity, APathFarFromTheMeshAsksForAWorldTransform) {
   EXPECT_FALSE(check_recording_scale(r, kLo, kHi, 1e-2).has_value());
 }
 
+TEST(UnitSanity, ALogInTheWrongUnitAndPlaceNamesTheUnitAndATransform) {
+  // Logged in mm 60 cm from the mesh, read as m: 258x the mesh's size and 600 m away. In mm it
+  // has a size that fits but stays away (in cm too, 2.58x the mesh: a path larger than the mesh
+  // comes second), so the fix is the unit and a transform, not "none of m, cm, mm".
+  Recording r = press_path(1.0);
+  for (Vec3d& p : r.position) p = 10.0 * p + Vec3d{600, 0, 0};
+  auto w = check_recording_scale(r, kLo, kHi, 1.0);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("the tool path spans 44.7 m, 258x the physical mesh's bounding-box diagonal"), std::string::npos)
+      << *w;
+  EXPECT_NE(w->find("likely fix: --unit mm, and --transform to place it (in mm the path spans 0.0447 m, 1/3.87 of the "
+                    "mesh's diagonal, and the mesh's centre is (-0.61, 0, -0.06) m from the path's)"),
+            std::string::npos) << *w;
+  // At replay, where the log's unit is not known.
+  w = check_recording_scale(r, kLo, kHi, std::nullopt);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("likely fix: the log is in mm, not m: ebh import --unit mm, and --transform to place it"),
+            std::string::npos) << *w;
+}
+
 // A jump in the log (50 m/s for one sample) is named with its samples and speed; a hand's motion
 // (make_recording's 1 m/s) and the committed recordings are not.
 TEST(ToolSpeed, AJumpInTheLogIsNamed) {

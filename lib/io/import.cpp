@@ -464,16 +464,29 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   r.has_times = has_t;
   r.rate_assumed = !has_t && !opt.rate_hz;
   r.rate_warning = rate_warning;
-  std::vector<std::size_t> keep{0};
-  for (std::size_t i = 1; i < rec.size(); ++i) {
-    const bool repeat = rec.position[i] == rec.position[i - 1] && same(rec.orientation[i], rec.orientation[i - 1]) &&
-                        rec.jaw[i] == rec.jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
-    r.repeats += repeat;
-    if (!repeat) keep.push_back(i);
+  // Runs of repeats: sample i is new, samples i+1..j repeat it. A short run is stale samples of a
+  // device polled faster than it updates; a run of more than kStaleRepeatsMax is a hold (the
+  // device at rest) and keeps its last sample, so a replay holds still until the device moves
+  // instead of creeping toward the next new sample; the log's last sample is kept, so the
+  // recording keeps its length.
+  std::vector<std::size_t> keep;
+  const auto repeats = [&rec](std::size_t i) {
+    return rec.position[i] == rec.position[i - 1] && same(rec.orientation[i], rec.orientation[i - 1]) &&
+           rec.jaw[i] == rec.jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
+  };
+  for (std::size_t i = 0; i < rec.size();) {
+    std::size_t j = i;
+    while (j + 1 < rec.size() && repeats(j + 1)) ++j;
+    keep.push_back(i);
+    const std::size_t run = j - i;
+    r.repeats += run;
+    if (run > kStaleRepeatsMax) ++r.holds;
+    if (run > 0 && (run > kStaleRepeatsMax || j + 1 == rec.size())) keep.push_back(j);
+    i = j + 1;
   }
-  if (opt.drop_repeats && r.repeats > 0) {
-    if (keep.size() < 2)
-      throw InputError(path + ": every sample repeats the first one; --drop-repeats would leave a single sample");
+  r.removable = rec.size() - keep.size();
+  r.dropped = opt.drop_repeats && r.repeats > 0;
+  if (r.dropped) {
     auto select = [&keep](auto& v) {
       std::remove_reference_t<decltype(v)> out;
       out.reserve(keep.size());
@@ -485,7 +498,6 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
     select(rec.orientation);
     select(rec.jaw);
     select(rec.buttons);
-    r.dropped = true;
   }
   if (report) *report = r;
   return rec;

@@ -246,6 +246,54 @@ TEST(Import, CountsAndDropsRepeatedSamples) {
   EXPECT_EQ(r.rate_hz, 1000.0);  // the log's rate: the kept samples are a subset of its ticks
 }
 
+// A hold (the device at rest: more than kStaleRepeatsMax repeats in a row) is not stale: it keeps
+// its last sample, so the replay holds still until the device moves, and the log's last sample is
+// kept, so a log ending at rest keeps its length. Short runs (a device updating at a third of the
+// logging rate) are still dropped.
+TEST(Import, DroppingRepeatsKeepsHoldsAndTheLogsEnd) {
+  test::ScratchDir tmp;
+  // 1 kHz: 0..29 ms moving, each new sample logged three times (two stale repeats); 30..80 ms at
+  // rest (50 repeats of sample 30); 81..89 ms moving; 90..200 ms at rest until the log ends.
+  std::vector<double> z;
+  for (int i = 0; i < 30; ++i) z.push_back(i / 3);
+  for (int i = 30; i <= 80; ++i) z.push_back(10);
+  for (int i = 81; i < 90; ++i) z.push_back(10 + (i - 80));
+  for (int i = 90; i <= 200; ++i) z.push_back(20);
+  std::string text = "t,x,y,z,qw,qx,qy,qz\n";
+  for (std::size_t i = 0; i < z.size(); ++i) text += std::to_string(1e-3 * static_cast<double>(i)) + ",0,0," +
+                                                     std::to_string(1e-3 * z[i]) + ",1,0,0,0\n";
+  const std::string path = write_log(tmp / "hold.csv", text);
+  ImportOptions opt;
+  ImportReport report;
+  const Recording all = import_log(path, opt, &report);
+  EXPECT_EQ(report.repeats, 20u + 50 + 110);
+  EXPECT_EQ(report.holds, 2u);
+  EXPECT_EQ(report.removable, 20u + 49 + 109);
+  EXPECT_FALSE(report.dropped);
+  opt.drop_repeats = true;
+  const Recording r = import_log(path, opt, &report);
+  EXPECT_TRUE(report.dropped);
+  EXPECT_EQ(report.holds, 2u);
+  EXPECT_EQ(r.size(), all.size() - report.removable);
+  EXPECT_EQ(r.t.back(), all.t.back());  // the duration unchanged: the hold at the end is kept
+  EXPECT_EQ(r.rate_hz, all.rate_hz);
+  // The stale repeats are gone: 3 ms between the samples of the motion, interpolated linearly.
+  EXPECT_EQ(r.t[1], all.t[3]);
+  EXPECT_NEAR(sample_at(r, 0.0015).position.z, 0.0005, 1e-12);
+  // Still through both holds, moving again one sample interval after each.
+  for (double t : {0.031, 0.055, 0.0795, 0.080}) EXPECT_EQ(sample_at(r, t).position.z, 0.010) << t;
+  EXPECT_GT(sample_at(r, 0.0805).position.z, 0.010);
+  for (double t : {0.091, 0.150, 0.200}) EXPECT_EQ(sample_at(r, t).position.z, 0.020) << t;
+  // A short run at the log's end: dropped but for the last sample, the duration unchanged.
+  const Recording end =
+      import_log(write_log(tmp / "end.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0.001,0,0,0.001,1,0,0,0\n"
+                                            "0.002,0,0,0.001,1,0,0,0\n0.003,0,0,0.001,1,0,0,0\n"),
+                 opt, &report);
+  EXPECT_EQ(end.t, (std::vector<double>{0.0, 0.001, 0.003}));
+  EXPECT_EQ(report.holds, 0u);
+  EXPECT_EQ(report.removable, 1u);
+}
+
 TEST(Import, ALogWithoutTimesTakesTheGivenRateAndKeepsTimesWhenDropping) {
   ImportOptions opt;
   opt.rate_hz = 250;
@@ -255,7 +303,8 @@ TEST(Import, ALogWithoutTimesTakesTheGivenRateAndKeepsTimesWhenDropping) {
   EXPECT_EQ(report.repeats, 2u);
   EXPECT_FALSE(report.rate_assumed);
   EXPECT_EQ(r.rate_hz, 250.0);
-  EXPECT_EQ(r.t, (std::vector<double>{0.0, 2 / 250.0, 3 / 250.0}));  // samples 0, 2, 3 of 0..4
+  // samples 0, 2, 3 of 0..4, and 4, the log's last: the recording keeps its length
+  EXPECT_EQ(r.t, (std::vector<double>{0.0, 2 / 250.0, 3 / 250.0, 4 / 250.0}));
   ImportOptions plain;
   import_log(kData + "repeats_openhaptics.txt", plain, &report);
   EXPECT_TRUE(report.rate_assumed);  // said by ebh import

@@ -82,11 +82,21 @@ void run(const ImportArgs& a) {
       std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   if (auto w = ebh::check_recording_speed(rec)) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   std::printf("%s: %zu samples, %.6g s, %.10g Hz\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz);
+  // A hold (more than kStaleRepeatsMax repeats in a row: the device at rest) keeps its last sample.
+  const auto count = [](std::size_t n, const char* one, const char* many) {
+    return std::to_string(n) + " " + (n == 1 ? one : many);
+  };
+  const std::string holds = count(report.holds, "hold", "holds");
+  const std::string longer = "more than " + std::to_string(ebh::kStaleRepeatsMax) + " repeats in a row";
   if (report.dropped)
-    std::printf("  dropped %zu samples that repeated the previous pose, jaw and buttons exactly\n", report.repeats);
+    std::printf("  dropped %s that repeated the previous pose, jaw and buttons exactly; kept %s (%s: the device at "
+                "rest)\n",
+                count(report.removable, "sample", "samples").c_str(), holds.c_str(), longer.c_str());
   else
     std::printf("  %zu consecutive samples repeat the previous pose, jaw and buttons exactly%s\n", report.repeats,
-                report.repeats > 0 ? " (--drop-repeats removes them)" : "");
+                report.repeats == 0 ? ""
+                                    : (" (--drop-repeats removes " + std::to_string(report.removable) + ", keeping " +
+                                       holds + " of " + longer + ")").c_str());
 }
 
 void setup(CLI::App& root) {
@@ -106,7 +116,10 @@ void setup(CLI::App& root) {
   c->add_option("--scene", args->scene, "scenario to replay it with (root attribute scene)");
   c->add_option("--tool", args->tool, "hook or forceps")->capture_default_str();
   c->add_flag("--drop-repeats", args->drop_repeats,
-              "remove the samples that repeat the previous pose, jaw and buttons exactly (the rest keep their times)");
+              "remove the samples that repeat the previous pose, jaw and buttons exactly, up to " +
+                  std::to_string(ebh::kStaleRepeatsMax) +
+                  " in a row (stale samples); a longer run (a hold) and the log keep their last sample; the rest keep "
+                  "their times");
   c->callback([args] { run(*args); });
 }
 

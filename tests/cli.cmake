@@ -31,19 +31,19 @@ set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan PROPERTIES LABEL
 # which rate it assumed; a given rate is stored exactly.
 add_test(NAME cli.import.repeats COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/repeats.h5)
 set_tests_properties(cli.import.repeats PROPERTIES PASS_REGULAR_EXPRESSION
-  "repeats.h5: 6 samples, 0.005 s, 1000 Hz\n  2 consecutive samples repeat the previous pose, jaw and buttons exactly \\(--drop-repeats removes 2, keeping 0 holds of more than 10 repeats in a row\\)")
+  "repeats.h5: 6 samples, 0.005 s, 1000 Hz, tool hook\n  2 consecutive samples repeat the previous pose, jaw and buttons exactly \\(--drop-repeats removes 2, keeping 0 holds of more than 10 repeats in a row\\)")
 # The log's last sample repeats the one before it and is kept: the recording keeps its length.
 add_test(NAME cli.import.drop_repeats
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats_openhaptics.txt -o ${EBH_IO_OUT}/dropped.h5 --rate 250 --drop-repeats)
 set_tests_properties(cli.import.drop_repeats PROPERTIES PASS_REGULAR_EXPRESSION
-  "dropped.h5: 4 samples, 0.016 s, 250 Hz\n  dropped 1 sample that repeated the previous pose, jaw and buttons exactly; kept 0 holds"
+  "dropped.h5: 4 samples, 0.016 s, 250 Hz, tool hook\n  dropped 1 sample that repeated the previous pose, jaw and buttons exactly; kept 0 holds"
   FAIL_REGULAR_EXPRESSION "warning")
 # A hold at the end of the log (30 repeats: the device at rest) keeps its last sample, and with it
 # the log's length and the still tool.
 add_test(NAME cli.import.hold_at_end
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/hold_end.csv -o ${EBH_IO_OUT}/hold_end.h5 --drop-repeats)
 set_tests_properties(cli.import.hold_at_end PROPERTIES PASS_REGULAR_EXPRESSION
-  "hold_end.h5: 21 samples, 0.049 s, 1000 Hz\n  dropped 29 samples that repeated the previous pose, jaw and buttons exactly; kept 1 hold \\(more than 10 repeats in a row: the device at rest\\)"
+  "hold_end.h5: 21 samples, 0.049 s, 1000 Hz, tool hook\n  dropped 29 samples that repeated the previous pose, jaw and buttons exactly; kept 1 hold \\(more than 10 repeats in a row: the device at rest\\)"
   FAIL_REGULAR_EXPRESSION "warning")
 add_test(NAME cli.import.assumed_rate
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats_openhaptics.txt -o ${EBH_IO_OUT}/assumed.h5)
@@ -57,14 +57,25 @@ set_tests_properties(cli.import.rate_not_used PROPERTIES PASS_REGULAR_EXPRESSION
 add_test(NAME cli.import.drop_all
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/all_repeats.txt -o ${EBH_IO_OUT}/all.h5 --drop-repeats)
 set_tests_properties(cli.import.drop_all PROPERTIES PASS_REGULAR_EXPRESSION
-  "all.h5: 2 samples, 0.002 s, 1000 Hz\n  dropped 1 sample that repeated")
+  "all.h5: 2 samples, 0.002 s, 1000 Hz, tool hook\n  dropped 1 sample that repeated")
 # A log stamped in milliseconds reads as a rate 1000 times too low: said, naming the unit.
 file(WRITE ${EBH_IO_OUT}/ms.csv "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,0,0,0.001,1,0,0,0\n2,0,0,0.002,1,0,0,0\n")
 add_test(NAME cli.import.times_in_ms COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms.h5)
 set_tests_properties(cli.import.times_in_ms PROPERTIES PASS_REGULAR_EXPRESSION
   "ebh: warning: .*ms.csv: column t: the times give 1 Hz \\(3 samples over 2 s\\), below 10 Hz; a device logs at 100 Hz to 10 kHz: the times look like milliseconds \\(1000 Hz\\); t must be in seconds")
+# With --scene the recording's tool is the scene's; a --tool that differs is recorded, with a warning.
+add_test(NAME cli.import.scene_tool
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_IO_OUT}/scene_tool.h5 --scene tube_forceps)
+set_tests_properties(cli.import.scene_tool PROPERTIES PASS_REGULAR_EXPRESSION "scene_tool.h5: 20 samples, .*, tool forceps\n"
+  FAIL_REGULAR_EXPRESSION "warning: .*--tool")
+add_test(NAME cli.import.tool_not_the_scenes
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_IO_OUT}/tool_hook.h5 --scene tube_forceps
+    --tool hook)
+set_tests_properties(cli.import.tool_not_the_scenes PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*sample_openhaptics.txt: --tool hook, but the scene's tool is a forceps: the recording says hook.*tool_hook.h5: 20 samples, .*, tool hook\n")
 set_property(TEST cli.import.repeats cli.import.drop_repeats cli.import.hold_at_end cli.import.assumed_rate
-  cli.import.rate_not_used cli.import.drop_all cli.import.times_in_ms APPEND PROPERTY LABELS cli)
+  cli.import.rate_not_used cli.import.drop_all cli.import.times_in_ms cli.import.scene_tool
+  cli.import.tool_not_the_scenes APPEND PROPERTY LABELS cli)
 
 # ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py
 # writes it: peak force 1.52 N, one contact episode, one tick over 1 ms) and unreadable inputs.

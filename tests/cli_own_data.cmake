@@ -15,7 +15,7 @@ add_test(NAME cli.own_data.import
   COMMAND ${EBH_BIN} import ${EBH_OWN_LOG} -o ${EBH_OWN_OUT}/press.h5 --rate 1000 --unit cm
     --tool-transform 0,0,-4,180,0,0 --drop-repeats --scene ${EBH_OWN_SCENE})
 set_tests_properties(cli.own_data.import PROPERTIES FIXTURES_SETUP own_data_recording FAIL_REGULAR_EXPRESSION "warning"
-  PASS_REGULAR_EXPRESSION "press.h5: 1335 samples, 2 s, 1000 Hz\n  dropped 666 samples that repeated")
+  PASS_REGULAR_EXPRESSION "press.h5: 1335 samples, 2 s, 1000 Hz, tool hook\n  dropped 666 samples that repeated")
 add_test(NAME cli.own_data.replay
   COMMAND ${EBH_BIN} replay ${EBH_OWN_SCENE} ${EBH_OWN_OUT}/press.h5 -o ${EBH_OWN_OUT}/press_replay.h5)
 set_tests_properties(cli.own_data.replay PROPERTIES FIXTURES_REQUIRED own_data_recording FIXTURES_SETUP own_data_replay

@@ -22,7 +22,7 @@
 namespace {
 
 struct ImportArgs {
-  std::string log, output, format, unit, transform, tool_transform, scene, tool = "hook";
+  std::string log, output, format, unit, transform, tool_transform, scene, tool;  // tool: empty, the default
   std::optional<double> rate_hz;
   bool drop_repeats = false;
 };
@@ -32,7 +32,8 @@ void run(const ImportArgs& a) {
   if (a.format == "openhaptics") opt.format = ebh::LogFormat::openhaptics;
   else if (a.format == "csv") opt.format = ebh::LogFormat::csv;
   else if (!a.format.empty()) throw ebh::InputError("--format: '" + a.format + "' is not openhaptics or csv");
-  if (a.tool != "hook" && a.tool != "forceps") throw ebh::InputError("--tool: '" + a.tool + "' is not hook or forceps");
+  if (!a.tool.empty() && a.tool != "hook" && a.tool != "forceps")
+    throw ebh::InputError("--tool: '" + a.tool + "' is not hook or forceps");
   // The recording names the scene it is replayed with: a known scene name or a scene file.
   std::filesystem::path scene_file;
   if (!a.scene.empty()) {
@@ -63,7 +64,12 @@ void run(const ImportArgs& a) {
   if (scene) mesh_box = ebh::bounding_box(scene->physical.vertices);
   // A scene file is named relative to the recording's folder, where readers look first.
   opt.scene = scene_file.empty() ? a.scene : ebh::scene_attribute_for(a.scene, scene_file, a.output);
-  opt.tool = a.tool;
+  // The tool the log's device held: by default the scene's (a forceps scene's log is a forceps
+  // log), else a hook. One given that differs from the scene's is recorded as given, with a warning,
+  // as replay warns of a forceps log on a hook scene: the scene's tool is what a replay moves.
+  const char* scene_tool =
+      !scene ? nullptr : scene->spec.tool.kind == ebh::ToolSpec::Kind::Forceps ? "forceps" : "hook";
+  opt.tool = !a.tool.empty() ? a.tool : scene_tool ? scene_tool : "hook";
   opt.drop_repeats = a.drop_repeats;
   ebh::ImportReport report;
   ebh::Recording rec = ebh::import_log(a.log, opt, &report);
@@ -77,11 +83,17 @@ void run(const ImportArgs& a) {
                  ebh::cli::format_number(*a.rate_hz).c_str());
   if (!report.rate_warning.empty())
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), report.rate_warning.c_str());
+  if (scene_tool && opt.tool != scene_tool)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: --tool %s, but the scene's tool is a %s: the recording says %s, and a replay with "
+                 "this scene moves a %s (without --tool the recording takes the scene's tool)\n",
+                 a.log.c_str(), opt.tool.c_str(), scene_tool, opt.tool.c_str(), scene_tool);
   if (mesh_box)
     if (auto w = ebh::check_recording_scale(rec, mesh_box->lo, mesh_box->hi, log_unit))
       std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   if (auto w = ebh::check_recording_speed(rec)) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
-  std::printf("%s: %zu samples, %.6g s, %.10g Hz\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz);
+  std::printf("%s: %zu samples, %.6g s, %.10g Hz, tool %s\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz,
+              rec.tool.c_str());
   // A hold (more than kStaleRepeatsMax repeats in a row: the device at rest) keeps its last sample.
   const auto count = [](std::size_t n, const char* one, const char* many) {
     return std::to_string(n) + " " + (n == 1 ? one : many);
@@ -114,7 +126,9 @@ void setup(CLI::App& root) {
                 "log tool frame -> ebh's, applied in the tool's frame (p' = p + q t, q' = q q_T): \"x,y,z,rx,ry,rz\" "
                 "(translation in the log's unit, rotation vector in degrees)");
   c->add_option("--scene", args->scene, "scenario to replay it with (root attribute scene)");
-  c->add_option("--tool", args->tool, "hook or forceps")->capture_default_str();
+  c->add_option("--tool", args->tool,
+                "the tool the log's device held, hook or forceps (root attribute tool; default: the scene's tool with "
+                "--scene, else hook)");
   c->add_flag("--drop-repeats", args->drop_repeats,
               "remove the samples that repeat the previous pose, jaw and buttons exactly, up to " +
                   std::to_string(ebh::kStaleRepeatsMax) +

@@ -574,6 +574,14 @@ foreach(v "column;nope;--recording: nope: no such recording" "all;${PROJECT_SOUR
       -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
   set_tests_properties(cli.validate.recording_${name}_${rname} PROPERTIES LABELS "cli;validate")
 endforeach()
+# --full is refused by a validation that has no long form (it would run its one form and pass).
+foreach(name column hertz)
+  add_test(NAME cli.validate.full_${name}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};validate;${name};--full"
+      "-DEXPECT=^ebh: error: --full: the ${name} validation has no full form \\(--full is for contact, coupling and stability\\)"
+      -DSTATUS=1 -DNO_STDOUT=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.validate.full_${name} PROPERTIES LABELS "cli;validate")
+endforeach()
 add_test(NAME cli.validate.column_json COMMAND ${EBH_BIN} validate column --json)
 set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION "\"passed\": true" LABELS cli)
 

@@ -252,7 +252,7 @@ ValidationResult run_contact(const ValidationOptions& options) {
 Validation contact_validation() {
   return {"contact",
           "push-through and sliding with vertex and surface contact: force monotonic in depth, penetration, ripple",
-          run_contact};
+          run_contact, /*replays_recordings=*/false, /*has_full_form=*/true};
 }
 
 }  // namespace ebh

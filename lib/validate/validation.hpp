@@ -22,7 +22,9 @@ struct ValidationResult {
   Json to_json() const;
 };
 
-/// What `ebh validate` passes to a case (cases that have no use for an option ignore it).
+/// What `ebh validate` passes to a case. `ebh validate` refuses --recording and --full when no
+/// chosen case uses them (Validation::replays_recordings, has_full_form); --backend is ignored
+/// where there is no iterative solver to place.
 struct ValidationOptions {
   bool full = false;            ///< the long form of a stress matrix (--full)
   std::string backend = "cpu";  ///< cpu | cuda (--backend)
@@ -34,6 +36,7 @@ struct Validation {
   std::string description;  ///< one line: what is compared with what
   std::function<ValidationResult(const ValidationOptions&)> run;
   bool replays_recordings = false;  ///< takes ValidationOptions::recordings (--recording)
+  bool has_full_form = false;       ///< reads ValidationOptions::full (--full)
 };
 
 /// Every validation, in the table's order.

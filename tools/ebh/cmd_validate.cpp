@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "core/error.hpp"
@@ -20,26 +21,41 @@ struct Options {
   ebh::ValidationOptions validation;
 };
 
+/// The validations that take an option ("coupling and stability"; "contact, coupling and stability").
+std::string takers(bool ebh::Validation::*takes) {
+  std::vector<std::string> names;
+  for (const ebh::Validation& v : ebh::validations())
+    if (v.*takes) names.push_back(v.name);
+  std::string out;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    out += (i == 0 ? "" : i + 1 == names.size() ? " and " : ", ") + names[i];
+  return out;
+}
+
+bool any_takes(const std::vector<const ebh::Validation*>& chosen, bool ebh::Validation::*takes) {
+  return std::any_of(chosen.begin(), chosen.end(), [takes](const ebh::Validation* v) { return v->*takes; });
+}
+
 /// --recording: each one a recording that reads, and a chosen validation that replays it, checked
 /// before any validation runs (an unknown name would otherwise surface after the others ran, and
-/// a validation with no recordings would ignore it).
-void check_recordings(const std::vector<std::string>& recordings, const std::vector<const ebh::Validation*>& chosen) {
+/// a validation with no recordings would ignore it). --full: a chosen validation with a long form
+/// (another would run its one form and pass as if the long one had).
+void check_options(const ebh::ValidationOptions& o, const std::vector<const ebh::Validation*>& chosen) {
   using namespace ebh;
-  if (recordings.empty()) return;
-  for (const std::string& r : recordings) {
+  for (const std::string& r : o.recordings) {
     try {
       (void)read_replay_recording(r);
     } catch (const InputError& e) {
       throw InputError(std::string("--recording: ") + e.what());
     }
   }
-  if (std::none_of(chosen.begin(), chosen.end(), [](const Validation* v) { return v->replays_recordings; })) {
-    std::string takers;
-    for (const Validation& v : validations())
-      if (v.replays_recordings) takers += (takers.empty() ? "" : " and ") + v.name;
-    throw InputError("--recording " + recordings.front() + ": the " + chosen.front()->name +
-                     " validation replays no recording (--recording is for " + takers + ")");
-  }
+  if (!o.recordings.empty() && !any_takes(chosen, &Validation::replays_recordings))
+    throw InputError("--recording " + o.recordings.front() + ": the " + chosen.front()->name +
+                     " validation replays no recording (--recording is for " + takers(&Validation::replays_recordings) +
+                     ")");
+  if (o.full && !any_takes(chosen, &Validation::has_full_form))
+    throw InputError("--full: the " + chosen.front()->name + " validation has no full form (--full is for " +
+                     takers(&Validation::has_full_form) + ")");
 }
 
 void run(const Options& o) {
@@ -58,7 +74,7 @@ void run(const Options& o) {
   } else {
     throw InputError("validate: no validation named '" + o.name + "' (see ebh validate --list)");
   }
-  check_recordings(o.validation.recordings, chosen);
+  check_options(o.validation, chosen);
   bool all_passed = true;
   Json results = Json::array();
   for (const Validation* v : chosen) {
@@ -81,7 +97,7 @@ void setup(CLI::App& root) {
   cmd->add_option("name", opts->name, "validation name, or 'all'");
   cmd->add_flag("--json", opts->json, "print results as JSON (an array of {name, error, tolerance, passed, data})");
   cmd->add_flag("--list", opts->list, "list the validations");
-  cmd->add_flag("--full", opts->validation.full, "the long form of the stress matrices (stability: every recording, mesh, solver; coupling: every recording whole; contact: every speed and surface)");
+  cmd->add_flag("--full", opts->validation.full, "the long form of the stress matrices (stability: every recording, mesh, solver; coupling: every recording whole; contact: every speed and surface); refused by the other cases");
   cmd->add_option("--backend", opts->validation.backend, "cpu or cuda: where the iterative solvers run (stability, coupling)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
   cmd->add_option("--recording", opts->validation.recordings, "replay only these recordings (stability, coupling; repeat the option)");

@@ -27,6 +27,24 @@ add_test(NAME cli.synth.bad_plan
     "-DEXPECT=^ebh: error: .*bad_plan.yaml:[0-9]+: waypoints\\[2\\].t: times must be strictly increasing"
     -DOUTPUT=${EBH_IO_OUT}/bad_plan.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan PROPERTIES LABELS cli)
+# A plan names a scene file relative to itself; the recording, written two folders further down,
+# names the same file relative to its own folder (where readers look; a name stays a name:
+# cli.synth.tube_insert), and a path that names no file is refused.
+set(EBH_PLAN_SCENE ${EBH_IO_OUT}/plan_scene)
+file(MAKE_DIRECTORY ${EBH_PLAN_SCENE}/plans ${EBH_PLAN_SCENE}/mesh)
+file(WRITE ${EBH_PLAN_SCENE}/mesh/organ.yaml "# only its place matters to synth\n")
+set(ebh_plan_waypoints "tool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 10], rotvec_deg: [180, 0, 0]}\n  - {t: 0.01, position_mm: [0, 0, 9]}\n")
+file(WRITE ${EBH_PLAN_SCENE}/plans/relative.yaml "scene: ../mesh/organ.yaml\n${ebh_plan_waypoints}")
+file(WRITE ${EBH_PLAN_SCENE}/plans/missing.yaml "# the scene is not beside the plan\nscene: organ.yaml\n${ebh_plan_waypoints}")
+add_test(NAME cli.synth.scene_relative_to_recording
+  COMMAND ${EBH_BIN} synth ${EBH_PLAN_SCENE}/plans/relative.yaml -o ${EBH_PLAN_SCENE}/out/sub/deeper/press.h5)
+set_tests_properties(cli.synth.scene_relative_to_recording PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "press.h5: 11 samples, 0.010 s at 1000 Hz, scene \\.\\./\\.\\./\\.\\./mesh/organ.yaml, tool hook")
+add_test(NAME cli.synth.scene_missing
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_PLAN_SCENE}/plans/missing.yaml;-o;${EBH_PLAN_SCENE}/missing.h5"
+    "-DEXPECT=^ebh: error: .*plans/missing.yaml:2: scene: .*plans/organ.yaml: scene file not found \\(a path in a plan is relative to the plan's folder\\)"
+    -DOUTPUT=${EBH_PLAN_SCENE}/missing.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.synth.scene_missing PROPERTIES LABELS cli)
 # Repeated samples are reported and, with --drop-repeats, removed; a log without times says
 # which rate it assumed; a given rate is stored exactly.
 add_test(NAME cli.import.repeats COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/repeats.h5)

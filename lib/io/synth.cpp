@@ -92,6 +92,7 @@ SynthPlan read_plan(const std::string& path) {
   for (const char* k : {"scene", "tool", "waypoints"})
     if (!root[k]) throw InputError(path + ": missing key '" + k + "'");
   plan.scene = r.string(root["scene"], "scene");
+  if (root["scene"].Mark().line >= 0) plan.scene_line = root["scene"].Mark().line + 1;
   plan.tool = r.string(root["tool"], "tool");
   if (plan.tool != "hook" && plan.tool != "forceps") r.fail(root["tool"], "tool", "expected hook or forceps");
   if (root["description"]) plan.description = r.string(root["description"], "description");

@@ -25,7 +25,10 @@ struct PlanWaypoint {
 
 struct SynthPlan {
   std::string file;  ///< the plan file (messages name it)
+  /// The recording's scene: a name as given, or a scene file's path as given (relative to the
+  /// plan's folder; `ebh synth` stores it relative to the recording's, scene_attribute_for).
   std::string scene, tool, description;
+  int scene_line = 0;  ///< the plan's line of `scene` (1 based; 0: unknown), for messages
   double rate_hz = 1000;
   double tremor_amplitude = 0.1e-3;         ///< m, per axis, amplitude of the equivalent single sinusoid
   double tremor_band_lo = 8, tremor_band_hi = 12;  ///< Hz

@@ -1187,6 +1187,12 @@ std::string scene_attribute_for(const std::string& given, const fs::path& scene_
   return rel.empty() ? fs::absolute(scene_file, ec).lexically_normal().string() : rel.string();
 }
 
+std::string scene_attribute_from(const std::string& given, const fs::path& folder, const fs::path& output) {
+  if (is_data_name(given)) return given;
+  const fs::path path(given);
+  return scene_attribute_for(given, resolve_scene_path((path.is_relative() ? folder / path : path).string()), output);
+}
+
 }  // namespace ebh
 
 namespace ebh {

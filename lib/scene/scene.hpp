@@ -473,6 +473,13 @@ std::filesystem::path resolve_recording_scene(const std::string& attribute, cons
 std::string scene_attribute_for(const std::string& given, const std::filesystem::path& scene_file,
                                 const std::filesystem::path& output);
 
+/// What `ebh synth` stores for a plan's `scene` in a recording written to `output`: a name as given
+/// (not looked up: a plan may name a scene not made yet); a scene file's path, relative to `folder`
+/// (the plan's) unless absolute, that must name a file (resolve_scene_path's InputError) and is
+/// stored as scene_attribute_for stores it, relative to the output's folder.
+std::string scene_attribute_from(const std::string& given, const std::filesystem::path& folder,
+                                 const std::filesystem::path& output);
+
 /// The same lookup for any data folder: NAME (no '/', no extension) finds FOLDER/NAME+EXTENSION in
 /// $EBH_DATA_DIR, the working directory and the source tree; anything else must be an existing
 /// file. `what` names the thing in messages ("scene", "recording").

@@ -818,6 +818,30 @@ TEST(ResolveScenePath, ARecordingsSceneIsFoundBesideIt) {
   }
 }
 
+/// A synthesis plan names a scene file relative to itself; the recording names the same file
+/// relative to its own folder, wherever it is written.
+TEST(ResolveScenePath, APlansSceneIsStoredRelativeToTheRecording) {
+  const fs::path root = write_temp("marker", "").parent_path() / "plan_scene";
+  fs::create_directories(root / "mesh");
+  fs::create_directories(root / "plans");
+  fs::create_directories(root / "out" / "sub" / "deeper");
+  std::ofstream(root / "mesh" / "organ.yaml") << "# a scene\n";
+  const fs::path plans = root / "plans", rec = root / "out" / "sub" / "deeper" / "press.h5";
+  const std::string stored = scene_attribute_from("../mesh/organ.yaml", plans, rec);
+  EXPECT_EQ(stored, "../../../mesh/organ.yaml");
+  EXPECT_EQ(resolve_recording_scene(stored, rec.string()), (root / "mesh" / "organ.yaml").lexically_normal());
+  EXPECT_EQ(scene_attribute_from("../mesh/organ.yaml", plans, plans / "press.h5"), "../mesh/organ.yaml");
+  EXPECT_EQ(scene_attribute_from((root / "mesh" / "organ.yaml").string(), plans, rec), "../../../mesh/organ.yaml");
+  EXPECT_EQ(scene_attribute_from("tube", plans, rec), "tube");          // a name stays one
+  EXPECT_EQ(scene_attribute_from("own", plans, rec), "own");            // not looked up
+  try {
+    scene_attribute_from("organ.yaml", plans, rec);  // a path, and not beside the plan
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), (plans / "organ.yaml").string() + ": scene file not found");
+  }
+}
+
 TEST(ResolveScenePath, Errors) {
   EXPECT_EQ(resolve_scene_path(data("scene/cube.yaml").string()), data("scene/cube.yaml"));
   try {

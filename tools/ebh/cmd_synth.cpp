@@ -3,6 +3,7 @@
 // docs/FORMATS.md.
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -14,6 +15,7 @@
 #include "io/recording.hpp"
 #include "io/synth.hpp"
 #include "options.hpp"
+#include "scene/scene.hpp"
 
 namespace {
 
@@ -33,7 +35,17 @@ void run(const SynthArgs& a) {
   ebh::check_outputs({{a.output, "the recording to write"}}, {{a.plan, "the plan"}});
   ebh::SynthPlan plan = ebh::read_plan(a.plan);
   if (a.rate_hz) plan.rate_hz = *a.rate_hz;
+  // A scene file's path is relative to the plan; the recording names it relative to itself, where
+  // readers look first (as `ebh import --scene` does), so that it names the same file.
+  std::string scene;
+  try {
+    scene = ebh::scene_attribute_from(plan.scene, std::filesystem::path(a.plan).parent_path(), a.output);
+  } catch (const ebh::InputError& e) {
+    throw ebh::InputError(a.plan + (plan.scene_line > 0 ? ":" + std::to_string(plan.scene_line) : std::string()) +
+                          ": scene: " + e.what() + " (a path in a plan is relative to the plan's folder)");
+  }
   ebh::Recording rec = ebh::synthesize(plan, a.seed);
+  rec.scene = scene;
   // The plan's file name only (no directories), so regenerated files do not depend on where the
   // repository lives.
   char rate[32];

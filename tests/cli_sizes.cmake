@@ -54,8 +54,16 @@ add_test(NAME cli.scene.refine_too_large
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;cholecystectomy;--level;3;-o;${Z}/chole_l3.yaml"
     "-DEXPECT=^ebh: error: .*cholecystectomy.yaml: level 3 makes 22.5 million tets and 3.85 million vertices .*GB to write and .*GB to replay, over the limit of 8 million tets \\(--max-tets raises it\\)"
     -DOUTPUT=${Z}/chole_l3.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
+# --max-tets at its largest lifts the limit, not what a mesh can index: a count past INT64_MAX
+# (5 tets x 8^22) is refused, not saturated into the limit and refined until the memory is gone.
+add_test(NAME cli.scene.refine_no_limit
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;${Z}/own/cube.yaml;--level;22;--max-tets;9223372036854775807;-o;${Z}/no_limit.yaml"
+    "-DEXPECT=^ebh: error: .*cube.yaml: level 22 makes 3.69e\\+20 tets .*, over the 2147483647 tets or vertices a mesh can index \\(its indices are 32-bit\\)"
+    -DOUTPUT=${Z}/no_limit.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
+set_tests_properties(cli.scene.refine_no_limit PROPERTIES TIMEOUT 60)
 set_tests_properties(cli.scene.refine_level_zero cli.scene.refine_missing_scene cli.scene.refine_unwritable
-  cli.scene.refine_over_its_mesh cli.scene.refine_over_its_scene cli.scene.refine_too_large PROPERTIES LABELS "cli;scene")
+  cli.scene.refine_over_its_mesh cli.scene.refine_over_its_scene cli.scene.refine_too_large cli.scene.refine_no_limit
+  PROPERTIES LABELS "cli;scene")
 
 # ebh bench sizes, short: levels 0-1 of the tube, 0.1 s each; JSON and the plot.
 add_test(NAME cli.bench.sizes
@@ -83,8 +91,14 @@ add_test(NAME cli.bench.sizes_start_past_end
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--start;1e9"
     "-DEXPECT=^ebh: error: --start 1000000000: the recording .*tube_insert.h5 is 10 s long; start before its end"
     -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
+# The same for the sizes of a bench, before any size runs.
+add_test(NAME cli.bench.sizes_no_limit
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0-20;--max-tets;9223372036854775807"
+    "-DEXPECT=^ebh: error: --levels: level 20 of .*tube.yaml makes 9.29e\\+21 tets, over the 2147483647 tets or vertices a mesh can index"
+    -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
+set_tests_properties(cli.bench.sizes_no_limit PROPERTIES TIMEOUT 60)
 set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_no_window cli.bench.sizes_bad_override
-  cli.bench.sizes_start_past_end PROPERTIES LABELS "cli;bench")
+  cli.bench.sizes_start_past_end cli.bench.sizes_no_limit PROPERTIES LABELS "cli;bench")
 
 # table1 and bench sizes on the CUDA backend where none can be used (no device visible, or a build
 # without CUDA): one line that says so, exit status 1.

@@ -194,15 +194,19 @@ void check_size_bench(const SizeBenchOptions& o) {
   TetMesh mesh = read_msh(spec.physical_mesh);
   remove_unreferenced_vertices(mesh);
   const RefinedCounts c = refined_counts(mesh, o.last_level);
-  if (c.tets > max_tets)
+  if (!refined_within(c, max_tets))
     throw InputError("--levels: level " + std::to_string(o.last_level) + " of " + scene_file.string() + " makes " +
                      (c.tets_estimate < 1e15 ? std::to_string(c.tets) : [&] {
                        char buf[32];
                        std::snprintf(buf, sizeof buf, "%.3g", c.tets_estimate);
-                       return std::string(buf);
+                       return std::isfinite(c.tets_estimate) ? std::string(buf) : std::string("over 1e308");
                      }()) +
-                     " tets, over the limit of " + std::to_string(max_tets) +
-                     " (--max-tets raises it; `ebh scene refine` says the memory it takes)");
+                     " tets, " +
+                     (max_tets < kMaxMeshElements && c.tets_estimate > static_cast<double>(max_tets)
+                          ? "over the limit of " + std::to_string(max_tets) +
+                                " (--max-tets raises it; `ebh scene refine` says the memory it takes)"
+                          : "over the " + std::to_string(kMaxMeshElements) +
+                                " tets or vertices a mesh can index (its indices are 32-bit)"));
 }
 
 std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progress)(const SizeResult&)) {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <utility>
@@ -162,6 +163,7 @@ RefinedCounts refined_counts(const TetMesh& mesh, int levels) {
     T *= 8;
     B *= 4;
     L *= 4;
+    if (std::isinf(T) && std::isinf(V)) break;  // past what a double holds; a huge `levels` ends here
   }
   RefinedCounts c;
   c.vertices = saturating(V);

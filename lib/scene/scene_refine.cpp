@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <optional>
 #include <vector>
@@ -18,9 +19,11 @@
 namespace ebh {
 namespace {
 
-/// "22.5 million", "351 thousand", "8057"; "5.4e+93" beyond a million million.
+/// "22.5 million", "351 thousand", "8057"; "5.4e+93" beyond a million million; "over 1e308" past
+/// what a double holds.
 std::string count_words(double n) {
   char buf[48];
+  if (!std::isfinite(n)) return "over 1e308";
   if (n >= 1e12) std::snprintf(buf, sizeof buf, "%.3g", n);
   else if (n >= 1'000'000) std::snprintf(buf, sizeof buf, "%.3g million", n / 1e6);
   else if (n >= 10'000) std::snprintf(buf, sizeof buf, "%.3g thousand", n / 1e3);
@@ -28,13 +31,21 @@ std::string count_words(double n) {
   return buf;
 }
 
-std::string gigabytes(double bytes) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.2g GB", bytes / 1e9);
+/// "about 1.4 GB"; "over 1e299 GB" past what a double holds.
+std::string about_gigabytes(double bytes) {
+  if (!std::isfinite(bytes)) return "over 1e299 GB";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "about %.2g GB", bytes / 1e9);
   return buf;
 }
 
 }  // namespace
+
+bool refined_within(const RefinedCounts& c, std::int64_t max_tets) {
+  // Below 2^53 the estimates are the counts exactly, and so is the limit as a double.
+  const double tets = static_cast<double>(std::min(max_tets, kMaxMeshElements));
+  return c.tets_estimate <= tets && c.vertices_estimate <= static_cast<double>(kMaxMeshElements);
+}
 
 RefineMemory refine_memory(const RefinedCounts& c) {
   // The estimates, which go past the counts' INT64_MAX (a level of 99 asks for ~1e93 tets).
@@ -67,13 +78,17 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
   RefinedScene r;
   r.before = refined_counts(mesh, 0);
   r.after = refined_counts(mesh, levels);
-  if (r.after.tets > max_tets) {
+  if (!refined_within(r.after, max_tets)) {
     const RefineMemory m = refine_memory(r.after);
+    // The user's limit, or else what a mesh can index (which no --max-tets raises).
+    const bool over_max = max_tets < kMaxMeshElements && r.after.tets_estimate > static_cast<double>(max_tets);
     throw InputError(scene.string() + ": level " + std::to_string(levels) + " makes " + count_words(r.after.tets_estimate) +
                      " tets and " + count_words(r.after.vertices_estimate) + " vertices (" + count_words(static_cast<double>(r.before.tets)) +
-                     " tets x 8^" + std::to_string(levels) + "): about " + gigabytes(m.write_bytes) + " to write and " +
-                     gigabytes(m.replay_bytes) + " to replay, over the limit of " + count_words(static_cast<double>(max_tets)) +
-                     " tets (--max-tets raises it)");
+                     " tets x 8^" + std::to_string(levels) + "): " + about_gigabytes(m.write_bytes) + " to write and " +
+                     about_gigabytes(m.replay_bytes) + " to replay, " +
+                     (over_max ? "over the limit of " + count_words(static_cast<double>(max_tets)) + " tets (--max-tets raises it)"
+                               : "over the " + std::to_string(kMaxMeshElements) +
+                                     " tets or vertices a mesh can index (its indices are 32-bit)"));
   }
   // The kept virtual mesh: the scene's OBJ as it is, or the boundary before refinement.
   std::optional<SurfaceMesh> kept;

@@ -21,6 +21,7 @@
 // at the edge midpoints keeps the boundary's shape, so the kept mesh lies on the refined boundary.
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <string>
 
 #include "mesh/refine.hpp"
@@ -31,6 +32,14 @@ namespace ebh {
 /// million tets take about 1.4 GB to write and 6.5 GB to replay on the CPU (refine_memory); the
 /// paper's largest scene, cholecystectomy, reaches 2.8 million at level 2 and 22.5 million at 3.
 inline constexpr std::int64_t kMaxRefinedTets = 8'000'000;
+
+/// The most tets or vertices a mesh holds, whatever --max-tets says: it indexes them with ints.
+inline constexpr std::int64_t kMaxMeshElements = std::numeric_limits<int>::max();
+
+/// Whether a mesh of the counts `after` (refined_counts) is within `max_tets` tets and within
+/// kMaxMeshElements tets and vertices. Judged on the counts' double estimates, which do not
+/// saturate: a count past INT64_MAX is above every limit, INT64_MAX among them.
+bool refined_within(const RefinedCounts& after, std::int64_t max_tets);
 
 /// Host memory a refined mesh takes, from measurements (refine_memory's comment says where).
 struct RefineMemory {
@@ -52,7 +61,7 @@ struct RefinedScene {
 /// Refines the physical mesh of the scene file `scene` (and an OBJ virtual mesh, unless
 /// keep_virtual) `levels` times and returns the files of a scene `out` that loads it.
 /// `scene_argument` is how the user named the scene (for the new file's header). Throws InputError
-/// for levels < 1, a scene that does not load, or a refined mesh of more than max_tets tets (the
+/// for levels < 1, a scene that does not load, or a refined mesh that refined_within refuses (the
 /// message gives the sizes and memory).
 RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const std::filesystem::path& out,
                           std::int64_t max_tets = kMaxRefinedTets, const std::string& scene_argument = "",

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <tuple>
@@ -11,6 +12,7 @@
 #include "../mesh/test_util.hpp"
 #include "mesh/boundary.hpp"
 #include "mesh/lumped_masses.hpp"
+#include "mesh/mesh_io.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_refine.hpp"
 
@@ -179,6 +181,36 @@ TEST(SceneRefine, BadLevelAndOverTheLimit) {
     ADD_FAILURE() << "level 99 accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("level 99 makes 1.27e+90 tets and 2.12e+89 vertices (5 tets x 8^99): about 2.2e+83 GB to write"), std::string::npos) << e.what();
+  }
+}
+
+/// --max-tets at INT64_MAX lifts the user's limit, not what a mesh can hold: the cube's 5 tets at
+/// level 21 make 4.6e19, past INT64_MAX, whose saturated count once equalled the limit and passed
+/// (and the refinement then ran until the memory was gone); 5.4e9 at level 10 fit an int64 but not
+/// the mesh's 32-bit indices.
+TEST(SceneRefine, NoMaxTetsRaisesTheLimitPastWhatAMeshIndexes) {
+  constexpr std::int64_t kNoLimit = std::numeric_limits<std::int64_t>::max();
+  const TetMesh cube = read_msh(load_scene_spec(data("scene/cube.yaml")).physical_mesh);
+  EXPECT_TRUE(refined_within(refined_counts(cube, 9), kNoLimit));  // 671 million tets
+  EXPECT_FALSE(refined_within(refined_counts(cube, 9), 671'088'639));
+  EXPECT_TRUE(refined_within(refined_counts(cube, 9), 671'088'640));
+  // Checked before refine_scene is called: with the old check it would refine.
+  for (const int level : {10, 21, 22})
+    ASSERT_FALSE(refined_within(refined_counts(cube, level), kNoLimit)) << "level " << level;
+  try {
+    refine_scene(data("scene/cube.yaml"), 21, out_dir() / "x.yaml", kNoLimit);
+    ADD_FAILURE() << "level 21 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("level 21 makes 4.61e+19 tets"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("over the 2147483647 tets or vertices a mesh can index (its indices are 32-bit)"),
+              std::string::npos) << e.what();
+  }
+  try {  // past what a double holds: said in words, and at once whatever the level
+    refine_scene(data("scene/cube.yaml"), std::numeric_limits<int>::max(), out_dir() / "x.yaml");
+    ADD_FAILURE() << "level INT_MAX accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("makes over 1e308 tets and over 1e308 vertices"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("): over 1e299 GB to write and over 1e299 GB to replay"), std::string::npos) << e.what();
   }
 }
 

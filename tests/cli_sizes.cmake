@@ -91,14 +91,24 @@ add_test(NAME cli.bench.sizes_start_past_end
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--start;1e9"
     "-DEXPECT=^ebh: error: --start 1000000000: the recording .*tube_insert.h5 is 10 s long; start before its end"
     -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
+# A window running past the recording's end (tube_insert is 10 s long): measures the 0.25 s left,
+# says so as replay does, and reports 0.25 s, not 1.
+add_test(NAME cli.bench.sizes_window_past_end
+  COMMAND ${EBH_BIN} bench sizes --levels 0 --start 9.75 --seconds 1 --json)
+set_tests_properties(cli.bench.sizes_window_past_end PROPERTIES LABELS "cli;bench" PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*tube_insert.h5: the recording ends 0.25 s after --start; measuring those, not --seconds' 1 s\n.*\"start_s\": 9.75,\n +\"seconds\": 0.25,.*\"ticks\": 251,")
 # The same for the sizes of a bench, before any size runs.
 add_test(NAME cli.bench.sizes_no_limit
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0-20;--max-tets;9223372036854775807"
     "-DEXPECT=^ebh: error: --levels: level 20 of .*tube.yaml makes 9.29e\\+21 tets, over the 2147483647 tets or vertices a mesh can index"
     -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
 set_tests_properties(cli.bench.sizes_no_limit PROPERTIES TIMEOUT 60)
+# A missing scene is said first, not that it has no default window.
+add_test(NAME cli.bench.sizes_missing_scene
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--scene;${Z}/no_such/one.yaml"
+    "-DEXPECT=^ebh: error: .*no_such/one.yaml: scene file not found" -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
 set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_no_window cli.bench.sizes_bad_override
-  cli.bench.sizes_start_past_end cli.bench.sizes_no_limit PROPERTIES LABELS "cli;bench")
+  cli.bench.sizes_start_past_end cli.bench.sizes_missing_scene cli.bench.sizes_no_limit PROPERTIES LABELS "cli;bench")
 
 # table1 and bench sizes on the CUDA backend where none can be used (no device visible, or a build
 # without CUDA): one line that says so, exit status 1.

@@ -178,7 +178,7 @@ const std::vector<SizeCost>& size_costs() {
   return costs;
 }
 
-void check_size_bench(const SizeBenchOptions& o) {
+SizeBenchWindow check_size_bench(const SizeBenchOptions& o) {
   if (o.first_level < 0 || o.last_level < o.first_level)
     throw InputError("--levels: expected FIRST-LAST with 0 <= FIRST <= LAST, got " + std::to_string(o.first_level) + "-" +
                      std::to_string(o.last_level));
@@ -189,7 +189,8 @@ void check_size_bench(const SizeBenchOptions& o) {
   const fs::path scene_file = resolve_scene_path(o.scene);
   (void)replay_input_files(o.scene, o.recording, o.overrides);
   const RecordingFile rec = read_replay_recording(o.recording);  // the window, as a replay checks it
-  replay_window(o.start, o.seconds, rec.recording.duration(), rec.path, "--start", "--seconds");
+  const SizeBenchWindow window{
+      rec.path, replay_window(o.start, o.seconds, rec.recording.duration(), rec.path, "--start", "--seconds")};
   const SceneSpec spec = load_scene_spec(scene_file, o.overrides);  // a bad override too
   TetMesh mesh = read_msh(spec.physical_mesh);
   remove_unreferenced_vertices(mesh);
@@ -207,11 +208,12 @@ void check_size_bench(const SizeBenchOptions& o) {
                                 " (--max-tets raises it; `ebh scene refine` says the memory it takes)"
                           : "over the " + std::to_string(kMaxMeshElements) +
                                 " tets or vertices a mesh can index (its indices are 32-bit)"));
+  return window;
 }
 
 std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progress)(const SizeResult&)) {
   // Before any work: the scene, the overrides and the recording are good and every size is within the limit.
-  check_size_bench(o);
+  (void)check_size_bench(o);
   const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
   const fs::path scene_file = resolve_scene_path(o.scene);
   install_interrupt_handlers();

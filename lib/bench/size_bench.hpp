@@ -70,9 +70,17 @@ struct SizeCost {
 };
 const std::vector<SizeCost>& size_costs();
 
+/// The window check_size_bench found: the recording's file and the seconds each size replays
+/// (options.seconds, or fewer where the recording ends sooner, as `ebh replay` cuts its window).
+struct SizeBenchWindow {
+  std::string recording;
+  double seconds = 0;
+};
+
 /// The checks run_size_bench makes before any work (an InputError naming the option, the key or
-/// the file): levels, mode, seconds, the scene with its overrides, the recording, the largest size.
-void check_size_bench(const SizeBenchOptions& o);
+/// the file): levels, mode, seconds, the scene with its overrides, the recording, the window, the
+/// largest size.
+SizeBenchWindow check_size_bench(const SizeBenchOptions& o);
 
 /// Runs the sizes first_level .. last_level in turn (the level-0 scene as it is). `progress`, when
 /// set, is told each size's line as it completes. Throws InputError before any work for a bad

@@ -16,6 +16,7 @@
 #include "render/plot.hpp"
 #include "render/text.hpp"
 #include "replay_common.hpp"
+#include "scene/scene.hpp"
 #include "scene/scene_refine.hpp"
 #include "schedule/replay_output.hpp"
 #include "table1_columns.hpp"
@@ -136,6 +137,8 @@ void run_sizes(const SizesArgs& a) {
   SizeBenchOptions o;
   o.scene = a.scene;
   std::tie(o.first_level, o.last_level) = parse_levels(a.levels);
+  // A scene that is missing is said first, not that it has no default window.
+  (void)resolve_scene_path(a.scene);
   const Table1Window window = table1_window(a.scene.c_str());
   if (!a.recording.empty()) {
     o.recording = a.recording;
@@ -154,7 +157,15 @@ void run_sizes(const SizesArgs& a) {
   check_set_once(a.overrides);
   o.overrides = a.overrides;
   o.keep_virtual = a.keep_virtual;
-  check_size_bench(o);  // a bad option, override or size: one line, before the heading
+  // A bad option, override or size: one line, before the heading.
+  const SizeBenchWindow window_checked = check_size_bench(o);
+  // A window past the recording's end measures what is left of it: said, and reported as measured.
+  if (window_checked.seconds < o.seconds) {
+    std::fprintf(stderr, "ebh: warning: %s: the recording ends %s s after --start; measuring those, not --seconds' %s s\n",
+                 window_checked.recording.c_str(), format_number(window_checked.seconds).c_str(),
+                 format_number(o.seconds).c_str());
+    o.seconds = window_checked.seconds;
+  }
   if (!a.plot.empty()) check_outputs({{a.plot, "the plot"}}, replay_input_files(o.scene, o.recording, o.overrides));
   std::string device = cpu_description();
 #if EBH_HAVE_CUDA

@@ -297,6 +297,10 @@ TEST(UnitSanity, ALogReadInTheWrongUnitNamesTheRightOne) {
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("spans 4.47e-05 m, 1/3.87e+03 of the physical mesh's"), std::string::npos) << *w;
   EXPECT_NE(w->find("likely fix: --unit m"), std::string::npos) << *w;
+  // ... which a tool held still in the tissue (a press held, with tremor) also is: said as such.
+  EXPECT_NE(w->find("; a tool held still at the tissue needs no fix, else likely fix: --unit m"), std::string::npos) << *w;
+  // The cm log read as m lies outside the box: no hold to mention.
+  EXPECT_EQ(check_recording_scale(press_path(1.0), kLo, kHi, 1.0)->find("held still"), std::string::npos);
 }
 
 TEST(UnitSanity, AToolThatNeverMovesIsJudgedByItsPlaceAlone) {

@@ -49,7 +49,7 @@ set_tests_properties(cli.synth.scene_missing PROPERTIES LABELS cli)
 # which rate it assumed; a given rate is stored exactly.
 add_test(NAME cli.import.repeats COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/repeats.h5)
 set_tests_properties(cli.import.repeats PROPERTIES PASS_REGULAR_EXPRESSION
-  "repeats.h5: 6 samples, 0.005 s, 1000 Hz, tool hook\n  2 consecutive samples repeat the previous pose, jaw and buttons exactly \\(--drop-repeats removes 2, keeping 0 holds of more than 10 repeats in a row\\)")
+  "repeats.h5: 6 samples, 0.005 s, 1000 Hz, tool hook\n  2 consecutive samples repeat the previous pose, jaw and buttons exactly \\(--drop-repeats removes 2, keeping 0 holds of repeats lasting more than 10 ms\\)")
 # The log's last sample repeats the one before it and is kept: the recording keeps its length.
 add_test(NAME cli.import.drop_repeats
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats_openhaptics.txt -o ${EBH_IO_OUT}/dropped.h5 --rate 250 --drop-repeats)
@@ -61,7 +61,7 @@ set_tests_properties(cli.import.drop_repeats PROPERTIES PASS_REGULAR_EXPRESSION
 add_test(NAME cli.import.hold_at_end
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/hold_end.csv -o ${EBH_IO_OUT}/hold_end.h5 --drop-repeats)
 set_tests_properties(cli.import.hold_at_end PROPERTIES PASS_REGULAR_EXPRESSION
-  "hold_end.h5: 21 samples, 0.049 s, 1000 Hz, tool hook\n  dropped 29 samples that repeated the previous pose, jaw and buttons exactly; kept 1 hold \\(more than 10 repeats in a row: the device at rest\\)"
+  "hold_end.h5: 21 samples, 0.049 s, 1000 Hz, tool hook\n  dropped 29 samples that repeated the previous pose, jaw and buttons exactly; kept 1 hold \\(repeats lasting more than 10 ms: the device at rest\\)"
   FAIL_REGULAR_EXPRESSION "warning")
 add_test(NAME cli.import.assumed_rate
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats_openhaptics.txt -o ${EBH_IO_OUT}/assumed.h5)
@@ -600,6 +600,13 @@ foreach(name column hertz)
       -DSTATUS=1 -DNO_STDOUT=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
   set_tests_properties(cli.validate.full_${name} PROPERTIES LABELS "cli;validate")
 endforeach()
+# --backend cuda is refused by a validation that runs on the CPU only (it ran there without a word),
+# before the device is looked for.
+add_test(NAME cli.validate.backend_column
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};validate;column;--backend;cuda"
+    "-DEXPECT=^ebh: error: --backend cuda: the column validation runs on the CPU only \\(--backend is for coupling and stability\\)"
+    -DSTATUS=1 -DNO_STDOUT=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.validate.backend_column PROPERTIES LABELS "cli;validate")
 add_test(NAME cli.validate.column_json COMMAND ${EBH_BIN} validate column --json)
 set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION "\"passed\": true" LABELS cli)
 

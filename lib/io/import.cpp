@@ -465,7 +465,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   r.rate_assumed = !has_t && !opt.rate_hz;
   r.rate_warning = rate_warning;
   // Runs of repeats: sample i is new, samples i+1..j repeat it. A short run is stale samples of a
-  // device polled faster than it updates; a run of more than kStaleRepeatsMax is a hold (the
+  // device polled faster than it updates; a run lasting more than kStaleRunMaxS is a hold (the
   // device at rest) and keeps its last sample, so a replay holds still until the device moves
   // instead of creeping toward the next new sample; the log's last sample is kept, so the
   // recording keeps its length.
@@ -480,8 +480,11 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
     keep.push_back(i);
     const std::size_t run = j - i;
     r.repeats += run;
-    if (run > kStaleRepeatsMax) ++r.holds;
-    if (run > 0 && (run > kStaleRepeatsMax || j + 1 == rec.size())) keep.push_back(j);
+    // A quarter of the log's interval absorbs its times' jitter and round-off: at 1 kHz a run of
+    // 10 repeats (10 ms) is stale, one of 11 a hold.
+    const bool hold = run > 0 && rec.t[j] - rec.t[i] > kStaleRunMaxS + 0.25 / rec.rate_hz;
+    if (hold) ++r.holds;
+    if (run > 0 && (hold || j + 1 == rec.size())) keep.push_back(j);
     i = j + 1;
   }
   r.removable = rec.size() - keep.size();

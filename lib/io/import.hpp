@@ -12,7 +12,7 @@
 //   x, y, z and the quaternion are required, t optional (else i / rate_hz), jaw defaults to 1,
 //   buttons to 0. With t, the recording's rate_hz is (samples - 1) / span (nominal_rate).
 // Samples that repeat the previous one exactly (pose, jaw and buttons) are counted. With
-// drop_repeats the stale ones (runs of at most kStaleRepeatsMax: a device polled faster than it
+// drop_repeats the stale ones (runs of at most kStaleRunMaxS: a device polled faster than it
 // updates) are removed; a longer run (a hold: the device at rest) keeps its last sample, and so
 // does the log's end; the samples kept keep their times.
 // Positions are scaled by the unit (openhaptics default mm, csv default m), then the optional
@@ -34,7 +34,7 @@ enum class LogFormat { openhaptics, csv };
 struct ImportOptions {
   std::optional<LogFormat> format;  ///< nullopt: log_format_of(path)
   std::optional<double> rate_hz;    ///< sample rate of a log without times; nullopt: kAssumedLogRateHz
-  bool drop_repeats = false;        ///< remove stale repeated samples (kStaleRepeatsMax)
+  bool drop_repeats = false;        ///< remove stale repeated samples (kStaleRunMaxS)
   std::optional<double> unit;       ///< metres per log length unit; nullopt: the format's default
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
@@ -54,24 +54,26 @@ inline constexpr double kAssumedLogRateHz = 1000;
 inline constexpr double kMinPlausibleLogRateHz = 10;
 inline constexpr double kDeviceRateLowHz = 100, kDeviceRateHighHz = 10e3;
 
-/// A run of samples that repeat the one before them exactly is, up to this many samples, stale:
-/// a device polled faster than it updates logs its last sample again, (poll rate / update rate -
-/// 1) times in a row: once for a 500 Hz device logged at 1 kHz, 9 times for the slowest device
-/// (kDeviceRateLowHz, 100 Hz) at the usual 1 kHz (kAssumedLogRateHz). A longer run, lasting more
-/// than 10 sample intervals, is a hold: the device updated and reported the same sample again, at
-/// rest (an encoder-quantised device logs the exact same sample while it is still). drop_repeats
-/// removes stale samples, so a replay interpolates between real ones instead of holding and
-/// jumping, and keeps a hold's last sample, so a replay holds still until the device moves instead
-/// of creeping from the hold's first sample toward the next new one. Judged wrongly either way, the
-/// cost is small: a hold of at most 10 intervals (10 ms at 1 kHz) becomes a creep, or the stale
-/// run of a slower device one hold and jump.
-inline constexpr std::size_t kStaleRepeatsMax = 10;
+/// A run of samples that repeat the one before them exactly is, while it lasts at most this long
+/// (s), stale: a device polled faster than it updates logs its last sample again until its next
+/// update, (poll rate / update rate - 1) times in a row: once for a 500 Hz device logged at 1 kHz,
+/// 9 times for the slowest device (kDeviceRateLowHz, 100 Hz) at 1 kHz, 99 times at 10 kHz; none
+/// repeats a sample for longer than its update interval, 1 / kDeviceRateLowHz = 10 ms. A longer
+/// run is a hold: the device updated and reported the same sample again, at rest (an
+/// encoder-quantised device logs the exact same sample while it is still). drop_repeats removes
+/// stale samples, so a replay interpolates between real ones instead of holding and jumping, and
+/// keeps a hold's last sample, so a replay holds still until the device moves instead of creeping
+/// from the hold's first sample toward the next new one. Judged wrongly either way, the cost is
+/// small: a hold of at most 10 ms becomes a creep, or the stale run of a slower device one hold
+/// and jump. (Counted in samples, the rule took a 100 Hz device's stale runs in a 10 kHz log for
+/// holds.)
+inline constexpr double kStaleRunMaxS = 1.0 / kDeviceRateLowHz;
 
 /// What an import found besides the samples, for the command's report.
 struct ImportReport {
   std::size_t repeats = 0;     ///< samples equal to the previous one in position, orientation, jaw and buttons
   std::size_t removable = 0;   ///< of them, the stale ones drop_repeats removes (the rest end a hold or the log)
-  std::size_t holds = 0;       ///< runs of more than kStaleRepeatsMax repeats: the device at rest
+  std::size_t holds = 0;       ///< runs of repeats lasting more than kStaleRunMaxS: the device at rest
   bool dropped = false;        ///< the stale ones were removed (ImportOptions::drop_repeats, and repeats > 0)
   bool has_times = false;      ///< the log gave times (csv t column)
   bool rate_assumed = false;   ///< no times and no rate given: kAssumedLogRateHz

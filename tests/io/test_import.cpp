@@ -246,7 +246,7 @@ TEST(Import, CountsAndDropsRepeatedSamples) {
   EXPECT_EQ(r.rate_hz, 1000.0);  // the log's rate: the kept samples are a subset of its ticks
 }
 
-// A hold (the device at rest: more than kStaleRepeatsMax repeats in a row) is not stale: it keeps
+// A hold (the device at rest: repeats lasting more than kStaleRunMaxS) is not stale: it keeps
 // its last sample, so the replay holds still until the device moves, and the log's last sample is
 // kept, so a log ending at rest keeps its length. Short runs (a device updating at a third of the
 // logging rate) are still dropped.
@@ -292,6 +292,15 @@ TEST(Import, DroppingRepeatsKeepsHoldsAndTheLogsEnd) {
   EXPECT_EQ(end.t, (std::vector<double>{0.0, 0.001, 0.003}));
   EXPECT_EQ(report.holds, 0u);
   EXPECT_EQ(report.removable, 1u);
+  // A 100 Hz device logged at 10 kHz repeats each sample 99 times (9.9 ms): stale, not 20 holds
+  // (as a rule counting samples took them); its rest after 0.2 s (50 ms) is one hold.
+  std::string fast = "t,x,y,z,qw,qx,qy,qz\n";
+  for (int i = 0; i <= 2500; ++i)
+    fast += std::to_string(1e-4 * i) + ",0,0," + std::to_string(1e-3 * std::min(i / 100, 20)) + ",1,0,0,0\n";
+  const Recording f = import_log(write_log(tmp / "fast.csv", fast), opt, &report);
+  EXPECT_EQ(report.holds, 1u);
+  EXPECT_EQ(f.size(), 21u + 1);  // the 21 updates and the log's end
+  EXPECT_NEAR(f.t.back(), 0.25, 1e-12);
 }
 
 TEST(Import, ALogWithoutTimesTakesTheGivenRateAndKeepsTimesWhenDropping) {

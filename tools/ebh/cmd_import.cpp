@@ -94,12 +94,12 @@ void run(const ImportArgs& a) {
   if (auto w = ebh::check_recording_speed(rec)) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   std::printf("%s: %zu samples, %.6g s, %.10g Hz, tool %s\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz,
               rec.tool.c_str());
-  // A hold (more than kStaleRepeatsMax repeats in a row: the device at rest) keeps its last sample.
+  // A hold (repeats lasting more than kStaleRunMaxS: the device at rest) keeps its last sample.
   const auto count = [](std::size_t n, const char* one, const char* many) {
     return std::to_string(n) + " " + (n == 1 ? one : many);
   };
   const std::string holds = count(report.holds, "hold", "holds");
-  const std::string longer = "more than " + std::to_string(ebh::kStaleRepeatsMax) + " repeats in a row";
+  const std::string longer = "repeats lasting more than " + ebh::cli::format_number(ebh::kStaleRunMaxS * 1e3) + " ms";
   if (report.dropped)
     std::printf("  dropped %s that repeated the previous pose, jaw and buttons exactly; kept %s (%s: the device at "
                 "rest)\n",
@@ -130,9 +130,9 @@ void setup(CLI::App& root) {
                 "the tool the log's device held, hook or forceps (root attribute tool; default: the scene's tool with "
                 "--scene, else hook)");
   c->add_flag("--drop-repeats", args->drop_repeats,
-              "remove the samples that repeat the previous pose, jaw and buttons exactly, up to " +
-                  std::to_string(ebh::kStaleRepeatsMax) +
-                  " in a row (stale samples); a longer run (a hold) and the log keep their last sample; the rest keep "
+              "remove the samples that repeat the previous pose, jaw and buttons exactly for up to " +
+                  ebh::cli::format_number(ebh::kStaleRunMaxS * 1e3) +
+                  " ms (stale samples); a longer run (a hold) and the log keep their last sample; the rest keep "
                   "their times");
   c->callback([args] { run(*args); });
 }

@@ -134,7 +134,7 @@ Validation coupling_validation() {
   return {"coupling",
           "the two-rate loop's stability: async replays across virtual iterations and k_s against k_svc, residuals "
           "and inverted tets",
-          run_coupling, /*replays_recordings=*/true, /*has_full_form=*/true};
+          run_coupling, /*replays_recordings=*/true, /*has_full_form=*/true, /*places_solvers=*/true};
 }
 
 }  // namespace ebh

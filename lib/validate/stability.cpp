@@ -209,7 +209,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
 Validation stability_validation() {
   return {"stability",
           "replays on sliver meshes x stiffness x solver x tool speed: counts non-finite states and blow-ups",
-          run_stability, /*replays_recordings=*/true, /*has_full_form=*/true};
+          run_stability, /*replays_recordings=*/true, /*has_full_form=*/true, /*places_solvers=*/true};
 }
 
 }  // namespace ebh

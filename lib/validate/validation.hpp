@@ -22,9 +22,8 @@ struct ValidationResult {
   Json to_json() const;
 };
 
-/// What `ebh validate` passes to a case. `ebh validate` refuses --recording and --full when no
-/// chosen case uses them (Validation::replays_recordings, has_full_form); --backend is ignored
-/// where there is no iterative solver to place.
+/// What `ebh validate` passes to a case. `ebh validate` refuses --recording, --full and --backend
+/// cuda when no chosen case uses them (Validation::replays_recordings, has_full_form, places_solvers).
 struct ValidationOptions {
   bool full = false;            ///< the long form of a stress matrix (--full)
   std::string backend = "cpu";  ///< cpu | cuda (--backend)
@@ -37,6 +36,7 @@ struct Validation {
   std::function<ValidationResult(const ValidationOptions&)> run;
   bool replays_recordings = false;  ///< takes ValidationOptions::recordings (--recording)
   bool has_full_form = false;       ///< reads ValidationOptions::full (--full)
+  bool places_solvers = false;      ///< runs its iterative solvers on ValidationOptions::backend (--backend)
 };
 
 /// Every validation, in the table's order.

@@ -39,7 +39,8 @@ bool any_takes(const std::vector<const ebh::Validation*>& chosen, bool ebh::Vali
 /// --recording: each one a recording that reads, and a chosen validation that replays it, checked
 /// before any validation runs (an unknown name would otherwise surface after the others ran, and
 /// a validation with no recordings would ignore it). --full: a chosen validation with a long form
-/// (another would run its one form and pass as if the long one had).
+/// (another would run its one form and pass as if the long one had). --backend cuda: a chosen
+/// validation that places its solvers (another would run on the CPU without a word).
 void check_options(const ebh::ValidationOptions& o, const std::vector<const ebh::Validation*>& chosen) {
   using namespace ebh;
   for (const std::string& r : o.recordings) {
@@ -56,6 +57,9 @@ void check_options(const ebh::ValidationOptions& o, const std::vector<const ebh:
   if (o.full && !any_takes(chosen, &Validation::has_full_form))
     throw InputError("--full: the " + chosen.front()->name + " validation has no full form (--full is for " +
                      takers(&Validation::has_full_form) + ")");
+  if (o.backend == "cuda" && !any_takes(chosen, &Validation::places_solvers))
+    throw InputError("--backend " + o.backend + ": the " + chosen.front()->name +
+                     " validation runs on the CPU only (--backend is for " + takers(&Validation::places_solvers) + ")");
 }
 
 void run(const Options& o) {
@@ -65,7 +69,6 @@ void run(const Options& o) {
     return;
   }
   if (o.name.empty()) throw InputError("validate: name a validation, 'all', or use --list");
-  cli::check_backend(o.validation.backend);
   std::vector<const Validation*> chosen;
   if (o.name == "all") {
     for (const Validation& v : validations()) chosen.push_back(&v);
@@ -75,6 +78,7 @@ void run(const Options& o) {
     throw InputError("validate: no validation named '" + o.name + "' (see ebh validate --list)");
   }
   check_options(o.validation, chosen);
+  cli::check_backend(o.validation.backend);
   bool all_passed = true;
   Json results = Json::array();
   for (const Validation* v : chosen) {

@@ -92,6 +92,8 @@ SynthPlan read_plan(const std::string& path) {
   for (const char* k : {"scene", "tool", "waypoints"})
     if (!root[k]) throw InputError(path + ": missing key '" + k + "'");
   plan.scene = r.string(root["scene"], "scene");
+  if (plan.scene.find_first_not_of(" \t") == std::string::npos)
+    r.fail(root["scene"], "scene", "expected a scene's name or path, got nothing (a recording names its scene)");
   if (root["scene"].Mark().line >= 0) plan.scene_line = root["scene"].Mark().line + 1;
   plan.tool = r.string(root["tool"], "tool");
   if (plan.tool != "hook" && plan.tool != "forceps") r.fail(root["tool"], "tool", "expected hook or forceps");

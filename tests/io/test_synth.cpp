@@ -201,6 +201,8 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "tremor.band_hz", "5000 Hz is above half the sample rate (500 Hz");
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [1e300, 0, 30], rotvec_deg: [0, 0, 0]}\n  - {t: 1}\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].position_mm", "coordinate 1e+300 mm is beyond 100000 mm");
+  plan(("scene: ''\ntool: hook\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":1", "scene", "expected a scene's name or path, got nothing");
   plan("scene: gap\ntool: scalpel\nwaypoints: []\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":2", "tool", "hook or forceps");
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 1], rotvec_deg: [0, 0, 0], jaw: 2}\n  - {t: 1}\n");

@@ -181,8 +181,10 @@ std::optional<BaselineGoal> baseline_goal(const ReportGroup& g) {
     if (p.wall_s <= b->wall_s && p.error_rms < P[goal.most_accurate].error_rms) goal.most_accurate = i;
   }
   goal.speedup = b->wall_s / P[goal.fastest].wall_s;
-  goal.error_ratio = P[goal.most_accurate].error_rms > 0 ? b->error_rms / P[goal.most_accurate].error_rms
-                                                         : std::numeric_limits<double>::infinity();
+  // Both exact (a window where the tool never touches: every force 0) is no gain: 1x, not 0/0 taken
+  // for an infinite one that met the goal.
+  const double best = P[goal.most_accurate].error_rms;
+  goal.error_ratio = best > 0 ? b->error_rms / best : b->error_rms > 0 ? std::numeric_limits<double>::infinity() : 1.0;
   return goal;
 }
 

@@ -923,6 +923,13 @@ TEST(SweepReport, BaselineGoal) {
   EXPECT_EQ(g4[0].points[goal4->most_accurate].overrides, "k=4");
   // No baseline column: no comparison.
   EXPECT_FALSE(baseline_goal(build_report(parse_csv(text, file), file)[0]).has_value());
+  // Every error 0 (a window where the tool never touches the tissue): no gain in accuracy, where
+  // 0 / 0 was taken for an infinite one that met the goal.
+  CsvTable zero = t;
+  for (auto& row : zero.rows) row[zero.column("force_error_rms_N", file)] = "0";
+  const auto gz = build_report(zero, file);
+  EXPECT_EQ(baseline_goal(gz[0])->error_ratio, 1.0);
+  EXPECT_FALSE(baseline_goal(gz[0])->more_accurate());
   // A winner whose physical mesh is far less converged than the baseline's (its max residual over
   // kLooserSolve times the baseline's) is named so beside the comparison; one within it is not.
   for (auto& row : t.rows) row.back() = row[t.column("overrides", file)] == "k=3" ? "paper" : "";

@@ -465,8 +465,17 @@ void run_report(const ReportArgs& a) {
     }
   }
   // The plot replaces none of the folder's files nor a file the collection reads.
+  // Without a collection the plan is read for its inputs all the same (the plot overwrote a
+  // recording of it with a PNG when the summary was fresh); a folder moved without them has none.
   std::vector<RoleFile> inputs;
-  if (plan) inputs = plan_input_files(*plan);
+  if (plan) {
+    inputs = plan_input_files(*plan);
+  } else if (!a.plot.empty() && has_plan) {
+    try {
+      inputs = plan_input_files(read_sweep_plan(sweep_plan_copy(dir)));
+    } catch (const InputError&) {
+    }
+  }
   check_output_beside_sweep({a.plot, "the plot (--plot)"}, dir, inputs);
   if (plan) {
     try {

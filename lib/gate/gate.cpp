@@ -182,6 +182,10 @@ GateBaselines read_gate_baselines(const std::string& path) {
       if (other.name == g.name) throw InputError(path + ": key '" + k + "name': '" + g.name + "' names two cases");
     g.scene = text(c["scene"], path, k + "scene");
     g.recording = text(c["recording"], path, k + "recording");
+    // A path relative to the baselines file, as in a sweep plan: the file works from any folder.
+    const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+    g.scene_file = data_reference_from(g.scene, folder);
+    g.recording_file = data_reference_from(g.recording, folder);
     g.start = number(c["start"], path, k + "start");
     g.duration = number(c["duration"], path, k + "duration");
     g.where = path + ": " + k.substr(0, k.size() - 1) + " (" + g.name + ")";
@@ -245,7 +249,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   const std::string key = c.where.empty() ? "case '" + c.name + "'" : c.where;
   const LoadedReplay in = [&] {
     try {
-      return load_replay_inputs(c.scene, c.recording, overrides, std::nullopt, std::nullopt, false);
+      return load_replay_inputs(c.scene_file, c.recording_file, overrides, std::nullopt, std::nullopt, false);
     } catch (const InputError& e) {
       throw InputError(key + ": " + e.what());
     }
@@ -284,6 +288,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   r.measured.peak_force = m.whole.peak_force;
   r.measured.power_above_30hz = m.whole.power_above_30hz;
   r.measured.penetration_max = m.whole.penetration_max;
+  r.contact_warning = m.contact_warning;
   if (!m.finite) {
     r.passed = false;
     r.failures.push_back(c.name + ": non-finite values in the replay (" + std::to_string(m.nonfinite_count) +

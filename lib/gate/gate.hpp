@@ -38,7 +38,10 @@ struct GateBands {
 };
 
 struct GateCase {
-  std::string name, scene, recording;
+  std::string name, scene, recording;  ///< as the baselines file gives them (and --update writes them)
+  /// scene and recording as they are read: a relative path joined to the baselines file's folder
+  /// (data_reference_from), a name as it is
+  std::string scene_file, recording_file;
   double start = 0, duration = 2.0;  ///< s: the window of the recording replayed (replay_window checks it)
   std::string where;  ///< "FILE: cases[i] (NAME)", naming the case in messages (read_gate_baselines sets it)
   // Baseline metrics (NaN when not yet recorded).
@@ -56,6 +59,9 @@ struct GateResult {
   bool passed = true;
   bool stopped = false;  ///< the replay's health checks stopped it (failures says where): no metrics
   std::vector<std::string> failures;  ///< one line each
+  /// the replay's contact_warning (metrics/force_metrics.hpp): the window where the tool never or
+  /// barely touched the tissue, whose metrics describe a free tool ("" when it touched)
+  std::string contact_warning;
 };
 
 /// The exclusive lock `ebh gate --update` holds on the baselines file from reading it to writing

@@ -1187,10 +1187,14 @@ std::string scene_attribute_for(const std::string& given, const fs::path& scene_
   return rel.empty() ? fs::absolute(scene_file, ec).lexically_normal().string() : rel.string();
 }
 
+std::string data_reference_from(const std::string& given, const fs::path& folder) {
+  if (is_data_name(given) || fs::path(given).is_absolute()) return given;
+  return (folder / given).lexically_normal().string();
+}
+
 std::string scene_attribute_from(const std::string& given, const fs::path& folder, const fs::path& output) {
   if (is_data_name(given)) return given;
-  const fs::path path(given);
-  return scene_attribute_for(given, resolve_scene_path((path.is_relative() ? folder / path : path).string()), output);
+  return scene_attribute_for(given, resolve_scene_path(data_reference_from(given, folder)), output);
 }
 
 }  // namespace ebh

@@ -473,6 +473,11 @@ std::filesystem::path resolve_recording_scene(const std::string& attribute, cons
 std::string scene_attribute_for(const std::string& given, const std::filesystem::path& scene_file,
                                 const std::filesystem::path& output);
 
+/// A scene or recording as the file that names it gives it (a sweep plan, a gate baselines file):
+/// a name (no '/', no extension) or an absolute path as given, a relative path joined to `folder`
+/// (that file's), so the file works from any working directory.
+std::string data_reference_from(const std::string& given, const std::filesystem::path& folder);
+
 /// What `ebh synth` stores for a plan's `scene` in a recording written to `output`: a name as given
 /// (not looked up: a plan may name a scene not made yet); a scene file's path, relative to `folder`
 /// (the plan's) unless absolute, that must name a file (resolve_scene_path's InputError) and is

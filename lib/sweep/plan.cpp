@@ -101,16 +101,12 @@ class PlanReader {
   }
 
   /// A scene or recording as written: a name, or a path taken relative to the plan's folder.
-  std::string data_reference(const std::string& text) const {
-    const bool is_name = text.find('/') == std::string::npos && fs::path(text).extension().empty();
-    if (is_name || fs::path(text).is_absolute()) return text;
-    return (file_.parent_path() / text).lexically_normal().string();
-  }
-
   fs::path resolve(const YAML::Node& n, const std::string& key, const std::string& folder, const std::string& extension,
                    const std::string& what) const {
     try {
-      return fs::absolute(resolve_data_path(data_reference(text(n, key)), folder, extension, what)).lexically_normal();
+      return fs::absolute(resolve_data_path(data_reference_from(text(n, key), file_.parent_path()), folder, extension,
+                                            what))
+          .lexically_normal();
     } catch (const InputError& e) {
       fail(n, key, e.what());
     }

@@ -54,6 +54,11 @@ void run_gate(const GateArgs& a) {
           throw InputError("not updating " + a.baselines + ": " + c.where + ": its window (start " +
                            cli::format_number(c.start) + " s, duration " + cli::format_number(c.duration) +
                            " s) gives no " + name + "; lengthen it");
+      // A window where the tool is free measures round-off: a baseline that no regression moves.
+      if (!r.contact_warning.empty())
+        throw InputError("not updating " + a.baselines + ": " + c.where + ": in its window (start " +
+                         cli::format_number(c.start) + " s, duration " + cli::format_number(c.duration) + " s) " +
+                         r.contact_warning + ": a baseline of a free tool checks nothing; move the window");
       c = r.measured;
     } else {
       judge_gate_case(c, b.bands, r);

@@ -340,6 +340,16 @@ add_test(NAME cli.render.replay_writes_xdmf
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_RENDER_OUT}/xdmf.h5;--duration;0.05;--frames-hz;40;-q"
     "-DFILES=${EBH_RENDER_OUT}/xdmf.xdmf" -P ${CMAKE_CURRENT_SOURCE_DIR}/render/expect_files.cmake)
 set_tests_properties(cli.render.replay_writes_xdmf PROPERTIES FIXTURES_SETUP render_xdmf LABELS "cli;render")
+# The same output name replayed again without frames: the index of the frames it no longer has goes.
+add_test(NAME cli.render.stale_index_written
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_RENDER_OUT}/stale.h5;--duration;0.05;--frames-hz;40;-q"
+    "-DFILES=${EBH_RENDER_OUT}/stale.xdmf" -P ${CMAKE_CURRENT_SOURCE_DIR}/render/expect_files.cmake)
+set_tests_properties(cli.render.stale_index_written PROPERTIES FIXTURES_SETUP stale_index LABELS "cli;render")
+add_test(NAME cli.render.stale_index_removed
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_RENDER_OUT}/stale.h5;--duration;0.05;--frames-hz;0;-q"
+    "-DFILES=${EBH_RENDER_OUT}/stale.h5" "-DGONE=${EBH_RENDER_OUT}/stale.xdmf"
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/render/expect_files.cmake)
+set_tests_properties(cli.render.stale_index_removed PROPERTIES FIXTURES_REQUIRED stale_index LABELS "cli;render")
 add_test(NAME cli.render.xdmf_only COMMAND ${EBH_BIN} render ${EBH_RENDER_OUT}/xdmf.h5 --xdmf-only)
 set_tests_properties(cli.render.xdmf_only PROPERTIES PASS_REGULAR_EXPRESSION "xdmf.xdmf"
   FIXTURES_REQUIRED render_xdmf LABELS "cli;render")
@@ -768,6 +778,11 @@ file(WRITE ${EBH_SAFE}/gate_deep.yaml "cases: ${ebh_deep_gate}\n")
 file(WRITE ${EBH_SAFE}/gate_scene.yaml "cases:\n  - {name: w, scene: nope, recording: tube_insert, start: 4, duration: 0.5}\n")
 # --update of a window of one tick: no force step to take as a baseline; the file stays as it was.
 file(WRITE ${EBH_SAFE}/gate_short.yaml "cases:\n  - {name: w, scene: tube, recording: tube_insert, start: 9.9995, duration: 1}\n")
+# --update of a window where the tool never touches (tube_insert's first 0.3 s): a baseline of round-off.
+file(WRITE ${EBH_SAFE}/gate_free.yaml "cases:\n  - {name: w, scene: tube, recording: tube_insert, start: 0, duration: 0.3}\n")
+# A recording given by a path relative to the baselines file, read from another working folder.
+configure_file(${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5 ${EBH_SAFE}/gate_rel/rec.h5 COPYONLY)
+file(WRITE ${EBH_SAFE}/gate_rel/sub/own.yaml "cases:\n  - {name: own, scene: tube, recording: ../rec.h5, start: 4, duration: 0.3}\n")
 file(WRITE ${EBH_SAFE}/afile "a file, not a folder\n")
 file(MAKE_DIRECTORY ${EBH_SAFE}/a_folder)
 # Fresh copies of the inputs before the tests that must leave them as they were.
@@ -861,6 +876,11 @@ ebh_safety(gate_deep "^ebh: error: .*gate_deep.yaml:[0-9]+: nested too deeply \\
   CMD ${EBH_BIN} gate --baselines ${S}/gate_deep.yaml)
 ebh_safety(gate_update_short "^ebh: error: not updating .*gate_short.yaml: .*cases\\[0\\] \\(w\\): its window \\(start 9.9995 s, duration 1 s\\) gives no rms_force_step"
   KEEP ${S}/gate_short.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_short.yaml --update)
+ebh_safety(gate_update_free "^ebh: error: not updating .*gate_free.yaml: .*cases\\[0\\] \\(w\\): in its window \\(start 0 s, duration 0.3 s\\) the tool never touched the tissue .*: a baseline of a free tool checks nothing"
+  KEEP ${S}/gate_free.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_free.yaml --update)
+add_test(NAME cli.gate.path_relative_to_baselines COMMAND ${EBH_BIN} gate --baselines ${S}/gate_rel/sub/own.yaml)
+set_tests_properties(cli.gate.path_relative_to_baselines PROPERTIES PASS_REGULAR_EXPRESSION "gate: passed"
+  FIXTURES_REQUIRED safety LABELS cli)
 # 6. Every numeric option is finite and in range.
 foreach(bad "start;nan;>= 0" "duration;nan;> 0" "duration;0;> 0" "frames-hz;-5;in \\[0, 100000\\] Hz" "frames-hz;nan;in \\[0")
   list(GET bad 0 opt)
@@ -1004,6 +1024,20 @@ foreach(target summary.csv summary.h5 plan.yaml runs/0123456789abcdef.h5 runs/fe
       -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
   set_tests_properties(cli.sweep.report_plot_over_${tname} PROPERTIES LABELS "cli;sweep")
 endforeach()
+# ... nor a file the plan reads when the summary is fresh and nothing is collected (a plan's
+# recording became a PNG).
+file(MAKE_DIRECTORY ${EBH_SWEEP_OUT}/fresh)
+configure_file(${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5 ${EBH_SWEEP_OUT}/fresh_rec.h5 COPYONLY)
+file(WRITE ${EBH_SWEEP_OUT}/fresh/plan.yaml
+  "scenes:\n  - {scene: tube, recordings: [${EBH_SWEEP_OUT}/fresh_rec.h5], reference: {}}\n")
+configure_file(${CMAKE_CURRENT_SOURCE_DIR}/data/sweep/front/summary.csv ${EBH_SWEEP_OUT}/fresh/summary.csv COPYONLY)
+add_test(NAME cli.sweep.fresh_summary COMMAND ${CMAKE_COMMAND} -E touch ${EBH_SWEEP_OUT}/fresh/summary.csv)
+set_tests_properties(cli.sweep.fresh_summary PROPERTIES FIXTURES_SETUP fresh_sweep LABELS "cli;sweep")
+add_test(NAME cli.sweep.report_plot_over_a_plan_input
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;report;${EBH_SWEEP_OUT}/fresh;--plot;${EBH_SWEEP_OUT}/fresh_rec.h5"
+    "-DEXPECT=^ebh: error: .*fresh_rec.h5: .*would replace the recording" -DNO_STDOUT=1
+    "-DKEEP=${EBH_SWEEP_OUT}/fresh_rec.h5" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.sweep.report_plot_over_a_plan_input PROPERTIES FIXTURES_REQUIRED fresh_sweep LABELS "cli;sweep")
 add_test(NAME cli.sweep.report_not_a_sweep
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};sweep;report;${CMAKE_CURRENT_SOURCE_DIR}/data/sweep"
     "-DEXPECT=^ebh: error: .*data/sweep: neither summary.csv nor plan.yaml: not a sweep's folder"

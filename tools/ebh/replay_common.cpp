@@ -2,6 +2,9 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
 
 #include "core/error.hpp"
 #if EBH_HAVE_CUDA
@@ -33,9 +36,21 @@ void render_after_replay(const std::string& replay_file, const std::string& dir)
 }
 
 void index_replay_frames(const std::string& replay_file) {
+  bool frames = false;
   {
     const h5::File f = h5::File::open_read(replay_file);
-    if (!f.has("frames/t") || f.dataset("frames/t").shape().at(0) == 0) return;
+    frames = f.has("frames/t") && f.dataset("frames/t").shape().at(0) > 0;
+  }
+  if (!frames) {
+    // An index this file's earlier replay left (with frames) points at frames it no longer has:
+    // ParaView would fail on it. Only an index that names this file's frames is removed.
+    const std::string xdmf = xdmf_path_for(replay_file);
+    std::ifstream in(xdmf);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string frames_of = std::filesystem::path(replay_file).filename().string() + ":/frames/";
+    std::error_code ec;
+    if (text.find(frames_of) != std::string::npos) std::filesystem::remove(xdmf, ec);
+    return;
   }
   // Written after the replay output, from it: a failure here leaves the output written and an
   // index of the previous one, if any, which no longer matches it.

@@ -13,6 +13,7 @@
 #include "core/yaml_error.hpp"
 #include "io/h5.hpp"
 #include "io/paths.hpp"
+#include "io/recording.hpp"
 #include "io/sha256.hpp"
 #include "scene/scene.hpp"
 
@@ -296,6 +297,15 @@ SweepPlan read_sweep_plan(const fs::path& file) {
           r.fail(rec, key + ".recordings", p.string() + " given twice");
         s.recordings.push_back(p);
       }
+    }
+    // The window starts inside every recording (as ebh replay --start checks), before any run:
+    // each run would fail on it.
+    for (const fs::path& p : s.recordings) {
+      const double length = read_recording(p.string()).duration();
+      if (!(plan.start < length))
+        r.fail(top.count("start") ? top["start"] : recs, "start",
+               "start " + shortest_number(plan.start) + ": the recording " + p.string() + " (" + key +
+                   ".recordings) is " + shortest_number(length) + " s long; start before its end");
     }
     std::map<std::string, YAML::Node> ref_where;
     s.reference = r.overrides(e["reference"], key + ".reference", &ref_where);

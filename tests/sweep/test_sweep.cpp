@@ -314,6 +314,9 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
        ":2: key 'reference_backend': expected cpu or cuda, got 'gpu'"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nrepetitions: 0\n",
        ":2: key 'repetitions': expected a whole number in \\[1, 1000\\], got '0'"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nstart: 99\n",
+       ":2: key 'start': start 99: the recording .*tube_insert.h5 \\(scenes\\[0\\].recordings\\) is 10 s long; start "
+       "before its end"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nduration: -1\n",
        ":2: key 'duration': expected a number > 0, got '-1'"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nmode: realtime\n",

@@ -70,7 +70,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
   const auto c_id = optional_column("id"), c_error = optional_column("error"), c_baseline = optional_column("baseline"),
              c_residual = optional_column("timing.physical_residual_max"), c_hz = optional_column("haptic_hz"),
              c_rate = optional_column("whole.max_force_rate_N_per_s"), c_active = optional_column("active_vertices_mean"),
-             c_awake = optional_column("awake_vertices_mean");
+             c_awake = optional_column("awake_vertices_mean"), c_contact = optional_column("contact_fraction");
   auto number = [&](std::size_t row, std::size_t col) {
     const std::string& s = t.rows[row][col];
     if (s.empty()) return kNaN;
@@ -153,6 +153,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       p.haptic_hz = med(c_hz);
       p.active_mean = med(c_active);
       p.awake_mean = med(c_awake);
+      p.contact_fraction = med(c_contact);
       p.below_rate = p.haptic_hz < min_haptic_hz;  // false for NaN (not in the summary)
       g.points.push_back(p);
     }
@@ -217,6 +218,13 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
   for (const ReportGroup& g : groups) {
     o << "\n## " << g.scene << " + " << g.recording << ", " << g.backend << "\n\n";
     o << "Reference: " << (g.reference.empty() ? "not in the summary" : md(g.reference)) << "\n\n";
+    // A window in which no configuration's tool touched the tissue: every force is 0, and so is
+    // every error; the comparison says nothing about the configurations.
+    if (!g.points.empty() && std::all_of(g.points.begin(), g.points.end(), [](const ReportPoint& p) {
+          return p.contact_fraction == 0;
+        }))
+      o << "**The tool never touched the tissue in this window** (contact_fraction 0 in every run): the errors "
+           "below compare free motion; choose a window with contact (the plan's start and duration).\n\n";
     // The regions' sizes where a run of the group has one (solver.active_region, solver.physical_region).
     const bool regions = std::any_of(g.points.begin(), g.points.end(), [](const ReportPoint& p) {
       return !std::isnan(p.active_mean) || !std::isnan(p.awake_mean);

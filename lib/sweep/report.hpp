@@ -32,6 +32,7 @@ struct ReportPoint {
   double max_force_rate = 0;                           ///< N/s, the rendered force's largest rate (NaN when absent)
   double haptic_hz = 0;                                ///< haptic ticks per second (NaN when absent)
   double active_mean = 0, awake_mean = 0;              ///< the regions' sizes (active_vertices_mean, awake_vertices_mean; NaN when off or absent)
+  double contact_fraction = 0;                         ///< ticks in contact over ticks (NaN when absent)
   bool below_rate = false;                             ///< haptic_hz below the report's floor: no candidate
   bool front = false;
   std::string baseline;                                ///< the plan's baseline name when this is it, else ""

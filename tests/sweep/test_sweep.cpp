@@ -891,6 +891,21 @@ TEST(SweepReport, RegionColumnOnlyWithARegion) {
   EXPECT_NE(md.find(" | - / - |\n"), std::string::npos) << md;
 }
 
+// A window where no run's tool touched the tissue is said so above the group's table (its errors
+// are all 0 and compare free motion); one run in contact is enough to say nothing.
+TEST(SweepReport, AWindowWithoutContactIsSaidSo) {
+  const std::string file = front_file();
+  CsvTable t = parse_csv(front_text(), file);
+  t.header.push_back("contact_fraction");
+  for (auto& row : t.rows) row.push_back("0");
+  const std::string none = report_markdown(build_report(t, file));
+  EXPECT_NE(none.find("**The tool never touched the tissue in this window**"), std::string::npos) << none;
+  t.rows.front().back() = "0.4";
+  EXPECT_EQ(report_markdown(build_report(t, file)).find("never touched"), std::string::npos);
+  // Without the column (an older summary): nothing said.
+  EXPECT_EQ(report_markdown(build_report(parse_csv(front_text(), file), file)).find("never touched"), std::string::npos);
+}
+
 // The baseline column: its point is marked, and the report finds the fastest configuration at
 // its error or lower and the most accurate at its wall time or lower (the hand-made summary with
 // k=3, wall 3 s and error 0.3 N, as the baseline: k=2 is both, 2.2 s and 0.2 N).

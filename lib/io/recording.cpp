@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "io/h5.hpp"
 
 namespace ebh {
@@ -426,6 +427,20 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
     o << "none of m, cm, mm makes it fit: check the log's unit and the scene's";
   }
   return o.str();
+}
+
+double replay_window(double start, std::optional<double> duration, double length, const std::string& recording,
+                     const std::string& start_label, const std::string& duration_label) {
+  if (!(std::isfinite(start) && start >= 0))
+    throw InputError(start_label + " " + shortest_text(start) + ": expected a finite number >= 0 (seconds into " +
+                     recording + ")");
+  if (!(start < length))
+    throw InputError(start_label + " " + shortest_text(start) + ": the recording " + recording + " is " +
+                     shortest_text(length) + " s long; start before its end");
+  if (duration && !(std::isfinite(*duration) && *duration > 0))
+    throw InputError(duration_label + " " + shortest_text(*duration) + ": expected a finite number > 0 (seconds replayed)");
+  const double rest = length - start;
+  return duration ? std::min(*duration, rest) : rest;
 }
 
 }  // namespace ebh

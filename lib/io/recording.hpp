@@ -122,6 +122,14 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
 /// ~0.5 m/s at most (surgical motions ~0.1 m/s); a replay passes through a jump in one tick. A
 /// warning, not an error: the jump may be the experiment.
 std::optional<std::string> check_recording_speed(const Recording& rec);
+
+/// The seconds a replay of a recording `length` s long runs from `start` for `duration` s (nullopt:
+/// to its end; a window past the end is cut there): start a finite number >= 0 before the end,
+/// duration a finite number > 0. The one check of a replay window, for `ebh replay --start
+/// --duration`, `ebh gate`'s cases, `ebh bench sizes` and a sweep plan's start: throws InputError
+/// "START_LABEL VALUE: ..." or "DURATION_LABEL VALUE: ..." naming `recording`.
+double replay_window(double start, std::optional<double> duration, double length, const std::string& recording,
+                     const std::string& start_label, const std::string& duration_label);
 inline constexpr double kToolSpeedMax = 10;  ///< m/s
 inline constexpr double kPathExtentMaxRatio = 20;
 inline constexpr double kPathExtentMinRatio = 1.0 / 50;

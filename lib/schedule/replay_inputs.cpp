@@ -6,6 +6,7 @@
 #include <cstdlib>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "io/import.hpp"
 #include "mesh/tet_locator.hpp"
 
@@ -35,35 +36,8 @@ PoseTransforms apply_replay_transforms(Recording& rec, const std::string& path, 
   return applied;
 }
 
-// Shortest text that reads back as v ("100", "0.1", "1e+300").
-std::string shortest(double v) {
-  char buf[32];
-  if (std::fabs(v) < 1e15 && v == std::floor(v)) {
-    std::snprintf(buf, sizeof buf, "%.0f", v);
-    return buf;
-  }
-  for (int digits = 1; digits <= 17; ++digits) {
-    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
 
 }  // namespace
-
-double replay_window(double start, std::optional<double> duration, double length, const std::string& recording,
-                     const std::string& start_label, const std::string& duration_label) {
-  if (!(std::isfinite(start) && start >= 0))
-    throw InputError(start_label + " " + shortest(start) + ": expected a finite number >= 0 (seconds into " +
-                     recording + ")");
-  if (!(start < length))
-    throw InputError(start_label + " " + shortest(start) + ": the recording " + recording + " is " +
-                     shortest(length) + " s long; start before its end");
-  if (duration && !(std::isfinite(*duration) && *duration > 0))
-    throw InputError(duration_label + " " + shortest(*duration) + ": expected a finite number > 0 (seconds replayed)");
-  const double rest = length - start;
-  return duration ? std::min(*duration, rest) : rest;
-}
 
 std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration) {
   if (rec.t.empty() || mesh.tets.empty()) return std::nullopt;
@@ -124,10 +98,10 @@ void check_rate_options(const SceneSpec& spec, std::optional<double> haptic_hz, 
   if (!whole_ticks_per_step(h, p)) {
     char ratio_text[32];
     std::snprintf(ratio_text, sizeof ratio_text, "%g", ratio);
-    const std::string option = physical_hz ? "--physical-hz " + shortest(p) : "--haptic-hz " + shortest(h);
+    const std::string option = physical_hz ? "--physical-hz " + shortest_text(p) : "--haptic-hz " + shortest_text(h);
     throw InputError(option + ": the haptic rate over the physical rate must be a whole number >= 1 (ticks per " +
-                     "physical step), got " + shortest(h) + (haptic_hz ? "" : " (the scene's time.haptic_hz)") +
-                     " / " + shortest(p) + (physical_hz ? "" : " (the scene's time.physical_hz)") + " = " + ratio_text);
+                     "physical step), got " + shortest_text(h) + (haptic_hz ? "" : " (the scene's time.haptic_hz)") +
+                     " / " + shortest_text(p) + (physical_hz ? "" : " (the scene's time.physical_hz)") + " = " + ratio_text);
   }
 }
 

@@ -36,13 +36,6 @@ std::string resolve_recording_path(const std::string& name_or_path);
 /// pass between the virtual vertices (contact: vertices).
 std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration);
 
-/// The seconds a replay of a recording `length` s long runs from `start` for `duration` s (nullopt:
-/// to its end; a window past the end is cut there): start a finite number >= 0 before the end,
-/// duration a finite number > 0. The one check of a replay window, for `ebh replay --start
-/// --duration` and `ebh gate`'s cases: throws InputError "START_LABEL VALUE: ..." or
-/// "DURATION_LABEL VALUE: ..." naming `recording`.
-double replay_window(double start, std::optional<double> duration, double length, const std::string& recording,
-                     const std::string& start_label, const std::string& duration_label);
 
 /// The files a replay of (scene, recording) reads, with what each is: the recording, the scene file
 /// and its meshes. Cheap (the scene file is parsed, no mesh is loaded), so a command checks its

@@ -301,11 +301,12 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     // The window starts inside every recording (as ebh replay --start checks), before any run:
     // each run would fail on it.
     for (const fs::path& p : s.recordings) {
-      const double length = read_recording(p.string()).duration();
-      if (!(plan.start < length))
-        r.fail(top.count("start") ? top["start"] : recs, "start",
-               "start " + shortest_number(plan.start) + ": the recording " + p.string() + " (" + key +
-                   ".recordings) is " + shortest_number(length) + " s long; start before its end");
+      try {
+        (void)replay_window(plan.start, std::nullopt, read_recording(p.string()).duration(),
+                            p.string() + " (" + key + ".recordings)", "start", "duration");
+      } catch (const InputError& e) {
+        r.fail(top.count("start") ? top["start"] : recs, "start", e.what());
+      }
     }
     std::map<std::string, YAML::Node> ref_where;
     s.reference = r.overrides(e["reference"], key + ".reference", &ref_where);

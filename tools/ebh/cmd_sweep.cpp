@@ -454,30 +454,23 @@ void run_report(const ReportArgs& a) {
   // folder copied to another machine may have its files' times reordered and its plan's input
   // files missing: then the summary it has is reported, saying so.
   const bool collect = has_plan && (!has_summary || fs::last_write_time(sweep_summary_csv(dir), ec) <= newest_input(dir));
+  // The plan, to collect or for the plot's check: the plot replaces none of the folder's files nor
+  // a file the plan reads, collected or not (with a fresh summary it overwrote a plan's recording
+  // with a PNG); a folder moved without its plan's inputs has none to check.
   std::optional<SweepPlan> plan;
   std::string collect_error;
-  if (collect) {
+  if (has_plan && (collect || !a.plot.empty())) {
     try {
       plan = read_sweep_plan(sweep_plan_copy(dir));
     } catch (const InputError& e) {
-      if (!has_summary) throw;
-      collect_error = e.what();
+      if (collect && !has_summary) throw;
+      if (collect) collect_error = e.what();
     }
   }
-  // The plot replaces none of the folder's files nor a file the collection reads.
-  // Without a collection the plan is read for its inputs all the same (the plot overwrote a
-  // recording of it with a PNG when the summary was fresh); a folder moved without them has none.
   std::vector<RoleFile> inputs;
-  if (plan) {
-    inputs = plan_input_files(*plan);
-  } else if (!a.plot.empty() && has_plan) {
-    try {
-      inputs = plan_input_files(read_sweep_plan(sweep_plan_copy(dir)));
-    } catch (const InputError&) {
-    }
-  }
+  if (plan) inputs = plan_input_files(*plan);
   check_output_beside_sweep({a.plot, "the plot (--plot)"}, dir, inputs);
-  if (plan) {
+  if (plan && collect) {
     try {
       const std::vector<SweepRun> runs = expand_plan(*plan);
       adopt_legacy(dir, runs);

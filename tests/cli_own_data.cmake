@@ -29,6 +29,15 @@ if(EBH_SYSTEM_PYTHON3 AND ebh_plot_deps EQUAL 0)
       -o ${EBH_OWN_OUT}/press_forces.png)
   set_tests_properties(cli.own_data.plot PROPERTIES FIXTURES_REQUIRED own_data_replay PASS_REGULAR_EXPRESSION "press_forces.png")
 endif()
+# The organ with slivers (worst mean ratio 0.005): the stopping rule ends most steps on a stall far
+# above the tolerance, and the replay says so.
+add_test(NAME cli.own_data.degrade
+  COMMAND ${EBH_BIN} scene degrade ${EBH_OWN_SCENE} --quality 0.005 --tets 100 -o ${EBH_OWN_OUT}/organ_sliver.yaml)
+set_tests_properties(cli.own_data.degrade PROPERTIES FIXTURES_SETUP own_data_sliver)
+add_test(NAME cli.own_data.sliver_steps_stall
+  COMMAND ${EBH_BIN} replay ${EBH_OWN_OUT}/organ_sliver.yaml ${EBH_OWN_OUT}/press.h5 -o ${EBH_OWN_OUT}/sliver_replay.h5)
+set_tests_properties(cli.own_data.sliver_steps_stall PROPERTIES FIXTURES_REQUIRED "own_data_recording;own_data_sliver"
+  PASS_REGULAR_EXPRESSION "warning: .*sliver_replay.h5: [1-9][0-9]* of 201 physical steps stopped when their iterations stalled, with up to 0\\.[0-9]+ mesh weights unbalanced \\(more than 5 times solver.physical_tolerance")
 # The log read in mm (the default): the path is 1/66 of the organ's size; the fix is named.
 add_test(NAME cli.own_data.wrong_unit
   COMMAND ${EBH_BIN} import ${EBH_OWN_LOG} -o ${EBH_OWN_OUT}/in_mm.h5 --rate 1000 --tool-transform 0,0,-4,180,0,0

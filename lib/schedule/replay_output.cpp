@@ -293,6 +293,16 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
   const PhysicalStepParams& params = w.physical_params;
   capped_steps_ += params.adaptive() && !p.recovered && p.report.iterations >= params.max_iterations &&
                    p.report.residual > params.tolerance;
+  // Stopped by the stall rule well above the tolerance: the iteration made no headway on this mesh
+  // (slivers: ~1e3 relaxed Jacobi iterations per tenfold) and the step's answer is not converged.
+  // A step of the device's float32 stalls at its round-off floor, up to ~1.6x the default
+  // tolerance on the committed scenes (docs/MODEL.md, "The stopping rule"): below the factor.
+  if (params.adaptive() && !p.recovered && !p.slept && p.report.iterations < params.max_iterations &&
+      p.report.residual > kStalledResidualFactor * params.tolerance &&
+      p.report.residual <= w.scene.spec.solver.recovery_residual) {
+    if (stalled_steps_++ == 0) first_stalled_t_ = t;
+    max_stalled_ = std::max(max_stalled_, p.report.residual);
+  }
   // Far from balance, whatever stopped the step (the cap, a stall, fixed iterations, the direct
   // method's local-global iterations): the recovery's line, which the CUDA backend and
   // solver.recovery=none do not act on. NaN counts: the health check names it.

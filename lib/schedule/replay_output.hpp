@@ -90,6 +90,12 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
   /// Steps that ran solver.physical_max_iterations and still left more than the tolerance.
   std::int64_t capped_steps() const { return capped_steps_; }
+  /// Steps the stopping rule ended on a stall (no 5% gain for 8 iterations) before the cap, with
+  /// more than kStalledResidualFactor times the tolerance left (and at most recovery_residual), the
+  /// largest such residual and the first one's time.
+  std::int64_t stalled_steps() const { return stalled_steps_; }
+  double max_stalled() const { return max_stalled_; }
+  double first_stalled_t() const { return first_stalled_t_; }
   /// Steps that ended with more than solver.recovery_residual mesh weights unbalanced (a recovered
   /// step's residual is the direct solve's), the largest such residual and the first one's time.
   std::int64_t unbalanced_steps() const { return unbalanced_steps_; }
@@ -130,6 +136,8 @@ class ReplayWriter : public ReplayObserver {
   double peak_force_ = 0, peak_torque_ = 0, max_penetration_ = 0;
   std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0, unbalanced_steps_ = 0;
   double max_unbalanced_ = 0, first_unbalanced_t_ = -1;
+  std::int64_t stalled_steps_ = 0;
+  double max_stalled_ = 0, first_stalled_t_ = -1;
 };
 
 /// The CPU's model name (from /proc/cpuinfo), for the `device` attribute.

@@ -187,6 +187,10 @@ struct StoppingState {
 /// device, a Chebyshev rho far from the mesh's rate), so more of them would only cost time.
 inline constexpr int kStallIterations = 8;
 inline constexpr double kStallGain = 0.95;
+/// A replay warns of steps that stalled with more than this many times the tolerance left
+/// (ReplayWriter::stalled_steps): above float32's floor on the committed scenes (up to 0.0031
+/// against 0.002 mesh weights), so that the device's ordinary stalls stay quiet.
+inline constexpr double kStalledResidualFactor = 5;
 
 /// The stopping rule of the CPU step and the CUDA graph alike: after iteration k (0-based) whose
 /// start left `residual` mesh weights unbalanced, run iteration k + 1? Always below `iterations`;

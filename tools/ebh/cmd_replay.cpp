@@ -192,6 +192,15 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  "more than solver.physical_tolerance (%g mesh weights) unbalanced (/physical/residual)\n",
                  a.out.c_str(), static_cast<long long>(writer.capped_steps()), static_cast<long long>(s.steps),
                  world.physical_params.max_iterations, world.physical_params.tolerance);
+  if (writer.stalled_steps() > 0)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: %lld of %lld physical steps stopped when their iterations stalled, with up to "
+                 "%.3g mesh weights unbalanced (more than %g times solver.physical_tolerance; the first at t = %.3f s; "
+                 "/physical/residual): the iteration makes no headway on this mesh (`ebh scene info` prints its "
+                 "rate and worst tets), and those steps are not converged; solver.method: direct converges on the "
+                 "CPU backend\n",
+                 a.out.c_str(), static_cast<long long>(writer.stalled_steps()), static_cast<long long>(s.steps),
+                 writer.max_stalled(), kStalledResidualFactor, writer.first_stalled_t());
   if (writer.unbalanced_steps() > 0) {
     const SolverSpec& solver = world.scene.spec.solver;
     const char* fix = world.backend == Backend::Cuda ? ", or replay with --backend cpu, whose recovery redoes such a step"

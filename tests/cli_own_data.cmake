@@ -38,6 +38,12 @@ add_test(NAME cli.own_data.sliver_steps_stall
   COMMAND ${EBH_BIN} replay ${EBH_OWN_OUT}/organ_sliver.yaml ${EBH_OWN_OUT}/press.h5 -o ${EBH_OWN_OUT}/sliver_replay.h5)
 set_tests_properties(cli.own_data.sliver_steps_stall PROPERTIES FIXTURES_REQUIRED "own_data_recording;own_data_sliver"
   PASS_REGULAR_EXPRESSION "warning: .*sliver_replay.h5: [1-9][0-9]* of 201 physical steps stopped when their iterations stalled, with up to 0\\.[0-9]+ mesh weights unbalanced \\(more than 5 times solver.physical_tolerance")
+# On it `chebyshev_rho: auto` is the relaxed Jacobi rate, 0.9986: warned at load.
+add_test(NAME cli.own_data.sliver_auto_rho_warned
+  COMMAND ${EBH_BIN} replay ${EBH_OWN_OUT}/organ_sliver.yaml ${EBH_OWN_OUT}/press.h5 -o ${EBH_OWN_OUT}/sliver_auto.h5
+    --duration 0.05 --set solver.chebyshev_rho=auto)
+set_tests_properties(cli.own_data.sliver_auto_rho_warned PROPERTIES FIXTURES_REQUIRED "own_data_recording;own_data_sliver"
+  PASS_REGULAR_EXPRESSION "warning: --set 'solver.chebyshev_rho=auto': key 'solver.chebyshev_rho': Chebyshev's rho is 0\\.99[0-9]+ \\(auto: this mesh's relaxed Jacobi rate\\): so near 1 its weights \\(up to 1\\.[0-9]+\\)")
 # The log read in mm (the default): the path is 1/66 of the organ's size; the fix is named.
 add_test(NAME cli.own_data.wrong_unit
   COMMAND ${EBH_BIN} import ${EBH_OWN_LOG} -o ${EBH_OWN_OUT}/in_mm.h5 --rate 1000 --tool-transform 0,0,-4,180,0,0

@@ -288,6 +288,17 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   check_virtual_mesh_placement(w->scene, w->virtual_mesh, w->scene.warnings);
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver, w->physical_mesh);
+  if (w->physical_params.method == SolverSpec::Method::Chebyshev &&
+      w->physical_params.chebyshev_rho > kChebyshevRhoWarn) {
+    char line[480];
+    std::snprintf(line, sizeof line,
+                  ": key 'solver.chebyshev_rho': Chebyshev's rho is %.4g%s: so near 1 its weights (up to %.2f) amplify what the local steps' "
+                  "rotations change between iterations, and steps can blow up (a sliver mesh's did from 0.997; "
+                  "docs/MODEL.md, \"Chebyshev's rho\"); the scenes' 0.95 or solver.method: direct is safer",
+                  w->physical_params.chebyshev_rho, w->scene.spec.solver.chebyshev_rho_auto ? " (auto: this mesh's relaxed Jacobi rate)" : "",
+                  2 / (1 + std::sqrt(1 - w->physical_params.chebyshev_rho * w->physical_params.chebyshev_rho)));
+    w->scene.warnings.push_back(value_source(w->scene.spec, "solver.chebyshev_rho") + line);
+  }
   build_world_tool(*w);
   if (w->tool.surface) {
     const std::string mesh = w->scene.spec.virtual_mesh ? w->scene.spec.virtual_mesh->string() : where;

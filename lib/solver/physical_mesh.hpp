@@ -191,6 +191,10 @@ inline constexpr double kStallGain = 0.95;
 /// (ReplayWriter::stalled_steps): above float32's floor on the committed scenes (up to 0.0031
 /// against 0.002 mesh weights), so that the device's ordinary stalls stay quiet.
 inline constexpr double kStalledResidualFactor = 5;
+/// A scene whose Chebyshev rho (a number or `auto`) is above this is warned at load: with the
+/// weights near 2 the local-global iterations blew up on a sliver mesh from 0.997 (0.995 held; the
+/// committed scenes' `auto` is 0.786-0.979, 0.986 at mean ratio 0.04; their number 0.95).
+inline constexpr double kChebyshevRhoWarn = 0.99;
 
 /// The stopping rule of the CPU step and the CUDA graph alike: after iteration k (0-based) whose
 /// start left `residual` mesh weights unbalanced, run iteration k + 1? Always below `iterations`;

@@ -288,6 +288,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   check_virtual_mesh_placement(w->scene, w->virtual_mesh, w->scene.warnings);
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver, w->physical_mesh);
+  if (backend == Backend::Cuda) w->float32_floor = float32_residual_floor(w->physical_mesh);
   if (w->physical_params.method == SolverSpec::Method::Chebyshev &&
       w->physical_params.chebyshev_rho > kChebyshevRhoWarn) {
     char line[480];

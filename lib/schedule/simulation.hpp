@@ -42,6 +42,9 @@ struct World {
   PhysicalModel physical_mesh;
   ToolModel tool;
   PhysicalStepParams physical_params;
+  /// --backend cuda: float32_residual_floor of the physical mesh (the device's steps stall at a few
+  /// times it); 0 on the CPU backend.
+  double float32_floor = 0;
   double h_haptic = 1e-3;   ///< s, haptic tick
   double h_physical = 1e-2; ///< s, physical step
   int ticks_per_step = 10;  ///< N = h_physical / h_haptic (an integer)

@@ -662,4 +662,31 @@ void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> 
   }
 }
 
+double float32_residual_floor(const PhysicalModel& model) {
+  // The device step's arithmetic at rest, in float: positions and shape gradients rounded, one
+  // warm-started rotation update from R = I, the corner forces summed per vertex.
+  const auto f32 = [](const Vec3d& v) { return Vec3f{float(v.x), float(v.y), float(v.z)}; };
+  std::vector<Vec3f> x(model.rest.size());
+  for (std::size_t a = 0; a < x.size(); ++a) x[a] = f32(model.rest[a]);
+  double r2 = 0;
+#pragma omp parallel for schedule(static) reduction(+ : r2)
+  for (int i = 0; i < model.num_free; ++i) {
+    const int a = model.free_vertices[i];
+    Vec3f f{};
+    for (int k = model.tet_offsets[a]; k < model.tet_offsets[a + 1]; ++k) {
+      const int e = model.tet_entries[k], t = e >> 2;
+      const Tet& tet = model.tets[t];
+      const Vec3f xc[4] = {x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]};
+      const Vec3f g[4] = {f32(model.shape_grad[4 * t]), f32(model.shape_grad[4 * t + 1]),
+                          f32(model.shape_grad[4 * t + 2]), f32(model.shape_grad[4 * t + 3])};
+      const Mat3f F = deformation_gradient(xc, g);
+      float angle = 0;
+      const Mat3f R = rotation_matrix(mueller_update(F, Quat<float>{1, 0, 0, 0}, angle));
+      f += elastic_force_matrix(F, R, float(model.tet_weight[t]), float(model.det_ratio)) * g[e & 3];
+    }
+    r2 += double(f.x) * f.x + double(f.y) * f.y + double(f.z) * f.z;
+  }
+  return model.weight_norm > 0 ? std::sqrt(r2) / model.weight_norm : std::sqrt(r2);
+}
+
 }  // namespace ebh

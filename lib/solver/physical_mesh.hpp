@@ -191,6 +191,10 @@ inline constexpr double kStallGain = 0.95;
 /// (ReplayWriter::stalled_steps): above float32's floor on the committed scenes (up to 0.0031
 /// against 0.002 mesh weights), so that the device's ordinary stalls stay quiet.
 inline constexpr double kStalledResidualFactor = 5;
+/// On the device, a stall at most this many times float32_residual_floor is read as round-off: the
+/// h200's steps stalled at 4.3-4.9 times it (tube, tube refined twice, gynaecology refined once),
+/// slivers' at 25-30 times (no headway, as on the CPU).
+inline constexpr double kFloat32StallFactor = 8;
 /// A scene whose Chebyshev rho (a number or `auto`) is above this is warned at load: with the
 /// weights near 2 the local-global iterations blew up on a sliver mesh from 0.997 (0.995 held; the
 /// committed scenes' `auto` is 0.786-0.979, 0.986 at mean ratio 0.04; their number 0.95).
@@ -312,5 +316,11 @@ std::string physical_state_problem(const PhysicalModel& model, std::span<const V
 
 /// Elastic forces -dE_vol/dx (#n, pinned vertices included: their reaction) at x (#n).
 void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> x, std::span<Vec3d> forces);
+
+/// The residual (mesh weights) of the rest shape with its positions rounded to float32: what the
+/// CUDA step's float32 positions leave unbalanced where nothing moves, so about the lowest residual
+/// its iterations reach. It grows as the mesh is refined (~1/h^2: the elastic forces of a position
+/// error over an edge h, against a vertex weight ~h^3 and forces ~h).
+double float32_residual_floor(const PhysicalModel& model);
 
 }  // namespace ebh

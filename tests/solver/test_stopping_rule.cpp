@@ -114,6 +114,25 @@ TEST(StoppingRule, SliversIterateUntilTheToleranceAndGetCloserToTheDirectSolve) 
   EXPECT_TRUE(physical_state_problem(adaptive.pm, adaptive.ps.x, ra).empty());
 }
 
+// The device's float32 leaves a residual where nothing moves: ~1/h^2 as the mesh is refined (a
+// position's round-off over an edge h, against a vertex weight ~h^3), far more where slivers are.
+TEST(StoppingRule, Float32FloorGrowsWithRefinementAndSlivers) {
+  auto floor_of = [](int n) {  // off the origin: a lattice at 0 rounds to float uniformly (F = I exactly)
+    Scene scene = test::box_scene(n, n, 2 * n);
+    scene.spec.stiffness.k_vol = 5000;
+    for (Vec3d& v : scene.physical.vertices) v += Vec3d{0.0137, -0.0211, 0.0953};
+    return float32_residual_floor(test::Sim(scene).pm);
+  };
+  const double coarse = floor_of(4), fine = floor_of(8);  // h halved: 4.7x
+  EXPECT_GT(coarse, 0);
+  EXPECT_TRUE(std::isfinite(fine));
+  EXPECT_GT(fine / coarse, 2.5);
+  EXPECT_LT(fine / coarse, 6.5);
+  const double clean = float32_residual_floor(test::Sim(test::degraded_block(1)).pm);
+  const double slivers = float32_residual_floor(test::Sim(test::degraded_block(0.01)).pm);
+  EXPECT_GT(slivers, 10 * clean);
+}
+
 TEST(StoppingRule, StopsAtTheCap) {
   test::Sim sim(test::degraded_block(0.02));
   sway(sim, 0.2, 0.048);

@@ -192,15 +192,26 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  "more than solver.physical_tolerance (%g mesh weights) unbalanced (/physical/residual)\n",
                  a.out.c_str(), static_cast<long long>(writer.capped_steps()), static_cast<long long>(s.steps),
                  world.physical_params.max_iterations, world.physical_params.tolerance);
-  if (writer.stalled_steps() > 0)
+  if (writer.stalled_steps() > 0) {
+    // On the device a stall within a few times the mesh's float32 floor is round-off, not the mesh.
+    char why[400];
+    if (world.float32_floor > 0 && writer.max_stalled() <= kFloat32StallFactor * world.float32_floor)
+      std::snprintf(why, sizeof why,
+                    "float32's round-off on this mesh (%.2g mesh weights at rest, `ebh scene info`; the device's "
+                    "steps stall at a few times it) lies above the tolerance, so each ran until it stalled; "
+                    "solver.physical_tolerance at about %.2g saves those iterations, or --backend cpu",
+                    world.float32_floor, writer.max_stalled());
+    else
+      std::snprintf(why, sizeof why,
+                    "the iteration makes no headway on this mesh (`ebh scene info` prints its rate and worst tets), "
+                    "and those steps are not converged; solver.method: direct converges on the CPU backend");
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps stopped when their iterations stalled, with up to "
                  "%.3g mesh weights unbalanced (more than %g times solver.physical_tolerance; the first at t = %.3f s; "
-                 "/physical/residual): the iteration makes no headway on this mesh (`ebh scene info` prints its "
-                 "rate and worst tets), and those steps are not converged; solver.method: direct converges on the "
-                 "CPU backend\n",
+                 "/physical/residual): %s\n",
                  a.out.c_str(), static_cast<long long>(writer.stalled_steps()), static_cast<long long>(s.steps),
-                 writer.max_stalled(), kStalledResidualFactor, writer.first_stalled_t());
+                 writer.max_stalled(), kStalledResidualFactor, writer.first_stalled_t(), why);
+  }
   if (writer.unbalanced_steps() > 0) {
     const SolverSpec& solver = world.scene.spec.solver;
     const char* fix = world.backend == Backend::Cuda ? ", or replay with --backend cpu, whose recovery redoes such a step"

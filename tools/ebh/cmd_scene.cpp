@@ -205,6 +205,7 @@ void info(const SceneInfoArgs& a) {
     sv.set("physical_iterations", params.iterations);
     sv.set("physical_tolerance", params.adaptive() ? params.tolerance : 0.0);
     sv.set("physical_max_iterations", params.adaptive() ? params.max_iterations : params.iterations);
+    sv.set("float32_floor", ebh::float32_residual_floor(model));
     j.set("solver", std::move(sv));
     ebh::Json g = ebh::Json::array();
     for (const auto& [tag, c] : groups) {
@@ -297,6 +298,8 @@ void info(const SceneInfoArgs& a) {
                 params.iterations, params.tolerance, params.max_iterations);
   else
     std::printf("  iterations     %d\n", params.iterations);
+  std::printf("  float32 floor  %.2g mesh weights at rest (--backend cuda's steps go no lower)\n",
+              ebh::float32_residual_floor(model));
   std::printf("groups\n");
   for (const auto& [tag, c] : groups)
     std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n", c.name.empty() ? "(unnamed)" : c.name.c_str(), tag,

@@ -21,4 +21,14 @@ for sig in TERM INT; do
   grep -q "interrupted" "$work/$sig.err" || fail "no interrupt message: $(cat "$work/$sig.err")"
   [ ! -e "$work/$sig.h5" ] || fail "an interrupted replay wrote its output"
 done
+# A signal ignored at the start stays ignored: `nohup ebh ...` outlives its terminal's SIGHUP.
+nohup "$ebh" replay tube tube_insert -o "$work/nohup.h5" -q --duration 6 >"$work/nohup.err" 2>&1 &
+pid=$!
+sleep 1
+kill -0 $pid 2>/dev/null || fail "the nohup replay ended within 1 s: $(cat "$work/nohup.err")"
+kill -HUP $pid
+status=0
+wait $pid || status=$?
+[ $status = 0 ] || fail "nohup: SIGHUP stopped the replay (exit status $status): $(cat "$work/nohup.err")"
+[ -s "$work/nohup.h5" ] || fail "nohup: no output"
 echo "interrupt status: ok"

@@ -168,7 +168,10 @@ void install_interrupt_handlers() {
   sa.sa_flags = 0;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
-  sigaction(SIGHUP, &sa, nullptr);  // the terminal closed: stop like SIGTERM, leave no temporary
+  // SIGHUP, the terminal closed: stop like SIGTERM, leave no temporary; unless it was ignored when
+  // the process started (`nohup ebh ...`: the user asked for the command to outlive its terminal).
+  if (struct sigaction now {}; !(sigaction(SIGHUP, nullptr, &now) == 0 && now.sa_handler == SIG_IGN))
+    sigaction(SIGHUP, &sa, nullptr);
   struct sigaction grace {};
   grace.sa_handler = on_grace_over;
   sigemptyset(&grace.sa_mask);

@@ -96,7 +96,8 @@ void write_file_atomically(const std::string& path, std::string_view bytes);
 /// file cannot be replaced) names the files already replaced.
 void write_files_atomically(const std::vector<std::pair<std::string, std::string_view>>& files);
 
-/// Installs the SIGINT/SIGTERM/SIGHUP handlers, and SIGALRM's for the grace (idempotent).
+/// Installs the SIGINT/SIGTERM/SIGHUP handlers (SIGHUP left ignored where it was at the start:
+/// `nohup`), and SIGALRM's for the grace (idempotent).
 void install_interrupt_handlers();
 /// True once SIGINT, SIGTERM or SIGHUP arrived (after install_interrupt_handlers()).
 bool interrupted();

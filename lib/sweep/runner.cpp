@@ -111,8 +111,13 @@ int wait_for(pid_t pid) {
 /// however it ends (SIGKILL included: no replay goes on writing into the sweep's folder as an
 /// orphan). An exec that fails writes its errno to `err_fd`.
 [[noreturn]] void exec_child(char* const* argv, char* const* envp, int out, int err_fd, bool die_with_parent, pid_t parent) {
-  // This process's handlers (io/atomic.hpp) would swallow a SIGTERM before the exec.
-  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGALRM}) signal(sig, SIG_DFL);
+  // This process's handlers (io/atomic.hpp) would swallow a SIGTERM before the exec; a signal this
+  // process ignores (a `nohup`'d sweep's SIGHUP) stays ignored in the child, as exec keeps it.
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGALRM}) {
+    struct sigaction now {};
+    if (sigaction(sig, nullptr, &now) == 0 && now.sa_handler == SIG_IGN) continue;
+    signal(sig, SIG_DFL);
+  }
   if (die_with_parent) {
     if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0) _exit(127);
     if (getppid() != parent) _exit(128 + SIGTERM);  // the parent ended before the line above

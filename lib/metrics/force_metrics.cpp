@@ -131,7 +131,8 @@ SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t a, std::size_t
     for (const double f : ch[c]) fluctuation += (f - mean) * (f - mean);
   }
   if (std::sqrt(fluctuation / static_cast<double>(s.ticks)) < kNegligibleForce && !spec.power.empty())
-    s.power_above_30hz = s.power_above_100hz = 0.0;
+    for (double* p : {&s.power_above_30hz, &s.power_above_100hz})
+      if (!std::isnan(*p)) *p = 0.0;  // round-off; a band above the Nyquist frequency stays unmeasured
 
   // Passivity observer: energy into the environment through the device port, zero-order hold.
   double e = 0, e_rot = 0, t_neg = 0;

@@ -78,7 +78,7 @@ PowerSpectrum power_spectrum(const std::vector<std::vector<double>>& channels, d
 }
 
 double power_fraction_above(const PowerSpectrum& s, double f_hz) {
-  if (s.power.empty()) return std::numeric_limits<double>::quiet_NaN();
+  if (s.power.empty() || f_hz >= s.freq.back()) return std::numeric_limits<double>::quiet_NaN();
   double total = 0;
   for (const double p : s.power) total += p;
   if (!std::isfinite(total)) return std::numeric_limits<double>::quiet_NaN();

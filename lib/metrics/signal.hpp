@@ -32,7 +32,8 @@ PowerSpectrum power_spectrum(const std::vector<std::vector<double>>& channels, d
 
 /// Fraction of the spectrum's power (all bins: with the signal's mean removed, bin 0 holds
 /// content slower than a window, still force fluctuation) in bins with freq > f_hz. 0 when the total is 0 (a constant signal has no
-/// fluctuation at any frequency); NaN when the spectrum is empty or not finite.
+/// fluctuation at any frequency); NaN when the spectrum is empty or not finite, or when f_hz is at or
+/// above its highest frequency (the Nyquist frequency: a 10 Hz trace says nothing about 30 Hz).
 double power_fraction_above(const PowerSpectrum& s, double f_hz);
 
 /// The spectrum's power in bins with freq > f_hz (its units: compare spectra of the same window).

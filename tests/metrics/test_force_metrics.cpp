@@ -153,6 +153,20 @@ TEST(ForceMetrics, TheSpectrumsWindowFollowsTheHapticRate) {
   EXPECT_EQ(fft_min_window_ticks(MetricsOptions{}, 1000.0), 64u);
 }
 
+TEST(ForceMetrics, BandsAboveTheNyquistFrequencyAreUnmeasured) {
+  // At 100 Hz ticks the spectrum ends at 50 Hz: power above 30 Hz is measured, above 100 Hz it is
+  // not (NaN, null in JSON), rather than 0, which would read as a smooth force. Round-off too.
+  ReplayTrace tr = make_trace(1000, 100.0, 10);
+  for (std::size_t i = 0; i < tr.ticks(); ++i) tr.force[i].x = std::sin(2 * kPi * 5 * tr.t[i]) + 0.1 * (i % 2);
+  const ForceMetrics m = roundtrip(tr, "at100hz");
+  EXPECT_GT(m.whole.power_above_30hz, 0.001);
+  EXPECT_TRUE(std::isnan(m.whole.power_above_100hz));
+  ReplayTrace still = make_trace(1000, 100.0, 10);
+  const ForceMetrics s = roundtrip(still, "still100hz");
+  EXPECT_EQ(s.whole.power_above_30hz, 0.0);
+  EXPECT_TRUE(std::isnan(s.whole.power_above_100hz));
+}
+
 TEST(ForceMetrics, RoundOffIsNoVibration) {
   // A run without contact: forces of ~1e-15 N (round-off of the coupling), scored 0.88 above 30 Hz
   // and a frame-boundary ratio of 0.65 as if they were rendered.

@@ -26,7 +26,12 @@ add_test(NAME cli.synth.bad_plan
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_IO_DATA}/bad_plan.yaml;-o;${EBH_IO_OUT}/bad_plan.h5"
     "-DEXPECT=^ebh: error: .*bad_plan.yaml:[0-9]+: waypoints\\[2\\].t: times must be strictly increasing"
     -DOUTPUT=${EBH_IO_OUT}/bad_plan.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan PROPERTIES LABELS cli)
+# --rate below twice the tremor's band (the plan's default 8-12 Hz) would alias it.
+add_test(NAME cli.synth.rate_below_the_tremor
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${PROJECT_SOURCE_DIR}/recordings/gap_insert.yaml;-o;${EBH_IO_OUT}/rate20.h5;--rate;20"
+    "-DEXPECT=^ebh: error: --rate 20: 20 Hz samples cannot carry the tremor's band up to 12 Hz"
+    -DOUTPUT=${EBH_IO_OUT}/rate20.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan cli.synth.rate_below_the_tremor PROPERTIES LABELS cli)
 # A plan names a scene file relative to itself; the recording, written two folders further down,
 # names the same file relative to its own folder (where readers look; a name stays a name:
 # cli.synth.tube_insert), and a path that names no file is refused.
@@ -380,6 +385,22 @@ function(ebh_replay_failure name expect)
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;${ARGN};-o;${EBH_REPLAY_OUT}/${name}.h5;-q"
       "-DEXPECT=${expect}" -DOUTPUT=${EBH_REPLAY_OUT}/${name}.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 endfunction()
+# A device faster than the virtual tool's Newton steps reach in a tick: at 10 Hz (20 mm/s), and
+# with tool.max_step given in metres into a mm scene (2 mm/s; the force limit with nothing touched).
+add_test(NAME cli.replay.tool_outpaced_at_a_low_rate
+  COMMAND ${EBH_BIN} replay tube tube_insert --start 2 --duration 1 --haptic-hz 10 --physical-hz 10
+    -o ${EBH_REPLAY_OUT}/outpaced.h5 -q)
+set_tests_properties(cli.replay.tool_outpaced_at_a_low_rate PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "warning: .*outpaced.h5: the device moved farther in a tick than the virtual tool can follow in [0-9]+ of 11 ticks \\(up to [0-9.]+ mm, against 2 mm a tick: .* 20 mm/s at 10 Hz\\)")
+add_test(NAME cli.replay.max_step_in_the_wrong_unit
+  COMMAND ${EBH_BIN} replay tube tube_insert --duration 2 --set tool.max_step=0.0005 -o ${EBH_REPLAY_OUT}/max_step_m.h5 -q)
+set_tests_properties(cli.replay.max_step_in_the_wrong_unit PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "against 0.002 mm a tick.*[1-9][0-9]* ticks rendered the force limit \\(3.3 N\\) with no contact: the coupling's stretch, not tissue; raise tool.max_step \\(tool.unit mm\\)")
+# A scene asking for frames at a haptic rate below their default 30 a second takes one a tick.
+add_test(NAME cli.replay.frames_default_at_a_low_rate
+  COMMAND ${EBH_BIN} replay gap gap_insert --start 3 --duration 0.5 --haptic-hz 10 --physical-hz 10
+    --set stages.frames=true -o ${EBH_REPLAY_OUT}/frames_10hz.h5)
+set_tests_properties(cli.replay.frames_default_at_a_low_rate PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION "6 ticks, 6 physical steps")
 ebh_replay_failure(missing_recording "no such recording" tube no_such_recording)
 ebh_replay_failure(missing_scene "no_such_scene" no_such_scene tube_insert)
 ebh_replay_failure(not_hdf5 "tube.yaml" tube ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml)

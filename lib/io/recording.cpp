@@ -440,6 +440,9 @@ double replay_window(double start, std::optional<double> duration, double length
   if (duration && !(std::isfinite(*duration) && *duration > 0))
     throw InputError(duration_label + " " + shortest_text(*duration) + ": expected a finite number > 0 (seconds replayed)");
   const double rest = length - start;
+  // --start 9.9 --duration 0.1 on a 10 s recording ends at its end: 10 - 9.9 is 0.0999999999999996,
+  // which would read as a window cut short. Within a nanosecond of the end the duration stands.
+  if (duration && start + *duration <= length + 1e-9) return *duration;
   return duration ? std::min(*duration, rest) : rest;
 }
 

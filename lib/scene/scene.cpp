@@ -409,7 +409,7 @@ class SpecReader {
     const double ratio = s.haptic_hz / s.physical_hz;
     if (!whole_ticks_per_step(s.haptic_hz, s.physical_hz))
       fail("time.physical_hz", "haptic_hz / physical_hz must be a whole number >= 1, got " + shown_number(s.haptic_hz) +
-                                   " / " + shown_number(s.physical_hz) + " = " + shown_number(ratio),
+                                   " / " + shown_number(s.physical_hz) + " = " + shortest_text(ratio),
            {"time.haptic_hz"});
   }
 

@@ -96,8 +96,7 @@ void check_rate_options(const SceneSpec& spec, std::optional<double> haptic_hz, 
   const double h = haptic_hz.value_or(spec.haptic_hz), p = physical_hz.value_or(spec.physical_hz);
   const double ratio = h / p;
   if (!whole_ticks_per_step(h, p)) {
-    char ratio_text[32];
-    std::snprintf(ratio_text, sizeof ratio_text, "%g", ratio);
+    const std::string ratio_text = shortest_text(ratio);  // "%g" shows 1000 / 333.333 as 3
     const std::string option = physical_hz ? "--physical-hz " + shortest_text(p) : "--haptic-hz " + shortest_text(h);
     throw InputError(option + ": the haptic rate over the physical rate must be a whole number >= 1 (ticks per " +
                      "physical step), got " + shortest_text(h) + (haptic_hz ? "" : " (the scene's time.haptic_hz)") +

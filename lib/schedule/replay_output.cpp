@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "core/error.hpp"
+#include "tool/newton.hpp"
 #include "ebh/commit.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
@@ -259,7 +260,9 @@ ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, cons
   }
 }
 
-void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
+void ReplayWriter::on_tick(const World& w, const HapticSide& h, double t) {
+  if (reach_ < 0)
+    reach_ = newton_reach_of_calls(newton_limits(w.tool.spec), newton_calls_per_tick(w.scene.spec)).translation;
   t_.push_back(t);
   push3(force_, h.output.force);
   push3(torque_, h.output.torque);
@@ -287,6 +290,13 @@ void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   if (h.penetration > max_penetration_) max_penetration_ = h.penetration;
   clamped_ += h.output.force_clamped ? 1 : 0;
   in_contact_ += h.contact_count > 0 ? 1 : 0;
+  free_clamped_ += h.output.force_clamped && h.contact_count == 0 ? 1 : 0;
+  if (pose_h_.size() >= 14) {
+    const double* p = pose_h_.data() + pose_h_.size() - 14;  // the tick before's px py pz, then this one's
+    const double step = norm(Vec3d{p[7] - p[0], p[8] - p[1], p[9] - p[2]});
+    if (step > max_device_step_) max_device_step_ = step;
+    if (step > reach_ * (1 + 1e-9)) ++outpaced_;
+  }
 }
 
 void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {

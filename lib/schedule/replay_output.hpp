@@ -87,6 +87,14 @@ class ReplayWriter : public ReplayObserver {
   double max_penetration() const { return max_penetration_; }
   std::int64_t clamped_ticks() const { return clamped_; }
   std::int64_t contact_ticks() const { return in_contact_; }  ///< ticks with contacts > 0
+  /// Ticks whose force met the limit with no contact (the virtual tool far behind the device), and
+  /// the device's longest move in one tick (m).
+  std::int64_t free_clamped_ticks() const { return free_clamped_; }
+  double max_device_step() const { return max_device_step_; }
+  /// Ticks in which the device moved farther than the virtual tool's Newton calls reach in one
+  /// (tool.max_step x its steps a tick): the tool lags the device there.
+  std::int64_t outpaced_ticks() const { return outpaced_; }
+  double tool_reach() const { return reach_; }  ///< m a tick
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
   /// Steps that ran solver.physical_max_iterations and still left more than the tolerance.
   std::int64_t capped_steps() const { return capped_steps_; }
@@ -136,7 +144,9 @@ class ReplayWriter : public ReplayObserver {
   double peak_force_ = 0, peak_torque_ = 0, max_penetration_ = 0;
   std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0, unbalanced_steps_ = 0;
   double max_unbalanced_ = 0, first_unbalanced_t_ = -1;
-  std::int64_t stalled_steps_ = 0;
+  std::int64_t stalled_steps_ = 0, free_clamped_ = 0, outpaced_ = 0;
+  double reach_ = -1;  // m a tick, from the world at the first tick
+  double max_device_step_ = 0;
   double max_stalled_ = 0, first_stalled_t_ = -1;
 };
 

@@ -14,6 +14,9 @@ TEST(ReplayWindow, TakesAWindowInsideTheRecordingAndCutsItAtTheEnd) {
   EXPECT_EQ(replay_window(0, std::nullopt, 10, "rec.h5", "--start", "--duration"), 10);
   EXPECT_EQ(replay_window(2, 3.0, 10, "rec.h5", "--start", "--duration"), 3);
   EXPECT_EQ(replay_window(8, 5.0, 10, "rec.h5", "--start", "--duration"), 2);  // cut at the end
+  // A window that ends at the recording's end keeps its duration (10 - 9.9 is 0.0999999999999996).
+  EXPECT_EQ(replay_window(9.9, 0.1, 10, "rec.h5", "--start", "--duration"), 0.1);
+  EXPECT_EQ(replay_window(9.3, 0.7, 10, "rec.h5", "--start", "--duration"), 0.7);
 }
 
 TEST(ReplayWindow, RefusesAWindowOutsideTheRecordingNamingTheKey) {

@@ -21,6 +21,7 @@
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
 #include "io/recording.hpp"
+#include "tool/newton.hpp"
 #include "metrics/force_metrics.hpp"
 #include "options.hpp"
 #include "render/xdmf.hpp"
@@ -125,11 +126,13 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   if (const unsigned cores = std::thread::hardware_concurrency(); cores > 0 && a.haptic_threads > static_cast<int>(cores))
     std::fprintf(stderr, "ebh: warning: --haptic-threads %d is more than the %u threads this machine runs at once: "
                  "they take turns, and the replay runs slower\n", a.haptic_threads, cores);
-  opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? 30.0 : 0.0);
+  // 30 a second by default, or a snapshot every tick where the haptic rate is below that.
+  const double default_frames_hz = std::min(30.0, 1.0 / world.h_haptic);
+  opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? default_frames_hz : 0.0);
   if (!a.render_dir.empty() && a.frames_hz && *a.frames_hz <= 0)
     throw InputError("--render " + a.render_dir + ": renders the mesh snapshots, and --frames-hz " +
                      format_number(*a.frames_hz) + " asks for none (leave --frames-hz out for 30 a second)");
-  if (!a.render_dir.empty() && opt.frames_hz <= 0) opt.frames_hz = 30.0;  // --render needs frames
+  if (!a.render_dir.empty() && opt.frames_hz <= 0) opt.frames_hz = default_frames_hz;  // --render needs frames
   if (opt.frames_hz * world.h_haptic > 1 + 1e-9)
     throw InputError("--frames-hz " + format_number(opt.frames_hz) + ": more snapshots than haptic ticks (" +
                      format_number(1.0 / world.h_haptic) + " Hz)");
@@ -181,6 +184,31 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
       contact += line;
     }
   if (!contact.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), contact.c_str());
+  // A device faster than the virtual tool's Newton steps reach in a tick (a low haptic rate,
+  // tool.max_step in the wrong unit): the tool lags and the force grows with the lag, to the limit
+  // with nothing touched, where it is the coupling's stretch.
+  if (writer.outpaced_ticks() == 0 && writer.free_clamped_ticks() > 0)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: %lld of %lld ticks rendered the force limit (%g N) with no contact: the virtual "
+                 "tool was held far from the device, and that force is the coupling's stretch, not tissue\n",
+                 a.out.c_str(), static_cast<long long>(writer.free_clamped_ticks()), static_cast<long long>(s.ticks),
+                 world.scene.spec.tool.force_limit);
+  else if (writer.outpaced_ticks() > 0) {
+    const double reach = writer.tool_reach();
+    char clamped[160] = "";
+    if (writer.free_clamped_ticks() > 0)
+      std::snprintf(clamped, sizeof clamped, "; %lld ticks rendered the force limit (%g N) with no contact: the "
+                    "coupling's stretch, not tissue", static_cast<long long>(writer.free_clamped_ticks()),
+                    world.scene.spec.tool.force_limit);
+    std::fprintf(stderr,
+                 "ebh: warning: %s: the device moved farther in a tick than the virtual tool can follow in %lld of "
+                 "%lld ticks (up to %.3g mm, against %.3g mm a tick: tool.max_step x its Newton steps a tick, %.3g "
+                 "mm/s at %g Hz), so the tool lags it and the force grows with the lag%s; raise tool.max_step "
+                 "(tool.unit %s) or the haptic rate\n",
+                 a.out.c_str(), static_cast<long long>(writer.outpaced_ticks()), static_cast<long long>(s.ticks),
+                 writer.max_device_step() * 1e3, reach * 1e3, reach * 1e3 / world.h_haptic, 1.0 / world.h_haptic,
+                 clamped, world.scene.spec.tool.unit_name.c_str());
+  }
   if (writer.recovered_steps() > 0)
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps did not converge and were redone with the direct "
@@ -261,7 +289,7 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                   writer.awake_mean(), world.physical_mesh.num_free);
     std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
                 s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0);
-    std::printf("  peak force %.3f N (%lld ticks at the %.1f N limit), max penetration %.3f mm, peak torque %.3g N m\n",
+    std::printf("  peak force %.3f N (%lld ticks at the %g N limit), max penetration %.3f mm, peak torque %.3g N m\n",
                 writer.peak_force(), static_cast<long long>(writer.clamped_ticks()), world.scene.spec.tool.force_limit,
                 1e3 * writer.max_penetration(), writer.peak_torque());
   }

@@ -10,6 +10,7 @@
 #if EBH_HAVE_CUDA
 #include "solver/device_cuda.hpp"
 #endif
+#include "io/atomic.hpp"
 #include "io/h5.hpp"
 #include "render/render_replay.hpp"
 #include "render/xdmf.hpp"
@@ -31,7 +32,15 @@ void check_backend(const std::string& backend) {
 }
 
 void render_after_replay(const std::string& replay_file, const std::string& dir) {
-  const RenderSummary s = render_replay(replay_file, dir, RenderOptions{});
+  RenderSummary s;
+  try {
+    s = render_replay(replay_file, dir, RenderOptions{});
+  } catch (const InputError&) {
+    // The replay's output is written by then: an interrupt stops the frames only, and says so.
+    if (!interrupted()) throw;
+    throw InputError(dir + ": interrupted while rendering: no frames written (the replay's output " + replay_file +
+                     " and its index are written)");
+  }
   for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
 }
 

@@ -667,6 +667,17 @@ if(EBH_GATE_BASH)
   set_tests_properties(cli.safety.interrupt_status PROPERTIES LABELS cli TIMEOUT 120
     PASS_REGULAR_EXPRESSION "interrupt status: ok")
 endif()
+# A case with no baseline metric compares nothing: it fails, and a failed gate exits 2 (not 1, bad
+# input, nor 0).
+file(WRITE ${PROJECT_BINARY_DIR}/gate_no_metrics.yaml
+  "cases:\n  - {name: bare, scene: tube, recording: tube_insert, start: 2, duration: 0.1}\n")
+if(EBH_GATE_BASH)
+  add_test(NAME gate.case_without_baselines_fails
+    COMMAND ${EBH_GATE_BASH} -c "\"$0\" gate --baselines \"$1\"; echo \"exit status $?\"" ${EBH_BIN}
+      ${PROJECT_BINARY_DIR}/gate_no_metrics.yaml)
+  set_tests_properties(gate.case_without_baselines_fails PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
+    "bare +FAIL.*bare: no baseline metric to compare against.*gate: FAILED\nexit status 2")
+endif()
 add_test(NAME gate.reports_a_stopped_replay
   COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1 --set solver.physical_tolerance=0
     --set solver.recovery=none)

@@ -304,6 +304,11 @@ void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
     r.passed = false;
     r.failures.push_back(b.name + ": " + what);
   };
+  // A case with no baseline at all compares nothing: it must not read as a pass.
+  if (std::isnan(b.rms_force_step) && std::isnan(b.max_force_rate) && std::isnan(b.peak_force) &&
+      std::isnan(b.penetration_max) && std::isnan(b.power_above_30hz))
+    return fail("no baseline metric to compare against (rms_force_step, max_force_rate, peak_force, "
+                "penetration_max, power_above_30hz: `ebh gate --update` writes them)");
   auto upper = [&](const char* name, double got, double base, double abs) {
     if (!std::isfinite(got)) return fail(std::string(name) + " is not finite");
     if (std::isnan(base)) return;  // no baseline for it yet

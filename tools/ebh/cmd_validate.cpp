@@ -92,7 +92,7 @@ void run(const Options& o) {
     }
   }
   if (o.json) std::printf("%s\n", results.dump(2).c_str());
-  if (!all_passed) throw ebh::cli::ExitRequest{1};
+  if (!all_passed) throw ebh::cli::ExitRequest{ebh::cli::kCheckFailedStatus};
 }
 
 void setup(CLI::App& root) {

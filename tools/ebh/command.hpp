@@ -13,10 +13,15 @@ using CommandSetup = void (*)(CLI::App& root);
 std::vector<CommandSetup>& command_registry();
 
 /// Thrown by a command to end with a given exit code after printing its own message
-/// (e.g. a validation that ran but did not pass exits 1).
+/// (e.g. a validation that ran but did not pass exits kCheckFailedStatus).
 struct ExitRequest {
   int code;
 };
+
+/// The exit status of a check that ran and did not pass (`ebh gate`, `ebh validate`): not 1, bad
+/// input, so that a CI job tells a regression from a typo (3 internal error, 4 numerical, 128 +
+/// signal interrupted).
+inline constexpr int kCheckFailedStatus = 2;
 
 struct CommandRegistrar {
   explicit CommandRegistrar(CommandSetup setup) { command_registry().push_back(setup); }

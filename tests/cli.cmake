@@ -401,6 +401,11 @@ add_test(NAME cli.replay.frames_default_at_a_low_rate
   COMMAND ${EBH_BIN} replay gap gap_insert --start 3 --duration 0.5 --haptic-hz 10 --physical-hz 10
     --set stages.frames=true -o ${EBH_REPLAY_OUT}/frames_10hz.h5)
 set_tests_properties(cli.replay.frames_default_at_a_low_rate PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION "6 ticks, 6 physical steps")
+# A recording replayed on a scene other than the one it names.
+add_test(NAME cli.replay.recording_of_another_scene
+  COMMAND ${EBH_BIN} replay gap tube_insert --duration 0.05 -o ${EBH_REPLAY_OUT}/other_scene.h5 -q)
+set_tests_properties(cli.replay.recording_of_another_scene PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "warning: .*tube_insert.h5: recorded for the scene 'tube' \\(its scene attribute\\) and replayed on 'gap'")
 ebh_replay_failure(missing_recording "no such recording" tube no_such_recording)
 ebh_replay_failure(missing_scene "no_such_scene" no_such_scene tube_insert)
 ebh_replay_failure(not_hdf5 "tube.yaml" tube ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml)
@@ -814,7 +819,7 @@ file(WRITE ${EBH_SAFE}/gate_short.yaml "cases:\n  - {name: w, scene: tube, recor
 file(WRITE ${EBH_SAFE}/gate_free.yaml "cases:\n  - {name: w, scene: tube, recording: tube_insert, start: 0, duration: 0.3}\n")
 # A recording given by a path relative to the baselines file, read from another working folder.
 configure_file(${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5 ${EBH_SAFE}/gate_rel/rec.h5 COPYONLY)
-file(WRITE ${EBH_SAFE}/gate_rel/sub/own.yaml "cases:\n  - {name: own, scene: tube, recording: ../rec.h5, start: 4, duration: 0.3}\n")
+file(WRITE ${EBH_SAFE}/gate_rel/sub/own.yaml "cases:\n  - {name: own, scene: tube, recording: ../rec.h5, start: 4, duration: 0.3, peak_force: 0.092}\n")
 file(WRITE ${EBH_SAFE}/afile "a file, not a folder\n")
 file(MAKE_DIRECTORY ${EBH_SAFE}/a_folder)
 # Fresh copies of the inputs before the tests that must leave them as they were.

@@ -1,9 +1,13 @@
 #include "schedule/replay_inputs.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <optional>
+#include <string>
 
 #include "core/error.hpp"
 #include "core/number_text.hpp"
@@ -104,6 +108,32 @@ void check_rate_options(const SceneSpec& spec, std::optional<double> haptic_hz, 
   }
 }
 
+/// A recording replayed on a scene other than the one its `scene` attribute names (by name, or as a
+/// file beside it): its path was made for another geometry. Scenes derived from it keep quiet:
+/// `ebh scene refine` names them NAME_lN, `ebh scene degrade` NAME_qQ.
+std::optional<std::string> scene_mismatch(const Recording& rec, const std::string& recording_path,
+                                          const std::filesystem::path& scene_file, const std::string& scene_name) {
+  if (rec.scene.empty() || rec.scene == scene_name) return std::nullopt;
+  std::string named = rec.scene;
+  try {
+    const std::filesystem::path file = resolve_recording_scene(rec.scene, recording_path);
+    std::error_code ec;
+    if (std::filesystem::equivalent(file, scene_file, ec)) return std::nullopt;
+    if (named.find('/') != std::string::npos || std::filesystem::path(named).has_extension())
+      named = load_scene_spec(file).name;  // a file's scene by its name
+  } catch (const InputError&) {
+    // a scene this machine does not have: compare by the attribute alone
+  }
+  if (named == scene_name) return std::nullopt;
+  for (const char* derived : {"_l", "_q"})
+    if (scene_name.size() > named.size() + 2 && scene_name.compare(0, named.size(), named) == 0 &&
+        scene_name.compare(named.size(), 2, derived) == 0 &&
+        std::isdigit(static_cast<unsigned char>(scene_name[named.size() + 2])))
+      return std::nullopt;
+  return "recorded for the scene '" + rec.scene + "' (its scene attribute) and replayed on '" + scene_name + "' (" +
+         scene_file.string() + "): its path was made for another scene's geometry and tool";
+}
+
 }  // namespace
 
 LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& scene,
@@ -113,7 +143,10 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   LoadedReplay r;
   r.recording_path = std::move(recording.path);
   r.recording = std::move(recording.recording);
-  SceneSpec spec = load_scene_spec(resolve_scene_path(scene), overrides);
+  const std::filesystem::path scene_file = resolve_scene_path(scene);
+  SceneSpec spec = load_scene_spec(scene_file, overrides);
+  if (auto w = scene_mismatch(r.recording, r.recording_path, scene_file, spec.name))
+    r.warnings.push_back(r.recording_path + ": " + *w);
   r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, spec);
   check_rate_options(spec, haptic_hz, physical_hz);
   const double hz_h = haptic_hz.value_or(spec.haptic_hz), hz_p = physical_hz.value_or(spec.physical_hz);

@@ -921,7 +921,7 @@ TEST(Scene, OverrideErrorsNameTheOverride) {
             "key 'stiffness.k_con': expected a positive number, got '-1'");
   EXPECT_EQ(message({"solver.virtual_iterations=2", "time.physical_hz=70"}).rfind(
                 "OverrideError: --set 'time.physical_hz=70': key 'time.physical_hz': haptic_hz / physical_hz must be a "
-                "whole number >= 1, got 1000 / 70 = 14.2857 | ", 0),
+                "whole number >= 1, got 1000 / 70 = 14.285714285714286 | ", 0),
             0u);
   EXPECT_EQ(message({"time.haptic_hz=1010"}).rfind(
                 "OverrideError: --set 'time.haptic_hz=1010': key 'time.haptic_hz': haptic_hz / physical_hz must be a "

@@ -346,7 +346,7 @@ void degrade(const SceneDegradeArgs& a) {
 
   // The scene file as it is, pointing at the new mesh (absolute paths for every other file).
   YAML::Node root = YAML::LoadFile(file.string());
-  root["name"] = stem;
+  root["name"] = scene.spec.name + tag;  // as refine's NAME_lN: a recording of NAME replays on it without a word
   root["mesh"]["physical"] = std::filesystem::absolute(mesh_out).string();
   if (scene.spec.virtual_mesh) root["mesh"]["virtual"] = std::filesystem::absolute(*scene.spec.virtual_mesh).string();
   YAML::Emitter yaml;

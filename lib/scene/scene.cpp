@@ -389,7 +389,7 @@ class SpecReader {
           else if (fname == "jaw_width") t.forceps.jaw_width = length(fv, fk, unit);
           else if (fname == "jaw_thickness") t.forceps.jaw_thickness = length(fv, fk, unit);
           else if (fname == "jaw_max_angle_deg") t.forceps.jaw_max_angle_deg = in_range(fv, fk, 0, false, kMaxJawAngleDeg, false);
-          else if (fname == "grasp_threshold") t.forceps.grasp_threshold = in_range(fv, fk, 0, true, 1, true);
+          else if (fname == "grasp_threshold") t.forceps.grasp_threshold = in_range(fv, fk, 0, false, 1, true);  // jaw < 0 never: no grasp
           else if (fname == "soft_margin") t.forceps.soft_margin = length(fv, fk, unit);
           else if (fname == "eta") t.forceps.eta = positive(fv, fk);
         }
@@ -577,12 +577,13 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
     else if (size < kToolSizeMinRatio * diagonal) out.push_back(from + value + " is below 1/1000 of" + diag + ": " + units);
   }
   if (t.shaft_radius < 0.5e-3 || t.shaft_radius > 10e-3)
-    out.push_back(value_source(s, "tool.shaft_radius") + ": tool.shaft_radius = " + in_unit(t.shaft_radius, t.unit, t.unit_name) + " (" +
-                  shown_number(t.shaft_radius * 1e3) + " mm): laparoscopic shafts are 3-12 mm across; is tool.unit (" +
-                  t.unit_name + ") right?");
+    out.push_back(value_source(s, "tool.shaft_radius") + ": tool.shaft_radius = " + in_unit(t.shaft_radius, t.unit, t.unit_name) +
+                  (t.unit_name == "mm" ? std::string() : " (" + shown_number(t.shaft_radius * 1e3) + " mm)") +
+                  ": laparoscopic shafts are 3-12 mm across; is tool.unit (" + t.unit_name + ") right?");
   if (t.shaft_length < 0.05 || t.shaft_length > 1.0)
-    out.push_back(value_source(s, "tool.shaft_length") + ": tool.shaft_length = " + in_unit(t.shaft_length, t.unit, t.unit_name) + " (" +
-                  shown_number(t.shaft_length) + " m): laparoscopic shafts are about 0.3-0.45 m long; is tool.unit (" +
+    out.push_back(value_source(s, "tool.shaft_length") + ": tool.shaft_length = " + in_unit(t.shaft_length, t.unit, t.unit_name) +
+                  (t.unit_name == "m" ? std::string() : " (" + shown_number(t.shaft_length) + " m)") +
+                  ": laparoscopic shafts are about 0.3-0.45 m long; is tool.unit (" +
                   t.unit_name + ") right?");
   // The solver's movement thresholds are tolerances of a few micrometres (the committed scenes and
   // sweeps use 0.0003 .. 0.03 mm): one beyond 1% of the mesh's size holds the mesh, or the virtual

@@ -476,6 +476,9 @@ TEST(SizeWarnings, AMisdeclaredToolUnitIsNamed) {
   EXPECT_TRUE(has_warning(bad, "tool.shaft_length = 300 cm (3 m): laparoscopic shafts are about 0.3-0.45 m long"));
   const Scene good = load_scene(cube_scene("declared.yaml", "unit: cm\ntool: {unit: mm, " + tool.substr(0) + "}\n"));
   EXPECT_TRUE(good.warnings.empty()) << good.warnings.front();
+  // In mm already, the size is said once.
+  const Scene wide = load_scene(cube_scene("wide.yaml", "unit: cm\ntool: {unit: mm, kind: hook, shaft_radius: 15}\n"));
+  EXPECT_TRUE(has_warning(wide, "tool.shaft_radius = 15 mm: laparoscopic shafts are 3-12 mm across"));
 }
 
 TEST(SizeWarnings, AMeshInTheWrongUnit) {

@@ -724,11 +724,16 @@ add_test(NAME cli.replay.free_part_warns
     --set "pinned=[{box: {min: [0,-30,-31], max: [31,30,-29]}}]")
 set_tests_properties(cli.replay.free_part_warns PROPERTIES PASS_REGULAR_EXPRESSION
   "gap.yaml: pinned: 1 part\\(s\\) of the physical mesh \\(1928 of its 3850 vertices; the first holds vertex 0 and 1928 vertices\\) touch no pinned vertex: they float free")
-# More haptic threads than the machine runs at once: said (they take turns).
-add_test(NAME cli.replay.haptic_threads_oversubscribed
+# More haptic threads than the OpenMP threads leave beside the physical step: said, with the number
+# run; more OpenMP threads than the machine runs at once: said (they take turns).
+add_test(NAME cli.replay.haptic_threads_clamped
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads.h5 --duration 0.01 --haptic-threads 4096 -q)
-set_tests_properties(cli.replay.haptic_threads_oversubscribed PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
-  "warning: --haptic-threads 4096 is more than the [0-9]+ threads this machine runs at once")
+set_tests_properties(cli.replay.haptic_threads_clamped PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=2
+  PASS_REGULAR_EXPRESSION "warning: --haptic-threads 4096: of the 2 OpenMP threads .* the haptic side runs 1;")
+add_test(NAME cli.replay.threads_oversubscribed
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads_over.h5 --duration 0.01 -q)
+set_tests_properties(cli.replay.threads_oversubscribed PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=4096
+  PASS_REGULAR_EXPRESSION "warning: 4096 OpenMP threads \\(OMP_NUM_THREADS\\) are more than the [0-9]+ this machine runs at once")
 add_test(NAME cli.table1.seconds_too_short
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};table1;--seconds;0.01"
     "-DEXPECT=^ebh: error: --seconds: expected a finite number in \\[0.1, 3600\\] s, got '0.01'"

@@ -122,10 +122,17 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   opt.start = a.start;
   opt.duration = a.duration.value_or(0);  // 0: the rest of the recording
   opt.haptic_threads = a.haptic_threads;
+  // The split of the OpenMP threads between the two sides: what --haptic-threads asked may not fit.
+  const int total_threads = std::max(1, omp_get_max_threads());
+  if (a.haptic_threads > 0 && mode != Mode::Lockstep)
+    if (const ThreadSplit split = split_threads(mode, a.haptic_threads); split.haptic != a.haptic_threads)
+      std::fprintf(stderr, "ebh: warning: --haptic-threads %d: of the %d OpenMP threads (OMP_NUM_THREADS, else the "
+                   "cores) the physical step keeps at least one, so the haptic side runs %d; raise OMP_NUM_THREADS "
+                   "for more\n", a.haptic_threads, total_threads, split.haptic);
   // More threads than the machine runs at once take turns: the ticks and the step slow down.
-  if (const unsigned cores = std::thread::hardware_concurrency(); cores > 0 && a.haptic_threads > static_cast<int>(cores))
-    std::fprintf(stderr, "ebh: warning: --haptic-threads %d is more than the %u threads this machine runs at once: "
-                 "they take turns, and the replay runs slower\n", a.haptic_threads, cores);
+  if (const unsigned cores = std::thread::hardware_concurrency(); cores > 0 && total_threads > static_cast<int>(cores))
+    std::fprintf(stderr, "ebh: warning: %d OpenMP threads (OMP_NUM_THREADS) are more than the %u this machine runs at "
+                 "once: they take turns, and the replay runs slower\n", total_threads, cores);
   // 30 a second by default, or a snapshot every tick where the haptic rate is below that.
   const double default_frames_hz = std::min(30.0, 1.0 / world.h_haptic);
   opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? default_frames_hz : 0.0);

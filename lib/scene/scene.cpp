@@ -532,7 +532,7 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
   if (r.kind == PinRegion::Kind::Group) {
     const std::vector<std::string> known = known_group_names(scene.physical);
     if (std::find(known.begin(), known.end(), r.group) == known.end())
-      throw InputError(scene.spec.file.string() + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
+      throw InputError(value_source(scene.spec, key) + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
                        scene.spec.physical_mesh.string() + ": " + known_groups_text(scene.physical) + ")");
   }
   // A region the file gives can miss a mesh that an override moved or replaced: say which.

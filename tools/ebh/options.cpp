@@ -25,7 +25,8 @@ CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::stri
         char* e = nullptr;
         errno = 0;
         const double v = std::strtod(b, &e);
-        const bool parsed = !text.empty() && e == b + text.size() && errno != ERANGE;
+        // ERANGE: an overflow (inf, refused below) or an underflow to a denormal or 0 (1e-320 is a number)
+        const bool parsed = !text.empty() && e == b + text.size() && (errno != ERANGE || std::fabs(v) < 1);
         const bool in = parsed && std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
         return in ? std::string() : "expected a finite number " + range + ", got '" + escape_unprintable(text) + "'";
       },

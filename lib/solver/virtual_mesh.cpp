@@ -65,15 +65,18 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
   const std::string where = scene.spec.virtual_mesh->string() + ": mesh.virtual: the virtual mesh ";
   const char* frame = "is it in mesh.unit and the physical mesh's frame (mesh.transform places both)?";
   const double diagonal = bounding_box(scene.physical.vertices).diagonal();
-  char buf[240];
+  char buf[320];
   if (vm.pairing_worst >= 0 && vm.pairing_max_error > 0.01 * diagonal) {
+    // Where, not which: the model's vertex numbers are not the file's (refined, renumbered).
+    const Vec3d at = vm.rest[vm.pairing_worst];
     if (!(vm.pairing_max_error <= 10 * diagonal)) {
-      std::snprintf(buf, sizeof buf, "%.3g m off the physical mesh (virtual vertex %d), more than 10 times its diagonal "
-                    "(%.3g m)", vm.pairing_max_error, vm.pairing_worst, diagonal);
+      std::snprintf(buf, sizeof buf, "%.3g m off the physical mesh (the virtual vertex at %.4g, %.4g, %.4g m), more "
+                    "than 10 times its diagonal (%.3g m)", vm.pairing_max_error, at.x, at.y, at.z, diagonal);
       throw InputError(where + "lies up to " + buf + ": it is not a surface of this mesh; " + frame);
     }
-    std::snprintf(buf, sizeof buf, "%.3g mm off the physical mesh (virtual vertex %d; 1%% of its diagonal is %.3g mm)",
-                  vm.pairing_max_error * 1e3, vm.pairing_worst, 0.01 * diagonal * 1e3);
+    std::snprintf(buf, sizeof buf, "%.3g mm off the physical mesh (the virtual vertex at %.4g, %.4g, %.4g mm; 1%% of "
+                  "its diagonal is %.3g mm)", vm.pairing_max_error * 1e3, at.x * 1e3, at.y * 1e3, at.z * 1e3,
+                  0.01 * diagonal * 1e3);
     warnings.push_back(where + "lies up to " + buf + ": its E_svc targets pull it onto the physical mesh; " + frame);
   }
   const double span = bounding_box(vm.rest).diagonal();

@@ -55,7 +55,7 @@ TEST(BuildWorld, AVirtualMeshOffThePhysicalMeshIsNamed) {
   const auto moved = warnings_with_obj("moved", 1.0, 5.0);
   // (at least the 50 mm the far face stands out: the pairing's clamped barycentric point, not the
   // closest one, is what the E_svc target pulls towards)
-  EXPECT_TRUE(has(moved, "moved.obj: mesh.virtual: the virtual mesh lies up to 55.3 mm off the physical mesh (virtual vertex "))
+  EXPECT_TRUE(has(moved, "moved.obj: mesh.virtual: the virtual mesh lies up to 55.3 mm off the physical mesh (the virtual vertex at "))
       << ::testing::PrintToString(moved);
   EXPECT_TRUE(has(moved, "1% of its diagonal is 1.73 mm): its E_svc targets pull it onto the physical mesh"));
   EXPECT_TRUE(has(warnings_with_obj("tenfold", 10.0, 0.0), "tenfold.obj: mesh.virtual: the virtual mesh lies up to "));

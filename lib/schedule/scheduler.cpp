@@ -456,6 +456,7 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
 
   std::mutex mx;                      // guards the two published snapshots and their flags
   HapticSnapshot published_q;         // haptic -> physical
+  double published_t = 0;             // the virtual time of the tick that published it
   PhysicalSnapshot published_x;       // physical -> haptic
   bool fresh_x = false;
   std::atomic<bool> done{false};
@@ -474,9 +475,11 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
     PhysicalSnapshot local_x;
     while (!done.load()) try {
       const double t_start = now_s();
+      double t_virtual = 0;  // /physical/t: the virtual time of the ticks it ran on, not the wall clock's
       {
         std::lock_guard<std::mutex> lock(mx);
         local_q.q = published_q.q;
+        t_virtual = published_t;
       }
       run_physical_step(world, physical, local_q);
       take_physical_snapshot(physical, local_x);
@@ -484,7 +487,7 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
         std::lock_guard<std::mutex> lock(mx);
         std::swap(published_x, local_x);
         fresh_x = true;
-        obs.on_step(world, physical, t_start);
+        obs.on_step(world, physical, t_virtual);
         ++s.steps;
       }
       // Pace: at most one physical step per h_p of wall time (unless unpaced).
@@ -515,6 +518,7 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
     {
       std::lock_guard<std::mutex> lock(mx);
       take_haptic_snapshot(haptic, published_q);
+      published_t = t;
       obs.on_tick(world, haptic, t);
     }
     ++s.ticks;

@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <thread>
 #include <vector>
 
 #include "io/atomic.hpp"
@@ -261,6 +263,30 @@ TEST(Scheduler, NewtonCallsFollowTheLastVirtualIterations) {
     in_contact += !h.tool.contacts.empty();
   }
   EXPECT_GT(in_contact, 10) << "the window must have contact, or the check above shows nothing";
+}
+
+// Realtime mode paces both sides by the wall clock; where the ticks fall behind it (3 ms each
+// here), the physical steps go on, and /physical/t is still the virtual time of the ticks they ran
+// on, within the replay's window (it was the wall clock: 18.6 s in a 0.3 s output).
+TEST(Scheduler, RealtimeStepTimesAreVirtualWhenTheTicksFallBehind) {
+  struct Slow : Capture {
+    double last_t = 0;
+    void on_tick(const World& w, const HapticSide& h, double t) override {
+      Capture::on_tick(w, h, t);
+      last_t = t;
+      std::this_thread::sleep_for(std::chrono::milliseconds(3));
+    }
+  } slow;
+  omp_set_num_threads(2);
+  ReplayOptions opt;
+  opt.mode = Mode::Realtime;
+  opt.duration = 0.05;
+  replay(*tube().world, entering_bore(0.2), opt, slow);
+  ASSERT_GT(slow.step_t.size(), 5u);  // ~150 ms of wall time at 100 Hz
+  for (std::size_t k = 0; k < slow.step_t.size(); ++k) {
+    EXPECT_LE(slow.step_t[k], slow.last_t) << k;
+    if (k > 0) EXPECT_GE(slow.step_t[k], slow.step_t[k - 1]) << k;
+  }
 }
 
 TEST(Scheduler, TickCountCoversTheDuration) {

@@ -81,4 +81,31 @@ SurfaceMesh extract_boundary(const TetMesh& mesh, std::vector<int>* surface_to_v
   return surface;
 }
 
+SurfaceEdges surface_edges(const std::vector<Tri>& triangles) {
+  struct Use {
+    int a, b, face;
+  };
+  std::vector<Use> uses;
+  uses.reserve(3 * triangles.size());
+  for (int f = 0; f < static_cast<int>(triangles.size()); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = triangles[f][k], b = triangles[f][(k + 1) % 3];
+      uses.push_back({std::min(a, b), std::max(a, b), f});
+    }
+  std::sort(uses.begin(), uses.end(), [](const Use& x, const Use& y) { return x.a != y.a ? x.a < y.a : x.b < y.b; });
+  SurfaceEdges out;
+  std::vector<std::uint8_t> shared(triangles.size(), 0);
+  for (std::size_t i = 0; i < uses.size();) {
+    std::size_t j = i;
+    while (j < uses.size() && uses[j].a == uses[i].a && uses[j].b == uses[i].b) ++j;
+    if (j - i == 1) ++out.open;
+    if (j - i > 2) ++out.nonmanifold;
+    if (j - i > 1)
+      for (std::size_t k = i; k < j; ++k) shared[uses[k].face] = 1;
+    i = j;
+  }
+  out.loose_faces = std::count(shared.begin(), shared.end(), std::uint8_t{0});
+  return out;
+}
+
 }  // namespace ebh

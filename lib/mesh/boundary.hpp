@@ -47,6 +47,16 @@ struct FaceCounts {
 };
 FaceCounts count_faces(const std::vector<Tet>& tets);
 
+/// How a triangle surface closes up: edges of one face only (a hole's rim, a cut patch's border),
+/// edges of three or more faces, and faces none of whose edges another face shares (a triangle
+/// soup, corners never welded). A closed manifold surface has none of them.
+struct SurfaceEdges {
+  long long open = 0;
+  long long nonmanifold = 0;
+  long long loose_faces = 0;
+};
+SurfaceEdges surface_edges(const std::vector<Tri>& triangles);
+
 /// Number of faces shared by two tets (see FaceCounts).
 inline long long count_interior_faces(const std::vector<Tet>& tets) { return count_faces(tets).interior; }
 

@@ -79,6 +79,17 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
                   0.01 * diagonal * 1e3);
     warnings.push_back(where + "lies up to " + buf + ": its E_svc targets pull it onto the physical mesh; " + frame);
   }
+  // An open surface (a hole, a cut patch, a soup of unwelded faces) lets the tool through unfelt.
+  const SurfaceEdges edges = surface_edges(scene.virtual_surface.triangles);
+  if (edges.open > 0) {
+    std::string soup;
+    if (edges.loose_faces > 0)
+      soup = "; " + std::to_string(edges.loose_faces) + " of its " + std::to_string(scene.virtual_surface.triangles.size()) +
+             " faces share no edge with another: corners that differ by round-off, never welded";
+    warnings.push_back(where + "is not closed: " + std::to_string(edges.open) +
+                       " of its edges belong to one face only (a hole, a cut patch" + soup +
+                       "): a tool that passes through an opening feels nothing there");
+  }
   const double span = bounding_box(vm.rest).diagonal();
   if (span < diagonal / 20) {
     std::snprintf(buf, sizeof buf, "spans %.3g mm, 1/%.0f of the physical mesh's diagonal (%.3g mm)", span * 1e3,

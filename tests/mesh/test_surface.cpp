@@ -193,5 +193,24 @@ TEST(Boundary, CompactsUnusedVertices) {
   EXPECT_EQ(to_volume.front(), 1);
 }
 
+// How a surface closes up: a tet's four faces close; three leave a rim of three open edges; two
+// faces apart share nothing; three faces on one edge make it non-manifold.
+TEST(SurfaceEdges, OpenNonManifoldAndLooseFaces) {
+  const std::vector<Tri> tet = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  SurfaceEdges e = surface_edges(tet);
+  EXPECT_EQ(e.open, 0);
+  EXPECT_EQ(e.nonmanifold, 0);
+  EXPECT_EQ(e.loose_faces, 0);
+  e = surface_edges({tet[0], tet[1], tet[2]});
+  EXPECT_EQ(e.open, 3);
+  EXPECT_EQ(e.loose_faces, 0);
+  e = surface_edges({{0, 1, 2}, {3, 4, 5}});
+  EXPECT_EQ(e.open, 6);
+  EXPECT_EQ(e.loose_faces, 2);
+  e = surface_edges({{0, 1, 2}, {1, 0, 3}, {0, 1, 4}});
+  EXPECT_EQ(e.nonmanifold, 1);
+  EXPECT_EQ(e.open, 6);
+}
+
 }  // namespace
 }  // namespace ebh

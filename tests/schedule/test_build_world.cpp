@@ -71,6 +71,26 @@ TEST(BuildWorld, AVirtualMeshOffThePhysicalMeshIsNamed) {
   }
 }
 
+// A virtual mesh with a hole (the cube without its last face) or of unwelded faces is not closed:
+// a tool that passes through an opening feels nothing, with either contact model.
+TEST(BuildWorld, AnOpenVirtualMeshIsNamed) {
+  auto warnings_of = [](const std::string& name, const std::string& obj) {
+    write_temp(name + ".obj", obj);
+    const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                             data("mesh/cube41.msh").string()),
+                                     "../mesh/cube.obj", name + ".obj");
+    return build_world(load_scene(write_temp(name + ".yaml", yaml)), 1000, 100)->scene.warnings;
+  };
+  std::string cube = slurp(data("mesh/cube.obj"));
+  const std::string holed = cube.substr(0, cube.rfind("f "));  // without the last quad
+  EXPECT_TRUE(has(warnings_of("holed", holed), "holed.obj: mesh.virtual: the virtual mesh is not closed: 4 of its edges "
+                                               "belong to one face only (a hole, a cut patch): "))
+      << ::testing::PrintToString(warnings_of("holed", holed));
+  // Two triangles of one face with their shared corners 1e-9 cm apart: nothing welds them.
+  const std::string soup = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 10 0 1e-9\nv 0 10 1e-9\nv 10 10 0\nf 1 3 2\nf 4 5 6\n";
+  EXPECT_TRUE(has(warnings_of("soup", soup), "2 of its 2 faces share no edge with another"));
+}
+
 TEST(BuildWorld, AVirtualMeshInAnotherUnitIsNamed) {
   // A mesh in m read as cm: 1/100 of the cube, inside it, paired without error; the tool would
   // never meet it. Half the cube (a patch-sized surface) says nothing.

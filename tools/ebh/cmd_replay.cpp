@@ -22,6 +22,7 @@
 #include "io/paths.hpp"
 #include "io/recording.hpp"
 #include "tool/newton.hpp"
+#include "mesh/boundary.hpp"
 #include "metrics/force_metrics.hpp"
 #include "options.hpp"
 #include "render/xdmf.hpp"
@@ -181,13 +182,27 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                                         static_cast<std::size_t>(s.ticks));
   // No contact although the device went into the tissue: the tool slipped between the virtual
   // vertices (a tool thinner than their spacing), which vertex contact cannot feel.
-  if (writer.contact_ticks() == 0 && world.scene.spec.contact == ContactModel::Vertices)
+  // With surface contact, or through an opening of an OBJ virtual mesh, the tool's tip can also go in
+  // unfelt: the hint names which.
+  if (writer.contact_ticks() == 0)
     if (const auto t = tip_inside_mesh(p.in.recording, world.scene.physical, a.start, a.duration.value_or(0))) {
-      char line[400];
-      std::snprintf(line, sizeof line,
-                    ", yet the tool's tip went inside the physical mesh (at the recording's t = %.3f s): it passed "
-                    "between the virtual vertices unfelt (contact: vertices; `--set contact=surface` feels it, "
-                    "docs/MODEL.md)", *t);
+      const long long open = surface_edges(world.scene.virtual_surface.triangles).open;
+      const bool vertices = world.scene.spec.contact == ContactModel::Vertices;
+      char line[480];
+      if (open > 0)
+        std::snprintf(line, sizeof line,
+                      ", yet the tool's tip went inside the physical mesh (at the recording's t = %.3f s): it passed "
+                      "through an opening of the virtual mesh%s unfelt (mesh.virtual is not closed: %lld of its edges "
+                      "belong to one face only)", *t, vertices ? ", or between its vertices," : "", open);
+      else if (vertices)
+        std::snprintf(line, sizeof line,
+                      ", yet the tool's tip went inside the physical mesh (at the recording's t = %.3f s): it passed "
+                      "between the virtual vertices unfelt (contact: vertices; `--set contact=surface` feels it, "
+                      "docs/MODEL.md)", *t);
+      else
+        std::snprintf(line, sizeof line,
+                      ", yet the tool's tip went inside the physical mesh (at the recording's t = %.3f s): the virtual "
+                      "mesh is not where the physical mesh is there (mesh.virtual)", *t);
       contact += line;
     }
   if (!contact.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), contact.c_str());

@@ -174,6 +174,7 @@ MeshReport validate_mesh(const TetMesh& mesh) {
     if (sign == 0) r.degenerate_tets.push_back(t);
     if (sign < 0) r.inverted_tets.push_back(t);
     const double q = tet_mean_ratio(a, b, c, d);
+    if (q < kPoorTetQuality) ++r.poor_tets;
     quality_sum += q;
     ++quality_count;
     if (q < r.quality_worst || r.worst_tet < 0) {
@@ -198,6 +199,14 @@ MeshReport validate_mesh(const TetMesh& mesh) {
     }
   const double diag = nv > 0 && lo.x <= hi.x ? norm(hi - lo) : 0.0;
   r.duplicate_vertices = find_duplicates(mesh.vertices, 1e-12 * diag);
+  auto vertex_name = [&](int v) {
+    return static_cast<std::size_t>(v) < mesh.file_node_ids.size() ? "node " + std::to_string(mesh.file_node_ids[v])
+                                                                    : "vertex " + std::to_string(v);
+  };
+  if (!r.duplicate_vertices.empty())
+    r.duplicate_names = vertex_name(r.duplicate_vertices[0].first) + " duplicates " +
+                        vertex_name(r.duplicate_vertices[0].second);
+  if (r.worst_tet >= 0) r.worst_tet_name = tet_name(mesh, r.worst_tet);
 
   r.overlapping_tets = overlapping_tets(mesh, sign_of);
 
@@ -268,14 +277,28 @@ std::vector<std::string> MeshReport::warnings() const {
   if (!unreferenced_vertices.empty())
     w.push_back(plural(unreferenced_vertices.size(), "vertex") + " used by no tet, the first: vertex " +
                 std::to_string(unreferenced_vertices[0]));
+  // Duplicates that tets use on both sides leave the body cut along them (an unmerged seam): its
+  // boundary then has non-manifold edges where the cut meets the surface.
+  const bool seam = !duplicate_vertices.empty() && !nonmanifold_edges.empty();
   if (!duplicate_vertices.empty())
-    w.push_back(plural(duplicate_vertices.size(), "vertex") + " at the position of another, the first: vertex " +
-                std::to_string(duplicate_vertices[0].first) + " duplicates vertex " +
-                std::to_string(duplicate_vertices[0].second));
+    w.push_back(plural(duplicate_vertices.size(), "vertex") + " at the position of another, the first: " +
+                duplicate_names +
+                (seam ? std::string(": the body is cut there (an unmerged seam: its sides move apart, and the cut's "
+                                    "faces become surface inside it); merge them (Gmsh: Coherence Mesh;)")
+                      : std::string()));
   if (!nonmanifold_edges.empty())
     w.push_back(plural(nonmanifold_edges.size(), "non-manifold boundary edge") +
                 " (not in exactly 2 boundary faces), the first: vertices " + std::to_string(nonmanifold_edges[0][0]) +
                 "-" + std::to_string(nonmanifold_edges[0][1]));
+  if (poor_tets > 0) {
+    char line[320];
+    std::snprintf(line, sizeof line,
+                  " of mean ratio below %g, the worst %.3g (%s): near-flat tets stall the physical solver's "
+                  "iterations or stop the replay (`ebh scene info` shows the mesh's quality and the solver's rate); "
+                  "remesh them",
+                  kPoorTetQuality, quality_worst, worst_tet_name.c_str());
+    w.push_back(plural(static_cast<std::size_t>(poor_tets), "tet") + line);
+  }
   return w;
 }
 

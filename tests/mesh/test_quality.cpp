@@ -137,6 +137,22 @@ TEST(Validate, UnreferencedAndDuplicateVertices) {
   EXPECT_EQ(validate_mesh(m).warnings().at(0).rfind("2 vertices used by no tet", 0), 0u) << validate_mesh(m).warnings()[0];
 }
 
+// A near-flat tet (one corner 1e-4 of an edge above the opposite face) is warned, with the worst
+// and its element id; the cube's own tets are not.
+TEST(Validate, NearFlatTetsAreWarned) {
+  TetMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, 1e-4}};
+  m.tets = {{0, 1, 2, 3}};
+  m.file_tet_ids = {57};
+  const MeshReport r = validate_mesh(m);
+  EXPECT_FALSE(r.fatal());
+  EXPECT_EQ(r.poor_tets, 1);
+  ASSERT_EQ(r.warnings().size(), 1u);
+  EXPECT_NE(r.warnings()[0].find("1 tet of mean ratio below 0.01, the worst"), std::string::npos) << r.warnings()[0];
+  EXPECT_NE(r.warnings()[0].find("(tet 0 (element id 57))"), std::string::npos) << r.warnings()[0];
+  EXPECT_EQ(validate_mesh(cube()).poor_tets, 0);
+}
+
 TEST(Validate, NonManifoldBoundaryEdge) {
   // two tets sharing only the edge 0-1
   TetMesh m;

@@ -240,6 +240,15 @@ file(WRITE ${EBH_INIT}/not_a_mesh.msh "a segmentation exported as text, not Gmsh
 file(WRITE ${EBH_INIT}/press.yaml "scene: own\ntool: hook\nwaypoints:\n"
   "  - {t: 0.0, position_mm: [20, 15, 40], rotvec_deg: [180, 0, 0], jaw: 1}\n  - {t: 0.2, position_mm: [20, 15, 40]}\n"
   "  - {t: 0.6, position_mm: [20, 15, 17]}\n  - {t: 0.8, position_mm: [20, 15, 17]}\n")
+# An MSH 4.1 file without $Entities: its $PhysicalNames name groups no element is in.
+file(READ ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube41.msh EBH_CUBE41)
+string(REGEX REPLACE "\\$Entities.*\\$EndEntities\n" "" EBH_CUBE41_NO_ENTITIES "${EBH_CUBE41}")
+file(WRITE ${EBH_INIT}/no_entities41.msh "${EBH_CUBE41_NO_ENTITIES}")
+add_test(NAME cli.scene_init.group_without_entities
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${EBH_INIT}/no_entities41.msh;-o;${EBH_INIT}/no_entities.yaml;--unit;cm;--pin;group:bottom"
+    "-DEXPECT=^ebh: error: --pin group:bottom: the region pins no vertex of .*no_entities41.msh: the mesh file names the group, but no element of it is in the group \\(MSH 4.1 gives elements their groups through its \\$Entities section"
+    -DOUTPUT=${EBH_INIT}/no_entities.yaml -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene_init.group_without_entities PROPERTIES LABELS cli)
 add_test(NAME cli.scene_init.write
   COMMAND ${EBH_BIN} scene init ${EBH_INIT}/own_cm.msh -o ${EBH_INIT}/own.yaml --unit cm --tissue liver)
 set_tests_properties(cli.scene_init.write PROPERTIES FIXTURES_SETUP scene_init FAIL_REGULAR_EXPRESSION "warning"

@@ -540,9 +540,11 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
   for (const char* k : {"mesh.physical", "mesh.transform", "mesh.unit", "unit"})
     if (const std::string* o = override_giving(scene.spec.overrides, k); o && moved.empty())
       moved = " (the mesh as " + OverrideError::set_option_shown(*o) + " gives it)";
+  // A group the file names that no element is in: an MSH 4.1 file assigns groups through $Entities.
+  const std::string empty_group = r.kind == PinRegion::Kind::Group ? ": " + group_without_elements_note() : "";
   throw InputError(value_source(scene.spec, key) + ": key '" + key + "': the " + region_name(r.kind) +
                    (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh" +
-                   moved + (why_none.empty() ? "" : ": " + why_none));
+                   moved + (empty_group.empty() ? (why_none.empty() ? "" : ": " + why_none) : empty_group));
 }
 
 /// Warnings for sizes no organ or laparoscopic instrument has: the physical mesh's bounding-box
@@ -858,6 +860,11 @@ Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides
 
 Scene load_scene_text(const std::string& yaml, const fs::path& file) {
   return build_scene(read_spec(parse_scene_yaml(yaml, file), file));
+}
+
+std::string group_without_elements_note() {
+  return "the mesh file names the group, but no element of it is in the group (MSH 4.1 gives elements their "
+         "groups through its $Entities section: a file without one has none; re-export it with Gmsh)";
 }
 
 std::string value_source(const SceneSpec& spec, const std::string& key) {

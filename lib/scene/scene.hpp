@@ -421,6 +421,9 @@ std::set<int> group_tags(const TetMesh& mesh, const std::string& group);
 std::vector<std::string> known_group_names(const TetMesh& mesh);
 /// known_group_names for a message: "bottom, tissue, 3 (unnamed)", or "none".
 std::string known_groups_text(const TetMesh& mesh);
+/// Why a group the mesh file names holds no element: an MSH 4.1 file gives elements their groups
+/// through $Entities, and one without that section has none (the pin errors say it).
+std::string group_without_elements_note();
 
 /// The axis-aligned bounding box of points (lo = hi = 0 for none).
 struct BoundingBox {

@@ -188,6 +188,8 @@ SceneInit make_scene(const SceneInitOptions& o) {
         if (std::find(known.begin(), known.end(), pin.region.group) == known.end())
           throw InputError("--pin " + spec + ": " + mesh_name + " has no physical group '" + pin.region.group + "' (" +
                            (known.empty() ? std::string("it has no groups") : "its groups: " + known_groups_text(mesh)) + ")");
+        throw InputError("--pin " + spec + ": the region pins no vertex of " + mesh_name + ": " +
+                         group_without_elements_note());
       }
       throw InputError("--pin " + spec + ": the region pins no vertex of " + mesh_name + " (its bounding box: " +
                        vec(box.lo / unit, round4) + " .. " + vec(box.hi / unit, round4) + " " + o.unit + ")");

@@ -544,7 +544,7 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
   const std::string empty_group = r.kind == PinRegion::Kind::Group ? ": " + group_without_elements_note() : "";
   throw InputError(value_source(scene.spec, key) + ": key '" + key + "': the " + region_name(r.kind) +
                    (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh" +
-                   moved + (empty_group.empty() ? (why_none.empty() ? "" : ": " + why_none) : empty_group));
+                   moved + (!why_none.empty() ? ": " + why_none : empty_group));
 }
 
 /// Warnings for sizes no organ or laparoscopic instrument has: the physical mesh's bounding-box

@@ -43,14 +43,23 @@ PoseTransforms apply_replay_transforms(Recording& rec, const std::string& path, 
 
 }  // namespace
 
-std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration) {
+std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration,
+                                      const ToolModel* tool) {
   if (rec.t.empty() || mesh.tets.empty()) return std::nullopt;
   const TetLocator locator(mesh);
+  auto inside = [&](const Vec3d& x) {
+    double error = 0;
+    return locator.locate(x, error).count > 0 && error == 0;
+  };
   const double t0 = rec.t.front() + start, t1 = duration > 0 ? t0 + duration : INFINITY;
   for (std::size_t i = 0; i < rec.t.size(); ++i) {
     if (rec.t[i] < t0 || rec.t[i] > t1) continue;
-    double error = 0;
-    if (locator.locate(rec.position[i], error).count > 0 && error == 0) return rec.t[i];
+    if (inside(rec.position[i])) return rec.t[i];
+    if (!tool) continue;
+    const PosedTool posed = pose_tool(*tool, ToolPose{rec.position[i], rec.orientation[i]}, rec.jaw[i]);
+    for (int k = 0; k < posed.count; ++k)
+      if (inside(apply(posed.world[k], posed.shape[k].a)) || inside(apply(posed.world[k], posed.shape[k].b)))
+        return rec.t[i];
   }
   return std::nullopt;
 }

@@ -31,10 +31,13 @@ struct LoadedReplay {
 std::string resolve_recording_path(const std::string& name_or_path);
 
 /// The first time (s, the recording's clock) in the window [start, start + duration] (duration 0:
-/// to the end) at which the tool's tip, the pose's origin, lies inside `mesh` (its rest shape), or
-/// nullopt: a replay that never touched the tissue although the device went into it let the tool
-/// pass between the virtual vertices (contact: vertices).
-std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration);
+/// to the end) at which the tool's tip lies inside `mesh` (its rest shape), or nullopt: a replay
+/// that never touched the tissue although the device went into it let the tool pass between the
+/// virtual vertices or through an opening of the virtual mesh. The tip: the pose's origin, and with
+/// `tool` the end points of its colliders at each sample's pose and jaw (a hook's tip reaches past
+/// the origin).
+std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration,
+                                      const ToolModel* tool = nullptr);
 
 
 /// The files a replay of (scene, recording) reads, with what each is: the recording, the scene file

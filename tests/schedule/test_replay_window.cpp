@@ -52,3 +52,21 @@ TEST(TipInsideMesh, TheFirstSampleOfTheWindowInsideTheRestMesh) {
   for (Vec3d& p : rec.position) p.x = 2;  // beside the tet
   EXPECT_EQ(tip_inside_mesh(rec, one, 0, 0), std::nullopt);
 }
+
+// A hook whose pose's origin stays 1 mm above the tissue while its tip reaches into it: the tip is
+// the tool's colliders' end points, not only the origin.
+TEST(TipInsideMesh, TheToolsCollidersReachPastItsOrigin) {
+  TetMesh slab;  // a tet whose top face is the plane z = 0 around the tool
+  slab.vertices = {{-1, -1, 0}, {1, -1, 0}, {0, 1, 0}, {0, 0, -1}};
+  slab.tets = {{0, 2, 1, 3}};
+  Recording rec;
+  for (int i = 0; i < 3; ++i) {
+    rec.t.push_back(0.1 * i);
+    rec.position.push_back({0, -0.2, 0.001});  // the origin, 1 mm above the top face
+    rec.orientation.push_back({0, 1, 0, 0});   // tool +z (handle to tip) = world -z
+    rec.jaw.push_back(1);
+  }
+  const ToolModel hook = build_tool(ToolSpec{});  // a 6 mm tip
+  EXPECT_EQ(tip_inside_mesh(rec, slab, 0, 0), std::nullopt);  // the origin alone is outside
+  EXPECT_EQ(tip_inside_mesh(rec, slab, 0, 0, &hook), std::optional<double>(0.0));
+}

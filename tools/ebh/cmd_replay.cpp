@@ -185,7 +185,7 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   // With surface contact, or through an opening of an OBJ virtual mesh, the tool's tip can also go in
   // unfelt: the hint names which.
   if (writer.contact_ticks() == 0)
-    if (const auto t = tip_inside_mesh(p.in.recording, world.scene.physical, a.start, a.duration.value_or(0))) {
+    if (const auto t = tip_inside_mesh(p.in.recording, world.scene.physical, a.start, a.duration.value_or(0), &world.tool)) {
       const long long open = surface_edges(world.scene.virtual_surface.triangles).open;
       const bool vertices = world.scene.spec.contact == ContactModel::Vertices;
       char line[480];

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "tool/contact.hpp"
 #include "tool/newton.hpp"
 #include "tool/surface_contact.hpp"
@@ -521,6 +522,12 @@ void stop_on_physical_problem(const World& world, const PhysicalSide& p, const s
                      : solver.recovery == SolverSpec::Recovery::None
                          ? raise + ", use solver.method=direct, or turn solver.recovery back on)"
                          : raise + " or use solver.method=direct)";
+  // The device's float32 alone leaves this mesh that far from balance at rest: no iteration count helps.
+  if (world.backend == Backend::Cuda && world.float32_floor > 0 &&
+      p.report.residual <= kFloat32StallFactor * world.float32_floor)
+    hint += "; this mesh's float32 round-off alone leaves " + shown_number(world.float32_floor) +
+            " mesh weights unbalanced at rest (`ebh scene info`: its tets are too flat for the device's float32): "
+            "replay with --backend cpu, or remesh";
   // The scene-load warning's cause, named where it shows (docs/MODEL.md, "k_s against k_svc").
   if (p.beside_ticks && world.scene.spec.stiffness.edges_outweigh_coupling())
     hint += "; stiffness.k_s above k_svc can make the two meshes drive each other unstable in async mode: raise k_svc "

@@ -237,9 +237,17 @@ SceneInit make_scene(const SceneInitOptions& o) {
   if (!ec && !relative.empty() && *relative.begin() != "..") mesh_path = relative;
 
   const std::string name = o.out.stem().string();
-  std::string cmd = "ebh scene init " + o.mesh.string() + " -o " + o.out.string() + " --unit " + o.unit +
-                    " --tissue " + o.tissue + " --tool " + o.tool;
-  for (const auto& p : o.pins) cmd += " --pin " + p;
+  // The command as a shell reads it back: an argument with a space or a quote in single quotes.
+  auto arg = [](const std::string& a) {
+    if (!a.empty() && a.find_first_of(" \t\n\r'\"$`\\;&|<>()*?[]{}~#!") == std::string::npos) return a;
+    std::string q = "'";
+    for (const char c : a)  // a line break would end the YAML comment the command stands in
+      q += c == '\'' ? std::string("'\\''") : c == '\n' ? std::string("\\n") : c == '\r' ? std::string("\\r") : std::string(1, c);
+    return q + "'";
+  };
+  std::string cmd = "ebh scene init " + arg(o.mesh.string()) + " -o " + arg(o.out.string()) + " --unit " + arg(o.unit) +
+                    " --tissue " + arg(o.tissue) + " --tool " + arg(o.tool);
+  for (const auto& p : o.pins) cmd += " --pin " + arg(p);
   std::string y;
   // "text  # comment", the comments lined up
   auto line = [&y](const std::string& text, const std::string& comment) {

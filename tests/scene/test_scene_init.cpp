@@ -35,6 +35,18 @@ SceneInitOptions box_forceps(const std::string& unit, const std::string& scene_f
   return o;
 }
 
+// The command in the scene's first line reads back in a shell: a pin with a space is quoted.
+TEST(SceneInit, TheCommandInTheHeaderIsQuotedForTheShell) {
+  SceneInitOptions o = box_forceps("cm", "quoted.yaml");
+  o.pins = {"box:-1,-1,-1,5,4,0.1"};
+  o.tissue = "liver";
+  std::string text = make_scene(o).yaml;
+  EXPECT_NE(text.find("--tissue liver --tool forceps --pin box:-1,-1,-1,5,4,0.1`"), std::string::npos) << text.substr(0, 300);
+  o.out = o.mesh.parent_path() / "with space.yaml";
+  text = make_scene(o).yaml;
+  EXPECT_NE(text.find(" -o '" + o.out.string() + "' --unit cm"), std::string::npos) << text.substr(0, 300);
+}
+
 TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
   SceneInitOptions o = box_forceps("cm", "box.yaml");
   o.tissue = "liver";

@@ -21,6 +21,16 @@ for sig in TERM INT; do
   grep -q "interrupted" "$work/$sig.err" || fail "no interrupt message: $(cat "$work/$sig.err")"
   [ ! -e "$work/$sig.h5" ] || fail "an interrupted replay wrote its output"
 done
+# An interrupted gate names the case it stopped in, not its temporary replay file.
+"$ebh" gate >"$work/gate.out" 2>"$work/gate.err" &
+pid=$!
+sleep 1
+kill -TERM $pid
+status=0
+wait $pid || status=$?
+[ $status = 143 ] || fail "gate: exit status $status, expected 143: $(cat "$work/gate.err")"
+grep -q "baselines.yaml: cases\[[0-9]*\] (.*): interrupted; the gate stopped here" "$work/gate.err" ||
+  fail "gate: the interrupt does not name the case: $(cat "$work/gate.err")"
 # A signal ignored at the start stays ignored: `nohup ebh ...` outlives its terminal's SIGHUP.
 nohup "$ebh" replay tube tube_insert -o "$work/nohup.h5" -q --duration 6 >"$work/nohup.err" 2>&1 &
 pid=$!

@@ -275,6 +275,8 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
     check_replay_size(*in.world, dur, 0, in.recording_path, tmp.string());
     ReplayWriter writer(tmp.string(), *in.world, meta, tick_count(*in.world, dur), false);
     const ReplaySummary s = replay(*in.world, in.recording, opt, writer);
+    // Stopped by a signal: the case, not the gate's temporary replay file, is what the user knows.
+    if (s.stopped) throw InputError(c.where + ": interrupted; the gate stopped here, its baselines as they were");
     writer.commit(s);
     m = compute_metrics(load_replay(tmp.string()));
   } catch (const NumericalError& e) {  // the health checks stopped it: a failed case, not a failed gate run

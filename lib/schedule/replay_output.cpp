@@ -212,6 +212,7 @@ std::string cpu_description() {
 ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, const ReplayMetadata& meta,
                            std::int64_t expected_ticks, bool frames)
     : out_(out_path), frames_(frames) {
+  reach_ = newton_reach_of_calls(newton_limits(world.tool.spec), newton_calls_per_tick(world.scene.spec)).translation;
   const auto n = static_cast<std::size_t>(expected_ticks);
   for (auto* v : {&t_, &pen_, &pen_h_, &jaw_, &tm_total_, &tm_device_, &tm_sync_, &tm_grasp_, &tm_vmesh_, &tm_vtool_,
                   &tm_output_})
@@ -260,9 +261,7 @@ ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, cons
   }
 }
 
-void ReplayWriter::on_tick(const World& w, const HapticSide& h, double t) {
-  if (reach_ < 0)
-    reach_ = newton_reach_of_calls(newton_limits(w.tool.spec), newton_calls_per_tick(w.scene.spec)).translation;
+void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   t_.push_back(t);
   push3(force_, h.output.force);
   push3(torque_, h.output.torque);

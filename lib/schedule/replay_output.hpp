@@ -145,7 +145,7 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0, unbalanced_steps_ = 0;
   double max_unbalanced_ = 0, first_unbalanced_t_ = -1;
   std::int64_t stalled_steps_ = 0, free_clamped_ = 0, outpaced_ = 0;
-  double reach_ = -1;  // m a tick, from the world at the first tick
+  double reach_ = 0;  // m a tick: the virtual tool's Newton calls' reach (tool.max_step x steps a tick)
   double max_device_step_ = 0;
   double max_stalled_ = 0, first_stalled_t_ = -1;
 };

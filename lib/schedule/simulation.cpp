@@ -523,8 +523,7 @@ void stop_on_physical_problem(const World& world, const PhysicalSide& p, const s
                          ? raise + ", use solver.method=direct, or turn solver.recovery back on)"
                          : raise + " or use solver.method=direct)";
   // The device's float32 alone leaves this mesh that far from balance at rest: no iteration count helps.
-  if (world.backend == Backend::Cuda && world.float32_floor > 0 &&
-      p.report.residual <= kFloat32StallFactor * world.float32_floor)
+  if (float32_round_off(world, p.report.residual))
     hint += "; this mesh's float32 round-off alone leaves " + shown_number(world.float32_floor) +
             " mesh weights unbalanced at rest (`ebh scene info`: its tets are too flat for the device's float32): "
             "replay with --backend cpu, or remesh";

@@ -170,6 +170,12 @@ HapticSide make_haptic_side(const World& world, const DeviceSample& first_sample
 PhysicalSide make_physical_side(const World& world, bool beside_ticks = false);
 
 /// The haptic side's snapshot for the physical step (copies q; allocation-free after the first).
+/// Whether `residual` (mesh weights) is what the device's float32 alone leaves on this world's mesh:
+/// within kFloat32StallFactor times its float32 floor (--backend cuda only; false on the CPU).
+inline bool float32_round_off(const World& world, double residual) {
+  return world.float32_floor > 0 && residual <= kFloat32StallFactor * world.float32_floor;
+}
+
 void take_haptic_snapshot(const HapticSide& haptic, HapticSnapshot& out);
 /// The physical side's snapshot for the haptic side.
 void take_physical_snapshot(const PhysicalSide& physical, PhysicalSnapshot& out);

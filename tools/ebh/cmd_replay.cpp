@@ -245,7 +245,7 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   if (writer.stalled_steps() > 0) {
     // On the device a stall within a few times the mesh's float32 floor is round-off, not the mesh.
     char why[400];
-    if (world.float32_floor > 0 && writer.max_stalled() <= kFloat32StallFactor * world.float32_floor)
+    if (float32_round_off(world, writer.max_stalled()))
       std::snprintf(why, sizeof why,
                     "float32's round-off on this mesh (%.2g mesh weights at rest, `ebh scene info`; the device's "
                     "steps stall at a few times it) lies above the tolerance, so each ran until it stalled; "

@@ -109,6 +109,7 @@ void info(const SceneInfoArgs& a) {
   const double gamma = params.relaxation;
   const double rate = model.spectrum.jacobi_rate(gamma);
   const double tenfold = rate < 1 ? std::log(0.1) / std::log(rate) : INFINITY;
+  const double float32_floor = ebh::float32_residual_floor(model);
   const bool diverges = gamma * plain.spectrum.lambda_max >= 2;
   const char* diagonal = scene.spec.solver.diagonal == ebh::SolverSpec::Diagonal::Plain ? "plain" : "bounded";
 
@@ -205,7 +206,7 @@ void info(const SceneInfoArgs& a) {
     sv.set("physical_iterations", params.iterations);
     sv.set("physical_tolerance", params.adaptive() ? params.tolerance : 0.0);
     sv.set("physical_max_iterations", params.adaptive() ? params.max_iterations : params.iterations);
-    sv.set("float32_floor", ebh::float32_residual_floor(model));
+    sv.set("float32_floor", float32_floor);
     j.set("solver", std::move(sv));
     ebh::Json g = ebh::Json::array();
     for (const auto& [tag, c] : groups) {
@@ -298,8 +299,7 @@ void info(const SceneInfoArgs& a) {
                 params.iterations, params.tolerance, params.max_iterations);
   else
     std::printf("  iterations     %d\n", params.iterations);
-  std::printf("  float32 floor  %.2g mesh weights at rest (--backend cuda's steps go no lower)\n",
-              ebh::float32_residual_floor(model));
+  std::printf("  float32 floor  %.2g mesh weights at rest (--backend cuda's steps go no lower)\n", float32_floor);
   std::printf("groups\n");
   for (const auto& [tag, c] : groups)
     std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n", c.name.empty() ? "(unnamed)" : c.name.c_str(), tag,

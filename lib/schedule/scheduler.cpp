@@ -194,7 +194,7 @@ class DeviceReplay {
   /// replays): start(), then launch_next() until it returns false, then finish().
   void start() { wall0_ = last_collect_ = Clock::now(); }
   ReplaySummary finish() {
-    s_.virtual_s = static_cast<double>(s_.ticks) * world_.h_haptic;
+    s_.virtual_s = replayed_seconds(s_.ticks, world_.h_haptic);
     s_.wall_s = std::chrono::duration<double>(Clock::now() - wall0_).count();
     return s_;
   }
@@ -441,7 +441,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
     }
   }
   if (in_flight) finish_step();  // the last step's result is recorded, never shown
-  s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
+  s.virtual_s = replayed_seconds(s.ticks, world.h_haptic);
   s.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
   return s;
 }
@@ -531,7 +531,7 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
   done.store(true);
   solver.join();
   if (solver_error) std::rethrow_exception(solver_error);
-  s.virtual_s = static_cast<double>(s.ticks) * world.h_haptic;
+  s.virtual_s = replayed_seconds(s.ticks, world.h_haptic);
   s.wall_s = now_s();
   return s;
 }

@@ -88,10 +88,16 @@ class ReplayObserver {
 struct ReplaySummary {
   std::int64_t ticks = 0;
   std::int64_t steps = 0;
-  double virtual_s = 0;   ///< replayed virtual time
+  double virtual_s = 0;   ///< replayed virtual time: replayed_seconds(ticks, h_haptic)
   double wall_s = 0;
   bool stopped = false;   ///< ended early by should_stop()
 };
+
+/// Virtual time `ticks` ticks replay: they sample the recording at 0, h, .., (ticks - 1) h, so
+/// a window of D seconds (tick_count: D / h + 1 ticks) replays D seconds, not D + h.
+inline double replayed_seconds(std::int64_t ticks, double h_haptic) {
+  return ticks > 1 ? static_cast<double>(ticks - 1) * h_haptic : 0.0;
+}
 
 /// The most ticks one replay runs (docs/FORMATS.md, Limits): 10 million is 2.8 hours at 1 kHz; the
 /// output writer holds ~258 bytes per tick in memory (2.6 GB at the limit).

@@ -305,25 +305,33 @@ std::vector<std::string> MeshReport::warnings() const {
 Orientation orient_tets(TetMesh& mesh) {
   Orientation o;
   const int nv = static_cast<int>(mesh.vertices.size());
-  int first_positive = -1, first_negative = -1;
   for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) {
-    const Tet& tet = mesh.tets[t];
+    Tet& tet = mesh.tets[t];
     if (!indices_ok(tet, nv)) continue;
     const int sign = volume_sign(mesh.vertices[tet[0]], mesh.vertices[tet[1]], mesh.vertices[tet[2]], mesh.vertices[tet[3]]);
     if (sign > 0) {
-      if (o.positive++ == 0) first_positive = t;
+      ++o.positive;
     } else if (sign < 0) {
-      if (o.negative++ == 0) first_negative = t;
+      if (o.negative++ == 0) o.witness = t;
+      std::swap(tet[1], tet[2]);
     }
   }
-  if (o.positive > 0 && o.negative > 0) {
-    o.kind = Orientation::Kind::Mixed;
-    o.witness = o.negative <= o.positive ? first_negative : first_positive;
-  } else if (o.negative > 0) {
-    o.kind = Orientation::Kind::Flipped;
-    for (Tet& tet : mesh.tets) std::swap(tet[1], tet[2]);
-  }
+  if (o.negative > 0) o.kind = o.positive > 0 ? Orientation::Kind::Mixed : Orientation::Kind::Flipped;
   return o;
+}
+
+std::string orientation_warning(const Orientation& o, const TetMesh& mesh) {
+  switch (o.kind) {
+    case Orientation::Kind::Positive:
+      return {};
+    case Orientation::Kind::Flipped:
+      return "all tets were negatively oriented; flipped them";
+    case Orientation::Kind::Mixed:
+      break;
+  }
+  return std::to_string(o.negative) + " of " + std::to_string(o.positive + o.negative) +
+         " tets were negatively oriented (their vertex order differs from the others'), the first: " +
+         tet_name(mesh, o.witness) + "; flipped them one by one";
 }
 
 int remove_unused_surface_vertices(SurfaceMesh& mesh) {

@@ -100,14 +100,20 @@ struct Orientation {
   Kind kind = Kind::Positive;
   int positive = 0;   ///< tets with positive signed volume (before any flip)
   int negative = 0;   ///< tets with negative signed volume (before any flip)
-  int witness = -1;   ///< Mixed: the first tet whose sign differs from the majority
+  int witness = -1;   ///< Mixed: the first tet of negative volume (flipped)
 };
 
-/// Makes every tet positively oriented when all of them are negative (some generators write
-/// them that way) by swapping each tet's vertices 1 and 2. Mixed signs are left alone and
-/// reported (the mesh is broken). Degenerate tets (|V| tiny) count for neither sign.
+/// Makes every tet positively oriented by swapping the vertices 1 and 2 of each tet of negative
+/// volume: all of them (some generators write them that way: Flipped) or some (Mixed: a vertex
+/// order that differs from tet to tet, as converters and hand-made files leave it). Geometry
+/// decides, not the file's order, so a fold or a tangle is not hidden: a tet turned inside out
+/// among its neighbours sees a shared face from their side once flipped, which validate_mesh
+/// refuses (overlapping tets). Degenerate tets (|V| tiny) count for neither sign.
 /// Tets with out-of-range indices are ignored (validate_mesh reports them).
 Orientation orient_tets(TetMesh& mesh);
+
+/// What orient_tets did, for a load warning ("" when every tet was positive).
+std::string orientation_warning(const Orientation& o, const TetMesh& mesh);
 
 /// Removes vertices no tet uses, renumbering tets and triangles (triangles that use a removed
 /// vertex are dropped). Returns how many vertices were removed.

@@ -967,17 +967,17 @@ Scene build_scene(SceneSpec spec_in) {
   };
   check_magnitude(mesh_file, "");
   const Orientation o = orient_tets(mesh);
-  if (o.kind == Orientation::Kind::Mixed) {
-    std::string tet = "tet " + std::to_string(o.witness);
-    if (static_cast<std::size_t>(o.witness) < mesh.file_tet_ids.size())
-      tet += " (element id " + std::to_string(mesh.file_tet_ids[o.witness]) + ")";
-    throw InputError(mesh_file + ": tets have mixed orientation (" + std::to_string(o.positive) + " positive, " +
-                     std::to_string(o.negative) + " negative); the first of the fewer: " + tet);
-  }
-  if (o.kind == Orientation::Kind::Flipped)
-    scene.warnings.push_back(mesh_file + ": all tets were negatively oriented; flipped them");
+  if (const std::string w = orientation_warning(o, mesh); !w.empty()) scene.warnings.push_back(mesh_file + ": " + w);
   const MeshReport report = validate_mesh(mesh);
-  if (report.fatal()) throw InputError(mesh_file + ": " + report.fatal_message(mesh));
+  if (report.fatal()) {
+    std::string why = mesh_file + ": " + report.fatal_message(mesh);
+    // Tets flipped one by one that then overlap their neighbours were turned inside out, not
+    // only written in another vertex order.
+    if (o.kind == Orientation::Kind::Mixed && !report.overlapping_tets.empty())
+      why += " (after flipping the " + std::to_string(o.negative) +
+             " negatively oriented tets: tets inside out among their neighbours, a tangled mesh)";
+    throw InputError(why);
+  }
   for (const auto& w : report.warnings()) scene.warnings.push_back(mesh_file + ": " + w);
   auto place = [&spec](std::vector<Vec3d>& vertices) {
     for (Vec3d& p : vertices) p *= spec.mesh_unit;

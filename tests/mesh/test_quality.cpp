@@ -106,6 +106,28 @@ TEST(Validate, InvertedTetIsMixedOrientation) {
   EXPECT_EQ(o.witness, 2);
   EXPECT_EQ(o.positive, 4);
   EXPECT_EQ(o.negative, 1);
+  // only its vertex order differed: flipped, the mesh is whole
+  EXPECT_FALSE(validate_mesh(m).fatal()) << validate_mesh(m).fatal_message(m);
+  EXPECT_EQ(orientation_warning(o, m),
+            "1 of 5 tets were negatively oriented (their vertex order differs from the others'), the first: tet 2 "
+            "(element id 22); flipped them one by one");
+  EXPECT_EQ(orient_tets(m).kind, Orientation::Kind::Positive);
+}
+
+/// A corner pushed through the opposite face turns its tet inside out among its neighbours:
+/// flipping it makes its volume positive but leaves it on the centre tet's side of their shared
+/// face, so the tangle is refused, not hidden.
+TEST(Validate, FlippingDoesNotHideATangle) {
+  TetMesh m = cube();
+  ASSERT_EQ(m.file_node_ids[1], 7);  // the corner (0, 0, 0) of tet 0 (7 1000 3 250)
+  m.vertices[1] = {5, 5, 5};         // beyond the face x + y + z = 10
+  const Orientation o = orient_tets(m);
+  EXPECT_EQ(o.kind, Orientation::Kind::Mixed);
+  EXPECT_EQ(o.witness, 0);
+  const MeshReport r = validate_mesh(m);
+  ASSERT_TRUE(r.fatal());
+  ASSERT_EQ(r.overlapping_tets.size(), 1u);
+  EXPECT_EQ(r.overlapping_tets[0], (std::array<int, 2>{0, 4}));
 }
 
 TEST(Validate, AllNegativeIsFlipped) {

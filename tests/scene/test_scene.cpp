@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "../mesh/test_util.hpp"
+#include "mesh/boundary.hpp"
 #include "mesh/mesh_io.hpp"
 #include "scene/scene.hpp"
 
@@ -724,16 +725,35 @@ TEST(SceneFile, Missing) {
 
 // ---- mesh checks at load -----------------------------------------------------------------------
 
-TEST(SceneMesh, MixedOrientationRejectedWithElementId) {
+TEST(SceneMesh, MixedOrientationFlippedPerTetWithWarning) {
   const std::string msh = replace(slurp(data("mesh/cube22.msh")), "22 4 2 1 1 101 250 55 1000", "22 4 2 1 1 250 101 55 1000");
   const auto mesh = write_temp("mixed.msh", msh);
-  const auto scene = write_temp("mixed.yaml", "mesh: {physical: mixed.msh}\n");
+  const Scene s = load_scene(write_temp("mixed.yaml", "unit: mm\nmesh: {physical: mixed.msh}\npinned: [{group: bottom}]\n"));
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_EQ(s.warnings[0], mesh.string() +
+                               ": 1 of 5 tets were negatively oriented (their vertex order differs from the others'), "
+                               "the first: tet 2 (element id 22); flipped them one by one");
+  EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
+  for (const Tet& t : s.physical.tets)
+    EXPECT_GT(signed_volume(s.physical.vertices[t[0]], s.physical.vertices[t[1]], s.physical.vertices[t[2]],
+                            s.physical.vertices[t[3]]),
+              0.0);
+}
+
+TEST(SceneMesh, TangledMeshRefusedAfterFlipping) {
+  // node 7, the corner (0, 0, 0), moved through its tet's opposite face
+  const std::string msh = replace(slurp(data("mesh/cube22.msh")), "\n7 0 0 0\n", "\n7 5 5 5\n");
+  const auto mesh = write_temp("tangled.msh", msh);
+  const auto scene = write_temp("tangled.yaml", "mesh: {physical: tangled.msh}\n");
   try {
     load_scene(scene);
     FAIL();
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()),
-              mesh.string() + ": tets have mixed orientation (4 positive, 1 negative); the first of the fewer: tet 2 (element id 22)");
+              mesh.string() +
+                  ": 1 pair of tets on the same side of the face they share (one overlaps the other: a tet inside another, "
+                  "or a fold), the first: tet 0 (element id 20) and tet 4 (element id 24) (after flipping the 1 "
+                  "negatively oriented tets: tets inside out among their neighbours, a tangled mesh)");
   }
 }
 

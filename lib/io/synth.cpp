@@ -73,7 +73,7 @@ std::string num(double v) {
 
 }  // namespace
 
-SynthPlan read_plan(const std::string& path) {
+SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
   check_input_file(path);
   PlanReader r{path};
   YAML::Node root;
@@ -126,10 +126,6 @@ SynthPlan read_plan(const std::string& path) {
     if (tr["band_hz"]) {
       auto b = r.numbers(tr["band_hz"], "tremor.band_hz", 2);
       if (!(b[0] > 0 && b[1] >= b[0])) r.fail(tr["band_hz"], "tremor.band_hz", "expected [low, high] with 0 < low <= high");
-      if (b[1] > plan.rate_hz / 2)
-        r.fail(tr["band_hz"], "tremor.band_hz",
-               "its high end " + num(b[1]) + " Hz is above half the sample rate (" + num(plan.rate_hz / 2) +
-                   " Hz of rate_hz " + num(plan.rate_hz) + "): the samples cannot carry it");
       plan.tremor_band_lo = b[0];
       plan.tremor_band_hi = b[1];
     }
@@ -189,6 +185,18 @@ SynthPlan read_plan(const std::string& path) {
       p.buttons = i == 0 ? 0 : plan.waypoints.back().buttons;
     }
     plan.waypoints.push_back(p);
+  }
+  // The rate is final here (--rate replaces the plan's): samples slower than twice the tremor's
+  // highest frequency alias it. Blamed on what set the rate, else on the plan's band or rate.
+  if (rate_hz) plan.rate_hz = *rate_hz;
+  if (plan.tremor_amplitude > 0 && plan.tremor_band_hi > plan.rate_hz / 2) {
+    const std::string what = num(plan.rate_hz) + " Hz samples cannot carry the tremor's band up to " +
+                             num(plan.tremor_band_hi) +
+                             " Hz (more than half the rate); raise the rate, lower tremor.band_hz, or set "
+                             "tremor.amplitude_mm: 0";
+    if (rate_hz) throw InputError("--rate " + num(*rate_hz) + ": " + what);
+    if (const YAML::Node tr = root["tremor"]; tr && tr["band_hz"]) r.fail(tr["band_hz"], "tremor.band_hz", what);
+    r.fail(root["rate_hz"], "rate_hz", what);
   }
   return plan;
 }

@@ -7,6 +7,7 @@
 //   (the generator is a hand-written splitmix64, not std:: distributions whose output differs
 //   between standard libraries).
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,8 +38,9 @@ struct SynthPlan {
   std::vector<PlanWaypoint> waypoints;      ///< t strictly increasing, the first at t >= 0
 };
 
-/// Reads a YAML plan; errors are "FILE:LINE: key: what".
-SynthPlan read_plan(const std::string& path);
+/// Reads a YAML plan; errors are "FILE:LINE: key: what". `rate_hz` (`ebh synth --rate`) replaces
+/// the plan's rate_hz before the checks that depend on it.
+SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz = std::nullopt);
 
 /// Minimum-jerk profile s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 on [0, 1] (clamped outside):
 /// s, ds/dtau and d2s/dtau2 vanish appropriately at both ends (Flash & Hogan 1985).

@@ -198,7 +198,13 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   plan(("scene: gap\ntool: hook\ntremor: {amplitude_mm: 1e6}\n" + two).c_str());
   EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "tremor.amplitude_mm", "expected 0 .. 10 mm");
   plan(("scene: gap\ntool: hook\ntremor: {band_hz: [800, 5000]}\n" + two).c_str());
-  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "tremor.band_hz", "5000 Hz is above half the sample rate (500 Hz");
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "tremor.band_hz", "1000 Hz samples cannot carry the tremor's band up to 5000 Hz");
+  // the default band (8-12 Hz) against the plan's rate, and a rate given on the command line
+  plan(("scene: gap\ntool: hook\nrate_hz: 20\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "rate_hz", "20 Hz samples cannot carry the tremor's band up to 12 Hz");
+  EXPECT_NO_THROW(read_plan(path, 100.0));  // --rate 100 carries it
+  plan(("scene: gap\ntool: hook\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path, 20.0), "--rate 20: 20 Hz samples cannot carry the tremor's band up to 12 Hz");
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [1e300, 0, 30], rotvec_deg: [0, 0, 0]}\n  - {t: 1}\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].position_mm", "coordinate 1e+300 mm is beyond 100000 mm");
   plan(("scene: ''\ntool: hook\n" + two).c_str());

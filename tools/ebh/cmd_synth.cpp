@@ -34,18 +34,7 @@ std::string file_name(const std::string& path) {
 
 void run(const SynthArgs& a) {
   ebh::check_outputs({{a.output, "the recording to write"}}, {{a.plan, "the plan"}});
-  ebh::SynthPlan plan = ebh::read_plan(a.plan);
-  if (a.rate_hz) plan.rate_hz = *a.rate_hz;
-  // The plan's own check sees its band_hz against its rate_hz; the band it defaults to, and a rate
-  // --rate gives, are checked here: samples slower than twice the tremor's frequency alias it.
-  if (plan.tremor_amplitude > 0 && plan.tremor_band_hi > plan.rate_hz / 2) {
-    char what[320];
-    std::snprintf(what, sizeof what,
-                  "%g Hz samples cannot carry the tremor's band up to %g Hz (more than half the rate); raise the "
-                  "rate, lower tremor.band_hz, or set tremor.amplitude_mm: 0",
-                  plan.rate_hz, plan.tremor_band_hi);
-    throw ebh::InputError((a.rate_hz ? "--rate " + ebh::shortest_text(*a.rate_hz) : a.plan + ": rate_hz") + ": " + what);
-  }
+  const ebh::SynthPlan plan = ebh::read_plan(a.plan, a.rate_hz);
   // A scene file's path is relative to the plan; the recording names it relative to itself, where
   // readers look first (as `ebh import --scene` does), so that it names the same file.
   std::string scene;

@@ -119,13 +119,38 @@ void replace_frames(const fs::path& dir, const fs::path& fresh) {
     }
     moved.push_back(e.path());
   }
+  std::vector<fs::path> placed;
   for (const auto& e : fs::directory_iterator(fresh)) {
-    if (std::rename(e.path().c_str(), (dir / e.path().filename()).c_str()) != 0) {
+    const fs::path target = dir / e.path().filename();
+    if (std::rename(e.path().c_str(), target.c_str()) != 0) {
       const int err = errno;
-      throw InputError((dir / e.path().filename()).string() + ": cannot move the new frame into place: " + os_reason(err));
+      for (const fs::path& p : placed) {
+        std::error_code gone;
+        fs::remove(p, gone);
+      }
+      put_back();
+      throw InputError(target.string() + ": cannot move the new frame into place: " + os_reason(err) +
+                       " (the previous frames are kept; the new ones are not written)");
     }
+    placed.push_back(target);
   }
   fs::remove_all(aside, ec);
+}
+
+/// What replace_frames would move aside must be frames: a folder (or a device, a pipe) named
+/// frame_*.png is the user's, refused before any frame is rendered rather than deleted with the
+/// old frames. A link is replaced as a file (the link, not what it names).
+void check_frame_names(const fs::path& dir) {
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (!is_frame_name(e.path())) continue;
+    std::error_code ec;
+    const fs::file_type type = e.symlink_status(ec).type();
+    if (type != fs::file_type::regular && type != fs::file_type::symlink)
+      throw InputError(e.path().string() + ": named like a frame but " +
+                       (type == fs::file_type::directory ? "a folder" : "not a file") +
+                       ": `ebh render` replaces the frame_*.png files of its folder; move it away or render into "
+                       "another folder");
+  }
 }
 
 }  // namespace
@@ -146,6 +171,15 @@ std::string find_on_path(const std::string& program) {
 std::optional<SceneSpec> find_replay_scene(const ReplayFrames& f, std::vector<std::string>& warnings) {
   const std::vector<std::string>& overrides = f.overrides;
   std::string why;
+  // The scene the replay ran (its tool, camera and overrides), whatever became of the scene file
+  // since; outputs written before it was stored reload the file.
+  if (!f.scene_yaml.empty()) {
+    try {
+      return load_scene_spec_text(f.scene_yaml, f.scene_file.empty() ? fs::path(f.file) : fs::path(f.scene_file));
+    } catch (const std::exception& e) {
+      why = e.what();
+    }
+  }
   if (!f.scene_file.empty()) {
     try {
       return load_scene_spec(f.scene_file, overrides);
@@ -169,7 +203,7 @@ ViewCamera choose_camera(const std::string& name, const std::optional<SceneSpec>
                          double aspect, std::string& source) {
   if (name == "scene") {
     if (scene) {
-      source = "scene file " + scene->file.string();
+      source = "scene " + scene->file.string();
       return scene_camera(scene->camera, rest);
     }
     source = "bounding box (no scene), iso";
@@ -244,6 +278,7 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   fs::create_directories(dir, ec);
   if (ec) throw InputError(dir + ": cannot create the folder: " + ec.message());
   if (!fs::is_directory(dir)) throw InputError(dir + ": not a directory");
+  check_frame_names(dir);
   // The frames are rendered into a hidden folder beside the old ones and take their place only
   // once all are written: an interrupt or a full disk keeps the previous frames.
   install_interrupt_handlers();

@@ -39,8 +39,9 @@ struct RenderSummary {
   std::vector<std::string> warnings;   ///< one line each (scene not found, non-finite frames)
 };
 
-/// The replay's scene file: the `scene_file` attribute (with the recorded --set overrides), else
-/// the `scene` name resolved like `ebh replay` does; empty (with a warning) if neither loads.
+/// The scene the replay ran: its `scene_yaml` attribute; in outputs without it the `scene_file`
+/// attribute (with the recorded --set overrides), else the `scene` name resolved like `ebh
+/// replay` does; empty (with a warning) if none loads.
 std::optional<SceneSpec> find_replay_scene(const ReplayFrames& frames, std::vector<std::string>& warnings);
 
 /// The camera called `name` ("scene" or a preset) for the virtual mesh's rest bounds; "scene"

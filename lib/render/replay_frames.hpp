@@ -28,6 +28,7 @@ struct ReplayFrames {
   std::string file;                            ///< the replay output's path
   std::string scene_name;                      ///< root attribute `scene` ("" if absent)
   std::string scene_file;                      ///< root attribute `scene_file` ("" if absent)
+  std::string scene_yaml;                      ///< root attribute `scene_yaml`: the scene the replay ran ("" if absent)
   std::string tool_kind;                       ///< root attribute `tool` ("" if absent)
   double shaft_radius = 0.0;                   ///< root attribute `shaft_radius` (0 if absent)
   /// The --set overrides: root attribute `overrides_list` (one per line) split into lines, or, in

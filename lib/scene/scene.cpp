@@ -858,8 +858,10 @@ Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides
   return build_scene(load_scene_spec(file, overrides));
 }
 
-Scene load_scene_text(const std::string& yaml, const fs::path& file) {
-  return build_scene(read_spec(parse_scene_yaml(yaml, file), file));
+Scene load_scene_text(const std::string& yaml, const fs::path& file) { return build_scene(load_scene_spec_text(yaml, file)); }
+
+SceneSpec load_scene_spec_text(const std::string& yaml, const fs::path& file) {
+  return read_spec(parse_scene_yaml(yaml, file), file);
 }
 
 std::string group_without_elements_note() {

@@ -334,6 +334,8 @@ Scene build_scene(SceneSpec spec);
 /// The scene file whose text is `yaml`, as if read from `file` (relative mesh paths resolve
 /// beside it, messages name it): `ebh scene init` checks what it writes before writing it.
 Scene load_scene_text(const std::string& yaml, const std::filesystem::path& file);
+/// The same parsed only (no meshes loaded): `ebh render` reads a replay's `scene_yaml` with it.
+SceneSpec load_scene_spec_text(const std::string& yaml, const std::filesystem::path& file);
 
 /// Loads the scene file and its meshes, validates them, resolves pinned regions.
 Scene load_scene(const std::filesystem::path& file);

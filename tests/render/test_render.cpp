@@ -22,6 +22,7 @@
 #include "render/replay_frames.hpp"
 #include "render/tessellate.hpp"
 #include "render/xdmf.hpp"
+#include "scene/scene.hpp"
 
 namespace fs = std::filesystem;
 namespace ebh {
@@ -58,6 +59,7 @@ struct SyntheticOptions {
   std::string scene_file = "/nonexistent/scene.yaml";
   int bad_triangle = -1;  // >= 0: write this vertex index into the first triangle
   std::optional<std::string> overrides, overrides_list;  // the root attributes, when given
+  std::optional<std::string> scene_yaml;                  // the root attribute, when given
 };
 
 void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
@@ -68,6 +70,7 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
   f.set_attr("shaft_radius", 0.0025);
   if (o.overrides) f.set_attr("overrides", *o.overrides);
   if (o.overrides_list) f.set_attr("overrides_list", *o.overrides_list);
+  if (o.scene_yaml) f.set_attr("scene_yaml", *o.scene_yaml);
   std::vector<double> rest;
   std::vector<std::int32_t> tris;
   for (int j = 0; j < kGrid; ++j)
@@ -220,6 +223,37 @@ TEST(Camera, SceneFileCameraIsUsedWhenTheSceneLoads) {
   EXPECT_DOUBLE_EQ(c.fov_deg, 45.0);
   EXPECT_NE(source.find("cube.yaml"), std::string::npos);
   EXPECT_EQ(replay_tool(f, scene).spec.kind, ToolSpec::Kind::Forceps);  // cube.yaml's tool
+}
+
+// The tool and camera drawn are those of the scene the replay ran (its scene_yaml), not of what
+// the scene file says now: edited after the replay (another tool), or gone.
+TEST(Camera, TheSceneTheReplayRanIsDrawnNotTheFileAsItIsNow) {
+  Scratch s;
+  const std::string cube = std::string(EBH_TEST_DATA_DIR) + "/scene/cube.yaml";  // a forceps, eye (0, -100, 50) mm
+  fs::create_directories(s / "scene");
+  fs::create_directories(s / "mesh");
+  fs::copy_file(std::string(EBH_TEST_DATA_DIR) + "/mesh/cube22.msh", s / "mesh/cube22.msh");
+  const std::string copy = s / "scene/cube.yaml";
+  fs::copy_file(cube, copy);
+  SyntheticOptions o;
+  o.scene_file = copy;
+  o.scene_yaml = resolved_scene_yaml(load_scene_spec(copy, {"camera.eye=[0, -200, 50]"}));
+  write_synthetic(s / "r.h5", o);
+  std::string text = slurp_file(copy);
+  const auto at = text.find("kind: forceps");
+  ASSERT_NE(at, std::string::npos);
+  std::ofstream(copy, std::ios::binary) << text.replace(at, 13, "kind: hook   ");  // edited since
+  for (const bool gone : {false, true}) {
+    if (gone) fs::remove(copy);
+    const ReplayFrames f = open_replay_frames(s / "r.h5");
+    std::vector<std::string> warnings;
+    const auto scene = find_replay_scene(f, warnings);
+    ASSERT_TRUE(scene.has_value()) << gone;
+    EXPECT_TRUE(warnings.empty()) << gone;
+    EXPECT_EQ(replay_tool(f, scene).spec.kind, ToolSpec::Kind::Forceps) << gone;
+    std::string source;
+    EXPECT_NEAR(choose_camera("scene", scene, bounds_of(f.virtual_rest), 1.0, source).eye.y, -0.2, 1e-15) << gone;
+  }
 }
 
 TEST(Camera, MissingSceneFallsBackToTheBoundingBoxWithAWarning) {
@@ -523,6 +557,29 @@ TEST(Render, AReplayNamedLikeAFrameIsRefused) {
     EXPECT_NE(std::string(e.what()).find("the frames would replace the replay"), std::string::npos) << e.what();
   }
   EXPECT_TRUE(fs::exists(s / "out/frame_00003.png"));
+}
+
+// A folder named like a frame is the user's: refused before rendering, not deleted with the old frames.
+TEST(Render, AFolderNamedLikeAFrameIsRefusedAndKept) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  fs::create_directories(s / "out/frame_00001.png/sub");
+  std::ofstream(s / "out/frame_00001.png/sub/data.txt") << "precious";
+  std::ofstream(s / "out/frame_00099.png") << "old";
+  RenderOptions o;
+  o.width = 64;
+  o.height = 48;
+  try {
+    render_replay(s / "r.h5", s / "out", o);
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), s / "out/frame_00001.png" +
+                                         ": named like a frame but a folder: `ebh render` replaces the frame_*.png "
+                                         "files of its folder; move it away or render into another folder");
+  }
+  EXPECT_EQ(slurp_file(s / "out/frame_00001.png/sub/data.txt"), "precious");
+  EXPECT_EQ(slurp_file(s / "out/frame_00099.png"), "old");
 }
 
 TEST(Render, VideoWithoutFfmpegIsAClearError) {

@@ -334,12 +334,16 @@ if(EBH_HAVE_OSMESA)
   add_test(NAME cli.render.bad_size
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/bad;--size;big"
       "-DEXPECT=^ebh: error: --size: expected WIDTHxHEIGHT" -P ${EBH_EXPECT_ERROR})
+  # a number past int was wrapped (4294967312 rendered 16 pixels)
+  add_test(NAME cli.render.huge_size
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/bad;--size;4294967312x16"
+      "-DEXPECT=^ebh: error: --size: expected WIDTHxHEIGHT in whole pixels .*got '4294967312x16'" -P ${EBH_EXPECT_ERROR})
   add_test(NAME cli.render.video_without_ffmpeg
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/video;--video;${EBH_RENDER_OUT}/v.mp4"
       "-DEXPECT=^ebh: error: --video .*v.mp4: ffmpeg was not found on the PATH" -P ${EBH_EXPECT_ERROR})
   set_tests_properties(cli.render.video_without_ffmpeg PROPERTIES ENVIRONMENT "PATH=${EBH_RENDER_OUT}/no_such_dir")
-  set_tests_properties(cli.render.bad_camera cli.render.bad_size cli.render.video_without_ffmpeg PROPERTIES
-    FIXTURES_REQUIRED render_tube LABELS "cli;render")
+  set_tests_properties(cli.render.bad_camera cli.render.bad_size cli.render.huge_size cli.render.video_without_ffmpeg
+    PROPERTIES FIXTURES_REQUIRED render_tube LABELS "cli;render")
 else()
   add_test(NAME cli.render.no_osmesa
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/frames"

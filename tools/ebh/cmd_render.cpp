@@ -2,6 +2,7 @@
 //  [--max-displacement-mm MM] [--supersample K] [--no-time-bar] [--video FILE.mp4] [--xdmf-only]`:
 // the replay's /frames snapshots to DIR/frame_00000.png, ... with OSMesa (docs/RENDER.md).
 // --xdmf-only writes OUT.xdmf (the ParaView index) and renders nothing.
+#include <charconv>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -21,13 +22,21 @@ struct RenderArgs {
   bool no_time_bar = false, xdmf_only = false, quiet = false;
 };
 
+/// WIDTHxHEIGHT, each a whole number of pixels: digits only (sscanf's %d wrapped 4294967312 to
+/// 16); render_replay checks the range and names it.
 void parse_size(const std::string& s, ebh::RenderOptions& opt) {
-  int w = 0, h = 0;
-  char tail = 0;
-  if (std::sscanf(s.c_str(), "%dx%d%c", &w, &h, &tail) != 2)
-    throw ebh::InputError("--size: expected WIDTHxHEIGHT (e.g. 800x600), got '" + s + "'");
-  opt.width = w;
-  opt.height = h;
+  const auto x = s.find('x');
+  auto pixels = [&](std::string_view part) {
+    int v = 0;
+    const auto [end, ec] = std::from_chars(part.data(), part.data() + part.size(), v);
+    if (part.empty() || ec != std::errc() || end != part.data() + part.size())
+      throw ebh::InputError("--size: expected WIDTHxHEIGHT in whole pixels (e.g. 800x600; each 16..4096), got '" + s + "'");
+    return v;
+  };
+  if (x == std::string::npos) pixels("");
+  const std::string_view all(s);
+  opt.width = pixels(all.substr(0, x));
+  opt.height = pixels(all.substr(x + 1));
 }
 
 void run(RenderArgs& a) {

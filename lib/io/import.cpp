@@ -63,6 +63,15 @@ std::vector<std::string> split_csv_quoted(const std::string& s) {
   std::size_t i = 0;
   const std::size_t n = s.size();
   while (i < n) {
+    if (s[i] == '"' && cur.empty()) {  // a quoted field: separators inside it are its own, "" a quote
+      cur += s[i++];
+      while (i < n && !(s[i] == '"' && (i + 1 == n || s[i + 1] != '"'))) {
+        if (s[i] == '"') ++i;
+        cur += s[i++];
+      }
+      if (i < n) cur += s[i++];
+      continue;
+    }
     if (s[i] != ',' && !blank(s[i])) {
       cur += s[i++];
       continue;
@@ -89,20 +98,30 @@ struct Line {
   std::string text;    // comment stripped, trimmed
 };
 
+/// What the readers leave out of a log, for ImportReport.
+struct LeftOut {
+  std::size_t cut_line = 0;         ///< the last line, without a line end (0: none)
+  std::size_t duplicate_rows = 0;   ///< rows equal to the row before them, time included
+  std::size_t first_duplicate = 0;  ///< the line of the first
+};
+
 std::string at(const std::string& path, std::size_t line) { return path + ":" + std::to_string(line); }
 
 // A byte no text log holds: a control character other than tab, carriage return, form feed.
 bool binary_byte(unsigned char c) { return (c < 0x20 && c != '\t' && c != '\r' && c != '\f') || c == 0x7f; }
 
-// One pass over a text log's lines (for_each_line).
+// One pass over a text log's lines (for_each_line). A last line without a line end (a logger
+// stopped while writing it: its last number may be cut, 0.0452001 read as 0.04) is not passed to
+// `each`; its number goes to `cut_line`.
 template <class F>
-void for_each_text_line(const std::string& path, F&& each) {
+void for_each_text_line(const std::string& path, F&& each, std::size_t* cut_line = nullptr) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
   std::string s;
   std::size_t n = 0;
   while (std::getline(in, s)) {
     ++n;
+    const bool cut = in.eof();
     // A byte-order mark (spreadsheets write one): UTF-8's is dropped; UTF-16 is not a text log here.
     if (n == 1 && s.starts_with("\xEF\xBB\xBF")) s.erase(0, 3);
     if (n == 1 && (s.starts_with("\xFF\xFE") || s.starts_with("\xFE\xFF")))
@@ -115,7 +134,9 @@ void for_each_text_line(const std::string& path, F&& each) {
       }
     if (auto h = s.find('#'); h != std::string::npos) s.erase(h);
     s = trim(s);
-    if (!s.empty()) each(Line{n, s});
+    if (s.empty()) continue;
+    if (cut && cut_line) *cut_line = n;
+    else each(Line{n, s});
   }
 }
 
@@ -125,10 +146,10 @@ void for_each_text_line(const std::string& path, F&& each) {
 // over the whole file first, so a binary file is named as such rather than by its first line's
 // fields.
 template <class F>
-void for_each_line(const std::string& path, F&& each) {
+void for_each_line(const std::string& path, LeftOut& left_out, F&& each) {
   check_input_file(path);
   for_each_text_line(path, [](const Line&) {});
-  for_each_text_line(path, each);
+  for_each_text_line(path, each, &left_out.cut_line);
 }
 
 // A log is read up to the samples a recording may hold (kMaxRecordingSamples, docs/FORMATS.md,
@@ -139,14 +160,29 @@ void check_sample_limit(const Recording& rec, std::size_t limit, const std::stri
                      " samples, the limit of a recording (2.8 h at 1 kHz): split the log");
 }
 
+// A row of a log whose header is separated by tabs or spaces, with a comma between two digits: a
+// number written with a decimal comma (a spreadsheet in a locale that writes 0,5), which the
+// comma splits into two fields.
+std::string decimal_comma_hint(const std::string& header, const std::string& row) {
+  if (header.find(',') != std::string::npos) return "";
+  for (std::size_t i = 1; i + 1 < row.size(); ++i)
+    if (row[i] == ',' && std::isdigit(static_cast<unsigned char>(row[i - 1])) &&
+        std::isdigit(static_cast<unsigned char>(row[i + 1])))
+      return " (numbers with a decimal comma? write them with a decimal point, 0.5)";
+  return "";
+}
+
 double to_number(const std::string& tok, const std::string& where, const std::string& field) {
   const char* b = tok.c_str();
   char* e = nullptr;
   errno = 0;
   double v = std::strtod(b, &e);
   // strtod also reads hexadecimal ("0x1p3"), which no log writes and `--set` refuses.
-  if (tok.empty() || e != b + tok.size() || tok.find_first_of("xX") != std::string::npos)
-    throw InputError(where + ": " + field + ": '" + tok + "' is not a number");
+  if (tok.empty() || e != b + tok.size() || tok.find_first_of("xX") != std::string::npos) {
+    const bool comma = tok.find(',') != std::string::npos && e > b && *e == ',';
+    throw InputError(where + ": " + field + ": '" + tok + "' is not a number" +
+                     (comma ? " (a decimal comma? write numbers with a decimal point, 0.5)" : ""));
+  }
   // ERANGE: beyond a double (inf), or below its smallest normal (a subnormal or 0, a fine value).
   if (errno == ERANGE && std::fabs(v) > 1)
     throw InputError(where + ": " + field + ": '" + tok + "' is beyond the range of a number");
@@ -195,8 +231,8 @@ Quatd orthonormalised(const Eigen::Matrix3d& M, const std::string& where) {
 }
 
 void read_openhaptics(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
-                      std::vector<std::size_t>& line_of) {
-  for_each_line(path, [&](const Line& l) {
+                      std::vector<std::size_t>& line_of, LeftOut& left_out) {
+  for_each_line(path, left_out, [&](const Line& l) {
     const std::string where = at(path, l.number);
     check_sample_limit(rec, limit, where);
     // Separated as a CSV log's fields: an empty field (two commas in a row) is named, not skipped,
@@ -286,14 +322,16 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
 }
 
 void read_csv(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
-              std::vector<std::size_t>& line_of, bool& has_t) {
+              std::vector<std::size_t>& line_of, bool& has_t, LeftOut& left_out) {
   const std::vector<std::string> known{"t", "x", "y", "z", "qw", "qx", "qy", "qz", "jaw", "buttons"};
   std::map<std::string, std::size_t> col;
   std::vector<std::string> header;
   bool have_header = false;
-  for_each_line(path, [&](const Line& l) {
+  std::string header_text, previous;  // the header's text, the last data row's
+  for_each_line(path, left_out, [&](const Line& l) {
     if (!have_header) {
       have_header = true;
+      header_text = l.text;
       header = split_csv(l.text);
       // What a header line written by another tool may look like, named before "unknown column".
       const bool numbers = std::all_of(header.begin(), header.end(), [](const std::string& f) {
@@ -329,11 +367,17 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
       return;
     }
     const std::string where = at(path, l.number);
+    // A row written twice, its time included (a logger's retry): the same sample, left out.
+    if (has_t && l.text == previous) {
+      if (left_out.duplicate_rows++ == 0) left_out.first_duplicate = l.number;
+      return;
+    }
+    previous = l.text;
     check_sample_limit(rec, limit, where);
     auto tok = split_csv(l.text);
     if (tok.size() != header.size())
       throw InputError(where + ": " + std::to_string(tok.size()) + " fields, the header has " +
-                       std::to_string(header.size()));
+                       std::to_string(header.size()) + decimal_comma_hint(header_text, l.text));
     auto get = [&](const char* name) { return to_number(tok[col.at(name)], where, name); };
     rec.t.push_back(has_t ? get("t") : static_cast<double>(rec.t.size()) / rate);
     rec.position.push_back(Vec3d{get("x"), get("y"), get("z")} * unit);
@@ -389,6 +433,29 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
                : ": is t in seconds?");
 }
 
+// The longest interval between a log's times, when it is a gap in the logging (over
+// kLogGapFactor times the median interval and two of the slowest device's): what a replay fills
+// with a straight line. "" when there is none.
+std::string check_log_gaps(const Recording& rec, const std::vector<std::size_t>& line_of) {
+  const std::size_t n = rec.size();
+  if (n < 3) return "";
+  std::vector<double> dt(n - 1);
+  for (std::size_t i = 0; i + 1 < n; ++i) dt[i] = rec.t[i + 1] - rec.t[i];
+  const std::size_t longest = static_cast<std::size_t>(std::max_element(dt.begin(), dt.end()) - dt.begin());
+  std::vector<double> sorted = dt;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  const double bound = std::max(kLogGapFactor * median, 2.0 / kDeviceRateLowHz);
+  if (!(dt[longest] > bound)) return "";
+  const auto gaps = std::count_if(dt.begin(), dt.end(), [bound](double d) { return d > bound; });
+  return "column t: " + std::string(gaps == 1 ? "a gap" : std::to_string(gaps) + " gaps, the longest") + " of " +
+         num(dt[longest]) + " s between lines " + std::to_string(line_of[longest]) + " and " +
+         std::to_string(line_of[longest + 1]) + " (t = " + num(rec.t[longest]) + " .. " + num(rec.t[longest + 1]) +
+         " s), " + num(dt[longest] / median) + " times the median interval of " + num(median * 1e3) +
+         " ms: the logger missed samples there, and a replay moves the tool in a straight line across " +
+         (gaps == 1 ? "it" : "them");
+}
+
 }  // namespace
 
 double parse_length_unit(const std::string& name) {
@@ -438,9 +505,15 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   Recording rec;
   std::vector<std::size_t> line_of;
   bool has_t = false;
-  if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, opt.max_samples, rec, line_of);
-  else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t);
-  if (rec.t.empty()) throw InputError(path + ": no samples (the log has no data lines)");
+  LeftOut left_out;
+  if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, opt.max_samples, rec, line_of, left_out);
+  else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t, left_out);
+  if (rec.t.empty())
+    throw InputError(path + ": no samples (the log has no data lines" +
+                     (left_out.cut_line ? "; its only one, line " + std::to_string(left_out.cut_line) +
+                                              ", has no line end"
+                                        : std::string()) +
+                     ")");
 
   rec.source = "device";
   rec.scene = opt.scene;
@@ -464,6 +537,10 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   r.has_times = has_t;
   r.rate_assumed = !has_t && !opt.rate_hz;
   r.rate_warning = rate_warning;
+  r.cut_line = left_out.cut_line;
+  r.duplicate_rows = left_out.duplicate_rows;
+  r.first_duplicate_line = left_out.first_duplicate;
+  if (has_t) r.gap_warning = check_log_gaps(rec, line_of);
   // Runs of repeats: sample i is new, samples i+1..j repeat it. A short run is stale samples of a
   // device polled faster than it updates; a run lasting more than kStaleRunMaxS is a hold (the
   // device at rest) and keeps its last sample, so a replay holds still until the device moves

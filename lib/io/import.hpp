@@ -78,7 +78,15 @@ struct ImportReport {
   bool has_times = false;      ///< the log gave times (csv t column)
   bool rate_assumed = false;   ///< no times and no rate given: kAssumedLogRateHz
   std::string rate_warning;    ///< the rate is below kMinPlausibleLogRateHz: what it likely means
+  std::size_t cut_line = 0;    ///< the log's last line had no line end (a logger stopped mid-line): left out
+  std::size_t duplicate_rows = 0;        ///< csv rows equal to the row before them, t included: left out
+  std::size_t first_duplicate_line = 0;  ///< the first of them
+  std::string gap_warning;     ///< the times have a gap (kLogGapFactor): where, how long
 };
+
+/// An interval between a log's times above this many times the median one (and above two
+/// intervals of the slowest device, kDeviceRateLowHz) is a gap in the logging: import warns.
+inline constexpr double kLogGapFactor = 10;
 
 /// The format a log's name implies: csv for a `.csv` extension in any case (`LOG.CSV` too),
 /// openhaptics for any other.

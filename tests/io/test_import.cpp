@@ -105,7 +105,7 @@ TEST(Import, DefectsNameFileAndLine) {
   auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
   std::string p = write("a.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n# c\n0.001,0,0,abc,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "a.csv:4", "z", "'abc' is not a number");
-  p = write("b.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0,0,0,0,1,0,0,0\n");
+  p = write("b.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0,0,0,0.001,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "b.csv:3", "not strictly increasing");
   p = write("c.csv", "t,x,y,qw,qx,qy,qz\n0,0,0,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "c.csv:1", "missing column 'z'");
@@ -197,6 +197,61 @@ TEST(Import, CsvFromPythonIsReadOrNamed) {
                      "pandas.csv:1: column 1 has no name", "index=False");
   EXPECT_INPUT_ERROR(import_log(write("units.csv", "t [s],x,y,z,qw,qx,qy,qz\n0,0.1,0,0,1,0,0,0\n"), opt),
                      "units.csv:1: '[s]': units in the header are not read", "--unit");
+}
+
+// What a logger stopped mid-line or retrying leaves, and numbers a spreadsheet wrote in another
+// locale: a last line without a line end is left out (its last number may be cut: 0.0452001 read
+// as 0.04), a row written twice, time included, is left out, a comma inside quotes is the
+// field's, and a decimal comma is named.
+TEST(Import, CutLinesRepeatedRowsAndDecimalCommas) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
+  const std::string head = "t,x,y,z,qw,qx,qy,qz\n0,0,0,0.045,1,0,0,0\n0.001,0,0,0.0451,1,0,0,0\n";
+  ImportReport report;
+  Recording r = import_log(write("cut.csv", head + "0.002,0,0,0.04"), opt, &report);
+  EXPECT_EQ(r.size(), 2u);
+  EXPECT_EQ(report.cut_line, 4u);
+  EXPECT_EQ(import_log(write("whole.csv", head + "0.002,0,0,0.0452,1,0,0,0\n"), opt, &report).size(), 3u);
+  EXPECT_EQ(report.cut_line, 0u);
+  // OpenHaptics: the jaw of the cut line would have read 0 (closed) for 0.75
+  const std::string oh = "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 0.75\n1 0 0 0 0 1 0 0 0 0 1 0 5 6 8 1 0.75\n";
+  r = import_log(write("oh_cut.txt", oh + "1 0 0 0 0 1 0 0 0 0 1 0 5 6 9 1 0."), opt, &report);
+  EXPECT_EQ(r.size(), 2u);
+  EXPECT_EQ(report.cut_line, 3u);
+  EXPECT_INPUT_ERROR(import_log(write("only_cut.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0"), opt),
+                     "only_cut.csv: no samples", "line 2, has no line end");
+
+  r = import_log(write("twice.csv", head + "0.001,0,0,0.0451,1,0,0,0\n0.002,0,0,0.0452,1,0,0,0\n"), opt, &report);
+  EXPECT_EQ(r.size(), 3u);
+  EXPECT_EQ(report.duplicate_rows, 1u);
+  EXPECT_EQ(report.first_duplicate_line, 4u);
+  EXPECT_EQ(r.t[2], 0.002);
+
+  EXPECT_INPUT_ERROR(import_log(write("quoted_comma.csv", "t,x,y,z,qw,qx,qy,qz\n0,\"0,002\",0,0,1,0,0,0\n"), opt),
+                     "quoted_comma.csv:2: x: '0,002' is not a number (a decimal comma?");
+  EXPECT_INPUT_ERROR(import_log(write("tab_comma.csv", "t\tx\ty\tz\tqw\tqx\tqy\tqz\n0\t0,5\t0\t0\t1\t0\t0\t0\n"), opt),
+                     "tab_comma.csv:2: 9 fields, the header has 8 (numbers with a decimal comma?");
+  // a quote inside a quoted field is written twice
+  EXPECT_INPUT_ERROR(import_log(write("quote.csv", "t,x,y,z,qw,qx,qy,qz\n0,\"1\"\"\",0,0,1,0,0,0\n"), opt),
+                     "quote.csv:2: x: '1\"' is not a number");
+}
+
+// A gap in a log's times (the logger missed samples) is named: a replay glides across it.
+TEST(Import, GapsInTheTimesAreNamed) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  std::string text = "t,x,y,z,qw,qx,qy,qz\n";
+  for (int i = 0; i < 100; ++i) {
+    const double t = i < 50 ? i * 1e-3 : 2.0 + i * 1e-3;
+    text += std::to_string(t) + ",0,0," + std::to_string(0.001 * i) + ",1,0,0,0\n";
+  }
+  ImportReport report;
+  import_log(write_log(tmp / "gap.csv", text), opt, &report);
+  EXPECT_NE(report.gap_warning.find("a gap of 2.001 s between lines 51 and 52 (t = 0.049 .. 2.05 s)"), std::string::npos)
+      << report.gap_warning;
+  import_log(kData + "sample.csv", opt, &report);
+  EXPECT_EQ(report.gap_warning, "");
 }
 
 // The separators the docs promise: a comma (blanks around it included) or a run of spaces or

@@ -83,6 +83,17 @@ void run(const ImportArgs& a) {
                  ebh::cli::format_number(*a.rate_hz).c_str());
   if (!report.rate_warning.empty())
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), report.rate_warning.c_str());
+  if (report.cut_line)
+    std::fprintf(stderr,
+                 "ebh: warning: %s:%zu: the last line has no line end (a logger stopped while writing it?): left out, "
+                 "as its last number may be cut short; end it with a newline to keep it\n",
+                 a.log.c_str(), report.cut_line);
+  if (report.duplicate_rows)
+    std::fprintf(stderr, "ebh: warning: %s: %zu %s the row before, time included (the first at line %zu): left out\n",
+                 a.log.c_str(), report.duplicate_rows, report.duplicate_rows == 1 ? "row repeats" : "rows repeat",
+                 report.first_duplicate_line);
+  if (!report.gap_warning.empty())
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), report.gap_warning.c_str());
   if (scene_tool && opt.tool != scene_tool)
     std::fprintf(stderr,
                  "ebh: warning: %s: --tool %s, but the scene's tool is a %s: the recording says %s, and a replay with "

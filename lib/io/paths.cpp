@@ -1,6 +1,7 @@
 #include "io/paths.hpp"
 
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -72,6 +73,14 @@ void check_input_file(const std::string& path) {
     const int err = errno;
     throw InputError(path + ": cannot open: " + os_reason(err));
   }
+}
+
+std::optional<std::uint64_t> free_bytes_for(const std::string& output) {
+  std::filesystem::path folder = std::filesystem::path(output).parent_path();
+  if (folder.empty()) folder = ".";
+  struct statvfs fs {};
+  if (::statvfs(folder.c_str(), &fs) != 0) return std::nullopt;
+  return static_cast<std::uint64_t>(fs.f_bavail) * static_cast<std::uint64_t>(fs.f_frsize);
 }
 
 }  // namespace ebh

@@ -2,6 +2,8 @@
 // The files a command reads and writes, checked before any work so that no option can hurt a
 // user's data: an output never replaces one of the command's inputs (or another of its outputs),
 // and an input is a readable file, never a folder or an unfinished output (*.ebh-partial).
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,5 +28,9 @@ void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleF
 /// Throws InputError "PATH: why" unless `path` names a file that can be read: it must exist ("cannot
 /// open: No such file or directory"), not be a folder and not be an unfinished output.
 void check_input_file(const std::string& path);
+
+/// Bytes an unprivileged process may still write on the file system that holds `output` (its
+/// folder: the output and its temporary go there); nullopt when that cannot be told.
+std::optional<std::uint64_t> free_bytes_for(const std::string& output);
 
 }  // namespace ebh

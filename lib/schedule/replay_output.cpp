@@ -12,6 +12,7 @@
 #include "ebh/commit.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
+#include "io/paths.hpp"
 #include "mesh/quality.hpp"
 #include "io/sha256.hpp"
 
@@ -195,6 +196,13 @@ void check_replay_size(const World& world, double duration, double frames_hz, co
     throw InputError(output + ": " + num(r.frames) + " mesh snapshots (" + num(frames_hz) + " per s over " +
                      num(duration) + " s) make an output of " + bytes(r.file_bytes) + "; the limit is " +
                      bytes(kMaxReplayOutputBytes) + ": lower --frames-hz or replay a shorter window");
+  // The output is written at the end (the snapshots as they come): a disk that cannot hold it
+  // would fail the replay after its whole run.
+  if (const std::optional<std::uint64_t> free = free_bytes_for(output); free && r.file_bytes > static_cast<double>(*free))
+    throw InputError(output + ": the output takes about " + bytes(r.file_bytes) +
+                     (r.frames > 0 ? " (" + num(r.frames) + " mesh snapshots, " + num(frames_hz) + " per s)" : std::string()) +
+                     ", and its folder's file system has " + bytes(static_cast<double>(*free)) +
+                     " free: free space, lower --frames-hz or replay a shorter window");
 }
 
 std::string cpu_description() {

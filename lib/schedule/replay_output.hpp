@@ -61,7 +61,8 @@ ReplaySize estimate_replay_size(const World& world, double duration, double fram
 
 /// Throws InputError before anything is allocated when the replay passes a limit: too many ticks
 /// ("RECORDING: replaying 1e+300 s at 1000 Hz makes 1e+303 ticks; the limit is ...") or too large
-/// an output ("OUT: ... snapshots ... the limit is 256 GiB").
+/// an output ("OUT: ... snapshots ... the limit is 256 GiB"), or an output larger than its
+/// folder's file system has free (io/paths.hpp, free_bytes_for).
 void check_replay_size(const World& world, double duration, double frames_hz, const std::string& recording,
                        const std::string& output);
 

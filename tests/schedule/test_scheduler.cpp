@@ -13,6 +13,7 @@
 #include "io/atomic.hpp"
 #include "io/h5.hpp"
 #include "schedule/replay_inputs.hpp"
+#include "io/paths.hpp"
 #include "schedule/replay_output.hpp"
 #include "schedule/scheduler.hpp"
 #if EBH_HAVE_CUDA
@@ -325,6 +326,28 @@ TEST(ReplayOutput, WritesTheDesignLayoutAndOnlyWhenComplete) {
   EXPECT_EQ(f.dataset("physical/iterations").shape()[0], f.dataset("timing/physical_step_s").shape()[0]);
   EXPECT_EQ(f.dataset("frames/virtual_positions").shape()[1], w.virtual_mesh.rest.size());
   EXPECT_EQ(f.attr_string("scene"), "tube");
+}
+
+// An output its disk cannot hold is refused before the replay, not after its whole run.
+TEST(ReplayOutput, AnOutputLargerThanTheFreeSpaceIsRefusedFirst) {
+  const World& w = *tube().world;
+  const std::string out = (std::filesystem::temp_directory_path() / "ebh_free_space.h5").string();
+  const std::optional<std::uint64_t> free = free_bytes_for(out);
+  if (!free) GTEST_SKIP() << "the temporary folder's free space cannot be told";
+  const double duration = 1000;
+  const double per_frame_s = estimate_replay_size(w, duration, 1).file_bytes - estimate_replay_size(w, duration, 0).file_bytes;
+  const double frames_hz = 1.5 * static_cast<double>(*free) / per_frame_s;  // 1.5 times what fits
+  if (estimate_replay_size(w, duration, frames_hz).file_bytes > kMaxReplayOutputBytes)
+    GTEST_SKIP() << "more free space than the output limit";
+  try {
+    check_replay_size(w, duration, frames_hz, "rec.h5", out);
+    ADD_FAILURE() << "an output larger than the free space was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(out + ": the output takes about "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("and its folder's file system has"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(check_replay_size(w, 1.0, 0, "rec.h5", out));
+  EXPECT_FALSE(std::filesystem::exists(out));
 }
 
 TEST(ReplayOutput, AnInterruptedReplayLeavesNoFile) {

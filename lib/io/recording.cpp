@@ -413,6 +413,11 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   o << (held ? "; a tool held still at the tissue needs no fix, else likely fix: " : "; likely fix: ");
   if (best) {
     o << best->fix;
+    // At replay the log's unit is not known, and the mesh's may be the wrong one instead: the
+    // same misfit seen from the other side (`scene init --unit mm` on a mesh written in metres).
+    if (!known)
+      o << "; or, were the log right, the physical mesh is " << short_num(best->f > 1 ? best->f : 1 / best->f)
+        << " times too " << (best->f > 1 ? "large" : "small") << ": check the scene's mesh.unit";
   } else if (!size_off) {
     const Vec3d off = 0.5 * (lo + hi) - now.centre;
     o << "--transform placing the device's workspace at the mesh (the mesh's centre is (" << short_num(off.x) << ", "

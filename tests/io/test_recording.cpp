@@ -291,7 +291,10 @@ TEST(UnitSanity, ALogReadInTheWrongUnitNamesTheRightOne) {
   // The same recording at replay, where the unit the log was read with is not known.
   w = check_recording_scale(press_path(1.0), kLo, kHi, std::nullopt);
   ASSERT_TRUE(w.has_value());
-  EXPECT_NE(w->find("likely fix: the log is in cm, not m: ebh import --unit cm"), std::string::npos) << *w;
+  EXPECT_NE(w->find("likely fix: the log is in cm, not m: ebh import --unit cm; or, were the log right, the physical "
+                    "mesh is 100 times too small: check the scene's mesh.unit"),
+            std::string::npos)
+      << *w;
   // m read as mm: 1/1000 the size, a dot inside the mesh.
   w = check_recording_scale(press_path(1e-5), kLo, kHi, 1e-3);
   ASSERT_TRUE(w.has_value());

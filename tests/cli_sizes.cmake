@@ -91,6 +91,12 @@ add_test(NAME cli.bench.sizes_start_past_end
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--start;1e9"
     "-DEXPECT=^ebh: error: --start 1000000000: the recording .*tube_insert.h5 is 10 s long; start before its end"
     -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
+# What replay warns of its inputs, bench sizes warns too: a recording made for another scene, and a
+# window in which the tool never touched the tissue (free motion's costs).
+add_test(NAME cli.bench.sizes_warns_of_its_inputs
+  COMMAND ${EBH_BIN} bench sizes --scene tube_forceps --recording tube_insert --levels 0 --start 0 --seconds 0.05)
+set_tests_properties(cli.bench.sizes_warns_of_its_inputs PROPERTIES LABELS "cli;bench" PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*tube_insert.h5: recorded for the scene 'tube' .*and replayed on 'tube_forceps'.*ebh: warning: level 0: the tool never touched the tissue in this window")
 # A window running past the recording's end (tube_insert is 10 s long): measures the 0.25 s left,
 # says so as replay does, and reports 0.25 s, not 1.
 add_test(NAME cli.bench.sizes_window_past_end

@@ -56,10 +56,12 @@ std::int64_t host_peak() {
 class SizeObserver : public ReplayObserver {
  public:
   std::vector<double> tick_s, step_s;
+  std::int64_t contact_ticks = 0;
   std::size_t device_free_min = std::numeric_limits<std::size_t>::max();
   explicit SizeObserver(bool device) : device_(device) {}
   void on_tick(const World&, const HapticSide& h, double) override {
     tick_s.push_back(h.timing.total);
+    contact_ticks += h.contact_count > 0;
     if (h.tick % 100 == 1) sample_device();  // h.tick is the next tick: 1 after the first
   }
   void on_step(const World&, const PhysicalSide& p, double) override {
@@ -133,6 +135,8 @@ SizeResult measure(const SizeBenchOptions& o, const std::string& scene, int leve
   r.haptic_tick = stats(std::move(obs.tick_s));
   r.ticks = s.ticks;
   r.steps = s.steps;
+  r.contact_ticks = obs.contact_ticks;
+  if (level == o.first_level) r.warnings = in.warnings;
   r.wall_s = s.wall_s;
   r.virtual_s = s.virtual_s;
   r.real_time_factor = s.wall_s > 0 ? s.virtual_s / s.wall_s : 0;

@@ -54,6 +54,10 @@ struct SizeResult {
   /// --backend cuda: the largest drop of the device's free memory during the run from before the
   /// size loaded (cudaMemGetInfo on the first tick and every 100th); -1 on the CPU backend.
   std::int64_t device_peak_bytes = -1;
+  std::int64_t contact_ticks = 0;        ///< ticks with a contact: 0 is free motion, not rendering
+  /// What `ebh replay` warns of these inputs (a recording made for another scene, a unit off; one
+  /// line each), for the first size measured only (the refined scenes repeat them).
+  std::vector<std::string> warnings;
 };
 
 /// The slope b of log(cost) = a + b log(tets), least squares over the sizes with a positive cost;

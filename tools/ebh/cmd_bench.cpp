@@ -124,7 +124,19 @@ void write_sizes_plot(const std::vector<SizeResult>& sizes, const std::vector<do
   write_png(path, img, {{"Title", "ebh bench sizes: " + title}});
 }
 
+/// What makes a size's costs other than a replay's at work: the inputs' warnings, and a window
+/// in which the tool never touched the tissue (the tick's costs are free motion's).
+void warn_size(const SizeResult& r) {
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  if (r.contact_ticks == 0)
+    std::fprintf(stderr,
+                 "ebh: warning: level %d: the tool never touched the tissue in this window: the costs are free "
+                 "motion's, not rendering's (choose --start and --seconds where it works)\n",
+                 r.level);
+}
+
 void print_size_line(const SizeResult& r) {
+  warn_size(r);
   std::printf("%5d %10lld %9lld %8lld %9.3f %9.3f %9.4f %9.4f %9.3f %8s %9s\n", r.level, static_cast<long long>(r.tets),
               static_cast<long long>(r.vertices), static_cast<long long>(r.virtual_vertices), 1e3 * r.physical_step.median,
               1e3 * r.physical_step.p99, 1e3 * r.haptic_tick.median, 1e3 * r.haptic_tick.p99, r.real_time_factor,
@@ -222,7 +234,9 @@ void run_sizes(const SizesArgs& a) {
       e.set("host_peak_bytes", static_cast<long long>(r.host_peak_bytes));
       e.set("host_peak_since_start", !r.host_peak_reset);
       e.set("device_peak_bytes", r.device_peak_bytes >= 0 ? Json(static_cast<long long>(r.device_peak_bytes)) : Json());
+      e.set("contact_ticks", static_cast<long long>(r.contact_ticks));
       rows.push(std::move(e));
+      warn_size(r);
     }
     j.set("sizes", std::move(rows));
     Json s = Json::object();

@@ -1005,6 +1005,17 @@ add_test(NAME cli.scene.degrade_bad_quality
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;degrade;tube;--quality;1.5;-o;${EBH_NUM_OUT}"
     "-DEXPECT=^ebh: error: --quality: expected a mean ratio in \\(0, 1\\)" -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene.degrade_bad_quality PROPERTIES LABELS cli)
+# A quality the mesh already has wrote the mesh unchanged as 'degraded'; more tets than the mesh
+# has room for degraded fewer without a word.
+add_test(NAME cli.scene.degrade_nothing_to_do
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;degrade;tube;--quality;0.9;-o;${EBH_NUM_OUT}/nothing"
+    "-DEXPECT=^ebh: error: .*tube.yaml: the physical mesh's worst mean ratio is already 0.3779 \\(tet 7949 \\(element id 11264\\)\\), at or below --quality 0.9: nothing to degrade"
+    -DOUTPUT=${EBH_NUM_OUT}/nothing/tube_q0.9.yaml -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.scene.degrade_fewer_than_asked
+  COMMAND ${EBH_BIN} scene degrade tube --quality 0.05 --tets 100000 -o ${EBH_NUM_OUT}/fewer)
+set_tests_properties(cli.scene.degrade_nothing_to_do cli.scene.degrade_fewer_than_asked PROPERTIES LABELS cli)
+set_tests_properties(cli.scene.degrade_fewer_than_asked PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*tube.yaml: degraded 109 of the 100000 tets asked for \\(--tets\\)")
 add_test(NAME cli.replay.settling_says_when_it_stops_short
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/sag.h5 --duration 0.05 --set "gravity=[0,0,-30]"
     --set stiffness.k_vol=30)

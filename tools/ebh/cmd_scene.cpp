@@ -327,10 +327,23 @@ void degrade(const SceneDegradeArgs& a) {
   o.target_quality = a.quality;
   o.tets = a.tets;
   o.seed = a.seed;
+  // A mesh already as bad as asked: the tets would not move, and the "degraded" copy would be the
+  // mesh itself.
+  if (const ebh::MeshReport before = ebh::validate_mesh(scene.physical); before.quality_worst <= a.quality) {
+    char why[160];
+    std::snprintf(why, sizeof why, ": the physical mesh's worst mean ratio is already %.4g (%s), at or below --quality %g",
+                  before.quality_worst, before.worst_tet_name.c_str(), a.quality);
+    throw ebh::InputError(file.string() + why + ": nothing to degrade (give a quality below it)");
+  }
   const ebh::DegradeReport r = ebh::degrade_physical_mesh(scene, o);
   if (r.worst_quality > a.quality * (1 + 1e-6))
     throw ebh::InputError(file.string() + ": no interior tet of the physical mesh could be degraded to mean ratio " +
                           std::to_string(a.quality));
+  if (const int done = r.caps + r.slivers + r.needles; done < a.tets)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: degraded %d of the %d tets asked for (--tets): the mesh has no more interior "
+                 "vertices away from those moved (a degraded tet's neighbours are left alone)\n",
+                 file.string().c_str(), done, a.tets);
 
   char tag[32];
   std::snprintf(tag, sizeof tag, "_q%g", a.quality);

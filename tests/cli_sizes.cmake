@@ -91,6 +91,11 @@ add_test(NAME cli.bench.sizes_start_past_end
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--start;1e9"
     "-DEXPECT=^ebh: error: --start 1000000000: the recording .*tube_insert.h5 is 10 s long; start before its end"
     -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
+# A Table 1 scene given as its file has its name's window.
+add_test(NAME cli.bench.sizes_scene_file_window
+  COMMAND ${EBH_BIN} bench sizes --scene ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml --levels 0 --seconds 0.05)
+set_tests_properties(cli.bench.sizes_scene_file_window PROPERTIES LABELS "cli;bench" PASS_REGULAR_EXPRESSION
+  "scenarios/tube.yaml \\+ tube_insert from 1.8 s, 0.05 s")
 # What replay warns of its inputs, bench sizes warns too: a recording made for another scene, and a
 # window in which the tool never touched the tissue (free motion's costs).
 add_test(NAME cli.bench.sizes_warns_of_its_inputs

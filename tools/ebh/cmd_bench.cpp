@@ -3,6 +3,7 @@
 // slope of its least-squares line.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -150,8 +151,17 @@ void run_sizes(const SizesArgs& a) {
   o.scene = a.scene;
   std::tie(o.first_level, o.last_level) = parse_levels(a.levels);
   // A scene that is missing is said first, not that it has no default window.
-  (void)resolve_scene_path(a.scene);
-  const Table1Window window = table1_window(a.scene.c_str());
+  const std::filesystem::path scene_file = resolve_scene_path(a.scene);
+  // A Table 1 scene given as its file (scenarios/tube.yaml) has the window of its name.
+  Table1Window window = table1_window(a.scene.c_str());
+  if (!window.recording) {
+    const std::string stem = scene_file.stem().string();
+    try {
+      if (same_file(resolve_scene_path(stem).string(), scene_file.string())) window = table1_window(stem.c_str());
+    } catch (const InputError&) {
+      // no scene of that name: no default window
+    }
+  }
   if (!a.recording.empty()) {
     o.recording = a.recording;
   } else if (window.recording) {

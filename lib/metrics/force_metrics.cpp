@@ -121,6 +121,7 @@ SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t a, std::size_t
   for (std::size_t n = a; n <= b; ++n)
     for (int c = 0; c < 3; ++c) ch[c][n - a] = tr.force[n][c];
   const PowerSpectrum spec = power_spectrum(ch, H, opt.fft_window, opt.fft_min_window);
+  s.fft_window = spec.window;
   s.power_above_30hz = power_fraction_above(spec, 30.0);
   s.power_above_100hz = power_fraction_above(spec, 100.0);
   double fluctuation = 0;  // sum over ticks of |F - mean F|^2
@@ -285,6 +286,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   TimingMetrics& tm = m.timing;
   tm.ticks = n;
   tm.budget_s = opt.tick_budget_s > 0 ? opt.tick_budget_s : 1.0 / tr.haptic_hz;
+  m.options.tick_budget_s = tm.budget_s;  // the budget in effect (0 given: the haptic period)
   tm.p50 = percentile(tr.haptic_step_s, 50);
   tm.p99 = percentile(tr.haptic_step_s, 99);
   tm.p999 = percentile(tr.haptic_step_s, 99.9);
@@ -331,6 +333,8 @@ Json segment_json(const SegmentMetrics& s) {
   j.set("boundary_step_ratio", s.boundary_step_ratio);
   j.set("boundary_ticks", s.boundary_ticks);
   j.set("interior_ticks", s.interior_ticks);
+  // NaN (null in the text) rather than a missing key: the sweep summary's columns are the keys.
+  j.set("fft_window", s.fft_window > 0 ? static_cast<double>(s.fft_window) : kNaN);
   j.set("power_above_30hz", s.power_above_30hz);
   j.set("power_above_100hz", s.power_above_100hz);
   j.set("passivity_energy_final_J", s.passivity_energy_final);

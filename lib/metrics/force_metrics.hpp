@@ -50,6 +50,7 @@ struct SegmentMetrics {
   // Fraction of force fluctuation power above 30 and 100 Hz (signal::power_spectrum).
   double power_above_30hz = 0;
   double power_above_100hz = 0;
+  std::size_t fft_window = 0;  // ticks per window the spectrum used (the option's, or the segment's power of two)
   // Passivity observer (Hannaford & Ryu 2002), energy the device puts into the environment:
   // E(n) = -sum_{m=first+1..n} F_{m-1} . (x_m - x_{m-1}), x the physical tool position and
   // F_{m-1} the force displayed (zero-order hold) while it moved. Rotational part likewise with

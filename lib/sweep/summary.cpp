@@ -300,8 +300,12 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
         };
         results[7] = cell(mean(trace.active));
         results[8] = cell(mean(trace.physical_awake));
-        std::size_t i = kResultColumns.size();
-        for (const auto& [k, v] : metric_values(compute_metrics(trace))) results[i++] = cell(v);
+        // By name: a run's metrics fill the columns a default ForceMetrics names, none beyond.
+        for (const auto& [k, v] : metric_values(compute_metrics(trace))) {
+          const auto at = std::find_if(metric_names.begin(), metric_names.end(), [&k](const auto& n) { return n.first == k; });
+          if (at != metric_names.end())
+            results[kResultColumns.size() + static_cast<std::size_t>(at - metric_names.begin())] = cell(v);
+        }
         row[1] = "ok";
         ++s.ok;
       } catch (const InputError& e) {

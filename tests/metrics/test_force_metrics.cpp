@@ -149,6 +149,12 @@ TEST(ForceMetrics, TheSpectrumsWindowFollowsTheHapticRate) {
   MetricsOptions given;
   given.fft_window = 1024;
   EXPECT_EQ(compute_metrics(tr, given).options.fft_window, 1024u);
+  EXPECT_EQ(m.whole.fft_window, 2048u);  // the window used, in the JSON too
+  EXPECT_NE(to_json(m, false).dump().find("\"fft_window\": 2048"), std::string::npos);
+  // A segment shorter than the window asked for: the power of two below its length.
+  given.fft_window = 65536;
+  EXPECT_EQ(compute_metrics(tr, given).options.fft_window, 65536u);
+  EXPECT_EQ(compute_metrics(tr, given).whole.fft_window, 16384u);
   EXPECT_EQ(fft_window_ticks(MetricsOptions{}, 1000.0), 256u);
   EXPECT_EQ(fft_min_window_ticks(MetricsOptions{}, 1000.0), 64u);
 }

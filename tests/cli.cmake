@@ -315,6 +315,17 @@ add_test(NAME cli.render.folder_is_the_output
     "-DEXPECT=^ebh: error: --render .*same.h5: is the name of the replay output \\(-o\\)"
     -DOUTPUT=${EBH_RENDER_OUT}/same.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.render.folder_is_the_output PROPERTIES LABELS "cli;render")
+# Options that would do nothing where they are given are refused, not ignored.
+add_test(NAME cli.render.xdmf_only_with_a_folder
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;--xdmf-only;-o;${EBH_RENDER_OUT}/unused"
+    "-DEXPECT=^ebh: error: -o: --xdmf-only writes only the .xdmf beside the replay; leave -o out" -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.render.max_displacement_without_colours
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/unused;--max-displacement-mm;2"
+    "-DEXPECT=^ebh: error: --max-displacement-mm: the top of the displacement colours; give --color-by displacement too"
+    -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.render.xdmf_only_with_a_folder cli.render.max_displacement_without_colours PROPERTIES
+  LABELS "cli;render")
 if(EBH_HAVE_OSMESA)
   add_test(NAME cli.render.replay
     COMMAND ${CMAKE_COMMAND}

@@ -39,7 +39,22 @@ void parse_size(const std::string& s, ebh::RenderOptions& opt) {
   opt.height = pixels(all.substr(x + 1));
 }
 
-void run(RenderArgs& a) {
+void run(RenderArgs& a, const CLI::App& c) {
+  // Options that do nothing where they are given: said, not ignored.
+  if (a.xdmf_only)
+    for (const char* o : {"--output", "--size", "--camera", "--every", "--color-by", "--max-displacement-mm",
+                          "--supersample", "--no-time-bar", "--video"})
+      if (c.count(o) > 0) {
+        const std::string name = std::string(o) == "--output" ? "-o" : o;
+        throw ebh::InputError(name + ": --xdmf-only writes only the .xdmf beside the replay; leave " + name + " out");
+      }
+  if (c.count("--max-displacement-mm") > 0) {
+    if (a.color_by != "displacement")
+      throw ebh::InputError("--max-displacement-mm: the top of the displacement colours; give --color-by displacement too");
+    if (!(a.max_displacement_mm > 0))
+      throw ebh::InputError("--max-displacement-mm: expected a length > 0 mm (leave it out for the largest displacement "
+                            "rendered)");
+  }
   if (a.xdmf_only) {
     const std::string x = ebh::write_xdmf(a.replay);
     if (!a.quiet) std::printf("%s\n", x.c_str());
@@ -85,7 +100,7 @@ void setup(CLI::App& root) {
   c->add_option("--video", args->video, "also assemble the frames into this .mp4 (needs ffmpeg)");
   c->add_flag("--xdmf-only", args->xdmf_only, "only write OUT.xdmf beside the replay (for ParaView)");
   c->add_flag("-q,--quiet", args->quiet, "print nothing but warnings");
-  c->callback([args] { run(*args); });
+  c->callback([args, c] { run(*args, *c); });
 }
 
 }  // namespace

@@ -54,6 +54,11 @@ add_test(NAME cli.scene.refine_too_large
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;cholecystectomy;--level;3;-o;${Z}/chole_l3.yaml"
     "-DEXPECT=^ebh: error: .*cholecystectomy.yaml: level 3 makes 22.5 million tets and 3.85 million vertices .*GB to write and .*GB to replay, over the limit of 8 million tets \\(--max-tets raises it\\)"
     -DOUTPUT=${Z}/chole_l3.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
+# A size just over --max-tets is said exactly, not as '64.5 thousand over the limit of 64.5 thousand'.
+add_test(NAME cli.scene.refine_just_over_the_limit
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;tube;--level;1;--max-tets;64455;-o;${Z}/just_over.yaml"
+    "-DEXPECT=^ebh: error: .*tube.yaml: level 1 makes 64456 tets .*over the limit of 64455 tets"
+    -DOUTPUT=${Z}/just_over.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
 # --max-tets at its largest lifts the limit, not what a mesh can index: a count past INT64_MAX
 # (5 tets x 8^22) is refused, not saturated into the limit and refined until the memory is gone.
 add_test(NAME cli.scene.refine_no_limit

@@ -82,11 +82,20 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
     const RefineMemory m = refine_memory(r.after);
     // The user's limit, or else what a mesh can index (which no --max-tets raises).
     const bool over_max = max_tets < kMaxMeshElements && r.after.tets_estimate > static_cast<double>(max_tets);
-    throw InputError(scene.string() + ": level " + std::to_string(levels) + " makes " + count_words(r.after.tets_estimate) +
+    // Counts that round to the same words as the limit are said exactly ("13.1 thousand ... over the
+    // limit of 13.1 thousand" said nothing).
+    std::string tets = count_words(r.after.tets_estimate), limit = count_words(static_cast<double>(max_tets));
+    if (over_max && tets == limit) {
+      char exact[64];
+      std::snprintf(exact, sizeof exact, "%.0f", r.after.tets_estimate);
+      tets = exact;
+      limit = std::to_string(max_tets);
+    }
+    throw InputError(scene.string() + ": level " + std::to_string(levels) + " makes " + tets +
                      " tets and " + count_words(r.after.vertices_estimate) + " vertices (" + count_words(static_cast<double>(r.before.tets)) +
                      " tets x 8^" + std::to_string(levels) + "): " + about_gigabytes(m.write_bytes) + " to write and " +
                      about_gigabytes(m.replay_bytes) + " to replay, " +
-                     (over_max ? "over the limit of " + count_words(static_cast<double>(max_tets)) + " tets (--max-tets raises it)"
+                     (over_max ? "over the limit of " + limit + " tets (--max-tets raises it)"
                                : "over the " + std::to_string(kMaxMeshElements) +
                                      " tets or vertices a mesh can index (its indices are 32-bit)"));
   }

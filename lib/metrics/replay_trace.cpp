@@ -218,6 +218,17 @@ ReplayTrace load_replay(const std::string& path) {
     if (std::isfinite(tr.t[i]) && std::isfinite(tr.t[i - 1]) && !(tr.t[i] > tr.t[i - 1]))
       in.fail("/haptic/t", "is not strictly increasing at index " + std::to_string(i));
   }
+  // The ticks' own spacing against the attribute every rate-dependent metric takes (the FFT's
+  // bins, the frame boundaries, the budget): a file edited or written by another tool.
+  if (n >= 2 && std::isfinite(tr.t.front()) && std::isfinite(tr.t.back()) && tr.t.back() > tr.t.front()) {
+    const double from_t = static_cast<double>(n - 1) / (tr.t.back() - tr.t.front());
+    if (std::fabs(from_t - tr.haptic_hz) > 0.01 * tr.haptic_hz) {
+      char why[160];
+      std::snprintf(why, sizeof why, "is %g Hz, but /haptic/t has %ld ticks over %g s (%g Hz)", tr.haptic_hz, n,
+                    tr.t.back() - tr.t.front(), from_t);
+      in.fail_attr("haptic_hz", why);
+    }
+  }
   tr.force = vec3s(in.doubles("/haptic/force", n, 3));
   tr.torque = vec3s(in.doubles("/haptic/torque", n, 3));
   tr.force_clamped = *in.read<std::uint8_t>("/haptic/force_clamped", n, 0, H5T_NATIVE_UINT8, false);

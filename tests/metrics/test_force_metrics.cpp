@@ -292,9 +292,28 @@ TEST(ForceMetrics, StretchPenetrationClampAndTiming) {
   EXPECT_TRUE(std::isnan(m.timing.physical_p50));  // no /timing/physical_step_s in the file
   // The budget is a tick at the replay's rate: at 2 kHz 0.5 ms, which the ticks of 0.6-1 ms miss too.
   tr.haptic_hz = 2000;
+  // ... whose ticks are half a millisecond apart (an attribute that disagrees with them is refused)
+  EXPECT_THROW(roundtrip(tr, "misc2k_edited"), InputError);
+  for (std::size_t i = 0; i < tr.ticks(); ++i) tr.t[i] = static_cast<double>(i) / 2000;
   const ForceMetrics fast = roundtrip(tr, "misc2k");
   EXPECT_DOUBLE_EQ(fast.timing.budget_s, 5e-4);
   EXPECT_EQ(fast.timing.over_budget, 10u + 500u);  // the 2 ms ticks, and the 500 of 0.6 to 1 ms
+}
+
+// The rate every rate-dependent metric takes (bins, frame boundaries, budget) is the attribute:
+// one that disagrees with the ticks' times (an edited file) is refused naming both.
+TEST(ForceMetrics, AHapticRateThatDisagreesWithTheTicksIsRefused) {
+  ReplayTrace tr = make_trace(1001);
+  tr.haptic_hz = 333;
+  try {
+    roundtrip(tr, "rate333");
+    ADD_FAILURE() << "an edited haptic_hz was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("root attribute 'haptic_hz' is 333 Hz, but /haptic/t has 1001 ticks over 1 s "
+                                         "(1000 Hz)"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(ForceMetrics, EpisodesMergeShortGaps) {

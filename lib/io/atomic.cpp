@@ -58,6 +58,18 @@ extern "C" void on_signal(int sig) {
   if (grace > 0) alarm(grace);
 }
 
+/// Before a command polls for interrupts: end now, saying so (async-signal-safe calls only).
+extern "C" void on_early_signal(int sig) {
+  static const char kInt[] = "ebh: interrupted by SIGINT; no output file written\n";
+  static const char kTerm[] = "ebh: interrupted by SIGTERM; no output file written\n";
+  static const char kHup[] = "ebh: interrupted by SIGHUP; no output file written\n";
+  const char* m = sig == SIGINT ? kInt : sig == SIGTERM ? kTerm : kHup;
+  const std::size_t n = sig == SIGINT ? sizeof kInt : sig == SIGTERM ? sizeof kTerm : sizeof kHup;
+  (void)!write(STDERR_FILENO, m, n - 1);
+  remove_temporaries();
+  _exit(128 + sig);
+}
+
 /// The first interrupt's grace ran out: end as on a second signal.
 extern "C" void on_grace_over(int) {
   static const char kMessage[] = "ebh: still running after the interrupt's grace: stopping now\n";
@@ -177,6 +189,18 @@ void install_interrupt_handlers() {
   sigemptyset(&grace.sa_mask);
   grace.sa_flags = 0;
   sigaction(SIGALRM, &grace, nullptr);
+}
+
+void install_early_interrupt_handlers() {
+  if (g_installed.load()) return;
+  struct sigaction sa {};
+  sa.sa_handler = on_early_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = 0;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  if (struct sigaction now {}; !(sigaction(SIGHUP, nullptr, &now) == 0 && now.sa_handler == SIG_IGN))
+    sigaction(SIGHUP, &sa, nullptr);
 }
 
 bool interrupted() { return g_interrupted != 0; }

@@ -99,6 +99,12 @@ void write_files_atomically(const std::vector<std::pair<std::string, std::string
 /// Installs the SIGINT/SIGTERM/SIGHUP handlers (SIGHUP left ignored where it was at the start:
 /// `nohup`), and SIGALRM's for the grace (idempotent).
 void install_interrupt_handlers();
+/// Until a command installs those (it polls interrupted() from then on), a signal ends the process
+/// at once with one line, "ebh: interrupted by SIGINT; no output file written", and status
+/// 128 + signal, removing any temporary: what a long load (a 10-million-line log, a large mesh) or
+/// a command that never polls (validate, table1) gets. `ebh` calls it first thing (SIGHUP left
+/// ignored where it was).
+void install_early_interrupt_handlers();
 /// True once SIGINT, SIGTERM or SIGHUP arrived (after install_interrupt_handlers()).
 bool interrupted();
 /// The first of those signals that arrived (0 when none did, or the flag was set by hand): a

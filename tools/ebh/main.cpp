@@ -79,6 +79,9 @@ int main(int argc, char** argv) {
   // queues and at 14.7x with 32 (docs/CUDA.md, "Many replays on one GPU"). Set before the first
   // CUDA call; a value the user set is kept.
   setenv("CUDA_DEVICE_MAX_CONNECTIONS", "32", 0);
+  // A signal before the command polls for one (loading a large log or mesh; validate, table1)
+  // ends the process with a line and 128 + signal rather than without a word.
+  ebh::install_early_interrupt_handlers();
   CLI::App app{"ebh: energy-based haptic rendering for surgical simulation (batch replay, validation, benchmarks)"};
   app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
   app.require_subcommand(1);

@@ -322,7 +322,8 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
 }
 
 void read_csv(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
-              std::vector<std::size_t>& line_of, bool& has_t, LeftOut& left_out) {
+              std::vector<std::size_t>& line_of, bool& has_t, LeftOut& left_out,
+              const std::vector<std::string>& skip_columns) {
   const std::vector<std::string> known{"t", "x", "y", "z", "qw", "qx", "qy", "qz", "jaw", "buttons"};
   std::map<std::string, std::size_t> col;
   std::vector<std::string> header;
@@ -343,6 +344,9 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
         throw InputError(at(path, l.number) + ": no header line: the first line that is not a comment holds numbers " +
                          "(a header commented out with '#', as numpy.savetxt writes it? write it as the first line " +
                          "without '#': t,x,y,z,qw,qx,qy,qz)");
+      for (const std::string& skip : skip_columns)
+        if (std::find(header.begin(), header.end(), skip) == header.end())
+          throw InputError(at(path, l.number) + ": --skip-column " + skip + ": the header has no such column");
       for (std::size_t i = 0; i < header.size(); ++i) {
         if (header[i].empty())
           throw InputError(at(path, l.number) + ": column " + std::to_string(i + 1) + " has no name" +
@@ -352,12 +356,13 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
                            "columns t, x, y, z, ... and give the length unit with --unit (times are in seconds)");
         std::string h = header[i];
         std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
+        if (std::find(skip_columns.begin(), skip_columns.end(), header[i]) != skip_columns.end()) continue;
         if (std::find(known.begin(), known.end(), h) == known.end())
           throw InputError(at(path, l.number) + ": unknown column '" + header[i] +
                            "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons" +
                            (header[i].find(';') != std::string::npos
                                 ? "; columns are separated by commas, spaces or tabs, not ';'"
-                                : "") +
+                                : "; a column of other data: --skip-column " + header[i] + " leaves it unread") +
                            ")");
         if (!col.emplace(h, i).second) throw InputError(at(path, l.number) + ": column '" + h + "' appears twice");
       }
@@ -507,7 +512,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   bool has_t = false;
   LeftOut left_out;
   if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, opt.max_samples, rec, line_of, left_out);
-  else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t, left_out);
+  else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t, left_out, opt.skip_columns);
   if (rec.t.empty())
     throw InputError(path + ": no samples (the log has no data lines" +
                      (left_out.cut_line ? "; its only one, line " + std::to_string(left_out.cut_line) +

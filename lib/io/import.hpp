@@ -23,6 +23,7 @@
 // kind).
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "io/pose_transform.hpp"
 #include "io/recording.hpp"
@@ -35,6 +36,8 @@ struct ImportOptions {
   std::optional<LogFormat> format;  ///< nullopt: log_format_of(path)
   std::optional<double> rate_hz;    ///< sample rate of a log without times; nullopt: kAssumedLogRateHz
   bool drop_repeats = false;        ///< remove stale repeated samples (kStaleRunMaxS)
+  /// csv: header names of columns left unread (a logger's other data); each must be in the header.
+  std::vector<std::string> skip_columns;
   std::optional<double> unit;       ///< metres per log length unit; nullopt: the format's default
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;

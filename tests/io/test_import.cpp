@@ -237,6 +237,22 @@ TEST(Import, CutLinesRepeatedRowsAndDecimalCommas) {
                      "quote.csv:2: x: '1\"' is not a number");
 }
 
+// A logger's other data (a force sensor's columns) is refused as an unknown column, naming the
+// option that leaves it unread; a skipped column must be in the header.
+TEST(Import, OtherColumnsAreSkippedWhenNamed) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  const std::string p = write_log(tmp / "force.csv", "t,x,y,z,qw,qx,qy,qz,force_x\n0,0.1,0,0,1,0,0,0,0.5\n"
+                                                       "0.001,0.2,0,0,1,0,0,0,0.6\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "force.csv:1: unknown column 'force_x'", "--skip-column force_x leaves it unread");
+  opt.skip_columns = {"force_x"};
+  const Recording r = import_log(p, opt);
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_EQ(r.position[1].x, 0.2);
+  opt.skip_columns = {"force_y"};
+  EXPECT_INPUT_ERROR(import_log(p, opt), "force.csv:1: --skip-column force_y: the header has no such column");
+}
+
 // A gap in a log's times (the logger missed samples) is named: a replay glides across it.
 TEST(Import, GapsInTheTimesAreNamed) {
   test::ScratchDir tmp;

@@ -25,6 +25,7 @@ struct ImportArgs {
   std::string log, output, format, unit, transform, tool_transform, scene, tool;  // tool: empty, the default
   std::optional<double> rate_hz;
   bool drop_repeats = false;
+  std::vector<std::string> skip_columns;
 };
 
 void run(const ImportArgs& a) {
@@ -71,6 +72,9 @@ void run(const ImportArgs& a) {
       !scene ? nullptr : scene->spec.tool.kind == ebh::ToolSpec::Kind::Forceps ? "forceps" : "hook";
   opt.tool = !a.tool.empty() ? a.tool : scene_tool ? scene_tool : "hook";
   opt.drop_repeats = a.drop_repeats;
+  opt.skip_columns = a.skip_columns;
+  if (!opt.skip_columns.empty() && opt.format.value_or(ebh::log_format_of(a.log)) != ebh::LogFormat::csv)
+    throw ebh::InputError("--skip-column: an OpenHaptics log has no named columns (--skip-column is for a CSV log)");
   ebh::ImportReport report;
   ebh::Recording rec = ebh::import_log(a.log, opt, &report);
   rec.generator = std::string("ebh import (ebh ") + ebh::kVersion + ")";
@@ -140,6 +144,8 @@ void setup(CLI::App& root) {
   c->add_option("--tool", args->tool,
                 "the tool the log's device held, hook or forceps (root attribute tool; default: the scene's tool with "
                 "--scene, else hook)");
+  c->add_option("--skip-column", args->skip_columns,
+                "csv: a column of the log to leave unread (a force or a timestamp of another clock; repeatable)");
   c->add_flag("--drop-repeats", args->drop_repeats,
               "remove the samples that repeat the previous pose, jaw and buttons exactly for up to " +
                   ebh::cli::format_number(ebh::kStaleRunMaxS * 1e3) +

@@ -14,6 +14,7 @@ them); when `python3` on PATH is another interpreter, run it as /usr/bin/python3
 import argparse
 import os
 import sys
+import tempfile
 
 try:
     import h5py
@@ -49,6 +50,13 @@ def read(path, name, ncols=None):
 
 
 def load(path):
+    try:
+        with h5py.File(path, "r") as f:
+            if "/haptic" not in f and "/trajectory" in f:
+                raise InputError(f"{path}: a device recording (/trajectory), not a replay output (/haptic): replay it "
+                                 f"first (ebh replay SCENE {path} -o OUT.h5)")
+    except OSError as e:
+        raise InputError(f"{path}: cannot open as HDF5 ({e.strerror or e})")
     t = read(path, "/haptic/t")
     force = read(path, "/haptic/force", 3)
     torque = read(path, "/haptic/torque", 3)
@@ -97,8 +105,33 @@ def plot(paths, labels, out, t0=None, t1=None, title=None):
         axes[3, 0].legend(loc="best", fontsize=8)
     fig.suptitle(title or "Force and torque on the tool")
     fig.tight_layout()
-    fig.savefig(out, dpi=130)
-    plt.close(fig)
+    # Written beside its name and renamed over it: an interrupt or a full disk keeps what was there.
+    folder = os.path.dirname(os.path.abspath(out))
+    fd, temp = tempfile.mkstemp(prefix="." + os.path.basename(out) + ".", suffix=".partial", dir=folder)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temp, 0o666 & ~umask)  # as a file opened for writing gets it, not mkstemp's 0600
+    try:
+        with os.fdopen(fd, "wb") as f:
+            fig.savefig(f, dpi=130, format="png")
+        os.replace(temp, out)
+    except BaseException:
+        os.unlink(temp)
+        raise
+    finally:
+        plt.close(fig)
+
+
+def check_output(out, inputs):
+    """The PNG to write: a .png name in an existing folder, not one of the replays."""
+    if not out.lower().endswith(".png"):
+        raise InputError(f"{out}: the plot is a PNG file: name it NAME.png")
+    folder = os.path.dirname(os.path.abspath(out))
+    if not os.path.isdir(folder):
+        raise InputError(f"{out}: the folder {folder} does not exist")
+    for path in inputs:
+        if os.path.exists(out) and os.path.exists(path) and os.path.samefile(out, path):
+            raise InputError(f"{out}: is the replay {path}, an input; choose another output file")
 
 
 def main(argv=None):
@@ -116,6 +149,7 @@ def main(argv=None):
     if a.t0 is not None and a.t1 is not None and a.t1 <= a.t0:
         p.error("--t1 must be after --t0")
     try:
+        check_output(a.output, a.replays)
         plot(a.replays, labels, a.output, a.t0, a.t1, a.title)
     except InputError as e:
         print(f"plot_forces.py: error: {e}", file=sys.stderr)

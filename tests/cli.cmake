@@ -138,6 +138,22 @@ if(EBH_SYSTEM_PYTHON3)
       COMMAND ${EBH_SYSTEM_PYTHON3} ${PROJECT_SOURCE_DIR}/scripts/plot_forces.py ${EBH_METRICS_DATA}/press.h5
         -o ${PROJECT_BINARY_DIR}/plot_forces_press.png --labels press)
     set_tests_properties(cli.plot_forces PROPERTIES PASS_REGULAR_EXPRESSION "plot_forces_press.png" LABELS cli)
+    # An output named like its input, in a folder that is not there, or a recording for a replay:
+    # one line, exit status 1 (matplotlib's traceback before).
+    add_test(NAME cli.plot_forces_over_its_input
+      COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_SYSTEM_PYTHON3};${PROJECT_SOURCE_DIR}/scripts/plot_forces.py;${EBH_METRICS_DATA}/press.h5;-o;${EBH_METRICS_DATA}/press.h5"
+        "-DEXPECT=^plot_forces.py: error: .*press.h5: the plot is a PNG file" "-DKEEP=${EBH_METRICS_DATA}/press.h5" -DSTATUS=1
+        -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+    add_test(NAME cli.plot_forces_no_folder
+      COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_SYSTEM_PYTHON3};${PROJECT_SOURCE_DIR}/scripts/plot_forces.py;${EBH_METRICS_DATA}/press.h5;-o;${PROJECT_BINARY_DIR}/no_such_folder/f.png"
+        "-DEXPECT=^plot_forces.py: error: .*f.png: the folder .*no_such_folder does not exist" -DSTATUS=1
+        -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+    add_test(NAME cli.plot_forces_recording
+      COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_SYSTEM_PYTHON3};${PROJECT_SOURCE_DIR}/scripts/plot_forces.py;${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5;-o;${PROJECT_BINARY_DIR}/rec.png"
+        "-DEXPECT=^plot_forces.py: error: .*tube_insert.h5: a device recording \\(/trajectory\\), not a replay output" -DSTATUS=1
+        -DOUTPUT=${PROJECT_BINARY_DIR}/rec.png -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+    set_tests_properties(cli.plot_forces_over_its_input cli.plot_forces_no_folder cli.plot_forces_recording PROPERTIES
+      LABELS cli)
   endif()
 endif()
 

@@ -21,24 +21,26 @@ for sig in TERM INT; do
   grep -q "interrupted" "$work/$sig.err" || fail "no interrupt message: $(cat "$work/$sig.err")"
   [ ! -e "$work/$sig.h5" ] || fail "an interrupted replay wrote its output"
 done
+# interrupted NAME SIG CMD...: runs CMD (its output in $work/NAME.out and .err), sends SIG a second
+# later and sets `status` to its exit status.
+interrupted() {
+  local name=$1 sig=$2
+  shift 2
+  "$@" >"$work/$name.out" 2>"$work/$name.err" &
+  local pid=$!
+  sleep 1
+  kill -"$sig" $pid
+  status=0
+  wait $pid || status=$?
+}
 # Before a command polls for interrupts (a long load; table1 and validate never do) a signal ends
 # it at once with one line and 128 + signal, not without a word.
-"$ebh" table1 >"$work/table1.out" 2>"$work/table1.err" &
-pid=$!
-sleep 1
-kill -INT $pid
-status=0
-wait $pid || status=$?
+interrupted table1 INT "$ebh" table1
 [ $status = 130 ] || fail "table1: exit status $status, expected 130: $(cat "$work/table1.err")"
 grep -q "^ebh: interrupted by SIGINT; no output file written$" "$work/table1.err" ||
   fail "table1: no interrupt message: $(cat "$work/table1.err")"
 # An interrupted gate names the case it stopped in, not its temporary replay file.
-"$ebh" gate >"$work/gate.out" 2>"$work/gate.err" &
-pid=$!
-sleep 1
-kill -TERM $pid
-status=0
-wait $pid || status=$?
+interrupted gate TERM "$ebh" gate
 [ $status = 143 ] || fail "gate: exit status $status, expected 143: $(cat "$work/gate.err")"
 grep -q "baselines.yaml: cases\[[0-9]*\] (.*): interrupted; the gate stopped here" "$work/gate.err" ||
   fail "gate: the interrupt does not name the case: $(cat "$work/gate.err")"

@@ -172,18 +172,23 @@ std::string os_reason(int err) { return std::strerror(err); }
 
 bool process_running(long pid) { return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH); }
 
-void install_interrupt_handlers() {
-  if (g_installed.exchange(true)) return;
+/// SIGINT, SIGTERM and SIGHUP to `handler`; SIGHUP stays ignored where it was when the process
+/// started (`nohup ebh ...`: the user asked for the command to outlive its terminal).
+static void handle_interrupts_with(void (*handler)(int)) {
   struct sigaction sa {};
-  sa.sa_handler = on_signal;
+  sa.sa_handler = handler;
   sigemptyset(&sa.sa_mask);
   sa.sa_flags = 0;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
-  // SIGHUP, the terminal closed: stop like SIGTERM, leave no temporary; unless it was ignored when
-  // the process started (`nohup ebh ...`: the user asked for the command to outlive its terminal).
   if (struct sigaction now {}; !(sigaction(SIGHUP, nullptr, &now) == 0 && now.sa_handler == SIG_IGN))
     sigaction(SIGHUP, &sa, nullptr);
+}
+
+void install_interrupt_handlers() {
+  if (g_installed.exchange(true)) return;
+  // SIGHUP, the terminal closed: stop like SIGTERM, leave no temporary.
+  handle_interrupts_with(on_signal);
   struct sigaction grace {};
   grace.sa_handler = on_grace_over;
   sigemptyset(&grace.sa_mask);
@@ -192,15 +197,7 @@ void install_interrupt_handlers() {
 }
 
 void install_early_interrupt_handlers() {
-  if (g_installed.load()) return;
-  struct sigaction sa {};
-  sa.sa_handler = on_early_signal;
-  sigemptyset(&sa.sa_mask);
-  sa.sa_flags = 0;
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-  if (struct sigaction now {}; !(sigaction(SIGHUP, nullptr, &now) == 0 && now.sa_handler == SIG_IGN))
-    sigaction(SIGHUP, &sa, nullptr);
+  if (!g_installed.load()) handle_interrupts_with(on_early_signal);
 }
 
 bool interrupted() { return g_interrupted != 0; }

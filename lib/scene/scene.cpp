@@ -258,6 +258,10 @@ class SpecReader {
       fail("tool.newton_calls", "expected all or at most solver.virtual_iterations (" +
                                     std::to_string(s.solver.virtual_iterations) + "), got " +
                                     std::to_string(s.tool.newton_calls), {"solver.virtual_iterations"});
+    if (s.solver.physical_region > 0 && s.solver.method == SolverSpec::Method::Direct)
+      fail("solver.physical_region",
+           "the direct method solves for every vertex at once; use chebyshev or jacobi, or physical_region 0",
+           {"solver.method"});
     check_physical_limits(s);
     return s;
   }
@@ -904,8 +908,8 @@ std::string implausible(const SceneSpec& spec, const Plausible& p) {
 
 std::vector<std::string> tool_stiffness_warnings(const SceneSpec& spec) {
   std::vector<std::string> out;
-  for (const Plausible& p : {Plausible{"stiffness.k_con", spec.stiffness.k_con, 1, 1e5, "N/m", kDeviceStiffness},
-                             Plausible{"stiffness.k_vcs", spec.stiffness.k_vcs, 1, 1e5, "N/m", kDeviceStiffness},
+  for (const Plausible& p : {Plausible{"stiffness.k_con", spec.stiffness.k_con, 1, kMaxDeviceStiffness, "N/m", kDeviceStiffness},
+                             Plausible{"stiffness.k_vcs", spec.stiffness.k_vcs, 1, kMaxDeviceStiffness, "N/m", kDeviceStiffness},
                              Plausible{"stiffness.k_vct", spec.stiffness.k_vct, 1e-4, 100, "N m/rad",
                                        "a haptic device's rotational stiffness"}})
     if (std::string w = implausible(spec, p); !w.empty()) out.push_back(std::move(w));

@@ -375,6 +375,9 @@ class OverrideError : public InputError {
 /// overrides gave it (the last such), else the scene file.
 std::string value_source(const SceneSpec& spec, const std::string& key);
 
+/// The stiffest contact a haptic device renders (N/m): k_con and k_vcs above it are warned.
+inline constexpr double kMaxDeviceStiffness = 1e5;
+
 /// The warnings of the tool's stiffnesses (k_con, k_vcs, k_vct outside a haptic device's range).
 /// Not build_scene's: replays that differ only in them share one scene (WorldCache); the replay
 /// and `ebh scene` add them.

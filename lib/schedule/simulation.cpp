@@ -332,9 +332,6 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
                                         "whole virtual mesh and ignores it (docs/CUDA.md, \"The active region\")");
     w->scene.spec.solver.active_region = 0;
   }
-  if (w->scene.spec.solver.physical_region > 0 && w->scene.spec.solver.method == SolverSpec::Method::Direct)
-    throw InputError(where + ": key 'solver.physical_region': the direct method solves for every vertex at once; "
-                             "use chebyshev or jacobi, or physical_region 0");
   w->initial_physical = make_physical_state(w->physical_mesh);
   if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)
     w->settle_steps = settle_under_gravity(w->scene, w->initial_physical, w->scene.warnings);

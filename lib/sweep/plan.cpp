@@ -298,6 +298,14 @@ SweepPlan read_sweep_plan(const fs::path& file) {
         s.recordings.push_back(p);
       }
     }
+    // A copy is the same recording: its runs would be the same replays, kept once, one row for both.
+    for (std::size_t i = 0; i < s.recordings.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (sha256_file_cached(plan.sha256, s.recordings[i].string()) ==
+            sha256_file_cached(plan.sha256, s.recordings[j].string()))
+          r.fail(recs.IsSequence() ? recs[i] : recs, key + ".recordings",
+                 s.recordings[i].string() + " has the same bytes as " + s.recordings[j].string() +
+                     ": the same recording; list it once");
     // The window starts inside every recording (as ebh replay --start checks), before any run:
     // each run would fail on it.
     for (const fs::path& p : s.recordings) {
@@ -312,6 +320,14 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     s.reference = r.overrides(e["reference"], key + ".reference", &ref_where);
     for (const SweepScene& other : plan.scenes)
       if (other.scene_file == s.scene_file) r.fail(e["scene"], key + ".scene", s.scene_file.string() + " given twice");
+    // A copy (the scene file and its meshes the same bytes) is the same scene: its runs would be
+    // the same replays, kept once, and its rows and its reference's errors lost.
+    s.inputs_sha256 = scene_inputs_sha256(s.scene_file, plan.sha256);
+    for (const SweepScene& other : plan.scenes)
+      if (other.inputs_sha256 == s.inputs_sha256)
+        r.fail(e["scene"], key + ".scene",
+               s.scene_file.string() + " and its meshes have the same bytes as " + other.scene_file.string() +
+                   ": the same scene; list it once (with its recordings together)");
 
     // Each override alone (its own line in messages), then each whole configuration.
     for (const auto& [k, v] : plan.set) check_on_scene(r, set_where[k], "set." + k, s, {{k, v}});
@@ -325,10 +341,8 @@ SweepPlan read_sweep_plan(const fs::path& file) {
       check_on_scene(r, node, top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set", s, merged(plan.set, config));
     plan.scenes.push_back(std::move(s));
   }
-  for (SweepScene& sc : plan.scenes) {  // each file read once, for every run's id
-    sc.inputs_sha256 = scene_inputs_sha256(sc.scene_file, plan.sha256);
+  for (SweepScene& sc : plan.scenes)  // each file read once, for every run's id (the listed ones are)
     for (const fs::path& f : sc.recordings) sha256_file_cached(plan.sha256, f.string());
-  }
   (void)expand_plan(plan);  // the size limit, before any work
   return plan;
 }

@@ -957,6 +957,14 @@ TEST(Scene, OverrideErrorsNameTheOverride) {
                 "OverrideError: --set 'tool.newton_calls=3': key 'tool.newton_calls': expected all or at most", 0),
             0u);
   EXPECT_EQ(message({"gravity.x=1"}).rfind("OverrideError: --set 'gravity.x=1': key 'gravity': a list, not a map", 0), 0u);
+  // Two keys that cannot go together: the one an override gave is named, read with the scene (a
+  // sweep checks its configurations before any replay), not when the world is built.
+  EXPECT_EQ(message({"solver.physical_region=0.0003", "solver.method=direct"}).rfind(
+                "OverrideError: --set 'solver.physical_region=0.0003': key 'solver.physical_region': the direct method "
+                "solves for every vertex at once",
+                0),
+            0u);
+  EXPECT_EQ(message({"solver.method=direct"}), "no error");
   // The file's own mistake, with an override beside it: the file.
   const fs::path bad = write_temp("bad_rates.yaml", replace(replace(slurp(file), "physical_hz: 100", "physical_hz: 70"),
                                                              "physical: tube.msh", "physical: " + (file.parent_path() / "tube.msh").string()));

@@ -336,6 +336,10 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\n"
        "runs:\n  - {solver.virtual_iterations: 2, tool.newton_calls: 3}\n",
        ":3: key 'runs': on scene tube: .*key 'tool.newton_calls': expected all or at most solver.virtual_iterations \\(2\\)"},
+      // keys that cannot go together across `set` and a run: before any replay, not as a failed run
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nset: {solver.physical_region: 0.0003}\n"
+       "runs:\n  - {solver.method: direct}\n",
+       ":4: key 'runs': on scene tube: .*key 'solver.physical_region': the direct method solves for every vertex"},
   };
   int i = 0;
   for (const auto& [text, expected] : cases) {
@@ -351,6 +355,47 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
     }
   }
   EXPECT_THROW((void)read_sweep_plan(scratch() / "no_such_plan.yaml"), InputError);
+}
+
+// A copy of a scene (its file and meshes the same bytes) or of a recording is the same input: its
+// runs are the same replays, which the plan keeps once, so its rows (and its own reference's
+// errors) would be lost without a word. Refused, naming both.
+TEST(SweepPlan, CopiesOfAnInputAreRefused) {
+  const fs::path dir = scratch() / "copies";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path src(EBH_SOURCE_DIR);
+  fs::copy_file(src / "scenarios" / "tube.yaml", dir / "other.yaml");
+  fs::copy_file(src / "scenarios" / "tube.msh", dir / "tube.msh");
+  fs::copy_file(src / "recordings" / "tube_insert.h5", dir / "insert_copy.h5");
+  auto refused = [&](const std::string& name, const std::string& text, const std::string& expected) {
+    const fs::path f = plan_file(name, text);
+    try {
+      (void)read_sweep_plan(f);
+      ADD_FAILURE() << "accepted:\n" << text;
+    } catch (const InputError& e) {
+      EXPECT_TRUE(std::regex_search(e.what(), std::regex(expected))) << e.what() << "\n  expected: " << expected;
+    }
+  };
+  refused("copy_scene.yaml",
+          "scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\n"
+          "  - {scene: " + (dir / "other.yaml").string() + ", recordings: [tube_insert], reference: {stiffness.k_con: 300}}\n"
+          "runs: [{stiffness.k_con: 500}]\n",
+          ":3: key 'scenes\\[1\\].scene': .*other.yaml and its meshes have the same bytes as .*scenarios/tube.yaml: the "
+          "same scene; list it once");
+  refused("copy_recording.yaml",
+          "scenes:\n  - {scene: tube, recordings: [tube_insert, " + (dir / "insert_copy.h5").string() + "], reference: {}}\n",
+          ":2: key 'scenes\\[0\\].recordings': .*insert_copy.h5 has the same bytes as .*tube_insert.h5: the same "
+          "recording; list it once");
+  // one byte more: another scene
+  std::ofstream(dir / "other.yaml", std::ios::app) << "# changed\n";
+  EXPECT_EQ(expand_plan(read_sweep_plan(plan_file("changed_scene.yaml",
+                                                  "scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\n"
+                                                  "  - {scene: " + (dir / "other.yaml").string() +
+                                                      ", recordings: [tube_insert], reference: {stiffness.k_con: 300}}\n"
+                                                      "runs: [{stiffness.k_con: 500}]\n")))
+                .size(),
+            4u);
 }
 
 TEST(SweepPlan, CommittedExamplesLoad) {

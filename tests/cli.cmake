@@ -594,6 +594,13 @@ add_test(NAME cli.replay.surface_step_beyond_thinnest_part_warns
     --set tool.max_step=2 --duration 0.01 -q)
 set_tests_properties(cli.replay.surface_step_beyond_thinnest_part_warns PROPERTIES LABELS cli
   PASS_REGULAR_EXPRESSION "warning: --set 'tool.max_step=2': tool.max_step = 2 mm is above the tool's thinnest part \\(1 mm\\): with contact: surface")
+# The surface stiffness floor follows the force limit: a limit of 1000 N makes a contact stiffer
+# than any device renders, against which the virtual mesh's iterations do not settle.
+add_test(NAME cli.replay.surface_floor_beyond_devices_warns
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/surface_floor.h5 --set contact=surface
+    --set tool.force_limit=1000 --duration 0.01 -q)
+set_tests_properties(cli.replay.surface_floor_beyond_devices_warns PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "warning: --set 'tool.force_limit=1000': with contact: surface the stiffness floor F_limit / \\(1.5 x the tool's thinnest part\\) raises k_con to 6.67e\\+05 N/m")
 # Movement thresholds far larger than the mesh hold it still under every touch: warned at load.
 add_test(NAME cli.replay.sleep_beyond_mesh_warns
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/sleep_big.h5 --set solver.sleep=1000 --duration 0.1 -q)

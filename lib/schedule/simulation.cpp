@@ -318,6 +318,19 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
                     t.unit_name.c_str());
       w->scene.warnings.push_back(value_source(w->scene.spec, "tool.max_step") + line);
     }
+    // The stiffness floor follows the force limit: a limit far above a device's makes a contact
+    // stiffer than any device renders, against which the virtual mesh's iterations do not settle
+    // (a 1000 N limit: 6.7e5 N/m, the force moving by 0.2 N with the coordinates' round-off).
+    const double k_surface = w->scene.spec.stiffness.k_con * w->tool.surface->stiffness_factor;
+    if (w->tool.surface->stiffness_factor > 1 && k_surface > kMaxDeviceStiffness) {  // k_con itself: tool_stiffness_warnings
+      char line[360];
+      std::snprintf(line, sizeof line,
+                    ": with contact: surface the stiffness floor F_limit / (1.5 x the tool's thinnest part) raises "
+                    "k_con to %.3g N/m (tool.force_limit %.4g N over %.4g mm), beyond the %.0e N/m a haptic device "
+                    "renders: the virtual mesh's iterations do not settle against it; lower tool.force_limit",
+                    k_surface, t.force_limit, w->tool.surface->spacing * 1e3, kMaxDeviceStiffness);
+      w->scene.warnings.push_back(value_source(w->scene.spec, "tool.force_limit") + line);
+    }
   }
   if (backend == Backend::Cuda && w->scene.spec.solver.sleep > 0 && !cuda_physical_sleep()) {
     if (w->scene.spec.solver.sleep_given)

@@ -91,6 +91,14 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
                        "): a tool that passes through an opening feels nothing there");
   }
   const double span = bounding_box(vm.rest).diagonal();
+  // A surface of the physical mesh is no larger than it: one twice its size is in another unit
+  // (an OBJ in mm read as cm is 10 times it), and E_svc would drag the physical mesh out to it
+  // (310 tets inverted in the first second).
+  if (span > 2 * diagonal) {
+    std::snprintf(buf, sizeof buf, "spans %.3g mm, %.3g times the physical mesh's diagonal (%.3g mm)", span * 1e3,
+                  span / diagonal, diagonal * 1e3);
+    throw InputError(where + buf + ": it is not a surface of this mesh; " + frame);
+  }
   if (span < diagonal / 20) {
     std::snprintf(buf, sizeof buf, "spans %.3g mm, 1/%.0f of the physical mesh's diagonal (%.3g mm)", span * 1e3,
                   span > 0 ? diagonal / span : INFINITY, diagonal * 1e3);

@@ -58,7 +58,19 @@ TEST(BuildWorld, AVirtualMeshOffThePhysicalMeshIsNamed) {
   EXPECT_TRUE(has(moved, "moved.obj: mesh.virtual: the virtual mesh lies up to 55.3 mm off the physical mesh (the virtual vertex at "))
       << ::testing::PrintToString(moved);
   EXPECT_TRUE(has(moved, "1% of its diagonal is 1.73 mm): its E_svc targets pull it onto the physical mesh"));
-  EXPECT_TRUE(has(warnings_with_obj("tenfold", 10.0, 0.0), "tenfold.obj: mesh.virtual: the virtual mesh lies up to "));
+  // ten times larger: no surface of this mesh (E_svc dragged the physical mesh out to it, inverting
+  // its tets); refused
+  try {
+    (void)warnings_with_obj("tenfold", 10.0, 0.0);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("tenfold.obj: mesh.virtual: the virtual mesh spans 1.73e+03 mm, 10 times the "
+                                         "physical mesh's diagonal (173 mm): it is not a surface of this mesh"),
+              std::string::npos)
+        << e.what();
+  }
+  // twice its size still loads (warned by the pairing): a surface a few per cent larger is fine
+  EXPECT_TRUE(has(warnings_with_obj("twofold", 1.9, 0.0), "twofold.obj: mesh.virtual: the virtual mesh lies up to "));
   // 2 m away, more than 10 diagonals: no surface of this mesh; refused rather than left to make
   // the physical mesh diverge
   try {

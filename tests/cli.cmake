@@ -877,6 +877,13 @@ file(WRITE ${EBH_SAFE}/gate_free.yaml "cases:\n  - {name: w, scene: tube, record
 configure_file(${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5 ${EBH_SAFE}/gate_rel/rec.h5 COPYONLY)
 file(WRITE ${EBH_SAFE}/gate_rel/sub/own.yaml "cases:\n  - {name: own, scene: tube, recording: ../rec.h5, start: 4, duration: 0.3, peak_force: 0.092}\n")
 file(WRITE ${EBH_SAFE}/afile "a file, not a folder\n")
+# Inputs named like an unfinished output (not .NAME.: the fixture removes those): a replay output
+# (metrics), a scene file, a scene's mesh.
+configure_file(${PROJECT_SOURCE_DIR}/tests/data/metrics/press.h5 ${EBH_SAFE}/press.h5.host.1.ebh-partial COPYONLY)
+file(WRITE ${EBH_SAFE}/scene.yaml.host.1.ebh-partial "${ebh_tube_yaml}")
+string(REGEX REPLACE "physical: *[^\n]*tube.msh" "physical: ${EBH_SAFE}/tube.msh.host.1.ebh-partial" ebh_partial_mesh_yaml "${ebh_tube_yaml}")
+file(WRITE ${EBH_SAFE}/partial_mesh.yaml "${ebh_partial_mesh_yaml}")
+configure_file(${PROJECT_SOURCE_DIR}/scenarios/tube.msh ${EBH_SAFE}/tube.msh.host.1.ebh-partial COPYONLY)
 file(MAKE_DIRECTORY ${EBH_SAFE}/a_folder)
 # Fresh copies of the inputs before the tests that must leave them as they were.
 add_test(NAME cli.safety.setup COMMAND ${CMAKE_COMMAND}
@@ -998,6 +1005,12 @@ ebh_safety(import_output_under_a_file "^ebh: error: .*afile/out.h5: cannot creat
 # 9. An unfinished output is never an input.
 ebh_safety(partial_as_input "^ebh: error: .*ebh-partial: an unfinished output of ebh"
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} replay tube ${S}/.unfinished.h5.host.1.ebh-partial -o ${S}/o.h5)
+ebh_safety(partial_replay_to_metrics "^ebh: error: .*press.h5.host.1.ebh-partial: an unfinished output of ebh"
+  CMD ${EBH_BIN} metrics ${S}/press.h5.host.1.ebh-partial)
+ebh_safety(partial_scene "^ebh: error: .*scene.yaml.host.1.ebh-partial: an unfinished output of ebh"
+  CMD ${EBH_BIN} scene info ${S}/scene.yaml.host.1.ebh-partial)
+ebh_safety(partial_mesh "^ebh: error: .*tube.msh.host.1.ebh-partial: an unfinished output of ebh"
+  CMD ${EBH_BIN} scene info ${S}/partial_mesh.yaml)
 # 10. import: a folder, a binary file and an unknown scene.
 ebh_safety(import_folder "^ebh: error: .*a_folder: is a folder, not a file"
   OUTPUT ${S}/o.h5 CMD ${EBH_BIN} import ${S}/a_folder -o ${S}/o.h5)

@@ -133,9 +133,6 @@ void sync_directory(const fs::path& dir) {
 
 }  // namespace
 
-bool is_partial_output(std::string_view path) {
-  return path.size() >= kPartialSuffix.size() && path.substr(path.size() - kPartialSuffix.size()) == kPartialSuffix;
-}
 
 std::string partial_path_for(const std::string& final_path) { return partial_path_for(final_path, static_cast<long>(getpid())); }
 

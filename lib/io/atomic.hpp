@@ -22,13 +22,9 @@
 #include <utility>
 #include <vector>
 
+#include "core/partial_output.hpp"
+
 namespace ebh {
-
-/// The suffix of every temporary output file.
-inline constexpr std::string_view kPartialSuffix = ".ebh-partial";
-
-/// Whether `path`'s file name ends with kPartialSuffix (an unfinished output, never an input).
-bool is_partial_output(std::string_view path);
 
 /// The temporary name this process uses for `final_path`: DIR/.NAME.HOST.PID.ebh-partial.
 std::string partial_path_for(const std::string& final_path);

@@ -4,9 +4,13 @@
 #include <fstream>
 #include <system_error>
 
+#include "core/error.hpp"
+#include "core/partial_output.hpp"
+
 namespace ebh::detail {
 
 std::string read_file_bytes(const std::filesystem::path& file) {
+  if (is_partial_output(file.string())) throw InputError(partial_input_message(file.string()));
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec)) throw InputError(file.string() + ": is a directory, expected a file");
   std::ifstream in(file, std::ios::binary);

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "io/paths.hpp"
 
 namespace ebh {
 namespace {
@@ -156,6 +157,7 @@ class Reader {
 
  private:
   static hid_t open(const std::string& path) {
+    check_input_file(path);
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) throw InputError(path + ": cannot open file");
     std::fclose(f);

@@ -22,6 +22,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "core/partial_output.hpp"
 #include "core/number_text.hpp"
 #include "core/yaml_error.hpp"
 #include "ebh/version.hpp"
@@ -698,6 +699,7 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
 }
 
 YAML::Node read_scene_yaml(const fs::path& file) {
+  if (is_partial_output(file.string())) throw InputError(partial_input_message(file.string()));
   if (const std::string why = not_a_file(file); !why.empty())
     throw InputError(file.string() + ": " + (why == "file not found" ? "scene file not found" : why));
   std::ifstream in(file, std::ios::binary);

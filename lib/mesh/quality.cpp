@@ -148,6 +148,12 @@ MeshReport validate_mesh(const TetMesh& mesh) {
 
   for (int v = 0; v < nv; ++v)
     if (!finite(mesh.vertices[v])) r.nonfinite_vertices.push_back(v);
+  if (mesh.file_tet_ids.size() == mesh.tets.size()) {
+    std::vector<long long> ids(mesh.file_tet_ids.begin(), mesh.file_tet_ids.end());
+    std::sort(ids.begin(), ids.end());
+    for (std::size_t i = 1; i < ids.size(); ++i)
+      if (ids[i] == ids[i - 1] && r.duplicate_tet_ids++ == 0) r.first_duplicate_tet_id = ids[i];  // the smallest
+  }
 
   std::vector<char> used(static_cast<std::size_t>(nv), 0);
   std::vector<signed char> sign_of(mesh.tets.size(), 0);  // volume_sign of each tet checked (0: not)
@@ -290,6 +296,11 @@ std::vector<std::string> MeshReport::warnings() const {
     w.push_back(plural(nonmanifold_edges.size(), "non-manifold boundary edge") +
                 " (not in exactly 2 boundary faces), the first: vertices " + std::to_string(nonmanifold_edges[0][0]) +
                 "-" + std::to_string(nonmanifold_edges[0][1]));
+  if (duplicate_tet_ids > 0)
+    w.push_back(plural(static_cast<std::size_t>(duplicate_tet_ids), "tet") +
+                " with an element id another tet has too, the first: element id " +
+                std::to_string(first_duplicate_tet_id) +
+                " (a file's element ids are unique: two files joined? the ids messages name are ambiguous)");
   if (poor_tets > 0) {
     char line[320];
     std::snprintf(line, sizeof line,

@@ -38,6 +38,10 @@ struct MeshReport {
   std::vector<std::pair<int, int>> duplicate_vertices;  ///< (later, earlier) at the same position
   std::vector<std::array<int, 2>> nonmanifold_edges;  ///< boundary edges in != 2 boundary faces
   long long poor_tets = 0;  ///< tets of mean ratio below kPoorTetQuality (near flat: the solver stalls on them)
+  /// tets whose file element id another tet has too (file_tet_ids), and the first such id: the
+  /// ids messages name would name more than one element
+  long long duplicate_tet_ids = 0;
+  long long first_duplicate_tet_id = 0;
   /// How messages name them: "vertex 364" or with the file's ids "node 200365" / "element id 57"
   /// (the mesh's file_node_ids and file_tet_ids, when it has them).
   std::string duplicate_names, worst_tet_name;

@@ -140,6 +140,18 @@ TEST(Validate, AllNegativeIsFlipped) {
   EXPECT_EQ(orient_tets(m).kind, Orientation::Kind::Positive);
 }
 
+TEST(Validate, DuplicateElementIdsAreWarned) {
+  TetMesh m = cube();
+  EXPECT_EQ(validate_mesh(m).duplicate_tet_ids, 0);
+  m.file_tet_ids[3] = m.file_tet_ids[1];  // element ids 21 twice
+  const MeshReport r = validate_mesh(m);
+  EXPECT_FALSE(r.fatal());
+  EXPECT_EQ(r.duplicate_tet_ids, 1);
+  ASSERT_EQ(r.warnings().size(), 1u);
+  EXPECT_EQ(r.warnings()[0], "1 tet with an element id another tet has too, the first: element id 21 (a file's element "
+                             "ids are unique: two files joined? the ids messages name are ambiguous)");
+}
+
 TEST(Validate, UnreferencedAndDuplicateVertices) {
   TetMesh m = cube();
   m.vertices.push_back(m.vertices[3]);  // vertex 8 duplicates vertex 3 and is used by no tet

@@ -481,8 +481,8 @@ void setup(CLI::App& root) {
   i->add_option("-o,--out", iargs->out, "the scene file to write")->required();
   i->add_option("--unit", iargs->unit, "the mesh file's unit, also the scene's for --pin and the camera: m, cm, mm (default mm)");
   i->add_option("--pin", iargs->pins,
-                "a pinned region, repeatable: sphere:x,y,z,r | box:x0,y0,z0,x1,y1,z1 | group:NAME (default: the lowest "
-                "layer of vertices along gravity, -z)")
+                "a pinned region, repeatable: sphere:x,y,z,r | box:x0,y0,z0,x1,y1,z1 | group:NAME (default: the vertices "
+                "within 5% of the mesh's height of its lowest point, -z, widened until at least 3)")
       ->allow_extra_args(false);
   i->add_option("--tissue", iargs->tissue, "stiffness and density preset: liver, gallbladder, uterus, generic (default generic)");
   i->add_option("--tool", iargs->tool, "hook or forceps (default hook)");

@@ -114,7 +114,7 @@ add_test(NAME cli.metrics.not_hdf5
     "-DEXPECT=^ebh: error: .*make_trace.py: not a readable HDF5 file" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.metrics.missing_file
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/no_such_replay.h5"
-    "-DEXPECT=^ebh: error: .*no_such_replay.h5: cannot open file" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+    "-DEXPECT=^ebh: error: .*no_such_replay.h5: cannot open: No such file or directory" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.metrics.recording_not_replay
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5"
     "-DEXPECT=^ebh: error: .*tube_insert.h5: a device recording \\(/trajectory\\), not a replay output \\(/haptic\\): replay it first"

@@ -495,9 +495,14 @@ LogFormat log_format_of(const std::string& path) {
 }
 
 double nominal_rate(const std::vector<double>& t) {
-  const double rate = static_cast<double>(t.size() - 1) / (t.back() - t.front());
+  const double span = t.back() - t.front();
+  const double rate = static_cast<double>(t.size() - 1) / span;
   const double whole = std::round(rate);
-  return whole > 0 && std::fabs(rate - whole) <= 1e-9 * whole ? whole : rate;
+  // Times counted from an epoch carry |t| 2^-52 s of round-off at each end of the span: a 10 kHz
+  // log in Unix time gave 9999.99999 Hz. The relative error that leaves in the rate, or 1e-9.
+  const double newest = std::max(std::fabs(t.front()), std::fabs(t.back()));
+  const double tolerance = std::max(1e-9, 4 * std::numeric_limits<double>::epsilon() * newest / span);
+  return whole > 0 && std::fabs(rate - whole) <= tolerance * whole ? whole : rate;
 }
 
 Recording import_log(const std::string& path, const ImportOptions& opt, ImportReport* report) {

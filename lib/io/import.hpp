@@ -99,8 +99,9 @@ LogFormat log_format_of(const std::string& path);
 Recording import_log(const std::string& path, const ImportOptions& opt, ImportReport* report = nullptr);
 
 /// The nominal rate of samples at times t (at least two, increasing): intervals over span,
-/// (n - 1) / (t_last - t_first), rounded to the whole number when within 1e-9 of it relatively,
-/// so a log at 1 kHz gives 1000, not 999.9999999999991.
+/// (n - 1) / (t_last - t_first), rounded to the whole number when within 1e-9 of it relatively
+/// (or within the round-off of times counted from an epoch: 4 eps |t| / span), so a log at 1 kHz
+/// gives 1000, not 999.9999999999991, and one at 10 kHz in Unix time 10000, not 9999.99999.
 double nominal_rate(const std::vector<double>& t);
 
 /// Parses "--unit m|cm|mm" (metres per unit); throws InputError naming the option.

@@ -481,4 +481,13 @@ TEST(Import, NominalRateIsExactForWholeRates) {
   EXPECT_EQ(nominal_rate(t), 1000.0);
   EXPECT_EQ(nominal_rate({0.0, 0.3, 0.6}), 2 / 0.6);  // not near a whole number: kept as is
   EXPECT_EQ(nominal_rate({0.0, 0.5, 1.0000001}), 2 / 1.0000001);  // 1e-7 off: not rounded
+  // 10 kHz in Unix time: the times' round-off (2.4e-7 s at 1.7e9 s) is the rate's, not a rate
+  std::vector<double> unix_t;
+  for (int i = 0; i <= 3336; ++i) unix_t.push_back(1.7e9 + 0.1 + i * 1e-4);  // 9999.99867 Hz from the span
+  EXPECT_NE(static_cast<double>(unix_t.size() - 1) / (unix_t.back() - unix_t.front()), 10000.0);
+  EXPECT_EQ(nominal_rate(unix_t), 10000.0);
+  // and a rate that is truly off the whole number, at the epoch, is kept
+  std::vector<double> off_t;
+  for (int i = 0; i <= 20000; ++i) off_t.push_back(1.7e9 + i * 1.001e-4);
+  EXPECT_NE(nominal_rate(off_t), 10000.0);
 }

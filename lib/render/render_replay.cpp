@@ -301,7 +301,10 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   const RenderStyle style;
   std::vector<std::array<int, 3>> kept;
   std::size_t broken_frames = 0;
-  const double t0 = frames.t.front(), t1 = frames.t.back();
+  // The bar shows a frame's time in the replayed window (t / t_end), not in the frames' span: one
+  // frame at t = 0 of a 2 s replay is at its start, not its end.
+  const double t0 = frames.t.front();
+  const double t1 = std::isfinite(frames.replay_s) ? std::max(frames.t.back(), frames.replay_s) : frames.t.back();
   for (std::size_t k = 0; k < chosen.size(); ++k) {
     if (interrupted())
       throw InputError(dir + ": interrupted after " + std::to_string(k) + " frames; the previous frames are kept");

@@ -71,6 +71,13 @@ ReplayFrames open_replay_frames(const std::string& path) {
       else r.overrides.push_back(tok);
     }
   }
+  if (f.has_attr("virtual_s")) {
+    try {
+      r.replay_s = f.attr_double("virtual_s");
+    } catch (const InputError&) {
+      r.replay_s = 0.0;
+    }
+  }
   if (f.has_attr("shaft_radius")) {
     try {
       r.shaft_radius = f.attr_double("shaft_radius");

@@ -31,6 +31,7 @@ struct ReplayFrames {
   std::string scene_yaml;                      ///< root attribute `scene_yaml`: the scene the replay ran ("" if absent)
   std::string tool_kind;                       ///< root attribute `tool` ("" if absent)
   double shaft_radius = 0.0;                   ///< root attribute `shaft_radius` (0 if absent)
+  double replay_s = 0.0;                       ///< root attribute `virtual_s`: the window replayed (0 if absent)
   /// The --set overrides: root attribute `overrides_list` (one per line) split into lines, or, in
   /// files written before it, `overrides` (joined with spaces) split at spaces, a piece without
   /// '=' continuing the previous value.

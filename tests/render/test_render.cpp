@@ -60,6 +60,7 @@ struct SyntheticOptions {
   int bad_triangle = -1;  // >= 0: write this vertex index into the first triangle
   std::optional<std::string> overrides, overrides_list;  // the root attributes, when given
   std::optional<std::string> scene_yaml;                  // the root attribute, when given
+  std::optional<double> virtual_s;                        // the root attribute (the window replayed), when given
 };
 
 void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
@@ -71,6 +72,7 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
   if (o.overrides) f.set_attr("overrides", *o.overrides);
   if (o.overrides_list) f.set_attr("overrides_list", *o.overrides_list);
   if (o.scene_yaml) f.set_attr("scene_yaml", *o.scene_yaml);
+  if (o.virtual_s) f.set_attr("virtual_s", *o.virtual_s);
   std::vector<double> rest;
   std::vector<std::int32_t> tris;
   for (int j = 0; j < kGrid; ++j)
@@ -557,6 +559,26 @@ TEST(Render, AReplayNamedLikeAFrameIsRefused) {
     EXPECT_NE(std::string(e.what()).find("the frames would replace the replay"), std::string::npos) << e.what();
   }
   EXPECT_TRUE(fs::exists(s / "out/frame_00003.png"));
+}
+
+// The time bar shows t / t_end of the replayed window: the last of frames at 0, 0.1 and 0.2 s of a
+// 0.4 s replay fills half of it (it filled all of it: the frames' own span was the bar's end).
+TEST(Render, TheTimeBarIsTheFramesTimeInTheReplayedWindow) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  SyntheticOptions so;
+  so.virtual_s = 0.4;
+  write_synthetic(s / "r.h5", so);
+  RenderOptions o;
+  o.width = 200;
+  o.height = 150;
+  const RenderSummary r = render_replay(s / "r.h5", s / "out", o);
+  ASSERT_EQ(r.files.size(), 3u);
+  const Image last = read_png(r.files[2]);
+  auto bar = [&](int x) { const Rgb p = last.at(x, last.height - 1); return p.r == 90 && p.g == 90 && p.b == 100; };
+  EXPECT_TRUE(bar(95));
+  EXPECT_FALSE(bar(105));
+  EXPECT_FALSE(bar(199));
 }
 
 // A folder named like a frame is the user's: refused before rendering, not deleted with the old frames.

@@ -18,17 +18,29 @@ struct TetEmbedding {
 };
 
 /// Embeds points in a tet mesh's tets: barycentric weights in the tet that contains the point
-/// (exact), or, for a point outside every tet, in the tet it is least outside of with the negative
-/// weights clamped (approximate; the error is reported). A uniform grid of tet bounding boxes
-/// keeps the search local. Holds a reference to `mesh`, which must outlive it.
+/// (exact), or, for a point outside every tet, those of the closest point of the mesh's boundary
+/// (on a boundary face of a tet; the distance is reported). A uniform grid of tet bounding boxes
+/// keeps the search for the containing tet local; the boundary is searched whole. Holds a
+/// reference to `mesh`, which must outlive it.
 class TetLocator {
  public:
   explicit TetLocator(const TetMesh& mesh);
 
-  /// The embedding of point p (count 0 for a mesh without tets); error_out: |sum w X - p|.
+  /// The embedding of point p (count 0 for a mesh without tets); error_out: |sum w X - p|, the
+  /// distance to the mesh (round-off inside it).
   TetEmbedding locate(const Vec3d& p, double& error_out) const;
 
+  /// Whether p lies in (or on, within round-off) a tet of the mesh.
+  bool inside(const Vec3d& p) const;
+
  private:
+  /// A tet face no other tet shares: the tet and the face's three corners (0..3 in the tet).
+  struct BoundaryFace {
+    int tet;
+    std::array<int, 3> corner;
+  };
+  /// The tet near p that p is least outside of (the smallest barycentric weight, largest), or -1.
+  int best_tet(const Vec3d& p, double& score) const;
   std::array<double, 4> bary(int t, const Vec3d& p) const;
   std::array<int, 3> cell_of(const Vec3d& p) const;
   std::size_t index(int x, int y, int z) const;
@@ -39,6 +51,11 @@ class TetLocator {
   int dims_[3] = {1, 1, 1};
   std::vector<std::vector<int>> cells_;
   std::vector<Mat3d> inv_;
+  std::vector<BoundaryFace> boundary_;
 };
+
+/// The closest point of triangle (a, b, c) to p as barycentric weights (w_a, w_b, w_c), each in
+/// [0, 1], summing to 1 (Ericson, Real-Time Collision Detection, 5.1.5).
+std::array<double, 3> closest_on_triangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c);
 
 }  // namespace ebh

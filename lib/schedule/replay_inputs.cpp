@@ -47,10 +47,7 @@ std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh,
                                       const ToolModel* tool) {
   if (rec.t.empty() || mesh.tets.empty()) return std::nullopt;
   const TetLocator locator(mesh);
-  auto inside = [&](const Vec3d& x) {
-    double error = 0;
-    return locator.locate(x, error).count > 0 && error == 0;
-  };
+  auto inside = [&](const Vec3d& x) { return locator.inside(x); };
   const double t0 = rec.t.front() + start, t1 = duration > 0 ? t0 + duration : INFINITY;
   for (std::size_t i = 0; i < rec.t.size(); ++i) {
     if (rec.t[i] < t0 || rec.t[i] > t1) continue;

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
+#include <mutex>
 
 #include "mesh/boundary.hpp"
 
@@ -31,18 +31,6 @@ TetLocator::TetLocator(const TetMesh& mesh) : mesh_(mesh) {
     const Vec3d& X0 = mesh.vertices[T[0]];
     inv_[t] = inverse(Mat3d::from_cols(mesh.vertices[T[1]] - X0, mesh.vertices[T[2]] - X0, mesh.vertices[T[3]] - X0));
   }
-  // The boundary: faces that one tet alone has (sorted corner triples, counted).
-  std::map<std::array<int, 3>, std::pair<int, int>> faces;  // sorted vertices -> (tet, face), tet -1 when shared
-  for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t)
-    for (int f = 0; f < 4; ++f) {
-      std::array<int, 3> key{mesh.tets[t][kTetFaces[f][0]], mesh.tets[t][kTetFaces[f][1]], mesh.tets[t][kTetFaces[f][2]]};
-      std::sort(key.begin(), key.end());
-      auto [it, first] = faces.try_emplace(key, t, f);
-      if (!first) it->second.first = -1;
-    }
-  for (const auto& [key, tf] : faces)
-    if (tf.first >= 0)
-      boundary_.push_back({tf.first, {kTetFaces[tf.second][0], kTetFaces[tf.second][1], kTetFaces[tf.second][2]}});
 }
 
 int TetLocator::best_tet(const Vec3d& p, double& score) const {
@@ -63,40 +51,45 @@ bool TetLocator::inside(const Vec3d& p) const {
 }
 
 TetEmbedding TetLocator::locate(const Vec3d& p, double& error_out) const {
-  double score = 0;
-  int best = best_tet(p, score);
+  // The weights l of the vertices v: inside (or on) a tet its barycentric ones, round-off's
+  // negatives clamped below; outside every tet those of the closest point of the boundary (the
+  // nearest tet's clamped weights, the old rule, paired a point 3 mm off with one 7.9 mm away, its
+  // E_svc target dragging it sideways).
+  std::array<int, 4> v{-1, -1, -1, -1};
   std::array<double, 4> l{};
-  if (best >= 0 && score >= -1e-9) {
-    l = bary(best, p);  // inside (or on) a tet: its weights, round-off's negatives clamped below
-  } else if (!boundary_.empty()) {
-    // Outside every tet: the closest point of the boundary (a tet's weights clamped, the old rule,
-    // paired a point 3 mm off with one 7.9 mm away, the E_svc target dragging it sideways).
+  double score = 0;
+  if (const int t = best_tet(p, score); t >= 0 && score >= -1e-9) {
+    v = mesh_.tets[t];
+    l = bary(t, p);
+  } else {
+    std::call_once(boundary_once_, [this] {
+      std::vector<int> to_volume;
+      for (Tri tri : extract_boundary(mesh_, &to_volume).triangles) {
+        for (int& k : tri) k = to_volume[k];
+        boundary_.push_back(tri);
+      }
+    });
     double nearest = std::numeric_limits<double>::infinity();
-    for (const BoundaryFace& f : boundary_) {
-      const auto& T = mesh_.tets[f.tet];
-      const Vec3d& a = mesh_.vertices[T[f.corner[0]]];
-      const Vec3d& b = mesh_.vertices[T[f.corner[1]]];
-      const Vec3d& c = mesh_.vertices[T[f.corner[2]]];
+    for (const Tri& f : boundary_) {
+      const Vec3d &a = mesh_.vertices[f[0]], &b = mesh_.vertices[f[1]], &c = mesh_.vertices[f[2]];
       const auto w = closest_on_triangle(p, a, b, c);
-      const double d2 = squared_norm(w[0] * a + w[1] * b + w[2] * c - p);
-      if (d2 < nearest) {
+      if (const double d2 = squared_norm(w[0] * a + w[1] * b + w[2] * c - p); d2 < nearest) {
         nearest = d2;
-        best = f.tet;
-        l = {0, 0, 0, 0};
-        for (int k = 0; k < 3; ++k) l[f.corner[k]] = w[k];
+        v = {f[0], f[1], f[2], -1};
+        l = {w[0], w[1], w[2], 0};
       }
     }
   }
   TetEmbedding pair;
-  if (best < 0) return pair;
+  if (v[0] < 0) return pair;
   double sum = 0;
   for (double& w : l) { w = std::max(w, 0.0); sum += w; }
   Vec3d q{};
   for (int k = 0; k < 4; ++k) {
-    if (l[k] / sum < 1e-12) continue;
-    pair.vertex[pair.count] = mesh_.tets[best][k];
+    if (v[k] < 0 || l[k] / sum < 1e-12) continue;
+    pair.vertex[pair.count] = v[k];
     pair.weight[pair.count] = l[k] / sum;
-    q += pair.weight[pair.count] * mesh_.vertices[mesh_.tets[best][k]];
+    q += pair.weight[pair.count] * mesh_.vertices[v[k]];
     ++pair.count;
   }
   error_out = norm(q - p);

@@ -2,6 +2,7 @@
 // Embedding points in a tet mesh: which tet holds a point and its barycentric weights there (the
 // virtual mesh's E_svc pairing, solver/virtual_mesh.cpp).
 #include <array>
+#include <mutex>
 #include <vector>
 
 #include "math/vec.hpp"
@@ -19,9 +20,9 @@ struct TetEmbedding {
 
 /// Embeds points in a tet mesh's tets: barycentric weights in the tet that contains the point
 /// (exact), or, for a point outside every tet, those of the closest point of the mesh's boundary
-/// (on a boundary face of a tet; the distance is reported). A uniform grid of tet bounding boxes
-/// keeps the search for the containing tet local; the boundary is searched whole. Holds a
-/// reference to `mesh`, which must outlive it.
+/// (extract_boundary's faces, found on the first such point; the distance is reported). A uniform
+/// grid of tet bounding boxes keeps the search for the containing tet local; the boundary is
+/// searched whole. Holds a reference to `mesh`, which must outlive it.
 class TetLocator {
  public:
   explicit TetLocator(const TetMesh& mesh);
@@ -34,11 +35,6 @@ class TetLocator {
   bool inside(const Vec3d& p) const;
 
  private:
-  /// A tet face no other tet shares: the tet and the face's three corners (0..3 in the tet).
-  struct BoundaryFace {
-    int tet;
-    std::array<int, 3> corner;
-  };
   /// The tet near p that p is least outside of (the smallest barycentric weight, largest), or -1.
   int best_tet(const Vec3d& p, double& score) const;
   std::array<double, 4> bary(int t, const Vec3d& p) const;
@@ -51,7 +47,8 @@ class TetLocator {
   int dims_[3] = {1, 1, 1};
   std::vector<std::vector<int>> cells_;
   std::vector<Mat3d> inv_;
-  std::vector<BoundaryFace> boundary_;
+  mutable std::once_flag boundary_once_;
+  mutable std::vector<Tri> boundary_;  ///< the boundary faces in the mesh's vertex numbering
 };
 
 /// The closest point of triangle (a, b, c) to p as barycentric weights (w_a, w_b, w_c), each in

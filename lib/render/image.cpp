@@ -190,7 +190,7 @@ void draw_time_bar(Image& img, double fraction) {
   const int h = std::max(2, img.height / 150);
   const int w = static_cast<int>(std::lround(fraction * img.width));
   for (int r = img.height - h; r < img.height; ++r)
-    for (int c = 0; c < w; ++c) img.set(c, r, {90, 90, 100});
+    for (int c = 0; c < w; ++c) img.set(c, r, kTimeBarColour);
 }
 
 }  // namespace ebh

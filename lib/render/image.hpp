@@ -46,6 +46,9 @@ std::array<float, 3> colormap(double s);
 /// one-pixel dark border. No text: the range is printed by the command and stored in the PNG.
 void draw_legend(Image& img);
 
+/// The time bar's colour.
+inline constexpr Rgb kTimeBarColour{90, 90, 100};
+
 /// A thin bar along the bottom edge whose length is `fraction` of the width: where the frame is
 /// in the replay, without text.
 void draw_time_bar(Image& img, double fraction);

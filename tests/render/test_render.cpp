@@ -131,6 +131,14 @@ Vec3d tip_centre(const Vec3d& origin) {
   return origin + rotate(kDown, Vec3d{L / 2, 0, L});
 }
 
+/// Frames of 64 x 48 pixels: the tests of what a render does with its folder need no more.
+RenderOptions small_frames() {
+  RenderOptions o;
+  o.width = 64;
+  o.height = 48;
+  return o;
+}
+
 #define REQUIRE_OSMESA() \
   if (!have_osmesa()) GTEST_SKIP() << kNoOsmesa
 
@@ -516,9 +524,7 @@ TEST(Render, StaleFramesAreRemovedAndOtherFilesKept) {
   fs::create_directories(s / "out");
   std::ofstream(s / "out/frame_00099.png") << "old";
   std::ofstream(s / "out/notes.txt") << "mine";
-  RenderOptions o;
-  o.width = 64;
-  o.height = 48;
+  const RenderOptions o = small_frames();
   render_replay(s / "r.h5", s / "out", o);
   EXPECT_FALSE(fs::exists(s / "out/frame_00099.png"));
   EXPECT_TRUE(fs::exists(s / "out/notes.txt"));
@@ -531,9 +537,7 @@ TEST(Render, AnInterruptedRenderKeepsThePreviousFrames) {
   REQUIRE_OSMESA();
   Scratch s;
   write_synthetic(s / "r.h5");
-  RenderOptions o;
-  o.width = 64;
-  o.height = 48;
+  RenderOptions o = small_frames();
   render_replay(s / "r.h5", s / "out", o);
   const std::string before = slurp_file(s / "out/frame_00001.png");
   o.camera = "top";
@@ -575,7 +579,10 @@ TEST(Render, TheTimeBarIsTheFramesTimeInTheReplayedWindow) {
   const RenderSummary r = render_replay(s / "r.h5", s / "out", o);
   ASSERT_EQ(r.files.size(), 3u);
   const Image last = read_png(r.files[2]);
-  auto bar = [&](int x) { const Rgb p = last.at(x, last.height - 1); return p.r == 90 && p.g == 90 && p.b == 100; };
+  auto bar = [&](int x) {
+    const Rgb p = last.at(x, last.height - 1);
+    return p.r == kTimeBarColour.r && p.g == kTimeBarColour.g && p.b == kTimeBarColour.b;
+  };
   EXPECT_TRUE(bar(95));
   EXPECT_FALSE(bar(105));
   EXPECT_FALSE(bar(199));
@@ -589,9 +596,7 @@ TEST(Render, AFolderNamedLikeAFrameIsRefusedAndKept) {
   fs::create_directories(s / "out/frame_00001.png/sub");
   std::ofstream(s / "out/frame_00001.png/sub/data.txt") << "precious";
   std::ofstream(s / "out/frame_00099.png") << "old";
-  RenderOptions o;
-  o.width = 64;
-  o.height = 48;
+  const RenderOptions o = small_frames();
   try {
     render_replay(s / "r.h5", s / "out", o);
     ADD_FAILURE() << "expected InputError";

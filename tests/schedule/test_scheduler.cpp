@@ -296,7 +296,7 @@ TEST(Scheduler, TickCountCoversTheDuration) {
   EXPECT_EQ(tick_count(w, 1.0), 1001);   // ticks 0..1000 at 1 kHz
   EXPECT_EQ(tick_count(w, 0.0105), 11);  // a partial tick is not run
   // the ticks of a window replay the window, not one tick more
-  EXPECT_NEAR(replayed_seconds(tick_count(w, 1.0), w.h_haptic), 1.0, 1e-12);
+  EXPECT_NEAR(replayed_seconds(tick_count(w, 1.0), w.h_haptic), 1.0, 1e-12);  // 1000 x 0.001: round-off
   EXPECT_EQ(replayed_seconds(tick_count(w, 0.0), w.h_haptic), 0.0);
 }
 
@@ -312,7 +312,7 @@ TEST(ReplayOutput, WritesTheDesignLayoutAndOnlyWhenComplete) {
   {
     ReplayWriter writer(out, w, ReplayMetadata{}, tick_count(w, rec.duration()), true);
     const ReplaySummary s = replay(w, rec, opt, writer);
-    EXPECT_NEAR(s.virtual_s, rec.duration(), 1e-12);
+    EXPECT_NEAR(s.virtual_s, rec.duration(), 1e-12);  // 50 x 0.001 against 0.05: round-off
     EXPECT_FALSE(std::filesystem::exists(out));  // still under its temporary name
     writer.commit(s);
   }

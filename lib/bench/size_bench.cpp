@@ -116,7 +116,8 @@ SizeResult measure(const SizeBenchOptions& o, const std::string& scene, int leve
   const bool device = false;
 #endif
   const auto t0 = std::chrono::steady_clock::now();
-  const LoadedReplay in = load_replay_inputs(scene, o.recording, o.overrides, std::nullopt, std::nullopt, false, o.backend);
+  const LoadedReplay in = load_replay_inputs(scene, o.recording, o.overrides, std::nullopt, std::nullopt, false, o.backend,
+                                            {}, RecordingWindow{o.start, o.seconds});
   r.load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const World& w = *in.world;
   r.tets = static_cast<std::int64_t>(w.scene.physical.tets.size());
@@ -192,7 +193,7 @@ SizeBenchWindow check_size_bench(const SizeBenchOptions& o) {
   const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
   const fs::path scene_file = resolve_scene_path(o.scene);
   (void)replay_input_files(o.scene, o.recording, o.overrides);
-  const RecordingFile rec = read_replay_recording(o.recording);  // the window, as a replay checks it
+  const RecordingFile rec = read_replay_recording(o.recording, RecordingWindow{o.start, o.seconds});  // as a replay checks it
   const SizeBenchWindow window{
       rec.path, replay_window(o.start, o.seconds, rec.recording.duration(), rec.path, "--start", "--seconds")};
   const SceneSpec spec = load_scene_spec(scene_file, o.overrides);  // a bad override too

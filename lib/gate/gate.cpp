@@ -249,7 +249,8 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   const std::string key = c.where.empty() ? "case '" + c.name + "'" : c.where;
   const LoadedReplay in = [&] {
     try {
-      return load_replay_inputs(c.scene_file, c.recording_file, overrides, std::nullopt, std::nullopt, false);
+      return load_replay_inputs(c.scene_file, c.recording_file, overrides, std::nullopt, std::nullopt, false,
+                                Backend::Cpu, {}, RecordingWindow{c.start, c.duration});
     } catch (const InputError& e) {
       throw InputError(key + ": " + e.what());
     }

@@ -391,6 +391,33 @@ void Dataset::read_into(Type t, void* out) const {
   if (H5Dread(id(), mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, out) < 0) fail(where(), read_failure(id()));
 }
 
+void Dataset::read_rows_into(Type t, std::size_t first, std::size_t count, std::size_t stride, void* out) const {
+  if (count == 0) return;
+  stride = std::max<std::size_t>(stride, 1);
+  Handle fspace(H5Dget_space(id()));
+  const int rank = H5Sget_simple_extent_ndims(fspace.get());
+  if (rank < 1) fail(where(), "cannot read rows of a scalar dataset");
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  H5Sget_simple_extent_dims(fspace.get(), dims.data(), nullptr);
+  if (first + (count - 1) * stride >= dims[0])
+    fail(where(), "row " + std::to_string(first + (count - 1) * stride) + " past its " + std::to_string(dims[0]) +
+                      " rows");
+  std::vector<hsize_t> start(dims.size(), 0), step(dims.size(), 1), n(dims), block(dims.size(), 1);
+  start[0] = first;
+  step[0] = stride;
+  n[0] = count;
+  for (std::size_t d = 1; d < dims.size(); ++d) {  // whole rows: one block of each row's width
+    n[d] = 1;
+    block[d] = dims[d];
+  }
+  check_status(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), step.data(), n.data(), block.data()),
+               where(), "cannot select rows");
+  std::vector<hsize_t> mdims(dims);
+  mdims[0] = count;
+  Handle mspace(H5Screate_simple(rank, mdims.data(), nullptr));
+  if (H5Dread(id(), mem_type(t), mspace.get(), fspace.get(), H5P_DEFAULT, out) < 0) fail(where(), read_failure(id()));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Appender
 

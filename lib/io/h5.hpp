@@ -135,6 +135,21 @@ class Dataset : public Object {
     read_raw(type_of<T>(), expected, a.shape, [&a](std::size_t n) { a.data.resize(n); return static_cast<void*>(a.data.data()); });
     return a;
   }
+  /// Reads `count` rows of the first dimension from row `first`, every `stride`-th (a window of a
+  /// long dataset, or an outline of it), the shape checked against `expected` (all of it) first.
+  /// Requires first + (count - 1) * stride < rows.
+  template <class T>
+  Array<T> read_rows(const std::vector<std::ptrdiff_t>& expected, std::size_t first, std::size_t count,
+                     std::size_t stride = 1) const {
+    Array<T> a;
+    a.shape = checked_shape(type_of<T>(), expected);
+    std::size_t row = 1;
+    for (std::size_t d = 1; d < a.shape.size(); ++d) row *= a.shape[d];
+    a.data.resize(count * row);
+    read_rows_into(type_of<T>(), first, count, stride, a.data.data());
+    if (!a.shape.empty()) a.shape[0] = count;
+    return a;
+  }
   /// Reads a 1-D dataset of strings (variable or fixed length); InputError when it is not one.
   std::vector<std::string> read_strings() const;
 
@@ -153,6 +168,7 @@ class Dataset : public Object {
   }
   std::vector<std::size_t> checked_shape(Type t, const std::vector<std::ptrdiff_t>& expected) const;
   void read_into(Type t, void* out) const;
+  void read_rows_into(Type t, std::size_t first, std::size_t count, std::size_t stride, void* out) const;
 };
 
 /// A dataset that grows along its first dimension: shape (rows, row_shape...), chunked.

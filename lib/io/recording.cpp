@@ -22,13 +22,128 @@ std::string num(double v) {
 
 bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
+/// What is wrong with sample i's time, if anything.
+std::optional<std::string> time_defect(const std::vector<double>& t, std::size_t i) {
+  if (!std::isfinite(t[i])) return "time is NaN or Inf";
+  if (i > 0 && !(t[i] > t[i - 1]))
+    return "time not strictly increasing (" + num(t[i]) + " s after " + num(t[i - 1]) + " s)";
+  return std::nullopt;
+}
+
+/// The rows [first, last] a replay of `window` interpolates: from the last sample at or before its
+/// start to one past the first at or after its end (a tick's time may pass the end by round-off).
+/// `t` is strictly increasing, with at least two samples.
+std::pair<std::size_t, std::size_t> window_rows(const std::vector<double>& t, const RecordingWindow& w) {
+  const std::size_t n = t.size();
+  const double t0 = t.front() + w.start;
+  std::size_t first = static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), t0) - t.begin());
+  first = std::min(first == 0 ? 0 : first - 1, n - 2);  // a window past the end: replay_window says so
+  std::size_t last = n - 1;
+  if (w.duration > 0) {
+    const auto end = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), t0 + w.duration) - t.begin());
+    last = std::min(end + 1, n - 1);
+  }
+  return {first, std::max(last, first + 1)};
+}
+
+}  // namespace
+
+namespace {
+
+/// The per-sample checks of validate_recording, in place; `before`, where given, is the sample
+/// before rec's first (a recording checked in parts: the quaternions' hemispheres continue).
+void validate_samples(Recording& rec, const SampleLocator& where, const Quatd* before) {
+  auto fail = [&](std::string_view ds, std::size_t i, const std::string& what) {
+    throw InputError(where(ds, i) + ": " + what);
+  };
+  for (std::size_t i = 0; i < rec.t.size(); ++i) {
+    if (auto bad = time_defect(rec.t, i)) fail("/trajectory/t", i, *bad);
+    if (!finite(rec.position[i])) fail("/trajectory/position", i, "position is NaN or Inf");
+    Quatd& q = rec.orientation[i];
+    double qn = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+    if (!std::isfinite(qn)) fail("/trajectory/orientation", i, "orientation is NaN or Inf");
+    if (std::abs(qn - 1.0) > kQuatNormTolerance)
+      fail("/trajectory/orientation", i, "quaternion norm " + num(qn) + " is not 1 (is it (w, x, y, z)?)");
+    q = Quatd{q.w / qn, q.x / qn, q.y / qn, q.z / qn};
+    if (const Quatd* p = i > 0 ? &rec.orientation[i - 1] : before)
+      if (p->w * q.w + p->x * q.x + p->y * q.y + p->z * q.z < 0) q = Quatd{-q.w, -q.x, -q.y, -q.z};
+    double& j = rec.jaw[i];
+    if (!std::isfinite(j)) fail("/trajectory/jaw", i, "jaw is NaN or Inf");
+    if (j < -kJawTolerance || j > 1.0 + kJawTolerance) fail("/trajectory/jaw", i, "jaw " + num(j) + " outside [0, 1]");
+    j = std::clamp(j, 0.0, 1.0);
+  }
+}
+
+void check_rate(const Recording& rec, const std::string& file) {
+  if (!(std::isfinite(rec.rate_hz) && rec.rate_hz > 0))
+    throw InputError(file + ": attribute rate_hz = " + num(rec.rate_hz) + " is not a positive number");
+}
+
+/// Samples [first, first + count) of a recording file's datasets, as stored (not yet validated).
+Recording read_samples(const h5::Group& g, const std::string& path, const std::vector<double>& t, std::size_t first,
+                       std::size_t count) {
+  const auto n = static_cast<std::ptrdiff_t>(t.size());
+  // Every per-sample dataset has the same first dimension as t: the shape check says so.
+  const auto pos = g.dataset("position").read_rows<double>({n, 3}, first, count);
+  const auto ori = g.dataset("orientation").read_rows<double>({n, 4}, first, count);
+  auto jaw = g.dataset("jaw").read_rows<double>({n}, first, count);
+  // Read wide and checked: HDF5's conversion to 8 bits clips 256 to 255 and -1 to 0 silently.
+  const auto wide_buttons = g.dataset("buttons").read_rows<std::int64_t>({n}, first, count);
+  for (std::size_t i = 0; i < wide_buttons.data.size(); ++i)
+    if (wide_buttons.data[i] < 0 || wide_buttons.data[i] > 255)
+      throw InputError(path + ": /trajectory/buttons[" + std::to_string(first + i) + "]: " +
+                       std::to_string(wide_buttons.data[i]) + " is not a bitmask of 8 buttons (0 .. 255)");
+  Recording rec;
+  rec.t.assign(t.begin() + static_cast<std::ptrdiff_t>(first), t.begin() + static_cast<std::ptrdiff_t>(first + count));
+  rec.position.resize(count);
+  rec.orientation.resize(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    rec.position[i] = {pos.data[3 * i], pos.data[3 * i + 1], pos.data[3 * i + 2]};
+    rec.orientation[i] = {ori.data[4 * i], ori.data[4 * i + 1], ori.data[4 * i + 2], ori.data[4 * i + 3]};
+  }
+  rec.jaw = std::move(jaw.data);
+  rec.buttons.assign(wide_buttons.data.begin(), wide_buttons.data.end());
+  return rec;
+}
+
+/// The rows a window is read in: every sample of the file is checked, a part at a time.
+constexpr std::size_t kPartRows = 1 << 16;
+
+/// A window of the file (rows [lo, hi]) into rec: every sample validated in parts of kPartRows (the
+/// same checks and quaternion hemispheres as a whole read), the window's kept, and the outline
+/// (every stride-th pose) taken on the way.
+void read_window(const h5::Group& g, const std::string& path, const std::vector<double>& t, std::size_t lo,
+                 std::size_t hi, Recording& rec) {
+  const std::size_t n = t.size(), stride = (n + kOutlineSamples - 1) / kOutlineSamples;
+  rec.span = Recording::FileSpan{t.front(), t.back(), lo, {}, {}};
+  Quatd before;
+  for (std::size_t first = 0; first < n;) {
+    const std::size_t count = std::min(kPartRows, n - first);
+    Recording part = read_samples(g, path, t, first, count);
+    validate_samples(part, [&path, first](std::string_view ds, std::size_t i) {
+      return path + ": " + std::string(ds) + "[" + std::to_string(first + i) + "]";
+    }, first > 0 ? &before : nullptr);
+    for (std::size_t i = (stride - first % stride) % stride; i < count; i += stride) {
+      rec.span->outline.push_back(part.position[i]);
+      rec.span->outline_orientation.push_back(part.orientation[i]);
+    }
+    for (std::size_t i = std::max(first, lo); i < first + count && i <= hi; ++i) {
+      const std::size_t k = i - first;
+      rec.t.push_back(part.t[k]);
+      rec.position.push_back(part.position[k]);
+      rec.orientation.push_back(part.orientation[k]);
+      rec.jaw.push_back(part.jaw[k]);
+      rec.buttons.push_back(part.buttons[k]);
+    }
+    before = part.orientation.back();
+    first += count;
+  }
+}
+
 }  // namespace
 
 void validate_recording(Recording& rec, const std::string& file, const SampleLocator& where) {
   const std::size_t n = rec.t.size();
-  auto fail = [&](std::string_view ds, std::size_t i, const std::string& what) {
-    throw InputError(where(ds, i) + ": " + what);
-  };
   auto too_few = [&] {
     throw InputError(file + ": the recording has " + (n == 0 ? std::string("no samples") : "one sample") +
                      "; a recording needs at least two (a trajectory with a duration)");
@@ -43,33 +158,12 @@ void validate_recording(Recording& rec, const std::string& file, const SampleLoc
   check_len("/trajectory/orientation", rec.orientation.size());
   check_len("/trajectory/jaw", rec.jaw.size());
   check_len("/trajectory/buttons", rec.buttons.size());
-  if (!(std::isfinite(rec.rate_hz) && rec.rate_hz > 0))
-    throw InputError(file + ": attribute rate_hz = " + num(rec.rate_hz) + " is not a positive number");
-
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!std::isfinite(rec.t[i])) fail("/trajectory/t", i, "time is NaN or Inf");
-    if (i > 0 && !(rec.t[i] > rec.t[i - 1]))
-      fail("/trajectory/t", i, "time not strictly increasing (" + num(rec.t[i]) + " s after " + num(rec.t[i - 1]) + " s)");
-    if (!finite(rec.position[i])) fail("/trajectory/position", i, "position is NaN or Inf");
-    Quatd& q = rec.orientation[i];
-    double qn = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-    if (!std::isfinite(qn)) fail("/trajectory/orientation", i, "orientation is NaN or Inf");
-    if (std::abs(qn - 1.0) > kQuatNormTolerance)
-      fail("/trajectory/orientation", i, "quaternion norm " + num(qn) + " is not 1 (is it (w, x, y, z)?)");
-    q = Quatd{q.w / qn, q.x / qn, q.y / qn, q.z / qn};
-    if (i > 0) {
-      const Quatd& p = rec.orientation[i - 1];
-      if (p.w * q.w + p.x * q.x + p.y * q.y + p.z * q.z < 0) q = Quatd{-q.w, -q.x, -q.y, -q.z};
-    }
-    double& j = rec.jaw[i];
-    if (!std::isfinite(j)) fail("/trajectory/jaw", i, "jaw is NaN or Inf");
-    if (j < -kJawTolerance || j > 1.0 + kJawTolerance) fail("/trajectory/jaw", i, "jaw " + num(j) + " outside [0, 1]");
-    j = std::clamp(j, 0.0, 1.0);
-  }
+  check_rate(rec, file);
+  validate_samples(rec, where, nullptr);
   if (n < 2) too_few();  // after the samples: a defect in the one sample is the better message
 }
 
-Recording read_recording(const std::string& path) {
+Recording read_recording(const std::string& path, std::optional<RecordingWindow> window) {
   h5::File f = h5::File::open_read(path);
   if (!f.has("trajectory")) throw InputError(path + ": /trajectory: missing group (is it a recording?)");
   h5::Group g = f.group("trajectory");
@@ -84,29 +178,15 @@ Recording read_recording(const std::string& path) {
                        std::to_string(static_cast<long long>(kMaxRecordingSamples)) +
                        " samples (2.8 h at 1 kHz): split the recording");
   }
-  auto t = g.read<double>("t", {-1});
-  const auto n = static_cast<std::ptrdiff_t>(t.rows());
-  // Every per-sample dataset has the same first dimension as t: the shape check says so.
-  auto pos = g.read<double>("position", {n, 3});
-  auto ori = g.read<double>("orientation", {n, 4});
-  auto jaw = g.read<double>("jaw", {n});
-  // Read wide and checked: HDF5's conversion to 8 bits clips 256 to 255 and -1 to 0 silently.
-  const auto wide_buttons = g.read<std::int64_t>("buttons", {n});
-  for (std::size_t i = 0; i < wide_buttons.data.size(); ++i)
-    if (wide_buttons.data[i] < 0 || wide_buttons.data[i] > 255)
-      throw InputError(path + ": /trajectory/buttons[" + std::to_string(i) + "]: " +
-                       std::to_string(wide_buttons.data[i]) + " is not a bitmask of 8 buttons (0 .. 255)");
-
-  Recording rec;
-  rec.t = std::move(t.data);
-  rec.position.resize(rec.t.size());
-  rec.orientation.resize(rec.t.size());
-  for (std::size_t i = 0; i < rec.t.size(); ++i) {
-    rec.position[i] = {pos.data[3 * i], pos.data[3 * i + 1], pos.data[3 * i + 2]};
-    rec.orientation[i] = {ori.data[4 * i], ori.data[4 * i + 1], ori.data[4 * i + 2], ori.data[4 * i + 3]};
+  const std::vector<double> t = g.read<double>("t", {-1}).data;
+  // A window of a long recording: the times say which rows it needs (every time checked first).
+  std::optional<std::pair<std::size_t, std::size_t>> rows;
+  if (window && t.size() > kPartRows) {
+    for (std::size_t i = 0; i < t.size(); ++i)
+      if (auto bad = time_defect(t, i)) throw InputError(path + ": /trajectory/t[" + std::to_string(i) + "]: " + *bad);
+    rows = window_rows(t, *window);
   }
-  rec.jaw = std::move(jaw.data);
-  rec.buttons.assign(wide_buttons.data.begin(), wide_buttons.data.end());
+  Recording rec = rows ? Recording{} : read_samples(g, path, t, 0, t.size());
   rec.rate_hz = f.attr_double("rate_hz");
   rec.source = f.attr_string("source");
   rec.scene = f.attr_string("scene");
@@ -142,9 +222,14 @@ Recording read_recording(const std::string& path) {
                        "recordings store (w, x, y, z): move the last column first");
   }
 
-  validate_recording(rec, path, [&path](std::string_view ds, std::size_t i) {
-    return path + ": " + std::string(ds) + "[" + std::to_string(i) + "]";
-  });
+  if (rows) {
+    check_rate(rec, path);
+    read_window(g, path, t, rows->first, rows->second, rec);
+  } else {
+    validate_recording(rec, path, [&path](std::string_view ds, std::size_t i) {
+      return path + ": " + std::string(ds) + "[" + std::to_string(i) + "]";
+    });
+  }
   return rec;
 }
 
@@ -185,6 +270,7 @@ void write_recording(const std::string& path, const Recording& rec_in) {
 void apply_stored_transforms(Recording& rec, const std::string& file) {
   if (rec.transforms.empty()) return;
   apply_pose_transforms(rec.transforms, rec.position, rec.orientation);
+  if (rec.span) apply_pose_transforms(rec.transforms, rec.span->outline, rec.span->outline_orientation);
   if (rec.transforms.world) rec.baked.world = rec.transforms.world;
   if (rec.transforms.tool) rec.baked.tool = rec.transforms.tool;
   rec.transforms = {};
@@ -246,7 +332,7 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
   Vec3d p = rec.position[worst_i];
   double extent = norm(bbox_max - bbox_min);
   std::ostringstream o;
-  o << "sample " << worst_i << " (t = " << num(rec.t[worst_i]) << " s) at (" << num(p.x) << ", " << num(p.y) << ", "
+  o << "sample " << rec.row(worst_i) << " (t = " << num(rec.t[worst_i]) << " s) at (" << num(p.x) << ", " << num(p.y) << ", "
     << num(p.z) << ") m lies " << num(worst) << " m outside the scene's bounding box (" << num(bbox_min.x) << ", "
     << num(bbox_min.y) << ", " << num(bbox_min.z) << ")..(" << num(bbox_max.x) << ", " << num(bbox_max.y) << ", "
     << num(bbox_max.z) << ") m enlarged by " << num(margin) << " m";
@@ -264,10 +350,10 @@ struct PathFit {
   Vec3d centre;              // m, centre of the positions' bounding box
 };
 
-PathFit fit_path(const Recording& rec, double f, Vec3d lo, Vec3d hi) {
-  Vec3d plo = f * rec.position.front(), phi = plo;
+PathFit fit_path(const std::vector<Vec3d>& path, double f, Vec3d lo, Vec3d hi) {
+  Vec3d plo = f * path.front(), phi = plo;
   double nearest = std::numeric_limits<double>::infinity();
-  for (const Vec3d& raw : rec.position) {
+  for (const Vec3d& raw : path) {
     const Vec3d p = f * raw;
     plo = cwise_min(plo, p);
     phi = cwise_max(phi, p);
@@ -317,15 +403,17 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
   std::snprintf(line, sizeof line,
                 "the tool jumps %.3g m between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g m/s; a hand moves it at "
                 "under 1 m/s): a gap or a reset in the log, which a replay passes through in one tick",
-                norm(rec.position[at] - rec.position[at - 1]), at - 1, at, rec.t[at - 1], rec.t[at], fastest);
+                norm(rec.position[at] - rec.position[at - 1]), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], fastest);
   return std::string(line);
 }
 
 std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo, Vec3d hi,
                                                  std::optional<double> log_unit_m) {
   const double diagonal = norm(hi - lo);
-  if (rec.size() == 0 || !(diagonal > 0)) return std::nullopt;
-  const PathFit now = fit_path(rec, 1.0, lo, hi);
+  // The whole file's path, also where a window of it was read: a unit is the file's.
+  const std::vector<Vec3d>& path = rec.span ? rec.span->outline : rec.position;
+  if (path.empty() || !(diagonal > 0)) return std::nullopt;
+  const PathFit now = fit_path(path, 1.0, lo, hi);
   // A tool that never moves has no size to judge (no unit scales it); only its place counts.
   if (fits(now, diagonal) || (now.extent == 0 && now.distance <= kPathMaxDistanceDiagonals * diagonal))
     return std::nullopt;
@@ -355,7 +443,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   const Candidate* best = nullptr;
   PathFit best_fit;
   for (const Candidate& c : candidates) {
-    const PathFit p = fit_path(rec, c.f, lo, hi);
+    const PathFit p = fit_path(path, c.f, lo, hi);
     if (fits(p, diagonal) && p.distance == 0 && (!best || size_miss(p) < size_miss(best_fit))) {
       best = &c;
       best_fit = p;
@@ -365,7 +453,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   // wrong size takes the unit that fits it nearest the mesh.
   if (!best && size_off)
     for (const Candidate& c : candidates) {
-      const PathFit p = fit_path(rec, c.f, lo, hi);
+      const PathFit p = fit_path(path, c.f, lo, hi);
       if (fits(p, diagonal) && (!best || p.distance < best_fit.distance)) {
         best = &c;
         best_fit = p;
@@ -387,7 +475,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   PathFit sized_fit;
   if (!best && size_off)
     for (const Candidate& c : candidates) {
-      const PathFit p = fit_path(rec, c.f, lo, hi);
+      const PathFit p = fit_path(path, c.f, lo, hi);
       if (size_fits(p) && (!sized || sized_before(p, sized_fit))) {
         sized = &c;
         sized_fit = p;
@@ -396,7 +484,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
 
   std::ostringstream o;
   const bool far = now.distance > kPathMaxDistanceDiagonals * diagonal;
-  const Vec3d start = rec.position.front();
+  const Vec3d start = path.front();
   o << "the tool path ";
   if (size_off)
     o << "spans " << short_num(now.extent) << " m, " << ratio_text(now.extent / diagonal)

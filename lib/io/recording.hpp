@@ -44,8 +44,36 @@ struct Recording {
   /// one. `ebh import` writes what it baked; applying `transforms` moves them here.
   PoseTransforms baked;
 
+  /// Where read_recording read a window of the file, not all of it: the file's first and last
+  /// sample times (a replay's --start counts from the first; its length is the file's), the file's
+  /// row of sample 0 (messages name the file's rows), and the whole file's poses at a stride of at
+  /// most kOutlineSamples, the path whose length unit check_recording_scale judges (the transforms
+  /// apply to them too).
+  struct FileSpan {
+    double t_first = 0, t_last = 0;
+    std::size_t first_row = 0;
+    std::vector<Vec3d> outline;
+    std::vector<Quatd> outline_orientation;
+  };
+  std::optional<FileSpan> span;
+
   std::size_t size() const { return t.size(); }
-  double duration() const { return t.empty() ? 0.0 : t.back() - t.front(); }
+  /// The recording's first and last times: the file's, also where only a window was read.
+  double start_time() const { return span ? span->t_first : t.front(); }
+  double end_time() const { return span ? span->t_last : t.back(); }
+  double duration() const { return t.empty() ? 0.0 : end_time() - start_time(); }
+  /// The file's row of sample i.
+  std::size_t row(std::size_t i) const { return span ? span->first_row + i : i; }
+};
+
+/// The most poses of a recording's outline (Recording::FileSpan): 0.1 s apart in 3 hours at 1 kHz.
+inline constexpr std::size_t kOutlineSamples = 1 << 17;
+
+/// The part of a recording a replay plays: from `start` s after its first sample, for `duration`
+/// s (0: to its end).
+struct RecordingWindow {
+  double start = 0;
+  double duration = 0;
 };
 
 /// The device state at one instant.
@@ -78,8 +106,13 @@ void validate_recording(Recording& rec, const std::string& file, const SampleLoc
 inline constexpr double kQuatNormTolerance = 1e-3;  // float32 round trips and 4-digit logs pass
 inline constexpr double kJawTolerance = 1e-9;       // jaw in [-tol, 1 + tol] is clamped to [0, 1]
 
-/// Reads and validates a recording (messages name the file, dataset and sample index).
-Recording read_recording(const std::string& path);
+/// Reads and validates a recording (messages name the file, dataset and sample index). With a
+/// window, a recording of more than 65,536 samples keeps only the samples a replay of the window
+/// interpolates (from the last at or before its start to the second at or after its end) and an
+/// outline of the rest (Recording::span): every sample is read and checked a part at a time, and
+/// the window's samples are the ones a whole read gives, bit for bit; a few seconds of a log of
+/// hours take a few seconds' memory.
+Recording read_recording(const std::string& path, std::optional<RecordingWindow> window = std::nullopt);
 /// Validates and writes a recording atomically (temporary name, renamed when complete).
 void write_recording(const std::string& path, const Recording& rec);
 

@@ -48,7 +48,7 @@ std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh,
   if (rec.t.empty() || mesh.tets.empty()) return std::nullopt;
   const TetLocator locator(mesh);
   auto inside = [&](const Vec3d& x) { return locator.inside(x); };
-  const double t0 = rec.t.front() + start, t1 = duration > 0 ? t0 + duration : INFINITY;
+  const double t0 = rec.start_time() + start, t1 = duration > 0 ? t0 + duration : INFINITY;
   for (std::size_t i = 0; i < rec.t.size(); ++i) {
     if (rec.t[i] < t0 || rec.t[i] > t1) continue;
     if (inside(rec.position[i])) return rec.t[i];
@@ -73,10 +73,10 @@ std::vector<RoleFile> replay_input_files(const std::string& scene, const std::st
   return files;
 }
 
-RecordingFile read_replay_recording(const std::string& recording) {
+RecordingFile read_replay_recording(const std::string& recording, std::optional<RecordingWindow> window) {
   RecordingFile r;
   r.path = resolve_recording_path(recording);
-  r.recording = read_recording(r.path);
+  r.recording = read_recording(r.path, window);
   return r;
 }
 
@@ -181,8 +181,9 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
 LoadedReplay load_replay_inputs(const std::string& scene, const std::string& recording,
                                 const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                 std::optional<double> physical_hz, bool allow_outside,
-                                Backend backend, const ReplayTransformOptions& transforms) {
-  return load_replay_scene(read_replay_recording(recording), scene, overrides, haptic_hz, physical_hz, allow_outside,
+                                Backend backend, const ReplayTransformOptions& transforms,
+                                std::optional<RecordingWindow> window) {
+  return load_replay_scene(read_replay_recording(recording, window), scene, overrides, haptic_hz, physical_hz, allow_outside,
                            backend, transforms);
 }
 

@@ -47,15 +47,16 @@ std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh,
 std::vector<RoleFile> replay_input_files(const std::string& scene, const std::string& recording,
                                          const std::vector<std::string>& overrides);
 
-/// load_replay_inputs in two parts: read_replay_recording reads the recording (HDF5: one thread
-/// at a time), load_replay_scene does the rest (the scene and its meshes, the checks, the world;
+/// load_replay_inputs in two parts: read_replay_recording reads the recording, or the part of it
+/// that `window` replays (io/recording.hpp read_recording; HDF5: one thread at a time),
+/// load_replay_scene does the rest (the scene and its meshes, the checks, the world;
 /// no HDF5, so replays loaded together run it on several threads). With `worlds`, replays of one
 /// scene share its world where WorldCache allows.
 struct RecordingFile {
   std::string path;
   Recording recording;
 };
-RecordingFile read_replay_recording(const std::string& recording);
+RecordingFile read_replay_recording(const std::string& recording, std::optional<RecordingWindow> window = std::nullopt);
 LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& scene,
                                const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                std::optional<double> physical_hz, bool allow_outside, Backend backend,
@@ -63,7 +64,8 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
 
 /// Loads scene (name or path) with --set overrides, builds the world at the given rates (the
 /// scene's when empty), reads the recording, maps its poses to ebh's frames and checks that it
-/// lies near the scene (unless allow_outside). Throws InputError on any bad input.
+/// lies near the scene (unless allow_outside); with `window`, only the part a replay of that
+/// window plays, whose poses the checks see. Throws InputError on any bad input.
 /// The poses get the world and tool transforms (io/pose_transform.hpp) of the recording's
 /// attributes and of `transforms`, each applied once: a recording that stores a tool (world)
 /// transform and a --tool-transform (--transform) option is an error, since applying both would
@@ -71,6 +73,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
 LoadedReplay load_replay_inputs(const std::string& scene, const std::string& recording,
                                 const std::vector<std::string>& overrides, std::optional<double> haptic_hz,
                                 std::optional<double> physical_hz, bool allow_outside,
-                                Backend backend = Backend::Cpu, const ReplayTransformOptions& transforms = {});
+                                Backend backend = Backend::Cpu, const ReplayTransformOptions& transforms = {},
+                                std::optional<RecordingWindow> window = std::nullopt);
 
 }  // namespace ebh

@@ -229,7 +229,7 @@ class DeviceReplay {
   using Clock = std::chrono::steady_clock;
   static DeviceReplayInputs inputs(const World& world, const Recording& rec, const ReplayOptions& opt,
                                    std::int64_t ticks) {
-    DeviceReplayInputs in = device_replay_inputs(world, rec, rec.t.front() + opt.start, ticks, opt.mode);
+    DeviceReplayInputs in = device_replay_inputs(world, rec, rec.start_time() + opt.start, ticks, opt.mode);
     in.setup.max_blocks = opt.device_blocks;
     if (opt.device_blocks > 0) in.setup.blocks_per_sm = device_tick_capacity(world.tool).blocks_per_sm_shared;
     return in;
@@ -376,7 +376,7 @@ ReplaySummary replay_device(const World& world, const Recording& rec, const Repl
 /// async and lockstep: a pure function of (world, recording, options).
 ReplaySummary replay_virtual_time(const World& world, const Recording& rec, const ReplayOptions& opt,
                                   ReplayObserver& obs) {
-  const double t0 = rec.t.front() + opt.start;
+  const double t0 = rec.start_time() + opt.start;
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   const int N = world.ticks_per_step;
   const ThreadSplit threads = split_threads(opt.mode, opt.haptic_threads);
@@ -449,7 +449,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
 /// realtime: two threads paced by the wall clock; double-buffered snapshots under a mutex.
 ReplaySummary replay_realtime(const World& world, const Recording& rec, const ReplayOptions& opt,
                               ReplayObserver& obs) {
-  const double t0 = rec.t.front() + opt.start;
+  const double t0 = rec.start_time() + opt.start;
   const std::int64_t ticks = tick_count(world, recording_duration(rec, opt));
   HapticSide haptic = make_haptic_side(world, sample_at(rec, t0));
   PhysicalSide physical = make_physical_side(world);

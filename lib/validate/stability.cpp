@@ -50,7 +50,7 @@ struct Trace : ReplayObserver {
 /// recordings are in contact), sped up or with a teleport.
 Recording window(const Recording& rec, const std::string& motion, const Vec3d& centre) {
   Recording r = rec;
-  const double t0 = rec.t.front() + 0.4 * rec.duration();
+  const double t0 = rec.start_time() + 0.4 * rec.duration();
   double speed = 0;  // the peak device speed inside the window at the recorded pace
   for (std::size_t i = 1; i < rec.t.size(); ++i)
     if (rec.t[i] >= t0 && rec.t[i] <= t0 + kWindow && rec.t[i] > rec.t[i - 1])

@@ -389,3 +389,91 @@ TEST(Recording, OneSampleIsNotATrajectory) {
   }
   EXPECT_INPUT_ERROR(read_recording(path), "one.h5: the recording has one sample; a recording needs at least two");
 }
+
+// A window of a long recording (read_recording with a window): only the samples a replay of it
+// interpolates are kept, and they are the whole read's bit for bit, also where the file's
+// quaternions change sign from sample to sample (the hemispheres continue across the parts it is
+// read in), so a replay of the window renders what it rendered from the whole file.
+TEST(RecordingWindow, KeepsTheWholeReadsSamplesOfTheWindowBitForBit) {
+  const std::size_t n = 200'003;  // three parts and a bit
+  Recording r = make_recording(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = r.t[i];
+    r.position[i] = {0.02 * std::sin(3 * t), 0.01 * std::cos(2 * t), 0.001 * t};
+    r.orientation[i] = quat_from_rotvec(Vec3d{0.3 * std::sin(t), 0.2, 0.7 * t});
+    if (i % 3 == 1) r.orientation[i] = Quatd{-r.orientation[i].w, -r.orientation[i].x, -r.orientation[i].y, -r.orientation[i].z};
+    r.jaw[i] = 0.5 + 0.5 * std::sin(t);
+  }
+  test::ScratchDir tmp;
+  const std::string path = tmp / "window.h5";
+  RawRecording(r).write(path);
+  const Recording whole = read_recording(path);
+  EXPECT_FALSE(whole.span);
+  const Recording w = read_recording(path, RecordingWindow{131.0005, 0.25});  // rows 131000 .. 131252
+  ASSERT_TRUE(w.span);
+  EXPECT_EQ(w.span->first_row, 131000u);
+  EXPECT_EQ(w.size(), 253u);  // from the sample at the start to one past the first at the end
+  EXPECT_EQ(w.start_time(), whole.t.front());
+  EXPECT_EQ(w.duration(), whole.duration());
+  for (std::size_t i = 0; i < w.size(); ++i) {
+    const std::size_t k = w.row(i);
+    ASSERT_EQ(w.t[i], whole.t[k]);
+    ASSERT_EQ(w.position[i], whole.position[k]);
+    ASSERT_EQ(w.orientation[i].w, whole.orientation[k].w) << k;
+    ASSERT_EQ(w.orientation[i].z, whole.orientation[k].z) << k;
+    ASSERT_EQ(w.jaw[i], whole.jaw[k]);
+  }
+  // Every time a replay of the window asks for, its ends and a round-off past the end included.
+  const double t0 = w.start_time() + 131.0005, t1 = t0 + 0.25;
+  for (double t : {t0, t0 + 1e-7, 0.5 * (t0 + t1), t1, std::nextafter(t1, 1e9), t1 + 1e-6}) {
+    const DeviceSample a = sample_at(w, t), b = sample_at(whole, t);
+    EXPECT_EQ(a.position, b.position) << t;
+    EXPECT_EQ(a.orientation.x, b.orientation.x) << t;
+    EXPECT_EQ(a.jaw, b.jaw) << t;
+  }
+  // The outline the unit check judges spans the file: its first pose and one every stride.
+  EXPECT_EQ(w.span->outline.size(), (n + 1) / 2);  // stride 2 for 200003 samples (at most 131072)
+  EXPECT_EQ(w.span->outline[1], whole.position[2]);
+  // A window from the start to the end is the whole recording.
+  const Recording all = read_recording(path, RecordingWindow{0, 0});
+  EXPECT_EQ(all.size(), n);
+  EXPECT_EQ(all.orientation.back().y, whole.orientation.back().y);
+}
+
+// Every sample is checked, also outside the window, and messages name the file's rows.
+TEST(RecordingWindow, ChecksEverySampleAndNamesTheFilesRow) {
+  const std::size_t n = 70'000;
+  test::ScratchDir tmp;
+  const std::string path = tmp / "window_bad.h5";
+  RawRecording raw(make_recording(n));
+  raw.jaw[68'123] = 1.5;
+  raw.write(path);
+  EXPECT_INPUT_ERROR(read_recording(path, RecordingWindow{1.0, 0.5}), "window_bad.h5: /trajectory/jaw[68123]: jaw 1.5");
+  raw.jaw[68'123] = 1;
+  const double kept = raw.t[69'000];
+  raw.t[69'000] = raw.t[68'999];
+  raw.write(path);
+  EXPECT_INPUT_ERROR(read_recording(path, RecordingWindow{1.0, 0.5}), "/trajectory/t[69000]: time not strictly increasing");
+  raw.t[69'000] = kept;
+  raw.pos[3 * 1'100] = std::numeric_limits<double>::quiet_NaN();
+  raw.write(path);
+  EXPECT_INPUT_ERROR(read_recording(path, RecordingWindow{1.0, 0.5}), "/trajectory/position[1100]: position is NaN");
+}
+
+// The unit check judges the whole file's path, also where a window of it was read: a window of a
+// tool hovering still above the tissue is no sign of a log in the wrong unit.
+TEST(RecordingWindow, TheUnitCheckJudgesTheWholePath) {
+  const std::size_t n = 70'000;
+  Recording r = make_recording(n);
+  for (std::size_t i = 0; i < n; ++i)  // across a 40 mm box for 10 s, then hovering 5 mm above it
+    r.position[i] = i < 10'000 ? Vec3d{-0.02 + 4e-6 * static_cast<double>(i), 0, 0}
+                               : Vec3d{0.02, 0, 0.025 + 1e-9 * static_cast<double>(i % 7)};
+  test::ScratchDir tmp;
+  write_recording(tmp / "hover.h5", r);
+  const Vec3d lo{-0.02, -0.02, -0.02}, hi{0.02, 0.02, 0.02};
+  const Recording w = read_recording(tmp / "hover.h5", RecordingWindow{50, 1});
+  EXPECT_EQ(check_recording_scale(w, lo, hi, std::nullopt), std::nullopt);
+  Recording alone = w;  // the window's samples as a recording of their own
+  alone.span.reset();
+  EXPECT_NE(check_recording_scale(alone, lo, hi, std::nullopt), std::nullopt);
+}

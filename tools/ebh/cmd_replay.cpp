@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "command.hpp"
@@ -350,7 +351,7 @@ void run_replay(const ReplayArgs& a) {
       throw InputError("--render " + a.render_dir + ": is the name of " + o.role + " (-o): name another folder");
   PreparedReplay p;
   p.in = load_replay_inputs(a.scene, a.recording, a.overrides, a.haptic_hz, a.physical_hz, a.allow_outside, backend,
-                            a.transforms);
+                            a.transforms, RecordingWindow{a.start, a.duration.value_or(0)});
   print_scene_warnings(p.in.world->scene, parse_mode(a.mode), "");
   prepare_replay(a, p);
   // After the checks that refuse the replay: a refused one says one line, its error.
@@ -471,11 +472,13 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   check_backend("cuda");
   const std::size_t B = lines.size();
   std::vector<RecordingFile> read(B);
-  std::map<std::string, std::size_t> first_read;  // each recording is read once
+  std::map<std::tuple<std::string, double, double>, std::size_t> first_read;  // each recording's window read once
   for (std::size_t i = 0; i < B; ++i) {
     try {
-      const auto [it, inserted] = first_read.try_emplace(lines[i].args.recording, i);
-      read[i] = inserted ? read_replay_recording(lines[i].args.recording) : read[it->second];
+      const ReplayArgs& l = lines[i].args;
+      const RecordingWindow window{l.start, l.duration.value_or(0)};
+      const auto [it, inserted] = first_read.try_emplace({l.recording, window.start, window.duration}, i);
+      read[i] = inserted ? read_replay_recording(l.recording, window) : read[it->second];
     } catch (const InputError& e) {
       throw InputError(lines[i].where + ": " + e.what());
     }

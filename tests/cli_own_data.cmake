@@ -19,10 +19,10 @@ set_tests_properties(cli.own_data.import PROPERTIES FIXTURES_SETUP own_data_reco
 add_test(NAME cli.own_data.replay
   COMMAND ${EBH_BIN} replay ${EBH_OWN_SCENE} ${EBH_OWN_OUT}/press.h5 -o ${EBH_OWN_OUT}/press_replay.h5)
 set_tests_properties(cli.own_data.replay PROPERTIES FIXTURES_REQUIRED own_data_recording FIXTURES_SETUP own_data_replay
-  FAIL_REGULAR_EXPRESSION "warning" PASS_REGULAR_EXPRESSION "2001 ticks, 201 physical steps.*peak force 0\\.[1-9]")
+  FAIL_REGULAR_EXPRESSION "warning" PASS_REGULAR_EXPRESSION "2001 ticks, 201 physical steps.*peak force 1\\.[0-9]")
 add_test(NAME cli.own_data.metrics COMMAND ${EBH_BIN} metrics ${EBH_OWN_OUT}/press_replay.h5 --json)
 set_tests_properties(cli.own_data.metrics PROPERTIES FIXTURES_REQUIRED own_data_replay
-  PASS_REGULAR_EXPRESSION "\"peak_force_N\": 0\\.[1-9].*\"contact_fraction\": 0\\.[1-9].*\"contact_warning\": null")
+  PASS_REGULAR_EXPRESSION "\"peak_force_N\": 1\\.[0-9].*\"contact_fraction\": 0\\.[1-9].*\"contact_warning\": null")
 if(EBH_SYSTEM_PYTHON3 AND ebh_plot_deps EQUAL 0)
   add_test(NAME cli.own_data.plot
     COMMAND ${EBH_SYSTEM_PYTHON3} ${PROJECT_SOURCE_DIR}/scripts/plot_forces.py ${EBH_OWN_OUT}/press_replay.h5

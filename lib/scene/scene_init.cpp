@@ -266,7 +266,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
   line("  unit: " + o.unit, "the mesh file's unit");
   y += "  # transform: {scale: 1, rotvec_deg: [0, 0, 0], translate: [0, 0, 0]}   # places the mesh; pins stay in the world\n";
   line("  virtual: boundary", "the virtual mesh: the physical mesh's surface ...");
-  line("  virtual_refine: 1", "... split in 4 per triangle, so a thin tool meets vertices");
+  line("  virtual_refine: 1", "... split in 4 per triangle: a finer surface to deform");
   y += "material:\n";
   line("  density: " + fmt(preset->density), "kg/m^3, " + o.tissue);
   line("stiffness:", "SI (docs/MODEL.md)");
@@ -284,6 +284,9 @@ SceneInit make_scene(const SceneInitOptions& o) {
   y += "pinned:\n";
   for (const auto& p : pin_yaml) y += "  - " + p + "\n";
   y += tool_yaml(forceps);
+  y += "# The tool against the virtual mesh's triangles: no part of it slips between vertices, where the\n";
+  y += "# paper's vertex contact (`vertices`) lets a tool pushed in at a hand's speed through (docs/MODEL.md).\n";
+  y += "contact: surface\n";
   y += "time: {haptic_hz: 1000, physical_hz: 100}\n";
   y += "solver: {method: chebyshev, physical_iterations: 8, virtual_iterations: 4, chebyshev_rho: 0.95}\n";
   y += "camera: {eye: " + vec(eye, round4) + ", target: " + vec(centre, round4) + ", up: [0, 0, 1], fov_deg: 40}\n";

@@ -62,6 +62,8 @@ TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
   EXPECT_NEAR(s.tool.shaft_length, 0.33, kTol);
   EXPECT_NEAR(s.tool.forceps.jaw_length, 0.02, kTol);
   EXPECT_TRUE(s.stages.grasp);
+  // contact against the surface: vertex contact lets a tool through at a hand's speed
+  EXPECT_EQ(s.contact, ContactModel::Surface);
   // the liver preset
   const TissuePreset& liver = tissue_presets()[0];
   ASSERT_EQ(liver.name, "liver");

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <limits>
 #include <sstream>
 
@@ -205,7 +206,7 @@ std::string contact_warning(std::size_t contact_ticks, std::size_t ticks) {
 
 std::string start_warning(double depth) {
   if (!(depth > 0)) return "";
-  char b[300];
+  char b[400];
   std::snprintf(b, sizeof b,
                 "the physical tool starts inside the tissue (a virtual vertex %.3g mm inside its colliders at the first "
                 "tick: at most a collider's radius, however deep the tool is); a device log starts "
@@ -213,6 +214,61 @@ std::string start_warning(double depth) {
                 "docs/OWN_DATA.md)",
                 1e3 * depth);
   return b;
+}
+
+std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, const std::function<Vec3d(std::size_t)>& force,
+                                                 const std::function<Vec3d(std::size_t)>& device,
+                                                 std::span<const std::int32_t> contacts,
+                                                 std::span<const std::int32_t> grasped, double haptic_hz) {
+  const std::size_t n = t.size();
+  const auto w = static_cast<std::size_t>(std::max(1.0, std::round(kCollapseWindowS * haptic_hz)));
+  std::vector<double> f(n);
+  for (std::size_t i = 0; i < n; ++i) f[i] = norm(force(i));
+  std::vector<std::size_t> held(n + 1, 0);  // ticks with a grasp before tick i
+  for (std::size_t i = 0; i < n; ++i) held[i + 1] = held[i] + (i < grasped.size() && grasped[i] > 0);
+  std::optional<ForceCollapse> found;
+  std::deque<std::size_t> top;  // the window's ticks by falling |F|: its largest at the front
+  for (std::size_t i = 0; i < n; ++i) {
+    while (!top.empty() && top.front() + w < i) top.pop_front();
+    if (!top.empty() && std::isfinite(f[i]) && contacts[i] > 0) {
+      const std::size_t m = top.front();
+      const Vec3d fm = force(m);
+      const bool fell = f[m] >= kCollapseMinForceN && f[i] < kCollapseFraction * f[m];
+      // Pressed on: the device did not move along the force that pushed it back.
+      // Nothing grasped from a window before the largest force (a grasp let go falls for a few ticks).
+      const bool grasp = held[i + 1] != held[m > w ? m - w : 0];
+      if (fell && !grasp && dot(device(i) - device(m), fm) <= 0) {
+        bool stayed = true;
+        for (std::size_t k = i; k < std::min(n, i + w + 1) && stayed; ++k) stayed = f[k] < 0.5 * f[m];
+        if (stayed) {
+          if (!found) found = ForceCollapse{t[m], t[i], f[m], f[i], 0};
+          ++found->count;
+          top.clear();  // one collapse counted once: the window starts again after it
+          i += w;
+          continue;
+        }
+      }
+    }
+    if (!std::isfinite(f[i])) continue;
+    while (!top.empty() && f[top.back()] <= f[i]) top.pop_back();
+    top.push_back(i);
+  }
+  return found;
+}
+
+std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact) {
+  const std::string more = c.count > 1 ? " (" + std::to_string(c.count) + " such falls)" : "";
+  const char* parted = "the vertices under a thin tip part and let it through (`--set contact=surface` holds it; "
+                       "docs/MODEL.md, \"Contact against the surface\")";
+  const std::string why = !vertex_contact ? std::string("the tool went through the tissue or slipped off it (with "
+                                                        "contact: vertices, ") + parted + ")"
+                          : *vertex_contact ? std::string("the tool went through the tissue or slipped off it: with "
+                                                          "contact: vertices ") + parted
+                                            : std::string("the tool slipped off the tissue or the tissue gave way under it");
+  char b[192];
+  std::snprintf(b, sizeof b, "the force fell from %.3g N (t = %.3f s) to %.3g N (t = %.3f s) while the tool stayed in "
+                "contact and the device did not draw back", c.peak_N, c.peak_t, c.force_N, c.t);
+  return b + more + ": " + why;
 }
 
 std::size_t fft_window_ticks(const MetricsOptions& opt, double haptic_hz) {
@@ -279,6 +335,9 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   for (std::int32_t c : tr.contacts) in_contact += c > 0;
   m.contact_fraction = static_cast<double>(in_contact) / static_cast<double>(n);
   m.contact_warning = contact_warning(in_contact, n);
+  m.collapse = find_force_collapse(
+      tr.t, [&tr](std::size_t i) { return tr.force[i]; }, [&tr](std::size_t i) { return tr.pose_physical[i].p; },
+      tr.contacts, tr.grasped, tr.haptic_hz);
   for (auto [a, b] : contact_episodes(tr.contacts, tr.haptic_hz, opt.episode_merge_gap_s))
     m.episodes.push_back(segment_metrics(tr, a, b, opt));
 
@@ -380,6 +439,15 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   j.set("whole", segment_json(m.whole));
   j.set("contact_fraction", m.contact_fraction);
   j.set("contact_warning", m.contact_warning.empty() ? Json(nullptr) : Json(m.contact_warning));
+  // The first collapse's numbers, NaN without one (the sweep summary's columns are the keys).
+  Json collapse = Json::object();
+  collapse.set("count", m.collapse ? m.collapse->count : 0);
+  collapse.set("peak_t_s", m.collapse ? m.collapse->peak_t : kNaN);
+  collapse.set("t_s", m.collapse ? m.collapse->t : kNaN);
+  collapse.set("peak_force_N", m.collapse ? m.collapse->peak_N : kNaN);
+  collapse.set("force_N", m.collapse ? m.collapse->force_N : kNaN);
+  collapse.set("warning", m.collapse ? Json(collapse_warning(*m.collapse, std::nullopt)) : Json(nullptr));
+  j.set("force_collapse", std::move(collapse));
   j.set("episode_count", m.episodes.size());
   if (with_episodes) {
     Json eps = Json::array();
@@ -438,6 +506,7 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
     o << ")\n";
   }
   if (!m.contact_warning.empty()) o << "  warning: " << m.contact_warning << "\n";
+  if (m.collapse) o << "  warning: " << collapse_warning(*m.collapse, std::nullopt) << "\n";
   o << "force\n";
   row("peak |F|", fmt("%.4f", s.peak_force), "N");
   row("peak |T|", fmt("%.5f", s.peak_torque), "N m");

@@ -7,6 +7,10 @@
 // NaN policy: every metric that reads a non-finite sample is NaN itself (null in JSON);
 // nonfinite_count says how many samples were non-finite and finite == false flags the run.
 #include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -99,6 +103,34 @@ std::size_t fft_min_window_ticks(const MetricsOptions& opt, double haptic_hz);
 /// its frame-boundary ratio NaN, where they scored noise as vibration (0.88 above 30 Hz). N.
 inline constexpr double kNegligibleForce = 1e-9;
 
+/// A tool that passed through the tissue: the rendered force fell below kCollapseFraction of the
+/// largest it had been in the kCollapseWindowS before, which was at least kCollapseMinForceN, and
+/// stayed under half of that for kCollapseWindowS after, while the tool kept its contacts, nothing
+/// was grasped (from kCollapseWindowS before the largest force) and the device did not draw back
+/// along that force (a release, a retreat and a slide
+/// off an edge lose their contacts or draw back). With vertex contact the vertices under a thin
+/// tip part and let it through (docs/MODEL.md, "Contact against the surface"); with surface
+/// contact the tissue gave way.
+struct ForceCollapse {
+  double peak_t = 0, t = 0;         ///< s: the largest force's tick, the first tick under the fraction
+  double peak_N = 0, force_N = 0;   ///< |F| at those ticks
+  std::size_t count = 0;            ///< collapses in the run (the first is described)
+};
+inline constexpr double kCollapseFraction = 0.2;
+inline constexpr double kCollapseMinForceN = 0.3;
+inline constexpr double kCollapseWindowS = 0.02;
+
+/// The first collapse of a run's force (ForceCollapse) and how many there were; nullopt when none.
+/// Per tick n of N: time t[n], the rendered force, the device's position, the contacts and the
+/// grasped vertices (empty: none grasped).
+std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, const std::function<Vec3d(std::size_t)>& force,
+                                                 const std::function<Vec3d(std::size_t)>& device,
+                                                 std::span<const std::int32_t> contacts,
+                                                 std::span<const std::int32_t> grasped, double haptic_hz);
+/// One line for a collapse: what fell, when, and what it means (`vertex_contact`: the scene's
+/// contact model where known).
+std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact);
+
 struct ForceMetrics {
   std::string path, scene, recording, mode, backend;
   double haptic_hz = 0, physical_hz = 0;
@@ -110,6 +142,7 @@ struct ForceMetrics {
   std::vector<SegmentMetrics> episodes;  // contact episodes in time order
   double contact_fraction = 0;           // ticks with contacts > 0 / ticks
   std::string contact_warning;           // contact_warning(): empty when the tool touched enough
+  std::optional<ForceCollapse> collapse; // find_force_collapse(): the tool passed through the tissue
   TimingMetrics timing;
 
   std::size_t nonfinite_count = 0;               // non-finite samples over all datasets

@@ -36,6 +36,7 @@ struct ReplayTrace {
   std::vector<double> penetration_physical;// N or empty (optional dataset), m, same for the physical tool
   std::vector<std::int32_t> contacts;      // N, number of contact constraints
   std::vector<double> active;              // N or empty (optional dataset: solver.active_region), virtual vertices iterated
+  std::vector<std::int32_t> grasped;       // N or empty (optional dataset), virtual vertices grasped
 
   // Physical rate, K steps each; empty when the file has no /physical group.
   std::vector<double> physical_t;           // K, s
@@ -55,8 +56,8 @@ struct ReplayTrace {
 
 /// Reads a replay output file. Required: root attributes haptic_hz and physical_hz; datasets
 /// /haptic/{t, force, torque, force_clamped, pose_physical, pose_virtual, penetration, contacts}
-/// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /haptic/active, /physical/{t, iterations,
-/// residual, inverted, awake}, /timing/physical_step_s. Numeric types are converted to the fields' types.
+/// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /haptic/active,
+/// /haptic/grasped, /physical/{t, iterations, residual, inverted, awake}, /timing/physical_step_s. Numeric types are converted to the fields' types.
 /// Throws InputError ("FILE: dataset '/haptic/force': ...") for a missing file, a missing
 /// dataset or attribute, a wrong shape, a non-numeric dataset or a time axis that goes backwards.
 /// Non-finite values are kept: compute_metrics counts them.

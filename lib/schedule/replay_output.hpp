@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -121,6 +122,13 @@ class ReplayWriter : public ReplayObserver {
   double first_inverted_t() const { return first_inverted_t_; }
   /// The physical tool's depth in the tissue at the first tick (m; 0 before any tick).
   double first_penetration_physical() const { return pen_h_.empty() ? 0.0 : pen_h_.front(); }
+  /// The per-tick series as recorded, for the end-of-run checks (metrics/force_metrics.hpp,
+  /// find_force_collapse): times, rendered forces, the device's positions, contacts, grasped.
+  std::span<const double> tick_times() const { return t_; }
+  Vec3d force_at(std::size_t n) const { return {force_[3 * n], force_[3 * n + 1], force_[3 * n + 2]}; }
+  Vec3d device_position_at(std::size_t n) const { return {pose_h_[7 * n], pose_h_[7 * n + 1], pose_h_[7 * n + 2]}; }
+  std::span<const std::int32_t> contacts() const { return contacts_; }
+  std::span<const std::int32_t> grasped() const { return grasped_; }
 
  private:
   h5::AtomicFile out_;

@@ -71,6 +71,7 @@ std::string write_trace(const ReplayTrace& tr, const std::string& name, const st
   put("/haptic/penetration", tr.penetration, {n});
   if (!tr.penetration_physical.empty()) put("/haptic/penetration_physical", tr.penetration_physical, {n});
   if (skip != "/haptic/contacts") f.write<std::int32_t>("/haptic/contacts", tr.contacts, {n});
+  if (!tr.grasped.empty()) f.write<std::int32_t>("/haptic/grasped", tr.grasped, {n});
   put("/timing/haptic_step_s", tr.haptic_step_s, {n});
   f.close();
   return path;
@@ -417,6 +418,61 @@ TEST(ForceMetrics, JsonAndTableCarryTheNumbers) {
   const std::string big = format_table(roundtrip(huge, "huge"), false);
   EXPECT_NE(big.find("1e+20 N"), std::string::npos) << big;
   EXPECT_EQ(big.find("100000000000000000000"), std::string::npos) << big;
+}
+
+// A hook pressed down into tissue at 30 mm/s: the force (up, on the tool) rises to 1.5 N over
+// 0.5 s, then, at tick `fall`, falls to 0.03 N in 4 ticks and stays there, contacts kept (the
+// vertices parted around the tip). `device_after` moves the device from the fall on (m/tick).
+ReplayTrace press_through(std::size_t fall = 500, Vec3d device_after = {0, 0, -3e-5}) {
+  ReplayTrace tr = make_trace(1000);
+  Vec3d p{0, 0, 0};
+  for (std::size_t i = 0; i < tr.ticks(); ++i) {
+    const double f = i < fall ? 1.5 * static_cast<double>(i) / static_cast<double>(fall)
+                              : std::max(0.03, 1.5 * (1.0 - 0.25 * static_cast<double>(i - fall + 1)));
+    tr.force[i] = {0, 0, f};
+    tr.contacts[i] = i >= 20 ? 5 : 0;
+    tr.pose_physical[i].p = p;
+    p = p + (i < fall ? Vec3d{0, 0, -3e-5} : device_after);
+  }
+  return tr;
+}
+
+TEST(ForceCollapse, AToolPushedThroughTheTissueIsNamed) {
+  const ForceMetrics m = roundtrip(press_through(), "collapse");
+  ASSERT_TRUE(m.collapse);
+  EXPECT_EQ(m.collapse->count, 1u);
+  EXPECT_NEAR(m.collapse->peak_N, 1.5 * 499 / 500, 1e-12);  // the last tick before the fall
+  EXPECT_NEAR(m.collapse->peak_t, 0.499, 1e-12);
+  EXPECT_NEAR(m.collapse->t, 0.503, 1e-12);  // the first under 20% of it: 0.03 N at tick 503
+  const std::string warning = collapse_warning(*m.collapse, true);
+  EXPECT_NE(warning.find("the force fell from 1.5 N (t = 0.499 s) to 0.03 N (t = 0.503 s)"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("contact=surface"), std::string::npos) << warning;
+  EXPECT_NE(to_json(m).dump().find("\"count\": 1"), std::string::npos);
+  EXPECT_NE(format_table(m, false).find("warning: the force fell"), std::string::npos);
+  // Two falls, each counted once.
+  ReplayTrace twice = press_through();
+  for (std::size_t i = 700; i < 1000; ++i) twice.force[i].z = i < 800 ? 1.0 : 0.01;
+  EXPECT_EQ(compute_metrics(twice).collapse->count, 2u);
+}
+
+// What is not a tool passing through: a release (the device draws back along the force), a slide
+// off an edge (contacts lost), a grasp let go, a dip that recovers, and a light touch.
+TEST(ForceCollapse, ReleasesSlidesGraspsDipsAndLightTouchesAreNot) {
+  EXPECT_FALSE(compute_metrics(press_through(500, {0, 0, 3e-5})).collapse);  // drawn back
+  EXPECT_TRUE(compute_metrics(press_through(500, {3e-5, 0, 0})).collapse);   // pressed on sideways
+  ReplayTrace slid = press_through();
+  for (std::size_t i = 502; i < 1000; ++i) slid.contacts[i] = 0;
+  EXPECT_FALSE(compute_metrics(slid).collapse);
+  ReplayTrace released = press_through();
+  released.grasped.assign(released.ticks(), 0);
+  for (std::size_t i = 300; i < 495; ++i) released.grasped[i] = 12;  // let go 5 ticks before the largest force
+  EXPECT_FALSE(roundtrip(released, "collapse_grasp").collapse);
+  ReplayTrace dip = press_through();
+  for (std::size_t i = 510; i < 1000; ++i) dip.force[i].z = 1.2;  // back within the window
+  EXPECT_FALSE(compute_metrics(dip).collapse);
+  ReplayTrace light = press_through();
+  for (Vec3d& f : light.force) f.z *= 0.19;  // a peak of 0.285 N: under kCollapseMinForceN
+  EXPECT_FALSE(compute_metrics(light).collapse);
 }
 
 // The no-contact warning that `ebh replay` and `ebh metrics` print: none, under 1% and 1% exactly.

@@ -180,6 +180,15 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   ReplayWriter& writer = *p.writer;
   if (s.stopped) throw InputError(a.out + ": interrupted; no output written");
   writer.commit(s);
+  // A force that fell while the tool pressed on: it went through the tissue (with vertex contact,
+  // between the virtual vertices) or slipped off it.
+  const auto collapse = find_force_collapse(
+      writer.tick_times(), [&writer](std::size_t n) { return writer.force_at(n); },
+      [&writer](std::size_t n) { return writer.device_position_at(n); }, writer.contacts(), writer.grasped(),
+      1.0 / world.h_haptic);
+  if (collapse)
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(),
+                 collapse_warning(*collapse, world.scene.spec.contact == ContactModel::Vertices).c_str());
   index_replay_frames(a.out);
   std::string contact = contact_warning(static_cast<std::size_t>(writer.contact_ticks()),
                                         static_cast<std::size_t>(s.ticks));

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -404,6 +405,30 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
                 "the tool jumps %.3g m between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g m/s; a hand moves it at "
                 "under 1 m/s): a gap or a reset in the log, which a replay passes through in one tick",
                 norm(rec.position[at] - rec.position[at - 1]), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], fastest);
+  return std::string(line);
+}
+
+std::optional<std::string> check_recording_turn(const Recording& rec) {
+  double fastest = 0, angle_at = 0;
+  std::size_t at = 0;
+  for (std::size_t i = 1; i < rec.size(); ++i) {
+    const Quatd& a = rec.orientation[i - 1];
+    const Quatd& b = rec.orientation[i];
+    const double d = std::min(1.0, std::abs(a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z));
+    const double angle = 2 * std::acos(d), rate = angle / (rec.t[i] - rec.t[i - 1]);
+    if (rate > fastest) {
+      fastest = rate;
+      angle_at = angle;
+      at = i;
+    }
+  }
+  if (!(fastest > kToolTurnRateMax)) return std::nullopt;
+  char line[400];
+  std::snprintf(line, sizeof line,
+                "the tool turns %.3g degrees between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g rad/s; "
+                "a hand turns it at a few): a gap or a reset in the log, which the virtual tool follows at "
+                "tool.max_step_rotation_deg a Newton step, rendering its lag as torque meanwhile (tool.torque_limit)",
+                angle_at * 180 / std::numbers::pi, rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], fastest);
   return std::string(line);
 }
 

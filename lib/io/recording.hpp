@@ -156,6 +156,13 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
 /// warning, not an error: the jump may be the experiment.
 std::optional<std::string> check_recording_speed(const Recording& rec);
 
+/// The same for the tool's orientation: the fastest turn between two consecutive samples, when it
+/// is over kToolTurnRateMax, as one line naming the samples, their times, the angle and the rate.
+/// A hand turns an instrument at a few rad/s; the virtual tool follows a faster turn at
+/// tool.max_step_rotation_deg a Newton step and renders its lag as torque meanwhile (a half turn
+/// between two samples is also the shorter arc either way: the direction is a guess).
+std::optional<std::string> check_recording_turn(const Recording& rec);
+
 /// The seconds a replay of a recording `length` s long runs from `start` for `duration` s (nullopt:
 /// to its end; a window past the end is cut there): start a finite number >= 0 before the end,
 /// duration a finite number > 0. The one check of a replay window, for `ebh replay --start
@@ -164,6 +171,7 @@ std::optional<std::string> check_recording_speed(const Recording& rec);
 double replay_window(double start, std::optional<double> duration, double length, const std::string& recording,
                      const std::string& start_label, const std::string& duration_label);
 inline constexpr double kToolSpeedMax = 10;  ///< m/s
+inline constexpr double kToolTurnRateMax = 50;  ///< rad/s (8 turns a second)
 inline constexpr double kPathExtentMaxRatio = 20;
 inline constexpr double kPathExtentMinRatio = 1.0 / 50;
 inline constexpr double kPathMaxDistanceDiagonals = 2;

@@ -360,7 +360,7 @@ class SpecReader {
 
   void read_tool(const YAML::Node& n, ToolSpec& t) const {
     const auto e = entries(n, "tool", {"unit", "kind", "shaft_radius", "shaft_length", "hook", "forceps", "force_limit",
-                                       "newton_iterations", "newton_calls", "max_step", "max_step_rotation_deg",
+                                       "torque_limit", "newton_iterations", "newton_calls", "max_step", "max_step_rotation_deg",
                                        "stabilization"});
     if (auto u = e.find("unit"); u != e.end()) std::tie(t.unit, t.unit_name) = length_unit(u->second, "tool.unit");
     const double unit = t.unit;
@@ -371,6 +371,7 @@ class SpecReader {
       else if (name == "shaft_radius") t.shaft_radius = length(v, k, unit);
       else if (name == "shaft_length") t.shaft_length = length(v, k, unit);
       else if (name == "force_limit") t.force_limit = positive(v, k);
+      else if (name == "torque_limit") t.torque_limit = non_negative(v, k);
       else if (name == "newton_iterations") t.newton_iterations = integer(v, k, 1, 100);
       else if (name == "newton_calls") t.newton_calls = integer(v, k, 1, 100000, "all", 0);
       else if (name == "max_step") t.max_step = length(v, k, unit);
@@ -1318,6 +1319,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "soft_margin" << YAML::Value << tool_length(f.soft_margin);
   y << YAML::Key << "eta" << YAML::Value << f.eta << YAML::EndMap;
   y << YAML::Key << "force_limit" << YAML::Value << t.force_limit;
+  y << YAML::Key << "torque_limit" << YAML::Value << t.torque_limit;
   y << YAML::Key << "newton_iterations" << YAML::Value << t.newton_iterations;
   y << YAML::Key << "newton_calls" << YAML::Value;
   if (t.newton_calls == 0) y << "all"; else y << t.newton_calls;

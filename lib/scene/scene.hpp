@@ -47,6 +47,7 @@
 //     forceps: {jaw_length: 20, jaw_width: 5, jaw_thickness: 2, jaw_max_angle_deg: 30,
 //               grasp_threshold: 0.2, soft_margin: 2, eta: 1.0}
 //     force_limit: 3.3              # N (Geomagic Touch)
+//     torque_limit: 0               # N m, 0: no limit (a device that renders torque: its own)
 //     newton_iterations: 2          # Newton steps on E_tool per Newton call
 //     newton_calls: all             # all | 1 .. solver.virtual_iterations: how many of a tick's
 //                                   #   virtual-mesh iterations a Newton call follows (the last
@@ -160,6 +161,10 @@ struct ToolSpec {
   HookSpec hook;
   ForcepsSpec forceps;
   double force_limit = 3.3;             ///< N
+  /// N m, 0: none. A device that renders torque has a limit of its own (a Geomagic Touch renders
+  /// none); the virtual tool's rotational coupling k_vct x its lag knows none (a log that turns
+  /// the tool half a turn in a tick renders 0.9 N m with the scenes' k_vct).
+  double torque_limit = 0.0;
   int newton_iterations = 2;
   /// How many of a tick's virtual-mesh iterations a Newton call of the virtual tool follows: the
   /// last newton_calls of them (docs/MODEL.md, "Newton calls per tick"). 0: all of them (`all`).

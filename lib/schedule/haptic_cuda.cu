@@ -554,7 +554,7 @@ CudaHapticTicks::CudaHapticTicks(const DeviceHapticSetup& S, std::span<const Dev
   t.max_rot = lim.max_rot;
   t.newton = lim.iterations;
   t.force_limit = T.spec.force_limit;
-  t.torque_limit = T.torque_limit;
+  t.torque_limit = T.spec.torque_limit;
   t.soft_margin = T.spec.forceps.soft_margin;
   t.eta = T.spec.forceps.eta;
   t.reach_T = static_cast<float>(lim.reach_translation);

@@ -44,7 +44,6 @@ struct ToolModel {
   std::vector<double> reach;                ///< #C bound on |x| over the collider's points x (tool
                                             ///<    frame, any jaw value): how far from the rotation
                                             ///<    centre a rotation moves it
-  double torque_limit = 0.0;                ///< N m, 0 = no torque clamp
   bool has_jaws = false;
   /// Contact against the virtual mesh's triangles (scene `contact: surface`; surface_contact.hpp),
   /// or null: the paper's contact of the virtual mesh's vertices.

@@ -164,7 +164,7 @@ ToolOutput tool_output(const ToolModel& tool, const Stiffness& k, const ToolPose
                        const VirtualToolState& st) {
   const CouplingOutput<double> c = coupling_output(st.pose.position, st.pose.orientation, physical.position,
                                                     physical.orientation, k.k_vcs, k.k_vct, tool.spec.force_limit,
-                                                    tool.torque_limit);
+                                                    tool.spec.torque_limit);
   return {c.force, c.torque, c.force_clamped, c.torque_clamped};
 }
 

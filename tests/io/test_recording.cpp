@@ -370,6 +370,25 @@ TEST(ToolSpeed, AJumpInTheLogIsNamed) {
   }
 }
 
+// A turn no hand makes (half a turn between two samples, a device reset) is named like a jump; the
+// committed recordings' turns are a hand's.
+TEST(ToolTurn, ATurnInTheLogIsNamed) {
+  Recording r = make_recording();
+  for (std::size_t i = 0; i < r.size(); ++i)  // 10 rad/s about z
+    r.orientation[i] = quat_from_rotvec(Vec3d{0, 0, 0.01 * static_cast<double>(i)});
+  EXPECT_FALSE(check_recording_turn(r).has_value());
+  for (std::size_t i = 7; i < r.size(); ++i) r.orientation[i] = r.orientation[i] * quat_from_rotvec(Vec3d{0, 0, 3.0});
+  const auto w = check_recording_turn(r);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("turns 172 degrees between samples 6 and 7 (the recording's t = 0.006 .. 0.007 s: 3.01e+03 rad/s"),
+            std::string::npos) << *w;
+  for (const char* name : {"tube_insert", "tube_grasp", "gap_insert", "gap_grasp", "cholecystectomy_press",
+                           "cholecystectomy_grasp", "gynaecology_press", "gynaecology_grasp"}) {
+    const auto c = check_recording_turn(read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5"));
+    EXPECT_FALSE(c.has_value()) << name << ": " << *c;
+  }
+}
+
 TEST(Recording, OneSampleIsNotATrajectory) {
   // A replay needs a duration: the message names the file and says so (it used to blame a
   // --start that was never given).

@@ -921,6 +921,19 @@ TEST(Scene, NewtonCallsDefaultToAllAndReloadAsGiven) {
   EXPECT_THROW(load_scene_spec(file, {"solver.virtual_iterations=2", "tool.newton_calls=3"}), InputError);
 }
 
+// tool.torque_limit: none (0) by default, in N m, reloaded as given; a negative one is refused.
+TEST(Scene, TorqueLimitIsNoneByDefaultAndReloads) {
+  const fs::path file = fs::path(EBH_SOURCE_DIR) / "scenarios" / "tube.yaml";
+  EXPECT_EQ(load_scene_spec(file).tool.torque_limit, 0.0);
+  const SceneSpec limited = load_scene_spec(file, {"tool.torque_limit=0.25"});
+  EXPECT_EQ(limited.tool.torque_limit, 0.25);
+  const fs::path tmp = fs::temp_directory_path() / "ebh_test_torque_limit.yaml";
+  std::ofstream(tmp) << resolved_scene_yaml(limited);
+  EXPECT_EQ(load_scene_spec(tmp).tool.torque_limit, 0.25);
+  fs::remove(tmp);
+  EXPECT_THROW(load_scene_spec(file, {"tool.torque_limit=-1"}), InputError);
+}
+
 // An error an override caused names the override (--set KEY=VALUE), not the scene file, which is
 // fine: a key nested too deep under an unknown one, a value out of range, a rate that does not
 // divide the file's other rate (either one set), a map path through a value; an error of the file

@@ -388,8 +388,9 @@ TEST(BroadPhase, ViolatedDisplacementBoundFallsBackToARebuild) {
 }
 
 TEST(ToolOutput, ForceAndTorqueClampAreFlagged) {
-  ToolModel tool = build_tool(ToolSpec{});
-  tool.torque_limit = 0.05;
+  ToolSpec spec;
+  spec.torque_limit = 0.05;
+  const ToolModel tool = build_tool(spec);
   const Stiffness k;  // k_vcs 300 N/m, k_vct 0.3 N m/rad
   VirtualToolState st;
   init_virtual_tool(st, 0, {{0, 0, 0.02}, quat_from_rotvec(Vec3d{0, 0, 0.3})});

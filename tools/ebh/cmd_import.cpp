@@ -107,6 +107,7 @@ void run(const ImportArgs& a) {
     if (auto w = ebh::check_recording_scale(rec, mesh_box->lo, mesh_box->hi, log_unit))
       std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   if (auto w = ebh::check_recording_speed(rec)) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
+  if (auto w = ebh::check_recording_turn(rec)) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   std::printf("%s: %zu samples, %.6g s, %.10g Hz, tool %s\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz,
               rec.tool.c_str());
   // A hold (repeats lasting more than kStaleRunMaxS: the device at rest) keeps its last sample.

@@ -255,6 +255,11 @@ class SpecReader {
       }
     }
     if (!top.count("mesh")) fail("mesh", "missing (required: mesh.physical names the physical mesh)");
+    if (s.tool.forceps.release() < s.tool.forceps.grasp_threshold)
+      fail("tool.forceps.release_threshold", "expected at least tool.forceps.grasp_threshold (" +
+                                                 shown_number(s.tool.forceps.grasp_threshold) + "), got " +
+                                                 shown_number(s.tool.forceps.release()),
+           {"tool.forceps.grasp_threshold"});
     if (s.tool.newton_calls > s.solver.virtual_iterations)
       fail("tool.newton_calls", "expected all or at most solver.virtual_iterations (" +
                                     std::to_string(s.solver.virtual_iterations) + "), got " +
@@ -388,6 +393,7 @@ class SpecReader {
         if (auto it = h.find("tip_radius"); it != h.end()) t.hook.tip_radius = length(it->second, k + ".tip_radius", unit);
       } else if (name == "forceps") {
         const auto f = entries(v, k, {"jaw_length", "jaw_width", "jaw_thickness", "jaw_max_angle_deg", "grasp_threshold",
+                                      "release_threshold",
                                       "soft_margin", "eta"});
         for (const auto& [fname, fv] : f) {
           const std::string fk = k + "." + fname;
@@ -396,6 +402,7 @@ class SpecReader {
           else if (fname == "jaw_thickness") t.forceps.jaw_thickness = length(fv, fk, unit);
           else if (fname == "jaw_max_angle_deg") t.forceps.jaw_max_angle_deg = in_range(fv, fk, 0, false, kMaxJawAngleDeg, false);
           else if (fname == "grasp_threshold") t.forceps.grasp_threshold = in_range(fv, fk, 0, false, 1, true);  // jaw < 0 never: no grasp
+          else if (fname == "release_threshold") t.forceps.release_threshold = in_range(fv, fk, 0, false, 1, true);
           else if (fname == "soft_margin") t.forceps.soft_margin = length(fv, fk, unit);
           else if (fname == "eta") t.forceps.eta = positive(fv, fk);
         }
@@ -1316,6 +1323,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "jaw_thickness" << YAML::Value << tool_length(f.jaw_thickness);
   y << YAML::Key << "jaw_max_angle_deg" << YAML::Value << f.jaw_max_angle_deg;
   y << YAML::Key << "grasp_threshold" << YAML::Value << f.grasp_threshold;
+  if (f.release_threshold) y << YAML::Key << "release_threshold" << YAML::Value << *f.release_threshold;
   y << YAML::Key << "soft_margin" << YAML::Value << tool_length(f.soft_margin);
   y << YAML::Key << "eta" << YAML::Value << f.eta << YAML::EndMap;
   y << YAML::Key << "force_limit" << YAML::Value << t.force_limit;

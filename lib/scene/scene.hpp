@@ -46,6 +46,8 @@
 //     hook: {tip_length: 6, tip_radius: 1.0}                # the bent tip, along the tool's local +x
 //     forceps: {jaw_length: 20, jaw_width: 5, jaw_thickness: 2, jaw_max_angle_deg: 30,
 //               grasp_threshold: 0.2, soft_margin: 2, eta: 1.0}
+//                                   # release_threshold: grasp_threshold: the jaw value at or above
+//                                   #   which grasped jaws let go (higher: a noisy gripper holds on)
 //     force_limit: 3.3              # N (Geomagic Touch)
 //     torque_limit: 0               # N m, 0: no limit (a device that renders torque: its own)
 //     newton_iterations: 2          # Newton steps on E_tool per Newton call
@@ -147,6 +149,10 @@ struct ForcepsSpec {
   double jaw_thickness = 0.002;      ///< m
   double jaw_max_angle_deg = 30.0;   ///< opening of each jaw at jaw = 1
   double grasp_threshold = 0.2;      ///< jaw value below which the jaws grasp
+  /// Jaw value at or above which grasped jaws let go (>= grasp_threshold); none given: the grasp
+  /// threshold, the paper's. Above it, a gripper's noise does not let go and grasp again.
+  std::optional<double> release_threshold;
+  double release() const { return release_threshold.value_or(grasp_threshold); }
   double soft_margin = 0.002;        ///< m, soft collider around the hard jaw box [10]
   double eta = 1.0;                  ///< smoothing factor of w(d) = 1 / (1 + eta e^d) [10]
 };

@@ -130,7 +130,7 @@ std::string tool_yaml(bool forceps) {
       "  shaft_length: 330             # its usual working length\n";
   if (forceps) {
     y += "  forceps: {jaw_length: 20, jaw_width: 5, jaw_thickness: 2, jaw_max_angle_deg: 30,\n"
-         "            grasp_threshold: 0.2, soft_margin: 2, eta: 1.0}\n";
+         "            grasp_threshold: 0.2, release_threshold: 0.3, soft_margin: 2, eta: 1.0}\n";
   } else {
     y += "  hook: {tip_length: 6, tip_radius: 1.0}   # the L-hook's bent tip\n";
   }

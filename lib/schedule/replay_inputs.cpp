@@ -98,6 +98,33 @@ std::optional<std::string> grasp_lost(const Recording& rec, const SceneSpec& spe
   return std::string(line);
 }
 
+/// A jaw signal that lets go and grasps again within kRegraspS (a noisy gripper around the
+/// thresholds): each release drops the tissue and the next closing grasps it where it is then.
+/// One line naming how often and the first time; nullopt for a tool without a grasp.
+std::optional<std::string> grasp_flicker(const Recording& rec, const SceneSpec& spec) {
+  if (spec.tool.kind != ToolSpec::Kind::Forceps || !spec.stages.grasp) return std::nullopt;
+  const ForcepsSpec& f = spec.tool.forceps;
+  bool closed = false;
+  double released_at = -INFINITY, first = 0;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < rec.size(); ++i) {
+    const bool now = rec.jaw[i] < (closed ? f.release() : f.grasp_threshold);
+    if (now == closed) continue;
+    closed = now;
+    if (!closed) released_at = rec.t[i];
+    else if (rec.t[i] - released_at < kRegraspS && count++ == 0) first = rec.t[i];
+  }
+  if (count == 0) return std::nullopt;
+  char line[480];
+  std::snprintf(line, sizeof line,
+                "the jaws let go and grasp again within %g ms %zu times, first at the recording's t = %.3f s (the jaw "
+                "signal crosses tool.forceps.grasp_threshold %g and release_threshold %g back and forth: a noisy "
+                "gripper): each release drops the tissue; a release threshold above the noise holds on (docs/TOOLS.md, "
+                "\"Grasping\")",
+                kRegraspS * 1e3, count, first, f.grasp_threshold, f.release());
+  return std::string(line);
+}
+
 /// Rates given as options (--haptic-hz, --physical-hz) against the scene's other rate, the error
 /// naming the option (the options' ranges are their validators' and build_world's; the scene's own
 /// pair is the scene reader's to check).
@@ -176,6 +203,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   if (auto w = check_recording_speed(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_turn(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = grasp_lost(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);
+  if (auto w = grasp_flicker(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);
   return r;
 }
 

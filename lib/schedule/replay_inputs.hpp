@@ -26,6 +26,9 @@ struct LoadedReplay {
   std::vector<std::string> warnings;  ///< one line each ("REC: ..."): the unit sanity check
 };
 
+/// A release followed by a closing sooner than this is a noisy jaw signal, not a hand (grasp_flicker).
+inline constexpr double kRegraspS = 0.05;
+
 /// Resolves a recording argument: an existing file, else recordings/NAME.h5 looked up in
 /// $EBH_DATA_DIR, the working directory and the source tree. Throws InputError if missing.
 std::string resolve_recording_path(const std::string& name_or_path);

@@ -563,7 +563,7 @@ DeviceReplayInputs device_replay_inputs(const World& world, const Recording& rec
     d.jaw_sin = jaws.sin;
     if (physical_result_arrives(mode, n, N)) delivered = n;
     if (world.scene.spec.interpolate_physical && delivered >= 0) d.alpha = physical_blend(n, delivered, N);
-    if (grasping && jaws_closed(world.tool, s.jaw) != closed) {
+    if (grasping && jaws_closed(world.tool, s.jaw, closed) != closed) {
       closed = !closed;
       if (closed) {
         grasp_boxes.push_back(grasp_hard_box(world.tool, s.jaw));

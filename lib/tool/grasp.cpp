@@ -20,7 +20,7 @@ int update_grasp(const ToolModel& tool, const ToolPose& pose, double jaw, std::s
   if (!tool.has_jaws) return 0;
   if (g.held.size() != q.size()) init_grasp(g, q.size());
   const ForcepsSpec& f = tool.spec.forceps;
-  const bool closed = jaws_closed(tool, jaw);
+  const bool closed = jaws_closed(tool, jaw, g.closed);
   if (closed == g.closed) return 0;
   g.closed = closed;
   if (!closed) {  // release

@@ -9,8 +9,9 @@
 // (dimensionless, in [-min half extent / soft_margin, 1]: negative inside, so vertices between
 // the jaws are flattened most; e.g. -1.25 .. 1 for the default forceps). Every tick the target q_g = P_g + R_g l_g moves rigidly with the virtual
 // tool, goes to the virtual mesh as a ContactTarget (stiffness k_con) and acts back on the virtual
-// tool through the same E_con [3] (grasp_energy in tool_energy.hpp). Opening the jaws above the
-// threshold releases every vertex. The weight and target are tool_terms.hpp's (grasp_point), shared
+// tool through the same E_con [3] (grasp_energy in tool_energy.hpp). Opening the jaws to the
+// release threshold (tool.forceps.release_threshold, by default the grasp threshold) releases
+// every vertex. The weight and target are tool_terms.hpp's (grasp_point), shared
 // with the device tick.
 #include <cstdint>
 #include <span>
@@ -34,8 +35,11 @@ struct GraspState {
 /// Sizes the state for m virtual vertices (capacity m, so grasping never allocates later).
 void init_grasp(GraspState& g, std::size_t m);
 
-/// Whether the jaw value `jaw` closes the jaws past the grasp threshold (a tool with jaws).
-inline bool jaws_closed(const ToolModel& tool, double jaw) { return jaw < tool.spec.forceps.grasp_threshold; }
+/// Whether the jaws are closed at the jaw value `jaw`, having been `was_closed` (a tool with jaws):
+/// open jaws close below the grasp threshold, closed ones open at the release threshold.
+inline bool jaws_closed(const ToolModel& tool, double jaw, bool was_closed) {
+  return jaw < (was_closed ? tool.spec.forceps.release() : tool.spec.forceps.grasp_threshold);
+}
 
 /// Opens or closes the grasp for this tick's jaw value.
 ///   q  #m virtual-mesh positions; pose: the virtual tool's pose

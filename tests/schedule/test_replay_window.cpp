@@ -1,5 +1,6 @@
-// The one check of a replay window (replay_window): what `ebh replay --start --duration` and
-// `ebh gate`'s cases take.
+// Checks of a replay's inputs (schedule/replay_inputs.hpp): the one check of a replay window
+// (replay_window, what `ebh replay --start --duration` and `ebh gate`'s cases take), the tool's
+// tip inside the tissue, a jaw signal that lets go and grasps again.
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -69,4 +70,27 @@ TEST(TipInsideMesh, TheToolsCollidersReachPastItsOrigin) {
   const ToolModel hook = build_tool(ToolSpec{});  // a 6 mm tip
   EXPECT_EQ(tip_inside_mesh(rec, slab, 0, 0), std::nullopt);  // the origin alone is outside
   EXPECT_EQ(tip_inside_mesh(rec, slab, 0, 0, &hook), std::optional<double>(0.0));
+}
+
+// A noisy gripper: the jaw wanders across the grasp threshold while the forceps hold tissue, and
+// each crossing back lets go and grasps again (said, with how often); a release threshold above the
+// noise holds on, and the committed recording's clean signal is not a flicker.
+TEST(GraspFlicker, AJawThatLetsGoAndGraspsAgainIsSaid) {
+  RecordingFile file = read_replay_recording("tube_grasp");
+  auto warned = [](const LoadedReplay& r) {
+    for (const std::string& w : r.warnings)
+      if (w.find("let go and grasp again") != std::string::npos) return w;
+    return std::string();
+  };
+  EXPECT_EQ(warned(load_replay_scene(RecordingFile(file), "tube_forceps", {}, std::nullopt, std::nullopt, false, Backend::Cpu)), "");
+  // The jaws stand open at 3 s; 0.1 s of noise across 0.2 every 5 ms from then: closed at 3.000 s,
+  // let go at 3.005 s, grasping again at 3.010 s, ..., let go at 3.095 s: 9 grasps again.
+  for (std::size_t i = 0; i < file.recording.size(); ++i)
+    if (file.recording.t[i] >= 3.0 && file.recording.t[i] < 3.1)
+      file.recording.jaw[i] = (i / 5) % 2 == 0 ? 0.1 : 0.25;
+  const std::string w = warned(load_replay_scene(RecordingFile(file), "tube_forceps", {}, std::nullopt, std::nullopt, false, Backend::Cpu));
+  EXPECT_NE(w.find("the jaws let go and grasp again within 50 ms 9 times, first at the recording's t = 3.010 s"),
+            std::string::npos) << w;
+  EXPECT_EQ(warned(load_replay_scene(RecordingFile(file), "tube_forceps", {"tool.forceps.release_threshold=0.3"},
+                                     std::nullopt, std::nullopt, false, Backend::Cpu)), "");
 }

@@ -197,6 +197,30 @@ TEST(Grasp, GraspedVerticesFollowTheJawsAndAreFreedOnRelease) {
   EXPECT_EQ(std::accumulate(st.grasp.held.begin(), st.grasp.held.end(), 0), 0);
 }
 
+// The release threshold: closed jaws let go at it, not at the grasp threshold, so a jaw signal that
+// wanders between the two holds on; by default the two are one (the paper's single threshold).
+TEST(Grasp, ClosedJawsLetGoAtTheReleaseThreshold) {
+  ToolSpec spec;
+  spec.kind = ToolSpec::Kind::Forceps;
+  spec.forceps.release_threshold = 0.3;
+  const std::vector<Vec3d> q{{0, 0, 0.01}};  // one vertex between the jaws
+  VertexGrid grid;
+  GraspState g;
+  const ToolPose pose{{0, 0, 0}, Quatd{}};
+  const ToolModel tool = build_tool(spec);
+  EXPECT_EQ(update_grasp(tool, pose, 0.25, q, grid, g), 0);   // open: closes below 0.2 only
+  EXPECT_EQ(update_grasp(tool, pose, 0.15, q, grid, g), +1);
+  EXPECT_EQ(update_grasp(tool, pose, 0.25, q, grid, g), 0);   // noise above 0.2: still held
+  EXPECT_EQ(update_grasp(tool, pose, 0.299, q, grid, g), 0);
+  EXPECT_EQ(g.vertices.size(), 1u);
+  EXPECT_EQ(update_grasp(tool, pose, 0.3, q, grid, g), -1);   // at the release threshold: let go
+  spec.forceps.release_threshold.reset();
+  const ToolModel paper = build_tool(spec);
+  GraspState h;
+  EXPECT_EQ(update_grasp(paper, pose, 0.15, q, grid, h), +1);
+  EXPECT_EQ(update_grasp(paper, pose, 0.25, q, grid, h), -1);  // one threshold
+}
+
 /// n points uniform in a 6 cm cube about the origin (the broad-phase tests' virtual mesh).
 std::vector<Vec3d> random_cloud(unsigned seed, std::size_t n) {
   std::mt19937 rng(seed);

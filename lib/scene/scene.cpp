@@ -1066,15 +1066,17 @@ Scene build_scene(SceneSpec spec_in) {
   std::sort(scene.pinned.begin(), scene.pinned.end());
   scene.pinned.erase(std::unique(scene.pinned.begin(), scene.pinned.end()), scene.pinned.end());
   // A pinned region that holds all of the mesh, or only some of its parts: the tool meets a rigid
-  // body, or pushes a part away (under gravity it falls; settle_under_gravity refuses it).
+  // body, or drags a part through the coupling (settle_under_gravity refuses it under gravity).
   const std::string where = spec.file.string();
   const int nv = static_cast<int>(scene.physical.vertices.size());
   if (nv > 0 && static_cast<int>(scene.pinned.size()) == nv)
     scene.warnings.push_back(where + ": pinned: every vertex of the physical mesh is pinned, so it cannot move and "
                                      "the tool meets a rigid body (pin a region of it)");
   if (nv > 0 && scene.pinned.empty())
-    scene.warnings.push_back(where + ": pinned: nothing is pinned, so the physical mesh floats free (under gravity "
-                                     "it falls) and the tool pushes it away (pin a region of it)");
+    scene.warnings.push_back(where + ": pinned: nothing is pinned, so the physical mesh floats free, held only by "
+                                     "its coupling to the virtual mesh, which drags it like a thick fluid: under "
+                                     "gravity it sinks slowly instead of falling, and the tool feels that drag, not "
+                                     "tissue held in place (docs/MODEL.md, \"Held loads\"; pin a region of it)");
   if (!scene.pinned.empty()) {
     scene.free_parts = unpinned_parts(scene.physical, scene.pinned);
     if (!scene.free_parts.empty()) {
@@ -1085,7 +1087,9 @@ Scene build_scene(SceneSpec spec_in) {
           where + ": pinned: " + std::to_string(scene.free_parts.size()) + " part(s) of the physical mesh (" +
           std::to_string(free_vertices) + " of its " + std::to_string(nv) +
           " vertices; the first holds vertex " + std::to_string(first) + " and " + std::to_string(count) +
-          " vertices) touch no pinned vertex: they float free (pin each part, or under gravity they fall)");
+          " vertices) touch no pinned vertex: they float free, held only by their coupling to the virtual mesh, "
+          "which drags them like a thick fluid (the tool feels that drag; docs/MODEL.md, \"Held loads\"): pin "
+          "each part");
     }
   }
   return scene;

@@ -183,6 +183,16 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, spec);
   check_rate_options(spec, haptic_hz, physical_hz);
   const double hz_h = haptic_hz.value_or(spec.haptic_hz), hz_p = physical_hz.value_or(spec.physical_hz);
+  if (hz_p < kMinPlausiblePhysicalHz) {
+    const std::string key = physical_hz ? std::string("--physical-hz") : value_source(spec, "time.physical_hz") +
+                                                                              ": time.physical_hz";
+    char line[320];
+    std::snprintf(line, sizeof line,
+                  " %g Hz: the physical mesh answers the virtual mesh %g times a second (the paper: 60-100), so the "
+                  "tissue follows the tool %g ms late and the virtual mesh alone holds it meanwhile",
+                  hz_p, hz_p, 1e3 / hz_p);
+    r.warnings.push_back(key + line);
+  }
   if (worlds) {
     r.world = worlds->get(std::move(spec), hz_h, hz_p, backend);
   } else {

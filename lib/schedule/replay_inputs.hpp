@@ -26,6 +26,9 @@ struct LoadedReplay {
   std::vector<std::string> warnings;  ///< one line each ("REC: ..."): the unit sanity check
 };
 
+/// Under this physical rate a replay warns: the tissue follows the tool a long period late.
+inline constexpr double kMinPlausiblePhysicalHz = 20;
+
 /// A release followed by a closing sooner than this is a noisy jaw signal, not a hand (grasp_flicker).
 inline constexpr double kRegraspS = 0.05;
 

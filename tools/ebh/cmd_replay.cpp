@@ -276,9 +276,14 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   }
   if (writer.unbalanced_steps() > 0) {
     const SolverSpec& solver = world.scene.spec.solver;
+    // One iteration measures its step's residual before it runs (at the start of the last
+    // iteration): a step redone with the direct solve reports where it started, not where it ended.
     const char* fix = world.backend == Backend::Cuda ? ", or replay with --backend cpu, whose recovery redoes such a step"
                       : solver.recovery == SolverSpec::Recovery::None ? ", or turn solver.recovery back on"
-                                                                       : "";
+                      : world.physical_params.iterations == 1 && solver.physical_tolerance == 0
+                          ? " (with 1 iteration a step's residual is measured before it runs, also where the direct "
+                            "solve redid the step)"
+                          : "";
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps ended with more than %g mesh weights unbalanced "
                  "(solver.recovery_residual; the largest %.3g, the first at t = %.3f s; /physical/residual): the "

@@ -505,6 +505,21 @@ double nominal_rate(const std::vector<double>& t) {
   return whole > 0 && std::fabs(rate - whole) <= tolerance * whole ? whole : rate;
 }
 
+std::pair<double, double> parse_jaw_range(const std::string& text) {
+  const auto comma = text.find(',');
+  double v[2] = {0, 0};
+  bool ok = comma != std::string::npos && text.find(',', comma + 1) == std::string::npos;
+  for (int k = 0; ok && k < 2; ++k) {
+    const std::string part = k == 0 ? text.substr(0, comma) : text.substr(comma + 1);
+    char* end = nullptr;
+    v[k] = std::strtod(part.c_str(), &end);
+    ok = !part.empty() && end && *end == '\0' && std::isfinite(v[k]);
+  }
+  if (!ok) throw InputError("--jaw-range '" + text + "': expected CLOSED,OPEN, two numbers (the log's jaw values)");
+  if (v[0] == v[1]) throw InputError("--jaw-range '" + text + "': the closed and open values are the same");
+  return {v[0], v[1]};
+}
+
 Recording import_log(const std::string& path, const ImportOptions& opt, ImportReport* report) {
   const double rate_hz = opt.rate_hz.value_or(kAssumedLogRateHz);
   if (!(rate_hz > 0 && rate_hz <= kMaxSampleRateHz))
@@ -535,6 +550,23 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // The rate as given, or as the log's own times say (of every sample, repeats included).
   rec.rate_hz = rate_hz;
   if (has_t && rec.size() >= 2 && rec.t.back() > rec.t.front()) rec.rate_hz = nominal_rate(rec.t);
+  // The jaw in the log's own range, mapped to 0 closed .. 1 open; without a range one outside
+  // [0, 1] is refused here, naming the option that maps it.
+  std::size_t jaw_clamped = 0, first_jaw_clamped = 0;
+  for (std::size_t i = 0; i < rec.size(); ++i) {
+    double& j = rec.jaw[i];
+    if (!std::isfinite(j)) continue;  // the validator's to name
+    if (opt.jaw_range) {
+      j = (j - opt.jaw_range->first) / (opt.jaw_range->second - opt.jaw_range->first);
+      if (j < -kJawTolerance || j > 1 + kJawTolerance)
+        if (jaw_clamped++ == 0) first_jaw_clamped = line_of[i];
+      j = std::clamp(j, 0.0, 1.0);
+    } else if (j < -kJawTolerance || j > 1 + kJawTolerance) {
+      throw InputError(at(path, line_of[i]) + ": jaw " + num(j) +
+                       " outside [0, 1] (0 closed, 1 open): give the log's values when closed and open, --jaw-range "
+                       "CLOSED,OPEN (--jaw-range 0,1 clamps a gripper calibrated a little past its ends)");
+    }
+  }
   // Validated before repeats are dropped, so an error names the log's own line.
   validate_recording(rec, path, [&](std::string_view, std::size_t i) { return at(path, line_of[i]); });
   const std::string rate_warning = check_log_rate(rec, has_t, path);
@@ -551,6 +583,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   r.duplicate_rows = left_out.duplicate_rows;
   r.first_duplicate_line = left_out.first_duplicate;
   if (has_t) r.gap_warning = check_log_gaps(rec, line_of);
+  r.jaw_clamped = jaw_clamped;
+  r.first_jaw_clamped_line = first_jaw_clamped;
   // Runs of repeats: sample i is new, samples i+1..j repeat it. A short run is stale samples of a
   // device polled faster than it updates; a run lasting more than kStaleRunMaxS is a hold (the
   // device at rest) and keeps its last sample, so a replay holds still until the device moves

@@ -39,6 +39,10 @@ struct ImportOptions {
   /// csv: header names of columns left unread (a logger's other data); each must be in the header.
   std::vector<std::string> skip_columns;
   std::optional<double> unit;       ///< metres per log length unit; nullopt: the format's default
+  /// The log's jaw values when the jaws are closed and when open (--jaw-range CLOSED,OPEN): mapped
+  /// to 0 and 1 linearly and clamped to them (a gripper in degrees, an inverted signal, one
+  /// calibrated a little past its ends); nullopt: the log's values are 0 .. 1 already.
+  std::optional<std::pair<double, double>> jaw_range;
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
   std::string tool = "hook";
@@ -85,6 +89,8 @@ struct ImportReport {
   std::size_t duplicate_rows = 0;        ///< csv rows equal to the row before them, t included: left out
   std::size_t first_duplicate_line = 0;  ///< the first of them
   std::string gap_warning;     ///< the times have a gap (kLogGapFactor): where, how long
+  std::size_t jaw_clamped = 0; ///< jaw_range: samples whose mapped jaw lay outside [0, 1], clamped
+  std::size_t first_jaw_clamped_line = 0;
 };
 
 /// An interval between a log's times above this many times the median one (and above two
@@ -103,6 +109,9 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
 /// (or within the round-off of times counted from an epoch: 4 eps |t| / span), so a log at 1 kHz
 /// gives 1000, not 999.9999999999991, and one at 10 kHz in Unix time 10000, not 9999.99999.
 double nominal_rate(const std::vector<double>& t);
+
+/// Parses "--jaw-range CLOSED,OPEN": two finite, different numbers; throws InputError naming the option.
+std::pair<double, double> parse_jaw_range(const std::string& text);
 
 /// Parses "--unit m|cm|mm" (metres per unit); throws InputError naming the option.
 double parse_length_unit(const std::string& name);

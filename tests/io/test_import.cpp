@@ -253,6 +253,30 @@ TEST(Import, OtherColumnsAreSkippedWhenNamed) {
   EXPECT_INPUT_ERROR(import_log(p, opt), "force.csv:1: --skip-column force_y: the header has no such column");
 }
 
+// A jaw in the log's own range (a gripper in degrees, a signal that is 1 when closed, one that
+// runs a little past its ends) is mapped by --jaw-range; without it, a value outside [0, 1] names
+// the option.
+TEST(Import, TheJawRangeMapsTheLogsJawValues) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  const std::string p = write_log(tmp / "jaw.csv", "t,x,y,z,qw,qx,qy,qz,jaw\n0,0,0,0,1,0,0,0,30\n"
+                                                     "0.001,0,0,0,1,0,0,0,7.5\n0.002,0,0,0,1,0,0,0,-0.3\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "jaw.csv:2: jaw 30 outside [0, 1]", "--jaw-range CLOSED,OPEN");
+  opt.jaw_range = parse_jaw_range("0,30");  // degrees, 0 closed
+  ImportReport report;
+  Recording r = import_log(p, opt, &report);
+  EXPECT_EQ(r.jaw, (std::vector<double>{1.0, 0.25, 0.0}));
+  EXPECT_EQ(report.jaw_clamped, 1u);  // -0.3 degrees: past closed
+  EXPECT_EQ(report.first_jaw_clamped_line, 4u);
+  opt.jaw_range = parse_jaw_range("30,0");  // 30 when closed: inverted
+  r = import_log(p, opt);
+  EXPECT_EQ(r.jaw[0], 0.0);
+  EXPECT_EQ(r.jaw[1], 0.75);
+  EXPECT_INPUT_ERROR(parse_jaw_range("1,1"), "--jaw-range '1,1': the closed and open values are the same");
+  EXPECT_INPUT_ERROR(parse_jaw_range("0,nan"), "--jaw-range '0,nan': expected CLOSED,OPEN");
+  EXPECT_INPUT_ERROR(parse_jaw_range("0,1,2"), "expected CLOSED,OPEN");
+}
+
 // A gap in a log's times (the logger missed samples) is named: a replay glides across it.
 TEST(Import, GapsInTheTimesAreNamed) {
   test::ScratchDir tmp;

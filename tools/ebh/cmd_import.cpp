@@ -26,6 +26,7 @@ struct ImportArgs {
   std::optional<double> rate_hz;
   bool drop_repeats = false;
   std::vector<std::string> skip_columns;
+  std::string jaw_range;
 };
 
 void run(const ImportArgs& a) {
@@ -73,6 +74,7 @@ void run(const ImportArgs& a) {
   opt.tool = !a.tool.empty() ? a.tool : scene_tool ? scene_tool : "hook";
   opt.drop_repeats = a.drop_repeats;
   opt.skip_columns = a.skip_columns;
+  if (!a.jaw_range.empty()) opt.jaw_range = ebh::parse_jaw_range(a.jaw_range);
   if (!opt.skip_columns.empty() && opt.format.value_or(ebh::log_format_of(a.log)) != ebh::LogFormat::csv)
     throw ebh::InputError("--skip-column: an OpenHaptics log has no named columns (--skip-column is for a CSV log)");
   ebh::ImportReport report;
@@ -96,6 +98,12 @@ void run(const ImportArgs& a) {
     std::fprintf(stderr, "ebh: warning: %s: %zu %s the row before, time included (the first at line %zu): left out\n",
                  a.log.c_str(), report.duplicate_rows, report.duplicate_rows == 1 ? "row repeats" : "rows repeat",
                  report.first_duplicate_line);
+  if (report.jaw_clamped)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: %zu samples' jaw lay outside --jaw-range %s (the first at line %zu): clamped to "
+                 "%s\n",
+                 a.log.c_str(), report.jaw_clamped, a.jaw_range.c_str(), report.first_jaw_clamped_line,
+                 report.jaw_clamped == 1 ? "its end" : "its ends");
   if (!report.gap_warning.empty())
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), report.gap_warning.c_str());
   if (scene_tool && opt.tool != scene_tool)
@@ -145,6 +153,9 @@ void setup(CLI::App& root) {
   c->add_option("--tool", args->tool,
                 "the tool the log's device held, hook or forceps (root attribute tool; default: the scene's tool with "
                 "--scene, else hook)");
+  c->add_option("--jaw-range", args->jaw_range,
+                "the log's jaw values when closed and when open, \"CLOSED,OPEN\" (mapped to 0 and 1 and clamped; "
+                "default: the log's are 0 closed .. 1 open)");
   c->add_option("--skip-column", args->skip_columns,
                 "csv: a column of the log to leave unread (a force or a timestamp of another clock; repeatable)");
   c->add_flag("--drop-repeats", args->drop_repeats,

@@ -62,22 +62,11 @@ TetEmbedding TetLocator::locate(const Vec3d& p, double& error_out) const {
     v = mesh_.tets[t];
     l = bary(t, p);
   } else {
-    std::call_once(boundary_once_, [this] {
-      std::vector<int> to_volume;
-      for (Tri tri : extract_boundary(mesh_, &to_volume).triangles) {
-        for (int& k : tri) k = to_volume[k];
-        boundary_.push_back(tri);
-      }
-    });
-    double nearest = std::numeric_limits<double>::infinity();
-    for (const Tri& f : boundary_) {
-      const Vec3d &a = mesh_.vertices[f[0]], &b = mesh_.vertices[f[1]], &c = mesh_.vertices[f[2]];
-      const auto w = closest_on_triangle(p, a, b, c);
-      if (const double d2 = squared_norm(w[0] * a + w[1] * b + w[2] * c - p); d2 < nearest) {
-        nearest = d2;
-        v = {f[0], f[1], f[2], -1};
-        l = {w[0], w[1], w[2], 0};
-      }
+    std::call_once(boundary_once_, [this] { build_face_tree(); });
+    std::array<double, 3> w{};
+    if (const int f = closest_face(p, w); f >= 0) {
+      v = {boundary_[f][0], boundary_[f][1], boundary_[f][2], -1};
+      l = {w[0], w[1], w[2], 0};
     }
   }
   TetEmbedding pair;
@@ -94,6 +83,96 @@ TetEmbedding TetLocator::locate(const Vec3d& p, double& error_out) const {
   }
   error_out = norm(q - p);
   return pair;
+}
+
+void TetLocator::build_face_tree() const {
+  std::vector<int> to_volume;
+  for (Tri tri : extract_boundary(mesh_, &to_volume).triangles) {
+    for (int& k : tri) k = to_volume[k];
+    boundary_.push_back(tri);
+  }
+  const int n = static_cast<int>(boundary_.size());
+  if (n == 0) return;
+  std::vector<Vec3d> centre(n), lo(n), hi(n);
+  for (int f = 0; f < n; ++f) {
+    const Vec3d &a = mesh_.vertices[boundary_[f][0]], &b = mesh_.vertices[boundary_[f][1]],
+                &c = mesh_.vertices[boundary_[f][2]];
+    lo[f] = cwise_min(a, cwise_min(b, c));
+    hi[f] = cwise_max(a, cwise_max(b, c));
+    centre[f] = 0.5 * (lo[f] + hi[f]);
+  }
+  face_order_.resize(n);
+  for (int f = 0; f < n; ++f) face_order_[f] = f;
+  // Median splits along the widest extent of the faces' centres, leaves of up to 4 faces.
+  struct Range { int node, first, count; };
+  face_tree_.push_back({});
+  std::vector<Range> todo{{0, 0, n}};
+  while (!todo.empty()) {
+    const Range r = todo.back();
+    todo.pop_back();
+    const auto begin = face_order_.begin() + r.first, end = begin + r.count;
+    Vec3d blo = lo[*begin], bhi = hi[*begin], clo = centre[*begin], chi = clo;
+    for (auto it = begin; it != end; ++it) {
+      blo = cwise_min(blo, lo[*it]);
+      bhi = cwise_max(bhi, hi[*it]);
+      clo = cwise_min(clo, centre[*it]);
+      chi = cwise_max(chi, centre[*it]);
+    }
+    face_tree_[r.node].lo = blo;
+    face_tree_[r.node].hi = bhi;
+    if (r.count <= 4) {
+      face_tree_[r.node].first = r.first;
+      face_tree_[r.node].count = r.count;
+      continue;
+    }
+    const Vec3d ext = chi - clo;
+    const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : ext.y >= ext.z ? 1 : 2;
+    const int half = r.count / 2;
+    std::nth_element(begin, begin + half, end, [&](int a, int b) {
+      return centre[a][axis] < centre[b][axis] || (centre[a][axis] == centre[b][axis] && a < b);
+    });
+    const int left = static_cast<int>(face_tree_.size());
+    face_tree_.push_back({});
+    face_tree_.push_back({});
+    face_tree_[r.node].left = left;
+    face_tree_[r.node].right = left + 1;
+    todo.push_back({left, r.first, half});
+    todo.push_back({left + 1, r.first + half, r.count - half});
+  }
+}
+
+int TetLocator::closest_face(const Vec3d& p, std::array<double, 3>& weights) const {
+  if (face_tree_.empty()) return -1;
+  // Depth first, the nearer child first; a node is skipped only when its box is farther than the
+  // nearest face found, so an equally near face of a lower number is still found.
+  auto box_d2 = [&p](const FaceNode& n) { return squared_norm(cwise_max(n.lo - p, cwise_max(p - n.hi, Vec3d{}))); };
+  double nearest = std::numeric_limits<double>::infinity();
+  int best = -1;
+  std::vector<int> stack{0};
+  while (!stack.empty()) {
+    const FaceNode& n = face_tree_[stack.back()];
+    stack.pop_back();
+    if (box_d2(n) > nearest) continue;
+    if (n.left < 0) {
+      for (int k = n.first; k < n.first + n.count; ++k) {
+        const int f = face_order_[k];
+        const Vec3d &a = mesh_.vertices[boundary_[f][0]], &b = mesh_.vertices[boundary_[f][1]],
+                    &c = mesh_.vertices[boundary_[f][2]];
+        const auto w = closest_on_triangle(p, a, b, c);
+        const double d2 = squared_norm(w[0] * a + w[1] * b + w[2] * c - p);
+        if (d2 < nearest || (d2 == nearest && f < best)) {
+          nearest = d2;
+          best = f;
+          weights = w;
+        }
+      }
+      continue;
+    }
+    const bool left_first = box_d2(face_tree_[n.left]) <= box_d2(face_tree_[n.right]);
+    stack.push_back(left_first ? n.right : n.left);
+    stack.push_back(left_first ? n.left : n.right);
+  }
+  return best;
 }
 
 std::array<double, 3> closest_on_triangle(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {

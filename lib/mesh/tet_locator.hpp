@@ -21,8 +21,9 @@ struct TetEmbedding {
 /// Embeds points in a tet mesh's tets: barycentric weights in the tet that contains the point
 /// (exact), or, for a point outside every tet, those of the closest point of the mesh's boundary
 /// (extract_boundary's faces, found on the first such point; the distance is reported). A uniform
-/// grid of tet bounding boxes keeps the search for the containing tet local; the boundary is
-/// searched whole. Holds a reference to `mesh`, which must outlive it.
+/// grid of tet bounding boxes keeps the search for the containing tet local, a tree of the
+/// boundary faces' boxes the search for the closest face (the face a search of every face finds:
+/// the nearest, the first of equally near ones). Holds a reference to `mesh`, which must outlive it.
 class TetLocator {
  public:
   explicit TetLocator(const TetMesh& mesh);
@@ -47,8 +48,20 @@ class TetLocator {
   int dims_[3] = {1, 1, 1};
   std::vector<std::vector<int>> cells_;
   std::vector<Mat3d> inv_;
+  /// A node of the boundary faces' tree: its faces' box, and its children (inner) or its faces
+  /// [first, first + count) of face_order_ (leaf).
+  struct FaceNode {
+    Vec3d lo, hi;
+    int left = -1, right = -1, first = 0, count = 0;
+  };
+  void build_face_tree() const;
+  /// The closest boundary face to p and its closest point's weights.
+  int closest_face(const Vec3d& p, std::array<double, 3>& weights) const;
+
   mutable std::once_flag boundary_once_;
   mutable std::vector<Tri> boundary_;  ///< the boundary faces in the mesh's vertex numbering
+  mutable std::vector<int> face_order_;
+  mutable std::vector<FaceNode> face_tree_;
 };
 
 /// The closest point of triangle (a, b, c) to p as barycentric weights (w_a, w_b, w_c), each in

@@ -3,7 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <random>
 
+#include "mesh/boundary.hpp"
+#include "mesh/box_mesh.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/tet_locator.hpp"
 #include "test_util.hpp"
@@ -61,6 +65,56 @@ TEST(TetLocator, InsideExactOutsideTheClosestBoundaryPoint) {
     EXPECT_NEAR(error, norm(o.closest - o.p), 1e-12);
     EXPECT_FALSE(locator.inside(o.p));
   }
+}
+
+// The tree of boundary faces finds the face a search of every face finds, to the bit: the nearest,
+// the first (in extract_boundary's order) of equally near ones (a point over a box's edge or corner
+// is equally near two or three faces' shared points), for points near and far, on every side.
+TEST(TetLocator, TheFaceTreeFindsWhatASearchOfEveryFaceFinds) {
+  const TetMesh m = make_box_tets({0, 0, 0}, {0.04, 0.03, 0.02}, 8, 6, 4);
+  const TetLocator locator(m);
+  std::vector<int> to_volume;
+  std::vector<Tri> faces;
+  for (Tri t : extract_boundary(m, &to_volume).triangles) {
+    for (int& k : t) k = to_volume[k];
+    faces.push_back(t);
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.05, 0.09);
+  std::vector<Vec3d> points{{-0.01, -0.01, -0.01}, {0.05, 0.015, 0.01}, {0.02, 0.015, 0.03}, {0.045, 0.035, 0.025}};
+  for (int i = 0; i < 400; ++i) points.push_back({u(rng), u(rng) * 0.75, u(rng) * 0.5});
+  for (int i = 0; i < 40; ++i) points.push_back({u(rng) * 1e3, u(rng) * 1e3, u(rng)});  // far away
+  int checked = 0;
+  for (const Vec3d& p : points) {
+    if (locator.inside(p)) continue;
+    double nearest = std::numeric_limits<double>::infinity();
+    std::size_t best = 0;
+    std::array<double, 3> wb{};
+    for (std::size_t f = 0; f < faces.size(); ++f) {
+      const Vec3d &a = m.vertices[faces[f][0]], &b = m.vertices[faces[f][1]], &c = m.vertices[faces[f][2]];
+      const auto w = closest_on_triangle(p, a, b, c);
+      if (const double d2 = squared_norm(w[0] * a + w[1] * b + w[2] * c - p); d2 < nearest) {
+        nearest = d2;
+        best = f;
+        wb = w;
+      }
+    }
+    double error = 0;
+    const TetEmbedding e = locator.locate(p, error);
+    int k = 0;
+    const double sum = wb[0] + wb[1] + wb[2];
+    for (int c = 0; c < 3; ++c) {
+      if (wb[c] / sum < 1e-12) continue;  // locate leaves such weights out
+      ASSERT_LT(k, e.count);
+      EXPECT_EQ(e.vertex[k], faces[best][c]) << p.x << " " << p.y << " " << p.z;
+      EXPECT_EQ(e.weight[k], wb[c] / sum);
+      ++k;
+    }
+    EXPECT_EQ(k, e.count);
+    EXPECT_TRUE(std::isfinite(error));
+    ++checked;
+  }
+  EXPECT_GT(checked, 300);
 }
 
 }  // namespace

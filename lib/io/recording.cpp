@@ -389,16 +389,29 @@ std::string ratio_text(double r) {
 
 }  // namespace
 
+namespace {
+
+/// The consecutive samples (at - 1, at) between which change(at) (a distance, an angle) over their
+/// time apart is largest, and that rate; {0, 0} without two samples.
+template <class Change>
+std::pair<std::size_t, double> fastest_change(const Recording& rec, Change change) {
+  std::pair<std::size_t, double> fastest{0, 0.0};
+  for (std::size_t i = 1; i < rec.size(); ++i)
+    if (const double rate = change(i) / (rec.t[i] - rec.t[i - 1]); rate > fastest.second) fastest = {i, rate};
+  return fastest;
+}
+
+/// The angle (rad) the tool turns between samples i - 1 and i.
+double turn_angle(const Recording& rec, std::size_t i) {
+  const Quatd &a = rec.orientation[i - 1], &b = rec.orientation[i];
+  return 2 * std::acos(std::min(1.0, std::abs(a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z)));
+}
+
+}  // namespace
+
 std::optional<std::string> check_recording_speed(const Recording& rec) {
-  double fastest = 0;
-  std::size_t at = 0;
-  for (std::size_t i = 1; i < rec.size(); ++i) {
-    const double speed = norm(rec.position[i] - rec.position[i - 1]) / (rec.t[i] - rec.t[i - 1]);
-    if (speed > fastest) {
-      fastest = speed;
-      at = i;
-    }
-  }
+  const auto [at, fastest] =
+      fastest_change(rec, [&rec](std::size_t i) { return norm(rec.position[i] - rec.position[i - 1]); });
   if (!(fastest > kToolSpeedMax)) return std::nullopt;
   char line[320];
   std::snprintf(line, sizeof line,
@@ -409,26 +422,15 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
 }
 
 std::optional<std::string> check_recording_turn(const Recording& rec) {
-  double fastest = 0, angle_at = 0;
-  std::size_t at = 0;
-  for (std::size_t i = 1; i < rec.size(); ++i) {
-    const Quatd& a = rec.orientation[i - 1];
-    const Quatd& b = rec.orientation[i];
-    const double d = std::min(1.0, std::abs(a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z));
-    const double angle = 2 * std::acos(d), rate = angle / (rec.t[i] - rec.t[i - 1]);
-    if (rate > fastest) {
-      fastest = rate;
-      angle_at = angle;
-      at = i;
-    }
-  }
+  const auto [at, fastest] = fastest_change(rec, [&rec](std::size_t i) { return turn_angle(rec, i); });
   if (!(fastest > kToolTurnRateMax)) return std::nullopt;
   char line[400];
   std::snprintf(line, sizeof line,
                 "the tool turns %.3g degrees between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g rad/s; "
                 "a hand turns it at a few): a gap or a reset in the log, which the virtual tool follows at "
                 "tool.max_step_rotation_deg a Newton step, rendering its lag as torque meanwhile (tool.torque_limit)",
-                angle_at * 180 / std::numbers::pi, rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], fastest);
+                turn_angle(rec, at) * 180 / std::numbers::pi, rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at],
+                fastest);
   return std::string(line);
 }
 

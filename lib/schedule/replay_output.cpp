@@ -58,6 +58,7 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("virtual_refine", static_cast<std::int64_t>(s.virtual_refine));
   f.set_attr("tool", s.tool.kind == ToolSpec::Kind::Hook ? "hook" : "forceps");
   f.set_attr("force_limit", s.tool.force_limit);
+  f.set_attr("torque_limit", s.tool.torque_limit);
   f.set_attr("newton_iterations", static_cast<std::int64_t>(s.tool.newton_iterations));
   f.set_attr("newton_calls", static_cast<std::int64_t>(newton_calls_per_tick(s)));
   f.set_attr("max_step", s.tool.max_step);
@@ -76,6 +77,7 @@ void write_parameters(h5::File& f, const World& w) {
     f.set_attr("forceps_jaw_thickness", fc.jaw_thickness);
     f.set_attr("forceps_jaw_max_angle_deg", fc.jaw_max_angle_deg);
     f.set_attr("forceps_grasp_threshold", fc.grasp_threshold);
+    f.set_attr("forceps_release_threshold", fc.release());
     f.set_attr("forceps_soft_margin", fc.soft_margin);
     f.set_attr("forceps_eta", fc.eta);
   }

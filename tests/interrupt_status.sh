@@ -44,6 +44,19 @@ interrupted gate TERM "$ebh" gate
 [ $status = 143 ] || fail "gate: exit status $status, expected 143: $(cat "$work/gate.err")"
 grep -q "baselines.yaml: cases\[[0-9]*\] (.*): interrupted; the gate stopped here" "$work/gate.err" ||
   fail "gate: the interrupt does not name the case: $(cat "$work/gate.err")"
+# A signal during a long physical step (30000 iterations: seconds a step) stops the step too, in
+# each mode: 130 and the message, no output, not a crash (the step's partway state is no result),
+# and no wait for the step to end (the grace would end the process with its own message).
+for mode in async lockstep; do
+  interrupted "step_$mode" INT "$ebh" replay tube tube_insert -o "$work/step_$mode.h5" -q --mode $mode --duration 0.5 \
+    --set solver.physical_iterations=30000 --set solver.physical_tolerance=0
+  [ $status = 130 ] || fail "$mode, in a long step: exit status $status, expected 130: $(cat "$work/step_$mode.err")"
+  grep -q "interrupted; no output written" "$work/step_$mode.err" ||
+    fail "$mode, in a long step: $(cat "$work/step_$mode.err")"
+  ! grep -q "still running after the interrupt's grace" "$work/step_$mode.err" ||
+    fail "$mode: the step ran on after the interrupt"
+  [ ! -e "$work/step_$mode.h5" ] || fail "$mode: an interrupted replay wrote its output"
+done
 # A signal ignored at the start stays ignored: `nohup ebh ...` outlives its terminal's SIGHUP.
 nohup "$ebh" replay tube tube_insert -o "$work/nohup.h5" -q --duration 6 >"$work/nohup.err" 2>&1 &
 pid=$!

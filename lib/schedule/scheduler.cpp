@@ -60,9 +60,9 @@ struct ThreadCountGuard {
 class PhysicalWorker {
  public:
   PhysicalWorker(const World& world, PhysicalSide& physical, const HapticSnapshot& input, int threads,
-                 bool share_step, SharedLoops* tick_loops)
+                 bool share_step, SharedLoops* tick_loops, std::function<bool()> cancel)
       : shared_(share_step ? std::make_unique<SharedLoops>() : nullptr),
-        thread_([this, &world, &physical, &input, threads, tick_loops] {
+        thread_([this, &world, &physical, &input, threads, tick_loops, cancel = std::move(cancel)] {
           omp_set_num_threads(threads);
           std::unique_lock<std::mutex> lock(mx_);
           while (true) {
@@ -78,7 +78,7 @@ class PhysicalWorker {
             lock.unlock();
             std::exception_ptr error;
             try {
-              run_physical_step(world, physical, input, shared_.get());
+              run_physical_step(world, physical, input, shared_.get(), cancel);
             } catch (...) {
               error = std::current_exception();  // handed to the haptic thread by wait()
             }
@@ -395,27 +395,35 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
   PhysicalSnapshot to_haptic;
   // async: physical step k runs on the worker beside ticks kN .. (k+1)N - 1
   std::optional<PhysicalWorker> worker;
+  // A run stopped (interrupted) while a long step runs stops the step too: its result is no one's.
+  const std::function<bool()> stop = [&obs] { return obs.should_stop(); };
   if (opt.mode == Mode::Async)
-    worker.emplace(world, physical, to_physical, threads.physical, share_step, tick_loops ? &*tick_loops : nullptr);
+    worker.emplace(world, physical, to_physical, threads.physical, share_step, tick_loops ? &*tick_loops : nullptr,
+                   stop);
   bool in_flight = false;
   double in_flight_t = 0;
   FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};
 
   ReplaySummary s;
   const auto wall0 = Clock::now();
-  auto finish_step = [&] {
+  auto finish_step = [&] {  // false: the step was stopped with the run (no result)
     worker->wait();
     in_flight = false;
+    if (physical.report.cancelled) return false;
     take_physical_snapshot(physical, to_haptic);
     obs.on_step(world, physical, in_flight_t);
     ++s.steps;
+    return true;
   };
   for (std::int64_t n = 0; n < ticks; ++n) {
     const double t = static_cast<double>(n) * world.h_haptic;
     if (n % N == 0) {
       if (opt.mode == Mode::Async) {
         if (physical_result_arrives(opt.mode, n, N)) {  // the step started at tick n - N
-          finish_step();
+          if (!finish_step()) {
+            s.stopped = true;
+            break;
+          }
           deliver_physical_snapshot(world, haptic, to_haptic);
         }
         take_haptic_snapshot(haptic, to_physical);
@@ -424,7 +432,11 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
         worker->start();
       } else {  // lockstep
         take_haptic_snapshot(haptic, to_physical);
-        run_physical_step(world, physical, to_physical);
+        run_physical_step(world, physical, to_physical, nullptr, stop);
+        if (physical.report.cancelled) {
+          s.stopped = true;
+          break;
+        }
         take_physical_snapshot(physical, to_haptic);
         deliver_physical_snapshot(world, haptic, to_haptic);
         obs.on_step(world, physical, t);
@@ -481,7 +493,8 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
         local_q.q = published_q.q;
         t_virtual = published_t;
       }
-      run_physical_step(world, physical, local_q);
+      run_physical_step(world, physical, local_q, nullptr, [&done] { return done.load(); });  // the end stops it
+      if (physical.report.cancelled) break;
       take_physical_snapshot(physical, local_x);
       {
         std::lock_guard<std::mutex> lock(mx);

@@ -81,7 +81,9 @@ class ReplayObserver {
   virtual void on_step(const World&, const PhysicalSide&, double /*t*/) {}
   /// A mesh snapshot at virtual time t (physical: the physical side's visible result).
   virtual void on_frame(const World&, const HapticSide&, double /*t*/) {}
-  /// Polled once per tick; returning true stops the replay (e.g. an interrupt).
+  /// Polled once per tick, and during a CPU physical step (async: from its thread) every
+  /// kCancelPollIterations iterations; returning true stops the replay (e.g. an interrupt) and
+  /// the step in flight, whose result is then not reported.
   virtual bool should_stop() { return false; }
 };
 

@@ -587,7 +587,8 @@ void hold_physical_state(PhysicalSide& p) {
 }
 }  // namespace
 
-void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot, SharedLoops* shared) {
+void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot& snapshot, SharedLoops* shared,
+                       const std::function<bool()>& cancel) {
 #if EBH_HAVE_CUDA
   if (p.cuda) {
     p.report = p.cuda->step(p.mesh, snapshot.q);
@@ -613,7 +614,8 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
   const bool can_recover =
       solver.recovery == SolverSpec::Recovery::Direct && solver.method != SolverSpec::Method::Direct;
   if (can_recover) p.start = p.mesh;  // the vectors keep their capacity: no allocation after the first step
-  p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, world.physical_params, nullptr, shared, region);
+  p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, world.physical_params, nullptr, shared, region, cancel);
+  if (p.report.cancelled) return;
   std::string problem = physical_state_problem(model, p.mesh.x, p.report);  // the health check, once
   p.recovered = can_recover && (p.report.residual > solver.recovery_residual || !problem.empty());
   if (p.recovered) {
@@ -623,8 +625,10 @@ void run_physical_step(const World& world, PhysicalSide& p, const HapticSnapshot
     PhysicalStepParams direct = world.physical_params;
     direct.method = SolverSpec::Method::Direct;
     const double time_s = p.report.time_s;
-    p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, direct, p.recovery_direct.get(), shared);
+    p.report = physical_step(model, p.workspace, p.mesh, snapshot.q, direct, p.recovery_direct.get(), shared, nullptr,
+                             cancel);
     p.report.time_s += time_s;
+    if (p.report.cancelled) return;
     problem = physical_state_problem(model, p.mesh.x, p.report);
     if (region) region->all = true;  // the direct solve moved every vertex
   }

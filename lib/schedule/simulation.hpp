@@ -6,6 +6,7 @@
 //   PhysicalSnapshot -> haptic tick:   the physical positions the E_svc targets are paired from.
 // Who delivers which snapshot when is the scheduler's business (schedule/scheduler.hpp).
 #include <cstdint>
+#include <functional>
 #include <future>
 #include <map>
 #include <memory>
@@ -194,9 +195,10 @@ void haptic_tick(const World& world, HapticSide& haptic, const DeviceSample& sam
 /// CPU backend, the recovery (SolverSpec::recovery: a step left unconverged or diverged by the
 /// Jacobi-type iterations is redone from its start with the direct global solve); then
 /// check_physical_step. `shared` (CPU backend): the step's loops shared with a helping thread
-/// (physical_step); the same bits.
+/// (physical_step); the same bits. `cancel` (CPU backend): asked during the step (physical_step);
+/// when it stops there, physical.report.cancelled and the state is no result.
 void run_physical_step(const World& world, PhysicalSide& physical, const HapticSnapshot& snapshot,
-                       SharedLoops* shared = nullptr);
+                       SharedLoops* shared = nullptr, const std::function<bool()>& cancel = {});
 
 /// The health checks (STYLE.md's run-time tier): a non-finite or diverged physical state after
 /// physical.step - 1 (physical_state_problem), a non-finite force or torque after a tick. Each

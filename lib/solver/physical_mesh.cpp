@@ -512,7 +512,7 @@ PhysicalModelOptions physical_model_options(const SceneSpec& spec) {
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                                  std::span<const Vec3d> virtual_q, const PhysicalStepParams& params,
                                  const PhysicalDirectSolver* direct, SharedLoops* shared,
-                                 const PhysicalRegion* region) {
+                                 const PhysicalRegion* region, const std::function<bool()>& cancel) {
   const auto t_step = Clock::now();
   PhysicalStepReport report;
   if (model.num_virtual > 0 && virtual_q.size() != size_t(model.num_virtual))
@@ -534,6 +534,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
   int iterations = 0;
   StoppingState stopping;
   bool more = false;  // the rule's decision, made by one thread
+  bool cancelled = false;  // the cancel flag as one thread read it
   // One parallel region for the whole step: the stages are work-sharing loops with two barriers
   // per iteration. The master thread times the stages and sums the residual norms (after the
   // barrier ending the global step; ws.r is next written after the following local step's barrier).
@@ -563,6 +564,14 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
           if (k == 0) r0 = norm();
           report.global_s += seconds_since(t0);
         }
+        if (cancel && k % kCancelPollIterations == kCancelPollIterations - 1) {
+#pragma omp single
+          {
+            cancelled = cancel();
+            iterations = k + 1;
+          }  // implicit barrier: every thread reads the same
+          if (cancelled) break;
+        }
         continue;
       }
 #pragma omp single
@@ -571,6 +580,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
         if (k == 0) r0 = rk;
         iterations = k + 1;
         more = continue_iterating(k, rk / weight_scale, K, tolerance, max_iterations, stopping);
+        if (more && cancel && cancel()) more = !(cancelled = true);
         report.global_s += seconds_since(t0);
       }  // implicit barrier: every thread reads the same decision (next written after the next local step)
       if (!more) break;
@@ -578,6 +588,7 @@ PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& 
     update_velocities(model, ws, state, shared);
   }
   report.iterations = iterations;
+  report.cancelled = cancelled;
   set_residuals(report, r0, rk, model.weight_norm);
   report.time_s = seconds_since(t_step);
   return report;

@@ -25,6 +25,7 @@
 #include <Eigen/SparseCholesky>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -243,6 +244,8 @@ struct PhysicalStepReport {
   /// where the backend counted them: the CUDA steps inside the tick launches. -1: not counted (the
   /// replay's observer counts them on the host, InvertedTets).
   int inverted = -1;
+  /// Stopped by its cancel flag (physical_step): the state is partway and not a result.
+  bool cancelled = false;
 };
 
 /// The report's residuals from ||r_0|| and ||r_K|| (CPU and CUDA steps alike).
@@ -292,7 +295,11 @@ std::shared_ptr<const PhysicalDirectSolver> factorize_global_matrix(const Eigen:
 PhysicalStepReport physical_step(const PhysicalModel& model, PhysicalWorkspace& ws, PhysicalState& state,
                                  std::span<const Vec3d> virtual_q, const PhysicalStepParams& params,
                                  const PhysicalDirectSolver* direct = nullptr, SharedLoops* shared = nullptr,
-                                 const PhysicalRegion* region = nullptr);
+                                 const PhysicalRegion* region = nullptr, const std::function<bool()>& cancel = {});
+/// `cancel`: asked every kCancelPollIterations iterations (one thread asks, all follow: a barrier
+/// each time); when it says so the step stops there with report.cancelled (a run that ends, or is
+/// interrupted, while a long step runs).
+inline constexpr int kCancelPollIterations = 64;
 
 struct PhysicalEnergy {
   double volume = 0;    ///< E_vol [7] (and E_det, energy/volume.hpp, where k_det > 0)

@@ -128,6 +128,33 @@ TEST(PhysicalStep, JacobiAndChebyshevConvergeToTheDirectResult) {
   }
 }
 
+// A step asked to stop (a run that ended or was interrupted while it ran) stops at its next poll,
+// with report.cancelled; one never asked runs to the bits of a step without the question.
+TEST(PhysicalStep, ACancelledStepStopsAtItsNextPoll) {
+  for (Method method : {Method::Jacobi, Method::Chebyshev, Method::Direct}) {
+    Sim sim(box_scene(1, 1, 2));
+    sim.perturb();
+    const PhysicalState start = sim.ps;
+    PhysicalStepParams params;
+    params.method = method;
+    params.iterations = 3 * kCancelPollIterations;
+    int asked = 0;
+    const PhysicalStepReport stopped = physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params, nullptr, nullptr,
+                                                     nullptr, [&asked] { return ++asked == 2; });
+    EXPECT_TRUE(stopped.cancelled);
+    EXPECT_EQ(stopped.iterations, 2 * kCancelPollIterations) << int(method);  // asked at 64, stopped at 128
+    sim.ps = start;
+    const PhysicalStepReport ran = physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params, nullptr, nullptr, nullptr,
+                                                 [] { return false; });
+    const std::vector<Vec3d> x = sim.ps.x;
+    sim.ps = start;
+    physical_step(sim.pm, sim.pw, sim.ps, sim.q(), params);
+    EXPECT_FALSE(ran.cancelled);
+    EXPECT_EQ(ran.iterations, 3 * kCancelPollIterations);
+    EXPECT_EQ(max_diff(x, sim.ps.x), 0.0);
+  }
+}
+
 TEST(Determinism, PhysicalStepIsBitwiseEqualWithOneAndTwoThreads) {
   for (Method method : {Method::Jacobi, Method::Chebyshev, Method::Direct}) {
     expect_bitwise_equal_across_threads([&] {

@@ -805,20 +805,24 @@ add_test(NAME cli.table1.says_what_it_measured COMMAND ${EBH_BIN} table1 --scene
 set_tests_properties(cli.table1.says_what_it_measured PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=2
   PASS_REGULAR_EXPRESSION "\"threads\": 2,.*\"pressing\": \{\n +\"scene\": \"tube\",\n +\"recording\": \"tube_insert\",\n +\"start_s\": 1.8\n +\},\n +\"grasping\": \{\n +\"scene\": \"tube_forceps\"")
 # A forceps recording that closes its jaws, replayed where nothing grasps: said (and not where the
-# scene's forceps grasp).
+# scene's forceps grasp, nor for a window in which the jaws stay open).
 add_test(NAME cli.replay.grasp_lost_to_a_hook
-  COMMAND ${EBH_BIN} replay tube tube_grasp -o ${EBH_NUM_OUT}/lost_hook.h5 --duration 0.02 -q)
+  COMMAND ${EBH_BIN} replay tube tube_grasp -o ${EBH_NUM_OUT}/lost_hook.h5 --start 1.6 --duration 0.2 -q)
 set_tests_properties(cli.replay.grasp_lost_to_a_hook PROPERTIES PASS_REGULAR_EXPRESSION
   "tube_grasp.h5: the jaws close to 0 at the recording's t = 1.700 s \\(below the grasp threshold 0.2\\), but the scene's tool is a hook: nothing is grasped")
 add_test(NAME cli.replay.grasp_lost_to_the_stages
-  COMMAND ${EBH_BIN} replay tube_forceps tube_grasp -o ${EBH_NUM_OUT}/lost_stage.h5 --duration 0.02 -q --set stages.grasp=false)
+  COMMAND ${EBH_BIN} replay tube_forceps tube_grasp -o ${EBH_NUM_OUT}/lost_stage.h5 --start 1.6 --duration 0.2 -q
+  --set stages.grasp=false)
 set_tests_properties(cli.replay.grasp_lost_to_the_stages PROPERTIES PASS_REGULAR_EXPRESSION
   "tube_grasp.h5: the jaws close to 0 .*but stages.grasp is off: nothing is grasped")
 add_test(NAME cli.replay.grasp_kept
   COMMAND ${EBH_BIN} replay tube_forceps tube_grasp -o ${EBH_NUM_OUT}/kept.h5 --duration 0.02 -q)
 set_tests_properties(cli.replay.grasp_kept PROPERTIES FAIL_REGULAR_EXPRESSION "nothing is grasped")
+add_test(NAME cli.replay.grasp_lost_not_in_the_window
+  COMMAND ${EBH_BIN} replay tube tube_grasp -o ${EBH_NUM_OUT}/open_window.h5 --duration 0.02 -q)
+set_tests_properties(cli.replay.grasp_lost_not_in_the_window PROPERTIES FAIL_REGULAR_EXPRESSION "nothing is grasped")
 set_tests_properties(cli.replay.grasp_lost_to_a_hook cli.replay.grasp_lost_to_the_stages cli.replay.grasp_kept
-  PROPERTIES LABELS cli)
+  cli.replay.grasp_lost_not_in_the_window PROPERTIES LABELS cli)
 # A step that ends far from balance (above solver.recovery_residual) and is not redone is said, with
 # the count, the largest residual and the first time; the same window with the scene's stiffness is not.
 add_test(NAME cli.replay.unbalanced_steps

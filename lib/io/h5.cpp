@@ -402,13 +402,17 @@ void Dataset::read_rows_into(Type t, std::size_t first, std::size_t count, std::
   if (first + (count - 1) * stride >= dims[0])
     fail(where(), "row " + std::to_string(first + (count - 1) * stride) + " past its " + std::to_string(dims[0]) +
                       " rows");
-  std::vector<hsize_t> start(dims.size(), 0), step(dims.size(), 1), n(dims), block(dims.size(), 1);
+  // Contiguous rows are one block (a selection of one block per row costs HDF5 memory per row, a
+  // gigabyte for a few million rows of a file written in chunks of a few rows); strided rows are
+  // a block each.
+  std::vector<hsize_t> start(dims.size(), 0), step(dims.size(), 1), n(dims.size(), 1), block(dims);
   start[0] = first;
-  step[0] = stride;
-  n[0] = count;
-  for (std::size_t d = 1; d < dims.size(); ++d) {  // whole rows: one block of each row's width
-    n[d] = 1;
-    block[d] = dims[d];
+  if (stride > 1) {
+    step[0] = stride;
+    n[0] = count;
+    block[0] = 1;
+  } else {
+    block[0] = count;
   }
   check_status(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), step.data(), n.data(), block.data()),
                where(), "cannot select rows");

@@ -80,35 +80,50 @@ void check_rate(const Recording& rec, const std::string& file) {
     throw InputError(file + ": attribute rate_hz = " + num(rec.rate_hz) + " is not a positive number");
 }
 
+/// The rows a recording is read in, a part at a time: HDF5 holds a selection's state per chunk it
+/// touches, so one read of millions of rows stored in chunks of a few takes gigabytes (2.7 GB for
+/// 3 million rows in chunks of 7, 1.2 GB for 300,000 in chunks of 1); a part's takes a part's
+/// (about 1 KB a chunk). A window's samples are kept from them.
+constexpr std::size_t kPartRows = 1 << 13;
+
+/// A dataset's rows [first, first + count), read kPartRows at a time.
+template <class T>
+std::vector<T> read_in_parts(const h5::Dataset& d, const std::vector<std::ptrdiff_t>& expected, std::size_t first,
+                             std::size_t count) {
+  std::vector<T> out;
+  for (std::size_t p = first; p < first + count; p += kPartRows) {
+    const auto part = d.read_rows<T>(expected, p, std::min(kPartRows, first + count - p));
+    out.insert(out.end(), part.data.begin(), part.data.end());
+  }
+  return out;
+}
+
 /// Samples [first, first + count) of a recording file's datasets, as stored (not yet validated).
 Recording read_samples(const h5::Group& g, const std::string& path, const std::vector<double>& t, std::size_t first,
                        std::size_t count) {
   const auto n = static_cast<std::ptrdiff_t>(t.size());
   // Every per-sample dataset has the same first dimension as t: the shape check says so.
-  const auto pos = g.dataset("position").read_rows<double>({n, 3}, first, count);
-  const auto ori = g.dataset("orientation").read_rows<double>({n, 4}, first, count);
-  auto jaw = g.dataset("jaw").read_rows<double>({n}, first, count);
+  const auto pos = read_in_parts<double>(g.dataset("position"), {n, 3}, first, count);
+  const auto ori = read_in_parts<double>(g.dataset("orientation"), {n, 4}, first, count);
+  auto jaw = read_in_parts<double>(g.dataset("jaw"), {n}, first, count);
   // Read wide and checked: HDF5's conversion to 8 bits clips 256 to 255 and -1 to 0 silently.
-  const auto wide_buttons = g.dataset("buttons").read_rows<std::int64_t>({n}, first, count);
-  for (std::size_t i = 0; i < wide_buttons.data.size(); ++i)
-    if (wide_buttons.data[i] < 0 || wide_buttons.data[i] > 255)
+  const auto wide_buttons = read_in_parts<std::int64_t>(g.dataset("buttons"), {n}, first, count);
+  for (std::size_t i = 0; i < wide_buttons.size(); ++i)
+    if (wide_buttons[i] < 0 || wide_buttons[i] > 255)
       throw InputError(path + ": /trajectory/buttons[" + std::to_string(first + i) + "]: " +
-                       std::to_string(wide_buttons.data[i]) + " is not a bitmask of 8 buttons (0 .. 255)");
+                       std::to_string(wide_buttons[i]) + " is not a bitmask of 8 buttons (0 .. 255)");
   Recording rec;
   rec.t.assign(t.begin() + static_cast<std::ptrdiff_t>(first), t.begin() + static_cast<std::ptrdiff_t>(first + count));
   rec.position.resize(count);
   rec.orientation.resize(count);
   for (std::size_t i = 0; i < count; ++i) {
-    rec.position[i] = {pos.data[3 * i], pos.data[3 * i + 1], pos.data[3 * i + 2]};
-    rec.orientation[i] = {ori.data[4 * i], ori.data[4 * i + 1], ori.data[4 * i + 2], ori.data[4 * i + 3]};
+    rec.position[i] = {pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]};
+    rec.orientation[i] = {ori[4 * i], ori[4 * i + 1], ori[4 * i + 2], ori[4 * i + 3]};
   }
-  rec.jaw = std::move(jaw.data);
-  rec.buttons.assign(wide_buttons.data.begin(), wide_buttons.data.end());
+  rec.jaw = std::move(jaw);
+  rec.buttons.assign(wide_buttons.begin(), wide_buttons.end());
   return rec;
 }
-
-/// The rows a window is read in: every sample of the file is checked, a part at a time.
-constexpr std::size_t kPartRows = 1 << 16;
 
 /// A window of the file (rows [lo, hi]) into rec: every sample validated in parts of kPartRows (the
 /// same checks and quaternion hemispheres as a whole read), the window's kept, and the outline
@@ -171,18 +186,19 @@ Recording read_recording(const std::string& path, std::optional<RecordingWindow>
   // The rows a dataset declares are counted before any is read: a logger that pre-sized its
   // datasets and crashed leaves a small file claiming billions of rows (docs/FORMATS.md, Limits).
   // The other datasets must have t's rows, which their shape check says before reading them.
-  {
-    const h5::Dataset td = g.dataset("t");
-    const std::vector<std::size_t> shape = td.shape();
+  const std::vector<double> t = [&g] {
+    const h5::Dataset times = g.dataset("t");
+    const std::vector<std::size_t> shape = times.shape();
     if (!shape.empty() && static_cast<double>(shape[0]) > kMaxRecordingSamples)
-      throw InputError(td.where() + ": " + std::to_string(shape[0]) + " samples declared; the limit is " +
+      throw InputError(times.where() + ": " + std::to_string(shape[0]) + " samples declared; the limit is " +
                        std::to_string(static_cast<long long>(kMaxRecordingSamples)) +
                        " samples (2.8 h at 1 kHz): split the recording");
-  }
-  const std::vector<double> t = g.read<double>("t", {-1}).data;
+    if (shape.size() != 1) return times.read<double>({-1}).data;  // the shape check says what is wrong
+    return read_in_parts<double>(times, {-1}, 0, shape[0]);
+  }();
   // A window of a long recording: the times say which rows it needs (every time checked first).
   std::optional<std::pair<std::size_t, std::size_t>> rows;
-  if (window && t.size() > kPartRows) {
+  if (window && t.size() >= 2) {
     for (std::size_t i = 0; i < t.size(); ++i)
       if (auto bad = time_defect(t, i)) throw InputError(path + ": /trajectory/t[" + std::to_string(i) + "]: " + *bad);
     rows = window_rows(t, *window);

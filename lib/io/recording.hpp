@@ -106,12 +106,13 @@ void validate_recording(Recording& rec, const std::string& file, const SampleLoc
 inline constexpr double kQuatNormTolerance = 1e-3;  // float32 round trips and 4-digit logs pass
 inline constexpr double kJawTolerance = 1e-9;       // jaw in [-tol, 1 + tol] is clamped to [0, 1]
 
-/// Reads and validates a recording (messages name the file, dataset and sample index). With a
-/// window, a recording of more than 65,536 samples keeps only the samples a replay of the window
-/// interpolates (from the last at or before its start to the second at or after its end) and an
-/// outline of the rest (Recording::span): every sample is read and checked a part at a time, and
-/// the window's samples are the ones a whole read gives, bit for bit; a few seconds of a log of
-/// hours take a few seconds' memory.
+/// Reads and validates a recording (messages name the file, dataset and sample index), a part of
+/// its rows at a time (a file written in chunks of a few rows takes no more memory than another).
+/// With a window, it keeps only the samples a replay of the window interpolates (from the last at
+/// or before its start to the second at or after its end) and an outline of the whole path
+/// (Recording::span): every sample is still read and checked, and the window's samples are the
+/// ones a whole read gives, bit for bit; a few seconds of a log of hours take a few seconds'
+/// memory, and the checks of a replay's path see the part it replays.
 Recording read_recording(const std::string& path, std::optional<RecordingWindow> window = std::nullopt);
 /// Validates and writes a recording atomically (temporary name, renamed when complete).
 void write_recording(const std::string& path, const Recording& rec);

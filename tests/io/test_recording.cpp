@@ -414,7 +414,7 @@ TEST(Recording, OneSampleIsNotATrajectory) {
 // quaternions change sign from sample to sample (the hemispheres continue across the parts it is
 // read in), so a replay of the window renders what it rendered from the whole file.
 TEST(RecordingWindow, KeepsTheWholeReadsSamplesOfTheWindowBitForBit) {
-  const std::size_t n = 200'003;  // three parts and a bit
+  const std::size_t n = 200'003;  // many parts and a bit
   Recording r = make_recording(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double t = r.t[i];

@@ -233,14 +233,20 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
     if (!top.empty() && std::isfinite(f[i]) && contacts[i] > 0) {
       const std::size_t m = top.front();
       const Vec3d fm = force(m);
-      const bool fell = f[m] >= kCollapseMinForceN && f[i] < kCollapseFraction * f[m];
+      // From a force in contact (not the coupling's stretch after a jump in the log, contacts 0).
+      const bool fell = f[m] >= kCollapseMinForceN && f[i] < kCollapseFraction * f[m] && contacts[m] > 0;
       // Pressed on: the device did not move along the force that pushed it back.
       // Nothing grasped from a window before the largest force (a grasp let go falls for a few ticks).
       const bool grasp = held[i + 1] != held[m > w ? m - w : 0];
       if (fell && !grasp && dot(device(i) - device(m), fm) <= 0) {
+        // Low, and in contact, after: a tool slid off an edge loses its contacts within a few ticks.
         bool stayed = true;
-        for (std::size_t k = i; k < std::min(n, i + w + 1) && stayed; ++k) stayed = f[k] < 0.5 * f[m];
-        if (stayed) {
+        std::size_t touching = 0, after = 0;
+        for (std::size_t k = i; k < std::min(n, i + w + 1) && stayed; ++k, ++after) {
+          stayed = f[k] < 0.5 * f[m];
+          touching += contacts[k] > 0;
+        }
+        if (stayed && 2 * touching > after) {
           if (!found) found = ForceCollapse{t[m], t[i], f[m], f[i], 0};
           ++found->count;
           top.clear();  // one collapse counted once: the window starts again after it
@@ -263,7 +269,7 @@ std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_
   const std::string why = !vertex_contact ? std::string("the tool went through the tissue or slipped off it (with "
                                                         "contact: vertices, ") + parted + ")"
                           : *vertex_contact ? std::string("the tool went through the tissue or slipped off it: with "
-                                                          "contact: vertices ") + parted
+                                                          "contact: vertices, ") + parted
                                             : std::string("the tool slipped off the tissue or the tissue gave way under it");
   char b[192];
   std::snprintf(b, sizeof b, "the force fell from %.3g N (t = %.3f s) to %.3g N (t = %.3f s) while the tool stayed in "

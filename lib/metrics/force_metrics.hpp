@@ -104,8 +104,9 @@ std::size_t fft_min_window_ticks(const MetricsOptions& opt, double haptic_hz);
 inline constexpr double kNegligibleForce = 1e-9;
 
 /// A tool that passed through the tissue: the rendered force fell below kCollapseFraction of the
-/// largest it had been in the kCollapseWindowS before, which was at least kCollapseMinForceN, and
-/// stayed under half of that for kCollapseWindowS after, while the tool kept its contacts, nothing
+/// largest it had been in the kCollapseWindowS before, which was at least kCollapseMinForceN with
+/// contacts, and stayed under half of that for kCollapseWindowS after, with contacts in most of
+/// those ticks, while the tool kept its contacts, nothing
 /// was grasped (from kCollapseWindowS before the largest force) and the device did not draw back
 /// along that force (a release, a retreat and a slide
 /// off an edge lose their contacts or draw back). With vertex contact the vertices under a thin
@@ -117,7 +118,7 @@ struct ForceCollapse {
   std::size_t count = 0;            ///< collapses in the run (the first is described)
 };
 inline constexpr double kCollapseFraction = 0.2;
-inline constexpr double kCollapseMinForceN = 0.3;
+inline constexpr double kCollapseMinForceN = 0.1;
 inline constexpr double kCollapseWindowS = 0.02;
 
 /// The first collapse of a run's force (ForceCollapse) and how many there were; nullopt when none.

@@ -551,7 +551,9 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   rec.rate_hz = rate_hz;
   if (has_t && rec.size() >= 2 && rec.t.back() > rec.t.front()) rec.rate_hz = nominal_rate(rec.t);
   // The jaw in the log's own range, mapped to 0 closed .. 1 open; without a range one outside
-  // [0, 1] is refused here, naming the option that maps it.
+  // [0, 1] is refused here, naming the option that maps it. Repeats are the log's own: two
+  // readings that the clamp makes equal are two readings.
+  const std::vector<double> logged_jaw = rec.jaw;
   std::size_t jaw_clamped = 0, first_jaw_clamped = 0;
   for (std::size_t i = 0; i < rec.size(); ++i) {
     double& j = rec.jaw[i];
@@ -591,9 +593,9 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // instead of creeping toward the next new sample; the log's last sample is kept, so the
   // recording keeps its length.
   std::vector<std::size_t> keep;
-  const auto repeats = [&rec](std::size_t i) {
+  const auto repeats = [&rec, &logged_jaw](std::size_t i) {
     return rec.position[i] == rec.position[i - 1] && same(rec.orientation[i], rec.orientation[i - 1]) &&
-           rec.jaw[i] == rec.jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
+           logged_jaw[i] == logged_jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
   };
   for (std::size_t i = 0; i < rec.size();) {
     std::size_t j = i;

@@ -260,14 +260,16 @@ TEST(Import, TheJawRangeMapsTheLogsJawValues) {
   test::ScratchDir tmp;
   ImportOptions opt;
   const std::string p = write_log(tmp / "jaw.csv", "t,x,y,z,qw,qx,qy,qz,jaw\n0,0,0,0,1,0,0,0,30\n"
-                                                     "0.001,0,0,0,1,0,0,0,7.5\n0.002,0,0,0,1,0,0,0,-0.3\n");
+                                                     "0.001,0,0,0,1,0,0,0,7.5\n0.002,0,0,0,1,0,0,0,-0.3\n"
+                                                     "0.003,0,0,0,1,0,0,0,-0.5\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "jaw.csv:2: jaw 30 outside [0, 1]", "--jaw-range CLOSED,OPEN");
   opt.jaw_range = parse_jaw_range("0,30");  // degrees, 0 closed
   ImportReport report;
   Recording r = import_log(p, opt, &report);
-  EXPECT_EQ(r.jaw, (std::vector<double>{1.0, 0.25, 0.0}));
-  EXPECT_EQ(report.jaw_clamped, 1u);  // -0.3 degrees: past closed
+  EXPECT_EQ(r.jaw, (std::vector<double>{1.0, 0.25, 0.0, 0.0}));
+  EXPECT_EQ(report.jaw_clamped, 2u);  // -0.3 and -0.5 degrees: past closed
   EXPECT_EQ(report.first_jaw_clamped_line, 4u);
+  EXPECT_EQ(report.repeats, 0u);  // two readings the clamp made equal: no repeat (--drop-repeats keeps them)
   opt.jaw_range = parse_jaw_range("30,0");  // 30 when closed: inverted
   r = import_log(p, opt);
   EXPECT_EQ(r.jaw[0], 0.0);

@@ -247,6 +247,10 @@ Recording read_recording(const std::string& path, std::optional<RecordingWindow>
       return path + ": " + std::string(ds) + "[" + std::to_string(i) + "]";
     });
   }
+  // The limit synth and import hold a recording's rate to (a file of another writer's, here).
+  if (rec.rate_hz > kMaxSampleRateHz)
+    throw InputError(path + ": attribute rate_hz = " + num(rec.rate_hz) + " Hz: over the " + num(kMaxSampleRateHz) +
+                     " Hz a device samples at (docs/FORMATS.md, Limits)");
   return rec;
 }
 

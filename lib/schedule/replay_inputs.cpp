@@ -125,6 +125,17 @@ std::optional<std::string> grasp_flicker(const Recording& rec, const SceneSpec& 
   return std::string(line);
 }
 
+/// The recording's tool attribute against the scene's tool: one that is neither hook nor forceps,
+/// or the other kind (unless grasp_lost says so already), in one line; the replay moves the
+/// scene's tool.
+std::optional<std::string> tool_mismatch(const Recording& rec, const SceneSpec& spec) {
+  const char* scene_tool = spec.tool.kind == ToolSpec::Kind::Forceps ? "forceps" : "hook";
+  if (rec.tool == scene_tool || grasp_lost(rec, spec)) return std::nullopt;
+  if (rec.tool != "hook" && rec.tool != "forceps")
+    return "attribute tool = '" + rec.tool + "' is neither hook nor forceps: the replay moves the scene's " + scene_tool;
+  return "recorded with a " + rec.tool + " (its tool attribute) and replayed with the scene's " + scene_tool;
+}
+
 /// Rates given as options (--haptic-hz, --physical-hz) against the scene's other rate, the error
 /// naming the option (the options' ranges are their validators' and build_world's; the scene's own
 /// pair is the scene reader's to check).
@@ -180,6 +191,8 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   SceneSpec spec = load_scene_spec(scene_file, overrides);
   if (auto w = scene_mismatch(r.recording, r.recording_path, scene_file, spec.name))
     r.warnings.push_back(r.recording_path + ": " + *w);
+  else if (auto t = tool_mismatch(r.recording, spec))  // another scene's recording: its tool is said with it
+    r.warnings.push_back(r.recording_path + ": " + *t);
   r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, spec);
   check_rate_options(spec, haptic_hz, physical_hz);
   const double hz_h = haptic_hz.value_or(spec.haptic_hz), hz_p = physical_hz.value_or(spec.physical_hz);

@@ -389,6 +389,16 @@ TEST(ToolTurn, ATurnInTheLogIsNamed) {
   }
 }
 
+// A rate no device samples at, in a file another writer made: refused at the limit synth and import
+// hold to (docs/FORMATS.md, Limits).
+TEST(Recording, ARateOverTheLimitIsRefused) {
+  test::ScratchDir tmp;
+  Recording r = make_recording();
+  r.rate_hz = 1e6;
+  write_recording(tmp / "fast.h5", r);
+  EXPECT_INPUT_ERROR(read_recording(tmp / "fast.h5"), "fast.h5: attribute rate_hz = 1000000 Hz: over the 100000 Hz");
+}
+
 TEST(Recording, OneSampleIsNotATrajectory) {
   // A replay needs a duration: the message names the file and says so (it used to blame a
   // --start that was never given).

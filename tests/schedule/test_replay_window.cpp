@@ -94,3 +94,27 @@ TEST(GraspFlicker, AJawThatLetsGoAndGraspsAgainIsSaid) {
   EXPECT_EQ(warned(load_replay_scene(RecordingFile(file), "tube_forceps", {"tool.forceps.release_threshold=0.3"},
                                      std::nullopt, std::nullopt, false, Backend::Cpu)), "");
 }
+
+// The recording's tool attribute: one that is neither hook nor forceps, or the other kind on its
+// own scene, is said (the replay moves the scene's tool); a recording of another scene says so
+// once, as the scene mismatch.
+TEST(ToolMismatch, TheRecordingsToolAgainstTheScenes) {
+  const RecordingFile file = read_replay_recording("tube_insert");
+  auto warnings = [&file](const std::string& tool, const std::string& scene) {
+    RecordingFile f = file;
+    f.recording.tool = tool;
+    std::string all;
+    for (const std::string& w : load_replay_scene(std::move(f), scene, {}, std::nullopt, std::nullopt, false,
+                                                  Backend::Cpu).warnings)
+      all += w + "\n";
+    return all;
+  };
+  EXPECT_EQ(warnings("hook", "tube").find("tool"), std::string::npos);
+  EXPECT_NE(warnings("banana", "tube").find("attribute tool = 'banana' is neither hook nor forceps: the replay moves "
+                                            "the scene's hook"), std::string::npos);
+  EXPECT_NE(warnings("forceps", "tube").find("recorded with a forceps (its tool attribute) and replayed with the "
+                                             "scene's hook"), std::string::npos);
+  const std::string other = warnings("hook", "tube_forceps");
+  EXPECT_NE(other.find("recorded for the scene 'tube'"), std::string::npos) << other;
+  EXPECT_EQ(other.find("its tool attribute"), std::string::npos) << other;
+}

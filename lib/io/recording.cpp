@@ -542,10 +542,11 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
       << " mesh diagonals" << (size_off ? "" : " of " + short_num(diagonal) + " m")
       << ") away from the physical mesh's bounding box, starting at (" << short_num(start.x) << ", "
       << short_num(start.y) << ", " << short_num(start.z) << ") m";
-  // A path far smaller than the mesh and within its box is also a tool held still at the tissue
-  // (a press held, a tool resting in it): nothing to fix then.
-  const bool held = size_off && now.extent < kPathExtentMinRatio * diagonal && now.distance == 0;
-  o << (held ? "; a tool held still at the tissue needs no fix, else likely fix: " : "; likely fix: ");
+  // A path far smaller than the mesh and within its box, or near it, is also a tool held still at
+  // the tissue or above it (a press held, a tool resting in it, one hovering with a hand's tremor):
+  // nothing to fix then.
+  const bool held = size_off && now.extent < kPathExtentMinRatio * diagonal && !far;
+  o << (held ? "; a tool held still at or near the tissue needs no fix, else likely fix: " : "; likely fix: ");
   if (best) {
     o << best->fix;
     // At replay the log's unit is not known, and the mesh's may be the wrong one instead: the

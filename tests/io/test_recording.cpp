@@ -301,8 +301,15 @@ TEST(UnitSanity, ALogReadInTheWrongUnitNamesTheRightOne) {
   EXPECT_NE(w->find("spans 4.47e-05 m, 1/3.87e+03 of the physical mesh's"), std::string::npos) << *w;
   EXPECT_NE(w->find("likely fix: --unit m"), std::string::npos) << *w;
   // ... which a tool held still in the tissue (a press held, with tremor) also is: said as such.
-  EXPECT_NE(w->find("; a tool held still at the tissue needs no fix, else likely fix: --unit m"), std::string::npos) << *w;
-  // The cm log read as m lies outside the box: no hold to mention.
+  EXPECT_NE(w->find("; a tool held still at or near the tissue needs no fix, else likely fix: --unit m"),
+            std::string::npos) << *w;
+  // ... and one hovering with a hand's tremor above the tissue (a window of a hover).
+  Recording hover = press_path(1e-5);
+  for (Vec3d& p : hover.position) p.z += kHi.z + 0.03;  // 30 mm above the box
+  w = check_recording_scale(hover, kLo, kHi, std::nullopt);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("; a tool held still at or near the tissue needs no fix, else"), std::string::npos) << *w;
+  // The cm log read as m lies far outside the box: no hold to mention.
   EXPECT_EQ(check_recording_scale(press_path(1.0), kLo, kHi, 1.0)->find("held still"), std::string::npos);
 }
 

@@ -196,6 +196,15 @@ Recording read_recording(const std::string& path, std::optional<RecordingWindow>
     if (shape.size() != 1) return times.read<double>({-1}).data;  // the shape check says what is wrong
     return read_in_parts<double>(times, {-1}, 0, shape[0]);
   }();
+  // One row per sample in each dataset: a dataset of another length is named against t's.
+  for (const char* name : {"position", "orientation", "jaw", "buttons"}) {
+    if (!g.has(name)) continue;  // its read says it is missing
+    const h5::Dataset d = g.dataset(name);
+    if (const std::vector<std::size_t> shape = d.shape(); !shape.empty() && shape[0] != t.size())
+      throw InputError(d.where() + ": " + std::to_string(shape[0]) + " rows, /trajectory/t " + std::to_string(t.size()) +
+                       ": a recording has one row per sample in every dataset (a dataset extended past what was " +
+                       "written, or another cut short?)");
+  }
   // A window of a long recording: the times say which rows it needs (every time checked first).
   std::optional<std::pair<std::size_t, std::size_t>> rows;
   if (window && t.size() >= 2) {

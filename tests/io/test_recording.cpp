@@ -136,7 +136,7 @@ TEST(Recording, SchemaDefectsNameDatasetAndIndex) {
   }
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/buttons[7]", "256 is not a bitmask of 8 buttons");
   defect([](RawRecording& r) { r.jaw.pop_back(); });
-  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/jaw", "shape (9,), expected (10,)");
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/jaw: 9 rows, /trajectory/t 10: a recording has one row per sample");
   defect([&](RawRecording& r) { r.pos[3 * 4 + 1] = nan; });
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/position[4]", "NaN");
   defect([](RawRecording& r) { r.t[6] = r.t[5]; });
@@ -215,7 +215,7 @@ TEST(Recording, DeclaredRowsAreCheckedBeforeAnythingIsRead) {
   // t is sane but position declares 1e10 rows: its shape check comes before its read.
   RawRecording(make_recording()).write(p);
   declare_rows(p, "position", 10'000'000'000ull, 3);
-  EXPECT_INPUT_ERROR(read_recording(p), p + ": /trajectory/position", "shape (10000000000, 3), expected (10, 3)");
+  EXPECT_INPUT_ERROR(read_recording(p), p + ": /trajectory/position: 10000000000 rows, /trajectory/t 10");
 }
 
 TEST(SampleAt, InterpolatesAndClamps) {

@@ -36,16 +36,27 @@ SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> tr
 
 std::vector<std::string> surface_contact_warnings(const SurfaceContactModel& s, std::span<const Vec3d> rest) {
   std::vector<std::string> out;
-  int too_long = 0;
+  int too_long = 0, slow = 0;
   double longest = 0, samples = 0;
   for (std::size_t t = 0; t < s.triangles.size(); ++t) {
     const auto& v = s.triangles[t];
     const double edge = triangle_longest_edge(rest[v[0]], rest[v[1]], rest[v[2]]);
     longest = std::max(longest, edge);
     if (edge > kMaxSampleLevel * s.spacing) ++too_long;
+    else if (s.rest_level[t] > kSlowSampleLevel) ++slow;
     samples += static_cast<double>(s.rest_level[t]) * s.rest_level[t];
   }
   char line[400];
+  if (slow > 0) {
+    std::snprintf(line, sizeof line,
+                  "surface contact: %d %s of the virtual mesh %s longer than %d sample spacings (the longest %.4g mm; "
+                  "the spacing, the tool's thinnest part, %.4g mm): each carries n^2 samples (n its longest edge over "
+                  "the spacing), which a tick near it tests, so ticks in contact there are slow; mesh.virtual_refine "
+                  "or a finer mesh splits them",
+                  slow, slow == 1 ? "triangle" : "triangles", slow == 1 ? "is" : "are", kSlowSampleLevel, longest * 1e3,
+                  s.spacing * 1e3);
+    out.emplace_back(line);
+  }
   if (too_long > 0) {
     std::snprintf(line, sizeof line,
                   "surface contact: %d %s of the virtual mesh %s longer than %d sample spacings (the longest "

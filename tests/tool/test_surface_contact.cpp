@@ -111,8 +111,18 @@ TEST(SurfaceSamples, LongTrianglesAndManySamplesAreSaid) {
   for (int k = 0; k <= 1000; ++k) fan.push_back({0.063, 1e-5 * k, 0});
   for (int k = 0; k < 1000; ++k) needles.push_back({0, k + 1, k + 2});
   const std::vector<std::string> many = surface_contact_warnings(build_surface_contact(needles, fan, 0.001), fan);
-  ASSERT_EQ(many.size(), 1u) << ::testing::PrintToString(many);
-  EXPECT_EQ(many[0].rfind("surface contact: the virtual mesh's triangles carry 4.1e+06 sample points", 0), 0u) << many[0];
+  ASSERT_EQ(many.size(), 2u) << ::testing::PrintToString(many);  // each long enough to be slow, and all of them
+  EXPECT_EQ(many[1].rfind("surface contact: the virtual mesh's triangles carry 4.1e+06 sample points", 0), 0u) << many[1];
+  // A 50 mm triangle with a 1 mm tool: 50^2 samples, which a tick near it tests (a 25 mm one: 625, no).
+  const std::vector<Vec3d> coarse = {{0, 0, 0}, {0.040, 0, 0}, {0, 0.030, 0}};
+  const std::vector<std::string> slow = surface_contact_warnings(build_surface_contact(tri, coarse, 0.001), coarse);
+  ASSERT_EQ(slow.size(), 1u) << ::testing::PrintToString(slow);
+  EXPECT_EQ(slow[0].rfind("surface contact: 1 triangle of the virtual mesh is longer than 32 sample spacings (the "
+                          "longest 50 mm;", 0), 0u) << slow[0];
+  EXPECT_NE(slow[0].find("ticks in contact there are slow; mesh.virtual_refine or a finer mesh splits them"),
+            std::string::npos);
+  const std::vector<Vec3d> finer = {{0, 0, 0}, {0.020, 0, 0}, {0, 0.015, 0}};
+  EXPECT_TRUE(surface_contact_warnings(build_surface_contact(tri, finer, 0.001), finer).empty());
 }
 
 TEST(SurfaceContact, StiffnessFloorHoldsTheThinnestPartAtTheForceLimit) {

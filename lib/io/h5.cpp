@@ -345,7 +345,11 @@ std::vector<std::size_t> Dataset::checked_shape(Type t, const std::vector<std::p
   H5T_class_t cls = H5Tget_class(type.get());
   bool ok = is_float(t) ? cls == H5T_FLOAT : cls == H5T_INTEGER;
   if (!ok) {
-    const char* stored = cls == H5T_FLOAT ? "floating point" : cls == H5T_INTEGER ? "integer" : cls == H5T_STRING ? "string" : "non-numeric";
+    const char* stored = cls == H5T_FLOAT     ? "floating point"
+                         : cls == H5T_INTEGER ? "integer"
+                         : cls == H5T_STRING  ? "string"
+                         : cls == H5T_ENUM    ? "enumerated (as h5py stores a bool: store the numbers)"
+                                              : "non-numeric";
     fail(where(), std::string("type ") + stored + ", expected " + (is_float(t) ? "floating point" : "integer") +
                       " (" + type_name(t) + ")");
   }

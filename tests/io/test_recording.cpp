@@ -126,6 +126,24 @@ TEST(Recording, SchemaDefectsNameDatasetAndIndex) {
     f.group("trajectory").write<double>("buttons", std::vector<double>(10, 0.0), {10});
   }
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/buttons", "type floating point, expected integer");
+  {  // buttons as numpy bools: h5py stores an enumeration of int8 (FALSE 0, TRUE 1)
+    RawRecording raw(good);
+    raw.write(p, [&](h5::Group&) {}, "buttons");
+    const hid_t file = H5Fopen(p.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    const hid_t type = H5Tenum_create(H5T_NATIVE_INT8);
+    for (const auto& [name, value] : {std::pair<const char*, std::int8_t>{"FALSE", 0}, {"TRUE", 1}})
+      H5Tenum_insert(type, name, &value);
+    const hsize_t dims[1] = {10};
+    const hid_t space = H5Screate_simple(1, dims, nullptr);
+    const hid_t d = H5Dcreate2(file, "/trajectory/buttons", type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    const std::vector<std::int8_t> pressed(10, 1);
+    H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, pressed.data());
+    H5Dclose(d);
+    H5Sclose(space);
+    H5Tclose(type);
+    H5Fclose(file);
+  }
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/buttons", "type enumerated (as h5py stores a bool");
   {  // int32 buttons beyond 8 bits: HDF5's conversion would clip them to 255 silently
     RawRecording raw(good);
     raw.write(p, [&](h5::Group&) {}, "buttons");

@@ -553,7 +553,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // The jaw in the log's own range, mapped to 0 closed .. 1 open; without a range one outside
   // [0, 1] is refused here, naming the option that maps it. Repeats are the log's own: two
   // readings that the clamp makes equal are two readings.
-  const std::vector<double> logged_jaw = rec.jaw;
+  const std::vector<double> logged_jaw = opt.jaw_range ? rec.jaw : std::vector<double>{};
   std::size_t jaw_clamped = 0, first_jaw_clamped = 0;
   for (std::size_t i = 0; i < rec.size(); ++i) {
     double& j = rec.jaw[i];
@@ -593,9 +593,10 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // instead of creeping toward the next new sample; the log's last sample is kept, so the
   // recording keeps its length.
   std::vector<std::size_t> keep;
-  const auto repeats = [&rec, &logged_jaw](std::size_t i) {
+  const std::vector<double>& jaw = opt.jaw_range ? logged_jaw : rec.jaw;  // without a range, the same values
+  const auto repeats = [&rec, &jaw](std::size_t i) {
     return rec.position[i] == rec.position[i - 1] && same(rec.orientation[i], rec.orientation[i - 1]) &&
-           logged_jaw[i] == logged_jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
+           jaw[i] == jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
   };
   for (std::size_t i = 0; i < rec.size();) {
     std::size_t j = i;

@@ -91,6 +91,7 @@ template <class T>
 std::vector<T> read_in_parts(const h5::Dataset& d, const std::vector<std::ptrdiff_t>& expected, std::size_t first,
                              std::size_t count) {
   std::vector<T> out;
+  out.reserve(count * (expected.size() > 1 ? static_cast<std::size_t>(expected[1]) : 1));
   for (std::size_t p = first; p < first + count; p += kPartRows) {
     const auto part = d.read_rows<T>(expected, p, std::min(kPartRows, first + count - p));
     out.insert(out.end(), part.data.begin(), part.data.end());
@@ -132,6 +133,11 @@ void read_window(const h5::Group& g, const std::string& path, const std::vector<
                  std::size_t hi, Recording& rec) {
   const std::size_t n = t.size(), stride = (n + kOutlineSamples - 1) / kOutlineSamples;
   rec.span = Recording::FileSpan{t.front(), t.back(), lo, {}, {}};
+  rec.t.reserve(hi - lo + 1);
+  rec.position.reserve(hi - lo + 1);
+  rec.orientation.reserve(hi - lo + 1);
+  rec.jaw.reserve(hi - lo + 1);
+  rec.buttons.reserve(hi - lo + 1);
   Quatd before;
   for (std::size_t first = 0; first < n;) {
     const std::size_t count = std::min(kPartRows, n - first);

@@ -153,6 +153,9 @@ struct ForcepsSpec {
   /// threshold, the paper's. Above it, a gripper's noise does not let go and grasp again.
   std::optional<double> release_threshold;
   double release() const { return release_threshold.value_or(grasp_threshold); }
+  /// Whether the jaws are closed at the jaw value `jaw`, having been `was_closed`: open jaws close
+  /// below the grasp threshold, closed ones open at the release threshold.
+  bool closed_at(double jaw, bool was_closed) const { return jaw < (was_closed ? release() : grasp_threshold); }
   double soft_margin = 0.002;        ///< m, soft collider around the hard jaw box [10]
   double eta = 1.0;                  ///< smoothing factor of w(d) = 1 / (1 + eta e^d) [10]
 };

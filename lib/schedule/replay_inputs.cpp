@@ -108,7 +108,7 @@ std::optional<std::string> grasp_flicker(const Recording& rec, const SceneSpec& 
   double released_at = -INFINITY, first = 0;
   std::size_t count = 0;
   for (std::size_t i = 0; i < rec.size(); ++i) {
-    const bool now = rec.jaw[i] < (closed ? f.release() : f.grasp_threshold);
+    const bool now = f.closed_at(rec.jaw[i], closed);
     if (now == closed) continue;
     closed = now;
     if (!closed) released_at = rec.t[i];

@@ -312,8 +312,8 @@ SweepPlan read_sweep_plan(const fs::path& file) {
       try {
         (void)replay_window(plan.start, std::nullopt, read_recording(p.string()).duration(),
                             p.string() + " (" + key + ".recordings)", "start", "duration");
-      } catch (const InputError& e) {
-        r.fail(top.count("start") ? top["start"] : recs, "start", e.what());
+      } catch (const InputError& error) {
+        r.fail(top.count("start") ? top["start"] : recs, "start", error.what());
       }
     }
     std::map<std::string, YAML::Node> ref_where;

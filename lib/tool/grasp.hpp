@@ -35,10 +35,10 @@ struct GraspState {
 /// Sizes the state for m virtual vertices (capacity m, so grasping never allocates later).
 void init_grasp(GraspState& g, std::size_t m);
 
-/// Whether the jaws are closed at the jaw value `jaw`, having been `was_closed` (a tool with jaws):
-/// open jaws close below the grasp threshold, closed ones open at the release threshold.
+/// Whether the jaws are closed at the jaw value `jaw`, having been `was_closed` (a tool with jaws;
+/// ForcepsSpec::closed_at).
 inline bool jaws_closed(const ToolModel& tool, double jaw, bool was_closed) {
-  return jaw < (was_closed ? tool.spec.forceps.release() : tool.spec.forceps.grasp_threshold);
+  return tool.spec.forceps.closed_at(jaw, was_closed);
 }
 
 /// Opens or closes the grasp for this tick's jaw value.

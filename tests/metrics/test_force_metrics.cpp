@@ -441,9 +441,11 @@ TEST(ForceCollapse, AToolPushedThroughTheTissueIsNamed) {
   const ForceMetrics m = roundtrip(press_through(), "collapse");
   ASSERT_TRUE(m.collapse);
   EXPECT_EQ(m.collapse->count, 1u);
-  EXPECT_NEAR(m.collapse->peak_N, 1.5 * 499 / 500, 1e-12);  // the last tick before the fall
-  EXPECT_NEAR(m.collapse->peak_t, 0.499, 1e-12);
-  EXPECT_NEAR(m.collapse->t, 0.503, 1e-12);  // the first under 20% of it: 0.03 N at tick 503
+  // The trace's own numbers, through the file unchanged: the last tick before the fall, and the
+  // first under 20% of it (0.03 N at tick 503).
+  EXPECT_EQ(m.collapse->peak_N, 1.5 * static_cast<double>(499) / static_cast<double>(500));
+  EXPECT_EQ(m.collapse->peak_t, 499.0 / 1000);
+  EXPECT_EQ(m.collapse->t, 503.0 / 1000);
   const std::string warning = collapse_warning(*m.collapse, true);
   EXPECT_NE(warning.find("the force fell from 1.5 N (t = 0.499 s) to 0.03 N (t = 0.503 s)"), std::string::npos) << warning;
   EXPECT_NE(warning.find("contact=surface"), std::string::npos) << warning;

@@ -86,6 +86,32 @@ std::string os_suffix() {
   return err > 0 ? ": " + os_reason(err) : std::string();
 }
 
+// The descriptions on HDF5's error stack after a failed call, innermost last, one per line; clears
+// the stack. Must run before the next HDF5 call, which clears it.
+herr_t collect_desc(unsigned, const H5E_error2_t* e, void* data) {
+  if (e && e->desc) *static_cast<std::string*>(data) += std::string(e->desc) + "\n";
+  return 0;
+}
+std::string error_descriptions() {
+  std::string out;
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, collect_desc, &out);
+  H5Eclear2(H5E_DEFAULT);
+  return out;
+}
+
+// A file cut short (HDF5 records "truncated file: eof = N, ..., stored_eof = M" when the file ends
+// before the size its superblock declares): "it ends after N of its M bytes: ...", else "".
+std::string truncation(const std::string& errors) {
+  const std::size_t at = errors.find("truncated file: eof = ");
+  if (at == std::string::npos) return "";
+  const char* p = errors.c_str() + at;
+  unsigned long long eof = 0, stored = 0;
+  const char* s = std::strstr(p, "stored_eof = ");
+  if (std::sscanf(p, "truncated file: eof = %llu", &eof) != 1 || !s || std::sscanf(s, "stored_eof = %llu", &stored) != 1)
+    return "it ends before the size it declares";
+  return "it ends after " + std::to_string(eof) + " of its " + std::to_string(stored) + " bytes";
+}
+
 // A failed HDF5 call: "WHERE: WHAT: OS reason" (the reason when the OS gave one).
 [[noreturn]] void fail_call(const std::string& where, const std::string& what) { fail(where, what + os_suffix()); }
 
@@ -312,8 +338,11 @@ std::vector<double> Object::attr_doubles(const std::string& name) const {
 
 namespace {
 /// A failed read's message: a filter the dataset was written with that this HDF5 library lacks
-/// (h5py's lzf, a blosc plugin) by its name and what to do, else "cannot read the dataset".
-std::string read_failure(hid_t dataset) {
+/// (h5py's lzf, a blosc plugin) by its name and what to do; compressed data that does not
+/// decompress; else "cannot read the dataset". `what` names the rows read, where only some were.
+/// Reads HDF5's error stack: call it right after the failed read.
+std::string read_failure(hid_t dataset, const std::string& what = "the dataset") {
+  const std::string errors = error_descriptions();
   Handle plist(H5Dget_create_plist(dataset));
   const int n = plist.get() >= 0 ? H5Pget_nfilters(plist.get()) : 0;
   for (int i = 0; i < n; ++i) {
@@ -323,11 +352,15 @@ std::string read_failure(hid_t dataset) {
     const H5Z_filter_t filter = H5Pget_filter2(plist.get(), static_cast<unsigned>(i), &flags, &nvalues, nullptr,
                                                sizeof name, name, &config);
     if (filter >= 0 && H5Zfilter_avail(filter) <= 0)
-      return "cannot read the dataset: it is compressed with the filter '" + std::string(name) + "' (id " +
+      return "cannot read " + what + ": it is compressed with the filter '" + std::string(name) + "' (id " +
              std::to_string(filter) + "), which this HDF5 library does not have: save it with gzip " +
              "(h5py: compression='gzip') or none";
   }
-  return "cannot read the dataset";
+  if (n > 0 && (errors.find("filter returned failure") != std::string::npos ||
+                errors.find("inflate() failed") != std::string::npos))
+    return "cannot read " + what + ": compressed data in it does not decompress: the file is damaged (a copy or "
+           "transfer that went wrong, a failing disk); read it from its source again";
+  return "cannot read " + what;
 }
 }  // namespace
 
@@ -373,7 +406,7 @@ std::vector<std::string> Dataset::read_strings() const {
   if (H5Tis_variable_str(type.get()) > 0) {
     Handle mt = string_type();
     std::vector<char*> p(out.size(), nullptr);
-    check_status(H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()), where(), read_failure(id()));
+    if (H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()) < 0) fail(where(), read_failure(id()));
     for (std::size_t i = 0; i < out.size(); ++i) {
       out[i] = p[i] ? p[i] : "";
       H5free_memory(p[i]);
@@ -384,7 +417,7 @@ std::vector<std::string> Dataset::read_strings() const {
   std::vector<char> buf(out.size() * size);
   Handle mt(H5Tcopy(H5T_C_S1));
   H5Tset_size(mt.get(), size);
-  check_status(H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()), where(), read_failure(id()));
+  if (H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) fail(where(), read_failure(id()));
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = std::string(&buf[i * size], strnlen(&buf[i * size], size));
   return out;
 }
@@ -423,7 +456,9 @@ void Dataset::read_rows_into(Type t, std::size_t first, std::size_t count, std::
   std::vector<hsize_t> mdims(dims);
   mdims[0] = count;
   Handle mspace(H5Screate_simple(rank, mdims.data(), nullptr));
-  if (H5Dread(id(), mem_type(t), mspace.get(), fspace.get(), H5P_DEFAULT, out) < 0) fail(where(), read_failure(id()));
+  if (H5Dread(id(), mem_type(t), mspace.get(), fspace.get(), H5P_DEFAULT, out) < 0)
+    fail(where(), read_failure(id(), "rows " + std::to_string(first) + ".." + std::to_string(first + (count - 1) * stride) +
+                                         " of " + std::to_string(dims[0])));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -575,6 +610,9 @@ File File::open_read(const std::string& path) {
   if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path + ": not an HDF5 file");
   hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (f < 0) {
+    if (const std::string cut = truncation(error_descriptions()); !cut.empty())
+      throw InputError(path + ": cannot open HDF5 file: it is cut short (" + cut + "): a copy or download that did not "
+                              "finish, or a writer stopped before it closed the file");
 #if H5_VERSION_GE(1, 10, 7)
     // A program writing the file holds HDF5's lock on it (a logger still running): named as such.
     Handle fapl(H5Pcreate(H5P_FILE_ACCESS));

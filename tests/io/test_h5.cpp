@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <cmath>
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
@@ -103,6 +104,59 @@ TEST(H5, AMissingCompressionFilterIsNamed) {
   if (H5Zfilter_avail(32000) > 0) GTEST_SKIP() << "this HDF5 library has the lzf filter";
   h5::File f = h5::File::open_read(path);
   EXPECT_INPUT_ERROR(f.read<double>("d"), path, "/d", "compressed with the filter 'lzf' (id 32000)", "gzip");
+}
+
+// A file damaged in a copy: compressed data that does not decompress names the rows read and the
+// cause; a file cut short names its size against the size it declares. (Each said "cannot read"
+// or "cannot open" before.)
+TEST(H5, DamagedAndCutShortFilesSayWhatIsWrong) {
+  if (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0) GTEST_SKIP() << "this HDF5 library has no deflate filter";
+  test::ScratchDir tmp;
+  const std::string path = tmp / "damaged.h5";
+  std::vector<double> d(40000);
+  for (std::size_t i = 0; i < d.size(); ++i) d[i] = std::sin(0.001 * double(i)) + 1e-7 * double(i % 7);
+  { h5::File::create(path).write<double>("d", d, {d.size()}, {.compress = true}); }
+  const std::uintmax_t size = fs::file_size(path);
+  haddr_t offset = 0;
+  hsize_t bytes = 0, first_damaged = 0;
+  {
+    const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t ds = H5Dopen2(f, "d", H5P_DEFAULT);
+    const hid_t space = H5Dget_space(ds);
+    hsize_t chunks = 0;
+    ASSERT_GE(H5Dget_num_chunks(ds, space, &chunks), 0);
+    ASSERT_GE(chunks, 2u);  // the second chunk is damaged; the first reads
+    hsize_t coord[1];
+    unsigned mask = 0;
+    ASSERT_GE(H5Dget_chunk_info(ds, space, 1, coord, &mask, &offset, &bytes), 0);
+    first_damaged = coord[0];
+    H5Sclose(space);
+    H5Dclose(ds);
+    H5Fclose(f);
+  }
+  const std::string damaged = tmp / "damaged_copy.h5";
+  fs::copy_file(path, damaged);
+  {
+    std::FILE* fp = std::fopen(damaged.c_str(), "r+b");
+    ASSERT_NE(fp, nullptr);
+    std::fseek(fp, static_cast<long>(offset + bytes / 2), SEEK_SET);
+    const unsigned char junk[16] = {0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0, 0, 0, 0, 0xff, 0xff, 0xff, 0xff};
+    std::fwrite(junk, 1, sizeof junk, fp);
+    std::fclose(fp);
+  }
+  h5::File f = h5::File::open_read(damaged);
+  EXPECT_EQ(f.dataset("d").read_rows<double>({-1}, 0, 10).data[9], d[9]);  // the first chunk reads
+  EXPECT_INPUT_ERROR(f.read<double>("d"), damaged, "/d: cannot read the dataset: compressed data in it does not decompress",
+                     "damaged");
+  EXPECT_INPUT_ERROR(f.dataset("d").read_rows<double>({-1}, first_damaged, 10), "/d: cannot read rows " +
+                         std::to_string(first_damaged) + ".." + std::to_string(first_damaged + 9) + " of 40000: compressed");
+
+  const std::string cut = tmp / "cut.h5";
+  fs::copy_file(path, cut);
+  fs::resize_file(cut, size / 2);
+  EXPECT_INPUT_ERROR((void)h5::File::open_read(cut), cut, "cannot open HDF5 file: it is cut short (it ends after " +
+                                                               std::to_string(size / 2) + " of its " + std::to_string(size) +
+                                                               " bytes)");
 }
 
 TEST(H5, AppendableDatasetGrowsByRows) {

@@ -126,11 +126,11 @@ std::optional<std::string> grasp_flicker(const Recording& rec, const SceneSpec& 
 }
 
 /// The recording's tool attribute against the scene's tool: one that is neither hook nor forceps,
-/// or the other kind (unless grasp_lost says so already), in one line; the replay moves the
-/// scene's tool.
-std::optional<std::string> tool_mismatch(const Recording& rec, const SceneSpec& spec) {
+/// or the other kind (unless grasp_lost says so already: `grasp_lost_said`), in one line; the
+/// replay moves the scene's tool.
+std::optional<std::string> tool_mismatch(const Recording& rec, const SceneSpec& spec, bool grasp_lost_said) {
   const char* scene_tool = spec.tool.kind == ToolSpec::Kind::Forceps ? "forceps" : "hook";
-  if (rec.tool == scene_tool || grasp_lost(rec, spec)) return std::nullopt;
+  if (rec.tool == scene_tool || grasp_lost_said) return std::nullopt;
   if (rec.tool != "hook" && rec.tool != "forceps")
     return "attribute tool = '" + rec.tool + "' is neither hook nor forceps: the replay moves the scene's " + scene_tool;
   return "recorded with a " + rec.tool + " (its tool attribute) and replayed with the scene's " + scene_tool;
@@ -189,9 +189,10 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   r.recording = std::move(recording.recording);
   const std::filesystem::path scene_file = resolve_scene_path(scene);
   SceneSpec spec = load_scene_spec(scene_file, overrides);
+  const std::optional<std::string> lost = grasp_lost(r.recording, spec);  // said with the path's checks below
   if (auto w = scene_mismatch(r.recording, r.recording_path, scene_file, spec.name))
     r.warnings.push_back(r.recording_path + ": " + *w);
-  else if (auto t = tool_mismatch(r.recording, spec))  // another scene's recording: its tool is said with it
+  else if (auto t = tool_mismatch(r.recording, spec, lost.has_value()))  // another scene's recording: its tool is said with it
     r.warnings.push_back(r.recording_path + ": " + *t);
   r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, spec);
   check_rate_options(spec, haptic_hz, physical_hz);
@@ -225,7 +226,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
     r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_speed(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_turn(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
-  if (auto w = grasp_lost(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);
+  if (lost) r.warnings.push_back(r.recording_path + ": " + *lost);
   if (auto w = grasp_flicker(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);
   return r;
 }

@@ -408,6 +408,8 @@ class SpecReader {
         }
       }
     }
+    const char* other = t.kind == ToolSpec::Kind::Hook ? "forceps" : "hook";
+    if (auto it = e.find(other); it != e.end()) t.other_kind_keys = it->second.IsMap() && it->second.size() > 0;
   }
 
   void read_time(const YAML::Node& n, SceneSpec& s) const {
@@ -957,6 +959,12 @@ Scene build_scene(SceneSpec spec_in) {
                              Plausible{"tool.force_limit", spec.tool.force_limit, 0.01, 100, "N",
                                        "a haptic device's force (a Geomagic Touch: 3.3 N)"}})
     if (std::string w = implausible(spec, p); !w.empty()) scene.warnings.push_back(std::move(w));
+  if (spec.tool.other_kind_keys) {
+    const bool hook = spec.tool.kind == ToolSpec::Kind::Hook;
+    const std::string block = hook ? "tool.forceps" : "tool.hook";
+    scene.warnings.push_back(value_source(spec, block) + ": " + block + " is given, but tool.kind is " +
+                             (hook ? "hook" : "forceps") + ": its keys are not used");
+  }
   const std::string mesh_file = spec.physical_mesh.string();
 
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and
@@ -1317,19 +1325,22 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "kind" << YAML::Value << (t.kind == ToolSpec::Kind::Hook ? "hook" : "forceps");
   y << YAML::Key << "shaft_radius" << YAML::Value << tool_length(t.shaft_radius);
   y << YAML::Key << "shaft_length" << YAML::Value << tool_length(t.shaft_length);
-  y << YAML::Key << "hook" << YAML::Value << YAML::BeginMap;
-  y << YAML::Key << "tip_length" << YAML::Value << tool_length(t.hook.tip_length);
-  y << YAML::Key << "tip_radius" << YAML::Value << tool_length(t.hook.tip_radius) << YAML::EndMap;
-  const ForcepsSpec& f = t.forceps;
-  y << YAML::Key << "forceps" << YAML::Value << YAML::BeginMap;
-  y << YAML::Key << "jaw_length" << YAML::Value << tool_length(f.jaw_length);
-  y << YAML::Key << "jaw_width" << YAML::Value << tool_length(f.jaw_width);
-  y << YAML::Key << "jaw_thickness" << YAML::Value << tool_length(f.jaw_thickness);
-  y << YAML::Key << "jaw_max_angle_deg" << YAML::Value << f.jaw_max_angle_deg;
-  y << YAML::Key << "grasp_threshold" << YAML::Value << f.grasp_threshold;
-  if (f.release_threshold) y << YAML::Key << "release_threshold" << YAML::Value << *f.release_threshold;
-  y << YAML::Key << "soft_margin" << YAML::Value << tool_length(f.soft_margin);
-  y << YAML::Key << "eta" << YAML::Value << f.eta << YAML::EndMap;
+  if (t.kind == ToolSpec::Kind::Hook) {  // the other kind's block shapes nothing
+    y << YAML::Key << "hook" << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "tip_length" << YAML::Value << tool_length(t.hook.tip_length);
+    y << YAML::Key << "tip_radius" << YAML::Value << tool_length(t.hook.tip_radius) << YAML::EndMap;
+  } else {
+    const ForcepsSpec& f = t.forceps;
+    y << YAML::Key << "forceps" << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "jaw_length" << YAML::Value << tool_length(f.jaw_length);
+    y << YAML::Key << "jaw_width" << YAML::Value << tool_length(f.jaw_width);
+    y << YAML::Key << "jaw_thickness" << YAML::Value << tool_length(f.jaw_thickness);
+    y << YAML::Key << "jaw_max_angle_deg" << YAML::Value << f.jaw_max_angle_deg;
+    y << YAML::Key << "grasp_threshold" << YAML::Value << f.grasp_threshold;
+    if (f.release_threshold) y << YAML::Key << "release_threshold" << YAML::Value << *f.release_threshold;
+    y << YAML::Key << "soft_margin" << YAML::Value << tool_length(f.soft_margin);
+    y << YAML::Key << "eta" << YAML::Value << f.eta << YAML::EndMap;
+  }
   y << YAML::Key << "force_limit" << YAML::Value << t.force_limit;
   y << YAML::Key << "torque_limit" << YAML::Value << t.torque_limit;
   y << YAML::Key << "newton_iterations" << YAML::Value << t.newton_iterations;

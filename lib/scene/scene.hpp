@@ -185,6 +185,9 @@ struct ToolSpec {
   /// tool resting on a few vertices flipping between contact states). 0 = the paper's model.
   double stabilization_translation = 0.0;
   double stabilization_rotation = 0.0;
+  /// The scene file gave keys under the other kind's block (tool.forceps on a hook, tool.hook on
+  /// forceps): they shape nothing, and the scene warns. The resolved scene writes only the kind's block.
+  bool other_kind_keys = false;
 };
 
 struct Camera {

@@ -2,6 +2,7 @@
 // is rejected with the dotted key named; meshes are validated; pinned regions resolve.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -54,8 +55,7 @@ TEST(SceneSpec, EveryKeyRead) {
   EXPECT_EQ(s.tool.kind, ToolSpec::Kind::Forceps);
   EXPECT_NEAR(s.tool.shaft_radius, 0.0025, kTol);
   EXPECT_NEAR(s.tool.shaft_length, 0.3, kTol);
-  EXPECT_NEAR(s.tool.hook.tip_length, 0.006, kTol);
-  EXPECT_NEAR(s.tool.hook.tip_radius, 0.001, kTol);
+  EXPECT_FALSE(s.tool.other_kind_keys);
   EXPECT_NEAR(s.tool.forceps.jaw_length, 0.008, kTol);
   EXPECT_NEAR(s.tool.forceps.jaw_width, 0.005, kTol);
   EXPECT_NEAR(s.tool.forceps.jaw_thickness, 0.002, kTol);
@@ -354,6 +354,37 @@ TEST(Scene, WarningsNameTheOverrideThatGaveTheValue) {
   }
 }
 
+TEST(Scene, TheOtherToolKindsKeysAreReadAndWarnedAsUnused) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  // a hook scene's own block is read in tool.unit; an empty block of the other kind gives no key
+  const std::string forceps_block = "forceps: {jaw_length: 8, jaw_width: 5, jaw_thickness: 2, jaw_max_angle_deg: 30,\n"
+                                    "            grasp_threshold: 0.2, soft_margin: 2, eta: 1.5}";
+  ASSERT_NE(good.find(forceps_block), std::string::npos);
+  const SceneSpec hook = load_scene_spec_text(
+      replace(replace(good, "kind: forceps", "kind: hook\n  hook: {tip_length: 6, tip_radius: 1.0}"), forceps_block, "forceps: {}"),
+      "hook.yaml");
+  EXPECT_NEAR(hook.tool.hook.tip_length, 0.006, kTol);
+  EXPECT_NEAR(hook.tool.hook.tip_radius, 0.001, kTol);
+  EXPECT_FALSE(hook.tool.other_kind_keys);
+  // a forceps scene with a hook block (copied from a hook scene): read, unused, warned
+  const std::string p = write_temp("both.yaml", replace(good, "kind: forceps", "kind: forceps\n  hook: {tip_length: 6}")).string();
+  const Scene both = load_scene(p);
+  EXPECT_NEAR(both.spec.tool.hook.tip_length, 0.006, kTol);
+  ASSERT_EQ(both.warnings.size(), 1u) << ::testing::PrintToString(both.warnings);
+  EXPECT_EQ(both.warnings[0], p + ": tool.hook is given, but tool.kind is forceps: its keys are not used");
+  // the resolved scene writes the kind's block only, and loads without the warning
+  const std::string resolved = resolved_scene_yaml(both.spec);
+  EXPECT_EQ(resolved.find("hook:"), std::string::npos) << resolved;
+  EXPECT_NE(resolved.find("forceps:"), std::string::npos) << resolved;
+  EXPECT_TRUE(build_scene(load_scene_spec_text(resolved, "resolved.yaml")).warnings.empty());
+  // an override that gives a forceps key to a hook scene is named
+  const std::string cube = write_temp("cube.yaml", good).string();
+  const Scene hooked = load_scene(cube, {"tool.kind=hook", "tool.forceps.release_threshold=0.3"});
+  ASSERT_EQ(hooked.warnings.size(), 1u) << ::testing::PrintToString(hooked.warnings);
+  EXPECT_EQ(hooked.warnings[0], "--set 'tool.forceps.release_threshold=0.3': tool.forceps is given, but tool.kind is "
+                                "hook: its keys are not used");
+}
+
 TEST(Scene, UnitsScaleEveryLength) {
   const std::string mm = slurp(data("scene/cube.yaml"));
   std::string m = mm;
@@ -528,10 +559,13 @@ struct BadScene : ::testing::Test {
 };
 
 TEST_F(BadScene, NotANumber) {
-  expect(replace(good, "tip_length: 6", "tip_length: abc"), ": key 'tool.hook.tip_length': expected a positive number, got 'abc'");
+  // the other kind's block is read as strictly as the tool's own
+  expect(replace(good, "  force_limit: 3.3", "  hook: {tip_length: abc}\n  force_limit: 3.3"),
+         ": key 'tool.hook.tip_length': expected a positive number, got 'abc'");
 }
 TEST_F(BadScene, NotPositive) {
-  expect(replace(good, "tip_length: 6", "tip_length: -6"), "key 'tool.hook.tip_length': expected a positive number, got '-6'");
+  expect(replace(good, "  force_limit: 3.3", "  hook: {tip_length: -6}\n  force_limit: 3.3"),
+         "key 'tool.hook.tip_length': expected a positive number, got '-6'");
 }
 TEST_F(BadScene, NotFinite) { expect(replace(good, "density: 1100", "density: .nan"), "key 'material.density': expected a positive number, got '.nan'"); }
 TEST_F(BadScene, MapForNumber) { expect(replace(good, "density: 1100", "density: {a: 1}"), "key 'material.density': expected a positive number, got a map"); }
@@ -1064,7 +1098,9 @@ TEST(Scene, ASecondDocumentAndMergeKeysAreRefused) {
     (void)load_scene_spec(two);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), two.string() + ":41: a second YAML document (after '---'): a scene file holds one");
+    const auto line = std::count(good.begin(), good.end(), '\n') + 2;  // the second document's first line
+    EXPECT_EQ(std::string(e.what()), two.string() + ":" + std::to_string(line) +
+                                         ": a second YAML document (after '---'): a scene file holds one");
   }
   EXPECT_NO_THROW((void)load_scene_spec(write_temp("trailing_marker.yaml", good + "---\n")));
   const fs::path merge =

@@ -307,10 +307,12 @@ SweepPlan read_sweep_plan(const fs::path& file) {
                  s.recordings[i].string() + " has the same bytes as " + s.recordings[j].string() +
                      ": the same recording; list it once");
     // The window starts inside every recording (as ebh replay --start checks), before any run:
-    // each run would fail on it.
+    // each run would fail on it. Read as a run reads it: its window's samples kept, every one checked.
     for (const fs::path& p : s.recordings) {
       try {
-        (void)replay_window(plan.start, std::nullopt, read_recording(p.string()).duration(),
+        const Recording rec = read_recording(p.string(), RecordingWindow{plan.start, plan.duration});
+        plan.recording_length[p.string()] = rec.duration();
+        (void)replay_window(plan.start, std::nullopt, rec.duration(),
                             p.string() + " (" + key + ".recordings)", "start", "duration");
       } catch (const InputError& error) {
         r.fail(top.count("start") ? top["start"] : recs, "start", error.what());

@@ -64,6 +64,8 @@ struct SweepPlan {
   /// The SHA-256 (hex) of each scene's input files and each recording, by path: read once with the
   /// plan (run ids, and the outputs' checks: InputDigests)
   std::map<std::string, std::string> sha256;
+  /// Each recording's length (s), by path: read with the plan (the window its replays cover: run_state).
+  std::map<std::string, double> recording_length;
   std::vector<std::string> backends{"cpu"};
   std::string reference_backend = "cpu";
   int repetitions = 1;

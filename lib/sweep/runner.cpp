@@ -20,6 +20,7 @@
 #include "io/atomic.hpp"
 #include "core/error.hpp"
 #include "io/h5.hpp"
+#include "io/recording.hpp"
 #include "io/sha256.hpp"
 #include "scene/scene.hpp"
 
@@ -252,6 +253,30 @@ const std::vector<std::pair<std::string, fs::path>>& InputDigests::run_files(con
   return it->second;
 }
 
+namespace {
+/// Whether `f` is a replay with the run's window, mode, backend and overrides, as its attributes
+/// say (`ebh replay` writes them: docs/FORMATS.md): not one replayed by hand or copied under the
+/// run's name, nor an HDF5 file of another program. The window's length is the one a replay of
+/// the recording gives (a duration past its end is cut to it).
+bool is_replay_of(const h5::File& f, const SweepPlan& plan, const SweepRun& run) {
+  for (const char* a : {"mode", "backend", "start", "duration", "overrides_list"})
+    if (!f.has_attr(a)) return false;
+  std::string overrides;
+  for (const std::string& s : run.set_arguments()) {
+    if (!overrides.empty()) overrides += '\n';
+    overrides += s;
+  }
+  if (f.attr_string("mode") != plan.mode || f.attr_string("backend") != run.backend ||
+      f.attr_string("overrides_list") != overrides || f.attr_double("start") != plan.start)
+    return false;
+  if (plan.duration == 0) return f.attr_double("duration") == 0;  // a replay of the rest of the recording records 0
+  const auto length = plan.recording_length.find(run.recording.string());
+  if (length == plan.recording_length.end()) return true;  // a plan made without the lengths: not checked
+  return f.attr_double("duration") ==
+         replay_window(plan.start, plan.duration, length->second, run.recording.string(), "start", "duration");
+}
+}  // namespace
+
 RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests) {
   const fs::path out = run_output(dir, run);
   std::error_code ec;
@@ -260,6 +285,7 @@ RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& r
   std::vector<std::string> recorded(files.size());  // the SHA-256 the output holds for each ("": none)
   try {
     const h5::File f = h5::File::open_read(out.string());
+    if (!is_replay_of(f, plan, run)) return RunState::Other;
     for (std::size_t k = 0; k < files.size(); ++k)
       if (f.has_attr(files[k].first + "_sha256")) recorded[k] = f.attr_string(files[k].first + "_sha256");
   } catch (const InputError&) {

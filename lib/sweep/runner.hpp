@@ -58,9 +58,11 @@ class InputDigests {
 /// Where a run stands in DIR: no output yet; an output made from the run's input files as they are
 /// now; or one made from others (a file whose SHA-256 differs from the one the output recorded:
 /// edited or replaced since it ran), which a sweep runs again; or an HDF5 file that does not open
-/// (cut short by a copy or a full disk) or an empty one, run again too. An output without the
-/// digests, or a file of another kind (not written by `ebh replay`), counts as done.
-enum class RunState { Missing, Done, Stale, Unreadable };
+/// (cut short by a copy or a full disk) or an empty one, run again too; or an HDF5 file that is
+/// not the run's replay (Other: a replay of another window, mode, backend or overrides, copied or
+/// replayed by hand under the run's name, or no replay at all), run again. An output without the
+/// digests counts as done; a file of another kind (not HDF5) is another program's, left alone as done.
+enum class RunState { Missing, Done, Stale, Unreadable, Other };
 RunState run_state(const std::filesystem::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests);
 
 /// A folder made before the run ids came from the files' contents names a run's files after its

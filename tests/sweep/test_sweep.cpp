@@ -535,8 +535,9 @@ TEST(SweepRunner, CudaChildrenSpreadOverTheGpus) {
 
 /// A run is done while its output was made from the run's input files as they are: the output
 /// records each one's SHA-256 (the scene file, its mesh, the recording: write_provenance), and a
-/// file edited or replaced since makes the run stale, so the sweep runs it again. An output that
-/// records none (not written by `ebh replay`) counts as done; one cut short runs again.
+/// file edited or replaced since makes the run stale, so the sweep runs it again. An output of
+/// another window, mode, backend or overrides (a replay by hand or a copy under the run's name),
+/// or an HDF5 file that is no replay, runs again; one cut short too.
 TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   const fs::path d = scratch() / "stale";
   fs::remove_all(d);
@@ -554,11 +555,20 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   InputDigests digests;
   EXPECT_EQ(run_state(dir, p, r, digests), RunState::Missing);
   // What the files were when the run ran, as the replay's output records them.
-  auto write_output = [&](const std::string& scene_sha) {
+  struct Window {
+    std::string mode = "async", backend = "cpu", overrides;
+    double start = 4, duration = 0.5;
+  };
+  auto write_output = [&](const std::string& scene_sha, const Window& w = {}) {
     h5::File f = h5::File::create(run_output(dir, r).string());
     f.set_attr("scene_file_sha256", scene_sha);
     f.set_attr("physical_mesh_sha256", sha256_file((d / "scene" / "tube.msh").string()));
     f.set_attr("recording_sha256", sha256_file(r.recording.string()));
+    f.set_attr("mode", w.mode);
+    f.set_attr("backend", w.backend);
+    f.set_attr("overrides_list", w.overrides);
+    f.set_attr("start", w.start);
+    f.set_attr("duration", w.duration);
   };
   const std::string scene_sha = sha256_file((d / "scene" / "tube.yaml").string());
   write_output(scene_sha);
@@ -573,10 +583,41 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   std::ofstream(d / "scene" / "tube.msh", std::ios::app) << "\n";
   InputDigests mesh_changed;
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Stale);
-  // An HDF5 output without digests (another program's file): done, as before.
+  // A replay of another window, mode, backend or overrides under the run's name (replayed by
+  // hand into runs/, or another run's output copied): its numbers are not the run's; run again.
+  const std::string scene_now = sha256_file((d / "scene" / "tube.yaml").string());
+  write_output(scene_now);
+  InputDigests now;
+  EXPECT_EQ(run_state(dir, p, r, now), RunState::Done);
+  std::vector<Window> others(6);
+  others[0].start = 0;
+  others[1].duration = 0.05;
+  others[2].duration = 0;
+  others[3].mode = "lockstep";
+  others[4].backend = "cuda";
+  others[5].overrides = "solver.virtual_iterations=2";
+  for (const Window& w : others) {
+    write_output(scene_now, w);
+    EXPECT_EQ(run_state(dir, p, r, now), RunState::Other) << w.mode << " " << w.backend << " " << w.start << " "
+                                                          << w.duration << " " << w.overrides;
+  }
+  // A window past the recording's end: the replay records the part it played (tube_insert: 10 s).
+  const SweepPlan past = read_sweep_plan(plan_file("past.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
+                                                                 ", recordings: [tube_insert], reference: {}}\nstart: 9.8\nduration: 0.5\n"));
+  const SweepRun pr = expand_plan(past).at(0);
+  {
+    h5::File f = h5::File::create(run_output(dir, pr).string());
+    f.set_attr("mode", "async");
+    f.set_attr("backend", "cpu");
+    f.set_attr("overrides_list", "");
+    f.set_attr("start", 9.8);
+    f.set_attr("duration", 10.0 - 9.8);
+  }
+  EXPECT_EQ(run_state(dir, past, pr, now), RunState::Done);
+  // An HDF5 file that is no replay (an h5py slip emptied it; another program's): run again.
   fs::remove(run_output(dir, r));
   { h5::File::create(run_output(dir, r).string()); }
-  EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Done);
+  EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Other);
   // Another program's file of another kind: done, as before.
   std::ofstream(run_output(dir, r)) << "not HDF5\n";
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Done);

@@ -54,25 +54,32 @@ std::string executable() {
   return p.string();
 }
 
-/// Where each run of `runs` stands in DIR (run_state), and how many outputs are stale (made from
-/// other input files) or unreadable: the sweep runs them again.
+/// The runs with an output that a sweep runs again, by why (RunState).
+struct RedoCounts {
+  std::size_t stale = 0, unreadable = 0, other = 0;
+};
+
+/// Where each run of `runs` stands in DIR (run_state), counting the outputs it runs again.
 std::vector<RunState> run_states(const SweepPlan& plan, const fs::path& dir, const std::vector<SweepRun>& runs,
-                                 std::size_t& stale, std::size_t& unreadable) {
+                                 RedoCounts& redo) {
   InputDigests digests(&plan);
   std::vector<RunState> states;
   for (const SweepRun& r : runs) {
     states.push_back(run_state(dir, plan, r, digests));
-    stale += states.back() == RunState::Stale ? 1 : 0;
-    unreadable += states.back() == RunState::Unreadable ? 1 : 0;
+    redo.stale += states.back() == RunState::Stale ? 1 : 0;
+    redo.unreadable += states.back() == RunState::Unreadable ? 1 : 0;
+    redo.other += states.back() == RunState::Other ? 1 : 0;
   }
   return states;
 }
 
 /// The first line's note of the runs with an output that run again (", N made from input files
-/// edited or replaced since (run again)", ", N whose output does not open (run again)"), or "".
-std::string stale_note(std::size_t stale, std::size_t unreadable) {
-  return (stale ? ", " + std::to_string(stale) + " made from input files edited or replaced since (run again)" : "") +
-         (unreadable ? ", " + std::to_string(unreadable) + " whose output does not open (run again)" : std::string());
+/// edited or replaced since (run again)", ...), or "".
+std::string stale_note(const RedoCounts& redo) {
+  auto note = [](std::size_t n, const char* why) { return n ? ", " + std::to_string(n) + " " + why + " (run again)" : std::string(); };
+  return note(redo.stale, "made from input files edited or replaced since") +
+         note(redo.unreadable, "whose output does not open") +
+         note(redo.other, "whose output is not the run's replay (another window, mode, backend or overrides, or no replay)");
 }
 
 /// "tube + tube_insert, cpu, solver.virtual_iterations=2 (ID)": a run in messages.
@@ -255,8 +262,8 @@ class FolderChanges {
 /// --slurm: one array task per slice of the runs, each `ebh sweep DIR/plan.yaml -o DIR --task I --tasks T`.
 void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir,
                   FolderChanges& changes) {
-  std::size_t stale = 0, unreadable = 0;
-  const std::vector<RunState> states = run_states(plan, dir, runs, stale, unreadable);
+  RedoCounts redo;
+  const std::vector<RunState> states = run_states(plan, dir, runs, redo);
   const auto todo = static_cast<std::size_t>(std::count_if(states.begin(), states.end(), [](RunState s) { return s != RunState::Done; }));
   if (todo == 0) {
     std::printf("%s: all %zu runs are done; nothing to submit (ebh sweep report %s)\n", dir.c_str(), runs.size(), dir.c_str());
@@ -301,7 +308,7 @@ void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<S
   changes.keep();
   const std::string job = out.substr(out.find_last_of('\n') == std::string::npos ? 0 : out.find_last_of('\n') + 1);
   std::printf("%s: submitted Slurm job array %s: %d tasks for %zu runs (%zu to do%s); when it has finished: ebh sweep report %s\n",
-              dir.c_str(), job.substr(0, job.find(';')).c_str(), tasks, runs.size(), todo, stale_note(stale, unreadable).c_str(), dir.c_str());
+              dir.c_str(), job.substr(0, job.find(';')).c_str(), tasks, runs.size(), todo, stale_note(redo).c_str(), dir.c_str());
 }
 
 /// The progress line: on a terminal one line rewritten in place, otherwise a line per finished run.
@@ -376,9 +383,10 @@ void run_sweep(const SweepArgs& a) {
   }
   if (a.slurm) return submit_slurm(a, plan, runs, dir, changes);
 
-  std::size_t todo = 0, stale = 0, unreadable = 0;
+  std::size_t todo = 0;
+  RedoCounts redo;
   bool cuda_runs = false;
-  const std::vector<RunState> states = run_states(plan, dir, runs, stale, unreadable);
+  const std::vector<RunState> states = run_states(plan, dir, runs, redo);
   for (std::size_t i = 0; i < runs.size(); ++i)
     if (states[i] != RunState::Done) {
       const SweepRun& r = runs[i];
@@ -403,7 +411,7 @@ void run_sweep(const SweepArgs& a) {
     on_gpus = "; CUDA children on GPUs " + on_gpus +
               (a.jobs < static_cast<int>(opt.gpus.size()) ? " (--jobs " + std::to_string(opt.gpus.size()) + " uses them all at once)" : "");
   std::fprintf(stderr, "ebh sweep: %zu runs, %zu already done%s; %d at a time, %d threads each%s%s\n", runs.size(),
-               runs.size() - todo, stale_note(stale, unreadable).c_str(), std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
+               runs.size() - todo, stale_note(redo).c_str(), std::min<int>(a.jobs, static_cast<int>(std::max<std::size_t>(todo, 1))), opt.threads,
                a.batch > 1 ? (" (CUDA runs of async plans: up to " + std::to_string(a.batch) + " to a child)").c_str() : "",
                on_gpus.c_str());
   changes.keep();

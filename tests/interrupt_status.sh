@@ -23,12 +23,25 @@ for sig in TERM INT; do
 done
 # interrupted NAME SIG CMD...: runs CMD (its output in $work/NAME.out and .err), sends SIG a second
 # later and sets `status` to its exit status.
+# With CPU=S set, it waits instead until the command has used S seconds of processor time (past
+# its load on a busy machine, where a second of wall time may not be).
 interrupted() {
   local name=$1 sig=$2
   shift 2
   "$@" >"$work/$name.out" 2>"$work/$name.err" &
   local pid=$!
-  sleep 1
+  if [ -n "${CPU:-}" ]; then
+    local tick used waited=0
+    tick=$(getconf CLK_TCK)
+    while [ $waited -lt 600 ]; do  # 60 s at most
+      used=$(awk '{print $14 + $15}' "/proc/$pid/stat" 2>/dev/null) || break
+      [ "$used" -ge $((CPU * tick)) ] && break
+      sleep 0.1
+      waited=$((waited + 1))
+    done
+  else
+    sleep 1
+  fi
   kill -"$sig" $pid
   status=0
   wait $pid || status=$?
@@ -48,7 +61,7 @@ grep -q "baselines.yaml: cases\[[0-9]*\] (.*): interrupted; the gate stopped her
 # each mode: 130 and the message, no output, not a crash (the step's partway state is no result),
 # and no wait for the step to end (the grace would end the process with its own message).
 for mode in async lockstep; do
-  interrupted "step_$mode" INT "$ebh" replay tube tube_insert -o "$work/step_$mode.h5" -q --mode $mode --duration 0.5 \
+  CPU=2 interrupted "step_$mode" INT "$ebh" replay tube tube_insert -o "$work/step_$mode.h5" -q --mode $mode --duration 0.5 \
     --set solver.physical_iterations=30000 --set solver.physical_tolerance=0
   [ $status = 130 ] || fail "$mode, in a long step: exit status $status, expected 130: $(cat "$work/step_$mode.err")"
   grep -q "interrupted; no output written" "$work/step_$mode.err" ||

@@ -120,7 +120,10 @@ Pin parse_pin(const std::string& spec, double unit) {
 }
 
 /// The tool of a new scene, in mm: a 5 mm laparoscopic instrument (shaft 5 mm across, 330 mm
-/// working length), an L-hook's 6 mm tip of 1 mm radius, a grasper's 20 mm jaws.
+/// working length), an L-hook's 6 mm tip of 1 mm radius, a grasper's 20 mm jaws 2 mm thick.
+/// Its force limit (N) and thinnest part (m: the tip's radius, half a jaw's thickness) set the
+/// contact stiffness the scene writes (surface contact's floor, docs/MODEL.md).
+constexpr double kInitForceLimit = 3.3, kInitThinnestPart = 0.001;
 std::string tool_yaml(bool forceps) {
   std::string y =
       "tool:\n"
@@ -134,7 +137,7 @@ std::string tool_yaml(bool forceps) {
   } else {
     y += "  hook: {tip_length: 6, tip_radius: 1.0}   # the L-hook's bent tip\n";
   }
-  y += "  force_limit: 3.3              # N (Geomagic Touch)\n"
+  y += "  force_limit: " + fmt(kInitForceLimit) + "              # N (Geomagic Touch)\n"
        "  newton_iterations: 1\n"
        "  max_step: 0.5                 # mm per Newton step\n"
        "  max_step_rotation_deg: 0.5\n";
@@ -273,7 +276,10 @@ SceneInit make_scene(const SceneInitOptions& o) {
   line("  k_vol: " + fmt(preset->k_vol), "Pa, " + o.tissue + ": " + preset->source);
   line("  k_s: 20", "N/m, virtual-mesh edges");
   line("  k_svc: 50", "N/m, virtual vertex to physical mesh");
-  line("  k_con: 400", "N/m, contact");
+  // Surface contact renders at least F_limit / (1.5 x the thinnest part) (a lower k_con is
+  // raised, and a replay warns): the scene writes what it renders.
+  line("  k_con: " + fmt(std::ceil(kInitForceLimit / (1.5 * kInitThinnestPart))),
+       "N/m, contact: surface contact's floor for this tool (docs/MODEL.md); vertex contact: the paper's 400");
   line("  k_vcs: 300", "N/m, virtual tool to physical tool");
   line("  k_vct: 0.3", "N m/rad");
   y += "# An organ segmented in situ already has the shape its surroundings hold it in: gravity on top\n";

@@ -13,6 +13,7 @@
 #include "core/number_text.hpp"
 #include "io/import.hpp"
 #include "mesh/tet_locator.hpp"
+#include "tool/surface_contact.hpp"
 
 namespace ebh {
 namespace {
@@ -211,6 +212,18 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
     r.world = worlds->get(std::move(spec), hz_h, hz_p, backend);
   } else {
     r.world = build_world(build_scene(std::move(spec)), hz_h, hz_p, backend);
+  }
+  if (const auto& surface = r.world->tool.surface; surface && surface->stiffness_factor > 1) {
+    // Surface contact's floor (docs/MODEL.md, "Stiffness floor") renders a k_con below it as the
+    // floor: a sweep over such values measures one configuration.
+    const SceneSpec& s = r.world->scene.spec;
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  ": stiffness.k_con = %g N/m is below surface contact's floor, %.4g N/m (tool.force_limit %.4g N over "
+                  "1.5 x the tool's thinnest part, %.4g mm), which it renders with: every k_con below the floor renders "
+                  "the same (docs/MODEL.md, \"Stiffness floor\")",
+                  s.stiffness.k_con, s.stiffness.k_con * surface->stiffness_factor, s.tool.force_limit, surface->spacing * 1e3);
+    r.warnings.push_back(value_source(s, "stiffness.k_con") + line);
   }
   const BoundingBox box = bounding_box(r.world->scene.physical.vertices);
   if (!allow_outside) {

@@ -9,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "tool/newton.hpp"
+#include "tool/surface_contact.hpp"
 #include "ebh/commit.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
@@ -41,6 +42,8 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("k_s", s.stiffness.k_s);
   f.set_attr("k_svc", s.stiffness.k_svc);
   f.set_attr("k_con", s.stiffness.k_con);
+  // With surface contact, the k_con its samples get (at least its floor: docs/MODEL.md).
+  if (w.tool.surface) f.set_attr("k_con_surface", s.stiffness.k_con * w.tool.surface->stiffness_factor);
   f.set_attr("k_vcs", s.stiffness.k_vcs);
   f.set_attr("k_vct", s.stiffness.k_vct);
   f.set_attr("k_det", s.stiffness.k_det);

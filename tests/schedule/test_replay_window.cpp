@@ -118,3 +118,25 @@ TEST(ToolMismatch, TheRecordingsToolAgainstTheScenes) {
   EXPECT_NE(other.find("recorded for the scene 'tube'"), std::string::npos) << other;
   EXPECT_EQ(other.find("its tool attribute"), std::string::npos) << other;
 }
+
+// Surface contact renders a k_con below its floor (F_limit / (1.5 x the thinnest part)) as the
+// floor: a replay says so, naming where the value came from, and the output records what the
+// samples got; at or above the floor nothing is said.
+TEST(SurfaceContactFloor, AKConBelowTheFloorIsSaid) {
+  const RecordingFile file = read_replay_recording("tube_insert");
+  auto floor_warning = [&file](const std::vector<std::string>& set) {
+    for (const std::string& w : load_replay_scene(RecordingFile(file), "tube", set, std::nullopt, std::nullopt, false,
+                                                  Backend::Cpu).warnings)
+      if (w.find("below surface contact's floor") != std::string::npos) return w;
+    return std::string();
+  };
+  EXPECT_EQ(floor_warning({}), "");  // vertex contact: no floor
+  const std::string w = floor_warning({"contact=surface", "stiffness.k_con=200"});
+  EXPECT_EQ(w.rfind("--set 'stiffness.k_con=200': stiffness.k_con = 200 N/m is below surface contact's floor, 2200 N/m "
+                    "(tool.force_limit 3.3 N over 1.5 x the tool's thinnest part, 1 mm), which it renders with",
+                    0),
+            0u)
+      << w;
+  EXPECT_NE(floor_warning({"contact=surface"}).find("stiffness.k_con = 400 N/m"), std::string::npos);
+  EXPECT_EQ(floor_warning({"contact=surface", "stiffness.k_con=2200"}), "");
+}

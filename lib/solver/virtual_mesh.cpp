@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 #include <tuple>
+#include <unordered_map>
 
 #include "core/error.hpp"
 #include "energy/edge_spring.hpp"
@@ -58,6 +59,53 @@ void renumber_local(SurfaceMesh& surface, std::vector<std::array<int, 2>>& paren
   parent = std::move(out_parent);
 }
 
+/// The longest edge of the virtual mesh at rest.
+double longest_edge(const VirtualModel& vm) {
+  double longest = 0;
+  for (const Vec3d& e : vm.rest_edge) longest = std::max(longest, norm(e));
+  return longest;
+}
+
+/// The physical mesh's boundary vertices farther than `reach` from every virtual vertex: how many,
+/// of how many, and one of the farthest (the search looks 2 x reach around each).
+struct Uncovered {
+  std::size_t count = 0, of = 0;
+  double reach = 0, farthest = 0;  ///< farthest: capped at 3 x reach
+  Vec3d at;
+};
+Uncovered uncovered_boundary(const TetMesh& physical, const VirtualModel& vm, double reach) {
+  Uncovered u;
+  u.reach = reach;
+  if (!(reach > 0) || vm.rest.empty()) return u;
+  // The virtual vertices in cells of edge `reach`: a boundary vertex looks in its cell and the 26 around it.
+  const Vec3d lo = bounding_box(vm.rest).lo;
+  auto cell = [&](const Vec3d& p, int axis) {
+    const double c = std::floor(((axis == 0 ? p.x : axis == 1 ? p.y : p.z) - (axis == 0 ? lo.x : axis == 1 ? lo.y : lo.z)) / reach);
+    return static_cast<std::int64_t>(std::clamp(c, -1e6, 1e6));
+  };
+  auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) { return (i * 2000003 + j) * 2000003 + k; };
+  std::unordered_map<std::int64_t, std::vector<int>> cells;
+  for (int v = 0; v < static_cast<int>(vm.rest.size()); ++v)
+    cells[key(cell(vm.rest[v], 0), cell(vm.rest[v], 1), cell(vm.rest[v], 2))].push_back(v);
+  for (const Vec3d& p : extract_boundary(physical).vertices) {
+    ++u.of;
+    const std::int64_t ci = cell(p, 0), cj = cell(p, 1), ck = cell(p, 2);
+    double nearest = 3 * reach;
+    for (std::int64_t i = ci - 1; i <= ci + 1; ++i)
+      for (std::int64_t j = cj - 1; j <= cj + 1; ++j)
+        for (std::int64_t k = ck - 1; k <= ck + 1; ++k)
+          if (auto it = cells.find(key(i, j, k)); it != cells.end())
+            for (int v : it->second) nearest = std::min(nearest, norm(vm.rest[v] - p));
+    if (nearest <= reach) continue;
+    ++u.count;
+    if (nearest > u.farthest) {
+      u.farthest = nearest;
+      u.at = p;
+    }
+  }
+  return u;
+}
+
 }  // namespace
 
 void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, std::vector<std::string>& warnings) {
@@ -89,6 +137,18 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
     warnings.push_back(where + "is not closed: " + std::to_string(edges.open) +
                        " of its edges belong to one face only (a hole, a cut patch" + soup +
                        "): a tool that passes through an opening feels nothing there");
+  }
+  // A closed virtual mesh over part of the physical mesh only (a segmentation's surface of one
+  // lobe): a tool pressed into the rest meets no virtual vertex and renders next to nothing
+  // there. Said where over 1% of the physical boundary's vertices lie farther from every virtual
+  // vertex than the virtual mesh's longest edge (and 1% of the diagonal).
+  if (const Uncovered u = uncovered_boundary(scene.physical, vm, std::max(longest_edge(vm), 0.01 * diagonal));
+      u.count > 0 && u.count * 100 > u.of) {
+    std::snprintf(buf, sizeof buf, "covers part of the physical mesh only: %zu of its %zu boundary vertices (%.0f%%) "
+                  "lie more than %.3g mm from every virtual vertex (one at %.4g, %.4g, %.4g mm)",
+                  u.count, u.of, 100.0 * static_cast<double>(u.count) / static_cast<double>(u.of), u.reach * 1e3,
+                  u.at.x * 1e3, u.at.y * 1e3, u.at.z * 1e3);
+    warnings.push_back(where + buf + ": a tool pressed in there passes through the physical mesh unfelt");
   }
   const double span = bounding_box(vm.rest).diagonal();
   // A surface of the physical mesh is no larger than it: one twice its size is in another unit

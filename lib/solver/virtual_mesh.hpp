@@ -100,7 +100,9 @@ VirtualModel build_virtual_model(const Scene& scene);
 /// diagonals refused (InputError: a vertex a kilometre away pulled the physical mesh into
 /// divergence at tick 10, blamed on a tet); spanning less than 1/20 of that diagonal is warned (a
 /// mesh in m read as mm sits inside the physical mesh, 1/1000 of its size, paired without error,
-/// and the tool never touches it). Appends the warnings to `warnings`.
+/// and the tool never touches it); one over part of the physical mesh only (over 1% of its boundary
+/// vertices farther from every virtual vertex than the longest virtual edge) is warned (a tool
+/// there passes through the physical mesh unfelt). Appends the warnings to `warnings`.
 void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, std::vector<std::string>& warnings);
 
 /// Whether a pass over `count` vertices of `model` runs on the calling thread's OpenMP team: from

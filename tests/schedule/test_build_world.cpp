@@ -3,6 +3,7 @@
 // smaller than it (another unit) with its size.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <sstream>
 
 #include "../mesh/test_util.hpp"
@@ -109,7 +110,55 @@ TEST(BuildWorld, AVirtualMeshInAnotherUnitIsNamed) {
   EXPECT_TRUE(has(tiny, "tiny.obj: mesh.virtual: the virtual mesh spans 1.73 mm, 1/100 of the physical mesh's "
                         "diagonal (173 mm): is it in mesh.unit"))
       << ::testing::PrintToString(tiny);
-  EXPECT_FALSE(has(warnings_with_obj("half", 0.5, 0.0), "mesh.virtual"));
+  const auto half = warnings_with_obj("half", 0.5, 0.0);
+  EXPECT_FALSE(has(half, "spans")) << ::testing::PrintToString(half);
+  // (it covers none of the physical mesh's surface: a tool pressed in meets it 2.5 cm deep)
+  EXPECT_TRUE(has(half, "covers part of the physical mesh only")) << ::testing::PrintToString(half);
+}
+
+// A closed virtual mesh over half the physical mesh (one lobe of a segmentation): a tool pressed
+// into the other half meets no virtual vertex there and renders next to nothing. The cube's own
+// surface, as finely triangulated, says nothing.
+TEST(BuildWorld, AVirtualMeshOverPartOfThePhysicalMeshIsNamed) {
+  // The surface of the box [0, x1] x [0, 10] x [0, 10] cm, each face a grid of 1 cm squares.
+  auto box_obj = [](int x1) {
+    std::ostringstream o;
+    int base = 0;
+    auto face = [&](auto point, int nu, int nv) {
+      for (int v = 0; v <= nv; ++v)
+        for (int u = 0; u <= nu; ++u) {
+          const auto [x, y, z] = point(u, v);
+          o << "v " << x << " " << y << " " << z << "\n";
+        }
+      for (int v = 0; v < nv; ++v)
+        for (int u = 0; u < nu; ++u) {
+          const int a = base + v * (nu + 1) + u + 1;
+          o << "f " << a << " " << a + 1 << " " << a + nu + 2 << " " << a + nu + 1 << "\n";
+        }
+      base += (nu + 1) * (nv + 1);
+    };
+    using P = std::array<int, 3>;
+    face([](int u, int v) { return P{u, v, 0}; }, x1, 10);
+    face([](int u, int v) { return P{u, v, 10}; }, x1, 10);
+    face([](int u, int v) { return P{u, 0, v}; }, x1, 10);
+    face([](int u, int v) { return P{u, 10, v}; }, x1, 10);
+    face([](int u, int v) { return P{0, u, v}; }, 10, 10);
+    face([&](int u, int v) { return P{x1, u, v}; }, 10, 10);
+    return o.str();
+  };
+  auto warnings_of = [](const std::string& name, const std::string& obj) {
+    write_temp(name + ".obj", obj);
+    const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                             data("mesh/cube41.msh").string()),
+                                     "../mesh/cube.obj", name + ".obj");
+    return build_world(load_scene(write_temp(name + ".yaml", yaml)), 1000, 100)->scene.warnings;
+  };
+  const auto whole = warnings_of("whole_box", box_obj(10));
+  EXPECT_FALSE(has(whole, "covers part")) << ::testing::PrintToString(whole);
+  const auto half = warnings_of("half_box", box_obj(5));
+  EXPECT_TRUE(has(half, "half_box.obj: mesh.virtual: the virtual mesh covers part of the physical mesh only: "))
+      << ::testing::PrintToString(half);
+  EXPECT_TRUE(has(half, "lie more than 14.1 mm from every virtual vertex"));  // its longest edge, a square's diagonal
 }
 
 }  // namespace

@@ -289,7 +289,11 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   check_virtual_mesh_placement(w->scene, w->virtual_mesh, w->scene.warnings);
   w->physical_mesh = build_physical_model(w->scene, &w->virtual_mesh, physical_model_options(w->scene.spec));
   w->physical_params = physical_params(w->scene.spec.solver, w->physical_mesh);
-  if (backend == Backend::Cuda) w->float32_floor = float32_residual_floor(w->physical_mesh);
+  if (backend == Backend::Cuda) {
+    w->float32_floor = float32_residual_floor(w->physical_mesh);
+    if (std::string line = float32_placement_warning(w->scene.spec, w->physical_mesh, w->float32_floor); !line.empty())
+      w->scene.warnings.push_back(std::move(line));
+  }
   if (w->physical_params.method == SolverSpec::Method::Chebyshev &&
       w->physical_params.chebyshev_rho > kChebyshevRhoWarn) {
     char line[480];

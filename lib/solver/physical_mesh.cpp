@@ -673,12 +673,12 @@ void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> 
   }
 }
 
-double float32_residual_floor(const PhysicalModel& model) {
+double float32_residual_floor(const PhysicalModel& model, const Vec3d& origin) {
   // The device step's arithmetic at rest, in float: positions and shape gradients rounded, one
   // warm-started rotation update from R = I, the corner forces summed per vertex.
   const auto f32 = [](const Vec3d& v) { return Vec3f{float(v.x), float(v.y), float(v.z)}; };
   std::vector<Vec3f> x(model.rest.size());
-  for (std::size_t a = 0; a < x.size(); ++a) x[a] = f32(model.rest[a]);
+  for (std::size_t a = 0; a < x.size(); ++a) x[a] = f32(model.rest[a] - origin);
   double r2 = 0;
 #pragma omp parallel for schedule(static) reduction(+ : r2)
   for (int i = 0; i < model.num_free; ++i) {
@@ -698,6 +698,24 @@ double float32_residual_floor(const PhysicalModel& model) {
     r2 += double(f.x) * f.x + double(f.y) * f.y + double(f.z) * f.z;
   }
   return model.weight_norm > 0 ? std::sqrt(r2) / model.weight_norm : std::sqrt(r2);
+}
+
+std::string float32_placement_warning(const SceneSpec& spec, const PhysicalModel& model, double floor) {
+  const double tolerance = spec.solver.physical_tolerance;
+  if (!(tolerance > 0 && floor > tolerance)) return "";
+  const BoundingBox box = bounding_box(model.rest);
+  const Vec3d c = 0.5 * (box.lo + box.hi);
+  const double centred = float32_residual_floor(model, c);
+  if (!(floor > 4 * centred)) return "";  // the mesh's own floor (fine tets, slivers), not its place
+  const Vec3d to = (spec.mesh_transform.translate - c) / spec.unit;  // whole units are near enough
+  char line[600];
+  std::snprintf(line, sizeof line,
+                ": the physical mesh's centre lies %.3g m from the world's origin, where the CUDA backend's float32 "
+                "positions round to %.2g mesh weights of residual (%.2g with the mesh at the origin), above "
+                "solver.physical_tolerance %.3g: the device's steps run until they stall; move the mesh to the "
+                "origin (mesh.transform.translate: [%.0f, %.0f, %.0f], in %s) and the log with it (replay --transform)",
+                norm(c), floor, centred, tolerance, to.x, to.y, to.z, spec.unit_name.c_str());
+  return spec.physical_mesh.string() + line;
 }
 
 }  // namespace ebh

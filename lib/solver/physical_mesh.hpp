@@ -327,7 +327,17 @@ void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> 
 /// The residual (mesh weights) of the rest shape with its positions rounded to float32: what the
 /// CUDA step's float32 positions leave unbalanced where nothing moves, so about the lowest residual
 /// its iterations reach. It grows as the mesh is refined (~1/h^2: the elastic forces of a position
-/// error over an edge h, against a vertex weight ~h^3 and forces ~h).
-double float32_residual_floor(const PhysicalModel& model);
+/// error over an edge h, against a vertex weight ~h^3 and forces ~h), and with the mesh's distance
+/// from the origin (float32 keeps 24 bits of each coordinate: a mesh 1 m away rounds 60 times
+/// coarser than one 20 mm away). `origin`: the point the positions are rounded relative to
+/// (the mesh's centre: the floor of the mesh alone).
+double float32_residual_floor(const PhysicalModel& model, const Vec3d& origin = {});
+
+/// The warning of a physical mesh so far from the world's origin that the CUDA backend's float32
+/// positions leave a residual floor above solver.physical_tolerance (`floor`:
+/// float32_residual_floor at the origin), where the mesh at the origin would not (a quarter of it
+/// at most): a segmentation left in its scanner's coordinates. "" where there is nothing to say.
+/// build_world says it for the CUDA backend; `ebh scene info` beside the floor.
+std::string float32_placement_warning(const SceneSpec& spec, const PhysicalModel& model, double floor);
 
 }  // namespace ebh

@@ -133,6 +133,32 @@ TEST(StoppingRule, Float32FloorGrowsWithRefinementAndSlivers) {
   EXPECT_GT(slivers, 10 * clean);
 }
 
+// Float32 keeps 24 bits of a coordinate: the same mesh 10 m from the origin rounds ~500 times
+// coarser than at 20 mm, its floor rises above the tolerance, and the placement warning names the
+// translation that brings it back (in the scene's unit); at the origin nothing is said.
+TEST(StoppingRule, Float32FloorOfAMeshFarFromTheOriginIsWarned) {
+  Scene scene = test::box_scene(4, 4, 8);
+  scene.spec.stiffness.k_vol = 5000;
+  scene.spec.unit = 0.001;
+  scene.spec.unit_name = "mm";
+  for (Vec3d& v : scene.physical.vertices) v += Vec3d{0.0137, -0.0211, 0.0953};
+  const test::Sim near(scene);
+  const double floor_near = float32_residual_floor(near.pm);
+  EXPECT_LT(floor_near, scene.spec.solver.physical_tolerance);
+  EXPECT_EQ(float32_placement_warning(scene.spec, near.pm, floor_near), "");
+  for (Vec3d& v : scene.physical.vertices) v += Vec3d{10, 0, 0};
+  const test::Sim far(scene);
+  const double floor_far = float32_residual_floor(far.pm);
+  EXPECT_GT(floor_far, 4 * scene.spec.solver.physical_tolerance);
+  // at its centre the mesh rounds as near the origin (within the centre's own round-off)
+  const BoundingBox box = bounding_box(far.pm.rest);
+  EXPECT_LT(float32_residual_floor(far.pm, 0.5 * (box.lo + box.hi)), scene.spec.solver.physical_tolerance);
+  const std::string w = float32_placement_warning(scene.spec, far.pm, floor_far);
+  EXPECT_NE(w.find("the physical mesh's centre lies 10 m from the world's origin"), std::string::npos) << w;
+  EXPECT_NE(w.find("move the mesh to the origin (mesh.transform.translate: [-10020, 15, -107], in mm)"), std::string::npos) << w;
+  EXPECT_EQ(w.find('\n'), std::string::npos);
+}
+
 TEST(StoppingRule, StopsAtTheCap) {
   test::Sim sim(test::degraded_block(0.02));
   sway(sim, 0.2, 0.048);

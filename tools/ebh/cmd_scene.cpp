@@ -110,6 +110,8 @@ void info(const SceneInfoArgs& a) {
   const double rate = model.spectrum.jacobi_rate(gamma);
   const double tenfold = rate < 1 ? std::log(0.1) / std::log(rate) : INFINITY;
   const double float32_floor = ebh::float32_residual_floor(model);
+  if (std::string w = ebh::float32_placement_warning(scene.spec, model, float32_floor); !w.empty())
+    warnings.push_back(std::move(w));  // as a replay on the CUDA backend says it
   const bool diverges = gamma * plain.spectrum.lambda_max >= 2;
   const char* diagonal = scene.spec.solver.diagonal == ebh::SolverSpec::Diagonal::Plain ? "plain" : "bounded";
 

@@ -1034,6 +1034,17 @@ TEST(SweepReport, BaselineGoal) {
   const auto gz = build_report(zero, file);
   EXPECT_EQ(baseline_goal(gz[0])->error_ratio, 1.0);
   EXPECT_FALSE(baseline_goal(gz[0])->more_accurate());
+  // One configuration with no error where the baseline has some (an override that changes nothing:
+  // the reference in effect) is no candidate, not an infinite gain that met the goal.
+  CsvTable same = t;
+  for (auto& row : same.rows)
+    if (row[same.column("overrides", file)] == "k=2") row[same.column("force_error_rms_N", file)] = "0";
+  const auto gs = build_report(same, file);
+  const auto goal_same = baseline_goal(gs[0]);
+  ASSERT_TRUE(goal_same.has_value());
+  EXPECT_NE(gs[0].points[goal_same->most_accurate].overrides, "k=2");
+  EXPECT_NE(gs[0].points[goal_same->fastest].overrides, "k=2");
+  EXPECT_TRUE(std::isfinite(goal_same->error_ratio));
   // A winner whose physical mesh is far less converged than the baseline's (its max residual over
   // kLooserSolve times the baseline's) is named so beside the comparison; one within it is not.
   for (auto& row : t.rows) row.back() = row[t.column("overrides", file)] == "k=3" ? "paper" : "";

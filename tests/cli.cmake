@@ -744,6 +744,14 @@ if(EBH_GATE_BASH)
   set_tests_properties(gate.case_without_baselines_fails PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
     "bare +FAIL.*bare: no baseline metric to compare against.*gate: FAILED\nexit status 2")
 endif()
+# A case whose baselines lack some metrics (an older or hand-edited file) passes on the rest and
+# names those it did not compare.
+file(WRITE ${PROJECT_BINARY_DIR}/gate_some_metrics.yaml
+  "cases:\n  - {name: some, scene: tube, recording: tube_insert, start: 2, duration: 0.1, rms_force_step: 1, max_force_rate: 1e6, peak_force: 0.5}\n")
+add_test(NAME gate.case_with_some_baselines_names_the_rest
+  COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_some_metrics.yaml)
+set_tests_properties(gate.case_with_some_baselines_names_the_rest PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
+  "some: not compared, no baseline: penetration_max, power_above_30hz \\(`ebh gate --update` writes them\\)")
 add_test(NAME gate.reports_a_stopped_replay
   COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1 --set solver.physical_tolerance=0
     --set solver.recovery=none)

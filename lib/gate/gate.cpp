@@ -312,6 +312,10 @@ void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
       std::isnan(b.penetration_max) && std::isnan(b.power_above_30hz))
     return fail("no baseline metric to compare against (rms_force_step, max_force_rate, peak_force, "
                 "penetration_max, power_above_30hz: `ebh gate --update` writes them)");
+  for (const auto& [name, base] : {std::pair<const char*, double>{"rms_force_step", b.rms_force_step},
+                                   {"max_force_rate", b.max_force_rate}, {"peak_force", b.peak_force},
+                                   {"penetration_max", b.penetration_max}, {"power_above_30hz", b.power_above_30hz}})
+    if (std::isnan(base)) r.unchecked.emplace_back(name);
   auto upper = [&](const char* name, double got, double base, double abs) {
     if (!std::isfinite(got)) return fail(std::string(name) + " is not finite");
     if (std::isnan(base)) return;  // no baseline for it yet
@@ -344,6 +348,7 @@ Json to_json(const GateResult& r) {
   j.set("power_above_30hz", r.measured.power_above_30hz);
   j.set("penetration_max", r.measured.penetration_max);
   j.set("failures", Json::array_of(r.failures));
+  j.set("unchecked", Json::array_of(r.unchecked));
   return j;
 }
 

@@ -59,6 +59,9 @@ struct GateResult {
   bool passed = true;
   bool stopped = false;  ///< the replay's health checks stopped it (failures says where): no metrics
   std::vector<std::string> failures;  ///< one line each
+  /// The metrics the baselines give no value for, so not compared (a hand-edited or older file): a
+  /// pass checked the rest only.
+  std::vector<std::string> unchecked;
   /// the replay's contact_warning (metrics/force_metrics.hpp): the window where the tool never or
   /// barely touched the tissue, whose metrics describe a free tool ("" when it touched)
   std::string contact_warning;

@@ -74,6 +74,14 @@ void run_gate(const GateArgs& a) {
                   c.name.c_str(), r.passed ? "ok  " : "FAIL", r.measured.rms_force_step, r.measured.max_force_rate,
                   r.measured.peak_force, r.measured.power_above_30hz, 1e3 * r.measured.penetration_max);
       for (const auto& f : r.failures) std::printf("    %s\n", f.c_str());
+      if (!r.unchecked.empty() && r.unchecked.size() < 5) {  // all five missing: a failure says so
+        std::string names;
+        for (const std::string& n : r.unchecked) {
+          if (!names.empty()) names += ", ";
+          names += n;
+        }
+        std::printf("    %s: not compared, no baseline: %s (`ebh gate --update` writes them)\n", c.name.c_str(), names.c_str());
+      }
     }
   }
   if (a.json) std::printf("%s\n", report.dump().c_str());

@@ -180,12 +180,12 @@ double to_number(const std::string& tok, const std::string& where, const std::st
   // strtod also reads hexadecimal ("0x1p3"), which no log writes and `--set` refuses.
   if (tok.empty() || e != b + tok.size() || tok.find_first_of("xX") != std::string::npos) {
     const bool comma = tok.find(',') != std::string::npos && e > b && *e == ',';
-    throw InputError(where + ": " + field + ": '" + tok + "' is not a number" +
+    throw InputError(where + ": " + field + ": '" + clipped(tok) + "' is not a number" +
                      (comma ? " (a decimal comma? write numbers with a decimal point, 0.5)" : ""));
   }
   // ERANGE: beyond a double (inf), or below its smallest normal (a subnormal or 0, a fine value).
   if (errno == ERANGE && std::fabs(v) > 1)
-    throw InputError(where + ": " + field + ": '" + tok + "' is beyond the range of a number");
+    throw InputError(where + ": " + field + ": '" + clipped(tok) + "' is beyond the range of a number");
   return v;
 }
 
@@ -472,7 +472,7 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
   auto tok = split_commas(text);
   if (tok.size() != 6)
     throw InputError(option + ": expected 6 comma-separated numbers x,y,z,rx,ry,rz (translation, then a rotation "
-                              "vector in degrees), got '" + text + "'");
+                              "vector in degrees), got '" + clipped(text) + "'");
   double v[6];
   for (int i = 0; i < 6; ++i) {
     v[i] = to_number(tok[i], option, "value " + std::to_string(i));

@@ -105,6 +105,18 @@ TEST(Import, DefectsNameFileAndLine) {
   auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
   std::string p = write("a.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n# c\n0.001,0,0,abc,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "a.csv:4", "z", "'abc' is not a number");
+  // A field of megabytes (a broken export) is quoted by its start and its length, not whole.
+  for (const std::string& field : {std::string(100001, '1'), "1" + std::string(100000, 'x')}) {
+    p = write("long.csv", "t,x,y,z,qw,qx,qy,qz\n0," + field + ",0,0,1,0,0,0\n");
+    try {
+      (void)import_log(p, opt);
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("long.csv:2: x: '" + field.substr(0, 40) + "... (100001 characters)' is "), std::string::npos) << msg.substr(0, 200);
+      EXPECT_LT(msg.size(), 300u);
+    }
+  }
   p = write("b.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0,0,0,0.001,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "b.csv:3", "not strictly increasing");
   p = write("c.csv", "t,x,y,qw,qx,qy,qz\n0,0,0,1,0,0,0\n");

@@ -427,13 +427,35 @@ std::string ratio_text(double r) {
 namespace {
 
 /// The consecutive samples (at - 1, at) between which change(at) (a distance, an angle) over their
-/// time apart is largest, and that rate; {0, 0} without two samples.
+/// time apart is largest, and that rate; how many changes are faster than `limit` and the first of
+/// them (its later sample). All 0 without two samples.
+struct FastestChange {
+  std::size_t at = 0;
+  double rate = 0;
+  std::size_t over = 0, first = 0;
+};
 template <class Change>
-std::pair<std::size_t, double> fastest_change(const Recording& rec, Change change) {
-  std::pair<std::size_t, double> fastest{0, 0.0};
-  for (std::size_t i = 1; i < rec.size(); ++i)
-    if (const double rate = change(i) / (rec.t[i] - rec.t[i - 1]); rate > fastest.second) fastest = {i, rate};
-  return fastest;
+FastestChange fastest_change(const Recording& rec, double limit, Change change) {
+  FastestChange f;
+  for (std::size_t i = 1; i < rec.size(); ++i) {
+    const double rate = change(i) / (rec.t[i] - rec.t[i - 1]);
+    if (rate > f.rate) {
+      f.at = i;
+      f.rate = rate;
+    }
+    if (rate > limit && f.over++ == 0) f.first = i;
+  }
+  return f;
+}
+
+/// ", the fastest of N over LIMIT, the first between samples A and B (t = T s)" where there are
+/// others, else "".
+std::string others_over(const Recording& rec, const FastestChange& f, const char* what, double limit, const char* unit) {
+  if (f.over < 2) return "";
+  char line[200];
+  std::snprintf(line, sizeof line, "; the fastest of %zu %s over %g %s, the first between samples %zu and %zu (t = %.9g s)",
+                f.over, what, limit, unit, rec.row(f.first - 1), rec.row(f.first), rec.t[f.first]);
+  return line;
 }
 
 /// The angle (rad) the tool turns between samples i - 1 and i.
@@ -445,27 +467,30 @@ double turn_angle(const Recording& rec, std::size_t i) {
 }  // namespace
 
 std::optional<std::string> check_recording_speed(const Recording& rec) {
-  const auto [at, fastest] =
-      fastest_change(rec, [&rec](std::size_t i) { return norm(rec.position[i] - rec.position[i - 1]); });
-  if (!(fastest > kToolSpeedMax)) return std::nullopt;
-  char line[320];
+  const FastestChange f = fastest_change(rec, kToolSpeedMax,
+                                         [&rec](std::size_t i) { return norm(rec.position[i] - rec.position[i - 1]); });
+  if (!(f.rate > kToolSpeedMax)) return std::nullopt;
+  const std::size_t at = f.at;
+  char line[480];
   std::snprintf(line, sizeof line,
                 "the tool jumps %.3g m between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g m/s; a hand moves it at "
-                "under 1 m/s): a gap or a reset in the log, which a replay passes through in one tick",
-                norm(rec.position[at] - rec.position[at - 1]), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], fastest);
+                "under 1 m/s%s): a gap or a reset in the log, which a replay passes through in one tick",
+                norm(rec.position[at] - rec.position[at - 1]), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], f.rate,
+                others_over(rec, f, "jumps", kToolSpeedMax, "m/s").c_str());
   return std::string(line);
 }
 
 std::optional<std::string> check_recording_turn(const Recording& rec) {
-  const auto [at, fastest] = fastest_change(rec, [&rec](std::size_t i) { return turn_angle(rec, i); });
-  if (!(fastest > kToolTurnRateMax)) return std::nullopt;
-  char line[400];
+  const FastestChange f = fastest_change(rec, kToolTurnRateMax, [&rec](std::size_t i) { return turn_angle(rec, i); });
+  if (!(f.rate > kToolTurnRateMax)) return std::nullopt;
+  const std::size_t at = f.at;
+  char line[560];
   std::snprintf(line, sizeof line,
                 "the tool turns %.3g degrees between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g rad/s; "
-                "a hand turns it at a few): a gap or a reset in the log, which the virtual tool follows at "
+                "a hand turns it at a few%s): a gap or a reset in the log, which the virtual tool follows at "
                 "tool.max_step_rotation_deg a Newton step, rendering its lag as torque meanwhile (tool.torque_limit)",
                 turn_angle(rec, at) * 180 / std::numbers::pi, rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at],
-                fastest);
+                f.rate, others_over(rec, f, "turns", kToolTurnRateMax, "rad/s").c_str());
   return std::string(line);
 }
 

@@ -388,6 +388,14 @@ TEST(ToolSpeed, AJumpInTheLogIsNamed) {
   const auto w = check_recording_speed(r);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("jumps 0.05 m between samples 5 and 6 (the recording's t = 0.005 .. 0.006 s: 50 m/s"), std::string::npos) << *w;
+  // Out and back are two jumps: the fastest is named, and how many there are and the first (the
+  // advice to cut the log at one would leave the other).
+  EXPECT_NE(w->find("; the fastest of 2 jumps over 10 m/s, the first between samples 5 and 6 (t = 0.006 s)): a gap"),
+            std::string::npos) << *w;
+  Recording step = make_recording();
+  for (std::size_t i = 6; i < step.size(); ++i) step.position[i] += Vec3d{0.05, 0, 0};  // one jump, no way back
+  ASSERT_TRUE(check_recording_speed(step).has_value());
+  EXPECT_EQ(check_recording_speed(step)->find("the fastest of"), std::string::npos) << *check_recording_speed(step);
   for (const char* name : {"tube_insert", "tube_grasp", "gap_insert", "gap_grasp", "cholecystectomy_press",
                            "cholecystectomy_grasp", "gynaecology_press", "gynaecology_grasp"}) {
     const auto c = check_recording_speed(read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5"));

@@ -1076,8 +1076,16 @@ set_tests_properties(cli.replay.plain_diagonal_diverges_on_slivers cli.replay.bo
 # -o OUT.yaml names the scene file (as for `ebh scene refine`): OUT.yaml and OUT.msh, no folder.
 add_test(NAME cli.scene.degrade_to_scene_file
   COMMAND ${EBH_BIN} scene degrade tube --quality 0.05 -o ${EBH_NUM_OUT}/named/bad_tube.yaml)
-set_tests_properties(cli.scene.degrade_to_scene_file PROPERTIES LABELS cli
+set_tests_properties(cli.scene.degrade_to_scene_file PROPERTIES LABELS cli FIXTURES_SETUP degraded_named
   PASS_REGULAR_EXPRESSION "named/bad_tube.yaml: tube with worst mean ratio 0.05.* mesh .*named/bad_tube.msh")
+# The degraded scene names its mesh beside it by its name: the two move together (to a cluster).
+if(EBH_GATE_BASH)
+  add_test(NAME cli.scene.degraded_scene_moves_with_its_mesh
+    COMMAND ${EBH_GATE_BASH} -c "rm -rf \"$1/moved\" && mv \"$1/named\" \"$1/moved\" && \"$0\" scene info \"$1/moved/bad_tube.yaml\""
+      ${EBH_BIN} ${EBH_NUM_OUT})
+  set_tests_properties(cli.scene.degraded_scene_moves_with_its_mesh PROPERTIES LABELS cli FIXTURES_REQUIRED degraded_named
+    PASS_REGULAR_EXPRESSION "tets +8057")
+endif()
 add_test(NAME cli.scene.degrade_bad_quality
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;degrade;tube;--quality;1.5;-o;${EBH_NUM_OUT}"
     "-DEXPECT=^ebh: error: --quality: expected a mean ratio in \\(0, 1\\)" -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)

@@ -16,6 +16,7 @@
 
 #include "command.hpp"
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "io/atomic.hpp"
 #include "io/json.hpp"
 #include "io/paths.hpp"
@@ -329,24 +330,7 @@ void degrade(const SceneDegradeArgs& a) {
   o.target_quality = a.quality;
   o.tets = a.tets;
   o.seed = a.seed;
-  // A mesh already as bad as asked: the tets would not move, and the "degraded" copy would be the
-  // mesh itself.
-  if (const ebh::MeshReport before = ebh::validate_mesh(scene.physical); before.quality_worst <= a.quality) {
-    char why[160];
-    std::snprintf(why, sizeof why, ": the physical mesh's worst mean ratio is already %.4g (%s), at or below --quality %g",
-                  before.quality_worst, before.worst_tet_name.c_str(), a.quality);
-    throw ebh::InputError(file.string() + why + ": nothing to degrade (give a quality below it)");
-  }
-  const ebh::DegradeReport r = ebh::degrade_physical_mesh(scene, o);
-  if (r.worst_quality > a.quality * (1 + 1e-6))
-    throw ebh::InputError(file.string() + ": no interior tet of the physical mesh could be degraded to mean ratio " +
-                          std::to_string(a.quality));
-  if (const int done = r.caps + r.slivers + r.needles; done < a.tets)
-    std::fprintf(stderr,
-                 "ebh: warning: %s: degraded %d of the %d tets asked for (--tets): the mesh has no more interior "
-                 "vertices away from those moved (a degraded tet's neighbours are left alone)\n",
-                 file.string().c_str(), done, a.tets);
-
+  // The outputs, refused before any work where they would overwrite an input.
   char tag[32];
   std::snprintf(tag, sizeof tag, "_q%g", a.quality);
   const std::filesystem::path out(a.out_dir);
@@ -358,11 +342,30 @@ void degrade(const SceneDegradeArgs& a) {
   std::vector<ebh::RoleFile> inputs = {{file.string(), "the scene"}, {scene.spec.physical_mesh.string(), "the physical mesh"}};
   if (scene.spec.virtual_mesh) inputs.push_back({scene.spec.virtual_mesh->string(), "the virtual mesh"});
   ebh::check_outputs({{mesh_out, "the degraded mesh"}, {scene_out, "the degraded scene"}}, inputs);
+  // A mesh already as bad as asked: the tets would not move, and the "degraded" copy would be the
+  // mesh itself.
+  if (const ebh::MeshReport before = ebh::validate_mesh(scene.physical); before.quality_worst <= a.quality) {
+    char why[160];
+    std::snprintf(why, sizeof why, ": the physical mesh's worst mean ratio is already %.4g (%s), at or below --quality %g",
+                  before.quality_worst, before.worst_tet_name.c_str(), a.quality);
+    throw ebh::InputError(file.string() + why + ": nothing to degrade (give a quality below it)");
+  }
+  const ebh::DegradeReport r = ebh::degrade_physical_mesh(scene, o);
+  if (r.worst_quality > a.quality * (1 + 1e-6))
+    throw ebh::InputError(file.string() + ": no interior tet of the physical mesh could be degraded to mean ratio " +
+                          ebh::shown_number(a.quality));
+  if (const int done = r.caps + r.slivers + r.needles; done < a.tets)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: degraded %d of the %d tets asked for (--tets): the mesh has no more interior "
+                 "vertices away from those moved (a degraded tet's neighbours are left alone)\n",
+                 file.string().c_str(), done, a.tets);
 
-  // The scene file as it is, pointing at the new mesh (absolute paths for every other file).
+
+  // The scene file as it is, pointing at the new mesh beside it (by its name: the two move
+  // together) and at every other file by its absolute path.
   YAML::Node root = YAML::LoadFile(file.string());
   root["name"] = scene.spec.name + tag;  // as refine's NAME_lN: a recording of NAME replays on it without a word
-  root["mesh"]["physical"] = std::filesystem::absolute(mesh_out).string();
+  root["mesh"]["physical"] = std::filesystem::path(mesh_out).filename().string();
   if (scene.spec.virtual_mesh) root["mesh"]["virtual"] = std::filesystem::absolute(*scene.spec.virtual_mesh).string();
   YAML::Emitter yaml;
   yaml << root;

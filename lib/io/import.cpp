@@ -132,6 +132,11 @@ void for_each_text_line(const std::string& path, F&& each, std::size_t* cut_line
         std::snprintf(code, sizeof code, "0x%02x", c);
         throw InputError(at(path, n) + ": byte " + code + ": not a text file (expected an OpenHaptics or CSV log)");
       }
+    // Lines ended by a carriage return alone (classic Mac OS, Excel's "CSV (Macintosh)"): the
+    // whole log reads as one line.
+    if (const auto cr = s.find('\r'); cr != std::string::npos && cr + 1 < s.size())
+      throw InputError(at(path, n) + ": lines end in a carriage return alone (classic Mac line ends): save the log "
+                                     "with LF or CRLF line ends");
     if (auto h = s.find('#'); h != std::string::npos) s.erase(h);
     s = trim(s);
     if (s.empty()) continue;

@@ -68,6 +68,12 @@ void check_input_file(const std::string& path) {
     throw InputError(path + ": cannot open: " + os_reason(err));
   }
   if (S_ISDIR(st.st_mode)) throw InputError(path + ": is a folder, not a file");
+  // A pipe or a device: its open waits for a writer (a named pipe hangs) and a second read finds
+  // nothing (the readers check a file before they read it).
+  if (!S_ISREG(st.st_mode)) {
+    const std::string kind = S_ISFIFO(st.st_mode) ? "a pipe" : "a device or a socket";
+    throw InputError(path + ": is " + kind + ", not a file: save what it gives to a file and name that");
+  }
   if (::access(path.c_str(), R_OK) != 0) {
     const int err = errno;
     throw InputError(path + ": cannot open: " + os_reason(err));

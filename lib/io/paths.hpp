@@ -26,7 +26,8 @@ bool same_file(const std::string& a, const std::string& b);
 void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleFile>& inputs);
 
 /// Throws InputError "PATH: why" unless `path` names a file that can be read: it must exist ("cannot
-/// open: No such file or directory"), not be a folder and not be an unfinished output.
+/// open: No such file or directory"), not be a folder, a pipe or a device and not be an unfinished
+/// output.
 void check_input_file(const std::string& path);
 
 /// Bytes an unprivileged process may still write on the file system that holds `output` (its

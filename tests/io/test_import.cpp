@@ -105,6 +105,9 @@ TEST(Import, DefectsNameFileAndLine) {
   auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
   std::string p = write("a.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n# c\n0.001,0,0,abc,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "a.csv:4", "z", "'abc' is not a number");
+  // Lines ended by a carriage return alone (Excel's "CSV (Macintosh)"): not an empty log.
+  p = write("mac.csv", "t,x,y,z,qw,qx,qy,qz\r0,0,0,0,1,0,0,0\r0.001,0,0,0,1,0,0,0\r");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "mac.csv:1: lines end in a carriage return alone (classic Mac line ends)");
   // A field of megabytes (a broken export) is quoted by its start and its length, not whole.
   for (const std::string& field : {std::string(100001, '1'), "1" + std::string(100000, 'x')}) {
     p = write("long.csv", "t,x,y,z,qw,qx,qy,qz\n0," + field + ",0,0,1,0,0,0\n");

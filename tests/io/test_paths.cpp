@@ -1,6 +1,7 @@
 // lib/io/paths.hpp: an output never replaces an input (same file through any name, link or hard
 // link), and an input is a readable file, never a folder or an unfinished output.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -51,4 +52,10 @@ TEST(Paths, InputMustBeAReadableFile) {
   const std::string partial = partial_path_for(tmp / "run.h5");
   std::ofstream(partial) << "half a file";
   EXPECT_INPUT_ERROR(check_input_file(partial), "an unfinished output of ebh");
+  // A named pipe's open waits for a writer (an import hung on one), and a second read of a pipe
+  // finds nothing; a device is no file either.
+  const std::string fifo = tmp / "log.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_INPUT_ERROR(check_input_file(fifo), "log.fifo: is a pipe, not a file: save what it gives to a file");
+  EXPECT_INPUT_ERROR(check_input_file("/dev/null"), "/dev/null: is a device or a socket, not a file");
 }

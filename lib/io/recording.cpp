@@ -414,6 +414,17 @@ std::string short_num(double v) {
   return buf;
 }
 
+// An offset to copy into --transform: to 0.1 mm, however far (a mesh 1 km off in %.3g is 1e+03,
+// 20 mm wrong); trailing zeros dropped.
+std::string offset_num(double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.4f", v);
+  std::string s = buf;
+  while (s.back() == '0') s.pop_back();
+  if (s.back() == '.') s.pop_back();
+  return s == "-0" ? "0" : s;
+}
+
 // "95x" or "1/84 of".
 std::string ratio_text(double r) {
   char buf[32];
@@ -596,14 +607,14 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
         << " times too " << (best->f > 1 ? "large" : "small") << ": check the scene's mesh.unit";
   } else if (!size_off) {
     const Vec3d off = 0.5 * (lo + hi) - now.centre;
-    o << "--transform placing the device's workspace at the mesh (the mesh's centre is (" << short_num(off.x) << ", "
-      << short_num(off.y) << ", " << short_num(off.z) << ") m from the path's)";
+    o << "--transform placing the device's workspace at the mesh (the mesh's centre is (" << offset_num(off.x) << ", "
+      << offset_num(off.y) << ", " << offset_num(off.z) << ") m from the path's)";
   } else if (sized) {
     const Vec3d off = 0.5 * (lo + hi) - sized_fit.centre;
     o << sized->fix << ", and --transform to place it (in " << sized->unit << " the path spans "
       << short_num(sized_fit.extent) << " m, " << ratio_text(sized_fit.extent / diagonal)
-      << " the mesh's diagonal, and the mesh's centre is (" << short_num(off.x) << ", " << short_num(off.y) << ", "
-      << short_num(off.z) << ") m from the path's)";
+      << " the mesh's diagonal, and the mesh's centre is (" << offset_num(off.x) << ", " << offset_num(off.y) << ", "
+      << offset_num(off.z) << ") m from the path's)";
   } else {
     o << "none of m, cm, mm makes it fit: check the log's unit and the scene's";
   }

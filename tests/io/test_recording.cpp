@@ -354,6 +354,12 @@ TEST(UnitSanity, APathFarFromTheMeshAsksForAWorldTransform) {
   EXPECT_NE(w->find("likely fix: --transform placing the device's workspace at the mesh (the mesh's centre is (-1.01, "
                     "0, -0.06) m from the path's)"),
             std::string::npos) << *w;
+  // A kilometre away (a mesh in scanner coordinates): the offset to 0.1 mm, not 1e+03 (20 mm off).
+  Recording far = press_path(1e-2);
+  for (Vec3d& p : far.position) p += Vec3d{1000.02, -1000.02, 0};
+  w = check_recording_scale(far, kLo, kHi, 1e-2);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("(the mesh's centre is (-1000.03, 1000.02, -0.06) m from the path's)"), std::string::npos) << *w;
   // Just inside 2 diagonals: no warning.
   for (Vec3d& p : r.position) p += Vec3d{-1 + 0.05 + 0.34, 0, -0.08};
   EXPECT_FALSE(check_recording_scale(r, kLo, kHi, 1e-2).has_value());

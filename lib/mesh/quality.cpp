@@ -412,6 +412,18 @@ int remove_repeated_surface_faces(SurfaceMesh& mesh) {
   return removed;
 }
 
+int remove_flat_surface_faces(SurfaceMesh& mesh) {
+  std::size_t kept = 0;
+  for (const Tri& t : mesh.triangles) {
+    const Vec3d &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+    const double longest = std::max({squared_norm(b - a), squared_norm(c - b), squared_norm(a - c)});
+    if (norm(cross(b - a, c - a)) > 1e-12 * longest) mesh.triangles[kept++] = t;
+  }
+  const int removed = static_cast<int>(mesh.triangles.size() - kept);
+  mesh.triangles.resize(kept);
+  return removed;
+}
+
 int remove_unreferenced_vertices(TetMesh& mesh) {
   const int nv = static_cast<int>(mesh.vertices.size());
   std::vector<int> remap(static_cast<std::size_t>(nv), -1);

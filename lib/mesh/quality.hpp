@@ -140,9 +140,18 @@ struct MergedVertices {
 /// surface with no two vertices at one position is left untouched.
 MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh);
 
+/// "vertex V (node id N)": a vertex of the mesh in a message, with the node id it had in the file
+/// (what a mesh tool shows) when the mesh has them.
+std::string vertex_name(const TetMesh& mesh, int v);
+
 /// Removes the triangles of a surface whose three vertices another triangle before it already
 /// has (in any order or orientation): a face given twice would count twice in surface contact.
 /// Returns how many were removed.
 int remove_repeated_surface_faces(SurfaceMesh& mesh);
+
+/// Removes the triangles of a surface with no area: corners on one line (twice the area at most
+/// 1e-12 of the longest edge squared: round-off of a line). They cover nothing, and their edges,
+/// each one face's, read as a hole. Returns how many were removed.
+int remove_flat_surface_faces(SurfaceMesh& mesh);
 
 }  // namespace ebh

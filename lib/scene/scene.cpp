@@ -1056,6 +1056,14 @@ Scene build_scene(SceneSpec spec_in) {
                                                 "it twice)"
                                               : " faces that repeat another's vertices (surface contact would count "
                                                 "them twice)"));
+    const int flat = remove_flat_surface_faces(scene.virtual_surface);
+    if (scene.virtual_surface.triangles.empty())
+      throw InputError(spec.virtual_mesh->string() + ": every face has no area (its corners on one line)");
+    if (flat > 0)
+      scene.warnings.push_back(spec.virtual_mesh->string() + ": removed " + std::to_string(flat) +
+                               (flat == 1 ? " face" : " faces") + " with no area (corners on one line): " +
+                               (flat == 1 ? "it covers" : "they cover") + " nothing, and " +
+                               (flat == 1 ? "its" : "their") + " edges would read as a hole");
     if (const int removed = remove_unused_surface_vertices(scene.virtual_surface); removed > 0)
       scene.warnings.push_back(spec.virtual_mesh->string() + ": removed " + std::to_string(removed) +
                                " vertices used by no face");

@@ -265,6 +265,34 @@ TEST(Scene, RepeatedObjFacesAreRemovedWithAWarning) {
                                ": removed 2 faces that repeat another's vertices (surface contact would count them twice)");
 }
 
+// Faces with no area (corners on one line, as a mesh tool's fill along an edge leaves): removed
+// and said, not read as a hole (their edges are each one face's); a surface of nothing but such
+// faces is refused.
+TEST(Scene, ObjFacesWithNoAreaAreRemovedWithAWarning) {
+  // two points on the cube's edge from vertex 1 (0,0,0) to 2 (10,0,0), and two flat faces on it
+  write_temp("flat.obj", slurp(data("mesh/cube.obj")) + "v 5 0 0\nv 2.5 0 0\nf 1 9 2\nf 1 10 9\n");
+  const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                           data("mesh/cube41.msh").string()),
+                                   "../mesh/cube.obj", "flat.obj");
+  const fs::path p = write_temp("flat.yaml", yaml);
+  const Scene s = load_scene(p);
+  EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
+  EXPECT_EQ(s.virtual_surface.vertices.size(), 8u);
+  ASSERT_EQ(s.warnings.size(), 2u) << ::testing::PrintToString(s.warnings);
+  EXPECT_EQ(s.warnings[0], (p.parent_path() / "flat.obj").string() +
+                               ": removed 2 faces with no area (corners on one line): they cover nothing, and their "
+                               "edges would read as a hole");
+  EXPECT_EQ(s.warnings[1], (p.parent_path() / "flat.obj").string() + ": removed 2 vertices used by no face");
+  write_temp("line.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+  try {
+    (void)load_scene(write_temp("line.yaml", replace(yaml, "flat.obj", "line.obj")));
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("line.obj: every face has no area (its corners on one line)"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Scene, StrayObjVerticesAreRemovedWithAWarning) {
   write_temp("stray.obj", slurp(data("mesh/cube.obj")) + "v 50 50 50\nv 60 60 60\n");
   const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",

@@ -11,6 +11,14 @@
 #include "mesh/boundary.hpp"
 
 namespace ebh {
+
+std::string vertex_name(const TetMesh& mesh, int v) {
+  std::string s = "vertex " + std::to_string(v);
+  if (v >= 0 && static_cast<std::size_t>(v) < mesh.file_node_ids.size())
+    s += " (node id " + std::to_string(mesh.file_node_ids[v]) + ")";
+  return s;
+}
+
 namespace {
 
 bool finite(const Vec3d& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
@@ -253,10 +261,7 @@ std::string MeshReport::fatal_message(const TetMesh& mesh) const {
   }
   if (!nonfinite_vertices.empty()) {
     const int v = nonfinite_vertices[0];
-    std::string s = plural(nonfinite_vertices.size(), "vertex") + " with a non-finite coordinate, the first: vertex " +
-                    std::to_string(v);
-    if (static_cast<std::size_t>(v) < mesh.file_node_ids.size()) s += " (node id " + std::to_string(mesh.file_node_ids[v]) + ")";
-    return s;
+    return plural(nonfinite_vertices.size(), "vertex") + " with a non-finite coordinate, the first: " + vertex_name(mesh, v);
   }
   auto describe = [&](const std::vector<int>& tets, const char* what) {
     const int t = tets[0];

@@ -1102,7 +1102,7 @@ Scene build_scene(SceneSpec spec_in) {
       scene.warnings.push_back(
           where + ": pinned: " + std::to_string(scene.free_parts.size()) + " part(s) of the physical mesh (" +
           std::to_string(free_vertices) + " of its " + std::to_string(nv) +
-          " vertices; the first holds vertex " + std::to_string(first) + " and " + std::to_string(count) +
+          " vertices; the first holds " + vertex_name(scene.physical, first) + " and " + std::to_string(count) +
           " vertices) touch no pinned vertex: they float free, held only by their coupling to the virtual mesh, "
           "which drags them like a thick fluid (the tool feels that drag; docs/MODEL.md, \"Held loads\"): pin "
           "each part");

@@ -9,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "core/number_text.hpp"
+#include "mesh/quality.hpp"
 #include "tool/contact.hpp"
 #include "tool/newton.hpp"
 #include "tool/surface_contact.hpp"
@@ -207,8 +208,8 @@ int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<s
                              "to start from (pin a region, or set stages.settle: false or gravity: [0, 0, 0])");
   if (!scene.free_parts.empty())
     throw InputError(where + ": " + std::to_string(scene.free_parts.size()) +
-                     " part(s) of the physical mesh touch no pinned vertex (the first holds vertex " +
-                     std::to_string(scene.free_parts.front().first) + " and " +
+                     " part(s) of the physical mesh touch no pinned vertex (the first holds " +
+                     vertex_name(scene.physical, scene.free_parts.front().first) + " and " +
                      std::to_string(scene.free_parts.front().second) +
                      " vertices), so under gravity they have no static equilibrium to start from (pin each part, "
                      "or set stages.settle: false or gravity: [0, 0, 0])");

@@ -203,7 +203,7 @@ TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {
                                        "  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n", "");
   const Scene parts = load_scene(write_temp("two.yaml", two_yaml));
   EXPECT_EQ(parts.free_parts, (std::vector<std::pair<int, int>>{{8, 8}}));
-  EXPECT_TRUE(has(parts, "pinned: 1 part(s) of the physical mesh (8 of its 16 vertices; the first holds vertex 8 and 8 "
+  EXPECT_TRUE(has(parts, "pinned: 1 part(s) of the physical mesh (8 of its 16 vertices; the first holds vertex 8 (node id 2101) and 8 "
                          "vertices) touch no pinned vertex"))
       << ::testing::PrintToString(parts.warnings);
   EXPECT_TRUE(load_scene(write_temp("one.yaml", replace(good, "  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n", "")))

@@ -292,13 +292,21 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  a.out.c_str(), static_cast<long long>(writer.unbalanced_steps()), static_cast<long long>(s.steps),
                  solver.recovery_residual, writer.max_unbalanced(), writer.first_unbalanced_t(), fix);
   }
-  if (writer.max_inverted_tets() > 0)
+  if (writer.max_inverted_tets() > 0) {
+    // What resists the deformation: the paper's E_vol alone, or with the volume term E_det.
+    const double k_det = world.scene.spec.stiffness.k_det;
+    char resists[160];
+    if (k_det > 0)
+      std::snprintf(resists, sizeof resists, "E_vol (ARAP) and the volume term (stiffness.k_det = %g Pa)", k_det);
+    else
+      std::snprintf(resists, sizeof resists, "E_vol (ARAP, with no volume term: stiffness.k_det is 0)");
     std::fprintf(stderr,
                  "ebh: warning: %s: up to %d of the physical mesh's %d tets were inverted after a step, the first at "
-                 "t = %.3f s (/physical/inverted): the tissue there was deformed past what E_vol (ARAP, with no volume "
-                 "term) resists, and the force is not a physical response while they are (docs/MODEL.md, \"Inverted "
-                 "tets\")\n",
-                 a.out.c_str(), writer.max_inverted_tets(), world.physical_mesh.num_tets, writer.first_inverted_t());
+                 "t = %.3f s (/physical/inverted): the tissue there was deformed past what %s resists, and the force "
+                 "is not a physical response while they are (docs/MODEL.md, \"Inverted tets\")\n",
+                 a.out.c_str(), writer.max_inverted_tets(), world.physical_mesh.num_tets, writer.first_inverted_t(),
+                 resists);
+  }
   // A realtime run paces its ticks by the clock: one that could not keep up ran slower than the
   // device it stands for, and its timings are not the ones a real-time loop would have.
   if (p.opt.mode == Mode::Realtime && s.wall_s > 0 && s.virtual_s / s.wall_s < 0.95)

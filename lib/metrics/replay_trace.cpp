@@ -53,6 +53,44 @@ std::string shape_str(const std::vector<hsize_t>& dims) {
   return s.str();
 }
 
+/// The SI unit `ebh replay` gives a dataset of a physical quantity (the start of its `unit`
+/// attribute), or nullptr for counts, flags and ratios.
+const char* si_unit(const std::string& name) {
+  if (name == "/haptic/force") return "N";
+  if (name == "/haptic/torque") return "N m";
+  if (name == "/haptic/pose_physical" || name == "/haptic/pose_virtual" || name == "/haptic/penetration" ||
+      name == "/haptic/penetration_physical")
+    return "m";
+  if (name == "/haptic/t" || name == "/physical/t" || name.rfind("/timing/", 0) == 0) return "s";
+  return nullptr;
+}
+
+/// A string attribute of an object (fixed or variable length); "" when absent or not a string.
+std::string string_attribute(hid_t object, const char* name) {
+  if (H5Aexists(object, name) <= 0) return {};
+  Handle a(H5Aopen(object, name, H5P_DEFAULT), H5Aclose);
+  Handle type(H5Aget_type(a.get()), H5Tclose);
+  Handle space(H5Aget_space(a.get()), H5Sclose);
+  if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1) return {};
+  // The memory type takes the stored character set (h5py writes UTF-8): HDF5 does not convert
+  // between ASCII and UTF-8.
+  Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
+  if (H5Tis_variable_str(type.get()) > 0) {
+    H5Tset_size(mem.get(), H5T_VARIABLE);
+    char* s = nullptr;
+    if (H5Aread(a.get(), mem.get(), &s) < 0 || s == nullptr) return {};
+    std::string out(s);
+    H5free_memory(s);
+    return out;
+  }
+  const std::size_t n = H5Tget_size(type.get());
+  H5Tset_size(mem.get(), n + 1);
+  std::string buf(n + 1, '\0');
+  if (H5Aread(a.get(), mem.get(), buf.data()) < 0) return {};
+  return std::string(buf.c_str());
+}
+
 class Reader {
  public:
   explicit Reader(std::string path) : path_(std::move(path)), file_(open(path_), H5Fclose) {}
@@ -80,6 +118,16 @@ class Reader {
     Handle type(H5Dget_type(ds.get()), H5Tclose);
     H5T_class_t cls = H5Tget_class(type.get());
     if (cls != H5T_FLOAT && cls != H5T_INTEGER) fail(name, "is not numeric");
+    // The datasets of a physical quantity: floating point in their SI unit, as `ebh replay`
+    // writes them; a file of other code that stores them as integers or in other units
+    // (force in mN) would give numbers off by the factor, without a word.
+    if (const char* unit = si_unit(name)) {
+      if (cls != H5T_FLOAT) fail(name, std::string("is stored as integers; expected floating point numbers in ") + unit);
+      const std::string given = string_attribute(ds.get(), "unit");
+      if (!given.empty() && given != unit && given.rfind(std::string(unit) + ",", 0) != 0 &&
+          given.rfind(std::string(unit) + " (", 0) != 0)
+        fail(name, "has unit '" + clipped(given) + "'; expected '" + unit + "' (SI, docs/FORMATS.md)");
+    }
     Handle space(H5Dget_space(ds.get()), H5Sclose);
     int rank = H5Sget_simple_extent_ndims(space.get());
     std::vector<hsize_t> dims(rank > 0 ? rank : 0);
@@ -120,33 +168,8 @@ class Reader {
     return v;
   }
 
-  /// A string root attribute (fixed or variable length); "" when absent or not a string.
-  std::string string_attr(const std::string& name) const {
-    if (H5Aexists(file_.get(), name.c_str()) <= 0) return {};
-    Handle a(H5Aopen(file_.get(), name.c_str(), H5P_DEFAULT), H5Aclose);
-    Handle type(H5Aget_type(a.get()), H5Tclose);
-    Handle space(H5Aget_space(a.get()), H5Sclose);
-    if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1) return {};
-    // The memory type takes the stored character set (h5py writes UTF-8): HDF5 does not
-    // convert between ASCII and UTF-8.
-    if (H5Tis_variable_str(type.get()) > 0) {
-      Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
-      H5Tset_size(mem.get(), H5T_VARIABLE);
-      H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
-      char* s = nullptr;
-      if (H5Aread(a.get(), mem.get(), &s) < 0 || s == nullptr) return {};
-      std::string out(s);
-      H5free_memory(s);
-      return out;
-    }
-    std::size_t n = H5Tget_size(type.get());
-    Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
-    H5Tset_size(mem.get(), n + 1);
-    H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
-    std::string buf(n + 1, '\0');
-    if (H5Aread(a.get(), mem.get(), buf.data()) < 0) return {};
-    return std::string(buf.c_str());
-  }
+  /// A string root attribute; "" when absent or not a string.
+  std::string string_attr(const std::string& name) const { return string_attribute(file_.get(), name.c_str()); }
 
   [[noreturn]] void fail(const std::string& dataset, const std::string& what) const {
     throw InputError(path_ + ": dataset '" + dataset + "' " + what);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <complex>
 #include <filesystem>
+#include <functional>
 #include <numbers>
 #include <random>
 #include <string>
@@ -391,6 +392,34 @@ TEST(ForceMetrics, WrongShapeAndBadFilesAreInputErrors) {
     EXPECT_NE(std::string(e.what()).find("'/haptic/pose_virtual' has shape (50,4), expected (50,7)"),
               std::string::npos)
         << e.what();
+  }
+  // Written by other code: a force stored as integers (mN), or with a unit other than SI, would
+  // give numbers off by the factor: refused, naming the dataset.
+  auto refused = [&tr](const std::string& name, const std::function<void(h5::File&)>& edit, const std::string& what) {
+    const std::string p = write_trace(tr, name, "/haptic/force");
+    {
+      h5::File f = h5::File::open_write(p);
+      edit(f);
+    }
+    try {
+      load_replay(p);
+      ADD_FAILURE() << "no error: " << what;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  refused("int_force", [](h5::File& f) { f.write<std::int32_t>("/haptic/force", std::vector<std::int32_t>(150), {50, 3}); },
+          "'/haptic/force' is stored as integers; expected floating point numbers in N");
+  refused("mn_force",
+          [](h5::File& f) { f.write<double>("/haptic/force", std::vector<double>(150), {50, 3}).set_attr("unit", "mN"); },
+          "'/haptic/force' has unit 'mN'; expected 'N' (SI");
+  {  // the unit ebh replay writes, and none (older files), are read
+    const std::string p = write_trace(tr, "n_force", "/haptic/force");
+    {
+      h5::File f = h5::File::open_write(p);
+      f.write<double>("/haptic/force", std::vector<double>(150, 0.25), {50, 3}).set_attr("unit", "N");
+    }
+    EXPECT_EQ(load_replay(p).force[7].y, 0.25);
   }
   EXPECT_THROW(load_replay("/nonexistent/replay.h5"), InputError);
   const auto text = (std::filesystem::path(testing::TempDir()) / "ebh_metrics_not_h5.h5").string();

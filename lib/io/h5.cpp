@@ -336,12 +336,9 @@ std::vector<double> Object::attr_doubles(const std::string& name) const {
 // ---------------------------------------------------------------------------------------------
 // Dataset
 
-namespace {
-/// A failed read's message: a filter the dataset was written with that this HDF5 library lacks
-/// (h5py's lzf, a blosc plugin) by its name and what to do; compressed data that does not
-/// decompress; else "cannot read the dataset". `what` names the rows read, where only some were.
-/// Reads HDF5's error stack: call it right after the failed read.
-std::string read_failure(hid_t dataset, const std::string& what = "the dataset") {
+// (h5.hpp) A filter the dataset was written with that this HDF5 library lacks (h5py's lzf, a
+// blosc plugin) is named with what to do; `what` names the rows read, where only some were.
+std::string read_failure(std::int64_t dataset, const std::string& what) {
   const std::string errors = error_descriptions();
   Handle plist(H5Dget_create_plist(dataset));
   const int n = plist.get() >= 0 ? H5Pget_nfilters(plist.get()) : 0;
@@ -362,7 +359,6 @@ std::string read_failure(hid_t dataset, const std::string& what = "the dataset")
            "transfer that went wrong, a failing disk); read it from its source again";
   return "cannot read " + what;
 }
-}  // namespace
 
 std::vector<std::size_t> Dataset::shape() const {
   Handle space(H5Dget_space(id()));
@@ -406,7 +402,7 @@ std::vector<std::string> Dataset::read_strings() const {
   if (H5Tis_variable_str(type.get()) > 0) {
     Handle mt = string_type();
     std::vector<char*> p(out.size(), nullptr);
-    if (H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()) < 0) fail(where(), read_failure(id()));
+    if (H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()) < 0) fail(where(), read_failure(id(), "the dataset"));
     for (std::size_t i = 0; i < out.size(); ++i) {
       out[i] = p[i] ? p[i] : "";
       H5free_memory(p[i]);
@@ -417,7 +413,7 @@ std::vector<std::string> Dataset::read_strings() const {
   std::vector<char> buf(out.size() * size);
   Handle mt(H5Tcopy(H5T_C_S1));
   H5Tset_size(mt.get(), size);
-  if (H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) fail(where(), read_failure(id()));
+  if (H5Dread(id(), mt.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) fail(where(), read_failure(id(), "the dataset"));
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = std::string(&buf[i * size], strnlen(&buf[i * size], size));
   return out;
 }
@@ -425,7 +421,7 @@ std::vector<std::string> Dataset::read_strings() const {
 void Dataset::read_into(Type t, void* out) const {
   Handle space(H5Dget_space(id()));
   if (H5Sget_simple_extent_npoints(space.get()) == 0) return;
-  if (H5Dread(id(), mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, out) < 0) fail(where(), read_failure(id()));
+  if (H5Dread(id(), mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, out) < 0) fail(where(), read_failure(id(), "the dataset"));
 }
 
 void Dataset::read_rows_into(Type t, std::size_t first, std::size_t count, std::size_t stride, void* out) const {

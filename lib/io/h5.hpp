@@ -305,6 +305,12 @@ class AtomicFile {
 /// Silences HDF5's automatic error printing (idempotent; done by every File factory).
 void silence_errors();
 
+/// The message of a failed read of `dataset` (an HDF5 identifier), "cannot read WHAT: why": a
+/// compression filter this library lacks (h5py's lzf) by name, compressed data that does not
+/// decompress (a damaged file), else no reason. Reads HDF5's error stack: call it right after the
+/// failed call. For readers that use the HDF5 library directly.
+std::string read_failure(std::int64_t dataset, const std::string& what = "the dataset");
+
 [[noreturn]] void throw_bad_append(const std::string& where, std::size_t n, std::size_t row_size);
 
 template <class T>

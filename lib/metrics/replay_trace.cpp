@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "io/h5.hpp"
 #include "io/paths.hpp"
 
 namespace ebh {
@@ -143,7 +144,7 @@ class Reader {
     }
     std::vector<T> out(dims[0] * static_cast<std::size_t>(cols == 0 ? 1 : cols));
     if (!out.empty() && H5Dread(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0)
-      fail(name, "cannot be read as a number array");
+      throw InputError(path_ + ": " + name + ": " + h5::read_failure(ds.get()));
     return out;
   }
 

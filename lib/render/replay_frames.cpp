@@ -136,7 +136,7 @@ void ReplayFrames::read_virtual_positions(std::size_t f, std::vector<Vec3f>& out
   if (!space.valid() || !mem.valid() ||
       H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
       H5Dread(ds.get(), H5T_NATIVE_FLOAT, mem.get(), space.get(), H5P_DEFAULT, out.data()) < 0)
-    throw InputError(where + ": cannot read frame " + std::to_string(f));
+    throw InputError(where + ": " + h5::read_failure(ds.get(), "frame " + std::to_string(f)));
 }
 
 }  // namespace ebh

@@ -59,49 +59,52 @@ void renumber_local(SurfaceMesh& surface, std::vector<std::array<int, 2>>& paren
   parent = std::move(out_parent);
 }
 
-/// The longest edge of the virtual mesh at rest.
-double longest_edge(const VirtualModel& vm) {
-  double longest = 0;
-  for (const Vec3d& e : vm.rest_edge) longest = std::max(longest, norm(e));
-  return longest;
-}
-
-/// The physical mesh's boundary vertices farther than `reach` from every virtual vertex: how many,
-/// of how many, and one of the farthest (the search looks 2 x reach around each).
+/// The physical mesh's boundary vertices farther than `reach` from the virtual mesh's surface (its
+/// triangles at rest): how many, of how many, and one of them.
 struct Uncovered {
   std::size_t count = 0, of = 0;
-  double reach = 0, farthest = 0;  ///< farthest: capped at 3 x reach
+  double reach = 0;
   Vec3d at;
 };
 Uncovered uncovered_boundary(const TetMesh& physical, const VirtualModel& vm, double reach) {
   Uncovered u;
   u.reach = reach;
-  if (!(reach > 0) || vm.rest.empty()) return u;
-  // The virtual vertices in cells of edge `reach`: a boundary vertex looks in its cell and the 26 around it.
+  if (!(reach > 0) || vm.triangles.empty()) return u;
+  // The triangles binned by their bounding boxes in cells of edge `reach`: one within `reach` of a
+  // point overlaps the point's cell or one of the 26 around it.
   const Vec3d lo = bounding_box(vm.rest).lo;
-  auto cell = [&](const Vec3d& p, int axis) {
-    const double c = std::floor(((axis == 0 ? p.x : axis == 1 ? p.y : p.z) - (axis == 0 ? lo.x : axis == 1 ? lo.y : lo.z)) / reach);
-    return static_cast<std::int64_t>(std::clamp(c, -1e6, 1e6));
+  auto cell = [&](const Vec3d& p) {
+    auto c = [&](double x, double o) { return static_cast<std::int64_t>(std::clamp(std::floor((x - o) / reach), -1e6, 1e6)); };
+    return std::array<std::int64_t, 3>{c(p.x, lo.x), c(p.y, lo.y), c(p.z, lo.z)};
   };
   auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) { return (i * 2000003 + j) * 2000003 + k; };
   std::unordered_map<std::int64_t, std::vector<int>> cells;
-  for (int v = 0; v < static_cast<int>(vm.rest.size()); ++v)
-    cells[key(cell(vm.rest[v], 0), cell(vm.rest[v], 1), cell(vm.rest[v], 2))].push_back(v);
+  for (int t = 0; t < static_cast<int>(vm.triangles.size()); ++t) {
+    const auto& tri = vm.triangles[t];
+    const BoundingBox box = bounding_box({vm.rest[tri[0]], vm.rest[tri[1]], vm.rest[tri[2]]});
+    const auto a = cell(box.lo), b = cell(box.hi);
+    for (std::int64_t i = a[0]; i <= b[0]; ++i)
+      for (std::int64_t j = a[1]; j <= b[1]; ++j)
+        for (std::int64_t k = a[2]; k <= b[2]; ++k) cells[key(i, j, k)].push_back(t);
+  }
   for (const Vec3d& p : extract_boundary(physical).vertices) {
     ++u.of;
-    const std::int64_t ci = cell(p, 0), cj = cell(p, 1), ck = cell(p, 2);
-    double nearest = 3 * reach;
-    for (std::int64_t i = ci - 1; i <= ci + 1; ++i)
-      for (std::int64_t j = cj - 1; j <= cj + 1; ++j)
-        for (std::int64_t k = ck - 1; k <= ck + 1; ++k)
+    const auto c = cell(p);
+    bool near = false;
+    for (std::int64_t i = c[0] - 1; i <= c[0] + 1 && !near; ++i)
+      for (std::int64_t j = c[1] - 1; j <= c[1] + 1 && !near; ++j)
+        for (std::int64_t k = c[2] - 1; k <= c[2] + 1 && !near; ++k)
           if (auto it = cells.find(key(i, j, k)); it != cells.end())
-            for (int v : it->second) nearest = std::min(nearest, norm(vm.rest[v] - p));
-    if (nearest <= reach) continue;
-    ++u.count;
-    if (nearest > u.farthest) {
-      u.farthest = nearest;
-      u.at = p;
-    }
+            for (int t : it->second) {
+              const auto& tri = vm.triangles[t];
+              const Vec3d &ta = vm.rest[tri[0]], &tb = vm.rest[tri[1]], &tc = vm.rest[tri[2]];
+              const std::array<double, 3> w = closest_on_triangle(p, ta, tb, tc);
+              if (norm(w[0] * ta + w[1] * tb + w[2] * tc - p) <= reach) {
+                near = true;
+                break;
+              }
+            }
+    if (!near && u.count++ == 0) u.at = p;
   }
   return u;
 }
@@ -140,12 +143,12 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
   }
   // A closed virtual mesh over part of the physical mesh only (a segmentation's surface of one
   // lobe): a tool pressed into the rest meets no virtual vertex and renders next to nothing
-  // there. Said where over 1% of the physical boundary's vertices lie farther from every virtual
-  // vertex than the virtual mesh's longest edge (and 1% of the diagonal).
-  if (const Uncovered u = uncovered_boundary(scene.physical, vm, std::max(longest_edge(vm), 0.01 * diagonal));
+  // there. Said where over 1% of the physical boundary's vertices lie farther from the virtual
+  // mesh's surface than 5% of the diagonal (a smoothed surface's rounded corners lie within it).
+  if (const Uncovered u = uncovered_boundary(scene.physical, vm, kUncoveredReach * diagonal);
       u.count > 0 && u.count * 100 > u.of) {
     std::snprintf(buf, sizeof buf, "covers part of the physical mesh only: %zu of its %zu boundary vertices (%.0f%%) "
-                  "lie more than %.3g mm from every virtual vertex (one at %.4g, %.4g, %.4g mm)",
+                  "lie more than %.3g mm from its surface (one at %.4g, %.4g, %.4g mm)",
                   u.count, u.of, 100.0 * static_cast<double>(u.count) / static_cast<double>(u.of), u.reach * 1e3,
                   u.at.x * 1e3, u.at.y * 1e3, u.at.z * 1e3);
     warnings.push_back(where + buf + ": a tool pressed in there passes through the physical mesh unfelt");

@@ -158,7 +158,34 @@ TEST(BuildWorld, AVirtualMeshOverPartOfThePhysicalMeshIsNamed) {
   const auto half = warnings_of("half_box", box_obj(5));
   EXPECT_TRUE(has(half, "half_box.obj: mesh.virtual: the virtual mesh covers part of the physical mesh only: "))
       << ::testing::PrintToString(half);
-  EXPECT_TRUE(has(half, "lie more than 14.1 mm from every virtual vertex"));  // its longest edge, a square's diagonal
+  EXPECT_TRUE(has(half, "lie more than 8.66 mm from its surface"));  // 5% of the cube's 173 mm diagonal
+  // The same half as a coarse box of 12 triangles (no vertex near the middle of its faces) is
+  // warned too; the whole cube's surface with its corners rounded off by 3 mm (a smoothed
+  // segmentation, refined finely) is not.
+  const std::string coarse_half = "v 0 0 0\nv 5 0 0\nv 0 10 0\nv 5 10 0\nv 0 0 10\nv 5 0 10\nv 0 10 10\nv 5 10 10\n"
+                                  "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+  EXPECT_TRUE(has(warnings_of("coarse_half", coarse_half), "covers part of the physical mesh only"));
+  std::string rounded = box_obj(10);
+  {
+    std::istringstream in(rounded);
+    std::ostringstream out;
+    for (std::string line; std::getline(in, line);) {
+      if (line.rfind("v ", 0) == 0) {  // pulled towards the centre along each axis within 0.3 cm of two faces
+        std::istringstream v(line.substr(2));
+        double x, y, z;
+        v >> x >> y >> z;
+        auto pull = [](double c) { return c < 0.3 ? 0.3 - 0.3 * (1 - c / 0.3) * 0.4 : c > 9.7 ? 9.7 + 0.3 * (1 - (10 - c) / 0.3) * 0.4 : c; };
+        const int near = (x < 0.3 || x > 9.7) + (y < 0.3 || y > 9.7) + (z < 0.3 || z > 9.7);
+        if (near >= 2) x = pull(x), y = pull(y), z = pull(z);
+        out << "v " << x << " " << y << " " << z << "\n";
+      } else {
+        out << line << "\n";
+      }
+    }
+    rounded = out.str();
+  }
+  const auto smooth = warnings_of("rounded_box", rounded);
+  EXPECT_FALSE(has(smooth, "covers part")) << ::testing::PrintToString(smooth);
 }
 
 }  // namespace

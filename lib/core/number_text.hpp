@@ -14,6 +14,20 @@ inline std::string shown_number(double v) {
   return buf;
 }
 
+/// v to `decimals` places, without trailing zeros ("-1000.03", "0.44", "0"): a length to copy into
+/// a file or an option, at a resolution that matters (0.1 mm) however large it is, where %g's
+/// significant digits would drop it (1000.02 m as 1e+03).
+inline std::string fixed_text(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  std::string s = buf;
+  if (s.find('.') != std::string::npos) {
+    while (s.back() == '0') s.pop_back();
+    if (s.back() == '.') s.pop_back();
+  }
+  return s == "-0" ? "0" : s;
+}
+
 /// The shortest text that reads back as v ("100", "0.1", "1e+300"): a value that must survive the
 /// message exactly (a window's start, a rate).
 inline std::string shortest_text(double v) {

@@ -415,15 +415,8 @@ std::string short_num(double v) {
 }
 
 // An offset to copy into --transform: to 0.1 mm, however far (a mesh 1 km off in %.3g is 1e+03,
-// 20 mm wrong); trailing zeros dropped.
-std::string offset_num(double v) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.4f", v);
-  std::string s = buf;
-  while (s.back() == '0') s.pop_back();
-  if (s.back() == '.') s.pop_back();
-  return s == "-0" ? "0" : s;
-}
+// 20 mm wrong).
+std::string offset_num(double v) { return fixed_text(v, 4); }
 
 // "95x" or "1/84 of".
 std::string ratio_text(double r) {

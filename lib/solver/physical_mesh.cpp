@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "energy/arap.hpp"
 #include "energy/volume.hpp"
 #include "energy/polar_svd.hpp"
@@ -707,14 +708,19 @@ std::string float32_placement_warning(const SceneSpec& spec, const PhysicalModel
   const Vec3d c = 0.5 * (box.lo + box.hi);
   const double centred = float32_residual_floor(model, c);
   if (!(floor > 4 * centred)) return "";  // the mesh's own floor (fine tets, slivers), not its place
-  const Vec3d to = (spec.mesh_transform.translate - c) / spec.unit;  // whole units are near enough
-  char line[600];
+  // The translation that brings the centre to the origin, in mesh.unit (the key's unit) to 0.1 mm.
+  const Vec3d to = (spec.mesh_transform.translate - c) / spec.mesh_unit;
+  const int decimals = std::max(0, static_cast<int>(std::ceil(std::log10(spec.mesh_unit / 1e-4) - 1e-9)));
+  const std::string translate = "[" + fixed_text(to.x, decimals) + ", " + fixed_text(to.y, decimals) + ", " +
+                                fixed_text(to.z, decimals) + "], in " + spec.mesh_unit_name;
+  char line[640];
   std::snprintf(line, sizeof line,
                 ": the physical mesh's centre lies %.3g m from the world's origin, where the CUDA backend's float32 "
-                "positions round to %.2g mesh weights of residual (%.2g with the mesh at the origin), above "
+                "positions round to %.2g mesh weights of residual (%.2g with the mesh at the origin%s), above "
                 "solver.physical_tolerance %.3g: the device's steps run until they stall; move the mesh to the "
-                "origin (mesh.transform.translate: [%.0f, %.0f, %.0f], in %s) and the log with it (replay --transform)",
-                norm(c), floor, centred, tolerance, to.x, to.y, to.z, spec.unit_name.c_str());
+                "origin (mesh.transform.translate: %s) and the log with it (replay --transform)",
+                norm(c), floor, centred, centred > tolerance ? ", still above it: its tets are too fine or flat for float32" : "",
+                tolerance, translate.c_str());
   return spec.physical_mesh.string() + line;
 }
 

@@ -135,7 +135,7 @@ TEST(StoppingRule, Float32FloorGrowsWithRefinementAndSlivers) {
 
 // Float32 keeps 24 bits of a coordinate: the same mesh 10 m from the origin rounds ~500 times
 // coarser than at 20 mm, its floor rises above the tolerance, and the placement warning names the
-// translation that brings it back (in the scene's unit); at the origin nothing is said.
+// translation that brings it back (in mesh.unit); at the origin nothing is said.
 TEST(StoppingRule, Float32FloorOfAMeshFarFromTheOriginIsWarned) {
   Scene scene = test::box_scene(4, 4, 8);
   scene.spec.stiffness.k_vol = 5000;
@@ -155,7 +155,14 @@ TEST(StoppingRule, Float32FloorOfAMeshFarFromTheOriginIsWarned) {
   EXPECT_LT(float32_residual_floor(far.pm, 0.5 * (box.lo + box.hi)), scene.spec.solver.physical_tolerance);
   const std::string w = float32_placement_warning(scene.spec, far.pm, floor_far);
   EXPECT_NE(w.find("the physical mesh's centre lies 10 m from the world's origin"), std::string::npos) << w;
-  EXPECT_NE(w.find("move the mesh to the origin (mesh.transform.translate: [-10020, 15, -107], in mm)"), std::string::npos) << w;
+  // in mesh.unit, the key's own unit (not the scene's `unit`), to 0.1 mm
+  EXPECT_NE(w.find("move the mesh to the origin (mesh.transform.translate: [-10.0197, 0.0151, -0.1073], in m)"),
+            std::string::npos) << w;
+  SceneSpec in_mm = scene.spec;
+  in_mm.mesh_unit = 0.001;
+  in_mm.mesh_unit_name = "mm";
+  const std::string mm = float32_placement_warning(in_mm, far.pm, floor_far);
+  EXPECT_NE(mm.find("(mesh.transform.translate: [-10019.7, 15.1, -107.3], in mm)"), std::string::npos) << mm;
   EXPECT_EQ(w.find('\n'), std::string::npos);
 }
 

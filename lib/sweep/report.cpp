@@ -177,10 +177,10 @@ std::optional<BaselineGoal> baseline_goal(const ReportGroup& g) {
   goal.baseline = goal.fastest = goal.most_accurate = static_cast<std::size_t>(b - P.begin());
   for (std::size_t i = 0; i < P.size(); ++i) {
     const ReportPoint& p = P[i];
-    // A configuration with no error at all renders the reference's forces bit for bit: it is the
+    // A configuration with no error beyond round-off renders the reference's forces: it is the
     // reference in effect (an override that changes nothing, a k_con below surface contact's
-    // floor), not infinitely more accurate, and its time is the reference's give or take noise.
-    const bool same_as_reference = p.error_rms == 0 && b->error_rms > 0;
+    // floor: 4e-15 N), not 1e12 times more accurate, and its time is the reference's give or take noise.
+    const bool same_as_reference = p.error_rms <= kSameForceN && b->error_rms > kSameForceN;
     if ((p.reference || p.below_rate || same_as_reference) && p.baseline.empty()) continue;
     if (p.error_rms <= b->error_rms && p.wall_s < P[goal.fastest].wall_s) goal.fastest = i;
     if (p.wall_s <= b->wall_s && p.error_rms < P[goal.most_accurate].error_rms) goal.most_accurate = i;

@@ -42,6 +42,10 @@ struct ReportPoint {
 /// tool's 1 kHz.
 inline constexpr double kMinHapticHz = 1000;
 
+/// An RMS force error at most this (N) is round-off: the configuration renders the reference's
+/// forces (a device resolves about a millinewton), so it is the reference in effect, no candidate.
+inline constexpr double kSameForceN = 1e-9;
+
 struct ReportGroup {
   std::string scene, recording, backend;
   double min_haptic_hz = 0;              ///< the floor the points were held to (0: none)

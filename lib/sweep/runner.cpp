@@ -41,7 +41,17 @@ struct Child {
   std::string text;
   Clock::time_point t0;
   int gpu = -1;  ///< its entry of RunnerOptions::gpus (-1: none, a CPU child or no --gpus)
+  /// Each run's output as the child started (a stale one, run again): its time, or none.
+  std::vector<std::optional<fs::file_time_type>> before;
 };
+
+/// The time of `file`'s last write, none where it is not there.
+std::optional<fs::file_time_type> written_at(const fs::path& file) {
+  std::error_code ec;
+  const fs::file_time_type t = fs::last_write_time(file, ec);
+  if (ec) return std::nullopt;
+  return t;
+}
 
 /// The child's environment: ours with OMP_NUM_THREADS replaced, and CUDA_VISIBLE_DEVICES too when
 /// `gpu` is not empty.
@@ -425,11 +435,13 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
     for (std::size_t k = 0; k < c.runs.size(); ++k) {
       const SweepRun& run = *c.runs[k];
       RunOutcome o{&run, RunOutcome::Status::Done, seconds, {}};
-      std::error_code ec;
-      const bool exists = fs::exists(run_output(dir, run), ec);
+      // An output written by this child (complete or not there at all: io/atomic.hpp), not a
+      // stale one it was to replace.
+      const std::optional<fs::file_time_type> now = written_at(run_output(dir, run));
+      const bool written = now && (!c.before[k] || *now != *c.before[k]);
       // A batch child exits non-zero when any of its replays failed; each replay's output says
-      // whether it ran.
-      const bool ok = exists && (c.runs.size() > 1 || (WIFEXITED(status) && WEXITSTATUS(status) == 0));
+      // whether it ran. So does that of a child the interrupt reached after it wrote it: done.
+      const bool ok = written && (c.runs.size() > 1 || interrupted() || (WIFEXITED(status) && WEXITSTATUS(status) == 0));
       if (ok) {
         ++report.ran;
         remove_file(run_failure(dir, run));
@@ -487,9 +499,11 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
       int gpu = -1;
       if (take.front()->backend == "cuda" && !on_gpu.empty())
         gpu = static_cast<int>(std::min_element(on_gpu.begin(), on_gpu.end()) - on_gpu.begin());
+      std::vector<std::optional<fs::file_time_type>> before;  // taken before the child can write
+      for (const SweepRun* r : take) before.push_back(written_at(run_output(dir, *r)));
       const auto [pid, fd] = start_process(argv, gpu >= 0 ? &gpu_env[static_cast<std::size_t>(gpu)] : &env, dir.string(), true);
       if (gpu >= 0) ++on_gpu[static_cast<std::size_t>(gpu)];
-      active.push_back(Child{take, pid, fd, {}, Clock::now(), gpu});
+      active.push_back(Child{take, pid, fd, {}, Clock::now(), gpu, std::move(before)});
       p.running += take.size();
       if (progress) progress(p, nullptr);
     }

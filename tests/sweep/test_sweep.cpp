@@ -708,6 +708,47 @@ TEST(SweepRunner, AReplayStuckAfterTheInterruptIsKilled) {
   set_interrupt_grace(kInterruptGraceSeconds);
 }
 
+/// A replay the interrupt reaches after it wrote its output (tests/sweep/late_replay.sh exits 143
+/// then) ran: counted done, not stopped in flight. A stale output a child was to replace, which the
+/// interrupt stopped before it wrote (stuck_replay.sh writes nothing), is no run done.
+TEST(SweepRunner, AnOutputWrittenBeforeTheInterruptIsARunDone) {
+  const fs::path dir = scratch() / "late";
+  fs::remove_all(dir);
+  SweepPlan plan;
+  const std::vector<SweepRun> runs = three_runs(plan, "late.yaml");
+  RunnerOptions opt;
+  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/late_replay.sh";
+  opt.stop_grace_s = 5;
+  install_interrupt_handlers();
+  set_interrupted(false);
+  const fs::path first = run_output(dir, runs[0]);
+  RunnerReport rep = execute_runs(plan, runs, dir, opt, [&first](const RunnerProgress&, const RunOutcome* o) {
+    if (o) return;
+    for (int i = 0; i < 500 && !fs::exists(first); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    set_interrupted(true);  // as a SIGTERM once the first replay wrote its output
+  });
+  set_interrupted(false);
+  EXPECT_EQ(rep.ran, 1u);
+  EXPECT_EQ(rep.interrupted, 0u);
+  EXPECT_EQ(rep.failed, 0u);
+  EXPECT_TRUE(rep.stopped);
+
+  const fs::path stale_dir = scratch() / "late_stale";
+  fs::remove_all(stale_dir);
+  fs::create_directories(stale_dir / "runs");
+  std::ofstream(run_output(stale_dir, runs[0])) << "an old output\n";
+  const std::vector<RunState> stale(runs.size(), RunState::Stale);  // as run_state would say
+  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/stuck_replay.sh";
+  opt.stop_grace_s = 0.5;
+  rep = execute_runs(plan, runs, stale_dir, opt, [](const RunnerProgress&, const RunOutcome* o) {
+    if (!o) set_interrupted(true);
+  }, &stale);
+  set_interrupted(false);
+  EXPECT_EQ(rep.ran, 0u);
+  EXPECT_EQ(rep.interrupted, 1u);
+  set_interrupt_grace(kInterruptGraceSeconds);
+}
+
 /// The temporaries left in `folder` (*.ebh-partial).
 std::vector<std::string> partials(const fs::path& folder) {
   std::vector<std::string> out;

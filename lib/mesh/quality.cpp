@@ -418,14 +418,18 @@ int remove_repeated_surface_faces(SurfaceMesh& mesh) {
 }
 
 int remove_flat_surface_faces(SurfaceMesh& mesh) {
-  std::size_t kept = 0;
+  std::vector<Tri> kept;
+  kept.reserve(mesh.triangles.size());
   for (const Tri& t : mesh.triangles) {
     const Vec3d &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
     const double longest = std::max({squared_norm(b - a), squared_norm(c - b), squared_norm(a - c)});
-    if (norm(cross(b - a, c - a)) > 1e-12 * longest) mesh.triangles[kept++] = t;
+    if (norm(cross(b - a, c - a)) > 1e-12 * longest) kept.push_back(t);
   }
-  const int removed = static_cast<int>(mesh.triangles.size() - kept);
-  mesh.triangles.resize(kept);
+  const int removed = static_cast<int>(mesh.triangles.size() - kept.size());
+  // A flat face that fills a T-junction (a long edge against two short ones) closes the surface
+  // there: without it the surface would open. Such faces stay.
+  if (removed == 0 || surface_edges(kept).open > surface_edges(mesh.triangles).open) return 0;
+  mesh.triangles = std::move(kept);
   return removed;
 }
 

@@ -151,7 +151,8 @@ int remove_repeated_surface_faces(SurfaceMesh& mesh);
 
 /// Removes the triangles of a surface with no area: corners on one line (twice the area at most
 /// 1e-12 of the longest edge squared: round-off of a line). They cover nothing, and their edges,
-/// each one face's, read as a hole. Returns how many were removed.
+/// each one face's, read as a hole. Where removing them would open the surface (they fill
+/// T-junctions, closing it), none is removed. Returns how many were removed.
 int remove_flat_surface_faces(SurfaceMesh& mesh);
 
 }  // namespace ebh

@@ -122,6 +122,25 @@ TEST(MergeCoincident, NoCoincidentVerticesLeavesTheSurfaceAlone) {
   EXPECT_EQ(s.triangles, before.triangles);
 }
 
+// A flat face that fills a T-junction closes the surface: it stays (removing it would open three
+// edges). Flat faces laid along an edge of a closed surface open it: they go.
+TEST(FlatFaces, OnlyThoseThatDoNotCloseTheSurfaceAreRemoved) {
+  // a tetrahedron A B C D whose face A B C is split at M, the middle of A B, with the flat A B M
+  // filling the junction against face A B D
+  const Vec3d A{0, 0, 0}, B{1, 0, 0}, C{0, 1, 0}, D{0, 0, 1}, M{0.5, 0, 0};
+  SurfaceMesh t{{A, B, C, D, M}, {{0, 2, 4}, {4, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}, {0, 4, 1}}};
+  ASSERT_EQ(surface_edges(t.triangles).open, 0);
+  const std::vector<Tri> before = t.triangles;
+  EXPECT_EQ(remove_flat_surface_faces(t), 0);
+  EXPECT_EQ(t.triangles, before);
+  // the tetrahedron whole, with two flat faces on its edge A B: removed, and it is closed again
+  SurfaceMesh e{{A, B, C, D, M, Vec3d{0.25, 0, 0}}, {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}, {0, 4, 1}, {0, 5, 4}}};
+  ASSERT_GT(surface_edges(e.triangles).open, 0);
+  EXPECT_EQ(remove_flat_surface_faces(e), 2);
+  EXPECT_EQ(e.triangles.size(), 4u);
+  EXPECT_EQ(surface_edges(e.triangles).open, 0);
+}
+
 // ---- OBJ lines: continuation, comments, polygons, not text -----------------------------------
 TEST(ReadObj, ContinuedLineAndTrailingComments) {
   const SurfaceMesh s = read_obj(write_temp("cont.obj", "v 0 0 0\nv 1 0 \\\n 0\r\nv 0 1 0 # the third\nf 1 2 \\\r\n3 # one face\n"

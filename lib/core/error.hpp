@@ -59,11 +59,11 @@ inline std::string escape_unprintable(std::string_view text) {
 }
 
 /// A token of a file quoted in a message: whole up to `max` bytes, else its first `max` and how
-/// long it is ("1111...1 (200000000 characters)"), so that a field of a broken file does not make a
+/// long it is ("1111...1 (200000000 bytes)"), so that a field of a broken file does not make a
 /// message of megabytes.
 inline std::string clipped(std::string_view token, std::size_t max = 40) {
   if (token.size() <= max) return std::string(token);
-  return std::string(token.substr(0, max)) + "... (" + std::to_string(token.size()) + " characters)";
+  return std::string(token.substr(0, max)) + "... (" + std::to_string(token.size()) + " bytes)";
 }
 
 /// Bad user input (a file, an option). what() is one line: "FILE:LINE: what is wrong" or

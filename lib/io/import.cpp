@@ -357,19 +357,19 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
           throw InputError(at(path, l.number) + ": column " + std::to_string(i + 1) + " has no name" +
                            (i == 0 ? " (the index pandas writes? save with to_csv(..., index=False))" : ""));
         if (header[i].front() == '[' || header[i].front() == '(')
-          throw InputError(at(path, l.number) + ": '" + header[i] + "': units in the header are not read: name the " +
+          throw InputError(at(path, l.number) + ": '" + clipped(header[i]) + "': units in the header are not read: name the " +
                            "columns t, x, y, z, ... and give the length unit with --unit (times are in seconds)");
         std::string h = header[i];
         std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
         if (std::find(skip_columns.begin(), skip_columns.end(), header[i]) != skip_columns.end()) continue;
         if (std::find(known.begin(), known.end(), h) == known.end())
-          throw InputError(at(path, l.number) + ": unknown column '" + header[i] +
+          throw InputError(at(path, l.number) + ": unknown column '" + clipped(header[i]) +
                            "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons" +
                            (header[i].find(';') != std::string::npos
                                 ? "; columns are separated by commas, spaces or tabs, not ';'"
-                                : "; a column of other data: --skip-column " + header[i] + " leaves it unread") +
+                                : header[i].size() > 40 ? "" : "; a column of other data: --skip-column " + header[i] + " leaves it unread") +
                            ")");
-        if (!col.emplace(h, i).second) throw InputError(at(path, l.number) + ": column '" + h + "' appears twice");
+        if (!col.emplace(h, i).second) throw InputError(at(path, l.number) + ": column '" + clipped(h) + "' appears twice");
       }
       for (const char* req : {"x", "y", "z", "qw", "qx", "qy", "qz"})
         if (!col.count(req)) throw InputError(at(path, l.number) + ": missing column '" + req + "'");

@@ -105,6 +105,15 @@ TEST(Import, DefectsNameFileAndLine) {
   auto write = [&](const std::string& name, const std::string& bytes) { return write_log(tmp / name, bytes); };
   std::string p = write("a.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n# c\n0.001,0,0,abc,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "a.csv:4", "z", "'abc' is not a number");
+  // ... and a column name of megabytes too.
+  p = write("long_header.csv", "t,x,y,z,qw,qx,qy," + std::string(300000, 'Q') + "\n0,0,0,0,1,0,0,0\n");
+  try {
+    (void)import_log(p, opt);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown column '" + std::string(40, 'Q') + "... (300000 bytes)'"), std::string::npos);
+    EXPECT_LT(std::string(e.what()).size(), 300u);
+  }
   // Lines ended by a carriage return alone (Excel's "CSV (Macintosh)"): not an empty log.
   p = write("mac.csv", "t,x,y,z,qw,qx,qy,qz\r0,0,0,0,1,0,0,0\r0.001,0,0,0,1,0,0,0\r");
   EXPECT_INPUT_ERROR(import_log(p, opt), "mac.csv:1: lines end in a carriage return alone (classic Mac line ends)");
@@ -116,7 +125,7 @@ TEST(Import, DefectsNameFileAndLine) {
       ADD_FAILURE() << "no error";
     } catch (const InputError& e) {
       const std::string msg = e.what();
-      EXPECT_NE(msg.find("long.csv:2: x: '" + field.substr(0, 40) + "... (100001 characters)' is "), std::string::npos) << msg.substr(0, 200);
+      EXPECT_NE(msg.find("long.csv:2: x: '" + field.substr(0, 40) + "... (100001 bytes)' is "), std::string::npos) << msg.substr(0, 200);
       EXPECT_LT(msg.size(), 300u);
     }
   }

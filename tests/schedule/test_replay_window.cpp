@@ -140,3 +140,20 @@ TEST(SurfaceContactFloor, AKConBelowTheFloorIsSaid) {
   EXPECT_NE(floor_warning({"contact=surface"}).find("stiffness.k_con = 400 N/m"), std::string::npos);
   EXPECT_EQ(floor_warning({"contact=surface", "stiffness.k_con=2200"}), "");
 }
+
+// Below a device's 1 kHz the force of a press has not converged in the haptic rate: a replay says
+// so, naming the option or the key; at 1 kHz and above nothing is said.
+TEST(HapticRate, BelowOneKilohertzIsSaid) {
+  const RecordingFile file = read_replay_recording("tube_insert");
+  auto rate_warning = [&file](const std::vector<std::string>& set, std::optional<double> haptic_hz) {
+    for (const std::string& w : load_replay_scene(RecordingFile(file), "tube", set, haptic_hz, 100.0, false,
+                                                  Backend::Cpu).warnings)
+      if (w.find("has not converged in the rate") != std::string::npos) return w;
+    return std::string();
+  };
+  EXPECT_EQ(rate_warning({}, std::nullopt), "");
+  EXPECT_EQ(rate_warning({}, 2000.0), "");
+  EXPECT_EQ(rate_warning({}, 500.0).rfind("--haptic-hz 500 Hz: below a haptic device's 1 kHz", 0), 0u) << rate_warning({}, 500.0);
+  EXPECT_EQ(rate_warning({"time.haptic_hz=200"}, std::nullopt).rfind("--set 'time.haptic_hz=200': time.haptic_hz 200 Hz", 0), 0u)
+      << rate_warning({"time.haptic_hz=200"}, std::nullopt);
+}

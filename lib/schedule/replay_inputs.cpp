@@ -198,25 +198,25 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   r.transforms = apply_replay_transforms(r.recording, r.recording_path, transforms, spec);
   check_rate_options(spec, haptic_hz, physical_hz);
   const double hz_h = haptic_hz.value_or(spec.haptic_hz), hz_p = physical_hz.value_or(spec.physical_hz);
+  // A rate below what a device's loop or the paper's physical mesh runs at, named by the option
+  // or the key that gave it.
+  auto low_rate = [&](const char* option, const char* key, bool from_option, const std::string& why) {
+    r.warnings.push_back((from_option ? std::string(option) : value_source(spec, key) + ": " + key) + why);
+  };
+  char why[360];
   if (hz_h < kMinPlausibleHapticHz) {
-    const std::string key = haptic_hz ? std::string("--haptic-hz") : value_source(spec, "time.haptic_hz") +
-                                                                           ": time.haptic_hz";
-    char line[360];
-    std::snprintf(line, sizeof line,
+    std::snprintf(why, sizeof why,
                   " %g Hz: below a haptic device's 1 kHz the rendered force of a press has not converged in the rate "
                   "(the own-data press peaks at 2.1 N at 100 Hz against 1.13 N at 1 kHz; docs/MODEL.md, \"Held loads\")",
                   hz_h);
-    r.warnings.push_back(key + line);
+    low_rate("--haptic-hz", "time.haptic_hz", haptic_hz.has_value(), why);
   }
   if (hz_p < kMinPlausiblePhysicalHz) {
-    const std::string key = physical_hz ? std::string("--physical-hz") : value_source(spec, "time.physical_hz") +
-                                                                              ": time.physical_hz";
-    char line[320];
-    std::snprintf(line, sizeof line,
+    std::snprintf(why, sizeof why,
                   " %g Hz: the physical mesh answers the virtual mesh %g times a second (the paper: 60-100), so the "
                   "tissue follows the tool %g ms late and the virtual mesh alone holds it meanwhile",
                   hz_p, hz_p, 1e3 / hz_p);
-    r.warnings.push_back(key + line);
+    low_rate("--physical-hz", "time.physical_hz", physical_hz.has_value(), why);
   }
   if (worlds) {
     r.world = worlds->get(std::move(spec), hz_h, hz_p, backend);

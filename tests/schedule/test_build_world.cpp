@@ -17,8 +17,16 @@ using test::replace;
 using test::slurp;
 using test::write_temp;
 
-/// cube_obj.yaml (a 10 cm cube) with its OBJ's vertices scaled by `scale` about the origin and
-/// moved by `dx` cm along x.
+/// cube_obj.yaml (a 10 cm cube) with the virtual mesh `obj` (OBJ text, in cm) as NAME.obj.
+std::vector<std::string> warnings_of(const std::string& name, const std::string& obj) {
+  write_temp(name + ".obj", obj);
+  const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                           data("mesh/cube41.msh").string()),
+                                   "../mesh/cube.obj", name + ".obj");
+  return build_world(load_scene(write_temp(name + ".yaml", yaml)), 1000, 100)->scene.warnings;
+}
+
+/// The same with its OBJ's vertices scaled by `scale` about the origin and moved by `dx` cm along x.
 std::vector<std::string> warnings_with_obj(const std::string& name, double scale, double dx) {
   std::istringstream in(slurp(data("mesh/cube.obj")));
   std::string obj;
@@ -34,11 +42,7 @@ std::vector<std::string> warnings_with_obj(const std::string& name, double scale
     }
     obj += line + "\n";
   }
-  write_temp(name + ".obj", obj);
-  const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
-                                           data("mesh/cube41.msh").string()),
-                                   "../mesh/cube.obj", name + ".obj");
-  return build_world(load_scene(write_temp(name + ".yaml", yaml)), 1000, 100)->scene.warnings;
+  return warnings_of(name, obj);
 }
 
 bool has(const std::vector<std::string>& warnings, const std::string& needle) {
@@ -86,13 +90,6 @@ TEST(BuildWorld, AVirtualMeshOffThePhysicalMeshIsNamed) {
 // A virtual mesh with a hole (the cube without its last face) or of unwelded faces is not closed:
 // a tool that passes through an opening feels nothing, with either contact model.
 TEST(BuildWorld, AnOpenVirtualMeshIsNamed) {
-  auto warnings_of = [](const std::string& name, const std::string& obj) {
-    write_temp(name + ".obj", obj);
-    const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
-                                             data("mesh/cube41.msh").string()),
-                                     "../mesh/cube.obj", name + ".obj");
-    return build_world(load_scene(write_temp(name + ".yaml", yaml)), 1000, 100)->scene.warnings;
-  };
   std::string cube = slurp(data("mesh/cube.obj"));
   const std::string holed = cube.substr(0, cube.rfind("f "));  // without the last quad
   EXPECT_TRUE(has(warnings_of("holed", holed), "holed.obj: mesh.virtual: the virtual mesh is not closed: 4 of its edges "
@@ -145,13 +142,6 @@ TEST(BuildWorld, AVirtualMeshOverPartOfThePhysicalMeshIsNamed) {
     face([](int u, int v) { return P{0, u, v}; }, 10, 10);
     face([&](int u, int v) { return P{x1, u, v}; }, 10, 10);
     return o.str();
-  };
-  auto warnings_of = [](const std::string& name, const std::string& obj) {
-    write_temp(name + ".obj", obj);
-    const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
-                                             data("mesh/cube41.msh").string()),
-                                     "../mesh/cube.obj", name + ".obj");
-    return build_world(load_scene(write_temp(name + ".yaml", yaml)), 1000, 100)->scene.warnings;
   };
   const auto whole = warnings_of("whole_box", box_obj(10));
   EXPECT_FALSE(has(whole, "covers part")) << ::testing::PrintToString(whole);

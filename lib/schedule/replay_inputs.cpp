@@ -231,7 +231,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
     std::snprintf(line, sizeof line,
                   ": stiffness.k_con = %g N/m is below surface contact's floor, %.4g N/m (tool.force_limit %.4g N over "
                   "1.5 x the tool's thinnest part, %.4g mm), which it renders with: every k_con below the floor renders "
-                  "the same (docs/MODEL.md, \"Stiffness floor\")",
+                  "the same, to round-off (docs/MODEL.md, \"Stiffness floor\")",
                   s.stiffness.k_con, s.stiffness.k_con * surface->stiffness_factor, s.tool.force_limit, surface->spacing * 1e3);
     r.warnings.push_back(value_source(s, "stiffness.k_con") + line);
   }

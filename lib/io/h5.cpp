@@ -68,35 +68,27 @@ std::string expected_str(const std::vector<std::ptrdiff_t>& s) {
 
 [[noreturn]] void fail(const std::string& where, const std::string& what) { throw InputError(where + ": " + what); }
 
-// The operating system's reason for the HDF5 call that just failed, read from HDF5's error stack
-// (its file drivers record "errno = N" in their messages: a full disk, a file too large); empty
-// when the failure was not the operating system's. Must run before the next HDF5 call, which
-// clears the stack.
-herr_t find_errno(unsigned, const H5E_error2_t* e, void* data) {
-  auto* err = static_cast<int*>(data);
-  if (*err == 0 && e && e->desc)
-    if (const char* p = std::strstr(e->desc, "errno = ")) *err = std::atoi(p + 8);
-  return 0;
-}
-
-std::string os_suffix() {
-  int err = 0;
-  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, find_errno, &err);
-  H5Eclear2(H5E_DEFAULT);
-  return err > 0 ? ": " + os_reason(err) : std::string();
-}
-
-// The descriptions on HDF5's error stack after a failed call, innermost last, one per line; clears
-// the stack. Must run before the next HDF5 call, which clears it.
+// The descriptions on HDF5's error stack after a failed call, from the API call down to the
+// innermost, one per line; clears the stack. Must run before the next HDF5 call, which clears it.
 herr_t collect_desc(unsigned, const H5E_error2_t* e, void* data) {
   if (e && e->desc) *static_cast<std::string*>(data) += std::string(e->desc) + "\n";
   return 0;
 }
 std::string error_descriptions() {
   std::string out;
-  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, collect_desc, &out);
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_desc, &out);
   H5Eclear2(H5E_DEFAULT);
   return out;
+}
+
+// The operating system's reason for the HDF5 call that just failed, read from HDF5's error stack
+// (its file drivers record "errno = N" in their messages: a full disk, a file too large); empty
+// when the failure was not the operating system's. Must run before the next HDF5 call.
+std::string os_suffix() {
+  const std::string errors = error_descriptions();
+  const std::size_t at = errors.find("errno = ");
+  const int err = at == std::string::npos ? 0 : std::atoi(errors.c_str() + at + 8);
+  return err > 0 ? ": " + os_reason(err) : std::string();
 }
 
 // A file cut short (HDF5 records "truncated file: eof = N, ..., stored_eof = M" when the file ends

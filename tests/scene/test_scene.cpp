@@ -193,7 +193,7 @@ TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {
     for (long v; l >> v;) f.push_back(v);
     if (f[1] != 4) continue;  // the tets only
     more_elements += std::to_string(f[0] + 100) + " 4 2 1 1";
-    for (int k = 5; k < 9; ++k) more_elements += " " + std::to_string(f[k] + 2000);
+    for (int k = 5; k < 9; ++k) more_elements.append(" ").append(std::to_string(f[k] + 2000));
     more_elements += "\n";
   }
   msh = msh.substr(0, n0 - 2) + "16\n" + nodes + more_nodes + msh.substr(n1, e0 - 3 - n1) + "18\n" + elements +

@@ -286,7 +286,9 @@ TEST(Scheduler, RealtimeStepTimesAreVirtualWhenTheTicksFallBehind) {
   ASSERT_GT(slow.step_t.size(), 5u);  // ~150 ms of wall time at 100 Hz
   for (std::size_t k = 0; k < slow.step_t.size(); ++k) {
     EXPECT_LE(slow.step_t[k], slow.last_t) << k;
-    if (k > 0) EXPECT_GE(slow.step_t[k], slow.step_t[k - 1]) << k;
+    if (k > 0) {
+      EXPECT_GE(slow.step_t[k], slow.step_t[k - 1]) << k;
+    }
   }
 }
 

@@ -31,7 +31,13 @@ add_test(NAME cli.synth.rate_below_the_tremor
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${PROJECT_SOURCE_DIR}/recordings/gap_insert.yaml;-o;${EBH_IO_OUT}/rate20.h5;--rate;20"
     "-DEXPECT=^ebh: error: --rate 20: 20 Hz samples cannot carry the tremor's band up to 12 Hz"
     -DOUTPUT=${EBH_IO_OUT}/rate20.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan cli.synth.rate_below_the_tremor PROPERTIES LABELS cli)
+# A negative seed would wrap to 2^64 - 1 in the unsigned option.
+add_test(NAME cli.synth.negative_seed
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${PROJECT_SOURCE_DIR}/recordings/gap_insert.yaml;-o;${EBH_IO_OUT}/seed.h5;--seed;-1"
+    "-DEXPECT=^ebh: error: --seed: expected a whole number >= 0 \\(at most 2\\^64 - 1\\), got '-1'"
+    -DOUTPUT=${EBH_IO_OUT}/seed.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan cli.synth.rate_below_the_tremor cli.synth.negative_seed
+  PROPERTIES LABELS cli)
 # A plan names a scene file relative to itself; the recording, written two folders further down,
 # names the same file relative to its own folder (where readers look; a name stays a name:
 # cli.synth.tube_insert), and a path that names no file is refused.

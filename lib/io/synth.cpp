@@ -9,6 +9,7 @@
 #include <initializer_list>
 #include <numbers>
 #include <string_view>
+#include <utility>
 
 #include "core/error.hpp"
 #include "core/yaml_error.hpp"
@@ -199,6 +200,36 @@ SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
     r.fail(root["rate_hz"], "rate_hz", what);
   }
   return plan;
+}
+
+std::vector<std::string> plan_rate_warnings(const SynthPlan& plan) {
+  constexpr double kPeakOverMean = 15.0 / 8.0;  // ds/dtau of minimum_jerk at tau = 1/2
+  const auto& w = plan.waypoints;
+  auto distance = [&w](std::size_t i) { return norm(w[i].position - w[i - 1].position); };
+  auto angle = [&w](std::size_t i) { return norm(rotvec_from_quat(conjugate(w[i - 1].orientation) * w[i].orientation)); };
+  auto fastest = [&w](auto change, double limit) {  // {the segment's end (0: none over), its peak rate}
+    std::pair<std::size_t, double> f{0, limit};
+    for (std::size_t i = 1; i < w.size(); ++i)
+      if (const double r = kPeakOverMean * change(i) / (w[i].t - w[i - 1].t); r > f.second) f = {i, r};
+    return f;
+  };
+  std::vector<std::string> out;
+  char line[400];
+  if (const auto [i, rate] = fastest(distance, kToolSpeedMax); i > 0) {
+    std::snprintf(line, sizeof line,
+                  "%s: waypoints[%zu] -> waypoints[%zu] (t = %g .. %g s) move the tool %.4g mm at up to %.3g m/s (a hand "
+                  "moves it at under 1 m/s): t is in seconds, position_mm in millimetres",
+                  plan.file.c_str(), i - 1, i, w[i - 1].t, w[i].t, distance(i) * 1e3, rate);
+    out.emplace_back(line);
+  }
+  if (const auto [i, rate] = fastest(angle, kToolTurnRateMax); i > 0) {
+    std::snprintf(line, sizeof line,
+                  "%s: waypoints[%zu] -> waypoints[%zu] (t = %g .. %g s) turn the tool %.4g degrees at up to %.3g rad/s (a "
+                  "hand turns it at a few): t is in seconds, rotvec_deg in degrees",
+                  plan.file.c_str(), i - 1, i, w[i - 1].t, w[i].t, angle(i) * 180 / std::numbers::pi, rate);
+    out.emplace_back(line);
+  }
+  return out;
 }
 
 double minimum_jerk(double tau) {

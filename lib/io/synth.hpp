@@ -42,6 +42,12 @@ struct SynthPlan {
 /// the plan's rate_hz before the checks that depend on it.
 SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz = std::nullopt);
 
+/// The plan's fastest move and fastest turn, when over a hand's (kToolSpeedMax, kToolTurnRateMax):
+/// one line each naming the two waypoints, their times and the segment's peak rate (a minimum-jerk
+/// segment peaks at 1.875 times its mean: 15/8). Most likely a waypoint in the wrong unit (t in
+/// ms, a position in m read as mm); warnings, not errors: the plan may mean it.
+std::vector<std::string> plan_rate_warnings(const SynthPlan& plan);
+
 /// Minimum-jerk profile s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 on [0, 1] (clamped outside):
 /// s, ds/dtau and d2s/dtau2 vanish appropriately at both ends (Flash & Hogan 1985).
 double minimum_jerk(double tau);

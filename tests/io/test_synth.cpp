@@ -239,3 +239,30 @@ TEST(Synth, SampleCountIsCheckedBeforeAllocating) {
   plan.waypoints[1].t = 1e-4;  // shorter than one sample interval at 1 kHz
   EXPECT_INPUT_ERROR(synthesize(plan, 1), "far.yaml: ", "a recording needs at least two samples");
 }
+
+TEST(Plan, MovesAndTurnsFasterThanAHandAreWarnedByWaypoint) {
+  SynthPlan p = moving_plan();  // 51 mm in 1 s: 0.096 m/s at its peak; turns of ~0.5 rad
+  p.file = "plan.yaml";
+  EXPECT_TRUE(plan_rate_warnings(p).empty());
+  // The last segment's 51 mm in 10 ms (its t in ms read as s): 9.6 m/s at its peak, under the
+  // limit; in 5 ms, 19 m/s.
+  p.waypoints[3].t = p.waypoints[2].t + 0.010;
+  EXPECT_TRUE(plan_rate_warnings(p).empty());
+  p.waypoints[3].t = p.waypoints[2].t + 0.005;
+  auto w = plan_rate_warnings(p);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("plan.yaml: waypoints[2] -> waypoints[3] (t = 2 .. 2.005 s) move the tool 50.99 mm at up to 19.1 m/s"),
+            std::string::npos)
+      << w[0];
+  // A half turn in 50 ms: 116 rad/s at its peak (the limit 50).
+  p = moving_plan();
+  p.file = "plan.yaml";
+  p.waypoints[2].t = p.waypoints[1].t + 0.05;
+  p.waypoints[2].position = p.waypoints[1].position;
+  p.waypoints[2].orientation = p.waypoints[1].orientation * quat_from_rotvec(Vec3d{0, 0, 3.1});
+  w = plan_rate_warnings(p);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("waypoints[1] -> waypoints[2] (t = 1 .. 1.05 s) turn the tool 177.6 degrees at up to 116 rad/s"),
+            std::string::npos)
+      << w[0];
+}

@@ -15,6 +15,7 @@
 
 
 #include "command.hpp"
+#include "options.hpp"
 #include "core/error.hpp"
 #include "core/number_text.hpp"
 #include "io/atomic.hpp"
@@ -460,7 +461,8 @@ void setup(CLI::App& root) {
   d->add_option("scene", dargs->scene, "scene name (scenarios/NAME.yaml) or path to a scene file")->required();
   d->add_option("--quality", dargs->quality, "the worst tet's mean ratio afterwards, in (0, 1) (default 0.05)");
   d->add_option("--tets", dargs->tets, "how many interior tets to degrade (default 24)");
-  d->add_option("--seed", dargs->seed, "which tets (default 1; the same seed gives the same mesh)");
+  d->add_option("--seed", dargs->seed, "which tets (default 1; the same seed gives the same mesh)")
+      ->check(ebh::cli::seed_number());
   d->add_option("-o,--out", dargs->out_dir,
                 "folder for NAME_qQ.msh and NAME_qQ.yaml (default: the working directory), or the scene file to write "
                 "(OUT.yaml; the mesh goes to OUT.msh beside it)");

@@ -44,6 +44,7 @@ void run(const SynthArgs& a) {
     throw ebh::InputError(a.plan + (plan.scene_line > 0 ? ":" + std::to_string(plan.scene_line) : std::string()) +
                           ": scene: " + e.what() + " (a path in a plan is relative to the plan's folder)");
   }
+  for (const std::string& w : ebh::plan_rate_warnings(plan)) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
   ebh::Recording rec = ebh::synthesize(plan, a.seed);
   rec.scene = scene;
   // The plan's file name only (no directories), so regenerated files do not depend on where the
@@ -62,7 +63,9 @@ void setup(CLI::App& root) {
   CLI::App* c = root.add_subcommand("synth", "Synthesise a device recording from a waypoint plan (YAML)");
   c->add_option("plan", args->plan, "plan file (YAML: scene, tool, waypoints; see docs/FORMATS.md)")->required();
   c->add_option("-o,--output", args->output, "recording to write (HDF5)")->required();
-  c->add_option("--seed", args->seed, "tremor seed (same seed, same recording)")->capture_default_str();
+  c->add_option("--seed", args->seed, "tremor seed (same seed, same recording)")
+      ->capture_default_str()
+      ->check(ebh::cli::seed_number());
   c->add_option("--rate", args->rate_hz, "sample rate in Hz (default: the plan's rate_hz, else 1000)")
       ->check(ebh::cli::finite_number(0, ebh::kMaxSampleRateHz, true, "Hz"));
   c->callback([args] { run(*args); });

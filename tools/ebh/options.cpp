@@ -33,6 +33,18 @@ CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::stri
       range);
 }
 
+CLI::Validator seed_number() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+        errno = 0;
+        if (digits) std::strtoull(text.c_str(), nullptr, 10);
+        return digits && errno != ERANGE ? std::string()
+                                         : "expected a whole number >= 0 (at most 2^64 - 1), got '" + escape_unprintable(text) + "'";
+      },
+      "seed");
+}
+
 void refuse_empty_values(CLI::App& app) {
   const CLI::Validator non_empty(
       [](std::string& text) { return text.empty() ? std::string("expected a value, got an empty one") : std::string(); }, "");

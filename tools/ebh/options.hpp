@@ -19,6 +19,11 @@ inline constexpr double kNoUpperLimit = std::numeric_limits<double>::infinity();
 /// than a silent full replay. `unit` is appended to the range in messages ("Hz").
 CLI::Validator finite_number(double lo, double hi, bool lo_open = false, const std::string& unit = "");
 
+/// A CLI11 check for a seed: a whole number 0 .. 2^64 - 1 in decimal digits. CLI11 reads "-1"
+/// into an unsigned option as 2^64 - 1 (a different seed than the user meant, written into the
+/// output's provenance as such); this refuses it: "--seed: expected a whole number >= 0, got '-1'".
+CLI::Validator seed_number();
+
 /// Refuses an empty value for every option of `app` and its subcommands that takes one (flags take
 /// none): "--level: expected a value, got an empty one". An empty value otherwise reads as the
 /// option's default (`--level ''` as 0, `--recording ''` as not given) and a script whose variable

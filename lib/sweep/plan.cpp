@@ -23,6 +23,14 @@ namespace {
 
 std::string scene_inputs_sha256(const fs::path& scene_file, std::map<std::string, std::string>& digests);
 
+/// A number's text in its shortest form (shortest_number: "1e3" -> "1000", "0.50" -> "0.5"); other
+/// text as it is.
+std::string shortest_if_number(const std::string& text) {
+  double v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  return ec == std::errc() && end == text.data() + text.size() && std::isfinite(v) ? shortest_number(v) : text;
+}
+
 /// Reads the plan's YAML tree; every message names the file, the line and the dotted key.
 class PlanReader {
  public:
@@ -79,12 +87,17 @@ class PlanReader {
     return out;
   }
 
-  /// A scene key's value as `--set` takes it: a scalar's text, a list in flow style.
+  /// A scene key's value as `--set` takes it: a scalar's text, a list in flow style; numbers in
+  /// their shortest form, so that one value is one configuration however it is written (1e3 and
+  /// 1000, 0.50 and 0.5: the same replay, which would otherwise run twice, or not be taken for
+  /// the reference or the baseline it is).
   std::string value(const YAML::Node& n, const std::string& key) const {
-    if (n.IsScalar()) return n.Scalar();
+    if (n.IsScalar()) return shortest_if_number(n.Scalar());
     if (n.IsSequence()) {
+      YAML::Node items(YAML::NodeType::Sequence);
+      for (const YAML::Node& x : n) items.push_back(x.IsScalar() ? YAML::Node(shortest_if_number(x.Scalar())) : x);
       YAML::Emitter e;
-      e << YAML::Flow << n;
+      e << YAML::Flow << items;
       return e.c_str();
     }
     fail(n, key, "expected a value (a number, text or a list), got " + yaml_shown(n));

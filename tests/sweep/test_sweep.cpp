@@ -120,6 +120,24 @@ runs:
   EXPECT_EQ(plain->overrides_text(), "-");
 }
 
+TEST(SweepPlan, ANumberWrittenTwoWaysIsOneConfiguration) {
+  const SweepPlan p = read_sweep_plan(plan_file("forms.yaml", R"(
+scenes:
+  - {scene: tube, recordings: [tube_insert], reference: {stiffness.k_con: 1000.0}}
+grid:
+  stiffness.k_con: [1e3, 1000, 2E3, 0.5e4]
+set: {gravity: [0, 0.0, -9.810]}
+baseline: {set: {stiffness.k_con: 2000}}
+)"));
+  ASSERT_EQ(p.configurations.size(), 3u);
+  EXPECT_EQ(p.configurations[0], (Overrides{{"stiffness.k_con", "1000"}}));
+  EXPECT_EQ(p.configurations[1], (Overrides{{"stiffness.k_con", "2000"}}));
+  EXPECT_EQ(p.configurations[2], (Overrides{{"stiffness.k_con", "5000"}}));
+  EXPECT_EQ(p.set.at("gravity"), "[0, 0, -9.81]");
+  // The reference is the grid's first configuration, the baseline its second: no runs of their own.
+  EXPECT_EQ(expand_plan(p).size(), 3u);
+}
+
 /// `recordings: all` takes a recording whose scene attribute is the scene file's path relative to
 /// the recording (as `ebh import --scene FILE` writes it), not only its name.
 TEST(SweepPlan, AllTakesARecordingThatNamesTheSceneByItsFile) {

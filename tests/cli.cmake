@@ -805,6 +805,12 @@ add_test(NAME cli.replay.haptic_threads_clamped
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads.h5 --duration 0.01 --haptic-threads 4096 -q)
 set_tests_properties(cli.replay.haptic_threads_clamped PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=2
   PASS_REGULAR_EXPRESSION "warning: --haptic-threads 4096: of the 2 OpenMP threads .* the haptic side runs 1;")
+# In lockstep the ticks and the step take turns with all the threads: the option does nothing.
+add_test(NAME cli.replay.haptic_threads_in_lockstep
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads_lockstep.h5 --duration 0.01 --mode lockstep
+    --haptic-threads 1 -q)
+set_tests_properties(cli.replay.haptic_threads_in_lockstep PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=2
+  PASS_REGULAR_EXPRESSION "warning: --haptic-threads 1: not used in lockstep, where the ticks and the physical step take turns, each with all 2 OpenMP threads")
 add_test(NAME cli.replay.threads_oversubscribed
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads_over.h5 --duration 0.01 -q)
 set_tests_properties(cli.replay.threads_oversubscribed PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=4096

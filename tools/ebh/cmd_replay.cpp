@@ -126,6 +126,10 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   opt.haptic_threads = a.haptic_threads;
   // The split of the OpenMP threads between the two sides: what --haptic-threads asked may not fit.
   const int total_threads = std::max(1, omp_get_max_threads());
+  if (a.haptic_threads > 0 && mode == Mode::Lockstep)
+    std::fprintf(stderr, "ebh: warning: --haptic-threads %d: not used in lockstep, where the ticks and the physical "
+                 "step take turns, each with all %d OpenMP threads (OMP_NUM_THREADS sets them)\n",
+                 a.haptic_threads, total_threads);
   if (a.haptic_threads > 0 && mode != Mode::Lockstep)
     if (const ThreadSplit split = split_threads(mode, a.haptic_threads); split.haptic != a.haptic_threads)
       std::fprintf(stderr, "ebh: warning: --haptic-threads %d: of the %d OpenMP threads (OMP_NUM_THREADS, else the "

@@ -656,6 +656,16 @@ set_tests_properties(cli.replay.no_contact PROPERTIES FIXTURES_SETUP no_contact
 add_test(NAME cli.replay.contact_no_warning
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/contact.h5 --start 2.8 --duration 0.05 -q)
 set_tests_properties(cli.replay.contact_no_warning PROPERTIES FAIL_REGULAR_EXPRESSION "touched the tissue")
+# No contact, and no tip inside the tissue as the replay found it: the soft block settled under its
+# weight below the rest shape the tip reaches into (the warning had said it passed between vertices).
+add_test(NAME cli.replay.make_sag_press
+  COMMAND ${EBH_BIN} synth ${EBH_IO_DATA}/gap_sag_press.yaml -o ${EBH_REPLAY_OUT}/sag_press_rec.h5)
+set_tests_properties(cli.replay.make_sag_press PROPERTIES LABELS cli FIXTURES_SETUP sag_press)
+add_test(NAME cli.replay.no_contact_on_the_settled_mesh
+  COMMAND ${EBH_BIN} replay gap ${EBH_REPLAY_OUT}/sag_press_rec.h5 -o ${EBH_REPLAY_OUT}/sag_press.h5 --set stiffness.k_vol=500 -q)
+set_tests_properties(cli.replay.no_contact_on_the_settled_mesh PROPERTIES LABELS cli FIXTURES_REQUIRED sag_press
+  PASS_REGULAR_EXPRESSION "sag_press.h5: the tool never touched the tissue \\(no tick with contacts > 0\\)\n"
+  FAIL_REGULAR_EXPRESSION "tip went inside")
 add_test(NAME cli.metrics.no_contact_table COMMAND ${EBH_BIN} metrics ${EBH_REPLAY_OUT}/no_contact.h5)
 set_tests_properties(cli.metrics.no_contact_table PROPERTIES FIXTURES_REQUIRED no_contact
   PASS_REGULAR_EXPRESSION "\n  warning: the tool never touched the tissue")

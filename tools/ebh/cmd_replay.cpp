@@ -200,8 +200,15 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   // vertices (a tool thinner than their spacing), which vertex contact cannot feel.
   // With surface contact, or through an opening of an OBJ virtual mesh, the tool's tip can also go in
   // unfelt: the hint names which.
+  // The mesh where the replay found it: settled under gravity (stages.settle), not the rest shape an
+  // organ sagged away from (under 10 g the rest shape put the tip "inside" tissue it never reached).
+  TetMesh start_mesh;
+  if (writer.contact_ticks() == 0) {
+    start_mesh = world.scene.physical;
+    if (world.initial_physical.x.size() == start_mesh.vertices.size()) start_mesh.vertices = world.initial_physical.x;
+  }
   if (writer.contact_ticks() == 0)
-    if (const auto t = tip_inside_mesh(p.in.recording, world.scene.physical, a.start, a.duration.value_or(0), &world.tool)) {
+    if (const auto t = tip_inside_mesh(p.in.recording, start_mesh, a.start, a.duration.value_or(0), &world.tool)) {
       const long long open = surface_edges(world.scene.virtual_surface.triangles).open;
       const bool vertices = world.scene.spec.contact == ContactModel::Vertices;
       char line[480];

@@ -383,24 +383,29 @@ namespace {
 struct PathFit {
   double extent = 0;         // m, diagonal of the positions' bounding box
   double distance = 0;       // m, smallest distance of a sample from the box (0 inside)
+  double farthest = 0;       // m, largest distance of a sample from the box
   Vec3d centre;              // m, centre of the positions' bounding box
 };
 
 PathFit fit_path(const std::vector<Vec3d>& path, double f, Vec3d lo, Vec3d hi) {
   Vec3d plo = f * path.front(), phi = plo;
-  double nearest = std::numeric_limits<double>::infinity();
+  double nearest = std::numeric_limits<double>::infinity(), farthest = 0;
   for (const Vec3d& raw : path) {
     const Vec3d p = f * raw;
     plo = cwise_min(plo, p);
     phi = cwise_max(phi, p);
-    nearest = std::min(nearest, norm(cwise_max(lo - p, cwise_max(p - hi, Vec3d{}))));
+    const double d = norm(cwise_max(lo - p, cwise_max(p - hi, Vec3d{})));
+    nearest = std::min(nearest, d);
+    farthest = std::max(farthest, d);
   }
-  return {norm(phi - plo), nearest, 0.5 * (plo + phi)};
+  return {norm(phi - plo), nearest, farthest, 0.5 * (plo + phi)};
 }
 
+/// The path's size and place fit the mesh's, and a replay accepts it (no sample beyond
+/// replay_outside_margin: a unit under which the replay refuses the recording is no fix).
 bool fits(const PathFit& p, double diagonal) {
   return p.extent <= kPathExtentMaxRatio * diagonal && p.extent >= kPathExtentMinRatio * diagonal &&
-         p.distance <= kPathMaxDistanceDiagonals * diagonal;
+         p.distance <= kPathMaxDistanceDiagonals * diagonal && p.farthest <= replay_outside_margin(diagonal);
 }
 
 const char* unit_label(double metres_per_unit) {
@@ -531,11 +536,15 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   const bool size_off = now.extent > kPathExtentMaxRatio * diagonal ||
                         (now.extent > 0 && now.extent < kPathExtentMinRatio * diagonal);
   const auto size_miss = [&](const PathFit& q) { return std::abs(std::log10(q.extent / diagonal)); };
+  // A path whose size fits as read (and that is only out of place, or farther out than a replay
+  // accepts) takes a unit only where its size fits about as well (within a factor ~3): a path of
+  // the right size 0.4 m off enters the box in a unit 10x smaller, but its place is what is wrong.
+  const auto no_worse_sized = [&](const PathFit& q) { return size_off || size_miss(q) <= size_miss(now) + 0.5; };
   const Candidate* best = nullptr;
   PathFit best_fit;
   for (const Candidate& c : candidates) {
     const PathFit p = fit_path(path, c.f, lo, hi);
-    if (fits(p, diagonal) && p.distance == 0 && (!best || size_miss(p) < size_miss(best_fit))) {
+    if (fits(p, diagonal) && p.distance == 0 && no_worse_sized(p) && (!best || size_miss(p) < size_miss(best_fit))) {
       best = &c;
       best_fit = p;
     }
@@ -575,17 +584,23 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
 
   std::ostringstream o;
   const bool far = now.distance > kPathMaxDistanceDiagonals * diagonal;
+  // Near the mesh and of its size, but out of it farther than a replay accepts (through it and
+  // out the far side, as a path in cm read with one unit too large does).
+  const bool beyond = !far && now.farthest > replay_outside_margin(diagonal);
   const Vec3d start = path.front();
   o << "the tool path ";
   if (size_off)
     o << "spans " << short_num(now.extent) << " m, " << ratio_text(now.extent / diagonal)
       << " the physical mesh's bounding-box diagonal (" << short_num(diagonal) << " m)";
-  if (size_off && far) o << ", and ";
+  if (size_off && (far || beyond)) o << ", and ";
   if (far)
     o << "stays at least " << short_num(now.distance) << " m (" << short_num(now.distance / diagonal)
       << " mesh diagonals" << (size_off ? "" : " of " + short_num(diagonal) + " m")
       << ") away from the physical mesh's bounding box, starting at (" << short_num(start.x) << ", "
       << short_num(start.y) << ", " << short_num(start.z) << ") m";
+  if (beyond)
+    o << "reaches " << short_num(now.farthest) << " m outside the physical mesh's bounding box, beyond the "
+      << short_num(replay_outside_margin(diagonal)) << " m a replay accepts (it refuses the recording)";
   // A path far smaller than the mesh and within its box, or near it, is also a tool held still at
   // the tissue or above it (a press held, a tool resting in it, one hovering with a hand's tremor):
   // nothing to fix then.

@@ -129,6 +129,12 @@ Quatd slerp(Quatd a, Quatd b, double s);
 /// sample at or before t; clamped to the first/last sample outside the recording. O(log N).
 DeviceSample sample_at(const Recording& rec, double t);
 
+/// How far outside the physical mesh's bounding box (diagonal D) a replay accepts the tool: D, at
+/// least 0.1 m (a handle may start well away from the tissue; a unit mistake puts it tens to
+/// thousands of scene sizes away). `ebh replay` refuses a recording beyond it (without
+/// --allow-outside); `ebh import --scene` warns of one, and never names a unit that lands there.
+inline double replay_outside_margin(double diagonal) { return diagonal > 0.1 ? diagonal : 0.1; }
+
 /// A one-line message when the trajectory lies outside the scene's bounding box enlarged by
 /// `margin` metres on every side (a recording in mm read as m lands kilometres away), naming the
 /// farthest sample; nullopt when it fits.

@@ -237,9 +237,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   }
   const BoundingBox box = bounding_box(r.world->scene.physical.vertices);
   if (!allow_outside) {
-    // The tool's handle may start well away from the tissue; a unit mistake (cm or mm read as
-    // m) puts it tens to thousands of scene sizes away.
-    const double margin = std::max(box.diagonal(), 0.1);
+    const double margin = replay_outside_margin(box.diagonal());
     if (auto err = check_recording_in_scene(r.recording, box.lo, box.hi, margin))
       throw InputError(r.recording_path + ": " + *err +
                        " (a unit mistake, or a path in the device's frame, not the scene's? `ebh import --scene` names the "

@@ -360,9 +360,40 @@ TEST(UnitSanity, APathFarFromTheMeshAsksForAWorldTransform) {
   w = check_recording_scale(far, kLo, kHi, 1e-2);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("(the mesh's centre is (-1000.03, 1000.02, -0.06) m from the path's)"), std::string::npos) << *w;
-  // Just inside 2 diagonals: no warning.
+  // Just inside 2 diagonals, but farther than a replay accepts (one diagonal, replay_outside_margin):
+  // said, as the replay would refuse it.
   for (Vec3d& p : r.position) p += Vec3d{-1 + 0.05 + 0.34, 0, -0.08};
+  w = check_recording_scale(r, kLo, kHi, 1e-2);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("the tool path reaches 0.36 m outside the physical mesh's bounding box, beyond the 0.173 m a replay "
+                    "accepts (it refuses the recording); likely fix: --transform"),
+            std::string::npos)
+      << *w;
+  EXPECT_TRUE(check_recording_in_scene(r, kLo, kHi, replay_outside_margin(norm(kHi - kLo))).has_value());
+  // Within it: no warning.
+  for (Vec3d& p : r.position) p += Vec3d{-0.2, 0, 0};
   EXPECT_FALSE(check_recording_scale(r, kLo, kHi, 1e-2).has_value());
+  EXPECT_FALSE(check_recording_in_scene(r, kLo, kHi, replay_outside_margin(norm(kHi - kLo))).has_value());
+}
+
+TEST(UnitSanity, NoUnitIsNamedUnderWhichAReplayRefusesThePath) {
+  // A press in mm read as metres over a 60 x 40 x 30 mm block (top at z = 15 mm): from 15 mm
+  // above the top to 8 mm into it. In cm it has the block's size nearer than in mm (2.9x its
+  // diagonal against 0.29x) and enters it, but goes 65 mm out of its bottom: a replay refuses that.
+  const Vec3d lo{-0.03, -0.02, -0.015}, hi{0.03, 0.02, 0.015};
+  Recording r = make_recording(3);
+  r.position = {Vec3d{0, 0, 30}, Vec3d{0, 0, 15}, Vec3d{0, 0, 7}};
+  auto w = check_recording_scale(r, lo, hi, 1.0);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("likely fix: --unit mm"), std::string::npos) << *w;
+  // Read in cm: the replay would refuse it, so it is said, with the unit that fits.
+  for (Vec3d& p : r.position) p *= 1e-2;
+  w = check_recording_scale(r, lo, hi, 1e-2);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("the tool path reaches 0.285 m outside the physical mesh's bounding box, beyond the 0.1 m a replay "
+                    "accepts (it refuses the recording); likely fix: --unit mm"),
+            std::string::npos)
+      << *w;
 }
 
 TEST(UnitSanity, ALogInTheWrongUnitAndPlaceNamesTheUnitAndATransform) {

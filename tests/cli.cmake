@@ -666,6 +666,15 @@ add_test(NAME cli.replay.no_contact_on_the_settled_mesh
 set_tests_properties(cli.replay.no_contact_on_the_settled_mesh PROPERTIES LABELS cli FIXTURES_REQUIRED sag_press
   PASS_REGULAR_EXPRESSION "sag_press.h5: the tool never touched the tissue \\(no tick with contacts > 0\\)\n"
   FAIL_REGULAR_EXPRESSION "tip went inside")
+# No contact although the tip went into the tissue, with surface contact on the physical mesh's own
+# boundary: the virtual mesh is where the tissue is, so the cause is not mesh.virtual (here a
+# virtual tool all but uncoupled from the device).
+add_test(NAME cli.replay.no_contact_on_the_boundary
+  COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_REPLAY_OUT}/uncoupled.h5 --start 2 --duration 0.3
+    --set contact=surface --set stiffness.k_vcs=1e-12 -q)
+set_tests_properties(cli.replay.no_contact_on_the_boundary PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "uncoupled.h5: the tool never touched the tissue .*, yet the tool's tip went inside the physical mesh where the replay started .*: the tissue moved away from it .*, or the virtual tool did not follow the device \\(stiffness.k_vcs, stiffness.k_con\\)"
+  FAIL_REGULAR_EXPRESSION "mesh.virtual")
 add_test(NAME cli.metrics.no_contact_table COMMAND ${EBH_BIN} metrics ${EBH_REPLAY_OUT}/no_contact.h5)
 set_tests_properties(cli.metrics.no_contact_table PROPERTIES FIXTURES_REQUIRED no_contact
   PASS_REGULAR_EXPRESSION "\n  warning: the tool never touched the tissue")

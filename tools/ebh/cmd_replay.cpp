@@ -222,10 +222,15 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                       ", yet the tool's tip went inside the physical mesh (at the recording's t = %.3f s): it passed "
                       "between the virtual vertices unfelt (contact: vertices; `--set contact=surface` feels it, "
                       "docs/MODEL.md)", *t);
-      else
+      else if (world.scene.spec.virtual_mesh)
         std::snprintf(line, sizeof line,
                       ", yet the tool's tip went inside the physical mesh (at the recording's t = %.3f s): the virtual "
                       "mesh is not where the physical mesh is there (mesh.virtual)", *t);
+      else  // the virtual mesh is the physical mesh's boundary: it is where the tissue is
+        std::snprintf(line, sizeof line,
+                      ", yet the tool's tip went inside the physical mesh where the replay started (at the recording's "
+                      "t = %.3f s): the tissue moved away from it (a part sinking, or swinging on its pins), or the "
+                      "virtual tool did not follow the device (stiffness.k_vcs, stiffness.k_con)", *t);
       contact += line;
     }
   if (!contact.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), contact.c_str());

@@ -376,6 +376,20 @@ TEST(UnitSanity, APathFarFromTheMeshAsksForAWorldTransform) {
   EXPECT_FALSE(check_recording_in_scene(r, kLo, kHi, replay_outside_margin(norm(kHi - kLo))).has_value());
 }
 
+TEST(UnitSanity, AGraspHeldOffTheTissueIsAtTheMesh) {
+  // A forceps' pose is its jaws' pivot: a grasp on the top of the gap's blocks (z <= 0) holds it
+  // 3 mm above them. Logged in cm, read as metres: in cm it comes within 3 mm of the box; in mm
+  // (10x too small) within 0.3 mm, but at a tenth of the size.
+  const Vec3d lo{-0.0305, -0.025, -0.03}, hi{0.0305, 0.025, 0};
+  Recording r = make_recording(3);
+  r.position = {Vec3d{2, 0, 3.5}, Vec3d{2, 0, 0.3}, Vec3d{0.5, 0, 0.3}};
+  auto w = check_recording_scale(r, lo, hi, 1.0);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("likely fix: --unit cm"), std::string::npos) << *w;
+  for (Vec3d& p : r.position) p *= 1e-2;
+  EXPECT_FALSE(check_recording_scale(r, lo, hi, 1e-2).has_value());
+}
+
 TEST(UnitSanity, NoUnitIsNamedUnderWhichAReplayRefusesThePath) {
   // A press in mm read as metres over a 60 x 40 x 30 mm block (top at z = 15 mm): from 15 mm
   // above the top to 8 mm into it. In cm it has the block's size nearer than in mm (2.9x its

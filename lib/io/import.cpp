@@ -235,8 +235,21 @@ Quatd orthonormalised(const Eigen::Matrix3d& M, const std::string& where) {
   return quat_from_matrix(R);
 }
 
+// A number written with a decimal comma in the line ("0,25"), and none with a point.
+bool decimal_commas(const std::string& t) {
+  auto between_digits = [&t](char mark) {
+    for (std::size_t i = 1; i + 1 < t.size(); ++i)
+      if (t[i] == mark && std::isdigit(static_cast<unsigned char>(t[i - 1])) &&
+          std::isdigit(static_cast<unsigned char>(t[i + 1])))
+        return true;
+    return false;
+  };
+  return between_digits(',') && !between_digits('.');
+}
+
 void read_openhaptics(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
                       std::vector<std::size_t>& line_of, LeftOut& left_out) {
+  std::size_t fields = 0, fields_line = 0;  // the first sample's field count, and its line
   for_each_line(path, left_out, [&](const Line& l) {
     const std::string where = at(path, l.number);
     check_sample_limit(rec, limit, where);
@@ -270,20 +283,21 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
                         : semicolons ? " (fields are separated by spaces, tabs or commas, not ';')"
                                      : ""));
     }
-    if (tok.size() > 17 + 8) {
-      // "0,25 0,5 ...": numbers written with decimal commas split in two at the comma.
-      auto between_digits = [&l](char mark) {
-        const std::string& t = l.text;
-        for (std::size_t i = 1; i + 1 < t.size(); ++i)
-          if (t[i] == mark && std::isdigit(static_cast<unsigned char>(t[i - 1])) &&
-              std::isdigit(static_cast<unsigned char>(t[i + 1])))
-            return true;
-        return false;
-      };
-      const bool decimal_commas = between_digits(',') && !between_digits('.');
-      throw InputError(where + ": more than 8 button states" +
-                       (decimal_commas ? std::string(" (decimal commas? write the numbers with a '.': 0.25, not 0,25)")
-                                       : std::string()));
+    // "0,25 0,5 ...": numbers written with decimal commas split in two at the comma, and every
+    // field after the first such number moves.
+    const std::string commas = decimal_commas(l.text) ? " (decimal commas? write the numbers with a '.': 0.25, not 0,25)" : "";
+    if (tok.size() > 17 + 8) throw InputError(where + ": more than 8 button states" + commas);
+    // Every sample has the fields of the first: one missing or added shifts the rest (element 14
+    // missing read the jaw as element 15 and a button as the jaw, a one-sample grasp).
+    if (fields == 0) {
+      fields = tok.size();
+      fields_line = l.number;
+    } else if (tok.size() != fields) {
+      throw InputError(where + ": " + std::to_string(tok.size()) + " fields, but line " + std::to_string(fields_line) +
+                       ", the first sample, has " + std::to_string(fields) +
+                       (commas.empty() ? ": a value missing or added? (every line holds the 16 elements, the jaw and "
+                                         "the same button states)"
+                                       : commas));
     }
     double m[16];
     for (int k = 0; k < 16; ++k) m[k] = to_number(tok[k], where, "element " + std::to_string(k));
@@ -302,7 +316,9 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
                            zero(to_number(tok[12], where, "element 12")) &&
                            zero(to_number(tok[16], where, "element 16") - 1);
       std::string why = "is it row-major?";
-      if (row_major)
+      if (!commas.empty())
+        why = commas.substr(2, commas.size() - 3);
+      else if (row_major)
         why = "row-major? elements 3, 7, 11 hold (" + num(m[3]) + ", " + num(m[7]) + ", " + num(m[11]) +
               "), a translation, and 12, 13, 14, 15 are 0, 0, 0, 1: the matrix written row by row; an OpenHaptics " +
               "log holds it column-major, as hdGetDoublev(HD_CURRENT_TRANSFORM) returns it: write its transpose";
@@ -318,8 +334,12 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
     rec.position.push_back(Vec3d{m[12], m[13], m[14]} * unit);
     rec.jaw.push_back(to_number(tok[16], where, "jaw"));
     int mask = 0;
+    // A state is 0 or 1: a sample counter or another column after the buttons would set a bit on
+    // every sample.
     for (std::size_t b = 17; b < tok.size(); ++b)
-      if (to_int(tok[b], where, "button " + std::to_string(b - 17), 0, 1 << 30) != 0) mask |= 1 << (b - 17);
+      if (to_int(tok[b], where, "button " + std::to_string(b - 17) + " (a state, 0 or 1; a counter or another column "
+                                "after the buttons?)", 0, 1) != 0)
+        mask |= 1 << (b - 17);
     rec.buttons.push_back(static_cast<std::uint8_t>(mask));
     rec.t.push_back(static_cast<double>(rec.t.size()) / rate);
     line_of.push_back(l.number);

@@ -168,6 +168,19 @@ TEST(Import, DefectsNameFileAndLine) {
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()), p + ":1: more than 8 button states");
   }
+  // A line with a field fewer or more than the first sample's: the fields after it move (element
+  // 14 missing read the jaw as element 15 and button 0 as the jaw).
+  p = write("short.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n1 0 0 0 0 1 0 0 0 0 1 0 5 6 1 1 0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "short.txt:2: 17 fields, but line 1, the first sample, has 18: a value missing or added?");
+  // Decimal commas in fewer than 25 fields: said, not "row-major?".
+  p = write("comma.txt", "1 0 0 0 0 1 0 0 0 0 1 0 2,5 6 7 1 1\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "comma.txt:1: not a homogeneous transform",
+                     "(elements 3, 7, 11, 15 must be 0, 0, 0, 1; decimal commas? write the numbers with a '.'");
+  // A button state is 0 or 1: a counter after the buttons would press button 1 on every sample.
+  p = write("counter.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0 0\n1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0 1\n"
+                           "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0 2\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "counter.txt:3: button 1 (a state, 0 or 1; a counter or another column after the "
+                                         "buttons?): '2' is not an integer in 0..1");
   p = write("h.txt", "# only comments\n\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "h.txt", "no samples");
   EXPECT_INPUT_ERROR(import_log(tmp / "absent.txt", opt), "absent.txt", "cannot open");

@@ -31,6 +31,11 @@ add_test(NAME cli.synth.rate_below_the_tremor
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${PROJECT_SOURCE_DIR}/recordings/gap_insert.yaml;-o;${EBH_IO_OUT}/rate20.h5;--rate;20"
     "-DEXPECT=^ebh: error: --rate 20: 20 Hz samples cannot carry the tremor's band up to 12 Hz"
     -DOUTPUT=${EBH_IO_OUT}/rate20.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# A log whose jaw closes, imported for a hook scene without --tool: recorded as a hook's, said.
+add_test(NAME cli.import.closing_jaw_on_a_hook_scene
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample.csv -o ${EBH_IO_OUT}/jaw_hook.h5 --scene gap)
+set_tests_properties(cli.import.closing_jaw_on_a_hook_scene PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "sample.csv: the jaw closes to 0 \\(below the grasp threshold 0.2\\) at the recording's t = 0.009 s, but the scene's tool is a hook, so the recording says hook: a forceps log\\? give --tool forceps")
 # A negative seed would wrap to 2^64 - 1 in the unsigned option.
 add_test(NAME cli.synth.negative_seed
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${PROJECT_SOURCE_DIR}/recordings/gap_insert.yaml;-o;${EBH_IO_OUT}/seed.h5;--seed;-1"

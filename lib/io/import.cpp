@@ -347,7 +347,7 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
 }
 
 void read_csv(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
-              std::vector<std::size_t>& line_of, bool& has_t, LeftOut& left_out,
+              std::vector<std::size_t>& line_of, bool& has_t, bool& has_jaw, LeftOut& left_out,
               const std::vector<std::string>& skip_columns) {
   const std::vector<std::string> known{"t", "x", "y", "z", "qw", "qx", "qy", "qz", "jaw", "buttons"};
   std::map<std::string, std::size_t> col;
@@ -394,6 +394,7 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
       for (const char* req : {"x", "y", "z", "qw", "qx", "qy", "qz"})
         if (!col.count(req)) throw InputError(at(path, l.number) + ": missing column '" + req + "'");
       has_t = col.count("t") > 0;
+      has_jaw = col.count("jaw") > 0;
       return;
     }
     const std::string where = at(path, l.number);
@@ -554,10 +555,10 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   const double unit = opt.unit ? *opt.unit : (fmt == LogFormat::openhaptics ? 1e-3 : 1.0);
   Recording rec;
   std::vector<std::size_t> line_of;
-  bool has_t = false;
+  bool has_t = false, csv_has_jaw = false;
   LeftOut left_out;
   if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, opt.max_samples, rec, line_of, left_out);
-  else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t, left_out, opt.skip_columns);
+  else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t, csv_has_jaw, left_out, opt.skip_columns);
   if (rec.t.empty())
     throw InputError(path + ": no samples (the log has no data lines" +
                      (left_out.cut_line ? "; its only one, line " + std::to_string(left_out.cut_line) +
@@ -575,6 +576,11 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // The rate as given, or as the log's own times say (of every sample, repeats included).
   rec.rate_hz = rate_hz;
   if (has_t && rec.size() >= 2 && rec.t.back() > rec.t.front()) rec.rate_hz = nominal_rate(rec.t);
+  // --jaw-range maps the log's jaw values; a CSV log without a jaw column has none (its samples
+  // are open), which the range would have mapped to a value of its own (0,255: closed).
+  if (opt.jaw_range && fmt == LogFormat::csv && !csv_has_jaw)
+    throw InputError("--jaw-range: " + path + " has no jaw column (its samples are taken open, 1): the range maps a "
+                     "logged jaw; leave it out, or add the jaw column");
   // The jaw in the log's own range, mapped to 0 closed .. 1 open; without a range one outside
   // [0, 1] is refused here, naming the option that maps it. Repeats are the log's own: two
   // readings that the clamp makes equal are two readings.

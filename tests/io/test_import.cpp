@@ -314,6 +314,11 @@ TEST(Import, TheJawRangeMapsTheLogsJawValues) {
   EXPECT_INPUT_ERROR(parse_jaw_range("1,1"), "--jaw-range '1,1': the closed and open values are the same");
   EXPECT_INPUT_ERROR(parse_jaw_range("0,nan"), "--jaw-range '0,nan': expected CLOSED,OPEN");
   EXPECT_INPUT_ERROR(parse_jaw_range("0,1,2"), "expected CLOSED,OPEN");
+  // A log without a jaw column has open samples, which a range must not map (0,255 made them
+  // closed: a grasp from start to end on a forceps scene).
+  const std::string no_jaw = write_log(tmp / "no_jaw.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0.001,0,0,0,1,0,0,0\n");
+  opt.jaw_range = parse_jaw_range("0,255");
+  EXPECT_INPUT_ERROR(import_log(no_jaw, opt), "--jaw-range: " + no_jaw + " has no jaw column (its samples are taken open, 1)");
 }
 
 // A gap in a log's times (the logger missed samples) is named: a replay glides across it.

@@ -3,6 +3,7 @@
 //  [--tool hook|forceps] [--drop-repeats]`: a device log (OpenHaptics-style transforms or CSV) into
 // a recording, its poses mapped to ebh's frames. With --scene, the path is checked against the
 // scene's physical mesh (unit sanity, a warning). Formats: docs/FORMATS.md.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -111,6 +112,19 @@ void run(const ImportArgs& a) {
                  "ebh: warning: %s: --tool %s, but the scene's tool is a %s: the recording says %s, and a replay with "
                  "this scene moves a %s (without --tool the recording takes the scene's tool)\n",
                  a.log.c_str(), opt.tool.c_str(), scene_tool, opt.tool.c_str(), scene_tool);
+  // A jaw that opens and closes past the grasp threshold is a forceps' log; taken as the hook of
+  // the scene's, it is recorded as a hook's, and no replay says the grasp is lost. (A jaw that
+  // never moves is a device without a gripper.)
+  if (a.tool.empty() && scene_tool && std::string(scene_tool) == "hook" && !rec.jaw.empty()) {
+    const auto [closed, open] = std::minmax_element(rec.jaw.begin(), rec.jaw.end());
+    const double threshold = scene->spec.tool.forceps.grasp_threshold;
+    if (*closed < threshold && *open >= threshold)
+      std::fprintf(stderr,
+                   "ebh: warning: %s: the jaw closes to %g (below the grasp threshold %g) at the recording's t = %.3f s, "
+                   "but the scene's tool is a hook, so the recording says hook: a forceps log? give --tool forceps "
+                   "(a replay on a forceps scene grasps; on this one it says the grasp is lost)\n",
+                   a.log.c_str(), *closed, threshold, rec.t[static_cast<std::size_t>(closed - rec.jaw.begin())]);
+  }
   if (mesh_box)
     if (auto w = ebh::check_recording_scale(rec, mesh_box->lo, mesh_box->hi, log_unit))
       std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());

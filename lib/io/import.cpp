@@ -346,6 +346,13 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
   });
 }
 
+// A column name another logger gives the samples' times (lower case).
+bool time_name(const std::string& h) {
+  for (const char* n : {"time", "times", "timestamp", "time_s", "t_s", "time(s)", "seconds", "sec", "stamp"})
+    if (h == n) return true;
+  return false;
+}
+
 void read_csv(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
               std::vector<std::size_t>& line_of, bool& has_t, bool& has_jaw, LeftOut& left_out,
               const std::vector<std::string>& skip_columns) {
@@ -367,8 +374,11 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
       });
       if (numbers)
         throw InputError(at(path, l.number) + ": no header line: the first line that is not a comment holds numbers " +
-                         "(a header commented out with '#', as numpy.savetxt writes it? write it as the first line " +
-                         "without '#': t,x,y,z,qw,qx,qy,qz)");
+                         (header.size() >= 17 && header.size() <= 25
+                              ? "(" + std::to_string(header.size()) + " of them: an OpenHaptics log's 16 transform " +
+                                    "elements, jaw and buttons? --format openhaptics reads it)"
+                              : std::string("(a header commented out with '#', as numpy.savetxt writes it? write it as "
+                                            "the first line without '#': t,x,y,z,qw,qx,qy,qz)")));
       for (const std::string& skip : skip_columns)
         if (std::find(header.begin(), header.end(), skip) == header.end())
           throw InputError(at(path, l.number) + ": --skip-column " + skip + ": the header has no such column");
@@ -387,6 +397,8 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
                            "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons" +
                            (header[i].find(';') != std::string::npos
                                 ? "; columns are separated by commas, spaces or tabs, not ';'"
+                                : time_name(h) ? "; the samples' times? name the column t (seconds), which is read: "
+                                                 "--skip-column would leave them unread and take --rate's"
                                 : header[i].size() > 40 ? "" : "; a column of other data: --skip-column " + header[i] + " leaves it unread") +
                            ")");
         if (!col.emplace(h, i).second) throw InputError(at(path, l.number) + ": column '" + clipped(h) + "' appears twice");

@@ -64,7 +64,11 @@ void validate_samples(Recording& rec, const SampleLocator& where, const Quatd* b
     double qn = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
     if (!std::isfinite(qn)) fail("/trajectory/orientation", i, "orientation is NaN or Inf");
     if (std::abs(qn - 1.0) > kQuatNormTolerance)
-      fail("/trajectory/orientation", i, "quaternion norm " + num(qn) + " is not 1 (is it (w, x, y, z)?)");
+      fail("/trajectory/orientation", i,
+           "quaternion norm " + num(qn) + " is not 1 (within " + num(kQuatNormTolerance) + "): " +
+               (std::abs(qn - 1.0) < 0.02 ? "written with too few digits? (write 6 or more)"
+                                          : "not a unit quaternion (another quantity in these columns: Euler angles, a "
+                                            "rotation vector?)"));
     q = Quatd{q.w / qn, q.x / qn, q.y / qn, q.z / qn};
     if (const Quatd* p = i > 0 ? &rec.orientation[i - 1] : before)
       if (p->w * q.w + p->x * q.x + p->y * q.y + p->z * q.z < 0) q = Quatd{-q.w, -q.x, -q.y, -q.z};

@@ -135,6 +135,14 @@ TEST(Import, DefectsNameFileAndLine) {
   EXPECT_INPUT_ERROR(import_log(p, opt), "c.csv:1", "missing column 'z'");
   p = write("d.csv", "x,y,z,qw,qx,qy,qz,jaw\n0,0,0,1,0,0,0,1\n0,0,0,2,0,0,0,1\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "d.csv:3", "quaternion norm 2");
+  p = write("d2.csv", "x,y,z,qw,qx,qy,qz\n0,0,0,0.71,0.71,0,0\n");  // 2 digits of 0.7071...: the order is not it
+  EXPECT_INPUT_ERROR(import_log(p, opt), "d2.csv:2", "quaternion norm 1.00409163 is not 1 (within 0.001): written with too few digits?");
+  p = write("time.csv", "time,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "time.csv:1: unknown column 'time'", "the samples' times? name the column t (seconds)");
+  // An OpenHaptics log saved as .csv: read as CSV, its first line has 18 numbers.
+  p = write("oh.csv", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "oh.csv:1: no header line", "(18 of them: an OpenHaptics log's 16 transform "
+                                                                      "elements, jaw and buttons? --format openhaptics reads it)");
   p = write("e.csv", "x,y,z,qw,qx,qy,qz,jaw\n0,0,0,1,0,0,0,1.5\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "e.csv:2", "jaw 1.5 outside [0, 1]");
   p = write("f.txt", "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n");

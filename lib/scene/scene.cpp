@@ -1345,7 +1345,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
     y << YAML::Key << "jaw_thickness" << YAML::Value << tool_length(f.jaw_thickness);
     y << YAML::Key << "jaw_max_angle_deg" << YAML::Value << f.jaw_max_angle_deg;
     y << YAML::Key << "grasp_threshold" << YAML::Value << f.grasp_threshold;
-    if (f.release_threshold) y << YAML::Key << "release_threshold" << YAML::Value << *f.release_threshold;
+    y << YAML::Key << "release_threshold" << YAML::Value << f.release();  // in effect, given or not
     y << YAML::Key << "soft_margin" << YAML::Value << tool_length(f.soft_margin);
     y << YAML::Key << "eta" << YAML::Value << f.eta << YAML::EndMap;
   }

@@ -954,6 +954,12 @@ TEST(Scene, ResolvedYamlReloadsToTheSameScene) {
     EXPECT_EQ(again.stiffness.k_con, 512.5);
     EXPECT_EQ(again.tool.max_step, spec.tool.max_step) << e.path();
     EXPECT_EQ(again.tool.shaft_radius, spec.tool.shaft_radius) << e.path();
+    // Every key of the tool's kind with its value in effect: a forceps' release threshold too when
+    // it defaults to the grasp threshold.
+    if (spec.tool.kind == ToolSpec::Kind::Forceps) {
+      EXPECT_NE(yaml.find("release_threshold: " + std::to_string(spec.tool.forceps.release()).substr(0, 3)), std::string::npos)
+          << e.path();
+    }
     EXPECT_EQ(again.physical_mesh, fs::absolute(spec.physical_mesh).lexically_normal());
     ASSERT_EQ(again.pinned.size(), spec.pinned.size());
     for (std::size_t i = 0; i < spec.pinned.size(); ++i) {

@@ -51,9 +51,6 @@ void run(RenderArgs& a, const CLI::App& c) {
   if (c.count("--max-displacement-mm") > 0) {
     if (a.color_by != "displacement")
       throw ebh::InputError("--max-displacement-mm: the top of the displacement colours; give --color-by displacement too");
-    if (!(a.max_displacement_mm > 0))
-      throw ebh::InputError("--max-displacement-mm: expected a length > 0 mm (leave it out for the largest displacement "
-                            "rendered)");
   }
   if (a.xdmf_only) {
     const std::string x = ebh::write_xdmf(a.replay);
@@ -94,7 +91,7 @@ void setup(CLI::App& root) {
   c->add_option("--color-by", args->color_by, "tissue colour: none or displacement")->capture_default_str();
   c->add_option("--max-displacement-mm", args->max_displacement_mm,
                 "top of the displacement colour map (default: the largest displacement rendered)")
-      ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit));
+      ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit, true, "mm"));
   c->add_option("--supersample", args->opt.supersample, "antialiasing factor 1..4")->capture_default_str();
   c->add_flag("--no-time-bar", args->no_time_bar, "leave out the bar along the bottom edge that shows t / t_end");
   c->add_option("--video", args->video, "also assemble the frames into this .mp4 (needs ffmpeg)");

@@ -210,8 +210,8 @@ std::string start_warning(double depth) {
   std::snprintf(b, sizeof b,
                 "the physical tool starts inside the tissue (a virtual vertex %.3g mm inside its colliders at the first "
                 "tick: at most a collider's radius, however deep the tool is); a device log starts "
-                "with the tool free of it: is the tool frame flipped or the tip offset wrong? (--tool-transform, "
-                "docs/OWN_DATA.md)",
+                "with the tool free of it: is the tool frame flipped or the tip offset wrong (--tool-transform), or "
+                "the log's unit or its place in the scene (ebh import --unit, --transform)? (docs/OWN_DATA.md)",
                 1e3 * depth);
   return b;
 }

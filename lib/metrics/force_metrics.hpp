@@ -163,8 +163,9 @@ std::string contact_warning(std::size_t contact_ticks, std::size_t ticks);
 
 /// A replay from a recording's first sample whose physical tool starts inside the tissue (its
 /// depth at the first tick, penetration_physical, m, > 0): "the physical tool starts inside the
-/// tissue (1.3 mm deep at the first tick): ..." naming the likely fix, a tool transform (a device
-/// log starts with the tool free; a tool frame left flipped puts the shaft through the tissue).
+/// tissue (1.3 mm deep at the first tick): ..." naming the likely fixes, a tool transform (a device
+/// log starts with the tool free; a tool frame left flipped puts the shaft through the tissue), or
+/// the log's unit or world transform (a cm log read in mm lands 10x nearer the origin).
 /// Empty when it starts free. `ebh replay` says it.
 std::string start_warning(double first_tick_penetration_physical);
 

@@ -223,6 +223,20 @@ MeshReport validate_mesh(const TetMesh& mesh) {
   if (r.worst_tet >= 0) r.worst_tet_name = tet_name(mesh, r.worst_tet);
 
   r.overlapping_tets = overlapping_tets(mesh, sign_of);
+  {
+    std::vector<std::pair<Tet, int>> sorted;  // (the vertices sorted, the tet)
+    sorted.reserve(mesh.tets.size());
+    for (int t = 0; t < r.num_tets; ++t)
+      if (indices_ok(mesh.tets[t], nv)) {
+        Tet v = mesh.tets[t];
+        std::sort(v.begin(), v.end());
+        sorted.emplace_back(v, t);
+      }
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 1; i < sorted.size(); ++i)
+      if (sorted[i].first == sorted[i - 1].first) r.repeated_tets.push_back({sorted[i].second, sorted[i - 1].second});
+    std::sort(r.repeated_tets.begin(), r.repeated_tets.end());
+  }
 
   // Faces and boundary edges.
   const FaceCounts faces = count_faces(valid);
@@ -274,6 +288,10 @@ std::string MeshReport::fatal_message(const TetMesh& mesh) const {
   };
   if (!inverted_tets.empty()) return describe(inverted_tets, "inverted");
   if (!degenerate_tets.empty()) return describe(degenerate_tets, "degenerate (flat)");
+  if (!repeated_tets.empty())
+    return plural(repeated_tets.size(), "tet") + " with the four vertices of another (in any order), the first: " +
+           tet_name(mesh, repeated_tets[0][0]) + " repeats " + tet_name(mesh, repeated_tets[0][1]) +
+           " (a part of the volume listed twice: in two entities, or a label meshed apart and appended?)";
   if (nonmanifold_faces > 0) return std::to_string(nonmanifold_faces) + " tet faces shared by three or more tets";
   if (!overlapping_tets.empty())
     return plural(overlapping_tets.size(), "pair") + " of tets on the same side of the face they share (one overlaps the " +

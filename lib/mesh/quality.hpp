@@ -30,6 +30,9 @@ struct MeshReport {
   std::vector<int> degenerate_tets;     ///< |signed volume| <= kDegenerateVolume l^3
   std::vector<int> inverted_tets;       ///< signed volume < -kDegenerateVolume l^3
   long long nonmanifold_faces = 0;      ///< tet faces shared by three or more tets
+  /// (later, earlier) tets with the same four vertices in any order: a part of the volume listed
+  /// twice (two entities, or a label meshed apart and concatenated), its mass counted twice
+  std::vector<std::array<int, 2>> repeated_tets;
   /// pairs of tets sharing a face on the same side of it: one overlaps the other (a tet inside
   /// another shares a face with it and counted its volume and mass twice)
   std::vector<std::array<int, 2>> overlapping_tets;
@@ -55,7 +58,8 @@ struct MeshReport {
   /// True if the mesh cannot be simulated.
   bool fatal() const {
     return !bad_index_tets.empty() || !nonfinite_vertices.empty() || !degenerate_tets.empty() ||
-           !inverted_tets.empty() || nonmanifold_faces > 0 || !overlapping_tets.empty() || num_tets == 0;
+           !inverted_tets.empty() || !repeated_tets.empty() || nonmanifold_faces > 0 || !overlapping_tets.empty() ||
+           num_tets == 0;
   }
   /// One line describing the first fatal problem, e.g. "2 inverted tets, the first: tet 12
   /// (element id 57), signed volume -3e-09", empty if none. `mesh` is the mesh this report is

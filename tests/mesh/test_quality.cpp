@@ -249,6 +249,30 @@ TEST(Validate, ATetInsideAnotherSharingAFaceOverlapsIt) {
   EXPECT_TRUE(validate_mesh(m).overlapping_tets.empty());
 }
 
+// A part of the volume listed twice (a second entity repeating the first's tets with their
+// vertices in another order): refused naming both elements, not as faces shared three times.
+TEST(Validate, ATetRepeatingAnothersVerticesIsNamed) {
+  TetMesh m = cube();
+  const std::size_t n = m.tets.size();
+  for (std::size_t t = 0; t < 2; ++t) {
+    const Tet& a = m.tets[t];
+    m.tets.push_back({a[1], a[0], a[3], a[2]});  // an even permutation: the same orientation
+    m.tet_group.push_back(0);
+    m.file_tet_ids.push_back(900 + static_cast<long long>(t));
+  }
+  const MeshReport r = validate_mesh(m);
+  ASSERT_EQ(r.repeated_tets.size(), 2u);
+  EXPECT_EQ(r.repeated_tets[0], (std::array<int, 2>{static_cast<int>(n), 0}));
+  EXPECT_TRUE(r.fatal());
+  EXPECT_EQ(r.fatal_message(m).rfind("2 tets with the four vertices of another (in any order), the first: tet " +
+                                         std::to_string(n) + " (element id 900) repeats tet 0 (element id " +
+                                         std::to_string(m.file_tet_ids[0]) + ")",
+                                     0),
+            0u)
+      << r.fatal_message(m);
+  EXPECT_TRUE(validate_mesh(cube()).repeated_tets.empty());
+}
+
 TEST(Validate, EmptyMesh) {
   const MeshReport r = validate_mesh(TetMesh{});
   EXPECT_TRUE(r.fatal());

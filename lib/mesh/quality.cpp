@@ -4,11 +4,13 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <set>
 #include <tuple>
 #include <unordered_map>
 
 #include "mesh/boundary.hpp"
+#include "mesh/tet_locator.hpp"
 
 namespace ebh {
 
@@ -148,6 +150,67 @@ double tet_mean_ratio(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3
   return std::min(1.0, 12.0 * std::cbrt(3.0 * v * 3.0 * v) / l2);
 }
 
+std::vector<int> mesh_parts(const TetMesh& mesh) {
+  const int n = static_cast<int>(mesh.vertices.size());
+  std::vector<int> root(n);
+  for (int i = 0; i < n; ++i) root[i] = i;
+  auto find = [&root](int a) {
+    while (root[a] != a) a = root[a] = root[root[a]];
+    return a;
+  };
+  for (const Tet& t : mesh.tets)
+    for (int k = 1; k < 4; ++k) {
+      const int a = find(t[0]), b = find(t[k]);
+      if (a != b) root[std::max(a, b)] = std::min(a, b);  // the root is the part's lowest vertex
+    }
+  for (int i = 0; i < n; ++i) root[i] = find(i);
+  return root;
+}
+
+namespace {
+
+/// MeshReport::part_inside_part: the centres of the tets of every other part located in each of
+/// the largest kContainerParts parts (a tumour inside its organ, a box half inside another). A
+/// tet's centre is inside its own tet, so parts that only touch (along an unmerged seam) have none
+/// inside each other; a centre on an inner face of the other part is inside it still.
+std::array<int, 2> find_part_inside_part(const TetMesh& mesh, double diagonal) {
+  constexpr std::size_t kContainerParts = 8;
+  const std::vector<int> part = mesh_parts(mesh);
+  std::map<int, std::vector<int>> tets_of;  // part -> its tets
+  for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) tets_of[part[mesh.tets[t][0]]].push_back(t);
+  if (tets_of.size() < 2) return {-1, -1};
+  std::vector<std::pair<std::size_t, int>> by_size;  // (tets, part), the largest first
+  for (const auto& [p, tets] : tets_of) by_size.emplace_back(tets.size(), p);
+  std::sort(by_size.begin(), by_size.end(),
+            [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
+  const double tolerance = 1e-9 * diagonal;
+  for (std::size_t i = 0; i < std::min(by_size.size(), kContainerParts); ++i) {
+    const int container = by_size[i].second;
+    TetMesh sub;
+    sub.vertices = mesh.vertices;
+    for (const int t : tets_of[container]) sub.tets.push_back(mesh.tets[t]);
+    const TetLocator locator(sub);
+    for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) {
+      const Tet& tet = mesh.tets[t];
+      if (part[tet[0]] == container) continue;
+      const Vec3d centre =
+          0.25 * (mesh.vertices[tet[0]] + mesh.vertices[tet[1]] + mesh.vertices[tet[2]] + mesh.vertices[tet[3]]);
+      double error = 0;
+      const TetEmbedding e = locator.locate(centre, error);
+      if (e.count == 0 || error > tolerance) continue;
+      for (const int c : tets_of[container]) {  // a tet of the container with the embedding's corners
+        const Tet& k = mesh.tets[c];
+        if (std::all_of(e.vertex.begin(), e.vertex.begin() + e.count,
+                        [&k](int v) { return std::find(k.begin(), k.end(), v) != k.end(); }))
+          return {t, c};
+      }
+    }
+  }
+  return {-1, -1};
+}
+
+}  // namespace
+
 MeshReport validate_mesh(const TetMesh& mesh) {
   MeshReport r;
   const int nv = static_cast<int>(mesh.vertices.size());
@@ -213,6 +276,7 @@ MeshReport validate_mesh(const TetMesh& mesh) {
     }
   const double diag = nv > 0 && lo.x <= hi.x ? norm(hi - lo) : 0.0;
   r.duplicate_vertices = find_duplicates(mesh.vertices, 1e-12 * diag);
+  if (r.bad_index_tets.empty() && r.nonfinite_vertices.empty()) r.part_inside_part = find_part_inside_part(mesh, diag);
   auto vertex_name = [&](int v) {
     return static_cast<std::size_t>(v) < mesh.file_node_ids.size() ? "node " + std::to_string(mesh.file_node_ids[v])
                                                                     : "vertex " + std::to_string(v);
@@ -297,6 +361,12 @@ std::string MeshReport::fatal_message(const TetMesh& mesh) const {
     return plural(overlapping_tets.size(), "pair") + " of tets on the same side of the face they share (one overlaps the " +
            "other: a tet inside another, or a fold), the first: " + tet_name(mesh, overlapping_tets[0][0]) + " and " +
            tet_name(mesh, overlapping_tets[0][1]);
+  if (part_inside_part[0] >= 0) {
+    return "two parts of the mesh overlap without sharing nodes: the centre of " + tet_name(mesh, part_inside_part[0]) +
+           " lies inside " + tet_name(mesh, part_inside_part[1]) +
+           " of another part (a label meshed apart from its organ and appended? mesh them as one, with shared nodes, "
+           "or leave one out: the overlap counts its volume and mass twice)";
+  }
   if (num_tets == 0) return "no tets";
   return {};
 }

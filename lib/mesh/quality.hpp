@@ -36,6 +36,11 @@ struct MeshReport {
   /// pairs of tets sharing a face on the same side of it: one overlaps the other (a tet inside
   /// another shares a face with it and counted its volume and mass twice)
   std::vector<std::array<int, 2>> overlapping_tets;
+  /// A tet of one part (tets connected through shared vertices) whose centre lies inside a tet of
+  /// another part, as (tet, tet); {-1, -1}: none. Two volumes overlap without sharing nodes (a
+  /// label meshed apart from its organ and appended): their space and mass counted twice, the
+  /// inner one's surface a virtual surface inside the tissue.
+  std::array<int, 2> part_inside_part{-1, -1};
   // warnings
   std::vector<int> unreferenced_vertices;             ///< used by no tet
   std::vector<std::pair<int, int>> duplicate_vertices;  ///< (later, earlier) at the same position
@@ -59,7 +64,7 @@ struct MeshReport {
   bool fatal() const {
     return !bad_index_tets.empty() || !nonfinite_vertices.empty() || !degenerate_tets.empty() ||
            !inverted_tets.empty() || !repeated_tets.empty() || nonmanifold_faces > 0 || !overlapping_tets.empty() ||
-           num_tets == 0;
+           part_inside_part[0] >= 0 || num_tets == 0;
   }
   /// One line describing the first fatal problem, e.g. "2 inverted tets, the first: tet 12
   /// (element id 57), signed volume -3e-09", empty if none. `mesh` is the mesh this report is
@@ -74,6 +79,11 @@ struct MeshReport {
 /// mesh squashed to 1e-4 stopped the replay; the committed meshes' worst is 0.39, the degraded
 /// stress meshes' 0.02-0.04.
 inline constexpr double kPoorTetQuality = 0.01;
+
+/// The connected parts of a tet mesh (tets sharing a vertex): each vertex's part, named by the
+/// part's lowest vertex index (a vertex no tet uses is a part of its own). Tets' indices must be
+/// in range.
+std::vector<int> mesh_parts(const TetMesh& mesh);
 
 /// Validates a tet mesh: indices in range, finite coordinates, degenerate and inverted tets,
 /// non-manifold faces and boundary edges, unreferenced and duplicate vertices (same position up

@@ -1131,17 +1131,8 @@ std::string too_soft_for_own_weight(const Scene& scene) {
 
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned) {
   const int n = static_cast<int>(mesh.vertices.size());
-  std::vector<int> root(n);
-  for (int i = 0; i < n; ++i) root[i] = i;
-  auto find = [&root](int a) {
-    while (root[a] != a) a = root[a] = root[root[a]];
-    return a;
-  };
-  for (const Tet& t : mesh.tets)
-    for (int k = 1; k < 4; ++k) {
-      const int a = find(t[0]), b = find(t[k]);
-      if (a != b) root[std::max(a, b)] = std::min(a, b);  // the root is the part's lowest vertex
-    }
+  const std::vector<int> part = mesh_parts(mesh);  // the part's lowest vertex
+  const auto find = [&part](int a) { return part[a]; };
   std::vector<int> size(n, 0);
   std::vector<char> held(n, 0), used(n, 0);
   for (const Tet& t : mesh.tets)

@@ -273,6 +273,49 @@ TEST(Validate, ATetRepeatingAnothersVerticesIsNamed) {
   EXPECT_TRUE(validate_mesh(cube()).repeated_tets.empty());
 }
 
+// Two parts that share no node: side by side, or touching along a seam (an unmerged copy of the
+// shared face), they are a mesh; one inside the other (a label meshed apart and appended) or half
+// into it counts that space twice and is refused, naming a tet of each.
+TEST(Validate, APartInsideAnotherIsRefused) {
+  const TetMesh one = cube();
+  const Vec3d lo = [&] {
+    Vec3d l = one.vertices[0];
+    for (const Vec3d& v : one.vertices) l = cwise_min(l, v);
+    return l;
+  }();
+  const Vec3d hi = [&] {
+    Vec3d h = one.vertices[0];
+    for (const Vec3d& v : one.vertices) h = cwise_max(h, v);
+    return h;
+  }();
+  const Vec3d size = hi - lo;
+  auto two = [&](double scale, Vec3d shift) {
+    TetMesh m = one;
+    const int nv = static_cast<int>(one.vertices.size());
+    for (const Vec3d& v : one.vertices) m.vertices.push_back(lo + scale * (v - lo) + shift);
+    for (std::size_t t = 0; t < one.tets.size(); ++t) {
+      const Tet& a = one.tets[t];
+      m.tets.push_back({a[0] + nv, a[1] + nv, a[2] + nv, a[3] + nv});
+      m.tet_group.push_back(0);
+      m.file_tet_ids.push_back(500 + static_cast<long long>(t));
+    }
+    for (int v = 0; v < nv; ++v) m.file_node_ids.push_back(700 + v);
+    return m;
+  };
+  EXPECT_FALSE(validate_mesh(two(1, {2 * size.x, 0, 0})).fatal());           // apart
+  EXPECT_FALSE(validate_mesh(two(1, {size.x, 0, 0})).fatal());               // touching along a face
+  const TetMesh inside = two(0.3, 0.35 * size);
+  const MeshReport r = validate_mesh(inside);
+  ASSERT_TRUE(r.fatal());
+  EXPECT_EQ(r.part_inside_part[0], static_cast<int>(one.tets.size()));
+  EXPECT_EQ(r.fatal_message(inside).rfind("two parts of the mesh overlap without sharing nodes: the centre of tet " +
+                                              std::to_string(one.tets.size()) + " (element id 500) lies inside tet ",
+                                          0),
+            0u)
+      << r.fatal_message(inside);
+  EXPECT_TRUE(validate_mesh(two(1, {0.5 * size.x, 0, 0})).fatal());  // half into it
+}
+
 TEST(Validate, EmptyMesh) {
   const MeshReport r = validate_mesh(TetMesh{});
   EXPECT_TRUE(r.fatal());

@@ -829,6 +829,17 @@ add_test(NAME cli.replay.haptic_threads_clamped
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads.h5 --duration 0.01 --haptic-threads 4096 -q)
 set_tests_properties(cli.replay.haptic_threads_clamped PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=2
   PASS_REGULAR_EXPRESSION "warning: --haptic-threads 4096: of the 2 OpenMP threads .* the haptic side runs 1;")
+# The direct method stops after its iterations: steps it leaves far from balance (a stiffness far
+# above the others) are said, as the iterative methods' capped and stalled steps are.
+add_test(NAME cli.replay.direct_steps_short_of_balance
+  COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_NUM_OUT}/direct_short.h5 --start 3 --duration 0.1
+    --set stiffness.k_det=1e6 --set solver.method=direct -q)
+set_tests_properties(cli.replay.direct_steps_short_of_balance PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "direct_short.h5: 11 of 11 physical steps left up to [0-9.]+ mesh weights unbalanced after their 8 local-global iterations \\(solver.method: direct stops after solver.physical_iterations\\)")
+add_test(NAME cli.replay.direct_steps_balanced_quiet
+  COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_NUM_OUT}/direct_balanced.h5 --start 3 --duration 0.1
+    --set solver.method=direct -q)
+set_tests_properties(cli.replay.direct_steps_balanced_quiet PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "unbalanced")
 # In lockstep the ticks and the step take turns with all the threads: the option does nothing.
 add_test(NAME cli.replay.haptic_threads_in_lockstep
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads_lockstep.h5 --duration 0.01 --mode lockstep

@@ -325,6 +325,14 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
     if (stalled_steps_++ == 0) first_stalled_t_ = t;
     max_stalled_ = std::max(max_stalled_, p.report.residual);
   }
+  // The direct method runs its iterations and stops: nothing else says when they were too few (a
+  // stiffness far above the others left 0.9 mesh weights after 8, 0.5 after 64).
+  if (params.method == SolverSpec::Method::Direct && params.tolerance > 0 && !p.recovered && !p.slept &&
+      p.report.residual > kStalledResidualFactor * params.tolerance &&
+      p.report.residual <= w.scene.spec.solver.recovery_residual) {
+    if (short_steps_++ == 0) first_short_t_ = t;
+    max_short_ = std::max(max_short_, p.report.residual);
+  }
   // Far from balance, whatever stopped the step (the cap, a stall, fixed iterations, the direct
   // method's local-global iterations): the recovery's line, which the CUDA backend and
   // solver.recovery=none do not act on. NaN counts: the health check names it.

@@ -106,6 +106,12 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t stalled_steps() const { return stalled_steps_; }
   double max_stalled() const { return max_stalled_; }
   double first_stalled_t() const { return first_stalled_t_; }
+  /// Steps of a fixed iteration count (solver.method: direct, which has no stopping rule) that left
+  /// more than kStalledResidualFactor times solver.physical_tolerance unbalanced (and at most
+  /// recovery_residual), the largest such residual and the first one's time.
+  std::int64_t short_steps() const { return short_steps_; }
+  double max_short() const { return max_short_; }
+  double first_short_t() const { return first_short_t_; }
   /// Steps that ended with more than solver.recovery_residual mesh weights unbalanced (a recovered
   /// step's residual is the direct solve's), the largest such residual and the first one's time.
   std::int64_t unbalanced_steps() const { return unbalanced_steps_; }
@@ -157,6 +163,8 @@ class ReplayWriter : public ReplayObserver {
   double reach_ = 0;  // m a tick: the virtual tool's Newton calls' reach (tool.max_step x steps a tick)
   double max_device_step_ = 0;
   double max_stalled_ = 0, first_stalled_t_ = -1;
+  std::int64_t short_steps_ = 0;
+  double max_short_ = 0, first_short_t_ = -1;
 };
 
 /// The CPU's model name (from /proc/cpuinfo), for the `device` attribute.

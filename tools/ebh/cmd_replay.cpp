@@ -281,8 +281,10 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                     world.float32_floor, writer.max_stalled());
     else
       std::snprintf(why, sizeof why,
-                    "the iteration makes no headway on this mesh (`ebh scene info` prints its rate and worst tets), "
-                    "and those steps are not converged; solver.method: direct converges on the CPU backend");
+                    "the iteration makes no headway on this mesh (`ebh scene info` prints its rate and worst tets) "
+                    "or with these stiffnesses (one far above the others, stiffness.k_det or k_vol, slows every "
+                    "method), and those steps are not converged; solver.method: direct goes further a step on the "
+                    "CPU backend");
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps stopped when their iterations stalled, with up to "
                  "%.3g mesh weights unbalanced (more than %g times solver.physical_tolerance; the first at t = %.3f s; "
@@ -290,6 +292,14 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  a.out.c_str(), static_cast<long long>(writer.stalled_steps()), static_cast<long long>(s.steps),
                  writer.max_stalled(), kStalledResidualFactor, writer.first_stalled_t(), why);
   }
+  if (writer.short_steps() > 0)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: %lld of %lld physical steps left up to %.3g mesh weights unbalanced after their "
+                 "%d local-global iterations (solver.method: direct stops after solver.physical_iterations), more than "
+                 "%g times solver.physical_tolerance; the first at t = %.3f s (/physical/residual): raise "
+                 "solver.physical_iterations (a stiffness far above the others, stiffness.k_det or k_vol, needs more)\n",
+                 a.out.c_str(), static_cast<long long>(writer.short_steps()), static_cast<long long>(s.steps),
+                 writer.max_short(), world.physical_params.iterations, kStalledResidualFactor, writer.first_short_t());
   if (writer.unbalanced_steps() > 0) {
     const SolverSpec& solver = world.scene.spec.solver;
     // One iteration measures its step's residual before it runs (at the start of the last

@@ -136,7 +136,7 @@ Recording read_samples(const h5::Group& g, const std::string& path, const std::v
 void read_window(const h5::Group& g, const std::string& path, const std::vector<double>& t, std::size_t lo,
                  std::size_t hi, Recording& rec) {
   const std::size_t n = t.size(), stride = (n + kOutlineSamples - 1) / kOutlineSamples;
-  rec.span = Recording::FileSpan{t.front(), t.back(), lo, {}, {}};
+  rec.span = Recording::FileSpan{t.front(), t.back(), lo, {}, {}, stride};
   rec.t.reserve(hi - lo + 1);
   rec.position.reserve(hi - lo + 1);
   rec.orientation.reserve(hi - lo + 1);
@@ -356,6 +356,33 @@ DeviceSample sample_at(const Recording& rec, double t) {
   return d;
 }
 
+std::vector<std::size_t> glitch_samples(const std::vector<Vec3d>& path) {
+  const std::size_t n = path.size();
+  if (n < 20) return {};
+  const std::size_t k = std::max<std::size_t>(2, n / 500);  // the most samples a glitch may hold
+  Vec3d lo, hi;  // the box of the samples but the k outermost on each side of each axis
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> c(n);
+    for (std::size_t i = 0; i < n; ++i) c[i] = a == 0 ? path[i].x : a == 1 ? path[i].y : path[i].z;
+    std::nth_element(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(k), c.end());
+    const double low = c[k];
+    std::nth_element(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(n - 1 - k), c.end());
+    (a == 0 ? lo.x : a == 1 ? lo.y : lo.z) = low;
+    (a == 0 ? hi.x : a == 1 ? hi.y : hi.z) = c[n - 1 - k];
+  }
+  const double far = std::max(norm(hi - lo), kGlitchMinDistance);
+  std::vector<std::pair<double, std::size_t>> out;  // (distance from the box, sample)
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = norm(cwise_max(lo - path[i], cwise_max(path[i] - hi, Vec3d{})));
+    if (!(d <= far)) out.emplace_back(std::isfinite(d) ? d : INFINITY, i);
+  }
+  if (out.size() > k) return {};  // not a few samples: the path itself
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::size_t> samples;
+  for (const auto& [d, i] : out) samples.push_back(i);
+  return samples;
+}
+
 std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d bbox_min, Vec3d bbox_max,
                                                     double margin) {
   Vec3d lo = bbox_min - Vec3d{margin, margin, margin};
@@ -376,7 +403,17 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
     << num(p.z) << ") m lies " << num(worst) << " m outside the scene's bounding box (" << num(bbox_min.x) << ", "
     << num(bbox_min.y) << ", " << num(bbox_min.z) << ")..(" << num(bbox_max.x) << ", " << num(bbox_max.y) << ", "
     << num(bbox_max.z) << ") m enlarged by " << num(margin) << " m";
-  if (extent > 0 && worst > 5 * extent) o << "; is the recording in mm or cm instead of metres?";
+  // A lone sample far from the rest, which fit: a glitch, not a unit.
+  const std::vector<std::size_t> glitch = glitch_samples(rec.position);
+  Recording rest;
+  for (std::size_t i = 0; i < rec.size(); ++i)
+    if (std::find(glitch.begin(), glitch.end(), i) == glitch.end()) rest.position.push_back(rec.position[i]);
+  if (!glitch.empty() && glitch.front() == worst_i &&
+      !check_recording_in_scene(rest, bbox_min, bbox_max, margin).has_value())
+    o << "; the rest of the path lies within it" << (glitch.size() > 1 ? " (" + std::to_string(glitch.size()) + " samples lie out)" : "")
+      << ": a glitch in the log? leave that line out";
+  else if (extent > 0 && worst > 5 * extent)
+    o << "; is the recording in mm or cm instead of metres?";
   return o.str();
 }
 
@@ -517,6 +554,28 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   // A tool that never moves has no size to judge (no unit scales it); only its place counts.
   if (fits(now, diagonal) || (now.extent == 0 && now.distance <= kPathMaxDistanceDiagonals * diagonal))
     return std::nullopt;
+  // A few samples far from the rest, which fits: a glitch in the log (one corrupt line), not its
+  // unit, which fits the rest.
+  {
+    const std::vector<std::size_t> glitch = glitch_samples(path);
+    std::vector<Vec3d> rest;
+    for (std::size_t i = 0; i < path.size(); ++i)
+      if (std::find(glitch.begin(), glitch.end(), i) == glitch.end()) rest.push_back(path[i]);
+    if (!glitch.empty() && fits(fit_path(rest, 1.0, lo, hi), diagonal)) {
+      const std::size_t g = glitch.front();
+      std::ostringstream o;
+      o << "sample ";
+      if (rec.span)  // the outline's pose: its row, not its time, is at hand
+        o << g * rec.span->outline_stride;
+      else
+        o << rec.row(g) << " (t = " << rec.t[g] << " s)";
+      o << " at (" << short_num(path[g].x) << ", " << short_num(path[g].y) << ", " << short_num(path[g].z)
+        << ") m lies far from the rest of the path"
+        << (glitch.size() > 1 ? " (" + std::to_string(glitch.size()) + " samples do)" : "")
+        << ", which fits the physical mesh in this unit: a glitch in the log? leave that line out";
+      return o.str();
+    }
+  }
 
   // The units the log may have been in: f = true unit / the unit it was read with.
   struct Candidate {

@@ -54,6 +54,7 @@ struct Recording {
     std::size_t first_row = 0;
     std::vector<Vec3d> outline;
     std::vector<Quatd> outline_orientation;
+    std::size_t outline_stride = 1;  ///< outline pose i is the file's row i x outline_stride
   };
   std::optional<FileSpan> span;
 
@@ -134,6 +135,12 @@ DeviceSample sample_at(const Recording& rec, double t);
 /// thousands of scene sizes away). `ebh replay` refuses a recording beyond it (without
 /// --allow-outside); `ebh import --scene` warns of one, and never names a unit that lands there.
 inline double replay_outside_margin(double diagonal) { return diagonal > 0.1 ? diagonal : 0.1; }
+
+/// A glitch in a path (a corrupt line of a log): the few samples (at most max(2, N/500)) that lie
+/// farther from the box of the others than that box's diagonal (at least kGlitchMinDistance),
+/// the farthest first; empty when there are none, or more (the path itself), or under 20 samples.
+std::vector<std::size_t> glitch_samples(const std::vector<Vec3d>& path);
+inline constexpr double kGlitchMinDistance = 0.01;  ///< m
 
 /// A one-line message when the trajectory lies outside the scene's bounding box enlarged by
 /// `margin` metres on every side (a recording in mm read as m lands kilometres away), naming the

@@ -240,8 +240,10 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
     const double margin = replay_outside_margin(box.diagonal());
     if (auto err = check_recording_in_scene(r.recording, box.lo, box.hi, margin))
       throw InputError(r.recording_path + ": " + *err +
-                       " (a unit mistake, or a path in the device's frame, not the scene's? `ebh import --scene` names the "
-                       "likely fix, --unit or --transform; --allow-outside accepts it)");
+                       (glitch_samples(r.recording.position).empty()
+                            ? " (a unit mistake, or a path in the device's frame, not the scene's? `ebh import --scene` "
+                              "names the likely fix, --unit or --transform; --allow-outside accepts it)"
+                            : " (--allow-outside accepts it)"));
   }
   if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
     r.warnings.push_back(r.recording_path + ": " + *w);

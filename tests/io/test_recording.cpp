@@ -376,6 +376,32 @@ TEST(UnitSanity, APathFarFromTheMeshAsksForAWorldTransform) {
   EXPECT_FALSE(check_recording_in_scene(r, kLo, kHi, replay_outside_margin(norm(kHi - kLo))).has_value());
 }
 
+// One corrupt line (x = 99999 in a log in mm) is a glitch, not a unit: the rest of the path fits.
+TEST(UnitSanity, ALoneSampleFarFromTheRestIsAGlitch) {
+  Recording r = make_recording(1000);  // 1 s pressing 90 mm down through the box's top
+  for (std::size_t i = 0; i < r.size(); ++i) r.position[i] = {0, 0, 0.08 - 0.09 * static_cast<double>(i) / 1000};
+  EXPECT_FALSE(check_recording_scale(r, kLo, kHi, 1e-3).has_value());
+  EXPECT_TRUE(glitch_samples(r.position).empty());
+  r.position[300].x = 99.999;
+  EXPECT_EQ(glitch_samples(r.position), (std::vector<std::size_t>{300}));
+  auto w = check_recording_scale(r, kLo, kHi, 1e-3);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_EQ(*w, "sample 300 (t = 0.3 s) at (100, 0, 0.053) m lies far from the rest of the path, which fits the physical "
+                "mesh in this unit: a glitch in the log? leave that line out");
+  auto e = check_recording_in_scene(r, kLo, kHi, replay_outside_margin(norm(kHi - kLo)));
+  ASSERT_TRUE(e.has_value());
+  EXPECT_NE(e->find("; the rest of the path lies within it: a glitch in the log? leave that line out"), std::string::npos) << *e;
+  EXPECT_EQ(e->find("mm or cm"), std::string::npos) << *e;
+  // A value past what a double's square holds (1e200): the same, not "spans inf m".
+  r.position[300].x = 1e200;
+  w = check_recording_scale(r, kLo, kHi, 1e-3);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("sample 300 (t = 0.3 s) at (1e+200, 0, 0.053) m lies far from the rest"), std::string::npos) << *w;
+  // Many samples away (a stretch of the log in another frame): the path itself, not a glitch.
+  for (std::size_t i = 300; i < 400; ++i) r.position[i].x = 99.999;
+  EXPECT_TRUE(glitch_samples(r.position).empty());
+}
+
 TEST(UnitSanity, AGraspHeldOffTheTissueIsAtTheMesh) {
   // A forceps' pose is its jaws' pivot: a grasp on the top of the gap's blocks (z <= 0) holds it
   // 3 mm above them. Logged in cm, read as metres: in cm it comes within 3 mm of the box; in mm

@@ -512,9 +512,10 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
     throw InputError(option + ": expected 6 comma-separated numbers x,y,z,rx,ry,rz (translation, then a rotation "
                               "vector in degrees), got '" + clipped(text) + "'");
   double v[6];
+  const char* names[6] = {"x", "y", "z", "rx", "ry", "rz"};  // as the message above names them
   for (int i = 0; i < 6; ++i) {
-    v[i] = to_number(tok[i], option, "value " + std::to_string(i));
-    if (!std::isfinite(v[i])) throw InputError(option + ": value " + std::to_string(i) + " is not finite");
+    v[i] = to_number(tok[i], option, names[i]);
+    if (!std::isfinite(v[i])) throw InputError(option + ": " + names[i] + " is not finite, got '" + clipped(tok[i]) + "'");
   }
   const Vec3d rotvec{v[3], v[4], v[5]};
   if (const std::string why = rotvec_deg_problem(rotvec); !why.empty()) throw InputError(option + ": " + why);

@@ -26,8 +26,15 @@ bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::i
 /// What is wrong with sample i's time, if anything.
 std::optional<std::string> time_defect(const std::vector<double>& t, std::size_t i) {
   if (!std::isfinite(t[i])) return "time is NaN or Inf";
-  if (i > 0 && !(t[i] > t[i - 1]))
-    return "time not strictly increasing (" + num(t[i]) + " s after " + num(t[i - 1]) + " s)";
+  if (i > 0 && !(t[i] > t[i - 1])) {
+    // Equal times far from 0: a clock's epoch seconds at a resolution a double does not hold there
+    // (at 1e15 s a double's step is 0.125 s), two different stamps read as one.
+    const bool rounded = t[i] == t[i - 1] && std::abs(t[i]) * 1e-15 > 1e-4;
+    return "time not strictly increasing (" + num(t[i]) + " s after " + num(t[i - 1]) + " s)" +
+           (rounded ? std::string("; so far from 0 a double holds times only to ") + num(std::abs(t[i]) * 2.2e-16) +
+                          " s: count t from the log's start (subtract its first time)"
+                    : std::string());
+  }
   return std::nullopt;
 }
 

@@ -82,9 +82,11 @@ TEST(Import, UnitOptionScalesPositions) {
   EXPECT_NO_THROW(parse_rigid_transform("--tool-transform", "0,0,0,0,0,-360", 1.0));
   // numbers as a log or an option writes them: a subnormal is one, hexadecimal and 1e400 are not
   EXPECT_NO_THROW(parse_rigid_transform("--transform", "0,0,0,1e-320,0,0", 1.0));
-  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "0x1,0,0,0,0,0", 1.0), "value 0", "'0x1' is not a number");
-  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "1e400,0,0,0,0,0", 1.0), "value 0",
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "0x1,0,0,0,0,0", 1.0), "--transform: x:", "'0x1' is not a number");
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "1e400,0,0,0,0,0", 1.0), "--transform: x:",
                      "'1e400' is beyond the range of a number");
+  // named as the expected form names them (not "value 0" for the first)
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--tool-transform", "0,0,0,0,nan,0", 1.0), "--tool-transform: ry is not finite, got 'nan'");
 }
 
 namespace {
@@ -549,6 +551,9 @@ TEST(Import, TimesFromAFarEpochAreSaidToBeRounded) {
   EXPECT_NE(report.rate_warning.find("column t: times near 1e+12 s keep only 0.0002"), std::string::npos)
       << report.rate_warning;
   EXPECT_NE(report.rate_warning.find("count t from the log's start"), std::string::npos) << report.rate_warning;
+  // Farther still, 1 ms steps read as one time: said as the rounding it is, not only as times out of order.
+  EXPECT_INPUT_ERROR(import_log(log("farther.csv", 1e15), opt), "farther.csv:3: time not strictly increasing",
+                     "so far from 0 a double holds times only to", "count t from the log's start");
 }
 
 TEST(Import, NominalRateIsExactForWholeRates) {

@@ -82,10 +82,9 @@ TEST(PoseTransform, AStylusFlipAndTipOffset) {
 TEST(PoseTransform, OptionsAndAttributesSayWhatIsWrong) {
   EXPECT_INPUT_ERROR(parse_rigid_transform("--tool-transform", "0,0,-4,180,0", 1e-2), "--tool-transform",
                      "expected 6 comma-separated numbers", "'0,0,-4,180,0'");
-  EXPECT_INPUT_ERROR(parse_rigid_transform("--tool-transform", "0,0,x,0,0,0", 1e-2), "--tool-transform",
-                     "value 2", "'x' is not a number");
-  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "0,0,inf,0,0,0", 1e-2), "--transform", "value 2",
-                     "not finite");
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--tool-transform", "0,0,x,0,0,0", 1e-2), "--tool-transform: z:",
+                     "'x' is not a number");
+  EXPECT_INPUT_ERROR(parse_rigid_transform("--transform", "0,0,inf,0,0,0", 1e-2), "--transform: z is not finite, got 'inf'");
   const RigidTransform t{{0.1, 0.2, 0.3}, quat_from_rotvec(Vec3d{0, 90 * kDeg, 0})};
   const RigidTransform back = from_attribute(to_attribute(t), "rec.h5", "tool_transform");
   EXPECT_EQ(back.translation, t.translation);

@@ -42,7 +42,7 @@ CLI::Validator seed_number() {
         return digits && errno != ERANGE ? std::string()
                                          : "expected a whole number >= 0 (at most 2^64 - 1), got '" + escape_unprintable(text) + "'";
       },
-      "seed");
+      ">= 0");
 }
 
 void refuse_empty_values(CLI::App& app) {

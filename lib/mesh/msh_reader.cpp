@@ -107,6 +107,9 @@ class MshParser {
     if (head == "$NOD")
       c_.fail("an MSH 1 file (it starts with " + std::string(head) + "): re-export it as MSH 2.2 or 4.1 ASCII, e.g. gmsh " +
               file_.filename().string() + " -save -format msh22 -o new.msh");
+    // Lines ended by a carriage return alone read as one line: "$MeshFormat\r2.2 0 8\r...".
+    if (head.rfind("$MeshFormat\r", 0) == 0)
+      c_.fail("lines end in a carriage return alone (classic Mac line ends): convert them to line feeds (\\n)");
     if (head != "$MeshFormat") c_.fail("not a Gmsh MSH file: expected $MeshFormat");
     c_.next_line();
     c_.skip_empty_lines();
@@ -176,7 +179,13 @@ class MshParser {
         name = name.substr(1, name.size() - 2);
       }
       if (name.empty()) c_.fail("empty physical name for tag " + std::to_string(tag));
-      if (dim >= 2) names_[dim - 2][tag] = std::string(name);
+      if (dim >= 2) {
+        // A tag named twice in one dimension: the last would win silently (pins and messages by name).
+        if (const auto it = names_[dim - 2].find(tag); it != names_[dim - 2].end() && it->second != name)
+          c_.fail("physical tag " + std::to_string(tag) + " of dimension " + std::to_string(dim) + " is named twice, '" +
+                  it->second + "' and '" + std::string(name) + "'");
+        names_[dim - 2][tag] = std::string(name);
+      }
       c_.next_line();
     }
   }

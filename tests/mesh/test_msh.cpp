@@ -58,6 +58,21 @@ TEST(ReadMsh, CrlfLineEndings) {
   expect_same_mesh(read_msh(write_temp("crlf.msh", crlf)), read_msh(data("mesh/cube41.msh")));
 }
 
+TEST(ReadMsh, CarriageReturnLineEndsAloneAreNamed) {
+  // Classic Mac line ends: the whole file reads as one line, which is not "not a Gmsh MSH file".
+  std::string cr;
+  for (char ch : slurp(data("mesh/cube41.msh"))) cr += ch == '\n' ? '\r' : ch;
+  const auto p = write_temp("cr.msh", cr);
+  expect_input_error([&] { read_msh(p); }, p, 1, "lines end in a carriage return alone (classic Mac line ends)");
+}
+
+TEST(ReadMsh, APhysicalTagNamedTwiceIsRefused) {
+  std::string text = replace(slurp(data("mesh/cube22.msh")), "$PhysicalNames\n4\n", "$PhysicalNames\n5\n");
+  text = replace(text, "3 1 \"tissue\"\n", "3 1 \"tissue\"\n3 1 \"liver\"\n");
+  const auto p = write_temp("twice.msh", text);
+  expect_input_error([&] { read_msh(p); }, p, 10, "physical tag 1 of dimension 3 is named twice, 'tissue' and 'liver'");
+}
+
 TEST(ReadMsh, Utf8ByteOrderMark) {
   // What some Windows tools write before the first line: skipped (tests the mesh readers' shared
   // cursor, mesh/text_cursor.hpp, which the OBJ reader uses too).

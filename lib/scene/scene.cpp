@@ -908,6 +908,7 @@ struct Plausible {
   const char* what;
 };
 constexpr const char* kDeviceStiffness = "a haptic device's stiffness (about 0.1 .. 10 kN/m)";
+constexpr double kMaxDetOverVol = 50;  // stiffness.k_det over k_vol: Poisson's ratio 0.495
 constexpr const char* kSurfaceSpring = "a tissue surface spring's stiffness per vertex";
 
 /// "" or the warning of a value outside its plausible range, naming where the value came from.
@@ -949,6 +950,17 @@ Scene build_scene(SceneSpec spec_in) {
   if (spec.stiffness.k_vol < 10 || spec.stiffness.k_vol > 1e8)
     scene.warnings.push_back(value_source(spec, "stiffness.k_vol") + ": stiffness.k_vol = " + shown_number(spec.stiffness.k_vol) +
                              " Pa is outside soft tissue's 10 Pa .. 100 MPa");
+  // E_det's volume stiffness: Poisson's ratio k_det / (2 k_det + k_vol). Tissue is 0.45-0.49 (k_det
+  // 4.5-25 times k_vol); beyond 50 times (0.495) the local-global iterations make little headway
+  // (333 times on the cholecystectomy: 0.27 mesh weights left by the stopping rule, 0.5 by 64
+  // direct iterations).
+  if (spec.stiffness.k_det > kMaxDetOverVol * spec.stiffness.k_vol)
+    scene.warnings.push_back(value_source(spec, "stiffness.k_det") + ": stiffness.k_det = " + shown_number(spec.stiffness.k_det) +
+                             " Pa is " + shown_number(spec.stiffness.k_det / spec.stiffness.k_vol) +
+                             " times k_vol (Poisson's ratio " +
+                             shown_number(spec.stiffness.k_det / (2 * spec.stiffness.k_det + spec.stiffness.k_vol)) +
+                             "; tissue's is 0.45-0.49, k_det 4.5-25 times k_vol): so near incompressible, the physical "
+                             "solve's iterations make little headway and its steps stay unbalanced");
   if (spec.density < 100 || spec.density > 3000)
     scene.warnings.push_back(value_source(spec, "material.density") + ": material.density = " + shown_number(spec.density) +
                              " kg/m^3 is outside soft tissue's 100 .. 3000");

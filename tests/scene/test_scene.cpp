@@ -314,6 +314,17 @@ TEST(Scene, ImplausibleTissueValuesAreShownAsGiven) {
   const Scene s = load_scene(p);
   EXPECT_EQ(s.warnings.at(0), p + ": stiffness.k_vol = 2.5e+09 Pa is outside soft tissue's 10 Pa .. 100 MPa");
   EXPECT_EQ(s.warnings.at(1), p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000");
+  // A volume stiffness so far above k_vol that the tissue is all but incompressible (the physical
+  // solve makes little headway); the scenes' 3 times k_vol is quiet.
+  const std::string q = write_temp("stiff.yaml", good).string();
+  const Scene incompressible = load_scene(q, {"stiffness.k_det=1e6"});
+  ASSERT_FALSE(incompressible.warnings.empty());
+  EXPECT_EQ(incompressible.warnings[0].rfind("--set 'stiffness.k_det=1e6': stiffness.k_det = 1e+06 Pa is 400 times k_vol "
+                                             "(Poisson's ratio 0.499376; tissue's is 0.45-0.49",
+                                             0),
+            0u)
+      << incompressible.warnings[0];
+  EXPECT_TRUE(load_scene(q, {"stiffness.k_det=7500"}).warnings.empty());
 }
 
 // Tissue too soft to carry its own weight (density g height / k_vol above 1) has no static

@@ -111,6 +111,12 @@ TEST(BuildWorld, AVirtualMeshInAnotherUnitIsNamed) {
   EXPECT_FALSE(has(half, "spans")) << ::testing::PrintToString(half);
   // (it covers none of the physical mesh's surface: a tool pressed in meets it 2.5 cm deep)
   EXPECT_TRUE(has(half, "covers part of the physical mesh only")) << ::testing::PrintToString(half);
+  EXPECT_FALSE(has(half, "another unit")) << ::testing::PrintToString(half);
+  // An OBJ in cm beside a mesh in mm: 1/10 of the cube, which it covers nowhere: the unit is named.
+  const auto tenth = warnings_with_obj("tenth", 0.1, 0.0);
+  EXPECT_TRUE(has(tenth, "passes through the physical mesh unfelt; it spans 1/10 of the physical mesh's diagonal: is it "
+                         "in another unit than mesh.unit"))
+      << ::testing::PrintToString(tenth);
 }
 
 // A closed virtual mesh over half the physical mesh (one lobe of a segmentation): a tool pressed

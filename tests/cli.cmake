@@ -630,11 +630,11 @@ set_tests_properties(cli.replay.surface_floor_beyond_devices_warns PROPERTIES LA
 add_test(NAME cli.replay.sleep_beyond_mesh_warns
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/sleep_big.h5 --set solver.sleep=1000 --duration 0.1 -q)
 set_tests_properties(cli.replay.sleep_beyond_mesh_warns PROPERTIES LABELS cli
-  PASS_REGULAR_EXPRESSION "warning: --set 'solver.sleep=1000': solver.sleep = 1000 mm is over 1% of the physical mesh's bounding-box diagonal")
+  PASS_REGULAR_EXPRESSION "warning: --set 'solver.sleep=1000': solver.sleep = 1000 mm is over 0.1% of the physical mesh's bounding-box diagonal")
 add_test(NAME cli.replay.physical_region_beyond_mesh_warns
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/region_big.h5 --set solver.physical_region=1e9 --duration 0.1 -q)
 set_tests_properties(cli.replay.physical_region_beyond_mesh_warns PROPERTIES LABELS cli
-  PASS_REGULAR_EXPRESSION "warning: .*solver.physical_region = 1e\\+09 mm is over 1%")
+  PASS_REGULAR_EXPRESSION "warning: .*solver.physical_region = 1e\\+09 mm is over 0.1%")
 add_test(NAME cli.replay.small_regions_quiet
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/region_small.h5 --set solver.physical_region=0.03
     --set solver.active_region=0.03 --set solver.sleep=0.03 --duration 0.1 -q)

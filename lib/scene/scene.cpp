@@ -603,7 +603,7 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
                   ": laparoscopic shafts are about 0.3-0.45 m long; is tool.unit (" +
                   t.unit_name + ") right?");
   // The solver's movement thresholds are tolerances of a few micrometres (the committed scenes and
-  // sweeps use 0.0003 .. 0.03 mm): one beyond 1% of the mesh's size holds the mesh, or the virtual
+  // sweeps use 0.0003 .. 0.03 mm): one beyond 0.1% of the mesh's size holds the mesh, or the virtual
   // mesh, still under every touch of the tool, and the replay's forces come from a frozen tissue.
   const std::pair<const char*, double> thresholds[] = {{"solver.sleep", s.solver.sleep},
                                                        {"solver.physical_region", s.solver.physical_region},
@@ -611,7 +611,7 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
   for (const auto& [key, value] : thresholds)
     if (value > kSolverThresholdMaxRatio * diagonal)
       out.push_back(value_source(s, key) + ": " + key + " = " + in_unit(value, s.unit, s.unit_name) +
-                    " is over 1% of the physical mesh's " +
+                    " is over 0.1% of the physical mesh's " +
                     "bounding-box diagonal (" + in_unit(diagonal, s.unit, s.unit_name) +
                     "): a movement threshold that large keeps the mesh still under the tool (the committed scenes use " +
                     "0.0003 .. 0.03 mm; its unit is the scene's unit, " + s.unit_name + ")");

@@ -209,6 +209,7 @@ class MshParser {
         const int coords = d == 0 ? 3 : 6;  // a point's position, or a bounding box
         for (int k = 0; k < coords; ++k) c_.real("entity coordinate");
         std::vector<int> physical = read_physical_tags();
+        listed_entities_.insert({d, tag});
         if (!physical.empty() && d >= 2) entity_physical_[{d, tag}] = std::move(physical);
         c_.next_line();  // bounding entities follow: not needed
       }
@@ -247,6 +248,7 @@ class MshParser {
         const int coords = d == 0 ? 3 : 6;
         for (int k = 0; k < coords; ++k) c_.real("entity coordinate");
         std::vector<int> physical = read_physical_tags();
+        listed_entities_.insert({d, tag});
         if (parent_dim > d) partition_boundaries_.insert({d, tag});
         if (d >= 2 && parent_dim == d) {
           if (physical.empty()) {
@@ -515,6 +517,11 @@ class MshParser {
       need_line("element blocks", b, blocks);
       const int dim = static_cast<int>(c_.integer("entity dimension", 0, 3));
       const long long entity = c_.integer("entity tag", -kMaxTag, kMaxTag);
+      // A block on an entity the file's entities do not list: its elements would lose their
+      // physical groups silently (pins and groups by name then miss them).
+      if (!listed_entities_.empty() && dim >= 2 && !listed_entities_.count({dim, entity}))
+        c_.fail("an element block on entity " + std::to_string(entity) + " of dimension " + std::to_string(dim) +
+                ", which $Entities does not list: its elements' physical groups are unknown");
       const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20));
       const long long m = c_.integer("elements in block", 0, n - done);
       c_.end_line("");
@@ -627,6 +634,7 @@ class MshParser {
   std::vector<int> dense_;                         ///< node id -> vertex, when ids are compact
   std::vector<std::pair<long long, int>> sparse_;  ///< sorted (node id, vertex), otherwise
   std::map<std::pair<int, long long>, std::vector<int>> entity_physical_;  ///< (dim, entity tag) -> its groups
+  std::set<std::pair<int, long long>> listed_entities_;  ///< (dim, entity tag) of $Entities and $PartitionedEntities
   std::set<std::pair<int, long long>> partition_boundaries_;  ///< (dim, tag) of partitioned entities between partitions
   std::map<int, std::string> names_[2];            ///< physical names of dimension 2 and 3
   std::map<int, long long> other_volume_;          ///< element type -> count, volume types but type 4

@@ -352,6 +352,10 @@ struct Bad41 : Bad22 {
   Bad41() { good = slurp(data("mesh/cube41.msh")); }
 };
 
+// A block on a volume entity $Entities does not list: its tets' groups would be lost silently.
+TEST_F(Bad41, BlockOnAnUnlistedEntity) {
+  expect(replace(good, "3 1 4 5\n", "3 7 4 5\n"), 57, "an element block on entity 7 of dimension 3, which $Entities does not list");
+}
 TEST_F(Bad41, BlockLargerThanHeader) { expect(replace(good, "3 1 4 5\n", "3 1 4 6\n"), 57, "elements in block 6 is out of range [0, 5]"); }
 TEST_F(Bad41, BlocksShortOfHeader) { expect(replace(good, "7 13 1 24", "7 14 1 24"), 63, "element blocks hold 13 elements, the header says 14"); }
 TEST_F(Bad41, TruncatedEntities) {

@@ -614,13 +614,17 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   // the right size 0.4 m off enters the box in a unit 10x smaller, but its place is what is wrong.
   const auto no_worse_sized = [&](const PathFit& q) { return size_off || size_miss(q) <= size_miss(now) + 0.5; };
   const Candidate* best = nullptr;
-  PathFit best_fit;
+  const Candidate* alternative = nullptr;  // one that comes to the mesh at a worse size: named beside a transform
+  PathFit best_fit, alternative_fit;
   for (const Candidate& c : candidates) {
     const PathFit p = fit_path(path, c.f, lo, hi);
-    if (fits(p, diagonal) && p.distance <= 0.1 * diagonal && no_worse_sized(p) &&
-        (!best || size_miss(p) < size_miss(best_fit))) {
+    if (!fits(p, diagonal) || !(p.distance <= 0.1 * diagonal)) continue;
+    if (no_worse_sized(p) && (!best || size_miss(p) < size_miss(best_fit))) {
       best = &c;
       best_fit = p;
+    } else if (!no_worse_sized(p) && (!alternative || size_miss(p) < size_miss(alternative_fit))) {
+      alternative = &c;
+      alternative_fit = p;
     }
   }
   // Otherwise a path of the right size is in the wrong place (a world transform), and one of the
@@ -674,7 +678,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
       << short_num(start.y) << ", " << short_num(start.z) << ") m";
   if (beyond)
     o << "reaches " << short_num(now.farthest) << " m outside the physical mesh's bounding box, beyond the "
-      << short_num(replay_outside_margin(diagonal)) << " m a replay accepts (it refuses the recording)";
+      << short_num(replay_outside_margin(diagonal)) << " m a replay accepts (it refuses those samples without --allow-outside)";
   // A path far smaller than the mesh and within its box, or near it, is also a tool held still at
   // the tissue or above it (a press held, a tool resting in it, one hovering with a hand's tremor):
   // nothing to fix then.
@@ -687,10 +691,18 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
     if (!known)
       o << "; or, were the log right, the physical mesh is " << short_num(best->f > 1 ? best->f : 1 / best->f)
         << " times too " << (best->f > 1 ? "large" : "small") << ": check the scene's mesh.unit";
+  } else if (beyond && now.distance <= 0.1 * diagonal) {
+    // Of the mesh's size and at it, only far out at times: a tool brought from high above (its
+    // approach), not a misplaced workspace.
+    o << "none if those samples are the tool's approach from afar: replay from where it nears the tissue (--start) "
+         "or with --allow-outside";
   } else if (!size_off) {
     const Vec3d off = 0.5 * (lo + hi) - now.centre;
     o << "--transform placing the device's workspace at the mesh (the mesh's centre is (" << offset_num(off.x) << ", "
       << offset_num(off.y) << ", " << offset_num(off.z) << ") m from the path's)";
+    if (alternative)
+      o << "; or " << alternative->fix << ", under which the path comes to the mesh, spanning "
+        << ratio_text(alternative_fit.extent / diagonal) << " its diagonal";
   } else if (sized) {
     const Vec3d off = 0.5 * (lo + hi) - sized_fit.centre;
     o << sized->fix << ", and --transform to place it (in " << sized->unit << " the path spans "

@@ -366,7 +366,12 @@ TEST(UnitSanity, APathFarFromTheMeshAsksForAWorldTransform) {
   w = check_recording_scale(r, kLo, kHi, 1e-2);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("the tool path reaches 0.36 m outside the physical mesh's bounding box, beyond the 0.173 m a replay "
-                    "accepts (it refuses the recording); likely fix: --transform"),
+                    "accepts (it refuses those samples without --allow-outside); likely fix: --transform"),
+            std::string::npos)
+      << *w;
+  // In mm it would come to the mesh, at 1/39 of its size: named beside the transform, which one
+  // is right the user knows (a grasp on a large organ moves that little).
+  EXPECT_NE(w->find("; or --unit mm, under which the path comes to the mesh, spanning 1/38.7 of its diagonal"),
             std::string::npos)
       << *w;
   EXPECT_TRUE(check_recording_in_scene(r, kLo, kHi, replay_outside_margin(norm(kHi - kLo))).has_value());
@@ -402,6 +407,19 @@ TEST(UnitSanity, ALoneSampleFarFromTheRestIsAGlitch) {
   EXPECT_TRUE(glitch_samples(r.position).empty());
 }
 
+// A tool brought down from 25 cm above the tissue into it: of the mesh's size and at it, far out
+// only in its approach; no unit and no transform is the fix.
+TEST(UnitSanity, AnApproachFromHighAboveIsNoMisplacement) {
+  Recording r = make_recording(3);
+  r.position = {Vec3d{0, 0, 0.3}, Vec3d{0, 0, 0.1}, Vec3d{0, 0, -0.02}};
+  const auto w = check_recording_scale(r, kLo, kHi, 1e-3);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NE(w->find("likely fix: none if those samples are the tool's approach from afar: replay from where it nears the "
+                    "tissue (--start) or with --allow-outside"),
+            std::string::npos)
+      << *w;
+}
+
 TEST(UnitSanity, AGraspHeldOffTheTissueIsAtTheMesh) {
   // A forceps' pose is its jaws' pivot: a grasp on the top of the gap's blocks (z <= 0) holds it
   // 3 mm above them. Logged in cm, read as metres: in cm it comes within 3 mm of the box; in mm
@@ -431,7 +449,7 @@ TEST(UnitSanity, NoUnitIsNamedUnderWhichAReplayRefusesThePath) {
   w = check_recording_scale(r, lo, hi, 1e-2);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("the tool path reaches 0.285 m outside the physical mesh's bounding box, beyond the 0.1 m a replay "
-                    "accepts (it refuses the recording); likely fix: --unit mm"),
+                    "accepts (it refuses those samples without --allow-outside); likely fix: --unit mm"),
             std::string::npos)
       << *w;
 }

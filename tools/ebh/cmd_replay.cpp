@@ -297,7 +297,8 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  "ebh: warning: %s: %lld of %lld physical steps left up to %.3g mesh weights unbalanced after their "
                  "%d local-global iterations (solver.method: direct stops after solver.physical_iterations), more than "
                  "%g times solver.physical_tolerance; the first at t = %.3f s (/physical/residual): raise "
-                 "solver.physical_iterations (a stiffness far above the others, stiffness.k_det or k_vol, needs more)\n",
+                 "solver.physical_iterations (a grasp or a hard press needs more, and so does a stiffness far above "
+                 "the others), or let an iterative method's stopping rule run them (chebyshev)\n",
                  a.out.c_str(), static_cast<long long>(writer.short_steps()), static_cast<long long>(s.steps),
                  writer.max_short(), world.physical_params.iterations, kStalledResidualFactor, writer.first_short_t());
   if (writer.unbalanced_steps() > 0) {

@@ -151,8 +151,12 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
                   "lie more than %.3g mm from its surface (one at %.4g, %.4g, %.4g mm)",
                   u.count, u.of, 100.0 * static_cast<double>(u.count) / static_cast<double>(u.of), u.reach * 1e3,
                   u.at.x * 1e3, u.at.y * 1e3, u.at.z * 1e3);
-    std::string unit;  // much smaller than the physical mesh: most likely another unit (cm beside mm)
-    if (const double span = bounding_box(vm.rest).diagonal(); span > 0 && span * 5 < diagonal && span * 20 >= diagonal) {
+    // Much smaller than the physical mesh, and its box ten times larger the physical mesh's: the
+    // same organ in another unit (cm beside mm), not a surface of one part of it.
+    std::string unit;
+    const BoundingBox v = bounding_box(vm.rest), p = bounding_box(scene.physical.vertices);
+    if (const double span = v.diagonal(); span > 0 && span * 5 < diagonal && span * 20 >= diagonal &&
+                                          norm(10.0 * v.lo - p.lo) <= 0.25 * diagonal && norm(10.0 * v.hi - p.hi) <= 0.25 * diagonal) {
       char size[200];
       std::snprintf(size, sizeof size, "; it spans 1/%.3g of the physical mesh's diagonal: is it in another unit than "
                     "mesh.unit (an OBJ in cm beside a mesh in mm is 1/10 of its size)?", diagonal / span);

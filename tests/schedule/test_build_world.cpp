@@ -117,6 +117,10 @@ TEST(BuildWorld, AVirtualMeshInAnotherUnitIsNamed) {
   EXPECT_TRUE(has(tenth, "passes through the physical mesh unfelt; it spans 1/10 of the physical mesh's diagonal: is it "
                          "in another unit than mesh.unit"))
       << ::testing::PrintToString(tenth);
+  // The same size elsewhere (a surface of one small part of the body): no unit makes it the cube.
+  const auto part = warnings_with_obj("small_part", 0.1, 4.0);
+  EXPECT_TRUE(has(part, "covers part of the physical mesh only")) << ::testing::PrintToString(part);
+  EXPECT_FALSE(has(part, "another unit")) << ::testing::PrintToString(part);
 }
 
 // A closed virtual mesh over half the physical mesh (one lobe of a segmentation): a tool pressed

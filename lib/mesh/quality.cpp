@@ -169,36 +169,46 @@ std::vector<int> mesh_parts(const TetMesh& mesh) {
 
 namespace {
 
-/// MeshReport::part_inside_part: the centres of the tets of every other part located in each of
-/// the largest kContainerParts parts (a tumour inside its organ, a box half inside another). A
-/// tet's centre is inside its own tet, so parts that only touch (along an unmerged seam) have none
-/// inside each other; a centre on an inner face of the other part is inside it still.
+/// MeshReport::part_inside_part: the centres of the tets of every part located in each other part
+/// whose bounding box holds them (a tumour inside its organ, a box half inside another). A tet's
+/// centre is inside its own tet, so parts that only touch (along an unmerged seam) have none
+/// inside each other; a centre on an inner face of the other part is inside it still. An overlap
+/// thinner than about half a tet holds no centre and is not found.
 std::array<int, 2> find_part_inside_part(const TetMesh& mesh, double diagonal) {
-  constexpr std::size_t kContainerParts = 8;
   const std::vector<int> part = mesh_parts(mesh);
   std::map<int, std::vector<int>> tets_of;  // part -> its tets
   for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) tets_of[part[mesh.tets[t][0]]].push_back(t);
   if (tets_of.size() < 2) return {-1, -1};
-  std::vector<std::pair<std::size_t, int>> by_size;  // (tets, part), the largest first
-  for (const auto& [p, tets] : tets_of) by_size.emplace_back(tets.size(), p);
-  std::sort(by_size.begin(), by_size.end(),
-            [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
   const double tolerance = 1e-9 * diagonal;
-  for (std::size_t i = 0; i < std::min(by_size.size(), kContainerParts); ++i) {
-    const int container = by_size[i].second;
+  std::vector<Vec3d> centre(mesh.tets.size());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const Tet& k = mesh.tets[t];
+    centre[t] = 0.25 * (mesh.vertices[k[0]] + mesh.vertices[k[1]] + mesh.vertices[k[2]] + mesh.vertices[k[3]]);
+  }
+  for (const auto& [container, tets] : tets_of) {
+    Vec3d lo = centre[tets[0]], hi = lo;
+    for (const int t : tets)
+      for (const int v : mesh.tets[t]) {
+        lo = cwise_min(lo, mesh.vertices[v]);
+        hi = cwise_max(hi, mesh.vertices[v]);
+      }
+    std::vector<int> candidates;  // other parts' tets whose centre lies in this part's box
+    for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) {
+      const Vec3d& c = centre[t];
+      if (part[mesh.tets[t][0]] != container && c.x >= lo.x && c.y >= lo.y && c.z >= lo.z && c.x <= hi.x &&
+          c.y <= hi.y && c.z <= hi.z)
+        candidates.push_back(t);
+    }
+    if (candidates.empty()) continue;
     TetMesh sub;
     sub.vertices = mesh.vertices;
-    for (const int t : tets_of[container]) sub.tets.push_back(mesh.tets[t]);
+    for (const int t : tets) sub.tets.push_back(mesh.tets[t]);
     const TetLocator locator(sub);
-    for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) {
-      const Tet& tet = mesh.tets[t];
-      if (part[tet[0]] == container) continue;
-      const Vec3d centre =
-          0.25 * (mesh.vertices[tet[0]] + mesh.vertices[tet[1]] + mesh.vertices[tet[2]] + mesh.vertices[tet[3]]);
+    for (const int t : candidates) {
       double error = 0;
-      const TetEmbedding e = locator.locate(centre, error);
+      const TetEmbedding e = locator.locate(centre[t], error);
       if (e.count == 0 || error > tolerance) continue;
-      for (const int c : tets_of[container]) {  // a tet of the container with the embedding's corners
+      for (const int c : tets) {  // a tet of the container with the embedding's corners
         const Tet& k = mesh.tets[c];
         if (std::all_of(e.vertex.begin(), e.vertex.begin() + e.count,
                         [&k](int v) { return std::find(k.begin(), k.end(), v) != k.end(); }))

@@ -314,6 +314,17 @@ TEST(Validate, APartInsideAnotherIsRefused) {
             0u)
       << r.fatal_message(inside);
   EXPECT_TRUE(validate_mesh(two(1, {0.5 * size.x, 0, 0})).fatal());  // half into it
+  // Among many parts, in the last of ten cubes side by side (every part is a container).
+  TetMesh many = one;
+  auto append = [&](double scale, Vec3d shift) {
+    const int nv = static_cast<int>(many.vertices.size());
+    for (const Vec3d& v : one.vertices) many.vertices.push_back(lo + scale * (v - lo) + shift);
+    for (const Tet& a : one.tets) many.tets.push_back({a[0] + nv, a[1] + nv, a[2] + nv, a[3] + nv});
+  };
+  for (int k = 1; k < 10; ++k) append(1, {2.0 * k * size.x, 0, 0});
+  EXPECT_FALSE(validate_mesh(many).fatal());
+  append(0.3, Vec3d{18 * size.x, 0, 0} + 0.35 * size);
+  EXPECT_GE(validate_mesh(many).part_inside_part[0], 10 * static_cast<int>(one.tets.size()));
 }
 
 TEST(Validate, EmptyMesh) {

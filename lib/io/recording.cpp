@@ -363,6 +363,16 @@ DeviceSample sample_at(const Recording& rec, double t) {
   return d;
 }
 
+namespace {
+/// path without the samples `drop`.
+std::vector<Vec3d> without_samples(const std::vector<Vec3d>& path, const std::vector<std::size_t>& drop) {
+  std::vector<Vec3d> out;
+  for (std::size_t i = 0; i < path.size(); ++i)
+    if (std::find(drop.begin(), drop.end(), i) == drop.end()) out.push_back(path[i]);
+  return out;
+}
+}  // namespace
+
 std::vector<std::size_t> glitch_samples(const std::vector<Vec3d>& path) {
   const std::size_t n = path.size();
   if (n < 20) return {};
@@ -412,11 +422,10 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
     << num(bbox_max.z) << ") m enlarged by " << num(margin) << " m";
   // A lone sample far from the rest, which fit: a glitch, not a unit.
   const std::vector<std::size_t> glitch = glitch_samples(rec.position);
-  Recording rest;
-  for (std::size_t i = 0; i < rec.size(); ++i)
-    if (std::find(glitch.begin(), glitch.end(), i) == glitch.end()) rest.position.push_back(rec.position[i]);
-  if (!glitch.empty() && glitch.front() == worst_i &&
-      !check_recording_in_scene(rest, bbox_min, bbox_max, margin).has_value())
+  const std::vector<Vec3d> rest = without_samples(rec.position, glitch);
+  if (!glitch.empty() && glitch.front() == worst_i && std::all_of(rest.begin(), rest.end(), [&](const Vec3d& p) {
+        return norm(cwise_max(lo - p, cwise_max(p - hi, Vec3d{}))) == 0;
+      }))
     o << "; the rest of the path lies within it" << (glitch.size() > 1 ? " (" + std::to_string(glitch.size()) + " samples lie out)" : "")
       << ": a glitch in the log? leave that line out";
   else if (extent > 0 && worst > 5 * extent)
@@ -565,10 +574,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   // unit, which fits the rest.
   {
     const std::vector<std::size_t> glitch = glitch_samples(path);
-    std::vector<Vec3d> rest;
-    for (std::size_t i = 0; i < path.size(); ++i)
-      if (std::find(glitch.begin(), glitch.end(), i) == glitch.end()) rest.push_back(path[i]);
-    if (!glitch.empty() && fits(fit_path(rest, 1.0, lo, hi), diagonal)) {
+    if (!glitch.empty() && fits(fit_path(without_samples(path, glitch), 1.0, lo, hi), diagonal)) {
       const std::size_t g = glitch.front();
       std::ostringstream o;
       o << "sample ";

@@ -397,6 +397,12 @@ TEST(UnitSanity, ALoneSampleFarFromTheRestIsAGlitch) {
   ASSERT_TRUE(e.has_value());
   EXPECT_NE(e->find("; the rest of the path lies within it: a glitch in the log? leave that line out"), std::string::npos) << *e;
   EXPECT_EQ(e->find("mm or cm"), std::string::npos) << *e;
+  // The whole path 1 m off as well: the glitch is no explanation of the refusal.
+  Recording off = r;
+  for (Vec3d& p : off.position) p.y += 1;
+  e = check_recording_in_scene(off, kLo, kHi, replay_outside_margin(norm(kHi - kLo)));
+  ASSERT_TRUE(e.has_value());
+  EXPECT_EQ(e->find("the rest of the path lies within it"), std::string::npos) << *e;
   // A value past what a double's square holds (1e200): the same, not "spans inf m".
   r.position[300].x = 1e200;
   w = check_recording_scale(r, kLo, kHi, 1e-3);

@@ -200,14 +200,15 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   // vertices (a tool thinner than their spacing), which vertex contact cannot feel.
   // With surface contact, or through an opening of an OBJ virtual mesh, the tool's tip can also go in
   // unfelt: the hint names which.
-  // The mesh where the replay found it: settled under gravity (stages.settle), not the rest shape an
-  // organ sagged away from (under 10 g the rest shape put the tip "inside" tissue it never reached).
+  // The tip is checked against the mesh where the replay found it: settled under gravity
+  // (stages.settle), not the rest shape an organ sagged away from (a soft block's rest shape put the
+  // tip "inside" tissue it never reached).
   TetMesh start_mesh;
   if (writer.contact_ticks() == 0) {
     start_mesh = world.scene.physical;
     if (world.initial_physical.x.size() == start_mesh.vertices.size()) start_mesh.vertices = world.initial_physical.x;
   }
-  if (writer.contact_ticks() == 0)
+  if (!start_mesh.tets.empty())
     if (const auto t = tip_inside_mesh(p.in.recording, start_mesh, a.start, a.duration.value_or(0), &world.tool)) {
       const long long open = surface_edges(world.scene.virtual_surface.triangles).open;
       const bool vertices = world.scene.spec.contact == ContactModel::Vertices;
@@ -283,8 +284,8 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
       std::snprintf(why, sizeof why,
                     "the iteration makes no headway on this mesh (`ebh scene info` prints its rate and worst tets) "
                     "or with these stiffnesses (one far above the others, stiffness.k_det or k_vol, slows every "
-                    "method), and those steps are not converged; solver.method: direct goes further a step on the "
-                    "CPU backend");
+                    "method), and those steps are not converged; solver.method: direct (CPU backend) balances each step "
+                    "further");
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps stopped when their iterations stalled, with up to "
                  "%.3g mesh weights unbalanced (more than %g times solver.physical_tolerance; the first at t = %.3f s; "

@@ -909,6 +909,7 @@ struct Plausible {
 };
 constexpr const char* kDeviceStiffness = "a haptic device's stiffness (about 0.1 .. 10 kN/m)";
 constexpr double kMaxDetOverVol = 50;  // stiffness.k_det over k_vol: Poisson's ratio 0.495
+constexpr double kMaxStabilizationRatio = 10;  // tool.stabilization over its coupling (k_vcs, k_vct)
 constexpr const char* kSurfaceSpring = "a tissue surface spring's stiffness per vertex";
 
 /// "" or the warning of a value outside its plausible range, naming where the value came from.
@@ -926,6 +927,24 @@ std::vector<std::string> tool_stiffness_warnings(const SceneSpec& spec) {
                              Plausible{"stiffness.k_vct", spec.stiffness.k_vct, 1e-4, 100, "N m/rad",
                                        "a haptic device's rotational stiffness"}})
     if (std::string w = implausible(spec, p); !w.empty()) out.push_back(std::move(w));
+  // The stabilisation springs tie the virtual tool to its pose at the tick's start: stiffer than the
+  // coupling many times over, they hold it back from a moving device (1e6 N/m against k_vcs 300: a
+  // 21 mm lag, the force at the limit, in free motion).
+  struct Spring {
+    const char* key;
+    double value;
+    const char* coupling_key;
+    double coupling;
+  };
+  for (const Spring& s : {Spring{"tool.stabilization.translation", spec.tool.stabilization_translation, "stiffness.k_vcs",
+                                 spec.stiffness.k_vcs},
+                          Spring{"tool.stabilization.rotation", spec.tool.stabilization_rotation, "stiffness.k_vct",
+                                 spec.stiffness.k_vct}})
+    if (s.value > kMaxStabilizationRatio * s.coupling)
+      out.push_back(value_source(spec, s.key) + ": " + s.key + " = " + shown_number(s.value) + " is " +
+                    shown_number(s.value / s.coupling) + " times " + s.coupling_key +
+                    ": the virtual tool moves about 1/" + shown_number(1 + s.value / s.coupling) +
+                    " of the way to the device a tick and lags behind a moving device, rendered as force");
   return out;
 }
 

@@ -370,6 +370,16 @@ TEST(Scene, ImplausibleToolAndSurfaceStiffnessesWarn) {
   EXPECT_NE(s.warnings[1].find("stiffness.k_svc = 2e+06 N/m is outside 0.01 .. 1e+06 N/m"), std::string::npos);
   EXPECT_EQ(s.warnings[2], p + ": tool.force_limit = 4.94066e-324 N is outside 0.01 .. 100 N, the range of a haptic "
                                "device's force (a Geomagic Touch: 3.3 N)");
+  // Stabilisation springs many times the coupling hold the virtual tool back from the device.
+  const std::string q = write_temp("plausible.yaml", good).string();
+  EXPECT_TRUE(tool_stiffness_warnings(load_scene_spec(q, {"tool.stabilization={translation: 3200, rotation: 3.5}"})).empty());
+  const std::vector<std::string> held =
+      tool_stiffness_warnings(load_scene_spec(q, {"tool.stabilization={translation: 320000, rotation: 35}"}));
+  ASSERT_EQ(held.size(), 2u) << ::testing::PrintToString(held);
+  EXPECT_EQ(held[0], "--set 'tool.stabilization={translation: 320000, rotation: 35}': tool.stabilization.translation = "
+                     "320000 is 1000 times stiffness.k_vcs: the virtual tool moves about 1/1001 of the way to the device a "
+                     "tick and lags behind a moving device, rendered as force");
+  EXPECT_NE(held[1].find("tool.stabilization.rotation = 35 is 100 times stiffness.k_vct"), std::string::npos) << held[1];
 }
 
 // A warning about a value an override gave names the override, as its errors do; the file's own

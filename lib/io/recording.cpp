@@ -23,6 +23,9 @@ std::string num(double v) {
 
 bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
+/// How far p lies outside the box [lo, hi] (0 inside it).
+double distance_outside(Vec3d p, Vec3d lo, Vec3d hi) { return norm(cwise_max(lo - p, cwise_max(p - hi, Vec3d{}))); }
+
 /// What is wrong with sample i's time, if anything.
 std::optional<std::string> time_defect(const std::vector<double>& t, std::size_t i) {
   if (!std::isfinite(t[i])) return "time is NaN or Inf";
@@ -390,7 +393,7 @@ std::vector<std::size_t> glitch_samples(const std::vector<Vec3d>& path) {
   const double far = std::max(norm(hi - lo), kGlitchMinDistance);
   std::vector<std::pair<double, std::size_t>> out;  // (distance from the box, sample)
   for (std::size_t i = 0; i < n; ++i) {
-    const double d = norm(cwise_max(lo - path[i], cwise_max(path[i] - hi, Vec3d{})));
+    const double d = distance_outside(path[i], lo, hi);
     if (!(d <= far)) out.emplace_back(std::isfinite(d) ? d : INFINITY, i);
   }
   if (out.size() > k) return {};  // not a few samples: the path itself
@@ -408,8 +411,7 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
   std::size_t worst_i = 0;
   for (std::size_t i = 0; i < rec.size(); ++i) {
     Vec3d p = rec.position[i];
-    Vec3d out = cwise_max(lo - p, cwise_max(p - hi, Vec3d{}));  // per-axis distance outside the box
-    double d = norm(out);
+    const double d = distance_outside(p, lo, hi);
     if (d > worst) { worst = d; worst_i = i; }
   }
   if (worst == 0) return std::nullopt;
@@ -423,8 +425,8 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
   // A lone sample far from the rest, which fit: a glitch, not a unit.
   const std::vector<std::size_t> glitch = glitch_samples(rec.position);
   const std::vector<Vec3d> rest = without_samples(rec.position, glitch);
-  if (!glitch.empty() && glitch.front() == worst_i && std::all_of(rest.begin(), rest.end(), [&](const Vec3d& p) {
-        return norm(cwise_max(lo - p, cwise_max(p - hi, Vec3d{}))) == 0;
+  if (!glitch.empty() && glitch.front() == worst_i && std::all_of(rest.begin(), rest.end(), [&](const Vec3d& q) {
+        return distance_outside(q, lo, hi) == 0;
       }))
     o << "; the rest of the path lies within it" << (glitch.size() > 1 ? " (" + std::to_string(glitch.size()) + " samples lie out)" : "")
       << ": a glitch in the log? leave that line out";
@@ -451,7 +453,7 @@ PathFit fit_path(const std::vector<Vec3d>& path, double f, Vec3d lo, Vec3d hi) {
     const Vec3d p = f * raw;
     plo = cwise_min(plo, p);
     phi = cwise_max(phi, p);
-    const double d = norm(cwise_max(lo - p, cwise_max(p - hi, Vec3d{})));
+    const double d = distance_outside(p, lo, hi);
     nearest = std::min(nearest, d);
     farthest = std::max(farthest, d);
   }

@@ -259,6 +259,10 @@ inline constexpr double kMaxHapticHz = 100e3;
 /// 10 Hz and 1 Hz is no haptic or physical loop (a period of 1e300 s steps nothing).
 inline constexpr double kMinReplayHapticHz = 10;
 inline constexpr double kMinReplayPhysicalHz = 1;
+/// A haptic device's loop rate (Hz): a replay below it warns (the force of a press has not
+/// converged in the rate: docs/MODEL.md, "Held loads"), and a sweep report takes no configuration
+/// below it for a candidate (`ebh sweep report --min-haptic-hz`).
+inline constexpr double kDeviceHapticHz = 1000;
 /// Whether haptic_hz / physical_hz is a whole number >= 1 (to 1e-9 of it): physical step k
 /// starts at tick k N (schedule/scheduler.hpp). The scene reader, the rate options and build_world ask it.
 inline bool whole_ticks_per_step(double haptic_hz, double physical_hz) {

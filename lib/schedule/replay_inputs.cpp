@@ -204,7 +204,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
     r.warnings.push_back((from_option ? std::string(option) : value_source(spec, key) + ": " + key) + why);
   };
   char why[360];
-  if (hz_h < kMinPlausibleHapticHz) {
+  if (hz_h < kDeviceHapticHz) {
     std::snprintf(why, sizeof why,
                   " %g Hz: below a haptic device's 1 kHz the rendered force of a press has not converged in the rate "
                   "(the own-data press peaks at 2.1 N at 100 Hz against 1.13 N at 1 kHz; docs/MODEL.md, \"Held loads\")",

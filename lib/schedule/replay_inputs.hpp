@@ -28,9 +28,6 @@ struct LoadedReplay {
 
 /// Under this physical rate a replay warns: the tissue follows the tool a long period late.
 inline constexpr double kMinPlausiblePhysicalHz = 20;
-/// Under this haptic rate a replay warns: a device's loop ticks at 1 kHz or more, and the force of
-/// a press at a hand's speed has not converged in the rate below it (docs/MODEL.md, "Held loads").
-inline constexpr double kMinPlausibleHapticHz = 1000;
 
 /// A release followed by a closing sooner than this is a noisy jaw signal, not a hand (grasp_flicker).
 inline constexpr double kRegraspS = 0.05;

@@ -239,7 +239,7 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
       << (regions ? "---|" : "") << "\n";
     for (const ReportPoint& p : g.points) {
       o << "| " << (p.front ? "*" : p.reference ? "reference" : p.below_rate ? "< Hz" : "")
-        << (p.baseline.empty() ? "" : " " + md(p.baseline))
+        << (p.baseline.empty() ? "" : " ") << md(p.baseline)  // (" " + md(): GCC 12 warns -Wrestrict there)
         << " | " << md(p.overrides) << " | " << p.runs << " | "
         << fmt(p.wall_s) << " | " << fmt(p.real_time_factor, "%.3gx") << " | " << fmt(p.error_rms) << " | "
         << fmt(p.error_max) << " | " << fmt(p.error_p999) << " | " << fmt(p.max_force_rate) << " | " << fmt(p.residual_max)

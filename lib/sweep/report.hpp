@@ -4,7 +4,7 @@
 // and backend are compared with each other, and the Pareto front is the configurations that no
 // other one beats on both wall time and force RMS error against the reference (the reference
 // itself is the yardstick, not a candidate). A configuration with fewer haptic ticks per second
-// than the floor (the virtual tool runs at >= 1 kHz: kMinHapticHz) is listed but is no candidate
+// than the floor (a haptic device's loop rate, scene/scene.hpp kDeviceHapticHz) is listed but is no candidate
 // either: not on the front, not against the baseline.
 #include <cstddef>
 #include <optional>
@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "scene/scene.hpp"
 #include "sweep/summary.hpp"
 
 namespace ebh {
@@ -38,9 +39,6 @@ struct ReportPoint {
   std::string baseline;                                ///< the plan's baseline name when this is it, else ""
 };
 
-/// The haptic rate a configuration must keep to be a candidate (ticks per second): the virtual
-/// tool's 1 kHz.
-inline constexpr double kMinHapticHz = 1000;
 
 /// An RMS force error at most this (N) is round-off: the configuration renders the reference's
 /// forces (a device resolves about a millinewton), so it is the reference in effect, no candidate.

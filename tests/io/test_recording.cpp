@@ -284,12 +284,15 @@ TEST(SceneCheck, FlagsATrajectoryFarOutside) {
 
 // Unit sanity: a path against a 10 cm mesh at the origin, read in the right unit and in others.
 namespace {
+/// A recording of three samples at these positions (in the unit the log was read in).
+Recording path_of(Vec3d a, Vec3d b, Vec3d c) {
+  Recording r = make_recording(3);
+  r.position = {a, b, c};
+  return r;
+}
 Recording press_path(double metres_per_unit) {
   // 3 cm above the mesh's top, pressing 1 cm into it, 2 cm sideways: logged in cm.
-  Recording r = make_recording(3);
-  r.position = {Vec3d{0, 0, 8}, Vec3d{0, 0, 4}, Vec3d{2, 0, 4}};
-  for (Vec3d& p : r.position) p *= metres_per_unit;
-  return r;
+  return path_of(Vec3d{0, 0, 8} * metres_per_unit, Vec3d{0, 0, 4} * metres_per_unit, Vec3d{2, 0, 4} * metres_per_unit);
 }
 const Vec3d kLo{-0.05, -0.05, -0.05}, kHi{0.05, 0.05, 0.05};  // diagonal 0.173 m
 }  // namespace
@@ -416,8 +419,7 @@ TEST(UnitSanity, ALoneSampleFarFromTheRestIsAGlitch) {
 // A tool brought down from 25 cm above the tissue into it: of the mesh's size and at it, far out
 // only in its approach; no unit and no transform is the fix.
 TEST(UnitSanity, AnApproachFromHighAboveIsNoMisplacement) {
-  Recording r = make_recording(3);
-  r.position = {Vec3d{0, 0, 0.3}, Vec3d{0, 0, 0.1}, Vec3d{0, 0, -0.02}};
+  Recording r = path_of({0, 0, 0.3}, {0, 0, 0.1}, {0, 0, -0.02});
   const auto w = check_recording_scale(r, kLo, kHi, 1e-3);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("likely fix: none if those samples are the tool's approach from afar: replay from where it nears the "
@@ -431,8 +433,7 @@ TEST(UnitSanity, AGraspHeldOffTheTissueIsAtTheMesh) {
   // 3 mm above them. Logged in cm, read as metres: in cm it comes within 3 mm of the box; in mm
   // (10x too small) within 0.3 mm, but at a tenth of the size.
   const Vec3d lo{-0.0305, -0.025, -0.03}, hi{0.0305, 0.025, 0};
-  Recording r = make_recording(3);
-  r.position = {Vec3d{2, 0, 3.5}, Vec3d{2, 0, 0.3}, Vec3d{0.5, 0, 0.3}};
+  Recording r = path_of({2, 0, 3.5}, {2, 0, 0.3}, {0.5, 0, 0.3});
   auto w = check_recording_scale(r, lo, hi, 1.0);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("likely fix: --unit cm"), std::string::npos) << *w;
@@ -445,8 +446,7 @@ TEST(UnitSanity, NoUnitIsNamedUnderWhichAReplayRefusesThePath) {
   // above the top to 8 mm into it. In cm it has the block's size nearer than in mm (2.9x its
   // diagonal against 0.29x) and enters it, but goes 65 mm out of its bottom: a replay refuses that.
   const Vec3d lo{-0.03, -0.02, -0.015}, hi{0.03, 0.02, 0.015};
-  Recording r = make_recording(3);
-  r.position = {Vec3d{0, 0, 30}, Vec3d{0, 0, 15}, Vec3d{0, 0, 7}};
+  Recording r = path_of({0, 0, 30}, {0, 0, 15}, {0, 0, 7});
   auto w = check_recording_scale(r, lo, hi, 1.0);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("likely fix: --unit mm"), std::string::npos) << *w;

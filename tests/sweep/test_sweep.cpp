@@ -45,6 +45,9 @@ fs::path plan_file(const std::string& name, const std::string& text) {
   return p;
 }
 
+/// A stand-in for `ebh replay` in tests/sweep/ (a shell script that behaves as one case needs).
+std::string test_replay(const std::string& script) { return std::string(EBH_TEST_DATA_DIR) + "/../sweep/" + script; }
+
 /// The hand-made summary (tests/data/sweep/front) and its text.
 std::string front_file() { return std::string(EBH_TEST_DATA_DIR) + "/sweep/front/summary.csv"; }
 std::string front_text() {
@@ -467,7 +470,7 @@ TEST(SweepRunner, CudaRunsGoToBatchChildren) {
   const std::vector<SweepRun> runs = expand_plan(plan);
   ASSERT_EQ(runs.size(), 5u);  // the reference and 4 configurations
   RunnerOptions opt;
-  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/fake_replay.sh";
+  opt.executable = test_replay("fake_replay.sh");
   opt.batch = 3;
   std::vector<std::size_t> started_with;
   const RunnerReport rep = execute_runs(plan, runs, dir, opt, [&](const RunnerProgress& p, const RunOutcome* o) {
@@ -531,7 +534,7 @@ TEST(SweepRunner, CudaChildrenSpreadOverTheGpus) {
   setenv("EBH_FAKE_DEVICE_LOG", log.c_str(), 1);
   setenv("CUDA_VISIBLE_DEVICES", "9", 1);  // what the CPU children inherit
   RunnerOptions opt;
-  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/fake_replay.sh";
+  opt.executable = test_replay("fake_replay.sh");
   opt.jobs = 3;  // the first three children start together: two or more CUDA ones, on both GPUs
   opt.gpus = {"3", "GPU-7"};
   const RunnerReport rep = execute_runs(plan, runs, dir / "out", opt);
@@ -706,7 +709,7 @@ TEST(SweepRunner, AReplayStuckAfterTheInterruptIsKilled) {
   SweepPlan plan;
   const std::vector<SweepRun> runs = three_runs(plan, "stuck.yaml");
   RunnerOptions opt;
-  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/stuck_replay.sh";
+  opt.executable = test_replay("stuck_replay.sh");
   opt.stop_grace_s = 0.5;
   install_interrupt_handlers();
   set_interrupted(false);
@@ -735,7 +738,7 @@ TEST(SweepRunner, AnOutputWrittenBeforeTheInterruptIsARunDone) {
   SweepPlan plan;
   const std::vector<SweepRun> runs = three_runs(plan, "late.yaml");
   RunnerOptions opt;
-  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/late_replay.sh";
+  opt.executable = test_replay("late_replay.sh");
   opt.stop_grace_s = 5;
   install_interrupt_handlers();
   set_interrupted(false);
@@ -756,7 +759,7 @@ TEST(SweepRunner, AnOutputWrittenBeforeTheInterruptIsARunDone) {
   fs::create_directories(stale_dir / "runs");
   std::ofstream(run_output(stale_dir, runs[0])) << "an old output\n";
   const std::vector<RunState> stale(runs.size(), RunState::Stale);  // as run_state would say
-  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/stuck_replay.sh";
+  opt.executable = test_replay("stuck_replay.sh");
   opt.stop_grace_s = 0.5;
   rep = execute_runs(plan, runs, stale_dir, opt, [](const RunnerProgress&, const RunOutcome* o) {
     if (!o) set_interrupted(true);
@@ -784,7 +787,7 @@ TEST(SweepRunner, AKilledReplaysTemporaryIsRemoved) {
   SweepPlan plan;
   const std::vector<SweepRun> runs = three_runs(plan, "killed.yaml");
   RunnerOptions opt;
-  opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/partial_replay.sh";
+  opt.executable = test_replay("partial_replay.sh");
   setenv("EBH_FAKE_KILL_SELF", "1", 1);
   const RunnerReport rep = execute_runs(plan, runs, dir, opt);
   unsetenv("EBH_FAKE_KILL_SELF");
@@ -818,7 +821,7 @@ TEST(SweepRunner, ReplaysEndWithAKilledSweep) {
   if (sweep == 0) {  // the sweep: two replays at a time, each sleeping until a signal ends it
     setenv("EBH_FAKE_PID_DIR", pids.c_str(), 1);
     RunnerOptions opt;
-    opt.executable = std::string(EBH_TEST_DATA_DIR) + "/../sweep/partial_replay.sh";
+    opt.executable = test_replay("partial_replay.sh");
     opt.jobs = 2;
     try {
       execute_runs(plan, runs, dir, opt);
@@ -1134,7 +1137,7 @@ TEST(SweepReport, BaselineGoal) {
   EXPECT_NE(met_loose.find("(tube_insert [less converged])\n"), std::string::npos) << met_loose;
 }
 
-/// The haptic rate floor (`ebh sweep report --min-haptic-hz`, kMinHapticHz by default there): a
+/// The haptic rate floor (`ebh sweep report --min-haptic-hz`, kDeviceHapticHz by default there): a
 /// configuration below it is listed, marked, and no candidate. In the hand-made summary k=2 (2.2 s,
 /// 0.2 N), at 500 Hz, leaves the front and the comparison with the baseline k=3 (3 s, 0.3 N),
 /// which then finds nothing better than k=3 itself; with the floor at 0, or without the column,
@@ -1155,7 +1158,7 @@ TEST(SweepReport, ConfigurationsBelowTheHapticRateAreNoCandidates) {
       if (p.front) f.push_back(p.overrides);
     return f;
   };
-  const std::vector<ReportGroup> g = build_report(t, file, kMinHapticHz);
+  const std::vector<ReportGroup> g = build_report(t, file, kDeviceHapticHz);
   ASSERT_EQ(g.size(), 1u);
   EXPECT_EQ(front_of(g[0]), (std::vector<std::string>{"k=1", "k=3", "k=4"}));
   const auto goal = baseline_goal(g[0]);
@@ -1171,7 +1174,7 @@ TEST(SweepReport, ConfigurationsBelowTheHapticRateAreNoCandidates) {
   EXPECT_EQ(all[0].points[baseline_goal(all[0])->fastest].overrides, "k=2");
   EXPECT_EQ(report_markdown(all).find("haptic ticks per second"), std::string::npos);
   // A summary without the column: no point is below the floor.
-  EXPECT_EQ(front_of(build_report(parse_csv(front_text(), file), file, kMinHapticHz)[0]),
+  EXPECT_EQ(front_of(build_report(parse_csv(front_text(), file), file, kDeviceHapticHz)[0]),
             (std::vector<std::string>{"k=1", "k=2", "k=4"}));
 }
 

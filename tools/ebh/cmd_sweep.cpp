@@ -43,7 +43,7 @@ struct SweepArgs {
 
 struct ReportArgs {
   std::string dir, plot;
-  double min_haptic_hz = kMinHapticHz;
+  double min_haptic_hz = kDeviceHapticHz;
 };
 
 

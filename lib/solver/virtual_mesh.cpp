@@ -115,7 +115,8 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
   if (!scene.spec.virtual_mesh) return;
   const std::string where = scene.spec.virtual_mesh->string() + ": mesh.virtual: the virtual mesh ";
   const char* frame = "is it in mesh.unit and the physical mesh's frame (mesh.transform places both)?";
-  const double diagonal = bounding_box(scene.physical.vertices).diagonal();
+  const BoundingBox physical = bounding_box(scene.physical.vertices);
+  const double diagonal = physical.diagonal();
   char buf[320];
   if (vm.pairing_worst >= 0 && vm.pairing_max_error > 0.01 * diagonal) {
     // Where, not which: the model's vertex numbers are not the file's (refined, renumbered).
@@ -141,6 +142,8 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
                        " of its edges belong to one face only (a hole, a cut patch" + soup +
                        "): a tool that passes through an opening feels nothing there");
   }
+  const BoundingBox box = bounding_box(vm.rest);
+  const double span = box.diagonal();
   // A closed virtual mesh over part of the physical mesh only (a segmentation's surface of one
   // lobe): a tool pressed into the rest meets no virtual vertex and renders next to nothing
   // there. Said where over 1% of the physical boundary's vertices lie farther from the virtual
@@ -154,9 +157,8 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
     // Much smaller than the physical mesh, and its box ten times larger the physical mesh's: the
     // same organ in another unit (cm beside mm), not a surface of one part of it.
     std::string unit;
-    const BoundingBox v = bounding_box(vm.rest), p = bounding_box(scene.physical.vertices);
-    if (const double span = v.diagonal(); span > 0 && span * 5 < diagonal && span * 20 >= diagonal &&
-                                          norm(10.0 * v.lo - p.lo) <= 0.25 * diagonal && norm(10.0 * v.hi - p.hi) <= 0.25 * diagonal) {
+    if (span > 0 && span * 5 < diagonal && span * 20 >= diagonal && norm(10.0 * box.lo - physical.lo) <= 0.25 * diagonal &&
+        norm(10.0 * box.hi - physical.hi) <= 0.25 * diagonal) {
       char size[200];
       std::snprintf(size, sizeof size, "; it spans 1/%.3g of the physical mesh's diagonal: is it in another unit than "
                     "mesh.unit (an OBJ in cm beside a mesh in mm is 1/10 of its size)?", diagonal / span);
@@ -164,7 +166,6 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
     }
     warnings.push_back(where + buf + ": a tool pressed in there passes through the physical mesh unfelt" + unit);
   }
-  const double span = bounding_box(vm.rest).diagonal();
   // A surface of the physical mesh is no larger than it: one twice its size is in another unit
   // (an OBJ in mm read as cm is 10 times it), and E_svc would drag the physical mesh out to it
   // (310 tets inverted in the first second).

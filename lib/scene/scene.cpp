@@ -1163,17 +1163,16 @@ std::string too_soft_for_own_weight(const Scene& scene) {
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned) {
   const int n = static_cast<int>(mesh.vertices.size());
   const std::vector<int> part = mesh_parts(mesh);  // the part's lowest vertex
-  const auto find = [&part](int a) { return part[a]; };
   std::vector<int> size(n, 0);
   std::vector<char> held(n, 0), used(n, 0);
   for (const Tet& t : mesh.tets)
     for (int k = 0; k < 4; ++k) used[t[k]] = 1;
   for (int i = 0; i < n; ++i)
-    if (used[i]) ++size[find(i)];
-  for (const int i : pinned) held[find(i)] = 1;
+    if (used[i]) ++size[part[i]];
+  for (const int i : pinned) held[part[i]] = 1;
   std::vector<std::pair<int, int>> parts;
   for (int i = 0; i < n; ++i)
-    if (size[i] > 0 && find(i) == i && !held[i]) parts.emplace_back(i, size[i]);
+    if (size[i] > 0 && part[i] == i && !held[i]) parts.emplace_back(i, size[i]);
   return parts;
 }
 

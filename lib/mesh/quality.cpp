@@ -169,16 +169,33 @@ std::vector<int> mesh_parts(const TetMesh& mesh) {
 
 namespace {
 
-/// MeshReport::part_inside_part: the centres of the tets of every part located in each other part
-/// whose bounding box holds them (a tumour inside its organ, a box half inside another). A tet's
-/// centre is inside its own tet, so parts that only touch (along an unmerged seam) have none
-/// inside each other; a centre on an inner face of the other part is inside it still. An overlap
-/// thinner than about half a tet holds no centre and is not found.
-std::array<int, 2> find_part_inside_part(const TetMesh& mesh, double diagonal) {
+/// Whether embedding e lies strictly inside a tet: all four corners weigh more than a round-off
+/// share (a vertex on a face or an edge of the other part, as along an unmerged seam, does not).
+bool strictly_inside(const TetEmbedding& e) {
+  constexpr double kInside = 1e-6;  // far above a face's round-off, far below a thin overlap's share
+  return e.count == 4 && std::all_of(e.weight.begin(), e.weight.end(), [](double w) { return w > kInside; });
+}
+
+/// The parts' overlaps find_part_overlaps found (tet, tet of another part); {-1, -1}: none.
+struct PartOverlaps {
+  std::array<int, 2> centre{-1, -1};  ///< a tet whose centre lies inside the other: MeshReport::part_inside_part
+  std::array<int, 2> vertex{-1, -1};  ///< only a vertex strictly inside: MeshReport::parts_overlap
+};
+
+/// MeshReport::part_inside_part and parts_overlap: the centres of the tets of every part, and
+/// their vertices, located in each other part whose bounding box holds them (a tumour inside its
+/// organ, a box half inside another; two organs segmented apart that overlap by a voxel). A tet's
+/// centre is inside its own tet, so parts that only touch (along an unmerged seam) have none inside
+/// each other; a centre on an inner face of the other part is inside it still. A vertex counts only
+/// strictly inside a tet (strictly_inside): a seam's vertices lie on the other part's faces. An
+/// overlap that holds neither a centre nor a vertex of the other part (between its vertices) is not
+/// found.
+PartOverlaps find_part_overlaps(const TetMesh& mesh, double diagonal) {
+  PartOverlaps found;
   const std::vector<int> part = mesh_parts(mesh);
   std::map<int, std::vector<int>> tets_of;  // part -> its tets
   for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) tets_of[part[mesh.tets[t][0]]].push_back(t);
-  if (tets_of.size() < 2) return {-1, -1};
+  if (tets_of.size() < 2) return found;
   const double tolerance = 1e-9 * diagonal;
   std::vector<Vec3d> centre(mesh.tets.size());
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
@@ -192,14 +209,17 @@ std::array<int, 2> find_part_inside_part(const TetMesh& mesh, double diagonal) {
         lo = cwise_min(lo, mesh.vertices[v]);
         hi = cwise_max(hi, mesh.vertices[v]);
       }
+    const auto in_box = [&](const Vec3d& c) {
+      return c.x >= lo.x && c.y >= lo.y && c.z >= lo.z && c.x <= hi.x && c.y <= hi.y && c.z <= hi.z;
+    };
     std::vector<int> candidates;  // other parts' tets whose centre lies in this part's box
-    for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) {
-      const Vec3d& c = centre[t];
-      if (part[mesh.tets[t][0]] != container && c.x >= lo.x && c.y >= lo.y && c.z >= lo.z && c.x <= hi.x &&
-          c.y <= hi.y && c.z <= hi.z)
-        candidates.push_back(t);
-    }
-    if (candidates.empty()) continue;
+    for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t)
+      if (part[mesh.tets[t][0]] != container && in_box(centre[t])) candidates.push_back(t);
+    std::vector<int> points;  // other parts' vertices (of a tet) in this part's box
+    if (found.vertex[0] < 0)
+      for (int v = 0; v < static_cast<int>(mesh.vertices.size()); ++v)
+        if (part[v] != container && tets_of.count(part[v]) && in_box(mesh.vertices[v])) points.push_back(v);
+    if (candidates.empty() && points.empty()) continue;
     TetMesh sub;
     sub.vertices = mesh.vertices;
     for (const int t : tets) sub.tets.push_back(mesh.tets[t]);
@@ -211,12 +231,27 @@ std::array<int, 2> find_part_inside_part(const TetMesh& mesh, double diagonal) {
       for (const int c : tets) {  // a tet of the container with the embedding's corners
         const Tet& k = mesh.tets[c];
         if (std::all_of(e.vertex.begin(), e.vertex.begin() + e.count,
-                        [&k](int v) { return std::find(k.begin(), k.end(), v) != k.end(); }))
-          return {t, c};
+                        [&k](int v) { return std::find(k.begin(), k.end(), v) != k.end(); })) {
+          found.centre = {t, c};
+          return found;
+        }
       }
     }
+    for (const int v : points) {
+      double error = 0;
+      const TetEmbedding e = locator.locate(mesh.vertices[v], error);
+      if (!strictly_inside(e) || error > tolerance) continue;
+      const auto holds = [v](const Tet& k) { return std::find(k.begin(), k.end(), v) != k.end(); };
+      const auto inner = std::find_if(mesh.tets.begin(), mesh.tets.end(), holds);
+      const auto outer = std::find_if(tets.begin(), tets.end(), [&](int c) {
+        return std::is_permutation(e.vertex.begin(), e.vertex.end(), mesh.tets[c].begin());
+      });
+      if (outer == tets.end()) continue;
+      found.vertex = {static_cast<int>(inner - mesh.tets.begin()), *outer};
+      break;
+    }
   }
-  return {-1, -1};
+  return found;
 }
 
 }  // namespace
@@ -286,7 +321,12 @@ MeshReport validate_mesh(const TetMesh& mesh) {
     }
   const double diag = nv > 0 && lo.x <= hi.x ? norm(hi - lo) : 0.0;
   r.duplicate_vertices = find_duplicates(mesh.vertices, 1e-12 * diag);
-  if (r.bad_index_tets.empty() && r.nonfinite_vertices.empty()) r.part_inside_part = find_part_inside_part(mesh, diag);
+  if (r.bad_index_tets.empty() && r.nonfinite_vertices.empty()) {
+    const PartOverlaps o = find_part_overlaps(mesh, diag);
+    r.part_inside_part = o.centre;
+    r.parts_overlap = o.vertex;
+    if (o.vertex[0] >= 0) r.parts_overlap_names = tet_name(mesh, o.vertex[0]) + " reaches inside " + tet_name(mesh, o.vertex[1]);
+  }
   auto vertex_name = [&](int v) {
     return static_cast<std::size_t>(v) < mesh.file_node_ids.size() ? "node " + std::to_string(mesh.file_node_ids[v])
                                                                     : "vertex " + std::to_string(v);
@@ -372,8 +412,8 @@ std::string MeshReport::fatal_message(const TetMesh& mesh) const {
            "other: a tet inside another, or a fold), the first: " + tet_name(mesh, overlapping_tets[0][0]) + " and " +
            tet_name(mesh, overlapping_tets[0][1]);
   if (part_inside_part[0] >= 0) {
-    return "two parts of the mesh overlap without sharing nodes: the centre of " + tet_name(mesh, part_inside_part[0]) +
-           " lies inside " + tet_name(mesh, part_inside_part[1]) +
+    return "two parts of the mesh overlap without sharing nodes: " + tet_name(mesh, part_inside_part[0]) +
+           " reaches inside " + tet_name(mesh, part_inside_part[1]) +
            " of another part (a label meshed apart from its organ and appended? mesh them as one, with shared nodes, "
            "or leave one out: the overlap counts its volume and mass twice)";
   }
@@ -404,6 +444,11 @@ std::vector<std::string> MeshReport::warnings() const {
                 " with an element id another tet has too, the first: element id " +
                 std::to_string(first_duplicate_tet_id) +
                 " (a file's element ids are unique: two files joined? the ids messages name are ambiguous)");
+  if (parts_overlap[0] >= 0 && part_inside_part[0] < 0)
+    w.push_back("two parts of the mesh overlap slightly without sharing nodes: " + parts_overlap_names +
+                " of another part (organs segmented apart that overlap by a voxel?): the overlap's volume and mass "
+                "count twice, and each part's surface lies inside the other there; mesh them as one, with shared "
+                "nodes, or shrink one");
   if (poor_tets > 0) {
     char line[320];
     std::snprintf(line, sizeof line,

@@ -45,6 +45,10 @@ struct MeshReport {
   std::vector<int> unreferenced_vertices;             ///< used by no tet
   std::vector<std::pair<int, int>> duplicate_vertices;  ///< (later, earlier) at the same position
   std::vector<std::array<int, 2>> nonmanifold_edges;  ///< boundary edges in != 2 boundary faces
+  /// Parts that overlap less: no tet centre inside the other, a tet's vertex strictly inside a tet of
+  /// another part (tet, tet), and how messages name them; {-1, -1}: none (or part_inside_part).
+  std::array<int, 2> parts_overlap{-1, -1};
+  std::string parts_overlap_names;
   long long poor_tets = 0;  ///< tets of mean ratio below kPoorTetQuality (near flat: the solver stalls on them)
   /// tets whose file element id another tet has too (file_tet_ids), and the first such id: the
   /// ids messages name would name more than one element

@@ -308,12 +308,28 @@ TEST(Validate, APartInsideAnotherIsRefused) {
   const MeshReport r = validate_mesh(inside);
   ASSERT_TRUE(r.fatal());
   EXPECT_EQ(r.part_inside_part[0], static_cast<int>(one.tets.size()));
-  EXPECT_EQ(r.fatal_message(inside).rfind("two parts of the mesh overlap without sharing nodes: the centre of tet " +
-                                              std::to_string(one.tets.size()) + " (element id 500) lies inside tet ",
+  EXPECT_EQ(r.fatal_message(inside).rfind("two parts of the mesh overlap without sharing nodes: tet " +
+                                              std::to_string(one.tets.size()) + " (element id 500) reaches inside tet ",
                                           0),
             0u)
       << r.fatal_message(inside);
   EXPECT_TRUE(validate_mesh(two(1, {0.5 * size.x, 0, 0})).fatal());  // half into it
+  // A tenth into it (two organs segmented apart overlapping by a voxel): no tet centre inside, a
+  // vertex: warned, naming a tet of each; touching along a face, shifted along it, the seam's
+  // vertices lie on the other's face: nothing.
+  const TetMesh thin = two(1, {0.9 * size.x, 0.3 * size.y, 0.3 * size.z});
+  const MeshReport t = validate_mesh(thin);
+  EXPECT_FALSE(t.fatal()) << t.fatal_message(thin);
+  EXPECT_GE(t.parts_overlap[0], static_cast<int>(one.tets.size()));
+  EXPECT_LT(t.parts_overlap[1], static_cast<int>(one.tets.size()));
+  ASSERT_EQ(t.warnings().size(), 1u);
+  EXPECT_EQ(t.warnings()[0].rfind("two parts of the mesh overlap slightly without sharing nodes: tet ", 0), 0u)
+      << t.warnings()[0];
+  const MeshReport seam = validate_mesh(two(1, {size.x, 0.3 * size.y, 0.3 * size.z}));
+  EXPECT_FALSE(seam.fatal());
+  EXPECT_EQ(seam.parts_overlap[0], -1);
+  for (const std::string& w : validate_mesh(inside).warnings())  // refused: not warned as well
+    EXPECT_EQ(w.find("overlap slightly"), std::string::npos) << w;
   // Among many parts, in the last of ten cubes side by side (every part is a container).
   TetMesh many = one;
   auto append = [&](double scale, Vec3d shift) {

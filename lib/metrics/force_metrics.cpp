@@ -216,20 +216,45 @@ std::string start_warning(double depth) {
   return b;
 }
 
+namespace {
+
+/// Whether the force along `against` stays under `level` for the window from tick i on (w ticks
+/// after it), in contact in most of those ticks.
+bool stays_under(std::size_t i, std::size_t w, std::size_t n, const std::function<double(std::size_t)>& along,
+                 double level, std::span<const std::int32_t> contacts) {
+  std::size_t touching = 0, after = 0;
+  for (std::size_t k = i; k < std::min(n, i + w + 1); ++k, ++after) {
+    if (!(along(k) < level)) return false;
+    touching += contacts[k] > 0;
+  }
+  return 2 * touching > after;
+}
+
+}  // namespace
+
 std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, const std::function<Vec3d(std::size_t)>& force,
                                                  const std::function<Vec3d(std::size_t)>& device,
                                                  std::span<const std::int32_t> contacts,
                                                  std::span<const std::int32_t> grasped, double haptic_hz) {
   const std::size_t n = t.size();
   const auto w = static_cast<std::size_t>(std::max(1.0, std::round(kCollapseWindowS * haptic_hz)));
+  const auto w_pressed = static_cast<std::size_t>(std::max(1.0, std::round(kPressedWindowS * haptic_hz)));
   std::vector<double> f(n);
   for (std::size_t i = 0; i < n; ++i) f[i] = norm(force(i));
   std::vector<std::size_t> held(n + 1, 0);  // ticks with a grasp before tick i
   for (std::size_t i = 0; i < n; ++i) held[i + 1] = held[i] + (i < grasped.size() && grasped[i] > 0);
   std::optional<ForceCollapse> found;
-  std::deque<std::size_t> top;  // the window's ticks by falling |F|: its largest at the front
+  auto record = [&found](ForceCollapse c) {
+    if (!found) found = c;
+    ++found->count;
+  };
+  // The windows' ticks by falling |F|, the largest at the front: the last kCollapseWindowS, and
+  // the last kPressedWindowS.
+  std::deque<std::size_t> top, top_pressed;
   for (std::size_t i = 0; i < n; ++i) {
     while (!top.empty() && top.front() + w < i) top.pop_front();
+    while (!top_pressed.empty() && top_pressed.front() + w_pressed < i) top_pressed.pop_front();
+    bool collapsed = false;
     if (!top.empty() && std::isfinite(f[i]) && contacts[i] > 0) {
       const std::size_t m = top.front();
       const Vec3d fm = force(m);
@@ -238,26 +263,55 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
       // Pressed on: the device did not move along the force that pushed it back.
       // Nothing grasped from a window before the largest force (a grasp let go falls for a few ticks).
       const bool grasp = held[i + 1] != held[m > w ? m - w : 0];
-      if (fell && !grasp && dot(device(i) - device(m), fm) <= 0) {
-        // Low, and in contact, after: a tool slid off an edge loses its contacts within a few ticks.
-        bool stayed = true;
-        std::size_t touching = 0, after = 0;
-        for (std::size_t k = i; k < std::min(n, i + w + 1) && stayed; ++k, ++after) {
-          stayed = f[k] < 0.5 * f[m];
-          touching += contacts[k] > 0;
-        }
-        if (stayed && 2 * touching > after) {
-          if (!found) found = ForceCollapse{t[m], t[i], f[m], f[i], 0};
-          ++found->count;
-          top.clear();  // one collapse counted once: the window starts again after it
-          i += w;
-          continue;
+      // Low, and in contact, after: a tool slid off an edge loses its contacts within a few ticks.
+      if (fell && !grasp && dot(device(i) - device(m), fm) <= 0 &&
+          stays_under(i, w, n, [&f](std::size_t k) { return f[k]; }, 0.5 * f[m], contacts)) {
+        record(ForceCollapse{t[m], t[i], f[m], f[i], 0, 0});
+        collapsed = true;
+      }
+    }
+    if (!collapsed && !top_pressed.empty() && std::isfinite(f[i]) && contacts[i] > 0 &&
+        f[top_pressed.front()] >= kCollapseMinForceN) {
+      // Slower: the device pressed on (its motion over the window) against a force that gave way.
+      const std::size_t a = i > w_pressed ? i - w_pressed : 0;
+      const Vec3d moved = device(i) - device(a);
+      const double distance = norm(moved);
+      const Vec3d into = distance > 0 ? moved / distance : Vec3d{};
+      const auto against = [&force, into](std::size_t k) { return -dot(force(k), into); };
+      const double now = against(i);
+      // The push against that motion can only have fallen so far where |F| was that large.
+      if (distance >= kPressedOnM && now < kCollapseFraction * f[top_pressed.front()]) {
+        std::size_t m = i;
+        double peak = -INFINITY;
+        for (std::size_t k = a; k < i; ++k)  // with contacts at it below (not the coupling's stretch)
+          if (std::isfinite(f[k]) && against(k) > peak) {
+            peak = against(k);
+            m = k;
+          }
+        const double pressed_on = dot(device(i) - device(m), into);
+        const bool grasp = held[i + 1] != held[m > w ? m - w : 0];
+        // In contact from the largest push to the fall (not a force the coupling's stretch carried).
+        std::size_t touching = 0;
+        for (std::size_t k = m; k <= i; ++k) touching += contacts[k] > 0;
+        if (m < i && contacts[m] > 0 && peak >= kCollapseMinForceN && now < kCollapseFraction * peak &&
+            pressed_on >= kPressedOnM &&
+            !grasp && 2 * touching > i - m + 1 && stays_under(i, w, n, against, 0.5 * peak, contacts)) {
+          record(ForceCollapse{t[m], t[i], peak, now + 0.0, pressed_on, 0});  // + 0.0: no "-0 N"
+          collapsed = true;
         }
       }
+    }
+    if (collapsed) {
+      top.clear();  // one collapse counted once: the windows start again after it
+      top_pressed.clear();
+      i += w;
+      continue;
     }
     if (!std::isfinite(f[i])) continue;
     while (!top.empty() && f[top.back()] <= f[i]) top.pop_back();
     top.push_back(i);
+    while (!top_pressed.empty() && f[top_pressed.back()] <= f[i]) top_pressed.pop_back();
+    top_pressed.push_back(i);
   }
   return found;
 }
@@ -271,9 +325,14 @@ std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_
                           : *vertex_contact ? std::string("the tool went through the tissue or slipped off it: with "
                                                           "contact: vertices, ") + parted
                                             : std::string("the tool slipped off the tissue or the tissue gave way under it");
-  char b[192];
-  std::snprintf(b, sizeof b, "the force fell from %.3g N (t = %.3f s) to %.3g N (t = %.3f s) while the tool stayed in "
-                "contact and the device did not draw back", c.peak_N, c.peak_t, c.force_N, c.t);
+  char b[224];
+  if (c.pressed_on_m > 0)
+    std::snprintf(b, sizeof b, "the force against the device's motion fell from %.3g N (t = %.3f s) to %.3g N (t = "
+                  "%.3f s) while the device pressed on %.2g mm and the tool stayed in contact", c.peak_N, c.peak_t,
+                  c.force_N, c.t, c.pressed_on_m * 1e3);
+  else
+    std::snprintf(b, sizeof b, "the force fell from %.3g N (t = %.3f s) to %.3g N (t = %.3f s) while the tool stayed in "
+                  "contact and the device did not draw back", c.peak_N, c.peak_t, c.force_N, c.t);
   return b + more + ": " + why;
 }
 
@@ -452,6 +511,7 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   collapse.set("t_s", m.collapse ? m.collapse->t : kNaN);
   collapse.set("peak_force_N", m.collapse ? m.collapse->peak_N : kNaN);
   collapse.set("force_N", m.collapse ? m.collapse->force_N : kNaN);
+  collapse.set("pressed_on_mm", m.collapse ? 1e3 * m.collapse->pressed_on_m : kNaN);
   collapse.set("warning", m.collapse ? Json(collapse_warning(*m.collapse, std::nullopt)) : Json(nullptr));
   j.set("force_collapse", std::move(collapse));
   j.set("episode_count", m.episodes.size());

@@ -112,14 +112,23 @@ inline constexpr double kNegligibleForce = 1e-9;
 /// off an edge lose their contacts or draw back). With vertex contact the vertices under a thin
 /// tip part and let it through (docs/MODEL.md, "Contact against the surface"); with surface
 /// contact the tissue gave way.
+/// A slower fall counts too (a slow press parts the vertices over ~0.1 s, and a sideways remainder
+/// keeps |F| above the fraction): the force against the device's motion over the last
+/// kPressedWindowS fell below kCollapseFraction of its largest in that window (at least
+/// kCollapseMinForceN, in contact), the device having pressed on by kPressedOnM since that largest,
+/// in contact in most ticks since, and stayed under half of it for kCollapseWindowS, in contact,
+/// nothing grasped.
 struct ForceCollapse {
   double peak_t = 0, t = 0;         ///< s: the largest force's tick, the first tick under the fraction
-  double peak_N = 0, force_N = 0;   ///< |F| at those ticks
+  double peak_N = 0, force_N = 0;   ///< |F| at those ticks; a slower fall: the force against the device's motion
+  double pressed_on_m = 0;          ///< a slower fall: how far the device pressed on between them (0: a fast one)
   std::size_t count = 0;            ///< collapses in the run (the first is described)
 };
 inline constexpr double kCollapseFraction = 0.2;
 inline constexpr double kCollapseMinForceN = 0.1;
 inline constexpr double kCollapseWindowS = 0.02;
+inline constexpr double kPressedWindowS = 0.5;
+inline constexpr double kPressedOnM = 0.5e-3;
 
 /// The first collapse of a run's force (ForceCollapse) and how many there were; nullopt when none.
 /// Per tick n of N: time t[n], the rendered force, the device's position, the contacts and the

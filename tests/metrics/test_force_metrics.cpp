@@ -486,6 +486,43 @@ TEST(ForceCollapse, AToolPushedThroughTheTissueIsNamed) {
   EXPECT_EQ(compute_metrics(twice).collapse->count, 2u);
 }
 
+// A slow press through (2 mm/s): the force rises to 0.2 N, then over 0.1 s turns sideways and its
+// push against the device's motion vanishes, a 0.05 N sideways remainder keeping |F| above 20% of
+// the peak, the device pressing on in contact: the slower rule names it, with how far the device
+// pressed on. Drawn back along the force, or the force recovering, it is not.
+ReplayTrace slow_press_through(Vec3d device_after = {0, 0, -2e-6}, double settle_z = 0) {
+  ReplayTrace tr = make_trace(3000);
+  Vec3d p{0, 0, 0};
+  for (std::size_t i = 0; i < tr.ticks(); ++i) {
+    const double s = std::clamp((static_cast<double>(i) - 1000) / 100, 0.0, 1.0);  // the turn, ticks 1000-1100
+    const double up = i < 1000 ? 0.2 * static_cast<double>(i) / 1000 : 0.2 * (1 - s) + settle_z * s;
+    tr.force[i] = {0, 0.05 * s, up};
+    tr.contacts[i] = i >= 20 ? 3 : 0;
+    tr.pose_physical[i].p = p;
+    p = p + (i < 1000 ? Vec3d{0, 0, -2e-6} : device_after);
+  }
+  return tr;
+}
+
+TEST(ForceCollapse, ASlowPressThroughIsNamed) {
+  const ForceMetrics m = roundtrip(slow_press_through(), "slow_collapse");
+  ASSERT_TRUE(m.collapse);
+  EXPECT_EQ(m.collapse->count, 1u);
+  EXPECT_EQ(m.collapse->peak_t, 1.0);
+  EXPECT_GE(m.collapse->pressed_on_m, kPressedOnM);
+  EXPECT_LT(m.collapse->force_N, kCollapseFraction * m.collapse->peak_N);
+  const std::string warning = collapse_warning(*m.collapse, true);
+  EXPECT_EQ(warning.rfind("the force against the device's motion fell from 0.2 N (t = 1.000 s) to 0 N", 0), 0u) << warning;
+  EXPECT_NE(warning.find("while the device pressed on 0.5"), std::string::npos) << warning;
+  // |F| itself never fell under 20% of the peak: the fast rule alone misses it.
+  double lowest = 1;
+  for (std::size_t i = 1100; i < 3000; ++i) lowest = std::min(lowest, norm(slow_press_through().force[i]));
+  EXPECT_GT(lowest, kCollapseFraction * 0.2);
+  EXPECT_FALSE(compute_metrics(slow_press_through({0, 0, 2e-6})).collapse);  // drawn back
+  EXPECT_FALSE(compute_metrics(slow_press_through({0, 0, 0})).collapse);     // held still: not pressed on
+  EXPECT_FALSE(compute_metrics(slow_press_through({0, 0, -2e-6}, 0.15)).collapse);  // the push held at 0.15 N
+}
+
 // What is not a tool passing through: a release (the device draws back along the force), a slide
 // off an edge (contacts lost within a few ticks), a grasp let go, a dip that recovers, a touch too
 // light to tell, a force that was the coupling's stretch (no contact at its peak).

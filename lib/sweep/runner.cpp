@@ -312,6 +312,17 @@ RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& r
   return RunState::Done;
 }
 
+const char* redo_reason(RunState state) {
+  switch (state) {
+    case RunState::Stale: return "made from input files edited or replaced since";
+    case RunState::Unreadable: return "whose output does not open";
+    case RunState::Other: return "whose output is not the run's replay (another window, mode, backend or overrides, or no replay)";
+    case RunState::Missing:
+    case RunState::Done: break;
+  }
+  return "";
+}
+
 std::size_t adopt_legacy_outputs(const fs::path& dir, const std::vector<SweepRun>& runs) {
   std::size_t taken = 0;
   std::error_code ec;

@@ -64,6 +64,10 @@ class InputDigests {
 /// digests counts as done; a file of another kind (not HDF5) is another program's, left alone as done.
 enum class RunState { Missing, Done, Stale, Unreadable, Other };
 RunState run_state(const std::filesystem::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests);
+/// Why a sweep runs a run with an output again (Stale, Unreadable, Other): "made from input files
+/// edited or replaced since", ...; "" for Missing and Done. The sweep's count of them and the
+/// summary's rows (summarize_sweep) say the same.
+const char* redo_reason(RunState state);
 
 /// A folder made before the run ids came from the files' contents names a run's files after its
 /// legacy id (SweepRun::legacy_id): each run without files under its id takes those (output, log,

@@ -241,14 +241,20 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
   for (const auto& [k, v] : metric_names) t.header.push_back(k);
   t.header.push_back("error");
 
+  // Where each run stands (run_state, as the sweep decides what to run): an output the sweep
+  // would run again (made from input files edited since, even during the sweep, against the
+  // digests the plan read; another run's output under its name; one that does not open) is no
+  // result: its row is pending, saying why, and no run is compared with such a reference.
+  InputDigests digests(&plan);
+  std::map<std::string, RunState> states;
+  for (const SweepRun& r : runs) states[r.id] = run_state(dir, plan, r, digests);
   std::map<std::string, std::optional<ReplayTrace>> references;  // id -> trace (nullopt: not available)
   auto reference_trace = [&](const SweepRun& r) -> const ReplayTrace* {
     auto it = references.find(r.reference_id);
     if (it == references.end()) {
       const auto ref = std::find_if(runs.begin(), runs.end(), [&](const SweepRun& x) { return x.id == r.reference_id; });
       std::optional<ReplayTrace> trace;
-      std::error_code ec;
-      if (ref != runs.end() && fs::exists(run_output(dir, *ref), ec)) {
+      if (ref != runs.end() && states[ref->id] == RunState::Done) {
         try {
           trace = load_replay(run_output(dir, *ref).string());
         } catch (const InputError&) {
@@ -271,8 +277,12 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
     std::vector<std::string> results(kResultColumns.size() + metric_names.size(), "");
     std::string error;
     const fs::path out = run_output(dir, r);
-    std::error_code ec;
-    if (fs::exists(out, ec)) {
+    const RunState state = states[r.id];
+    if (const std::string why = redo_reason(state); !why.empty()) {
+      error = "to run again: an output " + why;
+      ++s.pending;
+      ++s.redo;
+    } else if (state == RunState::Done) {
       try {
         const ReplayTrace trace = load_replay(out.string());
         double wall = kNaN, virt = kNaN;
@@ -292,7 +302,8 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
           results[6] = std::to_string(e.ticks);
           if (e.ticks == 0) error = "no tick in common with the reference " + r.reference_id;
         } else {
-          error = "no reference: its run " + r.reference_id + " has no output";
+          const std::string ref_why = redo_reason(states[r.reference_id]);
+          error = "no reference: its run " + r.reference_id + (ref_why.empty() ? " has no output" : " has an output " + ref_why);
         }
         // The regions' sizes: solver.active_region's per tick, solver.physical_region's per step (empty: off).
         auto mean = [](const std::vector<double>& a) {

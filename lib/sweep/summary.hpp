@@ -44,6 +44,7 @@ CsvTable parse_csv(const std::string& text, const std::string& file);
 struct SweepSummary {
   CsvTable table;
   std::size_t ok = 0, failed = 0, pending = 0;
+  std::size_t redo = 0;  ///< of the pending: runs with an output the sweep runs again (redo_reason)
 };
 
 /// The summary as HDF5 (DIR/summary.h5; docs/FORMATS.md, "summary.h5"): the same rows and
@@ -55,8 +56,11 @@ struct SweepSummary {
 /// column) when a numeric column holds text.
 void write_summary_h5(const CsvTable& summary, const std::string& path);
 
-/// The summary of every run of the plan as it stands in `dir`: status ok (an output), failed (a
-/// DIR/runs/ID.failed) or pending (neither). Reads each output once and each reference once.
+/// The summary of every run of the plan as it stands in `dir`: status ok (an output the sweep takes
+/// as done: run_state), failed (a DIR/runs/ID.failed, or an output that does not read) or pending
+/// (neither, or an output the sweep would run again: its error says why, redo_reason). The input
+/// files are checked against the digests the plan read (SweepPlan::sha256): a file edited while
+/// the sweep ran leaves the runs made from it pending. Reads each output once and each reference once.
 SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir);
 
 }  // namespace ebh

@@ -651,6 +651,55 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Unreadable);
 }
 
+// The summary takes a run's output only where the sweep would (run_state): another run's output
+// copied under its name, one made from input files edited since, or edited while the sweep ran
+// (against the digests the plan read), is no result but a run to do again, saying why.
+TEST(SweepSummary, OutputsTheSweepWouldRunAgainAreNotOk) {
+  const fs::path d = scratch() / "summary_redo";
+  fs::remove_all(d);
+  fs::create_directories(d / "scene");
+  const fs::path scenarios = fs::path(EBH_SOURCE_DIR) / "scenarios";
+  fs::copy_file(scenarios / "tube.yaml", d / "scene" / "tube.yaml");
+  fs::copy_file(scenarios / "tube.msh", d / "scene" / "tube.msh");
+  const SweepPlan p = read_sweep_plan(plan_file("summary_redo.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
+                                                                         ", recordings: [tube_insert], reference: {}}\n"
+                                                                         "runs: [{solver.virtual_iterations: 2}]\nstart: 4\nduration: 0.5\n"));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 2u);
+  const fs::path dir = d / "out";
+  fs::create_directories(dir / "runs");
+  auto write_output = [&](const SweepRun& as, const std::string& scene_sha, const std::string& overrides) {
+    h5::File f = h5::File::create(run_output(dir, as).string());
+    f.set_attr("scene_file_sha256", scene_sha);
+    f.set_attr("physical_mesh_sha256", sha256_file((d / "scene" / "tube.msh").string()));
+    f.set_attr("recording_sha256", sha256_file(as.recording.string()));
+    f.set_attr("mode", "async");
+    f.set_attr("backend", "cpu");
+    f.set_attr("overrides_list", overrides);
+    f.set_attr("start", 4.0);
+    f.set_attr("duration", 0.5);
+  };
+  const std::string scene_sha = sha256_file((d / "scene" / "tube.yaml").string());
+  // The reference's output copied over the other run's.
+  write_output(runs[1], scene_sha, "");
+  SweepSummary s = summarize_sweep(p, runs, dir);
+  const std::size_t c_error = s.table.column("error", "summary");
+  EXPECT_EQ(s.table.rows[1][1], "pending");
+  EXPECT_NE(s.table.rows[1][c_error].find("not the run's replay"), std::string::npos) << s.table.rows[1][c_error];
+  EXPECT_EQ(s.redo, 1u);
+  // Its own, made from another scene file than the one the plan read.
+  write_output(runs[1], std::string(64, '0'), "solver.virtual_iterations=2");
+  s = summarize_sweep(p, runs, dir);
+  EXPECT_EQ(s.table.rows[1][1], "pending");
+  EXPECT_NE(s.table.rows[1][c_error].find("edited or replaced since"), std::string::npos) << s.table.rows[1][c_error];
+  // The scene file edited while the sweep ran: the replay records the edited file; the plan read the old one.
+  std::ofstream(d / "scene" / "tube.yaml", std::ios::app) << "# edited\n";
+  write_output(runs[1], sha256_file((d / "scene" / "tube.yaml").string()), "solver.virtual_iterations=2");
+  s = summarize_sweep(p, runs, dir);
+  EXPECT_EQ(s.table.rows[1][1], "pending");
+  EXPECT_EQ(s.ok, 0u);
+}
+
 // A folder made before the ids came from the files' contents holds its outputs under the runs'
 // legacy ids (the files' paths): a sweep takes each over (output, log) for the run that has none
 // under its id, and leaves a legacy file alone where the run already has its own.

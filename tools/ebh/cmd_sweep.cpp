@@ -76,10 +76,10 @@ std::vector<RunState> run_states(const SweepPlan& plan, const fs::path& dir, con
 /// The first line's note of the runs with an output that run again (", N made from input files
 /// edited or replaced since (run again)", ...), or "".
 std::string stale_note(const RedoCounts& redo) {
-  auto note = [](std::size_t n, const char* why) { return n ? ", " + std::to_string(n) + " " + why + " (run again)" : std::string(); };
-  return note(redo.stale, "made from input files edited or replaced since") +
-         note(redo.unreadable, "whose output does not open") +
-         note(redo.other, "whose output is not the run's replay (another window, mode, backend or overrides, or no replay)");
+  auto note = [](std::size_t n, RunState why) {
+    return n ? ", " + std::to_string(n) + " " + redo_reason(why) + " (run again)" : std::string();
+  };
+  return note(redo.stale, RunState::Stale) + note(redo.unreadable, RunState::Unreadable) + note(redo.other, RunState::Other);
 }
 
 /// "tube + tube_insert, cpu, solver.virtual_iterations=2 (ID)": a run in messages.
@@ -120,6 +120,11 @@ void check_same_plan(const SweepPlan& plan, const std::string& given, const fs::
                    "/ there reuses the runs the two plans share)");
 }
 
+/// " (N of them with an output to run again: their errors say why)", or "".
+std::string redo_note(const SweepSummary& s) {
+  return s.redo ? " (" + std::to_string(s.redo) + " of them with an output to run again: their errors say why)" : std::string();
+}
+
 /// DIR/summary.csv and DIR/summary.h5, each written atomically.
 void write_summary_files(const fs::path& dir, const CsvTable& table) {
   write_file_atomically(sweep_summary_csv(dir).string(), table.to_csv());
@@ -130,8 +135,8 @@ void write_summary_files(const fs::path& dir, const CsvTable& table) {
 SweepSummary write_summary(const SweepPlan& plan, const std::vector<SweepRun>& runs, const fs::path& dir) {
   SweepSummary s = summarize_sweep(plan, runs, dir);
   write_summary_files(dir, s.table);
-  std::printf("%s: %zu runs: %zu ok, %zu failed, %zu not run\n", sweep_summary_csv(dir).c_str(), runs.size(), s.ok, s.failed,
-              s.pending);
+  std::printf("%s: %zu runs: %zu ok, %zu failed, %zu not run%s\n", sweep_summary_csv(dir).c_str(), runs.size(), s.ok, s.failed,
+              s.pending, redo_note(s).c_str());
   return s;
 }
 
@@ -423,7 +428,9 @@ void run_sweep(const SweepArgs& a) {
                  dir.c_str(), rep.ran + rep.skipped, runs.size() - rep.ran - rep.skipped - rep.failed, rep.interrupted);
     throw ExitRequest{1};
   }
-  const std::size_t failed_rows = a.task ? 0 : write_summary(plan, all, dir).failed;
+  SweepSummary summary;
+  if (!a.task) summary = write_summary(plan, all, dir);
+  const std::size_t failed_rows = summary.failed;
   if (rep.failed) {
     const RunOutcome& f = rep.failures.front();
     std::fprintf(stderr, "ebh: error: %zu of %zu runs failed (the first: %s: %s)%s\n", rep.failed, runs.size(),
@@ -438,12 +445,24 @@ void run_sweep(const SweepArgs& a) {
                  all.size(), sweep_summary_csv(dir).c_str());
     throw ExitRequest{1};
   }
+  // Outputs the summary does not take (an input file edited while the sweep ran: its replays were
+  // of the edited file, the reference of the old one): no result to compare.
+  if (summary.redo) {
+    std::fprintf(stderr, "ebh: error: %zu of %zu runs have an output to run again in %s (their errors say why); rerun the "
+                 "same command\n", summary.redo, all.size(), sweep_summary_csv(dir).c_str());
+    throw ExitRequest{1};
+  }
 }
 
-/// The newest modification time among the sweep's run files and plan.
-fs::file_time_type newest_input(const fs::path& dir) {
+/// The newest modification time among the sweep's run files and plan, and the files the plan reads.
+fs::file_time_type newest_input(const fs::path& dir, const std::optional<SweepPlan>& plan) {
   std::error_code ec;
   fs::file_time_type newest = fs::last_write_time(sweep_plan_copy(dir), ec);
+  if (plan)
+    for (const RoleFile& f : plan_input_files(*plan)) {
+      std::error_code e2;
+      newest = std::max(newest, fs::last_write_time(f.path, e2));
+    }
   for (fs::directory_iterator it(dir / "runs", ec), end; !ec && it != end; it.increment(ec)) {
     std::error_code e2;
     newest = std::max(newest, fs::last_write_time(it->path(), e2));
@@ -458,23 +477,25 @@ void run_report(const ReportArgs& a) {
   const bool has_plan = fs::exists(sweep_plan_copy(dir), ec), has_summary = fs::exists(sweep_summary_csv(dir), ec);
   if (!has_plan && !has_summary)
     throw InputError(a.dir + ": neither summary.csv nor plan.yaml: not a sweep's folder");
-  // Collect: the summary again when runs ended after it was written (a Slurm array's tasks). A
-  // folder copied to another machine may have its files' times reordered and its plan's input
-  // files missing: then the summary it has is reported, saying so.
-  const bool collect = has_plan && (!has_summary || fs::last_write_time(sweep_summary_csv(dir), ec) <= newest_input(dir));
   // The plan, to collect or for the plot's check: the plot replaces none of the folder's files nor
   // a file the plan reads, collected or not (with a fresh summary it overwrote a plan's recording
   // with a PNG); a folder moved without its plan's inputs has none to check.
   std::optional<SweepPlan> plan;
-  std::string collect_error;
-  if (has_plan && (collect || !a.plot.empty())) {
+  std::string plan_error;
+  if (has_plan) {
     try {
       plan = read_sweep_plan(sweep_plan_copy(dir));
     } catch (const InputError& e) {
-      if (collect && !has_summary) throw;
-      if (collect) collect_error = e.what();
+      if (!has_summary) throw;
+      plan_error = e.what();
     }
   }
+  // Collect: the summary again when runs ended after it was written (a Slurm array's tasks), or
+  // when a file the plan reads was edited since (its runs' outputs are then not current). A folder
+  // copied to another machine may have its files' times reordered and its plan's input files
+  // missing: then the summary it has is reported, saying so.
+  const bool collect = has_plan && (!has_summary || fs::last_write_time(sweep_summary_csv(dir), ec) <= newest_input(dir, plan));
+  std::string collect_error = collect ? plan_error : std::string();
   std::vector<RoleFile> inputs;
   if (plan) inputs = plan_input_files(*plan);
   check_output_beside_sweep({a.plot, "the plot (--plot)"}, dir, inputs);
@@ -484,8 +505,8 @@ void run_report(const ReportArgs& a) {
       adopt_legacy(dir, runs);
       const SweepSummary s = summarize_sweep(*plan, runs, dir);
       write_summary_files(dir, s.table);
-      std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run\n", sweep_summary_csv(dir).c_str(),
-                   s.table.rows.size(), s.ok, s.failed, s.pending);
+      std::fprintf(stderr, "%s: collected %zu runs: %zu ok, %zu failed, %zu not run%s\n", sweep_summary_csv(dir).c_str(),
+                   s.table.rows.size(), s.ok, s.failed, s.pending, redo_note(s).c_str());
     } catch (const InputError& e) {
       if (!has_summary) throw;
       collect_error = e.what();

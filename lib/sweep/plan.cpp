@@ -23,12 +23,17 @@ namespace {
 
 std::string scene_inputs_sha256(const fs::path& scene_file, std::map<std::string, std::string>& digests);
 
-/// A number's text in its shortest form (shortest_number: "1e3" -> "1000", "0.50" -> "0.5"); other
+/// A number's text in its shortest form (shortest_number: "1e3" -> "1000", "0.50" -> "0.5", "+5e2"
+/// -> "500", "-0" -> "0": YAML reads a leading + as the number's sign, and -0 is the value 0); other
 /// text as it is.
 std::string shortest_if_number(const std::string& text) {
+  const char* begin = text.data();
+  const char* const last = text.data() + text.size();
+  if (text.size() > 1 && text[0] == '+' && text[1] != '-' && text[1] != '+') ++begin;  // from_chars takes no '+'
   double v = 0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
-  return ec == std::errc() && end == text.data() + text.size() && std::isfinite(v) ? shortest_number(v) : text;
+  const auto [end, ec] = std::from_chars(begin, last, v);
+  if (ec != std::errc() || end != last || !std::isfinite(v)) return text;
+  return shortest_number(v == 0 ? 0.0 : v);
 }
 
 /// Reads the plan's YAML tree; every message names the file, the line and the dotted key.

@@ -141,6 +141,27 @@ baseline: {set: {stiffness.k_con: 2000}}
   EXPECT_EQ(expand_plan(p).size(), 3u);
 }
 
+// A leading + is the number's sign and -0 is 0 (YAML reads them so): 500, +500 and +5e2 are one
+// configuration, and so are 0 and -0, in a value and in a list.
+TEST(SweepPlan, ASignedNumberIsOneConfiguration) {
+  const SweepPlan p = read_sweep_plan(plan_file("signs.yaml", R"(
+scenes:
+  - {scene: tube, recordings: [tube_insert], reference: {stiffness.k_con: 500}}
+runs:
+  - {stiffness.k_con: +500}
+  - {stiffness.k_con: +5e2}
+  - {stiffness.k_con: 500, gravity: [-0, +0.0, -9.81]}
+  - {stiffness.k_con: 500, gravity: [0, 0, -9.81]}
+set: {solver.active_region: -0}
+)"));
+  ASSERT_EQ(p.configurations.size(), 2u);
+  EXPECT_EQ(p.configurations[0], (Overrides{{"stiffness.k_con", "500"}}));
+  EXPECT_EQ(p.configurations[1].at("gravity"), "[0, 0, -9.81]");
+  EXPECT_EQ(p.set.at("solver.active_region"), "0");
+  // The first configuration is the reference's: one run of its own, the gravity one.
+  EXPECT_EQ(expand_plan(p).size(), 2u);
+}
+
 /// `recordings: all` takes a recording whose scene attribute is the scene file's path relative to
 /// the recording (as `ebh import --scene FILE` writes it), not only its name.
 TEST(SweepPlan, AllTakesARecordingThatNamesTheSceneByItsFile) {

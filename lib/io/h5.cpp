@@ -130,30 +130,6 @@ herr_t close_id(hid_t id) {
   }
 }
 
-// Whether every component of a (possibly nested) relative path exists as a link.
-bool link_exists(hid_t loc, const std::string& name) {
-  std::size_t pos = 0;
-  if (!name.empty() && name[0] == '/') pos = 1;
-  while (true) {
-    std::size_t next = name.find('/', pos);
-    std::string prefix = name.substr(0, next);
-    if (!prefix.empty() && prefix != "/") {
-      htri_t e = H5Lexists(loc, prefix.c_str(), H5P_DEFAULT);
-      if (e <= 0) return false;
-      if (next != std::string::npos) {  // an intermediate component must be a group to continue
-        // H5Oopen + H5Iget_type rather than H5Oget_info_by_name, whose signature changed in 1.12.
-        hid_t o = H5Oopen(loc, prefix.c_str(), H5P_DEFAULT);
-        if (o < 0) return false;
-        bool is_group = H5Iget_type(o) == H5I_GROUP;
-        H5Oclose(o);
-        if (!is_group) return false;
-      }
-    }
-    if (next == std::string::npos) return true;
-    pos = next + 1;
-  }
-}
-
 Handle string_type() {
   hid_t t = H5Tcopy(H5T_C_S1);
   H5Tset_size(t, H5T_VARIABLE);
@@ -328,6 +304,64 @@ std::vector<double> Object::attr_doubles(const std::string& name) const {
 // ---------------------------------------------------------------------------------------------
 // Dataset
 
+// (h5.hpp)
+bool path_exists(std::int64_t loc, const std::string& name, const std::string& file, const std::string& parent) {
+  std::size_t pos = 0;
+  if (!name.empty() && name[0] == '/') pos = 1;
+  while (true) {
+    std::size_t next = name.find('/', pos);
+    std::string prefix = name.substr(0, next);
+    if (!prefix.empty() && prefix != "/") {
+      htri_t e = H5Lexists(loc, prefix.c_str(), H5P_DEFAULT);
+      if (e <= 0) return false;
+      H5L_info_t info;
+      if (H5Lget_info(loc, prefix.c_str(), &info, H5P_DEFAULT) >= 0 && info.type != H5L_TYPE_HARD &&
+          info.type != H5L_TYPE_SOFT)
+        fail(file + ": " + (prefix[0] == '/' ? prefix : parent == "/" ? "/" + prefix : parent + "/" + prefix),
+             std::string(info.type == H5L_TYPE_EXTERNAL ? "an external link" : "a user-defined link") +
+                                        " to another file: ebh reads only what is stored in the file given; save a copy "
+                                        "with the data in it (h5py: f2['x'] = f['x'][()])");
+      if (next != std::string::npos) {  // an intermediate component must be a group to continue
+        // H5Oopen + H5Iget_type rather than H5Oget_info_by_name, whose signature changed in 1.12.
+        hid_t o = H5Oopen(loc, prefix.c_str(), H5P_DEFAULT);
+        if (o < 0) return false;
+        bool is_group = H5Iget_type(o) == H5I_GROUP;
+        H5Oclose(o);
+        if (!is_group) return false;
+      }
+    }
+    if (next == std::string::npos) return true;
+    pos = next + 1;
+  }
+}
+
+// (h5.hpp)
+void check_stored_here(std::int64_t dataset, const std::string& where, std::size_t value_size) {
+  Handle dcpl(H5Dget_create_plist(dataset));
+  if (dcpl.get() >= 0 && (H5Pget_layout(dcpl.get()) == H5D_VIRTUAL || H5Pget_external_count(dcpl.get()) > 0))
+    fail(where, std::string(H5Pget_layout(dcpl.get()) == H5D_VIRTUAL ? "a virtual dataset" : "a dataset") +
+                    " whose data is stored in other files: ebh reads only what is stored in the file given; save a "
+                    "copy with the data in it (h5py: f2['x'] = f['x'][()])");
+  // Deflate stores at most ~1032 values' bytes per byte; a dataset of up to kUnstoredBytes is read
+  // whatever it stores.
+  constexpr double kMaxExpansion = 1100, kUnstoredBytes = 64.0 * (1 << 20);
+  Handle space(H5Dget_space(dataset));
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) fail(where, "cannot read the dataset's shape");
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+  double declared = static_cast<double>(value_size);
+  for (const hsize_t d : dims) declared *= static_cast<double>(d);
+  const double stored = static_cast<double>(H5Dget_storage_size(dataset));
+  if (declared > kUnstoredBytes && declared > kMaxExpansion * stored) {
+    char what[160];
+    std::snprintf(what, sizeof what, " (%.3g GB of values) but the file stores %.3g MB of it", declared * 1e-9,
+                  stored * 1e-6);
+    fail(where, "shape " + shape_str(std::vector<std::size_t>(dims.begin(), dims.end())) + what +
+                    ": a dataset created with a shape and not its data, or a damaged file; write the data into it");
+  }
+}
+
 // (h5.hpp) A filter the dataset was written with that this HDF5 library lacks (h5py's lzf, a
 // blosc plugin) is named with what to do; `what` names the rows read, where only some were.
 std::string read_failure(std::int64_t dataset, const std::string& what) {
@@ -374,6 +408,7 @@ std::vector<std::size_t> Dataset::checked_shape(Type t, const std::vector<std::p
     fail(where(), std::string("type ") + stored + ", expected " + (is_float(t) ? "floating point" : "integer") +
                       " (" + type_name(t) + ")");
   }
+  check_stored_here(id(), where(), H5Tget_size(mem_type(t)));
   std::vector<std::size_t> s = shape();
   if (!expected.empty()) {
     bool match = s.size() == expected.size();
@@ -384,9 +419,12 @@ std::vector<std::size_t> Dataset::checked_shape(Type t, const std::vector<std::p
   return s;
 }
 
+void Dataset::require_stored(std::size_t value_size) const { check_stored_here(id(), where(), value_size); }
+
 std::vector<std::string> Dataset::read_strings() const {
   Handle type(H5Dget_type(id()));
   if (H5Tget_class(type.get()) != H5T_STRING) fail(where(), "not a dataset of strings");
+  check_stored_here(id(), where(), H5Tget_size(type.get()));
   const std::vector<std::size_t> s = shape();
   if (s.size() != 1) fail(where(), "shape " + shape_str(s) + ", expected (N,) strings");
   std::vector<std::string> out(s[0]);
@@ -483,7 +521,7 @@ std::string Group::child_path(const std::string& name) const {
   return path_ == "/" ? "/" + name : path_ + "/" + name;
 }
 
-bool Group::has(const std::string& name) const { return link_exists(id(), name); }
+bool Group::has(const std::string& name) const { return path_exists(id(), name, file_, path_); }
 
 Group Group::group(const std::string& name) const {
   std::string p = child_path(name);

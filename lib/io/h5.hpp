@@ -152,6 +152,8 @@ class Dataset : public Object {
   }
   /// Reads a 1-D dataset of strings (variable or fixed length); InputError when it is not one.
   std::vector<std::string> read_strings() const;
+  /// check_stored_here for a reader of its own (values of `value_size` bytes): done by every read above.
+  void require_stored(std::size_t value_size) const;
 
  protected:
   friend class Group;
@@ -310,6 +312,19 @@ void silence_errors();
 /// decompress (a damaged file), else no reason. Reads HDF5's error stack: call it right after the
 /// failed call. For readers that use the HDF5 library directly.
 std::string read_failure(std::int64_t dataset, const std::string& what = "the dataset");
+
+/// Whether every component of `name` (relative to the group `loc`, whose path is `parent`, or
+/// absolute) exists as a link. A component that is an external or user-defined link is refused
+/// (InputError naming `file` and the path): its target is another file, which may be anything (a
+/// FIFO blocks the reader forever). For readers that use the HDF5 library directly too.
+bool path_exists(std::int64_t loc, const std::string& name, const std::string& file, const std::string& parent = "/");
+
+/// Refuses, before a read, a dataset (an HDF5 identifier) whose data its file does not hold: kept
+/// in other files (raw external storage, a virtual dataset), or a declared shape of more than it
+/// stores (read as `value_size` bytes a value: a dataset created with a shape and not its data,
+/// which a reader would allocate in full). `where` names it. For readers that use the HDF5 library
+/// directly too.
+void check_stored_here(std::int64_t dataset, const std::string& where, std::size_t value_size);
 
 [[noreturn]] void throw_bad_append(const std::string& where, std::size_t n, std::size_t row_size);
 

@@ -96,14 +96,8 @@ class Reader {
  public:
   explicit Reader(std::string path) : path_(std::move(path)), file_(open(path_), H5Fclose) {}
 
-  /// True when every component of an absolute path ("/a/b") exists.
-  bool exists(const std::string& name) const {
-    std::size_t pos = 0;
-    while ((pos = name.find('/', pos + 1)) != std::string::npos) {
-      if (H5Lexists(file_.get(), name.substr(0, pos).c_str(), H5P_DEFAULT) <= 0) return false;
-    }
-    return H5Lexists(file_.get(), name.c_str(), H5P_DEFAULT) > 0;
-  }
+  /// True when every component of an absolute path ("/a/b") exists (an external link refused).
+  bool exists(const std::string& name) const { return h5::path_exists(file_.get(), name, path_); }
 
   /// Reads a numeric dataset of shape (rows) when cols == 0, else (rows, cols), converted to T.
   /// rows < 0 accepts any length. Returns nullopt when absent and optional.
@@ -116,6 +110,7 @@ class Reader {
     }
     Handle ds(H5Dopen2(file_.get(), name.c_str(), H5P_DEFAULT), H5Dclose);
     if (!ds.ok()) fail(name, "is not a dataset");
+    h5::check_stored_here(ds.get(), path_ + ": " + name, H5Tget_size(mem_type));
     Handle type(H5Dget_type(ds.get()), H5Tclose);
     H5T_class_t cls = H5Tget_class(type.get());
     if (cls != H5T_FLOAT && cls != H5T_INTEGER) fail(name, "is not numeric");

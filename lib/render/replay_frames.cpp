@@ -111,7 +111,9 @@ ReplayFrames open_replay_frames(const std::string& path) {
   // Shapes only (the positions themselves are read frame by frame).
   for (const auto& [name, rows] : {std::pair{"frames/virtual_positions", m}, std::pair{"frames/physical_positions", n}}) {
     if (!f.has(name)) throw InputError(path + ": /" + name + ": missing");
-    const auto s = f.dataset(name).shape();
+    const h5::Dataset d = f.dataset(name);
+    d.require_stored(sizeof(float));  // read frame by frame below
+    const auto s = d.shape();
     if (s.size() != 3 || s[0] != F || s[1] != static_cast<std::size_t>(rows) || s[2] != 3)
       throw InputError(path + ": /" + name + ": expected shape (" + std::to_string(F) + ", " + std::to_string(rows) +
                        ", 3) to match /frames/t and /mesh");

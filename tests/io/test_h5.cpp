@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <vector>
 
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -95,6 +96,56 @@ TEST(H5, ErrorsNameFileAndObject) {
   EXPECT_INPUT_ERROR(h5::File::open_read(tmp / "text.h5"), "text.h5", "not an HDF5 file");
   h5::File w = h5::File::create(tmp / "c.h5");
   EXPECT_INPUT_ERROR(w.write<double>("y", std::vector<double>{1, 2, 3}, {2, 2}), "/y", "do not fill the shape (2, 2)");
+}
+
+// Data kept in another file (an external link, raw external storage, a virtual dataset's source)
+// is refused before it is opened or read: the other file may be anything (a FIFO blocked the
+// reader forever); a dataset declaring a shape it does not store (2.4 GB of a dataset created
+// without its data) is refused before a reader allocates it.
+TEST(H5, DataOutsideTheFileAndUnstoredShapesAreRefused) {
+  test::ScratchDir tmp;
+  const std::string other = tmp / "other.h5", path = tmp / "links.h5", fifo = tmp / "fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  {
+    h5::File f = h5::File::create(other);
+    f.write<double>("t", std::vector<double>{0, 1, 2}, {3});
+  }
+  {
+    const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    ASSERT_GE(H5Lcreate_external(fifo.c_str(), "/t", f, "linked", H5P_DEFAULT, H5P_DEFAULT), 0);
+    const hid_t g = H5Gcreate2(f, "group", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(H5Lcreate_external(other.c_str(), "/t", g, "t", H5P_DEFAULT, H5P_DEFAULT), 0);
+    H5Gclose(g);
+    const hsize_t n = 3, huge = 300000000, unlimited = H5S_UNLIMITED, chunk = 4096;
+    hid_t space = H5Screate_simple(1, &n, nullptr);
+    hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    ASSERT_GE(H5Pset_external(dcpl, fifo.c_str(), 0, H5F_UNLIMITED), 0);
+    H5Dclose(H5Dcreate2(f, "external", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT));
+    H5Pclose(dcpl);
+    dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    const hid_t source = H5Screate_simple(1, &n, nullptr);
+    ASSERT_GE(H5Pset_virtual(dcpl, space, fifo.c_str(), "/t", source), 0);
+    H5Dclose(H5Dcreate2(f, "virtual", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT));
+    H5Sclose(source);
+    H5Pclose(dcpl);
+    H5Sclose(space);
+    space = H5Screate_simple(1, &huge, &unlimited);
+    dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(dcpl, 1, &chunk);
+    H5Dclose(H5Dcreate2(f, "unstored", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT));
+    H5Pclose(dcpl);
+    H5Sclose(space);
+    H5Fclose(f);
+  }
+  h5::File f = h5::File::open_read(path);
+  EXPECT_INPUT_ERROR(f.read<double>("linked"), path, "/linked", "an external link to another file");
+  EXPECT_INPUT_ERROR(f.read<double>("group/t"), path, "/group/t", "an external link to another file");
+  EXPECT_INPUT_ERROR(f.group("group").read<double>("t"), path, "/group/t", "an external link to another file");
+  EXPECT_INPUT_ERROR(f.read<double>("external"), path, "/external", "a dataset whose data is stored in other files");
+  EXPECT_INPUT_ERROR(f.read<double>("virtual"), path, "/virtual", "a virtual dataset whose data is stored in other files");
+  EXPECT_INPUT_ERROR(f.read<double>("unstored"), path, "/unstored", "shape (300000000,) (2.4 GB of values) but the file "
+                                                                    "stores 0 MB of it");
 }
 
 // A dataset compressed with a filter this HDF5 library lacks (h5py's lzf, written by

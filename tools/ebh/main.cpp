@@ -1,6 +1,7 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
 #include <algorithm>
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -82,6 +83,10 @@ int main(int argc, char** argv) {
   // A signal before the command polls for one (loading a large log or mesh; validate, table1)
   // ends the process with a line and 128 + signal rather than without a word.
   ebh::install_early_interrupt_handlers();
+  // A file-size limit (ulimit -f) would end the process by SIGXFSZ without a word, its temporary
+  // output left behind: ignored, the write fails with EFBIG and goes the way of a full disk (one
+  // line, the temporary removed, exit 1). Commands the sweep starts inherit it.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"ebh: energy-based haptic rendering for surgical simulation (batch replay, validation, benchmarks)"};
   app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
   app.require_subcommand(1);

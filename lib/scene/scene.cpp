@@ -644,6 +644,21 @@ void leaf_keys(const std::string& key, const YAML::Node& value, std::vector<std:
   for (const auto& kv : value) leaf_keys(key + "." + (kv.first.IsScalar() ? kv.first.Scalar() : "?"), kv.second, out);
 }
 
+/// A map in an override's value that names a key twice: refused as in a scene file (yaml-cpp
+/// keeps both, and merge_into would take the last without a word).
+void refuse_repeated_keys(const YAML::Node& value, const std::string& key, const std::string& text) {
+  if (!value.IsMap()) return;
+  std::vector<std::string> seen;
+  for (const auto& kv : value) {
+    if (!kv.first.IsScalar()) continue;  // not a key of the schema: the reader names it
+    const std::string name = kv.first.Scalar();
+    if (std::find(seen.begin(), seen.end(), name) != seen.end())
+      throw OverrideError(text, "key '" + key + "." + name + "' given twice in the value");
+    seen.push_back(name);
+    refuse_repeated_keys(kv.second, key + "." + name, text);
+  }
+}
+
 /// Applies one "a.b.c=value" override to the YAML tree (creating maps along the way).
 void apply_override(YAML::Node root, const std::string& text) {
   const auto eq = text.find('=');
@@ -656,6 +671,7 @@ void apply_override(YAML::Node root, const std::string& text) {
   } catch (const YAML::Exception& e) {
     throw InputError(OverrideError::set_option_shown(text) + ": in the value: " + yaml_parse_problem(e));
   }
+  refuse_repeated_keys(parsed, key, text);
   std::vector<YAML::Node> path{root};
   std::size_t start = 0;
   while (true) {

@@ -1126,6 +1126,11 @@ TEST(Scene, AMapOverrideMergesIntoTheSection) {
   EXPECT_EQ(twice({"stiffness={k_vol: 500}", "stiffness=3"}),
             "--set 'stiffness=3': key 'stiffness.k_vol' given twice (also --set 'stiffness={k_vol: 500}')");
   EXPECT_EQ(twice({"stiffness={k_vol: 500}", "stiffness={k_s: 30}"}), "no error");
+  EXPECT_EQ(twice({"stiffness={k_con: 5, k_con: 6}"}),
+            "--set 'stiffness={k_con: 5, k_con: 6}': key 'stiffness.k_con' given twice in the value");
+  EXPECT_EQ(twice({"tool={forceps: {jaw_length: 7, jaw_length: 8}}"}),
+            "--set 'tool={forceps: {jaw_length: 7, jaw_length: 8}}': key 'tool.forceps.jaw_length' given twice in the "
+            "value");
   EXPECT_EQ(override_keys("time={haptic_hz: 500, physical_hz: 50}"),
             (std::vector<std::string>{"time.haptic_hz", "time.physical_hz"}));
   EXPECT_EQ(override_keys("time.haptic_hz=[unclosed"), (std::vector<std::string>{"time.haptic_hz"}));

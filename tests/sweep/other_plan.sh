@@ -43,6 +43,20 @@ scenes:
 PLAN
 "$ebh" sweep "$work/a_again.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "the same plan: $(cat "$work/err.txt")"
 "$ebh" sweep "$dir/plan.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "the folder's plan: $(cat "$work/err.txt")"
+# A folder whose plan.yaml does not read (cut short, emptied): its error is named, not another plan.
+cp "$dir/plan.yaml" "$work/kept.yaml"
+for broken in "garbage: [" ""; do
+  printf '%s\n' "$broken" >>"$dir/plan.yaml"
+  [ -z "$broken" ] && : >"$dir/plan.yaml"
+  status=0
+  "$ebh" sweep "$work/a.yaml" -o "$dir" >/dev/null 2>"$work/err.txt" || status=$?
+  [ $status = 1 ] || fail "broken plan.yaml '$broken': exit status $status: $(cat "$work/err.txt")"
+  [ "$(wc -l <"$work/err.txt")" = 1 ] || fail "broken plan.yaml '$broken': not one line: $(cat "$work/err.txt")"
+  if [ -n "$broken" ]; then want="$dir/plan.yaml:[0-9]*: YAML syntax error"; else want="$dir/plan.yaml: empty plan"; fi
+  grep -q "^ebh: error: $want.*(the plan of the sweep's folder $dir, .*repair it, or give $work/a.yaml a new folder" \
+    "$work/err.txt" || fail "broken plan.yaml '$broken': $(cat "$work/err.txt")"
+  cp "$work/kept.yaml" "$dir/plan.yaml"
+done
 # A folder without a plan.yaml that holds a summary is no sweep's: refused, as it is. One whose
 # runs/ holds run files only (copied from another sweep's folder) takes any plan.
 rm "$dir/plan.yaml"

@@ -112,8 +112,11 @@ void check_same_plan(const SweepPlan& plan, const std::string& given, const fs::
   if (file_text(kept) == resolved) return;
   try {
     if (resolved_plan_yaml(read_sweep_plan(kept)) == resolved) return;
-  } catch (const InputError&) {
-    // a plan that no longer reads (its files moved): not this one
+  } catch (const InputError& e) {
+    // A plan that no longer reads (cut short, emptied, edited by hand, its files moved): its own
+    // error is the cause, not another plan.
+    throw InputError(std::string(e.what()) + " (the plan of the sweep's folder " + dir.string() + ", which " + given +
+                     " is compared with; repair it, or give " + given + " a new folder: -o NEW_DIR)");
   }
   throw InputError(kept.string() + ": another plan's folder: its scenes, recordings, configurations or settings are not " +
                    given + "'s; give " + given + " a new folder (-o NEW_DIR; copying " + (dir / "runs").string() +

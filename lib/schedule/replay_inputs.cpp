@@ -133,7 +133,8 @@ std::optional<std::string> tool_mismatch(const Recording& rec, const SceneSpec& 
   const char* scene_tool = spec.tool.kind == ToolSpec::Kind::Forceps ? "forceps" : "hook";
   if (rec.tool == scene_tool || grasp_lost_said) return std::nullopt;
   if (rec.tool != "hook" && rec.tool != "forceps")
-    return "attribute tool = '" + rec.tool + "' is neither hook nor forceps: the replay moves the scene's " + scene_tool;
+    return "attribute tool = '" + clipped(escape_unprintable(rec.tool), 80) +
+           "' is neither hook nor forceps: the replay moves the scene's " + scene_tool;
   return "recorded with a " + rec.tool + " (its tool attribute) and replayed with the scene's " + scene_tool;
 }
 
@@ -175,7 +176,8 @@ std::optional<std::string> scene_mismatch(const Recording& rec, const std::strin
         scene_name.compare(named.size(), 2, derived) == 0 &&
         std::isdigit(static_cast<unsigned char>(scene_name[named.size() + 2])))
       return std::nullopt;
-  return "recorded for the scene '" + rec.scene + "' (its scene attribute) and replayed on '" + scene_name + "' (" +
+  return "recorded for the scene '" + clipped(escape_unprintable(rec.scene), 80) + "' (its scene attribute) and replayed on '" +
+         scene_name + "' (" +
          scene_file.string() + "): its path was made for another scene's geometry and tool";
 }
 

@@ -117,6 +117,14 @@ TEST(ToolMismatch, TheRecordingsToolAgainstTheScenes) {
   const std::string other = warnings("hook", "tube_forceps");
   EXPECT_NE(other.find("recorded for the scene 'tube'"), std::string::npos) << other;
   EXPECT_EQ(other.find("its tool attribute"), std::string::npos) << other;
+  // An attribute's text is quoted on one line and clipped: a newline escaped, a megabyte cut.
+  EXPECT_NE(warnings("hook\nrm", "tube").find("attribute tool = 'hook\\x0arm' is neither"), std::string::npos);
+  EXPECT_LT(warnings(std::string(1 << 20, 'x'), "tube").size(), 400u);
+  RecordingFile renamed = file;
+  renamed.recording.scene = "gap\nrm";
+  const LoadedReplay r = load_replay_scene(std::move(renamed), "tube", {}, std::nullopt, std::nullopt, false, Backend::Cpu);
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings[0].find("recorded for the scene 'gap\\x0arm'"), std::string::npos) << r.warnings[0];
 }
 
 // Surface contact renders a k_con below its floor (F_limit / (1.5 x the thinnest part)) as the

@@ -128,7 +128,7 @@ void write_sizes_plot(const std::vector<SizeResult>& sizes, const std::vector<do
 /// What makes a size's costs other than a replay's at work: the inputs' warnings, and a window
 /// in which the tool never touched the tissue (the tick's costs are free motion's).
 void warn_size(const SizeResult& r) {
-  for (const std::string& w : r.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   if (r.contact_ticks == 0)
     std::fprintf(stderr,
                  "ebh: warning: level %d: the tool never touched the tissue in this window: the costs are free "

@@ -107,7 +107,8 @@ void print_scene_warnings(const Scene& scene, Mode mode, const std::string& wher
   for (std::string& w : tool_stiffness_warnings(scene.spec)) warnings.push_back(std::move(w));
   if (mode != Mode::Lockstep)
     if (std::string w = edges_outweigh_coupling_warning(scene.spec); !w.empty()) warnings.push_back(std::move(w));
-  for (const std::string& w : warnings) std::fprintf(stderr, "ebh: warning: %s%s\n", where.c_str(), w.c_str());
+  for (const std::string& w : warnings)
+    std::fprintf(stderr, "ebh: warning: %s%s\n", where.c_str(), ebh::escape_unprintable(w).c_str());
 }
 
 /// The world's rates, window and frames checked, the output's metadata; `in` already loaded.
@@ -405,7 +406,7 @@ void run_replay(const ReplayArgs& a) {
   print_scene_warnings(p.in.world->scene, parse_mode(a.mode), "");
   prepare_replay(a, p);
   // After the checks that refuse the replay: a refused one says one line, its error.
-  for (const std::string& w : p.in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+  for (const std::string& w : p.in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   install_interrupt_handlers();
   p.writer = std::make_unique<ReplayWriter>(a.out, *p.in.world, p.meta, p.ticks, p.opt.frames_hz > 0);
   Progress progress(p.ticks, !a.quiet && isatty(STDERR_FILENO));
@@ -568,7 +569,8 @@ void run_batch(const ReplayArgs& top, const std::string& file, int at_once) {
   }
   for (std::size_t i = 0; i < B; ++i) {
     print_scene_warnings(prepared[i].in.world->scene, prepared[i].opt.mode, lines[i].where + ": ");
-    for (const std::string& w : prepared[i].in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
+    for (const std::string& w : prepared[i].in.warnings)
+      std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   }
   install_interrupt_handlers();
   std::vector<BatchReplay> batch(B);

@@ -39,4 +39,21 @@ before=$(cd "$work/old" && find . -type f | sort | xargs sha256sum)
 submit "$work/bin:$PATH" "$work/old" "sbatch failed"
 after=$(cd "$work/old" && find . -type f | sort | xargs sha256sum)
 [ "$before" = "$after" ] || fail "the folder changed: before $before, after $after"
+
+# 3. Slurm options without --slurm: refused, not run here; --tasks past the run count: one task per run.
+for extra in "--slurm-args=--partition=gpu" "--tasks 2"; do
+  status=0
+  "$ebh" sweep "$work/plan.yaml" -o "$work/here" $extra >"$work/out.txt" 2>"$work/err.txt" || status=$?
+  [ $status != 0 ] || fail "$extra without --slurm: exit status 0"
+  [ ! -e "$work/here" ] || fail "$extra without --slurm: ran here: $(find "$work/here")"
+done
+grep -q "^ebh: error: --tasks needs --slurm" "$work/err.txt" || fail "--tasks without --slurm: $(cat "$work/err.txt")"
+"$ebh" sweep "$work/plan.yaml" -o "$work/here" --slurm-args=-c2 >/dev/null 2>"$work/err.txt"
+grep -q -- "--slurm-args.*--slurm" "$work/err.txt" || fail "--slurm-args without --slurm: $(cat "$work/err.txt")"
+printf '#!/bin/sh\necho "$@" >"%s"\necho 42\n' "$work/sbatch_args.txt" >"$work/bin/sbatch"
+PATH="$work/bin:$PATH" "$ebh" sweep "$work/plan.yaml" -o "$work/capped" --slurm --tasks 50 >"$work/out.txt" 2>"$work/err.txt" ||
+  fail "--tasks 50: $(cat "$work/err.txt")"
+grep -q -- "--array=0-1 " "$work/sbatch_args.txt" || fail "--tasks 50 of 2 runs: sbatch $(cat "$work/sbatch_args.txt")"
+grep -q "^ebh sweep: --tasks 50: the plan has 2 runs here; submitting 2 tasks" "$work/err.txt" || fail "--tasks 50: $(cat "$work/err.txt")"
+grep -q -- "--tasks 2 " "$work/capped/sweep.sbatch" || fail "--tasks 50: $(cat "$work/capped/sweep.sbatch")"
 echo "slurm fails: ok"

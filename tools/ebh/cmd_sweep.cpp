@@ -277,7 +277,11 @@ void submit_slurm(const SweepArgs& a, const SweepPlan& plan, const std::vector<S
     std::printf("%s: all %zu runs are done; nothing to submit (ebh sweep report %s)\n", dir.c_str(), runs.size(), dir.c_str());
     return;
   }
-  const int tasks = a.tasks.value_or(static_cast<int>(std::min<std::size_t>(runs.size(), 1000)));
+  // A task per run at most: more would be tasks with no run, each still queued and started.
+  const int tasks = static_cast<int>(std::min<std::size_t>(a.tasks ? static_cast<std::size_t>(*a.tasks) : 1000, runs.size()));
+  if (a.tasks && *a.tasks > tasks)
+    std::fprintf(stderr, "ebh sweep: --tasks %d: the plan has %zu runs here; submitting %d tasks, one per run\n", *a.tasks,
+                 runs.size(), tasks);
   const fs::path abs_dir = fs::absolute(dir).lexically_normal();
   std::string command = "exec " + shell_quote(executable()) + " sweep " + shell_quote(sweep_plan_copy(abs_dir).string()) + " -o " +
                         shell_quote(abs_dir.string()) + " --task \"$SLURM_ARRAY_TASK_ID\" --tasks " +
@@ -348,6 +352,7 @@ class ProgressPrinter {
 };
 
 void run_sweep(const SweepArgs& a) {
+  if (a.tasks && !a.task && !a.slurm) throw InputError("--tasks needs --slurm (the job array's tasks)");
   if (a.task.has_value() != a.tasks.has_value() && !(a.slurm && a.tasks && !a.task))
     throw InputError("--task and --tasks go together (a Slurm array task's slice)");
   if (a.task && (*a.task < 0 || *a.task >= *a.tasks))
@@ -547,9 +552,12 @@ void setup(CLI::App& root) {
       ->check(CLI::Range(1, 1024))
       ->needs(batch_option);
   c->add_flag("--collect", args->collect, "Only rebuild DIR/summary.csv and summary.h5 from the runs' outputs");
-  c->add_flag("--slurm", args->slurm, "Submit the plan as a Slurm job array (sbatch --array) instead of running it here");
-  c->add_option("--slurm-args", args->slurm_args, "More sbatch options, e.g. \"--partition=gpu --gres=gpu:1 -c 4\"");
-  c->add_option("--tasks", args->tasks, "Array tasks with --slurm (default: one per run, at most 1000)")->check(CLI::Range(1, 100000));
+  CLI::Option* slurm_option =
+      c->add_flag("--slurm", args->slurm, "Submit the plan as a Slurm job array (sbatch --array) instead of running it here");
+  c->add_option("--slurm-args", args->slurm_args, "More sbatch options, e.g. \"--partition=gpu --gres=gpu:1 -c 4\"")
+      ->needs(slurm_option);
+  c->add_option("--tasks", args->tasks, "Array tasks with --slurm (default: one per run, at most 1000; at most one per run)")
+      ->check(CLI::Range(1, 100000));
   c->add_option("--task", args->task, "")->group("");  // a Slurm array task's slice (with --tasks)
   auto report = std::make_shared<ReportArgs>();
   CLI::App* r = c->add_subcommand("report", "Run time against force error: Markdown table, Pareto front, --plot PNG");

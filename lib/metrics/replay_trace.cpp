@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <optional>
 #include <sstream>
+#include <string>
+#include <type_traits>
 
 #include "core/error.hpp"
 #include "io/h5.hpp"
@@ -114,6 +116,8 @@ class Reader {
     Handle type(H5Dget_type(ds.get()), H5Tclose);
     H5T_class_t cls = H5Tget_class(type.get());
     if (cls != H5T_FLOAT && cls != H5T_INTEGER) fail(name, "is not numeric");
+    // Counts and flags are integers: floating point (NaN read as 0 contacts) is another tool's file.
+    if (std::is_integral_v<T> && cls != H5T_INTEGER) fail(name, "is stored as floating point numbers; expected integers");
     // The datasets of a physical quantity: floating point in their SI unit, as `ebh replay`
     // writes them; a file of other code that stores them as integers or in other units
     // (force in mN) would give numbers off by the factor, without a word.
@@ -204,6 +208,14 @@ std::vector<Vec3d> vec3s(const std::vector<double>& rows) {
   return out;
 }
 
+/// Times must increase (strictly) where finite; non-finite ones are left for compute_metrics to
+/// count.
+void increasing(const Reader& in, const std::string& name, const std::vector<double>& t) {
+  for (std::size_t i = 1; i < t.size(); ++i)
+    if (std::isfinite(t[i]) && std::isfinite(t[i - 1]) && !(t[i] > t[i - 1]))
+      in.fail(name, "is not strictly increasing at index " + std::to_string(i));
+}
+
 }  // namespace
 
 long ReplayTrace::frame_ticks() const {
@@ -234,11 +246,8 @@ ReplayTrace load_replay(const std::string& path) {
 
   tr.t = in.doubles("/haptic/t", -1);
   const long n = static_cast<long>(tr.t.size());
-  for (long i = 1; i < n; ++i) {
-    // Non-finite times are left for compute_metrics to count; finite ones must increase.
-    if (std::isfinite(tr.t[i]) && std::isfinite(tr.t[i - 1]) && !(tr.t[i] > tr.t[i - 1]))
-      in.fail("/haptic/t", "is not strictly increasing at index " + std::to_string(i));
-  }
+  if (n == 0) in.fail("/haptic/t", "is empty: the output holds no ticks");
+  increasing(in, "/haptic/t", tr.t);
   // The ticks' own spacing against the attribute every rate-dependent metric takes (the FFT's
   // bins, the frame boundaries, the budget): a file edited or written by another tool.
   if (n >= 2 && std::isfinite(tr.t.front()) && std::isfinite(tr.t.back()) && tr.t.back() > tr.t.front()) {
@@ -249,6 +258,15 @@ ReplayTrace load_replay(const std::string& path) {
                     tr.t.back() - tr.t.front(), from_t);
       in.fail_attr("haptic_hz", why);
     }
+  }
+  // The physical rate divides the haptic rate into whole ticks per step, at least 1 Hz (as a
+  // replay has it: kMinReplayPhysicalHz): the frame-boundary metric reads its steps from the two.
+  if (const double ratio = tr.haptic_hz / tr.physical_hz;
+      !(ratio >= 1) || !(tr.physical_hz >= 1) || std::fabs(ratio - std::round(ratio)) > 1e-6 * ratio) {
+    char why[200];
+    std::snprintf(why, sizeof why, "is %g Hz: it must be at least 1 Hz and the haptic rate (%g Hz) over it a whole "
+                  "number of ticks per step", tr.physical_hz, tr.haptic_hz);
+    in.fail_attr("physical_hz", why);
   }
   tr.force = vec3s(in.doubles("/haptic/force", n, 3));
   tr.torque = vec3s(in.doubles("/haptic/torque", n, 3));
@@ -263,6 +281,7 @@ ReplayTrace load_replay(const std::string& path) {
   tr.haptic_step_s = in.doubles("/timing/haptic_step_s", n);
 
   tr.physical_t = in.optional_doubles("/physical/t", -1);
+  increasing(in, "/physical/t", tr.physical_t);
   const long k = static_cast<long>(tr.physical_t.size());
   if (in.exists("/physical/t")) {
     tr.physical_iterations = in.optional_doubles("/physical/iterations", k);

@@ -421,6 +421,48 @@ TEST(ForceMetrics, WrongShapeAndBadFilesAreInputErrors) {
     }
     EXPECT_EQ(load_replay(p).force[7].y, 0.25);
   }
+  // A count stored as floating point (NaN read as 0 contacts: "never touched"), no ticks, a
+  // physical rate that does not divide the haptic rate, physical times that do not increase.
+  {
+    const std::string p = write_trace(tr, "f64_contacts", "/haptic/contacts");
+    {
+      h5::File f = h5::File::open_write(p);
+      f.write<double>("/haptic/contacts", std::vector<double>(50, std::nan("")), {50});
+    }
+    try {
+      load_replay(p);
+      ADD_FAILURE() << "float contacts read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("'/haptic/contacts' is stored as floating point numbers; expected integers"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  auto load_error = [](const ReplayTrace& t, const std::string& name,
+                       const std::function<void(h5::File&)>& edit = [](h5::File&) {}) -> std::string {
+    const std::string p = write_trace(t, name);
+    {
+      h5::File f = h5::File::open_write(p);
+      edit(f);
+    }
+    try {
+      load_replay(p);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_NE(load_error(make_trace(0), "no_ticks").find("'/haptic/t' is empty: the output holds no ticks"),
+            std::string::npos);
+  for (const double hz : {5000.0, 300.0, 1e-300}) {
+    ReplayTrace odd = tr;
+    odd.physical_hz = hz;
+    EXPECT_NE(load_error(odd, "physical_hz").find("a whole number of ticks per step"), std::string::npos) << hz;
+  }
+  EXPECT_NE(load_error(tr, "physical_t",
+                       [](h5::File& f) { f.write<double>("/physical/t", std::vector<double>(5, 0.0), {5}); })
+                .find("'/physical/t' is not strictly increasing at index 1"),
+            std::string::npos);
   EXPECT_THROW(load_replay("/nonexistent/replay.h5"), InputError);
   const auto text = (std::filesystem::path(testing::TempDir()) / "ebh_metrics_not_h5.h5").string();
   std::FILE* f = std::fopen(text.c_str(), "w");

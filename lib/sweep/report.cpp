@@ -55,7 +55,19 @@ std::vector<bool> pareto_front(const std::vector<std::pair<double, double>>& poi
   return front;
 }
 
+void check_min_haptic_hz(double hz) {
+  if (!(hz >= 0 && std::isfinite(hz)))
+    throw InputError("--min-haptic-hz " + shortest_number(hz) + ": expected a finite number >= 0 (haptic ticks per second)");
+}
+
 std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file, double min_haptic_hz) {
+  check_min_haptic_hz(min_haptic_hz);
+  // A column named twice: which one holds the run's value is anyone's guess.
+  for (std::size_t c = 0; c < t.header.size(); ++c)
+    for (std::size_t d = 0; d < c; ++d)
+      if (t.header[c] == t.header[d])
+        throw InputError(file + ": line 1, column '" + t.header[c] + "': given twice (fields " + std::to_string(d + 1) +
+                         " and " + std::to_string(c + 1) + ")");
   const std::size_t c_status = t.column("status", file), c_scene = t.column("scene", file),
                     c_rec = t.column("recording", file), c_backend = t.column("backend", file),
                     c_ref = t.column("reference", file), c_over = t.column("overrides", file),
@@ -96,6 +108,8 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], min_haptic_hz, "", {}, {}, 0};
     }
     ReportGroup& g = groups[key];
+    if (row[c_ref] != "0" && row[c_ref] != "1")
+      throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'reference': expected 0 or 1, got '" + row[c_ref] + "'");
     if (row[c_ref] == "1") {
       // One reference per scene and recording (its repetitions alike): a summary edited by hand
       // could hold two, and the errors would be against either.
@@ -107,9 +121,18 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     }
     const std::string& status = row[c_status];
     if (status == "ok") {
-      if (const double w = number(r, c_wall); !(std::isfinite(w) && w >= 0))
-        throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'wall_s': expected a finite number >= 0 (the run's wall time), got '" +
+      if (const double w = number(r, c_wall); !(std::isfinite(w) && w > 0))
+        throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'wall_s': expected a finite number > 0 (the run's wall time), got '" +
                          row[c_wall] + "'");
+      // The run's measures: empty (not measured: no reference, no region), else what a replay can
+      // give, a finite number >= 0 (a negative or infinite error would lead or leave the front).
+      for (const std::optional<std::size_t> c : {std::optional<std::size_t>(c_rtf), std::optional<std::size_t>(c_rms),
+                                                 std::optional<std::size_t>(c_max), std::optional<std::size_t>(c_p999),
+                                                 c_residual, c_hz, c_rate, c_active, c_awake, c_contact})
+        if (c && !row[*c].empty())
+          if (const double v = number(r, *c); !(std::isfinite(v) && v >= 0))
+            throw InputError(file + ": row " + std::to_string(r + 2) + ", column '" + t.header[*c] +
+                             "': expected a finite number >= 0 or nothing, got '" + row[*c] + "'");
       auto& configs = rows_of[key];
       if (!configs.count(row[c_over])) config_order[key].push_back(row[c_over]);
       configs[row[c_over]].push_back(r);

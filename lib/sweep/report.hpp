@@ -69,11 +69,17 @@ struct BaselineGoal {
 /// Nothing when the group has no finished baseline run (or its wall time or error is NaN).
 std::optional<BaselineGoal> baseline_goal(const ReportGroup& group);
 
+/// Throws InputError "--min-haptic-hz nan: expected a finite number >= 0 ..." unless `hz` is one.
+void check_min_haptic_hz(double hz);
+
 /// Groups the summary's rows (columns: status, scene, recording, backend, reference, overrides,
 /// wall_s, real_time_factor, force_error_rms_N, force_error_max_N, force_error_p999_N; optional:
 /// id, error, baseline, timing.physical_residual_max, haptic_hz). Configurations below
 /// `min_haptic_hz` haptic ticks per second are no candidates (0: every one is). Throws InputError
-/// naming `file` and a missing column or a cell that is not a number.
+/// naming `file`, the row and the column for a missing column, a column named twice, a reference
+/// other than 0 or 1, and in an ok row a wall time that is not a finite number > 0 or a measure
+/// (real-time factor, force errors, residual, haptic rate, ...) that is neither empty nor a finite
+/// number >= 0.
 std::vector<ReportGroup> build_report(const CsvTable& summary, const std::string& file, double min_haptic_hz = 0);
 
 /// A candidate against the baseline whose max physical residual is more than this many times the

@@ -1266,13 +1266,13 @@ TEST(SweepReport, MissingColumnAndBadNumberAreNamed) {
   }
   // Values a replay cannot have written: a negative wall time (it would lead the front), two
   // references for one recording (the errors would be against either).
-  for (const char* wall : {"-1", "nan", "inf"})
+  for (const char* wall : {"-1", "nan", "inf", "0"})
     try {
       (void)build_report(parse_csv(header + "ok,tube,r,cpu,0,-," + wall + ",1,0,0,0\n", "s.csv"), "s.csv");
       ADD_FAILURE() << wall;
     } catch (const InputError& e) {
       EXPECT_EQ(std::string(e.what()),
-                std::string("s.csv: row 2, column 'wall_s': expected a finite number >= 0 (the run's wall time), got '") +
+                std::string("s.csv: row 2, column 'wall_s': expected a finite number > 0 (the run's wall time), got '") +
                     wall + "'");
     }
   try {
@@ -1284,6 +1284,41 @@ TEST(SweepReport, MissingColumnAndBadNumberAreNamed) {
   } catch (const InputError& e) {
     EXPECT_STREQ(e.what(), "s.csv: row 4, column 'reference': a second reference for tube + r (a=2 (cpu); the first: a=1 (cpu))");
   }
+}
+
+// Each measure of an ok row is what a replay can give (empty, or a finite number >= 0), the
+// reference flag 0 or 1, each column named once, the rate floor a number: a summary edited by
+// hand that breaks one is refused naming the row and column, not reported (an error of -1 or
+// -inf led the front, a wall time of 0 gave "-x faster").
+TEST(SweepReport, BadCellsAreNamed) {
+  const std::string header =
+      "status,scene,recording,backend,reference,overrides,wall_s,real_time_factor,force_error_rms_N,force_error_max_N,"
+      "force_error_p999_N,haptic_hz\n";
+  auto error_of = [](const std::string& text, double min_hz = 0) {
+    try {
+      (void)build_report(parse_csv(text, "s.csv"), "s.csv", min_hz);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(error_of(header + "ok,tube,r,cpu,0,-,1,1,0,0,0,\n"), "accepted");
+  for (const char* v : {"-1", "-inf", "inf", "nan"}) {
+    EXPECT_EQ(error_of(header + "ok,tube,r,cpu,0,-,1,1," + v + ",0,0,1000\n"),
+              std::string("s.csv: row 2, column 'force_error_rms_N': expected a finite number >= 0 or nothing, got '") + v + "'");
+    EXPECT_EQ(error_of(header + "ok,tube,r,cpu,0,-,1,1,0,0,0," + v + "\n"),
+              std::string("s.csv: row 2, column 'haptic_hz': expected a finite number >= 0 or nothing, got '") + v + "'");
+  }
+  EXPECT_EQ(error_of(header + "ok,tube,r,cpu,0,-,1,1,0,-5,0,1000\n"),
+            "s.csv: row 2, column 'force_error_max_N': expected a finite number >= 0 or nothing, got '-5'");
+  for (const char* ref : {"yes", "2", ""})
+    EXPECT_EQ(error_of(header + "ok,tube,r,cpu," + ref + ",-,1,1,0,0,0,1000\n"),
+              std::string("s.csv: row 2, column 'reference': expected 0 or 1, got '") + ref + "'");
+  EXPECT_EQ(error_of("status,scene,recording,backend,reference,overrides,wall_s,real_time_factor,force_error_rms_N,"
+                     "force_error_max_N,force_error_p999_N,wall_s\nok,tube,r,cpu,0,-,1,1,0,0,0,2\n"),
+            "s.csv: line 1, column 'wall_s': given twice (fields 7 and 12)");
+  EXPECT_EQ(error_of(header + "ok,tube,r,cpu,0,-,1,1,0,0,0,1000\n", std::nan("")),
+            "--min-haptic-hz nan: expected a finite number >= 0 (haptic ticks per second)");
 }
 
 }  // namespace

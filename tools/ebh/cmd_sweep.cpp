@@ -479,6 +479,7 @@ fs::file_time_type newest_input(const fs::path& dir, const std::optional<SweepPl
 }
 
 void run_report(const ReportArgs& a) {
+  check_min_haptic_hz(a.min_haptic_hz);  // NaN passes CLI::Range
   const fs::path dir = a.dir;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(a.dir + ": not a folder (expected a sweep's folder, ebh sweep -o DIR)");

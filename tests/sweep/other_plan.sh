@@ -43,6 +43,22 @@ scenes:
 PLAN
 "$ebh" sweep "$work/a_again.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "the same plan: $(cat "$work/err.txt")"
 "$ebh" sweep "$dir/plan.yaml" -o "$dir" --collect >/dev/null 2>"$work/err.txt" || fail "the folder's plan: $(cat "$work/err.txt")"
+# A row deleted from summary.csv by hand: the report names the run it lacks and how to rebuild it.
+rows=$work/rows
+"$ebh" sweep "$work/a.yaml" -o "$rows" --collect >/dev/null 2>"$work/err.txt" || fail "rows: $(cat "$work/err.txt")"
+id=$(sed -n 3p "$rows/summary.csv" | cut -d, -f1)
+mkdir -p "$rows/runs"
+echo "another program's file" >"$rows/runs/$id.h5"
+"$ebh" sweep "$work/a.yaml" -o "$rows" --collect >/dev/null 2>&1
+grep -q "^$id,failed," "$rows/summary.csv" || fail "rows: $id: $(cat "$rows/summary.csv")"
+sleep 0.01
+sed -i "/^$id,/d" "$rows/summary.csv"
+status=0
+"$ebh" sweep report "$rows" >/dev/null 2>"$work/err.txt" || status=$?
+[ $status = 1 ] || fail "a row deleted: exit status $status: $(cat "$work/err.txt")"
+grep -q "^ebh: error: $rows/summary.csv: lacks 1 of the plan's runs (the first: .*($id), .*rebuild it: ebh sweep $rows/plan.yaml -o $rows --collect" \
+  "$work/err.txt" || fail "a row deleted: $(cat "$work/err.txt")"
+
 # A folder whose plan.yaml does not read (cut short, emptied): its error is named, not another plan.
 cp "$dir/plan.yaml" "$work/kept.yaml"
 for broken in "garbage: [" ""; do

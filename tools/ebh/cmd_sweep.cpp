@@ -12,6 +12,7 @@
 #include <exception>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include "command.hpp"
@@ -478,6 +479,31 @@ fs::file_time_type newest_input(const fs::path& dir, const std::optional<SweepPl
   return newest;
 }
 
+/// Throws InputError when a summary not collected again lacks rows of runs of the plan whose
+/// output or failure is in DIR/runs (rows deleted by hand): the report would drop them unsaid.
+/// A summary without ids (an older ebh) is not checked, nor runs with no file (a folder moved to
+/// where the plan's input files differ gives other ids).
+void check_summary_has_runs(const SweepPlan& plan, const CsvTable& summary, const fs::path& dir) {
+  const auto id_column = std::find(summary.header.begin(), summary.header.end(), "id");
+  if (id_column == summary.header.end()) return;
+  const auto c = static_cast<std::size_t>(id_column - summary.header.begin());
+  std::set<std::string> ids;
+  for (const auto& row : summary.rows) ids.insert(row[c]);
+  std::size_t lacking = 0;
+  const SweepRun* first = nullptr;
+  const std::vector<SweepRun> runs = expand_plan(plan);
+  for (const SweepRun& r : runs) {
+    std::error_code ec;
+    if (ids.count(r.id) || !(fs::exists(run_output(dir, r), ec) || fs::exists(run_failure(dir, r), ec))) continue;
+    ++lacking;
+    if (!first) first = &r;
+  }
+  if (lacking)
+    throw InputError(sweep_summary_csv(dir).string() + ": lacks " + std::to_string(lacking) + " of the plan's runs (the first: " +
+                     describe(plan, *first) + ", whose output is in " + (dir / "runs").string() +
+                     "); rebuild it: ebh sweep " + sweep_plan_copy(dir).string() + " -o " + dir.string() + " --collect");
+}
+
 void run_report(const ReportArgs& a) {
   check_min_haptic_hz(a.min_haptic_hz);  // NaN passes CLI::Range
   const fs::path dir = a.dir;
@@ -526,7 +552,9 @@ void run_report(const ReportArgs& a) {
                  a.dir.c_str(), collect_error.c_str());
   const std::string file = sweep_summary_csv(dir).string();
   check_input_file(file);
-  const std::vector<ReportGroup> groups = build_report(parse_csv(file_text(file).value_or(""), file), file, a.min_haptic_hz);
+  const CsvTable summary = parse_csv(file_text(file).value_or(""), file);
+  if (plan && !collect) check_summary_has_runs(*plan, summary, dir);
+  const std::vector<ReportGroup> groups = build_report(summary, file, a.min_haptic_hz);
   std::fputs(report_markdown(groups).c_str(), stdout);
   if (!a.plot.empty()) {
     write_report_plot(groups, a.plot);

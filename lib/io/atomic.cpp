@@ -224,6 +224,11 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
     throw InputError(final_ + ": " + file_kind(st.type()) +
                      ", not a regular file: an output is written beside its name and renamed over it, which "
                      "would replace it; name a regular file");
+  // A link to a file (a baselines file kept elsewhere, `gate --update`) is written through: the
+  // file it names is replaced and the link stays (renamed over, the link became a copy and its
+  // target kept the old content). Messages name the output as given.
+  if (fs::is_symlink(p, ec) && fs::is_regular_file(p, ec)) target_ = fs::canonical(p, ec).string();
+  if (ec || target_.empty()) target_ = final_;
   // The output's folder is made when missing (`-o out/run.h5` on a fresh checkout).
   const fs::path parent = p.parent_path();
   if (!parent.empty() && !fs::exists(parent, ec)) {
@@ -234,9 +239,9 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
     fs::create_directories(parent, ec);
     if (ec) throw InputError(final_ + ": cannot create the folder " + parent.string() + ": " + ec.message());
   }
-  remove_stale_partials(final_);
+  remove_stale_partials(target_);
   install_interrupt_handlers();
-  temp_ = partial_path_for(final_);
+  temp_ = partial_path_for(target_);
   slot_ = register_temp(temp_);
   // Created here, so that a folder that is not one, a read-only folder or a full disk is reported
   // with the final name and the reason before any work.
@@ -305,7 +310,7 @@ void AtomicOutput::sync() {
 
 void AtomicOutput::rename_into_place() {
   if (committed_) return;
-  if (std::rename(temp_.c_str(), final_.c_str()) != 0) {
+  if (std::rename(temp_.c_str(), target_.c_str()) != 0) {
     const int err = errno;
     discard();
     fail("cannot rename the finished output into place", err);
@@ -313,7 +318,7 @@ void AtomicOutput::rename_into_place() {
   committed_ = true;
   unregister_temp(slot_);
   slot_ = -1;
-  sync_directory(fs::path(final_).parent_path());
+  sync_directory(fs::path(target_).parent_path());
 }
 
 namespace {

@@ -75,6 +75,7 @@ class AtomicOutput {
 
  private:
   std::string final_;
+  std::string target_;  // the file renamed over: final_, or the file a link at final_ names
   std::string temp_;
   int slot_ = -1;  // index in the signal handler's table of temporary files
   bool committed_ = false;

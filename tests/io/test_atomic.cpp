@@ -155,6 +155,21 @@ TEST(Atomic, ALinkAtTheTemporarysNameIsNotFollowed) {
   EXPECT_FALSE(fs::exists(fs::symlink_status(partial_path_for(out))));
 }
 
+// An output named by a link to a file (a baselines file kept elsewhere) replaces the file the link
+// names, the link kept; its temporary is beside that file.
+TEST(Atomic, AnOutputThatIsALinkWritesTheFileItNames) {
+  test::ScratchDir tmp;
+  fs::create_directories(tmp.dir / "real");
+  const std::string target = (tmp.dir / "real" / "base.yaml").string(), link = (tmp.dir / "link.yaml").string();
+  { std::ofstream(target) << "old"; }
+  fs::create_symlink(target, link);
+  write_file_atomically(link, "new");
+  EXPECT_TRUE(fs::is_symlink(link));
+  EXPECT_EQ(slurp(target), "new");
+  EXPECT_EQ(slurp(link), "new");
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp.dir / "real"), fs::directory_iterator{}), 1);
+}
+
 // The folders an output made are removed with it when it is not committed (a failed run leaves
 // no empty folder tree); a folder that holds something else stays.
 TEST(Atomic, AnOutputNotCommittedRemovesTheFoldersItMade) {

@@ -310,28 +310,41 @@ SweepPlan read_sweep_plan(const fs::path& file) {
                s.scene_file.parent_path().string() + "; list the recordings by path");
     } else {
       for (const YAML::Node& rec : r.list(recs, key + ".recordings", "recordings (names or paths), or all")) {
-        const fs::path p = r.resolve(rec, key + ".recordings", "recordings", ".h5", "recording");
+        const std::string entry = key + ".recordings[" + std::to_string(s.recordings.size()) + "]";
+        const fs::path p = r.resolve(rec, entry, "recordings", ".h5", "recording");
         if (std::find(s.recordings.begin(), s.recordings.end(), p) != s.recordings.end())
-          r.fail(rec, key + ".recordings", p.string() + " given twice");
+          r.fail(rec, entry, p.string() + " given twice");
         s.recordings.push_back(p);
       }
     }
+    // Each recording's own entry (its line and index) for what is wrong with the file itself;
+    // `all` names the key.
+    auto recording_at = [&](std::size_t i) { return recs.IsSequence() ? recs[i] : recs; };
+    auto recording_key = [&](std::size_t i) {
+      return key + ".recordings" + (recs.IsSequence() ? "[" + std::to_string(i) + "]" : std::string());
+    };
     // A copy is the same recording: its runs would be the same replays, kept once, one row for both.
     for (std::size_t i = 0; i < s.recordings.size(); ++i)
       for (std::size_t j = 0; j < i; ++j)
         if (sha256_file_cached(plan.sha256, s.recordings[i].string()) ==
             sha256_file_cached(plan.sha256, s.recordings[j].string()))
-          r.fail(recs.IsSequence() ? recs[i] : recs, key + ".recordings",
+          r.fail(recording_at(i), recording_key(i),
                  s.recordings[i].string() + " has the same bytes as " + s.recordings[j].string() +
                      ": the same recording; list it once");
     // The window starts inside every recording (as ebh replay --start checks), before any run:
     // each run would fail on it. Read as a run reads it: its window's samples kept, every one checked.
-    for (const fs::path& p : s.recordings) {
+    // A file that is no recording is its entry's fault; a window outside it is the start's.
+    for (std::size_t i = 0; i < s.recordings.size(); ++i) {
+      const fs::path& p = s.recordings[i];
+      double length = 0;
       try {
-        const Recording rec = read_recording(p.string(), RecordingWindow{plan.start, plan.duration});
-        plan.recording_length[p.string()] = rec.duration();
-        (void)replay_window(plan.start, std::nullopt, rec.duration(),
-                            p.string() + " (" + key + ".recordings)", "start", "duration");
+        length = read_recording(p.string(), RecordingWindow{plan.start, plan.duration}).duration();
+      } catch (const InputError& error) {
+        r.fail(recording_at(i), recording_key(i), error.what());
+      }
+      plan.recording_length[p.string()] = length;
+      try {
+        (void)replay_window(plan.start, std::nullopt, length, p.string() + " (" + key + ".recordings)", "start", "duration");
       } catch (const InputError& error) {
         r.fail(top.count("start") ? top["start"] : recs, "start", error.what());
       }

@@ -340,7 +340,11 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
       {"scenes: [{scene: no_such_scene, recordings: [tube_insert], reference: {}}]\n",
        ":1: key 'scenes\\[0\\].scene': no_such_scene: no such scene"},
       {"scenes: [{scene: tube, recordings: [no_such_recording], reference: {}}]\n",
-       ":1: key 'scenes\\[0\\].recordings': no_such_recording: no such recording"},
+       ":1: key 'scenes\\[0\\].recordings\\[0\\]': no_such_recording: no such recording"},
+      // A file that is no recording: its own entry and line, not the window's `start`.
+      {"scenes:\n  - scene: tube\n    recordings:\n      - tube_insert\n      - " + std::string(EBH_SOURCE_DIR) +
+           "/scenarios/tube.yaml\n    reference: {}\nstart: 1\n",
+       ":5: key 'scenes\\[0\\].recordings\\[1\\]': .*tube.yaml: "},
       {"scenes: [{scene: tube, recordings: [tube_insert]}]\n", ":1: key 'scenes\\[0\\].reference': missing \\(required\\)"},
       {"scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\ngrid:\n  solver.no_such: [1, 2]\n",
        ":4: key 'grid.solver.no_such': on scene tube: key 'solver.no_such': unknown key"},
@@ -366,7 +370,7 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\ngrid: {a: [1]}\nruns: [{}]\n",
        ":3: key 'runs': give `grid` or `runs`, not both"},
       {"scenes: [{scene: tube, recordings: [tube_insert, tube_insert], reference: {}}]\n",
-       ":1: key 'scenes\\[0\\].recordings': .*tube_insert.h5 given twice"},
+       ":1: key 'scenes\\[0\\].recordings\\[1\\]': .*tube_insert.h5 given twice"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}\n", ":2: YAML syntax error"},
       {"scenes: " + std::string(100000, '['), ":[0-9]+: nested too deeply \\(over 500 levels of lists and maps"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbaseline: {name: paper}\n",
@@ -427,7 +431,7 @@ TEST(SweepPlan, CopiesOfAnInputAreRefused) {
           "same scene; list it once");
   refused("copy_recording.yaml",
           "scenes:\n  - {scene: tube, recordings: [tube_insert, " + (dir / "insert_copy.h5").string() + "], reference: {}}\n",
-          ":2: key 'scenes\\[0\\].recordings': .*insert_copy.h5 has the same bytes as .*tube_insert.h5: the same "
+          ":2: key 'scenes\\[0\\].recordings\\[1\\]': .*insert_copy.h5 has the same bytes as .*tube_insert.h5: the same "
           "recording; list it once");
   // one byte more: another scene
   std::ofstream(dir / "other.yaml", std::ios::app) << "# changed\n";

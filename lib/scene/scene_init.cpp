@@ -302,6 +302,24 @@ SceneInit make_scene(const SceneInitOptions& o) {
   out.yaml = y;
   out.scene = load_scene_text(y, o.out);
   out.pin_note = pin_note;
+  // The virtual mesh's edges after virtual_refine's split (each edge halved) against the tool.
+  std::vector<double> edges;
+  const SurfaceMesh& surface = out.scene.virtual_surface;
+  for (const Tri& t : surface.triangles)
+    for (int k = 0; k < 3; ++k)
+      edges.push_back(0.5 * norm(surface.vertices[t[k]] - surface.vertices[t[(k + 1) % 3]]));
+  if (!edges.empty()) {
+    std::nth_element(edges.begin(), edges.begin() + static_cast<std::ptrdiff_t>(edges.size() / 2), edges.end());
+    const double median = edges[edges.size() / 2];
+    if (median > kInitCoarseEdge * kInitThinnestPart)
+      out.resolution_note = "the virtual mesh's edges (median " + round4(median / unit) + " " + o.unit + ") are " +
+                            round4(median / kInitThinnestPart) + " times the tool's thinnest part (" +
+                            round4(kInitThinnestPart / unit) + " " + o.unit +
+                            "): the force shows where the tool lands on a triangle (dips while pressing on, pushes "
+                            "sideways); `ebh scene refine " + arg(o.out.string()) + " -o " +
+                            arg((o.out.parent_path() / (o.out.stem().string() + "_l1" + o.out.extension().string())).string()) +
+                            "` halves them";
+  }
   if (out.scene.pinned.size() != pinned.size())  // the file must pin what was checked here
     throw std::logic_error("scene init: the written scene pins " + std::to_string(out.scene.pinned.size()) +
                            " vertices, not the " + std::to_string(pinned.size()) + " checked");

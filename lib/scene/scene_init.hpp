@@ -37,7 +37,16 @@ struct SceneInit {
   std::string yaml;      ///< the scene file's text
   Scene scene;           ///< that text loaded (as the file will load)
   std::string pin_note;  ///< how the pinned vertices were chosen, one line
+  /// "" or, where the virtual mesh's edges are over kInitCoarseEdge times the tool's thinnest part,
+  /// what that does to the force and how to refine it, one line
+  std::string resolution_note;
 };
+
+/// Virtual mesh edges (the median) over the tool's thinnest part beyond which `ebh scene init` says
+/// the mesh is coarse for the tool: a 1 mm hook tip on an own block's 2 mm edges rendered where it
+/// landed on a triangle (pressing on, the force dipped 20%, and a straight press pushed sideways
+/// at up to 0.38 of the normal force); on 1 mm edges a 7% dip and 0.01.
+inline constexpr double kInitCoarseEdge = 1.5;
 
 /// Makes the scene and loads it back. Throws InputError naming the option (--unit, --tissue,
 /// --tool, --pin SPEC) or the mesh file: a mesh that does not load, a group the mesh lacks, a

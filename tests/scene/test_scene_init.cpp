@@ -86,6 +86,25 @@ TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
   EXPECT_NE(made.yaml.find("physical: \"box.msh\""), std::string::npos) << made.yaml;
 }
 
+// Virtual mesh edges over 1.5 times the tool's thinnest part (1 mm) are said with how to refine
+// them: the box in cm has 10-25 mm edges after virtual_refine's split; the tube's mesh (its
+// boundary split, 1.27 mm) is fine enough.
+TEST(SceneInit, AVirtualMeshCoarseForTheToolIsSaid) {
+  SceneInitOptions o = box_forceps("cm", "coarse.yaml");
+  const std::string note = make_scene(o).resolution_note;
+  EXPECT_EQ(note.rfind("the virtual mesh's edges (median ", 0), 0u) << note;
+  EXPECT_NE(note.find(" cm) are "), std::string::npos) << note;
+  EXPECT_NE(note.find("times the tool's thinnest part (0.1 cm)"), std::string::npos) << note;
+  EXPECT_NE(note.find("`ebh scene refine " + o.out.string() + " -o " + (o.out.parent_path() / "coarse_l1.yaml").string() +
+                      "` halves them"),
+            std::string::npos)
+      << note;
+  SceneInitOptions tube;
+  tube.mesh = std::filesystem::path(EBH_SOURCE_DIR) / "scenarios" / "tube.msh";
+  tube.out = write_temp("tube_init.yaml", "").parent_path() / "tube_init.yaml";
+  EXPECT_EQ(make_scene(tube).resolution_note, "");
+}
+
 // The same file declared in mm is a 5 mm speck next to 20 mm jaws: the scene is still written,
 // and its load says which keys to check.
 TEST(SceneInit, AMeshInTheWrongUnitWarns) {

@@ -216,7 +216,8 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   if (hz_p < kMinPlausiblePhysicalHz) {
     std::snprintf(why, sizeof why,
                   " %g Hz: the physical mesh answers the virtual mesh %g times a second (the paper: 60-100), so the "
-                  "tissue follows the tool %g ms late and the virtual mesh alone holds it meanwhile",
+                  "tissue follows the tool %g ms late and the virtual mesh alone holds it meanwhile: the force of a "
+                  "press rises with its speed (5 mm/s into an own block: 0.289 N at 20 Hz, 0.185 N at 100 Hz)",
                   hz_p, hz_p, 1e3 / hz_p);
     low_rate("--physical-hz", "time.physical_hz", physical_hz.has_value(), why);
   }

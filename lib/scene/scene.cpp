@@ -160,6 +160,8 @@ class SpecReader {
   std::string text(const YAML::Node& n, const std::string& key, bool allow_empty = true) const {
     if (!n.IsScalar()) fail(key, "expected text, got " + yaml_shown(n));
     if (!allow_empty && n.Scalar().empty()) fail(key, "expected non-empty text");
+    // A NUL ("\0" in a quoted string) would end a file name where the system reads it: another file.
+    if (n.Scalar().find('\0') != std::string::npos) fail(key, "contains a NUL byte (\\0)");
     return n.Scalar();
   }
   /// One of `names`; returns its index.

@@ -707,6 +707,12 @@ TEST_F(BadScene, TwoKindsInOneRegion) {
 }
 TEST_F(BadScene, BoxMinAboveMax) { expect(replace(good, "max: [1, 1, 11]", "max: [1, -2, 11]"), "key 'pinned[1].box.max': expected max >= min"); }
 TEST_F(BadScene, RegionMissingKey) { expect(replace(good, "min: [-1, -1, 9], ", ""), "key 'pinned[1].box.min': missing"); }
+// A NUL would end the file name where the system reads it (loading the file before it).
+TEST_F(BadScene, NulInAPath) {
+  expect(replace(good, "physical: " + data("mesh/cube22.msh").string(),
+                 "physical: \"" + data("mesh/cube22.msh").string() + "\\0x\""),
+         "key 'mesh.physical': contains a NUL byte");
+}
 TEST_F(BadScene, DuplicateKey) { expect(replace(good, "damping: 0.05", "damping: 0.05\ndamping: 0.1"), "key 'damping': given twice"); }
 // yaml-cpp stops at its nesting limit (its message "bad file"); 100000 levels of lists, maps or
 // block lists are that one-line error naming the file, never a stack overflow; so is such a --set value.

@@ -289,6 +289,27 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     if (seen.insert(*plan.baseline).second) plan.configurations.push_back(*plan.baseline);
   }
 
+  // The run count (expand_plan's, from the counts alone) before any scene is loaded or any
+  // configuration checked on it: a grid of 1e5 values took minutes and hundreds of MB to refuse.
+  // Per recording: each distinct replay configuration on each backend, each repetition, and the
+  // reference unless it is one of them.
+  std::set<Overrides> effective_configurations;
+  for (const Overrides& c : plan.configurations) effective_configurations.insert(merged(plan.set, c));
+  const std::size_t per_backend = effective_configurations.size() * plan.backends.size();
+  const std::size_t per_recording = per_backend * static_cast<std::size_t>(plan.repetitions);
+  const bool by_repetitions = per_backend <= kMaxSweepRuns && per_recording > kMaxSweepRuns;
+  const char* const size_key = by_repetitions ? "repetitions" : top.count("grid") ? "grid" : top.count("runs") ? "runs" : "scenes";
+  auto check_run_count = [&](std::size_t runs, std::size_t recordings) {
+    if (runs <= kMaxSweepRuns) return;
+    r.fail(top[size_key], size_key,
+           "the plan makes " + std::to_string(runs) + " runs or more (" + std::to_string(effective_configurations.size()) +
+               " configurations x " + std::to_string(plan.backends.size()) + " backends x " +
+               std::to_string(plan.repetitions) + " repetitions x " + std::to_string(recordings) +
+               " recordings, and their references); at most " + std::to_string(kMaxSweepRuns) + ": split it into plans");
+  };
+  check_run_count(per_recording, 1);
+  std::size_t run_count = 0, recording_count = 0;
+
   std::size_t index = 0;
   for (const YAML::Node& n : r.list(top["scenes"], "scenes", "scenes ({scene: NAME, recordings: [...], reference: {...}})")) {
     const std::string key = "scenes[" + std::to_string(index++) + "]";
@@ -351,6 +372,12 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     }
     std::map<std::string, YAML::Node> ref_where;
     s.reference = r.overrides(e["reference"], key + ".reference", &ref_where);
+    const bool reference_is_a_run =
+        std::find(plan.backends.begin(), plan.backends.end(), plan.reference_backend) != plan.backends.end() &&
+        effective_configurations.count(merged(plan.set, s.reference));
+    run_count += s.recordings.size() * (per_recording + (reference_is_a_run ? 0 : 1));
+    recording_count += s.recordings.size();
+    check_run_count(run_count, recording_count);
     for (const SweepScene& other : plan.scenes)
       if (other.scene_file == s.scene_file) r.fail(e["scene"], key + ".scene", s.scene_file.string() + " given twice");
     // A copy (the scene file and its meshes the same bytes) is the same scene: its runs would be

@@ -328,6 +328,35 @@ duration: 0.5
   EXPECT_TRUE(r2[0].reference && r2[0].baseline);
 }
 
+/// A plan of more runs than kMaxSweepRuns is refused from its counts, naming the key that makes
+/// them, before any configuration is loaded on a scene (1e5 of them took 83 s to refuse).
+TEST(SweepPlan, TooManyRunsAreRefusedBeforeLoading) {
+  auto refused = [](const std::string& name, const std::string& text, const std::string& expected) {
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+      (void)read_sweep_plan(plan_file(name, text));
+      ADD_FAILURE() << name << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_TRUE(std::regex_search(e.what(), std::regex(expected))) << e.what() << "\n  expected: " << expected;
+    }
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  std::string values;
+  for (int i = 1; i <= 100000; ++i) values += (i > 1 ? ", " : "") + std::to_string(i);
+  const std::string scenes = "scenes:\n  - {scene: tube, recordings: [tube_insert], reference: {}}\n";
+  // 1e5 configurations and the reference: one run too many.
+  refused("many_values.yaml", scenes + "grid:\n  stiffness.k_con: [" + values + "]\n",
+          ":4: key 'grid': the plan makes 100001 runs or more \\(100000 configurations x 1 backends x 1 repetitions x 1 "
+          "recordings, and their references\\); at most 100000");
+  values.resize(values.find(", 1001,"));
+  // 1000 configurations x 1000 repetitions: before the scene is read (the counts alone decide).
+  const double seconds = refused("many_repetitions.yaml",
+                                 "scenes:\n  - {scene: no_such_scene, recordings: [tube_insert], reference: {}}\n"
+                                 "grid:\n  stiffness.k_con: [" + values + "]\nrepetitions: 1000\n",
+                                 ":5: key 'repetitions': the plan makes 1000000 runs or more");
+  EXPECT_LT(seconds, 2.0) << "a loose bound: the refusal loads no scene (it took 4.6 s loading 1000 of them)";
+}
+
 /// Each bad plan: one line naming the plan file, the line and the key, and what is wrong.
 TEST(SweepPlan, BadPlansNameFileAndKey) {
   const std::vector<std::pair<std::string, std::string>> cases = {

@@ -380,8 +380,15 @@ if(EBH_HAVE_OSMESA)
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/video;--video;${EBH_RENDER_OUT}/v.mp4"
       "-DEXPECT=^ebh: error: --video .*v.mp4: ffmpeg was not found on the PATH" -P ${EBH_EXPECT_ERROR})
   set_tests_properties(cli.render.video_without_ffmpeg PROPERTIES ENVIRONMENT "PATH=${EBH_RENDER_OUT}/no_such_dir")
+  # A frame that cannot be written (a file-size limit) is named by its final name, not the hidden
+  # folder the frames are written into.
+  add_test(NAME cli.render.write_fails
+    COMMAND ${CMAKE_COMMAND}
+      "-DCMD=sh;${PROJECT_BINARY_DIR}/cli_safety/limited.sh;30;${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/limited"
+      "-DEXPECT=^ebh: error: [^\n]*/limited/frame_00000.png: cannot write the output: File too large; the previous frames are kept"
+      -P ${EBH_EXPECT_ERROR})
   set_tests_properties(cli.render.bad_camera cli.render.bad_size cli.render.huge_size cli.render.video_without_ffmpeg
-    PROPERTIES FIXTURES_REQUIRED render_tube LABELS "cli;render")
+    cli.render.write_fails PROPERTIES FIXTURES_REQUIRED render_tube LABELS "cli;render")
 else()
   add_test(NAME cli.render.no_osmesa
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/frames"

@@ -343,7 +343,13 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     if (by_disp)
       text.push_back({"Comment", "tissue colour = displacement from rest, 0 (blue, bottom of the bar) to " +
                                      fmt_mm(summary.displacement_range) + " (red, top)"});
-    write_png((fresh / name).string(), img, text);
+    try {
+      write_png((fresh / name).string(), img, text);
+    } catch (const InputError& e) {  // named by the frame's final name, not the hidden folder's
+      const std::string why = e.what(), hidden = (fresh / name).string();
+      throw InputError((fs::path(dir) / name).string() + (why.rfind(hidden, 0) == 0 ? why.substr(hidden.size()) : ": " + why) +
+                       "; the previous frames are kept");
+    }
     summary.files.push_back((fs::path(dir) / name).string());
   }
   if (interrupted())

@@ -180,16 +180,25 @@ std::optional<SceneSpec> find_replay_scene(const ReplayFrames& f, std::vector<st
       why = e.what();
     }
   }
+  // A stored scene that does not load (an edited or damaged attribute) is said when the file or the
+  // name stands in for it: their scene as it is now may not be the one the replay ran.
+  const std::string stored_failed = why;
+  auto standing_in = [&](SceneSpec spec, const std::string& source) {
+    if (!stored_failed.empty())
+      warnings.push_back(f.file + ": its scene_yaml does not load (" + clipped(stored_failed, 200) + "): rendered with " +
+                         source + " as it is now");
+    return spec;
+  };
   if (!f.scene_file.empty()) {
     try {
-      return load_scene_spec(f.scene_file, overrides);
+      return standing_in(load_scene_spec(f.scene_file, overrides), "the scene file " + f.scene_file);
     } catch (const std::exception& e) {
       why = e.what();
     }
   }
   if (!f.scene_name.empty()) {
     try {
-      return load_scene_spec(resolve_scene_path(f.scene_name), overrides);
+      return standing_in(load_scene_spec(resolve_scene_path(f.scene_name), overrides), "the scene '" + f.scene_name + "'");
     } catch (const std::exception& e) {
       if (why.empty()) why = e.what();
     }

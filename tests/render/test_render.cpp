@@ -266,6 +266,24 @@ TEST(Camera, TheSceneTheReplayRanIsDrawnNotTheFileAsItIsNow) {
   }
 }
 
+// A stored scene that does not load (a damaged attribute) falls back to the scene file, saying so:
+// that file as it is now may not be the scene the replay ran.
+TEST(Camera, AStoredSceneThatDoesNotLoadIsSaidWhenTheFileStandsIn) {
+  Scratch s;
+  SyntheticOptions o;
+  o.scene_file = std::string(EBH_TEST_DATA_DIR) + "/scene/cube.yaml";
+  o.scene_yaml = "mesh: [unclosed";
+  write_synthetic(s / "r.h5", o);
+  const ReplayFrames f = open_replay_frames(s / "r.h5");
+  std::vector<std::string> warnings;
+  const auto scene = find_replay_scene(f, warnings);
+  ASSERT_TRUE(scene.has_value());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find(": its scene_yaml does not load ("), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("): rendered with the scene file " + o.scene_file + " as it is now"), std::string::npos)
+      << warnings[0];
+}
+
 TEST(Camera, MissingSceneFallsBackToTheBoundingBoxWithAWarning) {
   Scratch s;
   write_synthetic(s / "r.h5");

@@ -105,7 +105,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     const Key key{row[c_scene], row[c_rec], row[c_backend]};
     if (!groups.count(key)) {
       order.push_back(key);
-      groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], min_haptic_hz, "", {}, {}, 0};
+      groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], min_haptic_hz, "", {}, {}, 0, {}};
     }
     ReportGroup& g = groups[key];
     if (row[c_ref] != "0" && row[c_ref] != "1")
@@ -140,6 +140,8 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       g.failed.push_back((c_id ? row[*c_id] + " " : "") + row[c_over] + ": " + (c_error ? row[*c_error] : "failed"));
     } else if (status == "pending") {
       ++g.pending;
+      if (c_error && !row[*c_error].empty())  // an output the sweep runs again (summarize_sweep)
+        g.redo.push_back((c_id ? row[*c_id] + " " : "") + row[c_over] + ": " + row[*c_error]);
     } else {
       throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'status': expected ok, failed or pending, got '" +
                        status + "'");
@@ -282,6 +284,7 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
     }
     for (const std::string& f : g.failed) o << "\nfailed: " << md(f) << "\n";
     if (g.pending) o << "\n" << g.pending << " run" << (g.pending == 1 ? "" : "s") << " not run yet\n";
+    for (const std::string& f : g.redo) o << "\nnot run yet: " << md(f) << "\n";
   }
   // Per backend, on how many scene and recording pairs a configuration meets the 2x goal.
   std::map<std::string, std::pair<int, int>> goals;  // backend -> (met, compared)

@@ -51,6 +51,8 @@ struct ReportGroup {
   std::vector<ReportPoint> points;       ///< by wall time
   std::vector<std::string> failed;       ///< "ID OVERRIDES: error", one per failed run
   std::size_t pending = 0;
+  /// "ID OVERRIDES: why", one per pending run whose output the sweep runs again (its error column)
+  std::vector<std::string> redo;
 };
 
 /// A group's configurations against its baseline B (the plan's `baseline`): the fastest one whose

@@ -279,7 +279,7 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
     const fs::path out = run_output(dir, r);
     const RunState state = states[r.id];
     if (const std::string why = redo_reason(state); !why.empty()) {
-      error = "to run again: an output " + why;
+      error = std::string("to run again: ") + (state == RunState::Stale ? "its output was " : "a run ") + why;
       ++s.pending;
       ++s.redo;
     } else if (state == RunState::Done) {
@@ -303,7 +303,7 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
           if (e.ticks == 0) error = "no tick in common with the reference " + r.reference_id;
         } else {
           const std::string ref_why = redo_reason(states[r.reference_id]);
-          error = "no reference: its run " + r.reference_id + (ref_why.empty() ? " has no output" : " has an output " + ref_why);
+          error = "no reference: its run " + r.reference_id + (ref_why.empty() ? " has no output" : ", to run again: " + ref_why);
         }
         // The regions' sizes: solver.active_region's per tick, solver.physical_region's per step (empty: off).
         auto mean = [](const std::vector<double>& a) {
@@ -324,9 +324,9 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
         error = e.what();
         ++s.failed;
       }
-    } else if (std::string why = read_run_failure(dir, r); !why.empty()) {
+    } else if (std::string failure = read_run_failure(dir, r); !failure.empty()) {
       row[1] = "failed";
-      error = why;
+      error = failure;
       ++s.failed;
     } else {
       ++s.pending;

@@ -741,6 +741,10 @@ TEST(SweepSummary, OutputsTheSweepWouldRunAgainAreNotOk) {
   EXPECT_EQ(s.table.rows[1][1], "pending");
   EXPECT_NE(s.table.rows[1][c_error].find("not the run's replay"), std::string::npos) << s.table.rows[1][c_error];
   EXPECT_EQ(s.redo, 1u);
+  // The report says why beside the count.
+  const std::string md = report_markdown(build_report(s.table, "summary.csv"));
+  EXPECT_NE(md.find("not run yet: " + runs[1].id + " solver.virtual_iterations=2: to run again: a run whose output is not "
+                    "the run's replay"), std::string::npos) << md;
   // Its own, made from another scene file than the one the plan read.
   write_output(runs[1], std::string(64, '0'), "solver.virtual_iterations=2");
   s = summarize_sweep(p, runs, dir);

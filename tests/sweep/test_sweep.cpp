@@ -608,18 +608,25 @@ TEST(SweepRunner, CudaChildrenSpreadOverTheGpus) {
   EXPECT_EQ(seen.size(), 3u);
 }
 
+/// A fresh folder `name` in the scratch space holding a copy of the tube scene (scene/tube.yaml
+/// and its mesh), for tests that edit a run's input files.
+fs::path fresh_tube_scene(const std::string& name) {
+  const fs::path d = scratch() / name;
+  fs::remove_all(d);
+  fs::create_directories(d / "scene");
+  const fs::path scenarios = fs::path(EBH_SOURCE_DIR) / "scenarios";
+  fs::copy_file(scenarios / "tube.yaml", d / "scene" / "tube.yaml");
+  fs::copy_file(scenarios / "tube.msh", d / "scene" / "tube.msh");
+  return d;
+}
+
 /// A run is done while its output was made from the run's input files as they are: the output
 /// records each one's SHA-256 (the scene file, its mesh, the recording: write_provenance), and a
 /// file edited or replaced since makes the run stale, so the sweep runs it again. An output of
 /// another window, mode, backend or overrides (a replay by hand or a copy under the run's name),
 /// or an HDF5 file that is no replay, runs again; one cut short too.
 TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
-  const fs::path d = scratch() / "stale";
-  fs::remove_all(d);
-  fs::create_directories(d / "scene");
-  const fs::path scenarios = fs::path(EBH_SOURCE_DIR) / "scenarios";
-  fs::copy_file(scenarios / "tube.yaml", d / "scene" / "tube.yaml");
-  fs::copy_file(scenarios / "tube.msh", d / "scene" / "tube.msh");
+  const fs::path d = fresh_tube_scene("stale");
   const SweepPlan p = read_sweep_plan(plan_file("stale.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
                                                                   ", recordings: [tube_insert], reference: {}}\nstart: 4\nduration: 0.5\n"));
   const std::vector<SweepRun> runs = expand_plan(p);
@@ -709,12 +716,7 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
 // copied under its name, one made from input files edited since, or edited while the sweep ran
 // (against the digests the plan read), is no result but a run to do again, saying why.
 TEST(SweepSummary, OutputsTheSweepWouldRunAgainAreNotOk) {
-  const fs::path d = scratch() / "summary_redo";
-  fs::remove_all(d);
-  fs::create_directories(d / "scene");
-  const fs::path scenarios = fs::path(EBH_SOURCE_DIR) / "scenarios";
-  fs::copy_file(scenarios / "tube.yaml", d / "scene" / "tube.yaml");
-  fs::copy_file(scenarios / "tube.msh", d / "scene" / "tube.msh");
+  const fs::path d = fresh_tube_scene("summary_redo");
   const SweepPlan p = read_sweep_plan(plan_file("summary_redo.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
                                                                          ", recordings: [tube_insert], reference: {}}\n"
                                                                          "runs: [{solver.virtual_iterations: 2}]\nstart: 4\nduration: 0.5\n"));

@@ -283,7 +283,9 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
       if (distance >= kPressedOnM && now < kCollapseFraction * f[top_pressed.front()]) {
         std::size_t m = i;
         double peak = -INFINITY;
-        for (std::size_t k = a; k < i; ++k)  // with contacts at it below (not the coupling's stretch)
+        // The largest push over the window, contacts or none: a largest one without contacts is the
+        // coupling's stretch (a jump in the log), not tissue, and is not taken (contacts[m] below).
+        for (std::size_t k = a; k < i; ++k)
           if (std::isfinite(f[k]) && against(k) > peak) {
             peak = against(k);
             m = k;
@@ -294,8 +296,8 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
         std::size_t touching = 0;
         for (std::size_t k = m; k <= i; ++k) touching += contacts[k] > 0;
         if (m < i && contacts[m] > 0 && peak >= kCollapseMinForceN && now < kCollapseFraction * peak &&
-            pressed_on >= kPressedOnM &&
-            !grasp && 2 * touching > i - m + 1 && stays_under(i, w, n, against, 0.5 * peak, contacts)) {
+            pressed_on >= kPressedOnM && !grasp && 2 * touching > i - m + 1 &&
+            stays_under(i, w, n, against, 0.5 * peak, contacts)) {
           record(ForceCollapse{t[m], t[i], peak, now + 0.0, pressed_on, 0});  // + 0.0: no "-0 N"
           collapsed = true;
         }

@@ -304,6 +304,20 @@ std::vector<double> Object::attr_doubles(const std::string& name) const {
 // ---------------------------------------------------------------------------------------------
 // Dataset
 
+namespace {
+
+/// The dimensions of a dataset (an HDF5 identifier) `where` names.
+std::vector<std::size_t> dataset_shape(std::int64_t dataset, const std::string& where) {
+  Handle space(H5Dget_space(dataset));
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) fail(where, "cannot read the dataset's shape");
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+  return std::vector<std::size_t>(dims.begin(), dims.end());
+}
+
+}  // namespace
+
 // (h5.hpp)
 bool path_exists(std::int64_t loc, const std::string& name, const std::string& file, const std::string& parent) {
   std::size_t pos = 0;
@@ -318,9 +332,9 @@ bool path_exists(std::int64_t loc, const std::string& name, const std::string& f
       if (H5Lget_info(loc, prefix.c_str(), &info, H5P_DEFAULT) >= 0 && info.type != H5L_TYPE_HARD &&
           info.type != H5L_TYPE_SOFT)
         fail(file + ": " + (prefix[0] == '/' ? prefix : parent == "/" ? "/" + prefix : parent + "/" + prefix),
-             std::string(info.type == H5L_TYPE_EXTERNAL ? "an external link" : "a user-defined link") +
-                                        " to another file: ebh reads only what is stored in the file given; save a copy "
-                                        "with the data in it (h5py: f2['x'] = f['x'][()])");
+             std::string(info.type == H5L_TYPE_EXTERNAL ? "an external link to another file" : "a user-defined link") +
+                 ": ebh reads only what is stored in the file given; save a copy with the data in it (h5py: "
+                 "f2['x'] = f['x'][()])");
       if (next != std::string::npos) {  // an intermediate component must be a group to continue
         // H5Oopen + H5Iget_type rather than H5Oget_info_by_name, whose signature changed in 1.12.
         hid_t o = H5Oopen(loc, prefix.c_str(), H5P_DEFAULT);
@@ -345,19 +359,15 @@ void check_stored_here(std::int64_t dataset, const std::string& where, std::size
   // Deflate stores at most ~1032 values' bytes per byte; a dataset of up to kUnstoredBytes is read
   // whatever it stores.
   constexpr double kMaxExpansion = 1100, kUnstoredBytes = 64.0 * (1 << 20);
-  Handle space(H5Dget_space(dataset));
-  const int rank = H5Sget_simple_extent_ndims(space.get());
-  if (rank < 0) fail(where, "cannot read the dataset's shape");
-  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
-  H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+  const std::vector<std::size_t> dims = dataset_shape(dataset, where);
   double declared = static_cast<double>(value_size);
-  for (const hsize_t d : dims) declared *= static_cast<double>(d);
+  for (const std::size_t d : dims) declared *= static_cast<double>(d);
   const double stored = static_cast<double>(H5Dget_storage_size(dataset));
   if (declared > kUnstoredBytes && declared > kMaxExpansion * stored) {
     char what[160];
     std::snprintf(what, sizeof what, " (%.3g GB of values) but the file stores %.3g MB of it", declared * 1e-9,
                   stored * 1e-6);
-    fail(where, "shape " + shape_str(std::vector<std::size_t>(dims.begin(), dims.end())) + what +
+    fail(where, "shape " + shape_str(dims) + what +
                     ": a dataset created with a shape and not its data, or a damaged file; write the data into it");
   }
 }
@@ -386,14 +396,7 @@ std::string read_failure(std::int64_t dataset, const std::string& what) {
   return "cannot read " + what;
 }
 
-std::vector<std::size_t> Dataset::shape() const {
-  Handle space(H5Dget_space(id()));
-  int rank = H5Sget_simple_extent_ndims(space.get());
-  if (rank < 0) fail(where(), "cannot read the dataset's shape");
-  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
-  H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
-  return std::vector<std::size_t>(dims.begin(), dims.end());
-}
+std::vector<std::size_t> Dataset::shape() const { return dataset_shape(id(), where()); }
 
 std::vector<std::size_t> Dataset::checked_shape(Type t, const std::vector<std::ptrdiff_t>& expected) const {
   Handle type(H5Dget_type(id()));

@@ -204,15 +204,20 @@ std::string contact_warning(std::size_t contact_ticks, std::size_t ticks) {
   return b;
 }
 
-std::string start_warning(double depth) {
-  if (!(depth > 0)) return "";
-  char b[400];
+std::string start_warning(double depth, int grasped) {
+  if (!(depth > 0) && grasped <= 0) return "";
+  char where[160];
+  if (depth > 0)
+    std::snprintf(where, sizeof where, "a virtual vertex %.3g mm inside its colliders at the first tick: at most a "
+                  "collider's radius, however deep the tool is", 1e3 * depth);
+  else
+    std::snprintf(where, sizeof where, "its closed jaws hold %d virtual vertices at the first tick", grasped);
+  char b[480];
   std::snprintf(b, sizeof b,
-                "the physical tool starts inside the tissue (a virtual vertex %.3g mm inside its colliders at the first "
-                "tick: at most a collider's radius, however deep the tool is); a device log starts "
+                "the physical tool starts inside the tissue (%s); a device log starts "
                 "with the tool free of it: is the tool frame flipped or the tip offset wrong (--tool-transform), or "
                 "the log's unit or its place in the scene (ebh import --unit, --transform)? (docs/OWN_DATA.md)",
-                1e3 * depth);
+                where);
   return b;
 }
 

@@ -175,8 +175,10 @@ std::string contact_warning(std::size_t contact_ticks, std::size_t ticks);
 /// tissue (1.3 mm deep at the first tick): ..." naming the likely fixes, a tool transform (a device
 /// log starts with the tool free; a tool frame left flipped puts the shaft through the tissue), or
 /// the log's unit or world transform (a cm log read in mm lands 10x nearer the origin).
-/// Empty when it starts free. `ebh replay` says it.
-std::string start_warning(double first_tick_penetration_physical);
+/// Forceps whose jaws hold vertices at the first tick (`first_tick_grasped` > 0: closed on the
+/// tissue from the first sample, which penetration does not count) start inside it too. Empty when
+/// it starts free. `ebh replay` says it.
+std::string start_warning(double first_tick_penetration_physical, int first_tick_grasped = 0);
 
 /// Contact episodes: maximal runs of ticks with contacts > 0, two runs merged when the
 /// contact-free gap between them lasts less than merge_gap_s (gap ticks / H). Pairs of tick

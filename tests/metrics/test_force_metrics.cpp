@@ -603,6 +603,10 @@ TEST(StartWarning, SaysWhenThePhysicalToolStartsInsideTheTissue) {
   EXPECT_EQ(start_warning(0.0013).rfind("the physical tool starts inside the tissue (a virtual vertex 1.3 mm inside its colliders at the first tick", 0),
             0u);
   EXPECT_NE(start_warning(0.0013).find("--tool-transform"), std::string::npos);
+  // Forceps closed on the tissue from the first sample: what they hold is not penetration.
+  EXPECT_EQ(start_warning(0.0, 235).rfind("the physical tool starts inside the tissue (its closed jaws hold 235 virtual "
+                                          "vertices at the first tick)", 0),
+            0u);
 }
 
 }  // namespace

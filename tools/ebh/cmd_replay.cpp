@@ -344,7 +344,9 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  "time took %.3f s): its ticks missed their %g ms (`ebh metrics`, haptic ticks over budget)\n",
                  a.out.c_str(), s.virtual_s / s.wall_s, s.virtual_s, s.wall_s, world.h_haptic * 1e3);
   // From the recording's first sample only: a window may well start in contact.
-  const std::string start = a.start == 0 ? start_warning(writer.first_penetration_physical()) : "";
+  const std::string start =
+      a.start == 0 ? start_warning(writer.first_penetration_physical(), writer.grasped().empty() ? 0 : writer.grasped().front())
+                   : "";
   if (!start.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), start.c_str());
   if (!a.quiet) {
     std::printf("%s: %s + %s, %s mode, %lld ticks, %lld physical steps\n", a.out.c_str(),

@@ -480,23 +480,16 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
 // kLogGapFactor times the median interval and two of the slowest device's): what a replay fills
 // with a straight line. "" when there is none.
 std::string check_log_gaps(const Recording& rec, const std::vector<std::size_t>& line_of) {
-  const std::size_t n = rec.size();
-  if (n < 3) return "";
-  std::vector<double> dt(n - 1);
-  for (std::size_t i = 0; i + 1 < n; ++i) dt[i] = rec.t[i + 1] - rec.t[i];
-  const std::size_t longest = static_cast<std::size_t>(std::max_element(dt.begin(), dt.end()) - dt.begin());
-  std::vector<double> sorted = dt;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  const double median = sorted[sorted.size() / 2];
-  const double bound = std::max(kLogGapFactor * median, 2.0 / kDeviceRateLowHz);
-  if (!(dt[longest] > bound)) return "";
-  const auto gaps = std::count_if(dt.begin(), dt.end(), [bound](double d) { return d > bound; });
-  return "column t: " + std::string(gaps == 1 ? "a gap" : std::to_string(gaps) + " gaps, the longest") + " of " +
-         num(dt[longest]) + " s between lines " + std::to_string(line_of[longest]) + " and " +
+  const std::optional<LogGaps> g = find_log_gaps(rec.t);
+  if (!g) return "";
+  const std::size_t longest = g->longest;
+  const double gap = rec.t[longest + 1] - rec.t[longest];
+  return "column t: " + std::string(g->count == 1 ? "a gap" : std::to_string(g->count) + " gaps, the longest") + " of " +
+         num(gap) + " s between lines " + std::to_string(line_of[longest]) + " and " +
          std::to_string(line_of[longest + 1]) + " (t = " + num(rec.t[longest]) + " .. " + num(rec.t[longest + 1]) +
-         " s), " + num(dt[longest] / median) + " times the median interval of " + num(median * 1e3) +
+         " s), " + num(gap / g->median) + " times the median interval of " + num(g->median * 1e3) +
          " ms: the logger missed samples there, and a replay moves the tool in a straight line across " +
-         (gaps == 1 ? "it" : "them");
+         (g->count == 1 ? "it" : "them");
 }
 
 }  // namespace

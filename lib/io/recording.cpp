@@ -1,4 +1,6 @@
 #include "io/recording.hpp"
+
+#include "io/import.hpp"  // kLogGapFactor, kDeviceRateLowHz
 #include <cctype>
 #include <algorithm>
 #include <cctype>
@@ -545,6 +547,37 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
                 "under 1 m/s%s): a gap or a reset in the log, which a replay passes through in one tick",
                 norm(rec.position[at] - rec.position[at - 1]), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], f.rate,
                 others_over(rec, f, "jumps", kToolSpeedMax, "m/s").c_str());
+  return std::string(line);
+}
+
+std::optional<LogGaps> find_log_gaps(const std::vector<double>& t) {
+  const std::size_t n = t.size();
+  if (n < 3) return std::nullopt;
+  std::vector<double> dt(n - 1);
+  for (std::size_t i = 0; i + 1 < n; ++i) dt[i] = t[i + 1] - t[i];
+  LogGaps g;
+  g.longest = static_cast<std::size_t>(std::max_element(dt.begin(), dt.end()) - dt.begin());
+  std::vector<double> sorted = dt;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  g.median = sorted[sorted.size() / 2];
+  const double bound = std::max(kLogGapFactor * g.median, 2.0 / kDeviceRateLowHz);
+  if (!(dt[g.longest] > bound)) return std::nullopt;
+  g.count = static_cast<std::size_t>(std::count_if(dt.begin(), dt.end(), [bound](double d) { return d > bound; }));
+  return g;
+}
+
+std::optional<std::string> check_recording_gaps(const Recording& rec) {
+  const std::optional<LogGaps> g = find_log_gaps(rec.t);
+  if (!g) return std::nullopt;
+  const std::size_t i = g->longest;
+  char line[400];
+  std::snprintf(line, sizeof line,
+                "%s of %.4g s between samples %zu and %zu (the recording's t = %.9g .. %.9g s), %.3g times the median "
+                "interval of %.3g ms: the logger missed samples there, and a replay moves the tool in a straight line "
+                "across %s",
+                g->count == 1 ? "a gap" : (std::to_string(g->count) + " gaps, the longest").c_str(), rec.t[i + 1] - rec.t[i],
+                rec.row(i), rec.row(i + 1), rec.t[i], rec.t[i + 1], (rec.t[i + 1] - rec.t[i]) / g->median, g->median * 1e3,
+                g->count == 1 ? "it" : "them");
   return std::string(line);
 }
 

@@ -170,6 +170,20 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
 /// warning, not an error: the jump may be the experiment.
 std::optional<std::string> check_recording_speed(const Recording& rec);
 
+/// Gaps in a log's times (times increasing, at least three): intervals over kLogGapFactor times the
+/// median one and over two intervals of the slowest device (kDeviceRateLowHz, io/import.hpp): how
+/// many, the longest's index i (between samples i and i + 1) and the median interval; nullopt
+/// without one. `ebh import` and a replay (check_recording_gaps) say them.
+struct LogGaps {
+  std::size_t count = 0, longest = 0;
+  double median = 0;
+};
+std::optional<LogGaps> find_log_gaps(const std::vector<double>& t);
+
+/// A replay's line for gaps in a recording's times (find_log_gaps), naming its samples: a recording
+/// written by another program, which `ebh import` did not check; nullopt without one.
+std::optional<std::string> check_recording_gaps(const Recording& rec);
+
 /// The same for the tool's orientation: the fastest turn between two consecutive samples, when it
 /// is over kToolTurnRateMax, as one line naming the samples, their times, the angle and the rate.
 /// A hand turns an instrument at a few rad/s; the virtual tool follows a faster turn at

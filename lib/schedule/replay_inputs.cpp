@@ -251,6 +251,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
     r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_speed(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
+  if (auto w = check_recording_gaps(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_turn(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (lost) r.warnings.push_back(r.recording_path + ": " + *lost);
   if (auto w = grasp_flicker(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);

@@ -480,6 +480,32 @@ TEST(UnitSanity, ALogInTheWrongUnitAndPlaceNamesTheUnitAndATransform) {
             std::string::npos) << *w;
 }
 
+// A recording with gaps in its times (written by another program: import did not see it) is told at
+// replay, naming the samples; regular times and the committed recordings are not.
+TEST(LogGaps, AGapInARecordingsTimesIsNamed) {
+  Recording r;
+  for (int i = 0; i < 200; ++i) {
+    r.t.push_back(0.001 * i + (i >= 120 ? 0.05 : 0.0) + (i >= 150 ? 0.03 : 0.0));  // 51 and 31 ms between samples
+    r.position.push_back({0, 0, 0});
+    r.orientation.push_back({});
+    r.jaw.push_back(1);
+  }
+  const auto w = check_recording_gaps(r);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_EQ(w->rfind("2 gaps, the longest of 0.051 s between samples 119 and 120 (the recording's t = 0.119 .. 0.17 s), 51 "
+                     "times the median interval of 1 ms", 0),
+            0u)
+      << *w;
+  r.t.resize(110);
+  r.position.resize(110);
+  r.orientation.resize(110);
+  r.jaw.resize(110);
+  EXPECT_FALSE(check_recording_gaps(r).has_value());
+  for (const char* name : {"tube_insert", "gap_grasp", "cholecystectomy_press", "gynaecology_grasp"})
+    EXPECT_FALSE(check_recording_gaps(read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5")))
+        << name;
+}
+
 // A jump in the log (50 m/s for one sample) is named with its samples and speed; a hand's motion
 // (make_recording's 1 m/s) and the committed recordings are not.
 TEST(ToolSpeed, AJumpInTheLogIsNamed) {

@@ -141,6 +141,24 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
 /// contact model where known).
 std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact);
 
+/// The translational passivity observer (Hannaford & Ryu 2002) over ticks [first, last]: E(n) =
+/// -sum of F(k-1) . (x(k) - x(k-1)), the energy into the environment through the device port with a
+/// zero-order hold; its last value, its least, and the seconds it spent below 0.
+struct PassivityEnergy {
+  double final = 0, min = 0, time_negative_s = 0;
+};
+PassivityEnergy passivity_energy(std::span<const double> t, const std::function<Vec3d(std::size_t)>& force,
+                                 const std::function<Vec3d(std::size_t)>& device, std::size_t first, std::size_t last);
+
+/// Energy the rendering fed the user beyond which a replay and `ebh metrics` say so: the committed
+/// recordings' observers stay at 0 (round-off, 1e-22 J); a hook vibrated at 40 Hz, +-3 mm, in the
+/// gynaecology_hook uterus went to -0.028 J (below 0 for 2.6 s).
+inline constexpr double kActiveEnergyJ = 1e-3;
+
+/// "" or the line for an observer that went below -kActiveEnergyJ: the rendering fed energy to the
+/// user, a precursor of oscillation on a device.
+std::string passivity_warning(const PassivityEnergy& e);
+
 struct ForceMetrics {
   std::string path, scene, recording, mode, backend;
   double haptic_hz = 0, physical_hz = 0;

@@ -250,6 +250,13 @@ TEST(ForceMetrics, PassivityEnergyOfConstantVelocityAgainstConstantForce) {
   EXPECT_NEAR(m.whole.passivity_energy_final, -0.02, 1e-14);
   EXPECT_NEAR(m.whole.passivity_energy_min, -0.02, 1e-14);
   EXPECT_NEAR(m.whole.passivity_time_negative_s, 1.0, 1e-12);
+  // 0.02 J fed to the user is said (replay and the table); round-off and the passive run are not.
+  EXPECT_NE(format_table(m, false).find("warning: the rendering fed energy to the user: the passivity observer went "
+                                        "to -0.02 J (below 0 for 1 s)"),
+            std::string::npos)
+      << format_table(m, false);
+  EXPECT_EQ(passivity_warning({0.01, -1e-22, 0.006}), "");
+  EXPECT_EQ(passivity_warning({0.02, 0.0, 0.0}), "");
 }
 
 TEST(ForceMetrics, RotationalPassivityUsesTorqueAndAngularMotion) {

@@ -194,6 +194,12 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   if (collapse)
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(),
                  collapse_warning(*collapse, world.scene.spec.contact == ContactModel::Vertices).c_str());
+  // Energy the rendering fed the user (the passivity observer below 0).
+  if (const std::string w = passivity_warning(passivity_energy(
+          writer.tick_times(), [&writer](std::size_t n) { return writer.force_at(n); },
+          [&writer](std::size_t n) { return writer.device_position_at(n); }, 0, writer.tick_times().size()));
+      !w.empty())
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), w.c_str());
   index_replay_frames(a.out);
   std::string contact = contact_warning(static_cast<std::size_t>(writer.contact_ticks()),
                                         static_cast<std::size_t>(s.ticks));

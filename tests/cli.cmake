@@ -717,6 +717,9 @@ set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_
 # ebh validate (lib/validate) and ebh table1.
 add_test(NAME cli.validate.list COMMAND ${EBH_BIN} validate --list)
 set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*contact.*coupling.*convergence.*hertz.*stability" LABELS cli)
+# Each method exactly K iterations: its error falls with K, and Chebyshev beats Jacobi (a few s).
+add_test(NAME cli.validate.convergence COMMAND ${EBH_BIN} validate convergence)
+set_tests_properties(cli.validate.convergence PROPERTIES LABELS cli)
 # --recording is checked before any validation runs: a recording that does not resolve or read, or
 # one given to a validation that replays none, is refused.
 foreach(v "column;nope;--recording: nope: no such recording" "all;${PROJECT_SOURCE_DIR}/scenarios/tube.yaml;--recording: .*tube.yaml: not an HDF5 file"

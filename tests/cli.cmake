@@ -796,6 +796,19 @@ add_test(NAME gate.case_with_some_baselines_names_the_rest
   COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_some_metrics.yaml)
 set_tests_properties(gate.case_with_some_baselines_names_the_rest PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
   "some: not compared, no baseline: penetration_max, power_above_30hz \\(`ebh gate --update` writes them\\)")
+# The peak force's band is a factor either way: a baseline of twice the force fails as half of it
+# does (a band of +-50% let it pass).
+file(WRITE ${PROJECT_BINARY_DIR}/gate_twice_the_force.yaml
+  "cases:\n  - {name: twice, scene: tube, recording: tube_insert, start: 1.8, duration: 2, peak_force: 1.1450714}\n")
+add_test(NAME gate.half_the_baselines_force_fails
+  COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_twice_the_force.yaml)
+set_tests_properties(gate.half_the_baselines_force_fails PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
+  "twice: peak_force \\[N\\] 0\\.57[0-9]* outside the band around 1\\.145[0-9]* \\(0\\.663[0-9]* \\.\\. 1\\.8[0-9]*\\)")
+# Baselines measured under an override would be every later plain run's reference: refused.
+add_test(NAME gate.update_with_set_is_refused
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};gate;--baselines;${PROJECT_BINARY_DIR}/gate_twice_the_force.yaml;--update;--set;stiffness.k_con=800"
+    "-DEXPECT=^ebh: error: --update with --set stiffness.k_con=800: baselines measured under an override" -P ${EBH_EXPECT_ERROR})
+set_tests_properties(gate.update_with_set_is_refused PROPERTIES LABELS gate)
 add_test(NAME gate.reports_a_stopped_replay
   COMMAND ${EBH_BIN} gate --case gap_insert --set solver.physical_iterations=1 --set solver.physical_tolerance=0
     --set solver.recovery=none)

@@ -331,9 +331,14 @@ void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
     fail("power_above_30hz " + fmt(m.power_above_30hz) + " above the band (baseline " + fmt(b.power_above_30hz) + ")");
   if (!std::isfinite(m.peak_force)) {
     fail("peak_force is not finite");
-  } else if (std::isfinite(b.peak_force) &&
-             std::fabs(m.peak_force - b.peak_force) > b.peak_force * bands.relative + bands.abs_peak_force) {
-    fail("peak_force [N] " + fmt(m.peak_force) + " outside the band around " + fmt(b.peak_force));
+  } else if (std::isfinite(b.peak_force)) {
+    // A factor either way: up to (1 + relative) times the baseline, down to 1 / (1 + relative) of it
+    // (a band of +-relative let a force of half the baseline pass at relative 0.5).
+    const double high = b.peak_force * (1 + bands.relative) + bands.abs_peak_force,
+                 low = b.peak_force / (1 + bands.relative) - bands.abs_peak_force;
+    if (m.peak_force > high || m.peak_force < low)
+      fail("peak_force [N] " + fmt(m.peak_force) + " outside the band around " + fmt(b.peak_force) + " (" + fmt(low) +
+           " .. " + fmt(high) + ")");
   }
 }
 

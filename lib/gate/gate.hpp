@@ -23,7 +23,8 @@ namespace ebh {
 
 /// The tolerated deviation from a baseline. A metric m with baseline b passes when
 ///   m <= b * (1 + relative) + absolute   (roughness, rate, penetration: only increases fail)
-///   |m - b| <= b * relative + absolute   (peak force: a change either way is a behaviour change)
+///   b / (1 + relative) - absolute <= m <= b * (1 + relative) + absolute   (peak force: a change by
+///                                        the same factor either way is a behaviour change)
 /// Why these sizes: replays are bitwise reproducible for one binary, so the bands only absorb
 /// compiler and library differences between machines (floating-point contraction, libm), which
 /// move these metrics by well under 10%; a real regression (fewer iterations, a broken

@@ -804,6 +804,14 @@ add_test(NAME gate.half_the_baselines_force_fails
   COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_twice_the_force.yaml)
 set_tests_properties(gate.half_the_baselines_force_fails PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
   "twice: peak_force \\[N\\] 0\\.57[0-9]* outside the band around 1\\.145[0-9]* \\(0\\.663[0-9]* \\.\\. 1\\.8[0-9]*\\)")
+# What a replay of a case says is said by the gate too, under the case's name: a recording of
+# another scene, a window past the recording's end.
+file(WRITE ${PROJECT_BINARY_DIR}/gate_other_scene.yaml
+  "cases:\n  - {name: other, scene: tube_forceps, recording: tube_insert, start: 9.9, duration: 5, peak_force: 0.5}\n")
+add_test(NAME gate.says_the_replays_warnings
+  COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_other_scene.yaml)
+set_tests_properties(gate.says_the_replays_warnings PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
+  "warning: other: .*tube_insert.h5: recorded for the scene 'tube' .*warning: other: .*the recording ends 0.1 s after the start; measuring those, not the duration's 5 s")
 # Baselines measured under an override would be every later plain run's reference: refused.
 add_test(NAME gate.update_with_set_is_refused
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};gate;--baselines;${PROJECT_BINARY_DIR}/gate_twice_the_force.yaml;--update;--set;stiffness.k_con=800"

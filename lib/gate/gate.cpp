@@ -19,9 +19,11 @@
 #include <string_view>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "core/yaml_error.hpp"
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
+#include "metrics/force_metrics.hpp"
 #include "metrics/replay_trace.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/replay_output.hpp"
@@ -266,6 +268,10 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   ForceMetrics m;
   GateResult r;
   r.measured = c;
+  r.warnings = in.warnings;
+  if (dur < c.duration)
+    r.warnings.push_back(in.recording_path + ": the recording ends " + shown_number(dur) + " s after the start; " +
+                         "measuring those, not the duration's " + shown_number(c.duration) + " s");
   try {
     ReplayMetadata meta;
     meta.recording = in.recording_path;
@@ -292,6 +298,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   r.measured.power_above_30hz = m.whole.power_above_30hz;
   r.measured.penetration_max = m.whole.penetration_max;
   r.contact_warning = m.contact_warning;
+  if (m.collapse) r.warnings.push_back(collapse_warning(*m.collapse, in.world->scene.spec.contact == ContactModel::Vertices));
   if (!m.finite) {
     r.passed = false;
     r.failures.push_back(c.name + ": non-finite values in the replay (" + std::to_string(m.nonfinite_count) +
@@ -353,6 +360,7 @@ Json to_json(const GateResult& r) {
   j.set("power_above_30hz", r.measured.power_above_30hz);
   j.set("penetration_max", r.measured.penetration_max);
   j.set("failures", Json::array_of(r.failures));
+  j.set("warnings", Json::array_of(r.warnings));
   j.set("unchecked", Json::array_of(r.unchecked));
   return j;
 }

@@ -66,6 +66,9 @@ struct GateResult {
   /// the replay's contact_warning (metrics/force_metrics.hpp): the window where the tool never or
   /// barely touched the tissue, whose metrics describe a free tool ("" when it touched)
   std::string contact_warning;
+  /// What a replay of the case says besides (the recording's checks, a window cut at the
+  /// recording's end, a collapse of the force): one line each, printed under the case
+  std::vector<std::string> warnings;
 };
 
 /// The exclusive lock `ebh gate --update` holds on the baselines file from reading it to writing

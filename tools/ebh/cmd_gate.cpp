@@ -69,6 +69,9 @@ void run_gate(const GateArgs& a) {
     } else {
       judge_gate_case(c, b.bands, r);
     }
+    // Said once the case is taken (a refused update says only why).
+    for (const std::string& w : r.warnings)
+      std::fprintf(stderr, "ebh: warning: %s: %s\n", c.name.c_str(), escape_unprintable(w).c_str());
     all_passed = all_passed && r.passed;
     if (a.json) {
       report.push(to_json(r));

@@ -971,6 +971,7 @@ file(WRITE ${EBH_SAFE}/gate_inf.yaml "cases:\n  - {${ebh_gate_case}, peak_force:
 file(WRITE ${EBH_SAFE}/gate_band.yaml "bands: {relative: -1, abs_force_step: 0, abs_force_rate: 0, abs_peak_force: 0, abs_power: 0, abs_penetration: 0}\ncases:\n  - {${ebh_gate_case}}\n")
 file(WRITE ${EBH_SAFE}/gate_wide.yaml "bands: {relative: 1e300}\ncases:\n  - {${ebh_gate_case}}\n")
 file(WRITE ${EBH_SAFE}/gate_power.yaml "bands: {abs_power: 1}\ncases:\n  - {${ebh_gate_case}}\n")
+file(WRITE ${EBH_SAFE}/gate_abs_wide.yaml "bands: {abs_peak_force: 1000}\ncases:\n  - {${ebh_gate_case}}\n")
 file(WRITE ${EBH_SAFE}/gate_dup.yaml "cases:\n  - {${ebh_gate_case}, start: 2}\n")
 file(WRITE ${EBH_SAFE}/gate_none.yaml "cases: []\n")
 file(WRITE ${EBH_SAFE}/gate_extra.yaml "cases:\n  - {${ebh_gate_case}, peak_forse: 1}\n")
@@ -1071,6 +1072,7 @@ foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got 
           "band;bands.relative': expected a finite number >= 0, got '-1'"
           "wide;bands.relative': 1e300 lets a metric more than double and pass \\(at most 1"
           "power;bands.abs_power': 1 passes every run"
+          "abs_wide;bands.abs_peak_force': 1000 passes every run \\(at most 10 N"
           "dup;cases\\[0\\].start': given twice"
           "none;cases': expected at least one case"
           "extra;cases\\[0\\].peak_forse': unknown key \\(known: name, scene"

@@ -168,6 +168,21 @@ GateBaselines read_gate_baselines(const std::string& path) {
     if (b.bands.abs_power >= 1)
       throw InputError(path + ": key 'bands.abs_power': " + bands["abs_power"].Scalar() +
                        " passes every run (power_above_30hz is a fraction of the force's power, at most 1)");
+    // The absolute bands at most what a haptic device renders (about 10 N at most, 3.3 N for a
+    // Touch; a force rate of that in a 1 kHz tick) or the tool's reach into tissue: beyond, they
+    // pass every run as a relative band above 1 would (the defaults: 2 mN, 5 N/s, 0.1 N, 0.2 mm).
+    struct Ceiling {
+      const char* key;
+      double value, most;
+      const char* what;
+    };
+    for (const Ceiling& c : {Ceiling{"abs_force_step", b.bands.abs_force_step, 10, "N: a haptic device's whole force"},
+                             Ceiling{"abs_force_rate", b.bands.abs_force_rate, 1e4, "N/s: that force within a 1 kHz tick"},
+                             Ceiling{"abs_peak_force", b.bands.abs_peak_force, 10, "N: a haptic device's whole force"},
+                             Ceiling{"abs_penetration", b.bands.abs_penetration, 0.01, "m: 10 mm, past any tool part"}})
+      if (c.value > c.most)
+        throw InputError(path + ": key 'bands." + c.key + "': " + bands[c.key].Scalar() + " passes every run (at most " +
+                         shown_number(c.most) + " " + c.what + ")");
   }
   const YAML::Node cases = root["cases"];
   if (!cases || !cases.IsSequence()) throw InputError(path + ": key 'cases': expected a list");

@@ -788,29 +788,27 @@ if(EBH_GATE_BASH)
   set_tests_properties(gate.case_without_baselines_fails PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
     "bare +FAIL.*bare: no baseline metric to compare against.*gate: FAILED\nexit status 2")
 endif()
+# A gate run over a baselines file of one case, written here (BUILD/gate_FILE.yaml): test
+# gate.NAME passes when its output matches REGEX.
+function(ebh_gate_output name file case regex)
+  file(WRITE ${PROJECT_BINARY_DIR}/gate_${file}.yaml "cases:\n  - {${case}}\n")
+  add_test(NAME gate.${name} COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_${file}.yaml)
+  set_tests_properties(gate.${name} PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION "${regex}")
+endfunction()
 # A case whose baselines lack some metrics (an older or hand-edited file) passes on the rest and
 # names those it did not compare.
-file(WRITE ${PROJECT_BINARY_DIR}/gate_some_metrics.yaml
-  "cases:\n  - {name: some, scene: tube, recording: tube_insert, start: 2, duration: 0.1, rms_force_step: 1, max_force_rate: 1e6, peak_force: 0.5}\n")
-add_test(NAME gate.case_with_some_baselines_names_the_rest
-  COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_some_metrics.yaml)
-set_tests_properties(gate.case_with_some_baselines_names_the_rest PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
+ebh_gate_output(case_with_some_baselines_names_the_rest some_metrics
+  "name: some, scene: tube, recording: tube_insert, start: 2, duration: 0.1, rms_force_step: 1, max_force_rate: 1e6, peak_force: 0.5"
   "some: not compared, no baseline: penetration_max, power_above_30hz \\(`ebh gate --update` writes them\\)")
 # The peak force's band is a factor either way: a baseline of twice the force fails as half of it
 # does (a band of +-50% let it pass).
-file(WRITE ${PROJECT_BINARY_DIR}/gate_twice_the_force.yaml
-  "cases:\n  - {name: twice, scene: tube, recording: tube_insert, start: 1.8, duration: 2, peak_force: 1.1450714}\n")
-add_test(NAME gate.half_the_baselines_force_fails
-  COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_twice_the_force.yaml)
-set_tests_properties(gate.half_the_baselines_force_fails PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
+ebh_gate_output(half_the_baselines_force_fails twice_the_force
+  "name: twice, scene: tube, recording: tube_insert, start: 1.8, duration: 2, peak_force: 1.1450714"
   "twice: peak_force \\[N\\] 0\\.57[0-9]* outside the band around 1\\.145[0-9]* \\(0\\.663[0-9]* \\.\\. 1\\.8[0-9]*\\)")
 # What a replay of a case says is said by the gate too, under the case's name: a recording of
 # another scene, a window past the recording's end.
-file(WRITE ${PROJECT_BINARY_DIR}/gate_other_scene.yaml
-  "cases:\n  - {name: other, scene: tube_forceps, recording: tube_insert, start: 9.9, duration: 5, peak_force: 0.5}\n")
-add_test(NAME gate.says_the_replays_warnings
-  COMMAND ${EBH_BIN} gate --baselines ${PROJECT_BINARY_DIR}/gate_other_scene.yaml)
-set_tests_properties(gate.says_the_replays_warnings PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
+ebh_gate_output(says_the_replays_warnings other_scene
+  "name: other, scene: tube_forceps, recording: tube_insert, start: 9.9, duration: 5, peak_force: 0.5"
   "warning: other: .*tube_insert.h5: recorded for the scene 'tube' .*warning: other: .*the recording ends 0.1 s after the start; measuring those, not the duration's 5 s")
 # Baselines measured under an override would be every later plain run's reference: refused.
 add_test(NAME gate.update_with_set_is_refused

@@ -197,6 +197,9 @@ PartOverlaps find_part_overlaps(const TetMesh& mesh, double diagonal) {
   for (int t = 0; t < static_cast<int>(mesh.tets.size()); ++t) tets_of[part[mesh.tets[t][0]]].push_back(t);
   if (tets_of.size() < 2) return found;
   const double tolerance = 1e-9 * diagonal;
+  std::vector<char> of_a_tet(mesh.vertices.size(), 0);  // vertices a tet uses (the others are no part's)
+  for (const Tet& t : mesh.tets)
+    for (const int v : t) of_a_tet[v] = 1;
   std::vector<Vec3d> centre(mesh.tets.size());
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
     const Tet& k = mesh.tets[t];
@@ -218,7 +221,7 @@ PartOverlaps find_part_overlaps(const TetMesh& mesh, double diagonal) {
     std::vector<int> points;  // other parts' vertices (of a tet) in this part's box
     if (found.vertex[0] < 0)
       for (int v = 0; v < static_cast<int>(mesh.vertices.size()); ++v)
-        if (part[v] != container && tets_of.count(part[v]) && in_box(mesh.vertices[v])) points.push_back(v);
+        if (part[v] != container && of_a_tet[v] && in_box(mesh.vertices[v])) points.push_back(v);
     if (candidates.empty() && points.empty()) continue;
     TetMesh sub;
     sub.vertices = mesh.vertices;

@@ -326,7 +326,7 @@ PassivityEnergy passivity_energy(std::span<const double> t, const std::function<
                                  const std::function<Vec3d(std::size_t)>& device, std::size_t first, std::size_t last) {
   double e = 0, t_neg = 0;
   NanMin e_min;
-  for (std::size_t n = first + 1; n <= last && n < t.size(); ++n) {
+  for (std::size_t n = first + 1; n <= last; ++n) {
     e -= dot(force(n - 1), device(n) - device(n - 1));
     e_min.add(e);
     if (e < 0) t_neg += t[n] - t[n - 1];

@@ -27,6 +27,7 @@ Json ValidationResult::to_json() const {
   j.set("error", error);
   j.set("tolerance", tolerance);
   j.set("passed", passed);
+  if (!summary.empty()) j.set("summary", summary);
   j.set("data", data);
   return j;
 }

@@ -189,6 +189,8 @@ ValidationResult run_stability(const ValidationOptions& options) {
   r.error = nonfinite + blowups;
   r.tolerance = 0;
   r.passed = nonfinite == 0 && blowups == 0;
+  r.summary = std::to_string(nonfinite + blowups) + " of " + std::to_string(cases) +
+              " cases non-finite or blown up (" + std::to_string(recovered_cases) + " recovered by the health checks)";
   r.data = Json::object();
   r.data.set("form", options.full ? "full" : "short");
   r.data.set("backend", options.backend);

@@ -19,6 +19,9 @@ struct ValidationResult {
   double tolerance = 0;  ///< passed when error <= tolerance (and any extra criterion in `data`)
   bool passed = false;
   Json data;             ///< the numbers behind the verdict (inputs, measured, expected, curves)
+  /// The verdict in words where error and tolerance are counts, not a relative error (stability:
+  /// "0 of 18 cases non-finite or blown up"); `ebh validate` prints it in their place.
+  std::string summary;
   Json to_json() const;
 };
 

@@ -86,6 +86,8 @@ void run(const Options& o) {
     all_passed = all_passed && r.passed;
     if (o.json) {
       results.push(r.to_json());
+    } else if (!r.summary.empty()) {
+      std::printf("%-14s %s  %s\n", r.name.c_str(), r.summary.c_str(), r.passed ? "passed" : "FAILED");
     } else {
       std::printf("%-14s error %.3e  tolerance %.3e  %s\n", r.name.c_str(), r.error, r.tolerance,
                   r.passed ? "passed" : "FAILED");

@@ -888,10 +888,11 @@ add_test(NAME cli.table1.seconds_too_short
     "-DEXPECT=^ebh: error: --seconds: expected a finite number in \\[0.1, 3600\\] s, got '0.01'"
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.table1.seconds_too_short PROPERTIES LABELS cli)
-# The table says what it measured: the threads, and each column's press and grasp runs.
+# The table says what it measured: the machine's load, the threads, and each column's press and
+# grasp runs.
 add_test(NAME cli.table1.says_what_it_measured COMMAND ${EBH_BIN} table1 --scene tube --seconds 0.1 --json)
 set_tests_properties(cli.table1.says_what_it_measured PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=2
-  PASS_REGULAR_EXPRESSION "\"threads\": 2,.*\"pressing\": \{\n +\"scene\": \"tube\",\n +\"recording\": \"tube_insert\",\n +\"start_s\": 1.8\n +\},\n +\"grasping\": \{\n +\"scene\": \"tube_forceps\"")
+  PASS_REGULAR_EXPRESSION "\"load_average_before\": [0-9][0-9.e+-]*,\n +\"load_average_after\": [0-9][0-9.e+-]*,.*\"threads\": 2,.*\"pressing\": \{\n +\"scene\": \"tube\",\n +\"recording\": \"tube_insert\",\n +\"start_s\": 1.8\n +\},\n +\"grasping\": \{\n +\"scene\": \"tube_forceps\"")
 # A forceps recording that closes its jaws, replayed where nothing grasps: said (and not where the
 # scene's forceps grasp, nor for a window in which the jaws stay open).
 add_test(NAME cli.replay.grasp_lost_to_a_hook

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
+#include <thread>
 #include <memory>
 #include <optional>
 
@@ -53,6 +55,13 @@ Rates measure(const std::string& scene, const std::string& recording, double sta
   return r;
 }
 
+/// The 1-minute load average (getloadavg), or -1 where the system does not say: Table 1's rates
+/// are wall-clock rates, and other work on the machine lowers them.
+double load_average() {
+  double load[1];
+  return getloadavg(load, 1) == 1 ? load[0] : -1.0;
+}
+
 struct Table1Args {
   double seconds = 3.0;
   std::string backend = "cpu";
@@ -71,6 +80,7 @@ void run_table1(const Table1Args& a) {
   std::vector<std::string> known;
   for (const Table1Column& col : kTable1Columns) known.push_back(col.label);
   check_known_names("--scene", "Table 1 column", a.only, known);
+  const double load_before = load_average();
   Json rows = Json::array();
   if (!a.json)
     std::printf("%-16s %7s %7s %9s %9s | %9s %9s %9s | %8s %8s %8s\n", "scene", "tets", "(paper)", "triangles",
@@ -117,9 +127,12 @@ void run_table1(const Table1Args& a) {
                   press.sim_fps, grasp_text, haptic, col.paper_press_fps, col.paper_grasp_fps, col.paper_haptic_fps);
     }
   }
+  const double load_after = load_average();
   if (a.json) {
     Json out = Json::object();
     out.set("backend", a.backend);
+    out.set("load_average_before", load_before);
+    out.set("load_average_after", load_after);
     out.set("device", device);
     out.set("seconds_per_run", a.seconds);
     out.set("threads", omp_get_max_threads());
@@ -130,7 +143,13 @@ void run_table1(const Table1Args& a) {
                 "them), physical side unpaced; haptic: the lower of the two runs; the paper's rates right of the bar; "
                 "backend %s on %s, %d OpenMP threads\n",
                 a.seconds, a.backend.c_str(), device.c_str(), omp_get_max_threads());
+    if (load_before >= 0) std::printf("1-minute load average %.2f before, %.2f after\n", load_before, load_after);
   }
+  // Other work on the machine while measuring: a table1 on a busy machine reads as a slow build.
+  const double cores = static_cast<double>(std::max(1u, std::thread::hardware_concurrency()));
+  if (load_before >= 0.5 * cores)
+    std::fprintf(stderr, "ebh: warning: the machine was busy before measuring (1-minute load average %.2f on %.0f cores): "
+                 "the rates are lower than on an idle machine\n", load_before, cores);
 }
 
 void setup(CLI::App& root) {

@@ -799,7 +799,7 @@ endfunction()
 # names those it did not compare.
 ebh_gate_output(case_with_some_baselines_names_the_rest some_metrics
   "name: some, scene: tube, recording: tube_insert, start: 2, duration: 0.1, rms_force_step: 1, max_force_rate: 1e6, peak_force: 0.5"
-  "some: not compared, no baseline: penetration_max, power_above_30hz \\(`ebh gate --update` writes them\\)")
+  "some: not compared, no baseline: penetration_max, power_above_30hz, boundary_step_ratio, force_collapse \\(`ebh gate --update` writes them\\)")
 # The peak force's band is a factor either way: a baseline of twice the force fails as half of it
 # does (a band of +-50% let it pass).
 ebh_gate_output(half_the_baselines_force_fails twice_the_force

@@ -9,9 +9,10 @@
 //   cases:
 //     - {name: tube_insert, scene: tube, recording: tube_insert, start: 2.8, duration: 2.0,
 //        rms_force_step: ..., max_force_rate: ..., peak_force: ..., power_above_30hz: ...,
-//        penetration_max: ...}
+//        penetration_max: ..., boundary_step_ratio: ..., force_collapse: false}
 #include <cstddef>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,20 +23,23 @@
 namespace ebh {
 
 /// The tolerated deviation from a baseline. A metric m with baseline b passes when
-///   m <= b * (1 + relative) + absolute   (roughness, rate, penetration: only increases fail)
+///   m <= b * (1 + relative) + absolute   (roughness, rate, penetration, the power above 30 Hz,
+///                                        the frame-boundary ratio: only increases fail)
 ///   b / (1 + relative) - absolute <= m <= b * (1 + relative) + absolute   (peak force: a change by
 ///                                        the same factor either way is a behaviour change)
 /// Why these sizes: replays are bitwise reproducible for one binary, so the bands only absorb
 /// compiler and library differences between machines (floating-point contraction, libm), which
 /// move these metrics by well under 10%; a real regression (fewer iterations, a broken
-/// coupling) moves roughness by integer factors.
+/// coupling) moves roughness by integer factors. A force that collapses while the tool stays in
+/// contact (metrics/force_metrics.hpp, ForceCollapse) fails a case whose baseline has none.
 struct GateBands {
   double relative = 0.5;
   double abs_force_step = 2e-3;    ///< N   (per-tick force change of a quiet contact)
   double abs_force_rate = 5.0;     ///< N/s
   double abs_peak_force = 0.1;     ///< N
-  double abs_power = 0.05;         ///< fraction of force power above 30 Hz
+  double abs_power = 5e-3;         ///< fraction of force power above 30 Hz (baselines 2e-4 .. 0.07)
   double abs_penetration = 2e-4;   ///< m
+  double abs_boundary_ratio = 0.1; ///< frame-boundary step ratio (baselines 0.9 .. 1.25; a felt 100 Hz ripple: >> 1)
 };
 
 struct GateCase {
@@ -47,6 +51,9 @@ struct GateCase {
   std::string where;  ///< "FILE: cases[i] (NAME)", naming the case in messages (read_gate_baselines sets it)
   // Baseline metrics (NaN when not yet recorded).
   double rms_force_step = 0, max_force_rate = 0, peak_force = 0, power_above_30hz = 0, penetration_max = 0;
+  double boundary_step_ratio = 0;  ///< metrics' frame-boundary ratio (NaN in a baseline: none to compare)
+  /// whether the force collapsed in the window (metrics' ForceCollapse); absent in a baseline: not compared
+  std::optional<bool> force_collapse;
 };
 
 struct GateBaselines {

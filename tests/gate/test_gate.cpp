@@ -1,0 +1,148 @@
+// The gate's judgement of a measured case against its baseline (judge_gate_case) and the
+// baselines file's checks (read_gate_baselines), on numbers made up here: no replay.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+
+#include "core/error.hpp"
+#include "gate/gate.hpp"
+
+namespace ebh {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// A baseline like the committed tube_grasp case's.
+GateCase baseline() {
+  GateCase b{.name = "c"};
+  b.rms_force_step = 0.03;
+  b.max_force_rate = 600;
+  b.peak_force = 3.3;
+  b.power_above_30hz = 0.0025;
+  b.penetration_max = 7e-4;
+  b.boundary_step_ratio = 1.2;
+  b.force_collapse = false;
+  return b;
+}
+
+GateResult judged(const GateCase& measured, const GateCase& base = baseline(), const GateBands& bands = {}) {
+  GateResult r;
+  r.measured = measured;
+  judge_gate_case(base, bands, r);
+  return r;
+}
+
+bool mentions(const GateResult& r, const std::string& what) {
+  for (const std::string& f : r.failures)
+    if (f.find(what) != std::string::npos) return true;
+  return false;
+}
+
+TEST(Gate, TheBaselineItselfPasses) {
+  const GateResult r = judged(baseline());
+  EXPECT_TRUE(r.passed) << (r.failures.empty() ? "" : r.failures.front());
+  EXPECT_TRUE(r.unchecked.empty());
+}
+
+// A buzz four times the baseline's power above 30 Hz fails; the band was baseline + 0.05, which
+// passed 20x the committed baselines' buzz.
+TEST(Gate, PowerAbove30HzIsARelativeBand) {
+  GateCase m = baseline();
+  m.power_above_30hz = 4 * baseline().power_above_30hz;
+  EXPECT_TRUE(mentions(judged(m), "power_above_30hz"));
+  m.power_above_30hz = 1.4 * baseline().power_above_30hz;  // inside 1.5 b + 0.005
+  EXPECT_TRUE(judged(m).passed);
+}
+
+// The paper's design goal: the physical frames do not show in the force. A ratio of 2 on a
+// baseline of 1.2 is a ripple at the physical rate.
+TEST(Gate, FrameBoundaryRatioIsGated) {
+  GateCase m = baseline();
+  m.boundary_step_ratio = 2.0;
+  EXPECT_TRUE(mentions(judged(m), "boundary_step_ratio"));
+  m.boundary_step_ratio = std::numeric_limits<double>::infinity();  // steps only at frame boundaries
+  EXPECT_TRUE(mentions(judged(m), "boundary_step_ratio"));
+  m.boundary_step_ratio = 1.3;
+  EXPECT_TRUE(judged(m).passed);
+  m.boundary_step_ratio = kNaN;  // a force that never changed: nothing to compare
+  EXPECT_FALSE(mentions(judged(m), "boundary_step_ratio"));
+}
+
+TEST(Gate, ANewCollapseFailsAKnownOneDoesNot) {
+  GateCase m = baseline();
+  m.force_collapse = true;
+  EXPECT_TRUE(mentions(judged(m), "force_collapse"));
+  GateCase known = baseline();
+  known.force_collapse = true;
+  EXPECT_TRUE(judged(m, known).passed);
+  m.force_collapse = false;  // a collapse mended: no failure
+  EXPECT_TRUE(judged(m, known).passed);
+}
+
+TEST(Gate, BaselinesWithoutTheNewMetricsNameThemUnchecked) {
+  GateCase old = baseline();
+  old.boundary_step_ratio = kNaN;
+  old.force_collapse.reset();
+  GateCase m = baseline();
+  m.force_collapse = true;
+  m.boundary_step_ratio = 5;
+  const GateResult r = judged(m, old);
+  EXPECT_TRUE(r.passed);
+  EXPECT_EQ(r.unchecked, (std::vector<std::string>{"boundary_step_ratio", "force_collapse"}));
+}
+
+std::string baselines_file(const std::string& name, const std::string& text) {
+  const std::filesystem::path p = std::filesystem::temp_directory_path() / ("ebh_test_gate_" + name + ".yaml");
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+constexpr const char* kCase = "cases:\n  - {name: c, scene: tube, recording: tube_insert, start: 2, duration: 1";
+
+TEST(Gate, BaselinesRoundTripTheNewMetrics) {
+  const std::string path = baselines_file("round_trip", std::string(kCase) + "}\n");
+  GateBaselines b = read_gate_baselines(path);
+  b.cases[0].boundary_step_ratio = 1.25;
+  b.cases[0].force_collapse = true;
+  write_gate_baselines(path, b);
+  const GateBaselines again = read_gate_baselines(path);
+  EXPECT_EQ(again.cases[0].boundary_step_ratio, 1.25);
+  EXPECT_EQ(again.cases[0].force_collapse, std::optional<bool>(true));
+  EXPECT_EQ(again.bands.abs_boundary_ratio, GateBands{}.abs_boundary_ratio);
+  std::filesystem::remove(path);
+}
+
+TEST(Gate, BandsThatPassEveryBuzzAreRefused) {
+  const auto refused = [](const std::string& name, const std::string& bands, const std::string& what) {
+    const std::string path = baselines_file(name, "bands: {" + bands + "}\n" + kCase + "}\n");
+    try {
+      read_gate_baselines(path);
+      ADD_FAILURE() << bands << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+    std::filesystem::remove(path);
+  };
+  refused("power", "abs_power: 0.99", "key 'bands.abs_power': 0.99 passes every run (at most 0.1");
+  refused("ratio", "abs_boundary_ratio: 5", "key 'bands.abs_boundary_ratio': 5 passes every run (at most 1");
+}
+
+TEST(Gate, ForceCollapseIsTrueOrFalse) {
+  const std::string path = baselines_file("collapse", std::string(kCase) + ", force_collapse: 1}\n");
+  try {
+    read_gate_baselines(path);
+    ADD_FAILURE() << "force_collapse: 1 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("key 'cases[0].force_collapse': expected true or false, got '1'"),
+              std::string::npos)
+        << e.what();
+  }
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace ebh

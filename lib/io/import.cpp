@@ -433,9 +433,6 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
   if (!have_header) throw InputError(path + ": empty log (expected a header line naming the columns)");
 }
 
-bool same(const Quatd& a, const Quatd& b) { return a.w == b.w && a.x == b.x && a.y == b.y && a.z == b.z; }
-
-
 // The time unit under which times read as seconds give `rate_hz` of a device (kDeviceRateLowHz ..
 // kDeviceRateHighHz), with the rate it would be; nullptr when none does.
 std::pair<const char*, double> likely_time_unit(double rate_hz) {
@@ -632,7 +629,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   std::vector<std::size_t> keep;
   const std::vector<double>& jaw = opt.jaw_range ? logged_jaw : rec.jaw;  // without a range, the same values
   const auto repeats = [&rec, &jaw](std::size_t i) {
-    return rec.position[i] == rec.position[i - 1] && same(rec.orientation[i], rec.orientation[i - 1]) &&
+    return rec.position[i] == rec.position[i - 1] && rec.orientation[i] == rec.orientation[i - 1] &&
            jaw[i] == jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
   };
   for (std::size_t i = 0; i < rec.size();) {
@@ -650,6 +647,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   }
   r.removable = rec.size() - keep.size();
   r.dropped = opt.drop_repeats && r.repeats > 0;
+  if (!r.dropped) r.stale_warning = check_recording_stale(rec).value_or("");
   if (r.dropped) {
     auto select = [&keep](auto& v) {
       std::remove_reference_t<decltype(v)> out;

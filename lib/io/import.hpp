@@ -89,6 +89,7 @@ struct ImportReport {
   std::size_t duplicate_rows = 0;        ///< csv rows equal to the row before them, t included: left out
   std::size_t first_duplicate_line = 0;  ///< the first of them
   std::string gap_warning;     ///< the times have a gap (kLogGapFactor): where, how long
+  std::string stale_warning;   ///< the samples repeat between a slower device's updates (check_recording_stale), kept
   std::size_t jaw_clamped = 0; ///< jaw_range: samples whose mapped jaw lay outside [0, 1], clamped
   std::size_t first_jaw_clamped_line = 0;
 };

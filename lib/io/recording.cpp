@@ -581,6 +581,51 @@ std::optional<std::string> check_recording_gaps(const Recording& rec) {
   return std::string(line);
 }
 
+std::optional<StaleSamples> find_stale_samples(const Recording& rec) {
+  const std::size_t n = rec.t.size();
+  if (rec.position.size() != n || rec.orientation.size() != n) return std::nullopt;
+  const bool jaw = rec.jaw.size() == n, buttons = rec.buttons.size() == n;  // as a recording made in code may lack them
+  const auto changed = [&](std::size_t i) {
+    return !(rec.position[i] == rec.position[i - 1] && rec.orientation[i] == rec.orientation[i - 1]) ||
+           (jaw && rec.jaw[i] != rec.jaw[i - 1]) || (buttons && rec.buttons[i] != rec.buttons[i - 1]);
+  };
+  std::vector<std::size_t> intervals;  // in samples, between consecutive changes
+  std::size_t last = 0, changes = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    if (!changed(i)) continue;
+    if (changes++ > 0) intervals.push_back(i - last);
+    last = i;
+  }
+  if (changes < kStaleMinChanges) return std::nullopt;
+  std::vector<std::size_t> sorted = intervals;
+  std::sort(sorted.begin(), sorted.end());
+  std::size_t mode = 0, most = 0;
+  for (std::size_t a = 0; a < sorted.size();) {
+    std::size_t b = a;
+    while (b < sorted.size() && sorted[b] == sorted[a]) ++b;
+    if (b - a > most) most = b - a, mode = sorted[a];
+    a = b;
+  }
+  const double regular = static_cast<double>(most) / static_cast<double>(intervals.size());
+  if (mode < 2 || regular < kStaleRegularFraction) return std::nullopt;
+  return StaleSamples{mode, changes, regular};
+}
+
+std::optional<std::string> check_recording_stale(const Recording& rec) {
+  const std::optional<StaleSamples> s = find_stale_samples(rec);
+  if (!s) return std::nullopt;
+  const double log_hz = static_cast<double>(rec.t.size() - 1) / (rec.t.back() - rec.t.front());
+  const double device_hz = log_hz / static_cast<double>(s->period);
+  char line[480];
+  std::snprintf(line, sizeof line,
+                "the pose changes only every %zu samples (%.0f%% of its %zu changes): a device updating at about %.3g Hz "
+                "logged at %.4g Hz, its last sample repeated until the next; a replay holds the tool and jumps it %.3g "
+                "times a second, a ripple at that rate in the force (`ebh import --drop-repeats` on the device's log "
+                "interpolates between its updates)",
+                s->period, 100 * s->regular, s->changes, device_hz, log_hz, device_hz);
+  return std::string(line);
+}
+
 std::optional<std::string> check_recording_turn(const Recording& rec) {
   const FastestChange f = fastest_change(rec, kToolTurnRateMax, [&rec](std::size_t i) { return turn_angle(rec, i); });
   if (!(f.rate > kToolTurnRateMax)) return std::nullopt;

@@ -184,6 +184,25 @@ std::optional<LogGaps> find_log_gaps(const std::vector<double>& t);
 /// written by another program, which `ebh import` did not check; nullopt without one.
 std::optional<std::string> check_recording_gaps(const Recording& rec);
 
+/// A log of a device slower than its logger: the samples repeat between the device's updates, so
+/// the pose (position, orientation, jaw, buttons) changes only every `period`-th sample, at regular
+/// intervals (a 100 Hz device logged at 1 kHz: every 10th). Found when, of at least
+/// kStaleMinChanges changes, kStaleRegularFraction or more lie `period` >= 2 samples after the
+/// one before: an encoder-quantised device repeats samples too (30-60% of the committed
+/// recordings'), but changes after 1, 2, 3 ... samples as the motion crosses its steps. nullopt
+/// otherwise. `ebh import` and a replay say it: a replay holds the tool and jumps it every period,
+/// a ripple at the device's rate in the force.
+struct StaleSamples {
+  std::size_t period = 0;   ///< samples between changes
+  std::size_t changes = 0;  ///< samples that differ from the one before
+  double regular = 0;       ///< fraction of the intervals between changes that are `period`
+};
+inline constexpr std::size_t kStaleMinChanges = 50;
+inline constexpr double kStaleRegularFraction = 0.8;
+std::optional<StaleSamples> find_stale_samples(const Recording& rec);
+/// One line for find_stale_samples' finding (the device's rate from the recording's times).
+std::optional<std::string> check_recording_stale(const Recording& rec);
+
 /// The same for the tool's orientation: the fastest turn between two consecutive samples, when it
 /// is over kToolTurnRateMax, as one line naming the samples, their times, the angle and the rate.
 /// A hand turns an instrument at a few rad/s; the virtual tool follows a faster turn at

@@ -145,6 +145,9 @@ struct Quat {
 using Quatd = Quat<double>;
 using Quatf = Quat<float>;
 
+/// Exactly the same components (a repeated sample), not the same rotation (q and -q differ).
+template <class T> EBH_HD bool operator==(Quat<T> a, Quat<T> b) { return a.w == b.w && a.x == b.x && a.y == b.y && a.z == b.z; }
+
 template <class T> EBH_HD Quat<T> operator*(Quat<T> a, Quat<T> b) {
   return {a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
           a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};

@@ -252,6 +252,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
     r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_speed(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_gaps(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
+  if (auto w = check_recording_stale(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_turn(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (lost) r.warnings.push_back(r.recording_path + ": " + *lost);
   if (auto w = grasp_flicker(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);

@@ -395,6 +395,27 @@ TEST(Import, CountsAndDropsRepeatedSamples) {
   EXPECT_EQ(r.rate_hz, 1000.0);  // the log's rate: the kept samples are a subset of its ticks
 }
 
+// A 250 Hz device logged at 1 kHz, each update logged four times: said when kept (the replay would
+// hold and jump the tool 250 times a second), not when dropped.
+TEST(Import, ADeviceSlowerThanTheLogIsSaid) {
+  test::ScratchDir tmp;
+  std::string text = "t,x,y,z,qw,qx,qy,qz\n";
+  for (int i = 0; i < 400; ++i)
+    text += std::to_string(i * 1e-3) + ",0,0," + std::to_string(1e-5 * (i / 4)) + ",1,0,0,0\n";
+  ImportOptions opt;
+  ImportReport report;
+  import_log(write_log(tmp / "stale.csv", text), opt, &report);
+  EXPECT_NE(report.stale_warning.find("the pose changes only every 4 samples (100% of its 99 changes): a device updating "
+                                      "at about 250 Hz logged at 1000 Hz"),
+            std::string::npos)
+      << report.stale_warning;
+  opt.drop_repeats = true;
+  import_log(write_log(tmp / "stale.csv", text), opt, &report);
+  EXPECT_EQ(report.stale_warning, "");
+  import_log(kData + "sample.csv", ImportOptions{}, &report);
+  EXPECT_EQ(report.stale_warning, "");
+}
+
 // A hold (the device at rest: repeats lasting more than kStaleRunMaxS) is not stale: it keeps
 // its last sample, so the replay holds still until the device moves, and the log's last sample is
 // kept, so a log ending at rest keeps its length. Short runs (a device updating at a third of the

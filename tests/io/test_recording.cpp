@@ -506,6 +506,42 @@ TEST(LogGaps, AGapInARecordingsTimesIsNamed) {
         << name;
 }
 
+// A 100 Hz device logged at 1 kHz: the pose changes every 10th sample, said with the device's
+// rate; the committed recordings (encoder-quantised: 39-60% of their samples repeat the one before)
+// are not, nor a quantised slow motion whose changes come 1, 2, 3 ... samples apart.
+TEST(StaleSamples, ADeviceSlowerThanItsLoggerIsNamed) {
+  for (const char* name : {"tube_insert", "tube_grasp", "gap_insert", "gap_grasp", "cholecystectomy_press",
+                           "cholecystectomy_grasp", "gynaecology_press", "gynaecology_grasp"}) {
+    const Recording r = read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5");
+    EXPECT_FALSE(check_recording_stale(r).has_value()) << name << ": " << check_recording_stale(r).value_or("");
+    Recording stale = r;  // the same motion seen by a 100 Hz device, each update logged ten times
+    for (std::size_t i = 0; i < stale.t.size(); ++i) {
+      const std::size_t held = i / 10 * 10;
+      stale.position[i] = r.position[held];
+      stale.orientation[i] = r.orientation[held];
+      stale.jaw[i] = r.jaw[held];
+      stale.buttons[i] = r.buttons[held];
+    }
+    const std::optional<StaleSamples> s = find_stale_samples(stale);
+    ASSERT_TRUE(s.has_value()) << name;
+    EXPECT_EQ(s->period, 10u) << name;
+    const std::optional<std::string> w = check_recording_stale(stale);
+    ASSERT_TRUE(w.has_value());
+    EXPECT_NE(w->find("changes only every 10 samples"), std::string::npos) << *w;
+    EXPECT_NE(w->find("a device updating at about 100 Hz logged at 1000 Hz"), std::string::npos) << *w;
+  }
+  Recording slow;  // 0.3 mm/s quantised to 1 um with a 0.2 mm/s wobble: changes at irregular intervals
+  for (int i = 0; i < 5000; ++i) {
+    const double t = 0.001 * i;
+    slow.t.push_back(t);
+    slow.position.push_back({std::round((3e-4 * t + 2e-4 / 20 * std::sin(20 * t)) / 1e-6) * 1e-6, 0, 0});
+    slow.orientation.push_back({});
+    slow.jaw.push_back(1);
+    slow.buttons.push_back(0);
+  }
+  EXPECT_FALSE(find_stale_samples(slow).has_value());
+}
+
 // A jump in the log (50 m/s for one sample) is named with its samples and speed; a hand's motion
 // (make_recording's 1 m/s) and the committed recordings are not.
 TEST(ToolSpeed, AJumpInTheLogIsNamed) {

@@ -107,6 +107,8 @@ void run(const ImportArgs& a) {
                  report.jaw_clamped == 1 ? "its end" : "its ends");
   if (!report.gap_warning.empty())
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), report.gap_warning.c_str());
+  if (!report.stale_warning.empty())
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), report.stale_warning.c_str());
   if (scene_tool && opt.tool != scene_tool)
     std::fprintf(stderr,
                  "ebh: warning: %s: --tool %s, but the scene's tool is a %s: the recording says %s, and a replay with "

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <climits>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -167,6 +168,20 @@ std::size_t remove_stale_partials(const std::string& final_path) {
 
 std::string os_reason(int err) { return std::strerror(err); }
 
+void check_name_length(const std::string& path) {
+  const fs::path p(path);
+  fs::path dir = p.parent_path();
+  std::error_code ec;
+  while (!dir.empty() && !fs::exists(dir, ec) && dir.parent_path() != dir) dir = dir.parent_path();
+  if (dir.empty() || !fs::exists(dir, ec)) dir = ".";
+  long name_max = ::pathconf(dir.c_str(), _PC_NAME_MAX);
+  if (name_max <= 0) name_max = NAME_MAX;
+  for (const fs::path& part : p)
+    if (const std::size_t n = part.native().size(); n > static_cast<std::size_t>(name_max))
+      throw InputError(path + ": cannot create the output: " + os_reason(ENAMETOOLONG) + " (a name of " +
+                       std::to_string(n) + " bytes; this file system allows " + std::to_string(name_max) + ")");
+}
+
 bool process_running(long pid) { return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH); }
 
 /// SIGINT, SIGTERM and SIGHUP to `handler`; SIGHUP stays ignored where it was when the process
@@ -215,6 +230,7 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
     throw InputError(final_ + ": expected a file name, not a folder");
   if (is_partial_output(final_))
     throw InputError(final_ + ": names ending in " + std::string(kPartialSuffix) + " are kept for unfinished outputs");
+  check_name_length(final_);
   std::error_code ec;
   if (fs::is_directory(p, ec)) fail("cannot write the output", EISDIR);
   // The output is written beside its name and renamed over it: that would replace a device, a

@@ -40,6 +40,12 @@ std::size_t remove_stale_partials(const std::string& final_path);
 /// strerror(err): the operating system's reason ("No space left on device").
 std::string os_reason(int err);
 
+/// Throws InputError "PATH: cannot create the output: File name too long (...)" when a part of
+/// `path` is longer than the file system that would hold it allows (pathconf's _PC_NAME_MAX of
+/// the nearest existing folder, else NAME_MAX): the rename into place would fail only after all
+/// the work.
+void check_name_length(const std::string& path);
+
 /// Whether process `pid` of this host may still run (kill(pid, 0) finds it, or may not signal it):
 /// its temporaries are not stale.
 bool process_running(long pid);

@@ -38,6 +38,7 @@ void check_output_location(const std::string& path) {
   if (!fs::is_directory(dir, ec)) err = ENOTDIR;
   else if (::access(dir.c_str(), W_OK | X_OK) != 0) err = errno;
   if (err) throw InputError(path + ": cannot create the output: " + os_reason(err));
+  check_name_length(path);
   if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write the output: " + os_reason(EISDIR));
 }
 

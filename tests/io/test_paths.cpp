@@ -2,6 +2,7 @@
 // link), and an input is a readable file, never a folder or an unfinished output.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -43,6 +44,22 @@ TEST(Paths, OutputOverAnInputIsRefusedNamingBoth) {
   std::ofstream(tmp / "afile") << "x";
   EXPECT_INPUT_ERROR(check_outputs({{tmp / "afile/out.h5", "the output"}}, inputs),
                      "afile/out.h5: cannot create the output: Not a directory");
+}
+
+// The rename into place fails on a name the file system cannot hold: said before any work, for the
+// output's own name and for a folder it would make.
+TEST(Paths, ANameLongerThanTheFileSystemAllowsIsRefusedBeforeAnyWork) {
+  test::ScratchDir tmp;
+  const long name_max = ::pathconf(tmp.dir.c_str(), _PC_NAME_MAX);
+  ASSERT_GT(name_max, 3);
+  const std::string longest = std::string(name_max - 3, 'a') + ".h5", too_long = "a" + longest;
+  check_outputs({{tmp / longest, "the output"}}, {});  // no error
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / too_long, "the output"}}, {}),
+                     too_long + ": cannot create the output: File name too long (a name of " +
+                         std::to_string(name_max + 1) + " bytes; this file system allows " + std::to_string(name_max) + ")");
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / (too_long + "/run.h5"), "the output"}}, {}), "File name too long");
+  EXPECT_INPUT_ERROR(AtomicOutput(tmp / too_long), "cannot create the output: File name too long");
+  EXPECT_FALSE(fs::exists(partial_path_for(tmp / too_long)));
 }
 
 TEST(Paths, InputMustBeAReadableFile) {

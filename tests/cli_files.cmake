@@ -3,17 +3,26 @@
 set(EBH_FILES_OUT ${PROJECT_BINARY_DIR}/cli_files)
 file(MAKE_DIRECTORY ${EBH_FILES_OUT})
 set(F ${EBH_FILES_OUT})
+# ebh_files_failure(NAME EXPECT [OUTPUT file] [KEEP files] [PIPES pipes] [LINKS links] CMD ...):
+# exit status 1, one line matching EXPECT, nothing on stdout; OUTPUT not written, KEEP unchanged,
+# PIPES still named pipes and LINKS still links (tests/expect_failure_keeps_special.cmake).
 function(ebh_files_failure name expect)
-  cmake_parse_arguments(ARG "" "OUTPUT" "KEEP;CMD" ${ARGN})
+  cmake_parse_arguments(ARG "" "OUTPUT" "KEEP;PIPES;LINKS;CMD" ${ARGN})
   set(extra)
   if(ARG_OUTPUT)
     list(APPEND extra -DOUTPUT=${ARG_OUTPUT})
   endif()
   add_test(NAME cli.files.${name}
-    COMMAND ${CMAKE_COMMAND} "-DCMD=${ARG_CMD}" "-DEXPECT=${expect}" "-DKEEP=${ARG_KEEP}" -DSTATUS=1 -DNO_STDOUT=1
-      ${extra} -P ${EBH_EXPECT_ERROR})
-  set_tests_properties(cli.files.${name} PROPERTIES LABELS cli)
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${ARG_CMD}" "-DEXPECT=${expect}" "-DKEEP=${ARG_KEEP}" "-DPIPES=${ARG_PIPES}"
+      "-DLINKS=${ARG_LINKS}" -DSTATUS=1 -DNO_STDOUT=1 ${extra}
+      -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure_keeps_special.cmake)
+  set_tests_properties(cli.files.${name} PROPERTIES FIXTURES_REQUIRED files LABELS cli)
 endfunction()
+# Fresh previous outputs and the user's special files before each run.
+set(ebh_rec ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5)
+add_test(NAME cli.files.setup COMMAND sh -c
+  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5")
+set_tests_properties(cli.files.setup PROPERTIES FIXTURES_SETUP files LABELS cli)
 
 # A name longer than the file system allows (256 bytes) failed only when the finished replay was
 # renamed into place.
@@ -22,3 +31,13 @@ ebh_files_failure(name_too_long
   "^ebh: error: [^\n]*/${ebh_long_name}.h5: cannot create the output: File name too long \\(a name of 256 bytes"
   OUTPUT ${F}/${ebh_long_name}.h5
   CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 -q -o ${F}/${ebh_long_name}.h5)
+
+# The .xdmf index beside a replay with frames is an output too: a named pipe or a link to a device
+# of that name was deleted, and the previous replay output replaced, when it was found only after
+# the replay. Refused before any work, as a folder of that name is.
+ebh_files_failure(index_is_a_pipe "^ebh: error: [^\n]*/ff.xdmf: a named pipe, not a regular file: "
+  KEEP ${F}/ff.h5 PIPES ${F}/ff.xdmf
+  CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 --frames-hz 30 -q -o ${F}/ff.h5)
+ebh_files_failure(index_links_to_a_device "^ebh: error: [^\n]*/dv.xdmf: a character device, not a regular file: "
+  KEEP ${F}/dv.h5 LINKS ${F}/dv.xdmf
+  CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 --frames-hz 30 -q -o ${F}/dv.h5)

@@ -168,6 +168,18 @@ std::size_t remove_stale_partials(const std::string& final_path) {
 
 std::string os_reason(int err) { return std::strerror(err); }
 
+void check_replaceable(const std::string& path) {
+  // The output is written beside its name and renamed over it: that would replace a device, a
+  // pipe or a socket (as root, `-o /dev/null` would turn /dev/null into a file), so only a
+  // regular file (or a link to one) is replaced.
+  std::error_code ec;
+  if (const fs::file_status st = fs::status(path, ec); !ec && fs::exists(st) && !fs::is_regular_file(st) &&
+                                                       !fs::is_directory(st))
+    throw InputError(path + ": " + file_kind(st.type()) +
+                     ", not a regular file: an output is written beside its name and renamed over it, which "
+                     "would replace it; name a regular file");
+}
+
 void check_name_length(const std::string& path) {
   const fs::path p(path);
   fs::path dir = p.parent_path();
@@ -233,13 +245,7 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
   check_name_length(final_);
   std::error_code ec;
   if (fs::is_directory(p, ec)) fail("cannot write the output", EISDIR);
-  // The output is written beside its name and renamed over it: that would replace a device, a
-  // pipe or a socket (as root, `-o /dev/null` would turn /dev/null into a file), so only a
-  // regular file (or a link to one) is replaced.
-  if (const fs::file_status st = fs::status(p, ec); !ec && fs::exists(st) && !fs::is_regular_file(st))
-    throw InputError(final_ + ": " + file_kind(st.type()) +
-                     ", not a regular file: an output is written beside its name and renamed over it, which "
-                     "would replace it; name a regular file");
+  check_replaceable(final_);
   // A link to a file (a baselines file kept elsewhere, `gate --update`) is written through: the
   // file it names is replaced and the link stays (renamed over, the link became a copy and its
   // target kept the old content). Messages name the output as given.

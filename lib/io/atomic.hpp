@@ -46,6 +46,11 @@ std::string os_reason(int err);
 /// the work.
 void check_name_length(const std::string& path);
 
+/// Throws InputError "PATH: a named pipe, not a regular file: ..." when `path` is a device, a
+/// named pipe or a socket (or a link to one): an output is renamed over its name, which would
+/// replace it. A missing name, a regular file or a link to one passes.
+void check_replaceable(const std::string& path);
+
 /// Whether process `pid` of this host may still run (kill(pid, 0) finds it, or may not signal it):
 /// its temporaries are not stale.
 bool process_running(long pid);

@@ -40,6 +40,7 @@ void check_output_location(const std::string& path) {
   if (err) throw InputError(path + ": cannot create the output: " + os_reason(err));
   check_name_length(path);
   if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write the output: " + os_reason(EISDIR));
+  check_replaceable(path);
 }
 
 }  // namespace

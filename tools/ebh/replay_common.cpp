@@ -44,6 +44,17 @@ void render_after_replay(const std::string& replay_file, const std::string& dir)
   for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
 }
 
+namespace {
+
+/// Removes `path` when it is a regular file (or a link to one): a stale index. A device, a named
+/// pipe or a socket of that name is the user's, and stays.
+bool remove_index(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path, ec) && std::filesystem::remove(path, ec);
+}
+
+}  // namespace
+
 void index_replay_frames(const std::string& replay_file) {
   bool frames = false;
   {
@@ -54,11 +65,12 @@ void index_replay_frames(const std::string& replay_file) {
     // An index this file's earlier replay left (with frames) points at frames it no longer has:
     // ParaView would fail on it. Only an index that names this file's frames is removed.
     const std::string xdmf = xdmf_path_for(replay_file);
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(xdmf, ec)) return;  // a named pipe's open would wait for a writer
     std::ifstream in(xdmf);
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     const std::string frames_of = std::filesystem::path(replay_file).filename().string() + ":/frames/";
-    std::error_code ec;
-    if (text.find(frames_of) != std::string::npos) std::filesystem::remove(xdmf, ec);
+    if (text.find(frames_of) != std::string::npos) remove_index(xdmf);
     return;
   }
   // Written after the replay output, from it: a failure here leaves the output written and an
@@ -66,8 +78,7 @@ void index_replay_frames(const std::string& replay_file) {
   try {
     write_xdmf(replay_file);
   } catch (const InputError& e) {
-    std::error_code ec;
-    const bool stale_removed = std::filesystem::remove(xdmf_path_for(replay_file), ec);
+    const bool stale_removed = remove_index(xdmf_path_for(replay_file));
     throw InputError(std::string(e.what()) + " (" + replay_file + " is written" +
                      (stale_removed ? "; the previous index, which no longer matched it, is removed" : "") +
                      "; `ebh render " + replay_file + " --xdmf-only` writes the index again)");

@@ -1,6 +1,8 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
+#include <charconv>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -8,6 +10,8 @@
 #include <exception>
 #include <new>
 #include <string>
+#include <string_view>
+#include <thread>
 #include <vector>
 
 #include "command.hpp"
@@ -24,6 +28,42 @@ std::vector<CommandSetup>& command_registry() {
 }  // namespace ebh::cli
 
 namespace {
+
+/// Why OMP_NUM_THREADS (`value`, set) cannot run this process's OpenMP threads; "" when it can.
+/// OpenMP's syntax: a positive whole number per nesting level, comma-separated ("4" or "4,2"),
+/// blanks around each allowed. libgomp ignores any other value, after a warning of its own at
+/// load time, and runs on with a default the user did not choose. Each level must also stay within
+/// max(4096, 8 x the cores): libgomp starts every thread of a team in each parallel region and
+/// waits for all of them at its barriers, so the time of each region grows with the count (on 2
+/// cores, 0.01 s of the tube replay took 6 s with 4096 threads and 13.5 s with 8192; 30000 ran on
+/// for hours, 40000 failed to create its threads, 100000 crashed inside libgomp). 4096 still runs
+/// (slowly, and the replay warns of threads beyond the cores); 8 x the cores keeps large machines
+/// free to oversubscribe as much as a small one.
+std::string omp_threads_problem(std::string_view value, unsigned cores) {
+  const unsigned long long cap = std::max<unsigned long long>(4096, 8ull * cores);
+  std::string_view rest = value;
+  while (true) {
+    const std::size_t comma = rest.find(',');
+    std::string_view level = rest.substr(0, comma);
+    while (!level.empty() && std::isspace(static_cast<unsigned char>(level.front()))) level.remove_prefix(1);
+    while (!level.empty() && std::isspace(static_cast<unsigned char>(level.back()))) level.remove_suffix(1);
+    if (!level.empty() && level.front() == '+') level.remove_prefix(1);
+    unsigned long long n = 0;
+    const auto [end, ec] = std::from_chars(level.data(), level.data() + level.size(), n);
+    const bool digits = !level.empty() && end == level.data() + level.size() &&
+                        std::all_of(level.begin(), level.end(), [](char c) { return c >= '0' && c <= '9'; });
+    if (!digits || (ec != std::errc() && ec != std::errc::result_out_of_range) || (ec == std::errc() && n == 0))
+      return "not a number of threads (expected a whole number from 1, or one per nesting level as 4,2; unset it "
+             "for one a core)";
+    if (ec == std::errc::result_out_of_range || n > cap)
+      return "far more threads than this machine runs at once" +
+             (cores > 0 ? " (" + std::to_string(cores) + " cores)" : std::string()) + ": at most " + std::to_string(cap) +
+             " are accepted, beyond which OpenMP takes hours to start and stop them, or fails" +
+             (cores > 0 ? "; set it to at most " + std::to_string(cores) + ", one a core" : std::string());
+    if (comma == std::string_view::npos) return "";
+    rest.remove_prefix(comma + 1);
+  }
+}
 
 /// Parses and runs the command; returns the exit status (1 bad input, 3 internal error).
 int run(CLI::App& app, int argc, char** argv) {
@@ -80,6 +120,13 @@ int main(int argc, char** argv) {
   // queues and at 14.7x with 32 (docs/CUDA.md, "Many replays on one GPU"). Set before the first
   // CUDA call; a value the user set is kept.
   setenv("CUDA_DEVICE_MAX_CONNECTIONS", "32", 0);
+  // Before any OpenMP parallel region, whatever the command: a thread count OpenMP ignored, or one
+  // it cannot start (omp_threads_problem), is refused rather than run with.
+  if (const char* threads = std::getenv("OMP_NUM_THREADS"))
+    if (const std::string why = omp_threads_problem(threads, std::thread::hardware_concurrency()); !why.empty()) {
+      std::fprintf(stderr, "ebh: error: OMP_NUM_THREADS '%s': %s\n", ebh::escape_unprintable(threads).c_str(), why.c_str());
+      return 1;
+    }
   // A signal before the command polls for one (loading a large log or mesh; validate, table1)
   // ends the process with a line and 128 + signal rather than without a word.
   ebh::install_early_interrupt_handlers();

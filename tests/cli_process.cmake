@@ -1,0 +1,38 @@
+# A hostile process environment (included after cli.cmake, whose EBH_BIN, EBH_GATE_BASH,
+# EBH_EXPECT_ERROR and EBH_HAVE_OSMESA it uses): one line and a non-zero exit, never a crash or a
+# hang, and no output left behind.
+set(EBH_PROCESS_OUT ${PROJECT_BINARY_DIR}/cli_process)
+file(MAKE_DIRECTORY ${EBH_PROCESS_OUT})
+
+# OMP_NUM_THREADS far beyond the machine: libgomp crashed starting 100000 threads (and ran on for
+# hours with 30000). Refused before any parallel region, whatever the command.
+add_test(NAME cli.process.omp_threads_too_many_scene
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;info;tube"
+    "-DEXPECT=^ebh: error: OMP_NUM_THREADS '100000': far more threads than this machine runs at once .*: at most [0-9]+ are accepted"
+    -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+add_test(NAME cli.process.omp_threads_too_many_replay
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_PROCESS_OUT}/many_threads.h5;--duration;0.1"
+    "-DEXPECT=^ebh: error: OMP_NUM_THREADS '100000': far more threads" -DOUTPUT=${EBH_PROCESS_OUT}/many_threads.h5
+    -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+set_tests_properties(cli.process.omp_threads_too_many_scene cli.process.omp_threads_too_many_replay PROPERTIES
+  LABELS cli ENVIRONMENT OMP_NUM_THREADS=100000 TIMEOUT 60)
+# A value OpenMP's syntax allows runs: one count per nesting level.
+add_test(NAME cli.process.omp_threads_per_level COMMAND ${EBH_BIN} scene info tube)
+set_tests_properties(cli.process.omp_threads_per_level PROPERTIES LABELS cli ENVIRONMENT "OMP_NUM_THREADS=2,1")
+# A value that is no thread count: libgomp warns at load time (which ebh cannot stop) and ignores
+# it; ebh then refuses it with its own line rather than run on with threads the user did not ask
+# for. The test drops libgomp's lines and checks ebh's line and exit status.
+if(EBH_GATE_BASH)
+  # name=value pairs; '' (set, empty) is the last.
+  foreach(pair IN ITEMS zero=0 negative=-1 word=abc exponent=1e3 empty_level=4, empty=)
+    string(REGEX REPLACE "=.*" "" name "${pair}")
+    string(REGEX REPLACE "^[^=]*=" "" value "${pair}")
+    add_test(NAME cli.process.omp_threads_invalid_${name}
+      COMMAND ${EBH_GATE_BASH} -c
+        "err=$(OMP_NUM_THREADS='${value}' \"$0\" scene info tube 2>&1 >/dev/null); rc=$?; printf '%s\\n' \"$err\" | grep -v '^libgomp: \\|^$'; echo \"exit status $rc\""
+        ${EBH_BIN})
+    set_tests_properties(cli.process.omp_threads_invalid_${name} PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+      "^ebh: error: OMP_NUM_THREADS '${value}': not a number of threads \\([^\n]*\\)\nexit status 1\n$")
+  endforeach()
+endif()

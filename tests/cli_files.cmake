@@ -21,7 +21,7 @@ endfunction()
 # Fresh previous outputs and the user's special files before each run.
 set(ebh_rec ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5)
 add_test(NAME cli.files.setup COMMAND sh -c
-  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5")
+  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5 && mkdir -p vframes && echo 'a frame' > vframes/frame_00000.png")
 set_tests_properties(cli.files.setup PROPERTIES FIXTURES_SETUP files LABELS cli)
 
 # A name longer than the file system allows (256 bytes) failed only when the finished replay was
@@ -41,3 +41,18 @@ ebh_files_failure(index_is_a_pipe "^ebh: error: [^\n]*/ff.xdmf: a named pipe, no
 ebh_files_failure(index_links_to_a_device "^ebh: error: [^\n]*/dv.xdmf: a character device, not a regular file: "
   KEEP ${F}/dv.h5 LINKS ${F}/dv.xdmf
   CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 --frames-hz 30 -q -o ${F}/dv.h5)
+
+if(EBH_HAVE_OSMESA)
+  # --video named like one of the frames, in their folder: the video replaced that frame. An
+  # ffmpeg that writes text to its output file stands in for a real one (none may be installed).
+  file(WRITE ${F}/ffmpeg.in "#!/bin/sh\nfor a; do out=$a; done\necho 'not a video' > \"$out\"\n")
+  file(COPY ${F}/ffmpeg.in DESTINATION ${F}/bin FILE_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ
+    GROUP_EXECUTE WORLD_READ WORLD_EXECUTE)
+  file(RENAME ${F}/bin/ffmpeg.in ${F}/bin/ffmpeg)
+  ebh_files_failure(video_over_a_frame
+    "^ebh: error: --video [^\n]*/vframes/frame_00000.png: named like a frame in [^\n]*/vframes, where the render writes"
+    KEEP ${F}/vframes/frame_00000.png
+    CMD ${EBH_BIN} render ${EBH_RENDER_OUT}/tube.h5 -o ${F}/vframes --size 32x24 -q --video ${F}/vframes/frame_00000.png)
+  set_tests_properties(cli.files.video_over_a_frame PROPERTIES ENVIRONMENT "PATH=${F}/bin:/usr/bin:/bin"
+    FIXTURES_REQUIRED "files;render_tube")
+endif()

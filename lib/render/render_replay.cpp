@@ -92,6 +92,19 @@ bool is_frame_name(const fs::path& p) {
   return p.filename().string().rfind("frame_", 0) == 0 && p.extension() == ".png";
 }
 
+/// Whether `file` is in the folder `dir`, which need not exist yet.
+bool in_folder(const fs::path& file, const fs::path& dir) {
+  const fs::path folder = file.parent_path().empty() ? fs::path(".") : file.parent_path();
+  std::error_code ec;
+  if (fs::exists(folder, ec) && fs::exists(dir, ec)) return fs::equivalent(folder, dir, ec);
+  auto normal = [](const fs::path& p) {
+    std::error_code e;
+    fs::path n = fs::weakly_canonical(fs::absolute(p), e).lexically_normal();
+    return n.has_filename() ? n : n.parent_path();
+  };
+  return normal(folder) == normal(dir);
+}
+
 /// The frames rendered into `fresh` (a folder beside them) take the place of the frame_*.png
 /// files in `dir`: the old ones are moved aside first (a frame that cannot be moved, an immutable
 /// file, stops it with every old frame back in place), then the new ones are moved in.
@@ -240,6 +253,11 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     throw InputError("--max-displacement: expected a non-negative length");
   if (!opt.video.empty() && find_on_path("ffmpeg").empty())  // before any work
     throw InputError("--video " + opt.video + ": ffmpeg was not found on the PATH (install ffmpeg)");
+  // The video written among the frames under a frame's name would replace that frame (and be
+  // taken for one by the next render).
+  if (!opt.video.empty() && is_frame_name(opt.video) && in_folder(opt.video, dir))
+    throw InputError("--video " + opt.video + ": named like a frame in " + dir +
+                     ", where the render writes its frame_*.png files; name the video otherwise (video.mp4)");
   if (!have_osmesa()) throw InputError(kNoOsmesa);
 
   const ReplayFrames frames = open_replay_frames(replay);

@@ -1142,6 +1142,21 @@ Scene build_scene(SceneSpec spec_in) {
                                      "its coupling to the virtual mesh, which drags it like a thick fluid: under "
                                      "gravity it sinks slowly instead of falling, and the tool feels that drag, not "
                                      "tissue held in place (docs/MODEL.md, \"Held loads\"; pin a region of it)");
+  if (std::string w = coupling_bounds_tissue(scene); !w.empty())
+    scene.warnings.push_back(value_source(spec, "stiffness.k_vol") + ": " + w);
+  if (!scene.pinned.empty() && static_cast<int>(scene.pinned.size()) < nv) {
+    const std::vector<std::pair<int, int>> turning = parts_pinned_on_a_line(scene.physical, scene.pinned);
+    if (!turning.empty()) {
+      const auto& [first, count] = turning.front();
+      scene.warnings.push_back(
+          where + ": pinned: " + std::to_string(turning.size()) + " part(s) of the physical mesh (the first holds " +
+          vertex_name(scene.physical, first) + ") are pinned at " + std::to_string(count) +
+          (count == 1 ? " vertex" : " vertices on one line") +
+          ": they can turn about " + (count == 1 ? "it" : "that line") +
+          ", held only by their coupling to the virtual mesh, and the tool feels that drag, falling while it is held "
+          "(docs/MODEL.md, \"Held loads\"): pin a region that spans a face of each part");
+    }
+  }
   if (!scene.pinned.empty()) {
     scene.free_parts = unpinned_parts(scene.physical, scene.pinned);
     if (!scene.free_parts.empty()) {
@@ -1176,6 +1191,69 @@ std::string too_soft_for_own_weight(const Scene& scene) {
          "gravity (" + shown_number(hi - lo) + " m) / stiffness.k_vol = " + shown_number(strain) +
          " (above 1 it sags by more than its own height): raise stiffness.k_vol, or set gravity: [0, 0, 0] where the "
          "organ is held by its surroundings";
+}
+
+std::vector<std::pair<int, int>> parts_pinned_on_a_line(const TetMesh& mesh, std::span<const int> pinned) {
+  const int n = static_cast<int>(mesh.vertices.size());
+  const std::vector<int> part = mesh_parts(mesh);  // the part's lowest vertex
+  std::vector<std::vector<int>> pins(n);
+  for (const int i : pinned) pins[part[i]].push_back(i);
+  // Each part's extent: the diagonal of its vertices' box.
+  std::vector<Vec3d> lo(n, Vec3d{1e300, 1e300, 1e300}), hi(n, Vec3d{-1e300, -1e300, -1e300});
+  for (const Tet& t : mesh.tets)
+    for (int k = 0; k < 4; ++k) {
+      const Vec3d& x = mesh.vertices[t[k]];
+      lo[part[t[k]]] = {std::min(lo[part[t[k]]].x, x.x), std::min(lo[part[t[k]]].y, x.y), std::min(lo[part[t[k]]].z, x.z)};
+      hi[part[t[k]]] = {std::max(hi[part[t[k]]].x, x.x), std::max(hi[part[t[k]]].y, x.y), std::max(hi[part[t[k]]].z, x.z)};
+    }
+  std::vector<std::pair<int, int>> parts;
+  for (int p = 0; p < n; ++p) {
+    const std::vector<int>& v = pins[p];
+    if (v.empty() || !(hi[p].x >= lo[p].x)) continue;
+    const double tol = kPinLineTolerance * norm(hi[p] - lo[p]);
+    // The line through the pinned vertex farthest from the first and the one farthest from that.
+    const auto farthest = [&](const Vec3d& from) {
+      int best = v.front();
+      for (const int i : v)
+        if (norm(mesh.vertices[i] - from) > norm(mesh.vertices[best] - from)) best = i;
+      return best;
+    };
+    const Vec3d a = mesh.vertices[farthest(mesh.vertices[v.front()])];
+    const Vec3d b = mesh.vertices[farthest(a)];
+    const double length = norm(b - a);
+    bool on_line = true;
+    for (const int i : v) {
+      const Vec3d d = mesh.vertices[i] - a;
+      const double off = length > tol ? norm(cross(d, b - a)) / length : norm(d);
+      if (off > tol) {
+        on_line = false;
+        break;
+      }
+    }
+    if (on_line) parts.emplace_back(p, static_cast<int>(v.size()));
+  }
+  return parts;
+}
+
+std::string coupling_bounds_tissue(const Scene& scene) {
+  const SceneSpec& spec = scene.spec;
+  const SurfaceMesh& surface = scene.virtual_surface;
+  if (surface.triangles.empty() || !(spec.stiffness.k_svc > 0)) return "";
+  double sum = 0;
+  for (const auto& t : surface.triangles)
+    for (int a = 0; a < 3; ++a) sum += norm(surface.vertices[t[a]] - surface.vertices[t[(a + 1) % 3]]);
+  // Each level of virtual_refine halves the edges.
+  const double edge = sum / (3.0 * static_cast<double>(surface.triangles.size())) / std::ldexp(1.0, spec.virtual_refine);
+  const double felt = spec.stiffness.k_vol * edge;
+  if (!(felt > kTissueOverCoupling * spec.stiffness.k_svc)) return "";
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "stiffness.k_vol x the virtual mesh's mean edge (%.3g Pa x %.3g mm = %.3g N/m) is %.3g times "
+                "stiffness.k_svc (%.3g N/m): the coupling, not the tissue, sets what the tool feels, the virtual surface "
+                "giving way over the physical one (a stiffer tissue renders little harder); raise k_svc to about k_vol "
+                "x the edge (docs/MODEL.md, \"The other stiffnesses\")",
+                spec.stiffness.k_vol, edge * 1e3, felt, felt / spec.stiffness.k_svc, spec.stiffness.k_svc);
+  return line;
 }
 
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned) {

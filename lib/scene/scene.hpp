@@ -339,6 +339,22 @@ struct Scene {
 /// `pinned` (sorted): each part's lowest vertex index and its number of vertices, by that index.
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned);
 
+/// The parts of `mesh` that touch pinned vertices (sorted) only on one line or at one point, so
+/// that they can turn about it, held against that only by the coupling's drag: each part's lowest
+/// vertex index and its number of pinned vertices. Collinear: every pinned vertex of the part lies
+/// within kPinLineTolerance of the part's extent from the line through its two farthest ones.
+inline constexpr double kPinLineTolerance = 0.01;
+std::vector<std::pair<int, int>> parts_pinned_on_a_line(const TetMesh& mesh, std::span<const int> pinned);
+
+/// "" or why the tissue's stiffness hardly reaches the tool: stiffness.k_vol times the virtual
+/// mesh's mean edge (as refined at run time: the tissue's stiffness felt at a virtual vertex,
+/// docs/MODEL.md "The other stiffnesses") over kTissueOverCoupling times k_svc, which then bounds
+/// the rendered stiffness (a block of 5 mm tets, virtual edges 2.5 mm, k_svc 50, pressed 8 mm:
+/// 0.83 N at k_vol 3000, 1.40 N at 1e4, 2.16 N at 1e5 and 2.27 N at 1e6; 1e6 with k_svc 2500
+/// stops the tool at the surface).
+inline constexpr double kTissueOverCoupling = 3;
+std::string coupling_bounds_tissue(const Scene& scene);
+
 /// "" or why the physical mesh cannot carry its own weight (no static equilibrium near its rest
 /// shape): the weight of a column of its height along gravity over stiffness.k_vol, a strain, is
 /// above 1. A scene warning, and the cause settle_under_gravity names when its steps diverge.

@@ -158,6 +158,41 @@ TEST(Scene, PartsTouchingNoPinnedVertexAreFoundByTheirSharedVertices) {
   EXPECT_EQ(unpinned_parts(m, std::vector<int>{3, 6, 14}), Parts{});
 }
 
+/// A part pinned at one vertex or along one edge can turn about it (the tool feels the coupling's
+/// drag); a face of pins holds it.
+TEST(Scene, PinsOnALineOrAtAPointWarn) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const std::string pins = "pinned:\n  - group: bottom\n  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n";
+  const auto warned = [](const Scene& s) {
+    for (const std::string& w : s.warnings)
+      if (w.find(": they can turn about") != std::string::npos) return w;
+    return std::string();
+  };
+  const Scene corner = load_scene(write_temp("corner.yaml", replace(good, pins, "pinned:\n  - box: {min: [-1, -1, -1], max: [1, 1, 1]}\n")));
+  EXPECT_NE(warned(corner).find("pinned at 1 vertex: they can turn about it"), std::string::npos)
+      << ::testing::PrintToString(corner.warnings);
+  const Scene edge = load_scene(write_temp("edge.yaml", replace(good, pins, "pinned:\n  - box: {min: [-1, -1, -1], max: [11, 1, 1]}\n")));
+  EXPECT_NE(warned(edge).find("pinned at 2 vertices on one line: they can turn about that line"), std::string::npos)
+      << ::testing::PrintToString(edge.warnings);
+  EXPECT_EQ(warned(load_scene(write_temp("face.yaml", good))), "");
+  const Scene face = load_scene(write_temp("face3.yaml", replace(good, pins, "pinned:\n  - box: {min: [-1, -1, -1], max: [11, 1, 11]}\n")));
+  EXPECT_EQ(warned(face), "");
+}
+
+/// A tissue stiffer than its coupling can carry: the rendered force stops following k_vol.
+TEST(Scene, ATissueStifferThanItsCouplingWarns) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const auto warned = [](const Scene& s) {
+    for (const std::string& w : s.warnings)
+      if (w.find("the coupling, not the tissue, sets what the tool feels") != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_FALSE(warned(load_scene(write_temp("soft.yaml", good))));  // 2500 Pa x ~12 mm against 55 N/m
+  const Scene stiff = load_scene(write_temp("stiff.yaml", replace(good, "k_vol: 2500", "k_vol: 1e5")));
+  EXPECT_TRUE(warned(stiff)) << ::testing::PrintToString(stiff.warnings);
+  EXPECT_FALSE(warned(load_scene(write_temp("held.yaml", replace(replace(good, "k_vol: 2500", "k_vol: 1e5"), "k_svc: 55", "k_svc: 2000")))));
+}
+
 /// A scene whose pins hold only some of its mesh's parts, all of it or none of it says so (a part
 /// the tool pushes away, a rigid body); under gravity a free part stops the settling with one line.
 TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {
@@ -388,10 +423,12 @@ TEST(Scene, WarningsNameTheOverrideThatGaveTheValue) {
   const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
   const std::string p = write_temp("named.yaml", replace(good, "density: 1100", "density: 1e-30")).string();
   const Scene s = load_scene(p, {"stiffness={k_vol: 2.5e9}", "stiffness.k_con=1e9"});
-  ASSERT_EQ(s.warnings.size(), 2u) << ::testing::PrintToString(s.warnings);
+  ASSERT_EQ(s.warnings.size(), 3u) << ::testing::PrintToString(s.warnings);
   EXPECT_EQ(s.warnings[0], "--set 'stiffness={k_vol: 2.5e9}': stiffness.k_vol = 2.5e+09 Pa is outside soft tissue's "
                            "10 Pa .. 100 MPa");
   EXPECT_EQ(s.warnings[1], p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000");
+  EXPECT_EQ(s.warnings[2].rfind("--set 'stiffness={k_vol: 2.5e9}': stiffness.k_vol x the virtual mesh's mean edge", 0), 0u)
+      << s.warnings[2];
   EXPECT_EQ(tool_stiffness_warnings(s.spec).at(0).rfind("--set 'stiffness.k_con=1e9': stiffness.k_con = 1e+09 N/m", 0), 0u);
   // An error of a placement an override gave names the override.
   try {
@@ -452,7 +489,9 @@ TEST(Scene, UnitsScaleEveryLength) {
 
 /// A scene on cube22.msh (a 10-unit cube; node 101 at (10, 0, 10), vertex 0) with `extra` YAML.
 fs::path cube_scene(const std::string& name, const std::string& extra) {
-  return write_temp(name, "mesh: {physical: " + data("mesh/cube22.msh").string() + "}\npinned: [{group: bottom}]\n" + extra);
+  // k_svc for a coupling as stiff as the tissue at its 10 cm edges when the scene is in cm
+  return write_temp(name, "mesh: {physical: " + data("mesh/cube22.msh").string() +
+                              "}\npinned: [{group: bottom}]\nstiffness: {k_svc: 200}\n" + extra);
 }
 
 // The mesh file in cm, scaled by 2, turned a quarter turn about +z and moved by (1, 2, 3) cm; the
@@ -466,6 +505,7 @@ TEST(MeshTransform, ACentimetreMeshLandsWhereItsTransformPutsIt) {
                                            "  unit: cm\n"
                                            "  transform: {scale: 2, rotvec_deg: [0, 0, 90], translate: [1, 2, 3]}\n"
                                            "pinned:\n  - box: {min: [9, 219, 229], max: [11, 221, 231]}\n"
+                                           "stiffness: {k_svc: 300}\n"
                                            "tool: {kind: hook, shaft_radius: 2.5, shaft_length: 330}\n");
   const Scene s = load_scene(p);
   EXPECT_EQ(s.spec.mesh_unit_name, "cm");
@@ -485,7 +525,8 @@ TEST(MeshTransform, ACentimetreMeshLandsWhereItsTransformPutsIt) {
   // the tool stays in the scene's mm: the mesh's unit does not rescale it
   EXPECT_NEAR(s.spec.tool.shaft_radius, 0.0025, kTol);
   EXPECT_NEAR(s.spec.tool.shaft_length, 0.33, kTol);
-  EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+  ASSERT_EQ(s.warnings.size(), 1u) << ::testing::PrintToString(s.warnings);  // the one pinned vertex, said
+  EXPECT_NE(s.warnings[0].find("pinned at 1 vertex: they can turn about it"), std::string::npos) << s.warnings[0];
   // the same point through MeshTransform's own functions, and back
   const Vec3d back = s.spec.mesh_transform.inverse(v0);
   EXPECT_NEAR(back.x, 0.1, 1e-15);

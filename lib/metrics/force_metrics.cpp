@@ -334,15 +334,21 @@ PassivityEnergy passivity_energy(std::span<const double> t, const std::function<
   return {e, e_min.v, std::isnan(e) ? kNaN : t_neg};
 }
 
-std::string passivity_warning(const PassivityEnergy& e) {
+std::string passivity_warning(const PassivityEnergy& e, std::optional<bool> vertex_contact) {
   if (!(e.min < -kActiveEnergyJ)) return "";
-  char b[400];
+  // What was measured to stay passive: a 40 Hz vibration in contact fed energy with vertex
+  // contact in async mode, not with surface contact or in lockstep mode.
+  const char* cause = !vertex_contact ? "the physical mesh's one-step delay does it, with vertex contact most (a 40 Hz "
+                                        "vibration in contact: `--set contact=surface` and --mode lockstep stayed passive)"
+                      : *vertex_contact ? "the physical mesh's one-step delay with vertex contact does it (a 40 Hz "
+                                          "vibration in contact: `--set contact=surface` and --mode lockstep stayed "
+                                          "passive)"
+                                        : "the physical mesh's one-step delay does it (--mode lockstep removes it)";
+  char b[480];
   std::snprintf(b, sizeof b,
                 "the rendering fed energy to the user: the passivity observer went to %.3g J (below 0 for %.3g s), "
-                "a precursor of oscillation on a device (docs/METRICS.md, passivity); the physical mesh's one-step "
-                "delay with vertex contact does it (a 40 Hz vibration in contact: `--set contact=surface` and "
-                "--mode lockstep stayed passive)",
-                e.min, e.time_negative_s);
+                "a precursor of oscillation on a device (docs/METRICS.md, passivity); %s",
+                e.min, e.time_negative_s, cause);
   return b;
 }
 
@@ -383,6 +389,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   ForceMetrics m;
   m.path = tr.path;
   m.scene = tr.scene;
+  if (!tr.contact.empty()) m.vertex_contact = tr.contact == "vertices";
   m.recording = tr.recording;
   m.mode = tr.mode;
   m.backend = tr.backend;
@@ -542,7 +549,7 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   collapse.set("peak_force_N", m.collapse ? m.collapse->peak_N : kNaN);
   collapse.set("force_N", m.collapse ? m.collapse->force_N : kNaN);
   collapse.set("pressed_on_mm", m.collapse ? 1e3 * m.collapse->pressed_on_m : kNaN);
-  collapse.set("warning", m.collapse ? Json(collapse_warning(*m.collapse, std::nullopt)) : Json(nullptr));
+  collapse.set("warning", m.collapse ? Json(collapse_warning(*m.collapse, m.vertex_contact)) : Json(nullptr));
   j.set("force_collapse", std::move(collapse));
   j.set("episode_count", m.episodes.size());
   if (with_episodes) {
@@ -602,10 +609,10 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
     o << ")\n";
   }
   if (!m.contact_warning.empty()) o << "  warning: " << m.contact_warning << "\n";
-  if (m.collapse) o << "  warning: " << collapse_warning(*m.collapse, std::nullopt) << "\n";
+  if (m.collapse) o << "  warning: " << collapse_warning(*m.collapse, m.vertex_contact) << "\n";
   const PassivityEnergy whole{m.whole.passivity_energy_final, m.whole.passivity_energy_min,
                               m.whole.passivity_time_negative_s};
-  if (const std::string w = passivity_warning(whole); !w.empty()) o << "  warning: " << w << "\n";
+  if (const std::string w = passivity_warning(whole, m.vertex_contact); !w.empty()) o << "  warning: " << w << "\n";
   o << "force\n";
   row("peak |F|", fmt("%.4f", s.peak_force), "N");
   row("peak |T|", fmt("%.5f", s.peak_torque), "N m");

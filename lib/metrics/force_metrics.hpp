@@ -157,10 +157,13 @@ inline constexpr double kActiveEnergyJ = 1e-3;
 
 /// "" or the line for an observer that went below -kActiveEnergyJ: the rendering fed energy to the
 /// user, a precursor of oscillation on a device.
-std::string passivity_warning(const PassivityEnergy& e);
+std::string passivity_warning(const PassivityEnergy& e, std::optional<bool> vertex_contact);
 
 struct ForceMetrics {
   std::string path, scene, recording, mode, backend;
+  /// whether the replay's contact was the paper's vertex contact (its contact attribute); nullopt
+  /// for an older output without one: the warnings then name both
+  std::optional<bool> vertex_contact;
   double haptic_hz = 0, physical_hz = 0;
   long frame_ticks = 0;  // N = H/P
   double duration_s = 0;

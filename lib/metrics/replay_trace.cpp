@@ -243,6 +243,7 @@ ReplayTrace load_replay(const std::string& path) {
   tr.recording = in.string_attr("recording");
   tr.backend = in.string_attr("backend");
   tr.version = in.string_attr("version");
+  tr.contact = in.string_attr("contact");
 
   tr.t = in.doubles("/haptic/t", -1);
   const long n = static_cast<long>(tr.t.size());

@@ -24,6 +24,7 @@ struct ReplayTrace {
   double physical_hz = 0;  // P: physical steps per second
   std::string mode;        // async, lockstep or realtime ("" when absent)
   std::string scene, recording, backend, version;
+  std::string contact;     // the scene's contact model, vertices or surface ("" in an older output)
 
   // Haptic rate, N ticks each.
   std::vector<double> t;                   // N, s

@@ -59,6 +59,12 @@ void write_parameters(h5::File& f, const World& w) {
   f.set_attr("physical_tolerance", s.solver.physical_tolerance);
   f.set_attr("physical_max_iterations", static_cast<std::int64_t>(s.solver.physical_max_iterations));
   f.set_attr("virtual_refine", static_cast<std::int64_t>(s.virtual_refine));
+  f.set_attr("contact", s.contact == ContactModel::Surface ? "surface" : "vertices");
+  f.set_attr("active_region", s.solver.active_region);
+  f.set_attr("physical_region", s.solver.physical_region);
+  f.set_attr("sleep", s.solver.sleep);
+  f.set_attr("recovery", s.solver.recovery == SolverSpec::Recovery::Direct ? "direct" : "none");
+  f.set_attr("recovery_residual", s.solver.recovery_residual);
   f.set_attr("tool", s.tool.kind == ToolSpec::Kind::Hook ? "hook" : "forceps");
   f.set_attr("force_limit", s.tool.force_limit);
   f.set_attr("torque_limit", s.tool.torque_limit);

@@ -59,6 +59,7 @@ std::string write_trace(const ReplayTrace& tr, const std::string& name, const st
   f.set_attr("physical_hz", tr.physical_hz);
   f.set_attr("mode", tr.mode);
   f.set_attr("scene", "synthetic");
+  if (!tr.contact.empty()) f.set_attr("contact", tr.contact);
   const std::size_t n = tr.ticks();
   auto put = [&](const std::string& ds, const std::vector<double>& v, std::vector<std::size_t> shape) {
     if (ds != skip) f.write<double>(ds, v, shape);
@@ -255,8 +256,18 @@ TEST(ForceMetrics, PassivityEnergyOfConstantVelocityAgainstConstantForce) {
                                         "to -0.02 J (below 0 for 1 s)"),
             std::string::npos)
       << format_table(m, false);
-  EXPECT_EQ(passivity_warning({0.01, -1e-22, 0.006}), "");
-  EXPECT_EQ(passivity_warning({0.02, 0.0, 0.0}), "");
+  EXPECT_EQ(passivity_warning({0.01, -1e-22, 0.006}, true), "");
+  EXPECT_EQ(passivity_warning({0.02, 0.0, 0.0}, true), "");
+  // The cause it names follows the replay's contact model (the output's contact attribute): a
+  // surface-contact replay is not told to switch to surface contact.
+  EXPECT_NE(format_table(m, false).find("with vertex contact most"), std::string::npos);  // no attribute: both
+  tr.contact = "surface";
+  const ForceMetrics surface = roundtrip(tr, "active_surface");
+  EXPECT_EQ(surface.vertex_contact, std::optional<bool>(false));
+  EXPECT_EQ(format_table(surface, false).find("contact=surface"), std::string::npos) << format_table(surface, false);
+  EXPECT_NE(format_table(surface, false).find("--mode lockstep removes it"), std::string::npos);
+  tr.contact = "vertices";
+  EXPECT_NE(format_table(roundtrip(tr, "active_vertices"), false).find("with vertex contact does it"), std::string::npos);
 }
 
 TEST(ForceMetrics, RotationalPassivityUsesTorqueAndAngularMotion) {

@@ -198,7 +198,8 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   if (const std::string w = passivity_warning(passivity_energy(
           writer.tick_times(), [&writer](std::size_t n) { return writer.force_at(n); },
           [&writer](std::size_t n) { return writer.device_position_at(n); }, 0,
-          writer.tick_times().empty() ? 0 : writer.tick_times().size() - 1));
+          writer.tick_times().empty() ? 0 : writer.tick_times().size() - 1),
+          world.scene.spec.contact == ContactModel::Vertices);
       !w.empty())
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), w.c_str());
   index_replay_frames(a.out);

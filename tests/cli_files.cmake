@@ -21,7 +21,7 @@ endfunction()
 # Fresh previous outputs and the user's special files before each run.
 set(ebh_rec ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5)
 add_test(NAME cli.files.setup COMMAND sh -c
-  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5 && mkdir -p vframes && echo 'a frame' > vframes/frame_00000.png")
+  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5 && mkdir -p vframes && echo 'a frame' > vframes/frame_00000.png && cp '${ebh_rec}' ctx.h5 && cp '${ebh_rec}' fd.h5 && mkdir -p fdir/frame_00000.png")
 set_tests_properties(cli.files.setup PROPERTIES FIXTURES_SETUP files LABELS cli)
 
 # A name longer than the file system allows (256 bytes) failed only when the finished replay was
@@ -55,4 +55,17 @@ if(EBH_HAVE_OSMESA)
     CMD ${EBH_BIN} render ${EBH_RENDER_OUT}/tube.h5 -o ${F}/vframes --size 32x24 -q --video ${F}/vframes/frame_00000.png)
   set_tests_properties(cli.files.video_over_a_frame PROPERTIES ENVIRONMENT "PATH=${F}/bin:/usr/bin:/bin"
     FIXTURES_REQUIRED "files;render_tube")
+  # What can fail in the renderer's setup fails before the replay replaced the previous output: a
+  # rendering context OSMesa cannot create (tests/render/no_osmesa_context.c stands in for Mesa out
+  # of memory), and a folder named like a frame in --render's folder.
+  add_library(ebh_no_osmesa_context MODULE ${CMAKE_CURRENT_SOURCE_DIR}/render/no_osmesa_context.c)
+  ebh_files_failure(render_without_a_context
+    "^ebh: error: --render [^\n]*/ctx_frames: OSMesa could not create a rendering context"
+    KEEP ${F}/ctx.h5 OUTPUT ${F}/ctx.xdmf
+    CMD env LD_PRELOAD=$<TARGET_FILE:ebh_no_osmesa_context> ASAN_OPTIONS=verify_asan_link_order=0
+      ${EBH_BIN} replay tube tube_insert --duration 0.1 -q -o ${F}/ctx.h5 --render ${F}/ctx_frames)
+  ebh_files_failure(render_folder_holds_a_folder_named_like_a_frame
+    "^ebh: error: [^\n]*/fdir/frame_00000.png: named like a frame but a folder"
+    KEEP ${F}/fd.h5 OUTPUT ${F}/fd.xdmf
+    CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 -q -o ${F}/fd.h5 --render ${F}/fdir)
 endif()

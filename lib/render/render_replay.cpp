@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -243,7 +244,7 @@ ToolModel replay_tool(const ReplayFrames& f, const std::optional<SceneSpec>& sce
   return build_tool(spec);
 }
 
-RenderSummary render_replay(const std::string& replay, const std::string& dir, const RenderOptions& opt) {
+std::unique_ptr<OffscreenRenderer> start_renderer(const RenderOptions& opt) {
   if (opt.width < 16 || opt.height < 16 || opt.width > 4096 || opt.height > 4096)
     throw InputError("--size: width and height must be within 16..4096 pixels, got " + std::to_string(opt.width) + "x" +
                      std::to_string(opt.height));
@@ -253,12 +254,30 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     throw InputError("--max-displacement: expected a non-negative length");
   if (!opt.video.empty() && find_on_path("ffmpeg").empty())  // before any work
     throw InputError("--video " + opt.video + ": ffmpeg was not found on the PATH (install ffmpeg)");
+  if (!have_osmesa()) throw InputError(kNoOsmesa);
+  const int ss = std::max(1, std::min(opt.supersample, 8192 / std::max(opt.width, opt.height)));
+  return std::make_unique<OffscreenRenderer>(opt.width, opt.height, ss);
+}
+
+void check_frames_folder(const std::string& dir) {
+  std::error_code ec;
+  if (!fs::exists(dir, ec)) return;
+  if (!fs::is_directory(dir, ec)) throw InputError(dir + ": not a directory");
+  check_frame_names(dir);
+}
+
+RenderSummary render_replay(const std::string& replay, const std::string& dir, const RenderOptions& opt,
+                            OffscreenRenderer* renderer) {
   // The video written among the frames under a frame's name would replace that frame (and be
   // taken for one by the next render).
   if (!opt.video.empty() && is_frame_name(opt.video) && in_folder(opt.video, dir))
     throw InputError("--video " + opt.video + ": named like a frame in " + dir +
                      ", where the render writes its frame_*.png files; name the video otherwise (video.mp4)");
-  if (!have_osmesa()) throw InputError(kNoOsmesa);
+  std::unique_ptr<OffscreenRenderer> own;
+  if (!renderer) {
+    own = start_renderer(opt);
+    renderer = own.get();
+  }
 
   const ReplayFrames frames = open_replay_frames(replay);
   RenderSummary summary;
@@ -323,8 +342,6 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     }
   } remove_fresh{fresh};
 
-  const int ss = std::max(1, std::min(opt.supersample, 8192 / std::max(opt.width, opt.height)));
-  OffscreenRenderer renderer(opt.width, opt.height, ss);
   const RenderStyle style;
   std::vector<std::array<int, 3>> kept;
   std::size_t broken_frames = 0;
@@ -357,7 +374,7 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     g.tissue_colors = by_disp ? &colours : nullptr;
     g.virtual_tool = &virtual_mesh;
     g.physical_tool = &physical_mesh;
-    Image img = renderer.render(g, summary.camera, style);
+    Image img = renderer->render(g, summary.camera, style);
     if (by_disp) draw_legend(img);
     if (opt.time_bar) draw_time_bar(img, t1 > t0 ? (frames.t[f] - t0) / (t1 - t0) : 1.0);
 

@@ -5,6 +5,7 @@
 //   RenderOptions opt;               // 800 x 600, the scene's camera, every frame
 //   opt.camera = "iso";
 //   RenderSummary s = render_replay("out.h5", "frames/", opt);
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -52,10 +53,22 @@ ViewCamera choose_camera(const std::string& name, const std::optional<SceneSpec>
 /// The tool drawn: the scene's tool, else a default tool of the recorded kind and shaft radius.
 ToolModel replay_tool(const ReplayFrames& frames, const std::optional<SceneSpec>& scene);
 
+/// What can fail before a frame is read: checks the options (sizes, --every, ffmpeg for --video)
+/// and creates the rendering context (OSMesa) render_replay draws with. Throws InputError for bad
+/// options, in a build without OSMesa, or when Mesa cannot create the context. `ebh replay
+/// --render` starts it before the replay, so that such a failure leaves the previous output.
+std::unique_ptr<OffscreenRenderer> start_renderer(const RenderOptions& opt);
+
+/// Throws InputError when `dir` exists and is not a folder, or holds something named like a frame
+/// (frame_*.png) that is not a file (a folder), which the render would replace.
+void check_frames_folder(const std::string& dir);
+
 /// Renders the frames of `replay` into `dir` (created if missing; frame_*.png files already in
-/// it are removed first so a video never mixes two runs). Throws InputError for bad input or
-/// options, in a build without OSMesa, or when --video is asked and ffmpeg is missing.
-RenderSummary render_replay(const std::string& replay, const std::string& dir, const RenderOptions& opt);
+/// it are removed first so a video never mixes two runs) with `renderer`, one start_renderer(opt)
+/// made (nullptr: it starts its own). Throws InputError for bad input or options, in a build
+/// without OSMesa, or when --video is asked and ffmpeg is missing.
+RenderSummary render_replay(const std::string& replay, const std::string& dir, const RenderOptions& opt,
+                            OffscreenRenderer* renderer = nullptr);
 
 /// Where ffmpeg is on the PATH ("" if it is not).
 std::string find_on_path(const std::string& program);

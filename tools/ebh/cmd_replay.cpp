@@ -415,6 +415,9 @@ void run_replay(const ReplayArgs& a) {
                             a.transforms, RecordingWindow{a.start, a.duration.value_or(0)});
   print_scene_warnings(p.in.world->scene, parse_mode(a.mode), "");
   prepare_replay(a, p);
+  // The renderer's setup can fail (no OSMesa context): before the replay replaces a previous output.
+  std::unique_ptr<OffscreenRenderer> renderer;
+  if (!a.render_dir.empty()) renderer = start_render_after_replay(a.render_dir);
   // After the checks that refuse the replay: a refused one says one line, its error.
   for (const std::string& w : p.in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   install_interrupt_handlers();
@@ -424,7 +427,7 @@ void run_replay(const ReplayArgs& a) {
   const ReplaySummary s = replay(*p.in.world, p.in.recording, p.opt, tee);
   progress.finish();
   finish_replay(a, p, s);
-  if (!a.render_dir.empty()) render_after_replay(a.out, a.render_dir);
+  if (renderer) render_after_replay(a.out, a.render_dir, *renderer);
 }
 
 /// The options of one replay, on `ebh replay` and on each line of a --batch file.

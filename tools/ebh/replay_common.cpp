@@ -31,10 +31,20 @@ void check_backend(const std::string& backend) {
   throw InputError("--backend: expected cpu or cuda, got '" + backend + "'");
 }
 
-void render_after_replay(const std::string& replay_file, const std::string& dir) {
+std::unique_ptr<OffscreenRenderer> start_render_after_replay(const std::string& dir) {
+  check_frames_folder(dir);
+  try {
+    return start_renderer(RenderOptions{});
+  } catch (const InputError& e) {
+    if (!have_osmesa()) throw;  // kNoOsmesa, as `ebh render` says it
+    throw InputError("--render " + dir + ": " + e.what());
+  }
+}
+
+void render_after_replay(const std::string& replay_file, const std::string& dir, OffscreenRenderer& renderer) {
   RenderSummary s;
   try {
-    s = render_replay(replay_file, dir, RenderOptions{});
+    s = render_replay(replay_file, dir, RenderOptions{}, &renderer);
   } catch (const InputError&) {
     // The replay's output is written by then: an interrupt stops the frames only, and says so.
     if (!interrupted()) throw;

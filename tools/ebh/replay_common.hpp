@@ -1,7 +1,9 @@
 #pragma once
 // Pieces shared by the commands that run replays (replay, and the rendering hook).
+#include <memory>
 #include <string>
 
+#include "render/offscreen.hpp"
 #include "schedule/replay_inputs.hpp"
 
 namespace ebh::cli {
@@ -10,8 +12,13 @@ namespace ebh::cli {
 /// InputError that says how to get it.
 void check_backend(const std::string& backend);
 
-/// `ebh replay --render DIR`: renders the replay's frames like `ebh render OUT -o DIR`.
-void render_after_replay(const std::string& replay_file, const std::string& dir);
+/// `ebh replay --render DIR`, before the replay: what can fail in the renderer's setup (DIR's
+/// frame names, OSMesa's context) fails here, before the replay's output replaces a previous one.
+std::unique_ptr<OffscreenRenderer> start_render_after_replay(const std::string& dir);
+
+/// `ebh replay --render DIR`: renders the replay's frames like `ebh render OUT -o DIR`, with the
+/// renderer start_render_after_replay made.
+void render_after_replay(const std::string& replay_file, const std::string& dir, OffscreenRenderer& renderer);
 
 /// After `ebh replay` committed its output: when it holds frames, writes OUT.xdmf beside it (the
 /// ParaView index of the mesh snapshots, render/xdmf.hpp); otherwise does nothing.

@@ -352,6 +352,30 @@ std::string passivity_warning(const PassivityEnergy& e, std::optional<bool> vert
   return b;
 }
 
+std::optional<ForceSaturation> find_force_saturation(std::span<const double> t, std::span<const std::uint8_t> clamped,
+                                                     double haptic_hz) {
+  const std::size_t n = std::min(t.size(), clamped.size());
+  std::size_t run = 0, longest = 0, longest_end = 0, at_limit = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    run = clamped[i] ? run + 1 : 0;
+    at_limit += clamped[i] != 0;
+    if (run > longest) longest = run, longest_end = i;
+  }
+  const double seconds = static_cast<double>(longest) / haptic_hz;
+  if (longest == 0 || seconds < kSaturatedRunS) return std::nullopt;
+  return ForceSaturation{t[longest_end + 1 - longest], seconds, static_cast<double>(at_limit) / static_cast<double>(n)};
+}
+
+std::string saturation_warning(const ForceSaturation& s) {
+  char b[400];
+  std::snprintf(b, sizeof b,
+                "the force stayed at the device's limit for %.3g s in a row (from t = %.3f s; %.0f%% of the ticks at "
+                "it): the model's force was larger there, and what the user feels and the metrics measure is the limit "
+                "(tool.force_limit): a tool caught in the tissue or far behind the device, or a tissue too stiff for it",
+                s.seconds, s.start_t, 100 * s.fraction);
+  return b;
+}
+
 std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact) {
   const std::string more = c.count > 1 ? " (" + std::to_string(c.count) + " such falls)" : "";
   const char* parted = "the vertices under a thin tip part and let it through (`--set contact=surface` holds it; "
@@ -440,6 +464,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   m.collapse = find_force_collapse(
       tr.t, [&tr](std::size_t i) { return tr.force[i]; }, [&tr](std::size_t i) { return tr.pose_physical[i].p; },
       tr.contacts, tr.grasped, tr.haptic_hz);
+  m.saturation = find_force_saturation(tr.t, tr.force_clamped, tr.haptic_hz);
   for (auto [a, b] : contact_episodes(tr.contacts, tr.haptic_hz, opt.episode_merge_gap_s))
     m.episodes.push_back(segment_metrics(tr, a, b, opt));
 
@@ -551,6 +576,7 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   collapse.set("pressed_on_mm", m.collapse ? 1e3 * m.collapse->pressed_on_m : kNaN);
   collapse.set("warning", m.collapse ? Json(collapse_warning(*m.collapse, m.vertex_contact)) : Json(nullptr));
   j.set("force_collapse", std::move(collapse));
+  j.set("saturation_warning", m.saturation ? Json(saturation_warning(*m.saturation)) : Json(nullptr));
   j.set("episode_count", m.episodes.size());
   if (with_episodes) {
     Json eps = Json::array();
@@ -610,6 +636,7 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
   }
   if (!m.contact_warning.empty()) o << "  warning: " << m.contact_warning << "\n";
   if (m.collapse) o << "  warning: " << collapse_warning(*m.collapse, m.vertex_contact) << "\n";
+  if (m.saturation) o << "  warning: " << saturation_warning(*m.saturation) << "\n";
   const PassivityEnergy whole{m.whole.passivity_energy_final, m.whole.passivity_energy_min,
                               m.whole.passivity_time_negative_s};
   if (const std::string w = passivity_warning(whole, m.vertex_contact); !w.empty()) o << "  warning: " << w << "\n";

@@ -141,6 +141,19 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
 /// contact model where known).
 std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact);
 
+/// The force held at the device's limit (force_clamped) for kSaturatedRunS or more in a row: the
+/// model's force was larger, and what the user feels and the metrics measure is the limit (a
+/// 2 m/s flick through an own block held it 1.3 s, the virtual tool caught 14 mm below the device;
+/// the committed grasps reach it for at most 0.41 s at a time).
+inline constexpr double kSaturatedRunS = 1.0;
+struct ForceSaturation {
+  double start_t = 0, seconds = 0;  ///< the longest run: its first tick's time and its length
+  double fraction = 0;              ///< of all ticks at the limit
+};
+std::optional<ForceSaturation> find_force_saturation(std::span<const double> t, std::span<const std::uint8_t> clamped,
+                                                     double haptic_hz);
+std::string saturation_warning(const ForceSaturation& s);
+
 /// The translational passivity observer (Hannaford & Ryu 2002) over ticks [first, last]: E(n) =
 /// -sum of F(k-1) . (x(k) - x(k-1)), the energy into the environment through the device port with a
 /// zero-order hold; its last value, its least, and the seconds it spent below 0.
@@ -174,6 +187,7 @@ struct ForceMetrics {
   double contact_fraction = 0;           // ticks with contacts > 0 / ticks
   std::string contact_warning;           // contact_warning(): empty when the tool touched enough
   std::optional<ForceCollapse> collapse; // find_force_collapse(): the tool passed through the tissue
+  std::optional<ForceSaturation> saturation;  // find_force_saturation(): the force held at the limit
   TimingMetrics timing;
 
   std::size_t nonfinite_count = 0;               // non-finite samples over all datasets

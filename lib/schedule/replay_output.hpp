@@ -131,6 +131,7 @@ class ReplayWriter : public ReplayObserver {
   /// The per-tick series as recorded, for the end-of-run checks (metrics/force_metrics.hpp,
   /// find_force_collapse): times, rendered forces, the device's positions, contacts, grasped.
   std::span<const double> tick_times() const { return t_; }
+  std::span<const std::uint8_t> force_clamped() const { return fclamp_; }
   Vec3d force_at(std::size_t n) const { return {force_[3 * n], force_[3 * n + 1], force_[3 * n + 2]}; }
   Vec3d device_position_at(std::size_t n) const { return {pose_h_[7 * n], pose_h_[7 * n + 1], pose_h_[7 * n + 2]}; }
   std::span<const std::int32_t> contacts() const { return contacts_; }

@@ -270,6 +270,23 @@ TEST(ForceMetrics, PassivityEnergyOfConstantVelocityAgainstConstantForce) {
   EXPECT_NE(format_table(roundtrip(tr, "active_vertices"), false).find("with vertex contact does it"), std::string::npos);
 }
 
+// A force held at the device's limit for 1.2 s in a row is said, with where the run started; the
+// same ticks at the limit in runs of 0.4 s (as the committed grasps reach it) are not.
+TEST(ForceMetrics, AForceHeldAtTheLimitIsSaid) {
+  ReplayTrace tr = make_trace(3001);
+  for (std::size_t i = 1000; i < 2200; ++i) tr.force_clamped[i] = 1;
+  const ForceMetrics held = roundtrip(tr, "saturated");
+  ASSERT_TRUE(held.saturation.has_value());
+  EXPECT_NEAR(held.saturation->seconds, 1.2, 1e-12);
+  EXPECT_NEAR(held.saturation->start_t, 1.0, 1e-12);
+  EXPECT_NE(format_table(held, false).find("warning: the force stayed at the device's limit for 1.2 s in a row (from t = "
+                                           "1.000 s; 40% of the ticks at it)"),
+            std::string::npos)
+      << format_table(held, false);
+  for (std::size_t i = 1400; i < 1800; ++i) tr.force_clamped[i] = 0;  // two runs of 0.4 s
+  EXPECT_FALSE(roundtrip(tr, "saturated_briefly").saturation.has_value());
+}
+
 TEST(ForceMetrics, RotationalPassivityUsesTorqueAndAngularMotion) {
   // Rotating at 0.5 rad/s about z for 1 s against a -0.1 N m torque: 0.05 J in.
   ReplayTrace tr = make_trace(1001);

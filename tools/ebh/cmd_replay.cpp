@@ -194,6 +194,8 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   if (collapse)
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(),
                  collapse_warning(*collapse, world.scene.spec.contact == ContactModel::Vertices).c_str());
+  if (const auto held = find_force_saturation(writer.tick_times(), writer.force_clamped(), 1.0 / world.h_haptic))
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), saturation_warning(*held).c_str());
   // Energy the rendering fed the user (the passivity observer below 0).
   if (const std::string w = passivity_warning(passivity_energy(
           writer.tick_times(), [&writer](std::size_t n) { return writer.force_at(n); },

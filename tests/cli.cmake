@@ -829,6 +829,18 @@ file(MAKE_DIRECTORY ${EBH_NUM_OUT})
 add_test(NAME cli.validate.stability COMMAND ${EBH_BIN} validate stability)
 set_tests_properties(cli.validate.stability PROPERTIES PASS_REGULAR_EXPRESSION "stability +0 of 18 cases non-finite or blown up \\([0-9]+ recovered by the health checks\\)  passed"
   LABELS "cli;validate")
+# A user's --set reaches every scene the matrix replays: the solver starved (1 iteration, no
+# stopping rule, no recovery) blows up every case of gap_insert's, and the verdict says so.
+add_test(NAME cli.validate.stability_under_an_override
+  COMMAND ${EBH_BIN} validate stability --recording gap_insert --set solver.physical_iterations=1
+    --set solver.physical_tolerance=0 --set solver.recovery=none)
+set_tests_properties(cli.validate.stability_under_an_override PROPERTIES
+  PASS_REGULAR_EXPRESSION "stability +9 of 9 cases non-finite or blown up .*  FAILED" LABELS "cli;validate")
+add_test(NAME cli.validate.set_for_an_analytic_case
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};validate;hertz;--set;stiffness.k_vol=10"
+    "-DEXPECT=^ebh: error: --set stiffness.k_vol=10: the hertz validation builds its own scenes \\(--set is for coupling and stability\\)"
+    -P ${EBH_EXPECT_ERROR})
+set_tests_properties(cli.validate.set_for_an_analytic_case PROPERTIES LABELS cli)
 # The two-rate loop's short matrix: gap_insert's first 3 s at 1 and 4 virtual iterations, k_s at
 # the scene's and at k_svc (the undamped loop's divergence: tests/schedule/test_virtual_damping.cpp).
 add_test(NAME cli.validate.coupling COMMAND ${EBH_BIN} validate coupling --json)

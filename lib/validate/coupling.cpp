@@ -62,13 +62,14 @@ ValidationResult run_coupling(const ValidationOptions& options) {
   for (const std::string& name : recordings) {
     const RecordingFile file = read_replay_recording(name);
     const std::string scene = resolve_recording_scene(file.recording.scene, file.path).string();
-    const Stiffness st = load_scene_spec(scene).stiffness;
+    const Stiffness st = load_scene_spec(scene, options.overrides).stiffness;
     for (const std::string& k_s_name : k_s_names)
       for (const int k : iterations) {
         const double k_s = k_s_name == "scene" ? st.k_s : k_s_name == "k_svc" ? st.k_svc : 2 * st.k_svc;
         // Judged: k_s up to k_svc with 2 or more iterations, or 1 iteration with the scene's k_s.
         const bool in_envelope = k_s <= st.k_svc && (k >= 2 || k_s_name == "scene");
-        std::vector<std::string> overrides = {"solver.virtual_iterations=" + std::to_string(k)};
+        std::vector<std::string> overrides = options.overrides;
+        overrides.push_back("solver.virtual_iterations=" + std::to_string(k));
         if (k_s_name != "scene") overrides.push_back("stiffness.k_s=" + std::to_string(k_s));
         Trace trace;
         std::string error;
@@ -114,6 +115,7 @@ ValidationResult run_coupling(const ValidationOptions& options) {
   r.data = Json::object();
   r.data.set("form", options.full ? "full" : "short");
   r.data.set("backend", options.backend);
+  r.data.set("overrides", Json::array_of(options.overrides));
   r.data.set("window_s", window);
   r.data.set("cases", cases);
   r.data.set("judged", judged);

@@ -78,8 +78,11 @@ struct Outcome {
 };
 
 /// The scene of `rec` with the case's mesh, stiffness and method.
-Scene case_scene(const Recording& rec, double quality, double stiffness, const std::string& method, Vec3d* centre) {
-  Scene scene = load_scene(resolve_scene_path(rec.scene), {"solver.method=" + method});
+Scene case_scene(const Recording& rec, double quality, double stiffness, const std::string& method,
+                 const std::vector<std::string>& overrides, Vec3d* centre) {
+  std::vector<std::string> all = overrides;
+  all.push_back("solver.method=" + method);
+  Scene scene = load_scene(resolve_scene_path(rec.scene), all);
   scene.spec.stiffness.k_vol *= stiffness;
   if (quality < 1) {
     DegradeOptions d;
@@ -93,10 +96,11 @@ Scene case_scene(const Recording& rec, double quality, double stiffness, const s
 
 /// Replays every motion on one world (its building, settling included, is most of a case's cost).
 std::vector<Outcome> run_motions(const Recording& rec, double quality, double stiffness, const std::string& method,
-                                 const std::vector<std::string>& motions, Backend backend) {
+                                 const std::vector<std::string>& motions, const std::vector<std::string>& overrides,
+                                 Backend backend) {
   std::vector<Outcome> out(motions.size());
   Vec3d centre;
-  Scene scene = case_scene(rec, quality, stiffness, method, &centre);
+  Scene scene = case_scene(rec, quality, stiffness, method, overrides, &centre);
   const double hz_h = scene.spec.haptic_hz, hz_p = scene.spec.physical_hz;
   std::shared_ptr<const World> world;
   std::string build_error;
@@ -156,9 +160,9 @@ ValidationResult run_stability(const ValidationOptions& options) {
     for (double q : qualities)
       for (double k : stiffnesses) {
         // The direct solve on the same mesh, stiffness and motions: the force reference.
-        const std::vector<Outcome> direct = run_motions(rec, q, k, "direct", motions, backend);
+        const std::vector<Outcome> direct = run_motions(rec, q, k, "direct", motions, options.overrides, backend);
         for (const std::string& method : methods) {
-          const std::vector<Outcome> outcomes = run_motions(rec, q, k, method, motions, backend);
+          const std::vector<Outcome> outcomes = run_motions(rec, q, k, method, motions, options.overrides, backend);
           for (std::size_t i = 0; i < motions.size(); ++i) {
             const Outcome& o = outcomes[i];
             ++cases;
@@ -194,6 +198,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
   r.data = Json::object();
   r.data.set("form", options.full ? "full" : "short");
   r.data.set("backend", options.backend);
+  r.data.set("overrides", Json::array_of(options.overrides));
   r.data.set("window_s", kWindow);
   r.data.set("cases", cases);
   r.data.set("nonfinite", nonfinite);

@@ -25,12 +25,16 @@ struct ValidationResult {
   Json to_json() const;
 };
 
-/// What `ebh validate` passes to a case. `ebh validate` refuses --recording, --full and --backend
-/// cuda when no chosen case uses them (Validation::replays_recordings, has_full_form, places_solvers).
+/// What `ebh validate` passes to a case. `ebh validate` refuses --recording, --full, --backend
+/// cuda and --set when no chosen case uses them (Validation::replays_recordings, has_full_form,
+/// places_solvers: the stress matrices, which replay the recordings' scenes, take --set too).
 struct ValidationOptions {
   bool full = false;            ///< the long form of a stress matrix (--full)
   std::string backend = "cpu";  ///< cpu | cuda (--backend)
   std::vector<std::string> recordings;  ///< replaces a stress matrix's recordings (--recording)
+  /// scene overrides (--set KEY=VALUE) applied to every scene a stress matrix replays, before the
+  /// case's own (the key the matrix varies keeps the matrix's value)
+  std::vector<std::string> overrides;
 };
 
 struct Validation {

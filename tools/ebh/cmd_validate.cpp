@@ -9,6 +9,7 @@
 #include "command.hpp"
 #include "core/error.hpp"
 #include "replay_common.hpp"
+#include "scene/scene.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "validate/validation.hpp"
 
@@ -54,6 +55,15 @@ void check_options(const ebh::ValidationOptions& o, const std::vector<const ebh:
     throw InputError("--recording " + o.recordings.front() + ": the " + chosen.front()->name +
                      " validation replays no recording (--recording is for " + takers(&Validation::replays_recordings) +
                      ")");
+  // --set: by the stress matrices only (the analytic cases build their own scenes), each override
+  // checked on a committed scene before any case runs, as --recording is.
+  check_overrides_once(o.overrides);
+  if (!o.overrides.empty()) {
+    if (!any_takes(chosen, &Validation::replays_recordings))
+      throw InputError("--set " + o.overrides.front() + ": the " + chosen.front()->name +
+                       " validation builds its own scenes (--set is for " + takers(&Validation::replays_recordings) + ")");
+    (void)load_scene_spec(resolve_scene_path("tube"), o.overrides);
+  }
   if (o.full && !any_takes(chosen, &Validation::has_full_form))
     throw InputError("--full: the " + chosen.front()->name + " validation has no full form (--full is for " +
                      takers(&Validation::has_full_form) + ")");
@@ -107,6 +117,9 @@ void setup(CLI::App& root) {
   cmd->add_option("--backend", opts->validation.backend, "cpu or cuda: where the iterative solvers run (stability, coupling)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
   cmd->add_option("--recording", opts->validation.recordings, "replay only these recordings (stability, coupling; repeat the option)");
+  cmd->add_option("--set", opts->validation.overrides,
+                  "override a scene key in every scene the stress matrix replays: --set stiffness.k_svc=20 (stability, "
+                  "coupling; repeatable; the key the matrix varies keeps the matrix's values)");
   cmd->callback([opts] { run(*opts); });
 }
 

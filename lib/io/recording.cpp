@@ -3,6 +3,7 @@
 #include "io/import.hpp"  // kLogGapFactor, kDeviceRateLowHz
 #include <cctype>
 #include <algorithm>
+#include <map>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -589,24 +590,18 @@ std::optional<StaleSamples> find_stale_samples(const Recording& rec) {
     return !(rec.position[i] == rec.position[i - 1] && rec.orientation[i] == rec.orientation[i - 1]) ||
            (jaw && rec.jaw[i] != rec.jaw[i - 1]) || (buttons && rec.buttons[i] != rec.buttons[i - 1]);
   };
-  std::vector<std::size_t> intervals;  // in samples, between consecutive changes
+  std::map<std::size_t, std::size_t> intervals;  // samples between consecutive changes: how often
   std::size_t last = 0, changes = 0;
   for (std::size_t i = 1; i < n; ++i) {
     if (!changed(i)) continue;
-    if (changes++ > 0) intervals.push_back(i - last);
+    if (changes++ > 0) ++intervals[i - last];
     last = i;
   }
   if (changes < kStaleMinChanges) return std::nullopt;
-  std::vector<std::size_t> sorted = intervals;
-  std::sort(sorted.begin(), sorted.end());
   std::size_t mode = 0, most = 0;
-  for (std::size_t a = 0; a < sorted.size();) {
-    std::size_t b = a;
-    while (b < sorted.size() && sorted[b] == sorted[a]) ++b;
-    if (b - a > most) most = b - a, mode = sorted[a];
-    a = b;
-  }
-  const double regular = static_cast<double>(most) / static_cast<double>(intervals.size());
+  for (const auto& [interval, count] : intervals)
+    if (count > most) most = count, mode = interval;
+  const double regular = static_cast<double>(most) / static_cast<double>(changes - 1);
   if (mode < 2 || regular < kStaleRegularFraction) return std::nullopt;
   return StaleSamples{mode, changes, regular};
 }

@@ -36,3 +36,14 @@ if(EBH_GATE_BASH)
       "^ebh: error: OMP_NUM_THREADS '${value}': not a number of threads \\([^\n]*\\)\nexit status 1\n$")
   endforeach()
 endif()
+
+# An interrupt while ffmpeg assembles `render --video`'s video stops ffmpeg too: it was left
+# running (its parent gone) after the interrupt's grace, writing on into the video's temporary,
+# and a signal to the process group (`timeout`) was said as ffmpeg failing.
+if(EBH_HAVE_OSMESA AND EBH_GATE_BASH)
+  add_test(NAME cli.process.video_interrupt
+    COMMAND ${EBH_GATE_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/video_interrupt.sh ${EBH_BIN} ${EBH_RENDER_OUT}/tube.h5
+      ${EBH_PROCESS_OUT}/video_interrupt)
+  set_tests_properties(cli.process.video_interrupt PROPERTIES FIXTURES_REQUIRED render_tube LABELS "cli;render"
+    TIMEOUT 180 PASS_REGULAR_EXPRESSION "video interrupt: ok")
+endif()

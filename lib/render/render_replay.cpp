@@ -6,12 +6,17 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <sstream>
+#include <thread>
 
 #include "core/error.hpp"
 #include "ebh/version.hpp"
@@ -61,6 +66,36 @@ double frame_rate(const ReplayFrames& f, int every) {
   return d > 0 && std::isfinite(d) ? 1.0 / d : 10.0;
 }
 
+/// Waits for the child `pid` to end and returns its wait status (nullopt when it cannot be waited
+/// for). An interrupt (interrupted()) stops it: SIGTERM, then SIGKILL when it is still running
+/// half a second later, and it is reaped before this returns, so that no child outlives the
+/// process and writes on into an output's temporary after that is removed. The interrupt's grace
+/// (io/atomic.hpp) would otherwise end this process with the child still running.
+std::optional<int> wait_for_child(pid_t pid) {
+  using namespace std::chrono_literals;
+  int status = 0;
+  enum class State { running, ended, lost };
+  auto poll = [&] {
+    const pid_t r = waitpid(pid, &status, WNOHANG);
+    return r == pid ? State::ended : r < 0 && errno != EINTR ? State::lost : State::running;
+  };
+  // Polled, not a blocking waitpid: a signal arriving just before that call would go unseen until
+  // the child ended by itself.
+  State state = State::running;
+  while (!interrupted() && (state = poll()) == State::running) std::this_thread::sleep_for(20ms);
+  if (state == State::running) {
+    kill(pid, SIGTERM);
+    for (int i = 0; i < 25 && (state = poll()) == State::running; ++i) std::this_thread::sleep_for(20ms);
+  }
+  if (state == State::running) {
+    kill(pid, SIGKILL);
+    while (waitpid(pid, &status, 0) < 0)
+      if (errno != EINTR) return std::nullopt;
+    state = State::ended;
+  }
+  return state == State::ended ? std::optional<int>(status) : std::nullopt;
+}
+
 void run_ffmpeg(const std::string& dir, const std::string& video, double fps) {
   const std::string ffmpeg = find_on_path("ffmpeg");
   if (ffmpeg.empty())
@@ -79,13 +114,18 @@ void run_ffmpeg(const std::string& dir, const std::string& video, double fps) {
   pid_t pid = 0;
   if (posix_spawn(&pid, ffmpeg.c_str(), nullptr, nullptr, argv.data(), environ) != 0)
     throw InputError("--video " + video + ": cannot start " + ffmpeg);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) throw InputError("--video " + video + ": lost the ffmpeg process");
-  }
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw InputError(video + ": ffmpeg failed (exit status " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                     ")");
+  const std::optional<int> status = wait_for_child(pid);
+  // Interrupted: ffmpeg is gone (stopped here, or by the same signal sent to the process group, as
+  // `timeout` and a terminal's Ctrl-C send it), and `out` removes what it wrote.
+  if (interrupted())
+    throw InputError("--video " + video + ": interrupted while ffmpeg assembled the video; no video written (the frames "
+                     "are in " + dir + ")");
+  if (!status) throw InputError("--video " + video + ": lost the ffmpeg process");
+  if (WIFSIGNALED(*status))
+    throw InputError(video + ": ffmpeg was killed by signal " + std::to_string(WTERMSIG(*status)) + " (" +
+                     strsignal(WTERMSIG(*status)) + ")");
+  if (!WIFEXITED(*status) || WEXITSTATUS(*status) != 0)
+    throw InputError(video + ": ffmpeg failed (exit status " + std::to_string(WEXITSTATUS(*status)) + ")");
   out.commit();
 }
 

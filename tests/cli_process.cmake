@@ -47,3 +47,18 @@ if(EBH_HAVE_OSMESA AND EBH_GATE_BASH)
   set_tests_properties(cli.process.video_interrupt PROPERTIES FIXTURES_REQUIRED render_tube LABELS "cli;render"
     TIMEOUT 180 PASS_REGULAR_EXPRESSION "video interrupt: ok")
 endif()
+
+# A scene or recording that is a symbolic link to itself: the OS's reason, not "file not found".
+file(CREATE_LINK loop.yaml ${EBH_PROCESS_OUT}/loop.yaml SYMBOLIC)
+file(CREATE_LINK loop.h5 ${EBH_PROCESS_OUT}/loop.h5 SYMBOLIC)
+add_test(NAME cli.process.scene_link_loop
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;${EBH_PROCESS_OUT}/loop.yaml;tube_insert;-o;${EBH_PROCESS_OUT}/loop_scene.h5;--duration;0.1"
+    "-DEXPECT=^ebh: error: [^\n]*/loop.yaml: cannot be opened: Too many levels of symbolic links\n$"
+    -DOUTPUT=${EBH_PROCESS_OUT}/loop_scene.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+add_test(NAME cli.process.recording_link_loop
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;tube;${EBH_PROCESS_OUT}/loop.h5;-o;${EBH_PROCESS_OUT}/loop_recording.h5;--duration;0.1"
+    "-DEXPECT=^ebh: error: [^\n]*/loop.h5: cannot be opened: Too many levels of symbolic links\n$"
+    -DOUTPUT=${EBH_PROCESS_OUT}/loop_recording.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+set_tests_properties(cli.process.scene_link_loop cli.process.recording_link_loop PROPERTIES LABELS cli)

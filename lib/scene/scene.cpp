@@ -39,12 +39,14 @@ namespace fs = std::filesystem;
 /// A name to look for in the data folders ("tube"), not a path: no folder and no extension.
 bool is_data_name(const std::string& s) { return s.find('/') == std::string::npos && fs::path(s).extension().empty(); }
 
-/// Why `p` is not a file to read: "file not found", "is a folder, not a file" or "is not a regular
-/// file" (a device, a pipe); empty when it is one.
+/// Why `p` is not a file to read: "file not found", "is a folder, not a file", "is not a regular
+/// file" (a device, a pipe) or "cannot be opened: " and the OS reason where it cannot be looked
+/// up (a symbolic link that loops, a folder that may not be searched); empty when it is one.
 std::string not_a_file(const fs::path& p) {
   std::error_code ec;
   const fs::file_status st = fs::status(p, ec);
   if (fs::is_regular_file(st)) return "";
+  if (st.type() == fs::file_type::none) return "cannot be opened: " + ec.message();
   if (fs::is_directory(st)) return "is a folder, not a file";
   if (fs::exists(st)) return "is not a regular file (a device, pipe or socket)";
   return "file not found";

@@ -126,6 +126,39 @@ std::optional<std::string> grasp_flicker(const Recording& rec, const SceneSpec& 
   return std::string(line);
 }
 
+/// A forceps log whose jaw signal is in another range than ebh's 0 closed .. 1 open, which import
+/// cannot tell from its values: one that never opens past kJawOpenMin (a jaw in radians, 0 ..
+/// 0.52, grasped ten times as hard: the limit for 330 ticks against 46), or one closed at its
+/// first sample and for most of it (1 meaning closed: the grasps fell from 38% of the ticks to 7%
+/// and the jaws closed where the hand let go). The committed grasps open to 1 and start open,
+/// closed for 34% of their samples. nullopt for a scene without a grasp.
+std::optional<std::string> jaw_range_doubt(const Recording& rec, const SceneSpec& spec) {
+  // A window of the recording (--start, --duration) may lie inside a grasp: the whole log only.
+  if (spec.tool.kind != ToolSpec::Kind::Forceps || !spec.stages.grasp || rec.jaw.empty() || rec.span)
+    return std::nullopt;
+  const double threshold = spec.tool.forceps.grasp_threshold;
+  const double closed = static_cast<double>(std::count_if(rec.jaw.begin(), rec.jaw.end(),
+                                                          [threshold](double j) { return j < threshold; })) /
+                        static_cast<double>(rec.jaw.size());
+  char line[400];
+  if (rec.jaw.front() < threshold && closed > 0.5) {
+    std::snprintf(line, sizeof line,
+                  "the jaws are closed at the first sample and for %.0f%% of the recording: a jaw logged the other way "
+                  "round (1 closed, 0 open)? `ebh import --jaw-range 1,0` turns it",
+                  100 * closed);
+    return std::string(line);
+  }
+  const double widest = *std::max_element(rec.jaw.begin(), rec.jaw.end());
+  if (widest < kJawOpenMin) {
+    std::snprintf(line, sizeof line,
+                  "the jaws never open past %.3g (1 is fully open): a jaw logged in another range (radians, the "
+                  "gripper's own units)? `ebh import --jaw-range CLOSED,OPEN` maps the log's values",
+                  widest);
+    return std::string(line);
+  }
+  return std::nullopt;
+}
+
 /// The recording's tool attribute against the scene's tool: one that is neither hook nor forceps,
 /// or the other kind (unless grasp_lost says so already: `grasp_lost_said`), in one line; the
 /// replay moves the scene's tool.
@@ -256,6 +289,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   if (auto w = check_recording_turn(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (lost) r.warnings.push_back(r.recording_path + ": " + *lost);
   if (auto w = grasp_flicker(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);
+  if (auto w = jaw_range_doubt(r.recording, r.world->scene.spec)) r.warnings.push_back(r.recording_path + ": " + *w);
   return r;
 }
 

@@ -31,6 +31,8 @@ struct LoadedReplay {
 /// 100 Hz, 0.139 N at 500 Hz); the paper steps at 60-100 Hz.
 inline constexpr double kMinPlausiblePhysicalHz = 50;
 
+/// A forceps log whose jaws never open past this is doubted: a jaw in another range (jaw_range_doubt).
+inline constexpr double kJawOpenMin = 0.6;
 /// A release followed by a closing sooner than this is a noisy jaw signal, not a hand (grasp_flicker).
 inline constexpr double kRegraspS = 0.05;
 

@@ -95,6 +95,27 @@ TEST(GraspFlicker, AJawThatLetsGoAndGraspsAgainIsSaid) {
                                      std::nullopt, std::nullopt, false, Backend::Cpu)), "");
 }
 
+// A forceps log whose jaw is in another range than 0 closed .. 1 open: logged the other way round
+// (1 closed) or in radians (0 .. 0.52): said, naming --jaw-range; the committed one is not.
+TEST(JawRange, AJawInAnotherRangeIsDoubted) {
+  const RecordingFile file = read_replay_recording("tube_grasp");
+  auto warned = [](RecordingFile f) {
+    for (const std::string& w :
+         load_replay_scene(std::move(f), "tube_forceps", {}, std::nullopt, std::nullopt, false, Backend::Cpu).warnings)
+      if (w.find("--jaw-range") != std::string::npos) return w;
+    return std::string();
+  };
+  EXPECT_EQ(warned(file), "");
+  RecordingFile inverted = file, radians = file;
+  for (double& j : inverted.recording.jaw) j = 1 - j;
+  for (double& j : radians.recording.jaw) j *= 0.5235987755982988;
+  EXPECT_NE(warned(inverted).find("the jaws are closed at the first sample and for 59% of the recording: a jaw logged "
+                                  "the other way round (1 closed, 0 open)? `ebh import --jaw-range 1,0` turns it"),
+            std::string::npos)
+      << warned(inverted);
+  EXPECT_NE(warned(radians).find("the jaws never open past 0.524 (1 is fully open)"), std::string::npos) << warned(radians);
+}
+
 // The recording's tool attribute: one that is neither hook nor forceps, or the other kind on its
 // own scene, is said (the replay moves the scene's tool); a recording of another scene says so
 // once, as the scene mismatch.

@@ -347,6 +347,15 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
 }
 
 // A column name another logger gives the samples' times (lower case).
+/// A column of Euler angles or a rotation vector, which a CSV log cannot give (its orientation is
+/// the quaternion): --skip-column would drop the tool's orientation without a word.
+bool angle_name(const std::string& h) {
+  for (const char* n : {"rx", "ry", "rz", "roll", "pitch", "yaw", "rotx", "roty", "rotz", "rot_x", "rot_y", "rot_z",
+                        "ax", "ay", "az", "alpha", "beta", "gamma", "azimuth", "elevation"})
+    if (h == n) return true;
+  return false;
+}
+
 bool time_name(const std::string& h) {
   for (const char* n : {"time", "times", "timestamp", "time_s", "t_s", "time(s)", "seconds", "sec", "stamp"})
     if (h == n) return true;
@@ -399,6 +408,9 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
                                 ? "; columns are separated by commas, spaces or tabs, not ';'"
                                 : time_name(h) ? "; the samples' times? name the column t (seconds), which is read: "
                                                  "--skip-column would leave them unread and take --rate's"
+                                : angle_name(h) ? "; angles of the tool's orientation? a CSV log gives it as the unit "
+                                                  "quaternion qw, qx, qy, qz: convert Euler angles or a rotation vector "
+                                                  "to it first (docs/OWN_DATA.md, \"CSV logs\")"
                                 : header[i].size() > 40 ? "" : "; a column of other data: --skip-column " + header[i] + " leaves it unread") +
                            ")");
         if (!col.emplace(h, i).second) throw InputError(at(path, l.number) + ": column '" + clipped(h) + "' appears twice");

@@ -141,6 +141,10 @@ TEST(Import, DefectsNameFileAndLine) {
   EXPECT_INPUT_ERROR(import_log(p, opt), "d2.csv:2", "quaternion norm 1.00409163 is not 1 (within 0.001): written with too few digits?");
   p = write("time.csv", "time,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "time.csv:1: unknown column 'time'", "the samples' times? name the column t (seconds)");
+  // Euler angles where the quaternion is read: not to be skipped (the orientation would be lost).
+  p = write("euler.csv", "t,x,y,z,roll,pitch,yaw\n0,0,0,0,0,0,0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "euler.csv:1: unknown column 'roll'",
+                     "angles of the tool's orientation? a CSV log gives it as the unit quaternion qw, qx, qy, qz");
   // An OpenHaptics log saved as .csv: read as CSV, its first line has 18 numbers.
   p = write("oh.csv", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "oh.csv:1: no header line", "(18 of them: an OpenHaptics log's 16 transform "

@@ -58,7 +58,7 @@ set_tests_properties(cli.own_data.import_wrong_offset PROPERTIES FIXTURES_SETUP 
 add_test(NAME cli.own_data.wrong_offset
   COMMAND ${EBH_BIN} replay ${EBH_OWN_SCENE} ${EBH_OWN_OUT}/wrong_offset.h5 -o ${EBH_OWN_OUT}/wrong_offset_replay.h5 -q)
 set_tests_properties(cli.own_data.wrong_offset PROPERTIES FIXTURES_REQUIRED own_data_wrong_offset PASS_REGULAR_EXPRESSION
-  "ebh: warning: .*wrong_offset_replay.h5: the tool never touched the tissue \\(no tick with contacts > 0\\)")
+  "ebh: warning: .*wrong_offset_replay.h5: the tool never touched the tissue \\(no tick with contacts > 0\\): the path passes the tissue by; a tool tip offset \\(--tool-transform\\) or a world transform \\(--transform\\) that misplaces it\\?")
 # No tool transform: the device's +z (toward the handle) taken for ebh's (toward the tip) puts
 # the shaft down through the organ from the first tick.
 add_test(NAME cli.own_data.import_unflipped

@@ -244,6 +244,10 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                       "t = %.3f s): the tissue moved away from it (a part sinking, or swinging on its pins), or the "
                       "virtual tool did not follow the device (stiffness.k_vcs, stiffness.k_con)", *t);
       contact += line;
+    } else if (a.start == 0 && !a.duration && p.in.recording.source == "device") {
+      // A whole device log that never met the tissue passes it by: a placement from the import.
+      contact += ": the path passes the tissue by; a tool tip offset (--tool-transform) or a world transform "
+                 "(--transform) that misplaces it? (docs/OWN_DATA.md, \"What the warnings mean\")";
     }
   if (!contact.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), contact.c_str());
   // A device faster than the virtual tool's Newton steps reach in a tick (a low haptic rate,

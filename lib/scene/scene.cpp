@@ -1144,8 +1144,11 @@ Scene build_scene(SceneSpec spec_in) {
                                      "its coupling to the virtual mesh, which drags it like a thick fluid: under "
                                      "gravity it sinks slowly instead of falling, and the tool feels that drag, not "
                                      "tissue held in place (docs/MODEL.md, \"Held loads\"; pin a region of it)");
-  if (std::string w = coupling_bounds_tissue(scene); !w.empty())
-    scene.warnings.push_back(value_source(spec, "stiffness.k_vol") + ": " + w);
+  if (std::string w = coupling_bounds_tissue(scene); !w.empty()) {
+    // Named by the override that set either stiffness, else the file.
+    const std::string vol = value_source(spec, "stiffness.k_vol");
+    scene.warnings.push_back((vol.rfind("--set", 0) == 0 ? vol : value_source(spec, "stiffness.k_svc")) + ": " + w);
+  }
   if (!scene.pinned.empty() && static_cast<int>(scene.pinned.size()) < nv) {
     const std::vector<std::pair<int, int>> turning = parts_pinned_on_a_line(scene.physical, scene.pinned);
     if (!turning.empty()) {
@@ -1248,13 +1251,18 @@ std::string coupling_bounds_tissue(const Scene& scene) {
   const double edge = sum / (3.0 * static_cast<double>(surface.triangles.size())) / std::ldexp(1.0, spec.virtual_refine);
   const double felt = spec.stiffness.k_vol * edge;
   if (!(felt > kTissueOverCoupling * spec.stiffness.k_svc)) return "";
+  // A denormal k_svc makes the ratio overflow: no "inf times".
+  const double ratio = felt / spec.stiffness.k_svc;
+  char times[48];
+  if (ratio <= 1e6) std::snprintf(times, sizeof times, "%.3g times", ratio);
+  else std::snprintf(times, sizeof times, "more than a million times");
   char line[512];
   std::snprintf(line, sizeof line,
-                "stiffness.k_vol x the virtual mesh's mean edge (%.3g Pa x %.3g mm = %.3g N/m) is %.3g times "
+                "stiffness.k_vol x the virtual mesh's mean edge (%.3g Pa x %.3g mm = %.3g N/m) is %s "
                 "stiffness.k_svc (%.3g N/m): the coupling, not the tissue, sets what the tool feels, the virtual surface "
                 "giving way over the physical one (a stiffer tissue renders little harder); raise k_svc to about k_vol "
                 "x the edge (docs/MODEL.md, \"The other stiffnesses\")",
-                spec.stiffness.k_vol, edge * 1e3, felt, felt / spec.stiffness.k_svc, spec.stiffness.k_svc);
+                spec.stiffness.k_vol, edge * 1e3, felt, times, spec.stiffness.k_svc);
   return line;
 }
 

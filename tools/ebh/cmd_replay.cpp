@@ -219,7 +219,7 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
     start_mesh = world.scene.physical;
     if (world.initial_physical.x.size() == start_mesh.vertices.size()) start_mesh.vertices = world.initial_physical.x;
   }
-  if (!start_mesh.tets.empty())
+  if (!start_mesh.tets.empty()) {
     if (const auto t = tip_inside_mesh(p.in.recording, start_mesh, a.start, a.duration.value_or(0), &world.tool)) {
       const long long open = surface_edges(world.scene.virtual_surface.triangles).open;
       const bool vertices = world.scene.spec.contact == ContactModel::Vertices;
@@ -249,6 +249,7 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
       contact += ": the path passes the tissue by; a tool tip offset (--tool-transform) or a world transform "
                  "(--transform) that misplaces it? (docs/OWN_DATA.md, \"What the warnings mean\")";
     }
+  }
   if (!contact.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), contact.c_str());
   // A device faster than the virtual tool's Newton steps reach in a tick (a low haptic rate,
   // tool.max_step in the wrong unit): the tool lags and the force grows with the lag, to the limit

@@ -107,9 +107,14 @@ add_test(NAME cli.import.tool_not_the_scenes
     --tool hook)
 set_tests_properties(cli.import.tool_not_the_scenes PROPERTIES PASS_REGULAR_EXPRESSION
   "ebh: warning: .*sample_openhaptics.txt: --tool hook, but the scene's tool is a forceps: the recording says hook.*tool_hook.h5: 20 samples, .*, tool hook\n")
+# --mirror names the axis of a left-handed log; anything else is refused before the log is read.
+add_test(NAME cli.import.mirror_axis
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/sample_openhaptics.txt;-o;${EBH_IO_OUT}/mirror.h5;--mirror;w"
+    "-DEXPECT=^ebh: error: --mirror: expected the axis that runs the other way, x, y or z, got 'w'"
+    -DOUTPUT=${EBH_IO_OUT}/mirror.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_property(TEST cli.import.repeats cli.import.drop_repeats cli.import.hold_at_end cli.import.assumed_rate
   cli.import.rate_not_used cli.import.drop_all cli.import.times_in_ms cli.import.scene_tool
-  cli.import.tool_not_the_scenes APPEND PROPERTY LABELS cli)
+  cli.import.tool_not_the_scenes cli.import.mirror_axis APPEND PROPERTY LABELS cli)
 
 # ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py
 # writes it: peak force 1.52 N, one contact episode, one tick over 1 ms) and unreadable inputs.

@@ -586,6 +586,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   rec.tool = opt.tool;
   rec.description = std::string("imported from ") + path + " (" + (fmt == LogFormat::csv ? "csv" : "openhaptics") + ")";
   // What was baked into the poses, for a reader (rec.baked is the record replay checks).
+  if (opt.mirror)
+    rec.description += std::string("; a left-handed log, its ") + static_cast<char>('x' + *opt.mirror) + " axis reversed";
   if (opt.transforms.tool) rec.description += "; tool transform " + describe(*opt.transforms.tool) + " applied";
   if (opt.transforms.world) rec.description += "; world transform " + describe(*opt.transforms.world) + " applied";
   // The rate as given, or as the log's own times say (of every sample, repeats included).
@@ -620,6 +622,10 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   const std::string rate_warning = check_log_rate(rec, has_t, path);
   // On unit quaternions (the validator normalised them); turning every sample by the same
   // rotations keeps consecutive ones in the same hemisphere, and equal samples equal.
+  if (opt.mirror) {
+    mirror_poses(*opt.mirror, rec.position, rec.orientation);
+    rec.baked_mirror = std::string(1, static_cast<char>('x' + *opt.mirror));
+  }
   apply_pose_transforms(opt.transforms, rec.position, rec.orientation);
   rec.baked = opt.transforms;
 

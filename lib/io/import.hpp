@@ -43,6 +43,9 @@ struct ImportOptions {
   /// to 0 and 1 linearly and clamped to them (a gripper in degrees, an inverted signal, one
   /// calibrated a little past its ends); nullopt: the log's values are 0 .. 1 already.
   std::optional<std::pair<double, double>> jaw_range;
+  /// A left-handed log (--mirror AXIS): the axis (0 x, 1 y, 2 z) reversed before the transforms
+  /// (mirror_poses); nullopt: the log's frame is right-handed, as ebh's.
+  std::optional<int> mirror;
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
   std::string tool = "hook";

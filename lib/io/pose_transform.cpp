@@ -10,6 +10,24 @@
 
 namespace ebh {
 
+void mirror_poses(int axis, std::vector<Vec3d>& position, std::vector<Quatd>& orientation) {
+  for (Vec3d& p : position) (axis == 0 ? p.x : axis == 1 ? p.y : p.z) = -(axis == 0 ? p.x : axis == 1 ? p.y : p.z);
+  // M R M for the reflection M across the plane normal to `axis`: a rotation about `axis` stays
+  // itself, one about another axis turns the other way.
+  for (Quatd& q : orientation) {
+    if (axis != 0) q.x = -q.x;
+    if (axis != 1) q.y = -q.y;
+    if (axis != 2) q.z = -q.z;
+  }
+}
+
+int parse_mirror_axis(const std::string& text) {
+  if (text == "x") return 0;
+  if (text == "y") return 1;
+  if (text == "z") return 2;
+  throw InputError("--mirror: expected the axis that runs the other way, x, y or z, got '" + text + "'");
+}
+
 void apply_pose_transforms(const PoseTransforms& tr, std::vector<Vec3d>& position, std::vector<Quatd>& orientation) {
   for (std::size_t i = 0; i < position.size(); ++i) {
     Vec3d p = position[i];

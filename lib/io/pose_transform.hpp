@@ -45,6 +45,14 @@ struct PoseTransforms {
 /// quaternions; the result is one too.
 void apply_pose_transforms(const PoseTransforms& tr, std::vector<Vec3d>& position, std::vector<Quatd>& orientation);
 
+/// Turns poses logged in a left-handed frame into the right-handed frame whose `axis` (0 x, 1 y,
+/// 2 z) runs the other way: that coordinate of every position negated, and every orientation
+/// mirrored alike (R -> M R M, M the reflection: a quaternion's other two vector components
+/// negated), which keeps it a rotation. No rigid transform can do it (its determinant is -1).
+void mirror_poses(int axis, std::vector<Vec3d>& position, std::vector<Quatd>& orientation);
+/// The axis a --mirror names ("x", "y", "z"): 0, 1, 2; throws InputError otherwise.
+int parse_mirror_axis(const std::string& text);
+
 /// One line: "translation (0, 0, -0.04) m, rotation vector (180, 0, 0) deg".
 std::string describe(const RigidTransform& t);
 

@@ -242,6 +242,11 @@ Recording read_recording(const std::string& path, std::optional<RecordingWindow>
   rec.tool = f.attr_string("tool");
   rec.description = f.attr_string("description");
   if (f.has_attr("generator")) rec.generator = f.attr_string("generator");
+  if (f.has_attr("baked_mirror")) {
+    rec.baked_mirror = f.attr_string("baked_mirror");
+    if (rec.baked_mirror != "x" && rec.baked_mirror != "y" && rec.baked_mirror != "z")
+      throw InputError(path + ": attribute baked_mirror: expected x, y or z, got '" + rec.baked_mirror + "'");
+  }
   for (const char* kind : {"world", "tool"}) {
     const std::string name = std::string(kind) + "_transform", baked = "baked_" + name;
     auto& apply = kind[0] == 'w' ? rec.transforms.world : rec.transforms.tool;
@@ -317,6 +322,7 @@ void write_recording(const std::string& path, const Recording& rec_in) {
   if (rec.transforms.tool) f.set_attr("tool_transform", to_attribute(*rec.transforms.tool));
   if (rec.baked.world) f.set_attr("baked_world_transform", to_attribute(*rec.baked.world));
   if (rec.baked.tool) f.set_attr("baked_tool_transform", to_attribute(*rec.baked.tool));
+  if (!rec.baked_mirror.empty()) f.set_attr("baked_mirror", rec.baked_mirror);
   out.commit();
 }
 

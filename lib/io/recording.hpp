@@ -43,6 +43,9 @@ struct Recording {
   /// record, never applied; replay refuses an option of the same kind, which would apply a second
   /// one. `ebh import` writes what it baked; applying `transforms` moves them here.
   PoseTransforms baked;
+  /// The axis (x, y or z) of a left-handed log that `ebh import --mirror` reversed (attribute
+  /// baked_mirror): a record, as `baked` is; "" for a right-handed log.
+  std::string baked_mirror;
 
   /// Where read_recording read a window of the file, not all of it: the file's first and last
   /// sample times (a replay's --start counts from the first; its length is the file's), the file's

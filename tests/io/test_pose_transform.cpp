@@ -134,6 +134,38 @@ TEST(PoseTransform, ImportBakesTheTransformsAndStoresNoneToApply) {
   EXPECT_EQ(r.position[3], b.position[3]);
 }
 
+// A left-handed log (its y axis the other way): --mirror y turns every pose into the right-handed
+// frame: positions and the tool's axes in the world are the log's with y negated, the
+// orientation a rotation still, recorded in the description and the baked_mirror attribute.
+TEST(PoseTransform, ALeftHandedLogIsMirroredIntoEbhsFrame) {
+  test::ScratchDir tmp;
+  ImportOptions plain, mirrored;
+  mirrored.mirror = parse_mirror_axis("y");
+  const std::string log = EBH_TEST_DATA_DIR "/io/sample_openhaptics.txt";
+  const Recording a = import_log(log, plain), b = import_log(log, mirrored);
+  ASSERT_EQ(a.size(), b.size());
+  const auto flip = [](Vec3d v) { return Vec3d{v.x, -v.y, v.z}; };
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(b.position[i], flip(a.position[i])) << i;
+    // The mirrored tool's axes are the log's axes mirrored (M R M e = M R e' for e' = M e): its
+    // +z (handle to tip) as the mirror image of the log's, and a right-handed frame (a rotation).
+    for (const Vec3d e : {Vec3d{1, 0, 0}, Vec3d{0, 1, 0}, Vec3d{0, 0, 1}})
+      EXPECT_LT(norm(rotate(b.orientation[i], flip(e)) - flip(rotate(a.orientation[i], e))), 1e-15) << i;
+    const Quatd& q = b.orientation[i];
+    EXPECT_NEAR(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z, 1.0, 1e-15);
+  }
+  EXPECT_NE(b.description.find("a left-handed log, its y axis reversed"), std::string::npos) << b.description;
+  write_recording(tmp / "m.h5", b);
+  EXPECT_EQ(read_recording(tmp / "m.h5").baked_mirror, "y");
+  EXPECT_EQ(read_recording(tmp / "m.h5").position[2], b.position[2]);
+  try {
+    (void)parse_mirror_axis("-y");
+    ADD_FAILURE() << "-y was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "--mirror: expected the axis that runs the other way, x, y or z, got '-y'");
+  }
+}
+
 TEST(PoseTransform, AKindBothToApplyAndBakedIsRejected) {
   test::ScratchDir tmp;
   Recording r = import_log(EBH_TEST_DATA_DIR "/io/sample_openhaptics.txt", ImportOptions{});

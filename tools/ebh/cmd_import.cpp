@@ -28,6 +28,7 @@ struct ImportArgs {
   bool drop_repeats = false;
   std::vector<std::string> skip_columns;
   std::string jaw_range;
+  std::string mirror;  // empty: a right-handed log
 };
 
 void run(const ImportArgs& a) {
@@ -62,6 +63,7 @@ void run(const ImportArgs& a) {
   if (!a.transform.empty()) opt.transforms.world = ebh::parse_rigid_transform("--transform", a.transform, log_unit);
   if (!a.tool_transform.empty())
     opt.transforms.tool = ebh::parse_rigid_transform("--tool-transform", a.tool_transform, log_unit);
+  if (!a.mirror.empty()) opt.mirror = ebh::parse_mirror_axis(a.mirror);
   // The scene's physical mesh, for the unit sanity check (loaded before any output is written).
   std::optional<ebh::BoundingBox> mesh_box;
   if (scene) mesh_box = ebh::bounding_box(scene->physical.vertices);
@@ -165,6 +167,10 @@ void setup(CLI::App& root) {
   c->add_option("--tool-transform", args->tool_transform,
                 "log tool frame -> ebh's, applied in the tool's frame (p' = p + q t, q' = q q_T): \"x,y,z,rx,ry,rz\" "
                 "(translation in the log's unit, rotation vector in degrees)");
+  c->add_option("--mirror", args->mirror,
+                "a left-handed log (a Unity export, a device whose axis runs the other way): the axis, x, y or z, "
+                "reversed in positions and orientations before --transform and --tool-transform (root attribute "
+                "baked_mirror)");
   c->add_option("--scene", args->scene, "scenario to replay it with (root attribute scene)");
   c->add_option("--tool", args->tool,
                 "the tool the log's device held, hook or forceps (root attribute tool; default: the scene's tool with "

@@ -646,10 +646,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // recording keeps its length.
   std::vector<std::size_t> keep;
   const std::vector<double>& jaw = opt.jaw_range ? logged_jaw : rec.jaw;  // without a range, the same values
-  const auto repeats = [&rec, &jaw](std::size_t i) {
-    return rec.position[i] == rec.position[i - 1] && rec.orientation[i] == rec.orientation[i - 1] &&
-           jaw[i] == jaw[i - 1] && rec.buttons[i] == rec.buttons[i - 1];
-  };
+  const auto repeats = [&rec, &jaw](std::size_t i) { return repeats_previous(rec, i, jaw); };
   for (std::size_t i = 0; i < rec.size();) {
     std::size_t j = i;
     while (j + 1 < rec.size() && repeats(j + 1)) ++j;

@@ -11,7 +11,10 @@
 namespace ebh {
 
 void mirror_poses(int axis, std::vector<Vec3d>& position, std::vector<Quatd>& orientation) {
-  for (Vec3d& p : position) (axis == 0 ? p.x : axis == 1 ? p.y : p.z) = -(axis == 0 ? p.x : axis == 1 ? p.y : p.z);
+  for (Vec3d& p : position) {
+    double& c = axis == 0 ? p.x : axis == 1 ? p.y : p.z;
+    c = -c;
+  }
   // M R M for the reflection M across the plane normal to `axis`: a rotation about `axis` stays
   // itself, one about another axis turns the other way.
   for (Quatd& q : orientation) {

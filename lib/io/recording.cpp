@@ -588,18 +588,18 @@ std::optional<std::string> check_recording_gaps(const Recording& rec) {
   return std::string(line);
 }
 
+bool repeats_previous(const Recording& rec, std::size_t i, std::span<const double> jaw) {
+  return rec.position[i] == rec.position[i - 1] && rec.orientation[i] == rec.orientation[i - 1] &&
+         (jaw.size() <= i || jaw[i] == jaw[i - 1]) && (rec.buttons.size() <= i || rec.buttons[i] == rec.buttons[i - 1]);
+}
+
 std::optional<StaleSamples> find_stale_samples(const Recording& rec) {
   const std::size_t n = rec.t.size();
   if (rec.position.size() != n || rec.orientation.size() != n) return std::nullopt;
-  const bool jaw = rec.jaw.size() == n, buttons = rec.buttons.size() == n;  // as a recording made in code may lack them
-  const auto changed = [&](std::size_t i) {
-    return !(rec.position[i] == rec.position[i - 1] && rec.orientation[i] == rec.orientation[i - 1]) ||
-           (jaw && rec.jaw[i] != rec.jaw[i - 1]) || (buttons && rec.buttons[i] != rec.buttons[i - 1]);
-  };
   std::map<std::size_t, std::size_t> intervals;  // samples between consecutive changes: how often
   std::size_t last = 0, changes = 0;
   for (std::size_t i = 1; i < n; ++i) {
-    if (!changed(i)) continue;
+    if (repeats_previous(rec, i, rec.jaw)) continue;
     if (changes++ > 0) ++intervals[i - last];
     last = i;
   }

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -195,6 +196,12 @@ std::optional<std::string> check_recording_gaps(const Recording& rec);
 /// recordings'), but changes after 1, 2, 3 ... samples as the motion crosses its steps. nullopt
 /// otherwise. `ebh import` and a replay say it: a replay holds the tool and jumps it every period,
 /// a ripple at the device's rate in the force.
+/// Whether sample i (>= 1) repeats sample i - 1 exactly: position, orientation, `jaw` (the
+/// recording's, or a log's own values before --jaw-range maps them) and buttons. A jaw or buttons
+/// shorter than the samples (a recording made in code without them) count as repeating. The one
+/// definition of a repeat: import's stale samples and holds, find_stale_samples' changes.
+bool repeats_previous(const Recording& rec, std::size_t i, std::span<const double> jaw);
+
 struct StaleSamples {
   std::size_t period = 0;   ///< samples between changes
   std::size_t changes = 0;  ///< samples that differ from the one before

@@ -968,14 +968,19 @@ std::vector<std::string> tool_stiffness_warnings(const SceneSpec& spec) {
   return out;
 }
 
-std::string edges_outweigh_coupling_warning(const SceneSpec& spec) {
-  if (!spec.stiffness.edges_outweigh_coupling()) return "";
-  // A denormal k_svc makes the ratio overflow: no "inf times".
-  const double ratio = spec.stiffness.k_s / spec.stiffness.k_svc;
+namespace {
+/// "N times" for a ratio over k_svc; a denormal k_svc makes it overflow: no "inf times".
+std::string times_text(double ratio) {
   char times[48];
   if (ratio <= 1e6) std::snprintf(times, sizeof times, "%.3g times", ratio);
   else std::snprintf(times, sizeof times, "more than a million times");
-  return value_source(spec, "stiffness.k_s") + ": stiffness.k_s is " + times +
+  return times;
+}
+}  // namespace
+
+std::string edges_outweigh_coupling_warning(const SceneSpec& spec) {
+  if (!spec.stiffness.edges_outweigh_coupling()) return "";
+  return value_source(spec, "stiffness.k_s") + ": stiffness.k_s is " + times_text(spec.stiffness.k_s / spec.stiffness.k_svc) +
          " k_svc: in async mode (the default) the virtual and the physical mesh can drive "
          "each other unstable (the gap and tube scenes diverge with no tool contact at 2 times); "
          "raise k_svc with k_s, or replay --mode lockstep (docs/MODEL.md, \"k_s against k_svc\")";
@@ -1207,9 +1212,9 @@ std::vector<std::pair<int, int>> parts_pinned_on_a_line(const TetMesh& mesh, std
   std::vector<Vec3d> lo(n, Vec3d{1e300, 1e300, 1e300}), hi(n, Vec3d{-1e300, -1e300, -1e300});
   for (const Tet& t : mesh.tets)
     for (int k = 0; k < 4; ++k) {
-      const Vec3d& x = mesh.vertices[t[k]];
-      lo[part[t[k]]] = {std::min(lo[part[t[k]]].x, x.x), std::min(lo[part[t[k]]].y, x.y), std::min(lo[part[t[k]]].z, x.z)};
-      hi[part[t[k]]] = {std::max(hi[part[t[k]]].x, x.x), std::max(hi[part[t[k]]].y, x.y), std::max(hi[part[t[k]]].z, x.z)};
+      const int p = part[t[k]];
+      lo[p] = cwise_min(lo[p], mesh.vertices[t[k]]);
+      hi[p] = cwise_max(hi[p], mesh.vertices[t[k]]);
     }
   std::vector<std::pair<int, int>> parts;
   for (int p = 0; p < n; ++p) {
@@ -1251,18 +1256,14 @@ std::string coupling_bounds_tissue(const Scene& scene) {
   const double edge = sum / (3.0 * static_cast<double>(surface.triangles.size())) / std::ldexp(1.0, spec.virtual_refine);
   const double felt = spec.stiffness.k_vol * edge;
   if (!(felt > kTissueOverCoupling * spec.stiffness.k_svc)) return "";
-  // A denormal k_svc makes the ratio overflow: no "inf times".
-  const double ratio = felt / spec.stiffness.k_svc;
-  char times[48];
-  if (ratio <= 1e6) std::snprintf(times, sizeof times, "%.3g times", ratio);
-  else std::snprintf(times, sizeof times, "more than a million times");
   char line[512];
   std::snprintf(line, sizeof line,
                 "stiffness.k_vol x the virtual mesh's mean edge (%.3g Pa x %.3g mm = %.3g N/m) is %s "
                 "stiffness.k_svc (%.3g N/m): the coupling, not the tissue, sets what the tool feels, the virtual surface "
                 "giving way over the physical one (a stiffer tissue renders little harder); raise k_svc to about k_vol "
                 "x the edge (docs/MODEL.md, \"The other stiffnesses\")",
-                spec.stiffness.k_vol, edge * 1e3, felt, times, spec.stiffness.k_svc);
+                spec.stiffness.k_vol, edge * 1e3, felt, times_text(felt / spec.stiffness.k_svc).c_str(),
+                spec.stiffness.k_svc);
   return line;
 }
 

@@ -149,6 +149,7 @@ TEST(PoseTransform, ALeftHandedLogIsMirroredIntoEbhsFrame) {
     EXPECT_EQ(b.position[i], flip(a.position[i])) << i;
     // The mirrored tool's axes are the log's axes mirrored (M R M e = M R e' for e' = M e): its
     // +z (handle to tip) as the mirror image of the log's, and a right-handed frame (a rotation).
+    // Unit vectors turned by unit quaternions: equal to a few ulps (the mirror only negates).
     for (const Vec3d e : {Vec3d{1, 0, 0}, Vec3d{0, 1, 0}, Vec3d{0, 0, 1}})
       EXPECT_LT(norm(rotate(b.orientation[i], flip(e)) - flip(rotate(a.orientation[i], e))), 1e-15) << i;
     const Quatd& q = b.orientation[i];

@@ -277,6 +277,7 @@ TEST(ForceMetrics, AForceHeldAtTheLimitIsSaid) {
   for (std::size_t i = 1000; i < 2200; ++i) tr.force_clamped[i] = 1;
   const ForceMetrics held = roundtrip(tr, "saturated");
   ASSERT_TRUE(held.saturation.has_value());
+  // 1200 ticks / 1000 Hz and the trace's t = 0.001 i: exact but for the round-off of a division
   EXPECT_NEAR(held.saturation->seconds, 1.2, 1e-12);
   EXPECT_NEAR(held.saturation->start_t, 1.0, 1e-12);
   EXPECT_NE(format_table(held, false).find("warning: the force stayed at the device's limit for 1.2 s in a row (from t = "

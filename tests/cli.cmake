@@ -1016,16 +1016,27 @@ file(MAKE_DIRECTORY ${EBH_SAFE}/a_folder)
 add_test(NAME cli.safety.setup COMMAND ${CMAKE_COMMAND}
   -DSAFE=${EBH_SAFE} -DSRC=${PROJECT_SOURCE_DIR} -DEBH=${EBH_BIN} -P ${CMAKE_CURRENT_SOURCE_DIR}/safety_setup.cmake)
 set_tests_properties(cli.safety.setup PROPERTIES FIXTURES_SETUP safety LABELS cli)
-function(ebh_safety name expect)
-  cmake_parse_arguments(ARG "" "OUTPUT" "KEEP;CMD" ${ARGN})
+# ebh_expect_failure(TEST FIXTURE EXPECT [NO_STDOUT] [OUTPUT file] [KEEP files] [PIPES pipes]
+#                    [LINKS links] CMD ...): test TEST (label cli, needing FIXTURE) passes when CMD
+# exits with status 1 and one stderr line matching EXPECT, nothing on stdout with NO_STDOUT, OUTPUT
+# not written, KEEP unchanged, PIPES still named pipes and LINKS still links
+# (expect_failure.cmake, expect_failure_keeps_special.cmake).
+function(ebh_expect_failure test fixture expect)
+  cmake_parse_arguments(ARG "NO_STDOUT" "OUTPUT" "KEEP;PIPES;LINKS;CMD" ${ARGN})
   set(extra)
+  if(ARG_NO_STDOUT)
+    list(APPEND extra -DNO_STDOUT=1)
+  endif()
   if(ARG_OUTPUT)
     list(APPEND extra -DOUTPUT=${ARG_OUTPUT})
   endif()
-  add_test(NAME cli.safety.${name}
-    COMMAND ${CMAKE_COMMAND} "-DCMD=${ARG_CMD}" "-DEXPECT=${expect}" "-DKEEP=${ARG_KEEP}" -DSTATUS=1 ${extra}
-      -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-  set_tests_properties(cli.safety.${name} PROPERTIES FIXTURES_REQUIRED safety LABELS cli)
+  add_test(NAME ${test}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${ARG_CMD}" "-DEXPECT=${expect}" "-DKEEP=${ARG_KEEP}" "-DPIPES=${ARG_PIPES}"
+      "-DLINKS=${ARG_LINKS}" -DSTATUS=1 ${extra} -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure_keeps_special.cmake)
+  set_tests_properties(${test} PROPERTIES FIXTURES_REQUIRED ${fixture} LABELS cli)
+endfunction()
+function(ebh_safety name expect)
+  ebh_expect_failure(cli.safety.${name} safety "${expect}" ${ARGN})
 endfunction()
 set(S ${EBH_SAFE})
 set(REPLACE "the output would replace")

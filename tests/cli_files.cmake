@@ -4,19 +4,9 @@ set(EBH_FILES_OUT ${PROJECT_BINARY_DIR}/cli_files)
 file(MAKE_DIRECTORY ${EBH_FILES_OUT})
 set(F ${EBH_FILES_OUT})
 # ebh_files_failure(NAME EXPECT [OUTPUT file] [KEEP files] [PIPES pipes] [LINKS links] CMD ...):
-# exit status 1, one line matching EXPECT, nothing on stdout; OUTPUT not written, KEEP unchanged,
-# PIPES still named pipes and LINKS still links (tests/expect_failure_keeps_special.cmake).
+# cli.cmake's ebh_expect_failure with nothing on stdout, after this file's setup.
 function(ebh_files_failure name expect)
-  cmake_parse_arguments(ARG "" "OUTPUT" "KEEP;PIPES;LINKS;CMD" ${ARGN})
-  set(extra)
-  if(ARG_OUTPUT)
-    list(APPEND extra -DOUTPUT=${ARG_OUTPUT})
-  endif()
-  add_test(NAME cli.files.${name}
-    COMMAND ${CMAKE_COMMAND} "-DCMD=${ARG_CMD}" "-DEXPECT=${expect}" "-DKEEP=${ARG_KEEP}" "-DPIPES=${ARG_PIPES}"
-      "-DLINKS=${ARG_LINKS}" -DSTATUS=1 -DNO_STDOUT=1 ${extra}
-      -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure_keeps_special.cmake)
-  set_tests_properties(cli.files.${name} PROPERTIES FIXTURES_REQUIRED files LABELS cli)
+  ebh_expect_failure(cli.files.${name} files "${expect}" NO_STDOUT ${ARGN})
 endfunction()
 # Fresh previous outputs and the user's special files before each run.
 set(ebh_rec ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5)

@@ -193,6 +193,30 @@ TEST(Scene, ATissueStifferThanItsCouplingWarns) {
   EXPECT_FALSE(warned(load_scene(write_temp("held.yaml", replace(replace(good, "k_vol: 2500", "k_vol: 1e5"), "k_svc: 55", "k_svc: 2000")))));
 }
 
+/// A Newton call that may move the virtual tool far beyond a tick of hand motion looks for contacts
+/// that far at every step: the ticks slow down for nothing, said with the keys that set it.
+TEST(Scene, ANewtonReachFarBeyondATicksMotionWarns) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const auto warned = [](const Scene& s) {
+    for (const std::string& w : s.warnings)
+      if (w.find("each Newton call of the virtual tool looks for contacts that far") != std::string::npos) return w;
+    return std::string();
+  };
+  EXPECT_EQ(warned(load_scene(write_temp("reach.yaml", good))), "");  // 3 x 0.5 mm
+  // 3 x 6 mm = 18 mm, within 20 ticks of 1 m/s at 1 kHz; 3 x 7 mm = 21 mm beyond them.
+  EXPECT_EQ(warned(load_scene(write_temp("reach18.yaml", replace(good, "max_step: 0.5", "max_step: 6")))), "");
+  const Scene far = load_scene(write_temp("reach21.yaml", replace(good, "max_step: 0.5", "max_step: 7")));
+  EXPECT_NE(warned(far).find("reach21.yaml: tool.newton_iterations x tool.max_step = 3 x 7 mm = 21 mm"), std::string::npos)
+      << ::testing::PrintToString(far.warnings);
+  // At 100 Hz a tick of hand motion is 10 mm: 21 mm a call is what the device may move.
+  EXPECT_EQ(warned(load_scene(write_temp("reach21slow.yaml", replace(replace(good, "max_step: 0.5", "max_step: 7"),
+                                                                     "haptic_hz: 1000", "haptic_hz: 100")))),
+            "");
+  const Scene set = load_scene(write_temp("reach_set.yaml", good).string(), {"tool.newton_iterations=50"});
+  EXPECT_EQ(warned(set).rfind("--set 'tool.newton_iterations=50': tool.newton_iterations x tool.max_step = 50 x 0.5 mm = 25 mm", 0), 0u)
+      << ::testing::PrintToString(set.warnings);
+}
+
 /// A scene whose pins hold only some of its mesh's parts, all of it or none of it says so (a part
 /// the tool pushes away, a rigid body); under gravity a free part stops the settling with one line.
 TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {

@@ -15,6 +15,10 @@ set_tests_properties(cli.synth.tube_insert PROPERTIES
 add_test(NAME cli.import.openhaptics
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_IO_OUT}/oh.h5 --scene tube --unit mm)
 set_tests_properties(cli.import.openhaptics PROPERTIES PASS_REGULAR_EXPRESSION "oh.h5: 20 samples, 0.019 s, 1000 Hz" LABELS cli)
+# A log in inches (a Polhemus tracker's default): the first sample's (10, -5, 30) in lands at 0.254 m.
+add_test(NAME cli.import.inches
+  COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_IO_OUT}/oh_inches.h5 --scene tube --unit in)
+set_tests_properties(cli.import.inches PROPERTIES PASS_REGULAR_EXPRESSION "starting at \\(0.254, -0.127, 0.762\\) m" LABELS cli)
 add_test(NAME cli.import.csv
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample.csv -o ${EBH_IO_OUT}/csv.h5 --format csv --tool forceps)
 set_tests_properties(cli.import.csv PROPERTIES PASS_REGULAR_EXPRESSION "csv.h5: 20 samples, 0.009[0-9]* s, 2000 Hz" LABELS cli)
@@ -309,7 +313,7 @@ ebh_scene_init_failure(pins_everything "^ebh: error: --pin: the regions pin all 
   ${OWN} -o ${EBH_INIT}/pins_everything.yaml --unit cm --pin box:0,0,0,4,3,1 --pin box:0,0,1,4,3,2)
 ebh_scene_init_failure(bad_pin "^ebh: error: --pin box:0,0,0,4,3: expected box:x0,y0,z0,x1,y1,z1 \\(6 numbers\\), got 5"
   ${OWN} -o ${EBH_INIT}/bad_pin.yaml --pin box:0,0,0,4,3)
-ebh_scene_init_failure(bad_unit "^ebh: error: --unit: expected m, cm or mm, got 'inch'" ${OWN} -o ${EBH_INIT}/bad_unit.yaml --unit inch)
+ebh_scene_init_failure(bad_unit "^ebh: error: --unit: expected one of m, cm, mm, in, got 'inch'" ${OWN} -o ${EBH_INIT}/bad_unit.yaml --unit inch)
 ebh_scene_init_failure(bad_tissue "^ebh: error: --tissue: expected liver, gallbladder, uterus or generic, got 'brain'"
   ${OWN} -o ${EBH_INIT}/bad_tissue.yaml --tissue brain)
 ebh_scene_init_failure(not_a_mesh "^ebh: error: .*not_a_mesh.msh:1: not a Gmsh MSH file"

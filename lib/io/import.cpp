@@ -505,7 +505,7 @@ std::string check_log_gaps(const Recording& rec, const std::vector<std::size_t>&
 
 double parse_length_unit(const std::string& name) {
   if (const std::optional<double> m = length_unit_metres(name)) return *m;
-  throw InputError("--unit: '" + name + "' is not one of m, cm, mm");
+  throw InputError("--unit: '" + name + "' is not one of " + kLengthUnitList);
 }
 
 RigidTransform parse_rigid_transform(const std::string& option, const std::string& text, double unit_m) {

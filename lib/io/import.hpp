@@ -117,7 +117,7 @@ double nominal_rate(const std::vector<double>& t);
 /// Parses "--jaw-range CLOSED,OPEN": two finite, different numbers; throws InputError naming the option.
 std::pair<double, double> parse_jaw_range(const std::string& text);
 
-/// Parses "--unit m|cm|mm" (metres per unit); throws InputError naming the option.
+/// Parses "--unit m|cm|mm|in" (metres per unit); throws InputError naming the option.
 double parse_length_unit(const std::string& name);
 /// Parses a transform option, "--transform tx,ty,tz,rx,ry,rz" or "--tool-transform x,y,z,rx,ry,rz":
 /// translation in a length unit of `unit_m` metres, rotation vector (axis times angle) in degrees.

@@ -1,6 +1,7 @@
 #include "io/recording.hpp"
 
 #include "io/import.hpp"  // kLogGapFactor, kDeviceRateLowHz
+#include "core/units.hpp"
 #include <cctype>
 #include <algorithm>
 #include <map>
@@ -477,7 +478,14 @@ bool fits(const PathFit& p, double diagonal) {
 }
 
 const char* unit_label(double metres_per_unit) {
-  return metres_per_unit == 1.0 ? "m" : metres_per_unit == 1e-2 ? "cm" : metres_per_unit == 1e-3 ? "mm" : nullptr;
+  for (const std::string_view name : kLengthUnitNames)
+    if (length_unit_metres(name) == metres_per_unit) return name.data();
+  return nullptr;
+}
+
+/// The unit in prose: "the log is in inches", not "in in".
+std::string unit_word(double metres_per_unit) {
+  return metres_per_unit == kMetresPerInch ? "inches" : unit_label(metres_per_unit);
 }
 
 // Three significant digits: what a message about sizes needs.
@@ -678,16 +686,23 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
     const char* unit;  // the unit the log is in, if this is the fix
   };
   std::vector<Candidate> candidates;
-  const double units[] = {1.0, 1e-2, 1e-3};
+  // Inches last: a size alone cannot tell them from cm (2.54 times apart), and metric logs are the
+  // common case, so an inch candidate is the fix only where no metric unit is (named beside one).
+  const double units[] = {1.0, 1e-2, 1e-3, kMetresPerInch};
   const char* known = log_unit_m ? unit_label(*log_unit_m) : nullptr;
   for (double used : units)
     for (double truth : units) {
       if (truth == used || (known && used != *log_unit_m)) continue;
       std::string fix = known ? std::string("--unit ") + unit_label(truth)
-                              : std::string("the log is in ") + unit_label(truth) + ", not " + unit_label(used) +
+                              : "the log is in " + unit_word(truth) + ", not " + unit_word(used) +
                                     ": ebh import --unit " + unit_label(truth);
       candidates.push_back({truth / used, fix, unit_label(truth)});
     }
+  std::stable_partition(candidates.begin(), candidates.end(),
+                        [](const Candidate& c) { return std::string_view(c.unit) != "in"; });
+  const auto inches = [](const Candidate* c) { return c && std::string_view(c->unit) == "in"; };
+  // Whether c may take the place of `held` when it fits better: never inches over a metric unit.
+  const auto may_displace = [&](const Candidate* held, const Candidate& c) { return !held || inches(held) || !inches(&c); };
   // A recording of a tool at work touches the tissue: a unit under which the path comes to the
   // mesh's box is the likely fix, the one whose extent is nearest the mesh's size first. "Comes
   // to" within a tenth of its diagonal: a forceps' pose is its jaws' pivot, which holds a grasp
@@ -702,14 +717,17 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   const auto no_worse_sized = [&](const PathFit& q) { return size_off || size_miss(q) <= size_miss(now) + 0.5; };
   const Candidate* best = nullptr;
   const Candidate* alternative = nullptr;  // one that comes to the mesh at a worse size: named beside a transform
+  const Candidate* also_inches = nullptr;  // inches that come to the mesh too, beside a metric fix
   PathFit best_fit, alternative_fit;
   for (const Candidate& c : candidates) {
     const PathFit p = fit_path(path, c.f, lo, hi);
     if (!fits(p, diagonal) || !(p.distance <= 0.1 * diagonal)) continue;
-    if (no_worse_sized(p) && (!best || size_miss(p) < size_miss(best_fit))) {
+    if (inches(&c) && best && !inches(best)) also_inches = &c;
+    if (no_worse_sized(p) && may_displace(best, c) && (!best || size_miss(p) < size_miss(best_fit))) {
       best = &c;
       best_fit = p;
-    } else if (!no_worse_sized(p) && (!alternative || size_miss(p) < size_miss(alternative_fit))) {
+    } else if (!no_worse_sized(p) && may_displace(alternative, c) &&
+               (!alternative || size_miss(p) < size_miss(alternative_fit))) {
       alternative = &c;
       alternative_fit = p;
     }
@@ -719,7 +737,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   if (!best && size_off)
     for (const Candidate& c : candidates) {
       const PathFit p = fit_path(path, c.f, lo, hi);
-      if (fits(p, diagonal) && (!best || p.distance < best_fit.distance)) {
+      if (fits(p, diagonal) && may_displace(best, c) && (!best || p.distance < best_fit.distance)) {
         best = &c;
         best_fit = p;
       }
@@ -741,7 +759,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   if (!best && size_off)
     for (const Candidate& c : candidates) {
       const PathFit p = fit_path(path, c.f, lo, hi);
-      if (size_fits(p) && (!sized || sized_before(p, sized_fit))) {
+      if (size_fits(p) && may_displace(sized, c) && (!sized || sized_before(p, sized_fit))) {
         sized = &c;
         sized_fit = p;
       }
@@ -773,6 +791,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   o << (held ? "; a tool held still at or near the tissue needs no fix, else likely fix: " : "; likely fix: ");
   if (best) {
     o << best->fix;
+    if (also_inches) o << " (or, were it in inches, --unit in: the path comes to the mesh in either)";
     // At replay the log's unit is not known, and the mesh's may be the wrong one instead: the
     // same misfit seen from the other side (`scene init --unit mm` on a mesh written in metres).
     if (!known)
@@ -797,7 +816,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
       << " the mesh's diagonal, and the mesh's centre is (" << offset_num(off.x) << ", " << offset_num(off.y) << ", "
       << offset_num(off.z) << ") m from the path's)";
   } else {
-    o << "none of m, cm, mm makes it fit: check the log's unit and the scene's";
+    o << "none of " << kLengthUnitList << " makes it fit: check the log's unit and the scene's";
   }
   return o.str();
 }

@@ -23,6 +23,7 @@
 
 #include "core/error.hpp"
 #include "core/partial_output.hpp"
+#include "core/units.hpp"
 #include "core/number_text.hpp"
 #include "core/yaml_error.hpp"
 #include "ebh/version.hpp"
@@ -197,9 +198,9 @@ class SpecReader {
                     shown_number(std::numeric_limits<double>::max()) + " m");
     return metres;
   }
-  /// A length unit key (m, cm, mm): its metres per unit and name.
+  /// A length unit key (kLengthUnitNames): its metres per unit and name.
   std::pair<double, std::string> length_unit(const YAML::Node& n, const std::string& key) const {
-    static const std::vector<std::string> names = {"m", "cm", "mm"};
+    static const std::vector<std::string> names(kLengthUnitNames.begin(), kLengthUnitNames.end());
     const std::string name = names[choice(n, key, names)];
     return {*length_unit_metres(name), name};
   }

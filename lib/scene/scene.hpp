@@ -2,7 +2,7 @@
 // A scene: what a scenarios/NAME.yaml file says, with every length converted to metres.
 //
 // YAML schema (every key is validated; unknown keys are errors; an error names the file and
-// the dotted key). Lengths are numbers in a declared unit (m, cm or mm): `unit` for world
+// the dotted key). Lengths are numbers in a declared unit (m, cm, mm or in): `unit` for world
 // coordinates (pinned regions, camera), `mesh.unit` for the mesh files and `tool.unit` for the
 // tool's sizes, both defaulting to `unit`; stiffnesses, densities, forces and gravity are always SI
 // (docs/FORMATS.md, "Length units and the mesh transform").

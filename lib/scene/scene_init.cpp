@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 
 namespace ebh {
 namespace {
@@ -158,7 +159,7 @@ const std::vector<TissuePreset>& tissue_presets() {
 
 SceneInit make_scene(const SceneInitOptions& o) {
   const std::optional<double> unit_m = length_unit_metres(o.unit);
-  if (!unit_m) throw InputError("--unit: expected m, cm or mm, got '" + o.unit + "'");
+  if (!unit_m) throw InputError("--unit: expected one of " + std::string(kLengthUnitList) + ", got '" + o.unit + "'");
   const double unit = *unit_m;
   const auto& presets = tissue_presets();
   const auto preset = std::find_if(presets.begin(), presets.end(), [&](const TissuePreset& p) { return p.name == o.tissue; });

@@ -518,6 +518,17 @@ fs::path cube_scene(const std::string& name, const std::string& extra) {
                               "}\npinned: [{group: bottom}]\nstiffness: {k_svc: 200}\n" + extra);
 }
 
+// A mesh from a CAD export in inches, the tool in inches too: node 101 at (10, 0, 10) in lands at
+// 0.254 m, the shaft's 0.1 in radius is 2.54 mm; the resolved scene writes them back in inches.
+TEST(MeshTransform, AnInchMeshAndToolAreReadInInches) {
+  const Scene s = load_scene(cube_scene("inches.yaml", "unit: in\ntool: {kind: hook, shaft_radius: 0.1, shaft_length: 12}\n"));
+  EXPECT_EQ(s.spec.mesh_unit_name, "in");
+  EXPECT_EQ(s.spec.tool.unit_name, "in");
+  EXPECT_NEAR(s.physical.vertices[0].x, 0.254, 1e-15);
+  EXPECT_NEAR(s.spec.tool.shaft_radius, 0.00254, 1e-15);
+  EXPECT_NE(resolved_scene_yaml(s.spec).find("unit: in"), std::string::npos);
+}
+
 // The mesh file in cm, scaled by 2, turned a quarter turn about +z and moved by (1, 2, 3) cm; the
 // rest of the scene (pins, tool) in mm. Node 101 at (10, 0, 10) cm = (0.1, 0, 0.1) m -> scale
 // (0.2, 0, 0.2) -> R_z(90) (0, 0.2, 0.2) -> + (0.01, 0.02, 0.03) = (0.01, 0.22, 0.23) m.
@@ -690,7 +701,7 @@ TEST_F(BadScene, VolumeStiffness) {
   expect(replace(good, "k_s: 25", "k_s: 25, k_det: 2e12"), "key 'stiffness.k_det': 2e+12 is beyond 1e12");
 }
 TEST_F(BadScene, BadEnum) { expect(replace(good, "kind: forceps", "kind: scalpel"), "key 'tool.kind': expected one of hook, forceps, got 'scalpel'"); }
-TEST_F(BadScene, BadUnit) { expect(replace(good, "unit: mm", "unit: inch"), "key 'unit': expected one of m, cm, mm, got 'inch'"); }
+TEST_F(BadScene, BadUnit) { expect(replace(good, "unit: mm", "unit: inch"), "key 'unit': expected one of m, cm, mm, in, got 'inch'"); }
 TEST_F(BadScene, OutOfRange) { expect(replace(good, "damping: 0.05", "damping: 1.0"), "key 'damping': expected a number in [0, 1), got '1.0'"); }
 TEST_F(BadScene, NotWhole) {
   expect(replace(good, "newton_iterations: 3", "newton_iterations: 2.5"), "key 'tool.newton_iterations': expected a whole number in [1, 100], got '2.5'");
@@ -804,8 +815,8 @@ TEST_F(BadScene, NestedTooDeeply) {
 TEST_F(BadScene, YamlSyntax) { expect(replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0, -9.81"), "YAML syntax error"); }
 TEST_F(BadScene, NotAMap) { expect("- 1\n- 2\n", "not a scene file: a scene is a YAML map of keys (mesh, tool, ...), this file holds a list"); }
 TEST_F(BadScene, Empty) { expect("# nothing\n", "empty scene file"); }
-TEST_F(BadScene, BadMeshUnit) { expect(replace(good, "  unit: mm\n  transform", "  unit: inch\n  transform"), "key 'mesh.unit': expected one of m, cm, mm, got 'inch'"); }
-TEST_F(BadScene, BadToolUnit) { expect(replace(good, "tool:\n  unit: mm", "tool:\n  unit: 3"), "key 'tool.unit': expected one of m, cm, mm, got '3'"); }
+TEST_F(BadScene, BadMeshUnit) { expect(replace(good, "  unit: mm\n  transform", "  unit: inch\n  transform"), "key 'mesh.unit': expected one of m, cm, mm, in, got 'inch'"); }
+TEST_F(BadScene, BadToolUnit) { expect(replace(good, "tool:\n  unit: mm", "tool:\n  unit: 3"), "key 'tool.unit': expected one of m, cm, mm, in, got '3'"); }
 TEST_F(BadScene, ZeroScale) { expect(replace(good, "scale: 1,", "scale: 0,"), "key 'mesh.transform.scale': expected a positive number, got '0'"); }
 TEST_F(BadScene, NegativeScale) { expect(replace(good, "scale: 1,", "scale: -2,"), "key 'mesh.transform.scale': expected a positive number, got '-2'"); }
 TEST_F(BadScene, NonFiniteScale) { expect(replace(good, "scale: 1,", "scale: .inf,"), "key 'mesh.transform.scale': expected a positive number, got '.inf'"); }

@@ -1,4 +1,4 @@
-// `ebh import LOG -o REC.h5 [--format openhaptics|csv] [--rate HZ] [--unit m|cm|mm]
+// `ebh import LOG -o REC.h5 [--format openhaptics|csv] [--rate HZ] [--unit m|cm|mm|in]
 //  [--transform "tx,ty,tz,rx,ry,rz"] [--tool-transform "x,y,z,rx,ry,rz"] [--scene NAME]
 //  [--tool hook|forceps] [--drop-repeats]`: a device log (OpenHaptics-style transforms or CSV) into
 // a recording, its poses mapped to ebh's frames. With --scene, the path is checked against the
@@ -161,7 +161,7 @@ void setup(CLI::App& root) {
   c->add_option("--format", args->format, "openhaptics or csv (default: csv for *.csv, else openhaptics)");
   c->add_option("--rate", args->rate_hz, "sample rate in Hz when the log has no t column (default: 1000, said)")
       ->check(ebh::cli::finite_number(0, ebh::kMaxSampleRateHz, true, "Hz"));
-  c->add_option("--unit", args->unit, "length unit of the log: m, cm or mm (default: mm openhaptics, m csv)");
+  c->add_option("--unit", args->unit, "length unit of the log: m, cm, mm or in (default: mm openhaptics, m csv)");
   c->add_option("--transform", args->transform,
                 "log frame -> world: \"tx,ty,tz,rx,ry,rz\" (translation in the log's unit, rotation vector in degrees)");
   c->add_option("--tool-transform", args->tool_transform,

@@ -487,7 +487,7 @@ void setup(CLI::App& root) {
       "init", "Write a complete, commented scene for your own mesh (tool in mm, tissue presets, pinned regions)");
   i->add_option("mesh", iargs->mesh, "the physical mesh (Gmsh .msh 2.2 or 4.1)")->required();
   i->add_option("-o,--out", iargs->out, "the scene file to write")->required();
-  i->add_option("--unit", iargs->unit, "the mesh file's unit, also the scene's for --pin and the camera: m, cm, mm (default mm)");
+  i->add_option("--unit", iargs->unit, "the mesh file's unit, also the scene's for --pin and the camera: m, cm, mm, in (default mm)");
   i->add_option("--pin", iargs->pins,
                 "a pinned region, repeatable: sphere:x,y,z,r | box:x0,y0,z0,x1,y1,z1 | group:NAME (default: the vertices "
                 "within 5% of the mesh's height of its lowest point, -z, widened until at least 3)")

@@ -62,3 +62,13 @@ add_test(NAME cli.process.recording_link_loop
     "-DEXPECT=^ebh: error: [^\n]*/loop.h5: cannot be opened: Too many levels of symbolic links\n$"
     -DOUTPUT=${EBH_PROCESS_OUT}/loop_recording.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
 set_tests_properties(cli.process.scene_link_loop cli.process.recording_link_loop PROPERTIES LABELS cli)
+
+# Signals whose default action would end a run without a word and leave its temporary (SIGUSR1,
+# SIGUSR2, SIGALRM, SIGXCPU, SIGVTALRM, SIGPROF) stop it as SIGTERM does; one ignored at the start
+# stays ignored.
+if(EBH_GATE_BASH)
+  add_test(NAME cli.process.stop_signals
+    COMMAND ${EBH_GATE_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/stop_signals.sh ${EBH_BIN} ${EBH_PROCESS_OUT}/stop_signals)
+  set_tests_properties(cli.process.stop_signals PROPERTIES LABELS cli TIMEOUT 60 PASS_REGULAR_EXPRESSION
+    "stop signals: ok")
+endif()

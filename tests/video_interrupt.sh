@@ -11,15 +11,19 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 rm -rf "$work"
 mkdir -p "$work/bin"
 printf '#!/bin/sh\necho $$ > "%s/ffmpeg.pid"\nexec sleep 1000\n' "$work" >"$work/bin/ffmpeg"
-chmod +x "$work/bin/ffmpeg"
-stray() { [ -s "$work/ffmpeg.pid" ] && kill "$(cat "$work/ffmpeg.pid")" 2>/dev/null; }
+# One that ignores SIGTERM, so that ebh waits for it to end before it sends SIGKILL.
+mkdir -p "$work/stubborn"
+printf '#!/bin/sh\ntrap "" TERM\necho $$ > "%s/ffmpeg.pid"\nexec sleep 1000\n' "$work" >"$work/stubborn/ffmpeg"
+chmod +x "$work/bin/ffmpeg" "$work/stubborn/ffmpeg"
+bin=$work/bin
+stray() { [ -s "$work/ffmpeg.pid" ] && kill -KILL "$(cat "$work/ffmpeg.pid")" 2>/dev/null; }
 trap stray EXIT
 # started NAME CMD...: runs CMD in the background ($pid) and returns once it has started ffmpeg.
 started() {
   local name=$1 waited=0
   shift
   rm -f "$work/ffmpeg.pid"
-  PATH="$work/bin:$PATH" "$@" >"$work/$name.out" 2>"$work/$name.err" &
+  PATH="$bin:$PATH" "$@" >"$work/$name.out" 2>"$work/$name.err" &
   pid=$!
   until [ -s "$work/ffmpeg.pid" ]; do
     kill -0 $pid 2>/dev/null || fail "$name: ended before it started ffmpeg: $(cat "$work/$name.err")"
@@ -27,6 +31,16 @@ started() {
     sleep 0.1
     waited=$((waited + 1))
   done
+}
+# gone PID: the process PID has ended (a zombie left to init counts as ended), within 2 s.
+gone() {
+  local waited=0
+  while [ $waited -lt 20 ]; do
+    [ "$(awk '{print $3}' "/proc/$1/stat" 2>/dev/null || echo Z)" = Z ] && return 0
+    sleep 0.1
+    waited=$((waited + 1))
+  done
+  return 1
 }
 # checked NAME: ffmpeg is gone, the message says interrupted in one line, no video nor temporary.
 checked() {
@@ -52,4 +66,17 @@ started group timeout 600 "$ebh" render "$replay" -o "$work/group_frames" --size
 kill -TERM $pid
 wait $pid
 checked group
+# A second signal while ebh waits for ffmpeg to end ends ebh at once: ffmpeg is killed first, not
+# left running with its parent gone.
+bin=$work/stubborn
+started twice "$ebh" render "$replay" -o "$work/twice_frames" --size 160x120 --video "$work/twice.mp4"
+kill -TERM $pid
+sleep 0.2
+kill -TERM $pid
+status=0
+wait $pid || status=$?
+[ $status = 143 ] || fail "twice: exit status $status, expected 143: $(cat "$work/twice.err")"
+gone "$(cat "$work/ffmpeg.pid")" || fail "twice: ffmpeg ($(cat "$work/ffmpeg.pid")) still runs after ebh ended"
+[ ! -e "$work/twice.mp4" ] || fail "twice: an interrupted render wrote its video"
+! ls -a "$work" | grep -q "^\.twice\.mp4\..*\.ebh-partial$" || fail "twice: the video's temporary was left"
 echo "video interrupt: ok"

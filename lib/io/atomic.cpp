@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <memory>
 
@@ -41,18 +42,66 @@ volatile std::sig_atomic_t g_interrupted = 0;
 volatile std::sig_atomic_t g_first_signal = 0;
 std::atomic<unsigned> g_grace{kInterruptGraceSeconds};
 std::atomic<bool> g_installed{false};
-static_assert(std::atomic<unsigned>::is_always_lock_free && std::atomic<int>::is_always_lock_free);
+std::atomic<long> g_child{0};  // killed before a sudden end (set_child_to_kill)
+std::atomic<bool> g_alarm_stops{true};  // false: SIGALRM was ignored at the start; only the grace's counts
+std::atomic<long long> g_first_ns{0};  // when the first interrupt came (CLOCK_MONOTONIC)
+static_assert(std::atomic<unsigned>::is_always_lock_free && std::atomic<int>::is_always_lock_free &&
+              std::atomic<long>::is_always_lock_free && std::atomic<bool>::is_always_lock_free &&
+              std::atomic<long long>::is_always_lock_free);
+
+/// The signals that stop a run. SIGINT (Ctrl-C), SIGTERM (kill, `timeout`) and SIGHUP (the terminal
+/// closed), and those whose default action would end the process without a word and leave its
+/// temporaries: SIGUSR1, SIGUSR2, SIGALRM (`timeout -s ALRM`), SIGXCPU (the soft limit of
+/// `ulimit -t`), SIGVTALRM and SIGPROF. SIGQUIT keeps its core dump; SIGXFSZ is ignored instead
+/// (tools/ebh/main.cpp: the write fails with EFBIG, reported as a full disk is).
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGUSR2, SIGALRM, SIGXCPU, SIGVTALRM, SIGPROF};
+
+/// The signal's name, for the early handler's line (a string literal: async-signal-safe).
+const char* signal_name(int sig) {
+  switch (sig) {
+    case SIGINT: return "SIGINT";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+    case SIGUSR1: return "SIGUSR1";
+    case SIGUSR2: return "SIGUSR2";
+    case SIGALRM: return "SIGALRM";
+    case SIGXCPU: return "SIGXCPU";
+    case SIGVTALRM: return "SIGVTALRM";
+    case SIGPROF: return "SIGPROF";
+    default: return "a signal";
+  }
+}
 
 void remove_temporaries() {
   for (int i = 0; i < kSlots; ++i)
     if (g_used[i].load() == 2) unlink(g_paths[i]);
 }
 
+/// Ends the process now (async-signal-safe): the recorded child killed first, then the temporaries
+/// removed.
+[[noreturn]] void end_now(int status) {
+  if (const long child = g_child.load(); child > 0) kill(static_cast<pid_t>(child), SIGKILL);
+  remove_temporaries();
+  _exit(status);
+}
+
+/// CLOCK_MONOTONIC in nanoseconds (clock_gettime is async-signal-safe).
+long long now_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
+
 extern "C" void on_signal(int sig) {
+  const long long now = now_ns();
   if (g_interrupted) {
-    remove_temporaries();
-    _exit(128 + sig);
+    // The same signal again within 0.1 s is the same interrupt: `timeout` sends its signal to the
+    // command and then to the command's process group, and the two may arrive one after the other.
+    // A person's second Ctrl-C comes later.
+    if (!(sig == g_first_signal && now - g_first_ns.load() < 100000000LL)) end_now(128 + sig);
+    return;
   }
+  g_first_ns.store(now);
   g_interrupted = 1;
   g_first_signal = sig;
   const unsigned grace = g_grace.load();
@@ -61,22 +110,30 @@ extern "C" void on_signal(int sig) {
 
 /// Before a command polls for interrupts: end now, saying so (async-signal-safe calls only).
 extern "C" void on_early_signal(int sig) {
-  static const char kInt[] = "ebh: interrupted by SIGINT; no output file written\n";
-  static const char kTerm[] = "ebh: interrupted by SIGTERM; no output file written\n";
-  static const char kHup[] = "ebh: interrupted by SIGHUP; no output file written\n";
-  const char* m = sig == SIGINT ? kInt : sig == SIGTERM ? kTerm : kHup;
-  const std::size_t n = sig == SIGINT ? sizeof kInt : sig == SIGTERM ? sizeof kTerm : sizeof kHup;
-  (void)!write(STDERR_FILENO, m, n - 1);
-  remove_temporaries();
-  _exit(128 + sig);
+  char line[96];
+  std::size_t n = 0;
+  for (const char* part : {"ebh: interrupted by ", signal_name(sig), "; no output file written\n"})
+    for (; *part && n < sizeof line; ++part) line[n++] = *part;
+  (void)!write(STDERR_FILENO, line, n);
+  end_now(128 + sig);
 }
 
 /// The first interrupt's grace ran out: end as on a second signal.
-extern "C" void on_grace_over(int) {
+void grace_over() {
   static const char kMessage[] = "ebh: still running after the interrupt's grace: stopping now\n";
   (void)!write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
-  remove_temporaries();
-  _exit(128 + (g_first_signal ? g_first_signal : SIGTERM));
+  end_now(128 + (g_first_signal ? g_first_signal : SIGTERM));
+}
+
+/// SIGALRM: the grace's timer (alarm(), sent by the kernel), or one sent by a process (`timeout -s
+/// ALRM`, kill: si_code SI_USER, SI_QUEUE or SI_TKILL, all <= 0), which stops the run as SIGTERM
+/// does, unless the process started with SIGALRM ignored.
+extern "C" void on_alarm(int sig, siginfo_t* info, void*) {
+  if (info != nullptr && info->si_code <= 0) {
+    if (g_alarm_stops.load()) on_signal(sig);
+  } else if (g_interrupted) {
+    grace_over();
+  }
 }
 
 int register_temp(const std::string& path) {
@@ -196,33 +253,48 @@ void check_name_length(const std::string& path) {
 
 bool process_running(long pid) { return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH); }
 
-/// SIGINT, SIGTERM and SIGHUP to `handler`; SIGHUP stays ignored where it was when the process
-/// started (`nohup ebh ...`: the user asked for the command to outlive its terminal).
-static void handle_interrupts_with(void (*handler)(int)) {
+/// Whether the stop signal `sig` gets ebh's handler: SIGINT and SIGTERM always (a shell starts a
+/// background job with SIGINT ignored); the others unless the process started with them ignored
+/// (`nohup ebh ...`: the user asked for the command to outlive its terminal; the same for a signal
+/// a parent chose to ignore). Seen before any handler of ebh's is installed, or with the early one.
+static bool stops_on(int sig) {
+  if (sig == SIGINT || sig == SIGTERM) return true;
+  struct sigaction now {};
+  return !(sigaction(sig, nullptr, &now) == 0 && !(now.sa_flags & SA_SIGINFO) && now.sa_handler == SIG_IGN);
+}
+
+/// The stop signals (kStopSignals) to `handler`, SIGALRM to on_alarm unless `early`.
+static void handle_interrupts_with(void (*handler)(int), bool early) {
   struct sigaction sa {};
   sa.sa_handler = handler;
   sigemptyset(&sa.sa_mask);
   sa.sa_flags = 0;
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-  if (struct sigaction now {}; !(sigaction(SIGHUP, nullptr, &now) == 0 && now.sa_handler == SIG_IGN))
-    sigaction(SIGHUP, &sa, nullptr);
+  for (const int sig : kStopSignals) {
+    const bool stops = stops_on(sig);
+    if (sig == SIGALRM && !early) {  // the grace's timer needs it, whatever the start left
+      g_alarm_stops.store(stops);
+      struct sigaction alarm_sa {};
+      alarm_sa.sa_sigaction = on_alarm;
+      sigemptyset(&alarm_sa.sa_mask);
+      alarm_sa.sa_flags = SA_SIGINFO;
+      sigaction(SIGALRM, &alarm_sa, nullptr);
+    } else if (stops) {
+      sigaction(sig, &sa, nullptr);
+    }
+  }
 }
 
 void install_interrupt_handlers() {
   if (g_installed.exchange(true)) return;
   // SIGHUP, the terminal closed: stop like SIGTERM, leave no temporary.
-  handle_interrupts_with(on_signal);
-  struct sigaction grace {};
-  grace.sa_handler = on_grace_over;
-  sigemptyset(&grace.sa_mask);
-  grace.sa_flags = 0;
-  sigaction(SIGALRM, &grace, nullptr);
+  handle_interrupts_with(on_signal, false);
 }
 
 void install_early_interrupt_handlers() {
-  if (!g_installed.load()) handle_interrupts_with(on_early_signal);
+  if (!g_installed.load()) handle_interrupts_with(on_early_signal, true);
 }
+
+void set_child_to_kill(long pid) { g_child.store(pid > 0 ? pid : 0); }
 
 bool interrupted() { return g_interrupted != 0; }
 int interrupt_signal() { return g_interrupted ? static_cast<int>(g_first_signal) : 0; }

@@ -9,9 +9,11 @@
 // remove it; the next AtomicOutput of the same final path removes every such file whose writer
 // (same host, PID no longer running) is gone.
 //
-// Interrupts: the first SIGINT/SIGTERM/SIGHUP only sets a flag that long loops poll with
-// interrupted(); they stop, and the AtomicOutput's destructor removes the temporary file. A second
-// signal removes every registered temporary file at once and ends the process (exit status
+// Interrupts: the first SIGINT/SIGTERM/SIGHUP (or SIGUSR1, SIGUSR2, SIGALRM, SIGXCPU, SIGVTALRM,
+// SIGPROF, whose default action would end the process leaving its temporaries) only sets a flag
+// that long loops poll with interrupted(); they stop, and the AtomicOutput's destructor removes
+// the temporary file. A second signal (not the first one repeated within 0.1 s, as `timeout` sends
+// it twice) removes every registered temporary file at once and ends the process (exit status
 // 128+signal). So does the first signal's grace running out (interrupt_grace(), 10 s): a process
 // stuck where it does not poll the flag (a wait on a hung device) still ends on one SIGTERM,
 // saying so on stderr. The handlers are installed by the first AtomicOutput (or by
@@ -104,16 +106,18 @@ void write_file_atomically(const std::string& path, std::string_view bytes);
 /// file cannot be replaced) names the files already replaced.
 void write_files_atomically(const std::vector<std::pair<std::string, std::string_view>>& files);
 
-/// Installs the SIGINT/SIGTERM/SIGHUP handlers (SIGHUP left ignored where it was at the start:
-/// `nohup`), and SIGALRM's for the grace (idempotent).
+/// Installs the handlers of the signals that stop a run (idempotent): SIGINT, SIGTERM, SIGHUP,
+/// SIGUSR1, SIGUSR2, SIGALRM, SIGXCPU, SIGVTALRM and SIGPROF. Those but SIGINT and SIGTERM stay
+/// ignored where they were at the start (`nohup`); SIGALRM's handler also runs the grace, and
+/// tells its timer from a SIGALRM another process sent.
 void install_interrupt_handlers();
 /// Until a command installs those (it polls interrupted() from then on), a signal ends the process
-/// at once with one line, "ebh: interrupted by SIGINT; no output file written", and status
-/// 128 + signal, removing any temporary: what a long load (a 10-million-line log, a large mesh) or
+/// at once with one line, "ebh: interrupted by SIGINT; no output file written" (the signal that
+/// came), and status 128 + signal, removing any temporary: what a long load (a 10-million-line log, a large mesh) or
 /// a command that never polls (validate, table1) gets. `ebh` calls it first thing (SIGHUP left
 /// ignored where it was).
 void install_early_interrupt_handlers();
-/// True once SIGINT, SIGTERM or SIGHUP arrived (after install_interrupt_handlers()).
+/// True once one of those signals arrived (after install_interrupt_handlers()).
 bool interrupted();
 /// The first of those signals that arrived (0 when none did, or the flag was set by hand): a
 /// command that stopped on it exits with status 128 + signal, as the shell's convention has it.
@@ -121,6 +125,13 @@ int interrupt_signal();
 /// Sets or clears the flag, as a signal would (tests; a tool that handled the interrupt); clearing
 /// it also cancels a running grace.
 void set_interrupted(bool value);
+
+/// Records the child process `pid` (0: none) that a sudden end (a second signal, the grace running
+/// out) kills with SIGKILL before the process ends: a child being stopped (ffmpeg, given half a
+/// second to end on SIGTERM) would otherwise outlive it, writing into a temporary being removed.
+/// Record it as soon as the child started, and clear it before the child is reaped (its PID may
+/// then be another process's).
+void set_child_to_kill(long pid);
 
 /// Seconds a process has after the first interrupt before it ends as on a second one.
 inline constexpr unsigned kInterruptGraceSeconds = 10;

@@ -70,14 +70,20 @@ double frame_rate(const ReplayFrames& f, int every) {
 /// for). An interrupt (interrupted()) stops it: SIGTERM, then SIGKILL when it is still running
 /// half a second later, and it is reaped before this returns, so that no child outlives the
 /// process and writes on into an output's temporary after that is removed. The interrupt's grace
-/// (io/atomic.hpp) would otherwise end this process with the child still running.
+/// (io/atomic.hpp) or a second signal would otherwise end this process with the child still
+/// running: the child is recorded for them to kill (set_child_to_kill) until it has ended.
 std::optional<int> wait_for_child(pid_t pid) {
   using namespace std::chrono_literals;
+  set_child_to_kill(pid);
   int status = 0;
   enum class State { running, ended, lost };
+  // Whether it ended, without reaping it: its record is cleared first, so that a signal between
+  // the two does not kill another process that got its PID.
   auto poll = [&] {
-    const pid_t r = waitpid(pid, &status, WNOHANG);
-    return r == pid ? State::ended : r < 0 && errno != EINTR ? State::lost : State::running;
+    siginfo_t info{};
+    const int r = waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT);
+    if (r < 0) return errno == EINTR ? State::running : State::lost;
+    return info.si_pid == pid ? State::ended : State::running;
   };
   // Polled, not a blocking waitpid: a signal arriving just before that call would go unseen until
   // the child ended by itself.
@@ -87,13 +93,12 @@ std::optional<int> wait_for_child(pid_t pid) {
     kill(pid, SIGTERM);
     for (int i = 0; i < 25 && (state = poll()) == State::running; ++i) std::this_thread::sleep_for(20ms);
   }
-  if (state == State::running) {
-    kill(pid, SIGKILL);
-    while (waitpid(pid, &status, 0) < 0)
-      if (errno != EINTR) return std::nullopt;
-    state = State::ended;
-  }
-  return state == State::ended ? std::optional<int>(status) : std::nullopt;
+  if (state == State::running) kill(pid, SIGKILL);
+  set_child_to_kill(0);
+  if (state == State::lost) return std::nullopt;
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return std::nullopt;
+  return status;
 }
 
 void run_ffmpeg(const std::string& dir, const std::string& video, double fps) {

@@ -124,7 +124,7 @@ int wait_for(pid_t pid) {
 [[noreturn]] void exec_child(char* const* argv, char* const* envp, int out, int err_fd, bool die_with_parent, pid_t parent) {
   // This process's handlers (io/atomic.hpp) would swallow a SIGTERM before the exec; a signal this
   // process ignores (a `nohup`'d sweep's SIGHUP) stays ignored in the child, as exec keeps it.
-  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGALRM}) {
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGUSR2, SIGALRM, SIGXCPU, SIGVTALRM, SIGPROF}) {
     struct sigaction now {};
     if (sigaction(sig, nullptr, &now) == 0 && now.sa_handler == SIG_IGN) continue;
     signal(sig, SIG_DFL);

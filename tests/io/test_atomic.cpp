@@ -343,6 +343,30 @@ TEST(Atomic, HangupStopsARunLikeAnInterrupt) {
   set_interrupted(false);
 }
 
+/// The signals whose default action would end the process leaving its temporaries stop a run as
+/// SIGTERM does; SIGALRM sent by a process too (not the grace's own timer).
+TEST(Atomic, SignalsThatWouldEndTheProcessStopARun) {
+  install_interrupt_handlers();
+  for (const int sig : {SIGUSR1, SIGUSR2, SIGALRM, SIGXCPU, SIGVTALRM, SIGPROF}) {
+    set_interrupted(false);
+    std::raise(sig);  // the handler only sets the flag
+    EXPECT_TRUE(interrupted()) << strsignal(sig);
+    EXPECT_EQ(interrupt_signal(), sig);
+  }
+  set_interrupted(false);
+}
+
+/// `timeout` sends its signal to the command and then to its process group: the same signal twice
+/// at once is one interrupt, not a second one that ends the process.
+TEST(Atomic, TheSameSignalTwiceAtOnceIsOneInterrupt) {
+  install_interrupt_handlers();
+  set_interrupted(false);
+  std::raise(SIGTERM);
+  std::raise(SIGTERM);  // a second interrupt would have ended the test
+  EXPECT_TRUE(interrupted());
+  set_interrupted(false);
+}
+
 namespace {
 
 /// Forks a child that installs the interrupt handlers with a grace of `grace` s, opens an

@@ -17,9 +17,19 @@ for sig in $signals; do  # side by side: one second for all
   "$ebh" replay tube tube_insert -o "$work/$sig.h5" -q --duration 6 2>"$work/$sig.err" &
   pids[$sig]=$!
 done
-sleep 1
+# temporary SIG: whether the replay made its output's temporary (it runs; its handlers are in).
+temporary() { compgen -G "$work/.$1.h5.*.ebh-partial" >/dev/null; }
 for sig in $signals; do
-  kill -0 "${pids[$sig]}" 2>/dev/null || fail "SIG$sig: the replay ended within 1 s: $(cat "$work/$sig.err")"
+  waited=0
+  until temporary "$sig"; do  # a busy machine may take a while to start six processes
+    kill -0 "${pids[$sig]}" 2>/dev/null || fail "SIG$sig: the replay ended before it began: $(cat "$work/$sig.err")"
+    [ $waited -lt 300 ] || fail "SIG$sig: no output's temporary after 30 s"
+    sleep 0.1
+    waited=$((waited + 1))
+  done
+done
+for sig in $signals; do
+  kill -0 "${pids[$sig]}" 2>/dev/null || fail "SIG$sig: the replay ended before the signal: $(cat "$work/$sig.err")"
   kill -"$sig" "${pids[$sig]}"
 done
 for sig in $signals; do
@@ -30,7 +40,7 @@ for sig in $signals; do
   [ "$(wc -l <"$work/$sig.err")" = 1 ] && grep -q "interrupted" "$work/$sig.err" ||
     fail "SIG$sig: not one line saying interrupted: $(cat "$work/$sig.err")"
   [ ! -e "$work/$sig.h5" ] || fail "SIG$sig: an interrupted replay wrote its output"
-  ! ls -a "$work" | grep -q "^\.$sig\.h5\..*\.ebh-partial$" || fail "SIG$sig: the output's temporary was left"
+  ! temporary "$sig" || fail "SIG$sig: the output's temporary was left"
 done
 # Ignored at the start (by the shell's trap, which exec keeps), SIGUSR1 and SIGALRM stay ignored;
 # the replay writes its output and ends with 0.

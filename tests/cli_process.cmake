@@ -72,3 +72,26 @@ if(EBH_GATE_BASH)
   set_tests_properties(cli.process.stop_signals PROPERTIES LABELS cli TIMEOUT 60 PASS_REGULAR_EXPRESSION
     "stop signals: ok")
 endif()
+
+# Started with its standard streams closed (`>&-`), ebh runs with them on /dev/null: a file it
+# opens does not take their numbers, so nothing printed lands in an output, and the summary
+# printed to a closed stdout is no error. The output is a whole HDF5 file (its signature).
+if(EBH_GATE_BASH)
+  add_test(NAME cli.process.closed_standard_streams
+    COMMAND ${EBH_GATE_BASH} -c
+      "\"$0\" replay tube tube_insert -o \"$1\" --duration 0.1 <&- >&- 2>&-; echo \"exit status $?\"; head -c 4 \"$1\" | tail -c 3; echo; ! grep -aq 'physical steps\\|ebh: ' \"$1\" || echo 'printed into the output'"
+      ${EBH_BIN} ${EBH_PROCESS_OUT}/closed_streams.h5)
+  set_tests_properties(cli.process.closed_standard_streams PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+    "^exit status 0\nHDF\n$")
+endif()
+
+# A standard output that fails (/dev/full) once the output is written: one line that says the
+# output file was written and what was printed is lost, exit status 1, never a crash.
+if(EBH_GATE_BASH AND EXISTS /dev/full)
+  add_test(NAME cli.process.stdout_full
+    COMMAND ${EBH_GATE_BASH} -c
+      "rm -f \"$1\"; err=$(\"$0\" replay tube tube_insert -o \"$1\" --duration 0.1 2>&1 >/dev/full); rc=$?; printf '%s\\n' \"$err\" | grep -v '^ebh: warning: '; echo \"exit status $rc\"; [ -s \"$1\" ] && echo written"
+      ${EBH_BIN} ${EBH_PROCESS_OUT}/stdout_full.h5)
+  set_tests_properties(cli.process.stdout_full PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+    "^ebh: error: standard output: No space left on device \\(the output file was written; what the command printed is lost\\)\nexit status 1\nwritten\n$")
+endif()

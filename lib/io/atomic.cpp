@@ -44,6 +44,7 @@ std::atomic<unsigned> g_grace{kInterruptGraceSeconds};
 std::atomic<bool> g_installed{false};
 std::atomic<long> g_child{0};  // killed before a sudden end (set_child_to_kill)
 std::atomic<bool> g_alarm_stops{true};  // false: SIGALRM was ignored at the start; only the grace's counts
+std::atomic<std::size_t> g_committed{0};
 std::atomic<long long> g_first_ns{0};  // when the first interrupt came (CLOCK_MONOTONIC)
 static_assert(std::atomic<unsigned>::is_always_lock_free && std::atomic<int>::is_always_lock_free &&
               std::atomic<long>::is_always_lock_free && std::atomic<bool>::is_always_lock_free &&
@@ -295,6 +296,7 @@ void install_early_interrupt_handlers() {
 }
 
 void set_child_to_kill(long pid) { g_child.store(pid > 0 ? pid : 0); }
+std::size_t outputs_committed() { return g_committed.load(); }
 
 bool interrupted() { return g_interrupted != 0; }
 int interrupt_signal() { return g_interrupted ? static_cast<int>(g_first_signal) : 0; }
@@ -410,6 +412,7 @@ void AtomicOutput::rename_into_place() {
     fail("cannot rename the finished output into place", err);
   }
   committed_ = true;
+  g_committed.fetch_add(1);
   unregister_temp(slot_);
   slot_ = -1;
   sync_directory(fs::path(target_).parent_path());

@@ -133,6 +133,10 @@ void set_interrupted(bool value);
 /// then be another process's).
 void set_child_to_kill(long pid);
 
+/// How many outputs this process renamed into place (a message after a later failure says they
+/// were written).
+std::size_t outputs_committed();
+
 /// Seconds a process has after the first interrupt before it ends as on a second one.
 inline constexpr unsigned kInterruptGraceSeconds = 10;
 /// Sets the grace (0: none, the process runs until it stops by itself; for a process that waits

@@ -1,4 +1,7 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -113,6 +116,12 @@ int run(CLI::App& app, int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A standard stream the process started without (`ebh ... >&-`) is opened on /dev/null, as Unix
+  // programs do: else the next file opened (an output's temporary, a log being read) would get its
+  // number, and what is printed would go into that file.
+  for (int fd = STDIN_FILENO; fd <= STDERR_FILENO; ++fd)
+    if (fcntl(fd, F_GETFD) < 0 && errno == EBADF && open("/dev/null", fd == STDIN_FILENO ? O_RDONLY : O_WRONLY) != fd)
+      return 1;  // nowhere to say why
   // The CUDA driver puts the process's streams on CUDA_DEVICE_MAX_CONNECTIONS hardware queues (8
   // unless set), in turn. Replays side by side (ebh replay --batch: a tick stream and a physical
   // stream each) then share queues, and a queue holds one replay's launch behind another's kernel
@@ -148,7 +157,11 @@ int main(int argc, char** argv) {
   errno = 0;
   if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
     const int err = errno;
-    std::fprintf(stderr, "ebh: error: standard output: %s\n", err ? std::strerror(err) : "write error");
+    const std::size_t written = ebh::outputs_committed();
+    std::fprintf(stderr, "ebh: error: standard output: %s%s\n", err ? std::strerror(err) : "write error",
+                 written == 0 ? ""
+                 : written == 1 ? " (the output file was written; what the command printed is lost)"
+                                : " (the output files were written; what the command printed is lost)");
     return status == 0 ? 1 : status;
   }
   return status;

@@ -95,3 +95,19 @@ if(EBH_GATE_BASH AND EXISTS /dev/full)
   set_tests_properties(cli.process.stdout_full PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
     "^ebh: error: standard output: No space left on device \\(the output file was written; what the command printed is lost\\)\nexit status 1\nwritten\n$")
 endif()
+
+# GALLIUM_DRIVER naming a renderer OSMesa cannot run here crashed Mesa while it created the
+# context; it is refused before any work. OSMesa's own renderers run.
+if(EBH_HAVE_OSMESA)
+  add_test(NAME cli.process.gallium_driver_unknown
+    COMMAND ${CMAKE_COMMAND}
+      "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_PROCESS_OUT}/gallium_frames;--size;64x64"
+      "-DEXPECT=^ebh: error: GALLIUM_DRIVER 'bogus': not a renderer OSMesa runs here \\(llvmpipe or softpipe; unset it for Mesa's default\\)\n$"
+      -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+  set_tests_properties(cli.process.gallium_driver_unknown PROPERTIES FIXTURES_REQUIRED render_tube
+    LABELS "cli;render" ENVIRONMENT GALLIUM_DRIVER=bogus)
+  add_test(NAME cli.process.gallium_driver_softpipe
+    COMMAND ${EBH_BIN} render ${EBH_RENDER_OUT}/tube.h5 -o ${EBH_PROCESS_OUT}/softpipe_frames --size 64x64 --every 50)
+  set_tests_properties(cli.process.gallium_driver_softpipe PROPERTIES FIXTURES_REQUIRED render_tube
+    LABELS "cli;render" ENVIRONMENT GALLIUM_DRIVER=softpipe)
+endif()

@@ -8,6 +8,7 @@
 #endif
 
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 
 namespace ebh {
@@ -28,7 +29,25 @@ struct OffscreenRenderer::Impl {
   std::vector<GLubyte> buffer;  // RGBA, row 0 at the bottom (OSMesa's default)
 };
 
+namespace {
+
+/// Throws InputError when GALLIUM_DRIVER (the environment's choice of Mesa's software renderer)
+/// names one OSMesa cannot run here: Mesa then crashes creating the context (a segmentation fault,
+/// seen with a misspelt name, "swr", which Mesa 22 no longer builds, and "zink" without Vulkan)
+/// instead of failing. llvmpipe and softpipe are OSMesa's own; unset or empty is its default.
+void check_gallium_driver() {
+  const char* driver = std::getenv("GALLIUM_DRIVER");
+  if (driver == nullptr || *driver == '\0') return;
+  const std::string name = driver;
+  if (name == "llvmpipe" || name == "softpipe") return;
+  throw InputError("GALLIUM_DRIVER '" + escape_unprintable(name) +
+                   "': not a renderer OSMesa runs here (llvmpipe or softpipe; unset it for Mesa's default)");
+}
+
+}  // namespace
+
 OffscreenRenderer::OffscreenRenderer(int width, int height, int supersample) : impl_(std::make_unique<Impl>()) {
+  check_gallium_driver();
   Impl& m = *impl_;
   m.width = width;
   m.height = height;

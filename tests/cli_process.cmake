@@ -111,3 +111,15 @@ if(EBH_HAVE_OSMESA)
   set_tests_properties(cli.process.gallium_driver_softpipe PROPERTIES FIXTURES_REQUIRED render_tube
     LABELS "cli;render" ENVIRONMENT GALLIUM_DRIVER=softpipe)
 endif()
+
+# A processor-time limit (`ulimit -t`, soft and hard alike) ended the run by SIGKILL, its
+# temporary left; it now stops by SIGXCPU before the hard limit: 128 + SIGXCPU, one line, no
+# output nor temporary.
+if(EBH_GATE_BASH)
+  add_test(NAME cli.process.cpu_time_limit
+    COMMAND ${EBH_GATE_BASH} -c
+      "rm -rf \"$1\"; mkdir -p \"$1\"; (ulimit -t 4; exec \"$0\" replay tube tube_insert -o \"$1/out.h5\" -q --duration 10 2>\"$1/err\"); rc=$?; [ $rc = $((128 + $(kill -l XCPU))) ] && rc='128 + SIGXCPU'; echo \"exit status $rc\"; cat \"$1/err\"; ls -A \"$1\""
+      ${EBH_BIN} ${EBH_PROCESS_OUT}/cpu_limit)
+  set_tests_properties(cli.process.cpu_time_limit PROPERTIES LABELS cli TIMEOUT 60 PASS_REGULAR_EXPRESSION
+    "^exit status 128 \\+ SIGXCPU\nebh: error: [^\n]*/out.h5: interrupted; no output written\nerr\n$")
+endif()

@@ -1,5 +1,6 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -143,6 +144,15 @@ int main(int argc, char** argv) {
   // output left behind: ignored, the write fails with EFBIG and goes the way of a full disk (one
   // line, the temporary removed, exit 1). Commands the sweep starts inherit it.
   std::signal(SIGXFSZ, SIG_IGN);
+  // A processor-time limit whose soft and hard values are one (`ulimit -t N` sets both) ends the
+  // process by SIGKILL, which no handler sees, its temporary output left behind. With the soft
+  // limit 2 s lower, SIGXCPU stops the run first (as SIGTERM does) and, a second later, a second
+  // SIGXCPU ends it with its temporaries removed: within the same N seconds.
+  if (rlimit cpu{}; getrlimit(RLIMIT_CPU, &cpu) == 0 && cpu.rlim_cur != RLIM_INFINITY && cpu.rlim_cur == cpu.rlim_max &&
+                    cpu.rlim_max > 2) {
+    cpu.rlim_cur = cpu.rlim_max - 2;
+    setrlimit(RLIMIT_CPU, &cpu);
+  }
   CLI::App app{"ebh: energy-based haptic rendering for surgical simulation (batch replay, validation, benchmarks)"};
   app.set_version_flag("--version", std::string("ebh ") + ebh::kVersion);
   app.require_subcommand(1);

@@ -685,24 +685,21 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
     std::string fix;
     const char* unit;  // the unit the log is in, if this is the fix
   };
-  std::vector<Candidate> candidates;
-  // Inches last: a size alone cannot tell them from cm (2.54 times apart), and metric logs are the
-  // common case, so an inch candidate is the fix only where no metric unit is (named beside one).
+  // Inches are a fix only named beside a metric one that brings the path to the mesh where they
+  // would too: a size cannot tell them from cm (2.54 times apart), and a metric log whose tool offset
+  // is not given yet (a gimbal 4 cm behind the tip) comes to the mesh in inches instead of its unit.
+  std::vector<Candidate> candidates, inch_candidates;
   const double units[] = {1.0, 1e-2, 1e-3, kMetresPerInch};
   const char* known = log_unit_m ? unit_label(*log_unit_m) : nullptr;
+  // Read in inches: only where the import says so (a replay does not know the import's unit).
   for (double used : units)
     for (double truth : units) {
-      if (truth == used || (known && used != *log_unit_m)) continue;
+      if (truth == used || (known ? used != *log_unit_m : used == kMetresPerInch)) continue;
       std::string fix = known ? std::string("--unit ") + unit_label(truth)
                               : "the log is in " + unit_word(truth) + ", not " + unit_word(used) +
                                     ": ebh import --unit " + unit_label(truth);
-      candidates.push_back({truth / used, fix, unit_label(truth)});
+      (truth == kMetresPerInch ? inch_candidates : candidates).push_back({truth / used, fix, unit_label(truth)});
     }
-  std::stable_partition(candidates.begin(), candidates.end(),
-                        [](const Candidate& c) { return std::string_view(c.unit) != "in"; });
-  const auto inches = [](const Candidate* c) { return c && std::string_view(c->unit) == "in"; };
-  // Whether c may take the place of `held` when it fits better: never inches over a metric unit.
-  const auto may_displace = [&](const Candidate* held, const Candidate& c) { return !held || inches(held) || !inches(&c); };
   // A recording of a tool at work touches the tissue: a unit under which the path comes to the
   // mesh's box is the likely fix, the one whose extent is nearest the mesh's size first. "Comes
   // to" within a tenth of its diagonal: a forceps' pose is its jaws' pivot, which holds a grasp
@@ -717,17 +714,14 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   const auto no_worse_sized = [&](const PathFit& q) { return size_off || size_miss(q) <= size_miss(now) + 0.5; };
   const Candidate* best = nullptr;
   const Candidate* alternative = nullptr;  // one that comes to the mesh at a worse size: named beside a transform
-  const Candidate* also_inches = nullptr;  // inches that come to the mesh too, beside a metric fix
   PathFit best_fit, alternative_fit;
   for (const Candidate& c : candidates) {
     const PathFit p = fit_path(path, c.f, lo, hi);
     if (!fits(p, diagonal) || !(p.distance <= 0.1 * diagonal)) continue;
-    if (inches(&c) && best && !inches(best)) also_inches = &c;
-    if (no_worse_sized(p) && may_displace(best, c) && (!best || size_miss(p) < size_miss(best_fit))) {
+    if (no_worse_sized(p) && (!best || size_miss(p) < size_miss(best_fit))) {
       best = &c;
       best_fit = p;
-    } else if (!no_worse_sized(p) && may_displace(alternative, c) &&
-               (!alternative || size_miss(p) < size_miss(alternative_fit))) {
+    } else if (!no_worse_sized(p) && (!alternative || size_miss(p) < size_miss(alternative_fit))) {
       alternative = &c;
       alternative_fit = p;
     }
@@ -737,7 +731,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   if (!best && size_off)
     for (const Candidate& c : candidates) {
       const PathFit p = fit_path(path, c.f, lo, hi);
-      if (fits(p, diagonal) && may_displace(best, c) && (!best || p.distance < best_fit.distance)) {
+      if (fits(p, diagonal) && (!best || p.distance < best_fit.distance)) {
         best = &c;
         best_fit = p;
       }
@@ -759,7 +753,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   if (!best && size_off)
     for (const Candidate& c : candidates) {
       const PathFit p = fit_path(path, c.f, lo, hi);
-      if (size_fits(p) && may_displace(sized, c) && (!sized || sized_before(p, sized_fit))) {
+      if (size_fits(p) && (!sized || sized_before(p, sized_fit))) {
         sized = &c;
         sized_fit = p;
       }
@@ -791,7 +785,12 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   o << (held ? "; a tool held still at or near the tissue needs no fix, else likely fix: " : "; likely fix: ");
   if (best) {
     o << best->fix;
-    if (also_inches) o << " (or, were it in inches, --unit in: the path comes to the mesh in either)";
+    for (const Candidate& c : inch_candidates)
+      if (const PathFit p = fit_path(path, c.f, lo, hi);
+          best_fit.distance <= 0.1 * diagonal && fits(p, diagonal) && p.distance <= 0.1 * diagonal) {
+        o << " (or, were it in inches, --unit in: the path comes to the mesh in either)";
+        break;
+      }
     // At replay the log's unit is not known, and the mesh's may be the wrong one instead: the
     // same misfit seen from the other side (`scene init --unit mm` on a mesh written in metres).
     if (!known)
@@ -816,7 +815,7 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
       << " the mesh's diagonal, and the mesh's centre is (" << offset_num(off.x) << ", " << offset_num(off.y) << ", "
       << offset_num(off.z) << ") m from the path's)";
   } else {
-    o << "none of " << kLengthUnitList << " makes it fit: check the log's unit and the scene's";
+    o << "none of m, cm, mm makes it fit: check the log's unit and the scene's";
   }
   return o.str();
 }

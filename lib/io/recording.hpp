@@ -157,7 +157,7 @@ std::optional<std::string> check_recording_in_scene(const Recording& rec, Vec3d 
 /// diagonal D of a physical mesh's bounding box (lo, hi), or whose every sample lies farther than
 /// kPathMaxDistanceDiagonals D from that box, was most likely read in the wrong length unit or
 /// not placed at the mesh (a path that never moves is judged by its place alone). Returns one line
-/// saying so and naming the likely fix: the unit among m, cm, mm (inches where none of those does) under which the path fits and
+/// saying so and naming the likely fix: the unit among m, cm, mm (inches named beside it where they would fit too) under which the path fits and
 /// enters the mesh's box, as a tool at work does ("--unit cm" when `log_unit_m`, the metres per
 /// unit the log was read with, is known, as at import; "the log is in cm, not mm: ebh import
 /// --unit cm" when it is not, as at replay); else, for a path of the right size, a world

@@ -336,22 +336,25 @@ TEST(UnitSanity, ALogReadInTheWrongUnitNamesTheRightOne) {
 }
 
 // A log in inches (a Polhemus tracker's default) read as mm: 1/25.4 of its size. Read as cm it
-// would come to the mesh too (2.54 times apart, which a size cannot tell): the metric unit is the
-// fix, with inches named beside it; where only inches bring it to the mesh, they are the fix.
-TEST(UnitSanity, ALogInInchesIsNamedBesideOrAsTheFix) {
+// comes to the mesh too (2.54 times apart, which a size cannot tell): the metric unit is the fix,
+// with inches named beside it.
+TEST(UnitSanity, InchesAreNamedBesideAMetricFix) {
   const double inch_read_as_mm = 1e-2 / kMetresPerInch * 1e-3;
   auto w = check_recording_scale(press_path(inch_read_as_mm), kLo, kHi, 1e-3);
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("likely fix: --unit cm (or, were it in inches, --unit in: the path comes to the mesh in either)"),
             std::string::npos) << *w;
   EXPECT_FALSE(check_recording_scale(press_path(1e-2), kLo, kHi, kMetresPerInch).has_value());  // read in inches
-  // A mesh 25 cm along x from the device's origin: read in cm the path stops at 10 cm, short of it.
+  // A cm log read as mm whose logged point stops short of the mesh (a mesh 25 cm along x, the log's
+  // tool offset not given yet: the path reaches 10 cm): in inches it would come to the mesh, which is
+  // no sign of inches. The fix named is cm (its size), and inches are not named.
   const Vec3d lo{0.2, -0.05, -0.05}, hi{0.3, 0.05, 0.05};
-  Recording off = press_path(1e-2);
-  for (Vec3d& p : off.position) p = (p + Vec3d{0.25, 0, 0}) / kMetresPerInch * 1e-3;
-  w = check_recording_scale(off, lo, hi, std::nullopt);
+  Recording short_of = press_path(1e-2);
+  for (Vec3d& p : short_of.position) p = (p + Vec3d{0.25, 0, 0}) / kMetresPerInch * 1e-3;
+  w = check_recording_scale(short_of, lo, hi, std::nullopt);
   ASSERT_TRUE(w.has_value());
-  EXPECT_NE(w->find("likely fix: the log is in inches, not mm: ebh import --unit in;"), std::string::npos) << *w;
+  EXPECT_NE(w->find("likely fix: the log is in cm, not mm: ebh import --unit cm;"), std::string::npos) << *w;
+  EXPECT_EQ(w->find("--unit in"), std::string::npos) << *w;
 }
 
 TEST(UnitSanity, AToolThatNeverMovesIsJudgedByItsPlaceAlone) {

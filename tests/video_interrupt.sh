@@ -77,6 +77,8 @@ status=0
 wait $pid || status=$?
 [ $status = 143 ] || fail "twice: exit status $status, expected 143: $(cat "$work/twice.err")"
 gone "$(cat "$work/ffmpeg.pid")" || fail "twice: ffmpeg ($(cat "$work/ffmpeg.pid")) still runs after ebh ended"
+[ "$(cat "$work/twice.err")" = "ebh: interrupted again: stopping now; unfinished outputs removed" ] ||
+  fail "twice: not the second interrupt's line: $(cat "$work/twice.err")"
 [ ! -e "$work/twice.mp4" ] || fail "twice: an interrupted render wrote its video"
 ! ls -a "$work" | grep -q "^\.twice\.mp4\..*\.ebh-partial$" || fail "twice: the video's temporary was left"
 echo "video interrupt: ok"

@@ -99,8 +99,10 @@ extern "C" void on_signal(int sig) {
     // The same signal again within 0.1 s is the same interrupt: `timeout` sends its signal to the
     // command and then to the command's process group, and the two may arrive one after the other.
     // A person's second Ctrl-C comes later.
-    if (!(sig == g_first_signal && now - g_first_ns.load() < 100000000LL)) end_now(128 + sig);
-    return;
+    if (sig == g_first_signal && now - g_first_ns.load() < 100000000LL) return;
+    static const char kMessage[] = "ebh: interrupted again: stopping now; unfinished outputs removed\n";
+    (void)!write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
+    end_now(128 + sig);
   }
   g_first_ns.store(now);
   g_interrupted = 1;

@@ -13,8 +13,8 @@
 // SIGPROF, whose default action would end the process leaving its temporaries) only sets a flag
 // that long loops poll with interrupted(); they stop, and the AtomicOutput's destructor removes
 // the temporary file. A second signal (not the first one repeated within 0.1 s, as `timeout` sends
-// it twice) removes every registered temporary file at once and ends the process (exit status
-// 128+signal). So does the first signal's grace running out (interrupt_grace(), 10 s): a process
+// it twice) removes every registered temporary file at once and ends the process, saying so (exit
+// status 128+signal). So does the first signal's grace running out (interrupt_grace(), 10 s): a process
 // stuck where it does not poll the flag (a wait on a hung device) still ends on one SIGTERM,
 // saying so on stderr. The handlers are installed by the first AtomicOutput (or by
 // install_interrupt_handlers()).

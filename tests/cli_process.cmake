@@ -61,7 +61,24 @@ add_test(NAME cli.process.recording_link_loop
     "-DCMD=${EBH_BIN};replay;tube;${EBH_PROCESS_OUT}/loop.h5;-o;${EBH_PROCESS_OUT}/loop_recording.h5;--duration;0.1"
     "-DEXPECT=^ebh: error: [^\n]*/loop.h5: cannot be opened: Too many levels of symbolic links\n$"
     -DOUTPUT=${EBH_PROCESS_OUT}/loop_recording.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
-set_tests_properties(cli.process.scene_link_loop cli.process.recording_link_loop PROPERTIES LABELS cli)
+# The same found by a bare name in EBH_DATA_DIR (said "no such scene"), and a link to nothing.
+file(MAKE_DIRECTORY ${EBH_PROCESS_OUT}/data/scenarios ${EBH_PROCESS_OUT}/data/recordings)
+file(CREATE_LINK loopy.yaml ${EBH_PROCESS_OUT}/data/scenarios/loopy.yaml SYMBOLIC)
+file(CREATE_LINK moved_away.h5 ${EBH_PROCESS_OUT}/data/recordings/dangling.h5 SYMBOLIC)
+add_test(NAME cli.process.scene_name_link_loop
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;loopy;tube_insert;-o;${EBH_PROCESS_OUT}/loopy_scene.h5;--duration;0.1"
+    "-DEXPECT=^ebh: error: [^\n]*/data/scenarios/loopy.yaml: cannot be opened: Too many levels of symbolic links\n$"
+    -DOUTPUT=${EBH_PROCESS_OUT}/loopy_scene.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+add_test(NAME cli.process.recording_name_dangling_link
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;tube;dangling;-o;${EBH_PROCESS_OUT}/dangling.h5;--duration;0.1"
+    "-DEXPECT=^ebh: error: [^\n]*/data/recordings/dangling.h5: is a link to moved_away.h5, which does not exist\n$"
+    -DOUTPUT=${EBH_PROCESS_OUT}/dangling.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+set_tests_properties(cli.process.scene_link_loop cli.process.recording_link_loop cli.process.scene_name_link_loop
+  cli.process.recording_name_dangling_link PROPERTIES LABELS cli)
+set_tests_properties(cli.process.scene_name_link_loop cli.process.recording_name_dangling_link PROPERTIES
+  ENVIRONMENT EBH_DATA_DIR=${EBH_PROCESS_OUT}/data)
 
 # Signals whose default action would end a run without a word and leave its temporary (SIGUSR1,
 # SIGUSR2, SIGALRM, SIGXCPU, SIGVTALRM, SIGPROF) stop it as SIGTERM does; one ignored at the start

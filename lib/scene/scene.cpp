@@ -50,6 +50,8 @@ std::string not_a_file(const fs::path& p) {
   if (st.type() == fs::file_type::none) return "cannot be opened: " + ec.message();
   if (fs::is_directory(st)) return "is a folder, not a file";
   if (fs::exists(st)) return "is not a regular file (a device, pipe or socket)";
+  if (fs::is_symlink(fs::symlink_status(p, ec)))
+    return "is a link to " + fs::read_symlink(p, ec).string() + ", which does not exist";
   return "file not found";
 }
 
@@ -1311,6 +1313,10 @@ fs::path resolve_data_path(const std::string& name_or_path, const std::string& f
   for (const fs::path& root : data_roots()) {
     const fs::path p = root / folder / (name_or_path + extension);
     if (fs::is_regular_file(p, ec)) return p;
+    // There but no file to read (a link in a loop or to nothing, a folder): said, not passed over
+    // for a file of that name in a later folder, nor called missing.
+    if (fs::symlink_status(p, ec).type() != fs::file_type::not_found && !ec)
+      throw InputError(p.string() + ": " + not_a_file(p.string()));
     looked += (looked.empty() ? "" : ", ") + p.string();
   }
   throw InputError(name_or_path + ": no such " + what + " (looked for " + looked + ")");

@@ -623,6 +623,12 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
                   "), so every step weighs far tissue and the ticks cost more (cholecystectomy_grasp: 2.2 times at "
                   "50 mm, 5.6 times at 200 mm); the committed scenes and sweeps reach 0.5-16 mm a call");
   }
+  if (t.max_step_rotation_deg < kMinStepRotationDeg)
+    out.push_back(value_source(s, "tool.max_step_rotation_deg") + ": tool.max_step_rotation_deg = " +
+                  shown_number(t.max_step_rotation_deg) +
+                  ": a Newton step is scaled as a whole to its limits, so a turn limit this small caps its translation "
+                  "too: the virtual tool lags the device, and the lag is rendered as force (gap_insert: 0.0001 put 27% "
+                  "of the ticks at the force limit); the committed scenes use 0.5-2 degrees");
   // The solver's movement thresholds are tolerances of a few micrometres (the committed scenes and
   // sweeps use 0.0003 .. 0.03 mm): one beyond 0.1% of the mesh's size holds the mesh, or the virtual
   // mesh, still under every touch of the tool, and the replay's forces come from a frozen tissue.
@@ -935,9 +941,10 @@ namespace {
 }
 
 // The tool's springs and the device's limit: a haptic device renders about 0.1 .. 10 kN/m and a
-// few newtons (a Geomagic Touch: 3.3 N); the virtual mesh's springs act per surface vertex. Wide
-// ranges around them, which no committed scene or sweep leaves: values beyond are typing errors
-// (5e-324 renders no force, 1e12 a torque of meganewton metres).
+// few newtons (a Geomagic Touch: 3.3 N); the virtual mesh's springs act per surface vertex. Ranges
+// around them, which no committed scene or sweep leaves: values beyond are typing errors or render
+// next to nothing (5e-324 no force, 1e12 a torque of meganewton metres; k_con and k_vcs:
+// kMinDeviceStiffness).
 struct Plausible {
   const char* key;
   double value, low, high;
@@ -959,8 +966,10 @@ std::string implausible(const SceneSpec& spec, const Plausible& p) {
 
 std::vector<std::string> tool_stiffness_warnings(const SceneSpec& spec) {
   std::vector<std::string> out;
-  for (const Plausible& p : {Plausible{"stiffness.k_con", spec.stiffness.k_con, 1, kMaxDeviceStiffness, "N/m", kDeviceStiffness},
-                             Plausible{"stiffness.k_vcs", spec.stiffness.k_vcs, 1, kMaxDeviceStiffness, "N/m", kDeviceStiffness},
+  for (const Plausible& p : {Plausible{"stiffness.k_con", spec.stiffness.k_con, kMinDeviceStiffness, kMaxDeviceStiffness, "N/m",
+                                       kDeviceStiffness},
+                             Plausible{"stiffness.k_vcs", spec.stiffness.k_vcs, kMinDeviceStiffness, kMaxDeviceStiffness, "N/m",
+                                       kDeviceStiffness},
                              Plausible{"stiffness.k_vct", spec.stiffness.k_vct, 1e-4, 100, "N m/rad",
                                        "a haptic device's rotational stiffness"}})
     if (std::string w = implausible(spec, p); !w.empty()) out.push_back(std::move(w));

@@ -414,6 +414,9 @@ std::string value_source(const SceneSpec& spec, const std::string& key);
 
 /// The stiffest contact a haptic device renders (N/m): k_con and k_vcs above it are warned.
 inline constexpr double kMaxDeviceStiffness = 1e5;
+/// The softest contact worth rendering (N/m): k_con and k_vcs below it are warned (gap_insert with
+/// k_con 10: 0.098 N at the peak for 1.63 N, the tool 1.86 mm into the tissue; k_vcs 10: 0.19 N).
+inline constexpr double kMinDeviceStiffness = 100;
 
 /// The warnings of the tool's stiffnesses (k_con, k_vcs, k_vct outside a haptic device's range).
 /// Not build_scene's: replays that differ only in them share one scene (WorldCache); the replay
@@ -499,6 +502,10 @@ inline constexpr double kSolverThresholdMaxRatio = 0.001;
 inline constexpr double kNewtonReachMaxTicks = 20;
 /// m/s: a hand moves an instrument at well under this (surgical motions ~0.1 m/s).
 inline constexpr double kHandSpeedMax = 1.0;
+/// degrees: a Newton step is scaled as a whole to its limits, so a turn limit below this caps its
+/// translation too and the virtual tool lags the device (gap_insert, 2 s: 0.0001 put 27% of the ticks
+/// at the force limit, 0.001 +14% at the peak, 0.01 as 0.5). The committed scenes use 0.5-2.
+inline constexpr double kMinStepRotationDeg = 0.01;
 inline constexpr double kMeshDiagonalMin = 1e-3;
 inline constexpr double kMeshDiagonalMax = 2.0;
 

@@ -194,8 +194,9 @@ TEST(Scene, ATissueStifferThanItsCouplingWarns) {
 }
 
 /// A Newton call that may move the virtual tool far beyond a tick of hand motion looks for contacts
-/// that far at every step: the ticks slow down for nothing, said with the keys that set it.
-TEST(Scene, ANewtonReachFarBeyondATicksMotionWarns) {
+/// that far at every step: the ticks slow down for nothing, said with the keys that set it. A turn
+/// limit so small that it caps the step's translation too is said as well.
+TEST(Scene, ANewtonReachFarBeyondATicksMotionOrATinyTurnLimitWarns) {
   const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
   const auto warned = [](const Scene& s) {
     for (const std::string& w : s.warnings)
@@ -212,6 +213,12 @@ TEST(Scene, ANewtonReachFarBeyondATicksMotionWarns) {
   EXPECT_EQ(warned(load_scene(write_temp("reach21slow.yaml", replace(replace(good, "max_step: 0.5", "max_step: 7"),
                                                                      "haptic_hz: 1000", "haptic_hz: 100")))),
             "");
+  // A turn limit so small that it caps the step's translation too.
+  const Scene turning = load_scene(write_temp("turn.yaml", good).string(), {"tool.max_step_rotation_deg=0.001"});
+  const auto turn = std::find_if(turning.warnings.begin(), turning.warnings.end(),
+                                 [](const std::string& w) { return w.find("caps its translation too") != std::string::npos; });
+  ASSERT_NE(turn, turning.warnings.end()) << ::testing::PrintToString(turning.warnings);
+  EXPECT_EQ(turn->rfind("--set 'tool.max_step_rotation_deg=0.001': tool.max_step_rotation_deg = 0.001: a Newton step", 0), 0u);
   const Scene set = load_scene(write_temp("reach_set.yaml", good).string(), {"tool.newton_iterations=50"});
   EXPECT_EQ(warned(set).rfind("--set 'tool.newton_iterations=50': tool.newton_iterations x tool.max_step = 50 x 0.5 mm = 25 mm", 0), 0u)
       << ::testing::PrintToString(set.warnings);
@@ -418,9 +425,9 @@ TEST(Scene, ImplausibleToolAndSurfaceStiffnessesWarn) {
   // a scene); the surface springs and the force limit are the scene's.
   const std::vector<std::string> tool = tool_stiffness_warnings(s.spec);
   ASSERT_EQ(tool.size(), 3u) << ::testing::PrintToString(tool);
-  EXPECT_EQ(tool[0], p + ": stiffness.k_con = 4.94066e-324 N/m is outside 1 .. 100000 N/m, the range of a haptic "
+  EXPECT_EQ(tool[0], p + ": stiffness.k_con = 4.94066e-324 N/m is outside 100 .. 100000 N/m, the range of a haptic "
                          "device's stiffness (about 0.1 .. 10 kN/m)");
-  EXPECT_EQ(tool[1], p + ": stiffness.k_vcs = 1e+06 N/m is outside 1 .. 100000 N/m, the range of a haptic "
+  EXPECT_EQ(tool[1], p + ": stiffness.k_vcs = 1e+06 N/m is outside 100 .. 100000 N/m, the range of a haptic "
                          "device's stiffness (about 0.1 .. 10 kN/m)");
   EXPECT_EQ(tool[2], p + ": stiffness.k_vct = 1e+12 N m/rad is outside 0.0001 .. 100 N m/rad, the range of a "
                          "haptic device's rotational stiffness");
@@ -429,8 +436,13 @@ TEST(Scene, ImplausibleToolAndSurfaceStiffnessesWarn) {
   EXPECT_NE(s.warnings[1].find("stiffness.k_svc = 2e+06 N/m is outside 0.01 .. 1e+06 N/m"), std::string::npos);
   EXPECT_EQ(s.warnings[2], p + ": tool.force_limit = 4.94066e-324 N is outside 0.01 .. 100 N, the range of a haptic "
                                "device's force (a Geomagic Touch: 3.3 N)");
-  // Stabilisation springs many times the coupling hold the virtual tool back from the device.
+  // Soft enough to render next to nothing (the tool sinks into the tissue) is warned too.
   const std::string q = write_temp("plausible.yaml", good).string();
+  const std::vector<std::string> soft = tool_stiffness_warnings(load_scene_spec(q, {"stiffness={k_con: 10, k_vcs: 99}"}));
+  ASSERT_EQ(soft.size(), 2u) << ::testing::PrintToString(soft);
+  EXPECT_NE(soft[0].find("stiffness.k_con = 10 N/m is outside 100 .. 100000 N/m"), std::string::npos) << soft[0];
+  EXPECT_NE(soft[1].find("stiffness.k_vcs = 99 N/m is outside 100 .. 100000 N/m"), std::string::npos) << soft[1];
+  // Stabilisation springs many times the coupling hold the virtual tool back from the device.
   EXPECT_TRUE(tool_stiffness_warnings(load_scene_spec(q, {"tool.stabilization={translation: 3200, rotation: 3.5}"})).empty());
   const std::vector<std::string> held =
       tool_stiffness_warnings(load_scene_spec(q, {"tool.stabilization={translation: 320000, rotation: 35}"}));

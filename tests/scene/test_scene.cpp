@@ -224,6 +224,21 @@ TEST(Scene, ANewtonReachFarBeyondATicksMotionOrATinyTurnLimitWarns) {
       << ::testing::PrintToString(set.warnings);
 }
 
+/// A minimum of physical iterations above the stopping rule's maximum runs every step that long
+/// for nothing the tolerance asked.
+TEST(Scene, AMinimumOfPhysicalIterationsAboveTheMaximumWarns) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  const auto slow = [&](const std::vector<std::string>& sets) {
+    for (const std::string& w : load_scene(write_temp("slow.yaml", good).string(), sets).warnings)
+      if (w.find("is the fewest iterations a physical step runs") != std::string::npos) return w;
+    return std::string();
+  };
+  EXPECT_EQ(slow({"solver.physical_iterations=64"}), "");
+  EXPECT_EQ(slow({"solver.physical_iterations=1000", "solver.physical_tolerance=0"}), "");  // exactly 1000, as asked
+  EXPECT_EQ(slow({"solver.physical_iterations=1000"}).rfind("--set 'solver.physical_iterations=1000': solver.physical_iterations "
+                                                            "= 1000 is the fewest", 0), 0u);
+}
+
 /// A scene whose pins hold only some of its mesh's parts, all of it or none of it says so (a part
 /// the tool pushes away, a rigid body); under gravity a free part stops the settling with one line.
 TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {

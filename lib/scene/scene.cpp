@@ -612,8 +612,7 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
   // The Newton calls' reach: what a call looks through, not only how far it may move.
   if (const double reach = t.newton_iterations * t.max_step, hand_tick = kHandSpeedMax / s.haptic_hz;
       reach > kNewtonReachMaxTicks * hand_tick) {
-    const std::string steps = value_source(s, "tool.newton_iterations");
-    out.push_back((steps.rfind("--set", 0) == 0 ? steps : value_source(s, "tool.max_step")) +
+    out.push_back(value_source(s, "tool.newton_iterations", "tool.max_step") +
                   ": tool.newton_iterations x tool.max_step = " + std::to_string(t.newton_iterations) + " x " +
                   in_unit(t.max_step, t.unit, t.unit_name) + " = " + in_unit(reach, t.unit, t.unit_name) +
                   ": each Newton call of the virtual tool looks for contacts that far around it, over " +
@@ -933,6 +932,10 @@ std::string value_source(const SceneSpec& spec, const std::string& key) {
   return o ? OverrideError::set_option_shown(*o) : spec.file.string();
 }
 
+std::string value_source(const SceneSpec& spec, const std::string& key, const std::string& other) {
+  return override_giving(spec.overrides, key) ? value_source(spec, key) : value_source(spec, other);
+}
+
 namespace {
 /// Throws "FILE: key 'KEY': WHAT", or the OverrideError of the override that gave the key its value.
 [[noreturn]] void fail_scene_key(const SceneSpec& spec, const std::string& key, const std::string& what) {
@@ -1187,11 +1190,8 @@ Scene build_scene(SceneSpec spec_in) {
                                      "its coupling to the virtual mesh, which drags it like a thick fluid: under "
                                      "gravity it sinks slowly instead of falling, and the tool feels that drag, not "
                                      "tissue held in place (docs/MODEL.md, \"Held loads\"; pin a region of it)");
-  if (std::string w = coupling_bounds_tissue(scene); !w.empty()) {
-    // Named by the override that set either stiffness, else the file.
-    const std::string vol = value_source(spec, "stiffness.k_vol");
-    scene.warnings.push_back((vol.rfind("--set", 0) == 0 ? vol : value_source(spec, "stiffness.k_svc")) + ": " + w);
-  }
+  if (std::string w = coupling_bounds_tissue(scene); !w.empty())
+    scene.warnings.push_back(value_source(spec, "stiffness.k_vol", "stiffness.k_svc") + ": " + w);
   if (!scene.pinned.empty() && static_cast<int>(scene.pinned.size()) < nv) {
     const std::vector<std::pair<int, int>> turning = parts_pinned_on_a_line(scene.physical, scene.pinned);
     if (!turning.empty()) {

@@ -411,6 +411,9 @@ class OverrideError : public InputError {
 /// Where `key`'s value came from, as messages name it: "--set 'KEY=VALUE'" when one of the spec's
 /// overrides gave it (the last such), else the scene file.
 std::string value_source(const SceneSpec& spec, const std::string& key);
+/// The same for a value two keys give together (k_vol against k_svc): the override that gave
+/// `key`, else the one that gave `other`, else the scene file.
+std::string value_source(const SceneSpec& spec, const std::string& key, const std::string& other);
 
 /// The stiffest contact a haptic device renders (N/m): k_con and k_vcs above it are warned.
 inline constexpr double kMaxDeviceStiffness = 1e5;

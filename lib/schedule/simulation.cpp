@@ -9,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "core/number_text.hpp"
+#include "energy/quadratic.hpp"
 #include "mesh/quality.hpp"
 #include "tool/contact.hpp"
 #include "tool/newton.hpp"
@@ -547,18 +548,21 @@ void stop_on_physical_problem(const World& world, const PhysicalSide& p, const s
     hint += "; stiffness.k_s above k_svc can make the two meshes drive each other unstable in async mode: raise k_svc "
             "or replay --mode lockstep";
   const double alpha = world.scene.spec.solver.virtual_damping;
-  const double per_tick_default = SolverSpec{}.virtual_damping / SceneSpec{}.haptic_hz;  // 250 / s at 1 kHz
+  const double h = world.h_haptic, h_default = 1 / SceneSpec{}.haptic_hz;
+  const double per_tick_default = SolverSpec{}.virtual_damping * h_default;  // 250 / s at 1 kHz
   if (alpha == 0) {
     hint += "; solver.virtual_damping is 0: the virtual mesh's velocity, carried from tick to tick, can make the two "
             "meshes drive each other unstable with few solver.virtual_iterations (docs/MODEL.md, \"Damping of the virtual mesh\")";
-  } else if (alpha * world.h_haptic < per_tick_default) {
+  } else if (alpha * h < per_tick_default) {
     // The damping is a rate per second: at a haptic rate above 1 kHz a tick keeps more of the velocity
-    // (tube_insert at 10 kHz / 1 kHz diverged in async mode with 250 / s; 5000 / s or lockstep completed).
-    hint += "; at " + shown_number(1 / world.h_haptic) + " Hz the virtual mesh keeps " +
-            shown_number(1 / (1 + alpha * world.h_haptic)) + " of its velocity a tick (" +
-            shown_number(1 / (1 + per_tick_default)) +
+    // (tube_insert at 10 kHz / 1 kHz diverged in async mode with 250 / s; 2500 / s or lockstep completed).
+    // The velocity a tick keeps: h times the factor on q - q_start (energy/quadratic.hpp).
+    const double kept = h * tick_velocity_scale(h, alpha);
+    const double kept_default = h_default * tick_velocity_scale(h_default, SolverSpec{}.virtual_damping);
+    hint += "; at " + shown_number(1 / h) + " Hz the virtual mesh keeps " + shown_number(kept) +
+            " of its velocity a tick (" + shown_number(kept_default) +
             " at the scenes' 1 kHz), which can make the two meshes drive each other unstable: raise "
-            "solver.virtual_damping to about " + shown_number(per_tick_default / world.h_haptic) + " / s" +
+            "solver.virtual_damping to about " + shown_number(per_tick_default / h) + " / s" +
             (p.beside_ticks ? " or replay --mode lockstep" : "") + " (docs/MODEL.md, \"Damping of the virtual mesh\")";
   }
   throw NumericalError(world.scene.spec.file.string() + ": tick " + std::to_string(k * world.ticks_per_step) +

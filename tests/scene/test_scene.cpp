@@ -551,6 +551,7 @@ TEST(MeshTransform, AnInchMeshAndToolAreReadInInches) {
   const Scene s = load_scene(cube_scene("inches.yaml", "unit: in\ntool: {kind: hook, shaft_radius: 0.1, shaft_length: 12}\n"));
   EXPECT_EQ(s.spec.mesh_unit_name, "in");
   EXPECT_EQ(s.spec.tool.unit_name, "in");
+  // One product by 0.0254 each: a rounding or two of ~3e-17 (0.254) and ~4e-19 (0.00254).
   EXPECT_NEAR(s.physical.vertices[0].x, 0.254, 1e-15);
   EXPECT_NEAR(s.spec.tool.shaft_radius, 0.00254, 1e-15);
   EXPECT_NE(resolved_scene_yaml(s.spec).find("unit: in"), std::string::npos);

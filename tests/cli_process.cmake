@@ -113,6 +113,18 @@ if(EBH_GATE_BASH AND EXISTS /dev/full)
     "^ebh: error: standard output: No space left on device \\(the output file was written; what the command printed is lost\\)\nexit status 1\nwritten\n$")
 endif()
 
+# A pipe's reader gone before the command prints (`| head`, here a reader that has already ended)
+# ended it by SIGPIPE at its first line, before the plot it was asked for was written: the files
+# are written, the exit status is 128 + SIGPIPE, without a word.
+if(EBH_GATE_BASH)
+  add_test(NAME cli.process.stdout_reader_gone
+    COMMAND ${EBH_GATE_BASH} -c
+      "rm -f \"$1\"; exec 4> >(true); wait $!; \"$0\" bench sizes --scene tube --levels 0 --seconds 0.05 --plot \"$1\" >&4 2>\"$1.err\"; rc=$?; [ $rc = $((128 + $(kill -l PIPE))) ] && rc='128 + SIGPIPE'; echo \"exit status $rc\"; grep -v '^ebh: warning: ' \"$1.err\"; [ -s \"$1\" ] && echo plotted"
+      ${EBH_BIN} ${EBH_PROCESS_OUT}/reader_gone.png)
+  set_tests_properties(cli.process.stdout_reader_gone PROPERTIES LABELS cli TIMEOUT 120 PASS_REGULAR_EXPRESSION
+    "^exit status 128 \\+ SIGPIPE\nplotted\n$")
+endif()
+
 # GALLIUM_DRIVER naming a renderer OSMesa cannot run here crashed Mesa while it created the
 # context; it is refused before any work. OSMesa's own renderers run.
 if(EBH_HAVE_OSMESA)

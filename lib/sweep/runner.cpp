@@ -129,6 +129,7 @@ int wait_for(pid_t pid) {
     if (sigaction(sig, nullptr, &now) == 0 && now.sa_handler == SIG_IGN) continue;
     signal(sig, SIG_DFL);
   }
+  signal(SIGPIPE, SIG_DFL);  // ebh ignores it for itself (tools/ebh/main.cpp); the child starts with the default
   if (die_with_parent) {
     if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0) _exit(127);
     if (getppid() != parent) _exit(128 + SIGTERM);  // the parent ended before the line above

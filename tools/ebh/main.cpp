@@ -144,6 +144,10 @@ int main(int argc, char** argv) {
   // output left behind: ignored, the write fails with EFBIG and goes the way of a full disk (one
   // line, the temporary removed, exit 1). Commands the sweep starts inherit it.
   std::signal(SIGXFSZ, SIG_IGN);
+  // A reader that goes away (`ebh bench sizes --plot p.png | head -3`) would end the process by
+  // SIGPIPE at the next line printed, before the files it was asked for are written: ignored, the
+  // print fails with EPIPE and the command goes on to its outputs; the end below says what was lost.
+  std::signal(SIGPIPE, SIG_IGN);
   // A processor-time limit whose soft and hard values are one (`ulimit -t N` sets both) ends the
   // process by SIGKILL, which no handler sees, its temporary output left behind. With the soft
   // limit 2 s lower, SIGXCPU stops the run first (as SIGTERM does) and, a second later, a second
@@ -168,6 +172,9 @@ int main(int argc, char** argv) {
   if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
     const int err = errno;
     const std::size_t written = ebh::outputs_committed();
+    // A pipe's reader that has read what it wanted (`| head`) is no error of the user's: the status
+    // a shell gives a process ended by SIGPIPE, without a word (the files are written by now).
+    if (err == EPIPE) return status == 0 ? 128 + SIGPIPE : status;
     std::fprintf(stderr, "ebh: error: standard output: %s%s\n", err ? std::strerror(err) : "write error",
                  written == 0 ? ""
                  : written == 1 ? " (the output file was written; what the command printed is lost)"

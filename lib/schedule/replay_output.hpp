@@ -69,6 +69,11 @@ void check_replay_size(const World& world, double duration, double frames_hz, co
 
 /// Collects a replay and writes it. Per-tick and per-step rows are buffered (reserved for the
 /// whole replay, so a tick does not allocate); frames are appended to the file as they come.
+/// What a step of a fixed iteration count is judged against (mesh weights): the tolerance for
+/// solver.method: direct, the default tolerance under physical_tolerance 0 (the paper's fixed K);
+/// 0 where the stopping rule decides (an iterative method with a tolerance).
+double short_step_yardstick(const PhysicalStepParams& params);
+
 class ReplayWriter : public ReplayObserver {
  public:
   /// Opens OUT under its temporary name. expected_ticks sizes the buffers.
@@ -106,9 +111,10 @@ class ReplayWriter : public ReplayObserver {
   std::int64_t stalled_steps() const { return stalled_steps_; }
   double max_stalled() const { return max_stalled_; }
   double first_stalled_t() const { return first_stalled_t_; }
-  /// Steps of a fixed iteration count (solver.method: direct, which has no stopping rule) that left
-  /// more than kStalledResidualFactor times solver.physical_tolerance unbalanced (and at most
-  /// recovery_residual), the largest such residual and the first one's time.
+  /// Steps of a fixed iteration count (solver.method: direct, which has no stopping rule, or
+  /// solver.physical_tolerance 0) that left more than kStalledResidualFactor times
+  /// short_step_yardstick unbalanced (and at most recovery_residual), the largest such residual and
+  /// the first one's time.
   std::int64_t short_steps() const { return short_steps_; }
   double max_short() const { return max_short_; }
   double first_short_t() const { return first_short_t_; }

@@ -309,15 +309,30 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  a.out.c_str(), static_cast<long long>(writer.stalled_steps()), static_cast<long long>(s.steps),
                  writer.max_stalled(), kStalledResidualFactor, writer.first_stalled_t(), why);
   }
-  if (writer.short_steps() > 0)
+  if (writer.short_steps() > 0) {
+    const PhysicalStepParams& params = world.physical_params;
+    const bool direct = params.method == SolverSpec::Method::Direct;
+    char against[96], rule[160];
+    if (params.tolerance > 0)
+      std::snprintf(against, sizeof against, "solver.physical_tolerance");
+    else
+      std::snprintf(against, sizeof against, "the default solver.physical_tolerance, %g", short_step_yardstick(params));
+    if (direct)
+      std::snprintf(rule, sizeof rule, "let an iterative method's stopping rule run them (chebyshev)");
+    else
+      std::snprintf(rule, sizeof rule, "let the stopping rule run the steps that need more (solver.physical_tolerance: %g)",
+                    short_step_yardstick(params));
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps left up to %.3g mesh weights unbalanced after their "
-                 "%d local-global iterations (solver.method: direct stops after solver.physical_iterations), more than "
-                 "%g times solver.physical_tolerance; the first at t = %.3f s (/physical/residual): raise "
+                 "%d %s, more than %g times %s; the first at t = %.3f s (/physical/residual): raise "
                  "solver.physical_iterations (a grasp or a hard press needs more, and so does a stiffness far above "
-                 "the others), or let an iterative method's stopping rule run them (chebyshev)\n",
+                 "the others), or %s\n",
                  a.out.c_str(), static_cast<long long>(writer.short_steps()), static_cast<long long>(s.steps),
-                 writer.max_short(), world.physical_params.iterations, kStalledResidualFactor, writer.first_short_t());
+                 writer.max_short(), params.iterations,
+                 direct ? "local-global iterations (solver.method: direct stops after solver.physical_iterations)"
+                        : "iterations (solver.physical_tolerance 0: a fixed count, no stopping rule)",
+                 kStalledResidualFactor, against, writer.first_short_t(), rule);
+  }
   if (writer.unbalanced_steps() > 0) {
     const SolverSpec& solver = world.scene.spec.solver;
     // One iteration measures its step's residual before it runs (at the start of the last

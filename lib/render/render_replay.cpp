@@ -22,6 +22,7 @@
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
+#include "io/sha256.hpp"
 #include "render/image.hpp"
 #include "render/tessellate.hpp"
 
@@ -231,10 +232,13 @@ std::optional<SceneSpec> find_replay_scene(const ReplayFrames& f, std::vector<st
   const std::vector<std::string>& overrides = f.overrides;
   std::string why;
   // The scene the replay ran (its tool, camera and overrides), whatever became of the scene file
-  // since; outputs written before it was stored reload the file.
+  // and its meshes since (the output holds the meshes it drew: a moved project or a copied output
+  // fell back to the scene file or name, another camera and tool); outputs written before it was
+  // stored reload the file.
   if (!f.scene_yaml.empty()) {
     try {
-      return load_scene_spec_text(f.scene_yaml, f.scene_file.empty() ? fs::path(f.file) : fs::path(f.scene_file));
+      return load_scene_spec_text(f.scene_yaml, f.scene_file.empty() ? fs::path(f.file) : fs::path(f.scene_file),
+                                  /*mesh_files_must_exist=*/false);
     } catch (const std::exception& e) {
       why = e.what();
     }
@@ -250,7 +254,14 @@ std::optional<SceneSpec> find_replay_scene(const ReplayFrames& f, std::vector<st
   };
   if (!f.scene_file.empty()) {
     try {
-      return standing_in(load_scene_spec(f.scene_file, overrides), "the scene file " + f.scene_file);
+      SceneSpec spec = load_scene_spec(f.scene_file, overrides);
+      // An output without its scene (written before it was stored) of a scene file edited since:
+      // its camera and tool may not be the replay's.
+      if (stored_failed.empty() && !f.scene_file_sha256.empty() && sha256_file(f.scene_file) != f.scene_file_sha256)
+        warnings.push_back(f.file + ": the scene file " + f.scene_file +
+                           " changed since the replay (its SHA-256 is not the output's scene_file_sha256): rendered "
+                           "with it as it is now");
+      return standing_in(std::move(spec), "the scene file " + f.scene_file);
     } catch (const std::exception& e) {
       why = e.what();
     }

@@ -60,6 +60,7 @@ ReplayFrames open_replay_frames(const std::string& path) {
   r.scene_name = attr_or(f, "scene");
   r.scene_file = attr_or(f, "scene_file");
   r.scene_yaml = attr_or(f, "scene_yaml");
+  r.scene_file_sha256 = attr_or(f, "scene_file_sha256");
   r.tool_kind = attr_or(f, "tool");
   if (f.has_attr("overrides_list")) {
     std::istringstream in(attr_or(f, "overrides_list"));

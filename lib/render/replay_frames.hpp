@@ -29,6 +29,7 @@ struct ReplayFrames {
   std::string scene_name;                      ///< root attribute `scene` ("" if absent)
   std::string scene_file;                      ///< root attribute `scene_file` ("" if absent)
   std::string scene_yaml;                      ///< root attribute `scene_yaml`: the scene the replay ran ("" if absent)
+  std::string scene_file_sha256;               ///< root attribute `scene_file_sha256` ("" if absent)
   std::string tool_kind;                       ///< root attribute `tool` ("" if absent)
   double shaft_radius = 0.0;                   ///< root attribute `shaft_radius` (0 if absent)
   double replay_s = 0.0;                       ///< root attribute `virtual_s`: the window replayed (0 if absent)

@@ -79,8 +79,9 @@ const std::string* override_giving(const std::vector<std::string>& overrides, co
 /// ("key=value", applied to the tree before) that gave the key its value when one did.
 class SpecReader {
  public:
-  explicit SpecReader(const fs::path& file, const std::vector<std::string>& overrides = {})
-      : file_(file), overrides_(overrides) {}
+  explicit SpecReader(const fs::path& file, const std::vector<std::string>& overrides = {},
+                      bool mesh_files_must_exist = true)
+      : file_(file), overrides_(overrides), mesh_files_must_exist_(mesh_files_must_exist) {}
 
   /// Throws "FILE: key 'KEY': WHAT", or an OverrideError when an override gave `key` its value, or
   /// else one of `also` (the other keys of a rule between keys; then that key is named).
@@ -218,6 +219,7 @@ class SpecReader {
   fs::path mesh_path(const YAML::Node& n, const std::string& key) const {
     fs::path p = text(n, key, false);
     if (p.is_relative()) p = (file_.parent_path() / p).lexically_normal();
+    if (!mesh_files_must_exist_) return p;
     if (const std::string why = not_a_file(p); !why.empty())
       fail(key, why == "file not found" ? why + ": " + p.string() : p.string() + " " + why);
     return p;
@@ -490,6 +492,7 @@ class SpecReader {
 
   fs::path file_;
   std::vector<std::string> overrides_;
+  bool mesh_files_must_exist_ = true;  ///< false: a replay's stored scene, whose meshes the output holds
   double unit_ = 1.0;
 };
 
@@ -761,9 +764,10 @@ YAML::Node read_scene_yaml(const fs::path& file) {
   return parse_scene_yaml(text.str(), file);
 }
 
-SceneSpec read_spec(const YAML::Node& root, const fs::path& file, const std::vector<std::string>& overrides = {}) {
+SceneSpec read_spec(const YAML::Node& root, const fs::path& file, const std::vector<std::string>& overrides = {},
+                    bool mesh_files_must_exist = true) {
   try {
-    return SpecReader(file, overrides).read(root);
+    return SpecReader(file, overrides, mesh_files_must_exist).read(root);
   } catch (const YAML::Exception& e) {  // defensive: a yaml-cpp accessor that throws on odd input
     throw InputError(file.string() + ": malformed scene file: " + e.msg);
   }
@@ -918,8 +922,8 @@ Scene load_scene(const fs::path& file, const std::vector<std::string>& overrides
 
 Scene load_scene_text(const std::string& yaml, const fs::path& file) { return build_scene(load_scene_spec_text(yaml, file)); }
 
-SceneSpec load_scene_spec_text(const std::string& yaml, const fs::path& file) {
-  return read_spec(parse_scene_yaml(yaml, file), file);
+SceneSpec load_scene_spec_text(const std::string& yaml, const fs::path& file, bool mesh_files_must_exist) {
+  return read_spec(parse_scene_yaml(yaml, file), file, {}, mesh_files_must_exist);
 }
 
 std::string group_without_elements_note() {

@@ -371,8 +371,10 @@ Scene build_scene(SceneSpec spec);
 /// The scene file whose text is `yaml`, as if read from `file` (relative mesh paths resolve
 /// beside it, messages name it): `ebh scene init` checks what it writes before writing it.
 Scene load_scene_text(const std::string& yaml, const std::filesystem::path& file);
-/// The same parsed only (no meshes loaded): `ebh render` reads a replay's `scene_yaml` with it.
-SceneSpec load_scene_spec_text(const std::string& yaml, const std::filesystem::path& file);
+/// The same parsed only (no meshes loaded): `ebh render` reads a replay's `scene_yaml` with it,
+/// `mesh_files_must_exist` false (the output holds the meshes; the files may be gone since).
+SceneSpec load_scene_spec_text(const std::string& yaml, const std::filesystem::path& file,
+                               bool mesh_files_must_exist = true);
 
 /// Loads the scene file and its meshes, validates them, resolves pinned regions.
 Scene load_scene(const std::filesystem::path& file);

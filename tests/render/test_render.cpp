@@ -15,6 +15,7 @@
 #include "core/error.hpp"
 #include "io/atomic.hpp"
 #include "io/h5.hpp"
+#include "io/sha256.hpp"
 #include "render/camera.hpp"
 #include "render/image.hpp"
 #include "render/offscreen.hpp"
@@ -61,6 +62,7 @@ struct SyntheticOptions {
   std::optional<std::string> overrides, overrides_list;  // the root attributes, when given
   std::optional<std::string> scene_yaml;                  // the root attribute, when given
   std::optional<double> virtual_s;                        // the root attribute (the window replayed), when given
+  std::optional<std::string> scene_file_sha256;           // the root attribute, when given
 };
 
 void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
@@ -73,6 +75,7 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
   if (o.overrides_list) f.set_attr("overrides_list", *o.overrides_list);
   if (o.scene_yaml) f.set_attr("scene_yaml", *o.scene_yaml);
   if (o.virtual_s) f.set_attr("virtual_s", *o.virtual_s);
+  if (o.scene_file_sha256) f.set_attr("scene_file_sha256", *o.scene_file_sha256);
   std::vector<double> rest;
   std::vector<std::int32_t> tris;
   for (int j = 0; j < kGrid; ++j)
@@ -236,7 +239,8 @@ TEST(Camera, SceneFileCameraIsUsedWhenTheSceneLoads) {
 }
 
 // The tool and camera drawn are those of the scene the replay ran (its scene_yaml), not of what
-// the scene file says now: edited after the replay (another tool), or gone.
+// the scene file says now: edited after the replay (another tool), gone, or its mesh gone too (a
+// project moved: the output holds the meshes it draws).
 TEST(Camera, TheSceneTheReplayRanIsDrawnNotTheFileAsItIsNow) {
   Scratch s;
   const std::string cube = std::string(EBH_TEST_DATA_DIR) + "/scene/cube.yaml";  // a forceps, eye (0, -100, 50) mm
@@ -253,8 +257,9 @@ TEST(Camera, TheSceneTheReplayRanIsDrawnNotTheFileAsItIsNow) {
   const auto at = text.find("kind: forceps");
   ASSERT_NE(at, std::string::npos);
   std::ofstream(copy, std::ios::binary) << text.replace(at, 13, "kind: hook   ");  // edited since
-  for (const bool gone : {false, true}) {
-    if (gone) fs::remove(copy);
+  for (const std::string gone : {"nothing", "the scene file", "its mesh"}) {
+    if (gone == "the scene file") fs::remove(copy);
+    if (gone == "its mesh") fs::remove(s / "mesh/cube22.msh");
     const ReplayFrames f = open_replay_frames(s / "r.h5");
     std::vector<std::string> warnings;
     const auto scene = find_replay_scene(f, warnings);
@@ -264,6 +269,30 @@ TEST(Camera, TheSceneTheReplayRanIsDrawnNotTheFileAsItIsNow) {
     std::string source;
     EXPECT_NEAR(choose_camera("scene", scene, bounds_of(f.virtual_rest), 1.0, source).eye.y, -0.2, 1e-15) << gone;
   }
+}
+
+// An output without its scene (written before it was stored) is drawn with the scene file; one
+// edited since the replay (its SHA-256 no longer the output's) is said.
+TEST(Camera, AnOutputWithoutItsSceneSaysTheSceneFileChangedSince) {
+  Scratch s;
+  const std::string copy = s / "cube.yaml";
+  std::string text = slurp_file(std::string(EBH_TEST_DATA_DIR) + "/scene/cube.yaml");
+  text.replace(text.find("../mesh/"), 8, std::string(EBH_TEST_DATA_DIR) + "/mesh/");  // the mesh where it is
+  std::ofstream(copy, std::ios::binary) << text;
+  SyntheticOptions o;
+  o.scene_file = copy;
+  o.scene_file_sha256 = sha256_file(copy);
+  write_synthetic(s / "same.h5", o);
+  o.scene_file_sha256 = std::string(64, '0');
+  write_synthetic(s / "edited.h5", o);
+  std::vector<std::string> warnings;
+  ASSERT_TRUE(find_replay_scene(open_replay_frames(s / "same.h5"), warnings).has_value());
+  EXPECT_TRUE(warnings.empty()) << warnings[0];
+  ASSERT_TRUE(find_replay_scene(open_replay_frames(s / "edited.h5"), warnings).has_value());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], std::string(s / "edited.h5") + ": the scene file " + copy +
+                             " changed since the replay (its SHA-256 is not the output's scene_file_sha256): "
+                             "rendered with it as it is now");
 }
 
 // A stored scene that does not load (a damaged attribute) falls back to the scene file, saying so:

@@ -41,8 +41,9 @@ struct SizeResult {
   int level = 0;
   std::int64_t tets = 0, vertices = 0;  ///< the physical mesh
   std::int64_t virtual_vertices = 0;    ///< the virtual mesh (after virtual_refine)
-  TimeStats physical_step, haptic_tick;
+  TimeStats physical_step, haptic_tick;  ///< physical_step: over the steps that ran (not skipped)
   std::int64_t ticks = 0, steps = 0;
+  std::int64_t skipped_steps = 0;  ///< steps skipped, the state held (solver.sleep, solver.physical_region)
   double wall_s = 0, virtual_s = 0;
   double real_time_factor = 0;          ///< virtual_s / wall_s
   double load_s = 0;                    ///< loading the scene and building the world (settling included)

@@ -485,16 +485,25 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   }
   tm.max = tmax.v;
   tm.mean = tsum / static_cast<double>(n);
-  tm.physical_p50 = percentile(tr.physical_step_s, 50);
-  tm.physical_p99 = percentile(tr.physical_step_s, 99);
-  tm.physical_max = percentile(tr.physical_step_s, 100);
-  if (tr.physical_iterations.empty()) {
+  // A skipped step (0 s, 0 iterations) is no step's cost: with most steps asleep the median was 0.
+  auto ran = [&tr](const std::vector<double>& v) {
+    std::vector<double> out;
+    for (std::size_t i = 0; i < v.size(); ++i)
+      if (tr.physical_slept.empty() || !(tr.physical_slept[i] != 0)) out.push_back(v[i]);
+    return out;
+  };
+  for (double s : tr.physical_slept) tm.physical_steps_skipped += s != 0;
+  const std::vector<double> step_s = ran(tr.physical_step_s), iterations = ran(tr.physical_iterations);
+  tm.physical_p50 = percentile(step_s, 50);
+  tm.physical_p99 = percentile(step_s, 99);
+  tm.physical_max = percentile(step_s, 100);
+  if (iterations.empty()) {
     tm.physical_iterations_mean = tm.physical_iterations_max = kNaN;
   } else {
     double s = 0;
-    for (double x : tr.physical_iterations) s += x;
-    tm.physical_iterations_mean = s / static_cast<double>(tr.physical_iterations.size());
-    tm.physical_iterations_max = percentile(tr.physical_iterations, 100);
+    for (double x : iterations) s += x;
+    tm.physical_iterations_mean = s / static_cast<double>(iterations.size());
+    tm.physical_iterations_max = percentile(iterations, 100);
   }
   tm.physical_residual_max = percentile(tr.physical_residual, 100);
   tm.physical_inverted_max = tr.physical_inverted.empty() ? kNaN : percentile(tr.physical_inverted, 100);
@@ -596,6 +605,7 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   tj.set("physical_step_p99_s", t.physical_p99);
   tj.set("physical_step_max_s", t.physical_max);
   tj.set("physical_iterations_mean", t.physical_iterations_mean);
+  tj.set("physical_steps_skipped", static_cast<long long>(t.physical_steps_skipped));
   tj.set("physical_iterations_max", t.physical_iterations_max);
   tj.set("physical_residual_max", t.physical_residual_max);
   tj.set("physical_inverted_max", t.physical_inverted_max);
@@ -676,6 +686,8 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
       fmt("%.2f", t.physical_p50 * 1e3) + " / " + fmt("%.2f", t.physical_p99 * 1e3), "ms");
   row("physical iterations mean / max",
       fmt("%.1f", t.physical_iterations_mean) + " / " + fmt("%.0f", t.physical_iterations_max), "");
+  if (t.physical_steps_skipped > 0)
+    row("physical steps skipped (not above)", std::to_string(t.physical_steps_skipped), "");
   row("physical tets inverted, most", fmt("%.0f", t.physical_inverted_max), "");
   if (with_episodes && !m.episodes.empty()) {
     o << "episodes (contacts > 0, gaps < " << fmt("%g", m.options.episode_merge_gap_s * 1e3) << " ms merged)\n";

@@ -78,10 +78,13 @@ struct TimingMetrics {
   double p50 = 0, p99 = 0, p999 = 0, max = 0, mean = 0;  // haptic tick time, s
   std::size_t over_budget = 0;                           // ticks with time > tick_budget_s
   double budget_s = 0;
-  // Physical step (NaN when the file has no /timing/physical_step_s).
+  // Physical step, over the steps that ran (NaN when the file has no /timing/physical_step_s).
   double physical_p50 = 0, physical_p99 = 0, physical_max = 0;
-  // Physical solver (NaN when absent): mean and max iterations, max residual.
+  // Physical solver (NaN when absent): mean and max iterations over the steps that ran, max residual.
   double physical_iterations_mean = 0, physical_iterations_max = 0, physical_residual_max = 0;
+  /// Steps skipped with their state held (/physical/slept: solver.sleep, solver.physical_region),
+  /// left out of the step's time and iterations.
+  std::size_t physical_steps_skipped = 0;
   /// The most physical tets inverted after a step (/physical/inverted; NaN when absent).
   double physical_inverted_max = 0;
 };

@@ -289,6 +289,7 @@ ReplayTrace load_replay(const std::string& path) {
     tr.physical_residual = in.optional_doubles("/physical/residual", k);
     tr.physical_inverted = in.optional_doubles("/physical/inverted", k);
     tr.physical_awake = in.optional_doubles("/physical/awake", k);
+    tr.physical_slept = in.optional_doubles("/physical/slept", k);
     tr.physical_step_s = in.optional_doubles("/timing/physical_step_s", k);
   }
   return tr;

@@ -45,6 +45,7 @@ struct ReplayTrace {
   std::vector<double> physical_residual;    // K
   std::vector<double> physical_inverted;    // K (empty in files written before /physical/inverted)
   std::vector<double> physical_awake;       // K or empty (optional dataset: solver.physical_region), free vertices iterated
+  std::vector<double> physical_slept;       // K or empty (optional dataset), 1 where the step was skipped, its state held
 
   // Timing: /timing/haptic_step_s (N, s) is required, /timing/physical_step_s (K, s) optional.
   std::vector<double> haptic_step_s;

@@ -70,6 +70,20 @@ TEST(SizeBench, OverridesApplyToEverySize) {
   EXPECT_EQ(r[0].steps, 3);  // 50 Hz: ticks 0, 20, 40 (6 at the scene's 100 Hz)
 }
 
+// Steps skipped with the mesh at rest (solver.physical_region) are counted, not timed: their 0 s
+// made the step's median 0 (here 5 of the window's 6 steps sleep before the tool arrives).
+TEST(SizeBench, SkippedStepsAreCountedNotTimed) {
+  SizeBenchOptions o = short_tube_window(0, 0);
+  o.start = 0;
+  o.overrides = {"solver.physical_region=0.001"};
+  const std::vector<SizeResult> r = run_size_bench(o);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(r[0].steps, 6);
+  EXPECT_GT(r[0].skipped_steps, 0);
+  EXPECT_LT(r[0].skipped_steps, r[0].steps);
+  EXPECT_GT(r[0].physical_step.median, 0);
+}
+
 TEST(SizeBench, AnInterruptEndsTheRun) {
   SizeBenchOptions o;
   o.scene = "tube";

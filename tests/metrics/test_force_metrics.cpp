@@ -304,6 +304,29 @@ TEST(ForceMetrics, RotationalPassivityUsesTorqueAndAngularMotion) {
 // ---------------------------------------------------------------------------------------------
 // Coupling, penetration, clamping, timing, episodes
 
+// Steps skipped with their state held (solver.sleep, solver.physical_region: /physical/slept) are
+// no step's cost: their 0 s and 0 iterations are left out, and counted.
+TEST(ForceMetrics, SkippedPhysicalStepsAreLeftOutOfTheStepsCosts) {
+  ReplayTrace tr = make_trace(100);
+  for (int k = 0; k < 10; ++k) {
+    const bool slept = k % 5 != 0;  // 8 of 10 skipped: the median was 0 s with them
+    tr.physical_t.push_back(0.01 * k);
+    tr.physical_residual.push_back(0);
+    tr.physical_slept.push_back(slept ? 1 : 0);
+    tr.physical_step_s.push_back(slept ? 0 : 1e-3 * (1 + k));
+    tr.physical_iterations.push_back(slept ? 0 : 8 + k);
+  }
+  const ForceMetrics m = compute_metrics(tr);
+  EXPECT_EQ(m.timing.physical_steps_skipped, 8u);
+  EXPECT_DOUBLE_EQ(m.timing.physical_p50, 3.5e-3);  // steps 0 and 5: 1 and 6 ms
+  EXPECT_DOUBLE_EQ(m.timing.physical_max, 6e-3);
+  EXPECT_DOUBLE_EQ(m.timing.physical_iterations_mean, 10.5);
+  EXPECT_NE(format_table(m, false).find("physical steps skipped (not above)"), std::string::npos);
+  tr.physical_slept.clear();  // a file written before /physical/slept: every step counts
+  EXPECT_EQ(compute_metrics(tr).timing.physical_steps_skipped, 0u);
+  EXPECT_DOUBLE_EQ(compute_metrics(tr).timing.physical_p50, 0);
+}
+
 TEST(ForceMetrics, StretchPenetrationClampAndTiming) {
   ReplayTrace tr = make_trace(1000);
   for (std::size_t i = 0; i < tr.ticks(); ++i) {

@@ -125,8 +125,9 @@ void write_sizes_plot(const std::vector<SizeResult>& sizes, const std::vector<do
   write_png(path, img, {{"Title", "ebh bench sizes: " + title}});
 }
 
-/// What makes a size's costs other than a replay's at work: the inputs' warnings, and a window
-/// in which the tool never touched the tissue (the tick's costs are free motion's).
+/// What makes a size's costs other than a replay's at work: the inputs' warnings, a window in
+/// which the tool never touched the tissue (the tick's costs are free motion's), and skipped
+/// physical steps (left out of the step's costs).
 void warn_size(const SizeResult& r) {
   for (const std::string& w : r.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   if (r.contact_ticks == 0)
@@ -134,6 +135,12 @@ void warn_size(const SizeResult& r) {
                  "ebh: warning: level %d: the tool never touched the tissue in this window: the costs are free "
                  "motion's, not rendering's (choose --start and --seconds where it works)\n",
                  r.level);
+  if (r.skipped_steps > 0)
+    std::fprintf(stderr,
+                 "ebh: warning: level %d: %lld of %lld physical steps were skipped (the mesh at rest: solver.sleep or "
+                 "solver.physical_region); the step's costs are the %lld that ran\n",
+                 r.level, static_cast<long long>(r.skipped_steps), static_cast<long long>(r.steps),
+                 static_cast<long long>(r.steps - r.skipped_steps));
 }
 
 void print_size_line(const SizeResult& r) {
@@ -237,6 +244,7 @@ void run_sizes(const SizesArgs& a) {
       e.set("haptic_tick_s", stat(r.haptic_tick));
       e.set("ticks", static_cast<long long>(r.ticks));
       e.set("steps", static_cast<long long>(r.steps));
+      e.set("skipped_steps", static_cast<long long>(r.skipped_steps));
       e.set("wall_s", r.wall_s);
       e.set("virtual_s", r.virtual_s);
       e.set("real_time_factor", r.real_time_factor);

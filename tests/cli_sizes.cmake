@@ -96,6 +96,12 @@ add_test(NAME cli.bench.sizes_start_past_end
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--start;1e9"
     "-DEXPECT=^ebh: error: --start 1000000000: the recording .*tube_insert.h5 is 10 s long; start before its end"
     -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
+# An override of a mesh file would replace the refined mesh at every size (one mesh measured at
+# every level): refused before any work, a map override's leaf too.
+add_test(NAME cli.bench.sizes_mesh_override
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0-1;--set;mesh={virtual: other.msh}"
+    "-DEXPECT=^ebh: error: --set 'mesh={virtual: other.msh}': key 'mesh.virtual': bench sizes refines the scene's own meshes, which this would replace at every size; give a scene that names this mesh \\(--scene\\)\n$"
+    -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
 # A Table 1 scene given as its file has its name's window.
 add_test(NAME cli.bench.sizes_scene_file_window
   COMMAND ${EBH_BIN} bench sizes --scene ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml --levels 0 --seconds 0.05)

@@ -196,6 +196,14 @@ SizeBenchWindow check_size_bench(const SizeBenchOptions& o) {
   if (!(o.seconds > 0)) throw InputError("--seconds: expected a number > 0");
   const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
   const fs::path scene_file = resolve_scene_path(o.scene);
+  // Each size is the scene's own meshes refined: an override of a mesh file would replace the
+  // refined one at every size (one mesh measured at every level, a null slope) and, relative, is
+  // looked for beside the refined scenes' temporary folder.
+  for (const std::string& text : o.overrides)
+    for (const std::string& key : override_keys(text))
+      if (key == "mesh.physical" || key == "mesh.virtual" || key == "mesh")
+        throw OverrideError(text, "key '" + key + "': bench sizes refines the scene's own meshes, which this would " +
+                                      "replace at every size; give a scene that names this mesh (--scene)");
   (void)replay_input_files(o.scene, o.recording, o.overrides);
   const RecordingFile rec = read_replay_recording(o.recording, RecordingWindow{o.start, o.seconds});  // as a replay checks it
   const SizeBenchWindow window{

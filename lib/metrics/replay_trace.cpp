@@ -139,7 +139,9 @@ class Reader {
       std::string n = rows < 0 ? "N" : std::to_string(rows);
       std::string want = cols == 0 ? "(" + n + ")" : "(" + n + "," + std::to_string(cols) + ")";
       fail(name, "has shape " + shape_str(dims) + ", expected " + want +
-                     (rows < 0 ? "" : " (N from /haptic/t)"));
+                     (rows < 0 ? "" : name.rfind("/physical/", 0) == 0 || name == "/timing/physical_step_s"
+                                          ? " (N from /physical/t)"
+                                          : " (N from /haptic/t)"));
     }
     std::vector<T> out(dims[0] * static_cast<std::size_t>(cols == 0 ? 1 : cols));
     if (!out.empty() && H5Dread(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0)
@@ -153,6 +155,8 @@ class Reader {
   std::vector<double> optional_doubles(const std::string& name, long rows) const {
     return read<double>(name, rows, 0, H5T_NATIVE_DOUBLE, true).value_or(std::vector<double>{});
   }
+
+  bool has_attr(const std::string& name) const { return H5Aexists(file_.get(), name.c_str()) > 0; }
 
   /// A numeric root attribute (scalar or one element).
   double number_attr(const std::string& name) const {
@@ -232,6 +236,9 @@ ReplayTrace load_replay(const std::string& path) {
   if (!in.exists("/haptic") && in.exists("/trajectory"))
     throw InputError(path + ": a device recording (/trajectory), not a replay output (/haptic): replay it first "
                             "(ebh replay SCENE " + path + " -o OUT.h5)");
+  // Another HDF5 file (a sweep's summary.h5, a recording of another program): what it lacks first.
+  if (!in.exists("/haptic"))
+    throw InputError(path + ": no /haptic group: not a replay output (ebh replay writes one; docs/FORMATS.md)");
 
   tr.haptic_hz = in.number_attr("haptic_hz");
   tr.physical_hz = in.number_attr("physical_hz");
@@ -249,6 +256,17 @@ ReplayTrace load_replay(const std::string& path) {
   const long n = static_cast<long>(tr.t.size());
   if (n == 0) in.fail("/haptic/t", "is empty: the output holds no ticks");
   increasing(in, "/haptic/t", tr.t);
+  // The replay's own count of its ticks: datasets cut to fewer (by another tool, or a copy) would
+  // give metrics of part of the run, as if it were the whole.
+  if (in.has_attr("ticks")) {
+    const double ticks = in.number_attr("ticks");
+    if (ticks != static_cast<double>(n)) {
+      char why[200];
+      std::snprintf(why, sizeof why, "has %ld ticks, but the output's ticks attribute says %.17g: the file was cut "
+                    "short or edited since the replay", n, ticks);
+      in.fail("/haptic/t", why);
+    }
+  }
   // The ticks' own spacing against the attribute every rate-dependent metric takes (the FFT's
   // bins, the frame boundaries, the budget): a file edited or written by another tool.
   if (n >= 2 && std::isfinite(tr.t.front()) && std::isfinite(tr.t.back()) && tr.t.back() > tr.t.front()) {

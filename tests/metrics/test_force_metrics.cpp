@@ -522,6 +522,25 @@ TEST(ForceMetrics, WrongShapeAndBadFilesAreInputErrors) {
                        [](h5::File& f) { f.write<double>("/physical/t", std::vector<double>(5, 0.0), {5}); })
                 .find("'/physical/t' is not strictly increasing at index 1"),
             std::string::npos);
+  // Datasets cut to fewer ticks than the replay's own count (the ticks attribute): metrics of part
+  // of the run would read as the whole. The count that agrees is read; so is a file without it.
+  const auto ticks = [](std::int64_t n) { return [n](h5::File& f) { f.set_attr("ticks", n); }; };
+  EXPECT_NE(load_error(tr, "cut", ticks(1001))
+                .find("'/haptic/t' has 50 ticks, but the output's ticks attribute says 1001: the file was cut short or "
+                      "edited since the replay"),
+            std::string::npos);
+  EXPECT_EQ(load_error(tr, "whole", ticks(50)), "no error");
+  // Another HDF5 file (a sweep's summary.h5): what it is not, rather than the first attribute it lacks.
+  {
+    const std::string p = (std::filesystem::path(testing::TempDir()) / "ebh_metrics_summary.h5").string();
+    h5::File::create(p).write<double>("/runs/wall_s", {1.0}, {1});
+    try {
+      load_replay(p);
+      ADD_FAILURE() << "a file without /haptic read";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), p + ": no /haptic group: not a replay output (ebh replay writes one; docs/FORMATS.md)");
+    }
+  }
   EXPECT_THROW(load_replay("/nonexistent/replay.h5"), InputError);
   const auto text = (std::filesystem::path(testing::TempDir()) / "ebh_metrics_not_h5.h5").string();
   std::FILE* f = std::fopen(text.c_str(), "w");

@@ -820,6 +820,16 @@ ebh_gate_output(half_the_baselines_force_fails twice_the_force
 ebh_gate_output(says_the_replays_warnings other_scene
   "name: other, scene: tube_forceps, recording: tube_insert, start: 9.9, duration: 5, peak_force: 0.5"
   "warning: other: .*tube_insert.h5: recorded for the scene 'tube' .*warning: other: .*the recording ends 0.1 s after the start; measuring those, not the duration's 5 s")
+# A later case's scene that does not load fails the gate before the first case runs (nothing on
+# standard output), naming the case.
+file(WRITE ${PROJECT_BINARY_DIR}/gate_missing_scene.yaml "cases:\n"
+  "  - {name: good, scene: tube, recording: tube_insert, start: 4, duration: 0.3, peak_force: 0.5}\n"
+  "  - {name: gone, scene: no_such_scene, recording: gap_insert, start: 2, duration: 0.3, peak_force: 0.5}\n")
+add_test(NAME gate.missing_scene_before_any_case
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};gate;--baselines;${PROJECT_BINARY_DIR}/gate_missing_scene.yaml"
+    "-DEXPECT=^ebh: error: [^\n]*gate_missing_scene.yaml: cases\\[1\\] \\(gone\\): no_such_scene: no such scene"
+    -DSTATUS=1 -DNO_STDOUT=1 -P ${EBH_EXPECT_ERROR})
+set_tests_properties(gate.missing_scene_before_any_case PROPERTIES LABELS gate)
 # Baselines measured under an override would be every later plain run's reference: refused.
 add_test(NAME gate.update_with_set_is_refused
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};gate;--baselines;${PROJECT_BINARY_DIR}/gate_twice_the_force.yaml;--update;--set;stiffness.k_con=800"

@@ -205,7 +205,15 @@ void validate_recording(Recording& rec, const std::string& file, const SampleLoc
 
 Recording read_recording(const std::string& path, std::optional<RecordingWindow> window) {
   h5::File f = h5::File::open_read(path);
-  if (!f.has("trajectory")) throw InputError(path + ": /trajectory: missing group (is it a recording?)");
+  if (!f.has("trajectory")) {
+    // A replay's output given for its recording: say what it is, and where its recording is.
+    if (f.has("haptic")) {
+      const std::string recording = f.has_attr("recording") ? f.attr_string("recording") : "";
+      throw InputError(path + ": a replay output (/haptic), not a device recording (/trajectory)" +
+                       (recording.empty() ? std::string() : "; its replay read the recording " + recording));
+    }
+    throw InputError(path + ": /trajectory: missing group (is it a recording?)");
+  }
   h5::Group g = f.group("trajectory");
   // The rows a dataset declares are counted before any is read: a logger that pre-sized its
   // datasets and crashed leaves a small file claiming billions of rows (docs/FORMATS.md, Limits).

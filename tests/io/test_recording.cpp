@@ -181,6 +181,14 @@ TEST(Recording, SchemaDefectsNameDatasetAndIndex) {
     f.write<double>("t", std::vector<double>{0}, {1});
   }
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory", "missing group");
+  {  // a replay's output given for its recording
+    h5::File f = h5::File::create(p);
+    f.write<double>("/haptic/t", std::vector<double>{0}, {1});
+    f.set_attr("recording", "/data/press.h5");
+  }
+  EXPECT_INPUT_ERROR(read_recording(p), p,
+                     "a replay output (/haptic), not a device recording (/trajectory); its replay read the recording "
+                     "/data/press.h5");
 }
 
 TEST(Recording, SlightlyOffQuaternionIsNormalised) {

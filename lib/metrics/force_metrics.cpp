@@ -109,6 +109,12 @@ SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t a, std::size_t
   s.rms_force_step = steps ? std::sqrt(sumsq / static_cast<double>(steps)) : kNaN;
   s.boundary_step_mean = mean_or_nan(sum_bnd, s.boundary_ticks);
   s.interior_step_mean = mean_or_nan(sum_int, s.interior_ticks);
+  // In realtime mode a physical result arrives when its step ends on the wall clock, not at the
+  // ticks kN: the split at kN would measure nothing (98 steps in 1 s at 100 Hz).
+  if (tr.mode == "realtime") {
+    s.boundary_step_mean = s.interior_step_mean = kNaN;
+    s.boundary_ticks = s.interior_ticks = 0;
+  }
   if (std::isnan(s.boundary_step_mean) || std::isnan(s.interior_step_mean) ||
       std::max(s.boundary_step_mean, s.interior_step_mean) < kNegligibleForce)  // round-off against round-off
     s.boundary_step_ratio = kNaN;
@@ -657,7 +663,8 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
   row("RMS |F_n - F_n-1|", fmt("%.3e", s.rms_force_step), "N");
   row("mean |dF| at physical frames", fmt("%.3e", s.boundary_step_mean), "N");
   row("mean |dF| other ticks", fmt("%.3e", s.interior_step_mean), "N");
-  row("frame-boundary jump ratio", fmt("%.3f", s.boundary_step_ratio), "");
+  row("frame-boundary jump ratio", fmt("%.3f", s.boundary_step_ratio),
+      m.mode == "realtime" ? "not measured in realtime mode (results arrive on the wall clock)" : "");
   row("power above 30 Hz", fmt("%.4f", s.power_above_30hz), "of force power");
   row("power above 100 Hz", fmt("%.4f", s.power_above_100hz), "of force power");
   row("ticks at force limit", fmt("%.4f", s.clamped_fraction), "fraction");

@@ -226,6 +226,15 @@ TEST(ForceMetrics, StepAtEveryPhysicalFrameGivesLargeBoundaryRatio) {
   // The same ramp without steps: no difference between boundary and other ticks.
   for (std::size_t i = 0; i < tr.ticks(); ++i) tr.force[i].z = 1e-3 * double(i);
   EXPECT_NEAR(roundtrip(tr, "ramp").whole.boundary_step_ratio, 1.0, 1e-9);
+
+  // In realtime mode a result arrives when its step ends on the wall clock: the split at kN
+  // measures nothing, and is not given.
+  for (std::size_t i = 0; i < tr.ticks(); ++i) tr.force[i].z = 1e-3 * double(i) + 0.1 * double(i / 10);
+  tr.mode = "realtime";
+  const ForceMetrics rt = roundtrip(tr, "step_realtime");
+  EXPECT_TRUE(std::isnan(rt.whole.boundary_step_ratio));
+  EXPECT_EQ(rt.whole.boundary_ticks, 0u);
+  EXPECT_NE(format_table(rt, false).find("not measured in realtime mode"), std::string::npos);
 }
 
 // ---------------------------------------------------------------------------------------------

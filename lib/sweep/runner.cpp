@@ -249,29 +249,53 @@ InputDigests::InputDigests(const SweepPlan* plan) {
 
 const std::string& InputDigests::file(const fs::path& path) { return sha256_file_cached(files_, path.string()); }
 
-const std::vector<std::pair<std::string, fs::path>>& InputDigests::run_files(const SweepPlan& plan, const SweepRun& run) {
+const InputDigests::RunInputs& InputDigests::run_inputs(const SweepPlan& plan, const SweepRun& run) {
   const fs::path& scene = plan.scenes[run.scene].scene_file;
   const std::vector<std::string> set = run.set_arguments();
   std::string key = scene.string() + '\n' + run.recording.string();
   for (const std::string& s : set) key += '\n' + s;
   auto it = runs_.find(key);
   if (it == runs_.end()) {
-    std::vector<std::pair<std::string, fs::path>> files;
-    for (const SceneInputFile& file : scene_input_files(load_scene_spec(scene, set))) files.emplace_back(file.key, file.path);
-    files.emplace_back("recording", run.recording);
-    it = runs_.emplace(key, std::move(files)).first;
+    // A scene that no longer loads throws here (InputError), as it did before the rates were
+    // read: the plan loaded each scene with each run's overrides when it was read (plan.cpp).
+    const SceneSpec spec = load_scene_spec(scene, set);
+    RunInputs in;
+    for (const SceneInputFile& file : scene_input_files(spec)) in.files.emplace_back(file.key, file.path);
+    in.files.emplace_back("recording", run.recording);
+    in.haptic_hz = spec.haptic_hz;
+    in.physical_hz = spec.physical_hz;
+    it = runs_.emplace(key, std::move(in)).first;
   }
   return it->second;
 }
 
+const std::vector<std::pair<std::string, fs::path>>& InputDigests::run_files(const SweepPlan& plan, const SweepRun& run) {
+  return run_inputs(plan, run).files;
+}
+
+std::pair<double, double> InputDigests::run_rates(const SweepPlan& plan, const SweepRun& run) {
+  const RunInputs& in = run_inputs(plan, run);
+  return {in.haptic_hz, in.physical_hz};
+}
+
 namespace {
 /// Whether `f` is a replay with the run's window, mode, backend and overrides, as its attributes
-/// say (`ebh replay` writes them: docs/FORMATS.md): not one replayed by hand or copied under the
-/// run's name, nor an HDF5 file of another program. The window's length is the one a replay of
-/// the recording gives (a duration past its end is cut to it).
-bool is_replay_of(const h5::File& f, const SweepPlan& plan, const SweepRun& run) {
-  for (const char* a : {"mode", "backend", "start", "duration", "overrides_list"})
+/// say (`ebh replay` writes them: docs/FORMATS.md), made as the sweep makes it (replay_arguments):
+/// no pose transform and the rates of the run's scene under its overrides (`rates`: haptic,
+/// physical Hz). Not one replayed by hand or copied under the run's name, nor an HDF5 file of
+/// another program. The window's length is the one a replay of the recording gives (a duration
+/// past its end is cut to it).
+bool is_replay_of(const h5::File& f, const SweepPlan& plan, const SweepRun& run, std::pair<double, double> rates) {
+  // haptic_hz and physical_hz are required: every `ebh replay` output has held them (they came
+  // before the attributes above), and the summary cannot read a replay without them
+  // (read_replay_trace); transform_option and tool_transform_option came after overrides_list, so
+  // a replay older than them, which could not be given a transform, counts as made without one.
+  for (const char* a : {"mode", "backend", "start", "duration", "overrides_list", "haptic_hz", "physical_hz"})
     if (!f.has_attr(a)) return false;
+  for (const char* a : {"transform_option", "tool_transform_option"})
+    if (f.has_attr(a) && !f.attr_string(a).empty()) return false;
+  // The rates as written are the loaded scene's own doubles (replay_output.cpp): equal bit for bit.
+  if (f.attr_double("haptic_hz") != rates.first || f.attr_double("physical_hz") != rates.second) return false;
   std::string overrides;
   for (const std::string& s : run.set_arguments()) {
     if (!overrides.empty()) overrides += '\n';
@@ -296,7 +320,7 @@ RunState run_state(const fs::path& dir, const SweepPlan& plan, const SweepRun& r
   std::vector<std::string> recorded(files.size());  // the SHA-256 the output holds for each ("": none)
   try {
     const h5::File f = h5::File::open_read(out.string());
-    if (!is_replay_of(f, plan, run)) return RunState::Other;
+    if (!is_replay_of(f, plan, run, digests.run_rates(plan, run))) return RunState::Other;
     for (std::size_t k = 0; k < files.size(); ++k)
       if (f.has_attr(files[k].first + "_sha256")) recorded[k] = f.attr_string(files[k].first + "_sha256");
   } catch (const InputError&) {
@@ -317,7 +341,8 @@ const char* redo_reason(RunState state) {
   switch (state) {
     case RunState::Stale: return "made from input files edited or replaced since";
     case RunState::Unreadable: return "whose output does not open";
-    case RunState::Other: return "whose output is not the run's replay (another window, mode, backend or overrides, or no replay)";
+    case RunState::Other: return "whose output is not the run's replay (another window, mode, backend, overrides, pose transform or "
+                                 "rate, or no replay)";
     case RunState::Missing:
     case RunState::Done: break;
   }

@@ -39,8 +39,9 @@ std::filesystem::path run_output(const std::filesystem::path& dir, const SweepRu
 std::filesystem::path run_log(const std::filesystem::path& dir, const SweepRun& run);
 std::filesystem::path run_failure(const std::filesystem::path& dir, const SweepRun& run);
 
-/// The SHA-256 of input files, and the files a run's scene reads under its overrides, each found
-/// once (a sweep of many runs hashes each mesh once).
+/// The SHA-256 of input files, and the files a run's scene reads under its overrides and the rates
+/// it runs at, each found once (a sweep of many runs hashes each mesh once and loads each scene
+/// once per set of overrides).
 class InputDigests {
  public:
   /// With the digests the plan read (SweepPlan::sha256), which are then not read again.
@@ -49,18 +50,30 @@ class InputDigests {
   /// The run's scene's input files (scene_input_files) and its recording, by the keys a replay
   /// output records them under.
   const std::vector<std::pair<std::string, std::filesystem::path>>& run_files(const SweepPlan& plan, const SweepRun& run);
+  /// The haptic tick and physical step rates (Hz) the run's scene gives under its overrides
+  /// (time.haptic_hz, time.physical_hz): those of its replay, which the sweep gives no rate option.
+  std::pair<double, double> run_rates(const SweepPlan& plan, const SweepRun& run);
 
  private:
+  /// What a run's scene gives under its overrides, loaded once per (scene, recording, overrides).
+  struct RunInputs {
+    std::vector<std::pair<std::string, std::filesystem::path>> files;
+    double haptic_hz = 0, physical_hz = 0;
+  };
+  const RunInputs& run_inputs(const SweepPlan& plan, const SweepRun& run);
+
   std::map<std::string, std::string> files_;
-  std::map<std::string, std::vector<std::pair<std::string, std::filesystem::path>>> runs_;
+  std::map<std::string, RunInputs> runs_;
 };
 
 /// Where a run stands in DIR: no output yet; an output made from the run's input files as they are
 /// now; or one made from others (a file whose SHA-256 differs from the one the output recorded:
 /// edited or replaced since it ran), which a sweep runs again; or an HDF5 file that does not open
 /// (cut short by a copy or a full disk) or an empty one, run again too; or an HDF5 file that is
-/// not the run's replay (Other: a replay of another window, mode, backend or overrides, copied or
-/// replayed by hand under the run's name, or no replay at all), run again. An output without the
+/// not the run's replay (Other: a replay of another window, mode, backend or overrides, or one made
+/// with a pose transform or other rates than the scene's (--transform, --tool-transform, --haptic-hz,
+/// --physical-hz, which a sweep never gives), copied or replayed by hand under the run's name, or
+/// no replay at all), run again. An output without the
 /// digests counts as done; a file of another kind (not HDF5) is another program's, left alone as done.
 enum class RunState { Missing, Done, Stale, Unreadable, Other };
 RunState run_state(const std::filesystem::path& dir, const SweepPlan& plan, const SweepRun& run, InputDigests& digests);

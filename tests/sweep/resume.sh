@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# ebh sweep resumes: a finished run is never run again, a deleted or cut output is run again, and a sweep
+# ebh sweep resumes: a finished run is never run again, a deleted or cut output is run again, and so is
+# one replayed by hand with a --transform or --haptic-hz (not the run's replay), and a sweep
 # stopped with SIGTERM leaves no half-written file and, rerun, runs exactly the runs it did not
 # finish. The summary's error of a run identical to the reference is 0.
 #   tests/sweep/resume.sh EBH_BIN WORK_DIR
@@ -51,6 +52,22 @@ victim=$(ids_done "$work/a" | sed -n 2p)
 rm "$work/a/runs/$victim.h5"
 "$ebh" sweep "$work/plan.yaml" -o "$work/a" 2>"$work/c.err" >/dev/null || fail "resume: $(tail -1 "$work/c.err")"
 [ "$(ran_ids "$work/c.err")" = "$victim" ] || fail "expected only $victim to run, ran: $(ran_ids "$work/c.err")"
+
+# A replay of the reference's window, mode, backend and overrides made by hand with a pose transform
+# or another haptic rate (options a sweep never gives), copied under its name, is not the run's
+# replay (its forces are another pose's, another rate's): it runs again.
+ref=$(paste -d' ' <(column "$work/a/summary.csv" id) <(column "$work/a/summary.csv" reference) | sed -n 's/ 1$//p')
+[ -n "$ref" ] || fail "no reference row in summary.csv"
+for option in "--transform 0,0,5,0,0,0" "--haptic-hz 2000"; do
+  # shellcheck disable=SC2086  # the option and its value, two words
+  "$ebh" replay tube tube_insert -o "$work/hand.h5" --backend cpu --mode async --quiet --start 4 --duration 0.3 \
+    --set solver.virtual_iterations=8 $option 2>"$work/hand.err" || fail "replay $option: $(tail -1 "$work/hand.err")"
+  mv "$work/hand.h5" "$work/a/runs/$ref.h5"
+  "$ebh" sweep "$work/plan.yaml" -o "$work/a" 2>"$work/h.err" >/dev/null || fail "$option: $(tail -1 "$work/h.err")"
+  grep -q "^ebh sweep: 4 runs, 3 already done, 1 whose output is not the run's replay" "$work/h.err" \
+    || fail "a replay made with $option taken as done: $(head -1 "$work/h.err")"
+  [ "$(ran_ids "$work/h.err")" = "$ref" ] || fail "$option: expected $ref to run again, ran: $(ran_ids "$work/h.err")"
+done
 
 # An output cut short (a copy, a full disk) runs again; another program's file under a run's name
 # stays, and the sweep then fails: that run has no result.

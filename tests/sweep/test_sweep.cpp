@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <thread>
@@ -651,6 +652,8 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
     f.set_attr("overrides_list", w.overrides);
     f.set_attr("start", w.start);
     f.set_attr("duration", w.duration);
+    f.set_attr("haptic_hz", 1000.0);  // scenarios/tube.yaml's time.haptic_hz, time.physical_hz
+    f.set_attr("physical_hz", 100.0);
   };
   const std::string scene_sha = sha256_file((d / "scene" / "tube.yaml").string());
   write_output(scene_sha);
@@ -694,6 +697,8 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
     f.set_attr("overrides_list", "");
     f.set_attr("start", 9.8);
     f.set_attr("duration", 10.0 - 9.8);
+    f.set_attr("haptic_hz", 1000.0);
+    f.set_attr("physical_hz", 100.0);
   }
   EXPECT_EQ(run_state(dir, past, pr, now), RunState::Done);
   // An HDF5 file that is no replay (an h5py slip emptied it; another program's): run again.
@@ -710,6 +715,68 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Unreadable);
   fs::resize_file(run_output(dir, r), 0);
   EXPECT_EQ(run_state(dir, p, r, mesh_changed), RunState::Unreadable);
+}
+
+/// A sweep replays with no pose transform and at the rates of the run's scene under its overrides
+/// (it gives `ebh replay` no --transform, --tool-transform, --haptic-hz or --physical-hz): a replay
+/// of the run's window, mode, backend and overrides made by hand with one of those, copied under
+/// the run's name, is not the run's (its forces differ: another pose, another rate) and runs again.
+TEST(SweepRunner, AReplayWithATransformOrOtherRatesIsNotTheRuns) {
+  const fs::path d = fresh_tube_scene("transform_rates");
+  const SweepPlan p = read_sweep_plan(plan_file("transform_rates.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
+                                                                            ", recordings: [tube_insert], reference: {}}\n"
+                                                                            "runs: [{time.haptic_hz: 2000}]\nstart: 4\nduration: 0.5\n"));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 2u);
+  const SweepRun& ref = runs[0];  // the scene's rates: 1000 Hz, 100 Hz (scenarios/tube.yaml)
+  const SweepRun& fast = runs[1];  // time.haptic_hz=2000
+  ASSERT_TRUE(ref.set_arguments().empty());
+  ASSERT_EQ(fast.set_arguments(), std::vector<std::string>{"time.haptic_hz=2000"});
+  const fs::path dir = d / "out";
+  fs::create_directories(dir / "runs");
+  struct Made {  // what `ebh replay` records of the options it was given
+    std::string transform, tool_transform;
+    std::optional<double> haptic_hz = 1000, physical_hz = 100;  // none: an output without the attribute
+    bool transform_attributes = true;  // false: an output older than the transform options
+  };
+  auto write_output = [&](const SweepRun& as, const Made& m) {
+    h5::File f = h5::File::create(run_output(dir, as).string());
+    f.set_attr("mode", "async");
+    f.set_attr("backend", "cpu");
+    f.set_attr("overrides_list", as.set_arguments().empty() ? std::string() : as.set_arguments()[0]);
+    f.set_attr("start", 4.0);
+    f.set_attr("duration", 0.5);
+    if (m.transform_attributes) {
+      f.set_attr("transform_option", m.transform);
+      f.set_attr("tool_transform_option", m.tool_transform);
+    }
+    if (m.haptic_hz) f.set_attr("haptic_hz", *m.haptic_hz);
+    if (m.physical_hz) f.set_attr("physical_hz", *m.physical_hz);
+  };
+  InputDigests digests(&p);
+  write_output(ref, {});
+  EXPECT_EQ(run_state(dir, p, ref, digests), RunState::Done);
+  // A replay older than --transform (no transform_option attributes) could not be given one.
+  write_output(ref, {.transform_attributes = false});
+  EXPECT_EQ(run_state(dir, p, ref, digests), RunState::Done);
+  std::vector<Made> others(6);
+  others[0].transform = "0,0,5,0,0,0";
+  others[1].tool_transform = "0,0,0,180,0,0";
+  others[2].haptic_hz = 2000;
+  others[3].physical_hz = 50;
+  others[4].haptic_hz.reset();  // every replay output holds its rates: this is none
+  others[5].physical_hz.reset();
+  for (const Made& m : others) {
+    write_output(ref, m);
+    EXPECT_EQ(run_state(dir, p, ref, digests), RunState::Other)
+        << m.transform << " " << m.tool_transform << " " << m.haptic_hz.value_or(-1) << " " << m.physical_hz.value_or(-1);
+  }
+  // The rates a run's overrides give are its own: 2000 Hz is the run's, the scene's 1000 Hz is not.
+  write_output(fast, {.haptic_hz = 2000});
+  EXPECT_EQ(run_state(dir, p, fast, digests), RunState::Done);
+  write_output(fast, {});
+  EXPECT_EQ(run_state(dir, p, fast, digests), RunState::Other);
+  EXPECT_NE(std::string(redo_reason(RunState::Other)).find("pose transform or rate"), std::string::npos);
 }
 
 // The summary takes a run's output only where the sweep would (run_state): another run's output
@@ -734,6 +801,8 @@ TEST(SweepSummary, OutputsTheSweepWouldRunAgainAreNotOk) {
     f.set_attr("overrides_list", overrides);
     f.set_attr("start", 4.0);
     f.set_attr("duration", 0.5);
+    f.set_attr("haptic_hz", 1000.0);  // scenarios/tube.yaml's rates
+    f.set_attr("physical_hz", 100.0);
   };
   const std::string scene_sha = sha256_file((d / "scene" / "tube.yaml").string());
   // The reference's output copied over the other run's.

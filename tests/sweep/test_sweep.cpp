@@ -757,7 +757,9 @@ TEST(SweepRunner, AReplayWithATransformOrOtherRatesIsNotTheRuns) {
   write_output(ref, {});
   EXPECT_EQ(run_state(dir, p, ref, digests), RunState::Done);
   // A replay older than --transform (no transform_option attributes) could not be given one.
-  write_output(ref, {.transform_attributes = false});
+  Made older;
+  older.transform_attributes = false;
+  write_output(ref, older);
   EXPECT_EQ(run_state(dir, p, ref, digests), RunState::Done);
   std::vector<Made> others(6);
   others[0].transform = "0,0,5,0,0,0";
@@ -772,7 +774,9 @@ TEST(SweepRunner, AReplayWithATransformOrOtherRatesIsNotTheRuns) {
         << m.transform << " " << m.tool_transform << " " << m.haptic_hz.value_or(-1) << " " << m.physical_hz.value_or(-1);
   }
   // The rates a run's overrides give are its own: 2000 Hz is the run's, the scene's 1000 Hz is not.
-  write_output(fast, {.haptic_hz = 2000});
+  Made at_2k;
+  at_2k.haptic_hz = 2000;
+  write_output(fast, at_2k);
   EXPECT_EQ(run_state(dir, p, fast, digests), RunState::Done);
   write_output(fast, {});
   EXPECT_EQ(run_state(dir, p, fast, digests), RunState::Other);

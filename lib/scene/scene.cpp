@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <charconv>
 #include <cmath>
@@ -1323,6 +1324,14 @@ std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<c
   for (int i = 0; i < n; ++i)
     if (size[i] > 0 && part[i] == i && !held[i]) parts.emplace_back(i, size[i]);
   return parts;
+}
+
+bool derived_scene_name(const std::string& name, const std::string& base) {
+  for (const char* derived : {"_l", "_q"})
+    if (name.size() > base.size() + 2 && name.compare(0, base.size(), base) == 0 &&
+        name.compare(base.size(), 2, derived) == 0 && std::isdigit(static_cast<unsigned char>(name[base.size() + 2])))
+      return true;
+  return false;
 }
 
 fs::path resolve_data_path(const std::string& name_or_path, const std::string& folder, const std::string& extension,

@@ -527,6 +527,10 @@ DegradeReport degrade_physical_mesh(Scene& scene, const DegradeOptions& options)
 /// directory and $EBH_DATA_DIR); any other string is a path. Throws InputError if missing.
 std::filesystem::path resolve_scene_path(const std::string& name_or_path);
 
+/// Whether `name` is a scene made from the scene `base` by `ebh scene refine` (BASE_lN) or
+/// `ebh scene degrade` (BASE_qQ): its recordings are base's.
+bool derived_scene_name(const std::string& name, const std::string& base);
+
 /// The scene file a recording's `scene` attribute names: a scene name (resolve_scene_path), or a
 /// scene file's path, relative to the recording's folder (as `ebh import --scene` writes it) or,
 /// failing that, to the working directory. Throws InputError "RECORDING: its scene attribute

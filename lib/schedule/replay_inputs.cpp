@@ -203,12 +203,7 @@ std::optional<std::string> scene_mismatch(const Recording& rec, const std::strin
   } catch (const InputError&) {
     // a scene this machine does not have: compare by the attribute alone
   }
-  if (named == scene_name) return std::nullopt;
-  for (const char* derived : {"_l", "_q"})
-    if (scene_name.size() > named.size() + 2 && scene_name.compare(0, named.size(), named) == 0 &&
-        scene_name.compare(named.size(), 2, derived) == 0 &&
-        std::isdigit(static_cast<unsigned char>(scene_name[named.size() + 2])))
-      return std::nullopt;
+  if (named == scene_name || derived_scene_name(scene_name, named)) return std::nullopt;
   return "recorded for the scene '" + clipped(escape_unprintable(rec.scene), 80) + "' (its scene attribute) and replayed on '" +
          scene_name + "' (" +
          scene_file.string() + "): its path was made for another scene's geometry and tool";

@@ -150,7 +150,8 @@ Overrides merged(const Overrides& first, const Overrides& then) {
 }
 
 /// The recordings whose `scene` attribute names the scene (`recordings: all`): by its name, or as
-/// a path to its file (resolve_recording_scene: `ebh import --scene FILE` writes one).
+/// a path to its file (resolve_recording_scene: `ebh import --scene FILE` writes one), or the
+/// scene it was refined or degraded from (as a replay takes them: NAME_l1's are NAME's).
 std::vector<fs::path> recordings_of(const std::string& scene, const fs::path& scene_file) {
   // The recordings/ folders of the data roots, and the scene file's own folder (own data kept
   // together: scene, mesh and the recordings imported for it).
@@ -169,7 +170,8 @@ std::vector<fs::path> recordings_of(const std::string& scene, const fs::path& sc
       const h5::File f = h5::File::open_read(path.string());
       if (!f.has("trajectory")) continue;  // a replay output or another file, not a recording
       const std::string attribute = f.attr_string("scene");
-      if (attribute == scene || fs::equivalent(resolve_recording_scene(attribute, path.string()), scene_file, ec))
+      if (attribute == scene || derived_scene_name(scene, attribute) ||
+          fs::equivalent(resolve_recording_scene(attribute, path.string()), scene_file, ec))
         out.push_back(path);
     } catch (const InputError&) {
       // not a recording (or one without a scene, or naming none): not one of this scene's

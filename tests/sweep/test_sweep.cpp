@@ -220,6 +220,26 @@ TEST(SweepPlan, AllTakesARecordingBesideItsSceneFile) {
   EXPECT_EQ(p.scenes[0].recordings[0].filename(), "press.h5");
 }
 
+/// ... and the recordings of the scene a refined or degraded one was made from (NAME_l1, NAME_q0.05),
+/// as a replay takes them.
+TEST(SweepPlan, AllTakesTheRecordingsOfTheSceneARefinedOneWasMadeFrom) {
+  const fs::path root = scratch() / "refined_scene";
+  fs::remove_all(root);
+  fs::create_directories(root);
+  const fs::path tube = resolve_scene_path("tube");
+  std::ostringstream read;
+  read << std::ifstream(tube).rdbuf();
+  std::string text = read.str();
+  text.replace(text.find("\nname: tube\n"), 12, "\nname: tube_l1\n");
+  std::ofstream(root / "tube_l1.yaml") << text;
+  fs::copy_file(tube.parent_path() / "tube.msh", root / "tube.msh");
+  const SweepPlan p = read_sweep_plan(plan_file("refined.yaml", "scenes:\n  - {scene: " + (root / "tube_l1.yaml").string() +
+                                                                    ", recordings: all, reference: {}}\nruns:\n  - {}\n"));
+  ASSERT_EQ(p.scenes[0].name, "tube_l1");
+  ASSERT_EQ(p.scenes[0].recordings.size(), 1u);
+  EXPECT_EQ(p.scenes[0].recordings[0].filename(), "tube_insert.h5");
+}
+
 TEST(SweepPlan, RunIdsAreStable) {
   const fs::path f = plan_file("ids.yaml", kPlan);
   const SweepPlan p = read_sweep_plan(f);

@@ -425,6 +425,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   m.backend = tr.backend;
   m.haptic_hz = tr.haptic_hz;
   m.physical_hz = tr.physical_hz;
+  m.start_s = std::isfinite(tr.start) ? tr.start : 0;
   m.frame_ticks = tr.frame_ticks();
   m.options = opt;
 
@@ -565,6 +566,7 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   j.set("mode", m.mode);
   j.set("backend", m.backend);
   j.set("haptic_hz", m.haptic_hz);
+  j.set("start_s", m.start_s);
   j.set("physical_hz", m.physical_hz);
   j.set("frame_ticks", m.frame_ticks);
   j.set("ticks", m.timing.ticks);
@@ -643,8 +645,10 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
   o << m.path << "\n";
   o << "  scene " << (m.scene.empty() ? "-" : m.scene) << ", recording " << (m.recording.empty() ? "-" : m.recording)
     << ", mode " << (m.mode.empty() ? "-" : m.mode) << ", backend " << (m.backend.empty() ? "-" : m.backend) << "\n";
-  o << "  " << m.timing.ticks << " ticks, " << fmt("%.3f", m.duration_s) << " s, haptic " << fmt("%g", m.haptic_hz)
-    << " Hz, physical " << fmt("%g", m.physical_hz) << " Hz (N = " << m.frame_ticks << ")\n";
+  o << "  " << m.timing.ticks << " ticks, " << fmt("%.3f", m.duration_s) << " s";
+  if (m.start_s > 0) o << " from " << fmt("%g", m.start_s) << " s into the recording (the times below count from there)";
+  o << ", haptic " << fmt("%g", m.haptic_hz) << " Hz, physical " << fmt("%g", m.physical_hz) << " Hz (N = "
+    << m.frame_ticks << ")\n";
   if (!m.finite) {
     o << "  NON-FINITE: " << m.nonfinite_count << " samples (";
     for (std::size_t i = 0; i < m.nonfinite_datasets.size(); ++i) o << (i ? ", " : "") << m.nonfinite_datasets[i];

@@ -181,6 +181,7 @@ struct ForceMetrics {
   /// for an older output without one: the warnings then name both
   std::optional<bool> vertex_contact;
   double haptic_hz = 0, physical_hz = 0;
+  double start_s = 0;    // s into the recording where the replay began (its times count from there)
   long frame_ticks = 0;  // N = H/P
   double duration_s = 0;
   MetricsOptions options;  ///< as used: fft_window and fft_min_window in this output's ticks

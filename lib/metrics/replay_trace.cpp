@@ -251,6 +251,7 @@ ReplayTrace load_replay(const std::string& path) {
   tr.backend = in.string_attr("backend");
   tr.version = in.string_attr("version");
   tr.contact = in.string_attr("contact");
+  if (in.has_attr("start")) tr.start = in.number_attr("start");
 
   tr.t = in.doubles("/haptic/t", -1);
   const long n = static_cast<long>(tr.t.size());

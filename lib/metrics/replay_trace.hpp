@@ -25,6 +25,7 @@ struct ReplayTrace {
   std::string mode;        // async, lockstep or realtime ("" when absent)
   std::string scene, recording, backend, version;
   std::string contact;     // the scene's contact model, vertices or surface ("" in an older output)
+  double start = 0;        // s into the recording where the replay began (its t = 0; 0 when absent)
 
   // Haptic rate, N ticks each.
   std::vector<double> t;                   // N, s

@@ -185,6 +185,14 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   ReplayWriter& writer = *p.writer;
   if (s.stopped) throw InputError(a.out + ": interrupted; no output written");
   writer.commit(s);
+  // A time of the replay (its /haptic/t and /physical/t count from the window's start), and where
+  // that is in the recording when the window starts later.
+  const auto at = [&a](double t) {
+    char text[96];
+    if (a.start > 0) std::snprintf(text, sizeof text, "t = %.3f s, %.3f s into the recording", t, a.start + t);
+    else std::snprintf(text, sizeof text, "t = %.3f s", t);
+    return std::string(text);
+  };
   // A force that fell while the tool pressed on: it went through the tissue (with vertex contact,
   // between the virtual vertices) or slipped off it.
   const auto collapse = find_force_collapse(
@@ -304,10 +312,10 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                     "further");
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps stopped when their iterations stalled, with up to "
-                 "%.3g mesh weights unbalanced (more than %g times solver.physical_tolerance; the first at t = %.3f s; "
+                 "%.3g mesh weights unbalanced (more than %g times solver.physical_tolerance; the first at %s; "
                  "/physical/residual): %s\n",
                  a.out.c_str(), static_cast<long long>(writer.stalled_steps()), static_cast<long long>(s.steps),
-                 writer.max_stalled(), kStalledResidualFactor, writer.first_stalled_t(), why);
+                 writer.max_stalled(), kStalledResidualFactor, at(writer.first_stalled_t()).c_str(), why);
   }
   if (writer.short_steps() > 0) {
     const PhysicalStepParams& params = world.physical_params;
@@ -324,14 +332,14 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                     short_step_yardstick(params));
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps left up to %.3g mesh weights unbalanced after their "
-                 "%d %s, more than %g times %s; the first at t = %.3f s (/physical/residual): raise "
+                 "%d %s, more than %g times %s; the first at %s (/physical/residual): raise "
                  "solver.physical_iterations (a grasp or a hard press needs more, and so does a stiffness far above "
                  "the others), or %s\n",
                  a.out.c_str(), static_cast<long long>(writer.short_steps()), static_cast<long long>(s.steps),
                  writer.max_short(), params.iterations,
                  direct ? "local-global iterations (solver.method: direct stops after solver.physical_iterations)"
                         : "iterations (solver.physical_tolerance 0: a fixed count, no stopping rule)",
-                 kStalledResidualFactor, against, writer.first_short_t(), rule);
+                 kStalledResidualFactor, against, at(writer.first_short_t()).c_str(), rule);
   }
   if (writer.unbalanced_steps() > 0) {
     const SolverSpec& solver = world.scene.spec.solver;
@@ -345,11 +353,11 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                           : "";
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps ended with more than %g mesh weights unbalanced "
-                 "(solver.recovery_residual; the largest %.3g, the first at t = %.3f s; /physical/residual): the "
+                 "(solver.recovery_residual; the largest %.3g, the first at %s; /physical/residual): the "
                  "physical mesh was far from balance there, and its force is not a converged response; raise "
                  "solver.physical_iterations%s\n",
                  a.out.c_str(), static_cast<long long>(writer.unbalanced_steps()), static_cast<long long>(s.steps),
-                 solver.recovery_residual, writer.max_unbalanced(), writer.first_unbalanced_t(), fix);
+                 solver.recovery_residual, writer.max_unbalanced(), at(writer.first_unbalanced_t()).c_str(), fix);
   }
   if (writer.max_inverted_tets() > 0) {
     // What resists the deformation: the paper's E_vol alone, or with the volume term E_det.
@@ -361,9 +369,9 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
       std::snprintf(resists, sizeof resists, "E_vol (ARAP, with no volume term: stiffness.k_det is 0)");
     std::fprintf(stderr,
                  "ebh: warning: %s: up to %d of the physical mesh's %d tets were inverted after a step, the first at "
-                 "t = %.3f s (/physical/inverted): the tissue there was deformed past what %s resists, and the force "
+                 "%s (/physical/inverted): the tissue there was deformed past what %s resists, and the force "
                  "is not a physical response while they are (docs/MODEL.md, \"Inverted tets\")\n",
-                 a.out.c_str(), writer.max_inverted_tets(), world.physical_mesh.num_tets, writer.first_inverted_t(),
+                 a.out.c_str(), writer.max_inverted_tets(), world.physical_mesh.num_tets, at(writer.first_inverted_t()).c_str(),
                  resists);
   }
   // A realtime run paces its ticks by the clock: one that could not keep up ran slower than the

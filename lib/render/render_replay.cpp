@@ -237,8 +237,9 @@ std::optional<SceneSpec> find_replay_scene(const ReplayFrames& f, std::vector<st
   // stored reload the file.
   if (!f.scene_yaml.empty()) {
     try {
-      return load_scene_spec_text(f.scene_yaml, f.scene_file.empty() ? fs::path(f.file) : fs::path(f.scene_file),
-                                  /*mesh_files_must_exist=*/false);
+      // Named as what it is (OUT.h5:scene_yaml) in messages and the camera's source: the scene
+      // file may say otherwise by now, or be gone.
+      return load_scene_spec_text(f.scene_yaml, fs::path(f.file + ":scene_yaml"), /*mesh_files_must_exist=*/false);
     } catch (const std::exception& e) {
       why = e.what();
     }

@@ -386,8 +386,10 @@ std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_
   const std::string more = c.count > 1 ? " (" + std::to_string(c.count) + " such falls)" : "";
   const char* parted = "the vertices under a thin tip part and let it through (`--set contact=surface` holds it; "
                        "docs/MODEL.md, \"Contact against the surface\")";
-  const std::string why = !vertex_contact ? std::string("the tool went through the tissue or slipped off it (with "
-                                                        "contact: vertices, ") + parted + ")"
+  // An output that does not record its contact model (older ones): the vertices' case, as a condition.
+  const std::string why = !vertex_contact ? std::string("the tool went through the tissue or slipped off it (if it "
+                                                        "ran with contact: vertices, which this output does not "
+                                                        "record: ") + parted + ")"
                           : *vertex_contact ? std::string("the tool went through the tissue or slipped off it: with "
                                                           "contact: vertices, ") + parted
                                             : std::string("the tool slipped off the tissue or the tissue gave way under it");

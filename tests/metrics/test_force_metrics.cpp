@@ -607,6 +607,10 @@ TEST(ForceCollapse, AToolPushedThroughTheTissueIsNamed) {
   const std::string warning = collapse_warning(*m.collapse, true);
   EXPECT_NE(warning.find("the force fell from 1.5 N (t = 0.499 s) to 0.03 N (t = 0.503 s)"), std::string::npos) << warning;
   EXPECT_NE(warning.find("contact=surface"), std::string::npos) << warning;
+  // An output that does not record its contact model: the vertices' cause as a condition, not a fact.
+  EXPECT_NE(collapse_warning(*m.collapse, std::nullopt)
+                .find("(if it ran with contact: vertices, which this output does not record: the vertices under"),
+            std::string::npos);
   EXPECT_NE(to_json(m).dump().find("\"count\": 1"), std::string::npos);
   EXPECT_NE(format_table(m, false).find("warning: the force fell"), std::string::npos);
   // Two falls, each counted once.

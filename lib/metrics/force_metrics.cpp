@@ -368,18 +368,23 @@ std::optional<ForceSaturation> find_force_saturation(std::span<const double> t, 
     if (run > longest) longest = run, longest_end = i;
   }
   const double seconds = static_cast<double>(longest) / haptic_hz;
-  if (longest == 0 || seconds < kSaturatedRunS) return std::nullopt;
-  return ForceSaturation{t[longest_end + 1 - longest], seconds, static_cast<double>(at_limit) / static_cast<double>(n)};
+  const double fraction = n ? static_cast<double>(at_limit) / static_cast<double>(n) : 0;
+  const bool mostly = fraction > kSaturatedFraction && static_cast<double>(n) / haptic_hz >= kSaturatedMinWindowS;
+  if (longest == 0 || (seconds < kSaturatedRunS && !mostly)) return std::nullopt;
+  return ForceSaturation{t[longest_end + 1 - longest], seconds, fraction};
 }
 
 std::string saturation_warning(const ForceSaturation& s) {
-  char b[400];
-  std::snprintf(b, sizeof b,
-                "the force stayed at the device's limit for %.3g s in a row (from t = %.3f s; %.0f%% of the ticks at "
-                "it): the model's force was larger there, and what the user feels and the metrics measure is the limit "
-                "(tool.force_limit): a tool caught in the tissue or far behind the device, or a tissue too stiff for it",
-                s.seconds, s.start_t, 100 * s.fraction);
-  return b;
+  char held[160];
+  if (s.seconds >= kSaturatedRunS)
+    std::snprintf(held, sizeof held, "stayed at the device's limit for %.3g s in a row (from t = %.3f s; %.0f%% of the "
+                  "ticks at it)", s.seconds, s.start_t, 100 * s.fraction);
+  else
+    std::snprintf(held, sizeof held, "was at the device's limit in %.0f%% of the ticks (at most %.3g s in a row, from t "
+                  "= %.3f s)", 100 * s.fraction, s.seconds, s.start_t);
+  return std::string("the force ") + held +
+         ": the model's force was larger there, and what the user feels and the metrics measure is the limit "
+         "(tool.force_limit): a tool caught in the tissue or far behind the device, or a tissue too stiff for it";
 }
 
 std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact) {

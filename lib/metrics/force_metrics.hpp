@@ -149,6 +149,11 @@ std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_
 /// 2 m/s flick through an own block held it 1.3 s, the virtual tool caught 14 mm below the device;
 /// the committed grasps reach it for at most 0.41 s at a time).
 inline constexpr double kSaturatedRunS = 1.0;
+/// ... or at it in more than this fraction of the ticks, in runs shorter than that, over a window
+/// of at least kSaturatedMinWindowS: a replay shorter than kSaturatedRunS has no such run (tube_insert
+/// with k_con 1e5 over 0.9 s: 69% of the ticks at the limit, 0.62 s in a row at most).
+inline constexpr double kSaturatedFraction = 0.5;
+inline constexpr double kSaturatedMinWindowS = 0.2;
 struct ForceSaturation {
   double start_t = 0, seconds = 0;  ///< the longest run: its first tick's time and its length
   double fraction = 0;              ///< of all ticks at the limit

@@ -295,6 +295,18 @@ TEST(ForceMetrics, AForceHeldAtTheLimitIsSaid) {
       << format_table(held, false);
   for (std::size_t i = 1400; i < 1800; ++i) tr.force_clamped[i] = 0;  // two runs of 0.4 s
   EXPECT_FALSE(roundtrip(tr, "saturated_briefly").saturation.has_value());
+  // A window shorter than the run the rule needs, at the limit in most of its ticks (runs of 0.3 s
+  // with a tick off between: a contact too stiff for the device): said, with the share.
+  ReplayTrace brief = make_trace(901);
+  for (std::size_t i = 100; i < 850; ++i) brief.force_clamped[i] = i % 300 != 0;
+  const ForceMetrics mostly = roundtrip(brief, "saturated_mostly");
+  ASSERT_TRUE(mostly.saturation.has_value());
+  EXPECT_NE(format_table(mostly, false).find("warning: the force was at the device's limit in 83% of the ticks (at most "
+                                             "0.299 s in a row, from t = 0.301 s)"),
+            std::string::npos)
+      << format_table(mostly, false);
+  for (std::size_t i = 400; i < 850; ++i) brief.force_clamped[i] = 0;  // a third of them: a grasp's peak
+  EXPECT_FALSE(roundtrip(brief, "saturated_third").saturation.has_value());
 }
 
 TEST(ForceMetrics, RotationalPassivityUsesTorqueAndAngularMotion) {

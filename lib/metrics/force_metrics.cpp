@@ -503,7 +503,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   auto ran = [&tr](const std::vector<double>& v) {
     std::vector<double> out;
     for (std::size_t i = 0; i < v.size(); ++i)
-      if (tr.physical_slept.empty() || !(tr.physical_slept[i] != 0)) out.push_back(v[i]);
+      if (tr.physical_slept.empty() || tr.physical_slept[i] == 0) out.push_back(v[i]);
     return out;
   };
   for (double s : tr.physical_slept) tm.physical_steps_skipped += s != 0;

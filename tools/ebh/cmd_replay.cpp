@@ -330,16 +330,26 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
     else
       std::snprintf(rule, sizeof rule, "let the stopping rule run the steps that need more (solver.physical_tolerance: %g)",
                     short_step_yardstick(params));
+    // On the device a fixed count's residual within a few times the mesh's float32 floor is
+    // round-off (a refined tube: 0.041 mesh weights), which no iteration count lowers.
+    char fix[400];
+    if (float32_round_off(world, writer.max_short()))
+      std::snprintf(fix, sizeof fix,
+                    "it is this mesh's float32 round-off on the device (%.2g mesh weights at rest, `ebh scene info`; its "
+                    "steps stall at a few times it), which no iteration count lowers: replay with --backend cpu",
+                    world.float32_floor);
+    else
+      std::snprintf(fix, sizeof fix,
+                    "raise solver.physical_iterations (a grasp or a hard press needs more, and so does a stiffness far "
+                    "above the others), or %s", rule);
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps left up to %.3g mesh weights unbalanced after their "
-                 "%d %s, more than %g times %s; the first at %s (/physical/residual): raise "
-                 "solver.physical_iterations (a grasp or a hard press needs more, and so does a stiffness far above "
-                 "the others), or %s\n",
+                 "%d %s, more than %g times %s; the first at %s (/physical/residual): %s\n",
                  a.out.c_str(), static_cast<long long>(writer.short_steps()), static_cast<long long>(s.steps),
                  writer.max_short(), params.iterations,
                  direct ? "local-global iterations (solver.method: direct stops after solver.physical_iterations)"
                         : "iterations (solver.physical_tolerance 0: a fixed count, no stopping rule)",
-                 kStalledResidualFactor, against, at(writer.first_short_t()).c_str(), rule);
+                 kStalledResidualFactor, against, at(writer.first_short_t()).c_str(), fix);
   }
   if (writer.unbalanced_steps() > 0) {
     const SolverSpec& solver = world.scene.spec.solver;

@@ -51,32 +51,26 @@ endif()
 # A scene or recording that is a symbolic link to itself: the OS's reason, not "file not found".
 file(CREATE_LINK loop.yaml ${EBH_PROCESS_OUT}/loop.yaml SYMBOLIC)
 file(CREATE_LINK loop.h5 ${EBH_PROCESS_OUT}/loop.h5 SYMBOLIC)
-add_test(NAME cli.process.scene_link_loop
-  COMMAND ${CMAKE_COMMAND}
-    "-DCMD=${EBH_BIN};replay;${EBH_PROCESS_OUT}/loop.yaml;tube_insert;-o;${EBH_PROCESS_OUT}/loop_scene.h5;--duration;0.1"
-    "-DEXPECT=^ebh: error: [^\n]*/loop.yaml: cannot be opened: Too many levels of symbolic links\n$"
-    -DOUTPUT=${EBH_PROCESS_OUT}/loop_scene.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
-add_test(NAME cli.process.recording_link_loop
-  COMMAND ${CMAKE_COMMAND}
-    "-DCMD=${EBH_BIN};replay;tube;${EBH_PROCESS_OUT}/loop.h5;-o;${EBH_PROCESS_OUT}/loop_recording.h5;--duration;0.1"
-    "-DEXPECT=^ebh: error: [^\n]*/loop.h5: cannot be opened: Too many levels of symbolic links\n$"
-    -DOUTPUT=${EBH_PROCESS_OUT}/loop_recording.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+# `ebh replay SCENE RECORDING` refused (status 1, one line matching EXPECT, no output written).
+function(ebh_process_replay_failure name scene recording expect)
+  add_test(NAME cli.process.${name}
+    COMMAND ${CMAKE_COMMAND}
+      "-DCMD=${EBH_BIN};replay;${scene};${recording};-o;${EBH_PROCESS_OUT}/${name}.h5;--duration;0.1"
+      "-DEXPECT=${expect}" -DOUTPUT=${EBH_PROCESS_OUT}/${name}.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+  set_tests_properties(cli.process.${name} PROPERTIES LABELS cli)
+endfunction()
+ebh_process_replay_failure(scene_link_loop ${EBH_PROCESS_OUT}/loop.yaml tube_insert
+  "^ebh: error: [^\n]*/loop.yaml: cannot be opened: Too many levels of symbolic links\n$")
+ebh_process_replay_failure(recording_link_loop tube ${EBH_PROCESS_OUT}/loop.h5
+  "^ebh: error: [^\n]*/loop.h5: cannot be opened: Too many levels of symbolic links\n$")
 # The same found by a bare name in EBH_DATA_DIR (said "no such scene"), and a link to nothing.
 file(MAKE_DIRECTORY ${EBH_PROCESS_OUT}/data/scenarios ${EBH_PROCESS_OUT}/data/recordings)
 file(CREATE_LINK loopy.yaml ${EBH_PROCESS_OUT}/data/scenarios/loopy.yaml SYMBOLIC)
 file(CREATE_LINK moved_away.h5 ${EBH_PROCESS_OUT}/data/recordings/dangling.h5 SYMBOLIC)
-add_test(NAME cli.process.scene_name_link_loop
-  COMMAND ${CMAKE_COMMAND}
-    "-DCMD=${EBH_BIN};replay;loopy;tube_insert;-o;${EBH_PROCESS_OUT}/loopy_scene.h5;--duration;0.1"
-    "-DEXPECT=^ebh: error: [^\n]*/data/scenarios/loopy.yaml: cannot be opened: Too many levels of symbolic links\n$"
-    -DOUTPUT=${EBH_PROCESS_OUT}/loopy_scene.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
-add_test(NAME cli.process.recording_name_dangling_link
-  COMMAND ${CMAKE_COMMAND}
-    "-DCMD=${EBH_BIN};replay;tube;dangling;-o;${EBH_PROCESS_OUT}/dangling.h5;--duration;0.1"
-    "-DEXPECT=^ebh: error: [^\n]*/data/recordings/dangling.h5: is a link to moved_away.h5, which does not exist\n$"
-    -DOUTPUT=${EBH_PROCESS_OUT}/dangling.h5 -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
-set_tests_properties(cli.process.scene_link_loop cli.process.recording_link_loop cli.process.scene_name_link_loop
-  cli.process.recording_name_dangling_link PROPERTIES LABELS cli)
+ebh_process_replay_failure(scene_name_link_loop loopy tube_insert
+  "^ebh: error: [^\n]*/data/scenarios/loopy.yaml: cannot be opened: Too many levels of symbolic links\n$")
+ebh_process_replay_failure(recording_name_dangling_link tube dangling
+  "^ebh: error: [^\n]*/data/recordings/dangling.h5: is a link to moved_away.h5, which does not exist\n$")
 set_tests_properties(cli.process.scene_name_link_loop cli.process.recording_name_dangling_link PROPERTIES
   ENVIRONMENT EBH_DATA_DIR=${EBH_PROCESS_OUT}/data)
 

@@ -444,11 +444,12 @@ file(MAKE_DIRECTORY ${EBH_REPLAY_OUT})
 add_test(NAME cli.replay.tube_short
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/tube.h5 --start 2.0 --duration 0.1 -q)
 # The hook's tip catches the bore's rim at 2.08 s and the vertices let it through (vertex contact):
-# the force falls from 0.57 to 0.06 N while the device presses on; with surface contact it holds.
+# the force falls from 0.57 to 0.06 N while the device presses on (its times given in the window
+# and in the recording); with surface contact it holds.
 add_test(NAME cli.replay.force_collapse COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_REPLAY_OUT}/collapse.h5 -q
   --start 2.0 --duration 0.1)
 set_tests_properties(cli.replay.force_collapse PROPERTIES PASS_REGULAR_EXPRESSION
-  "collapse.h5: the force fell from 0.573 N \\(t = 0.079 s\\) to 0.0611 N \\(t = 0.082 s\\) while the tool stayed in contact and the device did not draw back: .*contact=surface")
+  "collapse.h5: the force fell from 0.573 N \\(t = 0.079 s, 2.079 s into the recording\\) to 0.0611 N \\(t = 0.082 s, 2.082 s into the recording\\) while the tool stayed in contact and the device did not draw back: .*contact=surface")
 add_test(NAME cli.replay.force_collapse_surface COMMAND ${EBH_BIN} replay tube tube_insert
   -o ${EBH_REPLAY_OUT}/collapse_surface.h5 -q --start 2.0 --duration 0.1 --set contact=surface)
 set_tests_properties(cli.replay.force_collapse_surface PROPERTIES FAIL_REGULAR_EXPRESSION "fell from")

@@ -333,7 +333,8 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   r.measured.boundary_step_ratio = m.whole.boundary_step_ratio;
   r.measured.force_collapse = m.collapse.has_value();
   r.contact_warning = m.contact_warning;
-  if (m.collapse) r.warnings.push_back(collapse_warning(*m.collapse, in.world->scene.spec.contact == ContactModel::Vertices));
+  if (m.collapse)
+    r.warnings.push_back(collapse_warning(*m.collapse, in.world->scene.spec.contact == ContactModel::Vertices, c.start));
   if (!m.finite) {
     r.passed = false;
     r.failures.push_back(c.name + ": non-finite values in the replay (" + std::to_string(m.nonfinite_count) +

@@ -374,20 +374,28 @@ std::optional<ForceSaturation> find_force_saturation(std::span<const double> t, 
   return ForceSaturation{t[longest_end + 1 - longest], seconds, fraction};
 }
 
-std::string saturation_warning(const ForceSaturation& s) {
-  char held[160];
+std::string replay_time_text(double t, double start_s) {
+  char text[96];
+  if (start_s > 0) std::snprintf(text, sizeof text, "t = %.3f s, %.3f s into the recording", t, start_s + t);
+  else std::snprintf(text, sizeof text, "t = %.3f s", t);
+  return text;
+}
+
+std::string saturation_warning(const ForceSaturation& s, double start_s) {
+  char held[200];
+  const std::string from = replay_time_text(s.start_t, start_s);
   if (s.seconds >= kSaturatedRunS)
-    std::snprintf(held, sizeof held, "stayed at the device's limit for %.3g s in a row (from t = %.3f s; %.0f%% of the "
-                  "ticks at it)", s.seconds, s.start_t, 100 * s.fraction);
+    std::snprintf(held, sizeof held, "stayed at the device's limit for %.3g s in a row (from %s; %.0f%% of the "
+                  "ticks at it)", s.seconds, from.c_str(), 100 * s.fraction);
   else
-    std::snprintf(held, sizeof held, "was at the device's limit in %.0f%% of the ticks (at most %.3g s in a row, from t "
-                  "= %.3f s)", 100 * s.fraction, s.seconds, s.start_t);
+    std::snprintf(held, sizeof held, "was at the device's limit in %.0f%% of the ticks (at most %.3g s in a row, from "
+                  "%s)", 100 * s.fraction, s.seconds, from.c_str());
   return std::string("the force ") + held +
          ": the model's force was larger there, and what the user feels and the metrics measure is the limit "
          "(tool.force_limit): a tool caught in the tissue or far behind the device, or a tissue too stiff for it";
 }
 
-std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact) {
+std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact, double start_s) {
   const std::string more = c.count > 1 ? " (" + std::to_string(c.count) + " such falls)" : "";
   const char* parted = "the vertices under a thin tip part and let it through (`--set contact=surface` holds it; "
                        "docs/MODEL.md, \"Contact against the surface\")";
@@ -398,14 +406,15 @@ std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_
                           : *vertex_contact ? std::string("the tool went through the tissue or slipped off it: with "
                                                           "contact: vertices, ") + parted
                                             : std::string("the tool slipped off the tissue or the tissue gave way under it");
-  char b[224];
+  char b[320];
+  const std::string from = replay_time_text(c.peak_t, start_s), to = replay_time_text(c.t, start_s);
   if (c.pressed_on_m > 0)
-    std::snprintf(b, sizeof b, "the force against the device's motion fell from %.3g N (t = %.3f s) to %.3g N (t = "
-                  "%.3f s) while the device pressed on %.2g mm and the tool stayed in contact", c.peak_N, c.peak_t,
-                  c.force_N, c.t, c.pressed_on_m * 1e3);
+    std::snprintf(b, sizeof b, "the force against the device's motion fell from %.3g N (%s) to %.3g N (%s) while the "
+                  "device pressed on %.2g mm and the tool stayed in contact", c.peak_N, from.c_str(), c.force_N,
+                  to.c_str(), c.pressed_on_m * 1e3);
   else
-    std::snprintf(b, sizeof b, "the force fell from %.3g N (t = %.3f s) to %.3g N (t = %.3f s) while the tool stayed in "
-                  "contact and the device did not draw back", c.peak_N, c.peak_t, c.force_N, c.t);
+    std::snprintf(b, sizeof b, "the force fell from %.3g N (%s) to %.3g N (%s) while the tool stayed in contact and the "
+                  "device did not draw back", c.peak_N, from.c_str(), c.force_N, to.c_str());
   return b + more + ": " + why;
 }
 
@@ -598,9 +607,9 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   collapse.set("peak_force_N", m.collapse ? m.collapse->peak_N : kNaN);
   collapse.set("force_N", m.collapse ? m.collapse->force_N : kNaN);
   collapse.set("pressed_on_mm", m.collapse ? 1e3 * m.collapse->pressed_on_m : kNaN);
-  collapse.set("warning", m.collapse ? Json(collapse_warning(*m.collapse, m.vertex_contact)) : Json(nullptr));
+  collapse.set("warning", m.collapse ? Json(collapse_warning(*m.collapse, m.vertex_contact, m.start_s)) : Json(nullptr));
   j.set("force_collapse", std::move(collapse));
-  j.set("saturation_warning", m.saturation ? Json(saturation_warning(*m.saturation)) : Json(nullptr));
+  j.set("saturation_warning", m.saturation ? Json(saturation_warning(*m.saturation, m.start_s)) : Json(nullptr));
   j.set("episode_count", m.episodes.size());
   if (with_episodes) {
     Json eps = Json::array();
@@ -662,8 +671,8 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
     o << ")\n";
   }
   if (!m.contact_warning.empty()) o << "  warning: " << m.contact_warning << "\n";
-  if (m.collapse) o << "  warning: " << collapse_warning(*m.collapse, m.vertex_contact) << "\n";
-  if (m.saturation) o << "  warning: " << saturation_warning(*m.saturation) << "\n";
+  if (m.collapse) o << "  warning: " << collapse_warning(*m.collapse, m.vertex_contact, m.start_s) << "\n";
+  if (m.saturation) o << "  warning: " << saturation_warning(*m.saturation, m.start_s) << "\n";
   const PassivityEnergy whole{m.whole.passivity_energy_final, m.whole.passivity_energy_min,
                               m.whole.passivity_time_negative_s};
   if (const std::string w = passivity_warning(whole, m.vertex_contact); !w.empty()) o << "  warning: " << w << "\n";

@@ -127,6 +127,11 @@ struct ForceCollapse {
   double pressed_on_m = 0;          ///< a slower fall: how far the device pressed on between them (0: a fast one)
   std::size_t count = 0;            ///< collapses in the run (the first is described)
 };
+/// "t = 0.420 s" for a time of a replay (its /haptic/t counts from the window's start), and where
+/// that is in the recording when the replay began `start_s` s into it ("t = 0.420 s, 3.420 s into
+/// the recording"): the warnings' one way to name a time.
+std::string replay_time_text(double t, double start_s);
+
 inline constexpr double kCollapseFraction = 0.2;
 inline constexpr double kCollapseMinForceN = 0.1;
 inline constexpr double kCollapseWindowS = 0.02;
@@ -142,7 +147,7 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
                                                  std::span<const std::int32_t> grasped, double haptic_hz);
 /// One line for a collapse: what fell, when, and what it means (`vertex_contact`: the scene's
 /// contact model where known).
-std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact);
+std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact, double start_s = 0);
 
 /// The force held at the device's limit (force_clamped) for kSaturatedRunS or more in a row: the
 /// model's force was larger, and what the user feels and the metrics measure is the limit (a
@@ -160,7 +165,7 @@ struct ForceSaturation {
 };
 std::optional<ForceSaturation> find_force_saturation(std::span<const double> t, std::span<const std::uint8_t> clamped,
                                                      double haptic_hz);
-std::string saturation_warning(const ForceSaturation& s);
+std::string saturation_warning(const ForceSaturation& s, double start_s = 0);
 
 /// The translational passivity observer (Hannaford & Ryu 2002) over ticks [first, last]: E(n) =
 /// -sum of F(k-1) . (x(k) - x(k-1)), the energy into the environment through the device port with a

@@ -293,6 +293,9 @@ TEST(ForceMetrics, AForceHeldAtTheLimitIsSaid) {
                                            "1.000 s; 40% of the ticks at it)"),
             std::string::npos)
       << format_table(held, false);
+  EXPECT_NE(saturation_warning(*held.saturation, 2.5).find("(from t = 1.000 s, 3.500 s into the recording; 40%"),
+            std::string::npos)
+      << saturation_warning(*held.saturation, 2.5);
   for (std::size_t i = 1400; i < 1800; ++i) tr.force_clamped[i] = 0;  // two runs of 0.4 s
   EXPECT_FALSE(roundtrip(tr, "saturated_briefly").saturation.has_value());
   // A window shorter than the run the rule needs, at the limit in most of its ticks (runs of 0.3 s
@@ -619,6 +622,12 @@ TEST(ForceCollapse, AToolPushedThroughTheTissueIsNamed) {
   const std::string warning = collapse_warning(*m.collapse, true);
   EXPECT_NE(warning.find("the force fell from 1.5 N (t = 0.499 s) to 0.03 N (t = 0.503 s)"), std::string::npos) << warning;
   EXPECT_NE(warning.find("contact=surface"), std::string::npos) << warning;
+  // Replayed from 3 s into its recording: both times given in the recording too.
+  const std::string windowed = collapse_warning(*m.collapse, true, 3.0);
+  EXPECT_NE(windowed.find("fell from 1.5 N (t = 0.499 s, 3.499 s into the recording) to 0.03 N (t = 0.503 s, 3.503 s "
+                          "into the recording)"),
+            std::string::npos)
+      << windowed;
   // An output that does not record its contact model: the vertices' cause as a condition, not a fact.
   EXPECT_NE(collapse_warning(*m.collapse, std::nullopt)
                 .find("(if it ran with contact: vertices, which this output does not record: the vertices under"),

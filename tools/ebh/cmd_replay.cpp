@@ -187,12 +187,7 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   writer.commit(s);
   // A time of the replay (its /haptic/t and /physical/t count from the window's start), and where
   // that is in the recording when the window starts later.
-  const auto at = [&a](double t) {
-    char text[96];
-    if (a.start > 0) std::snprintf(text, sizeof text, "t = %.3f s, %.3f s into the recording", t, a.start + t);
-    else std::snprintf(text, sizeof text, "t = %.3f s", t);
-    return std::string(text);
-  };
+  const auto at = [&a](double t) { return replay_time_text(t, a.start); };
   // A force that fell while the tool pressed on: it went through the tissue (with vertex contact,
   // between the virtual vertices) or slipped off it.
   const auto collapse = find_force_collapse(
@@ -201,9 +196,9 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
       1.0 / world.h_haptic);
   if (collapse)
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(),
-                 collapse_warning(*collapse, world.scene.spec.contact == ContactModel::Vertices).c_str());
+                 collapse_warning(*collapse, world.scene.spec.contact == ContactModel::Vertices, a.start).c_str());
   if (const auto held = find_force_saturation(writer.tick_times(), writer.force_clamped(), 1.0 / world.h_haptic))
-    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), saturation_warning(*held).c_str());
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), saturation_warning(*held, a.start).c_str());
   // Energy the rendering fed the user (the passivity observer below 0).
   if (const std::string w = passivity_warning(passivity_energy(
           writer.tick_times(), [&writer](std::size_t n) { return writer.force_at(n); },

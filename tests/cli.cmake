@@ -231,6 +231,13 @@ add_test(NAME cli.scene.nested_too_deeply
     "-DEXPECT=^ebh: error: .*cli_scene_deep.yaml:[0-9]+: nested too deeply \\(over 500 levels of lists and maps" -DSTATUS=1
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene.nested_too_deeply PROPERTIES LABELS "cli;scene")
+# ... under a 64 KiB stack limit too (yaml-cpp's recursion ran out of it before its limit: SIGSEGV).
+add_test(NAME cli.scene.nested_too_deeply_small_stack
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=sh;-c;ulimit -s 64 && exec \"$0\" scene info \"$1\";${EBH_BIN};${CMAKE_CURRENT_BINARY_DIR}/cli_scene_deep.yaml"
+    "-DEXPECT=^ebh: error: .*cli_scene_deep.yaml:[0-9]+: nested too deeply \\(over 500 levels of lists and maps" -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene.nested_too_deeply_small_stack PROPERTIES LABELS "cli;scene")
 
 # scene info shows the contact model; with surface contact, the samples' spacing and the stiffness
 # after the floor (a 1 mm tip and the 3.3 N limit raise the default 400 N/m to 2200).

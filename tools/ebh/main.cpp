@@ -1,5 +1,6 @@
 // ebh: energy-based haptic rendering toolkit — the command line.
 #include <fcntl.h>
+#include <pthread.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -12,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <functional>
 #include <new>
 #include <string>
 #include <string_view>
@@ -114,6 +116,40 @@ int run(CLI::App& app, int argc, char** argv) {
   return 0;
 }
 
+/// The least stack a command runs on: yaml-cpp parses a nesting by recursion, and under a small
+/// limit (`ulimit -s 64`, 64 KiB) a scene file nested 500 deep ended the process by SIGSEGV before
+/// yaml-cpp's own depth limit could be said; with the usual 8 MiB it is said.
+constexpr std::size_t kCommandStackBytes = std::size_t{8} << 20;
+
+/// Runs `body` and returns its status: on this thread when the process's stack limit is at least
+/// kCommandStackBytes (or none), else on a thread with that stack (on this one where no such
+/// thread can be started).
+int run_with_stack(const std::function<int()>& body) {
+  if (rlimit stack{}; getrlimit(RLIMIT_STACK, &stack) != 0 || stack.rlim_cur == RLIM_INFINITY ||
+                      stack.rlim_cur >= kCommandStackBytes)
+    return body();
+  struct Call {
+    const std::function<int()>* body;
+    int status = 0;
+  } call{&body};
+  pthread_attr_t attr;
+  if (pthread_attr_init(&attr) != 0) return body();
+  pthread_t thread;
+  const bool started = pthread_attr_setstacksize(&attr, kCommandStackBytes) == 0 &&
+                       pthread_create(
+                           &thread, &attr,
+                           [](void* p) -> void* {
+                             auto* c = static_cast<Call*>(p);
+                             c->status = (*c->body)();
+                             return nullptr;
+                           },
+                           &call) == 0;
+  pthread_attr_destroy(&attr);
+  if (!started) return body();
+  pthread_join(thread, nullptr);
+  return call.status;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -162,7 +198,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   for (auto setup : ebh::cli::command_registry()) setup(app);
   ebh::cli::refuse_empty_values(app);
-  int status = run(app, argc, argv);
+  int status = run_with_stack([&] { return run(app, argc, argv); });
   // A command stopped by SIGINT, SIGTERM or SIGHUP says so and ends with 128 + signal (130, 143,
   // 129), as a second signal would, so a script tells an interrupt from bad input (1).
   if (status != 0 && ebh::interrupt_signal() > 0) status = 128 + ebh::interrupt_signal();

@@ -767,7 +767,9 @@ add_test(NAME cli.validate.backend_column
     -DSTATUS=1 -DNO_STDOUT=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.validate.backend_column PROPERTIES LABELS "cli;validate")
 add_test(NAME cli.validate.column_json COMMAND ${EBH_BIN} validate column --json)
-set_tests_properties(cli.validate.column_json PROPERTIES PASS_REGULAR_EXPRESSION "\"passed\": true" LABELS cli)
+# keys with their unit, as metrics --json: N and Pa, not n (a count) and pa
+set_tests_properties(cli.validate.column_json PROPERTIES
+  PASS_REGULAR_EXPRESSION "\"passed\": true.*\"k_vol_Pa\": 3000,.*\"reaction_N\": 0\\.006,\n +\"expected_N\": 0\\.006," LABELS cli)
 
 # The force-smoothness regression gate (lib/gate, tests/gate/baselines.yaml): short replays of
 # every committed recording against their baselines; and proof that it can fail (below).
@@ -818,6 +820,12 @@ endfunction()
 ebh_gate_output(case_with_some_baselines_names_the_rest some_metrics
   "name: some, scene: tube, recording: tube_insert, start: 2, duration: 0.1, rms_force_step: 1, max_force_rate: 1e6, peak_force: 0.5"
   "some: not compared, no baseline: penetration_max, power_above_30hz, boundary_step_ratio, force_collapse \\(`ebh gate --update` writes them\\)")
+# The JSON report gives each metric measured and its baseline under keys with their unit (as
+# metrics --json), null where the baselines have none.
+add_test(NAME gate.json_measured_and_baseline COMMAND ${EBH_BIN} gate --json
+  --baselines ${PROJECT_BINARY_DIR}/gate_some_metrics.yaml)
+set_tests_properties(gate.json_measured_and_baseline PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
+  "\"measured\": {\n +\"rms_force_step_N\": [0-9.e-]+,\n +\"max_force_rate_N_per_s\": [0-9.e+-]+,\n +\"peak_force_N\": 0\\.[0-9]+,.*\"penetration_max_m\": [0-9.e-]+,.*\"baseline\": {\n +\"rms_force_step_N\": 1,\n +\"max_force_rate_N_per_s\": 1000000,\n +\"peak_force_N\": 0\\.5,\n +\"power_above_30hz\": null,\n +\"penetration_max_m\": null")
 # The peak force's band is a factor either way: a baseline of twice the force fails as half of it
 # does (a band of +-50% let it pass).
 ebh_gate_output(half_the_baselines_force_fails twice_the_force

@@ -394,18 +394,31 @@ void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
   }
 }
 
-Json to_json(const GateResult& r) {
+namespace {
+
+/// A case's metrics under keys that carry their unit (as `ebh metrics --json`); a metric it has no
+/// value for is null.
+Json gate_metrics_json(const GateCase& c) {
+  Json j = Json::object();
+  j.set("rms_force_step_N", c.rms_force_step);
+  j.set("max_force_rate_N_per_s", c.max_force_rate);
+  j.set("peak_force_N", c.peak_force);
+  j.set("power_above_30hz", c.power_above_30hz);
+  j.set("penetration_max_m", c.penetration_max);
+  j.set("boundary_step_ratio", c.boundary_step_ratio);
+  j.set("force_collapse", c.force_collapse ? Json(*c.force_collapse) : Json());
+  return j;
+}
+
+}  // namespace
+
+Json to_json(const GateResult& r, const GateCase& baseline) {
   Json j = Json::object();
   j.set("name", r.measured.name);
   j.set("passed", r.passed);
   j.set("stopped", r.stopped);
-  j.set("rms_force_step", r.measured.rms_force_step);
-  j.set("max_force_rate", r.measured.max_force_rate);
-  j.set("peak_force", r.measured.peak_force);
-  j.set("power_above_30hz", r.measured.power_above_30hz);
-  j.set("penetration_max", r.measured.penetration_max);
-  j.set("boundary_step_ratio", r.measured.boundary_step_ratio);
-  j.set("force_collapse", r.measured.force_collapse ? Json(*r.measured.force_collapse) : Json());
+  j.set("measured", gate_metrics_json(r.measured));
+  j.set("baseline", gate_metrics_json(baseline));
   j.set("failures", Json::array_of(r.failures));
   j.set("warnings", Json::array_of(r.warnings));
   j.set("unchecked", Json::array_of(r.unchecked));

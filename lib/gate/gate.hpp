@@ -103,6 +103,8 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
 /// Compares a run with its baseline under the bands; fills passed/failures.
 void judge_gate_case(const GateCase& baseline, const GateBands& bands, GateResult& r);
 
-Json to_json(const GateResult& r);
+/// The JSON report of a case: whether it passed, its metrics measured and its baseline's (keys
+/// with their unit), the failures, warnings and unchecked metrics.
+Json to_json(const GateResult& r, const GateCase& baseline);
 
 }  // namespace ebh

@@ -59,11 +59,11 @@ ValidationResult run_column() {
   r.data.set("size_m", Json::array_of(std::vector<double>{W, W, L}));
   r.data.set("cells", Json::array_of(std::vector<int>{nx, ny, nz}));
   r.data.set("tets", model.num_tets);
-  r.data.set("k_vol_pa", k_vol);
-  r.data.set("youngs_modulus_pa", E);
+  r.data.set("k_vol_Pa", k_vol);
+  r.data.set("youngs_modulus_Pa", E);
   r.data.set("strain", strain);
-  r.data.set("reaction_n", reaction);
-  r.data.set("expected_n", expected);
+  r.data.set("reaction_N", reaction);
+  r.data.set("expected_N", expected);
   r.data.set("local_global_iterations", report.iterations);
   r.data.set("final_relative_residual", report.residual_reduction);
   return r;

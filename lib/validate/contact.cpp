@@ -202,12 +202,12 @@ ValidationResult run_contact(const ValidationOptions& options) {
         Json row = Json::object();
         row.set("contact", contact);
         row.set("speed_m_per_s", v);
-        row.set("k_det_pa", p.k_det);
+        row.set("k_det_Pa", p.k_det);
         row.set("judged", judged);
-        row.set("largest_fall_n", p.fall);
+        row.set("largest_fall_N", p.fall);
         row.set("max_penetration_m", p.penetration);
-        row.set("peak_force_n", p.peak);
-        row.set("force_at_depth_n", p.force_at_depth);
+        row.set("peak_force_N", p.peak);
+        row.set("force_at_depth_N", p.force_at_depth);
         row.set("reached_force_limit", p.clamped);
         row.set("max_inverted_tets", p.inverted);
         pushes.push(std::move(row));
@@ -225,8 +225,8 @@ ValidationResult run_contact(const ValidationOptions& options) {
     row.set("power_above_5hz_vertices", s.power_vertices);
     row.set("power_above_5hz_surface", s.power_surface);
     row.set("ratio", ratio);
-    row.set("mean_force_vertices_n", s.mean_vertices);
-    row.set("mean_force_surface_n", s.mean_surface);
+    row.set("mean_force_vertices_N", s.mean_vertices);
+    row.set("mean_force_surface_N", s.mean_surface);
     slides.push(std::move(row));
     passed = passed && ratio >= kMinRatio;
     worst = std::max(worst, kMinRatio / std::max(ratio, 1e-300));

@@ -95,7 +95,7 @@ ValidationResult run_coupling(const ValidationOptions& options) {
         row.set("recording", name);
         row.set("virtual_iterations", k);
         row.set("k_s", k_s_name);
-        row.set("k_s_n_per_m", k_s);
+        row.set("k_s_N_per_m", k_s);
         row.set("in_envelope", in_envelope);
         row.set("completed", error.empty());
         row.set("error", error);

@@ -160,8 +160,8 @@ HertzCurve hertz_curve(double k_det) {
     worst = std::max(worst, err);
     Json point = Json::object();
     point.set("indentation_m", delta);
-    point.set("force_n", force);
-    point.set("hertz_n", hertz);
+    point.set("force_N", force);
+    point.set("hertz_N", hertz);
     point.set("relative_error", err);
     point.set("contact_nodes", contacts);
     point.set("outer_iterations", outer);
@@ -171,10 +171,10 @@ HertzCurve hertz_curve(double k_det) {
   }
   HertzCurve c;
   c.worst = worst;
-  c.data.set("k_vol_pa", k_vol);
-  c.data.set("k_det_pa", k_det);
+  c.data.set("k_vol_Pa", k_vol);
+  c.data.set("k_det_Pa", k_det);
   c.data.set("poisson_ratio", nu);
-  c.data.set("effective_modulus_pa", E_star);
+  c.data.set("effective_modulus_Pa", E_star);
   c.data.set("relative_error", worst);
   c.data.set("tets", model.num_tets);
   c.data.set("surface_nodes", m);
@@ -189,7 +189,7 @@ ValidationResult run_hertz() {
   r.name = "hertz";
   r.data = Json::object();
   r.data.set("sphere_radius_m", kSphereRadius);
-  r.data.set("k_svc_n_per_m", kSvc);
+  r.data.set("k_svc_N_per_m", kSvc);
   r.data.set("block_m", Json::array_of(std::vector<double>{0.060, 0.060, 0.030}));
   // E_vol alone (nu = 0), then with E_det at k_det = 3 k_vol (nu = 3/7 = 0.43, near-incompressible
   // soft tissue's range): E* = 2 k_vol and 4.2 k_vol.

@@ -184,7 +184,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
             row.set("recovered_steps", o.recovered);
             row.set("error", o.error);
             row.set("max_penetration_m", o.penetration);
-            row.set("force_rms_vs_direct_n", rms);
+            row.set("force_rms_vs_direct_N", rms);
             rows.push(std::move(row));
           }
         }
@@ -205,7 +205,7 @@ ValidationResult run_stability(const ValidationOptions& options) {
   r.data.set("blowups", blowups);
   r.data.set("recovered_cases", recovered_cases);
   r.data.set("max_penetration_m", max_penetration);
-  r.data.set("max_force_rms_vs_direct_n", max_rms);
+  r.data.set("max_force_rms_vs_direct_N", max_rms);
   r.data.set("criterion", "no case non-finite or blown up (the replay's health checks)");
   r.data.set("cases_detail", rows);
   return r;

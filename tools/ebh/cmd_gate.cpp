@@ -85,7 +85,7 @@ void run_gate(const GateArgs& a) {
       std::fprintf(stderr, "ebh: warning: %s: %s\n", c.name.c_str(), escape_unprintable(w).c_str());
     all_passed = all_passed && r.passed;
     if (a.json) {
-      report.push(to_json(r));
+      report.push(to_json(r, c));  // after --update, c is the new baseline
     } else if (r.stopped) {
       std::printf("%-24s FAIL  stopped by the health checks\n", c.name.c_str());
       for (const auto& f : r.failures) std::printf("    %s\n", f.c_str());

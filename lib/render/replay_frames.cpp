@@ -20,10 +20,25 @@ std::string attr_or(const h5::File& f, const char* name) {
   }
 }
 
+/// Refuses a dataset whose `unit` attribute is not `si`, the unit `ebh replay` writes (or starts
+/// it: "m, 1 (...)"): positions rewritten in mm by another program would be drawn 1000 times too
+/// large and away from the tool, without a word. `si` is nullptr for indices and ratios. The rule
+/// is `ebh metrics`' (lib/metrics/replay_trace.cpp, si_unit): no unit attribute is taken as SI.
+void check_unit(const h5::Dataset& d, const char* si) {
+  if (si == nullptr || !d.has_attr("unit")) return;
+  const std::string given = d.attr_string("unit");
+  const std::string u = si;
+  if (given != u && given.rfind(u + ",", 0) != 0 && given.rfind(u + " (", 0) != 0)
+    throw InputError(d.where() + ": has unit '" + clipped(given) + "'; expected '" + u + "' (SI, docs/FORMATS.md)");
+}
+
 template <class T>
-h5::Array<T> read_checked(const h5::File& f, const std::string& name, const std::vector<std::ptrdiff_t>& shape) {
+h5::Array<T> read_checked(const h5::File& f, const std::string& name, const std::vector<std::ptrdiff_t>& shape,
+                          const char* si_unit) {
   if (!f.has(name)) throw InputError(f.file() + ": /" + name + ": missing");
-  return f.read<T>(name, shape);
+  const h5::Dataset d = f.dataset(name);
+  check_unit(d, si_unit);
+  return d.read<T>(shape);
 }
 
 template <std::size_t K>
@@ -89,23 +104,23 @@ ReplayFrames open_replay_frames(const std::string& path) {
   if (!f.has("frames"))
     throw InputError(path + ": /frames: no mesh snapshots in this file (replay with --frames-hz N)");
 
-  const auto rest = read_checked<float>(f, "mesh/virtual_rest", {-1, 3});
+  const auto rest = read_checked<float>(f, "mesh/virtual_rest", {-1, 3}, "m");
   r.virtual_rest.resize(rest.rows());
   for (std::size_t i = 0; i < r.virtual_rest.size(); ++i)
     r.virtual_rest[i] = {rest.data[3 * i], rest.data[3 * i + 1], rest.data[3 * i + 2]};
-  r.triangles = indices<3>(read_checked<std::int32_t>(f, "mesh/virtual_triangles", {-1, 3}), r.virtual_rest.size(),
+  r.triangles = indices<3>(read_checked<std::int32_t>(f, "mesh/virtual_triangles", {-1, 3}, nullptr), r.virtual_rest.size(),
                            path + ": /mesh/virtual_triangles");
-  const auto prest = read_checked<float>(f, "mesh/physical_rest", {-1, 3});
+  const auto prest = read_checked<float>(f, "mesh/physical_rest", {-1, 3}, "m");
   r.physical_vertices = prest.rows();
-  r.physical_tets = indices<4>(read_checked<std::int32_t>(f, "mesh/physical_tets", {-1, 4}), r.physical_vertices,
+  r.physical_tets = indices<4>(read_checked<std::int32_t>(f, "mesh/physical_tets", {-1, 4}, nullptr), r.physical_vertices,
                                path + ": /mesh/physical_tets").size();
 
-  r.t = read_checked<double>(f, "frames/t", {-1}).data;
+  r.t = read_checked<double>(f, "frames/t", {-1}, "s").data;
   const std::size_t F = r.t.size();
   if (F == 0) throw InputError(path + ": /frames/t: no frames (the replay ended before the first snapshot)");
   const auto F_ = static_cast<std::ptrdiff_t>(F);
-  r.jaw = read_checked<double>(f, "frames/jaw", {F_}).data;
-  const auto poses = read_checked<double>(f, "frames/tool_poses", {F_, 2, 7});
+  r.jaw = read_checked<double>(f, "frames/jaw", {F_}, nullptr).data;
+  const auto poses = read_checked<double>(f, "frames/tool_poses", {F_, 2, 7}, "m");
   r.poses.resize(F);
   for (std::size_t i = 0; i < F; ++i) r.poses[i] = {pose_of(&poses.data[14 * i]), pose_of(&poses.data[14 * i + 7])};
   const auto m = static_cast<std::ptrdiff_t>(r.virtual_rest.size()), n = static_cast<std::ptrdiff_t>(r.physical_vertices);
@@ -113,6 +128,7 @@ ReplayFrames open_replay_frames(const std::string& path) {
   for (const auto& [name, rows] : {std::pair{"frames/virtual_positions", m}, std::pair{"frames/physical_positions", n}}) {
     if (!f.has(name)) throw InputError(path + ": /" + name + ": missing");
     const h5::Dataset d = f.dataset(name);
+    check_unit(d, "m");
     d.require_stored(sizeof(float));  // read frame by frame below
     const auto s = d.shape();
     if (s.size() != 3 || s[0] != F || s[1] != static_cast<std::size_t>(rows) || s[2] != 3)

@@ -55,7 +55,8 @@ struct ReplayFrames {
   void read_virtual_positions(std::size_t f, std::vector<Vec3f>& out) const;
 };
 
-/// Opens a replay output and checks every dataset above (shape, index range, at least one frame).
+/// Opens a replay output and checks every dataset above (shape, index range, at least one frame,
+/// the SI unit of each length and time where a `unit` attribute gives one).
 /// Throws InputError "FILE: /frames: ..." for a file without snapshots, "FILE: /mesh/...: ..."
 /// for a bad topology.
 ReplayFrames open_replay_frames(const std::string& path);

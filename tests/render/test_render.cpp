@@ -63,6 +63,7 @@ struct SyntheticOptions {
   std::optional<std::string> scene_yaml;                  // the root attribute, when given
   std::optional<double> virtual_s;                        // the root attribute (the window replayed), when given
   std::optional<std::string> scene_file_sha256;           // the root attribute, when given
+  std::string unit = "m";  // the `unit` attribute of /frames/virtual_positions and /frames/physical_positions
 };
 
 void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
@@ -117,8 +118,8 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
   fr.write<double>("t", t, {F});
   fr.write<double>("jaw", jaw, {F});
   fr.write<double>("tool_poses", poses, {F, 2, 7});
-  fr.write<float>("virtual_positions", q, {F, m, 3});
-  fr.write<float>("physical_positions", x, {F, m + 1, 3});
+  fr.write<float>("virtual_positions", q, {F, m, 3}).set_attr("unit", o.unit);
+  fr.write<float>("physical_positions", x, {F, m + 1, 3}).set_attr("unit", o.unit);
 }
 
 std::string read_file(const std::string& p) {
@@ -209,6 +210,33 @@ TEST(ReplayFrames, TriangleIndexOutOfRangeNamesTheDataset) {
               std::string::npos)
         << e.what();
   }
+}
+
+/// The InputError `open_replay_frames(path)` throws ("" when it opens).
+std::string open_error(const std::string& path) {
+  try {
+    open_replay_frames(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Positions rewritten in mm by another program (`unit = mm`) were drawn 1000 times too large, the
+// tissue far out of view, without a word; a unit other than the SI one `ebh replay` writes is
+// refused, as `ebh metrics` refuses it, and a render of such a file writes nothing.
+TEST(ReplayFrames, PositionsInAnotherUnitAreRefused) {
+  Scratch s;
+  SyntheticOptions o;
+  o.unit = "mm";
+  write_synthetic(s / "mm.h5", o);
+  EXPECT_EQ(open_error(s / "mm.h5"),
+            s / "mm.h5" + ": /frames/virtual_positions: has unit 'mm'; expected 'm' (SI, docs/FORMATS.md)");
+  EXPECT_THROW(render_replay(s / "mm.h5", s / "out", small_frames()), InputError);
+  EXPECT_FALSE(fs::exists(s / "out"));
+  o.unit = "m";
+  write_synthetic(s / "m.h5", o);
+  EXPECT_EQ(open_error(s / "m.h5"), "");
 }
 
 TEST(ReplayFrames, NotAnHdf5FileIsAnInputError) {

@@ -12,6 +12,7 @@ Needs Debian's python3-matplotlib, python3-h5py and python3-numpy (scripts/setup
 them); when `python3` on PATH is another interpreter, run it as /usr/bin/python3.
 """
 import argparse
+import math
 import os
 import sys
 import tempfile
@@ -146,6 +147,10 @@ def main(argv=None):
     labels = a.labels or [os.path.basename(r) for r in a.replays]
     if len(labels) != len(a.replays):
         p.error(f"--labels gives {len(labels)} labels for {len(a.replays)} replays")
+    for name, v in (("--t0", a.t0), ("--t1", a.t1)):
+        if v is not None and not math.isfinite(v):
+            print(f"plot_forces.py: error: {name} {v}: expected a finite time in s", file=sys.stderr)
+            return 1
     if a.t0 is not None and a.t1 is not None and a.t1 <= a.t0:
         p.error("--t1 must be after --t0")
     try:

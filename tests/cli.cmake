@@ -172,7 +172,13 @@ if(EBH_SYSTEM_PYTHON3)
       COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_SYSTEM_PYTHON3};${PROJECT_SOURCE_DIR}/scripts/plot_forces.py;${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5;-o;${PROJECT_BINARY_DIR}/rec.png"
         "-DEXPECT=^plot_forces.py: error: .*tube_insert.h5: a device recording \\(/trajectory\\), not a replay output" -DSTATUS=1
         -DOUTPUT=${PROJECT_BINARY_DIR}/rec.png -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-    set_tests_properties(cli.plot_forces_over_its_input cli.plot_forces_no_folder cli.plot_forces_recording PROPERTIES
+    # A time that is no number (--t0 nan) is named, not "no ticks between --t0 and --t1".
+    add_test(NAME cli.plot_forces_nan_time
+      COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_SYSTEM_PYTHON3};${PROJECT_SOURCE_DIR}/scripts/plot_forces.py;${EBH_METRICS_DATA}/press.h5;-o;${PROJECT_BINARY_DIR}/nan.png;--t0;nan"
+        "-DEXPECT=^plot_forces.py: error: --t0 nan: expected a finite time in s" -DSTATUS=1
+        -DOUTPUT=${PROJECT_BINARY_DIR}/nan.png -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+    set_tests_properties(cli.plot_forces_over_its_input cli.plot_forces_no_folder cli.plot_forces_recording
+      cli.plot_forces_nan_time PROPERTIES
       LABELS cli)
   endif()
 endif()

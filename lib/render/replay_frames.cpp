@@ -110,6 +110,8 @@ ReplayFrames open_replay_frames(const std::string& path) {
     r.virtual_rest[i] = {rest.data[3 * i], rest.data[3 * i + 1], rest.data[3 * i + 2]};
   r.triangles = indices<3>(read_checked<std::int32_t>(f, "mesh/virtual_triangles", {-1, 3}, nullptr), r.virtual_rest.size(),
                            path + ": /mesh/virtual_triangles");
+  // An empty surface would render the tools alone, as if the tissue were out of view.
+  if (r.triangles.empty()) throw InputError(path + ": /mesh/virtual_triangles: no triangles: the virtual mesh has no surface to draw");
   const auto prest = read_checked<float>(f, "mesh/physical_rest", {-1, 3}, "m");
   r.physical_vertices = prest.rows();
   r.physical_tets = indices<4>(read_checked<std::int32_t>(f, "mesh/physical_tets", {-1, 4}, nullptr), r.physical_vertices,
@@ -118,6 +120,16 @@ ReplayFrames open_replay_frames(const std::string& path) {
   r.t = read_checked<double>(f, "frames/t", {-1}, "s").data;
   const std::size_t F = r.t.size();
   if (F == 0) throw InputError(path + ": /frames/t: no frames (the replay ended before the first snapshot)");
+  // The frames are drawn in file order and titled with their time, which the time bar and a
+  // video's rate read: a NaN or a step back is a file edited or written by another program (as
+  // `ebh metrics` refuses a /haptic/t that does not increase).
+  for (std::size_t i = 0; i < F; ++i) {
+    if (!std::isfinite(r.t[i]))
+      throw InputError(path + ": /frames/t: " + std::to_string(r.t[i]) + " at index " + std::to_string(i) +
+                       ": expected finite times");
+    if (i > 0 && !(r.t[i] > r.t[i - 1]))
+      throw InputError(path + ": /frames/t: is not strictly increasing at index " + std::to_string(i));
+  }
   const auto F_ = static_cast<std::ptrdiff_t>(F);
   r.jaw = read_checked<double>(f, "frames/jaw", {F_}, nullptr).data;
   const auto poses = read_checked<double>(f, "frames/tool_poses", {F_, 2, 7}, "m");

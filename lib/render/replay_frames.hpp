@@ -56,7 +56,8 @@ struct ReplayFrames {
 };
 
 /// Opens a replay output and checks every dataset above (shape, index range, at least one frame,
-/// the SI unit of each length and time where a `unit` attribute gives one).
+/// the SI unit of each length and time where a `unit` attribute gives one, finite and strictly
+/// increasing frame times, at least one triangle).
 /// Throws InputError "FILE: /frames: ..." for a file without snapshots, "FILE: /mesh/...: ..."
 /// for a bad topology.
 ReplayFrames open_replay_frames(const std::string& path);

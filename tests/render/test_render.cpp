@@ -63,6 +63,8 @@ struct SyntheticOptions {
   std::optional<std::string> scene_yaml;                  // the root attribute, when given
   std::optional<double> virtual_s;                        // the root attribute (the window replayed), when given
   std::optional<std::string> scene_file_sha256;           // the root attribute, when given
+  std::vector<double> t = {0.0, 0.1, 0.2};  // /frames/t
+  bool triangles = true;                    // false: /mesh/virtual_triangles of shape (0, 3)
   std::string unit = "m";  // the `unit` attribute of /frames/virtual_positions and /frames/physical_positions
 };
 
@@ -88,6 +90,7 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
       tris.insert(tris.end(), {a, b, d, a, d, c});
     }
   if (o.bad_triangle >= 0) tris[0] = o.bad_triangle;
+  if (!o.triangles) tris.clear();
   const std::size_t m = rest.size() / 3;
   h5::Group mesh = f.create_group("mesh");
   mesh.write<double>("virtual_rest", rest, {m, 3});
@@ -102,7 +105,7 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
   if (!o.frames) return;
 
   const std::size_t F = 3;
-  std::vector<double> t = {0.0, 0.1, 0.2}, jaw = {1.0, 1.0, 1.0}, poses;
+  std::vector<double> t = o.t, jaw = {1.0, 1.0, 1.0}, poses;
   std::vector<float> q, x;
   for (std::size_t k = 0; k < F; ++k) {
     const Vec3d down = k == 0 ? Vec3d{} : kLower;
@@ -237,6 +240,29 @@ TEST(ReplayFrames, PositionsInAnotherUnitAreRefused) {
   o.unit = "m";
   write_synthetic(s / "m.h5", o);
   EXPECT_EQ(open_error(s / "m.h5"), "");
+}
+
+// Frame times running backwards or holding NaN were drawn in file order (a PNG titled `t = nan
+// s`); an empty triangle list drew the tools alone. Each is refused naming the dataset.
+TEST(ReplayFrames, TimesThatDoNotIncreaseAndAnEmptySurfaceAreRefused) {
+  Scratch s;
+  SyntheticOptions o;
+  o.t = {0.0, 0.2, 0.1};
+  write_synthetic(s / "back.h5", o);
+  EXPECT_EQ(open_error(s / "back.h5"), s / "back.h5" + ": /frames/t: is not strictly increasing at index 2");
+  o.t = {0.0, 0.1, 0.1};
+  write_synthetic(s / "same.h5", o);
+  EXPECT_EQ(open_error(s / "same.h5"), s / "same.h5" + ": /frames/t: is not strictly increasing at index 2");
+  o.t = {0.0, std::nan(""), 0.2};
+  write_synthetic(s / "nan.h5", o);
+  EXPECT_EQ(open_error(s / "nan.h5"), s / "nan.h5" + ": /frames/t: nan at index 1: expected finite times");
+  EXPECT_THROW(render_replay(s / "nan.h5", s / "out", small_frames()), InputError);
+  EXPECT_FALSE(fs::exists(s / "out"));
+  o = {};
+  o.triangles = false;
+  write_synthetic(s / "empty.h5", o);
+  EXPECT_EQ(open_error(s / "empty.h5"),
+            s / "empty.h5" + ": /mesh/virtual_triangles: no triangles: the virtual mesh has no surface to draw");
 }
 
 TEST(ReplayFrames, NotAnHdf5FileIsAnInputError) {

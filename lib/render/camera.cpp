@@ -97,8 +97,15 @@ ViewCamera scene_camera(const Camera& c, const Bounds& b) {
 
 std::array<double, 16> view_matrix(const ViewCamera& c) {
   const Vec3d f = normalized(c.target - c.eye);
-  Vec3d s = normalized(cross(f, c.up));
-  if (norm(s) == 0.0) s = normalized(cross(f, std::abs(f.z) < 0.9 ? Vec3d{0, 0, 1} : Vec3d{0, 1, 0}));
+  // An `up` along the view direction leaves the image's roll undefined: the fallback up (world z,
+  // or y for a view along z) is taken when the sine of their angle is under 1e-9. Round-off alone
+  // (an up given parallel in decimal, [0, 76, -45.7] for eye - target = (0, -76, 45.7) mm) leaves
+  // a sine of ~1e-16 times |eye| / |eye - target|, under 1e-12 for any scene camera, whose cross
+  // product points anywhere (an upside-down image); 1e-9 rad is no tilt anyone means.
+  const Vec3d side = cross(f, c.up);
+  Vec3d s = normalized(side);
+  if (!(norm(side) > 1e-9 * norm(c.up)))
+    s = normalized(cross(f, std::abs(f.z) < 0.9 ? Vec3d{0, 0, 1} : Vec3d{0, 1, 0}));
   const Vec3d u = cross(s, f);
   // Rows s, u, -f; translation -R eye (gluLookAt).
   return {s.x, u.x, -f.x, 0, s.y, u.y, -f.y, 0, s.z, u.z, -f.z, 0,

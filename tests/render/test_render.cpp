@@ -394,6 +394,24 @@ TEST(Camera, MissingSceneFallsBackToTheBoundingBoxWithAWarning) {
   EXPECT_THROW(choose_camera("fisheye", scene, b, 1.0, source), InputError);
 }
 
+// An `up` parallel to the view direction in decimal ([0, 76, -45.7] mm for a view along (0, 76,
+// -45.7) mm) differs from it by round-off only: its cross product with the view direction, of
+// round-off size, was normalised into an arbitrary side and the image came out upside down. It takes the
+// fallback up (world z) as an up along the view exactly does.
+TEST(Camera, AnUpAlongTheViewUpToRoundOffTakesTheFallback) {
+  ViewCamera along;
+  along.eye = Vec3d{1500, -1276, 855.7} * 1e-3;  // a scene camera in mm, read into metres
+  along.target = Vec3d{1500, -1200, 810} * 1e-3;
+  along.up = normalized(Vec3d{0, 76, -45.7});
+  ASSERT_LT(norm(cross(normalized(along.target - along.eye), along.up)), 1e-12);  // parallel but for round-off
+  ViewCamera upright = along;
+  upright.up = {0, 0, 1};
+  const auto a = view_matrix(along), b = view_matrix(upright);
+  // Each entry is a unit vector's component or a dot with the eye (|eye| < 2.3 m): 1e-12 is a
+  // few hundred double ulps of either.
+  for (int i = 0; i < 16; ++i) EXPECT_NEAR(a[i], b[i], 1e-12) << i;
+}
+
 TEST(Camera, PresetsLookAtTheCentreFromTheirSide) {
   Bounds b{{-1, -2, -3}, {3, 2, 1}};
   const Vec3d c = b.centre();

@@ -27,6 +27,15 @@ struct OffscreenRenderer::Impl {
   int width = 0, height = 0, ss = 1;
   OSMesaContext ctx = nullptr;
   std::vector<GLubyte> buffer;  // RGBA, row 0 at the bottom (OSMesa's default)
+  // The occlusion query (GL 1.5) that counts the tissue's fragments, from OSMesa by name (gl.h
+  // declares GL 1.3 only); null where the context has none.
+  PFNGLGENQUERIESPROC gen_queries = nullptr;
+  PFNGLDELETEQUERIESPROC delete_queries = nullptr;
+  PFNGLBEGINQUERYPROC begin_query = nullptr;
+  PFNGLENDQUERYPROC end_query = nullptr;
+  PFNGLGETQUERYOBJECTUIVPROC query_result = nullptr;
+  GLuint query = 0;
+  bool tissue_drawn = true;
 };
 
 namespace {
@@ -60,11 +69,21 @@ OffscreenRenderer::OffscreenRenderer(int width, int height, int supersample) : i
     OSMesaDestroyContext(m.ctx);
     throw InputError("OSMesa could not make a " + std::to_string(W) + "x" + std::to_string(H) + " buffer current");
   }
+  m.gen_queries = reinterpret_cast<PFNGLGENQUERIESPROC>(OSMesaGetProcAddress("glGenQueries"));
+  m.delete_queries = reinterpret_cast<PFNGLDELETEQUERIESPROC>(OSMesaGetProcAddress("glDeleteQueries"));
+  m.begin_query = reinterpret_cast<PFNGLBEGINQUERYPROC>(OSMesaGetProcAddress("glBeginQuery"));
+  m.end_query = reinterpret_cast<PFNGLENDQUERYPROC>(OSMesaGetProcAddress("glEndQuery"));
+  m.query_result = reinterpret_cast<PFNGLGETQUERYOBJECTUIVPROC>(OSMesaGetProcAddress("glGetQueryObjectuiv"));
+  if (m.gen_queries && m.delete_queries && m.begin_query && m.end_query && m.query_result) m.gen_queries(1, &m.query);
 }
 
 OffscreenRenderer::~OffscreenRenderer() {
-  if (impl_ && impl_->ctx) OSMesaDestroyContext(impl_->ctx);
+  if (!impl_ || !impl_->ctx) return;
+  if (impl_->query != 0) impl_->delete_queries(1, &impl_->query);
+  OSMesaDestroyContext(impl_->ctx);
 }
+
+bool OffscreenRenderer::tissue_drawn() const { return impl_->tissue_drawn; }
 
 namespace {
 
@@ -142,6 +161,7 @@ Image OffscreenRenderer::render(const FrameGeometry& g, const ViewCamera& camera
 
   // 1. The tissue (virtual mesh), opaque, both sides.
   glDisable(GL_CULL_FACE);
+  if (m.query != 0) m.begin_query(GL_SAMPLES_PASSED, m.query);
   if (g.tissue && g.triangles && !g.triangles->empty()) {
     glVertexPointer(3, GL_FLOAT, 0, g.tissue->data());
     glNormalPointer(GL_FLOAT, 0, g.tissue_normals->data());
@@ -155,6 +175,7 @@ Image OffscreenRenderer::render(const FrameGeometry& g, const ViewCamera& camera
     glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(3 * g.triangles->size()), GL_UNSIGNED_INT, g.triangles->data());
     glDisableClientState(GL_COLOR_ARRAY);
   }
+  if (m.query != 0) m.end_query(GL_SAMPLES_PASSED);
 
   // 2. The virtual tool, opaque grey where it is in view; where the tissue hides it (inside the
   //    tube's bore, under a fold) a faint grey ghost. Tool meshes are closed with outward faces:
@@ -189,6 +210,11 @@ Image OffscreenRenderer::render(const FrameGeometry& g, const ViewCamera& camera
   glDisableClientState(GL_VERTEX_ARRAY);
   glDisableClientState(GL_NORMAL_ARRAY);
   glFinish();
+  if (m.query != 0) {
+    GLuint samples = 0;
+    m.query_result(m.query, GL_QUERY_RESULT, &samples);
+    m.tissue_drawn = samples > 0;
+  }
 
   // OSMesa's row 0 is the bottom row; an Image's is the top.
   Image big(W, H);
@@ -213,6 +239,7 @@ OffscreenRenderer::~OffscreenRenderer() = default;
 Image OffscreenRenderer::render(const FrameGeometry&, const ViewCamera&, const RenderStyle&) {
   throw InputError(kNoOsmesa);
 }
+bool OffscreenRenderer::tissue_drawn() const { return true; }
 
 #endif
 

@@ -55,6 +55,11 @@ class OffscreenRenderer {
   /// the same pixels).
   Image render(const FrameGeometry& g, const ViewCamera& camera, const RenderStyle& style);
 
+  /// Whether the last render() drew a tissue pixel (an occlusion query around the tissue, drawn
+  /// first: any of its fragments that passed the depth test). False when the camera sees none of
+  /// the virtual mesh; true where the GL offers no occlusion query.
+  bool tissue_drawn() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -401,7 +401,7 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
 
   const RenderStyle style;
   std::vector<std::array<int, 3>> kept;
-  std::size_t broken_frames = 0;
+  std::size_t broken_frames = 0, blank_frames = 0;  // frames with non-finite positions; frames showing no tissue
   // The bar shows a frame's time in the replayed window (t / t_end), not in the frames' span: one
   // frame at t = 0 of a 2 s replay is at its start, not its end.
   const double t0 = frames.t.front();
@@ -432,6 +432,7 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     g.virtual_tool = &virtual_mesh;
     g.physical_tool = &physical_mesh;
     Image img = renderer->render(g, summary.camera, style);
+    blank_frames += !renderer->tissue_drawn();
     if (by_disp) draw_legend(img);
     if (opt.time_bar) draw_time_bar(img, t1 > t0 ? (frames.t[f] - t0) / (t1 - t0) : 1.0);
 
@@ -460,6 +461,12 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     summary.warnings.push_back(replay + ": " + std::to_string(broken_frames) +
                                " frames have non-finite virtual-mesh positions (the simulation blew up); their "
                                "triangles were left out");
+  // The frames are what was asked, but a camera that sees none of the tissue (looking away, too
+  // far, too close, a near plane past the mesh) is most likely a mistake: said once, not per frame.
+  if (blank_frames > 0)
+    summary.warnings.push_back(replay + ": " + std::to_string(blank_frames) + " of " + std::to_string(chosen.size()) +
+                               " frames show no tissue: the camera (" + summary.camera_source +
+                               ") sees none of the virtual mesh; check camera.eye, camera.target and camera.fov_deg");
   if (!opt.video.empty()) {
     run_ffmpeg(dir, opt.video, frame_rate(frames, opt.every));
     summary.video = opt.video;

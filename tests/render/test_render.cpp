@@ -597,6 +597,27 @@ TEST(Render, SizeAndCameraAreHonoured) {
   EXPECT_THROW(render_replay(s / "r.h5", s / "bad", o), InputError);
 }
 
+// A scene camera that sees none of the tissue (here looking away from it) rendered background-only
+// frames without a word; the frames are still written, and one warning counts them and says what
+// to check. A camera that sees the tissue gives no such warning.
+TEST(Render, FramesThatShowNoTissueAreCountedInAWarning) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  SyntheticOptions o;
+  const std::string cube = std::string(EBH_TEST_DATA_DIR) + "/scene/cube.yaml";
+  o.scene_yaml = resolved_scene_yaml(load_scene_spec(cube, {"camera.target=[0, -200, 50]"}));  // eye (0, -100, 50) mm
+  write_synthetic(s / "away.h5", o);
+  const RenderSummary away = render_replay(s / "away.h5", s / "away", small_frames());
+  EXPECT_EQ(away.files.size(), 3u);
+  ASSERT_EQ(away.warnings.size(), 1u);
+  EXPECT_EQ(away.warnings[0], s / "away.h5" + ": 3 of 3 frames show no tissue: the camera (scene " + s / "away.h5" +
+                                  ":scene_yaml) sees none of the virtual mesh; check camera.eye, camera.target and "
+                                  "camera.fov_deg");
+  o.scene_yaml = resolved_scene_yaml(load_scene_spec(cube));  // looking at the patch
+  write_synthetic(s / "seen.h5", o);
+  EXPECT_TRUE(render_replay(s / "seen.h5", s / "seen", small_frames()).warnings.empty());
+}
+
 TEST(Render, IsDeterministic) {
   REQUIRE_OSMESA();
   Scratch s;

@@ -388,6 +388,18 @@ if(EBH_HAVE_OSMESA)
   set_tests_properties(cli.render.top_displacement PROPERTIES PASS_REGULAR_EXPRESSION
     "top: 3 frames, 160x120, camera: preset top\n  tissue colour = displacement from rest: 0 mm"
     FIXTURES_REQUIRED render_tube LABELS "cli;render")
+  # The colour range printed with %.3f gave a 300-digit number for 1e300 mm and 0.000 mm for 1e-9
+  # mm: three significant digits, as the PNG's Comment states it.
+  foreach(range 1e300 1e-9)
+    add_test(NAME cli.render.colour_range_${range}
+      COMMAND ${EBH_BIN} render ${EBH_RENDER_OUT}/tube.h5 -o ${EBH_RENDER_OUT}/range_${range} --size 32x24 --every 50
+        --color-by displacement --max-displacement-mm ${range})
+    set_tests_properties(cli.render.colour_range_${range} PROPERTIES FIXTURES_REQUIRED render_tube LABELS "cli;render")
+  endforeach()
+  set_tests_properties(cli.render.colour_range_1e300 PROPERTIES PASS_REGULAR_EXPRESSION
+    "\\.\\. 1e\\+300 mm \\(red, top\\)\n")
+  set_tests_properties(cli.render.colour_range_1e-9 PROPERTIES PASS_REGULAR_EXPRESSION
+    "\\.\\. 1e-09 mm \\(red, top\\)\n")
   add_test(NAME cli.render.bad_camera
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/bad;--camera;fisheye"
       "-DEXPECT=^ebh: error: --camera: expected scene, top, front, side or iso, got 'fisheye'" -P ${EBH_EXPECT_ERROR})

@@ -33,12 +33,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string fmt_mm(double metres) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.3g mm", 1e3 * metres);
-  return buf;
-}
-
 /// Drops triangles with a non-finite vertex (a blown-up run), so they cannot smear across the
 /// image. Returns how many were dropped.
 std::size_t finite_triangles(const std::vector<Vec3f>& q, const std::vector<std::array<int, 3>>& all,
@@ -214,6 +208,12 @@ void check_frame_names(const fs::path& dir) {
 }
 
 }  // namespace
+
+std::string format_mm(double metres) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.3g mm", 1e3 * metres);
+  return buf;
+}
 
 std::string find_on_path(const std::string& program) {
   const char* path = std::getenv("PATH");
@@ -444,7 +444,7 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
                                                              {"Software", std::string("ebh ") + kVersion}};
     if (by_disp)
       text.push_back({"Comment", "tissue colour = displacement from rest, 0 (blue, bottom of the bar) to " +
-                                     fmt_mm(summary.displacement_range) + " (red, top)"});
+                                     format_mm(summary.displacement_range) + " (red, top)"});
     try {
       write_png((fresh / name).string(), img, text);
     } catch (const InputError& e) {  // named by the frame's final name, not the hidden folder's

@@ -70,6 +70,10 @@ void check_frames_folder(const std::string& dir);
 RenderSummary render_replay(const std::string& replay, const std::string& dir, const RenderOptions& opt,
                             OffscreenRenderer* renderer = nullptr);
 
+/// A length in metres as millimetres to three significant digits ("1.52 mm", "1e+300 mm",
+/// "1e-09 mm"): the colour range in a PNG's Comment and on `ebh render`'s stdout.
+std::string format_mm(double metres);
+
 /// Where ffmpeg is on the PATH ("" if it is not).
 std::string find_on_path(const std::string& program);
 

@@ -74,8 +74,8 @@ void run(RenderArgs& a, const CLI::App& c) {
   std::printf("%s: %zu frames, %dx%d, camera: %s\n", a.dir.c_str(), s.files.size(), a.opt.width, a.opt.height,
               s.camera_source.c_str());
   if (a.opt.color_by == ebh::ColorBy::Displacement)
-    std::printf("  tissue colour = displacement from rest: 0 mm (blue, bottom of the bar) .. %.3f mm (red, top)\n",
-                1e3 * s.displacement_range);
+    std::printf("  tissue colour = displacement from rest: 0 mm (blue, bottom of the bar) .. %s (red, top)\n",
+                ebh::format_mm(s.displacement_range).c_str());
   if (!s.video.empty()) std::printf("  video %s\n", s.video.c_str());
 }
 

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -309,6 +310,14 @@ std::unique_ptr<OffscreenRenderer> start_renderer(const RenderOptions& opt) {
   if (opt.supersample < 1 || opt.supersample > 4) throw InputError("--supersample: expected 1..4");
   if (!(opt.max_displacement >= 0) || !std::isfinite(opt.max_displacement))
     throw InputError("--max-displacement: expected a non-negative length");
+  // ffmpeg is told to write MP4 (-f mp4): a video named otherwise (.avi, .mkv) would be an MP4
+  // under another container's name.
+  if (!opt.video.empty()) {
+    std::string ext = fs::path(opt.video).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".mp4")
+      throw InputError("--video " + opt.video + ": the video is written as MP4 (H.264); name it FILE.mp4");
+  }
   if (!opt.video.empty() && find_on_path("ffmpeg").empty())  // before any work
     throw InputError("--video " + opt.video + ": ffmpeg was not found on the PATH (install ffmpeg)");
   if (!have_osmesa()) throw InputError(kNoOsmesa);

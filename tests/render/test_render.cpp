@@ -751,6 +751,23 @@ TEST(Render, AFolderNamedLikeAFrameIsRefusedAndKept) {
   EXPECT_EQ(slurp_file(s / "out/frame_00099.png"), "old");
 }
 
+// `--video vid.avi` wrote an MP4 under an .avi name (ffmpeg is told -f mp4): another extension is
+// refused before anything is rendered, with or without ffmpeg.
+TEST(Render, AVideoNotNamedMp4IsRefused) {
+  Scratch s;
+  write_synthetic(s / "r.h5");
+  RenderOptions o = small_frames();
+  o.video = s / "vid.avi";
+  try {
+    render_replay(s / "r.h5", s / "out", o);
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "--video " + s / "vid.avi" + ": the video is written as MP4 (H.264); name it FILE.mp4");
+  }
+  EXPECT_FALSE(fs::exists(s / "out"));
+  EXPECT_FALSE(fs::exists(s / "vid.avi"));
+}
+
 TEST(Render, VideoWithoutFfmpegIsAClearError) {
   Scratch s;
   write_synthetic(s / "r.h5");

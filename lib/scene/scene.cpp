@@ -488,7 +488,8 @@ class SpecReader {
     if (auto it = e.find("target"); it != e.end()) c.target = vec3(it->second, "camera.target") * unit_;
     if (auto it = e.find("up"); it != e.end()) c.up = normalized(nonzero_vec3(it->second, "camera.up"));
     if (auto it = e.find("fov_deg"); it != e.end()) c.fov_deg = in_range(it->second, "camera.fov_deg", 0, false, 180, false);
-    if (!(norm(c.eye - c.target) > 0)) fail("camera.target", "expected a target different from the eye");
+    if (!(norm(c.eye - c.target) > 0))
+      fail("camera.target", "camera.eye and camera.target are the same point: the camera looks nowhere", {"camera.eye"});
   }
 
   fs::path file_;

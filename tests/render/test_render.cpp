@@ -412,6 +412,23 @@ TEST(Camera, AnUpAlongTheViewUpToRoundOffTakesTheFallback) {
   for (int i = 0; i < 16; ++i) EXPECT_NEAR(a[i], b[i], 1e-12) << i;
 }
 
+// An eye at the target is named by the override that put it there, whichever of the two it set:
+// `--set camera.eye=...` was reported as the scene file's camera.target.
+TEST(Camera, AnEyeAtTheTargetNamesTheOverrideThatPutItThere) {
+  const std::string cube = std::string(EBH_TEST_DATA_DIR) + "/scene/cube.yaml";  // eye (0, -100, 50), target (5, 5, 5) mm
+  auto error_of = [&](const std::string& override_text) -> std::string {
+    try {
+      load_scene_spec(cube, {override_text});
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string same = "camera.eye and camera.target are the same point: the camera looks nowhere";
+  EXPECT_EQ(error_of("camera.eye=[5, 5, 5]"), "--set 'camera.eye=[5, 5, 5]': key 'camera.eye': " + same);
+  EXPECT_EQ(error_of("camera.target=[0, -100, 50]"), "--set 'camera.target=[0, -100, 50]': key 'camera.target': " + same);
+}
+
 TEST(Camera, PresetsLookAtTheCentreFromTheirSide) {
   Bounds b{{-1, -2, -3}, {3, 2, 1}};
   const Vec3d c = b.centre();

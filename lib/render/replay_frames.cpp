@@ -101,6 +101,11 @@ ReplayFrames open_replay_frames(const std::string& path) {
       r.shaft_radius = 0.0;
     }
   }
+  // A device recording given where a replay output belongs: said as `ebh metrics` says it, not
+  // which group it lacks.
+  if (!f.has("frames") && !f.has("haptic") && f.has("trajectory"))
+    throw InputError(path + ": a device recording (/trajectory), not a replay output (/frames): replay it first, with "
+                            "mesh snapshots (ebh replay SCENE " + path + " -o OUT.h5 --frames-hz N)");
   if (!f.has("frames"))
     throw InputError(path + ": /frames: no mesh snapshots in this file (replay with --frames-hz N)");
 

@@ -149,6 +149,16 @@ RenderOptions small_frames() {
 #define REQUIRE_OSMESA() \
   if (!have_osmesa()) GTEST_SKIP() << kNoOsmesa
 
+/// The InputError `open_replay_frames(path)` throws ("" when it opens).
+std::string open_error(const std::string& path) {
+  try {
+    open_replay_frames(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
 // ---------------------------------------------------------------------------------------------
 // Without OSMesa: reading, cameras, tessellation, XDMF
 
@@ -200,6 +210,23 @@ TEST(ReplayFrames, FileWithoutFramesIsAnInputError) {
   EXPECT_FALSE(fs::exists(s / "noframes.xdmf"));
 }
 
+// A device recording was said to be a replay without snapshots ("replay with --frames-hz"): it is
+// named a recording, as `ebh metrics` names it, by render and by --xdmf-only.
+TEST(ReplayFrames, ARecordingIsSaidToBeOne) {
+  Scratch s;
+  h5::File::create(s / "rec.h5").create_group("trajectory");
+  const std::string said = s / "rec.h5" + ": a device recording (/trajectory), not a replay output (/frames): replay it "
+                                          "first, with mesh snapshots (ebh replay SCENE " + s / "rec.h5" +
+                           " -o OUT.h5 --frames-hz N)";
+  EXPECT_EQ(open_error(s / "rec.h5"), said);
+  try {
+    write_xdmf(s / "rec.h5");
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), said);
+  }
+}
+
 TEST(ReplayFrames, TriangleIndexOutOfRangeNamesTheDataset) {
   Scratch s;
   SyntheticOptions o;
@@ -213,16 +240,6 @@ TEST(ReplayFrames, TriangleIndexOutOfRangeNamesTheDataset) {
               std::string::npos)
         << e.what();
   }
-}
-
-/// The InputError `open_replay_frames(path)` throws ("" when it opens).
-std::string open_error(const std::string& path) {
-  try {
-    open_replay_frames(path);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
 }
 
 // Positions rewritten in mm by another program (`unit = mm`) were drawn 1000 times too large, the

@@ -5,6 +5,8 @@
 #include <string>
 #include <string_view>
 
+#include "core/error.hpp"
+
 namespace ebh {
 
 /// The length units by name: metres, centimetres, millimetres and inches (motion trackers such as
@@ -21,6 +23,16 @@ inline std::optional<double> length_unit_metres(std::string_view name) {
   if (name == "mm") return 0.001;
   if (name == "in") return kMetresPerInch;
   return std::nullopt;
+}
+
+/// Why a dataset's `unit` attribute `given` is not the SI unit `si` that `ebh replay` writes ("" when
+/// it is, or starts with it as "m, 1 (...)" or "m (...)" does; no attribute is "" too): a file
+/// rewritten by other code in mm would otherwise be read 1000 times too large. One rule for every
+/// reader of replay outputs (metrics, render).
+inline std::string si_unit_problem(const std::string& given, std::string_view si) {
+  const std::string u(si);
+  if (given.empty() || given == u || given.rfind(u + ",", 0) == 0 || given.rfind(u + " (", 0) == 0) return "";
+  return "has unit '" + clipped(given) + "'; expected '" + u + "' (SI, docs/FORMATS.md)";
 }
 
 }  // namespace ebh

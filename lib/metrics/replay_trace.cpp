@@ -11,6 +11,7 @@
 #include <type_traits>
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 #include "io/h5.hpp"
 #include "io/paths.hpp"
 
@@ -123,10 +124,8 @@ class Reader {
     // (force in mN) would give numbers off by the factor, without a word.
     if (const char* unit = si_unit(name)) {
       if (cls != H5T_FLOAT) fail(name, std::string("is stored as integers; expected floating point numbers in ") + unit);
-      const std::string given = string_attribute(ds.get(), "unit");
-      if (!given.empty() && given != unit && given.rfind(std::string(unit) + ",", 0) != 0 &&
-          given.rfind(std::string(unit) + " (", 0) != 0)
-        fail(name, "has unit '" + clipped(given) + "'; expected '" + unit + "' (SI, docs/FORMATS.md)");
+      if (const std::string why = si_unit_problem(string_attribute(ds.get(), "unit"), unit); !why.empty())
+        fail(name, why);
     }
     Handle space(H5Dget_space(ds.get()), H5Sclose);
     int rank = H5Sget_simple_extent_ndims(space.get());

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 #include "io/h5.hpp"
 
 namespace ebh {
@@ -23,13 +24,11 @@ std::string attr_or(const h5::File& f, const char* name) {
 /// Refuses a dataset whose `unit` attribute is not `si`, the unit `ebh replay` writes (or starts
 /// it: "m, 1 (...)"): positions rewritten in mm by another program would be drawn 1000 times too
 /// large and away from the tool, without a word. `si` is nullptr for indices and ratios. The rule
-/// is `ebh metrics`' (lib/metrics/replay_trace.cpp, si_unit): no unit attribute is taken as SI.
+/// is `ebh metrics`' (core/units.hpp, si_unit_problem): no unit attribute is taken as SI.
 void check_unit(const h5::Dataset& d, const char* si) {
   if (si == nullptr || !d.has_attr("unit")) return;
-  const std::string given = d.attr_string("unit");
-  const std::string u = si;
-  if (given != u && given.rfind(u + ",", 0) != 0 && given.rfind(u + " (", 0) != 0)
-    throw InputError(d.where() + ": has unit '" + clipped(given) + "'; expected '" + u + "' (SI, docs/FORMATS.md)");
+  if (const std::string why = si_unit_problem(d.attr_string("unit"), si); !why.empty())
+    throw InputError(d.where() + ": " + why);
 }
 
 template <class T>

@@ -573,24 +573,28 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
   return std::string(line);
 }
 
-std::optional<LogGaps> find_log_gaps(const std::vector<double>& t) {
+std::optional<LogGaps> find_log_gaps(const std::vector<double>& t, const std::function<bool(std::size_t)>& still) {
   const std::size_t n = t.size();
   if (n < 3) return std::nullopt;
   std::vector<double> dt(n - 1);
   for (std::size_t i = 0; i + 1 < n; ++i) dt[i] = t[i + 1] - t[i];
   LogGaps g;
-  g.longest = static_cast<std::size_t>(std::max_element(dt.begin(), dt.end()) - dt.begin());
   std::vector<double> sorted = dt;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
   g.median = sorted[sorted.size() / 2];
   const double bound = std::max(kLogGapFactor * g.median, 2.0 / kDeviceRateLowHz);
-  if (!(dt[g.longest] > bound)) return std::nullopt;
-  g.count = static_cast<std::size_t>(std::count_if(dt.begin(), dt.end(), [bound](double d) { return d > bound; }));
+  double longest = 0;
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    if (!(dt[i] > bound) || (still && still(i + 1))) continue;
+    ++g.count;
+    if (dt[i] > longest) longest = dt[i], g.longest = i;
+  }
+  if (g.count == 0) return std::nullopt;
   return g;
 }
 
 std::optional<std::string> check_recording_gaps(const Recording& rec) {
-  const std::optional<LogGaps> g = find_log_gaps(rec.t);
+  const std::optional<LogGaps> g = find_log_gaps(rec.t, [&rec](std::size_t i) { return repeats_previous(rec, i, rec.jaw); });
   if (!g) return std::nullopt;
   const std::size_t i = g->longest;
   char line[400];

@@ -177,15 +177,19 @@ std::optional<std::string> check_recording_speed(const Recording& rec);
 /// Gaps in a log's times (times increasing, at least three): intervals over kLogGapFactor times the
 /// median one and over two intervals of the slowest device (kDeviceRateLowHz, io/import.hpp): how
 /// many, the longest's index i (between samples i and i + 1) and the median interval; nullopt
-/// without one. `ebh import` and a replay (check_recording_gaps) say them.
+/// without one. `ebh import` and a replay (check_recording_gaps) say them. An interval whose end
+/// sample `still(i + 1)` holds the pose of its start is no gap (nothing moved across it).
 struct LogGaps {
   std::size_t count = 0, longest = 0;
   double median = 0;
 };
-std::optional<LogGaps> find_log_gaps(const std::vector<double>& t);
+std::optional<LogGaps> find_log_gaps(const std::vector<double>& t,
+                                     const std::function<bool(std::size_t)>& still = nullptr);
 
 /// A replay's line for gaps in a recording's times (find_log_gaps), naming its samples: a recording
-/// written by another program, which `ebh import` did not check; nullopt without one.
+/// written by another program, which `ebh import` did not check; nullopt without one. A hold the
+/// device kept still across (two samples alike: `ebh import --drop-repeats` keeps a hold's first
+/// and last) is no gap: the replay holds the tool there as the device did.
 std::optional<std::string> check_recording_gaps(const Recording& rec);
 
 /// A log of a device slower than its logger: the samples repeat between the device's updates, so

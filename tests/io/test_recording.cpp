@@ -517,7 +517,7 @@ TEST(LogGaps, AGapInARecordingsTimesIsNamed) {
   Recording r;
   for (int i = 0; i < 200; ++i) {
     r.t.push_back(0.001 * i + (i >= 120 ? 0.05 : 0.0) + (i >= 150 ? 0.03 : 0.0));  // 51 and 31 ms between samples
-    r.position.push_back({0, 0, 0});
+    r.position.push_back({1e-5 * i, 0, 0});  // moving: a gap the replay crosses in a straight line
     r.orientation.push_back({});
     r.jaw.push_back(1);
   }
@@ -527,6 +527,15 @@ TEST(LogGaps, AGapInARecordingsTimesIsNamed) {
                      "times the median interval of 1 ms", 0),
             0u)
       << *w;
+  // A hold kept by `ebh import --drop-repeats` (its first and last sample, alike) is no gap: the
+  // device stood still across it, and the replay holds the tool as it did.
+  Recording held = r;
+  held.position[120] = held.position[119];
+  const auto w_held = check_recording_gaps(held);
+  ASSERT_TRUE(w_held.has_value());
+  EXPECT_EQ(w_held->rfind("a gap of 0.031 s between samples 149 and 150", 0), 0u) << *w_held;
+  held.position[150] = held.position[149];
+  EXPECT_FALSE(check_recording_gaps(held).has_value());
   r.t.resize(110);
   r.position.resize(110);
   r.orientation.resize(110);

@@ -100,7 +100,11 @@ set_tests_properties(cli.import.drop_all PROPERTIES PASS_REGULAR_EXPRESSION
 file(WRITE ${EBH_IO_OUT}/ms.csv "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,0,0,0.001,1,0,0,0\n2,0,0,0.002,1,0,0,0\n")
 add_test(NAME cli.import.times_in_ms COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms.h5)
 set_tests_properties(cli.import.times_in_ms PROPERTIES PASS_REGULAR_EXPRESSION
-  "ebh: warning: .*ms.csv: column t: the times give 1 Hz \\(3 samples over 2 s\\), below 10 Hz; a device logs at 100 Hz to 10 kHz: the times look like milliseconds \\(1000 Hz\\); t must be in seconds")
+  "ebh: warning: .*ms.csv: column t: the times give 1 Hz \\(3 samples over 2 s\\), below 10 Hz; a device logs at 100 Hz to 10 kHz: the times look like milliseconds \\(1000 Hz\\): import again with --time-unit ms")
+# ... which --time-unit ms reads as such.
+add_test(NAME cli.import.time_unit_ms COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms_read.h5 --time-unit ms)
+set_tests_properties(cli.import.time_unit_ms PROPERTIES PASS_REGULAR_EXPRESSION "ms_read.h5: 3 samples, 0.002 s, 1000 Hz"
+  FAIL_REGULAR_EXPRESSION "warning")
 # With --scene the recording's tool is the scene's; a --tool that differs is recorded, with a warning.
 add_test(NAME cli.import.scene_tool
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_IO_OUT}/scene_tool.h5 --scene tube_forceps)

@@ -447,11 +447,17 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
 
 // The time unit under which times read as seconds give `rate_hz` of a device (kDeviceRateLowHz ..
 // kDeviceRateHighHz), with the rate it would be; nullptr when none does.
-std::pair<const char*, double> likely_time_unit(double rate_hz) {
-  for (const auto& [name, per_second] : {std::pair{"milliseconds", 1e3}, {"microseconds", 1e6}, {"nanoseconds", 1e9}})
+struct TimeUnit {
+  const char* name = nullptr;  // nullptr: none
+  const char* symbol = nullptr;
+  double rate_hz = 0;
+};
+TimeUnit likely_time_unit(double rate_hz) {
+  for (const auto& [name, symbol, per_second] : {std::tuple{"milliseconds", "ms", 1e3}, {"microseconds", "us", 1e6},
+                                                 {"nanoseconds", "ns", 1e9}})
     if (rate_hz * per_second >= kDeviceRateLowHz && rate_hz * per_second <= kDeviceRateHighHz)
-      return {name, rate_hz * per_second};
-  return {nullptr, 0};
+      return {name, symbol, rate_hz * per_second};
+  return {};
 }
 
 // The rate a log's times (has_t) or --rate give, against a recording's limit (an error) and a
@@ -479,10 +485,11 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
     return "--rate " + num(rec.rate_hz) + " Hz is below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
            (khz >= kDeviceRateLowHz && khz <= kDeviceRateHighHz ? " (the rate is in Hz: --rate " + num(khz) + "?)" : "");
   }
-  const auto [unit, rate] = likely_time_unit(rec.rate_hz);
+  const TimeUnit unit = likely_time_unit(rec.rate_hz);
   return "column t: the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
-         (unit ? std::string(": the times look like ") + unit + " (" + num(rate) + " Hz); t must be in seconds"
-               : ": is t in seconds?");
+         (unit.name ? std::string(": the times look like ") + unit.name + " (" + num(unit.rate_hz) + " Hz): import " +
+                          "again with --time-unit " + unit.symbol
+                    : ": is t in seconds (else --time-unit ms, us or ns)?");
 }
 
 // The longest interval between a log's times, when it is a gap in the logging (over
@@ -561,6 +568,14 @@ std::pair<double, double> parse_jaw_range(const std::string& text) {
   return {v[0], v[1]};
 }
 
+double parse_time_unit(const std::string& name) {
+  if (name == "s") return 1;
+  if (name == "ms") return 1e-3;
+  if (name == "us") return 1e-6;
+  if (name == "ns") return 1e-9;
+  throw InputError("--time-unit: '" + name + "' is not one of s, ms, us, ns");
+}
+
 Recording import_log(const std::string& path, const ImportOptions& opt, ImportReport* report) {
   const double rate_hz = opt.rate_hz.value_or(kAssumedLogRateHz);
   if (!(rate_hz > 0 && rate_hz <= kMaxSampleRateHz))
@@ -581,6 +596,12 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
                                         : std::string()) +
                      ")");
 
+  if (opt.time_unit && !has_t)
+    throw InputError("--time-unit: " + path + " has no t column (its samples are --rate apart): the unit is for a "
+                     "CSV log's times");
+  // The log's times in seconds (a clock in ms or ns), before anything reads them as such.
+  if (opt.time_unit && *opt.time_unit != 1)
+    for (double& t : rec.t) t *= *opt.time_unit;
   rec.source = "device";
   rec.scene = opt.scene;
   rec.tool = opt.tool;

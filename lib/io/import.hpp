@@ -39,6 +39,9 @@ struct ImportOptions {
   /// csv: header names of columns left unread (a logger's other data); each must be in the header.
   std::vector<std::string> skip_columns;
   std::optional<double> unit;       ///< metres per log length unit; nullopt: the format's default
+  /// seconds per unit of a CSV log's t column (--time-unit ms|us|ns: a logger's clock in
+  /// milliseconds, a ROS export's in nanoseconds); nullopt: seconds
+  std::optional<double> time_unit;
   /// The log's jaw values when the jaws are closed and when open (--jaw-range CLOSED,OPEN): mapped
   /// to 0 and 1 linearly and clamped to them (a gripper in degrees, an inverted signal, one
   /// calibrated a little past its ends); nullopt: the log's values are 0 .. 1 already.
@@ -119,6 +122,8 @@ std::pair<double, double> parse_jaw_range(const std::string& text);
 
 /// Parses "--unit m|cm|mm|in" (metres per unit); throws InputError naming the option.
 double parse_length_unit(const std::string& name);
+/// Seconds per unit for --time-unit: s, ms, us or ns; an InputError naming the option otherwise.
+double parse_time_unit(const std::string& name);
 /// Parses a transform option, "--transform tx,ty,tz,rx,ry,rz" or "--tool-transform x,y,z,rx,ry,rz":
 /// translation in a length unit of `unit_m` metres, rotation vector (axis times angle) in degrees.
 /// Throws InputError naming `option`. `ebh replay` parses its options of the same names with it.

@@ -538,12 +538,28 @@ TEST(Import, ALogsTimesInTheWrongUnitAreNamed) {
   ImportReport report;
   EXPECT_EQ(import_log(log("s.csv", 1), opt, &report).rate_hz, 1000.0);
   EXPECT_EQ(report.rate_warning, "");
-  for (const auto& [unit, per_s] : {std::pair{"milliseconds", 1e-3}, {"microseconds", 1e-6}, {"nanoseconds", 1e-9}}) {
-    import_log(log(std::string(unit) + ".csv", per_s), opt, &report);
+  for (const auto& [unit, symbol, per_s] : {std::tuple{"milliseconds", "ms", 1e-3}, {"microseconds", "us", 1e-6},
+                                            {"nanoseconds", "ns", 1e-9}}) {
+    const std::string file = log(std::string(unit) + ".csv", per_s);
+    import_log(file, opt, &report);
     EXPECT_NE(report.rate_warning.find("column t: the times give"), std::string::npos) << report.rate_warning;
-    EXPECT_NE(report.rate_warning.find(std::string("the times look like ") + unit + " (1000 Hz)"), std::string::npos)
+    EXPECT_NE(report.rate_warning.find(std::string("the times look like ") + unit + " (1000 Hz): import again with "
+                                       "--time-unit " + symbol),
+              std::string::npos)
         << report.rate_warning;
+    // Read in that unit: the times in seconds, 1 ms apart.
+    ImportOptions in_unit = opt;
+    in_unit.time_unit = parse_time_unit(symbol);
+    const Recording r = import_log(file, in_unit, &report);
+    EXPECT_EQ(r.rate_hz, 1000.0) << symbol;
+    EXPECT_NEAR(r.t.back(), 0.004, 1e-15) << symbol;  // 4 units of 1e-3 / per_s, times per_s
+    EXPECT_EQ(report.rate_warning, "") << symbol;
   }
+  EXPECT_INPUT_ERROR(parse_time_unit("min"), "--time-unit: 'min' is not one of s, ms, us, ns");
+  ImportOptions no_times;
+  no_times.time_unit = 1e-3;
+  EXPECT_INPUT_ERROR(import_log(kData + "repeats_openhaptics.txt", no_times), "--time-unit: ",
+                     "has no t column");
   // 1 us apart in a log stamped in seconds would be 1 MHz: ten times the limit.
   EXPECT_INPUT_ERROR(import_log(log("fast.csv", 1e3), opt), tmp / "fast.csv: column t: the times give 1e+06 Hz",
                      "beyond the 100 kHz limit", "t must be in seconds");

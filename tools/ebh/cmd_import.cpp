@@ -1,4 +1,4 @@
-// `ebh import LOG -o REC.h5 [--format openhaptics|csv] [--rate HZ] [--unit m|cm|mm|in]
+// `ebh import LOG -o REC.h5 [--format openhaptics|csv] [--rate HZ] [--unit m|cm|mm|in] [--time-unit s|ms|us|ns]
 //  [--transform "tx,ty,tz,rx,ry,rz"] [--tool-transform "x,y,z,rx,ry,rz"] [--scene NAME]
 //  [--tool hook|forceps] [--drop-repeats]`: a device log (OpenHaptics-style transforms or CSV) into
 // a recording, its poses mapped to ebh's frames. With --scene, the path is checked against the
@@ -23,7 +23,7 @@
 namespace {
 
 struct ImportArgs {
-  std::string log, output, format, unit, transform, tool_transform, scene, tool;  // tool: empty, the default
+  std::string log, output, format, unit, time_unit, transform, tool_transform, scene, tool;  // tool: empty, the default
   std::optional<double> rate_hz;
   bool drop_repeats = false;
   std::vector<std::string> skip_columns;
@@ -57,6 +57,7 @@ void run(const ImportArgs& a) {
   ebh::check_outputs({{a.output, "the recording to write"}}, inputs);
   opt.rate_hz = a.rate_hz;
   if (!a.unit.empty()) opt.unit = ebh::parse_length_unit(a.unit);
+  if (!a.time_unit.empty()) opt.time_unit = ebh::parse_time_unit(a.time_unit);
   // The transforms' translations are in the log's unit (its format's default when --unit is absent).
   const bool csv = opt.format.value_or(ebh::log_format_of(a.log)) == ebh::LogFormat::csv;
   const double log_unit = opt.unit ? *opt.unit : (csv ? 1.0 : 1e-3);
@@ -162,6 +163,9 @@ void setup(CLI::App& root) {
   c->add_option("--rate", args->rate_hz, "sample rate in Hz when the log has no t column (default: 1000, said)")
       ->check(ebh::cli::finite_number(0, ebh::kMaxSampleRateHz, true, "Hz"));
   c->add_option("--unit", args->unit, "length unit of the log: m, cm, mm or in (default: mm openhaptics, m csv)");
+  c->add_option("--time-unit", args->time_unit,
+                "unit of a CSV log's t column: s, ms, us or ns (a logger's clock in milliseconds, a ROS export's in "
+                "nanoseconds; default: s)");
   c->add_option("--transform", args->transform,
                 "log frame -> world: \"tx,ty,tz,rx,ry,rz\" (translation in the log's unit, rotation vector in degrees)");
   c->add_option("--tool-transform", args->tool_transform,

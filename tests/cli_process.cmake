@@ -144,5 +144,5 @@ if(EBH_GATE_BASH)
       "rm -rf \"$1\"; mkdir -p \"$1\"; (ulimit -t 4; exec \"$0\" replay tube tube_insert -o \"$1/out.h5\" -q --duration 10 2>\"$1/err\"); rc=$?; [ $rc = $((128 + $(kill -l XCPU))) ] && rc='128 + SIGXCPU'; echo \"exit status $rc\"; cat \"$1/err\"; ls -A \"$1\""
       ${EBH_BIN} ${EBH_PROCESS_OUT}/cpu_limit)
   set_tests_properties(cli.process.cpu_time_limit PROPERTIES LABELS cli TIMEOUT 60 PASS_REGULAR_EXPRESSION
-    "^exit status 128 \\+ SIGXCPU\nebh: error: [^\n]*/out.h5: interrupted; no output written\nerr\n$")
+    "^exit status 128 \\+ SIGXCPU\nebh: error: [^\n]*/out.h5: interrupted after [0-9.e+-]+ of 10 s; no output written\nerr\n$")
 endif()

@@ -183,7 +183,12 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
 void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& s) {
   const World& world = *p.in.world;
   ReplayWriter& writer = *p.writer;
-  if (s.stopped) throw InputError(a.out + ": interrupted; no output written");
+  // How far it got: of a long replay, the time lost.
+  if (s.stopped) {
+    char far[160];
+    std::snprintf(far, sizeof far, "after %.3g of %.3g s", s.virtual_s, replayed_seconds(p.ticks, world.h_haptic));
+    throw InputError(a.out + ": interrupted " + far + "; no output written");
+  }
   writer.commit(s);
   // A time of the replay (its /haptic/t and /physical/t count from the window's start), and where
   // that is in the recording when the window starts later.

@@ -395,6 +395,57 @@ std::string saturation_warning(const ForceSaturation& s, double start_s) {
          "(tool.force_limit): a tool caught in the tissue or far behind the device, or a tissue too stiff for it";
 }
 
+std::optional<HeldRelaxation> find_held_relaxation(std::span<const double> t,
+                                                   const std::function<Vec3d(std::size_t)>& force,
+                                                   const std::function<Vec3d(std::size_t)>& device,
+                                                   std::span<const std::int32_t> contacts,
+                                                   std::span<const std::int32_t> grasped) {
+  const std::size_t n = std::min(t.size(), contacts.size());
+  const auto touching = [&](std::size_t i) { return contacts[i] > 0 || (i < grasped.size() && grasped[i] > 0); };
+  // Mean |F| over the ticks with t in [from, to).
+  const auto mean_force = [&](std::size_t first, std::size_t last, double from, double to) {
+    double sum = 0;
+    std::size_t count = 0;
+    for (std::size_t k = first; k <= last; ++k)
+      if (t[k] >= from && t[k] < to) sum += norm(force(k)), ++count;
+    return count ? sum / static_cast<double>(count) : kNaN;
+  };
+  std::optional<HeldRelaxation> found;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n;) {
+    if (!touching(i)) {
+      ++i;
+      continue;
+    }
+    const Vec3d at = device(i);
+    std::size_t j = i;
+    while (j + 1 < n && touching(j + 1) && norm(device(j + 1) - at) <= kHeldStillM) ++j;
+    if (t[j] - t[i] >= kHeldMinS) {
+      const double from = mean_force(i, j, t[i] + kHeldSettleS, t[i] + kHeldSettleS + 1.0);
+      const double to = mean_force(i, j, t[j] - 1.0, INFINITY);
+      if (from >= kHeldMinForceN && to < (1 - kHeldFallFraction) * from) {
+        ++count;
+        if (!found || (from - to) / from > (found->from_N - found->to_N) / found->from_N)
+          found = HeldRelaxation{t[i], t[j] - t[i], from, to, 0};
+      }
+    }
+    i = j + 1;
+  }
+  if (found) found->count = count;
+  return found;
+}
+
+std::string held_relaxation_warning(const HeldRelaxation& h, double start_s) {
+  char b[560];
+  std::snprintf(b, sizeof b,
+                "the force fell from %.3g to %.3g N (%.0f%%) over the %.3g s the device held still on the tissue (from %s%s): "
+                "not the tissue relaxing but the coupled meshes settling, at a rate set by stiffness.k_svc and the "
+                "physical rate (docs/MODEL.md, \"Held loads\"); compare forces at the same time after a load",
+                h.from_N, h.to_N, 100 * (h.from_N - h.to_N) / h.from_N, h.seconds, replay_time_text(h.start_t, start_s).c_str(),
+                h.count > 1 ? ("; " + std::to_string(h.count) + " such holds").c_str() : "");
+  return b;
+}
+
 std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact, double start_s) {
   const std::string more = c.count > 1 ? " (" + std::to_string(c.count) + " such falls)" : "";
   const char* parted = "the vertices under a thin tip part and let it through (`--set contact=surface` holds it; "
@@ -488,6 +539,9 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
       tr.t, [&tr](std::size_t i) { return tr.force[i]; }, [&tr](std::size_t i) { return tr.pose_physical[i].p; },
       tr.contacts, tr.grasped, tr.haptic_hz);
   m.saturation = find_force_saturation(tr.t, tr.force_clamped, tr.haptic_hz);
+  m.held = find_held_relaxation(
+      tr.t, [&tr](std::size_t i) { return tr.force[i]; }, [&tr](std::size_t i) { return tr.pose_physical[i].p; },
+      tr.contacts, tr.grasped);
   for (auto [a, b] : contact_episodes(tr.contacts, tr.haptic_hz, opt.episode_merge_gap_s))
     m.episodes.push_back(segment_metrics(tr, a, b, opt));
 
@@ -610,6 +664,7 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   collapse.set("warning", m.collapse ? Json(collapse_warning(*m.collapse, m.vertex_contact, m.start_s)) : Json(nullptr));
   j.set("force_collapse", std::move(collapse));
   j.set("saturation_warning", m.saturation ? Json(saturation_warning(*m.saturation, m.start_s)) : Json(nullptr));
+  j.set("held_relaxation_warning", m.held ? Json(held_relaxation_warning(*m.held, m.start_s)) : Json(nullptr));
   j.set("episode_count", m.episodes.size());
   if (with_episodes) {
     Json eps = Json::array();
@@ -673,6 +728,7 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
   if (!m.contact_warning.empty()) o << "  warning: " << m.contact_warning << "\n";
   if (m.collapse) o << "  warning: " << collapse_warning(*m.collapse, m.vertex_contact, m.start_s) << "\n";
   if (m.saturation) o << "  warning: " << saturation_warning(*m.saturation, m.start_s) << "\n";
+  if (m.held) o << "  warning: " << held_relaxation_warning(*m.held, m.start_s) << "\n";
   const PassivityEnergy whole{m.whole.passivity_energy_final, m.whole.passivity_energy_min,
                               m.whole.passivity_time_negative_s};
   if (const std::string w = passivity_warning(whole, m.vertex_contact); !w.empty()) o << "  warning: " << w << "\n";

@@ -167,6 +167,32 @@ std::optional<ForceSaturation> find_force_saturation(std::span<const double> t, 
                                                      double haptic_hz);
 std::string saturation_warning(const ForceSaturation& s, double start_s = 0);
 
+/// A force that fell while the device held still in contact (or grasping): in ebh not the tissue
+/// relaxing but the coupled meshes settling, a mode at a time, at a rate set by k_svc and the
+/// physical rate (docs/MODEL.md, "Held loads": a hook held 178 s in the tube fell from 0.073 to
+/// 0.030 N, a held grasp from 1.07 to 0.36 N, still falling), which a user reads as stress
+/// relaxation of the tissue. A hold: the device within kHeldStillM of where it began, in contact
+/// or grasping every tick, for kHeldMinS or more; its force over a second from kHeldSettleS after it
+/// began (the dent's own settling left out) against its last second's, a fall of more than
+/// kHeldFallFraction from at least kHeldMinForceN. The largest such fall, and how many holds fell.
+inline constexpr double kHeldStillM = 0.5e-3;
+inline constexpr double kHeldMinS = 5.0;
+inline constexpr double kHeldSettleS = 0.5;
+inline constexpr double kHeldFallFraction = 0.2;
+inline constexpr double kHeldMinForceN = 0.05;
+struct HeldRelaxation {
+  double start_t = 0, seconds = 0;  ///< the hold: its first tick's time and its length
+  double from_N = 0, to_N = 0;      ///< mean |F| over its second from kHeldSettleS and over its last second
+  std::size_t count = 0;            ///< holds whose force fell so
+};
+std::optional<HeldRelaxation> find_held_relaxation(std::span<const double> t,
+                                                   const std::function<Vec3d(std::size_t)>& force,
+                                                   const std::function<Vec3d(std::size_t)>& device,
+                                                   std::span<const std::int32_t> contacts,
+                                                   std::span<const std::int32_t> grasped);
+/// One line for it (times as replay_time_text gives them).
+std::string held_relaxation_warning(const HeldRelaxation& h, double start_s = 0);
+
 /// The translational passivity observer (Hannaford & Ryu 2002) over ticks [first, last]: E(n) =
 /// -sum of F(k-1) . (x(k) - x(k-1)), the energy into the environment through the device port with a
 /// zero-order hold; its last value, its least, and the seconds it spent below 0.
@@ -202,6 +228,7 @@ struct ForceMetrics {
   std::string contact_warning;           // contact_warning(): empty when the tool touched enough
   std::optional<ForceCollapse> collapse; // find_force_collapse(): the tool passed through the tissue
   std::optional<ForceSaturation> saturation;  // find_force_saturation(): the force held at the limit
+  std::optional<HeldRelaxation> held;         // find_held_relaxation(): a held force that fell
   TimingMetrics timing;
 
   std::size_t nonfinite_count = 0;               // non-finite samples over all datasets

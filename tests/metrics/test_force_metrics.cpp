@@ -721,5 +721,43 @@ TEST(StartWarning, SaysWhenThePhysicalToolStartsInsideTheTissue) {
             0u);
 }
 
+// A device held still on the tissue for 8 s while the force halves (the coupled meshes settling,
+// docs/MODEL.md "Held loads") is said, with the fall measured from a second after the hold's
+// first kHeldSettleS; a constant force, a device that moves on (1 mm), a hold shorter than
+// kHeldMinS and a fall of 15% are not.
+TEST(HeldRelaxation, AForceThatFallsWhileTheDeviceHoldsStillIsSaid) {
+  const auto held_trace = [](double fall, double moved_m, std::size_t hold_ticks) {
+    ReplayTrace tr = make_trace(1000 + hold_ticks);
+    for (std::size_t i = 0; i < tr.t.size(); ++i) {
+      const double into = std::min(1.0, static_cast<double>(i) / 1000);  // pressed 2 mm over 1 s, then held
+      const double s = i < 1000 ? 0.0 : static_cast<double>(i - 1000) / static_cast<double>(hold_ticks);
+      tr.pose_physical[i].p = {moved_m * s, 0, -2e-3 * into};
+      tr.force[i] = {0, 0, into * (1.0 - fall * s)};
+      tr.contacts[i] = i >= 10 ? 4 : 0;
+    }
+    return tr;
+  };
+  const ForceMetrics m = roundtrip(held_trace(0.5, 0, 8000), "held");
+  ASSERT_TRUE(m.held.has_value());
+  EXPECT_EQ(m.held->count, 1u);
+  // The hold: from the first tick from which the device stays within kHeldStillM (0.5 mm), 1.524 mm
+  // into the 2 mm press (0.762 s), to the end.
+  EXPECT_NEAR(m.held->start_t, 0.762, 1e-9);
+  EXPECT_NEAR(m.held->seconds, 8.999 - 0.762, 1e-9);  // to the last tick, at 8.999 s
+  // |F| = 1 - 0.5 (t - 1) / 8 once pressed: its mean over [1.262, 2.262) s and over the last second
+  EXPECT_NEAR(m.held->from_N, 1.0 - 0.5 * 0.762 / 8, 1e-3);
+  EXPECT_NEAR(m.held->to_N, 1.0 - 0.5 * 7.5 / 8, 1e-3);
+  const std::string table = format_table(m, false);
+  EXPECT_NE(table.find("warning: the force fell from 0.952 to 0.531 N (44%) over the 8.24 s the device held still on "
+                       "the tissue (from t = 0.762 s): not the tissue relaxing but the coupled meshes settling"),
+            std::string::npos)
+      << table;
+  EXPECT_NE(to_json(m).dump().find("\"held_relaxation_warning\": \"the force fell"), std::string::npos);
+  EXPECT_FALSE(roundtrip(held_trace(0, 0, 8000), "held_constant").held.has_value());
+  EXPECT_FALSE(roundtrip(held_trace(0.5, 1e-3, 8000), "held_moving").held.has_value());
+  EXPECT_FALSE(roundtrip(held_trace(0.5, 0, 4000), "held_short").held.has_value());
+  EXPECT_FALSE(roundtrip(held_trace(0.15, 0, 8000), "held_little").held.has_value());
+}
+
 }  // namespace
 }  // namespace ebh

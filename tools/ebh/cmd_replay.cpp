@@ -204,6 +204,10 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  collapse_warning(*collapse, world.scene.spec.contact == ContactModel::Vertices, a.start).c_str());
   if (const auto held = find_force_saturation(writer.tick_times(), writer.force_clamped(), 1.0 / world.h_haptic))
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), saturation_warning(*held, a.start).c_str());
+  if (const auto relaxed = find_held_relaxation(
+          writer.tick_times(), [&writer](std::size_t n) { return writer.force_at(n); },
+          [&writer](std::size_t n) { return writer.device_position_at(n); }, writer.contacts(), writer.grasped()))
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), held_relaxation_warning(*relaxed, a.start).c_str());
   // Energy the rendering fed the user (the passivity observer below 0).
   if (const std::string w = passivity_warning(passivity_energy(
           writer.tick_times(), [&writer](std::size_t n) { return writer.force_at(n); },

@@ -198,6 +198,21 @@ add_test(NAME cli.replay.recording_as_scene
     -DOUTPUT=${PROJECT_BINARY_DIR}/never_written.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene.info_of_a_mesh cli.replay.recording_as_scene PROPERTIES LABELS cli)
 
+# A count given as a fraction, beyond its type or below 1 is one line naming the option and its
+# range (CLI11: "Could not convert: --every = 1.5", or a 300-digit bound).
+foreach(case "render;${EBH_METRICS_DATA}/press.h5;-o;${PROJECT_BINARY_DIR}/never_rendered;--every;1.5|--every: expected a whole number in \\[1, 2147483647\\], got '1\\.5'"
+             "metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;1e30|--fft-window: expected a whole number in \\[2, 1099511627776\\], got '1e30'"
+             "bench;sizes;--max-tets;-5|--max-tets: expected a whole number in \\[1, 9223372036854775807\\], got '-5'")
+  string(REPLACE "|" ";" parts "${case}")
+  list(GET parts -1 expect)
+  list(REMOVE_AT parts -1)
+  list(GET parts 0 command)
+  add_test(NAME cli.whole_number.${command}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};${parts}" "-DEXPECT=^ebh: error: ${expect}\n" -DSTATUS=1
+      -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.whole_number.${command} PROPERTIES LABELS cli)
+endforeach()
+
 # A first word that is no command names the commands.
 add_test(NAME cli.unknown_command
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replya;tube;tube_insert"

@@ -30,7 +30,7 @@ set_tests_properties(cli.scene.refine_is_deterministic cli.scene.refine_is_deter
 # Bad input: one line, exit status 1, no file left.
 add_test(NAME cli.scene.refine_level_zero
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;tube;--level;0;-o;${Z}/zero.yaml"
-    "-DEXPECT=^ebh: error: --level: expected 1 or more, got 0" -DOUTPUT=${Z}/zero.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
+    "-DEXPECT=^ebh: error: --level: expected a whole number in \\[1, 2147483647\\], got .0." -DOUTPUT=${Z}/zero.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})
 add_test(NAME cli.scene.refine_missing_scene
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;no_such_scene;-o;${Z}/missing.yaml"
     "-DEXPECT=^ebh: error: no_such_scene: no such scene" -DOUTPUT=${Z}/missing.yaml -DSTATUS=1 -P ${EXPECT_FAILURE})

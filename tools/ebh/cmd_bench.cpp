@@ -2,8 +2,10 @@
 // a text table (JSON with --json) and a log-log plot of each cost against the tet count with the
 // slope of its least-squares line.
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -297,7 +299,7 @@ void setup(CLI::App& root) {
   c->add_option("--backend", args->backend, "cpu (default) or cuda");
   c->add_option("--max-tets", args->max_tets,
                 "refuse sizes above this many tets (default " + std::to_string(kMaxRefinedTets) + ")")
-      ->check(CLI::PositiveNumber);
+      ->check(ebh::cli::whole_number(1, std::numeric_limits<std::int64_t>::max()));
   c->add_option("--plot", args->plot, "also draw the costs against tets, log-log, into this PNG file");
   c->add_option("--set", args->overrides,
                 "Override a scene key at every size: --set solver.active_region=0.001 (repeatable)");

@@ -1,7 +1,9 @@
 // `ebh metrics OUT.h5 [--json] [--episodes] [--merge-gap-ms MS] [--fft-window TICKS]`:
 // force-quality metrics of a replay output (docs/METRICS.md): a table, or JSON with --json.
 // Exits 0 when the metrics were computed (a non-finite run included: see "finite"), 1 on bad input.
+#include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -56,7 +58,8 @@ void setup(CLI::App& root) {
       ->capture_default_str()
       ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit));
   c->add_option("--fft-window", args->fft_window,
-                "FFT window in haptic ticks (a power of two; default: 0.256 s of ticks, 256 at 1 kHz)");
+                "FFT window in haptic ticks (a power of two; default: 0.256 s of ticks, 256 at 1 kHz)")
+      ->check(ebh::cli::whole_number(2, std::int64_t{1} << 40));
   c->callback([args] { run(*args); });
 }
 

@@ -3,7 +3,9 @@
 // the replay's /frames snapshots to DIR/frame_00000.png, ... with OSMesa (docs/RENDER.md).
 // --xdmf-only writes OUT.xdmf (the ParaView index) and renders nothing.
 #include <charconv>
+#include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -87,12 +89,16 @@ void setup(CLI::App& root) {
   c->add_option("--size", args->size, "image size WIDTHxHEIGHT")->capture_default_str();
   c->add_option("--camera", args->opt.camera, "scene (the scene file's camera), top, front, side or iso")
       ->capture_default_str();
-  c->add_option("--every", args->opt.every, "render every N-th frame")->capture_default_str();
+  c->add_option("--every", args->opt.every, "render every N-th frame")
+      ->capture_default_str()
+      ->check(ebh::cli::whole_number(1, std::numeric_limits<int>::max()));
   c->add_option("--color-by", args->color_by, "tissue colour: none or displacement")->capture_default_str();
   c->add_option("--max-displacement-mm", args->max_displacement_mm,
                 "top of the displacement colour map (default: the largest displacement rendered)")
       ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit, true, "mm"));
-  c->add_option("--supersample", args->opt.supersample, "antialiasing factor 1..4")->capture_default_str();
+  c->add_option("--supersample", args->opt.supersample, "antialiasing factor 1..4")
+      ->capture_default_str()
+      ->check(ebh::cli::whole_number(1, 4));
   c->add_flag("--no-time-bar", args->no_time_bar, "leave out the bar along the bottom edge that shows t / t_end");
   c->add_option("--video", args->video, "also assemble the frames into this .mp4 (needs ffmpeg)");
   c->add_flag("--xdmf-only", args->xdmf_only, "only write OUT.xdmf beside the replay (for ParaView)");

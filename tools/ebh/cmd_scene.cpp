@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -401,7 +402,6 @@ struct SceneRefineArgs {
 /// (scene/scene_refine.hpp), as OUT.yaml with OUT.msh (and OUT.obj for an OBJ virtual mesh or a
 /// kept one) beside it.
 void refine(const SceneRefineArgs& a) {
-  if (a.level < 1) throw ebh::InputError("--level: expected 1 or more, got " + std::to_string(a.level));
   const std::filesystem::path file = ebh::resolve_scene_path(a.scene);
   const ebh::SceneSpec spec = ebh::load_scene_spec(file);
   const std::filesystem::path out(a.out);
@@ -473,11 +473,12 @@ void setup(CLI::App& root) {
   CLI::App* r = scene->add_subcommand(
       "refine", "Write the scene with its physical mesh refined uniformly (every tet into 8 per level) for size studies");
   r->add_option("scene", rargs->scene, "scene name (scenarios/NAME.yaml) or path to a scene file")->required();
-  r->add_option("--level", rargs->level, "how many times to split every tet into 8 (1 or more; default 1)");
+  r->add_option("--level", rargs->level, "how many times to split every tet into 8 (1 or more; default 1)")
+      ->check(ebh::cli::whole_number(1, std::numeric_limits<int>::max()));
   r->add_option("-o,--out", rargs->out, "the scene file to write (OUT.yaml; the mesh goes to OUT.msh beside it)")->required();
   r->add_option("--max-tets", rargs->max_tets,
                 "refuse a refined mesh of more tets than this (default " + std::to_string(ebh::kMaxRefinedTets) + ")")
-      ->check(CLI::PositiveNumber);
+      ->check(ebh::cli::whole_number(1, std::numeric_limits<std::int64_t>::max()));
   r->add_flag("--keep-virtual", rargs->keep_virtual,
               "keep the virtual mesh at the scene's resolution (written to OUT.obj): only the physical mesh is refined");
   r->callback([rargs] { refine(*rargs); });

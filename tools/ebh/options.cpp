@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -29,6 +30,19 @@ CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::stri
         const bool parsed = !text.empty() && e == b + text.size() && (errno != ERANGE || std::fabs(v) < 1);
         const bool in = parsed && std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
         return in ? std::string() : "expected a finite number " + range + ", got '" + escape_unprintable(text) + "'";
+      },
+      range);
+}
+
+CLI::Validator whole_number(long long lo, long long hi) {
+  const std::string range = "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  return CLI::Validator(
+      [lo, hi, range](std::string& text) -> std::string {
+        long long v = 0;
+        const char* b = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
+        const auto [end, ec] = std::from_chars(b, text.data() + text.size(), v);
+        const bool in = !text.empty() && ec == std::errc() && end == text.data() + text.size() && v >= lo && v <= hi;
+        return in ? std::string() : "expected a whole number " + range + ", got '" + escape_unprintable(text) + "'";
       },
       range);
 }

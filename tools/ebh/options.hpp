@@ -19,6 +19,12 @@ inline constexpr double kNoUpperLimit = std::numeric_limits<double>::infinity();
 /// than a silent full replay. `unit` is appended to the range in messages ("Hz").
 CLI::Validator finite_number(double lo, double hi, bool lo_open = false, const std::string& unit = "");
 
+/// A CLI11 check for a count: a whole number in [lo, hi] in decimal digits. CLI11 says "Could not
+/// convert: --every = 1.5" of a fraction and of a number its type cannot hold, reads 1e30 into an
+/// unsigned option as 2^64 - 1, and words a PositiveNumber check's range with a 300-digit bound;
+/// this says "--every: expected a whole number in [1, 2147483647], got '1.5'".
+CLI::Validator whole_number(long long lo, long long hi);
+
 /// A CLI11 check for a seed: a whole number 0 .. 2^64 - 1 in decimal digits. CLI11 reads "-1"
 /// into an unsigned option as 2^64 - 1 (a different seed than the user meant, written into the
 /// output's provenance as such); this refuses it: "--seed: expected a whole number >= 0, got '-1'".

@@ -202,7 +202,8 @@ set_tests_properties(cli.scene.info_of_a_mesh cli.replay.recording_as_scene PROP
 # range (CLI11: "Could not convert: --every = 1.5", or a 300-digit bound).
 foreach(case "render;${EBH_METRICS_DATA}/press.h5;-o;${PROJECT_BINARY_DIR}/never_rendered;--every;1.5|--every: expected a whole number in \\[1, 2147483647\\], got '1\\.5'"
              "metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;1e30|--fft-window: expected a whole number in \\[2, 1099511627776\\], got '1e30'"
-             "bench;sizes;--max-tets;-5|--max-tets: expected a whole number in \\[1, 9223372036854775807\\], got '-5'")
+             "bench;sizes;--max-tets;-5|--max-tets: expected a whole number in \\[1, 9223372036854775807\\], got '-5'"
+             "replay;tube;tube_insert;-o;${PROJECT_BINARY_DIR}/never_replayed.h5;--haptic-threads;2.5|--haptic-threads: expected a whole number in \\[1, 4096\\], got '2\\.5'")
   string(REPLACE "|" ";" parts "${case}")
   list(GET parts -1 expect)
   list(REMOVE_AT parts -1)

@@ -502,7 +502,7 @@ void add_replay_options(CLI::App* c, ReplayArgs& a) {
   c->add_option("--haptic-threads", a.haptic_threads,
                 "CPU, async and realtime: OpenMP threads of the haptic side; the physical step gets the rest "
                 "(default: half of OMP_NUM_THREADS or the cores, rounded up)")
-      ->check(CLI::Range(1, 4096));
+      ->check(ebh::cli::whole_number(1, 4096));
   c->add_flag("--allow-outside", a.allow_outside, "Accept a trajectory far outside the scene");
   c->add_flag("-q,--quiet", a.quiet, "No progress bar and no summary");
 }
@@ -680,7 +680,7 @@ void setup(CLI::App& root) {
                 "Replay every line of FILE (the arguments of an `ebh replay` each) on one GPU at once (--backend cuda, "
                 "async, no frames)");
   c->add_option("--at-once", *at_once, "With --batch: replays that run side by side (default 8; the others wait their turn)")
-      ->check(CLI::Range(1, 1024))
+      ->check(ebh::cli::whole_number(1, 1024))
       ->needs(batch_option);
   c->callback([args, batch, at_once, c] {
     if (!batch->empty() && c->count("--backend") && args->backend != "cuda")

@@ -19,6 +19,7 @@
 #include "io/atomic.hpp"
 #include "core/error.hpp"
 #include "io/paths.hpp"
+#include "options.hpp"
 #include "replay_common.hpp"
 #include "sweep/folder.hpp"
 #include "sweep/plan.hpp"
@@ -568,7 +569,7 @@ void setup(CLI::App& root) {
   c->add_option("plan", args->plan, "Sweep plan (YAML, docs/FORMATS.md)");
   c->add_option("-o,--output", args->out, "The sweep's folder (runs/, plan.yaml, summary.csv)");
   c->add_option("--jobs", args->jobs, "Replays at a time (default 1: timings undisturbed); threads split so jobs x threads = cores")
-      ->check(CLI::Range(1, 1024));
+      ->check(ebh::cli::whole_number(1, 1024));
   c->add_option("--gpus", args->gpus,
                 "CUDA devices the CUDA runs spread over, one per child (all, the default, or numbers as this process "
                 "sees them: 0,1); with --jobs N, N children at a time");
@@ -576,9 +577,9 @@ void setup(CLI::App& root) {
   CLI::Option* batch_option =
       c->add_option("--batch", args->batch,
                     "CUDA runs per child: up to B go to one `ebh replay --batch` on the GPU (async plans; default 1)")
-          ->check(CLI::Range(1, 1024));
+          ->check(ebh::cli::whole_number(1, 1024));
   c->add_option("--at-once", args->at_once, "With --batch: the children's --at-once (replays side by side)")
-      ->check(CLI::Range(1, 1024))
+      ->check(ebh::cli::whole_number(1, 1024))
       ->needs(batch_option);
   c->add_flag("--collect", args->collect, "Only rebuild DIR/summary.csv and summary.h5 from the runs' outputs");
   CLI::Option* slurm_option =
@@ -586,7 +587,7 @@ void setup(CLI::App& root) {
   c->add_option("--slurm-args", args->slurm_args, "More sbatch options, e.g. \"--partition=gpu --gres=gpu:1 -c 4\"")
       ->needs(slurm_option);
   c->add_option("--tasks", args->tasks, "Array tasks with --slurm (default: one per run, at most 1000; at most one per run)")
-      ->check(CLI::Range(1, 100000));
+      ->check(ebh::cli::whole_number(1, 100000));
   c->add_option("--task", args->task, "")->group("");  // a Slurm array task's slice (with --tasks)
   auto report = std::make_shared<ReportArgs>();
   CLI::App* r = c->add_subcommand("report", "Run time against force error: Markdown table, Pareto front, --plot PNG");

@@ -38,10 +38,11 @@ CLI::Validator whole_number(long long lo, long long hi) {
   const std::string range = "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
   return CLI::Validator(
       [lo, hi, range](std::string& text) -> std::string {
+        if (text.empty()) return "";  // refuse_empty_values' check says it
         long long v = 0;
         const char* b = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
         const auto [end, ec] = std::from_chars(b, text.data() + text.size(), v);
-        const bool in = !text.empty() && ec == std::errc() && end == text.data() + text.size() && v >= lo && v <= hi;
+        const bool in = ec == std::errc() && end == text.data() + text.size() && v >= lo && v <= hi;
         return in ? std::string() : "expected a whole number " + range + ", got '" + escape_unprintable(text) + "'";
       },
       range);

@@ -214,6 +214,25 @@ foreach(case "render;${EBH_METRICS_DATA}/press.h5;-o;${PROJECT_BINARY_DIR}/never
   set_tests_properties(cli.whole_number.${command} PROPERTIES LABELS cli)
 endforeach()
 
+# A scenarios/ folder in the working directory holding another tube.yaml than ebh's own: the name
+# finds it first, and the replay says so; an identical copy is not said.
+foreach(kind same other)
+  set(dir ${PROJECT_BINARY_DIR}/cli_shadow_${kind})
+  file(MAKE_DIRECTORY ${dir}/scenarios)
+  file(COPY ${PROJECT_SOURCE_DIR}/scenarios/tube.msh DESTINATION ${dir}/scenarios)
+  file(READ ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml ebh_tube_yaml)
+  if(kind STREQUAL other)
+    string(APPEND ebh_tube_yaml "# edited: another file than ebh's own\n")
+  endif()
+  file(WRITE ${dir}/scenarios/tube.yaml "${ebh_tube_yaml}")
+  add_test(NAME cli.replay.shadowed_scene_${kind}
+    COMMAND ${EBH_BIN} replay tube tube_insert -o ${dir}/out.h5 --start 4 --duration 0.05 -q WORKING_DIRECTORY ${dir})
+  set_tests_properties(cli.replay.shadowed_scene_${kind} PROPERTIES LABELS cli)
+endforeach()
+set_tests_properties(cli.replay.shadowed_scene_other PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: tube: the scene [^\n]*cli_shadow_other/scenarios/tube.yaml is used, not ebh's own [^\n]*/scenarios/tube.yaml, which differs: a name is looked up in \\$EBH_DATA_DIR, the working directory, then ebh's source tree")
+set_tests_properties(cli.replay.shadowed_scene_same PROPERTIES FAIL_REGULAR_EXPRESSION "ebh's own")
+
 # A first word that is no command names the commands.
 add_test(NAME cli.unknown_command
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replya;tube;tube_insert"

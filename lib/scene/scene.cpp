@@ -1357,6 +1357,30 @@ fs::path resolve_data_path(const std::string& name_or_path, const std::string& f
   throw InputError(name_or_path + ": no such " + what + " (looked for " + looked + ")");
 }
 
+std::optional<std::string> hidden_builtin(const std::string& name, const fs::path& resolved, const std::string& folder,
+                                          const std::string& extension, const std::string& what) {
+  if (!is_data_name(name)) return std::nullopt;
+  const fs::path builtin = fs::path(kSourceDir) / folder / (name + extension);
+  std::error_code ec;
+  if (!fs::is_regular_file(builtin, ec) || fs::equivalent(builtin, resolved, ec)) return std::nullopt;
+  // A copy is the same data either way (a recording may be large: sizes first, then in blocks).
+  const auto same_bytes = [&ec](const fs::path& a, const fs::path& b) {
+    if (fs::file_size(a, ec) != fs::file_size(b, ec) || ec) return false;
+    std::ifstream x(a, std::ios::binary), y(b, std::ios::binary);
+    std::vector<char> bx(1 << 16), by(1 << 16);
+    while (x && y) {
+      x.read(bx.data(), static_cast<std::streamsize>(bx.size()));
+      y.read(by.data(), static_cast<std::streamsize>(by.size()));
+      if (x.gcount() != y.gcount() || !std::equal(bx.begin(), bx.begin() + x.gcount(), by.begin())) return false;
+    }
+    return x.eof() && y.eof();
+  };
+  if (same_bytes(builtin, resolved)) return std::nullopt;
+  return name + ": the " + what + " " + resolved.string() + " is used, not ebh's own " + builtin.string() +
+         ", which differs: a name is looked up in $EBH_DATA_DIR, the working directory, then ebh's source tree "
+         "(give a path to choose)";
+}
+
 std::vector<fs::path> data_roots() {
   std::error_code ec;
   std::vector<fs::path> roots;

@@ -561,6 +561,15 @@ std::string scene_attribute_from(const std::string& given, const std::filesystem
 std::filesystem::path resolve_data_path(const std::string& name_or_path, const std::string& folder,
                                         const std::string& extension, const std::string& what);
 
+/// When `name` (a data name, not a path) resolved to `resolved` outside the source tree while the
+/// source tree has another file of that name (other bytes): one line saying which is used, as a
+/// scenarios/ or recordings/ folder in the working directory changes what a name means without a
+/// word (a gate of the source tree's baselines run from there failed on the working directory's
+/// tube). nullopt otherwise, and for a path.
+std::optional<std::string> hidden_builtin(const std::string& name, const std::filesystem::path& resolved,
+                                          const std::string& folder, const std::string& extension,
+                                          const std::string& what);
+
 /// Where names are looked up, in order: $EBH_DATA_DIR (when set), the working directory, the
 /// source tree; each once.
 std::vector<std::filesystem::path> data_roots();

@@ -78,6 +78,7 @@ RecordingFile read_replay_recording(const std::string& recording, std::optional<
   RecordingFile r;
   r.path = resolve_recording_path(recording);
   r.recording = read_recording(r.path, window);
+  r.hidden = hidden_builtin(recording, r.path, "recordings", ".h5", "recording");
   return r;
 }
 
@@ -219,6 +220,8 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   r.recording_path = std::move(recording.path);
   r.recording = std::move(recording.recording);
   const std::filesystem::path scene_file = resolve_scene_path(scene);
+  if (auto w = hidden_builtin(scene, scene_file, "scenarios", ".yaml", "scene")) r.warnings.push_back(*w);
+  if (recording.hidden) r.warnings.push_back(*recording.hidden);
   SceneSpec spec = load_scene_spec(scene_file, overrides);
   const std::optional<std::string> lost = grasp_lost(r.recording, spec);  // said with the path's checks below
   if (auto w = scene_mismatch(r.recording, r.recording_path, scene_file, spec.name))

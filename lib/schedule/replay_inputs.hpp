@@ -65,6 +65,7 @@ std::vector<RoleFile> replay_input_files(const std::string& scene, const std::st
 struct RecordingFile {
   std::string path;
   Recording recording;
+  std::optional<std::string> hidden;  ///< the name found another file than ebh's own (hidden_builtin)
 };
 RecordingFile read_replay_recording(const std::string& recording, std::optional<RecordingWindow> window = std::nullopt);
 LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& scene,

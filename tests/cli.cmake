@@ -902,6 +902,17 @@ ebh_gate_output(half_the_baselines_force_fails twice_the_force
 ebh_gate_output(says_the_replays_warnings other_scene
   "name: other, scene: tube_forceps, recording: tube_insert, start: 9.9, duration: 5, peak_force: 0.5"
   "warning: other: .*tube_insert.h5: recorded for the scene 'tube' .*warning: other: .*the recording ends 0.1 s after the start; measuring those, not the duration's 5 s")
+# A TMPDIR that is no folder: one line naming it, exit status 1, before any case (an internal error
+# from the file-system library before); bench sizes likewise before its table.
+add_test(NAME gate.tmpdir_missing
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};gate;--case;tube_insert"
+    "-DEXPECT=^ebh: error: TMPDIR '/nonexistent/ebh_tmp': no such folder \\(the folder for temporary files" -DSTATUS=1
+    -DNO_STDOUT=1 -P ${EBH_EXPECT_ERROR})
+add_test(NAME cli.bench.sizes_tmpdir_missing
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--scene;tube;--levels;0-1;--seconds;0.05"
+    "-DEXPECT=^ebh: error: TMPDIR '/nonexistent/ebh_tmp': no such folder" -DSTATUS=1 -DNO_STDOUT=1 -P ${EBH_EXPECT_ERROR})
+set_tests_properties(gate.tmpdir_missing cli.bench.sizes_tmpdir_missing PROPERTIES
+  ENVIRONMENT "TMPDIR=/nonexistent/ebh_tmp" LABELS gate)
 # A later case's scene that does not load fails the gate before the first case runs (nothing on
 # standard output), naming the case.
 file(WRITE ${PROJECT_BINARY_DIR}/gate_missing_scene.yaml "cases:\n"

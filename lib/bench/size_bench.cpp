@@ -12,10 +12,12 @@
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "core/error.hpp"
 #include "io/atomic.hpp"
+#include "io/paths.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/quality.hpp"
 #include "metrics/signal.hpp"
@@ -92,21 +94,6 @@ TimeStats stats(std::vector<double> v) {
   return s;
 }
 
-/// A temporary folder for the refined scenes, removed with what it holds.
-struct TemporaryFolder {
-  fs::path path;
-  TemporaryFolder() {
-    path = fs::temp_directory_path() / ("ebh-sizes-" + std::to_string(::getpid()));
-    std::error_code ec;
-    fs::remove_all(path, ec);
-    fs::create_directories(path, ec);
-    if (ec) throw InputError(path.string() + ": cannot create the folder for the refined scenes: " + ec.message());
-  }
-  ~TemporaryFolder() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 SizeResult measure(const SizeBenchOptions& o, const std::string& scene, int level) {
   SizeResult r;
@@ -194,6 +181,7 @@ SizeBenchWindow check_size_bench(const SizeBenchOptions& o) {
   if (o.mode == Mode::Realtime)
     throw InputError("--mode: expected async or lockstep (a size's costs are measured in virtual time), got realtime");
   if (!(o.seconds > 0)) throw InputError("--seconds: expected a number > 0");
+  if (o.last_level > 0) (void)temporary_directory();  // where the refined scenes go: there
   const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
   const fs::path scene_file = resolve_scene_path(o.scene);
   // Each size is the scene's own meshes refined: an override of a mesh file would replace the
@@ -234,6 +222,11 @@ std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progres
   const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
   const fs::path scene_file = resolve_scene_path(o.scene);
   install_interrupt_handlers();
+  // The refined scenes' folder, before any work (a TMPDIR that is no folder fails here); level 0
+  // alone, the scene as it is, needs none.
+  std::optional<TemporaryFolder> folder;
+  if (o.last_level > 0)
+    folder.emplace("ebh-sizes-" + std::to_string(::getpid()) + "-", "the folder for the refined scenes");
   // The first device replay of a process loads the kernels and reserves their local memory (170 MB
   // on an H100 for the tube): a short replay of the scene first keeps that out of the first size.
   if (o.backend == Backend::Cuda) {
@@ -242,12 +235,11 @@ std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progres
     (void)measure(warm, scene_file.string(), 0);
   }
   std::vector<SizeResult> out;
-  const TemporaryFolder folder;
   for (int level = o.first_level; level <= o.last_level; ++level) {
     std::string scene = scene_file.string();
     std::vector<std::string> written;
     if (level > 0) {
-      const fs::path refined_file = folder.path / ("level" + std::to_string(level) + ".yaml");
+      const fs::path refined_file = folder->path() / ("level" + std::to_string(level) + ".yaml");
       const RefinedScene r = refine_scene(scene_file, level, refined_file, max_tets, o.scene, o.keep_virtual);
       std::vector<std::pair<std::string, std::string_view>> files = {{r.mesh_file.string(), r.mesh_text}};
       if (!r.virtual_file.empty()) files.push_back({r.virtual_file.string(), r.virtual_text});

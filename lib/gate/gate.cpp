@@ -66,28 +66,6 @@ std::string text(const YAML::Node& n, const std::string& file, const std::string
   return n.Scalar();
 }
 
-/// The folder of one case's replay output (run_gate_case), removed with what it holds.
-class CaseFolder {
- public:
-  CaseFolder() {
-    std::string t = (std::filesystem::temp_directory_path() / ("ebh_gate_" + std::to_string(::getpid()) + "_XXXXXX")).string();
-    if (!::mkdtemp(t.data())) {
-      const int err = errno;
-      throw InputError(t + ": cannot create the gate's temporary folder: " + os_reason(err));
-    }
-    path_ = t;
-  }
-  CaseFolder(const CaseFolder&) = delete;
-  CaseFolder& operator=(const CaseFolder&) = delete;
-  ~CaseFolder() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -296,7 +274,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   opt.mode = Mode::Async;
   opt.start = c.start;
   opt.duration = c.duration;
-  const CaseFolder folder;
+  const TemporaryFolder folder("ebh_gate_" + std::to_string(::getpid()) + "_", "the gate's temporary folder");
   const auto tmp = folder.path() / "replay.h5";
   ForceMetrics m;
   GateResult r;

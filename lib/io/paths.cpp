@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <filesystem>
 
 #include "core/error.hpp"
@@ -88,6 +89,30 @@ std::optional<std::uint64_t> free_bytes_for(const std::string& output) {
   struct statvfs fs {};
   if (::statvfs(folder.c_str(), &fs) != 0) return std::nullopt;
   return static_cast<std::uint64_t>(fs.f_bavail) * static_cast<std::uint64_t>(fs.f_frsize);
+}
+
+std::filesystem::path temporary_directory() {
+  const char* env = std::getenv("TMPDIR");
+  const std::filesystem::path dir = env && *env ? env : "/tmp";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec))
+    throw InputError(std::string(env && *env ? "TMPDIR '" + dir.string() + "'" : "/tmp (TMPDIR is not set)") +
+                     ": no such folder (the folder for temporary files; set TMPDIR to one, or unset it for /tmp)");
+  return dir;
+}
+
+TemporaryFolder::TemporaryFolder(const std::string& prefix, const std::string& what) {
+  std::string t = (temporary_directory() / (prefix + "XXXXXX")).string();
+  if (!::mkdtemp(t.data())) {
+    const int err = errno;
+    throw InputError(t + ": cannot create " + what + ": " + os_reason(err));
+  }
+  path_ = t;
+}
+
+TemporaryFolder::~TemporaryFolder() {
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
 }
 
 }  // namespace ebh

@@ -3,6 +3,7 @@
 // user's data: an output never replaces one of the command's inputs (or another of its outputs),
 // and an input is a readable file, never a folder or an unfinished output (*.ebh-partial).
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,5 +34,25 @@ void check_input_file(const std::string& path);
 /// Bytes an unprivileged process may still write on the file system that holds `output` (its
 /// folder: the output and its temporary go there); nullopt when that cannot be told.
 std::optional<std::uint64_t> free_bytes_for(const std::string& output);
+
+/// The folder for temporary files: $TMPDIR, or /tmp where it is unset or empty (as POSIX tools take
+/// it). Throws InputError "TMPDIR 'X': no such folder (...)" when it names none: an exit status 1
+/// and one line, not filesystem's "temp_directory_path" error as an internal one.
+std::filesystem::path temporary_directory();
+
+/// A folder of its own under temporary_directory(), made with mkdtemp (PREFIX plus six characters,
+/// this user's only), removed with what it holds when it goes. `what` names it in the error:
+/// "/tmp/ebh_gate_1_XXXXXX: cannot create the gate's temporary folder: Permission denied".
+class TemporaryFolder {
+ public:
+  TemporaryFolder(const std::string& prefix, const std::string& what);
+  TemporaryFolder(const TemporaryFolder&) = delete;
+  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
+  ~TemporaryFolder();
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
 
 }  // namespace ebh

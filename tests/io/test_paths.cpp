@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -75,4 +76,33 @@ TEST(Paths, InputMustBeAReadableFile) {
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   EXPECT_INPUT_ERROR(check_input_file(fifo), "log.fifo: is a pipe, not a file: save what it gives to a file");
   EXPECT_INPUT_ERROR(check_input_file("/dev/null"), "/dev/null: is a device or a socket, not a file");
+}
+
+// The temporary folder: $TMPDIR, /tmp where it is unset or empty, and one line naming TMPDIR where it
+// is no folder (filesystem's temp_directory_path made that an internal error); a TemporaryFolder
+// is made under it and goes with what it holds.
+TEST(Paths, TheTemporaryFolderIsTmpdirOrTmpAndSaidWhenMissing) {
+  const char* given = std::getenv("TMPDIR");
+  const std::string saved = given ? given : "";
+  const fs::path dir = fs::temp_directory_path() / ("ebh_test_tmpdir_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  ::setenv("TMPDIR", dir.c_str(), 1);
+  EXPECT_EQ(temporary_directory(), dir);
+  fs::path made;
+  {
+    const TemporaryFolder folder("ebh_test_", "the test's folder");
+    made = folder.path();
+    EXPECT_EQ(made.parent_path(), dir);
+    EXPECT_EQ(made.filename().string().rfind("ebh_test_", 0), 0u);
+    std::ofstream(made / "f") << "x";
+  }
+  EXPECT_FALSE(fs::exists(made));
+  ::setenv("TMPDIR", "", 1);
+  EXPECT_EQ(temporary_directory(), fs::path("/tmp"));
+  ::setenv("TMPDIR", (dir / "missing").c_str(), 1);
+  EXPECT_INPUT_ERROR(temporary_directory(), "TMPDIR '" + (dir / "missing").string() + "': no such folder");
+  EXPECT_INPUT_ERROR(TemporaryFolder("ebh_test_", "the test's folder"), "TMPDIR '", "': no such folder");
+  if (given) ::setenv("TMPDIR", saved.c_str(), 1);
+  else ::unsetenv("TMPDIR");
+  fs::remove_all(dir);
 }

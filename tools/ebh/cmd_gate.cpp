@@ -30,9 +30,9 @@ void run_gate(const GateArgs& a) {
     throw InputError("--update with --set " + a.overrides.front() + ": baselines measured under an override would be "
                      "the reference of every later run without it; update without --set (for a gate of another "
                      "scene, a baselines file of its own whose cases name that scene)");
-  // What gate runs killed with SIGKILL left in the temporary directory.
-  std::error_code ec;
-  remove_stale_gate_temporaries(std::filesystem::temp_directory_path(ec));
+  // What gate runs killed with SIGKILL left in the temporary directory (a TMPDIR that is no
+  // folder is said here, before any case runs).
+  remove_stale_gate_temporaries(temporary_directory());
   // --update: the baselines can be written where they are (said before any case runs), and no
   // other update writes them between this one's reading and writing.
   FileLock lock;

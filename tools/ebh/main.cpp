@@ -17,6 +17,7 @@
 #include <new>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -109,6 +110,16 @@ int run(CLI::App& app, int argc, char** argv) {
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "ebh: error: out of memory\n");
     return 1;
+  } catch (const std::system_error& e) {
+    // A thread that could not start (std::thread's EAGAIN): a limit on processes or memory that a
+    // scheduler or a shell set, not a fault of ebh's.
+    if (e.code() == std::errc::resource_unavailable_try_again) {
+      std::fprintf(stderr, "ebh: error: cannot start a thread: %s (a limit on processes or memory: ulimit -u, "
+                   "ulimit -v, the job's limits; or fewer threads: OMP_NUM_THREADS)\n", e.code().message().c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "ebh: internal error: %s\n", ebh::escape_unprintable(e.what()).c_str());
+    return 3;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "ebh: internal error: %s\n", ebh::escape_unprintable(e.what()).c_str());
     return 3;

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -238,6 +239,15 @@ void check_replaceable(const std::string& path) {
     throw InputError(path + ": " + file_kind(st.type()) +
                      ", not a regular file: an output is written beside its name and renamed over it, which "
                      "would replace it; name a regular file");
+  // A file the user may not write (chmod a-w, kept from being overwritten) is not replaced behind
+  // its mode by the rename, as `>` or cp would not (root may, as with them).
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::access(path.c_str(), W_OK) != 0 && errno == EACCES) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    throw InputError(path + ": is write-protected (mode " + mode + "): make it writable (chmod u+w) or remove it to "
+                     "replace it, or choose another output file");
+  }
 }
 
 void check_name_length(const std::string& path) {
@@ -355,6 +365,9 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
     slot_ = -1;
     fail("cannot create the output", err);
   }
+  // A file replaced keeps its permissions (a 0640 output stays 0640, not the umask's 0644).
+  if (struct stat old {}; ::stat(target_.c_str(), &old) == 0 && S_ISREG(old.st_mode))
+    (void)::fchmod(fd, old.st_mode & 07777);
   ::close(fd);
 }
 

@@ -170,6 +170,29 @@ TEST(Atomic, AnOutputThatIsALinkWritesTheFileItNames) {
   EXPECT_EQ(std::distance(fs::directory_iterator(tmp.dir / "real"), fs::directory_iterator{}), 1);
 }
 
+// A file replaced keeps its permissions (0640 stays 0640, not the umask's 0644); one its user may not
+// write is refused, not replaced behind its mode (as root may write it, only checked as another).
+TEST(Atomic, AReplacedFileKeepsItsMode) {
+  test::ScratchDir tmp;
+  const std::string path = (tmp.dir / "out.h5").string();
+  { std::ofstream(path) << "old"; }
+  ASSERT_EQ(::chmod(path.c_str(), 0640), 0);
+  write_file_atomically(path, "new");
+  EXPECT_EQ(slurp(path), "new");
+  struct stat st {};
+  ASSERT_EQ(::stat(path.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 07777, 0640u);
+}
+TEST(Atomic, AWriteProtectedFileIsRefused) {
+  if (::geteuid() == 0) GTEST_SKIP() << "root may write a write-protected file";
+  test::ScratchDir tmp;
+  const std::string path = (tmp.dir / "out.h5").string();
+  { std::ofstream(path) << "new"; }
+  ASSERT_EQ(::chmod(path.c_str(), 0444), 0);
+  EXPECT_INPUT_ERROR(write_file_atomically(path, "newer"), "out.h5: is write-protected (mode 0444): make it writable");
+  EXPECT_EQ(slurp(path), "new");
+}
+
 // The folders an output made are removed with it when it is not committed (a failed run leaves
 // no empty folder tree); a folder that holds something else stays.
 TEST(Atomic, AnOutputNotCommittedRemovesTheFoldersItMade) {

@@ -233,6 +233,19 @@ set_tests_properties(cli.replay.shadowed_scene_other PROPERTIES PASS_REGULAR_EXP
   "ebh: warning: tube: the scene [^\n]*cli_shadow_other/scenarios/tube.yaml is used, not ebh's own [^\n]*/scenarios/tube.yaml, which differs: a name is looked up in \\$EBH_DATA_DIR, the working directory, then ebh's source tree")
 set_tests_properties(cli.replay.shadowed_scene_same PROPERTIES FAIL_REGULAR_EXPRESSION "ebh's own")
 
+# A scene reached through a linked folder whose mesh is named '../meshes/tube.msh': the OS's '..'
+# (the link target's parent), not the text's (alias/meshes, file not found).
+set(dir ${PROJECT_BINARY_DIR}/cli_linked)
+file(MAKE_DIRECTORY ${dir}/proj/scenes ${dir}/proj/meshes ${dir}/alias)
+file(COPY ${PROJECT_SOURCE_DIR}/scenarios/tube.msh DESTINATION ${dir}/proj/meshes)
+file(READ ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml ebh_tube_yaml)
+string(REPLACE "physical: tube.msh" "physical: ../meshes/tube.msh" ebh_tube_yaml "${ebh_tube_yaml}")
+file(WRITE ${dir}/proj/scenes/s.yaml "${ebh_tube_yaml}")
+file(CREATE_LINK ${dir}/proj/scenes ${dir}/alias/sc SYMBOLIC)
+add_test(NAME cli.scene.through_a_linked_folder COMMAND ${EBH_BIN} scene info alias/sc/s.yaml WORKING_DIRECTORY ${dir})
+set_tests_properties(cli.scene.through_a_linked_folder PROPERTIES PASS_REGULAR_EXPRESSION
+  "physical mesh +alias/sc/\\.\\./meshes/tube\\.msh\n.*tets +8057" LABELS "cli;scene")
+
 # A first word that is no command names the commands.
 add_test(NAME cli.unknown_command
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replya;tube;tube_insert"

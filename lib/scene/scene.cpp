@@ -56,6 +56,17 @@ std::string not_a_file(const fs::path& p) {
   return "file not found";
 }
 
+/// `folder / p` with its `..` and `.` taken out, as messages and outputs name it, where that names the
+/// same file: through a linked folder `..` is the link target's parent, which the OS follows and the
+/// text does not (alias/sc/../meshes is real/meshes, not alias/meshes), so there the joined path is
+/// kept as it is.
+fs::path joined_path(const fs::path& folder, const fs::path& p) {
+  const fs::path joined = folder / p, normal = joined.lexically_normal();
+  std::error_code ec;
+  if (fs::exists(joined, ec) && !fs::equivalent(joined, normal, ec)) return joined;
+  return normal;
+}
+
 std::string join(const std::vector<std::string>& v) {
   std::string s;
   for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
@@ -219,7 +230,7 @@ class SpecReader {
   /// A mesh path, relative to the scene file, that must exist.
   fs::path mesh_path(const YAML::Node& n, const std::string& key) const {
     fs::path p = text(n, key, false);
-    if (p.is_relative()) p = (file_.parent_path() / p).lexically_normal();
+    if (p.is_relative()) p = joined_path(file_.parent_path(), p);
     if (!mesh_files_must_exist_) return p;
     if (const std::string why = not_a_file(p); !why.empty())
       fail(key, why == "file not found" ? why + ": " + p.string() : p.string() + " " + why);
@@ -1420,7 +1431,7 @@ fs::path resolve_recording_scene(const std::string& attribute, const std::string
   const std::string where = recording + ": its scene attribute '" + attribute + "'";
   if (attribute.empty()) throw InputError(recording + ": its scene attribute is empty: the recording names no scene");
   if (!is_data_name(attribute) && fs::path(attribute).is_relative()) {
-    const fs::path beside = (fs::path(recording).parent_path() / attribute).lexically_normal();
+    const fs::path beside = joined_path(fs::path(recording).parent_path(), attribute);
     std::error_code ec;
     if (fs::is_regular_file(beside, ec)) return beside;
   }
@@ -1441,7 +1452,7 @@ std::string scene_attribute_for(const std::string& given, const fs::path& scene_
 
 std::string data_reference_from(const std::string& given, const fs::path& folder) {
   if (is_data_name(given) || fs::path(given).is_absolute()) return given;
-  return (folder / given).lexically_normal().string();
+  return joined_path(folder, given).string();
 }
 
 std::string scene_attribute_from(const std::string& given, const fs::path& folder, const fs::path& output) {

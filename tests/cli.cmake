@@ -246,6 +246,20 @@ add_test(NAME cli.scene.through_a_linked_folder COMMAND ${EBH_BIN} scene info al
 set_tests_properties(cli.scene.through_a_linked_folder PROPERTIES PASS_REGULAR_EXPRESSION
   "physical mesh +alias/sc/\\.\\./meshes/tube\\.msh\n.*tets +8057" LABELS "cli;scene")
 
+# An output name of 255 bytes: written without mesh snapshots (its XDMF index's name, 257 bytes,
+# is none of the replay's files then); with them, refused before any work, naming the index.
+string(REPEAT "L" 252 ebh_long_name)
+string(REPEAT "L" 250 ebh_long_name_f)
+add_test(NAME cli.replay.longest_name
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${PROJECT_BINARY_DIR}/${ebh_long_name}.h5 --start 4 --duration 0.05 -q
+    --frames-hz 0)
+set_tests_properties(cli.replay.longest_name PROPERTIES FAIL_REGULAR_EXPRESSION "error" LABELS cli)
+add_test(NAME cli.replay.longest_name_with_frames
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${PROJECT_BINARY_DIR}/${ebh_long_name_f}_f.h5;--start;4;--duration;0.05;--frames-hz;10"
+    "-DEXPECT=^ebh: error: [^\n]*L_f\\.xdmf: cannot create the output: File name too long" -DSTATUS=1
+    -DOUTPUT=${PROJECT_BINARY_DIR}/${ebh_long_name_f}_f.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.replay.longest_name_with_frames PROPERTIES LABELS cli)
+
 # A first word that is no command names the commands.
 add_test(NAME cli.unknown_command
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replya;tube;tube_insert"

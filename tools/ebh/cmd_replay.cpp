@@ -152,6 +152,7 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   if (opt.frames_hz * world.h_haptic > 1 + 1e-9)
     throw InputError("--frames-hz " + format_number(opt.frames_hz) + ": more snapshots than haptic ticks (" +
                      format_number(1.0 / world.h_haptic) + " Hz)");
+  if (opt.frames_hz > 0) check_name_length(xdmf_path_for(a.out));  // the snapshots' index beside the output
   check_replay_size(world, duration, opt.frames_hz, p.in.recording_path, a.out);
   p.ticks = tick_count(world, duration);
   // In async mode the first physical step's result reaches the haptic side one physical period
@@ -427,7 +428,16 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
 
 /// The files a replay writes (checked against every input before any work).
 std::vector<RoleFile> replay_outputs(const ReplayArgs& a) {
-  return {{a.out, "the replay output"}, {xdmf_path_for(a.out), "the replay's XDMF index"}};
+  std::vector<RoleFile> out{{a.out, "the replay output"}};
+  // The XDMF index beside it, written with mesh snapshots (a stale one removed without them). A name
+  // longer than the file system allows (a 255-byte OUT.h5 makes a 257-byte OUT.xdmf) cannot be there
+  // to replace: it is checked where snapshots are asked for (prepare_replay).
+  try {
+    check_name_length(xdmf_path_for(a.out));
+    out.push_back({xdmf_path_for(a.out), "the replay's XDMF index"});
+  } catch (const InputError&) {
+  }
+  return out;
 }
 
 /// --haptic-hz and --physical-hz against an override of the same rate.

@@ -260,6 +260,13 @@ add_test(NAME cli.replay.longest_name_with_frames
     -DOUTPUT=${PROJECT_BINARY_DIR}/${ebh_long_name_f}_f.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.replay.longest_name_with_frames PROPERTIES LABELS cli)
 
+# "-o=out.h5" (CLI11 and getopt give -o the value "=out.h5"): refused, naming the two ways.
+add_test(NAME cli.short_option_with_equals
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o=${PROJECT_BINARY_DIR}/eq.h5;--duration;0.05"
+    "-DEXPECT=^ebh: error: '-o=[^']*/eq.h5': a short option takes its value after a space \\(-o [^ ]*/eq.h5\\), not after '='"
+    -DSTATUS=1 -DNO_STDOUT=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.short_option_with_equals PROPERTIES LABELS cli)
+
 # A first word that is no command names the commands.
 add_test(NAME cli.unknown_command
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replya;tube;tube_insert"

@@ -92,6 +92,19 @@ int run(CLI::App& app, int argc, char** argv) {
       return 1;
     }
   }
+  // "-o=out.h5": CLI11, as getopt, gives a short option the text after it, '=' included, and the
+  // output was a file named "=out.h5". Refused, naming both ways to write it.
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg == "--") break;
+    if (arg.size() > 2 && arg[0] == '-' && std::isalpha(static_cast<unsigned char>(arg[1])) && arg[2] == '=') {
+      const std::string opt(arg.substr(0, 2)), value(arg.substr(3));
+      std::fprintf(stderr, "ebh: error: '%s': a short option takes its value after a space (%s %s), not after '='\n",
+                   ebh::escape_unprintable(std::string(arg)).c_str(), opt.c_str(),
+                   ebh::escape_unprintable(value).c_str());
+      return 1;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1061,7 +1061,17 @@ set_tests_properties(cli.replay.haptic_threads_in_lockstep PROPERTIES LABELS cli
 add_test(NAME cli.replay.threads_oversubscribed
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads_over.h5 --duration 0.01 -q)
 set_tests_properties(cli.replay.threads_oversubscribed PROPERTIES LABELS cli ENVIRONMENT OMP_NUM_THREADS=4096
-  PASS_REGULAR_EXPRESSION "warning: 4096 OpenMP threads \\(OMP_NUM_THREADS\\) are more than the [0-9]+ this machine runs at once")
+  PASS_REGULAR_EXPRESSION "warning: 4096 OpenMP threads \\(OMP_NUM_THREADS\\) are more than the [0-9]+ cores this process runs on")
+# ... counted on the cores the process may run on (taskset), and without the spin-wait's advice
+# where OMP_WAIT_POLICY is passive already.
+find_program(EBH_TASKSET taskset)
+if(EBH_TASKSET)
+  add_test(NAME cli.replay.threads_over_the_affinity
+    COMMAND ${EBH_TASKSET} -c 0 ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/threads_affinity.h5 --duration 0.01 -q)
+  set_tests_properties(cli.replay.threads_over_the_affinity PROPERTIES LABELS cli
+    ENVIRONMENT "OMP_NUM_THREADS=2;OMP_WAIT_POLICY=passive"
+    PASS_REGULAR_EXPRESSION "warning: 2 OpenMP threads \\(OMP_NUM_THREADS\\) are more than the 1 core this process runs on: they take turns; set OMP_NUM_THREADS to at most 1\n")
+endif()
 add_test(NAME cli.table1.seconds_too_short
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};table1;--seconds;0.01"
     "-DEXPECT=^ebh: error: --seconds: expected a finite number in \\[0.1, 3600\\] s, got '0.01'"

@@ -137,11 +137,17 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
                    "cores) the physical step keeps at least one, so the haptic side runs %d; raise OMP_NUM_THREADS "
                    "for more\n", a.haptic_threads, total_threads, split.haptic);
   // More threads than the machine runs at once take turns: the ticks and the step slow down.
-  if (const unsigned cores = std::thread::hardware_concurrency(); cores > 0 && total_threads > static_cast<int>(cores))
-    std::fprintf(stderr, "ebh: warning: %d OpenMP threads (OMP_NUM_THREADS) are more than the %u this machine runs at "
-                 "once: they take turns, and while one waits at a barrier it spins on a core another needs (3 threads "
-                 "on 2 cores ran 15-60 times slower); set OMP_NUM_THREADS to at most %u, or OMP_WAIT_POLICY=passive\n",
-                 total_threads, cores, cores);
+  // The cores are those the process may run on (taskset, a job's cpuset), not the machine's.
+  if (const unsigned cores = usable_cores(); cores > 0 && total_threads > static_cast<int>(cores)) {
+    const char* policy = std::getenv("OMP_WAIT_POLICY");
+    const bool passive = policy && (std::string(policy) == "passive" || std::string(policy) == "PASSIVE");
+    std::fprintf(stderr, "ebh: warning: %d OpenMP threads (OMP_NUM_THREADS) are more than the %u core%s this process "
+                 "runs on: they take turns%s; set OMP_NUM_THREADS to at most %u%s\n",
+                 total_threads, cores, cores == 1 ? "" : "s",
+                 passive ? "" : ", and while one waits at a barrier it spins on a core another needs (3 threads on 2 "
+                                "cores ran 15-60 times slower)",
+                 cores, passive ? "" : ", or OMP_WAIT_POLICY=passive");
+  }
   // 30 a second by default, or a snapshot every tick where the haptic rate is below that.
   const double default_frames_hz = std::min(30.0, 1.0 / world.h_haptic);
   opt.frames_hz = a.frames_hz.value_or(world.scene.spec.stages.frames ? default_frames_hz : 0.0);

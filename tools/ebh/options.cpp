@@ -1,11 +1,14 @@
 #include "options.hpp"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <thread>
 
 #include "core/error.hpp"
 #include "core/number_text.hpp"
@@ -32,6 +35,13 @@ CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::stri
         return in ? std::string() : "expected a finite number " + range + ", got '" + escape_unprintable(text) + "'";
       },
       range);
+}
+
+unsigned usable_cores() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return static_cast<unsigned>(CPU_COUNT(&set));
+  return std::thread::hardware_concurrency();
 }
 
 CLI::Validator whole_number(long long lo, long long hi) {

@@ -19,6 +19,10 @@ inline constexpr double kNoUpperLimit = std::numeric_limits<double>::infinity();
 /// than a silent full replay. `unit` is appended to the range in messages ("Hz").
 CLI::Validator finite_number(double lo, double hi, bool lo_open = false, const std::string& unit = "");
 
+/// The cores this process may run on: its CPU affinity (taskset, a job's cpuset), which OpenMP
+/// takes its default thread count from; the machine's where that cannot be read.
+unsigned usable_cores();
+
 /// A CLI11 check for a count: a whole number in [lo, hi] in decimal digits. CLI11 says "Could not
 /// convert: --every = 1.5" of a fraction and of a number its type cannot hold, reads 1e30 into an
 /// unsigned option as 2^64 - 1, and words a PositiveNumber check's range with a 300-digit bound;

@@ -375,6 +375,11 @@ add_test(NAME cli.scene_init.write
   COMMAND ${EBH_BIN} scene init ${EBH_INIT}/own_cm.msh -o ${EBH_INIT}/own.yaml --unit cm --tissue liver)
 set_tests_properties(cli.scene_init.write PROPERTIES FIXTURES_SETUP scene_init FAIL_REGULAR_EXPRESSION "warning"
   PASS_REGULAR_EXPRESSION "own.yaml: scene for .*own_cm.msh \\(8 vertices, 5 tets, in cm\\), liver, hook\n  no --pin given: pinned the lowest 5% of the mesh's height \\(z <= 0.1 cm, 4 vertices\\)")
+# The hint to check a scene named with a space and a '#' quotes it as a shell reads it back.
+add_test(NAME cli.scene_init.hint_quoted
+  COMMAND ${EBH_BIN} scene init ${EBH_INIT}/own_cm.msh -o "${EBH_INIT}/my scene #1.yaml" --unit cm --tissue liver)
+set_tests_properties(cli.scene_init.hint_quoted PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "  check it: ebh scene info '[^'\n]*/my scene #1\\.yaml'\n")
 add_test(NAME cli.scene_init.info COMMAND ${EBH_BIN} scene info ${EBH_INIT}/own.yaml)
 set_tests_properties(cli.scene_init.info PROPERTIES FIXTURES_REQUIRED scene_init FAIL_REGULAR_EXPRESSION "warning"
   PASS_REGULAR_EXPRESSION "unit +cm, no transform.*pinned vertices +4\n.*  in cm +\\[0, 0, 0\\] \\.\\. \\[4, 3, 2\\].*tool +hook, sizes in mm.*\n  shaft +radius 2.5, length 330 mm")

@@ -157,6 +157,14 @@ const std::vector<TissuePreset>& tissue_presets() {
   return presets;
 }
 
+std::string shell_word(const std::string& a) {
+  if (!a.empty() && a.find_first_of(" \t\n\r'\"$`\\;&|<>()*?[]{}~#!") == std::string::npos) return a;
+  std::string q = "'";
+  for (const char c : a)  // a line break would end the YAML comment the command stands in
+    q += c == '\'' ? std::string("'\\''") : c == '\n' ? std::string("\\n") : c == '\r' ? std::string("\\r") : std::string(1, c);
+  return q + "'";
+}
+
 SceneInit make_scene(const SceneInitOptions& o) {
   const std::optional<double> unit_m = length_unit_metres(o.unit);
   if (!unit_m) throw InputError("--unit: expected one of " + std::string(kLengthUnitList) + ", got '" + o.unit + "'");
@@ -241,14 +249,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
   if (!ec && !relative.empty() && *relative.begin() != "..") mesh_path = relative;
 
   const std::string name = o.out.stem().string();
-  // The command as a shell reads it back: an argument with a space or a quote in single quotes.
-  auto arg = [](const std::string& a) {
-    if (!a.empty() && a.find_first_of(" \t\n\r'\"$`\\;&|<>()*?[]{}~#!") == std::string::npos) return a;
-    std::string q = "'";
-    for (const char c : a)  // a line break would end the YAML comment the command stands in
-      q += c == '\'' ? std::string("'\\''") : c == '\n' ? std::string("\\n") : c == '\r' ? std::string("\\r") : std::string(1, c);
-    return q + "'";
-  };
+  const auto arg = shell_word;
   std::string cmd = "ebh scene init " + arg(o.mesh.string()) + " -o " + arg(o.out.string()) + " --unit " + arg(o.unit) +
                     " --tissue " + arg(o.tissue) + " --tool " + arg(o.tool);
   for (const auto& p : o.pins) cmd += " --pin " + arg(p);

@@ -33,6 +33,11 @@ struct SceneInitOptions {
   std::string tool = "hook";      ///< hook | forceps
 };
 
+/// An argument as a shell reads it back: as it is, or in single quotes where it holds a space, a
+/// quote or another character the shell takes (a line break written as \n: the command stands in a
+/// YAML comment and in printed hints).
+std::string shell_word(const std::string& a);
+
 struct SceneInit {
   std::string yaml;      ///< the scene file's text
   Scene scene;           ///< that text loaded (as the file will load)

@@ -36,6 +36,7 @@ struct OffscreenRenderer::Impl {
   PFNGLGETQUERYOBJECTUIVPROC query_result = nullptr;
   GLuint query = 0;
   bool tissue_drawn = true;
+  std::string renderer;  // GL_RENDERER
 };
 
 namespace {
@@ -75,6 +76,7 @@ OffscreenRenderer::OffscreenRenderer(int width, int height, int supersample) : i
   m.end_query = reinterpret_cast<PFNGLENDQUERYPROC>(OSMesaGetProcAddress("glEndQuery"));
   m.query_result = reinterpret_cast<PFNGLGETQUERYOBJECTUIVPROC>(OSMesaGetProcAddress("glGetQueryObjectuiv"));
   if (m.gen_queries && m.delete_queries && m.begin_query && m.end_query && m.query_result) m.gen_queries(1, &m.query);
+  if (const GLubyte* name = glGetString(GL_RENDERER)) m.renderer = reinterpret_cast<const char*>(name);
 }
 
 OffscreenRenderer::~OffscreenRenderer() {
@@ -84,6 +86,7 @@ OffscreenRenderer::~OffscreenRenderer() {
 }
 
 bool OffscreenRenderer::tissue_drawn() const { return impl_->tissue_drawn; }
+std::string OffscreenRenderer::renderer_name() const { return impl_->renderer; }
 
 namespace {
 
@@ -240,6 +243,7 @@ Image OffscreenRenderer::render(const FrameGeometry&, const ViewCamera&, const R
   throw InputError(kNoOsmesa);
 }
 bool OffscreenRenderer::tissue_drawn() const { return true; }
+std::string OffscreenRenderer::renderer_name() const { return ""; }
 
 #endif
 

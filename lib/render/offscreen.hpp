@@ -6,6 +6,7 @@
 // Without OSMesa (EBH_HAVE_OSMESA undefined) constructing a renderer throws InputError.
 #include <array>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "math/vec.hpp"
@@ -59,6 +60,11 @@ class OffscreenRenderer {
   /// first: any of its fragments that passed the depth test). False when the camera sees none of
   /// the virtual mesh; true where the GL offers no occlusion query.
   bool tissue_drawn() const;
+
+  /// The GL renderer that draws (GL_RENDERER: "llvmpipe (LLVM 15.0.6, 256 bits)", "softpipe"):
+  /// frames are the same bytes for one renderer only (softpipe and llvmpipe differ by a few levels
+  /// at edges), so each PNG names it.
+  std::string renderer_name() const;
 
  private:
   struct Impl;

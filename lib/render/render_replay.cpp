@@ -451,6 +451,7 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
                   frames.frame_count(), frames.t[f]);
     std::vector<std::pair<std::string, std::string>> text = {{"Title", title},
                                                              {"Software", std::string("ebh ") + kVersion}};
+    if (const std::string gl = renderer->renderer_name(); !gl.empty()) text.push_back({"Source", "OSMesa " + gl});
     if (by_disp)
       text.push_back({"Comment", "tissue colour = displacement from rest, 0 (blue, bottom of the bar) to " +
                                      format_mm(summary.displacement_range) + " (red, top)"});

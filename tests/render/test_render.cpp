@@ -605,6 +605,10 @@ TEST(Render, TissueIsShadedAndFramesDiffer) {
   const int bar = std::max(2, 200 / 150);
   for (int row = 0; row < 200 - bar; ++row)
     for (int col = 0; col < 200; ++col) ASSERT_EQ(b.at(col, row), c.at(col, row)) << col << "," << row;
+  // The PNG names the GL renderer that drew it (frames are the same bytes for one renderer only).
+  std::ifstream in(r.files[0], std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(bytes.find(std::string("Source") + '\0' + "OSMesa "), std::string::npos);
 }
 
 TEST(Render, SizeAndCameraAreHonoured) {

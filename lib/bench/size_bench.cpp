@@ -222,8 +222,8 @@ std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progres
   const std::int64_t max_tets = o.max_tets > 0 ? o.max_tets : kMaxRefinedTets;
   const fs::path scene_file = resolve_scene_path(o.scene);
   install_interrupt_handlers();
-  // The refined scenes' folder, before any work (a TMPDIR that is no folder fails here); level 0
-  // alone, the scene as it is, needs none.
+  // The refined scenes' folder, before any work (check_size_bench has said a TMPDIR that is no
+  // folder); level 0 alone, the scene as it is, needs none.
   std::optional<TemporaryFolder> folder;
   if (o.last_level > 0)
     folder.emplace("ebh-sizes-" + std::to_string(::getpid()) + "-", "the folder for the refined scenes");

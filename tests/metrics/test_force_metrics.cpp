@@ -741,7 +741,7 @@ TEST(HeldRelaxation, AForceThatFallsWhileTheDeviceHoldsStillIsSaid) {
   ASSERT_TRUE(m.held.has_value());
   EXPECT_EQ(m.held->count, 1u);
   // The hold: from the first tick from which the device stays within kHeldStillM (0.5 mm), 1.524 mm
-  // into the 2 mm press (0.762 s), to the end.
+  // into the 2 mm press (0.762 s), to the end; the trace's t = i / 1000, exact but for round-off.
   EXPECT_NEAR(m.held->start_t, 0.762, 1e-9);
   EXPECT_NEAR(m.held->seconds, 8.999 - 0.762, 1e-9);  // to the last tick, at 8.999 s
   // |F| = 1 - 0.5 (t - 1) / 8 once pressed: its mean over [1.262, 2.262) s and over the last second,

@@ -146,3 +146,20 @@ if(EBH_GATE_BASH)
   set_tests_properties(cli.process.cpu_time_limit PROPERTIES LABELS cli TIMEOUT 60 PASS_REGULAR_EXPRESSION
     "^exit status 128 \\+ SIGXCPU\nebh: error: [^\n]*/out.h5: interrupted after [0-9.e+-]+ of 10 s; no output written\nerr\n$")
 endif()
+
+# Off a terminal (nohup, a Slurm job's log) a replay says how far it is, a line every
+# --progress-every seconds of wall time; -q and the default's 60 s keep a short replay's log clean.
+add_test(NAME cli.process.progress_lines
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_PROCESS_OUT}/progress.h5 --duration 0.3 --progress-every 0.001)
+set_tests_properties(cli.process.progress_lines PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "ebh: progress: 0\\.[0-9]+ of 0\\.30 s \\([0-9]+%\\) after [0-9]+ s, [0-9.]+x real time, \\|F\\| = [0-9.]+ N\n")
+add_test(NAME cli.process.progress_quiet
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_PROCESS_OUT}/progress_quiet.h5 --duration 0.3 -q --progress-every 0.001)
+add_test(NAME cli.process.progress_default
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_PROCESS_OUT}/progress_default.h5 --duration 0.3)
+set_tests_properties(cli.process.progress_quiet cli.process.progress_default PROPERTIES LABELS cli
+  FAIL_REGULAR_EXPRESSION "progress:")
+add_test(NAME cli.process.progress_batch
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${EBH_PROCESS_OUT}/no_batch.txt;--progress-every;5"
+    "-DEXPECT=^ebh: error: --batch excludes --progress-every" -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
+set_tests_properties(cli.process.progress_batch PROPERTIES LABELS cli)

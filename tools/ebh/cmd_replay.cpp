@@ -45,35 +45,46 @@ struct ReplayArgs {
   std::string render_dir;
   ReplayTransformOptions transforms;
   int haptic_threads = 0;
+  double progress_every = 60;  ///< s of wall time between progress lines off a terminal
   bool allow_outside = false, quiet = false;
 };
 
-/// A progress bar on a terminal (stderr), nothing otherwise.
+/// Progress on stderr: a bar on a terminal; elsewhere (nohup, a Slurm log, a pipe) one line every
+/// `line_seconds` of wall time (0: none), so a long replay says how far it is without filling a log.
 class Progress : public ReplayObserver {
  public:
-  Progress(std::int64_t ticks, bool enabled) : ticks_(ticks), enabled_(enabled), t0_(Clock::now()) {}
+  Progress(std::int64_t ticks, bool enabled, bool terminal, double line_seconds)
+      : ticks_(ticks), bar_(enabled && terminal), line_seconds_(enabled && !terminal ? line_seconds : 0),
+        t0_(Clock::now()), last_(t0_) {}
   void on_tick(const World& w, const HapticSide& h, double t) override {
-    if (!enabled_ || (h.tick % 50) != 0) return;
+    if ((!bar_ && line_seconds_ <= 0) || (h.tick % 50) != 0) return;
     const auto now = Clock::now();
-    if (now - last_ < std::chrono::milliseconds(100)) return;
+    const double since_last = std::chrono::duration<double>(now - last_).count();
+    if (since_last < (bar_ ? 0.1 : line_seconds_)) return;
     last_ = now;
     const double frac = static_cast<double>(h.tick) / static_cast<double>(ticks_);
     const double wall = std::chrono::duration<double>(now - t0_).count();
-    const int width = 30, done = static_cast<int>(frac * width);
-    std::fprintf(stderr, "\r[%.*s%*s] %3.0f%%  t=%6.2f s  %5.2fx real time  |F|=%5.2f N ", done,
-                 "##############################", width - done, "", 100 * frac, t + w.h_haptic,
-                 wall > 0 ? (t + w.h_haptic) / wall : 0.0, norm(h.output.force));
+    const double done_s = t + w.h_haptic, rate = wall > 0 ? done_s / wall : 0.0;
+    if (bar_) {
+      const int width = 30, done = static_cast<int>(frac * width);
+      std::fprintf(stderr, "\r[%.*s%*s] %3.0f%%  t=%6.2f s  %5.2fx real time  |F|=%5.2f N ", done,
+                   "##############################", width - done, "", 100 * frac, done_s, rate, norm(h.output.force));
+    } else {
+      std::fprintf(stderr, "ebh: progress: %.2f of %.2f s (%.0f%%) after %.0f s, %.2fx real time, |F| = %.2f N\n",
+                   done_s, static_cast<double>(ticks_) * w.h_haptic, 100 * frac, wall, rate, norm(h.output.force));
+    }
     std::fflush(stderr);
   }
   void finish() {
-    if (enabled_) std::fprintf(stderr, "\r%*s\r", 90, "");
+    if (bar_) std::fprintf(stderr, "\r%*s\r", 90, "");
   }
 
  private:
   using Clock = std::chrono::steady_clock;
   std::int64_t ticks_;
-  bool enabled_;
-  Clock::time_point t0_, last_{};
+  bool bar_;
+  double line_seconds_;
+  Clock::time_point t0_, last_;
 };
 
 /// Forwards every event to the writer and the progress bar.
@@ -482,7 +493,7 @@ void run_replay(const ReplayArgs& a) {
   for (const std::string& w : p.in.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   install_interrupt_handlers();
   p.writer = std::make_unique<ReplayWriter>(a.out, *p.in.world, p.meta, p.ticks, p.opt.frames_hz > 0);
-  Progress progress(p.ticks, !a.quiet && isatty(STDERR_FILENO));
+  Progress progress(p.ticks, !a.quiet, isatty(STDERR_FILENO), a.progress_every);
   Tee tee(*p.writer, progress);
   const ReplaySummary s = replay(*p.in.world, p.in.recording, p.opt, tee);
   progress.finish();
@@ -520,7 +531,7 @@ void add_replay_options(CLI::App* c, ReplayArgs& a) {
                 "(default: half of OMP_NUM_THREADS or the cores, rounded up)")
       ->check(ebh::cli::whole_number(1, 4096));
   c->add_flag("--allow-outside", a.allow_outside, "Accept a trajectory far outside the scene");
-  c->add_flag("-q,--quiet", a.quiet, "No progress bar and no summary");
+  c->add_flag("-q,--quiet", a.quiet, "No progress bar, no progress lines and no summary");
 }
 
 /// One line of a --batch file: the arguments of an `ebh replay` command (after `ebh replay`).
@@ -698,6 +709,11 @@ void setup(CLI::App& root) {
   c->add_option("--at-once", *at_once, "With --batch: replays that run side by side (default 8; the others wait their turn)")
       ->check(ebh::cli::whole_number(1, 1024))
       ->needs(batch_option);
+  c->add_option("--progress-every", args->progress_every,
+                 "Where stderr is not a terminal (nohup, a Slurm job's log): a progress line every S seconds of wall "
+                 "time (default 60, 0 for none)")
+      ->check(finite_number(0, kNoUpperLimit))
+      ->excludes(batch_option);
   c->callback([args, batch, at_once, c] {
     if (!batch->empty() && c->count("--backend") && args->backend != "cuda")
       throw InputError("--backend " + args->backend + ": --batch runs its replays on the CUDA backend, on one GPU "

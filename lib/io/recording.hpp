@@ -69,6 +69,9 @@ struct Recording {
   double duration() const { return t.empty() ? 0.0 : end_time() - start_time(); }
   /// The file's row of sample i.
   std::size_t row(std::size_t i) const { return span ? span->first_row + i : i; }
+  /// Whether the samples are the whole file's: read whole, or through a window that holds all of it
+  /// (a replay reads through its window even without --start or --duration).
+  bool whole_file() const { return !span || (span->first_row == 0 && !t.empty() && t.back() == span->t_last); }
 };
 
 /// The most poses of a recording's outline (Recording::FileSpan): 0.1 s apart in 3 hours at 1 kHz.

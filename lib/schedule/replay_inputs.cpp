@@ -135,7 +135,7 @@ std::optional<std::string> grasp_flicker(const Recording& rec, const SceneSpec& 
 /// closed for 34% of their samples. nullopt for a scene without a grasp.
 std::optional<std::string> jaw_range_doubt(const Recording& rec, const SceneSpec& spec) {
   // A window of the recording (--start, --duration) may lie inside a grasp: the whole log only.
-  if (spec.tool.kind != ToolSpec::Kind::Forceps || !spec.stages.grasp || rec.jaw.empty() || rec.span)
+  if (spec.tool.kind != ToolSpec::Kind::Forceps || !spec.stages.grasp || rec.jaw.empty() || !rec.whole_file())
     return std::nullopt;
   const double threshold = spec.tool.forceps.grasp_threshold;
   const double closed = static_cast<double>(std::count_if(rec.jaw.begin(), rec.jaw.end(),

@@ -114,6 +114,15 @@ TEST(JawRange, AJawInAnotherRangeIsDoubted) {
             std::string::npos)
       << warned(inverted);
   EXPECT_NE(warned(radians).find("the jaws never open past 0.524 (1 is fully open)"), std::string::npos) << warned(radians);
+  // `ebh replay` reads through a window even without --start or --duration: one that holds the
+  // whole file is the whole log; one inside it (which may start inside a grasp) is not judged.
+  for (const auto& [window, judged] : {std::pair{RecordingWindow{0, 0}, true}, std::pair{RecordingWindow{0, 20}, true},
+                                       std::pair{RecordingWindow{2, 0}, false}}) {
+    RecordingFile read = read_replay_recording("tube_grasp", window);
+    ASSERT_TRUE(read.recording.span);
+    for (double& j : read.recording.jaw) j *= 0.5235987755982988;
+    EXPECT_EQ(warned(std::move(read)).empty(), !judged) << window.start << " " << window.duration;
+  }
 }
 
 // The recording's tool attribute: one that is neither hook nor forceps, or the other kind on its

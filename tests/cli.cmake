@@ -594,6 +594,20 @@ add_test(NAME cli.replay.max_step_in_the_wrong_unit
   COMMAND ${EBH_BIN} replay tube tube_insert --duration 2 --set tool.max_step=0.0005 -o ${EBH_REPLAY_OUT}/max_step_m.h5 -q)
 set_tests_properties(cli.replay.max_step_in_the_wrong_unit PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
   "against 0.002 mm a tick.*[1-9][0-9]* ticks rendered the force limit \\(3.3 N\\) with no contact: the coupling's stretch, not tissue; raise tool.max_step \\(tool.unit mm\\)")
+# The same for turns: a brisk wrist roll (90 degrees in 0.15 s) against one Newton call a tick
+# (0.5 degrees), with a torque limit the lag reaches in free air; the scene's four calls follow it.
+add_test(NAME cli.replay.gap_roll_synth
+  COMMAND ${EBH_BIN} synth ${EBH_IO_DATA}/gap_roll.yaml -o ${EBH_REPLAY_OUT}/gap_roll.h5)
+set_tests_properties(cli.replay.gap_roll_synth PROPERTIES FIXTURES_SETUP gap_roll LABELS cli)
+add_test(NAME cli.replay.tool_outturned
+  COMMAND ${EBH_BIN} replay gap ${EBH_REPLAY_OUT}/gap_roll.h5 -o ${EBH_REPLAY_OUT}/outturned.h5 -q
+    --set tool.newton_calls=1 --set tool.torque_limit=0.01)
+set_tests_properties(cli.replay.tool_outturned PROPERTIES FIXTURES_REQUIRED gap_roll LABELS cli PASS_REGULAR_EXPRESSION
+  "warning: .*outturned.h5: the device turned farther in a tick than the virtual tool can follow in [0-9]+ of 1001 ticks \\(up to 1.[0-9]+ degrees, against 0.5 degrees a tick: .* 8.73 rad/s at 1000 Hz\\), so the tool lags it and the torque grows with the lag \\(stiffness.k_vct 0.3 N m a radian\\); [1-9][0-9]* of 1001 ticks rendered the torque limit \\(0.01 N m\\) with no contact: .*; raise tool.max_step_rotation_deg or the haptic rate\n")
+add_test(NAME cli.replay.tool_follows_the_roll
+  COMMAND ${EBH_BIN} replay gap ${EBH_REPLAY_OUT}/gap_roll.h5 -o ${EBH_REPLAY_OUT}/roll_followed.h5 -q)
+set_tests_properties(cli.replay.tool_follows_the_roll PROPERTIES FIXTURES_REQUIRED gap_roll LABELS cli
+  FAIL_REGULAR_EXPRESSION "turned farther|torque limit")
 # A scene asking for frames at a haptic rate below their default 30 a second takes one a tick.
 add_test(NAME cli.replay.frames_default_at_a_low_rate
   COMMAND ${EBH_BIN} replay gap gap_insert --start 3 --duration 0.5 --haptic-hz 10 --physical-hz 10

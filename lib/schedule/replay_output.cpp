@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -231,7 +232,9 @@ std::string cpu_description() {
 ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, const ReplayMetadata& meta,
                            std::int64_t expected_ticks, bool frames)
     : out_(out_path), frames_(frames) {
-  reach_ = newton_reach_of_calls(newton_limits(world.tool.spec), newton_calls_per_tick(world.scene.spec)).translation;
+  const NewtonReach reach = newton_reach_of_calls(newton_limits(world.tool.spec), newton_calls_per_tick(world.scene.spec));
+  reach_ = reach.translation;
+  turn_reach_ = reach.rotation;
   const auto n = static_cast<std::size_t>(expected_ticks);
   for (auto* v : {&t_, &pen_, &pen_h_, &jaw_, &tm_total_, &tm_device_, &tm_sync_, &tm_grasp_, &tm_vmesh_, &tm_vtool_,
                   &tm_output_})
@@ -309,11 +312,16 @@ void ReplayWriter::on_tick(const World&, const HapticSide& h, double t) {
   clamped_ += h.output.force_clamped ? 1 : 0;
   in_contact_ += h.contact_count > 0 ? 1 : 0;
   free_clamped_ += h.output.force_clamped && h.contact_count == 0 ? 1 : 0;
+  free_torque_clamped_ += h.output.torque_clamped && h.contact_count == 0 ? 1 : 0;
   if (pose_h_.size() >= 14) {
-    const double* p = pose_h_.data() + pose_h_.size() - 14;  // the tick before's px py pz, then this one's
+    const double* p = pose_h_.data() + pose_h_.size() - 14;  // the tick before's px py pz qw qx qy qz, then this one's
     const double step = norm(Vec3d{p[7] - p[0], p[8] - p[1], p[9] - p[2]});
     if (step > max_device_step_) max_device_step_ = step;
     if (step > reach_ * (1 + 1e-9)) ++outpaced_;
+    const double cos_half = std::min(1.0, std::abs(p[3] * p[10] + p[4] * p[11] + p[5] * p[12] + p[6] * p[13]));
+    const double turn = 2 * std::acos(cos_half);
+    if (turn > max_device_turn_) max_device_turn_ = turn;
+    if (turn > turn_reach_ * (1 + 1e-9)) ++outturned_;
   }
 }
 

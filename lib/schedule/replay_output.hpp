@@ -102,6 +102,14 @@ class ReplayWriter : public ReplayObserver {
   /// (tool.max_step x its steps a tick): the tool lags the device there.
   std::int64_t outpaced_ticks() const { return outpaced_; }
   double tool_reach() const { return reach_; }  ///< m a tick
+  /// The same for turns: ticks in which the device turned farther than the Newton calls turn the
+  /// virtual tool in one (tool.max_step_rotation_deg x its steps a tick, at most 0.5 rad), the
+  /// largest turn of the device in one tick (rad), and that reach (rad a tick).
+  std::int64_t outturned_ticks() const { return outturned_; }
+  double max_device_turn() const { return max_device_turn_; }
+  double tool_turn_reach() const { return turn_reach_; }
+  /// Ticks whose torque met tool.torque_limit with no contact: the coupling's twist, not tissue.
+  std::int64_t free_torque_clamped_ticks() const { return free_torque_clamped_; }
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
   /// Steps that ran solver.physical_max_iterations and still left more than the tolerance.
   std::int64_t capped_steps() const { return capped_steps_; }
@@ -166,8 +174,9 @@ class ReplayWriter : public ReplayObserver {
   double peak_force_ = 0, peak_torque_ = 0, max_penetration_ = 0;
   std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0, unbalanced_steps_ = 0;
   double max_unbalanced_ = 0, first_unbalanced_t_ = -1;
-  std::int64_t stalled_steps_ = 0, free_clamped_ = 0, outpaced_ = 0;
+  std::int64_t stalled_steps_ = 0, free_clamped_ = 0, outpaced_ = 0, outturned_ = 0, free_torque_clamped_ = 0;
   double reach_ = 0;  // m a tick: the virtual tool's Newton calls' reach (tool.max_step x steps a tick)
+  double turn_reach_ = 0, max_device_turn_ = 0;  // rad a tick: the same for turns; the device's largest
   double max_device_step_ = 0;
   double max_stalled_ = 0, first_stalled_t_ = -1;
   std::int64_t short_steps_ = 0;

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <thread>
@@ -306,6 +307,27 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  writer.max_device_step() * 1e3, reach * 1e3, reach * 1e3 / world.h_haptic, 1.0 / world.h_haptic,
                  clamped, world.scene.spec.tool.unit_name.c_str());
   }
+  // The same for turns (a spin, a brisk wrist roll): the torque grows with the lag, stiffness.k_vct
+  // a radian, and turns round past half a turn, with nothing touched.
+  char torque_clamped[200] = "";
+  if (writer.free_torque_clamped_ticks() > 0)
+    std::snprintf(torque_clamped, sizeof torque_clamped,
+                  "%lld of %lld ticks rendered the torque limit (%g N m) with no contact: the virtual tool was held "
+                  "turned from the device, and that torque is the coupling's twist, not tissue",
+                  static_cast<long long>(writer.free_torque_clamped_ticks()), static_cast<long long>(s.ticks),
+                  world.scene.spec.tool.torque_limit);
+  if (writer.outturned_ticks() > 0)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: the device turned farther in a tick than the virtual tool can follow in %lld of "
+                 "%lld ticks (up to %.3g degrees, against %.3g degrees a tick: tool.max_step_rotation_deg x its Newton "
+                 "steps a tick, %.3g rad/s at %g Hz), so the tool lags it and the torque grows with the lag "
+                 "(stiffness.k_vct %g N m a radian)%s%s; raise tool.max_step_rotation_deg or the haptic rate\n",
+                 a.out.c_str(), static_cast<long long>(writer.outturned_ticks()), static_cast<long long>(s.ticks),
+                 writer.max_device_turn() * 180 / std::numbers::pi, writer.tool_turn_reach() * 180 / std::numbers::pi,
+                 writer.tool_turn_reach() / world.h_haptic, 1.0 / world.h_haptic, world.scene.spec.stiffness.k_vct,
+                 torque_clamped[0] ? "; " : "", torque_clamped);
+  else if (torque_clamped[0])
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), torque_clamped);
   if (writer.recovered_steps() > 0)
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps did not converge and were redone with the direct "

@@ -2,6 +2,7 @@
 #include "mesh/surface.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 
 namespace ebh {
@@ -29,6 +30,20 @@ SurfaceMesh refine_surface(const SurfaceMesh& surface, std::vector<std::array<in
     out.triangles.push_back({ab, bc, ca});
   }
   return out;
+}
+
+double median_circumradius(std::span<const Vec3d> positions, std::span<const Tri> triangles) {
+  if (triangles.empty()) return 0;
+  std::vector<double> r;
+  r.reserve(triangles.size());
+  for (const Tri& t : triangles) {
+    const Vec3d a = positions[t[0]], b = positions[t[1]], c = positions[t[2]];
+    const double twice_area = norm(cross(b - a, c - a));
+    r.push_back(twice_area > 0 ? norm(b - c) * norm(c - a) * norm(a - b) / (2 * twice_area) : INFINITY);
+  }
+  const auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
+  std::nth_element(r.begin(), mid, r.end());
+  return *mid;
 }
 
 }  // namespace ebh

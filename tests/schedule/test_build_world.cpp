@@ -188,5 +188,26 @@ TEST(BuildWorld, AVirtualMeshOverPartOfThePhysicalMeshIsNamed) {
   EXPECT_FALSE(has(smooth, "covers part")) << ::testing::PrintToString(smooth);
 }
 
+// With vertex contact a tool part narrower than the gaps between the virtual vertices passes
+// through the surface touching none: a needle-thin hook tip (0.3 mm) on the gap's block (median
+// circumradius 0.80 mm) is named with both numbers; not with surface contact, nor on a committed
+// scene (their tools 0.66 .. 1.4 times their meshes' circumradius).
+TEST(BuildWorld, AToolPartBetweenTheVirtualVerticesIsNamed) {
+  auto warned = [](const std::string& scene, const std::vector<std::string>& overrides) {
+    const auto world = build_world(load_scene(resolve_scene_path(scene), overrides), 1000, 100);
+    for (const std::string& w : world->scene.warnings)
+      if (w.find("circumradius") != std::string::npos) return w;
+    return std::string();
+  };
+  const std::string needle = warned("gap", {"tool.hook.tip_radius=0.3"});
+  EXPECT_NE(needle.find("gap.yaml: the tool's thinnest part (0.3 mm: tool.hook.tip_radius or "
+                        "tool.shaft_radius) is under half the virtual mesh's typical triangle circumradius (0.804 mm, "
+                        "the median)"), std::string::npos) << needle;
+  EXPECT_EQ(warned("gap", {"tool.hook.tip_radius=0.3", "contact=surface"}), "");
+  EXPECT_EQ(warned("gap", {"tool.hook.tip_radius=0.45"}), "");
+  for (const char* scene : {"tube", "tube_forceps", "gap", "gap_forceps", "gynaecology", "cholecystectomy"})
+    EXPECT_EQ(warned(scene, {}), "") << scene;
+}
+
 }  // namespace
 }  // namespace ebh

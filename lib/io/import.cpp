@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "core/units.hpp"
 #include "math/rotvec_input.hpp"
 #include "io/paths.hpp"
@@ -616,6 +617,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   if (has_t && rec.size() >= 2 && rec.t.back() > rec.t.front()) rec.rate_hz = nominal_rate(rec.t);
   // --jaw-range maps the log's jaw values; a CSV log without a jaw column has none (its samples
   // are open), which the range would have mapped to a value of its own (0,255: closed).
+  if (opt.jaw_button && opt.jaw_range) throw InputError("--jaw-button and --jaw-range: the jaw comes from one of them");
   if (opt.jaw_range && fmt == LogFormat::csv && !csv_has_jaw)
     throw InputError("--jaw-range: " + path + " has no jaw column (its samples are taken open, 1): the range maps a "
                      "logged jaw; leave it out, or add the jaw column");
@@ -636,6 +638,22 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
       throw InputError(at(path, line_of[i]) + ": jaw " + num(j) +
                        " outside [0, 1] (0 closed, 1 open): give the log's values when closed and open, --jaw-range "
                        "CLOSED,OPEN (--jaw-range 0,1 clamps a gripper calibrated a little past its ends)");
+    }
+  }
+  // --jaw-button: the jaw from a button, where the device has no gripper; a logged jaw that moves
+  // is a gripper's, which the button would silently replace.
+  std::size_t presses = 0;
+  if (opt.jaw_button) {
+    const int b = *opt.jaw_button;
+    for (std::size_t i = 1; i < rec.size(); ++i)
+      if (rec.jaw[i] != rec.jaw[0])
+        throw InputError(at(path, line_of[i]) + ": --jaw-button " + std::to_string(b) + ": the log's jaw moves (" +
+                         shortest_text(rec.jaw[0]) + " at its first sample, " + shortest_text(rec.jaw[i]) +
+                         " here): a gripper's, which the button would replace; leave --jaw-button out");
+    for (std::size_t i = 0; i < rec.size(); ++i) {
+      const bool down = (rec.buttons[i] >> b) & 1;
+      presses += down && (i == 0 || !((rec.buttons[i - 1] >> b) & 1));
+      rec.jaw[i] = down ? 0.0 : 1.0;
     }
   }
   // Validated before repeats are dropped, so an error names the log's own line.
@@ -660,6 +678,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   if (has_t) r.gap_warning = check_log_gaps(rec, line_of);
   r.jaw_clamped = jaw_clamped;
   r.first_jaw_clamped_line = first_jaw_clamped;
+  r.jaw_button_presses = presses;
   // Runs of repeats: sample i is new, samples i+1..j repeat it. A short run is stale samples of a
   // device polled faster than it updates; a run lasting more than kStaleRunMaxS is a hold (the
   // device at rest) and keeps its last sample, so a replay holds still until the device moves

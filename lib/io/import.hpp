@@ -46,6 +46,10 @@ struct ImportOptions {
   /// to 0 and 1 linearly and clamped to them (a gripper in degrees, an inverted signal, one
   /// calibrated a little past its ends); nullopt: the log's values are 0 .. 1 already.
   std::optional<std::pair<double, double>> jaw_range;
+  /// The jaw from a button (--jaw-button I, bit I of the buttons): closed (0) while it is pressed,
+  /// open (1) otherwise, for a device without a gripper (a Geomagic Touch grasps with its stylus
+  /// button); the log's jaw must stand still. nullopt: the log's jaw.
+  std::optional<int> jaw_button;
   /// A left-handed log (--mirror AXIS): the axis (0 x, 1 y, 2 z) reversed before the transforms
   /// (mirror_poses); nullopt: the log's frame is right-handed, as ebh's.
   std::optional<int> mirror;
@@ -98,6 +102,7 @@ struct ImportReport {
   std::string stale_warning;   ///< the samples repeat between a slower device's updates (check_recording_stale), kept
   std::size_t jaw_clamped = 0; ///< jaw_range: samples whose mapped jaw lay outside [0, 1], clamped
   std::size_t first_jaw_clamped_line = 0;
+  std::size_t jaw_button_presses = 0;  ///< jaw_button: times the button went down (a grasp each)
 };
 
 /// An interval between a log's times above this many times the median one (and above two

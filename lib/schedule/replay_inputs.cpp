@@ -1,6 +1,7 @@
 #include "schedule/replay_inputs.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -137,11 +138,26 @@ std::optional<std::string> jaw_range_doubt(const Recording& rec, const SceneSpec
   // A window of the recording (--start, --duration) may lie inside a grasp: the whole log only.
   if (spec.tool.kind != ToolSpec::Kind::Forceps || !spec.stages.grasp || rec.jaw.empty() || !rec.whole_file())
     return std::nullopt;
+  char line[400];
+  // A device without a gripper (a Geomagic Touch) grasps with a button, which no jaw follows.
+  if (std::all_of(rec.jaw.begin(), rec.jaw.end(), [&rec](double j) { return j == rec.jaw.front(); })) {
+    std::array<std::size_t, 8> presses{};
+    for (std::size_t i = 1; i < rec.buttons.size(); ++i)
+      for (int b = 0; b < 8; ++b) presses[b] += ((rec.buttons[i] & ~rec.buttons[i - 1]) >> b) & 1;
+    const auto most = std::max_element(presses.begin(), presses.end());
+    if (*most > 0) {
+      const auto b = static_cast<int>(most - presses.begin());
+      std::snprintf(line, sizeof line,
+                    "the jaws stand at %.3g throughout while button %d is pressed %s: a grasp logged as a button (a "
+                    "device without a gripper)? `ebh import --jaw-button %d` closes the jaws while it is pressed",
+                    rec.jaw.front(), b, *most == 1 ? "once" : (std::to_string(*most) + " times").c_str(), b);
+      return std::string(line);
+    }
+  }
   const double threshold = spec.tool.forceps.grasp_threshold;
   const double closed = static_cast<double>(std::count_if(rec.jaw.begin(), rec.jaw.end(),
                                                           [threshold](double j) { return j < threshold; })) /
                         static_cast<double>(rec.jaw.size());
-  char line[400];
   if (rec.jaw.front() < threshold && closed > 0.5) {
     std::snprintf(line, sizeof line,
                   "the jaws are closed at the first sample and for %.0f%% of the recording: a jaw logged the other way "

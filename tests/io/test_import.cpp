@@ -335,6 +335,35 @@ TEST(Import, TheJawRangeMapsTheLogsJawValues) {
   EXPECT_INPUT_ERROR(import_log(no_jaw, opt), "--jaw-range: " + no_jaw + " has no jaw column (its samples are taken open, 1)");
 }
 
+// A device without a gripper grasps with a button: --jaw-button I closes the jaws while bit I of
+// the buttons is set, counting the presses; a logged jaw that moves (a gripper's) is not replaced,
+// and the jaw comes from the button or from a range, not both.
+TEST(Import, TheJawFollowsAButtonWhenAsked) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  const std::string p = write_log(tmp / "button.csv", "t,x,y,z,qw,qx,qy,qz,buttons\n0,0,0,0,1,0,0,0,0\n"
+                                                        "0.001,0,0,0,1,0,0,0,2\n0.002,0,0,0,1,0,0,0,3\n"
+                                                        "0.003,0,0,0,1,0,0,0,1\n0.004,0,0,0,1,0,0,0,2\n");
+  EXPECT_EQ(import_log(p, opt).jaw, (std::vector<double>{1, 1, 1, 1, 1}));  // no jaw column: open
+  opt.jaw_button = 1;
+  ImportReport report;
+  EXPECT_EQ(import_log(p, opt, &report).jaw, (std::vector<double>{1, 0, 0, 1, 0}));
+  EXPECT_EQ(report.jaw_button_presses, 2u);
+  opt.jaw_button = 0;
+  EXPECT_EQ(import_log(p, opt, &report).jaw, (std::vector<double>{1, 1, 0, 0, 1}));
+  EXPECT_EQ(report.jaw_button_presses, 1u);
+  opt.jaw_button = 5;
+  EXPECT_EQ(import_log(p, opt, &report).jaw, (std::vector<double>{1, 1, 1, 1, 1}));
+  EXPECT_EQ(report.jaw_button_presses, 0u);
+  const std::string gripper = write_log(tmp / "gripper.csv", "t,x,y,z,qw,qx,qy,qz,jaw,buttons\n0,0,0,0,1,0,0,0,1,0\n"
+                                                               "0.001,0,0,0,1,0,0,0,1,1\n0.002,0,0,0,1,0,0,0,0.5,1\n");
+  opt.jaw_button = 0;
+  EXPECT_INPUT_ERROR(import_log(gripper, opt), "gripper.csv:4: --jaw-button 0: the log's jaw moves (1 at its first "
+                                               "sample, 0.5 here)");
+  opt.jaw_range = parse_jaw_range("0,1");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "--jaw-button and --jaw-range: the jaw comes from one of them");
+}
+
 // A gap in a log's times (the logger missed samples) is named: a replay glides across it.
 TEST(Import, GapsInTheTimesAreNamed) {
   test::ScratchDir tmp;

@@ -102,7 +102,7 @@ TEST(JawRange, AJawInAnotherRangeIsDoubted) {
   auto warned = [](RecordingFile f) {
     for (const std::string& w :
          load_replay_scene(std::move(f), "tube_forceps", {}, std::nullopt, std::nullopt, false, Backend::Cpu).warnings)
-      if (w.find("--jaw-range") != std::string::npos) return w;
+      if (w.find("--jaw-range") != std::string::npos || w.find("--jaw-button") != std::string::npos) return w;
     return std::string();
   };
   EXPECT_EQ(warned(file), "");
@@ -114,6 +114,16 @@ TEST(JawRange, AJawInAnotherRangeIsDoubted) {
             std::string::npos)
       << warned(inverted);
   EXPECT_NE(warned(radians).find("the jaws never open past 0.524 (1 is fully open)"), std::string::npos) << warned(radians);
+  // A device without a gripper: the jaw stands open while a button is pressed, named with the
+  // option that makes the jaw follow it.
+  RecordingFile button = file;
+  for (std::size_t i = 0; i < button.recording.size(); ++i) {
+    button.recording.buttons[i] = button.recording.jaw[i] < 0.2 ? 2 : 0;
+    button.recording.jaw[i] = 1;
+  }
+  EXPECT_NE(warned(button).find("the jaws stand at 1 throughout while button 1 is pressed"), std::string::npos)
+      << warned(button);
+  EXPECT_NE(warned(button).find("`ebh import --jaw-button 1` closes the jaws while it is pressed"), std::string::npos);
   // `ebh replay` reads through a window even without --start or --duration: one that holds the
   // whole file is the whole log; one inside it (which may start inside a grasp) is not judged.
   for (const auto& [window, judged] : {std::pair{RecordingWindow{0, 0}, true}, std::pair{RecordingWindow{0, 20}, true},

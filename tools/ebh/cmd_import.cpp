@@ -28,6 +28,7 @@ struct ImportArgs {
   bool drop_repeats = false;
   std::vector<std::string> skip_columns;
   std::string jaw_range;
+  std::optional<int> jaw_button;
   std::string mirror;  // empty: a right-handed log
 };
 
@@ -79,6 +80,7 @@ void run(const ImportArgs& a) {
   opt.drop_repeats = a.drop_repeats;
   opt.skip_columns = a.skip_columns;
   if (!a.jaw_range.empty()) opt.jaw_range = ebh::parse_jaw_range(a.jaw_range);
+  opt.jaw_button = a.jaw_button;
   if (!opt.skip_columns.empty() && opt.format.value_or(ebh::log_format_of(a.log)) != ebh::LogFormat::csv)
     throw ebh::InputError("--skip-column: an OpenHaptics log has no named columns (--skip-column is for a CSV log)");
   ebh::ImportReport report;
@@ -108,6 +110,9 @@ void run(const ImportArgs& a) {
                  "%s\n",
                  a.log.c_str(), report.jaw_clamped, a.jaw_range.c_str(), report.first_jaw_clamped_line,
                  report.jaw_clamped == 1 ? "its end" : "its ends");
+  if (a.jaw_button && report.jaw_button_presses == 0)
+    std::fprintf(stderr, "ebh: warning: %s: --jaw-button %d: the button is never pressed in the log: the jaws stay "
+                 "open (button I is bit I of the buttons, 0 the first)\n", a.log.c_str(), *a.jaw_button);
   if (!report.gap_warning.empty())
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), report.gap_warning.c_str());
   if (!report.stale_warning.empty())
@@ -182,6 +187,11 @@ void setup(CLI::App& root) {
   c->add_option("--jaw-range", args->jaw_range,
                 "the log's jaw values when closed and when open, \"CLOSED,OPEN\" (mapped to 0 and 1 and clamped; "
                 "default: the log's are 0 closed .. 1 open)");
+  c->add_option("--jaw-button", args->jaw_button,
+                "the jaw from button I (0 the first state after the jaw; bit I of a CSV's buttons): closed while it "
+                "is pressed, open otherwise, for a device without a gripper (a Geomagic Touch grasps with its stylus "
+                "button); the log's jaw must stand still")
+      ->check(ebh::cli::whole_number(0, 7));
   c->add_option("--skip-column", args->skip_columns,
                 "csv: a column of the log to leave unread (a force or a timestamp of another clock; repeatable)");
   c->add_flag("--drop-repeats", args->drop_repeats,

@@ -245,7 +245,8 @@ bool stays_under(std::size_t i, std::size_t w, std::size_t n, const std::functio
 std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, const std::function<Vec3d(std::size_t)>& force,
                                                  const std::function<Vec3d(std::size_t)>& device,
                                                  std::span<const std::int32_t> contacts,
-                                                 std::span<const std::int32_t> grasped, double haptic_hz) {
+                                                 std::span<const std::int32_t> grasped, std::span<const double> jaw,
+                                                 double haptic_hz) {
   const std::size_t n = t.size();
   const auto w = static_cast<std::size_t>(std::max(1.0, std::round(kCollapseWindowS * haptic_hz)));
   const auto w_pressed = static_cast<std::size_t>(std::max(1.0, std::round(kPressedWindowS * haptic_hz)));
@@ -253,6 +254,13 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
   for (std::size_t i = 0; i < n; ++i) f[i] = norm(force(i));
   std::vector<std::size_t> held(n + 1, 0);  // ticks with a grasp before tick i
   for (std::size_t i = 0; i < n; ++i) held[i + 1] = held[i] + (i < grasped.size() && grasped[i] > 0);
+  // Whether the jaws moved between ticks a and b (the window before the largest force to the fall).
+  const auto jaws_moved = [&jaw](std::size_t a, std::size_t b) {
+    if (jaw.empty()) return false;
+    const auto [lo, hi] = std::minmax_element(jaw.begin() + static_cast<std::ptrdiff_t>(a),
+                                              jaw.begin() + static_cast<std::ptrdiff_t>(b) + 1);
+    return *hi - *lo > kCollapseJawMove;
+  };
   std::optional<ForceCollapse> found;
   auto record = [&found](ForceCollapse c) {
     if (!found) found = c;
@@ -274,7 +282,7 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
       // Nothing grasped from a window before the largest force (a grasp let go falls for a few ticks).
       const bool grasp = held[i + 1] != held[m > w ? m - w : 0];
       // Low, and in contact, after: a tool slid off an edge loses its contacts within a few ticks.
-      if (fell && !grasp && dot(device(i) - device(m), fm) <= 0 &&
+      if (fell && !grasp && dot(device(i) - device(m), fm) <= 0 && !jaws_moved(m > w ? m - w : 0, i) &&
           stays_under(i, w, n, [&f](std::size_t k) { return f[k]; }, 0.5 * f[m], contacts)) {
         record(ForceCollapse{t[m], t[i], f[m], f[i], 0, 0});
         collapsed = true;
@@ -306,7 +314,7 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
         std::size_t touching = 0;
         for (std::size_t k = m; k <= i; ++k) touching += contacts[k] > 0;
         if (m < i && contacts[m] > 0 && peak >= kCollapseMinForceN && now < kCollapseFraction * peak &&
-            pressed_on >= kPressedOnM && !grasp && 2 * touching > i - m + 1 &&
+            pressed_on >= kPressedOnM && !grasp && 2 * touching > i - m + 1 && !jaws_moved(m > w ? m - w : 0, i) &&
             stays_under(i, w, n, against, 0.5 * peak, contacts)) {
           record(ForceCollapse{t[m], t[i], peak, now + 0.0, pressed_on, 0});  // + 0.0: no "-0 N"
           collapsed = true;
@@ -537,7 +545,7 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   m.contact_warning = contact_warning(in_contact, n);
   m.collapse = find_force_collapse(
       tr.t, [&tr](std::size_t i) { return tr.force[i]; }, [&tr](std::size_t i) { return tr.pose_physical[i].p; },
-      tr.contacts, tr.grasped, tr.haptic_hz);
+      tr.contacts, tr.grasped, tr.jaw, tr.haptic_hz);
   m.saturation = find_force_saturation(tr.t, tr.force_clamped, tr.haptic_hz);
   m.held = find_held_relaxation(
       tr.t, [&tr](std::size_t i) { return tr.force[i]; }, [&tr](std::size_t i) { return tr.pose_physical[i].p; },

@@ -139,12 +139,16 @@ inline constexpr double kPressedWindowS = 0.5;
 inline constexpr double kPressedOnM = 0.5e-3;
 
 /// The first collapse of a run's force (ForceCollapse) and how many there were; nullopt when none.
-/// Per tick n of N: time t[n], the rendered force, the device's position, the contacts and the
-/// grasped vertices (empty: none grasped).
+/// Per tick n of N: time t[n], the rendered force, the device's position, the contacts, the
+/// grasped vertices (empty: none grasped) and the jaw (empty: none). A fall while the jaws moved
+/// by more than kCollapseJawMove is the tool's own shape changing (forceps closed in the tissue and
+/// opened there), not the tissue giving way: not a collapse.
 std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, const std::function<Vec3d(std::size_t)>& force,
                                                  const std::function<Vec3d(std::size_t)>& device,
                                                  std::span<const std::int32_t> contacts,
-                                                 std::span<const std::int32_t> grasped, double haptic_hz);
+                                                 std::span<const std::int32_t> grasped, std::span<const double> jaw,
+                                                 double haptic_hz);
+inline constexpr double kCollapseJawMove = 0.05;
 /// One line for a collapse: what fell, when, and what it means (`vertex_contact`: the scene's
 /// contact model where known).
 std::string collapse_warning(const ForceCollapse& c, std::optional<bool> vertex_contact, double start_s = 0);

@@ -297,6 +297,7 @@ ReplayTrace load_replay(const std::string& path) {
   tr.contacts = *in.read<std::int32_t>("/haptic/contacts", n, 0, H5T_NATIVE_INT32, false);
   tr.active = in.optional_doubles("/haptic/active", n);
   tr.grasped = in.read<std::int32_t>("/haptic/grasped", n, 0, H5T_NATIVE_INT32, true).value_or(std::vector<std::int32_t>{});
+  tr.jaw = in.optional_doubles("/haptic/jaw", n);
   tr.haptic_step_s = in.doubles("/timing/haptic_step_s", n);
 
   tr.physical_t = in.optional_doubles("/physical/t", -1);

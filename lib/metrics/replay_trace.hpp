@@ -39,6 +39,7 @@ struct ReplayTrace {
   std::vector<std::int32_t> contacts;      // N, number of contact constraints
   std::vector<double> active;              // N or empty (optional dataset: solver.active_region), virtual vertices iterated
   std::vector<std::int32_t> grasped;       // N or empty (optional dataset), virtual vertices grasped
+  std::vector<double> jaw;                 // N or empty (optional dataset), the device's jaw, 0 closed .. 1 open
 
   // Physical rate, K steps each; empty when the file has no /physical group.
   std::vector<double> physical_t;           // K, s

@@ -150,6 +150,7 @@ class ReplayWriter : public ReplayObserver {
   Vec3d device_position_at(std::size_t n) const { return {pose_h_[7 * n], pose_h_[7 * n + 1], pose_h_[7 * n + 2]}; }
   std::span<const std::int32_t> contacts() const { return contacts_; }
   std::span<const std::int32_t> grasped() const { return grasped_; }
+  std::span<const double> jaw() const { return jaw_; }
 
  private:
   h5::AtomicFile out_;

@@ -74,6 +74,7 @@ std::string write_trace(const ReplayTrace& tr, const std::string& name, const st
   if (!tr.penetration_physical.empty()) put("/haptic/penetration_physical", tr.penetration_physical, {n});
   if (skip != "/haptic/contacts") f.write<std::int32_t>("/haptic/contacts", tr.contacts, {n});
   if (!tr.grasped.empty()) f.write<std::int32_t>("/haptic/grasped", tr.grasped, {n});
+  if (!tr.jaw.empty()) f.write<double>("/haptic/jaw", tr.jaw, {n});
   put("/timing/haptic_step_s", tr.haptic_step_s, {n});
   f.close();
   return path;
@@ -690,6 +691,15 @@ TEST(ForceCollapse, ReleasesSlidesGraspsDipsAndLightTouchesAreNot) {
   released.grasped.assign(released.ticks(), 0);
   for (std::size_t i = 300; i < 495; ++i) released.grasped[i] = 12;  // let go 5 ticks before the largest force
   EXPECT_FALSE(roundtrip(released, "collapse_grasp").collapse);
+  // Forceps closed in the tissue and opened there: the tool's shape changed, not the tissue (the
+  // collapse warning blamed a thin tip); jaws that stand still do not hide a fall.
+  ReplayTrace opened = press_through();
+  opened.jaw.assign(opened.ticks(), 0.0);
+  for (std::size_t i = 490; i < 1000; ++i) opened.jaw[i] = std::min(1.0, 0.01 * static_cast<double>(i - 489));
+  EXPECT_FALSE(roundtrip(opened, "collapse_jaws_open").collapse);
+  ReplayTrace closed = press_through();
+  closed.jaw.assign(closed.ticks(), 0.0);
+  EXPECT_TRUE(roundtrip(closed, "collapse_jaws_closed").collapse);
   ReplayTrace dip = press_through();
   for (std::size_t i = 510; i < 1000; ++i) dip.force[i].z = 1.2;  // back within the window
   EXPECT_FALSE(compute_metrics(dip).collapse);

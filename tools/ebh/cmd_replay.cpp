@@ -217,7 +217,7 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   const auto collapse = find_force_collapse(
       writer.tick_times(), [&writer](std::size_t n) { return writer.force_at(n); },
       [&writer](std::size_t n) { return writer.device_position_at(n); }, writer.contacts(), writer.grasped(),
-      1.0 / world.h_haptic);
+      writer.jaw(), 1.0 / world.h_haptic);
   if (collapse)
     std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(),
                  collapse_warning(*collapse, world.scene.spec.contact == ContactModel::Vertices, a.start).c_str());

@@ -619,7 +619,9 @@ std::vector<std::string> size_warnings(const SceneSpec& s, const TetMesh& mesh) 
   if (t.shaft_radius < 0.5e-3 || t.shaft_radius > 10e-3)
     out.push_back(value_source(s, "tool.shaft_radius") + ": tool.shaft_radius = " + in_unit(t.shaft_radius, t.unit, t.unit_name) +
                   (t.unit_name == "mm" ? std::string() : " (" + shown_number(t.shaft_radius * 1e3) + " mm)") +
-                  ": laparoscopic shafts are 3-12 mm across; is tool.unit (" + t.unit_name + ") right?");
+                  ": laparoscopic shafts are 3-12 mm across, and this one is " +
+                  (t.shaft_radius < 0.5e-3 ? "under 1 mm" : "over 20 mm") + "; is tool.unit (" + t.unit_name +
+                  ") right? (a needle or a micro-instrument of this size needs no change)");
   if (t.shaft_length < 0.05 || t.shaft_length > 1.0)
     out.push_back(value_source(s, "tool.shaft_length") + ": tool.shaft_length = " + in_unit(t.shaft_length, t.unit, t.unit_name) +
                   (t.unit_name == "m" ? std::string() : " (" + shown_number(t.shaft_length) + " m)") +

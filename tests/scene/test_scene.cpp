@@ -657,13 +657,17 @@ TEST(SizeWarnings, AMisdeclaredToolUnitIsNamed) {
     EXPECT_EQ(w.find('\n'), std::string::npos) << w;
   }
   EXPECT_TRUE(has_warning(bad, "tool.forceps.jaw_length = 20 cm is larger than the physical mesh's bounding-box diagonal (17.3205 cm)"));
-  EXPECT_TRUE(has_warning(bad, "tool.shaft_radius = 2.5 cm (25 mm): laparoscopic shafts are 3-12 mm across"));
+  EXPECT_TRUE(has_warning(bad, "tool.shaft_radius = 2.5 cm (25 mm): laparoscopic shafts are 3-12 mm across, and this one is over 20 mm; is tool.unit (cm) right?"));
   EXPECT_TRUE(has_warning(bad, "tool.shaft_length = 300 cm (3 m): laparoscopic shafts are about 0.3-0.45 m long"));
   const Scene good = load_scene(cube_scene("declared.yaml", "unit: cm\ntool: {unit: mm, " + tool.substr(0) + "}\n"));
   EXPECT_TRUE(good.warnings.empty()) << good.warnings.front();
   // In mm already, the size is said once.
   const Scene wide = load_scene(cube_scene("wide.yaml", "unit: cm\ntool: {unit: mm, kind: hook, shaft_radius: 15}\n"));
-  EXPECT_TRUE(has_warning(wide, "tool.shaft_radius = 15 mm: laparoscopic shafts are 3-12 mm across"));
+  EXPECT_TRUE(has_warning(wide, "tool.shaft_radius = 15 mm: laparoscopic shafts are 3-12 mm across, and this one is over 20 mm"));
+  const Scene needle = load_scene(cube_scene("needle.yaml", "unit: cm\ntool: {unit: mm, kind: hook, shaft_radius: 0.4}\n"));
+  EXPECT_TRUE(has_warning(needle, "tool.shaft_radius = 0.4 mm: laparoscopic shafts are 3-12 mm across, and this one is "
+                                  "under 1 mm; is tool.unit (mm) right? (a needle or a micro-instrument of this size "
+                                  "needs no change)"));
 }
 
 TEST(SizeWarnings, AMeshInTheWrongUnit) {

@@ -295,8 +295,10 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
                               "names the likely fix, --unit or --transform; --allow-outside accepts it)"
                             : " (--allow-outside accepts it)"));
   }
-  if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
-    r.warnings.push_back(r.recording_path + ": " + *w);
+  // A synthesised path's unit is its plan's (position_mm): only a device log's can be mistaken.
+  if (r.recording.source != "synthetic")
+    if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
+      r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_speed(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_gaps(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_stale(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);

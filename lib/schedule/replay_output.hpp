@@ -151,6 +151,7 @@ class ReplayWriter : public ReplayObserver {
   std::span<const std::int32_t> contacts() const { return contacts_; }
   std::span<const std::int32_t> grasped() const { return grasped_; }
   std::span<const double> jaw() const { return jaw_; }
+  std::span<const std::uint8_t> torque_clamped() const { return tclamp_; }
 
  private:
   h5::AtomicFile out_;

@@ -459,9 +459,14 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                   writer.awake_mean(), world.physical_mesh.num_free);
     std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
                 s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0);
-    std::printf("  peak force %.3f N (%lld ticks at the %g N limit), max penetration %.3f mm, peak torque %.3g N m\n",
+    char torque_limit[64] = "";
+    if (world.scene.spec.tool.torque_limit > 0)
+      std::snprintf(torque_limit, sizeof torque_limit, " (%lld ticks at the %g N m limit)",
+                    static_cast<long long>(std::count(writer.torque_clamped().begin(), writer.torque_clamped().end(), 1)),
+                    world.scene.spec.tool.torque_limit);
+    std::printf("  peak force %.3f N (%lld ticks at the %g N limit), max penetration %.3f mm, peak torque %.3g N m%s\n",
                 writer.peak_force(), static_cast<long long>(writer.clamped_ticks()), world.scene.spec.tool.force_limit,
-                1e3 * writer.max_penetration(), writer.peak_torque());
+                1e3 * writer.max_penetration(), writer.peak_torque(), torque_limit);
   }
 }
 

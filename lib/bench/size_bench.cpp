@@ -241,9 +241,13 @@ std::vector<SizeResult> run_size_bench(const SizeBenchOptions& o, void (*progres
     if (level > 0) {
       const fs::path refined_file = folder->path() / ("level" + std::to_string(level) + ".yaml");
       const RefinedScene r = refine_scene(scene_file, level, refined_file, max_tets, o.scene, o.keep_virtual);
-      std::vector<std::pair<std::string, std::string_view>> files = {{r.mesh_file.string(), r.mesh_text}};
-      if (!r.virtual_file.empty()) files.push_back({r.virtual_file.string(), r.virtual_text});
-      files.push_back({r.scene_file.string(), r.scene_yaml});
+      // Registered with the folder: a run that ends at an interrupt's grace (a large level's load
+      // does not poll it) leaves none of them behind.
+      std::vector<std::pair<std::string, std::string_view>> files = {
+          {folder->file(r.mesh_file.filename().string()).string(), r.mesh_text}};
+      if (!r.virtual_file.empty())
+        files.push_back({folder->file(r.virtual_file.filename().string()).string(), r.virtual_text});
+      files.push_back({folder->file(r.scene_file.filename().string()).string(), r.scene_yaml});
       write_files_atomically(files);
       for (const auto& f : files) written.push_back(f.first);
       scene = refined_file.string();

@@ -274,8 +274,8 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   opt.mode = Mode::Async;
   opt.start = c.start;
   opt.duration = c.duration;
-  const TemporaryFolder folder("ebh_gate_" + std::to_string(::getpid()) + "_", "the gate's temporary folder");
-  const auto tmp = folder.path() / "replay.h5";
+  TemporaryFolder folder("ebh_gate_" + std::to_string(::getpid()) + "_", "the gate's temporary folder");
+  const auto tmp = folder.file("replay.h5");
   ForceMetrics m;
   GateResult r;
   r.measured = c;

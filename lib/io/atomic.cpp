@@ -74,9 +74,13 @@ const char* signal_name(int sig) {
   }
 }
 
+/// Unlinks every registered path, then removes those that are folders (emptied by the unlinks
+/// before: a temporary folder and the files registered in it).
 void remove_temporaries() {
   for (int i = 0; i < kSlots; ++i)
     if (g_used[i].load() == 2) unlink(g_paths[i]);
+  for (int i = 0; i < kSlots; ++i)
+    if (g_used[i].load() == 2) rmdir(g_paths[i]);
 }
 
 /// Ends the process now (async-signal-safe): the recorded child killed first, then the temporaries
@@ -194,6 +198,9 @@ void sync_directory(const fs::path& dir) {
 }
 
 }  // namespace
+
+int remove_on_interrupt(const std::string& path) { return register_temp(path); }
+void keep_on_interrupt(int slot) { unregister_temp(slot); }
 
 
 std::string partial_path_for(const std::string& final_path) { return partial_path_for(final_path, static_cast<long>(getpid())); }

@@ -39,6 +39,13 @@ std::string partial_path_for(const std::string& final_path, long pid);
 /// and of other hosts. Returns how many it removed.
 std::size_t remove_stale_partials(const std::string& final_path);
 
+/// Registers `path` (a file, or a folder emptied of its registered files) for removal should the
+/// process end at an interrupt's second signal or grace, as an unfinished output's temporary is;
+/// returns a slot for keep_on_interrupt (-1: the table is full, and only the owner removes it).
+int remove_on_interrupt(const std::string& path);
+/// Unregisters a slot of remove_on_interrupt (the owner removed the path, or keeps it).
+void keep_on_interrupt(int slot);
+
 /// strerror(err): the operating system's reason ("No space left on device").
 std::string os_reason(int err);
 

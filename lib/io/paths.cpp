@@ -4,6 +4,7 @@
 #include <sys/statvfs.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <filesystem>
@@ -108,11 +109,22 @@ TemporaryFolder::TemporaryFolder(const std::string& prefix, const std::string& w
     throw InputError(t + ": cannot create " + what + ": " + os_reason(err));
   }
   path_ = t;
+  slots_.push_back(remove_on_interrupt(t));
+}
+
+std::filesystem::path TemporaryFolder::file(const std::string& name) {
+  std::filesystem::path f = path_ / name;
+  if (std::find(names_.begin(), names_.end(), name) == names_.end()) {
+    names_.push_back(name);
+    slots_.push_back(remove_on_interrupt(f.string()));
+  }
+  return f;
 }
 
 TemporaryFolder::~TemporaryFolder() {
   std::error_code ec;
   std::filesystem::remove_all(path_, ec);
+  for (int slot : slots_) keep_on_interrupt(slot);
 }
 
 }  // namespace ebh

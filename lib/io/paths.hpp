@@ -43,6 +43,8 @@ std::filesystem::path temporary_directory();
 /// A folder of its own under temporary_directory(), made with mkdtemp (PREFIX plus six characters,
 /// this user's only), removed with what it holds when it goes. `what` names it in the error:
 /// "/tmp/ebh_gate_1_XXXXXX: cannot create the gate's temporary folder: Permission denied".
+/// A process that ends at an interrupt's grace or second signal (io/atomic.hpp) runs no
+/// destructor: the folder and the files named through file() are removed then too.
 class TemporaryFolder {
  public:
   TemporaryFolder(const std::string& prefix, const std::string& what);
@@ -50,9 +52,13 @@ class TemporaryFolder {
   TemporaryFolder& operator=(const TemporaryFolder&) = delete;
   ~TemporaryFolder();
   const std::filesystem::path& path() const { return path_; }
+  /// path() / name, registered for removal at a sudden end (a few at a time: the table is small).
+  std::filesystem::path file(const std::string& name);
 
  private:
   std::filesystem::path path_;
+  std::vector<int> slots_;  ///< remove_on_interrupt's, the folder's first
+  std::vector<std::string> names_;  ///< file()'s
 };
 
 }  // namespace ebh

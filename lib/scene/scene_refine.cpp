@@ -1,6 +1,8 @@
 // `ebh scene refine` (scene/scene_refine.hpp).
 #include "scene/scene_refine.hpp"
 
+#include <unistd.h>
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -25,21 +27,29 @@ std::string count_words(double n) {
   char buf[48];
   if (!std::isfinite(n)) return "over 1e308";
   if (n >= 1e12) std::snprintf(buf, sizeof buf, "%.3g", n);
+  else if (n >= 1e9) std::snprintf(buf, sizeof buf, "%.3g billion", n / 1e9);
   else if (n >= 1'000'000) std::snprintf(buf, sizeof buf, "%.3g million", n / 1e6);
   else if (n >= 10'000) std::snprintf(buf, sizeof buf, "%.3g thousand", n / 1e3);
   else std::snprintf(buf, sizeof buf, "%.0f", n);
   return buf;
 }
 
-/// "about 1.4 GB"; "over 1e299 GB" past what a double holds.
-std::string about_gigabytes(double bytes) {
+}  // namespace
+
+std::string gigabytes(double bytes) {
   if (!std::isfinite(bytes)) return "over 1e299 GB";
   char buf[40];
-  std::snprintf(buf, sizeof buf, "about %.2g GB", bytes / 1e9);
+  const double gb = bytes / 1e9;
+  std::snprintf(buf, sizeof buf, gb >= 100 && gb < 1e6 ? "%.0f GB" : "%.2g GB", gb);  // 360 GB, not 3.6e+02
   return buf;
 }
 
-}  // namespace
+std::string about_gigabytes(double bytes) { return std::isfinite(bytes) ? "about " + gigabytes(bytes) : gigabytes(bytes); }
+
+double machine_memory_bytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
+}
 
 bool refined_within(const RefinedCounts& c, std::int64_t max_tets) {
   // Below 2^53 the estimates are the counts exactly, and so is the limit as a double.
@@ -99,6 +109,11 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
                                : "over the " + std::to_string(kMaxMeshElements) +
                                      " tets or vertices a mesh can index (its indices are 32-bit)"));
   }
+  if (const double ram = machine_memory_bytes(), bytes = refine_memory(r.after).write_bytes; ram > 0 && bytes > ram)
+    throw InputError(scene.string() + ": level " + std::to_string(levels) + " makes " +
+                     count_words(r.after.tets_estimate) + " tets: " + about_gigabytes(bytes) +
+                     " to write, more than this machine's " + gigabytes(ram) +
+                     " of memory (the out-of-memory killer would end the run, and others beside it)");
   // The kept virtual mesh: the scene's OBJ as it is, or the boundary before refinement.
   std::optional<SurfaceMesh> kept;
   if (keep_virtual) kept = spec.virtual_mesh ? read_obj(*spec.virtual_mesh) : extract_boundary(mesh);

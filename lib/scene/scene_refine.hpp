@@ -48,6 +48,14 @@ struct RefineMemory {
 };
 RefineMemory refine_memory(const RefinedCounts& counts);
 
+/// This machine's memory in bytes (its physical pages), 0 where that cannot be told. A refinement
+/// past it is refused before the kernel's out-of-memory killer ends the run, and others beside it,
+/// without a word (--max-tets lifts the count's limit, not this one).
+double machine_memory_bytes();
+/// "1.4 GB"; "over 1e299 GB" past what a double holds. about_gigabytes: "about 1.4 GB".
+std::string gigabytes(double bytes);
+std::string about_gigabytes(double bytes);
+
 /// What `ebh scene refine` writes, in memory.
 struct RefinedScene {
   std::filesystem::path scene_file;    ///< OUT.yaml

@@ -215,4 +215,26 @@ TEST(SceneRefine, NoMaxTetsRaisesTheLimitPastWhatAMeshIndexes) {
 }
 
 }  // namespace
+/// Within the counts' limits (--max-tets raised) but past this machine's memory: refused before any
+/// refinement, with the sizes (the tube's 2.1 billion tets at level 6, under 2^31 - 1, were written
+/// until the out-of-memory killer ended the run, without a word). A machine with the ~115 GB the
+/// cube's level 9 takes skips the check.
+TEST(SceneRefine, ALevelPastThisMachinesMemoryIsRefused) {
+  constexpr std::int64_t kNoLimit = std::numeric_limits<std::int64_t>::max();
+  const RefinedCounts within = refined_counts(read_msh(load_scene_spec(data("scene/cube.yaml")).physical_mesh), 9);
+  ASSERT_TRUE(refined_within(within, kNoLimit));  // 671 million tets
+  const double ram = machine_memory_bytes(), bytes = refine_memory(within).write_bytes;
+  if (!(ram > 0 && bytes > ram)) GTEST_SKIP() << "this machine holds " << bytes << " bytes";
+  try {
+    refine_scene(data("scene/cube.yaml"), 9, out_dir() / "x.yaml", kNoLimit);
+    ADD_FAILURE() << "level 9 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("level 9 makes 671 million tets: about 115 GB to write, more than this "
+                                         "machine's "),
+              std::string::npos) << e.what();
+  }
+  EXPECT_EQ(gigabytes(2.5e10), "25 GB");
+  EXPECT_EQ(gigabytes(3.6e11), "360 GB");
+}
+
 }  // namespace ebh

@@ -163,3 +163,30 @@ add_test(NAME cli.process.progress_batch
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${EBH_PROCESS_OUT}/no_batch.txt;--progress-every;5"
     "-DEXPECT=^ebh: error: --batch excludes --progress-every" -DSTATUS=1 -P ${EBH_EXPECT_ERROR})
 set_tests_properties(cli.process.progress_batch PROPERTIES LABELS cli)
+
+# A replay whose ticks' rows outgrow the memory it may use (`ulimit -v`; the rows stay in memory
+# until the output is written whole) says so with the ticks, the size and what to do, not "out of
+# memory": a 2000 s recording under 650 MB of address space (the scene and the recording take
+# ~450 MB, the rows ~520 MB more).
+if(EBH_GATE_BASH)
+  add_test(NAME cli.process.long_replay_synth
+    COMMAND ${EBH_GATE_BASH} -c "sed 's/t: 20.0,/t: 2000.0,/' \"$1\" > \"$2.yaml\" && exec \"$0\" synth \"$2.yaml\" -o \"$2\""
+      ${EBH_BIN} ${EBH_IO_DATA}/tube_hold.yaml ${EBH_PROCESS_OUT}/long_hold.h5)
+  add_test(NAME cli.process.long_replay_memory_limit
+    COMMAND ${EBH_GATE_BASH} -c
+      "rm -f \"$1\"; (ulimit -v 650000; exec \"$0\" replay tube \"$2\" -o \"$1\" -q); rc=$?; echo \"exit status $rc\"; [ -e \"$1\" ] && echo written; true"
+      ${EBH_BIN} ${EBH_PROCESS_OUT}/long_out.h5 ${EBH_PROCESS_OUT}/long_hold.h5)
+  set_tests_properties(cli.process.long_replay_synth PROPERTIES FIXTURES_SETUP long_hold LABELS cli)
+  set_tests_properties(cli.process.long_replay_memory_limit PROPERTIES FIXTURES_REQUIRED long_hold LABELS cli TIMEOUT 120
+    PASS_REGULAR_EXPRESSION "^ebh: error: [^\n]*/long_out.h5: out of memory for the replay's 2000001 ticks, kept in memory until the output is written whole \\(about 516 MB at ~258 bytes a tick\\): replay a window of the recording \\(--start, --duration\\), or give the process more memory \\(ulimit -v, the job's limit\\)\nexit status 1\n$")
+endif()
+# The same for an import of a million-row log under 320 MB (the program takes ~250 MB of address
+# space before it reads a line): the samples read so far and what to do, not "out of memory".
+if(EBH_GATE_BASH)
+  add_test(NAME cli.process.import_memory_limit
+    COMMAND ${EBH_GATE_BASH} -c
+      "awk 'BEGIN { print \"t,x,y,z,qw,qx,qy,qz\"; for (i = 0; i < 1000000; i++) printf \"%.3f,0,0,0.03,1,0,0,0\\n\", i / 1000 }' > \"$1.csv\"; rm -f \"$1\"; (ulimit -v 320000; exec \"$0\" import \"$1.csv\" -o \"$1\"); rc=$?; rm -f \"$1.csv\"; echo \"exit status $rc\"; [ -e \"$1\" ] && echo written; true"
+      ${EBH_BIN} ${EBH_PROCESS_OUT}/big_log.h5)
+  set_tests_properties(cli.process.import_memory_limit PROPERTIES LABELS cli TIMEOUT 120 PASS_REGULAR_EXPRESSION
+    "^ebh: error: [^\n]*/big_log.h5.csv: out of memory after reading [0-9]+ samples \\(~220 bytes each while importing\\): give the process more memory \\(ulimit -v, the job's limit\\), or import the log in parts\nexit status 1\n$")
+endif()

@@ -588,8 +588,17 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   std::vector<std::size_t> line_of;
   bool has_t = false, csv_has_jaw = false;
   LeftOut left_out;
-  if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, opt.max_samples, rec, line_of, left_out);
-  else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t, csv_has_jaw, left_out, opt.skip_columns);
+  try {
+    if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, opt.max_samples, rec, line_of, left_out);
+    else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t, csv_has_jaw, left_out, opt.skip_columns);
+  } catch (const std::bad_alloc&) {  // a memory limit (ulimit -v, a job's) below what the log needs
+    const std::size_t rows = rec.t.size();
+    rec = Recording{};
+    throw InputError(path + ": out of memory after reading " + std::to_string(rows) +
+                     " samples (~" + std::to_string(kImportBytesPerSample) +
+                     " bytes each while importing): give the process more memory (ulimit -v, the job's limit), or "
+                     "import the log in parts");
+  }
   if (rec.t.empty())
     throw InputError(path + ": no samples (the log has no data lines" +
                      (left_out.cut_line ? "; its only one, line " + std::to_string(left_out.cut_line) +

@@ -236,20 +236,32 @@ ReplayWriter::ReplayWriter(const std::string& out_path, const World& world, cons
   reach_ = reach.translation;
   turn_reach_ = reach.rotation;
   const auto n = static_cast<std::size_t>(expected_ticks);
-  for (auto* v : {&t_, &pen_, &pen_h_, &jaw_, &tm_total_, &tm_device_, &tm_sync_, &tm_grasp_, &tm_vmesh_, &tm_vtool_,
-                  &tm_output_})
-    v->reserve(n);
-  force_.reserve(3 * n);
-  torque_.reserve(3 * n);
-  pose_h_.reserve(7 * n);
-  pose_g_.reserve(7 * n);
-  fclamp_.reserve(n);
-  tclamp_.reserve(n);
-  contacts_.reserve(n);
-  grasped_.reserve(n);
-  const std::size_t steps = n / static_cast<std::size_t>(world.ticks_per_step) + 2;
-  for (auto* v : {&pt_, &residual_, &reduction_, &tm_step_, &tm_local_, &tm_global_}) v->reserve(steps);
-  iterations_.reserve(steps);
+  // The ticks' rows stay in memory until the end (the file is written whole, atomically): a long
+  // replay under a memory limit says so here, with what it needs, rather than "out of memory".
+  try {
+    for (auto* v : {&t_, &pen_, &pen_h_, &jaw_, &tm_total_, &tm_device_, &tm_sync_, &tm_grasp_, &tm_vmesh_, &tm_vtool_,
+                    &tm_output_})
+      v->reserve(n);
+    force_.reserve(3 * n);
+    torque_.reserve(3 * n);
+    pose_h_.reserve(7 * n);
+    pose_g_.reserve(7 * n);
+    fclamp_.reserve(n);
+    tclamp_.reserve(n);
+    contacts_.reserve(n);
+    grasped_.reserve(n);
+    const std::size_t steps = n / static_cast<std::size_t>(world.ticks_per_step) + 2;
+    for (auto* v : {&pt_, &residual_, &reduction_, &tm_step_, &tm_local_, &tm_global_}) v->reserve(steps);
+    iterations_.reserve(steps);
+  } catch (const std::bad_alloc&) {
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  ": out of memory for the replay's %zu ticks, kept in memory until the output is written whole "
+                  "(about %.3g MB at ~%.0f bytes a tick): replay a window of the recording (--start, --duration), "
+                  "or give the process more memory (ulimit -v, the job's limit)",
+                  n, static_cast<double>(n) * kReplayBytesPerTick / 1e6, kReplayBytesPerTick);
+    throw InputError(out_path + line);
+  }
 
   h5::File& f = out_.file();
   f.set_attr("scene", world.scene.spec.name);

@@ -609,6 +609,14 @@ add_test(NAME cli.replay.tool_follows_the_roll
   COMMAND ${EBH_BIN} replay gap ${EBH_REPLAY_OUT}/gap_roll.h5 -o ${EBH_REPLAY_OUT}/roll_followed.h5 -q)
 set_tests_properties(cli.replay.tool_follows_the_roll PROPERTIES FIXTURES_REQUIRED gap_roll LABELS cli
   FAIL_REGULAR_EXPRESSION "turned farther|torque limit|path spans")
+# Settling under gravity that stops at its cap with the mesh still moving (the warning says so) is
+# not "the static equilibrium" in the summary.
+add_test(NAME cli.replay.settle_capped
+  COMMAND ${EBH_BIN} replay cholecystectomy_hook cholecystectomy_press --duration 0.01 --set gravity=[0,0,-9.81]
+    -o ${EBH_REPLAY_OUT}/settle_capped.h5)
+set_tests_properties(cli.replay.settle_capped PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "  started after 25 static steps under gravity, before the mesh had settled \\(the warning above\\)\n"
+  FAIL_REGULAR_EXPRESSION "static equilibrium")
 # A scene asking for frames at a haptic rate below their default 30 a second takes one a tick.
 add_test(NAME cli.replay.frames_default_at_a_low_rate
   COMMAND ${EBH_BIN} replay gap gap_insert --start 3 --duration 0.5 --haptic-hz 10 --physical-hz 10

@@ -202,8 +202,9 @@ void emit_output(const World& world, HapticSide& h) {
 /// the full weight M g) with the exact global solve until no vertex moves more than 5 um in a
 /// step, at most 25 steps: large sags (a liver hanging from its back strip moves centimetres)
 /// converge slowly under local-global iterations, and the dynamic replay (with its damping)
-/// absorbs what is left, which is then a fraction of a millimetre.
-int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<std::string>& warnings) {
+/// absorbs what is left, which is then a fraction of a millimetre. `capped`: it stopped at the cap
+/// with a vertex still moving (warned).
+int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<std::string>& warnings, bool& capped) {
   const std::string where = scene.spec.file.string();
   if (scene.pinned.empty())
     throw InputError(where + ": nothing is pinned, so under gravity the physical mesh has no static equilibrium "
@@ -243,7 +244,8 @@ int settle_under_gravity(const Scene& scene, PhysicalState& state, std::vector<s
     for (std::size_t i = 0; i < before.size(); ++i) moved = std::max(moved, norm(state.x[i] - before[i]));
     if (moved < kSettled) break;
   }
-  if (moved >= kSettled) {
+  capped = moved >= kSettled;
+  if (capped) {
     char line[256];
     std::snprintf(line, sizeof line,
                   "%s: settling under gravity stopped at its cap of %d static steps with a vertex still moving "
@@ -373,7 +375,7 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   }
   w->initial_physical = make_physical_state(w->physical_mesh);
   if (w->scene.spec.stages.settle && squared_norm(w->scene.spec.gravity) > 0)
-    w->settle_steps = settle_under_gravity(w->scene, w->initial_physical, w->scene.warnings);
+    w->settle_steps = settle_under_gravity(w->scene, w->initial_physical, w->scene.warnings, w->settle_capped);
   w->initial_virtual.assign(w->virtual_mesh.rest.size(), Vec3d{});
   paired_points(w->virtual_mesh, w->initial_physical.x, w->initial_virtual);
   return w;

@@ -55,6 +55,7 @@ struct World {
   PhysicalState initial_physical;
   std::vector<Vec3d> initial_virtual;
   int settle_steps = 0;  ///< static steps the settling took (0: not settled)
+  bool settle_capped = false;  ///< the settling stopped at its cap with the mesh still moving (warned)
 };
 
 /// Builds the world of a scene at the given rates. Throws InputError when the rates do not give a

@@ -445,7 +445,9 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                 world.scene.spec.name.c_str(), std::filesystem::path(p.in.recording_path).filename().c_str(),
                 mode_name(p.opt.mode), static_cast<long long>(s.ticks), static_cast<long long>(s.steps));
     if (world.settle_steps > 0)
-      std::printf("  started from the static equilibrium under gravity (%d static steps)\n", world.settle_steps);
+      std::printf(world.settle_capped ? "  started after %d static steps under gravity, before the mesh had settled (the warning above)\n"
+                                      : "  started from the static equilibrium under gravity (%d static steps)\n",
+                  world.settle_steps);
     if (writer.slept_steps() > 0)
       std::printf("  %lld of %lld physical steps skipped while the physical mesh slept (solver.sleep, "
                   "or no vertex awake)\n",
@@ -457,8 +459,10 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
     if (writer.awake_mean() >= 0)
       std::printf("  %.0f of %d physical vertices awake per step on average (solver.physical_region)\n",
                   writer.awake_mean(), world.physical_mesh.num_free);
-    std::printf("  virtual %.3f s in %.3f s wall: %.2fx real time\n", s.virtual_s, s.wall_s,
-                s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0);
+    const double rate = s.wall_s > 0 ? s.virtual_s / s.wall_s : 0.0;
+    std::printf(rate > 0 && rate < 0.01 ? "  virtual %.3f s in %.3f s wall: %.2gx real time\n"  // 0.004x, not 0.00x
+                                        : "  virtual %.3f s in %.3f s wall: %.2fx real time\n",
+                s.virtual_s, s.wall_s, rate);
     char torque_limit[64] = "";
     if (world.scene.spec.tool.torque_limit > 0)
       std::snprintf(torque_limit, sizeof torque_limit, " (%lld ticks at the %g N m limit)",

@@ -387,6 +387,7 @@ void ReplayWriter::on_step(const World& w, const PhysicalSide& p, double t) {
   slept_steps_ += p.slept ? 1 : 0;
   awake_.push_back(p.report.awake);
   recovered_steps_ += p.recovered ? 1 : 0;
+  recovery_factorize_s_ = p.recovery_factorize_s;
   tm_step_.push_back(p.report.time_s);
   tm_local_.push_back(p.report.local_s);
   tm_global_.push_back(p.report.global_s);

@@ -111,6 +111,7 @@ class ReplayWriter : public ReplayObserver {
   /// Ticks whose torque met tool.torque_limit with no contact: the coupling's twist, not tissue.
   std::int64_t free_torque_clamped_ticks() const { return free_torque_clamped_; }
   std::int64_t recovered_steps() const { return recovered_steps_; }  ///< steps redone with the direct solve
+  double recovery_factorize_s() const { return recovery_factorize_s_; }  ///< s the first one's factorisation took
   /// Steps that ran solver.physical_max_iterations and still left more than the tolerance.
   std::int64_t capped_steps() const { return capped_steps_; }
   /// Steps the stopping rule ended on a stall (no 5% gain for 8 iterations) before the cap, with
@@ -175,6 +176,7 @@ class ReplayWriter : public ReplayObserver {
   std::vector<float> scratch_f_;
   double peak_force_ = 0, peak_torque_ = 0, max_penetration_ = 0;
   std::int64_t clamped_ = 0, in_contact_ = 0, recovered_steps_ = 0, capped_steps_ = 0, unbalanced_steps_ = 0;
+  double recovery_factorize_s_ = 0;
   double max_unbalanced_ = 0, first_unbalanced_t_ = -1;
   std::int64_t stalled_steps_ = 0, free_clamped_ = 0, outpaced_ = 0, outturned_ = 0, free_torque_clamped_ = 0;
   double reach_ = 0;  // m a tick: the virtual tool's Newton calls' reach (tool.max_step x steps a tick)

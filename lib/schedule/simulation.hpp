@@ -150,6 +150,7 @@ struct PhysicalSide {
   bool recovered = false;
   PhysicalState start;
   std::shared_ptr<const PhysicalDirectSolver> recovery_direct;
+  double recovery_factorize_s = 0;       ///< s the factorisation took (in its step's time_s too)
   /// Sleeping (SolverSpec::sleep, CPU backend): the last step was skipped and the state held; the
   /// virtual mesh the last step that ran was given.
   bool slept = false;

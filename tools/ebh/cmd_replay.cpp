@@ -331,8 +331,10 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   if (writer.recovered_steps() > 0)
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps did not converge and were redone with the direct "
-                 "solve (/physical/recovered; `ebh scene info` shows the mesh's worst tets)\n",
-                 a.out.c_str(), static_cast<long long>(writer.recovered_steps()), static_cast<long long>(s.steps));
+                 "solve (/physical/recovered; `ebh scene info` shows the mesh's worst tets); the first factorised the "
+                 "physical mesh's matrix in %.3g s, counted in its /timing/physical_step_s\n",
+                 a.out.c_str(), static_cast<long long>(writer.recovered_steps()), static_cast<long long>(s.steps),
+                 writer.recovery_factorize_s());
   if (writer.capped_steps() > 0)
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps ran solver.physical_max_iterations (%d) and still left "

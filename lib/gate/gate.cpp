@@ -150,18 +150,21 @@ GateBaselines read_gate_baselines(const std::string& path) {
       throw InputError(path + ": key 'bands.relative': " + bands["relative"].Scalar() +
                        " lets a metric more than double and pass (at most 1; the bands absorb machines' "
                        "floating-point differences, well under 0.1)");
-    // The absolute bands at most what a haptic device renders (about 10 N at most, 3.3 N for a
-    // Touch; a force rate of that in a 1 kHz tick) or the tool's reach into tissue: beyond, they
-    // pass every run as a relative band above 1 would (the defaults: 2 mN, 5 N/s, 0.1 N, 0.2 mm).
+    // The absolute bands well under what a haptic device renders (3.3 N for a Touch): with a
+    // relative band of 1 on top, a band of a device's whole force (10 N, 1e4 N/s) passed a tissue a
+    // hundred times stiffer, or one buzzing at the force limit. At most a third of a Touch's force on
+    // the peak, a tenth of a newton a tick on the roughness (the baselines' 0.006-0.03 N; a buzz felt
+    // at a few hundredths), a newton a tick on the rate, 2 mm of penetration (the baselines' 0.4-1.2
+    // mm); the defaults are 2 mN, 5 N/s, 0.1 N and 0.2 mm.
     struct Ceiling {
       const char* key;
       double value, most;
       const char* what;
     };
-    for (const Ceiling& c : {Ceiling{"abs_force_step", b.bands.abs_force_step, 10, "N: a haptic device's whole force"},
-                             Ceiling{"abs_force_rate", b.bands.abs_force_rate, 1e4, "N/s: that force within a 1 kHz tick"},
-                             Ceiling{"abs_peak_force", b.bands.abs_peak_force, 10, "N: a haptic device's whole force"},
-                             Ceiling{"abs_penetration", b.bands.abs_penetration, 0.01, "m: 10 mm, past any tool part"},
+    for (const Ceiling& c : {Ceiling{"abs_force_step", b.bands.abs_force_step, 0.1, "N a tick: a strong buzz"},
+                             Ceiling{"abs_force_rate", b.bands.abs_force_rate, 1e3, "N/s: a newton within a 1 kHz tick"},
+                             Ceiling{"abs_peak_force", b.bands.abs_peak_force, 1, "N: a third of a Touch's force"},
+                             Ceiling{"abs_penetration", b.bands.abs_penetration, 0.002, "m: 2 mm, beyond the baselines' 1.2 mm"},
                              // power_above_30hz is a fraction of the force's power; the committed
                              // baselines sit at 2e-4 .. 0.07, a buzz users feel at a tenth and more
                              Ceiling{"abs_power", b.bands.abs_power, 0.1, "of the force's power above 30 Hz"},

@@ -130,6 +130,11 @@ TEST(Gate, BandsThatPassEveryBuzzAreRefused) {
   };
   refused("power", "abs_power: 0.99", "key 'bands.abs_power': 0.99 passes every run (at most 0.1");
   refused("ratio", "abs_boundary_ratio: 5", "key 'bands.abs_boundary_ratio': 5 passes every run (at most 1");
+  // Every band at the ceilings it had: passed a stiffness of 1e7 N/m with the force at its limit.
+  refused("peak", "abs_peak_force: 10", "key 'bands.abs_peak_force': 10 passes every run (at most 1 N");
+  refused("step", "abs_force_step: 10", "key 'bands.abs_force_step': 10 passes every run (at most 0.1 N a tick");
+  refused("rate", "abs_force_rate: 10000", "key 'bands.abs_force_rate': 10000 passes every run (at most 1000 N/s");
+  refused("depth", "abs_penetration: 0.01", "key 'bands.abs_penetration': 0.01 passes every run (at most 0.002 m");
 }
 
 TEST(Gate, ForceCollapseIsTrueOrFalse) {

@@ -1299,7 +1299,7 @@ foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got 
           "band;bands.relative': expected a finite number >= 0, got '-1'"
           "wide;bands.relative': 1e300 lets a metric more than double and pass \\(at most 1"
           "power;bands.abs_power': 1 passes every run"
-          "abs_wide;bands.abs_peak_force': 1000 passes every run \\(at most 10 N"
+          "abs_wide;bands.abs_peak_force': 1000 passes every run \\(at most 1 N"
           "dup;cases\\[0\\].start': given twice"
           "none;cases': expected at least one case"
           "extra;cases\\[0\\].peak_forse': unknown key \\(known: name, scene"
@@ -1317,8 +1317,27 @@ ebh_safety(gate_update_short "^ebh: error: not updating .*gate_short.yaml: .*cas
 ebh_safety(gate_update_free "^ebh: error: not updating .*gate_free.yaml: .*cases\\[0\\] \\(w\\): in its window \\(start 0 s, duration 0.3 s\\) the tool never touched the tissue .*: a baseline of a free tool checks nothing"
   KEEP ${S}/gate_free.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_free.yaml --update)
 add_test(NAME cli.gate.path_relative_to_baselines COMMAND ${EBH_BIN} gate --baselines ${S}/gate_rel/sub/own.yaml)
-set_tests_properties(cli.gate.path_relative_to_baselines PROPERTIES PASS_REGULAR_EXPRESSION "gate: passed"
+set_tests_properties(cli.gate.path_relative_to_baselines PROPERTIES PASS_REGULAR_EXPRESSION "gate: passed\n"
   FIXTURES_REQUIRED safety LABELS cli)
+# A run under --set says so beside its verdict (a --set left in a CI script measures another scene);
+# baselines another version measured are said; --update --json leaves stdout to the JSON alone.
+add_test(NAME cli.gate.verdict_under_set
+  COMMAND ${EBH_BIN} gate --baselines ${S}/gate_rel/sub/own.yaml --set stiffness.k_con=301)
+set_tests_properties(cli.gate.verdict_under_set PROPERTIES PASS_REGULAR_EXPRESSION
+  "gate: (passed|FAILED) \\(under --set stiffness.k_con=301: not the baselines' scenes\\)\n" FIXTURES_REQUIRED safety LABELS cli)
+file(WRITE ${EBH_SAFE}/gate_rel/sub/old.yaml
+  "generated_by: ebh gate --update (ebh 0.0.1)\ncases:\n  - {name: own, scene: tube, recording: ../rec.h5, start: 4, duration: 0.3, peak_force: 0.092}\n")
+add_test(NAME cli.gate.baselines_of_another_version COMMAND ${EBH_BIN} gate --baselines ${S}/gate_rel/sub/old.yaml)
+set_tests_properties(cli.gate.baselines_of_another_version PROPERTIES PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*old.yaml: generated_by 'ebh gate --update \\(ebh 0.0.1\\)', not this ebh [0-9.]+: a change between"
+  FIXTURES_REQUIRED safety LABELS cli)
+if(EBH_GATE_BASH)
+  add_test(NAME cli.gate.update_json_alone
+    COMMAND ${EBH_GATE_BASH} -c "cp \"$1/own.yaml\" \"$1/json.yaml\" && out=$(\"$0\" gate --baselines \"$1/json.yaml\" --update --json 2>/dev/null) && [ \"\${out:0:1}\" = '[' ] && [ \"\${out: -1}\" = ']' ] && echo 'JSON alone'"
+      ${EBH_BIN} ${S}/gate_rel/sub)
+  set_tests_properties(cli.gate.update_json_alone PROPERTIES PASS_REGULAR_EXPRESSION "^JSON alone\n$"
+    FIXTURES_REQUIRED safety LABELS cli)
+endif()
 # 6. Every numeric option is finite and in range.
 foreach(bad "start;nan;>= 0" "duration;nan;> 0" "duration;0;> 0" "frames-hz;-5;in \\[0, 100000\\] Hz" "frames-hz;nan;in \\[0")
   list(GET bad 0 opt)

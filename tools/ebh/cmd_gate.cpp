@@ -42,6 +42,14 @@ void run_gate(const GateArgs& a) {
     lock = lock_gate_baselines(a.baselines);
   }
   GateBaselines b = read_gate_baselines(a.baselines);
+  // Baselines another version measured: its changes to the solver may move every metric (a
+  // regression or not), which the bands do not absorb.
+  const std::string this_version = std::string("ebh gate --update (ebh ") + kVersion + ")";
+  if (!a.update && !b.generated_by.empty() && b.generated_by != this_version)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: generated_by '%s', not this ebh %s: a change between the two versions moves the "
+                 "metrics as a regression would (`ebh gate --update` measures them with this one)\n",
+                 a.baselines.c_str(), escape_unprintable(b.generated_by).c_str(), kVersion);
   std::vector<std::string> known;
   for (const GateCase& c : b.cases) known.push_back(c.name);
   check_known_names("--case", "gate case", a.only, known);
@@ -109,12 +117,17 @@ void run_gate(const GateArgs& a) {
   if (a.json) std::printf("%s\n", report.dump().c_str());
   if (a.update) {
     if (!all_passed) throw InputError("not updating " + a.baselines + ": a case produced non-finite values");
-    b.generated_by = std::string("ebh gate --update (ebh ") + kVersion + ")";
+    b.generated_by = this_version;
     write_gate_baselines(a.baselines, b);
-    std::printf("wrote %s\n", a.baselines.c_str());
+    std::fprintf(a.json ? stderr : stdout, "wrote %s\n", a.baselines.c_str());  // stdout holds the JSON alone
     return;
   }
-  if (!a.json) std::printf("%s\n", all_passed ? "gate: passed" : "gate: FAILED");
+  if (!a.json) {
+    std::string under;  // a run under overrides measures another scene than the baselines'
+    for (const std::string& o : a.overrides) under += (under.empty() ? " (under --set " : ", --set ") + o;
+    if (!under.empty()) under += ": not the baselines' scenes)";
+    std::printf("%s%s\n", all_passed ? "gate: passed" : "gate: FAILED", under.c_str());
+  }
   if (!all_passed) throw ExitRequest{kCheckFailedStatus};
 }
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "mesh/quality.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"
@@ -68,9 +69,9 @@ ValidationResult run_coupling(const ValidationOptions& options) {
         const double k_s = k_s_name == "scene" ? st.k_s : k_s_name == "k_svc" ? st.k_svc : 2 * st.k_svc;
         // Judged: k_s up to k_svc with 2 or more iterations, or 1 iteration with the scene's k_s.
         const bool in_envelope = k_s <= st.k_svc && (k >= 2 || k_s_name == "scene");
-        std::vector<std::string> overrides = options.overrides;
-        overrides.push_back("solver.virtual_iterations=" + std::to_string(k));
-        if (k_s_name != "scene") overrides.push_back("stiffness.k_s=" + std::to_string(k_s));
+        std::vector<std::string> matrix = {"solver.virtual_iterations=" + std::to_string(k)};
+        if (k_s_name != "scene") matrix.push_back("stiffness.k_s=" + shortest_text(k_s));
+        const std::vector<std::string> overrides = with_matrix_values(options.overrides, matrix);
         Trace trace;
         std::string error;
         ReplaySummary summary;
@@ -136,7 +137,8 @@ Validation coupling_validation() {
   return {"coupling",
           "the two-rate loop's stability: async replays across virtual iterations and k_s against k_svc, residuals "
           "and inverted tets",
-          run_coupling, /*replays_recordings=*/true, /*has_full_form=*/true, /*places_solvers=*/true};
+          run_coupling, /*replays_recordings=*/true, /*has_full_form=*/true, /*places_solvers=*/true,
+          /*varied_keys=*/{"solver.virtual_iterations", "stiffness.k_s"}};
 }
 
 }  // namespace ebh

@@ -80,8 +80,7 @@ struct Outcome {
 /// The scene of `rec` with the case's mesh, stiffness and method.
 Scene case_scene(const Recording& rec, double quality, double stiffness, const std::string& method,
                  const std::vector<std::string>& overrides, Vec3d* centre) {
-  std::vector<std::string> all = overrides;
-  all.push_back("solver.method=" + method);
+  const std::vector<std::string> all = with_matrix_values(overrides, {"solver.method=" + method});
   Scene scene = load_scene(resolve_scene_path(rec.scene), all);
   scene.spec.stiffness.k_vol *= stiffness;
   if (quality < 1) {
@@ -216,7 +215,8 @@ ValidationResult run_stability(const ValidationOptions& options) {
 Validation stability_validation() {
   return {"stability",
           "replays on sliver meshes x stiffness x solver x tool speed: counts non-finite states and blow-ups",
-          run_stability, /*replays_recordings=*/true, /*has_full_form=*/true, /*places_solvers=*/true};
+          run_stability, /*replays_recordings=*/true, /*has_full_form=*/true, /*places_solvers=*/true,
+          /*varied_keys=*/{"solver.method"}};
 }
 
 }  // namespace ebh

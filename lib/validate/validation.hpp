@@ -44,7 +44,17 @@ struct Validation {
   bool replays_recordings = false;  ///< takes ValidationOptions::recordings (--recording)
   bool has_full_form = false;       ///< reads ValidationOptions::full (--full)
   bool places_solvers = false;      ///< runs its iterative solvers on ValidationOptions::backend (--backend)
+  /// The scene keys its matrix varies: a --set of one is replaced by the matrix's values
+  /// (with_matrix_values), and `ebh validate` says so
+  std::vector<std::string> varied_keys = {};
 };
+
+/// `overrides` without those that set a key of `matrix` ("key=value" each), then `matrix`: a
+/// stress matrix's own values for the keys it varies, in place of the user's --set of them.
+std::vector<std::string> with_matrix_values(const std::vector<std::string>& overrides,
+                                            const std::vector<std::string>& matrix);
+/// The user's overrides that set one of `keys` (which with_matrix_values would replace).
+std::vector<std::string> overrides_of_keys(const std::vector<std::string>& overrides, const std::vector<std::string>& keys);
 
 /// Every validation, in the table's order.
 const std::vector<Validation>& validations();

@@ -26,6 +26,23 @@ TEST(Validation, RegistryListsEachNameOnce) {
   EXPECT_EQ(find_validation("no such validation"), nullptr);
 }
 
+// A --set of a key the stress matrix varies gives way to the matrix's values (it once met them as
+// "key 'stiffness.k_s' given twice (also --set 'stiffness.k_s=50.000000')", a value the user never
+// gave); a --set of another key, or of a map holding the key, is kept or replaced as a whole.
+TEST(Validation, TheMatrixKeepsTheKeysItVaries) {
+  const std::vector<std::string> user = {"stiffness.k_s=5", "stiffness.k_svc=20", "solver={method: direct}"};
+  EXPECT_EQ(with_matrix_values(user, {"stiffness.k_s=50"}),
+            (std::vector<std::string>{"stiffness.k_svc=20", "solver={method: direct}", "stiffness.k_s=50"}));
+  EXPECT_EQ(with_matrix_values(user, {"solver.method=jacobi", "solver.virtual_iterations=2"}),
+            (std::vector<std::string>{"stiffness.k_s=5", "stiffness.k_svc=20", "solver.method=jacobi",
+                                      "solver.virtual_iterations=2"}));
+  EXPECT_EQ(overrides_of_keys(user, {"stiffness.k_s"}), (std::vector<std::string>{"stiffness.k_s=5"}));
+  EXPECT_TRUE(overrides_of_keys(user, {"stiffness.k_con"}).empty());
+  const Validation* coupling = find_validation("coupling");
+  ASSERT_NE(coupling, nullptr);
+  EXPECT_EQ(coupling->varied_keys, (std::vector<std::string>{"solver.virtual_iterations", "stiffness.k_s"}));
+}
+
 TEST(Validation, ColumnMatchesTheAnalyticReaction) {
   const ValidationResult r = find_validation("column")->run({});
   EXPECT_TRUE(r.passed) << r.to_json().dump();

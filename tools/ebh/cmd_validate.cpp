@@ -63,6 +63,13 @@ void check_options(const ebh::ValidationOptions& o, const std::vector<const ebh:
       throw InputError("--set " + o.overrides.front() + ": the " + chosen.front()->name +
                        " validation builds its own scenes (--set is for " + takers(&Validation::replays_recordings) + ")");
     (void)load_scene_spec(resolve_scene_path("tube"), o.overrides);
+    for (const Validation* v : chosen) {
+      std::string varied;
+      for (const std::string& k : v->varied_keys) varied += (varied.empty() ? "" : " and ") + k;
+      for (const std::string& s : overrides_of_keys(o.overrides, v->varied_keys))
+        std::fprintf(stderr, "ebh: warning: --set %s: the %s validation varies %s itself: its values are used there\n",
+                     s.c_str(), v->name.c_str(), varied.c_str());
+    }
   }
   if (o.full && !any_takes(chosen, &Validation::has_full_form))
     throw InputError("--full: the " + chosen.front()->name + " validation has no full form (--full is for " +

@@ -1024,17 +1024,25 @@ TEST(ResolveScenePath, ARecordingsSceneIsFoundBesideIt) {
   EXPECT_EQ(scene_attribute_for("tube", resolve_scene_path("tube"), rec), "tube");  // a name stays one
   EXPECT_EQ(resolve_recording_scene("../organ.yaml", rec.string()), scene);
   EXPECT_EQ(resolve_recording_scene("tube", rec.string()), resolve_scene_path("tube"));
+  // Not beside the recording: refused naming where it looked, even with a file of that name in the
+  // working folder (another scene: a validation replayed a copy with other stiffnesses silently).
+  const fs::path cwd = fs::current_path();
+  fs::current_path(root / "data");  // holds an organ.yaml
   try {
-    resolve_recording_scene("organ.yaml", rec.string());  // not beside the recording, nor here
+    resolve_recording_scene("organ.yaml", rec.string());
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), rec.string() + ": its scene attribute 'organ.yaml': organ.yaml: scene file not found");
+    EXPECT_EQ(std::string(e.what()), rec.string() + ": its scene attribute 'organ.yaml': no such file beside the "
+                                     "recording (" + (root / "data" / "out" / "organ.yaml").string() +
+                                     "): move the scene there, or replay the recording with the scene named");
   }
+  fs::current_path(cwd);
   try {
     resolve_recording_scene("", rec.string());
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), rec.string() + ": its scene attribute is empty: the recording names no scene");
+    EXPECT_EQ(std::string(e.what()), rec.string() + ": its scene attribute is empty: the recording names no scene "
+                                     "(`ebh import LOG -o REC --scene SCENE` records it)");
   }
 }
 

@@ -148,6 +148,8 @@ std::optional<ForceCollapse> find_force_collapse(std::span<const double> t, cons
                                                  std::span<const std::int32_t> contacts,
                                                  std::span<const std::int32_t> grasped, std::span<const double> jaw,
                                                  double haptic_hz);
+/// A twentieth of the jaw's range: the committed grasps' jaws close and open by up to 0.12 in
+/// 20 ms, in steps of ~3e-3 a sample, and a fall within such a move is the jaws'.
 inline constexpr double kCollapseJawMove = 0.05;
 /// One line for a collapse: what fell, when, and what it means (`vertex_contact`: the scene's
 /// contact model where known).

@@ -215,11 +215,10 @@ SizeBenchWindow check_size_bench(const SizeBenchOptions& o) {
                                 " tets or vertices a mesh can index (its indices are 32-bit)"));
   // Each level is refined, written and replayed here: the largest must fit this machine's memory.
   const RefineMemory m = refine_memory(c);
-  if (const double ram = machine_memory_bytes(), bytes = std::max(m.write_bytes, m.replay_bytes); ram > 0 && bytes > ram)
+  const bool replay_more = m.replay_bytes >= m.write_bytes;
+  if (const auto beyond = beyond_machine_memory(replay_more ? m.replay_bytes : m.write_bytes, replay_more ? "replay" : "write"))
     throw InputError("--levels: level " + std::to_string(o.last_level) + " of " + scene_file.string() + " makes " +
-                     std::to_string(c.tets) + " tets: " + about_gigabytes(bytes) + " to " +
-                     (m.replay_bytes >= m.write_bytes ? "replay" : "write") + ", more than this machine's " +
-                     gigabytes(ram) + " of memory");
+                     std::to_string(c.tets) + " tets: " + *beyond);
   return window;
 }
 

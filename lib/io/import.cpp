@@ -659,11 +659,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
         throw InputError(at(path, line_of[i]) + ": --jaw-button " + std::to_string(b) + ": the log's jaw moves (" +
                          shortest_text(rec.jaw[0]) + " at its first sample, " + shortest_text(rec.jaw[i]) +
                          " here): a gripper's, which the button would replace; leave --jaw-button out");
-    for (std::size_t i = 0; i < rec.size(); ++i) {
-      const bool down = (rec.buttons[i] >> b) & 1;
-      presses += down && (i == 0 || !((rec.buttons[i - 1] >> b) & 1));
-      rec.jaw[i] = down ? 0.0 : 1.0;
-    }
+    for (std::size_t i = 0; i < rec.size(); ++i) rec.jaw[i] = (rec.buttons[i] >> b) & 1 ? 0.0 : 1.0;
+    presses = button_presses(rec.buttons, b);
   }
   // Validated before repeats are dropped, so an error names the log's own line.
   validate_recording(rec, path, [&](std::string_view, std::size_t i) { return at(path, line_of[i]); });

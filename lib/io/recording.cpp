@@ -608,6 +608,13 @@ std::optional<std::string> check_recording_gaps(const Recording& rec) {
   return std::string(line);
 }
 
+std::size_t button_presses(std::span<const std::uint8_t> buttons, int bit) {
+  std::size_t presses = 0;
+  for (std::size_t i = 0; i < buttons.size(); ++i)
+    presses += ((buttons[i] >> bit) & 1) && (i == 0 || !((buttons[i - 1] >> bit) & 1));
+  return presses;
+}
+
 bool repeats_previous(const Recording& rec, std::size_t i, std::span<const double> jaw) {
   return rec.position[i] == rec.position[i - 1] && rec.orientation[i] == rec.orientation[i - 1] &&
          (jaw.size() <= i || jaw[i] == jaw[i - 1]) && (rec.buttons.size() <= i || rec.buttons[i] == rec.buttons[i - 1]);

@@ -209,6 +209,10 @@ std::optional<std::string> check_recording_gaps(const Recording& rec);
 /// definition of a repeat: import's stale samples and holds, find_stale_samples' changes.
 bool repeats_previous(const Recording& rec, std::size_t i, std::span<const double> jaw);
 
+/// The times button `bit` goes down in `buttons` (pressed at the first sample counts once): a
+/// grasp each where a device without a gripper grasps with it (import --jaw-button).
+std::size_t button_presses(std::span<const std::uint8_t> buttons, int bit);
+
 struct StaleSamples {
   std::size_t period = 0;   ///< samples between changes
   std::size_t changes = 0;  ///< samples that differ from the one before

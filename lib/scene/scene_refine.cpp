@@ -51,6 +51,12 @@ double machine_memory_bytes() {
   return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
 }
 
+std::optional<std::string> beyond_machine_memory(double bytes, const std::string& to) {
+  const double ram = machine_memory_bytes();
+  if (!(ram > 0 && bytes > ram)) return std::nullopt;
+  return about_gigabytes(bytes) + " to " + to + ", more than this machine's " + gigabytes(ram) + " of memory";
+}
+
 bool refined_within(const RefinedCounts& c, std::int64_t max_tets) {
   // Below 2^53 the estimates are the counts exactly, and so is the limit as a double.
   const double tets = static_cast<double>(std::min(max_tets, kMaxMeshElements));
@@ -109,11 +115,10 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
                                : "over the " + std::to_string(kMaxMeshElements) +
                                      " tets or vertices a mesh can index (its indices are 32-bit)"));
   }
-  if (const double ram = machine_memory_bytes(), bytes = refine_memory(r.after).write_bytes; ram > 0 && bytes > ram)
+  if (const auto beyond = beyond_machine_memory(refine_memory(r.after).write_bytes, "write"))
     throw InputError(scene.string() + ": level " + std::to_string(levels) + " makes " +
-                     count_words(r.after.tets_estimate) + " tets: " + about_gigabytes(bytes) +
-                     " to write, more than this machine's " + gigabytes(ram) +
-                     " of memory (the out-of-memory killer would end the run, and others beside it)");
+                     count_words(r.after.tets_estimate) + " tets: " + *beyond +
+                     " (the out-of-memory killer would end the run, and others beside it)");
   // The kept virtual mesh: the scene's OBJ as it is, or the boundary before refinement.
   std::optional<SurfaceMesh> kept;
   if (keep_virtual) kept = spec.virtual_mesh ? read_obj(*spec.virtual_mesh) : extract_boundary(mesh);

@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include "mesh/refine.hpp"
@@ -52,6 +53,9 @@ RefineMemory refine_memory(const RefinedCounts& counts);
 /// past it is refused before the kernel's out-of-memory killer ends the run, and others beside it,
 /// without a word (--max-tets lifts the count's limit, not this one).
 double machine_memory_bytes();
+/// "about 26 GB to replay, more than this machine's 25 GB of memory" when `bytes` (what the work
+/// `to` takes: "write", "replay") is more than machine_memory_bytes(); nullopt otherwise.
+std::optional<std::string> beyond_machine_memory(double bytes, const std::string& to);
 /// "1.4 GB"; "over 1e299 GB" past what a double holds. about_gigabytes: "about 1.4 GB".
 std::string gigabytes(double bytes);
 std::string about_gigabytes(double bytes);

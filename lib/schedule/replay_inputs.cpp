@@ -142,8 +142,7 @@ std::optional<std::string> jaw_range_doubt(const Recording& rec, const SceneSpec
   // A device without a gripper (a Geomagic Touch) grasps with a button, which no jaw follows.
   if (std::all_of(rec.jaw.begin(), rec.jaw.end(), [&rec](double j) { return j == rec.jaw.front(); })) {
     std::array<std::size_t, 8> presses{};
-    for (std::size_t i = 1; i < rec.buttons.size(); ++i)
-      for (int b = 0; b < 8; ++b) presses[b] += ((rec.buttons[i] & ~rec.buttons[i - 1]) >> b) & 1;
+    for (int b = 0; b < 8; ++b) presses[b] = button_presses(rec.buttons, b);
     const auto most = std::max_element(presses.begin(), presses.end());
     if (*most > 0) {
       const auto b = static_cast<int>(most - presses.begin());

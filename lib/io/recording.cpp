@@ -522,14 +522,18 @@ namespace {
 /// The consecutive samples (at - 1, at) between which change(at) (a distance, an angle) over their
 /// time apart is largest, and that rate; how many changes are faster than `limit` and the first of
 /// them (its later sample). All 0 without two samples.
+/// Also the longest run of consecutive changes faster than `limit`: `run` changes, the last at
+/// sample `run_end`.
 struct FastestChange {
   std::size_t at = 0;
   double rate = 0;
   std::size_t over = 0, first = 0;
+  std::size_t run = 0, run_end = 0;
 };
 template <class Change>
 FastestChange fastest_change(const Recording& rec, double limit, Change change) {
   FastestChange f;
+  std::size_t run = 0;
   for (std::size_t i = 1; i < rec.size(); ++i) {
     const double rate = change(i) / (rec.t[i] - rec.t[i - 1]);
     if (rate > f.rate) {
@@ -537,8 +541,27 @@ FastestChange fastest_change(const Recording& rec, double limit, Change change) 
       f.rate = rate;
     }
     if (rate > limit && f.over++ == 0) f.first = i;
+    run = rate > limit ? run + 1 : 0;
+    if (run > f.run) f.run = run, f.run_end = i;
   }
   return f;
+}
+
+/// Consecutive changes over a hand's limit from which a log's fast motion is its own, held, not a
+/// gap or a reset (one or two changes: a jump, or out and back). Ten samples are 10 ms at 1 kHz.
+constexpr std::size_t kSustainedChanges = 10;
+
+/// What the fast changes are: ": a gap or a reset in the log" for a jump, else the run of them
+/// ("N changes in a row ... held for T s"), with `held_cause` the likely reasons of such a motion.
+std::string fast_change_cause(const Recording& rec, const FastestChange& f, const char* what, const char* held_cause) {
+  if (f.run < kSustainedChanges) return ": a gap or a reset in the log";
+  const std::size_t from = f.run_end - f.run;
+  char line[320];
+  std::snprintf(line, sizeof line, ": not a jump but %zu %s in a row from sample %zu to %zu (t = %.9g .. %.9g s), a motion no "
+                "hand makes held for %.3g s (%s)",
+                f.run, what, rec.row(from), rec.row(f.run_end), rec.t[from], rec.t[f.run_end], rec.t[f.run_end] - rec.t[from],
+                held_cause);
+  return line;
 }
 
 /// ", the fastest of N over LIMIT, the first between samples A and B (t = T s)" where there are
@@ -564,12 +587,13 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
                                          [&rec](std::size_t i) { return norm(rec.position[i] - rec.position[i - 1]); });
   if (!(f.rate > kToolSpeedMax)) return std::nullopt;
   const std::size_t at = f.at;
-  char line[480];
+  char line[900];
   std::snprintf(line, sizeof line,
                 "the tool jumps %.3g m between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g m/s; a hand moves it at "
-                "under 1 m/s%s): a gap or a reset in the log, which a replay passes through in one tick",
+                "under 1 m/s%s)%s, which a replay passes through in one tick",
                 norm(rec.position[at] - rec.position[at - 1]), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], f.rate,
-                others_over(rec, f, "jumps", kToolSpeedMax, "m/s").c_str());
+                others_over(rec, f, "jumps", kToolSpeedMax, "m/s").c_str(),
+                fast_change_cause(rec, f, "jumps", "positions logged in a smaller unit than read, or times in a larger one").c_str());
   return std::string(line);
 }
 
@@ -658,13 +682,15 @@ std::optional<std::string> check_recording_turn(const Recording& rec) {
   const FastestChange f = fastest_change(rec, kToolTurnRateMax, [&rec](std::size_t i) { return turn_angle(rec, i); });
   if (!(f.rate > kToolTurnRateMax)) return std::nullopt;
   const std::size_t at = f.at;
-  char line[560];
+  char line[900];
   std::snprintf(line, sizeof line,
                 "the tool turns %.3g degrees between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g rad/s; "
-                "a hand turns it at a few%s): a gap or a reset in the log, which the virtual tool follows at "
+                "a hand turns it at a few%s)%s, which the virtual tool follows at "
                 "tool.max_step_rotation_deg a Newton step, rendering its lag as torque meanwhile (tool.torque_limit)",
                 turn_angle(rec, at) * 180 / std::numbers::pi, rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at],
-                f.rate, others_over(rec, f, "turns", kToolTurnRateMax, "rad/s").c_str());
+                f.rate, others_over(rec, f, "turns", kToolTurnRateMax, "rad/s").c_str(),
+                fast_change_cause(rec, f, "turns", "a part that spins, such as a roll joint's encoder, or angles in degrees "
+                                  "read as radians").c_str());
   return std::string(line);
 }
 

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -618,6 +619,18 @@ TEST(ToolTurn, ATurnInTheLogIsNamed) {
   ASSERT_TRUE(w.has_value());
   EXPECT_NE(w->find("turns 172 degrees between samples 6 and 7 (the recording's t = 0.006 .. 0.007 s: 3.01e+03 rad/s"),
             std::string::npos) << *w;
+  EXPECT_NE(w->find("): a gap or a reset in the log, which"), std::string::npos) << *w;
+  // A spin held over many samples (100 rad/s for 30 ms: a roll encoder, angles in degrees read as
+  // radians) is the log's own motion, not a gap to cut: said with its run of samples.
+  Recording spin = make_recording(60);
+  for (std::size_t i = 0; i < spin.size(); ++i)
+    spin.orientation[i] = quat_from_rotvec(Vec3d{0, 0, 0.1 * static_cast<double>(std::clamp<std::size_t>(i, 20, 50))});
+  const auto s = check_recording_turn(spin);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_EQ(s->find("a gap or a reset"), std::string::npos) << *s;
+  EXPECT_NE(s->find(": not a jump but 30 turns in a row from sample 20 to 50 (t = 0.02 .. 0.05 s), a motion no hand makes "
+                    "held for 0.03 s (a part that spins"),
+            std::string::npos) << *s;
   for (const char* name : {"tube_insert", "tube_grasp", "gap_insert", "gap_grasp", "cholecystectomy_press",
                            "cholecystectomy_grasp", "gynaecology_press", "gynaecology_grasp"}) {
     const auto c = check_recording_turn(read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5"));

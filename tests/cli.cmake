@@ -1194,6 +1194,7 @@ file(WRITE ${EBH_SAFE}/gate_extra.yaml "cases:\n  - {${ebh_gate_case}, peak_fors
 file(WRITE ${EBH_SAFE}/gate_twice.yaml "cases:\n  - {${ebh_gate_case}}\n  - {${ebh_gate_case}}\n")
 string(REPEAT "[" 100000 ebh_deep_gate)
 file(WRITE ${EBH_SAFE}/gate_deep.yaml "cases: ${ebh_deep_gate}\n")
+file(WRITE ${EBH_SAFE}/gate_noname.yaml "cases:\n  - {name: '', scene: tube, recording: tube_insert, start: 4, duration: 0.5}\n")
 file(WRITE ${EBH_SAFE}/gate_scene.yaml "cases:\n  - {name: w, scene: nope, recording: tube_insert, start: 4, duration: 0.5}\n")
 # --update of a window of one tick: no force step to take as a baseline; the file stays as it was.
 file(WRITE ${EBH_SAFE}/gate_short.yaml "cases:\n  - {name: w, scene: tube, recording: tube_insert, start: 9.9995, duration: 1}\n")
@@ -1304,6 +1305,7 @@ foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got 
           "none;cases': expected at least one case"
           "extra;cases\\[0\\].peak_forse': unknown key \\(known: name, scene"
           "twice;cases\\[1\\].name': 'w' names two cases"
+          "noname;cases\\[0\\].name': expected a name of printable characters, got ''"
           "scene;cases\\[0\\] \\(w\\): nope: no such scene")
   list(GET g 0 gname)
   list(GET g 1 gexpect)

@@ -128,6 +128,22 @@ GateBaselines read_gate_baselines(const std::string& path) {
     throw InputError(yaml_parse_error(path, e));
   }
   GateBaselines b;
+  {
+    // The comment lines: those before the first data line are the header; a comment on a data
+    // line's end is not counted (a rewrite drops it too, but it is rare in these files).
+    std::ifstream in(path);
+    bool in_header = true;
+    for (std::string line; std::getline(in, line);) {
+      const std::size_t first = line.find_first_not_of(" \t\r");
+      const bool comment = first != std::string::npos && line[first] == '#';
+      if (in_header && (comment || first == std::string::npos)) b.header += line + "\n";
+      else if (comment) ++b.body_comments;
+      else in_header = false;
+    }
+    // Blank lines after the last header comment belong to the layout, not the header.
+    while (b.header.size() >= 2 && b.header[b.header.size() - 2] == '\n') b.header.pop_back();
+    if (b.header.find('#') == std::string::npos) b.header.clear();
+  }
   only_keys(root, path, "", {"generated_by", "bands", "cases"});
   if (root["generated_by"]) b.generated_by = text(root["generated_by"], path, "generated_by");
   if (const YAML::Node bands = root["bands"]) {
@@ -185,6 +201,10 @@ GateBaselines read_gate_baselines(const std::string& path) {
                "power_above_30hz", "penetration_max", "boundary_step_ratio", "force_collapse"});
     GateCase g;
     g.name = text(c["name"], path, k + "name");
+    // The name is what --case selects and what the verdict's lines start with.
+    if (g.name.empty() || std::any_of(g.name.begin(), g.name.end(), [](unsigned char ch) { return ch < 0x20 || ch == 0x7f; }))
+      throw InputError(path + ": key '" + k + "name': expected a name of printable characters, got '" + g.name +
+                       "'");
     for (const GateCase& other : b.cases)
       if (other.name == g.name) throw InputError(path + ": key '" + k + "name': '" + g.name + "' names two cases");
     g.scene = text(c["scene"], path, k + "scene");
@@ -256,9 +276,10 @@ void write_gate_baselines(const std::string& path, const GateBaselines& b) {
     y << YAML::EndMap;
   }
   y << YAML::EndSeq << YAML::EndMap;
-  write_file_atomically(path, std::string("# Force-smoothness gate baselines (lib/gate/gate.hpp). Regenerate with\n"
-                                           "# scripts/make_gate_baselines.sh; do not edit the metrics by hand.\n") +
-                                   y.c_str() + "\n");
+  const std::string header = !b.header.empty() ? b.header
+                                                : "# Force-smoothness gate baselines (ebh gate). Regenerate with\n"
+                                                  "# `ebh gate --baselines FILE --update`; do not edit the metrics by hand.\n";
+  write_file_atomically(path, header + y.c_str() + "\n");
 }
 
 GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides) {

@@ -58,6 +58,11 @@ struct GateCase {
 
 struct GateBaselines {
   std::string generated_by;
+  /// The file's leading comment lines, each with its line end ("" when it starts with data): kept
+  /// by write_gate_baselines, so a lab's own file keeps its own header through --update
+  std::string header;
+  /// Comment lines after the header, which a rewrite of the YAML cannot keep (--update warns)
+  std::size_t body_comments = 0;
   GateBands bands;
   std::vector<GateCase> cases;
 };
@@ -93,7 +98,7 @@ std::size_t remove_stale_gate_temporaries(const std::filesystem::path& tmp);
 
 /// Reads a baselines file; throws InputError naming the file and key.
 GateBaselines read_gate_baselines(const std::string& path);
-/// Writes a baselines file atomically.
+/// Writes a baselines file atomically, under b.header (else a header saying how to regenerate it).
 void write_gate_baselines(const std::string& path, const GateBaselines& b);
 
 /// Replays one case (async mode, CPU, scene overrides applied) and computes its metrics. Its

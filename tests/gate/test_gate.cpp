@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 
@@ -115,6 +116,33 @@ TEST(Gate, BaselinesRoundTripTheNewMetrics) {
   EXPECT_EQ(again.cases[0].force_collapse, std::optional<bool>(true));
   EXPECT_EQ(again.bands.abs_boundary_ratio, GateBands{}.abs_boundary_ratio);
   std::filesystem::remove(path);
+}
+
+// A lab's own file keeps its header through a rewrite (it had the committed file's, naming a
+// script of this repository); comments below it are counted for --update's warning; a file
+// without a header gets one saying how to regenerate it.
+TEST(Gate, ARewriteKeepsTheFilesHeader) {
+  const std::string path = baselines_file("header", std::string("# Our lab's liver cases.\n#  Ask Ann before updating.\n\n") +
+                                                        kCase + "}\n  # the second case is next week's\n");
+  GateBaselines b = read_gate_baselines(path);
+  EXPECT_EQ(b.header, "# Our lab's liver cases.\n#  Ask Ann before updating.\n");
+  EXPECT_EQ(b.body_comments, 1u);
+  write_gate_baselines(path, b);
+  std::ifstream in(path);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.rfind("# Our lab's liver cases.\n#  Ask Ann before updating.\ngenerated_by:", 0), 0u) << text;
+  EXPECT_EQ(read_gate_baselines(path).body_comments, 0u);
+
+  const std::string bare = baselines_file("no_header", std::string(kCase) + "}\n");
+  GateBaselines c = read_gate_baselines(bare);
+  EXPECT_EQ(c.header, "");
+  write_gate_baselines(bare, c);
+  std::ifstream again(bare);
+  std::string first;
+  std::getline(again, first);
+  EXPECT_EQ(first, "# Force-smoothness gate baselines (ebh gate). Regenerate with");
+  std::filesystem::remove(path);
+  std::filesystem::remove(bare);
 }
 
 TEST(Gate, BandsThatPassEveryBuzzAreRefused) {

@@ -50,6 +50,12 @@ void run_gate(const GateArgs& a) {
                  "ebh: warning: %s: generated_by '%s', not this ebh %s: a change between the two versions moves the "
                  "metrics as a regression would (`ebh gate --update` measures them with this one)\n",
                  a.baselines.c_str(), escape_unprintable(b.generated_by).c_str(), kVersion);
+  // Said before the cases run (minutes), while an interrupt still keeps the file as it is.
+  if (a.update && b.body_comments > 0)
+    std::fprintf(stderr, "ebh: warning: %s: its %zu comment line%s below the header will not be kept: --update writes "
+                 "the file anew from its values (notes kept through updates belong in the header, the comment lines "
+                 "at its top)\n",
+                 a.baselines.c_str(), b.body_comments, b.body_comments == 1 ? "" : "s");
   std::vector<std::string> known;
   for (const GateCase& c : b.cases) known.push_back(c.name);
   check_known_names("--case", "gate case", a.only, known);

@@ -5,6 +5,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -1265,19 +1267,32 @@ std::vector<std::pair<int, int>> parts_pinned_on_a_line(const TetMesh& mesh, std
   const std::vector<int> part = mesh_parts(mesh);  // the part's lowest vertex
   std::vector<std::vector<int>> pins(n);
   for (const int i : pinned) pins[part[i]].push_back(i);
-  // Each part's extent: the diagonal of its vertices' box.
-  std::vector<Vec3d> lo(n, Vec3d{1e300, 1e300, 1e300}), hi(n, Vec3d{-1e300, -1e300, -1e300});
-  for (const Tet& t : mesh.tets)
-    for (int k = 0; k < 4; ++k) {
-      const int p = part[t[k]];
-      lo[p] = cwise_min(lo[p], mesh.vertices[t[k]]);
-      hi[p] = cwise_max(hi[p], mesh.vertices[t[k]]);
-    }
+  // Each pinned part's thickness: the spread of its vertices along their least principal axis (a
+  // vessel 2 mm across and 200 mm long is 2 mm thick; pins across its end face span a face of it,
+  // which the box's diagonal, 200 mm, took for a line).
+  std::vector<std::vector<int>> members(n);
+  for (int i = 0; i < n; ++i)
+    if (!pins[part[i]].empty()) members[part[i]].push_back(i);
   std::vector<std::pair<int, int>> parts;
   for (int p = 0; p < n; ++p) {
     const std::vector<int>& v = pins[p];
-    if (v.empty() || !(hi[p].x >= lo[p].x)) continue;
-    const double tol = kPinLineTolerance * norm(hi[p] - lo[p]);
+    if (v.empty() || members[p].size() < 2) continue;
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const int i : members[p]) mean += Eigen::Vector3d(mesh.vertices[i].x, mesh.vertices[i].y, mesh.vertices[i].z);
+    mean /= static_cast<double>(members[p].size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (const int i : members[p]) {
+      const Eigen::Vector3d d = Eigen::Vector3d(mesh.vertices[i].x, mesh.vertices[i].y, mesh.vertices[i].z) - mean;
+      cov += d * d.transpose();
+    }
+    const Eigen::Vector3d axis = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
+    const Vec3d least{axis.x(), axis.y(), axis.z()};
+    double near = 1e300, far = -1e300;
+    for (const int i : members[p]) {
+      near = std::min(near, dot(mesh.vertices[i], least));
+      far = std::max(far, dot(mesh.vertices[i], least));
+    }
+    const double tol = kPinLineTolerance * (far - near);
     // The line through the pinned vertex farthest from the first and the one farthest from that.
     const auto farthest = [&](const Vec3d& from) {
       int best = v.front();

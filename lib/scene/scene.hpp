@@ -342,7 +342,8 @@ std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<c
 /// The parts of `mesh` that touch pinned vertices (sorted) only on one line or at one point, so
 /// that they can turn about it, held against that only by the coupling's drag: each part's lowest
 /// vertex index and its number of pinned vertices. Collinear: every pinned vertex of the part lies
-/// within kPinLineTolerance of the part's extent from the line through its two farthest ones.
+/// within kPinLineTolerance of the part's thickness (its vertices' spread along their least
+/// principal axis) from the line through its two farthest ones.
 inline constexpr double kPinLineTolerance = 0.01;
 std::vector<std::pair<int, int>> parts_pinned_on_a_line(const TetMesh& mesh, std::span<const int> pinned);
 

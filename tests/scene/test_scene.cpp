@@ -9,6 +9,7 @@
 
 #include "../mesh/test_util.hpp"
 #include "mesh/boundary.hpp"
+#include "mesh/box_mesh.hpp"
 #include "mesh/mesh_io.hpp"
 #include "scene/scene.hpp"
 
@@ -177,6 +178,23 @@ TEST(Scene, PinsOnALineOrAtAPointWarn) {
   EXPECT_EQ(warned(load_scene(write_temp("face.yaml", good))), "");
   const Scene face = load_scene(write_temp("face3.yaml", replace(good, pins, "pinned:\n  - box: {min: [-1, -1, -1], max: [11, 1, 11]}\n")));
   EXPECT_EQ(warned(face), "");
+}
+
+/// A slender part (a vessel 200 x 2 x 2 mm) clamped across its end face spans a face of it, not a
+/// line; pins along one of its long edges are a line. The tolerance is a share of the part's
+/// thickness: of its box's diagonal (200 mm), it took the whole 2 mm end face for a line.
+TEST(Scene, PinsAcrossASlenderPartsEndAreAFace) {
+  for (const Vec3d dir : {Vec3d{1, 0, 0}, Vec3d{1, 1, 1}}) {  // along an axis, and turned off the axes
+    TetMesh m = make_box_tets({0, 0, 0}, {0.2, 0.002, 0.002}, 100, 1, 1);
+    const Vec3d x = dir / norm(dir), y = cross(x, Vec3d{0, 0, 1}) / norm(cross(x, Vec3d{0, 0, 1})), z = cross(x, y);
+    for (Vec3d& v : m.vertices) v = v.x * x + v.y * y + v.z * z;
+    const auto index = [](int i, int j, int k) { return i + 101 * (j + 2 * k); };
+    const std::vector<int> end{index(0, 0, 0), index(0, 1, 0), index(0, 0, 1), index(0, 1, 1)};
+    EXPECT_TRUE(parts_pinned_on_a_line(m, end).empty());
+    std::vector<int> edge;
+    for (int i = 0; i <= 100; ++i) edge.push_back(index(i, 0, 0));
+    EXPECT_EQ(parts_pinned_on_a_line(m, edge), (std::vector<std::pair<int, int>>{{0, 101}}));
+  }
 }
 
 /// A tissue stiffer than its coupling can carry: the rendered force stops following k_vol.

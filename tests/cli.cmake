@@ -371,6 +371,20 @@ add_test(NAME cli.scene_init.group_without_entities
     "-DEXPECT=^ebh: error: --pin group:bottom: the region pins no vertex of .*no_entities41.msh: the mesh file names the group, but no element of it is in the group \\(MSH 4.1 gives elements their groups through its \\$Entities section"
     -DOUTPUT=${EBH_INIT}/no_entities.yaml -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene_init.group_without_entities PROPERTIES LABELS cli)
+# MSH 4.1 as meshio writes it: its surfaces' element blocks on entities $Entities does not list.
+# The file reads (without the triangles' groups); a pin by their group names why it is empty.
+string(REPLACE "2 2 2 2\n" "2 9 2 2\n" EBH_CUBE41_MESHIO "${EBH_CUBE41}")
+file(WRITE ${EBH_INIT}/meshio41.msh "${EBH_CUBE41_MESHIO}")
+add_test(NAME cli.scene_init.group_on_unlisted_entities
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${EBH_INIT}/meshio41.msh;-o;${EBH_INIT}/meshio41.yaml;--unit;cm;--pin;group:top"
+    "-DEXPECT=^ebh: error: --pin group:top: the region pins no vertex of .*meshio41.msh: the mesh file names the group, but 2 of its triangles and tets, from line 54, lie on entities that its \\$Entities section does not list \\(MSH 4.1 as meshio writes it\\).*file_format=\"gmsh22\""
+    -DOUTPUT=${EBH_INIT}/meshio41.yaml -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# A physical curve is not a pin's group: said so, not "no physical group".
+add_test(NAME cli.scene_init.pin_group_of_curves
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube41.msh;-o;${EBH_INIT}/curve_pin.yaml;--unit;cm;--pin;group:edge"
+    "-DEXPECT=^ebh: error: --pin group:edge: .*cube41.msh has no physical group 'edge' \\(its groups: [^)]*\\): 'edge' is a physical group of curves in the mesh file, and pins take groups of tets or triangles"
+    -DOUTPUT=${EBH_INIT}/curve_pin.yaml -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene_init.group_on_unlisted_entities cli.scene_init.pin_group_of_curves PROPERTIES LABELS cli)
 add_test(NAME cli.scene_init.write
   COMMAND ${EBH_BIN} scene init ${EBH_INIT}/own_cm.msh -o ${EBH_INIT}/own.yaml --unit cm --tissue liver)
 set_tests_properties(cli.scene_init.write PROPERTIES FIXTURES_SETUP scene_init FAIL_REGULAR_EXPRESSION "warning"

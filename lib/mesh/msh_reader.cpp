@@ -96,6 +96,7 @@ class MshParser {
     if (!have_elements_) c_.fail("missing $Elements section");
     check_volume_elements();
     assign_groups();
+    mesh_.msh_major = major_;
     return std::move(mesh_);
   }
 
@@ -179,6 +180,7 @@ class MshParser {
         name = name.substr(1, name.size() - 2);
       }
       if (name.empty()) c_.fail("empty physical name for tag " + std::to_string(tag));
+      if (dim < 2) mesh_.point_curve_groups.emplace(std::string(name), dim);
       if (dim >= 2) {
         // A tag named twice in one dimension: the last would win silently (pins and messages by name).
         if (const auto it = names_[dim - 2].find(tag); it != names_[dim - 2].end() && it->second != name)
@@ -517,14 +519,18 @@ class MshParser {
       need_line("element blocks", b, blocks);
       const int dim = static_cast<int>(c_.integer("entity dimension", 0, 3));
       const long long entity = c_.integer("entity tag", -kMaxTag, kMaxTag);
-      // A block on an entity the file's entities do not list: its elements would lose their
-      // physical groups silently (pins and groups by name then miss them).
-      if (!listed_entities_.empty() && dim >= 2 && !listed_entities_.count({dim, entity}))
-        c_.fail("an element block on entity " + std::to_string(entity) + " of dimension " + std::to_string(dim) +
-                ", which $Entities does not list: its elements' physical groups are unknown");
+      // A block on an entity the file's entities do not list (meshio writes its surfaces so):
+      // its elements' physical groups are unknown. Read without groups and counted, for the
+      // messages of a pin by group that then finds none of them.
+      const bool off_entities = !listed_entities_.empty() && dim >= 2 && !listed_entities_.count({dim, entity});
+      const long long block_line = c_.line();
       const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20));
       const long long m = c_.integer("elements in block", 0, n - done);
       c_.end_line("");
+      if (off_entities && (type == kTypeTet || type == kTypeTriangle) && m > 0) {
+        if (mesh_.elements_off_entities == 0) mesh_.first_off_entities_line = block_line;
+        mesh_.elements_off_entities += m;
+      }
       static const std::vector<int> kNone;
       auto it = entity_physical_.find({dim, entity});
       const std::vector<int>& physical = it != entity_physical_.end() ? it->second : kNone;

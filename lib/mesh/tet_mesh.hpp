@@ -31,6 +31,14 @@ struct TetMesh {
   /// each pair once; empty for most meshes.
   std::vector<std::pair<int, int>> tet_more_groups;
   std::vector<std::pair<int, int>> triangle_more_groups;
+  /// What a Gmsh file says that the groups above do not hold (read_msh), for the messages of a pin
+  /// by group that finds nothing: the file's MSH major version (2 or 4; 0 for other sources), the
+  /// names of its physical groups of points and curves (dimension 0 or 1), which pins do not take,
+  /// and its triangles and tets in element blocks on entities that $Entities does not list (4.1,
+  /// as meshio writes it), read without groups, with the line of the first such block.
+  int msh_major = 0;
+  std::map<std::string, int> point_curve_groups;
+  long long elements_off_entities = 0, first_off_entities_line = 0;
 };
 
 /// The indices (ascending, each once) of the `count` elements whose groups, `first` and `more` as

@@ -573,7 +573,8 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
     const std::vector<std::string> known = known_group_names(scene.physical);
     if (std::find(known.begin(), known.end(), r.group) == known.end())
       throw InputError(value_source(scene.spec, key) + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
-                       scene.spec.physical_mesh.string() + ": " + known_groups_text(scene.physical) + ")");
+                       scene.spec.physical_mesh.string() + ": " + known_groups_text(scene.physical) + ")" +
+                       lower_dimension_group_note(scene.physical, r.group));
   }
   // A region the file gives can miss a mesh that an override moved or replaced: say which.
   std::string moved;
@@ -581,7 +582,7 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
     if (const std::string* o = override_giving(scene.spec.overrides, k); o && moved.empty())
       moved = " (the mesh as " + OverrideError::set_option_shown(*o) + " gives it)";
   // A group the file names that no element is in: an MSH 4.1 file assigns groups through $Entities.
-  const std::string empty_group = r.kind == PinRegion::Kind::Group ? ": " + group_without_elements_note() : "";
+  const std::string empty_group = r.kind == PinRegion::Kind::Group ? ": " + group_without_elements_note(scene.physical) : "";
   throw InputError(value_source(scene.spec, key) + ": key '" + key + "': the " + region_name(r.kind) +
                    (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh" +
                    moved + (!why_none.empty() ? ": " + why_none : empty_group));
@@ -943,9 +944,26 @@ SceneSpec load_scene_spec_text(const std::string& yaml, const fs::path& file, bo
   return read_spec(parse_scene_yaml(yaml, file), file, {}, mesh_files_must_exist);
 }
 
-std::string group_without_elements_note() {
+std::string group_without_elements_note(const TetMesh& mesh) {
+  if (mesh.elements_off_entities > 0)
+    return "the mesh file names the group, but " + std::to_string(mesh.elements_off_entities) +
+           " of its triangles and tets, from line " + std::to_string(mesh.first_off_entities_line) +
+           ", lie on entities that its $Entities section does not list (MSH 4.1 as meshio writes it), so their groups "
+           "are unknown: write the mesh as MSH 2.2 (meshio: file_format=\"gmsh22\"), re-export it with Gmsh, or pin "
+           "a box";
+  if (mesh.msh_major == 2)
+    return "the mesh file names the group, but no element of it is in the group (an MSH 2.2 element's first tag "
+           "is its physical group: the file's elements give others, or none)";
   return "the mesh file names the group, but no element of it is in the group (MSH 4.1 gives elements their "
          "groups through its $Entities section: a file without one has none; re-export it with Gmsh)";
+}
+
+std::string lower_dimension_group_note(const TetMesh& mesh, const std::string& group) {
+  const auto it = mesh.point_curve_groups.find(group);
+  if (it == mesh.point_curve_groups.end()) return "";
+  return std::string(": '") + group + "' is a physical group of " + (it->second == 0 ? "points" : "curves") +
+         " in the mesh file, and pins take groups of tets or triangles: pin a box around its place, or a physical "
+         "surface";
 }
 
 std::string value_source(const SceneSpec& spec, const std::string& key) {
@@ -1091,6 +1109,11 @@ Scene build_scene(SceneSpec spec_in) {
   const std::vector<std::string> pins_removed = groups_removed_with_unused_vertices(mesh, spec);
   if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
     scene.warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");
+  if (mesh.elements_off_entities > 0 && !mesh.group_names.empty())
+    scene.warnings.push_back(mesh_file + ":" + std::to_string(mesh.first_off_entities_line) + ": " +
+                             std::to_string(mesh.elements_off_entities) +
+                             " of its triangles and tets lie on entities that $Entities does not list (MSH 4.1 as meshio "
+                             "writes it): read without their physical groups");
   // Coordinates so large that a tet's volume (a product of three differences) overflows: the
   // file's, or (below) after mesh.unit and mesh.transform.scale. Told as such, not as flat tets.
   auto check_magnitude = [&mesh](const std::string& where, const char* after) {

@@ -472,9 +472,15 @@ std::set<int> group_tags(const TetMesh& mesh, const std::string& group);
 std::vector<std::string> known_group_names(const TetMesh& mesh);
 /// known_group_names for a message: "bottom, tissue, 3 (unnamed)", or "none".
 std::string known_groups_text(const TetMesh& mesh);
-/// Why a group the mesh file names holds no element: an MSH 4.1 file gives elements their groups
-/// through $Entities, and one without that section has none (the pin errors say it).
-std::string group_without_elements_note();
+/// Why a group the mesh file names holds no element (the pin errors say it): an MSH 4.1 file gives
+/// elements their groups through $Entities, and one without that section, or with element blocks
+/// on entities it does not list (as meshio writes it), has none; an MSH 2.2 element's first tag is
+/// its group.
+std::string group_without_elements_note(const TetMesh& mesh);
+/// For a pin's group that the mesh does not have: ": 'NAME' is a physical group of points|curves
+/// in the mesh file, ..." when the file names it at dimension 0 or 1 (pins take groups of tets or
+/// triangles), else "".
+std::string lower_dimension_group_note(const TetMesh& mesh, const std::string& group);
 
 /// The axis-aligned bounding box of points (lo = hi = 0 for none).
 struct BoundingBox {

@@ -199,9 +199,10 @@ SceneInit make_scene(const SceneInitOptions& o) {
         const std::vector<std::string> known = known_group_names(mesh);
         if (std::find(known.begin(), known.end(), pin.region.group) == known.end())
           throw InputError("--pin " + spec + ": " + mesh_name + " has no physical group '" + pin.region.group + "' (" +
-                           (known.empty() ? std::string("it has no groups") : "its groups: " + known_groups_text(mesh)) + ")");
+                           (known.empty() ? std::string("it has no groups") : "its groups: " + known_groups_text(mesh)) + ")" +
+                           lower_dimension_group_note(mesh, pin.region.group));
         throw InputError("--pin " + spec + ": the region pins no vertex of " + mesh_name + ": " +
-                         group_without_elements_note());
+                         group_without_elements_note(mesh));
       }
       throw InputError("--pin " + spec + ": the region pins no vertex of " + mesh_name + " (its bounding box: " +
                        vec(box.lo / unit, round4) + " .. " + vec(box.hi / unit, round4) + " " + o.unit + ")");

@@ -514,7 +514,7 @@ int remove_unused_surface_vertices(SurfaceMesh& mesh) {
   return nv - next;
 }
 
-MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh) {
+MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh, double within) {
   const int nv = static_cast<int>(mesh.vertices.size());
   std::vector<int> order(static_cast<std::size_t>(nv));
   for (int v = 0; v < nv; ++v) order[v] = v;
@@ -528,6 +528,38 @@ MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh) {
       first[order[i]] = first[order[i - 1]];  // stable: the lowest index of the position
       ++merged.vertices;
     }
+  // Within reach: the kept vertices (in index order) hashed into cells of the reach's size; a
+  // vertex looks through the 27 cells around its own for the lowest-numbered one within reach.
+  if (within > 0) {
+    const auto cell = [within](const Vec3d& p) {
+      return std::array<long long, 3>{static_cast<long long>(std::floor(p.x / within)),
+                                      static_cast<long long>(std::floor(p.y / within)),
+                                      static_cast<long long>(std::floor(p.z / within))};
+    };
+    std::map<std::array<long long, 3>, std::vector<int>> kept;
+    std::vector<int> near_into(static_cast<std::size_t>(nv), -1);
+    for (int v = 0; v < nv; ++v) {
+      if (first[v] != v) continue;
+      const Vec3d& p = mesh.vertices[v];
+      const std::array<long long, 3> c = cell(p);
+      int into = -1;
+      for (long long dx = -1; dx <= 1; ++dx)
+        for (long long dy = -1; dy <= 1; ++dy)
+          for (long long dz = -1; dz <= 1; ++dz)
+            if (const auto it = kept.find({c[0] + dx, c[1] + dy, c[2] + dz}); it != kept.end())
+              for (const int k : it->second)
+                if (norm(mesh.vertices[k] - p) <= within && (into < 0 || k < into)) into = k;
+      if (into < 0) {
+        kept[c].push_back(v);
+        continue;
+      }
+      near_into[v] = into;
+      ++merged.vertices;
+      ++merged.near;
+    }
+    for (int w = 0; w < nv; ++w)  // v and the vertices merged into it exactly; `into` is kept
+      if (near_into[first[w]] >= 0) first[w] = near_into[first[w]];
+  }
   if (merged.vertices == 0) return merged;
   std::vector<int> remap(static_cast<std::size_t>(nv), -1);
   int next = 0;

@@ -145,18 +145,28 @@ int remove_unreferenced_vertices(TetMesh& mesh);
 /// points), renumbering the triangles. Returns how many were removed.
 int remove_unused_surface_vertices(SurfaceMesh& mesh);
 
-/// What merge_coincident_surface_vertices did: vertices merged into another, faces removed.
+/// What merge_coincident_surface_vertices did: vertices merged into another (`near` of them at
+/// another position, within the tolerance), faces removed.
 struct MergedVertices {
   int vertices = 0;
+  int near = 0;
   int faces = 0;
 };
 
 /// Merges the vertices of a surface at exactly the same position (equal coordinates; 0 and -0
-/// alike) into the first of them, as a triangle soup (an STL converted to OBJ) needs so that its
-/// faces share edges. The vertices keep their order, the first of each position in its place;
-/// the triangles are renumbered, and those left with a repeated vertex (zero area) are removed. A
-/// surface with no two vertices at one position is left untouched.
-MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh);
+/// alike), or within `within` of it, into the first of them, as a triangle soup (an STL converted
+/// to OBJ) or a seam exported twice (its copies a round-off apart) needs so that its faces share
+/// edges. A vertex merges into the lowest-numbered earlier vertex within reach that is itself kept
+/// (no chains). The vertices keep their order, the first of each position in its place; the
+/// triangles are renumbered, and those left with a repeated vertex (zero area) are removed. A
+/// surface with no two vertices that close is left untouched.
+MergedVertices merge_coincident_surface_vertices(SurfaceMesh& mesh, double within = 0);
+
+/// The weld tolerance of a virtual mesh's vertices, a share of its bounding box's diagonal: a seam's
+/// copies that an exporter wrote a round-off apart (float32: 1e-7 of the coordinates; six
+/// decimals of metres: 1e-6 m on a 0.1 m organ) are one vertex; no two distinct vertices of a
+/// surface fine enough to render lie this close (1 um on a 100 mm organ).
+inline constexpr double kSurfaceWeldTolerance = 1e-5;
 
 /// "vertex V (node id N)": a vertex of the mesh in a message, with the node id it had in the file
 /// (what a mesh tool shows) when the mesh has them.

@@ -1182,13 +1182,24 @@ Scene build_scene(SceneSpec spec_in) {
     scene.virtual_surface = read_obj(*spec.virtual_mesh);
     // A triangle soup (an STL converted to OBJ) has no edges between its faces until its vertices
     // at one position are one.
-    if (const MergedVertices merged = merge_coincident_surface_vertices(scene.virtual_surface); merged.vertices > 0) {
+    // A seam exported twice, its copies a round-off apart, is welded too: left open, the tool
+    // slipped through it with surface contact.
+    // Of the faces' corners: a stray point far off would stretch the box and the weld with it.
+    std::vector<Vec3d> corners;
+    corners.reserve(3 * scene.virtual_surface.triangles.size());
+    for (const Tri& t : scene.virtual_surface.triangles)
+      for (const int v : t) corners.push_back(scene.virtual_surface.vertices[v]);
+    const double weld = kSurfaceWeldTolerance * bounding_box(corners).diagonal();
+    if (const MergedVertices merged = merge_coincident_surface_vertices(scene.virtual_surface, weld); merged.vertices > 0) {
       const std::string faces = std::to_string(merged.faces) + (merged.faces == 1 ? " face" : " faces");
       if (scene.virtual_surface.triangles.empty())
         throw InputError(spec.virtual_mesh->string() + ": every face has a repeated vertex once the vertices at one position "
                          "are merged (" + std::to_string(merged.vertices) + " merged)");
+      const std::string near = merged.near == 0 ? ""
+                               : " (" + std::to_string(merged.near) + " of them a round-off apart, within " +
+                                     shown_number(weld) + " file units: a seam exported twice)";
       scene.warnings.push_back(spec.virtual_mesh->string() + ": merged " + std::to_string(merged.vertices) +
-                               " vertices at the position of another" +
+                               " vertices at the position of another" + near +
                                (merged.faces > 0 ? " and removed the " + faces + " left with a repeated vertex" : ""));
     }
     if (const int repeated = remove_repeated_surface_faces(scene.virtual_surface); repeated > 0)

@@ -113,6 +113,27 @@ TEST(MergeCoincident, FacesLeftWithARepeatedVertexAreRemoved) {
   EXPECT_EQ(s.vertices.size(), 3u);
   EXPECT_EQ(s.triangles, (std::vector<Tri>{{0, 1, 2}, {1, 2, 0}}));
 }
+// A seam exported twice, its copies a round-off apart (1e-9 here): one vertex within the reach,
+// the first kept; an exact copy of a merged vertex follows it; vertices farther apart than the
+// reach (a real gap of 1e-3) stay two, whatever cell of the reach's grid they fall in.
+TEST(MergeCoincident, ASeamARoundOffApartIsWeldedWithinTheReach) {
+  const double e = 1e-9;
+  SurfaceMesh s{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {e, 0, 0}, {1, 1 + e, 0}, {0, 1, 0}, {e, 0, 0}, {0, 1e-3, 0}},
+                {{0, 1, 2}, {3, 4, 5}, {6, 4, 7}}};
+  const MergedVertices none = [s]() mutable { return merge_coincident_surface_vertices(s); }();
+  EXPECT_EQ(none.vertices, 1);  // exactly, the two copies at (e, 0, 0) alone
+  EXPECT_EQ(none.near, 0);
+  const MergedVertices m = merge_coincident_surface_vertices(s, 1e-6);
+  EXPECT_EQ(m.vertices, 3);  // (e, 0, 0) twice into 0, (1, 1 + e, 0) into 2
+  EXPECT_EQ(m.near, 2);
+  EXPECT_EQ(m.faces, 0);
+  EXPECT_EQ(s.vertices, (std::vector<Vec3d>{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 1e-3, 0}}));
+  EXPECT_EQ(s.triangles, (std::vector<Tri>{{0, 1, 2}, {0, 2, 3}, {0, 2, 4}}));
+  // Across a cell boundary of the reach's grid: -1e-7 and +1e-7 lie in neighbouring cells.
+  SurfaceMesh across{{{-1e-7, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1e-7, 0, 0}, {1, 1, 0}}, {{0, 1, 2}, {3, 4, 1}}};
+  EXPECT_EQ(merge_coincident_surface_vertices(across, 1e-6).near, 1);
+  EXPECT_EQ(across.triangles, (std::vector<Tri>{{0, 1, 2}, {0, 3, 1}}));
+}
 TEST(MergeCoincident, NoCoincidentVerticesLeavesTheSurfaceAlone) {
   SurfaceMesh s = read_obj(data("mesh/cube.obj"));
   const SurfaceMesh before = s;

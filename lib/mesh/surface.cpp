@@ -46,4 +46,53 @@ double median_circumradius(std::span<const Vec3d> positions, std::span<const Tri
   return *mid;
 }
 
+UnweldedSeam unwelded_seam(const SurfaceMesh& surface) {
+  // The open edges: those one face uses.
+  std::map<std::array<int, 2>, int> uses;
+  for (const Tri& t : surface.triangles)
+    for (int k = 0; k < 3; ++k) ++uses[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
+  std::vector<std::array<int, 2>> open;
+  std::vector<double> lengths;
+  for (const auto& [e, n] : uses)
+    if (n == 1) {
+      open.push_back(e);
+      lengths.push_back(norm(surface.vertices[e[1]] - surface.vertices[e[0]]));
+    }
+  UnweldedSeam seam;
+  if (open.size() < 2) return seam;
+  // Their midpoints in cells of the longest open edge's size: a partner's midpoint lies within a
+  // quarter of it, in the same cell or a neighbour.
+  const double cell = *std::max_element(lengths.begin(), lengths.end());
+  if (!(cell > 0)) return seam;
+  const auto key = [cell](const Vec3d& p) {
+    return std::array<long long, 3>{static_cast<long long>(std::floor(p.x / cell)), static_cast<long long>(std::floor(p.y / cell)),
+                                    static_cast<long long>(std::floor(p.z / cell))};
+  };
+  const auto mid = [&](std::size_t i) { return 0.5 * (surface.vertices[open[i][0]] + surface.vertices[open[i][1]]); };
+  std::map<std::array<long long, 3>, std::vector<std::size_t>> cells;
+  for (std::size_t i = 0; i < open.size(); ++i) cells[key(mid(i))].push_back(i);
+  for (std::size_t i = 0; i < open.size(); ++i) {
+    const Vec3d &a = surface.vertices[open[i][0]], &b = surface.vertices[open[i][1]];
+    const std::array<long long, 3> c = key(mid(i));
+    double best = INFINITY;
+    for (long long dx = -1; dx <= 1; ++dx)
+      for (long long dy = -1; dy <= 1; ++dy)
+        for (long long dz = -1; dz <= 1; ++dz)
+          if (const auto it = cells.find({c[0] + dx, c[1] + dy, c[2] + dz}); it != cells.end())
+            for (const std::size_t j : it->second) {
+              if (j == i || open[j][0] == open[i][0] || open[j][0] == open[i][1] || open[j][1] == open[i][0] ||
+                  open[j][1] == open[i][1])
+                continue;
+              const Vec3d &p = surface.vertices[open[j][0]], &q = surface.vertices[open[j][1]];
+              const double gap = 0.5 * std::min(norm(a - p) + norm(b - q), norm(a - q) + norm(b - p));
+              if (gap < 0.25 * std::min(lengths[i], lengths[j])) best = std::min(best, gap);
+            }
+    if (best < INFINITY) {
+      ++seam.edges;
+      seam.gap = std::max(seam.gap, best);
+    }
+  }
+  return seam;
+}
+
 }  // namespace ebh

@@ -18,4 +18,14 @@ SurfaceMesh refine_surface(const SurfaceMesh& surface, std::vector<std::array<in
 /// ball narrower than a triangle's circumradius fits between its corners.
 double median_circumradius(std::span<const Vec3d> positions, std::span<const Tri> triangles);
 
+/// Open edges (of one face) that lie along another open edge sharing no corner with it, each of
+/// its corners near one of the other's (their mean distance under a quarter of the shorter edge):
+/// a seam exported as two borders, never welded, that a tool slips through. `edges` counts them,
+/// `gap` is the largest such mean distance (positions' unit).
+struct UnweldedSeam {
+  long long edges = 0;
+  double gap = 0;
+};
+UnweldedSeam unwelded_seam(const SurfaceMesh& surface);
+
 }  // namespace ebh

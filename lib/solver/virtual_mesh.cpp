@@ -138,10 +138,24 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
     if (edges.loose_faces > 0)
       soup = "; " + std::to_string(edges.loose_faces) + " of its " + std::to_string(scene.virtual_surface.triangles.size()) +
              " faces share no edge with another: corners that differ by round-off, never welded";
+    // Two borders along each other: a seam never welded (its copies farther apart than a weld).
+    const UnweldedSeam seam = unwelded_seam(scene.virtual_surface);
+    std::string seam_text;
+    if (seam.edges > 0) {
+      char buf[240];
+      std::snprintf(buf, sizeof buf, "; %lld of the open edges lie along another, up to %.3g mm apart: a seam never "
+                    "welded, whose vertices a mesh tool merges by distance", seam.edges, seam.gap * 1e3);
+      seam_text = buf;
+    }
     warnings.push_back(where + "is not closed: " + std::to_string(edges.open) +
-                       " of its edges belong to one face only (a hole, a cut patch" + soup +
+                       " of its edges belong to one face only (a hole, a cut patch" + soup + seam_text +
                        "): a tool that passes through an opening feels nothing there");
   }
+  if (edges.nonmanifold > 0)
+    warnings.push_back(where + "has " + std::to_string(edges.nonmanifold) +
+                       (edges.nonmanifold == 1 ? " edge" : " edges") +
+                       " of three faces or more (a wall inside the surface, or two organs sharing a face): the tool "
+                       "meets such a wall as surface too");
   const BoundingBox box = bounding_box(vm.rest);
   const double span = box.diagonal();
   // A closed virtual mesh over part of the physical mesh only (a segmentation's surface of one

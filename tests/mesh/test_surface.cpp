@@ -8,6 +8,7 @@
 #include "mesh/boundary.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/quality.hpp"
+#include "mesh/surface.hpp"
 #include "test_util.hpp"
 
 namespace ebh {
@@ -133,6 +134,23 @@ TEST(MergeCoincident, ASeamARoundOffApartIsWeldedWithinTheReach) {
   SurfaceMesh across{{{-1e-7, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1e-7, 0, 0}, {1, 1, 0}}, {{0, 1, 2}, {3, 4, 1}}};
   EXPECT_EQ(merge_coincident_surface_vertices(across, 1e-6).near, 1);
   EXPECT_EQ(across.triangles, (std::vector<Tri>{{0, 1, 2}, {0, 3, 1}}));
+}
+// Two squares side by side, the right one's left border a copy of the left one's right border
+// `gap` away: each border's edge lies along the other. A hole's rim (the squares joined) has none,
+// nor has a closed surface.
+TEST(UnweldedSeam, TwoBordersAlongEachOther) {
+  const auto squares = [](double gap) {
+    return SurfaceMesh{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {1 + gap, 0, 0}, {2, 0, 0}, {2, 1, 0}, {1 + gap, 1, 0}},
+                       {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 7}}};
+  };
+  const UnweldedSeam seam = unwelded_seam(squares(0.01));
+  EXPECT_EQ(seam.edges, 2);
+  EXPECT_NEAR(seam.gap, 0.01, 1e-15);  // (1 + 0.01) - 1 in doubles
+  EXPECT_EQ(unwelded_seam(squares(0.5)).edges, 0);  // half an edge apart: two patches, no seam
+  SurfaceMesh joined = squares(0);
+  merge_coincident_surface_vertices(joined);
+  EXPECT_EQ(unwelded_seam(joined).edges, 0);
+  EXPECT_EQ(unwelded_seam(read_obj(data("mesh/cube.obj"))).edges, 0);
 }
 TEST(MergeCoincident, NoCoincidentVerticesLeavesTheSurfaceAlone) {
   SurfaceMesh s = read_obj(data("mesh/cube.obj"));

@@ -95,9 +95,26 @@ TEST(BuildWorld, AnOpenVirtualMeshIsNamed) {
   EXPECT_TRUE(has(warnings_of("holed", holed), "holed.obj: mesh.virtual: the virtual mesh is not closed: 4 of its edges "
                                                "belong to one face only (a hole, a cut patch): "))
       << ::testing::PrintToString(warnings_of("holed", holed));
-  // Two triangles of one face with their shared corners 1e-9 cm apart: nothing welds them.
-  const std::string soup = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 10 0 1e-9\nv 0 10 1e-9\nv 10 10 0\nf 1 3 2\nf 4 5 6\n";
-  EXPECT_TRUE(has(warnings_of("soup", soup), "2 of its 2 faces share no edge with another"));
+  // Two triangles of one face with their shared corners 0.01 cm apart (farther than a weld):
+  // faces that share no edge, along a seam never welded.
+  const std::string soup = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 10 0 0.01\nv 0 10 0.01\nv 10 10 0\nf 1 3 2\nf 4 5 6\n";
+  const std::vector<std::string> unwelded = warnings_of("soup", soup);
+  EXPECT_TRUE(has(unwelded, "2 of its 2 faces share no edge with another: corners that differ by round-off, never welded; "
+                            "2 of the open edges lie along another, up to 0.1 mm apart: a seam never welded"))
+      << ::testing::PrintToString(unwelded);
+  // A round-off apart (1e-9 cm): welded, the square's two faces share their edge.
+  const std::string roundoff = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 10 0 1e-9\nv 0 10 1e-9\nv 10 10 0\nf 1 3 2\nf 4 5 6\n";
+  const std::vector<std::string> welded = warnings_of("roundoff", roundoff);
+  EXPECT_TRUE(has(welded, "roundoff.obj: merged 2 vertices at the position of another (2 of them a round-off apart"))
+      << ::testing::PrintToString(welded);
+  EXPECT_FALSE(has(welded, "share no edge")) << ::testing::PrintToString(welded);
+  EXPECT_FALSE(has(welded, "a seam never welded")) << ::testing::PrintToString(welded);
+  // A wall inside the cube (its diagonal plane as two triangles): edges of three faces.
+  const std::string wall = cube + "f 1 7 8\nf 1 8 2\n";
+  EXPECT_TRUE(has(warnings_of("wall", wall), "wall.obj: mesh.virtual: the virtual mesh has "))
+      << ::testing::PrintToString(warnings_of("wall", wall));
+  EXPECT_TRUE(has(warnings_of("wall", wall), " edges of three faces or more (a wall inside the surface"));
+  EXPECT_FALSE(has(warnings_of("holed", holed), "three faces"));
 }
 
 TEST(BuildWorld, AVirtualMeshInAnotherUnitIsNamed) {

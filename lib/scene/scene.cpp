@@ -1237,6 +1237,11 @@ Scene build_scene(SceneSpec spec_in) {
   // body, or drags a part through the coupling (settle_under_gravity refuses it under gravity).
   const std::string where = spec.file.string();
   const int nv = static_cast<int>(scene.physical.vertices.size());
+  // What a replay then does (settle_under_gravity): it refuses to start, with no equilibrium to settle to.
+  const std::string refused = spec.stages.settle && squared_norm(spec.gravity) > 0
+                                  ? "; a replay refuses it under gravity, with no static equilibrium to start from "
+                                    "(or set stages.settle: false or gravity: [0, 0, 0])"
+                                  : "";
   if (nv > 0 && static_cast<int>(scene.pinned.size()) == nv)
     scene.warnings.push_back(where + ": pinned: every vertex of the physical mesh is pinned, so it cannot move and "
                                      "the tool meets a rigid body (pin a region of it)");
@@ -1244,7 +1249,8 @@ Scene build_scene(SceneSpec spec_in) {
     scene.warnings.push_back(where + ": pinned: nothing is pinned, so the physical mesh floats free, held only by "
                                      "its coupling to the virtual mesh, which drags it like a thick fluid: under "
                                      "gravity it sinks slowly instead of falling, and the tool feels that drag, not "
-                                     "tissue held in place (docs/MODEL.md, \"Held loads\"; pin a region of it)");
+                                     "tissue held in place (docs/MODEL.md, \"Held loads\"; pin a region of it)" +
+                                     refused);
   if (std::string w = coupling_bounds_tissue(scene); !w.empty())
     scene.warnings.push_back(value_source(spec, "stiffness.k_vol", "stiffness.k_svc") + ": " + w);
   if (!scene.pinned.empty() && static_cast<int>(scene.pinned.size()) < nv) {
@@ -1272,7 +1278,7 @@ Scene build_scene(SceneSpec spec_in) {
           " vertices; the first holds " + vertex_name(scene.physical, first) + " and " + std::to_string(count) +
           " vertices) touch no pinned vertex: they float free, held only by their coupling to the virtual mesh, "
           "which drags them like a thick fluid (the tool feels that drag; docs/MODEL.md, \"Held loads\"): pin "
-          "each part");
+          "each part" + refused);
     }
   }
   return scene;

@@ -271,6 +271,13 @@ TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {
   const Scene none = load_scene(write_temp(
       "none.yaml", replace(good, "pinned:\n  - group: bottom\n  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n", "pinned: []\n")));
   EXPECT_TRUE(has(none, "pinned: nothing is pinned, so the physical mesh floats free, held only by its coupling")) << ::testing::PrintToString(none.warnings);
+  // Under gravity a replay refuses it (settle_under_gravity): said here too, not "it sinks slowly" alone.
+  EXPECT_TRUE(has(none, "; a replay refuses it under gravity, with no static equilibrium to start from"))
+      << ::testing::PrintToString(none.warnings);
+  const Scene weightless = load_scene(write_temp(
+      "weightless.yaml", replace(replace(good, "pinned:\n  - group: bottom\n  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n", "pinned: []\n"),
+                                 "gravity: [0, 0, -9.81]", "gravity: [0, 0, 0]")));
+  EXPECT_FALSE(has(weightless, "a replay refuses it")) << ::testing::PrintToString(weightless.warnings);
 
   // cube22.msh twice, the copy 20 mm higher (node ids + 2000, element ids + 100): only the lower
   // cube's bottom is pinned

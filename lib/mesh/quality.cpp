@@ -182,6 +182,66 @@ struct PartOverlaps {
   std::array<int, 2> vertex{-1, -1};  ///< only a vertex strictly inside: MeshReport::parts_overlap
 };
 
+/// MeshReport's joints: the tets' pieces (joined through shared faces; `tets` valid) and the
+/// vertices that tets of two pieces share.
+void find_joints(const std::vector<Tet>& tets, int nv, MeshReport& r) {
+  const int nt = static_cast<int>(tets.size());
+  std::vector<int> root(static_cast<std::size_t>(nt));
+  for (int t = 0; t < nt; ++t) root[t] = t;
+  auto find = [&root](int a) {
+    while (root[a] != a) a = root[a] = root[root[a]];
+    return a;
+  };
+  std::vector<std::pair<std::array<int, 3>, int>> faces;
+  faces.reserve(4 * static_cast<std::size_t>(nt));
+  for (int t = 0; t < nt; ++t)
+    for (int f = 0; f < 4; ++f) {
+      std::array<int, 3> v{tets[t][kTetFaces[f][0]], tets[t][kTetFaces[f][1]], tets[t][kTetFaces[f][2]]};
+      std::sort(v.begin(), v.end());
+      faces.emplace_back(v, t);
+    }
+  std::sort(faces.begin(), faces.end());
+  for (std::size_t i = 1; i < faces.size(); ++i)
+    if (faces[i].first == faces[i - 1].first) {
+      const int a = find(faces[i].second), b = find(faces[i - 1].second);
+      if (a != b) root[std::max(a, b)] = std::min(a, b);
+    }
+  std::vector<long long> size(static_cast<std::size_t>(nt), 0);
+  for (int t = 0; t < nt; ++t) ++size[find(t)];
+  // A vertex's pieces: the first seen, and whether another shares it (and the smallest there).
+  std::vector<int> piece(static_cast<std::size_t>(nv), -1);
+  std::vector<char> joint(static_cast<std::size_t>(nv), 0);
+  std::vector<long long> smallest(static_cast<std::size_t>(nv), 0);
+  for (int t = 0; t < nt; ++t)
+    for (const int v : tets[t]) {
+      const int p = find(t);
+      if (piece[v] < 0) {
+        piece[v] = p;
+        smallest[v] = size[p];
+      } else if (piece[v] != p) {
+        joint[v] = 1;
+        smallest[v] = std::min(smallest[v], size[p]);
+      }
+    }
+  for (int v = 0; v < nv; ++v)
+    if (joint[v] && r.joint_vertices++ == 0) {
+      r.first_joint_vertex = v;
+      r.joint_piece_tets = smallest[v];
+    }
+  if (r.joint_vertices == 0) return;
+  // Pieces beyond one per connected part (tets sharing vertices).
+  TetMesh m;
+  m.vertices.resize(static_cast<std::size_t>(nv));
+  m.tets = tets;
+  const std::vector<int> part = mesh_parts(m);
+  std::set<int> pieces, parts;
+  for (int t = 0; t < nt; ++t) {
+    pieces.insert(find(t));
+    parts.insert(part[tets[t][0]]);
+  }
+  r.jointed_pieces = static_cast<long long>(pieces.size()) - static_cast<long long>(parts.size());
+}
+
 /// MeshReport::part_inside_part and parts_overlap: the centres of the tets of every part, and
 /// their vertices, located in each other part whose bounding box holds them (a tumour inside its
 /// organ, a box half inside another; two organs segmented apart that overlap by a voxel). A tet's
@@ -355,6 +415,8 @@ MeshReport validate_mesh(const TetMesh& mesh) {
     std::sort(r.repeated_tets.begin(), r.repeated_tets.end());
   }
 
+  find_joints(valid, nv, r);
+  if (r.first_joint_vertex >= 0) r.joint_name = vertex_name(r.first_joint_vertex);
   // Faces and boundary edges.
   const FaceCounts faces = count_faces(valid);
   r.boundary_faces = faces.boundary;
@@ -452,6 +514,15 @@ std::vector<std::string> MeshReport::warnings() const {
                 " of another part (organs segmented apart that overlap by a voxel?): the overlap's volume and mass "
                 "count twice, and each part's surface lies inside the other there; mesh them as one, with shared "
                 "nodes, or shrink one");
+  if (jointed_pieces > 0)
+    w.push_back(plural(static_cast<std::size_t>(jointed_pieces), "piece") +
+                (jointed_pieces == 1 ? " of the mesh touches" : " of the mesh touch") +
+                " the rest at vertices or edges only, sharing no face (" +
+                plural(static_cast<std::size_t>(joint_vertices), "vertex") + " shared; the first: " + joint_name +
+                ", where the smaller piece has " + plural(static_cast<std::size_t>(joint_piece_tets), "tet") +
+                "): unless pinned itself, such a piece turns about its joint, held only by its coupling to the virtual "
+                "mesh (two labels of a segmentation touching at a corner?); mesh them as one volume, with shared "
+                "faces, or apart");
   if (poor_tets > 0) {
     char line[320];
     std::snprintf(line, sizeof line,

@@ -49,6 +49,14 @@ struct MeshReport {
   /// another part (tet, tet), and how messages name them; {-1, -1}: none (or part_inside_part).
   std::array<int, 2> parts_overlap{-1, -1};
   std::string parts_overlap_names;
+  /// Pieces of the mesh (tets joined through shared faces) that touch another piece at vertices or
+  /// edges only: `jointed_pieces` pieces beyond one per connected part, `joint_vertices` vertices
+  /// shared by pieces, the first of them `first_joint_vertex` (-1: none) and the smallest piece
+  /// there, in tets. Such a piece turns about its joint, held only by the coupling (two labels of a
+  /// segmentation touching at a corner voxel).
+  long long jointed_pieces = 0, joint_vertices = 0, joint_piece_tets = 0;
+  int first_joint_vertex = -1;
+  std::string joint_name;  ///< how messages name first_joint_vertex ("node 7" or "vertex 6")
   long long poor_tets = 0;  ///< tets of mean ratio below kPoorTetQuality (near flat: the solver stalls on them)
   /// tets whose file element id another tet has too (file_tet_ids), and the first such id: the
   /// ids messages name would name more than one element

@@ -1,10 +1,12 @@
 // Mesh validator: each defect is caught, orientation is fixed or rejected, quality is right.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "mesh/boundary.hpp"
+#include "mesh/box_mesh.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/quality.hpp"
 #include "test_util.hpp"
@@ -79,6 +81,45 @@ TEST(Validate, CleanCube) {
   const double corner = 12.0 * std::cbrt(0.25) / 9.0;
   EXPECT_NEAR(r.quality_worst, corner, 1e-12);  // rounding only
   EXPECT_NEAR(r.quality_mean, (4 * corner + 1) / 5, 1e-12);
+}
+
+// Two boxes of tets touching at one corner, then along one edge: pieces that share vertices but no
+// face (a hinge the coupling alone holds). One box of several pieces sharing faces has none.
+TEST(Validate, PiecesJoinedAtAVertexOrAnEdge) {
+  const TetMesh box = make_box_tets({0, 0, 0}, {1, 1, 1}, 2, 2, 2);
+  EXPECT_EQ(validate_mesh(box).jointed_pieces, 0);
+  EXPECT_EQ(validate_mesh(box).first_joint_vertex, -1);
+  const auto joined = [&box](const Vec3d& offset) {
+    TetMesh m = box;
+    const int n = static_cast<int>(box.vertices.size());
+    for (const Vec3d& v : box.vertices) m.vertices.push_back(v + offset);
+    for (Tet t : box.tets) {
+      for (int& v : t) v += n;
+      m.tets.push_back(t);
+    }
+    // the copy's vertices at the position of the box's: the box's own
+    for (Tet& t : m.tets)
+      for (int& v : t)
+        for (int w = 0; w < n && v >= n; ++w)
+          if (m.vertices[v] == m.vertices[w]) v = w;
+    return m;
+  };
+  const MeshReport corner = validate_mesh(joined({1, 1, 1}));
+  EXPECT_EQ(corner.jointed_pieces, 1);
+  EXPECT_EQ(corner.joint_vertices, 1);
+  EXPECT_EQ(corner.first_joint_vertex, 26);  // (1, 1, 1), the box's last vertex
+  EXPECT_EQ(corner.joint_piece_tets, 48);
+  const std::vector<std::string> w = corner.warnings();  // (and the copy's unused vertex at the corner)
+  EXPECT_EQ(std::count_if(w.begin(), w.end(), [](const std::string& line) {
+              return line.rfind("1 piece of the mesh touches the rest at vertices or edges only, sharing no face (1 vertex "
+                                "shared; the first: vertex 26, where the smaller piece has 48 tets)", 0) == 0;
+            }),
+            1) << ::testing::PrintToString(w);
+  const MeshReport edge = validate_mesh(joined({1, 1, 0}));
+  EXPECT_EQ(edge.jointed_pieces, 1);
+  EXPECT_EQ(edge.joint_vertices, 3);  // the edge x = y = 1 of the box, at its three grid points
+  const MeshReport face = validate_mesh(joined({1, 0, 0}));
+  EXPECT_EQ(face.jointed_pieces, 0);  // sharing the face x = 1: one piece
 }
 
 TEST(Validate, DegenerateTet) {

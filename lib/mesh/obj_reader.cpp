@@ -17,7 +17,10 @@ using detail::printable;
 /// that the rest has the corner's form. Returns false if the token is malformed.
 bool parse_corner(std::string_view t, long long* v) {
   auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), *v);
-  if (ec != std::errc()) return false;
+  // An index too large for any count: read as the extreme of its sign, which the caller refuses
+  // as out of range (naming the file's text), not as a corner of another form.
+  if (ec == std::errc::result_out_of_range) *v = t.front() == '-' ? LLONG_MIN : LLONG_MAX;
+  else if (ec != std::errc()) return false;
   const char* end = t.data() + t.size();
   int slashes = 0;
   for (; p < end; ++p) {
@@ -117,14 +120,15 @@ SurfaceMesh read_obj(const std::filesystem::path& file) {
         long long v = 0;
         if (!parse_corner(t, &v)) c.fail("expected a face corner like 3, 3/1, 3/1/2 or 3//2, got '" + printable(t) + "'");
         if (v == 0) c.fail("vertex index 0 is invalid (OBJ indices start at 1)");
+        const std::string index = printable(t.substr(0, t.find('/')));  // as the file writes it
         if (v < 0) {
-          const long long abs_index = static_cast<long long>(mesh.vertices.size()) + v;
+          const long long abs_index = v == LLONG_MIN ? -1 : static_cast<long long>(mesh.vertices.size()) + v;
           if (abs_index < 0)
-            c.fail("relative vertex index " + std::to_string(v) + " reaches before the first vertex (" +
+            c.fail("relative vertex index " + index + " reaches before the first vertex (" +
                    std::to_string(mesh.vertices.size()) + " read so far)");
           v = abs_index;
         } else {
-          if (v > INT_MAX) c.fail("vertex index " + std::to_string(v) + " is out of range");
+          if (v > INT_MAX) c.fail("vertex index " + index + " is out of range");
           v -= 1;  // checked against the vertex count at the end: OBJ allows forward references
         }
         corners.push_back(v);

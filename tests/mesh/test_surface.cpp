@@ -87,6 +87,10 @@ TEST_F(BadObj, TwoCorners) { expect(kTri + "f 1 2\n", 4, "a face needs at least 
 TEST_F(BadObj, IndexOutOfRange) { expect(kTri + "# c\nf 1 2 9\n", 5, "vertex index 9 is out of range (the file has 3 vertices)"); }
 TEST_F(BadObj, RepeatedVertex) { expect(kTri + "f 1 1 2\n", 4, "the face names vertex 1 twice (a degenerate face)"); }
 TEST_F(BadObj, RepeatedVertexByRelativeIndex) { expect(kTri + "f 1 2 3 -2\n", 4, "the face names vertex 2 twice"); }
+TEST_F(BadObj, IndexBeyondEveryCount) {
+  expect(kTri + "f 1 2 99999999999999999999/1\n", 4, "vertex index 99999999999999999999 is out of range");
+  expect(kTri + "f 1 2 -99999999999999999999\n", 4, "relative vertex index -99999999999999999999 reaches before the first vertex");
+}
 TEST_F(BadObj, IndexZero) { expect(kTri + "f 0 1 2\n", 4, "vertex index 0 is invalid"); }
 TEST_F(BadObj, RelativeBeforeFirst) { expect(kTri + "f 1 2 -4\n", 4, "relative vertex index -4 reaches before the first vertex"); }
 TEST_F(BadObj, Garbage) { expect(kTri + "f 1 2 3x\n", 4, "expected a face corner like 3, 3/1, 3/1/2 or 3//2, got '3x'"); }

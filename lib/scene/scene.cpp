@@ -1253,6 +1253,8 @@ Scene build_scene(SceneSpec spec_in) {
                                      refused);
   if (std::string w = coupling_bounds_tissue(scene); !w.empty())
     scene.warnings.push_back(value_source(spec, "stiffness.k_vol", "stiffness.k_svc") + ": " + w);
+  if (std::string w = virtual_mesh_much_finer(scene); !w.empty())
+    scene.warnings.push_back(spec.virtual_mesh->string() + ": mesh.virtual: " + w);
   if (!scene.pinned.empty() && static_cast<int>(scene.pinned.size()) < nv) {
     const std::vector<std::pair<int, int>> turning = parts_pinned_on_a_line(scene.physical, scene.pinned);
     if (!turning.empty()) {
@@ -1357,15 +1359,39 @@ std::vector<std::pair<int, int>> parts_pinned_on_a_line(const TetMesh& mesh, std
   return parts;
 }
 
+namespace {
+/// The mean edge length of a triangle surface (each face's three edges; 0 for none).
+double mean_edge(const SurfaceMesh& surface) {
+  if (surface.triangles.empty()) return 0;
+  double sum = 0;
+  for (const auto& t : surface.triangles)
+    for (int a = 0; a < 3; ++a) sum += norm(surface.vertices[t[a]] - surface.vertices[t[(a + 1) % 3]]);
+  return sum / (3.0 * static_cast<double>(surface.triangles.size()));
+}
+}  // namespace
+
+std::string virtual_mesh_much_finer(const Scene& scene) {
+  if (!scene.spec.virtual_mesh || scene.virtual_surface.triangles.empty()) return "";
+  const double edge = mean_edge(scene.virtual_surface) / std::ldexp(1.0, scene.spec.virtual_refine);
+  const double boundary = mean_edge(extract_boundary(scene.physical));
+  if (!(edge < kVirtualFinerThanBoundary * boundary)) return "";
+  char line[600];
+  std::snprintf(line, sizeof line,
+                "the virtual mesh's edges (%.3g mm on average, as refined) are 1/%.3g of the physical mesh's boundary "
+                "edges (%.3g mm): E_svc and contact act at each virtual vertex, so the tool meets %.3g times more "
+                "springs per area than at the boundary's resolution and the rendered force grows with the density "
+                "(docs/MODEL.md, \"The other stiffnesses\"); a coarser OBJ (or a lower mesh.virtual_refine) renders "
+                "the tissue, a finer one its surface's resolution",
+                edge * 1e3, boundary / edge, boundary * 1e3, (boundary / edge) * (boundary / edge));
+  return line;
+}
+
 std::string coupling_bounds_tissue(const Scene& scene) {
   const SceneSpec& spec = scene.spec;
   const SurfaceMesh& surface = scene.virtual_surface;
   if (surface.triangles.empty() || !(spec.stiffness.k_svc > 0)) return "";
-  double sum = 0;
-  for (const auto& t : surface.triangles)
-    for (int a = 0; a < 3; ++a) sum += norm(surface.vertices[t[a]] - surface.vertices[t[(a + 1) % 3]]);
   // Each level of virtual_refine halves the edges.
-  const double edge = sum / (3.0 * static_cast<double>(surface.triangles.size())) / std::ldexp(1.0, spec.virtual_refine);
+  const double edge = mean_edge(surface) / std::ldexp(1.0, spec.virtual_refine);
   const double felt = spec.stiffness.k_vol * edge;
   if (!(felt > kTissueOverCoupling * spec.stiffness.k_svc)) return "";
   char line[512];

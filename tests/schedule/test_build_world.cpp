@@ -7,6 +7,8 @@
 #include <sstream>
 
 #include "../mesh/test_util.hpp"
+#include "mesh/mesh_io.hpp"
+#include "mesh/surface.hpp"
 #include "schedule/simulation.hpp"
 
 namespace ebh {
@@ -115,6 +117,31 @@ TEST(BuildWorld, AnOpenVirtualMeshIsNamed) {
       << ::testing::PrintToString(warnings_of("wall", wall));
   EXPECT_TRUE(has(warnings_of("wall", wall), " edges of three faces or more (a wall inside the surface"));
   EXPECT_FALSE(has(warnings_of("holed", holed), "three faces"));
+}
+
+// An OBJ far finer than the physical boundary (cube41's, 114 mm on average): its vertices' springs
+// per area set the rendered force. Warned under 1/8 of the boundary's mean edge (the same cube
+// refined four times: 1/16); refined twice (1/4, as the scenes' virtual_refine) it is not.
+TEST(BuildWorld, AVirtualMeshFarFinerThanTheBoundaryIsNamed) {
+  const auto refined_cube = [](int levels) {
+    SurfaceMesh s = read_obj(data("mesh/cube.obj"));
+    std::vector<std::array<int, 2>> parent;
+    for (int i = 0; i < levels; ++i) s = refine_surface(s, parent);
+    std::ostringstream o;
+    o.precision(17);
+    for (const Vec3d& v : s.vertices) o << "v " << v.x << " " << v.y << " " << v.z << "\n";
+    for (const Tri& t : s.triangles) o << "f " << t[0] + 1 << " " << t[1] + 1 << " " << t[2] + 1 << "\n";
+    return o.str();
+  };
+  const auto finer = [](const std::vector<std::string>& w) {
+    for (const std::string& line : w)
+      if (line.find("as refined) are 1/") != std::string::npos) return line;
+    return std::string();
+  };
+  const std::string fine = finer(warnings_of("fine4", refined_cube(4)));
+  EXPECT_NE(fine.find("fine4.obj: mesh.virtual: the virtual mesh's edges (7.11 mm on average, as refined) are 1/16 of "),
+            std::string::npos) << fine;
+  EXPECT_EQ(finer(warnings_of("fine2", refined_cube(2))), "");
 }
 
 TEST(BuildWorld, AVirtualMeshInAnotherUnitIsNamed) {

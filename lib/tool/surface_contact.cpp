@@ -36,17 +36,33 @@ SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> tr
 
 std::vector<std::string> surface_contact_warnings(const SurfaceContactModel& s, std::span<const Vec3d> rest) {
   std::vector<std::string> out;
-  int too_long = 0, slow = 0;
-  double longest = 0, samples = 0;
+  int too_long = 0, slow = 0, slivers = 0;
+  double longest = 0, samples = 0, sliver_samples = 0, sliver_need = 0;
   for (std::size_t t = 0; t < s.triangles.size(); ++t) {
     const auto& v = s.triangles[t];
     const double edge = triangle_longest_edge(rest[v[0]], rest[v[1]], rest[v[2]]);
     longest = std::max(longest, edge);
     if (edge > kMaxSampleLevel * s.spacing) ++too_long;
     else if (s.rest_level[t] > kSlowSampleLevel) ++slow;
-    samples += static_cast<double>(s.rest_level[t]) * s.rest_level[t];
+    const double n2 = static_cast<double>(s.rest_level[t]) * s.rest_level[t];
+    samples += n2;
+    const double need = norm(cross(rest[v[1]] - rest[v[0]], rest[v[2]] - rest[v[0]])) / (s.spacing * s.spacing);
+    if (n2 > kSliverOversampling * std::max(need, 1.0)) {
+      ++slivers;
+      sliver_samples += n2;
+      sliver_need += need;
+    }
   }
-  char line[400];
+  char line[560];
+  if (sliver_samples > kManySliverSamples && samples <= kManySurfaceSamples) {
+    std::snprintf(line, sizeof line,
+                  "surface contact: %d long, thin triangles of the virtual mesh carry %.3g sample points, %.3g times "
+                  "what their area needs (a triangle's n^2 samples follow its longest edge; the spacing, the tool's "
+                  "thinnest part, %.4g mm): a tick near them tests them all, so ticks there are slow; remesh the "
+                  "virtual mesh with triangles of even shape",
+                  slivers, sliver_samples, sliver_samples / std::max(sliver_need, 1.0), s.spacing * 1e3);
+    out.emplace_back(line);
+  }
   if (slow > 0) {
     std::snprintf(line, sizeof line,
                   "surface contact: %d %s of the virtual mesh %s longer than %d sample spacings (the longest %.4g mm; "

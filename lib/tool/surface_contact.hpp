@@ -63,6 +63,13 @@ inline constexpr double kManySurfaceSamples = 4e6;
 /// samples each (the committed scenes' 2-3; an own coarse mesh's 53 mm triangles with a 1 mm tool:
 /// 53, ticks in contact 2.6 ms against 0.05 ms with vertex contact).
 inline constexpr int kSlowSampleLevel = 32;
+/// Long, thin triangles: n^2 samples (n the longest edge over the spacing) on an area that needs
+/// 2 area / spacing^2 of them (an even triangle carries 1.2-2 times that). Over kSliverOversampling
+/// times, and over kManySliverSamples samples in such triangles, surface_contact_warnings says the
+/// ticks near them will be slow (600 slivers of 30 x 0.1 mm, 0.58 million samples with a 1 mm tool:
+/// a replay at 0.005x real time, 1.25x on an even 1.25 mm mesh of the same block).
+inline constexpr double kSliverOversampling = 16;
+inline constexpr double kManySliverSamples = 1e5;
 
 /// The radius of the tool's thinnest part: the smallest radius of a sphere, capsule or cylinder
 /// and the smallest half extent of a box (m).

@@ -123,6 +123,28 @@ TEST(SurfaceSamples, LongTrianglesAndManySamplesAreSaid) {
             std::string::npos);
   const std::vector<Vec3d> finer = {{0, 0, 0}, {0.020, 0, 0}, {0, 0.015, 0}};
   EXPECT_TRUE(surface_contact_warnings(build_surface_contact(tri, finer, 0.001), finer).empty());
+  // A strip of 30 x 0.1 mm slivers (31^2 samples each, the diagonal 30.0002 mm rounded up, on
+  // 1.5 mm^2): 200 of them carry 192200 samples, 320 times their area's need; the same strip in
+  // triangles 3 mm long does not.
+  const auto strip = [](double length, int count) {
+    std::pair<std::vector<Vec3d>, std::vector<std::array<int, 3>>> m;
+    for (int k = 0; k <= count; ++k) {
+      m.first.push_back({0, 1e-4 * k, 0});
+      m.first.push_back({length, 1e-4 * k, 0});
+    }
+    for (int k = 0; k < count; ++k) {
+      m.second.push_back({2 * k, 2 * k + 1, 2 * k + 3});
+      m.second.push_back({2 * k, 2 * k + 3, 2 * k + 2});
+    }
+    return m;
+  };
+  const auto [sliver_rest, slivers] = strip(0.030, 100);
+  const std::vector<std::string> thin = surface_contact_warnings(build_surface_contact(slivers, sliver_rest, 0.001), sliver_rest);
+  ASSERT_EQ(thin.size(), 1u) << ::testing::PrintToString(thin);
+  EXPECT_EQ(thin[0].rfind("surface contact: 200 long, thin triangles of the virtual mesh carry 1.92e+05 sample points, 320 "
+                          "times what their area needs", 0), 0u) << thin[0];
+  const auto [short_rest, shorts] = strip(0.003, 100);
+  EXPECT_TRUE(surface_contact_warnings(build_surface_contact(shorts, short_rest, 0.001), short_rest).empty());
 }
 
 TEST(SurfaceContact, StiffnessFloorHoldsTheThinnestPartAtTheForceLimit) {

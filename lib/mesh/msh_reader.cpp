@@ -429,9 +429,13 @@ class MshParser {
   /// MSH 2 writes an element in several physical groups once per group (the same type and nodes,
   /// each copy with one group): merges the copies into the first, which gets the union of their
   /// groups (tet_more_groups / triangle_more_groups), and keeps the elements' file order.
+  /// `copies_only`: a repeat in a group an earlier copy has, or without a group where no copy has
+  /// one, is not such a copy but the element listed twice (two files joined, an entity meshed
+  /// twice): it stays, for the mesh check to refuse as in a 4.1 file.
   template <class Element>
   static void merge_repeated(std::vector<Element>& elements, std::vector<int>& group,
-                             std::vector<std::pair<int, int>>& more, std::vector<long long>* file_ids) {
+                             std::vector<std::pair<int, int>>& more, std::vector<long long>* file_ids,
+                             bool copies_only) {
     const std::size_t n = elements.size();
     std::vector<int> order(n);
     for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<int>(i);
@@ -439,15 +443,20 @@ class MshParser {
     std::vector<int> into(n, -1);  // a repeated element -> the first copy
     for (std::size_t i = 1; i < n; ++i)
       if (elements[order[i]] == elements[order[i - 1]]) into[order[i]] = into[order[i - 1]] >= 0 ? into[order[i - 1]] : order[i - 1];
-    if (std::all_of(into.begin(), into.end(), [](int f) { return f < 0; })) return;
     // each first copy's groups: its own, then the copies' in file order (0, no group, only alone)
     std::map<int, std::vector<int>> groups;
     for (std::size_t i = 0; i < n; ++i) {
       if (into[i] < 0) continue;
       std::vector<int>& g = groups[into[i]];
       if (g.empty()) g.push_back(group[into[i]]);
+      const bool seen = std::find(g.begin(), g.end(), group[i]) != g.end();
+      if (copies_only && seen && (group[i] != 0 || std::all_of(g.begin(), g.end(), [](int t) { return t == 0; }))) {
+        into[i] = -1;  // listed twice, not a copy for a group
+        continue;
+      }
       g.push_back(group[i]);
     }
+    if (std::all_of(into.begin(), into.end(), [](int f) { return f < 0; })) return;
     std::vector<int> index(n, -1);
     std::size_t kept = 0;
     for (std::size_t i = 0; i < n; ++i) {
@@ -503,8 +512,9 @@ class MshParser {
       if (physical < 0 || physical > INT_MAX - 1) c_.fail("physical tag " + std::to_string(physical) + " is out of range" + ctx);
       read_element_nodes(type, id, physical == 0 ? std::vector<int>{} : std::vector<int>{static_cast<int>(physical)});
     }
-    merge_repeated(mesh_.tets, mesh_.tet_group, mesh_.tet_more_groups, &mesh_.file_tet_ids);
-    merge_repeated(mesh_.triangles, mesh_.triangle_group, mesh_.triangle_more_groups, nullptr);
+    // A tet listed twice is refused by the mesh check; a triangle only labels a surface group.
+    merge_repeated(mesh_.tets, mesh_.tet_group, mesh_.tet_more_groups, &mesh_.file_tet_ids, true);
+    merge_repeated(mesh_.triangles, mesh_.triangle_group, mesh_.triangle_more_groups, nullptr, false);
   }
 
   void read_elements_v4() {

@@ -8,6 +8,7 @@
 #include <tuple>
 
 #include "mesh/mesh_io.hpp"
+#include "mesh/quality.hpp"
 #include "test_util.hpp"
 
 namespace ebh {
@@ -151,6 +152,22 @@ TEST(ReadMsh, RepeatedElementWithoutAGroupMergesIntoTheGrouped) {
   std::string text = replace(slurp(data("mesh/cube22.msh")), "$Elements\n13\n", "$Elements\n15\n");
   text = replace(text, "$EndElements", "30 4 2 0 1 7 1000 3 250\n31 4 1 0 9 3 1000 55\n$EndElements");
   expect_same_mesh(read_msh(write_temp("repeated.msh", text)), read_msh(data("mesh/cube22.msh")));
+}
+
+// The same tet twice in one group is not Gmsh's copy per group but a part listed twice (two files
+// joined): it stays two tets, which the mesh check refuses, as in a 4.1 file.
+TEST(ReadMsh, ElementListedTwiceInOneGroupIsNotMerged22) {
+  std::string text = replace(slurp(data("mesh/cube22.msh")), "$Elements\n13\n", "$Elements\n14\n");
+  text = replace(text, "$EndElements", "30 4 2 1 1 7 1000 3 250\n$EndElements");
+  const TetMesh twice = read_msh(write_temp("twice.msh", text));
+  ASSERT_EQ(twice.tets.size(), 6u);
+  EXPECT_EQ(twice.file_tet_ids, (std::vector<long long>{20, 21, 22, 23, 24, 30}));
+  EXPECT_EQ(twice.tets[5], twice.tets[0]);
+  EXPECT_EQ(validate_mesh(twice).repeated_tets.size(), 1u);
+  // without a group, twice: listed twice too
+  text = replace(replace(text, "20 4 2 1 1 ", "20 4 2 0 1 "), "30 4 2 1 1 ", "30 4 2 0 1 ");
+  const TetMesh ungrouped = read_msh(write_temp("twice0.msh", text));
+  EXPECT_EQ(ungrouped.tets.size(), 6u);
 }
 
 TEST(MshWriter, EveryGroupOfAnElementReadsBack) {

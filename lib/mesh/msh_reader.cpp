@@ -76,7 +76,7 @@ class MshParser {
       } else if (name == "Entities" && major_ == 4) {
         read_entities();
       } else if (name == "PartitionedEntities" && major_ == 4) {
-        read_partitioned_entities();
+        read_partitioned_entities(header_line);
       } else if (name == "Nodes" || (name == "ParametricNodes" && major_ == 2)) {
         if (have_nodes_) c_.fail_at(header_line, "second $Nodes section");
         major_ == 4 ? read_nodes_v4() : read_nodes_v2(name == "ParametricNodes");
@@ -95,6 +95,7 @@ class MshParser {
     if (!have_nodes_) c_.fail("missing $Nodes section");
     if (!have_elements_) c_.fail("missing $Elements section");
     check_volume_elements();
+    check_partitions();
     assign_groups();
     mesh_.msh_major = major_;
     return std::move(mesh_);
@@ -224,17 +225,20 @@ class MshParser {
   /// physicalTag ... [numBoundingEntities ...]", the coordinates as in $Entities). A piece of the
   /// same dimension as its parent carries the parent's physical tags. A piece of a lower one is a
   /// boundary between partitions inside its parent: its tags are the parent's, not groups of its
-  /// dimension, and its elements (triangles inside the volume) are not the mesh's: skipped.
-  void read_partitioned_entities() {
+  /// dimension, and its elements (triangles inside the volume) are not the mesh's: skipped. A ghost
+  /// entity (gmsh -part_ghosts) holds copies of other partitions' tets next to a partition's:
+  /// skipped too (a file split per partition holds them beside its own).
+  void read_partitioned_entities(long long header_line) {
     c_.skip_empty_lines();
-    c_.integer("partition count", 0, INT_MAX);
+    partitions_line_ = header_line;
+    partitions_ = c_.integer("partition count", 0, INT_MAX);
     c_.end_line("");
     c_.skip_empty_lines();
     const long long ghosts = count("ghost entity count", 4);
     c_.end_line("");
     for (long long i = 0; i < ghosts; ++i) {
       need_line("ghost entities", i, ghosts);
-      c_.integer("ghost entity tag", -kMaxTag, kMaxTag);
+      ghost_entities_.insert(c_.integer("ghost entity tag", -kMaxTag, kMaxTag));
       c_.integer("partition", 0, kMaxTag);
       c_.end_line("");
     }
@@ -246,7 +250,10 @@ class MshParser {
         const int parent_dim = static_cast<int>(c_.integer("parent dimension", 0, 3));
         c_.integer("parent tag", -kMaxTag, kMaxTag);
         const long long parts = c_.integer("partition count", 0, static_cast<long long>(c_.remaining()));
-        for (long long k = 0; k < parts; ++k) c_.integer("partition tag", -kMaxTag, kMaxTag);
+        for (long long k = 0; k < parts; ++k) {
+          const long long part = c_.integer("partition tag", -kMaxTag, kMaxTag);
+          if (d == 3 && parent_dim == 3) volume_partitions_.insert(part);
+        }
         const int coords = d == 0 ? 3 : 6;
         for (int k = 0; k < coords; ++k) c_.real("entity coordinate");
         std::vector<int> physical = read_physical_tags();
@@ -532,7 +539,8 @@ class MshParser {
       // A block on an entity the file's entities do not list (meshio writes its surfaces so):
       // its elements' physical groups are unknown. Read without groups and counted, for the
       // messages of a pin by group that then finds none of them.
-      const bool off_entities = !listed_entities_.empty() && dim >= 2 && !listed_entities_.count({dim, entity});
+      const bool ghost = dim == 3 && ghost_entities_.count(entity);
+      const bool off_entities = !listed_entities_.empty() && dim >= 2 && !ghost && !listed_entities_.count({dim, entity});
       const long long block_line = c_.line();
       const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20));
       const long long m = c_.integer("elements in block", 0, n - done);
@@ -544,7 +552,7 @@ class MshParser {
       static const std::vector<int> kNone;
       auto it = entity_physical_.find({dim, entity});
       const std::vector<int>& physical = it != entity_physical_.end() ? it->second : kNone;
-      const bool keep = (type == kTypeTet || type == kTypeTriangle) && !partition_boundaries_.count({dim, entity});
+      const bool keep = (type == kTypeTet || type == kTypeTriangle) && !partition_boundaries_.count({dim, entity}) && !ghost;
       for (long long i = 0; i < m; ++i) {
         need_line("elements of a block", i, m);
         const long long line = c_.line();
@@ -552,7 +560,7 @@ class MshParser {
         if (keep) {
           read_element_nodes(type, id, physical);
         } else {
-          skip_element(type, dim == 3 || volume_kind(type) != nullptr, line);
+          skip_element(type, !ghost && (dim == 3 || volume_kind(type) != nullptr), line);
         }
       }
       done += m;
@@ -605,6 +613,20 @@ class MshParser {
     c_.fail_at(first_other_volume_line_, kinds + " besides the tets" + hint);
   }
 
+  /// Refuses a file that holds only some partitions of a partitioned mesh (Gmsh writes one file per
+  /// partition with -part_split, Mesh.PartitionSplitMeshFiles = 1): read alone it would be taken
+  /// for the whole organ.
+  void check_partitions() {
+    if (partitions_ <= 1 || volume_partitions_.empty() || static_cast<long long>(volume_partitions_.size()) >= partitions_)
+      return;
+    std::string held;
+    for (long long p : volume_partitions_) held += (held.empty() ? "" : ", ") + std::to_string(p);
+    c_.fail_at(partitions_line_, "the file holds the tets of partition" + std::string(volume_partitions_.size() == 1 ? " " : "s ") +
+                                     held + " of " + std::to_string(partitions_) +
+                                     " only (Gmsh wrote one file per partition: -part_split, Mesh.PartitionSplitMeshFiles); "
+                                     "save the mesh as one file (without -part_split) or unpartitioned");
+  }
+
   // ---- groups ---------------------------------------------------------------------------------
   /// Fills group_names; gives a surface group a fresh tag where its tag clashes with a
   /// differently named volume group. An unnamed surface group so moved is named by its number in
@@ -652,6 +674,10 @@ class MshParser {
   std::map<std::pair<int, long long>, std::vector<int>> entity_physical_;  ///< (dim, entity tag) -> its groups
   std::set<std::pair<int, long long>> listed_entities_;  ///< (dim, entity tag) of $Entities and $PartitionedEntities
   std::set<std::pair<int, long long>> partition_boundaries_;  ///< (dim, tag) of partitioned entities between partitions
+  std::set<long long> ghost_entities_;             ///< tags of ghost entities (other partitions' tets)
+  std::set<long long> volume_partitions_;          ///< the partitions of the file's volume pieces
+  long long partitions_ = 0;                       ///< $PartitionedEntities' partition count (0: none)
+  long long partitions_line_ = 0;                  ///< its section's line
   std::map<int, std::string> names_[2];            ///< physical names of dimension 2 and 3
   std::map<int, long long> other_volume_;          ///< element type -> count, volume types but type 4
   long long first_other_volume_line_ = 0;

@@ -170,6 +170,25 @@ TEST(ReadMsh, ElementListedTwiceInOneGroupIsNotMerged22) {
   EXPECT_EQ(ungrouped.tets.size(), 6u);
 }
 
+// gmsh/box_part.geo in one file per partition (-part 3 -part_split): a file holds a third of the
+// mesh and is refused; one with ghost cells holds other partitions' tets beside its own, skipped.
+TEST(ReadMsh, OneFileOfAPartitionSplitIsRefused41) {
+  for (const char* name : {"mesh/gmsh/box_split41_1.msh", "mesh/gmsh/box_split_ghost41_1.msh"}) {
+    SCOPED_TRACE(name);
+    expect_input_error([&] { read_msh(data(name)); }, data(name), 39, "the file holds the tets of partition 1 of 3 only");
+  }
+  // Read as if it were whole: the ghost cells' 32 tets are not the partition's 16.
+  const std::string text = replace(slurp(data("mesh/gmsh/box_split_ghost41_1.msh")), "$PartitionedEntities\n3\n",
+                                   "$PartitionedEntities\n1\n");
+  const TetMesh part = read_msh(write_temp("ghost_part.msh", text));
+  EXPECT_EQ(part.tets.size(), read_msh(write_temp("part.msh", replace(slurp(data("mesh/gmsh/box_split41_1.msh")),
+                                                                      "$PartitionedEntities\n3\n",
+                                                                      "$PartitionedEntities\n1\n")))
+                                  .tets.size());
+  EXPECT_EQ(part.tets.size(), 16u);
+  EXPECT_EQ(part.elements_off_entities, 0);
+}
+
 TEST(MshWriter, EveryGroupOfAnElementReadsBack) {
   const TetMesh m = read_msh(data("mesh/cube41_two_groups.msh"));
   const TetMesh back = read_msh(write_temp("two_groups.msh", msh22_text(m)));

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <utility>
+#include <vector>
 
 namespace ebh {
 
@@ -93,6 +95,51 @@ UnweldedSeam unwelded_seam(const SurfaceMesh& surface) {
     }
   }
   return seam;
+}
+
+std::size_t orient_consistently(std::vector<Tri>& triangles) {
+  // Each undirected edge's uses: (triangle, +1 if it runs low -> high there, -1 otherwise).
+  std::map<std::array<int, 2>, std::vector<std::pair<int, int>>> uses;
+  for (std::size_t f = 0; f < triangles.size(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = triangles[f][k], b = triangles[f][(k + 1) % 3];
+      uses[{std::min(a, b), std::max(a, b)}].push_back({static_cast<int>(f), a < b ? 1 : -1});
+    }
+  std::vector<std::vector<std::pair<int, bool>>> next(triangles.size());  // (neighbour, wound alike)
+  for (const auto& [edge, on] : uses)
+    if (on.size() == 2) {
+      const bool alike = on[0].second == on[1].second;  // both traverse it the same way: one is turned
+      next[on[0].first].push_back({on[1].first, alike});
+      next[on[1].first].push_back({on[0].first, alike});
+    }
+  // Per piece, in triangle order: turn[f] relative to the piece's first, then the minority turned.
+  std::vector<signed char> turn(triangles.size(), -1);
+  std::size_t turned = 0;
+  std::vector<int> piece, stack;
+  for (std::size_t s = 0; s < triangles.size(); ++s) {
+    if (turn[s] >= 0) continue;
+    piece.clear();
+    turn[s] = 0;
+    stack.assign(1, static_cast<int>(s));
+    while (!stack.empty()) {
+      const int f = stack.back();
+      stack.pop_back();
+      piece.push_back(f);
+      for (const auto& [g, alike] : next[f])
+        if (turn[g] < 0) {
+          turn[g] = static_cast<signed char>(turn[f] ^ (alike ? 1 : 0));
+          stack.push_back(g);
+        }
+    }
+    const std::size_t against = static_cast<std::size_t>(std::count_if(piece.begin(), piece.end(), [&](int f) { return turn[f] == 1; }));
+    const signed char flip = 2 * against > piece.size() ? 0 : 1;  // turn the minority (ties: those against the first)
+    for (const int f : piece)
+      if (turn[f] == flip) {
+        std::swap(triangles[f][1], triangles[f][2]);
+        ++turned;
+      }
+  }
+  return turned;
 }
 
 }  // namespace ebh

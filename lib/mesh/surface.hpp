@@ -28,4 +28,10 @@ struct UnweldedSeam {
 };
 UnweldedSeam unwelded_seam(const SurfaceMesh& surface);
 
+/// Turns triangles wound against their neighbours (an edge that two triangles traverse the same
+/// way) so that each piece of the surface is wound one way: per piece joined by edges of two
+/// triangles, the winding most of its triangles have is kept (a consistent surface is unchanged).
+/// Edges of one or of three and more triangles do not join. Returns the number turned.
+std::size_t orient_consistently(std::vector<Tri>& triangles);
+
 }  // namespace ebh

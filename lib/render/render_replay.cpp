@@ -24,6 +24,7 @@
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
 #include "io/sha256.hpp"
+#include "mesh/surface.hpp"
 #include "render/image.hpp"
 #include "render/tessellate.hpp"
 
@@ -408,6 +409,13 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     }
   } remove_fresh{fresh};
 
+  // Shading takes a vertex's normal from its triangles': one wound against its neighbours (an OBJ
+  // exported so) would cancel them and draw a chequer. The triangles are drawn wound alike.
+  std::vector<Tri> triangles = frames.triangles;
+  if (const std::size_t turned = orient_consistently(triangles); turned > 0)
+    summary.warnings.push_back(std::to_string(turned) + " of the virtual mesh's " + std::to_string(triangles.size()) +
+                               " triangles are wound against their neighbours: drawn turned (contact does not "
+                               "depend on the winding)");
   const RenderStyle style;
   std::vector<std::array<int, 3>> kept;
   std::size_t broken_frames = 0, blank_frames = 0;  // frames with non-finite positions; frames showing no tissue
@@ -420,9 +428,9 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
       throw InputError(dir + ": interrupted after " + std::to_string(k) + " frames; the previous frames are kept");
     const std::size_t f = chosen[k];
     frames.read_virtual_positions(f, q);
-    const bool dropped = finite_triangles(q, frames.triangles, kept) > 0;
+    const bool dropped = finite_triangles(q, triangles, kept) > 0;
     broken_frames += dropped;
-    vertex_normals(q, dropped ? kept : frames.triangles, normals);
+    vertex_normals(q, dropped ? kept : triangles, normals);
     if (by_disp) {
       colours.resize(q.size());
       for (std::size_t i = 0; i < q.size(); ++i) colours[i] = colormap(displacement(i) * scale);
@@ -436,7 +444,7 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     FrameGeometry g;
     g.tissue = &q;
     g.tissue_normals = &normals;
-    g.triangles = dropped ? &kept : &frames.triangles;
+    g.triangles = dropped ? &kept : &triangles;
     g.tissue_colors = by_disp ? &colours : nullptr;
     g.virtual_tool = &virtual_mesh;
     g.physical_tool = &physical_mesh;

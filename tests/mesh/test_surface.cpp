@@ -228,6 +228,28 @@ TEST(Boundary, FiveTetCube) {
   EXPECT_NEAR(enclosed_volume(s), 1000.0, 1e-9);  // each term divided by 6 and rounded: a few ulps
 }
 
+// The cube's 12 boundary triangles with 5 of them turned (an OBJ wound at random): the 5 are
+// turned back, the surface is closed and outward again; a consistent surface is left as it is;
+// two separate pieces each keep their own majority.
+TEST(OrientConsistently, TurnsTheMinorityOfEachPiece) {
+  const SurfaceMesh cube = extract_boundary(read_msh(data("mesh/cube22.msh")));
+  SurfaceMesh mixed = cube;
+  for (int f : {0, 3, 4, 8, 11}) std::swap(mixed.triangles[f][1], mixed.triangles[f][2]);
+  EXPECT_EQ(orient_consistently(mixed.triangles), 5u);
+  EXPECT_EQ(mixed.triangles, cube.triangles);
+  expect_closed_oriented(mixed);
+  EXPECT_EQ(orient_consistently(mixed.triangles), 0u);
+  // a second cube beside it, wound inward (all 12 turned): its own majority is kept
+  SurfaceMesh two = cube;
+  const int nv = static_cast<int>(cube.vertices.size());
+  for (const Vec3d& p : cube.vertices) two.vertices.push_back(p + Vec3d{20, 0, 0});
+  for (Tri t : cube.triangles) two.triangles.push_back({t[0] + nv, t[2] + nv, t[1] + nv});
+  const std::vector<Tri> inward = two.triangles;
+  std::swap(two.triangles[13][1], two.triangles[13][2]);  // one of the second's wound outward
+  EXPECT_EQ(orient_consistently(two.triangles), 1u);
+  EXPECT_EQ(two.triangles, inward);
+}
+
 TEST(Boundary, SixTetCubeAnyOrientation) {
   TetMesh m = kuhn_cube();
   const FaceCounts c = count_faces(m.tets);

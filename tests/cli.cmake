@@ -289,6 +289,14 @@ file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tiny.yaml
 add_test(NAME cli.scene.info_virtual_unit COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_tiny.yaml)
 set_tests_properties(cli.scene.info_virtual_unit PROPERTIES LABELS "cli;scene" PASS_REGULAR_EXPRESSION
   "warning: .*cli_scene_tiny.obj: mesh.virtual: the virtual mesh spans 1.73 mm, 1/100 of the physical mesh's diagonal")
+# Every vertex pinned: warned, and the solver's lines say there is nothing to solve (not an infinite rate).
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_all_pinned.yaml
+  "unit: cm\nmesh: {physical: ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube41.msh}\n"
+  "pinned:\n  - box: {min: [-1, -1, -1], max: [11, 11, 11]}\n")
+add_test(NAME cli.scene.info_all_pinned COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_BINARY_DIR}/cli_scene_all_pinned.yaml)
+set_tests_properties(cli.scene.info_all_pinned PROPERTIES LABELS "cli;scene"
+  PASS_REGULAR_EXPRESSION "every vertex of the physical mesh is pinned.*physical solver +nothing to solve: every vertex is pinned"
+  FAIL_REGULAR_EXPRESSION "inf iterations|lambda_max")
 add_test(NAME cli.scene.missing COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/no_such_scene.yaml)
 set_tests_properties(cli.scene.missing PROPERTIES WILL_FAIL TRUE LABELS "cli;scene")
 add_test(NAME cli.scene.missing_message COMMAND ${EBH_BIN} scene info no_such_scene_name)

@@ -290,21 +290,25 @@ void info(const SceneInfoArgs& a) {
     const ebh::Vec3d c = centroid(by_quality[i].second);
     std::printf("  worst tet      %d: %.4f at [%.6g, %.6g, %.6g] m\n", by_quality[i].second, by_quality[i].first, c.x, c.y, c.z);
   }
-  std::printf("physical solver  %s diagonal, relaxation %.2g: lambda_max(D^-1 A) %.4f (plain diagonal %.4f%s)\n", diagonal,
-              gamma, model.spectrum.lambda_max, plain.spectrum.lambda_max, diverges ? ": diverges" : "");
-  if (model.diag_theta > 0)
-    std::printf("  bounded        theta %.4f raised %d of %d rows\n", model.diag_theta, model.diag_bounded_rows, model.num_free);
-  std::printf("  convergence    relaxed Jacobi error x%.4f per iteration (lambda_min %.3g): %.0f iterations per tenfold\n",
-              rate, model.spectrum.lambda_min, tenfold);
-  if (params.method == ebh::SolverSpec::Method::Chebyshev)
-    std::printf("  chebyshev      rho %.4f (%s)\n", params.chebyshev_rho,
-                scene.spec.solver.chebyshev_rho_auto ? "auto: the rate above" : "solver.chebyshev_rho");
-  if (params.adaptive())
-    std::printf("  iterations     %d, then on while the step leaves more than %g mesh weights unbalanced, at most %d\n",
-                params.iterations, params.tolerance, params.max_iterations);
-  else
-    std::printf("  iterations     %d\n", params.iterations);
-  std::printf("  float32 floor  %.2g mesh weights at rest (--backend cuda's steps go no lower)\n", float32_floor);
+  if (model.num_free == 0) {
+    std::printf("physical solver  nothing to solve: every vertex is pinned (the physical mesh does not move)\n");
+  } else {
+    std::printf("physical solver  %s diagonal, relaxation %.2g: lambda_max(D^-1 A) %.4f (plain diagonal %.4f%s)\n", diagonal,
+                gamma, model.spectrum.lambda_max, plain.spectrum.lambda_max, diverges ? ": diverges" : "");
+    if (model.diag_theta > 0)
+      std::printf("  bounded        theta %.4f raised %d of %d rows\n", model.diag_theta, model.diag_bounded_rows, model.num_free);
+    std::printf("  convergence    relaxed Jacobi error x%.4f per iteration (lambda_min %.3g): %.0f iterations per tenfold\n",
+                rate, model.spectrum.lambda_min, tenfold);
+    if (params.method == ebh::SolverSpec::Method::Chebyshev)
+      std::printf("  chebyshev      rho %.4f (%s)\n", params.chebyshev_rho,
+                  scene.spec.solver.chebyshev_rho_auto ? "auto: the rate above" : "solver.chebyshev_rho");
+    if (params.adaptive())
+      std::printf("  iterations     %d, then on while the step leaves more than %g mesh weights unbalanced, at most %d\n",
+                  params.iterations, params.tolerance, params.max_iterations);
+    else
+      std::printf("  iterations     %d\n", params.iterations);
+    std::printf("  float32 floor  %.2g mesh weights at rest (--backend cuda's steps go no lower)\n", float32_floor);
+  }
   std::printf("groups\n");
   for (const auto& [tag, c] : groups)
     std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n", c.name.empty() ? "(unnamed)" : c.name.c_str(), tag,

@@ -317,7 +317,7 @@ class SpecReader {
 
  private:
   void read_mesh(const YAML::Node& n, SceneSpec& s) const {
-    const auto e = entries(n, "mesh", {"physical", "virtual", "virtual_refine", "unit", "transform"});
+    const auto e = entries(n, "mesh", {"physical", "virtual", "virtual_refine", "min_part_tets", "unit", "transform"});
     if (auto u = e.find("unit"); u != e.end()) std::tie(s.mesh_unit, s.mesh_unit_name) = length_unit(u->second, "mesh.unit");
     if (auto t = e.find("transform"); t != e.end()) {
       const auto f = entries(t->second, "mesh.transform", {"scale", "rotvec_deg", "translate"});
@@ -341,6 +341,8 @@ class SpecReader {
       }
     }
     if (auto r = e.find("virtual_refine"); r != e.end()) s.virtual_refine = integer(r->second, "mesh.virtual_refine", 0, 1);
+    if (auto m = e.find("min_part_tets"); m != e.end())
+      s.min_part_tets = integer(m->second, "mesh.min_part_tets", 0, std::numeric_limits<int>::max());
   }
 
   void read_stiffness(const YAML::Node& n, Stiffness& k) const {
@@ -1004,6 +1006,60 @@ std::string implausible(const SceneSpec& spec, const Plausible& p) {
   return value_source(spec, p.key) + ": " + p.key + " = " + shown_number(p.value) + " " + p.unit + " is outside " +
          shown_number(p.low) + " .. " + shown_number(p.high) + " " + p.unit + ", the range of " + p.what;
 }
+
+/// The number of tets of each part (mesh_parts: indexed by the part's lowest vertex; 0 elsewhere).
+std::vector<int> tets_per_part(const TetMesh& mesh, const std::vector<int>& part) {
+  std::vector<int> tets(mesh.vertices.size(), 0);
+  for (const Tet& t : mesh.tets) ++tets[part[t[0]]];
+  return tets;
+}
+
+/// mesh.min_part_tets: removes the parts (tets joined by vertices) of fewer tets, with the vertices
+/// and triangles only they use, and says so; refuses a value that leaves no part.
+void drop_small_parts(TetMesh& mesh, const SceneSpec& spec, const std::string& mesh_file,
+                      std::vector<std::string>& warnings) {
+  const int least = spec.min_part_tets;
+  const std::vector<int> part = mesh_parts(mesh);
+  const std::vector<int> tets = tets_per_part(mesh, part);
+  const int largest = *std::max_element(tets.begin(), tets.end());
+  if (largest < least)
+    fail_scene_key(spec, "mesh.min_part_tets",
+                   std::to_string(least) + " drops every part of " + mesh_file + " (its largest holds " +
+                       std::to_string(largest) + " tets)");
+  int dropped = 0, kept = 0, dropped_tets = 0, biggest = 0;
+  for (const int n : tets)
+    if (n >= least) {
+      ++kept;
+    } else if (n > 0) {
+      ++dropped;
+      dropped_tets += n;
+      biggest = std::max(biggest, n);
+    }
+  if (dropped == 0) return;
+  std::vector<int> index(mesh.tets.size(), -1);  // old tet -> new
+  std::size_t k = 0;
+  const bool ids = mesh.file_tet_ids.size() == mesh.tets.size();
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    if (tets[part[mesh.tets[t][0]]] < least) continue;
+    index[t] = static_cast<int>(k);
+    mesh.tets[k] = mesh.tets[t];
+    mesh.tet_group[k] = mesh.tet_group[t];
+    if (ids) mesh.file_tet_ids[k] = mesh.file_tet_ids[t];
+    ++k;
+  }
+  mesh.tets.resize(k);
+  mesh.tet_group.resize(k);
+  if (ids) mesh.file_tet_ids.resize(k);
+  std::vector<std::pair<int, int>> more;
+  for (const auto& [t, tag] : mesh.tet_more_groups)
+    if (index[t] >= 0) more.push_back({index[t], tag});
+  mesh.tet_more_groups = std::move(more);
+  remove_unreferenced_vertices(mesh);  // the parts' vertices and the triangles on them
+  warnings.push_back(value_source(spec, "mesh.min_part_tets") + ": mesh.min_part_tets " + std::to_string(least) +
+                     ": dropped " + std::to_string(dropped) + (dropped == 1 ? " part" : " parts") + " of " + mesh_file +
+                     " (" + std::to_string(dropped_tets) + " tets; the largest " + std::to_string(biggest) + "), kept " +
+                     std::to_string(kept));
+}
 }  // namespace
 
 std::vector<std::string> tool_stiffness_warnings(const SceneSpec& spec) {
@@ -1109,6 +1165,7 @@ Scene build_scene(SceneSpec spec_in) {
   const std::vector<std::string> pins_removed = groups_removed_with_unused_vertices(mesh, spec);
   if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
     scene.warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");
+  if (spec.min_part_tets > 0) drop_small_parts(mesh, spec, mesh_file, scene.warnings);
   if (mesh.elements_off_entities > 0 && !mesh.group_names.empty())
     scene.warnings.push_back(mesh_file + ":" + std::to_string(mesh.first_off_entities_line) + ": " +
                              std::to_string(mesh.elements_off_entities) +
@@ -1274,13 +1331,25 @@ Scene build_scene(SceneSpec spec_in) {
       int free_vertices = 0;
       for (const auto& [first, count] : scene.free_parts) free_vertices += count;
       const auto& [first, count] = scene.free_parts.front();
+      // The free parts that are specks, which mesh.min_part_tets drops.
+      int specks = 0, most = 0;
+      for (const auto& [lowest, tets] : speck_parts(scene.physical))
+        if (std::any_of(scene.free_parts.begin(), scene.free_parts.end(), [&](const auto& f) { return f.first == lowest; })) {
+          ++specks;
+          most = std::max(most, tets);
+        }
+      const std::string drop = specks == 0 ? std::string()
+                                           : "; " + std::to_string(specks) + " of them hold under " +
+                                                 shown_number(100 * kSpeckFraction) +
+                                                 "% of the mesh's tets each (a segmentation's specks?): mesh.min_part_tets: " +
+                                                 std::to_string(most + 1) + " drops them";
       scene.warnings.push_back(
           where + ": pinned: " + std::to_string(scene.free_parts.size()) + " part(s) of the physical mesh (" +
           std::to_string(free_vertices) + " of its " + std::to_string(nv) +
           " vertices; the first holds " + vertex_name(scene.physical, first) + " and " + std::to_string(count) +
           " vertices) touch no pinned vertex: they float free, held only by their coupling to the virtual mesh, "
           "which drags them like a thick fluid (the tool feels that drag; docs/MODEL.md, \"Held loads\"): pin "
-          "each part" + refused);
+          "each part" + drop + refused);
     }
   }
   return scene;
@@ -1403,6 +1472,16 @@ std::string coupling_bounds_tissue(const Scene& scene) {
                 spec.stiffness.k_vol, edge * 1e3, felt, times_text(felt / spec.stiffness.k_svc).c_str(),
                 spec.stiffness.k_svc);
   return line;
+}
+
+std::vector<std::pair<int, int>> speck_parts(const TetMesh& mesh) {
+  const std::vector<int> part = mesh_parts(mesh);
+  const std::vector<int> tets = tets_per_part(mesh, part);
+  std::vector<std::pair<int, int>> specks;
+  for (std::size_t i = 0; i < tets.size(); ++i)
+    if (tets[i] > 0 && tets[i] < kSpeckFraction * static_cast<double>(mesh.tets.size()))
+      specks.emplace_back(static_cast<int>(i), tets[i]);
+  return specks;
 }
 
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned) {
@@ -1589,6 +1668,7 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "virtual" << YAML::Value
     << (s.virtual_mesh ? fs::absolute(*s.virtual_mesh).lexically_normal().string() : std::string("boundary"));
   y << YAML::Key << "virtual_refine" << YAML::Value << s.virtual_refine;
+  if (s.min_part_tets > 0) y << YAML::Key << "min_part_tets" << YAML::Value << s.min_part_tets;
   y << YAML::Key << "unit" << YAML::Value << s.mesh_unit_name;
   y << YAML::Key << "transform" << YAML::Value << YAML::BeginMap;
   y << YAML::Key << "scale" << YAML::Value << s.mesh_transform.scale;

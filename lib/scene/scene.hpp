@@ -14,6 +14,8 @@
 //     physical: tube.msh            # Gmsh .msh 2.2/4.1 ASCII, relative to the scene file
 //     virtual: boundary             # 'boundary' (the physical mesh's surface) or an .obj path
 //     virtual_refine: 1             # 0 or 1: split each virtual triangle into 4 (paper: denser virtual mesh)
+//     min_part_tets: 0              # drop the parts (tets joined by vertices) of fewer tets at load:
+//                                   #   a segmentation's specks apart from the organ (0: keep every part)
 //     unit: mm                      # the mesh files' unit and translate's (default: unit)
 //     transform: {scale: 1, rotvec_deg: [0, 0, 0], translate: [0, 0, 0]}
 //                                   # mesh file -> world at load: p = R(rotvec_deg) (scale p) + translate
@@ -298,6 +300,7 @@ struct SceneSpec {
   MeshTransform mesh_transform;           ///< mesh file -> world
   std::optional<std::filesystem::path> virtual_mesh;  ///< empty: the physical mesh's boundary
   int virtual_refine = 0;
+  int min_part_tets = 0;                  ///< parts of fewer tets are dropped at load (0: none)
   double density = 1000.0;                ///< kg/m^3
   Stiffness stiffness;
   Vec3d gravity{0, 0, -9.81};
@@ -338,6 +341,12 @@ struct Scene {
 /// The connected parts of `mesh` (its tets joined by shared vertices) none of whose vertices is in
 /// `pinned` (sorted): each part's lowest vertex index and its number of vertices, by that index.
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned);
+
+/// A part of under this fraction of the physical mesh's tets is a speck: of a segmentation, apart
+/// from the organ (`mesh.min_part_tets` drops such parts).
+inline constexpr double kSpeckFraction = 0.01;
+/// The specks among the parts (tets joined by vertices, mesh_parts): (lowest vertex, tets) each.
+std::vector<std::pair<int, int>> speck_parts(const TetMesh& mesh);
 
 /// The parts of `mesh` that touch pinned vertices (sorted) only on one line or at one point, so
 /// that they can turn about it, held against that only by the coupling's drag: each part's lowest

@@ -181,6 +181,10 @@ SceneInit make_scene(const SceneInitOptions& o) {
   probe.physical_mesh = o.mesh;
   probe.unit = probe.mesh_unit = probe.tool.unit = unit;
   probe.unit_name = probe.mesh_unit_name = probe.tool.unit_name = o.unit;
+  // Specks of a segmentation apart from the organ would float free (or stop a replay under
+  // gravity): dropped at load, the scene saying so.
+  const std::vector<std::pair<int, int>> specks = speck_parts(build_scene(probe).physical);
+  for (const auto& [lowest, tets] : specks) probe.min_part_tets = std::max(probe.min_part_tets, tets + 1);
   const Scene mesh_only = build_scene(probe);
   const TetMesh& mesh = mesh_only.physical;
   const std::size_t n = mesh.vertices.size();
@@ -273,6 +277,15 @@ SceneInit make_scene(const SceneInitOptions& o) {
   y += "  # transform: {scale: 1, rotvec_deg: [0, 0, 0], translate: [0, 0, 0]}   # places the mesh; pins stay in the world\n";
   line("  virtual: boundary", "the virtual mesh: the physical mesh's surface ...");
   line("  virtual_refine: 1", "... split in 4 per triangle: a finer surface to deform");
+  std::string speck_note;
+  if (!specks.empty()) {
+    speck_note = "dropped " + std::to_string(specks.size()) + (specks.size() == 1 ? " part" : " parts") +
+                 " of under " + fmt(100 * kSpeckFraction) + "% of the mesh's tets each (specks of a segmentation?): " +
+                 "mesh.min_part_tets: " + std::to_string(probe.min_part_tets) + "; set 0 to keep them";
+    line("  min_part_tets: " + std::to_string(probe.min_part_tets),
+         std::to_string(specks.size()) + " apart from the organ, each under " + fmt(100 * kSpeckFraction) +
+             "% of its tets: dropped at load (0 keeps them)");
+  }
   y += "material:\n";
   line("  density: " + fmt(preset->density), "kg/m^3, " + o.tissue);
   line("stiffness:", "SI (docs/MODEL.md)");
@@ -305,6 +318,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
   out.yaml = y;
   out.scene = load_scene_text(y, o.out);
   out.pin_note = pin_note;
+  out.speck_note = speck_note;
   // The virtual mesh's edges after virtual_refine's split (each edge halved) against the tool.
   std::vector<double> edges;
   const SurfaceMesh& surface = out.scene.virtual_surface;

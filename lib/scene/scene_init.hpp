@@ -42,6 +42,7 @@ struct SceneInit {
   std::string yaml;      ///< the scene file's text
   Scene scene;           ///< that text loaded (as the file will load)
   std::string pin_note;  ///< how the pinned vertices were chosen, one line
+  std::string speck_note;  ///< "" or the specks mesh.min_part_tets drops, one line
   /// "" or, where the virtual mesh's edges are over kInitCoarseEdge times the tool's thinnest part,
   /// what that does to the force and how to refine it, one line
   std::string resolution_note;

@@ -316,6 +316,47 @@ TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {
                   .free_parts.empty());
 }
 
+/// A block of 1200 tets with a speck of 6 beside it (a segmentation's noise): the free parts'
+/// warning offers mesh.min_part_tets, which drops the speck; a value above every part is refused.
+TEST(Scene, MinPartTetsDropsTheSpecksApartFromTheOrgan) {
+  TetMesh mesh = make_box_tets({0, 0, 0}, {0.05, 0.05, 0.01}, 10, 10, 2);
+  const TetMesh speck = make_box_tets({0.02, 0.02, 0.02}, {0.021, 0.021, 0.021}, 1, 1, 1);
+  const int nv = static_cast<int>(mesh.vertices.size());
+  mesh.vertices.insert(mesh.vertices.end(), speck.vertices.begin(), speck.vertices.end());
+  for (const Tet& t : speck.tets) mesh.tets.push_back({t[0] + nv, t[1] + nv, t[2] + nv, t[3] + nv});
+  mesh.tet_group.assign(mesh.tets.size(), 0);
+  const std::string file = write_temp("speck.msh", msh22_text(mesh)).string();
+  const std::string yaml = "mesh: {physical: " + file + "MIN}\ngravity: [0, 0, 0]\npinned:\n  - box: {min: [-1, -1, -1], max: [1, 1, 0.001]}\n";
+  auto load = [&](const std::string& min) { return load_scene(write_temp("speck.yaml", replace(yaml, "MIN", min))); };
+  const Scene kept = load("");
+  ASSERT_EQ(kept.free_parts.size(), 1u);
+  EXPECT_NE(kept.warnings.back().find("touch no pinned vertex"), std::string::npos);
+  EXPECT_NE(kept.warnings.back().find("; 1 of them hold under 1% of the mesh's tets each (a segmentation's specks?): "
+                                      "mesh.min_part_tets: 7 drops them"),
+            std::string::npos)
+      << kept.warnings.back();
+  EXPECT_EQ(speck_parts(kept.physical), (std::vector<std::pair<int, int>>{{nv, 6}}));
+
+  const Scene dropped = load(", min_part_tets: 7");
+  EXPECT_EQ(dropped.physical.tets.size(), 1200u);
+  EXPECT_EQ(dropped.physical.vertices.size(), static_cast<std::size_t>(nv));
+  EXPECT_TRUE(dropped.free_parts.empty());
+  ASSERT_FALSE(dropped.warnings.empty());
+  EXPECT_NE(dropped.warnings.front().find("mesh.min_part_tets 7: dropped 1 part of " + file + " (6 tets; the largest 6), kept 1"),
+            std::string::npos)
+      << dropped.warnings.front();
+  EXPECT_EQ(load(", min_part_tets: 6").physical.tets.size(), 1206u);  // the speck has 6: kept
+  try {
+    load(", min_part_tets: 1201");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("key 'mesh.min_part_tets': 1201 drops every part of " + file +
+                                         " (its largest holds 1200 tets)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Scene, ObjVirtualSurfaceSphereAndHalfspaceInCentimetres) {
   const Scene s = load_scene(data("scene/cube_obj.yaml"));
   EXPECT_EQ(s.spec.virtual_mesh, data("mesh/cube.obj").lexically_normal());

@@ -7,6 +7,8 @@
 #include <numbers>
 
 #include "../mesh/test_util.hpp"
+#include "mesh/box_mesh.hpp"
+#include "mesh/mesh_io.hpp"
 #include "scene/scene_init.hpp"
 
 namespace ebh {
@@ -89,6 +91,31 @@ TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
 // Virtual mesh edges over 1.5 times the tool's thinnest part (1 mm) are said with how to refine
 // them: the box in cm has 10-25 mm edges after virtual_refine's split; the tube's mesh (its
 // boundary split, 1.27 mm) is fine enough.
+// A 50 x 50 x 10 mm block of 1200 tets with a 1 mm speck of 6 above it: the scene drops the speck
+// (mesh.min_part_tets) and says so; a mesh without specks gets no such key.
+TEST(SceneInit, SpecksApartFromTheOrganAreDropped) {
+  TetMesh mesh = make_box_tets({0, 0, 0}, {50, 50, 10}, 10, 10, 2);
+  const TetMesh speck = make_box_tets({20, 20, 20}, {21, 21, 21}, 1, 1, 1);
+  const int nv = static_cast<int>(mesh.vertices.size());
+  mesh.vertices.insert(mesh.vertices.end(), speck.vertices.begin(), speck.vertices.end());
+  for (const Tet& t : speck.tets) mesh.tets.push_back({t[0] + nv, t[1] + nv, t[2] + nv, t[3] + nv});
+  mesh.tet_group.assign(mesh.tets.size(), 0);
+  SceneInitOptions o;
+  o.mesh = write_temp("specks.msh", msh22_text(mesh));
+  o.out = o.mesh.parent_path() / "specks.yaml";
+  const SceneInit made = make_scene(o);
+  EXPECT_NE(made.yaml.find("\n  min_part_tets: 7 "), std::string::npos) << made.yaml;
+  EXPECT_EQ(made.speck_note, "dropped 1 part of under 1% of the mesh's tets each (specks of a segmentation?): "
+                             "mesh.min_part_tets: 7; set 0 to keep them");
+  EXPECT_EQ(made.scene.physical.tets.size(), 1200u);
+  EXPECT_TRUE(made.scene.free_parts.empty());
+  o.mesh = box_mesh();
+  o.out = o.mesh.parent_path() / "box.yaml";
+  const SceneInit clean = make_scene(o);
+  EXPECT_EQ(clean.yaml.find("min_part_tets"), std::string::npos);
+  EXPECT_EQ(clean.speck_note, "");
+}
+
 TEST(SceneInit, AVirtualMeshCoarseForTheToolIsSaid) {
   SceneInitOptions o = box_forceps("cm", "coarse.yaml");
   const std::string note = make_scene(o).resolution_note;

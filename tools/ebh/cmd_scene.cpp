@@ -447,6 +447,7 @@ void init(const ebh::SceneInitOptions& o) {
   std::printf("%s: scene for %s (%zu vertices, %zu tets, in %s), %s, %s\n", out.c_str(), mesh.c_str(), m.vertices.size(),
               m.tets.size(), o.unit.c_str(), o.tissue.c_str(), o.tool.c_str());
   std::printf("  %s\n", made.pin_note.c_str());
+  if (!made.speck_note.empty()) std::printf("  %s\n", made.speck_note.c_str());
   if (!made.resolution_note.empty()) std::printf("  %s\n", made.resolution_note.c_str());
   std::printf("  check it: ebh scene info %s\n", ebh::shell_word(out).c_str());
 }

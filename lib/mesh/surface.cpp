@@ -48,28 +48,38 @@ double median_circumradius(std::span<const Vec3d> positions, std::span<const Tri
   return *mid;
 }
 
-UnweldedSeam unwelded_seam(const SurfaceMesh& surface) {
-  // The open edges: those one face uses.
+namespace {
+
+/// The open edges (those one face uses), lowest vertex first, in order.
+std::vector<std::array<int, 2>> open_edges(const std::vector<Tri>& triangles) {
   std::map<std::array<int, 2>, int> uses;
-  for (const Tri& t : surface.triangles)
+  for (const Tri& t : triangles)
     for (int k = 0; k < 3; ++k) ++uses[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
   std::vector<std::array<int, 2>> open;
-  std::vector<double> lengths;
   for (const auto& [e, n] : uses)
-    if (n == 1) {
-      open.push_back(e);
-      lengths.push_back(norm(surface.vertices[e[1]] - surface.vertices[e[0]]));
-    }
+    if (n == 1) open.push_back(e);
+  return open;
+}
+
+/// The cell of p in a grid of `cell`-sized cubes.
+std::array<long long, 3> grid_cell(const Vec3d& p, double cell) {
+  return {static_cast<long long>(std::floor(p.x / cell)), static_cast<long long>(std::floor(p.y / cell)),
+          static_cast<long long>(std::floor(p.z / cell))};
+}
+
+}  // namespace
+
+UnweldedSeam unwelded_seam(const SurfaceMesh& surface) {
+  const std::vector<std::array<int, 2>> open = open_edges(surface.triangles);
+  std::vector<double> lengths;
+  for (const auto& e : open) lengths.push_back(norm(surface.vertices[e[1]] - surface.vertices[e[0]]));
   UnweldedSeam seam;
   if (open.size() < 2) return seam;
   // Their midpoints in cells of the longest open edge's size: a partner's midpoint lies within a
   // quarter of it, in the same cell or a neighbour.
   const double cell = *std::max_element(lengths.begin(), lengths.end());
   if (!(cell > 0)) return seam;
-  const auto key = [cell](const Vec3d& p) {
-    return std::array<long long, 3>{static_cast<long long>(std::floor(p.x / cell)), static_cast<long long>(std::floor(p.y / cell)),
-                                    static_cast<long long>(std::floor(p.z / cell))};
-  };
+  const auto key = [cell](const Vec3d& p) { return grid_cell(p, cell); };
   const auto mid = [&](std::size_t i) { return 0.5 * (surface.vertices[open[i][0]] + surface.vertices[open[i][1]]); };
   std::map<std::array<long long, 3>, std::vector<std::size_t>> cells;
   for (std::size_t i = 0; i < open.size(); ++i) cells[key(mid(i))].push_back(i);
@@ -95,6 +105,42 @@ UnweldedSeam unwelded_seam(const SurfaceMesh& surface) {
     }
   }
   return seam;
+}
+
+long long t_junctions(const SurfaceMesh& surface) {
+  const std::vector<std::array<int, 2>> open = open_edges(surface.triangles);
+  if (open.size() < 3) return 0;  // a T-junction's edges: the long one and the two along it
+  double cell = 0;
+  std::vector<int> ends;  // the open edges' vertices
+  for (const auto& e : open) {
+    cell = std::max(cell, norm(surface.vertices[e[1]] - surface.vertices[e[0]]));
+    ends.insert(ends.end(), e.begin(), e.end());
+  }
+  if (!(cell > 0)) return 0;
+  std::sort(ends.begin(), ends.end());
+  ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
+  std::map<std::array<long long, 3>, std::vector<int>> cells;
+  for (const int v : ends) cells[grid_cell(surface.vertices[v], cell)].push_back(v);
+  std::vector<char> on_edge(surface.vertices.size(), 0);
+  for (const auto& [a, b] : open) {
+    const Vec3d &pa = surface.vertices[a], &pb = surface.vertices[b];
+    const Vec3d d = pb - pa;
+    const double l2 = dot(d, d);
+    if (!(l2 > 0)) continue;
+    // Every point of the edge lies within half an edge (<= half a cell) of its midpoint's cell.
+    const std::array<long long, 3> c = grid_cell(0.5 * (pa + pb), cell);
+    for (long long dx = -1; dx <= 1; ++dx)
+      for (long long dy = -1; dy <= 1; ++dy)
+        for (long long dz = -1; dz <= 1; ++dz)
+          if (const auto it = cells.find({c[0] + dx, c[1] + dy, c[2] + dz}); it != cells.end())
+            for (const int m : it->second) {
+              if (m == a || m == b || on_edge[m]) continue;
+              const double t = dot(surface.vertices[m] - pa, d) / l2;
+              if (t <= 0 || t >= 1) continue;
+              if (squared_norm(surface.vertices[m] - (pa + t * d)) <= kTJunctionReach * kTJunctionReach * l2) on_edge[m] = 1;
+            }
+  }
+  return std::count(on_edge.begin(), on_edge.end(), 1);
 }
 
 std::size_t orient_consistently(std::vector<Tri>& triangles) {

@@ -28,6 +28,12 @@ struct UnweldedSeam {
 };
 UnweldedSeam unwelded_seam(const SurfaceMesh& surface);
 
+/// Vertices of open edges that lie inside another open edge (within kTJunctionReach of its length,
+/// off its ends): T-junctions, where a face's edge runs past a vertex of the faces beside it. The
+/// surface is closed there in space but its faces are not joined, so its sides can part.
+inline constexpr double kTJunctionReach = 1e-3;  // an OBJ's printed digits leave ~1e-5 of an edge
+long long t_junctions(const SurfaceMesh& surface);
+
 /// Turns triangles wound against their neighbours (an edge that two triangles traverse the same
 /// way) so that each piece of the surface is wound one way: per piece joined by edges of two
 /// triangles, the winding most of its triangles have is kept (a consistent surface is unchanged).

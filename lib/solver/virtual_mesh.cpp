@@ -142,13 +142,18 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
     const UnweldedSeam seam = unwelded_seam(scene.virtual_surface);
     std::string seam_text;
     if (seam.edges > 0) {
-      char buf[240];
       std::snprintf(buf, sizeof buf, "; %lld of the open edges lie along another, up to %.3g mm apart: a seam never "
                     "welded, whose vertices a mesh tool merges by distance", seam.edges, seam.gap * 1e3);
       seam_text = buf;
     }
+    // T-junctions: closed in space, not in its connectivity.
+    std::string junction_text;
+    if (const long long junctions = t_junctions(scene.virtual_surface); junctions > 0)
+      junction_text = "; " + std::to_string(junctions) + (junctions == 1 ? " vertex lies" : " vertices lie") +
+                      " inside another face's edge (T-junctions: no gap there, but no edge joins the faces on either "
+                      "side: split the long edges at those vertices)";
     warnings.push_back(where + "is not closed: " + std::to_string(edges.open) +
-                       " of its edges belong to one face only (a hole, a cut patch" + soup + seam_text +
+                       " of its edges belong to one face only (a hole, a cut patch" + soup + seam_text + junction_text +
                        "): a tool that passes through an opening feels nothing there");
   }
   if (edges.nonmanifold > 0)

@@ -156,6 +156,22 @@ TEST(UnweldedSeam, TwoBordersAlongEachOther) {
   EXPECT_EQ(unwelded_seam(joined).edges, 0);
   EXPECT_EQ(unwelded_seam(read_obj(data("mesh/cube.obj"))).edges, 0);
 }
+// Two patches side by side: the left one's edge from (1, 0) to (1, 2) runs past the right one's
+// vertex at (1, 1), a T-junction; off the line by 1% of the edge it is an opening, not one; with the
+// long edge split at it, the patches are joined and none is left.
+TEST(TJunctions, AVertexInsideAnotherFacesEdge) {
+  SurfaceMesh s;
+  s.vertices = {{0, 0, 0}, {1, 0, 0}, {1, 2, 0}, {0, 2, 0}, {1, 1, 0}, {2, 0, 0}, {2, 2, 0}};
+  s.triangles = {{0, 1, 2}, {0, 2, 3}, {1, 5, 4}, {5, 6, 4}, {4, 6, 2}};
+  EXPECT_EQ(t_junctions(s), 1);
+  SurfaceMesh off = s;
+  off.vertices[4].x += 0.02;
+  EXPECT_EQ(t_junctions(off), 0);
+  SurfaceMesh joined = s;
+  joined.triangles = {{0, 1, 4}, {0, 4, 2}, {0, 2, 3}, {1, 5, 4}, {5, 6, 4}, {4, 6, 2}};
+  EXPECT_EQ(t_junctions(joined), 0);
+}
+
 TEST(MergeCoincident, NoCoincidentVerticesLeavesTheSurfaceAlone) {
   SurfaceMesh s = read_obj(data("mesh/cube.obj"));
   const SurfaceMesh before = s;

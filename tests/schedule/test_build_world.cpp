@@ -117,6 +117,15 @@ TEST(BuildWorld, AnOpenVirtualMeshIsNamed) {
       << ::testing::PrintToString(warnings_of("wall", wall));
   EXPECT_TRUE(has(warnings_of("wall", wall), " edges of three faces or more (a wall inside the surface"));
   EXPECT_FALSE(has(warnings_of("holed", holed), "three faces"));
+  EXPECT_FALSE(has(warnings_of("holed", holed), "T-junction"));
+  // The top face split at the midpoint of its front edge, which the front face runs past: closed
+  // in space, the edge's two halves and the front face's edge are open.
+  const std::string tee = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 10 10 0\nv 0 0 10\nv 10 0 10\nv 0 10 10\nv 10 10 10\n"
+                          "v 5 0 10\nf 1 3 4 2\nf 5 9 8\nf 9 6 8\nf 5 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+  EXPECT_TRUE(has(warnings_of("tee", tee), "tee.obj: mesh.virtual: the virtual mesh is not closed: 3 of its edges belong "
+                                           "to one face only (a hole, a cut patch; 1 vertex lies inside another face's "
+                                           "edge (T-junctions: no gap there, but no edge joins the faces on either side"))
+      << ::testing::PrintToString(warnings_of("tee", tee));
 }
 
 // An OBJ far finer than the physical boundary (cube41's, 114 mm on average): its vertices' springs

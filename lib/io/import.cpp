@@ -163,8 +163,27 @@ void for_each_line(const std::string& path, LeftOut& left_out, F&& each) {
 void check_sample_limit(const Recording& rec, std::size_t limit, const std::string& where) {
   if (rec.t.size() >= limit)
     throw InputError(where + ": more than " + std::to_string(limit) +
-                     " samples, the limit of a recording (2.8 h at 1 kHz): split the log");
+                     " samples, the limit of a recording (2.8 h at 1 kHz): import it a window at a time (--start S "
+                     "--duration S)");
 }
+
+/// The window of a log to import (ImportOptions::start_s, duration_s) over its samples' times in
+/// seconds: `keeps(t)` for each sample in file order, the first one's time the window's origin.
+struct LogWindow {
+  double start = 0;
+  std::optional<double> duration;
+  std::optional<double> origin;
+  double span = 0;     // the last sample's time from the origin
+  bool ended = false;  // a sample past the window was seen: the lines after it are not read
+  bool keeps(double t) {
+    if (!origin) origin = t;
+    const double from = t - *origin;
+    span = from;
+    ended = duration && from > start + *duration;
+    return from >= start && !ended;
+  }
+  bool whole() const { return start == 0 && !duration; }
+};
 
 // A row of a log whose header is separated by tabs or spaces, with a comma between two digits: a
 // number written with a decimal comma (a spreadsheet in a locale that writes 0,5), which the
@@ -248,11 +267,18 @@ bool decimal_commas(const std::string& t) {
   return between_digits(',') && !between_digits('.');
 }
 
-void read_openhaptics(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
-                      std::vector<std::size_t>& line_of, LeftOut& left_out) {
+void read_openhaptics(const std::string& path, double unit, double rate, std::size_t limit, LogWindow& window,
+                      Recording& rec, std::vector<std::size_t>& line_of, LeftOut& left_out) {
   std::size_t fields = 0, fields_line = 0;  // the first sample's field count, and its line
+  std::size_t samples = 0;                  // the log's, the window's and before it
   for_each_line(path, left_out, [&](const Line& l) {
+    if (window.ended) return;
     const std::string where = at(path, l.number);
+    const double t = static_cast<double>(samples) / rate;
+    if (!window.keeps(t)) {
+      ++samples;
+      return;
+    }
     check_sample_limit(rec, limit, where);
     // Separated as a CSV log's fields: an empty field (two commas in a row) is named, not skipped,
     // so a missing value does not shift the fields after it (the jaw into a button's place).
@@ -342,7 +368,8 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
                                 "after the buttons?)", 0, 1) != 0)
         mask |= 1 << (b - 17);
     rec.buttons.push_back(static_cast<std::uint8_t>(mask));
-    rec.t.push_back(static_cast<double>(rec.t.size()) / rate);
+    rec.t.push_back(t);
+    ++samples;
     line_of.push_back(l.number);
   });
 }
@@ -363,9 +390,10 @@ bool time_name(const std::string& h) {
   return false;
 }
 
-void read_csv(const std::string& path, double unit, double rate, std::size_t limit, Recording& rec,
-              std::vector<std::size_t>& line_of, bool& has_t, bool& has_jaw, LeftOut& left_out,
+void read_csv(const std::string& path, double unit, double rate, double time_unit, std::size_t limit, LogWindow& window,
+              Recording& rec, std::vector<std::size_t>& line_of, bool& has_t, bool& has_jaw, LeftOut& left_out,
               const std::vector<std::string>& skip_columns) {
+  std::size_t samples = 0;  // the log's, the window's and before it
   const std::vector<std::string> known{"t", "x", "y", "z", "qw", "qx", "qy", "qz", "jaw", "buttons"};
   std::map<std::string, std::size_t> col;
   std::vector<std::string> header;
@@ -422,6 +450,7 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
       has_jaw = col.count("jaw") > 0;
       return;
     }
+    if (window.ended) return;
     const std::string where = at(path, l.number);
     // A row written twice, its time included (a logger's retry): the same sample, left out.
     if (has_t && l.text == previous) {
@@ -429,13 +458,22 @@ void read_csv(const std::string& path, double unit, double rate, std::size_t lim
       return;
     }
     previous = l.text;
-    check_sample_limit(rec, limit, where);
+    // Without times a row's time is its place: the window skips it unread.
+    const double placed = static_cast<double>(samples) / rate;
+    if (!has_t && !window.keeps(placed)) {
+      ++samples;
+      return;
+    }
     auto tok = split_csv(l.text);
     if (tok.size() != header.size())
       throw InputError(where + ": " + std::to_string(tok.size()) + " fields, the header has " +
                        std::to_string(header.size()) + decimal_comma_hint(header_text, l.text));
     auto get = [&](const char* name) { return to_number(tok[col.at(name)], where, name); };
-    rec.t.push_back(has_t ? get("t") : static_cast<double>(rec.t.size()) / rate);
+    const double t = has_t ? get("t") : placed;
+    ++samples;
+    if (has_t && !window.keeps(t * time_unit)) return;
+    check_sample_limit(rec, limit, where);
+    rec.t.push_back(t);
     rec.position.push_back(Vec3d{get("x"), get("y"), get("z")} * unit);
     rec.orientation.push_back(Quatd{get("qw"), get("qx"), get("qy"), get("qz")});
     rec.jaw.push_back(col.count("jaw") ? get("jaw") : 1.0);
@@ -588,9 +626,15 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   std::vector<std::size_t> line_of;
   bool has_t = false, csv_has_jaw = false;
   LeftOut left_out;
+  if (!(opt.start_s >= 0)) throw InputError("--start: expected seconds >= 0");
+  if (opt.duration_s && !(*opt.duration_s > 0)) throw InputError("--duration: expected seconds > 0");
+  LogWindow window{opt.start_s, opt.duration_s, std::nullopt};
   try {
-    if (fmt == LogFormat::openhaptics) read_openhaptics(path, unit, rate_hz, opt.max_samples, rec, line_of, left_out);
-    else read_csv(path, unit, rate_hz, opt.max_samples, rec, line_of, has_t, csv_has_jaw, left_out, opt.skip_columns);
+    if (fmt == LogFormat::openhaptics)
+      read_openhaptics(path, unit, rate_hz, opt.max_samples, window, rec, line_of, left_out);
+    else
+      read_csv(path, unit, rate_hz, opt.time_unit.value_or(1.0), opt.max_samples, window, rec, line_of, has_t,
+               csv_has_jaw, left_out, opt.skip_columns);
   } catch (const std::bad_alloc&) {  // a memory limit (ulimit -v, a job's) below what the log needs
     const std::size_t rows = rec.t.size();
     rec = Recording{};
@@ -598,6 +642,13 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
                      " samples (~" + std::to_string(kImportBytesPerSample) +
                      " bytes each while importing): give the process more memory (ulimit -v, the job's limit), or "
                      "import the log in parts");
+  }
+  if (rec.t.empty() && window.origin && !window.whole()) {
+    char span[64];
+    std::snprintf(span, sizeof span, "%.6g", window.span);
+    throw InputError(path + ": no samples in the window --start " + shortest_text(opt.start_s) +
+                     (opt.duration_s ? " --duration " + shortest_text(*opt.duration_s) : std::string()) +
+                     ": the log's samples span " + span + " s from its first");
   }
   if (rec.t.empty())
     throw InputError(path + ": no samples (the log has no data lines" +

@@ -59,6 +59,11 @@ struct ImportOptions {
   /// The most samples read: a log with more is refused at the line of the first one past it,
   /// before memory grows with the log. kMaxRecordingSamples; tests lower it.
   std::size_t max_samples = static_cast<std::size_t>(kMaxRecordingSamples);
+  /// The window of the log imported (--start, --duration), in seconds from its first sample: a
+  /// log longer than a recording holds (kMaxRecordingSamples) is imported a window at a time. The
+  /// samples keep the log's times; those outside are not read past their time.
+  double start_s = 0;
+  std::optional<double> duration_s;
 };
 
 /// The memory an import takes a sample at its peak (787 MB resident for a CSV of 3.6 million rows:

@@ -56,6 +56,30 @@ TEST(Import, CsvLogMatchesTheKnownTrajectory) {
   EXPECT_EQ(r.rate_hz, 2000.0);  // 19 intervals over 9.5 ms, rounded: within 1e-9 of 2000
 }
 
+// --start / --duration: the samples in the window, from the log's first sample, keep their times
+// (the log's own, or i / rate); a window past the log's end is refused saying how long it is.
+TEST(Import, AWindowOfTheLogKeepsItsTimes) {
+  ImportOptions opt;
+  opt.start_s = 5e-3;
+  opt.duration_s = 4.5e-3;
+  const Recording oh = import_log(kData + "sample_openhaptics.txt", opt);  // 1000 Hz: samples 5 .. 9
+  ASSERT_EQ(oh.size(), 5u);
+  for (std::size_t k = 0; k < oh.size(); ++k) {
+    EXPECT_EQ(oh.t[k], static_cast<double>(k + 5) / 1000.0) << k;
+    EXPECT_NEAR(norm(oh.position[k] - known_position(k + 5)), 0, 1e-10) << k;
+  }
+  opt.start_s = 2.4e-3;
+  opt.duration_s = 1.5e-3;
+  const Recording csv = import_log(kData + "sample.csv", opt);  // 2000 Hz: samples 5 .. 7
+  ASSERT_EQ(csv.size(), 3u);
+  EXPECT_NEAR(csv.t.front(), 2.5e-3, 1e-15);
+  EXPECT_NEAR(norm(csv.position.back() - known_position(7)), 0, 1e-10);
+  opt.duration_s.reset();
+  opt.start_s = 0.25;
+  EXPECT_INPUT_ERROR(import_log(kData + "sample.csv", opt), kData + "sample.csv: no samples in the window --start 0.25",
+                     "the log's samples span 0.0095 s from its first");
+}
+
 TEST(Import, TransformMapsTheLogFrameToTheWorld) {
   ImportOptions opt;
   opt.transforms.world = parse_rigid_transform("--transform", "0,0,10,0,0,90", parse_length_unit("mm"));
@@ -534,7 +558,14 @@ TEST(Import, ALogPastTheSampleLimitStopsAtTheFirstSampleBeyondIt) {
     std::fputs("x,y,z,qw,qx,qy,qz\n# comment\n0,0,0,1,0,0,0\n0,0,1,1,0,0,0\n\n0,0,2,1,0,0,0\n0,0,3,1,0,0,0\nnot a sample\n", f);
     std::fclose(f);
   }
-  EXPECT_INPUT_ERROR(import_log(tmp / "long.csv", opt), tmp / "long.csv:7: more than 3 samples", "split the log");
+  EXPECT_INPUT_ERROR(import_log(tmp / "long.csv", opt), tmp / "long.csv:7: more than 3 samples",
+                     "import it a window at a time (--start S --duration S)");
+  // a window of the log within the limit is read, the lines after it not
+  opt.start_s = 1.5e-3;
+  opt.duration_s = 2e-3;
+  EXPECT_EQ(import_log(tmp / "long.csv", opt, nullptr).size(), 2u);  // samples 2 and 3 (at 1000 Hz)
+  opt.start_s = 0;
+  opt.duration_s.reset();
   {
     std::FILE* f = std::fopen((tmp / "long.txt").c_str(), "w");
     for (int i = 0; i < 4; ++i) std::fputs("1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1\n", f);

@@ -30,6 +30,8 @@ struct ImportArgs {
   std::string jaw_range;
   std::optional<int> jaw_button;
   std::string mirror;  // empty: a right-handed log
+  double start = 0;
+  std::optional<double> duration;
 };
 
 void run(const ImportArgs& a) {
@@ -78,6 +80,8 @@ void run(const ImportArgs& a) {
       !scene ? nullptr : scene->spec.tool.kind == ebh::ToolSpec::Kind::Forceps ? "forceps" : "hook";
   opt.tool = !a.tool.empty() ? a.tool : scene_tool ? scene_tool : "hook";
   opt.drop_repeats = a.drop_repeats;
+  opt.start_s = a.start;
+  opt.duration_s = a.duration;
   opt.skip_columns = a.skip_columns;
   if (!a.jaw_range.empty()) opt.jaw_range = ebh::parse_jaw_range(a.jaw_range);
   opt.jaw_button = a.jaw_button;
@@ -194,6 +198,12 @@ void setup(CLI::App& root) {
       ->check(ebh::cli::whole_number(0, 7));
   c->add_option("--skip-column", args->skip_columns,
                 "csv: a column of the log to leave unread (a force or a timestamp of another clock; repeatable)");
+  c->add_option("--start", args->start,
+                "import from S seconds after the log's first sample (a log longer than a recording holds, 2.8 h at "
+                "1 kHz, is imported a window at a time; the samples keep the log's times)")
+      ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit));
+  c->add_option("--duration", args->duration, "import S seconds from --start (default: the rest of the log)")
+      ->check(ebh::cli::finite_number(0, ebh::cli::kNoUpperLimit, true));
   c->add_flag("--drop-repeats", args->drop_repeats,
               "remove the samples that repeat the previous pose, jaw and buttons exactly for up to " +
                   ebh::cli::format_number(ebh::kStaleRunMaxS * 1e3) +

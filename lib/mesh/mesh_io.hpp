@@ -1,6 +1,6 @@
 #pragma once
-// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1) for the physical mesh, Wavefront OBJ for a
-// virtual-mesh surface. Positions stay in file units; the scene scales them (docs/FORMATS.md, "Length units and the mesh transform").
+// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1) for the physical mesh, Wavefront OBJ or STL for
+// a virtual-mesh surface. Positions stay in file units; the scene scales them (docs/FORMATS.md, "Length units and the mesh transform").
 //
 // Both readers hold the file in memory and parse it in one pass without regular expressions.
 // Untrusted counts never drive an allocation beyond what the file's size can hold. Every error is
@@ -48,6 +48,18 @@ std::string msh22_text(const TetMesh& mesh, double scale = 1.0);
 /// or out of range, faces with fewer than 3 vertices, concave polygons (in their plane, seen along
 /// their Newell normal), and a file with no faces.
 SurfaceMesh read_obj(const std::filesystem::path& file);
+
+/// Reads an STL surface, binary (when the file's size is what its facet count says, whatever its
+/// header holds) or ASCII (`solid` ... `facet normal` / `outer loop` / 3 `vertex` / `endloop` /
+/// `endfacet` ... `endsolid`, several solids in turn). An STL repeats each corner in every facet
+/// that has it: corners at exactly the same position are one vertex, numbered in order of first
+/// appearance; the facets keep their corners' order, the normals are not read. Throws InputError
+/// for a file that is neither (a binary STL cut short names its size and the size its count needs),
+/// non-finite corners, a malformed line (ASCII: its number), and a file with no facets.
+SurfaceMesh read_stl(const std::filesystem::path& file);
+
+/// read_stl for a `.stl` file (in any case), read_obj otherwise: a virtual-mesh surface.
+SurfaceMesh read_surface(const std::filesystem::path& file);
 
 /// The Wavefront OBJ text of `surface` (`v x y z` at %.17g, `f a b c` 1-based): read_obj reads it
 /// back to the same vertices, to the last bit, and triangles.

@@ -336,7 +336,8 @@ class SpecReader {
       if (t != "boundary") {
         std::string ext = fs::path(t).extension().string();
         std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-        if (ext != ".obj") fail("mesh.virtual", "expected 'boundary' or an .obj file, got " + yaml_shown(v->second));
+        if (ext != ".obj" && ext != ".stl")
+          fail("mesh.virtual", "expected 'boundary', an .obj or an .stl file, got " + yaml_shown(v->second));
         s.virtual_mesh = mesh_path(v->second, "mesh.virtual");
       }
     }
@@ -1236,7 +1237,7 @@ Scene build_scene(SceneSpec spec_in) {
 
   // The virtual mesh's source surface.
   if (spec.virtual_mesh) {
-    scene.virtual_surface = read_obj(*spec.virtual_mesh);
+    scene.virtual_surface = read_surface(*spec.virtual_mesh);
     // A triangle soup (an STL converted to OBJ) has no edges between its faces until its vertices
     // at one position are one.
     // A seam exported twice, its copies a round-off apart, is welded too: left open, the tool

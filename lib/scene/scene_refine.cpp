@@ -121,7 +121,7 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
                      " (the out-of-memory killer would end the run, and others beside it)");
   // The kept virtual mesh: the scene's OBJ as it is, or the boundary before refinement.
   std::optional<SurfaceMesh> kept;
-  if (keep_virtual) kept = spec.virtual_mesh ? read_obj(*spec.virtual_mesh) : extract_boundary(mesh);
+  if (keep_virtual) kept = spec.virtual_mesh ? read_surface(*spec.virtual_mesh) : extract_boundary(mesh);
   for (int l = 0; l < levels; ++l) mesh = refine_tet_mesh(mesh);
 
   r.scene_file = out;
@@ -136,7 +136,7 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
     r.virtual_text = obj_text(*kept);
     root["mesh"]["virtual"] = r.virtual_file.filename().string();
   } else if (spec.virtual_mesh) {
-    SurfaceMesh surface = read_obj(*spec.virtual_mesh);
+    SurfaceMesh surface = read_surface(*spec.virtual_mesh);
     std::vector<std::array<int, 2>> parent;
     for (int l = 0; l < levels; ++l) surface = refine_surface(surface, parent);
     r.virtual_file = std::filesystem::path(out).replace_extension(".obj");

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <set>
 
 #include "mesh/boundary.hpp"
@@ -16,6 +17,7 @@ namespace {
 
 using test::data;
 using test::expect_input_error;
+using test::replace;
 using test::write_temp;
 
 /// Volume enclosed by a closed surface (divergence theorem): positive when it faces outward.
@@ -74,6 +76,101 @@ TEST(ReadObj, ForwardReference) {
   const SurfaceMesh s = read_obj(write_temp("fwd.obj", "f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"));
   EXPECT_EQ(s.triangles.size(), 1u);
 }
+
+/// The cube's triangles as an STL: ASCII (its facets' normals as a writer gives them, unused) or
+/// binary, with an 80-byte header of `header`.
+std::string cube_stl(bool binary, const std::string& header = "ebh test") {
+  const SurfaceMesh cube = read_obj(data("mesh/cube.obj"));
+  std::string out;
+  if (!binary) {
+    out = "solid cube\n";
+    for (const Tri& t : cube.triangles) {
+      out += "  facet normal 0 0 1\n    outer loop\n";
+      for (int v : t) {
+        const Vec3d& p = cube.vertices[v];
+        out += "      vertex " + std::to_string(p.x) + " " + std::to_string(p.y) + " " + std::to_string(p.z) + "\n";
+      }
+      out += "    endloop\n  endfacet\n";
+    }
+    return out + "endsolid cube\n";
+  }
+  out = header;
+  out.resize(80, ' ');
+  const auto count = static_cast<std::uint32_t>(cube.triangles.size());
+  out.append(reinterpret_cast<const char*>(&count), 4);
+  for (const Tri& t : cube.triangles) {
+    float f[12] = {0, 0, 1};
+    for (int k = 0; k < 3; ++k) {
+      const Vec3d& p = cube.vertices[t[k]];
+      f[3 + 3 * k] = static_cast<float>(p.x), f[4 + 3 * k] = static_cast<float>(p.y), f[5 + 3 * k] = static_cast<float>(p.z);
+    }
+    out.append(reinterpret_cast<const char*>(f), sizeof f);
+    out.append(2, '\0');  // the attribute
+  }
+  return out;
+}
+
+// An STL repeats each corner in every facet: read, the cube's 8 corners are 8 vertices again and
+// its 12 facets the OBJ's triangles, in order and with their corners' order; a binary STL whose header starts with "solid" (some
+// writers do) is read as binary, by its size.
+TEST(ReadStl, AsciiAndBinaryAreTheObjsCube) {
+  const SurfaceMesh obj = read_obj(data("mesh/cube.obj"));
+  for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
+           {"ascii.stl", cube_stl(false)}, {"binary.stl", cube_stl(true)}, {"solid_header.STL", cube_stl(true, "solid cube")}}) {
+    SCOPED_TRACE(name);
+    const SurfaceMesh s = read_surface(write_temp(name, text));
+    EXPECT_EQ(s.vertices.size(), 8u);  // numbered in order of first appearance, not the OBJ's
+    ASSERT_EQ(s.triangles.size(), obj.triangles.size());
+    for (std::size_t f = 0; f < s.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(s.vertices[s.triangles[f][k]], obj.vertices[obj.triangles[f][k]]) << f;
+  }
+}
+
+struct BadStl : ::testing::Test {
+  void expect(const std::string& text, int line, const std::string& needle) {
+    const auto p = write_temp("bad.stl", text);
+    expect_input_error([&] { read_stl(p); }, p, line, needle);
+  }
+  /// Without a line: the binary form's errors name the file alone.
+  void expect(const std::string& text, const std::string& needle) {
+    const auto p = write_temp("bad.stl", text);
+    try {
+      read_stl(p);
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(p.string() + ": ", 0), 0u) << e.what();
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  }
+};
+TEST_F(BadStl, BinaryCutShort) {
+  const std::string full = cube_stl(true);
+  expect(full.substr(0, full.size() - 7), "nor a binary one (677 bytes, where its count of 12 facets needs 684): cut short");
+}
+TEST_F(BadStl, BinaryCutShortWithASolidHeader) {
+  const std::string full = cube_stl(true, "solid cube");
+  expect(full.substr(0, full.size() - 7), "starts with 'solid' but holds NUL bytes: a binary STL whose size (677 bytes)");
+}
+TEST_F(BadStl, BinaryNotFinite) {
+  std::string s = cube_stl(true);
+  const float nan = std::nanf("");
+  s.replace(84 + 50 * 3 + 12, 4, reinterpret_cast<const char*>(&nan), 4);
+  expect(s, "facet 3 (a binary STL's) has a corner that is not a finite number");
+}
+TEST_F(BadStl, AsciiKeyword) {
+  expect(replace(cube_stl(false), "    outer loop\n", "    outer lop\n"), 3, "expected 'loop' after 'outer', got 'lop'");
+}
+TEST_F(BadStl, AsciiTwoVertices) {
+  const std::string text = cube_stl(false);
+  const auto third = text.find("      vertex", text.find("      vertex", text.find("      vertex") + 1) + 1);
+  expect(text.substr(0, third) + text.substr(text.find('\n', third) + 1), 6, "expected 'vertex' (a facet has 3), got 'endloop'");
+}
+TEST_F(BadStl, AsciiNoEndsolid) {
+  const std::string text = cube_stl(false);
+  expect(text.substr(0, text.find("endsolid")), 1, "the file ends inside the solid begun here (no 'endsolid')");
+}
+TEST_F(BadStl, NotAnStl) { expect("ply\nformat ascii 1.0\n", "not an STL"); }
+TEST_F(BadStl, NoFacets) { expect("solid empty\nendsolid empty\n", "no facets"); }
 
 struct BadObj : ::testing::Test {
   void expect(const std::string& text, int line, const std::string& needle) {

@@ -368,6 +368,27 @@ TEST(Scene, ObjVirtualSurfaceSphereAndHalfspaceInCentimetres) {
   EXPECT_EQ(s.pinned, (std::vector<int>{0, 1, 2, 4, 6}));
 }
 
+// The cube's surface as an STL, ASCII or binary (.STL in capitals too): the OBJ's surface in metres,
+// its corners one vertex each without a warning of merged vertices.
+TEST(Scene, StlVirtualSurfaceIsTheObjs) {
+  const Scene obj = load_scene(data("scene/cube_obj.yaml"));
+  for (const char* name : {"cube_ascii.stl", "cube_binary.stl"}) {
+    SCOPED_TRACE(name);
+    const std::filesystem::path copy = write_temp(std::string(name) == "cube_binary.stl" ? "CUBE.STL" : name,
+                                                  slurp(data(std::string("mesh/") + name)));
+    const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube.obj", copy.string()),
+                                     "../mesh/cube41.msh", data("mesh/cube41.msh").string());
+    const Scene stl = load_scene(write_temp("stl.yaml", yaml));
+    ASSERT_EQ(stl.virtual_surface.vertices.size(), 8u);
+    ASSERT_EQ(stl.virtual_surface.triangles.size(), obj.virtual_surface.triangles.size());
+    for (std::size_t f = 0; f < obj.virtual_surface.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_EQ(stl.virtual_surface.vertices[stl.virtual_surface.triangles[f][k]],
+                  obj.virtual_surface.vertices[obj.virtual_surface.triangles[f][k]]);
+    EXPECT_EQ(stl.warnings, obj.warnings);
+  }
+}
+
 TEST(Scene, ObjTriangleSoupIsMergedWithAWarning) {
   // cube.obj's 12 triangles, each with its own 3 corners (as an STL converted to OBJ has them)
   const SurfaceMesh cube = read_obj(data("mesh/cube.obj"));
@@ -871,7 +892,10 @@ TEST_F(BadScene, MissingPhysical) {
   text.erase(at, text.find('\n', at) + 1 - at);
   expect(text, "key 'mesh.physical': missing (required)");
 }
-TEST_F(BadScene, VirtualNotObj) { expect(replace(good, "virtual: boundary", "virtual: cube.stl"), "key 'mesh.virtual': expected 'boundary' or an .obj file, got 'cube.stl'"); }
+TEST_F(BadScene, VirtualNotObj) {
+  expect(replace(good, "virtual: boundary", "virtual: cube.ply"),
+         "key 'mesh.virtual': expected 'boundary', an .obj or an .stl file, got 'cube.ply'");
+}
 TEST_F(BadScene, RateRatio) {
   expect(replace(good, "physical_hz: 50", "physical_hz: 300"), "key 'time.physical_hz': haptic_hz / physical_hz must be a whole number");
 }

@@ -4,7 +4,8 @@
 cube22.msh and cube41.msh hold the same mesh (a 10 x 10 x 10 cube cut into 5 positively oriented
 tets, 2 + 2 triangles on its bottom (z = 0) and top (z = 10) faces) in MSH 2.2 and 4.1 ASCII, with
 sparse, unordered node ids and elements of skipped types (a point, a line, a quad, a 2nd-order
-triangle). cube.obj is the cube's surface as quads in every face-corner form, with negative indices.
+triangle). cube.obj is the cube's surface as quads in every face-corner form, with negative indices;
+cube_ascii.stl and cube_binary.stl its triangles as STL.
 """
 import os
 
@@ -85,6 +86,24 @@ def write_obj():
         out.append("f " + " ".join(form(i) for i in q))
     open(os.path.join(HERE, "cube.obj"), "w").write("\r\n".join(out) + "\r\n")  # CRLF on purpose
 
+def write_stl():
+    # the OBJ's quads fan-triangulated as read_obj does (a b c d -> a b c, a c d), as ASCII and binary STL
+    import struct
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    tris = [t for q in quads for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
+    out = ["solid cube"]
+    for t in tris:
+        out += ["  facet normal 0 0 0", "    outer loop"]
+        out += [f"      vertex {pos(c)[0]:g} {pos(c)[1]:g} {pos(c)[2]:g}" for c in t]
+        out += ["    endloop", "  endfacet"]
+    out.append("endsolid cube")
+    open(os.path.join(HERE, "cube_ascii.stl"), "w").write("\n".join(out) + "\n")
+    data = b"binary STL of the cube (tests/data/mesh/cube.obj)".ljust(80, b" ") + struct.pack("<I", len(tris))
+    for t in tris:
+        data += struct.pack("<12fH", 0, 0, 0, *(x for c in t for x in pos(c)), 0)
+    open(os.path.join(HERE, "cube_binary.stl"), "wb").write(data)
+
 write22()
 write41()
 write_obj()
+write_stl()

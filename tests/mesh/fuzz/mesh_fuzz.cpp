@@ -118,7 +118,8 @@ int main(int argc, char** argv) {
   }
   const fs::path dir = argv[1];
   const long mutations = argc > 2 ? std::atol(argv[2]) : 4000;
-  const std::vector<fs::path> seeds = {dir / "cube22.msh", dir / "cube41.msh", dir / "cube.obj"};
+  const std::vector<fs::path> seeds = {dir / "cube22.msh", dir / "cube41.msh", dir / "cube.obj", dir / "cube_ascii.stl",
+                                       dir / "cube_binary.stl"};
   std::vector<std::string> texts;
   for (const auto& p : seeds) {
     texts.push_back(slurp(p));
@@ -143,8 +144,8 @@ int main(int argc, char** argv) {
     const fs::path file = work / seeds[which].filename();
     std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
     try {
-      if (seeds[which].extension() == ".obj") {
-        (void)ebh::read_obj(file);
+      if (seeds[which].extension() != ".msh") {
+        (void)ebh::read_surface(file);
       } else {
         ebh::TetMesh m = ebh::read_msh(file);
         exercise(m);

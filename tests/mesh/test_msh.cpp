@@ -89,9 +89,9 @@ TEST(ReadMsh, NodeIdsFarApart) {
     text.replace(at, 4, "1000000000000000");
   const TetMesh m = read_msh(write_temp("far.msh", text));
   EXPECT_EQ(m.file_node_ids[4], 1000000000000000LL);
-  expect_same_mesh(TetMesh{m.vertices, m.tets, m.tet_group, m.triangles, m.triangle_group, m.group_names, {}, m.file_tet_ids, {}, {}},
-                   TetMesh{read_msh(data("mesh/cube22.msh")).vertices, m.tets, m.tet_group, m.triangles,
-                           m.triangle_group, m.group_names, {}, m.file_tet_ids, {}, {}});
+  TetMesh same = m;
+  same.vertices = read_msh(data("mesh/cube22.msh")).vertices;
+  expect_same_mesh(m, same);
 }
 
 TEST(ReadMsh, SurfaceTagClashingWithVolumeTagIsRenumbered) {

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "mesh/box_mesh.hpp"
 #include "mesh/tet_mesh.hpp"
 
 namespace ebh::test {
@@ -19,6 +20,20 @@ inline std::string slurp(const std::filesystem::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// A block of `size` x `size` x size/5 in 1200 tets (10 x 10 x 2 cells) with a speck of 6 tets, a
+/// cube of size/50, at 2/5 of its size above it: a segmentation's noise apart from the organ. The
+/// speck's vertices follow the block's.
+inline TetMesh block_with_a_speck(double size) {
+  TetMesh mesh = make_box_tets({0, 0, 0}, {size, size, size / 5}, 10, 10, 2);
+  const double at = 0.4 * size;
+  const TetMesh speck = make_box_tets({at, at, at}, {at + size / 50, at + size / 50, at + size / 50}, 1, 1, 1);
+  const int nv = static_cast<int>(mesh.vertices.size());
+  mesh.vertices.insert(mesh.vertices.end(), speck.vertices.begin(), speck.vertices.end());
+  for (const Tet& t : speck.tets) mesh.tets.push_back({t[0] + nv, t[1] + nv, t[2] + nv, t[3] + nv});
+  mesh.tet_group.assign(mesh.tets.size(), 0);
+  return mesh;
 }
 
 /// Writes `text` to a fresh file in the test's temporary folder and returns its path.

@@ -319,12 +319,8 @@ TEST(Scene, PinsHoldingSomePartsAllOrNoneOfTheMeshWarn) {
 /// A block of 1200 tets with a speck of 6 beside it (a segmentation's noise): the free parts'
 /// warning offers mesh.min_part_tets, which drops the speck; a value above every part is refused.
 TEST(Scene, MinPartTetsDropsTheSpecksApartFromTheOrgan) {
-  TetMesh mesh = make_box_tets({0, 0, 0}, {0.05, 0.05, 0.01}, 10, 10, 2);
-  const TetMesh speck = make_box_tets({0.02, 0.02, 0.02}, {0.021, 0.021, 0.021}, 1, 1, 1);
-  const int nv = static_cast<int>(mesh.vertices.size());
-  mesh.vertices.insert(mesh.vertices.end(), speck.vertices.begin(), speck.vertices.end());
-  for (const Tet& t : speck.tets) mesh.tets.push_back({t[0] + nv, t[1] + nv, t[2] + nv, t[3] + nv});
-  mesh.tet_group.assign(mesh.tets.size(), 0);
+  const TetMesh mesh = test::block_with_a_speck(0.05);
+  const int nv = 11 * 11 * 3;  // the block's vertices: the speck's follow
   const std::string file = write_temp("speck.msh", msh22_text(mesh)).string();
   const std::string yaml = "mesh: {physical: " + file + "MIN}\ngravity: [0, 0, 0]\npinned:\n  - box: {min: [-1, -1, -1], max: [1, 1, 0.001]}\n";
   auto load = [&](const std::string& min) { return load_scene(write_temp("speck.yaml", replace(yaml, "MIN", min))); };

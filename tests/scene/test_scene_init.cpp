@@ -7,7 +7,6 @@
 #include <numbers>
 
 #include "../mesh/test_util.hpp"
-#include "mesh/box_mesh.hpp"
 #include "mesh/mesh_io.hpp"
 #include "scene/scene_init.hpp"
 
@@ -94,14 +93,8 @@ TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {
 // A 50 x 50 x 10 mm block of 1200 tets with a 1 mm speck of 6 above it: the scene drops the speck
 // (mesh.min_part_tets) and says so; a mesh without specks gets no such key.
 TEST(SceneInit, SpecksApartFromTheOrganAreDropped) {
-  TetMesh mesh = make_box_tets({0, 0, 0}, {50, 50, 10}, 10, 10, 2);
-  const TetMesh speck = make_box_tets({20, 20, 20}, {21, 21, 21}, 1, 1, 1);
-  const int nv = static_cast<int>(mesh.vertices.size());
-  mesh.vertices.insert(mesh.vertices.end(), speck.vertices.begin(), speck.vertices.end());
-  for (const Tet& t : speck.tets) mesh.tets.push_back({t[0] + nv, t[1] + nv, t[2] + nv, t[3] + nv});
-  mesh.tet_group.assign(mesh.tets.size(), 0);
   SceneInitOptions o;
-  o.mesh = write_temp("specks.msh", msh22_text(mesh));
+  o.mesh = write_temp("specks.msh", msh22_text(test::block_with_a_speck(50)));
   o.out = o.mesh.parent_path() / "specks.yaml";
   const SceneInit made = make_scene(o);
   EXPECT_NE(made.yaml.find("\n  min_part_tets: 7 "), std::string::npos) << made.yaml;

@@ -343,7 +343,9 @@ struct Scene {
 std::vector<std::pair<int, int>> unpinned_parts(const TetMesh& mesh, std::span<const int> pinned);
 
 /// A part of under this fraction of the physical mesh's tets is a speck: of a segmentation, apart
-/// from the organ (`mesh.min_part_tets` drops such parts).
+/// from the organ (`mesh.min_part_tets` drops such parts). The committed scenes' parts hold 50%
+/// (the gap's two blocks) and 100% of their tets; a part meant to be there that holds less (a thin
+/// vessel beside a liver) is kept with a lower mesh.min_part_tets, which `scene init` writes.
 inline constexpr double kSpeckFraction = 0.01;
 /// The specks among the parts (tets joined by vertices, mesh_parts): (lowest vertex, tets) each.
 std::vector<std::pair<int, int>> speck_parts(const TetMesh& mesh);

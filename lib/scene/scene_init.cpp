@@ -181,11 +181,12 @@ SceneInit make_scene(const SceneInitOptions& o) {
   probe.physical_mesh = o.mesh;
   probe.unit = probe.mesh_unit = probe.tool.unit = unit;
   probe.unit_name = probe.mesh_unit_name = probe.tool.unit_name = o.unit;
+  Scene mesh_only = build_scene(probe);
   // Specks of a segmentation apart from the organ would float free (or stop a replay under
-  // gravity): dropped at load, the scene saying so.
-  const std::vector<std::pair<int, int>> specks = speck_parts(build_scene(probe).physical);
+  // gravity): dropped at load (loaded again without them), the scene saying so.
+  const std::vector<std::pair<int, int>> specks = speck_parts(mesh_only.physical);
   for (const auto& [lowest, tets] : specks) probe.min_part_tets = std::max(probe.min_part_tets, tets + 1);
-  const Scene mesh_only = build_scene(probe);
+  if (!specks.empty()) mesh_only = build_scene(probe);
   const TetMesh& mesh = mesh_only.physical;
   const std::size_t n = mesh.vertices.size();
   const BoundingBox box = bounding_box(mesh.vertices);

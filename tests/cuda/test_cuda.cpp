@@ -101,9 +101,8 @@ void load_models(Models& M, const char* name, double quality, const std::vector<
 }
 
 /// A scene's models and a deformed moving state: a downward velocity bump on the upper half and
-/// three CPU steps (as benchmarks/bench_physical_step.cpp). The overrides by value: a reference
-/// bound to the default's temporary reads to gcc 13 as a dangling result (-Wdangling-reference).
-const Models& models(const char* name, std::vector<std::string> overrides = {}) {
+/// three CPU steps (as benchmarks/bench_physical_step.cpp).
+const Models& models(const char* name, const std::vector<std::string>& overrides = {}) {
   static std::map<std::string, std::unique_ptr<Models>> cache;
   std::string key = name;
   for (const std::string& o : overrides) key += " " + o;

@@ -24,9 +24,8 @@ using namespace ebh;
 
 namespace {
 
-/// Loads (and keeps) scene + recording with the given --set overrides (by value: references bound to
-/// the callers' temporaries read to gcc 13 as a dangling result, -Wdangling-reference).
-const LoadedReplay& inputs(std::string scene, std::string recording, std::vector<std::string> set) {
+/// Loads (and keeps) scene + recording with the given --set overrides.
+const LoadedReplay& inputs(const std::string& scene, const std::string& recording, const std::vector<std::string>& set) {
   static std::map<std::string, std::unique_ptr<LoadedReplay>> cache;
   std::string key = scene + "/" + recording;
   for (const std::string& s : set) key += "/" + s;

@@ -131,25 +131,20 @@ SurfaceMesh read_stl(const std::filesystem::path& file) {
   const std::string bytes = detail::read_file_bytes(file);
   // Binary when the size is what the facet count says: some binary writers start the header with
   // "solid" too, so the word alone does not make a file ASCII.
-  if (bytes.size() >= kBinaryHeader) {
-    std::uint32_t facets = 0;
-    std::memcpy(&facets, bytes.data() + 80, sizeof facets);
-    if (bytes.size() == kBinaryHeader + kBinaryFacet * static_cast<std::size_t>(facets)) {
-      if (facets == 0) throw InputError(file.string() + ": a binary STL of no facets");
-      return read_binary(file, bytes, facets);
-    }
+  std::uint32_t facets = 0;
+  if (bytes.size() >= kBinaryHeader) std::memcpy(&facets, bytes.data() + 80, sizeof facets);
+  const std::size_t binary_size = kBinaryHeader + kBinaryFacet * static_cast<std::size_t>(facets);
+  if (bytes.size() >= kBinaryHeader && bytes.size() == binary_size) {
+    if (facets == 0) throw InputError(file.string() + ": a binary STL of no facets");
+    return read_binary(file, bytes, facets);
   }
   const std::string_view text(bytes);
   const std::size_t start = text.find_first_not_of(" \t\r\n");
   if (start == std::string_view::npos || text.substr(start, 5) != "solid") {
-    if (bytes.size() >= kBinaryHeader) {
-      std::uint32_t facets = 0;
-      std::memcpy(&facets, bytes.data() + 80, sizeof facets);
+    if (bytes.size() >= kBinaryHeader)
       throw InputError(file.string() + ": neither an ASCII STL (it does not start with 'solid') nor a binary one (" +
                        std::to_string(bytes.size()) + " bytes, where its count of " + std::to_string(facets) +
-                       " facets needs " + std::to_string(kBinaryHeader + kBinaryFacet * static_cast<std::size_t>(facets)) +
-                       "): cut short, or another format");
-    }
+                       " facets needs " + std::to_string(binary_size) + "): cut short, or another format");
     throw InputError(file.string() + ": not an STL (" + std::to_string(bytes.size()) +
                      " bytes: neither 'solid' text nor a binary header)");
   }

@@ -1433,6 +1433,11 @@ add_test(NAME cli.scene.degrade_to_scene_file
   COMMAND ${EBH_BIN} scene degrade tube --quality 0.05 -o ${EBH_NUM_OUT}/named/bad_tube.yaml)
 set_tests_properties(cli.scene.degrade_to_scene_file PROPERTIES LABELS cli FIXTURES_SETUP degraded_named
   PASS_REGULAR_EXPRESSION "named/bad_tube.yaml: tube with worst mean ratio 0.05.* mesh .*named/bad_tube.msh")
+# A scene file name in upper case (a Windows tool's habit) is a scene file too, not a folder.
+add_test(NAME cli.scene.degrade_to_upper_case_scene_file
+  COMMAND ${EBH_BIN} scene degrade tube --quality 0.05 -o ${EBH_NUM_OUT}/upper/BAD_TUBE.YAML)
+set_tests_properties(cli.scene.degrade_to_upper_case_scene_file PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "upper/BAD_TUBE.YAML: tube with worst mean ratio 0.05.* mesh .*upper/BAD_TUBE.msh")
 # The degraded scene names its mesh beside it by its name: the two move together (to a cluster).
 if(EBH_GATE_BASH)
   add_test(NAME cli.scene.degraded_scene_moves_with_its_mesh

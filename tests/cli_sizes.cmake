@@ -10,6 +10,12 @@ set(EXPECT_FAILURE ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.scene.refine COMMAND ${EBH_BIN} scene refine tube --level 1 -o ${Z}/tube_l1.yaml)
 set_tests_properties(cli.scene.refine PROPERTIES FIXTURES_SETUP refined_tube LABELS "cli;scene" PASS_REGULAR_EXPRESSION
   "tube_l1.yaml: tube_l1, 64456 tets and 14014 vertices \\(from 8057 and 2150\\), mesh .*tube_l1.msh\n")
+# The refined scene is YAML: a name of another kind is refused before any work (as by `scene init`).
+add_test(NAME cli.scene.refine_to_a_text_file
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;refine;tube;--level;1;-o;${Z}/tube_l1.txt"
+    "-DEXPECT=^ebh: error: .*tube_l1.txt: a scene is a YAML file; name it .yaml \\(the output would be YAML under a '.txt' name\\)"
+    -DOUTPUT=${Z}/tube_l1.txt -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene.refine_to_a_text_file PROPERTIES LABELS "cli;scene")
 add_test(NAME cli.scene.refine_again COMMAND ${EBH_BIN} scene refine tube --level 1 -o ${Z}/again/tube_l1.yaml)
 set_tests_properties(cli.scene.refine_again PROPERTIES FIXTURES_SETUP refined_tube LABELS "cli;scene")
 add_test(NAME cli.scene.refine_is_deterministic

@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/file_names.hpp"
 #include "core/number_text.hpp"
 #include "core/units.hpp"
 #include "math/rotvec_input.hpp"
@@ -574,11 +575,7 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
 }
 
 LogFormat log_format_of(const std::string& path) {
-  const std::string ext = std::filesystem::path(path).extension().string();
-  const bool csv = ext.size() == 4 && ext[0] == '.' && std::tolower(static_cast<unsigned char>(ext[1])) == 'c' &&
-                   std::tolower(static_cast<unsigned char>(ext[2])) == 's' &&
-                   std::tolower(static_cast<unsigned char>(ext[3])) == 'v';
-  return csv ? LogFormat::csv : LogFormat::openhaptics;
+  return lower_extension(path) == ".csv" ? LogFormat::csv : LogFormat::openhaptics;
 }
 
 double nominal_rate(const std::vector<double>& t) {

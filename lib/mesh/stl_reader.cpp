@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/file_names.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/text_cursor.hpp"
 
@@ -157,9 +158,7 @@ SurfaceMesh read_stl(const std::filesystem::path& file) {
 }
 
 SurfaceMesh read_surface(const std::filesystem::path& file) {
-  std::string ext = file.extension().string();
-  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  return ext == ".stl" ? read_stl(file) : read_obj(file);
+  return lower_extension(file) == ".stl" ? read_stl(file) : read_obj(file);
 }
 
 }  // namespace ebh

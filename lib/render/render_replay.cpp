@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "core/file_names.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
@@ -314,9 +315,7 @@ std::unique_ptr<OffscreenRenderer> start_renderer(const RenderOptions& opt) {
   // ffmpeg is told to write MP4 (-f mp4): a video named otherwise (.avi, .mkv) would be an MP4
   // under another container's name.
   if (!opt.video.empty()) {
-    std::string ext = fs::path(opt.video).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (ext != ".mp4")
+    if (lower_extension(opt.video) != ".mp4")
       throw InputError("--video " + opt.video + ": the video is written as MP4 (H.264); name it FILE.mp4");
   }
   if (!opt.video.empty() && find_on_path("ffmpeg").empty())  // before any work

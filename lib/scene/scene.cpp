@@ -25,6 +25,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "core/file_names.hpp"
 #include "core/partial_output.hpp"
 #include "core/units.hpp"
 #include "core/number_text.hpp"
@@ -334,9 +335,7 @@ class SpecReader {
     if (auto v = e.find("virtual"); v != e.end()) {
       const std::string t = text(v->second, "mesh.virtual", false);
       if (t != "boundary") {
-        std::string ext = fs::path(t).extension().string();
-        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-        if (ext != ".obj" && ext != ".stl")
+        if (const std::string ext = lower_extension(t); ext != ".obj" && ext != ".stl")
           fail("mesh.virtual", "expected 'boundary', an .obj or an .stl file, got " + yaml_shown(v->second));
         s.virtual_mesh = mesh_path(v->second, "mesh.virtual");
       }

@@ -18,6 +18,7 @@
 #include "command.hpp"
 #include "options.hpp"
 #include "core/error.hpp"
+#include "core/file_names.hpp"
 #include "core/number_text.hpp"
 #include "io/atomic.hpp"
 #include "io/json.hpp"
@@ -34,6 +35,15 @@
 #include "solver/virtual_mesh.hpp"
 
 namespace {
+
+/// A scene is written as YAML: an output named otherwise is a slip (`-o other.msh` would replace a
+/// mesh with a scene), refused before any work.
+void require_scene_name(const std::filesystem::path& out) {
+  if (ebh::has_yaml_extension(out)) return;
+  const std::string ext = out.extension().string();
+  throw ebh::InputError(out.string() + ": a scene is a YAML file; name it .yaml (the output would be YAML under a " +
+                        (ext.empty() ? std::string("name without an extension") : "'" + ext + "' name") + ")");
+}
 
 struct SceneInfoArgs {
   std::string scene;
@@ -340,7 +350,7 @@ void degrade(const SceneDegradeArgs& a) {
   char tag[32];
   std::snprintf(tag, sizeof tag, "_q%g", a.quality);
   const std::filesystem::path out(a.out_dir);
-  const bool scene_file = out.extension() == ".yaml" || out.extension() == ".yml";  // -o OUT.yaml, else a folder
+  const bool scene_file = ebh::has_yaml_extension(out);  // -o OUT.yaml, else a folder
   const std::string stem = scene_file ? out.stem().string() : scene.spec.name + tag;
   const std::filesystem::path dir = scene_file ? out.parent_path() : a.out_dir.empty() ? std::filesystem::path(".") : out;
   const std::string mesh_out = (dir / (stem + ".msh")).string();
@@ -406,6 +416,7 @@ struct SceneRefineArgs {
 /// (scene/scene_refine.hpp), as OUT.yaml with OUT.msh (and OUT.obj for an OBJ virtual mesh or a
 /// kept one) beside it.
 void refine(const SceneRefineArgs& a) {
+  require_scene_name(a.out);
   const std::filesystem::path file = ebh::resolve_scene_path(a.scene);
   const ebh::SceneSpec spec = ebh::load_scene_spec(file);
   const std::filesystem::path out(a.out);
@@ -436,10 +447,7 @@ void init(const ebh::SceneInitOptions& o) {
   if (out.empty()) throw ebh::InputError("-o: output file name is empty");
   ebh::check_input_file(mesh);
   ebh::check_outputs({{out, "the scene"}}, {{mesh, "the mesh"}});
-  // The scene is YAML: a name of another kind is a slip (`-o other.msh` replaced a mesh with it).
-  if (const std::string ext = o.out.extension().string(); ext != ".yaml" && ext != ".yml")
-    throw ebh::InputError(out + ": a scene is a YAML file; name it .yaml (the output would be YAML under a " +
-                          (ext.empty() ? std::string("name without an extension") : "'" + ext + "' name") + ")");
+  require_scene_name(o.out);
   const ebh::SceneInit made = ebh::make_scene(o);
   for (const auto& w : made.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   ebh::write_file_atomically(out, made.yaml);

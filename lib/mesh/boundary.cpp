@@ -1,44 +1,40 @@
 #include "mesh/boundary.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 
 namespace ebh {
-namespace {
 
-/// A face as a sorted vertex triple plus the index (4 t + f) of the tet face it came from.
-struct FaceKey {
-  std::array<int, 3> v;
-  int tet_face;
-  bool operator<(const FaceKey& o) const { return v < o.v || (v == o.v && tet_face < o.tet_face); }
-};
-
-/// multiplicity[4 t + f]: how many tets use face f of tet t.
-std::vector<std::uint8_t> face_multiplicity(const std::vector<Tet>& tets) {
-  std::vector<FaceKey> keys;
-  keys.reserve(tets.size() * 4);
+std::vector<TetFace> sorted_tet_faces(const std::vector<Tet>& tets) {
+  std::vector<TetFace> faces;
+  faces.reserve(tets.size() * 4);
   for (std::size_t t = 0; t < tets.size(); ++t)
     for (int f = 0; f < 4; ++f) {
       std::array<int, 3> v = {tets[t][kTetFaces[f][0]], tets[t][kTetFaces[f][1]], tets[t][kTetFaces[f][2]]};
       std::sort(v.begin(), v.end());
-      keys.push_back({v, static_cast<int>(4 * t + f)});
+      faces.push_back({static_cast<std::uint64_t>(static_cast<std::uint32_t>(v[0])) << 32 | static_cast<std::uint32_t>(v[1]),
+                       static_cast<std::uint32_t>(v[2]), static_cast<int>(4 * t + f)});
     }
-  std::sort(keys.begin(), keys.end());
-  std::vector<std::uint8_t> mult(keys.size(), 0);
-  for (std::size_t i = 0; i < keys.size();) {
+  std::sort(faces.begin(), faces.end());
+  return faces;
+}
+
+std::vector<std::uint8_t> face_multiplicity(const std::vector<TetFace>& sorted) {
+  std::vector<std::uint8_t> mult(sorted.size(), 0);
+  for (std::size_t i = 0; i < sorted.size();) {
     std::size_t j = i;
-    while (j < keys.size() && keys[j].v == keys[i].v) ++j;
+    while (j < sorted.size() && sorted[j].same_face(sorted[i])) ++j;
     const auto m = static_cast<std::uint8_t>(std::min<std::size_t>(j - i, 255));
-    for (std::size_t k = i; k < j; ++k) mult[static_cast<std::size_t>(keys[k].tet_face)] = m;
+    for (std::size_t k = i; k < j; ++k) mult[static_cast<std::size_t>(sorted[k].tet_face)] = m;
     i = j;
   }
   return mult;
 }
 
-}  // namespace
+FaceCounts count_faces(const std::vector<Tet>& tets) { return count_faces(face_multiplicity(sorted_tet_faces(tets))); }
 
-FaceCounts count_faces(const std::vector<Tet>& tets) {
-  const auto mult = face_multiplicity(tets);
+FaceCounts count_faces(const std::vector<std::uint8_t>& mult) {
   FaceCounts c;
   long long shared2 = 0, shared3 = 0;
   for (auto m : mult) {
@@ -51,8 +47,10 @@ FaceCounts count_faces(const std::vector<Tet>& tets) {
   return c;
 }
 
-SurfaceMesh extract_boundary(const TetMesh& mesh, std::vector<int>* surface_to_volume) {
-  const auto mult = face_multiplicity(mesh.tets);
+SurfaceMesh extract_boundary(const TetMesh& mesh, std::vector<int>* surface_to_volume,
+                             const std::vector<std::uint8_t>* multiplicity) {
+  const std::vector<std::uint8_t> own = multiplicity ? std::vector<std::uint8_t>{} : face_multiplicity(sorted_tet_faces(mesh.tets));
+  const std::vector<std::uint8_t>& mult = multiplicity ? *multiplicity : own;
   SurfaceMesh surface;
   std::vector<int> remap(mesh.vertices.size(), -1);
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <map>
 #include <set>
@@ -112,31 +113,33 @@ std::vector<std::pair<int, int>> find_duplicates(const std::vector<Vec3d>& p, do
 /// overlaps the other (a tet inside another, a fold of the mesh). Two tets on opposite sides of
 /// their face see it in opposite orientations (kTetFaces, flipped for a tet of negative volume);
 /// the same orientation puts them on one side. Combinatorial, so exact.
-std::vector<std::array<int, 2>> overlapping_tets(const TetMesh& mesh, const std::vector<signed char>& sign_of) {
-  struct Face {
-    std::array<int, 3> v;  // sorted
-    int tet;
-    bool odd;  // the face's orientation as seen from its tet: an odd permutation of v
-    bool operator<(const Face& o) const { return v < o.v || (v == o.v && tet < o.tet); }
-  };
-  std::vector<Face> faces;
-  faces.reserve(4 * mesh.tets.size());
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    if (sign_of[t] == 0) continue;
-    for (int f = 0; f < 4; ++f) {
-      const int a = mesh.tets[t][kTetFaces[f][0]], b = mesh.tets[t][kTetFaces[f][1]], c = mesh.tets[t][kTetFaces[f][2]];
-      const bool odd = ((a > b) + (a > c) + (b > c)) % 2 == 1;
-      std::array<int, 3> v{a, b, c};
-      std::sort(v.begin(), v.end());
-      faces.push_back({v, static_cast<int>(t), odd != (sign_of[t] < 0)});
-    }
-  }
-  std::sort(faces.begin(), faces.end());
+/// `tets` (the mesh's tets of valid indices, ids[i] the mesh's index of tets[i]) and their
+/// sorted_tet_faces; sign_of by the mesh's index.
+std::vector<std::array<int, 2>> overlapping_tets(const std::vector<Tet>& tets, const std::vector<int>& ids,
+                                                 const std::vector<TetFace>& all, const std::vector<signed char>& sign_of) {
+  // Each run of one face's tets (of non-zero volume; sorted_tet_faces orders them by tet).
   std::vector<std::array<int, 2>> out;
-  for (std::size_t i = 0; i + 1 < faces.size(); ++i)
-    if (faces[i].v == faces[i + 1].v && faces[i].odd == faces[i + 1].odd &&
-        (i + 2 >= faces.size() || faces[i + 2].v != faces[i].v))  // three or more: nonmanifold_faces says so
-      if (i == 0 || faces[i - 1].v != faces[i].v) out.push_back({faces[i].tet, faces[i + 1].tet});
+  std::array<int, 2> run_tet{}, run_odd{};
+  for (std::size_t i = 0; i < all.size();) {
+    int n = 0;
+    std::size_t j = i;
+    for (; j < all.size() && all[j].same_face(all[i]); ++j) {
+      const int i_tet = all[j].tet_face / 4, f = all[j].tet_face % 4, t = ids[i_tet];
+      if (sign_of[t] == 0) continue;
+      if (n < 2) {
+        const Tet& k = tets[i_tet];
+        const int a = k[kTetFaces[f][0]], b = k[kTetFaces[f][1]], c = k[kTetFaces[f][2]];
+        // the face's orientation as seen from its tet: an odd permutation of the sorted triple
+        const bool odd = ((a > b) + (a > c) + (b > c)) % 2 == 1;
+        run_tet[n] = t;
+        run_odd[n] = odd != (sign_of[t] < 0);
+      }
+      ++n;
+    }
+    // three or more: nonmanifold_faces says so
+    if (n == 2 && run_odd[0] == run_odd[1]) out.push_back({run_tet[0], run_tet[1]});
+    i = j;
+  }
   return out;
 }
 
@@ -182,9 +185,9 @@ struct PartOverlaps {
   std::array<int, 2> vertex{-1, -1};  ///< only a vertex strictly inside: MeshReport::parts_overlap
 };
 
-/// MeshReport's joints: the tets' pieces (joined through shared faces; `tets` valid) and the
-/// vertices that tets of two pieces share.
-void find_joints(const std::vector<Tet>& tets, int nv, MeshReport& r) {
+/// MeshReport's joints: the tets' pieces (joined through shared faces; `tets` valid, `faces` their
+/// sorted_tet_faces) and the vertices that tets of two pieces share.
+void find_joints(const std::vector<Tet>& tets, const std::vector<TetFace>& faces, int nv, MeshReport& r) {
   const int nt = static_cast<int>(tets.size());
   std::vector<int> root(static_cast<std::size_t>(nt));
   for (int t = 0; t < nt; ++t) root[t] = t;
@@ -192,18 +195,9 @@ void find_joints(const std::vector<Tet>& tets, int nv, MeshReport& r) {
     while (root[a] != a) a = root[a] = root[root[a]];
     return a;
   };
-  std::vector<std::pair<std::array<int, 3>, int>> faces;
-  faces.reserve(4 * static_cast<std::size_t>(nt));
-  for (int t = 0; t < nt; ++t)
-    for (int f = 0; f < 4; ++f) {
-      std::array<int, 3> v{tets[t][kTetFaces[f][0]], tets[t][kTetFaces[f][1]], tets[t][kTetFaces[f][2]]};
-      std::sort(v.begin(), v.end());
-      faces.emplace_back(v, t);
-    }
-  std::sort(faces.begin(), faces.end());
   for (std::size_t i = 1; i < faces.size(); ++i)
-    if (faces[i].first == faces[i - 1].first) {
-      const int a = find(faces[i].second), b = find(faces[i - 1].second);
+    if (faces[i].same_face(faces[i - 1])) {
+      const int a = find(faces[i].tet_face / 4), b = find(faces[i - 1].tet_face / 4);
       if (a != b) root[std::max(a, b)] = std::min(a, b);
     }
   std::vector<long long> size(static_cast<std::size_t>(nt), 0);
@@ -337,7 +331,9 @@ MeshReport validate_mesh(const TetMesh& mesh) {
   std::vector<char> used(static_cast<std::size_t>(nv), 0);
   std::vector<signed char> sign_of(mesh.tets.size(), 0);  // volume_sign of each tet checked (0: not)
   std::vector<Tet> valid;  // tets with valid indices, for the topology checks
+  std::vector<int> valid_ids;  // their indices in the mesh
   valid.reserve(mesh.tets.size());
+  valid_ids.reserve(mesh.tets.size());
   double quality_sum = 0.0;
   int quality_count = 0;
   r.quality_worst = 1.0;
@@ -350,6 +346,7 @@ MeshReport validate_mesh(const TetMesh& mesh) {
       continue;
     }
     valid.push_back(tet);
+    valid_ids.push_back(t);
     for (int v : tet) used[v] = 1;
     const Vec3d &a = mesh.vertices[tet[0]], &b = mesh.vertices[tet[1]], &c = mesh.vertices[tet[2]],
                 &d = mesh.vertices[tet[3]];
@@ -399,7 +396,9 @@ MeshReport validate_mesh(const TetMesh& mesh) {
                         vertex_name(r.duplicate_vertices[0].second);
   if (r.worst_tet >= 0) r.worst_tet_name = tet_name(mesh, r.worst_tet);
 
-  r.overlapping_tets = overlapping_tets(mesh, sign_of);
+  // The face checks below share one sort of the valid tets' faces.
+  const std::vector<TetFace> faces = sorted_tet_faces(valid);
+  r.overlapping_tets = overlapping_tets(valid, valid_ids, faces, sign_of);
   {
     std::vector<std::pair<Tet, int>> sorted;  // (the vertices sorted, the tet)
     sorted.reserve(mesh.tets.size());
@@ -415,18 +414,19 @@ MeshReport validate_mesh(const TetMesh& mesh) {
     std::sort(r.repeated_tets.begin(), r.repeated_tets.end());
   }
 
-  find_joints(valid, nv, r);
+  find_joints(valid, faces, nv, r);
   if (r.first_joint_vertex >= 0) r.joint_name = vertex_name(r.first_joint_vertex);
   // Faces and boundary edges.
-  const FaceCounts faces = count_faces(valid);
-  r.boundary_faces = faces.boundary;
-  r.interior_faces = faces.interior;
-  r.nonmanifold_faces = faces.nonmanifold;
+  const std::vector<std::uint8_t> multiplicity = face_multiplicity(faces);
+  const FaceCounts counts = count_faces(multiplicity);
+  r.boundary_faces = counts.boundary;
+  r.interior_faces = counts.interior;
+  r.nonmanifold_faces = counts.nonmanifold;
   TetMesh valid_mesh;
   valid_mesh.vertices = mesh.vertices;
   valid_mesh.tets = std::move(valid);
   std::vector<int> to_volume;
-  const SurfaceMesh surface = extract_boundary(valid_mesh, &to_volume);
+  const SurfaceMesh surface = extract_boundary(valid_mesh, &to_volume, &multiplicity);
   std::vector<std::array<int, 2>> edges;
   edges.reserve(surface.triangles.size() * 3);
   for (const Tri& tri : surface.triangles)

@@ -578,6 +578,16 @@ set_tests_properties(cli.replay.force_collapse PROPERTIES PASS_REGULAR_EXPRESSIO
 add_test(NAME cli.replay.force_collapse_surface COMMAND ${EBH_BIN} replay tube tube_insert
   -o ${EBH_REPLAY_OUT}/collapse_surface.h5 -q --start 2.0 --duration 0.1 --set contact=surface)
 set_tests_properties(cli.replay.force_collapse_surface PROPERTIES FAIL_REGULAR_EXPRESSION "fell from")
+# A window that starts in the middle of a press: the tissue begins at rest around the hook (a
+# tenth of the force), said before the replay with the last time the hook was clear of it; the
+# gate's window of the press starts before it and is not.
+add_test(NAME cli.replay.start_inside_a_press COMMAND ${EBH_BIN} replay cholecystectomy_hook cholecystectomy_press
+  -o ${EBH_REPLAY_OUT}/inside_press.h5 -q --start 1.5 --duration 0.01)
+set_tests_properties(cli.replay.start_inside_a_press PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "cholecystectomy_press.h5: --start 1.5: the replay starts with the tool's tip 1 mm or more inside the tissue \\(at the recording's t = 1.5 s\\), which begins at rest around it.*; start at or before --start 1.16, where the tool was clear of it")
+add_test(NAME cli.replay.start_before_a_press COMMAND ${EBH_BIN} replay cholecystectomy_hook cholecystectomy_press
+  -o ${EBH_REPLAY_OUT}/before_press.h5 -q --start 0.9 --duration 0.01)
+set_tests_properties(cli.replay.start_before_a_press PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "inside the tissue")
 # The hook held still in the tube for 18 s: its force falls by more than 20%, which the replay says
 # is the coupled meshes settling, not the tissue (docs/MODEL.md, "Held loads").
 add_test(NAME cli.replay.held_force_falls_synth

@@ -36,6 +36,30 @@ inline constexpr double kJawOpenMin = 0.6;
 /// A release followed by a closing sooner than this is a noisy jaw signal, not a hand (grasp_flicker).
 inline constexpr double kRegraspS = 0.05;
 
+/// A replay window that begins with the tool in the tissue (a --start inside a press; from the
+/// recording's first sample, start_warning says it after the replay): the replay begins from the tissue at rest around a tool already inside it, not
+/// deformed by the path that brought it there, and renders another force until the tool leaves
+/// (cholecystectomy_press from 1.5 s: 0.02-0.04 N, against 0.35-0.47 N replayed from 0).
+struct StartInTissue {
+  double t = 0;  ///< the window's first time (the recording's clock)
+  /// About when the tool was last clear of the tissue before it (the recording's clock; the whole
+  /// path's outline where only a window was read); nullopt: in it from the recording's start
+  std::optional<double> clear_t;
+};
+
+/// How deep in the tissue the tool's tip must start for window_starts_in_tissue (m): a tip that
+/// only grazes it (the hook along tube_insert's bore) renders the force of a replay through it.
+inline constexpr double kStartInTissueDepth = 1e-3;
+
+/// Whether the tool is in the tissue at the window's start, start s after the recording's first
+/// sample: its tip (the pose's origin, and with `tool` the end points of its colliders, as
+/// tip_inside_mesh) inside `mesh` (the tissue where the replay starts: settled under gravity), and
+/// so still when moved by kStartInTissueDepth along each axis; nullopt when it is not.
+std::optional<StartInTissue> window_starts_in_tissue(const Recording& rec, const TetMesh& mesh, double start,
+                                                     const ToolModel* tool = nullptr);
+/// The warning for it, naming --start (> 0) and the time to start from.
+std::string start_in_tissue_warning(const StartInTissue& s, double start);
+
 /// Resolves a recording argument: an existing file, else recordings/NAME.h5 looked up in
 /// $EBH_DATA_DIR, the working directory and the source tree. Throws InputError if missing.
 std::string resolve_recording_path(const std::string& name_or_path);

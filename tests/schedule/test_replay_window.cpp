@@ -1,6 +1,6 @@
 // Checks of a replay's inputs (schedule/replay_inputs.hpp): the one check of a replay window
 // (replay_window, what `ebh replay --start --duration` and `ebh gate`'s cases take), the tool's
-// tip inside the tissue, a jaw signal that lets go and grasps again.
+// tip inside the tissue, a window that starts in it, a jaw signal that lets go and grasps again.
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -70,6 +70,71 @@ TEST(TipInsideMesh, TheToolsCollidersReachPastItsOrigin) {
   const ToolModel hook = build_tool(ToolSpec{});  // a 6 mm tip
   EXPECT_EQ(tip_inside_mesh(rec, slab, 0, 0), std::nullopt);  // the origin alone is outside
   EXPECT_EQ(tip_inside_mesh(rec, slab, 0, 0, &hook), std::optional<double>(0.0));
+}
+
+// A window that starts with the tool in the tissue (--start inside a press): said, with the last
+// time before it at which the tool was clear of the tissue; a tip only grazing it (under
+// kStartInTissueDepth) or beside it is not.
+TEST(StartInTissue, AWindowThatStartsInsideSaysWhenTheToolWasClear) {
+  TetMesh one;  // x, y, z >= 0, x + y + z <= 1 (m)
+  one.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  one.tets = {{0, 1, 2, 3}};
+  Recording rec;
+  const double z[] = {1.5, 1.0, 0.5, 0.3, -0.5};  // down through the tet: inside at z = 0.5 and 0.3
+  for (int i = 0; i < 5; ++i) {
+    rec.t.push_back(10.0 + 0.1 * i);  // the recording's own clock
+    rec.position.push_back({0.1, 0.1, z[i]});
+    rec.orientation.push_back({1, 0, 0, 0});
+    rec.jaw.push_back(1);
+    rec.buttons.push_back(0);
+  }
+  const auto in = window_starts_in_tissue(rec, one, 0.25);  // z = 0.4 at 10.25 s
+  ASSERT_TRUE(in.has_value());
+  EXPECT_DOUBLE_EQ(in->t, 10.25);
+  EXPECT_EQ(in->clear_t, std::optional<double>(10.1));  // z = 1.0: 0.1 + 0.1 + 1.0 > 1
+  const std::string w = start_in_tissue_warning(*in, 0.25);
+  EXPECT_NE(w.find("--start 0.25: the replay starts with the tool's tip 1 mm or more inside the tissue (at the "
+                   "recording's t = 10.25 s)"), std::string::npos) << w;
+  EXPECT_NE(w.find("; start at or before --start 0.1, where the tool was clear of it"), std::string::npos) << w;
+  EXPECT_EQ(window_starts_in_tissue(rec, one, 0.05), std::nullopt);  // z = 1.25: above it
+  rec.position[0].z = rec.position[1].z = 0.6;  // inside from the recording's first sample
+  const auto from_first = window_starts_in_tissue(rec, one, 0.25);
+  ASSERT_TRUE(from_first.has_value());
+  EXPECT_EQ(from_first->clear_t, std::nullopt);
+  for (Vec3d& p : rec.position) p.z = 0.7999;  // 0.1 mm under the slanted face: grazing it
+  EXPECT_EQ(window_starts_in_tissue(rec, one, 0.25), std::nullopt);
+  for (Vec3d& p : rec.position) p.x = 2;  // beside the tet
+  EXPECT_EQ(window_starts_in_tissue(rec, one, 0.25), std::nullopt);
+}
+
+// Read as a window (the samples from the file's row 3, and the whole path's outline), the time the
+// tool was clear of the tissue comes from the outline's rows, timed at the window's rate.
+TEST(StartInTissue, ReadAsAWindowTheOutlineSaysWhenTheToolWasClear) {
+  TetMesh one;
+  one.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  one.tets = {{0, 1, 2, 3}};
+  const double z[] = {1.5, 1.0, 0.5, 0.4, 0.3};  // rows 0-4, 0.1 s apart from 10 s; clear at rows 0 and 1
+  Recording rec;
+  Recording::FileSpan span;
+  span.t_first = 10.0;
+  span.t_last = 10.4;
+  span.first_row = 3;
+  for (int i = 0; i < 5; ++i) {
+    span.outline.push_back({0.1, 0.1, z[i]});
+    span.outline_orientation.push_back({1, 0, 0, 0});
+    if (i < 3) continue;
+    rec.t.push_back(10.0 + 0.1 * i);
+    rec.position.push_back({0.1, 0.1, z[i]});
+    rec.orientation.push_back({1, 0, 0, 0});
+    rec.jaw.push_back(1);
+    rec.buttons.push_back(0);
+  }
+  rec.span = span;
+  const auto in = window_starts_in_tissue(rec, one, 0.35);
+  ASSERT_TRUE(in.has_value());
+  EXPECT_DOUBLE_EQ(in->t, 10.35);
+  ASSERT_TRUE(in->clear_t.has_value());
+  EXPECT_NEAR(*in->clear_t, 10.1, 1e-12);  // row 1: 10.3 s less 2 rows at 10 Hz
 }
 
 // A noisy gripper: the jaw wanders across the grasp threshold while the forceps hold tissue, and

@@ -132,6 +132,15 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   if (a.duration && *a.duration > duration)
     std::fprintf(stderr, "ebh: warning: %s: the recording ends %s s after --start; replaying those, not --duration's %s s\n",
                  p.in.recording_path.c_str(), format_number(duration).c_str(), format_number(*a.duration).c_str());
+  // A window that starts with the tool in the tissue, said before the replay (which can be stopped
+  // and started earlier), against the tissue where the replay starts (settled under gravity). From
+  // the recording's first sample start_warning says it after the replay, as a misplaced log.
+  if (a.start > 0) {
+    TetMesh start_mesh = world.scene.physical;
+    if (world.initial_physical.x.size() == start_mesh.vertices.size()) start_mesh.vertices = world.initial_physical.x;
+    if (const auto in_tissue = window_starts_in_tissue(p.in.recording, start_mesh, a.start, &world.tool))
+      p.in.warnings.push_back(p.in.recording_path + ": " + start_in_tissue_warning(*in_tissue, a.start));
+  }
   ReplayOptions& opt = p.opt;
   opt.mode = mode;
   opt.start = a.start;
@@ -437,7 +446,8 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  "ebh: warning: %s: the realtime replay fell behind the clock (%.2fx real time: %.3f s of virtual "
                  "time took %.3f s): its ticks missed their %g ms (`ebh metrics`, haptic ticks over budget)\n",
                  a.out.c_str(), s.virtual_s / s.wall_s, s.virtual_s, s.wall_s, world.h_haptic * 1e3);
-  // From the recording's first sample only: a window may well start in contact.
+  // From the recording's first sample only: a window that starts in the tissue is said before the
+  // replay (window_starts_in_tissue).
   const std::string start =
       a.start == 0 ? start_warning(writer.first_penetration_physical(), writer.grasped().empty() ? 0 : writer.grasped().front())
                    : "";

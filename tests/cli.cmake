@@ -584,7 +584,7 @@ set_tests_properties(cli.replay.force_collapse_surface PROPERTIES FAIL_REGULAR_E
 add_test(NAME cli.replay.start_inside_a_press COMMAND ${EBH_BIN} replay cholecystectomy_hook cholecystectomy_press
   -o ${EBH_REPLAY_OUT}/inside_press.h5 -q --start 1.5 --duration 0.01)
 set_tests_properties(cli.replay.start_inside_a_press PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
-  "cholecystectomy_press.h5: --start 1.5: the replay starts with the tool's tip 1 mm or more inside the tissue \\(at the recording's t = 1.5 s\\), which begins at rest around it.*; start at or before --start 1.16, where the tool was clear of it")
+  "cholecystectomy_press.h5: --start 1.5: the replay starts with the tool's tip 1 mm or more inside the tissue \\(at the recording's t = 1.5 s\\), which begins at rest around it.*; start at or before 1.16 s into the recording, where the tool was clear of it")
 add_test(NAME cli.replay.start_before_a_press COMMAND ${EBH_BIN} replay cholecystectomy_hook cholecystectomy_press
   -o ${EBH_REPLAY_OUT}/before_press.h5 -q --start 0.9 --duration 0.01)
 set_tests_properties(cli.replay.start_before_a_press PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "inside the tissue")
@@ -1359,6 +1359,14 @@ add_test(NAME cli.gate.verdict_under_set
   COMMAND ${EBH_BIN} gate --baselines ${S}/gate_rel/sub/own.yaml --set stiffness.k_con=301)
 set_tests_properties(cli.gate.verdict_under_set PROPERTIES PASS_REGULAR_EXPRESSION
   "gate: (passed|FAILED) \\(under --set stiffness.k_con=301: not the baselines' scenes\\)\n" FIXTURES_REQUIRED safety LABELS cli)
+# A case whose window starts in the middle of a press measures the tissue at rest around the hook:
+# said under the case, naming when to start instead.
+file(WRITE ${EBH_SAFE}/gate_in_press.yaml
+  "cases:\n  - {name: mid_press, scene: cholecystectomy_hook, recording: cholecystectomy_press, start: 1.5, duration: 0.05, peak_force: 0.04}\n")
+add_test(NAME cli.gate.window_starts_in_a_press COMMAND ${EBH_BIN} gate --baselines ${S}/gate_in_press.yaml)
+set_tests_properties(cli.gate.window_starts_in_a_press PROPERTIES PASS_REGULAR_EXPRESSION
+  "warning: mid_press: .*cholecystectomy_press.h5: start 1.5: the replay starts with the tool's tip 1 mm or more inside the tissue .*start at or before 1.16 s into the recording"
+  FIXTURES_REQUIRED safety LABELS cli)
 file(WRITE ${EBH_SAFE}/gate_rel/sub/old.yaml
   "generated_by: ebh gate --update (ebh 0.0.1)\ncases:\n  - {name: own, scene: tube, recording: ../rec.h5, start: 4, duration: 0.3, peak_force: 0.092}\n")
 add_test(NAME cli.gate.baselines_of_another_version COMMAND ${EBH_BIN} gate --baselines ${S}/gate_rel/sub/old.yaml)

@@ -304,6 +304,8 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   GateResult r;
   r.measured = c;
   r.warnings = in.warnings;
+  // A case whose window starts in a press measures the tissue at rest around the tool, not the press.
+  if (std::string w = window_start_warning(in, c.start, "start"); !w.empty()) r.warnings.push_back(std::move(w));
   if (dur < c.duration)
     r.warnings.push_back(in.recording_path + ": the recording ends " + shown_number(dur) + " s after the start; " +
                          "measuring those, not the duration's " + shown_number(c.duration) + " s");

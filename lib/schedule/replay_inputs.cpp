@@ -112,15 +112,25 @@ std::optional<StartInTissue> window_starts_in_tissue(const Recording& rec, const
   return s;
 }
 
-std::string start_in_tissue_warning(const StartInTissue& s, double start) {
-  const double first = s.t - start;  // the recording's first time: --start counts from it
-  std::string w = "--start " + shown_number(start) + ": the replay starts with the tool's tip " + shown_number(kStartInTissueDepth * 1e3) +
+std::string start_in_tissue_warning(const StartInTissue& s, double start, const std::string& option) {
+  const double first = s.t - start;  // the recording's first time: the start counts from it
+  std::string w = option + " " + shown_number(start) + ": the replay starts with the tool's tip " + shown_number(kStartInTissueDepth * 1e3) +
                   " mm or more inside the tissue (at the recording's t = " + fixed_text(s.t, 3) +
                   " s), which begins at rest around it, not deformed by the path that brought the tool there: until the "
                   "tool leaves it the force is not a replay's through that path (cholecystectomy_press from 1.5 s renders "
                   "0.02-0.04 N against 0.35-0.47 N)";
-  if (s.clear_t) w += "; start at or before --start " + fixed_text(*s.clear_t - first, 3) + ", where the tool was clear of it";
+  if (s.clear_t)
+    w += "; start at or before " + fixed_text(*s.clear_t - first, 3) + " s into the recording, where the tool was clear of it";
   return w;
+}
+
+std::string window_start_warning(const LoadedReplay& in, double start, const std::string& option) {
+  if (!(start > 0)) return "";
+  const World& world = *in.world;
+  TetMesh settled = world.scene.physical;
+  if (world.initial_physical.x.size() == settled.vertices.size()) settled.vertices = world.initial_physical.x;
+  const auto s = window_starts_in_tissue(in.recording, settled, start, &world.tool);
+  return s ? in.recording_path + ": " + start_in_tissue_warning(*s, start, option) : "";
 }
 
 std::string resolve_recording_path(const std::string& name_or_path) {

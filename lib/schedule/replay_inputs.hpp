@@ -37,9 +37,10 @@ inline constexpr double kJawOpenMin = 0.6;
 inline constexpr double kRegraspS = 0.05;
 
 /// A replay window that begins with the tool in the tissue (a --start inside a press; from the
-/// recording's first sample, start_warning says it after the replay): the replay begins from the tissue at rest around a tool already inside it, not
-/// deformed by the path that brought it there, and renders another force until the tool leaves
-/// (cholecystectomy_press from 1.5 s: 0.02-0.04 N, against 0.35-0.47 N replayed from 0).
+/// recording's first sample, start_warning says it after the replay): the replay begins from the
+/// tissue at rest around a tool already inside it, not deformed by the path that brought it there,
+/// and renders another force until the tool leaves (cholecystectomy_press from 1.5 s: 0.02-0.04 N,
+/// against 0.35-0.47 N replayed from 0).
 struct StartInTissue {
   double t = 0;  ///< the window's first time (the recording's clock)
   /// About when the tool was last clear of the tissue before it (the recording's clock; the whole
@@ -57,8 +58,9 @@ inline constexpr double kStartInTissueDepth = 1e-3;
 /// so still when moved by kStartInTissueDepth along each axis; nullopt when it is not.
 std::optional<StartInTissue> window_starts_in_tissue(const Recording& rec, const TetMesh& mesh, double start,
                                                      const ToolModel* tool = nullptr);
-/// The warning for it, naming --start (> 0) and the time to start from.
-std::string start_in_tissue_warning(const StartInTissue& s, double start);
+/// The warning for it, naming the start (> 0) as `option` gave it ("--start", a gate case's
+/// "start") and the time to start from (window_start_warning).
+std::string start_in_tissue_warning(const StartInTissue& s, double start, const std::string& option);
 
 /// Resolves a recording argument: an existing file, else recordings/NAME.h5 looked up in
 /// $EBH_DATA_DIR, the working directory and the source tree. Throws InputError if missing.
@@ -110,5 +112,12 @@ LoadedReplay load_replay_inputs(const std::string& scene, const std::string& rec
                                 std::optional<double> physical_hz, bool allow_outside,
                                 Backend backend = Backend::Cpu, const ReplayTransformOptions& transforms = {},
                                 std::optional<RecordingWindow> window = std::nullopt);
+
+/// "REC: --start S: the replay starts with the tool's tip ... inside the tissue ..." (`option`
+/// naming the start) for a window of `in` that starts start (> 0) s into its recording with the
+/// tool in the tissue where the replay starts (its world's physical mesh, settled under gravity);
+/// "" otherwise (and for start 0, which start_warning covers after the replay). `ebh replay` and
+/// `ebh gate` say it.
+std::string window_start_warning(const LoadedReplay& in, double start, const std::string& option);
 
 }  // namespace ebh

@@ -92,10 +92,10 @@ TEST(StartInTissue, AWindowThatStartsInsideSaysWhenTheToolWasClear) {
   ASSERT_TRUE(in.has_value());
   EXPECT_DOUBLE_EQ(in->t, 10.25);
   EXPECT_EQ(in->clear_t, std::optional<double>(10.1));  // z = 1.0: 0.1 + 0.1 + 1.0 > 1
-  const std::string w = start_in_tissue_warning(*in, 0.25);
+  const std::string w = start_in_tissue_warning(*in, 0.25, "--start");
   EXPECT_NE(w.find("--start 0.25: the replay starts with the tool's tip 1 mm or more inside the tissue (at the "
                    "recording's t = 10.25 s)"), std::string::npos) << w;
-  EXPECT_NE(w.find("; start at or before --start 0.1, where the tool was clear of it"), std::string::npos) << w;
+  EXPECT_NE(w.find("; start at or before 0.1 s into the recording, where the tool was clear of it"), std::string::npos) << w;
   EXPECT_EQ(window_starts_in_tissue(rec, one, 0.05), std::nullopt);  // z = 1.25: above it
   rec.position[0].z = rec.position[1].z = 0.6;  // inside from the recording's first sample
   const auto from_first = window_starts_in_tissue(rec, one, 0.25);

@@ -135,12 +135,7 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   // A window that starts with the tool in the tissue, said before the replay (which can be stopped
   // and started earlier), against the tissue where the replay starts (settled under gravity). From
   // the recording's first sample start_warning says it after the replay, as a misplaced log.
-  if (a.start > 0) {
-    TetMesh start_mesh = world.scene.physical;
-    if (world.initial_physical.x.size() == start_mesh.vertices.size()) start_mesh.vertices = world.initial_physical.x;
-    if (const auto in_tissue = window_starts_in_tissue(p.in.recording, start_mesh, a.start, &world.tool))
-      p.in.warnings.push_back(p.in.recording_path + ": " + start_in_tissue_warning(*in_tissue, a.start));
-  }
+  if (std::string w = window_start_warning(p.in, a.start, "--start"); !w.empty()) p.in.warnings.push_back(std::move(w));
   ReplayOptions& opt = p.opt;
   opt.mode = mode;
   opt.start = a.start;

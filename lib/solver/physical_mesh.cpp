@@ -219,12 +219,13 @@ void choose_diagonal(PhysicalModel& M, const Eigen::SparseMatrix<double>& A, Sol
   const int nf = M.num_free;
   std::vector<double> plain(nf), D(nf);
   for (int i = 0; i < nf; ++i) plain[i] = M.diag[M.free_vertices[i]];
-  M.spectrum = estimate_spectrum(A, plain);
+  Eigen::MatrixXd basis;  // the Lanczos vectors, one allocation for every estimate below
+  M.spectrum = estimate_spectrum(A, plain, 40, &basis);
   if (kind == SolverSpec::Diagonal::Bounded && M.spectrum.lambda_max * kSpectrumMargin > kLambdaLimit) {
     const std::vector<double> l1 = l1_row_sums(A);
     auto bounded = [&](double theta) {
       for (int i = 0; i < nf; ++i) D[i] = std::max(plain[i], theta * l1[i]);
-      return estimate_spectrum(A, D);
+      return estimate_spectrum(A, D, 40, &basis);
     };
     double lo = 0, hi = 0.5;  // lo fails, hi holds
     SpectrumEstimate at_hi = bounded(hi);

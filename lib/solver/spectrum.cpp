@@ -14,7 +14,8 @@ double SpectrumEstimate::jacobi_rate(double gamma) const {
   return std::max(std::abs(1 - gamma * lambda_max), std::abs(1 - gamma * lambda_min));
 }
 
-SpectrumEstimate estimate_spectrum(const Eigen::SparseMatrix<double>& A, const std::vector<double>& D, int steps) {
+SpectrumEstimate estimate_spectrum(const Eigen::SparseMatrix<double>& A, const std::vector<double>& D, int steps,
+                                   Eigen::MatrixXd* basis) {
   const Eigen::Index n = A.rows();
   if (A.cols() != n || Eigen::Index(D.size()) != n) throw std::invalid_argument("estimate_spectrum: sizes differ");
   SpectrumEstimate est;
@@ -24,7 +25,9 @@ SpectrumEstimate estimate_spectrum(const Eigen::SparseMatrix<double>& A, const s
   const int k_max = static_cast<int>(std::min<Eigen::Index>(steps, n));
 
   // Start: a fixed pseudo-random vector, so every mode is present.
-  Eigen::MatrixXd V(n, k_max + 1);
+  Eigen::MatrixXd own;
+  Eigen::MatrixXd& V = basis ? *basis : own;
+  V.resize(n, k_max + 1);  // every column is written before it is read
   SplitMix64 rng{0x243f6a8885a308d3ull};
   for (Eigen::Index i = 0; i < n; ++i) V(i, 0) = rng.uniform() - 0.5;
   V.col(0).normalize();

@@ -1531,6 +1531,16 @@ if(EBH_BASH)
   add_test(NAME cli.sweep.lock COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/lock.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/lock)
   set_tests_properties(cli.sweep.lock PROPERTIES LABELS "cli;sweep" TIMEOUT 300 PASS_REGULAR_EXPRESSION "lock: ok")
 endif()
+# The runs' replays print into their logs; the sweep says each kind of warning once, counted.
+file(WRITE ${EBH_SWEEP_OUT}/warned_plan.yaml
+  "scenes:\n  - {scene: cholecystectomy_hook, recordings: [cholecystectomy_press], reference: {solver.virtual_iterations: 8}}\ngrid:\n  solver.virtual_iterations: [8, 2]\nstart: 1.5\nduration: 0.02\n")
+add_test(NAME cli.sweep.warnings_fresh_folder COMMAND ${CMAKE_COMMAND} -E rm -rf ${EBH_SWEEP_OUT}/warned)
+set_tests_properties(cli.sweep.warnings_fresh_folder PROPERTIES LABELS "cli;sweep" FIXTURES_SETUP sweep_warned)
+add_test(NAME cli.sweep.warnings_of_the_runs
+  COMMAND ${EBH_BIN} sweep ${EBH_SWEEP_OUT}/warned_plan.yaml -o ${EBH_SWEEP_OUT}/warned --jobs 2)
+set_tests_properties(cli.sweep.warnings_of_the_runs PROPERTIES LABELS "cli;sweep" FIXTURES_REQUIRED sweep_warned
+  PASS_REGULAR_EXPRESSION
+  "ebh: warning: the runs' replays warned 2 times \\(the first in [^\n]*/warned/runs/[0-9a-f]+\\.log\\): [^\n]*cholecystectomy_press\\.h5: --start 1\\.5: the replay starts with the tool's tip")
 add_test(NAME cli.sweep.report
   COMMAND ${EBH_BIN} sweep report ${CMAKE_CURRENT_SOURCE_DIR}/data/sweep/front --plot ${EBH_SWEEP_OUT}/front.png)
 set_tests_properties(cli.sweep.report PROPERTIES LABELS "cli;sweep" PASS_REGULAR_EXPRESSION

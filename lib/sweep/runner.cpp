@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <algorithm>
+#include <cctype>
 #include <fstream>
 #include <sstream>
 
@@ -236,6 +237,33 @@ CommandResult run_command(const std::vector<std::string>& argv) {
   const int status = wait_for(pid);
   r.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   return r;
+}
+
+void add_warning_kinds(const std::string& text, const std::vector<std::string>& outputs, const fs::path& log,
+                       std::vector<WarningKind>& kinds) {
+  static const std::string prefix = "ebh: warning: ";
+  std::size_t at = 0;
+  while (at < text.size()) {
+    std::size_t end = text.find('\n', at);
+    if (end == std::string::npos) end = text.size();
+    const std::string line = text.substr(at, end - at);
+    at = end + 1;
+    if (line.rfind(prefix, 0) != 0) continue;
+    const std::string said = line.substr(prefix.size());
+    std::string key = said;
+    for (const std::string& o : outputs)
+      if (!o.empty())
+        for (std::size_t p = key.find(o); p != std::string::npos; p = key.find(o, p + 3)) key.replace(p, o.size(), "RUN");
+    std::string kind;  // each run of digits (and decimal points between them) as one '#'
+    for (const char ch : key) {
+      const bool number = std::isdigit(static_cast<unsigned char>(ch)) != 0 || (ch == '.' && !kind.empty() && kind.back() == '#');
+      if (!number) kind += ch;
+      else if (kind.empty() || kind.back() != '#') kind += '#';
+    }
+    auto same = std::find_if(kinds.begin(), kinds.end(), [&](const WarningKind& k) { return k.kind == kind; });
+    if (same == kinds.end()) kinds.push_back({kind, said, log, 1});
+    else ++same->count;
+  }
 }
 
 fs::path run_output(const fs::path& dir, const SweepRun& run) { return dir / "runs" / (run.id + ".h5"); }
@@ -485,6 +513,12 @@ RunnerReport execute_runs(const SweepPlan& plan, const std::vector<SweepRun>& ru
         // After an interrupt no file is written (io/atomic.hpp); the log is only what it printed.
         if (!c.text.empty() && !interrupted()) write_file_atomically(run_log(dir, run).string(), c.text);
         else if (c.text.empty()) remove_file(run_log(dir, run));
+        // Once per child: a batch child's text holds each of its replays' lines once.
+        if (k == 0) {
+          std::vector<std::string> outputs;
+          for (const SweepRun* r : c.runs) outputs.push_back(run_output(dir, *r).string());
+          add_warning_kinds(c.text, outputs, run_log(dir, run), report.warnings);
+        }
       } else if (interrupted()) {
         o.status = RunOutcome::Status::Interrupted;  // stopped by the interrupt: not run, not failed
         ++report.interrupted;

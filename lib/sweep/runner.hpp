@@ -148,12 +148,29 @@ struct RunnerProgress {
 };
 using RunnerCallback = std::function<void(const RunnerProgress&, const RunOutcome* finished)>;
 
+/// Warnings of the runs that ran, the same but for their numbers and the run's output (the first
+/// line of the kind as the replay printed it, and its log): a sweep's replays print into their
+/// logs (DIR/runs/ID.log), which a sweep of a hundred runs leaves unread.
+struct WarningKind {
+  std::string kind;           ///< the line without "ebh: warning: ", the runs' outputs and its numbers
+  std::string example;        ///< the first such line, without "ebh: warning: "
+  std::filesystem::path log;  ///< the log it is in
+  std::size_t count = 0;      ///< such lines over the runs that ran
+};
+
+/// The kinds of the warning lines ("ebh: warning: ...") in `text`, a child's output (`outputs`:
+/// its runs' output paths), added to `kinds` (in the order first seen): a line's kind is its text
+/// with those paths and every number left out.
+void add_warning_kinds(const std::string& text, const std::vector<std::string>& outputs, const std::filesystem::path& log,
+                       std::vector<WarningKind>& kinds);
+
 struct RunnerReport {
   std::size_t ran = 0, skipped = 0, failed = 0, interrupted = 0;  ///< run counts
   std::size_t stale = 0;                ///< outputs made from other input files, run again (RunState::Stale)
   std::size_t unreadable = 0;           ///< outputs that do not open, run again (RunState::Unreadable)
   bool stopped = false;                 ///< an interrupt stopped the sweep
   std::vector<RunOutcome> failures;     ///< in the order they ended
+  std::vector<WarningKind> warnings;    ///< of the runs that ran (add_warning_kinds)
 };
 
 /// Runs every run of `runs` that has no output in `dir`, or a stale one (`ebh replay` with the plan's mode, window

@@ -538,6 +538,28 @@ duration: 0.1
 /// tests/sweep/fake_replay.sh, that fails its file's second line): every run gets its own outcome,
 /// the failed one its FILE:LINE error, the batch file holds each run's own arguments and is gone
 /// once the child ends; CPU runs still go one per child; a second sweep runs only the failed run.
+// The runs' warnings, which their logs hold, said once a kind: the same line but for its numbers
+// and the run's output is one kind, counted; the runs' other lines are not warnings.
+TEST(SweepRunner, WarningsOfTheRunsAreCountedByKind) {
+  std::vector<WarningKind> kinds;
+  add_warning_kinds("d/runs/a.h5: tube + tube_insert.h5\n"
+                    "ebh: warning: d/runs/a.h5: up to 26 of the physical mesh's 43958 tets were inverted at t = 1.140 s\n"
+                    "ebh: warning: rec.h5: --start 1.5: the replay starts with the tool's tip inside\n",
+                    {"d/runs/a.h5"}, "d/runs/a.log", kinds);
+  add_warning_kinds("ebh: warning: d/runs/b.h5: up to 3 of the physical mesh's 43958 tets were inverted at t = 2.5 s\n"
+                    "ebh: warning: rec.h5: --start 1.5: the replay starts with the tool's tip inside\n"
+                    "ebh: warning: d/runs/b.h5: the tool never touched the tissue\n",
+                    {"d/runs/b.h5"}, "d/runs/b.log", kinds);
+  ASSERT_EQ(kinds.size(), 3u);
+  EXPECT_EQ(kinds[0].count, 2u);
+  EXPECT_EQ(kinds[0].example, "d/runs/a.h5: up to 26 of the physical mesh's 43958 tets were inverted at t = 1.140 s");
+  EXPECT_EQ(kinds[0].log, "d/runs/a.log");
+  EXPECT_EQ(kinds[0].kind, "RUN: up to # of the physical mesh's # tets were inverted at t = # s");
+  EXPECT_EQ(kinds[1].count, 2u);
+  EXPECT_EQ(kinds[2].count, 1u);
+  EXPECT_EQ(kinds[2].log, "d/runs/b.log");
+}
+
 TEST(SweepRunner, CudaRunsGoToBatchChildren) {
   const fs::path dir = scratch() / "batched";
   fs::remove_all(dir);

@@ -438,6 +438,16 @@ void run_sweep(const SweepArgs& a) {
                  dir.c_str(), rep.ran + rep.skipped, runs.size() - rep.ran - rep.skipped - rep.failed, rep.interrupted);
     throw ExitRequest{1};
   }
+  // What the runs' replays warned of, which their logs hold: each kind once, with how often.
+  constexpr std::size_t kShownKinds = 8;
+  for (std::size_t i = 0; i < rep.warnings.size() && i < kShownKinds; ++i) {
+    const WarningKind& w = rep.warnings[i];
+    std::fprintf(stderr, "ebh: warning: the runs' replays warned %zu time%s (the first in %s): %s\n", w.count,
+                 w.count == 1 ? "" : "s", w.log.c_str(), escape_unprintable(w.example).c_str());
+  }
+  if (rep.warnings.size() > kShownKinds)
+    std::fprintf(stderr, "ebh: warning: and %zu other kinds of warning, in %s\n", rep.warnings.size() - kShownKinds,
+                 (dir / "runs").c_str());
   SweepSummary summary;
   if (!a.task) summary = write_summary(plan, all, dir);
   const std::size_t failed_rows = summary.failed;

@@ -197,7 +197,7 @@ SizeBenchWindow check_size_bench(const SizeBenchOptions& o) {
   const SizeBenchWindow window{
       rec.path, replay_window(o.start, o.seconds, rec.recording.duration(), rec.path, "--start", "--seconds")};
   const SceneSpec spec = load_scene_spec(scene_file, o.overrides);  // a bad override too
-  TetMesh mesh = read_msh(spec.physical_mesh);
+  TetMesh mesh = read_tet_mesh(spec.physical_mesh);
   remove_unreferenced_vertices(mesh);
   const RefinedCounts c = refined_counts(mesh, o.last_level);
   if (!refined_within(c, max_tets))

@@ -1,5 +1,5 @@
 #pragma once
-// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1) for the physical mesh, Wavefront OBJ or STL for
+// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1) or VTK legacy for the physical mesh, Wavefront OBJ or STL for
 // a virtual-mesh surface. Positions stay in file units; the scene scales them (docs/FORMATS.md, "Length units and the mesh transform").
 //
 // Both readers hold the file in memory and parse it in one pass without regular expressions.
@@ -33,6 +33,20 @@ namespace ebh {
 /// references to unknown nodes, duplicate node ids, volume elements other than 4-node tets, and a
 /// file with no tetrahedra.
 TetMesh read_msh(const std::filesystem::path& file);
+
+/// Reads a VTK legacy file (`# vtk DataFile Version 2.0` .. 5.1, ASCII or BINARY) holding a
+/// DATASET UNSTRUCTURED_GRID: its POINTS and its cells of type 10 (4-node tets), as written by
+/// VTK, ParaView, 3D Slicer, TetGen (-k) or meshio. Cells of a lower dimension are skipped; any
+/// other volume cell (hexahedra, wedges, 10-node tets, ...) is refused naming each kind's count.
+/// Point data and cell data are not read: the mesh has no groups (pins take regions); a leading
+/// FIELD block and METADATA after an array are skipped. Vertices keep the file's point order
+/// (file_node_ids 0..n-1). Throws InputError "FILE:LINE: what" for another dataset, a count the
+/// rest of the file cannot hold, non-finite coordinates, point indices out of range, cells whose
+/// point counts disagree with their type or with the list's size, and a file with no tets.
+TetMesh read_vtk(const std::filesystem::path& file);
+
+/// The physical mesh of `file`: read_vtk for a .vtk file (in any case), read_msh otherwise.
+TetMesh read_tet_mesh(const std::filesystem::path& file);
 
 /// The Gmsh ASCII 2.2 text of `mesh` with positions multiplied by `scale` (metres -> file units),
 /// its triangles and tets with their physical group tags and $PhysicalNames: read_msh reads it

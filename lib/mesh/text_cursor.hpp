@@ -4,6 +4,7 @@
 // range-checked, tokens never run past the end of the buffer, and every error is an InputError
 // with one line "FILE:LINE: what". '\r' counts as white space, so CRLF files read like LF ones; a
 // UTF-8 byte-order mark at the start (what some Windows tools write) is skipped.
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -30,6 +31,10 @@ class TextCursor {
 
   /// 1-based number of the line the cursor is on.
   long long line() const { return line_; }
+  /// The cursor's byte offset in the text, and a jump to another (over a binary block, whose line
+  /// ends are not counted: lines after it are numbered as if it were one line).
+  std::size_t position() const { return pos_; }
+  void jump_to(std::size_t pos) { pos_ = std::min(pos, text_.size()); }
   /// Bytes left after the cursor: an upper bound on how many records the rest can hold.
   std::size_t remaining() const { return text_.size() - pos_; }
   bool at_end() const { return pos_ >= text_.size(); }

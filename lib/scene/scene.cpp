@@ -576,7 +576,7 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
     if (std::find(known.begin(), known.end(), r.group) == known.end())
       throw InputError(value_source(scene.spec, key) + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
                        scene.spec.physical_mesh.string() + ": " + known_groups_text(scene.physical) + ")" +
-                       lower_dimension_group_note(scene.physical, r.group));
+                       lower_dimension_group_note(scene.physical, r.group) + vtk_groups_note(scene.spec.physical_mesh));
   }
   // A region the file gives can miss a mesh that an override moved or replaced: say which.
   std::string moved;
@@ -743,6 +743,9 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
   // Another kind of file given where a scene goes (the mesh, the recording) is named as such.
   if (text.starts_with("\x89HDF\r\n\x1a\n"))
     throw InputError(file.string() + ": an HDF5 file (a recording or a replay output?), not a scene file (YAML)");
+  if (text.starts_with("# vtk DataFile"))
+    throw InputError(file.string() + ": a VTK mesh, not a scene file (YAML): `ebh scene init " + file.string() +
+                     " -o scene.yaml` writes a scene for it");
   // The text goes into every replay output (its scene_yaml attribute, UTF-8): bytes of another
   // encoding (Latin-1 from an old editor) are named here, not carried into the outputs.
   if (const std::size_t bad = first_invalid_utf8(text); bad != std::string::npos) {
@@ -839,6 +842,11 @@ std::vector<std::string> known_group_names(const TetMesh& mesh) {
   std::vector<std::string> out(names.begin(), names.end());
   for (int tag : unnamed_group_tags(mesh)) out.push_back(std::to_string(tag));
   return out;
+}
+
+std::string vtk_groups_note(const std::filesystem::path& mesh_file) {
+  return lower_extension(mesh_file) == ".vtk" ? ": a VTK file's cell data is not read as groups; pin a box or a half-space"
+                                              : "";
 }
 
 std::string known_groups_text(const TetMesh& mesh) {
@@ -1161,7 +1169,7 @@ Scene build_scene(SceneSpec spec_in) {
 
   // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and
   // place it in the world (mesh.unit, mesh.transform).
-  TetMesh mesh = read_msh(spec.physical_mesh);
+  TetMesh mesh = read_tet_mesh(spec.physical_mesh);
   const std::vector<std::string> pins_removed = groups_removed_with_unused_vertices(mesh, spec);
   if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
     scene.warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");

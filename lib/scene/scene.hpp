@@ -11,7 +11,7 @@
 //   description: "..."
 //   unit: mm                        # m | cm | mm: pinned regions and camera (world coordinates)
 //   mesh:
-//     physical: tube.msh            # Gmsh .msh 2.2/4.1 ASCII, relative to the scene file
+//     physical: tube.msh            # Gmsh .msh 2.2/4.1 ASCII or VTK legacy .vtk (tets), relative to the scene file
 //     virtual: boundary             # 'boundary' (the physical mesh's surface), an .obj or an .stl path
 //     virtual_refine: 1             # 0 or 1: split each virtual triangle into 4 (paper: denser virtual mesh)
 //     min_part_tets: 0              # drop the parts (tets joined by vertices) of fewer tets at load:
@@ -500,6 +500,9 @@ std::string group_without_elements_note(const TetMesh& mesh);
 /// in the mesh file, ..." when the file names it at dimension 0 or 1 (pins take groups of tets or
 /// triangles), else "".
 std::string lower_dimension_group_note(const TetMesh& mesh, const std::string& group);
+/// For a pin by group on a mesh read from `mesh_file`: ": a VTK file's cell data is not read as
+/// groups; pin a box or a half-space" for a .vtk file (read_vtk), else "".
+std::string vtk_groups_note(const std::filesystem::path& mesh_file);
 
 /// The axis-aligned bounding box of points (lo = hi = 0 for none).
 struct BoundingBox {

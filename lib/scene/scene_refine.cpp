@@ -87,7 +87,7 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
   // unit and coordinates, cleaned as build_scene cleans them, and refined there.
   const Scene loaded = load_scene(scene);
   const SceneSpec& spec = loaded.spec;
-  TetMesh mesh = read_msh(spec.physical_mesh);
+  TetMesh mesh = read_tet_mesh(spec.physical_mesh);
   remove_unreferenced_vertices(mesh);
   orient_tets(mesh);
 

@@ -5,9 +5,11 @@ cube22.msh and cube41.msh hold the same mesh (a 10 x 10 x 10 cube cut into 5 pos
 tets, 2 + 2 triangles on its bottom (z = 0) and top (z = 10) faces) in MSH 2.2 and 4.1 ASCII, with
 sparse, unordered node ids and elements of skipped types (a point, a line, a quad, a 2nd-order
 triangle). cube.obj is the cube's surface as quads in every face-corner form, with negative indices;
-cube_ascii.stl and cube_binary.stl its triangles as STL.
+cube_ascii.stl and cube_binary.stl its triangles as STL; cube_ascii.vtk, cube_binary.vtk and
+cube51.vtk its tets as VTK legacy files, cube_hex.vtk one with a hexahedron.
 """
 import os
+import struct
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 S = 10.0
@@ -88,7 +90,6 @@ def write_obj():
 
 def write_stl():
     # the OBJ's quads fan-triangulated as read_obj does (a b c d -> a b c, a c d), as ASCII and binary STL
-    import struct
     quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
     tris = [t for q in quads for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
     out = ["solid cube"]
@@ -103,7 +104,40 @@ def write_stl():
         data += struct.pack("<12fH", 0, 0, 0, *(x for c in t for x in pos(c)), 0)
     open(os.path.join(HERE, "cube_binary.stl"), "wb").write(data)
 
+def write_vtk():
+    """The cube's tets as VTK legacy files: ASCII 3.0 (ParaView's FIELD block before the points, cells
+    of lower dimensions among the tets, cell data after them), BINARY 4.2 (big-endian floats and
+    ints), ASCII 5.1 (OFFSETS and CONNECTIVITY arrays), and one with a hexahedron (refused)."""
+    pts = [pos(c) for c in range(8)]
+    others = [(1, [0]), (3, [0, 1]), (5, list(BOTTOM[0]))]  # a vertex, a line, a triangle: skipped
+    cells = [(10, list(t)) for t in TETS[:2]] + others + [(10, list(t)) for t in TETS[2:]]
+    head = ["# vtk DataFile Version 3.0", "the cube of tests/data/mesh", "ASCII", "DATASET UNSTRUCTURED_GRID",
+            "FIELD FieldData 2", "TIME 1 1 double", "0", "CYCLE 1 1 int", "0"]
+    out = head + [f"POINTS {len(pts)} double"] + [" ".join(f"{x:g}" for x in p) for p in pts]
+    out += [f"CELLS {len(cells)} {sum(1 + len(c) for _, c in cells)}"] + [" ".join(map(str, [len(c)] + c)) for _, c in cells]
+    out += [f"CELL_TYPES {len(cells)}"] + [str(t) for t, _ in cells]
+    out += [f"CELL_DATA {len(cells)}", "SCALARS region int 1", "LOOKUP_TABLE default"] + ["1"] * len(cells)
+    open(os.path.join(HERE, "cube_ascii.vtk"), "w").write("\n".join(out) + "\n")
+    tets = [list(t) for t in TETS]
+    data = b"# vtk DataFile Version 4.2\nthe cube, binary\nBINARY\nDATASET UNSTRUCTURED_GRID\n"
+    data += f"POINTS {len(pts)} float\n".encode() + struct.pack(f">{3 * len(pts)}f", *(x for p in pts for x in p)) + b"\n"
+    data += f"CELLS {len(tets)} {5 * len(tets)}\n".encode() + struct.pack(f">{5 * len(tets)}i", *(x for t in tets for x in [4] + t))
+    data += f"\nCELL_TYPES {len(tets)}\n".encode() + struct.pack(f">{len(tets)}i", *([10] * len(tets))) + b"\n"
+    open(os.path.join(HERE, "cube_binary.vtk"), "wb").write(data)
+    out = ["# vtk DataFile Version 5.1", "the cube, 5.1", "ASCII", "DATASET UNSTRUCTURED_GRID",
+           f"POINTS {len(pts)} float"] + [" ".join(f"{x:g}" for x in p) for p in pts]
+    out += ["METADATA", "INFORMATION 0", ""]
+    out += [f"CELLS {len(tets) + 1} {4 * len(tets)}", "OFFSETS vtktypeint64", " ".join(str(4 * i) for i in range(len(tets) + 1)),
+            "CONNECTIVITY vtktypeint64", " ".join(str(x) for t in tets for x in t)]
+    out += [f"CELL_TYPES {len(tets)}"] + ["10"] * len(tets)
+    open(os.path.join(HERE, "cube51.vtk"), "w").write("\n".join(out) + "\n")
+    out = ["# vtk DataFile Version 2.0", "tets and a hexahedron", "ASCII", "DATASET UNSTRUCTURED_GRID",
+           f"POINTS {len(pts)} float"] + [" ".join(f"{x:g}" for x in p) for p in pts]
+    out += [f"CELLS 2 {5 + 9}", "4 " + " ".join(map(str, tets[0])), "8 0 1 3 2 4 5 7 6", "CELL_TYPES 2", "10", "12"]
+    open(os.path.join(HERE, "cube_hex.vtk"), "w").write("\n".join(out) + "\n")
+
 write22()
 write41()
 write_obj()
 write_stl()
+write_vtk()

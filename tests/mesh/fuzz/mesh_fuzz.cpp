@@ -1,4 +1,4 @@
-// Mutation test of the mesh readers: valid MSH 2.2 / 4.1 and OBJ files are mutated at random
+// Mutation test of the mesh readers: valid MSH 2.2 / 4.1, VTK, OBJ and STL files are mutated at random
 // (fixed seed: every run is the same) and each result must either read or throw InputError.
 // Built with AddressSanitizer and UBSan (tests/fuzz.cmake), so an out-of-bounds read, an overflow
 // or an allocation sized by an absurd count fails the run. Whatever reads is also passed through
@@ -118,8 +118,9 @@ int main(int argc, char** argv) {
   }
   const fs::path dir = argv[1];
   const long mutations = argc > 2 ? std::atol(argv[2]) : 4000;
-  const std::vector<fs::path> seeds = {dir / "cube22.msh", dir / "cube41.msh", dir / "cube.obj", dir / "cube_ascii.stl",
-                                       dir / "cube_binary.stl"};
+  const std::vector<fs::path> seeds = {dir / "cube22.msh",      dir / "cube41.msh",      dir / "cube.obj",
+                                       dir / "cube_ascii.stl",  dir / "cube_binary.stl", dir / "cube_ascii.vtk",
+                                       dir / "cube_binary.vtk", dir / "cube51.vtk"};
   std::vector<std::string> texts;
   for (const auto& p : seeds) {
     texts.push_back(slurp(p));
@@ -144,10 +145,10 @@ int main(int argc, char** argv) {
     const fs::path file = work / seeds[which].filename();
     std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
     try {
-      if (seeds[which].extension() != ".msh") {
+      if (seeds[which].extension() != ".msh" && seeds[which].extension() != ".vtk") {
         (void)ebh::read_surface(file);
       } else {
-        ebh::TetMesh m = ebh::read_msh(file);
+        ebh::TetMesh m = ebh::read_tet_mesh(file);
         exercise(m);
       }
       ++read_ok;

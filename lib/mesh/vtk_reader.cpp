@@ -1,0 +1,354 @@
+// VTK legacy reader for the physical mesh: an UNSTRUCTURED_GRID in ASCII or BINARY (big-endian),
+// file versions 2.0 to 5.1 (5.1 writes its cells as OFFSETS and CONNECTIVITY arrays).
+// Format reference: "VTK File Formats", the VTK User's Guide, "Simple Legacy Formats".
+#include <bit>
+#include <cctype>
+#include <climits>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "core/error.hpp"
+#include "core/file_names.hpp"
+#include "mesh/mesh_io.hpp"
+#include "mesh/text_cursor.hpp"
+
+namespace ebh {
+namespace {
+
+using detail::printable;
+using detail::TextCursor;
+
+constexpr int kCellTet = 10;
+
+/// A volume cell type other than the 4-node tet (VTK's numbering), named for messages.
+struct VolumeCell {
+  int type;
+  const char* many;
+};
+constexpr VolumeCell kVolumeCells[] = {
+    {11, "voxels"},           {12, "hexahedra"},          {13, "wedges (prisms)"},     {14, "pyramids"},
+    {15, "pentagonal prisms"}, {16, "hexagonal prisms"},   {24, "10-node tetrahedra"},  {25, "20-node hexahedra"},
+    {26, "15-node wedges"},    {27, "13-node pyramids"},   {29, "27-node hexahedra"},   {32, "18-node wedges"},
+    {33, "quadratic-linear wedges"}, {42, "polyhedra"},    {71, "Lagrange tetrahedra"}, {72, "Lagrange hexahedra"},
+    {73, "Lagrange wedges"},   {74, "Lagrange pyramids"},  {78, "Bezier tetrahedra"},   {79, "Bezier hexahedra"},
+    {80, "Bezier wedges"},     {81, "Bezier pyramids"},
+};
+
+const char* volume_cell(int type) {
+  for (const VolumeCell& c : kVolumeCells)
+    if (c.type == type) return c.many;
+  return nullptr;
+}
+
+std::string upper(std::string_view s) {
+  std::string u(s);
+  for (char& c : u) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return u;
+}
+
+/// A data type of the format, its size in a binary file.
+struct DataType {
+  std::string name;
+  int bytes = 0;
+  bool real = false;  ///< float or double
+  bool is_signed = true;
+};
+
+DataType data_type(TextCursor& c, std::string_view t) {
+  const std::string n = upper(t);
+  if (n == "FLOAT") return {n, 4, true};
+  if (n == "DOUBLE") return {n, 8, true};
+  if (n == "CHAR") return {n, 1};
+  if (n == "UNSIGNED_CHAR") return {n, 1, false, false};
+  if (n == "SHORT") return {n, 2};
+  if (n == "UNSIGNED_SHORT") return {n, 2, false, false};
+  if (n == "INT") return {n, 4};
+  if (n == "UNSIGNED_INT") return {n, 4, false, false};
+  if (n == "LONG" || n == "VTKTYPEINT64") return {n, 8};
+  if (n == "UNSIGNED_LONG" || n == "VTKTYPEUINT64") return {n, 8, false, false};
+  if (n == "BIT") c.fail("data type 'bit' is not read: write the mesh with int or float arrays");
+  c.fail("unknown data type '" + printable(t) + "' (float, double, int, long, vtktypeint64, ...)");
+}
+
+class VtkParser {
+ public:
+  VtkParser(const std::filesystem::path& file, std::string bytes) : file_(file), bytes_(std::move(bytes)), c_(file, bytes_) {}
+
+  TetMesh parse() {
+    header();
+    std::vector<long long> cells, offsets;  // legacy: n, ids...; 5.1: the offsets and the connectivity
+    std::vector<long long> types;
+    bool have_points = false, have_cells = false, have_types = false, offsets_form = false;
+    long long cells_line = 0;
+    while (next_keyword()) {
+      const long long line = c_.line();
+      const std::string key = upper(c_.token());
+      if (key == "POINTS") {
+        const long long n = c_.integer("the number of points", 0, INT32_MAX - 1);
+        const DataType t = data_type(c_, c_.token());
+        c_.end_line(" after POINTS n type");
+        const std::vector<double> xyz = reals(3 * n, t, "POINTS", line);
+        mesh_.vertices.resize(static_cast<std::size_t>(n));
+        for (long long i = 0; i < n; ++i) {
+          const Vec3d p{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+          if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+            fail(line, "point " + std::to_string(i) + " has a non-finite coordinate");
+          mesh_.vertices[static_cast<std::size_t>(i)] = p;
+        }
+        have_points = true;
+      } else if (key == "CELLS") {
+        const long long n = c_.integer("the number of cells", 0, INT32_MAX - 1);
+        const long long size = c_.integer("the size of the cell list", 0, LLONG_MAX / 8);
+        c_.end_line(" after CELLS n size");
+        cells_line = line;
+        if (version_ >= 5) {  // CELLS offsets connectivity, then OFFSETS type, CONNECTIVITY type
+          offsets_form = true;
+          offsets = array_after("OFFSETS", n, "CELLS");
+          cells = array_after("CONNECTIVITY", size, "CELLS");
+        } else {
+          cells = integers(size, DataType{"INT", 4}, "CELLS", line);
+          cell_count_ = n;
+        }
+        have_cells = true;
+      } else if (key == "CELL_TYPES") {
+        const long long n = c_.integer("the number of cell types", 0, INT32_MAX - 1);
+        c_.end_line(" after CELL_TYPES n");
+        types = integers(n, DataType{"INT", 4}, "CELL_TYPES", line);
+        have_types = true;
+      } else if (key == "FIELD") {  // a field of arrays (ParaView's TIME and CYCLE before the points)
+        skip_field();
+      } else if (key == "METADATA") {  // information about the array before: up to a blank line
+        skip_metadata();
+      } else if (key == "CELL_DATA" || key == "POINT_DATA") {
+        break;  // the attributes: not read (no groups come from a VTK file)
+      } else {
+        fail(line, "unexpected '" + printable(key) + "' (expected POINTS, CELLS, CELL_TYPES, CELL_DATA or POINT_DATA)");
+      }
+    }
+    if (!have_points) fail(c_.line(), "no POINTS section");
+    if (!have_cells || !have_types) fail(c_.line(), std::string("no ") + (have_cells ? "CELL_TYPES" : "CELLS") + " section");
+    build(cells, offsets, offsets_form, types, cells_line);
+    return std::move(mesh_);
+  }
+
+ private:
+  [[noreturn]] void fail(long long line, const std::string& what) const { c_.fail_at(line, what); }
+
+  void header() {
+    const std::string_view first = c_.rest_of_line();
+    if (!first.starts_with("# vtk DataFile Version"))
+      fail(1, "not a VTK legacy file (its first line is not '# vtk DataFile Version x.y'): a physical mesh is a Gmsh "
+              ".msh or a VTK .vtk file");
+    const std::string_view v = first.substr(std::string_view("# vtk DataFile Version").size());
+    version_ = 0;
+    for (const char ch : v)
+      if (std::isdigit(static_cast<unsigned char>(ch))) {
+        version_ = ch - '0';
+        break;
+      }
+    c_.next_line();  // the title, any text
+    c_.next_line();
+    const std::string mode = upper(c_.rest_of_line());
+    if (mode != "ASCII" && mode != "BINARY") fail(3, "expected ASCII or BINARY, got '" + printable(mode) + "'");
+    binary_ = mode == "BINARY";
+    c_.next_line();
+    if (!c_.skip_empty_lines()) fail(c_.line(), "no DATASET line");
+    const long long line = c_.line();
+    if (upper(c_.token()) != "DATASET") fail(line, "expected DATASET UNSTRUCTURED_GRID");
+    const std::string kind = upper(c_.token());
+    if (kind != "UNSTRUCTURED_GRID")
+      fail(line, "a DATASET " + printable(kind) + " holds no tetrahedra (" +
+                     (kind == "POLYDATA" ? std::string("a surface: it can be the virtual mesh, as an .obj or .stl")
+                                         : std::string("a grid")) +
+                     "): the physical mesh is an UNSTRUCTURED_GRID of tets");
+    c_.end_line(" after DATASET UNSTRUCTURED_GRID");
+  }
+
+  /// Moves to the next keyword line (skipping blank lines and the line ends after binary data);
+  /// false at the end of the file.
+  bool next_keyword() { return c_.skip_empty_lines(); }
+
+  /// `count` values of type t (ASCII: white-space separated over any lines; binary: big-endian,
+  /// starting at the current position), checked against what the file can still hold.
+  template <class T, class Read>
+  std::vector<T> values(long long count, const DataType& t, const char* section, long long line, Read&& ascii) {
+    // ASCII values take 2 bytes at least ("0 "), binary ones their size.
+    const std::size_t least = binary_ ? static_cast<std::size_t>(t.bytes) : 2;
+    if (count < 0 || static_cast<std::size_t>(count) > c_.remaining() / least + 1)
+      fail(line, std::string(section) + ": " + std::to_string(count) + " values do not fit in the rest of the file (" +
+                     std::to_string(c_.remaining()) + " bytes): cut short?");
+    std::vector<T> out(static_cast<std::size_t>(count));
+    if (!binary_) {
+      for (long long i = 0; i < count; ++i) {
+        if (!c_.skip_empty_lines()) fail(c_.line(), std::string(section) + ": the file ends after " + std::to_string(i) + " of " + std::to_string(count) + " values");
+        out[static_cast<std::size_t>(i)] = ascii();
+      }
+      return out;
+    }
+    const std::size_t at = c_.position();
+    const std::size_t n = static_cast<std::size_t>(count) * static_cast<std::size_t>(t.bytes);
+    if (bytes_.size() - at < n)
+      fail(line, std::string(section) + ": " + std::to_string(count) + " binary values need " + std::to_string(n) +
+                     " bytes, the file holds " + std::to_string(bytes_.size() - at) + " more: cut short?");
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      const std::size_t b = at + i * static_cast<std::size_t>(t.bytes);
+      if constexpr (std::is_same_v<T, double>) out[i] = t.real ? big_endian_real(b, t) : static_cast<double>(big_endian_int(b, t));
+      else out[i] = big_endian_int(b, t);
+    }
+    c_.jump_to(at + n);
+    return out;
+  }
+
+  /// The big-endian bits of the binary value at byte `at` of type t.
+  std::uint64_t bits(std::size_t at, const DataType& t) const {
+    std::uint64_t u = 0;
+    for (int k = 0; k < t.bytes; ++k) u = (u << 8) | static_cast<unsigned char>(bytes_[at + static_cast<std::size_t>(k)]);
+    return u;
+  }
+  /// The binary float or double at byte `at`.
+  double big_endian_real(std::size_t at, const DataType& t) const {
+    const std::uint64_t u = bits(at, t);
+    return t.bytes == 4 ? static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(u))) : std::bit_cast<double>(u);
+  }
+  /// The binary integer at byte `at` (an unsigned one past the signed range as LLONG_MAX: out of
+  /// every range the reader checks).
+  long long big_endian_int(std::size_t at, const DataType& t) const {
+    const std::uint64_t u = bits(at, t);
+    if (!t.is_signed) return u > static_cast<std::uint64_t>(LLONG_MAX) ? LLONG_MAX : static_cast<long long>(u);
+    const int shift = 64 - 8 * t.bytes;  // sign-extend
+    return static_cast<long long>(static_cast<std::int64_t>(u << shift) >> shift);
+  }
+
+  /// `count` values after the keyword line `line` (of `section`, for messages).
+  std::vector<double> reals(long long count, const DataType& t, const char* section, long long line) {
+    return values<double>(count, t, section, line, [&] { return c_.real("a coordinate"); });
+  }
+  std::vector<long long> integers(long long count, const DataType& t, const char* section, long long line) {
+    if (t.real) fail(line, std::string(section) + ": expected an integer type, got " + t.name);
+    return values<long long>(count, t, section, line,
+                             [&] { return c_.integer("an index", LLONG_MIN / 2, LLONG_MAX / 2); });
+  }
+
+  /// 5.1's OFFSETS or CONNECTIVITY array of `count` values, on its own keyword line.
+  std::vector<long long> array_after(const char* keyword, long long count, const char* section) {
+    if (!next_keyword()) fail(c_.line(), std::string(section) + ": the file ends before its " + keyword + " array");
+    const long long line = c_.line();
+    if (upper(c_.token()) != keyword) fail(line, std::string(section) + ": expected its " + keyword + " array");
+    const DataType t = data_type(c_, c_.token());
+    c_.end_line(std::string(" after ") + keyword + " type");
+    return integers(count, t, keyword, line);
+  }
+
+  void skip_field() {
+    c_.token();  // the field's name
+    const long long arrays = c_.integer("the number of arrays", 0, 1 << 20);
+    c_.end_line(" after FIELD name n");
+    for (long long a = 0; a < arrays; ++a) {
+      if (!next_keyword()) fail(c_.line(), "FIELD: the file ends before its array " + std::to_string(a));
+      c_.token();  // the array's name
+      const long long line = c_.line();
+      const long long comps = c_.integer("the number of components", 1, 1 << 20);
+      const long long tuples = c_.integer("the number of tuples", 0, INT32_MAX);
+      const DataType t = data_type(c_, c_.token());
+      c_.end_line(" after a FIELD array's name, components, tuples and type");
+      if (t.real) reals(comps * tuples, t, "FIELD", line);
+      else integers(comps * tuples, t, "FIELD", line);
+    }
+  }
+
+  void skip_metadata() {
+    c_.next_line();
+    while (!c_.at_end() && !c_.at_eol()) c_.next_line();
+  }
+
+  /// The tets from the cells; cells of a lower dimension (vertices, lines, triangles, quads, ...)
+  /// skipped, a volume cell of another kind refused with its count.
+  void build(const std::vector<long long>& cells, const std::vector<long long>& offsets, bool offsets_form,
+             const std::vector<long long>& types, long long line) {
+    const long long n = offsets_form ? static_cast<long long>(offsets.size()) - 1 : cell_count_;
+    if (offsets_form && offsets.empty()) fail(line, "CELLS: no OFFSETS (5.1 writes one more than the cells)");
+    if (static_cast<long long>(types.size()) != n)
+      fail(line, "CELLS lists " + std::to_string(n) + " cells, CELL_TYPES " + std::to_string(types.size()));
+    const long long nv = static_cast<long long>(mesh_.vertices.size());
+    std::vector<long long> other(100, 0);
+    std::size_t at = 0;  // legacy: the position of the next cell's count
+    for (long long i = 0; i < n; ++i) {
+      long long begin = 0, count = 0;
+      if (offsets_form) {
+        begin = offsets[static_cast<std::size_t>(i)];
+        const long long end = offsets[static_cast<std::size_t>(i + 1)];
+        if (begin < 0 || end < begin || end > static_cast<long long>(cells.size()))
+          fail(line, "cell " + std::to_string(i) + ": OFFSETS " + std::to_string(begin) + ".." + std::to_string(end) +
+                         " is not a range of the " + std::to_string(cells.size()) + " CONNECTIVITY entries");
+        count = end - begin;
+      } else {
+        if (at >= cells.size()) fail(line, "CELLS: the list ends at cell " + std::to_string(i) + " of " + std::to_string(n));
+        count = cells[at];
+        begin = static_cast<long long>(at) + 1;
+        if (count < 0 || begin + count > static_cast<long long>(cells.size()))
+          fail(line, "cell " + std::to_string(i) + ": " + std::to_string(count) + " points run past the CELLS list's size");
+        at = static_cast<std::size_t>(begin + count);
+      }
+      const long long type = types[static_cast<std::size_t>(i)];
+      if (type != kCellTet) {
+        if (type >= 0 && type < static_cast<long long>(other.size())) ++other[static_cast<std::size_t>(type)];
+        else fail(line, "cell " + std::to_string(i) + ": unknown cell type " + std::to_string(type));
+        continue;
+      }
+      if (count != 4)
+        fail(line, "cell " + std::to_string(i) + " (a tetrahedron, type 10) has " + std::to_string(count) +
+                       " points, expected 4");
+      Tet v{};
+      for (int k = 0; k < 4; ++k) {
+        const long long id = cells[static_cast<std::size_t>(begin + k)];
+        if (id < 0 || id >= nv)
+          fail(line, "cell " + std::to_string(i) + ": point index " + std::to_string(id) + " is out of range [0, " +
+                         std::to_string(nv) + ")");
+        v[static_cast<std::size_t>(k)] = static_cast<int>(id);
+      }
+      mesh_.tets.push_back(v);
+      mesh_.file_tet_ids.push_back(i);
+    }
+    if (!offsets_form && at != cells.size())
+      fail(line, "CELLS: its size says " + std::to_string(cells.size()) + " entries, its cells use " + std::to_string(at));
+    std::string refused;
+    long long refused_count = 0;
+    for (std::size_t t = 0; t < other.size(); ++t)
+      if (other[t] > 0)
+        if (const char* name = volume_cell(static_cast<int>(t))) {
+          refused += (refused.empty() ? "" : ", ") + std::to_string(other[t]) + " " + name;
+          refused_count += other[t];
+        }
+    if (refused_count > 0)
+      fail(line, "the volume holds " + refused + " besides its " + std::to_string(mesh_.tets.size()) +
+                     " tetrahedra: the physical mesh is 4-node tets only (mesh with tets only, first order)");
+    if (mesh_.tets.empty()) fail(line, "no tetrahedra (cell type 10) among the " + std::to_string(n) + " cells");
+    mesh_.tet_group.assign(mesh_.tets.size(), 0);
+    mesh_.file_node_ids.resize(mesh_.vertices.size());
+    for (std::size_t i = 0; i < mesh_.vertices.size(); ++i) mesh_.file_node_ids[i] = static_cast<long long>(i);
+  }
+
+  std::filesystem::path file_;
+  std::string bytes_;
+  TextCursor c_;
+  TetMesh mesh_;
+  int version_ = 0;
+  bool binary_ = false;
+  long long cell_count_ = 0;
+};
+
+}  // namespace
+
+TetMesh read_vtk(const std::filesystem::path& file) {
+  std::string bytes = detail::read_file_bytes(file);
+  return VtkParser(file, std::move(bytes)).parse();
+}
+
+TetMesh read_tet_mesh(const std::filesystem::path& file) {
+  return lower_extension(file) == ".vtk" ? read_vtk(file) : read_msh(file);
+}
+
+}  // namespace ebh

@@ -1,0 +1,93 @@
+// VTK legacy reader for the physical mesh: ASCII, binary and 5.1 forms give the same tets, and
+// every malformed case is refused with FILE:LINE.
+#include <gtest/gtest.h>
+
+#include "mesh/mesh_io.hpp"
+#include "mesh/quality.hpp"
+#include "test_util.hpp"
+
+namespace ebh {
+namespace {
+
+using test::data;
+using test::expect_input_error;
+using test::replace;
+using test::slurp;
+using test::write_temp;
+
+// The cube of make_test_meshes.py: corner c = x + 2y + 4z at (10 x, 10 y, 10 z), five tets.
+TEST(ReadVtk, AsciiWithAFieldBlockAndCellsOfLowerDimensions) {
+  const TetMesh m = read_vtk(data("mesh/cube_ascii.vtk"));
+  ASSERT_EQ(m.vertices.size(), 8u);
+  EXPECT_EQ(m.vertices[5], Vec3d(10, 0, 10));
+  ASSERT_EQ(m.tets.size(), 5u);  // the vertex, the line and the triangle among them are skipped
+  EXPECT_EQ(m.tets[0], (Tet{0, 1, 2, 4}));
+  EXPECT_EQ(m.file_tet_ids, (std::vector<long long>{0, 1, 5, 6, 7}));  // their cell numbers
+  EXPECT_TRUE(m.triangles.empty());
+  EXPECT_TRUE(m.group_names.empty());
+  const MeshReport r = validate_mesh(m);
+  EXPECT_FALSE(r.fatal()) << r.fatal_message(m);
+  EXPECT_EQ(r.boundary_faces, 12);  // the cube's six faces, two triangles each
+}
+
+TEST(ReadVtk, BinaryAnd51FormsGiveTheSameTets) {
+  const TetMesh ascii = read_vtk(data("mesh/cube_ascii.vtk"));
+  for (const char* name : {"mesh/cube_binary.vtk", "mesh/cube51.vtk"}) {
+    const TetMesh m = read_vtk(data(name));
+    EXPECT_EQ(m.tets, ascii.tets) << name;
+    ASSERT_EQ(m.vertices.size(), ascii.vertices.size()) << name;
+    for (std::size_t i = 0; i < m.vertices.size(); ++i) EXPECT_EQ(m.vertices[i], ascii.vertices[i]) << name << " " << i;
+  }
+}
+
+TEST(ReadVtk, ReadTetMeshTakesVtkByItsExtensionInAnyCase) {
+  const std::string text = slurp(data("mesh/cube_ascii.vtk"));
+  EXPECT_EQ(read_tet_mesh(write_temp("CUBE.VTK", text)).tets.size(), 5u);
+  EXPECT_EQ(read_tet_mesh(data("mesh/cube22.msh")).tets.size(), 5u);
+}
+
+TEST(ReadVtk, OtherVolumeCellsAreRefusedByKind) {
+  const auto p = data("mesh/cube_hex.vtk");
+  expect_input_error([&] { read_vtk(p); }, p, 14,  // the CELLS line
+                     "the volume holds 1 hexahedra besides its 1 tetrahedra: the physical mesh is 4-node tets only");
+}
+
+TEST(ReadVtk, MalformedFilesAreRefusedWithTheirLine) {
+  const std::string good = slurp(data("mesh/cube51.vtk"));
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtk"));
+  struct Case {
+    std::string name, text;
+    int line;
+    std::string needle;
+  };
+  const std::vector<Case> cases = {
+      {"not_vtk.vtk", "$MeshFormat\n2.2 0 8\n", 1, "not a VTK legacy file"},
+      {"polydata.vtk", replace(good, "DATASET UNSTRUCTURED_GRID", "DATASET POLYDATA"), 4,
+       "a DATASET POLYDATA holds no tetrahedra (a surface: it can be the virtual mesh, as an .obj or .stl)"},
+      {"mode.vtk", replace(good, "ASCII", "TEXT"), 3, "expected ASCII or BINARY, got 'TEXT'"},
+      {"nan.vtk", replace(good, "10 10 10", "10 nan 10"), 13, "'nan' is not a finite number"},
+      {"index.vtk", replace(good, "6 7 4 2", "6 7 4 9"), 17, "cell 3: point index 9 is out of range [0, 8)"},
+      {"offsets.vtk", replace(good, "0 4 8 12 16 20", "0 4 8 12 16 21"), 17, "cell 4: OFFSETS 16..21 is not a range"},
+      {"points.vtk", replace(replace(ascii, "4 3 2 1 7", "3 3 2 1"), "CELLS 8 34", "CELLS 8 33"), 19, "cell 1 (a tetrahedron, type 10) has 3 points, expected 4"},
+      {"short.vtk", good.substr(0, good.find("CONNECTIVITY")), 20, "the file ends before its CONNECTIVITY array"},
+      {"count.vtk", replace(good, "POINTS 8 float", "POINTS 8000000 float"), 5, "values do not fit in the rest of the file"},
+      {"types.vtk", replace(good, "CELL_TYPES 5\n10\n", "CELL_TYPES 4\n"), 17, "CELLS lists 5 cells, CELL_TYPES 4"},
+      {"no_tets.vtk", ascii.substr(0, ascii.find("CELLS")) + "CELLS 1 2\n1 0\nCELL_TYPES 1\n1\n", 19,
+       "no tetrahedra (cell type 10) among the 1 cells"},
+      {"keyword.vtk", replace(good, "CELL_TYPES", "CELL_TYPOS"), 22, "unexpected 'CELL_TYPOS'"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const auto p = write_temp(c.name, c.text);
+    expect_input_error([&] { read_vtk(p); }, p, c.line, c.needle);
+  }
+}
+
+TEST(ReadVtk, ABinaryFileCutShortSaysSo) {
+  const std::string bin = slurp(data("mesh/cube_binary.vtk"));
+  const auto p = write_temp("cut.vtk", bin.substr(0, bin.find("CELLS") + 30));
+  expect_input_error([&] { read_vtk(p); }, p, 7, "CELLS: 25 values do not fit in the rest of the file");
+}
+
+}  // namespace
+}  // namespace ebh

@@ -35,12 +35,20 @@ TEST(ReplayWindow, RefusesAWindowOutsideTheRecordingNamingTheKey) {
                      "--duration inf");
 }
 
-// A tool's tip that went inside the tissue: the replay that felt no contact then says the tool
-// passed between the virtual vertices (tip_inside_mesh, ebh replay's contact warning).
-TEST(TipInsideMesh, TheFirstSampleOfTheWindowInsideTheRestMesh) {
+namespace {
+/// One tet: x, y, z >= 0, x + y + z <= 1 (m).
+TetMesh unit_tet() {
   TetMesh one;
   one.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
   one.tets = {{0, 1, 2, 3}};
+  return one;
+}
+}  // namespace
+
+// A tool's tip that went inside the tissue: the replay that felt no contact then says the tool
+// passed between the virtual vertices (tip_inside_mesh, ebh replay's contact warning).
+TEST(TipInsideMesh, TheFirstSampleOfTheWindowInsideTheRestMesh) {
+  const TetMesh one = unit_tet();
   Recording rec;
   const double z[] = {1.5, 1.0, 0.5, 0.3, -0.5};  // down through the tet: inside at z = 0.5 and 0.3
   for (int i = 0; i < 5; ++i) {
@@ -76,9 +84,7 @@ TEST(TipInsideMesh, TheToolsCollidersReachPastItsOrigin) {
 // time before it at which the tool was clear of the tissue; a tip only grazing it (under
 // kStartInTissueDepth) or beside it is not.
 TEST(StartInTissue, AWindowThatStartsInsideSaysWhenTheToolWasClear) {
-  TetMesh one;  // x, y, z >= 0, x + y + z <= 1 (m)
-  one.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  one.tets = {{0, 1, 2, 3}};
+  const TetMesh one = unit_tet();
   Recording rec;
   const double z[] = {1.5, 1.0, 0.5, 0.3, -0.5};  // down through the tet: inside at z = 0.5 and 0.3
   for (int i = 0; i < 5; ++i) {
@@ -110,9 +116,7 @@ TEST(StartInTissue, AWindowThatStartsInsideSaysWhenTheToolWasClear) {
 // Read as a window (the samples from the file's row 3, and the whole path's outline), the time the
 // tool was clear of the tissue comes from the outline's rows, timed at the window's rate.
 TEST(StartInTissue, ReadAsAWindowTheOutlineSaysWhenTheToolWasClear) {
-  TetMesh one;
-  one.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  one.tets = {{0, 1, 2, 3}};
+  const TetMesh one = unit_tet();
   const double z[] = {1.5, 1.0, 0.5, 0.4, 0.3};  // rows 0-4, 0.1 s apart from 10 s; clear at rows 0 and 1
   Recording rec;
   Recording::FileSpan span;

@@ -42,10 +42,6 @@ PoseTransforms apply_replay_transforms(Recording& rec, const std::string& path, 
   return applied;
 }
 
-
-}  // namespace
-
-namespace {
 /// Whether the tool's tip at `pose` lies inside the located mesh: the pose's origin, and with
 /// `tool` the end points of its colliders at that pose and jaw.
 bool tip_inside(const TetLocator& locator, const ToolModel* tool, const ToolPose& pose, double jaw) {
@@ -57,6 +53,7 @@ bool tip_inside(const TetLocator& locator, const ToolModel* tool, const ToolPose
       return true;
   return false;
 }
+
 }  // namespace
 
 std::optional<double> tip_inside_mesh(const Recording& rec, const TetMesh& mesh, double start, double duration,

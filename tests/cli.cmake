@@ -411,11 +411,12 @@ add_test(NAME cli.scene_init.replay
   COMMAND ${EBH_BIN} replay ${EBH_INIT}/own.yaml ${EBH_INIT}/press.h5 -o ${EBH_INIT}/press_out.h5)
 set_tests_properties(cli.scene_init.replay PROPERTIES FIXTURES_REQUIRED "scene_init;scene_init_press"
   PASS_REGULAR_EXPRESSION "801 ticks, 81 physical steps.*peak force 0\\.[0-9]+ N" FAIL_REGULAR_EXPRESSION "warning|never touched")
-# A VTK legacy mesh (binary): read as the physical mesh, no groups to pin by.
+# A VTK legacy mesh (binary): read as the physical mesh, pinned by its region 1 (gmsh:physical).
 add_test(NAME cli.scene_init.vtk
-  COMMAND ${EBH_BIN} scene init ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube_binary.vtk -o ${EBH_INIT}/cube_vtk.yaml --unit cm)
+  COMMAND ${EBH_BIN} scene init ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube_binary.vtk -o ${EBH_INIT}/cube_vtk.yaml --unit cm
+    --pin group:1)
 set_tests_properties(cli.scene_init.vtk PROPERTIES LABELS "cli;scene" FIXTURES_SETUP scene_init_vtk
-  PASS_REGULAR_EXPRESSION "cube_vtk.yaml: scene for .*cube_binary.vtk \\(8 vertices, 5 tets, in cm\\)")
+  PASS_REGULAR_EXPRESSION "cube_vtk.yaml: scene for .*cube_binary.vtk \\(8 vertices, 5 tets, in cm\\).*pinned 6 vertices \\(group:1\\)")
 add_test(NAME cli.scene_init.vtk_info COMMAND ${EBH_BIN} scene info ${EBH_INIT}/cube_vtk.yaml)
 set_tests_properties(cli.scene_init.vtk_info PROPERTIES LABELS "cli;scene" FIXTURES_REQUIRED scene_init_vtk
   PASS_REGULAR_EXPRESSION "physical mesh +[^\n]*cube_binary.vtk\n.*tets +5\n")
@@ -433,8 +434,8 @@ add_test(NAME cli.scene.info_of_a_vtk_mesh
     "-DEXPECT=^ebh: error: .*cube_binary.vtk: a VTK mesh, not a scene file \\(YAML\\): `ebh scene init .*cube_binary.vtk -o scene.yaml` writes a scene for it"
     -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene.info_of_a_vtk_mesh PROPERTIES LABELS "cli;scene")
-ebh_scene_init_failure(vtk_group "^ebh: error: --pin group:bottom: .*cube_ascii.vtk has no physical group 'bottom' \\(it has no groups\\): a VTK file's cell data is not read as groups; pin a box or a half-space"
-  ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube_ascii.vtk -o ${EBH_INIT}/vtk_group.yaml --unit cm --pin group:bottom)
+ebh_scene_init_failure(vtk_group "^ebh: error: --pin group:bottom: .*cube51.vtk has no physical group 'bottom' \\(it has no groups\\): a VTK file's groups are the numbers in its cell array named gmsh:physical, .*; or pin a box or a half-space"
+  ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube51.vtk -o ${EBH_INIT}/vtk_group.yaml --unit cm --pin group:bottom)
 ebh_scene_init_failure(pins_nothing "^ebh: error: --pin sphere:10,10,10,1: the region pins no vertex of .*own_cm.msh \\(its bounding box: \\[0, 0, 0\\] \\.\\. \\[4, 3, 2\\] cm\\)"
   ${OWN} -o ${EBH_INIT}/pins_nothing.yaml --unit cm --pin sphere:10,10,10,1)
 ebh_scene_init_failure(pins_everything "^ebh: error: --pin: the regions pin all 8 vertices of .*own_cm.msh: nothing could move"

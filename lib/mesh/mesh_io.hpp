@@ -38,11 +38,16 @@ TetMesh read_msh(const std::filesystem::path& file);
 /// DATASET UNSTRUCTURED_GRID: its POINTS and its cells of type 10 (4-node tets), as written by
 /// VTK, ParaView, 3D Slicer, TetGen (-k) or meshio. Cells of a lower dimension are skipped; any
 /// other volume cell (hexahedra, wedges, 10-node tets, ...) is refused naming each kind's count.
-/// Point data and cell data are not read: the mesh has no groups (pins take regions); a leading
-/// FIELD block and METADATA after an array are skipped. Vertices keep the file's point order
-/// (file_node_ids 0..n-1). Throws InputError "FILE:LINE: what" for another dataset, a count the
-/// rest of the file cannot hold, non-finite coordinates, point indices out of range, cells whose
-/// point counts disagree with their type or with the list's size, and a file with no tets.
+/// Groups: the first integer cell array of one component (SCALARS, or in a FIELD) named
+/// gmsh:physical, CellEntityIds, medit:ref, MaterialIds, material, region(s), label(s), subdomain
+/// or domain (in any case) gives each tet its tag, unnamed (a pin names it by its number); the
+/// other attributes are read past, and one of a kind without a group after it (LOOKUP_TABLE,
+/// COLOR_SCALARS, TEXTURE_COORDINATES) ends the reading. A leading FIELD block and METADATA after
+/// an array are skipped. Vertices keep the file's point order (file_node_ids 0..n-1). Throws
+/// InputError "FILE:LINE: what" for another dataset, a count the rest of the file cannot hold,
+/// non-finite coordinates, point indices out of range, cells whose point counts disagree with
+/// their type or with the list's size, a group array of another length than the cells or with a
+/// value that is no tag (< 0), and a file with no tets.
 TetMesh read_vtk(const std::filesystem::path& file);
 
 /// The physical mesh of `file`: read_vtk for a .vtk file (in any case), read_msh otherwise.

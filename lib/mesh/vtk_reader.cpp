@@ -123,7 +123,8 @@ class VtkParser {
       } else if (key == "METADATA") {  // information about the array before: up to a blank line
         skip_metadata();
       } else if (key == "CELL_DATA" || key == "POINT_DATA") {
-        break;  // the attributes: not read (no groups come from a VTK file)
+        attributes(key);  // the rest of the file
+        break;
       } else {
         fail(line, "unexpected '" + printable(key) + "' (expected POINTS, CELLS, CELL_TYPES, CELL_DATA or POINT_DATA)");
       }
@@ -131,6 +132,7 @@ class VtkParser {
     if (!have_points) fail(c_.line(), "no POINTS section");
     if (!have_cells || !have_types) fail(c_.line(), std::string("no ") + (have_cells ? "CELL_TYPES" : "CELLS") + " section");
     build(cells, offsets, offsets_form, types, cells_line);
+    if (!groups_name_.empty()) take_groups(static_cast<long long>(types.size()));
     return std::move(mesh_);
   }
 
@@ -242,20 +244,102 @@ class VtkParser {
     return integers(count, t, keyword, line);
   }
 
-  void skip_field() {
+  /// A FIELD's arrays, each read past; in cell data (`cells`: the number of cells) one named as
+  /// groups (is_group_array) of one integer a cell becomes the groups.
+  void skip_field(long long cells = -1) {
     c_.token();  // the field's name
     const long long arrays = c_.integer("the number of arrays", 0, 1 << 20);
     c_.end_line(" after FIELD name n");
     for (long long a = 0; a < arrays; ++a) {
       if (!next_keyword()) fail(c_.line(), "FIELD: the file ends before its array " + std::to_string(a));
-      c_.token();  // the array's name
       const long long line = c_.line();
+      const std::string name(c_.token());
       const long long comps = c_.integer("the number of components", 1, 1 << 20);
       const long long tuples = c_.integer("the number of tuples", 0, INT32_MAX);
       const DataType t = data_type(c_, c_.token());
       c_.end_line(" after a FIELD array's name, components, tuples and type");
-      if (t.real) reals(comps * tuples, t, "FIELD", line);
-      else integers(comps * tuples, t, "FIELD", line);
+      if (t.real) {
+        reals(comps * tuples, t, "FIELD", line);
+        continue;
+      }
+      std::vector<long long> v = integers(comps * tuples, t, "FIELD", line);
+      if (cells >= 0 && comps == 1 && groups_name_.empty() && is_group_array(name)) take_array(name, std::move(v), line);
+    }
+  }
+
+  /// Whether a cell array of this name holds each cell's region (a label, a physical group): what
+  /// meshio (gmsh:physical, medit:ref), 3D Slicer and VMTK (CellEntityIds) and others write.
+  static bool is_group_array(const std::string& name) {
+    const std::string n = upper(name);
+    for (const char* g : {"GMSH:PHYSICAL", "CELLENTITYIDS", "MEDIT:REF", "MATERIALIDS", "MATERIAL", "REGION", "REGIONS",
+                          "LABEL", "LABELS", "SUBDOMAIN", "DOMAIN"})
+      if (n == g) return true;
+    return false;
+  }
+
+  void take_array(const std::string& name, std::vector<long long> v, long long line) {
+    groups_ = std::move(v);
+    groups_name_ = name;
+    groups_line_ = line;
+  }
+
+  /// CELL_DATA and POINT_DATA to the end of the file: the attributes are read past, and the first
+  /// integer cell array of one component that is_group_array names becomes the tets' groups. An
+  /// attribute of another kind ends the reading (the mesh is complete without it).
+  void attributes(std::string key) {
+    while (true) {
+      const bool cell = key == "CELL_DATA";
+      const long long n = c_.integer(cell ? "the number of cells" : "the number of points", 0, INT32_MAX - 1);
+      c_.end_line(" after " + key + " n");
+      while (true) {
+        if (!next_keyword()) return;
+        const long long line = c_.line();
+        key = upper(c_.token());
+        if (key == "CELL_DATA" || key == "POINT_DATA") break;
+        if (key == "METADATA") {
+          skip_metadata();
+        } else if (key == "FIELD") {
+          skip_field(cell ? n : -1);
+        } else if (key == "SCALARS") {
+          const std::string name(c_.token());
+          const DataType t = data_type(c_, c_.token());
+          const long long comps = c_.at_eol() ? 1 : c_.integer("the number of components", 1, 4);
+          c_.end_line(" after SCALARS name type components");
+          if (!next_keyword() || upper(c_.token()) != "LOOKUP_TABLE") fail(c_.line(), "SCALARS " + printable(name) + ": expected LOOKUP_TABLE");
+          c_.next_line();
+          if (t.real) {
+            reals(comps * n, t, "SCALARS", line);
+          } else {
+            std::vector<long long> v = integers(comps * n, t, "SCALARS", line);
+            if (cell && comps == 1 && groups_name_.empty() && is_group_array(name)) take_array(name, std::move(v), line);
+          }
+        } else if (key == "VECTORS" || key == "NORMALS" || key == "TENSORS" || key == "GLOBAL_IDS" || key == "PEDIGREE_IDS") {
+          c_.token();  // the name
+          const DataType t = data_type(c_, c_.token());
+          c_.end_line(" after " + key + " name type");
+          const long long per = key == "TENSORS" ? 9 : (key == "GLOBAL_IDS" || key == "PEDIGREE_IDS") ? 1 : 3;
+          if (t.real) reals(per * n, t, key.c_str(), line);
+          else integers(per * n, t, key.c_str(), line);
+        } else {
+          return;  // LOOKUP_TABLE, COLOR_SCALARS, TEXTURE_COORDINATES, ...: no group comes after them
+        }
+      }
+    }
+  }
+
+  /// The tets' groups from the cell array of `cells` values (by each tet's cell number): tags >= 0,
+  /// unnamed.
+  void take_groups(long long cells) {
+    if (static_cast<long long>(groups_.size()) != cells)
+      fail(groups_line_, groups_name_ + ": " + std::to_string(groups_.size()) + " values for the " + std::to_string(cells) +
+                             " cells (CELL_DATA counts every cell)");
+    for (std::size_t i = 0; i < mesh_.tets.size(); ++i) {
+      const long long cell = mesh_.file_tet_ids[i];
+      const long long tag = groups_[static_cast<std::size_t>(cell)];
+      if (tag < 0 || tag > INT32_MAX)
+        fail(groups_line_, "cell " + std::to_string(cell) + ": " + groups_name_ + " " + std::to_string(tag) +
+                               " is not a group tag (a whole number >= 0)");
+      mesh_.tet_group[i] = static_cast<int>(tag);
     }
   }
 
@@ -338,6 +422,9 @@ class VtkParser {
   int version_ = 0;
   bool binary_ = false;
   long long cell_count_ = 0;
+  std::vector<long long> groups_;  ///< each cell's group, from the cell array groups_name_ ("": none)
+  std::string groups_name_;
+  long long groups_line_ = 0;
 };
 
 }  // namespace

@@ -845,8 +845,10 @@ std::vector<std::string> known_group_names(const TetMesh& mesh) {
 }
 
 std::string vtk_groups_note(const std::filesystem::path& mesh_file) {
-  return lower_extension(mesh_file) == ".vtk" ? ": a VTK file's cell data is not read as groups; pin a box or a half-space"
-                                              : "";
+  return lower_extension(mesh_file) == ".vtk"
+             ? ": a VTK file's groups are the numbers in its cell array named gmsh:physical, CellEntityIds, medit:ref, "
+               "MaterialIds, material, region(s), label(s), subdomain or domain (read_vtk); or pin a box or a half-space"
+             : "";
 }
 
 std::string known_groups_text(const TetMesh& mesh) {

@@ -500,8 +500,8 @@ std::string group_without_elements_note(const TetMesh& mesh);
 /// in the mesh file, ..." when the file names it at dimension 0 or 1 (pins take groups of tets or
 /// triangles), else "".
 std::string lower_dimension_group_note(const TetMesh& mesh, const std::string& group);
-/// For a pin by group on a mesh read from `mesh_file`: ": a VTK file's cell data is not read as
-/// groups; pin a box or a half-space" for a .vtk file (read_vtk), else "".
+/// For a pin by group on a mesh read from `mesh_file`: ": a VTK file's groups are the numbers in its
+/// cell array named ..." for a .vtk file (read_vtk), else "".
 std::string vtk_groups_note(const std::filesystem::path& mesh_file);
 
 /// The axis-aligned bounding box of points (lo = hi = 0 for none).

@@ -24,7 +24,8 @@ TEST(ReadVtk, AsciiWithAFieldBlockAndCellsOfLowerDimensions) {
   EXPECT_EQ(m.tets[0], (Tet{0, 1, 2, 4}));
   EXPECT_EQ(m.file_tet_ids, (std::vector<long long>{0, 1, 5, 6, 7}));  // their cell numbers
   EXPECT_TRUE(m.triangles.empty());
-  EXPECT_TRUE(m.group_names.empty());
+  EXPECT_EQ(m.tet_group, (std::vector<int>{1, 1, 2, 2, 2}));  // the cell array "region"
+  EXPECT_TRUE(m.group_names.empty());                          // unnamed: pins name them by number
   const MeshReport r = validate_mesh(m);
   EXPECT_FALSE(r.fatal()) << r.fatal_message(m);
   EXPECT_EQ(r.boundary_faces, 12);  // the cube's six faces, two triangles each
@@ -38,6 +39,18 @@ TEST(ReadVtk, BinaryAnd51FormsGiveTheSameTets) {
     ASSERT_EQ(m.vertices.size(), ascii.vertices.size()) << name;
     for (std::size_t i = 0; i < m.vertices.size(); ++i) EXPECT_EQ(m.vertices[i], ascii.vertices[i]) << name << " " << i;
   }
+  // The binary file's regions are gmsh:physical in a FIELD of its cell data; 5.1's file has none.
+  EXPECT_EQ(read_vtk(data("mesh/cube_binary.vtk")).tet_group, ascii.tet_group);
+  EXPECT_EQ(read_vtk(data("mesh/cube51.vtk")).tet_group, std::vector<int>(5, 0));
+}
+
+TEST(ReadVtk, GroupsThatAreNotTagsAreRefused) {
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtk"));
+  const auto p = write_temp("negative.vtk", replace(ascii, "LOOKUP_TABLE default\n1\n1\n0", "LOOKUP_TABLE default\n1\n-1\n0"));
+  expect_input_error([&] { read_vtk(p); }, p, 47, "cell 1: region -1 is not a group tag (a whole number >= 0)");
+  // A cell array of another name (an id per cell) is not taken as groups.
+  EXPECT_EQ(read_vtk(write_temp("ids.vtk", replace(ascii, "SCALARS region", "SCALARS vtkOriginalCellIds"))).tet_group,
+            std::vector<int>(5, 0));
 }
 
 TEST(ReadVtk, ReadTetMeshTakesVtkByItsExtensionInAnyCase) {

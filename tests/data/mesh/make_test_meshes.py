@@ -106,8 +106,9 @@ def write_stl():
 
 def write_vtk():
     """The cube's tets as VTK legacy files: ASCII 3.0 (ParaView's FIELD block before the points, cells
-    of lower dimensions among the tets, cell data after them), BINARY 4.2 (big-endian floats and
-    ints), ASCII 5.1 (OFFSETS and CONNECTIVITY arrays), and one with a hexahedron (refused)."""
+    of lower dimensions among the tets, cell data after them: a vector, the regions), BINARY 4.2
+    (big-endian floats and ints; the regions as gmsh:physical in a FIELD, after another array), ASCII
+    5.1 (OFFSETS and CONNECTIVITY arrays, no regions), and one with a hexahedron (refused)."""
     pts = [pos(c) for c in range(8)]
     others = [(1, [0]), (3, [0, 1]), (5, list(BOTTOM[0]))]  # a vertex, a line, a triangle: skipped
     cells = [(10, list(t)) for t in TETS[:2]] + others + [(10, list(t)) for t in TETS[2:]]
@@ -116,13 +117,19 @@ def write_vtk():
     out = head + [f"POINTS {len(pts)} double"] + [" ".join(f"{x:g}" for x in p) for p in pts]
     out += [f"CELLS {len(cells)} {sum(1 + len(c) for _, c in cells)}"] + [" ".join(map(str, [len(c)] + c)) for _, c in cells]
     out += [f"CELL_TYPES {len(cells)}"] + [str(t) for t, _ in cells]
-    out += [f"CELL_DATA {len(cells)}", "SCALARS region int 1", "LOOKUP_TABLE default"] + ["1"] * len(cells)
+    # the tets' regions: 1 for the first two, 2 for the others (0 for the cells of lower dimensions)
+    region = [1, 1, 0, 0, 0, 2, 2, 2]
+    out += [f"CELL_DATA {len(cells)}", "VECTORS v float"] + ["0 0 1"] * len(cells)
+    out += ["SCALARS region int 1", "LOOKUP_TABLE default"] + [str(r) for r in region]
     open(os.path.join(HERE, "cube_ascii.vtk"), "w").write("\n".join(out) + "\n")
     tets = [list(t) for t in TETS]
     data = b"# vtk DataFile Version 4.2\nthe cube, binary\nBINARY\nDATASET UNSTRUCTURED_GRID\n"
     data += f"POINTS {len(pts)} float\n".encode() + struct.pack(f">{3 * len(pts)}f", *(x for p in pts for x in p)) + b"\n"
     data += f"CELLS {len(tets)} {5 * len(tets)}\n".encode() + struct.pack(f">{5 * len(tets)}i", *(x for t in tets for x in [4] + t))
     data += f"\nCELL_TYPES {len(tets)}\n".encode() + struct.pack(f">{len(tets)}i", *([10] * len(tets))) + b"\n"
+    data += f"CELL_DATA {len(tets)}\nFIELD FieldData 2\nquality 1 {len(tets)} double\n".encode()
+    data += struct.pack(f">{len(tets)}d", *([0.5] * len(tets))) + b"\n"
+    data += f"gmsh:physical 1 {len(tets)} int\n".encode() + struct.pack(f">{len(tets)}i", 1, 1, 2, 2, 2) + b"\n"
     open(os.path.join(HERE, "cube_binary.vtk"), "wb").write(data)
     out = ["# vtk DataFile Version 5.1", "the cube, 5.1", "ASCII", "DATASET UNSTRUCTURED_GRID",
            f"POINTS {len(pts)} float"] + [" ".join(f"{x:g}" for x in p) for p in pts]

@@ -22,6 +22,11 @@ set_tests_properties(cli.import.inches PROPERTIES PASS_REGULAR_EXPRESSION "start
 add_test(NAME cli.import.csv
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample.csv -o ${EBH_IO_OUT}/csv.h5 --format csv --tool forceps)
 set_tests_properties(cli.import.csv PROPERTIES PASS_REGULAR_EXPRESSION "csv.h5: 20 samples, 0.009[0-9]* s, 2000 Hz" LABELS cli)
+# A ROS topic of poses exported to CSV (rostopic echo -p) imports as it is, the report naming
+# each column it read.
+add_test(NAME cli.import.ros_export COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_ros.csv -o ${EBH_IO_OUT}/ros.h5)
+set_tests_properties(cli.import.ros_export PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "ros.h5: 20 samples, 0.0095[0-9]* s, 2000 Hz, tool hook\n  read as a ROS export: %time as t \\(nanoseconds\\), field.pose.position.x as x, .*field.pose.orientation.w as qw; 3 other fields left unread\n")
 add_test(NAME cli.import.bad_rotation
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/bad_rotation.txt;-o;${EBH_IO_OUT}/bad.h5"
     "-DEXPECT=^ebh: error: .*bad_rotation.txt:14: the rotation part is not a rotation" -DOUTPUT=${EBH_IO_OUT}/bad.h5

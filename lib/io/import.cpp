@@ -391,9 +391,23 @@ bool time_name(const std::string& h) {
   return false;
 }
 
-void read_csv(const std::string& path, double unit, double rate, double time_unit, std::size_t limit, LogWindow& window,
+/// The column a ROS CSV export names for ebh (`rostopic echo -p`, rosbag's bag_to_csv: a message's
+/// fields as field.a.b): "t" for %time, x y z for a pose's position (a transform's translation), qx
+/// qy qz qw for its orientation (rotation); "" for its other fields. `name` lower-cased.
+std::string ros_column(const std::string& name) {
+  if (name == "%time") return "t";
+  for (const char* p : {".position.", ".translation."})
+    for (const char* a : {"x", "y", "z"})
+      if (name.ends_with(std::string(p) + a)) return a;
+  for (const char* p : {".orientation.", ".rotation."})
+    for (const char* a : {"x", "y", "z", "w"})
+      if (name.ends_with(std::string(p) + a)) return std::string("q") + a;
+  return "";
+}
+
+void read_csv(const std::string& path, double unit, double rate, double& time_unit, std::size_t limit, LogWindow& window,
               Recording& rec, std::vector<std::size_t>& line_of, bool& has_t, bool& has_jaw, LeftOut& left_out,
-              const std::vector<std::string>& skip_columns) {
+              const std::vector<std::string>& skip_columns, bool time_unit_given, std::string& layout_note) {
   std::size_t samples = 0;  // the log's, the window's and before it
   const std::vector<std::string> known{"t", "x", "y", "z", "qw", "qx", "qy", "qz", "jaw", "buttons"};
   std::map<std::string, std::size_t> col;
@@ -421,6 +435,13 @@ void read_csv(const std::string& path, double unit, double rate, double time_uni
       for (const std::string& skip : skip_columns)
         if (std::find(header.begin(), header.end(), skip) == header.end())
           throw InputError(at(path, l.number) + ": --skip-column " + skip + ": the header has no such column");
+      // A ROS export (its %time, its fields as field.*): its pose's columns read as ours, its
+      // other fields left unread, its %time in nanoseconds unless --time-unit says otherwise.
+      const bool ros = std::any_of(header.begin(), header.end(), [](const std::string& h) {
+        return h == "%time" || h.starts_with("field.");
+      });
+      std::size_t ros_unread = 0;
+      std::vector<std::string> ros_read;
       for (std::size_t i = 0; i < header.size(); ++i) {
         if (header[i].empty())
           throw InputError(at(path, l.number) + ": column " + std::to_string(i + 1) + " has no name" +
@@ -431,6 +452,15 @@ void read_csv(const std::string& path, double unit, double rate, double time_uni
         std::string h = header[i];
         std::transform(h.begin(), h.end(), h.begin(), [](unsigned char c) { return std::tolower(c); });
         if (std::find(skip_columns.begin(), skip_columns.end(), header[i]) != skip_columns.end()) continue;
+        if (ros && std::find(known.begin(), known.end(), h) == known.end()) {
+          const std::string ours = ros_column(h);
+          if (ours.empty()) {
+            ++ros_unread;
+            continue;
+          }
+          ros_read.push_back(header[i] + " as " + ours + (h == "%time" && !time_unit_given ? " (nanoseconds)" : ""));
+          h = ours;
+        }
         if (std::find(known.begin(), known.end(), h) == known.end())
           throw InputError(at(path, l.number) + ": unknown column '" + clipped(header[i]) +
                            "' (known: t, x, y, z, qw, qx, qy, qz, jaw, buttons" +
@@ -443,12 +473,28 @@ void read_csv(const std::string& path, double unit, double rate, double time_uni
                                                   "to it first (docs/OWN_DATA.md, \"CSV logs\")"
                                 : header[i].size() > 40 ? "" : "; a column of other data: --skip-column " + header[i] + " leaves it unread") +
                            ")");
-        if (!col.emplace(h, i).second) throw InputError(at(path, l.number) + ": column '" + clipped(h) + "' appears twice");
+        if (!col.emplace(h, i).second)
+          throw InputError(at(path, l.number) + ": column '" + clipped(h) + "' appears twice" +
+                           (ros ? " (read as a ROS export: " + clipped(header[col.at(h)]) + " and " + clipped(header[i]) +
+                                      " both give it; --skip-column one of them)"
+                                : ""));
       }
       for (const char* req : {"x", "y", "z", "qw", "qx", "qy", "qz"})
-        if (!col.count(req)) throw InputError(at(path, l.number) + ": missing column '" + req + "'");
+        if (!col.count(req))
+          throw InputError(at(path, l.number) + ": missing column '" + req + "'" +
+                           (ros ? " (read as a ROS export: a pose's field.*.position.x .. z and field.*.orientation.x .. w, "
+                                  "or a transform's translation and rotation)"
+                                : ""));
       has_t = col.count("t") > 0;
       has_jaw = col.count("jaw") > 0;
+      if (ros) {
+        const bool stamped = has_t && header[col.at("t")] == "%time";
+        if (stamped && !time_unit_given) time_unit = 1e-9;  // rostopic's clock
+        std::string read;
+        for (const std::string& r : ros_read) read += (read.empty() ? "" : ", ") + r;
+        layout_note = "read as a ROS export: " + read + "; " + std::to_string(ros_unread) + " other field" +
+                      (ros_unread == 1 ? "" : "s") + " left unread";
+      }
       return;
     }
     if (window.ended) return;
@@ -622,6 +668,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   Recording rec;
   std::vector<std::size_t> line_of;
   bool has_t = false, csv_has_jaw = false;
+  double time_unit = opt.time_unit.value_or(1.0);  // a ROS export's: nanoseconds
+  std::string layout_note;
   LeftOut left_out;
   if (!(opt.start_s >= 0)) throw InputError("--start: expected seconds >= 0");
   if (opt.duration_s && !(*opt.duration_s > 0)) throw InputError("--duration: expected seconds > 0");
@@ -630,8 +678,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
     if (fmt == LogFormat::openhaptics)
       read_openhaptics(path, unit, rate_hz, opt.max_samples, window, rec, line_of, left_out);
     else
-      read_csv(path, unit, rate_hz, opt.time_unit.value_or(1.0), opt.max_samples, window, rec, line_of, has_t,
-               csv_has_jaw, left_out, opt.skip_columns);
+      read_csv(path, unit, rate_hz, time_unit, opt.max_samples, window, rec, line_of, has_t, csv_has_jaw, left_out,
+               opt.skip_columns, opt.time_unit.has_value(), layout_note);
   } catch (const std::bad_alloc&) {  // a memory limit (ulimit -v, a job's) below what the log needs
     const std::size_t rows = rec.t.size();
     rec = Recording{};
@@ -658,8 +706,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
     throw InputError("--time-unit: " + path + " has no t column (its samples are --rate apart): the unit is for a "
                      "CSV log's times");
   // The log's times in seconds (a clock in ms or ns), before anything reads them as such.
-  if (opt.time_unit && *opt.time_unit != 1)
-    for (double& t : rec.t) t *= *opt.time_unit;
+  if (time_unit != 1)
+    for (double& t : rec.t) t *= time_unit;
   rec.source = "device";
   rec.scene = opt.scene;
   rec.tool = opt.tool;
@@ -723,6 +771,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   rec.baked = opt.transforms;
 
   ImportReport r;
+  r.layout_note = layout_note;
   r.has_times = has_t;
   r.rate_assumed = !has_t && !opt.rate_hz;
   r.rate_warning = rate_warning;

@@ -40,7 +40,8 @@ struct ImportOptions {
   std::vector<std::string> skip_columns;
   std::optional<double> unit;       ///< metres per log length unit; nullopt: the format's default
   /// seconds per unit of a CSV log's t column (--time-unit ms|us|ns: a logger's clock in
-  /// milliseconds, a ROS export's in nanoseconds); nullopt: seconds
+  /// milliseconds, a ROS export's in nanoseconds); nullopt: seconds, or nanoseconds for a ROS
+  /// export's %time (read_csv: a header of %time and field.* columns)
   std::optional<double> time_unit;
   /// The log's jaw values when the jaws are closed and when open (--jaw-range CLOSED,OPEN): mapped
   /// to 0 and 1 linearly and clamped to them (a gripper in degrees, an inverted signal, one
@@ -112,6 +113,9 @@ struct ImportReport {
   std::size_t jaw_clamped = 0; ///< jaw_range: samples whose mapped jaw lay outside [0, 1], clamped
   std::size_t first_jaw_clamped_line = 0;
   std::size_t jaw_button_presses = 0;  ///< jaw_button: times the button went down (a grasp each)
+  /// csv: how a ROS export's columns were read ("read as a ROS export: %time as t (nanoseconds),
+  /// field.pose.position.x as x, ...; 3 other fields left unread"); "" for another log
+  std::string layout_note;
 };
 
 /// An interval between a log's times above this many times the median one (and above two

@@ -557,7 +557,7 @@ std::string fast_change_cause(const Recording& rec, const FastestChange& f, cons
   if (f.run < kSustainedChanges) return ": a gap or a reset in the log";
   const std::size_t from = f.run_end - f.run;
   char line[320];
-  std::snprintf(line, sizeof line, ": not a jump but %zu %s in a row from sample %zu to %zu (t = %.9g .. %.9g s), a motion no "
+  std::snprintf(line, sizeof line, ": not a jump but %zu %s in a row from sample %zu to %zu (t = %.15g .. %.15g s), a motion no "
                 "hand makes held for %.3g s (%s)",
                 f.run, what, rec.row(from), rec.row(f.run_end), rec.t[from], rec.t[f.run_end], rec.t[f.run_end] - rec.t[from],
                 held_cause);
@@ -569,7 +569,7 @@ std::string fast_change_cause(const Recording& rec, const FastestChange& f, cons
 std::string others_over(const Recording& rec, const FastestChange& f, const char* what, double limit, const char* unit) {
   if (f.over < 2) return "";
   char line[200];
-  std::snprintf(line, sizeof line, "; the fastest of %zu %s over %g %s, the first between samples %zu and %zu (t = %.9g s)",
+  std::snprintf(line, sizeof line, "; the fastest of %zu %s over %g %s, the first between samples %zu and %zu (t = %.15g s)",
                 f.over, what, limit, unit, rec.row(f.first - 1), rec.row(f.first), rec.t[f.first]);
   return line;
 }
@@ -589,7 +589,7 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
   const std::size_t at = f.at;
   char line[900];
   std::snprintf(line, sizeof line,
-                "the tool jumps %.3g m between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g m/s; a hand moves it at "
+                "the tool jumps %.3g m between samples %zu and %zu (the recording's t = %.15g .. %.15g s: %.3g m/s; a hand moves it at "
                 "under 1 m/s%s)%s, which a replay passes through in one tick",
                 norm(rec.position[at] - rec.position[at - 1]), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], f.rate,
                 others_over(rec, f, "jumps", kToolSpeedMax, "m/s").c_str(),
@@ -623,7 +623,7 @@ std::optional<std::string> check_recording_gaps(const Recording& rec) {
   const std::size_t i = g->longest;
   char line[400];
   std::snprintf(line, sizeof line,
-                "%s of %.4g s between samples %zu and %zu (the recording's t = %.9g .. %.9g s), %.3g times the median "
+                "%s of %.4g s between samples %zu and %zu (the recording's t = %.15g .. %.15g s), %.3g times the median "
                 "interval of %.3g ms: the logger missed samples there, and a replay moves the tool in a straight line "
                 "across %s",
                 g->count == 1 ? "a gap" : (std::to_string(g->count) + " gaps, the longest").c_str(), rec.t[i + 1] - rec.t[i],
@@ -684,7 +684,7 @@ std::optional<std::string> check_recording_turn(const Recording& rec) {
   const std::size_t at = f.at;
   char line[900];
   std::snprintf(line, sizeof line,
-                "the tool turns %.3g degrees between samples %zu and %zu (the recording's t = %.9g .. %.9g s: %.3g rad/s; "
+                "the tool turns %.3g degrees between samples %zu and %zu (the recording's t = %.15g .. %.15g s: %.3g rad/s; "
                 "a hand turns it at a few%s)%s, which the virtual tool follows at "
                 "tool.max_step_rotation_deg a Newton step, rendering its lag as torque meanwhile (tool.torque_limit)",
                 turn_angle(rec, at) * 180 / std::numbers::pi, rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at],

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <numbers>
 #include <utility>
 
@@ -54,6 +56,48 @@ TEST(Import, CsvLogMatchesTheKnownTrajectory) {
   Recording r = import_log(kData + "sample.csv", opt);  // default: m, t column
   expect_known(r, 5e-4);
   EXPECT_EQ(r.rate_hz, 2000.0);  // 19 intervals over 9.5 ms, rounded: within 1e-9 of 2000
+}
+
+// A ROS CSV export (rostopic echo -p of a PoseStamped): its %time in nanoseconds as t, the pose's
+// fields as x, y, z, qx, qy, qz, qw, its header's fields left unread, said in the report; a
+// TransformStamped's translation and rotation read the same; --time-unit still rules %time.
+TEST(Import, RosCsvExportReadsItsPoseAndClock) {
+  ImportReport report;
+  const Recording r = import_log(kData + "sample_ros.csv", ImportOptions{}, &report);
+  ASSERT_EQ(r.size(), 20u);
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    EXPECT_NEAR(norm(r.position[i] - known_position(i)), 0, 1e-10) << i;
+    EXPECT_NEAR(quat_angle(r.orientation[i], known_orientation(i)), 0, 1e-8) << i;
+    // 1.7e9 s from the epoch: the nanoseconds read as a double and scaled keep about 0.4 us
+    EXPECT_NEAR(r.t[i] - 1.7e9, 5e-4 * static_cast<double>(i), 1e-6) << i;
+    EXPECT_EQ(r.jaw[i], 1.0);  // open: the message has no jaw
+  }
+  EXPECT_NEAR(r.rate_hz, 2000, 0.5);
+  EXPECT_EQ(report.layout_note,
+            "read as a ROS export: %time as t (nanoseconds), field.pose.position.x as x, field.pose.position.y as y, "
+            "field.pose.position.z as z, field.pose.orientation.x as qx, field.pose.orientation.y as qy, "
+            "field.pose.orientation.z as qz, field.pose.orientation.w as qw; 3 other fields left unread");
+  test::ScratchDir tmp;
+  std::ifstream in(kData + "sample_ros.csv");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"field.pose.position", "field.transform.translation"},
+                                 {"field.pose.orientation", "field.transform.rotation"}})
+    for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at)) text.replace(at, from.size(), to);
+  std::ofstream(tmp / "transform.csv") << text;
+  const Recording tf = import_log(tmp / "transform.csv", ImportOptions{});
+  ASSERT_EQ(tf.size(), 20u);
+  EXPECT_EQ(tf.position[7], r.position[7]);
+  ImportOptions us;
+  us.time_unit = 1e-6;  // a clock the user says is in microseconds: 1000 times slower than ns
+  EXPECT_NEAR(import_log(kData + "sample_ros.csv", us).rate_hz, 2, 1e-3);
+  // Two poses in one message: both give x; said, with the option that leaves one unread.
+  std::ofstream(tmp / "two.csv") << "%time,field.pose.position.x,field.goal.position.x\n1,0,0\n";
+  EXPECT_INPUT_ERROR(import_log(tmp / "two.csv", ImportOptions{}),
+                     "two.csv:1: column 'x' appears twice (read as a ROS export: field.pose.position.x and "
+                     "field.goal.position.x both give it; --skip-column one of them)");
+  // Without a pose's fields it is no pose log: said as a ROS export.
+  std::ofstream(tmp / "twist.csv") << "%time,field.linear.x,field.linear.y,field.linear.z\n1,0,0,0\n2,0,0,0\n";
+  EXPECT_INPUT_ERROR(import_log(tmp / "twist.csv", ImportOptions{}), "twist.csv:1: missing column 'x' (read as a ROS export");
 }
 
 // --start / --duration: the samples in the window, from the log's first sample, keep their times

@@ -146,6 +146,7 @@ void run(const ImportArgs& a) {
   if (auto w = ebh::check_recording_turn(rec)) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.log.c_str(), w->c_str());
   std::printf("%s: %zu samples, %.6g s, %.10g Hz, tool %s\n", a.output.c_str(), rec.size(), rec.duration(), rec.rate_hz,
               rec.tool.c_str());
+  if (!report.layout_note.empty()) std::printf("  %s\n", ebh::escape_unprintable(report.layout_note).c_str());
   // A hold (repeats lasting more than kStaleRunMaxS: the device at rest) keeps its last sample.
   const auto count = [](std::size_t n, const char* one, const char* many) {
     return std::to_string(n) + " " + (n == 1 ? one : many);

@@ -75,14 +75,14 @@ DataType data_type(TextCursor& c, std::string_view t) {
 
 class VtkParser {
  public:
-  VtkParser(const std::filesystem::path& file, std::string bytes) : file_(file), bytes_(std::move(bytes)), c_(file, bytes_) {}
+  VtkParser(const std::filesystem::path& file, std::string bytes) : bytes_(std::move(bytes)), c_(file, bytes_) {}
 
   TetMesh parse() {
     header();
     std::vector<long long> cells, offsets;  // legacy: n, ids...; 5.1: the offsets and the connectivity
     std::vector<long long> types;
     bool have_points = false, have_cells = false, have_types = false, offsets_form = false;
-    long long cells_line = 0;
+    long long cells_line = 0, legacy_cells = 0;  // legacy CELLS: the number of cells
     while (next_keyword()) {
       const long long line = c_.line();
       const std::string key = upper(c_.token());
@@ -110,7 +110,7 @@ class VtkParser {
           cells = array_after("CONNECTIVITY", size, "CELLS");
         } else {
           cells = integers(size, DataType{"INT", 4}, "CELLS", line);
-          cell_count_ = n;
+          legacy_cells = n;
         }
         have_cells = true;
       } else if (key == "CELL_TYPES") {
@@ -131,7 +131,7 @@ class VtkParser {
     }
     if (!have_points) fail(c_.line(), "no POINTS section");
     if (!have_cells || !have_types) fail(c_.line(), std::string("no ") + (have_cells ? "CELL_TYPES" : "CELLS") + " section");
-    build(cells, offsets, offsets_form, types, cells_line);
+    build(cells, offsets, offsets_form, legacy_cells, types, cells_line);
     if (!groups_name_.empty()) take_groups(static_cast<long long>(types.size()));
     return std::move(mesh_);
   }
@@ -351,8 +351,8 @@ class VtkParser {
   /// The tets from the cells; cells of a lower dimension (vertices, lines, triangles, quads, ...)
   /// skipped, a volume cell of another kind refused with its count.
   void build(const std::vector<long long>& cells, const std::vector<long long>& offsets, bool offsets_form,
-             const std::vector<long long>& types, long long line) {
-    const long long n = offsets_form ? static_cast<long long>(offsets.size()) - 1 : cell_count_;
+             long long legacy_cells, const std::vector<long long>& types, long long line) {
+    const long long n = offsets_form ? static_cast<long long>(offsets.size()) - 1 : legacy_cells;
     if (offsets_form && offsets.empty()) fail(line, "CELLS: no OFFSETS (5.1 writes one more than the cells)");
     if (static_cast<long long>(types.size()) != n)
       fail(line, "CELLS lists " + std::to_string(n) + " cells, CELL_TYPES " + std::to_string(types.size()));
@@ -399,14 +399,12 @@ class VtkParser {
     if (!offsets_form && at != cells.size())
       fail(line, "CELLS: its size says " + std::to_string(cells.size()) + " entries, its cells use " + std::to_string(at));
     std::string refused;
-    long long refused_count = 0;
     for (std::size_t t = 0; t < other.size(); ++t)
       if (other[t] > 0)
         if (const char* name = volume_cell(static_cast<int>(t))) {
           refused += (refused.empty() ? "" : ", ") + std::to_string(other[t]) + " " + name;
-          refused_count += other[t];
         }
-    if (refused_count > 0)
+    if (!refused.empty())
       fail(line, "the volume holds " + refused + " besides its " + std::to_string(mesh_.tets.size()) +
                      " tetrahedra: the physical mesh is 4-node tets only (mesh with tets only, first order)");
     if (mesh_.tets.empty()) fail(line, "no tetrahedra (cell type 10) among the " + std::to_string(n) + " cells");
@@ -415,13 +413,11 @@ class VtkParser {
     for (std::size_t i = 0; i < mesh_.vertices.size(); ++i) mesh_.file_node_ids[i] = static_cast<long long>(i);
   }
 
-  std::filesystem::path file_;
   std::string bytes_;
   TextCursor c_;
   TetMesh mesh_;
   int version_ = 0;
   bool binary_ = false;
-  long long cell_count_ = 0;
   std::vector<long long> groups_;  ///< each cell's group, from the cell array groups_name_ ("": none)
   std::string groups_name_;
   long long groups_line_ = 0;

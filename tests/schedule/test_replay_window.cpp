@@ -43,18 +43,28 @@ TetMesh unit_tet() {
   one.tets = {{0, 1, 2, 3}};
   return one;
 }
+
+/// Five samples 0.1 s apart from 10 s (the recording's own clock), straight down through
+/// unit_tet at x = y = 0.1: z = 1.5, 1.0, 0.5, 0.3, -0.5, inside at 0.5 and 0.3.
+Recording down_through_unit_tet() {
+  Recording rec;
+  const double z[] = {1.5, 1.0, 0.5, 0.3, -0.5};
+  for (int i = 0; i < 5; ++i) {
+    rec.t.push_back(10.0 + 0.1 * i);
+    rec.position.push_back({0.1, 0.1, z[i]});
+    rec.orientation.push_back({1, 0, 0, 0});
+    rec.jaw.push_back(1);
+    rec.buttons.push_back(0);
+  }
+  return rec;
+}
 }  // namespace
 
 // A tool's tip that went inside the tissue: the replay that felt no contact then says the tool
 // passed between the virtual vertices (tip_inside_mesh, ebh replay's contact warning).
 TEST(TipInsideMesh, TheFirstSampleOfTheWindowInsideTheRestMesh) {
   const TetMesh one = unit_tet();
-  Recording rec;
-  const double z[] = {1.5, 1.0, 0.5, 0.3, -0.5};  // down through the tet: inside at z = 0.5 and 0.3
-  for (int i = 0; i < 5; ++i) {
-    rec.t.push_back(10.0 + 0.1 * i);  // the recording's own clock
-    rec.position.push_back({0.1, 0.1, z[i]});
-  }
+  Recording rec = down_through_unit_tet();
   EXPECT_EQ(tip_inside_mesh(rec, one, 0, 0), std::optional<double>(10.2));
   EXPECT_EQ(tip_inside_mesh(rec, one, 0.25, 0), std::optional<double>(10.3));  // the window starts later
   EXPECT_EQ(tip_inside_mesh(rec, one, 0, 0.15), std::nullopt);                 // and ends before it
@@ -85,15 +95,7 @@ TEST(TipInsideMesh, TheToolsCollidersReachPastItsOrigin) {
 // kStartInTissueDepth) or beside it is not.
 TEST(StartInTissue, AWindowThatStartsInsideSaysWhenTheToolWasClear) {
   const TetMesh one = unit_tet();
-  Recording rec;
-  const double z[] = {1.5, 1.0, 0.5, 0.3, -0.5};  // down through the tet: inside at z = 0.5 and 0.3
-  for (int i = 0; i < 5; ++i) {
-    rec.t.push_back(10.0 + 0.1 * i);  // the recording's own clock
-    rec.position.push_back({0.1, 0.1, z[i]});
-    rec.orientation.push_back({1, 0, 0, 0});
-    rec.jaw.push_back(1);
-    rec.buttons.push_back(0);
-  }
+  Recording rec = down_through_unit_tet();
   const auto in = window_starts_in_tissue(rec, one, 0.25);  // z = 0.4 at 10.25 s
   ASSERT_TRUE(in.has_value());
   EXPECT_DOUBLE_EQ(in->t, 10.25);

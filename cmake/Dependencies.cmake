@@ -3,6 +3,7 @@ find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(HDF5 REQUIRED COMPONENTS C)
 find_package(yaml-cpp REQUIRED)
 find_package(PNG REQUIRED)
+find_package(ZLIB REQUIRED)  # the .vtu reader's compressed arrays
 find_package(CLI11 REQUIRED)
 find_package(Threads REQUIRED)
 # OpenMP parallelises per-element loops; every parallel loop gathers in a fixed order so results

@@ -425,6 +425,26 @@ set_tests_properties(cli.scene_init.vtk PROPERTIES LABELS "cli;scene" FIXTURES_S
 add_test(NAME cli.scene_init.vtk_info COMMAND ${EBH_BIN} scene info ${EBH_INIT}/cube_vtk.yaml)
 set_tests_properties(cli.scene_init.vtk_info PROPERTIES LABELS "cli;scene" FIXTURES_REQUIRED scene_init_vtk
   PASS_REGULAR_EXPRESSION "physical mesh +[^\n]*cube_binary.vtk\n.*tets +5\n")
+# A TetGen mesh (named by its .ele; .node and .face beside it), pinned by a face marker's group,
+# and a Medit mesh pinned by a tet reference.
+add_test(NAME cli.scene_init.tetgen
+  COMMAND ${EBH_BIN} scene init ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube.1.ele -o ${EBH_INIT}/cube_tetgen.yaml --unit cm
+    --pin group:surface_3)
+set_tests_properties(cli.scene_init.tetgen PROPERTIES LABELS "cli;scene" FIXTURES_SETUP scene_init_tetgen
+  PASS_REGULAR_EXPRESSION "cube_tetgen.yaml: scene for .*cube.1.ele \\(8 vertices, 5 tets, in cm\\).*pinned 4 vertices \\(group:surface_3\\)")
+add_test(NAME cli.scene_init.tetgen_info COMMAND ${EBH_BIN} scene info ${EBH_INIT}/cube_tetgen.yaml)
+set_tests_properties(cli.scene_init.tetgen_info PROPERTIES LABELS "cli;scene" FIXTURES_REQUIRED scene_init_tetgen
+  PASS_REGULAR_EXPRESSION "tets +5\n.*surface_1 +tag 3 +0 tets +2 triangles\n  surface_3 +tag 4 +0 tets +2 triangles")
+add_test(NAME cli.scene_init.medit
+  COMMAND ${EBH_BIN} scene init ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube.mesh -o ${EBH_INIT}/cube_medit.yaml --unit cm
+    --pin group:1)
+set_tests_properties(cli.scene_init.medit PROPERTIES LABELS "cli;scene"
+  PASS_REGULAR_EXPRESSION "cube_medit.yaml: scene for .*cube.mesh \\(8 vertices, 5 tets, in cm\\).*pinned 6 vertices \\(group:1\\)")
+add_test(NAME cli.scene.info_of_a_medit_mesh
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;info;${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube.mesh"
+    "-DEXPECT=^ebh: error: .*cube.mesh: a Medit mesh, not a scene file \\(YAML\\): `ebh scene init .*cube.mesh -o scene.yaml` writes a scene for it"
+    -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene.info_of_a_medit_mesh PROPERTIES LABELS "cli;scene")
 function(ebh_scene_init_failure name expect)
   add_test(NAME cli.scene_init.${name}
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${ARGN}" "-DEXPECT=${expect}" -DSTATUS=1
@@ -441,6 +461,8 @@ add_test(NAME cli.scene.info_of_a_vtk_mesh
 set_tests_properties(cli.scene.info_of_a_vtk_mesh PROPERTIES LABELS "cli;scene")
 ebh_scene_init_failure(vtk_group "^ebh: error: --pin group:bottom: .*cube51.vtk has no physical group 'bottom' \\(it has no groups\\): a VTK file's groups are the numbers in its cell array named gmsh:physical, .*; or pin a box or a half-space"
   ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube51.vtk -o ${EBH_INIT}/vtk_group.yaml --unit cm --pin group:bottom)
+ebh_scene_init_failure(tetgen_group "^ebh: error: --pin group:9: .*cube0.node has no physical group '9' \\(it has no groups\\): a TetGen mesh's groups are its region attributes \\(by number, tetgen -A\\) and its faces' boundary markers \\(surface_N\\); or pin a box or a half-space"
+  ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube0.node -o ${EBH_INIT}/tetgen_group.yaml --unit cm --pin group:9)
 ebh_scene_init_failure(pins_nothing "^ebh: error: --pin sphere:10,10,10,1: the region pins no vertex of .*own_cm.msh \\(its bounding box: \\[0, 0, 0\\] \\.\\. \\[4, 3, 2\\] cm\\)"
   ${OWN} -o ${EBH_INIT}/pins_nothing.yaml --unit cm --pin sphere:10,10,10,1)
 ebh_scene_init_failure(pins_everything "^ebh: error: --pin: the regions pin all 8 vertices of .*own_cm.msh: nothing could move"

@@ -7,7 +7,7 @@ target_include_directories(test_mesh_fuzz PRIVATE ${PROJECT_SOURCE_DIR}/lib ${PR
 target_compile_options(test_mesh_fuzz PRIVATE -fsanitize=address,undefined -fno-sanitize-recover=all
                        -fno-omit-frame-pointer -g)
 target_link_options(test_mesh_fuzz PRIVATE -fsanitize=address,undefined)
-target_link_libraries(test_mesh_fuzz PRIVATE ebh_warnings)
+target_link_libraries(test_mesh_fuzz PRIVATE ebh_warnings ZLIB::ZLIB)
 add_test(NAME mesh.fuzz COMMAND test_mesh_fuzz ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh 10000)  # 1-2 s of CPU with the sanitizers
 set_tests_properties(mesh.fuzz PROPERTIES LABELS mesh TIMEOUT 300
                      ENVIRONMENT "ASAN_OPTIONS=abort_on_error=0:detect_leaks=1;UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1")

@@ -1,5 +1,5 @@
 #pragma once
-// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1) or VTK legacy for the physical mesh, Wavefront OBJ or STL for
+// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1), VTK legacy or XML, Medit or TetGen for the physical mesh, Wavefront OBJ or STL for
 // a virtual-mesh surface. Positions stay in file units; the scene scales them (docs/FORMATS.md, "Length units and the mesh transform").
 //
 // Both readers hold the file in memory and parse it in one pass without regular expressions.
@@ -8,6 +8,7 @@
 // is named when one is known).
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "mesh/tet_mesh.hpp"
 
@@ -50,7 +51,50 @@ TetMesh read_msh(const std::filesystem::path& file);
 /// value that is no tag (< 0), and a file with no tets.
 TetMesh read_vtk(const std::filesystem::path& file);
 
-/// The physical mesh of `file`: read_vtk for a .vtk file (in any case), read_msh otherwise.
+/// Reads a VTK XML unstructured grid (`.vtu`, as VTK, ParaView, 3D Slicer and meshio write it): its
+/// Points and its cells of type 10 (4-node tets), over one or more Pieces (joined, in order). Arrays
+/// in any of the formats: ascii, binary (base64 inline) or appended (raw or base64), uncompressed
+/// or zlib-compressed (vtkZLibDataCompressor), little- or big-endian, UInt32 or UInt64 headers.
+/// Cells of a lower dimension are skipped, other volume cells refused naming each kind's count.
+/// Groups as read_vtk: the first integer cell array of one component named gmsh:physical,
+/// CellEntityIds, medit:ref, MaterialIds, material, region(s), label(s), subdomain or domain.
+/// Throws InputError "FILE:LINE: what" (the line of the element concerned) for other file types
+/// (a parallel .pvtu, image data, ...), lz4 or lzma compression, malformed XML, arrays whose sizes
+/// disagree with their headers or counts, damaged compressed blocks, non-finite coordinates, point
+/// indices out of range, and a file with no tets.
+TetMesh read_vtu(const std::filesystem::path& file);
+
+/// Reads a Medit ASCII mesh (`.mesh`, MeshVersionFormatted 1 to 3, Dimension 3), as MMG, CGAL's
+/// Mesh_3, TetGen (-g), SOFA and meshio write it: its Vertices, Tetrahedra and Triangles (1-based
+/// vertex numbers, a reference after each). Keywords in any case, values over any lines, `#`
+/// comments. A tet's reference is its group (unnamed: a pin names it by number, `group:2`); a
+/// triangle's reference N > 0 its group named `surface_N` (on a tag after every tet's, so a surface
+/// and a subdomain of the same number stay apart). Edges, corners, ridges, required entities,
+/// normals, tangents and quadrilaterals are read past; hexahedra, prisms, pyramids and
+/// second-order tets are refused naming each kind's count. Throws InputError "FILE:LINE: what" for
+/// a binary .meshb (not text), a 2-D mesh, an unknown keyword (its record size is unknown), a
+/// count the rest of the file cannot hold, non-finite coordinates, vertex numbers out of range,
+/// negative references, a section given twice, a file without End (cut short) and one with no
+/// tetrahedra.
+TetMesh read_medit(const std::filesystem::path& file);
+
+/// Reads a TetGen mesh from its `.node` or its `.ele` file (either; the other beside it, with the
+/// same name): the nodes, the 4-node tets, and the boundary faces of a `.face` beside them where
+/// there is one. Records one per line, `#` comments, numbers from 0 or 1 (set by the first node,
+/// consecutive in each file). The first region attribute (`tetgen -A`) is a tet's group (unnamed,
+/// a whole number >= 0); a face's boundary marker N > 0 its group named `surface_N`, as read_medit.
+/// Node attributes and markers are read past. Throws InputError "FILE:LINE: what" for a missing
+/// .node or .ele, 2-D or second-order (-o2) meshes, records out of order or with the wrong number
+/// of values, node numbers out of range, non-finite coordinates, attributes that are no group tag,
+/// and counts the rest of the file cannot hold.
+TetMesh read_tetgen(const std::filesystem::path& file);
+
+/// The files besides `file` that read_tet_mesh reads for the mesh (a TetGen mesh's other .node or
+/// .ele, and its .face where there is one; none for the other formats): the mesh's provenance.
+std::vector<std::filesystem::path> tet_mesh_companions(const std::filesystem::path& file);
+
+/// The physical mesh of `file`, by its extension (in any case): read_vtk for .vtk, read_medit for
+/// .mesh, read_tetgen for .node and .ele, read_vtu for .vtu, read_msh otherwise.
 TetMesh read_tet_mesh(const std::filesystem::path& file);
 
 /// The Gmsh ASCII 2.2 text of `mesh` with positions multiplied by `scale` (metres -> file units),

@@ -26,8 +26,9 @@ std::string printable(std::string_view token);
 
 class TextCursor {
  public:
-  TextCursor(const std::filesystem::path& file, std::string_view text)
-      : file_(file), text_(text), pos_(text.starts_with("\xEF\xBB\xBF") ? 3 : 0) {}
+  /// A cursor over `text`, whose first line is the file's line `first_line` (a part of a file).
+  TextCursor(const std::filesystem::path& file, std::string_view text, long long first_line = 1)
+      : file_(file), text_(text), pos_(text.starts_with("\xEF\xBB\xBF") ? 3 : 0), line_(first_line) {}
 
   /// 1-based number of the line the cursor is on.
   long long line() const { return line_; }
@@ -63,6 +64,17 @@ class TextCursor {
     return text_.substr(start, end - start);
   }
 
+  /// The next token of the free-form text of a format whose values run over lines (Medit, TetGen):
+  /// blank lines and comments from `#` to the line's end are skipped; empty at the end of the file.
+  std::string_view word() {
+    while (skip_empty_lines()) {
+      skip_blanks();
+      if (text_[pos_] != '#') return token();
+      next_line();
+    }
+    return {};
+  }
+
   /// Moves to the start of the next line (whatever is left on this one is skipped).
   void next_line() {
     while (pos_ < text_.size() && text_[pos_] != '\n') ++pos_;
@@ -89,7 +101,13 @@ class TextCursor {
 
   /// Parses the next token as an integer in [lo, hi]; `what` names it in errors.
   long long integer(const char* what, long long lo, long long hi, const std::string& context = {}) {
-    std::string_view t = token();
+    return to_integer(token(), what, lo, hi, context);
+  }
+  /// Parses the next token as a finite real number.
+  double real(const char* what, const std::string& context = {}) { return to_real(token(), what, context); }
+
+  /// Token `t` as an integer in [lo, hi] (integer() on a token from elsewhere, e.g. word()).
+  long long to_integer(std::string_view t, const char* what, long long lo, long long hi, const std::string& context = {}) {
     if (t.empty()) fail(std::string("expected ") + what + ", found the end of the " + (at_end() ? "file" : "line") + context);
     long long v = 0;
     auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
@@ -101,9 +119,8 @@ class TextCursor {
     return v;
   }
 
-  /// Parses the next token as a finite real number.
-  double real(const char* what, const std::string& context = {}) {
-    std::string_view t = token();
+  /// Token `t` as a finite real number.
+  double to_real(std::string_view t, const char* what, const std::string& context = {}) {
     if (t.empty()) fail(std::string("expected ") + what + ", found the end of the " + (at_end() ? "file" : "line") + context);
     const char* b = t.data();
     if (*b == '+' && t.size() > 1) ++b;  // from_chars rejects a leading '+', C's strtod accepts it

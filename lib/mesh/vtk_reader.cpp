@@ -14,34 +14,13 @@
 #include "core/file_names.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/text_cursor.hpp"
+#include "mesh/vtk_names.hpp"
 
 namespace ebh {
 namespace {
 
 using detail::printable;
 using detail::TextCursor;
-
-constexpr int kCellTet = 10;
-
-/// A volume cell type other than the 4-node tet (VTK's numbering), named for messages.
-struct VolumeCell {
-  int type;
-  const char* many;
-};
-constexpr VolumeCell kVolumeCells[] = {
-    {11, "voxels"},           {12, "hexahedra"},          {13, "wedges (prisms)"},     {14, "pyramids"},
-    {15, "pentagonal prisms"}, {16, "hexagonal prisms"},   {24, "10-node tetrahedra"},  {25, "20-node hexahedra"},
-    {26, "15-node wedges"},    {27, "13-node pyramids"},   {29, "27-node hexahedra"},   {32, "18-node wedges"},
-    {33, "quadratic-linear wedges"}, {42, "polyhedra"},    {71, "Lagrange tetrahedra"}, {72, "Lagrange hexahedra"},
-    {73, "Lagrange wedges"},   {74, "Lagrange pyramids"},  {78, "Bezier tetrahedra"},   {79, "Bezier hexahedra"},
-    {80, "Bezier wedges"},     {81, "Bezier pyramids"},
-};
-
-const char* volume_cell(int type) {
-  for (const VolumeCell& c : kVolumeCells)
-    if (c.type == type) return c.many;
-  return nullptr;
-}
 
 std::string upper(std::string_view s) {
   std::string u(s);
@@ -245,7 +224,7 @@ class VtkParser {
   }
 
   /// A FIELD's arrays, each read past; in cell data (`cells`: the number of cells) one named as
-  /// groups (is_group_array) of one integer a cell becomes the groups.
+  /// groups (is_vtk_group_array) of one integer a cell becomes the groups.
   void skip_field(long long cells = -1) {
     c_.token();  // the field's name
     const long long arrays = c_.integer("the number of arrays", 0, 1 << 20);
@@ -263,18 +242,8 @@ class VtkParser {
         continue;
       }
       std::vector<long long> v = integers(comps * tuples, t, "FIELD", line);
-      if (cells >= 0 && comps == 1 && groups_name_.empty() && is_group_array(name)) take_array(name, std::move(v), line);
+      if (cells >= 0 && comps == 1 && groups_name_.empty() && detail::is_vtk_group_array(name)) take_array(name, std::move(v), line);
     }
-  }
-
-  /// Whether a cell array of this name holds each cell's region (a label, a physical group): what
-  /// meshio (gmsh:physical, medit:ref), 3D Slicer and VMTK (CellEntityIds) and others write.
-  static bool is_group_array(const std::string& name) {
-    const std::string n = upper(name);
-    for (const char* g : {"GMSH:PHYSICAL", "CELLENTITYIDS", "MEDIT:REF", "MATERIALIDS", "MATERIAL", "REGION", "REGIONS",
-                          "LABEL", "LABELS", "SUBDOMAIN", "DOMAIN"})
-      if (n == g) return true;
-    return false;
   }
 
   void take_array(const std::string& name, std::vector<long long> v, long long line) {
@@ -284,7 +253,7 @@ class VtkParser {
   }
 
   /// CELL_DATA and POINT_DATA to the end of the file: the attributes are read past, and the first
-  /// integer cell array of one component that is_group_array names becomes the tets' groups. An
+  /// integer cell array of one component that is_vtk_group_array names becomes the tets' groups. An
   /// attribute of another kind ends the reading (the mesh is complete without it).
   void attributes(std::string key) {
     while (true) {
@@ -311,7 +280,7 @@ class VtkParser {
             reals(comps * n, t, "SCALARS", line);
           } else {
             std::vector<long long> v = integers(comps * n, t, "SCALARS", line);
-            if (cell && comps == 1 && groups_name_.empty() && is_group_array(name)) take_array(name, std::move(v), line);
+            if (cell && comps == 1 && groups_name_.empty() && detail::is_vtk_group_array(name)) take_array(name, std::move(v), line);
           }
         } else if (key == "VECTORS" || key == "NORMALS" || key == "TENSORS" || key == "GLOBAL_IDS" || key == "PEDIGREE_IDS") {
           c_.token();  // the name
@@ -377,7 +346,7 @@ class VtkParser {
         at = static_cast<std::size_t>(begin + count);
       }
       const long long type = types[static_cast<std::size_t>(i)];
-      if (type != kCellTet) {
+      if (type != detail::kVtkTet) {
         if (type >= 0 && type < static_cast<long long>(other.size())) ++other[static_cast<std::size_t>(type)];
         else fail(line, "cell " + std::to_string(i) + ": unknown cell type " + std::to_string(type));
         continue;
@@ -401,7 +370,7 @@ class VtkParser {
     std::string refused;
     for (std::size_t t = 0; t < other.size(); ++t)
       if (other[t] > 0)
-        if (const char* name = volume_cell(static_cast<int>(t))) {
+        if (const char* name = detail::vtk_volume_cell(static_cast<long long>(t))) {
           refused += (refused.empty() ? "" : ", ") + std::to_string(other[t]) + " " + name;
         }
     if (!refused.empty())
@@ -431,7 +400,12 @@ TetMesh read_vtk(const std::filesystem::path& file) {
 }
 
 TetMesh read_tet_mesh(const std::filesystem::path& file) {
-  return lower_extension(file) == ".vtk" ? read_vtk(file) : read_msh(file);
+  const std::string ext = lower_extension(file);
+  if (ext == ".vtk") return read_vtk(file);
+  if (ext == ".mesh" || ext == ".meshb") return read_medit(file);
+  if (ext == ".node" || ext == ".ele") return read_tetgen(file);
+  if (ext == ".vtu" || ext == ".pvtu") return read_vtu(file);
+  return read_msh(file);
 }
 
 }  // namespace ebh

@@ -576,7 +576,7 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
     if (std::find(known.begin(), known.end(), r.group) == known.end())
       throw InputError(value_source(scene.spec, key) + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
                        scene.spec.physical_mesh.string() + ": " + known_groups_text(scene.physical) + ")" +
-                       lower_dimension_group_note(scene.physical, r.group) + vtk_groups_note(scene.spec.physical_mesh));
+                       lower_dimension_group_note(scene.physical, r.group) + file_groups_note(scene.spec.physical_mesh));
   }
   // A region the file gives can miss a mesh that an override moved or replaced: say which.
   std::string moved;
@@ -743,8 +743,13 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
   // Another kind of file given where a scene goes (the mesh, the recording) is named as such.
   if (text.starts_with("\x89HDF\r\n\x1a\n"))
     throw InputError(file.string() + ": an HDF5 file (a recording or a replay output?), not a scene file (YAML)");
-  if (text.starts_with("# vtk DataFile"))
-    throw InputError(file.string() + ": a VTK mesh, not a scene file (YAML): `ebh scene init " + file.string() +
+  const std::string ext = lower_extension(file);
+  const char* mesh = text.starts_with("# vtk DataFile")                                        ? "a VTK mesh"
+                     : text.substr(0, 256).find("MeshVersionFormatted") != std::string::npos ? "a Medit mesh"
+                     : ext == ".node" || ext == ".ele"                                       ? "a TetGen mesh"
+                                                                                             : nullptr;
+  if (mesh)
+    throw InputError(file.string() + ": " + mesh + ", not a scene file (YAML): `ebh scene init " + file.string() +
                      " -o scene.yaml` writes a scene for it");
   // The text goes into every replay output (its scene_yaml attribute, UTF-8): bytes of another
   // encoding (Latin-1 from an old editor) are named here, not carried into the outputs.
@@ -844,11 +849,18 @@ std::vector<std::string> known_group_names(const TetMesh& mesh) {
   return out;
 }
 
-std::string vtk_groups_note(const std::filesystem::path& mesh_file) {
-  return lower_extension(mesh_file) == ".vtk"
-             ? ": a VTK file's groups are the numbers in its cell array named gmsh:physical, CellEntityIds, medit:ref, "
-               "MaterialIds, material, region(s), label(s), subdomain or domain (read_vtk); or pin a box or a half-space"
-             : "";
+std::string file_groups_note(const std::filesystem::path& mesh_file) {
+  const std::string ext = lower_extension(mesh_file);
+  if (ext == ".vtk")
+    return ": a VTK file's groups are the numbers in its cell array named gmsh:physical, CellEntityIds, medit:ref, "
+           "MaterialIds, material, region(s), label(s), subdomain or domain (read_vtk); or pin a box or a half-space";
+  if (ext == ".mesh" || ext == ".node" || ext == ".ele")
+    return std::string(": a ") + (ext == ".mesh" ? "Medit file's groups are its tets' references (by number) and its "
+                                                   "triangles' (surface_N)"
+                                                 : "TetGen mesh's groups are its region attributes (by number, tetgen -A) "
+                                                   "and its faces' boundary markers (surface_N)") +
+           "; or pin a box or a half-space";
+  return "";
 }
 
 std::string known_groups_text(const TetMesh& mesh) {
@@ -942,6 +954,11 @@ SceneSpec load_scene_spec(const fs::path& file) { return load_scene_spec(file, {
 std::vector<SceneInputFile> scene_input_files(const SceneSpec& spec) {
   std::vector<SceneInputFile> files{{"scene_file", "the scene file", spec.file},
                                     {"physical_mesh", "the scene's physical mesh", spec.physical_mesh}};
+  // A mesh of several files (TetGen's .node, .ele, .face): each of them, keyed by its extension.
+  for (const fs::path& f : tet_mesh_companions(spec.physical_mesh)) {
+    const std::string ext = lower_extension(f).substr(1);
+    files.push_back({"physical_mesh_" + ext, "the scene's physical mesh (its ." + ext + ")", f});
+  }
   if (spec.virtual_mesh) files.push_back({"virtual_mesh", "the scene's virtual mesh", *spec.virtual_mesh});
   return files;
 }

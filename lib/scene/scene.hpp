@@ -11,7 +11,7 @@
 //   description: "..."
 //   unit: mm                        # m | cm | mm: pinned regions and camera (world coordinates)
 //   mesh:
-//     physical: tube.msh            # Gmsh .msh 2.2/4.1 ASCII or VTK legacy .vtk (tets), relative to the scene file
+//     physical: tube.msh            # Gmsh .msh 2.2/4.1 ASCII, VTK legacy .vtk, Medit .mesh or TetGen .node/.ele (tets), relative to the scene file
 //     virtual: boundary             # 'boundary' (the physical mesh's surface), an .obj or an .stl path
 //     virtual_refine: 1             # 0 or 1: split each virtual triangle into 4 (paper: denser virtual mesh)
 //     min_part_tets: 0              # drop the parts (tets joined by vertices) of fewer tets at load:
@@ -405,8 +405,9 @@ struct SceneInputFile {
   std::string key, what;
   std::filesystem::path path;
 };
-/// The files a scene reads: scene_file, physical_mesh, and virtual_mesh when the scene names one
-/// (not the physical mesh's boundary).
+/// The files a scene reads: scene_file, physical_mesh (with physical_mesh_node, _ele, _face for the
+/// other files of a TetGen mesh), and virtual_mesh when the scene names one (not the physical
+/// mesh's boundary).
 std::vector<SceneInputFile> scene_input_files(const SceneSpec& spec);
 
 /// An InputError that an override caused rather than the scene file: a key it names, makes or sets
@@ -500,9 +501,9 @@ std::string group_without_elements_note(const TetMesh& mesh);
 /// in the mesh file, ..." when the file names it at dimension 0 or 1 (pins take groups of tets or
 /// triangles), else "".
 std::string lower_dimension_group_note(const TetMesh& mesh, const std::string& group);
-/// For a pin by group on a mesh read from `mesh_file`: ": a VTK file's groups are the numbers in its
-/// cell array named ..." for a .vtk file (read_vtk), else "".
-std::string vtk_groups_note(const std::filesystem::path& mesh_file);
+/// For a pin by group on a mesh read from `mesh_file`: where a .vtk, Medit or TetGen file keeps its
+/// groups (": a VTK file's groups are the numbers in its cell array named ..."); "" for Gmsh's.
+std::string file_groups_note(const std::filesystem::path& mesh_file);
 
 /// The axis-aligned bounding box of points (lo = hi = 0 for none).
 struct BoundingBox {

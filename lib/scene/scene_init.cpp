@@ -205,7 +205,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
         if (std::find(known.begin(), known.end(), pin.region.group) == known.end())
           throw InputError("--pin " + spec + ": " + mesh_name + " has no physical group '" + pin.region.group + "' (" +
                            (known.empty() ? std::string("it has no groups") : "its groups: " + known_groups_text(mesh)) + ")" +
-                           lower_dimension_group_note(mesh, pin.region.group) + vtk_groups_note(o.mesh));
+                           lower_dimension_group_note(mesh, pin.region.group) + file_groups_note(o.mesh));
         throw InputError("--pin " + spec + ": the region pins no vertex of " + mesh_name + ": " +
                          group_without_elements_note(mesh));
       }

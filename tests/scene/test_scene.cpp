@@ -147,6 +147,23 @@ TEST(Scene, AnUnnamedGroupIsPinnedByItsNumber) {
   }
 }
 
+TEST(Scene, ATetgenMeshsFilesAreEachAnInputAndItsGroupsPin) {
+  // the scene of cube.yaml on the TetGen cube (named by its .node): the .ele and the .face are read
+  // too, so a replay records each with its digest; the bottom's faces (marker 3) pin as surface_3
+  const std::string yaml = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube.1.node").string());
+  const fs::path file = write_temp("tetgen.yaml", replace(yaml, "group: bottom", "group: surface_3"));
+  const Scene s = load_scene(file);
+  EXPECT_EQ(s.physical.tets.size(), 5u);
+  std::vector<std::string> keys;
+  for (const SceneInputFile& f : scene_input_files(s.spec)) keys.push_back(f.key + " " + f.path.filename().string());
+  EXPECT_EQ(keys, (std::vector<std::string>{"scene_file tetgen.yaml", "physical_mesh cube.1.node", "physical_mesh_ele cube.1.ele",
+                                            "physical_mesh_face cube.1.face"}));
+  const TetMesh m = read_tet_mesh(data("mesh/cube.1.node"));
+  auto group = [](const std::string& name) { return PinRegion{PinRegion::Kind::Group, name, {}, {}}; };
+  EXPECT_EQ(region_vertices(m, group("surface_3")), (std::vector<int>{0, 1, 2, 3}));  // z = 0
+  EXPECT_EQ(region_vertices(m, group("surface_1")), (std::vector<int>{4, 5, 6, 7}));  // z = 10
+}
+
 TEST(Scene, PartsTouchingNoPinnedVertexAreFoundByTheirSharedVertices) {
   TetMesh m;
   m.vertices.resize(15);

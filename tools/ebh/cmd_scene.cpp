@@ -499,7 +499,7 @@ void setup(CLI::App& root) {
   auto iargs = std::make_shared<ebh::SceneInitOptions>();
   CLI::App* i = scene->add_subcommand(
       "init", "Write a complete, commented scene for your own mesh (tool in mm, tissue presets, pinned regions)");
-  i->add_option("mesh", iargs->mesh, "the physical mesh (Gmsh .msh 2.2 or 4.1, or a VTK legacy .vtk of tets)")->required();
+  i->add_option("mesh", iargs->mesh, "the physical mesh of tets (Gmsh .msh 2.2 or 4.1, VTK legacy .vtk, Medit .mesh, or TetGen .node/.ele)")->required();
   i->add_option("-o,--out", iargs->out, "the scene file to write")->required();
   i->add_option("--unit", iargs->unit, "the mesh file's unit, also the scene's for --pin and the camera: m, cm, mm, in (default mm)");
   i->add_option("--pin", iargs->pins,

@@ -1,4 +1,4 @@
-// Mutation test of the mesh readers: valid MSH 2.2 / 4.1, VTK, OBJ and STL files are mutated at random
+// Mutation test of the mesh readers: valid MSH 2.2 / 4.1, VTK, Medit, TetGen, OBJ and STL files are mutated at random
 // (fixed seed: every run is the same) and each result must either read or throw InputError.
 // Built with AddressSanitizer and UBSan (tests/fuzz.cmake), so an out-of-bounds read, an overflow
 // or an allocation sized by an absurd count fails the run. Whatever reads is also passed through
@@ -120,7 +120,10 @@ int main(int argc, char** argv) {
   const long mutations = argc > 2 ? std::atol(argv[2]) : 4000;
   const std::vector<fs::path> seeds = {dir / "cube22.msh",      dir / "cube41.msh",      dir / "cube.obj",
                                        dir / "cube_ascii.stl",  dir / "cube_binary.stl", dir / "cube_ascii.vtk",
-                                       dir / "cube_binary.vtk", dir / "cube51.vtk"};
+                                       dir / "cube_binary.vtk", dir / "cube51.vtk",      dir / "cube.mesh",
+                                       dir / "cube.1.node",     dir / "cube.1.ele",      dir / "cube.1.face",
+                                       dir / "cube_ascii.vtu",  dir / "cube_binary.vtu", dir / "cube_appended64.vtu",
+                                       dir / "cube_vtk9.vtu"};
   std::vector<std::string> texts;
   for (const auto& p : seeds) {
     texts.push_back(slurp(p));
@@ -143,18 +146,27 @@ int main(int argc, char** argv) {
     const std::size_t rounds = 1 + pick(rng, 3);
     for (std::size_t k = 0; k < rounds; ++k) mutate_once(text, rng);
     const fs::path file = work / seeds[which].filename();
+    // A TetGen mesh is three files: the other two beside the mutated one, as they are.
+    const std::string stem = seeds[which].stem().string();
+    for (std::size_t k = 0; k < seeds.size(); ++k)
+      if (k != which && seeds[k].stem().string() == stem) std::ofstream(work / seeds[k].filename(), std::ios::binary | std::ios::trunc) << texts[k];
     std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
+    const std::string ext = seeds[which].extension().string();
     try {
-      if (seeds[which].extension() != ".msh" && seeds[which].extension() != ".vtk") {
+      if (ext == ".obj" || ext == ".stl") {
         (void)ebh::read_surface(file);
       } else {
-        ebh::TetMesh m = ebh::read_tet_mesh(file);
+        // read_tet_mesh reads a .face through its .ele
+        ebh::TetMesh m = ebh::read_tet_mesh(ext == ".face" ? fs::path(file).replace_extension(".ele") : file);
         exercise(m);
       }
       ++read_ok;
     } catch (const ebh::InputError& e) {
       const std::string msg = e.what();
-      if (msg.find('\n') != std::string::npos || msg.rfind(file.string() + ":", 0) != 0) {
+      // An error names the file it is in: for a TetGen mesh, one of its three.
+      const bool tetgen = ext == ".node" || ext == ".ele" || ext == ".face";
+      const std::string named = tetgen ? (work / stem).string() + "." : file.string() + ":";
+      if (msg.find('\n') != std::string::npos || msg.rfind(named, 0) != 0) {
         std::fprintf(stderr, "mutation %ld: badly formed message: %s\n", i, msg.c_str());
         status = 1;
       }

@@ -1,0 +1,579 @@
+// VTK XML reader for the physical mesh (.vtu): an UnstructuredGrid whose arrays are ascii, binary
+// (base64 inline) or appended (raw or base64), uncompressed or zlib-compressed, as VTK, ParaView,
+// 3D Slicer and meshio write it. Format reference: "VTK File Formats", the VTK User's Guide,
+// "XML File Formats" (the arrays' headers and compressed blocks as vtkXMLDataParser reads them).
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <charconv>
+#include <cctype>
+#include <climits>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <map>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "core/error.hpp"
+#include "mesh/mesh_io.hpp"
+#include "mesh/text_cursor.hpp"
+#include "mesh/vtk_names.hpp"
+
+namespace ebh {
+namespace {
+
+using detail::printable;
+
+/// An XML element's start tag: its name, attributes and where it is.
+struct Tag {
+  std::string name;
+  std::map<std::string, std::string> attrs;
+  bool empty = false;          ///< <name ... />
+  bool closing = false;        ///< </name>
+  std::size_t end = 0;         ///< the byte after '>'
+  long long line = 0;
+  const std::string* attr(const std::string& key) const {
+    auto it = attrs.find(key);
+    return it == attrs.end() ? nullptr : &it->second;
+  }
+};
+
+/// A DataArray: its attributes and, for ascii and binary ones, its text.
+struct ArrayRef {
+  std::string name, type, format;
+  long long components = 1;
+  std::optional<long long> offset;  ///< appended: the offset after '_'
+  std::string_view text;            ///< ascii, binary: the element's text
+  long long line = 0;
+};
+
+/// A number type of the format: its size, and whether it is a real or a signed integer.
+struct NumberType {
+  int bytes = 0;
+  bool real = false, is_signed = true;
+};
+
+class VtuParser {
+ public:
+  VtuParser(const std::filesystem::path& file, std::string bytes) : file_(file), bytes_(std::move(bytes)) {}
+
+  TetMesh parse() {
+    header();
+    std::vector<Piece> pieces;
+    Piece* piece = nullptr;
+    std::string section;  // Points, Cells, CellData, PointData, ...
+    while (true) {
+      const std::optional<Tag> t = next_tag();
+      if (!t) fail(line_at(pos_), "the file ends before </VTKFile> (cut short?)");
+      if (t->closing) {
+        if (t->name == "VTKFile") break;
+        if (t->name == "Piece") piece = nullptr;
+        if (t->name == section) section.clear();
+        continue;
+      }
+      if (t->name == "AppendedData") {
+        appended(*t);
+        break;  // raw bytes follow: nothing after them is read
+      }
+      if (t->name == "UnstructuredGrid" || t->name == "FieldData") {
+        continue;
+      }
+      if (t->name == "Piece") {
+        pieces.emplace_back();
+        piece = &pieces.back();
+        piece->line = t->line;
+        piece->points = whole_attr(*t, "NumberOfPoints");
+        piece->cells = whole_attr(*t, "NumberOfCells");
+        continue;
+      }
+      if (t->name == "Points" || t->name == "Cells" || t->name == "CellData" || t->name == "PointData") {
+        if (!piece) fail(t->line, "<" + t->name + "> outside a <Piece>");
+        if (!t->empty) section = t->name;
+        continue;
+      }
+      if (t->name == "DataArray") {
+        ArrayRef a = array(*t);
+        if (!t->empty) {
+          // The values are the text before the first child element (VTK writes an InformationKey
+          // after them, e.g. the points' L2_NORM_RANGE).
+          const std::size_t close = bytes_.find("</DataArray>", t->end);
+          if (close == std::string::npos) fail(t->line, "a <DataArray> without </DataArray>");
+          a.text = std::string_view(bytes_).substr(t->end, bytes_.find('<', t->end) - t->end);
+          pos_ = close + std::strlen("</DataArray>");
+        }
+        std::optional<ArrayRef>* slot = nullptr;  // where the mesh keeps it, if it does
+        if (piece && section == "Points" && !piece->xyz) slot = &piece->xyz;
+        else if (piece && section == "Cells" && a.name == "connectivity") slot = &piece->connectivity;
+        else if (piece && section == "Cells" && a.name == "offsets") slot = &piece->offsets;
+        else if (piece && section == "Cells" && a.name == "types") slot = &piece->types;
+        else if (piece && section == "CellData" && !piece->groups && a.components == 1 && detail::is_vtk_group_array(a.name) &&
+                 !number_type(a.type).real)
+          slot = &piece->groups;
+        if (slot) *slot = a;
+        continue;
+      }
+      // Other elements (InformationKey, Array of FieldData, ...) carry nothing the mesh needs.
+    }
+    for (Piece& p : pieces) read_piece(p);
+    if (pieces.empty()) fail(1, "no <Piece> in the <UnstructuredGrid>");
+    if (mesh_.tets.empty()) fail(pieces.front().line, "no tetrahedra (cell type 10) among the cells");
+    mesh_.file_node_ids.resize(mesh_.vertices.size());
+    for (std::size_t i = 0; i < mesh_.vertices.size(); ++i) mesh_.file_node_ids[i] = static_cast<long long>(i);
+    return std::move(mesh_);
+  }
+
+ private:
+  struct Piece {
+    long long points = 0, cells = 0, line = 0;
+    std::optional<ArrayRef> xyz, connectivity, offsets, types, groups;
+  };
+
+  [[noreturn]] void fail(long long line, const std::string& what) const {
+    throw InputError(file_.string() + ":" + std::to_string(line) + ": " + what);
+  }
+  /// The line of byte `pos`, counted on from the last one asked for (the tags come in order).
+  long long line_at(std::size_t pos) {
+    pos = std::min(pos, bytes_.size());
+    if (pos < counted_to_) {
+      counted_to_ = 0;
+      counted_lines_ = 1;
+    }
+    counted_lines_ += std::count(bytes_.begin() + static_cast<std::ptrdiff_t>(counted_to_),
+                                 bytes_.begin() + static_cast<std::ptrdiff_t>(pos), '\n');
+    counted_to_ = pos;
+    return counted_lines_;
+  }
+
+  void header() {
+    std::optional<Tag> t = next_tag();
+    if (!t || t->name != "VTKFile")
+      fail(t ? t->line : 1, "not a VTK XML file (no <VTKFile> element): a physical mesh is a Gmsh .msh, VTK .vtk or "
+                            ".vtu, Medit .mesh or TetGen .node/.ele file");
+    const std::string* type = t->attr("type");
+    if (!type || *type != "UnstructuredGrid")
+      fail(t->line, "a VTKFile of type '" + printable(type ? *type : "") +
+                        (type && *type == "PUnstructuredGrid"
+                             ? "' (a parallel file that names its pieces: merge them, e.g. ParaView's Merge Blocks, and "
+                               "save one .vtu)"
+                             : "' holds no tetrahedra (the physical mesh is an UnstructuredGrid of tets)"));
+    const std::string* order = t->attr("byte_order");
+    big_endian_ = order && *order == "BigEndian";
+    if (order && *order != "BigEndian" && *order != "LittleEndian")
+      fail(t->line, "byte_order '" + printable(*order) + "' (LittleEndian or BigEndian)");
+    header_bytes_ = 4;
+    if (const std::string* h = t->attr("header_type")) {
+      if (*h == "UInt64") header_bytes_ = 8;
+      else if (*h != "UInt32") fail(t->line, "header_type '" + printable(*h) + "' (UInt32 or UInt64)");
+    }
+    if (const std::string* c = t->attr("compressor")) {
+      if (*c == "vtkZLibDataCompressor") zlib_ = true;
+      else if (!c->empty())
+        fail(t->line, "compressor '" + printable(*c) + "' is not read: save the mesh uncompressed or with zlib "
+                      "(ParaView: Compressor Type None or ZLib; meshio: compression=\"zlib\")");
+    }
+  }
+
+  /// The next element's tag from pos_ (comments, declarations and text skipped); none at the end.
+  std::optional<Tag> next_tag() {
+    while (true) {
+      const std::size_t lt = bytes_.find('<', pos_);
+      if (lt == std::string::npos) return std::nullopt;
+      if (bytes_.compare(lt, 4, "<!--") == 0) {
+        const std::size_t e = bytes_.find("-->", lt);
+        if (e == std::string::npos) fail(line_at(lt), "a comment without its end '-->'");
+        pos_ = e + 3;
+        continue;
+      }
+      if (bytes_.compare(lt, 2, "<?") == 0 || bytes_.compare(lt, 2, "<!") == 0) {
+        const std::size_t e = bytes_.find('>', lt);
+        if (e == std::string::npos) fail(line_at(lt), "a declaration without its end '>'");
+        pos_ = e + 1;
+        continue;
+      }
+      return tag_at(lt);
+    }
+  }
+
+  static bool name_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == ':' || c == '-' || c == '.'; }
+  static bool space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
+  Tag tag_at(std::size_t lt) {
+    Tag t;
+    t.line = line_at(lt);
+    std::size_t p = lt + 1;
+    if (p < bytes_.size() && bytes_[p] == '/') {
+      t.closing = true;
+      ++p;
+    }
+    const std::size_t n0 = p;
+    while (p < bytes_.size() && name_char(bytes_[p])) ++p;
+    t.name = bytes_.substr(n0, p - n0);
+    if (t.name.empty()) fail(t.line, "a '<' that starts no element");
+    while (true) {
+      while (p < bytes_.size() && space(bytes_[p])) ++p;
+      if (p >= bytes_.size()) fail(t.line, "<" + printable(t.name) + ": the file ends inside the tag");
+      if (bytes_[p] == '>') break;
+      if (bytes_.compare(p, 2, "/>") == 0) {
+        t.empty = true;
+        ++p;
+        break;
+      }
+      const std::size_t k0 = p;
+      while (p < bytes_.size() && name_char(bytes_[p])) ++p;
+      const std::string key = bytes_.substr(k0, p - k0);
+      while (p < bytes_.size() && space(bytes_[p])) ++p;
+      if (key.empty() || p >= bytes_.size() || bytes_[p] != '=')
+        fail(t.line, "<" + printable(t.name) + ">: a malformed attribute" + (key.empty() ? "" : " '" + printable(key) + "'"));
+      ++p;
+      while (p < bytes_.size() && space(bytes_[p])) ++p;
+      if (p >= bytes_.size() || (bytes_[p] != '"' && bytes_[p] != '\''))
+        fail(t.line, "<" + printable(t.name) + ">: attribute " + printable(key) + " has no quoted value");
+      const char q = bytes_[p];
+      const std::size_t e = bytes_.find(q, p + 1);
+      if (e == std::string::npos) fail(t.line, "<" + printable(t.name) + ">: attribute " + printable(key) + "'s value has no end");
+      t.attrs[key] = unescape(bytes_.substr(p + 1, e - p - 1));
+      p = e + 1;
+    }
+    t.end = p + 1;
+    pos_ = t.end;
+    return t;
+  }
+
+  static std::string unescape(const std::string& s) {
+    std::string out;
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      if (s[i] == '&') {
+        for (const auto& [ent, ch] : {std::pair{"&lt;", '<'}, {"&gt;", '>'}, {"&amp;", '&'}, {"&quot;", '"'}, {"&apos;", '\''}})
+          if (s.compare(i, std::strlen(ent), ent) == 0) {
+            out += ch;
+            i += std::strlen(ent) - 1;
+            goto next;
+          }
+      }
+      out += s[i];
+    next:;
+    }
+    return out;
+  }
+
+  /// A whole-number attribute in [0, hi].
+  long long whole_attr(const Tag& t, const char* key, long long hi = INT32_MAX - 1) {
+    const std::string* v = t.attr(key);
+    if (!v) fail(t.line, "<" + t.name + "> has no " + key);
+    long long out = 0;
+    const auto [p, ec] = std::from_chars(v->data(), v->data() + v->size(), out);
+    if (ec != std::errc() || p != v->data() + v->size() || out < 0 || out > hi)
+      fail(t.line, "<" + t.name + "> " + key + " '" + printable(*v) + "' is not a whole number in [0, " + std::to_string(hi) + "]");
+    return out;
+  }
+
+  ArrayRef array(const Tag& t) {
+    ArrayRef a;
+    a.line = t.line;
+    if (const std::string* v = t.attr("Name")) a.name = *v;
+    const std::string* type = t.attr("type");
+    if (!type) fail(t.line, "a <DataArray> without a type");
+    a.type = *type;
+    const std::string* format = t.attr("format");
+    a.format = format ? *format : "ascii";
+    if (a.format != "ascii" && a.format != "binary" && a.format != "appended")
+      fail(t.line, "DataArray " + printable(a.name) + ": format '" + printable(a.format) + "' (ascii, binary or appended)");
+    if (t.attr("NumberOfComponents")) a.components = whole_attr(t, "NumberOfComponents", 1 << 20);
+    if (a.components < 1) fail(t.line, "DataArray " + printable(a.name) + ": NumberOfComponents 0");
+    if (a.format == "appended") a.offset = whole_attr(t, "offset", LLONG_MAX / 2);
+    return a;
+  }
+
+  void appended(const Tag& t) {
+    const std::string* enc = t.attr("encoding");
+    appended_base64_ = enc && *enc == "base64";
+    if (enc && *enc != "base64" && *enc != "raw") fail(t.line, "AppendedData encoding '" + printable(*enc) + "' (raw or base64)");
+    const std::size_t u = bytes_.find('_', t.end);
+    if (u == std::string::npos) fail(t.line, "AppendedData without its '_' before the data");
+    appended_at_ = u + 1;
+    appended_line_ = t.line;
+  }
+
+  static NumberType number_type(const std::string& type) {
+    if (type == "Float32") return {4, true};
+    if (type == "Float64") return {8, true};
+    if (type == "Int8") return {1};
+    if (type == "UInt8") return {1, false, false};
+    if (type == "Int16") return {2};
+    if (type == "UInt16") return {2, false, false};
+    if (type == "Int32") return {4};
+    if (type == "UInt32") return {4, false, false};
+    if (type == "Int64") return {8};
+    if (type == "UInt64") return {8, false, false};
+    return {};
+  }
+
+  /// base64 decoded quantum by quantum: a stream of several encoded parts (VTK encodes a header and
+  /// its data apart, each padded) decodes as their bytes in turn. Stops after `want` bytes where
+  /// given; `used` gets the characters read.
+  std::string base64(std::string_view s, long long line, const std::string& what, std::size_t want = SIZE_MAX,
+                     std::size_t* used = nullptr) const {
+    auto value = [](char c) -> int {
+      if (c >= 'A' && c <= 'Z') return c - 'A';
+      if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+      if (c >= '0' && c <= '9') return c - '0' + 52;
+      if (c == '+') return 62;
+      if (c == '/') return 63;
+      return -1;
+    };
+    std::string out;
+    std::size_t i = 0;
+    int q[4];
+    while (out.size() < want) {
+      int n = 0, pad = 0;
+      while (n < 4 && i < s.size()) {
+        const char c = s[i++];
+        if (space(c)) continue;
+        if (c == '=') {
+          q[n++] = 0;
+          ++pad;
+          continue;
+        }
+        const int v = value(c);
+        if (v < 0 || pad > 0) fail(line, what + ": '" + printable(std::string(1, c)) + "' in base64 data");
+        q[n++] = v;
+      }
+      if (n == 0) break;
+      if (n < 4 || pad > 2) fail(line, what + ": the base64 data ends inside a group of four characters (cut short?)");
+      const std::uint32_t b = static_cast<std::uint32_t>(q[0] << 18 | q[1] << 12 | q[2] << 6 | q[3]);
+      out += static_cast<char>(b >> 16);
+      if (pad < 2) out += static_cast<char>((b >> 8) & 0xff);
+      if (pad < 1) out += static_cast<char>(b & 0xff);
+    }
+    if (used) *used = i;
+    return out;
+  }
+
+  /// An unsigned integer of `bytes` bytes at `p` in the file's byte order.
+  std::uint64_t uint_at(const char* p, int bytes) const {
+    std::uint64_t u = 0;
+    for (int k = 0; k < bytes; ++k) {
+      const auto b = static_cast<unsigned char>(p[big_endian_ ? k : bytes - 1 - k]);
+      u = (u << 8) | b;
+    }
+    return u;
+  }
+
+  /// The bytes of a binary or appended array (its header read, its blocks inflated).
+  std::string array_bytes(const ArrayRef& a) {
+    const std::string what = "DataArray " + printable(a.name.empty() ? a.type : a.name);
+    if (a.format == "binary") {
+      const std::string raw = base64(a.text, a.line, what);
+      std::size_t at = 0;
+      return payload([&](std::size_t n) {
+        if (raw.size() - at < n) fail(a.line, what + ": its data holds fewer bytes than its header says (cut short?)");
+        std::string out = raw.substr(at, n);
+        at += n;
+        return out;
+      }, a.line, what);
+    }
+    // appended
+    if (!appended_at_) fail(a.line, what + ": appended, but the file has no <AppendedData>");
+    const std::size_t start = *appended_at_ + static_cast<std::size_t>(*a.offset);
+    if (*a.offset < 0 || start > bytes_.size()) fail(a.line, what + ": offset " + std::to_string(*a.offset) + " lies past the file's end");
+    if (appended_base64_) {
+      // Decoded a quantum (3 bytes) at a time: what a take leaves of its last quantum starts the next.
+      std::size_t at = start;
+      std::string decoded;
+      return payload([&](std::size_t n) {
+        if (decoded.size() < n) {
+          std::size_t used = 0;
+          decoded += base64(std::string_view(bytes_).substr(at), appended_line_, what, n - decoded.size(), &used);
+          at += used;
+        }
+        if (decoded.size() < n) fail(a.line, what + ": the appended data ends before its bytes (cut short?)");
+        std::string out = decoded.substr(0, n);
+        decoded.erase(0, n);
+        return out;
+      }, a.line, what);
+    }
+    std::size_t at = start;
+    return payload([&](std::size_t n) {
+      if (bytes_.size() - at < n) fail(a.line, what + ": the appended data ends before its bytes (cut short?)");
+      std::string out = bytes_.substr(at, n);
+      at += n;
+      return out;
+    }, a.line, what);
+  }
+
+  /// An array's header and data from `take(n)` (the next n bytes): uncompressed, the header is the
+  /// data's size; with zlib, the blocks' count, size, last size and compressed sizes.
+  template <class Take>
+  std::string payload(Take&& take, long long line, const std::string& what) {
+    auto header_value = [&] { return uint_at(take(static_cast<std::size_t>(header_bytes_)).data(), header_bytes_); };
+    if (!zlib_) {
+      const std::uint64_t n = header_value();
+      if (n > bytes_.size()) fail(line, what + ": its header says " + std::to_string(n) + " bytes, more than the file holds");
+      return take(static_cast<std::size_t>(n));
+    }
+    const std::uint64_t blocks = header_value(), block_size = header_value(), last = header_value();
+    if (blocks > bytes_.size() || (blocks > 0 && (block_size == 0 || last > block_size)))
+      fail(line, what + ": a compressed header that the file cannot hold (" + std::to_string(blocks) + " blocks of " +
+                     std::to_string(block_size) + " bytes)");
+    std::vector<std::uint64_t> sizes(static_cast<std::size_t>(blocks));
+    for (auto& s : sizes) {
+      s = header_value();
+      if (s > bytes_.size()) fail(line, what + ": a compressed block of " + std::to_string(s) + " bytes, more than the file holds");
+    }
+    std::string out;
+    for (std::size_t b = 0; b < sizes.size(); ++b) {
+      const std::string z = take(static_cast<std::size_t>(sizes[b]));
+      const std::uint64_t full = (b + 1 == sizes.size() && last != 0) ? last : block_size;
+      // zlib inflates by at most 1032x: a larger size is a damaged header, not an allocation to make
+      if (full > 1100 * z.size() + 64)
+        fail(line, what + ": compressed block " + std::to_string(b) + " of " + std::to_string(z.size()) +
+                       " bytes cannot inflate to the " + std::to_string(full) + " its header says");
+      std::string block(static_cast<std::size_t>(full), '\0');
+      uLongf got = static_cast<uLongf>(full);
+      if (uncompress(reinterpret_cast<Bytef*>(block.data()), &got, reinterpret_cast<const Bytef*>(z.data()),
+                     static_cast<uLong>(z.size())) != Z_OK ||
+          got != full)
+        fail(line, what + ": compressed block " + std::to_string(b) + " does not inflate to its " + std::to_string(full) +
+                       " bytes (a damaged file?)");
+      out += block;
+    }
+    return out;
+  }
+
+  /// `count` values of the array as doubles (reals) or integers, checked against its type.
+  template <class T>
+  std::vector<T> values(const ArrayRef& a, long long count) {
+    const std::string what = "DataArray " + printable(a.name.empty() ? a.type : a.name);
+    const NumberType nt = number_type(a.type);
+    if (nt.bytes == 0) fail(a.line, what + ": type '" + printable(a.type) + "' (Int8 .. UInt64, Float32, Float64)");
+    if constexpr (std::is_integral_v<T>)
+      if (nt.real) fail(a.line, what + ": expected an integer type, got " + a.type);
+    std::vector<T> out(static_cast<std::size_t>(count));
+    if (a.format == "ascii") {
+      detail::TextCursor c(file_, a.text, a.line);
+      const std::string in = " (" + what + ")";
+      for (long long i = 0; i < count; ++i) {
+        const std::string_view t = c.word();
+        if (t.empty())
+          fail(a.line, what + ": " + std::to_string(i) + " values where " + std::to_string(count) + " are expected");
+        if constexpr (std::is_integral_v<T>) out[static_cast<std::size_t>(i)] = c.to_integer(t, "an integer", LLONG_MIN / 2, LLONG_MAX / 2, in);
+        else out[static_cast<std::size_t>(i)] = c.to_real(t, "a number", in);
+      }
+      if (!c.word().empty()) fail(a.line, what + ": more than the " + std::to_string(count) + " values expected");
+      return out;
+    }
+    const std::string b = array_bytes(a);
+    if (b.size() != static_cast<std::size_t>(count) * static_cast<std::size_t>(nt.bytes))
+      fail(a.line, what + ": " + std::to_string(b.size()) + " bytes where " + std::to_string(count) + " values of " + a.type +
+                       " take " + std::to_string(count * nt.bytes));
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      const std::uint64_t u = uint_at(b.data() + i * static_cast<std::size_t>(nt.bytes), nt.bytes);
+      if (nt.real) {
+        const double v = nt.bytes == 4 ? static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(u))) : std::bit_cast<double>(u);
+        if constexpr (std::is_integral_v<T>) out[i] = 0;
+        else out[i] = v;
+      } else {
+        long long v = 0;
+        if (!nt.is_signed) v = u > static_cast<std::uint64_t>(LLONG_MAX) ? LLONG_MAX : static_cast<long long>(u);
+        else {
+          const int shift = 64 - 8 * nt.bytes;
+          v = static_cast<long long>(static_cast<std::int64_t>(u << shift) >> shift);
+        }
+        out[i] = static_cast<T>(v);
+      }
+    }
+    return out;
+  }
+
+  void read_piece(const Piece& p) {
+    if (!p.xyz) fail(p.line, "a <Piece> without <Points>");
+    if (!p.connectivity || !p.offsets || !p.types)
+      fail(p.line, std::string("a <Piece> whose <Cells> has no ") +
+                       (!p.connectivity ? "connectivity" : !p.offsets ? "offsets" : "types") + " array");
+    if (p.xyz->components != 3) fail(p.xyz->line, "Points: " + std::to_string(p.xyz->components) + " components, expected 3");
+    const long long base = static_cast<long long>(mesh_.vertices.size());
+    const std::vector<double> xyz = values<double>(*p.xyz, 3 * p.points);
+    for (long long i = 0; i < p.points; ++i) {
+      const Vec3d v{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+        fail(p.xyz->line, "point " + std::to_string(i) + " has a non-finite coordinate");
+      mesh_.vertices.push_back(v);
+    }
+    const std::vector<long long> offsets = values<long long>(*p.offsets, p.cells);
+    const std::vector<long long> types = values<long long>(*p.types, p.cells);
+    const long long size = p.cells ? offsets.back() : 0;
+    if (size < 0 || static_cast<std::size_t>(size) > bytes_.size() * 1100)
+      fail(p.offsets->line, "offsets: the last offset " + std::to_string(size) + " is no size of a connectivity array");
+    const std::vector<long long> conn = values<long long>(*p.connectivity, size);
+    std::vector<long long> groups;
+    if (p.groups) groups = values<long long>(*p.groups, p.cells);
+    std::map<long long, long long> other;  // volume cells of other types
+    long long begin = 0;
+    for (long long i = 0; i < p.cells; ++i) {
+      const long long end = offsets[static_cast<std::size_t>(i)];
+      if (end < begin || end > size)
+        fail(p.offsets->line, "cell " + std::to_string(i) + ": offsets " + std::to_string(begin) + ".." +
+                                  std::to_string(end) + " is not a range of the " + std::to_string(size) + " connectivity entries");
+      const long long type = types[static_cast<std::size_t>(i)];
+      const long long count = end - begin;
+      if (type != detail::kVtkTet) {
+        if (detail::vtk_volume_cell(type)) ++other[type];
+        begin = end;
+        continue;
+      }
+      if (count != 4) fail(p.connectivity->line, "cell " + std::to_string(i) + " (a tetrahedron, type 10) has " + std::to_string(count) + " points, expected 4");
+      Tet t{};
+      for (int k = 0; k < 4; ++k) {
+        const long long id = conn[static_cast<std::size_t>(begin + k)];
+        if (id < 0 || id >= p.points)
+          fail(p.connectivity->line, "cell " + std::to_string(i) + ": point index " + std::to_string(id) +
+                                         " is out of range [0, " + std::to_string(p.points) + ")");
+        t[static_cast<std::size_t>(k)] = static_cast<int>(base + id);
+      }
+      int tag = 0;
+      if (p.groups) {
+        const long long g = groups[static_cast<std::size_t>(i)];
+        if (g < 0 || g > INT32_MAX)
+          fail(p.groups->line, "cell " + std::to_string(i) + ": " + printable(p.groups->name) + " " + std::to_string(g) +
+                                   " is not a group tag (a whole number >= 0)");
+        tag = static_cast<int>(g);
+      }
+      mesh_.tets.push_back(t);
+      mesh_.tet_group.push_back(tag);
+      mesh_.file_tet_ids.push_back(cell_ + i);
+      begin = end;
+    }
+    cell_ += p.cells;
+    if (!other.empty()) {
+      std::string refused;
+      for (const auto& [type, n] : other) refused += (refused.empty() ? "" : ", ") + std::to_string(n) + " " + detail::vtk_volume_cell(type);
+      fail(p.types->line, "the volume holds " + refused + " besides its " + std::to_string(mesh_.tets.size()) +
+                              " tetrahedra: the physical mesh is 4-node tets only (mesh with tets only, first order)");
+    }
+  }
+
+  std::filesystem::path file_;
+  std::string bytes_;
+  std::size_t pos_ = 0;
+  std::size_t counted_to_ = 0;  ///< line_at's last position and its line
+  long long counted_lines_ = 1;
+  TetMesh mesh_;
+  long long cell_ = 0;  ///< cells of the pieces before
+  bool big_endian_ = false, zlib_ = false, appended_base64_ = false;
+  int header_bytes_ = 4;
+  std::optional<std::size_t> appended_at_;
+  long long appended_line_ = 0;
+};
+
+}  // namespace
+
+TetMesh read_vtu(const std::filesystem::path& file) {
+  std::string bytes = detail::read_file_bytes(file);
+  return VtuParser(file, std::move(bytes)).parse();
+}
+
+}  // namespace ebh

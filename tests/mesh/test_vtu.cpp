@@ -1,0 +1,106 @@
+// VTK XML reader (.vtu) for the physical mesh: every array format gives the same tets as the ASCII
+// form, and malformed or unsupported files are refused with FILE:LINE.
+#include <gtest/gtest.h>
+
+#include "mesh/mesh_io.hpp"
+#include "mesh/quality.hpp"
+#include "test_util.hpp"
+
+namespace ebh {
+namespace {
+
+using test::data;
+using test::expect_input_error;
+using test::replace;
+using test::slurp;
+using test::write_temp;
+
+const std::vector<Tet> kCubeTets = {{0, 1, 2, 4}, {3, 2, 1, 7}, {5, 4, 7, 1}, {6, 7, 4, 2}, {1, 2, 4, 7}};
+
+TEST(ReadVtu, AsciiWithATriangleAmongTheCells) {
+  const TetMesh m = read_vtu(data("mesh/cube_ascii.vtu"));
+  ASSERT_EQ(m.vertices.size(), 8u);
+  for (int c = 0; c < 8; ++c)
+    EXPECT_EQ(m.vertices[static_cast<std::size_t>(c)], Vec3d(10.0 * (c & 1), 10.0 * ((c >> 1) & 1), 10.0 * ((c >> 2) & 1)));
+  EXPECT_EQ(m.tets, kCubeTets);                                        // the triangle is skipped
+  EXPECT_EQ(m.file_tet_ids, (std::vector<long long>{0, 1, 3, 4, 5}));  // their cell numbers
+  EXPECT_EQ(m.tet_group, (std::vector<int>{1, 1, 2, 2, 2}));          // CellEntityIds
+  const MeshReport r = validate_mesh(m);
+  EXPECT_FALSE(r.fatal()) << r.fatal_message(m);
+  EXPECT_EQ(r.boundary_faces, 12);
+}
+
+TEST(ReadVtu, BinaryAndAppendedFormsGiveTheSameTets) {
+  const TetMesh ascii = read_vtu(data("mesh/cube_ascii.vtu"));
+  // base64 inline with zlib and UInt64 headers (meshio's default); appended base64, big-endian, zlib
+  // in blocks of 16 bytes (several blocks an array, a short last one)
+  for (const char* name : {"mesh/cube_binary.vtu", "mesh/cube_appended64.vtu"}) {
+    SCOPED_TRACE(name);
+    test::expect_same_elements(read_vtu(data(name)), ascii);
+  }
+  // appended raw, uncompressed, in two pieces that each hold the eight points: joined in order
+  const TetMesh two = read_tet_mesh(data("mesh/cube_appended.vtu"));
+  ASSERT_EQ(two.vertices.size(), 16u);
+  EXPECT_EQ(two.vertices[13], ascii.vertices[5]);
+  ASSERT_EQ(two.tets.size(), 5u);
+  EXPECT_EQ(two.tets[1], kCubeTets[1]);
+  EXPECT_EQ(two.tets[2], (Tet{5 + 8, 4 + 8, 7 + 8, 1 + 8}));
+  EXPECT_EQ(two.tet_group, ascii.tet_group);
+  EXPECT_EQ(two.file_tet_ids, (std::vector<long long>{0, 1, 3, 4, 5}));
+}
+
+TEST(ReadVtu, WhatVtkItselfWritesReadsAsTheLegacyFileItCameFrom) {
+  // VTK 9.1's writer with its defaults (appended base64, zlib), from cube_ascii.vtk: its FieldData,
+  // a vector cell array, the cells of lower dimensions, the points' InformationKey.
+  const TetMesh legacy = read_vtk(data("mesh/cube_ascii.vtk"));
+  const TetMesh xml = read_vtu(data("mesh/cube_vtk9.vtu"));
+  test::expect_same_elements(xml, legacy);
+  EXPECT_EQ(xml.file_tet_ids, legacy.file_tet_ids);
+}
+
+TEST(ReadVtu, MalformedAndUnsupportedFilesAreRefusedWithTheirLine) {
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtu"));
+  const std::string binary = slurp(data("mesh/cube_binary.vtu"));
+  const std::string raw = slurp(data("mesh/cube_appended.vtu"));
+  struct Case {
+    std::string name, text;
+    int line;
+    std::string needle;
+  };
+  const std::vector<Case> cases = {
+      {"not_xml.vtu", "# vtk DataFile Version 3.0\n", 1, "not a VTK XML file"},
+      {"parallel.pvtu", replace(ascii, "type=\"UnstructuredGrid\"", "type=\"PUnstructuredGrid\""), 3,
+       "(a parallel file that names its pieces: merge them"},
+      {"image.vtu", replace(ascii, "type=\"UnstructuredGrid\"", "type=\"ImageData\""), 3,
+       "a VTKFile of type 'ImageData' holds no tetrahedra"},
+      {"lz4.vtu", replace(ascii, "header_type=\"UInt32\"", "header_type=\"UInt32\" compressor=\"vtkLZ4DataCompressor\""), 3,
+       "compressor 'vtkLZ4DataCompressor' is not read"},
+      {"hex.vtu", replace(replace(ascii, "10 10 5 10 10 10", "10 10 12 10 10 10"), "4 8 11 15", "4 8 16 20"), 22,
+       "cell 4: offsets 20..19 is not a range of the 23 connectivity entries"},
+      {"hex_fits.vtu", replace(ascii, "10 10 5 10 10 10", "10 10 14 10 10 10"), 25,
+       "the volume holds 1 pyramids besides its 5 tetrahedra"},
+      {"range.vtu", replace(ascii, "0 1 2 4 3 2 1 7", "0 1 2 9 3 2 1 7"), 19, "cell 0: point index 9 is out of range [0, 8)"},
+      {"nan.vtu", replace(ascii, "10 10 10\n", "10 nan 10\n"), 15, "a number 'nan' is not a finite number (DataArray Float64)"},
+      {"few.vtu", replace(ascii, "1 1 0 2 2 2", "1 1 0 2 2"), 9, "DataArray CellEntityIds: 5 values where 6 are expected"},
+      {"negative.vtu", replace(ascii, "1 1 0 2 2 2", "1 -1 0 2 2 2"), 9, "cell 1: CellEntityIds -1 is not a group tag"},
+      {"no_types.vtu", replace(ascii, "Name=\"types\"", "Name=\"kinds\""), 5, "whose <Cells> has no types array"},
+      {"open.vtu", ascii.substr(0, ascii.find("</UnstructuredGrid>")), 29, "the file ends before </VTKFile>"},
+      {"attr.vtu", replace(ascii, "NumberOfCells=\"6\"", "NumberOfCells=6"), 5, "attribute NumberOfCells has no quoted value"},
+      {"count.vtu", replace(ascii, "NumberOfCells=\"6\"", "NumberOfCells=\"-6\""), 5, "NumberOfCells '-6' is not a whole number"},
+      {"base64.vtu", replace(binary, "format=\"binary\">AQAAAAAAAAAAgAAAAAAAABgAAAAAAAAAEgAAAAAAAAA=eJ",
+                             "format=\"binary\">AQAAAAAAAAAAgAAAAAAAABgAAAAAAAAAEgAAAAAAAAA=e*"),
+       9, "'*' in base64 data"},
+      {"zlib.vtu", replace(binary, "AAAAAAA=eJxjZGBgYGSAACYkDAAAdAAJ", "AAAAAAA=eJxjZGBgYGSAACYkDAAAdAAA"), 9,
+       "compressed block 0 does not inflate to its 24 bytes"},
+      {"short.vtu", raw.substr(0, raw.size() - 60), 31, "DataArray offsets: the appended data ends before its bytes (cut short?)"},
+      {"no_appended.vtu", raw.substr(0, raw.find("  <AppendedData")) + "</VTKFile>\n", 12, "appended, but the file has no <AppendedData>"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const auto p = write_temp(c.name, c.text);
+    expect_input_error([&] { read_tet_mesh(p); }, p, c.line, c.needle);
+  }
+}
+
+}  // namespace
+}  // namespace ebh

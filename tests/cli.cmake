@@ -445,6 +445,11 @@ add_test(NAME cli.scene.info_of_a_medit_mesh
     "-DEXPECT=^ebh: error: .*cube.mesh: a Medit mesh, not a scene file \\(YAML\\): `ebh scene init .*cube.mesh -o scene.yaml` writes a scene for it"
     -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene.info_of_a_medit_mesh PROPERTIES LABELS "cli;scene")
+add_test(NAME cli.scene.info_of_a_surface
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;info;${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube_poly.vtk"
+    "-DEXPECT=^ebh: error: .*cube_poly.vtk: a VTK mesh, not a scene file \\(YAML\\): a surface is a scene's mesh.virtual"
+    -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.scene.info_of_a_surface PROPERTIES LABELS "cli;scene")
 function(ebh_scene_init_failure name expect)
   add_test(NAME cli.scene_init.${name}
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${ARGN}" "-DEXPECT=${expect}" -DSTATUS=1

@@ -1,6 +1,6 @@
 #pragma once
-// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1), VTK legacy or XML, Medit or TetGen for the physical mesh, Wavefront OBJ or STL for
-// a virtual-mesh surface. Positions stay in file units; the scene scales them (docs/FORMATS.md, "Length units and the mesh transform").
+// Mesh file readers: Gmsh MSH (ASCII 2.2 and 4.1), VTK legacy or XML, Medit or TetGen for the physical mesh; Wavefront OBJ,
+// STL, PLY or VTK polydata for a virtual-mesh surface. Positions stay in file units; the scene scales them (docs/FORMATS.md, "Length units and the mesh transform").
 //
 // Both readers hold the file in memory and parse it in one pass without regular expressions.
 // Untrusted counts never drive an allocation beyond what the file's size can hold. Every error is
@@ -121,7 +121,28 @@ SurfaceMesh read_obj(const std::filesystem::path& file);
 /// non-finite corners, a malformed line (ASCII: its number), and a file with no facets.
 SurfaceMesh read_stl(const std::filesystem::path& file);
 
-/// read_stl for a `.stl` file (in any case), read_obj otherwise: a virtual-mesh surface.
+/// Reads a PLY surface (ASCII, binary_little_endian or binary_big_endian; what 3D Slicer, MeshLab,
+/// Blender and Open3D write): the x, y, z of its `vertex` element and the `vertex_indices` (or
+/// `vertex_index`) lists of its `face` element, 0-based; other properties and elements are read
+/// past; polygons split around their first corner (convex ones only, as read_obj). Throws
+/// InputError "FILE:LINE: what" (binary data: the line where it starts, with the element and its
+/// number) for a malformed header, unknown types, a missing x/y/z or face list, counts the rest of
+/// the file cannot hold, non-finite coordinates, indices out of range, faces of fewer than 3
+/// vertices or naming one twice, concave faces, and a file with no faces.
+SurfaceMesh read_ply(const std::filesystem::path& file);
+
+/// Reads a VTK legacy POLYDATA surface (`.vtk`, ASCII or BINARY, 2.0 to 5.1, as 3D Slicer's Models
+/// and VTK write it): its POINTS, POLYGONS (split around their first corner, convex ones only) and
+/// TRIANGLE_STRIPS; VERTICES and LINES are read past, the attributes not read. Throws InputError
+/// "FILE:LINE: what" as read_vtk, and for an UNSTRUCTURED_GRID (named as a physical mesh).
+SurfaceMesh read_vtk_surface(const std::filesystem::path& file);
+
+/// Reads a VTK XML PolyData surface (`.vtp`, ParaView, 3D Slicer, VTK): its Points, Polys and
+/// Strips over its pieces, in any of read_vtu's array formats; Verts and Lines are not read.
+SurfaceMesh read_vtp(const std::filesystem::path& file);
+
+/// A virtual-mesh surface by its extension (in any case): read_stl for .stl, read_ply for .ply,
+/// read_vtk_surface for .vtk, read_vtp for .vtp, read_obj otherwise.
 SurfaceMesh read_surface(const std::filesystem::path& file);
 
 /// The Wavefront OBJ text of `surface` (`v x y z` at %.17g, `f a b c` 1-based): read_obj reads it

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "mesh/mesh_io.hpp"
+#include "mesh/polygon.hpp"
 #include "mesh/text_cursor.hpp"
 
 namespace ebh {
@@ -76,24 +77,6 @@ struct Polygon {
   std::vector<long long> corners;
 };
 
-/// The first corner (an index into p.corners) where a polygon turns against the others, seen
-/// along its Newell normal; -1 for a convex one (or one with no area, whose fan is as flat).
-int concave_corner(const Polygon& p, const std::vector<Vec3d>& v) {
-  const std::size_t n = p.corners.size();
-  auto at = [&](std::size_t k) { return v[static_cast<std::size_t>(p.corners[k % n])]; };
-  Vec3d normal{};
-  for (std::size_t k = 0; k < n; ++k) normal += cross(at(k), at(k + 1));
-  const double length = norm(normal);
-  if (!(length > 0)) return -1;
-  normal = normal / length;
-  for (std::size_t k = 0; k < n; ++k) {
-    const Vec3d a = at(k) - at(k + n - 1), b = at(k + 1) - at(k);
-    // a relative tolerance: a straight corner's round-off may turn either way
-    if (dot(cross(a, b), normal) < -1e-9 * norm(a) * norm(b)) return static_cast<int>(k);
-  }
-  return -1;
-}
-
 }  // namespace
 
 SurfaceMesh read_obj(const std::filesystem::path& file) {
@@ -153,10 +136,8 @@ SurfaceMesh read_obj(const std::filesystem::path& file) {
         c.fail_at(tri_lines[t], "vertex index " + std::to_string(mesh.triangles[t][k] + 1) + " is out of range (the file has " +
                                     std::to_string(nv) + " vertices)");
   for (const Polygon& p : polygons)
-    if (const int k = concave_corner(p, mesh.vertices); k >= 0)
-      c.fail_at(p.line, "a concave face of " + std::to_string(p.corners.size()) + " vertices (it turns back at vertex " +
-                            std::to_string(p.corners[k] + 1) + "): ebh splits a face into triangles around its first vertex, "
-                            "right for convex faces only; triangulate the mesh before exporting it");
+    if (const int k = detail::concave_corner(p.corners, mesh.vertices); k >= 0)
+      c.fail_at(p.line, detail::concave_message(p.corners.size(), p.corners[static_cast<std::size_t>(k)] + 1));
   if (mesh.triangles.empty()) c.fail("no faces ('f' lines) in the file");
   return mesh;
 }

@@ -158,7 +158,12 @@ SurfaceMesh read_stl(const std::filesystem::path& file) {
 }
 
 SurfaceMesh read_surface(const std::filesystem::path& file) {
-  return lower_extension(file) == ".stl" ? read_stl(file) : read_obj(file);
+  const std::string ext = lower_extension(file);
+  if (ext == ".stl") return read_stl(file);
+  if (ext == ".ply") return read_ply(file);
+  if (ext == ".vtk") return read_vtk_surface(file);
+  if (ext == ".vtp") return read_vtp(file);
+  return read_obj(file);
 }
 
 }  // namespace ebh

@@ -13,6 +13,7 @@
 #include "core/error.hpp"
 #include "core/file_names.hpp"
 #include "mesh/mesh_io.hpp"
+#include "mesh/polygon.hpp"
 #include "mesh/text_cursor.hpp"
 #include "mesh/vtk_names.hpp"
 
@@ -66,17 +67,7 @@ class VtkParser {
       const long long line = c_.line();
       const std::string key = upper(c_.token());
       if (key == "POINTS") {
-        const long long n = c_.integer("the number of points", 0, INT32_MAX - 1);
-        const DataType t = data_type(c_, c_.token());
-        c_.end_line(" after POINTS n type");
-        const std::vector<double> xyz = reals(3 * n, t, "POINTS", line);
-        mesh_.vertices.resize(static_cast<std::size_t>(n));
-        for (long long i = 0; i < n; ++i) {
-          const Vec3d p{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
-          if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-            fail(line, "point " + std::to_string(i) + " has a non-finite coordinate");
-          mesh_.vertices[static_cast<std::size_t>(i)] = p;
-        }
+        points(line);
         have_points = true;
       } else if (key == "CELLS") {
         const long long n = c_.integer("the number of cells", 0, INT32_MAX - 1);
@@ -118,7 +109,7 @@ class VtkParser {
  private:
   [[noreturn]] void fail(long long line, const std::string& what) const { c_.fail_at(line, what); }
 
-  void header() {
+  void header(bool surface = false) {
     const std::string_view first = c_.rest_of_line();
     if (!first.starts_with("# vtk DataFile Version"))
       fail(1, "not a VTK legacy file (its first line is not '# vtk DataFile Version x.y'): a physical mesh is a Gmsh "
@@ -138,14 +129,117 @@ class VtkParser {
     c_.next_line();
     if (!c_.skip_empty_lines()) fail(c_.line(), "no DATASET line");
     const long long line = c_.line();
-    if (upper(c_.token()) != "DATASET") fail(line, "expected DATASET UNSTRUCTURED_GRID");
+    const std::string wanted = surface ? "POLYDATA" : "UNSTRUCTURED_GRID";
+    if (upper(c_.token()) != "DATASET") fail(line, "expected DATASET " + wanted);
     const std::string kind = upper(c_.token());
-    if (kind != "UNSTRUCTURED_GRID")
+    if (kind != wanted && surface)
+      fail(line, "a DATASET " + printable(kind) + " is no surface: the virtual mesh is a POLYDATA of polygons" +
+                     (kind == "UNSTRUCTURED_GRID" ? std::string(" (this file can be the physical mesh)") : std::string()));
+    if (kind != wanted)
       fail(line, "a DATASET " + printable(kind) + " holds no tetrahedra (" +
-                     (kind == "POLYDATA" ? std::string("a surface: it can be the virtual mesh, as an .obj or .stl")
-                                         : std::string("a grid")) +
+                     (kind == "POLYDATA" ? std::string("a surface: it can be the virtual mesh") : std::string("a grid")) +
                      "): the physical mesh is an UNSTRUCTURED_GRID of tets");
-    c_.end_line(" after DATASET UNSTRUCTURED_GRID");
+    c_.end_line(" after DATASET " + wanted);
+  }
+
+ public:
+  /// A POLYDATA's surface: its POINTS and its POLYGONS and TRIANGLE_STRIPS as triangles (polygons
+  /// split around their first corner, convex ones only; strips in alternating order); VERTICES
+  /// and LINES read past; the attributes after them not read.
+  SurfaceMesh parse_surface() {
+    header(true);
+    SurfaceMesh out;
+    while (next_keyword()) {
+      const long long line = c_.line();
+      const std::string key = upper(c_.token());
+      if (key == "POINTS") {
+        points(line);
+      } else if (key == "POLYGONS" || key == "TRIANGLE_STRIPS" || key == "VERTICES" || key == "LINES") {
+        const std::vector<std::vector<long long>> cells = cell_list(key, line);
+        const long long nv = static_cast<long long>(mesh_.vertices.size());
+        if (key == "VERTICES" || key == "LINES") continue;
+        for (std::size_t i = 0; i < cells.size(); ++i) {
+          const std::vector<long long>& c = cells[i];
+          const std::string which = key + " cell " + std::to_string(i) + ": ";
+          if (c.size() < 3) fail(line, which + std::to_string(c.size()) + " points, a " + (key == "POLYGONS" ? "polygon" : "strip") + " needs 3 at least");
+          for (long long id : c)
+            if (id < 0 || id >= nv) fail(line, which + "point index " + std::to_string(id) + " is out of range [0, " + std::to_string(nv) + ")");
+          if (key == "POLYGONS") {
+            if (c.size() > 3)
+              if (const int k = detail::concave_corner(c, mesh_.vertices); k >= 0)
+                fail(line, which + detail::concave_message(c.size(), c[static_cast<std::size_t>(k)]));
+            for (std::size_t k = 1; k + 1 < c.size(); ++k)
+              out.triangles.push_back({static_cast<int>(c[0]), static_cast<int>(c[k]), static_cast<int>(c[k + 1])});
+          } else {
+            for (std::size_t k = 0; k + 2 < c.size(); ++k) {  // every second triangle of a strip turns the other way
+              const int a = static_cast<int>(c[k]), b = static_cast<int>(c[k + 1]), d = static_cast<int>(c[k + 2]);
+              out.triangles.push_back(k % 2 == 0 ? Tri{a, b, d} : Tri{b, a, d});
+            }
+          }
+        }
+      } else if (key == "FIELD") {
+        skip_field();
+      } else if (key == "METADATA") {
+        skip_metadata();
+      } else if (key == "CELL_DATA" || key == "POINT_DATA") {
+        break;  // colours, normals: not the surface's
+      } else {
+        fail(line, "unexpected '" + printable(key) + "' (expected POINTS, POLYGONS, TRIANGLE_STRIPS, ...)");
+      }
+    }
+    if (mesh_.vertices.empty() && out.triangles.empty()) fail(c_.line(), "no POINTS section");
+    if (out.triangles.empty()) fail(c_.line(), "no POLYGONS or TRIANGLE_STRIPS: a surface is a list of polygons");
+    out.vertices = std::move(mesh_.vertices);
+    return out;
+  }
+
+ private:
+  /// POINTS n type and its values into mesh_.vertices.
+  void points(long long line) {
+    const long long n = c_.integer("the number of points", 0, INT32_MAX - 1);
+    const DataType t = data_type(c_, c_.token());
+    c_.end_line(" after POINTS n type");
+    const std::vector<double> xyz = reals(3 * n, t, "POINTS", line);
+    mesh_.vertices.resize(static_cast<std::size_t>(n));
+    for (long long i = 0; i < n; ++i) {
+      const Vec3d p{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        fail(line, "point " + std::to_string(i) + " has a non-finite coordinate");
+      mesh_.vertices[static_cast<std::size_t>(i)] = p;
+    }
+  }
+
+  /// A POLYDATA cell section (KEY n size, then the legacy list or 5.1's OFFSETS and CONNECTIVITY):
+  /// each cell's point indices.
+  std::vector<std::vector<long long>> cell_list(const std::string& key, long long line) {
+    const long long n = c_.integer("the number of cells", 0, INT32_MAX - 1);
+    const long long size = c_.integer("the size of the cell list", 0, LLONG_MAX / 8);
+    c_.end_line(" after " + key + " n size");
+    std::vector<std::vector<long long>> out;
+    if (version_ >= 5) {
+      const std::vector<long long> offsets = array_after("OFFSETS", n, key.c_str());
+      const std::vector<long long> conn = array_after("CONNECTIVITY", size, key.c_str());
+      for (std::size_t i = 0; i + 1 < offsets.size(); ++i) {
+        if (offsets[i] < 0 || offsets[i + 1] < offsets[i] || offsets[i + 1] > static_cast<long long>(conn.size()))
+          fail(line, key + " cell " + std::to_string(i) + ": OFFSETS " + std::to_string(offsets[i]) + ".." +
+                         std::to_string(offsets[i + 1]) + " is not a range of the " + std::to_string(conn.size()) + " CONNECTIVITY entries");
+        out.emplace_back(conn.begin() + offsets[i], conn.begin() + offsets[i + 1]);
+      }
+      return out;
+    }
+    const std::vector<long long> list = integers(size, DataType{"INT", 4}, key.c_str(), line);
+    std::size_t at = 0;
+    for (long long i = 0; i < n; ++i) {
+      if (at >= list.size()) fail(line, key + ": the list ends at cell " + std::to_string(i) + " of " + std::to_string(n));
+      const long long count = list[at];
+      if (count < 0 || static_cast<long long>(at) + 1 + count > static_cast<long long>(list.size()))
+        fail(line, key + " cell " + std::to_string(i) + ": " + std::to_string(count) + " points run past the list's size");
+      out.emplace_back(list.begin() + static_cast<std::ptrdiff_t>(at + 1), list.begin() + static_cast<std::ptrdiff_t>(at + 1 + count));
+      at += static_cast<std::size_t>(1 + count);
+    }
+    if (at != list.size())
+      fail(line, key + ": its size says " + std::to_string(list.size()) + " entries, its cells use " + std::to_string(at));
+    return out;
   }
 
   /// Moves to the next keyword line (skipping blank lines and the line ends after binary data);
@@ -399,12 +493,17 @@ TetMesh read_vtk(const std::filesystem::path& file) {
   return VtkParser(file, std::move(bytes)).parse();
 }
 
+SurfaceMesh read_vtk_surface(const std::filesystem::path& file) {
+  std::string bytes = detail::read_file_bytes(file);
+  return VtkParser(file, std::move(bytes)).parse_surface();
+}
+
 TetMesh read_tet_mesh(const std::filesystem::path& file) {
   const std::string ext = lower_extension(file);
   if (ext == ".vtk") return read_vtk(file);
   if (ext == ".mesh" || ext == ".meshb") return read_medit(file);
   if (ext == ".node" || ext == ".ele") return read_tetgen(file);
-  if (ext == ".vtu" || ext == ".pvtu") return read_vtu(file);
+  if (ext == ".vtu" || ext == ".pvtu" || ext == ".vtp") return read_vtu(file);  // a .vtp is named as a surface
   return read_msh(file);
 }
 

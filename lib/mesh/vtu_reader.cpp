@@ -20,6 +20,7 @@
 
 #include "core/error.hpp"
 #include "mesh/mesh_io.hpp"
+#include "mesh/polygon.hpp"
 #include "mesh/text_cursor.hpp"
 #include "mesh/vtk_names.hpp"
 
@@ -62,6 +63,38 @@ class VtuParser {
   VtuParser(const std::filesystem::path& file, std::string bytes) : file_(file), bytes_(std::move(bytes)) {}
 
   TetMesh parse() {
+    const std::vector<Piece> pieces = scan();
+    for (const Piece& p : pieces) read_piece(p);
+    if (mesh_.tets.empty()) fail(pieces.front().line, "no tetrahedra (cell type 10) among the cells");
+    mesh_.file_node_ids.resize(mesh_.vertices.size());
+    for (std::size_t i = 0; i < mesh_.vertices.size(); ++i) mesh_.file_node_ids[i] = static_cast<long long>(i);
+    return std::move(mesh_);
+  }
+
+  /// A PolyData's (.vtp) surface: its Polys (split around their first corner, convex ones only) and
+  /// Strips (in alternating order) as triangles, over its pieces; Verts and Lines not read.
+  SurfaceMesh parse_surface() {
+    surface_ = true;
+    const std::vector<Piece> pieces = scan();
+    SurfaceMesh out;
+    for (const Piece& p : pieces) {
+      const long long base = read_points(p);
+      polygons(p, p.polys, p.poly_conn, p.poly_offsets, "Polys", base, out);
+      polygons(p, p.strips, p.strip_conn, p.strip_offsets, "Strips", base, out);
+    }
+    if (out.triangles.empty()) fail(pieces.front().line, "no Polys or Strips: a surface is a list of polygons");
+    out.vertices = std::move(mesh_.vertices);
+    return out;
+  }
+
+ private:
+  struct Piece {
+    long long points = 0, cells = 0, polys = 0, strips = 0, line = 0;
+    std::optional<ArrayRef> xyz, connectivity, offsets, types, groups, poly_conn, poly_offsets, strip_conn, strip_offsets;
+  };
+
+  /// The pieces and where their arrays are, up to </VTKFile> or the appended data.
+  std::vector<Piece> scan() {
     header();
     std::vector<Piece> pieces;
     Piece* piece = nullptr;
@@ -87,10 +120,13 @@ class VtuParser {
         piece = &pieces.back();
         piece->line = t->line;
         piece->points = whole_attr(*t, "NumberOfPoints");
-        piece->cells = whole_attr(*t, "NumberOfCells");
+        if (!surface_) piece->cells = whole_attr(*t, "NumberOfCells");
+        if (surface_ && t->attr("NumberOfPolys")) piece->polys = whole_attr(*t, "NumberOfPolys");
+        if (surface_ && t->attr("NumberOfStrips")) piece->strips = whole_attr(*t, "NumberOfStrips");
         continue;
       }
-      if (t->name == "Points" || t->name == "Cells" || t->name == "CellData" || t->name == "PointData") {
+      if (t->name == "Points" || t->name == "Cells" || t->name == "CellData" || t->name == "PointData" ||
+          t->name == "Polys" || t->name == "Strips" || t->name == "Verts" || t->name == "Lines") {
         if (!piece) fail(t->line, "<" + t->name + "> outside a <Piece>");
         if (!t->empty) section = t->name;
         continue;
@@ -110,6 +146,10 @@ class VtuParser {
         else if (piece && section == "Cells" && a.name == "connectivity") slot = &piece->connectivity;
         else if (piece && section == "Cells" && a.name == "offsets") slot = &piece->offsets;
         else if (piece && section == "Cells" && a.name == "types") slot = &piece->types;
+        else if (piece && section == "Polys" && a.name == "connectivity") slot = &piece->poly_conn;
+        else if (piece && section == "Polys" && a.name == "offsets") slot = &piece->poly_offsets;
+        else if (piece && section == "Strips" && a.name == "connectivity") slot = &piece->strip_conn;
+        else if (piece && section == "Strips" && a.name == "offsets") slot = &piece->strip_offsets;
         else if (piece && section == "CellData" && !piece->groups && a.components == 1 && detail::is_vtk_group_array(a.name) &&
                  !number_type(a.type).real)
           slot = &piece->groups;
@@ -118,19 +158,9 @@ class VtuParser {
       }
       // Other elements (InformationKey, Array of FieldData, ...) carry nothing the mesh needs.
     }
-    for (Piece& p : pieces) read_piece(p);
-    if (pieces.empty()) fail(1, "no <Piece> in the <UnstructuredGrid>");
-    if (mesh_.tets.empty()) fail(pieces.front().line, "no tetrahedra (cell type 10) among the cells");
-    mesh_.file_node_ids.resize(mesh_.vertices.size());
-    for (std::size_t i = 0; i < mesh_.vertices.size(); ++i) mesh_.file_node_ids[i] = static_cast<long long>(i);
-    return std::move(mesh_);
+    if (pieces.empty()) fail(1, std::string("no <Piece> in the <") + (surface_ ? "PolyData" : "UnstructuredGrid") + ">");
+    return pieces;
   }
-
- private:
-  struct Piece {
-    long long points = 0, cells = 0, line = 0;
-    std::optional<ArrayRef> xyz, connectivity, offsets, types, groups;
-  };
 
   [[noreturn]] void fail(long long line, const std::string& what) const {
     throw InputError(file_.string() + ":" + std::to_string(line) + ": " + what);
@@ -154,7 +184,10 @@ class VtuParser {
       fail(t ? t->line : 1, "not a VTK XML file (no <VTKFile> element): a physical mesh is a Gmsh .msh, VTK .vtk or "
                             ".vtu, Medit .mesh or TetGen .node/.ele file");
     const std::string* type = t->attr("type");
-    if (!type || *type != "UnstructuredGrid")
+    if (surface_ && (!type || *type != "PolyData"))
+      fail(t->line, "a VTKFile of type '" + printable(type ? *type : "") + "' is no surface: the virtual mesh is a PolyData" +
+                        (type && *type == "UnstructuredGrid" ? " (this file can be the physical mesh)" : ""));
+    if (!surface_ && (!type || *type != "UnstructuredGrid"))
       fail(t->line, "a VTKFile of type '" + printable(type ? *type : "") +
                         (type && *type == "PUnstructuredGrid"
                              ? "' (a parallel file that names its pieces: merge them, e.g. ParaView's Merge Blocks, and "
@@ -489,11 +522,9 @@ class VtuParser {
     return out;
   }
 
-  void read_piece(const Piece& p) {
+  /// A piece's points appended to mesh_.vertices; the index of its first.
+  long long read_points(const Piece& p) {
     if (!p.xyz) fail(p.line, "a <Piece> without <Points>");
-    if (!p.connectivity || !p.offsets || !p.types)
-      fail(p.line, std::string("a <Piece> whose <Cells> has no ") +
-                       (!p.connectivity ? "connectivity" : !p.offsets ? "offsets" : "types") + " array");
     if (p.xyz->components != 3) fail(p.xyz->line, "Points: " + std::to_string(p.xyz->components) + " components, expected 3");
     const long long base = static_cast<long long>(mesh_.vertices.size());
     const std::vector<double> xyz = values<double>(*p.xyz, 3 * p.points);
@@ -503,21 +534,77 @@ class VtuParser {
         fail(p.xyz->line, "point " + std::to_string(i) + " has a non-finite coordinate");
       mesh_.vertices.push_back(v);
     }
-    const std::vector<long long> offsets = values<long long>(*p.offsets, p.cells);
-    const std::vector<long long> types = values<long long>(*p.types, p.cells);
-    const long long size = p.cells ? offsets.back() : 0;
+    return base;
+  }
+
+  /// The `count` offsets of a cell section and its connectivity, each offset checked to end a range.
+  std::pair<std::vector<long long>, std::vector<long long>> cell_arrays(const std::optional<ArrayRef>& conn,
+                                                                        const std::optional<ArrayRef>& offsets,
+                                                                        long long count) {
+    std::vector<long long> o = values<long long>(*offsets, count);
+    const long long size = count ? o.back() : 0;
     if (size < 0 || static_cast<std::size_t>(size) > bytes_.size() * 1100)
-      fail(p.offsets->line, "offsets: the last offset " + std::to_string(size) + " is no size of a connectivity array");
-    const std::vector<long long> conn = values<long long>(*p.connectivity, size);
+      fail(offsets->line, "offsets: the last offset " + std::to_string(size) + " is no size of a connectivity array");
+    std::vector<long long> c = values<long long>(*conn, size);
+    long long begin = 0;
+    for (long long i = 0; i < count; ++i) {
+      const long long end = o[static_cast<std::size_t>(i)];
+      if (end < begin || end > size)
+        fail(offsets->line, "cell " + std::to_string(i) + ": offsets " + std::to_string(begin) + ".." + std::to_string(end) +
+                                " is not a range of the " + std::to_string(size) + " connectivity entries");
+      begin = end;
+    }
+    return {std::move(o), std::move(c)};
+  }
+
+  /// A piece's Polys or Strips as triangles of `out` (point indices after `base`).
+  void polygons(const Piece& p, long long count, const std::optional<ArrayRef>& conn, const std::optional<ArrayRef>& offsets,
+                const char* section, long long base, SurfaceMesh& out) {
+    if (count == 0) return;
+    if (!conn || !offsets) fail(p.line, std::string("a <Piece> whose <") + section + "> has no " + (!conn ? "connectivity" : "offsets") + " array");
+    const auto [o, c] = cell_arrays(conn, offsets, count);
+    const bool strips = std::string(section) == "Strips";
+    std::vector<long long> corners;
+    long long begin = 0;
+    for (long long i = 0; i < count; ++i) {
+      const long long end = o[static_cast<std::size_t>(i)];
+      corners.assign(c.begin() + begin, c.begin() + end);
+      begin = end;
+      const std::string which = std::string(section) + " cell " + std::to_string(i) + ": ";
+      if (corners.size() < 3) fail(conn->line, which + std::to_string(corners.size()) + " points, a polygon needs 3 at least");
+      for (long long& id : corners) {
+        if (id < 0 || id >= p.points)
+          fail(conn->line, which + "point index " + std::to_string(id) + " is out of range [0, " + std::to_string(p.points) + ")");
+        id += base;
+      }
+      if (strips) {
+        for (std::size_t k = 0; k + 2 < corners.size(); ++k) {  // every second triangle of a strip turns the other way
+          const int a = static_cast<int>(corners[k]), b = static_cast<int>(corners[k + 1]), d = static_cast<int>(corners[k + 2]);
+          out.triangles.push_back(k % 2 == 0 ? Tri{a, b, d} : Tri{b, a, d});
+        }
+        continue;
+      }
+      if (corners.size() > 3)
+        if (const int k = detail::concave_corner(corners, mesh_.vertices); k >= 0)
+          fail(conn->line, which + detail::concave_message(corners.size(), corners[static_cast<std::size_t>(k)] - base));
+      for (std::size_t k = 1; k + 1 < corners.size(); ++k)
+        out.triangles.push_back({static_cast<int>(corners[0]), static_cast<int>(corners[k]), static_cast<int>(corners[k + 1])});
+    }
+  }
+
+  void read_piece(const Piece& p) {
+    if (!p.connectivity || !p.offsets || !p.types)
+      fail(p.line, std::string("a <Piece> whose <Cells> has no ") +
+                       (!p.connectivity ? "connectivity" : !p.offsets ? "offsets" : "types") + " array");
+    const long long base = read_points(p);
+    const auto [offsets, conn] = cell_arrays(p.connectivity, p.offsets, p.cells);
+    const std::vector<long long> types = values<long long>(*p.types, p.cells);
     std::vector<long long> groups;
     if (p.groups) groups = values<long long>(*p.groups, p.cells);
     std::map<long long, long long> other;  // volume cells of other types
     long long begin = 0;
     for (long long i = 0; i < p.cells; ++i) {
       const long long end = offsets[static_cast<std::size_t>(i)];
-      if (end < begin || end > size)
-        fail(p.offsets->line, "cell " + std::to_string(i) + ": offsets " + std::to_string(begin) + ".." +
-                                  std::to_string(end) + " is not a range of the " + std::to_string(size) + " connectivity entries");
       const long long type = types[static_cast<std::size_t>(i)];
       const long long count = end - begin;
       if (type != detail::kVtkTet) {
@@ -563,6 +650,7 @@ class VtuParser {
   long long counted_lines_ = 1;
   TetMesh mesh_;
   long long cell_ = 0;  ///< cells of the pieces before
+  bool surface_ = false;  ///< a PolyData (.vtp) for the virtual mesh
   bool big_endian_ = false, zlib_ = false, appended_base64_ = false;
   int header_bytes_ = 4;
   std::optional<std::size_t> appended_at_;
@@ -570,6 +658,11 @@ class VtuParser {
 };
 
 }  // namespace
+
+SurfaceMesh read_vtp(const std::filesystem::path& file) {
+  std::string bytes = detail::read_file_bytes(file);
+  return VtuParser(file, std::move(bytes)).parse_surface();
+}
 
 TetMesh read_vtu(const std::filesystem::path& file) {
   std::string bytes = detail::read_file_bytes(file);

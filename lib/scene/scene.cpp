@@ -335,8 +335,9 @@ class SpecReader {
     if (auto v = e.find("virtual"); v != e.end()) {
       const std::string t = text(v->second, "mesh.virtual", false);
       if (t != "boundary") {
-        if (const std::string ext = lower_extension(t); ext != ".obj" && ext != ".stl")
-          fail("mesh.virtual", "expected 'boundary', an .obj or an .stl file, got " + yaml_shown(v->second));
+        if (const std::string ext = lower_extension(t);
+            ext != ".obj" && ext != ".stl" && ext != ".ply" && ext != ".vtk" && ext != ".vtp")
+          fail("mesh.virtual", "expected 'boundary' or a surface file (.obj, .stl, .ply, .vtk, .vtp), got " + yaml_shown(v->second));
         s.virtual_mesh = mesh_path(v->second, "mesh.virtual");
       }
     }
@@ -744,10 +745,17 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
   if (text.starts_with("\x89HDF\r\n\x1a\n"))
     throw InputError(file.string() + ": an HDF5 file (a recording or a replay output?), not a scene file (YAML)");
   const std::string ext = lower_extension(file);
-  const char* mesh = text.starts_with("# vtk DataFile")                                        ? "a VTK mesh"
-                     : text.substr(0, 256).find("MeshVersionFormatted") != std::string::npos ? "a Medit mesh"
-                     : ext == ".node" || ext == ".ele"                                       ? "a TetGen mesh"
-                                                                                             : nullptr;
+  const std::string head = text.substr(0, 256);
+  const char* mesh = text.starts_with("# vtk DataFile")                               ? "a VTK mesh"
+                     : head.find("<VTKFile") != std::string::npos                     ? "a VTK XML mesh"
+                     : head.find("MeshVersionFormatted") != std::string::npos         ? "a Medit mesh"
+                     : ext == ".node" || ext == ".ele"                                ? "a TetGen mesh"
+                     : text.starts_with("ply\n") || text.starts_with("ply\r\n")       ? "a PLY surface"
+                                                                                      : nullptr;
+  const bool surface = head.find("DATASET POLYDATA") != std::string::npos || head.find("\"PolyData\"") != std::string::npos ||
+                       text.starts_with("ply");
+  if (mesh && surface)
+    throw InputError(file.string() + ": " + mesh + ", not a scene file (YAML): a surface is a scene's mesh.virtual");
   if (mesh)
     throw InputError(file.string() + ": " + mesh + ", not a scene file (YAML): `ebh scene init " + file.string() +
                      " -o scene.yaml` writes a scene for it");

@@ -12,7 +12,7 @@
 //   unit: mm                        # m | cm | mm: pinned regions and camera (world coordinates)
 //   mesh:
 //     physical: tube.msh            # Gmsh .msh 2.2/4.1 ASCII, VTK legacy .vtk, Medit .mesh or TetGen .node/.ele (tets), relative to the scene file
-//     virtual: boundary             # 'boundary' (the physical mesh's surface), an .obj or an .stl path
+//     virtual: boundary             # 'boundary' (the physical mesh's surface), or a surface file (.obj, .stl, .ply, VTK .vtk POLYDATA, .vtp)
 //     virtual_refine: 1             # 0 or 1: split each virtual triangle into 4 (paper: denser virtual mesh)
 //     min_part_tets: 0              # drop the parts (tets joined by vertices) of fewer tets at load:
 //                                   #   a segmentation's specks apart from the organ (0: keep every part)

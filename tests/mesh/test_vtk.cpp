@@ -76,7 +76,7 @@ TEST(ReadVtk, MalformedFilesAreRefusedWithTheirLine) {
   const std::vector<Case> cases = {
       {"not_vtk.vtk", "$MeshFormat\n2.2 0 8\n", 1, "not a VTK legacy file"},
       {"polydata.vtk", replace(good, "DATASET UNSTRUCTURED_GRID", "DATASET POLYDATA"), 4,
-       "a DATASET POLYDATA holds no tetrahedra (a surface: it can be the virtual mesh, as an .obj or .stl)"},
+       "a DATASET POLYDATA holds no tetrahedra (a surface: it can be the virtual mesh)"},
       {"mode.vtk", replace(good, "ASCII", "TEXT"), 3, "expected ASCII or BINARY, got 'TEXT'"},
       {"nan.vtk", replace(good, "10 10 10", "10 nan 10"), 13, "'nan' is not a finite number"},
       {"index.vtk", replace(good, "6 7 4 2", "6 7 4 9"), 17, "cell 3: point index 9 is out of range [0, 8)"},

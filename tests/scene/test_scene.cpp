@@ -402,6 +402,23 @@ TEST(Scene, StlVirtualSurfaceIsTheObjs) {
   }
 }
 
+// The cube's surface as PLY (ASCII, binary) and VTK polydata (legacy, XML): the OBJ's surface in
+// metres, the same warnings (the polydata's +x face is a strip: the same corners, split otherwise).
+TEST(Scene, PlyAndVtkPolydataVirtualSurfacesAreTheObjs) {
+  const Scene obj = load_scene(data("scene/cube_obj.yaml"));
+  for (const char* name : {"cube.ply", "cube_be.ply", "cube_poly.vtk", "cube_poly_vtk9.vtp"}) {
+    SCOPED_TRACE(name);
+    const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube.obj", data(std::string("mesh/") + name).string()),
+                                     "../mesh/cube41.msh", data("mesh/cube41.msh").string());
+    const Scene other = load_scene(write_temp("surface.yaml", yaml));
+    ASSERT_EQ(other.virtual_surface.vertices.size(), 8u);
+    for (std::size_t i = 0; i < 8; ++i) EXPECT_EQ(other.virtual_surface.vertices[i], obj.virtual_surface.vertices[i]);
+    ASSERT_EQ(other.virtual_surface.triangles.size(), 12u);
+    for (std::size_t f = 0; f < 10; ++f) EXPECT_EQ(other.virtual_surface.triangles[f], obj.virtual_surface.triangles[f]);
+    EXPECT_EQ(other.warnings, obj.warnings);
+  }
+}
+
 TEST(Scene, ObjTriangleSoupIsMergedWithAWarning) {
   // cube.obj's 12 triangles, each with its own 3 corners (as an STL converted to OBJ has them)
   const SurfaceMesh cube = read_obj(data("mesh/cube.obj"));
@@ -905,9 +922,9 @@ TEST_F(BadScene, MissingPhysical) {
   text.erase(at, text.find('\n', at) + 1 - at);
   expect(text, "key 'mesh.physical': missing (required)");
 }
-TEST_F(BadScene, VirtualNotObj) {
-  expect(replace(good, "virtual: boundary", "virtual: cube.ply"),
-         "key 'mesh.virtual': expected 'boundary', an .obj or an .stl file, got 'cube.ply'");
+TEST_F(BadScene, VirtualNotASurfaceFile) {
+  expect(replace(good, "virtual: boundary", "virtual: cube.msh"),
+         "key 'mesh.virtual': expected 'boundary' or a surface file (.obj, .stl, .ply, .vtk, .vtp), got 'cube.msh'");
 }
 TEST_F(BadScene, RateRatio) {
   expect(replace(good, "physical_hz: 50", "physical_hz: 300"), "key 'time.physical_hz': haptic_hz / physical_hz must be a whole number");

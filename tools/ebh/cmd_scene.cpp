@@ -413,8 +413,8 @@ struct SceneRefineArgs {
 };
 
 /// `ebh scene refine`: the scene with its physical mesh split uniformly, every tet into 8 a level
-/// (scene/scene_refine.hpp), as OUT.yaml with OUT.msh (and OUT.obj for an OBJ virtual mesh or a
-/// kept one) beside it.
+/// (scene/scene_refine.hpp), as OUT.yaml with OUT.msh (and OUT.obj for a virtual mesh of its own
+/// file or a kept one) beside it.
 void refine(const SceneRefineArgs& a) {
   require_scene_name(a.out);
   const std::filesystem::path file = ebh::resolve_scene_path(a.scene);

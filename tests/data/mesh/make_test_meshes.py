@@ -11,9 +11,15 @@ cube51.vtk its tets as VTK legacy files, cube_hex.vtk one with a hexahedron; cub
 (numbered from 1, region attributes, boundary markers) and cube0.node / cube0.ele from 0 (-z);
 cube_ascii.vtu, cube_binary.vtu (zlib, as meshio writes it), cube_appended.vtu (raw, in two pieces)
 and cube_appended64.vtu (base64, big-endian, zlib in blocks of 16 bytes) as VTK XML.
-cube_vtk9.vtu is not written here: VTK 9.1 wrote it (python3-vtk9: vtkUnstructuredGridReader of
-cube_ascii.vtk, the points' range computed, vtkXMLUnstructuredGridWriter's defaults), so that the
-reader meets what VTK itself writes (appended base64, zlib, an InformationKey inside a DataArray).
+cube.ply, cube_le.ply and cube_be.ply are the cube's surface as PLY (ASCII quads with normals and
+colours; binary little-endian triangles with an edge element after the faces; binary big-endian,
+doubles and uint indices), cube_poly.vtk and cube_poly.vtp as VTK polydata (legacy ASCII with
+vertices, lines, a triangle strip and point data; XML with zlib-compressed binary arrays).
+cube_vtk9.vtu, cube_poly_vtk9.vtp and cube_poly_vtk9.vtk are not written here: VTK 9.1 wrote them
+(python3-vtk9: cube_vtk9.vtu by vtkXMLUnstructuredGridWriter's defaults from cube_ascii.vtk, the
+points' range computed first; the other two by vtkXMLPolyDataWriter's defaults and
+vtkPolyDataWriter in binary from cube_poly.vtk), so that the readers meet what VTK itself writes
+(appended base64, zlib, an InformationKey inside a DataArray; legacy 5.1 binary with METADATA).
 """
 import os
 import base64
@@ -275,6 +281,71 @@ def write_vtu():
                       ("cube_appended64.vtu", document("appended64", order=">", compress=16))):
         open(os.path.join(HERE, name), "wb").write(doc)
 
+QUADS = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+TRIS = [t for q in QUADS for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
+
+def write_ply():
+    pts = [pos(c) for c in range(8)]
+    head = ["ply", "format ascii 1.0", "comment the cube of tests/data/mesh", f"element vertex {len(pts)}",
+            "property float x", "property float y", "property float z", "property float nx", "property float ny",
+            "property float nz", "property uchar red", "property uchar green", "property uchar blue",
+            f"element face {len(QUADS)}", "property list uchar int vertex_indices", "end_header"]
+    body = [f"{p[0]:g} {p[1]:g} {p[2]:g} 0 0 1 255 128 0" for p in pts] + ["4 " + " ".join(map(str, q)) for q in QUADS]
+    open(os.path.join(HERE, "cube.ply"), "w").write("\n".join(head + body) + "\n")
+    head = ["ply", "format binary_little_endian 1.0", f"element vertex {len(pts)}", "property float32 x",
+            "property float32 y", "property float32 z", f"element face {len(TRIS)}",
+            "property list uint8 int32 vertex_indices", "property int32 flags", "element edge 1",
+            "property int vertex1", "property int vertex2", "end_header"]
+    data = b"".join(struct.pack("<3f", *p) for p in pts)
+    data += b"".join(struct.pack("<B3ii", 3, *t, 7) for t in TRIS) + struct.pack("<2i", 0, 1)
+    open(os.path.join(HERE, "cube_le.ply"), "wb").write(("\n".join(head) + "\n").encode() + data)
+    head = ["ply", "format binary_big_endian 1.0", f"element vertex {len(pts)}", "property double x",
+            "property double y", "property double z", f"element face {len(TRIS)}",
+            "property list uchar uint vertex_index", "end_header"]
+    data = b"".join(struct.pack(">3d", *p) for p in pts) + b"".join(struct.pack(">B3I", 3, *t) for t in TRIS)
+    open(os.path.join(HERE, "cube_be.ply"), "wb").write(("\n".join(head) + "\n").encode() + data)
+
+def write_polydata():
+    """The cube's surface as VTK polydata: five quads as POLYGONS and the +x face as a triangle
+    strip (1 3 5 7: triangles 1 3 5 and 5 3 7), with a vertex, a line and point normals read past."""
+    pts = [pos(c) for c in range(8)]
+    polys = QUADS[:5]
+    out = ["# vtk DataFile Version 3.0", "the cube's surface", "ASCII", "DATASET POLYDATA",
+           f"POINTS {len(pts)} float"] + [" ".join(f"{x:g}" for x in p) for p in pts]
+    out += ["VERTICES 1 2", "1 0", "LINES 1 3", "2 0 7"]
+    out += [f"POLYGONS {len(polys)} {5 * len(polys)}"] + ["4 " + " ".join(map(str, q)) for q in polys]
+    out += ["TRIANGLE_STRIPS 1 5", "4 1 3 5 7"]
+    out += ["POINT_DATA 8", "NORMALS n float"] + ["0 0 1"] * 8
+    open(os.path.join(HERE, "cube_poly.vtk"), "w").write("\n".join(out) + "\n")
+    def z(fmt, vals):
+        raw = struct.pack("<" + str(len(vals)) + fmt, *vals)
+        comp = zlib.compress(raw)
+        head = struct.pack("<4I", 1, len(raw), len(raw), len(comp))
+        return (base64.b64encode(head) + base64.b64encode(comp)).decode()
+    conn = [x for q in polys for x in q]
+    offs = [4 * (i + 1) for i in range(len(polys))]
+    doc = ['<?xml version="1.0"?>',
+           '<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt32" compressor="vtkZLibDataCompressor">',
+           "  <PolyData>",
+           f'    <Piece NumberOfPoints="8" NumberOfVerts="0" NumberOfLines="1" NumberOfStrips="1" NumberOfPolys="{len(polys)}">',
+           "      <Points>",
+           f'        <DataArray type="Float32" Name="Points" NumberOfComponents="3" format="binary">{z("f", [x for p in pts for x in p])}</DataArray>',
+           "      </Points>",
+           "      <Lines>",
+           f'        <DataArray type="Int64" Name="connectivity" format="binary">{z("q", [0, 7])}</DataArray>',
+           f'        <DataArray type="Int64" Name="offsets" format="binary">{z("q", [2])}</DataArray>',
+           "      </Lines>",
+           "      <Strips>",
+           f'        <DataArray type="Int64" Name="connectivity" format="binary">{z("q", [1, 3, 5, 7])}</DataArray>',
+           f'        <DataArray type="Int64" Name="offsets" format="binary">{z("q", [4])}</DataArray>',
+           "      </Strips>",
+           "      <Polys>",
+           f'        <DataArray type="Int64" Name="connectivity" format="binary">{z("q", conn)}</DataArray>',
+           f'        <DataArray type="Int64" Name="offsets" format="binary">{z("q", offs)}</DataArray>',
+           "      </Polys>",
+           "    </Piece>", "  </PolyData>", "</VTKFile>"]
+    open(os.path.join(HERE, "cube_poly.vtp"), "w").write("\n".join(doc) + "\n")
+
 write22()
 write41()
 write_obj()
@@ -283,3 +354,5 @@ write_vtk()
 write_medit()
 write_tetgen()
 write_vtu()
+write_ply()
+write_polydata()

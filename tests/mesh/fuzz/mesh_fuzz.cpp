@@ -1,4 +1,4 @@
-// Mutation test of the mesh readers: valid MSH 2.2 / 4.1, VTK, Medit, TetGen, OBJ and STL files are mutated at random
+// Mutation test of the mesh readers: valid MSH 2.2 / 4.1, VTK, Medit, TetGen, OBJ, STL and PLY files are mutated at random
 // (fixed seed: every run is the same) and each result must either read or throw InputError.
 // Built with AddressSanitizer and UBSan (tests/fuzz.cmake), so an out-of-bounds read, an overflow
 // or an allocation sized by an absurd count fails the run. Whatever reads is also passed through
@@ -123,7 +123,9 @@ int main(int argc, char** argv) {
                                        dir / "cube_binary.vtk", dir / "cube51.vtk",      dir / "cube.mesh",
                                        dir / "cube.1.node",     dir / "cube.1.ele",      dir / "cube.1.face",
                                        dir / "cube_ascii.vtu",  dir / "cube_binary.vtu", dir / "cube_appended64.vtu",
-                                       dir / "cube_vtk9.vtu"};
+                                       dir / "cube_vtk9.vtu",   dir / "cube.ply",        dir / "cube_le.ply",
+                                       dir / "cube_be.ply",     dir / "cube_poly.vtk",   dir / "cube_poly.vtp",
+                                       dir / "cube_poly_vtk9.vtk"};
   std::vector<std::string> texts;
   for (const auto& p : seeds) {
     texts.push_back(slurp(p));
@@ -153,7 +155,9 @@ int main(int argc, char** argv) {
     std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
     const std::string ext = seeds[which].extension().string();
     try {
-      if (ext == ".obj" || ext == ".stl") {
+      // surfaces: OBJ, STL, PLY and VTK polydata (legacy .vtk files named *_poly*)
+      const bool polydata = ext == ".vtp" || seeds[which].filename().string().find("_poly") != std::string::npos;
+      if (ext == ".obj" || ext == ".stl" || ext == ".ply" || polydata) {
         (void)ebh::read_surface(file);
       } else {
         // read_tet_mesh reads a .face through its .ele

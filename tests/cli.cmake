@@ -450,6 +450,9 @@ add_test(NAME cli.scene.info_of_a_surface
     "-DEXPECT=^ebh: error: .*cube_poly.vtk: a VTK mesh, not a scene file \\(YAML\\): a surface is a scene's mesh.virtual"
     -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.scene.info_of_a_surface PROPERTIES LABELS "cli;scene")
+add_test(NAME cli.scene.info_stiffness_regions COMMAND ${EBH_BIN} scene info ${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube_regions.yaml)
+set_tests_properties(cli.scene.info_stiffness_regions PROPERTIES LABELS "cli;scene"
+  PASS_REGULAR_EXPRESSION "stiffness +k_vol 2500 Pa, with 2 regions:\n  \\[0\\] group +k_vol 7000 Pa: 5 tets \\(2 keep it\\)\n  \\[1\\] box +k_vol 5000 Pa: 3 tets \\(3 keep it\\)\n")
 function(ebh_scene_init_failure name expect)
   add_test(NAME cli.scene_init.${name}
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;init;${ARGN}" "-DEXPECT=${expect}" -DSTATUS=1

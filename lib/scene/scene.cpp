@@ -261,7 +261,10 @@ class SpecReader {
       else if (name == "material") {
         const auto e = entries(n, "material", {"density"});
         if (auto d = e.find("density"); d != e.end()) s.density = positive(d->second, "material.density");
-      } else if (name == "stiffness") read_stiffness(n, s.stiffness);
+      } else if (name == "stiffness") {
+        read_stiffness(n, s.stiffness);
+        if (n.IsMap() && n["regions"]) read_stiffness_regions(n["regions"], s);
+      }
       else if (name == "gravity") s.gravity = vec3(n, "gravity");
       else if (name == "damping") s.damping = in_range(n, "damping", 0, true, 1, false);
       else if (name == "pinned") read_pinned(n, s);
@@ -347,7 +350,7 @@ class SpecReader {
   }
 
   void read_stiffness(const YAML::Node& n, Stiffness& k) const {
-    const auto e = entries(n, "stiffness", {"k_vol", "k_s", "k_svc", "k_con", "k_vcs", "k_vct", "k_det"});
+    const auto e = entries(n, "stiffness", {"k_vol", "k_s", "k_svc", "k_con", "k_vcs", "k_vct", "k_det", "regions"});
     const std::pair<const char*, double*> fields[] = {{"k_vol", &k.k_vol}, {"k_s", &k.k_s},     {"k_svc", &k.k_svc},
                                                       {"k_con", &k.k_con}, {"k_vcs", &k.k_vcs}, {"k_vct", &k.k_vct}};
     for (const auto& [name, dst] : fields)
@@ -362,7 +365,32 @@ class SpecReader {
       const std::string key = "pinned[" + std::to_string(i) + "]";
       const auto e = entries(n[i], key, {"group", "box", "sphere", "halfspace"});
       if (e.size() != 1) fail(key, "expected exactly one of group, box, sphere, halfspace");
-      const auto& [kind, v] = *e.begin();
+      s.pinned.push_back(region(*e.begin(), key));
+    }
+  }
+
+  void read_stiffness_regions(const YAML::Node& n, SceneSpec& s) const {
+    if (n.IsNull()) return;
+    if (!n.IsSequence()) fail("stiffness.regions", "expected a list of parts (a region and its k_vol), got " + yaml_shown(n));
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const std::string key = "stiffness.regions[" + std::to_string(i) + "]";
+      auto e = entries(n[i], key, {"group", "box", "sphere", "halfspace", "k_vol"});
+      StiffnessRegion m;
+      const auto k = e.find("k_vol");
+      if (k == e.end()) fail(key, "expected k_vol (Pa), the part's stiffness");
+      m.k_vol = positive(k->second, key + ".k_vol");
+      e.erase(k);
+      if (e.size() != 1) fail(key, "expected exactly one of group, box, sphere, halfspace beside k_vol");
+      m.region = region(*e.begin(), key);
+      s.stiffness_regions.push_back(m);
+    }
+  }
+
+  /// One region of `key` (pinned[i], stiffness.regions[i]): its kind and its value.
+  template <class Entry>
+  PinRegion region(const Entry& entry, const std::string& key) const {
+    {
+      const auto& [kind, v] = entry;
       const std::string k = key + "." + kind;
       PinRegion r;
       if (kind == "group") {
@@ -385,7 +413,7 @@ class SpecReader {
         r.a = vec3(required(b, "point", k), k + ".point") * unit_;
         r.b = normalized(nonzero_vec3(required(b, "normal", k), k + ".normal"));
       }
-      s.pinned.push_back(r);
+      return r;
     }
   }
 
@@ -514,6 +542,8 @@ class SpecReader {
   double unit_ = 1.0;
 };
 
+}  // namespace
+
 std::string region_name(PinRegion::Kind k) {
   switch (k) {
     case PinRegion::Kind::Group: return "group";
@@ -523,6 +553,8 @@ std::string region_name(PinRegion::Kind k) {
   }
   return "region";
 }
+
+namespace {
 
 /// For each pinned region of `spec`, why a group of `raw` (the mesh as read) will pin nothing once
 /// the vertices no tet uses are removed (remove_unreferenced_vertices drops the triangles that use
@@ -589,6 +621,31 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
   throw InputError(value_source(scene.spec, key) + ": key '" + key + "': the " + region_name(r.kind) +
                    (r.kind == PinRegion::Kind::Group ? " '" + r.group + "'" : "") + " pins no vertex of the physical mesh" +
                    moved + (!why_none.empty() ? ": " + why_none : empty_group));
+}
+
+/// Each tet's k_vol: stiffness.k_vol, then each of stiffness.regions over its tets in turn. A region
+/// that holds no tet (a group the mesh does not have, or no tet's centroid in it) is an InputError
+/// naming its key, as a pinned region that pins nothing is.
+std::vector<double> tet_stiffness(const Scene& scene) {
+  std::vector<double> k(scene.physical.tets.size(), scene.spec.stiffness.k_vol);
+  for (std::size_t i = 0; i < scene.spec.stiffness_regions.size(); ++i) {
+    const StiffnessRegion& m = scene.spec.stiffness_regions[i];
+    const std::vector<int> tets = region_tets(scene.physical, m.region);
+    if (tets.empty()) {
+      const std::string key = "stiffness.regions[" + std::to_string(i) + "]." + region_name(m.region.kind);
+      const bool group = m.region.kind == PinRegion::Kind::Group;
+      const std::vector<std::string> known = known_group_names(scene.physical);
+      const bool unknown = group && std::find(known.begin(), known.end(), m.region.group) == known.end();
+      throw InputError(value_source(scene.spec, key) + ": key '" + key + "': " +
+                       (unknown ? "unknown group '" + m.region.group + "' (known groups in " + scene.spec.physical_mesh.string() +
+                                      ": " + known_groups_text(scene.physical) + ")" + file_groups_note(scene.spec.physical_mesh)
+                        : group ? "the group '" + m.region.group + "' holds no tet of the physical mesh (a surface group: a "
+                                  "part's stiffness is its tets')"
+                                : "no tet of the physical mesh has its centroid in the " + region_name(m.region.kind)));
+    }
+    for (int t : tets) k[static_cast<std::size_t>(t)] = m.k_vol;
+  }
+  return k;
 }
 
 /// Warnings for sizes no organ or laparoscopic instrument has: the physical mesh's bounding-box
@@ -888,6 +945,31 @@ std::set<int> group_tags(const TetMesh& mesh, const std::string& group) {
   return tags;
 }
 
+namespace {
+/// Whether point p lies in a box, sphere or half-space region (false for a group).
+bool in_region(const Vec3d& p, const PinRegion& r) {
+  switch (r.kind) {
+    case PinRegion::Kind::Box: return p.x >= r.a.x && p.y >= r.a.y && p.z >= r.a.z && p.x <= r.b.x && p.y <= r.b.y && p.z <= r.b.z;
+    case PinRegion::Kind::Sphere: return norm(p - r.a) <= r.b.x;
+    case PinRegion::Kind::Halfspace: return dot(p - r.a, r.b) >= 0.0;
+    case PinRegion::Kind::Group: return false;
+  }
+  return false;
+}
+}  // namespace
+
+std::vector<int> region_tets(const TetMesh& m, const PinRegion& r) {
+  if (r.kind == PinRegion::Kind::Group)
+    return elements_in_groups(m.tet_group, m.tet_more_groups, m.tets.size(), group_tags(m, r.group));
+  std::vector<int> out;
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    const Tet& e = m.tets[t];
+    const Vec3d centroid = 0.25 * (m.vertices[e[0]] + m.vertices[e[1]] + m.vertices[e[2]] + m.vertices[e[3]]);
+    if (in_region(centroid, r)) out.push_back(static_cast<int>(t));
+  }
+  return out;
+}
+
 std::vector<int> region_vertices(const TetMesh& m, const PinRegion& r) {
   std::vector<int> out;
   if (r.kind == PinRegion::Kind::Group) {
@@ -897,19 +979,8 @@ std::vector<int> region_vertices(const TetMesh& m, const PinRegion& r) {
     for (int f : elements_in_groups(m.triangle_group, m.triangle_more_groups, m.triangles.size(), tags))
       out.insert(out.end(), m.triangles[f].begin(), m.triangles[f].end());
   } else {
-    for (std::size_t v = 0; v < m.vertices.size(); ++v) {
-      const Vec3d& p = m.vertices[v];
-      bool in = false;
-      switch (r.kind) {
-        case PinRegion::Kind::Box:
-          in = p.x >= r.a.x && p.y >= r.a.y && p.z >= r.a.z && p.x <= r.b.x && p.y <= r.b.y && p.z <= r.b.z;
-          break;
-        case PinRegion::Kind::Sphere: in = norm(p - r.a) <= r.b.x; break;
-        case PinRegion::Kind::Halfspace: in = dot(p - r.a, r.b) >= 0.0; break;
-        case PinRegion::Kind::Group: break;
-      }
-      if (in) out.push_back(static_cast<int>(v));
-    }
+    for (std::size_t v = 0; v < m.vertices.size(); ++v)
+      if (in_region(m.vertices[v], r)) out.push_back(static_cast<int>(v));
   }
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -1325,6 +1396,7 @@ Scene build_scene(SceneSpec spec_in) {
   }
   std::sort(scene.pinned.begin(), scene.pinned.end());
   scene.pinned.erase(std::unique(scene.pinned.begin(), scene.pinned.end()), scene.pinned.end());
+  scene.tet_k_vol = tet_stiffness(scene);
   // A pinned region that holds all of the mesh, or only some of its parts: the tool meets a rigid
   // body, or drags a part through the coupling (settle_under_gravity refuses it under gravity).
   const std::string where = spec.file.string();
@@ -1694,6 +1766,32 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
     for (double c : {v.x, v.y, v.z}) y << (unit > 0 ? in_file_unit(c, unit) : c);
     y << YAML::EndSeq;
   };
+  // A pinned or stiffness region: its kind's key and value, in the map being written.
+  auto region = [&](const PinRegion& r) {
+    y << YAML::Key << region_name(r.kind) << YAML::Value;
+    switch (r.kind) {
+      case PinRegion::Kind::Group: y << r.group; break;
+      case PinRegion::Kind::Box:
+        y << YAML::BeginMap << YAML::Key << "min" << YAML::Value;
+        vec(r.a, u);
+        y << YAML::Key << "max" << YAML::Value;
+        vec(r.b, u);
+        y << YAML::EndMap;
+        break;
+      case PinRegion::Kind::Sphere:
+        y << YAML::BeginMap << YAML::Key << "center" << YAML::Value;
+        vec(r.a, u);
+        y << YAML::Key << "radius" << YAML::Value << length(r.b.x) << YAML::EndMap;
+        break;
+      case PinRegion::Kind::Halfspace:
+        y << YAML::BeginMap << YAML::Key << "point" << YAML::Value;
+        vec(r.a, u);
+        y << YAML::Key << "normal" << YAML::Value;
+        vec(r.b, 0);
+        y << YAML::EndMap;
+        break;
+    }
+  };
   y << YAML::BeginMap;
   y << YAML::Key << "name" << YAML::Value << s.name;
   y << YAML::Key << "description" << YAML::Value << s.description;
@@ -1720,35 +1818,23 @@ std::string resolved_scene_yaml(const SceneSpec& s) {
   y << YAML::Key << "k_svc" << YAML::Value << k.k_svc << YAML::Key << "k_con" << YAML::Value << k.k_con;
   y << YAML::Key << "k_vcs" << YAML::Value << k.k_vcs << YAML::Key << "k_vct" << YAML::Value << k.k_vct;
   if (k.k_det > 0) y << YAML::Key << "k_det" << YAML::Value << k.k_det;
+  if (!s.stiffness_regions.empty()) {
+    y << YAML::Key << "regions" << YAML::Value << YAML::BeginSeq;
+    for (const StiffnessRegion& m : s.stiffness_regions) {
+      y << YAML::BeginMap;
+      region(m.region);
+      y << YAML::Key << "k_vol" << YAML::Value << m.k_vol << YAML::EndMap;
+    }
+    y << YAML::EndSeq;
+  }
   y << YAML::EndMap;
   y << YAML::Key << "gravity" << YAML::Value;
   vec(s.gravity, 0);
   y << YAML::Key << "damping" << YAML::Value << s.damping;
   y << YAML::Key << "pinned" << YAML::Value << YAML::BeginSeq;
   for (const PinRegion& r : s.pinned) {
-    y << YAML::BeginMap << YAML::Key << region_name(r.kind) << YAML::Value;
-    switch (r.kind) {
-      case PinRegion::Kind::Group: y << r.group; break;
-      case PinRegion::Kind::Box:
-        y << YAML::BeginMap << YAML::Key << "min" << YAML::Value;
-        vec(r.a, u);
-        y << YAML::Key << "max" << YAML::Value;
-        vec(r.b, u);
-        y << YAML::EndMap;
-        break;
-      case PinRegion::Kind::Sphere:
-        y << YAML::BeginMap << YAML::Key << "center" << YAML::Value;
-        vec(r.a, u);
-        y << YAML::Key << "radius" << YAML::Value << length(r.b.x) << YAML::EndMap;
-        break;
-      case PinRegion::Kind::Halfspace:
-        y << YAML::BeginMap << YAML::Key << "point" << YAML::Value;
-        vec(r.a, u);
-        y << YAML::Key << "normal" << YAML::Value;
-        vec(r.b, 0);
-        y << YAML::EndMap;
-        break;
-    }
+    y << YAML::BeginMap;
+    region(r);
     y << YAML::EndMap;
   }
   y << YAML::EndSeq;

@@ -30,6 +30,10 @@
 //     k_vct: 0.3                    # N m/rad E_tvc [2] rotation
 //     k_det: 0                      # Pa    E_det (not in the paper; 0 = off): volume stiffness lambda/2,
 //                                   #       Poisson's ratio k_det / (2 k_det + k_vol) (docs/MODEL.md)
+//     regions:                      # optional: parts of another k_vol, in order (a tet in several: the last)
+//       - group: tumour             #   one region as in pinned (a group's tets; a box, sphere or
+//         k_vol: 15000              #   half-space: the tets whose centroid is in it) and its k_vol in Pa;
+//                                   #   k_det keeps its ratio to k_vol there (the same Poisson's ratio)
 //   gravity: [0, 0, -9.81]          # m/s^2
 //   damping: 0.0                    # fraction of velocity removed per physical step, [0, 1)
 //   pinned:                         # union of regions, world coordinates (after mesh.transform); each one of:
@@ -134,6 +138,15 @@ struct PinRegion {
   Kind kind = Kind::Box;
   std::string group;    ///< Group: physical group name
   Vec3d a, b;           ///< Box: min, max; Sphere: centre, (radius, 0, 0); Halfspace: point, normal
+};
+
+/// A part of the physical mesh of another stiffness (a tumour in an organ, a stiffer capsule): the
+/// tets of a group, or those whose centroid lies in a box, sphere or half-space (PinRegion's kinds,
+/// world coordinates), and their E_vol stiffness. E_det's keeps its ratio to it (k_det / k_vol,
+/// the scene's), so the part has the scene's Poisson's ratio.
+struct StiffnessRegion {
+  PinRegion region;
+  double k_vol = 0;  ///< Pa
 };
 
 struct HookSpec {
@@ -306,6 +319,7 @@ struct SceneSpec {
   Vec3d gravity{0, 0, -9.81};
   double damping = 0.0;
   std::vector<PinRegion> pinned;
+  std::vector<StiffnessRegion> stiffness_regions;  ///< stiffness.regions, in order: a tet in several takes the last one's
   ToolSpec tool;
   double haptic_hz = 1000.0;
   double physical_hz = 100.0;
@@ -332,6 +346,10 @@ struct Scene {
   TetMesh physical;              ///< the physical mesh (tets), metres
   SurfaceMesh virtual_surface;   ///< the virtual mesh source surface before refinement, metres
   std::vector<int> pinned;       ///< sorted physical-vertex indices that never move
+  /// Each physical tet's E_vol stiffness (Pa): stiffness.k_vol, or the last of spec.stiffness_regions that
+  /// holds the tet. Empty for a Scene built in code (build_physical_model then takes k_vol, as it
+  /// does where code replaced the mesh of a scene without stiffness.regions).
+  std::vector<double> tet_k_vol;
   /// The connected parts of the physical mesh (tets sharing a vertex) with no pinned vertex, while
   /// some other part has one: each part's lowest vertex index and its number of vertices.
   std::vector<std::pair<int, int>> free_parts;
@@ -483,6 +501,11 @@ std::string resolved_scene_yaml(const SceneSpec& spec);
 /// A group's are those of its tets and triangles (an element may be in several groups); a group
 /// the mesh does not name gives none (known_group_names lists those it does).
 std::vector<int> region_vertices(const TetMesh& mesh, const PinRegion& region);
+/// A region's kind as the scene file names it: group, box, sphere, halfspace.
+std::string region_name(PinRegion::Kind kind);
+/// The physical tets (ascending) a stiffness region holds: a group's tets (not its triangles), or
+/// those whose centroid lies in the box, sphere or half-space.
+std::vector<int> region_tets(const TetMesh& mesh, const PinRegion& region);
 /// The physical group tags a pinned region's `group` names: the groups of that name or, where none
 /// has it, the unnamed group whose number it is ("3" for Gmsh's `Physical Surface(3) = {...}`; a
 /// surface and a volume group of that number both).

@@ -370,6 +370,13 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
 
   // Per tet: rest volume, PD weight, shape gradients.
   M.volume.resize(T);
+  // Each tet's k_vol (Scene::tet_k_vol); none given, or a mesh put in the scene's place in code
+  // while it has no stiffness.regions: stiffness.k_vol for all.
+  const bool per_tet = static_cast<int>(scene.tet_k_vol.size()) == T;
+  if (!per_tet && !scene.spec.stiffness_regions.empty())
+    throw InputError(where + ": " + std::to_string(scene.tet_k_vol.size()) + " tet stiffnesses (stiffness.regions) for " +
+                     std::to_string(T) + " tets: the physical mesh changed after the scene was built");
+  M.tet_k_vol = per_tet ? scene.tet_k_vol : std::vector<double>(T, M.k_vol);
   M.tet_weight.resize(T);
   M.shape_grad.resize(4 * size_t(T));
   for (int t = 0; t < T; ++t) {
@@ -384,7 +391,7 @@ PhysicalModel build_physical_model(const Scene& scene, const VirtualModel* virtu
     if (!(std::abs(det) > 1e-12 * scale))
       throw InputError(where + ": tet " + std::to_string(t) + " has zero rest volume");
     M.volume[t] = std::abs(det) / 6.0;
-    M.tet_weight[t] = arap_weight(M.k_vol, M.volume[t]);
+    M.tet_weight[t] = arap_weight(M.tet_k_vol[t], M.volume[t]);
     tet_shape_gradients(inverse(Dm), &M.shape_grad[4 * size_t(t)]);
   }
   M.mass = lumped_masses(mesh, scene.spec.density);
@@ -646,8 +653,10 @@ PhysicalEnergy physical_energy(const PhysicalModel& model, std::span<const Vec3d
     const Tet& tet = model.tets[t];
     const Vec3d xc[4] = {x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]};
     const Mat3d F = deformation_gradient(xc, &model.shape_grad[4 * t]);
-    E.volume += arap_energy(F, polar_rotation_svd(F), model.k_vol, model.volume[t]);
-    if (model.k_det > 0) E.volume += volume_energy(F, model.k_det, model.volume[t]);
+    E.volume += arap_energy(F, polar_rotation_svd(F), model.tet_k_vol[t], model.volume[t]);
+    // E_det's stiffness keeps its ratio to the tet's k_vol (det_ratio: the scene's k_det / k_vol)
+    const double k_det = model.tet_k_vol[t] == model.k_vol ? model.k_det : model.det_ratio * model.tet_k_vol[t];
+    if (model.k_det > 0) E.volume += volume_energy(F, k_det, model.volume[t]);
   }
   if (!s.empty())
     for (int a = 0; a < model.num_vertices; ++a) E.inertia += inertia_energy(x[a], s[a], model.mass[a], model.h);

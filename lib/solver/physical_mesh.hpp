@@ -70,7 +70,7 @@ struct PhysicalModel {
   int num_free = 0;                     ///< nf, vertices that are not pinned
   int num_virtual = 0;                  ///< m, 0 when there is no E_svc coupling
   double h = 0;                         ///< physical step (s)
-  double k_vol = 0;                     ///< Pa, E_vol [7]
+  double k_vol = 0;                     ///< Pa, E_vol [7]: the scene's (stiffness.k_vol); tet_k_vol per tet
   double k_det = 0;                     ///< Pa, E_det (energy/volume.hpp); 0 = the paper's model
   double det_ratio = 0;                 ///< kappa = k_det / k_vol
   double k_svc = 0;                     ///< N/m, E_svc [5]
@@ -79,7 +79,8 @@ struct PhysicalModel {
   std::vector<Vec3d> rest;              ///< #n rest positions, metres
   std::vector<Tet> tets;                ///< #T
   std::vector<double> volume;           ///< #T rest volume V_t, m^3
-  std::vector<double> tet_weight;       ///< #T w_t = 2 k_vol V_t
+  std::vector<double> tet_k_vol;        ///< #T the tet's k_vol (Scene::tet_k_vol: stiffness.regions)
+  std::vector<double> tet_weight;       ///< #T w_t = 2 k_vol_t V_t
   std::vector<Vec3d> shape_grad;        ///< #T*4 g_c with F = sum_c x_c g_c^T (1/m)
   std::vector<double> mass;             ///< #n lumped mass, kg (density V_t / 4 per corner)
   double weight_norm = 0;               ///< ||M g0|| over free vertices (N), g0 = 9.81 m/s^2: the residual's scale

@@ -218,6 +218,16 @@ TEST(CudaPhysical, VolumeStiffnessStepMatchesCpu) {
   expect_step_matches_cpu("gap", SolverSpec::Method::Jacobi, 16, {"stiffness.k_det=15000"});
 }
 
+/// Tets of several stiffnesses (stiffness.regions): the device step reads each tet's weight, so it
+/// gives the CPU's step within the bound; the region is stiff enough that the uniform mesh would not.
+TEST(CudaPhysical, StiffnessRegionsStepMatchesCpu) {
+  EBH_REQUIRE_DEVICE();
+  expect_step_matches_cpu("cholecystectomy", SolverSpec::Method::Chebyshev, 16,
+                          {"stiffness.regions=[{sphere: {center: [0, 0, 0], radius: 30}, k_vol: 30000}, "
+                           "{halfspace: {point: [0, 0, 20], normal: [0, 0, 1]}, k_vol: 600}]",
+                           "stiffness.k_det=9000"});
+}
+
 /// Patches of 128 vertices, with four threads per vertex in the global stage (what meshes past
 /// about 17k vertices get on an H100), on the committed meshes: the same step within the bound.
 /// The committed scenes themselves get 8 threads per vertex (patches of at most 64).

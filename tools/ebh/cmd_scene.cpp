@@ -259,6 +259,19 @@ void info(const SceneInfoArgs& a) {
   std::printf("  vertices       %zu\n", scene.virtual_surface.vertices.size());
   std::printf("  triangles      %zu\n", scene.virtual_surface.triangles.size());
   std::printf("pinned vertices  %zu\n", scene.pinned.size());
+  if (!spec.stiffness_regions.empty()) {
+    // each region's tets that keep its k_vol (a later region may take some), by stiffness.regions' order
+    std::printf("stiffness        k_vol %g Pa, with %zu region%s:\n", spec.stiffness.k_vol, spec.stiffness_regions.size(),
+                spec.stiffness_regions.size() == 1 ? "" : "s");
+    for (std::size_t i = 0; i < spec.stiffness_regions.size(); ++i) {
+      const ebh::StiffnessRegion& r = spec.stiffness_regions[i];
+      const std::vector<int> held = ebh::region_tets(scene.physical, r.region);
+      long long kept = 0;
+      for (int t : held) kept += scene.tet_k_vol[static_cast<std::size_t>(t)] == r.k_vol;
+      std::printf("  [%zu] %-9s k_vol %g Pa: %zu tets (%lld keep it)\n", i, ebh::region_name(r.region.kind).c_str(), r.k_vol,
+                  held.size(), kept);
+    }
+  }
   std::printf("bounding box     [%.6g, %.6g, %.6g] .. [%.6g, %.6g, %.6g] m (size %.6g x %.6g x %.6g)\n", lo.x, lo.y, lo.z,
               hi.x, hi.y, hi.z, hi.x - lo.x, hi.y - lo.y, hi.z - lo.z);
   {

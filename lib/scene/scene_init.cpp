@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <map>
 #include <optional>
 #include <set>
 #include <stdexcept>
@@ -299,6 +300,23 @@ SceneInit make_scene(const SceneInitOptions& o) {
        "N/m, contact: surface contact's floor for this tool (docs/MODEL.md); vertex contact: the paper's 400");
   line("  k_vcs: 300", "N/m, virtual tool to physical tool");
   line("  k_vct: 0.3", "N m/rad");
+  {
+    // A mesh of several labelled parts (an organ and a tumour): how to give one its own stiffness.
+    std::map<int, long long> tets_of;
+    for (int g : mesh.tet_group) ++tets_of[g];
+    if (tets_of.size() > 1) {
+      y += "  # The mesh's tets are in " + std::to_string(tets_of.size()) + " groups (";
+      bool first = true;
+      for (const auto& [g, count] : tets_of) {
+        const auto named = mesh.group_names.find(g);
+        y += std::string(first ? "" : ", ") + (named != mesh.group_names.end() ? named->second : std::to_string(g)) + ": " +
+             std::to_string(count) + " tets";
+        first = false;
+      }
+      y += "):\n  # a part of its own stiffness is a region (docs/MODEL.md, \"Parts of another stiffness\"), e.g.\n";
+      y += "  # regions:\n  #   - {group: NAME, k_vol: " + fmt(5 * preset->k_vol) + "}   # a tumour ~5x its tissue\n";
+    }
+  }
   y += "# An organ segmented in situ already has the shape its surroundings hold it in: gravity on top\n";
   y += "# of that would count it twice. Set [0, 0, -9.81] (world z up) to study an unsupported organ.\n";
   y += "gravity: [0, 0, 0]\n";

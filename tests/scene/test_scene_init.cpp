@@ -14,6 +14,7 @@ namespace ebh {
 namespace {
 
 using test::data;
+using test::replace;
 using test::write_temp;
 
 constexpr double kTol = 1e-15;  // a few ulps of lengths <= 0.33 m scaled from the file's unit
@@ -46,6 +47,24 @@ TEST(SceneInit, TheCommandInTheHeaderIsQuotedForTheShell) {
   o.out = o.mesh.parent_path() / "with space.yaml";
   text = make_scene(o).yaml;
   EXPECT_NE(text.find(" -o '" + o.out.string() + "' --unit cm"), std::string::npos) << text.substr(0, 300);
+}
+
+// A mesh of several labelled parts (the TetGen cube: regions 1 and 2) gets the commented example of
+// a part of its own stiffness, which uncommented gives that part its k_vol.
+TEST(SceneInit, AMeshOfSeveralGroupsIsShownHowToStiffenOne) {
+  SceneInitOptions o;
+  o.mesh = data("mesh/cube.1.ele");
+  o.out = write_temp("labels.yaml", "").parent_path() / "labels.yaml";
+  o.unit = "cm";
+  const std::string text = make_scene(o).yaml;
+  EXPECT_NE(text.find("  # The mesh's tets are in 2 groups (1: 2 tets, 2: 3 tets):\n"), std::string::npos) << text;
+  const std::string example = "  # regions:\n  #   - {group: NAME, k_vol: 15000}";
+  ASSERT_NE(text.find(example), std::string::npos) << text;
+  // beside labels.yaml (write_temp's folder), so that its mesh path holds
+  const Scene s = load_scene(write_temp("stiff.yaml", replace(text, example, "  regions:\n    - {group: 2, k_vol: 15000}")));
+  EXPECT_EQ(s.tet_k_vol, (std::vector<double>{3000, 3000, 15000, 15000, 15000}));
+  // A mesh of one group gets no such lines.
+  EXPECT_EQ(make_scene(box_forceps("cm", "one.yaml")).yaml.find("regions:"), std::string::npos);
 }
 
 TEST(SceneInit, ACentimetreMeshGetsAMillimetreToolAndItsBottomPinned) {

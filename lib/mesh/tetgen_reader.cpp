@@ -92,16 +92,23 @@ class TetgenReader {
              (least == most ? "" : " to " + std::to_string(most)));
   }
 
+  /// A file's record count (the first value of its first line), checked against what the rest of
+  /// the file can hold: records of `least` bytes at least.
+  static long long record_count(TextCursor& c, std::string_view t, const char* records, std::size_t least) {
+    const long long n = c.to_integer(t, ("the number of " + std::string(records)).c_str(), 0, INT32_MAX - 1);
+    if (static_cast<std::size_t>(n) > c.remaining() / least + 1)
+      c.fail(std::to_string(n) + " " + records + " do not fit in the rest of the file (" + std::to_string(c.remaining()) +
+             " bytes): cut short?");
+    return n;
+  }
+
   void read_nodes() {
     TetgenFile f(node_file_);
     TextCursor& c = f.cursor();
     const auto head = f.expect_record("its first line (points, dimension, attributes, boundary markers)");
     values(c, head, 1, 4, "the first line (points, dimension, attributes, boundary markers)");
-    const long long n = c.to_integer(head[0], "the number of points", 0, INT32_MAX - 1);
+    const long long n = record_count(c, head[0], "points", 8);
     if (n == 0) c.fail("0 points: the mesh's nodes are in this file (a .node written with -N has none)");
-    if (static_cast<std::size_t>(n) > c.remaining() / 8 + 1)
-      c.fail(std::to_string(n) + " points do not fit in the rest of the file (" + std::to_string(c.remaining()) +
-             " bytes): cut short?");
     const long long dim = head.size() > 1 ? c.to_integer(head[1], "the dimension", 2, 3) : 3;
     if (dim != 3) c.fail("dimension 2: a plane mesh holds no tetrahedra (the physical mesh is a volume)");
     const long long attrs = head.size() > 2 ? c.to_integer(head[2], "the number of attributes", 0, 1 << 20) : 0;
@@ -142,11 +149,8 @@ class TetgenReader {
     TextCursor& c = f.cursor();
     const auto head = f.expect_record("its first line (tetrahedra, nodes per tetrahedron, attributes)");
     values(c, head, 1, 3, "the first line (tetrahedra, nodes per tetrahedron, attributes)");
-    const long long n = c.to_integer(head[0], "the number of tetrahedra", 0, INT32_MAX - 1);
+    const long long n = record_count(c, head[0], "tetrahedra", 10);
     if (n == 0) c.fail("0 tetrahedra: the physical mesh is a volume of 4-node tets");
-    if (static_cast<std::size_t>(n) > c.remaining() / 10 + 1)
-      c.fail(std::to_string(n) + " tetrahedra do not fit in the rest of the file (" + std::to_string(c.remaining()) +
-             " bytes): cut short?");
     const long long corners = head.size() > 1 ? c.to_integer(head[1], "the nodes per tetrahedron", 4, 10) : 4;
     if (corners != 4)
       c.fail(std::to_string(corners) + " nodes per tetrahedron: the physical mesh is 4-node tets only (mesh without "
@@ -172,10 +176,7 @@ class TetgenReader {
     TextCursor& c = f.cursor();
     const auto head = f.expect_record("its first line (faces, boundary markers)");
     values(c, head, 1, 2, "the first line (faces, boundary markers)");
-    const long long n = c.to_integer(head[0], "the number of faces", 0, INT32_MAX - 1);
-    if (static_cast<std::size_t>(n) > c.remaining() / 8 + 1)
-      c.fail(std::to_string(n) + " faces do not fit in the rest of the file (" + std::to_string(c.remaining()) +
-             " bytes): cut short?");
+    const long long n = record_count(c, head[0], "faces", 8);
     const long long markers = head.size() > 1 ? c.to_integer(head[1], "the boundary markers flag", 0, 1) : 0;
     int top = 0;
     for (int g : mesh_.tet_group) top = std::max(top, g);

@@ -16,23 +16,9 @@ using test::replace;
 using test::slurp;
 using test::write_temp;
 
-// The cube of make_test_meshes.py: corner c = x + 2y + 4z at (10 x, 10 y, 10 z), five tets, listed
-// in corner order by the Medit and TetGen files.
-const std::vector<Tet> kCubeTets = {{0, 1, 2, 4}, {3, 2, 1, 7}, {5, 4, 7, 1}, {6, 7, 4, 2}, {1, 2, 4, 7}};
-
-void expect_cube(const TetMesh& m) {
-  ASSERT_EQ(m.vertices.size(), 8u);
-  for (int c = 0; c < 8; ++c)
-    EXPECT_EQ(m.vertices[static_cast<std::size_t>(c)], Vec3d(10.0 * (c & 1), 10.0 * ((c >> 1) & 1), 10.0 * ((c >> 2) & 1)));
-  EXPECT_EQ(m.tets, kCubeTets);
-  const MeshReport r = validate_mesh(m);
-  EXPECT_FALSE(r.fatal()) << r.fatal_message(m);
-  EXPECT_EQ(r.boundary_faces, 12);
-}
-
 TEST(ReadMedit, TetsTrianglesAndTheirReferences) {
   const TetMesh m = read_medit(data("mesh/cube.mesh"));
-  expect_cube(m);
+  test::expect_test_cube(m);
   EXPECT_EQ(m.tet_group, (std::vector<int>{1, 1, 2, 2, 2}));  // unnamed: group:1, group:2
   ASSERT_EQ(m.triangles.size(), 4u);
   EXPECT_EQ(m.triangles[0], (Tri{0, 2, 1}));
@@ -46,19 +32,14 @@ TEST(ReadMedit, TetsTrianglesAndTheirReferences) {
 
 TEST(ReadMedit, ReadTetMeshTakesItByItsExtension) {
   const TetMesh m = read_tet_mesh(write_temp("CUBE.MESH", slurp(data("mesh/cube.mesh"))));
-  EXPECT_EQ(m.tets, kCubeTets);
+  EXPECT_EQ(m.tets, test::kTestCubeTets);
 }
 
 TEST(ReadMedit, MalformedFilesAreRefusedWithTheirLine) {
   const std::string good = slurp(data("mesh/cube.mesh"));
-  struct Case {
-    std::string name, text;
-    int line;
-    std::string needle;
-  };
   std::string binary = "\x01\x00\x00\x00\x02\x00\x00\x00";
   binary.append(16, '\0');
-  const std::vector<Case> cases = {
+  const std::vector<test::BadFile> cases = {
       {"binary.meshb", binary, 1, "a binary .meshb is not read, write the mesh as ASCII .mesh"},
       {"gmsh.mesh", "$MeshFormat\n2.2 0 8\n", 1, "not a Medit mesh"},
       {"plane.mesh", replace(good, "Dimension\n3", "Dimension\n2"), 5, "Dimension 2: a plane mesh holds no tetrahedra"},
@@ -78,17 +59,13 @@ TEST(ReadMedit, MalformedFilesAreRefusedWithTheirLine) {
       {"triangles_twice.mesh", replace(good, "Tetrahedra\n5", "Triangles\n0\nTetrahedra\n5"), 30, "a second Triangles section"},
       {"triangles_only.mesh", good.substr(0, good.find("Tetrahedra")) + "End\n", 30, "no Tetrahedra"},
   };
-  for (const Case& c : cases) {
-    SCOPED_TRACE(c.name);
-    const auto p = write_temp(c.name, c.text);
-    expect_input_error([&] { read_tet_mesh(p); }, p, c.line, c.needle);
-  }
+  test::expect_each_refused(cases, [](const auto& p) { read_tet_mesh(p); });
 }
 
 TEST(ReadTetgen, NodeEleAndFaceFilesFromOne) {
   const TetMesh a = read_tetgen(data("mesh/cube.1.node"));
   const TetMesh b = read_tetgen(data("mesh/cube.1.ele"));
-  expect_cube(a);
+  test::expect_test_cube(a);
   test::expect_same_elements(a, b);
   EXPECT_EQ(a.tet_group, (std::vector<int>{1, 1, 2, 2, 2}));  // the region attributes
   EXPECT_EQ(a.triangle_group, (std::vector<int>{4, 4, 3, 3}));  // the faces' markers 3 and 1
@@ -99,7 +76,7 @@ TEST(ReadTetgen, NodeEleAndFaceFilesFromOne) {
 
 TEST(ReadTetgen, NumberedFromZeroWithoutAttributesOrFaces) {
   const TetMesh m = read_tet_mesh(data("mesh/cube0.ele"));
-  expect_cube(m);
+  test::expect_test_cube(m);
   EXPECT_EQ(m.tet_group, std::vector<int>(5, 0));
   EXPECT_TRUE(m.triangles.empty());
   EXPECT_EQ(m.file_node_ids.front(), 0);

@@ -31,12 +31,7 @@ TEST(ReadPly, AsciiAndBothBinaryOrdersGiveTheObjCube) {
 TEST(ReadPly, MalformedFilesAreRefusedWithTheirLine) {
   const std::string ascii = slurp(data("mesh/cube.ply"));
   const std::string le = slurp(data("mesh/cube_le.ply"));
-  struct Case {
-    std::string name, text;
-    int line;
-    std::string needle;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<test::BadFile> cases = {
       {"not_ply.ply", "solid cube\n", 1, "not a PLY file"},
       {"format.ply", replace(ascii, "format ascii 1.0", "format utf8 1.0"), 2, "unknown format 'utf8'"},
       {"type.ply", replace(ascii, "property float x", "property real x"), 5, "unknown property type 'real'"},
@@ -55,11 +50,7 @@ TEST(ReadPly, MalformedFilesAreRefusedWithTheirLine) {
       {"binary_short.ply", le.substr(0, le.size() - 20), 14, "the binary data ends inside an element (cut short?)"},
       {"binary_range.ply", replace(le, "element vertex 8", "element vertex 7"), 14, "binary data, face 0: 0 vertices, a face needs 3 at least"},
   };
-  for (const Case& c : cases) {
-    SCOPED_TRACE(c.name);
-    const auto p = write_temp(c.name, c.text);
-    expect_input_error([&] { read_surface(p); }, p, c.line, c.needle);
-  }
+  test::expect_each_refused(cases, [](const auto& p) { read_surface(p); });
 }
 
 TEST(ReadVtkSurface, PolygonsAndAStripGiveTheCube) {
@@ -88,23 +79,14 @@ TEST(ReadVtkSurface, AGridIsNamedAsAPhysicalMeshAndAPolydataAsAVirtualOne) {
 
 TEST(ReadVtkSurface, MalformedFilesAreRefusedWithTheirLine) {
   const std::string legacy = slurp(data("mesh/cube_poly.vtk"));
-  struct Case {
-    std::string name, text;
-    int line;
-    std::string needle;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<test::BadFile> cases = {
       {"range.vtk", replace(legacy, "4 0 2 3 1", "4 0 2 3 8"), 18, "POLYGONS cell 0: point index 8 is out of range [0, 8)"},
       {"concave.vtk", replace(replace(legacy, "0 10 0\n10 10 0", "0 10 0\n2 2 0"), "4 0 2 3 1", "4 0 1 3 2"), 18,
        "POLYGONS cell 0: a concave face of 4 vertices (it turns back at vertex 3)"},
       {"strip.vtk", replace(legacy, "4 1 3 5 7", "2 1 3 5 7"), 24, "TRIANGLE_STRIPS: its size says 5 entries, its cells use 3"},
       {"empty.vtk", legacy.substr(0, legacy.find("VERTICES")), 14, "no POLYGONS or TRIANGLE_STRIPS"},
   };
-  for (const Case& c : cases) {
-    SCOPED_TRACE(c.name);
-    const auto p = write_temp(c.name, c.text);
-    expect_input_error([&] { read_surface(p); }, p, c.line, c.needle);
-  }
+  test::expect_each_refused(cases, [](const auto& p) { read_surface(p); });
 }
 
 }  // namespace

@@ -6,9 +6,11 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "core/error.hpp"
 #include "mesh/box_mesh.hpp"
+#include "mesh/quality.hpp"
 #include "mesh/tet_mesh.hpp"
 
 namespace ebh::test {
@@ -83,6 +85,39 @@ std::string expect_input_error(F&& f, const std::filesystem::path& file, int lin
   }
   ADD_FAILURE() << "no InputError thrown (expected one containing '" << needle << "')";
   return {};
+}
+
+/// The cube of make_test_meshes.py (corner c = x + 2y + 4z at (10 x, 10 y, 10 z)) as the files
+/// that list its corners in that order (Medit, TetGen, VTK XML) hold its five tets.
+inline const std::vector<Tet> kTestCubeTets = {{0, 1, 2, 4}, {3, 2, 1, 7}, {5, 4, 7, 1}, {6, 7, 4, 2}, {1, 2, 4, 7}};
+
+/// `m` is that cube: its corners in order, its tets, a valid mesh of 12 boundary faces.
+inline void expect_test_cube(const TetMesh& m) {
+  ASSERT_EQ(m.vertices.size(), 8u);
+  for (int c = 0; c < 8; ++c)
+    EXPECT_EQ(m.vertices[static_cast<std::size_t>(c)], Vec3d(10.0 * (c & 1), 10.0 * ((c >> 1) & 1), 10.0 * ((c >> 2) & 1)));
+  EXPECT_EQ(m.tets, kTestCubeTets);
+  const MeshReport r = validate_mesh(m);
+  EXPECT_FALSE(r.fatal()) << r.fatal_message(m);
+  EXPECT_EQ(r.boundary_faces, 12);
+}
+
+/// A malformed file: its name, its text, the line its error names and a part of the message.
+struct BadFile {
+  std::string name, text;
+  int line;
+  std::string needle;
+};
+
+/// Writes each bad file and expects `read(path)` to refuse it with an InputError "FILE:LINE: ..."
+/// holding its needle.
+template <class Read>
+void expect_each_refused(const std::vector<BadFile>& cases, Read&& read) {
+  for (const BadFile& c : cases) {
+    SCOPED_TRACE(c.name);
+    const auto p = write_temp(c.name, c.text);
+    expect_input_error([&] { read(p); }, p, c.line, c.needle);
+  }
 }
 
 }  // namespace ebh::test

@@ -68,12 +68,7 @@ TEST(ReadVtk, OtherVolumeCellsAreRefusedByKind) {
 TEST(ReadVtk, MalformedFilesAreRefusedWithTheirLine) {
   const std::string good = slurp(data("mesh/cube51.vtk"));
   const std::string ascii = slurp(data("mesh/cube_ascii.vtk"));
-  struct Case {
-    std::string name, text;
-    int line;
-    std::string needle;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<test::BadFile> cases = {
       {"not_vtk.vtk", "$MeshFormat\n2.2 0 8\n", 1, "not a VTK legacy file"},
       {"polydata.vtk", replace(good, "DATASET UNSTRUCTURED_GRID", "DATASET POLYDATA"), 4,
        "a DATASET POLYDATA holds no tetrahedra (a surface: it can be the virtual mesh)"},
@@ -89,11 +84,7 @@ TEST(ReadVtk, MalformedFilesAreRefusedWithTheirLine) {
        "no tetrahedra (cell type 10) among the 1 cells"},
       {"keyword.vtk", replace(good, "CELL_TYPES", "CELL_TYPOS"), 22, "unexpected 'CELL_TYPOS'"},
   };
-  for (const Case& c : cases) {
-    SCOPED_TRACE(c.name);
-    const auto p = write_temp(c.name, c.text);
-    expect_input_error([&] { read_vtk(p); }, p, c.line, c.needle);
-  }
+  test::expect_each_refused(cases, [](const auto& p) { read_vtk(p); });
 }
 
 TEST(ReadVtk, ABinaryFileCutShortSaysSo) {

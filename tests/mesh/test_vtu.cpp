@@ -15,19 +15,11 @@ using test::replace;
 using test::slurp;
 using test::write_temp;
 
-const std::vector<Tet> kCubeTets = {{0, 1, 2, 4}, {3, 2, 1, 7}, {5, 4, 7, 1}, {6, 7, 4, 2}, {1, 2, 4, 7}};
-
 TEST(ReadVtu, AsciiWithATriangleAmongTheCells) {
   const TetMesh m = read_vtu(data("mesh/cube_ascii.vtu"));
-  ASSERT_EQ(m.vertices.size(), 8u);
-  for (int c = 0; c < 8; ++c)
-    EXPECT_EQ(m.vertices[static_cast<std::size_t>(c)], Vec3d(10.0 * (c & 1), 10.0 * ((c >> 1) & 1), 10.0 * ((c >> 2) & 1)));
-  EXPECT_EQ(m.tets, kCubeTets);                                        // the triangle is skipped
+  test::expect_test_cube(m);                                           // the triangle is skipped
   EXPECT_EQ(m.file_tet_ids, (std::vector<long long>{0, 1, 3, 4, 5}));  // their cell numbers
   EXPECT_EQ(m.tet_group, (std::vector<int>{1, 1, 2, 2, 2}));          // CellEntityIds
-  const MeshReport r = validate_mesh(m);
-  EXPECT_FALSE(r.fatal()) << r.fatal_message(m);
-  EXPECT_EQ(r.boundary_faces, 12);
 }
 
 TEST(ReadVtu, BinaryAndAppendedFormsGiveTheSameTets) {
@@ -43,7 +35,7 @@ TEST(ReadVtu, BinaryAndAppendedFormsGiveTheSameTets) {
   ASSERT_EQ(two.vertices.size(), 16u);
   EXPECT_EQ(two.vertices[13], ascii.vertices[5]);
   ASSERT_EQ(two.tets.size(), 5u);
-  EXPECT_EQ(two.tets[1], kCubeTets[1]);
+  EXPECT_EQ(two.tets[1], test::kTestCubeTets[1]);
   EXPECT_EQ(two.tets[2], (Tet{5 + 8, 4 + 8, 7 + 8, 1 + 8}));
   EXPECT_EQ(two.tet_group, ascii.tet_group);
   EXPECT_EQ(two.file_tet_ids, (std::vector<long long>{0, 1, 3, 4, 5}));
@@ -62,12 +54,7 @@ TEST(ReadVtu, MalformedAndUnsupportedFilesAreRefusedWithTheirLine) {
   const std::string ascii = slurp(data("mesh/cube_ascii.vtu"));
   const std::string binary = slurp(data("mesh/cube_binary.vtu"));
   const std::string raw = slurp(data("mesh/cube_appended.vtu"));
-  struct Case {
-    std::string name, text;
-    int line;
-    std::string needle;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<test::BadFile> cases = {
       {"not_xml.vtu", "# vtk DataFile Version 3.0\n", 1, "not a VTK XML file"},
       {"parallel.pvtu", replace(ascii, "type=\"UnstructuredGrid\"", "type=\"PUnstructuredGrid\""), 3,
        "(a parallel file that names its pieces: merge them"},
@@ -95,11 +82,7 @@ TEST(ReadVtu, MalformedAndUnsupportedFilesAreRefusedWithTheirLine) {
       {"short.vtu", raw.substr(0, raw.size() - 60), 31, "DataArray offsets: the appended data ends before its bytes (cut short?)"},
       {"no_appended.vtu", raw.substr(0, raw.find("  <AppendedData")) + "</VTKFile>\n", 12, "appended, but the file has no <AppendedData>"},
   };
-  for (const Case& c : cases) {
-    SCOPED_TRACE(c.name);
-    const auto p = write_temp(c.name, c.text);
-    expect_input_error([&] { read_tet_mesh(p); }, p, c.line, c.needle);
-  }
+  test::expect_each_refused(cases, [](const auto& p) { read_tet_mesh(p); });
 }
 
 }  // namespace

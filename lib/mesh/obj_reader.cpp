@@ -122,10 +122,8 @@ SurfaceMesh read_obj(const std::filesystem::path& file) {
           if (corners[a] == corners[b])
             c.fail("the face names vertex " + std::to_string(corners[a] + 1) + " twice (a degenerate face)");
       if (corners.size() > 3) polygons.push_back({c.line(), corners});
-      for (std::size_t k = 1; k + 1 < corners.size(); ++k) {
-        mesh.triangles.push_back({static_cast<int>(corners[0]), static_cast<int>(corners[k]), static_cast<int>(corners[k + 1])});
-        tri_lines.push_back(c.line());
-      }
+      detail::append_fan(corners, mesh.triangles);
+      tri_lines.resize(mesh.triangles.size(), c.line());
     }
     c.next_line();
   }

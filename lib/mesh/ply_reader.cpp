@@ -1,7 +1,6 @@
 // PLY surface reader (ASCII and binary, either byte order): a virtual-mesh surface as 3D Slicer,
 // MeshLab, Blender and Open3D export it. Format reference: G. Turk, "The PLY Polygon File Format"
 // (1994), and the type names of later writers (int8 .. float64).
-#include <bit>
 #include <climits>
 #include <cmath>
 #include <cstdint>
@@ -9,6 +8,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "mesh/binary_values.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/polygon.hpp"
 #include "mesh/text_cursor.hpp"
@@ -129,14 +129,9 @@ class PlyParser {
     const std::size_t at = c_.position();
     if (bytes_.size() - at < static_cast<std::size_t>(t.bytes))
       c_.fail_at(data_line_, "the binary data ends inside an element (cut short?)");
-    std::uint64_t u = 0;
-    for (int k = 0; k < t.bytes; ++k)
-      u = (u << 8) | static_cast<unsigned char>(bytes_[at + static_cast<std::size_t>(binary_ == 2 ? k : t.bytes - 1 - k)]);
+    const std::uint64_t u = detail::load_bits(bytes_.data() + at, t.bytes, binary_ == 2);
     c_.jump_to(at + static_cast<std::size_t>(t.bytes));
-    if (t.real) return t.bytes == 4 ? static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(u))) : std::bit_cast<double>(u);
-    if (!t.is_signed) return static_cast<double>(u);
-    const int shift = 64 - 8 * t.bytes;
-    return static_cast<double>(static_cast<std::int64_t>(u << shift) >> shift);
+    return t.real ? detail::bits_as_real(u, t.bytes) : static_cast<double>(detail::bits_as_integer(u, t.bytes, t.is_signed));
   }
 
   /// One element's record: its scalars into `scalars` (by property, NaN for a list) and its last
@@ -208,8 +203,7 @@ class PlyParser {
       if (corners.size() > 3)
         if (const int k = detail::concave_corner(corners, mesh_.vertices); k >= 0)
           fail_record("face", i, detail::concave_message(corners.size(), corners[static_cast<std::size_t>(k)]));
-      for (std::size_t k = 1; k + 1 < corners.size(); ++k)
-        mesh_.triangles.push_back({static_cast<int>(corners[0]), static_cast<int>(corners[k]), static_cast<int>(corners[k + 1])});
+      detail::append_fan(corners, mesh_.triangles);
     }
   }
 

@@ -1,12 +1,14 @@
 #pragma once
 // Polygons of the surface readers (OBJ, PLY, VTK polydata): split into triangles around their first
-// corner, which is right for convex polygons only, so a concave one is found and refused.
+// corner, which is right for convex polygons only, so a concave one is found and refused; and VTK's
+// triangle strips.
 // Internal to lib/mesh (the readers).
 #include <cstddef>
 #include <string>
 #include <vector>
 
 #include "math/vec.hpp"
+#include "mesh/tet_mesh.hpp"
 
 namespace ebh::detail {
 
@@ -26,6 +28,21 @@ inline int concave_corner(const std::vector<long long>& corners, const std::vect
     if (dot(cross(a, b), normal) < -1e-9 * norm(a) * norm(b)) return static_cast<int>(k);
   }
   return -1;
+}
+
+/// A polygon's triangles around its first corner (a b c d -> a b c, a c d), appended to `out`.
+inline void append_fan(const std::vector<long long>& corners, std::vector<Tri>& out) {
+  for (std::size_t k = 1; k + 1 < corners.size(); ++k)
+    out.push_back({static_cast<int>(corners[0]), static_cast<int>(corners[k]), static_cast<int>(corners[k + 1])});
+}
+
+/// A triangle strip's triangles as VTK orders them (every second one turned: a b c d -> a b c,
+/// c b d), appended to `out`.
+inline void append_strip(const std::vector<long long>& corners, std::vector<Tri>& out) {
+  for (std::size_t k = 0; k + 2 < corners.size(); ++k) {
+    const int a = static_cast<int>(corners[k]), b = static_cast<int>(corners[k + 1]), d = static_cast<int>(corners[k + 2]);
+    out.push_back(k % 2 == 0 ? Tri{a, b, d} : Tri{b, a, d});
+  }
 }
 
 /// The message for a concave polygon of `n` corners turning back at vertex `vertex` (as the file

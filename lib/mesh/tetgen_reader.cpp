@@ -25,7 +25,7 @@ using detail::TextCursor;
 /// One of the mesh's files, read record by record (a record per line, comments skipped).
 class TetgenFile {
  public:
-  explicit TetgenFile(const fs::path& file) : file_(file), bytes_(detail::read_file_bytes(file)), c_(file, bytes_) {}
+  explicit TetgenFile(const fs::path& file) : bytes_(detail::read_file_bytes(file)), c_(file, bytes_) {}
 
   TextCursor& cursor() { return c_; }
 
@@ -34,28 +34,14 @@ class TetgenFile {
   std::vector<std::string_view> expect_record(const std::string& what) {
     if (started_) c_.next_line();
     started_ = true;
-    if (!skip_to_record()) c_.fail("the file ends before " + what + " (cut short?)");
-    std::vector<std::string_view> v;
+    const std::string_view first = c_.word();  // blank and comment lines skipped
+    if (first.empty()) c_.fail("the file ends before " + what + " (cut short?)");
+    std::vector<std::string_view> v{first};
     for (std::string_view t = c_.token(); !t.empty() && !t.starts_with('#'); t = c_.token()) v.push_back(t);
     return v;
   }
 
-  /// Skips blank and comment lines; false at the end of the file.
-  bool skip_to_record() {
-    while (c_.skip_empty_lines()) {
-      const std::size_t at = c_.position();
-      const std::string_view t = c_.token();
-      c_.jump_to(at);
-      if (!t.starts_with('#')) return true;
-      c_.next_line();
-    }
-    return false;
-  }
-
-  const fs::path& path() const { return file_; }
-
  private:
-  fs::path file_;
   std::string bytes_;
   TextCursor c_;
   bool started_ = false;  ///< a record was read: the next starts on a later line

@@ -12,6 +12,7 @@
 
 #include "core/error.hpp"
 #include "core/file_names.hpp"
+#include "mesh/binary_values.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/polygon.hpp"
 #include "mesh/text_cursor.hpp"
@@ -164,18 +165,14 @@ class VtkParser {
           if (c.size() < 3) fail(line, which + std::to_string(c.size()) + " points, a " + (key == "POLYGONS" ? "polygon" : "strip") + " needs 3 at least");
           for (long long id : c)
             if (id < 0 || id >= nv) fail(line, which + "point index " + std::to_string(id) + " is out of range [0, " + std::to_string(nv) + ")");
-          if (key == "POLYGONS") {
-            if (c.size() > 3)
-              if (const int k = detail::concave_corner(c, mesh_.vertices); k >= 0)
-                fail(line, which + detail::concave_message(c.size(), c[static_cast<std::size_t>(k)]));
-            for (std::size_t k = 1; k + 1 < c.size(); ++k)
-              out.triangles.push_back({static_cast<int>(c[0]), static_cast<int>(c[k]), static_cast<int>(c[k + 1])});
-          } else {
-            for (std::size_t k = 0; k + 2 < c.size(); ++k) {  // every second triangle of a strip turns the other way
-              const int a = static_cast<int>(c[k]), b = static_cast<int>(c[k + 1]), d = static_cast<int>(c[k + 2]);
-              out.triangles.push_back(k % 2 == 0 ? Tri{a, b, d} : Tri{b, a, d});
-            }
+          if (key == "TRIANGLE_STRIPS") {
+            detail::append_strip(c, out.triangles);
+            continue;
           }
+          if (c.size() > 3)
+            if (const int k = detail::concave_corner(c, mesh_.vertices); k >= 0)
+              fail(line, which + detail::concave_message(c.size(), c[static_cast<std::size_t>(k)]));
+          detail::append_fan(c, out.triangles);
         }
       } else if (key == "FIELD") {
         skip_field();
@@ -268,33 +265,14 @@ class VtkParser {
     if (bytes_.size() - at < n)
       fail(line, std::string(section) + ": " + std::to_string(count) + " binary values need " + std::to_string(n) +
                      " bytes, the file holds " + std::to_string(bytes_.size() - at) + " more: cut short?");
-    for (std::size_t i = 0; i < out.size(); ++i) {
-      const std::size_t b = at + i * static_cast<std::size_t>(t.bytes);
-      if constexpr (std::is_same_v<T, double>) out[i] = t.real ? big_endian_real(b, t) : static_cast<double>(big_endian_int(b, t));
-      else out[i] = big_endian_int(b, t);
+    for (std::size_t i = 0; i < out.size(); ++i) {  // big-endian, as the format writes them
+      const std::uint64_t u = detail::load_bits(bytes_.data() + at + i * static_cast<std::size_t>(t.bytes), t.bytes, true);
+      const long long integer = t.real ? 0 : detail::bits_as_integer(u, t.bytes, t.is_signed);
+      if constexpr (std::is_same_v<T, double>) out[i] = t.real ? detail::bits_as_real(u, t.bytes) : static_cast<double>(integer);
+      else out[i] = integer;
     }
     c_.jump_to(at + n);
     return out;
-  }
-
-  /// The big-endian bits of the binary value at byte `at` of type t.
-  std::uint64_t bits(std::size_t at, const DataType& t) const {
-    std::uint64_t u = 0;
-    for (int k = 0; k < t.bytes; ++k) u = (u << 8) | static_cast<unsigned char>(bytes_[at + static_cast<std::size_t>(k)]);
-    return u;
-  }
-  /// The binary float or double at byte `at`.
-  double big_endian_real(std::size_t at, const DataType& t) const {
-    const std::uint64_t u = bits(at, t);
-    return t.bytes == 4 ? static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(u))) : std::bit_cast<double>(u);
-  }
-  /// The binary integer at byte `at` (an unsigned one past the signed range as LLONG_MAX: out of
-  /// every range the reader checks).
-  long long big_endian_int(std::size_t at, const DataType& t) const {
-    const std::uint64_t u = bits(at, t);
-    if (!t.is_signed) return u > static_cast<std::uint64_t>(LLONG_MAX) ? LLONG_MAX : static_cast<long long>(u);
-    const int shift = 64 - 8 * t.bytes;  // sign-extend
-    return static_cast<long long>(static_cast<std::int64_t>(u << shift) >> shift);
   }
 
   /// `count` values after the keyword line `line` (of `section`, for messages).

@@ -5,7 +5,6 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <bit>
 #include <charconv>
 #include <cctype>
 #include <climits>
@@ -19,6 +18,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "mesh/binary_values.hpp"
 #include "mesh/mesh_io.hpp"
 #include "mesh/polygon.hpp"
 #include "mesh/text_cursor.hpp"
@@ -50,6 +50,8 @@ struct ArrayRef {
   std::optional<long long> offset;  ///< appended: the offset after '_'
   std::string_view text;            ///< ascii, binary: the element's text
   long long line = 0;
+  /// The array as messages name it.
+  std::string what() const { return "DataArray " + printable(name.empty() ? type : name); }
 };
 
 /// A number type of the format: its size, and whether it is a real or a signed integer.
@@ -79,8 +81,8 @@ class VtuParser {
     SurfaceMesh out;
     for (const Piece& p : pieces) {
       const long long base = read_points(p);
-      polygons(p, p.polys, p.poly_conn, p.poly_offsets, "Polys", base, out);
-      polygons(p, p.strips, p.strip_conn, p.strip_offsets, "Strips", base, out);
+      polygons(p, p.polys, "Polys", base, out);
+      polygons(p, p.strips, "Strips", base, out);
     }
     if (out.triangles.empty()) fail(pieces.front().line, "no Polys or Strips: a surface is a list of polygons");
     out.vertices = std::move(mesh_.vertices);
@@ -88,9 +90,15 @@ class VtuParser {
   }
 
  private:
+  /// A PolyData's Polys or Strips: how many, and their two arrays.
+  struct CellSection {
+    long long count = 0;
+    std::optional<ArrayRef> connectivity, offsets;
+  };
   struct Piece {
-    long long points = 0, cells = 0, polys = 0, strips = 0, line = 0;
-    std::optional<ArrayRef> xyz, connectivity, offsets, types, groups, poly_conn, poly_offsets, strip_conn, strip_offsets;
+    long long points = 0, cells = 0, line = 0;
+    std::optional<ArrayRef> xyz, connectivity, offsets, types, groups;
+    CellSection polys, strips;  ///< a PolyData's
   };
 
   /// The pieces and where their arrays are, up to </VTKFile> or the appended data.
@@ -121,8 +129,8 @@ class VtuParser {
         piece->line = t->line;
         piece->points = whole_attr(*t, "NumberOfPoints");
         if (!surface_) piece->cells = whole_attr(*t, "NumberOfCells");
-        if (surface_ && t->attr("NumberOfPolys")) piece->polys = whole_attr(*t, "NumberOfPolys");
-        if (surface_ && t->attr("NumberOfStrips")) piece->strips = whole_attr(*t, "NumberOfStrips");
+        if (surface_ && t->attr("NumberOfPolys")) piece->polys.count = whole_attr(*t, "NumberOfPolys");
+        if (surface_ && t->attr("NumberOfStrips")) piece->strips.count = whole_attr(*t, "NumberOfStrips");
         continue;
       }
       if (t->name == "Points" || t->name == "Cells" || t->name == "CellData" || t->name == "PointData" ||
@@ -146,10 +154,10 @@ class VtuParser {
         else if (piece && section == "Cells" && a.name == "connectivity") slot = &piece->connectivity;
         else if (piece && section == "Cells" && a.name == "offsets") slot = &piece->offsets;
         else if (piece && section == "Cells" && a.name == "types") slot = &piece->types;
-        else if (piece && section == "Polys" && a.name == "connectivity") slot = &piece->poly_conn;
-        else if (piece && section == "Polys" && a.name == "offsets") slot = &piece->poly_offsets;
-        else if (piece && section == "Strips" && a.name == "connectivity") slot = &piece->strip_conn;
-        else if (piece && section == "Strips" && a.name == "offsets") slot = &piece->strip_offsets;
+        else if (piece && (section == "Polys" || section == "Strips") && (a.name == "connectivity" || a.name == "offsets")) {
+          CellSection& cells = section == "Polys" ? piece->polys : piece->strips;
+          slot = a.name == "connectivity" ? &cells.connectivity : &cells.offsets;
+        }
         else if (piece && section == "CellData" && !piece->groups && a.components == 1 && detail::is_vtk_group_array(a.name) &&
                  !number_type(a.type).real)
           slot = &piece->groups;
@@ -276,19 +284,20 @@ class VtuParser {
     return t;
   }
 
+  /// An attribute's value with XML's five entities replaced.
   static std::string unescape(const std::string& s) {
+    static constexpr std::pair<std::string_view, char> kEntities[] = {
+        {"&lt;", '<'}, {"&gt;", '>'}, {"&amp;", '&'}, {"&quot;", '"'}, {"&apos;", '\''}};
     std::string out;
     for (std::size_t i = 0; i < s.size(); ++i) {
-      if (s[i] == '&') {
-        for (const auto& [ent, ch] : {std::pair{"&lt;", '<'}, {"&gt;", '>'}, {"&amp;", '&'}, {"&quot;", '"'}, {"&apos;", '\''}})
-          if (s.compare(i, std::strlen(ent), ent) == 0) {
-            out += ch;
-            i += std::strlen(ent) - 1;
-            goto next;
-          }
+      const auto* e = std::find_if(std::begin(kEntities), std::end(kEntities),
+                                   [&](const auto& x) { return std::string_view(s).substr(i).starts_with(x.first); });
+      if (e == std::end(kEntities)) {
+        out += s[i];
+        continue;
       }
-      out += s[i];
-    next:;
+      out += e->second;
+      i += e->first.size() - 1;
     }
     return out;
   }
@@ -386,19 +395,9 @@ class VtuParser {
     return out;
   }
 
-  /// An unsigned integer of `bytes` bytes at `p` in the file's byte order.
-  std::uint64_t uint_at(const char* p, int bytes) const {
-    std::uint64_t u = 0;
-    for (int k = 0; k < bytes; ++k) {
-      const auto b = static_cast<unsigned char>(p[big_endian_ ? k : bytes - 1 - k]);
-      u = (u << 8) | b;
-    }
-    return u;
-  }
-
   /// The bytes of a binary or appended array (its header read, its blocks inflated).
   std::string array_bytes(const ArrayRef& a) {
-    const std::string what = "DataArray " + printable(a.name.empty() ? a.type : a.name);
+    const std::string what = a.what();
     if (a.format == "binary") {
       const std::string raw = base64(a.text, a.line, what);
       std::size_t at = 0;
@@ -442,7 +441,7 @@ class VtuParser {
   /// data's size; with zlib, the blocks' count, size, last size and compressed sizes.
   template <class Take>
   std::string payload(Take&& take, long long line, const std::string& what) {
-    auto header_value = [&] { return uint_at(take(static_cast<std::size_t>(header_bytes_)).data(), header_bytes_); };
+    auto header_value = [&] { return detail::load_bits(take(static_cast<std::size_t>(header_bytes_)).data(), header_bytes_, big_endian_); };
     if (!zlib_) {
       const std::uint64_t n = header_value();
       if (n > bytes_.size()) fail(line, what + ": its header says " + std::to_string(n) + " bytes, more than the file holds");
@@ -480,7 +479,7 @@ class VtuParser {
   /// `count` values of the array as doubles (reals) or integers, checked against its type.
   template <class T>
   std::vector<T> values(const ArrayRef& a, long long count) {
-    const std::string what = "DataArray " + printable(a.name.empty() ? a.type : a.name);
+    const std::string what = a.what();
     const NumberType nt = number_type(a.type);
     if (nt.bytes == 0) fail(a.line, what + ": type '" + printable(a.type) + "' (Int8 .. UInt64, Float32, Float64)");
     if constexpr (std::is_integral_v<T>)
@@ -504,20 +503,9 @@ class VtuParser {
       fail(a.line, what + ": " + std::to_string(b.size()) + " bytes where " + std::to_string(count) + " values of " + a.type +
                        " take " + std::to_string(count * nt.bytes));
     for (std::size_t i = 0; i < out.size(); ++i) {
-      const std::uint64_t u = uint_at(b.data() + i * static_cast<std::size_t>(nt.bytes), nt.bytes);
-      if (nt.real) {
-        const double v = nt.bytes == 4 ? static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(u))) : std::bit_cast<double>(u);
-        if constexpr (std::is_integral_v<T>) out[i] = 0;
-        else out[i] = v;
-      } else {
-        long long v = 0;
-        if (!nt.is_signed) v = u > static_cast<std::uint64_t>(LLONG_MAX) ? LLONG_MAX : static_cast<long long>(u);
-        else {
-          const int shift = 64 - 8 * nt.bytes;
-          v = static_cast<long long>(static_cast<std::int64_t>(u << shift) >> shift);
-        }
-        out[i] = static_cast<T>(v);
-      }
+      const std::uint64_t u = detail::load_bits(b.data() + i * static_cast<std::size_t>(nt.bytes), nt.bytes, big_endian_);
+      if constexpr (std::is_integral_v<T>) out[i] = detail::bits_as_integer(u, nt.bytes, nt.is_signed);  // (not real: checked)
+      else out[i] = nt.real ? detail::bits_as_real(u, nt.bytes) : static_cast<double>(detail::bits_as_integer(u, nt.bytes, nt.is_signed));
     }
     return out;
   }
@@ -558,8 +546,10 @@ class VtuParser {
   }
 
   /// A piece's Polys or Strips as triangles of `out` (point indices after `base`).
-  void polygons(const Piece& p, long long count, const std::optional<ArrayRef>& conn, const std::optional<ArrayRef>& offsets,
-                const char* section, long long base, SurfaceMesh& out) {
+  void polygons(const Piece& p, const CellSection& cells, const char* section, long long base, SurfaceMesh& out) {
+    const long long count = cells.count;
+    const std::optional<ArrayRef>& conn = cells.connectivity;
+    const std::optional<ArrayRef>& offsets = cells.offsets;
     if (count == 0) return;
     if (!conn || !offsets) fail(p.line, std::string("a <Piece> whose <") + section + "> has no " + (!conn ? "connectivity" : "offsets") + " array");
     const auto [o, c] = cell_arrays(conn, offsets, count);
@@ -578,17 +568,13 @@ class VtuParser {
         id += base;
       }
       if (strips) {
-        for (std::size_t k = 0; k + 2 < corners.size(); ++k) {  // every second triangle of a strip turns the other way
-          const int a = static_cast<int>(corners[k]), b = static_cast<int>(corners[k + 1]), d = static_cast<int>(corners[k + 2]);
-          out.triangles.push_back(k % 2 == 0 ? Tri{a, b, d} : Tri{b, a, d});
-        }
+        detail::append_strip(corners, out.triangles);
         continue;
       }
       if (corners.size() > 3)
         if (const int k = detail::concave_corner(corners, mesh_.vertices); k >= 0)
           fail(conn->line, which + detail::concave_message(corners.size(), corners[static_cast<std::size_t>(k)] - base));
-      for (std::size_t k = 1; k + 1 < corners.size(); ++k)
-        out.triangles.push_back({static_cast<int>(corners[0]), static_cast<int>(corners[k]), static_cast<int>(corners[k + 1])});
+      detail::append_fan(corners, out.triangles);
     }
   }
 

@@ -387,34 +387,31 @@ class SpecReader {
   }
 
   /// One region of `key` (pinned[i], stiffness.regions[i]): its kind and its value.
-  template <class Entry>
-  PinRegion region(const Entry& entry, const std::string& key) const {
-    {
-      const auto& [kind, v] = entry;
-      const std::string k = key + "." + kind;
-      PinRegion r;
-      if (kind == "group") {
-        r.kind = PinRegion::Kind::Group;
-        r.group = text(v, k, false);
-      } else if (kind == "box") {
-        r.kind = PinRegion::Kind::Box;
-        const auto b = entries(v, k, {"min", "max"});
-        r.a = vec3(required(b, "min", k), k + ".min") * unit_;
-        r.b = vec3(required(b, "max", k), k + ".max") * unit_;
-        if (!(r.a.x <= r.b.x && r.a.y <= r.b.y && r.a.z <= r.b.z)) fail(k + ".max", "expected max >= min in every coordinate");
-      } else if (kind == "sphere") {
-        r.kind = PinRegion::Kind::Sphere;
-        const auto b = entries(v, k, {"center", "radius"});
-        r.a = vec3(required(b, "center", k), k + ".center") * unit_;
-        r.b = {length(required(b, "radius", k), k + ".radius"), 0, 0};
-      } else {
-        r.kind = PinRegion::Kind::Halfspace;
-        const auto b = entries(v, k, {"point", "normal"});
-        r.a = vec3(required(b, "point", k), k + ".point") * unit_;
-        r.b = normalized(nonzero_vec3(required(b, "normal", k), k + ".normal"));
-      }
-      return r;
+  PinRegion region(const std::pair<const std::string, YAML::Node>& entry, const std::string& key) const {
+    const auto& [kind, v] = entry;
+    const std::string k = key + "." + kind;
+    PinRegion r;
+    if (kind == "group") {
+      r.kind = PinRegion::Kind::Group;
+      r.group = text(v, k, false);
+    } else if (kind == "box") {
+      r.kind = PinRegion::Kind::Box;
+      const auto b = entries(v, k, {"min", "max"});
+      r.a = vec3(required(b, "min", k), k + ".min") * unit_;
+      r.b = vec3(required(b, "max", k), k + ".max") * unit_;
+      if (!(r.a.x <= r.b.x && r.a.y <= r.b.y && r.a.z <= r.b.z)) fail(k + ".max", "expected max >= min in every coordinate");
+    } else if (kind == "sphere") {
+      r.kind = PinRegion::Kind::Sphere;
+      const auto b = entries(v, k, {"center", "radius"});
+      r.a = vec3(required(b, "center", k), k + ".center") * unit_;
+      r.b = {length(required(b, "radius", k), k + ".radius"), 0, 0};
+    } else {
+      r.kind = PinRegion::Kind::Halfspace;
+      const auto b = entries(v, k, {"point", "normal"});
+      r.a = vec3(required(b, "point", k), k + ".point") * unit_;
+      r.b = normalized(nonzero_vec3(required(b, "normal", k), k + ".normal"));
     }
+    return r;
   }
 
   void read_tool(const YAML::Node& n, ToolSpec& t) const {
@@ -597,6 +594,16 @@ std::vector<std::string> groups_removed_with_unused_vertices(const TetMesh& raw,
   return why;
 }
 
+/// "unknown group 'NAME' (known groups in FILE: ...)" and where the mesh's format keeps its groups,
+/// when the physical mesh has no group `group`; else "".
+std::string unknown_group(const Scene& scene, const std::string& group) {
+  const std::vector<std::string> known = known_group_names(scene.physical);
+  if (std::find(known.begin(), known.end(), group) != known.end()) return "";
+  return "unknown group '" + group + "' (known groups in " + scene.spec.physical_mesh.string() + ": " +
+         known_groups_text(scene.physical) + ")" + lower_dimension_group_note(scene.physical, group) +
+         file_groups_note(scene.spec.physical_mesh);
+}
+
 /// The vertices a region pins, or an InputError naming the scene file and the region's key when the
 /// region is a group the mesh does not have or pins nothing (`why_none`, when given, says why).
 std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::string& why_none) {
@@ -604,13 +611,9 @@ std::vector<int> pinned_by(const Scene& scene, std::size_t index, const std::str
   const std::string key = "pinned[" + std::to_string(index) + "]." + region_name(r.kind);
   std::vector<int> v = region_vertices(scene.physical, r);
   if (!v.empty()) return v;
-  if (r.kind == PinRegion::Kind::Group) {
-    const std::vector<std::string> known = known_group_names(scene.physical);
-    if (std::find(known.begin(), known.end(), r.group) == known.end())
-      throw InputError(value_source(scene.spec, key) + ": key '" + key + "': unknown group '" + r.group + "' (known groups in " +
-                       scene.spec.physical_mesh.string() + ": " + known_groups_text(scene.physical) + ")" +
-                       lower_dimension_group_note(scene.physical, r.group) + file_groups_note(scene.spec.physical_mesh));
-  }
+  if (r.kind == PinRegion::Kind::Group)
+    if (const std::string unknown = unknown_group(scene, r.group); !unknown.empty())
+      throw InputError(value_source(scene.spec, key) + ": key '" + key + "': " + unknown);
   // A region the file gives can miss a mesh that an override moved or replaced: say which.
   std::string moved;
   for (const char* k : {"mesh.physical", "mesh.transform", "mesh.unit", "unit"})
@@ -634,14 +637,12 @@ std::vector<double> tet_stiffness(const Scene& scene) {
     if (tets.empty()) {
       const std::string key = "stiffness.regions[" + std::to_string(i) + "]." + region_name(m.region.kind);
       const bool group = m.region.kind == PinRegion::Kind::Group;
-      const std::vector<std::string> known = known_group_names(scene.physical);
-      const bool unknown = group && std::find(known.begin(), known.end(), m.region.group) == known.end();
+      const std::string unknown = group ? unknown_group(scene, m.region.group) : "";
       throw InputError(value_source(scene.spec, key) + ": key '" + key + "': " +
-                       (unknown ? "unknown group '" + m.region.group + "' (known groups in " + scene.spec.physical_mesh.string() +
-                                      ": " + known_groups_text(scene.physical) + ")" + file_groups_note(scene.spec.physical_mesh)
-                        : group ? "the group '" + m.region.group + "' holds no tet of the physical mesh (a surface group: a "
-                                  "part's stiffness is its tets')"
-                                : "no tet of the physical mesh has its centroid in the " + region_name(m.region.kind)));
+                       (!unknown.empty() ? unknown
+                        : group          ? "the group '" + m.region.group + "' holds no tet of the physical mesh (a surface "
+                                           "group: a part's stiffness is its tets')"
+                                         : "no tet of the physical mesh has its centroid in the " + region_name(m.region.kind)));
     }
     for (int t : tets) k[static_cast<std::size_t>(t)] = m.k_vol;
   }
@@ -810,7 +811,7 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
                      : text.starts_with("ply\n") || text.starts_with("ply\r\n")       ? "a PLY surface"
                                                                                       : nullptr;
   const bool surface = head.find("DATASET POLYDATA") != std::string::npos || head.find("\"PolyData\"") != std::string::npos ||
-                       text.starts_with("ply");
+                       (mesh && std::string_view(mesh) == "a PLY surface");
   if (mesh && surface)
     throw InputError(file.string() + ": " + mesh + ", not a scene file (YAML): a surface is a scene's mesh.virtual");
   if (mesh)

@@ -654,7 +654,8 @@ PhysicalEnergy physical_energy(const PhysicalModel& model, std::span<const Vec3d
     const Vec3d xc[4] = {x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]};
     const Mat3d F = deformation_gradient(xc, &model.shape_grad[4 * t]);
     E.volume += arap_energy(F, polar_rotation_svd(F), model.tet_k_vol[t], model.volume[t]);
-    // E_det's stiffness keeps its ratio to the tet's k_vol (det_ratio: the scene's k_det / k_vol)
+    // E_det's stiffness keeps its ratio to the tet's k_vol (det_ratio: the scene's k_det / k_vol);
+    // a tet of the scene's k_vol takes k_det itself (k_det / k_vol x k_vol need not round back to it)
     const double k_det = model.tet_k_vol[t] == model.k_vol ? model.k_det : model.det_ratio * model.tet_k_vol[t];
     if (model.k_det > 0) E.volume += volume_energy(F, k_det, model.volume[t]);
   }

@@ -27,6 +27,17 @@ set_tests_properties(cli.import.csv PROPERTIES PASS_REGULAR_EXPRESSION "csv.h5: 
 add_test(NAME cli.import.ros_export COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_ros.csv -o ${EBH_IO_OUT}/ros.h5)
 set_tests_properties(cli.import.ros_export PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
   "ros.h5: 20 samples, 0.0095[0-9]* s, 2000 Hz, tool hook\n  read as a ROS export: %time as t \\(nanoseconds\\), field.pose.position.x as x, .*field.pose.orientation.w as qw; 3 other fields left unread\n")
+# A ROS 1 bag as rosbag wrote it (tests/data/io/make_bags.py): its pose topic and gripper read,
+# the report naming both and the clock; a bag of several pose topics is refused, naming them,
+# and writes nothing.
+add_test(NAME cli.import.ros_bag COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_lz4.bag -o ${EBH_IO_OUT}/bag.h5
+  --jaw-topic /psm/jaw/measured_js --jaw-range 0,0.8 --tool forceps)
+set_tests_properties(cli.import.ros_bag PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "bag.h5: 20 samples, 0.0095[0-9]* s, 2000 Hz, tool forceps\n  read as a ROS bag: topic /psm/measured_cp \\(geometry_msgs/PoseStamped, 20 messages\\), the jaw from /psm/jaw/measured_js \\(sensor_msgs/JointState, 20 messages; [^)]*\\); times from the messages' header stamps\n")
+add_test(NAME cli.import.ros_bag_pose_topics
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/topics.bag;-o;${EBH_IO_OUT}/topics.h5"
+    "-DEXPECT=^ebh: error: .*topics.bag: several pose topics: /psm1/measured_cp \\(geometry_msgs/PoseStamped, 20\\), .*name the device's with --topic"
+    -DOUTPUT=${EBH_IO_OUT}/topics.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.import.bad_rotation
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_DATA}/bad_rotation.txt;-o;${EBH_IO_OUT}/bad.h5"
     "-DEXPECT=^ebh: error: .*bad_rotation.txt:14: the rotation part is not a rotation" -DOUTPUT=${EBH_IO_OUT}/bad.h5

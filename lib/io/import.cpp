@@ -21,6 +21,7 @@
 #include "core/units.hpp"
 #include "math/rotvec_input.hpp"
 #include "io/paths.hpp"
+#include "io/rosbag.hpp"
 
 namespace ebh {
 namespace {
@@ -538,6 +539,52 @@ struct TimeUnit {
   const char* symbol = nullptr;
   double rate_hz = 0;
 };
+/// A ROS bag's pose topic (io/rosbag.hpp) as samples (line_of: the message's index in the
+/// topic, from 1), positions times `unit`; the jaw from the jaw topic, if any (has_jaw).
+/// Returns the pose topic read.
+std::string read_bag(const std::string& path, double unit, const ImportOptions& opt, LogWindow& window, Recording& rec,
+                     std::vector<std::size_t>& line_of, bool& has_jaw, std::string& layout_note, std::size_t& cut_bytes) {
+  BagContents bag = read_rosbag(path, opt.topic, opt.jaw_topic);
+  cut_bytes = bag.cut_bytes;
+  has_jaw = !bag.jaw.empty();
+  // The device's clock where every message carries it (a header stamp set), else the bag's.
+  const auto stamped = [](const auto& messages) {
+    return std::all_of(messages.begin(), messages.end(), [](const auto& m) { return m.t.stamp > 0; });
+  };
+  const bool stamps = stamped(bag.poses) && stamped(bag.jaw);
+  const auto time = [stamps](const BagTimes& t) { return stamps ? t.stamp : t.record; };
+  std::stable_sort(bag.jaw.begin(), bag.jaw.end(), [&](const BagJaw& a, const BagJaw& b) { return time(a.t) < time(b.t); });
+  std::size_t jaw_at = 0;  // the last jaw message at or before the sample's time
+  for (std::size_t i = 0; i < bag.poses.size(); ++i) {
+    const BagPose& m = bag.poses[i];
+    const double t = time(m.t);
+    if (!window.keeps(t)) {
+      if (window.ended) break;
+      continue;
+    }
+    check_sample_limit(rec, opt.max_samples, path + ": " + bag.pose_topic + " message " + std::to_string(i + 1));
+    while (jaw_at + 1 < bag.jaw.size() && time(bag.jaw[jaw_at + 1].t) <= t) ++jaw_at;
+    rec.t.push_back(t);
+    rec.position.push_back(m.position * unit);
+    rec.orientation.push_back(m.orientation);
+    rec.jaw.push_back(has_jaw ? bag.jaw[jaw_at].value : 1.0);
+    rec.buttons.push_back(0);
+    line_of.push_back(i + 1);
+  }
+  const bool pose_headers = bag.pose_type.find("Stamped") != std::string::npos;
+  const std::string why_record = stamps              ? ""
+                                 : !pose_headers     ? " (" + bag.pose_type + " has no header)"
+                                 : !stamped(bag.poses) ? " (a pose's header stamp is 0)"
+                                                     : " (the jaw's messages carry no stamp)";
+  layout_note = "read as a ROS bag: topic " + bag.pose_topic + " (" + bag.pose_type + ", " +
+                std::to_string(bag.poses.size()) + " messages)" +
+                (has_jaw ? ", the jaw from " + opt.jaw_topic + " (" + bag.jaw_type + ", " +
+                               std::to_string(bag.jaw.size()) + " messages; each pose takes the last at or before it)"
+                         : std::string()) +
+                "; times from " + (stamps ? "the messages' header stamps" : "the bag's record times" + why_record);
+  return bag.pose_topic;
+}
+
 TimeUnit likely_time_unit(double rate_hz) {
   for (const auto& [name, symbol, per_second] : {std::tuple{"milliseconds", "ms", 1e3}, {"microseconds", "us", 1e6},
                                                  {"nanoseconds", "ns", 1e9}})
@@ -549,12 +596,13 @@ TimeUnit likely_time_unit(double rate_hz) {
 // The rate a log's times (has_t) or --rate give, against a recording's limit (an error) and a
 // device's rates (a warning, returned): times in ms make a rate 1000 times too low, in units
 // smaller than seconds' one too high.
-std::string check_log_rate(const Recording& rec, bool has_t, const std::string& path) {
+/// `times`: what the log's times are called ("column t", a bag's "the messages' times").
+std::string check_log_rate(const Recording& rec, bool has_t, const std::string& path, const std::string& times) {
   const std::string band = "a device logs at " + num(kDeviceRateLowHz) + " Hz to " + num(kDeviceRateHighHz / 1e3) + " kHz";
   const std::string span = num(rec.rate_hz) + " Hz (" + std::to_string(rec.size()) + " samples over " +
                            num(rec.duration()) + " s)";
   if (has_t && rec.rate_hz > kMaxSampleRateHz)
-    throw InputError(path + ": column t: the times give " + span + ", beyond the " + num(kMaxSampleRateHz / 1e3) +
+    throw InputError(path + ": " + times + ": the times give " + span + ", beyond the " + num(kMaxSampleRateHz / 1e3) +
                      " kHz limit of a recording's rate (" + band + "): t must be in seconds");
   // Times counted from an epoch (a Unix time, 1.7e9 s; a clock in ns read as s) keep only
   // |t| 2^-52 s of resolution: past 1% of the sample interval the times, and the rate they give,
@@ -562,7 +610,7 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
   const double newest = std::max(std::fabs(rec.t.front()), std::fabs(rec.t.back()));
   const double resolution = newest * std::numeric_limits<double>::epsilon();
   if (has_t && rec.rate_hz > 0 && resolution > 0.01 / rec.rate_hz)
-    return "column t: times near " + num(newest) + " s keep only " + num(resolution) + " s of resolution, " +
+    return times + ": times near " + num(newest) + " s keep only " + num(resolution) + " s of resolution, " +
            num(100 * resolution * rec.rate_hz) + "% of the " + num(1e3 / rec.rate_hz) +
            " ms between samples: the times and the rate (" + num(rec.rate_hz) + " Hz) are rounded; count t from the log's start";
   if (!(rec.rate_hz < kMinPlausibleLogRateHz)) return "";
@@ -572,7 +620,7 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
            (khz >= kDeviceRateLowHz && khz <= kDeviceRateHighHz ? " (the rate is in Hz: --rate " + num(khz) + "?)" : "");
   }
   const TimeUnit unit = likely_time_unit(rec.rate_hz);
-  return "column t: the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
+  return times + ": the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
          (unit.name ? std::string(": the times look like ") + unit.name + " (" + num(unit.rate_hz) + " Hz): import " +
                           "again with --time-unit " + unit.symbol
                     : ": is t in seconds (else --time-unit ms, us or ns)?");
@@ -581,13 +629,15 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
 // The longest interval between a log's times, when it is a gap in the logging (over
 // kLogGapFactor times the median interval and two of the slowest device's): what a replay fills
 // with a straight line. "" when there is none.
-std::string check_log_gaps(const Recording& rec, const std::vector<std::size_t>& line_of) {
+/// `times` as check_log_rate's; `places`: what line_of counts ("lines", a bag's topic's messages).
+std::string check_log_gaps(const Recording& rec, const std::vector<std::size_t>& line_of, const std::string& times,
+                           const std::string& places) {
   const std::optional<LogGaps> g = find_log_gaps(rec.t);
   if (!g) return "";
   const std::size_t longest = g->longest;
   const double gap = rec.t[longest + 1] - rec.t[longest];
-  return "column t: " + std::string(g->count == 1 ? "a gap" : std::to_string(g->count) + " gaps, the longest") + " of " +
-         num(gap) + " s between lines " + std::to_string(line_of[longest]) + " and " +
+  return times + ": " + std::string(g->count == 1 ? "a gap" : std::to_string(g->count) + " gaps, the longest") + " of " +
+         num(gap) + " s between " + places + " " + std::to_string(line_of[longest]) + " and " +
          std::to_string(line_of[longest + 1]) + " (t = " + num(rec.t[longest]) + " .. " + num(rec.t[longest + 1]) +
          " s), " + num(gap / g->median) + " times the median interval of " + num(g->median * 1e3) +
          " ms: the logger missed samples there, and a replay moves the tool in a straight line across " +
@@ -621,7 +671,11 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
 }
 
 LogFormat log_format_of(const std::string& path) {
-  return lower_extension(path) == ".csv" ? LogFormat::csv : LogFormat::openhaptics;
+  const std::string ext = lower_extension(path);
+  if (ext == ".csv") return LogFormat::csv;
+  if (ext == ".bag" || (ext == ".active" && lower_extension(path.substr(0, path.size() - 7)) == ".bag"))
+    return LogFormat::rosbag;
+  return LogFormat::openhaptics;
 }
 
 double nominal_rate(const std::vector<double>& t) {
@@ -667,17 +721,28 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   const double unit = opt.unit ? *opt.unit : (fmt == LogFormat::openhaptics ? 1e-3 : 1.0);
   Recording rec;
   std::vector<std::size_t> line_of;
-  bool has_t = false, csv_has_jaw = false;
+  bool has_t = false, csv_has_jaw = false;  // the log has times; a CSV log a jaw column, a bag a jaw topic
   double time_unit = opt.time_unit.value_or(1.0);  // a ROS export's: nanoseconds
   std::string layout_note;
   LeftOut left_out;
   if (!(opt.start_s >= 0)) throw InputError("--start: expected seconds >= 0");
   if (opt.duration_s && !(*opt.duration_s > 0)) throw InputError("--duration: expected seconds > 0");
   LogWindow window{opt.start_s, opt.duration_s, std::nullopt};
+  const bool bag = fmt == LogFormat::rosbag;
+  if (!bag && !opt.topic.empty()) throw InputError("--topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
+  if (!bag && !opt.jaw_topic.empty())
+    throw InputError("--jaw-topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
+  if (bag && opt.time_unit) throw InputError("--time-unit: " + path + " is a ROS bag, whose times are ROS times (seconds)");
+  if (bag && opt.rate_hz) throw InputError("--rate: " + path + " is a ROS bag, whose messages carry their times");
+  std::size_t cut_bytes = 0;
+  std::string topic;  // a bag's pose topic
   try {
     if (fmt == LogFormat::openhaptics)
       read_openhaptics(path, unit, rate_hz, opt.max_samples, window, rec, line_of, left_out);
-    else
+    else if (bag) {
+      topic = read_bag(path, unit, opt, window, rec, line_of, csv_has_jaw, layout_note, cut_bytes);
+      has_t = true;
+    } else
       read_csv(path, unit, rate_hz, time_unit, opt.max_samples, window, rec, line_of, has_t, csv_has_jaw, left_out,
                opt.skip_columns, opt.time_unit.has_value(), layout_note);
   } catch (const std::bad_alloc&) {  // a memory limit (ulimit -v, a job's) below what the log needs
@@ -711,7 +776,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   rec.source = "device";
   rec.scene = opt.scene;
   rec.tool = opt.tool;
-  rec.description = std::string("imported from ") + path + " (" + (fmt == LogFormat::csv ? "csv" : "openhaptics") + ")";
+  rec.description = std::string("imported from ") + path + " (" +
+                    (fmt == LogFormat::csv ? "csv" : bag ? "ROS bag, topic " + topic : "openhaptics") + ")";
   // What was baked into the poses, for a reader (rec.baked is the record replay checks).
   if (opt.mirror)
     rec.description += std::string("; a left-handed log, its ") + static_cast<char>('x' + *opt.mirror) + " axis reversed";
@@ -723,9 +789,16 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // --jaw-range maps the log's jaw values; a CSV log without a jaw column has none (its samples
   // are open), which the range would have mapped to a value of its own (0,255: closed).
   if (opt.jaw_button && opt.jaw_range) throw InputError("--jaw-button and --jaw-range: the jaw comes from one of them");
+  if (opt.jaw_range && bag && !csv_has_jaw)
+    throw InputError("--jaw-range: " + path + " is read without a jaw topic (its samples are taken open, 1): name the "
+                     "gripper's topic with --jaw-topic");
   if (opt.jaw_range && fmt == LogFormat::csv && !csv_has_jaw)
     throw InputError("--jaw-range: " + path + " has no jaw column (its samples are taken open, 1): the range maps a "
                      "logged jaw; leave it out, or add the jaw column");
+  // Where sample i came from: a text log's line, a bag's message.
+  const auto where = [&](std::size_t i) {
+    return bag ? path + ": " + topic + " message " + std::to_string(line_of[i]) : at(path, line_of[i]);
+  };
   // The jaw in the log's own range, mapped to 0 closed .. 1 open; without a range one outside
   // [0, 1] is refused here, naming the option that maps it. Repeats are the log's own: two
   // readings that the clamp makes equal are two readings.
@@ -740,7 +813,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
         if (jaw_clamped++ == 0) first_jaw_clamped = line_of[i];
       j = std::clamp(j, 0.0, 1.0);
     } else if (j < -kJawTolerance || j > 1 + kJawTolerance) {
-      throw InputError(at(path, line_of[i]) + ": jaw " + num(j) +
+      throw InputError(where(i) + ": jaw " + num(j) +
                        " outside [0, 1] (0 closed, 1 open): give the log's values when closed and open, --jaw-range "
                        "CLOSED,OPEN (--jaw-range 0,1 clamps a gripper calibrated a little past its ends)");
     }
@@ -752,15 +825,16 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
     const int b = *opt.jaw_button;
     for (std::size_t i = 1; i < rec.size(); ++i)
       if (rec.jaw[i] != rec.jaw[0])
-        throw InputError(at(path, line_of[i]) + ": --jaw-button " + std::to_string(b) + ": the log's jaw moves (" +
+        throw InputError(where(i) + ": --jaw-button " + std::to_string(b) + ": the log's jaw moves (" +
                          shortest_text(rec.jaw[0]) + " at its first sample, " + shortest_text(rec.jaw[i]) +
                          " here): a gripper's, which the button would replace; leave --jaw-button out");
     for (std::size_t i = 0; i < rec.size(); ++i) rec.jaw[i] = (rec.buttons[i] >> b) & 1 ? 0.0 : 1.0;
     presses = button_presses(rec.buttons, b);
   }
   // Validated before repeats are dropped, so an error names the log's own line.
-  validate_recording(rec, path, [&](std::string_view, std::size_t i) { return at(path, line_of[i]); });
-  const std::string rate_warning = check_log_rate(rec, has_t, path);
+  validate_recording(rec, path, [&](std::string_view, std::size_t i) { return where(i); });
+  const std::string times = bag ? "the messages' times" : "column t";
+  const std::string rate_warning = check_log_rate(rec, has_t, path, times);
   // On unit quaternions (the validator normalised them); turning every sample by the same
   // rotations keeps consecutive ones in the same hemisphere, and equal samples equal.
   if (opt.mirror) {
@@ -776,9 +850,11 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   r.rate_assumed = !has_t && !opt.rate_hz;
   r.rate_warning = rate_warning;
   r.cut_line = left_out.cut_line;
+  r.cut_bytes = cut_bytes;
+  if (bag) r.place = topic + " message";
   r.duplicate_rows = left_out.duplicate_rows;
   r.first_duplicate_line = left_out.first_duplicate;
-  if (has_t) r.gap_warning = check_log_gaps(rec, line_of);
+  if (has_t) r.gap_warning = check_log_gaps(rec, line_of, times, bag ? topic + " messages" : "lines");
   r.jaw_clamped = jaw_clamped;
   r.first_jaw_clamped_line = first_jaw_clamped;
   r.jaw_button_presses = presses;

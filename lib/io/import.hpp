@@ -11,6 +11,12 @@
 //   separated by a comma (blanks around it included) or by a run of spaces or tabs;
 //   x, y, z and the quaternion are required, t optional (else i / rate_hz), jaw defaults to 1,
 //   buttons to 0. With t, the recording's rate_hz is (samples - 1) / span (nominal_rate).
+// rosbag: a ROS 1 bag (`rosbag record`, io/rosbag.hpp): the messages of one pose topic (--topic;
+//   by default the bag's only one), positions in metres, times from the messages' header stamps
+//   (the device's clock) where the pose topic, and the jaw topic if any, carry nonzero ones, else
+//   the bag's record times; the jaw from --jaw-topic (a JointState's first position or a number,
+//   mapped with --jaw-range), each pose taking the last jaw message at or before its time (the
+//   first before it); errors name the topic and the message's index from 1.
 // Samples that repeat the previous one exactly (pose, jaw and buttons) are counted. With
 // drop_repeats the stale ones (runs of at most kStaleRunMaxS: a device polled faster than it
 // updates) are removed; a longer run (a hold: the device at rest) keeps its last sample, and so
@@ -30,7 +36,7 @@
 
 namespace ebh {
 
-enum class LogFormat { openhaptics, csv };
+enum class LogFormat { openhaptics, csv, rosbag };
 
 struct ImportOptions {
   std::optional<LogFormat> format;  ///< nullopt: log_format_of(path)
@@ -54,6 +60,9 @@ struct ImportOptions {
   /// A left-handed log (--mirror AXIS): the axis (0 x, 1 y, 2 z) reversed before the transforms
   /// (mirror_poses); nullopt: the log's frame is right-handed, as ebh's.
   std::optional<int> mirror;
+  /// rosbag: the pose topic (--topic; empty: the bag's only one) and the jaw topic (--jaw-topic;
+  /// empty: none, the jaws open)
+  std::string topic, jaw_topic;
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
   std::string tool = "hook";
@@ -106,6 +115,10 @@ struct ImportReport {
   bool rate_assumed = false;   ///< no times and no rate given: kAssumedLogRateHz
   std::string rate_warning;    ///< the rate is below kMinPlausibleLogRateHz: what it likely means
   std::size_t cut_line = 0;    ///< the log's last line had no line end (a logger stopped mid-line): left out
+  std::size_t cut_bytes = 0;   ///< rosbag: bytes of a last record cut short (a recording stopped mid-write): left out
+  /// What a sample's place in the log is called in the report's "first at ..." (a text log's
+  /// lines; a bag's messages of its pose topic, counted from 1)
+  std::string place = "line";
   std::size_t duplicate_rows = 0;        ///< csv rows equal to the row before them, t included: left out
   std::size_t first_duplicate_line = 0;  ///< the first of them
   std::string gap_warning;     ///< the times have a gap (kLogGapFactor): where, how long
@@ -123,6 +136,7 @@ struct ImportReport {
 inline constexpr double kLogGapFactor = 10;
 
 /// The format a log's name implies: csv for a `.csv` extension in any case (`LOG.CSV` too),
+/// rosbag for `.bag` (and `.bag.active`, a recording stopped before rosbag indexed it),
 /// openhaptics for any other.
 LogFormat log_format_of(const std::string& path);
 

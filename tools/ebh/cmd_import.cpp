@@ -1,6 +1,7 @@
-// `ebh import LOG -o REC.h5 [--format openhaptics|csv] [--rate HZ] [--unit m|cm|mm|in] [--time-unit s|ms|us|ns]
+// `ebh import LOG -o REC.h5 [--format openhaptics|csv|rosbag] [--topic T] [--jaw-topic T] [--rate HZ]
+//  [--unit m|cm|mm|in] [--time-unit s|ms|us|ns]
 //  [--transform "tx,ty,tz,rx,ry,rz"] [--tool-transform "x,y,z,rx,ry,rz"] [--scene NAME]
-//  [--tool hook|forceps] [--drop-repeats]`: a device log (OpenHaptics-style transforms or CSV) into
+//  [--tool hook|forceps] [--drop-repeats]`: a device log (OpenHaptics-style transforms, CSV or a ROS bag) into
 // a recording, its poses mapped to ebh's frames. With --scene, the path is checked against the
 // scene's physical mesh (unit sanity, a warning). Formats: docs/FORMATS.md.
 #include <algorithm>
@@ -24,6 +25,7 @@ namespace {
 
 struct ImportArgs {
   std::string log, output, format, unit, time_unit, transform, tool_transform, scene, tool;  // tool: empty, the default
+  std::string topic, jaw_topic;
   std::optional<double> rate_hz;
   bool drop_repeats = false;
   std::vector<std::string> skip_columns;
@@ -38,7 +40,8 @@ void run(const ImportArgs& a) {
   ebh::ImportOptions opt;
   if (a.format == "openhaptics") opt.format = ebh::LogFormat::openhaptics;
   else if (a.format == "csv") opt.format = ebh::LogFormat::csv;
-  else if (!a.format.empty()) throw ebh::InputError("--format: '" + a.format + "' is not openhaptics or csv");
+  else if (a.format == "rosbag") opt.format = ebh::LogFormat::rosbag;
+  else if (!a.format.empty()) throw ebh::InputError("--format: '" + a.format + "' is not openhaptics, csv or rosbag");
   if (!a.tool.empty() && a.tool != "hook" && a.tool != "forceps")
     throw ebh::InputError("--tool: '" + a.tool + "' is not hook or forceps");
   // The recording names the scene it is replayed with: a known scene name or a scene file.
@@ -62,8 +65,8 @@ void run(const ImportArgs& a) {
   if (!a.unit.empty()) opt.unit = ebh::parse_length_unit(a.unit);
   if (!a.time_unit.empty()) opt.time_unit = ebh::parse_time_unit(a.time_unit);
   // The transforms' translations are in the log's unit (its format's default when --unit is absent).
-  const bool csv = opt.format.value_or(ebh::log_format_of(a.log)) == ebh::LogFormat::csv;
-  const double log_unit = opt.unit ? *opt.unit : (csv ? 1.0 : 1e-3);
+  const ebh::LogFormat format = opt.format.value_or(ebh::log_format_of(a.log));
+  const double log_unit = opt.unit ? *opt.unit : (format == ebh::LogFormat::openhaptics ? 1e-3 : 1.0);
   if (!a.transform.empty()) opt.transforms.world = ebh::parse_rigid_transform("--transform", a.transform, log_unit);
   if (!a.tool_transform.empty())
     opt.transforms.tool = ebh::parse_rigid_transform("--tool-transform", a.tool_transform, log_unit);
@@ -85,8 +88,13 @@ void run(const ImportArgs& a) {
   opt.skip_columns = a.skip_columns;
   if (!a.jaw_range.empty()) opt.jaw_range = ebh::parse_jaw_range(a.jaw_range);
   opt.jaw_button = a.jaw_button;
-  if (!opt.skip_columns.empty() && opt.format.value_or(ebh::log_format_of(a.log)) != ebh::LogFormat::csv)
-    throw ebh::InputError("--skip-column: an OpenHaptics log has no named columns (--skip-column is for a CSV log)");
+  if (!opt.skip_columns.empty() && format != ebh::LogFormat::csv)
+    throw ebh::InputError(std::string("--skip-column: ") +
+                          (format == ebh::LogFormat::rosbag ? "a ROS bag is read by topic (--topic)"
+                                                            : "an OpenHaptics log has no named columns") +
+                          " (--skip-column is for a CSV log)");
+  opt.topic = a.topic;
+  opt.jaw_topic = a.jaw_topic;
   ebh::ImportReport report;
   ebh::Recording rec = ebh::import_log(a.log, opt, &report);
   rec.generator = std::string("ebh import (ebh ") + ebh::kVersion + ")";
@@ -104,15 +112,20 @@ void run(const ImportArgs& a) {
                  "ebh: warning: %s:%zu: the last line has no line end (a logger stopped while writing it?): left out, "
                  "as its last number may be cut short; end it with a newline to keep it\n",
                  a.log.c_str(), report.cut_line);
+  if (report.cut_bytes)
+    std::fprintf(stderr,
+                 "ebh: warning: %s: its last %zu bytes are a record cut short (a recording stopped while writing it?): "
+                 "left out\n",
+                 a.log.c_str(), report.cut_bytes);
   if (report.duplicate_rows)
     std::fprintf(stderr, "ebh: warning: %s: %zu %s the row before, time included (the first at line %zu): left out\n",
                  a.log.c_str(), report.duplicate_rows, report.duplicate_rows == 1 ? "row repeats" : "rows repeat",
                  report.first_duplicate_line);
   if (report.jaw_clamped)
     std::fprintf(stderr,
-                 "ebh: warning: %s: %zu samples' jaw lay outside --jaw-range %s (the first at line %zu): clamped to "
+                 "ebh: warning: %s: %zu samples' jaw lay outside --jaw-range %s (the first at %s %zu): clamped to "
                  "%s\n",
-                 a.log.c_str(), report.jaw_clamped, a.jaw_range.c_str(), report.first_jaw_clamped_line,
+                 a.log.c_str(), report.jaw_clamped, a.jaw_range.c_str(), report.place.c_str(), report.first_jaw_clamped_line,
                  report.jaw_clamped == 1 ? "its end" : "its ends");
   if (a.jaw_button && report.jaw_button_presses == 0)
     std::fprintf(stderr, "ebh: warning: %s: --jaw-button %d: the button is never pressed in the log: the jaws stay "
@@ -166,13 +179,22 @@ void run(const ImportArgs& a) {
 
 void setup(CLI::App& root) {
   auto args = std::make_shared<ImportArgs>();
-  CLI::App* c = root.add_subcommand("import", "Convert a device log (OpenHaptics transforms or CSV) to a recording");
-  c->add_option("log", args->log, "device log (text)")->required();
+  CLI::App* c =
+      root.add_subcommand("import", "Convert a device log (OpenHaptics transforms, CSV or a ROS bag) to a recording");
+  c->add_option("log", args->log, "device log (text, or a ROS 1 bag)")->required();
   c->add_option("-o,--output", args->output, "recording to write (HDF5)")->required();
-  c->add_option("--format", args->format, "openhaptics or csv (default: csv for *.csv, else openhaptics)");
+  c->add_option("--format", args->format,
+                "openhaptics, csv or rosbag (default: csv for *.csv, rosbag for *.bag, else openhaptics)");
+  c->add_option("--topic", args->topic,
+                "rosbag: the device's pose topic (geometry_msgs/PoseStamped, TransformStamped, Pose or Transform; "
+                "default: the bag's only one)");
+  c->add_option("--jaw-topic", args->jaw_topic,
+                "rosbag: the gripper's topic (sensor_msgs/JointState's first position, or std_msgs/Float64 or "
+                "Float32), mapped with --jaw-range; each pose takes the last message at or before it (default: none, "
+                "the jaws open)");
   c->add_option("--rate", args->rate_hz, "sample rate in Hz when the log has no t column (default: 1000, said)")
       ->check(ebh::cli::finite_number(0, ebh::kMaxSampleRateHz, true, "Hz"));
-  c->add_option("--unit", args->unit, "length unit of the log: m, cm, mm or in (default: mm openhaptics, m csv)");
+  c->add_option("--unit", args->unit, "length unit of the log: m, cm, mm or in (default: mm openhaptics, m csv and rosbag)");
   c->add_option("--time-unit", args->time_unit,
                 "unit of a CSV log's t column: s, ms, us or ns (a logger's clock in milliseconds, a ROS export's in "
                 "nanoseconds; default: s)");

@@ -1,0 +1,482 @@
+// ROS 1 bags, format 2.0 (io/rosbag.hpp).
+#include "io/rosbag.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+#include <map>
+
+#include "core/error.hpp"
+
+#if EBH_HAVE_BZIP2
+#include <bzlib.h>
+#endif
+#if EBH_HAVE_LZ4
+#include <lz4frame.h>
+#endif
+
+namespace ebh {
+namespace {
+
+constexpr char kMagic[] = "#ROSBAG V2.0\n";
+constexpr std::size_t kMagicSize = sizeof kMagic - 1;
+/// A chunk larger than this (uncompressed) is refused before it is allocated (`rosbag record`
+/// writes chunks of 768 KB unless --chunksize says otherwise).
+constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
+
+// The record ops of format 2.0.
+constexpr std::uint8_t kOpMessage = 0x02, kOpBagHeader = 0x03, kOpIndex = 0x04, kOpChunk = 0x05, kOpChunkInfo = 0x06,
+                       kOpConnection = 0x07;
+
+struct KnownType {
+  const char* name;
+  const char* md5;
+  bool pose;
+};
+// The types read, with the MD5 sums of their definitions (as genpy gives them: Type._md5sum).
+constexpr KnownType kKnownTypes[] = {
+    {"geometry_msgs/PoseStamped", "d3812c3cbc69362b77dc0b19b345f8f5", true},
+    {"geometry_msgs/TransformStamped", "b5764a33bfeb3588febc2682852579b0", true},
+    {"geometry_msgs/Pose", "e45d45a5a1ce597b249e23fb30fc871f", true},
+    {"geometry_msgs/Transform", "ac9eff44abf714214112b05d54a3cf9b", true},
+    {"sensor_msgs/JointState", "3066dcd76a6cfaef579bd0f34173e9fd", false},
+    {"std_msgs/Float64", "fdb28210bfa9d7c91146260178d9a584", false},
+    {"std_msgs/Float32", "73fcbf46b49191e672908e50842a83d4", false},
+};
+
+const KnownType* known_type(const std::string& type) {
+  for (const KnownType& k : kKnownTypes)
+    if (type == k.name) return &k;
+  return nullptr;
+}
+
+std::uint32_t u32(const unsigned char* p) {
+  return std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16 | std::uint32_t(p[3]) << 24;
+}
+
+/// A record's header fields (name=value, the value raw bytes), or a connection record's data.
+using Fields = std::map<std::string, std::string>;
+
+Fields parse_fields(const unsigned char* p, std::size_t n, const std::string& where) {
+  Fields f;
+  std::size_t pos = 0;
+  while (pos < n) {
+    if (n - pos < 4) throw InputError(where + ": a header field's length is cut short");
+    const std::uint32_t len = u32(p + pos);
+    pos += 4;
+    if (len > n - pos) throw InputError(where + ": a header field of " + std::to_string(len) + " bytes overruns its header");
+    const auto* b = reinterpret_cast<const char*>(p + pos);
+    const auto* eq = static_cast<const char*>(std::memchr(b, '=', len));
+    if (!eq) throw InputError(where + ": a header field without '=' (name=value)");
+    f.emplace(std::string(b, eq), std::string(eq + 1, b + len));
+    pos += len;
+  }
+  return f;
+}
+
+const std::string& field(const Fields& f, const char* name, const std::string& where) {
+  const auto it = f.find(name);
+  if (it == f.end()) throw InputError(where + ": the record has no '" + name + "' field");
+  return it->second;
+}
+
+std::uint32_t field_u32(const Fields& f, const char* name, const std::string& where) {
+  const std::string& v = field(f, name, where);
+  if (v.size() != 4) throw InputError(where + ": field '" + name + "' holds " + std::to_string(v.size()) + " bytes, not 4");
+  return u32(reinterpret_cast<const unsigned char*>(v.data()));
+}
+
+/// A ROS time (uint32 seconds, uint32 nanoseconds) in seconds.
+double ros_time(const unsigned char* p) { return u32(p) + 1e-9 * u32(p + 4); }
+
+/// A message's bytes, read in order (ROS 1 serialisation: little-endian, strings and arrays with a
+/// uint32 count before them).
+struct MessageCursor {
+  const unsigned char* p;
+  std::size_t n, pos = 0;
+  const std::string& where;
+  void need(std::size_t k, const char* what) const {
+    if (k > n - pos)
+      throw InputError(where + ": the message ends (" + std::to_string(n) + " bytes) inside its " + what);
+  }
+  std::uint32_t count(const char* what) {
+    need(4, what);
+    const std::uint32_t c = u32(p + pos);
+    pos += 4;
+    return c;
+  }
+  void skip_string(const char* what) {
+    const std::uint32_t len = count(what);
+    need(len, what);
+    pos += len;
+  }
+  double f64(const char* what) {
+    need(8, what);
+    double v;
+    std::memcpy(&v, p + pos, 8);  // little-endian, as x86 and ARM
+    pos += 8;
+    return v;
+  }
+  float f32(const char* what) {
+    need(4, what);
+    float v;
+    std::memcpy(&v, p + pos, 4);
+    pos += 4;
+    return v;
+  }
+  /// std_msgs/Header: seq, stamp, frame_id; returns the stamp (s).
+  double header() {
+    need(12, "header");
+    const double stamp = ros_time(p + pos + 4);
+    pos += 12;
+    skip_string("header's frame_id");
+    return stamp;
+  }
+  Vec3d vec3(const char* what) {
+    const double x = f64(what), y = f64(what), z = f64(what);
+    return {x, y, z};
+  }
+  Quatd quat(const char* what) {
+    const double x = f64(what), y = f64(what), z = f64(what), w = f64(what);
+    return {w, x, y, z};
+  }
+};
+
+BagPose decode_pose(const std::string& type, const unsigned char* p, std::size_t n, const std::string& where) {
+  MessageCursor c{p, n, 0, where};
+  BagPose m;
+  if (type == "geometry_msgs/PoseStamped" || type == "geometry_msgs/TransformStamped") m.t.stamp = c.header();
+  if (type == "geometry_msgs/TransformStamped") c.skip_string("child_frame_id");
+  const char* what = type.find("Transform") != std::string::npos ? "transform" : "pose";
+  m.position = c.vec3(what);
+  m.orientation = c.quat(what);
+  return m;
+}
+
+BagJaw decode_jaw(const std::string& type, const unsigned char* p, std::size_t n, const std::string& where) {
+  MessageCursor c{p, n, 0, where};
+  BagJaw m;
+  if (type == "sensor_msgs/JointState") {
+    m.t.stamp = c.header();
+    const std::uint32_t names = c.count("joint names");
+    for (std::uint32_t i = 0; i < names; ++i) c.skip_string("joint names");
+    if (c.count("positions") == 0) throw InputError(where + ": the joint state has no position");
+    m.value = c.f64("positions");
+  } else if (type == "std_msgs/Float64") {
+    m.value = c.f64("data");
+  } else {
+    m.value = c.f32("data");
+  }
+  return m;
+}
+
+/// A chunk's records, decompressed into `out` (bytes of the uncompressed size the chunk names).
+void decompress_chunk(const std::string& compression, const unsigned char* data, std::size_t size, std::uint32_t out_size,
+                      std::vector<unsigned char>& out, const std::string& where) {
+  if (out_size > kMaxChunkBytes)
+    throw InputError(where + ": a chunk of " + std::to_string(out_size) + " bytes (more than 1 GiB)");
+  if (compression == "none") {
+    if (size != out_size)
+      throw InputError(where + ": an uncompressed chunk of " + std::to_string(size) + " bytes that names " +
+                       std::to_string(out_size));
+    out.assign(data, data + size);
+    return;
+  }
+  // The output grows with what the stream gives (a damaged size field allocates nothing), up
+  // to the size the chunk names.
+  std::size_t produced = 0;
+  const auto room = [&]() -> std::size_t {
+    if (produced == out.size()) out.resize(produced + std::min<std::size_t>(out_size - produced, std::size_t(1) << 20));
+    return out.size() - produced;
+  };
+  const auto wrong_size = [&](const char* codec) {
+    return InputError(where + ": a" + std::string(codec) + " chunk that does not decompress to the " +
+                      std::to_string(out_size) + " bytes it names");
+  };
+  out.clear();
+  if (compression == "bz2") {
+#if EBH_HAVE_BZIP2
+    bz_stream z{};
+    if (BZ2_bzDecompressInit(&z, 0, 0) != BZ_OK) throw std::bad_alloc();
+    z.next_in = const_cast<char*>(reinterpret_cast<const char*>(data));
+    z.avail_in = static_cast<unsigned int>(size);
+    int rc = BZ_OK;
+    while (rc == BZ_OK) {
+      const std::size_t free = room();
+      if (free == 0) break;  // full, and the stream goes on
+      z.next_out = reinterpret_cast<char*>(out.data() + produced);
+      z.avail_out = static_cast<unsigned int>(free);
+      rc = BZ2_bzDecompress(&z);
+      produced += free - z.avail_out;
+      if (rc == BZ_OK && z.avail_in == 0 && z.avail_out != 0) break;  // the input ended before the stream
+    }
+    BZ2_bzDecompressEnd(&z);
+    if (rc != BZ_STREAM_END || produced != out_size) throw wrong_size(" bz2");
+    return;
+#else
+    throw InputError(where + ": a bz2-compressed chunk, and this build of ebh has no bzip2 library (libbz2-dev): "
+                     "`rosbag decompress` the bag, or rebuild with it");
+#endif
+  }
+  if (compression == "lz4") {
+#if EBH_HAVE_LZ4
+    LZ4F_dctx* ctx = nullptr;
+    if (LZ4F_isError(LZ4F_createDecompressionContext(&ctx, LZ4F_VERSION))) throw std::bad_alloc();
+    std::size_t in_pos = 0, hint = 1;
+    while (hint != 0 && in_pos < size) {
+      const std::size_t free = room();
+      if (free == 0) break;  // full, and the frame goes on
+      std::size_t in_n = size - in_pos, out_n = free;
+      hint = LZ4F_decompress(ctx, out.data() + produced, &out_n, data + in_pos, &in_n, nullptr);
+      if (LZ4F_isError(hint)) {
+        const std::string name = LZ4F_getErrorName(hint);
+        LZ4F_freeDecompressionContext(ctx);
+        throw InputError(where + ": an lz4 chunk that does not decompress (" + name + ")");
+      }
+      in_pos += in_n;
+      produced += out_n;
+      if (in_n == 0 && out_n == 0) break;  // no progress
+    }
+    LZ4F_freeDecompressionContext(ctx);
+    if (hint != 0 || produced != out_size) throw wrong_size("n lz4");
+    return;
+#else
+    throw InputError(where + ": an lz4-compressed chunk, and this build of ebh has no lz4 library (liblz4-dev): "
+                     "`rosbag decompress` the bag, or rebuild with it");
+#endif
+  }
+  throw InputError(where + ": a chunk compressed as '" + compression + "' (ROS bags use none, bz2 or lz4)");
+}
+
+/// What the reader keeps of a connection.
+struct Connection {
+  std::string topic, type;
+  bool pose = false, jaw = false;  // of the requested (or a candidate) pose topic, of the jaw topic
+};
+
+class BagReader {
+ public:
+  BagReader(const std::string& path, const std::string& pose_topic, const std::string& jaw_topic)
+      : path_(path), pose_topic_(pose_topic), jaw_topic_(jaw_topic) {}
+
+  BagContents read() {
+    std::ifstream in(path_, std::ios::binary | std::ios::ate);
+    if (!in) throw InputError(path_ + ": cannot open the bag");
+    const std::size_t size = static_cast<std::size_t>(in.tellg());
+    in.seekg(0);
+    char head[16] = {};
+    in.read(head, std::min<std::size_t>(size, sizeof head));
+    const std::string start(head, std::min<std::size_t>(size, sizeof head));
+    if (start.compare(0, kMagicSize, kMagic) != 0) {
+      if (start.rfind("#ROSRECORD V1.", 0) == 0 || start.rfind("#ROSBAG V1.", 0) == 0)
+        throw InputError(path_ + ": a ROS bag of format 1.x: only format 2.0 (ROS since 2010) is read; play and "
+                         "record it again with a current ROS 1");
+      if (start.rfind("SQLite format 3", 0) == 0 || start.rfind("\x89MCAP", 0) == 0)
+        throw InputError(path_ + ": a ROS 2 bag (" + (start[0] == 'S' ? "sqlite3" : "MCAP") +
+                         "): only ROS 1 bags are read; export the pose topic to CSV (ros2 topic echo --csv) and import that");
+      throw InputError(path_ + ": not a ROS bag (it does not start with \"#ROSBAG V2.0\")");
+    }
+    // The file's records, each read whole (a chunk is at most kMaxChunkBytes): a bag of camera
+    // topics may be far larger than memory.
+    std::size_t pos = kMagicSize;
+    in.seekg(static_cast<std::streamoff>(pos));
+    std::vector<unsigned char> header, body;
+    auto read_u32 = [&](std::uint32_t& v) {
+      unsigned char b[4];
+      in.read(reinterpret_cast<char*>(b), 4);
+      v = u32(b);
+    };
+    while (pos < size) {
+      const std::string where = at_byte(pos);
+      std::uint32_t header_len = 0, data_len = 0;
+      if (size - pos < 4) break;
+      read_u32(header_len);
+      if (header_len > size - pos - 4 || header_len > kMaxChunkBytes) break;
+      header.resize(header_len);
+      in.read(reinterpret_cast<char*>(header.data()), header_len);
+      if (size - pos - 4 - header_len < 4) break;
+      read_u32(data_len);
+      if (data_len > size - pos - 8 - header_len) break;
+      if (data_len > kMaxChunkBytes)
+        throw InputError(where + ": a record of " + std::to_string(data_len) + " bytes (more than 1 GiB)");
+      body.resize(data_len);
+      in.read(reinterpret_cast<char*>(body.data()), data_len);
+      if (!in) throw InputError(where + ": the bag cannot be read here");
+      record(header.data(), header_len, body.data(), data_len, where, true, pos);
+      pos += 8 + std::size_t(header_len) + data_len;
+    }
+    contents_.cut_bytes = size - pos;  // a recording stopped mid-write: its last record is left out
+    return finish();
+  }
+
+ private:
+  std::string at_byte(std::size_t offset) const { return path_ + ": byte " + std::to_string(offset); }
+
+  /// The records of a chunk (its record at byte `chunk_at` of the file).
+  void chunk_records(const std::vector<unsigned char>& data, std::size_t chunk_at) {
+    std::size_t pos = 0;
+    const std::size_t size = data.size();
+    while (pos < size) {
+      const std::string where = at_byte(chunk_at) + " (a chunk), its byte " + std::to_string(pos);
+      if (size - pos < 4) throw InputError(where + ": a record's header length overruns the chunk");
+      const std::uint32_t header_len = u32(data.data() + pos);
+      if (header_len > size - pos - 4) throw InputError(where + ": a record's header overruns the chunk");
+      const std::size_t body_at = pos + 4 + header_len;
+      if (size - body_at < 4) throw InputError(where + ": a record's data length overruns the chunk");
+      const std::uint32_t data_len = u32(data.data() + body_at);
+      if (data_len > size - body_at - 4) throw InputError(where + ": a record's data overruns the chunk");
+      record(data.data() + pos + 4, header_len, data.data() + body_at + 4, data_len, where, false, chunk_at);
+      pos = body_at + 4 + data_len;
+    }
+  }
+
+  /// One record: its header fields and its data (`top`: of the file, not of a chunk).
+  void record(const unsigned char* header, std::size_t header_len, const unsigned char* body, std::size_t data_len,
+              const std::string& where, bool top, std::size_t at) {
+    const Fields f = parse_fields(header, header_len, where);
+    const std::string& op = field(f, "op", where);
+    if (op.size() != 1) throw InputError(where + ": a record's op of " + std::to_string(op.size()) + " bytes");
+    switch (static_cast<std::uint8_t>(op[0])) {
+      case kOpChunk: {
+        if (!top) throw InputError(where + ": a chunk inside a chunk");
+        decompress_chunk(field(f, "compression", where), body, data_len, field_u32(f, "size", where), chunk_, where);
+        chunk_records(chunk_, at);
+        break;
+      }
+      case kOpConnection: connection(f, body, data_len, where); break;
+      case kOpMessage: message(f, body, data_len, where); break;
+      case kOpBagHeader: case kOpIndex: case kOpChunkInfo: break;
+      default:
+        throw InputError(where + ": a record of op " + std::to_string(static_cast<int>(static_cast<unsigned char>(op[0]))) +
+                         " (format 2.0 has ops 2 to 7)");
+    }
+  }
+
+  void connection(const Fields& f, const unsigned char* body, std::size_t n, const std::string& where) {
+    const std::uint32_t id = field_u32(f, "conn", where);
+    if (connections_.count(id)) return;  // the index section repeats the chunks' connection records
+    const Fields d = parse_fields(body, n, where);
+    Connection c;
+    c.topic = field(f, "topic", where);
+    c.type = field(d, "type", where);
+    const KnownType* k = known_type(c.type);
+    if (k) {
+      const auto md5 = d.find("md5sum");
+      if (md5 != d.end() && md5->second != k->md5 && md5->second != "*")
+        throw InputError(where + ": topic " + c.topic + ": a " + c.type + " of another definition (MD5 " + md5->second +
+                         ", the standard message's " + k->md5 + ")");
+    }
+    c.pose = k && k->pose && (pose_topic_.empty() || c.topic == pose_topic_);
+    c.jaw = !jaw_topic_.empty() && c.topic == jaw_topic_;
+    if (c.jaw && !(k && !k->pose))
+      throw InputError(path_ + ": --jaw-topic " + jaw_topic_ + ": a " + c.type + " topic (a jaw opening is read from " +
+                       "sensor_msgs/JointState, std_msgs/Float64 or std_msgs/Float32)");
+    if (!pose_topic_.empty() && c.topic == pose_topic_ && !c.pose)
+      throw InputError(path_ + ": --topic " + pose_topic_ + ": a " + c.type + " topic (a pose is read from " +
+                       "geometry_msgs/PoseStamped, TransformStamped, Pose or Transform)");
+    auto t = std::find_if(contents_.topics.begin(), contents_.topics.end(),
+                          [&](const BagTopic& b) { return b.name == c.topic; });
+    if (t == contents_.topics.end()) contents_.topics.push_back({c.topic, c.type, 0});
+    connections_.emplace(id, std::move(c));
+  }
+
+  void message(const Fields& f, const unsigned char* body, std::size_t n, const std::string& where) {
+    const std::uint32_t id = field_u32(f, "conn", where);
+    const auto it = connections_.find(id);
+    if (it == connections_.end()) throw InputError(where + ": a message of connection " + std::to_string(id) + " before its connection record");
+    const std::string& time = field(f, "time", where);
+    if (time.size() != 8) throw InputError(where + ": a message's time of " + std::to_string(time.size()) + " bytes");
+    const double record_t = ros_time(reinterpret_cast<const unsigned char*>(time.data()));
+    const Connection& c = it->second;
+    auto topic = std::find_if(contents_.topics.begin(), contents_.topics.end(),
+                              [&](const BagTopic& b) { return b.name == c.topic; });
+    const std::size_t index = ++topic->messages;
+    if (topic->type != c.type)
+      throw InputError(where + ": topic " + c.topic + " holds both " + topic->type + " and " + c.type + " messages");
+    const std::string msg = path_ + ": " + c.topic + " message " + std::to_string(index);
+    if (c.pose) {
+      BagPose p = decode_pose(c.type, body, n, msg);
+      p.t.record = record_t;
+      poses_[c.topic].push_back(p);
+    }
+    if (c.jaw) {
+      BagJaw j = decode_jaw(c.type, body, n, msg);
+      j.t.record = record_t;
+      contents_.jaw.push_back(j);
+    }
+  }
+
+  BagContents finish() {
+    const auto listed = [&](bool pose) {
+      std::string s;
+      for (const BagTopic& t : contents_.topics)
+        if (!pose || (known_type(t.type) && known_type(t.type)->pose))
+          s += (s.empty() ? "" : ", ") + t.name + " (" + t.type + ", " + std::to_string(t.messages) + ")";
+      return s.empty() ? std::string("none") : s;
+    };
+    const std::string cut = contents_.cut_bytes == 0 ? std::string()
+                            : " (its last " + std::to_string(contents_.cut_bytes) +
+                                  " bytes, a record cut short, are left out: a recording stopped while writing it?)";
+    const auto has = [&](const std::string& name) {
+      return std::any_of(contents_.topics.begin(), contents_.topics.end(), [&](const BagTopic& t) { return t.name == name; });
+    };
+    if (!pose_topic_.empty() && !has(pose_topic_))
+      throw InputError(path_ + ": --topic " + pose_topic_ + ": the bag has no such topic; its topics: " + listed(false) + cut);
+    if (!jaw_topic_.empty() && !has(jaw_topic_))
+      throw InputError(path_ + ": --jaw-topic " + jaw_topic_ + ": the bag has no such topic; its topics: " + listed(false) + cut);
+    if (poses_.empty())
+      throw InputError(path_ + ": no pose topic (geometry_msgs/PoseStamped, TransformStamped, Pose or Transform) with "
+                       "messages; its topics: " + listed(false) + cut);
+    if (poses_.size() > 1)
+      throw InputError(path_ + ": several pose topics: " + listed(true) + "; name the device's with --topic");
+    contents_.pose_topic = poses_.begin()->first;
+    contents_.poses = std::move(poses_.begin()->second);
+    for (const BagTopic& t : contents_.topics) {
+      if (t.name == contents_.pose_topic) contents_.pose_type = t.type;
+      if (t.name == jaw_topic_) contents_.jaw_type = t.type;
+    }
+    if (!jaw_topic_.empty() && contents_.jaw.empty())
+      throw InputError(path_ + ": --jaw-topic " + jaw_topic_ + ": the topic has no messages");
+    return std::move(contents_);
+  }
+
+  const std::string path_, pose_topic_, jaw_topic_;
+  std::map<std::uint32_t, Connection> connections_;
+  std::map<std::string, std::vector<BagPose>> poses_;  // by topic: the candidates when none is named
+  std::vector<unsigned char> chunk_;
+  BagContents contents_;
+};
+
+}  // namespace
+
+bool bag_pose_type(const std::string& type) {
+  const KnownType* k = known_type(type);
+  return k && k->pose;
+}
+
+bool bag_jaw_type(const std::string& type) {
+  const KnownType* k = known_type(type);
+  return k && !k->pose;
+}
+
+BagContents read_rosbag(const std::string& path, const std::string& pose_topic, const std::string& jaw_topic) {
+  return BagReader(path, pose_topic, jaw_topic).read();
+}
+
+bool rosbag_reads_bz2() {
+#if EBH_HAVE_BZIP2
+  return true;
+#else
+  return false;
+#endif
+}
+
+bool rosbag_reads_lz4() {
+#if EBH_HAVE_LZ4
+  return true;
+#else
+  return false;
+#endif
+}
+
+}  // namespace ebh

@@ -1,0 +1,67 @@
+#pragma once
+// ROS 1 bags (the rosbag format 2.0 that `rosbag record` writes, wiki.ros.org/Bags/Format/2.0):
+// the messages of a pose topic, and optionally of a jaw topic, for `ebh import` (io/import.hpp).
+//
+// The records are read in file order from the start (the index at the end is not needed, so a
+// bag whose recording was stopped before it was indexed, `*.bag.active`, reads up to its last
+// whole record; a record cut short there is left out and counted). Chunks are uncompressed, bz2
+// or lz4 (rosbag record --bz2 / --lz4), each where the build has the library.
+// Pose messages: geometry_msgs/PoseStamped, TransformStamped, Pose and Transform; jaw messages:
+// sensor_msgs/JointState (its first position) and std_msgs/Float64 or Float32. A type is known by
+// its name and its definition's MD5 sum (a message of another definition under the same name is
+// refused, naming both sums). Sizes are checked against the bytes that hold them before any
+// allocation.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "math/vec.hpp"
+
+namespace ebh {
+
+/// One message's times: when the bag recorded it, and its header's stamp (the device's clock)
+/// where its type has a header (0 when not, or not set).
+struct BagTimes {
+  double record = 0, stamp = 0;
+};
+
+struct BagPose {
+  BagTimes t;
+  Vec3d position;    ///< as the message holds it (ROS: metres)
+  Quatd orientation;
+};
+
+struct BagJaw {
+  BagTimes t;
+  double value = 0;  ///< the joint's position (a gripper's angle, rad) or the number
+};
+
+/// A topic of the bag: its name, its message type, and how many messages it has.
+struct BagTopic {
+  std::string name, type;
+  std::size_t messages = 0;
+};
+
+struct BagContents {
+  std::vector<BagTopic> topics;     ///< every topic the bag records, in the order first seen
+  std::string pose_topic, pose_type, jaw_type;
+  std::vector<BagPose> poses;       ///< the pose topic's messages, in the bag's order
+  std::vector<BagJaw> jaw;          ///< the jaw topic's (none without one)
+  std::size_t cut_bytes = 0;        ///< bytes of a last record cut short (a recording stopped mid-write), left out
+};
+
+/// The message types read as poses and as jaw openings.
+bool bag_pose_type(const std::string& type);
+bool bag_jaw_type(const std::string& type);
+
+/// Reads the messages of `pose_topic` (empty: the bag's only topic of a pose type) and of
+/// `jaw_topic` (empty: none). Throws InputError naming the file, and the record's byte offset or
+/// the message (topic and its index from 1) where it is wrong.
+BagContents read_rosbag(const std::string& path, const std::string& pose_topic, const std::string& jaw_topic);
+
+/// Whether this build reads bz2 and lz4 chunks.
+bool rosbag_reads_bz2();
+bool rosbag_reads_lz4();
+
+}  // namespace ebh

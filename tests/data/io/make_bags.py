@@ -1,0 +1,74 @@
+#!/usr/bin/python3
+"""Writes the ROS 1 bags of the import tests with rosbag itself (Debian: python3-rosbag,
+python3-geometry-msgs, python3-sensor-msgs, python3-roslz4); run from this folder:
+    /usr/bin/python3 make_bags.py
+The trajectory is the other sample logs' (sample.csv): sample i = 0..19 at 2 kHz from t = 1.7e9 s,
+position (10 + i, -5 + 0.5 i, 30) mm, a turn of 3 i degrees about z; a gripper closing from
+0.8 rad to 0 (the jaw 1 - i / 19 with --jaw-range 0,0.8). Each message is recorded 0.2 ms after
+its header stamp (a bag's record time is when it arrived).
+  sample.bag, sample_bz2.bag, sample_lz4.bag: /psm/measured_cp (PoseStamped), /psm/jaw/measured_js
+      (JointState), /psm/state (String); the same messages uncompressed, bz2 and lz4.
+  topics.bag: /psm1/measured_cp (PoseStamped), /psm2/measured_cp (TransformStamped), /mtm/pose
+      (Pose, no header), /mtm/gripper (Float64, no header).
+"""
+import math
+
+import rosbag
+import rospy
+from geometry_msgs.msg import Pose, PoseStamped, TransformStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64, String
+
+
+def sample(i):
+    t = rospy.Time(1700000000) + rospy.Duration.from_sec(5e-4 * i)
+    p = ((10 + i) * 1e-3, (-5 + 0.5 * i) * 1e-3, 30e-3)
+    a = math.radians(3.0 * i)
+    q = (0.0, 0.0, math.sin(a / 2), math.cos(a / 2))  # x, y, z, w
+    return t, p, q, 0.8 * (1 - i / 19.0)
+
+
+def pose_stamped(t, p, q, frame="psm_base"):
+    m = PoseStamped()
+    m.header.stamp, m.header.frame_id = t, frame
+    m.pose.position.x, m.pose.position.y, m.pose.position.z = p
+    m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z, m.pose.orientation.w = q
+    return m
+
+
+def write_sample(name, compression):
+    with rosbag.Bag(name, "w", compression=compression) as bag:
+        for i in range(20):
+            t, p, q, jaw = sample(i)
+            arrive = t + rospy.Duration.from_sec(2e-4)
+            bag.write("/psm/measured_cp", pose_stamped(t, p, q), arrive)
+            js = JointState()
+            js.header.stamp, js.name, js.position = t, ["jaw"], [jaw]
+            bag.write("/psm/jaw/measured_js", js, arrive)
+            if i % 10 == 0:
+                bag.write("/psm/state", String(data="ENABLED"), arrive)
+
+
+def write_topics(name):
+    with rosbag.Bag(name, "w") as bag:
+        for i in range(20):
+            t, p, q, jaw = sample(i)
+            arrive = t + rospy.Duration.from_sec(2e-4)
+            bag.write("/psm1/measured_cp", pose_stamped(t, p, q), arrive)
+            tf = TransformStamped()
+            tf.header.stamp, tf.header.frame_id, tf.child_frame_id = t, "world", "psm2_tool"
+            tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z = p
+            r = tf.transform.rotation
+            r.x, r.y, r.z, r.w = q
+            bag.write("/psm2/measured_cp", tf, arrive)
+            pose = Pose()
+            pose.position.x, pose.position.y, pose.position.z = p
+            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = q
+            bag.write("/mtm/pose", pose, arrive)
+            bag.write("/mtm/gripper", Float64(data=jaw), arrive)
+
+
+write_sample("sample.bag", "none")
+write_sample("sample_bz2.bag", "bz2")
+write_sample("sample_lz4.bag", "lz4")
+write_topics("topics.bag")

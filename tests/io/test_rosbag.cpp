@@ -1,0 +1,223 @@
+// ROS 1 bags imported (io/rosbag.hpp, io/import.hpp): the bags of tests/data/io were written by
+// rosbag itself (make_bags.py: the trajectory of the other sample logs), and malformed ones are
+// made here from them (random damage: tests/io/fuzz/bag_fuzz.cpp, under the sanitizers).
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "io/import.hpp"
+#include "io/rosbag.hpp"
+#include "io_test_util.hpp"
+
+using namespace ebh;
+
+namespace {
+
+const std::string kData = EBH_TEST_DATA_DIR "/io/";
+
+// make_bags.py's sample i: 2 kHz from 1.7e9 s (the header stamp; recorded 0.2 ms later).
+Vec3d known_position(std::size_t i) {
+  const double k = static_cast<double>(i);
+  return Vec3d{(10 + k) * 1e-3, (-5 + 0.5 * k) * 1e-3, 30e-3};
+}
+Quatd known_orientation(std::size_t i) {
+  return quat_from_rotvec(Vec3d{0, 0, 3.0 * static_cast<double>(i) * std::numbers::pi / 180});
+}
+double stamp(std::size_t i) { return 1.7e9 + 5e-4 * static_cast<double>(i); }
+
+double quat_angle(Quatd a, Quatd b) { return norm(rotvec_from_quat(conjugate(a) * b)); }
+
+ImportOptions with_jaw(const std::string& pose_topic, const std::string& jaw_topic) {
+  ImportOptions o;
+  o.topic = pose_topic;
+  o.jaw_topic = jaw_topic;
+  o.jaw_range = std::pair{0.0, 0.8};  // the gripper's angle in rad, closed .. open
+  return o;
+}
+
+std::vector<char> bytes_of(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_bytes(const std::string& path, const std::vector<char>& b) {
+  std::ofstream(path, std::ios::binary).write(b.data(), static_cast<std::streamsize>(b.size()));
+}
+
+/// The offset of the first `text` in b (the test fails without one).
+std::size_t find(const std::vector<char>& b, const std::string& text) {
+  const auto it = std::search(b.begin(), b.end(), text.begin(), text.end());
+  EXPECT_NE(it, b.end()) << "no '" << text << "' in the bag";
+  return static_cast<std::size_t>(it - b.begin());
+}
+
+void expect_same(const Recording& a, const Recording& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a.t[i], b.t[i]) << i;
+    EXPECT_EQ(a.position[i], b.position[i]) << i;
+    EXPECT_EQ(a.orientation[i].w, b.orientation[i].w) << i;
+    EXPECT_EQ(a.orientation[i].z, b.orientation[i].z) << i;
+    EXPECT_EQ(a.jaw[i], b.jaw[i]) << i;
+  }
+}
+
+}  // namespace
+
+TEST(RosBag, APoseTopicAndItsGripperReadAsTheDeviceLogged) {
+  ImportReport report;
+  const Recording r = import_log(kData + "sample.bag", with_jaw("", "/psm/jaw/measured_js"), &report);
+  ASSERT_EQ(r.size(), 20u);
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    // The message's float64 as written: the same double
+    EXPECT_EQ(r.position[i], known_position(i)) << i;
+    EXPECT_NEAR(quat_angle(r.orientation[i], known_orientation(i)), 0, 1e-12) << i;
+    // The header stamp (not the record time, 0.2 ms later): whole nanoseconds, kept to the
+    // ~0.24 us a double resolves at 1.7e9 s
+    EXPECT_NEAR(r.t[i], stamp(i), 5e-7) << i;
+    EXPECT_NEAR(r.jaw[i], 1.0 - static_cast<double>(i) / 19.0, 1e-12) << i;
+    EXPECT_EQ(r.buttons[i], 0) << i;
+  }
+  EXPECT_NEAR(r.rate_hz, 2000, 0.1);
+  EXPECT_EQ(report.layout_note,
+            "read as a ROS bag: topic /psm/measured_cp (geometry_msgs/PoseStamped, 20 messages), the jaw from "
+            "/psm/jaw/measured_js (sensor_msgs/JointState, 20 messages; each pose takes the last at or before it); "
+            "times from the messages' header stamps");
+  EXPECT_EQ(r.description, "imported from " + kData + "sample.bag (ROS bag, topic /psm/measured_cp)");
+  EXPECT_EQ(report.cut_bytes, 0u);
+  // Without a jaw topic the jaws are open; a window of the log keeps the bag's times.
+  ImportOptions window;
+  window.start_s = 0.002;
+  window.duration_s = 0.0021;
+  const Recording w = import_log(kData + "sample.bag", window);
+  ASSERT_EQ(w.size(), 5u);
+  EXPECT_EQ(w.position[0], known_position(4));
+  EXPECT_EQ(w.jaw[0], 1.0);
+}
+
+TEST(RosBag, Bz2AndLz4ChunksReadAsTheUncompressedBag) {
+  const Recording plain = import_log(kData + "sample.bag", with_jaw("", "/psm/jaw/measured_js"));
+  for (const auto& [file, reads] : {std::pair{"sample_bz2.bag", rosbag_reads_bz2()}, {"sample_lz4.bag", rosbag_reads_lz4()}}) {
+    SCOPED_TRACE(file);
+    if (reads)
+      expect_same(import_log(kData + file, with_jaw("", "/psm/jaw/measured_js")), plain);
+    else  // a build without the library says so
+      EXPECT_INPUT_ERROR(import_log(kData + file, ImportOptions{}), "-compressed chunk, and this build of ebh has no");
+  }
+}
+
+TEST(RosBag, TopicsAreChosenByNameAndType) {
+  const std::string bag = kData + "topics.bag";
+  // Three pose topics: which is the device's is the user's to say.
+  EXPECT_INPUT_ERROR(import_log(bag, ImportOptions{}),
+                     "topics.bag: several pose topics: /psm1/measured_cp (geometry_msgs/PoseStamped, 20), "
+                     "/psm2/measured_cp (geometry_msgs/TransformStamped, 20), /mtm/pose (geometry_msgs/Pose, 20); "
+                     "name the device's with --topic");
+  const Recording reference = import_log(kData + "sample.bag", ImportOptions{});
+  ImportOptions transforms;
+  transforms.topic = "/psm2/measured_cp";
+  expect_same(import_log(bag, transforms), reference);
+  // A Pose has no header: the bag's record times, said; so with a jaw of std_msgs/Float64.
+  ImportReport report;
+  const Recording pose = import_log(bag, with_jaw("/mtm/pose", "/mtm/gripper"), &report);
+  ASSERT_EQ(pose.size(), 20u);
+  for (std::size_t i = 0; i < pose.size(); ++i) {
+    EXPECT_EQ(pose.position[i], known_position(i)) << i;
+    EXPECT_NEAR(pose.t[i], stamp(i) + 2e-4, 5e-7) << i;
+    EXPECT_NEAR(pose.jaw[i], 1.0 - static_cast<double>(i) / 19.0, 1e-12) << i;
+  }
+  EXPECT_NE(report.layout_note.find("times from the bag's record times (geometry_msgs/Pose has no header)"),
+            std::string::npos)
+      << report.layout_note;
+  // A stamped pose with a jaw without stamps: one clock for both, the bag's.
+  EXPECT_NEAR(import_log(bag, with_jaw("/psm1/measured_cp", "/mtm/gripper")).t[3], stamp(3) + 2e-4, 5e-7);
+  const auto named = [&](const std::string& pose_topic, const std::string& jaw_topic) {
+    ImportOptions o;
+    o.topic = pose_topic;
+    o.jaw_topic = jaw_topic;
+    return import_log(bag, o);
+  };
+  EXPECT_INPUT_ERROR(named("/psm3/measured_cp", ""), "topics.bag: --topic /psm3/measured_cp: the bag has no such topic; its topics: /psm1/measured_cp (geometry_msgs/PoseStamped, 20), ");
+  EXPECT_INPUT_ERROR(named("/mtm/gripper", ""), "--topic /mtm/gripper: a std_msgs/Float64 topic (a pose is read from");
+  EXPECT_INPUT_ERROR(named("/psm1/measured_cp", "/psm2/measured_cp"),
+                     "--jaw-topic /psm2/measured_cp: a geometry_msgs/TransformStamped topic (a jaw opening is read from");
+  EXPECT_INPUT_ERROR(named("/psm1/measured_cp", "/mtm/grip"), "--jaw-topic /mtm/grip: the bag has no such topic");
+  // The bag's options on another log, and a text log's on a bag.
+  ImportOptions on_csv;
+  on_csv.topic = "/psm/measured_cp";
+  EXPECT_INPUT_ERROR(import_log(kData + "sample.csv", on_csv), "--topic: ", "sample.csv is not a ROS bag");
+  ImportOptions time_unit;
+  time_unit.time_unit = 1e-9;
+  EXPECT_INPUT_ERROR(import_log(bag, time_unit), "--time-unit: ", "is a ROS bag, whose times are ROS times");
+  ImportOptions range;
+  range.topic = "/psm1/measured_cp";
+  range.jaw_range = std::pair{0.0, 0.8};
+  EXPECT_INPUT_ERROR(import_log(bag, range), "--jaw-range: ", "without a jaw topic", "--jaw-topic");
+}
+
+TEST(RosBag, ARecordingStoppedMidWriteReadsUpToItsLastWholeRecord) {
+  test::ScratchDir tmp;
+  std::vector<char> b = bytes_of(kData + "sample.bag");
+  // The index after the chunk cut short: every message is in the chunk before it.
+  const std::size_t index = find(b, std::string("op=\x04", 4));
+  std::vector<char> cut(b.begin(), b.begin() + static_cast<std::ptrdiff_t>(index + 3));
+  write_bytes(tmp / "stopped.bag.active", cut);
+  EXPECT_EQ(log_format_of(tmp / "stopped.bag.active"), LogFormat::rosbag);
+  ImportReport report;
+  const Recording r = import_log(tmp / "stopped.bag.active", ImportOptions{}, &report);
+  EXPECT_EQ(r.size(), 20u);
+  EXPECT_GT(report.cut_bytes, 0u);
+  // Cut inside the chunk: nothing of it is read, and the message says why.
+  const std::size_t chunk = find(b, std::string("op=\x05", 4));
+  cut.assign(b.begin(), b.begin() + static_cast<std::ptrdiff_t>(chunk + 200));
+  write_bytes(tmp / "early.bag", cut);
+  EXPECT_INPUT_ERROR(import_log(tmp / "early.bag", ImportOptions{}), "early.bag: no pose topic",
+                     "a record cut short, are left out: a recording stopped while writing it?");
+}
+
+TEST(RosBag, MalformedBagsAreRefusedWithTheirPlace) {
+  test::ScratchDir tmp;
+  const std::vector<char> good = bytes_of(kData + "sample.bag");
+  const auto refused = [&](const std::string& name, std::vector<char> b, std::initializer_list<std::string> parts) {
+    SCOPED_TRACE(name);
+    write_bytes(tmp / name, b);
+    try {
+      (void)import_log(tmp / name, ImportOptions{});
+      ADD_FAILURE() << "no InputError";
+    } catch (const InputError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find(tmp / name), std::string::npos) << msg;
+      for (const std::string& p : parts) EXPECT_NE(msg.find(p), std::string::npos) << msg << " lacks " << p;
+    }
+  };
+  const auto text = [](const std::string& s) { return std::vector<char>(s.begin(), s.end()); };
+  refused("log.bag", text("t,x,y,z,qw,qx,qy,qz\n"), {"not a ROS bag (it does not start with \"#ROSBAG V2.0\")"});
+  refused("old.bag", text("#ROSRECORD V1.2\n"), {"a ROS bag of format 1.x: only format 2.0"});
+  refused("ros2.bag", text(std::string("SQLite format 3\0", 16)), {"a ROS 2 bag (sqlite3)", "ros2 topic echo --csv"});
+  std::vector<char> b = good;
+  b[find(b, std::string("op=\x05", 4)) + 3] = 0x09;
+  refused("op.bag", b, {": byte ", ": a record of op 9 (format 2.0 has ops 2 to 7)"});
+  b = good;  // the standard message's definition under another MD5: another message of that name
+  b[find(b, "md5sum=d3812c3c") + 14] = 'd';
+  refused("md5.bag", b, {"(a chunk), its byte ", "topic /psm/measured_cp: a geometry_msgs/PoseStamped of another definition (MD5 d3812c3d"});
+  b = good;  // the chunk's uncompressed size one byte more than it holds
+  const std::size_t size = find(b, "size=") + 5;
+  std::uint32_t n;
+  std::memcpy(&n, &b[size], 4);
+  ++n;
+  std::memcpy(&b[size], &n, 4);
+  refused("size.bag", b, {"an uncompressed chunk of ", " bytes that names "});
+  b = good;  // a record's header length inside the chunk past the chunk's end
+  const std::size_t conn = find(b, std::string("op=\x07", 4)) - 8;  // its field length, then the header's
+  b[conn + 3] = 0x7f;
+  refused("header.bag", b, {"(a chunk), its byte ", "a record's header overruns the chunk"});
+  b = good;
+  b[find(b, "compression=none") + 12] = 'x';
+  refused("codec.bag", b, {"a chunk compressed as 'xone' (ROS bags use none, bz2 or lz4)"});
+}

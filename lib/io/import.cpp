@@ -544,7 +544,7 @@ struct TimeUnit {
 /// Returns the pose topic read.
 std::string read_bag(const std::string& path, double unit, const ImportOptions& opt, LogWindow& window, Recording& rec,
                      std::vector<std::size_t>& line_of, bool& has_jaw, std::string& layout_note, std::size_t& cut_bytes) {
-  BagContents bag = read_rosbag(path, opt.topic, opt.jaw_topic);
+  BagContents bag = read_rosbag(path, BagRequest{opt.topic, opt.jaw_topic, opt.frame});
   cut_bytes = bag.cut_bytes;
   has_jaw = !bag.jaw.empty();
   // The device's clock where every message carries it (a header stamp set), else the bag's.
@@ -571,13 +571,20 @@ std::string read_bag(const std::string& path, double unit, const ImportOptions& 
     rec.buttons.push_back(0);
     line_of.push_back(i + 1);
   }
-  const bool pose_headers = bag.pose_type.find("Stamped") != std::string::npos;
+  const bool pose_headers = bag.pose_type.find("Stamped") != std::string::npos || !opt.frame.empty();
   const std::string why_record = stamps              ? ""
                                  : !pose_headers     ? " (" + bag.pose_type + " has no header)"
                                  : !stamped(bag.poses) ? " (a pose's header stamp is 0)"
                                                      : " (the jaw's messages carry no stamp)";
-  layout_note = "read as a ROS bag: topic " + bag.pose_topic + " (" + bag.pose_type + ", " +
-                std::to_string(bag.poses.size()) + " messages)" +
+  const std::size_t messages = std::find_if(bag.topics.begin(), bag.topics.end(), [&](const BagTopic& t) {
+                                 return t.name == bag.pose_topic;
+                               })->messages;
+  layout_note = "read as a ROS bag: topic " + bag.pose_topic + " (" + bag.pose_type + ", " + std::to_string(messages) +
+                " messages" +
+                (opt.frame.empty() ? std::string()
+                                   : "; " + std::to_string(bag.poses.size()) + " transforms " + bag.frame_parent + " -> " +
+                                         opt.frame) +
+                ")" +
                 (has_jaw ? ", the jaw from " + opt.jaw_topic + " (" + bag.jaw_type + ", " +
                                std::to_string(bag.jaw.size()) + " messages; each pose takes the last at or before it)"
                          : std::string()) +
@@ -730,6 +737,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   LogWindow window{opt.start_s, opt.duration_s, std::nullopt};
   const bool bag = fmt == LogFormat::rosbag;
   if (!bag && !opt.topic.empty()) throw InputError("--topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
+  if (!bag && !opt.frame.empty()) throw InputError("--frame: " + path + " is not a ROS bag (*.bag): the option names a tf frame");
   if (!bag && !opt.jaw_topic.empty())
     throw InputError("--jaw-topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
   if (bag && opt.time_unit) throw InputError("--time-unit: " + path + " is a ROS bag, whose times are ROS times (seconds)");

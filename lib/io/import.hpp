@@ -12,7 +12,8 @@
 //   x, y, z and the quaternion are required, t optional (else i / rate_hz), jaw defaults to 1,
 //   buttons to 0. With t, the recording's rate_hz is (samples - 1) / span (nominal_rate).
 // rosbag: a ROS 1 bag (`rosbag record`, io/rosbag.hpp): the messages of one pose topic (--topic;
-//   by default the bag's only one), positions in metres, times from the messages' header stamps
+//   by default the bag's only one; with --frame, the transforms to that frame in a tf topic),
+//   positions in metres, times from the messages' header stamps
 //   (the device's clock) where the pose topic, and the jaw topic if any, carry nonzero ones, else
 //   the bag's record times; the jaw from --jaw-topic (a JointState's first position or a number,
 //   mapped with --jaw-range), each pose taking the last jaw message at or before its time (the
@@ -60,9 +61,9 @@ struct ImportOptions {
   /// A left-handed log (--mirror AXIS): the axis (0 x, 1 y, 2 z) reversed before the transforms
   /// (mirror_poses); nullopt: the log's frame is right-handed, as ebh's.
   std::optional<int> mirror;
-  /// rosbag: the pose topic (--topic; empty: the bag's only one) and the jaw topic (--jaw-topic;
-  /// empty: none, the jaws open)
-  std::string topic, jaw_topic;
+  /// rosbag: the pose topic (--topic; empty: the bag's only one), the jaw topic (--jaw-topic;
+  /// empty: none, the jaws open), a tf topic's child frame (--frame: its transforms are the poses)
+  std::string topic, jaw_topic, frame;
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
   std::string tool = "hook";

@@ -32,6 +32,7 @@ struct KnownType {
   const char* name;
   const char* md5;
   bool pose;
+  bool tf = false;  // a list of TransformStamped to several frames
 };
 // The types read, with the MD5 sums of their definitions (as genpy gives them: Type._md5sum).
 constexpr KnownType kKnownTypes[] = {
@@ -39,6 +40,8 @@ constexpr KnownType kKnownTypes[] = {
     {"geometry_msgs/TransformStamped", "b5764a33bfeb3588febc2682852579b0", true},
     {"geometry_msgs/Pose", "e45d45a5a1ce597b249e23fb30fc871f", true},
     {"geometry_msgs/Transform", "ac9eff44abf714214112b05d54a3cf9b", true},
+    {"tf2_msgs/TFMessage", "94810edda583a504dfda3829e70d7eec", true, true},
+    {"tf/tfMessage", "94810edda583a504dfda3829e70d7eec", true, true},
     {"sensor_msgs/JointState", "3066dcd76a6cfaef579bd0f34173e9fd", false},
     {"std_msgs/Float64", "fdb28210bfa9d7c91146260178d9a584", false},
     {"std_msgs/Float32", "73fcbf46b49191e672908e50842a83d4", false},
@@ -105,11 +108,13 @@ struct MessageCursor {
     pos += 4;
     return c;
   }
-  void skip_string(const char* what) {
+  std::string string(const char* what) {
     const std::uint32_t len = count(what);
     need(len, what);
     pos += len;
+    return std::string(reinterpret_cast<const char*>(p + pos - len), len);
   }
+  void skip_string(const char* what) { (void)string(what); }
   double f64(const char* what) {
     need(8, what);
     double v;
@@ -124,12 +129,13 @@ struct MessageCursor {
     pos += 4;
     return v;
   }
-  /// std_msgs/Header: seq, stamp, frame_id; returns the stamp (s).
-  double header() {
+  /// std_msgs/Header: seq, stamp, frame_id; returns the stamp (s), the frame into `frame_id`.
+  double header(std::string* frame_id = nullptr) {
     need(12, "header");
     const double stamp = ros_time(p + pos + 4);
     pos += 12;
-    skip_string("header's frame_id");
+    std::string frame = string("header's frame_id");
+    if (frame_id) *frame_id = std::move(frame);
     return stamp;
   }
   Vec3d vec3(const char* what) {
@@ -151,6 +157,23 @@ BagPose decode_pose(const std::string& type, const unsigned char* p, std::size_t
   m.position = c.vec3(what);
   m.orientation = c.quat(what);
   return m;
+}
+
+/// A tf message's transforms: each one's parent and child frames and its pose (stamp, translation,
+/// rotation) to `each(parent, child, pose)`.
+template <class Each>
+void decode_tf(const unsigned char* p, std::size_t n, const std::string& where, Each&& each) {
+  MessageCursor c{p, n, 0, where};
+  const std::uint32_t count = c.count("transforms");
+  for (std::uint32_t i = 0; i < count; ++i) {  // each at least 80 bytes: the cursor ends a false count
+    BagPose m;
+    std::string parent;
+    m.t.stamp = c.header(&parent);
+    const std::string child = c.string("child_frame_id");
+    m.position = c.vec3("transform");
+    m.orientation = c.quat("transform");
+    each(parent, child, m);
+  }
 }
 
 BagJaw decode_jaw(const std::string& type, const unsigned char* p, std::size_t n, const std::string& where) {
@@ -252,12 +275,13 @@ void decompress_chunk(const std::string& compression, const unsigned char* data,
 struct Connection {
   std::string topic, type;
   bool pose = false, jaw = false;  // of the requested (or a candidate) pose topic, of the jaw topic
+  bool tf = false;                 // a tf topic (its transforms to the requested frame are the poses)
 };
 
 class BagReader {
  public:
-  BagReader(const std::string& path, const std::string& pose_topic, const std::string& jaw_topic)
-      : path_(path), pose_topic_(pose_topic), jaw_topic_(jaw_topic) {}
+  BagReader(const std::string& path, const BagRequest& request)
+      : path_(path), pose_topic_(request.pose_topic), jaw_topic_(request.jaw_topic), frame_(request.frame) {}
 
   BagContents read() {
     std::ifstream in(path_, std::ios::binary | std::ios::ate);
@@ -366,14 +390,19 @@ class BagReader {
         throw InputError(where + ": topic " + c.topic + ": a " + c.type + " of another definition (MD5 " + md5->second +
                          ", the standard message's " + k->md5 + ")");
     }
-    c.pose = k && k->pose && (pose_topic_.empty() || c.topic == pose_topic_);
+    // A tf topic is read for a frame (--frame), and then only tf topics are.
+    c.tf = k && k->tf;
+    c.pose = k && k->pose && (pose_topic_.empty() ? c.tf == !frame_.empty() : c.topic == pose_topic_);
+    if (!frame_.empty() && c.pose && !c.tf)
+      throw InputError(path_ + ": --frame " + frame_ + ": --topic " + c.topic + " is a " + c.type +
+                       ", not a tf topic (tf2_msgs/TFMessage): --frame picks a tf topic's transforms");
     c.jaw = !jaw_topic_.empty() && c.topic == jaw_topic_;
     if (c.jaw && !(k && !k->pose))
       throw InputError(path_ + ": --jaw-topic " + jaw_topic_ + ": a " + c.type + " topic (a jaw opening is read from " +
                        "sensor_msgs/JointState, std_msgs/Float64 or std_msgs/Float32)");
     if (!pose_topic_.empty() && c.topic == pose_topic_ && !c.pose)
       throw InputError(path_ + ": --topic " + pose_topic_ + ": a " + c.type + " topic (a pose is read from " +
-                       "geometry_msgs/PoseStamped, TransformStamped, Pose or Transform)");
+                       "geometry_msgs/PoseStamped, TransformStamped, Pose or Transform, or a tf topic's transforms)");
     auto t = std::find_if(contents_.topics.begin(), contents_.topics.end(),
                           [&](const BagTopic& b) { return b.name == c.topic; });
     if (t == contents_.topics.end()) contents_.topics.push_back({c.topic, c.type, 0});
@@ -394,7 +423,21 @@ class BagReader {
     if (topic->type != c.type)
       throw InputError(where + ": topic " + c.topic + " holds both " + topic->type + " and " + c.type + " messages");
     const std::string msg = path_ + ": " + c.topic + " message " + std::to_string(index);
-    if (c.pose) {
+    if (c.pose && c.tf) {
+      decode_tf(body, n, msg, [&](const std::string& parent, const std::string& child, BagPose p) {
+        const std::string link = parent + " -> " + child;
+        auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& seen_link) { return seen_link.first == link; });
+        if (seen == frames_.end()) frames_.emplace_back(link, 1);
+        else ++seen->second;
+        if (child != frame_) return;
+        if (frame_parent_.empty()) frame_parent_ = parent;
+        else if (parent != frame_parent_)
+          throw InputError(msg + ": frame " + frame_ + "'s parent is " + parent + " here, " + frame_parent_ +
+                           " before (two trees give it)");
+        p.t.record = record_t;
+        poses_[c.topic].push_back(p);
+      });
+    } else if (c.pose) {
       BagPose p = decode_pose(c.type, body, n, msg);
       p.t.record = record_t;
       poses_[c.topic].push_back(p);
@@ -407,10 +450,11 @@ class BagReader {
   }
 
   BagContents finish() {
-    const auto listed = [&](bool pose) {
+    // Every topic, or (candidates) those whose poses were read.
+    const auto listed = [&](bool candidates) {
       std::string s;
       for (const BagTopic& t : contents_.topics)
-        if (!pose || (known_type(t.type) && known_type(t.type)->pose))
+        if (!candidates || poses_.count(t.name))
           s += (s.empty() ? "" : ", ") + t.name + " (" + t.type + ", " + std::to_string(t.messages) + ")";
       return s.empty() ? std::string("none") : s;
     };
@@ -424,11 +468,26 @@ class BagReader {
       throw InputError(path_ + ": --topic " + pose_topic_ + ": the bag has no such topic; its topics: " + listed(false) + cut);
     if (!jaw_topic_.empty() && !has(jaw_topic_))
       throw InputError(path_ + ": --jaw-topic " + jaw_topic_ + ": the bag has no such topic; its topics: " + listed(false) + cut);
+    const auto links = [&] {
+      std::string s;
+      for (const auto& [link, count] : frames_) s += (s.empty() ? "" : ", ") + link + " (" + std::to_string(count) + ")";
+      return s.empty() ? std::string("none") : s;
+    };
+    const KnownType* named = pose_topic_.empty() ? nullptr : known_type(topic_type(pose_topic_));
+    if (named && named->tf && frame_.empty())
+      throw InputError(path_ + ": --topic " + pose_topic_ + ": a tf topic: name the device's frame with --frame; its "
+                       "transforms: " + links());
+    if (!frame_.empty() && poses_.empty())
+      throw InputError(path_ + ": --frame " + frame_ + ": no transform to it in " +
+                       (pose_topic_.empty() ? std::string("the bag's tf topics") : pose_topic_) + "; their transforms: " +
+                       links() + cut);
     if (poses_.empty())
       throw InputError(path_ + ": no pose topic (geometry_msgs/PoseStamped, TransformStamped, Pose or Transform) with "
-                       "messages; its topics: " + listed(false) + cut);
+                       "messages; its topics: " + listed(false) + cut +
+                       (frames_.empty() && !has_tf() ? "" : "; a tf topic's transforms are read with --frame"));
     if (poses_.size() > 1)
       throw InputError(path_ + ": several pose topics: " + listed(true) + "; name the device's with --topic");
+    contents_.frame_parent = frame_parent_;
     contents_.pose_topic = poses_.begin()->first;
     contents_.poses = std::move(poses_.begin()->second);
     for (const BagTopic& t : contents_.topics) {
@@ -440,7 +499,21 @@ class BagReader {
     return std::move(contents_);
   }
 
-  const std::string path_, pose_topic_, jaw_topic_;
+  std::string topic_type(const std::string& name) const {
+    for (const BagTopic& t : contents_.topics)
+      if (t.name == name) return t.type;
+    return "";
+  }
+  bool has_tf() const {
+    return std::any_of(contents_.topics.begin(), contents_.topics.end(), [](const BagTopic& t) {
+      const KnownType* k = known_type(t.type);
+      return k && k->tf;
+    });
+  }
+
+  const std::string path_, pose_topic_, jaw_topic_, frame_;
+  std::vector<std::pair<std::string, std::size_t>> frames_;  // a tf topic's "parent -> child" links, counted
+  std::string frame_parent_;
   std::map<std::uint32_t, Connection> connections_;
   std::map<std::string, std::vector<BagPose>> poses_;  // by topic: the candidates when none is named
   std::vector<unsigned char> chunk_;
@@ -459,9 +532,7 @@ bool bag_jaw_type(const std::string& type) {
   return k && !k->pose;
 }
 
-BagContents read_rosbag(const std::string& path, const std::string& pose_topic, const std::string& jaw_topic) {
-  return BagReader(path, pose_topic, jaw_topic).read();
-}
+BagContents read_rosbag(const std::string& path, const BagRequest& request) { return BagReader(path, request).read(); }
 
 bool rosbag_reads_bz2() {
 #if EBH_HAVE_BZIP2

@@ -6,7 +6,8 @@
 // bag whose recording was stopped before it was indexed, `*.bag.active`, reads up to its last
 // whole record; a record cut short there is left out and counted). Chunks are uncompressed, bz2
 // or lz4 (rosbag record --bz2 / --lz4), each where the build has the library.
-// Pose messages: geometry_msgs/PoseStamped, TransformStamped, Pose and Transform; jaw messages:
+// Pose messages: geometry_msgs/PoseStamped, TransformStamped, Pose and Transform, and the
+// transforms to one child frame in a tf topic (tf2_msgs/TFMessage, tf/tfMessage); jaw messages:
 // sensor_msgs/JointState (its first position) and std_msgs/Float64 or Float32. A type is known by
 // its name and its definition's MD5 sum (a message of another definition under the same name is
 // refused, naming both sums). Sizes are checked against the bytes that hold them before any
@@ -43,9 +44,16 @@ struct BagTopic {
   std::size_t messages = 0;
 };
 
+/// What to read: the pose topic (empty: the bag's only one; with `frame`, its only tf topic with
+/// transforms to that frame), the jaw topic (empty: none), and for a tf topic the child frame.
+struct BagRequest {
+  std::string pose_topic, jaw_topic, frame;
+};
+
 struct BagContents {
   std::vector<BagTopic> topics;     ///< every topic the bag records, in the order first seen
   std::string pose_topic, pose_type, jaw_type;
+  std::string frame_parent;         ///< a tf topic's: the parent frame of the transforms read
   std::vector<BagPose> poses;       ///< the pose topic's messages, in the bag's order
   std::vector<BagJaw> jaw;          ///< the jaw topic's (none without one)
   std::size_t cut_bytes = 0;        ///< bytes of a last record cut short (a recording stopped mid-write), left out
@@ -55,10 +63,9 @@ struct BagContents {
 bool bag_pose_type(const std::string& type);
 bool bag_jaw_type(const std::string& type);
 
-/// Reads the messages of `pose_topic` (empty: the bag's only topic of a pose type) and of
-/// `jaw_topic` (empty: none). Throws InputError naming the file, and the record's byte offset or
-/// the message (topic and its index from 1) where it is wrong.
-BagContents read_rosbag(const std::string& path, const std::string& pose_topic, const std::string& jaw_topic);
+/// Reads the messages `request` names. Throws InputError naming the file, and the record's byte
+/// offset or the message (topic and its index from 1) where it is wrong.
+BagContents read_rosbag(const std::string& path, const BagRequest& request);
 
 /// Whether this build reads bz2 and lz4 chunks.
 bool rosbag_reads_bz2();

@@ -143,7 +143,8 @@ TEST(RosBag, TopicsAreChosenByNameAndType) {
     o.jaw_topic = jaw_topic;
     return import_log(bag, o);
   };
-  EXPECT_INPUT_ERROR(named("/psm3/measured_cp", ""), "topics.bag: --topic /psm3/measured_cp: the bag has no such topic; its topics: /psm1/measured_cp (geometry_msgs/PoseStamped, 20), ");
+  EXPECT_INPUT_ERROR(named("/psm3/measured_cp", ""), "topics.bag: --topic /psm3/measured_cp: the bag has no such topic; its "
+                     "topics: /tf_static (tf2_msgs/TFMessage, 1), /psm1/measured_cp (geometry_msgs/PoseStamped, 20), ");
   EXPECT_INPUT_ERROR(named("/mtm/gripper", ""), "--topic /mtm/gripper: a std_msgs/Float64 topic (a pose is read from");
   EXPECT_INPUT_ERROR(named("/psm1/measured_cp", "/psm2/measured_cp"),
                      "--jaw-topic /psm2/measured_cp: a geometry_msgs/TransformStamped topic (a jaw opening is read from");
@@ -220,4 +221,31 @@ TEST(RosBag, MalformedBagsAreRefusedWithTheirPlace) {
   b = good;
   b[find(b, "compression=none") + 12] = 'x';
   refused("codec.bag", b, {"a chunk compressed as 'xone' (ROS bags use none, bz2 or lz4)"});
+}
+
+TEST(RosBag, ATfTopicGivesTheTransformsToOneFrame) {
+  // /tf holds world -> psm1_base and psm1_base -> psm1_tool in each message; /tf_static world -> camera.
+  const std::string bag = kData + "topics.bag";
+  ImportOptions tool;
+  tool.frame = "psm1_tool";
+  ImportReport report;
+  expect_same(import_log(bag, tool, &report), import_log(kData + "sample.bag", ImportOptions{}));
+  EXPECT_EQ(report.layout_note,
+            "read as a ROS bag: topic /tf (tf2_msgs/TFMessage, 20 messages; 20 transforms psm1_base -> psm1_tool); "
+            "times from the messages' header stamps");
+  const auto refused = [&](const std::string& topic, const std::string& frame) {
+    ImportOptions o;
+    o.topic = topic;
+    o.frame = frame;
+    return import_log(bag, o);
+  };
+  EXPECT_INPUT_ERROR(refused("/tf", ""), "--topic /tf: a tf topic: name the device's frame with --frame; its transforms: "
+                                         "world -> psm1_base (20), psm1_base -> psm1_tool (20)");
+  EXPECT_INPUT_ERROR(refused("", "psm2_tool"), "--frame psm2_tool: no transform to it in the bag's tf topics; their "
+                                               "transforms: world -> camera (1), world -> psm1_base (20), psm1_base -> psm1_tool (20)");
+  EXPECT_INPUT_ERROR(refused("/psm1/measured_cp", "psm1_tool"),
+                     "--frame psm1_tool: --topic /psm1/measured_cp is a geometry_msgs/PoseStamped, not a tf topic");
+  ImportOptions on_csv;
+  on_csv.frame = "psm1_tool";
+  EXPECT_INPUT_ERROR(import_log(kData + "sample.csv", on_csv), "--frame: ", "is not a ROS bag");
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Writes the ROS 1 bags of the import tests with rosbag itself (Debian: python3-rosbag,
-python3-geometry-msgs, python3-sensor-msgs, python3-roslz4); run from this folder:
+python3-geometry-msgs, python3-sensor-msgs, python3-tf2-msgs, python3-roslz4); run from this folder:
     /usr/bin/python3 make_bags.py
 The trajectory is the other sample logs' (sample.csv): sample i = 0..19 at 2 kHz from t = 1.7e9 s,
 position (10 + i, -5 + 0.5 i, 30) mm, a turn of 3 i degrees about z; a gripper closing from
@@ -9,7 +9,9 @@ its header stamp (a bag's record time is when it arrived).
   sample.bag, sample_bz2.bag, sample_lz4.bag: /psm/measured_cp (PoseStamped), /psm/jaw/measured_js
       (JointState), /psm/state (String); the same messages uncompressed, bz2 and lz4.
   topics.bag: /psm1/measured_cp (PoseStamped), /psm2/measured_cp (TransformStamped), /mtm/pose
-      (Pose, no header), /mtm/gripper (Float64, no header).
+      (Pose, no header), /mtm/gripper (Float64, no header), /tf (TFMessage: world -> psm1_base, a
+      fixed shift, and psm1_base -> psm1_tool, the trajectory, in each message) and /tf_static
+      (world -> camera, once).
 """
 import math
 
@@ -18,6 +20,7 @@ import rospy
 from geometry_msgs.msg import Pose, PoseStamped, TransformStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
+from tf2_msgs.msg import TFMessage
 
 
 def sample(i):
@@ -49,18 +52,26 @@ def write_sample(name, compression):
                 bag.write("/psm/state", String(data="ENABLED"), arrive)
 
 
+def transform(t, parent, child, p, q):
+    tf = TransformStamped()
+    tf.header.stamp, tf.header.frame_id, tf.child_frame_id = t, parent, child
+    tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z = p
+    r = tf.transform.rotation
+    r.x, r.y, r.z, r.w = q
+    return tf
+
+
 def write_topics(name):
     with rosbag.Bag(name, "w") as bag:
+        t0 = sample(0)[0]
+        bag.write("/tf_static", TFMessage(transforms=[transform(t0, "world", "camera", (0, 0, 1), (0, 0, 0, 1))]), t0)
         for i in range(20):
             t, p, q, jaw = sample(i)
             arrive = t + rospy.Duration.from_sec(2e-4)
             bag.write("/psm1/measured_cp", pose_stamped(t, p, q), arrive)
-            tf = TransformStamped()
-            tf.header.stamp, tf.header.frame_id, tf.child_frame_id = t, "world", "psm2_tool"
-            tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z = p
-            r = tf.transform.rotation
-            r.x, r.y, r.z, r.w = q
-            bag.write("/psm2/measured_cp", tf, arrive)
+            bag.write("/psm2/measured_cp", transform(t, "world", "psm2_tool", p, q), arrive)
+            base = transform(t, "world", "psm1_base", (0.1, 0, 0), (0, 0, 0, 1))
+            bag.write("/tf", TFMessage(transforms=[base, transform(t, "psm1_base", "psm1_tool", p, q)]), arrive)
             pose = Pose()
             pose.position.x, pose.position.y, pose.position.z = p
             pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = q

@@ -544,7 +544,9 @@ struct TimeUnit {
 /// Returns the pose topic read.
 std::string read_bag(const std::string& path, double unit, const ImportOptions& opt, LogWindow& window, Recording& rec,
                      std::vector<std::size_t>& line_of, bool& has_jaw, std::string& layout_note, std::size_t& cut_bytes) {
-  BagContents bag = read_rosbag(path, BagRequest{opt.topic, opt.jaw_topic, opt.frame});
+  if (!opt.jaw_joint.empty() && opt.jaw_topic.empty())
+    throw InputError("--jaw-joint: " + path + ": the joint is of the jaw topic: give --jaw-topic too");
+  BagContents bag = read_rosbag(path, BagRequest{opt.topic, opt.jaw_topic, opt.frame, opt.jaw_joint});
   cut_bytes = bag.cut_bytes;
   has_jaw = !bag.jaw.empty();
   // The device's clock where every message carries it (a header stamp set), else the bag's.
@@ -585,7 +587,8 @@ std::string read_bag(const std::string& path, double unit, const ImportOptions& 
                                    : "; " + std::to_string(bag.poses.size()) + " transforms " + bag.frame_parent + " -> " +
                                          opt.frame) +
                 ")" +
-                (has_jaw ? ", the jaw from " + opt.jaw_topic + " (" + bag.jaw_type + ", " +
+                (has_jaw ? ", the jaw from " + opt.jaw_topic + (opt.jaw_joint.empty() ? "" : " joint " + opt.jaw_joint) +
+                               " (" + bag.jaw_type + ", " +
                                std::to_string(bag.jaw.size()) + " messages; each pose takes the last at or before it)"
                          : std::string()) +
                 "; times from " + (stamps ? "the messages' header stamps" : "the bag's record times" + why_record);
@@ -738,6 +741,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   const bool bag = fmt == LogFormat::rosbag;
   if (!bag && !opt.topic.empty()) throw InputError("--topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
   if (!bag && !opt.frame.empty()) throw InputError("--frame: " + path + " is not a ROS bag (*.bag): the option names a tf frame");
+  if (!bag && !opt.jaw_joint.empty())
+    throw InputError("--jaw-joint: " + path + " is not a ROS bag (*.bag): the option names a bag's joint");
   if (!bag && !opt.jaw_topic.empty())
     throw InputError("--jaw-topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
   if (bag && opt.time_unit) throw InputError("--time-unit: " + path + " is a ROS bag, whose times are ROS times (seconds)");

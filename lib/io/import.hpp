@@ -64,6 +64,7 @@ struct ImportOptions {
   /// rosbag: the pose topic (--topic; empty: the bag's only one), the jaw topic (--jaw-topic;
   /// empty: none, the jaws open), a tf topic's child frame (--frame: its transforms are the poses)
   std::string topic, jaw_topic, frame;
+  std::string jaw_joint;  ///< rosbag: the joint of a JointState jaw topic (--jaw-joint; empty: its first position)
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
   std::string tool = "hook";

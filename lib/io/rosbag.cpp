@@ -176,14 +176,33 @@ void decode_tf(const unsigned char* p, std::size_t n, const std::string& where, 
   }
 }
 
-BagJaw decode_jaw(const std::string& type, const unsigned char* p, std::size_t n, const std::string& where) {
+/// A jaw message's value: a JointState's position of `joint` (empty: its first), or the number.
+BagJaw decode_jaw(const std::string& type, const std::string& joint, const unsigned char* p, std::size_t n,
+                  const std::string& where) {
   MessageCursor c{p, n, 0, where};
   BagJaw m;
   if (type == "sensor_msgs/JointState") {
     m.t.stamp = c.header();
     const std::uint32_t names = c.count("joint names");
-    for (std::uint32_t i = 0; i < names; ++i) c.skip_string("joint names");
-    if (c.count("positions") == 0) throw InputError(where + ": the joint state has no position");
+    std::uint32_t at = 0;
+    std::string listed;  // the joints' names, for the error
+    bool found = joint.empty();
+    for (std::uint32_t i = 0; i < names; ++i) {
+      const std::string name = c.string("joint names");
+      if (!found && name == joint) {
+        at = i;
+        found = true;
+      }
+      if (listed.size() < 200) listed += (i ? ", " : "") + name;
+    }
+    if (!found)
+      throw InputError(where + ": --jaw-joint " + joint + ": the joint state names no such joint (its joints: " +
+                       (listed.empty() ? std::string("none") : listed) + ")");
+    const std::uint32_t positions = c.count("positions");
+    if (positions <= at)
+      throw InputError(where + ": the joint state has " + std::to_string(positions) + " positions" +
+                       (joint.empty() ? std::string() : ", none for joint " + joint));
+    for (std::uint32_t i = 0; i < at; ++i) (void)c.f64("positions");
     m.value = c.f64("positions");
   } else if (type == "std_msgs/Float64") {
     m.value = c.f64("data");
@@ -281,7 +300,11 @@ struct Connection {
 class BagReader {
  public:
   BagReader(const std::string& path, const BagRequest& request)
-      : path_(path), pose_topic_(request.pose_topic), jaw_topic_(request.jaw_topic), frame_(request.frame) {}
+      : path_(path),
+        pose_topic_(request.pose_topic),
+        jaw_topic_(request.jaw_topic),
+        frame_(request.frame),
+        jaw_joint_(request.jaw_joint) {}
 
   BagContents read() {
     std::ifstream in(path_, std::ios::binary | std::ios::ate);
@@ -397,6 +420,9 @@ class BagReader {
       throw InputError(path_ + ": --frame " + frame_ + ": --topic " + c.topic + " is a " + c.type +
                        ", not a tf topic (tf2_msgs/TFMessage): --frame picks a tf topic's transforms");
     c.jaw = !jaw_topic_.empty() && c.topic == jaw_topic_;
+    if (c.jaw && !jaw_joint_.empty() && c.type != "sensor_msgs/JointState")
+      throw InputError(path_ + ": --jaw-joint " + jaw_joint_ + ": --jaw-topic " + jaw_topic_ + " is a " + c.type +
+                       ", not a sensor_msgs/JointState");
     if (c.jaw && !(k && !k->pose))
       throw InputError(path_ + ": --jaw-topic " + jaw_topic_ + ": a " + c.type + " topic (a jaw opening is read from " +
                        "sensor_msgs/JointState, std_msgs/Float64 or std_msgs/Float32)");
@@ -443,7 +469,7 @@ class BagReader {
       poses_[c.topic].push_back(p);
     }
     if (c.jaw) {
-      BagJaw j = decode_jaw(c.type, body, n, msg);
+      BagJaw j = decode_jaw(c.type, jaw_joint_, body, n, msg);
       j.t.record = record_t;
       contents_.jaw.push_back(j);
     }
@@ -511,7 +537,7 @@ class BagReader {
     });
   }
 
-  const std::string path_, pose_topic_, jaw_topic_, frame_;
+  const std::string path_, pose_topic_, jaw_topic_, frame_, jaw_joint_;
   std::vector<std::pair<std::string, std::size_t>> frames_;  // a tf topic's "parent -> child" links, counted
   std::string frame_parent_;
   std::map<std::uint32_t, Connection> connections_;

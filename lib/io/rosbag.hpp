@@ -8,7 +8,7 @@
 // or lz4 (rosbag record --bz2 / --lz4), each where the build has the library.
 // Pose messages: geometry_msgs/PoseStamped, TransformStamped, Pose and Transform, and the
 // transforms to one child frame in a tf topic (tf2_msgs/TFMessage, tf/tfMessage); jaw messages:
-// sensor_msgs/JointState (its first position) and std_msgs/Float64 or Float32. A type is known by
+// sensor_msgs/JointState (its first position, or a named joint's) and std_msgs/Float64 or Float32. A type is known by
 // its name and its definition's MD5 sum (a message of another definition under the same name is
 // refused, naming both sums). Sizes are checked against the bytes that hold them before any
 // allocation.
@@ -45,9 +45,10 @@ struct BagTopic {
 };
 
 /// What to read: the pose topic (empty: the bag's only one; with `frame`, its only tf topic with
-/// transforms to that frame), the jaw topic (empty: none), and for a tf topic the child frame.
+/// transforms to that frame), the jaw topic (empty: none), for a tf topic the child frame, and for
+/// a JointState jaw topic the joint (empty: its first position).
 struct BagRequest {
-  std::string pose_topic, jaw_topic, frame;
+  std::string pose_topic, jaw_topic, frame, jaw_joint;
 };
 
 struct BagContents {

@@ -249,3 +249,25 @@ TEST(RosBag, ATfTopicGivesTheTransformsToOneFrame) {
   on_csv.frame = "psm1_tool";
   EXPECT_INPUT_ERROR(import_log(kData + "sample.csv", on_csv), "--frame: ", "is not a ROS bag");
 }
+
+TEST(RosBag, AJointOfSeveralGivesTheJaw) {
+  // /psm1/joint_states: yaw, pitch and jaw; the gripper is the third.
+  const std::string bag = kData + "topics.bag";
+  ImportOptions o = with_jaw("/psm1/measured_cp", "/psm1/joint_states");
+  o.jaw_joint = "jaw";
+  ImportReport report;
+  const Recording r = import_log(bag, o, &report);
+  ASSERT_EQ(r.size(), 20u);
+  for (std::size_t i = 0; i < r.size(); ++i) EXPECT_NEAR(r.jaw[i], 1.0 - static_cast<double>(i) / 19.0, 1e-12) << i;
+  EXPECT_NE(report.layout_note.find("the jaw from /psm1/joint_states joint jaw (sensor_msgs/JointState, 20 messages"),
+            std::string::npos)
+      << report.layout_note;
+  o.jaw_joint = "roll";
+  EXPECT_INPUT_ERROR(import_log(bag, o), "topics.bag: /psm1/joint_states message 1: --jaw-joint roll: the joint state names "
+                                         "no such joint (its joints: yaw, pitch, jaw)");
+  o = with_jaw("/psm1/measured_cp", "/mtm/gripper");
+  o.jaw_joint = "jaw";
+  EXPECT_INPUT_ERROR(import_log(bag, o), "--jaw-joint jaw: --jaw-topic /mtm/gripper is a std_msgs/Float64, not a sensor_msgs/JointState");
+  o.jaw_topic.clear();
+  EXPECT_INPUT_ERROR(import_log(bag, o), "--jaw-joint: ", "give --jaw-topic too");
+}

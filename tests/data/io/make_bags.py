@@ -11,7 +11,7 @@ its header stamp (a bag's record time is when it arrived).
   topics.bag: /psm1/measured_cp (PoseStamped), /psm2/measured_cp (TransformStamped), /mtm/pose
       (Pose, no header), /mtm/gripper (Float64, no header), /tf (TFMessage: world -> psm1_base, a
       fixed shift, and psm1_base -> psm1_tool, the trajectory, in each message) and /tf_static
-      (world -> camera, once).
+      (world -> camera, once), /psm1/joint_states (JointState: yaw, pitch, jaw; the gripper third).
 """
 import math
 
@@ -77,6 +77,9 @@ def write_topics(name):
             pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = q
             bag.write("/mtm/pose", pose, arrive)
             bag.write("/mtm/gripper", Float64(data=jaw), arrive)
+            js = JointState()
+            js.header.stamp, js.name, js.position = t, ["yaw", "pitch", "jaw"], [0.1 * i, -0.1 * i, jaw]
+            bag.write("/psm1/joint_states", js, arrive)
 
 
 write_sample("sample.bag", "none")

@@ -22,7 +22,7 @@ done
 BUILD_DIR=${BUILD_DIR:-build}
 JOBS=${JOBS:-$(nproc)}
 PACKAGES=(build-essential cmake ninja-build pkg-config libeigen3-dev libhdf5-dev libcli11-dev
-          libgtest-dev libgmock-dev libbenchmark-dev libyaml-cpp-dev libpng-dev zlib1g-dev libbz2-dev liblz4-dev libosmesa6-dev
+          libgtest-dev libgmock-dev libbenchmark-dev libyaml-cpp-dev libpng-dev zlib1g-dev libbz2-dev liblz4-dev libzstd-dev libosmesa6-dev
           python3 python3-h5py python3-matplotlib python3-numpy
           slurmctld slurmd slurm-client munge)  # the last four: ebh sweep's Slurm test (tests/sweep/slurm.sh)
 

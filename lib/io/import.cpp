@@ -13,6 +13,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <tuple>
 #include <utility>
 
 #include "core/error.hpp"
@@ -541,8 +542,8 @@ struct TimeUnit {
 };
 /// A ROS bag's pose topic (io/rosbag.hpp) as samples (line_of: the message's index in the
 /// topic, from 1), positions times `unit`; the jaw from the jaw topic, if any (has_jaw).
-/// Returns the pose topic read.
-std::string read_bag(const std::string& path, double unit, const ImportOptions& opt, LogWindow& window, Recording& rec,
+/// Returns the bag's kind ("ROS 1 bag") and the pose topic read.
+std::pair<std::string, std::string> read_bag(const std::string& path, double unit, const ImportOptions& opt, LogWindow& window, Recording& rec,
                      std::vector<std::size_t>& line_of, bool& has_jaw, std::string& layout_note, std::size_t& cut_bytes) {
   if (!opt.jaw_joint.empty() && opt.jaw_topic.empty())
     throw InputError("--jaw-joint: " + path + ": the joint is of the jaw topic: give --jaw-topic too");
@@ -581,7 +582,7 @@ std::string read_bag(const std::string& path, double unit, const ImportOptions& 
   const std::size_t messages = std::find_if(bag.topics.begin(), bag.topics.end(), [&](const BagTopic& t) {
                                  return t.name == bag.pose_topic;
                                })->messages;
-  layout_note = "read as a ROS bag: topic " + bag.pose_topic + " (" + bag.pose_type + ", " + std::to_string(messages) +
+  layout_note = "read as a " + bag.kind + ": topic " + bag.pose_topic + " (" + bag.pose_type + ", " + std::to_string(messages) +
                 " messages" +
                 (opt.frame.empty() ? std::string()
                                    : "; " + std::to_string(bag.poses.size()) + " transforms " + bag.frame_parent + " -> " +
@@ -592,7 +593,7 @@ std::string read_bag(const std::string& path, double unit, const ImportOptions& 
                                std::to_string(bag.jaw.size()) + " messages; each pose takes the last at or before it)"
                          : std::string()) +
                 "; times from " + (stamps ? "the messages' header stamps" : "the bag's record times" + why_record);
-  return bag.pose_topic;
+  return {bag.kind, bag.pose_topic};
 }
 
 TimeUnit likely_time_unit(double rate_hz) {
@@ -683,7 +684,7 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
 LogFormat log_format_of(const std::string& path) {
   const std::string ext = lower_extension(path);
   if (ext == ".csv") return LogFormat::csv;
-  if (ext == ".bag" || (ext == ".active" && lower_extension(path.substr(0, path.size() - 7)) == ".bag"))
+  if (ext == ".bag" || ext == ".mcap" || ext == ".db3" || (ext == ".active" && lower_extension(path.substr(0, path.size() - 7)) == ".bag"))
     return LogFormat::rosbag;
   return LogFormat::openhaptics;
 }
@@ -748,12 +749,12 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   if (bag && opt.time_unit) throw InputError("--time-unit: " + path + " is a ROS bag, whose times are ROS times (seconds)");
   if (bag && opt.rate_hz) throw InputError("--rate: " + path + " is a ROS bag, whose messages carry their times");
   std::size_t cut_bytes = 0;
-  std::string topic;  // a bag's pose topic
+  std::string bag_kind, topic;  // a bag's kind and pose topic
   try {
     if (fmt == LogFormat::openhaptics)
       read_openhaptics(path, unit, rate_hz, opt.max_samples, window, rec, line_of, left_out);
     else if (bag) {
-      topic = read_bag(path, unit, opt, window, rec, line_of, csv_has_jaw, layout_note, cut_bytes);
+      std::tie(bag_kind, topic) = read_bag(path, unit, opt, window, rec, line_of, csv_has_jaw, layout_note, cut_bytes);
       has_t = true;
     } else
       read_csv(path, unit, rate_hz, time_unit, opt.max_samples, window, rec, line_of, has_t, csv_has_jaw, left_out,
@@ -790,7 +791,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   rec.scene = opt.scene;
   rec.tool = opt.tool;
   rec.description = std::string("imported from ") + path + " (" +
-                    (fmt == LogFormat::csv ? "csv" : bag ? "ROS bag, topic " + topic : "openhaptics") + ")";
+                    (fmt == LogFormat::csv ? "csv" : bag ? bag_kind + ", topic " + topic : "openhaptics") + ")";
   // What was baked into the poses, for a reader (rec.baked is the record replay checks).
   if (opt.mirror)
     rec.description += std::string("; a left-handed log, its ") + static_cast<char>('x' + *opt.mirror) + " axis reversed";

@@ -138,7 +138,8 @@ struct ImportReport {
 inline constexpr double kLogGapFactor = 10;
 
 /// The format a log's name implies: csv for a `.csv` extension in any case (`LOG.CSV` too),
-/// rosbag for `.bag` (and `.bag.active`, a recording stopped before rosbag indexed it),
+/// rosbag for `.bag` (and `.bag.active`, a recording stopped before rosbag indexed it), `.mcap`
+/// (ROS 2) and `.db3` (ROS 2's sqlite3 storage, refused saying how to convert it),
 /// openhaptics for any other.
 LogFormat log_format_of(const std::string& path);
 

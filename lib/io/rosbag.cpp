@@ -1,4 +1,4 @@
-// ROS 1 bags, format 2.0 (io/rosbag.hpp).
+// ROS bags: ROS 1's format 2.0 and ROS 2's MCAP (io/rosbag.hpp).
 #include "io/rosbag.hpp"
 
 #include <algorithm>
@@ -13,6 +13,9 @@
 #endif
 #if EBH_HAVE_LZ4
 #include <lz4frame.h>
+#endif
+#if EBH_HAVE_ZSTD
+#include <zstd.h>
 #endif
 
 namespace ebh {
@@ -57,6 +60,45 @@ std::uint32_t u32(const unsigned char* p) {
   return std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16 | std::uint32_t(p[3]) << 24;
 }
 
+std::uint64_t u64(const unsigned char* p) { return std::uint64_t(u32(p)) | std::uint64_t(u32(p + 4)) << 32; }
+
+// MCAP (ROS 2's default bag storage): its magic and the record opcodes read.
+constexpr char kMcapMagic[] = "\x89MCAP0\r\n";
+constexpr std::size_t kMcapMagicSize = 8;
+constexpr std::uint8_t kMcapFooter = 0x02, kMcapSchema = 0x03, kMcapChannel = 0x04, kMcapMessage = 0x05, kMcapChunk = 0x06,
+                       kMcapDataEnd = 0x0f;
+
+/// An MCAP record's fields, read in order (little-endian; strings with a uint32 length).
+struct McapFields {
+  const unsigned char* p;
+  std::size_t n, pos = 0;
+  const std::string& where;
+  void need(std::uint64_t k) const {
+    if (k > n - pos) throw InputError(where + ": a field overruns its record (" + std::to_string(n) + " bytes)");
+  }
+  std::uint16_t u16() {
+    need(2);
+    pos += 2;
+    return static_cast<std::uint16_t>(p[pos - 2] | p[pos - 1] << 8);
+  }
+  std::uint32_t u32() {
+    need(4);
+    pos += 4;
+    return ebh::u32(p + pos - 4);
+  }
+  std::uint64_t u64() {
+    need(8);
+    pos += 8;
+    return ebh::u64(p + pos - 8);
+  }
+  std::string string() {
+    const std::uint32_t len = u32();
+    need(len);
+    pos += len;
+    return std::string(reinterpret_cast<const char*>(p + pos - len), len);
+  }
+};
+
 /// A record's header fields (name=value, the value raw bytes), or a connection record's data.
 using Fields = std::map<std::string, std::string>;
 
@@ -92,17 +134,24 @@ std::uint32_t field_u32(const Fields& f, const char* name, const std::string& wh
 /// A ROS time (uint32 seconds, uint32 nanoseconds) in seconds.
 double ros_time(const unsigned char* p) { return u32(p) + 1e-9 * u32(p + 4); }
 
-/// A message's bytes, read in order (ROS 1 serialisation: little-endian, strings and arrays with a
-/// uint32 count before them).
+/// A message's bytes, read in order: ROS 1's serialisation (little-endian, strings and arrays
+/// with a uint32 count before them, nothing aligned) or ROS 2's CDR (the same, after a 4-byte
+/// encapsulation header, each number aligned to its size from the payload's start, strings with
+/// a closing NUL in their count, a Header without seq).
 struct MessageCursor {
   const unsigned char* p;
   std::size_t n, pos = 0;
   const std::string& where;
+  bool cdr = false;
   void need(std::size_t k, const char* what) const {
     if (k > n - pos)
       throw InputError(where + ": the message ends (" + std::to_string(n) + " bytes) inside its " + what);
   }
+  void align(std::size_t k) {
+    if (cdr) pos = std::min(n, (pos + k - 1) / k * k);
+  }
   std::uint32_t count(const char* what) {
+    align(4);
     need(4, what);
     const std::uint32_t c = u32(p + pos);
     pos += 4;
@@ -112,10 +161,13 @@ struct MessageCursor {
     const std::uint32_t len = count(what);
     need(len, what);
     pos += len;
-    return std::string(reinterpret_cast<const char*>(p + pos - len), len);
+    std::string text(reinterpret_cast<const char*>(p + pos - len), len);
+    if (cdr && !text.empty() && text.back() == '\0') text.pop_back();
+    return text;
   }
   void skip_string(const char* what) { (void)string(what); }
   double f64(const char* what) {
+    align(8);
     need(8, what);
     double v;
     std::memcpy(&v, p + pos, 8);  // little-endian, as x86 and ARM
@@ -123,17 +175,20 @@ struct MessageCursor {
     return v;
   }
   float f32(const char* what) {
+    align(4);
     need(4, what);
     float v;
     std::memcpy(&v, p + pos, 4);
     pos += 4;
     return v;
   }
-  /// std_msgs/Header: seq, stamp, frame_id; returns the stamp (s), the frame into `frame_id`.
+  /// std_msgs/Header: (ROS 1: seq,) stamp, frame_id; returns the stamp (s), the frame into `frame_id`.
   double header(std::string* frame_id = nullptr) {
-    need(12, "header");
-    const double stamp = ros_time(p + pos + 4);
-    pos += 12;
+    const std::size_t seq = cdr ? 0 : 4;
+    align(4);
+    need(seq + 8, "header");
+    const double stamp = ros_time(p + pos + seq);
+    pos += seq + 8;
     std::string frame = string("header's frame_id");
     if (frame_id) *frame_id = std::move(frame);
     return stamp;
@@ -148,8 +203,18 @@ struct MessageCursor {
   }
 };
 
-BagPose decode_pose(const std::string& type, const unsigned char* p, std::size_t n, const std::string& where) {
-  MessageCursor c{p, n, 0, where};
+/// The cursor over a message of `encoding` (ros1, or cdr: its encapsulation header checked).
+MessageCursor cursor(const unsigned char* p, std::size_t n, const std::string& where, bool cdr) {
+  if (!cdr) return MessageCursor{p, n, 0, where, false};
+  if (n < 4) throw InputError(where + ": the message ends (" + std::to_string(n) + " bytes) inside its CDR header");
+  if (p[0] != 0 || (p[1] != 1 && p[1] != 0))
+    throw InputError(where + ": a CDR encapsulation of kind " + std::to_string(p[1]) + " (a ROS 2 message is plain CDR)");
+  if (p[1] == 0) throw InputError(where + ": a big-endian CDR message (only little-endian ones are read)");
+  return MessageCursor{p + 4, n - 4, 0, where, true};
+}
+
+BagPose decode_pose(const std::string& type, const unsigned char* p, std::size_t n, const std::string& where, bool cdr) {
+  MessageCursor c = cursor(p, n, where, cdr);
   BagPose m;
   if (type == "geometry_msgs/PoseStamped" || type == "geometry_msgs/TransformStamped") m.t.stamp = c.header();
   if (type == "geometry_msgs/TransformStamped") c.skip_string("child_frame_id");
@@ -162,8 +227,8 @@ BagPose decode_pose(const std::string& type, const unsigned char* p, std::size_t
 /// A tf message's transforms: each one's parent and child frames and its pose (stamp, translation,
 /// rotation) to `each(parent, child, pose)`.
 template <class Each>
-void decode_tf(const unsigned char* p, std::size_t n, const std::string& where, Each&& each) {
-  MessageCursor c{p, n, 0, where};
+void decode_tf(const unsigned char* p, std::size_t n, const std::string& where, bool cdr, Each&& each) {
+  MessageCursor c = cursor(p, n, where, cdr);
   const std::uint32_t count = c.count("transforms");
   for (std::uint32_t i = 0; i < count; ++i) {  // each at least 80 bytes: the cursor ends a false count
     BagPose m;
@@ -178,8 +243,8 @@ void decode_tf(const unsigned char* p, std::size_t n, const std::string& where, 
 
 /// A jaw message's value: a JointState's position of `joint` (empty: its first), or the number.
 BagJaw decode_jaw(const std::string& type, const std::string& joint, const unsigned char* p, std::size_t n,
-                  const std::string& where) {
-  MessageCursor c{p, n, 0, where};
+                  const std::string& where, bool cdr) {
+  MessageCursor c = cursor(p, n, where, cdr);
   BagJaw m;
   if (type == "sensor_msgs/JointState") {
     m.t.stamp = c.header();
@@ -287,7 +352,34 @@ void decompress_chunk(const std::string& compression, const unsigned char* data,
                      "`rosbag decompress` the bag, or rebuild with it");
 #endif
   }
-  throw InputError(where + ": a chunk compressed as '" + compression + "' (ROS bags use none, bz2 or lz4)");
+  if (compression == "zstd") {
+#if EBH_HAVE_ZSTD
+    ZSTD_DStream* z = ZSTD_createDStream();
+    if (!z) throw std::bad_alloc();
+    ZSTD_inBuffer input{data, size, 0};
+    std::size_t rc = 1;
+    while (rc != 0) {
+      const std::size_t free = room();
+      if (free == 0) break;  // full, and the frame goes on
+      ZSTD_outBuffer output{out.data() + produced, free, 0};
+      rc = ZSTD_decompressStream(z, &output, &input);
+      produced += output.pos;
+      if (ZSTD_isError(rc)) {
+        const std::string name = ZSTD_getErrorName(rc);
+        ZSTD_freeDStream(z);
+        throw InputError(where + ": a zstd chunk that does not decompress (" + name + ")");
+      }
+      if (input.pos == input.size && output.pos == 0) break;  // no progress: the input ended
+    }
+    ZSTD_freeDStream(z);
+    if (rc != 0 || produced != out_size) throw wrong_size(" zstd");
+    return;
+#else
+    throw InputError(where + ": a zstd-compressed chunk, and this build of ebh has no zstd library (libzstd-dev): "
+                     "`mcap decompress` the bag, or rebuild with it");
+#endif
+  }
+  throw InputError(where + ": a chunk compressed as '" + compression + "' (ROS bags use none, bz2, lz4 or zstd)");
 }
 
 /// What the reader keeps of a connection.
@@ -295,6 +387,7 @@ struct Connection {
   std::string topic, type;
   bool pose = false, jaw = false;  // of the requested (or a candidate) pose topic, of the jaw topic
   bool tf = false;                 // a tf topic (its transforms to the requested frame are the poses)
+  bool cdr = false;                // ROS 2's serialisation (MCAP), else ROS 1's
 };
 
 class BagReader {
@@ -314,15 +407,21 @@ class BagReader {
     char head[16] = {};
     in.read(head, std::min<std::size_t>(size, sizeof head));
     const std::string start(head, std::min<std::size_t>(size, sizeof head));
+    if (start.compare(0, kMcapMagicSize, kMcapMagic, kMcapMagicSize) == 0) {
+      contents_.kind = "ROS 2 bag (MCAP)";
+      read_mcap(in, size);
+      return finish();
+    }
     if (start.compare(0, kMagicSize, kMagic) != 0) {
       if (start.rfind("#ROSRECORD V1.", 0) == 0 || start.rfind("#ROSBAG V1.", 0) == 0)
         throw InputError(path_ + ": a ROS bag of format 1.x: only format 2.0 (ROS since 2010) is read; play and "
                          "record it again with a current ROS 1");
-      if (start.rfind("SQLite format 3", 0) == 0 || start.rfind("\x89MCAP", 0) == 0)
-        throw InputError(path_ + ": a ROS 2 bag (" + (start[0] == 'S' ? "sqlite3" : "MCAP") +
-                         "): only ROS 1 bags are read; export the pose topic to CSV (ros2 topic echo --csv) and import that");
-      throw InputError(path_ + ": not a ROS bag (it does not start with \"#ROSBAG V2.0\")");
+      if (start.rfind("SQLite format 3", 0) == 0)
+        throw InputError(path_ + ": a ROS 2 bag in sqlite3 (.db3): only MCAP ROS 2 bags are read; convert it "
+                         "(ros2 bag convert, storage_id mcap) or export the pose topic to CSV (ros2 topic echo --csv)");
+      throw InputError(path_ + ": not a ROS bag (it starts neither with \"#ROSBAG V2.0\" nor with MCAP's magic)");
     }
+    contents_.kind = "ROS 1 bag";
     // The file's records, each read whole (a chunk is at most kMaxChunkBytes): a bag of camera
     // topics may be far larger than memory.
     std::size_t pos = kMagicSize;
@@ -399,20 +498,123 @@ class BagReader {
     }
   }
 
+  /// An MCAP file's data section (mcap.dev/spec): its Schema, Channel and Message records, and those
+  /// of its chunks, up to DataEnd or the Footer (the summary after them repeats what is read). A
+  /// record cut short at the end is left out, as a ROS 1 bag's.
+  void read_mcap(std::ifstream& in, std::size_t size) {
+    std::size_t pos = kMcapMagicSize;
+    in.seekg(static_cast<std::streamoff>(pos));
+    std::vector<unsigned char> body;
+    while (pos < size) {
+      const std::string where = at_byte(pos);
+      unsigned char head[9];
+      if (size - pos < 9) break;
+      in.read(reinterpret_cast<char*>(head), 9);
+      const std::uint8_t op = head[0];
+      const std::uint64_t len = u64(head + 1);
+      if (len > size - pos - 9) break;
+      if (op == kMcapDataEnd || op == kMcapFooter) {
+        pos = size;
+        break;
+      }
+      if (op == kMcapSchema || op == kMcapChannel || op == kMcapMessage || op == kMcapChunk) {
+        if (len > kMaxChunkBytes)
+          throw InputError(where + ": a record of " + std::to_string(len) + " bytes (more than 1 GiB)");
+        body.resize(len);
+        in.read(reinterpret_cast<char*>(body.data()), static_cast<std::streamsize>(len));
+        if (!in) throw InputError(where + ": the bag cannot be read here");
+        mcap_record(op, body.data(), len, where, true, pos);
+      } else {  // attachments, indexes, metadata: not needed
+        in.seekg(static_cast<std::streamoff>(len), std::ios::cur);
+      }
+      pos += 9 + len;
+    }
+    contents_.cut_bytes = size - pos;
+  }
+
+  /// One MCAP record of the data section (`top`) or of a chunk.
+  void mcap_record(std::uint8_t op, const unsigned char* p, std::size_t n, const std::string& where, bool top,
+                   std::size_t at) {
+    McapFields f{p, n, 0, where};
+    switch (op) {
+      case kMcapSchema: {
+        const std::uint16_t id = f.u16();
+        std::string name = f.string(), encoding = f.string();
+        schemas_[id] = encoding == "ros2msg" || encoding == "ros2idl" ? name : "(" + encoding + ") " + name;
+        break;
+      }
+      case kMcapChannel: {
+        const std::uint16_t id = f.u16(), schema = f.u16();
+        const std::string topic = f.string(), encoding = f.string();
+        if (connections_.count(id)) break;  // a chunk may repeat its channels
+        const auto type = schemas_.find(schema);
+        if (type == schemas_.end()) throw InputError(where + ": channel " + topic + " names schema " + std::to_string(schema) + " before it");
+        // A message encoding other than ROS 2's CDR: its type is not one read here.
+        add_connection(id, topic, encoding == "cdr" ? type->second : "(" + encoding + ") " + type->second, "*", true, where);
+        break;
+      }
+      case kMcapMessage: {
+        const std::uint16_t channel = f.u16();
+        (void)f.u32();  // sequence
+        const std::uint64_t log_ns = f.u64();
+        (void)f.u64();  // publish time
+        on_message(channel, static_cast<double>(log_ns / 1000000000u) + 1e-9 * static_cast<double>(log_ns % 1000000000u),
+                   p + f.pos, n - f.pos, where);
+        break;
+      }
+      case kMcapChunk: {
+        if (!top) throw InputError(where + ": a chunk inside a chunk");
+        (void)f.u64();  // the messages' first and last log times
+        (void)f.u64();
+        const std::uint64_t out_size = f.u64();
+        (void)f.u32();  // CRC
+        const std::string compression = f.string();
+        const std::uint64_t records = f.u64();
+        f.need(records);
+        if (out_size > kMaxChunkBytes) throw InputError(where + ": a chunk of " + std::to_string(out_size) + " bytes (more than 1 GiB)");
+        decompress_chunk(compression.empty() ? "none" : compression, p + f.pos, records,
+                         static_cast<std::uint32_t>(out_size), chunk_, where);
+        std::size_t pos = 0;
+        while (pos < chunk_.size()) {
+          const std::string inner = at_byte(at) + " (a chunk), its byte " + std::to_string(pos);
+          if (chunk_.size() - pos < 9) throw InputError(inner + ": a record's opcode and length overrun the chunk");
+          const std::uint64_t len = u64(chunk_.data() + pos + 1);
+          if (len > chunk_.size() - pos - 9) throw InputError(inner + ": a record's content overruns the chunk");
+          const std::uint8_t inner_op = chunk_[pos];
+          if (inner_op == kMcapSchema || inner_op == kMcapChannel || inner_op == kMcapMessage)
+            mcap_record(inner_op, chunk_.data() + pos + 9, len, inner, false, at);
+          pos += 9 + len;
+        }
+        break;
+      }
+      default: break;
+    }
+  }
+
+  /// A ROS 1 connection record.
   void connection(const Fields& f, const unsigned char* body, std::size_t n, const std::string& where) {
     const std::uint32_t id = field_u32(f, "conn", where);
     if (connections_.count(id)) return;  // the index section repeats the chunks' connection records
     const Fields d = parse_fields(body, n, where);
+    const auto md5 = d.find("md5sum");
+    add_connection(id, field(f, "topic", where), field(d, "type", where), md5 == d.end() ? "*" : md5->second, false,
+                   where);
+  }
+
+  /// A connection (ROS 1) or channel (MCAP) of a topic: `md5` the definition's sum (ROS 1; "*"
+  /// unknown), `cdr` its messages in ROS 2's CDR. A ROS 2 type name (pkg/msg/Type) is known as
+  /// ROS 1's (pkg/Type), whose messages hold the same fields.
+  void add_connection(std::uint32_t id, const std::string& topic, std::string type, const std::string& md5, bool cdr,
+                      const std::string& where) {
+    if (const auto msg = type.find("/msg/"); cdr && msg != std::string::npos) type.erase(msg, 4);
     Connection c;
-    c.topic = field(f, "topic", where);
-    c.type = field(d, "type", where);
+    c.topic = topic;
+    c.type = type;
+    c.cdr = cdr;
     const KnownType* k = known_type(c.type);
-    if (k) {
-      const auto md5 = d.find("md5sum");
-      if (md5 != d.end() && md5->second != k->md5 && md5->second != "*")
-        throw InputError(where + ": topic " + c.topic + ": a " + c.type + " of another definition (MD5 " + md5->second +
-                         ", the standard message's " + k->md5 + ")");
-    }
+    if (k && md5 != k->md5 && md5 != "*")
+      throw InputError(where + ": topic " + c.topic + ": a " + c.type + " of another definition (MD5 " + md5 +
+                       ", the standard message's " + k->md5 + ")");
     // A tf topic is read for a frame (--frame), and then only tf topics are.
     c.tf = k && k->tf;
     c.pose = k && k->pose && (pose_topic_.empty() ? c.tf == !frame_.empty() : c.topic == pose_topic_);
@@ -435,13 +637,18 @@ class BagReader {
     connections_.emplace(id, std::move(c));
   }
 
+  /// A ROS 1 message data record.
   void message(const Fields& f, const unsigned char* body, std::size_t n, const std::string& where) {
-    const std::uint32_t id = field_u32(f, "conn", where);
-    const auto it = connections_.find(id);
-    if (it == connections_.end()) throw InputError(where + ": a message of connection " + std::to_string(id) + " before its connection record");
     const std::string& time = field(f, "time", where);
     if (time.size() != 8) throw InputError(where + ": a message's time of " + std::to_string(time.size()) + " bytes");
-    const double record_t = ros_time(reinterpret_cast<const unsigned char*>(time.data()));
+    on_message(field_u32(f, "conn", where), ros_time(reinterpret_cast<const unsigned char*>(time.data())), body, n, where);
+  }
+
+  /// A message of connection (channel) `id`, recorded at record_t (s).
+  void on_message(std::uint32_t id, double record_t, const unsigned char* body, std::size_t n, const std::string& where) {
+    const auto it = connections_.find(id);
+    if (it == connections_.end())
+      throw InputError(where + ": a message of connection " + std::to_string(id) + " before its connection record");
     const Connection& c = it->second;
     auto topic = std::find_if(contents_.topics.begin(), contents_.topics.end(),
                               [&](const BagTopic& b) { return b.name == c.topic; });
@@ -450,7 +657,7 @@ class BagReader {
       throw InputError(where + ": topic " + c.topic + " holds both " + topic->type + " and " + c.type + " messages");
     const std::string msg = path_ + ": " + c.topic + " message " + std::to_string(index);
     if (c.pose && c.tf) {
-      decode_tf(body, n, msg, [&](const std::string& parent, const std::string& child, BagPose p) {
+      decode_tf(body, n, msg, c.cdr, [&](const std::string& parent, const std::string& child, BagPose p) {
         const std::string link = parent + " -> " + child;
         auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& seen_link) { return seen_link.first == link; });
         if (seen == frames_.end()) frames_.emplace_back(link, 1);
@@ -464,12 +671,12 @@ class BagReader {
         poses_[c.topic].push_back(p);
       });
     } else if (c.pose) {
-      BagPose p = decode_pose(c.type, body, n, msg);
+      BagPose p = decode_pose(c.type, body, n, msg, c.cdr);
       p.t.record = record_t;
       poses_[c.topic].push_back(p);
     }
     if (c.jaw) {
-      BagJaw j = decode_jaw(c.type, jaw_joint_, body, n, msg);
+      BagJaw j = decode_jaw(c.type, jaw_joint_, body, n, msg, c.cdr);
       j.t.record = record_t;
       contents_.jaw.push_back(j);
     }
@@ -540,6 +747,7 @@ class BagReader {
   const std::string path_, pose_topic_, jaw_topic_, frame_, jaw_joint_;
   std::vector<std::pair<std::string, std::size_t>> frames_;  // a tf topic's "parent -> child" links, counted
   std::string frame_parent_;
+  std::map<std::uint16_t, std::string> schemas_;  // MCAP: a schema's message type
   std::map<std::uint32_t, Connection> connections_;
   std::map<std::string, std::vector<BagPose>> poses_;  // by topic: the candidates when none is named
   std::vector<unsigned char> chunk_;
@@ -562,6 +770,14 @@ BagContents read_rosbag(const std::string& path, const BagRequest& request) { re
 
 bool rosbag_reads_bz2() {
 #if EBH_HAVE_BZIP2
+  return true;
+#else
+  return false;
+#endif
+}
+
+bool rosbag_reads_zstd() {
+#if EBH_HAVE_ZSTD
   return true;
 #else
   return false;

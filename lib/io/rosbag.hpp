@@ -1,16 +1,18 @@
 #pragma once
-// ROS 1 bags (the rosbag format 2.0 that `rosbag record` writes, wiki.ros.org/Bags/Format/2.0):
-// the messages of a pose topic, and optionally of a jaw topic, for `ebh import` (io/import.hpp).
+// ROS bags: ROS 1's (the rosbag format 2.0 that `rosbag record` writes, wiki.ros.org/Bags/Format/2.0)
+// and ROS 2's MCAP files (`ros2 bag record`'s default storage, mcap.dev/spec): the messages of a
+// pose topic, and optionally of a jaw topic, for `ebh import` (io/import.hpp).
 //
 // The records are read in file order from the start (the index at the end is not needed, so a
 // bag whose recording was stopped before it was indexed, `*.bag.active`, reads up to its last
 // whole record; a record cut short there is left out and counted). Chunks are uncompressed, bz2
-// or lz4 (rosbag record --bz2 / --lz4), each where the build has the library.
+// or lz4 (rosbag record --bz2 / --lz4), zstd or lz4 in MCAP, each where the build has the library.
 // Pose messages: geometry_msgs/PoseStamped, TransformStamped, Pose and Transform, and the
 // transforms to one child frame in a tf topic (tf2_msgs/TFMessage, tf/tfMessage); jaw messages:
-// sensor_msgs/JointState (its first position, or a named joint's) and std_msgs/Float64 or Float32. A type is known by
-// its name and its definition's MD5 sum (a message of another definition under the same name is
-// refused, naming both sums). Sizes are checked against the bytes that hold them before any
+// sensor_msgs/JointState (its first position, or a named joint's) and std_msgs/Float64 or Float32.
+// A ROS 1 type is known by its name and its definition's MD5 sum (a message of another definition
+// under the same name is refused, naming both sums); a ROS 2 type by its name (pkg/msg/Type, CDR
+// encoded; MCAP holds no sum). Sizes are checked against the bytes that hold them before any
 // allocation.
 #include <cstddef>
 #include <cstdint>
@@ -52,6 +54,7 @@ struct BagRequest {
 };
 
 struct BagContents {
+  std::string kind;                 ///< "ROS 1 bag" or "ROS 2 bag (MCAP)"
   std::vector<BagTopic> topics;     ///< every topic the bag records, in the order first seen
   std::string pose_topic, pose_type, jaw_type;
   std::string frame_parent;         ///< a tf topic's: the parent frame of the transforms read
@@ -68,8 +71,9 @@ bool bag_jaw_type(const std::string& type);
 /// offset or the message (topic and its index from 1) where it is wrong.
 BagContents read_rosbag(const std::string& path, const BagRequest& request);
 
-/// Whether this build reads bz2 and lz4 chunks.
+/// Whether this build reads bz2, lz4 and zstd chunks.
 bool rosbag_reads_bz2();
 bool rosbag_reads_lz4();
+bool rosbag_reads_zstd();
 
 }  // namespace ebh

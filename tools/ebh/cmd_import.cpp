@@ -182,11 +182,11 @@ void run(const ImportArgs& a) {
 void setup(CLI::App& root) {
   auto args = std::make_shared<ImportArgs>();
   CLI::App* c =
-      root.add_subcommand("import", "Convert a device log (OpenHaptics transforms, CSV or a ROS bag) to a recording");
-  c->add_option("log", args->log, "device log (text, or a ROS 1 bag)")->required();
+      root.add_subcommand("import", "Convert a device log (OpenHaptics transforms, CSV or a ROS 1/2 bag) to a recording");
+  c->add_option("log", args->log, "device log (text, a ROS 1 bag or a ROS 2 MCAP file)")->required();
   c->add_option("-o,--output", args->output, "recording to write (HDF5)")->required();
   c->add_option("--format", args->format,
-                "openhaptics, csv or rosbag (default: csv for *.csv, rosbag for *.bag, else openhaptics)");
+                "openhaptics, csv or rosbag (default: csv for *.csv, rosbag for *.bag and *.mcap, else openhaptics)");
   c->add_option("--topic", args->topic,
                 "rosbag: the device's pose topic (geometry_msgs/PoseStamped, TransformStamped, Pose or Transform; "
                 "default: the bag's only one)");

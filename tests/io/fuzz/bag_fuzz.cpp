@@ -1,5 +1,5 @@
-// Mutation test of the ROS bag reader (io/rosbag.cpp): the bags of tests/data/io (uncompressed,
-// bz2, lz4) are mutated at random (fixed seed: every run is the same) and each result must either
+// Mutation test of the ROS bag reader (io/rosbag.cpp): the bags of tests/data/io (ROS 1:
+// uncompressed, bz2, lz4; ROS 2 MCAP: zstd, uncompressed) are mutated at random (fixed seed: every run is the same) and each result must either
 // read or throw InputError. Built with AddressSanitizer and UBSan (tests/fuzz.cmake), so an
 // out-of-bounds read, an overflow or an allocation sized by a damaged length fails the run.
 //
@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
   const fs::path tmp = fs::temp_directory_path() / ("ebh_bag_fuzz_" + std::to_string(getpid()) + ".bag");
   Rng rng(20261202);
   long read = 0, refused = 0;
-  for (const char* name : {"sample.bag", "sample_bz2.bag", "sample_lz4.bag", "topics.bag"}) {
+  for (const char* name : {"sample.bag", "sample_bz2.bag", "sample_lz4.bag", "topics.bag", "sample.mcap", "sample_none.mcap"}) {
     std::ifstream in(dir / name, std::ios::binary);
     std::stringstream ss;
     ss << in.rdbuf();
@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "test_bag_fuzz: cannot read %s\n", (dir / name).c_str());
       return 2;
     }
-    const bool topics = std::strcmp(name, "topics.bag") == 0;
+    const bool topics = std::strcmp(name, "topics.bag") == 0, mcap = std::strstr(name, ".mcap") != nullptr;
     for (long k = 0; k < mutations; ++k) {
       std::string s = good;
       const std::size_t n = 1 + pick(rng, 3);
@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
       std::ofstream(tmp, std::ios::binary).write(s.data(), static_cast<std::streamsize>(s.size()));
       try {
         (void)ebh::read_rosbag(tmp.string(), topics ? ebh::BagRequest{"", "/psm1/joint_states", "psm1_tool", "jaw"}
+                                             : mcap ? ebh::BagRequest{"", "/psm/jaw/measured_js", "psm1_tool", "jaw"}
                                                     : ebh::BagRequest{"", "/psm/jaw/measured_js", "", ""});
         ++read;
       } catch (const ebh::InputError&) {

@@ -533,18 +533,12 @@ void read_csv(const std::string& path, double unit, double rate, double& time_un
   if (!have_header) throw InputError(path + ": empty log (expected a header line naming the columns)");
 }
 
-// The time unit under which times read as seconds give `rate_hz` of a device (kDeviceRateLowHz ..
-// kDeviceRateHighHz), with the rate it would be; nullptr when none does.
-struct TimeUnit {
-  const char* name = nullptr;  // nullptr: none
-  const char* symbol = nullptr;
-  double rate_hz = 0;
-};
 /// A ROS bag's pose topic (io/rosbag.hpp) as samples (line_of: the message's index in the
 /// topic, from 1), positions times `unit`; the jaw from the jaw topic, if any (has_jaw).
 /// Returns the bag's kind ("ROS 1 bag") and the pose topic read.
-std::pair<std::string, std::string> read_bag(const std::string& path, double unit, const ImportOptions& opt, LogWindow& window, Recording& rec,
-                     std::vector<std::size_t>& line_of, bool& has_jaw, std::string& layout_note, std::size_t& cut_bytes) {
+std::pair<std::string, std::string> read_bag(const std::string& path, double unit, const ImportOptions& opt,
+                                             LogWindow& window, Recording& rec, std::vector<std::size_t>& line_of,
+                                             bool& has_jaw, std::string& layout_note, std::size_t& cut_bytes) {
   if (!opt.jaw_joint.empty() && opt.jaw_topic.empty())
     throw InputError("--jaw-joint: " + path + ": the joint is of the jaw topic: give --jaw-topic too");
   BagContents bag = read_rosbag(path, BagRequest{opt.topic, opt.jaw_topic, opt.frame, opt.jaw_joint});
@@ -556,7 +550,8 @@ std::pair<std::string, std::string> read_bag(const std::string& path, double uni
   };
   const bool stamps = stamped(bag.poses) && stamped(bag.jaw);
   const auto time = [stamps](const BagTimes& t) { return stamps ? t.stamp : t.record; };
-  std::stable_sort(bag.jaw.begin(), bag.jaw.end(), [&](const BagJaw& a, const BagJaw& b) { return time(a.t) < time(b.t); });
+  std::stable_sort(bag.jaw.begin(), bag.jaw.end(),
+                   [&](const BagJaw& a, const BagJaw& b) { return time(a.t) < time(b.t); });
   std::size_t jaw_at = 0;  // the last jaw message at or before the sample's time
   for (std::size_t i = 0; i < bag.poses.size(); ++i) {
     const BagPose& m = bag.poses[i];
@@ -582,8 +577,8 @@ std::pair<std::string, std::string> read_bag(const std::string& path, double uni
   const std::size_t messages = std::find_if(bag.topics.begin(), bag.topics.end(), [&](const BagTopic& t) {
                                  return t.name == bag.pose_topic;
                                })->messages;
-  layout_note = "read as a " + bag.kind + ": topic " + bag.pose_topic + " (" + bag.pose_type + ", " + std::to_string(messages) +
-                " messages" +
+  layout_note = "read as a " + bag.kind + ": topic " + bag.pose_topic + " (" + bag.pose_type + ", " +
+                std::to_string(messages) + " messages" +
                 (opt.frame.empty() ? std::string()
                                    : "; " + std::to_string(bag.poses.size()) + " transforms " + bag.frame_parent + " -> " +
                                          opt.frame) +
@@ -596,6 +591,13 @@ std::pair<std::string, std::string> read_bag(const std::string& path, double uni
   return {bag.kind, bag.pose_topic};
 }
 
+// The time unit under which times read as seconds give `rate_hz` of a device (kDeviceRateLowHz ..
+// kDeviceRateHighHz), with the rate it would be; nullptr when none does.
+struct TimeUnit {
+  const char* name = nullptr;  // nullptr: none
+  const char* symbol = nullptr;
+  double rate_hz = 0;
+};
 TimeUnit likely_time_unit(double rate_hz) {
   for (const auto& [name, symbol, per_second] : {std::tuple{"milliseconds", "ms", 1e3}, {"microseconds", "us", 1e6},
                                                  {"nanoseconds", "ns", 1e9}})
@@ -606,8 +608,8 @@ TimeUnit likely_time_unit(double rate_hz) {
 
 // The rate a log's times (has_t) or --rate give, against a recording's limit (an error) and a
 // device's rates (a warning, returned): times in ms make a rate 1000 times too low, in units
-// smaller than seconds' one too high.
-/// `times`: what the log's times are called ("column t", a bag's "the messages' times").
+// smaller than seconds' one too high. `times`: what the log's times are called ("column t", a
+// bag's "the messages' times").
 std::string check_log_rate(const Recording& rec, bool has_t, const std::string& path, const std::string& times) {
   const std::string band = "a device logs at " + num(kDeviceRateLowHz) + " Hz to " + num(kDeviceRateHighHz / 1e3) + " kHz";
   const std::string span = num(rec.rate_hz) + " Hz (" + std::to_string(rec.size()) + " samples over " +
@@ -639,8 +641,8 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
 
 // The longest interval between a log's times, when it is a gap in the logging (over
 // kLogGapFactor times the median interval and two of the slowest device's): what a replay fills
-// with a straight line. "" when there is none.
-/// `times` as check_log_rate's; `places`: what line_of counts ("lines", a bag's topic's messages).
+// with a straight line. "" when there is none. `times` as check_log_rate's; `places`: what line_of
+// counts ("lines", a bag's topic's messages).
 std::string check_log_gaps(const Recording& rec, const std::vector<std::size_t>& line_of, const std::string& times,
                            const std::string& places) {
   const std::optional<LogGaps> g = find_log_gaps(rec.t);
@@ -684,7 +686,8 @@ RigidTransform parse_rigid_transform(const std::string& option, const std::strin
 LogFormat log_format_of(const std::string& path) {
   const std::string ext = lower_extension(path);
   if (ext == ".csv") return LogFormat::csv;
-  if (ext == ".bag" || ext == ".mcap" || ext == ".db3" || (ext == ".active" && lower_extension(path.substr(0, path.size() - 7)) == ".bag"))
+  const bool unindexed = ext == ".active" && lower_extension(path.substr(0, path.size() - 7)) == ".bag";
+  if (ext == ".bag" || ext == ".mcap" || ext == ".db3" || unindexed)
     return LogFormat::rosbag;
   return LogFormat::openhaptics;
 }

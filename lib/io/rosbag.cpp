@@ -277,6 +277,12 @@ BagJaw decode_jaw(const std::string& type, const std::string& joint, const unsig
   return m;
 }
 
+/// A chunk compressed with a codec this build lacks (the libraries are optional: CMake says which it found).
+[[maybe_unused]] InputError no_codec(const std::string& where, const std::string& codec, const std::string& package) {
+  return InputError(where + ": a " + codec + "-compressed chunk, and this build of ebh has no " + codec + " library (" +
+                    package + "): decompress the bag (rosbag decompress, mcap decompress) or rebuild with it");
+}
+
 /// A chunk's records, decompressed into `out` (bytes of the uncompressed size the chunk names).
 void decompress_chunk(const std::string& compression, const unsigned char* data, std::size_t size, std::uint32_t out_size,
                       std::vector<unsigned char>& out, const std::string& where) {
@@ -292,11 +298,11 @@ void decompress_chunk(const std::string& compression, const unsigned char* data,
   // The output grows with what the stream gives (a damaged size field allocates nothing), up
   // to the size the chunk names.
   std::size_t produced = 0;
-  const auto room = [&]() -> std::size_t {
+  [[maybe_unused]] const auto room = [&]() -> std::size_t {
     if (produced == out.size()) out.resize(produced + std::min<std::size_t>(out_size - produced, std::size_t(1) << 20));
     return out.size() - produced;
   };
-  const auto wrong_size = [&](const char* codec) {
+  [[maybe_unused]] const auto wrong_size = [&](const char* codec) {
     return InputError(where + ": a" + std::string(codec) + " chunk that does not decompress to the " +
                       std::to_string(out_size) + " bytes it names");
   };
@@ -321,8 +327,7 @@ void decompress_chunk(const std::string& compression, const unsigned char* data,
     if (rc != BZ_STREAM_END || produced != out_size) throw wrong_size(" bz2");
     return;
 #else
-    throw InputError(where + ": a bz2-compressed chunk, and this build of ebh has no bzip2 library (libbz2-dev): "
-                     "`rosbag decompress` the bag, or rebuild with it");
+    throw no_codec(where, "bz2", "libbz2-dev");
 #endif
   }
   if (compression == "lz4") {
@@ -348,8 +353,7 @@ void decompress_chunk(const std::string& compression, const unsigned char* data,
     if (hint != 0 || produced != out_size) throw wrong_size("n lz4");
     return;
 #else
-    throw InputError(where + ": an lz4-compressed chunk, and this build of ebh has no lz4 library (liblz4-dev): "
-                     "`rosbag decompress` the bag, or rebuild with it");
+    throw no_codec(where, "lz4", "liblz4-dev");
 #endif
   }
   if (compression == "zstd") {
@@ -375,8 +379,7 @@ void decompress_chunk(const std::string& compression, const unsigned char* data,
     if (rc != 0 || produced != out_size) throw wrong_size(" zstd");
     return;
 #else
-    throw InputError(where + ": a zstd-compressed chunk, and this build of ebh has no zstd library (libzstd-dev): "
-                     "`mcap decompress` the bag, or rebuild with it");
+    throw no_codec(where, "zstd", "libzstd-dev");
 #endif
   }
   throw InputError(where + ": a chunk compressed as '" + compression + "' (ROS bags use none, bz2, lz4 or zstd)");
@@ -437,7 +440,9 @@ class BagReader {
       std::uint32_t header_len = 0, data_len = 0;
       if (size - pos < 4) break;
       read_u32(header_len);
-      if (header_len > size - pos - 4 || header_len > kMaxChunkBytes) break;
+      if (header_len > size - pos - 4) break;
+      if (header_len > kMaxChunkBytes)
+        throw InputError(where + ": a record header of " + std::to_string(header_len) + " bytes (more than 1 GiB)");
       header.resize(header_len);
       in.read(reinterpret_cast<char*>(header.data()), header_len);
       if (size - pos - 4 - header_len < 4) break;
@@ -548,7 +553,8 @@ class BagReader {
         const std::string topic = f.string(), encoding = f.string();
         if (connections_.count(id)) break;  // a chunk may repeat its channels
         const auto type = schemas_.find(schema);
-        if (type == schemas_.end()) throw InputError(where + ": channel " + topic + " names schema " + std::to_string(schema) + " before it");
+        if (type == schemas_.end())
+          throw InputError(where + ": channel " + topic + " names schema " + std::to_string(schema) + " before it");
         // A message encoding other than ROS 2's CDR: its type is not one read here.
         add_connection(id, topic, encoding == "cdr" ? type->second : "(" + encoding + ") " + type->second, "*", true, where);
         break;
@@ -571,7 +577,8 @@ class BagReader {
         const std::string compression = f.string();
         const std::uint64_t records = f.u64();
         f.need(records);
-        if (out_size > kMaxChunkBytes) throw InputError(where + ": a chunk of " + std::to_string(out_size) + " bytes (more than 1 GiB)");
+        if (out_size > kMaxChunkBytes)
+          throw InputError(where + ": a chunk of " + std::to_string(out_size) + " bytes (more than 1 GiB)");
         decompress_chunk(compression.empty() ? "none" : compression, p + f.pos, records,
                          static_cast<std::uint32_t>(out_size), chunk_, where);
         std::size_t pos = 0;
@@ -659,7 +666,7 @@ class BagReader {
     if (c.pose && c.tf) {
       decode_tf(body, n, msg, c.cdr, [&](const std::string& parent, const std::string& child, BagPose p) {
         const std::string link = parent + " -> " + child;
-        auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& seen_link) { return seen_link.first == link; });
+        auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& l) { return l.first == link; });
         if (seen == frames_.end()) frames_.emplace_back(link, 1);
         else ++seen->second;
         if (child != frame_) return;
@@ -768,28 +775,17 @@ bool bag_jaw_type(const std::string& type) {
 
 BagContents read_rosbag(const std::string& path, const BagRequest& request) { return BagReader(path, request).read(); }
 
-bool rosbag_reads_bz2() {
+bool rosbag_reads(const std::string& codec) {
 #if EBH_HAVE_BZIP2
-  return true;
-#else
-  return false;
+  if (codec == "bz2") return true;
 #endif
-}
-
-bool rosbag_reads_zstd() {
-#if EBH_HAVE_ZSTD
-  return true;
-#else
-  return false;
-#endif
-}
-
-bool rosbag_reads_lz4() {
 #if EBH_HAVE_LZ4
-  return true;
-#else
-  return false;
+  if (codec == "lz4") return true;
 #endif
+#if EBH_HAVE_ZSTD
+  if (codec == "zstd") return true;
+#endif
+  return codec == "none";
 }
 
 }  // namespace ebh

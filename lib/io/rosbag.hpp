@@ -71,9 +71,7 @@ bool bag_jaw_type(const std::string& type);
 /// offset or the message (topic and its index from 1) where it is wrong.
 BagContents read_rosbag(const std::string& path, const BagRequest& request);
 
-/// Whether this build reads bz2, lz4 and zstd chunks.
-bool rosbag_reads_bz2();
-bool rosbag_reads_lz4();
-bool rosbag_reads_zstd();
+/// Whether this build reads chunks compressed with `codec`: "none", "bz2", "lz4" or "zstd".
+bool rosbag_reads(const std::string& codec);
 
 }  // namespace ebh

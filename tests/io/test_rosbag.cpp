@@ -33,10 +33,17 @@ double stamp(std::size_t i) { return 1.7e9 + 5e-4 * static_cast<double>(i); }
 
 double quat_angle(Quatd a, Quatd b) { return norm(rotvec_from_quat(conjugate(a) * b)); }
 
-ImportOptions with_jaw(const std::string& pose_topic, const std::string& jaw_topic) {
+ImportOptions bag_options(const std::string& pose_topic, const std::string& jaw_topic = "",
+                          const std::string& frame = "") {
   ImportOptions o;
   o.topic = pose_topic;
   o.jaw_topic = jaw_topic;
+  o.frame = frame;
+  return o;
+}
+
+ImportOptions with_jaw(const std::string& pose_topic, const std::string& jaw_topic) {
+  ImportOptions o = bag_options(pose_topic, jaw_topic);
   o.jaw_range = std::pair{0.0, 0.8};  // the gripper's angle in rad, closed .. open
   return o;
 }
@@ -109,7 +116,7 @@ TEST(RosBag, APoseTopicAndItsGripperReadAsTheDeviceLogged) {
 
 TEST(RosBag, Bz2AndLz4ChunksReadAsTheUncompressedBag) {
   const Recording plain = import_log(kData + "sample.bag", with_jaw("", "/psm/jaw/measured_js"));
-  for (const auto& [file, reads] : {std::pair{"sample_bz2.bag", rosbag_reads_bz2()}, {"sample_lz4.bag", rosbag_reads_lz4()}}) {
+  for (const auto& [file, reads] : {std::pair{"sample_bz2.bag", rosbag_reads("bz2")}, {"sample_lz4.bag", rosbag_reads("lz4")}}) {
     SCOPED_TRACE(file);
     if (reads)
       expect_same(import_log(kData + file, with_jaw("", "/psm/jaw/measured_js")), plain);
@@ -126,9 +133,7 @@ TEST(RosBag, TopicsAreChosenByNameAndType) {
                      "/psm2/measured_cp (geometry_msgs/TransformStamped, 20), /mtm/pose (geometry_msgs/Pose, 20); "
                      "name the device's with --topic");
   const Recording reference = import_log(kData + "sample.bag", ImportOptions{});
-  ImportOptions transforms;
-  transforms.topic = "/psm2/measured_cp";
-  expect_same(import_log(bag, transforms), reference);
+  expect_same(import_log(bag, bag_options("/psm2/measured_cp")), reference);
   // A Pose has no header: the bag's record times, said; so with a jaw of std_msgs/Float64.
   ImportReport report;
   const Recording pose = import_log(bag, with_jaw("/mtm/pose", "/mtm/gripper"), &report);
@@ -144,10 +149,7 @@ TEST(RosBag, TopicsAreChosenByNameAndType) {
   // A stamped pose with a jaw without stamps: one clock for both, the bag's.
   EXPECT_NEAR(import_log(bag, with_jaw("/psm1/measured_cp", "/mtm/gripper")).t[3], stamp(3) + 2e-4, 5e-7);
   const auto named = [&](const std::string& pose_topic, const std::string& jaw_topic) {
-    ImportOptions o;
-    o.topic = pose_topic;
-    o.jaw_topic = jaw_topic;
-    return import_log(bag, o);
+    return import_log(bag, bag_options(pose_topic, jaw_topic));
   };
   EXPECT_INPUT_ERROR(named("/psm3/measured_cp", ""), "topics.bag: --topic /psm3/measured_cp: the bag has no such topic; its "
                      "topics: /tf_static (tf2_msgs/TFMessage, 1), /psm1/measured_cp (geometry_msgs/PoseStamped, 20), ");
@@ -233,18 +235,13 @@ TEST(RosBag, MalformedBagsAreRefusedWithTheirPlace) {
 TEST(RosBag, ATfTopicGivesTheTransformsToOneFrame) {
   // /tf holds world -> psm1_base and psm1_base -> psm1_tool in each message; /tf_static world -> camera.
   const std::string bag = kData + "topics.bag";
-  ImportOptions tool;
-  tool.frame = "psm1_tool";
   ImportReport report;
-  expect_same(import_log(bag, tool, &report), import_log(kData + "sample.bag", ImportOptions{}));
+  expect_same(import_log(bag, bag_options("", "", "psm1_tool"), &report), import_log(kData + "sample.bag", ImportOptions{}));
   EXPECT_EQ(report.layout_note,
             "read as a ROS 1 bag: topic /tf (tf2_msgs/TFMessage, 20 messages; 20 transforms psm1_base -> psm1_tool); "
             "times from the messages' header stamps");
   const auto refused = [&](const std::string& topic, const std::string& frame) {
-    ImportOptions o;
-    o.topic = topic;
-    o.frame = frame;
-    return import_log(bag, o);
+    return import_log(bag, bag_options(topic, "", frame));
   };
   EXPECT_INPUT_ERROR(refused("/tf", ""), "--topic /tf: a tf topic: name the device's frame with --frame; its transforms: "
                                          "world -> psm1_base (20), psm1_base -> psm1_tool (20)");
@@ -292,13 +289,12 @@ TEST(RosBag, Ros2McapBagsReadAsTheRos1Bag) {
             0u)
       << report.layout_note;
   EXPECT_EQ(log_format_of("run.MCAP"), LogFormat::rosbag);
-  if (rosbag_reads_zstd())
+  if (rosbag_reads("zstd"))
     expect_same(import_log(kData + "sample.mcap", with_jaw("", "/psm/jaw/measured_js")), ros1, last_bit);
   else
     EXPECT_INPUT_ERROR(import_log(kData + "sample.mcap", ImportOptions{}), "a zstd-compressed chunk, and this build");
-  ImportOptions tf;
-  tf.frame = "psm1_tool";
-  expect_same(import_log(kData + "sample_none.mcap", tf), import_log(kData + "sample.bag", ImportOptions{}), last_bit);
+  expect_same(import_log(kData + "sample_none.mcap", bag_options("", "", "psm1_tool")),
+              import_log(kData + "sample.bag", ImportOptions{}), last_bit);
 }
 
 TEST(RosBag, MalformedMcapBagsAreRefusedWithTheirPlace) {

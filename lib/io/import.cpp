@@ -541,18 +541,23 @@ std::pair<std::string, std::string> read_bag(const std::string& path, double uni
                                              bool& has_jaw, std::string& layout_note, std::size_t& cut_bytes) {
   if (!opt.jaw_joint.empty() && opt.jaw_topic.empty())
     throw InputError("--jaw-joint: " + path + ": the joint is of the jaw topic: give --jaw-topic too");
-  BagContents bag = read_rosbag(path, BagRequest{opt.topic, opt.jaw_topic, opt.frame, opt.jaw_joint});
+  BagContents bag = read_rosbag(path, BagRequest{opt.topic, opt.jaw_topic, opt.frame, opt.jaw_joint, opt.button_topic});
   cut_bytes = bag.cut_bytes;
   has_jaw = !bag.jaw.empty();
   // The device's clock where every message carries it (a header stamp set), else the bag's.
   const auto stamped = [](const auto& messages) {
     return std::all_of(messages.begin(), messages.end(), [](const auto& m) { return m.t.stamp > 0; });
   };
-  const bool stamps = stamped(bag.poses) && stamped(bag.jaw);
+  const bool stamps = stamped(bag.poses) && stamped(bag.jaw) && stamped(bag.buttons);
   const auto time = [stamps](const BagTimes& t) { return stamps ? t.stamp : t.record; };
-  std::stable_sort(bag.jaw.begin(), bag.jaw.end(),
-                   [&](const BagJaw& a, const BagJaw& b) { return time(a.t) < time(b.t); });
-  std::size_t jaw_at = 0;  // the last jaw message at or before the sample's time
+  const auto by_time = [&](const auto& a, const auto& b) { return time(a.t) < time(b.t); };
+  std::stable_sort(bag.jaw.begin(), bag.jaw.end(), by_time);
+  std::stable_sort(bag.buttons.begin(), bag.buttons.end(), by_time);
+  // The last jaw (button) message at or before the sample's time: its value holds until the next.
+  std::size_t jaw_at = 0, button_at = 0;
+  const auto hold = [&](const auto& messages, std::size_t& at, double t) {
+    while (at + 1 < messages.size() && time(messages[at + 1].t) <= t) ++at;
+  };
   for (std::size_t i = 0; i < bag.poses.size(); ++i) {
     const BagPose& m = bag.poses[i];
     const double t = time(m.t);
@@ -561,19 +566,21 @@ std::pair<std::string, std::string> read_bag(const std::string& path, double uni
       continue;
     }
     check_sample_limit(rec, opt.max_samples, path + ": " + bag.pose_topic + " message " + std::to_string(i + 1));
-    while (jaw_at + 1 < bag.jaw.size() && time(bag.jaw[jaw_at + 1].t) <= t) ++jaw_at;
+    hold(bag.jaw, jaw_at, t);
+    hold(bag.buttons, button_at, t);
     rec.t.push_back(t);
     rec.position.push_back(m.position * unit);
     rec.orientation.push_back(m.orientation);
     rec.jaw.push_back(has_jaw ? bag.jaw[jaw_at].value : 1.0);
-    rec.buttons.push_back(0);
+    rec.buttons.push_back(bag.buttons.empty() ? 0 : bag.buttons[button_at].bits);
     line_of.push_back(i + 1);
   }
   const bool pose_headers = bag.pose_type.find("Stamped") != std::string::npos || !opt.frame.empty();
   const std::string why_record = stamps              ? ""
                                  : !pose_headers     ? " (" + bag.pose_type + " has no header)"
                                  : !stamped(bag.poses) ? " (a pose's header stamp is 0)"
-                                                     : " (the jaw's messages carry no stamp)";
+                                 : !stamped(bag.jaw) ? " (the jaw's messages carry no stamp)"
+                                                     : " (a button message's header stamp is 0)";
   const std::size_t messages = std::find_if(bag.topics.begin(), bag.topics.end(), [&](const BagTopic& t) {
                                  return t.name == bag.pose_topic;
                                })->messages;
@@ -587,6 +594,9 @@ std::pair<std::string, std::string> read_bag(const std::string& path, double uni
                                " (" + bag.jaw_type + ", " +
                                std::to_string(bag.jaw.size()) + " messages; each pose takes the last at or before it)"
                          : std::string()) +
+                (bag.buttons.empty() ? std::string()
+                                     : ", the buttons from " + opt.button_topic + " (sensor_msgs/Joy, " +
+                                           std::to_string(bag.buttons.size()) + " messages, held as the jaw's)") +
                 "; times from " + (stamps ? "the messages' header stamps" : "the bag's record times" + why_record);
   return {bag.kind, bag.pose_topic};
 }
@@ -745,6 +755,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   const bool bag = fmt == LogFormat::rosbag;
   if (!bag && !opt.topic.empty()) throw InputError("--topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
   if (!bag && !opt.frame.empty()) throw InputError("--frame: " + path + " is not a ROS bag (*.bag): the option names a tf frame");
+  if (!bag && !opt.button_topic.empty())
+    throw InputError("--button-topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
   if (!bag && !opt.jaw_joint.empty())
     throw InputError("--jaw-joint: " + path + " is not a ROS bag (*.bag): the option names a bag's joint");
   if (!bag && !opt.jaw_topic.empty())

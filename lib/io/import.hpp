@@ -65,6 +65,9 @@ struct ImportOptions {
   /// empty: none, the jaws open), a tf topic's child frame (--frame: its transforms are the poses)
   std::string topic, jaw_topic, frame;
   std::string jaw_joint;  ///< rosbag: the joint of a JointState jaw topic (--jaw-joint; empty: its first position)
+  /// rosbag: a sensor_msgs/Joy topic whose buttons become the samples' (--button-topic; empty:
+  /// none pressed), held as the jaw is (--jaw-button takes the jaw from one)
+  std::string button_topic;
   PoseTransforms transforms;        ///< world (--transform) and tool (--tool-transform), metres
   std::string scene;
   std::string tool = "hook";

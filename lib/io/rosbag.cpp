@@ -31,23 +31,27 @@ constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
 constexpr std::uint8_t kOpMessage = 0x02, kOpBagHeader = 0x03, kOpIndex = 0x04, kOpChunk = 0x05, kOpChunkInfo = 0x06,
                        kOpConnection = 0x07;
 
+/// What a known message type gives: a pose, a tf message's poses (a list of TransformStamped to
+/// several frames), the jaw, the buttons.
+enum class Role { pose, tf, jaw, buttons };
+
 struct KnownType {
   const char* name;
   const char* md5;
-  bool pose;
-  bool tf = false;  // a list of TransformStamped to several frames
+  Role role;
 };
 // The types read, with the MD5 sums of their definitions (as genpy gives them: Type._md5sum).
 constexpr KnownType kKnownTypes[] = {
-    {"geometry_msgs/PoseStamped", "d3812c3cbc69362b77dc0b19b345f8f5", true},
-    {"geometry_msgs/TransformStamped", "b5764a33bfeb3588febc2682852579b0", true},
-    {"geometry_msgs/Pose", "e45d45a5a1ce597b249e23fb30fc871f", true},
-    {"geometry_msgs/Transform", "ac9eff44abf714214112b05d54a3cf9b", true},
-    {"tf2_msgs/TFMessage", "94810edda583a504dfda3829e70d7eec", true, true},
-    {"tf/tfMessage", "94810edda583a504dfda3829e70d7eec", true, true},
-    {"sensor_msgs/JointState", "3066dcd76a6cfaef579bd0f34173e9fd", false},
-    {"std_msgs/Float64", "fdb28210bfa9d7c91146260178d9a584", false},
-    {"std_msgs/Float32", "73fcbf46b49191e672908e50842a83d4", false},
+    {"geometry_msgs/PoseStamped", "d3812c3cbc69362b77dc0b19b345f8f5", Role::pose},
+    {"geometry_msgs/TransformStamped", "b5764a33bfeb3588febc2682852579b0", Role::pose},
+    {"geometry_msgs/Pose", "e45d45a5a1ce597b249e23fb30fc871f", Role::pose},
+    {"geometry_msgs/Transform", "ac9eff44abf714214112b05d54a3cf9b", Role::pose},
+    {"tf2_msgs/TFMessage", "94810edda583a504dfda3829e70d7eec", Role::tf},
+    {"tf/tfMessage", "94810edda583a504dfda3829e70d7eec", Role::tf},
+    {"sensor_msgs/JointState", "3066dcd76a6cfaef579bd0f34173e9fd", Role::jaw},
+    {"std_msgs/Float64", "fdb28210bfa9d7c91146260178d9a584", Role::jaw},
+    {"std_msgs/Float32", "73fcbf46b49191e672908e50842a83d4", Role::jaw},
+    {"sensor_msgs/Joy", "5a9ea5f83505693b71e785041e67a8bb", Role::buttons},
 };
 
 const KnownType* known_type(const std::string& type) {
@@ -241,6 +245,27 @@ void decode_tf(const unsigned char* p, std::size_t n, const std::string& where, 
   }
 }
 
+/// A sensor_msgs/Joy's buttons: button i pressed (nonzero) sets bit i (i < 31; the others are
+/// refused: a recording's buttons are one int).
+BagButtons decode_buttons(const unsigned char* p, std::size_t n, const std::string& where, bool cdr) {
+  MessageCursor c = cursor(p, n, where, cdr);
+  BagButtons m;
+  m.t.stamp = c.header();
+  const std::uint32_t axes = c.count("axes");
+  for (std::uint32_t i = 0; i < axes; ++i) (void)c.f32("axes");
+  const std::uint32_t buttons = c.count("buttons");
+  for (std::uint32_t i = 0; i < buttons; ++i) {
+    c.align(4);
+    c.need(4, "buttons");
+    const bool pressed = u32(c.p + c.pos) != 0;
+    c.pos += 4;
+    if (pressed && i >= 31)
+      throw InputError(where + ": button " + std::to_string(i) + " pressed (a recording holds buttons 0 to 30)");
+    if (pressed) m.bits |= 1 << i;
+  }
+  return m;
+}
+
 /// A jaw message's value: a JointState's position of `joint` (empty: its first), or the number.
 BagJaw decode_jaw(const std::string& type, const std::string& joint, const unsigned char* p, std::size_t n,
                   const std::string& where, bool cdr) {
@@ -391,6 +416,7 @@ struct Connection {
   bool pose = false, jaw = false;  // of the requested (or a candidate) pose topic, of the jaw topic
   bool tf = false;                 // a tf topic (its transforms to the requested frame are the poses)
   bool cdr = false;                // ROS 2's serialisation (MCAP), else ROS 1's
+  bool buttons = false;            // of the button topic
 };
 
 class BagReader {
@@ -400,7 +426,8 @@ class BagReader {
         pose_topic_(request.pose_topic),
         jaw_topic_(request.jaw_topic),
         frame_(request.frame),
-        jaw_joint_(request.jaw_joint) {}
+        jaw_joint_(request.jaw_joint),
+        button_topic_(request.button_topic) {}
 
   BagContents read() {
     std::ifstream in(path_, std::ios::binary | std::ios::ate);
@@ -623,8 +650,9 @@ class BagReader {
       throw InputError(where + ": topic " + c.topic + ": a " + c.type + " of another definition (MD5 " + md5 +
                        ", the standard message's " + k->md5 + ")");
     // A tf topic is read for a frame (--frame), and then only tf topics are.
-    c.tf = k && k->tf;
-    c.pose = k && k->pose && (pose_topic_.empty() ? c.tf == !frame_.empty() : c.topic == pose_topic_);
+    c.tf = k && k->role == Role::tf;
+    const bool poses = k && (k->role == Role::pose || c.tf);
+    c.pose = poses && (pose_topic_.empty() ? c.tf == !frame_.empty() : c.topic == pose_topic_);
     if (!frame_.empty() && c.pose && !c.tf)
       throw InputError(path_ + ": --frame " + frame_ + ": --topic " + c.topic + " is a " + c.type +
                        ", not a tf topic (tf2_msgs/TFMessage): --frame picks a tf topic's transforms");
@@ -632,9 +660,13 @@ class BagReader {
     if (c.jaw && !jaw_joint_.empty() && c.type != "sensor_msgs/JointState")
       throw InputError(path_ + ": --jaw-joint " + jaw_joint_ + ": --jaw-topic " + jaw_topic_ + " is a " + c.type +
                        ", not a sensor_msgs/JointState");
-    if (c.jaw && !(k && !k->pose))
+    if (c.jaw && !(k && k->role == Role::jaw))
       throw InputError(path_ + ": --jaw-topic " + jaw_topic_ + ": a " + c.type + " topic (a jaw opening is read from " +
                        "sensor_msgs/JointState, std_msgs/Float64 or std_msgs/Float32)");
+    c.buttons = !button_topic_.empty() && c.topic == button_topic_;
+    if (c.buttons && !(k && k->role == Role::buttons))
+      throw InputError(path_ + ": --button-topic " + button_topic_ + ": a " + c.type + " topic (buttons are read from " +
+                       "sensor_msgs/Joy)");
     if (!pose_topic_.empty() && c.topic == pose_topic_ && !c.pose)
       throw InputError(path_ + ": --topic " + pose_topic_ + ": a " + c.type + " topic (a pose is read from " +
                        "geometry_msgs/PoseStamped, TransformStamped, Pose or Transform, or a tf topic's transforms)");
@@ -687,6 +719,11 @@ class BagReader {
       j.t.record = record_t;
       contents_.jaw.push_back(j);
     }
+    if (c.buttons) {
+      BagButtons b = decode_buttons(body, n, msg, c.cdr);
+      b.t.record = record_t;
+      contents_.buttons.push_back(b);
+    }
   }
 
   BagContents finish() {
@@ -714,7 +751,7 @@ class BagReader {
       return s.empty() ? std::string("none") : s;
     };
     const KnownType* named = pose_topic_.empty() ? nullptr : known_type(topic_type(pose_topic_));
-    if (named && named->tf && frame_.empty())
+    if (named && named->role == Role::tf && frame_.empty())
       throw InputError(path_ + ": --topic " + pose_topic_ + ": a tf topic: name the device's frame with --frame; its "
                        "transforms: " + links());
     if (!frame_.empty() && poses_.empty())
@@ -736,6 +773,11 @@ class BagReader {
     }
     if (!jaw_topic_.empty() && contents_.jaw.empty())
       throw InputError(path_ + ": --jaw-topic " + jaw_topic_ + ": the topic has no messages");
+    if (!button_topic_.empty() && !has(button_topic_))
+      throw InputError(path_ + ": --button-topic " + button_topic_ + ": the bag has no such topic; its topics: " +
+                       listed(false) + cut);
+    if (!button_topic_.empty() && contents_.buttons.empty())
+      throw InputError(path_ + ": --button-topic " + button_topic_ + ": the topic has no messages");
     return std::move(contents_);
   }
 
@@ -747,11 +789,11 @@ class BagReader {
   bool has_tf() const {
     return std::any_of(contents_.topics.begin(), contents_.topics.end(), [](const BagTopic& t) {
       const KnownType* k = known_type(t.type);
-      return k && k->tf;
+      return k && k->role == Role::tf;
     });
   }
 
-  const std::string path_, pose_topic_, jaw_topic_, frame_, jaw_joint_;
+  const std::string path_, pose_topic_, jaw_topic_, frame_, jaw_joint_, button_topic_;
   std::vector<std::pair<std::string, std::size_t>> frames_;  // a tf topic's "parent -> child" links, counted
   std::string frame_parent_;
   std::map<std::uint16_t, std::string> schemas_;  // MCAP: a schema's message type
@@ -762,16 +804,6 @@ class BagReader {
 };
 
 }  // namespace
-
-bool bag_pose_type(const std::string& type) {
-  const KnownType* k = known_type(type);
-  return k && k->pose;
-}
-
-bool bag_jaw_type(const std::string& type) {
-  const KnownType* k = known_type(type);
-  return k && !k->pose;
-}
 
 BagContents read_rosbag(const std::string& path, const BagRequest& request) { return BagReader(path, request).read(); }
 

@@ -9,7 +9,8 @@
 // or lz4 (rosbag record --bz2 / --lz4), zstd or lz4 in MCAP, each where the build has the library.
 // Pose messages: geometry_msgs/PoseStamped, TransformStamped, Pose and Transform, and the
 // transforms to one child frame in a tf topic (tf2_msgs/TFMessage, tf/tfMessage); jaw messages:
-// sensor_msgs/JointState (its first position, or a named joint's) and std_msgs/Float64 or Float32.
+// sensor_msgs/JointState (its first position, or a named joint's) and std_msgs/Float64 or Float32;
+// button messages: sensor_msgs/Joy.
 // A ROS 1 type is known by its name and its definition's MD5 sum (a message of another definition
 // under the same name is refused, naming both sums); a ROS 2 type by its name (pkg/msg/Type, CDR
 // encoded; MCAP holds no sum). Sizes are checked against the bytes that hold them before any
@@ -40,6 +41,11 @@ struct BagJaw {
   double value = 0;  ///< the joint's position (a gripper's angle, rad) or the number
 };
 
+struct BagButtons {
+  BagTimes t;
+  int bits = 0;      ///< button i pressed: bit i
+};
+
 /// A topic of the bag: its name, its message type, and how many messages it has.
 struct BagTopic {
   std::string name, type;
@@ -48,9 +54,10 @@ struct BagTopic {
 
 /// What to read: the pose topic (empty: the bag's only one; with `frame`, its only tf topic with
 /// transforms to that frame), the jaw topic (empty: none), for a tf topic the child frame, and for
-/// a JointState jaw topic the joint (empty: its first position).
+/// a JointState jaw topic the joint (empty: its first position), and the button topic (empty:
+/// none).
 struct BagRequest {
-  std::string pose_topic, jaw_topic, frame, jaw_joint;
+  std::string pose_topic, jaw_topic, frame, jaw_joint, button_topic;
 };
 
 struct BagContents {
@@ -60,12 +67,9 @@ struct BagContents {
   std::string frame_parent;         ///< a tf topic's: the parent frame of the transforms read
   std::vector<BagPose> poses;       ///< the pose topic's messages, in the bag's order
   std::vector<BagJaw> jaw;          ///< the jaw topic's (none without one)
+  std::vector<BagButtons> buttons;  ///< the button topic's (none without one)
   std::size_t cut_bytes = 0;        ///< bytes of a last record cut short (a recording stopped mid-write), left out
 };
-
-/// The message types read as poses and as jaw openings.
-bool bag_pose_type(const std::string& type);
-bool bag_jaw_type(const std::string& type);
 
 /// Reads the messages `request` names. Throws InputError naming the file, and the record's byte
 /// offset or the message (topic and its index from 1) where it is wrong.

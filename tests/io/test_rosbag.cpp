@@ -318,3 +318,30 @@ TEST(RosBag, MalformedMcapBagsAreRefusedWithTheirPlace) {
   b.resize(find(b, "geometry_msgs/msg/PoseStamped") + 400);
   refused("cut.mcap", b, "its topics: none (its last 464 bytes, a record cut short, are left out");
 }
+
+TEST(RosBag, AJoyTopicGivesTheButtonsAndAButtonTheJaw) {
+  // /touch/buttons: a Joy every other sample, its second button pressed from sample 5 to 12 (a
+  // Geomagic Touch grasps with its stylus button).
+  const std::string bag = kData + "topics.bag";
+  ImportOptions o = bag_options("/psm1/measured_cp");
+  o.button_topic = "/touch/buttons";
+  o.jaw_button = 1;
+  ImportReport report;
+  const Recording r = import_log(bag, o, &report);
+  ASSERT_EQ(r.size(), 20u);
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    const bool pressed = i >= 5 && i <= 12;  // held from the message at or before each pose
+    EXPECT_EQ(r.buttons[i], pressed ? 2 : 0) << i;
+    EXPECT_EQ(r.jaw[i], pressed ? 0.0 : 1.0) << i;
+  }
+  EXPECT_EQ(report.jaw_button_presses, 1u);
+  EXPECT_NE(report.layout_note.find(", the buttons from /touch/buttons (sensor_msgs/Joy, 10 messages, held as the jaw's)"),
+            std::string::npos)
+      << report.layout_note;
+  o.button_topic = "/mtm/gripper";
+  EXPECT_INPUT_ERROR(import_log(bag, o), "--button-topic /mtm/gripper: a std_msgs/Float64 topic (buttons are read from "
+                                         "sensor_msgs/Joy)");
+  ImportOptions on_csv;
+  on_csv.button_topic = "/touch/buttons";
+  EXPECT_INPUT_ERROR(import_log(kData + "sample.csv", on_csv), "--button-topic: ", "is not a ROS bag");
+}

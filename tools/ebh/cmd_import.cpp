@@ -1,5 +1,5 @@
 // `ebh import LOG -o REC.h5 [--format openhaptics|csv|rosbag] [--topic T] [--frame F]
-//  [--jaw-topic T [--jaw-joint J]] [--rate HZ] [--unit m|cm|mm|in] [--time-unit s|ms|us|ns]
+//  [--jaw-topic T [--jaw-joint J]] [--button-topic T] [--rate HZ] [--unit m|cm|mm|in] [--time-unit s|ms|us|ns]
 //  [--transform "tx,ty,tz,rx,ry,rz"] [--tool-transform "x,y,z,rx,ry,rz"] [--scene NAME]
 //  [--tool hook|forceps] [--drop-repeats]`: a device log (OpenHaptics-style transforms, CSV or a ROS bag) into
 // a recording, its poses mapped to ebh's frames. With --scene, the path is checked against the
@@ -25,7 +25,7 @@ namespace {
 
 struct ImportArgs {
   std::string log, output, format, unit, time_unit, transform, tool_transform, scene, tool;  // tool: empty, the default
-  std::string topic, jaw_topic, frame, jaw_joint;
+  std::string topic, jaw_topic, frame, jaw_joint, button_topic;
   std::optional<double> rate_hz;
   bool drop_repeats = false;
   std::vector<std::string> skip_columns;
@@ -97,6 +97,7 @@ void run(const ImportArgs& a) {
   opt.jaw_topic = a.jaw_topic;
   opt.frame = a.frame;
   opt.jaw_joint = a.jaw_joint;
+  opt.button_topic = a.button_topic;
   ebh::ImportReport report;
   ebh::Recording rec = ebh::import_log(a.log, opt, &report);
   rec.generator = std::string("ebh import (ebh ") + ebh::kVersion + ")";
@@ -193,6 +194,9 @@ void setup(CLI::App& root) {
   c->add_option("--frame", args->frame,
                 "rosbag: the device's frame in a tf topic (tf2_msgs/TFMessage): the transforms to it are the poses "
                 "(the tf topic with such transforms; --topic names one)");
+  c->add_option("--button-topic", args->button_topic,
+                "rosbag: a sensor_msgs/Joy topic whose buttons are the samples' (button i pressed: bit i), held as "
+                "the jaw is; with --jaw-button I a device without a gripper grasps (default: none pressed)");
   c->add_option("--jaw-joint", args->jaw_joint,
                 "rosbag: the gripper's joint by name in a JointState --jaw-topic of several joints (default: its first)");
   c->add_option("--jaw-topic", args->jaw_topic,

@@ -11,14 +11,16 @@ its header stamp (a bag's record time is when it arrived).
   topics.bag: /psm1/measured_cp (PoseStamped), /psm2/measured_cp (TransformStamped), /mtm/pose
       (Pose, no header), /mtm/gripper (Float64, no header), /tf (TFMessage: world -> psm1_base, a
       fixed shift, and psm1_base -> psm1_tool, the trajectory, in each message) and /tf_static
-      (world -> camera, once), /psm1/joint_states (JointState: yaw, pitch, jaw; the gripper third).
+      (world -> camera, once), /psm1/joint_states (JointState: yaw, pitch, jaw; the gripper third),
+      /touch/buttons (Joy: two buttons, the second pressed from sample 5 to 12, a message every
+      other sample).
 """
 import math
 
 import rosbag
 import rospy
 from geometry_msgs.msg import Pose, PoseStamped, TransformStamped
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import JointState, Joy
 from std_msgs.msg import Float64, String
 from tf2_msgs.msg import TFMessage
 
@@ -80,6 +82,10 @@ def write_topics(name):
             js = JointState()
             js.header.stamp, js.name, js.position = t, ["yaw", "pitch", "jaw"], [0.1 * i, -0.1 * i, jaw]
             bag.write("/psm1/joint_states", js, arrive)
+            if i % 2 == 1:
+                joy = Joy()
+                joy.header.stamp, joy.axes, joy.buttons = t, [0.0], [0, 1 if 5 <= i <= 12 else 0]
+                bag.write("/touch/buttons", joy, arrive)
 
 
 write_sample("sample.bag", "none")

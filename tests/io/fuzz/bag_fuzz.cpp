@@ -81,9 +81,10 @@ int main(int argc, char** argv) {
       for (std::size_t m = 0; m < n; ++m) mutate_once(s, rng);
       std::ofstream(tmp, std::ios::binary).write(s.data(), static_cast<std::streamsize>(s.size()));
       try {
-        (void)ebh::read_rosbag(tmp.string(), topics ? ebh::BagRequest{"", "/psm1/joint_states", "psm1_tool", "jaw"}
-                                             : mcap ? ebh::BagRequest{"", "/psm/jaw/measured_js", "psm1_tool", "jaw"}
-                                                    : ebh::BagRequest{"", "/psm/jaw/measured_js", "", ""});
+        (void)ebh::read_rosbag(tmp.string(),
+                               topics ? ebh::BagRequest{"", "/psm1/joint_states", "psm1_tool", "jaw", "/touch/buttons"}
+                               : mcap ? ebh::BagRequest{"", "/psm/jaw/measured_js", "psm1_tool", "jaw", ""}
+                                      : ebh::BagRequest{"", "/psm/jaw/measured_js", "", "", ""});
         ++read;
       } catch (const ebh::InputError&) {
         ++refused;

@@ -335,6 +335,12 @@ TEST(RosBag, AJoyTopicGivesTheButtonsAndAButtonTheJaw) {
     EXPECT_EQ(r.jaw[i], pressed ? 0.0 : 1.0) << i;
   }
   EXPECT_EQ(report.jaw_button_presses, 1u);
+  // The same Joy messages in CDR (make_mcap.mjs).
+  ImportOptions mcap = bag_options("/psm/measured_cp");
+  mcap.button_topic = "/touch/buttons";
+  const Recording m = import_log(kData + "sample_none.mcap", mcap);
+  ASSERT_EQ(m.size(), r.size());
+  for (std::size_t i = 0; i < m.size(); ++i) EXPECT_EQ(m.buttons[i], r.buttons[i]) << i;
   EXPECT_NE(report.layout_note.find(", the buttons from /touch/buttons (sensor_msgs/Joy, 10 messages, held as the jaw's)"),
             std::string::npos)
       << report.layout_note;

@@ -4,7 +4,8 @@
 // with those packages installed (npm install ...):  node make_mcap.mjs
 // The content is make_bags.py's sample.bag: /psm/measured_cp (PoseStamped), /psm/jaw/measured_js
 // (JointState), /psm/state (String), with /tf (TFMessage: world -> psm1_base, psm1_base ->
-// psm1_tool, the trajectory) as in topics.bag; each message logged 0.2 ms after its stamp.
+// psm1_tool, the trajectory) and /touch/buttons (Joy) as in topics.bag; each message logged 0.2 ms
+// after its stamp.
 //   sample.mcap: zstd chunks (rosbag2's default); sample_none.mcap: uncompressed chunks.
 import { McapWriter } from "@mcap/core";
 import { parse } from "@foxglove/rosmsg";
@@ -27,6 +28,7 @@ const types = {
   "geometry_msgs/msg/PoseStamped": `std_msgs/Header header\ngeometry_msgs/Pose pose${SEP}${deps.header}${SEP}${deps.pose}`,
   "sensor_msgs/msg/JointState": `std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort${SEP}${deps.header}`,
   "std_msgs/msg/String": "string data",
+  "sensor_msgs/msg/Joy": `std_msgs/Header header\nfloat32[] axes\nint32[] buttons${SEP}${deps.header}`,
   "tf2_msgs/msg/TFMessage": `geometry_msgs/TransformStamped[] transforms${SEP}MSG: geometry_msgs/TransformStamped\n${transformStamped}${SEP}${deps.header}${SEP}${deps.transform}`,
 };
 
@@ -57,7 +59,8 @@ async function write(name, compress) {
   const channels = {}, writers = {};
   for (const [topic, type] of [["/psm/measured_cp", "geometry_msgs/msg/PoseStamped"],
                                ["/psm/jaw/measured_js", "sensor_msgs/msg/JointState"],
-                               ["/psm/state", "std_msgs/msg/String"], ["/tf", "tf2_msgs/msg/TFMessage"]]) {
+                               ["/psm/state", "std_msgs/msg/String"], ["/tf", "tf2_msgs/msg/TFMessage"],
+                               ["/touch/buttons", "sensor_msgs/msg/Joy"]]) {
     const schemaId = await writer.registerSchema({ name: type, encoding: "ros2msg", data: new TextEncoder().encode(types[type]) });
     channels[topic] = await writer.registerChannel({ topic, schemaId, messageEncoding: "cdr", metadata: new Map() });
     writers[topic] = new MessageWriter(parse(types[type], { ros2: true }));
@@ -72,6 +75,8 @@ async function write(name, compress) {
     await add("/psm/measured_cp", arrive, { header: hdr("psm_base"), pose: { position: s.p, orientation: s.q } });
     await add("/psm/jaw/measured_js", arrive, { header: hdr(""), name: ["jaw"], position: [s.jaw], velocity: [], effort: [] });
     if (i % 10 === 0) await add("/psm/state", arrive, { data: "ENABLED" });
+    if (i % 2 === 1)
+      await add("/touch/buttons", arrive, { header: hdr(""), axes: [0.0], buttons: [0, i >= 5 && i <= 12 ? 1 : 0] });
     await add("/tf", arrive, { transforms: [
       { header: hdr("world"), child_frame_id: "psm1_base", transform: { translation: { x: 0.1, y: 0, z: 0 }, rotation: { x: 0, y: 0, z: 0, w: 1 } } },
       { header: hdr("psm1_base"), child_frame_id: "psm1_tool", transform: { translation: s.p, rotation: s.q } },

@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
       try {
         (void)ebh::read_rosbag(tmp.string(),
                                topics ? ebh::BagRequest{"", "/psm1/joint_states", "psm1_tool", "jaw", "/touch/buttons"}
-                               : mcap ? ebh::BagRequest{"", "/psm/jaw/measured_js", "psm1_tool", "jaw", ""}
+                               : mcap ? ebh::BagRequest{"", "/psm/jaw/measured_js", "psm1_tool", "jaw", "/touch/buttons"}
                                       : ebh::BagRequest{"", "/psm/jaw/measured_js", "", "", ""});
         ++read;
       } catch (const ebh::InputError&) {

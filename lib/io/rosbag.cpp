@@ -154,13 +154,13 @@ struct MessageCursor {
   void align(std::size_t k) {
     if (cdr) pos = std::min(n, (pos + k - 1) / k * k);
   }
-  std::uint32_t count(const char* what) {
+  std::uint32_t u32(const char* what) {
     align(4);
     need(4, what);
-    const std::uint32_t c = u32(p + pos);
     pos += 4;
-    return c;
+    return ebh::u32(p + pos - 4);
   }
+  std::uint32_t count(const char* what) { return u32(what); }
   std::string string(const char* what) {
     const std::uint32_t len = count(what);
     need(len, what);
@@ -255,10 +255,7 @@ BagButtons decode_buttons(const unsigned char* p, std::size_t n, const std::stri
   for (std::uint32_t i = 0; i < axes; ++i) (void)c.f32("axes");
   const std::uint32_t buttons = c.count("buttons");
   for (std::uint32_t i = 0; i < buttons; ++i) {
-    c.align(4);
-    c.need(4, "buttons");
-    const bool pressed = u32(c.p + c.pos) != 0;
-    c.pos += 4;
+    const bool pressed = c.u32("buttons") != 0;
     if (pressed && i >= 31)
       throw InputError(where + ": button " + std::to_string(i) + " pressed (a recording holds buttons 0 to 30)");
     if (pressed) m.bits |= 1 << i;
@@ -417,6 +414,7 @@ struct Connection {
   bool tf = false;                 // a tf topic (its transforms to the requested frame are the poses)
   bool cdr = false;                // ROS 2's serialisation (MCAP), else ROS 1's
   bool buttons = false;            // of the button topic
+  std::size_t topic_index = 0;     // its entry in BagContents::topics
 };
 
 class BagReader {
@@ -672,7 +670,10 @@ class BagReader {
                        "geometry_msgs/PoseStamped, TransformStamped, Pose or Transform, or a tf topic's transforms)");
     auto t = std::find_if(contents_.topics.begin(), contents_.topics.end(),
                           [&](const BagTopic& b) { return b.name == c.topic; });
-    if (t == contents_.topics.end()) contents_.topics.push_back({c.topic, c.type, 0});
+    if (t == contents_.topics.end()) t = contents_.topics.insert(t, {c.topic, c.type, 0});
+    if (t->type != c.type)
+      throw InputError(where + ": topic " + c.topic + " holds both " + t->type + " and " + c.type + " messages");
+    c.topic_index = static_cast<std::size_t>(t - contents_.topics.begin());
     connections_.emplace(id, std::move(c));
   }
 
@@ -689,11 +690,8 @@ class BagReader {
     if (it == connections_.end())
       throw InputError(where + ": a message of connection " + std::to_string(id) + " before its connection record");
     const Connection& c = it->second;
-    auto topic = std::find_if(contents_.topics.begin(), contents_.topics.end(),
-                              [&](const BagTopic& b) { return b.name == c.topic; });
-    const std::size_t index = ++topic->messages;
-    if (topic->type != c.type)
-      throw InputError(where + ": topic " + c.topic + " holds both " + topic->type + " and " + c.type + " messages");
+    const std::size_t index = ++contents_.topics[c.topic_index].messages;
+    if (!c.pose && !c.jaw && !c.buttons) return;  // a topic not read: counted only
     const std::string msg = path_ + ": " + c.topic + " message " + std::to_string(index);
     if (c.pose && c.tf) {
       decode_tf(body, n, msg, c.cdr, [&](const std::string& parent, const std::string& child, BagPose p) {
@@ -738,9 +736,7 @@ class BagReader {
     const std::string cut = contents_.cut_bytes == 0 ? std::string()
                             : " (its last " + std::to_string(contents_.cut_bytes) +
                                   " bytes, a record cut short, are left out: a recording stopped while writing it?)";
-    const auto has = [&](const std::string& name) {
-      return std::any_of(contents_.topics.begin(), contents_.topics.end(), [&](const BagTopic& t) { return t.name == name; });
-    };
+    const auto has = [&](const std::string& name) { return !topic_type(name).empty(); };
     if (!pose_topic_.empty() && !has(pose_topic_))
       throw InputError(path_ + ": --topic " + pose_topic_ + ": the bag has no such topic; its topics: " + listed(false) + cut);
     if (!jaw_topic_.empty() && !has(jaw_topic_))

@@ -26,6 +26,11 @@ Vec3d known_position(std::size_t i) {
   const double k = static_cast<double>(i);
   return Vec3d{(10 + k) * 1e-3, (-5 + 0.5 * k) * 1e-3, 30e-3};
 }
+// Round-off between the bag's numbers and the ones computed here: the writer's sin and cos against
+// quat_from_rotvec's (the turn, rad), 0.8 (1 - i/19) mapped back by --jaw-range 0,0.8 (the jaw),
+// a few ulps of numbers below 1; the times (s): 1.7e9 s keeps ~0.24 us in a double.
+constexpr double kTurnRoundOff = 1e-12, kJawRoundOff = 1e-12, kTimeRoundOff = 5e-7;
+
 Quatd known_orientation(std::size_t i) {
   return quat_from_rotvec(Vec3d{0, 0, 3.0 * static_cast<double>(i) * std::numbers::pi / 180});
 }
@@ -90,13 +95,14 @@ TEST(RosBag, APoseTopicAndItsGripperReadAsTheDeviceLogged) {
   for (std::size_t i = 0; i < r.size(); ++i) {
     // The message's float64 as written: the same double
     EXPECT_EQ(r.position[i], known_position(i)) << i;
-    EXPECT_NEAR(quat_angle(r.orientation[i], known_orientation(i)), 0, 1e-12) << i;
+    EXPECT_NEAR(quat_angle(r.orientation[i], known_orientation(i)), 0, kTurnRoundOff) << i;
     // The header stamp (not the record time, 0.2 ms later): whole nanoseconds, kept to the
     // ~0.24 us a double resolves at 1.7e9 s
-    EXPECT_NEAR(r.t[i], stamp(i), 5e-7) << i;
-    EXPECT_NEAR(r.jaw[i], 1.0 - static_cast<double>(i) / 19.0, 1e-12) << i;
+    EXPECT_NEAR(r.t[i], stamp(i), kTimeRoundOff) << i;
+    EXPECT_NEAR(r.jaw[i], 1.0 - static_cast<double>(i) / 19.0, kJawRoundOff) << i;
     EXPECT_EQ(r.buttons[i], 0) << i;
   }
+  // 19 intervals over 9.5 ms, each end known to the ~0.24 us a double keeps at 1.7e9 s: 0.1 Hz
   EXPECT_NEAR(r.rate_hz, 2000, 0.1);
   EXPECT_EQ(report.layout_note,
             "read as a ROS 1 bag: topic /psm/measured_cp (geometry_msgs/PoseStamped, 20 messages), the jaw from "
@@ -140,14 +146,14 @@ TEST(RosBag, TopicsAreChosenByNameAndType) {
   ASSERT_EQ(pose.size(), 20u);
   for (std::size_t i = 0; i < pose.size(); ++i) {
     EXPECT_EQ(pose.position[i], known_position(i)) << i;
-    EXPECT_NEAR(pose.t[i], stamp(i) + 2e-4, 5e-7) << i;
-    EXPECT_NEAR(pose.jaw[i], 1.0 - static_cast<double>(i) / 19.0, 1e-12) << i;
+    EXPECT_NEAR(pose.t[i], stamp(i) + 2e-4, kTimeRoundOff) << i;
+    EXPECT_NEAR(pose.jaw[i], 1.0 - static_cast<double>(i) / 19.0, kJawRoundOff) << i;
   }
   EXPECT_NE(report.layout_note.find("times from the bag's record times (geometry_msgs/Pose has no header)"),
             std::string::npos)
       << report.layout_note;
   // A stamped pose with a jaw without stamps: one clock for both, the bag's.
-  EXPECT_NEAR(import_log(bag, with_jaw("/psm1/measured_cp", "/mtm/gripper")).t[3], stamp(3) + 2e-4, 5e-7);
+  EXPECT_NEAR(import_log(bag, with_jaw("/psm1/measured_cp", "/mtm/gripper")).t[3], stamp(3) + 2e-4, kTimeRoundOff);
   const auto named = [&](const std::string& pose_topic, const std::string& jaw_topic) {
     return import_log(bag, bag_options(pose_topic, jaw_topic));
   };
@@ -262,7 +268,7 @@ TEST(RosBag, AJointOfSeveralGivesTheJaw) {
   ImportReport report;
   const Recording r = import_log(bag, o, &report);
   ASSERT_EQ(r.size(), 20u);
-  for (std::size_t i = 0; i < r.size(); ++i) EXPECT_NEAR(r.jaw[i], 1.0 - static_cast<double>(i) / 19.0, 1e-12) << i;
+  for (std::size_t i = 0; i < r.size(); ++i) EXPECT_NEAR(r.jaw[i], 1.0 - static_cast<double>(i) / 19.0, kJawRoundOff) << i;
   EXPECT_NE(report.layout_note.find("the jaw from /psm1/joint_states joint jaw (sensor_msgs/JointState, 20 messages"),
             std::string::npos)
       << report.layout_note;

@@ -535,13 +535,33 @@ void read_csv(const std::string& path, double unit, double rate, double& time_un
 
 /// A ROS bag's pose topic (io/rosbag.hpp) as samples (line_of: the message's index in the
 /// topic, from 1), positions times `unit`; the jaw from the jaw topic, if any (has_jaw).
+/// What a bag's poses of a tf frame are: the transforms to it, and the links above it they were
+/// composed with into the frame they are given in.
+std::string frame_note(const BagContents& bag) {
+  const BagLink& own = bag.links.back();
+  std::string s = std::to_string(own.transforms) + " transforms " + own.parent + " -> " + own.child;
+  if (bag.links.size() == 1) return s;
+  s += ", composed with";
+  for (std::size_t k = bag.links.size() - 1; k-- > 0;) {
+    const BagLink& l = bag.links[k];
+    s += std::string(k + 2 == bag.links.size() ? " " : ", ") + l.parent + " -> " + l.child + " (" +
+         std::to_string(l.transforms) + ", " + (l.held ? "held" : "interpolated") + ")";
+  }
+  s += " into " + bag.frame_chain.front();
+  if (bag.outside_links > 0)
+    s += "; " + std::to_string(bag.outside_links) + " at times outside an interpolated link's transforms left out";
+  return s;
+}
+
 /// Returns the bag's kind ("ROS 1 bag") and the pose topic read.
 std::pair<std::string, std::string> read_bag(const std::string& path, double unit, const ImportOptions& opt,
                                              LogWindow& window, Recording& rec, std::vector<std::size_t>& line_of,
                                              bool& has_jaw, std::string& layout_note, std::size_t& cut_bytes) {
   if (!opt.jaw_joint.empty() && opt.jaw_topic.empty())
     throw InputError("--jaw-joint: " + path + ": the joint is of the jaw topic: give --jaw-topic too");
-  BagContents bag = read_rosbag(path, BagRequest{opt.topic, opt.jaw_topic, opt.frame, opt.jaw_joint, opt.button_topic});
+  if (!opt.root_frame.empty() && opt.frame.empty())
+    throw InputError("--root-frame: " + path + ": the frame --frame's poses are given in: give --frame too");
+  BagContents bag = read_rosbag(path, BagRequest{opt.topic, opt.jaw_topic, opt.frame, opt.jaw_joint, opt.button_topic, opt.root_frame});
   cut_bytes = bag.cut_bytes;
   has_jaw = !bag.jaw.empty();
   // The device's clock where every message carries it (a header stamp set), else the bag's.
@@ -586,9 +606,7 @@ std::pair<std::string, std::string> read_bag(const std::string& path, double uni
                                })->messages;
   layout_note = "read as a " + bag.kind + ": topic " + bag.pose_topic + " (" + bag.pose_type + ", " +
                 std::to_string(messages) + " messages" +
-                (opt.frame.empty() ? std::string()
-                                   : "; " + std::to_string(bag.poses.size()) + " transforms " + bag.frame_parent + " -> " +
-                                         opt.frame) +
+                (opt.frame.empty() ? std::string() : "; " + frame_note(bag)) +
                 ")" +
                 (has_jaw ? ", the jaw from " + opt.jaw_topic + (opt.jaw_joint.empty() ? "" : " joint " + opt.jaw_joint) +
                                " (" + bag.jaw_type + ", " +
@@ -755,6 +773,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   const bool bag = fmt == LogFormat::rosbag;
   if (!bag && !opt.topic.empty()) throw InputError("--topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
   if (!bag && !opt.frame.empty()) throw InputError("--frame: " + path + " is not a ROS bag (*.bag): the option names a tf frame");
+  if (!bag && !opt.root_frame.empty())
+    throw InputError("--root-frame: " + path + " is not a ROS bag (*.bag): the option names a tf frame");
   if (!bag && !opt.button_topic.empty())
     throw InputError("--button-topic: " + path + " is not a ROS bag (*.bag): the option names a bag's topic");
   if (!bag && !opt.jaw_joint.empty())

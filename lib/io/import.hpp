@@ -62,8 +62,10 @@ struct ImportOptions {
   /// (mirror_poses); nullopt: the log's frame is right-handed, as ebh's.
   std::optional<int> mirror;
   /// rosbag: the pose topic (--topic; empty: the bag's only one), the jaw topic (--jaw-topic;
-  /// empty: none, the jaws open), a tf topic's child frame (--frame: its transforms are the poses)
-  std::string topic, jaw_topic, frame;
+  /// empty: none, the jaws open), a tf topic's child frame (--frame: its transforms, composed with
+  /// the links above it, are the poses) and the frame they are given in (--root-frame; empty: the
+  /// top of the frame's tf tree)
+  std::string topic, jaw_topic, frame, root_frame;
   std::string jaw_joint;  ///< rosbag: the joint of a JointState jaw topic (--jaw-joint; empty: its first position)
   /// rosbag: a sensor_msgs/Joy topic whose buttons become the samples' (--button-topic; empty:
   /// none pressed), held as the jaw is (--jaw-button takes the jaw from one)

@@ -347,21 +347,6 @@ void apply_stored_transforms(Recording& rec, const std::string& file) {
   });
 }
 
-Quatd slerp(Quatd a, Quatd b, double s) {
-  double d = a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z;
-  if (d < 0) { b = Quatd{-b.w, -b.x, -b.y, -b.z}; d = -d; }
-  double wa, wb;
-  if (d > 0.9995) {  // nearly parallel: sin(theta) ~ 0, nlerp is exact to O(theta^3)
-    wa = 1 - s;
-    wb = s;
-  } else {
-    double theta = std::acos(std::min(d, 1.0));
-    double st = std::sin(theta);
-    wa = std::sin((1 - s) * theta) / st;
-    wb = std::sin(s * theta) / st;
-  }
-  return normalized(Quatd{wa * a.w + wb * b.w, wa * a.x + wb * b.x, wa * a.y + wb * b.y, wa * a.z + wb * b.z});
-}
 
 DeviceSample sample_at(const Recording& rec, double t) {
   const std::size_t n = rec.size();

@@ -130,9 +130,6 @@ void write_recording(const std::string& path, const Recording& rec);
 /// The result is validated again (a huge translation overflows), messages naming `file`.
 void apply_stored_transforms(Recording& rec, const std::string& file);
 
-/// Spherical linear interpolation on the shortest arc, s in [0, 1].
-Quatd slerp(Quatd a, Quatd b, double s);
-
 /// The device state at time t: linear position and jaw, slerp orientation, buttons of the last
 /// sample at or before t; clamped to the first/last sample outside the recording. O(log N).
 DeviceSample sample_at(const Recording& rec, double t);

@@ -7,6 +7,8 @@
 #include <map>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
+#include "math/vec.hpp"
 
 #if EBH_HAVE_BZIP2
 #include <bzlib.h>
@@ -414,8 +416,31 @@ struct Connection {
   bool tf = false;                 // a tf topic (its transforms to the requested frame are the poses)
   bool cdr = false;                // ROS 2's serialisation (MCAP), else ROS 1's
   bool buttons = false;            // of the button topic
+  bool tf_static = false;          // a tf topic of static transforms (its name ends in tf_static)
   std::size_t topic_index = 0;     // its entry in BagContents::topics
 };
+
+/// A tf frame id as tf2 compares them: without a leading '/' (tf1's "/world").
+std::string frame_id(const std::string& id) { return !id.empty() && id[0] == '/' ? id.substr(1) : id; }
+
+/// The time a tf lookup of `t` uses: the header stamp, or the record time where it is 0.
+double lookup_time(const BagTimes& t) { return t.stamp > 0 ? t.stamp : t.record; }
+
+/// The transforms of one tf link (parent -> child) read so far.
+struct TfLink {
+  std::string parent;
+  std::string other_parent;       // a second parent seen for the child (a broken tree), else empty
+  bool dynamic = false;           // some transform came from a topic other than tf_static
+  std::vector<BagPose> transforms;
+};
+
+/// `outer` after `inner`: a pose in inner's parent frame given inner in outer's child frame.
+BagPose compose(const BagPose& outer, const BagPose& inner) {
+  BagPose r = inner;
+  r.position = outer.position + rotate(outer.orientation, inner.position);
+  r.orientation = outer.orientation * inner.orientation;
+  return r;
+}
 
 class BagReader {
  public:
@@ -423,9 +448,10 @@ class BagReader {
       : path_(path),
         pose_topic_(request.pose_topic),
         jaw_topic_(request.jaw_topic),
-        frame_(request.frame),
+        frame_(frame_id(request.frame)),
         jaw_joint_(request.jaw_joint),
-        button_topic_(request.button_topic) {}
+        button_topic_(request.button_topic),
+        root_frame_(frame_id(request.root_frame)) {}
 
   BagContents read() {
     std::ifstream in(path_, std::ios::binary | std::ios::ate);
@@ -649,6 +675,7 @@ class BagReader {
                        ", the standard message's " + k->md5 + ")");
     // A tf topic is read for a frame (--frame), and then only tf topics are.
     c.tf = k && k->role == Role::tf;
+    c.tf_static = c.tf && topic.size() >= 9 && topic.compare(topic.size() - 9, 9, "tf_static") == 0;
     const bool poses = k && (k->role == Role::pose || c.tf);
     c.pose = poses && (pose_topic_.empty() ? c.tf == !frame_.empty() : c.topic == pose_topic_);
     if (!frame_.empty() && c.pose && !c.tf)
@@ -691,21 +718,38 @@ class BagReader {
       throw InputError(where + ": a message of connection " + std::to_string(id) + " before its connection record");
     const Connection& c = it->second;
     const std::size_t index = ++contents_.topics[c.topic_index].messages;
-    if (!c.pose && !c.jaw && !c.buttons) return;  // a topic not read: counted only
+    // A topic not read: counted only (with --frame every tf topic is read, for the links above it).
+    if (!c.pose && !c.jaw && !c.buttons && !(c.tf && !frame_.empty())) return;
     const std::string msg = path_ + ": " + c.topic + " message " + std::to_string(index);
-    if (c.pose && c.tf) {
-      decode_tf(body, n, msg, c.cdr, [&](const std::string& parent, const std::string& child, BagPose p) {
+    if (c.tf && !frame_.empty()) {  // every tf topic's links: the frame's and those above it
+      decode_tf(body, n, msg, c.cdr, [&](const std::string& parent_id, const std::string& child_id, BagPose p) {
+        const std::string parent = frame_id(parent_id), child = frame_id(child_id);
         const std::string link = parent + " -> " + child;
         auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& l) { return l.first == link; });
         if (seen == frames_.end()) frames_.emplace_back(link, 1);
         else ++seen->second;
-        if (child != frame_) return;
-        if (frame_parent_.empty()) frame_parent_ = parent;
-        else if (parent != frame_parent_)
-          throw InputError(msg + ": frame " + frame_ + "'s parent is " + parent + " here, " + frame_parent_ +
-                           " before (two trees give it)");
         p.t.record = record_t;
-        poses_[c.topic].push_back(p);
+        if (child == frame_) {
+          if (!c.pose) return;  // another tf topic than the one --topic names
+          if (frame_parent_.empty()) frame_parent_ = parent;
+          else if (parent != frame_parent_)
+            throw InputError(msg + ": frame " + frame_ + "'s parent is " + parent + " here, " + frame_parent_ +
+                             " before (two trees give it)");
+          poses_[c.topic].push_back(p);
+          return;
+        }
+        TfLink& l = links_[child];
+        if (l.parent.empty()) l.parent = parent;
+        else if (parent != l.parent && l.other_parent.empty()) l.other_parent = parent;
+        l.dynamic = l.dynamic || !c.tf_static;
+        l.transforms.push_back(p);
+      });
+    } else if (c.tf) {
+      decode_tf(body, n, msg, c.cdr, [&](const std::string& parent, const std::string& child, BagPose) {
+        const std::string link = frame_id(parent) + " -> " + frame_id(child);
+        auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& l) { return l.first == link; });
+        if (seen == frames_.end()) frames_.emplace_back(link, 1);
+        else ++seen->second;
       });
     } else if (c.pose) {
       BagPose p = decode_pose(c.type, body, n, msg, c.cdr);
@@ -760,9 +804,9 @@ class BagReader {
                        (frames_.empty() && !has_tf() ? "" : "; a tf topic's transforms are read with --frame"));
     if (poses_.size() > 1)
       throw InputError(path_ + ": several pose topics: " + listed(true) + "; name the device's with --topic");
-    contents_.frame_parent = frame_parent_;
     contents_.pose_topic = poses_.begin()->first;
     contents_.poses = std::move(poses_.begin()->second);
+    if (!frame_.empty()) compose_chain(cut);
     for (const BagTopic& t : contents_.topics) {
       if (t.name == contents_.pose_topic) contents_.pose_type = t.type;
       if (t.name == jaw_topic_) contents_.jaw_type = t.type;
@@ -777,6 +821,93 @@ class BagReader {
     return std::move(contents_);
   }
 
+  /// The frame's poses in the frame above it that the request names (--root-frame), or in the top
+  /// of its tree: each composed with the links between, looked up at the pose's time (a held link's
+  /// last transform; an interpolated one's two around it); a pose outside a link's times is left out.
+  void compose_chain(const std::string& cut) {
+    std::vector<std::string> up{frame_, frame_parent_};  // the frame, then the frames above it
+    std::vector<TfLink*> above;                          // the link to each frame above the parent
+    while (up.back() != root_frame_) {
+      const auto l = links_.find(up.back());
+      if (l == links_.end()) break;  // the tree's top
+      TfLink& link = l->second;
+      if (!link.other_parent.empty())
+        throw InputError(path_ + ": --frame " + frame_ + ": frame " + l->first + " above it has two parents, " +
+                         link.parent + " and " + link.other_parent + " (two trees give it)");
+      if (std::find(up.begin(), up.end(), link.parent) != up.end())
+        throw InputError(path_ + ": --frame " + frame_ + ": the tf links above it close a loop at " + link.parent);
+      above.push_back(&link);
+      up.push_back(link.parent);
+    }
+    const auto joined = [&](std::size_t from) {
+      std::string s;
+      for (std::size_t i = from; i < up.size(); ++i) s += (s.empty() ? "" : ", ") + up[i];
+      return s;
+    };
+    if (!root_frame_.empty() && up.back() != root_frame_)
+      throw InputError(path_ + ": --root-frame " + root_frame_ + ": not above " + frame_ + " in the bag's tf tree; " +
+                       "the frames above it: " + joined(1) + cut);
+    contents_.frame_chain.assign(up.rbegin(), up.rend());
+    contents_.links.push_back({frame_parent_, frame_, contents_.poses.size(), false});
+    // Each link above, held or sorted by time for the lookups.
+    for (std::size_t k = 0; k < above.size(); ++k) {
+      TfLink& l = *above[k];
+      std::stable_sort(l.transforms.begin(), l.transforms.end(),
+                       [](const BagPose& a, const BagPose& b) { return lookup_time(a.t) < lookup_time(b.t); });
+      contents_.links.insert(contents_.links.begin(),
+                             {l.parent, up[k + 1], l.transforms.size(), !l.dynamic || l.transforms.size() == 1});
+    }
+    std::vector<BagPose> kept;
+    kept.reserve(contents_.poses.size());
+    std::string outside;  // the first link a pose fell outside of
+    for (const BagPose& p : contents_.poses) {
+      const double t = lookup_time(p.t);
+      BagPose x = p;
+      bool inside = true;
+      for (std::size_t k = 0; k < above.size() && inside; ++k) {
+        const std::vector<BagPose>& tr = above[k]->transforms;
+        const bool held = contents_.links[above.size() - 1 - k].held;
+        if (held) {
+          x = compose(tr.back(), x);
+          continue;
+        }
+        const auto next = std::upper_bound(tr.begin(), tr.end(), t,
+                                           [](double v, const BagPose& b) { return v < lookup_time(b.t); });
+        if (next == tr.begin() || (next == tr.end() && t > lookup_time(tr.back().t))) {
+          inside = false;
+          if (outside.empty()) outside = above[k]->parent + " -> " + up[k + 1];
+          break;
+        }
+        const BagPose& a = *(next - 1);
+        BagPose at = a;
+        if (next != tr.end()) {
+          const double t0 = lookup_time(a.t), t1 = lookup_time(next->t);
+          const double s = t1 > t0 ? (t - t0) / (t1 - t0) : 0.0;
+          at.position = a.position + s * (next->position - a.position);
+          at.orientation = slerp(a.orientation, next->orientation, s);
+        }
+        x = compose(at, x);
+      }
+      if (inside) kept.push_back(x);
+    }
+    contents_.outside_links = contents_.poses.size() - kept.size();
+    if (kept.empty()) {
+      const auto span = [](const std::vector<BagPose>& v) {
+        return fixed_text(lookup_time(v.front().t), 4) + " .. " + fixed_text(lookup_time(v.back().t), 4) + " s";
+      };
+      const TfLink* l = nullptr;
+      for (std::size_t k = 0; k < above.size(); ++k)
+        if (above[k]->parent + " -> " + up[k + 1] == outside) l = above[k];
+      throw InputError(path_ + ": --frame " + frame_ + ": none of its " + std::to_string(contents_.poses.size()) +
+                       " transforms (" + span(contents_.poses) + ") is within the times of " + outside + "'s (" +
+                       span(l->transforms) + ") to compose them with" +
+                       (root_frame_.empty() ? std::string(" (--root-frame " + frame_parent_ + " keeps them in " +
+                                                          frame_parent_ + ")")
+                                            : std::string()));
+    }
+    contents_.poses = std::move(kept);
+  }
+
   std::string topic_type(const std::string& name) const {
     for (const BagTopic& t : contents_.topics)
       if (t.name == name) return t.type;
@@ -789,9 +920,10 @@ class BagReader {
     });
   }
 
-  const std::string path_, pose_topic_, jaw_topic_, frame_, jaw_joint_, button_topic_;
+  const std::string path_, pose_topic_, jaw_topic_, frame_, jaw_joint_, button_topic_, root_frame_;
   std::vector<std::pair<std::string, std::size_t>> frames_;  // a tf topic's "parent -> child" links, counted
   std::string frame_parent_;
+  std::map<std::string, TfLink> links_;  // with --frame: every other link of the tf topics, by child frame
   std::map<std::uint16_t, std::string> schemas_;  // MCAP: a schema's message type
   std::map<std::uint32_t, Connection> connections_;
   std::map<std::string, std::vector<BagPose>> poses_;  // by topic: the candidates when none is named

@@ -8,7 +8,8 @@
 // whole record; a record cut short there is left out and counted). Chunks are uncompressed, bz2
 // or lz4 (rosbag record --bz2 / --lz4), zstd or lz4 in MCAP, each where the build has the library.
 // Pose messages: geometry_msgs/PoseStamped, TransformStamped, Pose and Transform, and the
-// transforms to one child frame in a tf topic (tf2_msgs/TFMessage, tf/tfMessage); jaw messages:
+// transforms to one child frame in a tf topic (tf2_msgs/TFMessage, tf/tfMessage), composed with
+// the transforms above it in the bag's tf tree up to its top or a named frame; jaw messages:
 // sensor_msgs/JointState (its first position, or a named joint's) and std_msgs/Float64 or Float32;
 // button messages: sensor_msgs/Joy.
 // A ROS 1 type is known by its name and its definition's MD5 sum (a message of another definition
@@ -55,16 +56,32 @@ struct BagTopic {
 /// What to read: the pose topic (empty: the bag's only one; with `frame`, its only tf topic with
 /// transforms to that frame), the jaw topic (empty: none), for a tf topic the child frame, and for
 /// a JointState jaw topic the joint (empty: its first position), and the button topic (empty:
-/// none).
+/// none); with `frame`, the frame its poses are given in (`root_frame`; empty: the top of the
+/// frame's tf tree).
 struct BagRequest {
-  std::string pose_topic, jaw_topic, frame, jaw_joint, button_topic;
+  std::string pose_topic, jaw_topic, frame, jaw_joint, button_topic, root_frame;
+};
+
+/// A link of the tf tree above the requested frame that its poses were composed with.
+struct BagLink {
+  std::string parent, child;
+  std::size_t transforms = 0;
+  /// from a tf_static topic (or a single transform): its last transform at every time; else
+  /// interpolated at each pose's time (linear in translation, slerp in rotation), as tf does
+  bool held = false;
 };
 
 struct BagContents {
   std::string kind;                 ///< "ROS 1 bag" or "ROS 2 bag (MCAP)"
   std::vector<BagTopic> topics;     ///< every topic the bag records, in the order first seen
   std::string pose_topic, pose_type, jaw_type;
-  std::string frame_parent;         ///< a tf topic's: the parent frame of the transforms read
+  /// With a frame (a tf topic): the frames from the one its poses are given in (the tree's top or
+  /// the requested root) down to the requested frame, and the links above the frame's own that its
+  /// transforms were composed with (top first); poses at times outside an interpolated link's
+  /// transforms are left out (tf cannot look them up), counted in `outside_links`.
+  std::vector<std::string> frame_chain;
+  std::vector<BagLink> links;
+  std::size_t outside_links = 0;
   std::vector<BagPose> poses;       ///< the pose topic's messages, in the bag's order
   std::vector<BagJaw> jaw;          ///< the jaw topic's (none without one)
   std::vector<BagButtons> buttons;  ///< the button topic's (none without one)

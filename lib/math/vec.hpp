@@ -2,6 +2,7 @@
 // Small fixed-size vectors, 3x3 matrices and quaternions for per-element math that runs on
 // both the host and CUDA devices. Scalar is float (CUDA backend) or double (CPU reference).
 // Containers on the host use std::vector<Vec3<T>>; Eigen is used for sparse solves only.
+#include <algorithm>
 #include <cmath>
 
 #include "math/hd.hpp"
@@ -180,6 +181,23 @@ template <class T> EBH_HD Vec3<T> rotvec_from_quat(Quat<T> q) {
   if (s < T(1e-8)) return T(2) * v;
   T angle = T(2) * atan2(s, q.w);
   return (angle / s) * v;
+}
+/// Spherical linear interpolation on the shortest arc, s in [0, 1] (host: the recordings' and the
+/// tf links' orientations between samples).
+inline Quatd slerp(Quatd a, Quatd b, double s) {
+  double d = a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z;
+  if (d < 0) { b = Quatd{-b.w, -b.x, -b.y, -b.z}; d = -d; }
+  double wa, wb;
+  if (d > 0.9995) {  // nearly parallel: sin(theta) ~ 0, nlerp is exact to O(theta^3)
+    wa = 1 - s;
+    wb = s;
+  } else {
+    double theta = std::acos(std::min(d, 1.0));
+    double st = std::sin(theta);
+    wa = std::sin((1 - s) * theta) / st;
+    wb = std::sin(s * theta) / st;
+  }
+  return normalized(Quatd{wa * a.w + wb * b.w, wa * a.x + wb * b.x, wa * a.y + wb * b.y, wa * a.z + wb * b.z});
 }
 
 }  // namespace ebh

@@ -239,13 +239,25 @@ TEST(RosBag, MalformedBagsAreRefusedWithTheirPlace) {
 }
 
 TEST(RosBag, ATfTopicGivesTheTransformsToOneFrame) {
-  // /tf holds world -> psm1_base and psm1_base -> psm1_tool in each message; /tf_static world -> camera.
+  // /tf holds world -> psm1_base (a shift of 0.1 m along x) and psm1_base -> psm1_tool in each
+  // message; /tf_static world -> camera.
   const std::string bag = kData + "topics.bag";
+  const Recording raw = import_log(kData + "sample.bag", ImportOptions{});
   ImportReport report;
-  expect_same(import_log(bag, bag_options("", "", "psm1_tool"), &report), import_log(kData + "sample.bag", ImportOptions{}));
+  ImportOptions in_base = bag_options("", "", "psm1_tool");
+  in_base.root_frame = "psm1_base";
+  expect_same(import_log(bag, in_base, &report), raw);
   EXPECT_EQ(report.layout_note,
             "read as a ROS 1 bag: topic /tf (tf2_msgs/TFMessage, 20 messages; 20 transforms psm1_base -> psm1_tool); "
             "times from the messages' header stamps");
+  // By default the poses are in the tree's top, world: the shift composed at each time (the
+  // link's transforms at the same stamps, so no interpolation and no round-off).
+  Recording shifted = raw;
+  for (Vec3d& p : shifted.position) p = Vec3d{0.1, 0, 0} + p;
+  expect_same(import_log(bag, bag_options("", "", "psm1_tool"), &report), shifted);
+  EXPECT_EQ(report.layout_note,
+            "read as a ROS 1 bag: topic /tf (tf2_msgs/TFMessage, 20 messages; 20 transforms psm1_base -> psm1_tool, "
+            "composed with world -> psm1_base (20, interpolated) into world); times from the messages' header stamps");
   const auto refused = [&](const std::string& topic, const std::string& frame) {
     return import_log(bag, bag_options(topic, "", frame));
   };
@@ -258,6 +270,68 @@ TEST(RosBag, ATfTopicGivesTheTransformsToOneFrame) {
   ImportOptions on_csv;
   on_csv.frame = "psm1_tool";
   EXPECT_INPUT_ERROR(import_log(kData + "sample.csv", on_csv), "--frame: ", "is not a ROS bag");
+}
+
+TEST(RosBag, AFramesPosesAreComposedWithTheLinksAboveIt) {
+  // tf_chain.bag (make_bags.py): world -> base static, base -> arm every fourth sample from sample
+  // 2 (linear in time), arm -> /tool the trajectory, stamps from 100 s.
+  const std::string bag = kData + "tf_chain.bag";
+  const auto chain_time = [](double k) { return 100 + 5e-4 * k; };
+  const auto base_arm = [](double k) {  // the link at sample k (fractional between its messages)
+    return std::pair{Vec3d{0.01 * k / 20, 0, 0.05}, quat_from_rotvec(Vec3d{2.0 * k * std::numbers::pi / 180, 0, 0})};
+  };
+  const Vec3d world_base_p{0.1, 0.2, 0.3};
+  const Quatd world_base_q = quat_from_rotvec(Vec3d{0, 0, std::numbers::pi / 2});
+  // Round-off: the link interpolated between messages 4 samples apart from times near 100 s (1e-14
+  // s each, 1e-11 of the 2 ms between them) and composed in double with a quarter turn written by
+  // Python's sin and cos: a few 1e-16 of numbers below 1.
+  constexpr double kChainRoundOff = 1e-12;
+  ImportReport report;
+  for (const bool to_world : {true, false}) {
+    ImportOptions o = bag_options("", "", "tool");
+    if (!to_world) o.root_frame = "base";
+    const Recording r = import_log(bag, o, &report);
+    ASSERT_EQ(r.size(), 18u) << "samples 0 and 1 precede base -> arm's first transform";
+    for (std::size_t n = 0; n < r.size(); ++n) {
+      const std::size_t i = n + 2;
+      const auto [ap, aq] = base_arm(static_cast<double>(i));
+      Vec3d p = ap + rotate(aq, known_position(i));
+      Quatd q = aq * known_orientation(i);
+      if (to_world) {
+        p = world_base_p + rotate(world_base_q, p);
+        q = world_base_q * q;
+      }
+      EXPECT_NEAR(r.t[n], chain_time(static_cast<double>(i)), kChainRoundOff) << i;
+      EXPECT_LT(norm(r.position[n] - p), kChainRoundOff) << i;
+      EXPECT_LT(quat_angle(r.orientation[n], q), kChainRoundOff) << i;
+    }
+  }
+  EXPECT_EQ(report.layout_note,
+            "read as a ROS 1 bag: topic /tf (tf2_msgs/TFMessage, 26 messages; 20 transforms arm -> tool, composed "
+            "with base -> arm (6, interpolated) into base; 2 at times outside an interpolated link's transforms left "
+            "out); times from the messages' header stamps");
+  import_log(bag, bag_options("", "", "tool"), &report);
+  EXPECT_NE(report.layout_note.find("composed with base -> arm (6, interpolated), world -> base (1, held) into world"),
+            std::string::npos)
+      << report.layout_note;
+  // In arm's frame: the frame's own transforms, bitwise ("/tool" is tf2's "tool").
+  ImportOptions in_arm = bag_options("", "", "/tool");
+  in_arm.root_frame = "arm";
+  const Recording own = import_log(bag, in_arm);
+  ASSERT_EQ(own.size(), 20u);
+  for (std::size_t i = 0; i < own.size(); ++i) {
+    EXPECT_EQ(own.position[i], known_position(i)) << i;
+    EXPECT_LT(quat_angle(own.orientation[i], known_orientation(i)), kTurnRoundOff) << i;
+  }
+  ImportOptions nowhere = bag_options("", "", "tool");
+  nowhere.root_frame = "camera";
+  EXPECT_INPUT_ERROR(import_log(bag, nowhere), "--root-frame camera: not above tool in the bag's tf tree; the frames "
+                                               "above it: arm, base, world");
+  EXPECT_INPUT_ERROR(import_log(bag, bag_options("", "", "probe")),
+                     "--frame probe: frame loose above it has two parents, world and base");
+  ImportOptions no_frame;
+  no_frame.root_frame = "world";
+  EXPECT_INPUT_ERROR(import_log(bag, no_frame), "--root-frame: ", "give --frame too");
 }
 
 TEST(RosBag, AJointOfSeveralGivesTheJaw) {
@@ -299,8 +373,12 @@ TEST(RosBag, Ros2McapBagsReadAsTheRos1Bag) {
     expect_same(import_log(kData + "sample.mcap", with_jaw("", "/psm/jaw/measured_js")), ros1, last_bit);
   else
     EXPECT_INPUT_ERROR(import_log(kData + "sample.mcap", ImportOptions{}), "a zstd-compressed chunk, and this build");
+  ImportOptions in_base = bag_options("", "", "psm1_tool");
+  in_base.root_frame = "psm1_base";
+  expect_same(import_log(kData + "sample_none.mcap", in_base), import_log(kData + "sample.bag", ImportOptions{}), last_bit);
+  // Composed with world -> psm1_base from CDR as from ROS 1.
   expect_same(import_log(kData + "sample_none.mcap", bag_options("", "", "psm1_tool")),
-              import_log(kData + "sample.bag", ImportOptions{}), last_bit);
+              import_log(kData + "topics.bag", bag_options("", "", "psm1_tool")), last_bit);
 }
 
 TEST(RosBag, MalformedMcapBagsAreRefusedWithTheirPlace) {

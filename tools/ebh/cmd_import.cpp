@@ -25,7 +25,7 @@ namespace {
 
 struct ImportArgs {
   std::string log, output, format, unit, time_unit, transform, tool_transform, scene, tool;  // tool: empty, the default
-  std::string topic, jaw_topic, frame, jaw_joint, button_topic;
+  std::string topic, jaw_topic, frame, root_frame, jaw_joint, button_topic;
   std::optional<double> rate_hz;
   bool drop_repeats = false;
   std::vector<std::string> skip_columns;
@@ -96,6 +96,7 @@ void run(const ImportArgs& a) {
   opt.topic = a.topic;
   opt.jaw_topic = a.jaw_topic;
   opt.frame = a.frame;
+  opt.root_frame = a.root_frame;
   opt.jaw_joint = a.jaw_joint;
   opt.button_topic = a.button_topic;
   ebh::ImportReport report;
@@ -192,8 +193,12 @@ void setup(CLI::App& root) {
                 "rosbag: the device's pose topic (geometry_msgs/PoseStamped, TransformStamped, Pose or Transform; "
                 "default: the bag's only one)");
   c->add_option("--frame", args->frame,
-                "rosbag: the device's frame in a tf topic (tf2_msgs/TFMessage): the transforms to it are the poses "
-                "(the tf topic with such transforms; --topic names one)");
+                "rosbag: the device's frame in a tf topic (tf2_msgs/TFMessage): the transforms to it, composed with "
+                "the tf links above it (tf_static's held, the others interpolated at each pose's time), are the "
+                "poses (the tf topic with such transforms; --topic names one)");
+  c->add_option("--root-frame", args->root_frame,
+                "rosbag, with --frame: the frame the poses are given in, a frame above --frame's in the tf tree "
+                "(default: the tree's top)");
   c->add_option("--button-topic", args->button_topic,
                 "rosbag: a sensor_msgs/Joy topic whose buttons are the samples' (button i pressed: bit i), held as "
                 "the jaw is; with --jaw-button I a device without a gripper grasps (default: none pressed)");

@@ -14,6 +14,12 @@ its header stamp (a bag's record time is when it arrived).
       (world -> camera, once), /psm1/joint_states (JointState: yaw, pitch, jaw; the gripper third),
       /touch/buttons (Joy: two buttons, the second pressed from sample 5 to 12, a message every
       other sample).
+  tf_chain.bag: a tf tree whose stamps count from 100 s (not 1.7e9: the interpolation's times
+      exact to ~1e-14 s): /tf_static world -> base (0.1, 0.2, 0.3) m and a quarter turn about z,
+      once; /tf base -> arm at samples 2, 6, .., 22 (translation (0.01 k / 20, 0, 0.05) m and a turn
+      of 2 k degrees about x at sample k: linear in time, so interpolation is exact), and
+      "arm" -> "/tool" (tf1's leading slash) the trajectory at every sample; a frame "loose" with
+      two parents (world and base) above "probe".
 """
 import math
 
@@ -88,7 +94,26 @@ def write_topics(name):
                 bag.write("/touch/buttons", joy, arrive)
 
 
+def write_chain(name):
+    start = rospy.Time(100)
+    at = lambda i: start + rospy.Duration.from_sec(5e-4 * i)
+    with rosbag.Bag(name, "w") as bag:
+        quarter = (0, 0, math.sin(math.pi / 4), math.cos(math.pi / 4))
+        bag.write("/tf_static", TFMessage(transforms=[transform(at(0), "world", "base", (0.1, 0.2, 0.3), quarter)]), at(0))
+        for i in range(23):
+            if i % 4 == 2:
+                a = math.radians(2.0 * i)
+                arm = transform(at(i), "base", "arm", (0.01 * i / 20, 0, 0.05), (math.sin(a / 2), 0, 0, math.cos(a / 2)))
+                bag.write("/tf", TFMessage(transforms=[arm]), at(i))
+            if i < 20:
+                _, p, q, _ = sample(i)
+                loose = [transform(at(i), "world" if i % 2 == 0 else "base", "loose", (0, 0, 0), (0, 0, 0, 1)),
+                         transform(at(i), "loose", "probe", p, q)]
+                bag.write("/tf", TFMessage(transforms=[transform(at(i), "arm", "/tool", p, q)] + loose), at(i))
+
+
 write_sample("sample.bag", "none")
 write_sample("sample_bz2.bag", "bz2")
 write_sample("sample_lz4.bag", "lz4")
 write_topics("topics.bag")
+write_chain("tf_chain.bag")

@@ -65,7 +65,8 @@ int main(int argc, char** argv) {
   const fs::path tmp = fs::temp_directory_path() / ("ebh_bag_fuzz_" + std::to_string(getpid()) + ".bag");
   Rng rng(20261202);
   long read = 0, refused = 0;
-  for (const char* name : {"sample.bag", "sample_bz2.bag", "sample_lz4.bag", "topics.bag", "sample.mcap", "sample_none.mcap"}) {
+  for (const char* name :
+       {"sample.bag", "sample_bz2.bag", "sample_lz4.bag", "topics.bag", "tf_chain.bag", "sample.mcap", "sample_none.mcap"}) {
     std::ifstream in(dir / name, std::ios::binary);
     std::stringstream ss;
     ss << in.rdbuf();
@@ -75,6 +76,7 @@ int main(int argc, char** argv) {
       return 2;
     }
     const bool topics = std::strcmp(name, "topics.bag") == 0, mcap = std::strstr(name, ".mcap") != nullptr;
+    const bool chain = std::strcmp(name, "tf_chain.bag") == 0;
     for (long k = 0; k < mutations; ++k) {
       std::string s = good;
       const std::size_t n = 1 + pick(rng, 3);
@@ -82,9 +84,10 @@ int main(int argc, char** argv) {
       std::ofstream(tmp, std::ios::binary).write(s.data(), static_cast<std::streamsize>(s.size()));
       try {
         (void)ebh::read_rosbag(tmp.string(),
-                               topics ? ebh::BagRequest{"", "/psm1/joint_states", "psm1_tool", "jaw", "/touch/buttons"}
-                               : mcap ? ebh::BagRequest{"", "/psm/jaw/measured_js", "psm1_tool", "jaw", "/touch/buttons"}
-                                      : ebh::BagRequest{"", "/psm/jaw/measured_js", "", "", ""});
+                               chain    ? ebh::BagRequest{"", "", "tool", "", "", ""}
+                               : topics ? ebh::BagRequest{"", "/psm1/joint_states", "psm1_tool", "jaw", "/touch/buttons", ""}
+                               : mcap ? ebh::BagRequest{"", "/psm/jaw/measured_js", "psm1_tool", "jaw", "/touch/buttons", ""}
+                                      : ebh::BagRequest{"", "/psm/jaw/measured_js", "", "", "", ""});
         ++read;
       } catch (const ebh::InputError&) {
         ++refused;

@@ -511,6 +511,16 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
       done.store(true);
     }
   });
+  // An error on this thread (a tick's health check, an observer's full disk) stops the solver and
+  // joins it before it propagates: a joinable thread's destructor would terminate the process.
+  struct StopAndJoin {
+    std::atomic<bool>& done;
+    std::thread& solver;
+    ~StopAndJoin() {
+      done.store(true);
+      if (solver.joinable()) solver.join();
+    }
+  } stop_and_join{done, solver};
 
   FrameClock frames{opt.frames_hz > 0 ? 1.0 / opt.frames_hz : 0.0};
   PhysicalSnapshot incoming;

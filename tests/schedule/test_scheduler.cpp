@@ -292,6 +292,26 @@ TEST(Scheduler, RealtimeStepTimesAreVirtualWhenTheTicksFallBehind) {
   }
 }
 
+// An error on the ticks' thread (here an observer's full disk) stops the physical thread and
+// propagates: the solver's thread, still running, used to terminate the process.
+TEST(Scheduler, RealtimeErrorOnTheTicksThreadPropagates) {
+  struct FullDisk : Capture {
+    void on_frame(const World&, const HapticSide&, double) override {
+      throw InputError("out.h5: cannot write the appended rows: No space left on device");
+    }
+  } full;
+  ReplayOptions opt;
+  opt.mode = Mode::Realtime;
+  opt.duration = 0.05;
+  opt.frames_hz = 100;
+  try {
+    replay(*tube().world, entering_bore(0.2), opt, full);
+    ADD_FAILURE() << "the observer's error did not propagate";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("No space left on device"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Scheduler, TickCountCoversTheDuration) {
   const World& w = *tube().world;
   EXPECT_EQ(tick_count(w, 0.0), 1);

@@ -148,6 +148,32 @@ TEST(H5, DataOutsideTheFileAndUnstoredShapesAreRefused) {
                                                                     "stores 0 MB of it");
 }
 
+// The bound on what a dataset may declare beyond what it stores is on the file's values: 9 million
+// uint8 zeros (a long recording's buttons, never pressed) compressed to a few kB read as int64
+// (72 MB in memory, past the bound at 8 bytes a value).
+TEST(H5, ACompressedNarrowDatasetReadWideIsStored) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "buttons.h5";
+  const hsize_t n = 9000000, chunk = 65536;
+  {
+    const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    const hid_t space = H5Screate_simple(1, &n, nullptr), dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(dcpl, 1, &chunk);
+    H5Pset_deflate(dcpl, 9);
+    const hid_t d = H5Dcreate2(f, "buttons", H5T_STD_U8LE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    const std::vector<std::uint8_t> zeros(n, 0);
+    ASSERT_GE(H5Dwrite(d, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, zeros.data()), 0);
+    ASSERT_LT(H5Dget_storage_size(d), 72000000 / 1100) << "the test needs a ratio past the bound";
+    H5Dclose(d);
+    H5Pclose(dcpl);
+    H5Sclose(space);
+    H5Fclose(f);
+  }
+  h5::File f = h5::File::open_read(path);
+  EXPECT_EQ(f.read<std::int64_t>("buttons").data.size(), n);
+}
+
 // A dataset compressed with a filter this HDF5 library lacks (h5py's lzf, written by
 // tests/data/io/lzf.h5's maker: h5py, compression='lzf') names the filter and what to do.
 TEST(H5, AMissingCompressionFilterIsNamed) {

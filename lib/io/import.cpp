@@ -519,6 +519,9 @@ void read_csv(const std::string& path, double unit, double rate, double& time_un
                        std::to_string(header.size()) + decimal_comma_hint(header_text, l.text));
     auto get = [&](const char* name) { return to_number(tok[col.at(name)], where, name); };
     const double t = has_t ? get("t") : placed;
+    // Before the window's test, which a NaN would fail (the row left out unsaid) and an infinity
+    // would pass as the log's origin or its end.
+    if (!std::isfinite(t)) throw InputError(where + ": t is " + tok[col.at("t")] + ": a sample's time must be a finite number");
     ++samples;
     if (has_t && !window.keeps(t * time_unit)) return;
     check_sample_limit(rec, limit, where);
@@ -660,6 +663,10 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
     return "--rate " + num(rec.rate_hz) + " Hz is below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
            (khz >= kDeviceRateLowHz && khz <= kDeviceRateHighHz ? " (the rate is in Hz: --rate " + num(khz) + "?)" : "");
   }
+  // A device's rate between the samples, and gaps in the logging that pull the mean down: the
+  // times are in seconds (check_log_gaps names the gaps).
+  if (const std::optional<LogGaps> g = find_log_gaps(rec.t); g && g->median > 0 && 1 / g->median >= kMinPlausibleLogRateHz)
+    return "";
   const TimeUnit unit = likely_time_unit(rec.rate_hz);
   return times + ": the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
          (unit.name ? std::string(": the times look like ") + unit.name + " (" + num(unit.rate_hz) + " Hz): import " +
@@ -743,6 +750,8 @@ std::pair<double, double> parse_jaw_range(const std::string& text) {
   }
   if (!ok) throw InputError("--jaw-range '" + text + "': expected CLOSED,OPEN, two numbers (the log's jaw values)");
   if (v[0] == v[1]) throw InputError("--jaw-range '" + text + "': the closed and open values are the same");
+  if (!std::isfinite(v[1] - v[0]))  // the span overflows: every value would map to 0
+    throw InputError("--jaw-range '" + text + "': the span from closed to open is not a finite number");
   return {v[0], v[1]};
 }
 

@@ -201,6 +201,16 @@ TEST(Import, DefectsNameFileAndLine) {
       EXPECT_LT(msg.size(), 300u);
     }
   }
+  // A time that is not a number: named at its line wherever it is (a NaN failed the window's test
+  // and its row was left out unsaid; one first made the log empty, one last its rate 0).
+  for (const std::string nan_t : {"nan", "-inf", "inf"})
+    for (int row = 0; row < 3; ++row) {
+      std::string text = "t,x,y,z,qw,qx,qy,qz\n";
+      for (int i = 0; i < 3; ++i) text += (i == row ? nan_t : std::to_string(0.001 * i)) + ",0,0,0,1,0,0,0\n";
+      p = write("nan_t.csv", text);
+      EXPECT_INPUT_ERROR(import_log(p, opt), "nan_t.csv:" + std::to_string(row + 2) + ": t is " + nan_t +
+                                                 ": a sample's time must be a finite number");
+    }
   p = write("b.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0,0,0,0.001,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "b.csv:3", "not strictly increasing");
   p = write("c.csv", "t,x,y,qw,qx,qy,qz\n0,0,0,1,0,0,0\n");
@@ -398,6 +408,7 @@ TEST(Import, TheJawRangeMapsTheLogsJawValues) {
   EXPECT_INPUT_ERROR(parse_jaw_range("1,1"), "--jaw-range '1,1': the closed and open values are the same");
   EXPECT_INPUT_ERROR(parse_jaw_range("0,nan"), "--jaw-range '0,nan': expected CLOSED,OPEN");
   EXPECT_INPUT_ERROR(parse_jaw_range("0,1,2"), "expected CLOSED,OPEN");
+  EXPECT_INPUT_ERROR(parse_jaw_range("-1e308,1e308"), "the span from closed to open is not a finite number");
   // A log without a jaw column has open samples, which a range must not map (0,255 made them
   // closed: a grasp from start to end on a forceps scene).
   const std::string no_jaw = write_log(tmp / "no_jaw.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0.001,0,0,0,1,0,0,0\n");
@@ -449,6 +460,13 @@ TEST(Import, GapsInTheTimesAreNamed) {
       << report.gap_warning;
   import_log(kData + "sample.csv", opt, &report);
   EXPECT_EQ(report.gap_warning, "");
+  // An hour's gap in a 1 kHz log in seconds pulls the mean rate below a device's: not times in ms.
+  text = "t,x,y,z,qw,qx,qy,qz\n";
+  for (int i = 0; i < 500; ++i)
+    text += std::to_string(i < 250 ? i * 1e-3 : 3600.0 + i * 1e-3) + ",0,0," + std::to_string(0.001 * i) + ",1,0,0,0\n";
+  import_log(write_log(tmp / "hour.csv", text), opt, &report);
+  EXPECT_NE(report.gap_warning.find("a gap of 3600"), std::string::npos) << report.gap_warning;
+  EXPECT_EQ(report.rate_warning, "") << "the rate between the samples is a device's";
 }
 
 // The separators the docs promise: a comma (blanks around it included) or a run of spaces or

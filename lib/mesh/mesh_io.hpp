@@ -45,10 +45,10 @@ TetMesh read_msh(const std::filesystem::path& file);
 /// other attributes are read past, and one of a kind without a group after it (LOOKUP_TABLE,
 /// COLOR_SCALARS, TEXTURE_COORDINATES) ends the reading. A leading FIELD block and METADATA after
 /// an array are skipped. Vertices keep the file's point order (file_node_ids 0..n-1). Throws
-/// InputError "FILE:LINE: what" for another dataset, a count the rest of the file cannot hold,
-/// non-finite coordinates, point indices out of range, cells whose point counts disagree with
-/// their type or with the list's size, a group array of another length than the cells or with a
-/// value that is no tag (< 0), and a file with no tets.
+/// InputError "FILE:LINE: what" for another dataset, a second POINTS section, a count the rest of
+/// the file cannot hold, non-finite coordinates, point indices out of range, cells whose point
+/// counts disagree with their type or with the list's size, a group array of another length than
+/// the cells or with a value that is no tag (< 0), and a file with no tets.
 TetMesh read_vtk(const std::filesystem::path& file);
 
 /// Reads a VTK XML unstructured grid (`.vtu`, as VTK, ParaView, 3D Slicer and meshio write it): its
@@ -60,7 +60,9 @@ TetMesh read_vtk(const std::filesystem::path& file);
 /// CellEntityIds, medit:ref, MaterialIds, material, region(s), label(s), subdomain or domain.
 /// Throws InputError "FILE:LINE: what" (the line of the element concerned) for other file types
 /// (a parallel .pvtu, image data, ...), lz4 or lzma compression, malformed XML, arrays whose sizes
-/// disagree with their headers or counts, damaged compressed blocks, non-finite coordinates, point
+/// disagree with their headers or counts (a count, NumberOfPoints or NumberOfCells, is checked
+/// against what its array's text or bytes can hold before it sizes anything: the error names the
+/// <Piece>'s line and the count), damaged compressed blocks, non-finite coordinates, point
 /// indices out of range, and a file with no tets.
 TetMesh read_vtu(const std::filesystem::path& file);
 
@@ -93,8 +95,10 @@ TetMesh read_tetgen(const std::filesystem::path& file);
 /// .ele, and its .face where there is one; none for the other formats): the mesh's provenance.
 std::vector<std::filesystem::path> tet_mesh_companions(const std::filesystem::path& file);
 
-/// The physical mesh of `file`, by its extension (in any case): read_vtk for .vtk, read_medit for
-/// .mesh, read_tetgen for .node and .ele, read_vtu for .vtu, read_msh otherwise.
+/// The physical mesh of `file`, by its extension (in any case): read_msh for .msh, read_vtk for
+/// .vtk, read_medit for .mesh, read_tetgen for .node and .ele, read_vtu for .vtu (and .pvtu, .vtp,
+/// which it refuses by their type). Throws InputError "FILE: ..." for a surface's extension (.stl,
+/// .obj, .ply, .off: a surface holds no tetrahedra) and for any other, naming the ones read.
 TetMesh read_tet_mesh(const std::filesystem::path& file);
 
 /// The Gmsh ASCII 2.2 text of `mesh` with positions multiplied by `scale` (metres -> file units),
@@ -126,9 +130,10 @@ SurfaceMesh read_stl(const std::filesystem::path& file);
 /// `vertex_index`) lists of its `face` element, 0-based; other properties and elements are read
 /// past; polygons split around their first corner (convex ones only, as read_obj). Throws
 /// InputError "FILE:LINE: what" (binary data: the line where it starts, with the element and its
-/// number) for a malformed header, unknown types, a missing x/y/z or face list, counts the rest of
-/// the file cannot hold, non-finite coordinates, indices out of range, faces of fewer than 3
-/// vertices or naming one twice, concave faces, and a file with no faces.
+/// number) for a malformed header (an `element vertex` or `element face` given twice among it),
+/// unknown types, a missing x/y/z or face list, counts the rest of the file cannot hold,
+/// non-finite coordinates, indices out of range, faces of fewer than 3 vertices or naming one
+/// twice, concave faces, and a file with no faces.
 SurfaceMesh read_ply(const std::filesystem::path& file);
 
 /// Reads a VTK legacy POLYDATA surface (`.vtk`, ASCII or BINARY, 2.0 to 5.1, as 3D Slicer's Models
@@ -142,7 +147,8 @@ SurfaceMesh read_vtk_surface(const std::filesystem::path& file);
 SurfaceMesh read_vtp(const std::filesystem::path& file);
 
 /// A virtual-mesh surface by its extension (in any case): read_stl for .stl, read_ply for .ply,
-/// read_vtk_surface for .vtk, read_vtp for .vtp, read_obj otherwise.
+/// read_vtk_surface for .vtk, read_vtp for .vtp, read_obj otherwise. Every triangle's indices are
+/// checked to lie in [0, #V) before it returns (InputError "FILE: triangle N: ...").
 SurfaceMesh read_surface(const std::filesystem::path& file);
 
 /// The Wavefront OBJ text of `surface` (`v x y z` at %.17g, `f a b c` 1-based): read_obj reads it

@@ -93,6 +93,11 @@ class PlyParser {
         e.line = c_.line();
         e.name = std::string(c_.token());
         e.count = c_.integer("the element count", 0, INT32_MAX - 1);
+        // Once each: the faces' indices are checked against the one vertex count.
+        if (e.name == "vertex" || e.name == "face")
+          for (const Element& before : elements_)
+            if (before.name == e.name)
+              c_.fail("a second 'element " + e.name + "' (the first at line " + std::to_string(before.line) + ")");
         elements_.push_back(std::move(e));
       } else if (key == "property") {
         if (elements_.empty()) c_.fail("a property before any element");

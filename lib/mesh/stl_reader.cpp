@@ -159,11 +159,20 @@ SurfaceMesh read_stl(const std::filesystem::path& file) {
 
 SurfaceMesh read_surface(const std::filesystem::path& file) {
   const std::string ext = lower_extension(file);
-  if (ext == ".stl") return read_stl(file);
-  if (ext == ".ply") return read_ply(file);
-  if (ext == ".vtk") return read_vtk_surface(file);
-  if (ext == ".vtp") return read_vtp(file);
-  return read_obj(file);
+  SurfaceMesh s = ext == ".stl"   ? read_stl(file)
+                  : ext == ".ply" ? read_ply(file)
+                  : ext == ".vtk" ? read_vtk_surface(file)
+                  : ext == ".vtp" ? read_vtp(file)
+                                  : read_obj(file);
+  // Each reader checks its indices where it reads them; this holds the result to it whatever a
+  // reader missed (a count changed after its check), since the scene indexes vertices with them.
+  const std::size_t n = s.vertices.size();
+  for (std::size_t i = 0; i < s.triangles.size(); ++i)
+    for (const int v : s.triangles[i])
+      if (v < 0 || static_cast<std::size_t>(v) >= n)
+        throw InputError(file.string() + ": triangle " + std::to_string(i) + ": vertex index " + std::to_string(v) +
+                         " is out of range [0, " + std::to_string(n) + ")");
+  return s;
 }
 
 }  // namespace ebh

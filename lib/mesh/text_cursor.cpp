@@ -1,6 +1,8 @@
 #include "mesh/text_cursor.hpp"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <system_error>
 
@@ -9,12 +11,18 @@
 
 namespace ebh::detail {
 
-std::string read_file_bytes(const std::filesystem::path& file) {
+std::ifstream open_input_file(const std::filesystem::path& file) {
   if (is_partial_output(file.string())) throw InputError(partial_input_message(file.string()));
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec)) throw InputError(file.string() + ": is a directory, expected a file");
+  errno = 0;
   std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(file.string() + ": cannot open file");
+  if (!in) throw InputError(file.string() + ": cannot open file" + (errno ? std::string(": ") + std::strerror(errno) : std::string()));
+  return in;
+}
+
+std::string read_file_bytes(const std::filesystem::path& file) {
+  std::ifstream in = open_input_file(file);
   in.seekg(0, std::ios::end);
   const std::streamoff size = in.tellg();
   if (size < 0) throw InputError(file.string() + ": cannot read file");

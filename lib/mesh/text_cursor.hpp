@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <string_view>
@@ -17,7 +18,13 @@
 
 namespace ebh::detail {
 
-/// Reads a whole file into memory. Throws InputError "FILE: cannot open ..." if it cannot.
+/// `file` opened to read (binary). Throws InputError "FILE: ..." for an unfinished output
+/// (*.ebh-partial), a folder, or a file that cannot be opened ("cannot open file: " and the reason,
+/// strerror's: "No such file or directory", "Permission denied").
+std::ifstream open_input_file(const std::filesystem::path& file);
+
+/// Reads a whole file into memory. Throws InputError as open_input_file, and "FILE: cannot read
+/// file" where reading fails.
 std::string read_file_bytes(const std::filesystem::path& file);
 
 /// Renders an untrusted token for an error message: at most 40 characters, control and

@@ -62,14 +62,13 @@ class VtkParser {
     header();
     std::vector<long long> cells, offsets;  // legacy: n, ids...; 5.1: the offsets and the connectivity
     std::vector<long long> types;
-    bool have_points = false, have_cells = false, have_types = false, offsets_form = false;
+    bool have_cells = false, have_types = false, offsets_form = false;
     long long cells_line = 0, legacy_cells = 0;  // legacy CELLS: the number of cells
     while (next_keyword()) {
       const long long line = c_.line();
       const std::string key = upper(c_.token());
       if (key == "POINTS") {
         points(line);
-        have_points = true;
       } else if (key == "CELLS") {
         const long long n = c_.integer("the number of cells", 0, INT32_MAX - 1);
         const long long size = c_.integer("the size of the cell list", 0, LLONG_MAX / 8);
@@ -100,7 +99,7 @@ class VtkParser {
         fail(line, "unexpected '" + printable(key) + "' (expected POINTS, CELLS, CELL_TYPES, CELL_DATA or POINT_DATA)");
       }
     }
-    if (!have_points) fail(c_.line(), "no POINTS section");
+    if (points_line_ == 0) fail(c_.line(), "no POINTS section");
     if (!have_cells || !have_types) fail(c_.line(), std::string("no ") + (have_cells ? "CELL_TYPES" : "CELLS") + " section");
     build(cells, offsets, offsets_form, legacy_cells, types, cells_line);
     if (!groups_name_.empty()) take_groups(static_cast<long long>(types.size()));
@@ -191,8 +190,11 @@ class VtkParser {
   }
 
  private:
-  /// POINTS n type and its values into mesh_.vertices.
+  /// POINTS n type and its values into mesh_.vertices. Once only: the cells' point indices are
+  /// checked against its count.
   void points(long long line) {
+    if (points_line_ > 0) fail(line, "a second POINTS section (the first at line " + std::to_string(points_line_) + ")");
+    points_line_ = line;
     const long long n = c_.integer("the number of points", 0, INT32_MAX - 1);
     const DataType t = data_type(c_, c_.token());
     c_.end_line(" after POINTS n type");
@@ -459,6 +461,7 @@ class VtkParser {
   TetMesh mesh_;
   int version_ = 0;
   bool binary_ = false;
+  long long points_line_ = 0;  ///< the POINTS section's line (0: none yet)
   std::vector<long long> groups_;  ///< each cell's group, from the cell array groups_name_ ("": none)
   std::string groups_name_;
   long long groups_line_ = 0;
@@ -482,7 +485,18 @@ TetMesh read_tet_mesh(const std::filesystem::path& file) {
   if (ext == ".mesh" || ext == ".meshb") return read_medit(file);
   if (ext == ".node" || ext == ".ele") return read_tetgen(file);
   if (ext == ".vtu" || ext == ".pvtu" || ext == ".vtp") return read_vtu(file);  // a .vtp is named as a surface
-  return read_msh(file);
+  if (ext == ".msh") return read_msh(file);
+  constexpr const char* kRead = "a .msh (Gmsh), .vtk or .vtu (VTK), .mesh (Medit) or .node/.ele (TetGen) file";
+  detail::open_input_file(file);  // a file that is missing, unfinished or unreadable is named so first
+  if (ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".off") {
+    const std::string kind = ext == ".stl" ? "an STL" : ext == ".obj" ? "a Wavefront OBJ" : ext == ".ply" ? "a PLY" : "an OFF";
+    throw InputError(file.string() + ": " + kind + " file holds no tetrahedra (a surface" +
+                     (ext == ".off" ? "" : ": it can be the virtual mesh") +
+                     "): the physical mesh is a volume of tets: mesh the surface first (gmsh -3, tetgen) to " + kRead);
+  }
+  throw InputError(file.string() + ": " +
+                   (ext.empty() ? std::string("no extension to tell its format") : "extension '" + printable(ext) + "' names no format read") +
+                   ": a physical mesh is " + kRead);
 }
 
 }  // namespace ebh

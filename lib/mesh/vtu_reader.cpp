@@ -200,6 +200,9 @@ class VtuParser {
                         (type && *type == "PUnstructuredGrid"
                              ? "' (a parallel file that names its pieces: merge them, e.g. ParaView's Merge Blocks, and "
                                "save one .vtu)"
+                         : type && *type == "PolyData"
+                             ? "' holds no tetrahedra (a surface: it can be the virtual mesh): the physical mesh is an "
+                               "UnstructuredGrid of tets"
                              : "' holds no tetrahedra (the physical mesh is an UnstructuredGrid of tets)"));
     const std::string* order = t->attr("byte_order");
     big_endian_ = order && *order == "BigEndian";
@@ -476,16 +479,24 @@ class VtuParser {
     return out;
   }
 
-  /// `count` values of the array as doubles (reals) or integers, checked against its type.
+  /// `count` values of the array as doubles (reals) or integers, checked against its type. `count`
+  /// is what `source` says (at `line`: "NumberOfPoints 8", an untrusted attribute), checked against
+  /// what the array's text or bytes can hold before anything is allocated.
   template <class T>
-  std::vector<T> values(const ArrayRef& a, long long count) {
+  std::vector<T> values(const ArrayRef& a, long long count, long long line, const std::string& source) {
     const std::string what = a.what();
     const NumberType nt = number_type(a.type);
     if (nt.bytes == 0) fail(a.line, what + ": type '" + printable(a.type) + "' (Int8 .. UInt64, Float32, Float64)");
     if constexpr (std::is_integral_v<T>)
       if (nt.real) fail(a.line, what + ": expected an integer type, got " + a.type);
-    std::vector<T> out(static_cast<std::size_t>(count));
     if (a.format == "ascii") {
+      // A value takes 2 bytes of text at least ("0 ").
+      const std::size_t most = a.text.size() / 2 + 1;
+      if (static_cast<std::size_t>(count) > most)
+        fail(line, source + " needs " + std::to_string(count) + " values, more than " + what + " holds (" +
+                       std::to_string(most) + " at most in its " + std::to_string(a.text.size()) +
+                       " bytes of text): a count the file cannot hold");
+      std::vector<T> out(static_cast<std::size_t>(count));
       detail::TextCursor c(file_, a.text, a.line);
       const std::string in = " (" + what + ")";
       for (long long i = 0; i < count; ++i) {
@@ -498,10 +509,11 @@ class VtuParser {
       if (!c.word().empty()) fail(a.line, what + ": more than the " + std::to_string(count) + " values expected");
       return out;
     }
-    const std::string b = array_bytes(a);
+    const std::string b = array_bytes(a);  // no more than the file's size can hold (zlib: 1100 times it)
     if (b.size() != static_cast<std::size_t>(count) * static_cast<std::size_t>(nt.bytes))
-      fail(a.line, what + ": " + std::to_string(b.size()) + " bytes where " + std::to_string(count) + " values of " + a.type +
-                       " take " + std::to_string(count * nt.bytes));
+      fail(line, source + " needs " + std::to_string(count) + " values of " + a.type + " (" + std::to_string(count * nt.bytes) +
+                     " bytes), " + what + " holds " + std::to_string(b.size()) + " bytes");
+    std::vector<T> out(static_cast<std::size_t>(count));
     for (std::size_t i = 0; i < out.size(); ++i) {
       const std::uint64_t u = detail::load_bits(b.data() + i * static_cast<std::size_t>(nt.bytes), nt.bytes, big_endian_);
       if constexpr (std::is_integral_v<T>) out[i] = detail::bits_as_integer(u, nt.bytes, nt.is_signed);  // (not real: checked)
@@ -515,7 +527,7 @@ class VtuParser {
     if (!p.xyz) fail(p.line, "a <Piece> without <Points>");
     if (p.xyz->components != 3) fail(p.xyz->line, "Points: " + std::to_string(p.xyz->components) + " components, expected 3");
     const long long base = static_cast<long long>(mesh_.vertices.size());
-    const std::vector<double> xyz = values<double>(*p.xyz, 3 * p.points);
+    const std::vector<double> xyz = values<double>(*p.xyz, 3 * p.points, p.line, "NumberOfPoints " + std::to_string(p.points));
     for (long long i = 0; i < p.points; ++i) {
       const Vec3d v{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
       if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
@@ -525,15 +537,16 @@ class VtuParser {
     return base;
   }
 
-  /// The `count` offsets of a cell section and its connectivity, each offset checked to end a range.
+  /// The `count` offsets of a cell section (as the attribute `counted`, e.g. NumberOfCells, of the
+  /// <Piece> at `line` says) and its connectivity, each offset checked to end a range.
   std::pair<std::vector<long long>, std::vector<long long>> cell_arrays(const std::optional<ArrayRef>& conn,
                                                                         const std::optional<ArrayRef>& offsets,
-                                                                        long long count) {
-    std::vector<long long> o = values<long long>(*offsets, count);
+                                                                        long long count, long long line, const char* counted) {
+    std::vector<long long> o = values<long long>(*offsets, count, line, std::string(counted) + " " + std::to_string(count));
     const long long size = count ? o.back() : 0;
     if (size < 0 || static_cast<std::size_t>(size) > bytes_.size() * 1100)
       fail(offsets->line, "offsets: the last offset " + std::to_string(size) + " is no size of a connectivity array");
-    std::vector<long long> c = values<long long>(*conn, size);
+    std::vector<long long> c = values<long long>(*conn, size, offsets->line, "the last offset " + std::to_string(size));
     long long begin = 0;
     for (long long i = 0; i < count; ++i) {
       const long long end = o[static_cast<std::size_t>(i)];
@@ -552,8 +565,8 @@ class VtuParser {
     const std::optional<ArrayRef>& offsets = cells.offsets;
     if (count == 0) return;
     if (!conn || !offsets) fail(p.line, std::string("a <Piece> whose <") + section + "> has no " + (!conn ? "connectivity" : "offsets") + " array");
-    const auto [o, c] = cell_arrays(conn, offsets, count);
     const bool strips = std::string(section) == "Strips";
+    const auto [o, c] = cell_arrays(conn, offsets, count, p.line, strips ? "NumberOfStrips" : "NumberOfPolys");
     std::vector<long long> corners;
     long long begin = 0;
     for (long long i = 0; i < count; ++i) {
@@ -583,10 +596,11 @@ class VtuParser {
       fail(p.line, std::string("a <Piece> whose <Cells> has no ") +
                        (!p.connectivity ? "connectivity" : !p.offsets ? "offsets" : "types") + " array");
     const long long base = read_points(p);
-    const auto [offsets, conn] = cell_arrays(p.connectivity, p.offsets, p.cells);
-    const std::vector<long long> types = values<long long>(*p.types, p.cells);
+    const auto [offsets, conn] = cell_arrays(p.connectivity, p.offsets, p.cells, p.line, "NumberOfCells");
+    const std::string cells = "NumberOfCells " + std::to_string(p.cells);
+    const std::vector<long long> types = values<long long>(*p.types, p.cells, p.line, cells);
     std::vector<long long> groups;
-    if (p.groups) groups = values<long long>(*p.groups, p.cells);
+    if (p.groups) groups = values<long long>(*p.groups, p.cells, p.line, cells);
     std::map<long long, long long> other;  // volume cells of other types
     long long begin = 0;
     for (long long i = 0; i < p.cells; ++i) {

@@ -381,8 +381,26 @@ TEST(ReadMshBad, Missing) {
     read_msh("/nonexistent/cube.msh");
     FAIL() << "no error";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), "/nonexistent/cube.msh: cannot open file");
+    EXPECT_EQ(std::string(e.what()), "/nonexistent/cube.msh: cannot open file: No such file or directory");
   }
+}
+
+TEST(ReadMshBad, UnreadableSaysWhy) {
+  namespace fs = std::filesystem;
+  const auto p = write_temp("unreadable.msh", slurp(data("mesh/cube22.msh")));
+  fs::permissions(p, fs::perms::none);
+  const bool opens = static_cast<bool>(std::ifstream(p));
+  std::string message = "no error";
+  if (!opens) {
+    try {
+      read_tet_mesh(p);
+    } catch (const InputError& e) {
+      message = e.what();
+    }
+  }
+  fs::permissions(p, fs::perms::owner_read | fs::perms::owner_write);
+  if (opens) GTEST_SKIP() << "the file opens all the same (run as root)";
+  EXPECT_EQ(message, p.string() + ": cannot open file: Permission denied");
 }
 
 struct Bad41 : Bad22 {

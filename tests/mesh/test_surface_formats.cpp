@@ -49,6 +49,13 @@ TEST(ReadPly, MalformedFilesAreRefusedWithTheirLine) {
       {"count.ply", replace(ascii, "element vertex 8", "element vertex 80000"), 4, "80000 vertices do not fit"},
       {"binary_short.ply", le.substr(0, le.size() - 20), 14, "the binary data ends inside an element (cut short?)"},
       {"binary_range.ply", replace(le, "element vertex 8", "element vertex 7"), 14, "binary data, face 0: 0 vertices, a face needs 3 at least"},
+      // Once each: a second vertex element after the faces would leave their indices past its count.
+      {"vertex_twice.ply",
+       replace(ascii, "end_header", "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header") +
+           "0 0 0\n1 0 0\n0 1 0\n",
+       16, "a second 'element vertex' (the first at line 4)"},
+      {"face_twice.ply", replace(ascii, "end_header", "element face 1\nproperty list uchar int vertex_indices\nend_header") + "3 0 1 2\n",
+       16, "a second 'element face' (the first at line 14)"},
   };
   test::expect_each_refused(cases, [](const auto& p) { read_surface(p); });
 }
@@ -85,6 +92,9 @@ TEST(ReadVtkSurface, MalformedFilesAreRefusedWithTheirLine) {
        "POLYGONS cell 0: a concave face of 4 vertices (it turns back at vertex 3)"},
       {"strip.vtk", replace(legacy, "4 1 3 5 7", "2 1 3 5 7"), 24, "TRIANGLE_STRIPS: its size says 5 entries, its cells use 3"},
       {"empty.vtk", legacy.substr(0, legacy.find("VERTICES")), 14, "no POLYGONS or TRIANGLE_STRIPS"},
+      // a shorter POINTS after the polygons were checked against the first would leave them past its end
+      {"points_twice.vtk", replace(legacy, "POINT_DATA 8", "POINTS 3 float\n0 0 0\n1 0 0\n0 1 0\nPOINT_DATA 8"), 26,
+       "a second POINTS section (the first at line 5)"},
   };
   test::expect_each_refused(cases, [](const auto& p) { read_surface(p); });
 }

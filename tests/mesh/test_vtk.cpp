@@ -59,6 +59,43 @@ TEST(ReadVtk, ReadTetMeshTakesVtkByItsExtensionInAnyCase) {
   EXPECT_EQ(read_tet_mesh(data("mesh/cube22.msh")).tets.size(), 5u);
 }
 
+// A surface given as the physical mesh is named as one (as a VTK POLYDATA is), and a file of an
+// extension read_tet_mesh does not know is refused naming those it does, not read as a Gmsh file.
+TEST(ReadTetMesh, ASurfaceOrAnUnknownExtensionSaysWhatThePhysicalMeshIs) {
+  const std::string read = "a .msh (Gmsh), .vtk or .vtu (VTK), .mesh (Medit) or .node/.ele (TetGen) file";
+  auto message = [](const std::filesystem::path& p) {
+    try {
+      read_tet_mesh(p);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string surface = " file holds no tetrahedra (a surface: it can be the virtual mesh): the physical mesh is a "
+                              "volume of tets: mesh the surface first (gmsh -3, tetgen) to " + read;
+  for (const auto& [name, kind] : {std::pair{"mesh/cube_ascii.stl", "an STL"}, std::pair{"mesh/cube.obj", "a Wavefront OBJ"},
+                                   std::pair{"mesh/cube.ply", "a PLY"}}) {
+    SCOPED_TRACE(name);
+    EXPECT_EQ(message(data(name)), data(name).string() + ": " + kind + surface);
+  }
+  const auto off = write_temp("CUBE.OFF", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_EQ(message(off), off.string() + ": an OFF file holds no tetrahedra (a surface): the physical mesh is a volume of "
+                                         "tets: mesh the surface first (gmsh -3, tetgen) to " + read);
+  const auto vtp = data("mesh/cube_poly.vtp");
+  expect_input_error([&] { read_tet_mesh(vtp); }, vtp, 2, "a VTKFile of type 'PolyData' holds no tetrahedra (a surface: it can "
+                                                          "be the virtual mesh): the physical mesh is an UnstructuredGrid of tets");
+  const std::string msh = slurp(data("mesh/cube22.msh"));
+  const auto txt = write_temp("cube.txt", msh);
+  EXPECT_EQ(message(txt), txt.string() + ": extension '.txt' names no format read: a physical mesh is " + read);
+  const auto bare = write_temp("cube", msh);
+  EXPECT_EQ(message(bare), bare.string() + ": no extension to tell its format: a physical mesh is " + read);
+  // what keeps a file from being read at all is said first
+  const auto missing = bare.parent_path() / "missing.stl";
+  EXPECT_EQ(message(missing), missing.string() + ": cannot open file: No such file or directory");
+  const auto partial = write_temp("cube.msh.host.1.ebh-partial", msh);
+  EXPECT_NE(message(partial).find("an unfinished output of ebh"), std::string::npos) << message(partial);
+}
+
 TEST(ReadVtk, OtherVolumeCellsAreRefusedByKind) {
   const auto p = data("mesh/cube_hex.vtk");
   expect_input_error([&] { read_vtk(p); }, p, 14,  // the CELLS line
@@ -83,6 +120,8 @@ TEST(ReadVtk, MalformedFilesAreRefusedWithTheirLine) {
       {"no_tets.vtk", ascii.substr(0, ascii.find("CELLS")) + "CELLS 1 2\n1 0\nCELL_TYPES 1\n1\n", 19,
        "no tetrahedra (cell type 10) among the 1 cells"},
       {"keyword.vtk", replace(good, "CELL_TYPES", "CELL_TYPOS"), 22, "unexpected 'CELL_TYPOS'"},
+      {"points_twice.vtk", replace(good, "CELLS 6 20", "POINTS 1 float\n0 0 0\nCELLS 6 20"), 17,
+       "a second POINTS section (the first at line 5)"},
   };
   test::expect_each_refused(cases, [](const auto& p) { read_vtk(p); });
 }

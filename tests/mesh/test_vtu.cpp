@@ -1,6 +1,7 @@
 // VTK XML reader (.vtu) for the physical mesh: every array format gives the same tets as the ASCII
 // form, and malformed or unsupported files are refused with FILE:LINE.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include "mesh/mesh_io.hpp"
 #include "mesh/quality.hpp"
@@ -83,6 +84,39 @@ TEST(ReadVtu, MalformedAndUnsupportedFilesAreRefusedWithTheirLine) {
       {"no_appended.vtu", raw.substr(0, raw.find("  <AppendedData")) + "</VTKFile>\n", 12, "appended, but the file has no <AppendedData>"},
   };
   test::expect_each_refused(cases, [](const auto& p) { read_tet_mesh(p); });
+}
+
+// The peak resident memory of this process so far, in KiB.
+long peak_rss_kib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss;
+}
+
+// A Piece's counts are untrusted: a 2 KB file that declares 300 million points is refused at the
+// <Piece>'s line, naming the count, before any array of that size is made (it took 7 GB).
+TEST(ReadVtu, CountsTheArraysCannotHoldAreRefusedBeforeAnythingIsSized) {
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtu"));
+  const std::string binary = slurp(data("mesh/cube_binary.vtu"));
+  const std::string raw = slurp(data("mesh/cube_appended.vtu"));
+  const std::string poly = slurp(data("mesh/cube_poly.vtp"));
+  const long before = peak_rss_kib();
+  test::expect_each_refused(
+      {
+          {"points.vtu", replace(ascii, "NumberOfPoints=\"8\"", "NumberOfPoints=\"300000000\""), 5,
+           "NumberOfPoints 300000000 needs 900000000 values, more than DataArray Float64 holds ("},
+          {"most.vtu", replace(ascii, "NumberOfPoints=\"8\"", "NumberOfPoints=\"2147483646\""), 5,
+           "NumberOfPoints 2147483646 needs 6442450938 values, more than"},
+          {"cells.vtu", replace(binary, "NumberOfCells=\"6\"", "NumberOfCells=\"400000000\""), 5,
+           "NumberOfCells 400000000 needs 400000000 values of Int64 (3200000000 bytes), DataArray offsets holds 48 bytes"},
+          {"raw.vtu", replace(raw, "NumberOfPoints=\"8\"", "NumberOfPoints=\"300000000\""), 5,
+           "NumberOfPoints 300000000 needs 900000000 values of Float64 (7200000000 bytes), DataArray Float64 holds 192 bytes"},
+      },
+      [](const auto& p) { read_tet_mesh(p); });
+  test::expect_each_refused({{"polys.vtp", replace(poly, "NumberOfPolys=\"5\"", "NumberOfPolys=\"200000000\""), 4,
+                              "NumberOfPolys 200000000 needs 200000000 values of Int64 (1600000000 bytes), DataArray offsets holds 40 bytes"}},
+                            [](const auto& p) { read_surface(p); });
+  EXPECT_LT(peak_rss_kib() - before, 256 * 1024) << "KiB more at the peak";
 }
 
 }  // namespace

@@ -19,7 +19,6 @@
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
 #include "mesh/mesh_io.hpp"
-#include "mesh/quality.hpp"
 #include "metrics/signal.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_refine.hpp"
@@ -198,7 +197,8 @@ SizeBenchWindow check_size_bench(const SizeBenchOptions& o) {
       rec.path, replay_window(o.start, o.seconds, rec.recording.duration(), rec.path, "--start", "--seconds")};
   const SceneSpec spec = load_scene_spec(scene_file, o.overrides);  // a bad override too
   TetMesh mesh = read_tet_mesh(spec.physical_mesh);
-  remove_unreferenced_vertices(mesh);
+  std::vector<std::string> said_at_load;  // each size's replay loads its scene and says them
+  clean_physical_mesh(mesh, spec, said_at_load);  // as refine_scene refines it
   const RefinedCounts c = refined_counts(mesh, o.last_level);
   if (!refined_within(c, max_tets))
     throw InputError("--levels: level " + std::to_string(o.last_level) + " of " + scene_file.string() + " makes " +

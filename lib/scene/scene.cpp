@@ -1169,6 +1169,53 @@ void drop_small_parts(TetMesh& mesh, const SceneSpec& spec, const std::string& m
 }
 }  // namespace
 
+namespace {
+/// A virtual mesh more than this many of the physical mesh's diagonals off it is no surface of it
+/// (as check_virtual_mesh_placement refuses it once paired).
+constexpr double kVirtualFarOff = 10;
+
+/// Refuses a virtual surface a corner of whose faces lies more than kVirtualFarOff diagonals outside
+/// the physical mesh's bounding box: the surface in another unit or frame, or one stray vertex (an
+/// exporter's FLT_MAX for a point it could not place). `placed`: the surface's vertices in the
+/// world (metres), `physical` the physical mesh's. Checked before the surface's vertices are
+/// welded, whose tolerance such a corner would stretch, and before they are paired, whose
+/// distances a vertex at 1e300 overflows.
+void refuse_far_virtual_corners(const std::string& virtual_file, const std::vector<Tri>& triangles,
+                                const std::vector<Vec3d>& placed, const BoundingBox& physical) {
+  const auto outside = [](double x, double lo, double hi) { return std::max({lo - x, x - hi, 0.0}); };
+  double farthest = 0;
+  int at = -1;
+  for (const Tri& t : triangles)
+    for (const int v : t) {
+      const Vec3d& p = placed[v];
+      // hypot: no overflow of the squares at 1e300
+      const double d = std::hypot(outside(p.x, physical.lo.x, physical.hi.x), outside(p.y, physical.lo.y, physical.hi.y),
+                                  outside(p.z, physical.lo.z, physical.hi.z));
+      if (d > farthest) {
+        farthest = d;
+        at = v;
+      }
+    }
+  const double diagonal = physical.diagonal();
+  if (at < 0 || !(farthest > kVirtualFarOff * diagonal)) return;
+  const Vec3d& p = placed[at];
+  char buf[320];
+  std::snprintf(buf, sizeof buf, "%.3g m off the physical mesh (the virtual vertex at %.4g, %.4g, %.4g m lies that far "
+                "outside its bounding box), more than %g times its diagonal (%.3g m)", farthest, p.x, p.y, p.z,
+                kVirtualFarOff, diagonal);
+  throw InputError(virtual_file + ": mesh.virtual: the virtual mesh lies up to " + buf +
+                   ": it is not a surface of this mesh; is it in mesh.unit and the physical mesh's frame "
+                   "(mesh.transform places both)?");
+}
+}  // namespace
+
+void clean_physical_mesh(TetMesh& mesh, const SceneSpec& spec, std::vector<std::string>& warnings) {
+  const std::string mesh_file = spec.physical_mesh.string();
+  if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
+    warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");
+  if (spec.min_part_tets > 0) drop_small_parts(mesh, spec, mesh_file, warnings);
+}
+
 std::vector<std::string> tool_stiffness_warnings(const SceneSpec& spec) {
   std::vector<std::string> out;
   for (const Plausible& p : {Plausible{"stiffness.k_con", spec.stiffness.k_con, kMinDeviceStiffness, kMaxDeviceStiffness, "N/m",
@@ -1266,13 +1313,11 @@ Scene build_scene(SceneSpec spec_in) {
   }
   const std::string mesh_file = spec.physical_mesh.string();
 
-  // The physical mesh: read, drop unused vertices, orient, validate, then scale to metres and
-  // place it in the world (mesh.unit, mesh.transform).
+  // The physical mesh: read, drop unused vertices and small parts, orient, validate, then scale to
+  // metres and place it in the world (mesh.unit, mesh.transform).
   TetMesh mesh = read_tet_mesh(spec.physical_mesh);
   const std::vector<std::string> pins_removed = groups_removed_with_unused_vertices(mesh, spec);
-  if (const int removed = remove_unreferenced_vertices(mesh); removed > 0)
-    scene.warnings.push_back(mesh_file + ": removed " + std::to_string(removed) + " vertices used by no tet");
-  if (spec.min_part_tets > 0) drop_small_parts(mesh, spec, mesh_file, scene.warnings);
+  clean_physical_mesh(mesh, spec, scene.warnings);
   if (mesh.elements_off_entities > 0 && !mesh.group_names.empty())
     scene.warnings.push_back(mesh_file + ":" + std::to_string(mesh.first_off_entities_line) + ": " +
                              std::to_string(mesh.elements_off_entities) +
@@ -1325,6 +1370,8 @@ Scene build_scene(SceneSpec spec_in) {
     return d;
   };
   const double file_size = size();
+  // In the file's unit and frame, which the virtual mesh's file shares: its weld's scale.
+  const double file_diagonal = bounding_box(mesh.vertices).diagonal();
   const double expected = file_size * spec.mesh_unit * spec.mesh_transform.scale;
   place(mesh.vertices);
   if (file_size > 0 && !(expected >= kMinPlacedDiagonal && expected <= kMaxPlacedDiagonal))
@@ -1344,16 +1391,23 @@ Scene build_scene(SceneSpec spec_in) {
   // The virtual mesh's source surface.
   if (spec.virtual_mesh) {
     scene.virtual_surface = read_surface(*spec.virtual_mesh);
+    std::vector<Vec3d> placed = scene.virtual_surface.vertices;
+    place(placed);
+    refuse_far_virtual_corners(spec.virtual_mesh->string(), scene.virtual_surface.triangles, placed,
+                               bounding_box(scene.physical.vertices));
     // A triangle soup (an STL converted to OBJ) has no edges between its faces until its vertices
     // at one position are one.
     // A seam exported twice, its copies a round-off apart, is welded too: left open, the tool
     // slipped through it with surface contact.
-    // Of the faces' corners: a stray point far off would stretch the box and the weld with it.
+    // Of the faces' corners: a stray point far off would stretch the box and the weld with it. A
+    // stray corner of a face within the far-off limit above does so too, so the box is taken no
+    // larger than the physical mesh's, which the surface covers (a corner 2 km off a 100 mm
+    // surface once welded 506 of its 530 vertices, itself among them, and the surface loaded).
     std::vector<Vec3d> corners;
     corners.reserve(3 * scene.virtual_surface.triangles.size());
     for (const Tri& t : scene.virtual_surface.triangles)
       for (const int v : t) corners.push_back(scene.virtual_surface.vertices[v]);
-    const double weld = kSurfaceWeldTolerance * bounding_box(corners).diagonal();
+    const double weld = kSurfaceWeldTolerance * std::min(bounding_box(corners).diagonal(), file_diagonal);
     if (const MergedVertices merged = merge_coincident_surface_vertices(scene.virtual_surface, weld); merged.vertices > 0) {
       const std::string faces = std::to_string(merged.faces) + (merged.faces == 1 ? " face" : " faces");
       if (scene.virtual_surface.triangles.empty())

@@ -401,6 +401,13 @@ std::string too_soft_for_own_weight(const Scene& scene);
 /// Parses and validates a scene file. Throws InputError ("FILE: key 'a.b': ...").
 SceneSpec load_scene_spec(const std::filesystem::path& file);
 
+/// Removes from the physical mesh as read what build_scene removes before it orients and checks
+/// it: the vertices no tet uses, and the parts (tets joined by vertices) of fewer tets than
+/// mesh.min_part_tets; each removal is said in `warnings` ("MESH: ..."). `ebh scene refine` and
+/// `ebh bench sizes` refine the mesh so cleaned, so that a refined scene has the scene's parts.
+/// Throws InputError naming mesh.min_part_tets where it would drop every part.
+void clean_physical_mesh(TetMesh& mesh, const SceneSpec& spec, std::vector<std::string>& warnings);
+
 /// Loads the meshes a parsed scene names, converts them to metres, places them (mesh.transform),
 /// validates them, resolves the pinned regions and collects the warnings (tissue values, mesh and
 /// tool sizes). load_scene is load_scene_spec followed by this.

@@ -27,14 +27,33 @@ std::string fmt(double v) {
   return std::string(b, r.ptr);
 }
 
-/// v to 4 significant digits (camera positions: where exactness buys nothing).
+/// v to 4 significant digits (sizes: where exactness buys nothing).
 std::string round4(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.4g", v);
   return b;
 }
 
-std::string vec(const Vec3d& v, std::string (*f)(double) = fmt) {
+/// A coordinate v of a mesh of `size` (> 0) to 4 significant digits of the size (1/1000 of it or
+/// finer), wherever the mesh lies: 4 digits of the coordinate itself put the pin cut of a mesh at z
+/// = 100001.3 .. 100021.3 mm at 1e+05, below all of it, and a camera's eye and target at one point.
+std::string round_within(double v, double size) {
+  if (!(size > 0) || !std::isfinite(size)) return fmt(v);
+  const double step = std::floor(std::log10(size)) - 3;  // the last digit kept, as a power of 10
+  const double lead = std::floor(std::log10(std::max(std::fabs(v), size)));
+  char b[40];
+  std::snprintf(b, sizeof b, "%.*g", static_cast<int>(std::clamp(lead - step + 1, 1.0, 17.0)), v);
+  return b;
+}
+
+/// The coordinates of a mesh of `size` as round_within writes them: a function for vec().
+struct Within {
+  double size;
+  std::string operator()(double v) const { return round_within(v, size); }
+};
+
+template <class Format = std::string (*)(double)>
+std::string vec(const Vec3d& v, Format f = fmt) {
   std::string s = "[";
   s += f(v.x);
   s += ", ";
@@ -44,14 +63,32 @@ std::string vec(const Vec3d& v, std::string (*f)(double) = fmt) {
   return s + "]";
 }
 
-/// A YAML double-quoted scalar.
+/// A YAML double-quoted scalar of UTF-8 text: a quote and a backslash escaped, and the control
+/// characters (a line break in a file name: raw, YAML folds it to a space, naming another file).
 std::string quoted(const std::string& s) {
+  static constexpr char kHex[] = "0123456789abcdef";
   std::string out = "\"";
-  for (char c : s) {
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
     if (c == '"' || c == '\\') out += '\\';
-    out += c;
+    if (c == '\n') out += "\\n";
+    else if (c == '\t') out += "\\t";
+    else if (c == '\r') out += "\\r";
+    else if (u < 0x20 || u == 0x7f) out += std::string("\\x") + kHex[u >> 4] + kHex[u & 0xf];
+    else out += c;
   }
   return out + "\"";
+}
+
+/// Refuses a name the scene file must hold exactly (a file's path, a group of the mesh) that is not
+/// UTF-8 text, which the scene file is: `what` says whose name it is ("MESH: the mesh file's name").
+void require_utf8(const std::string& name, const std::string& what, const std::string& fix) {
+  const std::size_t bad = first_invalid_utf8(name);
+  if (bad == std::string::npos) return;
+  char byte[8];
+  std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(name[bad]));
+  throw InputError(what + " is not UTF-8 text (byte " + byte + ", a Latin-1 name?), which a scene file cannot hold: " +
+                   fix);
 }
 
 std::string join(const std::vector<std::string>& v, const std::string& sep = ", ") {
@@ -90,13 +127,15 @@ struct Pin {
   std::string yaml;
 };
 
-Pin parse_pin(const std::string& spec, double unit) {
+Pin parse_pin(const std::string& spec, double unit, const std::string& mesh_name) {
   const std::size_t colon = spec.find(':');
   const std::string kind = spec.substr(0, colon);
   const std::string rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
   Pin pin;
   if (kind == "group") {
     if (rest.empty()) throw InputError("--pin " + spec + ": expected group:NAME");
+    require_utf8(rest, "--pin " + spec + ": the group's name",
+                 "rename the group in " + mesh_name + " (or pin a box or sphere)");
     pin.region.kind = PinRegion::Kind::Group;
     pin.region.group = rest;
     pin.yaml = "group: " + quoted(rest);
@@ -191,6 +230,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
   const TetMesh& mesh = mesh_only.physical;
   const std::size_t n = mesh.vertices.size();
   const BoundingBox box = bounding_box(mesh.vertices);
+  const Within coordinate{box.diagonal() / unit};  // in the scene's unit, to 1/1000 of the mesh's size
   const std::string mesh_name = o.mesh.string();
 
   // Pinned regions: the user's, each checked, or the lowest layer along gravity (-z).
@@ -198,7 +238,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
   std::set<int> pinned;
   std::string pin_note;
   for (const std::string& spec : o.pins) {
-    const Pin pin = parse_pin(spec, unit);
+    const Pin pin = parse_pin(spec, unit, mesh_name);
     const std::vector<int> v = region_vertices(mesh, pin.region);
     if (v.empty()) {
       if (pin.region.kind == PinRegion::Kind::Group) {
@@ -211,7 +251,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
                          group_without_elements_note(mesh));
       }
       throw InputError("--pin " + spec + ": the region pins no vertex of " + mesh_name + " (its bounding box: " +
-                       vec(box.lo / unit, round4) + " .. " + vec(box.hi / unit, round4) + " " + o.unit + ")");
+                       vec(box.lo / unit, coordinate) + " .. " + vec(box.hi / unit, coordinate) + " " + o.unit + ")");
     }
     pinned.insert(v.begin(), v.end());
     pin_yaml.push_back(pin.yaml);
@@ -221,19 +261,23 @@ SceneInit make_scene(const SceneInitOptions& o) {
     // triangle: no rigid motion left) are held
     const double height = box.hi.z - box.lo.z;
     const Vec3d centre = 0.5 * (box.lo + box.hi);
+    // the cut to 1/1000 of the height (to 1/1000 of a thin slab's diagonal it could round below it)
+    const Within cut_text{height / unit};
     for (double fraction = 0.05; pinned.size() < 3; fraction *= 2) {
       if (fraction >= 1) throw InputError(mesh_name + ": no layer of vertices at the bottom to pin; give --pin");
-      const double cut = std::stod(round4((box.lo.z + fraction * height) / unit));
+      // the point as the scene writes it, and the region as the scene will read it
+      const std::string px = coordinate(centre.x / unit), py = coordinate(centre.y / unit),
+                        cut = cut_text((box.lo.z + fraction * height) / unit);
       PinRegion r;
       r.kind = PinRegion::Kind::Halfspace;
-      r.a = Vec3d{std::stod(round4(centre.x / unit)), std::stod(round4(centre.y / unit)), cut} * unit;
+      r.a = Vec3d{std::stod(px), std::stod(py), std::stod(cut)} * unit;
       r.b = {0, 0, -1};
       const std::vector<int> v = region_vertices(mesh, r);
       pinned = std::set<int>(v.begin(), v.end());
       if (pinned.size() >= 3) {
-        pin_yaml = {"halfspace: {point: " + vec(r.a / unit, round4) + ", normal: [0, 0, -1]}"};
+        pin_yaml = {"halfspace: {point: [" + px + ", " + py + ", " + cut + "], normal: [0, 0, -1]}"};
         pin_note = "no --pin given: pinned the lowest " + fmt(fraction * 100) + "% of the mesh's height (z <= " +
-                   round4(cut) + " " + o.unit + ", " + std::to_string(pinned.size()) + " vertices); give --pin to choose";
+                   cut + " " + o.unit + ", " + std::to_string(pinned.size()) + " vertices); give --pin to choose";
       }
     }
   } else {
@@ -254,8 +298,15 @@ SceneInit make_scene(const SceneInitOptions& o) {
   const fs::path relative = fs::relative(mesh_path, fs::absolute(o.out, ec).parent_path(), ec);
   // relative when the mesh sits in the scene's folder or below it, so the two move together
   if (!ec && !relative.empty() && *relative.begin() != "..") mesh_path = relative;
+  // The scene names the mesh file exactly, and is UTF-8 text.
+  require_utf8(mesh_path.string(),
+               mesh_name + (first_invalid_utf8(o.mesh.filename().string()) != std::string::npos
+                                ? ": the mesh file's name"
+                                : ": the mesh file's path as the scene names it (" + mesh_path.string() + ")"),
+               "rename it");
 
   const std::string name = o.out.stem().string();
+  require_utf8(name, "-o " + o.out.string() + ": the scene's name (its file's name)", "rename it");
   const auto arg = shell_word;
   std::string cmd = "ebh scene init " + arg(o.mesh.string()) + " -o " + arg(o.out.string()) + " --unit " + arg(o.unit) +
                     " --tissue " + arg(o.tissue) + " --tool " + arg(o.tool);
@@ -265,9 +316,9 @@ SceneInit make_scene(const SceneInitOptions& o) {
   auto line = [&y](const std::string& text, const std::string& comment) {
     y += text + std::string(text.size() < 32 ? 32 - text.size() : 1, ' ') + "# " + comment + "\n";
   };
-  y += "# Made by `" + cmd + "`.\n";
+  y += "# Made by `" + escape_unprintable(cmd) + "`.\n";  // a comment, read by people
   y += "# Physical mesh: " + std::to_string(n) + " vertices, " + std::to_string(mesh.tets.size()) +
-       " tets; bounding box " + vec(box.lo / unit, round4) + " .. " + vec(box.hi / unit, round4) + " " + o.unit +
+       " tets; bounding box " + vec(box.lo / unit, coordinate) + " .. " + vec(box.hi / unit, coordinate) + " " + o.unit +
        " (diagonal " + round4(diagonal) + ").\n";
   y += "# Schema: lib/scene/scene.hpp; units and the mesh transform: docs/FORMATS.md; stiffnesses: docs/MODEL.md.\n";
   y += "name: " + quoted(name) + "\n";
@@ -309,7 +360,9 @@ SceneInit make_scene(const SceneInitOptions& o) {
       bool first = true;
       for (const auto& [g, count] : tets_of) {
         const auto named = mesh.group_names.find(g);
-        y += std::string(first ? "" : ", ") + (named != mesh.group_names.end() ? named->second : std::to_string(g)) + ": " +
+        // in a comment: a name's line break or Latin-1 byte escaped, not breaking the YAML
+        y += std::string(first ? "" : ", ") +
+             (named != mesh.group_names.end() ? escape_unprintable(named->second) : std::to_string(g)) + ": " +
              std::to_string(count) + " tets";
         first = false;
       }
@@ -330,7 +383,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
   y += "contact: surface\n";
   y += "time: {haptic_hz: 1000, physical_hz: 100}\n";
   y += "solver: {method: chebyshev, physical_iterations: 8, virtual_iterations: 4, chebyshev_rho: 0.95}\n";
-  y += "camera: {eye: " + vec(eye, round4) + ", target: " + vec(centre, round4) + ", up: [0, 0, 1], fov_deg: 40}\n";
+  y += "camera: {eye: " + vec(eye, coordinate) + ", target: " + vec(centre, coordinate) + ", up: [0, 0, 1], fov_deg: 40}\n";
   y += "stages: {grasp: " + std::string(forceps ? "true" : "false") + ", frames: false}\n";
 
   SceneInit out;

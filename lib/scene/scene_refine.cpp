@@ -88,7 +88,8 @@ RefinedScene refine_scene(const std::filesystem::path& scene, int levels, const 
   const Scene loaded = load_scene(scene);
   const SceneSpec& spec = loaded.spec;
   TetMesh mesh = read_tet_mesh(spec.physical_mesh);
-  remove_unreferenced_vertices(mesh);
+  std::vector<std::string> said_at_load;  // the load above said them
+  clean_physical_mesh(mesh, spec, said_at_load);
   orient_tets(mesh);
 
   RefinedScene r;

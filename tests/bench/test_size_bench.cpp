@@ -3,10 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
+#include "../mesh/test_util.hpp"
 #include "bench/size_bench.hpp"
 #include "core/error.hpp"
 #include "io/atomic.hpp"
+#include "mesh/mesh_io.hpp"
+#include "scene/scene_init.hpp"
 
 namespace ebh {
 namespace {
@@ -134,6 +139,33 @@ TEST(SizeBench, RefusesBeforeAnyWork) {
   o.last_level = 2;
   o.mode = Mode::Realtime;
   EXPECT_THROW(run_size_bench(o), InputError);
+}
+
+// The limit is checked on the mesh as the scene loads it and as each size refines it: without the
+// speck that mesh.min_part_tets drops (`scene init` writes it), 1200 tets at level 0 and 9600 at
+// level 1, where the speck's 6 counted once made 9648 and a limit of 9600 refused the run.
+TEST(SizeBench, TheLimitCountsTheSceneWithoutTheSpecksItDrops) {
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / "ebh_size_bench_specks";
+  std::filesystem::create_directories(dir);
+  SceneInitOptions init;
+  init.mesh = dir / "specks.msh";
+  init.out = dir / "specks.yaml";
+  std::ofstream(init.mesh, std::ios::binary) << msh22_text(test::block_with_a_speck(50));
+  std::ofstream(init.out, std::ios::binary) << make_scene(init).yaml;
+  SizeBenchOptions o;
+  o.scene = init.out.string();
+  o.recording = "tube_insert";
+  o.seconds = 0.05;
+  o.last_level = 1;
+  o.max_tets = 9600;
+  EXPECT_NO_THROW((void)check_size_bench(o));
+  o.max_tets = 9599;
+  try {
+    (void)check_size_bench(o);
+    ADD_FAILURE() << "9600 tets accepted under a limit of 9599";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("makes 9600 tets, over the limit of 9599"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -502,6 +504,60 @@ TEST(Scene, StrayObjVerticesAreRemovedWithAWarning) {
   EXPECT_EQ(s.virtual_surface.triangles.size(), 12u);
   ASSERT_EQ(s.warnings.size(), 1u) << ::testing::PrintToString(s.warnings);
   EXPECT_EQ(s.warnings[0], (p.parent_path() / "stray.obj").string() + ": removed 2 vertices used by no face");
+}
+
+// A face's corner far off the physical mesh (one stray point 2 km off, or an exporter's 1e300 for a
+// point it could not place) is no surface of it: refused naming where the corner lies, before the
+// weld. The corner's bounding box once set the weld's tolerance: 2 km off a 100 mm surface, 506
+// of its 530 vertices merged (the stray one among them) and the scene loaded; at 1e300 every
+// face lost a corner ("every face has a repeated vertex").
+TEST(Scene, AVirtualVertexFarOffThePhysicalMeshIsRefused) {
+  for (const auto& [far, said] : {std::pair{"2e5", "2e+03 m off the physical mesh (the virtual vertex at 2000, 0.1, 0.1 m "},
+                                  std::pair{"1e300", "1e+298 m off the physical mesh (the virtual vertex at 1e+298, 0.1, 0.1 m "}}) {
+    SCOPED_TRACE(far);  // cm, cube_obj.yaml's unit
+    write_temp("far.obj", replace(slurp(data("mesh/cube.obj")), "v 10 10 10\r\n", std::string("v ") + far + " 10 10\r\n"));
+    const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                             data("mesh/cube41.msh").string()),
+                                     "../mesh/cube.obj", "far.obj");
+    const fs::path p = write_temp("far.yaml", yaml);
+    try {
+      (void)load_scene(p);
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), (p.parent_path() / "far.obj").string() +
+                                           ": mesh.virtual: the virtual mesh lies up to " + said +
+                                           "lies that far outside its bounding box), more than 10 times its diagonal "
+                                           "(0.173 m): it is not a surface of this mesh; is it in mesh.unit and the "
+                                           "physical mesh's frame (mesh.transform places both)?");
+    }
+  }
+}
+
+// A stray corner within that limit (5 diagonals off) does not widen the weld either: a seam 5 um
+// apart, welded at 1e-5 of the cube's 173 mm diagonal (1.7 um), stays open; the stray corner's
+// 1 m box once welded it at 10 um.
+TEST(Scene, AStrayVirtualVertexDoesNotWidenTheWeld) {
+  const SurfaceMesh cube = read_obj(data("mesh/cube.obj"));
+  std::string obj;
+  for (Vec3d p : cube.vertices) {
+    if (p == Vec3d{10, 10, 10}) p = {100, 10, 10};  // cm
+    char line[96];
+    std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p.x, p.y, p.z);
+    obj += line;
+  }
+  obj += "v 0.0005 0 0\n";  // vertex 9: vertex 1's copy in the first face, a seam 5 um apart
+  for (std::size_t f = 0; f < cube.triangles.size(); ++f) {
+    obj += "f";
+    for (const int v : cube.triangles[f]) obj += ' ' + std::to_string(f == 0 && v == 0 ? 9 : v + 1);
+    obj += "\n";
+  }
+  write_temp("seam.obj", obj);
+  const std::string yaml = replace(replace(slurp(data("scene/cube_obj.yaml")), "../mesh/cube41.msh",
+                                           data("mesh/cube41.msh").string()),
+                                   "../mesh/cube.obj", "seam.obj");
+  const Scene s = load_scene(write_temp("seam.yaml", yaml));
+  EXPECT_EQ(s.virtual_surface.vertices.size(), 9u);
+  for (const std::string& w : s.warnings) EXPECT_EQ(w.find("merged"), std::string::npos) << w;
 }
 
 TEST(Scene, ImplausibleTissueValuesAreShownAsGiven) {

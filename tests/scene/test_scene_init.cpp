@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include "../mesh/test_util.hpp"
@@ -20,8 +21,8 @@ using test::write_temp;
 constexpr double kTol = 1e-15;  // a few ulps of lengths <= 0.33 m scaled from the file's unit
 
 /// A 4 x 3 x 2 box of 5 tets without physical groups, as a segmentation exports it.
-std::filesystem::path box_mesh() {
-  return write_temp("box.msh",
+std::filesystem::path box_mesh(const std::string& name = "box.msh") {
+  return write_temp(name,
                     "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n8\n1 0 0 0\n2 4 0 0\n3 0 3 0\n4 4 3 0\n"
                     "5 0 0 2\n6 4 0 2\n7 0 3 2\n8 4 3 2\n$EndNodes\n$Elements\n5\n1 4 0 1 2 3 5\n2 4 0 4 3 2 8\n"
                     "3 4 0 6 5 8 2\n4 4 0 7 8 5 3\n5 4 0 2 3 5 8\n$EndElements\n");
@@ -152,6 +153,82 @@ TEST(SceneInit, AMeshInTheWrongUnitWarns) {
   ASSERT_FALSE(made.scene.warnings.empty());
   EXPECT_NE(made.scene.warnings[0].find("tool.forceps.jaw_length = 20 mm is larger than the physical mesh's bounding-box diagonal (5.38516 mm)"),
             std::string::npos) << made.scene.warnings[0];
+}
+
+// A mesh file whose name holds a line break loads from the scene: the name is written escaped
+// ("a\nb.msh"), not raw, which YAML folded to "a b.msh", a file nobody wrote.
+TEST(SceneInit, AMeshFileNameWithALineBreakIsEscaped) {
+  SceneInitOptions o;
+  o.mesh = box_mesh("a\nb\t.msh");
+  o.out = o.mesh.parent_path() / "nl.yaml";
+  const SceneInit made = make_scene(o);
+  EXPECT_NE(made.yaml.find("  physical: \"a\\nb\\t.msh\"\n"), std::string::npos) << made.yaml;
+  EXPECT_EQ(made.scene.spec.physical_mesh, o.mesh.lexically_normal());
+  EXPECT_EQ(made.scene.physical.tets.size(), 5u);
+  EXPECT_EQ(made.yaml.find("a\nb"), std::string::npos) << made.yaml;  // in the command's comment too
+}
+
+// Names the scene must hold exactly but cannot, not being UTF-8 text (Latin-1, as an old Windows
+// tool writes it): refused naming the mesh file or the group, not the scene file never written
+// ("NAME.yaml:1: byte 0xe9 is not UTF-8 text: save the scene file as UTF-8"). A group named so
+// that is not pinned is only shown, escaped, in a comment.
+TEST(SceneInit, ANameThatIsNotUtf8IsRefusedNamingIt) {
+  SceneInitOptions o;
+  o.mesh = box_mesh("f\xe9.msh");
+  o.out = o.mesh.parent_path() / "fe.yaml";
+  try {
+    (void)make_scene(o);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), (o.mesh.parent_path() / "f\\xe9.msh").string() +
+                                         ": the mesh file's name is not UTF-8 text (byte 0xe9, a Latin-1 name?), which "
+                                         "a scene file cannot hold: rename it");
+  }
+  // the box in two groups, the first named in Latin-1
+  o.mesh = write_temp("latin1.msh",
+                      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n2\n3 1 \"l\xe9sion\"\n3 2 \"organ\"\n"
+                      "$EndPhysicalNames\n$Nodes\n8\n1 0 0 0\n2 4 0 0\n3 0 3 0\n4 4 3 0\n5 0 0 2\n6 4 0 2\n7 0 3 2\n"
+                      "8 4 3 2\n$EndNodes\n$Elements\n5\n1 4 2 1 1 1 2 3 5\n2 4 2 2 1 4 3 2 8\n3 4 2 2 1 6 5 8 2\n"
+                      "4 4 2 2 1 7 8 5 3\n5 4 2 2 1 2 3 5 8\n$EndElements\n");
+  o.out = o.mesh.parent_path() / "latin1.yaml";
+  const SceneInit made = make_scene(o);
+  EXPECT_NE(made.yaml.find("  # The mesh's tets are in 2 groups (l\\xe9sion: 1 tets, organ: 4 tets):\n"), std::string::npos)
+      << made.yaml;
+  o.pins = {"group:l\xe9sion"};
+  try {
+    (void)make_scene(o);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "--pin group:l\\xe9sion: the group's name is not UTF-8 text (byte 0xe9, a Latin-1 "
+                                     "name?), which a scene file cannot hold: rename the group in " +
+                                         o.mesh.string() + " (or pin a box or sphere)");
+  }
+}
+
+// A mesh far from the origin (100 km, or 1000 km, from it in mm: 1000 times its size and more)
+// gets its bottom pinned and a camera on it: the pin's cut and the camera's points rounded to 4
+// digits of the coordinate once put the cut at 1e+05, below the mesh ("no layer of vertices at
+// the bottom to pin"), and the eye at the target ("camera.eye and camera.target are the same point").
+TEST(SceneInit, AMeshFarFromTheOriginGetsItsBottomPinnedAndACamera) {
+  for (const double z : {100001.3, 1e9}) {
+    SCOPED_TRACE(z);
+    char nodes[400];
+    std::snprintf(nodes, sizeof nodes, "1 0 0 %.17g\n2 4 0 %.17g\n3 0 3 %.17g\n4 4 3 %.17g\n5 0 0 %.17g\n6 4 0 %.17g\n"
+                  "7 0 3 %.17g\n8 4 3 %.17g\n", z, z, z, z, z + 2, z + 2, z + 2, z + 2);
+    SceneInitOptions o;
+    o.mesh = write_temp("far.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n8\n" + std::string(nodes) +
+                                       "$EndNodes\n$Elements\n5\n1 4 0 1 2 3 5\n2 4 0 4 3 2 8\n3 4 0 6 5 8 2\n"
+                                       "4 4 0 7 8 5 3\n5 4 0 2 3 5 8\n$EndElements\n");
+    o.out = o.mesh.parent_path() / "far.yaml";
+    const SceneInit made = make_scene(o);
+    EXPECT_EQ(made.scene.pinned, (std::vector<int>{0, 1, 2, 3}));  // the z face's four corners
+    // the camera on the box's centre (to 1/1000 of its 5.4 mm diagonal), from the front and above
+    const Camera& c = made.scene.spec.camera;
+    EXPECT_NEAR(c.target.z, (z + 1) * 1e-3, 5.4e-6);
+    EXPECT_LT(c.eye.y, c.target.y);
+    EXPECT_GT(c.eye.z, c.target.z);
+    EXPECT_GT(norm(c.eye - c.target) * std::tan(20.0 * std::numbers::pi / 180.0), 0.5 * 5.385e-3);
+  }
 }
 
 TEST(SceneInit, PinsAreCheckedAgainstTheMesh) {

@@ -316,6 +316,10 @@ class SpecReader {
     for (const auto& [name, value] : k)
       if (value > kMaxStiffness)
         fail(std::string("stiffness.") + name, shown_number(value) + " is beyond 1e12 (Pa, N/m or N m/rad): no tissue or tool is that stiff");
+    for (std::size_t i = 0; i < s.stiffness_regions.size(); ++i)
+      if (s.stiffness_regions[i].k_vol > kMaxStiffness)
+        fail("stiffness.regions[" + std::to_string(i) + "].k_vol",
+             shown_number(s.stiffness_regions[i].k_vol) + " is beyond 1e12 (Pa): no tissue is that stiff");
     if (s.density > kMaxDensity) fail("material.density", shown_number(s.density) + " kg/m^3 is beyond 1e5");
   }
 
@@ -1269,9 +1273,14 @@ Scene build_scene(SceneSpec spec_in) {
   scene.spec = std::move(spec_in);
   const SceneSpec& spec = scene.spec;
   // Soft tissue: shear modulus ~100 Pa (brain) to ~1 MPa (tendon), density ~900-1100 kg/m^3.
-  if (spec.stiffness.k_vol < 10 || spec.stiffness.k_vol > 1e8)
-    scene.warnings.push_back(value_source(spec, "stiffness.k_vol") + ": stiffness.k_vol = " + shown_number(spec.stiffness.k_vol) +
-                             " Pa is outside soft tissue's 10 Pa .. 100 MPa");
+  const auto check_tissue_k_vol = [&](const std::string& key, double k_vol) {
+    if (k_vol < 10 || k_vol > 1e8)
+      scene.warnings.push_back(value_source(spec, key) + ": " + key + " = " + shown_number(k_vol) +
+                               " Pa is outside soft tissue's 10 Pa .. 100 MPa");
+  };
+  check_tissue_k_vol("stiffness.k_vol", spec.stiffness.k_vol);
+  for (std::size_t i = 0; i < spec.stiffness_regions.size(); ++i)
+    check_tissue_k_vol("stiffness.regions[" + std::to_string(i) + "].k_vol", spec.stiffness_regions[i].k_vol);
   // E_det's volume stiffness: Poisson's ratio k_det / (2 k_det + k_vol). Tissue is 0.45-0.49 (k_det
   // 4.5-25 times k_vol); beyond 50 times (0.495) the local-global iterations make little headway
   // (333 times on the cholecystectomy: 0.27 mesh weights left by the stopping rule, 0.5 by 64

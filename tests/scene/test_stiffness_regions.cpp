@@ -60,6 +60,8 @@ TEST(StiffnessRegions, ARegionThatHoldsNoTetOrIsMalformedIsRefusedWithItsKey) {
       {"    - group: tissue\n      k_vol: -3\n", "key 'stiffness.regions[0].k_vol'"},
       {"    - group: tissue\n      k_vol: 3\n      k_det: 1\n", "key 'stiffness.regions[0].k_det': unknown key"},
       {"    group: tissue\n", "key 'stiffness.regions': expected a list of parts (a region and its k_vol)"},
+      // checked against the same bound as stiffness.k_vol (1e308 made the step's numbers NaN)
+      {"    - group: tissue\n      k_vol: 1e308\n", "key 'stiffness.regions[0].k_vol': 1e+308 is beyond 1e12 (Pa)"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.regions);
@@ -71,6 +73,15 @@ TEST(StiffnessRegions, ARegionThatHoldsNoTetOrIsMalformedIsRefusedWithItsKey) {
       EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
     }
   }
+}
+
+TEST(StiffnessRegions, APartOutsideSoftTissuesRangeIsWarnedWithItsKey) {
+  const fs::path p = write_temp("bone.yaml", cube_with_regions("    - group: tissue\n      k_vol: 7000\n"
+                                                               "    - box: {min: [0, 0, 0], max: [10, 10, 5]}\n"
+                                                               "      k_vol: 2e9\n"));
+  const Scene s = load_scene(p);
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_EQ(s.warnings[0], p.string() + ": stiffness.regions[1].k_vol = 2e+09 Pa is outside soft tissue's 10 Pa .. 100 MPa");
 }
 
 TEST(StiffnessRegions, TheResolvedSceneKeepsThemBitForBit) {

@@ -9,10 +9,12 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <initializer_list>
@@ -855,7 +857,9 @@ YAML::Node read_scene_yaml(const fs::path& file) {
   if (is_partial_output(file.string())) throw InputError(partial_input_message(file.string()));
   if (const std::string why = not_a_file(file); !why.empty())
     throw InputError(file.string() + ": " + (why == "file not found" ? "scene file not found" : why));
+  errno = 0;
   std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(file.string() + ": cannot open scene file" + (errno ? std::string(": ") + std::strerror(errno) : ""));
   std::stringstream text;
   text << in.rdbuf();
   if (!in && !in.eof()) throw InputError(file.string() + ": cannot read scene file");

@@ -89,6 +89,16 @@ add_test(NAME cli.bench.sizes_bad_levels
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;3-1"
     "-DEXPECT=^ebh: error: --levels: expected FIRST-LAST \\(e.g. 0-3\\) or one level, levels >= 0, got '3-1'" -DSTATUS=1
     -P ${EXPECT_FAILURE})
+# A level past int's range, a blank or a sign is refused, not wrapped or skipped (sscanf read
+# 4294967296 as 0 and ' 1' as 1).
+add_test(NAME cli.bench.sizes_levels_wrap
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0-4294967296"
+    "-DEXPECT=^ebh: error: --levels: expected FIRST-LAST \\(e.g. 0-3\\) or one level, levels >= 0, got '0-4294967296'" -DSTATUS=1
+    -P ${EXPECT_FAILURE})
+add_test(NAME cli.bench.sizes_levels_blank
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0- 1"
+    "-DEXPECT=^ebh: error: --levels: expected FIRST-LAST \\(e.g. 0-3\\) or one level, levels >= 0, got '0- 1'" -DSTATUS=1
+    -P ${EXPECT_FAILURE})
 add_test(NAME cli.bench.sizes_no_window
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--scene;${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml"
     "-DEXPECT=^ebh: error: --recording: scene '.*cube.yaml' has no default window" -DSTATUS=1 -P ${EXPECT_FAILURE})
@@ -135,7 +145,7 @@ set_tests_properties(cli.bench.sizes_no_limit PROPERTIES TIMEOUT 60)
 add_test(NAME cli.bench.sizes_missing_scene
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--scene;${Z}/no_such/one.yaml"
     "-DEXPECT=^ebh: error: .*no_such/one.yaml: scene file not found" -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
-set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_no_window cli.bench.sizes_bad_override
+set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_levels_wrap cli.bench.sizes_levels_blank cli.bench.sizes_no_window cli.bench.sizes_bad_override
   cli.bench.sizes_start_past_end cli.bench.sizes_missing_scene cli.bench.sizes_no_limit PROPERTIES LABELS "cli;bench")
 
 # table1 and bench sizes on the CUDA backend where none can be used (no device visible, or a build

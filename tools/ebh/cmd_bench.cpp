@@ -1,6 +1,7 @@
 // `ebh bench sizes`: the cost of a replay against the physical mesh's size (bench/size_bench.hpp):
 // a text table (JSON with --json) and a log-log plot of each cost against the tet count with the
 // slope of its least-squares line.
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "bench/size_bench.hpp"
 #include "command.hpp"
@@ -41,13 +43,19 @@ struct SizesArgs {
 };
 
 /// "A-B" or "N" -> (first, last); an InputError naming --levels otherwise.
+/// Digits only (no sign, blank or exponent; one past int's range fails rather than wrapping).
 std::pair<int, int> parse_levels(const std::string& text) {
+  const auto level = [](std::string_view digits, int& out) {
+    if (digits.empty() || digits.find_first_not_of("0123456789") != std::string_view::npos) return false;
+    const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), out);
+    return ec == std::errc() && end == digits.data() + digits.size();
+  };
+  const std::string_view t = text;
+  const std::size_t dash = t.find('-');
   int a = -1, b = -1;
-  char tail = 0;
-  const bool range = std::sscanf(text.c_str(), "%d-%d%c", &a, &b, &tail) == 2;
-  const bool single = !range && std::sscanf(text.c_str(), "%d%c", &a, &tail) == 1;
-  if (single) b = a;
-  if (!(range || single) || a < 0 || b < a)
+  const bool ok = dash == std::string_view::npos ? level(t, a) && level(t, b)
+                                                 : level(t.substr(0, dash), a) && level(t.substr(dash + 1), b);
+  if (!ok || b < a)
     throw InputError("--levels: expected FIRST-LAST (e.g. 0-3) or one level, levels >= 0, got '" + escape_unprintable(text) + "'");
   return {a, b};
 }

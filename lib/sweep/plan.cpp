@@ -274,6 +274,17 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   } else {
     configurations.push_back({{}, root});  // the scenes as they are
   }
+  // A `set` key that every configuration overrides (a grid's key always is) never reaches a run:
+  // only the references would replay it, which is seldom what a plan means by "every replay".
+  if (top.count("grid") || top.count("runs"))
+    for (const auto& [k, v] : plan.set) {
+      // (a plan's values are numbers, text or lists: no map sets part of another key)
+      if (std::all_of(configurations.begin(), configurations.end(), [&k](const auto& c) { return c.first.count(k) > 0; }))
+        r.fail(set_where[k], "set." + k,
+               std::string("every configuration of `") + (top.count("grid") ? "grid" : "runs") + "` gives " + k +
+                   " its own value, so this one reaches no run (only the references that keep it): `set` holds "
+                   "what every replay shares; give " + k + " in one place");
+    }
   std::set<Overrides> seen;
   for (const auto& [config, node] : configurations)
     if (seen.insert(config).second) plan.configurations.push_back(config);

@@ -124,6 +124,22 @@ runs:
   EXPECT_EQ(plain->overrides_text(), "-");
 }
 
+// `set` is the default of a key some list entries give their own value (the others replay it).
+TEST(SweepPlan, ASetKeyThatSomeRunsOverrideIsTheOthersValue) {
+  const SweepPlan p = read_sweep_plan(plan_file("set_default.yaml", R"(
+scenes:
+  - {scene: tube, recordings: [tube_insert], reference: {solver.method: direct}}
+set: {solver.virtual_iterations: 3}
+runs:
+  - {solver.virtual_iterations: 8}
+  - {}
+)"));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 3u);
+  EXPECT_EQ(runs[1].effective.at("solver.virtual_iterations"), "8");
+  EXPECT_EQ(runs[2].effective.at("solver.virtual_iterations"), "3");
+}
+
 TEST(SweepPlan, ANumberWrittenTwoWaysIsOneConfiguration) {
   const SweepPlan p = read_sweep_plan(plan_file("forms.yaml", R"(
 scenes:
@@ -436,6 +452,15 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nset: {solver.physical_region: 0.0003}\n"
        "runs:\n  - {solver.method: direct}\n",
        ":4: key 'runs': on scene tube: .*key 'solver.physical_region': the direct method solves for every vertex"},
+      // a `set` key every configuration overrides reaches no run (a grid's key, or one in every list
+      // entry)
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nset: {solver.virtual_iterations: 3}\n"
+       "grid:\n  solver.virtual_iterations: [2, 4]\n",
+       ":2: key 'set.solver.virtual_iterations': every configuration of `grid` gives solver.virtual_iterations its "
+       "own value, so this one reaches no run"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nset: {stiffness.k_vol: 3000}\n"
+       "runs:\n  - {stiffness.k_vol: 2000}\n  - {stiffness.k_vol: 4000, solver.virtual_iterations: 2}\n",
+       ":2: key 'set.stiffness.k_vol': every configuration of `runs` gives stiffness.k_vol its own value"},
   };
   int i = 0;
   for (const auto& [text, expected] : cases) {

@@ -1698,12 +1698,15 @@ add_test(NAME cli.sweep.plan_reads_its_runs
     "-DEXPECT=^ebh: error: .*own_runs/runs/rec.h5: the recording is in the sweep's folder .*own_runs/runs, where it writes its runs' files"
     -DKEEP=${EBH_SWEEP_OUT}/own_runs/runs/rec.h5 -DOUTPUT=${EBH_SWEEP_OUT}/own_runs/plan.yaml
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-foreach(uname summary.csv runs/notes.txt)
+# (0123456789abcdef.h5: a run's output, as in another sweep's runs/ given as the folder)
+foreach(uname summary.csv runs/notes.txt 0123456789abcdef.h5)
   string(MAKE_C_IDENTIFIER ${uname} uid)
   file(REMOVE_RECURSE ${EBH_SWEEP_OUT}/user_${uid})
   file(WRITE ${EBH_SWEEP_OUT}/user_${uid}/${uname} "a user's file\n")
   if(uname MATCHES "runs/")
     set(uwhat "runs/notes.txt, not a run's file")
+  elseif(uname MATCHES "^0123")
+    set(uwhat "0123456789abcdef.h5, a sweep run's file \\(is it another sweep's runs folder\\?\\)")
   else()
     set(uwhat "summary.csv")
   endif()

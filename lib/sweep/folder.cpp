@@ -106,6 +106,10 @@ void check_sweep_folder(const fs::path& dir) {
     if (fs::exists(own, ec)) refuse(own.filename().string());
   // A run's file: ID.h5, ID.log, ID.failed (16 hex digits), or the temporary of one.
   static const std::regex run_file(R"(\.?[0-9a-f]{16}\.(h5|log|failed)(\..*\.ebh-partial)?)");
+  // Another sweep's runs/ (or batches/, slurm/) given as the folder: its runs' files are in it.
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+    if (std::regex_match(it->path().filename().string(), run_file))
+      refuse(it->path().filename().string() + ", a sweep run's file (is it another sweep's runs folder?)");
   if (fs::exists(dir / "runs", ec) && !fs::is_directory(dir / "runs", ec)) refuse("runs");
   for (fs::directory_iterator it(dir / "runs", ec), end; !ec && it != end; it.increment(ec))
     if (!std::regex_match(it->path().filename().string(), run_file))

@@ -11,6 +11,7 @@
 #include <type_traits>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "core/units.hpp"
 #include "io/h5.hpp"
 #include "io/paths.hpp"
@@ -219,6 +220,12 @@ void increasing(const Reader& in, const std::string& name, const std::vector<dou
       in.fail(name, "is not strictly increasing at index " + std::to_string(i));
 }
 
+/// A duration is not negative (a NaN is counted with the file's non-finite values, not refused).
+void durations(const Reader& in, const std::string& name, const std::vector<double>& s) {
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s[i] < 0) in.fail(name, "holds a negative duration at index " + std::to_string(i) + " (" + shown_number(s[i]) + " s)");
+}
+
 }  // namespace
 
 long ReplayTrace::frame_ticks() const {
@@ -299,6 +306,7 @@ ReplayTrace load_replay(const std::string& path) {
   tr.grasped = in.read<std::int32_t>("/haptic/grasped", n, 0, H5T_NATIVE_INT32, true).value_or(std::vector<std::int32_t>{});
   tr.jaw = in.optional_doubles("/haptic/jaw", n);
   tr.haptic_step_s = in.doubles("/timing/haptic_step_s", n);
+  durations(in, "/timing/haptic_step_s", tr.haptic_step_s);
 
   tr.physical_t = in.optional_doubles("/physical/t", -1);
   increasing(in, "/physical/t", tr.physical_t);
@@ -310,6 +318,7 @@ ReplayTrace load_replay(const std::string& path) {
     tr.physical_awake = in.optional_doubles("/physical/awake", k);
     tr.physical_slept = in.optional_doubles("/physical/slept", k);
     tr.physical_step_s = in.optional_doubles("/timing/physical_step_s", k);
+    durations(in, "/timing/physical_step_s", tr.physical_step_s);
   }
   return tr;
 }

@@ -547,6 +547,14 @@ TEST(ForceMetrics, WrongShapeAndBadFilesAreInputErrors) {
                        [](h5::File& f) { f.write<double>("/physical/t", std::vector<double>(5, 0.0), {5}); })
                 .find("'/physical/t' is not strictly increasing at index 1"),
             std::string::npos);
+  // A step time below zero (a file written by another tool): percentiles and budgets of it would
+  // read as a fast solver.
+  {
+    ReplayTrace neg = tr;
+    neg.haptic_step_s[7] = -2e-5;
+    EXPECT_NE(load_error(neg, "negative_step").find("'/timing/haptic_step_s' holds a negative duration at index 7 (-2e-05 s)"),
+              std::string::npos);
+  }
   // Datasets cut to fewer ticks than the replay's own count (the ticks attribute): metrics of part
   // of the run would read as the whole. The count that agrees is read; so is a file without it.
   const auto ticks = [](std::int64_t n) { return [n](h5::File& f) { f.set_attr("ticks", n); }; };

@@ -416,6 +416,7 @@ void read_csv(const std::string& path, double unit, double rate, double& time_un
   std::vector<std::string> header;
   bool have_header = false;
   std::string header_text, previous;  // the header's text, the last data row's
+  std::optional<double> last_t;       // the last data row's t (log unit)
   for_each_line(path, left_out, [&](const Line& l) {
     if (!have_header) {
       have_header = true;
@@ -516,12 +517,18 @@ void read_csv(const std::string& path, double unit, double rate, double& time_un
     auto tok = split_csv(l.text);
     if (tok.size() != header.size())
       throw InputError(where + ": " + std::to_string(tok.size()) + " fields, the header has " +
-                       std::to_string(header.size()) + decimal_comma_hint(header_text, l.text));
+                       std::to_string(header.size()) + decimal_comma_hint(header_text, l.text) +
+                       (std::count(l.text.begin(), l.text.end(), '"') % 2 != 0
+                            ? std::string("; a quote (\") on the line is not closed, which makes the rest of it one field")
+                            : std::string()));
     auto get = [&](const char* name) { return to_number(tok[col.at(name)], where, name); };
     const double t = has_t ? get("t") : placed;
     // Before the window's test, which a NaN would fail (the row left out unsaid) and an infinity
-    // would pass as the log's origin or its end.
+    // would pass as the log's origin or its end; so would a time before the first.
     if (!std::isfinite(t)) throw InputError(where + ": t is " + tok[col.at("t")] + ": a sample's time must be a finite number");
+    if (has_t && last_t)
+      if (const auto bad = time_defect(*last_t * time_unit, t * time_unit)) throw InputError(where + ": " + *bad);
+    last_t = t;
     ++samples;
     if (has_t && !window.keeps(t * time_unit)) return;
     check_sample_limit(rec, limit, where);
@@ -811,12 +818,14 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
                      " bytes each while importing): give the process more memory (ulimit -v, the job's limit), or "
                      "import the log in parts");
   }
-  if (rec.t.empty() && window.origin && !window.whole()) {
+  if (rec.t.size() < 2 && window.origin && !window.whole()) {
     char span[64];
     std::snprintf(span, sizeof span, "%.6g", window.span);
-    throw InputError(path + ": no samples in the window --start " + shortest_text(opt.start_s) +
+    throw InputError(path + ": " + (rec.t.empty() ? "no samples" : "one sample") + " in the window --start " +
+                     shortest_text(opt.start_s) +
                      (opt.duration_s ? " --duration " + shortest_text(*opt.duration_s) : std::string()) +
-                     ": the log's samples span " + span + " s from its first");
+                     ": the log's samples span " + span + " s from its first" +
+                     (rec.t.empty() ? "" : "; a recording needs at least two: widen the window"));
   }
   if (rec.t.empty())
     throw InputError(path + ": no samples (the log has no data lines" +

@@ -32,17 +32,8 @@ double distance_outside(Vec3d p, Vec3d lo, Vec3d hi) { return norm(cwise_max(lo 
 
 /// What is wrong with sample i's time, if anything.
 std::optional<std::string> time_defect(const std::vector<double>& t, std::size_t i) {
-  if (!std::isfinite(t[i])) return "time is NaN or Inf";
-  if (i > 0 && !(t[i] > t[i - 1])) {
-    // Equal times far from 0: a clock's epoch seconds at a resolution a double does not hold there
-    // (at 1e15 s a double's step is 0.125 s), two different stamps read as one.
-    const bool rounded = t[i] == t[i - 1] && std::abs(t[i]) * 1e-15 > 1e-4;
-    return "time not strictly increasing (" + num(t[i]) + " s after " + num(t[i - 1]) + " s)" +
-           (rounded ? std::string("; so far from 0 a double holds times only to ") + num(std::abs(t[i]) * 2.2e-16) +
-                          " s: count t from the log's start (subtract its first time)"
-                    : std::string());
-  }
-  return std::nullopt;
+  if (i == 0) return std::isfinite(t[0]) ? std::nullopt : std::optional<std::string>("time is NaN or Inf");
+  return ebh::time_defect(t[i - 1], t[i]);
 }
 
 /// The rows [first, last] a replay of `window` interpolates: from the last sample at or before its
@@ -181,6 +172,20 @@ void read_window(const h5::Group& g, const std::string& path, const std::vector<
 }
 
 }  // namespace
+
+std::optional<std::string> time_defect(double previous, double t) {
+  if (!std::isfinite(t)) return "time is NaN or Inf";
+  if (!(t > previous)) {
+    // Equal times far from 0: a clock's epoch seconds at a resolution a double does not hold there
+    // (at 1e15 s a double's step is 0.125 s), two different stamps read as one.
+    const bool rounded = t == previous && std::abs(t) * 1e-15 > 1e-4;
+    return "time not strictly increasing (" + shortest_text(t) + " s after " + shortest_text(previous) + " s)" +
+           (rounded ? std::string("; so far from 0 a double holds times only to ") + num(std::abs(t) * 2.2e-16) +
+                          " s: count t from the log's start (subtract its first time)"
+                    : std::string());
+  }
+  return std::nullopt;
+}
 
 void validate_recording(Recording& rec, const std::string& file, const SampleLocator& where) {
   const std::size_t n = rec.t.size();
@@ -565,18 +570,23 @@ double turn_angle(const Recording& rec, std::size_t i) {
   return 2 * std::acos(std::min(1.0, std::abs(a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z)));
 }
 
+/// How far the tool moves between samples i - 1 and i (hypot: a jump of 1e200 m is not inf).
+double step_length(const Recording& rec, std::size_t i) {
+  const Vec3d d = rec.position[i] - rec.position[i - 1];
+  return std::hypot(d.x, d.y, d.z);
+}
+
 }  // namespace
 
 std::optional<std::string> check_recording_speed(const Recording& rec) {
-  const FastestChange f = fastest_change(rec, kToolSpeedMax,
-                                         [&rec](std::size_t i) { return norm(rec.position[i] - rec.position[i - 1]); });
+  const FastestChange f = fastest_change(rec, kToolSpeedMax, [&rec](std::size_t i) { return step_length(rec, i); });
   if (!(f.rate > kToolSpeedMax)) return std::nullopt;
   const std::size_t at = f.at;
   char line[900];
   std::snprintf(line, sizeof line,
                 "the tool jumps %.3g m between samples %zu and %zu (the recording's t = %.15g .. %.15g s: %.3g m/s; a hand moves it at "
                 "under 1 m/s%s)%s, which a replay passes through in one tick",
-                norm(rec.position[at] - rec.position[at - 1]), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], f.rate,
+                step_length(rec, at), rec.row(at - 1), rec.row(at), rec.t[at - 1], rec.t[at], f.rate,
                 others_over(rec, f, "jumps", kToolSpeedMax, "m/s").c_str(),
                 fast_change_cause(rec, f, "jumps", "positions logged in a smaller unit than read, or times in a larger one").c_str());
   return std::string(line);

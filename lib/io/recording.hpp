@@ -111,6 +111,9 @@ inline constexpr double kMaxRecordingSamples = 10e6;
 /// NaN/Inf, time not strictly increasing, a quaternion whose
 /// norm is off by more than kQuatNormTolerance, a jaw outside [0, 1] (beyond kJawTolerance).
 void validate_recording(Recording& rec, const std::string& file, const SampleLocator& where);
+/// What is wrong with a sample at time `t` (s) after one at `previous`: not finite, not after it
+/// (and, for equal times far from 0, the rounding that makes them equal). Empty when nothing is.
+std::optional<std::string> time_defect(double previous, double t);
 inline constexpr double kQuatNormTolerance = 1e-3;  // float32 round trips and 4-digit logs pass
 inline constexpr double kJawTolerance = 1e-9;       // jaw in [-tol, 1 + tol] is clamped to [0, 1]
 

@@ -124,6 +124,10 @@ TEST(Import, AWindowOfTheLogKeepsItsTimes) {
   opt.start_s = 0.25;
   EXPECT_INPUT_ERROR(import_log(kData + "sample.csv", opt), kData + "sample.csv: no samples in the window --start 0.25",
                      "the log's samples span 0.0095 s from its first");
+  // A window that holds one sample: said with the window, not as a recording of one sample.
+  opt.start_s = 9.2e-3;
+  EXPECT_INPUT_ERROR(import_log(kData + "sample.csv", opt), kData + "sample.csv: one sample in the window --start 0.0092",
+                     "a recording needs at least two: widen the window");
 }
 
 TEST(Import, TransformMapsTheLogFrameToTheWorld) {
@@ -213,6 +217,12 @@ TEST(Import, DefectsNameFileAndLine) {
     }
   p = write("b.csv", "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0,0,0,0.001,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "b.csv:3", "not strictly increasing");
+  // A quote not closed on its line: said, not only counted.
+  p = write("quote.csv", "t,x,y,z,qw,qx,qy,qz\n\"0,0,0,0,1,0,0,0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "quote.csv:2: 1 fields, the header has 8; a quote (\") on the line is not closed");
+  // Epoch times (a ROS export) shown to the digit that tells them apart, not as 1.7e+09 twice.
+  p = write("epoch.csv", "t,x,y,z,qw,qx,qy,qz\n1700000000.002,0,0,0,1,0,0,0\n1700000000.001,0,0,0.001,1,0,0,0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "epoch.csv:3: time not strictly increasing (1700000000.001 s after 1700000000.002 s)");
   p = write("c.csv", "t,x,y,qw,qx,qy,qz\n0,0,0,1,0,0,0\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "c.csv:1", "missing column 'z'");
   p = write("d.csv", "x,y,z,qw,qx,qy,qz,jaw\n0,0,0,1,0,0,0,1\n0,0,0,2,0,0,0,1\n");

@@ -600,6 +600,12 @@ TEST(ToolSpeed, AJumpInTheLogIsNamed) {
   for (std::size_t i = 6; i < step.size(); ++i) step.position[i] += Vec3d{0.05, 0, 0};  // one jump, no way back
   ASSERT_TRUE(check_recording_speed(step).has_value());
   EXPECT_EQ(check_recording_speed(step)->find("the fastest of"), std::string::npos) << *check_recording_speed(step);
+  // A jump whose square overflows (a garbled sample) is its length, not inf.
+  Recording far = make_recording();
+  far.position[6] = Vec3d{1e297, 0, 0};
+  ASSERT_TRUE(check_recording_speed(far).has_value());
+  EXPECT_NE(check_recording_speed(far)->find("jumps 1e+297 m between samples 5 and 6"), std::string::npos)
+      << *check_recording_speed(far);
   for (const char* name : {"tube_insert", "tube_grasp", "gap_insert", "gap_grasp", "cholecystectomy_press",
                            "cholecystectomy_grasp", "gynaecology_press", "gynaecology_grasp"}) {
     const auto c = check_recording_speed(read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5"));

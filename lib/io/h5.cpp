@@ -32,18 +32,6 @@ hid_t mem_type(Type t) {
 
 bool is_float(Type t) { return t == Type::f64 || t == Type::f32; }
 
-const char* type_name(Type t) {
-  switch (t) {
-    case Type::f64: return "float64";
-    case Type::f32: return "float32";
-    case Type::i32: return "int32";
-    case Type::i64: return "int64";
-    case Type::u8: return "uint8";
-    case Type::u32: return "uint32";
-  }
-  return "?";
-}
-
 std::string shape_str(const std::vector<std::size_t>& s) {
   std::ostringstream o;
   o << '(';
@@ -408,8 +396,9 @@ std::vector<std::size_t> Dataset::checked_shape(Type t, const std::vector<std::p
                          : cls == H5T_STRING  ? "string"
                          : cls == H5T_ENUM    ? "enumerated (as h5py stores a bool: store the numbers)"
                                               : "non-numeric";
+    // Of any width: HDF5 converts (a float32 or a uint8 is read as the double or int64 it holds).
     fail(where(), std::string("type ") + stored + ", expected " + (is_float(t) ? "floating point" : "integer") +
-                      " (" + type_name(t) + ")");
+                      " (of any width)");
   }
   // The values' size in the file, not in memory: a recording's buttons are stored as uint8 and
   // read as int64, and 8 million zeros compress past the check's bound at 8 bytes a value.

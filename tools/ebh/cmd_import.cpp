@@ -175,7 +175,8 @@ void run(const ImportArgs& a) {
                 "rest)\n",
                 count(report.removable, "sample", "samples").c_str(), holds.c_str(), longer.c_str());
   else
-    std::printf("  %zu consecutive samples repeat the previous pose, jaw and buttons exactly%s\n", report.repeats,
+    std::printf("  %s the previous pose, jaw and buttons exactly%s\n",
+                (count(report.repeats, "sample repeats", "consecutive samples repeat")).c_str(),
                 report.repeats == 0 ? ""
                                     : (" (--drop-repeats removes " + std::to_string(report.removable) + ", keeping " +
                                        holds + " of " + longer + ")").c_str());

@@ -86,6 +86,12 @@ add_test(NAME cli.synth.scene_missing
     "-DEXPECT=^ebh: error: .*plans/missing.yaml:2: scene: .*plans/organ.yaml: scene file not found \\(a path in a plan is relative to the plan's folder\\)"
     -DOUTPUT=${EBH_PLAN_SCENE}/missing.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.synth.scene_missing PROPERTIES LABELS cli)
+# A scene name found in no data folder: stored as given (it may be found at replay time), warned.
+file(WRITE ${EBH_PLAN_SCENE}/plans/misspelt.yaml "scene: gapp\n${ebh_plan_waypoints}")
+add_test(NAME cli.synth.scene_name_not_found
+  COMMAND ${EBH_BIN} synth ${EBH_PLAN_SCENE}/plans/misspelt.yaml -o ${EBH_PLAN_SCENE}/misspelt.h5)
+set_tests_properties(cli.synth.scene_name_not_found PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "ebh: warning: .*plans/misspelt.yaml:1: scene: gapp: no such scene.*; the recording names it all the same")
 # Repeated samples are reported and, with --drop-repeats, removed; a log without times says
 # which rate it assumed; a given rate is stored exactly.
 add_test(NAME cli.import.repeats COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/repeats.h5)

@@ -44,6 +44,14 @@ void run(const SynthArgs& a) {
     throw ebh::InputError(a.plan + (plan.scene_line > 0 ? ":" + std::to_string(plan.scene_line) : std::string()) +
                           ": scene: " + e.what() + " (a path in a plan is relative to the plan's folder)");
   }
+  // A name is stored as it is (the data folders at replay time may hold it), but one found in none
+  // of today's is likely misspelt: said, not refused.
+  if (scene.find('/') == std::string::npos && std::filesystem::path(scene).extension().empty()) try {
+      (void)ebh::resolve_scene_path(scene);
+    } catch (const ebh::InputError& e) {
+      std::fprintf(stderr, "ebh: warning: %s%s: scene: %s; the recording names it all the same\n", a.plan.c_str(),
+                   plan.scene_line > 0 ? (":" + std::to_string(plan.scene_line)).c_str() : "", e.what());
+    }
   for (const std::string& w : ebh::plan_rate_warnings(plan)) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
   ebh::Recording rec = ebh::synthesize(plan, a.seed);
   rec.scene = scene;

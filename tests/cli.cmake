@@ -537,6 +537,23 @@ add_test(NAME cli.render.folder_is_the_output
     "-DEXPECT=^ebh: error: --render .*same.h5: is the name of the replay output \\(-o\\)"
     -DOUTPUT=${EBH_RENDER_OUT}/same.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.render.folder_is_the_output PROPERTIES LABELS "cli;render")
+# The frames replace every frame_*.png in their folder: a recording or an output named like one
+# there is refused before the replay (it was replaced by a PNG, exit 0).
+file(MAKE_DIRECTORY ${EBH_RENDER_OUT}/own_input)
+configure_file(${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5 ${EBH_RENDER_OUT}/own_input/frame_00001.png COPYONLY)
+add_test(NAME cli.render.frames_would_replace_the_recording
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;tube;${EBH_RENDER_OUT}/own_input/frame_00001.png;-o;${EBH_RENDER_OUT}/own_input.h5;--duration;0.1;--render;${EBH_RENDER_OUT}/own_input"
+    "-DEXPECT=^ebh: error: .*own_input: the frames would replace the recording .*own_input/frame_00001.png \\(frame_\\*.png files in the folder are the render's\\)"
+    -DOUTPUT=${EBH_RENDER_OUT}/own_input.h5 -DKEEP=${EBH_RENDER_OUT}/own_input/frame_00001.png -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.render.frames_would_replace_the_output
+  COMMAND ${CMAKE_COMMAND}
+    "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_RENDER_OUT}/own_output/frame_00001.png;--duration;0.1;--render;${EBH_RENDER_OUT}/own_output"
+    "-DEXPECT=^ebh: error: .*own_output: the frames would replace the replay output .*own_output/frame_00001.png"
+    -DOUTPUT=${EBH_RENDER_OUT}/own_output/frame_00001.png -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.render.frames_would_replace_the_recording cli.render.frames_would_replace_the_output
+  PROPERTIES LABELS "cli;render")
 # Options that would do nothing where they are given are refused, not ignored.
 add_test(NAME cli.render.xdmf_only_with_a_folder
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;--xdmf-only;-o;${EBH_RENDER_OUT}/unused"

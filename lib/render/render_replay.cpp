@@ -332,6 +332,13 @@ void check_frames_folder(const std::string& dir) {
   check_frame_names(dir);
 }
 
+void check_frames_spare(const std::string& dir, const std::vector<RoleFile>& files) {
+  for (const RoleFile& f : files)
+    if (!f.path.empty() && is_frame_name(f.path) && in_folder(f.path, dir))
+      throw InputError(dir + ": the frames would replace " + f.role + " " + f.path +
+                       " (frame_*.png files in the folder are the render's): rename it or render into another folder");
+}
+
 RenderSummary render_replay(const std::string& replay, const std::string& dir, const RenderOptions& opt,
                             OffscreenRenderer* renderer) {
   // The video written among the frames under a frame's name would replace that frame (and be
@@ -351,14 +358,7 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   std::vector<RoleFile> inputs{{replay, "the replay"}};
   if (scene) inputs.push_back({scene->file.string(), "the scene file"});
   check_outputs({{opt.video, "the video"}}, inputs);
-  // The frames replace every frame_*.png in the folder: an input named like one would go too.
-  for (const RoleFile& in : inputs) {
-    std::error_code same;
-    if (is_frame_name(in.path) && fs::equivalent(fs::path(in.path).parent_path().empty() ? "." : fs::path(in.path).parent_path(),
-                                                 dir, same))
-      throw InputError(dir + ": the frames would replace " + in.role + " " + in.path +
-                       " (frame_*.png files in the folder are the render's): rename it or render into another folder");
-  }
+  check_frames_spare(dir, inputs);
   const Bounds rest = bounds_of(frames.virtual_rest);
   const double aspect = static_cast<double>(opt.width) / opt.height;
   summary.camera = choose_camera(opt.camera, scene, rest, aspect, summary.camera_source);

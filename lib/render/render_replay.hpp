@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "io/paths.hpp"
 #include "render/camera.hpp"
 #include "render/offscreen.hpp"
 #include "render/replay_frames.hpp"
@@ -62,6 +63,10 @@ std::unique_ptr<OffscreenRenderer> start_renderer(const RenderOptions& opt);
 /// Throws InputError when `dir` exists and is not a folder, or holds something named like a frame
 /// (frame_*.png) that is not a file (a folder), which the render would replace.
 void check_frames_folder(const std::string& dir);
+
+/// Throws InputError when one of `files` (a command's inputs and outputs) is named like a frame
+/// (frame_*.png) in `dir`: the render replaces every such file there.
+void check_frames_spare(const std::string& dir, const std::vector<RoleFile>& files);
 
 /// Renders the frames of `replay` into `dir` (created if missing; frame_*.png files already in
 /// it are removed first so a video never mixes two runs) with `renderer`, one start_renderer(opt)

@@ -27,6 +27,7 @@
 #include "mesh/boundary.hpp"
 #include "metrics/force_metrics.hpp"
 #include "options.hpp"
+#include "render/render_replay.hpp"
 #include "render/xdmf.hpp"
 #include "replay_common.hpp"
 #include "schedule/replay_output.hpp"
@@ -510,10 +511,17 @@ void run_replay(const ReplayArgs& a) {
   check_rates_once(a);
   const Backend backend = a.backend == "cuda" ? Backend::Cuda : Backend::Cpu;
   // Before any work: no output may replace one of the files the replay reads.
-  check_outputs(replay_outputs(a), replay_input_files(a.scene, a.recording, a.overrides));
+  const std::vector<RoleFile> inputs = replay_input_files(a.scene, a.recording, a.overrides);
+  check_outputs(replay_outputs(a), inputs);
   if (std::error_code ec; !a.render_dir.empty() && std::filesystem::exists(a.render_dir, ec) &&
                           !std::filesystem::is_directory(a.render_dir, ec))
     throw InputError("--render " + a.render_dir + ": not a folder");
+  // Nor may the frames, which replace every frame_*.png in their folder.
+  if (!a.render_dir.empty()) {
+    std::vector<RoleFile> files = inputs;
+    for (RoleFile& o : replay_outputs(a)) files.push_back(std::move(o));
+    check_frames_spare(a.render_dir, files);
+  }
   // A folder named like an output would fail only after the replay wrote that output.
   for (const RoleFile& o : replay_outputs(a))
     if (!a.render_dir.empty() && std::filesystem::absolute(a.render_dir).lexically_normal() ==

@@ -45,11 +45,14 @@ void render_after_replay(const std::string& replay_file, const std::string& dir,
   RenderSummary s;
   try {
     s = render_replay(replay_file, dir, RenderOptions{}, &renderer);
-  } catch (const InputError&) {
-    // The replay's output is written by then: an interrupt stops the frames only, and says so.
-    if (!interrupted()) throw;
-    throw InputError(dir + ": interrupted while rendering: no frames written (the replay's output " + replay_file +
-                     " and its index are written)");
+  } catch (const InputError& e) {
+    // The replay's output is written by then: an interrupt or a failed frame (a full disk) stops
+    // the frames only, and says so.
+    if (interrupted())
+      throw InputError(dir + ": interrupted while rendering: no frames written (the replay's output " + replay_file +
+                       " and its index are written)");
+    throw InputError(std::string(e.what()) + " (the replay's output " + replay_file + " and its index are written: `ebh render " +
+                     replay_file + " -o DIR` renders them)");
   }
   for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
 }

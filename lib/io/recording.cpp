@@ -627,6 +627,32 @@ std::optional<std::string> check_recording_gaps(const Recording& rec) {
   return std::string(line);
 }
 
+std::optional<std::string> check_recording_rate(const Recording& rec) {
+  const std::size_t n = rec.t.size();
+  if (n < 3) return std::nullopt;
+  std::vector<double> d(n - 1);
+  for (std::size_t i = 0; i + 1 < n; ++i) d[i] = rec.t[i + 1] - rec.t[i];
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  const double median = d[d.size() / 2];
+  if (!(median > 0)) return std::nullopt;
+  const double rate = 1 / median, ratio = rec.rate_hz / rate;
+  char line[400];
+  if (rate > kMaxSampleRateHz) {
+    std::snprintf(line, sizeof line, "the samples are %.3g s apart (the median interval: %.3g Hz), over the %g Hz a device "
+                  "samples at, and a replay passes them all in %.3g s: are the times in seconds?", median, rate,
+                  kMaxSampleRateHz, rec.t.back() - rec.t.front());
+    return std::string(line);
+  }
+  if (ratio <= kRateMismatch && ratio >= 1 / kRateMismatch) return std::nullopt;
+  const auto near = [ratio](double x) { return ratio > x / 3 && ratio < x * 3; };
+  const char* unit = near(1e3) ? "ms" : near(1e6) ? "us" : near(1e9) ? "ns" : nullptr;
+  std::snprintf(line, sizeof line, "attribute rate_hz = %g Hz, but the samples are %.3g s apart (the median interval: %.3g "
+                "Hz)%s%s%s", rec.rate_hz, median, rate, unit ? ": times in " : "", unit ? unit : "",
+                unit ? ", which a replay reads as seconds and plays that much slower than the device moved?"
+                     : ": a replay follows the times, not rate_hz");
+  return std::string(line);
+}
+
 std::size_t button_presses(std::span<const std::uint8_t> buttons, int bit) {
   std::size_t presses = 0;
   for (std::size_t i = 0; i < buttons.size(); ++i)

@@ -177,6 +177,13 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
 /// warning, not an error: the jump may be the experiment.
 std::optional<std::string> check_recording_speed(const Recording& rec);
 
+/// A replay's line for times that do not go with the recording's rate_hz: their median interval a
+/// rate over kMaxSampleRateHz, or more than kRateMismatch times from rate_hz either way (times in
+/// ms, which a replay reads as seconds and plays 1000 times slower than the device moved). A file
+/// of another program's; nullopt where the two agree (gaps and holds leave the median be).
+std::optional<std::string> check_recording_rate(const Recording& rec);
+inline constexpr double kRateMismatch = 50;
+
 /// Gaps in a log's times (times increasing, at least three): intervals over kLogGapFactor times the
 /// median one and over two intervals of the slowest device (kDeviceRateLowHz, io/import.hpp): how
 /// many, the longest's index i (between samples i and i + 1) and the median interval; nullopt

@@ -365,6 +365,7 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   if (r.recording.source != "synthetic")
     if (auto w = check_recording_scale(r.recording, box.lo, box.hi, std::nullopt))
       r.warnings.push_back(r.recording_path + ": " + *w);
+  if (auto w = check_recording_rate(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_speed(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_gaps(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);
   if (auto w = check_recording_stale(r.recording)) r.warnings.push_back(r.recording_path + ": " + *w);

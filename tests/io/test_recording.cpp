@@ -613,6 +613,37 @@ TEST(ToolSpeed, AJumpInTheLogIsNamed) {
   }
 }
 
+// Times that do not go with rate_hz (another program's file with t in ms: a replay 1000 times
+// slower than the device moved) are named, with the likely unit; a gap or a hold does not move the
+// median, and the committed recordings agree with their rate.
+TEST(RecordingRate, TimesThatDoNotGoWithRateHzAreNamed) {
+  Recording r = make_recording(20);
+  EXPECT_FALSE(check_recording_rate(r).has_value());
+  for (std::size_t i = 15; i < r.size(); ++i) r.t[i] += 5;  // a 5 s gap
+  EXPECT_FALSE(check_recording_rate(r).has_value());
+  Recording ms = make_recording(20);
+  for (double& t : ms.t) t *= 1000;
+  ASSERT_TRUE(check_recording_rate(ms).has_value());
+  EXPECT_EQ(*check_recording_rate(ms), "attribute rate_hz = 1000 Hz, but the samples are 1 s apart (the median interval: 1 "
+                                       "Hz): times in ms, which a replay reads as seconds and plays that much slower than "
+                                       "the device moved?");
+  Recording odd = make_recording(20);
+  for (double& t : odd.t) t *= 100;
+  ASSERT_TRUE(check_recording_rate(odd).has_value());
+  EXPECT_NE(check_recording_rate(odd)->find("(the median interval: 10 Hz): a replay follows the times, not rate_hz"),
+            std::string::npos) << *check_recording_rate(odd);
+  Recording dense = make_recording(20);
+  for (double& t : dense.t) t *= 1e-3;
+  ASSERT_TRUE(check_recording_rate(dense).has_value());
+  EXPECT_NE(check_recording_rate(dense)->find("the samples are 1e-06 s apart (the median interval: 1e+06 Hz), over the "
+                                              "100000 Hz a device samples at"),
+            std::string::npos) << *check_recording_rate(dense);
+  for (const char* name : {"tube_insert", "gap_grasp", "cholecystectomy_grasp", "gynaecology_press"}) {
+    const auto c = check_recording_rate(read_recording(std::string(EBH_SOURCE_DIR) + "/recordings/" + name + ".h5"));
+    EXPECT_FALSE(c.has_value()) << name << ": " << *c;
+  }
+}
+
 // A turn no hand makes (half a turn between two samples, a device reset) is named like a jump; the
 // committed recordings' turns are a hand's.
 TEST(ToolTurn, ATurnInTheLogIsNamed) {

@@ -1178,10 +1178,6 @@ void drop_small_parts(TetMesh& mesh, const SceneSpec& spec, const std::string& m
 }  // namespace
 
 namespace {
-/// A virtual mesh more than this many of the physical mesh's diagonals off it is no surface of it
-/// (as check_virtual_mesh_placement refuses it once paired).
-constexpr double kVirtualFarOff = 10;
-
 /// Refuses a virtual surface a corner of whose faces lies more than kVirtualFarOff diagonals outside
 /// the physical mesh's bounding box: the surface in another unit or frame, or one stray vertex (an
 /// exporter's FLT_MAX for a point it could not place). `placed`: the surface's vertices in the

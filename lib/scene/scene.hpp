@@ -573,6 +573,9 @@ inline constexpr double kHandSpeedMax = 1.0;
 inline constexpr double kMinStepRotationDeg = 0.01;
 inline constexpr double kMeshDiagonalMin = 1e-3;
 inline constexpr double kMeshDiagonalMax = 2.0;
+/// A virtual mesh more than this many of the physical mesh's diagonals off it is no surface of it:
+/// refused where its corners are read (a stray vertex) and once its vertices are paired.
+inline constexpr double kVirtualFarOff = 10;
 
 
 /// One pinned region on one line, lengths in metres: "box min [x, y, z] max [x, y, z] m",

@@ -121,9 +121,9 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
   if (vm.pairing_worst >= 0 && vm.pairing_max_error > 0.01 * diagonal) {
     // Where, not which: the model's vertex numbers are not the file's (refined, renumbered).
     const Vec3d at = vm.rest[vm.pairing_worst];
-    if (!(vm.pairing_max_error <= 10 * diagonal)) {
+    if (!(vm.pairing_max_error <= kVirtualFarOff * diagonal)) {
       std::snprintf(buf, sizeof buf, "%.3g m off the physical mesh (the virtual vertex at %.4g, %.4g, %.4g m), more "
-                    "than 10 times its diagonal (%.3g m)", vm.pairing_max_error, at.x, at.y, at.z, diagonal);
+                    "than %g times its diagonal (%.3g m)", vm.pairing_max_error, at.x, at.y, at.z, kVirtualFarOff, diagonal);
       throw InputError(where + "lies up to " + buf + ": it is not a surface of this mesh; " + frame);
     }
     std::snprintf(buf, sizeof buf, "%.3g mm off the physical mesh (the virtual vertex at %.4g, %.4g, %.4g mm; 1%% of "

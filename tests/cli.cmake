@@ -760,6 +760,8 @@ ebh_replay_failure(bad_rates "^ebh: error: --physical-hz 300: the haptic rate ov
   tube tube_insert --haptic-hz 1000 --physical-hz 300)
 ebh_replay_failure(bad_rate_against_scene "^ebh: error: --physical-hz 300: .* got 1000 \\(the scene's time.haptic_hz\\) / 300"
   tube tube_insert --physical-hz 300)
+ebh_replay_failure(physical_above_haptic "^ebh: error: --physical-hz 1000.0000001: the physical rate is above the haptic rate \\(1000.0000001 Hz > 1000 Hz, the scene's time.haptic_hz\\)"
+  tube tube_insert --physical-hz 1000.0000001)
 ebh_replay_failure(tiny_rates "^ebh: error: --haptic-hz: expected a finite number in \\[10, 100000\\] Hz, got '1e-300'"
   tube tube_insert --haptic-hz 1e-300 --physical-hz 1e-300)
 ebh_replay_failure(tiny_physical_rate "^ebh: error: --physical-hz: expected a finite number in \\[1, 100000\\] Hz, got '1e-300'"

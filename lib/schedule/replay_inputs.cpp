@@ -261,6 +261,13 @@ void check_rate_options(const SceneSpec& spec, std::optional<double> haptic_hz, 
   if (!haptic_hz && !physical_hz) return;
   const double h = haptic_hz.value_or(spec.haptic_hz), p = physical_hz.value_or(spec.physical_hz);
   const double ratio = h / p;
+  // (whole_ticks_per_step takes a ratio a round-off under 1 for 1: 1000 / 1000.0000001)
+  if (p > h) {
+    const std::string option = physical_hz ? "--physical-hz " + shortest_text(p) : "--haptic-hz " + shortest_text(h);
+    throw InputError(option + ": the physical rate is above the haptic rate (" + shortest_text(p) + " Hz > " +
+                     shortest_text(h) + " Hz" + (haptic_hz ? "" : ", the scene's time.haptic_hz") +
+                     (physical_hz ? "" : ", against the scene's time.physical_hz") + "): a physical step takes one tick or more");
+  }
   if (!whole_ticks_per_step(h, p)) {
     const std::string ratio_text = shortest_text(ratio);  // "%g" shows 1000 / 333.333 as 3
     const std::string option = physical_hz ? "--physical-hz " + shortest_text(p) : "--haptic-hz " + shortest_text(h);
@@ -321,17 +328,17 @@ LoadedReplay load_replay_scene(RecordingFile&& recording, const std::string& sce
   char why[360];
   if (hz_h < kDeviceHapticHz) {
     std::snprintf(why, sizeof why,
-                  " %g Hz: below a haptic device's 1 kHz the rendered force of a press has not converged in the rate "
+                  " %s Hz: below a haptic device's 1 kHz the rendered force of a press has not converged in the rate "
                   "(the own-data press peaks at 2.1 N at 100 Hz against 1.13 N at 1 kHz; docs/MODEL.md, \"Held loads\")",
-                  hz_h);
+                  shortest_text(hz_h).c_str());
     low_rate("--haptic-hz", "time.haptic_hz", haptic_hz.has_value(), why);
   }
   if (hz_p < kMinPlausiblePhysicalHz) {
     std::snprintf(why, sizeof why,
-                  " %g Hz: the physical mesh answers the virtual mesh %g times a second (the paper: 60-100), so the "
+                  " %s Hz: the physical mesh answers the virtual mesh %g times a second (the paper: 60-100), so the "
                   "tissue follows the tool %g ms late and the virtual mesh alone holds it meanwhile: the force of a "
                   "press rises with its speed (5 mm/s into an own block: 0.289 N at 20 Hz, 0.185 N at 100 Hz)",
-                  hz_p, hz_p, 1e3 / hz_p);
+                  shortest_text(hz_p).c_str(), hz_p, 1e3 / hz_p);
     low_rate("--physical-hz", "time.physical_hz", physical_hz.has_value(), why);
   }
   if (worlds) {

@@ -296,11 +296,12 @@ std::shared_ptr<const World> build_world(Scene scene, double haptic_hz, double p
   const std::string where = scene.spec.file.string();
   if (!(haptic_hz >= kMinReplayHapticHz) || !(physical_hz >= kMinReplayPhysicalHz) || physical_hz > haptic_hz ||
       !(haptic_hz <= kMaxHapticHz)) {
-    char why[200];
+    char why[300];
     std::snprintf(why, sizeof why,
-                  "rates must satisfy %g <= physical_hz <= haptic_hz <= %g Hz, haptic_hz >= %g Hz (got haptic %g Hz, "
-                  "physical %g Hz)",
-                  kMinReplayPhysicalHz, kMaxHapticHz, kMinReplayHapticHz, haptic_hz, physical_hz);
+                  "rates must satisfy %g <= physical_hz <= haptic_hz <= %g Hz, haptic_hz >= %g Hz (got haptic %s Hz, "
+                  "physical %s Hz)",
+                  kMinReplayPhysicalHz, kMaxHapticHz, kMinReplayHapticHz, shortest_text(haptic_hz).c_str(),
+                  shortest_text(physical_hz).c_str());
     throw InputError(where + ": " + why);
   }
   const double ratio = haptic_hz / physical_hz;

@@ -1698,7 +1698,13 @@ fs::path resolve_data_path(const std::string& name_or_path, const std::string& f
       throw InputError(p.string() + ": " + not_a_file(p.string()));
     looked += (looked.empty() ? "" : ", ") + p.string();
   }
-  throw InputError(name_or_path + ": no such " + what + " (looked for " + looked + ")");
+  // A name is looked up, never read from the working folder: what is there of that name is said.
+  std::string here;
+  if (fs::symlink_status(name_or_path, ec).type() != fs::file_type::not_found && !ec)
+    here = fs::is_directory(name_or_path, ec) ? "; " + name_or_path + " in the working folder is a folder"
+                                               : "; a name is looked up there: give the file in the working folder as ./" +
+                                                     name_or_path;
+  throw InputError(name_or_path + ": no such " + what + " (looked for " + looked + ")" + here);
 }
 
 std::optional<std::string> hidden_builtin(const std::string& name, const fs::path& resolved, const std::string& folder,

@@ -1275,6 +1275,32 @@ TEST(ResolveScenePath, Errors) {
   EXPECT_THROW(resolve_scene_path("/nonexistent/x.yaml"), InputError);
 }
 
+// A name is looked up in the data folders, never read from the working folder: a folder or a file
+// of that name there is said (a folder given as the recording read as 'no such recording').
+TEST(ResolveScenePath, WhatIsHereOfThatNameIsSaid) {
+  const fs::path dir = write_temp("marker_here", "").parent_path() / "names_here";
+  fs::create_directories(dir / "folder_zz");
+  std::ofstream(dir / "file_zz") << "x";
+  const fs::path old = fs::current_path();
+  fs::current_path(dir);
+  std::string folder_msg = "no error", file_msg = "no error";
+  try {
+    resolve_scene_path("folder_zz");
+  } catch (const InputError& e) {
+    folder_msg = e.what();
+  }
+  try {
+    resolve_scene_path("file_zz");
+  } catch (const InputError& e) {
+    file_msg = e.what();
+  }
+  fs::current_path(old);
+  EXPECT_NE(folder_msg.find("folder_zz: no such scene (looked for "), std::string::npos) << folder_msg;
+  EXPECT_NE(folder_msg.find("); folder_zz in the working folder is a folder"), std::string::npos) << folder_msg;
+  EXPECT_NE(file_msg.find("); a name is looked up there: give the file in the working folder as ./file_zz"), std::string::npos)
+      << file_msg;
+}
+
 // The replay output's scene_yaml: every committed scene (hook and forceps, every region kind they
 // use, mm and cm units), written resolved and loaded again, is the same scene bit for bit (the
 // resolved text of both is equal, and it prints every double with 17 digits).

@@ -769,6 +769,7 @@ ebh_replay_failure(tiny_physical_rate "^ebh: error: --physical-hz: expected a fi
 ebh_replay_failure(tiny_physical_rate_set "^ebh: error: --set 'time.physical_hz=0.5': key 'time.physical_hz': expected a number in \\[1, 100000\\]"
   tube tube_insert --set time.physical_hz=0.5)
 ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
+ebh_replay_failure(hex_duration "^ebh: error: --duration: expected a finite number > 0, got '0x10'" tube tube_insert --duration 0x10)
 ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
 # An error an override causes names the override, not the scene file.
 ebh_replay_failure(set_too_deep "^ebh: error: --set 'a.b.c.d=1': key 'a': unknown key \\(known: name, "

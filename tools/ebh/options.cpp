@@ -29,8 +29,10 @@ CLI::Validator finite_number(double lo, double hi, bool lo_open, const std::stri
         char* e = nullptr;
         errno = 0;
         const double v = std::strtod(b, &e);
-        // ERANGE: an overflow (inf, refused below) or an underflow to a denormal or 0 (1e-320 is a number)
-        const bool parsed = !text.empty() && e == b + text.size() && (errno != ERANGE || std::fabs(v) < 1);
+        // ERANGE: an overflow (inf, refused below) or an underflow to a denormal or 0 (1e-320 is a
+        // number); decimal only (strtod reads 0x10 as 16: --duration 0x10 ran the whole recording)
+        const bool parsed = !text.empty() && e == b + text.size() && (errno != ERANGE || std::fabs(v) < 1) &&
+                            text.find_first_of("xX") == std::string::npos;
         const bool in = parsed && std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
         return in ? std::string() : "expected a finite number " + range + ", got '" + escape_unprintable(text) + "'";
       },

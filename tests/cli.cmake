@@ -1136,6 +1136,25 @@ add_test(NAME cli.validate.stability_under_an_override
     --set solver.physical_tolerance=0 --set solver.recovery=none)
 set_tests_properties(cli.validate.stability_under_an_override PROPERTIES
   PASS_REGULAR_EXPRESSION "stability +9 of 9 cases non-finite or blown up .*  FAILED" LABELS "cli;validate")
+# A recording given whose tool touches nothing where the matrix replays it, or too short for its
+# window, checks nothing: refused, not passed (the hook 60-80 mm off the tube; 10 ms long).
+file(WRITE ${EBH_NUM_OUT}/free.yaml "scene: tube\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [-80, 0, 0], rotvec_deg: [0, 90, 0]}\n  - {t: 2, position_mm: [-60, 0, 0]}\n")
+file(WRITE ${EBH_NUM_OUT}/brief.yaml "scene: tube\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [-80, 0, 0], rotvec_deg: [0, 90, 0]}\n  - {t: 0.01, position_mm: [-79, 0, 0]}\n")
+foreach(plan free brief)
+  add_test(NAME cli.validate.stability_recording_${plan}_made
+    COMMAND ${EBH_BIN} synth ${EBH_NUM_OUT}/${plan}.yaml -o ${EBH_NUM_OUT}/${plan}.h5)
+  set_tests_properties(cli.validate.stability_recording_${plan}_made PROPERTIES FIXTURES_SETUP stability_${plan} LABELS cli)
+endforeach()
+add_test(NAME cli.validate.stability_of_a_free_tool
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};validate;stability;--recording;${EBH_NUM_OUT}/free.h5"
+    "-DEXPECT=^ebh: error: --recording .*free.h5: .*free.h5: the tool touches no tissue where the matrix replays 0.3 s from 40% of each recording \\(t = 0.8 .. 1.1 s\\), so its cases check nothing of contact"
+    -P ${EBH_EXPECT_ERROR})
+add_test(NAME cli.validate.stability_of_a_brief_recording
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};validate;stability;--recording;${EBH_NUM_OUT}/brief.h5"
+    "-DEXPECT=^ebh: error: --recording .*brief.h5: .*brief.h5 is 0.01 s long, and the matrix replays 0.3 s"
+    -P ${EBH_EXPECT_ERROR})
+set_tests_properties(cli.validate.stability_of_a_free_tool PROPERTIES FIXTURES_REQUIRED stability_free LABELS "cli;validate")
+set_tests_properties(cli.validate.stability_of_a_brief_recording PROPERTIES FIXTURES_REQUIRED stability_brief LABELS "cli;validate")
 add_test(NAME cli.validate.set_for_an_analytic_case
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};validate;hertz;--set;stiffness.k_vol=10"
     "-DEXPECT=^ebh: error: --set stiffness.k_vol=10: the hertz validation builds its own scenes \\(--set is for coupling and stability\\)"

@@ -17,11 +17,13 @@
 // replaces the list of recordings.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "mesh/degrade.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/scheduler.hpp"
@@ -39,9 +41,11 @@ struct Trace : ReplayObserver {
   std::vector<Vec3d> force;
   double penetration = 0;
   int recovered = 0;
+  long contact_ticks = 0;
   void on_tick(const World&, const HapticSide& h, double) override {
     force.push_back(h.output.force);
     penetration = std::max(penetration, h.penetration);
+    contact_ticks += h.contact_count > 0;
   }
   void on_step(const World&, const PhysicalSide& p, double) override { recovered += p.recovered ? 1 : 0; }
 };
@@ -74,6 +78,7 @@ struct Outcome {
   int recovered = 0;  ///< physical steps redone with the direct solve (CPU backend)
   std::string error;
   double penetration = 0;
+  long contact_ticks = 0;
   std::vector<Vec3d> force;
 };
 
@@ -121,6 +126,7 @@ std::vector<Outcome> run_motions(const Recording& rec, double quality, double st
       (o.error.find("not finite") != std::string::npos ? o.nonfinite : o.blowup) = true;
     }
     o.penetration = trace.penetration;
+    o.contact_ticks = trace.contact_ticks;
     o.recovered = trace.recovered;
     o.force = std::move(trace.force);
   }
@@ -156,10 +162,25 @@ ValidationResult run_stability(const ValidationOptions& options) {
     Recording rec = read_recording(path);
     rec.scene = resolve_recording_scene(rec.scene, path).string();  // a scene file beside the recording
     apply_stored_transforms(rec, path);
+    // The cases replay kWindow s from 40% of the recording, in contact there (the committed ones
+    // are): a recording given that is shorter, or whose tool touches nothing there, checks nothing
+    // of contact.
+    const double t0 = rec.start_time() + 0.4 * rec.duration();
+    char span[160];
+    std::snprintf(span, sizeof span, "the matrix replays %g s from 40%% of each recording (t = %.6g .. %.6g s)", kWindow, t0,
+                  t0 + kWindow);
+    if (rec.start_time() + rec.duration() < t0 + kWindow)
+      throw InputError("--recording " + name + ": " + path + " is " + shown_number(rec.duration()) + " s long, and " + span +
+                       ": give a longer recording");
+    bool touched = false;
     for (double q : qualities)
       for (double k : stiffnesses) {
         // The direct solve on the same mesh, stiffness and motions: the force reference.
         const std::vector<Outcome> direct = run_motions(rec, q, k, "direct", motions, options.overrides, backend);
+        touched = touched || std::any_of(direct.begin(), direct.end(), [](const Outcome& o) { return o.contact_ticks > 0; });
+        if (!touched && !options.recordings.empty())
+          throw InputError("--recording " + name + ": " + path + ": the tool touches no tissue where " + span +
+                           ", so its cases check nothing of contact: give a recording in contact there");
         for (const std::string& method : methods) {
           const std::vector<Outcome> outcomes = run_motions(rec, q, k, method, motions, options.overrides, backend);
           for (std::size_t i = 0; i < motions.size(); ++i) {

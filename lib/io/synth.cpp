@@ -43,6 +43,8 @@ struct PlanReader {
 
   std::string string(const YAML::Node& n, const std::string& key) const {
     if (!n.IsScalar()) fail(n, key, "expected a string");
+    // A recording's attributes are C strings: the text would end there ("tu\0be" stored as "tu").
+    if (n.Scalar().find('\0') != std::string::npos) fail(n, key, "contains a NUL byte (\\0)");
     return n.Scalar();
   }
 
@@ -95,6 +97,9 @@ SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
   plan.scene = r.string(root["scene"], "scene");
   if (plan.scene.find_first_not_of(" \t") == std::string::npos)
     r.fail(root["scene"], "scene", "expected a scene's name or path, got nothing (a recording names its scene)");
+  if (std::any_of(plan.scene.begin(), plan.scene.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
+    r.fail(root["scene"], "scene", "'" + escape_unprintable(plan.scene) + "' holds a control character (a line break?): "
+                                   "no scene's name or path does");
   if (root["scene"].Mark().line >= 0) plan.scene_line = root["scene"].Mark().line + 1;
   plan.tool = r.string(root["tool"], "tool");
   if (plan.tool != "hook" && plan.tool != "forceps") r.fail(root["tool"], "tool", "expected hook or forceps");

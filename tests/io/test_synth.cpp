@@ -209,6 +209,13 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].position_mm", "coordinate 1e+300 mm is beyond 100000 mm");
   plan(("scene: ''\ntool: hook\n" + two).c_str());
   EXPECT_INPUT_ERROR(read_plan(path), path + ":1", "scene", "expected a scene's name or path, got nothing");
+  // a NUL would end the recording's attribute there ("tu"); a line break is no scene's name
+  plan(("scene: \"tu\\0be\"\ntool: hook\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":1", "scene", "contains a NUL byte (\\0)");
+  plan(("scene: \"tube\\nX\"\ntool: hook\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":1", "scene", "'tube\\x0aX' holds a control character");
+  plan(("scene: gap\ntool: hook\ndescription: \"a\\0b\"\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "description", "contains a NUL byte (\\0)");
   plan("scene: gap\ntool: scalpel\nwaypoints: []\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":2", "tool", "hook or forceps");
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 1], rotvec_deg: [0, 0, 0], jaw: 2}\n  - {t: 1}\n");

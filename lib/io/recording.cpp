@@ -33,7 +33,13 @@ double distance_outside(Vec3d p, Vec3d lo, Vec3d hi) { return norm(cwise_max(lo 
 /// What is wrong with sample i's time, if anything.
 std::optional<std::string> time_defect(const std::vector<double>& t, std::size_t i) {
   if (i == 0) return std::isfinite(t[0]) ? std::nullopt : std::optional<std::string>("time is NaN or Inf");
-  return ebh::time_defect(t[i - 1], t[i]);
+  std::optional<std::string> bad = ebh::time_defect(t[i - 1], t[i]);
+  // Zeros to the end: rows a writer declared and never filled (a logger stopped early, a dataset
+  // created at its full size), which HDF5 reads as its fill value.
+  if (bad && t[i] == 0 && std::all_of(t.begin() + static_cast<std::ptrdiff_t>(i), t.end(), [](double x) { return x == 0; }))
+    *bad += "; the times from here on (" + std::to_string(t.size() - i) +
+            " rows) are all 0: rows declared and never written (a logger stopped before it filled the dataset?)";
+  return bad;
 }
 
 /// The rows [first, last] a replay of `window` interpolates: from the last sample at or before its

@@ -161,6 +161,11 @@ TEST(Recording, SchemaDefectsNameDatasetAndIndex) {
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/position[4]", "NaN");
   defect([](RawRecording& r) { r.t[6] = r.t[5]; });
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/t[6]", "not strictly increasing");
+  // Rows declared and never written read as zeros to the end: said as such.
+  defect([](RawRecording& r) {
+    for (std::size_t i = 7; i < r.t.size(); ++i) r.t[i] = 0;
+  });
+  EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/t[7]", "the times from here on (3 rows) are all 0: rows declared and never written");
   defect([](RawRecording& r) { r.ori[4 * 3] *= 1.2; });
   EXPECT_INPUT_ERROR(read_recording(p), p, "/trajectory/orientation[3]", "norm");
   defect([](RawRecording& r) { r.jaw[2] = 1.5; });

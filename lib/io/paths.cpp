@@ -31,6 +31,10 @@ namespace {
 // The output can be created where it is asked for: its nearest existing ancestor is a folder this
 // process may write in (AtomicOutput finds the same later; this says it before the work).
 void check_output_location(const std::string& path) {
+  // A line break in a name would split every line that names the file (its warnings, the
+  // summary, a sweep's report): no one means one (InputError escapes it in this message).
+  if (std::any_of(path.begin(), path.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
+    throw InputError(path + ": the output's name holds a control character (a line break, a tab?): name it otherwise");
   fs::path dir = fs::path(path).parent_path();
   if (dir.empty()) dir = ".";
   std::error_code ec;

@@ -63,6 +63,21 @@ TEST(Paths, ANameLongerThanTheFileSystemAllowsIsRefusedBeforeAnyWork) {
   EXPECT_FALSE(fs::exists(partial_path_for(tmp / too_long)));
 }
 
+// A control character in an output's name would split every line that names it: refused, the
+// message on one line.
+TEST(Paths, AnOutputNamedWithAControlCharacterIsRefused) {
+  test::ScratchDir tmp;
+  for (const std::string name : {"a\nb.h5", "tab\there.h5", "esc\x1b[31m.h5"}) {
+    EXPECT_INPUT_ERROR(check_outputs({{tmp / name, "the output"}}, {}), "the output's name holds a control character");
+    try {
+      check_outputs({{tmp / name, "the output"}}, {});
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  }
+  check_outputs({{tmp / "caf\xc3\xa9 run.h5", "the output"}}, {});  // UTF-8 and blanks are names
+}
+
 TEST(Paths, InputMustBeAReadableFile) {
   test::ScratchDir tmp;
   EXPECT_INPUT_ERROR(check_input_file(tmp / "absent.csv"), "absent.csv: cannot open: No such file or directory");

@@ -550,8 +550,10 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   m.held = find_held_relaxation(
       tr.t, [&tr](std::size_t i) { return tr.force[i]; }, [&tr](std::size_t i) { return tr.pose_physical[i].p; },
       tr.contacts, tr.grasped);
-  for (auto [a, b] : contact_episodes(tr.contacts, tr.haptic_hz, opt.episode_merge_gap_s))
-    m.episodes.push_back(segment_metrics(tr, a, b, opt));
+  const auto runs = contact_episodes(tr.contacts, tr.haptic_hz, opt.episode_merge_gap_s);
+  m.episode_count = runs.size();
+  for (std::size_t e = 0; e < runs.size() && e < opt.max_episodes; ++e)
+    m.episodes.push_back(segment_metrics(tr, runs[e].first, runs[e].second, opt));
 
   // Timing.
   TimingMetrics& tm = m.timing;
@@ -673,11 +675,12 @@ Json to_json(const ForceMetrics& m, bool with_episodes) {
   j.set("force_collapse", std::move(collapse));
   j.set("saturation_warning", m.saturation ? Json(saturation_warning(*m.saturation, m.start_s)) : Json(nullptr));
   j.set("held_relaxation_warning", m.held ? Json(held_relaxation_warning(*m.held, m.start_s)) : Json(nullptr));
-  j.set("episode_count", m.episodes.size());
+  j.set("episode_count", m.episode_count);
   if (with_episodes) {
     Json eps = Json::array();
     for (const SegmentMetrics& s : m.episodes) eps.push(segment_json(s));
     j.set("episodes", std::move(eps));
+    j.set("episodes_listed", m.episodes.size());
   }
   const TimingMetrics& t = m.timing;
   Json tj = Json::object();
@@ -712,6 +715,12 @@ std::string fmt(const char* f, double v) {
 }
 
 }  // namespace
+
+std::string episodes_not_listed(const ForceMetrics& m) {
+  if (m.episodes.size() >= m.episode_count) return "";
+  return std::to_string(m.episode_count) + " contact episodes; the metrics of the first " + std::to_string(m.episodes.size()) +
+         " are listed (a contact that flickers: a longer --merge-gap-ms merges its episodes)";
+}
 
 std::string format_table(const ForceMetrics& m, bool with_episodes) {
   std::ostringstream o;
@@ -766,7 +775,7 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
   row("penetration physical max / p99",
       fmt("%.3e", s.penetration_physical_max) + " / " + fmt("%.3e", s.penetration_physical_p99), "m");
   row("ticks in contact", fmt("%.4f", m.contact_fraction), "fraction");
-  row("contact episodes", std::to_string(m.episodes.size()), "");
+  row("contact episodes", std::to_string(m.episode_count), "");
   const TimingMetrics& t = m.timing;
   o << "timing\n";
   row("haptic tick p50 / p99 / p99.9",
@@ -794,6 +803,8 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
                     fmt("%.2e", e.penetration_max).c_str());
       o << buf;
     }
+    if (m.episodes.size() < m.episode_count)
+      o << "  ... " << episodes_not_listed(m) << "\n";
   }
   return o.str();
 }

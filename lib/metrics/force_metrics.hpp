@@ -19,10 +19,17 @@
 
 namespace ebh {
 
+/// The most contact episodes whose metrics a run keeps (ForceMetrics::episodes; episode_count
+/// counts them all): a contact that flickers every other tick, with --merge-gap-ms 0, made a
+/// million episodes of 10 million ticks, whose JSON took 5.8 GB of memory.
+inline constexpr std::size_t kMaxListedEpisodes = 10000;
+
 struct MetricsOptions {
   /// Contact episodes separated by fewer contact-free seconds than this are one episode
   /// (a tool sliding over a surface drops and regains contact for a tick or two). 5 ms.
   double episode_merge_gap_s = 0.005;
+  /// Metrics of the first this many episodes are kept (kMaxListedEpisodes), the rest counted.
+  std::size_t max_episodes = kMaxListedEpisodes;
   /// FFT window length in ticks (a power of two); 0: by the output's haptic rate, kFftWindowS of
   /// ticks (fft_window_ticks: 256 ticks and 3.9 Hz bins at 1 kHz, 2048 at 10 kHz). And the shortest
   /// window used, in ticks (shorter segments get NaN spectral fractions); 0: kFftMinWindowS of
@@ -229,7 +236,8 @@ struct ForceMetrics {
   MetricsOptions options;  ///< as used: fft_window and fft_min_window in this output's ticks
 
   SegmentMetrics whole;
-  std::vector<SegmentMetrics> episodes;  // contact episodes in time order
+  std::vector<SegmentMetrics> episodes;  // contact episodes in time order, the first options.max_episodes
+  std::size_t episode_count = 0;         // contact episodes in all
   double contact_fraction = 0;           // ticks with contacts > 0 / ticks
   std::string contact_warning;           // contact_warning(): empty when the tool touched enough
   std::optional<ForceCollapse> collapse; // find_force_collapse(): the tool passed through the tissue
@@ -275,9 +283,16 @@ SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t first, std::si
 ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt = {});
 
 /// JSON (SI units; key names carry the unit suffix where there is one). NaN and inf print null.
+/// With episodes: "episodes" (those kept) and "episodes_listed" (how many: below "episode_count"
+/// where more than options.max_episodes).
 Json to_json(const ForceMetrics& m, bool with_episodes = true);
 
-/// A readable table for the terminal; episodes listed one a line when with_episodes.
+/// "" when every contact episode is kept, else "1000000 contact episodes; the metrics of the first
+/// 10000 are listed (...)": what the table and `ebh metrics --episodes` say.
+std::string episodes_not_listed(const ForceMetrics& m);
+
+/// A readable table for the terminal; episodes listed one a line when with_episodes (those kept,
+/// and a line saying how many more there were).
 std::string format_table(const ForceMetrics& m, bool with_episodes);
 
 }  // namespace ebh

@@ -146,7 +146,24 @@ class Reader {
     std::vector<T> out(dims[0] * static_cast<std::size_t>(cols == 0 ? 1 : cols));
     if (!out.empty() && H5Dread(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0)
       throw InputError(path_ + ": " + name + ": " + h5::read_failure(ds.get()));
+    if constexpr (std::is_floating_point_v<T>) within_bound(name, out, cols);
     return out;
+  }
+
+  /// Refuses a finite value beyond kMaxReplayValue (non-finite ones are compute_metrics' to count),
+  /// naming its index (row and column of a 2-D dataset).
+  void within_bound(const std::string& name, const std::vector<double>& values, int cols) const {
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      if (!std::isfinite(values[i]) || std::fabs(values[i]) <= kMaxReplayValue) continue;
+      const std::string at = cols == 0 ? std::to_string(i)
+                                       : std::to_string(i / static_cast<std::size_t>(cols)) + " (column " +
+                                             std::to_string(i % static_cast<std::size_t>(cols)) + ")";
+      // A pose's quaternion (columns 3..6) has no unit.
+      const char* unit = cols == 7 && i % 7 >= 3 ? nullptr : si_unit(name);
+      fail(name, "holds " + shown_number(values[i]) + (unit ? std::string(" ") + unit : std::string()) + " at index " + at +
+                     ", beyond " + shown_number(kMaxReplayValue) + " in magnitude: no replay writes such a value (a "
+                     "corrupt or edited file)");
+    }
   }
 
   std::vector<double> doubles(const std::string& name, long rows, int cols = 0) const {
@@ -220,6 +237,18 @@ void increasing(const Reader& in, const std::string& name, const std::vector<dou
       in.fail(name, "is not strictly increasing at index " + std::to_string(i));
 }
 
+/// Ticks are one haptic period apart (/haptic/t is n / haptic_hz): a step under half of it (an
+/// edited file) would divide a force change by next to nothing (max |dF/dt| = inf). Non-finite
+/// times are left for compute_metrics to count.
+void tick_spacing(const Reader& in, const std::vector<double>& t, double haptic_hz) {
+  const double least = 0.5 / haptic_hz;
+  for (std::size_t i = 1; i < t.size(); ++i)
+    if (std::isfinite(t[i]) && std::isfinite(t[i - 1]) && t[i] - t[i - 1] < least)
+      in.fail("/haptic/t", "steps by " + shown_number(t[i] - t[i - 1]) + " s at index " + std::to_string(i) +
+                               ", under half the haptic period (" + shown_number(1 / haptic_hz) + " s at " +
+                               shown_number(haptic_hz) + " Hz)");
+}
+
 /// A duration is not negative (a NaN is counted with the file's non-finite values, not refused).
 void durations(const Reader& in, const std::string& name, const std::vector<double>& s) {
   for (std::size_t i = 0; i < s.size(); ++i)
@@ -249,6 +278,9 @@ ReplayTrace load_replay(const std::string& path) {
   tr.haptic_hz = in.number_attr("haptic_hz");
   tr.physical_hz = in.number_attr("physical_hz");
   if (!(tr.haptic_hz > 0) || !std::isfinite(tr.haptic_hz)) in.fail_attr("haptic_hz", "must be a positive number");
+  if (tr.haptic_hz > kMaxReplayHapticHz)
+    in.fail_attr("haptic_hz", "is " + shown_number(tr.haptic_hz) + " Hz, above " + shown_number(kMaxReplayHapticHz) +
+                                  " Hz, the highest haptic rate a scene takes (time.haptic_hz)");
   if (!(tr.physical_hz > 0) || !std::isfinite(tr.physical_hz))
     in.fail_attr("physical_hz", "must be a positive number");
   tr.mode = in.string_attr("mode");
@@ -285,6 +317,7 @@ ReplayTrace load_replay(const std::string& path) {
       in.fail_attr("haptic_hz", why);
     }
   }
+  tick_spacing(in, tr.t, tr.haptic_hz);
   // The physical rate divides the haptic rate into whole ticks per step, at least 1 Hz (as a
   // replay has it: kMinReplayPhysicalHz): the frame-boundary metric reads its steps from the two.
   if (const double ratio = tr.haptic_hz / tr.physical_hz;

@@ -58,12 +58,25 @@ struct ReplayTrace {
   long frame_ticks() const;
 };
 
+/// The largest magnitude of a value a replay output holds (a force in N, a torque in N m, a length
+/// in m, a time in s, a count): beyond it the file is corrupt or edited, as no replay writes one (its
+/// force is clamped at the device's limit, its tools stay within a few metres of a scene at most 2 m
+/// across). The metrics square and multiply pairs of values (norms, RMS, energies): below it these
+/// stay finite, where a force of 1.4e154 N gave |F| = inf from finite samples.
+inline constexpr double kMaxReplayValue = 1e30;
+
+/// The highest haptic rate of a replay output, Hz: a scene's (time.haptic_hz, scene/scene.hpp
+/// kMaxHapticHz). With ticks at least half a period apart it bounds the rates the metrics divide by.
+inline constexpr double kMaxReplayHapticHz = 100e3;
+
 /// Reads a replay output file. Required: root attributes haptic_hz and physical_hz; datasets
 /// /haptic/{t, force, torque, force_clamped, pose_physical, pose_virtual, penetration, contacts}
 /// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /haptic/active,
 /// /haptic/grasped, /physical/{t, iterations, residual, inverted, awake}, /timing/physical_step_s. Numeric types are converted to the fields' types.
 /// Throws InputError ("FILE: dataset '/haptic/force': ...") for a missing file, a missing
-/// dataset or attribute, a wrong shape, a non-numeric dataset or a time axis that goes backwards.
+/// dataset or attribute, a wrong shape, a non-numeric dataset, a time axis that goes backwards or
+/// whose ticks are less than half a haptic period apart, a haptic rate above kMaxReplayHapticHz,
+/// or a finite value beyond kMaxReplayValue (naming the dataset and the index).
 /// Non-finite values are kept: compute_metrics counts them.
 ReplayTrace load_replay(const std::string& path);
 

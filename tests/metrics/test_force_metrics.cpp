@@ -448,6 +448,103 @@ TEST(ForceMetrics, NanIsCountedAndMakesTheRunNonFinite) {
   EXPECT_NE(to_json(m).dump().find("\"finite\": false"), std::string::npos);
 }
 
+// A finite value no replay writes (a force of 1e160 N: a component above 1.3e154 squared to inf,
+// and peak |F| was inf with finite true) is refused naming the dataset and the index; so is a haptic
+// rate above a scene's, and ticks closer than half a period (dF/dt over 1e-300 s). Up to the bound
+// every metric of finite samples is finite.
+TEST(ForceMetrics, ValuesNoReplayWritesAreRefusedNamingDatasetAndIndex) {
+  auto load_error = [](const ReplayTrace& tr, const std::string& name) -> std::string {
+    try {
+      load_replay(write_trace(tr, name));
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const ReplayTrace tr = make_trace(300);
+  ReplayTrace bad = tr;
+  bad.force[100].x = 1e160;
+  EXPECT_NE(load_error(bad, "force_1e160")
+                .find("dataset '/haptic/force' holds 1e+160 N at index 100 (column 0), beyond 1e+30 in magnitude: no "
+                      "replay writes such a value (a corrupt or edited file)"),
+            std::string::npos)
+      << load_error(bad, "force_1e160");
+  bad = tr;
+  bad.torque[7].z = -1e300;
+  EXPECT_NE(load_error(bad, "torque_1e300").find("'/haptic/torque' holds -1e+300 N m at index 7 (column 2)"), std::string::npos);
+  bad = tr;
+  bad.pose_physical[100].p.x = 1e300;
+  EXPECT_NE(load_error(bad, "pose_1e300").find("'/haptic/pose_physical' holds 1e+300 m at index 100 (column 0)"),
+            std::string::npos);
+  bad = tr;
+  bad.pose_virtual[3].q.y = 1e300;  // a quaternion's component has no unit
+  EXPECT_NE(load_error(bad, "quat_1e300").find("'/haptic/pose_virtual' holds 1e+300 at index 3 (column 5)"), std::string::npos);
+  bad = tr;
+  bad.haptic_step_s[9] = 1e200;
+  EXPECT_NE(load_error(bad, "step_1e200").find("'/timing/haptic_step_s' holds 1e+200 s at index 9,"), std::string::npos);
+  bad = tr;
+  bad.t[5] = bad.t[4] + 1e-9;
+  EXPECT_NE(load_error(bad, "close_ticks")
+                .find("dataset '/haptic/t' steps by 1e-09 s at index 5, under half the haptic period (0.001 s at 1000 Hz)"),
+            std::string::npos)
+      << load_error(bad, "close_ticks");
+  bad = make_trace(300, 1e6, 1e4);
+  EXPECT_NE(load_error(bad, "rate_1e6").find("root attribute 'haptic_hz' is 1e+06 Hz, above 100000 Hz"), std::string::npos);
+  // At the bound: forces, torques and poses of 1e30 flipping sign every tick, contact throughout.
+  ReplayTrace big = make_trace(300);
+  for (std::size_t i = 0; i < big.ticks(); ++i) {
+    const double s = i % 2 ? -kMaxReplayValue : kMaxReplayValue;
+    big.force[i] = {s, s, s};
+    big.torque[i] = {s, -s, s};
+    big.pose_physical[i].p = {-s, s, s};
+    big.pose_physical[i].q = {s, 0, 0, s};
+    big.pose_virtual[i].p = {s, -s, -s};
+    big.pose_virtual[i].q = {s, s, -s, s};
+    big.penetration[i] = s;
+    big.contacts[i] = 1;
+  }
+  const ForceMetrics m = roundtrip(big, "at_the_bound");
+  ASSERT_TRUE(m.finite);
+  const SegmentMetrics& w = m.whole;
+  for (const double v : {w.peak_force, w.peak_torque, w.max_force_rate, w.rms_force_step, w.boundary_step_mean,
+                         w.interior_step_mean, w.boundary_step_ratio, w.power_above_30hz, w.passivity_energy_final,
+                         w.passivity_energy_min, w.passivity_energy_rot_final, w.stretch_max, w.stretch_mean,
+                         w.stretch_angle_max, w.penetration_max, w.penetration_p99})
+    EXPECT_TRUE(std::isfinite(v)) << to_json(m).dump();
+  EXPECT_DOUBLE_EQ(w.peak_force, std::sqrt(3.0) * kMaxReplayValue);
+}
+
+// A contact that flickers every other tick, episodes not merged: every one counted, the metrics of
+// the first options.max_episodes kept and listed, saying how many more there were (a million
+// episodes' JSON took 5.8 GB).
+TEST(ForceMetrics, EpisodesBeyondTheCapAreCountedNotKept) {
+  ReplayTrace tr = make_trace(2000);
+  for (std::size_t i = 0; i < tr.ticks(); ++i) {
+    tr.contacts[i] = i % 2 ? 0 : 3;
+    tr.force[i].z = i % 2 ? 0.0 : 1.0;
+  }
+  MetricsOptions opt;
+  EXPECT_EQ(opt.max_episodes, kMaxListedEpisodes);
+  opt.episode_merge_gap_s = 0;
+  opt.max_episodes = 10;
+  const ForceMetrics m = roundtrip(tr, "flicker", opt);
+  EXPECT_EQ(m.episode_count, 1000u);
+  ASSERT_EQ(m.episodes.size(), 10u);
+  EXPECT_EQ(m.episodes[9].first, 18u);
+  EXPECT_DOUBLE_EQ(m.whole.peak_force, 1.0);
+  const std::string j = to_json(m, true).dump();
+  EXPECT_NE(j.find("\"episode_count\": 1000"), std::string::npos) << j;
+  EXPECT_NE(j.find("\"episodes_listed\": 10"), std::string::npos) << j;
+  EXPECT_EQ(episodes_not_listed(m), "1000 contact episodes; the metrics of the first 10 are listed (a contact that "
+                                    "flickers: a longer --merge-gap-ms merges its episodes)");
+  const std::string table = format_table(m, true);
+  EXPECT_NE(table.find("contact episodes                             1000"), std::string::npos) << table;
+  EXPECT_NE(table.find("  ... 1000 contact episodes; the metrics of the first 10 are listed"), std::string::npos) << table;
+  // All kept: nothing said.
+  opt.max_episodes = 1000;
+  EXPECT_EQ(episodes_not_listed(roundtrip(tr, "flicker_all", opt)), "");
+}
+
 TEST(ForceMetrics, MissingDatasetIsAnInputErrorNamingIt) {
   const ReplayTrace tr = make_trace(50);
   for (std::string ds : {"/haptic/torque", "/haptic/contacts", "/timing/haptic_step_s"}) {

@@ -42,6 +42,9 @@ void run(const MetricsArgs& a) {
   opt.episode_merge_gap_s = a.merge_gap_ms * 1e-3;
   opt.fft_window = a.fft_window;
   const ebh::ForceMetrics m = ebh::compute_metrics(trace, opt);
+  // The table says it under the episodes; JSON's "episodes_listed" only counts them.
+  if (const std::string note = ebh::episodes_not_listed(m); a.episodes && a.json && !note.empty())
+    std::fprintf(stderr, "ebh: warning: %s: %s\n", ebh::escape_unprintable(a.path).c_str(), note.c_str());
   if (a.json)
     std::printf("%s\n", ebh::to_json(m, a.episodes).dump().c_str());
   else

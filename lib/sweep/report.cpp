@@ -94,6 +94,10 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     return v;
   };
 
+  std::vector<std::size_t> checked = {c_wall};  // an ok row's wall time, then its measures present
+  for (const std::string& name : kReportMeasureColumns)
+    if (const auto c = optional_column(name.c_str())) checked.push_back(*c);
+
   using Key = std::tuple<std::string, std::string, std::string>;  // scene, recording, backend
   std::vector<Key> order;
   std::map<Key, ReportGroup> groups;
@@ -121,18 +125,15 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     }
     const std::string& status = row[c_status];
     if (status == "ok") {
-      if (const double w = number(r, c_wall); !(std::isfinite(w) && w > 0))
-        throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'wall_s': expected a finite number > 0 (the run's wall time), got '" +
-                         row[c_wall] + "'");
-      // The run's measures: empty (not measured: no reference, no region), else what a replay can
-      // give, a finite number >= 0 (a negative or infinite error would lead or leave the front).
-      for (const std::optional<std::size_t> c : {std::optional<std::size_t>(c_rtf), std::optional<std::size_t>(c_rms),
-                                                 std::optional<std::size_t>(c_max), std::optional<std::size_t>(c_p999),
-                                                 c_residual, c_hz, c_rate, c_active, c_awake, c_contact})
-        if (c && !row[*c].empty())
-          if (const double v = number(r, *c); !(std::isfinite(v) && v >= 0))
-            throw InputError(file + ": row " + std::to_string(r + 2) + ", column '" + t.header[*c] +
-                             "': expected a finite number >= 0 or nothing, got '" + row[*c] + "'");
+      // The run's wall time, and its measures: empty (not measured: no reference, no region), else
+      // what a replay can give, a finite number >= 0 (a negative or infinite error would lead or
+      // leave the front). The summary's writer holds its rows to the same (report_cell_problem).
+      for (const std::size_t c : checked) {
+        (void)number(r, c);  // text: "expected a number"
+        if (const std::string why = report_cell_problem(t.header[c], row[c]); !why.empty())
+          throw InputError(file + ": row " + std::to_string(r + 2) + ", column '" + t.header[c] + "': expected " + why +
+                           ", got '" + row[c] + "'");
+      }
       auto& configs = rows_of[key];
       if (!configs.count(row[c_over])) config_order[key].push_back(row[c_over]);
       configs[row[c_over]].push_back(r);

@@ -45,6 +45,18 @@ const std::vector<std::string> kResultColumns = {"wall_s", "virtual_s", "real_ti
 
 }  // namespace
 
+std::string report_cell_problem(const std::string& column, const std::string& cell) {
+  const bool wall = column == "wall_s";
+  if (!wall && std::find(kReportMeasureColumns.begin(), kReportMeasureColumns.end(), column) == kReportMeasureColumns.end())
+    return "";
+  if (!wall && cell.empty()) return "";
+  double v = 0;
+  const auto [p, ec] = std::from_chars(cell.data(), cell.data() + cell.size(), v);
+  const bool number = !cell.empty() && ec == std::errc() && p == cell.data() + cell.size() && std::isfinite(v);
+  if (wall) return number && v > 0 ? "" : "a finite number > 0 (the run's wall time)";
+  return number && v >= 0 ? "" : "a finite number >= 0 or nothing";
+}
+
 ForceError force_error(const ReplayTrace& run, const ReplayTrace& reference) {
   ForceError e;
   if (run.ticks() == 0 || reference.ticks() == 0) return {kNaN, kNaN, kNaN, 0};
@@ -312,10 +324,22 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
         results[7] = cell(mean(trace.active));
         results[8] = cell(mean(trace.physical_awake));
         // By name: a run's metrics fill the columns a default ForceMetrics names, none beyond.
-        for (const auto& [k, v] : metric_values(compute_metrics(trace))) {
+        const ForceMetrics metrics = compute_metrics(trace);
+        for (const auto& [k, v] : metric_values(metrics)) {
           const auto at = std::find_if(metric_names.begin(), metric_names.end(), [&k](const auto& n) { return n.first == k; });
           if (at != metric_names.end())
             results[kResultColumns.size() + static_cast<std::size_t>(at - metric_names.begin())] = cell(v);
+        }
+        // A value the report would refuse (a force error of inf from a non-finite force): the run
+        // failed, saying which, rather than a summary its own report cannot read.
+        for (std::size_t c = 0; c < results.size(); ++c) {
+          const std::string& name = c < kResultColumns.size() ? kResultColumns[c] : metric_names[c - kResultColumns.size()].first;
+          const std::string refused = report_cell_problem(name, results[c]);
+          if (refused.empty()) continue;
+          std::string samples;
+          for (const std::string& d : metrics.nonfinite_datasets) samples += (samples.empty() ? "" : ", ") + d;
+          throw InputError(out.string() + ": column '" + name + "' would be '" + results[c] + "' where `ebh sweep report` takes " +
+                           refused + (samples.empty() ? "" : " (non-finite samples: " + samples + ")"));
         }
         row[1] = "ok";
         ++s.ok;

@@ -56,9 +56,24 @@ struct SweepSummary {
 /// column) when a numeric column holds text.
 void write_summary_h5(const CsvTable& summary, const std::string& path);
 
+/// The columns of a run's measures that `ebh sweep report` reads from an ok row (build_report), in
+/// the order it checks them: each empty (not measured: no reference, no region) or a finite number
+/// >= 0, as a replay gives them.
+inline const std::vector<std::string> kReportMeasureColumns = {
+    "real_time_factor", "force_error_rms_N", "force_error_max_N", "force_error_p999_N", "timing.physical_residual_max",
+    "haptic_hz", "whole.max_force_rate_N_per_s", "active_vertices_mean", "awake_vertices_mean", "contact_fraction"};
+
+/// "" when an ok row's `cell` of `column` is what the report takes, else what it takes there: wall_s
+/// "a finite number > 0 (the run's wall time)", a column of kReportMeasureColumns "a finite number
+/// >= 0 or nothing". Any other column takes anything ("").
+std::string report_cell_problem(const std::string& column, const std::string& cell);
+
 /// The summary of every run of the plan as it stands in `dir`: status ok (an output the sweep takes
 /// as done: run_state), failed (a DIR/runs/ID.failed, or an output that does not read) or pending
-/// (neither, or an output the sweep would run again: its error says why, redo_reason). The input
+/// (neither, or an output the sweep would run again: its error says why, redo_reason). An output
+/// that reads but gives a measure the report would refuse (report_cell_problem: a force error of
+/// inf from a non-finite force) is failed, its error naming the column: the summary is never one
+/// its own report refuses. The input
 /// files are checked against the digests the plan read (SweepPlan::sha256): a file edited while
 /// the sweep ran leaves the runs made from it pending. Reads each output once and each reference once.
 SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir);

@@ -900,6 +900,80 @@ TEST(SweepSummary, OutputsTheSweepWouldRunAgainAreNotOk) {
   EXPECT_EQ(s.ok, 0u);
 }
 
+// The summary never holds what its own report refuses: a run whose output gives a measure that is
+// not a finite number >= 0 (a force error of inf from an inf force sample) is failed, naming the
+// column; one with a finite force no replay writes (1e300 N, whose square was inf) is failed by the
+// loader, naming the dataset and index. The report then reads the summary; before, it held
+// "ok,...,inf" and the report refused its own summary.
+TEST(SweepSummary, ARunWhoseMeasuresTheReportRefusesIsFailed) {
+  const fs::path d = fresh_tube_scene("summary_refused");
+  const SweepPlan p = read_sweep_plan(plan_file("summary_refused.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
+                                                                            ", recordings: [tube_insert], reference: {}}\n"
+                                                                            "runs: [{solver.virtual_iterations: 2}, "
+                                                                            "{solver.virtual_iterations: 4}]\nstart: 4\nduration: 0.5\n"));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 3u);
+  const fs::path dir = d / "out";
+  fs::create_directories(dir / "runs");
+  const std::string scene_sha = sha256_file((d / "scene" / "tube.yaml").string());
+  // A replay output of 0.5 s at 1 kHz as `ebh replay` lays it out, its force 0.1 N along x but at tick 50.
+  auto write_output = [&](const SweepRun& as, double force_at_50) {
+    h5::File f = h5::File::create(run_output(dir, as).string());
+    f.set_attr("scene_file_sha256", scene_sha);
+    f.set_attr("physical_mesh_sha256", sha256_file((d / "scene" / "tube.msh").string()));
+    f.set_attr("recording_sha256", sha256_file(as.recording.string()));
+    f.set_attr("mode", "async");
+    f.set_attr("backend", "cpu");
+    f.set_attr("overrides_list", as.set_arguments().empty() ? std::string() : as.set_arguments()[0]);
+    f.set_attr("start", 4.0);
+    f.set_attr("duration", 0.5);
+    f.set_attr("haptic_hz", 1000.0);  // scenarios/tube.yaml's rates
+    f.set_attr("physical_hz", 100.0);
+    f.set_attr("wall_s", 0.25);
+    f.set_attr("virtual_s", 0.5);
+    const std::size_t n = 501;
+    std::vector<double> t(n), force(3 * n, 0.0), pose(7 * n, 0.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      t[i] = static_cast<double>(i) / 1000.0;
+      force[3 * i] = i == 50 ? force_at_50 : 0.1;
+      pose[7 * i + 3] = 1;  // the identity rotation
+    }
+    f.write<double>("/haptic/t", t, {n});
+    f.write<double>("/haptic/force", force, {n, 3});
+    f.write<double>("/haptic/torque", std::vector<double>(3 * n, 0.0), {n, 3});
+    f.write<std::uint8_t>("/haptic/force_clamped", std::vector<std::uint8_t>(n, 0), {n});
+    f.write<double>("/haptic/pose_physical", pose, {n, 7});
+    f.write<double>("/haptic/pose_virtual", pose, {n, 7});
+    f.write<double>("/haptic/penetration", std::vector<double>(n, 0.0), {n});
+    f.write<std::int32_t>("/haptic/contacts", std::vector<std::int32_t>(n, 3), {n});
+    f.write<double>("/timing/haptic_step_s", std::vector<double>(n, 1e-4), {n});
+  };
+  write_output(runs[0], 0.1);
+  write_output(runs[1], INFINITY);
+  write_output(runs[2], 1e300);
+  const SweepSummary s = summarize_sweep(p, runs, dir);
+  const std::size_t c_error = s.table.column("error", "summary");
+  EXPECT_EQ(s.table.rows[0][1], "ok");
+  EXPECT_EQ(s.table.rows[1][1], "failed");
+  EXPECT_EQ(s.table.rows[1][c_error], run_output(dir, runs[1]).string() +
+                                          ": column 'force_error_rms_N' would be 'inf' where `ebh sweep report` takes a "
+                                          "finite number >= 0 or nothing (non-finite samples: /haptic/force: 1)");
+  EXPECT_EQ(s.table.rows[2][1], "failed");
+  EXPECT_NE(s.table.rows[2][c_error].find("dataset '/haptic/force' holds 1e+300 N at index 50 (column 0), beyond 1e+30"),
+            std::string::npos)
+      << s.table.rows[2][c_error];
+  EXPECT_EQ(s.ok, 1u);
+  EXPECT_EQ(s.failed, 2u);
+  // What it wrote, the report reads: both runs listed as failed.
+  const std::string md = report_markdown(build_report(s.table, "summary.csv"));
+  EXPECT_NE(md.find("failed: " + runs[1].id), std::string::npos) << md;
+  // The rule the two share: an ok row's measures empty or finite >= 0, its wall time finite > 0.
+  EXPECT_EQ(report_cell_problem("force_error_rms_N", ""), "");
+  EXPECT_EQ(report_cell_problem("force_error_rms_N", "-inf"), "a finite number >= 0 or nothing");
+  EXPECT_EQ(report_cell_problem("wall_s", ""), "a finite number > 0 (the run's wall time)");
+  EXPECT_EQ(report_cell_problem("whole.peak_force_N", "inf"), "");  // no measure of the report's
+}
+
 // A folder made before the ids came from the files' contents holds its outputs under the runs'
 // legacy ids (the files' paths): a sweep takes each over (output, log) for the run that has none
 // under its id, and leaves a legacy file alone where the run already has its own.

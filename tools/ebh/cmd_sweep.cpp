@@ -130,10 +130,12 @@ std::string redo_note(const SweepSummary& s) {
   return s.redo ? " (" + std::to_string(s.redo) + " of them with an output to run again: their errors say why)" : std::string();
 }
 
-/// DIR/summary.csv and DIR/summary.h5, each written atomically.
+/// DIR/summary.csv and DIR/summary.h5, each written atomically: the HDF5 file first, as it checks
+/// every numeric cell (InputError naming the row and column) before it replaces anything, so a table
+/// that fails leaves both previous files as they were.
 void write_summary_files(const fs::path& dir, const CsvTable& table) {
-  write_file_atomically(sweep_summary_csv(dir).string(), table.to_csv());
   write_summary_h5(table, sweep_summary_h5(dir).string());
+  write_file_atomically(sweep_summary_csv(dir).string(), table.to_csv());
 }
 
 /// Writes DIR/summary.csv (and .h5) from what DIR holds; prints its counts.

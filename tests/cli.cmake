@@ -1593,6 +1593,35 @@ add_test(NAME cli.scene.degrade_fewer_than_asked
 set_tests_properties(cli.scene.degrade_nothing_to_do cli.scene.degrade_fewer_than_asked PROPERTIES LABELS cli)
 set_tests_properties(cli.scene.degrade_fewer_than_asked PROPERTIES PASS_REGULAR_EXPRESSION
   "ebh: warning: .*tube.yaml: degraded 109 of the 100000 tets asked for \\(--tets\\)")
+# With -o DIR the outputs are named after the scene's `name`: one that is no file name ('../../x'
+# wrote above DIR, an absolute name ignored -o, a line break went into the file's name) is refused
+# naming the scene file and the key, before any work, and nothing is written.
+set(dir ${EBH_NUM_OUT}/degrade_names)
+file(MAKE_DIRECTORY ${dir}/a/b)
+file(READ ${PROJECT_SOURCE_DIR}/scenarios/tube.yaml ebh_tube_yaml)
+string(REPLACE "physical: tube.msh" "physical: ${PROJECT_SOURCE_DIR}/scenarios/tube.msh" ebh_tube_yaml "${ebh_tube_yaml}")
+foreach(case up absolute line_break)
+  if(case STREQUAL up)
+    set(name "../../up")
+    set(written ${dir}/a/up_q0.05.yaml)  # out/../../
+    set(why "holds a '/' \\(a path, not a file's name\\)")
+  elseif(case STREQUAL absolute)
+    set(name "${dir}/absolute")
+    set(written ${dir}/absolute_q0.05.yaml)
+    set(why "holds a '/'")
+  else()
+    set(name "nl\\nname")
+    set(written ${dir}/a/b/out/nothing_here.yaml)  # its output's name would hold the line break
+    set(why "holds a control character")
+  endif()
+  string(REPLACE "\nname: tube\n" "\nname: \"${name}\"\n" scene_yaml "${ebh_tube_yaml}")
+  file(WRITE ${dir}/${case}.yaml "${scene_yaml}")
+  add_test(NAME cli.scene.degrade_name_${case}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};scene;degrade;${dir}/${case}.yaml;--quality;0.05;-o;${dir}/a/b/out"
+      "-DEXPECT=^ebh: error: .*degrade_names/${case}.yaml: key 'name': '.*' ${why}[^:]*: with -o DIR the outputs are named after it \\(DIR/NAME_q0.05.yaml\\); rename the scene, or give -o OUT.yaml"
+      "-DOUTPUT=${written}" -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.scene.degrade_name_${case} PROPERTIES LABELS "cli;scene")
+endforeach()
 add_test(NAME cli.replay.settling_says_when_it_stops_short
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/sag.h5 --duration 0.05 --set "gravity=[0,0,-30]"
     --set stiffness.k_vol=30)

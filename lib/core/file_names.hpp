@@ -1,11 +1,13 @@
 #pragma once
-// A file name's extension as the commands compare it: lower-cased, so that a file a Windows tool
-// or a camera-style export named `ORGAN.STL`, `LOG.CSV` or `scene.YAML` is told apart by its kind
-// as its lower-case twin is.
+// File names as the commands take and make them. A file name's extension as the commands compare
+// it: lower-cased, so that a file a Windows tool or a camera-style export named `ORGAN.STL`,
+// `LOG.CSV` or `scene.YAML` is told apart by its kind as its lower-case twin is. And a name taken
+// from a file's contents (a scene's `name`) checked before it becomes a file's name in a folder.
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 namespace ebh {
 
@@ -20,6 +22,20 @@ inline std::string lower_extension(const std::filesystem::path& file) {
 inline bool has_yaml_extension(const std::filesystem::path& file) {
   const std::string ext = lower_extension(file);
   return ext == ".yaml" || ext == ".yml";
+}
+
+/// "" when `name` can start the name of a file in a folder as it is, else why not: it holds a '/'
+/// (a folder above, or an absolute path: the file would land outside the folder), starts with a '.'
+/// ('..', or a hidden file), or holds a control character (a line break splits every line that
+/// names the file). For names read from a file: a scene's `name` makes `ebh scene degrade`'s
+/// DIR/NAME_qQ.yaml.
+inline std::string file_name_problem(std::string_view name) {
+  if (name.empty()) return "is empty";
+  if (name.find('/') != std::string_view::npos) return "holds a '/' (a path, not a file's name)";
+  if (name.front() == '.') return "starts with a '.' (a folder above, or a hidden file)";
+  if (std::any_of(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
+    return "holds a control character (a line break, a tab?)";
+  return "";
 }
 
 }  // namespace ebh

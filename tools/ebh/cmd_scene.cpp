@@ -364,6 +364,12 @@ void degrade(const SceneDegradeArgs& a) {
   std::snprintf(tag, sizeof tag, "_q%g", a.quality);
   const std::filesystem::path out(a.out_dir);
   const bool scene_file = ebh::has_yaml_extension(out);  // -o OUT.yaml, else a folder
+  // In a folder the outputs are named after the scene's `name`, text of the scene file: one that
+  // is no file name ('../../x', an absolute path) would write outside the folder.
+  if (const std::string why = ebh::file_name_problem(scene.spec.name); !scene_file && !why.empty())
+    throw ebh::InputError(file.string() + ": key 'name': '" + scene.spec.name + "' " + why +
+                          ": with -o DIR the outputs are named after it (DIR/NAME" + tag + ".yaml); rename the scene, or "
+                          "give -o OUT.yaml");
   const std::string stem = scene_file ? out.stem().string() : scene.spec.name + tag;
   const std::filesystem::path dir = scene_file ? out.parent_path() : a.out_dir.empty() ? std::filesystem::path(".") : out;
   const std::string mesh_out = (dir / (stem + ".msh")).string();
@@ -402,7 +408,8 @@ void degrade(const SceneDegradeArgs& a) {
   std::snprintf(header, sizeof header,
                 "# %s with its physical mesh degraded by `ebh scene degrade %s --quality %g --tets %d --seed %llu`:\n"
                 "# worst mean ratio %.4g (tet %d); %d caps, %d slivers, %d needles.\n",
-                scene.spec.name.c_str(), a.scene.c_str(), a.quality, a.tets, static_cast<unsigned long long>(a.seed),
+                ebh::escape_unprintable(scene.spec.name).c_str(), ebh::escape_unprintable(a.scene).c_str(), a.quality,
+                a.tets, static_cast<unsigned long long>(a.seed),
                 r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles);
   // Back into the mesh file's coordinates and unit, so the scene's mesh.unit and mesh.transform
   // place it as they placed the original.

@@ -249,10 +249,14 @@ void tick_spacing(const Reader& in, const std::vector<double>& t, double haptic_
                                shown_number(haptic_hz) + " Hz)");
 }
 
-/// A duration is not negative (a NaN is counted with the file's non-finite values, not refused).
-void durations(const Reader& in, const std::string& name, const std::vector<double>& s) {
-  for (std::size_t i = 0; i < s.size(); ++i)
-    if (s[i] < 0) in.fail(name, "holds a negative duration at index " + std::to_string(i) + " (" + shown_number(s[i]) + " s)");
+/// A duration, a depth or a count is not negative (a NaN is counted with the file's non-finite
+/// values, not refused): `what` names the quantity ("duration", "count"), `unit` its unit.
+template <class T>
+void not_negative(const Reader& in, const std::string& name, const std::vector<T>& v, const char* what, const char* unit = "") {
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (v[i] < 0)
+      in.fail(name, std::string("holds a negative ") + what + " at index " + std::to_string(i) + " (" +
+                        shown_number(static_cast<double>(v[i])) + (*unit ? std::string(" ") + unit : std::string()) + ")");
 }
 
 }  // namespace
@@ -289,7 +293,10 @@ ReplayTrace load_replay(const std::string& path) {
   tr.backend = in.string_attr("backend");
   tr.version = in.string_attr("version");
   tr.contact = in.string_attr("contact");
-  if (in.has_attr("start")) tr.start = in.number_attr("start");
+  if (in.has_attr("start")) {
+    tr.start = in.number_attr("start");
+    if (!(tr.start >= 0) || !std::isfinite(tr.start)) in.fail_attr("start", "must be a finite number >= 0 (s into the recording)");
+  }
 
   tr.t = in.doubles("/haptic/t", -1);
   const long n = static_cast<long>(tr.t.size());
@@ -339,7 +346,12 @@ ReplayTrace load_replay(const std::string& path) {
   tr.grasped = in.read<std::int32_t>("/haptic/grasped", n, 0, H5T_NATIVE_INT32, true).value_or(std::vector<std::int32_t>{});
   tr.jaw = in.optional_doubles("/haptic/jaw", n);
   tr.haptic_step_s = in.doubles("/timing/haptic_step_s", n);
-  durations(in, "/timing/haptic_step_s", tr.haptic_step_s);
+  not_negative(in, "/timing/haptic_step_s", tr.haptic_step_s, "duration", "s");
+  not_negative(in, "/haptic/penetration", tr.penetration, "depth", "m");
+  not_negative(in, "/haptic/penetration_physical", tr.penetration_physical, "depth", "m");
+  not_negative(in, "/haptic/contacts", tr.contacts, "count");
+  not_negative(in, "/haptic/grasped", tr.grasped, "count");
+  not_negative(in, "/haptic/active", tr.active, "count");
 
   tr.physical_t = in.optional_doubles("/physical/t", -1);
   increasing(in, "/physical/t", tr.physical_t);
@@ -351,7 +363,12 @@ ReplayTrace load_replay(const std::string& path) {
     tr.physical_awake = in.optional_doubles("/physical/awake", k);
     tr.physical_slept = in.optional_doubles("/physical/slept", k);
     tr.physical_step_s = in.optional_doubles("/timing/physical_step_s", k);
-    durations(in, "/timing/physical_step_s", tr.physical_step_s);
+    not_negative(in, "/timing/physical_step_s", tr.physical_step_s, "duration", "s");
+    not_negative(in, "/physical/iterations", tr.physical_iterations, "count");
+    not_negative(in, "/physical/residual", tr.physical_residual, "residual", "mesh weights");
+    not_negative(in, "/physical/inverted", tr.physical_inverted, "count");
+    not_negative(in, "/physical/awake", tr.physical_awake, "count");
+    not_negative(in, "/physical/slept", tr.physical_slept, "count");
   }
   return tr;
 }

@@ -500,7 +500,7 @@ TEST(ForceMetrics, ValuesNoReplayWritesAreRefusedNamingDatasetAndIndex) {
     big.pose_physical[i].q = {s, 0, 0, s};
     big.pose_virtual[i].p = {s, -s, -s};
     big.pose_virtual[i].q = {s, s, -s, s};
-    big.penetration[i] = s;
+    big.penetration[i] = kMaxReplayValue;  // a depth is not negative
     big.contacts[i] = 1;
   }
   const ForceMetrics m = roundtrip(big, "at_the_bound");
@@ -650,6 +650,18 @@ TEST(ForceMetrics, WrongShapeAndBadFilesAreInputErrors) {
     ReplayTrace neg = tr;
     neg.haptic_step_s[7] = -2e-5;
     EXPECT_NE(load_error(neg, "negative_step").find("'/timing/haptic_step_s' holds a negative duration at index 7 (-2e-05 s)"),
+              std::string::npos);
+    // so is a depth or a count below zero, and a start that is no time into the recording
+    ReplayTrace deep = tr;
+    deep.penetration[3] = -1;
+    EXPECT_NE(load_error(deep, "negative_depth").find("'/haptic/penetration' holds a negative depth at index 3 (-1 m)"),
+              std::string::npos);
+    ReplayTrace count = tr;
+    count.contacts[4] = -5;
+    EXPECT_NE(load_error(count, "negative_count").find("'/haptic/contacts' holds a negative count at index 4 (-5)"),
+              std::string::npos);
+    EXPECT_NE(load_error(tr, "nan_start", [](h5::File& f) { f.set_attr("start", std::nan("")); })
+                  .find("root attribute 'start' must be a finite number >= 0"),
               std::string::npos);
   }
   // Datasets cut to fewer ticks than the replay's own count (the ticks attribute): metrics of part

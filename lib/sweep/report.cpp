@@ -104,6 +104,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
   std::map<std::pair<std::string, std::string>, std::string> references;  // (scene, recording) -> overrides
   std::map<Key, std::map<std::string, std::vector<std::size_t>>> rows_of;  // group -> overrides -> ok rows
   std::map<Key, std::vector<std::string>> config_order;
+  std::map<Key, std::pair<std::string, std::size_t>> baseline_names;  // group -> its baseline's name and first row
   for (std::size_t r = 0; r < t.rows.size(); ++r) {
     const auto& row = t.rows[r];
     const Key key{row[c_scene], row[c_rec], row[c_backend]};
@@ -122,6 +123,15 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
       if (!added && it->second != ref)
         throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'reference': a second reference for " +
                          row[c_scene] + " + " + row[c_rec] + " (" + ref + "; the first: " + it->second + ")");
+    }
+    // One baseline per group (a plan names one): a summary edited by hand could hold two, and the
+    // goal would be against either.
+    if (c_baseline && !row[*c_baseline].empty()) {
+      const auto [it, added] = baseline_names.emplace(key, std::pair{row[*c_baseline], r});
+      if (!added && it->second.first != row[*c_baseline])
+        throw InputError(file + ": row " + std::to_string(r + 2) + ", column 'baseline': a second baseline '" +
+                         row[*c_baseline] + "' for " + row[c_scene] + " + " + row[c_rec] + " on " + row[c_backend] +
+                         " (the first: '" + it->second.first + "', row " + std::to_string(it->second.second + 2) + ")");
     }
     const std::string& status = row[c_status];
     if (status == "ok") {

@@ -1537,6 +1537,18 @@ TEST(SweepReport, MissingColumnAndBadNumberAreNamed) {
   } catch (const InputError& e) {
     EXPECT_STREQ(e.what(), "s.csv: row 4, column 'reference': a second reference for tube + r (a=2 (cpu); the first: a=1 (cpu))");
   }
+  // Two baselines for one group (a plan names one): the goal would be against either.
+  const std::string with_baseline = header.substr(0, header.size() - 1) + ",baseline\n";
+  try {
+    (void)build_report(parse_csv(with_baseline + "ok,tube,r,cpu,1,-,1,1,0,0,0,\nok,tube,r,cpu,0,a=1,1,1,0,0,0,paper\n"
+                                                  "ok,tube,r,cpu,0,a=2,1,1,0,0,0,other\n",
+                                 "s.csv"),
+                       "s.csv");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "s.csv: row 4, column 'baseline': a second baseline 'other' for tube + r on cpu (the first: "
+                           "'paper', row 3)");
+  }
 }
 
 // Each measure of an ok row is what a replay can give (empty, or a finite number >= 0), the

@@ -377,10 +377,14 @@ std::string read_failure(std::int64_t dataset, const std::string& what) {
              std::to_string(filter) + "), which this HDF5 library does not have: save it with gzip " +
              "(h5py: compression='gzip') or none";
   }
+  const char* damaged = ": the file is damaged (a copy or transfer that went wrong, a failing disk); read it from its "
+                        "source again";
+  // (checked first: a checksum that fails is reported by HDF5 as its filter failing too)
+  if (n > 0 && (errors.find("fletcher32") != std::string::npos || errors.find("checksum") != std::string::npos))
+    return "cannot read " + what + ": its checksum (fletcher32) does not match the data" + damaged;
   if (n > 0 && (errors.find("filter returned failure") != std::string::npos ||
                 errors.find("inflate() failed") != std::string::npos))
-    return "cannot read " + what + ": compressed data in it does not decompress: the file is damaged (a copy or "
-           "transfer that went wrong, a failing disk); read it from its source again";
+    return "cannot read " + what + ": compressed data in it does not decompress" + damaged;
   return "cannot read " + what;
 }
 

@@ -236,6 +236,45 @@ TEST(H5, DamagedAndCutShortFilesSayWhatIsWrong) {
                                                                " bytes)");
 }
 
+// A checksum that fails (fletcher32, uncompressed data) is said as such, not as data that does
+// not decompress.
+TEST(H5, AChecksumThatFailsIsNamed) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "checked.h5";
+  const hsize_t n = 4096, chunk = 1024;
+  haddr_t offset = 0;
+  {
+    const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    const hid_t space = H5Screate_simple(1, &n, nullptr), dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(dcpl, 1, &chunk);
+    H5Pset_fletcher32(dcpl);
+    const hid_t d = H5Dcreate2(f, "t", H5T_IEEE_F64LE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    const std::vector<double> v(n, 1.5);
+    ASSERT_GE(H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), 0);
+    H5Dflush(d);
+    hsize_t coord[1];
+    unsigned mask = 0;
+    hsize_t bytes = 0;
+    ASSERT_GE(H5Dget_chunk_info(d, space, 0, coord, &mask, &offset, &bytes), 0);
+    H5Dclose(d);
+    H5Pclose(dcpl);
+    H5Sclose(space);
+    H5Fclose(f);
+  }
+  {
+    std::FILE* fp = std::fopen(path.c_str(), "r+b");
+    ASSERT_NE(fp, nullptr);
+    std::fseek(fp, static_cast<long>(offset + 8), SEEK_SET);
+    const unsigned char junk[4] = {0x12, 0x34, 0x56, 0x78};
+    std::fwrite(junk, 1, sizeof junk, fp);
+    std::fclose(fp);
+  }
+  h5::File f = h5::File::open_read(path);
+  EXPECT_INPUT_ERROR(f.read<double>("t"), path, "/t: cannot read the dataset: its checksum (fletcher32) does not match the data",
+                     "the file is damaged");
+}
+
 TEST(H5, AppendableDatasetGrowsByRows) {
   test::ScratchDir tmp;
   const std::string path = tmp / "app.h5";

@@ -865,6 +865,10 @@ ebh_batch_failure(output_is_batch_file "would replace the batch file .*batch_out
 add_test(NAME cli.replay.batch_missing_file
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${EBH_REPLAY_OUT}/no_such_batch.txt"
     "-DEXPECT=no_such_batch.txt: cannot open" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.replay.batch_is_a_recording
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;--batch;${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5"
+    "-DEXPECT=^ebh: error: .*tube_insert.h5: an HDF5 file \\(a recording or a replay output\\), not a batch list" -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.replay.batch_with_scene
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;--batch;${EBH_REPLAY_OUT}/batch_cpu.txt"
     "-DEXPECT=--batch .*: give each replay's scene" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
@@ -874,7 +878,7 @@ add_test(NAME cli.replay.no_arguments
 add_test(NAME cli.replay.at_once_without_batch
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};replay;tube;tube_insert;-o;${EBH_REPLAY_OUT}/at_once.h5;--at-once;3"
     "-DEXPECT=--at-once requires --batch" -DOUTPUT=${EBH_REPLAY_OUT}/at_once.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
-set_tests_properties(cli.replay.batch_missing_file cli.replay.batch_with_scene cli.replay.no_arguments
+set_tests_properties(cli.replay.batch_missing_file cli.replay.batch_is_a_recording cli.replay.batch_with_scene cli.replay.no_arguments
   cli.replay.at_once_without_batch PROPERTIES LABELS cli)
 # Virtual edges stiffer than the coupling to the physical mesh: the async loop can go unstable (the
 # warning names the override that gave the value, as every warning about a value does).

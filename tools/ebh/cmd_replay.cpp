@@ -588,7 +588,14 @@ struct BatchLine {
 
 std::vector<BatchLine> read_batch_file(const std::string& file, bool quiet) {
   check_input_file(file);
-  std::ifstream f(file);
+  std::ifstream f(file, std::ios::binary);
+  // A recording or a replay output given where the list of replays belongs (its bytes read as text
+  // made 'line 1: expected SCENE RECORDING').
+  if (char head[8] = {}; f.read(head, sizeof head) && std::string_view(head, sizeof head) == "\x89HDF\r\n\x1a\n")
+    throw InputError(file + ": an HDF5 file (a recording or a replay output), not a batch list: a text file of "
+                            "`SCENE RECORDING -o OUT.h5 [options]` lines");
+  f.clear();
+  f.seekg(0);
   std::vector<BatchLine> lines;
   std::string text;
   for (int number = 1; std::getline(f, text); ++number) {

@@ -35,6 +35,8 @@ void check_output_location(const std::string& path) {
   // summary, a sweep's report): no one means one (InputError escapes it in this message).
   if (std::any_of(path.begin(), path.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
     throw InputError(path + ": the output's name holds a control character (a line break, a tab?): name it otherwise");
+  // The shell's "standard output": no command writes its file there (a file named '-' is ./-).
+  if (path == "-") throw InputError("-: an output is a file (standard output is not one here): name a file, ./- for one named -");
   fs::path dir = fs::path(path).parent_path();
   if (dir.empty()) dir = ".";
   std::error_code ec;

@@ -76,6 +76,7 @@ TEST(Paths, AnOutputNamedWithAControlCharacterIsRefused) {
     }
   }
   check_outputs({{tmp / "caf\xc3\xa9 run.h5", "the output"}}, {});  // UTF-8 and blanks are names
+  EXPECT_INPUT_ERROR(check_outputs({{"-", "the output"}}, {}), "-: an output is a file (standard output is not one here)");
 }
 
 TEST(Paths, InputMustBeAReadableFile) {

@@ -1626,6 +1626,12 @@ foreach(case up absolute line_break)
       "-DOUTPUT=${written}" -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
   set_tests_properties(cli.scene.degrade_name_${case} PROPERTIES LABELS "cli;scene")
 endforeach()
+# scene info prints the scene's name escaped (an escape sequence in it coloured the terminal).
+string(REPLACE "\nname: tube\n" "\nname: \"cu\\ebe\"\n" scene_yaml "${ebh_tube_yaml}")
+file(WRITE ${dir}/escaped.yaml "${scene_yaml}")
+add_test(NAME cli.scene.info_name_escaped COMMAND ${EBH_BIN} scene info ${dir}/escaped.yaml)
+set_tests_properties(cli.scene.info_name_escaped PROPERTIES LABELS "cli;scene" PASS_REGULAR_EXPRESSION
+  "scene +cu\\\\x1bbe \\(")
 add_test(NAME cli.replay.settling_says_when_it_stops_short
   COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/sag.h5 --duration 0.05 --set "gravity=[0,0,-30]"
     --set stiffness.k_vol=30)

@@ -8,6 +8,7 @@
 #include <limits>
 #include <sstream>
 
+#include "core/error.hpp"
 #include "metrics/signal.hpp"
 
 namespace ebh {
@@ -730,9 +731,12 @@ std::string format_table(const ForceMetrics& m, bool with_episodes) {
     std::snprintf(buf, sizeof buf, "  %-34s %14s %s\n", name, value.c_str(), unit);
     o << buf;
   };
-  o << m.path << "\n";
-  o << "  scene " << (m.scene.empty() ? "-" : m.scene) << ", recording " << (m.recording.empty() ? "-" : m.recording)
-    << ", mode " << (m.mode.empty() ? "-" : m.mode) << ", backend " << (m.backend.empty() ? "-" : m.backend) << "\n";
+  // The file's own text (another program's attributes may hold a line break or an escape
+  // sequence): escaped, so that the table keeps its lines and the terminal its colours.
+  const auto text = [](const std::string& v) { return v.empty() ? std::string("-") : escape_unprintable(v); };
+  o << escape_unprintable(m.path) << "\n";
+  o << "  scene " << text(m.scene) << ", recording " << text(m.recording) << ", mode " << text(m.mode) << ", backend "
+    << text(m.backend) << "\n";
   o << "  " << m.timing.ticks << " ticks, " << fmt("%.3f", m.duration_s) << " s";
   if (m.start_s > 0) o << " from " << fmt("%g", m.start_s) << " s into the recording (the times below count from there)";
   o << ", haptic " << fmt("%g", m.haptic_hz) << " Hz, physical " << fmt("%g", m.physical_hz) << " Hz (N = "

@@ -236,6 +236,12 @@ TEST(ForceMetrics, StepAtEveryPhysicalFrameGivesLargeBoundaryRatio) {
   EXPECT_TRUE(std::isnan(rt.whole.boundary_step_ratio));
   EXPECT_EQ(rt.whole.boundary_ticks, 0u);
   EXPECT_NE(format_table(rt, false).find("not measured in realtime mode"), std::string::npos);
+  // The file's own text is escaped: a line break or an escape sequence in an attribute would split
+  // the table's lines or colour the terminal.
+  ForceMetrics odd = rt;
+  odd.scene = "tu\x1b[31mbe\nX";
+  const std::string table = format_table(odd, false);
+  EXPECT_NE(table.find("  scene tu\\x1b[31mbe\\x0aX, recording "), std::string::npos) << table;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -239,7 +239,8 @@ void info(const SceneInfoArgs& a) {
   }
 
   for (const auto& w : warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
-  std::printf("scene            %s (%s)\n", scene.spec.name.c_str(), scene.spec.file.string().c_str());
+  std::printf("scene            %s (%s)\n", ebh::escape_unprintable(scene.spec.name).c_str(),
+              ebh::escape_unprintable(scene.spec.file.string()).c_str());
   std::printf("unit             %s (pinned regions, camera; lengths below in metres unless a unit is named)\n",
               scene.spec.unit_name.c_str());
   std::printf("physical mesh    %s\n", scene.spec.physical_mesh.string().c_str());
@@ -334,7 +335,8 @@ void info(const SceneInfoArgs& a) {
   }
   std::printf("groups\n");
   for (const auto& [tag, c] : groups)
-    std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n", c.name.empty() ? "(unnamed)" : c.name.c_str(), tag,
+    std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n",
+                c.name.empty() ? "(unnamed)" : ebh::escape_unprintable(c.name).c_str(), tag,
                 c.tets, c.triangles);
 }
 
@@ -422,7 +424,8 @@ void degrade(const SceneDegradeArgs& a) {
   const std::string scene_text = std::string(header) + yaml.c_str() + "\n";
   ebh::write_files_atomically({{mesh_out, mesh_text}, {scene_out, scene_text}});
   std::printf("%s: %s with worst mean ratio %.4g (tet %d; %d caps, %d slivers, %d needles), mesh %s\n", scene_out.c_str(),
-              scene.spec.name.c_str(), r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles, mesh_out.c_str());
+              ebh::escape_unprintable(scene.spec.name).c_str(), r.worst_quality, r.worst_tet, r.caps, r.slivers, r.needles,
+              mesh_out.c_str());
 }
 
 struct SceneRefineArgs {

@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <initializer_list>
 #include <numbers>
 #include <string_view>
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/file_names.hpp"
 #include "core/yaml_error.hpp"
 #include "io/paths.hpp"
 #include "math/rotvec_input.hpp"
@@ -100,6 +102,10 @@ SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
   if (std::any_of(plan.scene.begin(), plan.scene.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
     r.fail(root["scene"], "scene", "'" + escape_unprintable(plan.scene) + "' holds a control character (a line break?): "
                                    "no scene's name or path does");
+  // A scene is a YAML file: a recording or a mesh named here would be stored as the scene.
+  if (const std::filesystem::path sp(plan.scene); sp.has_extension() && !has_yaml_extension(sp))
+    r.fail(root["scene"], "scene", "'" + plan.scene + "' is no scene file (a scene is YAML, .yaml): name the scene the "
+                                   "recording is for, its name or its .yaml");
   if (root["scene"].Mark().line >= 0) plan.scene_line = root["scene"].Mark().line + 1;
   plan.tool = r.string(root["tool"], "tool");
   if (plan.tool != "hook" && plan.tool != "forceps") r.fail(root["tool"], "tool", "expected hook or forceps");

@@ -214,6 +214,8 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   EXPECT_INPUT_ERROR(read_plan(path), path + ":1", "scene", "contains a NUL byte (\\0)");
   plan(("scene: \"tube\\nX\"\ntool: hook\n" + two).c_str());
   EXPECT_INPUT_ERROR(read_plan(path), path + ":1", "scene", "'tube\\x0aX' holds a control character");
+  plan(("scene: ../recordings/tube_insert.h5\ntool: hook\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":1", "scene", "'../recordings/tube_insert.h5' is no scene file (a scene is YAML");
   plan(("scene: gap\ntool: hook\ndescription: \"a\\0b\"\n" + two).c_str());
   EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "description", "contains a NUL byte (\\0)");
   plan("scene: gap\ntool: scalpel\nwaypoints: []\n");

@@ -992,6 +992,9 @@ set_property(TEST cli.replay.tube_short cli.replay.summary cli.replay.make_unit_
 # ebh validate (lib/validate) and ebh table1.
 add_test(NAME cli.validate.list COMMAND ${EBH_BIN} validate --list)
 set_tests_properties(cli.validate.list PROPERTIES PASS_REGULAR_EXPRESSION "column.*contact.*coupling.*convergence.*hertz.*stability" LABELS cli)
+add_test(NAME cli.validate.list_json COMMAND ${EBH_BIN} validate --list --json)
+set_tests_properties(cli.validate.list_json PROPERTIES
+  PASS_REGULAR_EXPRESSION "^\\[\n  {\n    \"name\": \"column\",\n    \"description\": " LABELS cli)
 # Each method exactly K iterations: its error falls with K, and Chebyshev beats Jacobi (a few s).
 add_test(NAME cli.validate.convergence COMMAND ${EBH_BIN} validate convergence)
 set_tests_properties(cli.validate.convergence PROPERTIES LABELS cli)

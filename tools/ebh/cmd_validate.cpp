@@ -82,7 +82,15 @@ void check_options(const ebh::ValidationOptions& o, const std::vector<const ebh:
 void run(const Options& o) {
   using namespace ebh;
   if (o.list) {
-    for (const Validation& v : validations()) std::printf("%-14s %s\n", v.name.c_str(), v.description.c_str());
+    Json list = Json::array();
+    for (const Validation& v : validations()) {
+      if (!o.json) std::printf("%-14s %s\n", v.name.c_str(), v.description.c_str());
+      Json entry = Json::object();
+      entry.set("name", v.name);
+      entry.set("description", v.description);
+      list.push(std::move(entry));
+    }
+    if (o.json) std::printf("%s\n", list.dump(2).c_str());
     return;
   }
   if (o.name.empty()) throw InputError("validate: name a validation, 'all', or use --list");

@@ -34,6 +34,7 @@ std::string fmt(double v, const char* f = "%.4g") {
 
 /// Markdown table cells must not hold a bar.
 std::string md(std::string s) {
+  s = escape_unprintable(s);  // a line break would end a heading or a table's row
   for (std::size_t i = 0; (i = s.find('|', i)) != std::string::npos; i += 2) s.replace(i, 1, "\\|");
   return s;
 }
@@ -256,7 +257,7 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
       << " haptic ticks per second (marked `< Hz`) are listed but are neither on the front nor candidates against the "
          "baseline.\n";
   for (const ReportGroup& g : groups) {
-    o << "\n## " << g.scene << " + " << g.recording << ", " << g.backend << "\n\n";
+    o << "\n## " << md(g.scene) << " + " << md(g.recording) << ", " << md(g.backend) << "\n\n";
     o << "Reference: " << (g.reference.empty() ? "not in the summary" : md(g.reference)) << "\n\n";
     // A window in which no configuration's tool touched the tissue: every force is 0, and so is
     // every error; the comparison says nothing about the configurations.

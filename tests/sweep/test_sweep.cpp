@@ -1302,6 +1302,13 @@ TEST(SweepReport, HandMadeSummary) {
   EXPECT_NE(md.find("| * | k=1 | 1 | 1 | 2x | 0.5 |"), std::string::npos) << md;
   EXPECT_NE(md.find("| reference | solver.method=direct | 1 | 10 |"), std::string::npos) << md;
   EXPECT_TRUE(std::isnan(g[0].points[0].max_force_rate));  // the hand-made summary has no metrics
+  // Names from the summary are escaped in headings as in cells: a line break ended the heading and
+  // made its rest another.
+  std::vector<ReportGroup> odd = g;
+  odd[0].scene = "tu|be\n# hdr";
+  const std::string odd_md = report_markdown(odd);
+  EXPECT_NE(odd_md.find("\n## tu\\|be\\x0a# hdr + "), std::string::npos) << odd_md;
+  EXPECT_EQ(odd_md.find("\n# hdr"), std::string::npos) << odd_md;
 }
 
 // The rendered force's largest rate (ebh metrics' whole.max_force_rate_N_per_s) beside the

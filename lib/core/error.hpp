@@ -31,6 +31,14 @@ inline std::size_t first_invalid_utf8(std::string_view text) {
   return std::string_view::npos;
 }
 
+/// Whether `text` holds an ASCII control character (below 0x20, or DEL): a line break or a tab in
+/// a name, which would split or shift every line that prints it.
+inline bool has_control_character(std::string_view text) {
+  for (const char c : text)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) return true;
+  return false;
+}
+
 /// `text` with every byte that a terminal would not show as text written as \xNN: control
 /// bytes (newlines included, so a message stays one line) and bytes that are not part of valid
 /// UTF-8. Printable ASCII and valid UTF-8 (a file name in any language) are kept. Messages quote

@@ -9,6 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "core/error.hpp"
+
 namespace ebh {
 
 /// The extension of `file` with its dot, lower-cased (ASCII): ".stl" for "a/B.STL", "" for none.
@@ -33,7 +35,7 @@ inline std::string file_name_problem(std::string_view name) {
   if (name.empty()) return "is empty";
   if (name.find('/') != std::string_view::npos) return "holds a '/' (a path, not a file's name)";
   if (name.front() == '.') return "starts with a '.' (a folder above, or a hidden file)";
-  if (std::any_of(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
+  if (has_control_character(name))
     return "holds a control character (a line break, a tab?)";
   return "";
 }

@@ -202,7 +202,7 @@ GateBaselines read_gate_baselines(const std::string& path) {
     GateCase g;
     g.name = text(c["name"], path, k + "name");
     // The name is what --case selects and what the verdict's lines start with.
-    if (g.name.empty() || std::any_of(g.name.begin(), g.name.end(), [](unsigned char ch) { return ch < 0x20 || ch == 0x7f; }))
+    if (g.name.empty() || has_control_character(g.name))
       throw InputError(path + ": key '" + k + "name': expected a name of printable characters, got '" + g.name +
                        "'");
     for (const GateCase& other : b.cases)

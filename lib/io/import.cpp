@@ -672,8 +672,7 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
   }
   // A device's rate between the samples, and gaps in the logging that pull the mean down: the
   // times are in seconds (check_log_gaps names the gaps).
-  if (const std::optional<LogGaps> g = find_log_gaps(rec.t); g && g->median > 0 && 1 / g->median >= kMinPlausibleLogRateHz)
-    return "";
+  if (const double median = median_interval(rec.t); median > 0 && 1 / median >= kMinPlausibleLogRateHz) return "";
   const TimeUnit unit = likely_time_unit(rec.rate_hz);
   return times + ": the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
          (unit.name ? std::string(": the times look like ") + unit.name + " (" + num(unit.rate_hz) + " Hz): import " +

@@ -33,7 +33,7 @@ namespace {
 void check_output_location(const std::string& path) {
   // A line break in a name would split every line that names the file (its warnings, the
   // summary, a sweep's report): no one means one (InputError escapes it in this message).
-  if (std::any_of(path.begin(), path.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
+  if (has_control_character(path))
     throw InputError(path + ": the output's name holds a control character (a line break, a tab?): name it otherwise");
   // The shell's "standard output": no command writes its file there (a file named '-' is ./-).
   if (path == "-") throw InputError("-: an output is a file (standard output is not one here): name a file, ./- for one named -");

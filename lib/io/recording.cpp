@@ -598,21 +598,26 @@ std::optional<std::string> check_recording_speed(const Recording& rec) {
   return std::string(line);
 }
 
+double median_interval(const std::vector<double>& t) {
+  if (t.size() < 3) return 0;
+  std::vector<double> dt(t.size() - 1);
+  for (std::size_t i = 0; i + 1 < t.size(); ++i) dt[i] = t[i + 1] - t[i];
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  return dt[dt.size() / 2];
+}
+
 std::optional<LogGaps> find_log_gaps(const std::vector<double>& t, const std::function<bool(std::size_t)>& still) {
   const std::size_t n = t.size();
   if (n < 3) return std::nullopt;
-  std::vector<double> dt(n - 1);
-  for (std::size_t i = 0; i + 1 < n; ++i) dt[i] = t[i + 1] - t[i];
   LogGaps g;
-  std::vector<double> sorted = dt;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-  g.median = sorted[sorted.size() / 2];
+  g.median = median_interval(t);
   const double bound = std::max(kLogGapFactor * g.median, 2.0 / kDeviceRateLowHz);
   double longest = 0;
   for (std::size_t i = 0; i + 1 < n; ++i) {
-    if (!(dt[i] > bound) || (still && still(i + 1))) continue;
+    const double dt = t[i + 1] - t[i];
+    if (!(dt > bound) || (still && still(i + 1))) continue;
     ++g.count;
-    if (dt[i] > longest) longest = dt[i], g.longest = i;
+    if (dt > longest) longest = dt, g.longest = i;
   }
   if (g.count == 0) return std::nullopt;
   return g;
@@ -634,12 +639,7 @@ std::optional<std::string> check_recording_gaps(const Recording& rec) {
 }
 
 std::optional<std::string> check_recording_rate(const Recording& rec) {
-  const std::size_t n = rec.t.size();
-  if (n < 3) return std::nullopt;
-  std::vector<double> d(n - 1);
-  for (std::size_t i = 0; i + 1 < n; ++i) d[i] = rec.t[i + 1] - rec.t[i];
-  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
-  const double median = d[d.size() / 2];
+  const double median = median_interval(rec.t);
   if (!(median > 0)) return std::nullopt;
   const double rate = 1 / median, ratio = rec.rate_hz / rate;
   char line[400];

@@ -184,6 +184,10 @@ std::optional<std::string> check_recording_speed(const Recording& rec);
 std::optional<std::string> check_recording_rate(const Recording& rec);
 inline constexpr double kRateMismatch = 50;
 
+/// The median interval between consecutive times (at least three; else 0): a device's sampling
+/// period, which gaps and holds leave be where the mean takes them in.
+double median_interval(const std::vector<double>& t);
+
 /// Gaps in a log's times (times increasing, at least three): intervals over kLogGapFactor times the
 /// median one and over two intervals of the slowest device (kDeviceRateLowHz, io/import.hpp): how
 /// many, the longest's index i (between samples i and i + 1) and the median interval; nullopt

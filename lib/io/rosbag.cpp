@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <optional>
 
 #include "core/error.hpp"
 #include "core/number_text.hpp"
@@ -724,10 +725,7 @@ class BagReader {
     if (c.tf && !frame_.empty()) {  // every tf topic's links: the frame's and those above it
       decode_tf(body, n, msg, c.cdr, [&](const std::string& parent_id, const std::string& child_id, BagPose p) {
         const std::string parent = frame_id(parent_id), child = frame_id(child_id);
-        const std::string link = parent + " -> " + child;
-        auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& l) { return l.first == link; });
-        if (seen == frames_.end()) frames_.emplace_back(link, 1);
-        else ++seen->second;
+        count_link(parent, child);
         p.t.record = record_t;
         if (child == frame_) {
           if (!c.pose) return;  // another tf topic than the one --topic names
@@ -746,10 +744,7 @@ class BagReader {
       });
     } else if (c.tf) {
       decode_tf(body, n, msg, c.cdr, [&](const std::string& parent, const std::string& child, BagPose) {
-        const std::string link = frame_id(parent) + " -> " + frame_id(child);
-        auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& l) { return l.first == link; });
-        if (seen == frames_.end()) frames_.emplace_back(link, 1);
-        else ++seen->second;
+        count_link(frame_id(parent), frame_id(child));
       });
     } else if (c.pose) {
       BagPose p = decode_pose(c.type, body, n, msg, c.cdr);
@@ -850,24 +845,25 @@ class BagReader {
     contents_.frame_chain.assign(up.rbegin(), up.rend());
     contents_.links.push_back({frame_parent_, frame_, contents_.poses.size(), false});
     // Each link above, held or sorted by time for the lookups.
+    std::vector<bool> held(above.size());
     for (std::size_t k = 0; k < above.size(); ++k) {
       TfLink& l = *above[k];
       std::stable_sort(l.transforms.begin(), l.transforms.end(),
                        [](const BagPose& a, const BagPose& b) { return lookup_time(a.t) < lookup_time(b.t); });
-      contents_.links.insert(contents_.links.begin(),
-                             {l.parent, up[k + 1], l.transforms.size(), !l.dynamic || l.transforms.size() == 1});
+      held[k] = !l.dynamic || l.transforms.size() == 1;
+      contents_.links.insert(contents_.links.begin(), {l.parent, up[k + 1], l.transforms.size(), held[k]});
     }
+    const auto link_name = [&](std::size_t k) { return above[k]->parent + " -> " + up[k + 1]; };
     std::vector<BagPose> kept;
     kept.reserve(contents_.poses.size());
-    std::string outside;  // the first link a pose fell outside of
+    std::optional<std::size_t> outside;  // the first link a pose fell outside of
     for (const BagPose& p : contents_.poses) {
       const double t = lookup_time(p.t);
       BagPose x = p;
       bool inside = true;
       for (std::size_t k = 0; k < above.size() && inside; ++k) {
         const std::vector<BagPose>& tr = above[k]->transforms;
-        const bool held = contents_.links[above.size() - 1 - k].held;
-        if (held) {
+        if (held[k]) {
           x = compose(tr.back(), x);
           continue;
         }
@@ -875,7 +871,7 @@ class BagReader {
                                            [](double v, const BagPose& b) { return v < lookup_time(b.t); });
         if (next == tr.begin() || (next == tr.end() && t > lookup_time(tr.back().t))) {
           inside = false;
-          if (outside.empty()) outside = above[k]->parent + " -> " + up[k + 1];
+          if (!outside) outside = k;
           break;
         }
         const BagPose& a = *(next - 1);
@@ -895,17 +891,22 @@ class BagReader {
       const auto span = [](const std::vector<BagPose>& v) {
         return fixed_text(lookup_time(v.front().t), 4) + " .. " + fixed_text(lookup_time(v.back().t), 4) + " s";
       };
-      const TfLink* l = nullptr;
-      for (std::size_t k = 0; k < above.size(); ++k)
-        if (above[k]->parent + " -> " + up[k + 1] == outside) l = above[k];
       throw InputError(path_ + ": --frame " + frame_ + ": none of its " + std::to_string(contents_.poses.size()) +
-                       " transforms (" + span(contents_.poses) + ") is within the times of " + outside + "'s (" +
-                       span(l->transforms) + ") to compose them with" +
+                       " transforms (" + span(contents_.poses) + ") is within the times of " + link_name(*outside) +
+                       "'s (" + span(above[*outside]->transforms) + ") to compose them with" +
                        (root_frame_.empty() ? std::string(" (--root-frame " + frame_parent_ + " keeps them in " +
                                                           frame_parent_ + ")")
                                             : std::string()));
     }
     contents_.poses = std::move(kept);
+  }
+
+  /// Counts a transform of the link parent -> child (frames_, listed where a request names none).
+  void count_link(const std::string& parent, const std::string& child) {
+    const std::string link = parent + " -> " + child;
+    auto seen = std::find_if(frames_.begin(), frames_.end(), [&](const auto& l) { return l.first == link; });
+    if (seen == frames_.end()) frames_.emplace_back(link, 1);
+    else ++seen->second;
   }
 
   std::string topic_type(const std::string& name) const {

@@ -99,7 +99,7 @@ SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
   plan.scene = r.string(root["scene"], "scene");
   if (plan.scene.find_first_not_of(" \t") == std::string::npos)
     r.fail(root["scene"], "scene", "expected a scene's name or path, got nothing (a recording names its scene)");
-  if (std::any_of(plan.scene.begin(), plan.scene.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
+  if (has_control_character(plan.scene))
     r.fail(root["scene"], "scene", "'" + escape_unprintable(plan.scene) + "' holds a control character (a line break?): "
                                    "no scene's name or path does");
   // A scene is a YAML file: a recording or a mesh named here would be stored as the scene.

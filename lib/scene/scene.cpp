@@ -43,9 +43,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// A name to look for in the data folders ("tube"), not a path: no folder and no extension.
-bool is_data_name(const std::string& s) { return s.find('/') == std::string::npos && fs::path(s).extension().empty(); }
-
 /// Why `p` is not a file to read: "file not found", "is a folder, not a file", "is not a regular
 /// file" (a device, a pipe) or "cannot be opened: " and the OS reason where it cannot be looked
 /// up (a symbolic link that loops, a folder that may not be searched); empty when it is one.
@@ -1678,6 +1675,8 @@ bool derived_scene_name(const std::string& name, const std::string& base) {
       return true;
   return false;
 }
+
+bool is_data_name(const std::string& s) { return s.find('/') == std::string::npos && fs::path(s).extension().empty(); }
 
 fs::path resolve_data_path(const std::string& name_or_path, const std::string& folder, const std::string& extension,
                            const std::string& what) {

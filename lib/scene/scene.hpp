@@ -618,6 +618,9 @@ std::string data_reference_from(const std::string& given, const std::filesystem:
 std::string scene_attribute_from(const std::string& given, const std::filesystem::path& folder,
                                  const std::filesystem::path& output);
 
+/// A name to look for in the data folders ("tube"), not a path: no folder and no extension.
+bool is_data_name(const std::string& s);
+
 /// The same lookup for any data folder: NAME (no '/', no extension) finds FOLDER/NAME+EXTENSION in
 /// $EBH_DATA_DIR, the working directory and the source tree; anything else must be an existing
 /// file. `what` names the thing in messages ("scene", "recording").

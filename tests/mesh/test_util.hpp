@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -22,6 +23,26 @@ inline std::string slurp(const std::filesystem::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// The InputError of `read(p)` with the file `p` made unreadable (no permissions), then readable
+/// again; nullopt where the file opens all the same (as root), where the test has nothing to check.
+template <class Read>
+std::optional<std::string> error_when_unreadable(const std::filesystem::path& p, Read read) {
+  namespace fs = std::filesystem;
+  fs::permissions(p, fs::perms::none);
+  const bool opens = static_cast<bool>(std::ifstream(p));
+  std::string message = "no error";
+  if (!opens) {
+    try {
+      read(p);
+    } catch (const InputError& e) {
+      message = e.what();
+    }
+  }
+  fs::permissions(p, fs::perms::owner_read | fs::perms::owner_write);
+  if (opens) return std::nullopt;
+  return message;
 }
 
 /// A block of `size` x `size` x size/5 in 1200 tets (10 x 10 x 2 cells) with a speck of 6 tets, a

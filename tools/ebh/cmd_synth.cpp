@@ -46,7 +46,7 @@ void run(const SynthArgs& a) {
   }
   // A name is stored as it is (the data folders at replay time may hold it), but one found in none
   // of today's is likely misspelt: said, not refused.
-  if (scene.find('/') == std::string::npos && std::filesystem::path(scene).extension().empty()) try {
+  if (ebh::is_data_name(scene)) try {
       (void)ebh::resolve_scene_path(scene);
     } catch (const ebh::InputError& e) {
       std::fprintf(stderr, "ebh: warning: %s%s: scene: %s; the recording names it all the same\n", a.plan.c_str(),

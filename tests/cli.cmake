@@ -613,6 +613,11 @@ if(EBH_HAVE_OSMESA)
       -P ${EBH_EXPECT_ERROR})
   set_tests_properties(cli.render.bad_camera cli.render.bad_size cli.render.huge_size cli.render.video_without_ffmpeg
     cli.render.write_fails PROPERTIES FIXTURES_REQUIRED render_tube LABELS "cli;render")
+  # The frames of `ebh replay --render` fail after the replay (a full disk): the previous output
+  # stays too (it was replaced, and the previous frames then belonged to no output).
+  add_test(NAME cli.render.fails_after_the_replay
+    COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/render/render_fails_after_replay.sh ${EBH_BIN} ${EBH_RENDER_OUT}/full_disk)
+  set_tests_properties(cli.render.fails_after_the_replay PROPERTIES SKIP_RETURN_CODE 77 LABELS "cli;render")
 else()
   add_test(NAME cli.render.no_osmesa
     COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};render;${EBH_RENDER_OUT}/tube.h5;-o;${EBH_RENDER_OUT}/frames"

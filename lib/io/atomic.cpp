@@ -200,6 +200,11 @@ void sync_directory(const fs::path& dir) {
 }  // namespace
 
 int remove_on_interrupt(const std::string& path) { return register_temp(path); }
+bool is_own_temporary(const std::string& path) {
+  for (int i = 0; i < kSlots; ++i)
+    if (g_used[i].load() == 2 && path == g_paths[i]) return true;
+  return false;
+}
 void keep_on_interrupt(int slot) { unregister_temp(slot); }
 
 
@@ -399,12 +404,15 @@ void AtomicOutput::fail(const std::string& what, int err) const {
 
 void AtomicOutput::commit() {
   if (committed_) return;
-  if (interrupted()) {
-    discard();
-    throw InputError(final_ + ": interrupted; nothing written");
-  }
+  stop_if_interrupted();
   sync();
   rename_into_place();
+}
+
+void AtomicOutput::stop_if_interrupted() {
+  if (committed_ || !interrupted()) return;
+  discard();
+  throw InputError(final_ + ": interrupted; nothing written");
 }
 
 void AtomicOutput::sync() {

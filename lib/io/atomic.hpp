@@ -45,6 +45,10 @@ std::size_t remove_stale_partials(const std::string& final_path);
 int remove_on_interrupt(const std::string& path);
 /// Unregisters a slot of remove_on_interrupt (the owner removed the path, or keeps it).
 void keep_on_interrupt(int slot);
+/// Whether `path` is (as written) the temporary of an output this process is writing: the one
+/// input of kPartialSuffix's name a reader accepts (`ebh replay --render` renders the finished
+/// replay output before it takes the previous one's place).
+bool is_own_temporary(const std::string& path);
 
 /// strerror(err): the operating system's reason ("No space left on device").
 std::string os_reason(int err);
@@ -88,6 +92,9 @@ class AtomicOutput {
   /// between the renames). Each throws as commit() does.
   void sync();
   void rename_into_place();
+  /// commit()'s interrupt check: after an interrupt, removes the temporary and throws InputError
+  /// "FINAL: interrupted; nothing written".
+  void stop_if_interrupted();
   /// Removes the temporary file now (also done by the destructor when not committed).
   void discard();
   /// Throws InputError "FINAL: WHAT: OS reason" (err = an errno value; 0 leaves the reason out).

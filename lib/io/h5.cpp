@@ -701,8 +701,16 @@ AtomicFile::~AtomicFile() {
 }
 
 void AtomicFile::commit() {
-  file_.close();
-  out_.commit();
+  close_and_sync();
+  publish();
 }
+
+void AtomicFile::close_and_sync() {
+  file_.close();
+  out_.stop_if_interrupted();
+  out_.sync();
+}
+
+void AtomicFile::publish() { out_.rename_into_place(); }
 
 }  // namespace ebh::h5

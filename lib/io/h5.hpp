@@ -298,6 +298,14 @@ class AtomicFile {
   /// the temporary, leaving a previous OUT as it was) when a write fails, the run was interrupted
   /// or the rename fails.
   void commit();
+  /// The two halves of commit(), for an output read back before it takes the previous one's place
+  /// (`ebh replay --render` renders its frames from it): close_and_sync() closes the file (every
+  /// write checked) and syncs it under temp_path(), throwing as commit() does; publish() renames
+  /// it into place whatever signal arrived since (the frames rendered from it are in place by then),
+  /// throwing when the rename fails.
+  void close_and_sync();
+  void publish();
+  const std::string& temp_path() const { return out_.temp_path(); }
 
  private:
   AtomicOutput out_;

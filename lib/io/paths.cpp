@@ -71,7 +71,7 @@ void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleF
 
 void check_input_file(const std::string& path) {
   if (path.empty()) throw InputError("an input file name is empty");
-  if (is_partial_output(path)) throw InputError(partial_input_message(path));
+  if (is_partial_output(path) && !is_own_temporary(path)) throw InputError(partial_input_message(path));
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) {
     const int err = errno;

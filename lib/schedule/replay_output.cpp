@@ -428,6 +428,11 @@ double ReplayWriter::active_mean() const { return region_mean(active_); }
 double ReplayWriter::awake_mean() const { return region_mean(awake_); }
 
 void ReplayWriter::commit(const ReplaySummary& s) {
+  finish(s);
+  publish();
+}
+
+void ReplayWriter::finish(const ReplaySummary& s) {
   h5::File& f = out_.file();
   const std::size_t n = t_.size(), k = pt_.size();
   // Every dataset carries its unit (SI; docs/FORMATS.md).
@@ -472,7 +477,7 @@ void ReplayWriter::commit(const ReplaySummary& s) {
   f.set_attr("steps", static_cast<std::int64_t>(s.steps));
   f.set_attr("virtual_s", s.virtual_s);
   f.set_attr("wall_s", s.wall_s);
-  out_.commit();
+  out_.close_and_sync();
 }
 
 }  // namespace ebh

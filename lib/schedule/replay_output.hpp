@@ -87,6 +87,11 @@ class ReplayWriter : public ReplayObserver {
 
   /// Writes the buffered datasets and the summary attributes, then renames the file into place.
   void commit(const ReplaySummary& summary);
+  /// commit() in two halves: finish() writes and syncs the file under temp_path(), where it can be
+  /// read (the frames of `ebh replay --render` are rendered from it); publish() renames it into place.
+  void finish(const ReplaySummary& summary);
+  void publish() { out_.publish(); }
+  const std::string& temp_path() const { return out_.temp_path(); }
 
   // What was recorded so far, for the end-of-run summary.
   double peak_force() const { return peak_force_; }

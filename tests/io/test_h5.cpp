@@ -330,6 +330,28 @@ TEST(Atomic, CommitRenamesIntoPlaceReplacingAnOldFile) {
   EXPECT_EQ(tmp.entries(), 1u);
 }
 
+// close_and_sync() then publish(): the finished output is read back under its temporary name
+// before it replaces the previous file (`ebh replay --render`); another temporary of the same
+// kind, which no output of this process writes, stays refused as an input.
+TEST(Atomic, FinishedOutputIsReadBeforeItIsPublished) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "out.h5";
+  h5::AtomicFile(path).commit();  // the previous output, without "x"
+  const std::string stranger = tmp / ("other.h5" + std::string(kPartialSuffix));
+  std::fclose(std::fopen(stranger.c_str(), "w"));
+  {
+    h5::AtomicFile out(path);
+    out.file().write<double>("x", std::vector<double>{1, 2}, {2});
+    out.close_and_sync();
+    EXPECT_EQ(h5::File::open_read(out.temp_path()).read<double>("x").data, (std::vector<double>{1, 2}));
+    EXPECT_FALSE(h5::File::open_read(path).has("x"));  // the previous output is still in place
+    EXPECT_INPUT_ERROR(h5::File::open_read(stranger), "other.h5", "an unfinished output of ebh");
+    out.publish();
+  }
+  EXPECT_EQ(h5::File::open_read(path).read<double>("x").data, (std::vector<double>{1, 2}));
+  EXPECT_INPUT_ERROR(h5::File::open_read(path + std::string(kPartialSuffix)), "an unfinished output of ebh");
+}
+
 TEST(Atomic, InterruptedCommitWritesNothing) {
   test::ScratchDir tmp;
   const std::string path = tmp / "out.h5";

@@ -204,7 +204,8 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
 }
 
 /// After the replay: its output committed (unless it was stopped), then its warnings and summary.
-void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& s) {
+void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& s,
+                   OffscreenRenderer* renderer = nullptr) {
   const World& world = *p.in.world;
   ReplayWriter& writer = *p.writer;
   // How far it got: of a long replay, the time lost.
@@ -213,7 +214,11 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
     std::snprintf(far, sizeof far, "after %.3g of %.3g s", s.virtual_s, replayed_seconds(p.ticks, world.h_haptic));
     throw InputError(a.out + ": interrupted " + far + "; no output written");
   }
-  writer.commit(s);
+  // --render: the frames are rendered from the finished output before it replaces the previous one,
+  // and take the previous frames' place just before it does.
+  writer.finish(s);
+  if (renderer) render_after_replay(writer.temp_path(), a.out, a.render_dir, *renderer);
+  writer.publish();
   // A time of the replay (its /haptic/t and /physical/t count from the window's start), and where
   // that is in the recording when the window starts later.
   const auto at = [&a](double t) { return replay_time_text(t, a.start); };
@@ -543,8 +548,7 @@ void run_replay(const ReplayArgs& a) {
   Tee tee(*p.writer, progress);
   const ReplaySummary s = replay(*p.in.world, p.in.recording, p.opt, tee);
   progress.finish();
-  finish_replay(a, p, s);
-  if (renderer) render_after_replay(a.out, a.render_dir, *renderer);
+  finish_replay(a, p, s, renderer.get());
 }
 
 /// The options of one replay, on `ebh replay` and on each line of a --batch file.

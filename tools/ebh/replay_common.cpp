@@ -41,20 +41,25 @@ std::unique_ptr<OffscreenRenderer> start_render_after_replay(const std::string& 
   }
 }
 
-void render_after_replay(const std::string& replay_file, const std::string& dir, OffscreenRenderer& renderer) {
+void render_after_replay(const std::string& finished, const std::string& out, const std::string& dir,
+                         OffscreenRenderer& renderer) {
+  // The frames are read from the finished output under its temporary name: messages name it OUT.
+  const auto named = [&](std::string text) {
+    for (std::size_t at = 0; !finished.empty() && (at = text.find(finished, at)) != std::string::npos; at += out.size())
+      text.replace(at, finished.size(), out);
+    return text;
+  };
   RenderSummary s;
   try {
-    s = render_replay(replay_file, dir, RenderOptions{}, &renderer);
+    s = render_replay(finished, dir, RenderOptions{}, &renderer);
   } catch (const InputError& e) {
-    // The replay's output is written by then: an interrupt or a failed frame (a full disk) stops
-    // the frames only, and says so.
+    // The output has not replaced the previous one yet: a render cut short by an interrupt or a
+    // failed frame (a full disk) leaves both the previous output and the previous frames.
     if (interrupted())
-      throw InputError(dir + ": interrupted while rendering: no frames written (the replay's output " + replay_file +
-                       " and its index are written)");
-    throw InputError(std::string(e.what()) + " (the replay's output " + replay_file + " and its index are written: `ebh render " +
-                     replay_file + " -o DIR` renders them)");
+      throw InputError(dir + ": interrupted while rendering: nothing written (" + out + " and the frames are as they were)");
+    throw InputError(named(e.what()) + " (nor is the replay's output written: " + out + " is as it was)");
   }
-  for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
+  for (const auto& w : s.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(named(w)).c_str());
 }
 
 namespace {

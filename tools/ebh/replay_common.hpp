@@ -17,8 +17,11 @@ void check_backend(const std::string& backend);
 std::unique_ptr<OffscreenRenderer> start_render_after_replay(const std::string& dir);
 
 /// `ebh replay --render DIR`: renders the replay's frames like `ebh render OUT -o DIR`, with the
-/// renderer start_render_after_replay made.
-void render_after_replay(const std::string& replay_file, const std::string& dir, OffscreenRenderer& renderer);
+/// renderer start_render_after_replay made, from `finished`: the output OUT written and synced but
+/// not yet renamed into place (ReplayWriter::finish), so that a render that fails leaves the previous
+/// output with the previous frames. Messages name OUT.
+void render_after_replay(const std::string& finished, const std::string& out, const std::string& dir,
+                         OffscreenRenderer& renderer);
 
 /// After `ebh replay` committed its output: when it holds frames, writes OUT.xdmf beside it (the
 /// ParaView index of the mesh snapshots, render/xdmf.hpp); otherwise does nothing.

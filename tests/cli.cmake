@@ -127,11 +127,19 @@ set_tests_properties(cli.import.drop_all PROPERTIES PASS_REGULAR_EXPRESSION
 file(WRITE ${EBH_IO_OUT}/ms.csv "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,0,0,0.001,1,0,0,0\n2,0,0,0.002,1,0,0,0\n")
 add_test(NAME cli.import.times_in_ms COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms.h5)
 set_tests_properties(cli.import.times_in_ms PROPERTIES PASS_REGULAR_EXPRESSION
-  "ebh: warning: .*ms.csv: column t: the times give 1 Hz \\(3 samples over 2 s\\), below 10 Hz; a device logs at 100 Hz to 10 kHz: the times look like milliseconds \\(1000 Hz\\): import again with --time-unit ms")
+  "ebh: warning: .*ms.csv: column t: the times give 1 Hz \\(a median interval of 1 s between 3 samples over 2 s\\), below 10 Hz; a device logs at 100 Hz to 10 kHz: the times look like milliseconds \\(1000 Hz\\): import again with --time-unit ms")
 # ... which --time-unit ms reads as such.
 add_test(NAME cli.import.time_unit_ms COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms_read.h5 --time-unit ms)
 set_tests_properties(cli.import.time_unit_ms PROPERTIES PASS_REGULAR_EXPRESSION "ms_read.h5: 3 samples, 0.002 s, 1000 Hz"
   FAIL_REGULAR_EXPRESSION "warning")
+# The rate of a log with a gap (the logger missed 997 ms) is its median interval's, 1000 Hz, not
+# the mean's over the span (6 intervals over 1.002 s: 5.99 Hz, below any device's).
+file(WRITE ${EBH_IO_OUT}/gap.csv "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0.001,0,0,0.001,1,0,0,0\n0.002,0,0,0.002,1,0,0,0\n"
+  "0.003,0,0,0.003,1,0,0,0\n1,0,0,0.004,1,0,0,0\n1.001,0,0,0.005,1,0,0,0\n1.002,0,0,0.006,1,0,0,0\n")
+add_test(NAME cli.import.rate_across_a_gap COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/gap.csv -o ${EBH_IO_OUT}/gap.h5)
+set_tests_properties(cli.import.rate_across_a_gap PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "gap.h5: 7 samples, 1.002 s, 1000 Hz, tool hook\n"
+  FAIL_REGULAR_EXPRESSION "below 10 Hz")
 # With --scene the recording's tool is the scene's; a --tool that differs is recorded, with a warning.
 add_test(NAME cli.import.scene_tool
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/sample_openhaptics.txt -o ${EBH_IO_OUT}/scene_tool.h5 --scene tube_forceps)
@@ -172,7 +180,12 @@ add_test(NAME cli.metrics.recording_not_replay
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.metrics.fft_window_huge
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;4294967296"
-    "-DEXPECT=^ebh: error: --fft-window: 4294967296 is over 1048576 ticks" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+    "-DEXPECT=^ebh: error: --fft-window: expected a whole number in \\[2, 1048576\\], got '4294967296'"
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# The help gives the limit the option checks (it said 2^40).
+add_test(NAME cli.metrics.fft_window_help COMMAND ${EBH_BIN} metrics --help)
+set_tests_properties(cli.metrics.fft_window_help PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "--fft-window UINT:in \\[2, 1048576\\]" FAIL_REGULAR_EXPRESSION "1099511627776")
 add_test(NAME cli.metrics.fft_window_short
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;32"
     "-DEXPECT=^ebh: error: --fft-window: 32 ticks is below 64 \\(64 ms at the output's 1000 Hz\\), the shortest window whose bins place 30 Hz"
@@ -228,7 +241,7 @@ set_tests_properties(cli.scene.info_of_a_mesh cli.replay.recording_as_scene PROP
 # A count given as a fraction, beyond its type or below 1 is one line naming the option and its
 # range (CLI11: "Could not convert: --every = 1.5", or a 300-digit bound).
 foreach(case "render;${EBH_METRICS_DATA}/press.h5;-o;${PROJECT_BINARY_DIR}/never_rendered;--every;1.5|--every: expected a whole number in \\[1, 2147483647\\], got '1\\.5'"
-             "metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;1e30|--fft-window: expected a whole number in \\[2, 1099511627776\\], got '1e30'"
+             "metrics;${EBH_METRICS_DATA}/press.h5;--fft-window;1e30|--fft-window: expected a whole number in \\[2, 1048576\\], got '1e30'"
              "bench;sizes;--max-tets;-5|--max-tets: expected a whole number in \\[1, 9223372036854775807\\], got '-5'"
              "replay;tube;tube_insert;-o;${PROJECT_BINARY_DIR}/never_replayed.h5;--haptic-threads;2.5|--haptic-threads: expected a whole number in \\[1, 4096\\], got '2\\.5'")
   string(REPLACE "|" ";" parts "${case}")

@@ -650,8 +650,8 @@ TimeUnit likely_time_unit(double rate_hz) {
 // bag's "the messages' times").
 std::string check_log_rate(const Recording& rec, bool has_t, const std::string& path, const std::string& times) {
   const std::string band = "a device logs at " + num(kDeviceRateLowHz) + " Hz to " + num(kDeviceRateHighHz / 1e3) + " kHz";
-  const std::string span = num(rec.rate_hz) + " Hz (" + std::to_string(rec.size()) + " samples over " +
-                           num(rec.duration()) + " s)";
+  const std::string span = num(rec.rate_hz) + " Hz (a median interval of " + num(1 / rec.rate_hz) + " s between " +
+                           std::to_string(rec.size()) + " samples over " + num(rec.duration()) + " s)";
   if (has_t && rec.rate_hz > kMaxSampleRateHz)
     throw InputError(path + ": " + times + ": the times give " + span + ", beyond the " + num(kMaxSampleRateHz / 1e3) +
                      " kHz limit of a recording's rate (" + band + "): t must be in seconds");
@@ -670,9 +670,6 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
     return "--rate " + num(rec.rate_hz) + " Hz is below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
            (khz >= kDeviceRateLowHz && khz <= kDeviceRateHighHz ? " (the rate is in Hz: --rate " + num(khz) + "?)" : "");
   }
-  // A device's rate between the samples, and gaps in the logging that pull the mean down: the
-  // times are in seconds (check_log_gaps names the gaps).
-  if (const double median = median_interval(rec.t); median > 0 && 1 / median >= kMinPlausibleLogRateHz) return "";
   const TimeUnit unit = likely_time_unit(rec.rate_hz);
   return times + ": the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
          (unit.name ? std::string(": the times look like ") + unit.name + " (" + num(unit.rate_hz) + " Hz): import " +
@@ -735,13 +732,26 @@ LogFormat log_format_of(const std::string& path) {
 
 double nominal_rate(const std::vector<double>& t) {
   const double span = t.back() - t.front();
-  const double rate = static_cast<double>(t.size() - 1) / span;
-  const double whole = std::round(rate);
-  // Times counted from an epoch carry |t| 2^-52 s of round-off at each end of the span: a 10 kHz
-  // log in Unix time gave 9999.99999 Hz. The relative error that leaves in the rate, or 1e-9.
+  // The device's period is the median interval, as the rate checks take it: a gap where the logger
+  // missed samples (1 s in a 1 kHz log of 1.4 s gave 285 Hz as the mean) and a hold leave it be.
+  // Two samples have one interval.
+  const double period = t.size() >= 3 ? median_interval(t) : span;
+  // Times counted from an epoch carry |t| 2^-52 s of round-off at each end of an interval (a
+  // 10 kHz log in Unix time gave 9999.99999 Hz over its span, and single intervals of 419 or 420
+  // units of 2.4e-7 s): the relative error that leaves in a rate over `over` seconds, or 1e-9.
   const double newest = std::max(std::fabs(t.front()), std::fabs(t.back()));
-  const double tolerance = std::max(1e-9, 4 * std::numeric_limits<double>::epsilon() * newest / span);
-  return whole > 0 && std::fabs(rate - whole) <= tolerance * whole ? whole : rate;
+  const auto tolerance = [newest](double over) {
+    return std::max(1e-9, 4 * std::numeric_limits<double>::epsilon() * newest / over);
+  };
+  double rate = 1 / period, within = tolerance(period);
+  // Where the mean rate over the span is the same number to the period's round-off (a log with no
+  // gap), it is taken: its round-off is the span's, not one interval's.
+  if (const double mean = static_cast<double>(t.size() - 1) / span; std::fabs(mean - rate) <= within * rate) {
+    rate = mean;
+    within = tolerance(span);
+  }
+  const double whole = std::round(rate);
+  return whole > 0 && std::fabs(rate - whole) <= within * whole ? whole : rate;
 }
 
 std::pair<double, double> parse_jaw_range(const std::string& text) {
@@ -849,9 +859,9 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
     rec.description += std::string("; a left-handed log, its ") + static_cast<char>('x' + *opt.mirror) + " axis reversed";
   if (opt.transforms.tool) rec.description += "; tool transform " + describe(*opt.transforms.tool) + " applied";
   if (opt.transforms.world) rec.description += "; world transform " + describe(*opt.transforms.world) + " applied";
-  // The rate as given, or as the log's own times say (of every sample, repeats included).
+  // The rate as given; with times, the rate they give replaces it once the validator has them
+  // increasing (below).
   rec.rate_hz = rate_hz;
-  if (has_t && rec.size() >= 2 && rec.t.back() > rec.t.front()) rec.rate_hz = nominal_rate(rec.t);
   // --jaw-range maps the log's jaw values; a CSV log without a jaw column has none (its samples
   // are open), which the range would have mapped to a value of its own (0,255: closed).
   if (opt.jaw_button && opt.jaw_range) throw InputError("--jaw-button and --jaw-range: the jaw comes from one of them");
@@ -899,6 +909,8 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   }
   // Validated before repeats are dropped, so an error names the log's own line.
   validate_recording(rec, path, [&](std::string_view, std::size_t i) { return where(i); });
+  // The rate the log's own times say (of every sample, repeats included): its median interval's.
+  if (has_t) rec.rate_hz = nominal_rate(rec.t);
   const std::string times = bag ? "the messages' times" : "column t";
   const std::string rate_warning = check_log_rate(rec, has_t, path, times);
   // On unit quaternions (the validator normalised them); turning every sample by the same

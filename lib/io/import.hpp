@@ -10,7 +10,7 @@
 // csv: a header naming the columns (any order): t, x, y, z, qw, qx, qy, qz, jaw, buttons; fields
 //   separated by a comma (blanks around it included) or by a run of spaces or tabs;
 //   x, y, z and the quaternion are required, t optional (else i / rate_hz), jaw defaults to 1,
-//   buttons to 0. With t, the recording's rate_hz is (samples - 1) / span (nominal_rate).
+//   buttons to 0. With t, the recording's rate_hz is 1 / the median interval (nominal_rate).
 // rosbag: a ROS 1 bag (`rosbag record`, io/rosbag.hpp): the messages of one pose topic (--topic;
 //   by default the bag's only one; with --frame, the transforms to that frame in a tf topic),
 //   positions in metres, times from the messages' header stamps
@@ -151,10 +151,13 @@ LogFormat log_format_of(const std::string& path);
 /// Reads a log; errors name the file and line ("log.txt:17: ..."). `report`, when given, is filled.
 Recording import_log(const std::string& path, const ImportOptions& opt, ImportReport* report = nullptr);
 
-/// The nominal rate of samples at times t (at least two, increasing): intervals over span,
-/// (n - 1) / (t_last - t_first), rounded to the whole number when within 1e-9 of it relatively
-/// (or within the round-off of times counted from an epoch: 4 eps |t| / span), so a log at 1 kHz
-/// gives 1000, not 999.9999999999991, and one at 10 kHz in Unix time 10000, not 9999.99999.
+/// The nominal rate of samples at times t (at least two, increasing): 1 / the median interval
+/// (median_interval, io/recording.hpp; two samples: their one interval), which gaps in the logging
+/// and holds leave be where the mean, (n - 1) / (t_last - t_first), takes them in. Where the mean
+/// is the same number to the median interval's round-off (no gap), the mean, whose round-off is
+/// the span's. Rounded to the whole number when within 1e-9 of it relatively (or within the
+/// round-off of times counted from an epoch: 4 eps |t| over the interval or the span), so a log at
+/// 1 kHz gives 1000, not 999.9999999999991, and one at 10 kHz in Unix time 10000, not 9999.99999.
 double nominal_rate(const std::vector<double>& t);
 
 /// Parses "--jaw-range CLOSED,OPEN": two finite, different numbers; throws InputError naming the option.

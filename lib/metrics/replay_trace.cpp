@@ -229,6 +229,25 @@ std::vector<Vec3d> vec3s(const std::vector<double>& rows) {
   return out;
 }
 
+/// Every quaternion of a pose dataset is a rotation: (0, 0, 0, 0), or components so small that
+/// their squares underflow, has no direction, normalises to NaN, and made the stretch angle and
+/// the rotational passivity observer NaN with every sample finite (finite: true, the angles null).
+/// No replay writes one: the virtual tool's orientation is normalised every Newton step, and a
+/// diverged one is NaN. A corrupt or edited file, refused naming the row as a finite value beyond
+/// kMaxReplayValue is; a non-finite component is compute_metrics' to count.
+void rotations(const Reader& in, const std::string& name, const std::vector<TracePose>& poses) {
+  const auto finite = [](Quatd r) {
+    return std::isfinite(r.w) && std::isfinite(r.x) && std::isfinite(r.y) && std::isfinite(r.z);
+  };
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const Quatd q = poses[i].q;
+    if (!finite(q) || finite(normalized(q))) continue;
+    in.fail(name, "holds the quaternion (" + shown_number(q.w) + ", " + shown_number(q.x) + ", " + shown_number(q.y) + ", " +
+                      shown_number(q.z) + ") at index " + std::to_string(i) +
+                      " (columns 3 to 6, qw qx qy qz), which is no rotation: no replay writes one (a corrupt or edited file)");
+  }
+}
+
 /// Times must increase (strictly) where finite; non-finite ones are left for compute_metrics to
 /// count.
 void increasing(const Reader& in, const std::string& name, const std::vector<double>& t) {
@@ -339,6 +358,8 @@ ReplayTrace load_replay(const std::string& path) {
   tr.force_clamped = *in.read<std::uint8_t>("/haptic/force_clamped", n, 0, H5T_NATIVE_UINT8, false);
   tr.pose_physical = poses(in.doubles("/haptic/pose_physical", n, 7));
   tr.pose_virtual = poses(in.doubles("/haptic/pose_virtual", n, 7));
+  rotations(in, "/haptic/pose_physical", tr.pose_physical);
+  rotations(in, "/haptic/pose_virtual", tr.pose_virtual);
   tr.penetration = in.doubles("/haptic/penetration", n);
   tr.penetration_physical = in.optional_doubles("/haptic/penetration_physical", n);
   tr.contacts = *in.read<std::int32_t>("/haptic/contacts", n, 0, H5T_NATIVE_INT32, false);

@@ -76,7 +76,8 @@ inline constexpr double kMaxReplayHapticHz = 100e3;
 /// Throws InputError ("FILE: dataset '/haptic/force': ...") for a missing file, a missing
 /// dataset or attribute, a wrong shape, a non-numeric dataset, a time axis that goes backwards or
 /// whose ticks are less than half a haptic period apart, a haptic rate above kMaxReplayHapticHz,
-/// or a finite value beyond kMaxReplayValue (naming the dataset and the index).
+/// a finite value beyond kMaxReplayValue, or a pose whose finite quaternion is no rotation (all
+/// zero: it normalises to NaN) (naming the dataset and the index).
 /// Non-finite values are kept: compute_metrics counts them.
 ReplayTrace load_replay(const std::string& path);
 

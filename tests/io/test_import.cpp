@@ -55,7 +55,7 @@ TEST(Import, CsvLogMatchesTheKnownTrajectory) {
   ImportOptions opt;
   Recording r = import_log(kData + "sample.csv", opt);  // default: m, t column
   expect_known(r, 5e-4);
-  EXPECT_EQ(r.rate_hz, 2000.0);  // 19 intervals over 9.5 ms, rounded: within 1e-9 of 2000
+  EXPECT_EQ(r.rate_hz, 2000.0);  // intervals of 0.5 ms, rounded: within 1e-9 of 2000
 }
 
 // A ROS CSV export (rostopic echo -p of a PoseStamped): its %time in nanoseconds as t, the pose's
@@ -479,6 +479,33 @@ TEST(Import, GapsInTheTimesAreNamed) {
   EXPECT_EQ(report.rate_warning, "") << "the rate between the samples is a device's";
 }
 
+// The recording's rate_hz is the device's, 1 / the median interval, as the rate checks take it:
+// a gap in the logging leaves it be (the mean over the span, which it pulled down, gave 285 Hz for
+// 1 s missing from a 1 kHz log of 1.4 s, and 0.14 Hz for an hour's).
+TEST(Import, TheRateOfALogWithAGapIsItsMedianIntervals) {
+  test::ScratchDir tmp;
+  ImportOptions opt;
+  ImportReport report;
+  std::string text = "t,x,y,z,qw,qx,qy,qz\n";
+  for (int i = 0; i < 400; ++i)
+    text += std::to_string(i < 200 ? i * 1e-3 : 1.0 + i * 1e-3) + ",0,0," + std::to_string(1e-5 * i) + ",1,0,0,0\n";
+  const Recording r = import_log(write_log(tmp / "second.csv", text), opt, &report);
+  EXPECT_NE(static_cast<double>(r.size() - 1) / r.duration(), 1000.0);
+  EXPECT_EQ(r.rate_hz, 1000.0);
+  EXPECT_EQ(r.rate_hz, nominal_rate(r.t));
+  EXPECT_NE(report.gap_warning.find("a gap of 1.001 s between lines 201 and 202"), std::string::npos) << report.gap_warning;
+  EXPECT_EQ(report.rate_warning, "");
+  // Written and read back: the attribute a replay's rate check compares with the times.
+  write_recording(tmp / "second.h5", r);
+  const Recording back = read_recording(tmp / "second.h5");
+  EXPECT_EQ(back.rate_hz, 1000.0);
+  EXPECT_EQ(check_recording_rate(back), std::nullopt);
+  text = "t,x,y,z,qw,qx,qy,qz\n";
+  for (int i = 0; i < 500; ++i)
+    text += std::to_string(i < 250 ? i * 1e-3 : 3600.0 + i * 1e-3) + ",0,0," + std::to_string(1e-5 * i) + ",1,0,0,0\n";
+  EXPECT_EQ(import_log(write_log(tmp / "hour.csv", text), opt).rate_hz, 1000.0);
+}
+
 // The separators the docs promise: a comma (blanks around it included) or a run of spaces or
 // tabs, in the header as in the rows; an empty cell between commas is named, not skipped. A
 // `.CSV` name is a CSV log; a CSV log under another name, read as OpenHaptics, says --format csv.
@@ -737,7 +764,11 @@ TEST(Import, NominalRateIsExactForWholeRates) {
   for (int i = 0; i <= 1000; ++i) t.push_back(0.001 * i);  // 1 kHz with the rounding of 0.001 i
   EXPECT_EQ(nominal_rate(t), 1000.0);
   EXPECT_EQ(nominal_rate({0.0, 0.3, 0.6}), 2 / 0.6);  // not near a whole number: kept as is
-  EXPECT_EQ(nominal_rate({0.0, 0.5, 1.0000001}), 2 / 1.0000001);  // 1e-7 off: not rounded
+  // 1e-7 off: not rounded; of two intervals the median is the longer (median_interval)
+  EXPECT_EQ(nominal_rate({0.0, 0.5, 1.0000001}), 1 / (1.0000001 - 0.5));
+  EXPECT_EQ(nominal_rate({0.0, 0.25}), 4.0);  // two samples: their one interval
+  // A gap: the median interval's rate, not the mean's (4 intervals over 1.003 s)
+  EXPECT_EQ(nominal_rate({0.0, 0.001, 0.002, 1.002, 1.003}), 1000.0);
   // 10 kHz in Unix time: the times' round-off (2.4e-7 s at 1.7e9 s) is the rate's, not a rate
   std::vector<double> unix_t;
   for (int i = 0; i <= 3336; ++i) unix_t.push_back(1.7e9 + 0.1 + i * 1e-4);  // 9999.99867 Hz from the span

@@ -520,6 +520,48 @@ TEST(ForceMetrics, ValuesNoReplayWritesAreRefusedNamingDatasetAndIndex) {
   EXPECT_DOUBLE_EQ(w.peak_force, std::sqrt(3.0) * kMaxReplayValue);
 }
 
+// A pose's quaternion that is no rotation, (0, 0, 0, 0) or too small to normalise, made the stretch
+// angle NaN (null) with finite: true. No replay writes one (a diverged run writes NaN, which is
+// counted): refused as bad input naming the file, the dataset and the row.
+TEST(ForceMetrics, AQuaternionThatIsNoRotationIsRefusedNamingDatasetAndRow) {
+  auto load_error = [](const ReplayTrace& tr, const std::string& name) -> std::string {
+    try {
+      load_replay(write_trace(tr, name));
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const ReplayTrace tr = make_trace(300);
+  ReplayTrace bad = tr;
+  bad.pose_virtual[42].q = {0, 0, 0, 0};
+  const std::string zero = load_error(bad, "zero_quat");
+  EXPECT_NE(zero.find("ebh_metrics_zero_quat.h5: dataset '/haptic/pose_virtual' holds the quaternion (0, 0, 0, 0) at "
+                      "index 42 (columns 3 to 6, qw qx qy qz), which is no rotation: no replay writes one (a corrupt or "
+                      "edited file)"),
+            std::string::npos)
+      << zero;
+  EXPECT_EQ(zero.find('\n'), std::string::npos) << zero;
+  bad = tr;
+  bad.pose_physical[7].q = {1e-170, 0, -1e-170, 0};  // its squares underflow to 0
+  EXPECT_NE(load_error(bad, "tiny_quat").find("'/haptic/pose_physical' holds the quaternion (1e-170, 0, -1e-170, 0) at index 7"),
+            std::string::npos)
+      << load_error(bad, "tiny_quat");
+  // A NaN component is a run that blew up: read and counted, the run not finite.
+  bad = tr;
+  bad.pose_virtual[42].q = {NAN, 0, 0, 0};
+  const ForceMetrics m = roundtrip(bad, "nan_quat");
+  EXPECT_FALSE(m.finite);
+  EXPECT_EQ(m.nonfinite_datasets, std::vector<std::string>{"/haptic/pose_virtual: 1"});
+  EXPECT_TRUE(std::isnan(m.whole.stretch_angle_max));
+  // A quaternion of another norm is still a rotation: normalised, as the metrics always did.
+  bad = tr;
+  bad.pose_virtual[42].q = {2, 0, 0, 0};
+  const ForceMetrics scaled = roundtrip(bad, "scaled_quat");
+  EXPECT_TRUE(scaled.finite);
+  EXPECT_EQ(scaled.whole.stretch_angle_max, 0.0);
+}
+
 // A contact that flickers every other tick, episodes not merged: every one counted, the metrics of
 // the first options.max_episodes kept and listed, saying how many more there were (a million
 // episodes' JSON took 5.8 GB).

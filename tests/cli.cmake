@@ -70,10 +70,11 @@ set_tests_properties(cli.import.bad_rotation cli.synth.bad_plan cli.synth.rate_b
   PROPERTIES LABELS cli)
 # A plan names a scene file relative to itself; the recording, written two folders further down,
 # names the same file relative to its own folder (where readers look; a name stays a name:
-# cli.synth.tube_insert), and a path that names no file is refused.
+# cli.synth.tube_insert), and a path that names no file is refused. The scene is read for its keys,
+# not its meshes (synth uses none).
 set(EBH_PLAN_SCENE ${EBH_IO_OUT}/plan_scene)
 file(MAKE_DIRECTORY ${EBH_PLAN_SCENE}/plans ${EBH_PLAN_SCENE}/mesh)
-file(WRITE ${EBH_PLAN_SCENE}/mesh/organ.yaml "# only its place matters to synth\n")
+file(WRITE ${EBH_PLAN_SCENE}/mesh/organ.yaml "# its mesh is made later\nmesh: {physical: organ.msh}\ntool: {kind: hook}\n")
 set(ebh_plan_waypoints "tool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 10], rotvec_deg: [180, 0, 0]}\n  - {t: 0.01, position_mm: [0, 0, 9]}\n")
 file(WRITE ${EBH_PLAN_SCENE}/plans/relative.yaml "scene: ../mesh/organ.yaml\n${ebh_plan_waypoints}")
 file(WRITE ${EBH_PLAN_SCENE}/plans/missing.yaml "# the scene is not beside the plan\nscene: organ.yaml\n${ebh_plan_waypoints}")
@@ -86,6 +87,23 @@ add_test(NAME cli.synth.scene_missing
     "-DEXPECT=^ebh: error: .*plans/missing.yaml:2: scene: .*plans/organ.yaml: scene file not found \\(a path in a plan is relative to the plan's folder\\)"
     -DOUTPUT=${EBH_PLAN_SCENE}/missing.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.synth.scene_missing PROPERTIES LABELS cli)
+# A file that is no scene (a log without an extension, as /etc/passwd) would be stored as the
+# recording's scene: refused, naming the plan's line, the file and what it holds; no recording.
+file(WRITE ${EBH_PLAN_SCENE}/mesh/press_log "t x y z\n0 1 2 3\n")
+file(WRITE ${EBH_PLAN_SCENE}/plans/no_scene.yaml "scene: ../mesh/press_log\n${ebh_plan_waypoints}")
+add_test(NAME cli.synth.scene_not_a_scene
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_PLAN_SCENE}/plans/no_scene.yaml;-o;${EBH_PLAN_SCENE}/no_scene.h5"
+    "-DEXPECT=^ebh: error: .*plans/no_scene.yaml:1: scene: .*mesh/press_log: not a scene file: a scene is a YAML map of keys \\(mesh, tool, \\.\\.\\.\\), this file holds 't x y z 0 1 2 3'"
+    -DOUTPUT=${EBH_PLAN_SCENE}/no_scene.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+# A plan's tool other than its scene's: every replay on the scene would move the scene's tool and
+# say they differ (a device log's tool is the hardware's, which `ebh import` keeps; a plan's is a
+# slip): refused at its line, naming both tools; no recording.
+file(WRITE ${EBH_PLAN_SCENE}/plans/other_tool.yaml "scene: tube\ntool: forceps\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 10], rotvec_deg: [180, 0, 0]}\n  - {t: 0.01, position_mm: [0, 0, 9]}\n")
+add_test(NAME cli.synth.tool_not_the_scenes
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_PLAN_SCENE}/plans/other_tool.yaml;-o;${EBH_PLAN_SCENE}/other_tool.h5"
+    "-DEXPECT=^ebh: error: .*plans/other_tool.yaml:2: tool: forceps, but the scene 'tube' \\(.*scenarios/tube.yaml\\) moves a hook: .*write tool: hook, or name a scene whose tool is a forceps"
+    -DOUTPUT=${EBH_PLAN_SCENE}/other_tool.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.synth.scene_not_a_scene cli.synth.tool_not_the_scenes PROPERTIES LABELS cli)
 # A scene name found in no data folder: stored as given (it may be found at replay time), warned.
 file(WRITE ${EBH_PLAN_SCENE}/plans/misspelt.yaml "scene: gapp\n${ebh_plan_waypoints}")
 add_test(NAME cli.synth.scene_name_not_found
@@ -1132,7 +1150,7 @@ file(WRITE ${PROJECT_BINARY_DIR}/gate_missing_scene.yaml "cases:\n"
   "  - {name: gone, scene: no_such_scene, recording: gap_insert, start: 2, duration: 0.3, peak_force: 0.5}\n")
 add_test(NAME gate.missing_scene_before_any_case
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};gate;--baselines;${PROJECT_BINARY_DIR}/gate_missing_scene.yaml"
-    "-DEXPECT=^ebh: error: [^\n]*gate_missing_scene.yaml: cases\\[1\\] \\(gone\\): no_such_scene: no such scene"
+    "-DEXPECT=^ebh: error: [^\n]*gate_missing_scene.yaml:3: cases\\[1\\] \\(gone\\): no_such_scene: no such scene"
     -DSTATUS=1 -DNO_STDOUT=1 -P ${EBH_EXPECT_ERROR})
 set_tests_properties(gate.missing_scene_before_any_case PROPERTIES LABELS gate)
 # Baselines measured under an override would be every later plain run's reference: refused.
@@ -1344,7 +1362,7 @@ file(WRITE ${EBH_SAFE}/far_plan.yaml
 file(WRITE ${EBH_SAFE}/endless.csv "t,x,y,z,qw,qx,qy,qz\n0,-0.08,0,0,0.7071068,0,0.7071068,0\n1e300,-0.08,0,0,0.7071068,0,0.7071068,0\n")
 file(WRITE ${EBH_SAFE}/one_sample.csv "t,x,y,z,qw,qx,qy,qz\n0,-0.08,0,0,1,0,0,0\n")
 # Gate cases whose window is not one `ebh replay --start --duration` would take.
-foreach(window "duration_neg;1;-1" "start_neg;-1;1" "start_past_end;99;1")
+foreach(window "duration_neg;1;-1" "duration_tiny;4;1e-320" "start_neg;-1;1" "start_past_end;99;1")
   list(GET window 0 wname)
   list(GET window 1 wstart)
   list(GET window 2 wduration)
@@ -1460,11 +1478,15 @@ ebh_safety(import_transform_huge "^ebh: error: --transform 1e308,0,0,0,0,0: the 
 ebh_safety(gate_unknown_case "^ebh: error: --case: no gate case 'nosuchcase' \\(known: tube_insert, "
   CMD ${EBH_BIN} gate --case nosuchcase)
 # ... and a gate case's window is checked as replay's --start and --duration are, naming the case.
-ebh_safety(gate_duration_neg "^ebh: error: .*gate_duration_neg.yaml: cases\\[0\\] \\(w\\): duration -1: expected a finite number > 0"
+ebh_safety(gate_duration_neg "^ebh: error: .*gate_duration_neg.yaml:2: key 'cases\\[0\\].duration': expected a finite number of seconds > 0 \\(at least one haptic tick\\), got '-1'"
   CMD ${EBH_BIN} gate --baselines ${S}/gate_duration_neg.yaml)
-ebh_safety(gate_start_neg "^ebh: error: .*gate_start_neg.yaml: cases\\[0\\] \\(w\\): start -1: expected a finite number >= 0"
+# A window shorter than one haptic tick replays a single tick, with no force step to measure:
+# refused before any case runs, and --update leaves the file as it was.
+ebh_safety(gate_duration_tiny "^ebh: error: .*gate_duration_tiny.yaml:2: cases\\[0\\] \\(w\\): duration 1e-320: shorter than one haptic tick of its scene \\(0.001 s at 1000 Hz\\).*: expected at least 0.001 s"
+  NO_STDOUT KEEP ${S}/gate_duration_tiny.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_duration_tiny.yaml --update)
+ebh_safety(gate_start_neg "^ebh: error: .*gate_start_neg.yaml:2: cases\\[0\\] \\(w\\): start -1: expected a finite number >= 0"
   CMD ${EBH_BIN} gate --baselines ${S}/gate_start_neg.yaml)
-ebh_safety(gate_start_past_end "^ebh: error: .*gate_start_past_end.yaml: cases\\[0\\] \\(w\\): start 99: the recording .*tube_insert.h5 is 10 s long; start before its end"
+ebh_safety(gate_start_past_end "^ebh: error: .*gate_start_past_end.yaml:2: cases\\[0\\] \\(w\\): start 99: the recording .*tube_insert.h5 is 10 s long; start before its end"
   CMD ${EBH_BIN} gate --baselines ${S}/gate_start_past_end.yaml)
 foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got '.nan'"
           "inf;cases\\[0\\].peak_force': expected a finite number >= 0, got '.inf'"
@@ -1480,7 +1502,7 @@ foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got 
           "scene;cases\\[0\\] \\(w\\): nope: no such scene")
   list(GET g 0 gname)
   list(GET g 1 gexpect)
-  ebh_safety(gate_${gname} "^ebh: error: .*gate_${gname}.yaml: (key ')?${gexpect}"
+  ebh_safety(gate_${gname} "^ebh: error: .*gate_${gname}.yaml:[0-9]+: (key ')?${gexpect}"
     CMD ${EBH_BIN} gate --baselines ${S}/gate_${gname}.yaml)
 endforeach()
 ebh_safety(gate_deep "^ebh: error: .*gate_deep.yaml:[0-9]+: nested too deeply \\(over 500 levels of lists and maps"

@@ -55,7 +55,7 @@ grep -q "^ebh: interrupted by SIGINT; no output file written$" "$work/table1.err
 # An interrupted gate names the case it stopped in, not its temporary replay file.
 interrupted gate TERM "$ebh" gate
 [ $status = 143 ] || fail "gate: exit status $status, expected 143: $(cat "$work/gate.err")"
-grep -q "baselines.yaml: cases\[[0-9]*\] (.*): interrupted; the gate stopped here" "$work/gate.err" ||
+grep -q "baselines.yaml:[0-9]*: cases\[[0-9]*\] (.*): interrupted; the gate stopped here" "$work/gate.err" ||
   fail "gate: the interrupt does not name the case: $(cat "$work/gate.err")"
 # A signal during a long physical step (30000 iterations: seconds a step) stops the step too, in
 # each mode: 130 and the message, no output, not a crash (the step's partway state is no result),

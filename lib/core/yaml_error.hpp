@@ -1,14 +1,19 @@
 #pragma once
-// The one message for YAML text that yaml-cpp refuses, and the one check of a map's keys, for
-// every reader of YAML input (scene files, sweep and synthesis plans, gate baselines, --set
-// values). Header-only; its includers link yaml-cpp (lib/CMakeLists.txt: scene, io, gate, sweep).
+// The one message for YAML text that yaml-cpp refuses and the one form of a message about a value
+// (FILE:LINE: key 'KEY': WHAT), the one check of a map's keys and of tags, and the one reading of
+// a `--set` value, for every reader of YAML input (scene files, sweep and synthesis plans, gate
+// baselines, --set values). Header-only; its includers link yaml-cpp
+// (lib/CMakeLists.txt: scene, io, gate, sweep).
 //
 // yaml-cpp parses nested lists and maps recursively and stops at a fixed depth (500 in 0.7) with
 // DeepRecursion, a ParserException whose own message is "bad file": a file of 100000 `[` is such a
 // stop, not a stack overflow, and is said as what it is.
 #include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/exceptions.h>
+#include <yaml-cpp/node/convert.h>
+#include <yaml-cpp/node/impl.h>
 #include <yaml-cpp/node/node.h>
+#include <yaml-cpp/node/parse.h>
 
 #include <iterator>
 #include <string>
@@ -38,6 +43,17 @@ inline std::string yaml_parse_error(const std::string& where, const YAML::Except
   out += ": ";
   out += yaml_parse_problem(e);
   return out;
+}
+
+/// "FILE:LINE: key 'KEY': WHAT", the message of a value a reader of a YAML file refuses: LINE the
+/// node's (yaml-cpp's Mark), left out where it has none (a node the file lacks: its reader passes
+/// the map that lacks the key instead), "key 'KEY': " left out for the file's top (KEY "").
+inline std::string yaml_key_error(const std::string& file, const YAML::Node& n, const std::string& key,
+                                  const std::string& what) {
+  std::string out = file;
+  if (n.IsDefined() && n.Mark().line >= 0) out += ":" + std::to_string(n.Mark().line + 1);
+  if (!key.empty()) out += ": key '" + key + "'";
+  return out + ": " + what;
 }
 
 /// The one document of YAML text read with YAML::LoadAll (a null node when there is none). A
@@ -93,6 +109,55 @@ std::vector<std::pair<std::string, YAML::Node>> yaml_map_entries(const YAML::Nod
     out.emplace_back(name, it->second);
   }
   return out;
+}
+
+/// Whether a node carries no YAML tag: yaml-cpp gives "?" to a plain scalar and an untagged list or
+/// map, "!" to a quoted scalar (and to the non-specific tag `!`), "" to nothing.
+inline bool yaml_untagged(const YAML::Node& n) {
+  const std::string& tag = n.Tag();
+  return tag.empty() || tag == "?" || tag == "!";
+}
+
+/// Refuses a YAML tag (`!foo 3`, `!!str 3`) anywhere in `node` (at dotted key `key`, "" for the
+/// top), on a value or a key: ebh reads every value by its key, never by a tag, so a tag would be
+/// dropped without a word (`k_con: !mm 800` read as 800 N/m). fail(node, full_key, what) throws, as
+/// yaml_map_entries' does.
+template <class Fail>
+void yaml_refuse_tags(const YAML::Node& node, const std::string& key, Fail&& fail) {
+  auto refuse = [&](const YAML::Node& n, const std::string& k) {
+    if (yaml_untagged(n)) return;
+    // The core schema's tags as written (yaml-cpp hands out "tag:yaml.org,2002:str" for `!!str`).
+    const std::string core = "tag:yaml.org,2002:";
+    const std::string& tag = n.Tag();
+    const std::string shown = tag.compare(0, core.size(), core) == 0 ? "!!" + tag.substr(core.size()) : tag;
+    fail(n, k, "YAML tag '" + shown + "': ebh reads no tags (each key says what its value is): remove it");
+  };
+  refuse(node, key);
+  if (node.IsMap()) {
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      const std::string name = it->first.IsScalar() ? it->first.Scalar() : "?";
+      const std::string full = key.empty() ? name : key + "." + name;
+      refuse(it->first, full);
+      yaml_refuse_tags(it->second, full, fail);
+    }
+  } else if (node.IsSequence()) {
+    std::size_t i = 0;
+    for (auto it = node.begin(); it != node.end(); ++it, ++i) yaml_refuse_tags(*it, key + "[" + std::to_string(i) + "]", fail);
+  }
+}
+
+/// The value of `--set KEY=VALUE` (a sweep plan's overrides are passed on as such) as YAML reads it:
+/// a number, a word, a list ([1, 2]), a map ({k_vol: 500}) or a quoted text; but a plain (unquoted)
+/// value keeps its whole text, which YAML would end at " #" (a comment: `--set 'name=a #b'` named
+/// the scene "a") or, from a '#' on, read as nothing. Throws YAML::Exception where the text is no YAML.
+inline YAML::Node yaml_override_value(const std::string& text) {
+  const std::size_t begin = text.find_first_not_of(" \t\r\n");
+  if (begin == std::string::npos) return YAML::Load(text);
+  const std::string trimmed = text.substr(begin, text.find_last_not_of(" \t\r\n") + 1 - begin);
+  if (trimmed.front() == '#') return YAML::Node(trimmed);
+  YAML::Node n = YAML::Load(text);
+  if (n.IsScalar() && n.Tag() == "?") return YAML::Node(trimmed);
+  return n;
 }
 
 }  // namespace ebh

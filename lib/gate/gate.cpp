@@ -25,47 +25,96 @@
 #include "io/paths.hpp"
 #include "metrics/force_metrics.hpp"
 #include "metrics/replay_trace.hpp"
+#include "scene/scene.hpp"
 #include "schedule/replay_inputs.hpp"
 #include "schedule/replay_output.hpp"
 
 namespace ebh {
 namespace {
 
-double number(const YAML::Node& n, const std::string& file, const std::string& key) {
-  if (!n || !n.IsScalar()) throw InputError(file + ": key '" + key + "': expected a number");
-  try {
-    return n.as<double>();
-  } catch (const YAML::Exception&) {
-    throw InputError(file + ": key '" + key + "': expected a number, got '" + n.Scalar() + "'");
+/// Reads the baselines' YAML tree; every message names the file, the line and the dotted key
+/// (yaml_key_error).
+struct BaselinesReader {
+  std::string file;
+
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& what) const {
+    throw InputError(yaml_key_error(file, n, key, what));
   }
-}
 
-/// A band or a baseline metric: a finite number >= 0.
-double nonnegative(const YAML::Node& n, const std::string& file, const std::string& key) {
-  const double v = number(n, file, key);
-  if (!(std::isfinite(v) && v >= 0)) throw InputError(file + ": key '" + key + "': expected a finite number >= 0, got '" + n.Scalar() + "'");
-  return v;
-}
+  double number(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(n, key, "expected a number, got " + yaml_shown(n));
+    try {
+      return n.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(n, key, "expected a number, got " + yaml_shown(n));
+    }
+  }
 
-bool boolean(const YAML::Node& n, const std::string& file, const std::string& key) {
-  if (n.IsScalar() && (n.Scalar() == "true" || n.Scalar() == "false")) return n.Scalar() == "true";
-  throw InputError(file + ": key '" + key + "': expected true or false, got '" + (n.IsScalar() ? n.Scalar() : "a list or map") + "'");
-}
+  /// A band or a baseline metric: a finite number >= 0.
+  double nonnegative(const YAML::Node& n, const std::string& key) const {
+    const double v = number(n, key);
+    if (!(std::isfinite(v) && v >= 0)) fail(n, key, "expected a finite number >= 0, got " + yaml_shown(n));
+    return v;
+  }
 
-/// Checks the keys of map `n` (yaml_map_entries: text keys among `known`, each once; a misspelt
-/// metric would otherwise go unchecked).
-void only_keys(const YAML::Node& n, const std::string& file, const std::string& key,
-               std::initializer_list<std::string_view> known) {
-  yaml_map_entries(n, key, known, [&](const YAML::Node&, const std::string& k, const std::string& what) {
-    throw InputError(file + ": key '" + k + "': " + what);
-  });
-}
+  bool boolean(const YAML::Node& n, const std::string& key) const {
+    if (n.IsScalar() && (n.Scalar() == "true" || n.Scalar() == "false")) return n.Scalar() == "true";
+    fail(n, key, "expected true or false, got " + yaml_shown(n));
+  }
 
-std::string text(const YAML::Node& n, const std::string& file, const std::string& key) {
-  if (!n || !n.IsScalar()) throw InputError(file + ": key '" + key + "': expected a string");
-  return n.Scalar();
-}
+  /// Checks the keys of map `n` (yaml_map_entries: text keys among `known`, each once; a misspelt
+  /// metric would otherwise go unchecked).
+  void only_keys(const YAML::Node& n, const std::string& key, std::initializer_list<std::string_view> known) const {
+    yaml_map_entries(n, key, known, [&](const YAML::Node& at, const std::string& k, const std::string& what) {
+      fail(at, k, what);
+    });
+  }
 
+  std::string text(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(n, key, "expected a string, got " + yaml_shown(n));
+    return n.Scalar();
+  }
+};
+
+/// Each case's text in the baselines file (`lines`: the file's, each with its line end): from the
+/// line of its '-' to the line before the next case's (the last case's: before the next top-level
+/// key, or the end of the file), less the blank and comment lines that end it (a rewrite drops
+/// those, as --update says). Empty where the cases are no block list whose every case starts on a
+/// line of its own (`cases: [{...}, {...}]`): those are written anew.
+std::vector<std::string> case_texts(const std::vector<std::string>& lines, const YAML::Node& root,
+                                    const YAML::Node& cases) {
+  if (cases.Style() == YAML::EmitterStyle::Flow) return {};
+  std::vector<std::size_t> first;  // each case's first line, and the line after the last case's
+  for (const YAML::Node& c : cases) {
+    const int mark = c.Mark().line;
+    if (mark < 0) return {};
+    const auto line = static_cast<std::size_t>(mark);
+    if (line >= lines.size() || (!first.empty() && line <= first.back())) return {};
+    const std::size_t dash = lines[line].find_first_not_of(' ');
+    if (dash == std::string::npos || lines[line].compare(dash, 2, "- ") != 0) return {};
+    first.push_back(line);
+  }
+  std::size_t end = lines.size();
+  for (auto it = root.begin(); it != root.end(); ++it) {
+    const int mark = it->first.Mark().line;
+    if (mark > static_cast<int>(first.back())) end = std::min(end, static_cast<std::size_t>(mark));
+  }
+  first.push_back(end);
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i + 1 < first.size(); ++i) {
+    std::size_t last = first[i + 1];
+    while (last > first[i] + 1) {
+      const std::string& text = lines[last - 1];
+      const std::size_t at = text.find_first_not_of(" \t\r\n");
+      if (at != std::string::npos && text[at] != '#') break;
+      --last;
+    }
+    std::string text;
+    for (std::size_t l = first[i]; l < last; ++l) text += lines[l];
+    out.push_back(std::move(text));
+  }
+  return out;
+}
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -128,12 +177,15 @@ GateBaselines read_gate_baselines(const std::string& path) {
     throw InputError(yaml_parse_error(path, e));
   }
   GateBaselines b;
+  std::vector<std::string> lines;  // the file's, each with its line end: the cases' text (case_texts)
   {
     // The comment lines: those before the first data line are the header; a comment on a data
-    // line's end is not counted (a rewrite drops it too, but it is rare in these files).
+    // line's end is not counted (a rewrite keeps it on a case it did not measure, drops it on one
+    // it did; rare in these files).
     std::ifstream in(path);
     bool in_header = true;
     for (std::string line; std::getline(in, line);) {
+      lines.push_back(line + "\n");
       const std::size_t first = line.find_first_not_of(" \t\r");
       const bool comment = first != std::string::npos && line[first] == '#';
       if (in_header && (comment || first == std::string::npos)) b.header += line + "\n";
@@ -144,15 +196,16 @@ GateBaselines read_gate_baselines(const std::string& path) {
     while (b.header.size() >= 2 && b.header[b.header.size() - 2] == '\n') b.header.pop_back();
     if (b.header.find('#') == std::string::npos) b.header.clear();
   }
-  only_keys(root, path, "", {"generated_by", "bands", "cases"});
-  if (root["generated_by"]) b.generated_by = text(root["generated_by"], path, "generated_by");
+  const BaselinesReader r{path};
+  r.only_keys(root, "", {"generated_by", "bands", "cases"});
+  if (root["generated_by"]) b.generated_by = r.text(root["generated_by"], "generated_by");
   if (const YAML::Node bands = root["bands"]) {
-    only_keys(bands, path, "bands",
-              {"relative", "abs_force_step", "abs_force_rate", "abs_peak_force", "abs_power", "abs_penetration",
-               "abs_boundary_ratio"});
+    r.only_keys(bands, "bands",
+                {"relative", "abs_force_step", "abs_force_rate", "abs_peak_force", "abs_power", "abs_penetration",
+                 "abs_boundary_ratio"});
     // A band left out keeps its default (GateBands).
     const auto band = [&](const char* key, double& value) {
-      if (bands[key]) value = nonnegative(bands[key], path, std::string("bands.") + key);
+      if (bands[key]) value = r.nonnegative(bands[key], std::string("bands.") + key);
     };
     band("relative", b.bands.relative);
     band("abs_force_step", b.bands.abs_force_step);
@@ -163,9 +216,9 @@ GateBaselines read_gate_baselines(const std::string& path) {
     band("abs_boundary_ratio", b.bands.abs_boundary_ratio);
     // Bands so wide that no regression can fail them: the gate would check only finiteness.
     if (b.bands.relative > 1)
-      throw InputError(path + ": key 'bands.relative': " + bands["relative"].Scalar() +
-                       " lets a metric more than double and pass (at most 1; the bands absorb machines' "
-                       "floating-point differences, well under 0.1)");
+      r.fail(bands["relative"], "bands.relative",
+             bands["relative"].Scalar() + " lets a metric more than double and pass (at most 1; the bands absorb "
+             "machines' floating-point differences, well under 0.1)");
     // The absolute bands well under what a haptic device renders (3.3 N for a Touch): with a
     // relative band of 1 on top, a band of a device's whole force (10 N, 1e4 N/s) passed a tissue a
     // hundred times stiffer, or one buzzing at the force limit. At most a third of a Touch's force on
@@ -187,58 +240,97 @@ GateBaselines read_gate_baselines(const std::string& path) {
                              // a ratio of 1 hides the physical frames; 2 more is a ripple at the physical rate
                              Ceiling{"abs_boundary_ratio", b.bands.abs_boundary_ratio, 1, "over the baseline's ratio"}})
       if (c.value > c.most)
-        throw InputError(path + ": key 'bands." + c.key + "': " + bands[c.key].Scalar() + " passes every run (at most " +
-                         shown_number(c.most) + " " + c.what + ")");
+        r.fail(bands[c.key], std::string("bands.") + c.key,
+               bands[c.key].Scalar() + " passes every run (at most " + shown_number(c.most) + " " + c.what + ")");
   }
   const YAML::Node cases = root["cases"];
-  if (!cases || !cases.IsSequence()) throw InputError(path + ": key 'cases': expected a list");
-  if (cases.size() == 0) throw InputError(path + ": key 'cases': expected at least one case (a gate of none checks nothing)");
+  if (!cases) r.fail(root, "cases", "missing: the file lists its cases under it");
+  if (!cases.IsSequence()) r.fail(cases, "cases", "expected a list, got " + yaml_shown(cases));
+  if (cases.size() == 0) r.fail(cases, "cases", "expected at least one case (a gate of none checks nothing)");
+  const std::vector<std::string> texts = case_texts(lines, root, cases);
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const YAML::Node c = cases[i];
     const std::string k = "cases[" + std::to_string(i) + "].";
-    only_keys(c, path, k.substr(0, k.size() - 1),
-              {"name", "scene", "recording", "start", "duration", "rms_force_step", "max_force_rate", "peak_force",
-               "power_above_30hz", "penetration_max", "boundary_step_ratio", "force_collapse"});
+    r.only_keys(c, k.substr(0, k.size() - 1),
+                {"name", "scene", "recording", "start", "duration", "rms_force_step", "max_force_rate", "peak_force",
+                 "power_above_30hz", "penetration_max", "boundary_step_ratio", "force_collapse"});
+    for (const char* key : {"name", "scene", "recording", "start", "duration"})
+      if (!c[key]) r.fail(c, k + key, "missing (a case gives name, scene, recording, start and duration)");
     GateCase g;
-    g.name = text(c["name"], path, k + "name");
+    g.name = r.text(c["name"], k + "name");
     // The name is what --case selects and what the verdict's lines start with.
     if (g.name.empty() || has_control_character(g.name))
-      throw InputError(path + ": key '" + k + "name': expected a name of printable characters, got '" + g.name +
-                       "'");
+      r.fail(c["name"], k + "name", "expected a name of printable characters, got '" + g.name + "'");
     for (const GateCase& other : b.cases)
-      if (other.name == g.name) throw InputError(path + ": key '" + k + "name': '" + g.name + "' names two cases");
-    g.scene = text(c["scene"], path, k + "scene");
-    g.recording = text(c["recording"], path, k + "recording");
+      if (other.name == g.name) r.fail(c["name"], k + "name", "'" + g.name + "' names two cases");
+    g.scene = r.text(c["scene"], k + "scene");
+    g.recording = r.text(c["recording"], k + "recording");
     // A path relative to the baselines file, as in a sweep plan: the file works from any folder.
     const std::filesystem::path folder = std::filesystem::path(path).parent_path();
     g.scene_file = data_reference_from(g.scene, folder);
     g.recording_file = data_reference_from(g.recording, folder);
-    g.start = number(c["start"], path, k + "start");
-    g.duration = number(c["duration"], path, k + "duration");
-    g.where = path + ": " + k.substr(0, k.size() - 1) + " (" + g.name + ")";
+    g.start = r.number(c["start"], k + "start");
+    g.duration = r.number(c["duration"], k + "duration");
+    // Said here, before any case runs; one tick of the case's scene is checked with the scene
+    // (check_gate_case), and the start against the recording (replay_window).
+    if (!(std::isfinite(g.duration) && g.duration > 0))
+      r.fail(c["duration"], k + "duration",
+             "expected a finite number of seconds > 0 (at least one haptic tick), got " + yaml_shown(c["duration"]));
+    g.where = yaml_key_error(path, c, "", k.substr(0, k.size() - 1) + " (" + g.name + ")");
+    if (!texts.empty()) g.text = texts[i];
     // A metric absent has no baseline yet; one given is a finite number >= 0 (a NaN baseline
     // would pass every comparison). The power above 30 Hz alone may be .nan: a window too short
     // for its spectrum has none, and the gate then compares none.
     auto metric = [&](const char* key) {
-      return c[key] ? nonnegative(c[key], path, k + key) : std::numeric_limits<double>::quiet_NaN();
+      return c[key] ? r.nonnegative(c[key], k + key) : std::numeric_limits<double>::quiet_NaN();
     };
     g.rms_force_step = metric("rms_force_step");
     g.max_force_rate = metric("max_force_rate");
     g.peak_force = metric("peak_force");
-    g.power_above_30hz = c["power_above_30hz"] && std::isnan(number(c["power_above_30hz"], path, k + "power_above_30hz"))
+    g.power_above_30hz = c["power_above_30hz"] && std::isnan(r.number(c["power_above_30hz"], k + "power_above_30hz"))
                              ? std::numeric_limits<double>::quiet_NaN()
                              : metric("power_above_30hz");
     g.penetration_max = metric("penetration_max");
     // NaN where the window's steps are all 0 (a free tool): none to compare, as for the power.
     g.boundary_step_ratio =
-        c["boundary_step_ratio"] && std::isnan(number(c["boundary_step_ratio"], path, k + "boundary_step_ratio"))
+        c["boundary_step_ratio"] && std::isnan(r.number(c["boundary_step_ratio"], k + "boundary_step_ratio"))
             ? std::numeric_limits<double>::quiet_NaN()
             : metric("boundary_step_ratio");
-    if (c["force_collapse"]) g.force_collapse = boolean(c["force_collapse"], path, k + "force_collapse");
+    if (c["force_collapse"]) g.force_collapse = r.boolean(c["force_collapse"], k + "force_collapse");
     b.cases.push_back(g);
   }
   return b;
 }
+
+namespace {
+
+/// A case as write_gate_baselines writes one from its values: a YAML flow map, on one line.
+std::string case_yaml(const GateCase& c) {
+  YAML::Emitter y;
+  y << YAML::Flow << YAML::BeginMap;
+  y << YAML::Key << "name" << YAML::Value << c.name;
+  y << YAML::Key << "scene" << YAML::Value << c.scene;
+  y << YAML::Key << "recording" << YAML::Value << c.recording;
+  y << YAML::Key << "start" << YAML::Value << c.start;
+  y << YAML::Key << "duration" << YAML::Value << c.duration;
+  // A metric without a value (NaN: no baseline yet, or none in the window, as the power above
+  // 30 Hz of a window too short for a spectrum) is left out: the reader takes it as NaN, and a
+  // case that had no such key gets none.
+  auto metric = [&y](const char* key, double value) {
+    if (!std::isnan(value)) y << YAML::Key << key << YAML::Value << value;
+  };
+  metric("rms_force_step", c.rms_force_step);
+  metric("max_force_rate", c.max_force_rate);
+  metric("peak_force", c.peak_force);
+  metric("power_above_30hz", c.power_above_30hz);
+  metric("penetration_max", c.penetration_max);
+  metric("boundary_step_ratio", c.boundary_step_ratio);
+  if (c.force_collapse) y << YAML::Key << "force_collapse" << YAML::Value << *c.force_collapse;
+  y << YAML::EndMap;
+  return y.c_str();
+}
+
+}  // namespace
 
 void write_gate_baselines(const std::string& path, const GateBaselines& b) {
   YAML::Emitter y;
@@ -253,33 +345,57 @@ void write_gate_baselines(const std::string& path, const GateBaselines& b) {
   y << YAML::Key << "abs_penetration" << YAML::Value << b.bands.abs_penetration;
   y << YAML::Key << "abs_boundary_ratio" << YAML::Value << b.bands.abs_boundary_ratio;
   y << YAML::EndMap;
-  y << YAML::Key << "cases" << YAML::Value << YAML::BeginSeq;
-  for (const GateCase& c : b.cases) {
-    y << YAML::Flow << YAML::BeginMap;
-    y << YAML::Key << "name" << YAML::Value << c.name;
-    y << YAML::Key << "scene" << YAML::Value << c.scene;
-    y << YAML::Key << "recording" << YAML::Value << c.recording;
-    y << YAML::Key << "start" << YAML::Value << c.start;
-    y << YAML::Key << "duration" << YAML::Value << c.duration;
-    // A metric without a baseline yet (NaN: a case this update did not run) stays absent, as the
-    // reader takes it; the power above 30 Hz may be .nan itself (a window without a spectrum).
-    auto metric = [&y](const char* key, double value) {
-      if (!std::isnan(value)) y << YAML::Key << key << YAML::Value << value;
-    };
-    metric("rms_force_step", c.rms_force_step);
-    metric("max_force_rate", c.max_force_rate);
-    metric("peak_force", c.peak_force);
-    y << YAML::Key << "power_above_30hz" << YAML::Value << c.power_above_30hz;
-    metric("penetration_max", c.penetration_max);
-    y << YAML::Key << "boundary_step_ratio" << YAML::Value << c.boundary_step_ratio;
-    if (c.force_collapse) y << YAML::Key << "force_collapse" << YAML::Value << *c.force_collapse;
-    y << YAML::EndMap;
-  }
-  y << YAML::EndSeq << YAML::EndMap;
+  y << YAML::EndMap;
   const std::string header = !b.header.empty() ? b.header
                                                 : "# Force-smoothness gate baselines (ebh gate). Regenerate with\n"
                                                   "# `ebh gate --baselines FILE --update`; do not edit the metrics by hand.\n";
-  write_file_atomically(path, header + y.c_str() + "\n");
+  // A case with its text is written as it (GateCase::text); one written from its values is
+  // indented as those (the entries of a YAML list share their indentation).
+  std::string indent = "  ";
+  for (const GateCase& c : b.cases)
+    if (!c.text.empty()) {
+      indent = c.text.substr(0, c.text.find('-'));
+      break;
+    }
+  const auto file_text = [&](bool keep_texts) {
+    std::string text = header + y.c_str() + "\ncases:\n";
+    for (const GateCase& c : b.cases) text += keep_texts && !c.text.empty() ? c.text : indent + "- " + case_yaml(c) + "\n";
+    return text;
+  };
+  std::string text = file_text(true);
+  // A kept text that named an anchor of a part written anew (`*a` of a case measured again) no
+  // longer reads: then every case is written from its values.
+  try {
+    (void)YAML::Load(text);
+  } catch (const YAML::Exception&) {
+    text = file_text(false);
+  }
+  write_file_atomically(path, text);
+}
+
+namespace {
+
+/// A window shorter than one haptic tick of `haptic_hz` replays a single tick (tick_count): no
+/// force step to measure, and metrics of nothing. Throws InputError naming the case.
+void check_gate_ticks(const std::string& where, const GateCase& c, double haptic_hz) {
+  if (std::floor(c.duration * haptic_hz + 1e-9) >= 1) return;
+  throw InputError(where + ": duration " + shortest_text(c.duration) + ": shorter than one haptic tick of its scene (" +
+                   shown_number(1 / haptic_hz) + " s at " + shown_number(haptic_hz) + " Hz), which replays a single tick "
+                   "with no force step to measure: expected at least " + shown_number(1 / haptic_hz) +
+                   " s (the committed cases replay 2 s)");
+}
+
+}  // namespace
+
+void check_gate_case(const GateCase& c, const std::vector<std::string>& overrides) {
+  double haptic_hz = 0;
+  try {
+    (void)replay_input_files(c.scene_file, c.recording_file, overrides);
+    haptic_hz = load_scene_spec(resolve_scene_path(c.scene_file), overrides).haptic_hz;
+  } catch (const InputError& e) {
+    throw InputError(c.where + ": " + e.what());
+  }
+  check_gate_ticks(c.where, c, haptic_hz);
 }
 
 GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides) {
@@ -294,6 +410,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   }();
   const double dur = replay_window(c.start, c.duration, in.recording.duration(), in.recording_path,
                                    key + ": start", key + ": duration");
+  check_gate_ticks(key, c, 1 / in.world->h_haptic);
   ReplayOptions opt;
   opt.mode = Mode::Async;
   opt.start = c.start;
@@ -303,6 +420,7 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
   ForceMetrics m;
   GateResult r;
   r.measured = c;
+  r.measured.text.clear();  // its metrics are this run's, not the file's
   r.warnings = in.warnings;
   // A case whose window starts in a press measures the tissue at rest around the tool, not the press.
   if (std::string w = window_start_warning(in, c.start, "start"); !w.empty()) r.warnings.push_back(std::move(w));

@@ -48,7 +48,11 @@ struct GateCase {
   /// (data_reference_from), a name as it is
   std::string scene_file, recording_file;
   double start = 0, duration = 2.0;  ///< s: the window of the recording replayed (replay_window checks it)
-  std::string where;  ///< "FILE: cases[i] (NAME)", naming the case in messages (read_gate_baselines sets it)
+  std::string where;  ///< "FILE:LINE: cases[i] (NAME)", naming the case in messages (read_gate_baselines sets it)
+  /// The case's lines in the baselines file, as read_gate_baselines found them ("" where they share
+  /// a line with another case's): write_gate_baselines writes a case that has them as they are, so
+  /// that --update of one case leaves the others byte for byte; a case measured anew has none.
+  std::string text;
   // Baseline metrics (NaN when not yet recorded).
   double rms_force_step = 0, max_force_rate = 0, peak_force = 0, power_above_30hz = 0, penetration_max = 0;
   double boundary_step_ratio = 0;  ///< metrics' frame-boundary ratio (NaN in a baseline: none to compare)
@@ -96,14 +100,24 @@ FileLock lock_gate_baselines(const std::string& path);
 /// it removed.
 std::size_t remove_stale_gate_temporaries(const std::filesystem::path& tmp);
 
-/// Reads a baselines file; throws InputError naming the file and key.
+/// Reads a baselines file; throws InputError "FILE:LINE: key 'KEY': WHAT" (yaml_key_error).
 GateBaselines read_gate_baselines(const std::string& path);
-/// Writes a baselines file atomically, under b.header (else a header saying how to regenerate it).
+/// Writes a baselines file atomically, under b.header (else a header saying how to regenerate it):
+/// a case with its text (GateCase::text) as that text, another from its values, a metric without
+/// a value (NaN) left out, as the reader takes it.
 void write_gate_baselines(const std::string& path, const GateBaselines& b);
 
-/// Replays one case (async mode, CPU, scene overrides applied) and computes its metrics. Its
-/// replay output goes into a folder of its own under the temporary directory (mkdtemp:
-/// TMP/ebh_gate_PID_XXXXXX, readable by this user only), removed with it when the case ends.
+/// What a gate checks of a case before any case runs (a missing scene of the last case failed the
+/// gate after the others had run, minutes on CI): its scene, meshes and recording are there and
+/// the overrides apply (replay_input_files), and its duration holds one haptic tick of the scene
+/// at least (a shorter window replays a single tick: no force step, metrics of nothing). Throws
+/// InputError naming the case (GateCase::where).
+void check_gate_case(const GateCase& c, const std::vector<std::string>& overrides);
+
+/// Replays one case (async mode, CPU, scene overrides applied) and computes its metrics (its
+/// `measured` without the case's text: its values are new). Its replay output goes into a folder
+/// of its own under the temporary directory (mkdtemp: TMP/ebh_gate_PID_XXXXXX, readable by this
+/// user only), removed with it when the case ends.
 GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& overrides);
 /// Compares a run with its baseline under the bands; fills passed/failures.
 void judge_gate_case(const GateCase& baseline, const GateBands& bands, GateResult& r);

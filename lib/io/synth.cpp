@@ -90,6 +90,9 @@ SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
     throw InputError(yaml_parse_error(path, e));
   }
   if (!root.IsMap()) throw InputError(path + ": the plan must be a YAML mapping (scene, tool, waypoints, ...)");
+  yaml_refuse_tags(root, "", [&r](const YAML::Node& n, const std::string& key, const std::string& what) {
+    r.fail(n, key.empty() ? "the plan" : key, what);
+  });
   r.only_keys(root, "", {"scene", "tool", "description", "rate_hz", "tremor", "quantum_mm", "waypoints"});
 
   SynthPlan plan;
@@ -108,6 +111,7 @@ SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
                                    "recording is for, its name or its .yaml");
   if (root["scene"].Mark().line >= 0) plan.scene_line = root["scene"].Mark().line + 1;
   plan.tool = r.string(root["tool"], "tool");
+  if (root["tool"].Mark().line >= 0) plan.tool_line = root["tool"].Mark().line + 1;
   if (plan.tool != "hook" && plan.tool != "forceps") r.fail(root["tool"], "tool", "expected hook or forceps");
   if (root["description"]) plan.description = r.string(root["description"], "description");
   if (root["rate_hz"]) {

@@ -30,6 +30,7 @@ struct SynthPlan {
   /// plan's folder; `ebh synth` stores it relative to the recording's, scene_attribute_for).
   std::string scene, tool, description;
   int scene_line = 0;  ///< the plan's line of `scene` (1 based; 0: unknown), for messages
+  int tool_line = 0;   ///< the plan's line of `tool`, likewise
   double rate_hz = 1000;
   double tremor_amplitude = 0.1e-3;         ///< m, per axis, amplitude of the equivalent single sinusoid
   double tremor_band_lo = 8, tremor_band_hi = 12;  ///< Hz

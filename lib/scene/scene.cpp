@@ -778,10 +778,13 @@ void apply_override(YAML::Node root, const std::string& text) {
   const std::string key = text.substr(0, eq), value = text.substr(eq + 1);
   YAML::Node parsed;
   try {
-    parsed = YAML::Load(value);
+    parsed = yaml_override_value(value);
   } catch (const YAML::Exception& e) {
     throw InputError(OverrideError::set_option_shown(text) + ": in the value: " + yaml_parse_problem(e));
   }
+  yaml_refuse_tags(parsed, key, [&text](const YAML::Node&, const std::string& k, const std::string& what) {
+    throw OverrideError(text, "key '" + k + "': " + what);
+  });
   refuse_repeated_keys(parsed, key, text);
   std::vector<YAML::Node> path{root};
   std::size_t start = 0;
@@ -847,6 +850,9 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
                      (gmsh ? "; it is a Gmsh mesh: `ebh scene init " + file.string() + " -o scene.yaml` writes a scene for it"
                            : ""));
   }
+  yaml_refuse_tags(root, "", [&file](const YAML::Node& n, const std::string& key, const std::string& what) {
+    throw InputError(yaml_key_error(file.string(), n, key, what));
+  });
   return root;
 }
 
@@ -998,7 +1004,7 @@ std::vector<std::string> override_keys(const std::string& text) {
   std::vector<std::string> out;
   YAML::Node value;
   try {
-    if (key.size() < text.size()) value = YAML::Load(text.substr(key.size() + 1));
+    if (key.size() < text.size()) value = yaml_override_value(text.substr(key.size() + 1));
   } catch (const YAML::Exception&) {
   }
   leaf_keys(key, value, out);
@@ -1025,11 +1031,11 @@ void check_overrides_once(const std::vector<std::string>& overrides) {
   }
 }
 
-SceneSpec load_scene_spec(const fs::path& file, const std::vector<std::string>& overrides) {
+SceneSpec load_scene_spec(const fs::path& file, const std::vector<std::string>& overrides, bool mesh_files_must_exist) {
   check_overrides_once(overrides);
   YAML::Node root = read_scene_yaml(file);
   for (const auto& o : overrides) apply_override(root, o);
-  return read_spec(root, file, overrides);
+  return read_spec(root, file, overrides, mesh_files_must_exist);
 }
 
 Scene load_scene(const fs::path& file) { return load_scene(file, {}); }

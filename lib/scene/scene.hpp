@@ -490,11 +490,15 @@ std::string edges_outweigh_coupling_warning(const SceneSpec& spec);
 
 /// The same with overrides "dotted.key=value" (the command line's --set) applied to the file's
 /// YAML before validation: `stiffness.k_con=800`, `solver.method=direct`, `gravity=[0,0,0]`.
-/// The value is parsed as YAML; a map merges into the file's map key by key (`stiffness={k_vol:
+/// The value is parsed as YAML (yaml_override_value: a plain value keeps its whole text, " #" and
+/// all; a YAML tag is refused); a map merges into the file's map key by key (`stiffness={k_vol:
 /// 500, k_s: 30}` keeps the other stiffnesses), anything else replaces the key's value. A bad
 /// override is an InputError naming it (an OverrideError when the file is fine and the override's
 /// key or value is not); two overrides of one key are refused (check_overrides_once).
-SceneSpec load_scene_spec(const std::filesystem::path& file, const std::vector<std::string>& overrides);
+/// `mesh_files_must_exist` false reads the scene's keys only, its meshes named but not looked for
+/// (`ebh synth` checks that a plan names a scene, whose meshes it does not use).
+SceneSpec load_scene_spec(const std::filesystem::path& file, const std::vector<std::string>& overrides,
+                          bool mesh_files_must_exist = true);
 Scene load_scene(const std::filesystem::path& file, const std::vector<std::string>& overrides);
 
 /// The scene as a complete scene file: every key of the schema with the value in effect (defaults,

@@ -36,6 +36,20 @@ std::string shortest_if_number(const std::string& text) {
   return shortest_number(v == 0 ? 0.0 : v);
 }
 
+/// `text` as a `--set` value that reads back as that text (yaml_override_value): as it is where it
+/// does (a number, a word, "a #b"), which keeps the values of a plan, its runs' ids and its
+/// summary's columns as they were; else double-quoted.
+std::string set_value_text(const std::string& text) {
+  try {
+    const YAML::Node n = yaml_override_value(text);
+    if (n.IsScalar() && n.Scalar() == text) return text;
+  } catch (const YAML::Exception&) {
+  }
+  YAML::Emitter e;
+  e << YAML::DoubleQuoted << text;
+  return e.c_str();
+}
+
 /// Reads the plan's YAML tree; every message names the file, the line and the dotted key.
 class PlanReader {
  public:
@@ -95,9 +109,10 @@ class PlanReader {
   /// A scene key's value as `--set` takes it: a scalar's text, a list in flow style; numbers in
   /// their shortest form, so that one value is one configuration however it is written (1e3 and
   /// 1000, 0.50 and 0.5: the same replay, which would otherwise run twice, or not be taken for
-  /// the reference or the baseline it is).
+  /// the reference or the baseline it is). A text that `--set` would read as something else (a
+  /// quoted '[1, 2]', 'x: y', '~') is passed on quoted (set_value_text).
   std::string value(const YAML::Node& n, const std::string& key) const {
-    if (n.IsScalar()) return shortest_if_number(n.Scalar());
+    if (n.IsScalar()) return set_value_text(shortest_if_number(n.Scalar()));
     if (n.IsSequence()) {
       YAML::Node items(YAML::NodeType::Sequence);
       for (const YAML::Node& x : n) items.push_back(x.IsScalar() ? YAML::Node(shortest_if_number(x.Scalar())) : x);
@@ -206,6 +221,9 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     throw InputError(file.string() + ": cannot read the plan: " + e.msg);
   }
   if (!root.IsDefined() || root.IsNull()) throw InputError(file.string() + ": empty plan (it needs at least `scenes`)");
+  yaml_refuse_tags(root, "", [&file](const YAML::Node& n, const std::string& key, const std::string& what) {
+    throw InputError(yaml_key_error(file.string(), n, key, what));
+  });
   SweepPlan plan;
   plan.file = file;
   std::map<std::string, YAML::Node> top;
@@ -426,10 +444,11 @@ std::string resolved_plan_yaml(const SweepPlan& plan) {
     y << YAML::BeginMap;
     for (const auto& [k, v] : o) {
       y << YAML::Key << k << YAML::Value;
-      // The value as the plan gave it: a flow list stays a list, a scalar stays text.
-      const YAML::Node n = YAML::Load(v);
+      // The value as the plan gave it: a flow list stays a list, a scalar stays its text (quoted
+      // where YAML needs it), which the plan's reader turns back into the same value.
+      const YAML::Node n = yaml_override_value(v);
       if (n.IsSequence()) y << YAML::Flow << n;
-      else y << v;
+      else y << n.Scalar();
     }
     y << YAML::EndMap;
   };

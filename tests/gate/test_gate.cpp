@@ -97,10 +97,14 @@ TEST(Gate, BaselinesWithoutTheNewMetricsNameThemUnchecked) {
   EXPECT_EQ(r.unchecked, (std::vector<std::string>{"boundary_step_ratio", "force_collapse"}));
 }
 
+std::string baselines_path(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("ebh_test_gate_" + name + ".yaml")).string();
+}
+
 std::string baselines_file(const std::string& name, const std::string& text) {
-  const std::filesystem::path p = std::filesystem::temp_directory_path() / ("ebh_test_gate_" + name + ".yaml");
+  const std::string p = baselines_path(name);
   std::ofstream(p) << text;
-  return p.string();
+  return p;
 }
 
 constexpr const char* kCase = "cases:\n  - {name: c, scene: tube, recording: tube_insert, start: 2, duration: 1";
@@ -108,6 +112,7 @@ constexpr const char* kCase = "cases:\n  - {name: c, scene: tube, recording: tub
 TEST(Gate, BaselinesRoundTripTheNewMetrics) {
   const std::string path = baselines_file("round_trip", std::string(kCase) + "}\n");
   GateBaselines b = read_gate_baselines(path);
+  b.cases[0].text.clear();  // values of its own, as a case measured anew (run_gate_case)
   b.cases[0].boundary_step_ratio = 1.25;
   b.cases[0].force_collapse = true;
   write_gate_baselines(path, b);
@@ -163,6 +168,124 @@ TEST(Gate, BandsThatPassEveryBuzzAreRefused) {
   refused("step", "abs_force_step: 10", "key 'bands.abs_force_step': 10 passes every run (at most 0.1 N a tick");
   refused("rate", "abs_force_rate: 10000", "key 'bands.abs_force_rate': 10000 passes every run (at most 1000 N/s");
   refused("depth", "abs_penetration: 0.01", "key 'bands.abs_penetration': 0.01 passes every run (at most 0.002 m");
+}
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// The message of the InputError that reading `text` as a baselines file throws ("" for none).
+std::string read_error(const std::string& name, const std::string& text) {
+  const std::string path = baselines_file(name, text);
+  std::string message;
+  try {
+    read_gate_baselines(path);
+  } catch (const InputError& e) {
+    message = e.what();
+  }
+  std::filesystem::remove(path);
+  return message;
+}
+
+// --update of one case writes that case anew and the others as they were: a case with no ratio
+// or power gains no `.nan` key, a duration of 0.3 stays 0.3, a hand-written layout and its
+// comment stay; the comment lines between cases go, as --update says.
+TEST(Gate, ARewriteKeepsTheCasesItDidNotMeasure) {
+  const std::string others =
+      "  - {name: b, scene: gap, recording: gap_insert, start: 2, duration: 0.3, peak_force: 1.5}\n"
+      "  - name: c  # by hand\n"
+      "    scene: gap\n"
+      "    recording: gap_insert\n"
+      "    start: 2\n"
+      "    duration: 0.3\n";
+  const std::string path = baselines_file(
+      "keeps_cases", "cases:\n  - {name: a, scene: tube, recording: tube_insert, start: 4, duration: 0.3}\n"
+                     "  # the next two are older\n" + others + "\n# end\n");
+  GateBaselines b = read_gate_baselines(path);
+  GateCase& a = b.cases[0];
+  a.text.clear();  // measured anew
+  a.rms_force_step = 0.003;
+  a.max_force_rate = 19;
+  a.peak_force = 0.09;
+  a.power_above_30hz = kNaN;  // none in the window: left out
+  a.penetration_max = 1e-4;
+  a.boundary_step_ratio = 0.55;
+  a.force_collapse = false;
+  write_gate_baselines(path, b);
+  const std::string text = file_text(path);
+  EXPECT_NE(text.find("\ncases:\n  - {name: a, scene: tube, recording: tube_insert, start: 4, duration: 0.29999999999999999, "
+                      "rms_force_step: 0.0030000000000000001, max_force_rate: 19, peak_force: 0.089999999999999997, "
+                      "penetration_max: 0.0001, boundary_step_ratio: 0.55000000000000004, force_collapse: false}\n" + others),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("nan"), std::string::npos) << text;
+  const GateBaselines again = read_gate_baselines(path);
+  ASSERT_EQ(again.cases.size(), 3u);
+  EXPECT_EQ(again.cases[0].rms_force_step, 0.003);
+  EXPECT_TRUE(std::isnan(again.cases[1].boundary_step_ratio));
+  EXPECT_EQ(again.cases[2].text, others.substr(others.find("  - name: c")));
+  std::filesystem::remove(path);
+}
+
+// Cases in a flow list share their lines: all are written from their values, and still a case
+// gains no key it lacked.
+TEST(Gate, ARewriteOfAFlowListAddsNoKeys) {
+  const std::string path = baselines_file(
+      "flow_list", "cases: [{name: a, scene: tube, recording: tube_insert, start: 4, duration: 1},\n"
+                   "        {name: b, scene: gap, recording: gap_insert, start: 2, duration: 1, peak_force: 1.5}]\n");
+  GateBaselines b = read_gate_baselines(path);
+  EXPECT_EQ(b.cases[1].text, "");
+  write_gate_baselines(path, b);
+  const std::string text = file_text(path);
+  EXPECT_NE(text.find("  - {name: b, scene: gap, recording: gap_insert, start: 2, duration: 1, peak_force: 1.5}\n"),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("nan"), std::string::npos) << text;
+  std::filesystem::remove(path);
+}
+
+// A kept case that names an anchor of a case written anew would no longer read: then all are
+// written from their values.
+TEST(Gate, ARewriteKeepsNoCaseThatNamesAnAnchorItDrops) {
+  const std::string path = baselines_file(
+      "anchor", "cases:\n  - {name: a, scene: &s tube, recording: tube_insert, start: 4, duration: 1}\n"
+                "  - {name: b, scene: *s, recording: tube_insert, start: 2, duration: 1}\n");
+  GateBaselines b = read_gate_baselines(path);
+  b.cases[0].text.clear();
+  write_gate_baselines(path, b);
+  const GateBaselines again = read_gate_baselines(path);
+  EXPECT_EQ(again.cases[1].scene, "tube");
+  EXPECT_EQ(file_text(path).find('*'), std::string::npos) << file_text(path);
+  std::filesystem::remove(path);
+}
+
+// Every message about the file names it, the line of the value (of the map, for a key left out)
+// and the key.
+TEST(Gate, ErrorsNameTheFileLineAndKey) {
+  const std::string block = "# ours\ncases:\n  - name: a\n    scene: tube\n    recording: tube_insert\n";
+  EXPECT_EQ(read_error("line_metric", block + "    start: 2\n    duration: 1\n    peak_force: abc\n"),
+            baselines_path("line_metric") + ":8: key 'cases[0].peak_force': expected a number, got 'abc'");
+  EXPECT_EQ(read_error("line_missing", block + "    duration: 1\n"),
+            baselines_path("line_missing") + ":3: key 'cases[0].start': missing (a case gives name, scene, recording, start and duration)");
+  EXPECT_EQ(read_error("line_duration", block + "    start: 2\n    duration: 0\n"),
+            baselines_path("line_duration") + ":7: key 'cases[0].duration': expected a finite number of seconds > 0 (at least one "
+                  "haptic tick), got '0'");
+  EXPECT_EQ(read_error("line_band", "bands:\n  relative: 0.5\n  abs_power: 0.5\n" + std::string(kCase) + "}\n"),
+            baselines_path("line_band") + ":3: key 'bands.abs_power': 0.5 passes every run (at most 0.1 of the force's power above 30 Hz)");
+  EXPECT_EQ(read_error("line_twice", std::string(kCase) + "}\n  - {name: c, scene: gap, recording: gap_insert, start: 2, duration: 1}\n"),
+            baselines_path("line_twice") + ":3: key 'cases[1].name': 'c' names two cases");
+  EXPECT_EQ(read_error("line_unknown", std::string(kCase) + ", peek: 1}\n"),
+            baselines_path("line_unknown") + ":2: key 'cases[0].peek': unknown key (known: name, scene, recording, start, duration, "
+                  "rms_force_step, max_force_rate, peak_force, power_above_30hz, penetration_max, boundary_step_ratio, "
+                  "force_collapse)");
+  EXPECT_EQ(read_error("line_cases", "generated_by: x\ncases: 3\n"),
+            baselines_path("line_cases") + ":2: key 'cases': expected a list, got '3'");
+  // The case's own messages (a missing scene, its window) start at its line.
+  const std::string path = baselines_file("line_where", "\n\ncases:\n  - name: w\n    scene: tube\n    recording: tube_insert\n"
+                                                        "    start: 2\n    duration: 1\n");
+  EXPECT_EQ(read_gate_baselines(path).cases[0].where, path + ":4: cases[0] (w)");
+  std::filesystem::remove(path);
 }
 
 TEST(Gate, ForceCollapseIsTrueOrFalse) {

@@ -7,7 +7,8 @@
 #  3. a case's replay output goes into a folder of its own under TMPDIR, gone when the gate ends;
 #     the folder of a gate killed with SIGKILL is removed by the next gate, one of a process still
 #     running is left alone;
-#  4. updating one case leaves another case's missing metrics missing (the reader refuses .nan).
+#  4. updating one case leaves the others as they were, byte for byte: no key added (the reader
+#     refuses a .nan metric), none dropped, no number rewritten, a hand-written layout kept.
 #   tests/gate/update.sh EBH_BIN WORK_DIR
 set -uo pipefail
 ebh=$1
@@ -85,13 +86,21 @@ compgen -G "$work/tmp/*ebh_gate_${killed}_*" >/dev/null || fail "the killed gate
 left=$(ls -A "$work/tmp")
 [ "$left" = "ebh_gate_$$_alive1" ] || fail "TMPDIR after the next gate: $left"
 
-# 4. Updating one case keeps another case's missing metrics missing (no .nan the reader refuses).
-{ echo "cases:"; gate_case a tube tube_insert 4 0.3; echo "  - {name: c, scene: gap, recording: gap_insert, start: 2, duration: 0.3}"; } \
-  >"$work/new_case.yaml"
+# 4. Updating one case keeps the others as they were (a case without metrics gained
+# `boundary_step_ratio: .nan`, and every case's duration: 0.3 became 0.29999999999999999).
+others='  - {name: c, scene: gap, recording: gap_insert, start: 2, duration: 0.3}
+  - name: d  # a case written by hand
+    scene: gap
+    recording: gap_insert
+    start: 2
+    duration: 0.3
+    peak_force: 1.5'
+{ echo "cases:"; gate_case a tube tube_insert 4 0.3; echo "$others"; } >"$work/new_case.yaml"
 "$ebh" gate --baselines "$work/new_case.yaml" --update --case a >/dev/null 2>"$work/err.txt" ||
   fail "update beside a case without metrics: $(cat "$work/err.txt")"
-grep "name: c," "$work/new_case.yaml" | grep -Eqi "(rms_force_step|max_force_rate|peak_force|penetration_max): \.?nan" &&
-  fail "case c got NaN metrics: $(cat "$work/new_case.yaml")"
+[ "$(tail -n 7 "$work/new_case.yaml")" = "$others" ] ||
+  fail "the cases not updated changed: $(cat "$work/new_case.yaml")"
+grep "name: a," "$work/new_case.yaml" | grep -q "rms_force_step: 0," && fail "case a was not updated: $(cat "$work/new_case.yaml")"
 "$ebh" gate --baselines "$work/new_case.yaml" --case a >/dev/null 2>"$work/err.txt" ||
   fail "the updated file does not read: $(cat "$work/err.txt")"
 echo "gate update: ok"

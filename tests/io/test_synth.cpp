@@ -231,6 +231,13 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 1], rotvec_deg: [0, 0, 0], jaw: 1, jaw: 0}\n"
        "  - {t: 1}\n");
   EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].jaw", "given twice");
+  // A YAML tag, which nothing reads (a rate of 1000 Hz for `!khz 1`): on a value, in a waypoint.
+  plan(("scene: gap\ntool: hook\nrate_hz: !khz 1\n" + two).c_str());
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":3", "rate_hz", "YAML tag '!khz': ebh reads no tags");
+  plan("scene: gap\ntool: hook\nwaypoints:\n  - {t: 0, position_mm: [0, 0, !!float 30], rotvec_deg: [0, 0, 0]}\n  - {t: 1}\n");
+  EXPECT_INPUT_ERROR(read_plan(path), path + ":4", "waypoints[0].position_mm[2]", "YAML tag '!!float'");
+  plan(("scene: 'gap'\ntool: ! hook\n" + two).c_str());  // quoted, and the non-specific tag: plain text
+  EXPECT_NO_THROW(read_plan(path));
   plan("scene: [gap\n");
   EXPECT_INPUT_ERROR(read_plan(path), path, "YAML syntax error");
   plan(("waypoints: " + std::string(100000, '[') + "\n").c_str());  // yaml-cpp's nesting limit, not a stack overflow

@@ -1504,6 +1504,54 @@ TEST(Scene, ASecondDocumentAndMergeKeysAreRefused) {
   }
 }
 
+// A YAML tag is read by nothing (`k_con: !foo 800` replayed 800 N/m without a word): refused
+// naming the file, the line and the key, on a value, a list's item or a key; a quoted value (tag
+// "!") and the non-specific tag `!` are plain text as before.
+TEST(Scene, YamlTagsAreRefusedWithFileLineAndKey) {
+  const std::string good = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube22.msh").string());
+  auto message = [](const fs::path& file, const std::vector<std::string>& overrides = {}) -> std::string {
+    try {
+      (void)load_scene_spec(file, overrides);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const fs::path value = write_temp("tag_value.yaml", replace(good, "k_con: 450", "k_con: !foo 450"));
+  EXPECT_EQ(message(value), value.string() + ":14: key 'stiffness.k_con': YAML tag '!foo': ebh reads no tags (each key "
+                                             "says what its value is): remove it");
+  const fs::path item = write_temp("tag_item.yaml", replace(good, "gravity: [0, 0, -9.81]", "gravity: [0, 0, !!float -9.81]"));
+  EXPECT_EQ(message(item).rfind(item.string() + ":15: key 'gravity[2]': YAML tag '!!float': ", 0), 0u) << message(item);
+  const fs::path key = write_temp("tag_key.yaml", replace(good, "damping: 0.05", "!foo damping: 0.05"));
+  EXPECT_EQ(message(key).rfind(key.string() + ":16: key 'damping': YAML tag '!foo': ", 0), 0u) << message(key);
+  const fs::path quoted =
+      write_temp("tag_none.yaml", replace(replace(good, "damping: 0.05", "damping: ! 0.05"), "name: test-cube", "name: 'test-cube'"));
+  EXPECT_EQ(message(quoted), "no error");
+  // An override's value likewise, named by its --set.
+  EXPECT_EQ(message(quoted, {"stiffness={k_con: !foo 800}"}),
+            "--set 'stiffness={k_con: !foo 800}': key 'stiffness.k_con': YAML tag '!foo': ebh reads no tags (each key "
+            "says what its value is): remove it");
+}
+
+// A --set value keeps its text: YAML would end a plain value at " #" (a comment) or read one that
+// starts with '#' as nothing; numbers, booleans, lists, maps and quoted text are read as before.
+TEST(Scene, AnOverrideValueKeepsItsText) {
+  const fs::path file = fs::path(EBH_SOURCE_DIR) / "scenarios" / "tube.yaml";
+  EXPECT_EQ(load_scene_spec(file, {"name=a #b"}).name, "a #b");
+  EXPECT_EQ(load_scene_spec(file, {"description=#3, the stiff one"}).description, "#3, the stiff one");
+  EXPECT_EQ(load_scene_spec(file, {"description= padded "}).description, "padded");
+  EXPECT_EQ(load_scene_spec(file, {"description='a #b'"}).description, "a #b");
+  EXPECT_EQ(load_scene_spec(file, {"description=\"[1, 2]\""}).description, "[1, 2]");
+  const SceneSpec s = load_scene_spec(
+      file, {"stiffness.k_con=8e2", "gravity=[0,0,-1]", "stages.settle=false", "stiffness={k_vol: 500}", "tool.newton_calls=all"});
+  EXPECT_EQ(s.stiffness.k_con, 800);
+  EXPECT_EQ(s.gravity, Vec3d(0, 0, -1));
+  EXPECT_FALSE(s.stages.settle);
+  EXPECT_EQ(s.stiffness.k_vol, 500);
+  EXPECT_EQ(override_keys("name=a #b"), (std::vector<std::string>{"name"}));
+  EXPECT_EQ(override_keys("time={haptic_hz: 500} # a comment"), (std::vector<std::string>{"time.haptic_hz"}));
+}
+
 // The same for a scene whose mesh, tool and world each have their own unit and whose mesh is
 // placed by a transform: the resolved file carries mesh.unit, mesh.transform and tool.unit, and
 // reloads to the same scene, meshes included, bit for bit.

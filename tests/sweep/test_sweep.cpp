@@ -179,6 +179,43 @@ set: {solver.active_region: -0}
   EXPECT_EQ(expand_plan(p).size(), 2u);
 }
 
+// A value is passed on as `--set` text that reads back as the plan's value: a text holding " #"
+// as it is (the replay's --set keeps it: once YAML took the rest for a comment), one that --set
+// would read as a list, a map or nothing quoted; the resolved plan reads back to the same runs.
+TEST(SweepPlan, AValueReachesTheReplayAsTheTextItIs) {
+  const SweepPlan p = read_sweep_plan(plan_file("texts.yaml", R"(
+scenes:
+  - {scene: tube, recordings: [tube_insert], reference: {}}
+runs:
+  - {description: 'a #b'}
+  - {description: '[1, 2]'}
+  - {description: 'x: y'}
+  - {description: '~'}
+  - {description: "#1", gravity: [0, 0, -9.81], stages.settle: false}
+)"));
+  ASSERT_EQ(p.configurations.size(), 5u);
+  EXPECT_EQ(p.configurations[0].at("description"), "a #b");
+  EXPECT_EQ(p.configurations[1].at("description"), "\"[1, 2]\"");
+  EXPECT_EQ(p.configurations[2].at("description"), "\"x: y\"");
+  EXPECT_EQ(p.configurations[3].at("description"), "\"~\"");
+  EXPECT_EQ(p.configurations[4].at("description"), "#1");
+  EXPECT_EQ(p.configurations[4].at("gravity"), "[0, 0, -9.81]");
+  EXPECT_EQ(p.configurations[4].at("stages.settle"), "false");
+  const fs::path scene = fs::path(EBH_SOURCE_DIR) / "scenarios" / "tube.yaml";
+  const char* texts[] = {"a #b", "[1, 2]", "x: y", "~", "#1"};
+  const std::vector<SweepRun> runs = expand_plan(p);
+  for (std::size_t i = 0; i < 5; ++i) {
+    SweepRun r;
+    r.effective = p.configurations[i];
+    EXPECT_EQ(load_scene_spec(scene, r.set_arguments()).description, texts[i]);
+  }
+  const SweepPlan again = read_sweep_plan(plan_file("texts_resolved.yaml", resolved_plan_yaml(p)));
+  EXPECT_EQ(again.configurations, p.configurations);
+  const std::vector<SweepRun> runs_again = expand_plan(again);
+  ASSERT_EQ(runs_again.size(), runs.size());
+  for (std::size_t i = 0; i < runs.size(); ++i) EXPECT_EQ(runs_again[i].id, runs[i].id);
+}
+
 /// `recordings: all` takes a recording whose scene attribute is the scene file's path relative to
 /// the recording (as `ebh import --scene FILE` writes it), not only its name.
 TEST(SweepPlan, AllTakesARecordingThatNamesTheSceneByItsFile) {
@@ -461,6 +498,13 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nset: {stiffness.k_vol: 3000}\n"
        "runs:\n  - {stiffness.k_vol: 2000}\n  - {stiffness.k_vol: 4000, solver.virtual_iterations: 2}\n",
        ":2: key 'set.stiffness.k_vol': every configuration of `runs` gives stiffness.k_vol its own value"},
+      // a YAML tag, which nothing reads, on a plain setting, a list's value or a key
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nrepetitions: !foo 2\n",
+       ":2: key 'repetitions': YAML tag '!foo': ebh reads no tags"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\ngrid:\n  stiffness.k_con: [400, !!int 800]\n",
+       ":3: key 'grid.stiffness.k_con\\[1\\]': YAML tag '!!int': ebh reads no tags"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nset: {!foo gravity: [0, 0, 0]}\n",
+       ":2: key 'set.gravity': YAML tag '!foo'"},
   };
   int i = 0;
   for (const auto& [text, expected] : cases) {

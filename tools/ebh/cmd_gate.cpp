@@ -11,7 +11,6 @@
 #include "gate/gate.hpp"
 #include "io/paths.hpp"
 #include "options.hpp"
-#include "schedule/replay_inputs.hpp"
 
 namespace ebh::cli {
 namespace {
@@ -53,22 +52,15 @@ void run_gate(const GateArgs& a) {
   // Said before the cases run (minutes), while an interrupt still keeps the file as it is.
   if (a.update && b.body_comments > 0)
     std::fprintf(stderr, "ebh: warning: %s: its %zu comment line%s below the header will not be kept: --update writes "
-                 "the file anew from its values (notes kept through updates belong in the header, the comment lines "
-                 "at its top)\n",
+                 "the file anew from its values and the lines of the cases it does not measure (notes kept through "
+                 "updates belong in the header, the comment lines at its top)\n",
                  a.baselines.c_str(), b.body_comments, b.body_comments == 1 ? "" : "s");
   std::vector<std::string> known;
   for (const GateCase& c : b.cases) known.push_back(c.name);
   check_known_names("--case", "gate case", a.only, known);
-  // Every case's scene, meshes, recording and the overrides are good before the first case runs: a
-  // missing scene of the last case failed the gate after the others had run (minutes on CI).
-  for (const GateCase& c : b.cases) {
-    if (!a.only.empty() && std::find(a.only.begin(), a.only.end(), c.name) == a.only.end()) continue;
-    try {
-      (void)replay_input_files(c.scene_file, c.recording_file, a.overrides);
-    } catch (const InputError& e) {
-      throw InputError(c.where + ": " + e.what());
-    }
-  }
+  // Every case's inputs and window are good before the first case runs (check_gate_case).
+  for (const GateCase& c : b.cases)
+    if (a.only.empty() || std::find(a.only.begin(), a.only.end(), c.name) != a.only.end()) check_gate_case(c, a.overrides);
   Json report = Json::array();
   bool all_passed = true;
   for (GateCase& c : b.cases) {

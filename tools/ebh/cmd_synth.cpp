@@ -32,26 +32,60 @@ std::string file_name(const std::string& path) {
   return s == std::string::npos ? path : path.substr(s + 1);
 }
 
+/// "PLAN:LINE" for messages about the plan's key on that line ("PLAN" where the line is unknown).
+std::string plan_at(const std::string& plan, int line) {
+  return line > 0 ? plan + ":" + std::to_string(line) : plan;
+}
+
+/// The scene the recording names, read as a scene: a file that is none (a log, /etc/passwd,
+/// a scene's mesh) is refused, since every replay of the recording would take it for its scene.
+/// Its keys only: synth uses no mesh, and a scene's meshes may be made after the plan.
+ebh::SceneSpec plan_scene(const ebh::SynthPlan& plan, const std::filesystem::path& scene_file) {
+  try {
+    return ebh::load_scene_spec(scene_file, {}, /*mesh_files_must_exist=*/false);
+  } catch (const ebh::InputError& e) {
+    throw ebh::InputError(plan_at(plan.file, plan.scene_line) + ": scene: " + e.what() +
+                          " (a recording names the scene it is replayed on)");
+  }
+}
+
 void run(const SynthArgs& a) {
   ebh::check_outputs({{a.output, "the recording to write"}}, {{a.plan, "the plan"}});
   const ebh::SynthPlan plan = ebh::read_plan(a.plan, a.rate_hz);
+  const std::filesystem::path plan_folder = std::filesystem::path(a.plan).parent_path();
   // A scene file's path is relative to the plan; the recording names it relative to itself, where
   // readers look first (as `ebh import --scene` does), so that it names the same file.
   std::string scene;
   try {
-    scene = ebh::scene_attribute_from(plan.scene, std::filesystem::path(a.plan).parent_path(), a.output);
+    scene = ebh::scene_attribute_from(plan.scene, plan_folder, a.output);
   } catch (const ebh::InputError& e) {
-    throw ebh::InputError(a.plan + (plan.scene_line > 0 ? ":" + std::to_string(plan.scene_line) : std::string()) +
-                          ": scene: " + e.what() + " (a path in a plan is relative to the plan's folder)");
+    throw ebh::InputError(plan_at(a.plan, plan.scene_line) + ": scene: " + e.what() +
+                          " (a path in a plan is relative to the plan's folder)");
   }
   // A name is stored as it is (the data folders at replay time may hold it), but one found in none
   // of today's is likely misspelt: said, not refused.
+  std::filesystem::path scene_file;
   if (ebh::is_data_name(scene)) try {
-      (void)ebh::resolve_scene_path(scene);
+      scene_file = ebh::resolve_scene_path(scene);
     } catch (const ebh::InputError& e) {
-      std::fprintf(stderr, "ebh: warning: %s%s: scene: %s; the recording names it all the same\n", a.plan.c_str(),
-                   plan.scene_line > 0 ? (":" + std::to_string(plan.scene_line)).c_str() : "", e.what());
+      std::fprintf(stderr, "ebh: warning: %s: scene: %s; the recording names it all the same\n",
+                   plan_at(a.plan, plan.scene_line).c_str(), e.what());
     }
+  else
+    scene_file = ebh::resolve_scene_path(ebh::data_reference_from(plan.scene, plan_folder));
+  // The recording's tool says what instrument its poses move. A device log's is a fact about the
+  // hardware, which `ebh import` records as given even against the scene's (warned); a plan's only
+  // labels the path it plans for its scene, whose tool every replay moves whatever the attribute
+  // says (and warns when they differ): another tool than the scene's is a slip, refused.
+  if (!scene_file.empty()) {
+    const ebh::SceneSpec spec = plan_scene(plan, scene_file);
+    const char* scene_tool = spec.tool.kind == ebh::ToolSpec::Kind::Forceps ? "forceps" : "hook";
+    if (plan.tool != scene_tool)
+      throw ebh::InputError(plan_at(a.plan, plan.tool_line) + ": tool: " + plan.tool + ", but the scene '" + plan.scene +
+                            "' (" + scene_file.string() + ") moves a " + scene_tool +
+                            ": a replay on it would move a " + scene_tool + " along the path and say the tools differ; "
+                            "write tool: " + scene_tool + ", or name a scene whose tool is a " + plan.tool);
+  }
   for (const std::string& w : ebh::plan_rate_warnings(plan)) std::fprintf(stderr, "ebh: warning: %s\n", w.c_str());
   ebh::Recording rec = ebh::synthesize(plan, a.seed);
   rec.scene = scene;

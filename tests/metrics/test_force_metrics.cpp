@@ -80,6 +80,16 @@ std::string write_trace(const ReplayTrace& tr, const std::string& name, const st
   return path;
 }
 
+/// The message load_replay refuses `tr` with once written as `name` ("no error" when it reads it).
+std::string load_error(const ReplayTrace& tr, const std::string& name) {
+  try {
+    load_replay(write_trace(tr, name));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
 ForceMetrics roundtrip(const ReplayTrace& tr, const std::string& name, const MetricsOptions& opt = {}) {
   return compute_metrics(load_replay(write_trace(tr, name)), opt);
 }
@@ -459,14 +469,6 @@ TEST(ForceMetrics, NanIsCountedAndMakesTheRunNonFinite) {
 // rate above a scene's, and ticks closer than half a period (dF/dt over 1e-300 s). Up to the bound
 // every metric of finite samples is finite.
 TEST(ForceMetrics, ValuesNoReplayWritesAreRefusedNamingDatasetAndIndex) {
-  auto load_error = [](const ReplayTrace& tr, const std::string& name) -> std::string {
-    try {
-      load_replay(write_trace(tr, name));
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "no error";
-  };
   const ReplayTrace tr = make_trace(300);
   ReplayTrace bad = tr;
   bad.force[100].x = 1e160;
@@ -524,14 +526,6 @@ TEST(ForceMetrics, ValuesNoReplayWritesAreRefusedNamingDatasetAndIndex) {
 // angle NaN (null) with finite: true. No replay writes one (a diverged run writes NaN, which is
 // counted): refused as bad input naming the file, the dataset and the row.
 TEST(ForceMetrics, AQuaternionThatIsNoRotationIsRefusedNamingDatasetAndRow) {
-  auto load_error = [](const ReplayTrace& tr, const std::string& name) -> std::string {
-    try {
-      load_replay(write_trace(tr, name));
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "no error";
-  };
   const ReplayTrace tr = make_trace(300);
   ReplayTrace bad = tr;
   bad.pose_virtual[42].q = {0, 0, 0, 0};

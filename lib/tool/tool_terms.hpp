@@ -13,6 +13,8 @@
 // against their earlier results:
 //   CouplingAngle    how E_tvc squares theta = |v|
 //   GraspRotation    how the grasp Hessian's rotation block adds its two parts
+#include <limits>
+
 #include "math/hd.hpp"
 #include "math/vec.hpp"
 #include "tool/collider.hpp"
@@ -63,12 +65,20 @@ EBH_HD T coupling_terms(Vec3<T> Pg, Quat<T> Qg, Vec3<T> Ph, Quat<T> Qh, T k_vcs,
 }
 
 /// Scales v down to length `limit` when it is longer (limit > 0: the device's force or torque
-/// limit); returns whether it did.
+/// limit); returns whether it did. A v whose squared length overflows (a coupling force from a lag
+/// beyond ~1e154 m in double, ~6e16 m in float) keeps its direction: it is first divided by its
+/// largest component, so the clamp gives `limit`, not 0.
 template <class T>
 EBH_HD bool clamp_length(Vec3<T>& v, T limit) {
   const T n = norm(v);
   if (!(limit > T(0) && n > limit)) return false;
-  v = (limit / n) * v;
+  if (n <= std::numeric_limits<T>::max()) {
+    v = (limit / n) * v;
+  } else {
+    const T largest = T(fmax(fmax(fabs(v.x), fabs(v.y)), fabs(v.z)));  // exact in T
+    const Vec3<T> u = (T(1) / largest) * v;
+    v = (limit / norm(u)) * u;
+  }
   return true;
 }
 

@@ -54,6 +54,18 @@ TEST(ToolTerms, ClampLength) {
   EXPECT_TRUE(out.force_clamped);  // 30 N before the clamp
   EXPECT_DOUBLE_EQ(out.force.x, 3.3);
   EXPECT_FALSE(out.torque_clamped);
+  // A length whose square overflows keeps its direction (it gave 0 N, "clamped").
+  Vec3d far{3e200, -4e200, 0};
+  EXPECT_TRUE(clamp_length(far, 2.5));
+  EXPECT_DOUBLE_EQ(norm(far), 2.5);
+  EXPECT_DOUBLE_EQ(far.x / far.y, -0.75);
+  Vec3<float> far_f{3e30f, 4e30f, 0};
+  EXPECT_TRUE(clamp_length(far_f, 2.5f));
+  EXPECT_FLOAT_EQ(norm(far_f), 2.5f);
+  const CouplingOutput<double> lag =
+      coupling_output(Vec3d{1e160, 0, 0}, Quatd{1, 0, 0, 0}, Vec3d{}, Quatd{1, 0, 0, 0}, 300.0, 0.05, 3.3, 0.0);
+  EXPECT_TRUE(lag.force_clamped);
+  EXPECT_DOUBLE_EQ(lag.force.x, 3.3);
 }
 
 // The grasp Hessian's two roundings (CPU Split, device Fused) agree to round-off of its entries.

@@ -49,7 +49,7 @@ add_test(NAME cli.import.bad_rotation
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.synth.bad_plan
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_IO_DATA}/bad_plan.yaml;-o;${EBH_IO_OUT}/bad_plan.h5"
-    "-DEXPECT=^ebh: error: .*bad_plan.yaml:[0-9]+: waypoints\\[2\\].t: times must be strictly increasing"
+    "-DEXPECT=^ebh: error: .*bad_plan.yaml:[0-9]+: key 'waypoints\\[2\\].t': times must be strictly increasing"
     -DOUTPUT=${EBH_IO_OUT}/bad_plan.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 # --rate below twice the tremor's band (the plan's default 8-12 Hz) would alias it.
 add_test(NAME cli.synth.rate_below_the_tremor
@@ -84,7 +84,7 @@ set_tests_properties(cli.synth.scene_relative_to_recording PROPERTIES LABELS cli
   PASS_REGULAR_EXPRESSION "press.h5: 11 samples, 0.010 s at 1000 Hz, scene \\.\\./\\.\\./\\.\\./mesh/organ.yaml, tool hook")
 add_test(NAME cli.synth.scene_missing
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_PLAN_SCENE}/plans/missing.yaml;-o;${EBH_PLAN_SCENE}/missing.h5"
-    "-DEXPECT=^ebh: error: .*plans/missing.yaml:2: scene: .*plans/organ.yaml: scene file not found \\(a path in a plan is relative to the plan's folder\\)"
+    "-DEXPECT=^ebh: error: .*plans/missing.yaml:2: key 'scene': .*plans/organ.yaml: scene file not found \\(a path in a plan is relative to the plan's folder\\)"
     -DOUTPUT=${EBH_PLAN_SCENE}/missing.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.synth.scene_missing PROPERTIES LABELS cli)
 # A file that is no scene (a log without an extension, as /etc/passwd) would be stored as the
@@ -93,7 +93,7 @@ file(WRITE ${EBH_PLAN_SCENE}/mesh/press_log "t x y z\n0 1 2 3\n")
 file(WRITE ${EBH_PLAN_SCENE}/plans/no_scene.yaml "scene: ../mesh/press_log\n${ebh_plan_waypoints}")
 add_test(NAME cli.synth.scene_not_a_scene
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_PLAN_SCENE}/plans/no_scene.yaml;-o;${EBH_PLAN_SCENE}/no_scene.h5"
-    "-DEXPECT=^ebh: error: .*plans/no_scene.yaml:1: scene: .*mesh/press_log: not a scene file: a scene is a YAML map of keys \\(mesh, tool, \\.\\.\\.\\), this file holds 't x y z 0 1 2 3'"
+    "-DEXPECT=^ebh: error: .*plans/no_scene.yaml:1: key 'scene': .*mesh/press_log: not a scene file: a scene is a YAML map of keys \\(mesh, tool, \\.\\.\\.\\), this file holds 't x y z 0 1 2 3'"
     -DOUTPUT=${EBH_PLAN_SCENE}/no_scene.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 # A plan's tool other than its scene's: every replay on the scene would move the scene's tool and
 # say they differ (a device log's tool is the hardware's, which `ebh import` keeps; a plan's is a
@@ -101,7 +101,7 @@ add_test(NAME cli.synth.scene_not_a_scene
 file(WRITE ${EBH_PLAN_SCENE}/plans/other_tool.yaml "scene: tube\ntool: forceps\nwaypoints:\n  - {t: 0, position_mm: [0, 0, 10], rotvec_deg: [180, 0, 0]}\n  - {t: 0.01, position_mm: [0, 0, 9]}\n")
 add_test(NAME cli.synth.tool_not_the_scenes
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_PLAN_SCENE}/plans/other_tool.yaml;-o;${EBH_PLAN_SCENE}/other_tool.h5"
-    "-DEXPECT=^ebh: error: .*plans/other_tool.yaml:2: tool: forceps, but the scene 'tube' \\(.*scenarios/tube.yaml\\) moves a hook: .*write tool: hook, or name a scene whose tool is a forceps"
+    "-DEXPECT=^ebh: error: .*plans/other_tool.yaml:2: key 'tool': forceps, but the scene 'tube' \\(.*scenarios/tube.yaml\\) moves a hook: .*write tool: hook, or name a scene whose tool is a forceps"
     -DOUTPUT=${EBH_PLAN_SCENE}/other_tool.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.synth.scene_not_a_scene cli.synth.tool_not_the_scenes PROPERTIES LABELS cli)
 # A scene name found in no data folder: stored as given (it may be found at replay time), warned.
@@ -109,7 +109,21 @@ file(WRITE ${EBH_PLAN_SCENE}/plans/misspelt.yaml "scene: gapp\n${ebh_plan_waypoi
 add_test(NAME cli.synth.scene_name_not_found
   COMMAND ${EBH_BIN} synth ${EBH_PLAN_SCENE}/plans/misspelt.yaml -o ${EBH_PLAN_SCENE}/misspelt.h5)
 set_tests_properties(cli.synth.scene_name_not_found PROPERTIES LABELS cli
-  PASS_REGULAR_EXPRESSION "ebh: warning: .*plans/misspelt.yaml:1: scene: gapp: no such scene.*; the recording names it all the same")
+  PASS_REGULAR_EXPRESSION "ebh: warning: .*plans/misspelt.yaml:1: key 'scene': gapp: no such scene.*; the recording names it all the same")
+# A plan without `tool` plans for its scene's tool (cholecystectomy's forceps); where the scene is
+# in no data folder there is none to take: refused, no recording.
+string(REPLACE "tool: hook\n" "" ebh_plan_waypoints_only "${ebh_plan_waypoints}")
+file(WRITE ${EBH_PLAN_SCENE}/plans/no_tool.yaml "scene: cholecystectomy\n${ebh_plan_waypoints_only}")
+add_test(NAME cli.synth.tool_from_the_scene
+  COMMAND ${EBH_BIN} synth ${EBH_PLAN_SCENE}/plans/no_tool.yaml -o ${EBH_PLAN_SCENE}/no_tool.h5)
+set_tests_properties(cli.synth.tool_from_the_scene PROPERTIES LABELS cli
+  PASS_REGULAR_EXPRESSION "no_tool.h5: 11 samples, 0.010 s at 1000 Hz, scene cholecystectomy, tool forceps")
+file(WRITE ${EBH_PLAN_SCENE}/plans/no_tool_misspelt.yaml "scene: gapp\n${ebh_plan_waypoints_only}")
+add_test(NAME cli.synth.tool_missing_without_scene
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};synth;${EBH_PLAN_SCENE}/plans/no_tool_misspelt.yaml;-o;${EBH_PLAN_SCENE}/no_tool_misspelt.h5"
+    "-DEXPECT=ebh: error: .*plans/no_tool_misspelt.yaml: key 'tool': missing, and the scene is none to take it from \\(gapp: no such scene .*\\): write tool: hook or tool: forceps"
+    -DOUTPUT=${EBH_PLAN_SCENE}/no_tool_misspelt.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.synth.tool_missing_without_scene PROPERTIES LABELS cli)
 # Repeated samples are reported and, with --drop-repeats, removed; a log without times says
 # which rate it assumed; a given rate is stored exactly.
 add_test(NAME cli.import.repeats COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/repeats.csv -o ${EBH_IO_OUT}/repeats.h5)

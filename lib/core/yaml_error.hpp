@@ -146,6 +146,14 @@ void yaml_refuse_tags(const YAML::Node& node, const std::string& key, Fail&& fai
   }
 }
 
+/// yaml_refuse_tags over the whole of file `file`'s `root`: an InputError "FILE:LINE: key 'KEY':
+/// YAML tag ..." (yaml_key_error) at the first tag.
+inline void yaml_refuse_tags_in(const std::string& file, const YAML::Node& root) {
+  yaml_refuse_tags(root, "", [&file](const YAML::Node& n, const std::string& key, const std::string& what) {
+    throw InputError(yaml_key_error(file, n, key, what));
+  });
+}
+
 /// The value of `--set KEY=VALUE` (a sweep plan's overrides are passed on as such) as YAML reads it:
 /// a number, a word, a list ([1, 2]), a map ({k_vol: 500}) or a quoted text; but a plain (unquoted)
 /// value keeps its whole text, which YAML would end at " #" (a comment: `--set 'name=a #b'` named

@@ -27,9 +27,7 @@ struct PlanReader {
   std::string file;
 
   [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& what) const {
-    std::string loc = file;
-    if (n.IsDefined() && n.Mark().line >= 0) loc += ":" + std::to_string(n.Mark().line + 1);
-    throw InputError(loc + ": " + key + ": " + what);
+    throw InputError(yaml_key_error(file, n, key, what));
   }
 
   double number(const YAML::Node& n, const std::string& key) const {
@@ -90,14 +88,12 @@ SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
     throw InputError(yaml_parse_error(path, e));
   }
   if (!root.IsMap()) throw InputError(path + ": the plan must be a YAML mapping (scene, tool, waypoints, ...)");
-  yaml_refuse_tags(root, "", [&r](const YAML::Node& n, const std::string& key, const std::string& what) {
-    r.fail(n, key.empty() ? "the plan" : key, what);
-  });
+  yaml_refuse_tags_in(path, root);
   r.only_keys(root, "", {"scene", "tool", "description", "rate_hz", "tremor", "quantum_mm", "waypoints"});
 
   SynthPlan plan;
   plan.file = path;
-  for (const char* k : {"scene", "tool", "waypoints"})
+  for (const char* k : {"scene", "waypoints"})
     if (!root[k]) throw InputError(path + ": missing key '" + k + "'");
   plan.scene = r.string(root["scene"], "scene");
   if (plan.scene.find_first_not_of(" \t") == std::string::npos)
@@ -110,9 +106,11 @@ SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz) {
     r.fail(root["scene"], "scene", "'" + plan.scene + "' is no scene file (a scene is YAML, .yaml): name the scene the "
                                    "recording is for, its name or its .yaml");
   if (root["scene"].Mark().line >= 0) plan.scene_line = root["scene"].Mark().line + 1;
-  plan.tool = r.string(root["tool"], "tool");
-  if (root["tool"].Mark().line >= 0) plan.tool_line = root["tool"].Mark().line + 1;
-  if (plan.tool != "hook" && plan.tool != "forceps") r.fail(root["tool"], "tool", "expected hook or forceps");
+  if (root["tool"]) {
+    plan.tool = r.string(root["tool"], "tool");
+    if (root["tool"].Mark().line >= 0) plan.tool_line = root["tool"].Mark().line + 1;
+    if (plan.tool != "hook" && plan.tool != "forceps") r.fail(root["tool"], "tool", "expected hook or forceps");
+  }
   if (root["description"]) plan.description = r.string(root["description"], "description");
   if (root["rate_hz"]) {
     plan.rate_hz = r.number(root["rate_hz"], "rate_hz");

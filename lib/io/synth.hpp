@@ -28,7 +28,8 @@ struct SynthPlan {
   std::string file;  ///< the plan file (messages name it)
   /// The recording's scene: a name as given, or a scene file's path as given (relative to the
   /// plan's folder; `ebh synth` stores it relative to the recording's, scene_attribute_for).
-  std::string scene, tool, description;
+  std::string scene, description;
+  std::string tool;    ///< hook or forceps; "" where the plan leaves it to the scene (`ebh synth` takes the scene's)
   int scene_line = 0;  ///< the plan's line of `scene` (1 based; 0: unknown), for messages
   int tool_line = 0;   ///< the plan's line of `tool`, likewise
   double rate_hz = 1000;
@@ -39,7 +40,7 @@ struct SynthPlan {
   std::vector<PlanWaypoint> waypoints;      ///< t strictly increasing, the first at t >= 0
 };
 
-/// Reads a YAML plan; errors are "FILE:LINE: key: what". `rate_hz` (`ebh synth --rate`) replaces
+/// Reads a YAML plan; errors are "FILE:LINE: key 'KEY': what" (yaml_key_error). `rate_hz` (`ebh synth --rate`) replaces
 /// the plan's rate_hz before the checks that depend on it.
 SynthPlan read_plan(const std::string& path, std::optional<double> rate_hz = std::nullopt);
 

@@ -850,9 +850,7 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
                      (gmsh ? "; it is a Gmsh mesh: `ebh scene init " + file.string() + " -o scene.yaml` writes a scene for it"
                            : ""));
   }
-  yaml_refuse_tags(root, "", [&file](const YAML::Node& n, const std::string& key, const std::string& what) {
-    throw InputError(yaml_key_error(file.string(), n, key, what));
-  });
+  yaml_refuse_tags_in(file.string(), root);
   return root;
 }
 

@@ -56,9 +56,7 @@ class PlanReader {
   explicit PlanReader(fs::path file) : file_(std::move(file)) {}
 
   [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& what) const {
-    std::string where = file_.string();
-    if (n.IsDefined() && n.Mark().line >= 0) where += ":" + std::to_string(n.Mark().line + 1);
-    throw InputError(where + ": key '" + key + "': " + what);
+    throw InputError(yaml_key_error(file_.string(), n, key, what));
   }
 
   /// The entries of a map, checked (yaml_map_entries: text keys among `allowed`, any key when it is
@@ -221,9 +219,7 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     throw InputError(file.string() + ": cannot read the plan: " + e.msg);
   }
   if (!root.IsDefined() || root.IsNull()) throw InputError(file.string() + ": empty plan (it needs at least `scenes`)");
-  yaml_refuse_tags(root, "", [&file](const YAML::Node& n, const std::string& key, const std::string& what) {
-    throw InputError(yaml_key_error(file.string(), n, key, what));
-  });
+  yaml_refuse_tags_in(file.string(), root);
   SweepPlan plan;
   plan.file = file;
   std::map<std::string, YAML::Node> top;

@@ -44,14 +44,14 @@ ebh::SceneSpec plan_scene(const ebh::SynthPlan& plan, const std::filesystem::pat
   try {
     return ebh::load_scene_spec(scene_file, {}, /*mesh_files_must_exist=*/false);
   } catch (const ebh::InputError& e) {
-    throw ebh::InputError(plan_at(plan.file, plan.scene_line) + ": scene: " + e.what() +
+    throw ebh::InputError(plan_at(plan.file, plan.scene_line) + ": key 'scene': " + e.what() +
                           " (a recording names the scene it is replayed on)");
   }
 }
 
 void run(const SynthArgs& a) {
   ebh::check_outputs({{a.output, "the recording to write"}}, {{a.plan, "the plan"}});
-  const ebh::SynthPlan plan = ebh::read_plan(a.plan, a.rate_hz);
+  ebh::SynthPlan plan = ebh::read_plan(a.plan, a.rate_hz);
   const std::filesystem::path plan_folder = std::filesystem::path(a.plan).parent_path();
   // A scene file's path is relative to the plan; the recording names it relative to itself, where
   // readers look first (as `ebh import --scene` does), so that it names the same file.
@@ -59,7 +59,7 @@ void run(const SynthArgs& a) {
   try {
     scene = ebh::scene_attribute_from(plan.scene, plan_folder, a.output);
   } catch (const ebh::InputError& e) {
-    throw ebh::InputError(plan_at(a.plan, plan.scene_line) + ": scene: " + e.what() +
+    throw ebh::InputError(plan_at(a.plan, plan.scene_line) + ": key 'scene': " + e.what() +
                           " (a path in a plan is relative to the plan's folder)");
   }
   // A name is stored as it is (the data folders at replay time may hold it), but one found in none
@@ -68,7 +68,10 @@ void run(const SynthArgs& a) {
   if (ebh::is_data_name(scene)) try {
       scene_file = ebh::resolve_scene_path(scene);
     } catch (const ebh::InputError& e) {
-      std::fprintf(stderr, "ebh: warning: %s: scene: %s; the recording names it all the same\n",
+      if (plan.tool.empty())
+        throw ebh::InputError(a.plan + ": key 'tool': missing, and the scene is none to take it from (" + e.what() +
+                              "): write tool: hook or tool: forceps");
+      std::fprintf(stderr, "ebh: warning: %s: key 'scene': %s; the recording names it all the same\n",
                    plan_at(a.plan, plan.scene_line).c_str(), e.what());
     }
   else
@@ -80,8 +83,9 @@ void run(const SynthArgs& a) {
   if (!scene_file.empty()) {
     const ebh::SceneSpec spec = plan_scene(plan, scene_file);
     const char* scene_tool = spec.tool.kind == ebh::ToolSpec::Kind::Forceps ? "forceps" : "hook";
+    if (plan.tool.empty()) plan.tool = scene_tool;  // a plan without `tool` plans for its scene's
     if (plan.tool != scene_tool)
-      throw ebh::InputError(plan_at(a.plan, plan.tool_line) + ": tool: " + plan.tool + ", but the scene '" + plan.scene +
+      throw ebh::InputError(plan_at(a.plan, plan.tool_line) + ": key 'tool': " + plan.tool + ", but the scene '" + plan.scene +
                             "' (" + scene_file.string() + ") moves a " + scene_tool +
                             ": a replay on it would move a " + scene_tool + " along the path and say the tools differ; "
                             "write tool: " + scene_tool + ", or name a scene whose tool is a " + plan.tool);

@@ -202,7 +202,7 @@ set_tests_properties(cli.metrics.json PROPERTIES
   PASS_REGULAR_EXPRESSION "\"finite\": true,.*\"episode_count\": 1,.*\"haptic_over_budget_ticks\": 1" LABELS cli)
 add_test(NAME cli.metrics.not_hdf5
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/make_trace.py"
-    "-DEXPECT=^ebh: error: .*make_trace.py: not a readable HDF5 file" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+    "-DEXPECT=^ebh: error: .*make_trace.py: not an HDF5 file" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 add_test(NAME cli.metrics.missing_file
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${EBH_METRICS_DATA}/no_such_replay.h5"
     "-DEXPECT=^ebh: error: .*no_such_replay.h5: cannot open: No such file or directory" -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)

@@ -7,7 +7,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <sstream>
+#include <system_error>
 
 #include "core/error.hpp"
 #include "io/paths.hpp"
@@ -628,15 +630,27 @@ File File::create(const std::string& path, const std::string& name) {
   return File(std::make_shared<Handle>(f, std::make_shared<FileState>()), shown);
 }
 
-File File::open_read(const std::string& path) {
+std::int64_t open_file_read(const std::string& path) {
   silence_errors();
   check_input_file(path);
   if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path + ": not an HDF5 file");
   hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (f < 0) {
-    if (const std::string cut = truncation(error_descriptions()); !cut.empty())
+    const std::string errors = error_descriptions();
+    if (const std::string cut = truncation(errors); !cut.empty())
       throw InputError(path + ": cannot open HDF5 file: it is cut short (" + cut + "): a copy or download that did not "
                               "finish, or a writer stopped before it closed the file");
+    // The signature is there (H5Fis_hdf5) but the superblock after it is not one: a file that only
+    // starts like an HDF5 file, or whose first bytes were overwritten.
+    if (errors.find("superblock") != std::string::npos) {
+      const std::size_t last = errors.find_last_of('\n', errors.size() - 2);
+      const std::string innermost = errors.substr(last == std::string::npos ? 0 : last + 1);
+      std::error_code ec;
+      const auto bytes = std::filesystem::file_size(path, ec);
+      throw InputError(path + ": cannot open HDF5 file: it starts with HDF5's signature but its header (superblock) is "
+                              "damaged (" + (ec ? std::string() : std::to_string(bytes) + " bytes; ") + "HDF5: " +
+                       innermost.substr(0, innermost.find('\n')) + "): a damaged copy, or no HDF5 file");
+    }
 #if H5_VERSION_GE(1, 10, 7)
     // A program writing the file holds HDF5's lock on it (a logger still running): named as such.
     Handle fapl(H5Pcreate(H5P_FILE_ACCESS));
@@ -649,7 +663,11 @@ File File::open_read(const std::string& path) {
 #endif
     throw InputError(path + ": cannot open HDF5 file");
   }
-  return File(std::make_shared<Handle>(f, std::make_shared<FileState>()), path);
+  return f;
+}
+
+File File::open_read(const std::string& path) {
+  return File(std::make_shared<Handle>(open_file_read(path), std::make_shared<FileState>()), path);
 }
 
 File File::open_write(const std::string& path) {

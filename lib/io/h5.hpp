@@ -315,6 +315,12 @@ class AtomicFile {
 /// Silences HDF5's automatic error printing (idempotent; done by every File factory).
 void silence_errors();
 
+/// Opens the existing file `path` read-only (check_input_file() first, io/paths.hpp) and returns
+/// its HDF5 identifier, for File::open_read and the readers that use the HDF5 library directly.
+/// Throws InputError "PATH: why": not an HDF5 file, cut short (with its sizes), a damaged header
+/// (its size and HDF5's innermost reason), held open for writing by another program.
+std::int64_t open_file_read(const std::string& path);
+
 /// The message of a failed read of `dataset` (an HDF5 identifier), "cannot read WHAT: why": a
 /// compression filter this library lacks (h5py's lzf) by name, compressed data that does not
 /// decompress (a damaged file), else no reason. Reads HDF5's error stack: call it right after the

@@ -200,15 +200,7 @@ class Reader {
   }
 
  private:
-  static hid_t open(const std::string& path) {
-    check_input_file(path);
-    std::FILE* f = std::fopen(path.c_str(), "rb");
-    if (!f) throw InputError(path + ": cannot open file");
-    std::fclose(f);
-    hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (id < 0) throw InputError(path + ": not a readable HDF5 file");
-    return id;
-  }
+  static hid_t open(const std::string& path) { return h5::open_file_read(path); }
 
   std::string path_;
   Handle file_;

@@ -236,6 +236,24 @@ TEST(H5, DamagedAndCutShortFilesSayWhatIsWrong) {
                                                                " bytes)");
 }
 
+// A file with HDF5's signature and nothing of an HDF5 file after it (said "cannot open HDF5 file"
+// before): its header is named as damaged, with its size and HDF5's reason.
+TEST(H5, ASignatureWithoutAFileIsADamagedHeader) {
+  test::ScratchDir tmp;
+  const std::string path = tmp / "signature.h5";
+  {
+    std::FILE* fp = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(fp, nullptr);
+    const unsigned char file[108] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};  // then zeros
+    ASSERT_EQ(std::fwrite(file, 1, sizeof file, fp), sizeof file);
+    std::fclose(fp);
+  }
+  EXPECT_INPUT_ERROR((void)h5::File::open_read(path), path,
+                     ": cannot open HDF5 file: it starts with HDF5's signature but its header (superblock) is damaged "
+                     "(108 bytes; HDF5: ",
+                     "): a damaged copy, or no HDF5 file");
+}
+
 // A checksum that fails (fletcher32, uncompressed data) is said as such, not as data that does
 // not decompress.
 TEST(H5, AChecksumThatFailsIsNamed) {

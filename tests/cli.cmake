@@ -1270,6 +1270,14 @@ add_test(NAME cli.replay.direct_steps_balanced_quiet
   COMMAND ${EBH_BIN} replay gap gap_insert -o ${EBH_NUM_OUT}/direct_balanced.h5 --start 3 --duration 0.1
     --set solver.method=direct -q)
 set_tests_properties(cli.replay.direct_steps_balanced_quiet PROPERTIES LABELS cli FAIL_REGULAR_EXPRESSION "unbalanced")
+# A physical mesh placed 1e9 m from the origin (1e10 times its size) replays on the CPU, its steps
+# stalling on double's round-off of its positions: the warning names that first, with the
+# translation that brings the mesh back, before the mesh and the stiffnesses.
+add_test(NAME cli.replay.far_mesh_stalls_on_round_off
+  COMMAND ${EBH_BIN} replay tube tube_insert -o ${EBH_NUM_OUT}/far.h5 --duration 0.3 --allow-outside
+    --set "mesh.transform.translate=[1e12, 0, 0]" -q)
+set_tests_properties(cli.replay.far_mesh_stalls_on_round_off PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION
+  "far.h5: [0-9]+ of 31 physical steps stopped when their iterations stalled, .*/physical/residual\\): the physical mesh's centre lies 1e\\+09 m from the world's origin, 9.6e\\+09 times its size, where double's round-off of its positions \\(1.1e-07 m\\) can leave what they stall at: move the mesh near the origin \\(mesh.transform.translate: \\[0, 0, 0\\], in mm\\) and the recording's poses by as much; else the iteration makes no headway on this mesh")
 # So does a fixed iteration count of an iterative method (solver.physical_tolerance 0, the
 # paper's fixed K): on tube_grasp 8 Chebyshev iterations let the residual grow from step to step
 # (0.9 mesh weights in this window, steps recovered later), judged against the default tolerance;

@@ -884,6 +884,15 @@ Vec3d MeshTransform::apply(const Vec3d& p) const { return rotation() * (scale * 
 
 Vec3d MeshTransform::inverse(const Vec3d& p) const { return (transpose(rotation()) * (p - translate)) / scale; }
 
+std::string mesh_unit_text(const SceneSpec& spec, const Vec3d& v) {
+  const int decimals = std::max(0, static_cast<int>(std::ceil(std::log10(spec.mesh_unit / 1e-4) - 1e-9)));
+  return "[" + fixed_text(v.x, decimals) + ", " + fixed_text(v.y, decimals) + ", " + fixed_text(v.z, decimals) + "]";
+}
+
+std::string translate_to_origin(const SceneSpec& spec, const Vec3d& centre) {
+  return mesh_unit_text(spec, (spec.mesh_transform.translate - centre) / spec.mesh_unit) + ", in " + spec.mesh_unit_name;
+}
+
 BoundingBox bounding_box(const std::vector<Vec3d>& points) {
   if (points.empty()) return {};
   BoundingBox b{points.front(), points.front()};
@@ -1305,9 +1314,10 @@ Scene build_scene(SceneSpec spec_in) {
                              "step runs " + std::to_string(sv.physical_iterations) +
                              " where the tolerance is met sooner; for a closer solve lower solver.physical_tolerance (" +
                              shown_number(sv.physical_tolerance) + " mesh weights)");
-  if (spec.density < 100 || spec.density > 3000)
+  if (spec.density < kTissueDensityMin || spec.density > kTissueDensityMax)
     scene.warnings.push_back(value_source(spec, "material.density") + ": material.density = " + shown_number(spec.density) +
-                             " kg/m^3 is outside soft tissue's 100 .. 3000");
+                             " kg/m^3 is outside soft tissue's " + shown_number(kTissueDensityMin) + " .. " +
+                             shown_number(kTissueDensityMax));
   if (norm(spec.gravity) > 2 * 9.81)
     scene.warnings.push_back(value_source(spec, "gravity") + ": |gravity| = " + shown_number(norm(spec.gravity)) + " m/s^2 is over 2 g");
   for (const Plausible& p : {Plausible{"stiffness.k_s", spec.stiffness.k_s, 0.01, 1e6, "N/m", kSurfaceSpring},
@@ -1381,7 +1391,8 @@ Scene build_scene(SceneSpec spec_in) {
   };
   const double file_size = size();
   // In the file's unit and frame, which the virtual mesh's file shares: its weld's scale.
-  const double file_diagonal = bounding_box(mesh.vertices).diagonal();
+  const BoundingBox file_box = bounding_box(mesh.vertices);
+  const double file_diagonal = file_box.diagonal();
   const double expected = file_size * spec.mesh_unit * spec.mesh_transform.scale;
   place(mesh.vertices);
   if (file_size > 0 && !(expected >= kMinPlacedDiagonal && expected <= kMaxPlacedDiagonal))
@@ -1390,11 +1401,35 @@ Scene build_scene(SceneSpec spec_in) {
                        " m (" + shown_number(file_size) + " " + spec.mesh_unit_name + " in the file): expected " +
                        shown_number(kMinPlacedDiagonal) + " .. " + shown_number(kMaxPlacedDiagonal) +
                        " m, where its tets' volumes neither underflow nor overflow");
-  if (const double placed = size(); !(std::fabs(placed - expected) <= 1e-6 * expected))
-    fail_scene_key(spec, "mesh.transform.translate",
-                   "moves the physical mesh " + shown_number(max_abs(spec.mesh_transform.translate)) +
-                       " m away, where the coordinates' round-off changes its size from " + shown_number(expected) +
-                       " to " + shown_number(placed) + " m: expected a translation near the mesh's size");
+  if (const double placed = size(); !(std::fabs(placed - expected) <= 1e-6 * expected)) {
+    const std::string round_off = "where the coordinates' round-off changes its size from " + shown_number(expected) +
+                                  " to " + shown_number(placed) + " m";
+    // What took the mesh that far: the translation, where it is longer than the file's coordinates
+    // put the mesh from the origin and leaves it farther, else those coordinates (a segmentation
+    // left in its scanner's frame).
+    const Vec3d centre = bounding_box(mesh.vertices).centre();
+    const double own = norm(file_box.centre()) * spec.mesh_unit * spec.mesh_transform.scale;  // m
+    if (norm(spec.mesh_transform.translate) > own && norm(centre) > own)
+      fail_scene_key(spec, "mesh.transform.translate",
+                     "moves the physical mesh " + shown_number(max_abs(spec.mesh_transform.translate)) + " m away, " +
+                         round_off + ": expected a translation near the mesh's size");
+    // mesh.unit, the scale and the rotation round the file's coordinates before the translation
+    // applies; a translation alone adds exactly to coordinates of about its size (Sterbenz), so
+    // with none of them the right one brings the mesh back whole.
+    std::string rounded_by;
+    if (spec.mesh_unit != 1) rounded_by = "mesh.unit (" + spec.mesh_unit_name + ")";
+    if (spec.mesh_transform.scale != 1) rounded_by += (rounded_by.empty() ? "" : ", ") + std::string("mesh.transform.scale");
+    if (spec.mesh_transform.rotvec_deg != Vec3d{})
+      rounded_by += (rounded_by.empty() ? "" : ", ") + std::string("mesh.transform.rotvec_deg");
+    const std::string fix =
+        rounded_by.empty()
+            ? "move it near the origin (mesh.transform.translate: " + translate_to_origin(spec, centre) + ")"
+            : "move it near the origin in its file (subtract its centre " + mesh_unit_text(spec, file_box.centre()) + " " +
+                  spec.mesh_unit_name + " from every vertex): " + rounded_by +
+                  " rounds the file's coordinates before mesh.transform.translate applies, so no translation keeps its shape";
+    throw InputError(mesh_file + ": the mesh's vertices lie " + shown_number(own) + " m from the origin (its centre), " +
+                     round_off + ": " + fix);
+  }
   check_magnitude(spec.file.string() + ": mesh.unit, mesh.transform.scale and mesh.transform.translate", " m once placed");
   scene.physical = std::move(mesh);
 

@@ -543,8 +543,18 @@ std::string file_groups_note(const std::filesystem::path& mesh_file);
 struct BoundingBox {
   Vec3d lo, hi;
   double diagonal() const { return norm(hi - lo); }
+  Vec3d centre() const { return 0.5 * (lo + hi); }
 };
 BoundingBox bounding_box(const std::vector<Vec3d>& points);
+
+/// `v` (a point or an offset in mesh.unit) as the scene's keys take it, "[x, y, z]", to 0.1 mm
+/// however large (fixed_text).
+std::string mesh_unit_text(const SceneSpec& spec, const Vec3d& v);
+/// The mesh.transform.translate that brings `centre` (a point of the placed physical mesh, world
+/// metres) to the world's origin: "[x, y, z], in UNIT" (mesh.unit). A mesh far from the origin
+/// loses its positions' bits to round-off (float32 on the CUDA backend, double past ~1e6 times its
+/// size); near it, it keeps them.
+std::string translate_to_origin(const SceneSpec& spec, const Vec3d& centre);
 
 /// The tool's sizes that meet tissue, with their keys under `tool.` ("shaft_radius",
 /// "hook.tip_length", ... for the tool's kind), in metres: what the plausibility warnings compare
@@ -563,6 +573,9 @@ inline constexpr double kMaxPlacedDiagonal = 1e30;
 /// mesh's bounding-box diagonal warns: the mesh would stay still under the tool (solver.sleep at
 /// 0.65% of the own-data organ's skipped 106 steps in contact: +12% peak force).
 inline constexpr double kSolverThresholdMaxRatio = 0.001;
+/// Soft tissue's densities (kg/m^3): a material.density outside warns.
+inline constexpr double kTissueDensityMin = 100;
+inline constexpr double kTissueDensityMax = 3000;
 /// One Newton call of the virtual tool looks for contacts as far around it as it can move
 /// (tool.newton_iterations x tool.max_step): beyond this many times what a hand moves an instrument
 /// in a tick (kHandSpeedMax / time.haptic_hz) it weighs far tissue at every step and the ticks cost

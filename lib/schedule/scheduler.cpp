@@ -168,7 +168,7 @@ bool steps_in_launches(const ReplayOptions& opt) {
 class DeviceReplay {
  public:
   DeviceReplay(const World& world, const Recording& rec, const ReplayOptions& opt, ReplayObserver& obs)
-      : world_(world), opt_(opt), obs_(obs), N_(world.ticks_per_step),
+      : world_(world), rec_(rec), opt_(opt), obs_(obs), N_(world.ticks_per_step),
         ticks_(tick_count(world, recording_duration(rec, opt))),
         in_(inputs(world, rec, opt, ticks_)),
         physical_(make_physical_side(world, steps_in_launches(opt))), device_(in_.setup, in_.ticks, *physical_.cuda),
@@ -301,7 +301,7 @@ class DeviceReplay {
     view_.output.torque = o.torque;
     view_.output.force_clamped = o.force_clamped != 0;
     view_.output.torque_clamped = o.torque_clamped != 0;
-    check_haptic_tick(world_, n, view_.output);
+    check_haptic_tick(world_, n, view_.output, rec_, view_.device);
     view_.tool.pose = {o.position, o.orientation};
     view_.tool.steps_taken = o.newton_steps;
     view_.tool.steps_rejected = o.newton_rejected;
@@ -352,6 +352,7 @@ class DeviceReplay {
   }
 
   const World& world_;
+  const Recording& rec_;  ///< the samples' source, named by a tick's health check
   const ReplayOptions& opt_;
   ReplayObserver& obs_;
   const int N_;
@@ -444,6 +445,7 @@ ReplaySummary replay_virtual_time(const World& world, const Recording& rec, cons
       }
     }
     haptic_tick(world, haptic, sample_at(rec, t0 + t));
+    check_haptic_tick(world, n, haptic.output, rec, haptic.device);
     obs.on_tick(world, haptic, t);
     ++s.ticks;
     if (frames.due(t, world.h_haptic)) obs.on_frame(world, haptic, t);
@@ -538,6 +540,7 @@ ReplaySummary replay_realtime(const World& world, const Recording& rec, const Re
     }
     if (got) deliver_physical_snapshot(world, haptic, incoming);
     haptic_tick(world, haptic, sample_at(rec, t0 + t));
+    check_haptic_tick(world, n, haptic.output, rec, haptic.device);
     {
       std::lock_guard<std::mutex> lock(mx);
       take_haptic_snapshot(haptic, published_q);

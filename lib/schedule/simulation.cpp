@@ -554,15 +554,41 @@ void haptic_tick(const World& world, HapticSide& h, const DeviceSample& sample) 
   }
   timed(t.output, [&] { emit_output(world, h); });
   t.total = seconds_since(t0);
-  check_haptic_tick(world, h.tick, h.output);
   ++h.tick;
 }
 
-void check_haptic_tick(const World& world, std::int64_t tick, const ToolOutput& output) {
+namespace {
+/// The recording's samples a device sample at the recording's time t was read from (sample_at):
+/// "the recording's sample I (t = T s)", or "... samples I and J (t = T0 .. T1 s)" where it
+/// interpolates; I and J are the file's rows.
+std::string samples_read(const Recording& rec, double t) {
+  const auto time = [](double v) {  // a log's own clock may count from 1970: all its digits
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.15g", v);
+    return std::string(buf);
+  };
+  const std::size_t n = rec.size();
+  const std::size_t after = static_cast<std::size_t>(std::upper_bound(rec.t.begin(), rec.t.end(), t) - rec.t.begin());
+  const auto one = [&](std::size_t i) {
+    return "the recording's sample " + std::to_string(rec.row(i)) + " (t = " + time(rec.t[i]) + " s)";
+  };
+  if (n == 0) return "no sample";
+  if (after == 0) return one(0);
+  if (after == n || rec.t[after - 1] == t) return one(after - 1);
+  return "the recording at t = " + time(t) + " s, between its samples " + std::to_string(rec.row(after - 1)) + " and " +
+         std::to_string(rec.row(after)) + " (t = " + time(rec.t[after - 1]) + " .. " + time(rec.t[after]) + " s)";
+}
+}  // namespace
+
+void check_haptic_tick(const World& world, std::int64_t tick, const ToolOutput& output, const Recording& rec,
+                       const DeviceSample& sample) {
   const auto ok = [](const Vec3d& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
   if (ok(output.force) && ok(output.torque)) return;
+  char pose[96];
+  std::snprintf(pose, sizeof pose, "(%g, %g, %g) m", sample.position.x, sample.position.y, sample.position.z);
   throw NumericalError(world.scene.spec.file.string() + ": tick " + std::to_string(tick) +
-                       ": the force or torque on the virtual tool is not finite");
+                       ": the force or torque on the virtual tool is not finite; the tick read the device at " + pose +
+                       " from " + samples_read(rec, sample.t));
 }
 
 namespace {

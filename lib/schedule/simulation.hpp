@@ -190,7 +190,8 @@ void deliver_physical_snapshot(const World& world, HapticSide& haptic, const Phy
 /// (n - delivered + 1) / N, 1 from N - 1 ticks after the delivery on (N ticks per physical step).
 double physical_blend(std::int64_t n, std::int64_t delivered, int N);
 
-/// One haptic tick (Algorithm 2) with the device sample for this tick.
+/// One haptic tick (Algorithm 2) with the device sample for this tick; its health check
+/// (check_haptic_tick) is the caller's, which knows the recording.
 void haptic_tick(const World& world, HapticSide& haptic, const DeviceSample& sample);
 
 /// One physical step (Algorithm 1) coupled to the virtual-mesh positions of `snapshot`; on the
@@ -204,8 +205,11 @@ void run_physical_step(const World& world, PhysicalSide& physical, const HapticS
 
 /// The health checks (STYLE.md's run-time tier): a non-finite or diverged physical state after
 /// physical.step - 1 (physical_state_problem), a non-finite force or torque after a tick. Each
-/// throws NumericalError: "SCENE: tick N, physical step K: what, the worst element".
+/// throws NumericalError: "SCENE: tick N, physical step K: what, the worst element"; a tick's
+/// names the recording's samples that `sample` (what tick N read: rec at sample.t) came from, by
+/// their index in the file and time, so that the row of the log can be found.
 void check_physical_step(const World& world, const PhysicalSide& physical);
-void check_haptic_tick(const World& world, std::int64_t tick, const ToolOutput& output);
+void check_haptic_tick(const World& world, std::int64_t tick, const ToolOutput& output, const Recording& rec,
+                       const DeviceSample& sample);
 
 }  // namespace ebh

@@ -83,6 +83,7 @@ struct PhysicalModel {
   std::vector<double> tet_weight;       ///< #T w_t = 2 k_vol_t V_t
   std::vector<Vec3d> shape_grad;        ///< #T*4 g_c with F = sum_c x_c g_c^T (1/m)
   std::vector<double> mass;             ///< #n lumped mass, kg (density V_t / 4 per corner)
+  double density = 0;                   ///< kg/m^3, the masses' (material.density)
   double weight_norm = 0;               ///< ||M g0|| over free vertices (N), g0 = 9.81 m/s^2: the residual's scale
   double rest_diagonal = 0;             ///< m, the rest shape's bounding-box diagonal (the health check's scale)
   std::vector<std::uint8_t> pinned;     ///< #n
@@ -333,6 +334,21 @@ void physical_elastic_forces(const PhysicalModel& model, std::span<const Vec3d> 
 /// coarser than one 20 mm away). `origin`: the point the positions are rounded relative to
 /// (the mesh's centre: the floor of the mesh alone).
 double float32_residual_floor(const PhysicalModel& model, const Vec3d& origin = {});
+
+/// A position at a distance d from the world's origin is rounded to eps/2 d in double (eps =
+/// 2^-52). Above this share of the physical mesh's size (its rest bounding-box diagonal), that
+/// round-off is named as a likely cause of steps that stall: measured, tube (100 mm, edges about
+/// 3 mm) stalls above 5 times the default tolerance 1e9 m away (its positions rounded to 1.1e-6 of
+/// its size), not 1e8 m away (1.1e-7); the residual grows as the round-off over the square of an
+/// edge (float32_residual_floor), so edges 100 times finer, or slivers, stall at 1e-4 of that:
+/// 1.1e-10, a centre about 1e6 sizes away.
+inline constexpr double kDoubleRoundOffShare = 1e-10;
+
+/// The cause to name first where the CPU step's iterations stalled: a physical mesh so far from
+/// the world's origin against its size (kDoubleRoundOffShare) that double's round-off of its
+/// positions can leave what they stall at, with the fix (translate_to_origin). "" where the mesh
+/// lies near enough.
+std::string double_round_off_cause(const SceneSpec& spec, const PhysicalModel& model);
 
 /// The warning of a physical mesh so far from the world's origin that the CUDA backend's float32
 /// positions leave a residual floor above solver.physical_tolerance (`floor`:

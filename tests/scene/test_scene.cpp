@@ -1077,6 +1077,65 @@ TEST_F(BadScene, PlacementThatLosesTheMesh) {
   expect(replace(good, "translate: [0, 0, 0]", "translate: [1e300, 0, 0]"),
          "key 'mesh.transform.translate': moves the physical mesh 1e+297 m away", true);
 }
+/// cube22.msh (a 10 mm cube) with every node moved by `f`, written to 17 digits.
+template <class F>
+std::string cube22_moved(F f) {
+  const std::string text = slurp(data("mesh/cube22.msh"));
+  const std::size_t from = text.find("$Nodes\n8\n") + 9, to = text.find("$EndNodes");
+  std::istringstream nodes(text.substr(from, to - from));
+  std::string moved;
+  int id;
+  Vec3d p;
+  while (nodes >> id >> p.x >> p.y >> p.z) {
+    const Vec3d q = f(p);
+    char line[128];
+    std::snprintf(line, sizeof line, "%d %.17g %.17g %.17g\n", id, q.x, q.y, q.z);
+    moved += line;
+  }
+  return text.substr(0, from) + moved + text.substr(to);
+}
+// A mesh whose own coordinates lie far from the origin (a segmentation left in its scanner's
+// frame) is refused naming its file and its distance, not a translation the scene does not give
+// or one that brings it back. Where mesh.unit rounds those coordinates before any translation
+// applies the fix is in the file; where nothing does, the translation to the origin, which loads.
+TEST_F(BadScene, MeshFarFromTheOriginInItsFile) {
+  const fs::path far = write_temp("far.msh", cube22_moved([](Vec3d p) { return p + Vec3d{1e13, 1e13, 1e13}; }));  // 1e10 m
+  const std::string scene = replace(good, data("mesh/cube22.msh").string(), far.string());
+  for (const std::string translate : {"[0, 0, 0]", "[-10000000000005, -10000000000005, -10000000000005]"}) {
+    try {
+      load_scene(write_temp("far.yaml", replace(scene, "translate: [0, 0, 0]", "translate: " + translate)));
+      ADD_FAILURE() << "no InputError (translate " << translate << ")";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()),
+                far.string() + ": the mesh's vertices lie 1.73205e+10 m from the origin (its centre), where the "
+                               "coordinates' round-off changes its size from 0.0173205 to 0.0173209 m: move it near the "
+                               "origin in its file (subtract its centre [10000000000005, 10000000000005, 10000000000005] "
+                               "mm from every vertex): mesh.unit (mm) rounds the file's coordinates before "
+                               "mesh.transform.translate applies, so no translation keeps its shape")
+          << "translate " << translate;
+    }
+  }
+  // A 1 mm cube in metres at 2^33 m (8.6e6 km), where a double's step doubles: a translation of
+  // 0.3 mm rounds its two sides apart; the one the message names loads it whole.
+  const fs::path across = write_temp("across.msh", cube22_moved([](Vec3d p) {
+    return Vec3d{8589934592.0 + (p.x - 5) * 1e-4, p.y * 1e-4, p.z * 1e-4};
+  }));
+  std::string metres = replace(replace(good, data("mesh/cube22.msh").string(), across.string()), "  unit: mm\n  transform",
+                               "  unit: m\n  transform");
+  metres = replace(metres, "  - box: {min: [-1, -1, 9], max: [1, 1, 11]}\n", "");
+  try {
+    load_scene(write_temp("across.yaml", replace(metres, "translate: [0, 0, 0]", "translate: [0.0003, 0, 0]")));
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              across.string() + ": the mesh's vertices lie 8.58993e+09 m from the origin (its centre), where the "
+                                "coordinates' round-off changes its size from 0.00173173 to 0.00173118 m: move it near the "
+                                "origin (mesh.transform.translate: [-8589934592, -0.0005, -0.0005], in m)");
+  }
+  const Scene s = load_scene(
+      write_temp("across.yaml", replace(metres, "translate: [0, 0, 0]", "translate: [-8589934592, -0.0005, -0.0005]")));
+  EXPECT_LT(norm(bounding_box(s.physical.vertices).centre()), 1e-9);
+}
 TEST_F(BadScene, UnknownGroup) {
   expect(replace(good, "group: bottom", "group: bottm"),
          "key 'pinned[0].group': unknown group 'bottm' (known groups in " + data("mesh/cube22.msh").lexically_normal().string() +

@@ -152,6 +152,58 @@ TEST(Health, TheStopNamesKsAboveKsvcOnlyBesideTheTicks) {
   EXPECT_EQ(lockstep.find("lockstep"), std::string::npos) << lockstep;
 }
 
+// A non-finite force (a device pose of 1e308 m in the log) stops the replay naming the tick and
+// the recording's sample that tick read, by its index and time: the row to look for in the log.
+TEST(Health, ANonFiniteForceNamesTheRecordingsSampleTheTickRead) {
+  Recording rec = read_recording(resolve_recording_path("tube_insert"));
+  ASSERT_EQ(rec.t[40], 0.04);
+  rec.position[40] = Vec3d{1e308, 0, 0.03};
+  const auto world = build_world(load_scene(resolve_scene_path("tube")), 1000, 100);
+  ReplayOptions opt;
+  opt.start = 0.02;  // tick 20 reads sample 40
+  opt.duration = 0.1;
+  Count count;
+  try {
+    replay(*world, rec, opt, count);
+    FAIL() << "no stop";
+  } catch (const NumericalError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("tube.yaml: tick 20: the force or torque on the virtual tool is not finite; the tick read the "
+                     "device at (1e+308, 0, 0.03) m from the recording's sample 40 (t = 0.04 s)"),
+              std::string::npos) << m;
+  }
+  EXPECT_EQ(count.ticks, 20);
+}
+
+// A mesh all but weightless (material.density 1e-9 kg/m^3, warned at load) leaves billions of its
+// own weights unbalanced where a tissue's would see a fraction of one: the health check judges the
+// residual in the weights of soft tissue's lightest, so a replay in contact runs on (it stopped at
+// tick 10, "diverged" with 4.5e9 mesh weights, the tissue moved 65 um); a real divergence still
+// stops.
+TEST(Health, ANearlyWeightlessMeshIsNotCalledDiverged) {
+  const Recording rec = read_recording(resolve_recording_path("tube_insert"));
+  ReplayOptions opt;
+  opt.start = 3;  // the hook in the bore
+  opt.duration = 0.3;
+  Count count;
+  EXPECT_NO_THROW(replay(*build_world(load_scene(resolve_scene_path("tube"), {"material.density=1e-9"}), 1000, 100),
+                         rec, opt, count));
+  EXPECT_EQ(count.ticks, 301);
+
+  Scene slivers = load_scene(resolve_scene_path("tube"),
+                             {"solver.diagonal=plain", "solver.recovery=none", "material.density=1e-9"});
+  DegradeOptions d;
+  d.target_quality = 0.02;
+  degrade_physical_mesh(slivers, d);
+  opt.start = 0;
+  try {
+    replay(*build_world(std::move(slivers), 1000, 100), rec, opt, count);
+    FAIL() << "the plain diagonal on slivers should diverge";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("the physical mesh diverged"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Health, TheRecoveryRedoesTheDivergingStepsWithTheDirectSolve) {
   const Recording rec = read_recording(resolve_recording_path("tube_insert"));
   ReplayOptions opt;

@@ -166,6 +166,21 @@ TEST(StoppingRule, Float32FloorOfAMeshFarFromTheOriginIsWarned) {
   EXPECT_EQ(w.find('\n'), std::string::npos);
 }
 
+// Double keeps 53 bits: a mesh about 1e6 times its size from the origin (kDoubleRoundOffShare) has
+// its positions rounded coarsely enough to be named first where the CPU steps stall, with the
+// translation that brings it back; 10 m away (340 times its size) it is not.
+TEST(StoppingRule, DoubleRoundOffOfAMeshFarFromTheOriginIsNamed) {
+  Scene scene = test::box_scene(4, 4, 8);  // 29 mm across
+  for (Vec3d& v : scene.physical.vertices) v += Vec3d{10, 0, 0};
+  EXPECT_EQ(double_round_off_cause(scene.spec, test::Sim(scene).pm), "");
+  for (Vec3d& v : scene.physical.vertices) v += Vec3d{1e6, 0, 0};
+  const std::string w = double_round_off_cause(scene.spec, test::Sim(scene).pm);
+  EXPECT_NE(w.find("the physical mesh's centre lies 1e+06 m from the world's origin, 3.4e+07 times its size, where "
+                   "double's round-off of its positions (1.1e-10 m) can leave what they stall at: move the mesh near the "
+                   "origin (mesh.transform.translate: [-1000010.006, -0.006, -0.012], in m)"),
+            std::string::npos) << w;
+}
+
 TEST(StoppingRule, StopsAtTheCap) {
   test::Sim sim(test::degraded_block(0.02));
   sway(sim, 0.2, 0.048);

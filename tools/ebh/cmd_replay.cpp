@@ -352,26 +352,31 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
                  a.out.c_str(), static_cast<long long>(writer.capped_steps()), static_cast<long long>(s.steps),
                  world.physical_params.max_iterations, world.physical_params.tolerance);
   if (writer.stalled_steps() > 0) {
-    // On the device a stall within a few times the mesh's float32 floor is round-off, not the mesh.
+    // On the device a stall within a few times the mesh's float32 floor is round-off, not the mesh;
+    // a mesh far from the origin against its size loses its positions' bits in double too.
     char why[400];
-    if (float32_round_off(world, writer.max_stalled()))
+    std::string far;  // named first, where it applies
+    if (float32_round_off(world, writer.max_stalled())) {
       std::snprintf(why, sizeof why,
                     "float32's round-off on this mesh (%.2g mesh weights at rest, `ebh scene info`; the device's "
                     "steps stall at a few times it) lies above the tolerance, so each ran until it stalled; "
                     "solver.physical_tolerance at about %.2g saves those iterations, or --backend cpu",
                     world.float32_floor, writer.max_stalled());
-    else
+    } else {
+      far = double_round_off_cause(world.scene.spec, world.physical_mesh);
+      if (!far.empty()) far += "; else ";
       std::snprintf(why, sizeof why,
                     "the iteration makes no headway on this mesh (`ebh scene info` prints its rate and worst tets) "
                     "or with these stiffnesses (one far above the others, stiffness.k_det or k_vol, slows every "
                     "method), and those steps are not converged; solver.method: direct (CPU backend) balances each step "
                     "further");
+    }
     std::fprintf(stderr,
                  "ebh: warning: %s: %lld of %lld physical steps stopped when their iterations stalled, with up to "
                  "%.3g mesh weights unbalanced (more than %g times solver.physical_tolerance; the first at %s; "
-                 "/physical/residual): %s\n",
+                 "/physical/residual): %s%s\n",
                  a.out.c_str(), static_cast<long long>(writer.stalled_steps()), static_cast<long long>(s.steps),
-                 writer.max_stalled(), kStalledResidualFactor, at(writer.first_stalled_t()).c_str(), why);
+                 writer.max_stalled(), kStalledResidualFactor, at(writer.first_stalled_t()).c_str(), far.c_str(), why);
   }
   if (writer.short_steps() > 0) {
     const PhysicalStepParams& params = world.physical_params;

@@ -820,6 +820,15 @@ ebh_replay_failure(tiny_physical_rate_set "^ebh: error: --set 'time.physical_hz=
   tube tube_insert --set time.physical_hz=0.5)
 ebh_replay_failure(bad_start "--start" tube tube_insert --start 99)
 ebh_replay_failure(hex_duration "^ebh: error: --duration: expected a finite number > 0, got '0x10'" tube tube_insert --duration 0x10)
+# A window under one haptic tick replays a single tick with no force step (it wrote one and exited
+# 0): refused naming the option and the tick, at the rate --set gives, or --start where the
+# recording's end cuts the window under a tick.
+ebh_replay_failure(duration_under_a_tick "^ebh: error: --duration 1e-320: shorter than one haptic tick \\(0.001 s at 1000 Hz\\), which replays a single tick with no force step to measure: expected at least 0.001 s"
+  tube tube_insert --duration 1e-320)
+ebh_replay_failure(duration_under_a_set_tick "^ebh: error: --duration 0.005: shorter than one haptic tick \\(0.01 s at 100 Hz\\)"
+  tube tube_insert --duration 0.005 --set time.haptic_hz=100)
+ebh_replay_failure(start_leaves_under_a_tick "^ebh: error: --start 9.9995: leaves 0.0005 s of the recording .*tube_insert.h5 \\(10 s long\\), less than one haptic tick \\(0.001 s at 1000 Hz\\).*: start at least 0.001 s before its end"
+  tube tube_insert --start 9.9995)
 ebh_replay_failure(bad_backend "--backend" tube tube_insert --backend opencl)
 # An error an override causes names the override, not the scene file.
 ebh_replay_failure(set_too_deep "^ebh: error: --set 'a.b.c.d=1': key 'a': unknown key \\(known: name, "
@@ -1504,7 +1513,7 @@ ebh_safety(gate_duration_neg "^ebh: error: .*gate_duration_neg.yaml:2: key 'case
   CMD ${EBH_BIN} gate --baselines ${S}/gate_duration_neg.yaml)
 # A window shorter than one haptic tick replays a single tick, with no force step to measure:
 # refused before any case runs, and --update leaves the file as it was.
-ebh_safety(gate_duration_tiny "^ebh: error: .*gate_duration_tiny.yaml:2: cases\\[0\\] \\(w\\): duration 1e-320: shorter than one haptic tick of its scene \\(0.001 s at 1000 Hz\\).*: expected at least 0.001 s"
+ebh_safety(gate_duration_tiny "^ebh: error: .*gate_duration_tiny.yaml:2: cases\\[0\\] \\(w\\): duration 1e-320: shorter than one haptic tick \\(0.001 s at 1000 Hz\\).*: expected at least 0.001 s"
   NO_STDOUT KEEP ${S}/gate_duration_tiny.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_duration_tiny.yaml --update)
 ebh_safety(gate_start_neg "^ebh: error: .*gate_start_neg.yaml:2: cases\\[0\\] \\(w\\): start -1: expected a finite number >= 0"
   CMD ${EBH_BIN} gate --baselines ${S}/gate_start_neg.yaml)
@@ -1529,7 +1538,8 @@ foreach(g "nan;cases\\[0\\].rms_force_step': expected a finite number >= 0, got 
 endforeach()
 ebh_safety(gate_deep "^ebh: error: .*gate_deep.yaml:[0-9]+: nested too deeply \\(over 500 levels of lists and maps"
   CMD ${EBH_BIN} gate --baselines ${S}/gate_deep.yaml)
-ebh_safety(gate_update_short "^ebh: error: not updating .*gate_short.yaml: .*cases\\[0\\] \\(w\\): its window \\(start 9.9995 s, duration 1 s\\) gives no rms_force_step"
+# (a window the recording's end cuts under one haptic tick: refused before any case runs)
+ebh_safety(gate_update_short "^ebh: error: .*gate_short.yaml:2: cases\\[0\\] \\(w\\): start 9.9995: leaves 0.0005 s of the recording .*tube_insert.h5 \\(10 s long\\), less than one haptic tick \\(0.001 s at 1000 Hz\\)"
   KEEP ${S}/gate_short.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_short.yaml --update)
 ebh_safety(gate_update_free "^ebh: error: not updating .*gate_free.yaml: .*cases\\[0\\] \\(w\\): in its window \\(start 0 s, duration 0.3 s\\) the tool never touched the tissue .*: a baseline of a free tool checks nothing"
   KEEP ${S}/gate_free.yaml CMD ${EBH_BIN} gate --baselines ${S}/gate_free.yaml --update)

@@ -112,7 +112,7 @@ SizeResult measure(const SizeBenchOptions& o, const std::string& scene, int leve
   r.tets = static_cast<std::int64_t>(w.scene.physical.tets.size());
   r.vertices = static_cast<std::int64_t>(w.scene.physical.vertices.size());
   r.virtual_vertices = static_cast<std::int64_t>(w.initial_virtual.size());
-  replay_window(o.start, o.seconds, in.recording.duration(), in.recording_path, "--start", "--seconds");
+  replay_window(o.start, o.seconds, in.recording.duration(), w.h_haptic, in.recording_path, "--start", "--seconds");
   ReplayOptions ro;
   ro.mode = o.mode;
   ro.start = o.start;
@@ -193,9 +193,10 @@ SizeBenchWindow check_size_bench(const SizeBenchOptions& o) {
                                       "replace at every size; give a scene that names this mesh (--scene)");
   (void)replay_input_files(o.scene, o.recording, o.overrides);
   const RecordingFile rec = read_replay_recording(o.recording, RecordingWindow{o.start, o.seconds});  // as a replay checks it
-  const SizeBenchWindow window{
-      rec.path, replay_window(o.start, o.seconds, rec.recording.duration(), rec.path, "--start", "--seconds")};
   const SceneSpec spec = load_scene_spec(scene_file, o.overrides);  // a bad override too
+  // At the scene's haptic rate (time.haptic_hz, under --set), as each size's world has it.
+  const SizeBenchWindow window{rec.path, replay_window(o.start, o.seconds, rec.recording.duration(), 1.0 / spec.haptic_hz,
+                                                       rec.path, "--start", "--seconds")};
   TetMesh mesh = read_tet_mesh(spec.physical_mesh);
   std::vector<std::string> said_at_load;  // each size's replay loads its scene and says them
   clean_physical_mesh(mesh, spec, said_at_load);  // as refine_scene refines it

@@ -107,11 +107,12 @@ GateBaselines read_gate_baselines(const std::string& path);
 /// a value (NaN) left out, as the reader takes it.
 void write_gate_baselines(const std::string& path, const GateBaselines& b);
 
-/// What a gate checks of a case before any case runs (a missing scene of the last case failed the
-/// gate after the others had run, minutes on CI): its scene, meshes and recording are there and
-/// the overrides apply (replay_input_files), and its duration holds one haptic tick of the scene
-/// at least (a shorter window replays a single tick: no force step, metrics of nothing). Throws
-/// InputError naming the case (GateCase::where).
+/// What a gate checks of a case before any case runs (a missing scene or a start past the end of
+/// the last case failed the gate after the others had run, minutes on CI): its scene, meshes and
+/// recording are there and the overrides apply (replay_input_files), the recording reads, and its
+/// window is one a replay takes (replay_window against the recording, at the scene's haptic rate:
+/// a start before the recording's end, at least one haptic tick, as a shorter window replays a
+/// single tick: no force step, metrics of nothing). Throws InputError naming the case (GateCase::where).
 void check_gate_case(const GateCase& c, const std::vector<std::string>& overrides);
 
 /// Replays one case (async mode, CPU, scene overrides applied) and computes its metrics (its

@@ -163,6 +163,7 @@ void read_window(const h5::Group& g, const std::string& path, const std::vector<
     for (std::size_t i = (stride - first % stride) % stride; i < count; i += stride) {
       rec.span->outline.push_back(part.position[i]);
       rec.span->outline_orientation.push_back(part.orientation[i]);
+      rec.span->outline_t.push_back(part.t[i]);
     }
     for (std::size_t i = std::max(first, lo); i < first + count && i <= hi; ++i) {
       const std::size_t k = i - first;
@@ -739,8 +740,8 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
       const std::size_t g = glitch.front();
       std::ostringstream o;
       o << "sample ";
-      if (rec.span)  // the outline's pose: its row, not its time, is at hand
-        o << g * rec.span->outline_stride;
+      if (rec.span)  // the outline's pose
+        o << g * rec.span->outline_stride << " (t = " << rec.span->outline_t[g] << " s)";
       else
         o << rec.row(g) << " (t = " << rec.t[g] << " s)";
       o << " at (" << short_num(path[g].x) << ", " << short_num(path[g].y) << ", " << short_num(path[g].z)
@@ -892,8 +893,8 @@ std::optional<std::string> check_recording_scale(const Recording& rec, Vec3d lo,
   return o.str();
 }
 
-double replay_window(double start, std::optional<double> duration, double length, const std::string& recording,
-                     const std::string& start_label, const std::string& duration_label) {
+double replay_window(double start, std::optional<double> duration, double length, double h_haptic,
+                     const std::string& recording, const std::string& start_label, const std::string& duration_label) {
   if (!(std::isfinite(start) && start >= 0))
     throw InputError(start_label + " " + shortest_text(start) + ": expected a finite number >= 0 (seconds into " +
                      recording + ")");
@@ -905,8 +906,23 @@ double replay_window(double start, std::optional<double> duration, double length
   const double rest = length - start;
   // --start 9.9 --duration 0.1 on a 10 s recording ends at its end: 10 - 9.9 is 0.0999999999999996,
   // which would read as a window cut short. Within a nanosecond of the end the duration stands.
-  if (duration && start + *duration <= length + 1e-9) return *duration;
-  return duration ? std::min(*duration, rest) : rest;
+  const double window = duration && start + *duration <= length + 1e-9 ? *duration
+                        : duration                                     ? std::min(*duration, rest)
+                                                                       : rest;
+  // At least one haptic tick, counted as tick_count counts them (floor(window / h + 1e-9) + 1
+  // ticks): a shorter window replays the tick at its start alone.
+  if (std::floor(window / h_haptic + 1e-9) >= 1) return window;
+  const std::string tick = "one haptic tick (" + shown_number(h_haptic) + " s at " + shown_number(1 / h_haptic) +
+                           " Hz), which replays a single tick with no force step to measure";
+  if (duration && *duration < rest)
+    throw InputError(duration_label + " " + shortest_text(*duration) + ": shorter than " + tick +
+                     ": expected at least " + shown_number(h_haptic) + " s");
+  if (start > 0)
+    throw InputError(start_label + " " + shortest_text(start) + ": leaves " + shown_number(rest) + " s of the recording " +
+                     recording + " (" + shortest_text(length) + " s long), less than " + tick + ": start at least " +
+                     shown_number(h_haptic) + " s before its end");
+  throw InputError(recording + ": the recording is " + shown_number(length) + " s long, less than " + tick +
+                   ": record at least " + shown_number(h_haptic) + " s");
 }
 
 }  // namespace ebh

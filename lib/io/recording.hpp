@@ -51,14 +51,15 @@ struct Recording {
   /// Where read_recording read a window of the file, not all of it: the file's first and last
   /// sample times (a replay's --start counts from the first; its length is the file's), the file's
   /// row of sample 0 (messages name the file's rows), and the whole file's poses at a stride of at
-  /// most kOutlineSamples, the path whose length unit check_recording_scale judges (the transforms
-  /// apply to them too).
+  /// most kOutlineSamples, with their times, the path whose length unit check_recording_scale
+  /// judges (the transforms apply to them too).
   struct FileSpan {
     double t_first = 0, t_last = 0;
     std::size_t first_row = 0;
     std::vector<Vec3d> outline;
     std::vector<Quatd> outline_orientation;
     std::size_t outline_stride = 1;  ///< outline pose i is the file's row i x outline_stride
+    std::vector<double> outline_t;   ///< outline pose i's time, s (the file's, as t)
   };
   std::optional<FileSpan> span;
 
@@ -244,11 +245,15 @@ std::optional<std::string> check_recording_turn(const Recording& rec);
 
 /// The seconds a replay of a recording `length` s long runs from `start` for `duration` s (nullopt:
 /// to its end; a window past the end is cut there): start a finite number >= 0 before the end,
-/// duration a finite number > 0. The one check of a replay window, for `ebh replay --start
-/// --duration`, `ebh gate`'s cases, `ebh bench sizes` and a sweep plan's start: throws InputError
-/// "START_LABEL VALUE: ..." or "DURATION_LABEL VALUE: ..." naming `recording`.
-double replay_window(double start, std::optional<double> duration, double length, const std::string& recording,
-                     const std::string& start_label, const std::string& duration_label);
+/// duration a finite number > 0, and the window at least one haptic tick of `h_haptic` s (the
+/// world's World::h_haptic, or 1 / the scene's haptic_hz under its overrides: a shorter one
+/// replays a single tick, tick_count's, with no force step to measure). The one check of a replay
+/// window, for `ebh replay --start --duration`, `ebh gate`'s cases, `ebh bench sizes` and a sweep
+/// plan's window: throws InputError "START_LABEL VALUE: ..." or "DURATION_LABEL VALUE: ..." naming
+/// `recording` (a duration under one tick names the duration; a window cut under one tick by the
+/// recording's end, the start).
+double replay_window(double start, std::optional<double> duration, double length, double h_haptic,
+                     const std::string& recording, const std::string& start_label, const std::string& duration_label);
 inline constexpr double kToolSpeedMax = 10;  ///< m/s
 inline constexpr double kToolTurnRateMax = 50;  ///< rad/s (8 turns a second)
 inline constexpr double kPathExtentMaxRatio = 20;

@@ -87,7 +87,8 @@ std::optional<StartInTissue> window_starts_in_tissue(const Recording& rec, const
   StartInTissue s;
   s.t = t0;
   // Back from the start: the window's samples, then (read as a window) the whole path's outline,
-  // its rows timed at the window's mean rate, with the jaw of the window's start.
+  // at its samples' own times (a device's rate varies: a mean rate would misplace them), with the
+  // jaw of the window's start.
   std::size_t i = rec.t.size();
   while (i > 0 && rec.t[i - 1] > t0) --i;
   for (; i > 0; --i)
@@ -97,12 +98,11 @@ std::optional<StartInTissue> window_starts_in_tissue(const Recording& rec, const
     }
   if (!rec.span || rec.span->first_row == 0) return s;
   const Recording::FileSpan& span = *rec.span;
-  const double rate = rec.t.size() > 1 ? static_cast<double>(rec.t.size() - 1) / (rec.t.back() - rec.t.front()) : rec.rate_hz;
   for (std::size_t k = std::min(span.outline.size(), span.first_row / span.outline_stride + 1); k > 0; --k) {
     const std::size_t row = (k - 1) * span.outline_stride;
     if (row >= span.first_row) continue;
     if (!tip_inside(locator, tool, ToolPose{span.outline[k - 1], span.outline_orientation[k - 1]}, first.jaw)) {
-      s.clear_t = std::max(span.t_first, rec.t.front() - static_cast<double>(span.first_row - row) / rate);
+      s.clear_t = span.outline_t[k - 1];
       return s;
     }
   }

@@ -6,7 +6,9 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <set>
+#include <string_view>
 #include <system_error>
 
 #include "core/error.hpp"
@@ -194,10 +196,11 @@ std::vector<fs::path> recordings_of(const std::string& scene, const fs::path& sc
 }
 
 /// Throws when the overrides do not load on the scene (the same check `ebh replay --set` makes).
-void check_on_scene(const PlanReader& r, const YAML::Node& where, const std::string& key, const SweepScene& s,
-                    const Overrides& effective) {
+/// Returns the haptic tick (s) the scene has under them (1 / time.haptic_hz, as its world has it).
+double check_on_scene(const PlanReader& r, const YAML::Node& where, const std::string& key, const SweepScene& s,
+                      const Overrides& effective) {
   try {
-    (void)load_scene_spec(s.scene_file, as_set_arguments(effective));
+    return 1.0 / load_scene_spec(s.scene_file, as_set_arguments(effective)).haptic_hz;
   } catch (const OverrideError& e) {  // the plan's key is named already
     r.fail(where, key, "on scene " + s.name + ": " + e.key_message());
   } catch (const InputError& e) {
@@ -379,9 +382,8 @@ SweepPlan read_sweep_plan(const fs::path& file) {
           r.fail(recording_at(i), recording_key(i),
                  s.recordings[i].string() + " has the same bytes as " + s.recordings[j].string() +
                      ": the same recording; list it once");
-    // The window starts inside every recording (as ebh replay --start checks), before any run:
-    // each run would fail on it. Read as a run reads it: its window's samples kept, every one checked.
-    // A file that is no recording is its entry's fault; a window outside it is the start's.
+    // Each recording read as a run reads it: its window's samples kept, every one checked. A file
+    // that is no recording is its entry's fault. (Its window is checked below, with the scene's rates.)
     for (std::size_t i = 0; i < s.recordings.size(); ++i) {
       const fs::path& p = s.recordings[i];
       double length = 0;
@@ -391,11 +393,6 @@ SweepPlan read_sweep_plan(const fs::path& file) {
         r.fail(recording_at(i), recording_key(i), error.what());
       }
       plan.recording_length[p.string()] = length;
-      try {
-        (void)replay_window(plan.start, std::nullopt, length, p.string() + " (" + key + ".recordings)", "start", "duration");
-      } catch (const InputError& error) {
-        r.fail(top.count("start") ? top["start"] : recs, "start", error.what());
-      }
     }
     std::map<std::string, YAML::Node> ref_where;
     s.reference = r.overrides(e["reference"], key + ".reference", &ref_where);
@@ -422,10 +419,26 @@ SweepPlan read_sweep_plan(const fs::path& file) {
     for (const auto& [k, v, node] : single_values)
       check_on_scene(r, node, (top.count("grid") ? "grid." : "runs.") + k, s, {{k, v}});
     for (const auto& [k, v] : baseline_where) check_on_scene(r, v, "baseline.set." + k, s, {{k, plan.baseline->at(k)}});
-    check_on_scene(r, e["reference"], key + ".reference", s, merged(plan.set, s.reference));
-    if (plan.baseline) check_on_scene(r, baseline_node, "baseline.set", s, merged(plan.set, *plan.baseline));
+    // The longest haptic tick of the scene's replays (a plan may sweep time.haptic_hz).
+    double h_haptic = check_on_scene(r, e["reference"], key + ".reference", s, merged(plan.set, s.reference));
+    if (plan.baseline)
+      h_haptic = std::max(h_haptic, check_on_scene(r, baseline_node, "baseline.set", s, merged(plan.set, *plan.baseline)));
     for (const auto& [config, node] : configurations)
-      check_on_scene(r, node, top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set", s, merged(plan.set, config));
+      h_haptic = std::max(h_haptic, check_on_scene(r, node, top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set", s,
+                                                   merged(plan.set, config)));
+    // The window inside every recording and of one tick at least (as ebh replay --start --duration
+    // checks it), before any run: each run would fail on it. A window outside a recording is the
+    // start's fault; one under a tick the duration's, or the start's where the recording's end cuts it.
+    for (const fs::path& p : s.recordings)
+      try {
+        (void)replay_window(plan.start, plan.duration > 0 ? std::optional<double>(plan.duration) : std::nullopt,
+                            plan.recording_length[p.string()], h_haptic, p.string() + " (" + key + ".recordings)", "start",
+                            "duration");
+      } catch (const InputError& error) {
+        const bool duration = std::string_view(error.what()).starts_with("duration");
+        r.fail(duration ? top["duration"] : top.count("start") ? top["start"] : recs, duration ? "duration" : "start",
+               error.what());
+      }
     plan.scenes.push_back(std::move(s));
   }
   for (SweepScene& sc : plan.scenes)  // each file read once, for every run's id (the listed ones are)

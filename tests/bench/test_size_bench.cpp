@@ -139,6 +139,27 @@ TEST(SizeBench, RefusesBeforeAnyWork) {
   o.last_level = 2;
   o.mode = Mode::Realtime;
   EXPECT_THROW(run_size_bench(o), InputError);
+  // A window under one haptic tick of the scene (under --set) replays one tick: no cost to measure.
+  o.mode = Mode::Async;
+  o.first_level = o.last_level = 0;
+  o.seconds = 1e-320;
+  try {
+    (void)check_size_bench(o);
+    ADD_FAILURE() << "--seconds 1e-320 accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "--seconds 1e-320: shorter than one haptic tick (0.001 s at 1000 Hz), which replays a "
+                                     "single tick with no force step to measure: expected at least 0.001 s");
+  }
+  o.seconds = 0.005;
+  EXPECT_NO_THROW((void)check_size_bench(o));
+  o.overrides = {"time.haptic_hz=100", "time.physical_hz=100"};
+  try {
+    (void)check_size_bench(o);
+    ADD_FAILURE() << "--seconds 0.005 accepted at 100 Hz";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--seconds 0.005: shorter than one haptic tick (0.01 s at 100 Hz)"), std::string::npos)
+        << e.what();
+  }
 }
 
 // The limit is checked on the mesh as the scene loads it and as each size refines it: without the

@@ -8,6 +8,7 @@
 #include <iterator>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "core/error.hpp"
 #include "gate/gate.hpp"
@@ -190,7 +191,8 @@ std::string read_error(const std::string& name, const std::string& text) {
 
 // --update of one case writes that case anew and the others as they were: a case with no ratio
 // or power gains no `.nan` key, a duration of 0.3 stays 0.3, a hand-written layout and its
-// comment stay; the comment lines between cases go, as --update says.
+// comment stay; the comment lines between cases go, as --update says. The case measured anew is
+// written in the shortest text that reads back as its numbers (0.3, not 0.29999999999999999).
 TEST(Gate, ARewriteKeepsTheCasesItDidNotMeasure) {
   const std::string others =
       "  - {name: b, scene: gap, recording: gap_insert, start: 2, duration: 0.3, peak_force: 1.5}\n"
@@ -214,9 +216,9 @@ TEST(Gate, ARewriteKeepsTheCasesItDidNotMeasure) {
   a.force_collapse = false;
   write_gate_baselines(path, b);
   const std::string text = file_text(path);
-  EXPECT_NE(text.find("\ncases:\n  - {name: a, scene: tube, recording: tube_insert, start: 4, duration: 0.29999999999999999, "
-                      "rms_force_step: 0.0030000000000000001, max_force_rate: 19, peak_force: 0.089999999999999997, "
-                      "penetration_max: 0.0001, boundary_step_ratio: 0.55000000000000004, force_collapse: false}\n" + others),
+  EXPECT_NE(text.find("\ncases:\n  - {name: a, scene: tube, recording: tube_insert, start: 4, duration: 0.3, "
+                      "rms_force_step: 0.003, max_force_rate: 19, peak_force: 0.09, "
+                      "penetration_max: 0.0001, boundary_step_ratio: 0.55, force_collapse: false}\n" + others),
             std::string::npos)
       << text;
   EXPECT_EQ(text.find("nan"), std::string::npos) << text;
@@ -285,6 +287,79 @@ TEST(Gate, ErrorsNameTheFileLineAndKey) {
   const std::string path = baselines_file("line_where", "\n\ncases:\n  - name: w\n    scene: tube\n    recording: tube_insert\n"
                                                         "    start: 2\n    duration: 1\n");
   EXPECT_EQ(read_gate_baselines(path).cases[0].where, path + ":4: cases[0] (w)");
+  std::filesystem::remove(path);
+}
+
+// Every number --update writes, the bands' too, is the shortest text that reads back as the same
+// double: 0.1 + 0.2 (0.30000000000000004) keeps its 17 digits, 0.1 is 0.1.
+TEST(Gate, ARewriteWritesTheShortestNumbersThatReadBack) {
+  const std::string path = baselines_file("shortest", std::string(kCase) + "}\n");
+  GateBaselines b = read_gate_baselines(path);
+  b.cases[0].text.clear();
+  b.cases[0].duration = 0.1 + 0.2;
+  b.cases[0].peak_force = 0.57253570313821978;
+  b.cases[0].max_force_rate = 1e-300;
+  write_gate_baselines(path, b);
+  const std::string text = file_text(path);
+  EXPECT_NE(text.find("bands: {relative: 0.5, abs_force_step: 0.002, abs_force_rate: 5, abs_peak_force: 0.1, abs_power: "
+                      "0.005, abs_penetration: 0.0002, abs_boundary_ratio: 0.1}\n"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("start: 2, duration: 0.30000000000000004, max_force_rate: 1e-300, peak_force: 0.5725357031382198}"),
+            std::string::npos)
+      << text;
+  const GateBaselines again = read_gate_baselines(path);
+  EXPECT_EQ(again.cases[0].duration, 0.1 + 0.2);
+  EXPECT_EQ(again.cases[0].peak_force, 0.57253570313821978);
+  EXPECT_EQ(again.cases[0].max_force_rate, 1e-300);
+  EXPECT_EQ(again.bands.abs_peak_force, GateBands{}.abs_peak_force);
+  std::filesystem::remove(path);
+}
+
+// A YAML tag is read by no key (`start: !ms 2000` read as 2000 s): refused with its line and key,
+// as the scene, plan and synth readers refuse one.
+TEST(Gate, YamlTagsAreRefused) {
+  EXPECT_EQ(read_error("tag_start", "cases:\n  - {name: a, scene: tube, recording: tube_insert, start: !ms 2, duration: 1}\n"),
+            baselines_path("tag_start") + ":2: key 'cases[0].start': YAML tag '!ms': ebh reads no tags (each key says what "
+                                          "its value is): remove it");
+  EXPECT_EQ(read_error("tag_band", "bands: {relative: !!float 0.5}\n" + std::string(kCase) + "}\n"),
+            baselines_path("tag_band") + ":1: key 'bands.relative': YAML tag '!!float': ebh reads no tags (each key says "
+                                         "what its value is): remove it");
+  EXPECT_EQ(read_error("tag_case", "cases:\n  - !case {name: a, scene: tube, recording: tube_insert, start: 2, duration: 1}\n"),
+            baselines_path("tag_case") + ":2: key 'cases[0]': YAML tag '!case': ebh reads no tags (each key says what its "
+                                         "value is): remove it");
+}
+
+// Every case's window is checked against its recording and its scene's haptic tick before any case
+// runs (check_gate_case): a start past the recording's end in the second case failed the gate after
+// the first case had replayed.
+TEST(Gate, ACasesWindowIsCheckedAgainstItsRecordingBeforeItRuns) {
+  const std::string path = baselines_file(
+      "window", "cases:\n  - {name: a, scene: tube, recording: tube_insert, start: 99, duration: 1}\n"
+                "  - {name: b, scene: tube, recording: tube_insert, start: 9.9995, duration: 1}\n"
+                "  - {name: c, scene: tube, recording: tube_insert, start: 2, duration: 0.005}\n"
+                "  - {name: d, scene: tube, recording: tube_insert, start: 9.9, duration: 1}\n");
+  const GateBaselines b = read_gate_baselines(path);
+  const auto refused = [&b](std::size_t i, const std::vector<std::string>& set) {
+    try {
+      check_gate_case(b.cases[i], set);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(refused(0, {}).find(path + ":2: cases[0] (a): start 99: the recording "), std::string::npos) << refused(0, {});
+  EXPECT_NE(refused(0, {}).find("tube_insert.h5 is 10 s long; start before its end"), std::string::npos) << refused(0, {});
+  EXPECT_NE(refused(1, {}).find(path + ":3: cases[1] (b): start 9.9995: leaves 0.0005 s of the recording "),
+            std::string::npos)
+      << refused(1, {});
+  // One tick of the scene under the gate's --set: 5 ms holds a 1 kHz tick, not a 100 Hz one.
+  EXPECT_EQ(refused(2, {}), "");
+  EXPECT_NE(refused(2, {"time.haptic_hz=100", "time.physical_hz=100"})
+                .find(path + ":4: cases[2] (c): duration 0.005: shorter than one haptic tick (0.01 s at 100 Hz)"),
+            std::string::npos)
+      << refused(2, {"time.haptic_hz=100", "time.physical_hz=100"});
+  EXPECT_EQ(refused(3, {}), "");  // cut at the recording's end, as a replay cuts it (run_gate_case warns)
   std::filesystem::remove(path);
 }
 

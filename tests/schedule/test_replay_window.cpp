@@ -11,28 +11,51 @@
 
 using namespace ebh;
 
+constexpr double kTick = 1e-3;  ///< s: a 1 kHz haptic tick
+
 TEST(ReplayWindow, TakesAWindowInsideTheRecordingAndCutsItAtTheEnd) {
-  EXPECT_EQ(replay_window(0, std::nullopt, 10, "rec.h5", "--start", "--duration"), 10);
-  EXPECT_EQ(replay_window(2, 3.0, 10, "rec.h5", "--start", "--duration"), 3);
-  EXPECT_EQ(replay_window(8, 5.0, 10, "rec.h5", "--start", "--duration"), 2);  // cut at the end
+  EXPECT_EQ(replay_window(0, std::nullopt, 10, kTick, "rec.h5", "--start", "--duration"), 10);
+  EXPECT_EQ(replay_window(2, 3.0, 10, kTick, "rec.h5", "--start", "--duration"), 3);
+  EXPECT_EQ(replay_window(8, 5.0, 10, kTick, "rec.h5", "--start", "--duration"), 2);  // cut at the end
   // A window that ends at the recording's end keeps its duration (10 - 9.9 is 0.0999999999999996).
-  EXPECT_EQ(replay_window(9.9, 0.1, 10, "rec.h5", "--start", "--duration"), 0.1);
-  EXPECT_EQ(replay_window(9.3, 0.7, 10, "rec.h5", "--start", "--duration"), 0.7);
+  EXPECT_EQ(replay_window(9.9, 0.1, 10, kTick, "rec.h5", "--start", "--duration"), 0.1);
+  EXPECT_EQ(replay_window(9.3, 0.7, 10, kTick, "rec.h5", "--start", "--duration"), 0.7);
 }
 
 TEST(ReplayWindow, RefusesAWindowOutsideTheRecordingNamingTheKey) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_INPUT_ERROR(replay_window(-1, 1.0, 10, "rec.h5", "g.yaml: cases[0] (w): start", "d"),
+  EXPECT_INPUT_ERROR(replay_window(-1, 1.0, 10, kTick, "rec.h5", "g.yaml: cases[0] (w): start", "d"),
                      "g.yaml: cases[0] (w): start -1: expected a finite number >= 0");
-  EXPECT_INPUT_ERROR(replay_window(nan, 1.0, 10, "rec.h5", "--start", "--duration"), "--start nan");
-  EXPECT_INPUT_ERROR(replay_window(100, 1.0, 10, "rec.h5", "--start", "--duration"),
+  EXPECT_INPUT_ERROR(replay_window(nan, 1.0, 10, kTick, "rec.h5", "--start", "--duration"), "--start nan");
+  EXPECT_INPUT_ERROR(replay_window(100, 1.0, 10, kTick, "rec.h5", "--start", "--duration"),
                      "--start 100: the recording rec.h5 is 10 s long; start before its end");
-  EXPECT_INPUT_ERROR(replay_window(10, 1.0, 10, "rec.h5", "--start", "--duration"), "start before its end");
-  EXPECT_INPUT_ERROR(replay_window(1, -1.0, 10, "rec.h5", "s", "g.yaml: cases[0] (w): duration"),
+  EXPECT_INPUT_ERROR(replay_window(10, 1.0, 10, kTick, "rec.h5", "--start", "--duration"), "start before its end");
+  EXPECT_INPUT_ERROR(replay_window(1, -1.0, 10, kTick, "rec.h5", "s", "g.yaml: cases[0] (w): duration"),
                      "g.yaml: cases[0] (w): duration -1: expected a finite number > 0");
-  EXPECT_INPUT_ERROR(replay_window(1, 0.0, 10, "rec.h5", "s", "--duration"), "--duration 0: expected a finite number > 0");
-  EXPECT_INPUT_ERROR(replay_window(1, std::numeric_limits<double>::infinity(), 10, "rec.h5", "s", "--duration"),
+  EXPECT_INPUT_ERROR(replay_window(1, 0.0, 10, kTick, "rec.h5", "s", "--duration"), "--duration 0: expected a finite number > 0");
+  EXPECT_INPUT_ERROR(replay_window(1, std::numeric_limits<double>::infinity(), 10, kTick, "rec.h5", "s", "--duration"),
                      "--duration inf");
+}
+
+// A window shorter than one haptic tick replays the tick at its start alone, with no force step to
+// measure (`ebh replay --duration 1e-320` wrote one tick and exited 0): refused, naming the option
+// that made it so short and the tick's length; one tick (to round-off) is a window.
+TEST(ReplayWindow, RefusesAWindowShorterThanOneHapticTick) {
+  EXPECT_EQ(replay_window(2, 1e-3, 10, kTick, "rec.h5", "--start", "--duration"), 1e-3);
+  EXPECT_EQ(replay_window(9.999, std::nullopt, 10, kTick, "rec.h5", "--start", "--duration"), 10 - 9.999);
+  EXPECT_INPUT_ERROR(replay_window(0, 1e-320, 10, kTick, "rec.h5", "--start", "--duration"),
+                     "--duration 1e-320: shorter than one haptic tick (0.001 s at 1000 Hz), which replays a single tick "
+                     "with no force step to measure: expected at least 0.001 s");
+  EXPECT_INPUT_ERROR(replay_window(2, 0.005, 10, 0.01, "rec.h5", "s", "g.yaml: cases[0] (w): duration"),
+                     "g.yaml: cases[0] (w): duration 0.005: shorter than one haptic tick (0.01 s at 100 Hz)");
+  // The end of the recording cuts the window under a tick: the start's fault, with or without a duration.
+  for (const std::optional<double> duration : {std::optional<double>(), std::optional<double>(1.0)})
+    EXPECT_INPUT_ERROR(replay_window(9.9995, duration, 10, kTick, "rec.h5", "--start", "--duration"),
+                       "--start 9.9995: leaves 0.0005 s of the recording rec.h5 (10 s long), less than one haptic tick "
+                       "(0.001 s at 1000 Hz), which replays a single tick with no force step to measure: start at least "
+                       "0.001 s before its end");
+  EXPECT_INPUT_ERROR(replay_window(0, std::nullopt, 2e-4, kTick, "rec.h5", "--start", "--duration"),
+                     "rec.h5: the recording is 0.0002 s long, less than one haptic tick");
 }
 
 namespace {
@@ -116,7 +139,7 @@ TEST(StartInTissue, AWindowThatStartsInsideSaysWhenTheToolWasClear) {
 }
 
 // Read as a window (the samples from the file's row 3, and the whole path's outline), the time the
-// tool was clear of the tissue comes from the outline's rows, timed at the window's rate.
+// tool was clear of the tissue comes from the outline's rows, at their own times.
 TEST(StartInTissue, ReadAsAWindowTheOutlineSaysWhenTheToolWasClear) {
   const TetMesh one = unit_tet();
   const double z[] = {1.5, 1.0, 0.5, 0.4, 0.3};  // rows 0-4, 0.1 s apart from 10 s; clear at rows 0 and 1
@@ -128,6 +151,7 @@ TEST(StartInTissue, ReadAsAWindowTheOutlineSaysWhenTheToolWasClear) {
   for (int i = 0; i < 5; ++i) {
     span.outline.push_back({0.1, 0.1, z[i]});
     span.outline_orientation.push_back({1, 0, 0, 0});
+    span.outline_t.push_back(10.0 + 0.1 * i);
     if (i < 3) continue;
     rec.t.push_back(10.0 + 0.1 * i);
     rec.position.push_back({0.1, 0.1, z[i]});
@@ -140,7 +164,34 @@ TEST(StartInTissue, ReadAsAWindowTheOutlineSaysWhenTheToolWasClear) {
   ASSERT_TRUE(in.has_value());
   EXPECT_DOUBLE_EQ(in->t, 10.35);
   ASSERT_TRUE(in->clear_t.has_value());
-  EXPECT_NEAR(*in->clear_t, 10.1, 1e-12);  // row 1: 10.3 s less 2 rows at 10 Hz
+  EXPECT_EQ(*in->clear_t, 10.0 + 0.1 * 1);  // row 1's time
+}
+
+// A device whose rate changes (10 Hz while the tool approaches, 1 kHz once it is in the tissue),
+// read from its file as a replay of --start 0.45 --duration 0.02 reads it: the time the tool was
+// last clear of the tissue is that sample's own, 0.3 s, not one counted back at the window's
+// mean rate (51 rows at 1 kHz from 0.45 s: 0.399 s, when the tool was already in it).
+TEST(StartInTissue, AnUnevenRecordingReadAsAWindowSaysWhenTheToolWasClear) {
+  const test::ScratchDir dir;
+  Recording rec;
+  rec.tool = "hook";
+  auto sample = [&rec](double t, double z) {
+    rec.t.push_back(t);
+    rec.position.push_back({0.1, 0.1, z});  // in unit_tet where z <= 0.8
+    rec.orientation.push_back({1, 0, 0, 0});
+    rec.jaw.push_back(1);
+    rec.buttons.push_back(0);
+  };
+  for (int i = 0; i < 4; ++i) sample(0.1 * i, 1.5 - 0.1 * i);  // rows 0-3, clear of the tet
+  for (int k = 0; k <= 100; ++k) sample(0.4 + 0.001 * k, 0.7);  // rows 4-104, inside it
+  write_recording(dir / "uneven.h5", rec);
+  const Recording window = read_recording(dir / "uneven.h5", RecordingWindow{0.45, 0.02});
+  ASSERT_TRUE(window.span && window.span->first_row > 4) << "the test needs a window read from the fast part";
+  const auto in = window_starts_in_tissue(window, unit_tet(), 0.45);
+  ASSERT_TRUE(in.has_value() && in->clear_t.has_value());
+  EXPECT_EQ(*in->clear_t, 0.1 * 3);
+  EXPECT_NE(start_in_tissue_warning(*in, 0.45, "--start").find("start at or before 0.3 s into the recording"),
+            std::string::npos);
 }
 
 // A noisy gripper: the jaw wanders across the grasp threshold while the forceps hold tissue, and

@@ -468,6 +468,18 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
        "before its end"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nduration: -1\n",
        ":2: key 'duration': expected a number > 0, got '-1'"},
+      // a window under one haptic tick replays one tick, with no force step: refused before any run,
+      // at the slowest rate the plan's runs take (a swept time.haptic_hz), or where the recording's
+      // end cuts it under a tick
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nstart: 4\nduration: 1e-320\n",
+       ":3: key 'duration': duration 1e-320: shorter than one haptic tick \\(0.001 s at 1000 Hz\\), which replays a "
+       "single tick with no force step to measure: expected at least 0.001 s"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\ngrid: {time.haptic_hz: [1000, 100]}\n"
+       "duration: 0.005\n",
+       ":3: key 'duration': duration 0.005: shorter than one haptic tick \\(0.01 s at 100 Hz\\)"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nstart: 9.9995\n",
+       ":2: key 'start': start 9.9995: leaves 0.0005 s of the recording .*tube_insert.h5 \\(scenes\\[0\\].recordings\\) "
+       "\\(10 s long\\), less than one haptic tick"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nmode: realtime\n",
        ":2: key 'mode': expected async or lockstep"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\ngrid: {a: [1]}\nruns: [{}]\n",

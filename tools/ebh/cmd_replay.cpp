@@ -129,7 +129,8 @@ void prepare_replay(const ReplayArgs& a, PreparedReplay& p) {
   const Mode mode = parse_mode(a.mode);
   const World& world = *p.in.world;
   const double duration =
-      replay_window(a.start, a.duration, p.in.recording.duration(), p.in.recording_path, "--start", "--duration");
+      replay_window(a.start, a.duration, p.in.recording.duration(), world.h_haptic, p.in.recording_path, "--start",
+                    "--duration");
   if (a.duration && *a.duration > duration)
     std::fprintf(stderr, "ebh: warning: %s: the recording ends %s s after --start; replaying those, not --duration's %s s\n",
                  p.in.recording_path.c_str(), format_number(duration).c_str(), format_number(*a.duration).c_str());

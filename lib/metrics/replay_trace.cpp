@@ -221,22 +221,31 @@ std::vector<Vec3d> vec3s(const std::vector<double>& rows) {
   return out;
 }
 
-/// Every quaternion of a pose dataset is a rotation: (0, 0, 0, 0), or components so small that
-/// their squares underflow, has no direction, normalises to NaN, and made the stretch angle and
-/// the rotational passivity observer NaN with every sample finite (finite: true, the angles null).
-/// No replay writes one: the virtual tool's orientation is normalised every Newton step, and a
-/// diverged one is NaN. A corrupt or edited file, refused naming the row as a finite value beyond
-/// kMaxReplayValue is; a non-finite component is compute_metrics' to count.
+/// Every quaternion of a pose dataset is a unit quaternion, to kPoseQuatNormTolerance. (0, 0, 0,
+/// 0), or components so small that their squares underflow, has no direction, normalises to NaN,
+/// and made the stretch angle and the rotational passivity observer NaN with every sample finite
+/// (finite: true, the angles null); one of another norm was normalised without a word, the
+/// metrics of a file no replay wrote. No replay writes either: the poses are written in double,
+/// the virtual tool's orientation normalised every Newton step, the physical tool's interpolated
+/// between a recording's normalised samples (slerp), and a diverged one is NaN. A corrupt or edited
+/// file, refused naming the row as a finite value beyond kMaxReplayValue is; a non-finite
+/// component is compute_metrics' to count.
 void rotations(const Reader& in, const std::string& name, const std::vector<TracePose>& poses) {
   const auto finite = [](Quatd r) {
     return std::isfinite(r.w) && std::isfinite(r.x) && std::isfinite(r.y) && std::isfinite(r.z);
   };
   for (std::size_t i = 0; i < poses.size(); ++i) {
     const Quatd q = poses[i].q;
-    if (!finite(q) || finite(normalized(q))) continue;
+    if (!finite(q)) continue;
+    const bool rotation = finite(normalized(q));
+    const double off = std::fabs(std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z) - 1);
+    if (rotation && off <= kPoseQuatNormTolerance) continue;
     in.fail(name, "holds the quaternion (" + shown_number(q.w) + ", " + shown_number(q.x) + ", " + shown_number(q.y) + ", " +
-                      shown_number(q.z) + ") at index " + std::to_string(i) +
-                      " (columns 3 to 6, qw qx qy qz), which is no rotation: no replay writes one (a corrupt or edited file)");
+                      shown_number(q.z) + ") at index " + std::to_string(i) + " (columns 3 to 6, qw qx qy qz), " +
+                      (rotation ? "whose norm is off 1 by " + shown_number(off) + " (more than " +
+                                      shown_number(kPoseQuatNormTolerance) + ")"
+                                : std::string("which is no rotation")) +
+                      ": no replay writes one (a corrupt or edited file)");
   }
 }
 

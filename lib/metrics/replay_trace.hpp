@@ -69,6 +69,13 @@ inline constexpr double kMaxReplayValue = 1e30;
 /// kMaxHapticHz). With ticks at least half a period apart it bounds the rates the metrics divide by.
 inline constexpr double kMaxReplayHapticHz = 100e3;
 
+/// How far the norm of a pose's quaternion in a replay output may be from 1. The replay writes its
+/// poses in double, normalised (the virtual tool's every Newton step, the physical tool's slerped
+/// between normalised samples): off by a few 1e-16. 1e-6 still takes a file whose poses went
+/// through float32 (a relative 6e-8 a component) or were printed to 7 digits; a quaternion further
+/// off was written by no replay (a recording's 1e-3, kQuatNormTolerance, is for 4-digit device logs).
+inline constexpr double kPoseQuatNormTolerance = 1e-6;
+
 /// Reads a replay output file. Required: root attributes haptic_hz and physical_hz; datasets
 /// /haptic/{t, force, torque, force_clamped, pose_physical, pose_virtual, penetration, contacts}
 /// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /haptic/active,
@@ -76,8 +83,9 @@ inline constexpr double kMaxReplayHapticHz = 100e3;
 /// Throws InputError ("FILE: dataset '/haptic/force': ...") for a missing file, a missing
 /// dataset or attribute, a wrong shape, a non-numeric dataset, a time axis that goes backwards or
 /// whose ticks are less than half a haptic period apart, a haptic rate above kMaxReplayHapticHz,
-/// a finite value beyond kMaxReplayValue, or a pose whose finite quaternion is no rotation (all
-/// zero: it normalises to NaN) (naming the dataset and the index).
+/// a finite value beyond kMaxReplayValue, or a pose whose finite quaternion is no unit quaternion
+/// (all zero, which normalises to NaN, or a norm off 1 by more than kPoseQuatNormTolerance)
+/// (naming the dataset and the index).
 /// Non-finite values are kept: compute_metrics counts them.
 ReplayTrace load_replay(const std::string& path);
 

@@ -505,9 +505,9 @@ TEST(ForceMetrics, ValuesNoReplayWritesAreRefusedNamingDatasetAndIndex) {
     big.force[i] = {s, s, s};
     big.torque[i] = {s, -s, s};
     big.pose_physical[i].p = {-s, s, s};
-    big.pose_physical[i].q = {s, 0, 0, s};
+    big.pose_physical[i].q = {std::sqrt(0.5), 0, 0, std::sqrt(0.5)};  // unit quaternions (kPoseQuatNormTolerance)
     big.pose_virtual[i].p = {s, -s, -s};
-    big.pose_virtual[i].q = {s, s, -s, s};
+    big.pose_virtual[i].q = {0.5, 0.5, -0.5, 0.5};
     big.penetration[i] = kMaxReplayValue;  // a depth is not negative
     big.contacts[i] = 1;
   }
@@ -548,12 +548,28 @@ TEST(ForceMetrics, AQuaternionThatIsNoRotationIsRefusedNamingDatasetAndRow) {
   EXPECT_FALSE(m.finite);
   EXPECT_EQ(m.nonfinite_datasets, std::vector<std::string>{"/haptic/pose_virtual: 1"});
   EXPECT_TRUE(std::isnan(m.whole.stretch_angle_max));
-  // A quaternion of another norm is still a rotation: normalised, as the metrics always did.
+  // A quaternion of another norm was normalised without a word: no replay writes one either (its
+  // poses are unit quaternions in double), so it is refused the same way; one off by the round-off
+  // of float32 (a tenth of the tolerance) is read.
   bad = tr;
   bad.pose_virtual[42].q = {2, 0, 0, 0};
-  const ForceMetrics scaled = roundtrip(bad, "scaled_quat");
-  EXPECT_TRUE(scaled.finite);
-  EXPECT_EQ(scaled.whole.stretch_angle_max, 0.0);
+  const std::string scaled = load_error(bad, "scaled_quat");
+  EXPECT_NE(scaled.find("ebh_metrics_scaled_quat.h5: dataset '/haptic/pose_virtual' holds the quaternion (2, 0, 0, 0) at "
+                        "index 42 (columns 3 to 6, qw qx qy qz), whose norm is off 1 by 1 (more than 1e-06): no replay "
+                        "writes one (a corrupt or edited file)"),
+            std::string::npos)
+      << scaled;
+  bad = tr;
+  bad.pose_physical[9].q = {0, 0.6, 0, 0.8 * (1 + 1e-5)};  // |q| - 1 = 6.4e-6
+  EXPECT_NE(load_error(bad, "near_unit_quat").find("'/haptic/pose_physical' holds the quaternion (0, 0.6, 0, 0.800008) at "
+                                                   "index 9 (columns 3 to 6, qw qx qy qz), whose norm is off 1 by 6.4"),
+            std::string::npos)
+      << load_error(bad, "near_unit_quat");
+  bad = tr;
+  bad.pose_virtual[42].q = {1 + 0.1 * kPoseQuatNormTolerance, 0, 0, 0};
+  const ForceMetrics within = roundtrip(bad, "within_tolerance_quat");
+  EXPECT_TRUE(within.finite);
+  EXPECT_EQ(within.whole.stretch_angle_max, 0.0);
 }
 
 // A contact that flickers every other tick, episodes not merged: every one counted, the metrics of

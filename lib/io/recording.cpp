@@ -147,7 +147,7 @@ Recording read_samples(const h5::Group& g, const std::string& path, const std::v
 void read_window(const h5::Group& g, const std::string& path, const std::vector<double>& t, std::size_t lo,
                  std::size_t hi, Recording& rec) {
   const std::size_t n = t.size(), stride = (n + kOutlineSamples - 1) / kOutlineSamples;
-  rec.span = Recording::FileSpan{t.front(), t.back(), lo, {}, {}, stride};
+  rec.span = Recording::FileSpan{t.front(), t.back(), lo, {}, {}, stride, {}};
   rec.t.reserve(hi - lo + 1);
   rec.position.reserve(hi - lo + 1);
   rec.orientation.reserve(hi - lo + 1);

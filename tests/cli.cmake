@@ -155,11 +155,17 @@ add_test(NAME cli.import.drop_all
   COMMAND ${EBH_BIN} import ${EBH_IO_DATA}/all_repeats.txt -o ${EBH_IO_OUT}/all.h5 --drop-repeats)
 set_tests_properties(cli.import.drop_all PROPERTIES PASS_REGULAR_EXPRESSION
   "all.h5: 2 samples, 0.002 s, 1000 Hz, tool hook\n  dropped 1 sample that repeated")
-# A log stamped in milliseconds reads as a rate 1000 times too low: said, naming the unit.
+# A log stamped in milliseconds reads as a rate 1000 times too low: refused, naming the unit, no
+# recording; with --time-unit s (the times are seconds) said and written.
 file(WRITE ${EBH_IO_OUT}/ms.csv "t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,0,0,0.001,1,0,0,0\n2,0,0,0.002,1,0,0,0\n")
-add_test(NAME cli.import.times_in_ms COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms.h5)
-set_tests_properties(cli.import.times_in_ms PROPERTIES PASS_REGULAR_EXPRESSION
-  "ebh: warning: .*ms.csv: column t: the times give 1 Hz \\(a median interval of 1 s between 3 samples over 2 s\\), below 10 Hz; a device logs at 100 Hz to 10 kHz: the times look like milliseconds \\(1000 Hz\\): import again with --time-unit ms")
+add_test(NAME cli.import.times_in_ms
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};import;${EBH_IO_OUT}/ms.csv;-o;${EBH_IO_OUT}/ms.h5"
+    "-DEXPECT=^ebh: error: .*ms.csv: column t: the times give 1 Hz \\(a median interval of 1 s between 3 samples over 2 s\\), below 10 Hz; a device logs at 100 Hz to 10 kHz: the times look like milliseconds \\(1000 Hz\\): import again with --time-unit ms \\(--time-unit s keeps them as seconds\\)"
+    -DOUTPUT=${EBH_IO_OUT}/ms.h5 -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+add_test(NAME cli.import.times_in_ms_as_seconds
+  COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms_s.h5 --time-unit s)
+set_tests_properties(cli.import.times_in_ms_as_seconds PROPERTIES FAIL_REGULAR_EXPRESSION "error:" PASS_REGULAR_EXPRESSION
+  "ebh: warning: .*ms.csv: column t: the times give 1 Hz .*the times look like milliseconds \\(1000 Hz\\): import again with --time-unit ms")
 # ... which --time-unit ms reads as such.
 add_test(NAME cli.import.time_unit_ms COMMAND ${EBH_BIN} import ${EBH_IO_OUT}/ms.csv -o ${EBH_IO_OUT}/ms_read.h5 --time-unit ms)
 set_tests_properties(cli.import.time_unit_ms PROPERTIES PASS_REGULAR_EXPRESSION "ms_read.h5: 3 samples, 0.002 s, 1000 Hz"
@@ -188,7 +194,7 @@ add_test(NAME cli.import.mirror_axis
     "-DEXPECT=^ebh: error: --mirror: expected the axis that runs the other way, x, y or z, got 'w'"
     -DOUTPUT=${EBH_IO_OUT}/mirror.h5 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_property(TEST cli.import.repeats cli.import.drop_repeats cli.import.hold_at_end cli.import.assumed_rate
-  cli.import.rate_not_used cli.import.drop_all cli.import.times_in_ms cli.import.scene_tool
+  cli.import.rate_not_used cli.import.drop_all cli.import.times_in_ms cli.import.times_in_ms_as_seconds cli.import.scene_tool
   cli.import.tool_not_the_scenes cli.import.mirror_axis APPEND PROPERTY LABELS cli)
 
 # ebh metrics (lib/metrics): the committed synthetic press (tests/data/metrics/make_trace.py

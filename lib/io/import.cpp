@@ -646,9 +646,12 @@ TimeUnit likely_time_unit(double rate_hz) {
 
 // The rate a log's times (has_t) or --rate give, against a recording's limit (an error) and a
 // device's rates (a warning, returned): times in ms make a rate 1000 times too low, in units
-// smaller than seconds' one too high. `times`: what the log's times are called ("column t", a
-// bag's "the messages' times").
-std::string check_log_rate(const Recording& rec, bool has_t, const std::string& path, const std::string& times) {
+// smaller than seconds' one too high. Times whose rate is a device's in ms, us or ns are an error
+// unless `unit_given` (--time-unit, or a bag's times, which are seconds): a recording at 1 Hz or
+// 1e-6 Hz from a device log is never meant, and a script's `import && replay` would go on with it.
+// `times`: what the log's times are called ("column t", a bag's "the messages' times").
+std::string check_log_rate(const Recording& rec, bool has_t, bool unit_given, const std::string& path,
+                           const std::string& times) {
   const std::string band = "a device logs at " + num(kDeviceRateLowHz) + " Hz to " + num(kDeviceRateHighHz / 1e3) + " kHz";
   const std::string span = num(rec.rate_hz) + " Hz (a median interval of " + num(1 / rec.rate_hz) + " s between " +
                            std::to_string(rec.size()) + " samples over " + num(rec.duration()) + " s)";
@@ -670,11 +673,13 @@ std::string check_log_rate(const Recording& rec, bool has_t, const std::string& 
     return "--rate " + num(rec.rate_hz) + " Hz is below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
            (khz >= kDeviceRateLowHz && khz <= kDeviceRateHighHz ? " (the rate is in Hz: --rate " + num(khz) + "?)" : "");
   }
+  const std::string slow = times + ": the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band;
   const TimeUnit unit = likely_time_unit(rec.rate_hz);
-  return times + ": the times give " + span + ", below " + num(kMinPlausibleLogRateHz) + " Hz; " + band +
-         (unit.name ? std::string(": the times look like ") + unit.name + " (" + num(unit.rate_hz) + " Hz): import " +
-                          "again with --time-unit " + unit.symbol
-                    : ": is t in seconds (else --time-unit ms, us or ns)?");
+  if (!unit.name) return slow + ": is t in seconds (else --time-unit ms, us or ns)?";
+  const std::string looks = slow + ": the times look like " + unit.name + " (" + num(unit.rate_hz) +
+                            " Hz): import again with --time-unit " + unit.symbol;
+  if (!unit_given) throw InputError(path + ": " + looks + " (--time-unit s keeps them as seconds)");
+  return looks;
 }
 
 // The longest interval between a log's times, when it is a gap in the logging (over
@@ -912,7 +917,7 @@ Recording import_log(const std::string& path, const ImportOptions& opt, ImportRe
   // The rate the log's own times say (of every sample, repeats included): its median interval's.
   if (has_t) rec.rate_hz = nominal_rate(rec.t);
   const std::string times = bag ? "the messages' times" : "column t";
-  const std::string rate_warning = check_log_rate(rec, has_t, path, times);
+  const std::string rate_warning = check_log_rate(rec, has_t, bag || opt.time_unit || time_unit != 1, path, times);
   // On unit quaternions (the validator normalised them); turning every sample by the same
   // rotations keeps consecutive ones in the same hemisphere, and equal samples equal.
   if (opt.mirror) {

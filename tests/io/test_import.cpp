@@ -684,8 +684,9 @@ TEST(Import, ALogPastTheSampleLimitStopsAtTheFirstSampleBeyondIt) {
 }
 
 // A device logs at 100 Hz to 10 kHz: times in ms, us or ns read as seconds make a rate 1e3, 1e6 or
-// 1e9 times too low (a warning naming the unit), times that give more than the 100 kHz limit are
-// refused naming the file and column.
+// 1e9 times too low, refused naming the unit (a warning with --time-unit s, which says the times
+// are seconds: an exit 0 and a recording at 1 Hz went on into a script's replay); times that give
+// more than the 100 kHz limit are refused naming the file and column.
 TEST(Import, ALogsTimesInTheWrongUnitAreNamed) {
   test::ScratchDir tmp;
   auto log = [&](const std::string& name, double seconds_per_unit) {
@@ -702,8 +703,15 @@ TEST(Import, ALogsTimesInTheWrongUnitAreNamed) {
   for (const auto& [unit, symbol, per_s] : {std::tuple{"milliseconds", "ms", 1e-3}, {"microseconds", "us", 1e-6},
                                             {"nanoseconds", "ns", 1e-9}}) {
     const std::string file = log(std::string(unit) + ".csv", per_s);
-    import_log(file, opt, &report);
-    EXPECT_NE(report.rate_warning.find("column t: the times give"), std::string::npos) << report.rate_warning;
+    EXPECT_INPUT_ERROR(import_log(file, opt), file + ": column t: the times give",
+                       std::string("the times look like ") + unit + " (1000 Hz): import again with --time-unit " + symbol +
+                           " (--time-unit s keeps them as seconds)");
+    ImportOptions as_seconds = opt;
+    as_seconds.time_unit = 1.0;
+    EXPECT_EQ(import_log(file, as_seconds, &report).size(), 5u);
+    EXPECT_NE(report.rate_warning.find(std::string("column t: the times give ") + (per_s == 1e-3 ? "1 Hz" : "")),
+              std::string::npos)
+        << report.rate_warning;
     EXPECT_NE(report.rate_warning.find(std::string("the times look like ") + unit + " (1000 Hz): import again with "
                                        "--time-unit " + symbol),
               std::string::npos)

@@ -1283,10 +1283,21 @@ Scene build_scene(SceneSpec spec_in) {
   scene.spec = std::move(spec_in);
   const SceneSpec& spec = scene.spec;
   // Soft tissue: shear modulus ~100 Pa (brain) to ~1 MPa (tendon), density ~900-1100 kg/m^3.
+  // A value out of range that a larger unit puts in range was most likely written in it (a
+  // density of 1.06 in g/cm^3, a k_vol of 5 in kPa): " (in UNIT? V UNIT is W SI)", else "".
+  const auto unit_hint = [](double v, double lo, double hi, const char* si,
+                            std::initializer_list<std::pair<const char*, double>> units) {
+    for (const auto& [name, factor] : units)
+      if (v * factor >= lo && v * factor <= hi)
+        return " (in " + std::string(name) + "? " + shown_number(v) + " " + name + " is " + shown_number(v * factor) + " " +
+               si + ")";
+    return std::string();
+  };
   const auto check_tissue_k_vol = [&](const std::string& key, double k_vol) {
     if (k_vol < 10 || k_vol > 1e8)
       scene.warnings.push_back(value_source(spec, key) + ": " + key + " = " + shown_number(k_vol) +
-                               " Pa is outside soft tissue's 10 Pa .. 100 MPa");
+                               " Pa is outside soft tissue's 10 Pa .. 100 MPa" +
+                               unit_hint(k_vol, 10, 1e8, "Pa", {{"kPa", 1e3}, {"MPa", 1e6}}));
   };
   check_tissue_k_vol("stiffness.k_vol", spec.stiffness.k_vol);
   for (std::size_t i = 0; i < spec.stiffness_regions.size(); ++i)
@@ -1317,7 +1328,8 @@ Scene build_scene(SceneSpec spec_in) {
   if (spec.density < kTissueDensityMin || spec.density > kTissueDensityMax)
     scene.warnings.push_back(value_source(spec, "material.density") + ": material.density = " + shown_number(spec.density) +
                              " kg/m^3 is outside soft tissue's " + shown_number(kTissueDensityMin) + " .. " +
-                             shown_number(kTissueDensityMax));
+                             shown_number(kTissueDensityMax) + " kg/m^3" +
+                             unit_hint(spec.density, kTissueDensityMin, kTissueDensityMax, "kg/m^3", {{"g/cm^3", 1e3}}));
   if (norm(spec.gravity) > 2 * 9.81)
     scene.warnings.push_back(value_source(spec, "gravity") + ": |gravity| = " + shown_number(norm(spec.gravity)) + " m/s^2 is over 2 g");
   for (const Plausible& p : {Plausible{"stiffness.k_s", spec.stiffness.k_s, 0.01, 1e6, "N/m", kSurfaceSpring},

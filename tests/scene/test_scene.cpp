@@ -567,7 +567,13 @@ TEST(Scene, ImplausibleTissueValuesAreShownAsGiven) {
           .string();
   const Scene s = load_scene(p);
   EXPECT_EQ(s.warnings.at(0), p + ": stiffness.k_vol = 2.5e+09 Pa is outside soft tissue's 10 Pa .. 100 MPa");
-  EXPECT_EQ(s.warnings.at(1), p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000");
+  EXPECT_EQ(s.warnings.at(1), p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000 kg/m^3");
+  // A value a larger unit puts in range is named in it: g/cm^3 written as kg/m^3, kPa as Pa.
+  const Scene units = load_scene(p, {"material.density=1.06", "stiffness.k_vol=5"});
+  EXPECT_EQ(units.warnings.at(0), "--set 'stiffness.k_vol=5': stiffness.k_vol = 5 Pa is outside soft tissue's 10 Pa .. "
+                                  "100 MPa (in kPa? 5 kPa is 5000 Pa)");
+  EXPECT_EQ(units.warnings.at(1), "--set 'material.density=1.06': material.density = 1.06 kg/m^3 is outside soft "
+                                  "tissue's 100 .. 3000 kg/m^3 (in g/cm^3? 1.06 g/cm^3 is 1060 kg/m^3)");
   // A volume stiffness so far above k_vol that the tissue is all but incompressible (the physical
   // solve makes little headway); the scenes' 3 times k_vol is quiet.
   const std::string q = write_temp("stiff.yaml", good).string();
@@ -650,7 +656,7 @@ TEST(Scene, WarningsNameTheOverrideThatGaveTheValue) {
   ASSERT_EQ(s.warnings.size(), 3u) << ::testing::PrintToString(s.warnings);
   EXPECT_EQ(s.warnings[0], "--set 'stiffness={k_vol: 2.5e9}': stiffness.k_vol = 2.5e+09 Pa is outside soft tissue's "
                            "10 Pa .. 100 MPa");
-  EXPECT_EQ(s.warnings[1], p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000");
+  EXPECT_EQ(s.warnings[1], p + ": material.density = 1e-30 kg/m^3 is outside soft tissue's 100 .. 3000 kg/m^3");
   EXPECT_EQ(s.warnings[2].rfind("--set 'stiffness={k_vol: 2.5e9}': stiffness.k_vol x the virtual mesh's mean edge", 0), 0u)
       << s.warnings[2];
   EXPECT_EQ(tool_stiffness_warnings(s.spec).at(0).rfind("--set 'stiffness.k_con=1e9': stiffness.k_con = 1e+09 N/m", 0), 0u);

@@ -11,7 +11,7 @@ endfunction()
 # Fresh previous outputs and the user's special files before each run.
 set(ebh_rec ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5)
 add_test(NAME cli.files.setup COMMAND sh -c
-  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5 && mkdir -p vframes && echo 'a frame' > vframes/frame_00000.png && cp '${ebh_rec}' ctx.h5 && cp '${ebh_rec}' fd.h5 && mkdir -p fdir/frame_00000.png")
+  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5 && mkdir -p vframes && echo 'a frame' > vframes/frame_00000.png && cp '${ebh_rec}' ctx.h5 && cp '${ebh_rec}' fd.h5 && mkdir -p fdir/frame_00000.png && rm -rf store dl_replay.h5 dl_scene.yaml lk_nowhere.h5 lk_a.h5 lk_b.h5 && mkdir store && ln -s store/replay.h5 dl_replay.h5 && ln -s store/scene.yaml dl_scene.yaml && ln -s nowhere/run.h5 lk_nowhere.h5 && ln -s lk_b.h5 lk_a.h5 && ln -s lk_a.h5 lk_b.h5")
 set_tests_properties(cli.files.setup PROPERTIES FIXTURES_SETUP files LABELS cli)
 
 # A name longer than the file system allows (256 bytes) failed only when the finished replay was
@@ -59,3 +59,29 @@ if(EBH_HAVE_OSMESA)
     KEEP ${F}/fd.h5 OUTPUT ${F}/fd.xdmf
     CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 -q -o ${F}/fd.h5 --render ${F}/fdir)
 endif()
+
+# An output named by a link to nothing yet (a results folder of links into a data store): the file
+# at the end of the link is created and the link stays (it was replaced by a regular file). Every
+# command resolves its output there (io/atomic.hpp output_target): a replay and a scene init.
+add_test(NAME cli.files.replay_through_a_link_to_nothing COMMAND sh -c
+  "'${EBH_BIN}' replay tube tube_insert --duration 0.1 -q -o '${F}/dl_replay.h5' && test -L '${F}/dl_replay.h5' && test -s '${F}/store/replay.h5'")
+add_test(NAME cli.files.scene_init_through_a_link_to_nothing COMMAND sh -c
+  "'${EBH_BIN}' scene init '${PROJECT_SOURCE_DIR}/examples/own_data/organ.msh' -o '${F}/dl_scene.yaml' >/dev/null && test -L '${F}/dl_scene.yaml' && test -s '${F}/store/scene.yaml'")
+set_tests_properties(cli.files.replay_through_a_link_to_nothing cli.files.scene_init_through_a_link_to_nothing
+  PROPERTIES FIXTURES_REQUIRED files LABELS cli)
+# A link whose target's folder is missing, and a loop of links, are refused naming the link and its
+# target, before any work; the links stay.
+ebh_files_failure(link_to_a_missing_folder
+  "^ebh: error: [^\n]*/lk_nowhere.h5: cannot create the output: a link to nowhere/run.h5, whose folder [^\n]*nowhere does not exist"
+  LINKS ${F}/lk_nowhere.h5
+  CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 -q -o ${F}/lk_nowhere.h5)
+ebh_files_failure(link_loop
+  "^ebh: error: [^\n]*/lk_a.h5: cannot create the output: a link to lk_b.h5, whose links go round in a loop"
+  LINKS ${F}/lk_a.h5 ${F}/lk_b.h5
+  CMD ${EBH_BIN} import ${PROJECT_SOURCE_DIR}/examples/own_data/touch_press.txt -o ${F}/lk_a.h5)
+# A folder no file can be created in is said as such: a replay blamed free space ("its folder's
+# file system has 0 bytes free: free space, ...") before it tried to create its output.
+ebh_files_failure(replay_into_proc
+  "^ebh: error: /proc/run.h5: cannot create the output: No such file or directory \\(/proc is on a virtual file system"
+  OUTPUT /proc/run.h5
+  CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 -q -o /proc/run.h5)

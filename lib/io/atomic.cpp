@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -189,6 +190,39 @@ std::string partial_prefix(const fs::path& final_path) {
 }
 
 
+/// The nearest of `path`'s folders that exists (a file where a folder should be counts: creating
+/// in it fails with "Not a directory"), "." for a relative path none of whose folders does: where
+/// a file for `path` can be created now, its missing folders not yet made.
+fs::path nearest_existing_folder(const fs::path& path) {
+  fs::path dir = path.parent_path();
+  std::error_code ec;
+  while (!dir.empty() && !fs::exists(dir, ec) && dir.parent_path() != dir) dir = dir.parent_path();
+  if (dir.empty() || !fs::exists(dir, ec)) dir = ".";
+  return dir;
+}
+
+/// Creates `temp` new and empty, or returns -1 with errno. O_EXCL, which does not follow a link: a
+/// link planted at a temporary's predictable name would have the output written through it to the
+/// link's target. What is there (such a link, or this PID's temporary from an earlier process) is
+/// removed first.
+int create_new_file(const std::string& temp) {
+  int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+  if (fd < 0 && errno == EEXIST && ::unlink(temp.c_str()) == 0)
+    fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+  return fd;
+}
+
+/// Why no file could be created in `folder`: the OS reason, and where the folder's file system has
+/// no blocks at all, that it holds no files (/proc says "No such file or directory", /sys
+/// "Permission denied", even to root).
+std::string creation_failure(const fs::path& folder, int err) {
+  struct statvfs st {};
+  const bool holds_no_files = ::statvfs(folder.c_str(), &st) == 0 && st.f_blocks == 0;
+  return os_reason(err) + (holds_no_files ? " (" + folder.string() +
+                                            " is on a virtual file system, which holds no files: choose another folder)"
+                                          : std::string());
+}
+
 // Best effort: the rename is on the disk once its directory is synced (some file systems refuse).
 void sync_directory(const fs::path& dir) {
   const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
@@ -264,16 +298,56 @@ void check_replaceable(const std::string& path) {
 
 void check_name_length(const std::string& path) {
   const fs::path p(path);
-  fs::path dir = p.parent_path();
-  std::error_code ec;
-  while (!dir.empty() && !fs::exists(dir, ec) && dir.parent_path() != dir) dir = dir.parent_path();
-  if (dir.empty() || !fs::exists(dir, ec)) dir = ".";
+  const fs::path dir = nearest_existing_folder(p);
   long name_max = ::pathconf(dir.c_str(), _PC_NAME_MAX);
   if (name_max <= 0) name_max = NAME_MAX;
   for (const fs::path& part : p)
     if (const std::size_t n = part.native().size(); n > static_cast<std::size_t>(name_max))
       throw InputError(path + ": cannot create the output: " + os_reason(ENAMETOOLONG) + " (a name of " +
                        std::to_string(n) + " bytes; this file system allows " + std::to_string(name_max) + ")");
+}
+
+std::string output_target(const std::string& final_path) {
+  fs::path target(final_path);
+  std::error_code ec;
+  if (!fs::is_symlink(target, ec)) return final_path;
+  // A link to a file: that file (check_replaceable and AtomicOutput refuse what is not one).
+  if (struct stat st {}; ::stat(final_path.c_str(), &st) == 0) {
+    const fs::path file = fs::canonical(target, ec);
+    return ec ? final_path : file.string();
+  }
+  const int err = errno;
+  const std::string link_to = final_path + ": cannot create the output: a link to " + fs::read_symlink(target, ec).string();
+  if (err == ELOOP) throw InputError(link_to + ", whose links go round in a loop (or chain too deep): " + os_reason(err));
+  if (err != ENOENT) throw InputError(link_to + ": " + os_reason(err));
+  // A link to nothing (yet): the file at the end of its links is created, as a link to a file is
+  // written. Followed by hand (a loop made meanwhile stops at the system's limit of 40).
+  for (int links = 0; fs::is_symlink(target, ec); ++links) {
+    const fs::path to = fs::read_symlink(target, ec);
+    if (ec || links == 40) throw InputError(link_to + ": " + os_reason(ec ? ec.value() : ELOOP));
+    target = to.is_absolute() ? to : target.parent_path() / to;
+  }
+  const fs::path folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  if (!fs::is_directory(folder, ec))
+    throw InputError(link_to + ", whose folder " + folder.string() +
+                     (fs::exists(folder, ec) ? " is not a folder" : " does not exist") +
+                     ": make that folder or remove the link");
+  return target.string();
+}
+
+void check_can_create(const std::string& final_path) {
+  const std::string target = output_target(final_path);
+  const fs::path folder = nearest_existing_folder(target);
+  const std::string probe = partial_path_for((folder / fs::path(target).filename()).string());
+  const int slot = register_temp(probe);
+  const int fd = create_new_file(probe);
+  const int err = errno;
+  if (fd >= 0) {
+    ::close(fd);
+    ::unlink(probe.c_str());
+  }
+  unregister_temp(slot);
+  if (fd < 0) throw InputError(final_path + ": cannot create the output: " + creation_failure(folder, err));
 }
 
 bool process_running(long pid) { return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH); }
@@ -344,11 +418,10 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
   std::error_code ec;
   if (fs::is_directory(p, ec)) fail("cannot write the output", EISDIR);
   check_replaceable(final_);
-  // A link to a file (a baselines file kept elsewhere, `gate --update`) is written through: the
-  // file it names is replaced and the link stays (renamed over, the link became a copy and its
-  // target kept the old content). Messages name the output as given.
-  if (fs::is_symlink(p, ec) && fs::is_regular_file(p, ec)) target_ = fs::canonical(p, ec).string();
-  if (ec || target_.empty()) target_ = final_;
+  // A link (to a baselines file kept elsewhere, `gate --update`; to a file yet to be made) is
+  // written through: the file it names is replaced or created and the link stays (renamed over,
+  // the link became a copy and its target kept the old content). Messages name the output as given.
+  target_ = output_target(final_);
   // The output's folder is made when missing (`-o out/run.h5` on a fresh checkout).
   const fs::path parent = p.parent_path();
   if (!parent.empty() && !fs::exists(parent, ec)) {
@@ -365,17 +438,12 @@ AtomicOutput::AtomicOutput(std::string final_path) : final_(std::move(final_path
   slot_ = register_temp(temp_);
   // Created here, so that a folder that is not one, a read-only folder or a full disk is reported
   // with the final name and the reason before any work.
-  // Created new (O_EXCL, which does not follow a link): a link planted at the temporary's
-  // predictable name would have the output written through it to the link's target. What is
-  // there (such a link, or this PID's temporary from an earlier process) is removed first.
-  int fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
-  if (fd < 0 && errno == EEXIST && ::unlink(temp_.c_str()) == 0)
-    fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+  const int fd = create_new_file(temp_);
   if (fd < 0) {
     const int err = errno;
     unregister_temp(slot_);
     slot_ = -1;
-    fail("cannot create the output", err);
+    throw InputError(final_ + ": cannot create the output: " + creation_failure(fs::path(temp_).parent_path(), err));
   }
   // A file replaced keeps its permissions (a 0640 output stays 0640, not the umask's 0644).
   if (struct stat old {}; ::stat(target_.c_str(), &old) == 0 && S_ISREG(old.st_mode))

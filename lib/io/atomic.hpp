@@ -64,6 +64,21 @@ void check_name_length(const std::string& path);
 /// replace it. A missing name, a regular file or a link to one passes.
 void check_replaceable(const std::string& path);
 
+/// The file an output named `final_path` replaces or creates, its temporary beside it: `final_path`
+/// itself, or, where `final_path` is a symbolic link, the file at the end of its links (the link
+/// stays). A link to nothing names the file it would create, whose folder must exist. Throws
+/// InputError "FINAL: cannot create the output: ..." naming the link and its target where that
+/// folder is missing, and for a loop of links (or a chain longer than the system follows).
+/// Every output's path is resolved here (AtomicOutput, check_can_create).
+std::string output_target(const std::string& final_path);
+
+/// Throws InputError "FINAL: cannot create the output: OS reason" unless this process can create
+/// the output's temporary where it goes (beside output_target(final_path), or in the nearest
+/// existing folder above it when the output's folder is still to be made): a read-only folder or
+/// file system, one the user may not write, a file where a folder should be, /proc or /sys. Tries:
+/// creates that file and removes it. Commands call it before any work (io/paths.hpp check_outputs).
+void check_can_create(const std::string& final_path);
+
 /// Whether process `pid` of this host may still run (kill(pid, 0) finds it, or may not signal it):
 /// its temporaries are not stale.
 bool process_running(long pid);

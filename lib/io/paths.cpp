@@ -28,8 +28,8 @@ bool same_file(const std::string& a, const std::string& b) {
 
 namespace {
 
-// The output can be created where it is asked for: its nearest existing ancestor is a folder this
-// process may write in (AtomicOutput finds the same later; this says it before the work).
+// The output can be created where it is asked for (AtomicOutput finds the same later; this says it
+// before the work).
 void check_output_location(const std::string& path) {
   // A line break in a name would split every line that names the file (its warnings, the
   // summary, a sweep's report): no one means one (InputError escapes it in this message).
@@ -37,18 +37,12 @@ void check_output_location(const std::string& path) {
     throw InputError(path + ": the output's name holds a control character (a line break, a tab?): name it otherwise");
   // The shell's "standard output": no command writes its file there (a file named '-' is ./-).
   if (path == "-") throw InputError("-: an output is a file (standard output is not one here): name a file, ./- for one named -");
-  fs::path dir = fs::path(path).parent_path();
-  if (dir.empty()) dir = ".";
-  std::error_code ec;
-  while (!fs::exists(dir, ec) && dir.has_parent_path() && dir.parent_path() != dir) dir = dir.parent_path();
-  if (!fs::exists(dir, ec) && dir.is_relative()) dir = ".";
-  int err = 0;
-  if (!fs::is_directory(dir, ec)) err = ENOTDIR;
-  else if (::access(dir.c_str(), W_OK | X_OK) != 0) err = errno;
-  if (err) throw InputError(path + ": cannot create the output: " + os_reason(err));
   check_name_length(path);
+  std::error_code ec;
   if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write the output: " + os_reason(EISDIR));
   check_replaceable(path);
+  // Before any estimate of its size: a folder that cannot be written is the reason, not its space.
+  check_can_create(path);
 }
 
 }  // namespace
@@ -91,10 +85,18 @@ void check_input_file(const std::string& path) {
 }
 
 std::optional<std::uint64_t> free_bytes_for(const std::string& output) {
-  std::filesystem::path folder = std::filesystem::path(output).parent_path();
+  std::string target;  // the file written: beside the file a link names
+  try {
+    target = output_target(output);
+  } catch (const InputError&) {
+    return std::nullopt;
+  }
+  std::filesystem::path folder = std::filesystem::path(target).parent_path();
   if (folder.empty()) folder = ".";
   struct statvfs fs {};
   if (::statvfs(folder.c_str(), &fs) != 0) return std::nullopt;
+  // No blocks at all: a file system that does not count them (ramfs), or holds no files (/proc).
+  if (fs.f_blocks == 0) return std::nullopt;
   return static_cast<std::uint64_t>(fs.f_bavail) * static_cast<std::uint64_t>(fs.f_frsize);
 }
 

@@ -23,7 +23,8 @@ bool same_file(const std::string& a, const std::string& b);
 /// Throws InputError "OUT: the output would replace ROLE IN, an input of this command; choose another
 /// output file" when an output is the same file as an input, and "OUT: is both ROLE1 and ROLE2" when
 /// two outputs are; "OUT: cannot create the output: Not a directory" (or another OS reason) when it
-/// cannot be created there. Empty paths are skipped. Commands call it before any work.
+/// cannot be created there (io/atomic.hpp check_can_create: tried, so a read-only folder or /proc is
+/// said as such). Empty paths are skipped. Commands call it before any work.
 void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleFile>& inputs);
 
 /// Throws InputError "PATH: why" unless `path` names a file that can be read: it must exist ("cannot
@@ -32,7 +33,8 @@ void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleF
 void check_input_file(const std::string& path);
 
 /// Bytes an unprivileged process may still write on the file system that holds `output` (its
-/// folder: the output and its temporary go there); nullopt when that cannot be told.
+/// folder, or that of the file a link there names: the output and its temporary go there); nullopt
+/// when that cannot be told (a file system with no blocks: ramfs, /proc).
 std::optional<std::uint64_t> free_bytes_for(const std::string& output);
 
 /// The folder for temporary files: $TMPDIR, or /tmp where it is unset or empty (as POSIX tools take

@@ -171,6 +171,39 @@ TEST(Atomic, AnOutputThatIsALinkWritesTheFileItNames) {
   EXPECT_EQ(std::distance(fs::directory_iterator(tmp.dir / "real"), fs::directory_iterator{}), 1);
 }
 
+// An output named by a link to nothing yet (a results folder of links into a data store) creates
+// the file at the end of its links, its temporary beside that file, and the links stay (the link
+// was replaced by a regular file, its target never made).
+TEST(Atomic, AnOutputThatIsALinkToNothingCreatesTheFileItNames) {
+  test::ScratchDir tmp;
+  fs::create_directories(tmp.dir / "store");
+  const std::string link = tmp / "run.h5", chain = tmp / "chain.h5";
+  fs::create_symlink("store/run.h5", link);  // relative: to the link's folder
+  fs::create_symlink("run.h5", chain);
+  write_file_atomically(chain, "new");
+  EXPECT_TRUE(fs::is_symlink(link));
+  EXPECT_TRUE(fs::is_symlink(chain));
+  EXPECT_EQ(slurp(tmp / "store/run.h5"), "new");
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp.dir / "store"), fs::directory_iterator{}), 1);
+  EXPECT_EQ(tmp.entries(), 3u);  // store, run.h5, chain.h5: no temporary left
+}
+
+// A link whose target's folder is missing, or a loop of links, is refused naming the link and its
+// target (not replaced by a file, nor followed forever); the links stay and nothing is made.
+TEST(Atomic, ALinkToAMissingFolderOrALoopOfLinksIsRefused) {
+  test::ScratchDir tmp;
+  fs::create_symlink("nowhere/run.h5", tmp / "dangling.h5");
+  fs::create_symlink("b.h5", tmp / "a.h5");
+  fs::create_symlink("a.h5", tmp / "b.h5");
+  EXPECT_INPUT_ERROR(write_file_atomically(tmp / "dangling.h5", "x"),
+                     "dangling.h5: cannot create the output: a link to nowhere/run.h5, whose folder ",
+                     "nowhere does not exist: make that folder or remove the link");
+  EXPECT_INPUT_ERROR(write_file_atomically(tmp / "a.h5", "x"),
+                     "a.h5: cannot create the output: a link to b.h5, whose links go round in a loop");
+  for (const char* name : {"dangling.h5", "a.h5", "b.h5"}) EXPECT_TRUE(fs::is_symlink(tmp / name)) << name;
+  EXPECT_EQ(tmp.entries(), 3u);
+}
+
 // A file replaced keeps its permissions (0640 stays 0640, not the umask's 0644); one its user may not
 // write is refused, not replaced behind its mode (as root may write it, only checked as another).
 TEST(Atomic, AReplacedFileKeepsItsMode) {

@@ -2,6 +2,7 @@
 // link), and an input is a readable file, never a folder or an unfinished output.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -45,6 +46,45 @@ TEST(Paths, OutputOverAnInputIsRefusedNamingBoth) {
   std::ofstream(tmp / "afile") << "x";
   EXPECT_INPUT_ERROR(check_outputs({{tmp / "afile/out.h5", "the output"}}, inputs),
                      "afile/out.h5: cannot create the output: Not a directory");
+}
+
+// A folder that cannot be written is said as such before any work (a replay's free-space check
+// said "0 bytes free: free space" for /proc and /sys): the output's temporary is tried there.
+TEST(Paths, AnOutputOnAVirtualFileSystemSaysWhy) {
+  struct statvfs proc {};
+  if (::statvfs("/proc", &proc) != 0 || proc.f_blocks != 0) GTEST_SKIP() << "no procfs at /proc";
+  EXPECT_INPUT_ERROR(check_outputs({{"/proc/run.h5", "the output"}}, {}),
+                     "/proc/run.h5: cannot create the output: No such file or directory (/proc is on a virtual file "
+                     "system, which holds no files: choose another folder)");
+  EXPECT_INPUT_ERROR(check_outputs({{"/proc/new/run.h5", "the output"}}, {}), "/proc/new/run.h5: cannot create the output: ");
+  EXPECT_FALSE(free_bytes_for("/proc/run.h5").has_value());  // not "0 bytes free"
+}
+TEST(Paths, AnOutputInAReadOnlyFolderSaysWhy) {
+  if (::geteuid() == 0) GTEST_SKIP() << "root may write in a read-only folder";
+  test::ScratchDir tmp;
+  fs::create_directories(tmp.dir / "ro");
+  ASSERT_EQ(::chmod((tmp.dir / "ro").c_str(), 0555), 0);
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "ro/run.h5", "the output"}}, {}), "ro/run.h5: cannot create the output: Permission denied");
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "ro/new/run.h5", "the output"}}, {}), "ro/new/run.h5: cannot create the output: Permission denied");
+  ::chmod((tmp.dir / "ro").c_str(), 0755);
+}
+
+// An output named by a link to nothing is checked where the link leads: its folder must exist, and
+// a loop of links is refused, before any work; the check leaves no file behind.
+TEST(Paths, AnOutputThatIsALinkToNothingIsCheckedWhereItLeads) {
+  test::ScratchDir tmp;
+  fs::create_directories(tmp.dir / "store");
+  fs::create_symlink("store/run.h5", tmp / "run.h5");
+  fs::create_symlink("nowhere/run.h5", tmp / "dangling.h5");
+  fs::create_symlink("b.h5", tmp / "a.h5");
+  fs::create_symlink("a.h5", tmp / "b.h5");
+  check_outputs({{tmp / "run.h5", "the output"}}, {});  // no error
+  EXPECT_EQ(output_target(tmp / "run.h5"), tmp / "store/run.h5");
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "dangling.h5", "the output"}}, {}),
+                     "dangling.h5: cannot create the output: a link to nowhere/run.h5, whose folder ");
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "a.h5", "the output"}}, {}), "a.h5: cannot create the output: a link to b.h5");
+  EXPECT_EQ(tmp.entries(), 5u);
+  EXPECT_TRUE(fs::is_empty(tmp.dir / "store"));
 }
 
 // The rename into place fails on a name the file system cannot hold: said before any work, for the

@@ -20,8 +20,9 @@ namespace ebh {
 /// (2.x: the element's first tag, where Gmsh writes an element once per group: such copies, the
 /// same type and nodes, are merged into the first with all their groups; 4.1: the physical tags of
 /// its entity in $Entities; tag 0 when there is none), and $PhysicalNames of dimension 2 and 3. Points, lines, quads and other
-/// surface elements are skipped; any other volume element (hexahedra, prisms, pyramids, 10-node
-/// tets, ...) is refused, naming each kind's count. Node ids may be sparse and unordered;
+/// surface elements are skipped (their nodes checked as a tet's); any other volume element
+/// (hexahedra, prisms, pyramids, 10-node tets, ... of every type and order Gmsh defines) is
+/// refused, naming each kind's count. Node ids may be sparse and unordered;
 /// vertices keep the file's node order and `file_node_ids` maps back. A partitioned 4.1 file
 /// (gmsh -part N) reads as the whole mesh: its elements' groups come from $PartitionedEntities,
 /// and the triangles between partitions are skipped. A 2.x file's $ParametricNodes (gmsh
@@ -31,15 +32,17 @@ namespace ebh {
 /// an unnamed one is then named by its number in the file (a scene's pin names it so).
 ///
 /// Throws InputError for binary files, unsupported versions, malformed or truncated sections,
-/// references to unknown nodes, duplicate node ids, volume elements other than 4-node tets, and a
-/// file with no tetrahedra.
+/// references to unknown nodes (by any element), duplicate node ids, an element type Gmsh does not
+/// define, a 4.1 element block whose entity dimension is not its element type's, volume elements
+/// other than 4-node tets, and a file with no tetrahedra.
 TetMesh read_msh(const std::filesystem::path& file);
 
 /// Reads a VTK legacy file (`# vtk DataFile Version 2.0` .. 5.1, ASCII or BINARY) holding a
 /// DATASET UNSTRUCTURED_GRID: its POINTS and its cells of type 10 (4-node tets), as written by
 /// VTK, ParaView, 3D Slicer, TetGen (-k) or meshio. Cells of a lower dimension are skipped; any
 /// other volume cell (hexahedra, wedges, 10-node tets, ...) is refused naming each kind's count.
-/// Groups: the first integer cell array of one component (SCALARS, or in a FIELD) named
+/// Groups: the first cell array of one component (SCALARS, or in a FIELD; integers, or floats
+/// holding whole numbers, as ParaView's filters and ITK write labels) named
 /// gmsh:physical, CellEntityIds, medit:ref, MaterialIds, material, region(s), label(s), subdomain
 /// or domain (in any case) gives each tet its tag, unnamed (a pin names it by its number); the
 /// other attributes are read past, and one of a kind without a group after it (LOOKUP_TABLE,
@@ -48,7 +51,8 @@ TetMesh read_msh(const std::filesystem::path& file);
 /// InputError "FILE:LINE: what" for another dataset, a second POINTS section, a count the rest of
 /// the file cannot hold, non-finite coordinates, point indices out of range, cells whose point
 /// counts disagree with their type or with the list's size, a group array of another length than
-/// the cells or with a value that is no tag (< 0), and a file with no tets.
+/// the cells or with a tet's value that is no tag (< 0, a fraction, a NaN or above
+/// INT32_MAX), naming the cell, and a file with no tets.
 TetMesh read_vtk(const std::filesystem::path& file);
 
 /// Reads a VTK XML unstructured grid (`.vtu`, as VTK, ParaView, 3D Slicer and meshio write it): its
@@ -56,14 +60,15 @@ TetMesh read_vtk(const std::filesystem::path& file);
 /// in any of the formats: ascii, binary (base64 inline) or appended (raw or base64), uncompressed
 /// or zlib-compressed (vtkZLibDataCompressor), little- or big-endian, UInt32 or UInt64 headers.
 /// Cells of a lower dimension are skipped, other volume cells refused naming each kind's count.
-/// Groups as read_vtk: the first integer cell array of one component named gmsh:physical,
-/// CellEntityIds, medit:ref, MaterialIds, material, region(s), label(s), subdomain or domain.
+/// Groups as read_vtk: the first cell array of one component (integers, or floats holding whole
+/// numbers) named gmsh:physical, CellEntityIds, medit:ref, MaterialIds, material, region(s),
+/// label(s), subdomain or domain.
 /// Throws InputError "FILE:LINE: what" (the line of the element concerned) for other file types
 /// (a parallel .pvtu, image data, ...), lz4 or lzma compression, malformed XML, arrays whose sizes
 /// disagree with their headers or counts (a count, NumberOfPoints or NumberOfCells, is checked
 /// against what its array's text or bytes can hold before it sizes anything: the error names the
 /// <Piece>'s line and the count), damaged compressed blocks, non-finite coordinates, point
-/// indices out of range, and a file with no tets.
+/// indices out of range, a tet's group value that is no tag (as read_vtk), and a file with no tets.
 TetMesh read_vtu(const std::filesystem::path& file);
 
 /// Reads a Medit ASCII mesh (`.mesh`, MeshVersionFormatted 1 to 3, Dimension 3), as MMG, CGAL's

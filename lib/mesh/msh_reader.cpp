@@ -22,36 +22,77 @@ constexpr int kTypeTriangle = 2;
 constexpr int kTypeTet = 4;
 constexpr int kTypeTet10 = 11;
 
-/// A volume element type other than the 4-node tet (Gmsh's numbering), named for messages.
-struct VolumeKind {
-  int type;
+/// An element shape of Gmsh (ElementType::getParentType): its dimension, its first-order node
+/// count (0: a polygon's or polyhedron's, given per element) and its names for messages.
+struct Shape {
+  int dim;
+  int nodes;
   const char* one;
   const char* many;
-  bool high_order;
 };
-constexpr VolumeKind kVolumeKinds[] = {
-    {5, "hexahedron", "hexahedra", false},
-    {6, "prism", "prisms", false},
-    {7, "pyramid", "pyramids", false},
-    {11, "10-node tetrahedron", "10-node tetrahedra", true},
-    {12, "27-node hexahedron", "27-node hexahedra", true},
-    {13, "18-node prism", "18-node prisms", true},
-    {14, "14-node pyramid", "14-node pyramids", true},
-    {17, "20-node hexahedron", "20-node hexahedra", true},
-    {18, "15-node prism", "15-node prisms", true},
-    {19, "13-node pyramid", "13-node pyramids", true},
-    {29, "20-node tetrahedron", "20-node tetrahedra", true},
-    {30, "35-node tetrahedron", "35-node tetrahedra", true},
-    {31, "56-node tetrahedron", "56-node tetrahedra", true},
-    {92, "64-node hexahedron", "64-node hexahedra", true},
-    {93, "125-node hexahedron", "125-node hexahedra", true},
+constexpr Shape kPoint{0, 1, "point", "points"}, kLine{1, 2, "line", "lines"}, kTriangle{2, 3, "triangle", "triangles"},
+    kQuadrangle{2, 4, "quadrangle", "quadrangles"}, kPolygon{2, 0, "polygon", "polygons"},
+    kTetrahedron{3, 4, "tetrahedron", "tetrahedra"}, kHexahedron{3, 8, "hexahedron", "hexahedra"},
+    kPrism{3, 6, "prism", "prisms"}, kPyramid{3, 5, "pyramid", "pyramids"}, kTrihedron{3, 4, "trihedron", "trihedra"},
+    kPolyhedron{3, 0, "polyhedron", "polyhedra"};
+
+/// An element type of Gmsh: its number (Common/GmshDefines.h, MSH_*), its shape and its node count
+/// (Geo/MElement.cpp, MElement::getInfoMSH), as of Gmsh 4.8. Of these the reader keeps 4-node tets
+/// (type 4) and 3-node triangles (type 2); a volume element of another type is refused
+/// (check_volume_elements); points, lines and the other surface elements are read past, their
+/// nodes checked. A type that is not here (76-78, 138 and 139, which Gmsh neither reads nor
+/// writes, above 140) is refused.
+struct ElementType {
+  int type;
+  Shape shape;
+  int nodes;
+};
+constexpr ElementType kElementTypes[] = {
+    {1, kLine, 2}, {2, kTriangle, 3}, {3, kQuadrangle, 4}, {4, kTetrahedron, 4}, {5, kHexahedron, 8},
+    {6, kPrism, 6}, {7, kPyramid, 5}, {8, kLine, 3}, {9, kTriangle, 6}, {10, kQuadrangle, 9},
+    {11, kTetrahedron, 10}, {12, kHexahedron, 27}, {13, kPrism, 18}, {14, kPyramid, 14}, {15, kPoint, 1},
+    {16, kQuadrangle, 8}, {17, kHexahedron, 20}, {18, kPrism, 15}, {19, kPyramid, 13}, {20, kTriangle, 9},
+    {21, kTriangle, 10}, {22, kTriangle, 12}, {23, kTriangle, 15}, {24, kTriangle, 15}, {25, kTriangle, 21},
+    {26, kLine, 4}, {27, kLine, 5}, {28, kLine, 6}, {29, kTetrahedron, 20}, {30, kTetrahedron, 35},
+    {31, kTetrahedron, 56}, {32, kTetrahedron, 22}, {33, kTetrahedron, 28}, {34, kPolygon, 0}, {35, kPolyhedron, 0},
+    {36, kQuadrangle, 16}, {37, kQuadrangle, 25}, {38, kQuadrangle, 36}, {39, kQuadrangle, 12},
+    {40, kQuadrangle, 16}, {41, kQuadrangle, 20}, {42, kTriangle, 28}, {43, kTriangle, 36}, {44, kTriangle, 45},
+    {45, kTriangle, 55}, {46, kTriangle, 66}, {47, kQuadrangle, 49}, {48, kQuadrangle, 64}, {49, kQuadrangle, 81},
+    {50, kQuadrangle, 100}, {51, kQuadrangle, 121}, {52, kTriangle, 18}, {53, kTriangle, 21}, {54, kTriangle, 24},
+    {55, kTriangle, 27}, {56, kTriangle, 30}, {57, kQuadrangle, 24}, {58, kQuadrangle, 28}, {59, kQuadrangle, 32},
+    {60, kQuadrangle, 36}, {61, kQuadrangle, 40}, {62, kLine, 7}, {63, kLine, 8}, {64, kLine, 9}, {65, kLine, 10},
+    {66, kLine, 11}, {67, kLine, 2}, {68, kTriangle, 3}, {69, kPolygon, 0}, {70, kLine, 2}, {71, kTetrahedron, 84},
+    {72, kTetrahedron, 120}, {73, kTetrahedron, 165}, {74, kTetrahedron, 220}, {75, kTetrahedron, 286},
+    {79, kTetrahedron, 34}, {80, kTetrahedron, 40}, {81, kTetrahedron, 46}, {82, kTetrahedron, 52},
+    {83, kTetrahedron, 58}, {84, kLine, 1}, {85, kTriangle, 1}, {86, kQuadrangle, 1}, {87, kTetrahedron, 1},
+    {88, kHexahedron, 1}, {89, kPrism, 1}, {90, kPrism, 40}, {91, kPrism, 75}, {92, kHexahedron, 64},
+    {93, kHexahedron, 125}, {94, kHexahedron, 216}, {95, kHexahedron, 343}, {96, kHexahedron, 512},
+    {97, kHexahedron, 729}, {98, kHexahedron, 1000}, {99, kHexahedron, 32}, {100, kHexahedron, 44},
+    {101, kHexahedron, 56}, {102, kHexahedron, 68}, {103, kHexahedron, 80}, {104, kHexahedron, 92},
+    {105, kHexahedron, 104}, {106, kPrism, 126}, {107, kPrism, 196}, {108, kPrism, 288}, {109, kPrism, 405},
+    {110, kPrism, 550}, {111, kPrism, 24}, {112, kPrism, 33}, {113, kPrism, 42}, {114, kPrism, 51},
+    {115, kPrism, 60}, {116, kPrism, 69}, {117, kPrism, 78}, {118, kPyramid, 30}, {119, kPyramid, 55},
+    {120, kPyramid, 91}, {121, kPyramid, 140}, {122, kPyramid, 204}, {123, kPyramid, 285}, {124, kPyramid, 385},
+    {125, kPyramid, 21}, {126, kPyramid, 29}, {127, kPyramid, 37}, {128, kPyramid, 45}, {129, kPyramid, 53},
+    {130, kPyramid, 61}, {131, kPyramid, 69}, {132, kPyramid, 1}, {133, kPoint, 1}, {134, kLine, 2},
+    {135, kTriangle, 3}, {136, kTetrahedron, 4}, {137, kTetrahedron, 16}, {140, kTrihedron, 4},
 };
 
-const VolumeKind* volume_kind(int type) {
-  for (const VolumeKind& k : kVolumeKinds)
-    if (k.type == type) return &k;
+const ElementType* element_type(int type) {
+  for (const ElementType& t : kElementTypes)
+    if (t.type == type) return &t;
   return nullptr;
 }
+
+/// The type's name for messages: "prism", "10-node tetrahedra" (the node count where it is not the
+/// first-order shape's).
+std::string type_name(const ElementType& t, bool plural) {
+  const std::string nodes = t.nodes == t.shape.nodes ? "" : std::to_string(t.nodes) + "-node ";
+  return nodes + (plural ? t.shape.many : t.shape.one);
+}
+
+/// A volume element that check_volume_elements refuses: not a 4-node tet.
+bool other_volume(const ElementType& t) { return t.shape.dim == 3 && t.type != kTypeTet; }
 
 std::string element_ctx(long long id) { return " (element id " + std::to_string(id) + ")"; }
 std::string node_ctx(long long id) { return " (node id " + std::to_string(id) + ")"; }
@@ -410,22 +451,42 @@ class MshParser {
   }
 
   // ---- $Elements ------------------------------------------------------------------------------
-  /// Reads the node list of a kept element (the cursor is just before it) and stores it with its
-  /// physical groups (`physical`: none, or the first and then any others).
-  void read_element_nodes(int type, long long id, const std::vector<int>& physical) {
+  /// The element type `type` (a token just read), refused where Gmsh has no such type.
+  const ElementType& known_type(long long type, const std::string& ctx) {
+    const ElementType* t = element_type(static_cast<int>(type));
+    if (!t) c_.fail("unknown element type " + std::to_string(type) + ctx);
+    return *t;
+  }
+
+  /// Reads an element's node list (the cursor is just before it, `line` the element's line), each
+  /// node checked to be the file's. A tet or a triangle is stored with its physical groups
+  /// (`physical`: none, or the first and then any others) where `own` (not a 4.1 partition
+  /// boundary's or ghost entity's); another volume element is noted for check_volume_elements,
+  /// which refuses the file (its line read past); points, lines and the other surface elements
+  /// are left out.
+  void read_element(const ElementType& type, long long id, long long line, const std::vector<int>& physical, bool own) {
+    if (other_volume(type)) {
+      if (own) note_other_volume_element(type.type, line);
+      c_.next_line();
+      return;
+    }
     const std::string ctx = element_ctx(id);
-    const int nodes = type == kTypeTet ? 4 : 3;
+    // A polygon's node count comes first in MSH 2 (Gmsh's MElement::writeMSH2); 4.1 has none.
+    const long long nodes = type.nodes > 0 || major_ == 4 ? type.nodes : c_.integer("node count", 0, INT_MAX, ctx);
     int v[4] = {0, 0, 0, 0};
-    for (int k = 0; k < nodes; ++k) v[k] = vertex_of(c_.integer("node id", 1, kMaxTag, ctx), id);
+    for (long long k = 0; k < nodes; ++k) {
+      const int vertex = vertex_of(c_.integer("node id", 1, kMaxTag, ctx), id);
+      if (k < 4) v[k] = vertex;
+    }
     c_.end_line(ctx);
     const int first = physical.empty() ? 0 : physical[0];
-    if (type == kTypeTet) {
+    if (own && type.type == kTypeTet) {
       for (std::size_t k = 1; k < physical.size(); ++k)
         mesh_.tet_more_groups.push_back({static_cast<int>(mesh_.tets.size()), physical[k]});
       mesh_.tets.push_back({v[0], v[1], v[2], v[3]});
       mesh_.tet_group.push_back(first);
       mesh_.file_tet_ids.push_back(id);
-    } else {
+    } else if (own && type.type == kTypeTriangle) {
       for (std::size_t k = 1; k < physical.size(); ++k)
         mesh_.triangle_more_groups.push_back({static_cast<int>(mesh_.triangles.size()), physical[k]});
       mesh_.triangles.push_back({v[0], v[1], v[2]});
@@ -490,12 +551,6 @@ class MshParser {
     std::sort(more.begin(), more.end());
   }
 
-  /// Skips the rest of an element's line; `volume`: it is a volume element (not a 4-node tet).
-  void skip_element(int type, bool volume, long long line) {
-    if (volume) note_other_volume_element(type, line);
-    c_.next_line();
-  }
-
   void read_elements_v2() {
     c_.skip_empty_lines();
     const long long n = count("element count", 8);  // "1 15 0 1\n"
@@ -505,11 +560,7 @@ class MshParser {
       const long long line = c_.line();
       const long long id = c_.integer("element id", 1, kMaxTag);
       const std::string ctx = element_ctx(id);
-      const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20, ctx));
-      if (type != kTypeTet && type != kTypeTriangle) {
-        skip_element(type, volume_kind(type) != nullptr, line);
-        continue;
-      }
+      const ElementType& type = known_type(c_.integer("element type", 1, 1 << 20, ctx), ctx);
       const long long ntags = c_.integer("tag count", 0, 64, ctx);
       long long physical = 0;
       for (long long k = 0; k < ntags; ++k) {
@@ -517,7 +568,7 @@ class MshParser {
         if (k == 0) physical = t;
       }
       if (physical < 0 || physical > INT_MAX - 1) c_.fail("physical tag " + std::to_string(physical) + " is out of range" + ctx);
-      read_element_nodes(type, id, physical == 0 ? std::vector<int>{} : std::vector<int>{static_cast<int>(physical)});
+      read_element(type, id, line, physical == 0 ? std::vector<int>{} : std::vector<int>{static_cast<int>(physical)}, true);
     }
     // A tet listed twice is refused by the mesh check; a triangle only labels a surface group.
     merge_repeated(mesh_.tets, mesh_.tet_group, mesh_.tet_more_groups, &mesh_.file_tet_ids, true);
@@ -542,26 +593,24 @@ class MshParser {
       const bool ghost = dim == 3 && ghost_entities_.count(entity);
       const bool off_entities = !listed_entities_.empty() && dim >= 2 && !ghost && !listed_entities_.count({dim, entity});
       const long long block_line = c_.line();
-      const int type = static_cast<int>(c_.integer("element type", 1, 1 << 20));
+      const ElementType& type = known_type(c_.integer("element type", 1, 1 << 20), "");
+      if (type.shape.dim != dim)
+        c_.fail("a block of entity dimension " + std::to_string(dim) + " holds " + type_name(type, true) + " (type " +
+                std::to_string(type.type) + "), elements of dimension " + std::to_string(type.shape.dim));
       const long long m = c_.integer("elements in block", 0, n - done);
       c_.end_line("");
-      if (off_entities && (type == kTypeTet || type == kTypeTriangle) && m > 0) {
+      if (off_entities && (type.type == kTypeTet || type.type == kTypeTriangle) && m > 0) {
         if (mesh_.elements_off_entities == 0) mesh_.first_off_entities_line = block_line;
         mesh_.elements_off_entities += m;
       }
       static const std::vector<int> kNone;
       auto it = entity_physical_.find({dim, entity});
       const std::vector<int>& physical = it != entity_physical_.end() ? it->second : kNone;
-      const bool keep = (type == kTypeTet || type == kTypeTriangle) && !partition_boundaries_.count({dim, entity}) && !ghost;
+      const bool own = !partition_boundaries_.count({dim, entity}) && !ghost;
       for (long long i = 0; i < m; ++i) {
         need_line("elements of a block", i, m);
         const long long line = c_.line();
-        const long long id = c_.integer("element id", 1, kMaxTag);
-        if (keep) {
-          read_element_nodes(type, id, physical);
-        } else {
-          skip_element(type, !ghost && (dim == 3 || volume_kind(type) != nullptr), line);
-        }
+        read_element(type, c_.integer("element id", 1, kMaxTag), line, physical, own);
       }
       done += m;
     }
@@ -569,8 +618,7 @@ class MshParser {
   }
 
   // ---- volume element types -------------------------------------------------------------------
-  /// Notes a volume element that is not a 4-node tet (`line`: where it is). In 4.1 files the
-  /// block's dimension says it is a volume element; in 2.x files its type (kVolumeKinds) does.
+  /// Notes a volume element that is not a 4-node tet (`line`: where it is).
   void note_other_volume_element(int type, long long line) {
     if (other_volume_.empty()) first_other_volume_line_ = line;
     ++other_volume_[type];
@@ -598,12 +646,10 @@ class MshParser {
     bool high_order = false;
     std::size_t i = 0;
     for (const auto& [type, n] : other_volume_) {
-      const VolumeKind* k = volume_kind(type);
-      high_order = high_order || k == nullptr || k->high_order;
+      const ElementType& t = *element_type(type);
+      high_order = high_order || t.nodes != t.shape.nodes;
       kinds += i == 0 ? "" : (i + 1 == other_volume_.size() ? " and " : ", ");
-      kinds += std::to_string(n) + " ";
-      kinds += k ? (n == 1 ? k->one : k->many) : (n == 1 ? "volume element" : "volume elements");
-      kinds += " (type " + std::to_string(type) + ")";
+      kinds += std::to_string(n) + " " + type_name(t, n != 1) + " (type " + std::to_string(type) + ")";
       ++i;
     }
     const std::string hint = std::string(": ebh needs an all-tet mesh (mesh with 4-node tets only, e.g. gmsh -3 without Recombine") +

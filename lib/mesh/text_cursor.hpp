@@ -110,8 +110,11 @@ class TextCursor {
   long long integer(const char* what, long long lo, long long hi, const std::string& context = {}) {
     return to_integer(token(), what, lo, hi, context);
   }
-  /// Parses the next token as a finite real number.
-  double real(const char* what, const std::string& context = {}) { return to_real(token(), what, context); }
+  /// Parses the next token as a finite real number (`finite` false: NaN and infinities too, for
+  /// values a reader checks itself, naming more than a line can).
+  double real(const char* what, const std::string& context = {}, bool finite = true) {
+    return to_real(token(), what, context, finite);
+  }
 
   /// Token `t` as an integer in [lo, hi] (integer() on a token from elsewhere, e.g. word()).
   long long to_integer(std::string_view t, const char* what, long long lo, long long hi, const std::string& context = {}) {
@@ -126,14 +129,14 @@ class TextCursor {
     return v;
   }
 
-  /// Token `t` as a finite real number.
-  double to_real(std::string_view t, const char* what, const std::string& context = {}) {
+  /// Token `t` as a finite real number (`finite` false: as real()).
+  double to_real(std::string_view t, const char* what, const std::string& context = {}, bool finite = true) {
     if (t.empty()) fail(std::string("expected ") + what + ", found the end of the " + (at_end() ? "file" : "line") + context);
     const char* b = t.data();
     if (*b == '+' && t.size() > 1) ++b;  // from_chars rejects a leading '+', C's strtod accepts it
     double v = 0;
     auto [p, ec] = std::from_chars(b, t.data() + t.size(), v);
-    if (ec == std::errc::result_out_of_range || (ec == std::errc() && p == t.data() + t.size() && !std::isfinite(v)))
+    if (ec == std::errc::result_out_of_range || (ec == std::errc() && p == t.data() + t.size() && finite && !std::isfinite(v)))
       fail(std::string(what) + " '" + printable(t) + "' is not a finite number" + context);
     if (ec != std::errc() || p != t.data() + t.size())
       fail(std::string("expected ") + what + " (a number), got '" + printable(t) + "'" + context);

@@ -1,8 +1,12 @@
 #pragma once
 // What VTK's legacy (.vtk) and XML (.vtu) files share for the physical mesh: the volume cell
-// types other than the 4-node tet (refused by kind) and the cell arrays that hold a cell's group.
+// types other than the 4-node tet (refused by kind), the cell arrays that hold a cell's group and
+// the values that are group tags.
 // Internal to lib/mesh (the readers).
 #include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
 #include <string>
 
 namespace ebh::detail {
@@ -39,6 +43,20 @@ inline bool is_vtk_group_array(const std::string& name) {
                         "LABEL", "LABELS", "SUBDOMAIN", "DOMAIN"})
     if (n == g) return true;
   return false;
+}
+
+/// Whether `v`, a cell's value in a group array (read as a double, from an integer or a float
+/// array: ParaView's filters, ITK and 3D Slicer write labels as Float32 or Float64), is a group
+/// tag: a whole number from 0 to INT32_MAX. A fraction, a NaN or a value out of that range is not.
+inline bool is_vtk_group_tag(double v) { return v >= 0 && v <= INT32_MAX && v == std::floor(v); }
+
+/// The error for cell `cell`'s value `v` in the group array `array`, which is no group tag:
+/// "cell 3: CellEntityIds 1.5 is not a group tag (a whole number from 0 to 2147483647)".
+inline std::string not_a_group_tag(long long cell, const std::string& array, double v) {
+  char buf[32];
+  const auto end = std::to_chars(buf, buf + sizeof buf, v).ptr;  // the shortest form that reads back: 1.5, -1, nan
+  return "cell " + std::to_string(cell) + ": " + array + " " + std::string(buf, end) +
+         " is not a group tag (a whole number from 0 to " + std::to_string(INT32_MAX) + ")";
 }
 
 }  // namespace ebh::detail

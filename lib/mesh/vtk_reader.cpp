@@ -298,7 +298,7 @@ class VtkParser {
   }
 
   /// A FIELD's arrays, each read past; in cell data (`cells`: the number of cells) one named as
-  /// groups (is_vtk_group_array) of one integer a cell becomes the groups.
+  /// groups (is_vtk_group_array) of one value a cell becomes the groups.
   void skip_field(long long cells = -1) {
     c_.token();  // the field's name
     const long long arrays = c_.integer("the number of arrays", 0, 1 << 20);
@@ -311,23 +311,30 @@ class VtkParser {
       const long long tuples = c_.integer("the number of tuples", 0, INT32_MAX);
       const DataType t = data_type(c_, c_.token());
       c_.end_line(" after a FIELD array's name, components, tuples and type");
-      if (t.real) {
+      if (cells >= 0 && comps == 1 && groups_name_.empty() && detail::is_vtk_group_array(name)) {
+        take_groups_array(name, tuples, t, "FIELD", line);
+      } else if (t.real) {
         reals(comps * tuples, t, "FIELD", line);
-        continue;
+      } else {
+        integers(comps * tuples, t, "FIELD", line);
       }
-      std::vector<long long> v = integers(comps * tuples, t, "FIELD", line);
-      if (cells >= 0 && comps == 1 && groups_name_.empty() && detail::is_vtk_group_array(name)) take_array(name, std::move(v), line);
     }
   }
 
-  void take_array(const std::string& name, std::vector<long long> v, long long line) {
-    groups_ = std::move(v);
+  /// A cell array named as groups (is_vtk_group_array), of `count` values of an integer or a float
+  /// type, as the groups that take_groups gives the tets. A value read that is no group tag (a NaN,
+  /// a fraction) is refused there, naming its cell, where that cell is a tet.
+  void take_groups_array(const std::string& name, long long count, const DataType& t, const char* section, long long line) {
+    const std::string in = " (" + printable(name) + ")";
+    groups_ = values<double>(count, t, section, line, [&] {
+      return t.real ? c_.real("a group tag", in, false) : static_cast<double>(c_.integer("a group tag", LLONG_MIN / 2, LLONG_MAX / 2, in));
+    });
     groups_name_ = name;
     groups_line_ = line;
   }
 
   /// CELL_DATA and POINT_DATA to the end of the file: the attributes are read past, and the first
-  /// integer cell array of one component that is_vtk_group_array names becomes the tets' groups. An
+  /// cell array of one component that is_vtk_group_array names becomes the tets' groups. An
   /// attribute of another kind ends the reading (the mesh is complete without it).
   void attributes(std::string key) {
     while (true) {
@@ -350,11 +357,12 @@ class VtkParser {
           c_.end_line(" after SCALARS name type components");
           if (!next_keyword() || upper(c_.token()) != "LOOKUP_TABLE") fail(c_.line(), "SCALARS " + printable(name) + ": expected LOOKUP_TABLE");
           c_.next_line();
-          if (t.real) {
+          if (cell && comps == 1 && groups_name_.empty() && detail::is_vtk_group_array(name)) {
+            take_groups_array(name, n, t, "SCALARS", line);
+          } else if (t.real) {
             reals(comps * n, t, "SCALARS", line);
           } else {
-            std::vector<long long> v = integers(comps * n, t, "SCALARS", line);
-            if (cell && comps == 1 && groups_name_.empty() && detail::is_vtk_group_array(name)) take_array(name, std::move(v), line);
+            integers(comps * n, t, "SCALARS", line);
           }
         } else if (key == "VECTORS" || key == "NORMALS" || key == "TENSORS" || key == "GLOBAL_IDS" || key == "PEDIGREE_IDS") {
           c_.token();  // the name
@@ -370,18 +378,16 @@ class VtkParser {
     }
   }
 
-  /// The tets' groups from the cell array of `cells` values (by each tet's cell number): tags >= 0,
-  /// unnamed.
+  /// The tets' groups from the cell array of `cells` values (by each tet's cell number): tags >= 0
+  /// (is_vtk_group_tag), unnamed.
   void take_groups(long long cells) {
     if (static_cast<long long>(groups_.size()) != cells)
       fail(groups_line_, groups_name_ + ": " + std::to_string(groups_.size()) + " values for the " + std::to_string(cells) +
                              " cells (CELL_DATA counts every cell)");
     for (std::size_t i = 0; i < mesh_.tets.size(); ++i) {
       const long long cell = mesh_.file_tet_ids[i];
-      const long long tag = groups_[static_cast<std::size_t>(cell)];
-      if (tag < 0 || tag > INT32_MAX)
-        fail(groups_line_, "cell " + std::to_string(cell) + ": " + groups_name_ + " " + std::to_string(tag) +
-                               " is not a group tag (a whole number >= 0)");
+      const double tag = groups_[static_cast<std::size_t>(cell)];
+      if (!detail::is_vtk_group_tag(tag)) fail(groups_line_, detail::not_a_group_tag(cell, printable(groups_name_), tag));
       mesh_.tet_group[i] = static_cast<int>(tag);
     }
   }
@@ -462,7 +468,7 @@ class VtkParser {
   int version_ = 0;
   bool binary_ = false;
   long long points_line_ = 0;  ///< the POINTS section's line (0: none yet)
-  std::vector<long long> groups_;  ///< each cell's group, from the cell array groups_name_ ("": none)
+  std::vector<double> groups_;  ///< each cell's group, from the cell array groups_name_ ("": none)
   std::string groups_name_;
   long long groups_line_ = 0;
 };

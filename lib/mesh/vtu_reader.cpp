@@ -158,8 +158,7 @@ class VtuParser {
           CellSection& cells = section == "Polys" ? piece->polys : piece->strips;
           slot = a.name == "connectivity" ? &cells.connectivity : &cells.offsets;
         }
-        else if (piece && section == "CellData" && !piece->groups && a.components == 1 && detail::is_vtk_group_array(a.name) &&
-                 !number_type(a.type).real)
+        else if (piece && section == "CellData" && !piece->groups && a.components == 1 && detail::is_vtk_group_array(a.name))
           slot = &piece->groups;
         if (slot) *slot = a;
         continue;
@@ -481,9 +480,10 @@ class VtuParser {
 
   /// `count` values of the array as doubles (reals) or integers, checked against its type. `count`
   /// is what `source` says (at `line`: "NumberOfPoints 8", an untrusted attribute), checked against
-  /// what the array's text or bytes can hold before anything is allocated.
+  /// what the array's text or bytes can hold before anything is allocated. `finite` false: an ascii
+  /// array's NaN and infinities are read too (as a binary one's are), for the caller to refuse.
   template <class T>
-  std::vector<T> values(const ArrayRef& a, long long count, long long line, const std::string& source) {
+  std::vector<T> values(const ArrayRef& a, long long count, long long line, const std::string& source, bool finite = true) {
     const std::string what = a.what();
     const NumberType nt = number_type(a.type);
     if (nt.bytes == 0) fail(a.line, what + ": type '" + printable(a.type) + "' (Int8 .. UInt64, Float32, Float64)");
@@ -504,7 +504,7 @@ class VtuParser {
         if (t.empty())
           fail(a.line, what + ": " + std::to_string(i) + " values where " + std::to_string(count) + " are expected");
         if constexpr (std::is_integral_v<T>) out[static_cast<std::size_t>(i)] = c.to_integer(t, "an integer", LLONG_MIN / 2, LLONG_MAX / 2, in);
-        else out[static_cast<std::size_t>(i)] = c.to_real(t, "a number", in);
+        else out[static_cast<std::size_t>(i)] = c.to_real(t, "a number", in, finite);
       }
       if (!c.word().empty()) fail(a.line, what + ": more than the " + std::to_string(count) + " values expected");
       return out;
@@ -599,8 +599,8 @@ class VtuParser {
     const auto [offsets, conn] = cell_arrays(p.connectivity, p.offsets, p.cells, p.line, "NumberOfCells");
     const std::string cells = "NumberOfCells " + std::to_string(p.cells);
     const std::vector<long long> types = values<long long>(*p.types, p.cells, p.line, cells);
-    std::vector<long long> groups;
-    if (p.groups) groups = values<long long>(*p.groups, p.cells, p.line, cells);
+    std::vector<double> groups;  // an integer or a float array (is_vtk_group_tag)
+    if (p.groups) groups = values<double>(*p.groups, p.cells, p.line, cells, false);
     std::map<long long, long long> other;  // volume cells of other types
     long long begin = 0;
     for (long long i = 0; i < p.cells; ++i) {
@@ -623,10 +623,8 @@ class VtuParser {
       }
       int tag = 0;
       if (p.groups) {
-        const long long g = groups[static_cast<std::size_t>(i)];
-        if (g < 0 || g > INT32_MAX)
-          fail(p.groups->line, "cell " + std::to_string(i) + ": " + printable(p.groups->name) + " " + std::to_string(g) +
-                                   " is not a group tag (a whole number >= 0)");
+        const double g = groups[static_cast<std::size_t>(i)];
+        if (!detail::is_vtk_group_tag(g)) fail(p.groups->line, detail::not_a_group_tag(i, printable(p.groups->name), g));
         tag = static_cast<int>(g);
       }
       mesh_.tets.push_back(t);

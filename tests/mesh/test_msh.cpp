@@ -353,6 +353,45 @@ TEST_F(Bad22, SecondOrderBesideTetsAsksForFirstOrder) {
   expect(text, kFirstTetLine + 5, "1 10-node tetrahedron (type 11) besides the tets: ebh needs an all-tet mesh (mesh with 4-node "
                                   "tets only, e.g. gmsh -3 without Recombine and with Mesh.ElementOrder = 1)");
 }
+/// `good` with one element more, `line` (its id 25), after the last tet.
+std::string with_element(const std::string& good, const std::string& line) {
+  return replace(replace(good, "$Elements\n13\n", "$Elements\n14\n"), "24 4 2 1 1 1000 3 250 55\n",
+                 "24 4 2 1 1 1000 3 250 55\n" + line + "\n");
+}
+// The element types are Gmsh's (Common/GmshDefines.h): a volume type of any order other than the
+// 4-node tet is refused as the prisms above are, naming its count; a type Gmsh does not define
+// (76-78, 138 and 139, which Gmsh neither reads nor writes, above 140) at its line.
+TEST_F(Bad22, VolumeElementsOfEveryOrderAreRefused) {
+  for (const auto& [type, kind] : {std::pair{"71", "1 84-node tetrahedron (type 71)"}, std::pair{"79", "1 34-node tetrahedron (type 79)"},
+                                   std::pair{"137", "1 16-node tetrahedron (type 137)"}, std::pair{"92", "1 64-node hexahedron (type 92)"},
+                                   std::pair{"99", "1 32-node hexahedron (type 99)"}, std::pair{"110", "1 550-node prism (type 110)"},
+                                   std::pair{"125", "1 21-node pyramid (type 125)"}, std::pair{"35", "1 polyhedron (type 35)"}}) {
+    SCOPED_TRACE(type);
+    expect(with_element(good, std::string("25 ") + type + " 2 1 1 7 1000 3 250"), kFirstTetLine + 5,
+           std::string(kind) + " besides the tets: ebh needs an all-tet mesh");
+  }
+}
+TEST_F(Bad22, UnknownElementType) {
+  for (const std::string type : {"77", "138", "141", "99999"}) {
+    SCOPED_TRACE(type);
+    expect(with_element(good, "25 " + type + " 2 1 1 7 1000 3 250"), kFirstTetLine + 5, "unknown element type " + type + " (element id 25)");
+  }
+}
+// The nodes of every element are checked as a tet's, those of the points, lines and surface
+// elements left out too: each names a node of the file, and there are as many as its type has.
+TEST_F(Bad22, AnElementOfAnyKindNamingAMissingNodeIsRefused) {
+  expect(replace(good, "1 15 2 5 1 7\n", "1 15 2 5 1 999\n"), 27, "unknown node id 999 (element id 1)");
+  expect(replace(good, "2 1 2 5 1 7 1000\n", "2 1 2 5 1 7 999\n"), 28, "unknown node id 999 (element id 2)");
+  expect(replace(good, "3 3 2 0 3 7 1000 101 250\n", "3 3 2 0 3 7 1000 101 999\n"), 29, "unknown node id 999 (element id 3)");
+  expect(replace(good, "4 9 2 0 3 7 1000 101 250 7 1000\n", "4 9 2 0 3 7 1000 101 250 7 999\n"), 30,
+         "unknown node id 999 (element id 4)");
+  expect(replace(good, "2 1 2 5 1 7 1000\n", "2 1 2 5 1 7\n"), 28, "expected node id, found the end of the line (element id 2)");
+  expect(replace(good, "1 15 2 5 1 7\n", "1 15 2 5 1 7 1000\n"), 27, "unexpected extra value '1000' (element id 1)");
+  // A polygon (type 34) gives its node count first (Gmsh's MElement::writeMSH2).
+  const std::string polygon = replace(good, "3 3 2 0 3 7 1000 101 250\n", "3 34 2 0 3 4 7 1000 101 250\n");
+  expect_same_mesh(read_msh(write_temp("polygon.msh", polygon)), read_msh(data("mesh/cube22.msh")));
+  expect(replace(polygon, "3 34 2 0 3 4 7 1000 101 250\n", "3 34 2 0 3 4 7 1000 101 999\n"), 29, "unknown node id 999 (element id 3)");
+}
 TEST_F(Bad22, Msh1) {
   expect("$NOD\n1\n1 0 0 0\n$ENDNOD\n$ELM\n0\n$ENDELM\n", 1,
          "an MSH 1 file (it starts with $NOD): re-export it as MSH 2.2 or 4.1 ASCII, e.g. gmsh bad.msh -save -format msh22 -o new.msh");
@@ -420,6 +459,17 @@ TEST_F(Bad41, TruncatedEntities) {
 TEST_F(Bad41, NodeBlockTagsShort) {
   // the first coordinate line is read as the third tag
   expect(replace(good, "3 1 0 3\n42\n9\n250\n", "3 1 0 3\n42\n9\n"), 36, "node id 0 is out of range");
+}
+
+// A block holds elements of its entity's dimension: tets on a surface entity would take its groups.
+TEST_F(Bad41, BlockOfAnotherDimensionThanItsElementType) {
+  expect(replace(good, "3 1 4 5\n", "2 1 4 5\n"), 57, "a block of entity dimension 2 holds tetrahedra (type 4), elements of dimension 3");
+  expect(replace(good, "2 2 2 2\n", "3 1 2 2\n"), 54, "a block of entity dimension 3 holds triangles (type 2), elements of dimension 2");
+  expect(replace(good, "0 1 15 1\n", "1 1 15 1\n"), 43, "a block of entity dimension 1 holds points (type 15), elements of dimension 0");
+}
+TEST_F(Bad41, UnknownElementType) { expect(replace(good, "3 1 4 5\n", "3 1 77 5\n"), 57, "unknown element type 77"); }
+TEST_F(Bad41, APointNamingAMissingNode) {
+  expect(replace(good, "0 1 15 1\n1 7\n", "0 1 15 1\n1 999\n"), 44, "unknown node id 999 (element id 1)");
 }
 
 TEST(ReadMshBad, PrismLayerFromGmsh) {

@@ -2,6 +2,11 @@
 // every malformed case is refused with FILE:LINE.
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+
 #include "mesh/mesh_io.hpp"
 #include "mesh/quality.hpp"
 #include "test_util.hpp"
@@ -47,10 +52,67 @@ TEST(ReadVtk, BinaryAnd51FormsGiveTheSameTets) {
 TEST(ReadVtk, GroupsThatAreNotTagsAreRefused) {
   const std::string ascii = slurp(data("mesh/cube_ascii.vtk"));
   const auto p = write_temp("negative.vtk", replace(ascii, "LOOKUP_TABLE default\n1\n1\n0", "LOOKUP_TABLE default\n1\n-1\n0"));
-  expect_input_error([&] { read_vtk(p); }, p, 47, "cell 1: region -1 is not a group tag (a whole number >= 0)");
+  expect_input_error([&] { read_vtk(p); }, p, 47, "cell 1: region -1 is not a group tag (a whole number from 0 to 2147483647)");
   // A cell array of another name (an id per cell) is not taken as groups.
   EXPECT_EQ(read_vtk(write_temp("ids.vtk", replace(ascii, "SCALARS region", "SCALARS vtkOriginalCellIds"))).tet_group,
             std::vector<int>(5, 0));
+}
+
+/// `v`'s bytes, big-endian: a legacy binary file's float.
+std::string big_endian(float v) {
+  const auto u = std::bit_cast<std::uint32_t>(v);
+  std::string out;
+  for (int k = 3; k >= 0; --k) out += static_cast<char>((u >> (8 * k)) & 0xff);
+  return out;
+}
+
+/// cube_binary.vtk with its gmsh:physical FIELD array (5 ints) as the floats `groups`.
+std::string binary_with_float_groups(const std::vector<float>& groups) {
+  const std::string bin = slurp(data("mesh/cube_binary.vtk"));
+  const std::string ints = "gmsh:physical 1 5 int\n";
+  const auto at = bin.find(ints);
+  EXPECT_NE(at, std::string::npos);
+  std::string floats = "gmsh:physical 1 5 float\n";
+  for (float g : groups) floats += big_endian(g);
+  return bin.substr(0, at) + floats + bin.substr(at + ints.size() + 5 * 4);
+}
+
+// ParaView's filters, ITK and 3D Slicer write labels as floats: a float group array of whole
+// numbers gives the groups an integer one does, in SCALARS or a FIELD, ASCII or binary.
+TEST(ReadVtk, AFloatGroupArrayOfWholeNumbersGivesTheGroups) {
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtk"));
+  const std::vector<int> groups = read_vtk(data("mesh/cube_ascii.vtk")).tet_group;  // {1, 1, 2, 2, 2}
+  for (const std::string type : {"float", "double"}) {
+    SCOPED_TRACE(type);
+    const std::string text = replace(replace(ascii, "SCALARS region int", "SCALARS region " + type), "LOOKUP_TABLE default\n1\n1\n",
+                                     "LOOKUP_TABLE default\n1.0\n1e0\n");
+    EXPECT_EQ(read_vtk(write_temp("float.vtk", text)).tet_group, groups);
+  }
+  const std::string field = ascii.substr(0, ascii.find("SCALARS region")) + "FIELD FieldData 1\nMaterialIds 1 8 double\n1 1 0 0 0 2 2 2\n";
+  EXPECT_EQ(read_vtk(write_temp("field.vtk", field)).tet_group, groups);
+  EXPECT_EQ(read_vtk(write_temp("binary.vtk", binary_with_float_groups({1, 1, 2, 2, 2}))).tet_group, groups);
+  // the largest tag, and a cell that is no tet (cell 2, a vertex), whose value is not a tag
+  const std::string edge = replace(replace(ascii, "SCALARS region int", "SCALARS region double"), "LOOKUP_TABLE default\n1\n1\n0\n",
+                                   "LOOKUP_TABLE default\n2147483647\n1\nnan\n");
+  EXPECT_EQ(read_vtk(write_temp("edge.vtk", edge)).tet_group, (std::vector<int>{2147483647, 1, 2, 2, 2}));
+}
+
+// A tet's float label that is no tag (a fraction, a NaN, out of range) is refused naming the file,
+// the array's line, the cell, the array and the value.
+TEST(ReadVtk, AFloatGroupValueThatIsNoTagIsRefusedWithItsCell) {
+  const std::string doubles = replace(slurp(data("mesh/cube_ascii.vtk")), "SCALARS region int", "SCALARS region double");
+  for (const auto& [value, shown] : {std::pair{"1.5", "1.5"}, std::pair{"nan", "nan"}, std::pair{"-1", "-1"},
+                                     std::pair{"2147483648", "2147483648"}, std::pair{"3e9", "3e+09"}}) {
+    SCOPED_TRACE(value);
+    const auto p = write_temp("bad.vtk", replace(doubles, "LOOKUP_TABLE default\n1\n1\n", std::string("LOOKUP_TABLE default\n1\n") + value + "\n"));
+    expect_input_error([&] { read_vtk(p); }, p, 47, std::string("cell 1: region ") + shown + " is not a group tag (a whole number from 0 to 2147483647)");
+  }
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtk"));
+  const auto field = write_temp("field.vtk", ascii.substr(0, ascii.find("SCALARS region")) + "FIELD FieldData 1\nMaterialIds 1 8 float\n1 1 0 0 0 2.25 2 2\n");
+  expect_input_error([&] { read_vtk(field); }, field, 48, "cell 5: MaterialIds 2.25 is not a group tag");
+  const auto bin = write_temp("binary.vtk", binary_with_float_groups({1, 1, 2, std::nanf(""), 2}));
+  // (line 15: a binary block counts as one line, its bytes that are line feeds not)
+  expect_input_error([&] { read_vtk(bin); }, bin, 15, "cell 3: gmsh:physical nan is not a group tag");
 }
 
 TEST(ReadVtk, ReadTetMeshTakesVtkByItsExtensionInAnyCase) {

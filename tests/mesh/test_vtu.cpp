@@ -3,6 +3,11 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+
 #include "mesh/mesh_io.hpp"
 #include "mesh/quality.hpp"
 #include "test_util.hpp"
@@ -49,6 +54,57 @@ TEST(ReadVtu, WhatVtkItselfWritesReadsAsTheLegacyFileItCameFrom) {
   const TetMesh xml = read_vtu(data("mesh/cube_vtk9.vtu"));
   test::expect_same_elements(xml, legacy);
   EXPECT_EQ(xml.file_tet_ids, legacy.file_tet_ids);
+}
+
+/// cube_appended.vtu (appended raw, little-endian, two pieces) with its CellEntityIds arrays as
+/// Float32 (the same 4 bytes a value as its Int32): `first` the first piece's 2 cells, `second`
+/// the second piece's 4.
+std::string appended_with_float_groups(const std::vector<float>& first, const std::vector<float>& second) {
+  std::string text = slurp(data("mesh/cube_appended.vtu"));
+  for (int piece = 0; piece < 2; ++piece) text = replace(text, "type=\"Int32\" Name=\"CellEntityIds\"", "type=\"Float32\" Name=\"CellEntityIds\"");
+  const std::size_t data_at = text.find('_', text.find("<AppendedData")) + 1;
+  auto put = [&](std::size_t offset, const std::vector<float>& values) {  // after the array's UInt32 byte count
+    for (std::size_t i = 0; i < values.size(); ++i)
+      for (int k = 0; k < 4; ++k)
+        text[data_at + offset + 4 + 4 * i + k] = static_cast<char>((std::bit_cast<std::uint32_t>(values[i]) >> (8 * k)) & 0xff);
+  };
+  put(0, first);     // the first piece's offset="0"
+  put(302, second);  // the second's offset="302"
+  return text;
+}
+
+// ParaView's filters, ITK and 3D Slicer write labels as floats: a Float32 or Float64 group array
+// of whole numbers gives the groups an integer one does, ascii or binary.
+TEST(ReadVtu, AFloatGroupArrayOfWholeNumbersGivesTheGroups) {
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtu"));
+  const std::vector<int> groups = read_vtu(data("mesh/cube_ascii.vtu")).tet_group;  // {1, 1, 2, 2, 2}
+  for (const std::string type : {"Float32", "Float64"}) {
+    SCOPED_TRACE(type);
+    const std::string text = replace(replace(ascii, "type=\"Int32\" Name=\"CellEntityIds\"", "type=\"" + type + "\" Name=\"CellEntityIds\""),
+                                     "1 1 0 2 2 2", "1.0 1 0 2e0 2 2");
+    EXPECT_EQ(read_vtu(write_temp("ascii.vtu", text)).tet_group, groups);
+  }
+  EXPECT_EQ(read_vtu(write_temp("appended.vtu", appended_with_float_groups({1, 1}, {0, 2, 2, 2}))).tet_group, groups);
+  // the largest tag, and a cell that is no tet (cell 2, a triangle), whose value is not a tag
+  const std::string edge = replace(replace(ascii, "type=\"Int32\" Name=\"CellEntityIds\"", "type=\"Float64\" Name=\"CellEntityIds\""),
+                                   "1 1 0 2 2 2", "2147483647 1 nan 2 2 2");
+  EXPECT_EQ(read_vtu(write_temp("edge.vtu", edge)).tet_group, (std::vector<int>{2147483647, 1, 2, 2, 2}));
+}
+
+// A tet's float label that is no tag (a fraction, a NaN, out of range) is refused naming the file,
+// the array's line, the cell, the array and the value.
+TEST(ReadVtu, AFloatGroupValueThatIsNoTagIsRefusedWithItsCell) {
+  const std::string doubles = replace(slurp(data("mesh/cube_ascii.vtu")), "type=\"Int32\" Name=\"CellEntityIds\"",
+                                      "type=\"Float64\" Name=\"CellEntityIds\"");
+  for (const auto& [value, shown] : {std::pair{"1.5", "1.5"}, std::pair{"nan", "nan"}, std::pair{"-1", "-1"},
+                                     std::pair{"2147483648", "2147483648"}, std::pair{"3e9", "3e+09"}}) {
+    SCOPED_TRACE(value);
+    const auto p = write_temp("bad.vtu", replace(doubles, "1 1 0 2 2 2", std::string("1 ") + value + " 0 2 2 2"));
+    expect_input_error([&] { read_vtu(p); }, p, 9, std::string("cell 1: CellEntityIds ") + shown + " is not a group tag (a whole number from 0 to 2147483647)");
+  }
+  // binary: the second piece's cell 1 (its array's line)
+  const auto p = write_temp("appended.vtu", appended_with_float_groups({1, 1}, {0, std::nanf(""), 2, 2}));
+  expect_input_error([&] { read_vtu(p); }, p, 24, "cell 1: CellEntityIds nan is not a group tag");
 }
 
 TEST(ReadVtu, MalformedAndUnsupportedFilesAreRefusedWithTheirLine) {

@@ -67,8 +67,14 @@ add_test(NAME cli.files.replay_through_a_link_to_nothing COMMAND sh -c
   "'${EBH_BIN}' replay tube tube_insert --duration 0.1 -q -o '${F}/dl_replay.h5' && test -L '${F}/dl_replay.h5' && test -s '${F}/store/replay.h5'")
 add_test(NAME cli.files.scene_init_through_a_link_to_nothing COMMAND sh -c
   "'${EBH_BIN}' scene init '${PROJECT_SOURCE_DIR}/examples/own_data/organ.msh' -o '${F}/dl_scene.yaml' >/dev/null && test -L '${F}/dl_scene.yaml' && test -s '${F}/store/scene.yaml'")
+# Paths inside the files written through a link are relative to where the files are (the link's
+# target's folder), not to the link's: a mesh and a scene beside the links are named from the
+# store, where the files are read (they named own.msh and my_scene.yaml, which the store lacks).
+add_test(NAME cli.files.paths_inside_are_the_targets COMMAND sh -c
+  "cd '${F}' && rm -rf own.msh my_scene.yaml my_rec.h5 store/own_scene.yaml store/own_rec.h5 && cp '${PROJECT_SOURCE_DIR}/examples/own_data/organ.msh' own.msh && ln -s store/own_scene.yaml my_scene.yaml && ln -s store/own_rec.h5 my_rec.h5 && '${EBH_BIN}' scene init own.msh -o my_scene.yaml >/dev/null && '${EBH_BIN}' scene info store/own_scene.yaml >/dev/null && '${EBH_BIN}' import '${PROJECT_SOURCE_DIR}/examples/own_data/touch_press.txt' -o my_rec.h5 --scene my_scene.yaml >/dev/null && '${EBH_BIN}' replay store/own_scene.yaml store/own_rec.h5 --duration 0.05 -q -o own_replay.h5")
 set_tests_properties(cli.files.replay_through_a_link_to_nothing cli.files.scene_init_through_a_link_to_nothing
-  PROPERTIES FIXTURES_REQUIRED files LABELS cli)
+  cli.files.paths_inside_are_the_targets PROPERTIES FIXTURES_REQUIRED files LABELS cli)
+set_tests_properties(cli.files.paths_inside_are_the_targets PROPERTIES FAIL_REGULAR_EXPRESSION "error|recorded for the scene")
 # A link whose target's folder is missing, and a loop of links, are refused naming the link and its
 # target, before any work; the links stay.
 ebh_files_failure(link_to_a_missing_folder

@@ -295,7 +295,8 @@ SceneInit make_scene(const SceneInitOptions& o) {
 
   std::error_code ec;
   fs::path mesh_path = fs::absolute(o.mesh, ec);
-  const fs::path relative = fs::relative(mesh_path, fs::absolute(o.out, ec).parent_path(), ec);
+  const fs::path written = o.written.empty() ? o.out : o.written;
+  const fs::path relative = fs::relative(mesh_path, fs::absolute(written, ec).parent_path(), ec);
   // relative when the mesh sits in the scene's folder or below it, so the two move together
   if (!ec && !relative.empty() && *relative.begin() != "..") mesh_path = relative;
   // The scene names the mesh file exactly, and is UTF-8 text.
@@ -388,7 +389,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
 
   SceneInit out;
   out.yaml = y;
-  out.scene = load_scene_text(y, o.out);
+  out.scene = load_scene_text(y, written);
   out.pin_note = pin_note;
   out.speck_note = speck_note;
   // The virtual mesh's edges after virtual_refine's split (each edge halved) against the tool.

@@ -27,6 +27,9 @@ const std::vector<TissuePreset>& tissue_presets();
 struct SceneInitOptions {
   std::filesystem::path mesh;     ///< the physical mesh (Gmsh .msh 2.2 or 4.1, VTK .vtk, Medit .mesh, TetGen .node/.ele)
   std::filesystem::path out;      ///< the scene file to write; the mesh path in it is relative to its folder
+  /// The file `out` writes: `out`, or where `out` is a link the file it names (io/atomic.hpp
+  /// output_target), whose folder the mesh path is relative to; empty: `out`.
+  std::filesystem::path written;
   std::string unit = "mm";        ///< the mesh file's unit, also the scene's (pins, camera)
   std::vector<std::string> pins;  ///< "sphere:x,y,z,r", "box:x0,y0,z0,x1,y1,z1", "group:NAME" (lengths in `unit`)
   std::string tissue = "generic";

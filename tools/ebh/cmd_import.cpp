@@ -15,6 +15,7 @@
 #include "command.hpp"
 #include "core/error.hpp"
 #include "ebh/version.hpp"
+#include "io/atomic.hpp"
 #include "io/import.hpp"
 #include "io/paths.hpp"
 #include "io/recording.hpp"
@@ -74,8 +75,9 @@ void run(const ImportArgs& a) {
   // The scene's physical mesh, for the unit sanity check (loaded before any output is written).
   std::optional<ebh::BoundingBox> mesh_box;
   if (scene) mesh_box = ebh::bounding_box(scene->physical.vertices);
-  // A scene file is named relative to the recording's folder, where readers look first.
-  opt.scene = scene_file.empty() ? a.scene : ebh::scene_attribute_for(a.scene, scene_file, a.output);
+  // A scene file is named relative to the recording's folder, where readers look first (the folder
+  // of the file written: a link's target's).
+  opt.scene = scene_file.empty() ? a.scene : ebh::scene_attribute_for(a.scene, scene_file, ebh::output_target(a.output));
   // The tool the log's device held: by default the scene's (a forceps scene's log is a forceps
   // log), else a hook. One given that differs from the scene's is recorded as given, with a warning,
   // as replay warns of a forceps log on a hook scene: the scene's tool is what a replay moves.

@@ -471,7 +471,9 @@ void init(const ebh::SceneInitOptions& o) {
   ebh::check_input_file(mesh);
   ebh::check_outputs({{out, "the scene"}}, {{mesh, "the mesh"}});
   require_scene_name(o.out);
-  const ebh::SceneInit made = ebh::make_scene(o);
+  ebh::SceneInitOptions at = o;
+  at.written = ebh::output_target(out);  // a link's target: its mesh path is relative to the target's folder
+  const ebh::SceneInit made = ebh::make_scene(at);
   for (const auto& w : made.scene.warnings) std::fprintf(stderr, "ebh: warning: %s\n", ebh::escape_unprintable(w).c_str());
   ebh::write_file_atomically(out, made.yaml);
   const ebh::TetMesh& m = made.scene.physical;

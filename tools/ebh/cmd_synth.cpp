@@ -12,6 +12,7 @@
 #include "core/error.hpp"
 #include "core/number_text.hpp"
 #include "ebh/version.hpp"
+#include "io/atomic.hpp"
 #include "io/paths.hpp"
 #include "io/recording.hpp"
 #include "io/synth.hpp"
@@ -57,7 +58,7 @@ void run(const SynthArgs& a) {
   // readers look first (as `ebh import --scene` does), so that it names the same file.
   std::string scene;
   try {
-    scene = ebh::scene_attribute_from(plan.scene, plan_folder, a.output);
+    scene = ebh::scene_attribute_from(plan.scene, plan_folder, ebh::output_target(a.output));  // a link's target's folder
   } catch (const ebh::InputError& e) {
     throw ebh::InputError(plan_at(a.plan, plan.scene_line) + ": key 'scene': " + e.what() +
                           " (a path in a plan is relative to the plan's folder)");

@@ -542,6 +542,8 @@ add_test(NAME cli.scene.info_of_a_vtk_mesh
 set_tests_properties(cli.scene.info_of_a_vtk_mesh PROPERTIES LABELS "cli;scene")
 ebh_scene_init_failure(vtk_group "^ebh: error: --pin group:bottom: .*cube51.vtk has no physical group 'bottom' \\(it has no groups\\): a VTK file's groups are the numbers in its cell array named gmsh:physical, .*; or pin a box or a half-space"
   ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube51.vtk -o ${EBH_INIT}/vtk_group.yaml --unit cm --pin group:bottom)
+ebh_scene_init_failure(vtu_group "^ebh: error: --pin group:bottom: .*cube_ascii.vtu has no physical group 'bottom' \\(its groups: 1 \\(unnamed\\), 2 \\(unnamed\\)\\): a VTK file's groups are the numbers in its cell array named gmsh:physical, .*; or pin a box or a half-space"
+  ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube_ascii.vtu -o ${EBH_INIT}/vtu_group.yaml --unit cm --pin group:bottom)
 ebh_scene_init_failure(tetgen_group "^ebh: error: --pin group:9: .*cube0.node has no physical group '9' \\(it has no groups\\): a TetGen mesh's groups are its region attributes \\(by number, tetgen -A\\) and its faces' boundary markers \\(surface_N\\); or pin a box or a half-space"
   ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube0.node -o ${EBH_INIT}/tetgen_group.yaml --unit cm --pin group:9)
 ebh_scene_init_failure(pins_nothing "^ebh: error: --pin sphere:10,10,10,1: the region pins no vertex of .*own_cm.msh \\(its bounding box: \\[0, 0, 0\\] \\.\\. \\[4, 3, 2\\] cm\\)"

@@ -935,7 +935,7 @@ std::vector<std::string> known_group_names(const TetMesh& mesh) {
 
 std::string file_groups_note(const std::filesystem::path& mesh_file) {
   const std::string ext = lower_extension(mesh_file);
-  if (ext == ".vtk")
+  if (ext == ".vtk" || ext == ".vtu")
     return ": a VTK file's groups are the numbers in its cell array named gmsh:physical, CellEntityIds, medit:ref, "
            "MaterialIds, material, region(s), label(s), subdomain or domain (read_vtk); or pin a box or a half-space";
   if (ext == ".mesh" || ext == ".node" || ext == ".ele")

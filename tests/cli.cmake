@@ -232,6 +232,20 @@ set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file cli.metrics.r
   cli.metrics.fft_window_huge cli.metrics.fft_window_short PROPERTIES LABELS cli)
 # scripts/plot_forces.py on the same trace, where Debian's python3 has h5py, matplotlib and numpy.
 find_program(EBH_SYSTEM_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
+# A replay output whose global heap (its string attributes) is damaged: HDF5 copies a string by
+# the size the file gives and crashes inside the library; the crash names the file in one line,
+# status 1 (a bare "Segmentation fault", 139, before). The file is made by a standard-library script.
+if(EBH_SYSTEM_PYTHON3)
+  add_test(NAME cli.metrics.damaged_heap_setup
+    COMMAND ${EBH_SYSTEM_PYTHON3} ${EBH_METRICS_DATA}/damage_heap.py ${EBH_METRICS_DATA}/press.h5
+      ${PROJECT_BINARY_DIR}/damaged_heap.h5)
+  set_tests_properties(cli.metrics.damaged_heap_setup PROPERTIES FIXTURES_SETUP damaged_heap LABELS cli)
+  add_test(NAME cli.metrics.damaged_heap
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${PROJECT_BINARY_DIR}/damaged_heap.h5"
+      "-DEXPECT=^ebh: error: .*damaged_heap.h5: the process crashed \\(SIGSEGV\\) while reading it: the file is damaged where the HDF5 library trusts it"
+      -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.metrics.damaged_heap PROPERTIES FIXTURES_REQUIRED damaged_heap LABELS cli)
+endif()
 if(EBH_SYSTEM_PYTHON3)
   execute_process(COMMAND ${EBH_SYSTEM_PYTHON3} -c "import h5py, matplotlib, numpy"
     RESULT_VARIABLE ebh_plot_deps OUTPUT_QUIET ERROR_QUIET)

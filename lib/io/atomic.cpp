@@ -145,6 +145,36 @@ extern "C" void on_alarm(int sig, siginfo_t* info, void*) {
   }
 }
 
+// The files being read (CrashNamesInput), for the crash handler: plain buffers, as the
+// temporaries' table; `order` tells the innermost.
+constexpr int kReadSlots = 8;
+char g_reading[kReadSlots][kPathMax];
+std::atomic<long> g_reading_order[kReadSlots];  // 0 free, -1 being written, > 0 holds a path
+std::atomic<long> g_reading_next{1};
+
+/// SIGSEGV or SIGBUS (SA_RESETHAND: the default action is back). Reading a file: one line naming it,
+/// then end_now(1). Else the temporaries are removed and the fault, run again on return, ends the
+/// process as it would have.
+extern "C" void on_crash(int sig) {
+  int innermost = -1;
+  long best = 0;
+  for (int i = 0; i < kReadSlots; ++i)
+    if (const long order = g_reading_order[i].load(); order > best) {
+      best = order;
+      innermost = i;
+    }
+  if (innermost < 0) {
+    remove_temporaries();
+    return;
+  }
+  for (const char* part : {"ebh: error: ", static_cast<const char*>(g_reading[innermost]), ": the process crashed (",
+                           sig == SIGBUS ? "SIGBUS" : "SIGSEGV",
+                           ") while reading it: the file is damaged where the HDF5 library trusts it (or ebh has a bug: "
+                           "report it with the file); unfinished outputs removed\n"})
+    (void)!write(STDERR_FILENO, part, std::strlen(part));
+  end_now(1);
+}
+
 int register_temp(const std::string& path) {
   if (path.size() >= kPathMax) return -1;
   for (int i = 0; i < kSlots; ++i) {
@@ -232,6 +262,34 @@ void sync_directory(const fs::path& dir) {
 }
 
 }  // namespace
+
+CrashNamesInput::CrashNamesInput(const std::string& path) {
+  static const bool installed = [] {
+    struct sigaction sa {};
+    sa.sa_handler = on_crash;
+    sa.sa_flags = SA_RESETHAND;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGSEGV, &sa, nullptr);
+    sigaction(SIGBUS, &sa, nullptr);
+    return true;
+  }();
+  (void)installed;
+  const std::string shown = escape_unprintable(path);  // as an InputError shows it
+  if (shown.size() >= kPathMax) return;
+  for (int i = 0; i < kReadSlots; ++i) {
+    long expected = 0;
+    if (g_reading_order[i].compare_exchange_strong(expected, -1)) {
+      std::memcpy(g_reading[i], shown.c_str(), shown.size() + 1);
+      g_reading_order[i].store(g_reading_next.fetch_add(1));
+      slot_ = i;
+      return;
+    }
+  }
+}
+
+CrashNamesInput::~CrashNamesInput() {
+  if (slot_ >= 0) g_reading_order[slot_].store(0);
+}
 
 int remove_on_interrupt(const std::string& path) { return register_temp(path); }
 bool is_own_temporary(const std::string& path) {

@@ -140,6 +140,23 @@ void write_files_atomically(const std::vector<std::pair<std::string, std::string
 /// ignored where they were at the start (`nohup`); SIGALRM's handler also runs the grace, and
 /// tells its timer from a SIGALRM another process sent.
 void install_interrupt_handlers();
+/// While an input file is read through a library that trusts its bytes (HDF5 copies a string
+/// attribute by a length read from the file: a damaged global heap made `ebh metrics` end with a
+/// bare "Segmentation fault"), a crash (SIGSEGV, SIGBUS) ends the process with one line, "ebh: error:
+/// FILE: the process crashed (SIGSEGV) while reading it: ...", status 1 and its temporaries removed.
+/// A crash while no file is read stays a crash (its core dump kept), its temporaries removed.
+/// Scopes nest: the innermost file is named. h5::File::open_read holds one while the file is open.
+class CrashNamesInput {
+ public:
+  explicit CrashNamesInput(const std::string& path);
+  ~CrashNamesInput();
+  CrashNamesInput(const CrashNamesInput&) = delete;
+  CrashNamesInput& operator=(const CrashNamesInput&) = delete;
+
+ private:
+  int slot_ = -1;  ///< -1: the table was full (the crash is then a plain one)
+};
+
 /// Until a command installs those (it polls interrupted() from then on), a signal ends the process
 /// at once with one line, "ebh: interrupted by SIGINT; no output file written" (the signal that
 /// came), and status 128 + signal, removing any temporary: what a long load (a 10-million-line log, a large mesh) or

@@ -667,7 +667,9 @@ std::int64_t open_file_read(const std::string& path) {
 }
 
 File File::open_read(const std::string& path) {
-  return File(std::make_shared<Handle>(open_file_read(path), std::make_shared<FileState>()), path);
+  auto state = std::make_shared<FileState>();
+  state->reading = std::make_unique<CrashNamesInput>(path);  // from the open on
+  return File(std::make_shared<Handle>(open_file_read(path), std::move(state)), path);
 }
 
 File File::open_write(const std::string& path) {

@@ -38,6 +38,9 @@ template <class T> constexpr Type type_of() {
 /// File::close() reports instead of committing a file with a hole.
 struct FileState {
   std::string write_failure;  ///< "cannot write the file: OS reason", or empty
+  /// A file opened for reading: names it in the line a crash inside HDF5 gives while it is open
+  /// (io/atomic.hpp CrashNamesInput).
+  std::unique_ptr<CrashNamesInput> reading;
 };
 
 /// Owns one HDF5 identifier (file, group, dataset, dataspace, type, attribute or property list)

@@ -98,7 +98,7 @@ std::string string_attribute(hid_t object, const char* name) {
 
 class Reader {
  public:
-  explicit Reader(std::string path) : path_(std::move(path)), file_(open(path_), H5Fclose) {}
+  explicit Reader(std::string path) : path_(std::move(path)), reading_(path_), file_(open(path_), H5Fclose) {}
 
   /// True when every component of an absolute path ("/a/b") exists (an external link refused).
   bool exists(const std::string& name) const { return h5::path_exists(file_.get(), name, path_); }
@@ -203,6 +203,7 @@ class Reader {
   static hid_t open(const std::string& path) { return h5::open_file_read(path); }
 
   std::string path_;
+  CrashNamesInput reading_;  ///< a crash inside HDF5 on a damaged file names it (io/atomic.hpp)
   Handle file_;
 };
 

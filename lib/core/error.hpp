@@ -9,7 +9,8 @@
 namespace ebh {
 
 /// The length of the valid UTF-8 sequence that starts at text[i] (1 for ASCII), or 0 when the byte
-/// there does not start one.
+/// there does not start one. Valid as RFC 3629 has it: no overlong form (e0 80 af for '/'), no
+/// UTF-16 surrogate (ed a0 80), nothing past U+10FFFF (f4 90 80 80), which JSON parsers refuse.
 inline std::size_t utf8_sequence_length(std::string_view text, std::size_t i) {
   const auto* s = reinterpret_cast<const unsigned char*>(text.data());
   const unsigned char c = s[i];
@@ -18,6 +19,9 @@ inline std::size_t utf8_sequence_length(std::string_view text, std::size_t i) {
   if (len == 0 || i + len > text.size()) return 0;
   for (std::size_t k = 1; k < len; ++k)
     if ((s[i + k] & 0xc0) != 0x80) return 0;
+  // The second byte's range after the lead bytes that allow less than 80..bf.
+  const unsigned char b = len > 1 ? s[i + 1] : 0;
+  if ((c == 0xe0 && b < 0xa0) || (c == 0xed && b > 0x9f) || (c == 0xf0 && b < 0x90) || (c == 0xf4 && b > 0x8f)) return 0;
   return len;
 }
 

@@ -19,3 +19,16 @@ TEST(InputError, KeepsValidUtf8) {
   // A lone continuation byte and a truncated sequence are not text.
   EXPECT_STREQ(InputError(std::string("a\x80z\xc3")).what(), "a\\x80z\\xc3");
 }
+
+// Valid as RFC 3629 has it, which JSON parsers require: an overlong form ('/' as e0 80 af), a
+// UTF-16 surrogate (ed a0 80) and a code point past U+10FFFF (f4 90 80 80) are not text (they were
+// kept, and a --json output holding them was refused by Python's json module); the edges of each
+// range are (U+0800 e0 a0 80, U+D7FF ed 9f bf, U+10000 f0 90 80 80, U+10FFFF f4 8f bf bf).
+TEST(InputError, OverlongFormsSurrogatesAndCodePointsPastUnicodeAreNotText) {
+  EXPECT_EQ(first_invalid_utf8("a\xe0\x80\xaf"), 1u);
+  EXPECT_EQ(first_invalid_utf8("s\xed\xa0\x80.h5"), 1u);
+  EXPECT_EQ(first_invalid_utf8("\xf0\x80\x80\xaf"), 0u);
+  EXPECT_EQ(first_invalid_utf8("\xf4\x90\x80\x80"), 0u);
+  EXPECT_EQ(first_invalid_utf8("\xe0\xa0\x80\xed\x9f\xbf\xf0\x90\x80\x80\xf4\x8f\xbf\xbf"), std::string_view::npos);
+  EXPECT_STREQ(InputError(std::string("s\xed\xa0\x80.h5")).what(), "s\\xed\\xa0\\x80.h5");
+}

@@ -70,9 +70,18 @@ struct BaselinesReader {
     });
   }
 
+  /// A string of UTF-8 text. A YAML file is UTF-8, and a case's name, scene and recording go back
+  /// into it (--update) and into --json as they are: a byte of another encoding (Latin-1 from an
+  /// old editor) is refused here, as a scene file's is.
   std::string text(const YAML::Node& n, const std::string& key) const {
     if (!n.IsScalar()) fail(n, key, "expected a string, got " + yaml_shown(n));
-    return n.Scalar();
+    const std::string& s = n.Scalar();
+    if (const std::size_t bad = first_invalid_utf8(s); bad != std::string::npos) {
+      char byte[8];
+      std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(s[bad]));
+      fail(n, key, "'" + s + "' holds byte " + byte + ", which is not UTF-8 text: save the file as UTF-8");
+    }
+    return s;
   }
 };
 

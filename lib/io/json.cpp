@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "core/error.hpp"
+
 namespace ebh {
 
 Json& Json::set(const std::string& key, Json value) {
@@ -35,9 +37,27 @@ void Json::numbers_to(std::vector<std::pair<std::string, double>>& out, const st
     for (const auto& [k, v] : **o) v.numbers_to(out, prefix.empty() ? k : prefix + "." + k);
 }
 
+/// Writes `s` as a JSON string. JSON text is UTF-8 (RFC 8259, section 8.1): a byte of `s` that is
+/// no part of valid UTF-8 (a Latin-1 file name, an attribute stored as raw bytes) is written as the
+/// four characters \xNN, as escape_unprintable() shows it in the text outputs (so `ebh metrics`
+/// and `ebh metrics --json` name the same file the same way). Not U+FFFD, which loses the byte, nor
+/// \u00NN, which reads as another, valid name (U+00FF is the bytes c3 bf); a name holding a real
+/// "\xff" reads the same, as in the text outputs.
 static void escape(std::string& out, const std::string& s) {
   out += '"';
-  for (unsigned char c : s) {
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x80) {
+      const std::size_t len = utf8_sequence_length(s, i);
+      if (len == 0) {
+        out += '\\';  // the backslash of escape_unprintable's \xNN, escaped for JSON
+        out += escape_unprintable(s.substr(i, 1));
+      } else {
+        out.append(s, i, len);
+        i += len - 1;
+      }
+      continue;
+    }
     switch (c) {
       case '"': out += "\\\""; break;
       case '\\': out += "\\\\"; break;
@@ -50,7 +70,7 @@ static void escape(std::string& out, const std::string& s) {
           std::snprintf(buf, sizeof buf, "\\u%04x", c);
           out += buf;
         } else {
-          out += static_cast<char>(c);
+          out += static_cast<char>(c);  // ASCII
         }
     }
   }

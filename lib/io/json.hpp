@@ -48,7 +48,9 @@ class Json {
   /// left out. A table with one column per value (`ebh sweep`'s summary) uses it.
   std::vector<std::pair<std::string, double>> numbers() const;
 
-  /// Serialises; indent < 0 prints on one line. Non-finite numbers print as null.
+  /// Serialises; indent < 0 prints on one line. Non-finite numbers print as null. The result is
+  /// valid UTF-8 whatever the strings hold: a byte that is no part of valid UTF-8 is written as the
+  /// text \xNN (JSON "\\xff"), as the text outputs show it (escape_unprintable).
   std::string dump(int indent = 2) const;
 
  private:

@@ -81,12 +81,14 @@ inline constexpr double kPoseQuatNormTolerance = 1e-6;
 /// and /timing/haptic_step_s. Optional: /haptic/penetration_physical, /haptic/active,
 /// /haptic/grasped, /physical/{t, iterations, residual, inverted, awake}, /timing/physical_step_s. Numeric types are converted to the fields' types.
 /// Throws InputError ("FILE: dataset '/haptic/force': ...") for a missing file, a missing
-/// dataset or attribute, a wrong shape, a non-numeric dataset, a time axis that goes backwards or
-/// whose ticks are less than half a haptic period apart, a haptic rate above kMaxReplayHapticHz,
+/// dataset or attribute, a wrong shape, a non-numeric dataset, a string attribute that is not one
+/// string (the root's `scene`, `mode`, ...; a dataset's `unit`), a `mode` or `contact` no replay
+/// writes, a time axis that holds a non-finite time, goes backwards or whose ticks are less than
+/// half a haptic period apart, a haptic rate above kMaxReplayHapticHz,
 /// a finite value beyond kMaxReplayValue, or a pose whose finite quaternion is no unit quaternion
 /// (all zero, which normalises to NaN, or a norm off 1 by more than kPoseQuatNormTolerance)
 /// (naming the dataset and the index).
-/// Non-finite values are kept: compute_metrics counts them.
+/// Non-finite values other than times are kept: compute_metrics counts them.
 ReplayTrace load_replay(const std::string& path);
 
 }  // namespace ebh

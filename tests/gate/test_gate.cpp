@@ -290,6 +290,23 @@ TEST(Gate, ErrorsNameTheFileLineAndKey) {
   std::filesystem::remove(path);
 }
 
+// A name of bytes that are not UTF-8 (a Latin-1 editor's) passed the printable-characters check,
+// went into --json as they were (invalid JSON) and back into the file by --update (invalid YAML).
+// Every text of the file is refused so, with its line and key; UTF-8 names read.
+TEST(Gate, TextThatIsNotUtf8IsRefusedWithItsLineAndKey) {
+  EXPECT_EQ(read_error("latin1_name", "cases:\n  - {name: c\xff" "1, scene: tube, recording: tube_insert, start: 2, duration: 1}\n"),
+            baselines_path("latin1_name") + ":2: key 'cases[0].name': 'c\\xff1' holds byte 0xff, which is not UTF-8 text: "
+                                            "save the file as UTF-8");
+  EXPECT_EQ(read_error("latin1_scene", "cases:\n  - name: c\n    scene: tub\xe9\n    recording: tube_insert\n"
+                                       "    start: 2\n    duration: 1\n"),
+            baselines_path("latin1_scene") + ":3: key 'cases[0].scene': 'tub\\xe9' holds byte 0xe9, which is not UTF-8 "
+                                             "text: save the file as UTF-8");
+  const std::string path = baselines_file("utf8_name", "cases:\n  - {name: \"caf\xc3\xa9 \xe2\x86\x92 1\", scene: tube, "
+                                                       "recording: tube_insert, start: 2, duration: 1}\n");
+  EXPECT_EQ(read_gate_baselines(path).cases[0].name, "caf\xc3\xa9 \xe2\x86\x92 1");
+  std::filesystem::remove(path);
+}
+
 // Every number --update writes, the bands' too, is the shortest text that reads back as the same
 // double: 0.1 + 0.2 (0.30000000000000004) keeps its 17 digits, 0.1 is 0.1.
 TEST(Gate, ARewriteWritesTheShortestNumbersThatReadBack) {

@@ -10,6 +10,8 @@
 #include <random>
 #include <string>
 
+#include <hdf5.h>
+
 #include "core/error.hpp"
 #include "io/h5.hpp"
 #include "metrics/force_metrics.hpp"
@@ -570,6 +572,113 @@ TEST(ForceMetrics, AQuaternionThatIsNoRotationIsRefusedNamingDatasetAndRow) {
   const ForceMetrics within = roundtrip(bad, "within_tolerance_quat");
   EXPECT_TRUE(within.finite);
   EXPECT_EQ(within.whole.stretch_angle_max, 0.0);
+}
+
+/// The message load_replay refuses make_trace(50) with once written as `name` and changed by `edit`
+/// ("no error" when it reads it).
+std::string edited_error(const std::string& name, const std::function<void(h5::File&)>& edit) {
+  const std::string p = write_trace(make_trace(50), name);
+  {
+    h5::File f = h5::File::open_write(p);
+    edit(f);
+  }
+  try {
+    load_replay(p);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// A NaN time is no blown-up run (its forces and positions go NaN; the times are the ticks' and
+// steps' numbers over their rates): read, one NaN in /haptic/t gave a sweep's force error of
+// 0.18 N for 0.03 N, the run `ok`. Refused naming the dataset and the index, as a time that goes
+// back is.
+TEST(ForceMetrics, ATimeThatIsNotFiniteIsRefusedNamingDatasetAndIndex) {
+  ReplayTrace bad = make_trace(300);
+  bad.t[7] = NAN;
+  EXPECT_NE(load_error(bad, "t_nan").find("ebh_metrics_t_nan.h5: dataset '/haptic/t' holds nan s at index 7: a replay's "
+                                          "times are finite (a corrupt or edited file)"),
+            std::string::npos)
+      << load_error(bad, "t_nan");
+  bad = make_trace(300);
+  bad.t.back() = INFINITY;
+  EXPECT_NE(load_error(bad, "t_inf").find("dataset '/haptic/t' holds inf s at index 299:"), std::string::npos)
+      << load_error(bad, "t_inf");
+  bad = make_trace(300);
+  bad.t[0] = NAN;  // the first tick too
+  EXPECT_NE(load_error(bad, "t_nan_first").find("dataset '/haptic/t' holds nan s at index 0:"), std::string::npos)
+      << load_error(bad, "t_nan_first");
+  const std::string physical = edited_error("physical_t_nan", [](h5::File& f) {
+    f.write<double>("/physical/t", std::vector<double>{0, 0.01, 0.02, NAN, 0.04}, {5});
+  });
+  EXPECT_NE(physical.find("dataset '/physical/t' holds nan s at index 3:"), std::string::npos) << physical;
+}
+
+/// Sets attribute `name` of `object` in file `path` to an array of two strings (h5::File writes one).
+void set_two_strings(const std::string& path, const char* object, const char* name) {
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  const hid_t obj = H5Oopen(file, object, H5P_DEFAULT);
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, H5T_VARIABLE);
+  const hsize_t two = 2;
+  const hid_t space = H5Screate_simple(1, &two, nullptr);
+  if (H5Aexists(obj, name) > 0) H5Adelete(obj, name);
+  const hid_t attr = H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
+  const char* values[2] = {"N", "N"};
+  H5Awrite(attr, type, values);
+  H5Aclose(attr);
+  H5Sclose(space);
+  H5Tclose(type);
+  H5Oclose(obj);
+  H5Fclose(file);
+}
+
+// A string attribute of another type was read as absent: a `unit` of 1 passed the unit check (an
+// absent one is SI, as in outputs written before the units), an integer `scene` showed as none.
+// A `mode` or `contact` no replay writes was read as another (`mode: bogus` as async). Each is
+// refused naming the attribute; absent ones, as older outputs and other tools' files have them
+// (tests/data/metrics/press.h5 has no units), are read.
+TEST(ForceMetrics, AttributesOfAnotherTypeOrValueAreRefusedNamingThem) {
+  const std::string scene_int = edited_error("scene_int", [](h5::File& f) { f.set_attr("scene", 5); });
+  EXPECT_NE(scene_int.find("ebh_metrics_scene_int.h5: root attribute 'scene' is not a string: it holds an integer"),
+            std::string::npos)
+      << scene_int;
+  EXPECT_NE(edited_error("backend_f64", [](h5::File& f) { f.set_attr("backend", 1.5); })
+                .find("root attribute 'backend' is not a string: it holds a floating point number"),
+            std::string::npos);
+  const std::string mode = edited_error("mode_bogus", [](h5::File& f) { f.set_attr("mode", "bogus"); });
+  EXPECT_NE(mode.find("ebh_metrics_mode_bogus.h5: root attribute 'mode' is 'bogus'; expected one of async, lockstep, realtime"),
+            std::string::npos)
+      << mode;
+  EXPECT_NE(edited_error("contact_bogus", [](h5::File& f) { f.set_attr("contact", "surfac"); })
+                .find("root attribute 'contact' is 'surfac'; expected one of vertices, surface"),
+            std::string::npos);
+  const std::string unit_int = edited_error("unit_int", [](h5::File& f) {
+    f.dataset("/haptic/force").set_attr("unit", 1);
+  });
+  EXPECT_NE(unit_int.find("ebh_metrics_unit_int.h5: dataset '/haptic/force' attribute 'unit' is not a string: it holds "
+                          "an integer"),
+            std::string::npos)
+      << unit_int;
+  const std::string two_units = write_trace(make_trace(50), "unit_array");
+  set_two_strings(two_units, "/haptic/t", "unit");
+  try {
+    load_replay(two_units);
+    ADD_FAILURE() << "a unit of two strings was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("dataset '/haptic/t' attribute 'unit' holds 2 strings; expected one"),
+              std::string::npos)
+        << e.what();
+  }
+  // What a replay writes, and what an older output or another tool's file lacks, reads.
+  EXPECT_EQ(edited_error("written", [](h5::File& f) {
+              f.set_attr("mode", "lockstep");
+              f.set_attr("contact", "surface");
+              f.dataset("/haptic/force").set_attr("unit", "N");
+            }),
+            "no error");
+  EXPECT_EQ(load_replay(std::string(EBH_TEST_DATA_DIR) + "/metrics/press.h5").scene, "synthetic");
 }
 
 // A contact that flickers every other tick, episodes not merged: every one counted, the metrics of

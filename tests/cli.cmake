@@ -240,10 +240,10 @@ if(EBH_SYSTEM_PYTHON3)
     COMMAND ${EBH_SYSTEM_PYTHON3} ${EBH_METRICS_DATA}/damage_heap.py ${EBH_METRICS_DATA}/press.h5
       ${PROJECT_BINARY_DIR}/damaged_heap.h5)
   set_tests_properties(cli.metrics.damaged_heap_setup PROPERTIES FIXTURES_SETUP damaged_heap LABELS cli)
-  add_test(NAME cli.metrics.damaged_heap
-    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${PROJECT_BINARY_DIR}/damaged_heap.h5"
-      "-DEXPECT=^ebh: error: .*damaged_heap.h5: the process crashed \\(SIGSEGV\\) while reading it: the file is damaged where the HDF5 library trusts it"
-      -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  # Status 1 and our line; the C library may print its own line first ("free(): invalid pointer"
+  # where the damage makes HDF5 free what it never allocated: SIGABRT), which no handler can stop.
+  add_test(NAME cli.metrics.damaged_heap COMMAND sh -c
+    "'${EBH_BIN}' metrics '${PROJECT_BINARY_DIR}/damaged_heap.h5' 2>'${PROJECT_BINARY_DIR}/damaged_heap.err'; test $? -eq 1 && grep -E '^ebh: error: .*damaged_heap.h5: the process crashed \\(SIG(SEGV|ABRT|BUS)\\) while reading it: the file is damaged where the HDF5 library trusts it' '${PROJECT_BINARY_DIR}/damaged_heap.err'")
   set_tests_properties(cli.metrics.damaged_heap PROPERTIES FIXTURES_REQUIRED damaged_heap LABELS cli)
 endif()
 if(EBH_SYSTEM_PYTHON3)

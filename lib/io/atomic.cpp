@@ -152,7 +152,8 @@ char g_reading[kReadSlots][kPathMax];
 std::atomic<long> g_reading_order[kReadSlots];  // 0 free, -1 being written, > 0 holds a path
 std::atomic<long> g_reading_next{1};
 
-/// SIGSEGV or SIGBUS (SA_RESETHAND: the default action is back). Reading a file: one line naming it,
+/// SIGSEGV, SIGBUS or SIGABRT (the C library's abort on a heap HDF5 corrupted: "free(): invalid
+/// pointer"; SA_RESETHAND: the default action is back). Reading a file: one line naming it,
 /// then end_now(1). Else the temporaries are removed and the fault, run again on return, ends the
 /// process as it would have.
 extern "C" void on_crash(int sig) {
@@ -168,7 +169,7 @@ extern "C" void on_crash(int sig) {
     return;
   }
   for (const char* part : {"ebh: error: ", static_cast<const char*>(g_reading[innermost]), ": the process crashed (",
-                           sig == SIGBUS ? "SIGBUS" : "SIGSEGV",
+                           sig == SIGBUS ? "SIGBUS" : sig == SIGABRT ? "SIGABRT" : "SIGSEGV",
                            ") while reading it: the file is damaged where the HDF5 library trusts it (or ebh has a bug: "
                            "report it with the file); unfinished outputs removed\n"})
     (void)!write(STDERR_FILENO, part, std::strlen(part));
@@ -269,8 +270,7 @@ CrashNamesInput::CrashNamesInput(const std::string& path) {
     sa.sa_handler = on_crash;
     sa.sa_flags = SA_RESETHAND;
     sigemptyset(&sa.sa_mask);
-    sigaction(SIGSEGV, &sa, nullptr);
-    sigaction(SIGBUS, &sa, nullptr);
+    for (const int sig : {SIGSEGV, SIGBUS, SIGABRT}) sigaction(sig, &sa, nullptr);
     return true;
   }();
   (void)installed;

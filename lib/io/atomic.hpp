@@ -142,7 +142,8 @@ void write_files_atomically(const std::vector<std::pair<std::string, std::string
 void install_interrupt_handlers();
 /// While an input file is read through a library that trusts its bytes (HDF5 copies a string
 /// attribute by a length read from the file: a damaged global heap made `ebh metrics` end with a
-/// bare "Segmentation fault"), a crash (SIGSEGV, SIGBUS) ends the process with one line, "ebh: error:
+/// bare "Segmentation fault"), a crash (SIGSEGV, SIGBUS, or SIGABRT from the C library finding its
+/// heap corrupted) ends the process with one line, "ebh: error:
 /// FILE: the process crashed (SIGSEGV) while reading it: ...", status 1 and its temporaries removed.
 /// A crash while no file is read stays a crash (its core dump kept), its temporaries removed.
 /// Scopes nest: the innermost file is named. h5::File::open_read holds one while the file is open.

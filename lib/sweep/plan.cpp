@@ -195,16 +195,50 @@ std::vector<fs::path> recordings_of(const std::string& scene, const fs::path& sc
   return out;
 }
 
-/// Throws when the overrides do not load on the scene (the same check `ebh replay --set` makes).
-/// Returns the haptic tick (s) the scene has under them (1 / time.haptic_hz, as its world has it).
-double check_on_scene(const PlanReader& r, const YAML::Node& where, const std::string& key, const SweepScene& s,
-                      const Overrides& effective) {
+/// Where a configuration's own overrides are in the plan: for each scene key, the plan's key that
+/// gave it ("grid.solver.virtual_iterations", for messages) and its value's node (its line).
+using OverrideNodes = std::map<std::string, std::pair<std::string, YAML::Node>>;
+
+OverrideNodes override_nodes(const std::map<std::string, YAML::Node>& where, const std::string& prefix) {
+  OverrideNodes out;
+  for (const auto& [k, node] : where) out[k] = {prefix + k, node};
+  return out;
+}
+
+/// Throws when a configuration does not load on the scene: `set`, then its own overrides `own`, all
+/// together, as its replays take them (the check `ebh replay --set` makes; keys that are only valid
+/// together, such as time.haptic_hz 999.9 with time.physical_hz 99.99, pass). The error names the
+/// plan's key of the override the scene refused: the configuration's own (`own_nodes`), or `set`'s
+/// (`set_nodes`) where `set` alone is refused too; else the configuration (`key` at `where`), as
+/// the combination is what fails. Returns the haptic tick (s) the scene has under them
+/// (1 / time.haptic_hz, as its world has it).
+double check_on_scene(const PlanReader& r, const SweepScene& s, const Overrides& set, const OverrideNodes& set_nodes,
+                      const Overrides& own, const OverrideNodes& own_nodes, const YAML::Node& where, const std::string& key) {
+  auto load = [&s](const Overrides& o) { return load_scene_spec(s.scene_file, as_set_arguments(o)).haptic_hz; };
+  auto set_alone_refused = [&] {
+    try {
+      (void)load(set);
+      return false;
+    } catch (const InputError&) {
+      return true;
+    }
+  };
   try {
-    return 1.0 / load_scene_spec(s.scene_file, as_set_arguments(effective)).haptic_hz;
-  } catch (const OverrideError& e) {  // the plan's key is named already
-    r.fail(where, key, "on scene " + s.name + ": " + e.key_message());
+    return 1.0 / load(merged(set, own));
   } catch (const InputError& e) {
-    r.fail(where, key, "on scene " + s.name + ": " + e.what());
+    // The override the scene refused: its message begins "--set 'KEY=VALUE': " (OverrideError).
+    const std::string what = e.what();
+    for (const auto& [k, v] : merged(set, own)) {
+      const std::string shown = OverrideError::set_option_shown(k + "=" + v) + ": ";
+      if (!what.starts_with(shown)) continue;
+      const std::string problem = "on scene " + s.name + ": " + what.substr(shown.size());
+      if (const auto at = own_nodes.find(k); at != own_nodes.end()) r.fail(at->second.second, at->second.first, problem);
+      if (const auto at = set_nodes.find(k); at != set_nodes.end() && set_alone_refused())
+        r.fail(at->second.second, at->second.first, problem);
+      break;
+    }
+    const auto* o = dynamic_cast<const OverrideError*>(&e);
+    r.fail(where, key, "on scene " + s.name + ": " + (o ? o->key_message() : what));
   }
 }
 
@@ -260,21 +294,26 @@ SweepPlan read_sweep_plan(const fs::path& file) {
   if (top.count("set")) plan.set = r.overrides(top["set"], "set", &set_where);
 
   // Configurations: a grid's combinations (the last key varying fastest) or a list.
-  std::vector<std::pair<Overrides, YAML::Node>> configurations;  // with the node that gave each
-  std::vector<std::tuple<std::string, std::string, YAML::Node>> single_values;  // key, value, node: checked one by one
+  struct Configuration {
+    Overrides overrides;
+    YAML::Node node;     ///< what gave it (messages): a list entry, a grid combination's last value
+    OverrideNodes keys;  ///< where each of its overrides is in the plan
+  };
+  std::vector<Configuration> configurations;
   if (top.count("grid") && top.count("runs"))
     r.fail(top["runs"], "runs", "give `grid` or `runs`, not both (a list of override sets can hold any grid)");
   if (top.count("grid")) {
-    configurations.push_back({{}, top["grid"]});
+    configurations.push_back({{}, top["grid"], {}});
     for (const auto& [key, values] : r.entries(top["grid"], "grid", {})) {
       const std::vector<YAML::Node> items = r.list(values, "grid." + key, "values");
-      for (const YAML::Node& v : items) single_values.emplace_back(key, r.value(v, "grid." + key), v);
-      std::vector<std::pair<Overrides, YAML::Node>> next;
-      for (const auto& [config, node] : configurations)
+      std::vector<Configuration> next;
+      for (const Configuration& config : configurations)
         for (const YAML::Node& v : items) {
-          Overrides c = config;
-          c[key] = r.value(v, "grid." + key);
-          next.push_back({std::move(c), v});
+          Configuration c = config;
+          c.overrides[key] = r.value(v, "grid." + key);
+          c.node = v;
+          c.keys[key] = {"grid." + key, v};
+          next.push_back(std::move(c));
         }
       if (next.size() > kMaxSweepRuns) r.fail(values, "grid", "more than " + std::to_string(kMaxSweepRuns) + " combinations");
       configurations = std::move(next);
@@ -285,26 +324,25 @@ SweepPlan read_sweep_plan(const fs::path& file) {
       const std::string key = "runs[" + std::to_string(i++) + "]";
       std::map<std::string, YAML::Node> where;
       const Overrides o = entry.IsMap() && entry.size() == 0 ? Overrides{} : r.overrides(entry, key, &where);
-      for (const auto& [k, v] : o) single_values.emplace_back(k, v, where[k]);
-      configurations.push_back({o, entry});
+      configurations.push_back({o, entry, override_nodes(where, "runs.")});
     }
   } else {
-    configurations.push_back({{}, root});  // the scenes as they are
+    configurations.push_back({{}, root, {}});  // the scenes as they are
   }
   // A `set` key that every configuration overrides (a grid's key always is) never reaches a run:
   // only the references would replay it, which is seldom what a plan means by "every replay".
   if (top.count("grid") || top.count("runs"))
     for (const auto& [k, v] : plan.set) {
       // (a plan's values are numbers, text or lists: no map sets part of another key)
-      if (std::all_of(configurations.begin(), configurations.end(), [&k](const auto& c) { return c.first.count(k) > 0; }))
+      if (std::all_of(configurations.begin(), configurations.end(), [&k](const auto& c) { return c.overrides.count(k) > 0; }))
         r.fail(set_where[k], "set." + k,
                std::string("every configuration of `") + (top.count("grid") ? "grid" : "runs") + "` gives " + k +
                    " its own value, so this one reaches no run (only the references that keep it): `set` holds "
                    "what every replay shares; give " + k + " in one place");
     }
   std::set<Overrides> seen;
-  for (const auto& [config, node] : configurations)
-    if (seen.insert(config).second) plan.configurations.push_back(config);
+  for (const Configuration& c : configurations)
+    if (seen.insert(c.overrides).second) plan.configurations.push_back(c.overrides);
   // The baseline: a named configuration, one more run unless a grid combination or list entry is it.
   std::map<std::string, YAML::Node> baseline_where;
   YAML::Node baseline_node;
@@ -413,19 +451,17 @@ SweepPlan read_sweep_plan(const fs::path& file) {
                s.scene_file.string() + " and its meshes have the same bytes as " + other.scene_file.string() +
                    ": the same scene; list it once (with its recordings together)");
 
-    // Each override alone (its own line in messages), then each whole configuration.
-    for (const auto& [k, v] : plan.set) check_on_scene(r, set_where[k], "set." + k, s, {{k, v}});
-    for (const auto& [k, v] : s.reference) check_on_scene(r, ref_where[k], key + ".reference." + k, s, {{k, v}});
-    for (const auto& [k, v, node] : single_values)
-      check_on_scene(r, node, (top.count("grid") ? "grid." : "runs.") + k, s, {{k, v}});
-    for (const auto& [k, v] : baseline_where) check_on_scene(r, v, "baseline.set." + k, s, {{k, plan.baseline->at(k)}});
-    // The longest haptic tick of the scene's replays (a plan may sweep time.haptic_hz).
-    double h_haptic = check_on_scene(r, e["reference"], key + ".reference", s, merged(plan.set, s.reference));
+    // Each configuration with `set`, all its keys together, as its replays take them; the longest
+    // haptic tick of the scene's replays (a plan may sweep time.haptic_hz).
+    const OverrideNodes set_nodes = override_nodes(set_where, "set.");
+    double h_haptic = check_on_scene(r, s, plan.set, set_nodes, s.reference, override_nodes(ref_where, key + ".reference."),
+                                     e["reference"], key + ".reference");
     if (plan.baseline)
-      h_haptic = std::max(h_haptic, check_on_scene(r, baseline_node, "baseline.set", s, merged(plan.set, *plan.baseline)));
-    for (const auto& [config, node] : configurations)
-      h_haptic = std::max(h_haptic, check_on_scene(r, node, top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set", s,
-                                                   merged(plan.set, config)));
+      h_haptic = std::max(h_haptic, check_on_scene(r, s, plan.set, set_nodes, *plan.baseline,
+                                                   override_nodes(baseline_where, "baseline.set."), baseline_node, "baseline.set"));
+    for (const Configuration& c : configurations)
+      h_haptic = std::max(h_haptic, check_on_scene(r, s, plan.set, set_nodes, c.overrides, c.keys, c.node,
+                                                   top.count("grid") ? "grid" : top.count("runs") ? "runs" : "set"));
     // The window inside every recording and of one tick at least (as ebh replay --start --duration
     // checks it), before any run: each run would fail on it. A window outside a recording is the
     // start's fault; one under a tick the duration's, or the start's where the recording's end cuts it.

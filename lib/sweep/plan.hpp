@@ -24,8 +24,8 @@
 //   start: 0                             # s into each recording (default 0)
 //   duration: 2.0                        # s replayed (default: the rest of the recording)
 //
-// Every key is checked, and every override against every scene it is applied to (as `ebh replay
-// --set` would), before any replay: errors name the plan file and the key.
+// Every key is checked, and every configuration (with `set`, all its keys together, as `ebh replay
+// --set` takes them) on every scene, before any replay: errors name the plan file and the key.
 //
 // A plan expands to runs: for each scene, recording, configuration (grid combination or list
 // entry), backend and repetition one replay, plus one reference replay per scene and recording

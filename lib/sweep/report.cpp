@@ -63,6 +63,7 @@ void check_min_haptic_hz(double hz) {
 
 std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file, double min_haptic_hz) {
   check_min_haptic_hz(min_haptic_hz);
+  if (t.rows.empty()) throw InputError(file + ": no runs (a header line and no rows; a sweep's summary has a row per run)");
   // A column named twice: which one holds the run's value is anyone's guess.
   for (std::size_t c = 0; c < t.header.size(); ++c)
     for (std::size_t d = 0; d < c; ++d)
@@ -111,7 +112,7 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     const Key key{row[c_scene], row[c_rec], row[c_backend]};
     if (!groups.count(key)) {
       order.push_back(key);
-      groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], min_haptic_hz, "", {}, {}, 0, {}};
+      groups[key] = ReportGroup{row[c_scene], row[c_rec], row[c_backend], min_haptic_hz, "", {}, {}, 0, {}, "", ""};
     }
     ReportGroup& g = groups[key];
     if (row[c_ref] != "0" && row[c_ref] != "1")
@@ -201,6 +202,31 @@ std::vector<ReportGroup> build_report(const CsvTable& t, const std::string& file
     std::stable_sort(g.points.begin(), g.points.end(), [](const ReportPoint& a, const ReportPoint& b) {
       return a.wall_s < b.wall_s || (std::isnan(b.wall_s) && !std::isnan(a.wall_s));
     });
+    if (const auto named = baseline_names.find(key); named != baseline_names.end()) g.baseline = named->second.first;
+    // A baseline that gives no comparison is said, with why: none of its runs ok, or their force
+    // errors empty (their error column says why: the reference failed, say).
+    if (!g.baseline.empty() && !baseline_goal(g)) {
+      const auto b = std::find_if(g.points.begin(), g.points.end(), [](const ReportPoint& p) { return !p.baseline.empty(); });
+      if (b == g.points.end()) {
+        std::size_t failed = 0, pending = 0;
+        for (const auto& row : t.rows)
+          if (Key{row[c_scene], row[c_rec], row[c_backend]} == key && !row[*c_baseline].empty()) {
+            failed += row[c_status] == "failed";
+            pending += row[c_status] == "pending";
+          }
+        g.no_baseline_goal = "none of its runs is ok (" + std::to_string(failed) + " failed, " + std::to_string(pending) +
+                             " not run yet)";
+      } else {
+        std::string why;
+        for (const std::size_t r : rows_of[key][b->overrides])
+          if (c_error && !t.rows[r][*c_error].empty()) {
+            why = t.rows[r][*c_error];
+            break;
+          }
+        g.no_baseline_goal = std::string(std::isnan(b->error_rms) ? "its runs have no force error" : "its runs have no wall time") +
+                             (why.empty() ? "" : ": " + why);
+      }
+    }
     out.push_back(std::move(g));
   }
   return out;
@@ -293,6 +319,8 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
         << "; the most accurate at a wall time <= " << fmt(b.wall_s) << " s is " << md(a.overrides) << ", "
         << fmt(a.error_rms) << " N, **" << fmt(goal->error_ratio, "%.3g") << "x lower error**" << looser_solve(a, b)
         << ". 2x goal: " << (goal->met() ? "met" : "not met") << ".\n";
+    } else if (!g.no_baseline_goal.empty()) {
+      o << "\nAgainst the baseline " << md(g.baseline) << ": no comparison: " << md(g.no_baseline_goal) << ".\n";
     }
     for (const std::string& f : g.failed) o << "\nfailed: " << md(f) << "\n";
     if (g.pending) o << "\n" << g.pending << " run" << (g.pending == 1 ? "" : "s") << " not run yet\n";
@@ -300,8 +328,12 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
   }
   // Per backend, on how many scene and recording pairs a configuration meets the 2x goal.
   std::map<std::string, std::pair<int, int>> goals;  // backend -> (met, compared)
-  std::map<std::string, std::string> met_on;
-  for (const ReportGroup& g : groups)
+  std::map<std::string, std::string> met_on, not_compared;
+  for (const ReportGroup& g : groups) {
+    if (!g.no_baseline_goal.empty()) {
+      goals[g.backend];  // listed, with none compared
+      not_compared[g.backend] += (not_compared[g.backend].empty() ? "" : ", ") + g.recording;
+    }
     if (const auto goal = baseline_goal(g)) {
       auto& [met, compared] = goals[g.backend];
       ++compared;
@@ -313,11 +345,16 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
         met_on[g.backend] += (met_on[g.backend].empty() ? "" : ", ") + g.recording + (loose ? " [less converged]" : "");
       }
     }
+  }
   if (!goals.empty()) {
     o << "\n## The 2x goal\n\n";
     for (const auto& [backend, n] : goals)
       o << "- " << backend << ": met on " << n.first << " of " << n.second << " scene and recording pairs"
-        << (met_on[backend].empty() ? "" : " (" + md(met_on[backend]) + ")") << "\n";
+        << (met_on[backend].empty() ? "" : " (" + md(met_on[backend]) + ")")
+        << (not_compared[backend].empty() ? ""
+                                          : "; not compared on " + md(not_compared[backend]) +
+                                                ", whose baseline gives no comparison (see its section)")
+        << "\n";
   }
   return o.str();
 }

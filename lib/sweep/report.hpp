@@ -53,6 +53,11 @@ struct ReportGroup {
   std::size_t pending = 0;
   /// "ID OVERRIDES: why", one per pending run whose output the sweep runs again (its error column)
   std::vector<std::string> redo;
+  std::string baseline;  ///< the plan's baseline name when a run of the group (ok or not) is the baseline's, else ""
+  /// Why a group with a baseline has no comparison with it (baseline_goal gives none): "none of its
+  /// runs is ok (1 failed, 0 not run yet)", "its runs have no force error: ERROR" (their error
+  /// column: the reference failed, say); "" when it has one or the group has no baseline.
+  std::string no_baseline_goal;
 };
 
 /// A group's configurations against its baseline B (the plan's `baseline`): the fastest one whose
@@ -78,6 +83,7 @@ void check_min_haptic_hz(double hz);
 /// wall_s, real_time_factor, force_error_rms_N, force_error_max_N, force_error_p999_N; optional:
 /// id, error, baseline, timing.physical_residual_max, haptic_hz). Configurations below
 /// `min_haptic_hz` haptic ticks per second are no candidates (0: every one is). Throws InputError
+/// "FILE: no runs ..." for a summary without rows (a plan has one run at least: its reference), and
 /// naming `file`, the row and the column for a missing column, a column named twice, a reference
 /// other than 0 or 1, and in an ok row a wall time that is not a finite number > 0 or a measure
 /// (real-time factor, force errors, residual, haptic rate, ...) that is neither empty nor a finite
@@ -92,7 +98,9 @@ inline constexpr double kLooserSolve = 5;
 
 /// The Markdown report: per group a table by wall time, the front and the baseline marked, and the
 /// comparison with the baseline (baseline_goal) when there is one, saying where the fastest or the
-/// most accurate leaves its physical mesh less converged than the baseline (kLooserSolve).
+/// most accurate leaves its physical mesh less converged than the baseline (kLooserSolve); a group
+/// whose baseline gives no comparison says why (ReportGroup::no_baseline_goal), and the closing
+/// 2x-goal section counts such groups as not compared: no baseline of the plan goes unmentioned.
 std::string report_markdown(const std::vector<ReportGroup>& groups);
 
 /// A PNG plot (log-log): force RMS error against wall time, one colour per group, the front of

@@ -113,10 +113,22 @@ std::string CsvTable::to_csv() const {
 CsvTable parse_csv(const std::string& text, const std::string& file) {
   std::vector<std::vector<std::string>> records;
   std::vector<std::size_t> lines;  // each record's first line
+  std::vector<bool> cr_ended;      // each record ended by a CR with no LF after it
   std::vector<std::string> fields;
   std::string field;
   bool quoted = false, any = false;
-  std::size_t line = 1, record_line = 1;
+  std::size_t line = 1, record_line = 1, line_start = 0;
+  // "FILE:LINE:COLUMN: field N" of the byte at i (columns in bytes from 1, as editors count ASCII).
+  auto at = [&](std::size_t i) {
+    return file + ":" + std::to_string(line) + ":" + std::to_string(i - line_start + 1) + ": field " +
+           std::to_string(fields.size() + 1);
+  };
+  auto end_record = [&](bool cr) {
+    fields.push_back(std::move(field));
+    records.push_back(std::move(fields));
+    lines.push_back(record_line);
+    cr_ended.push_back(cr);
+  };
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
     if (quoted) {
@@ -124,48 +136,56 @@ CsvTable parse_csv(const std::string& text, const std::string& file) {
         field += '"';
         ++i;
       } else if (c == '"') {
+        // The closing quote ends the field: a comma, a line end or the file's end follows (RFC 4180).
+        if (i + 1 < text.size() && text[i + 1] != ',' && text[i + 1] != '\n' && text[i + 1] != '\r')
+          throw InputError(at(i) + ": a quote inside a quoted field must be doubled (\"\")");
         quoted = false;
       } else {
-        if (c == '\n') ++line;
+        if (c == '\n') {
+          ++line;
+          line_start = i + 1;
+        }
         field += c;
       }
       continue;
     }
-    if (c == '"' && field.empty()) {
+    if (c == '"') {
+      if (!field.empty())
+        throw InputError(at(i) + ": a quote in a field that does not begin with one (quote the field and double the quote)");
       quoted = any = true;
     } else if (c == ',') {
       fields.push_back(std::move(field));
       field.clear();
       any = true;
     } else if (c == '\n' || c == '\r') {
-      if (c == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
-      if (any || !field.empty()) {
-        fields.push_back(std::move(field));
-        records.push_back(std::move(fields));
-        lines.push_back(record_line);
-      }
+      const bool lone_cr = c == '\r' && !(i + 1 < text.size() && text[i + 1] == '\n');
+      if (!lone_cr && c == '\r') ++i;
+      if (any || !field.empty()) end_record(lone_cr);
       field.clear();
       fields.clear();
       any = false;
       record_line = ++line;
+      line_start = i + 1;
     } else {
       field += c;
       any = true;
     }
   }
   if (quoted) throw InputError(file + ":" + std::to_string(record_line) + ": a quoted field is not closed");
-  if (any || !field.empty()) {
-    fields.push_back(std::move(field));
-    records.push_back(std::move(fields));
-    lines.push_back(record_line);
-  }
+  if (any || !field.empty()) end_record(false);
   if (records.empty()) throw InputError(file + ": empty (expected a header line)");
   CsvTable t;
   t.header = std::move(records[0]);
   for (std::size_t r = 1; r < records.size(); ++r) {
-    if (records[r].size() != t.header.size())
+    if (records[r].size() != t.header.size()) {
+      // A CR alone ends a line (old Mac files): one inside an unquoted field splits its record.
+      const bool cr = cr_ended[r] || cr_ended[r - 1];
       throw InputError(file + ":" + std::to_string(lines[r]) + ": " + std::to_string(records[r].size()) +
-                       " fields, the header has " + std::to_string(t.header.size()));
+                       " fields, the header has " + std::to_string(t.header.size()) +
+                       (cr ? " (a carriage return with no line feed after it ends a line here: one inside a field must "
+                             "be quoted)"
+                           : ""));
+    }
     t.rows.push_back(std::move(records[r]));
   }
   return t;
@@ -197,6 +217,23 @@ ColumnKind column_kind(const CsvTable& t, std::size_t c) {
       if (!cell_number(row[c], v)) return ColumnKind::Text;
   }
   return ColumnKind::Real;
+}
+
+/// A run's output as the summary takes it, with its metrics. A replay whose numbers go wrong stops
+/// with an error and writes no output (README: exit 4), so an output holding a NaN or an inf sample
+/// (as compute_metrics counts them, in any dataset it reads) is a failed run: one rule for NaN and
+/// inf, where NaN gave an ok run with empty force errors and inf a failed one. Throws InputError
+/// "OUT: non-finite samples (/haptic/force: 1): ..." (and load_replay's errors).
+ReplayTrace read_run_output(const fs::path& out, ForceMetrics& metrics) {
+  ReplayTrace trace = load_replay(out.string());
+  metrics = compute_metrics(trace);
+  if (metrics.nonfinite_count > 0) {
+    std::string samples;
+    for (const std::string& d : metrics.nonfinite_datasets) samples += (samples.empty() ? "" : ", ") + d;
+    throw InputError(out.string() + ": non-finite samples (" + samples +
+                     "): the run's numbers went wrong; no force error or metric is taken from it");
+  }
+  return trace;
 }
 
 }  // namespace
@@ -260,22 +297,36 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
   InputDigests digests(&plan);
   std::map<std::string, RunState> states;
   for (const SweepRun& r : runs) states[r.id] = run_state(dir, plan, r, digests);
-  std::map<std::string, std::optional<ReplayTrace>> references;  // id -> trace (nullopt: not available)
-  auto reference_trace = [&](const SweepRun& r) -> const ReplayTrace* {
+  // Each reference read once: its trace, or why there is none (its own row says more).
+  struct Reference {
+    std::optional<ReplayTrace> trace;
+    std::string missing;  ///< the error column of a run compared with it, when there is no trace
+  };
+  std::map<std::string, Reference> references;  // by id
+  auto reference_of = [&](const SweepRun& r) -> const Reference& {
     auto it = references.find(r.reference_id);
     if (it == references.end()) {
-      const auto ref = std::find_if(runs.begin(), runs.end(), [&](const SweepRun& x) { return x.id == r.reference_id; });
-      std::optional<ReplayTrace> trace;
-      if (ref != runs.end() && states[ref->id] == RunState::Done) {
+      Reference ref;
+      const std::string run = "no reference: its run " + r.reference_id;
+      const auto at = std::find_if(runs.begin(), runs.end(), [&](const SweepRun& x) { return x.id == r.reference_id; });
+      const RunState state = states[r.reference_id];
+      if (at != runs.end() && state == RunState::Done) {
         try {
-          trace = load_replay(run_output(dir, *ref).string());
-        } catch (const InputError&) {
-          // reported on the reference's own row
+          ForceMetrics unused;
+          ref.trace = read_run_output(run_output(dir, *at), unused);
+        } catch (const InputError& e) {
+          ref.missing = run + " failed: " + e.what();
         }
+      } else if (const std::string why = redo_reason(state); !why.empty()) {
+        ref.missing = run + ", to run again: " + why;
+      } else if (const std::string failure = at != runs.end() ? read_run_failure(dir, *at) : ""; !failure.empty()) {
+        ref.missing = run + " failed: " + failure;
+      } else {
+        ref.missing = run + " has no output";
       }
-      it = references.emplace(r.reference_id, std::move(trace)).first;
+      it = references.emplace(r.reference_id, std::move(ref)).first;
     }
-    return it->second ? &*it->second : nullptr;
+    return it->second;
   };
 
   for (const SweepRun& r : runs) {
@@ -296,7 +347,8 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
       ++s.redo;
     } else if (state == RunState::Done) {
       try {
-        const ReplayTrace trace = load_replay(out.string());
+        ForceMetrics metrics;
+        const ReplayTrace trace = read_run_output(out, metrics);
         double wall = kNaN, virt = kNaN;
         {
           const h5::File f = h5::File::open_read(out.string());
@@ -306,16 +358,15 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
         results[0] = cell(wall);
         results[1] = cell(virt);
         results[2] = cell(wall > 0 ? virt / wall : kNaN);
-        if (const ReplayTrace* ref = reference_trace(r)) {
-          const ForceError e = force_error(trace, *ref);
+        if (const Reference& ref = reference_of(r); ref.trace) {
+          const ForceError e = force_error(trace, *ref.trace);
           results[3] = cell(e.rms);
           results[4] = cell(e.max);
           results[5] = cell(e.p999);
           results[6] = std::to_string(e.ticks);
           if (e.ticks == 0) error = "no tick in common with the reference " + r.reference_id;
         } else {
-          const std::string ref_why = redo_reason(states[r.reference_id]);
-          error = "no reference: its run " + r.reference_id + (ref_why.empty() ? " has no output" : ", to run again: " + ref_why);
+          error = ref.missing;
         }
         // The regions' sizes: solver.active_region's per tick, solver.physical_region's per step (empty: off).
         auto mean = [](const std::vector<double>& a) {
@@ -324,22 +375,18 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
         results[7] = cell(mean(trace.active));
         results[8] = cell(mean(trace.physical_awake));
         // By name: a run's metrics fill the columns a default ForceMetrics names, none beyond.
-        const ForceMetrics metrics = compute_metrics(trace);
         for (const auto& [k, v] : metric_values(metrics)) {
           const auto at = std::find_if(metric_names.begin(), metric_names.end(), [&k](const auto& n) { return n.first == k; });
           if (at != metric_names.end())
             results[kResultColumns.size() + static_cast<std::size_t>(at - metric_names.begin())] = cell(v);
         }
-        // A value the report would refuse (a force error of inf from a non-finite force): the run
-        // failed, saying which, rather than a summary its own report cannot read.
+        // A value the report would refuse (a real-time factor of inf from a wall time of 1e-320 s):
+        // the run failed, saying which, rather than a summary its own report cannot read.
         for (std::size_t c = 0; c < results.size(); ++c) {
           const std::string& name = c < kResultColumns.size() ? kResultColumns[c] : metric_names[c - kResultColumns.size()].first;
-          const std::string refused = report_cell_problem(name, results[c]);
-          if (refused.empty()) continue;
-          std::string samples;
-          for (const std::string& d : metrics.nonfinite_datasets) samples += (samples.empty() ? "" : ", ") + d;
-          throw InputError(out.string() + ": column '" + name + "' would be '" + results[c] + "' where `ebh sweep report` takes " +
-                           refused + (samples.empty() ? "" : " (non-finite samples: " + samples + ")"));
+          if (const std::string refused = report_cell_problem(name, results[c]); !refused.empty())
+            throw InputError(out.string() + ": column '" + name + "' would be '" + results[c] +
+                             "' where `ebh sweep report` takes " + refused);
         }
         row[1] = "ok";
         ++s.ok;

@@ -37,8 +37,11 @@ struct CsvTable {
   std::string to_csv() const;
 };
 
-/// Parses CSV text; every row must have the header's number of fields. Throws InputError
-/// "FILE:LINE: ..." otherwise.
+/// Parses CSV text (RFC 4180; a line ends at LF, CRLF or a lone CR); every row must have the
+/// header's number of fields. Throws InputError "FILE:LINE: ..." otherwise, and
+/// "FILE:LINE:COLUMN: field N: ..." for a quote that is not where RFC 4180 allows one: a quoted
+/// field's closing quote followed by anything but a comma or a line end (an undoubled quote inside
+/// it), or a quote inside a field that does not begin with one.
 CsvTable parse_csv(const std::string& text, const std::string& file);
 
 struct SweepSummary {
@@ -71,9 +74,11 @@ std::string report_cell_problem(const std::string& column, const std::string& ce
 /// The summary of every run of the plan as it stands in `dir`: status ok (an output the sweep takes
 /// as done: run_state), failed (a DIR/runs/ID.failed, or an output that does not read) or pending
 /// (neither, or an output the sweep would run again: its error says why, redo_reason). An output
-/// that reads but gives a measure the report would refuse (report_cell_problem: a force error of
-/// inf from a non-finite force) is failed, its error naming the column: the summary is never one
-/// its own report refuses. The input
+/// holding a non-finite sample (NaN or inf, in any dataset the metrics read: a replay whose numbers
+/// go wrong stops and writes none) is failed, its error naming the datasets; so is one that gives a
+/// measure the report would refuse (report_cell_problem), its error naming the column: the summary
+/// is never one its own report refuses. A run whose reference has no usable output is ok with empty
+/// force errors, its error saying why (the reference failed, not run yet, to run again). The input
 /// files are checked against the digests the plan read (SweepPlan::sha256): a file edited while
 /// the sweep ran leaves the runs made from it pending. Reads each output once and each reference once.
 SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir);

@@ -494,9 +494,18 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
        ":2: key 'baseline.label': unknown key"},
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nbaseline:\n  set: {tool.newton_calls: 9}\n",
        ":3: key 'baseline.set.tool.newton_calls': on scene tube: .*expected all or at most solver.virtual_iterations"},
+      // a configuration's keys checked together: the key the scene refuses is named, at its line
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\n"
-       "runs:\n  - {solver.virtual_iterations: 2, tool.newton_calls: 3}\n",
-       ":3: key 'runs': on scene tube: .*key 'tool.newton_calls': expected all or at most solver.virtual_iterations \\(2\\)"},
+       "runs:\n  - {solver.virtual_iterations: 2,\n     tool.newton_calls: 3}\n",
+       ":4: key 'runs.tool.newton_calls': on scene tube: key 'tool.newton_calls': expected all or at most "
+       "solver.virtual_iterations \\(2\\)"},
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\n"
+       "runs:\n  - {solver.virtual_iterations: 2}\n  - {time.haptic_hz: 999.9}\n",
+       ":4: key 'runs.time.haptic_hz': on scene tube: key 'time.haptic_hz': haptic_hz / physical_hz must be a whole number"},
+      // `set` alone refused: its key is named (a reference that sets nothing of it)
+      {"scenes: [{scene: tube, recordings: [tube_insert], reference: {solver.virtual_iterations: 8}}]\n"
+       "set:\n  time.physical_hz: 99.99\n",
+       ":3: key 'set.time.physical_hz': on scene tube: key 'time.physical_hz': "},
       // keys that cannot go together across `set` and a run: before any replay, not as a failed run
       {"scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nset: {solver.physical_region: 0.0003}\n"
        "runs:\n  - {solver.method: direct}\n",
@@ -532,6 +541,25 @@ TEST(SweepPlan, BadPlansNameFileAndKey) {
     }
   }
   EXPECT_THROW((void)read_sweep_plan(scratch() / "no_such_plan.yaml"), InputError);
+}
+
+// A run's overrides are checked together, as `ebh replay --set` takes them: a haptic rate of 999.9
+// Hz is a whole multiple of a physical one of 99.99 Hz only with both, in a list entry, a baseline or
+// `set` (each key was checked alone against the scene, and the pair refused).
+TEST(SweepPlan, KeysValidOnlyTogetherAreTakenTogether) {
+  const std::string head = "scenes: [{scene: tube, recordings: [tube_insert], reference: {}}]\nstart: 4\nduration: 0.5\n";
+  const SweepPlan p = read_sweep_plan(plan_file("together.yaml", head +
+                                                    "runs:\n  - {time.haptic_hz: 999.9, time.physical_hz: 99.99}\n"
+                                                    "  - {solver.virtual_iterations: 2}\n"
+                                                    "baseline: {set: {time.physical_hz: 99.99, time.haptic_hz: 999.9}}\n"));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 3u);
+  EXPECT_EQ(runs[1].set_arguments(), (std::vector<std::string>{"time.haptic_hz=999.9", "time.physical_hz=99.99"}));
+  EXPECT_TRUE(runs[1].baseline);
+  const SweepPlan q = read_sweep_plan(plan_file("together_set.yaml", head +
+                                                    "set: {time.haptic_hz: 999.9, time.physical_hz: 99.99}\n"
+                                                    "grid: {solver.virtual_iterations: [2, 4]}\n"));
+  EXPECT_EQ(expand_plan(q).size(), 3u);
 }
 
 // A copy of a scene (its file and meshes the same bytes) or of a recording is the same input: its
@@ -956,11 +984,46 @@ TEST(SweepSummary, OutputsTheSweepWouldRunAgainAreNotOk) {
   EXPECT_EQ(s.ok, 0u);
 }
 
-// The summary never holds what its own report refuses: a run whose output gives a measure that is
-// not a finite number >= 0 (a force error of inf from an inf force sample) is failed, naming the
-// column; one with a finite force no replay writes (1e300 N, whose square was inf) is failed by the
-// loader, naming the dataset and index. The report then reads the summary; before, it held
-// "ok,...,inf" and the report refused its own summary.
+/// A replay output of 0.5 s at 1 kHz as `ebh replay` lays it out, for run `as` of a plan on the
+/// tube scene copied to `d` (fresh_tube_scene) with start 4 and duration 0.5: its force 0.1 N along
+/// x but `force_at_50` at tick 50, its times i / 1000 s but `t_at_7` at tick 7.
+void write_tube_output(const fs::path& d, const fs::path& dir, const SweepRun& as, double force_at_50, double t_at_7 = 0.007) {
+  h5::File f = h5::File::create(run_output(dir, as).string());
+  f.set_attr("scene_file_sha256", sha256_file((d / "scene" / "tube.yaml").string()));
+  f.set_attr("physical_mesh_sha256", sha256_file((d / "scene" / "tube.msh").string()));
+  f.set_attr("recording_sha256", sha256_file(as.recording.string()));
+  f.set_attr("mode", "async");
+  f.set_attr("backend", "cpu");
+  f.set_attr("overrides_list", as.set_arguments().empty() ? std::string() : as.set_arguments()[0]);
+  f.set_attr("start", 4.0);
+  f.set_attr("duration", 0.5);
+  f.set_attr("haptic_hz", 1000.0);  // scenarios/tube.yaml's rates
+  f.set_attr("physical_hz", 100.0);
+  f.set_attr("wall_s", 0.25);
+  f.set_attr("virtual_s", 0.5);
+  const std::size_t n = 501;
+  std::vector<double> t(n), force(3 * n, 0.0), pose(7 * n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    t[i] = i == 7 ? t_at_7 : static_cast<double>(i) / 1000.0;
+    force[3 * i] = i == 50 ? force_at_50 : 0.1;
+    pose[7 * i + 3] = 1;  // the identity rotation
+  }
+  f.write<double>("/haptic/t", t, {n});
+  f.write<double>("/haptic/force", force, {n, 3});
+  f.write<double>("/haptic/torque", std::vector<double>(3 * n, 0.0), {n, 3});
+  f.write<std::uint8_t>("/haptic/force_clamped", std::vector<std::uint8_t>(n, 0), {n});
+  f.write<double>("/haptic/pose_physical", pose, {n, 7});
+  f.write<double>("/haptic/pose_virtual", pose, {n, 7});
+  f.write<double>("/haptic/penetration", std::vector<double>(n, 0.0), {n});
+  f.write<std::int32_t>("/haptic/contacts", std::vector<std::int32_t>(n, 3), {n});
+  f.write<double>("/timing/haptic_step_s", std::vector<double>(n, 1e-4), {n});
+}
+
+// The summary never holds what its own report refuses: a run whose output holds an inf force
+// sample is failed, naming the dataset (as a NaN one is: SweepSummary.ANonFiniteSampleFailsTheRun);
+// one with a finite force no replay writes (1e300 N, whose square was inf) is failed by the loader,
+// naming the dataset and index. The report then reads the summary; before, it held "ok,...,inf"
+// and the report refused its own summary.
 TEST(SweepSummary, ARunWhoseMeasuresTheReportRefusesIsFailed) {
   const fs::path d = fresh_tube_scene("summary_refused");
   const SweepPlan p = read_sweep_plan(plan_file("summary_refused.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
@@ -971,39 +1034,7 @@ TEST(SweepSummary, ARunWhoseMeasuresTheReportRefusesIsFailed) {
   ASSERT_EQ(runs.size(), 3u);
   const fs::path dir = d / "out";
   fs::create_directories(dir / "runs");
-  const std::string scene_sha = sha256_file((d / "scene" / "tube.yaml").string());
-  // A replay output of 0.5 s at 1 kHz as `ebh replay` lays it out, its force 0.1 N along x but at tick 50.
-  auto write_output = [&](const SweepRun& as, double force_at_50) {
-    h5::File f = h5::File::create(run_output(dir, as).string());
-    f.set_attr("scene_file_sha256", scene_sha);
-    f.set_attr("physical_mesh_sha256", sha256_file((d / "scene" / "tube.msh").string()));
-    f.set_attr("recording_sha256", sha256_file(as.recording.string()));
-    f.set_attr("mode", "async");
-    f.set_attr("backend", "cpu");
-    f.set_attr("overrides_list", as.set_arguments().empty() ? std::string() : as.set_arguments()[0]);
-    f.set_attr("start", 4.0);
-    f.set_attr("duration", 0.5);
-    f.set_attr("haptic_hz", 1000.0);  // scenarios/tube.yaml's rates
-    f.set_attr("physical_hz", 100.0);
-    f.set_attr("wall_s", 0.25);
-    f.set_attr("virtual_s", 0.5);
-    const std::size_t n = 501;
-    std::vector<double> t(n), force(3 * n, 0.0), pose(7 * n, 0.0);
-    for (std::size_t i = 0; i < n; ++i) {
-      t[i] = static_cast<double>(i) / 1000.0;
-      force[3 * i] = i == 50 ? force_at_50 : 0.1;
-      pose[7 * i + 3] = 1;  // the identity rotation
-    }
-    f.write<double>("/haptic/t", t, {n});
-    f.write<double>("/haptic/force", force, {n, 3});
-    f.write<double>("/haptic/torque", std::vector<double>(3 * n, 0.0), {n, 3});
-    f.write<std::uint8_t>("/haptic/force_clamped", std::vector<std::uint8_t>(n, 0), {n});
-    f.write<double>("/haptic/pose_physical", pose, {n, 7});
-    f.write<double>("/haptic/pose_virtual", pose, {n, 7});
-    f.write<double>("/haptic/penetration", std::vector<double>(n, 0.0), {n});
-    f.write<std::int32_t>("/haptic/contacts", std::vector<std::int32_t>(n, 3), {n});
-    f.write<double>("/timing/haptic_step_s", std::vector<double>(n, 1e-4), {n});
-  };
+  auto write_output = [&](const SweepRun& as, double force_at_50) { write_tube_output(d, dir, as, force_at_50); };
   write_output(runs[0], 0.1);
   write_output(runs[1], INFINITY);
   write_output(runs[2], 1e300);
@@ -1012,8 +1043,8 @@ TEST(SweepSummary, ARunWhoseMeasuresTheReportRefusesIsFailed) {
   EXPECT_EQ(s.table.rows[0][1], "ok");
   EXPECT_EQ(s.table.rows[1][1], "failed");
   EXPECT_EQ(s.table.rows[1][c_error], run_output(dir, runs[1]).string() +
-                                          ": column 'force_error_rms_N' would be 'inf' where `ebh sweep report` takes a "
-                                          "finite number >= 0 or nothing (non-finite samples: /haptic/force: 1)");
+                                          ": non-finite samples (/haptic/force: 1): the run's numbers went wrong; no "
+                                          "force error or metric is taken from it");
   EXPECT_EQ(s.table.rows[2][1], "failed");
   EXPECT_NE(s.table.rows[2][c_error].find("dataset '/haptic/force' holds 1e+300 N at index 50 (column 0), beyond 1e+30"),
             std::string::npos)
@@ -1028,6 +1059,71 @@ TEST(SweepSummary, ARunWhoseMeasuresTheReportRefusesIsFailed) {
   EXPECT_EQ(report_cell_problem("force_error_rms_N", "-inf"), "a finite number >= 0 or nothing");
   EXPECT_EQ(report_cell_problem("wall_s", ""), "a finite number > 0 (the run's wall time)");
   EXPECT_EQ(report_cell_problem("whole.peak_force_N", "inf"), "");  // no measure of the report's
+}
+
+// One rule for non-finite samples: a NaN in a run's force fails the run as an inf does (it made an
+// ok run with empty force errors and an empty error column), and a NaN time too (it gave a force
+// error 6x the true one, ok). A reference with one fails, and the runs compared with it are ok with
+// empty errors, their error column saying why; the report says why its baseline gives no
+// comparison and the 2x-goal section lists the pair as not compared (both were left out silently).
+TEST(SweepSummary, ANonFiniteSampleFailsTheRun) {
+  const fs::path d = fresh_tube_scene("summary_nonfinite");
+  const SweepPlan p = read_sweep_plan(plan_file("summary_nonfinite.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
+                                                                              ", recordings: [tube_insert], reference: {}}\n"
+                                                                              "runs: [{solver.virtual_iterations: 2}, "
+                                                                              "{solver.virtual_iterations: 4}]\n"
+                                                                              "baseline: {name: paper, set: {solver.virtual_iterations: 2}}\n"
+                                                                              "start: 4\nduration: 0.5\n"));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 3u);
+  ASSERT_TRUE(runs[0].reference && runs[1].baseline);
+  const fs::path dir = d / "out";
+  fs::create_directories(dir / "runs");
+  const double nan = std::nan("");
+  write_tube_output(d, dir, runs[0], 0.1);
+  write_tube_output(d, dir, runs[1], nan);
+  write_tube_output(d, dir, runs[2], INFINITY);
+  SweepSummary s = summarize_sweep(p, runs, dir);
+  const std::size_t c_error = s.table.column("error", "summary"), c_rms = s.table.column("force_error_rms_N", "summary");
+  for (std::size_t i : {1u, 2u}) {
+    EXPECT_EQ(s.table.rows[i][1], "failed") << i;
+    EXPECT_EQ(s.table.rows[i][c_error], run_output(dir, runs[i]).string() +
+                                            ": non-finite samples (/haptic/force: 1): the run's numbers went wrong; no "
+                                            "force error or metric is taken from it");
+  }
+  std::string md = report_markdown(build_report(s.table, "summary.csv"));
+  EXPECT_NE(md.find("Against the baseline paper: no comparison: none of its runs is ok (1 failed, 0 not run yet).\n"),
+            std::string::npos) << md;
+  EXPECT_NE(md.find("## The 2x goal\n\n- cpu: met on 0 of 0 scene and recording pairs; not compared on tube_insert, "
+                    "whose baseline gives no comparison (see its section)\n"),
+            std::string::npos) << md;
+
+  // A NaN time: failed, naming /haptic/t (the loader refuses it, or the non-finite rule does).
+  write_tube_output(d, dir, runs[1], 0.1, nan);
+  write_tube_output(d, dir, runs[2], 0.1);
+  s = summarize_sweep(p, runs, dir);
+  EXPECT_EQ(s.table.rows[1][1], "failed");
+  EXPECT_NE(s.table.rows[1][c_error].find("/haptic/t"), std::string::npos) << s.table.rows[1][c_error];
+  EXPECT_EQ(s.table.rows[1][c_rms], "");
+  EXPECT_EQ(s.table.rows[2][1], "ok");
+  EXPECT_EQ(s.table.rows[2][c_rms], "0");
+
+  // A NaN in the reference: it fails; the others are ok without force errors, saying why.
+  write_tube_output(d, dir, runs[0], nan);
+  write_tube_output(d, dir, runs[1], 0.1);
+  s = summarize_sweep(p, runs, dir);
+  EXPECT_EQ(s.table.rows[0][1], "failed");
+  EXPECT_EQ(s.ok, 2u);
+  const std::string why = "no reference: its run " + runs[0].id + " failed: " + run_output(dir, runs[0]).string() +
+                          ": non-finite samples (/haptic/force: 1)";
+  for (std::size_t i : {1u, 2u}) {
+    EXPECT_EQ(s.table.rows[i][1], "ok") << i;
+    EXPECT_EQ(s.table.rows[i][c_rms], "") << i;
+    EXPECT_EQ(s.table.rows[i][c_error].rfind(why, 0), 0u) << s.table.rows[i][c_error];
+  }
+  md = report_markdown(build_report(s.table, "summary.csv"));
+  EXPECT_NE(md.find("Against the baseline paper: no comparison: its runs have no force error: " + why), std::string::npos) << md;
+  EXPECT_NE(md.find("not compared on tube_insert"), std::string::npos) << md;
 }
 
 // A folder made before the ids came from the files' contents holds its outputs under the runs'
@@ -1276,6 +1372,32 @@ TEST(SweepCsv, QuotedFieldsRoundTrip) {
   EXPECT_THROW((void)parse_csv("a,b\n\"1,2\n", "t.csv"), InputError);
 }
 
+// A quote where RFC 4180 allows none is refused, naming the file, line, column and field: an
+// undoubled one inside a quoted field (the report read '"tu,be|"x<b>"' as the scene tu,be|x<b> and
+// split its group), and one inside a field that does not begin with one. A CR alone ends a line:
+// the field count then says so.
+TEST(SweepCsv, MalformedQuotingIsRefused) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"id,scene\na,\"tu,be|\"x<b>\"\n", "t.csv:2:10: field 2: a quote inside a quoted field must be doubled (\"\")"},
+      {"id,scene\na,\"multi\nline\" x\n", "t.csv:3:5: field 2: a quote inside a quoted field must be doubled (\"\")"},
+      {"id,scene\na,tu\"be\n", "t.csv:2:5: field 2: a quote in a field that does not begin with one (quote the field and "
+                                 "double the quote)"},
+      {"id,scene,x\na,tu\rbe,1\n", "t.csv:2: 2 fields, the header has 3 (a carriage return with no line feed after it ends a "
+                                     "line here: one inside a field must be quoted)"},
+  };
+  for (const auto& [text, expected] : cases) {
+    try {
+      (void)parse_csv(text, "t.csv");
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), expected);
+    }
+  }
+  // Well-formed: a doubled quote, a quoted field at the line's and the file's end, CRLF and lone CR lines.
+  const CsvTable t = parse_csv("id,scene\r\na,\"x\"\"y\"\rb,\"z\"", "t.csv");
+  EXPECT_EQ(t.rows, (std::vector<std::vector<std::string>>{{"a", "x\"y"}, {"b", "z"}}));
+}
+
 // summary.h5: the hand-made summary plus a numeric and a text scene-key column, written and read
 // back: every column a dataset of its kind with the CSV's values (empty cells NaN), the column
 // order in `columns`; a numeric column with text is refused and leaves no file.
@@ -1521,6 +1643,48 @@ TEST(SweepReport, BaselineGoal) {
     if (row[t.column("overrides", file)] == "k=4") row.back() = "0.02";
   const std::string met_loose = report_markdown(build_report(t, file));
   EXPECT_NE(met_loose.find("(tube_insert [less converged])\n"), std::string::npos) << met_loose;
+}
+
+// A group whose baseline gives no comparison says why, and the 2x-goal section counts it as not
+// compared: both were left out without a word (a baseline without force errors, one that failed).
+// A summary without rows is refused: it gave a report of its title and exit 0.
+TEST(SweepReport, ABaselineWithoutAComparisonSaysWhy) {
+  const std::string file = front_file();
+  CsvTable t = parse_csv(front_text(), file);
+  t.header.push_back("baseline");
+  for (auto& row : t.rows) row.push_back(row[t.column("overrides", file)] == "k=3" ? "paper" : "");
+  CsvTable no_error = t;
+  for (auto& row : no_error.rows)
+    if (row.back() == "paper") {
+      for (const char* c : {"force_error_rms_N", "force_error_max_N", "force_error_p999_N"}) row[no_error.column(c, file)] = "";
+      row[no_error.column("error", file)] = "no reference: its run r0 failed";
+    }
+  std::vector<ReportGroup> g = build_report(no_error, file);
+  EXPECT_FALSE(baseline_goal(g[0]).has_value());
+  EXPECT_EQ(g[0].no_baseline_goal, "its runs have no force error: no reference: its run r0 failed");
+  std::string md = report_markdown(g);
+  EXPECT_NE(md.find("\nAgainst the baseline paper: no comparison: its runs have no force error: no reference: its run r0 "
+                    "failed.\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("## The 2x goal\n\n- cpu: met on 0 of 0 scene and recording pairs; not compared on tube_insert, whose "
+                    "baseline gives no comparison (see its section)\n"), std::string::npos) << md;
+  CsvTable failed = t;
+  for (auto& row : failed.rows)
+    if (row.back() == "paper") row[failed.column("status", file)] = "failed";
+  g = build_report(failed, file);
+  EXPECT_EQ(g[0].no_baseline_goal, "none of its runs is ok (1 failed, 0 not run yet)");
+  EXPECT_NE(report_markdown(g).find("Against the baseline paper: no comparison: none of its runs is ok"), std::string::npos);
+  // With a comparison, or no baseline, nothing is said.
+  EXPECT_EQ(build_report(t, file)[0].no_baseline_goal, "");
+  EXPECT_EQ(report_markdown(build_report(parse_csv(front_text(), file), file)).find("no comparison"), std::string::npos);
+
+  CsvTable empty = t;
+  empty.rows.clear();
+  try {
+    (void)build_report(empty, "s.csv");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "s.csv: no runs (a header line and no rows; a sweep's summary has a row per run)");
+  }
 }
 
 /// The haptic rate floor (`ebh sweep report --min-haptic-hz`, kDeviceHapticHz by default there): a

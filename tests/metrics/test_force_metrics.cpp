@@ -82,10 +82,17 @@ std::string write_trace(const ReplayTrace& tr, const std::string& name, const st
   return path;
 }
 
-/// The message load_replay refuses `tr` with once written as `name` ("no error" when it reads it).
-std::string load_error(const ReplayTrace& tr, const std::string& name) {
+/// The message load_replay refuses `tr` with once written as `name` and changed by `edit` ("no
+/// error" when it reads it).
+std::string load_error(const ReplayTrace& tr, const std::string& name,
+                       const std::function<void(h5::File&)>& edit = [](h5::File&) {}) {
+  const std::string p = write_trace(tr, name);
+  {
+    h5::File f = h5::File::open_write(p);
+    edit(f);
+  }
   try {
-    load_replay(write_trace(tr, name));
+    load_replay(p);
   } catch (const InputError& e) {
     return e.what();
   }
@@ -574,21 +581,6 @@ TEST(ForceMetrics, AQuaternionThatIsNoRotationIsRefusedNamingDatasetAndRow) {
   EXPECT_EQ(within.whole.stretch_angle_max, 0.0);
 }
 
-/// The message load_replay refuses make_trace(50) with once written as `name` and changed by `edit`
-/// ("no error" when it reads it).
-std::string edited_error(const std::string& name, const std::function<void(h5::File&)>& edit) {
-  const std::string p = write_trace(make_trace(50), name);
-  {
-    h5::File f = h5::File::open_write(p);
-    edit(f);
-  }
-  try {
-    load_replay(p);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "no error";
-}
 
 // A NaN time is no blown-up run (its forces and positions go NaN; the times are the ticks' and
 // steps' numbers over their rates): read, one NaN in /haptic/t gave a sweep's force error of
@@ -609,7 +601,7 @@ TEST(ForceMetrics, ATimeThatIsNotFiniteIsRefusedNamingDatasetAndIndex) {
   bad.t[0] = NAN;  // the first tick too
   EXPECT_NE(load_error(bad, "t_nan_first").find("dataset '/haptic/t' holds nan s at index 0:"), std::string::npos)
       << load_error(bad, "t_nan_first");
-  const std::string physical = edited_error("physical_t_nan", [](h5::File& f) {
+  const std::string physical = load_error(make_trace(50), "physical_t_nan", [](h5::File& f) {
     f.write<double>("/physical/t", std::vector<double>{0, 0.01, 0.02, NAN, 0.04}, {5});
   });
   EXPECT_NE(physical.find("dataset '/physical/t' holds nan s at index 3:"), std::string::npos) << physical;
@@ -640,21 +632,21 @@ void set_two_strings(const std::string& path, const char* object, const char* na
 // refused naming the attribute; absent ones, as older outputs and other tools' files have them
 // (tests/data/metrics/press.h5 has no units), are read.
 TEST(ForceMetrics, AttributesOfAnotherTypeOrValueAreRefusedNamingThem) {
-  const std::string scene_int = edited_error("scene_int", [](h5::File& f) { f.set_attr("scene", 5); });
+  const std::string scene_int = load_error(make_trace(50), "scene_int", [](h5::File& f) { f.set_attr("scene", 5); });
   EXPECT_NE(scene_int.find("ebh_metrics_scene_int.h5: root attribute 'scene' is not a string: it holds an integer"),
             std::string::npos)
       << scene_int;
-  EXPECT_NE(edited_error("backend_f64", [](h5::File& f) { f.set_attr("backend", 1.5); })
+  EXPECT_NE(load_error(make_trace(50), "backend_f64", [](h5::File& f) { f.set_attr("backend", 1.5); })
                 .find("root attribute 'backend' is not a string: it holds a floating point number"),
             std::string::npos);
-  const std::string mode = edited_error("mode_bogus", [](h5::File& f) { f.set_attr("mode", "bogus"); });
+  const std::string mode = load_error(make_trace(50), "mode_bogus", [](h5::File& f) { f.set_attr("mode", "bogus"); });
   EXPECT_NE(mode.find("ebh_metrics_mode_bogus.h5: root attribute 'mode' is 'bogus'; expected one of async, lockstep, realtime"),
             std::string::npos)
       << mode;
-  EXPECT_NE(edited_error("contact_bogus", [](h5::File& f) { f.set_attr("contact", "surfac"); })
+  EXPECT_NE(load_error(make_trace(50), "contact_bogus", [](h5::File& f) { f.set_attr("contact", "surfac"); })
                 .find("root attribute 'contact' is 'surfac'; expected one of vertices, surface"),
             std::string::npos);
-  const std::string unit_int = edited_error("unit_int", [](h5::File& f) {
+  const std::string unit_int = load_error(make_trace(50), "unit_int", [](h5::File& f) {
     f.dataset("/haptic/force").set_attr("unit", 1);
   });
   EXPECT_NE(unit_int.find("ebh_metrics_unit_int.h5: dataset '/haptic/force' attribute 'unit' is not a string: it holds "
@@ -672,7 +664,7 @@ TEST(ForceMetrics, AttributesOfAnotherTypeOrValueAreRefusedNamingThem) {
         << e.what();
   }
   // What a replay writes, and what an older output or another tool's file lacks, reads.
-  EXPECT_EQ(edited_error("written", [](h5::File& f) {
+  EXPECT_EQ(load_error(make_trace(50), "written", [](h5::File& f) {
               f.set_attr("mode", "lockstep");
               f.set_attr("contact", "surface");
               f.dataset("/haptic/force").set_attr("unit", "N");
@@ -786,20 +778,6 @@ TEST(ForceMetrics, WrongShapeAndBadFilesAreInputErrors) {
           << e.what();
     }
   }
-  auto load_error = [](const ReplayTrace& t, const std::string& name,
-                       const std::function<void(h5::File&)>& edit = [](h5::File&) {}) -> std::string {
-    const std::string p = write_trace(t, name);
-    {
-      h5::File f = h5::File::open_write(p);
-      edit(f);
-    }
-    try {
-      load_replay(p);
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "no error";
-  };
   EXPECT_NE(load_error(make_trace(0), "no_ticks").find("'/haptic/t' is empty: the output holds no ticks"),
             std::string::npos);
   for (const double hz : {5000.0, 300.0, 1e-300}) {

@@ -43,10 +43,33 @@ inline bool has_control_character(std::string_view text) {
   return false;
 }
 
+/// Whether the valid UTF-8 sequence of `len` bytes at text[i] is a control character that changes
+/// how a line reads rather than showing as text: a C1 control (U+0080..U+009F), a line or
+/// paragraph separator (U+2028, U+2029: a line break to some viewers), a bidirectional mark or
+/// override (U+200E, U+200F, U+202A..U+202E, U+2066..U+2069: "abc.h5" shown as "5h.cba").
+inline bool is_layout_control(std::string_view text, std::size_t i, std::size_t len) {
+  const auto* s = reinterpret_cast<const unsigned char*>(text.data()) + i;
+  if (len == 2) return s[0] == 0xc2 && s[1] <= 0x9f;
+  if (len != 3 || s[0] != 0xe2) return false;
+  return (s[1] == 0x80 && (s[2] == 0x8e || s[2] == 0x8f || (s[2] >= 0xa8 && s[2] <= 0xae))) ||
+         (s[1] == 0x81 && s[2] >= 0xa6 && s[2] <= 0xa9);
+}
+
+/// The first byte of `text` that is not UTF-8 (first_invalid_utf8) as "0xNN", for messages that
+/// refuse it; "" when all of `text` is UTF-8.
+inline std::string first_invalid_utf8_byte(std::string_view text) {
+  const std::size_t bad = first_invalid_utf8(text);
+  if (bad == std::string_view::npos) return "";
+  static constexpr char kHex[] = "0123456789abcdef";
+  const auto c = static_cast<unsigned char>(text[bad]);
+  return std::string("0x") + kHex[c >> 4] + kHex[c & 0xf];
+}
+
 /// `text` with every byte that a terminal would not show as text written as \xNN: control
-/// bytes (newlines included, so a message stays one line) and bytes that are not part of valid
-/// UTF-8. Printable ASCII and valid UTF-8 (a file name in any language) are kept. Messages quote
-/// file content ("'...' is not a number"): a binary file must not write raw bytes to a terminal.
+/// bytes (newlines included, so a message stays one line), the bytes of a layout control
+/// (is_layout_control: U+2028, a right-to-left override) and bytes that are not part of valid
+/// UTF-8. Printable ASCII and other valid UTF-8 (a file name in any language) are kept. Messages
+/// quote file content ("'...' is not a number"): a binary file must not write raw bytes to a terminal.
 inline std::string escape_unprintable(std::string_view text) {
   static constexpr char kHex[] = "0123456789abcdef";
   std::string out;
@@ -56,15 +79,17 @@ inline std::string escape_unprintable(std::string_view text) {
   for (std::size_t i = 0; i < n;) {
     const unsigned char c = s[i];
     const std::size_t len = utf8_sequence_length(text, i);
-    const bool ok = len > 1 || (len == 1 && c >= 0x20 && c != 0x7f);
-    if (ok) {
+    const bool shown = len == 1 ? c >= 0x20 && c != 0x7f : len > 1 && !is_layout_control(text, i, len);
+    if (shown) {
       out.append(text.substr(i, len));
       i += len;
-    } else {
+      continue;
+    }
+    // A byte that is no text, or each byte of a layout control.
+    for (const std::size_t end = i + (len > 1 ? len : 1); i < end; ++i) {
       out += "\\x";
-      out += kHex[c >> 4];
-      out += kHex[c & 0xf];
-      i += 1;
+      out += kHex[s[i] >> 4];
+      out += kHex[s[i] & 0xf];
     }
   }
   return out;

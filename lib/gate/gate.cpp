@@ -76,11 +76,8 @@ struct BaselinesReader {
   std::string text(const YAML::Node& n, const std::string& key) const {
     if (!n.IsScalar()) fail(n, key, "expected a string, got " + yaml_shown(n));
     const std::string& s = n.Scalar();
-    if (const std::size_t bad = first_invalid_utf8(s); bad != std::string::npos) {
-      char byte[8];
-      std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(s[bad]));
+    if (const std::string byte = first_invalid_utf8_byte(s); !byte.empty())
       fail(n, key, "'" + s + "' holds byte " + byte + ", which is not UTF-8 text: save the file as UTF-8");
-    }
     return s;
   }
 };

@@ -826,8 +826,7 @@ YAML::Node parse_scene_yaml(const std::string& text, const fs::path& file) {
   // The text goes into every replay output (its scene_yaml attribute, UTF-8): bytes of another
   // encoding (Latin-1 from an old editor) are named here, not carried into the outputs.
   if (const std::size_t bad = first_invalid_utf8(text); bad != std::string::npos) {
-    char byte[8];
-    std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(text[bad]));
+    const std::string byte = first_invalid_utf8_byte(text);
     const long line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(bad), '\n');
     throw InputError(file.string() + ":" + std::to_string(line) + ": byte " + byte +
                      " is not UTF-8 text: save the scene file as UTF-8");

@@ -83,10 +83,8 @@ std::string quoted(const std::string& s) {
 /// Refuses a name the scene file must hold exactly (a file's path, a group of the mesh) that is not
 /// UTF-8 text, which the scene file is: `what` says whose name it is ("MESH: the mesh file's name").
 void require_utf8(const std::string& name, const std::string& what, const std::string& fix) {
-  const std::size_t bad = first_invalid_utf8(name);
-  if (bad == std::string::npos) return;
-  char byte[8];
-  std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(name[bad]));
+  const std::string byte = first_invalid_utf8_byte(name);
+  if (byte.empty()) return;
   throw InputError(what + " is not UTF-8 text (byte " + byte + ", a Latin-1 name?), which a scene file cannot hold: " +
                    fix);
 }

@@ -32,3 +32,16 @@ TEST(InputError, OverlongFormsSurrogatesAndCodePointsPastUnicodeAreNotText) {
   EXPECT_EQ(first_invalid_utf8("\xe0\xa0\x80\xed\x9f\xbf\xf0\x90\x80\x80\xf4\x8f\xbf\xbf"), std::string_view::npos);
   EXPECT_STREQ(InputError(std::string("s\xed\xa0\x80.h5")).what(), "s\\xed\\xa0\\x80.h5");
 }
+
+// A layout control changes how a line reads without showing: U+2028 breaks it in some viewers,
+// U+202E shows "run<U+202E>5h.x" as "runx.h5"; C1 controls are controls. Escaped byte by byte as
+// the bytes that are no text are; other non-ASCII text is kept.
+TEST(InputError, LayoutControlsAreEscaped) {
+  EXPECT_STREQ(InputError("a\xe2\x80\xa8" "b").what(), "a\\xe2\\x80\\xa8b");
+  EXPECT_STREQ(InputError("run\xe2\x80\xae" "5h.x").what(), "run\\xe2\\x80\\xae5h.x");
+  EXPECT_STREQ(InputError("\xe2\x81\xa6x\xe2\x80\x8f").what(), "\\xe2\\x81\\xa6x\\xe2\\x80\\x8f");
+  EXPECT_STREQ(InputError("c1 \xc2\x85 end").what(), "c1 \\xc2\\x85 end");
+  EXPECT_STREQ(InputError("\xc2\xa0\xe2\x80\x94\xe2\x80\xa7").what(), "\xc2\xa0\xe2\x80\x94\xe2\x80\xa7");  // kept
+  EXPECT_EQ(first_invalid_utf8_byte("ok \xc3\xa9"), "");
+  EXPECT_EQ(first_invalid_utf8_byte("caf\xe9"), "0xe9");
+}

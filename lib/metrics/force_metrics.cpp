@@ -385,7 +385,9 @@ std::optional<ForceSaturation> find_force_saturation(std::span<const double> t, 
 
 std::string replay_time_text(double t, double start_s) {
   char text[96];
-  if (start_s > 0) std::snprintf(text, sizeof text, "t = %.3f s, %.3f s into the recording", t, start_s + t);
+  // To the millisecond, in %g past 1e9 s (a start of 1e300 s printed 300 digits, cut off).
+  const char* into = std::fabs(start_s + t) < 1e9 ? "t = %.3f s, %.3f s into the recording" : "t = %.3f s, %.6g s into the recording";
+  if (start_s > 0) std::snprintf(text, sizeof text, into, t, start_s + t);
   else std::snprintf(text, sizeof text, "t = %.3f s", t);
   return text;
 }

@@ -322,6 +322,9 @@ TEST(ForceMetrics, AForceHeldAtTheLimitIsSaid) {
   EXPECT_NE(saturation_warning(*held.saturation, 2.5).find("(from t = 1.000 s, 3.500 s into the recording; 40%"),
             std::string::npos)
       << saturation_warning(*held.saturation, 2.5);
+  // A start far into a recording in %g (1e300 s printed 300 digits, the words after them cut off).
+  EXPECT_EQ(replay_time_text(1.0, 1e300), "t = 1.000 s, 1e+300 s into the recording");
+  EXPECT_EQ(replay_time_text(1.0, 2e9), "t = 1.000 s, 2e+09 s into the recording");
   for (std::size_t i = 1400; i < 1800; ++i) tr.force_clamped[i] = 0;  // two runs of 0.4 s
   EXPECT_FALSE(roundtrip(tr, "saturated_briefly").saturation.has_value());
   // A window shorter than the run the rule needs, at the limit in most of its ticks (runs of 0.3 s

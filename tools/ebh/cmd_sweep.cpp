@@ -84,11 +84,12 @@ std::string stale_note(const RedoCounts& redo) {
   return note(redo.stale, RunState::Stale) + note(redo.unreadable, RunState::Unreadable) + note(redo.other, RunState::Other);
 }
 
-/// "tube + tube_insert, cpu, solver.virtual_iterations=2 (ID)": a run in messages.
+/// "tube + tube_insert, cpu, solver.virtual_iterations=2 (ID)": a run in messages, one printable
+/// line (an override's text may hold a line break or an escape sequence: escape_unprintable).
 std::string describe(const SweepPlan& plan, const SweepRun& r) {
-  return plan.scenes[r.scene].name + " + " + r.recording.stem().string() + ", " + r.backend +
-         (r.repetition ? " #" + std::to_string(r.repetition) : "") + ", " + (r.reference ? "reference " : "") +
-         r.overrides_text() + " (" + r.id + ")";
+  return ebh::escape_unprintable(plan.scenes[r.scene].name + " + " + r.recording.stem().string() + ", " + r.backend +
+                                 (r.repetition ? " #" + std::to_string(r.repetition) : "") + ", " +
+                                 (r.reference ? "reference " : "") + r.overrides_text() + " (" + r.id + ")");
 }
 
 /// The text of `file`, or nullopt when it cannot be read.

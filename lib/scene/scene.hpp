@@ -443,7 +443,9 @@ std::vector<SceneInputFile> scene_input_files(const SceneSpec& spec);
 class OverrideError : public InputError {
  public:
   OverrideError(const std::string& override_text, const std::string& key_message)
-      : InputError(set_option_shown(override_text) + ": " + key_message), key_message_(key_message) {}
+      : InputError(set_option_shown(override_text) + ": " + key_message),
+        override_text_(override_text),
+        key_message_(key_message) {}
 
   /// "--set 'KEY=VALUE'" as messages show it: a value of more than 80 characters (100000 nested
   /// lists, say) cut to its first 80 and "...".
@@ -451,9 +453,11 @@ class OverrideError : public InputError {
     return "--set '" + (text.size() > 80 ? text.substr(0, 80) + "..." : text) + "'";
   }
   const std::string& key_message() const { return key_message_; }
+  /// The override refused, "KEY=VALUE" as given (whole: the message shows it cut at 80 characters).
+  const std::string& override_text() const { return override_text_; }
 
  private:
-  std::string key_message_;
+  std::string override_text_, key_message_;
 };
 
 /// Where `key`'s value came from, as messages name it: "--set 'KEY=VALUE'" when one of the spec's

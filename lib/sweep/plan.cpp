@@ -225,20 +225,16 @@ double check_on_scene(const PlanReader& r, const SweepScene& s, const Overrides&
   };
   try {
     return 1.0 / load(merged(set, own));
+  } catch (const OverrideError& e) {
+    // The override the scene refused (as_set_arguments gives each as "KEY=VALUE").
+    const std::string problem = "on scene " + s.name + ": " + e.key_message();
+    const std::string k = e.override_text().substr(0, e.override_text().find('='));
+    if (const auto at = own_nodes.find(k); at != own_nodes.end()) r.fail(at->second.second, at->second.first, problem);
+    if (const auto at = set_nodes.find(k); at != set_nodes.end() && set_alone_refused())
+      r.fail(at->second.second, at->second.first, problem);
+    r.fail(where, key, problem);
   } catch (const InputError& e) {
-    // The override the scene refused: its message begins "--set 'KEY=VALUE': " (OverrideError).
-    const std::string what = e.what();
-    for (const auto& [k, v] : merged(set, own)) {
-      const std::string shown = OverrideError::set_option_shown(k + "=" + v) + ": ";
-      if (!what.starts_with(shown)) continue;
-      const std::string problem = "on scene " + s.name + ": " + what.substr(shown.size());
-      if (const auto at = own_nodes.find(k); at != own_nodes.end()) r.fail(at->second.second, at->second.first, problem);
-      if (const auto at = set_nodes.find(k); at != set_nodes.end() && set_alone_refused())
-        r.fail(at->second.second, at->second.first, problem);
-      break;
-    }
-    const auto* o = dynamic_cast<const OverrideError*>(&e);
-    r.fail(where, key, "on scene " + s.name + ": " + (o ? o->key_message() : what));
+    r.fail(where, key, "on scene " + s.name + ": " + e.what());
   }
 }
 

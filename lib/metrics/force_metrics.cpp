@@ -490,29 +490,12 @@ std::size_t fft_min_window_ticks(const MetricsOptions& opt, double haptic_hz) {
   return std::max<std::size_t>(2, static_cast<std::size_t>(std::ceil(kFftMinWindowS * haptic_hz - 1e-9)));
 }
 
-ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given) {
-  MetricsOptions opt = given;  // the windows in this output's ticks
-  opt.fft_window = fft_window_ticks(given, tr.haptic_hz);
-  opt.fft_min_window = fft_min_window_ticks(given, tr.haptic_hz);
-  ForceMetrics m;
-  m.path = tr.path;
-  m.scene = tr.scene;
-  if (!tr.contact.empty()) m.vertex_contact = tr.contact == "vertices";
-  m.recording = tr.recording;
-  m.mode = tr.mode;
-  m.backend = tr.backend;
-  m.haptic_hz = tr.haptic_hz;
-  m.physical_hz = tr.physical_hz;
-  m.start_s = std::isfinite(tr.start) ? tr.start : 0;
-  m.frame_ticks = tr.frame_ticks();
-  m.options = opt;
-
-  // Non-finite samples, per dataset.
+NonfiniteSamples nonfinite_samples(const ReplayTrace& tr) {
+  NonfiniteSamples out;
   auto check = [&](const char* name, const double* p, std::size_t n) {
-    const std::size_t c = count_nonfinite(p, n);
-    if (c) {
-      m.nonfinite_count += c;
-      m.nonfinite_datasets.push_back(std::string(name) + ": " + std::to_string(c));
+    if (const std::size_t c = count_nonfinite(p, n)) {
+      out.count += c;
+      out.datasets.push_back(std::string(name) + ": " + std::to_string(c));
     }
   };
   check("/haptic/t", tr.t.data(), tr.t.size());
@@ -536,6 +519,29 @@ ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given)
   check("/physical/residual", tr.physical_residual.data(), tr.physical_residual.size());
   check("/timing/haptic_step_s", tr.haptic_step_s.data(), tr.haptic_step_s.size());
   check("/timing/physical_step_s", tr.physical_step_s.data(), tr.physical_step_s.size());
+  return out;
+}
+
+ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& given) {
+  MetricsOptions opt = given;  // the windows in this output's ticks
+  opt.fft_window = fft_window_ticks(given, tr.haptic_hz);
+  opt.fft_min_window = fft_min_window_ticks(given, tr.haptic_hz);
+  ForceMetrics m;
+  m.path = tr.path;
+  m.scene = tr.scene;
+  if (!tr.contact.empty()) m.vertex_contact = tr.contact == "vertices";
+  m.recording = tr.recording;
+  m.mode = tr.mode;
+  m.backend = tr.backend;
+  m.haptic_hz = tr.haptic_hz;
+  m.physical_hz = tr.physical_hz;
+  m.start_s = std::isfinite(tr.start) ? tr.start : 0;
+  m.frame_ticks = tr.frame_ticks();
+  m.options = opt;
+
+  NonfiniteSamples bad = nonfinite_samples(tr);
+  m.nonfinite_count = bad.count;
+  m.nonfinite_datasets = std::move(bad.datasets);
   m.finite = m.nonfinite_count == 0;
 
   const std::size_t n = tr.ticks();

@@ -282,6 +282,14 @@ SegmentMetrics segment_metrics(const ReplayTrace& tr, std::size_t first, std::si
 
 ForceMetrics compute_metrics(const ReplayTrace& tr, const MetricsOptions& opt = {});
 
+/// The non-finite samples of a trace, as compute_metrics counts them (its nonfinite_count and
+/// nonfinite_datasets), without the metrics: what a caller that only refuses them needs.
+struct NonfiniteSamples {
+  std::size_t count = 0;              ///< over all datasets
+  std::vector<std::string> datasets;  ///< "/haptic/force: 3", one per dataset with any
+};
+NonfiniteSamples nonfinite_samples(const ReplayTrace& tr);
+
 /// JSON (SI units; key names carry the unit suffix where there is one). NaN and inf print null.
 /// With episodes: "episodes" (those kept) and "episodes_listed" (how many: below "episode_count"
 /// where more than options.max_episodes).

@@ -219,17 +219,16 @@ ColumnKind column_kind(const CsvTable& t, std::size_t c) {
   return ColumnKind::Real;
 }
 
-/// A run's output as the summary takes it, with its metrics. A replay whose numbers go wrong stops
-/// with an error and writes no output (README: exit 4), so an output holding a NaN or an inf sample
-/// (as compute_metrics counts them, in any dataset it reads) is a failed run: one rule for NaN and
-/// inf, where NaN gave an ok run with empty force errors and inf a failed one. Throws InputError
-/// "OUT: non-finite samples (/haptic/force: 1): ..." (and load_replay's errors).
-ReplayTrace read_run_output(const fs::path& out, ForceMetrics& metrics) {
+/// A run's output as the summary takes it. A replay whose numbers go wrong stops with an error and
+/// writes no output (README: exit 4), so an output holding a NaN or an inf sample (as
+/// compute_metrics counts them, in any dataset it reads: nonfinite_samples) is a failed run: one
+/// rule for NaN and inf, where NaN gave an ok run with empty force errors and inf a failed one.
+/// Throws InputError "OUT: non-finite samples (/haptic/force: 1): ..." (and load_replay's errors).
+ReplayTrace read_run_output(const fs::path& out) {
   ReplayTrace trace = load_replay(out.string());
-  metrics = compute_metrics(trace);
-  if (metrics.nonfinite_count > 0) {
+  if (const NonfiniteSamples bad = nonfinite_samples(trace); bad.count > 0) {
     std::string samples;
-    for (const std::string& d : metrics.nonfinite_datasets) samples += (samples.empty() ? "" : ", ") + d;
+    for (const std::string& d : bad.datasets) samples += (samples.empty() ? "" : ", ") + d;
     throw InputError(out.string() + ": non-finite samples (" + samples +
                      "): the run's numbers went wrong; no force error or metric is taken from it");
   }
@@ -312,8 +311,7 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
       const RunState state = states[r.reference_id];
       if (at != runs.end() && state == RunState::Done) {
         try {
-          ForceMetrics unused;
-          ref.trace = read_run_output(run_output(dir, *at), unused);
+          ref.trace = read_run_output(run_output(dir, *at));
         } catch (const InputError& e) {
           ref.missing = run + " failed: " + e.what();
         }
@@ -347,8 +345,8 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
       ++s.redo;
     } else if (state == RunState::Done) {
       try {
-        ForceMetrics metrics;
-        const ReplayTrace trace = read_run_output(out, metrics);
+        const ReplayTrace trace = read_run_output(out);
+        const ForceMetrics metrics = compute_metrics(trace);
         double wall = kNaN, virt = kNaN;
         {
           const h5::File f = h5::File::open_read(out.string());

@@ -84,7 +84,7 @@ struct PhysicalModel {
   std::vector<Vec3d> shape_grad;        ///< #T*4 g_c with F = sum_c x_c g_c^T (1/m)
   std::vector<double> mass;             ///< #n lumped mass, kg (density V_t / 4 per corner)
   double density = 0;                   ///< kg/m^3, the masses' (material.density)
-  double weight_norm = 0;               ///< ||M g0|| over free vertices (N), g0 = 9.81 m/s^2: the residual's scale
+  double weight_norm = 0;               ///< ||M g0|| over free vertices (N), g0 = 9.81 m/s^2, M at 100 kg/m^3 at least: the residual's scale
   double rest_diagonal = 0;             ///< m, the rest shape's bounding-box diagonal (the health check's scale)
   std::vector<std::uint8_t> pinned;     ///< #n
   std::vector<int> free_index;          ///< #n row among free vertices, -1 when pinned

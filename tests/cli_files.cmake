@@ -8,15 +8,15 @@ set(F ${EBH_FILES_OUT})
 function(ebh_files_failure name expect)
   ebh_expect_failure(cli.files.${name} files "${expect}" NO_STDOUT ${ARGN})
 endfunction()
+string(REPEAT "a" 253 ebh_long_name)  # 256 bytes with .h5: one more than a name may hold
 # Fresh previous outputs and the user's special files before each run.
 set(ebh_rec ${PROJECT_SOURCE_DIR}/recordings/tube_insert.h5)
 add_test(NAME cli.files.setup COMMAND sh -c
-  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5 && mkdir -p vframes && echo 'a frame' > vframes/frame_00000.png && cp '${ebh_rec}' ctx.h5 && cp '${ebh_rec}' fd.h5 && mkdir -p fdir/frame_00000.png && rm -rf store dl_replay.h5 dl_scene.yaml lk_nowhere.h5 lk_a.h5 lk_b.h5 && mkdir store && ln -s store/replay.h5 dl_replay.h5 && ln -s store/scene.yaml dl_scene.yaml && ln -s nowhere/run.h5 lk_nowhere.h5 && ln -s lk_b.h5 lk_a.h5 && ln -s lk_a.h5 lk_b.h5")
+  "cd '${F}' && rm -rf ff.xdmf dv.xdmf && mkfifo ff.xdmf && ln -s /dev/null dv.xdmf && cp '${ebh_rec}' ff.h5 && cp '${ebh_rec}' dv.h5 && mkdir -p vframes && echo 'a frame' > vframes/frame_00000.png && cp '${ebh_rec}' ctx.h5 && cp '${ebh_rec}' fd.h5 && mkdir -p fdir/frame_00000.png && rm -rf store dl_replay.h5 dl_scene.yaml lk_nowhere.h5 lk_a.h5 lk_b.h5 && mkdir store && ln -s store/replay.h5 dl_replay.h5 && ln -s store/scene.yaml dl_scene.yaml && ln -s nowhere/run.h5 lk_nowhere.h5 && ln -s lk_b.h5 lk_a.h5 && ln -s lk_a.h5 lk_b.h5 && rm -rf rs_both.yaml rs_both.msh rs_self.yaml rs_self.msh rp_both.h5 rp_both.xdmf lk_long.h5 && ln -s rs_both.yaml rs_both.msh && ln -s rs_self.msh rs_self.yaml && ln -s rp_both.xdmf rp_both.h5 && ln -s 'store/${ebh_long_name}.h5' lk_long.h5")
 set_tests_properties(cli.files.setup PROPERTIES FIXTURES_SETUP files LABELS cli)
 
 # A name longer than the file system allows (256 bytes) failed only when the finished replay was
 # renamed into place.
-string(REPEAT "a" 253 ebh_long_name)
 ebh_files_failure(name_too_long
   "^ebh: error: [^\n]*/${ebh_long_name}.h5: cannot create the output: File name too long \\(a name of 256 bytes"
   OUTPUT ${F}/${ebh_long_name}.h5
@@ -85,6 +85,39 @@ ebh_files_failure(link_loop
   "^ebh: error: [^\n]*/lk_a.h5: cannot create the output: a link to lk_b.h5, whose links go round in a loop"
   LINKS ${F}/lk_a.h5 ${F}/lk_b.h5
   CMD ${EBH_BIN} import ${PROJECT_SOURCE_DIR}/examples/own_data/touch_press.txt -o ${F}/lk_a.h5)
+# A scene refined or degraded through a link to nothing: its mesh goes beside the scene, at the
+# link's target, not beside the link (the scene named new.msh, which its folder lacked), and the
+# scene loads at the target and through the link. With -o DIR, a scene in DIR that is such a link
+# takes its mesh along too.
+add_test(NAME cli.files.scene_refine_through_a_link_to_nothing COMMAND sh -c
+  "cd '${F}' && rm -rf rf_scene.yaml rf_scene.msh store/rf_scene.yaml store/rf_scene.msh && ln -s store/rf_scene.yaml rf_scene.yaml && '${EBH_BIN}' scene refine tube -o rf_scene.yaml >/dev/null && test -L rf_scene.yaml && test -s store/rf_scene.msh && ! test -e rf_scene.msh && ! test -L rf_scene.msh && '${EBH_BIN}' scene info store/rf_scene.yaml >/dev/null && '${EBH_BIN}' scene info rf_scene.yaml >/dev/null")
+add_test(NAME cli.files.scene_degrade_through_a_link_to_nothing COMMAND sh -c
+  "cd '${F}' && rm -rf dg_scene.yaml dg_scene.msh dgdir store/dg_scene.yaml store/dg_scene.msh store/tube_q0.1.yaml store/tube_q0.1.msh && ln -s store/dg_scene.yaml dg_scene.yaml && mkdir dgdir && ln -s ../store/tube_q0.1.yaml dgdir/tube_q0.1.yaml && '${EBH_BIN}' scene degrade tube --quality 0.1 -o dg_scene.yaml >/dev/null && '${EBH_BIN}' scene degrade tube --quality 0.1 -o dgdir >/dev/null && test -s store/dg_scene.msh && ! test -e dg_scene.msh && test -s store/tube_q0.1.msh && ! test -e dgdir/tube_q0.1.msh && '${EBH_BIN}' scene info store/dg_scene.yaml >/dev/null && '${EBH_BIN}' scene info dg_scene.yaml >/dev/null && '${EBH_BIN}' scene info dgdir/tube_q0.1.yaml >/dev/null")
+set_tests_properties(cli.files.scene_refine_through_a_link_to_nothing cli.files.scene_degrade_through_a_link_to_nothing
+  PROPERTIES FIXTURES_REQUIRED files LABELS "cli;scene")
+# Two outputs of one command that are one file through a link to nothing (the mesh's name a link to
+# the scene's, or the scene's to its mesh's; a replay's output a link to its XDMF index) were both
+# written, the second over the first, or failed after the work: refused before any work, the
+# link kept.
+ebh_files_failure(refine_mesh_links_to_the_scene
+  "^ebh: error: [^\n]*/rs_both.msh \\(a link to rs_both.yaml\\): is both the refined scene [^\n]*/rs_both.yaml and the refined mesh; choose another output file"
+  OUTPUT ${F}/rs_both.yaml LINKS ${F}/rs_both.msh
+  CMD ${EBH_BIN} scene refine tube -o ${F}/rs_both.yaml)
+ebh_files_failure(refine_scene_links_to_its_mesh
+  "^ebh: error: [^\n]*/rs_self.msh: is both the refined scene [^\n]*/rs_self.yaml \\(a link to rs_self.msh\\) and the refined mesh"
+  OUTPUT ${F}/rs_self.msh LINKS ${F}/rs_self.yaml
+  CMD ${EBH_BIN} scene refine tube -o ${F}/rs_self.yaml)
+ebh_files_failure(replay_output_links_to_its_index
+  "^ebh: error: [^\n]*/rp_both.xdmf: is both the replay output [^\n]*/rp_both.h5 \\(a link to rp_both.xdmf\\) and the replay's XDMF index"
+  OUTPUT ${F}/rp_both.xdmf LINKS ${F}/rp_both.h5
+  CMD ${EBH_BIN} replay tube tube_insert --duration 0.1 --frames-hz 30 -q -o ${F}/rp_both.h5)
+# The name created through a link is its target's: a short link to a name longer than the file
+# system allows is refused by that name's length, before any work.
+ebh_files_failure(link_to_a_name_too_long
+  "^ebh: error: [^\n]*/lk_long.h5: cannot create the output: File name too long \\(a name of 256 bytes at the end of its link, [^\n]*/store/a+\\.h5; this file system allows 255\\)"
+  LINKS ${F}/lk_long.h5
+  CMD ${EBH_BIN} import ${PROJECT_SOURCE_DIR}/examples/own_data/touch_press.txt -o ${F}/lk_long.h5)
+
 # A folder no file can be created in is said as such: a replay blamed free space ("its folder's
 # file system has 0 bytes free: free space, ...") before it tried to create its output.
 ebh_files_failure(replay_into_proc

@@ -6,8 +6,10 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <system_error>
 
 #include "core/error.hpp"
 
@@ -38,6 +40,24 @@ inline std::string file_name_problem(std::string_view name) {
   if (has_control_character(name))
     return "holds a control character (a line break, a tab?)";
   return "";
+}
+
+/// The name at the end of `path`'s links, followed as the system follows them (a relative link
+/// from the folder it is in) whether that file exists or not, and not made canonical: `path` itself
+/// where it is no link, "DIR/store/run.h5" for a link DIR/run.h5 -> store/run.h5. nullopt for a
+/// loop of links, a chain longer than the system follows (40) or a link that cannot be read.
+/// Never throws (output_target says why).
+inline std::optional<std::string> link_end(const std::string& path) {
+  namespace fs = std::filesystem;
+  fs::path end(path);
+  std::error_code ec;
+  // By hand, as the system does: a relative link from its own folder, at most 40 links.
+  for (int links = 0; fs::is_symlink(end, ec); ++links) {
+    const fs::path to = fs::read_symlink(end, ec);
+    if (ec || links == 40) return std::nullopt;
+    end = to.is_absolute() ? to : end.parent_path() / to;
+  }
+  return end.string();
 }
 
 }  // namespace ebh

@@ -16,8 +16,10 @@
 #include <ctime>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "core/error.hpp"
+#include "core/file_names.hpp"
 
 namespace ebh {
 namespace fs = std::filesystem;
@@ -355,14 +357,18 @@ void check_replaceable(const std::string& path) {
 }
 
 void check_name_length(const std::string& path) {
-  const fs::path p(path);
+  // The name created: a link's own name exists already; the one at the end of its links is made
+  // (a loop is output_target's to say).
+  const std::optional<std::string> end = link_end(path);
+  const fs::path p(end ? *end : path);
   const fs::path dir = nearest_existing_folder(p);
   long name_max = ::pathconf(dir.c_str(), _PC_NAME_MAX);
   if (name_max <= 0) name_max = NAME_MAX;
+  const std::string where = p == fs::path(path) ? "" : " at the end of its link, " + p.string();
   for (const fs::path& part : p)
     if (const std::size_t n = part.native().size(); n > static_cast<std::size_t>(name_max))
       throw InputError(path + ": cannot create the output: " + os_reason(ENAMETOOLONG) + " (a name of " +
-                       std::to_string(n) + " bytes; this file system allows " + std::to_string(name_max) + ")");
+                       std::to_string(n) + " bytes" + where + "; this file system allows " + std::to_string(name_max) + ")");
 }
 
 std::string output_target(const std::string& final_path) {
@@ -379,12 +385,10 @@ std::string output_target(const std::string& final_path) {
   if (err == ELOOP) throw InputError(link_to + ", whose links go round in a loop (or chain too deep): " + os_reason(err));
   if (err != ENOENT) throw InputError(link_to + ": " + os_reason(err));
   // A link to nothing (yet): the file at the end of its links is created, as a link to a file is
-  // written. Followed by hand (a loop made meanwhile stops at the system's limit of 40).
-  for (int links = 0; fs::is_symlink(target, ec); ++links) {
-    const fs::path to = fs::read_symlink(target, ec);
-    if (ec || links == 40) throw InputError(link_to + ": " + os_reason(ec ? ec.value() : ELOOP));
-    target = to.is_absolute() ? to : target.parent_path() / to;
-  }
+  // written (a loop made meanwhile stops at the system's limit of 40).
+  const std::optional<std::string> end = link_end(final_path);
+  if (!end) throw InputError(link_to + ": " + os_reason(ELOOP));
+  target = *end;
   const fs::path folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
   if (!fs::is_directory(folder, ec))
     throw InputError(link_to + ", whose folder " + folder.string() +

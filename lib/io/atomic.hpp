@@ -54,9 +54,11 @@ bool is_own_temporary(const std::string& path);
 std::string os_reason(int err);
 
 /// Throws InputError "PATH: cannot create the output: File name too long (...)" when a part of
-/// `path` is longer than the file system that would hold it allows (pathconf's _PC_NAME_MAX of
-/// the nearest existing folder, else NAME_MAX): the rename into place would fail only after all
-/// the work.
+/// the name that will be created is longer than the file system that would hold it allows
+/// (pathconf's _PC_NAME_MAX of the nearest existing folder, else NAME_MAX): the rename into place
+/// would fail only after all the work. That name is `path`'s, or where `path` is a link, the one at
+/// the end of its links (core/file_names.hpp link_end): a short link may lead to a name too long, in a folder of
+/// another file system.
 void check_name_length(const std::string& path);
 
 /// Throws InputError "PATH: a named pipe, not a regular file: ..." when `path` is a device, a

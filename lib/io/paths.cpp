@@ -10,6 +10,7 @@
 #include <filesystem>
 
 #include "core/error.hpp"
+#include "core/file_names.hpp"
 #include "io/atomic.hpp"
 
 namespace ebh {
@@ -20,10 +21,17 @@ bool same_file(const std::string& a, const std::string& b) {
   struct stat sa {}, sb {};
   if (::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0)
     return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+  // One is missing, or a link to nothing: the file it would create, at the end of its links (a
+  // link to nothing and the name it leads to are one file once it is written).
+  const fs::path la = link_end(a).value_or(a), lb = link_end(b).value_or(b);
   std::error_code ea, eb;
-  const fs::path ca = fs::weakly_canonical(fs::absolute(a, ea), ea), cb = fs::weakly_canonical(fs::absolute(b, eb), eb);
-  if (ea || eb) return fs::path(a).lexically_normal() == fs::path(b).lexically_normal();
+  const fs::path ca = fs::weakly_canonical(fs::absolute(la, ea), ea), cb = fs::weakly_canonical(fs::absolute(lb, eb), eb);
+  if (ea || eb) return la.lexically_normal() == lb.lexically_normal();
   return ca == cb;
+}
+
+std::string companion_output(const std::string& output, const std::string& extension) {
+  return fs::path(output_target(output)).replace_extension(extension).string();
 }
 
 namespace {
@@ -45,21 +53,38 @@ void check_output_location(const std::string& path) {
   check_can_create(path);
 }
 
+/// " (a link to TARGET)" where `path` is a symbolic link, else empty: said where two outputs are
+/// one file through a link.
+std::string link_note(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_symlink(fs::symlink_status(path, ec))) return "";
+  const fs::path to = fs::read_symlink(path, ec);
+  return ec ? std::string() : " (a link to " + to.string() + ")";
+}
+
 }  // namespace
 
 void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleFile>& inputs) {
+  // Compared where each is written (output_target: a link's target, also one yet to be made), so
+  // that a link to nothing that names another output is that output.
+  std::vector<std::string> targets(outputs.size());
   for (std::size_t i = 0; i < outputs.size(); ++i) {
     const RoleFile& out = outputs[i];
     if (out.path.empty()) continue;
     check_output_location(out.path);
+    targets[i] = output_target(out.path);
     for (const RoleFile& in : inputs)
-      if (same_file(out.path, in.path))
+      if (same_file(targets[i], in.path))
         throw InputError(out.path + ": the output would replace " + in.role + " " + in.path +
                          ", an input of this command; choose another output file");
     for (std::size_t j = 0; j < i; ++j)
-      if (same_file(out.path, outputs[j].path))
-        throw InputError(out.path + ": is both " + outputs[j].role + " and " + out.role +
-                         "; choose another output file");
+      if (same_file(targets[i], targets[j])) {
+        // Named apart where they differ ("a.yaml (a link to a.msh)"): the name said is the second's.
+        const bool apart = fs::path(outputs[j].path).lexically_normal() != fs::path(out.path).lexically_normal();
+        throw InputError(out.path + link_note(out.path) + ": is both " + outputs[j].role +
+                         (apart ? " " + outputs[j].path + link_note(outputs[j].path) : std::string()) + " and " +
+                         out.role + "; choose another output file");
+      }
   }
 }
 

@@ -17,12 +17,21 @@ struct RoleFile {
 };
 
 /// Whether a and b name the same file: the same device and inode when both exist (so hard links
-/// and symbolic links to it count), otherwise the same canonical path.
+/// and symbolic links to it count), otherwise the same canonical path of the names at the end of
+/// their links (io/atomic.hpp link_end: a link to nothing is the file it would create).
 bool same_file(const std::string& a, const std::string& b);
+
+/// The file written beside the output `output` with its extension replaced (".msh" beside a scene
+/// OUT.yaml): named after the file the output really is and beside it (output_target: where
+/// `output` is a link, its target), so that the output names it by its file name, relative to its
+/// own folder. Throws as output_target does.
+std::string companion_output(const std::string& output, const std::string& extension);
 
 /// Throws InputError "OUT: the output would replace ROLE IN, an input of this command; choose another
 /// output file" when an output is the same file as an input, and "OUT: is both ROLE1 and ROLE2" when
-/// two outputs are; "OUT: cannot create the output: Not a directory" (or another OS reason) when it
+/// two outputs are (compared where each is written, output_target: a link to nothing that names
+/// another output is that output; "OUT (a link to X): is both ROLE1 OUT1 and ROLE2" where the
+/// names differ); "OUT: cannot create the output: Not a directory" (or another OS reason) when it
 /// cannot be created there (io/atomic.hpp check_can_create: tried, so a read-only folder or /proc is
 /// said as such). Empty paths are skipped. Commands call it before any work.
 void check_outputs(const std::vector<RoleFile>& outputs, const std::vector<RoleFile>& inputs);

@@ -89,6 +89,14 @@ const std::string* override_giving(const std::vector<std::string>& overrides, co
   return found;
 }
 
+/// The folder the paths in `file` start from: its own, or where `file` is a link, that of the
+/// file at the end of its links, where a file written through a link is (docs/FORMATS.md, "How
+/// outputs are written": its paths are relative to the target's folder). A loop is the file's own
+/// folder (its read fails first).
+fs::path own_folder(const fs::path& file) {
+  return fs::path(link_end(file.string()).value_or(file.string())).parent_path();
+}
+
 /// Parses and validates the YAML tree. Every check names the dotted key, and the override
 /// ("key=value", applied to the tree before) that gave the key its value when one did.
 class SpecReader {
@@ -232,7 +240,7 @@ class SpecReader {
   /// A mesh path, relative to the scene file, that must exist.
   fs::path mesh_path(const YAML::Node& n, const std::string& key) const {
     fs::path p = text(n, key, false);
-    if (p.is_relative()) p = joined_path(file_.parent_path(), p);
+    if (p.is_relative()) p = joined_path(own_folder(file_), p);
     if (!mesh_files_must_exist_) return p;
     if (const std::string why = not_a_file(p); !why.empty())
       fail(key, why == "file not found" ? why + ": " + p.string() : p.string() + " " + why);

@@ -63,7 +63,7 @@ std::string about_gigabytes(double bytes);
 /// What `ebh scene refine` writes, in memory.
 struct RefinedScene {
   std::filesystem::path scene_file;    ///< OUT.yaml
-  std::filesystem::path mesh_file;     ///< OUT.msh, beside it
+  std::filesystem::path mesh_file;     ///< OUT.msh, beside it (`out` of refine_scene: a link's target)
   std::filesystem::path virtual_file;  ///< OUT.obj when the virtual mesh is an OBJ file or kept; else empty
   std::string scene_yaml, mesh_text, virtual_text;
   std::string name;                    ///< the new scene's name: NAME_lLEVEL
@@ -71,7 +71,11 @@ struct RefinedScene {
 };
 
 /// Refines the physical mesh of the scene file `scene` (and an OBJ virtual mesh, unless
-/// keep_virtual) `levels` times and returns the files of a scene `out` that loads it.
+/// keep_virtual) `levels` times and returns the files of a scene `out` that loads it: its meshes
+/// beside it, named by their file names. `out` is the file as it is written: where the output's
+/// name is a link, its target (io/atomic.hpp output_target; io/paths.hpp companion_output names
+/// the meshes alike), so that the meshes go where the scene, which names them relative to its own
+/// folder, is.
 /// `scene_argument` is how the user named the scene (for the new file's header). Throws InputError
 /// for levels < 1, a scene that does not load, or a refined mesh that refined_within refuses (the
 /// message gives the sizes and memory).

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <string>
 
+#include "core/file_names.hpp"
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
 #include "io_test_util.hpp"
@@ -87,6 +88,51 @@ TEST(Paths, AnOutputThatIsALinkToNothingIsCheckedWhereItLeads) {
   EXPECT_TRUE(fs::is_empty(tmp.dir / "store"));
 }
 
+// A link to nothing is the file it would create: the same file as the name it leads to. Two
+// outputs of one command where one is such a link naming the other were both written, the second
+// over the first, or failed after the work on their one temporary: refused before any work.
+TEST(Paths, ALinkToNothingIsTheFileItWouldCreate) {
+  test::ScratchDir tmp;
+  fs::create_directories(tmp.dir / "store");
+  fs::create_symlink("a.yaml", tmp / "a.msh");
+  fs::create_symlink("store/new.yaml", tmp / "new.yaml");
+  fs::create_symlink("new.yaml", tmp / "chain.yaml");
+  fs::create_symlink("loop.yaml", tmp / "loop.yaml");
+  EXPECT_TRUE(same_file(tmp / "a.msh", tmp / "a.yaml"));
+  EXPECT_TRUE(same_file(tmp / "new.yaml", tmp / "store/new.yaml"));
+  EXPECT_TRUE(same_file(tmp / "chain.yaml", tmp / "store/../store/new.yaml"));
+  EXPECT_FALSE(same_file(tmp / "new.yaml", tmp / "store/other.yaml"));
+  EXPECT_FALSE(same_file(tmp / "a.msh", tmp / "new.yaml"));
+  EXPECT_FALSE(same_file(tmp / "loop.yaml", tmp / "a.yaml"));
+  EXPECT_EQ(link_end(tmp / "chain.yaml"), tmp / "store/new.yaml");
+  EXPECT_EQ(link_end(tmp / "a.yaml"), tmp / "a.yaml");
+  EXPECT_EQ(link_end(tmp / "loop.yaml"), std::nullopt);
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "a.yaml", "the refined scene"}, {tmp / "a.msh", "the refined mesh"}}, {}),
+                     "a.msh (a link to a.yaml): is both the refined scene ", "a.yaml and the refined mesh; choose another");
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "chain.yaml", "the output"}, {tmp / "store/new.yaml", "its index"}}, {}),
+                     "store/new.yaml: is both the output ", "chain.yaml (a link to new.yaml) and its index");
+  check_outputs({{tmp / "new.yaml", "the output"}, {tmp / "store/new.msh", "its mesh"}}, {});  // no error
+  EXPECT_EQ(tmp.entries(), 5u);
+  EXPECT_TRUE(fs::is_empty(tmp.dir / "store"));
+}
+
+// A file written beside an output (a scene's mesh) goes beside the file the output really is, a
+// link's target, named after it: the output names it by its file name, from its own folder.
+TEST(Paths, ACompanionGoesBesideTheFileTheOutputIs) {
+  test::ScratchDir tmp;
+  fs::create_directories(tmp.dir / "store");
+  std::ofstream(tmp / "store/old.yaml") << "name: old\n";
+  fs::create_symlink("store/new.yaml", tmp / "new.yaml");
+  fs::create_symlink("store/other.yaml", tmp / "named.yaml");
+  fs::create_symlink("store/old.yaml", tmp / "old.yaml");
+  EXPECT_EQ(companion_output(tmp / "plain.yaml", ".msh"), tmp / "plain.msh");
+  EXPECT_EQ(companion_output(tmp / "new.yaml", ".msh"), tmp / "store/new.msh");
+  EXPECT_EQ(companion_output(tmp / "named.yaml", ".obj"), tmp / "store/other.obj");
+  EXPECT_EQ(fs::path(companion_output(tmp / "old.yaml", ".msh")), fs::canonical(tmp.dir / "store") / "old.msh");
+  fs::create_symlink("nowhere/gone.yaml", tmp / "gone.yaml");
+  EXPECT_INPUT_ERROR(companion_output(tmp / "gone.yaml", ".msh"), "gone.yaml: cannot create the output: a link to nowhere/gone.yaml, whose folder");
+}
+
 // The rename into place fails on a name the file system cannot hold: said before any work, for the
 // output's own name and for a folder it would make.
 TEST(Paths, ANameLongerThanTheFileSystemAllowsIsRefusedBeforeAnyWork) {
@@ -101,6 +147,30 @@ TEST(Paths, ANameLongerThanTheFileSystemAllowsIsRefusedBeforeAnyWork) {
   EXPECT_INPUT_ERROR(check_outputs({{tmp / (too_long + "/run.h5"), "the output"}}, {}), "File name too long");
   EXPECT_INPUT_ERROR(AtomicOutput(tmp / too_long), "cannot create the output: File name too long");
   EXPECT_FALSE(fs::exists(partial_path_for(tmp / too_long)));
+}
+
+// The name created through a link is its target's: a short link to a name too long was let
+// through (the link's own name fits), and refused only as a link that cannot be followed.
+TEST(Paths, ANameTooLongAtTheEndOfALinkIsRefusedByItsLength) {
+  test::ScratchDir tmp;
+  fs::create_directories(tmp.dir / "store");
+  const long name_max = ::pathconf((tmp.dir / "store").c_str(), _PC_NAME_MAX);
+  ASSERT_GT(name_max, 3);
+  const std::string too_long = std::string(name_max - 2, 'a') + ".h5";
+  fs::create_symlink("store/" + too_long, tmp / "short.h5");
+  const std::string why = "short.h5: cannot create the output: File name too long (a name of " +
+                          std::to_string(name_max + 1) + " bytes at the end of its link, ";
+  const std::string allows = "; this file system allows " + std::to_string(name_max) + ")";
+  EXPECT_INPUT_ERROR(check_name_length(tmp / "short.h5"), why, allows);
+  EXPECT_INPUT_ERROR(check_outputs({{tmp / "short.h5", "the output"}}, {}), why, allows);
+  EXPECT_INPUT_ERROR(AtomicOutput(tmp / "short.h5"), why);
+  // A link of the longest name leading to a short one is created as that short name.
+  const std::string longest = std::string(name_max - 3, 'b') + ".h5";
+  fs::create_symlink("store/run.h5", tmp / longest);
+  check_name_length(tmp / longest);  // no error
+  check_outputs({{tmp / longest, "the output"}}, {});
+  EXPECT_EQ(tmp.entries(), 3u);
+  EXPECT_TRUE(fs::is_empty(tmp.dir / "store"));
 }
 
 // A control character in an output's name would split every line that names it: refused, the

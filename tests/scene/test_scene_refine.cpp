@@ -180,6 +180,29 @@ TEST(SceneRefine, APartThatMinPartTetsDropsStaysDropped) {
   expect_pins_carried(before, after);
 }
 
+// Written through a link to nothing (-o new.yaml -> store/new.yaml), the scene is refined for the
+// link's target (io/atomic.hpp output_target): its meshes beside it there, named by their file
+// names, which the scene names from its own folder; it loads through the link as at the target
+// (read through the link, its meshes were looked for beside the link).
+TEST(SceneRefine, WrittenThroughALinkItsMeshesAreBesideTheTarget) {
+  const fs::path dir = out_dir();
+  fs::remove_all(dir);
+  fs::create_directories(dir / "store");
+  fs::create_symlink("store/new.yaml", dir / "new.yaml");
+  const RefinedScene r = refine_scene(data("scene/cube_obj.yaml"), 1, dir / "store" / "new.yaml");
+  EXPECT_EQ(r.mesh_file, dir / "store" / "new.msh");
+  EXPECT_EQ(r.virtual_file, dir / "store" / "new.obj");
+  EXPECT_NE(r.scene_yaml.find("physical: new.msh\n"), std::string::npos) << r.scene_yaml;
+  EXPECT_NE(r.scene_yaml.find("virtual: new.obj\n"), std::string::npos) << r.scene_yaml;
+  const Scene at_target = write_and_load(r);
+  const Scene through_link = load_scene(dir / "new.yaml");
+  EXPECT_EQ(through_link.spec.physical_mesh, dir / "store" / "new.msh");
+  ASSERT_TRUE(through_link.spec.virtual_mesh.has_value());
+  EXPECT_EQ(*through_link.spec.virtual_mesh, dir / "store" / "new.obj");
+  EXPECT_EQ(through_link.physical.tets.size(), at_target.physical.tets.size());
+  EXPECT_FALSE(fs::exists(fs::symlink_status(dir / "new.msh")));
+}
+
 TEST(SceneRefine, SameFilesOnEveryRun) {
   const RefinedScene a = refine_scene(data("scene/cube_obj.yaml"), 2, out_dir() / "x.yaml");
   const RefinedScene b = refine_scene(data("scene/cube_obj.yaml"), 2, out_dir() / "x.yaml");

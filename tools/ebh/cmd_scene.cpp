@@ -372,13 +372,15 @@ void degrade(const SceneDegradeArgs& a) {
     throw ebh::InputError(file.string() + ": key 'name': '" + scene.spec.name + "' " + why +
                           ": with -o DIR the outputs are named after it (DIR/NAME" + tag + ".yaml); rename the scene, or "
                           "give -o OUT.yaml");
-  const std::string stem = scene_file ? out.stem().string() : scene.spec.name + tag;
-  const std::filesystem::path dir = scene_file ? out.parent_path() : a.out_dir.empty() ? std::filesystem::path(".") : out;
-  const std::string mesh_out = (dir / (stem + ".msh")).string();
-  const std::string scene_out = scene_file ? out.string() : (dir / (stem + ".yaml")).string();
+  const std::filesystem::path dir = a.out_dir.empty() ? std::filesystem::path(".") : out;
+  const std::string scene_out = scene_file ? out.string() : (dir / (scene.spec.name + tag + ".yaml")).string();
   std::vector<ebh::RoleFile> inputs = {{file.string(), "the scene"}, {scene.spec.physical_mesh.string(), "the physical mesh"}};
   if (scene.spec.virtual_mesh) inputs.push_back({scene.spec.virtual_mesh->string(), "the virtual mesh"});
-  ebh::check_outputs({{mesh_out, "the degraded mesh"}, {scene_out, "the degraded scene"}}, inputs);
+  // The scene first: the mesh goes beside the file it really is (a link's target), which the scene
+  // names it from.
+  ebh::check_outputs({{scene_out, "the degraded scene"}}, inputs);
+  const std::string mesh_out = ebh::companion_output(scene_out, ".msh");
+  ebh::check_outputs({{scene_out, "the degraded scene"}, {mesh_out, "the degraded mesh"}}, inputs);
   // A mesh already as bad as asked: the tets would not move, and the "degraded" copy would be the
   // mesh itself.
   if (const ebh::MeshReport before = ebh::validate_mesh(scene.physical); before.quality_worst <= a.quality) {
@@ -398,8 +400,9 @@ void degrade(const SceneDegradeArgs& a) {
                  file.string().c_str(), done, a.tets);
 
 
-  // The scene file as it is, pointing at the new mesh beside it (by its name: the two move
-  // together) and at every other file by its absolute path.
+  // The scene file as it is, pointing at the new mesh beside it (by its name, relative to the
+  // folder the scene is written in, a link's target's: the two move together) and at every other
+  // file by its absolute path.
   YAML::Node root = YAML::LoadFile(file.string());
   root["name"] = scene.spec.name + tag;  // as refine's NAME_lN: a recording of NAME replays on it without a word
   root["mesh"]["physical"] = std::filesystem::path(mesh_out).filename().string();
@@ -442,16 +445,20 @@ void refine(const SceneRefineArgs& a) {
   require_scene_name(a.out);
   const std::filesystem::path file = ebh::resolve_scene_path(a.scene);
   const ebh::SceneSpec spec = ebh::load_scene_spec(file);
-  const std::filesystem::path out(a.out);
-  const std::string mesh_out = std::filesystem::path(out).replace_extension(".msh").string();
-  const std::string obj_out = std::filesystem::path(out).replace_extension(".obj").string();
   std::vector<ebh::RoleFile> inputs = {{file.string(), "the scene"}, {spec.physical_mesh.string(), "the physical mesh"}};
-  std::vector<ebh::RoleFile> outputs = {{a.out, "the refined scene"}, {mesh_out, "the refined mesh"}};
   if (spec.virtual_mesh) inputs.push_back({spec.virtual_mesh->string(), "the virtual mesh"});
+  // The scene first: its meshes go beside the file it really is (a link's target; refine_scene
+  // names them alike), which the scene names them from.
+  ebh::check_outputs({{a.out, "the refined scene"}}, inputs);
+  const std::string mesh_out = ebh::companion_output(a.out, ".msh");
+  const std::string obj_out = ebh::companion_output(a.out, ".obj");
+  std::vector<ebh::RoleFile> outputs = {{a.out, "the refined scene"}, {mesh_out, "the refined mesh"}};
   if (spec.virtual_mesh || a.keep_virtual)
     outputs.push_back({obj_out, a.keep_virtual ? "the kept virtual mesh" : "the refined virtual mesh"});
   ebh::check_outputs(outputs, inputs);
-  const ebh::RefinedScene r = ebh::refine_scene(file, a.level, out, a.max_tets, a.scene, a.keep_virtual);
+  // Refined for the file written (a link's target), whose folder the scene names its meshes from.
+  const ebh::RefinedScene r =
+      ebh::refine_scene(file, a.level, ebh::output_target(a.out), a.max_tets, a.scene, a.keep_virtual);
   std::vector<std::pair<std::string, std::string_view>> files = {{r.mesh_file.string(), r.mesh_text}};
   if (!r.virtual_file.empty()) files.push_back({r.virtual_file.string(), r.virtual_text});
   files.push_back({a.out, r.scene_yaml});

@@ -1828,11 +1828,12 @@ fs::path resolve_recording_scene(const std::string& attribute, const std::string
   if (attribute.empty())
     throw InputError(recording + ": its scene attribute is empty: the recording names no scene (`ebh import LOG -o REC "
                      "--scene SCENE` records it)");
-  // A relative path is the recording's own (scene_attribute_for writes it so): only beside it. A
-  // file of that name in the working folder is another scene (a copy with other stiffnesses), which
-  // a validation once replayed without a word.
+  // A relative path is the recording's own (scene_attribute_for writes it so): only beside it (a
+  // recording read through a link: beside the link's target, where it was written). A file of that
+  // name in the working folder is another scene (a copy with other stiffnesses), which a
+  // validation once replayed without a word.
   if (!is_data_name(attribute) && fs::path(attribute).is_relative()) {
-    const fs::path beside = joined_path(fs::path(recording).parent_path(), attribute);
+    const fs::path beside = joined_path(own_folder(recording), attribute);
     std::error_code ec;
     if (fs::is_regular_file(beside, ec)) return beside;
     throw InputError(where + ": no such file beside the recording (" + beside.string() +

@@ -1272,6 +1272,12 @@ TEST(ResolveScenePath, ARecordingsSceneIsFoundBesideIt) {
   EXPECT_EQ(scene_attribute_for("tube", resolve_scene_path("tube"), rec), "tube");  // a name stays one
   EXPECT_EQ(resolve_recording_scene("../organ.yaml", rec.string()), scene);
   EXPECT_EQ(resolve_recording_scene("tube", rec.string()), resolve_scene_path("tube"));
+  // Read through a link from another folder: beside the file written, the link's target (it was
+  // looked for beside the link, root/organ.yaml).
+  const fs::path link = root / "press_link.h5";
+  fs::remove(link);
+  fs::create_symlink(rec, link);
+  EXPECT_EQ(resolve_recording_scene("../organ.yaml", link.string()).lexically_normal(), scene);
   // Not beside the recording: refused naming where it looked, even with a file of that name in the
   // working folder (another scene: a validation replayed a copy with other stiffnesses silently).
   const fs::path cwd = fs::current_path();

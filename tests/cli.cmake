@@ -521,7 +521,7 @@ set_tests_properties(cli.scene_init.tetgen PROPERTIES LABELS "cli;scene" FIXTURE
   PASS_REGULAR_EXPRESSION "cube_tetgen.yaml: scene for .*cube.1.ele \\(8 vertices, 5 tets, in cm\\).*pinned 4 vertices \\(group:surface_3\\)")
 add_test(NAME cli.scene_init.tetgen_info COMMAND ${EBH_BIN} scene info ${EBH_INIT}/cube_tetgen.yaml)
 set_tests_properties(cli.scene_init.tetgen_info PROPERTIES LABELS "cli;scene" FIXTURES_REQUIRED scene_init_tetgen
-  PASS_REGULAR_EXPRESSION "tets +5\n.*surface_1 +tag 3 +0 tets +2 triangles\n  surface_3 +tag 4 +0 tets +2 triangles")
+  PASS_REGULAR_EXPRESSION "tets +5\n.*surface_1 +tag 1 +0 tets +2 triangles\n  surface_3 +tag 3 +0 tets +2 triangles")
 add_test(NAME cli.scene_init.medit
   COMMAND ${EBH_BIN} scene init ${CMAKE_CURRENT_SOURCE_DIR}/data/mesh/cube.mesh -o ${EBH_INIT}/cube_medit.yaml --unit cm
     --pin group:1)

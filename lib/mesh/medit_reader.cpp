@@ -213,6 +213,7 @@ class MeditParser {
     for (auto& [r, tag] : surface_tag) {
       tag = static_cast<int>(++top);
       mesh_.group_names[tag] = "surface_" + std::to_string(r);
+      mesh_.group_file_tags[tag] = static_cast<int>(r);
     }
     // A triangle of reference 0 is in no group: not kept (the triangles serve the pins by group).
     for (std::size_t i = 0; i < tri_refs.size(); ++i)

@@ -19,7 +19,8 @@ namespace ebh {
 /// Kept: 4-node tetrahedra (type 4) and 3-node triangles (type 2), each with its physical groups
 /// (2.x: the element's first tag, where Gmsh writes an element once per group: such copies, the
 /// same type and nodes, are merged into the first with all their groups; 4.1: the physical tags of
-/// its entity in $Entities; tag 0 when there is none), and $PhysicalNames of dimension 2 and 3. Points, lines, quads and other
+/// its entity in $Entities; tag 0 when there is none), and $PhysicalNames of dimension 2 and 3 (a
+/// name as Gmsh reads it: between double quotes, without escapes, a backslash kept). Points, lines, quads and other
 /// surface elements are skipped (their nodes checked as a tet's); any other volume element
 /// (hexahedra, prisms, pyramids, 10-node tets, ... of every type and order Gmsh defines) is
 /// refused, naming each kind's count. Node ids may be sparse and unordered;
@@ -29,9 +30,12 @@ namespace ebh {
 /// -parametric) is read as its $Nodes. Other sections are skipped.
 /// If a surface and a volume group share a tag but not a name, the surface group gets a fresh
 /// tag (> every surface and volume tag in the file) so that `group_names` stays one name per tag;
-/// an unnamed one is then named by its number in the file (a scene's pin names it so).
+/// an unnamed one is then named by its number in the file (a scene's pin names it so), and
+/// `group_file_tags` maps the fresh tag back to that number.
 ///
-/// Throws InputError for binary files, unsupported versions, malformed or truncated sections,
+/// Throws InputError for binary files, unsupported versions, malformed or truncated sections, a
+/// physical name with text after its closing quote (an inner quote: `"a \"b\""`, which Gmsh cuts at
+/// `"a \"`),
 /// references to unknown nodes (by any element), duplicate node ids, an element type Gmsh does not
 /// define, a 4.1 element block whose entity dimension is not its element type's, volume elements
 /// other than 4-node tets, and a file with no tetrahedra.
@@ -47,12 +51,14 @@ TetMesh read_msh(const std::filesystem::path& file);
 /// or domain (in any case) gives each tet its tag, unnamed (a pin names it by its number); the
 /// other attributes are read past, and one of a kind without a group after it (LOOKUP_TABLE,
 /// COLOR_SCALARS, TEXTURE_COORDINATES) ends the reading. A leading FIELD block and METADATA after
-/// an array are skipped. Vertices keep the file's point order (file_node_ids 0..n-1). Throws
+/// an array are skipped. Vertices keep the file's point order (file_node_ids 0..n-1). Lines are
+/// numbered as a text editor numbers them: the line feeds among a binary block's bytes count. Throws
 /// InputError "FILE:LINE: what" for another dataset, a second POINTS section, a count the rest of
 /// the file cannot hold, non-finite coordinates, point indices out of range, cells whose point
 /// counts disagree with their type or with the list's size, a group array of another length than
-/// the cells or with a tet's value that is no tag (< 0, a fraction, a NaN or above
-/// INT32_MAX), naming the cell, and a file with no tets.
+/// the cells or with a value that is no tag (< 0, a fraction, a NaN or above INT32_MAX), a tet's or
+/// a skipped cell's alike, naming the cell (and its kind: "cell 2 (a vertex, type 1)"), and a file
+/// with no tets.
 TetMesh read_vtk(const std::filesystem::path& file);
 
 /// Reads a VTK XML unstructured grid (`.vtu`, as VTK, ParaView, 3D Slicer and meshio write it): its
@@ -68,7 +74,10 @@ TetMesh read_vtk(const std::filesystem::path& file);
 /// disagree with their headers or counts (a count, NumberOfPoints or NumberOfCells, is checked
 /// against what its array's text or bytes can hold before it sizes anything: the error names the
 /// <Piece>'s line and the count), damaged compressed blocks, non-finite coordinates, point
-/// indices out of range, a tet's group value that is no tag (as read_vtk), and a file with no tets.
+/// indices out of range, a cell's group value that is no tag (as read_vtk), and a file with no tets.
+/// A cell or a point is named by its number in the file (the pieces' counted in turn, as VTK and
+/// ParaView number them) and, in a file of several pieces, by its number in its <Piece> too:
+/// "cell 7 (cell 1 of the <Piece> at line 30)".
 TetMesh read_vtu(const std::filesystem::path& file);
 
 /// Reads a Medit ASCII mesh (`.mesh`, MeshVersionFormatted 1 to 3, Dimension 3), as MMG, CGAL's
@@ -76,7 +85,7 @@ TetMesh read_vtu(const std::filesystem::path& file);
 /// vertex numbers, a reference after each). Keywords in any case, values over any lines, `#`
 /// comments. A tet's reference is its group (unnamed: a pin names it by number, `group:2`); a
 /// triangle's reference N > 0 its group named `surface_N` (on a tag after every tet's, so a surface
-/// and a subdomain of the same number stay apart). Edges, corners, ridges, required entities,
+/// and a subdomain of the same number stay apart; `group_file_tags` maps it back to N). Edges, corners, ridges, required entities,
 /// normals, tangents and quadrilaterals are read past; hexahedra, prisms, pyramids and
 /// second-order tets are refused naming each kind's count. Throws InputError "FILE:LINE: what" for
 /// a binary .meshb (not text), a 2-D mesh, an unknown keyword (its record size is unknown), a
@@ -89,7 +98,8 @@ TetMesh read_medit(const std::filesystem::path& file);
 /// same name): the nodes, the 4-node tets, and the boundary faces of a `.face` beside them where
 /// there is one. Records one per line, `#` comments, numbers from 0 or 1 (set by the first node,
 /// consecutive in each file). The first region attribute (`tetgen -A`) is a tet's group (unnamed,
-/// a whole number >= 0); a face's boundary marker N > 0 its group named `surface_N`, as read_medit.
+/// a whole number >= 0); a face's boundary marker N > 0 its group named `surface_N`, as read_medit
+/// (`group_file_tags` maps its tag back to N).
 /// Node attributes and markers are read past. Throws InputError "FILE:LINE: what" for a missing
 /// .node or .ele, 2-D or second-order (-o2) meshes, records out of order or with the wrong number
 /// of values, node numbers out of range, non-finite coordinates, attributes that are no group tag,

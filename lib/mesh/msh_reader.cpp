@@ -218,8 +218,20 @@ class MshParser {
       const int tag = static_cast<int>(c_.integer("physical tag", 0, INT_MAX - 1));
       std::string_view name = c_.rest_of_line();
       if (!name.empty() && name.front() == '"') {
-        if (name.size() < 2 || name.back() != '"') c_.fail("unterminated quoted physical name");
-        name = name.substr(1, name.size() - 2);
+        // Gmsh writes a name as it is between double quotes and reads it up to the next double
+        // quote: it has no escapes (a backslash is a character of the name) and no name holds a
+        // double quote. Text after that quote (`"a \"b\""`, `"a "b""`) is refused, not cut off as
+        // Gmsh cuts it: the name meant is not the name Gmsh reads.
+        const std::size_t close = name.find('"', 1);
+        if (close == std::string_view::npos) c_.fail("unterminated quoted physical name");
+        if (close + 1 != name.size()) {
+          std::string_view rest = name.substr(close + 1);
+          while (rest.front() == ' ' || rest.front() == '\t') rest.remove_prefix(1);  // (rest_of_line ends in a non-blank)
+          c_.fail("text '" + printable(rest) + "' after the physical name \"" + printable(name.substr(1, close - 1)) +
+                  "\": Gmsh reads a name from its double quote to the next, without escapes (no name holds a double "
+                  "quote), and would drop the rest");
+        }
+        name = name.substr(1, close - 1);
       }
       if (name.empty()) c_.fail("empty physical name for tag " + std::to_string(tag));
       if (dim < 2) mesh_.point_curve_groups.emplace(std::string(name), dim);
@@ -704,8 +716,10 @@ class MshParser {
       auto it = remap.find(tag);
       mesh_.group_names[it == remap.end() ? tag : it->second] = name;
     }
-    for (const auto& [from, to] : remap)
+    for (const auto& [from, to] : remap) {
       if (!names_[0].count(from)) mesh_.group_names[to] = std::to_string(from);
+      mesh_.group_file_tags[to] = from;
+    }
   }
 
   TextCursor c_;

@@ -24,6 +24,11 @@ struct TetMesh {
   std::vector<Tri> triangles;            ///< #F boundary triangles listed in the file (may be empty)
   std::vector<int> triangle_group;       ///< #F physical group tag of each triangle
   std::map<int, std::string> group_names;  ///< physical group tag -> name (from $PhysicalNames)
+  /// Physical group tag -> the number the mesh file gives that group, for the groups a reader tags
+  /// otherwise: a Gmsh surface group moved off a volume group's number (read_msh), a Medit triangle
+  /// reference or a TetGen boundary marker N (surface_N, on a tag after every tet's). A tag not
+  /// listed is the file's own number. For what a user reads (`ebh scene info`), not for pins.
+  std::map<int, int> group_file_tags;
   std::vector<long long> file_node_ids;  ///< #V the node id each vertex had in the file
   std::vector<long long> file_tet_ids;   ///< #T the element id each tet had in the file (may be empty)
   /// Elements in more than one physical group (Gmsh allows it): (tet index, tag) and (triangle

@@ -190,6 +190,7 @@ class TetgenReader {
     for (auto& [m, t] : surface_tag) {
       t = ++top;
       mesh_.group_names[t] = "surface_" + std::to_string(m);
+      mesh_.group_file_tags[t] = m;
     }
     mesh_.triangle_group.resize(kept);
     for (std::size_t i = 0; i < kept; ++i) mesh_.triangle_group[i] = surface_tag[marker[i]];

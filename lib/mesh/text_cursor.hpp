@@ -39,10 +39,19 @@ class TextCursor {
 
   /// 1-based number of the line the cursor is on.
   long long line() const { return line_; }
-  /// The cursor's byte offset in the text, and a jump to another (over a binary block, whose line
-  /// ends are not counted: lines after it are numbered as if it were one line).
+  /// The cursor's byte offset in the text, and a jump to another (within binary data, whose line
+  /// ends are not counted: a reader that names lines in it names the line where it starts).
   std::size_t position() const { return pos_; }
   void jump_to(std::size_t pos) { pos_ = std::min(pos, text_.size()); }
+  /// Moves forward to `pos` past a block of binary data, counting the bytes in it that are line
+  /// feeds (an int 10, a float's byte 0x0a) as line ends: the lines after it are numbered as a text
+  /// editor or `grep -an` numbers them.
+  void pass_to(std::size_t pos) {
+    pos = std::min(pos, text_.size());
+    if (pos <= pos_) return;
+    line_ += std::count(text_.begin() + static_cast<std::ptrdiff_t>(pos_), text_.begin() + static_cast<std::ptrdiff_t>(pos), '\n');
+    pos_ = pos;
+  }
   /// Bytes left after the cursor: an upper bound on how many records the rest can hold.
   std::size_t remaining() const { return text_.size() - pos_; }
   bool at_end() const { return pos_ >= text_.size(); }

@@ -102,7 +102,7 @@ class VtkParser {
     if (points_line_ == 0) fail(c_.line(), "no POINTS section");
     if (!have_cells || !have_types) fail(c_.line(), std::string("no ") + (have_cells ? "CELL_TYPES" : "CELLS") + " section");
     build(cells, offsets, offsets_form, legacy_cells, types, cells_line);
-    if (!groups_name_.empty()) take_groups(static_cast<long long>(types.size()));
+    if (!groups_name_.empty()) take_groups(types);
     return std::move(mesh_);
   }
 
@@ -273,7 +273,7 @@ class VtkParser {
       if constexpr (std::is_same_v<T, double>) out[i] = t.real ? detail::bits_as_real(u, t.bytes) : static_cast<double>(integer);
       else out[i] = integer;
     }
-    c_.jump_to(at + n);
+    c_.pass_to(at + n);  // its bytes that are line feeds count: the lines after it are an editor's
     return out;
   }
 
@@ -323,7 +323,7 @@ class VtkParser {
 
   /// A cell array named as groups (is_vtk_group_array), of `count` values of an integer or a float
   /// type, as the groups that take_groups gives the tets. A value read that is no group tag (a NaN,
-  /// a fraction) is refused there, naming its cell, where that cell is a tet.
+  /// a fraction) is refused there, naming its cell, whatever its cell's type.
   void take_groups_array(const std::string& name, long long count, const DataType& t, const char* section, long long line) {
     const std::string in = " (" + printable(name) + ")";
     groups_ = values<double>(count, t, section, line, [&] {
@@ -378,18 +378,22 @@ class VtkParser {
     }
   }
 
-  /// The tets' groups from the cell array of `cells` values (by each tet's cell number): tags >= 0
-  /// (is_vtk_group_tag), unnamed.
-  void take_groups(long long cells) {
-    if (static_cast<long long>(groups_.size()) != cells)
-      fail(groups_line_, groups_name_ + ": " + std::to_string(groups_.size()) + " values for the " + std::to_string(cells) +
+  /// The tets' groups from the group array, one value a cell (by each tet's cell number): tags >= 0
+  /// (is_vtk_group_tag), unnamed. Every cell's value is checked, in the file's order, that of a
+  /// cell read past (a vertex, a line, a triangle: `types` gives each cell's type) as a tet's.
+  void take_groups(const std::vector<long long>& types) {
+    if (groups_.size() != types.size())
+      fail(groups_line_, groups_name_ + ": " + std::to_string(groups_.size()) + " values for the " + std::to_string(types.size()) +
                              " cells (CELL_DATA counts every cell)");
-    for (std::size_t i = 0; i < mesh_.tets.size(); ++i) {
-      const long long cell = mesh_.file_tet_ids[i];
-      const double tag = groups_[static_cast<std::size_t>(cell)];
-      if (!detail::is_vtk_group_tag(tag)) fail(groups_line_, detail::not_a_group_tag(cell, printable(groups_name_), tag));
-      mesh_.tet_group[i] = static_cast<int>(tag);
+    for (std::size_t cell = 0; cell < groups_.size(); ++cell) {
+      const long long c = static_cast<long long>(cell);
+      if (!detail::is_vtk_group_tag(groups_[cell]))
+        fail(groups_line_, detail::not_a_group_tag(types[cell] == detail::kVtkTet ? "cell " + std::to_string(c)
+                                                                                  : detail::vtk_other_cell(c, types[cell]),
+                                                   printable(groups_name_), groups_[cell]));
     }
+    for (std::size_t i = 0; i < mesh_.tets.size(); ++i)
+      mesh_.tet_group[i] = static_cast<int>(groups_[static_cast<std::size_t>(mesh_.file_tet_ids[i])]);
   }
 
   void skip_metadata() {

@@ -66,6 +66,7 @@ class VtuParser {
 
   TetMesh parse() {
     const std::vector<Piece> pieces = scan();
+    several_pieces_ = pieces.size() > 1;
     for (const Piece& p : pieces) read_piece(p);
     if (mesh_.tets.empty()) fail(pieces.front().line, "no tetrahedra (cell type 10) among the cells");
     mesh_.file_node_ids.resize(mesh_.vertices.size());
@@ -78,6 +79,7 @@ class VtuParser {
   SurfaceMesh parse_surface() {
     surface_ = true;
     const std::vector<Piece> pieces = scan();
+    several_pieces_ = pieces.size() > 1;
     SurfaceMesh out;
     for (const Piece& p : pieces) {
       const long long base = read_points(p);
@@ -522,6 +524,23 @@ class VtuParser {
     return out;
   }
 
+  /// Where a file has several <Piece>s (read as one mesh, their points and cells numbered on from
+  /// piece to piece, as VTK and ParaView number them), the number of a piece's element `i` within
+  /// its piece, for messages that name the element by its number in the file: "cell 1 of the
+  /// <Piece> at line 30"; "" for a file of one piece, where the two numbers are one.
+  std::string in_piece(const char* what, const Piece& p, long long i) const {
+    if (!several_pieces_) return "";
+    return std::string(what) + " " + std::to_string(i) + " of the <Piece> at line " + std::to_string(p.line);
+  }
+  /// Element `i` of the piece `p`, whose first is the file's element `first`, as messages name it:
+  /// by its number in the file, then what `note` says and its number in its piece ("cell 7 (cell 1
+  /// of the <Piece> at line 30)", "cell 2 (a tetrahedron, type 10)").
+  std::string element(const char* what, const Piece& p, long long first, long long i, const std::string& note = {}) const {
+    const std::string piece = in_piece(what, p, i);
+    const std::string both = note.empty() ? piece : piece.empty() ? note : note + "; " + piece;
+    return std::string(what) + " " + std::to_string(first + i) + (both.empty() ? "" : " (" + both + ")");
+  }
+
   /// A piece's points appended to mesh_.vertices; the index of its first.
   long long read_points(const Piece& p) {
     if (!p.xyz) fail(p.line, "a <Piece> without <Points>");
@@ -531,17 +550,20 @@ class VtuParser {
     for (long long i = 0; i < p.points; ++i) {
       const Vec3d v{xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
       if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-        fail(p.xyz->line, "point " + std::to_string(i) + " has a non-finite coordinate");
+        fail(p.xyz->line, element("point", p, base, i) + " has a non-finite coordinate");
       mesh_.vertices.push_back(v);
     }
     return base;
   }
 
   /// The `count` offsets of a cell section (as the attribute `counted`, e.g. NumberOfCells, of the
-  /// <Piece> at `line` says) and its connectivity, each offset checked to end a range.
+  /// <Piece> at `line` says) and its connectivity, each offset checked to end a range; `cell(i)`
+  /// names cell i in messages.
+  template <class CellName>
   std::pair<std::vector<long long>, std::vector<long long>> cell_arrays(const std::optional<ArrayRef>& conn,
                                                                         const std::optional<ArrayRef>& offsets,
-                                                                        long long count, long long line, const char* counted) {
+                                                                        long long count, long long line, const char* counted,
+                                                                        CellName&& cell) {
     std::vector<long long> o = values<long long>(*offsets, count, line, std::string(counted) + " " + std::to_string(count));
     const long long size = count ? o.back() : 0;
     if (size < 0 || static_cast<std::size_t>(size) > bytes_.size() * 1100)
@@ -551,7 +573,7 @@ class VtuParser {
     for (long long i = 0; i < count; ++i) {
       const long long end = o[static_cast<std::size_t>(i)];
       if (end < begin || end > size)
-        fail(offsets->line, "cell " + std::to_string(i) + ": offsets " + std::to_string(begin) + ".." + std::to_string(end) +
+        fail(offsets->line, cell(i) + ": offsets " + std::to_string(begin) + ".." + std::to_string(end) +
                                 " is not a range of the " + std::to_string(size) + " connectivity entries");
       begin = end;
     }
@@ -566,14 +588,18 @@ class VtuParser {
     if (count == 0) return;
     if (!conn || !offsets) fail(p.line, std::string("a <Piece> whose <") + section + "> has no " + (!conn ? "connectivity" : "offsets") + " array");
     const bool strips = std::string(section) == "Strips";
-    const auto [o, c] = cell_arrays(conn, offsets, count, p.line, strips ? "NumberOfStrips" : "NumberOfPolys");
+    // (a piece's Polys and Strips are numbered in it: VTK numbers them after its Verts and Lines)
+    auto cell = [&](long long i) {
+      return std::string(section) + " cell " + std::to_string(i) + (several_pieces_ ? " of the <Piece> at line " + std::to_string(p.line) : "");
+    };
+    const auto [o, c] = cell_arrays(conn, offsets, count, p.line, strips ? "NumberOfStrips" : "NumberOfPolys", cell);
     std::vector<long long> corners;
     long long begin = 0;
     for (long long i = 0; i < count; ++i) {
       const long long end = o[static_cast<std::size_t>(i)];
       corners.assign(c.begin() + begin, c.begin() + end);
       begin = end;
-      const std::string which = std::string(section) + " cell " + std::to_string(i) + ": ";
+      const std::string which = cell(i) + ": ";
       if (corners.size() < 3) fail(conn->line, which + std::to_string(corners.size()) + " points, a polygon needs 3 at least");
       for (long long& id : corners) {
         if (id < 0 || id >= p.points)
@@ -596,7 +622,9 @@ class VtuParser {
       fail(p.line, std::string("a <Piece> whose <Cells> has no ") +
                        (!p.connectivity ? "connectivity" : !p.offsets ? "offsets" : "types") + " array");
     const long long base = read_points(p);
-    const auto [offsets, conn] = cell_arrays(p.connectivity, p.offsets, p.cells, p.line, "NumberOfCells");
+    auto cell = [&](long long i, const std::string& note = {}) { return element("cell", p, cell_, i, note); };
+    const auto [offsets, conn] = cell_arrays(p.connectivity, p.offsets, p.cells, p.line, "NumberOfCells",
+                                             [&](long long i) { return cell(i); });
     const std::string cells = "NumberOfCells " + std::to_string(p.cells);
     const std::vector<long long> types = values<long long>(*p.types, p.cells, p.line, cells);
     std::vector<double> groups;  // an integer or a float array (is_vtk_group_tag)
@@ -607,26 +635,29 @@ class VtuParser {
       const long long end = offsets[static_cast<std::size_t>(i)];
       const long long type = types[static_cast<std::size_t>(i)];
       const long long count = end - begin;
+      const double g = p.groups ? groups[static_cast<std::size_t>(i)] : 0.0;
       if (type != detail::kVtkTet) {
+        // A cell read past: its group value checked as a tet's (a volume cell of another kind is
+        // refused by kind, below).
         if (detail::vtk_volume_cell(type)) ++other[type];
+        else if (!detail::is_vtk_group_tag(g))
+          fail(p.groups->line, detail::not_a_group_tag(detail::vtk_other_cell(cell_ + i, type, in_piece("cell", p, i)),
+                                                       printable(p.groups->name), g));
         begin = end;
         continue;
       }
-      if (count != 4) fail(p.connectivity->line, "cell " + std::to_string(i) + " (a tetrahedron, type 10) has " + std::to_string(count) + " points, expected 4");
+      if (count != 4)
+        fail(p.connectivity->line, cell(i, "a tetrahedron, type 10") + " has " + std::to_string(count) + " points, expected 4");
       Tet t{};
       for (int k = 0; k < 4; ++k) {
         const long long id = conn[static_cast<std::size_t>(begin + k)];
         if (id < 0 || id >= p.points)
-          fail(p.connectivity->line, "cell " + std::to_string(i) + ": point index " + std::to_string(id) +
-                                         " is out of range [0, " + std::to_string(p.points) + ")");
+          fail(p.connectivity->line, cell(i) + ": point index " + std::to_string(id) + " is out of range [0, " +
+                                         std::to_string(p.points) + ")" + (several_pieces_ ? " (the points of its <Piece>)" : ""));
         t[static_cast<std::size_t>(k)] = static_cast<int>(base + id);
       }
-      int tag = 0;
-      if (p.groups) {
-        const double g = groups[static_cast<std::size_t>(i)];
-        if (!detail::is_vtk_group_tag(g)) fail(p.groups->line, detail::not_a_group_tag(i, printable(p.groups->name), g));
-        tag = static_cast<int>(g);
-      }
+      if (!detail::is_vtk_group_tag(g)) fail(p.groups->line, detail::not_a_group_tag(cell(i), printable(p.groups->name), g));
+      const int tag = static_cast<int>(g);
       mesh_.tets.push_back(t);
       mesh_.tet_group.push_back(tag);
       mesh_.file_tet_ids.push_back(cell_ + i);
@@ -648,6 +679,7 @@ class VtuParser {
   long long counted_lines_ = 1;
   TetMesh mesh_;
   long long cell_ = 0;  ///< cells of the pieces before
+  bool several_pieces_ = false;  ///< more than one <Piece>: messages name an element's number in its piece too
   bool surface_ = false;  ///< a PolyData (.vtp) for the virtual mesh
   bool big_endian_ = false, zlib_ = false, appended_base64_ = false;
   int header_bytes_ = 4;

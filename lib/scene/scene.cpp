@@ -961,6 +961,23 @@ std::string known_groups_text(const TetMesh& mesh) {
   return out.empty() ? std::string("none") : join(out);
 }
 
+std::vector<MeshGroup> mesh_groups(const TetMesh& mesh) {
+  std::map<int, MeshGroup> groups;
+  for (const auto& [tag, name] : mesh.group_names) groups[tag].name = name;
+  for (int g : mesh.tet_group) ++groups[g].tets;
+  for (int g : mesh.triangle_group) ++groups[g].triangles;
+  for (const auto& [t, g] : mesh.tet_more_groups) ++groups[g].tets;
+  for (const auto& [f, g] : mesh.triangle_more_groups) ++groups[g].triangles;
+  std::vector<MeshGroup> out;
+  for (auto& [tag, g] : groups) {
+    g.tag = tag;
+    const auto in_file = mesh.group_file_tags.find(tag);
+    g.file_tag = in_file == mesh.group_file_tags.end() ? tag : in_file->second;
+    out.push_back(std::move(g));
+  }
+  return out;
+}
+
 std::set<int> group_tags(const TetMesh& mesh, const std::string& group) {
   std::set<int> tags;
   for (const auto& [tag, name] : mesh.group_names)

@@ -530,6 +530,16 @@ std::set<int> group_tags(const TetMesh& mesh, const std::string& group);
 std::vector<std::string> known_group_names(const TetMesh& mesh);
 /// known_group_names for a message: "bottom, tissue, 3 (unnamed)", or "none".
 std::string known_groups_text(const TetMesh& mesh);
+/// A physical group of a mesh as `ebh scene info` lists it.
+struct MeshGroup {
+  int tag = 0;       ///< its tag in the mesh (tet_group, triangle_group; 0: the elements of no group)
+  int file_tag = 0;  ///< its number in the mesh file (Physical Surface(3), a Medit reference, a TetGen marker)
+  std::string name;  ///< "" when unnamed
+  long long tets = 0, triangles = 0;  ///< its elements (one in several groups counts in each)
+};
+/// The groups that a mesh names or that its elements are in, by tag, each with the number the
+/// mesh file gives it (TetMesh::group_file_tags; where a reader kept the file's, the tag).
+std::vector<MeshGroup> mesh_groups(const TetMesh& mesh);
 /// Why a group the mesh file names holds no element (the pin errors say it): an MSH 4.1 file gives
 /// elements their groups through $Entities, and one without that section, or with element blocks
 /// on entities it does not list (as meshio writes it), has none; an MSH 2.2 element's first tag is

@@ -26,6 +26,7 @@ TEST(ReadMedit, TetsTrianglesAndTheirReferences) {
   // top's reference 1 does not join the subdomain 1.
   EXPECT_EQ(m.triangle_group, (std::vector<int>{4, 4, 3, 3}));
   EXPECT_EQ(m.group_names, (std::map<int, std::string>{{3, "surface_1"}, {4, "surface_3"}}));
+  EXPECT_EQ(m.group_file_tags, (std::map<int, int>{{3, 1}, {4, 3}}));  // their numbers in the file
   EXPECT_EQ(m.file_node_ids.front(), 1);
   EXPECT_EQ(m.file_tet_ids.back(), 5);
 }
@@ -70,6 +71,7 @@ TEST(ReadTetgen, NodeEleAndFaceFilesFromOne) {
   EXPECT_EQ(a.tet_group, (std::vector<int>{1, 1, 2, 2, 2}));  // the region attributes
   EXPECT_EQ(a.triangle_group, (std::vector<int>{4, 4, 3, 3}));  // the faces' markers 3 and 1
   EXPECT_EQ(a.group_names, (std::map<int, std::string>{{3, "surface_1"}, {4, "surface_3"}}));
+  EXPECT_EQ(a.group_file_tags, (std::map<int, int>{{3, 1}, {4, 3}}));  // the markers in the .face
   EXPECT_EQ(a.file_node_ids.front(), 1);
   EXPECT_EQ(a.file_tet_ids, (std::vector<long long>{1, 2, 3, 4, 5}));
 }

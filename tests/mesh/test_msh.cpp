@@ -106,6 +106,7 @@ TEST(ReadMsh, SurfaceTagClashingWithVolumeTagIsRenumbered) {
   EXPECT_GT(top, 2);  // a fresh tag above every surface and volume tag in the file
   EXPECT_EQ(m.triangle_group[3], top);
   EXPECT_EQ(m.group_names.at(top), "top");
+  EXPECT_EQ(m.group_file_tags, (std::map<int, int>{{top, 1}}));  // Physical Surface("top", 1) in the file
 }
 
 TEST(ReadMsh, UnnamedSurfaceGroupMovedOffAVolumeTagIsNamedByItsNumber) {
@@ -119,6 +120,28 @@ TEST(ReadMsh, UnnamedSurfaceGroupMovedOffAVolumeTagIsNamedByItsNumber) {
   EXPECT_GT(top, 2);
   EXPECT_EQ(m.group_names.at(top), "1");  // Physical Surface(1), apart from the volume group 1 "tissue"
   EXPECT_EQ(m.group_names.at(1), "tissue");
+}
+
+// Gmsh writes a physical name as it is between double quotes and reads it up to the next double
+// quote, with no escapes (gmsh 4.8.4 reads `3 1 "a \"b\""` and saves it again as `3 1 "a \"`; it
+// keeps `\\` as two backslashes): a backslash is a character of the name, and a name followed by
+// text after that quote, which Gmsh would cut there, is refused, in 2.2 and 4.1 alike.
+TEST(ReadMsh, PhysicalNamesAreReadAsGmshReadsThem) {
+  for (const char* name : {"mesh/cube22.msh", "mesh/cube41.msh"}) {
+    SCOPED_TRACE(name);
+    const std::string good = slurp(data(name));
+    const TetMesh m = read_msh(write_temp("backslash.msh", replace(good, "3 1 \"tissue\"", "3 1 \"left\\liver \\\\ \\n\"")));
+    EXPECT_EQ(m.group_names.at(1), "left\\liver \\\\ \\n");
+    test::expect_each_refused(
+        {
+            {"escaped.msh", replace(good, "3 1 \"tissue\"", "3 1 \"a \\\"b\\\"\""), 9,
+             "text 'b\\\"\"' after the physical name \"a \\\": Gmsh reads a name from its double quote to the next, without "
+             "escapes (no name holds a double quote), and would drop the rest"},
+            {"inner.msh", replace(good, "3 1 \"tissue\"", "3 1 \"a \"b\"\""), 9, "text 'b\"\"' after the physical name \"a \""},
+            {"after.msh", replace(good, "2 3 \"top\"", "2 3 \"top\" side"), 8, "text 'side' after the physical name \"top\""},
+        },
+        [](const auto& p) { read_msh(p); });
+  }
 }
 
 TEST(ReadMsh, SameNameOnSurfaceAndVolumeSharesTheTag) {

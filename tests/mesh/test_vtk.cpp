@@ -2,6 +2,7 @@
 // every malformed case is refused with FILE:LINE.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -91,9 +92,9 @@ TEST(ReadVtk, AFloatGroupArrayOfWholeNumbersGivesTheGroups) {
   const std::string field = ascii.substr(0, ascii.find("SCALARS region")) + "FIELD FieldData 1\nMaterialIds 1 8 double\n1 1 0 0 0 2 2 2\n";
   EXPECT_EQ(read_vtk(write_temp("field.vtk", field)).tet_group, groups);
   EXPECT_EQ(read_vtk(write_temp("binary.vtk", binary_with_float_groups({1, 1, 2, 2, 2}))).tet_group, groups);
-  // the largest tag, and a cell that is no tet (cell 2, a vertex), whose value is not a tag
+  // the largest tag, and 0 on a cell that is no tet (cell 2, a vertex)
   const std::string edge = replace(replace(ascii, "SCALARS region int", "SCALARS region double"), "LOOKUP_TABLE default\n1\n1\n0\n",
-                                   "LOOKUP_TABLE default\n2147483647\n1\nnan\n");
+                                   "LOOKUP_TABLE default\n2147483647\n1\n0\n");
   EXPECT_EQ(read_vtk(write_temp("edge.vtk", edge)).tet_group, (std::vector<int>{2147483647, 1, 2, 2, 2}));
 }
 
@@ -111,8 +112,58 @@ TEST(ReadVtk, AFloatGroupValueThatIsNoTagIsRefusedWithItsCell) {
   const auto field = write_temp("field.vtk", ascii.substr(0, ascii.find("SCALARS region")) + "FIELD FieldData 1\nMaterialIds 1 8 float\n1 1 0 0 0 2.25 2 2\n");
   expect_input_error([&] { read_vtk(field); }, field, 48, "cell 5: MaterialIds 2.25 is not a group tag");
   const auto bin = write_temp("binary.vtk", binary_with_float_groups({1, 1, 2, std::nanf(""), 2}));
-  // (line 15: a binary block counts as one line, its bytes that are line feeds not)
-  expect_input_error([&] { read_vtk(bin); }, bin, 15, "cell 3: gmsh:physical nan is not a group tag");
+  // (line 20: the line feeds among the binary blocks' bytes count, CELL_TYPES' five 10s)
+  expect_input_error([&] { read_vtk(bin); }, bin, 20, "cell 3: gmsh:physical nan is not a group tag");
+}
+
+// A value in the group array on a cell that is no tet (a vertex, a line, a triangle: read past) is
+// checked as a tet's is: a NaN, a fraction or a value out of range there is refused, naming the
+// cell and its kind, at the array's line.
+TEST(ReadVtk, AGroupValueOnACellThatIsNoTetIsCheckedAsATetsIs) {
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtk"));  // cells 2, 3, 4: a vertex, a line, a triangle
+  const std::string doubles = replace(ascii, "SCALARS region int", "SCALARS region double");
+  const std::string values = "LOOKUP_TABLE default\n1\n1\n0\n0\n0\n";
+  test::expect_each_refused(
+      {
+          {"vertex.vtk", replace(doubles, values, "LOOKUP_TABLE default\n1\n1\nnan\n0\n0\n"), 47,
+           "cell 2 (a vertex, type 1): region nan is not a group tag (a whole number from 0 to 2147483647)"},
+          {"line.vtk", replace(doubles, values, "LOOKUP_TABLE default\n1\n1\n0\n0.5\n0\n"), 47,
+           "cell 3 (a line, type 3): region 0.5 is not a group tag"},
+          {"triangle.vtk", replace(doubles, values, "LOOKUP_TABLE default\n1\n1\n0\n0\n3e9\n"), 47,
+           "cell 4 (a triangle, type 5): region 3e+09 is not a group tag"},
+          {"int.vtk", replace(ascii, values, "LOOKUP_TABLE default\n1\n1\n0\n0\n-1\n"), 47,
+           "cell 4 (a triangle, type 5): region -1 is not a group tag"},
+          {"field.vtk", ascii.substr(0, ascii.find("SCALARS region")) + "FIELD FieldData 1\nMaterialIds 1 8 float\n1 1 inf 0 0 2 2 2\n", 48,
+           "cell 2 (a vertex, type 1): MaterialIds inf is not a group tag"},
+      },
+      [](const auto& p) { read_vtk(p); });
+  // the first cell whose value is no tag, in the file's order, a tet or not
+  const auto p = write_temp("both.vtk", replace(doubles, values, "LOOKUP_TABLE default\n1\n1\n0\n-2\n0\n2.5\n"));
+  expect_input_error([&] { read_vtk(p); }, p, 47, "cell 3 (a line, type 3): region -2 is not a group tag");
+}
+
+/// The line of the first `key` in `bytes` as a text editor and `grep -an` number it: one after the
+/// line feeds before it, those among binary data's bytes too.
+int line_of(const std::string& bytes, const std::string& key) {
+  const auto at = bytes.find(key);
+  EXPECT_NE(at, std::string::npos) << key;
+  return 1 + static_cast<int>(std::count(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+}
+
+// After binary data, a message names the line that an editor shows: the binary blocks' bytes that
+// are line feeds (a cell type 10, an int 10) count as line ends, as they do there.
+TEST(ReadVtk, LinesAfterBinaryDataAreNumberedAsAnEditorNumbersThem) {
+  const std::string bin = slurp(data("mesh/cube_binary.vtk"));
+  // CELL_TYPES 5 is on line 9, its five 10s (00 00 00 0a) on line 10 .. 15: CELL_DATA is on line 16
+  ASSERT_EQ(line_of(bin, "CELL_TYPES"), 9);
+  ASSERT_EQ(line_of(bin, "CELL_DATA"), 16);
+  const std::string typo = replace(bin, "CELL_DATA 5\n", "CELL_DATUM 5\n");
+  const auto p = write_temp("keyword.vtk", typo);
+  expect_input_error([&] { read_vtk(p); }, p, line_of(typo, "CELL_DATUM"), "unexpected 'CELL_DATUM'");
+  // the FIELD's group array, after a binary array of doubles: the line of its name
+  const std::string ints = replace(bin, "gmsh:physical 1 5 int", "gmsh:physical 1 4 int");
+  const auto q = write_temp("count.vtk", ints);
+  expect_input_error([&] { read_vtk(q); }, q, line_of(ints, "gmsh:physical"), "gmsh:physical: 4 values for the 5 cells");
 }
 
 TEST(ReadVtk, ReadTetMeshTakesVtkByItsExtensionInAnyCase) {

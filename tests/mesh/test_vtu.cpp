@@ -85,9 +85,9 @@ TEST(ReadVtu, AFloatGroupArrayOfWholeNumbersGivesTheGroups) {
     EXPECT_EQ(read_vtu(write_temp("ascii.vtu", text)).tet_group, groups);
   }
   EXPECT_EQ(read_vtu(write_temp("appended.vtu", appended_with_float_groups({1, 1}, {0, 2, 2, 2}))).tet_group, groups);
-  // the largest tag, and a cell that is no tet (cell 2, a triangle), whose value is not a tag
+  // the largest tag, and 0 on a cell that is no tet (cell 2, a triangle)
   const std::string edge = replace(replace(ascii, "type=\"Int32\" Name=\"CellEntityIds\"", "type=\"Float64\" Name=\"CellEntityIds\""),
-                                   "1 1 0 2 2 2", "2147483647 1 nan 2 2 2");
+                                   "1 1 0 2 2 2", "2147483647 1 0 2 2 2");
   EXPECT_EQ(read_vtu(write_temp("edge.vtu", edge)).tet_group, (std::vector<int>{2147483647, 1, 2, 2, 2}));
 }
 
@@ -102,9 +102,71 @@ TEST(ReadVtu, AFloatGroupValueThatIsNoTagIsRefusedWithItsCell) {
     const auto p = write_temp("bad.vtu", replace(doubles, "1 1 0 2 2 2", std::string("1 ") + value + " 0 2 2 2"));
     expect_input_error([&] { read_vtu(p); }, p, 9, std::string("cell 1: CellEntityIds ") + shown + " is not a group tag (a whole number from 0 to 2147483647)");
   }
-  // binary: the second piece's cell 1 (its array's line)
+  // binary: the second piece's cell 1, the file's cell 3 (its array's line)
   const auto p = write_temp("appended.vtu", appended_with_float_groups({1, 1}, {0, std::nanf(""), 2, 2}));
-  expect_input_error([&] { read_vtu(p); }, p, 24, "cell 1: CellEntityIds nan is not a group tag");
+  expect_input_error([&] { read_vtu(p); }, p, 24, "cell 3 (cell 1 of the <Piece> at line 20): CellEntityIds nan is not a group tag");
+}
+
+// A value in the group array on a cell that is no tet (a triangle, read past) is checked as a
+// tet's is, naming the cell and its kind.
+TEST(ReadVtu, AGroupValueOnACellThatIsNoTetIsCheckedAsATetsIs) {
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtu"));  // cell 2 is a triangle
+  const std::string doubles = replace(ascii, "type=\"Int32\" Name=\"CellEntityIds\"", "type=\"Float64\" Name=\"CellEntityIds\"");
+  test::expect_each_refused(
+      {
+          {"nan.vtu", replace(doubles, "1 1 0 2 2 2", "1 1 nan 2 2 2"), 9,
+           "cell 2 (a triangle, type 5): CellEntityIds nan is not a group tag (a whole number from 0 to 2147483647)"},
+          {"fraction.vtu", replace(doubles, "1 1 0 2 2 2", "1 1 0.25 2 2 2"), 9, "cell 2 (a triangle, type 5): CellEntityIds 0.25 is not"},
+          {"negative.vtu", replace(ascii, "1 1 0 2 2 2", "1 1 -3 2 2 2"), 9, "cell 2 (a triangle, type 5): CellEntityIds -3 is not"},
+          // a vertex (type 1) in its place
+          {"vertex.vtu",
+           replace(replace(replace(replace(doubles, "10 10 5 10 10 10", "10 10 1 10 10 10"), "4 8 11 15 19 23", "4 8 9 13 17 21"),
+                           "0 1 2 4 3 2 1 7 0 2 1 5", "0 1 2 4 3 2 1 7 0 5"),
+                   "1 1 0 2 2 2", "1 1 1e10 2 2 2"),
+           9, "cell 2 (a vertex, type 1): CellEntityIds 1e+10 is not"},
+      },
+      [](const auto& p) { read_vtu(p); });
+}
+
+/// `ascii` (cube_ascii.vtu) with its <Piece> twice, `from` replaced by `to` in the second: 16 points
+/// and 12 cells, the second <Piece> at line 30 and each of its arrays 25 lines below the first's.
+std::string two_pieces(const std::string& ascii, const std::string& from = {}, const std::string& to = {}) {
+  const std::string close = "    </Piece>\n";
+  const std::size_t begin = ascii.find("    <Piece"), end = ascii.find(close) + close.size();
+  const std::string piece = ascii.substr(begin, end - begin);
+  return ascii.substr(0, end) + (from.empty() ? piece : replace(piece, from, to)) + ascii.substr(end);
+}
+
+// In a file of several <Piece>s (read as one mesh), a message names a cell or a point by its number
+// in the file, the pieces' counted in turn as VTK and ParaView number them, and by its number in
+// its <Piece>: the user finds it either way.
+TEST(ReadVtu, ErrorsInALaterPieceNameTheCellByItsNumberInTheFile) {
+  const std::string ascii = slurp(data("mesh/cube_ascii.vtu"));
+  const TetMesh two = read_vtu(write_temp("two.vtu", two_pieces(ascii)));
+  EXPECT_EQ(two.file_tet_ids, (std::vector<long long>{0, 1, 3, 4, 5, 6, 7, 9, 10, 11}));
+  test::expect_each_refused(
+      {
+          {"group.vtu", two_pieces(ascii, "1 1 0 2 2 2", "1 -1 0 2 2 2"), 34,
+           "cell 7 (cell 1 of the <Piece> at line 30): CellEntityIds -1 is not a group tag"},
+          {"range.vtu", two_pieces(ascii, "0 1 2 4 3 2 1 7", "0 1 2 9 3 2 1 7"), 44,
+           "cell 6 (cell 0 of the <Piece> at line 30): point index 9 is out of range [0, 8) (the points of its <Piece>)"},
+          {"offsets.vtu", two_pieces(ascii, "4 8 11 15 19 23", "4 8 16 20 19 23"), 47,
+           "cell 10 (cell 4 of the <Piece> at line 30): offsets 20..19 is not a range of the 23 connectivity entries"},
+          {"points.vtu", two_pieces(ascii, "10 10 5 10 10 10", "10 10 10 10 10 10"), 44,
+           "cell 8 (a tetrahedron, type 10; cell 2 of the <Piece> at line 30) has 3 points, expected 4"},
+          {"triangle.vtu", two_pieces(replace(ascii, "type=\"Int32\" Name=\"CellEntityIds\"", "type=\"Float32\" Name=\"CellEntityIds\""),
+                                      "1 1 0 2 2 2", "1 1 nan 2 2 2"),
+           34, "cell 8 (a triangle, type 5; cell 2 of the <Piece> at line 30): CellEntityIds nan is not a group tag"},
+      },
+      [](const auto& p) { read_vtu(p); });
+  // binary (cube_appended.vtu: two pieces of 8 points, 2 and 4 cells): the second piece's point 5
+  // is the file's point 13
+  std::string raw = slurp(data("mesh/cube_appended.vtu"));
+  const std::size_t y = raw.find('_', raw.find("<AppendedData")) + 1 + 322 + 4 + (3 * 5 + 1) * 8;  // offset 322, a UInt32 header
+  const auto nan = std::bit_cast<std::uint64_t>(std::nan(""));
+  for (int k = 0; k < 8; ++k) raw[y + static_cast<std::size_t>(k)] = static_cast<char>((nan >> (8 * k)) & 0xff);  // little-endian
+  const auto p = write_temp("point.vtu", raw);
+  expect_input_error([&] { read_vtu(p); }, p, 27, "point 13 (point 5 of the <Piece> at line 20) has a non-finite coordinate");
 }
 
 TEST(ReadVtu, MalformedAndUnsupportedFilesAreRefusedWithTheirLine) {

@@ -166,6 +166,34 @@ TEST(Scene, ATetgenMeshsFilesAreEachAnInputAndItsGroupsPin) {
   EXPECT_EQ(region_vertices(m, group("surface_1")), (std::vector<int>{4, 5, 6, 7}));  // z = 10
 }
 
+// What `ebh scene info` lists: each group by the number its mesh file gives it (a TetGen face
+// marker, a Medit triangle reference, a Gmsh surface group's number that a volume group of another
+// name has too), not the tag a reader moved it to so that it stays apart from a volume group.
+TEST(Scene, MeshGroupsAreListedByTheirNumbersInTheFile) {
+  auto listed = [](const TetMesh& m) {  // "tag file_tag name tets triangles"
+    std::vector<std::string> out;
+    for (const MeshGroup& g : mesh_groups(m))
+      out.push_back(std::to_string(g.tag) + " " + std::to_string(g.file_tag) + " " + g.name + " " + std::to_string(g.tets) + " " +
+                    std::to_string(g.triangles));
+    return out;
+  };
+  // the tets' regions 1 and 2; the faces' markers (references) 1 and 3, on tags 3 and 4
+  const std::vector<std::string> surface_n = {"1 1  2 0", "2 2  3 0", "3 1 surface_1 0 2", "4 3 surface_3 0 2"};
+  EXPECT_EQ(listed(read_tet_mesh(data("mesh/cube.1.ele"))), surface_n);
+  EXPECT_EQ(listed(read_tet_mesh(data("mesh/cube.mesh"))), surface_n);
+  // as loaded in a scene (what scene info reads)
+  const std::string yaml = replace(slurp(data("scene/cube.yaml")), "../mesh/cube22.msh", data("mesh/cube.1.ele").string());
+  EXPECT_EQ(listed(load_scene(write_temp("tetgen.yaml", replace(yaml, "group: bottom", "group: surface_3"))).physical), surface_n);
+  // cube22.msh with its top on Physical Surface("top", 1), the number of the volume "tissue"
+  std::string text = replace(slurp(data("mesh/cube22.msh")), "2 3 \"top\"", "2 1 \"top\"");
+  text = replace(replace(text, "7 2 2 3 2", "7 2 2 1 2"), "8 2 2 3 2", "8 2 2 1 2");
+  EXPECT_EQ(listed(read_msh(write_temp("clash.msh", text))),
+            (std::vector<std::string>{"1 1 tissue 5 0", "2 2 bottom 0 2", "3 1 top 0 2"}));
+  // groups a reader keeps on the file's numbers, and the elements of none (tag 0)
+  EXPECT_EQ(listed(read_tet_mesh(data("mesh/cube_ascii.vtk"))), (std::vector<std::string>{"1 1  2 0", "2 2  3 0"}));
+  EXPECT_EQ(listed(read_tet_mesh(data("mesh/cube51.vtk"))), (std::vector<std::string>{"0 0  5 0"}));
+}
+
 TEST(Scene, PartsTouchingNoPinnedVertexAreFoundByTheirSharedVertices) {
   TetMesh m;
   m.vertices.resize(15);

@@ -50,12 +50,6 @@ struct SceneInfoArgs {
   bool json = false;
 };
 
-struct GroupCount {
-  std::string name;
-  long long tets = 0;
-  long long triangles = 0;
-};
-
 void info(const SceneInfoArgs& a) {
   const ebh::Scene scene = ebh::load_scene(ebh::resolve_scene_path(a.scene));
   // The scene's warnings and the replay's: the tool's stiffnesses', and (mode-free here) the async
@@ -79,12 +73,7 @@ void info(const SceneInfoArgs& a) {
       spec.stiffness.k_con * ebh::surface_stiffness_factor(spec.stiffness.k_con, tool.force_limit, spacing);
   const ebh::MeshTransform& xf = spec.mesh_transform;
   const std::vector<std::pair<std::string, double>> tool_sizes = ebh::tool_contact_sizes(tool);
-  std::map<int, GroupCount> groups;  // by tag; tag 0 is "no group"
-  for (const auto& [tag, name] : m.group_names) groups[tag].name = name;
-  for (int g : m.tet_group) ++groups[g].tets;
-  for (int g : m.triangle_group) ++groups[g].triangles;
-  for (const auto& [t, g] : m.tet_more_groups) ++groups[g].tets;
-  for (const auto& [f, g] : m.triangle_more_groups) ++groups[g].triangles;
+  const std::vector<ebh::MeshGroup> groups = ebh::mesh_groups(m);  // by tag; tag 0 is "no group"
 
   // Element quality: a histogram of the mean ratio and the worst tets; the physical solver's
   // spectrum on this mesh (what decides whether and how fast its Jacobi-type methods converge).
@@ -224,9 +213,9 @@ void info(const SceneInfoArgs& a) {
     sv.set("float32_floor", float32_floor);
     j.set("solver", std::move(sv));
     ebh::Json g = ebh::Json::array();
-    for (const auto& [tag, c] : groups) {
+    for (const ebh::MeshGroup& c : groups) {
       ebh::Json e = ebh::Json::object();
-      e.set("tag", tag);
+      e.set("tag", c.file_tag);  // the number in the mesh file
       e.set("name", c.name);
       e.set("tets", c.tets);
       e.set("triangles", c.triangles);
@@ -334,9 +323,9 @@ void info(const SceneInfoArgs& a) {
     std::printf("  float32 floor  %.2g mesh weights at rest (--backend cuda's steps go no lower)\n", float32_floor);
   }
   std::printf("groups\n");
-  for (const auto& [tag, c] : groups)
+  for (const ebh::MeshGroup& c : groups)  // each by its number in the mesh file
     std::printf("  %-14s tag %-4d %8lld tets %8lld triangles\n",
-                c.name.empty() ? "(unnamed)" : ebh::escape_unprintable(c.name).c_str(), tag,
+                c.name.empty() ? "(unnamed)" : ebh::escape_unprintable(c.name).c_str(), c.file_tag,
                 c.tets, c.triangles);
 }
 

@@ -1778,6 +1778,12 @@ if(EBH_BASH)
   # One sweep at a time in a folder (DIR/.lock); the lock dies with its process.
   add_test(NAME cli.sweep.lock COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/lock.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/lock)
   set_tests_properties(cli.sweep.lock PROPERTIES LABELS "cli;sweep" TIMEOUT 300 PASS_REGULAR_EXPRESSION "lock: ok")
+  # A run's output deleted after the summary was written: the report names the run and why, does
+  # not count it as ok, and collects again; a resumed sweep runs exactly that run.
+  add_test(NAME cli.sweep.report_outdated
+    COMMAND ${EBH_BASH} ${CMAKE_CURRENT_SOURCE_DIR}/sweep/report_outdated.sh ${EBH_BIN} ${EBH_SWEEP_OUT}/report_outdated)
+  set_tests_properties(cli.sweep.report_outdated PROPERTIES LABELS "cli;sweep" TIMEOUT 120
+    PASS_REGULAR_EXPRESSION "report outdated: ok")
 endif()
 # The runs' replays print into their logs; the sweep says each kind of warning once, counted.
 file(WRITE ${EBH_SWEEP_OUT}/warned_plan.yaml

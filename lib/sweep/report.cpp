@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <sstream>
+#include <string_view>
 #include <tuple>
 
 #include "core/error.hpp"
@@ -32,11 +33,30 @@ std::string fmt(double v, const char* f = "%.4g") {
   return buf;
 }
 
-/// Markdown table cells must not hold a bar.
-std::string md(std::string s) {
-  s = escape_unprintable(s);  // a line break would end a heading or a table's row
-  for (std::size_t i = 0; (i = s.find('|', i)) != std::string::npos; i += 2) s.replace(i, 1, "\\|");
-  return s;
+bool ascii_alnum(char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z'); }
+
+/// Text of the summary (a scene's, recording's or baseline's name, overrides, an error) in the
+/// report as written, not as Markdown or HTML: each character a viewer could take for syntax is
+/// backslash-escaped (CommonMark escapes any ASCII punctuation so): a tag, comment or autolink
+/// (<), an entity (&), a link or image ("](", the only bracket that makes one: a line of the
+/// report never begins with a name, so no link definition can), emphasis and strikethrough (*, ~,
+/// and _ but between two letters or digits, where it opens and closes nothing: tube_insert), a
+/// code span (`), math ($), a backslash itself, and the bar that ends a table's cell. Plain names
+/// (tube_insert, solver.virtual_iterations=2, gravity=[0, 0, -9.81]) stay as they are. Then
+/// unprintable bytes as \xNN (escape_unprintable): a line break would end a heading or a row.
+std::string md(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const char c = s[i];
+    const bool syntax =
+        std::string_view("\\`*~$|<>&").find(c) != std::string_view::npos ||
+        (c == ']' && i + 1 < s.size() && s[i + 1] == '(') ||
+        (c == '_' && !(i > 0 && i + 1 < s.size() && ascii_alnum(s[i - 1]) && ascii_alnum(s[i + 1])));
+    if (syntax) out += '\\';
+    out += c;
+  }
+  return escape_unprintable(out);
 }
 
 }  // namespace
@@ -313,12 +333,20 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
     if (g.points.empty()) o << "| | (no finished run) | | | | | | | | |\n";
     if (const auto goal = baseline_goal(g)) {
       const ReportPoint &b = g.points[goal->baseline], &f = g.points[goal->fastest], &a = g.points[goal->most_accurate];
+      // The baseline is no candidate against itself: where nothing beats it, that is said, not "1x".
       o << "\nAgainst the baseline " << md(b.baseline) << " (" << md(b.overrides) << ": " << fmt(b.wall_s) << " s, RMS error "
-        << fmt(b.error_rms) << " N): the fastest at an RMS error <= " << fmt(b.error_rms) << " N is " << md(f.overrides)
-        << ", " << fmt(f.wall_s) << " s, **" << fmt(goal->speedup, "%.3g") << "x faster**" << looser_solve(f, b)
-        << "; the most accurate at a wall time <= " << fmt(b.wall_s) << " s is " << md(a.overrides) << ", "
-        << fmt(a.error_rms) << " N, **" << fmt(goal->error_ratio, "%.3g") << "x lower error**" << looser_solve(a, b)
-        << ". 2x goal: " << (goal->met() ? "met" : "not met") << ".\n";
+        << fmt(b.error_rms) << " N): ";
+      if (goal->fastest == goal->baseline)
+        o << "no configuration is faster at an RMS error <= " << fmt(b.error_rms) << " N";
+      else
+        o << "the fastest at an RMS error <= " << fmt(b.error_rms) << " N is " << md(f.overrides) << ", " << fmt(f.wall_s)
+          << " s, **" << fmt(goal->speedup, "%.3g") << "x faster**" << looser_solve(f, b);
+      if (goal->most_accurate == goal->baseline)
+        o << "; no configuration is more accurate at a wall time <= " << fmt(b.wall_s) << " s";
+      else
+        o << "; the most accurate at a wall time <= " << fmt(b.wall_s) << " s is " << md(a.overrides) << ", "
+          << fmt(a.error_rms) << " N, **" << fmt(goal->error_ratio, "%.3g") << "x lower error**" << looser_solve(a, b);
+      o << ". 2x goal: " << (goal->met() ? "met" : "not met") << ".\n";
     } else if (!g.no_baseline_goal.empty()) {
       o << "\nAgainst the baseline " << md(g.baseline) << ": no comparison: " << md(g.no_baseline_goal) << ".\n";
     }
@@ -349,7 +377,7 @@ std::string report_markdown(const std::vector<ReportGroup>& groups) {
   if (!goals.empty()) {
     o << "\n## The 2x goal\n\n";
     for (const auto& [backend, n] : goals)
-      o << "- " << backend << ": met on " << n.first << " of " << n.second << " scene and recording pairs"
+      o << "- " << md(backend) << ": met on " << n.first << " of " << n.second << " scene and recording pairs"
         << (met_on[backend].empty() ? "" : " (" + md(met_on[backend]) + ")")
         << (not_compared[backend].empty() ? ""
                                           : "; not compared on " + md(not_compared[backend]) +

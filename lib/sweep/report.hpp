@@ -98,9 +98,13 @@ inline constexpr double kLooserSolve = 5;
 
 /// The Markdown report: per group a table by wall time, the front and the baseline marked, and the
 /// comparison with the baseline (baseline_goal) when there is one, saying where the fastest or the
-/// most accurate leaves its physical mesh less converged than the baseline (kLooserSolve); a group
-/// whose baseline gives no comparison says why (ReportGroup::no_baseline_goal), and the closing
-/// 2x-goal section counts such groups as not compared: no baseline of the plan goes unmentioned.
+/// most accurate leaves its physical mesh less converged than the baseline (kLooserSolve), and
+/// that no configuration is faster (or more accurate) where the baseline is itself the fastest
+/// (the most accurate), not "1x"; a group whose baseline gives no comparison says why
+/// (ReportGroup::no_baseline_goal), and the closing 2x-goal section counts such groups as not
+/// compared: no baseline of the plan goes unmentioned. Text from the summary (names, overrides,
+/// errors) shows as written: what Markdown or HTML would take for syntax (<b>, [x](y), *, |, `) is
+/// escaped, a plain name left as it is.
 std::string report_markdown(const std::vector<ReportGroup>& groups);
 
 /// A PNG plot (log-log): force RMS error against wall time, one colour per group, the front of

@@ -235,6 +235,11 @@ ReplayTrace read_run_output(const fs::path& out) {
   return trace;
 }
 
+/// The error column of a pending row whose output the sweep runs again (redo_reason).
+std::string redo_error(RunState state) {
+  return std::string("to run again: ") + (state == RunState::Stale ? "its output was " : "a run ") + redo_reason(state);
+}
+
 }  // namespace
 
 void write_summary_h5(const CsvTable& t, const std::string& path) {
@@ -340,7 +345,7 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
     const fs::path out = run_output(dir, r);
     const RunState state = states[r.id];
     if (const std::string why = redo_reason(state); !why.empty()) {
-      error = std::string("to run again: ") + (state == RunState::Stale ? "its output was " : "a run ") + why;
+      error = redo_error(state);
       ++s.pending;
       ++s.redo;
     } else if (state == RunState::Done) {
@@ -405,6 +410,33 @@ SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>&
     t.rows.push_back(std::move(row));
   }
   return s;
+}
+
+std::vector<OutdatedRow> outdated_ok_rows(const SweepPlan& plan, const std::vector<SweepRun>& runs, const CsvTable& summary,
+                                          const fs::path& dir) {
+  std::vector<OutdatedRow> out;
+  const auto id = std::find(summary.header.begin(), summary.header.end(), "id");
+  const auto status = std::find(summary.header.begin(), summary.header.end(), "status");
+  if (id == summary.header.end() || status == summary.header.end()) return out;
+  const auto c_id = static_cast<std::size_t>(id - summary.header.begin());
+  const auto c_status = static_cast<std::size_t>(status - summary.header.begin());
+  std::map<std::string, const SweepRun*> by_id;
+  for (const SweepRun& r : runs) by_id.emplace(r.id, &r);
+  InputDigests digests(&plan);
+  for (std::size_t row = 0; row < summary.rows.size(); ++row) {
+    const std::vector<std::string>& cells = summary.rows[row];
+    if (cells.size() <= std::max(c_id, c_status) || cells[c_status] != "ok") continue;
+    const auto run = by_id.find(cells[c_id]);
+    if (run == by_id.end()) continue;  // no run of this plan: the report takes the row as it is
+    const RunState state = run_state(dir, plan, *run->second, digests);
+    if (state == RunState::Done) continue;
+    const std::string why = state == RunState::Missing
+                                ? "to run again: its output " + run_output(dir, *run->second).string() +
+                                      " is not there (deleted since the summary was written)"
+                                : redo_error(state);
+    out.push_back({row, run->second, why});
+  }
+  return out;
 }
 
 }  // namespace ebh

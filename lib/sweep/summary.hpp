@@ -83,4 +83,22 @@ std::string report_cell_problem(const std::string& column, const std::string& ce
 /// the sweep ran leaves the runs made from it pending. Reads each output once and each reference once.
 SweepSummary summarize_sweep(const SweepPlan& plan, const std::vector<SweepRun>& runs, const std::filesystem::path& dir);
 
+/// A row of a summary as read that says ok for a run whose output the sweep no longer takes as done.
+struct OutdatedRow {
+  std::size_t row = 0;            ///< index into CsvTable::rows
+  const SweepRun* run = nullptr;  ///< its run, of `runs`
+  /// Why, as the error column of a pending row says it: "to run again: its output DIR/runs/ID.h5
+  /// is not there (deleted since the summary was written)", "to run again: a run whose output does
+  /// not open", ...
+  std::string why;
+};
+
+/// The rows of `summary` (a sweep's summary.csv as read) that say ok for a run of `runs` whose
+/// output in `dir` the sweep would not take as done now (run_state: deleted, cut short, replaced
+/// by another run's replay or made from input files edited since the summary was written): a
+/// resumed sweep runs each again, so the summary no longer holds its result. Rows are matched by
+/// their `id` column; a summary without one (an older ebh) gives none.
+std::vector<OutdatedRow> outdated_ok_rows(const SweepPlan& plan, const std::vector<SweepRun>& runs, const CsvTable& summary,
+                                          const std::filesystem::path& dir);
+
 }  // namespace ebh

@@ -1061,6 +1061,50 @@ TEST(SweepSummary, ARunWhoseMeasuresTheReportRefusesIsFailed) {
   EXPECT_EQ(report_cell_problem("whole.peak_force_N", "inf"), "");  // no measure of the report's
 }
 
+// A summary written before a run's output was deleted (or cut short) still says ok, and no file is
+// newer than it: outdated_ok_rows finds such rows by run_state, so the report collects again
+// rather than count them (tests/sweep/report_outdated.sh runs it end to end). Rows not ok, or of
+// no run of the plan, and a summary without ids give none.
+TEST(SweepSummary, OkRowsWhoseOutputIsGoneAreOutdated) {
+  const fs::path d = fresh_tube_scene("summary_outdated");
+  const SweepPlan p = read_sweep_plan(plan_file("summary_outdated.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
+                                                                             ", recordings: [tube_insert], reference: {}}\n"
+                                                                             "runs: [{solver.virtual_iterations: 2}]\nstart: 4\nduration: 0.5\n"));
+  const std::vector<SweepRun> runs = expand_plan(p);
+  ASSERT_EQ(runs.size(), 2u);
+  const fs::path dir = d / "out";
+  fs::create_directories(dir / "runs");
+  for (const SweepRun& r : runs) write_tube_output(d, dir, r, 0.1);
+  const SweepSummary s = summarize_sweep(p, runs, dir);
+  ASSERT_EQ(s.ok, 2u);
+  EXPECT_TRUE(outdated_ok_rows(p, runs, s.table, dir).empty());
+  // The run's output deleted: its row, the run and why.
+  fs::remove(run_output(dir, runs[1]));
+  std::vector<OutdatedRow> o = outdated_ok_rows(p, runs, s.table, dir);
+  ASSERT_EQ(o.size(), 1u);
+  EXPECT_EQ(o[0].row, 1u);
+  EXPECT_EQ(o[0].run, &runs[1]);
+  EXPECT_EQ(o[0].why, "to run again: its output " + run_output(dir, runs[1]).string() +
+                          " is not there (deleted since the summary was written)");
+  // The reference's cut short: run again too, as the summary would say.
+  fs::resize_file(run_output(dir, runs[0]), fs::file_size(run_output(dir, runs[0])) / 2);
+  o = outdated_ok_rows(p, runs, s.table, dir);
+  ASSERT_EQ(o.size(), 2u);
+  EXPECT_EQ(o[0].row, 0u);
+  EXPECT_EQ(o[0].why, "to run again: a run whose output does not open");
+  // Collected again, the summary agrees with the folder: nothing outdated.
+  const SweepSummary again = summarize_sweep(p, runs, dir);
+  EXPECT_EQ(again.ok, 0u);
+  EXPECT_TRUE(outdated_ok_rows(p, runs, again.table, dir).empty());
+  // Rows of no run of the plan, or without ids (an older ebh): taken as they are.
+  CsvTable other = s.table;
+  for (auto& row : other.rows) row[other.column("id", "summary")] += "0";
+  EXPECT_TRUE(outdated_ok_rows(p, runs, other, dir).empty());
+  CsvTable no_ids = s.table;
+  no_ids.header[no_ids.column("id", "summary")] = "name";
+  EXPECT_TRUE(outdated_ok_rows(p, runs, no_ids, dir).empty());
+}
+
 // One rule for non-finite samples: a NaN in a run's force fails the run as an inf does (it made an
 // ok run with empty force errors and an empty error column), and a NaN time too (it gave a force
 // error 6x the true one, ok). A reference with one fails, and the runs compared with it are ok with
@@ -1685,6 +1729,61 @@ TEST(SweepReport, ABaselineWithoutAComparisonSaysWhy) {
   } catch (const InputError& e) {
     EXPECT_STREQ(e.what(), "s.csv: no runs (a header line and no rows; a sweep's summary has a row per run)");
   }
+}
+
+// The baseline is no candidate against itself: where no configuration is faster at its error (or
+// more accurate at its time), the comparison says so, where it said the baseline itself was "1x
+// faster" ("1x lower error"). In the hand-made summary, k=4 (4 s, 0.1 N) is both the fastest at its
+// error and the most accurate at its time; k=5 (1.5 s, 0.5 N) is beaten on time by k=1 (1 s, 0.5 N)
+// and on error by none at 1.5 s or less.
+TEST(SweepReport, TheBaselineIsNotComparedWithItself) {
+  const std::string file = front_file();
+  CsvTable t = parse_csv(front_text(), file);
+  t.header.push_back("baseline");
+  for (auto& row : t.rows) row.push_back(row[t.column("overrides", file)] == "k=4" ? "paper" : "");
+  const std::string both = report_markdown(build_report(t, file));
+  EXPECT_NE(both.find("Against the baseline paper (k=4: 4 s, RMS error 0.1 N): no configuration is faster at an RMS error "
+                      "<= 0.1 N; no configuration is more accurate at a wall time <= 4 s. 2x goal: not met.\n"),
+            std::string::npos) << both;
+  EXPECT_EQ(both.find("1x"), std::string::npos) << both;
+  for (auto& row : t.rows) row.back() = row[t.column("overrides", file)] == "k=5" ? "paper" : "";
+  const std::string faster = report_markdown(build_report(t, file));
+  EXPECT_NE(faster.find("Against the baseline paper (k=5: 1.5 s, RMS error 0.5 N): the fastest at an RMS error <= 0.5 N is "
+                        "k=1, 1 s, **1.5x faster**; no configuration is more accurate at a wall time <= 1.5 s. 2x goal: not "
+                        "met.\n"),
+            std::string::npos) << faster;
+  EXPECT_EQ(faster.find("1x lower error"), std::string::npos) << faster;
+}
+
+// Names, overrides and errors from the summary show in the report as written: what Markdown or
+// HTML would take for syntax (a tag, a link, emphasis, a code span, a table's bar) is escaped,
+// where a Markdown viewer rendered <b>tube</b> bold and [x](y) a link. Plain names (tube_insert,
+// solver.virtual_iterations=2, a list) are left byte for byte.
+TEST(SweepReport, NamesShowAsWrittenNotAsMarkup) {
+  const std::string file = front_file();
+  CsvTable t = parse_csv(front_text(), file);
+  t.header.push_back("baseline");
+  const std::size_t c_over = t.column("overrides", file), c_error = t.column("error", file);
+  for (auto& row : t.rows) {
+    row[t.column("scene", file)] = "<b>tube</b>";
+    row[t.column("recording", file)] = "rec[x](y)*";
+    row.push_back(row[c_over] == "k=3" ? "**paper** & co" : "");
+    if (row[c_over] == "k=1") row[c_over] = "description=`x` | *y* _z_ ~w~ $m$ a\\b";
+    if (row[c_over] == "k=5") row[c_over] = "gravity=[0, 0, -9.81] solver.virtual_iterations=2 k_con=tube_insert";
+    if (row[c_over] == "k=6") row[c_error] = "<script>x</script>: see [the log](runs/f.log)";
+  }
+  const std::string md = report_markdown(build_report(t, file));
+  EXPECT_NE(md.find("\n## \\<b\\>tube\\</b\\> + rec[x\\](y)\\*, cpu\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("| * | description=\\`x\\` \\| \\*y\\* \\_z\\_ \\~w\\~ \\$m\\$ a\\\\b | 1 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("|  \\*\\*paper\\*\\* \\& co | k=3 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("Against the baseline \\*\\*paper\\*\\* \\& co (k=3:"), std::string::npos) << md;
+  EXPECT_NE(md.find("\nfailed: f k=6: \\<script\\>x\\</script\\>: see [the log\\](runs/f.log)\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("- cpu: met on 0 of 1 scene and recording pairs\n"), std::string::npos) << md;
+  // Plain text as it is: an underscore between letters opens no emphasis, a bracket no link but "](".
+  EXPECT_NE(md.find("|  | gravity=[0, 0, -9.81] solver.virtual_iterations=2 k_con=tube_insert | 1 | 1.5 |"), std::string::npos)
+      << md;
+  EXPECT_NE(report_markdown(build_report(parse_csv(front_text(), file), file)).find("\n## tube + tube_insert, cpu\n"),
+            std::string::npos);
 }
 
 /// The haptic rate floor (`ebh sweep report --min-haptic-hz`, kDeviceHapticHz by default there): a

@@ -543,11 +543,31 @@ void run_report(const ReportArgs& a) {
   // when a file the plan reads was edited since (its runs' outputs are then not current). A folder
   // copied to another machine may have its files' times reordered and its plan's input files
   // missing: then the summary it has is reported, saying so.
-  const bool collect = has_plan && (!has_summary || fs::last_write_time(sweep_summary_csv(dir), ec) <= newest_input(dir, plan));
-  std::string collect_error = collect ? plan_error : std::string();
+  bool collect = has_plan && (!has_summary || fs::last_write_time(sweep_summary_csv(dir), ec) <= newest_input(dir, plan));
+  const std::string file = sweep_summary_csv(dir).string();
   std::vector<RoleFile> inputs;
   if (plan) inputs = plan_input_files(*plan);
   check_output_beside_sweep({a.plot, "the plot (--plot)"}, dir, inputs);
+  // Runs the summary lists as ok whose outputs the sweep no longer takes as done (deleted, cut
+  // short, replaced since): no file is newer than the summary, yet it is out of date.
+  std::vector<SweepRun> plan_runs;
+  std::vector<OutdatedRow> outdated;
+  if (plan && !collect) {
+    plan_runs = expand_plan(*plan);
+    try {
+      outdated = outdated_ok_rows(*plan, plan_runs, parse_csv(file_text(file).value_or(""), file), dir);
+    } catch (const InputError&) {
+      // a summary that does not read: refused below, saying why
+    }
+    if (!outdated.empty()) {
+      collect = true;
+      const std::string more = outdated.size() > 1 ? " (and " + std::to_string(outdated.size() - 1) + " more such runs)" : "";
+      std::fprintf(stderr, "%s: out of date: it lists %s as ok, but %s%s\n", file.c_str(),
+                   describe(*plan, *outdated.front().run).c_str(), escape_unprintable(outdated.front().why).c_str(),
+                   more.c_str());
+    }
+  }
+  std::string collect_error = collect ? plan_error : std::string();
   if (plan && collect) {
     try {
       const std::vector<SweepRun> runs = expand_plan(*plan);
@@ -561,13 +581,29 @@ void run_report(const ReportArgs& a) {
       collect_error = e.what();
     }
   }
-  if (!collect_error.empty())
-    std::fprintf(stderr, "ebh: warning: %s: cannot collect the runs again (%s); reporting summary.csv as it is\n",
-                 a.dir.c_str(), collect_error.c_str());
-  const std::string file = sweep_summary_csv(dir).string();
+  if (!collect_error.empty()) {
+    const std::size_t n = outdated.size();
+    const std::string except =
+        n == 0   ? ""
+        : n == 1 ? ", except 1 run it lists as ok: not run yet (its output is to run again)"
+                 : ", except " + std::to_string(n) + " runs it lists as ok: not run yet (their outputs are to run again)";
+    std::fprintf(stderr, "ebh: warning: %s: cannot collect the runs again (%s); reporting summary.csv as it is%s\n",
+                 a.dir.c_str(), collect_error.c_str(), except.c_str());
+  }
   check_input_file(file);
-  const CsvTable summary = parse_csv(file_text(file).value_or(""), file);
+  CsvTable summary = parse_csv(file_text(file).value_or(""), file);
   if (plan && !collect) check_summary_has_runs(*plan, summary, dir);
+  // Not collected again: the rows of outputs gone since are no results (their error says why).
+  if (!collect_error.empty() && !outdated.empty()) {
+    const std::size_t c_status = summary.column("status", file), c_id = summary.column("id", file);
+    const auto c_error = std::find(summary.header.begin(), summary.header.end(), "error");
+    for (const OutdatedRow& o : outdated) {
+      if (o.row >= summary.rows.size() || summary.rows[o.row][c_id] != o.run->id) continue;  // rewritten meanwhile
+      summary.rows[o.row][c_status] = "pending";
+      if (c_error != summary.header.end())
+        summary.rows[o.row][static_cast<std::size_t>(c_error - summary.header.begin())] = o.why;
+    }
+  }
   const std::vector<ReportGroup> groups = build_report(summary, file, a.min_haptic_hz);
   std::fputs(report_markdown(groups).c_str(), stdout);
   if (!a.plot.empty()) {

@@ -230,6 +230,31 @@ add_test(NAME cli.metrics.fft_window_short
     -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
 set_tests_properties(cli.metrics.not_hdf5 cli.metrics.missing_file cli.metrics.recording_not_replay
   cli.metrics.fft_window_huge cli.metrics.fft_window_short PROPERTIES LABELS cli)
+# A file name that starts with dashes is read as an option: said as an unknown one (CLI11 said
+# "replay is required", or that the argument "was not expected"), with the two ways to name such a
+# file where one exists; after --, it is the file.
+set(EBH_DASHES ${PROJECT_BINARY_DIR}/cli_dashes)
+file(MAKE_DIRECTORY ${EBH_DASHES}/empty)
+file(WRITE ${EBH_DASHES}/--x.h5 "not HDF5\n")
+add_test(NAME cli.metrics.unknown_option
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;--x.h5"
+    "-DEXPECT=^ebh: error: unknown option '--x.h5' \\(ebh metrics --help lists its options\\)\n$" -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.metrics.unknown_option PROPERTIES WORKING_DIRECTORY ${EBH_DASHES}/empty)
+foreach(case "alone|--x.h5" "after_the_replay|${EBH_METRICS_DATA}/press.h5;--x.h5")
+  string(REPLACE "|" ";" case "${case}")
+  list(POP_FRONT case id)
+  add_test(NAME cli.metrics.dashed_file_${id}
+    COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;${case}"
+      "-DEXPECT=^ebh: error: unknown option '--x.h5' \\(a file of that name exists: write \\./--x\\.h5, or -- --x\\.h5: after --, no argument is an option\\)\n$"
+      -DSTATUS=1 -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+  set_tests_properties(cli.metrics.dashed_file_${id} PROPERTIES WORKING_DIRECTORY ${EBH_DASHES} LABELS cli)
+endforeach()
+add_test(NAME cli.metrics.dashed_file_after_double_dash
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};metrics;--;--x.h5" "-DEXPECT=^ebh: error: --x.h5: not an HDF5 file" -DSTATUS=1
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/expect_failure.cmake)
+set_tests_properties(cli.metrics.dashed_file_after_double_dash PROPERTIES WORKING_DIRECTORY ${EBH_DASHES})
+set_tests_properties(cli.metrics.unknown_option cli.metrics.dashed_file_after_double_dash PROPERTIES LABELS cli)
 # scripts/plot_forces.py on the same trace, where Debian's python3 has h5py, matplotlib and numpy.
 find_program(EBH_SYSTEM_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
 # A replay output whose global heap (its string attributes) is damaged: HDF5 copies a string by
@@ -1157,16 +1182,23 @@ function(ebh_gate_output name file case regex)
   set_tests_properties(gate.${name} PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION "${regex}")
 endfunction()
 # A case whose baselines lack some metrics (an older or hand-edited file) passes on the rest and
-# names those it did not compare.
+# names those it did not compare, with their unit as the failures name them.
 ebh_gate_output(case_with_some_baselines_names_the_rest some_metrics
   "name: some, scene: tube, recording: tube_insert, start: 2, duration: 0.1, rms_force_step: 1, max_force_rate: 1e6, peak_force: 0.5"
-  "some: not compared, no baseline: penetration_max, power_above_30hz, boundary_step_ratio, force_collapse \\(`ebh gate --update` writes them\\)")
+  "some: not compared, no baseline: penetration_max \\[m\\], power_above_30hz, boundary_step_ratio, force_collapse \\(`ebh gate --update` writes them\\)")
 # The JSON report gives each metric measured and its baseline under keys with their unit (as
-# metrics --json), null where the baselines have none.
+# metrics --json), null where the baselines have none, and lists the unchecked ones under the same
+# keys.
 add_test(NAME gate.json_measured_and_baseline COMMAND ${EBH_BIN} gate --json
   --baselines ${PROJECT_BINARY_DIR}/gate_some_metrics.yaml)
 set_tests_properties(gate.json_measured_and_baseline PROPERTIES LABELS gate PASS_REGULAR_EXPRESSION
-  "\"measured\": {\n +\"rms_force_step_N\": [0-9.e-]+,\n +\"max_force_rate_N_per_s\": [0-9.e+-]+,\n +\"peak_force_N\": 0\\.[0-9]+,.*\"penetration_max_m\": [0-9.e-]+,.*\"baseline\": {\n +\"rms_force_step_N\": 1,\n +\"max_force_rate_N_per_s\": 1000000,\n +\"peak_force_N\": 0\\.5,\n +\"power_above_30hz\": null,\n +\"penetration_max_m\": null")
+  "\"measured\": {\n +\"rms_force_step_N\": [0-9.e-]+,\n +\"max_force_rate_N_per_s\": [0-9.e+-]+,\n +\"peak_force_N\": 0\\.[0-9]+,.*\"penetration_max_m\": [0-9.e-]+,.*\"baseline\": {\n +\"rms_force_step_N\": 1,\n +\"max_force_rate_N_per_s\": 1000000,\n +\"peak_force_N\": 0\\.5,\n +\"power_above_30hz\": null,\n +\"penetration_max_m\": null.*\"unchecked\": \\[\n +\"penetration_max_m\",\n +\"power_above_30hz\",\n +\"boundary_step_ratio\",\n +\"force_collapse\"\n +\\]")
+# A window too short for a spectrum (3 ticks) has no power above 30 Hz and, with a still force, no
+# frame ratio: the table prints them as ebh metrics does, "-", not "nan".
+ebh_gate_output(a_missing_measure_is_a_dash too_short
+  "name: brief, scene: tube, recording: tube_insert, start: 2, duration: 0.003, rms_force_step: 1, max_force_rate: 1e6, peak_force: 0"
+  "brief +ok    rms dF [0-9.e+-]+ N  max dF/dt +[0-9.]+ N/s  peak [0-9.]+ N  >30 Hz -  pen [0-9.]+ mm  frame ratio -\n")
+set_tests_properties(gate.a_missing_measure_is_a_dash PROPERTIES FAIL_REGULAR_EXPRESSION "[^a-z]nan[^a-z]")
 # The peak force's band is a factor either way: a baseline of twice the force fails as half of it
 # does (a band of +-50% let it pass).
 ebh_gate_output(half_the_baselines_force_fails twice_the_force

@@ -101,7 +101,13 @@ add_test(NAME cli.bench.sizes_levels_blank
     -P ${EXPECT_FAILURE})
 add_test(NAME cli.bench.sizes_no_window
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--scene;${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml"
-    "-DEXPECT=^ebh: error: --recording: scene '.*cube.yaml' has no default window" -DSTATUS=1 -P ${EXPECT_FAILURE})
+    "-DEXPECT=^ebh: error: --recording: missing, and scene '.*cube.yaml' has no default recording \\(.*\\); give --recording and --start, where in it"
+    -DSTATUS=1 -P ${EXPECT_FAILURE})
+# --start given names no recording: what is missing is --recording alone, not --start.
+add_test(NAME cli.bench.sizes_no_window_start_given
+  COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--scene;${CMAKE_CURRENT_SOURCE_DIR}/data/scene/cube.yaml;--start;2"
+    "-DEXPECT=^ebh: error: --recording: missing, and scene '.*cube.yaml' has no default recording \\(.*\\); give --recording \\(--start 2 is a time into it\\)\n$"
+    -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
 # A misspelt override: one line before the heading, no plot.
 add_test(NAME cli.bench.sizes_bad_override
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--set;solver.active_regio=0.001;--plot;${Z}/bad.png"
@@ -145,7 +151,8 @@ set_tests_properties(cli.bench.sizes_no_limit PROPERTIES TIMEOUT 60)
 add_test(NAME cli.bench.sizes_missing_scene
   COMMAND ${CMAKE_COMMAND} "-DCMD=${EBH_BIN};bench;sizes;--levels;0;--scene;${Z}/no_such/one.yaml"
     "-DEXPECT=^ebh: error: .*no_such/one.yaml: scene file not found" -DSTATUS=1 -DNO_STDOUT=1 -P ${EXPECT_FAILURE})
-set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_levels_wrap cli.bench.sizes_levels_blank cli.bench.sizes_no_window cli.bench.sizes_bad_override
+set_tests_properties(cli.bench.sizes_bad_levels cli.bench.sizes_levels_wrap cli.bench.sizes_levels_blank cli.bench.sizes_no_window
+  cli.bench.sizes_no_window_start_given cli.bench.sizes_bad_override
   cli.bench.sizes_start_past_end cli.bench.sizes_missing_scene cli.bench.sizes_no_limit PROPERTIES LABELS "cli;bench")
 
 # table1 and bench sizes on the CUDA backend where none can be used (no device visible, or a build

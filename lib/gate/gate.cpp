@@ -517,21 +517,50 @@ void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
 
 namespace {
 
+/// The gate's metrics: the baselines file's key, the JSON report's (with its unit, as `ebh metrics
+/// --json`), and the unit the text output gives in brackets ("" for a ratio or a flag).
+struct GateMetricName {
+  const char* name;
+  const char* json_key;
+  const char* unit;
+};
+constexpr GateMetricName kGateMetricNames[] = {
+    {"rms_force_step", "rms_force_step_N", "N"},   {"max_force_rate", "max_force_rate_N_per_s", "N/s"},
+    {"peak_force", "peak_force_N", "N"},           {"power_above_30hz", "power_above_30hz", ""},
+    {"penetration_max", "penetration_max_m", "m"}, {"boundary_step_ratio", "boundary_step_ratio", ""},
+    {"force_collapse", "force_collapse", ""}};
+
+const GateMetricName* find_gate_metric(const std::string& name) {
+  for (const GateMetricName& m : kGateMetricNames)
+    if (name == m.name) return &m;
+  return nullptr;
+}
+
 /// A case's metrics under keys that carry their unit (as `ebh metrics --json`); a metric it has no
-/// value for is null.
+/// value for (NaN, an absent flag) is null.
 Json gate_metrics_json(const GateCase& c) {
   Json j = Json::object();
-  j.set("rms_force_step_N", c.rms_force_step);
-  j.set("max_force_rate_N_per_s", c.max_force_rate);
-  j.set("peak_force_N", c.peak_force);
-  j.set("power_above_30hz", c.power_above_30hz);
-  j.set("penetration_max_m", c.penetration_max);
-  j.set("boundary_step_ratio", c.boundary_step_ratio);
-  j.set("force_collapse", c.force_collapse ? Json(*c.force_collapse) : Json());
+  j.set(gate_metric_key("rms_force_step"), c.rms_force_step);
+  j.set(gate_metric_key("max_force_rate"), c.max_force_rate);
+  j.set(gate_metric_key("peak_force"), c.peak_force);
+  j.set(gate_metric_key("power_above_30hz"), c.power_above_30hz);
+  j.set(gate_metric_key("penetration_max"), c.penetration_max);
+  j.set(gate_metric_key("boundary_step_ratio"), c.boundary_step_ratio);
+  j.set(gate_metric_key("force_collapse"), c.force_collapse ? Json(*c.force_collapse) : Json());
   return j;
 }
 
 }  // namespace
+
+std::string gate_metric_key(const std::string& name) {
+  const GateMetricName* m = find_gate_metric(name);
+  return m ? m->json_key : name;
+}
+
+std::string gate_metric_label(const std::string& name) {
+  const GateMetricName* m = find_gate_metric(name);
+  return m && *m->unit ? name + " [" + m->unit + "]" : name;
+}
 
 Json to_json(const GateResult& r, const GateCase& baseline) {
   Json j = Json::object();
@@ -542,7 +571,10 @@ Json to_json(const GateResult& r, const GateCase& baseline) {
   j.set("baseline", gate_metrics_json(baseline));
   j.set("failures", Json::array_of(r.failures));
   j.set("warnings", Json::array_of(r.warnings));
-  j.set("unchecked", Json::array_of(r.unchecked));
+  // Under the keys "measured" and "baseline" give them, unit and all.
+  std::vector<std::string> unchecked;
+  for (const std::string& name : r.unchecked) unchecked.push_back(gate_metric_key(name));
+  j.set("unchecked", Json::array_of(unchecked));
   return j;
 }
 

@@ -77,7 +77,7 @@ struct GateResult {
   bool stopped = false;  ///< the replay's health checks stopped it (failures says where): no metrics
   std::vector<std::string> failures;  ///< one line each
   /// The metrics the baselines give no value for, so not compared (a hand-edited or older file): a
-  /// pass checked the rest only.
+  /// pass checked the rest only. Named as the baselines file names them (rms_force_step).
   std::vector<std::string> unchecked;
   /// the replay's contact_warning (metrics/force_metrics.hpp): the window where the tool never or
   /// barely touched the tissue, whose metrics describe a free tool ("" when it touched)
@@ -123,8 +123,15 @@ GateResult run_gate_case(const GateCase& c, const std::vector<std::string>& over
 /// Compares a run with its baseline under the bands; fills passed/failures.
 void judge_gate_case(const GateCase& baseline, const GateBands& bands, GateResult& r);
 
+/// A metric as the baselines file names it (GateResult::unchecked: "rms_force_step") under its
+/// key in the JSON report, with its unit as `ebh metrics --json` gives it ("rms_force_step_N"),
+/// and as the text output names it ("rms_force_step [N]"; a ratio or a flag as it is).
+std::string gate_metric_key(const std::string& name);
+std::string gate_metric_label(const std::string& name);
+
 /// The JSON report of a case: whether it passed, its metrics measured and its baseline's (keys
-/// with their unit), the failures, warnings and unchecked metrics.
+/// with their unit, gate_metric_key; null where there is no value), the failures, warnings and the
+/// unchecked metrics (under the same keys).
 Json to_json(const GateResult& r, const GateCase& baseline);
 
 }  // namespace ebh

@@ -258,21 +258,56 @@ Quatd orthonormalised(const Eigen::Matrix3d& M, const std::string& where) {
   return quat_from_matrix(R);
 }
 
-// A number written with a decimal comma in the line ("0,25"), and none with a point.
-bool decimal_commas(const std::string& t) {
-  auto between_digits = [&t](char mark) {
+// The first number of an OpenHaptics line written with a decimal comma ("14,5"), "" when there is
+// none: a comma between two digits, in a line whose fields are separated by blanks (one whose
+// fields a comma separates, "1,0,0", has commas between digits too, and writes its decimals with
+// points) or in which no number is written with a point ("0,25 0,5 ...").
+std::string decimal_comma_number(const std::string& t) {
+  const auto digit = [&t](std::size_t i) { return std::isdigit(static_cast<unsigned char>(t[i])) != 0; };
+  const auto blank = [&t](std::size_t i) { return t[i] == ' ' || t[i] == '\t'; };
+  auto between_digits = [&](char mark) {
     for (std::size_t i = 1; i + 1 < t.size(); ++i)
-      if (t[i] == mark && std::isdigit(static_cast<unsigned char>(t[i - 1])) &&
-          std::isdigit(static_cast<unsigned char>(t[i + 1])))
-        return true;
-    return false;
+      if (t[i] == mark && digit(i - 1) && digit(i + 1)) return i;
+    return std::string::npos;
   };
-  return between_digits(',') && !between_digits('.');
+  const std::size_t comma = between_digits(',');
+  if (comma == std::string::npos) return "";
+  // A run of blanks with no comma beside it separates two fields.
+  bool blank_separated = false;
+  for (std::size_t i = 0; i < t.size() && !blank_separated;) {
+    if (!blank(i)) {
+      ++i;
+      continue;
+    }
+    const std::size_t b = i;
+    while (i < t.size() && blank(i)) ++i;
+    blank_separated = b > 0 && i < t.size() && t[b - 1] != ',' && t[i] != ',';
+  }
+  if (!blank_separated && between_digits('.') != std::string::npos) return "";
+  // The number around the comma: its sign, digits and point before, its digits after.
+  const auto part = [](char c) {
+    return std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+';
+  };
+  std::size_t b = comma, e = comma + 1;
+  while (b > 0 && part(t[b - 1])) --b;
+  while (e < t.size() && digit(e)) ++e;
+  return t.substr(b, e - b);
+}
+
+// The hint for a number written with a decimal comma ("14,5"; none for ""): " (decimal commas?
+// write the numbers with a '.': 14.5, not 14,5)", naming `line` where it is another line's.
+std::string comma_number_hint(const std::string& number, const std::string& line = "") {
+  if (number.empty()) return "";
+  std::string point = number;
+  point[point.find(',')] = '.';
+  return " (decimal commas? write the numbers with a '.': " + point + ", not " + number +
+         (line.empty() ? "" : " in " + line) + ")";
 }
 
 void read_openhaptics(const std::string& path, double unit, double rate, std::size_t limit, LogWindow& window,
                       Recording& rec, std::vector<std::size_t>& line_of, LeftOut& left_out) {
   std::size_t fields = 0, fields_line = 0;  // the first sample's field count, and its line
+  std::string fields_comma;                 // a number of the first sample's written with a decimal comma
   std::size_t samples = 0;                  // the log's, the window's and before it
   for_each_line(path, left_out, [&](const Line& l) {
     if (window.ended) return;
@@ -314,20 +349,25 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
                                      : ""));
     }
     // "0,25 0,5 ...": numbers written with decimal commas split in two at the comma, and every
-    // field after the first such number moves.
-    const std::string commas = decimal_commas(l.text) ? " (decimal commas? write the numbers with a '.': 0.25, not 0,25)" : "";
+    // field after the first such number moves; in one line of the log (a value typed in by hand)
+    // that line's fields or the first sample's differ.
+    const std::string comma_number = decimal_comma_number(l.text);
+    const std::string commas = comma_number_hint(comma_number);
     if (tok.size() > 17 + 8) throw InputError(where + ": more than 8 button states" + commas);
     // Every sample has the fields of the first: one missing or added shifts the rest (element 14
     // missing read the jaw as element 15 and a button as the jaw, a one-sample grasp).
     if (fields == 0) {
       fields = tok.size();
       fields_line = l.number;
+      fields_comma = comma_number;
     } else if (tok.size() != fields) {
+      const std::string first_commas =
+          commas.empty() ? comma_number_hint(fields_comma, "line " + std::to_string(fields_line)) : commas;
       throw InputError(where + ": " + std::to_string(tok.size()) + " fields, but line " + std::to_string(fields_line) +
                        ", the first sample, has " + std::to_string(fields) +
-                       (commas.empty() ? ": a value missing or added? (every line holds the 16 elements, the jaw and "
-                                         "the same button states)"
-                                       : commas));
+                       (first_commas.empty() ? ": a value missing or added? (every line holds the 16 elements, the jaw "
+                                               "and the same button states)"
+                                             : first_commas));
     }
     double m[16];
     for (int k = 0; k < 16; ++k) m[k] = to_number(tok[k], where, "element " + std::to_string(k));
@@ -365,10 +405,12 @@ void read_openhaptics(const std::string& path, double unit, double rate, std::si
     rec.jaw.push_back(to_number(tok[16], where, "jaw"));
     int mask = 0;
     // A state is 0 or 1: a sample counter or another column after the buttons would set a bit on
-    // every sample.
+    // every sample, and a jaw written with a decimal comma ("0,75") a button of its decimals.
     for (std::size_t b = 17; b < tok.size(); ++b)
-      if (to_int(tok[b], where, "button " + std::to_string(b - 17) + " (a state, 0 or 1; a counter or another column "
-                                "after the buttons?)", 0, 1) != 0)
+      if (to_int(tok[b], where, "button " + std::to_string(b - 17) + " (a state, 0 or 1; " +
+                                    (commas.empty() ? "a counter or another column after the buttons?)"
+                                                    : commas.substr(2)),
+                 0, 1) != 0)
         mask |= 1 << (b - 17);
     rec.buttons.push_back(static_cast<std::uint8_t>(mask));
     rec.t.push_back(t);

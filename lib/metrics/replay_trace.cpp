@@ -367,20 +367,30 @@ ReplayTrace load_replay(const std::string& path) {
   }
   // The ticks' own spacing against the attribute every rate-dependent metric takes (the FFT's
   // bins, the frame boundaries, the budget): a file edited or written by another tool.
-  if (n >= 2) {
-    const double from_t = static_cast<double>(n - 1) / (tr.t.back() - tr.t.front());
-    if (std::fabs(from_t - tr.haptic_hz) > 0.01 * tr.haptic_hz) {
-      char why[160];
-      std::snprintf(why, sizeof why, "is %g Hz, but /haptic/t has %ld ticks over %g s (%g Hz)", tr.haptic_hz, n,
-                    tr.t.back() - tr.t.front(), from_t);
-      in.fail_attr("haptic_hz", why);
-    }
+  const double from_t = n >= 2 ? static_cast<double>(n - 1) / (tr.t.back() - tr.t.front()) : 0.0;
+  if (n >= 2 && std::fabs(from_t - tr.haptic_hz) > 0.01 * tr.haptic_hz) {
+    char why[160];
+    std::snprintf(why, sizeof why, "is %g Hz, but /haptic/t has %ld ticks over %g s (%g Hz)", tr.haptic_hz, n,
+                  tr.t.back() - tr.t.front(), from_t);
+    in.fail_attr("haptic_hz", why);
   }
   tick_spacing(in, tr.t, tr.haptic_hz);
   // The physical rate divides the haptic rate into whole ticks per step, at least 1 Hz (as a
   // replay has it: kMinReplayPhysicalHz): the frame-boundary metric reads its steps from the two.
-  if (const double ratio = tr.haptic_hz / tr.physical_hz;
-      !(ratio >= 1) || !(tr.physical_hz >= 1) || std::fabs(ratio - std::round(ratio)) > 1e-6 * ratio) {
+  auto whole_ticks = [](double ratio) { return ratio >= 1 && std::fabs(ratio - std::round(ratio)) <= 1e-6 * ratio; };
+  if (!(tr.physical_hz >= 1) || !whole_ticks(tr.haptic_hz / tr.physical_hz)) {
+    // A haptic_hz within 1% of the ticks' rate passes the check above (999.9 for ticks 1 ms
+    // apart): where the ticks' own rate is a whole number of ticks per physical step, it is
+    // haptic_hz that is wrong, not physical_hz.
+    if (n >= 2 && tr.physical_hz >= 1 && whole_ticks(from_t / tr.physical_hz)) {
+      char why[300];
+      std::snprintf(why, sizeof why, "is %g Hz, which physical_hz (%g Hz) divides into no whole number of ticks per "
+                    "step, but /haptic/t's ticks come at %g Hz (%ld ticks over %g s), %.0f a step: this attribute, "
+                    "not physical_hz, disagrees with the ticks",
+                    tr.haptic_hz, tr.physical_hz, from_t, n, tr.t.back() - tr.t.front(),
+                    std::round(from_t / tr.physical_hz));
+      in.fail_attr("haptic_hz", why);
+    }
     char why[200];
     std::snprintf(why, sizeof why, "is %g Hz: it must be at least 1 Hz and the haptic rate (%g Hz) over it a whole "
                   "number of ticks per step", tr.physical_hz, tr.haptic_hz);

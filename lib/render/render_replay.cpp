@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -21,6 +22,7 @@
 
 #include "core/error.hpp"
 #include "core/file_names.hpp"
+#include "core/number_text.hpp"
 #include "ebh/version.hpp"
 #include "io/atomic.hpp"
 #include "io/paths.hpp"
@@ -36,24 +38,105 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// Drops triangles with a non-finite vertex (a blown-up run), so they cannot smear across the
-/// image. Returns how many were dropped.
-std::size_t finite_triangles(const std::vector<Vec3f>& q, const std::vector<std::array<int, 3>>& all,
-                             std::vector<std::array<int, 3>>& out) {
-  std::vector<char> ok(q.size());
-  bool every = true;
-  for (std::size_t i = 0; i < q.size(); ++i) {
-    ok[i] = std::isfinite(q[i].x) && std::isfinite(q[i].y) && std::isfinite(q[i].z);
-    every = every && ok[i];
+/// How far from the virtual mesh's centre a vertex may lie, in multiples of the rest vertices'
+/// median distance from it, and still be tissue: a mesh's farthest vertex lies a few times that
+/// distance out (a long, thin organ's ends some 2-5 times), and tissue a tool drags stays within
+/// the mesh's size. Beyond it a position is a damaged or edited value or a run that blew up (1e30
+/// m stays finite in float32): drawn, it stretched the camera (the rest mesh's bounds) and the
+/// displacement colours (their largest value) until the tissue was a dot of one colour.
+constexpr double kFarFromMeshFactor = 1000;
+
+/// Where the virtual mesh's vertices may plausibly lie: within `limit` of `centre` (the per-axis
+/// median of the finite rest vertices; limit kFarFromMeshFactor times their median distance from
+/// it, at least a micrometre; infinite when no rest vertex is finite).
+struct MeshReach {
+  Vec3d centre{};
+  double limit = std::numeric_limits<double>::infinity();
+  double median = 0;  ///< the rest vertices' median distance from the centre, m
+};
+
+double median_of(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+bool finite3(const Vec3f& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+MeshReach mesh_reach(const std::vector<Vec3f>& rest) {
+  std::vector<double> xs, ys, zs;
+  for (const Vec3f& p : rest)
+    if (finite3(p)) {
+      xs.push_back(p.x);
+      ys.push_back(p.y);
+      zs.push_back(p.z);
+    }
+  MeshReach r;
+  if (xs.empty()) return r;
+  r.centre = {median_of(xs), median_of(ys), median_of(zs)};
+  std::vector<double> d;
+  for (const Vec3f& p : rest)
+    if (finite3(p)) d.push_back(norm(static_cast<Vec3d>(p) - r.centre));
+  r.median = median_of(d);
+  r.limit = kFarFromMeshFactor * std::max(r.median, 1e-6);
+  return r;
+}
+
+/// Why a vertex is left out: 0 drawn, 1 not finite, 2 far off the mesh (MeshReach).
+int vertex_problem(const Vec3f& p, const MeshReach& reach) {
+  if (!finite3(p)) return 1;
+  return norm(static_cast<Vec3d>(p) - reach.centre) > reach.limit ? 2 : 0;
+}
+
+std::string point_text(const Vec3f& p) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "(%g, %g, %g)", static_cast<double>(p.x), static_cast<double>(p.y),
+                static_cast<double>(p.z));
+  return buf;
+}
+
+std::string more_text(std::size_t count, const char* what) {
+  return count > 1 ? ", and " + std::to_string(count - 1) + " more " + what : std::string();
+}
+
+/// "1 frame holds", "2 frames hold": a count with its noun and verb in number.
+std::string counted(std::size_t n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+/// The first of a kind of left-out data, and how many (warned of once the frames are drawn).
+struct LeftOutData {
+  std::size_t count = 0;  ///< frames (or vertices) with one
+  std::string first;      ///< where the first is, "frame 2, vertex 9 at (1e+30, 0, 0) m"
+  void add(const std::string& where) {
+    if (count++ == 0) first = where;
   }
+};
+
+/// Drops triangles with a vertex that is not drawn (`problem` nonzero: not finite, a blown-up
+/// run, or far off the mesh), so they cannot smear across the image. Returns how many were dropped.
+std::size_t drawn_triangles(const std::vector<char>& problem, const std::vector<std::array<int, 3>>& all,
+                            std::vector<std::array<int, 3>>& out) {
   out.clear();
-  if (every) return 0;
+  if (std::all_of(problem.begin(), problem.end(), [](char c) { return c == 0; })) return 0;
   for (const auto& t : all)
-    if (ok[t[0]] && ok[t[1]] && ok[t[2]]) out.push_back(t);
+    if (!problem[t[0]] && !problem[t[1]] && !problem[t[2]]) out.push_back(t);
   return all.size() - out.size();
 }
 
-bool finite_pose(const ToolPose& p) { return std::isfinite(p.position.x + p.position.y + p.position.z); }
+/// A tool pose to draw: a finite position and a finite, non-zero quaternion (open_replay_frames
+/// keeps a stored one that is neither, to be left out here).
+bool drawable_pose(const ToolPose& p) {
+  const Quatd& q = p.orientation;
+  const double n = q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z;
+  return std::isfinite(p.position.x + p.position.y + p.position.z) && std::isfinite(n) && n > 0;
+}
+
+std::string pose_text(const ToolPose& p) {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "at (%g, %g, %g) m, quaternion (%g, %g, %g, %g)", p.position.x, p.position.y,
+                p.position.z, p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z);
+  return buf;
+}
 
 double frame_rate(const ReplayFrames& f, int every) {
   if (f.frame_count() < 2) return 10.0;
@@ -359,7 +442,34 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   if (scene) inputs.push_back({scene->file.string(), "the scene file"});
   check_outputs({{opt.video, "the video"}}, inputs);
   check_frames_spare(dir, inputs);
-  const Bounds rest = bounds_of(frames.virtual_rest);
+  // The rest mesh frames the camera and is what displacements are measured from: a vertex that is
+  // not finite or lies far off the mesh (a damaged or edited file) is left out of both, said.
+  const MeshReach reach = mesh_reach(frames.virtual_rest);
+  std::vector<char> rest_problem(frames.virtual_vertices());
+  std::vector<Vec3f> rest_drawn;
+  LeftOutData rest_nonfinite, rest_far;
+  for (std::size_t i = 0; i < rest_problem.size(); ++i) {
+    const Vec3f& p = frames.virtual_rest[i];
+    rest_problem[i] = static_cast<char>(vertex_problem(p, reach));
+    const std::string where = "vertex " + std::to_string(i) + " at " + point_text(p) + " m";
+    if (rest_problem[i] == 0)
+      rest_drawn.push_back(p);
+    else
+      (rest_problem[i] == 1 ? rest_nonfinite : rest_far).add(where);
+  }
+  auto without = [](std::size_t n) {
+    return std::string(": the camera frames the mesh and the displacement colours are measured without ") +
+           (n == 1 ? "it" : "them");
+  };
+  if (rest_nonfinite.count > 0)
+    summary.warnings.push_back(replay + ": /mesh/virtual_rest: " + rest_nonfinite.first + " is not finite" +
+                               more_text(rest_nonfinite.count, "vertices") + without(rest_nonfinite.count));
+  if (rest_far.count > 0)
+    summary.warnings.push_back(replay + ": /mesh/virtual_rest: " + rest_far.first + " lies more than " +
+                               shown_number(kFarFromMeshFactor) + " times the mesh's median distance from its centre (" +
+                               format_mm(reach.median) + ")" + more_text(rest_far.count, "vertices") +
+                               without(rest_far.count));
+  const Bounds rest = bounds_of(rest_drawn);
   const double aspect = static_cast<double>(opt.width) / opt.height;
   summary.camera = choose_camera(opt.camera, scene, rest, aspect, summary.camera_source);
   const ToolModel tool = replay_tool(frames, scene);
@@ -370,10 +480,15 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   std::vector<Vec3f> q, normals;
   std::vector<std::array<float, 3>> colours;
   const bool by_disp = opt.color_by == ColorBy::Displacement;
-  auto displacement = [&](std::size_t i) { return norm(static_cast<Vec3d>(q[i]) - static_cast<Vec3d>(frames.virtual_rest[i])); };
+  // NaN where a vertex or its rest position is not drawn: left out of the range, and of the frame.
+  auto displacement = [&](std::size_t i) {
+    return rest_problem[i] != 0 || vertex_problem(q[i], reach) != 0
+               ? std::numeric_limits<double>::quiet_NaN()
+               : norm(static_cast<Vec3d>(q[i]) - static_cast<Vec3d>(frames.virtual_rest[i]));
+  };
   if (by_disp) {
     summary.displacement_range = opt.max_displacement;
-    if (summary.displacement_range == 0.0) {  // the largest finite displacement over the chosen frames
+    if (summary.displacement_range == 0.0) {  // the largest displacement drawn over the chosen frames
       for (std::size_t f : chosen) {
         frames.read_virtual_positions(f, q);
         for (std::size_t i = 0; i < q.size(); ++i) {
@@ -417,7 +532,10 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
                                "depend on the winding)");
   const RenderStyle style;
   std::vector<std::array<int, 3>> kept;
-  std::size_t broken_frames = 0, blank_frames = 0;  // frames with non-finite positions; frames showing no tissue
+  std::vector<char> problem;
+  std::size_t blank_frames = 0;  // frames showing no tissue
+  // Frames with positions not finite, with positions far off the mesh; tool poses that are none
+  LeftOutData nonfinite_frames, far_frames, bad_poses;
   // The bar shows a frame's time in the replayed window (t / t_end), not in the frames' span: one
   // frame at t = 0 of a 2 s replay is at its start, not its end.
   const double t0 = frames.t.front();
@@ -427,8 +545,18 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
       throw InputError(dir + ": interrupted after " + std::to_string(k) + " frames; the previous frames are kept");
     const std::size_t f = chosen[k];
     frames.read_virtual_positions(f, q);
-    const bool dropped = finite_triangles(q, triangles, kept) > 0;
-    broken_frames += dropped;
+    problem.assign(q.size(), 0);
+    std::size_t first_nonfinite = q.size(), first_far = q.size();
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      problem[i] = static_cast<char>(vertex_problem(q[i], reach));
+      std::size_t& first = problem[i] == 1 ? first_nonfinite : first_far;
+      if (problem[i] != 0 && first == q.size()) first = i;
+    }
+    const std::string in_frame = "frame " + std::to_string(f) + ", vertex ";
+    if (first_nonfinite < q.size()) nonfinite_frames.add(in_frame + std::to_string(first_nonfinite));
+    if (first_far < q.size())
+      far_frames.add(in_frame + std::to_string(first_far) + " at " + point_text(q[first_far]) + " m");
+    const bool dropped = drawn_triangles(problem, triangles, kept) > 0;
     vertex_normals(q, dropped ? kept : triangles, normals);
     if (by_disp) {
       colours.resize(q.size());
@@ -437,8 +565,12 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
     const auto& [physical, virt] = frames.poses[f];
     const double jaw = std::isfinite(frames.jaw[f]) ? std::clamp(frames.jaw[f], 0.0, 1.0) : 1.0;
     TriangleSoup physical_mesh, virtual_mesh;
-    if (finite_pose(physical)) physical_mesh = tessellate(pose_tool(tool, physical, jaw));
-    if (finite_pose(virt)) virtual_mesh = tessellate(pose_tool(tool, virt, jaw));
+    if (drawable_pose(physical)) physical_mesh = tessellate(pose_tool(tool, physical, jaw));
+    if (drawable_pose(virt)) virtual_mesh = tessellate(pose_tool(tool, virt, jaw));
+    for (int row = 0; row < 2; ++row)
+      if (const ToolPose& p = row == 0 ? physical : virt; !drawable_pose(p))
+        bad_poses.add("frame " + std::to_string(f) + ", row " + std::to_string(row) +
+                      (row == 0 ? " (the physical tool) " : " (the virtual tool) ") + pose_text(p));
 
     FrameGeometry g;
     g.tissue = &q;
@@ -474,10 +606,22 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   if (interrupted())
     throw InputError(dir + ": interrupted after " + std::to_string(chosen.size()) + " frames; the previous frames are kept");
   replace_frames(dir, fresh);
-  if (broken_frames > 0)
-    summary.warnings.push_back(replay + ": " + std::to_string(broken_frames) +
-                               " frames have non-finite virtual-mesh positions (the simulation blew up); their "
-                               "triangles were left out");
+  if (nonfinite_frames.count > 0)
+    summary.warnings.push_back(replay + ": /frames/virtual_positions: " +
+                               counted(nonfinite_frames.count, "frame holds", "frames hold") +
+                               " positions that are not finite (the simulation blew up; the first: " +
+                               nonfinite_frames.first + "): their triangles were left out");
+  if (far_frames.count > 0)
+    summary.warnings.push_back(replay + ": /frames/virtual_positions: " +
+                               counted(far_frames.count, "frame holds", "frames hold") + " positions more than " +
+                               shown_number(kFarFromMeshFactor) +
+                               " times the mesh's median distance from its centre (a damaged file or a run that blew "
+                               "up; the first: " + far_frames.first +
+                               "): their triangles were left out, and the displacement colours measured without them");
+  if (bad_poses.count > 0)
+    summary.warnings.push_back(replay + ": /frames/tool_poses: " + counted(bad_poses.count, "row holds", "rows hold") +
+                               " no pose (a value that is not finite, or a zero quaternion; the first: " +
+                               bad_poses.first + "): the tool is left out of the frame where its pose is");
   // The frames are what was asked, but a camera that sees none of the tissue (looking away, too
   // far, too close, a near plane past the mesh) is most likely a mistake: said once, not per frame.
   if (blank_frames > 0)

@@ -59,9 +59,10 @@ ToolPose pose_of(const double* p) {
   pose.position = {p[0], p[1], p[2]};
   Quatd q{p[3], p[4], p[5], p[6]};
   const double n = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-  // A stored quaternion is unit up to float rounding; a zero or non-finite one (a blown-up run)
-  // is kept as identity so the frame still renders and the tool is simply drawn unrotated.
-  pose.orientation = (n > 0 && std::isfinite(n)) ? Quatd{q.w / n, q.x / n, q.y / n, q.z / n} : Quatd{};
+  // A stored quaternion is unit up to float rounding; a zero or non-finite one (a blown-up run, a
+  // damaged file) is kept as it is, no rotation: the render leaves such a pose out and says so
+  // (drawn unrotated, the tool pointed where the run never had it).
+  pose.orientation = (n > 0 && std::isfinite(n)) ? Quatd{q.w / n, q.x / n, q.y / n, q.z / n} : q;
   return pose;
 }
 

@@ -45,7 +45,9 @@ struct ReplayFrames {
 
   std::vector<double> t;                       ///< #F frame times
   std::vector<double> jaw;                     ///< #F jaw values
-  std::vector<std::array<ToolPose, 2>> poses;  ///< #F [physical tool, virtual tool]
+  /// #F [physical tool, virtual tool]; a quaternion normalised, one that is zero or not finite kept
+  /// as stored (no rotation: a pose to leave out)
+  std::vector<std::array<ToolPose, 2>> poses;
 
   std::size_t frame_count() const { return t.size(); }
   std::size_t virtual_vertices() const { return virtual_rest.size(); }

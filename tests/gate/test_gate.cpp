@@ -98,6 +98,36 @@ TEST(Gate, BaselinesWithoutTheNewMetricsNameThemUnchecked) {
   EXPECT_EQ(r.unchecked, (std::vector<std::string>{"boundary_step_ratio", "force_collapse"}));
 }
 
+// The JSON report lists the unchecked metrics under the keys its "measured" and "baseline" give
+// them, unit and all (penetration_max_m, not penetration_max), and a value a case lacks (a
+// baseline left out, a measured NaN: a window too short for a spectrum) is null, never nan; the
+// text output names them with their unit as its failures do.
+TEST(Gate, TheJsonReportNamesUncheckedMetricsByTheirKeysAndMissingValuesAreNull) {
+  GateCase old = baseline();
+  old.max_force_rate = kNaN;
+  old.penetration_max = kNaN;
+  old.force_collapse.reset();
+  GateCase m = baseline();
+  m.power_above_30hz = kNaN;
+  m.boundary_step_ratio = kNaN;
+  const GateResult r = judged(m, old);
+  ASSERT_TRUE(r.passed) << r.failures.front();
+  const std::string text = to_json(r, old).dump(-1);
+  EXPECT_NE(text.find("\"unchecked\": [\"max_force_rate_N_per_s\", \"penetration_max_m\", \"force_collapse\"]"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("\"measured\": {\"rms_force_step_N\": 0.03, \"max_force_rate_N_per_s\": 600, \"peak_force_N\": "
+                      "3.3, \"power_above_30hz\": null, \"penetration_max_m\": 0.0007, \"boundary_step_ratio\": null"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("\"baseline\": {\"rms_force_step_N\": 0.03, \"max_force_rate_N_per_s\": null"), std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("nan"), std::string::npos) << text;
+  EXPECT_EQ(gate_metric_label("max_force_rate"), "max_force_rate [N/s]");
+  EXPECT_EQ(gate_metric_label("penetration_max"), "penetration_max [m]");
+  EXPECT_EQ(gate_metric_label("force_collapse"), "force_collapse");
+}
+
 std::string baselines_path(const std::string& name) {
   return (std::filesystem::temp_directory_path() / ("ebh_test_gate_" + name + ".yaml")).string();
 }

@@ -280,6 +280,23 @@ TEST(Import, DefectsNameFileAndLine) {
   p = write("comma.txt", "1 0 0 0 0 1 0 0 0 0 1 0 2,5 6 7 1 1\n");
   EXPECT_INPUT_ERROR(import_log(p, opt), "comma.txt:1: not a homogeneous transform",
                      "(elements 3, 7, 11, 15 must be 0, 0, 0, 1; decimal commas? write the numbers with a '.'");
+  // A decimal comma in one line of a log whose other numbers have points (a value typed in by
+  // hand): said of that line, naming the number; of the first sample's line where the line whose
+  // fields differ from it is another; in the jaw, whose decimals become a button.
+  p = write("one_comma.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5.5 6.5 7 1 1 0\n1 0 0 0 0 1 0 0 0 0 1 0 5.5 6.5 7 1 1 0\n"
+                             "1 0 0 0 0 1 0 0 0 0 1 0 5,5 6.5 7 1 1 0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "one_comma.txt:3: 19 fields, but line 1, the first sample, has 18 (decimal "
+                                         "commas? write the numbers with a '.': 5.5, not 5,5)");
+  p = write("first_comma.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5.5 6 7 1 1,0 0\n1 0 0 0 0 1 0 0 0 0 1 0 5.5 6 7 1 1 0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "first_comma.txt:2: 18 fields, but line 1, the first sample, has 19 (decimal "
+                                         "commas? write the numbers with a '.': 1.0, not 1,0 in line 1)");
+  p = write("jaw_comma.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5.5 6 7 1 0,75 0\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "jaw_comma.txt:1: button 0 (a state, 0 or 1; decimal commas? write the numbers "
+                                         "with a '.': 0.75, not 0,75): '75' is not an integer in 0..1");
+  // Fields separated by commas have commas between digits too: no decimal comma there.
+  p = write("csv_like.txt", "1,0,0,0,0,1,0,0,0,0,1,0,5.5,6,7,1,1,0\n1,0,0,0,0,1,0,0,0,0,1,0,5.5,6,7,1,1\n");
+  EXPECT_INPUT_ERROR(import_log(p, opt), "csv_like.txt:2: 17 fields, but line 1, the first sample, has 18: a value "
+                                         "missing or added?");
   // A button state is 0 or 1: a counter after the buttons would press button 1 on every sample.
   p = write("counter.txt", "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0 0\n1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0 1\n"
                            "1 0 0 0 0 1 0 0 0 0 1 0 5 6 7 1 1 0 2\n");

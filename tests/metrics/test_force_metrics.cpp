@@ -430,6 +430,26 @@ TEST(ForceMetrics, AHapticRateThatDisagreesWithTheTicksIsRefused) {
   }
 }
 
+// A haptic_hz edited to within 1% of the ticks' rate (999.9 for ticks 1 ms apart) passes that
+// check but divides into no whole number of ticks per physical step: the error names haptic_hz,
+// which disagrees with the ticks, not physical_hz, which agrees with them. A physical_hz that
+// divides neither is still named itself.
+TEST(ForceMetrics, AHapticRateOffByLittleIsNamedNotThePhysicalRate) {
+  ReplayTrace tr = make_trace(301);
+  tr.haptic_hz = 999.9;
+  const std::string e = load_error(tr, "rate999_9");
+  EXPECT_NE(e.find("root attribute 'haptic_hz' is 999.9 Hz, which physical_hz (100 Hz) divides into no whole number "
+                   "of ticks per step, but /haptic/t's ticks come at 1000 Hz (301 ticks over 0.3 s), 10 a step"),
+            std::string::npos)
+      << e;
+  EXPECT_EQ(e.find("'physical_hz' is"), std::string::npos) << e;
+  ReplayTrace odd = make_trace(301);
+  odd.physical_hz = 99.9;
+  EXPECT_NE(load_error(odd, "physical99_9").find("root attribute 'physical_hz' is 99.9 Hz: it must be at least 1 Hz and "
+                                                  "the haptic rate (1000 Hz) over it a whole number of ticks per step"),
+            std::string::npos);
+}
+
 TEST(ForceMetrics, EpisodesMergeShortGaps) {
   // Contact runs at ticks [100,199], [202,299] (2-tick gap: merged), [400,449] (100-tick gap: new).
   ReplayTrace tr = make_trace(600);

@@ -5,10 +5,13 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -66,6 +69,10 @@ struct SyntheticOptions {
   std::vector<double> t = {0.0, 0.1, 0.2};  // /frames/t
   bool triangles = true;                    // false: /mesh/virtual_triangles of shape (0, 3)
   std::string unit = "m";  // the `unit` attribute of /frames/virtual_positions and /frames/physical_positions
+  // Changes to what is written: /mesh/virtual_rest (#m x 3; the frames' positions start from it as
+  // it was), and /frames/virtual_positions (F x m x 3) and /frames/tool_poses (F x 2 x 7).
+  std::function<void(std::vector<double>& rest)> edit_rest;
+  std::function<void(std::vector<float>& positions, std::vector<double>& poses)> edit_frames;
 };
 
 void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
@@ -93,7 +100,9 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
   if (!o.triangles) tris.clear();
   const std::size_t m = rest.size() / 3;
   h5::Group mesh = f.create_group("mesh");
-  mesh.write<double>("virtual_rest", rest, {m, 3});
+  std::vector<double> rest_written = rest;
+  if (o.edit_rest) o.edit_rest(rest_written);
+  mesh.write<double>("virtual_rest", rest_written, {m, 3});
   mesh.write<std::int32_t>("virtual_triangles", tris, {tris.size() / 3, 3});
   // The physical mesh: the same vertices plus one below the centre, and two tets under it.
   std::vector<double> prest = rest;
@@ -117,6 +126,7 @@ void write_synthetic(const std::string& path, const SyntheticOptions& o = {}) {
     }
     for (double p : prest) x.push_back(float(p));
   }
+  if (o.edit_frames) o.edit_frames(q, poses);
   h5::Group fr = f.create_group("frames");
   fr.write<double>("t", t, {F});
   fr.write<double>("jaw", jaw, {F});
@@ -654,6 +664,64 @@ TEST(Render, FramesThatShowNoTissueAreCountedInAWarning) {
   o.scene_yaml = resolved_scene_yaml(load_scene_spec(cube));  // looking at the patch
   write_synthetic(s / "seen.h5", o);
   EXPECT_TRUE(render_replay(s / "seen.h5", s / "seen", small_frames()).warnings.empty());
+}
+
+// Positions and poses no replay writes (a damaged or edited file, a run that blew up) are left out
+// of what is drawn, with one warning for each kind naming the dataset and the first vertex or row,
+// and the camera and the displacement colours stay those of the rest: a rest vertex at 1e30 m
+// framed a box 1e30 m across (the tissue a dot), a frame's vertex there put the colour map's top at
+// 1e30 m (all the tissue at rest's blue), and a NaN quaternion drew the tool unrotated.
+TEST(Render, PositionsAndPosesNotFiniteOrFarOffTheMeshAreLeftOutAndSaid) {
+  REQUIRE_OSMESA();
+  Scratch s;
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  write_synthetic(s / "clean.h5");
+  SyntheticOptions o;
+  o.edit_rest = [](std::vector<double>& rest) {
+    rest[3 * 5] = nan;    // vertex 5, (0, -0.02, 0)
+    rest[3 * 7] = 1e30;   // vertex 7, (0.008, -0.02, 0)
+  };
+  o.edit_frames = [](std::vector<float>& q, std::vector<double>& poses) {
+    q[3 * (2 * kGrid * kGrid + 9)] = 1e30f;  // frame 2, vertex 9
+    poses[14 * 1 + 7] = nan;                 // frame 1, the virtual tool's x
+    poses[14 * 2 + 3] = nan;                 // frame 2, the physical tool's quaternion's w
+  };
+  write_synthetic(s / "bad.h5", o);
+  RenderOptions r = small_frames();
+  r.camera = "iso";
+  r.color_by = ColorBy::Displacement;
+  const RenderSummary clean = render_replay(s / "clean.h5", s / "clean", r);
+  const RenderSummary bad = render_replay(s / "bad.h5", s / "bad", r);
+  ASSERT_EQ(bad.files.size(), 3u);
+  const std::string file = s / "bad.h5";
+  const std::vector<std::string> expected = {
+      file + ": /mesh/virtual_rest: vertex 5 at (nan, -0.02, 0) m is not finite: the camera frames the mesh and the "
+             "displacement colours are measured without it",
+      file + ": /mesh/virtual_rest: vertex 7 at (1e+30, -0.02, 0) m lies more than 1000 times the mesh's median "
+             "distance from its centre (",
+      file + ": /frames/virtual_positions: 1 frame holds positions more than 1000 times the mesh's median distance from "
+             "its centre (a damaged file or a run that blew up; the first: frame 2, vertex 9 at (1e+30, -0.02, 0) m): "
+             "their triangles were left out, and the displacement colours measured without them",
+      file + ": /frames/tool_poses: 2 rows hold no pose (a value that is not finite, or a zero quaternion; the first: "
+             "frame 1, row 1 (the virtual tool) at (nan, 0, 0.008) m, quaternion (0, 1, 0, 0)): the tool is left out of "
+             "the frame where its pose is"};
+  for (const std::string& e : expected) {
+    const bool said = std::any_of(bad.warnings.begin(), bad.warnings.end(),
+                                  [&](const std::string& w) { return w.rfind(e, 0) == 0; });
+    EXPECT_TRUE(said) << "no warning starting '" << e << "' among:\n"
+                      << ::testing::PrintToString(bad.warnings);
+  }
+  for (const std::string& w : bad.warnings) EXPECT_EQ(w.find('\n'), std::string::npos) << w;
+  // The clean file says only that its scene is missing; the damaged one that and the four above.
+  EXPECT_EQ(clean.warnings.size(), 1u) << ::testing::PrintToString(clean.warnings);
+  EXPECT_EQ(bad.warnings.size(), clean.warnings.size() + expected.size()) << ::testing::PrintToString(bad.warnings);
+  // The camera frames the plausible rest mesh (its corners are all there), the colours span the dent.
+  EXPECT_EQ(bad.camera.eye, clean.camera.eye);
+  EXPECT_EQ(bad.camera.target, clean.camera.target);
+  EXPECT_EQ(bad.camera.z_far, clean.camera.z_far);
+  EXPECT_NEAR(bad.displacement_range, kDent, 1e-9);
+  // Frame 0 holds nothing left out: drawn as the clean file's.
+  EXPECT_EQ(read_file(bad.files[0]), read_file(clean.files[0]));
 }
 
 TEST(Render, IsDeterministic) {

@@ -184,9 +184,12 @@ void run_sizes(const SizesArgs& a) {
   } else if (window.recording) {
     o.recording = window.recording;
   } else {
-    throw InputError("--recording: scene '" + a.scene +
-                     "' has no default window (the Table 1 scenes have one: tube, gap, cholecystectomy, gynaecology and "
-                     "their _forceps/_hook variants); give --recording and --start");
+    // What is missing is the recording: a --start given is a time into it, and names none.
+    throw InputError("--recording: missing, and scene '" + a.scene +
+                     "' has no default recording (the Table 1 scenes have one: tube, gap, cholecystectomy, gynaecology "
+                     "and their _forceps/_hook variants); give --recording" +
+                     (a.start ? " (--start " + format_number(*a.start) + " is a time into it)"
+                              : " and --start, where in it the tool meets the tissue (0 when left out)"));
   }
   o.start = a.start.value_or(a.recording.empty() && window.recording ? window.start : 0.0);
   o.seconds = a.seconds;

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include "command.hpp"
 #include "core/error.hpp"
@@ -14,6 +15,16 @@
 
 namespace ebh::cli {
 namespace {
+
+/// v in printf format `f`, or "-" where the case has no value (NaN: the power above 30 Hz of a
+/// window too short for a spectrum, the frame ratio of a force that never changed), as `ebh
+/// metrics` prints it.
+std::string shown(const char* f, double v) {
+  if (std::isnan(v)) return "-";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
 
 struct GateArgs {
   std::string baselines = std::string(kSourceDir) + "/tests/gate/baselines.yaml";
@@ -96,17 +107,18 @@ void run_gate(const GateArgs& a) {
       std::printf("%-24s FAIL  stopped by the health checks\n", c.name.c_str());
       for (const auto& f : r.failures) std::printf("    %s\n", f.c_str());
     } else {
-      std::printf("%-24s %s  rms dF %.3e N  max dF/dt %8.2f N/s  peak %.3f N  >30 Hz %.3f  pen %.3f mm  "
-                  "frame ratio %.2f\n",
-                  c.name.c_str(), r.passed ? "ok  " : "FAIL", r.measured.rms_force_step, r.measured.max_force_rate,
-                  r.measured.peak_force, r.measured.power_above_30hz, 1e3 * r.measured.penetration_max,
-                  r.measured.boundary_step_ratio);
+      std::printf("%-24s %s  rms dF %s N  max dF/dt %8s N/s  peak %s N  >30 Hz %s  pen %s mm  frame ratio %s\n",
+                  c.name.c_str(), r.passed ? "ok  " : "FAIL", shown("%.3e", r.measured.rms_force_step).c_str(),
+                  shown("%.2f", r.measured.max_force_rate).c_str(), shown("%.3f", r.measured.peak_force).c_str(),
+                  shown("%.3f", r.measured.power_above_30hz).c_str(),
+                  shown("%.3f", 1e3 * r.measured.penetration_max).c_str(),
+                  shown("%.2f", r.measured.boundary_step_ratio).c_str());
       for (const auto& f : r.failures) std::printf("    %s\n", f.c_str());
       if (!r.unchecked.empty()) {  // all missing: a failure says so, and none is listed
         std::string names;
         for (const std::string& n : r.unchecked) {
           if (!names.empty()) names += ", ";
-          names += n;
+          names += gate_metric_label(n);  // with its unit, as the failures name it
         }
         std::printf("    %s: not compared, no baseline: %s (`ebh gate --update` writes them)\n", c.name.c_str(), names.c_str());
       }

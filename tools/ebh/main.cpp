@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <functional>
 #include <new>
 #include <string>
@@ -72,6 +73,32 @@ std::string omp_threads_problem(std::string_view value, unsigned cores) {
   }
 }
 
+/// The first argument left over after parsing that starts with '-' (an option no command takes),
+/// said as an unknown option: CLI11 says "replay is required" of `ebh metrics --x.h5` (its check of
+/// required arguments comes before that of extra ones) and "The following argument was not
+/// expected" of `ebh metrics a.h5 --x.h5`. A file of that name is hinted at, with the two ways to
+/// name it. "" when no such argument is left.
+std::string unknown_option(const CLI::App& app) {
+  for (const std::string& arg : app.remaining(true)) {
+    if (arg.size() < 2 || arg[0] != '-' || arg == "--") continue;
+    std::string command;  // the command given, "bench sizes" (its own --help lists its options)
+    for (const CLI::App* a = &app; !a->get_subcommands().empty();) {
+      a = a->get_subcommands().front();
+      command += (command.empty() ? "" : " ") + a->get_name();
+    }
+    const std::string shown = ebh::escape_unprintable(arg);
+    std::string why = "unknown option '" + shown + "'";
+    std::error_code ec;
+    if (std::filesystem::exists(arg, ec))
+      why += " (a file of that name exists: write ./" + shown + ", or -- " + shown +
+             ": after --, no argument is an option)";
+    else if (!command.empty())
+      why += " (ebh " + command + " --help lists its options)";
+    return why;
+  }
+  return "";
+}
+
 /// Parses and runs the command; returns the exit status (1 bad input, 3 internal error).
 int run(CLI::App& app, int argc, char** argv) {
   // A first word that names no command (a typo) is said as such: CLI11 would say that a
@@ -109,6 +136,11 @@ int run(CLI::App& app, int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    if (dynamic_cast<const CLI::RequiredError*>(&e) || dynamic_cast<const CLI::ExtrasError*>(&e))
+      if (const std::string why = unknown_option(app); !why.empty()) {
+        std::fprintf(stderr, "ebh: error: %s\n", why.c_str());
+        return 1;
+      }
     // A bad command line is bad input like any other: one line, exit status 1.
     std::fprintf(stderr, "ebh: error: %s\n", ebh::escape_unprintable(e.what()).c_str());
     return 1;

@@ -173,11 +173,23 @@ void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> 
     mean_edge += norm(q[v[1]] - q[v[0]]);
   }
   mean_edge = F ? mean_edge / F : 1.0;
-  sc.cell = std::max(2.0 * mean_edge, 1e-6);
   sc.origin = lo;
   sc.upper = hi;
-  for (int k = 0; k < 3; ++k)
-    sc.dims[k] = F ? std::max(1, std::min(1024, static_cast<int>((hi[k] - lo[k]) / sc.cell) + 1)) : 1;
+  // Cells of two mean edges, but at most kTriangleGridCellsPerTriangle a triangle: a small dense
+  // patch (a locally refined region of 0.5 million tiny triangles) makes the mean edge tiny, and
+  // the whole surface's grid 1024^3 cells (8.6 GB, its cells walked by every query wherever the
+  // tool is). The cells then grow until the grid holds no more.
+  const double most_cells = std::max(kTriangleGridMinCells, kTriangleGridCellsPerTriangle * static_cast<double>(F));
+  sc.cell = std::max(2.0 * mean_edge, 1e-6);
+  for (;;) {
+    double cells = 1;
+    for (int k = 0; k < 3; ++k) {
+      sc.dims[k] = F ? std::max(1, std::min(1024, static_cast<int>((hi[k] - lo[k]) / sc.cell) + 1)) : 1;
+      cells *= sc.dims[k];
+    }
+    if (cells <= most_cells) break;
+    sc.cell *= std::max(1.01, std::cbrt(cells / most_cells));
+  }
   const std::size_t cells = static_cast<std::size_t>(sc.dims[0]) * sc.dims[1] * sc.dims[2];
   sc.cell_start.assign(cells + 1, 0);
   sc.cell_stamp.assign(cells, 0);  // with sc.current back at 0

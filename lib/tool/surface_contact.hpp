@@ -125,6 +125,12 @@ inline Vec3d sample_point(const SurfaceContactModel& s, const SurfaceSample& p, 
   return surface_sample_point(p.b[0], p.b[1], p.b[2], q[t[0]], q[t[1]], q[t[2]]);
 }
 
+/// The triangle grid of the surface queries holds at most this many cells a triangle (and at
+/// least kTriangleGridMinCells): its memory and the cells a query walks follow the surface's
+/// triangles, not its smallest ones.
+inline constexpr double kTriangleGridCellsPerTriangle = 8;
+inline constexpr double kTriangleGridMinCells = 4096;
+
 /// Scratch of the surface queries (reused; sized on first use).
 struct SurfaceScratch {
   std::vector<int> triangles;           ///< candidate triangles

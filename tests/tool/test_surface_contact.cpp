@@ -199,6 +199,51 @@ TEST(SurfaceContact, CandidateSamplesIncludeEveryContactFoundByBruteForce) {
   EXPECT_GT(inside, 200) << "the poses touch the surface";
 }
 
+// A surface whose triangles are mostly tiny in one place (a locally refined patch) made the mean
+// edge tiny and the triangle grid 1024^3 cells over the whole surface (8.6 GB for 0.5 million
+// triangles in a 2.5 mm patch of a 40 mm block): the grid holds at most
+// kTriangleGridCellsPerTriangle cells a triangle, and still finds every contact.
+TEST(SurfaceContact, ADensePatchKeepsTheTriangleGridToItsTriangles) {
+  SurfaceMesh mesh = box_surface();
+  // A 0.6 mm patch of 60 x 60 squares (7200 triangles of 0.01 mm) just above the top face.
+  const int n = 60, first = static_cast<int>(mesh.vertices.size());
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) mesh.vertices.push_back({0.001 + 1e-5 * i, 0.001 + 1e-5 * j, 1e-6});
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int a = first + i * (n + 1) + j, b = a + n + 1;
+      mesh.triangles.push_back({a, b, b + 1});
+      mesh.triangles.push_back({a, b + 1, a + 1});
+    }
+  const ToolModel tool = surface_tool(ToolSpec::Kind::Hook);
+  const SurfaceContactModel s = build_surface_contact(mesh.triangles, mesh.vertices, thinnest_part(tool));
+  VertexGrid grid;
+  grid.rebuild(mesh.vertices, 0.002);
+  SurfaceScratch scratch;
+  std::vector<SurfaceSample> gathered, all;
+  for (const Vec3d& at : {Vec3d{0.0013, 0.0013, 0}, Vec3d{-0.012, 0.008, 0}}) {  // on the patch, away from it
+    const double depth = 0.0005;  // the hook's tip capsule (tool frame z = L) 0.5 mm into the top face
+    const ToolPose pose{{at.x, at.y, tool.spec.hook.tip_length + tool.spec.hook.tip_radius - depth}, kDown};
+    const PosedTool posed = pose_tool(tool, pose, 1.0);
+    gather_samples(s, posed, mesh.vertices, grid, 0, 0, {}, scratch, gathered);
+    const double cells = double(scratch.dims[0]) * scratch.dims[1] * scratch.dims[2];
+    EXPECT_LE(cells, kTriangleGridCellsPerTriangle * static_cast<double>(s.triangles.size()))
+        << scratch.dims[0] << " x " << scratch.dims[1] << " x " << scratch.dims[2] << " cells";
+    all.clear();
+    for (int t = 0; t < static_cast<int>(s.triangles.size()); ++t) triangle_samples(s, t, mesh.vertices, all);
+    std::set<std::tuple<int, long, long>> have;
+    for (const SurfaceSample& p : gathered) have.insert({p.triangle, std::lround(p.b[1] * 1e9), std::lround(p.b[2] * 1e9)});
+    std::vector<ContactPoint> contacts;
+    sample_narrow_phase(s, posed, all, mesh.vertices, contacts);
+    EXPECT_FALSE(contacts.empty());
+    for (const ContactPoint& c : contacts) {
+      const SurfaceSample& p = all[c.vertex];
+      EXPECT_TRUE(have.count({p.triangle, std::lround(p.b[1] * 1e9), std::lround(p.b[2] * 1e9)}))
+          << "triangle " << p.triangle << " missed";
+    }
+  }
+}
+
 TEST(SurfaceContact, AThinToolBetweenVerticesIsFelt) {
   // Two 20 mm triangles; the hook's 1 mm tip pressed into the middle, far from every vertex.
   const std::vector<Vec3d> rest = {{-0.01, -0.01, 0}, {0.01, -0.01, 0}, {0.01, 0.01, 0}, {-0.01, 0.01, 0}};

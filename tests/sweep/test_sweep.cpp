@@ -772,6 +772,16 @@ fs::path fresh_tube_scene(const std::string& name) {
   return d;
 }
 
+/// A plan on the tube scene copied to `d` (fresh_tube_scene), in d's name beside the other plans:
+/// tube_insert with its reference, the runs `runs` (a YAML flow list) and the keys `more`, from
+/// 4 s for 0.5 s (write_tube_output's window).
+SweepPlan tube_plan(const fs::path& d, const std::string& runs, const std::string& more = "") {
+  return read_sweep_plan(plan_file(d.filename().string() + ".yaml",
+                                   "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
+                                       ", recordings: [tube_insert], reference: {}}\nruns: " + runs + "\n" + more +
+                                       "start: 4\nduration: 0.5\n"));
+}
+
 /// A run is done while its output was made from the run's input files as they are: the output
 /// records each one's SHA-256 (the scene file, its mesh, the recording: write_provenance), and a
 /// file edited or replaced since makes the run stale, so the sweep runs it again. An output of
@@ -874,9 +884,7 @@ TEST(SweepRunner, AnOutputMadeFromOtherInputFilesIsStale) {
 /// the run's name, is not the run's (its forces differ: another pose, another rate) and runs again.
 TEST(SweepRunner, AReplayWithATransformOrOtherRatesIsNotTheRuns) {
   const fs::path d = fresh_tube_scene("transform_rates");
-  const SweepPlan p = read_sweep_plan(plan_file("transform_rates.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
-                                                                            ", recordings: [tube_insert], reference: {}}\n"
-                                                                            "runs: [{time.haptic_hz: 2000}]\nstart: 4\nduration: 0.5\n"));
+  const SweepPlan p = tube_plan(d, "[{time.haptic_hz: 2000}]");
   const std::vector<SweepRun> runs = expand_plan(p);
   ASSERT_EQ(runs.size(), 2u);
   const SweepRun& ref = runs[0];  // the scene's rates: 1000 Hz, 100 Hz (scenarios/tube.yaml)
@@ -939,9 +947,7 @@ TEST(SweepRunner, AReplayWithATransformOrOtherRatesIsNotTheRuns) {
 // (against the digests the plan read), is no result but a run to do again, saying why.
 TEST(SweepSummary, OutputsTheSweepWouldRunAgainAreNotOk) {
   const fs::path d = fresh_tube_scene("summary_redo");
-  const SweepPlan p = read_sweep_plan(plan_file("summary_redo.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
-                                                                         ", recordings: [tube_insert], reference: {}}\n"
-                                                                         "runs: [{solver.virtual_iterations: 2}]\nstart: 4\nduration: 0.5\n"));
+  const SweepPlan p = tube_plan(d, "[{solver.virtual_iterations: 2}]");
   const std::vector<SweepRun> runs = expand_plan(p);
   ASSERT_EQ(runs.size(), 2u);
   const fs::path dir = d / "out";
@@ -1026,10 +1032,7 @@ void write_tube_output(const fs::path& d, const fs::path& dir, const SweepRun& a
 // and the report refused its own summary.
 TEST(SweepSummary, ARunWhoseMeasuresTheReportRefusesIsFailed) {
   const fs::path d = fresh_tube_scene("summary_refused");
-  const SweepPlan p = read_sweep_plan(plan_file("summary_refused.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
-                                                                            ", recordings: [tube_insert], reference: {}}\n"
-                                                                            "runs: [{solver.virtual_iterations: 2}, "
-                                                                            "{solver.virtual_iterations: 4}]\nstart: 4\nduration: 0.5\n"));
+  const SweepPlan p = tube_plan(d, "[{solver.virtual_iterations: 2}, {solver.virtual_iterations: 4}]");
   const std::vector<SweepRun> runs = expand_plan(p);
   ASSERT_EQ(runs.size(), 3u);
   const fs::path dir = d / "out";
@@ -1067,9 +1070,7 @@ TEST(SweepSummary, ARunWhoseMeasuresTheReportRefusesIsFailed) {
 // no run of the plan, and a summary without ids give none.
 TEST(SweepSummary, OkRowsWhoseOutputIsGoneAreOutdated) {
   const fs::path d = fresh_tube_scene("summary_outdated");
-  const SweepPlan p = read_sweep_plan(plan_file("summary_outdated.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
-                                                                             ", recordings: [tube_insert], reference: {}}\n"
-                                                                             "runs: [{solver.virtual_iterations: 2}]\nstart: 4\nduration: 0.5\n"));
+  const SweepPlan p = tube_plan(d, "[{solver.virtual_iterations: 2}]");
   const std::vector<SweepRun> runs = expand_plan(p);
   ASSERT_EQ(runs.size(), 2u);
   const fs::path dir = d / "out";
@@ -1112,12 +1113,8 @@ TEST(SweepSummary, OkRowsWhoseOutputIsGoneAreOutdated) {
 // comparison and the 2x-goal section lists the pair as not compared (both were left out silently).
 TEST(SweepSummary, ANonFiniteSampleFailsTheRun) {
   const fs::path d = fresh_tube_scene("summary_nonfinite");
-  const SweepPlan p = read_sweep_plan(plan_file("summary_nonfinite.yaml", "scenes:\n  - {scene: " + (d / "scene" / "tube.yaml").string() +
-                                                                              ", recordings: [tube_insert], reference: {}}\n"
-                                                                              "runs: [{solver.virtual_iterations: 2}, "
-                                                                              "{solver.virtual_iterations: 4}]\n"
-                                                                              "baseline: {name: paper, set: {solver.virtual_iterations: 2}}\n"
-                                                                              "start: 4\nduration: 0.5\n"));
+  const SweepPlan p = tube_plan(d, "[{solver.virtual_iterations: 2}, {solver.virtual_iterations: 4}]",
+                                "baseline: {name: paper, set: {solver.virtual_iterations: 2}}\n");
   const std::vector<SweepRun> runs = expand_plan(p);
   ASSERT_EQ(runs.size(), 3u);
   ASSERT_TRUE(runs[0].reference && runs[1].baseline);

@@ -210,7 +210,7 @@ std::string contact_warning(std::size_t contact_ticks, std::size_t ticks) {
   return b;
 }
 
-std::string start_warning(double depth, int grasped) {
+std::string start_warning(double depth, int grasped, bool surface_contact) {
   if (!(depth > 0) && grasped <= 0) return "";
   char where[160];
   if (depth > 0)
@@ -224,7 +224,13 @@ std::string start_warning(double depth, int grasped) {
                 "with the tool free of it: is the tool frame flipped or the tip offset wrong (--tool-transform), or "
                 "the log's unit or its place in the scene (ebh import --unit, --transform)? (docs/OWN_DATA.md)",
                 where);
-  return b;
+  // Contact against the surface pushes each sample out of the tool by the shortest way: a tool
+  // inside the tissue holds the surface from inside and lifts it as it leaves, pulling back.
+  return std::string(b) + (surface_contact && depth > 0
+                               ? "; with contact: surface a tool inside holds the surface from inside, and drags it "
+                                 "out as it leaves, with a force into the tissue (docs/MODEL.md, \"Contact against the "
+                                 "surface\")"
+                               : "");
 }
 
 namespace {

@@ -267,8 +267,10 @@ std::string contact_warning(std::size_t contact_ticks, std::size_t ticks);
 /// the log's unit or world transform (a cm log read in mm lands 10x nearer the origin).
 /// Forceps whose jaws hold vertices at the first tick (`first_tick_grasped` > 0: closed on the
 /// tissue from the first sample, which penetration does not count) start inside it too. Empty when
-/// it starts free. `ebh replay` says it.
-std::string start_warning(double first_tick_penetration_physical, int first_tick_grasped = 0);
+/// it starts free. With `surface_contact` (the scene's `contact: surface`) a tool started inside
+/// holds the surface from inside and drags it out as it leaves: said too. `ebh replay` says it.
+std::string start_warning(double first_tick_penetration_physical, int first_tick_grasped = 0,
+                          bool surface_contact = false);
 
 /// Contact episodes: maximal runs of ticks with contacts > 0, two runs merged when the
 /// contact-free gap between them lasts less than merge_gap_s (gap ticks / H). Pairs of tick

@@ -1010,6 +1010,11 @@ TEST(StartWarning, SaysWhenThePhysicalToolStartsInsideTheTissue) {
   EXPECT_EQ(start_warning(0.0013).rfind("the physical tool starts inside the tissue (a virtual vertex 1.3 mm inside its colliders at the first tick", 0),
             0u);
   EXPECT_NE(start_warning(0.0013).find("--tool-transform"), std::string::npos);
+  // Contact against the surface: the tool inside holds the surface from inside as it leaves.
+  EXPECT_EQ(start_warning(0.0013).find("contact: surface"), std::string::npos);
+  EXPECT_NE(start_warning(0.0013, 0, true).find("; with contact: surface a tool inside holds the surface from inside, and "
+                                                "drags it out as it leaves, with a force into the tissue"),
+            std::string::npos);
   // Forceps closed on the tissue from the first sample: what they hold is not penetration.
   EXPECT_EQ(start_warning(0.0, 235).rfind("the physical tool starts inside the tissue (its closed jaws hold 235 virtual "
                                           "vertices at the first tick)", 0),

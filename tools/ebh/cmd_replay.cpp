@@ -456,7 +456,8 @@ void finish_replay(const ReplayArgs& a, PreparedReplay& p, const ReplaySummary& 
   // From the recording's first sample only: a window that starts in the tissue is said before the
   // replay (window_starts_in_tissue).
   const std::string start =
-      a.start == 0 ? start_warning(writer.first_penetration_physical(), writer.grasped().empty() ? 0 : writer.grasped().front())
+      a.start == 0 ? start_warning(writer.first_penetration_physical(), writer.grasped().empty() ? 0 : writer.grasped().front(),
+                                   world.tool.surface != nullptr)
                    : "";
   if (!start.empty()) std::fprintf(stderr, "ebh: warning: %s: %s\n", a.out.c_str(), start.c_str());
   if (!a.quiet) {

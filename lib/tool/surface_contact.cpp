@@ -34,6 +34,12 @@ SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> tr
   return s;
 }
 
+namespace {
+void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> q, VertexGrid& grid, SurfaceScratch& sc);
+void cell_range(const SurfaceScratch& sc, Vec3d a, Vec3d b, int* i0, int* i1);
+std::size_t cell_id(const SurfaceScratch& sc, int x, int y, int z);
+}  // namespace
+
 std::vector<std::string> surface_contact_warnings(const SurfaceContactModel& s, std::span<const Vec3d> rest) {
   std::vector<std::string> out;
   int too_long = 0, slow = 0, slivers = 0;
@@ -82,6 +88,67 @@ std::vector<std::string> surface_contact_warnings(const SurfaceContactModel& s, 
                   too_long, too_long == 1 ? "triangle" : "triangles", too_long == 1 ? "is" : "are", kMaxSampleLevel,
                   longest * 1e3, s.spacing * 1e3);
     out.emplace_back(line);
+  }
+  // Crowding: the samples a tool near one point tests at every query, those of the triangles whose
+  // bounding boxes meet the cube of kCrowdProbeSpacings spacings around a vertex: a fan of long
+  // triangles meeting at one vertex crowds it although no triangle is long or thin enough for the
+  // warnings above (said only where none above or below names the cause already).
+  if (out.empty() && slow == 0 && too_long == 0 && samples <= kManySurfaceSamples && !s.triangles.empty()) {
+    VertexGrid grid;
+    grid.rebuild(rest, s.spacing);
+    SurfaceScratch sc;
+    refresh_triangle_grid(s, rest, grid, sc);
+    const std::size_t F = s.triangles.size();
+    std::vector<Vec3d> box_lo(F), box_hi(F);
+    for (std::size_t t = 0; t < F; ++t) {
+      const auto& v = s.triangles[t];
+      box_lo[t] = cwise_min(cwise_min(rest[v[0]], rest[v[1]]), rest[v[2]]);
+      box_hi[t] = cwise_max(cwise_max(rest[v[0]], rest[v[1]]), rest[v[2]]);
+    }
+    std::vector<std::size_t> seen(F, rest.size());  // the vertex whose probe last took the triangle
+    const Vec3d reach = Vec3d{1, 1, 1} * (kCrowdProbeSpacings * s.spacing);
+    double most = 0;
+    std::size_t at = 0;
+    int crowd = 0;
+    for (std::size_t a = 0; a < rest.size(); ++a) {
+      const Vec3d lo = rest[a] - reach, hi = rest[a] + reach;
+      int i0[3], i1[3];
+      cell_range(sc, lo, hi, i0, i1);
+      double near = 0;
+      int count = 0;
+      for (int x = i0[0]; x <= i1[0]; ++x)
+        for (int y = i0[1]; y <= i1[1]; ++y)
+          for (int z = i0[2]; z <= i1[2]; ++z) {
+            const std::size_t c = cell_id(sc, x, y, z);
+            for (int e = sc.cell_start[c]; e < sc.cell_start[c + 1]; ++e) {
+              const auto t = static_cast<std::size_t>(sc.cell_entries[e]);
+              if (seen[t] == a) continue;
+              seen[t] = a;
+              if (box_hi[t].x < lo.x || box_lo[t].x > hi.x || box_hi[t].y < lo.y || box_lo[t].y > hi.y ||
+                  box_hi[t].z < lo.z || box_lo[t].z > hi.z)
+                continue;
+              const double n = s.rest_level[t];
+              near += n * n;
+              ++count;
+            }
+          }
+      if (near > most) {
+        most = near;
+        at = a;
+        crowd = count;
+      }
+    }
+    if (most > kCrowdedSamples) {
+      std::snprintf(line, sizeof line,
+                    "surface contact: %d triangles of the virtual mesh reach within %.3g mm of its vertex %zu (at "
+                    "(%.4g, %.4g, %.4g) mm) and carry %.3g sample points (a triangle n^2, n its longest edge over the "
+                    "spacing, %.4g mm), which a tool there tests at every query: ticks there are slow (long "
+                    "triangles meeting there, or a great many small ones); remesh the virtual mesh with triangles "
+                    "of even size and spacing, or split long ones (mesh.virtual_refine)",
+                    crowd, kCrowdProbeSpacings * s.spacing * 1e3, at, rest[at].x * 1e3, rest[at].y * 1e3,
+                    rest[at].z * 1e3, most, s.spacing * 1e3);
+      out.emplace_back(line);
+    }
   }
   if (samples > kManySurfaceSamples) {
     std::snprintf(line, sizeof line,

@@ -70,6 +70,12 @@ inline constexpr int kSlowSampleLevel = 32;
 /// a replay at 0.005x real time, 1.25x on an even 1.25 mm mesh of the same block).
 inline constexpr double kSliverOversampling = 16;
 inline constexpr double kManySliverSamples = 1e5;
+/// Samples of the triangles reaching within kCrowdProbeSpacings spacings of one vertex (the
+/// bounding boxes that meet the cube around it: what a tool there tests at every query) beyond
+/// which surface_contact_warnings says ticks there will be slow (the committed scenes: at most a
+/// few hundred; 64 triangles of 25 mm meeting at one vertex: 40000, a replay at 0.09x real time).
+inline constexpr double kCrowdedSamples = 1e4;
+inline constexpr double kCrowdProbeSpacings = 5;
 
 /// The radius of the tool's thinnest part: the smallest radius of a sphere, capsule or cylinder
 /// and the smallest half extent of a box (m).

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <numbers>
 #include <numeric>
 #include <random>
 #include <memory>
@@ -145,6 +147,23 @@ TEST(SurfaceSamples, LongTrianglesAndManySamplesAreSaid) {
                           "times what their area needs", 0), 0u) << thin[0];
   const auto [short_rest, shorts] = strip(0.003, 100);
   EXPECT_TRUE(surface_contact_warnings(build_surface_contact(shorts, short_rest, 0.001), short_rest).empty());
+  // 64 triangles of 25 mm meeting at one point (a face fanned from its rim to its centre): none
+  // long or thin enough to say, but a tool at the centre tests their 40000 samples at every query
+  // (such a fan on a 40 mm block replayed at 0.09x real time, the block's even triangles at 2.4x).
+  std::vector<Vec3d> wheel = {{0, 0, 0}};
+  std::vector<std::array<int, 3>> spokes;
+  for (int k = 0; k < 64; ++k) {
+    const double a = 2 * std::numbers::pi * k / 64;
+    wheel.push_back({0.025 * std::cos(a), 0.025 * std::sin(a), 0});
+    spokes.push_back({0, 1 + k, 1 + (k + 1) % 64});
+  }
+  const std::vector<std::string> crowded = surface_contact_warnings(build_surface_contact(spokes, wheel, 0.001), wheel);
+  ASSERT_EQ(crowded.size(), 1u) << ::testing::PrintToString(crowded);
+  EXPECT_EQ(crowded[0].rfind("surface contact: 64 triangles of the virtual mesh reach within 5 mm of its vertex 0 (at (0, 0, "
+                             "0) mm) and carry 4.03e+04 sample points", 0), 0u) << crowded[0];
+  const SurfaceMesh box = box_surface();  // even 5 and 10 mm triangles
+  const std::vector<std::string> even_box = surface_contact_warnings(build_surface_contact(box.triangles, box.vertices, 0.001), box.vertices);
+  EXPECT_TRUE(even_box.empty()) << ::testing::PrintToString(even_box);
 }
 
 TEST(SurfaceContact, StiffnessFloorHoldsTheThinnestPartAtTheForceLimit) {

@@ -13,6 +13,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "core/number_text.hpp"
 #include "core/units.hpp"
 
 namespace ebh {
@@ -223,7 +224,24 @@ SceneInit make_scene(const SceneInitOptions& o) {
   // Specks of a segmentation apart from the organ would float free (or stop a replay under
   // gravity): dropped at load (loaded again without them), the scene saying so.
   const std::vector<std::pair<int, int>> specks = speck_parts(mesh_only.physical);
+  // Every part a speck: no organ to keep (a tet soup, whose tets share no vertex: an export that
+  // writes each element's nodes apart), which the drop below would refuse by a key the user never
+  // wrote.
+  std::size_t speck_tets = 0;
+  int largest = 0;
+  for (const auto& [lowest, tets] : specks) {
+    speck_tets += static_cast<std::size_t>(tets);
+    largest = std::max(largest, tets);
+  }
+  if (!specks.empty() && speck_tets == mesh_only.physical.tets.size())
+    throw InputError(o.mesh.string() + ": its " + std::to_string(speck_tets) + " tets fall apart into " +
+                     std::to_string(specks.size()) + " parts of at most " + std::to_string(largest) +
+                     (largest == 1 ? " tet" : " tets") + ", none an organ" +
+                     (specks.size() == speck_tets ? " (no two tets share a vertex: each element's nodes were written "
+                                                    "apart; merge the coincident nodes, e.g. Gmsh's Coherence)"
+                                                  : ""));
   for (const auto& [lowest, tets] : specks) probe.min_part_tets = std::max(probe.min_part_tets, tets + 1);
+  const TetMesh whole = specks.empty() ? TetMesh{} : mesh_only.physical;  // with the specks, for the pins' errors
   if (!specks.empty()) mesh_only = build_scene(probe);
   const TetMesh& mesh = mesh_only.physical;
   const std::size_t n = mesh.vertices.size();
@@ -234,10 +252,17 @@ SceneInit make_scene(const SceneInitOptions& o) {
   // Pinned regions: the user's, each checked, or the lowest layer along gravity (-z).
   std::vector<std::string> pin_yaml;
   std::set<int> pinned;
-  std::string pin_note;
+  std::string pin_note, pin_warning;
   for (const std::string& spec : o.pins) {
     const Pin pin = parse_pin(spec, unit, mesh_name);
     const std::vector<int> v = region_vertices(mesh, pin.region);
+    if (v.empty() && !specks.empty() && !region_vertices(whole, pin.region).empty())
+      throw InputError("--pin " + spec + ": the region holds only vertices of the parts apart from the organ that " +
+                       "scene init drops as specks (" + std::to_string(specks.size()) +
+                       (specks.size() == 1 ? " part" : " parts") + " of under " +
+                       shown_number(100 * kSpeckFraction) + "% of the mesh's tets each: mesh.min_part_tets: " +
+                       std::to_string(probe.min_part_tets) + "): pin a region of the organ, or keep the parts " +
+                       "(mesh.min_part_tets: 0 in the scene written)");
     if (v.empty()) {
       if (pin.region.kind == PinRegion::Kind::Group) {
         const std::vector<std::string> known = known_group_names(mesh);
@@ -261,6 +286,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
     const Vec3d centre = 0.5 * (box.lo + box.hi);
     // the cut to 1/1000 of the height (to 1/1000 of a thin slab's diagonal it could round below it)
     const Within cut_text{height / unit};
+    std::size_t first_layer = 0;  // the vertices the first band (5%) held
     for (double fraction = 0.05; pinned.size() < 3; fraction *= 2) {
       if (fraction >= 1) throw InputError(mesh_name + ": no layer of vertices at the bottom to pin; give --pin");
       // the point as the scene writes it, and the region as the scene will read it
@@ -272,10 +298,26 @@ SceneInit make_scene(const SceneInitOptions& o) {
       r.b = {0, 0, -1};
       const std::vector<int> v = region_vertices(mesh, r);
       pinned = std::set<int>(v.begin(), v.end());
+      if (fraction == 0.05) first_layer = pinned.size();
       if (pinned.size() >= 3) {
         pin_yaml = {"halfspace: {point: [" + px + ", " + py + ", " + cut + "], normal: [0, 0, -1]}"};
         pin_note = "no --pin given: pinned the lowest " + fmt(fraction * 100) + "% of the mesh's height (z <= " +
                    cut + " " + o.unit + ", " + std::to_string(pinned.size()) + " vertices); give --pin to choose";
+        // Widened: a stray vertex or a spike below the organ holds the band's bottom, and the band
+        // that reaches the organ's own bottom layer may hold much of it (one node of a 40 mm cube
+        // pulled 30 mm down: the lowest 80%, 196 of 343 vertices, the peak force 1.28 -> 1.86 N).
+        if (fraction > 0.05) {
+          int lowest = 0;
+          for (std::size_t a = 1; a < n; ++a)
+            if (mesh.vertices[a].z < mesh.vertices[lowest].z) lowest = static_cast<int>(a);
+          pin_warning = mesh_name + ": no --pin given: the lowest 5% of the mesh's height holds " +
+                        std::to_string(first_layer) + (first_layer == 1 ? " vertex" : " vertices") +
+                        " (the lowest, vertex " + std::to_string(lowest) + ", at z = " +
+                        cut_text(mesh.vertices[lowest].z / unit) + " " + o.unit +
+                        ": a stray vertex or a spike below the organ?), so the pinned band was widened to the lowest " +
+                        fmt(fraction * 100) + "%: " + std::to_string(pinned.size()) + " of " + std::to_string(n) +
+                        " vertices held still; give --pin to choose";
+        }
       }
     }
   } else {
@@ -388,6 +430,7 @@ SceneInit make_scene(const SceneInitOptions& o) {
   SceneInit out;
   out.yaml = y;
   out.scene = load_scene_text(y, written);
+  if (!pin_warning.empty()) out.scene.warnings.push_back(pin_warning);
   out.pin_note = pin_note;
   out.speck_note = speck_note;
   // The virtual mesh's edges after virtual_refine's split (each edge halved) against the tool.

@@ -3,9 +3,11 @@
 // to what it checked.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <string>
 
 #include "../mesh/test_util.hpp"
 #include "mesh/mesh_io.hpp"
@@ -122,6 +124,19 @@ TEST(SceneInit, SpecksApartFromTheOrganAreDropped) {
                              "mesh.min_part_tets: 7; set 0 to keep them");
   EXPECT_EQ(made.scene.physical.tets.size(), 1200u);
   EXPECT_TRUE(made.scene.free_parts.empty());
+  // A pin around the speck alone: the speck is dropped, said so (it cited the bounding box of the
+  // mesh without it).
+  o.pins = {"box:19.5,19.5,19.5,21.5,21.5,21.5"};
+  try {
+    make_scene(o);
+    FAIL() << "the pin holds only the dropped speck";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "--pin box:19.5,19.5,19.5,21.5,21.5,21.5: the region holds only vertices of the parts "
+                                     "apart from the organ that scene init drops as specks (1 part of under 1% of the "
+                                     "mesh's tets each: mesh.min_part_tets: 7): pin a region of the organ, or keep the "
+                                     "parts (mesh.min_part_tets: 0 in the scene written)");
+  }
+  o.pins.clear();
   o.mesh = box_mesh();
   o.out = o.mesh.parent_path() / "box.yaml";
   const SceneInit clean = make_scene(o);
@@ -228,6 +243,53 @@ TEST(SceneInit, AMeshFarFromTheOriginGetsItsBottomPinnedAndACamera) {
     EXPECT_LT(c.eye.y, c.target.y);
     EXPECT_GT(c.eye.z, c.target.z);
     EXPECT_GT(norm(c.eye - c.target) * std::tan(20.0 * std::numbers::pi / 180.0), 0.5 * 5.385e-3);
+  }
+}
+
+// A stray vertex below the organ holds the bottom of the 5% band alone: the band widens until it
+// reaches the organ's own bottom layer, which may hold much of it, and that is said (one node of a
+// 40 mm cube pulled 30 mm down pinned 196 of its 343 vertices without a word).
+TEST(SceneInit, APinBandWidenedPastAStrayVertexIsSaid) {
+  SceneInitOptions o;
+  o.mesh = write_temp("stray.msh", replace(test::slurp(box_mesh()), "1 0 0 0\n", "1 0 0 -2\n"));
+  o.out = o.mesh.parent_path() / "stray.yaml";
+  const SceneInit made = make_scene(o);
+  EXPECT_EQ(made.scene.pinned, (std::vector<int>{0, 1, 2, 3}));  // the lowest 80%: the stray node and the z = 0 face
+  ASSERT_FALSE(made.scene.warnings.empty());
+  EXPECT_EQ(made.scene.warnings.back(),
+            o.mesh.string() + ": no --pin given: the lowest 5% of the mesh's height holds 1 vertex (the lowest, "
+                              "vertex 0, at z = -2 mm: a stray vertex or a spike below the organ?), so the pinned band "
+                              "was widened to the lowest 80%: 4 of 8 vertices held still; give --pin to choose");
+  // The box as it is: its bottom face in the first band, nothing said.
+  o.mesh = box_mesh();
+  o.out = o.mesh.parent_path() / "box.yaml";
+  for (const std::string& w : make_scene(o).scene.warnings) EXPECT_EQ(w.find("was widened"), std::string::npos) << w;
+}
+
+// A tet soup (each element's nodes written apart) is all specks: said as such, not as a
+// mesh.min_part_tets the user never wrote that drops every part.
+TEST(SceneInit, ATetSoupIsSaidToFallApart) {
+  // 120 tets side by side, each with its own four nodes: every one under 1% of the mesh.
+  std::string nodes, elements;
+  for (int t = 0; t < 120; ++t) {
+    const int x = 2 * t;
+    for (const auto& [dx, dy, dz] : {std::array<int, 3>{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}})
+      nodes += std::to_string(4 * t + 1 + dx + 2 * dy + 3 * dz) + " " +
+               std::to_string(x + dx) + " " + std::to_string(dy) + " " + std::to_string(dz) + "\n";
+    elements += std::to_string(t + 1) + " 4 0 " + std::to_string(4 * t + 1) + " " + std::to_string(4 * t + 2) + " " +
+                std::to_string(4 * t + 3) + " " + std::to_string(4 * t + 4) + "\n";
+  }
+  SceneInitOptions o;
+  o.mesh = write_temp("soup.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n480\n" + nodes +
+                                      "$EndNodes\n$Elements\n120\n" + elements + "$EndElements\n");
+  o.out = o.mesh.parent_path() / "soup.yaml";
+  try {
+    make_scene(o);
+    FAIL() << "a soup has no organ";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), o.mesh.string() + ": its 120 tets fall apart into 120 parts of at most 1 tet, none "
+                                                       "an organ (no two tets share a vertex: each element's nodes were "
+                                                       "written apart; merge the coincident nodes, e.g. Gmsh's Coherence)");
   }
 }
 

@@ -96,7 +96,10 @@ SurfaceEdges surface_edges(const std::vector<Tri>& triangles) {
   for (std::size_t i = 0; i < uses.size();) {
     std::size_t j = i;
     while (j < uses.size() && uses[j].a == uses[i].a && uses[j].b == uses[i].b) ++j;
-    if (j - i == 1) ++out.open;
+    if (j - i == 1) {
+      ++out.open;
+      out.open_edges.push_back({uses[i].a, uses[i].b});
+    }
     if (j - i > 2) ++out.nonmanifold;
     if (j - i > 1)
       for (std::size_t k = i; k < j; ++k) shared[uses[k].face] = 1;

@@ -1,6 +1,7 @@
 #pragma once
 // The surface of a tetrahedral mesh: the faces that belong to exactly one tet.
 #include <cstdint>
+#include <array>
 #include <vector>
 
 #include "math/hd.hpp"
@@ -78,6 +79,7 @@ FaceCounts count_faces(const std::vector<std::uint8_t>& multiplicity);
 /// soup, corners never welded). A closed manifold surface has none of them.
 struct SurfaceEdges {
   long long open = 0;
+  std::vector<std::array<int, 2>> open_edges;  ///< #open, each (lower vertex, higher vertex), in that order
   long long nonmanifold = 0;
   long long loose_faces = 0;
 };

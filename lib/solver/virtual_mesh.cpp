@@ -152,9 +152,18 @@ void check_virtual_mesh_placement(const Scene& scene, const VirtualModel& vm, st
       junction_text = "; " + std::to_string(junctions) + (junctions == 1 ? " vertex lies" : " vertices lie") +
                       " inside another face's edge (T-junctions: no gap there, but no edge joins the faces on either "
                       "side: split the long edges at those vertices)";
+    // Where: a hole is found by the box its rim lies in (several holes: the box of them all).
+    Vec3d lo = scene.virtual_surface.vertices[edges.open_edges.front()[0]], hi = lo;
+    for (const auto& e : edges.open_edges)
+      for (const int v : e) {
+        lo = cwise_min(lo, scene.virtual_surface.vertices[v]);
+        hi = cwise_max(hi, scene.virtual_surface.vertices[v]);
+      }
+    std::snprintf(buf, sizeof buf, " (the open edges lie within (%.4g, %.4g, %.4g) .. (%.4g, %.4g, %.4g) mm)",
+                  lo.x * 1e3, lo.y * 1e3, lo.z * 1e3, hi.x * 1e3, hi.y * 1e3, hi.z * 1e3);
     warnings.push_back(where + "is not closed: " + std::to_string(edges.open) +
                        " of its edges belong to one face only (a hole, a cut patch" + soup + seam_text + junction_text +
-                       "): a tool that passes through an opening feels nothing there");
+                       "): a tool that passes through an opening feels nothing there" + buf);
   }
   if (edges.nonmanifold > 0)
     warnings.push_back(where + "has " + std::to_string(edges.nonmanifold) +

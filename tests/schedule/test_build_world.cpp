@@ -97,6 +97,10 @@ TEST(BuildWorld, AnOpenVirtualMeshIsNamed) {
   EXPECT_TRUE(has(warnings_of("holed", holed), "holed.obj: mesh.virtual: the virtual mesh is not closed: 4 of its edges "
                                                "belong to one face only (a hole, a cut patch): "))
       << ::testing::PrintToString(warnings_of("holed", holed));
+  // Where the hole is: the box its rim lies in (the missing quad's four edges).
+  EXPECT_TRUE(has(warnings_of("holed", holed),
+                  "feels nothing there (the open edges lie within (100, 0, 0) .. (100, 100, 100) mm)"))
+      << ::testing::PrintToString(warnings_of("holed", holed));
   // Two triangles of one face with their shared corners 0.01 cm apart (farther than a weld):
   // faces that share no edge, along a seam never welded.
   const std::string soup = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 10 0 0.01\nv 0 10 0.01\nv 10 10 0\nf 1 3 2\nf 4 5 6\n";

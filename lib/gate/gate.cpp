@@ -484,15 +484,16 @@ void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
                                    {"boundary_step_ratio", b.boundary_step_ratio}})
     if (std::isnan(base)) r.unchecked.emplace_back(name);
   if (!b.force_collapse) r.unchecked.emplace_back("force_collapse");
-  auto upper = [&](const char* name, double got, double base, double abs) {
-    if (!std::isfinite(got)) return fail(std::string(name) + " is not finite");
+  auto upper = [&](const char* metric, double got, double base, double abs) {
+    const std::string name = gate_metric_label(metric);  // "rms_force_step [N]"
+    if (!std::isfinite(got)) return fail(name + " is not finite");
     if (std::isnan(base)) return;  // no baseline for it yet
     const double limit = base * (1 + bands.relative) + abs;
-    if (got > limit) fail(std::string(name) + " " + fmt(got) + " above the band (baseline " + fmt(base) + ", limit " + fmt(limit) + ")");
+    if (got > limit) fail(name + " " + fmt(got) + " above the band (baseline " + fmt(base) + ", limit " + fmt(limit) + ")");
   };
-  upper("rms_force_step [N]", m.rms_force_step, b.rms_force_step, bands.abs_force_step);
-  upper("max_force_rate [N/s]", m.max_force_rate, b.max_force_rate, bands.abs_force_rate);
-  upper("penetration_max [m]", m.penetration_max, b.penetration_max, bands.abs_penetration);
+  upper("rms_force_step", m.rms_force_step, b.rms_force_step, bands.abs_force_step);
+  upper("max_force_rate", m.max_force_rate, b.max_force_rate, bands.abs_force_rate);
+  upper("penetration_max", m.penetration_max, b.penetration_max, bands.abs_penetration);
   // The spectral fraction (NaN for a window too short to analyse) and the frame-boundary ratio
   // (NaN where the force never changes): compared when both have one; a ratio of +inf (steps
   // only at frame boundaries) fails against a finite baseline.
@@ -510,7 +511,7 @@ void judge_gate_case(const GateCase& b, const GateBands& bands, GateResult& r) {
     const double high = b.peak_force * (1 + bands.relative) + bands.abs_peak_force,
                  low = b.peak_force / (1 + bands.relative) - bands.abs_peak_force;
     if (m.peak_force > high || m.peak_force < low)
-      fail("peak_force [N] " + fmt(m.peak_force) + " outside the band around " + fmt(b.peak_force) + " (" + fmt(low) +
+      fail(gate_metric_label("peak_force") + " " + fmt(m.peak_force) + " outside the band around " + fmt(b.peak_force) + " (" + fmt(low) +
            " .. " + fmt(high) + ")");
   }
 }

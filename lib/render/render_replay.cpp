@@ -451,11 +451,10 @@ RenderSummary render_replay(const std::string& replay, const std::string& dir, c
   for (std::size_t i = 0; i < rest_problem.size(); ++i) {
     const Vec3f& p = frames.virtual_rest[i];
     rest_problem[i] = static_cast<char>(vertex_problem(p, reach));
-    const std::string where = "vertex " + std::to_string(i) + " at " + point_text(p) + " m";
     if (rest_problem[i] == 0)
       rest_drawn.push_back(p);
     else
-      (rest_problem[i] == 1 ? rest_nonfinite : rest_far).add(where);
+      (rest_problem[i] == 1 ? rest_nonfinite : rest_far).add("vertex " + std::to_string(i) + " at " + point_text(p) + " m");
   }
   auto without = [](std::size_t n) {
     return std::string(": the camera frames the mesh and the displacement colours are measured without ") +

@@ -34,133 +34,6 @@ SurfaceContactModel build_surface_contact(std::span<const std::array<int, 3>> tr
   return s;
 }
 
-namespace {
-void refresh_triangle_grid(const SurfaceContactModel& s, std::span<const Vec3d> q, VertexGrid& grid, SurfaceScratch& sc);
-void cell_range(const SurfaceScratch& sc, Vec3d a, Vec3d b, int* i0, int* i1);
-std::size_t cell_id(const SurfaceScratch& sc, int x, int y, int z);
-}  // namespace
-
-std::vector<std::string> surface_contact_warnings(const SurfaceContactModel& s, std::span<const Vec3d> rest) {
-  std::vector<std::string> out;
-  int too_long = 0, slow = 0, slivers = 0;
-  double longest = 0, samples = 0, sliver_samples = 0, sliver_need = 0;
-  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
-    const auto& v = s.triangles[t];
-    const double edge = triangle_longest_edge(rest[v[0]], rest[v[1]], rest[v[2]]);
-    longest = std::max(longest, edge);
-    if (edge > kMaxSampleLevel * s.spacing) ++too_long;
-    else if (s.rest_level[t] > kSlowSampleLevel) ++slow;
-    const double n2 = static_cast<double>(s.rest_level[t]) * s.rest_level[t];
-    samples += n2;
-    const double need = norm(cross(rest[v[1]] - rest[v[0]], rest[v[2]] - rest[v[0]])) / (s.spacing * s.spacing);
-    if (n2 > kSliverOversampling * std::max(need, 1.0)) {
-      ++slivers;
-      sliver_samples += n2;
-      sliver_need += need;
-    }
-  }
-  char line[560];
-  if (sliver_samples > kManySliverSamples && samples <= kManySurfaceSamples) {
-    std::snprintf(line, sizeof line,
-                  "surface contact: %d long, thin triangles of the virtual mesh carry %.3g sample points, %.3g times "
-                  "what their area needs (a triangle's n^2 samples follow its longest edge; the spacing, the tool's "
-                  "thinnest part, %.4g mm): a tick near them tests them all, so ticks there are slow; remesh the "
-                  "virtual mesh with triangles of even shape",
-                  slivers, sliver_samples, sliver_samples / std::max(sliver_need, 1.0), s.spacing * 1e3);
-    out.emplace_back(line);
-  }
-  if (slow > 0) {
-    std::snprintf(line, sizeof line,
-                  "surface contact: %d %s of the virtual mesh %s longer than %d sample spacings (the longest %.4g mm; "
-                  "the spacing, the tool's thinnest part, %.4g mm): each carries n^2 samples (n its longest edge over "
-                  "the spacing), which a tick near it tests, so ticks in contact there are slow; mesh.virtual_refine "
-                  "or a finer mesh splits them",
-                  slow, slow == 1 ? "triangle" : "triangles", slow == 1 ? "is" : "are", kSlowSampleLevel, longest * 1e3,
-                  s.spacing * 1e3);
-    out.emplace_back(line);
-  }
-  if (too_long > 0) {
-    std::snprintf(line, sizeof line,
-                  "surface contact: %d %s of the virtual mesh %s longer than %d sample spacings (the longest "
-                  "%.4g mm; the spacing, the tool's thinnest part, %.4g mm): a collider can pass between their samples "
-                  "unfelt, and each carries 4096 samples, which a tick near it tests; refine the virtual mesh "
-                  "(mesh.virtual_refine) or remesh it finer",
-                  too_long, too_long == 1 ? "triangle" : "triangles", too_long == 1 ? "is" : "are", kMaxSampleLevel,
-                  longest * 1e3, s.spacing * 1e3);
-    out.emplace_back(line);
-  }
-  // Crowding: the samples a tool near one point tests at every query, those of the triangles whose
-  // bounding boxes meet the cube of kCrowdProbeSpacings spacings around a vertex: a fan of long
-  // triangles meeting at one vertex crowds it although no triangle is long or thin enough for the
-  // warnings above (said only where none above or below names the cause already).
-  if (out.empty() && slow == 0 && too_long == 0 && samples <= kManySurfaceSamples && !s.triangles.empty()) {
-    VertexGrid grid;
-    grid.rebuild(rest, s.spacing);
-    SurfaceScratch sc;
-    refresh_triangle_grid(s, rest, grid, sc);
-    const std::size_t F = s.triangles.size();
-    std::vector<Vec3d> box_lo(F), box_hi(F);
-    for (std::size_t t = 0; t < F; ++t) {
-      const auto& v = s.triangles[t];
-      box_lo[t] = cwise_min(cwise_min(rest[v[0]], rest[v[1]]), rest[v[2]]);
-      box_hi[t] = cwise_max(cwise_max(rest[v[0]], rest[v[1]]), rest[v[2]]);
-    }
-    std::vector<std::size_t> seen(F, rest.size());  // the vertex whose probe last took the triangle
-    const Vec3d reach = Vec3d{1, 1, 1} * (kCrowdProbeSpacings * s.spacing);
-    double most = 0;
-    std::size_t at = 0;
-    int crowd = 0;
-    for (std::size_t a = 0; a < rest.size(); ++a) {
-      const Vec3d lo = rest[a] - reach, hi = rest[a] + reach;
-      int i0[3], i1[3];
-      cell_range(sc, lo, hi, i0, i1);
-      double near = 0;
-      int count = 0;
-      for (int x = i0[0]; x <= i1[0]; ++x)
-        for (int y = i0[1]; y <= i1[1]; ++y)
-          for (int z = i0[2]; z <= i1[2]; ++z) {
-            const std::size_t c = cell_id(sc, x, y, z);
-            for (int e = sc.cell_start[c]; e < sc.cell_start[c + 1]; ++e) {
-              const auto t = static_cast<std::size_t>(sc.cell_entries[e]);
-              if (seen[t] == a) continue;
-              seen[t] = a;
-              if (box_hi[t].x < lo.x || box_lo[t].x > hi.x || box_hi[t].y < lo.y || box_lo[t].y > hi.y ||
-                  box_hi[t].z < lo.z || box_lo[t].z > hi.z)
-                continue;
-              const double n = s.rest_level[t];
-              near += n * n;
-              ++count;
-            }
-          }
-      if (near > most) {
-        most = near;
-        at = a;
-        crowd = count;
-      }
-    }
-    if (most > kCrowdedSamples) {
-      std::snprintf(line, sizeof line,
-                    "surface contact: %d triangles of the virtual mesh reach within %.3g mm of its vertex %zu (at "
-                    "(%.4g, %.4g, %.4g) mm) and carry %.3g sample points (a triangle n^2, n its longest edge over the "
-                    "spacing, %.4g mm), which a tool there tests at every query: ticks there are slow (long "
-                    "triangles meeting there, or a great many small ones); remesh the virtual mesh with triangles "
-                    "of even size and spacing, or split long ones (mesh.virtual_refine)",
-                    crowd, kCrowdProbeSpacings * s.spacing * 1e3, at, rest[at].x * 1e3, rest[at].y * 1e3,
-                    rest[at].z * 1e3, most, s.spacing * 1e3);
-      out.emplace_back(line);
-    }
-  }
-  if (samples > kManySurfaceSamples) {
-    std::snprintf(line, sizeof line,
-                  "surface contact: the virtual mesh's triangles carry %.3g sample points (a triangle n^2, n its longest "
-                  "edge over the spacing, %.4g mm): a tick in contact with long, thin triangles is slow; remesh the "
-                  "virtual mesh with triangles of even size",
-                  samples, s.spacing * 1e3);
-    out.emplace_back(line);
-  }
-  return out;
-}
-
 double thinnest_part(const ToolModel& tool) {
   double r = INFINITY;
   for (const Collider<double>& c : tool.colliders) {
@@ -219,6 +92,27 @@ void cell_range(const SurfaceScratch& sc, Vec3d a, Vec3d b, int* i0, int* i1) {
 
 std::size_t cell_id(const SurfaceScratch& sc, int x, int y, int z) {
   return (static_cast<std::size_t>(x) * sc.dims[1] + y) * sc.dims[2] + z;
+}
+
+/// Calls take(t) once for each triangle binned in the cells the box [a, b] covers that the query
+/// `stamp` (sc.current) has not taken yet; a cell an earlier box of the query walked is skipped.
+template <class Take>
+void for_each_new_triangle(SurfaceScratch& sc, Vec3d a, Vec3d b, std::uint32_t stamp, Take&& take) {
+  int i0[3], i1[3];
+  cell_range(sc, a, b, i0, i1);
+  for (int x = i0[0]; x <= i1[0]; ++x)
+    for (int y = i0[1]; y <= i1[1]; ++y)
+      for (int z = i0[2]; z <= i1[2]; ++z) {
+        const std::size_t cell = cell_id(sc, x, y, z);
+        if (sc.cell_stamp[cell] == stamp) continue;  // an earlier box of this query walked it
+        sc.cell_stamp[cell] = stamp;
+        for (int e = sc.cell_start[cell]; e < sc.cell_start[cell + 1]; ++e) {
+          const int t = sc.cell_entries[e];
+          if (sc.stamp[t] == stamp) continue;
+          sc.stamp[t] = stamp;
+          take(t);
+        }
+      }
 }
 
 /// (Re)bins the triangles by their bounding boxes at q when the vertex grid was rebuilt since the
@@ -306,36 +200,139 @@ void candidate_triangles(const SurfaceContactModel& s, const PosedTool& tool, st
       const Vec3d g{grow, grow, grow}, a = lo - g, b = hi + g;
       for (int k = 0; k < 3; ++k)  // a box wholly outside the binned triangles holds none (the last
         if (b[k] < sc.origin[k] || a[k] > sc.upper[k]) return;  // cell also holds those past 1024 cells)
-      int i0[3], i1[3];
-      cell_range(sc, a, b, i0, i1);
-      for (int x = i0[0]; x <= i1[0]; ++x)
-        for (int y = i0[1]; y <= i1[1]; ++y)
-          for (int z = i0[2]; z <= i1[2]; ++z) {
-            const std::size_t cell = cell_id(sc, x, y, z);
-            if (sc.cell_stamp[cell] == stamp) continue;  // an earlier box of this query walked it
-            sc.cell_stamp[cell] = stamp;
-            for (int e = sc.cell_start[cell]; e < sc.cell_start[cell + 1]; ++e) {
-              const int t = sc.cell_entries[e];
-              if (sc.stamp[t] == stamp) continue;
-              sc.stamp[t] = stamp;
-              const auto& v = s.triangles[t];
-              if (!excluded.empty() && (excluded[v[0]] || excluded[v[1]] || excluded[v[2]])) continue;
-              // The triangle's bounding sphere against gather_candidates' bound (s = its radius).
-              Vec3d mid;
-              const double R = triangle_bounding_sphere(q[v[0]], q[v[1]], q[v[2]], mid);
-              const double bound = (R + T + th * (norm(mid - tool.origin) + T)) / (1.0 - th);
-              for (int k = 0; k < tool.count; ++k)
-                if (signed_distance_local(tool.shape[k], apply_inverse(tool.world[k], mid)) <= bound) {
-                  triangles.push_back(t);
-                  break;
-                }
-            }
+      for_each_new_triangle(sc, a, b, stamp, [&](int t) {
+        const auto& v = s.triangles[t];
+        if (!excluded.empty() && (excluded[v[0]] || excluded[v[1]] || excluded[v[2]])) return;
+        // The triangle's bounding sphere against gather_candidates' bound (s = its radius).
+        Vec3d mid;
+        const double R = triangle_bounding_sphere(q[v[0]], q[v[1]], q[v[2]], mid);
+        const double bound = (R + T + th * (norm(mid - tool.origin) + T)) / (1.0 - th);
+        for (int k = 0; k < tool.count; ++k)
+          if (signed_distance_local(tool.shape[k], apply_inverse(tool.world[k], mid)) <= bound) {
+            triangles.push_back(t);
+            break;
           }
+      });
     });
   }
 }
 
+/// The vertex whose probe (the cube of kCrowdProbeSpacings spacings around it) the bounding boxes
+/// of the most samples meet: what a tool there tests at every query. Binned at rest.
+struct Crowding {
+  double samples = 0;
+  std::size_t vertex = 0;
+  int triangles = 0;
+};
+Crowding most_crowded_vertex(const SurfaceContactModel& s, std::span<const Vec3d> rest) {
+  VertexGrid grid;
+  grid.rebuild(rest, s.spacing);
+  SurfaceScratch sc;
+  refresh_triangle_grid(s, rest, grid, sc);
+  const std::size_t F = s.triangles.size();
+  std::vector<Vec3d> box_lo(F), box_hi(F);
+  for (std::size_t t = 0; t < F; ++t) {
+    const auto& v = s.triangles[t];
+    box_lo[t] = cwise_min(cwise_min(rest[v[0]], rest[v[1]]), rest[v[2]]);
+    box_hi[t] = cwise_max(cwise_max(rest[v[0]], rest[v[1]]), rest[v[2]]);
+  }
+  const Vec3d reach = Vec3d{1, 1, 1} * (kCrowdProbeSpacings * s.spacing);
+  Crowding most;
+  for (std::size_t a = 0; a < rest.size(); ++a) {
+    const Vec3d lo = rest[a] - reach, hi = rest[a] + reach;
+    Crowding here{0, a, 0};
+    for_each_new_triangle(sc, lo, hi, ++sc.current, [&](int t) {
+      if (box_hi[t].x < lo.x || box_lo[t].x > hi.x || box_hi[t].y < lo.y || box_lo[t].y > hi.y || box_hi[t].z < lo.z ||
+          box_lo[t].z > hi.z)
+        return;
+      const double n = s.rest_level[t];
+      here.samples += n * n;
+      ++here.triangles;
+    });
+    if (here.samples > most.samples) most = here;
+  }
+  return most;
+}
+
 }  // namespace
+
+std::vector<std::string> surface_contact_warnings(const SurfaceContactModel& s, std::span<const Vec3d> rest) {
+  std::vector<std::string> out;
+  int too_long = 0, slow = 0, slivers = 0;
+  double longest = 0, samples = 0, sliver_samples = 0, sliver_need = 0;
+  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
+    const auto& v = s.triangles[t];
+    const double edge = triangle_longest_edge(rest[v[0]], rest[v[1]], rest[v[2]]);
+    longest = std::max(longest, edge);
+    if (edge > kMaxSampleLevel * s.spacing) ++too_long;
+    else if (s.rest_level[t] > kSlowSampleLevel) ++slow;
+    const double n2 = static_cast<double>(s.rest_level[t]) * s.rest_level[t];
+    samples += n2;
+    const double need = norm(cross(rest[v[1]] - rest[v[0]], rest[v[2]] - rest[v[0]])) / (s.spacing * s.spacing);
+    if (n2 > kSliverOversampling * std::max(need, 1.0)) {
+      ++slivers;
+      sliver_samples += n2;
+      sliver_need += need;
+    }
+  }
+  char line[560];
+  if (sliver_samples > kManySliverSamples && samples <= kManySurfaceSamples) {
+    std::snprintf(line, sizeof line,
+                  "surface contact: %d long, thin triangles of the virtual mesh carry %.3g sample points, %.3g times "
+                  "what their area needs (a triangle's n^2 samples follow its longest edge; the spacing, the tool's "
+                  "thinnest part, %.4g mm): a tick near them tests them all, so ticks there are slow; remesh the "
+                  "virtual mesh with triangles of even shape",
+                  slivers, sliver_samples, sliver_samples / std::max(sliver_need, 1.0), s.spacing * 1e3);
+    out.emplace_back(line);
+  }
+  if (slow > 0) {
+    std::snprintf(line, sizeof line,
+                  "surface contact: %d %s of the virtual mesh %s longer than %d sample spacings (the longest %.4g mm; "
+                  "the spacing, the tool's thinnest part, %.4g mm): each carries n^2 samples (n its longest edge over "
+                  "the spacing), which a tick near it tests, so ticks in contact there are slow; mesh.virtual_refine "
+                  "or a finer mesh splits them",
+                  slow, slow == 1 ? "triangle" : "triangles", slow == 1 ? "is" : "are", kSlowSampleLevel, longest * 1e3,
+                  s.spacing * 1e3);
+    out.emplace_back(line);
+  }
+  if (too_long > 0) {
+    std::snprintf(line, sizeof line,
+                  "surface contact: %d %s of the virtual mesh %s longer than %d sample spacings (the longest "
+                  "%.4g mm; the spacing, the tool's thinnest part, %.4g mm): a collider can pass between their samples "
+                  "unfelt, and each carries 4096 samples, which a tick near it tests; refine the virtual mesh "
+                  "(mesh.virtual_refine) or remesh it finer",
+                  too_long, too_long == 1 ? "triangle" : "triangles", too_long == 1 ? "is" : "are", kMaxSampleLevel,
+                  longest * 1e3, s.spacing * 1e3);
+    out.emplace_back(line);
+  }
+  // Crowding: the samples a tool near one point tests at every query, those of the triangles whose
+  // bounding boxes meet the cube of kCrowdProbeSpacings spacings around a vertex: a fan of long
+  // triangles meeting at one vertex crowds it although no triangle is long or thin enough for the
+  // warnings above (said only where none above or below names the cause already).
+  if (out.empty() && slow == 0 && too_long == 0 && samples <= kManySurfaceSamples && !s.triangles.empty()) {
+    if (const Crowding c = most_crowded_vertex(s, rest); c.samples > kCrowdedSamples) {
+      const Vec3d& at = rest[c.vertex];
+      std::snprintf(line, sizeof line,
+                    "surface contact: %d triangles of the virtual mesh reach within %.3g mm of its vertex %zu (at "
+                    "(%.4g, %.4g, %.4g) mm) and carry %.3g sample points (a triangle n^2, n its longest edge over the "
+                    "spacing, %.4g mm), which a tool there tests at every query: ticks there are slow (long "
+                    "triangles meeting there, or a great many small ones); remesh the virtual mesh with triangles "
+                    "of even size and spacing, or split long ones (mesh.virtual_refine)",
+                    c.triangles, kCrowdProbeSpacings * s.spacing * 1e3, c.vertex, at.x * 1e3, at.y * 1e3, at.z * 1e3,
+                    c.samples, s.spacing * 1e3);
+      out.emplace_back(line);
+    }
+  }
+  if (samples > kManySurfaceSamples) {
+    std::snprintf(line, sizeof line,
+                  "surface contact: the virtual mesh's triangles carry %.3g sample points (a triangle n^2, n its longest "
+                  "edge over the spacing, %.4g mm): a tick in contact with long, thin triangles is slow; remesh the "
+                  "virtual mesh with triangles of even size",
+                  samples, s.spacing * 1e3);
+    out.emplace_back(line);
+  }
+  return out;
+}
 
 void gather_samples(const SurfaceContactModel& s, const PosedTool& tool, std::span<const Vec3d> q, VertexGrid& grid,
                     double translation, double rotation, std::span<const std::uint8_t> excluded,

@@ -550,14 +550,18 @@ void run_report(const ReportArgs& a) {
   check_output_beside_sweep({a.plot, "the plot (--plot)"}, dir, inputs);
   // Runs the summary lists as ok whose outputs the sweep no longer takes as done (deleted, cut
   // short, replaced since): no file is newer than the summary, yet it is out of date.
-  std::vector<SweepRun> plan_runs;
+  // The plan's runs and the summary as read, each once: reused below where nothing is collected.
+  std::optional<std::vector<SweepRun>> plan_runs;
+  std::optional<CsvTable> read;
   std::vector<OutdatedRow> outdated;
   if (plan && !collect) {
-    plan_runs = expand_plan(*plan);
+    check_input_file(file);  // a named pipe's read would wait for a writer
     try {
-      outdated = outdated_ok_rows(*plan, plan_runs, parse_csv(file_text(file).value_or(""), file), dir);
+      plan_runs = expand_plan(*plan);
+      read = parse_csv(file_text(file).value_or(""), file);
+      outdated = outdated_ok_rows(*plan, *plan_runs, *read, dir);
     } catch (const InputError&) {
-      // a summary that does not read: refused below, saying why
+      // a plan whose runs do not expand, or a summary that does not read: said below, as before
     }
     if (!outdated.empty()) {
       collect = true;
@@ -570,7 +574,8 @@ void run_report(const ReportArgs& a) {
   std::string collect_error = collect ? plan_error : std::string();
   if (plan && collect) {
     try {
-      const std::vector<SweepRun> runs = expand_plan(*plan);
+      if (!plan_runs) plan_runs = expand_plan(*plan);
+      const std::vector<SweepRun>& runs = *plan_runs;  // `outdated` points into them
       adopt_legacy(dir, runs);
       const SweepSummary s = summarize_sweep(*plan, runs, dir);
       write_summary_files(dir, s.table);
@@ -591,7 +596,7 @@ void run_report(const ReportArgs& a) {
                  a.dir.c_str(), collect_error.c_str(), except.c_str());
   }
   check_input_file(file);
-  CsvTable summary = parse_csv(file_text(file).value_or(""), file);
+  CsvTable summary = read && !collect ? std::move(*read) : parse_csv(file_text(file).value_or(""), file);
   if (plan && !collect) check_summary_has_runs(*plan, summary, dir);
   // Not collected again: the rows of outputs gone since are no results (their error says why).
   if (!collect_error.empty() && !outdated.empty()) {
